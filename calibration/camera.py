@@ -1,0 +1,258 @@
+"""The calibrated camera and its ``camera.json`` file.
+
+Conventions: world points are in the trajectory's local metric frame (metres);
+camera coordinates are X_cam = R @ X_world + t (OpenCV: x right, y down,
+z forward); pixels have their origin at the centre of the top-left pixel;
+``dist`` is OpenCV's order (k1, k2, p1, p2[, k3[, k4, k5, k6]]) for the
+``opencv`` model, or (k1, k2, k3, k4) for the ``fisheye`` model.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from calibration.errors import CalibrationInputError
+
+DISTORTION_MODELS = ("opencv", "fisheye")
+_OPENCV_DIST_LENGTHS = (4, 5, 8, 12, 14)
+
+# Projected points whose undistorted (pinhole) position lies further than this
+# fraction of the image size outside the image are dropped: the distortion
+# polynomial is only valid near the calibrated area and folds back beyond it.
+OUTSIDE_MARGIN = 0.5
+
+
+@dataclass(frozen=True)
+class Camera:
+    """A stationary calibrated camera.
+
+    K: 3x3 intrinsics (pixels); dist: distortion coefficients; R: 3x3 rotation
+    world->camera; t: translation (metres); image_size: (width, height) in
+    pixels; fps: nominal frame rate (frames per second) or None.
+    """
+
+    name: str
+    K: np.ndarray
+    dist: np.ndarray
+    R: np.ndarray
+    t: np.ndarray
+    image_size: tuple[int, int]
+    fps: float | None = None
+    dist_model: str = "opencv"
+    extra: dict = field(default_factory=dict, compare=False)
+
+    @property
+    def rvec(self) -> np.ndarray:
+        """Rodrigues rotation vector of R (radians)."""
+        return cv2.Rodrigues(self.R)[0].ravel()
+
+    @property
+    def center(self) -> np.ndarray:
+        """Camera centre in world coordinates (metres)."""
+        return -self.R.T @ self.t
+
+    def project(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Project world points (N, 3) to pixels with distortion.
+
+        Returns (uv, valid): uv is (N, 2) in pixels, valid is a boolean mask
+        that is False for points behind the camera or far outside the image
+        (see OUTSIDE_MARGIN); uv is NaN where valid is False.
+        """
+        points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        cam = points @ self.R.T + self.t
+        z = cam[:, 2]
+        valid = z > 1e-6
+        with np.errstate(divide="ignore", invalid="ignore"):
+            normalized = cam[:, :2] / z[:, None]
+        pinhole = normalized * [self.K[0, 0], self.K[1, 1]] + [self.K[0, 2], self.K[1, 2]]
+        pinhole[:, 0] += self.K[0, 1] * normalized[:, 1]
+        w, h = self.image_size
+        mx, my = OUTSIDE_MARGIN * w, OUTSIDE_MARGIN * h
+        valid &= (pinhole[:, 0] > -mx) & (pinhole[:, 0] < w + mx)
+        valid &= (pinhole[:, 1] > -my) & (pinhole[:, 1] < h + my)
+        uv = np.full((len(points), 2), np.nan)
+        if valid.any():
+            uv[valid] = self._distort(normalized[valid])
+        return uv, valid
+
+    def _distort(self, normalized: np.ndarray) -> np.ndarray:
+        """Pixels of normalized image points (N, 2) through the lens model."""
+        pts = np.column_stack([normalized, np.ones(len(normalized))]).reshape(-1, 1, 3)
+        zero = np.zeros(3)
+        if self.dist_model == "fisheye":
+            uv, _ = cv2.fisheye.projectPoints(pts, zero, zero, self.K, self.dist)
+        else:
+            uv, _ = cv2.projectPoints(pts, zero, zero, self.K, self.dist)
+        return uv.reshape(-1, 2)
+
+    def in_image(self, uv: np.ndarray) -> np.ndarray:
+        """Boolean mask of pixel positions (N, 2) inside the image."""
+        w, h = self.image_size
+        x, y = uv[:, 0], uv[:, 1]
+        return (x >= -0.5) & (x <= w - 0.5) & (y >= -0.5) & (y <= h - 0.5)
+
+    def to_dict(self) -> dict:
+        """The ``camera.json`` content (contract in docs/formats.md)."""
+        out = {
+            "name": self.name,
+            "K": self.K.tolist(),
+            "dist": self.dist.tolist(),
+            "R": self.R.tolist(),
+            "t": self.t.tolist(),
+            "image_size": list(self.image_size),
+        }
+        if self.dist_model != "opencv":
+            out["dist_model"] = self.dist_model
+        if self.fps is not None:
+            out["fps"] = self.fps
+        out.update(self.extra)
+        return out
+
+    @classmethod
+    def from_dict(cls, data: dict, source: str = "camera", name: str | None = None) -> "Camera":
+        """Build a camera from ``camera.json`` content.
+
+        Accepts ``K`` + ``dist`` + (``R`` + ``t`` | ``rvec`` + ``tvec``), or a
+        3x4 ``P`` (decomposed into K, R, t; no distortion unless ``dist``).
+        Raises CalibrationInputError naming ``source`` and the field.
+        """
+        if not isinstance(data, dict):
+            raise CalibrationInputError(f"{source}: expected a JSON object, got {type(data).__name__}")
+        known = {"name", "K", "dist", "R", "t", "rvec", "tvec", "P", "image_size", "fps", "dist_model"}
+        extra = {k: v for k, v in data.items() if k not in known}
+        dist_model = data.get("dist_model", "opencv")
+        if dist_model not in DISTORTION_MODELS:
+            raise CalibrationInputError(
+                f"{source}: field 'dist_model': expected one of {', '.join(DISTORTION_MODELS)}, got {dist_model!r}"
+            )
+        if "P" in data:
+            if "K" in data or "R" in data:
+                raise CalibrationInputError(f"{source}: give either 'P' or 'K' with 'R'/'rvec', not both")
+            K, R, t = _decompose_projection(_matrix(data, "P", (3, 4), source), source)
+        else:
+            K = _matrix(data, "K", (3, 3), source)
+            R, t = _pose(data, source)
+        _check_intrinsics(K, source)
+        dist = _distortion(data.get("dist", [0.0] * 5), dist_model, source)
+        image_size = _image_size(data, source)
+        fps = data.get("fps")
+        if fps is not None:
+            fps = _positive_number(fps, "fps", source)
+        cam_name = name if name is not None else data.get("name", Path(source).stem)
+        if not isinstance(cam_name, str) or not cam_name:
+            raise CalibrationInputError(f"{source}: field 'name': expected a non-empty string")
+        return cls(cam_name, K, dist, R, t, image_size, fps, dist_model, extra)
+
+
+def read_camera(path: str | Path, name: str | None = None) -> Camera:
+    """Read and validate a ``camera.json`` file."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise CalibrationInputError(f"{path}: file not found") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise CalibrationInputError(f"{path}: cannot read: {exc}") from None
+    try:
+        data = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise CalibrationInputError(f"{path}:{exc.lineno}: invalid JSON: {exc.msg}") from None
+    return Camera.from_dict(data, source=str(path), name=name)
+
+
+def write_camera(camera: Camera, path: str | Path) -> None:
+    """Write ``camera.json`` (not atomic: callers that cache use an atomic writer)."""
+    Path(path).write_text(json.dumps(camera.to_dict(), indent=1) + "\n", encoding="utf-8")
+
+
+def _matrix(data: dict, key: str, shape: tuple[int, ...], source: str) -> np.ndarray:
+    if key not in data:
+        raise CalibrationInputError(f"{source}: missing field '{key}'")
+    try:
+        value = np.asarray(data[key], dtype=np.float64)
+    except (TypeError, ValueError):
+        raise CalibrationInputError(f"{source}: field '{key}': expected numbers, got {data[key]!r}") from None
+    if value.size == math.prod(shape) and value.ndim == 1 and len(shape) == 2:
+        raise CalibrationInputError(f"{source}: field '{key}': expected a {shape[0]}x{shape[1]} matrix (list of rows), got a flat list")
+    if value.shape != shape:
+        want = "x".join(map(str, shape))
+        raise CalibrationInputError(f"{source}: field '{key}': expected shape {want}, got {value.shape}")
+    if not np.all(np.isfinite(value)):
+        raise CalibrationInputError(f"{source}: field '{key}': contains NaN or infinity")
+    return value
+
+
+def _pose(data: dict, source: str) -> tuple[np.ndarray, np.ndarray]:
+    if "R" in data and "rvec" in data:
+        raise CalibrationInputError(f"{source}: give either 'R' or 'rvec', not both")
+    if "rvec" in data:
+        R = cv2.Rodrigues(_matrix(data, "rvec", (3,), source))[0]
+        t = _matrix(data, "tvec", (3,), source)
+        return R, t
+    R = _matrix(data, "R", (3, 3), source)
+    t = _matrix(data, "t", (3,), source)
+    if np.abs(R.T @ R - np.eye(3)).max() > 1e-3 or np.linalg.det(R) < 0:
+        raise CalibrationInputError(f"{source}: field 'R': not a rotation matrix (R^T R != I or det(R) < 0)")
+    u, _, vt = np.linalg.svd(R)  # remove rounding from a written-out rotation
+    return u @ vt, t
+
+
+def _decompose_projection(P: np.ndarray, source: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    if abs(np.linalg.det(P[:, :3])) < 1e-12:
+        raise CalibrationInputError(f"{source}: field 'P': its left 3x3 block is singular")
+    K, R, center_h = cv2.decomposeProjectionMatrix(P)[:3]
+    # Make the focal lengths positive (RQ decomposition leaves signs free).
+    signs = np.diag(np.sign(np.diag(K)))
+    K, R = K @ signs, signs @ R
+    if np.linalg.det(R) < 0:
+        R = -R
+    K = K / K[2, 2]
+    center = center_h[:3, 0] / center_h[3, 0]
+    return K, R, -R @ center
+
+
+def _check_intrinsics(K: np.ndarray, source: str) -> None:
+    if abs(np.linalg.det(K)) < 1e-9 or K[0, 0] <= 0 or K[1, 1] <= 0:
+        raise CalibrationInputError(f"{source}: field 'K': singular or non-positive focal lengths (fx={K[0, 0]:g}, fy={K[1, 1]:g})")
+    if np.abs(K[2] - [0, 0, 1]).max() > 1e-9 or K[1, 0] != 0:
+        raise CalibrationInputError(f"{source}: field 'K': expected upper-triangular with last row [0, 0, 1]")
+
+
+def _distortion(value, dist_model: str, source: str) -> np.ndarray:
+    try:
+        dist = np.asarray(value, dtype=np.float64).ravel()
+    except (TypeError, ValueError):
+        raise CalibrationInputError(f"{source}: field 'dist': expected a list of numbers, got {value!r}") from None
+    lengths = (4,) if dist_model == "fisheye" else _OPENCV_DIST_LENGTHS
+    if len(dist) not in lengths:
+        raise CalibrationInputError(
+            f"{source}: field 'dist': expected {' or '.join(map(str, lengths))} coefficients for the {dist_model} model, got {len(dist)}"
+        )
+    if not np.all(np.isfinite(dist)):
+        raise CalibrationInputError(f"{source}: field 'dist': contains NaN or infinity")
+    return dist
+
+
+def _image_size(data: dict, source: str) -> tuple[int, int]:
+    size = data.get("image_size")
+    if size is None:
+        raise CalibrationInputError(f"{source}: missing field 'image_size' ([width, height] in pixels)")
+    if (
+        not isinstance(size, (list, tuple))
+        or len(size) != 2
+        or not all(isinstance(v, (int, float)) and not isinstance(v, bool) and v == int(v) and v > 0 for v in size)
+    ):
+        raise CalibrationInputError(f"{source}: field 'image_size': expected [width, height] as positive integers, got {size!r}")
+    return int(size[0]), int(size[1])
+
+
+def _positive_number(value, key: str, source: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
+        raise CalibrationInputError(f"{source}: field '{key}': expected a positive number, got {value!r}")
+    return float(value)

@@ -1,0 +1,85 @@
+import json
+
+import cv2
+import numpy as np
+import pytest
+
+from calibration.camera import Camera, read_camera, write_camera
+from calibration.errors import CalibrationInputError
+
+
+def _camera(dist=(0.1, -0.05, 0.001, -0.002, 0.01)):
+    R = cv2.Rodrigues(np.array([0.1, -0.2, 0.05]))[0]
+    K = np.array([[800.0, 0.0, 320.0], [0.0, 790.0, 240.0], [0.0, 0.0, 1.0]])
+    return Camera("c", K, np.array(dist), R, np.array([0.2, -0.1, 5.0]), (640, 480), 30.0)
+
+
+def test_projection_matches_opencv():
+    cam = _camera()
+    pts = np.random.default_rng(1).uniform(-1, 1, (50, 3))
+    uv, valid = cam.project(pts)
+    ref, _ = cv2.projectPoints(pts, cam.rvec, cam.t, cam.K, cam.dist)
+    assert valid.all()
+    np.testing.assert_allclose(uv, ref.reshape(-1, 2), atol=1e-9)
+
+
+def test_points_behind_or_far_outside_are_dropped():
+    cam = _camera(dist=(0, 0, 0, 0, 0))
+    behind = cam.R.T @ (np.array([0, 0, -1.0]) - cam.t)
+    far_side = cam.R.T @ (np.array([100.0, 0, 1.0]) - cam.t)
+    ahead = cam.R.T @ (np.array([0.0, 0, 3.0]) - cam.t)
+    uv, valid = cam.project(np.array([behind, far_side, ahead]))
+    assert valid.tolist() == [False, False, True]
+    assert np.isnan(uv[0]).all()
+    np.testing.assert_allclose(uv[2], [320.0, 240.0], atol=1e-9)
+
+
+def test_json_round_trip_and_alternative_forms(tmp_path):
+    cam = _camera()
+    write_camera(cam, tmp_path / "camera.json")
+    back = read_camera(tmp_path / "camera.json")
+    np.testing.assert_allclose(back.R, cam.R, atol=1e-12)
+    np.testing.assert_allclose(back.K, cam.K)
+    assert back.fps == 30.0 and back.image_size == (640, 480)
+
+    as_rvec = Camera.from_dict({"K": cam.K.tolist(), "dist": cam.dist.tolist(), "rvec": cam.rvec.tolist(), "tvec": cam.t.tolist(), "image_size": [640, 480]})
+    np.testing.assert_allclose(as_rvec.R, cam.R, atol=1e-12)
+
+    P = cam.K @ np.column_stack([cam.R, cam.t]) * 3.7  # any scale
+    as_p = Camera.from_dict({"P": P.tolist(), "image_size": [640, 480]})
+    np.testing.assert_allclose(as_p.K, cam.K, atol=1e-6)
+    np.testing.assert_allclose(as_p.R, cam.R, atol=1e-9)
+    np.testing.assert_allclose(as_p.t, cam.t, atol=1e-9)
+
+
+@pytest.mark.parametrize(
+    "change, message",
+    [
+        ({"K": [[800, 0, 320], [0, 790, 240]]}, "field 'K': expected shape 3x3"),
+        ({"K": [800, 0, 320, 0, 790, 240, 0, 0, 1]}, "flat list"),
+        ({"K": [[0, 0, 320], [0, 0, 240], [0, 0, 1]]}, "singular"),
+        ({"R": [[1, 0, 0], [0, 1, 0], [0, 0, float("nan")]]}, "NaN"),
+        ({"R": [[1, 0, 0], [0, 2, 0], [0, 0, 1]]}, "not a rotation"),
+        ({"t": [1, 2]}, "field 't'"),
+        ({"dist": [0.1, 0.2, 0.3]}, "field 'dist'"),
+        ({"image_size": [640]}, "field 'image_size'"),
+        ({"K": "eye"}, "field 'K'"),
+    ],
+)
+def test_bad_fields_name_the_file_and_field(tmp_path, change, message):
+    data = _camera().to_dict()
+    data.update(change)
+    path = tmp_path / "cam.json"
+    path.write_text(json.dumps(data))
+    with pytest.raises(CalibrationInputError, match=message) as info:
+        read_camera(path)
+    assert str(path) in str(info.value)
+
+
+def test_missing_and_invalid_json(tmp_path):
+    with pytest.raises(CalibrationInputError, match="file not found"):
+        read_camera(tmp_path / "nope.json")
+    bad = tmp_path / "bad.json"
+    bad.write_text('{"K": [1, 2,\n')
+    with pytest.raises(CalibrationInputError, match=r"bad.json:\d+: invalid JSON"):
+        read_camera(bad)

@@ -1,0 +1,42 @@
+import numpy as np
+import pytest
+
+from trackers.errors import TrackInputError
+from trackers.track import Track, read_track, write_track
+
+
+def test_round_trip_keeps_optional_columns_and_sorts(tmp_path):
+    track = Track(np.array([0, 3, 7]), np.array([1.5, 2.25, 3.0]), np.array([4.0, 5.0, 6.125]), time_s=np.array([0.0, 0.1, 0.2333]))
+    write_track(track, tmp_path / "t.csv")
+    back = read_track(tmp_path / "t.csv")
+    assert back.frame.tolist() == [0, 3, 7]
+    np.testing.assert_allclose(back.y, track.y)
+    np.testing.assert_allclose(back.time_s, track.time_s, atol=1e-6)
+    assert back.w is None and back.score is None
+
+    (tmp_path / "u.csv").write_text("x,frame,y\n1,5,2\n3,1,4\n")
+    unsorted = read_track(tmp_path / "u.csv")
+    assert unsorted.frame.tolist() == [1, 5] and unsorted.x.tolist() == [3.0, 1.0]
+
+
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        ("", "empty file"),
+        ("frame,x,y\n", "the track is empty"),
+        ("frame,x\n0,1\n", "lacks column"),
+        ("frame,x,y\n0,1,2\n1,abc,2\n", r":3: column 'x': not a number"),
+        ("frame,x,y\n0,1,2\n1,nan,2\n", r":3: column 'x': nan is not a finite"),
+        ("frame,x,y\n0,1,inf\n", r":2: column 'y'"),
+        ("frame,x,y\n0,1,2\n1,2\n", r":3: expected 3 fields"),
+        ("frame,x,y\n-1,1,2\n", "0-based integer frame"),
+        ("frame,x,y\n1.5,1,2\n", "0-based integer frame"),
+        ("frame,x,y\n2,1,2\n2,1,2\n", "frame 2 appears more than once"),
+    ],
+)
+def test_bad_tracks_name_file_and_line(tmp_path, text, message):
+    path = tmp_path / "track.csv"
+    path.write_text(text)
+    with pytest.raises(TrackInputError, match=message) as info:
+        read_track(path)
+    assert str(path) in str(info.value)

@@ -1,0 +1,117 @@
+"""The target's 2D track in one video and its ``track.csv`` file.
+
+Frames are 0-based decoded frame indices; x, y are pixels (origin at the
+centre of the top-left pixel); time_s is the frame's presentation time in
+seconds from the container; w, h are the tracked box size in pixels; score is
+the tracker's confidence in [0, 1]. Frames without a confident position are
+absent from the track.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from trackers.errors import TrackInputError
+
+REQUIRED_COLUMNS = ("frame", "x", "y")
+OPTIONAL_COLUMNS = ("time_s", "w", "h", "score")
+
+
+@dataclass(frozen=True)
+class Track:
+    """Positions of the target per tracked frame, sorted by frame.
+
+    frame: int64 (N,); x, y: float64 (N,) pixels; optional columns are
+    float64 (N,) arrays or None when the file does not have them.
+    """
+
+    frame: np.ndarray
+    x: np.ndarray
+    y: np.ndarray
+    time_s: np.ndarray | None = None
+    w: np.ndarray | None = None
+    h: np.ndarray | None = None
+    score: np.ndarray | None = None
+
+    def __len__(self) -> int:
+        return len(self.frame)
+
+    @property
+    def xy(self) -> np.ndarray:
+        """(N, 2) pixel positions."""
+        return np.column_stack([self.x, self.y])
+
+    def columns(self) -> dict[str, np.ndarray]:
+        """The columns present, in file order."""
+        names = REQUIRED_COLUMNS + OPTIONAL_COLUMNS
+        return {n: getattr(self, n) for n in names if getattr(self, n) is not None}
+
+
+def read_track(path: str | Path) -> Track:
+    """Read and validate ``track.csv``; errors name the file and line."""
+    path = Path(path)
+    try:
+        handle = path.open(newline="", encoding="utf-8")
+    except FileNotFoundError:
+        raise TrackInputError(f"{path}: file not found") from None
+    except OSError as exc:
+        raise TrackInputError(f"{path}: cannot read: {exc}") from None
+    with handle:
+        try:
+            rows = list(csv.reader(handle))
+        except (csv.Error, UnicodeDecodeError) as exc:
+            raise TrackInputError(f"{path}: not a readable CSV file: {exc}") from None
+    if not rows or not any(cell.strip() for cell in rows[0]):
+        raise TrackInputError(f"{path}: empty file; expected a header 'frame,x,y' and one row per tracked frame")
+    header = [cell.strip() for cell in rows[0]]
+    missing = [c for c in REQUIRED_COLUMNS if c not in header]
+    if missing:
+        raise TrackInputError(f"{path}:1: header {','.join(header)!r} lacks column(s) {', '.join(missing)}; expected at least frame,x,y")
+    if len(set(header)) != len(header):
+        raise TrackInputError(f"{path}:1: duplicate column names in header {','.join(header)!r}")
+    wanted = [c for c in REQUIRED_COLUMNS + OPTIONAL_COLUMNS if c in header]
+    index = [header.index(c) for c in wanted]
+    values = np.empty((len(rows) - 1, len(wanted)))
+    n = 0
+    for line_no, row in enumerate(rows[1:], start=2):
+        if not row or all(not cell.strip() for cell in row):
+            continue
+        if len(row) != len(header):
+            raise TrackInputError(f"{path}:{line_no}: expected {len(header)} fields, got {len(row)}")
+        for k, (col, i) in enumerate(zip(wanted, index)):
+            try:
+                v = float(row[i])
+            except ValueError:
+                raise TrackInputError(f"{path}:{line_no}: column '{col}': not a number: {row[i]!r}") from None
+            if not math.isfinite(v):
+                raise TrackInputError(f"{path}:{line_no}: column '{col}': {row[i]} is not a finite number")
+            values[n, k] = v
+        frame = values[n, 0]
+        if frame < 0 or frame != int(frame):
+            raise TrackInputError(f"{path}:{line_no}: column 'frame': expected a 0-based integer frame index, got {row[index[0]]!r}")
+        n += 1
+    if n == 0:
+        raise TrackInputError(f"{path}: the track is empty (a header but no tracked frame)")
+    values = values[:n]
+    order = np.argsort(values[:, 0], kind="stable")
+    frames = values[order, 0].astype(np.int64)
+    dup = np.flatnonzero(np.diff(frames) == 0)
+    if len(dup):
+        raise TrackInputError(f"{path}: frame {frames[dup[0]]} appears more than once")
+    cols = {c: values[order, k] for k, c in enumerate(wanted)}
+    cols["frame"] = frames
+    return Track(**cols)
+
+
+def write_track(track: Track, path: str | Path) -> None:
+    """Write ``track.csv`` with the columns the track has."""
+    cols = track.columns()
+    fmt = {"frame": "%d", "x": "%.4f", "y": "%.4f", "time_s": "%.6f", "w": "%.2f", "h": "%.2f", "score": "%.4f"}
+    with Path(path).open("w", newline="", encoding="utf-8") as handle:
+        handle.write(",".join(cols) + "\n")
+        np.savetxt(handle, np.column_stack(list(cols.values())), fmt=[fmt[c] for c in cols], delimiter=",")
