@@ -22,6 +22,9 @@ else:  # pragma: no cover - Python 3.10
 from tlsync_pipeline.errors import InputError
 
 WORK_DIR_NAME = "work"
+# "paper": Brito et al.'s RANSAC as published; "refined": robust line search +
+# continuous-time refinement with uncertainty (docs/algorithm.md).
+SYNC_METHODS = ("paper", "refined")
 
 
 class Field(NamedTuple):
@@ -71,6 +74,12 @@ def _ratio(value: Any, root: Path) -> float:
     return number
 
 
+def _method(value: Any, root: Path) -> str:
+    if value not in SYNC_METHODS:
+        raise ValueError(f"expected one of {', '.join(repr(m) for m in SYNC_METHODS)}, got {value!r}")
+    return value
+
+
 def _integer(value: Any, root: Path) -> int:
     if isinstance(value, bool) or not isinstance(value, int):
         raise ValueError(f"expected an integer, got {value!r}")
@@ -92,6 +101,9 @@ SYNC_SCHEMA = {
     "p": Field(_probability, 0.99),
     "r": Field(_ratio, 0.05),
     "seed": Field(_integer, 0),
+    "method": Field(_method, "refined"),
+    "r_min": Field(_ratio, 0.01),
+    "f_scale_px": Field(_positive, 3.0),
 }
 # A dict is a table, a one-element list an array of tables.
 PROJECT_SCHEMA = {
@@ -103,13 +115,21 @@ PROJECT_SCHEMA = {
 
 @dataclass(frozen=True)
 class SyncParams:
-    """Voting and RANSAC parameters (paper Table 1 defaults)."""
+    """Voting and line-fit parameters (paper Table 1 defaults).
+
+    method: "refined" (default) or "paper"; r_min: smallest inlier ratio the
+    refined line search must find; f_scale_px: robust loss scale of the
+    refinement (pixels). r is the paper's expected inlier ratio.
+    """
 
     eps_px: float = 10.0
     delta: float = 0.5
     p: float = 0.99
     r: float = 0.05
     seed: int = 0
+    method: str = "refined"
+    r_min: float = 0.01
+    f_scale_px: float = 3.0
 
 
 @dataclass(frozen=True)

@@ -1,5 +1,10 @@
 """Synchronization of cameras against the target: votes, line fit, timeline.
 
+Two methods (``[sync] method``): "paper", Brito et al.'s RANSAC as published,
+and "refined" (default): robust line search (line_search.py), then
+continuous-time refinement with uncertainty (refine.py), falling back to the
+line-search line with a warning when the refinement fails or disagrees.
+
 Pure functions from typed values to typed values; no file I/O here.
 """
 
@@ -7,14 +12,25 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass
 
+import numpy as np
+
 from calibration.camera import Camera
 from tlsync_pipeline.errors import SyncError
+from tlsync_pipeline.line_search import LineSearch, find_line
 from tlsync_pipeline.project import SyncParams
 from tlsync_pipeline.ransac import LineFit, fit_line_ransac
+from tlsync_pipeline.refine import PiecewiseTrajectory, Refinement, refine_line
 from tlsync_pipeline.timeline import CameraLine, Timeline
 from tlsync_pipeline.trajectory import Trajectory
+from tlsync_pipeline.vfr import CameraClock, camera_clock
 from tlsync_pipeline.votes import Votes, compute_votes
 from trackers.track import Track
+
+# Weak-case thresholds of the refined method (flags in timeline.json).
+FEW_INLIER_FRAMES = 30
+AMBIGUOUS_RATIO = 0.5
+ALONG_RAY = 0.3
+NORMAL_95 = 1.959964
 
 
 @dataclass(frozen=True)
@@ -28,22 +44,126 @@ class CameraInput:
 
 @dataclass(frozen=True)
 class CameraResult:
-    """One camera's votes, fitted line and summary."""
+    """One camera's votes, fitted line and summary.
+
+    fit: the paper's RANSAC fit (method "paper") or None; search and
+    refinement: the refined method's pieces (refinement None on fallback).
+    """
 
     votes: Votes
-    fit: LineFit
+    fit: LineFit | None
     line: CameraLine
+    search: LineSearch | None = None
+    refinement: Refinement | None = None
 
 
 def synchronize_camera(name: str, inputs: CameraInput, trajectory: Trajectory, params: SyncParams) -> CameraResult:
-    """Votes and the RANSAC line of one camera; SyncError if it cannot be synchronized."""
+    """Votes and the fitted line of one camera; SyncError if it cannot be synchronized."""
     votes = compute_votes(inputs.camera, inputs.track, trajectory, params.eps_px)
+    if params.method == "refined":
+        return _synchronize_refined(name, inputs, trajectory, params, votes)
     try:
         fit = fit_line_ransac(votes.sample, votes.frame, params.delta, params.p, params.r, params.seed)
     except ValueError as exc:
         raise SyncError(f"camera {name}: {exc} ({len(votes)} votes)") from None
     line = CameraLine(name, fit.alpha, fit.beta, len(votes), fit.n_inliers, fit.residual_rms, inputs.fps)
     return CameraResult(votes, fit, line)
+
+
+def _synchronize_refined(name: str, inputs: CameraInput, trajectory: Trajectory, params: SyncParams, votes: Votes) -> CameraResult:
+    track = inputs.track
+    clock = camera_clock(track, inputs.fps)
+    # Votes carry frame indices; the line lives on the camera clock (frames, or time x fps for VFR).
+    vote_clock = clock.frames[np.searchsorted(track.frame, votes.frame.astype(np.int64))]
+    try:
+        search = find_line(votes.sample, vote_clock, votes.dist, params.delta, params.p, params.r_min, params.seed)
+    except ValueError as exc:
+        raise SyncError(f"camera {name}: {exc} ({len(votes)} votes)") from None
+    start = np.zeros(len(track), dtype=bool)
+    start[np.searchsorted(track.frame, votes.frame[search.inliers].astype(np.int64))] = True
+    flags, warnings = [], []
+    refinement = None
+    try:
+        refinement = refine_line(
+            inputs.camera, clock.frames, track.xy, PiecewiseTrajectory(trajectory), search.alpha, search.beta, start, params.f_scale_px, params.eps_px
+        )
+    except ValueError as exc:
+        warnings.append(f"refinement not possible ({exc}); using the line-search line")
+    if refinement is not None:
+        reason = _disagreement(refinement, search, votes.sample[search.inliers], params.delta)
+        if not refinement.converged:
+            reason = f"refinement did not converge ({refinement.message})"
+        if reason:
+            warnings.append(f"{reason}; using the line-search line")
+    fallback = bool(warnings)
+    if fallback:
+        alpha, beta = search.alpha, search.beta
+        cov = _line_search_cov(search, votes.sample[search.inliers])
+    else:
+        alpha, beta, cov = refinement.alpha, refinement.beta, refinement.cov
+    if search.support < FEW_INLIER_FRAMES:
+        flags.append("few_inliers")
+    if search.runner_up >= AMBIGUOUS_RATIO * search.support:
+        flags.append("ambiguous")
+    if refinement is not None and refinement.perpendicular < ALONG_RAY:
+        flags.append("along_ray")
+    details = {
+        "se_alpha": float(np.sqrt(cov[0, 0])),
+        "se_beta": float(np.sqrt(cov[1, 1])),
+        "cov": cov.tolist(),
+        "flags": flags,
+        "warnings": warnings,
+        "refined": not fallback,
+        "line_search": {
+            "alpha": search.alpha,
+            "beta": search.beta,
+            "support_frames": search.support,
+            "runner_up_frames": search.runner_up,
+            "thinned_votes": search.thinned,
+            "hypotheses": search.hypotheses,
+        },
+    }
+    if refinement is not None:
+        details["refinement"] = {
+            "frames_used": refinement.frames_used,
+            "scale_px": refinement.scale_px,
+            "perpendicular": refinement.perpendicular,
+            "converged": refinement.converged,
+        }
+    details.update(clock.details())
+    fps = clock.fps if clock.fps is not None else inputs.fps
+    line = CameraLine(name, alpha, beta, len(votes), search.n_inliers, search.residual_rms, fps, details)
+    return CameraResult(votes, None, line, search, refinement)
+
+
+def _disagreement(refinement: Refinement, search: LineSearch, inlier_samples: np.ndarray, delta: float) -> str:
+    """Why the refined line cannot be trusted over the line-search one, or ''."""
+    if len(inlier_samples) == 0:
+        return ""
+    ends = np.array([inlier_samples.min(), inlier_samples.max()])
+    gap = (refinement.alpha - search.alpha) * ends + (refinement.beta - search.beta)
+    grad = np.column_stack([ends, np.ones(2)])
+    se = np.sqrt(np.einsum("ij,jk,ik->i", grad, refinement.cov, grad))
+    tolerance = 4 * delta + 3 * se
+    worst = int(np.argmax(np.abs(gap) - tolerance))
+    if abs(gap[worst]) > tolerance[worst]:
+        return f"refined line differs from the line search by {gap[worst]:+.2f} frames at sample {ends[worst]:g} (tolerance {tolerance[worst]:.2f})"
+    return ""
+
+
+def _line_search_cov(search: LineSearch, inlier_samples: np.ndarray) -> np.ndarray:
+    """Covariance of the line-search line: least squares with the inliers' residual spread.
+
+    Conservative floor: residuals of at least delta / sqrt(3) (uniform within the band).
+    """
+    if len(inlier_samples) < 3:
+        return np.full((2, 2), np.inf)
+    design = np.column_stack([inlier_samples, np.ones(len(inlier_samples))])
+    sigma2 = max(search.residual_rms**2, 0.5**2 / 3)
+    try:
+        return sigma2 * np.linalg.inv(design.T @ design)
+    except np.linalg.LinAlgError:
+        return np.full((2, 2), np.inf)
 
 
 def synchronize(cameras: dict[str, CameraInput], trajectory: Trajectory, params: SyncParams) -> tuple[Timeline, dict[str, CameraResult]]:
@@ -62,7 +182,7 @@ def synchronize(cameras: dict[str, CameraInput], trajectory: Trajectory, params:
         {name: r.line for name, r in results.items()},
         trajectory.rate,
         trajectory.t0,
-        method="paper",
+        method=params.method,
         params=asdict(params),
         failed=failed,
     )

@@ -55,6 +55,12 @@ class CameraLine:
         """sample -> frame."""
         return Relation(self.alpha, self.beta)
 
+    @property
+    def cov(self) -> np.ndarray | None:
+        """2x2 covariance of (alpha, beta), or None when the method gives none."""
+        cov = self.details.get("cov")
+        return None if cov is None else np.asarray(cov, dtype=np.float64)
+
 
 @dataclass(frozen=True)
 class Timeline:
@@ -77,6 +83,30 @@ class Timeline:
         alpha = lb.alpha / la.alpha
         return Relation(alpha, lb.beta - alpha * la.beta)
 
+    def relation_cov(self, a: str, b: str) -> np.ndarray | None:
+        """2x2 covariance of relation(a, b)'s (alpha, beta), cameras independent; None without covariances."""
+        la, lb = self.cameras[a], self.cameras[b]
+        if la.cov is None or lb.cov is None:
+            return None
+        ratio = lb.alpha / la.alpha
+        grad = np.array(
+            [
+                [-ratio / la.alpha, 0.0, 1.0 / la.alpha, 0.0],
+                [ratio * la.beta / la.alpha, -ratio, -la.beta / la.alpha, 1.0],
+            ]
+        )
+        joint = np.zeros((4, 4))
+        joint[:2, :2], joint[2:, 2:] = la.cov, lb.cov
+        return grad @ joint @ grad.T
+
+    def seconds_relation(self, a: str, b: str) -> Relation | None:
+        """time_B = alpha * time_A + beta in seconds of each camera's clock (frame 0 or time_s = 0 at 0 s); None without both fps."""
+        fa, fb = self.cameras[a].fps, self.cameras[b].fps
+        if not fa or not fb:
+            return None
+        rel = self.relation(a, b)
+        return Relation(rel.alpha * fa / fb, rel.beta / fb)
+
     def pairs(self) -> dict[str, Relation]:
         """Every ordered pair "A->B" of distinct cameras."""
         return {f"{a}->{b}": self.relation(a, b) for a in self.cameras for b in self.cameras if a != b}
@@ -89,6 +119,19 @@ class Timeline:
         frames = float(self.relation(b, a).beta)
         fps = self.cameras[a].fps
         return frames, (frames / fps if fps else None)
+
+    def start_offset_se(self, a: str, b: str) -> tuple[float, float | None] | None:
+        """Standard error of start_offset(a, b): (frames of A, seconds or None); None without covariances."""
+        cov = self.relation_cov(b, a)
+        if cov is None:
+            return None
+        frames = float(np.sqrt(cov[1, 1]))
+        fps = self.cameras[a].fps
+        return frames, (frames / fps if fps else None)
+
+    def _offset_errors(self, a: str, b: str) -> dict:
+        se = self.start_offset_se(a, b)
+        return {} if se is None else {"se_start_offset_frames": se[0], "se_start_offset_s": se[1]}
 
     def line(self) -> dict:
         """The timeline as a line in R^(N+1): point + s * direction over (sample, frames...)."""
@@ -107,12 +150,21 @@ class Timeline:
             entry.update(c.details)
             if first is not None:
                 entry["start_offset_frames"], entry["start_offset_s"] = self.start_offset(first, name)
+                if name != first:
+                    entry.update(self._offset_errors(first, name))
             cameras[name] = entry
         pairs = {}
         for key, rel in self.pairs().items():
             a, b = key.split("->")
             frames, seconds = self.start_offset(a, b)
             pairs[key] = {"alpha": rel.alpha, "beta": rel.beta, "start_offset_frames": frames, "start_offset_s": seconds}
+            cov = self.relation_cov(a, b)
+            if cov is not None:
+                pairs[key]["se_alpha"], pairs[key]["se_beta"] = float(np.sqrt(cov[0, 0])), float(np.sqrt(cov[1, 1]))
+                pairs[key].update(self._offset_errors(a, b))
+            timed = self.seconds_relation(a, b)
+            if timed is not None:
+                pairs[key]["seconds"] = {"alpha": timed.alpha, "beta": timed.beta}
         return {
             "format": "tlsync-timeline",
             "version": FORMAT_VERSION,
@@ -146,7 +198,7 @@ def read_timeline(path: str | Path) -> Timeline:
         cameras = {}
         for name, c in data["cameras"].items():
             base = {k: c[k] for k in ("alpha", "beta", "votes", "inliers", "residual_rms")}
-            skip = set(base) | {"fps", "start_offset_frames", "start_offset_s"}
+            skip = set(base) | {"fps", "start_offset_frames", "start_offset_s", "se_start_offset_frames", "se_start_offset_s"}
             details = {k: v for k, v in c.items() if k not in skip}
             cameras[name] = CameraLine(name, fps=c.get("fps"), details=details, **base)
         target = data.get("target", {})
