@@ -80,11 +80,21 @@ def make_scene(
     localisation_noise_pct: float = 0.0,
     target_rate: float = 15.0,
     image_size: tuple[int, int] = (640, 480),
+    hover_fraction: float = 0.0,
+    crossings: int = 0,
+    frame_time_jitter: float = 0.0,
 ) -> Scene:
     """Build a deterministic scene: one camera per (alpha, beta) in ``lines``.
 
     n_frames: frames per camera (one value for all, or one per camera);
     target_rate: trajectory samples per second (camera fps = alpha * rate).
+    hover_fraction: share of each camera's window the target spends
+    motionless at one point (it then flies faster to catch up);
+    crossings: how many times, after the hover, the path flies back through
+    the hover point (a path crossing itself);
+    frame_time_jitter: each frame interval is (1 + U(-j, j)) / fps, so the
+    presentation times (track time_s) drift; lines then map samples to the
+    camera clock in frame units, time_s * fps.
     """
     rng = np.random.default_rng(seed)
     names = [f"cam{k}" for k in range(len(lines))]
@@ -93,7 +103,9 @@ def make_scene(
     windows = _visibility_windows(relations, dict(zip(names, counts)))
     n_samples = int(math.ceil(max(w[1] for w in windows.values()))) + 2 * TRANSIT_SAMPLES
     zones = {n: _zone_centre(k, len(names)) for k, n in enumerate(names)}
-    spline = _trajectory_spline(rng, windows, zones, n_samples)
+    spline = _trajectory_spline(rng, windows, zones, n_samples, crossings)
+    if hover_fraction > 0:
+        spline = _Hovering(spline, windows, hover_fraction)
     samples = np.arange(n_samples, dtype=np.float64)
     true_xyz = spline(samples)
     true_cameras = {
@@ -104,7 +116,7 @@ def make_scene(
 
     tracks = {}
     for n, count in zip(names, counts):
-        tracks[n] = _track(rng, true_cameras[n], spline, relations[n], count, n_samples, tracking_noise_px)
+        tracks[n] = _track(rng, true_cameras[n], spline, relations[n], count, n_samples, tracking_noise_px, frame_time_jitter)
     cameras = {n: _perturb_pose(rng, c, true_xyz, projection_error_px) for n, c in true_cameras.items()}
     fov_m = min(c.image_size[0] * np.linalg.norm(c.center - zones[n]) / c.K[0, 0] for n, c in true_cameras.items())
     sigma_m = localisation_noise_pct / 100.0 * fov_m
@@ -117,7 +129,15 @@ def make_scene(
         tracks=tracks,
         lines=relations,
         n_frames=dict(zip(names, counts)),
-        noise={"S_t_px": tracking_noise_px, "S_c_px": projection_error_px, "S_l_pct": localisation_noise_pct, "S_l_m": sigma_m},
+        noise={
+            "S_t_px": tracking_noise_px,
+            "S_c_px": projection_error_px,
+            "S_l_pct": localisation_noise_pct,
+            "S_l_m": sigma_m,
+            "hover_fraction": hover_fraction,
+            "crossings": crossings,
+            "frame_time_jitter": frame_time_jitter,
+        },
     )
 
 
@@ -180,20 +200,58 @@ def _zone_centre(k: int, n: int) -> np.ndarray:
     return np.array([ZONE_RADIUS_M * math.cos(angle), ZONE_RADIUS_M * math.sin(angle), 0.0])
 
 
-def _trajectory_spline(rng, windows, zones, n_samples) -> CubicSpline:
+class _Hovering:
+    """A path that stops at a point for a share of each window, then catches up.
+
+    path(s) = spline(warp(s)), warp piecewise linear: identity outside the
+    windows, flat during the hover (which starts a third into the window, at
+    the waypoint the crossings return to), steeper after it.
+    """
+
+    def __init__(self, spline, windows, fraction):
+        self.spline = spline
+        knots = [(-1e9, -1e9)]
+        for lo, hi in sorted(windows.values()):
+            grid = _waypoint_times(lo, hi)
+            start = grid[_anchor(grid)]
+            knots += [(lo, lo), (start, start), (start + fraction * (hi - lo), start), (hi, hi)]
+        knots.append((1e9, 1e9))
+        self.x, self.y = np.array(knots).T
+
+    def __call__(self, s):
+        return self.spline(np.interp(s, self.x, self.y))
+
+
+def _waypoint_times(lo: float, hi: float) -> np.ndarray:
+    return np.linspace(lo, hi, max(3, int((hi - lo) / WAYPOINT_EVERY) + 1))
+
+
+def _anchor(grid: np.ndarray) -> int:
+    """The waypoint a third into the window: where the target hovers and that crossings revisit."""
+    return int(np.argmin(np.abs(grid - (grid[0] + (grid[-1] - grid[0]) / 3))))
+
+
+def _trajectory_spline(rng, windows, zones, n_samples, crossings: int = 0) -> CubicSpline:
     """A C2 path that wanders inside each camera's zone during its window.
 
     Inside a zone, waypoints are a random walk of constant step and bounded
     turn (so the target never stops), kept within the zone; heights vary.
+    With crossings > 0, the waypoint a third into the window is revisited
+    that many times, evenly spaced over the rest of the window.
     """
     times, points = [], []
     for name, (lo, hi) in sorted(windows.items(), key=lambda item: item[1][0]):
-        count = max(3, int((hi - lo) / WAYPOINT_EVERY) + 1)
+        grid = _waypoint_times(lo, hi)
+        count = len(grid)
         position = zones[name][:2] + rng.uniform(-0.5, 0.5, 2) * ZONE_HALF_WIDTH_M
         heading = rng.uniform(0, 2 * math.pi)
-        for t in np.linspace(lo, hi, count):
+        anchor = _anchor(grid)
+        revisits = set(np.linspace(anchor, count - 1, crossings + 2).round().astype(int)[1:-1]) if crossings else set()
+        for k, t in enumerate(grid):
             times.append(t)
             points.append([position[0], position[1], rng.uniform(0.5, 5.0)])
+            if k in revisits:
+                points[-1] = list(points[len(points) - 1 - (k - anchor)])
             heading += rng.uniform(-1.0, 1.0)
             step = WAYPOINT_STEP_M * np.array([math.cos(heading), math.sin(heading)])
             if np.abs(position + step - zones[name][:2]).max() > ZONE_HALF_WIDTH_M:
@@ -236,17 +294,21 @@ def _check_views_disjoint(cameras: dict[str, Camera], points: np.ndarray) -> Non
         raise AssertionError("scene generator: a trajectory point is visible in two cameras")
 
 
-def _track(rng, camera: Camera, spline, line: Relation, n_frames: int, n_samples: int, noise_px: float) -> Track:
+def _track(rng, camera: Camera, spline, line: Relation, n_frames: int, n_samples: int, noise_px: float, jitter: float = 0.0) -> Track:
     frames = np.arange(n_frames)
-    sample = (frames - line.beta) / line.alpha
+    clock = frames.astype(np.float64)  # camera clock in frame units: time_s * fps
+    if jitter > 0:
+        clock = np.r_[0.0, np.cumsum(1.0 + rng.uniform(-jitter, jitter, n_frames - 1))]
+    times = clock / camera.fps
+    sample = (clock - line.beta) / line.alpha
     inside = (sample >= 0) & (sample <= n_samples - 1)
-    frames, sample = frames[inside], sample[inside]
+    frames, sample, times = frames[inside], sample[inside], times[inside]
     uv, valid = camera.project(spline(sample))
     keep = valid & camera.in_image(np.nan_to_num(uv, nan=-1e9))
-    frames, uv = frames[keep], uv[keep]
+    frames, uv, times = frames[keep], uv[keep], times[keep]
     if noise_px > 0:
         uv = uv + rng.normal(0.0, noise_px, uv.shape)
-    return Track(frames.astype(np.int64), uv[:, 0], uv[:, 1], time_s=frames / camera.fps)
+    return Track(frames.astype(np.int64), uv[:, 0], uv[:, 1], time_s=times)
 
 
 def _perturb_pose(rng, camera: Camera, points: np.ndarray, mean_error_px: float) -> Camera:

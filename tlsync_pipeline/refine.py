@@ -42,7 +42,7 @@ class Refinement:
 
     cov: 2x2 covariance of (alpha, beta); frames_used: tracked frames in the
     final fit; scale_px: robust residual scale (1.4826 MAD of pixel
-    residuals); perpendicular: mean |sin| of the angle between the target's
+    residuals); perpendicular: median |sin| of the angle between the target's
     velocity and the viewing ray over those frames (near 0: motion along the
     ray, little timing information); converged: the solver's verdict.
     """
@@ -194,13 +194,14 @@ def _fit(camera, frame, xy, path, alpha, beta, f_scale):
 
 
 def _perpendicular(camera: Camera, path: PiecewiseTrajectory, s: np.ndarray, run: np.ndarray) -> float:
-    """Speed-weighted mean |sin| of the angle between velocity and viewing ray."""
+    """Median over moving frames of |sin| of the angle between velocity and viewing ray (1 when no frame moves)."""
     position = path(s, run)
     velocity = path(s, run, nu=1)
     ray = position - camera.center
     ray /= np.linalg.norm(ray, axis=1, keepdims=True)
     speed = np.linalg.norm(velocity, axis=1)
-    if speed.sum() <= 0:
-        return 0.0
-    sin = np.linalg.norm(np.cross(velocity, ray), axis=1) / np.maximum(speed, 1e-12)
-    return float(np.sum(sin * speed) / speed.sum())
+    moving = speed > 1e-6 * max(speed.max(), 1e-300)
+    if not moving.any():
+        return 1.0
+    sin = np.linalg.norm(np.cross(velocity[moving], ray[moving]), axis=1) / speed[moving]
+    return float(np.median(sin))

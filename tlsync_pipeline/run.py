@@ -43,16 +43,31 @@ def run_project(project: Project, out_dir: Path) -> tuple[Timeline, dict[str, Ca
 
 def format_table(timeline: Timeline) -> str:
     """The per-camera summary a user reads after a run."""
-    rows = [("camera", "alpha", "beta", "votes", "inliers", "start (frames)", "start (s)")]
+    rows = [("camera", "alpha", "beta", "votes", "inliers", "start (frames)", "start (s)", "flags")]
     first = timeline.names[0] if timeline.cameras else None
+    with_se = False
     for name, line in timeline.cameras.items():
         frames, seconds = timeline.start_offset(first, name)
-        rows.append(
-            (name, f"{line.alpha:.5f}", f"{line.beta:.2f}", str(line.votes), str(line.inliers), f"{frames:+.2f}", "-" if seconds is None else f"{seconds:+.3f}")
-        )
+        alpha, beta = f"{line.alpha:.5f}", f"{line.beta:.2f}"
+        start_frames, start_s = f"{frames:+.2f}", "-" if seconds is None else f"{seconds:+.3f}"
+        if line.cov is not None:
+            with_se = True
+            alpha += f" ±{_HALF_95 * line.details['se_alpha']:.2g}"
+            beta += f" ±{_HALF_95 * line.details['se_beta']:.2g}"
+            se = timeline.start_offset_se(first, name)
+            if name != first and se is not None:
+                start_frames += f" ±{_HALF_95 * se[0]:.2g}"
+                start_s += "" if se[1] is None else f" ±{_HALF_95 * se[1]:.2g}"
+        flags = list(line.details.get("flags", [])) + (["fallback"] if line.details.get("warnings") else [])
+        rows.append((name, alpha, beta, str(line.votes), str(line.inliers), start_frames, start_s, ",".join(flags) or "-"))
     text = _columns(rows)
     if first is not None:
         text += f"\nstart: when the camera's frame 0 was taken, in frames and seconds of {first} (positive: later than {first}'s frame 0)"
+    if with_se:
+        text += "\n±: 95 % intervals (1.96 standard errors); flags: few_inliers, ambiguous (a second line with comparable support), along_ray (motion mostly along the viewing ray), fallback (see warnings in timeline.json)"
+    for name, line in timeline.cameras.items():
+        for warning in line.details.get("warnings", []):
+            text += f"\nwarning: {name}: {warning}"
     for name, why in timeline.failed.items():
         text += f"\nnot synchronized: {name}: {why}"
     return text
@@ -71,6 +86,9 @@ def format_truth_comparison(timeline: Timeline, truth: dict[str, Relation], n_fr
         errors[key] = eps_t(estimated, true, frames_a)
         rows.append((key, f"{estimated.alpha:.5f}", f"{true.alpha:.5f}", f"{estimated.beta:.2f}", f"{true.beta:.2f}", f"{errors[key]:.3f}"))
     return _columns(rows), errors
+
+
+_HALF_95 = 1.959964  # normal quantile of a two-sided 95 % interval
 
 
 def _columns(rows: list[tuple[str, ...]]) -> str:

@@ -29,8 +29,7 @@ from trackers.track import Track
 # Weak-case thresholds of the refined method (flags in timeline.json).
 FEW_INLIER_FRAMES = 30
 AMBIGUOUS_RATIO = 0.5
-ALONG_RAY = 0.3
-NORMAL_95 = 1.959964
+ALONG_RAY = 0.15
 
 
 @dataclass(frozen=True)
