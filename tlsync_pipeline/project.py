@@ -80,6 +80,12 @@ def _method(value: Any, root: Path) -> str:
     return value
 
 
+def _boolean(value: Any, root: Path) -> bool:
+    if not isinstance(value, bool):
+        raise ValueError(f"expected true or false, got {value!r}")
+    return value
+
+
 def _integer(value: Any, root: Path) -> int:
     if isinstance(value, bool) or not isinstance(value, int):
         raise ValueError(f"expected an integer, got {value!r}")
@@ -104,6 +110,7 @@ SYNC_SCHEMA = {
     "method": Field(_method, "refined"),
     "r_min": Field(_ratio, 0.01),
     "f_scale_px": Field(_positive, 3.0),
+    "smooth_trajectory": Field(_boolean, True),
 }
 # A dict is a table, a one-element list an array of tables.
 PROJECT_SCHEMA = {
@@ -119,7 +126,9 @@ class SyncParams:
 
     method: "refined" (default) or "paper"; r_min: smallest inlier ratio the
     refined line search must find; f_scale_px: robust loss scale of the
-    refinement (pixels). r is the paper's expected inlier ratio.
+    refinement (pixels); smooth_trajectory: the refined method first smooths
+    the logged trajectory (cross-validated smoothing spline). r is the
+    paper's expected inlier ratio.
     """
 
     eps_px: float = 10.0
@@ -130,6 +139,7 @@ class SyncParams:
     method: str = "refined"
     r_min: float = 0.01
     f_scale_px: float = 3.0
+    smooth_trajectory: bool = True
 
 
 @dataclass(frozen=True)

@@ -21,7 +21,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.interpolate import make_interp_spline
+from scipy.interpolate import make_interp_spline, make_smoothing_spline
 from scipy.optimize import least_squares
 
 from calibration.camera import Camera
@@ -31,9 +31,10 @@ GAP_SAMPLES = 1.5  # consecutive samples further apart than this start a new run
 MIN_FRAMES = 8
 
 
-def hac_lags(n: int) -> int:
-    """Bartlett-kernel bandwidth (frames) of the covariance for n frames."""
-    return int(np.ceil(2.0 * np.sqrt(n)))
+# Contiguous blocks of frames for the clustered covariance, and the variance
+# factor calibrated on seeded scenes (bench/coverage.py, docs/accuracy.md).
+BLOCKS = 8
+COVARIANCE_FACTOR = 1.0
 
 
 @dataclass(frozen=True)
@@ -63,6 +64,23 @@ class Refinement:
     @property
     def se_beta(self) -> float:
         return float(np.sqrt(self.cov[1, 1]))
+
+
+def smooth_trajectory(trajectory: Trajectory) -> Trajectory:
+    """The trajectory with each run of samples replaced by a cubic smoothing spline.
+
+    The smoothing of each coordinate is chosen by generalised cross-validation
+    (scipy make_smoothing_spline), so a clean log is left nearly as is and a
+    noisy one (GPS) loses most of its sample-to-sample noise. Runs shorter
+    than 8 samples are kept as they are.
+    """
+    sample, xyz = trajectory.sample, trajectory.xyz.copy()
+    cuts = np.flatnonzero(np.diff(sample) > GAP_SAMPLES) + 1
+    for idx in np.split(np.arange(len(sample)), cuts):
+        if len(idx) >= 8:
+            for k in range(3):
+                xyz[idx, k] = make_smoothing_spline(sample[idx], xyz[idx, k])(sample[idx])
+    return Trajectory(sample, xyz, trajectory.rate, trajectory.t0)
 
 
 class PiecewiseTrajectory:
@@ -170,17 +188,18 @@ def _fit(camera, frame, xy, path, alpha, beta, f_scale):
     dpsi = (1 + z) ** -1.5
     bread = np.einsum("nik,ni,nil->kl", jac, dpsi, jac)
     g = np.einsum("nik,ni->nk", jac, psi)
-    meat = g.T @ g
-    lags = hac_lags(len(g))
-    for lag in range(1, min(lags, len(g) - 1) + 1):
-        cross = g[lag:].T @ g[:-lag]
-        meat += (1 - lag / (lags + 1)) * (cross + cross.T)
     n = len(g)
     try:
         inv = np.linalg.inv(bread)
-        cov_x = inv @ meat @ inv * n / max(n - 2, 1)
     except np.linalg.LinAlgError:
-        cov_x = np.full((2, 2), np.inf)
+        inv = np.full((2, 2), np.inf)
+    # Frame by frame (heteroscedasticity) and block by block (errors shared by
+    # neighbouring frames: pose, log); the larger, times the calibrated factor.
+    independent = g.T @ g * n / max(n - 2, 1)
+    blocks = np.array([b.sum(axis=0) for b in np.array_split(g, min(BLOCKS, n))])
+    clustered = blocks.T @ blocks * len(blocks) / max(len(blocks) - 1, 1)
+    meat = independent if np.trace(inv @ independent @ inv) >= np.trace(inv @ clustered @ inv) else clustered
+    cov_x = COVARIANCE_FACTOR * inv @ meat @ inv
     u, s0 = x
     a = 1.0 / u
     b = c_mid - a * s0

@@ -19,7 +19,7 @@ from tlsync_pipeline.errors import SyncError
 from tlsync_pipeline.line_search import LineSearch, find_line
 from tlsync_pipeline.project import SyncParams
 from tlsync_pipeline.ransac import LineFit, fit_line_ransac
-from tlsync_pipeline.refine import PiecewiseTrajectory, Refinement, refine_line
+from tlsync_pipeline.refine import PiecewiseTrajectory, Refinement, refine_line, smooth_trajectory
 from tlsync_pipeline.timeline import CameraLine, Timeline
 from tlsync_pipeline.trajectory import Trajectory
 from tlsync_pipeline.vfr import CameraClock, camera_clock
@@ -172,6 +172,8 @@ def synchronize(cameras: dict[str, CameraInput], trajectory: Trajectory, params:
     """
     results: dict[str, CameraResult] = {}
     failed: dict[str, str] = {}
+    if params.method == "refined" and params.smooth_trajectory:
+        trajectory = smooth_trajectory(trajectory)
     for name, inputs in cameras.items():
         try:
             results[name] = synchronize_camera(name, inputs, trajectory, params)

@@ -1,0 +1,82 @@
+"""Coverage of the refined method's 95 % intervals on seeded synthetic scenes.
+
+For each scene (two cameras, fractional betas) and each estimated quantity
+(every camera's alpha and beta, every pair's beta = start offset), z =
+(estimate - truth) / standard error; a nominal 95 % interval covers the truth
+when |z| <= 1.96. Prints the coverage per quantity and overall, and the
+variance factor that would give exactly 95 % (to re-calibrate
+tlsync_pipeline.refine.COVARIANCE_FACTOR, which the standard errors already
+include).
+
+    nice -n 10 python bench/coverage.py --scenes 200 --st 2 --sc 2 --sl 1
+"""
+
+from __future__ import annotations
+
+import argparse
+import multiprocessing
+
+import numpy as np
+
+from data_fixtures import make_scene
+from tlsync_pipeline.project import SyncParams
+from tlsync_pipeline.sync import CameraInput, synchronize
+
+LINES = ((2.0, 4.37), (2.0, 45.61))
+Z95 = 1.959964
+
+
+def scene_z(args) -> list[float]:
+    """|z| of every quantity of one scene (NaN when the camera failed)."""
+    seed, st, sc, sl = args
+    scene = make_scene(seed, lines=LINES, tracking_noise_px=st, projection_error_px=sc, localisation_noise_pct=sl)
+    inputs = {k: CameraInput(scene.cameras[k], scene.tracks[k], scene.cameras[k].fps) for k in scene.cameras}
+    timeline, _ = synchronize(inputs, scene.trajectory, SyncParams())
+    z = []
+    for name, true in scene.lines.items():
+        line = timeline.cameras.get(name)
+        if line is None:
+            z += [np.nan, np.nan]
+            continue
+        z += [(line.alpha - true.alpha) / line.details["se_alpha"], (line.beta - true.beta) / line.details["se_beta"]]
+    for key, true in scene.truth_pairs().items():
+        a, b = key.split("->")
+        if a in timeline.cameras and b in timeline.cameras:
+            z.append((timeline.relation(a, b).beta - true.beta) / np.sqrt(timeline.relation_cov(a, b)[1, 1]))
+        else:
+            z.append(np.nan)
+    return z
+
+
+def coverage(scenes: int, st: float, sc: float, sl: float, first_seed: int = 1000, processes: int = 2) -> dict:
+    """Coverage per quantity and overall, and the variance factor for exactly 95 %."""
+    jobs = [(first_seed + k, st, sc, sl) for k in range(scenes)]
+    with multiprocessing.Pool(processes) as pool:
+        z = np.abs(np.array(pool.map(scene_z, jobs, chunksize=4)))
+    names = [f"{n} {q}" for n in ("cam0", "cam1") for q in ("alpha", "beta")] + ["cam0->cam1 beta", "cam1->cam0 beta"]
+    finite = np.isfinite(z)
+    return {
+        "per_quantity": {n: float(np.mean(z[finite[:, k], k] <= Z95)) for k, n in enumerate(names)},
+        "overall": float(np.mean(z[finite] <= Z95)),
+        "factor_for_95": float((np.quantile(z[finite], 0.95) / Z95) ** 2),
+        "failed": int((~finite).any(axis=1).sum()),
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--scenes", type=int, default=200)
+    parser.add_argument("--st", type=float, default=2.0, help="tracking noise S_t (px)")
+    parser.add_argument("--sc", type=float, default=2.0, help="projection error S_c (px)")
+    parser.add_argument("--sl", type=float, default=1.0, help="localisation noise S_l (%% of the field of view)")
+    parser.add_argument("--processes", type=int, default=2)
+    args = parser.parse_args()
+    result = coverage(args.scenes, args.st, args.sc, args.sl, processes=args.processes)
+    print(f"S_t={args.st} S_c={args.sc} S_l={args.sl} scenes={args.scenes} (failed {result['failed']})")
+    for name, value in result["per_quantity"].items():
+        print(f"  {name:16s} {100 * value:5.1f} %")
+    print(f"  overall          {100 * result['overall']:5.1f} %   (variance factor for exactly 95 %: x{result['factor_for_95']:.2f} of the current)")
+
+
+if __name__ == "__main__":
+    main()
