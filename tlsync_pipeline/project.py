@@ -80,6 +80,13 @@ def _method(value: Any, root: Path) -> str:
     return value
 
 
+def _non_negative(value: Any, root: Path) -> float:
+    number = _number(value)
+    if number < 0:
+        raise ValueError(f"expected a number >= 0, got {value!r}")
+    return number
+
+
 def _boolean(value: Any, root: Path) -> bool:
     if not isinstance(value, bool):
         raise ValueError(f"expected true or false, got {value!r}")
@@ -111,6 +118,7 @@ SYNC_SCHEMA = {
     "r_min": Field(_ratio, 0.01),
     "f_scale_px": Field(_positive, 3.0),
     "smooth_trajectory": Field(_boolean, True),
+    "model_error_px": Field(_non_negative, 3.0),
 }
 # A dict is a table, a one-element list an array of tables.
 PROJECT_SCHEMA = {
@@ -128,7 +136,8 @@ class SyncParams:
     refined line search must find; f_scale_px: robust loss scale of the
     refinement (pixels); smooth_trajectory: the refined method first smooths
     the logged trajectory (cross-validated smoothing spline). r is the
-    paper's expected inlier ratio.
+    paper's expected inlier ratio; model_error_px: pixel error of the
+    calibration and log that the refined method's intervals allow for.
     """
 
     eps_px: float = 10.0
@@ -140,6 +149,7 @@ class SyncParams:
     r_min: float = 0.01
     f_scale_px: float = 3.0
     smooth_trajectory: bool = True
+    model_error_px: float = 3.0
 
 
 @dataclass(frozen=True)

@@ -31,10 +31,8 @@ GAP_SAMPLES = 1.5  # consecutive samples further apart than this start a new run
 MIN_FRAMES = 8
 
 
-# Contiguous blocks of frames for the clustered covariance, and the variance
-# factor calibrated on seeded scenes (bench/coverage.py, docs/accuracy.md).
+# Contiguous blocks of frames for the clustered covariance and the model error.
 BLOCKS = 8
-COVARIANCE_FACTOR = 1.0
 
 
 @dataclass(frozen=True)
@@ -122,14 +120,17 @@ def refine_line(
     start: np.ndarray,
     f_scale: float = 3.0,
     gate_px: float = 10.0,
+    model_error_px: float = 0.0,
 ) -> Refinement:
     """Refine frame = alpha * sample + beta from the tracked positions.
 
     frame: (N,) camera clock in frames; xy: (N, 2) tracked pixels; start:
     boolean mask of the frames the line search explained (the starting set).
     After a first fit on them, every tracked frame whose reprojection is
-    within gate_px joins and the fit is repeated. Raises ValueError when
-    fewer than MIN_FRAMES frames can be used.
+    within gate_px joins and the fit is repeated. model_error_px: std of a
+    pixel offset shared by each of BLOCKS runs of frames (calibration and log
+    errors), added to the covariance. Raises ValueError when fewer than
+    MIN_FRAMES frames can be used.
     """
     path = trajectory if isinstance(trajectory, PiecewiseTrajectory) else PiecewiseTrajectory(trajectory)
     frame = np.asarray(frame, dtype=np.float64)
@@ -139,7 +140,7 @@ def refine_line(
         raise ValueError(f"only {int(use.sum())} tracked frames fall on the trajectory under the line")
     result = None
     for _ in range(2):
-        result = _fit(camera, frame[use], xy[use], path, alpha, beta, f_scale)
+        result = _fit(camera, frame[use], xy[use], path, alpha, beta, f_scale, model_error_px)
         alpha, beta = result[0], result[1]
         s = (frame - beta) / alpha
         run = path.run_of(s)
@@ -155,7 +156,7 @@ def refine_line(
     return Refinement(alpha, beta, cov, int(use.sum()), scale, perpendicular, converged, message)
 
 
-def _fit(camera, frame, xy, path, alpha, beta, f_scale):
+def _fit(camera, frame, xy, path, alpha, beta, f_scale, model_error_px):
     """One robust fit; returns (alpha, beta, cov, scale_px, converged, message, perpendicular)."""
     order = np.argsort(frame, kind="stable")
     frame, xy = frame[order], xy[order]
@@ -199,7 +200,11 @@ def _fit(camera, frame, xy, path, alpha, beta, f_scale):
     blocks = np.array([b.sum(axis=0) for b in np.array_split(g, min(BLOCKS, n))])
     clustered = blocks.T @ blocks * len(blocks) / max(len(blocks) - 1, 1)
     meat = independent if np.trace(inv @ independent @ inv) >= np.trace(inv @ clustered @ inv) else clustered
-    cov_x = COVARIANCE_FACTOR * inv @ meat @ inv
+    # Model error: an unseen pixel offset of std model_error_px shared by each
+    # block of frames (pose and log errors), which the residuals cannot show.
+    lever = np.array([b.sum(axis=0) for b in np.array_split(jac * dpsi[:, :, None], min(BLOCKS, n))])
+    systematic = model_error_px**2 * np.einsum("bik,bil->kl", lever, lever)
+    cov_x = inv @ (meat + systematic) @ inv
     u, s0 = x
     a = 1.0 / u
     b = c_mid - a * s0

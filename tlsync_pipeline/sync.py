@@ -84,7 +84,7 @@ def _synchronize_refined(name: str, inputs: CameraInput, trajectory: Trajectory,
     refinement = None
     try:
         refinement = refine_line(
-            inputs.camera, clock.frames, track.xy, PiecewiseTrajectory(trajectory), search.alpha, search.beta, start, params.f_scale_px, params.eps_px
+            inputs.camera, clock.frames, track.xy, PiecewiseTrajectory(trajectory), search.alpha, search.beta, start, params.f_scale_px, params.eps_px, params.model_error_px
         )
     except ValueError as exc:
         warnings.append(f"refinement not possible ({exc}); using the line-search line")
