@@ -64,21 +64,49 @@ class Refinement:
         return float(np.sqrt(self.cov[1, 1]))
 
 
+CV_SAMPLES = 100  # samples used to choose the smoothing of a run
+_LAMBDAS = np.geomspace(1e-4, 1e4, 17)
+
+
 def smooth_trajectory(trajectory: Trajectory) -> Trajectory:
     """The trajectory with each run of samples replaced by a cubic smoothing spline.
 
-    The smoothing of each coordinate is chosen by generalised cross-validation
-    (scipy make_smoothing_spline), so a clean log is left nearly as is and a
-    noisy one (GPS) loses most of its sample-to-sample noise. Runs shorter
-    than 8 samples are kept as they are.
+    The smoothing (scipy make_smoothing_spline's lam) of each coordinate is
+    chosen by two-fold cross-validation (even samples predict odd ones and
+    back) on the CV_SAMPLES consecutive samples of the run where the
+    coordinate spans the widest range (motion, not hover), then applied to
+    the whole run: a clean log is left nearly as is, a noisy one (GPS) loses
+    most of its sample-to-sample noise. Runs shorter than 8 samples are kept
+    as they are.
     """
     sample, xyz = trajectory.sample, trajectory.xyz.copy()
     cuts = np.flatnonzero(np.diff(sample) > GAP_SAMPLES) + 1
     for idx in np.split(np.arange(len(sample)), cuts):
-        if len(idx) >= 8:
-            for k in range(3):
-                xyz[idx, k] = make_smoothing_spline(sample[idx], xyz[idx, k])(sample[idx])
+        if len(idx) < 8:
+            continue
+        for k in range(3):
+            values = xyz[idx, k]
+            chunk = np.arange(len(idx))
+            if len(idx) > CV_SAMPLES:
+                windows = np.lib.stride_tricks.sliding_window_view(values, CV_SAMPLES)[::10]
+                first = 10 * int(np.argmax(np.ptp(windows, axis=1)))
+                chunk = chunk[first : first + CV_SAMPLES]
+            lam = _cv_lambda(sample[idx][chunk], values[chunk])
+            xyz[idx, k] = make_smoothing_spline(sample[idx], values, lam=lam)(sample[idx])
     return Trajectory(sample, xyz, trajectory.rate, trajectory.t0)
+
+
+def _cv_lambda(x: np.ndarray, y: np.ndarray) -> float:
+    """Smoothing parameter for a unit-spaced series, by two-fold cross-validation."""
+    even, odd = slice(0, None, 2), slice(1, None, 2)
+    errors = []
+    for lam in _LAMBDAS:
+        err = 0.0
+        for fit, test in ((even, odd), (odd, even)):
+            err += np.sum((make_smoothing_spline(x[fit], y[fit], lam=lam)(x[test]) - y[test]) ** 2)
+        errors.append(err)
+    # Halving the points halves the data term: the full series needs twice the lam.
+    return float(2 * _LAMBDAS[int(np.argmin(errors))])
 
 
 class PiecewiseTrajectory:
