@@ -22,7 +22,7 @@ from tlsync_pipeline.ransac import LineFit, fit_line_ransac
 from tlsync_pipeline.refine import PiecewiseTrajectory, Refinement, refine_line, smooth_trajectory
 from tlsync_pipeline.timeline import CameraLine, Timeline
 from tlsync_pipeline.trajectory import Trajectory
-from tlsync_pipeline.vfr import CameraClock, camera_clock
+from tlsync_pipeline.vfr import camera_clock
 from tlsync_pipeline.votes import Votes, compute_votes
 from trackers.track import Track
 
