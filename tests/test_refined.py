@@ -179,3 +179,26 @@ def test_project_method_key_and_timeline_json(tmp_path):
     project_file.write_text(text)
     with pytest.raises(InputError, match="method.*'paper', 'refined'"):
         load_project(project_file)
+
+
+def test_smoothing_keeps_clean_logs_and_denoises_noisy_ones():
+    from tlsync_pipeline.refine import smooth_trajectory
+
+    clean = make_scene(5)
+    assert np.abs(smooth_trajectory(clean.trajectory).xyz - clean.trajectory.xyz).max() < 1e-3
+    noisy = make_scene(5, localisation_noise_pct=2.0)
+    before = np.sqrt(np.mean((noisy.trajectory.xyz - noisy.true_trajectory.xyz) ** 2))
+    after = np.sqrt(np.mean((smooth_trajectory(noisy.trajectory).xyz - noisy.true_trajectory.xyz) ** 2))
+    assert after < 0.7 * before
+
+
+def test_interpolation_never_bridges_a_gap():
+    from tlsync_pipeline.refine import PiecewiseTrajectory
+    from tlsync_pipeline.trajectory import Trajectory
+
+    sample = np.r_[np.arange(0, 10.0), np.arange(20, 30.0)]
+    xyz = np.column_stack([sample, np.zeros_like(sample), np.zeros_like(sample)])
+    path = PiecewiseTrajectory(Trajectory(sample, xyz))
+    run = path.run_of(np.array([4.5, 15.0, 25.5]))
+    assert list(run) == [0, -1, 1]
+    assert np.allclose(path(np.array([4.5, 25.5]), run[[0, 2]])[:, 0], [4.5, 25.5])
