@@ -29,6 +29,7 @@ from tlsync_pipeline.trajectory import Trajectory
 
 GAP_SAMPLES = 1.5  # consecutive samples further apart than this start a new run
 MIN_FRAMES = 8
+PASSES = 4  # fits, each on the frames within gate_px of the previous one
 
 
 # Contiguous blocks of frames for the clustered covariance and the model error.
@@ -167,7 +168,7 @@ def refine_line(
     if use.sum() < MIN_FRAMES:
         raise ValueError(f"only {int(use.sum())} tracked frames fall on the trajectory under the line")
     result = None
-    for _ in range(2):
+    for _ in range(PASSES):
         result = _fit(camera, frame[use], xy[use], path, alpha, beta, f_scale, model_error_px)
         alpha, beta = result[0], result[1]
         s = (frame - beta) / alpha

@@ -30,6 +30,10 @@ from trackers.track import Track
 FEW_INLIER_FRAMES = 30
 AMBIGUOUS_RATIO = 0.5
 ALONG_RAY = 0.15
+# The refinement regrows its frame set to tracked frames within GATE_EPS x eps_px
+# of the fitted projection: a tight gate keeps only frames whose calibration
+# error happens to agree with a biased line (eps_t x3 at S_c = 8 px).
+GATE_EPS = 10.0
 
 
 @dataclass(frozen=True)
@@ -84,7 +88,7 @@ def _synchronize_refined(name: str, inputs: CameraInput, trajectory: Trajectory,
     refinement = None
     try:
         refinement = refine_line(
-            inputs.camera, clock.frames, track.xy, PiecewiseTrajectory(trajectory), search.alpha, search.beta, start, params.f_scale_px, params.eps_px, params.model_error_px
+            inputs.camera, clock.frames, track.xy, PiecewiseTrajectory(trajectory), search.alpha, search.beta, start, params.f_scale_px, GATE_EPS * params.eps_px, params.model_error_px
         )
     except ValueError as exc:
         warnings.append(f"refinement not possible ({exc}); using the line-search line")
