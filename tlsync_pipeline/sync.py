@@ -18,7 +18,7 @@ from calibration.camera import Camera
 from tlsync_pipeline.errors import SyncError
 from tlsync_pipeline.line_search import LineSearch, find_line
 from tlsync_pipeline.project import SyncParams
-from tlsync_pipeline.ransac import LineFit, fit_line_ransac
+from tlsync_pipeline.ransac import LineFit, distance_to_line, fit_line_ransac
 from tlsync_pipeline.refine import PiecewiseTrajectory, Refinement, refine_line, smooth_trajectory
 from tlsync_pipeline.timeline import CameraLine, Timeline
 from tlsync_pipeline.trajectory import Trajectory
@@ -34,6 +34,7 @@ ALONG_RAY = 0.15
 # of the fitted projection: a tight gate keeps only frames whose calibration
 # error happens to agree with a biased line (eps_t x3 at S_c = 8 px).
 GATE_EPS = 10.0
+SUPPORT_KEPT = 0.5
 
 
 @dataclass(frozen=True)
@@ -93,7 +94,7 @@ def _synchronize_refined(name: str, inputs: CameraInput, trajectory: Trajectory,
     except ValueError as exc:
         warnings.append(f"refinement not possible ({exc}); using the line-search line")
     if refinement is not None:
-        reason = _disagreement(refinement, search, votes.sample[search.inliers], params.delta)
+        reason = _disagreement(refinement, search, votes, vote_clock, params.delta)
         if not refinement.converged:
             reason = f"refinement did not converge ({refinement.message})"
         if reason:
@@ -139,18 +140,22 @@ def _synchronize_refined(name: str, inputs: CameraInput, trajectory: Trajectory,
     return CameraResult(votes, None, line, search, refinement)
 
 
-def _disagreement(refinement: Refinement, search: LineSearch, inlier_samples: np.ndarray, delta: float) -> str:
-    """Why the refined line cannot be trusted over the line-search one, or ''."""
-    if len(inlier_samples) == 0:
-        return ""
-    ends = np.array([inlier_samples.min(), inlier_samples.max()])
-    gap = (refinement.alpha - search.alpha) * ends + (refinement.beta - search.beta)
-    grad = np.column_stack([ends, np.ones(2)])
-    se = np.sqrt(np.einsum("ij,jk,ik->i", grad, refinement.cov, grad))
-    tolerance = 4 * delta + 3 * se
-    worst = int(np.argmax(np.abs(gap) - tolerance))
-    if abs(gap[worst]) > tolerance[worst]:
-        return f"refined line differs from the line search by {gap[worst]:+.2f} frames at sample {ends[worst]:g} (tolerance {tolerance[worst]:.2f})"
+def _disagreement(refinement: Refinement, search: LineSearch, votes: Votes, clock: np.ndarray, delta: float) -> str:
+    """Why the refined line cannot be trusted over the line-search one, or ''.
+
+    The refined line must keep at least SUPPORT_KEPT of the distinct frames
+    whose votes lie within 4 delta of the line-search line: a refinement
+    that slid to another pass of the path loses them. (Comparing the lines'
+    ends against the refinement's standard error rejected good refinements
+    when the line search's few inliers left its slope loose.)
+    """
+
+    def near(alpha: float, beta: float) -> int:
+        return np.unique(votes.frame[distance_to_line(votes.sample, clock, alpha, beta) <= 4 * delta]).size
+
+    before, after = near(search.alpha, search.beta), near(refinement.alpha, refinement.beta)
+    if after < SUPPORT_KEPT * before:
+        return f"refined line keeps {after} of the {before} frames whose votes support the line search"
     return ""
 
 
