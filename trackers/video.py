@@ -43,8 +43,9 @@ class VideoInfo:
 
     width, height: displayed size in pixels (after rotation); n_frames: the
     container's frame count (0 when unknown, an estimate from the duration
-    when the container does not store it); fps: average frame rate;
-    rotation: counter-clockwise degrees applied to decoded frames.
+    when the container does not store it; counted: the count is stored by
+    the container); fps: average frame rate; rotation: counter-clockwise
+    degrees applied to decoded frames.
     """
 
     path: Path
@@ -54,6 +55,7 @@ class VideoInfo:
     fps: float
     rotation: int
     codec: str
+    counted: bool
 
 
 def probe_video(path: str | Path) -> VideoInfo:
@@ -239,7 +241,7 @@ def _info(path: Path, stream, rotation: int | None) -> VideoInfo:
     rotation = rotation or 0
     if rotation % 180:
         width, height = height, width
-    return VideoInfo(path, width, height, n, fps, rotation, stream.codec_context.name)
+    return VideoInfo(path, width, height, n, fps, rotation, stream.codec_context.name, bool(stream.frames))
 
 
 def _first_rotation(path: Path, container, stream) -> int:
@@ -288,3 +290,29 @@ def _progress_bar(total: int, desc: str):
     from tqdm import tqdm
 
     return tqdm(total=total or None, desc=desc, unit="frame", dynamic_ncols=True, leave=False)
+
+
+def sample_frames(path: str | Path, count: int, gray: bool = True) -> list[np.ndarray]:
+    """Up to ``count`` frames spread evenly over the whole video (decoded by seeking).
+
+    Falls back to the first ``count`` decodable frames when the video cannot
+    be indexed or seeked (no timestamps, damaged).
+    """
+    path = Path(path)
+    pts_list, _ = _packet_index(path)
+    if pts_list:
+        n = len(pts_list)
+        indices = sorted(set(np.linspace(0, n - 1, min(count, n)).round().astype(int).tolist()))
+        try:
+            frames = read_frames(path, indices, gray=gray)
+            return [frames[i].image for i in indices]
+        except TrackInputError:
+            pass
+    out = []
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", TruncatedVideoWarning)
+        for frame in iter_frames(path, gray=gray):
+            out.append(frame.image)
+            if len(out) >= count:
+                break
+    return out
