@@ -258,7 +258,7 @@ class BlobTracker:
         if self.signature is None:
             return True
         area, polarity = self.signature
-        return b.polarity == polarity and abs(math.log(max(b.area, 1e-6) / area)) <= math.log(self.params.size_ratio)
+        return polarity in (0, b.polarity) and abs(math.log(max(b.area, 1e-6) / area)) <= math.log(self.params.size_ratio)
 
     def _acquire(self, frame: int, blobs: list[Blob]) -> list[tuple[int, Blob, float]]:
         p = self.params
