@@ -193,6 +193,8 @@ def _open(path: Path):
         raise TrackInputError(f"{path}: is a folder, expected a video file")
     try:
         container = av.open(str(path), mode="r")
+    except av.error.EOFError:
+        raise TrackInputError(f"{path}: the file ends before any video frame (an empty or truncated video)") from None
     except (av.FFmpegError, OSError, UnicodeDecodeError) as exc:
         raise TrackInputError(f"{path}: not a readable video file ({exc})") from None
     if not container.streams.video:
