@@ -6,7 +6,7 @@ import av
 import numpy as np
 import pytest
 
-from data_fixtures.video import render_video
+from data_fixtures.video import render_camera_video, render_video
 from trackers.errors import TrackInputError
 from trackers.video import TruncatedVideoWarning, iter_frames, probe_video, read_frames, sample_frames
 
@@ -116,3 +116,15 @@ def test_video_without_any_decodable_frame(tmp_path, jittered):
     header_only.write_bytes(data[: data.index(b"mdat") + 4])
     with pytest.raises(TrackInputError, match="header_only.mp4: the video has no decodable frame"):
         list(iter_frames(header_only))
+
+
+def test_render_camera_video_draws_given_positions(tmp_path, paper_scene):
+    camera = paper_scene.true_cameras["cam0"]
+    positions = [None] * 5 + [(100.0 + 3 * k, 200.0) for k in range(15)]
+    rendered = render_camera_video(camera, positions, fps=camera.fps, path=tmp_path / "cam0.mp4")
+    info = probe_video(rendered.path)
+    assert (info.width, info.height) == tuple(camera.image_size) and info.n_frames == 20
+    assert info.fps == pytest.approx(camera.fps, rel=1e-3)
+    assert rendered.out_of_view[:5].all() and rendered.in_view[5:].all()
+    frame = read_frames(rendered.path, [10], gray=True)[10].image
+    assert frame[200, 115] > 200 and frame[200, 60] < 200  # the bright disc is where it was asked to be
