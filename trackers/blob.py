@@ -47,7 +47,7 @@ class BlobParams:
     min_area: float = 6.0  # candidate blob area bounds (pixels)
     max_area: float = 20000.0
     learning_rate: float = 0.02  # background update rate per frame
-    background_frames: int = 21  # frames sampled across the video for the initial background
+    background_frames: int = 15  # frames sampled across the video for the initial background
     gate_px: float = 25.0  # association gate around the prediction
     size_ratio: float = 3.0  # accepted area ratio to the target's
     confirm: int = 3  # consecutive consistent frames to (re-)acquire
@@ -306,13 +306,20 @@ class BlobTracker:
 
 
 def median_background(frames: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
-    """Per-pixel median of grey frames (each scaled to the common mean first) and the mean absolute deviation."""
-    stack = np.stack([f.astype(np.float32) for f in frames])
-    means = stack.reshape(len(frames), -1).mean(axis=1)
-    stack *= (np.median(means) / np.maximum(means, 1e-3))[:, None, None]
-    med = np.median(stack, axis=0)
-    dev = np.mean(np.abs(stack - med), axis=0)
-    return med, dev
+    """Per-pixel median of grey frames (each scaled to the common mean first) and the mean absolute deviation.
+
+    Works in strips of rows so that memory stays near the size of the frames themselves.
+    """
+    stack = np.stack(frames)
+    means = np.array([float(f.mean()) for f in frames])
+    gains = (np.median(means) / np.maximum(means, 1e-3)).astype(np.float32)[:, None, None]
+    median = np.empty(stack.shape[1:], np.float32)
+    deviation = np.empty(stack.shape[1:], np.float32)
+    for r in range(0, stack.shape[1], 64):
+        block = stack[:, r : r + 64].astype(np.float32) * gains
+        median[r : r + 64] = np.median(block, axis=0)
+        deviation[r : r + 64] = np.abs(block - median[r : r + 64]).mean(axis=0)
+    return median, deviation
 
 
 def _params_from_dict(cls, values: dict | None, where: str):

@@ -69,7 +69,8 @@ def probe_video(path: str | Path) -> VideoInfo:
 def iter_frames(path: str | Path, gray: bool = False, progress: bool = False, desc: str | None = None) -> Iterator[VideoFrame]:
     """Yield every decodable frame of ``path`` in order, with its index and presentation time.
 
-    gray: yield (H, W) grey frames instead of (H, W, 3) BGR. progress: a
+    gray: yield (H, W) grey frames instead of (H, W, 3) BGR (for YUV video
+    the decoder's luma plane as stored, usually 16-235). progress: a
     tqdm bar (frames, frames/s, ETA). A video without any decodable frame
     raises TrackInputError; one that stops early warns (TruncatedVideoWarning).
     """
@@ -268,8 +269,16 @@ def _rotation(frame, stream) -> int:
     return int(round(angle / 90.0)) % 4 * 90
 
 
+# Formats whose first plane is 8-bit luma: grey frames are a copy of it (no colour conversion).
+_LUMA_FIRST = {"yuv420p", "yuvj420p", "yuv422p", "yuvj422p", "yuv444p", "yuvj444p", "nv12", "nv21", "gray"}
+
+
 def _to_array(frame, gray: bool, rotation: int) -> np.ndarray:
-    image = frame.to_ndarray(format="gray" if gray else "bgr24")
+    if gray and frame.format.name in _LUMA_FIRST:
+        plane = frame.planes[0]
+        image = np.frombuffer(plane, np.uint8).reshape(-1, plane.line_size)[: frame.height, : frame.width].copy()
+    else:
+        image = frame.to_ndarray(format="gray" if gray else "bgr24")
     if rotation:
         image = np.ascontiguousarray(np.rot90(image, k=rotation // 90))
     return image
@@ -295,16 +304,21 @@ def _progress_bar(total: int, desc: str):
 
 
 def sample_frames(path: str | Path, count: int, gray: bool = True) -> list[np.ndarray]:
-    """Up to ``count`` frames spread evenly over the whole video (decoded by seeking).
+    """Up to ``count`` frames spread evenly over the whole video (decoded by seeking; keyframes when there are enough).
 
     Falls back to the first ``count`` decodable frames when the video cannot
     be indexed or seeked (no timestamps, damaged).
     """
     path = Path(path)
-    pts_list, _ = _packet_index(path)
+    pts_list, keyframes = _packet_index(path)
     if pts_list:
         n = len(pts_list)
-        indices = sorted(set(np.linspace(0, n - 1, min(count, n)).round().astype(int).tolist()))
+        if len(keyframes) >= count:  # keyframes decode on their own: one decode per sample
+            where = {pts: i for i, pts in enumerate(pts_list)}
+            picks = np.linspace(0, len(keyframes) - 1, count).round().astype(int)
+            indices = sorted(set(where[keyframes[k]] for k in picks))
+        else:
+            indices = sorted(set(np.linspace(0, n - 1, min(count, n)).round().astype(int).tolist()))
         try:
             frames = read_frames(path, indices, gray=gray)
             return [frames[i].image for i in indices]
