@@ -1,6 +1,6 @@
 """Tracking throughput and memory: blob and CSRT against decode-only, in the same run.
 
-    python bench/track_throughput.py [--frames 300] [--memory] [--long-frames 2400]
+    python bench/track_throughput.py [--frames 600] [--memory] [--long-frames 2400]
 
 1. Renders a 720p H.264 video (data_fixtures.video: textured background,
    flicker, noise, a moving target) into a temporary folder.
@@ -135,7 +135,7 @@ def _baseline_mb() -> float:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--frames", type=int, default=300, help="frames of the 720p video")
+    parser.add_argument("--frames", type=int, default=600, help="frames of the 720p video")
     parser.add_argument("--memory", action="store_true", help="also measure peak memory on 1080p videos")
     parser.add_argument("--long-frames", type=int, default=2400, help="length of the longer 1080p video")
     parser.add_argument("--memory-child", nargs=2, metavar=("VIDEO", "KIND"), help=argparse.SUPPRESS)

@@ -102,7 +102,9 @@ class BlobDetector:
         if gray.shape[::-1] != self.size:
             raise TrackInputError(f"frame size {gray.shape[1]}x{gray.shape[0]} differs from the video's {self.size[0]}x{self.size[1]}")
         p = self.params
-        small = cv2.resize(gray, self.small_size, interpolation=cv2.INTER_AREA).astype(np.float32)
+        sw, sh = self.small_size
+        s = self.scale  # an exact integer ratio takes OpenCV's fast area-averaging path
+        small = cv2.resize(gray[: sh * s, : sw * s], self.small_size, interpolation=cv2.INTER_AREA).astype(np.float32)
         mean_frame = cv2.mean(small, self.background_mask)[0]
         mean_bg = cv2.mean(self.bg, self.background_mask)[0]
         gain = mean_frame / mean_bg if mean_bg > 0 else 1.0
@@ -110,16 +112,17 @@ class BlobDetector:
         absdiff = np.abs(diff)
         fg = absdiff > np.maximum(p.threshold * self.dev, p.min_contrast)
         self.mask = fg.astype(np.uint8) * 255
-        count, labels, stats, centroids = cv2.connectedComponentsWithStats(self.mask, connectivity=8)
-        s2 = self.scale * self.scale
-        keep = [i for i in range(1, count) if p.min_area <= stats[i, cv2.CC_STAT_AREA] * s2 <= p.max_area]
-        if len(keep) > p.max_candidates:
-            keep = []  # a global change (light switched, camera bumped): no trustworthy blob
         blobs = []
-        for i in keep:
-            blob = self._refine(gray, labels, i, stats[i], diff)
-            if blob is not None:
-                blobs.append(blob)
+        rx, ry, rw, rh = cv2.boundingRect(self.mask)  # components only where there is foreground
+        if rw and rh:
+            count, labels, stats, _ = cv2.connectedComponentsWithStats(self.mask[ry : ry + rh, rx : rx + rw], connectivity=8)
+            keep = [i for i in range(1, count) if p.min_area <= stats[i, cv2.CC_STAT_AREA] * s * s <= p.max_area]
+            if len(keep) > p.max_candidates:
+                keep = []  # a global change (light switched, camera bumped): no trustworthy blob
+            for i in keep:
+                blob = self._refine(gray, labels, i, stats[i], diff[ry : ry + rh, rx : rx + rw], (rx, ry))
+                if blob is not None:
+                    blobs.append(blob)
         # learn the background where there is no foreground (dilated)
         self.background_mask = cv2.bitwise_not(cv2.dilate(self.mask, np.ones((3, 3), np.uint8)))
         cv2.accumulateWeighted(small / gain, self.bg, p.learning_rate, self.background_mask)
@@ -141,17 +144,22 @@ class BlobDetector:
             return 0.0
         return float(np.count_nonzero(self.mask[y0:y1, x0:x1])) / ((x1 - x0) * (y1 - y0))
 
-    def _refine(self, gray, labels, label, stat, diff) -> Blob | None:
+    def _refine(self, gray, labels, label, stat, diff, offset) -> Blob | None:
+        """Labels, stat and diff are of the region starting at small pixel ``offset``."""
         s = self.scale
         x, y, bw, bh, area = (int(v) for v in stat)
         own = diff[y : y + bh, x : x + bw][labels[y : y + bh, x : x + bw] == label]
         polarity = 1 if float(own.mean()) >= 0 else -1
-        # full-resolution window: the component's box, grown by two small pixels
-        fx0, fy0 = max(0, (x - 2) * s), max(0, (y - 2) * s)
-        fx1, fy1 = min(self.size[0], (x + bw + 2) * s), min(self.size[1], (y + bh + 2) * s)
-        sub = labels[max(0, y - 2) : y + bh + 2, max(0, x - 2) : x + bw + 2]
-        support = (sub == label).astype(np.uint8)
+        # the component's box grown by two small pixels, in the whole small frame
+        gx0, gy0 = max(0, x + offset[0] - 2), max(0, y + offset[1] - 2)
+        gx1, gy1 = min(self.small_size[0], x + offset[0] + bw + 2), min(self.small_size[1], y + offset[1] + bh + 2)
+        support = np.zeros((gy1 - gy0, gx1 - gx0), np.uint8)
+        lx0, ly0 = max(0, gx0 - offset[0]), max(0, gy0 - offset[1])
+        part = labels[ly0 : gy1 - offset[1], lx0 : gx1 - offset[0]] == label
+        support[ly0 + offset[1] - gy0 : ly0 + offset[1] - gy0 + part.shape[0], lx0 + offset[0] - gx0 : lx0 + offset[0] - gx0 + part.shape[1]] = part
         support = cv2.dilate(support, np.ones((3, 3), np.uint8))
+        # the same window at full resolution
+        fx0, fy0, fx1, fy1 = gx0 * s, gy0 * s, min(self.size[0], gx1 * s), min(self.size[1], gy1 * s)
         support = cv2.resize(support, (fx1 - fx0, fy1 - fy0), interpolation=cv2.INTER_NEAREST)
         window = gray[fy0:fy1, fx0:fx1].astype(np.float32)
         bg = self.bg_full[fy0:fy1, fx0:fx1]
