@@ -104,3 +104,13 @@ def test_parameter_tables():
     assert csrt.template_size == 100 and blob.gate_px == 30.0
     with pytest.raises(TrackInputError, match="blob detector's parameters"):
         CsrtParams.from_dict({"nope": 1})
+
+
+def test_blob_with_a_downscaled_background_model(tmp_path):
+    """640x360 works on a half-size background model; the centroid is still refined at full resolution."""
+    video = render_video(tmp_path / "wide.mp4", n_frames=160, image_size=(640, 360), radius=8.0, seed=4, noise=3.0)
+    track = track_video(video.path, kind="blob", progress=False, params={"scale": 2})
+    visible = video.in_view[track.frame]
+    assert np.median(_errors(track, video)[visible]) <= 1.0
+    assert visible.sum() >= 0.95 * video.in_view.sum()
+    assert video.out_of_view[track.frame].sum() <= 0.01 * video.out_of_view.sum()

@@ -88,10 +88,10 @@ class BlobDetector:
         self.scale = params.scale or max(1, int(math.ceil(w / 480)))
         self.small_size = (max(1, w // self.scale), max(1, h // self.scale))
         self.bg_full = background.astype(np.float32)
-        self.bg = cv2.resize(self.bg_full, self.small_size, interpolation=cv2.INTER_AREA)
+        self.bg = self._shrink(self.bg_full)
         if deviation is None:
-            deviation = np.full(self.small_size[::-1], 2.0, np.float32)
-        self.dev = np.maximum(cv2.resize(deviation.astype(np.float32), self.small_size, interpolation=cv2.INTER_AREA), 1.0)
+            deviation = np.full((h, w), 2.0, np.float32)
+        self.dev = np.maximum(self._shrink(deviation.astype(np.float32)), 1.0)
         self.background_mask = np.full(self.small_size[::-1], 255, np.uint8)
         self.mask = np.zeros(self.small_size[::-1], np.uint8)
         self.frames = 0
@@ -102,9 +102,8 @@ class BlobDetector:
         if gray.shape[::-1] != self.size:
             raise TrackInputError(f"frame size {gray.shape[1]}x{gray.shape[0]} differs from the video's {self.size[0]}x{self.size[1]}")
         p = self.params
-        sw, sh = self.small_size
-        s = self.scale  # an exact integer ratio takes OpenCV's fast area-averaging path
-        small = cv2.resize(gray[: sh * s, : sw * s], self.small_size, interpolation=cv2.INTER_AREA).astype(np.float32)
+        s = self.scale
+        small = self._shrink(gray).astype(np.float32)
         mean_frame = cv2.mean(small, self.background_mask)[0]
         mean_bg = cv2.mean(self.bg, self.background_mask)[0]
         gain = mean_frame / mean_bg if mean_bg > 0 else 1.0
@@ -133,6 +132,15 @@ class BlobDetector:
             big_mask = cv2.resize(self.background_mask, self.size, interpolation=cv2.INTER_NEAREST)
             cv2.accumulateWeighted(gray, self.bg_full, min(1.0, 8 * p.learning_rate), big_mask)
         return blobs
+
+    def _shrink(self, image: np.ndarray) -> np.ndarray:
+        """Area-average by the scale factor: small pixel (i, j) is the mean of full pixels [i*s, i*s+s) x [j*s, j*s+s).
+
+        The exact integer ratio also takes OpenCV's fast path.
+        """
+        sw, sh = self.small_size
+        s = self.scale
+        return cv2.resize(image[: sh * s, : sw * s], self.small_size, interpolation=cv2.INTER_AREA)
 
     def support(self, box: tuple[float, float, float, float]) -> float:
         """Fraction of foreground pixels of the last frame inside box (x, y, w, h), full-resolution pixels."""
