@@ -114,3 +114,12 @@ def test_blob_with_a_downscaled_background_model(tmp_path):
     assert np.median(_errors(track, video)[visible]) <= 1.0
     assert visible.sum() >= 0.95 * video.in_view.sum()
     assert video.out_of_view[track.frame].sum() <= 0.01 * video.out_of_view.sum()
+
+
+def test_blob_from_a_loose_init_box(video):
+    """A box four times the target's size still starts the blob tracker on the target."""
+    f0 = 110
+    x, y = video.truth[f0]
+    track = track_video(video.path, kind="blob", init=[x - 20, y - 20, 40, 40], init_frame=f0, progress=False)
+    assert track.frame[0] == f0
+    assert np.median(_errors(track, video)[video.in_view[track.frame]]) <= 1.0

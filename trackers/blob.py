@@ -241,7 +241,14 @@ class BlobTracker:
             gate = p.gate_px * (1 + 0.5 * (dt - 1))
             best, best_cost = None, math.inf
             for b in blobs:
-                if st.polarity and b.polarity != st.polarity:
+                if not st.polarity:  # from the init box, not seen yet: any blob inside the box
+                    x, y, w, h = self.init
+                    if x <= b.x <= x + w and y <= b.y <= y + h and b.area <= 2 * w * h:
+                        cost = (math.hypot(b.x - st.x, b.y - st.y) / max(w, h)) ** 2
+                        if cost < best_cost:
+                            best, best_cost = b, cost
+                    continue
+                if b.polarity != st.polarity:
                     continue
                 ratio = abs(math.log(max(b.area, 1e-6) / st.area))
                 dist = math.hypot(b.x - px, b.y - py)
