@@ -28,7 +28,6 @@ import math
 from dataclasses import dataclass, fields
 
 import cv2
-import numpy as np
 
 from trackers.blob import BlobDetector, BlobParams, BlobTracker, _params_from_dict
 from trackers.errors import TrackInputError
@@ -107,7 +106,7 @@ def csrt_steps(path, info, params: CsrtParams, blob_params: BlobParams, box, ini
             else:
                 found = acquirer.step(index, blobs)
                 if found:
-                    f, b, _ = found[-1]
+                    _, b, _ = found[-1]
                     m = params.box_margin
                     start = (int(round(b.x - b.w / 2 - m)), int(round(b.y - b.h / 2 - m)), int(round(b.w + 2 * m)), int(round(b.h + 2 * m)))
                     acquirer.state = None  # the blob tracker only (re-)acquires

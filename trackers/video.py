@@ -300,7 +300,7 @@ def _time(frame, stream, index: int, fps: float) -> float:
 def _progress_bar(total: int, desc: str):
     from tqdm import tqdm
 
-    return tqdm(total=total or None, desc=desc, unit="frame", dynamic_ncols=True, leave=False)
+    return tqdm(total=total or None, desc=desc, unit="frame", dynamic_ncols=True)
 
 
 def sample_frames(path: str | Path, count: int, gray: bool = True) -> list[np.ndarray]:
