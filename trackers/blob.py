@@ -57,7 +57,7 @@ class BlobParams:
 
     @classmethod
     def from_dict(cls, values: dict | None, where: str = "tracker parameters") -> "BlobParams":
-        return _params_from_dict(cls, values, where)
+        return params_from_dict(cls, values, where)
 
 
 @dataclass(frozen=True)
@@ -345,7 +345,8 @@ def median_background(frames: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]
     return median, deviation
 
 
-def _params_from_dict(cls, values: dict | None, where: str):
+def params_from_dict(cls, values: dict | None, where: str):
+    """A parameters dataclass from a table of numbers by name; TrackInputError (with a "did you mean") otherwise."""
     if not values:
         return cls()
     names = {f.name: f for f in fields(cls)}

@@ -29,7 +29,7 @@ from dataclasses import dataclass, fields
 
 import cv2
 
-from trackers.blob import BlobDetector, BlobParams, BlobTracker, _params_from_dict
+from trackers.blob import BlobDetector, BlobParams, BlobTracker, params_from_dict
 from trackers.errors import TrackInputError
 from trackers.video import iter_frames
 
@@ -58,7 +58,7 @@ class CsrtParams:
         csrt_part = {k: v for k, v in values.items() if k in own or k not in blob_keys}
         blob_part = {k: v for k, v in values.items() if k in blob_keys and k not in own}
         try:
-            return _params_from_dict(cls, csrt_part, where), BlobParams.from_dict(blob_part, where)
+            return params_from_dict(cls, csrt_part, where), BlobParams.from_dict(blob_part, where)
         except TrackInputError as exc:
             if "unknown parameter" in str(exc):
                 raise TrackInputError(f"{exc}; the blob detector's parameters ({', '.join(sorted(blob_keys))}) are accepted too") from None
