@@ -1,6 +1,6 @@
 """Tracking throughput and memory: blob and CSRT against decode-only, in the same run.
 
-    python bench/track_throughput.py [--frames 600] [--memory] [--long-frames 2400]
+    python bench/track_throughput.py [--frames 600] [--memory | --memory-only] [--long-frames 2400]
 
 1. Renders a 720p H.264 video (data_fixtures.video: textured background,
    flicker, noise, a moving target) into a temporary folder.
@@ -102,13 +102,13 @@ def memory_child(path: str, kind: str) -> None:
     """Track in this process and print the peak RSS in MB."""
     import resource
 
-    track_video(path, kind=kind, progress=False)
-    print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0)
+    track = track_video(path, kind=kind, progress=False)
+    print(len(track), resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0)
 
 
 def memory(long_frames: int, folder: Path) -> None:
     print(f"\npeak memory, 1080p (each run in a fresh process; Python + numpy + OpenCV + PyAV loaded ~ {_baseline_mb():.0f} MB):")
-    print(f"{'frames':>7} {'minutes@30fps':>14} {'blob MB':>8} {'csrt MB':>8} {'make s':>7}")
+    print(f"{'frames':>7} {'minutes@30fps':>14} {'blob MB':>8} {'csrt MB':>8} {'make s':>7} {'blob trk':>8} {'csrt trk':>8}")
     results = {}
     for n in (long_frames // 4, long_frames):
         path = folder / f"long_{n}.mp4"
@@ -118,9 +118,10 @@ def memory(long_frames: int, folder: Path) -> None:
         row = {}
         for kind in ("blob", "csrt"):
             out = subprocess.run([sys.executable, __file__, "--memory-child", str(path), kind], capture_output=True, text=True, check=True)
-            row[kind] = float(out.stdout.strip().splitlines()[-1])
+            tracked, row[kind] = (float(v) for v in out.stdout.split()[-2:])
+            row[f"{kind} tracked"] = int(tracked)
         results[n] = row
-        print(f"{n:>7} {n / 1800:>14.2f} {row['blob']:>8.0f} {row['csrt']:>8.0f} {made:>7.1f}")
+        print(f"{n:>7} {n / 1800:>14.2f} {row['blob']:>8.0f} {row['csrt']:>8.0f} {made:>7.1f} {row['blob tracked']:>8} {row['csrt tracked']:>8}")
     short, long_ = results[long_frames // 4], results[long_frames]
     for kind in ("blob", "csrt"):
         slope = (long_[kind] - short[kind]) / (long_frames - long_frames // 4)
@@ -138,6 +139,7 @@ def main() -> None:
     parser.add_argument("--frames", type=int, default=600, help="frames of the 720p video")
     parser.add_argument("--memory", action="store_true", help="also measure peak memory on 1080p videos")
     parser.add_argument("--long-frames", type=int, default=2400, help="length of the longer 1080p video")
+    parser.add_argument("--memory-only", action="store_true", help="only the memory measurement")
     parser.add_argument("--memory-child", nargs=2, metavar=("VIDEO", "KIND"), help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.memory_child:
@@ -145,6 +147,9 @@ def main() -> None:
         return
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
+        if args.memory_only:
+            memory(args.long_frames, folder)
+            return
         t = time.perf_counter()
         size = (1280, 720)
         video = render_video(folder / "bench720.mp4", n_frames=args.frames, image_size=size, fps=30.0, radius=10.0, positions=loop_positions(args.frames, size, period=400.0), noise=3.0)
