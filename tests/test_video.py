@@ -128,3 +128,15 @@ def test_render_camera_video_draws_given_positions(tmp_path, paper_scene):
     assert rendered.out_of_view[:5].all() and rendered.in_view[5:].all()
     frame = read_frames(rendered.path, [10], gray=True)[10].image
     assert frame[200, 115] > 200 and frame[200, 60] < 200  # the bright disc is where it was asked to be
+
+
+def test_corrupt_middle_stops_with_a_warning_naming_the_last_good_frame(tmp_path, jittered):
+    data = bytearray(jittered.path.read_bytes())
+    middle = len(data) // 2
+    data[middle : middle + 3000] = np.random.default_rng(0).integers(0, 256, 3000, dtype=np.uint8).tobytes()
+    damaged = tmp_path / "damaged.mp4"
+    damaged.write_bytes(bytes(data))
+    with pytest.warns(TruncatedVideoWarning, match="damaged.mp4: video truncated or corrupt") as record:
+        frames = list(iter_frames(damaged))
+    assert 0 < len(frames) < 90
+    assert f"read up to frame {frames[-1].index} " in str(record[0].message)
