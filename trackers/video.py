@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import Iterable, Iterator, NamedTuple
 
 import av
+import cv2
 import numpy as np
 
 from trackers.errors import TrackInputError
@@ -277,6 +278,9 @@ def _to_array(frame, gray: bool, rotation: int) -> np.ndarray:
     if gray and frame.format.name in _LUMA_FIRST:
         plane = frame.planes[0]
         image = np.frombuffer(plane, np.uint8).reshape(-1, plane.line_size)[: frame.height, : frame.width].copy()
+    elif not gray and frame.format.name == "yuv420p" and frame.color_range != 2 and frame.width % 2 == 0 and frame.height % 2 == 0:
+        # OpenCV's I420 -> BGR (BT.601, limited range) is about 4x faster than swscale here
+        image = cv2.cvtColor(frame.to_ndarray(), cv2.COLOR_YUV2BGR_I420)
     else:
         image = frame.to_ndarray(format="gray" if gray else "bgr24")
     if rotation:
