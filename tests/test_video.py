@@ -140,3 +140,13 @@ def test_corrupt_middle_stops_with_a_warning_naming_the_last_good_frame(tmp_path
         frames = list(iter_frames(damaged))
     assert 0 < len(frames) < 90
     assert f"read up to frame {frames[-1].index} " in str(record[0].message)
+
+
+def test_bgr_frames_agree_with_ffmpegs_conversion(jittered):
+    ours = read_frames(jittered.path, [10])[10].image.astype(int)
+    with av.open(str(jittered.path)) as container:
+        for k, frame in enumerate(container.decode(video=0)):
+            if k == 10:
+                reference = frame.to_ndarray(format="bgr24").astype(int)
+                break
+    assert np.abs(ours - reference).max() <= 3
