@@ -223,10 +223,6 @@ class BlobTracker:
             x, y, w, h = init
             self.state = _State(x + (w - 1) / 2, y + (h - 1) / 2, 0.0, 0.0, -1, math.pi / 4 * w * h, 0)
 
-    @property
-    def tracking(self) -> bool:
-        return self.state is not None
-
     def start(self, frame: int) -> None:
         """Mark the init box's frame (the tracker is told the target is there)."""
         if self.state is not None and self.state.frame < 0:
@@ -273,8 +269,8 @@ class BlobTracker:
             a = 0.6
             st.vx = a * (b.x - st.x) / dt + (1 - a) * st.vx
             st.vy = a * (b.y - st.y) / dt + (1 - a) * st.vy
+        st.area = 0.8 * st.area + 0.2 * b.area if st.polarity else b.area  # the init box's area is only a guess
         st.x, st.y, st.frame, st.polarity = b.x, b.y, frame, b.polarity
-        st.area = 0.8 * st.area + 0.2 * b.area if st.polarity else b.area
         self.signature = (st.area, st.polarity)
 
     def _plausible(self, b: Blob) -> bool:
@@ -321,7 +317,7 @@ class BlobTracker:
         return out
 
     def _preference(self, chain: list[tuple[int, Blob]]) -> float:
-        """Lower is better: near the init box if given, else like the target seen before, else most salient."""
+        """Lower is better: the size of the target seen before, else the most salient (contrast x size)."""
         b = chain[-1][1]
         if self.signature is not None:
             return abs(math.log(b.area / self.signature[0]))
