@@ -123,3 +123,12 @@ def test_blob_from_a_loose_init_box(video):
     track = track_video(video.path, kind="blob", init=[x - 20, y - 20, 40, 40], init_frame=f0, progress=False)
     assert track.frame[0] == f0
     assert np.median(_errors(track, video)[video.in_view[track.frame]]) <= 1.0
+
+
+def test_positions_are_in_the_upright_picture_of_a_rotated_video(tmp_path):
+    """Stored sideways with a display rotation: positions come out in the upright (displayed) picture."""
+    video = render_video(tmp_path / "phone.mp4", n_frames=120, rotation=270, seed=2, distractor=False)
+    track = track_video(video.path, kind="blob", progress=False)
+    visible = video.in_view[track.frame]
+    assert visible.sum() >= 0.95 * video.in_view.sum()
+    assert np.median(_errors(track, video)[visible]) <= 1.0
