@@ -86,6 +86,15 @@ def test_complete_file_reads_without_warning(jittered):
         assert sum(1 for _ in iter_frames(jittered.path)) == 90
 
 
+def _empty_video(path):
+    container = av.open(str(path), "w")
+    stream = container.add_stream("libx264", rate=25)
+    stream.width, stream.height, stream.pix_fmt = 64, 48, "yuv420p"
+    container.start_encoding()
+    container.close()
+    return path
+
+
 def _audio_only(path):
     container = av.open(str(path), "w")
     container.add_stream("pcm_s16le", rate=8000)
@@ -101,6 +110,7 @@ def _audio_only(path):
         (lambda d: d, "is a folder"),
         (lambda d: (d / "notes.mp4").write_text("not a video\n" * 50) and d / "notes.mp4", "not a readable video file"),
         (lambda d: _audio_only(d / "sound.wav"), "has no video stream"),
+        (lambda d: _empty_video(d / "empty.mkv"), "ends before any video frame"),
     ],
 )
 def test_bad_files_have_clear_errors(tmp_path, make, message):
