@@ -80,6 +80,68 @@ def _integer(value: Any, root: Path) -> int:
 TARGET_SCHEMA = {
     "trajectory": Field(_path),
 }
+
+
+def _log_format(value: Any, root: Path) -> str:
+    formats = ("auto", "gpx", "nmea", "csv", "odometry", "rosbag")
+    if value not in formats:
+        raise ValueError(f"expected one of {', '.join(formats)}, got {value!r}")
+    return value
+
+
+def _origin(value: Any, root: Path):
+    from tlsync_pipeline.geodesy import Origin
+
+    if value in ("first", "gcps"):
+        return value
+    if not isinstance(value, list) or len(value) != 3:
+        raise ValueError(f'expected "first", "gcps" or [lat, lon, alt] (degrees, degrees, metres), got {value!r}')
+    return Origin(*(_number(v) for v in value))
+
+
+def _non_negative(value: Any, root: Path) -> float:
+    number = _number(value)
+    if number < 0:
+        raise ValueError(f"expected a number >= 0, got {value!r}")
+    return number
+
+
+def _text(value: Any, root: Path) -> str:
+    if not isinstance(value, str) or not value:
+        raise ValueError(f"expected a non-empty string, got {value!r}")
+    return value
+
+
+def _rigid_transform(value: Any, root: Path):
+    from tlsync_pipeline.ingest.process import RigidTransform
+
+    if not isinstance(value, dict) or not set(value) <= {"R", "yaw_deg", "t"} or ("R" in value and "yaw_deg" in value):
+        raise ValueError(f"expected {{R = 3x3 rotation or yaw_deg = degrees, t = [x, y, z] metres}}, got {value!r}")
+    t = value.get("t", [0.0, 0.0, 0.0])
+    if not isinstance(t, list) or len(t) != 3:
+        raise ValueError(f"t: expected [x, y, z] metres, got {t!r}")
+    t = [_number(v) for v in t]
+    if "yaw_deg" in value:
+        return RigidTransform.from_yaw(_number(value["yaw_deg"]), t)
+    R = value.get("R", [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
+    if not isinstance(R, list) or len(R) != 3 or not all(isinstance(r, list) and len(r) == 3 for r in R):
+        raise ValueError(f"R: expected a 3x3 rotation (list of 3 rows), got {R!r}")
+    return RigidTransform([[_number(v) for v in r] for r in R], t)
+
+
+# The ingest stage's keys ([target] log -> work/target/trajectory.csv); docs/ingest.md.
+INGEST_SCHEMA = {
+    "log": Field(_path),
+    "format": Field(_log_format, "auto"),
+    "topic": Field(_text),
+    "origin": Field(_origin, "first"),
+    "rate": Field(_positive),
+    "max_gap_s": Field(_positive),
+    "max_speed_mps": Field(_positive, 60.0),
+    "smoothing_s": Field(_non_negative, 0.0),
+    "odometry_transform": Field(_rigid_transform),
+}
+TARGET_SCHEMA.update(INGEST_SCHEMA)
 CAMERA_SCHEMA = {
     "name": Field(_name, required=True),
     "camera": Field(_path),
