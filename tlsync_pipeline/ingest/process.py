@@ -159,7 +159,7 @@ def ingest(records: LogRecords, params: IngestParams = IngestParams()) -> tuple[
         if isinstance(params.origin, Origin):
             origin, rule = params.origin, "given"
         elif params.origin == "first":
-            origin, rule = Origin(*values[0]), "first fix"
+            origin, rule = Origin(*map(float, values[0])), "first fix"
         else:
             raise InputError(f"{records.path}: origin {params.origin!r} must be resolved to coordinates before ingestion")
         xyz = geodetic_to_enu(values[:, 0], values[:, 1], values[:, 2], origin)
@@ -177,7 +177,7 @@ def ingest(records: LogRecords, params: IngestParams = IngestParams()) -> tuple[
         t, values, xyz, numbers = t[keep], values[keep], xyz[keep], numbers[keep]
     if records.frame == GEODETIC:
         if rule == "first fix" and not keep[0]:
-            origin = Origin(*values[0])
+            origin = Origin(*map(float, values[0]))
             xyz = geodetic_to_enu(values[:, 0], values[:, 1], values[:, 2], origin)
         origin_info = {"lat": origin.lat, "lon": origin.lon, "alt": origin.alt, "rule": rule}
     interval = median_interval(t)
