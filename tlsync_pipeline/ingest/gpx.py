@@ -10,6 +10,7 @@ without an offset are taken as UTC.
 
 from __future__ import annotations
 
+import ast
 import datetime as dt
 import re
 from pathlib import Path
@@ -42,8 +43,7 @@ def read_gpx(path: str | Path) -> LogRecords:
     try:
         gpx = gpxpy.parse(text)
     except Exception as exc:  # gpxpy raises GPXException but lets some XML/attribute errors through
-        line = re.search(r"line (\d+)", str(exc))
-        at = f"{path}:{line.group(1)}" if line else str(path)
+        at = f"{path}:{_error_line(str(exc), text)}" if _error_line(str(exc), text) else str(path)
         hint = " (the file may be cut short)" if not text.rstrip().endswith(">") or "unclosed" in str(exc) or "no element found" in str(exc) else ""
         raise InputError(f"{at}: not a valid GPX file{hint}: {exc}") from None
     rows, numbers, dropped = [], [], {}
@@ -80,3 +80,18 @@ def read_gpx(path: str | Path) -> LogRecords:
     if others:
         warnings.append(f"{others} waypoint(s) and route point(s) ignored (only track points are a log)")
     return make_records(path, "gpx", GEODETIC, rows, numbers, unit=UNIT, dropped=dropped, ignored=others, warnings=warnings)
+
+
+def _error_line(message: str, text: str) -> int | None:
+    """The line a gpxpy error is about: from the XML parser's "line N", else where the bad value is."""
+    found = re.search(r"line (\d+)", message)
+    if found:
+        return int(found.group(1))
+    quoted = re.search(r"could not convert string to float: ('.*'|\".*\")", message)
+    try:
+        value = ast.literal_eval(quoted.group(1)) if quoted else None
+    except (ValueError, SyntaxError):
+        value = None
+    if value and value in text:
+        return text[: text.index(value)].count("\n") + 1
+    return None

@@ -30,6 +30,8 @@ DEFAULT_MAX_SPEED_MPS = 60.0
 DUPLICATE = "exact duplicate"
 REPEATED_TIME = "repeated time, different position (first kept)"
 FIRST_LINES = 5  # provenance numbers kept per drop reason in the report
+MAX_SPAN_S = 1e8  # about 3 years: a longer log has a wrong time in it
+MAX_SAMPLES = 50_000_000  # a trajectory longer than this is a wrong time or rate, not a log
 
 
 @dataclass(frozen=True)
@@ -151,6 +153,11 @@ def ingest(records: LogRecords, params: IngestParams = IngestParams()) -> tuple[
     t, values, numbers, dropped = order_and_dedupe(records)
     if len(t) < 2:
         raise InputError(f"{records.where(0)}: only one valid fix in the log; at least 2 are needed")
+    if t[-1] - t[0] > MAX_SPAN_S:
+        raise InputError(
+            f"{records.path}: the log spans {(t[-1] - t[0]) / 86400:.0f} days ({_where(records, numbers[0])} to "
+            f"{_where(records, numbers[-1])}): a time is wrong"
+        )
     warnings = list(records.warnings)
     origin_info = None
     if records.frame == GEODETIC:
@@ -187,7 +194,10 @@ def ingest(records: LogRecords, params: IngestParams = IngestParams()) -> tuple[
         Gap(_where(records, numbers[i]), float(t[i]), float(t[i + 1]), float(t[i + 1] - t[i]), bool(t[i + 1] - t[i] <= max_gap))
         for i in find_gaps(t)
     ]
-    index, grid_xyz, left_out = resample(t, xyz, rate, max_gap)
+    try:
+        index, grid_xyz, left_out = resample(t, xyz, rate, max_gap)
+    except ValueError as exc:
+        raise InputError(f"{records.path}: {exc}") from None
     if params.smoothing_s > 0:
         grid_xyz = smooth(index, grid_xyz, params.smoothing_s * rate)
     trajectory = Trajectory(index.astype(np.float64), grid_xyz, float(rate), float(t[0]))
@@ -313,19 +323,28 @@ def resample(t: np.ndarray, xyz: np.ndarray, rate: float, max_gap_s: float) -> t
 
     Linear interpolation between the fixes around each grid time; a grid time
     inside an interval longer than max_gap_s is left out unless a fix falls on
-    it. Indices keep their place (never renumbered).
+    it (within 1 us). Indices keep their place (never renumbered). Work and
+    memory grow with the samples kept, not with the time spanned. ValueError
+    when more than MAX_SAMPLES would be made.
     """
     elapsed = t - t[0]
-    n_grid = int(math.floor(elapsed[-1] * rate + 1e-6)) + 1
-    k = np.arange(n_grid)
-    tg = k / rate
-    pos = np.clip(np.searchsorted(elapsed, tg, side="right") - 1, 0, len(t) - 1)
-    nxt = np.minimum(pos + 1, len(t) - 1)
-    on_fix = (np.abs(elapsed[pos] - tg) <= 1e-6) | (np.abs(elapsed[nxt] - tg) <= 1e-6)
-    bridged = (nxt > pos) & (elapsed[nxt] - elapsed[pos] <= max_gap_s)
-    keep = on_fix | bridged
-    grid = np.column_stack([np.interp(tg[keep], elapsed, xyz[:, j]) for j in range(3)])
-    return k[keep], grid, int(n_grid - keep.sum())
+    kf = elapsed * rate
+    if not kf[-1] < MAX_SAMPLES:
+        raise ValueError(f"{elapsed[-1]:.6g} s at {rate:g} Hz is over {MAX_SAMPLES:,} samples: check the log's times or give a lower rate")
+    tol = 1e-6 * rate
+    lo = np.ceil(kf[:-1] - tol).astype(np.int64)
+    hi = np.floor(kf[1:] + tol).astype(np.int64)
+    counts = np.where(np.diff(elapsed) <= max_gap_s, np.maximum(hi - lo + 1, 0), 0)
+    total = int(counts.sum())
+    if total > MAX_SAMPLES:
+        raise ValueError(f"{elapsed[-1]:.6g} s at {rate:g} Hz is over {MAX_SAMPLES:,} samples: check the log's times or give a lower rate")
+    first = np.repeat(lo - np.cumsum(counts) + counts, counts)
+    inside = first + np.arange(total)
+    nearest = np.round(kf).astype(np.int64)
+    on_fix = nearest[np.abs(kf - nearest) <= tol]
+    k = np.unique(np.concatenate([inside, on_fix]))
+    grid = np.column_stack([np.interp(k / rate, elapsed, xyz[:, j]) for j in range(3)])
+    return k, grid, int(np.floor(kf[-1] + tol)) + 1 - len(k)
 
 
 def smooth(index: np.ndarray, xyz: np.ndarray, window_samples: float) -> np.ndarray:
