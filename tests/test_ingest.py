@@ -272,3 +272,19 @@ def test_project_keys_are_checked(tmp_path, walk, extra, expected):
     (tmp_path / "p.toml").write_text(f'[target]\nlog = "walk.gpx"\n{extra}\n\n[[cameras]]\nname = "c0"\n')
     result = CliRunner().invoke(main, ["ingest", str(tmp_path / "p.toml")])
     assert result.exit_code == 2 and expected in result.output
+
+
+def test_nmea_variants(tmp_path):
+    from data_fixtures.gps_logs import nmea_sentences
+
+    g1, r1 = nmea_sentences(1.7e9, 47.1, 8.2, 500.0)
+    g2, r2 = nmea_sentences(1.7e9 + 1, 47.1, 8.2, 500.0, talker="GN")
+    g3, _ = nmea_sentences(1.7e9 + 2, -47.1, -8.2, 500.0, talker="GA")
+    g4, _ = nmea_sentences(1.7e9 + 3, -47.1, -8.2, 500.0, talker="GL")
+    lowered = g3[:-3].lower() + g3[-3:]  # the checksum no longer matches the body
+    # trailing blanks (pynmea2's path), a logger's prefix before '$', S/W hemispheres, four talkers
+    (tmp_path / "v.nmea").write_text(f"{g1}   \n{r1}\n[12.5] {g2}\n{r2}\n{lowered}\n{g3}\n{g4}\n")
+    records = read_log(tmp_path / "v.nmea")
+    np.testing.assert_allclose(records.t - 1.7e9, [0, 1, 2, 3], atol=1e-6)
+    np.testing.assert_allclose(records.values[2], [-47.1, -8.2, 500.0], atol=1e-7)
+    assert records.line.tolist() == [1, 3, 6, 7] and records.dropped == {"bad checksum": [5]}

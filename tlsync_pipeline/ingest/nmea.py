@@ -14,20 +14,21 @@ and is dropped. RMC's date places GGA's time of day on the calendar; a time
 of day that falls by more than 12 h is a day rollover. Without any dated RMC
 the times are seconds from 1970-01-01 plus the time of day (with a warning).
 
-The common GGA and RMC lines are split by hand (checksum by XOR over the
-bytes, fields by ``split``): pynmea2 parsing costs ~16 us a line plus as much
-again to read its fields, too slow for long logs. Every line the fast path
-does not accept is handed to pynmea2 (strict checksum check), so its
-grammar decides what is a sentence.
+Well-formed lines take a fast path: checksums for the whole file at once
+(XOR prefix sums in numpy), fields by ``split``, numbers converted column by
+column. pynmea2 costs ~8 us a line to parse plus as much to read its fields,
+too slow for long logs (docs/performance.md). Every line the fast path does
+not accept is handed to pynmea2 (strict checksum check), whose grammar then
+decides what is a sentence.
 """
 
 from __future__ import annotations
 
 import datetime as dt
-from functools import reduce
-from operator import xor
+import math
 from pathlib import Path
 
+import numpy as np
 import pynmea2
 
 from tlsync_pipeline.errors import InputError
@@ -40,59 +41,74 @@ CUT = "cut mid-line (the file ends without a newline)"
 NO_FIX = "GGA fix quality 0 (no fix)"
 BAD_FIELDS = "malformed GGA fields"
 NO_TIME = "GGA without time"
+_HEX = np.full(256, -1, dtype=np.int16)
+_HEX[np.frombuffer(b"0123456789ABCDEF", dtype=np.uint8)] = np.arange(16)
 
 
-def _checksum_ok(body: str, checksum: str) -> bool:
+def _checked(raw: bytes, starts: np.ndarray, ends: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(ok, '$' offset, '*' offset) per line: ok when the line is ``...$BODY*HH`` (then an optional CR)
+    and HH, upper-case hex, is the XOR of BODY's bytes."""
+    arr = np.frombuffer(raw, dtype=np.uint8)
+    last = len(arr) - 1
+    ends = ends - ((ends > starts) & (arr[np.clip(ends - 1, 0, last)] == 13))
+
+    def last_before(positions: np.ndarray) -> np.ndarray:
+        j = np.searchsorted(positions, ends) - 1
+        return np.where(j >= 0, positions[np.maximum(j, 0)] if len(positions) else -1, -1)
+
+    dollar, star = last_before(np.flatnonzero(arr == 36)), last_before(np.flatnonzero(arr == 42))
+    ok = (dollar >= starts) & (star > dollar) & (star + 3 == ends)
+    prefix = np.bitwise_xor.accumulate(arr)
+    body = prefix[np.clip(star - 1, 0, last)] ^ prefix[np.clip(dollar, 0, last)]
+    high, low = _HEX[arr[np.clip(star + 1, 0, last)]], _HEX[arr[np.clip(star + 2, 0, last)]]
+    ok &= (high >= 0) & (low >= 0) & (body == high * 16 + low)
+    return ok, dollar, star
+
+
+def _floats(texts: list[str]) -> np.ndarray:
+    """float64 array of the strings, NaN where one is not a number."""
     try:
-        return reduce(xor, body.encode("latin-1"), 0) == int(checksum, 16) and len(checksum) == 2
+        return np.array(texts, dtype=np.float64)
     except ValueError:
-        return False
+        out = np.full(len(texts), np.nan)
+        for i, text in enumerate(texts):
+            try:
+                out[i] = float(text)
+            except ValueError:
+                pass
+        return out
 
 
-def _split(line: str) -> tuple[str, list[str]] | None:
-    """(sentence type, fields) of a well-formed checksummed line, None otherwise."""
-    start = line.rfind("$")
-    star = line.rfind("*")
-    if start < 0 or star < start or len(line) - star < 3:
-        return None
-    if not _checksum_ok(line[start + 1 : star], line[star + 1 : star + 3]) or line[star + 3 :].strip():
-        return None
-    fields = line[start + 1 : star].split(",")
-    head = fields[0]
-    if len(head) != 5 or not head.isalnum():
-        return None
-    return head[2:], fields[1:]
+def _tod(texts: list[str]) -> np.ndarray:
+    """Seconds of day from hhmmss[.sss] strings; NaN when malformed."""
+    v = _floats(texts)
+    h, m = np.floor(v / 10000), np.floor(v / 100) % 100
+    sec = v - h * 10000 - m * 100
+    good = np.isfinite(v) & (v >= 0) & (h <= 23) & (m <= 59) & (sec < 61) & np.array([len(t) >= 6 for t in texts], dtype=bool)
+    return np.where(good, h * 3600 + m * 60 + sec, np.nan)
 
 
-def _tod(text: str) -> float:
-    """Seconds of day from hhmmss[.sss]."""
-    if len(text) < 6 or not text[:6].isdigit():
-        raise ValueError(text)
-    h, m, s = int(text[:2]), int(text[2:4]), float(text[4:])
-    if h > 23 or m > 59 or not 0 <= s < 61:
-        raise ValueError(text)
-    return h * 3600.0 + m * 60.0 + s
+def _angle(texts: list[str], hemis: list[str], positive: str, negative: str) -> np.ndarray:
+    """Degrees from (d)ddmm.mmmm strings and hemisphere letters; NaN when malformed."""
+    v = _floats(texts)
+    degrees = np.floor(v / 100)
+    minutes = v - degrees * 100
+    hemi = np.array(hemis, dtype=object)
+    good = np.isfinite(v) & (v >= 0) & (minutes < 60) & ((hemi == positive) | (hemi == negative))
+    return np.where(good, np.where(hemi == negative, -1.0, 1.0) * (degrees + minutes / 60.0), np.nan)
 
 
-def _angle(text: str, hemi: str, positive: str, negative: str) -> float:
-    """Degrees from (d)ddmm.mmmm and a hemisphere letter; ValueError when malformed."""
-    dot = text.find(".")
-    head = dot if dot >= 0 else len(text)
-    if head < 3 or hemi not in (positive, negative):
-        raise ValueError(text)
-    minutes = float(text[head - 2 :])
-    if not 0 <= minutes < 60:
-        raise ValueError(text)
-    value = int(text[: head - 2]) + minutes / 60.0
-    return -value if hemi == negative else value
-
-
-def _date_days(text: str) -> int:
-    """Days since 1970-01-01 of an RMC ddmmyy date (years 1980-2079)."""
-    if len(text) != 6 or not text.isdigit():
-        raise ValueError(text)
-    year = int(text[4:]) + (2000 if int(text[4:]) < 80 else 1900)
-    return (dt.date(year, int(text[2:4]), int(text[:2])) - dt.date(1970, 1, 1)).days
+def _date_days(text: str, cache: dict[str, float]) -> float:
+    """Days since 1970-01-01 of an RMC ddmmyy date (years 1980-2079), NaN when malformed."""
+    if text not in cache:
+        try:
+            if len(text) != 6 or not text.isdigit():
+                raise ValueError(text)
+            year = int(text[4:]) + (2000 if int(text[4:]) < 80 else 1900)
+            cache[text] = (dt.date(year, int(text[2:4]), int(text[:2])) - dt.date(1970, 1, 1)).days
+        except ValueError:
+            cache[text] = math.nan
+    return cache[text]
 
 
 def read_nmea(path: str | Path) -> LogRecords:
@@ -102,70 +118,110 @@ def read_nmea(path: str | Path) -> LogRecords:
         raw = path.read_bytes()
     except OSError as exc:
         raise InputError(f"{path}: cannot read: {exc.strerror or exc}") from None
-    text = raw.decode("latin-1")
-    if not text.strip():
+    if not raw.strip():
         raise InputError(f"{path}: empty log")
-    lines = text.split("\n")
-    cut_last = not text.endswith("\n")
+    text = raw.decode("latin-1")  # one character per byte: byte offsets are text offsets
+    newlines = np.flatnonzero(np.frombuffer(raw, dtype=np.uint8) == 10)
+    cut_last = not raw.endswith(b"\n")
+    starts, ends = np.r_[0, newlines + 1], np.r_[newlines, len(raw)]
     if not cut_last:
-        lines.pop()
+        starts, ends = starts[:-1], ends[:-1]
+    ok, dollar, star = _checked(raw, starts, ends)
     dropped: dict[str, list[int]] = {}
     ignored = 0
-    # Events in file order: ("G", tod, line, lat, lon, h) or ("R", tod, line, days).
-    events: list[tuple] = []
-    missing_sep = 0
-    for number, line in enumerate(lines, start=1):
-        parts = _split(line)
-        if parts is None:
-            parts = _slow_split(line)
-        if isinstance(parts, str):
+    # Columns of strings (not lists per line: those would keep the garbage collector busy).
+    gga = {name: [] for name in GGA_FIELDS}
+    rmc = {name: [] for name in RMC_FIELDS}
+    n_lines = len(starts)
+    for i, good, a, b in zip(range(n_lines), ok.tolist(), dollar.tolist(), star.tolist()):
+        fields = text[a + 1 : b].split(",") if good else None
+        if fields is None or len(fields[0]) != 5 or not fields[0].isalnum():
+            line = text[starts[i] : ends[i]]
             if not line.strip():
                 continue
-            reason = CUT if (cut_last and number == len(lines)) else parts
-            dropped.setdefault(reason, []).append(number)
-            continue
-        kind, f = parts
-        if kind == "GGA":
-            if len(f) < 11:
-                dropped.setdefault(BAD_FIELDS, []).append(number)
+            parts = _slow_split(line)
+            if isinstance(parts, str):
+                dropped.setdefault(CUT if (cut_last and i == n_lines - 1) else parts, []).append(i + 1)
                 continue
-            if f[5] in ("", "0"):
-                dropped.setdefault(NO_FIX, []).append(number)
-                continue
-            if not f[0]:
-                dropped.setdefault(NO_TIME, []).append(number)
-                continue
-            try:
-                tod = _tod(f[0])
-                lat = _angle(f[1], f[2], "N", "S")
-                lon = _angle(f[3], f[4], "E", "W")
-                height = float(f[8])
-                if f[10]:
-                    height += float(f[10])
-                else:
-                    missing_sep += 1
-            except ValueError:
-                dropped.setdefault(BAD_FIELDS, []).append(number)
-                continue
-            check_geodetic(path, lat, lon, height, number)
-            events.append(("G", tod, number, lat, lon, height))
-        elif kind == "RMC":
-            try:
-                events.append(("R", _tod(f[0]), number, _date_days(f[8]), f[1] == "A"))
-            except (ValueError, IndexError):
-                ignored += 1  # an RMC without a usable date still says nothing we need
+            kind, fields = parts[0], [""] + parts[1]
         else:
-            ignored += 1
-    rows, numbers, warnings = _place_on_calendar(events, path)
+            kind = fields[0][2:]
+        if kind == "GGA":
+            if len(fields) < 12:
+                dropped.setdefault(BAD_FIELDS, []).append(i + 1)
+                continue
+            for name, j in GGA_FIELDS.items():
+                gga[name].append(fields[j])
+            gga["line"][-1] = i + 1
+        elif kind == "RMC" and len(fields) >= 10:
+            for name, j in RMC_FIELDS.items():
+                rmc[name].append(fields[j])
+            rmc["line"][-1] = i + 1
+        else:
+            ignored += 1  # other sentences, and RMCs too short to carry a date
+    fixes, missing_sep = _gga_fixes(path, gga, dropped)
+    days, rmc_lines, rmc_tod, rmc_active, unusable = _rmc_dates(rmc)
+    ignored += unusable  # an RMC without a usable time and date says nothing we need
+    rows, numbers, warnings = _place_on_calendar(fixes, rmc_lines, rmc_tod, days, rmc_active)
     if missing_sep:
         warnings.append(f"{missing_sep} GGA sentence(s) without geoid separation: their heights are above mean sea level, not the WGS84 ellipsoid")
+    for lines in dropped.values():
+        lines.sort()
     return make_records(path, "nmea", GEODETIC, rows, numbers, dropped=dropped, ignored=ignored, warnings=warnings)
+
+
+# Field positions (after the talker+type field 0) of what is read.
+GGA_FIELDS = {"line": 0, "time": 1, "lat": 2, "ns": 3, "lon": 4, "ew": 5, "quality": 6, "alt": 9, "sep": 11}
+RMC_FIELDS = {"line": 0, "time": 1, "status": 2, "date": 9}
+
+
+def _gga_fixes(path: Path, gga: dict[str, list], dropped: dict[str, list[int]]) -> tuple[np.ndarray, int]:
+    """(N, 5) line, time of day, lat, lon, ellipsoidal height of the valid GGA fixes; drops counted."""
+    numbers = np.array(gga["line"], dtype=np.int64)
+    quality = np.array(gga["quality"], dtype=object)
+    no_fix = (quality == "") | (quality == "0")
+    no_time = ~no_fix & (np.array(gga["time"], dtype=object) == "")
+    if no_fix.any():
+        dropped.setdefault(NO_FIX, []).extend(numbers[no_fix].tolist())
+    if no_time.any():
+        dropped.setdefault(NO_TIME, []).extend(numbers[no_time].tolist())
+    use = np.flatnonzero(~(no_fix | no_time)).tolist()
+    pick = (lambda name: [gga[name][i] for i in use]) if len(use) < len(numbers) else (lambda name: gga[name])
+    seps = pick("sep")
+    missing_sep = seps.count("")
+    fixes = np.column_stack(
+        [
+            numbers[use].astype(np.float64),
+            _tod(pick("time")),
+            _angle(pick("lat"), pick("ns"), "N", "S"),
+            _angle(pick("lon"), pick("ew"), "E", "W"),
+            _floats(pick("alt")) + _floats([s or "0" for s in seps]),
+        ]
+    ).reshape(-1, 5)
+    good = np.isfinite(fixes).all(axis=1)
+    if not good.all():
+        dropped.setdefault(BAD_FIELDS, []).extend(int(n) for n in fixes[~good, 0])
+        fixes = fixes[good]
+    impossible = (np.abs(fixes[:, 2]) > 90) | (np.abs(fixes[:, 3]) > 180) | (fixes[:, 4] < -12_000) | (fixes[:, 4] > 100_000)
+    if impossible.any():
+        row = fixes[np.flatnonzero(impossible)[0]]
+        check_geodetic(path, row[2], row[3], row[4], int(row[0]))
+    return fixes, missing_sep
+
+
+def _rmc_dates(rmc: dict[str, list]) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int]:
+    """(date as days since 1970, line, time of day, active) of the RMCs with a usable time and date."""
+    cache: dict[str, float] = {}
+    days = np.array([_date_days(d, cache) for d in rmc["date"]], dtype=np.float64) if rmc["date"] else np.zeros(0)
+    tod = _tod(rmc["time"])
+    good = np.isfinite(tod) & np.isfinite(days)
+    lines = np.array(rmc["line"], dtype=np.float64)
+    active = np.array(rmc["status"], dtype=object) == "A"
+    return days[good], lines[good], tod[good], np.asarray(active, dtype=bool).reshape(-1)[good], len(good) - int(good.sum())
 
 
 def _slow_split(line: str) -> tuple[str, list[str]] | str:
     """pynmea2's verdict on a line the fast path refused: (type, fields) or the reason to drop it."""
-    if not line.strip():
-        return NOT_NMEA
     try:
         msg = pynmea2.parse(line.strip(), check=True)
     except pynmea2.ChecksumError:
@@ -173,35 +229,35 @@ def _slow_split(line: str) -> tuple[str, list[str]] | str:
     except (pynmea2.ParseError, ValueError, AttributeError, TypeError, IndexError):
         return NOT_NMEA
     kind = getattr(msg, "sentence_type", "")
-    return kind, list(getattr(msg, "data", []))
+    return kind, [str(v) for v in getattr(msg, "data", [])]
 
 
-def _place_on_calendar(events: list[tuple], path: Path) -> tuple[list, list, list[str]]:
+def _place_on_calendar(fixes: np.ndarray, rmc_lines, rmc_tod, rmc_days, rmc_active) -> tuple[np.ndarray, np.ndarray, list[str]]:
     """POSIX times of the GGA fixes: RMC dates anchor the days, rollovers advance them.
 
-    Each dated RMC sets the date from its line on (and for the fixes before the
-    first one); active (status A) RMCs are preferred to void ones.
+    Events (GGA fixes and dated RMCs) in file order; a time of day falling by
+    more than 12 h from the previous event is a new day. Each dated RMC sets
+    the date from its line on (and for the fixes before the first one);
+    active (status A) RMCs are preferred to void ones.
     """
-    days, day, previous = [], 0, None
-    for event in events:
-        if previous is not None and event[1] < previous - HALF_DAY_S:
-            day += 1
-        previous = event[1]
-        days.append(day)
-    anchors = [(i, e[3] - days[i]) for i, e in enumerate(events) if e[0] == "R" and e[4]]
-    if not anchors:
-        anchors = [(i, e[3] - days[i]) for i, e in enumerate(events) if e[0] == "R"]
+    lines = np.r_[fixes[:, 0], rmc_lines]
+    order = np.argsort(lines, kind="stable")
+    tod = np.r_[fixes[:, 1], rmc_tod][order]
+    is_gga = (np.arange(len(lines)) < len(fixes))[order]
+    days = np.r_[0, np.cumsum(np.diff(tod) < -HALF_DAY_S)]
+    anchors = np.r_[np.zeros(len(fixes), dtype=bool), rmc_active][order]
+    if not anchors.any():
+        anchors = ~is_gga
+    date = np.r_[np.zeros(len(fixes)), rmc_days][order]
     warnings = []
-    if not anchors and events:
-        warnings.append("no RMC sentence with a date: times are the time of day on 1970-01-01, not true UTC dates")
-    rows, numbers = [], []
-    base = anchors[0][1] if anchors else 0
-    k = 0
-    for i, event in enumerate(events):
-        while k < len(anchors) and anchors[k][0] <= i:
-            base = anchors[k][1]
-            k += 1
-        if event[0] == "G":
-            rows.append(((base + days[i]) * 86400.0 + event[1], event[3], event[4], event[5]))
-            numbers.append(event[2])
-    return rows, numbers, warnings
+    if anchors.any():
+        base_at = np.where(anchors, date - days, np.nan)
+        latest = np.maximum.accumulate(np.where(anchors, np.arange(len(lines)), -1))
+        base = np.where(latest >= 0, base_at[np.maximum(latest, 0)], base_at[np.flatnonzero(anchors)[0]])
+    else:
+        base = np.zeros(len(lines))
+        if len(fixes):
+            warnings.append("no RMC sentence with a date: times are the time of day on 1970-01-01, not true UTC dates")
+    t = (base + days) * 86400.0 + tod
+    gga_rows = np.column_stack([t[is_gga], np.r_[fixes[:, 2:5], np.zeros((len(rmc_lines), 3))][order][is_gga]])
+    return gga_rows, lines[order][is_gga].astype(np.int64), warnings
