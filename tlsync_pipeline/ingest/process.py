@@ -300,10 +300,21 @@ def median_interval(t: np.ndarray) -> float:
 
 
 def log_rate(t: np.ndarray) -> float:
-    """The log's own rate (Hz): 1 / median interval, refined by least squares when the fixes
-    sit on a regular grid (gaps allowed) so that rounded time stamps do not bias it, and
-    snapped to a multiple of 1 mHz when within 1 ppm of one."""
+    """The log's own rate (Hz).
+
+    1 / median interval, then refined: over the short steps (up to 10
+    intervals) whose length is a whole number of intervals, rate = intervals /
+    seconds (so rounded time stamps, e.g. 1/15 s written to the millisecond,
+    average out); then by least squares over the whole log when every fix sits
+    on that grid (gaps allowed); finally snapped to a multiple of 1 mHz when
+    within 1 ppm of one.
+    """
     rate = 1.0 / median_interval(t)
+    step = np.diff(t) * rate
+    whole = np.round(step)
+    short = (whole >= 1) & (whole <= 10) & (np.abs(step - whole) < 0.25)
+    if short.any():
+        rate = float(whole[short].sum() / np.diff(t)[short].sum())
     elapsed = t - t[0]
     index = np.round(elapsed * rate)
     if np.abs(elapsed * rate - index).max() < 0.1:
