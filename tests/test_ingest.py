@@ -205,6 +205,11 @@ BAD_LOGS = {
         "no valid fix: all 5 fix line(s) dropped: 5 GGA fix quality 0 (no fix) (line 1, ...)",
     ),
     "backwards": ("back.csv", "time,lat,lon,alt\n0,47,8,400\n1,47,8,400\n0.5,47,8,400\n", "back.csv:4: time goes backwards"),
+    "nmea backwards": (
+        "back.nmea",
+        "".join(_nmea_line(f"GPGGA,1200{s:02d}.00,4722.61400,N,00832.50200,E,1,08,0.9,400.0,M,47.0,M,,") + "\n" for s in (1, 2, 5, 3)),
+        "back.nmea:4: time goes backwards",
+    ),
     "latitude": ("lat.csv", "time,lat,lon,alt\n0,47,8,400\n1,95.5,8,400\n", "lat.csv:3: latitude 95.5 out of range"),
     "gpx cut": ("cut.gpx", '<?xml version="1.0"?>\n<gpx version="1.1">\n<trk><trkseg>\n<trkpt lat="47" lon="8"><ele>1</ele><time>2026-01-01T00:00:00Z</time></trkpt>\n<trkpt la', "cut short"),
     "undetectable": ("what.log", "hello world\n1 2 3\n", "cannot detect the log format"),
@@ -239,7 +244,7 @@ def test_nmea_without_rmc_and_without_geoid_separation(tmp_path):
     lines = [_nmea_line(f"GPGGA,0000{i:02d}.00,4722.61400,N,00832.50200,E,1,08,0.9,400.0,M,,M,,") for i in range(10)]
     (tmp_path / "gga.nmea").write_text("\n".join(lines) + "\n")
     records = read_log(tmp_path / "gga.nmea")
-    assert records.t[0] == 0.0 and any("no RMC" in w for w in records.warnings) and any("geoid" in w for w in records.warnings)
+    assert records.t[0] == 0.0 and not records.utc and any("no RMC" in w for w in records.warnings) and any("geoid" in w for w in records.warnings)
 
 
 def test_project_ingest(tmp_path, walk):

@@ -43,7 +43,8 @@ def read_gpx(path: str | Path) -> LogRecords:
     try:
         gpx = gpxpy.parse(text)
     except Exception as exc:  # gpxpy raises GPXException but lets some XML/attribute errors through
-        at = f"{path}:{_error_line(str(exc), text)}" if _error_line(str(exc), text) else str(path)
+        line = _error_line(str(exc), text)
+        at = f"{path}:{line}" if line else str(path)
         hint = " (the file may be cut short)" if not text.rstrip().endswith(">") or "unclosed" in str(exc) or "no element found" in str(exc) else ""
         raise InputError(f"{at}: not a valid GPX file{hint}: {exc}") from None
     rows, numbers, dropped = [], [], {}

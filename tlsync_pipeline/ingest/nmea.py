@@ -167,7 +167,8 @@ def read_nmea(path: str | Path) -> LogRecords:
         warnings.append(f"{missing_sep} GGA sentence(s) without geoid separation: their heights are above mean sea level, not the WGS84 ellipsoid")
     for lines in dropped.values():
         lines.sort()
-    return make_records(path, "nmea", GEODETIC, rows, numbers, dropped=dropped, ignored=ignored, warnings=warnings)
+    dated = len(rmc_lines) > 0  # without a dated RMC the times are not true UTC
+    return make_records(path, "nmea", GEODETIC, rows, numbers, utc=dated, dropped=dropped, ignored=ignored, warnings=warnings)
 
 
 # Field positions (after the talker+type field 0) of what is read.

@@ -7,6 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
+from tlsync_pipeline.errors import InputError
+
 GEODETIC = "geodetic"  # values are latitude, longitude (degrees), height above the WGS84 ellipsoid (m)
 LOCAL = "local"  # values are x, y, z metres in the log's own frame
 
@@ -60,8 +62,6 @@ def make_records(path, fmt, frame, rows, lines, unit="line", utc=True, dropped=N
 
 def check_geodetic(path: Path, lat: float, lon: float, alt: float, number: int, unit: str = "line") -> None:
     """InputError naming the line when a parsed fix is impossible (not mere line noise)."""
-    from tlsync_pipeline.errors import InputError
-
     if not -90.0 <= lat <= 90.0:
         raise InputError(f"{where(path, number, unit)}: latitude {lat!r} out of range [-90, 90]")
     if not -180.0 <= lon <= 180.0:
