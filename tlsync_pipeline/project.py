@@ -134,7 +134,7 @@ INGEST_SCHEMA = {
     "log": Field(_path),
     "format": Field(_log_format, "auto"),
     "topic": Field(_text),
-    "origin": Field(_origin, "first"),
+    "origin": Field(_origin),  # None: the first fix (the GCP centroid once calibrate's reader is merged)
     "rate": Field(_positive),
     "max_gap_s": Field(_positive),
     "max_speed_mps": Field(_positive, 60.0),

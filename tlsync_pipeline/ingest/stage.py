@@ -39,9 +39,9 @@ def report_sidecar(csv_path: Path) -> Path:
 
 
 def target_params(project: Project) -> IngestParams:
-    """IngestParams from the project's [target] table (origin "gcps" is not resolved yet)."""
+    """IngestParams from the project's [target] table; origin unset = the first fix ("gcps" is not resolved yet)."""
     target = project.target
-    origin = target["origin"]
+    origin = target["origin"] or "first"
     if origin == "gcps":
         raise InputError(
             f"{project.path}: [target]: origin = \"gcps\" (centroid of the cameras' geodetic ground control points) "
