@@ -306,3 +306,19 @@ def test_scene_trajectory_through_gpx(tmp_path, paper_scene):
     # GPX times have ms resolution: at 1/15 s steps a fix is up to 0.5 ms off its grid time
     speed = np.linalg.norm(np.gradient(truth.xyz, axis=0), axis=1) * truth.rate
     assert (np.linalg.norm(trajectory.xyz - truth.xyz, axis=1) <= 0.01 + 0.0005 * speed).all()
+
+
+def test_project_odometry_with_transform_and_default_origin(tmp_path, walk):
+    rows = ["time,x,y,z"] + [f"{100 + i * 0.5},{i * 0.5},0,0" for i in range(21)]
+    (tmp_path / "odom.csv").write_text("\n".join(rows) + "\n")
+    (tmp_path / "p.toml").write_text(
+        '[target]\nlog = "odom.csv"\nformat = "odometry"\nodometry_transform = { yaw_deg = 90.0, t = [10, 20, 1] }\n\n[[cameras]]\nname = "c0"\n'
+    )
+    assert CliRunner().invoke(main, ["ingest", str(tmp_path / "p.toml"), "--quiet"]).exit_code == 0
+    back = read_trajectory(tmp_path / "work" / "target" / "trajectory.csv")
+    np.testing.assert_allclose(back.xyz[-1], [10.0, 30.0, 1.0], atol=1e-4)
+    write_csv_log(tmp_path / "walk.csv", walk, ORIGIN, START)
+    (tmp_path / "q.toml").write_text('[target]\nlog = "walk.csv"\n\n[[cameras]]\nname = "c0"\n')
+    assert CliRunner().invoke(main, ["ingest", str(tmp_path / "q.toml"), "--quiet"]).exit_code == 0
+    report = json.loads((tmp_path / "work" / "target" / "ingest_report.json").read_text())
+    assert report["origin"]["rule"] == "first fix" and report["origin"]["lat"] == pytest.approx(ORIGIN.lat, abs=1e-7)
