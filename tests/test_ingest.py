@@ -5,6 +5,8 @@ from __future__ import annotations
 import datetime as dt
 import json
 import math
+import os
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -322,3 +324,16 @@ def test_project_odometry_with_transform_and_default_origin(tmp_path, walk):
     assert CliRunner().invoke(main, ["ingest", str(tmp_path / "q.toml"), "--quiet"]).exit_code == 0
     report = json.loads((tmp_path / "work" / "target" / "ingest_report.json").read_text())
     assert report["origin"]["rule"] == "first fix" and report["origin"]["lat"] == pytest.approx(ORIGIN.lat, abs=1e-7)
+
+
+REAL = Path(os.environ.get("TLSYNC_REAL_DATA", "/work/shared/real")) / "drone2" / "target.csv"
+
+
+@pytest.mark.skipif(not REAL.exists(), reason="real drone data (../shared/real/drone2) not present")
+def test_real_rtk_log_passes_through_unchanged():
+    """A clean 5 Hz RTK log in local metres: same samples, same positions, no drops, no gaps."""
+    trajectory, report = _ingest(REAL)
+    original = read_trajectory(REAL)
+    assert report.rate == 5.0 and not report.dropped and not report.gaps
+    np.testing.assert_array_equal(trajectory.sample, original.sample.round())
+    np.testing.assert_allclose(trajectory.xyz, original.xyz, atol=1e-9)
