@@ -95,3 +95,18 @@ def test_message_conversion_functions():
     zero = _fix(1)
     zero.header.stamp.sec, zero.header.stamp.nanosec = 0, 0
     assert navsatfix_row(zero, receive_ns=7 * 10**9)[0] == 7.0  # unstamped: the bag's receive time
+
+
+from hypothesis import HealthCheck, given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+
+@settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(magic=st.sampled_from([b"#ROSBAG V2.0\n", b"\x89MCAP0\r\n", b"SQLite format 3\x00"]), data=st.binary(max_size=300))
+def test_damaged_bags_give_input_errors(tmp_path, magic, data):
+    path = tmp_path / "damaged.bag"
+    path.write_bytes(magic + data)
+    try:
+        ingest(read_log(path))
+    except InputError as exc:
+        assert str(exc).startswith(str(path))

@@ -48,7 +48,8 @@ def parse_time(text: str) -> tuple[float, bool]:
     try:
         value = float(text)
     except ValueError:
-        when = dt.datetime.fromisoformat(text.strip())
+        text = text.strip()
+        when = dt.datetime.fromisoformat(text[:-1] + "+00:00" if text[-1:] in "Zz" and text else text)  # 'Z': Python < 3.11
         if when.tzinfo is None:
             when = when.replace(tzinfo=dt.timezone.utc)
         return when.timestamp(), True
