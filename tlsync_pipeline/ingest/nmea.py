@@ -41,6 +41,9 @@ CUT = "cut mid-line (the file ends without a newline)"
 NO_FIX = "GGA fix quality 0 (no fix)"
 BAD_FIELDS = "malformed GGA fields"
 NO_TIME = "GGA without time"
+# Field positions (field 0 is talker + type) of what is read.
+GGA_FIELDS = {"time": 1, "lat": 2, "ns": 3, "lon": 4, "ew": 5, "quality": 6, "alt": 9, "sep": 11}
+RMC_FIELDS = {"time": 1, "status": 2, "date": 9}
 _HEX = np.full(256, -1, dtype=np.int16)
 _HEX[np.frombuffer(b"0123456789ABCDEF", dtype=np.uint8)] = np.arange(16)
 
@@ -130,8 +133,8 @@ def read_nmea(path: str | Path) -> LogRecords:
     dropped: dict[str, list[int]] = {}
     ignored = 0
     # Columns of strings (not lists per line: those would keep the garbage collector busy).
-    gga = {name: [] for name in GGA_FIELDS}
-    rmc = {name: [] for name in RMC_FIELDS}
+    gga = {name: [] for name in ("line", *GGA_FIELDS)}
+    rmc = {name: [] for name in ("line", *RMC_FIELDS)}
     n_lines = len(starts)
     for i, good, a, b in zip(range(n_lines), ok.tolist(), dollar.tolist(), star.tolist()):
         fields = text[a + 1 : b].split(",") if good else None
@@ -150,13 +153,13 @@ def read_nmea(path: str | Path) -> LogRecords:
             if len(fields) < 12:
                 dropped.setdefault(BAD_FIELDS, []).append(i + 1)
                 continue
+            gga["line"].append(i + 1)
             for name, j in GGA_FIELDS.items():
                 gga[name].append(fields[j])
-            gga["line"][-1] = i + 1
         elif kind == "RMC" and len(fields) >= 10:
+            rmc["line"].append(i + 1)
             for name, j in RMC_FIELDS.items():
                 rmc[name].append(fields[j])
-            rmc["line"][-1] = i + 1
         else:
             ignored += 1  # other sentences, and RMCs too short to carry a date
     fixes, missing_sep = _gga_fixes(path, gga, dropped)
@@ -169,11 +172,6 @@ def read_nmea(path: str | Path) -> LogRecords:
         lines.sort()
     dated = len(rmc_lines) > 0  # without a dated RMC the times are not true UTC
     return make_records(path, "nmea", GEODETIC, rows, numbers, utc=dated, dropped=dropped, ignored=ignored, warnings=warnings)
-
-
-# Field positions (after the talker+type field 0) of what is read.
-GGA_FIELDS = {"line": 0, "time": 1, "lat": 2, "ns": 3, "lon": 4, "ew": 5, "quality": 6, "alt": 9, "sep": 11}
-RMC_FIELDS = {"line": 0, "time": 1, "status": 2, "date": 9}
 
 
 def _gga_fixes(path: Path, gga: dict[str, list], dropped: dict[str, list[int]]) -> tuple[np.ndarray, int]:
