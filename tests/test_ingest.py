@@ -337,3 +337,28 @@ def test_real_rtk_log_passes_through_unchanged():
     assert report.rate == 5.0 and not report.dropped and not report.gaps
     np.testing.assert_array_equal(trajectory.sample, original.sample.round())
     np.testing.assert_allclose(trajectory.xyz, original.xyz, atol=1e-9)
+
+
+def test_gps_log_of_a_scene_synchronizes_like_its_trajectory(tmp_path, paper_scene):
+    """End to end: scene -> NMEA log -> tlsync ingest -> tlsync run recovers the true lines."""
+    from data_fixtures import write_scene
+    from tlsync_pipeline.project import load_project
+    from tlsync_pipeline.run import run_project
+
+    write_scene(paper_scene, tmp_path)
+    write_nmea_log(tmp_path / "target.nmea", paper_scene.trajectory, ORIGIN, START, corrupt=[7, 100])
+    text = (tmp_path / "project.toml").read_text()
+    text = text.replace(
+        'trajectory = "trajectory.csv"',
+        'log = "target.nmea"\nmax_speed_mps = 400\ntrajectory = "work/target/trajectory.csv"\n'
+        # the cameras' world frame is ENU at this origin: the trajectory must share it
+        f"origin = [{ORIGIN.lat}, {ORIGIN.lon}, {ORIGIN.alt}]",
+    )
+    (tmp_path / "project.toml").write_text(text)
+    result = CliRunner().invoke(main, ["ingest", str(tmp_path / "project.toml")])
+    assert result.exit_code == 0, result.output
+    assert "2 bad checksum" in result.output
+    timeline, _ = run_project(load_project(tmp_path / "project.toml"), tmp_path / "work")
+    for name, truth in paper_scene.lines.items():
+        line = timeline.cameras[name]
+        assert line.alpha == pytest.approx(truth.alpha, rel=2e-3) and line.beta == pytest.approx(truth.beta, abs=0.5)
