@@ -204,7 +204,7 @@ BAD_LOGS = {
     "all invalid": (
         "invalid.nmea",
         "".join(_nmea_line(f"GPGGA,12000{i}.00,4722.61400,N,00832.50200,E,0,00,,,M,,M,,") + "\n" for i in range(5)),
-        "no valid fix: all 5 fix line(s) dropped: 5 GGA fix quality 0 (no fix) (line 1, ...)",
+        "no valid fix; 5 line(s) dropped: 5 GGA fix quality 0 (no fix) (line 1, ...)",
     ),
     "backwards": ("back.csv", "time,lat,lon,alt\n0,47,8,400\n1,47,8,400\n0.5,47,8,400\n", "back.csv:4: time goes backwards"),
     "nmea backwards": (

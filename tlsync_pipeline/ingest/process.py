@@ -393,4 +393,4 @@ def _no_fix_message(records: LogRecords) -> str:
         what = f"{records.ignored} line(s) without a position" if records.ignored else "nothing readable"
         return f"{records.path}: no position fix in the log ({what})" + "".join(f"; {w}" for w in records.warnings)
     reasons = "; ".join(f"{len(n)} {reason} ({_where(records, n[0])}{', ...' if len(n) > 1 else ''})" for reason, n in records.dropped.items())
-    return f"{records.path}: no valid fix: all {total} fix line(s) dropped: {reasons}"
+    return f"{records.path}: no valid fix; {total} {records.unit}(s) dropped: {reasons}"
