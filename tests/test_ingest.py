@@ -362,3 +362,19 @@ def test_gps_log_of_a_scene_synchronizes_like_its_trajectory(tmp_path, paper_sce
     for name, truth in paper_scene.lines.items():
         line = timeline.cameras[name]
         assert line.alpha == pytest.approx(truth.alpha, rel=2e-3) and line.beta == pytest.approx(truth.beta, abs=0.5)
+
+
+def test_gpx_segments_out_of_time_order(tmp_path, walk):
+    """Segments are put in time order; points inside a segment are not reordered."""
+    text = write_gpx_log(tmp_path / "w.gpx", walk, ORIGIN, START).read_text()
+    head, first, second = text.split("<trkseg>")
+    first, second = first.replace("</trkseg>", ""), second.replace("</trkseg>", "").replace("</trk>", "").replace("</gpx>", "")
+    (tmp_path / "swapped.gpx").write_text(f"{head}<trkseg>{second}</trkseg><trkseg>{first}</trkseg></trk></gpx>\n")
+    trajectory, report = _ingest(tmp_path / "swapped.gpx", origin=ORIGIN)
+    np.testing.assert_array_equal(trajectory.sample, walk.sample)
+    assert report.gaps[0].after == "track point 901"  # provenance counts in document order: that segment came second
+    lines = first.strip().split("\n")
+    lines[3], lines[4] = lines[4], lines[3]  # two points swapped inside a segment
+    (tmp_path / "inside.gpx").write_text(f"{head}<trkseg>{chr(10).join(lines)}</trkseg></trk></gpx>\n")
+    with pytest.raises(InputError, match="inside.gpx: track point 5: time goes backwards"):
+        _ingest(tmp_path / "inside.gpx")

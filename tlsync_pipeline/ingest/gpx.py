@@ -3,6 +3,8 @@
 Parsed with gpxpy, which knows both schema versions and their namespaces and
 reads the ISO 8601 time variants devices write (fractions, offsets, 'Z').
 Waypoints and routes are planned positions, not a log: they are ignored.
+Segments are put in the order of their first times (merged recordings);
+points inside a segment keep their order.
 GPX <ele> is taken as the height above the WGS84 ellipsoid, as the GPX schema
 defines it (some devices write heights above the geoid instead). Times
 without an offset are taken as UTC.
@@ -50,37 +52,52 @@ def read_gpx(path: str | Path) -> LogRecords:
     rows, numbers, dropped = [], [], {}
     no_ele = []
     number = 0
-    for track in gpx.tracks:
-        for segment in track.segments:
-            for point in segment.points:
-                number += 1
-                if point.time is None:
-                    dropped.setdefault(NO_TIME, []).append(number)
-                    continue
-                try:
-                    lat, lon = float(point.latitude), float(point.longitude)
-                    ele = float(point.elevation) if point.elevation is not None else None
-                    when = point.time if point.time.tzinfo else point.time.replace(tzinfo=dt.timezone.utc)
-                    t = when.timestamp()
-                except (TypeError, ValueError, OverflowError):
-                    dropped.setdefault("malformed track point", []).append(number)
-                    continue
-                check_geodetic(path, lat, lon, 0.0 if ele is None else ele, number, UNIT)
-                if ele is None:
-                    no_ele.append(len(rows))
-                rows.append([t, lat, lon, 0.0 if ele is None else ele])
-                numbers.append(number)
+    segment_of = []  # segment ordinal of each row
+    for segment_index, segment in enumerate(seg for track in gpx.tracks for seg in track.segments):
+        for point in segment.points:
+            number += 1
+            if point.time is None:
+                dropped.setdefault(NO_TIME, []).append(number)
+                continue
+            try:
+                lat, lon = float(point.latitude), float(point.longitude)
+                ele = float(point.elevation) if point.elevation is not None else None
+                when = point.time if point.time.tzinfo else point.time.replace(tzinfo=dt.timezone.utc)
+                t = when.timestamp()
+            except (TypeError, ValueError, OverflowError):
+                dropped.setdefault("malformed track point", []).append(number)
+                continue
+            check_geodetic(path, lat, lon, 0.0 if ele is None else ele, number, UNIT)
+            if ele is None:
+                no_ele.append(len(rows))
+            rows.append([t, lat, lon, 0.0 if ele is None else ele])
+            numbers.append(number)
+            segment_of.append(segment_index)
     warnings = []
     if no_ele and len(no_ele) == len(rows):
         warnings.append("no track point has an elevation: heights set to 0 m (on the ellipsoid); the Up coordinate means nothing")
     elif no_ele:
         dropped[NO_ELE] = [numbers[i] for i in no_ele]
         keep = sorted(set(range(len(rows))) - set(no_ele))
-        rows, numbers = [rows[i] for i in keep], [numbers[i] for i in keep]
+        rows, numbers, segment_of = [rows[i] for i in keep], [numbers[i] for i in keep], [segment_of[i] for i in keep]
+    rows, numbers = _segments_in_time_order(rows, numbers, segment_of)
     others = len(gpx.waypoints) + sum(len(r.points) for r in gpx.routes)
     if others:
         warnings.append(f"{others} waypoint(s) and route point(s) ignored (only track points are a log)")
     return make_records(path, "gpx", GEODETIC, rows, numbers, unit=UNIT, dropped=dropped, ignored=others, warnings=warnings)
+
+
+def _segments_in_time_order(rows: list, numbers: list, segment_of: list) -> tuple[list, list]:
+    """Rows with whole segments ordered by their first time (points inside a segment keep their order).
+
+    Tracks merged from several recordings are not always in time order;
+    segments that overlap in time still show up as time going backwards.
+    """
+    first: dict[int, float] = {}
+    for row, seg in zip(rows, segment_of):
+        first.setdefault(seg, row[0])
+    order = sorted(range(len(rows)), key=lambda i: (first[segment_of[i]], segment_of[i], i))
+    return [rows[i] for i in order], [numbers[i] for i in order]
 
 
 def _error_line(message: str, text: str) -> int | None:
