@@ -1,4 +1,4 @@
-"""GPX 1.0 and 1.1 logs: the track points (all tracks, all segments, in document order).
+"""GPX 1.0 and 1.1 logs: the track points of every track and segment.
 
 Parsed with gpxpy, which knows both schema versions and their namespaces and
 reads the ISO 8601 time variants devices write (fractions, offsets, 'Z').
