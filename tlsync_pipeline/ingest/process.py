@@ -159,21 +159,7 @@ def ingest(records: LogRecords, params: IngestParams = IngestParams()) -> tuple[
             f"{_where(records, numbers[-1])}): a time is wrong"
         )
     warnings = list(records.warnings)
-    origin_info = None
-    if records.frame == GEODETIC:
-        if params.transform is not None:
-            raise InputError(f"{records.path}: a rigid transform applies to local (odometry) logs; this log is geodetic")
-        if isinstance(params.origin, Origin):
-            origin, rule = params.origin, "given"
-        elif params.origin == "first":
-            origin, rule = Origin(*map(float, values[0])), "first fix"
-        else:
-            raise InputError(f"{records.path}: origin {params.origin!r} must be resolved to coordinates before ingestion")
-        xyz = geodetic_to_enu(values[:, 0], values[:, 1], values[:, 2], origin)
-    else:
-        if isinstance(params.origin, Origin):
-            warnings.append("the origin is not used: the log is already in local metres")
-        xyz = values if params.transform is None else params.transform.apply(values)
+    xyz, origin, rule = _to_local(records, values, params, warnings)
     keep = np.ones(len(t), dtype=bool)
     if params.max_speed_mps is not None:
         keep = reject_spikes(t, xyz, params.max_speed_mps)
@@ -182,8 +168,9 @@ def ingest(records: LogRecords, params: IngestParams = IngestParams()) -> tuple[
         if keep.sum() < 2:
             raise InputError(f"{records.path}: fewer than 2 fixes left after rejecting spikes over {params.max_speed_mps:g} m/s")
         t, values, xyz, numbers = t[keep], values[keep], xyz[keep], numbers[keep]
-    if records.frame == GEODETIC:
-        if rule == "first fix" and not keep[0]:
+    origin_info = None
+    if origin is not None:
+        if rule == "first fix" and not keep[0]:  # the first fix was a spike: the first kept one
             origin = Origin(*map(float, values[0]))
             xyz = geodetic_to_enu(values[:, 0], values[:, 1], values[:, 2], origin)
         origin_info = {"lat": origin.lat, "lon": origin.lon, "alt": origin.alt, "rule": rule}
@@ -231,6 +218,24 @@ def ingest(records: LogRecords, params: IngestParams = IngestParams()) -> tuple[
         warnings=warnings,
     )
     return trajectory, report
+
+
+def _to_local(records: LogRecords, values: np.ndarray, params: IngestParams, warnings: list[str]) -> tuple[np.ndarray, Origin | None, str | None]:
+    """(local metres, origin, origin rule): ENU at the origin for geodetic logs, the rigid
+    transform (if any) for local ones (origin None)."""
+    if records.frame != GEODETIC:
+        if isinstance(params.origin, Origin):
+            warnings.append("the origin is not used: the log is already in local metres")
+        return (values if params.transform is None else params.transform.apply(values)), None, None
+    if params.transform is not None:
+        raise InputError(f"{records.path}: a rigid transform applies to local (odometry) logs; this log is geodetic")
+    if isinstance(params.origin, Origin):
+        origin, rule = params.origin, "given"
+    elif params.origin == "first":
+        origin, rule = Origin(*map(float, values[0])), "first fix"
+    else:
+        raise InputError(f"{records.path}: origin {params.origin!r} must be resolved to coordinates before ingestion")
+    return geodetic_to_enu(values[:, 0], values[:, 1], values[:, 2], origin), origin, rule
 
 
 def order_and_dedupe(records: LogRecords) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, list[int]]]:
