@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import glob as globlib
 import os
+import re
 from collections import Counter
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
@@ -104,7 +105,11 @@ def detect_board(gray: np.ndarray, pattern: tuple[int, int], detect_size: int = 
         found, corners = find(small)
         if found and corners is not None and len(corners) == pattern[0] * pattern[1]:
             corners = (corners.reshape(-1, 2).astype(np.float64) + 0.5) / scale - 0.5
-            return _refine(gray, corners, pattern), method, None
+            corners = _refine(gray, corners, pattern)
+            if _extends_beyond(gray, corners, pattern):
+                # A part of a larger board: the pattern is wrong, or the views would be inconsistent.
+                return None, None, _diagnose(_downscale(gray, detect_size)[0], pattern, larger=True)
+            return corners, method, None
     return None, None, _diagnose(_downscale(gray, detect_size)[0], pattern)
 
 
@@ -127,15 +132,60 @@ def _refine(gray: np.ndarray, corners: np.ndarray, pattern: tuple[int, int]) -> 
     return refined.reshape(-1, 2).astype(np.float64)
 
 
-def _diagnose(small: np.ndarray, pattern: tuple[int, int]) -> str:
+def _extends_beyond(gray: np.ndarray, corners: np.ndarray, pattern: tuple[int, int]) -> bool:
+    """Whether the checker pattern continues past a side of the found grid (a larger board).
+
+    At each point one step beyond the grid's outer rows and columns, the four
+    quadrants along the grid's axes are compared: at a checker corner both
+    diagonals differ strongly, at the board's plain border they do not.
+    """
+    grid = corners.reshape(pattern[1], pattern[0], 2)
+    h, w = gray.shape[:2]
+
+    def scores(points, step_a, step_b):
+        out = []
+        for p, a, b in zip(points, step_a, step_b):
+            k = max(3, int(0.2 * min(np.linalg.norm(a), np.linalg.norm(b))))
+            probes = [p + 0.3 * (sa * a + sb * b) for sa, sb in ((1, 1), (-1, -1), (1, -1), (-1, 1))]
+            if not all(k <= x < w - k and k <= y < h - k for x, y in probes):
+                out.append(np.nan)
+                continue
+            q = [float(cv2.getRectSubPix(gray, (k, k), (float(x), float(y))).mean()) for x, y in probes]
+            out.append(min(abs(q[i] - q[j]) for i in (0, 1) for j in (2, 3)))
+        return np.array(out)
+
+    along_x = grid[:, 1:] - grid[:, :-1]  # step to the next column
+    along_y = grid[1:] - grid[:-1]  # step to the next row
+    inner = scores(grid[1:-1, 1:-1].reshape(-1, 2), along_x[1:-1, 1:].reshape(-1, 2), along_y[1:, 1:-1].reshape(-1, 2))
+    reference = np.nanmedian(inner) if np.isfinite(inner).any() else np.nan
+    if not np.isfinite(reference) or reference <= 0:
+        return False
+    sides = (
+        (grid[:, -1] + along_x[:, -1], along_x[:, -1], np.vstack([along_y[:, -1], along_y[-1:, -1]])),
+        (grid[:, 0] - along_x[:, 0], along_x[:, 0], np.vstack([along_y[:, 0], along_y[-1:, 0]])),
+        (grid[-1] + along_y[-1], np.vstack([along_x[-1], along_x[-1, -1:]]), along_y[-1]),
+        (grid[0] - along_y[0], np.vstack([along_x[0], along_x[0, -1:]]), along_y[0]),
+    )
+    for points, step_a, step_b in sides:
+        s = scores(points, step_a, step_b)
+        seen = np.isfinite(s)
+        if seen.sum() >= 2 and np.mean(s[seen] > 0.5 * reference) > 0.5:
+            return True
+    return False
+
+
+def _diagnose(small: np.ndarray, pattern: tuple[int, int], larger: bool = False) -> str:
     """Why no full board was found: a smaller or larger grid visible, or nothing."""
     found, corners, meta = cv2.findChessboardCornersSBWithMeta(small, (3, 3), flags=cv2.CALIB_CB_NORMALIZE_IMAGE | cv2.CALIB_CB_LARGER)
-    if not found or meta is None:
-        return "no board found"
-    seen = sorted(meta.shape[:2], reverse=True)
+    seen = sorted(meta.shape[:2], reverse=True) if found and meta is not None else None
     want = sorted(pattern, reverse=True)
+    bigger = seen is not None and (seen[0] > want[0] or seen[1] > want[1])
+    if larger and not bigger:
+        return f"pattern mismatch: a board with more inner corners than {pattern[0]}x{pattern[1]} found"
+    if seen is None:
+        return "no board found"
     label = f"{seen[0]}x{seen[1]}"
-    if seen[0] > want[0] or seen[1] > want[1]:
+    if bigger:
         return f"pattern mismatch: a board with {label} inner corners found"
     return f"incomplete board: only {label} of the inner corners visible (board cut off, hidden or too oblique)"
 
@@ -339,7 +389,8 @@ def calibrate_detections(
                 rejected[d.source] = f"duplicate (same view as {twin})"
             else:
                 usable.append(d)
-    if len(usable) < MIN_VIEWS:
+    mismatched = sum(r.startswith("pattern mismatch") for r in rejected.values())
+    if len(usable) < MIN_VIEWS or mismatched > len(usable):
         raise CalibrationInputError(_too_few(label, pattern, detections, usable, rejected, detect_size))
     views = {d.source: d for d in usable}
     while True:
@@ -399,12 +450,16 @@ def _too_few(label: str, pattern: Pattern, detections, usable, rejected, detect_
     per_image = "; ".join(f"{Path(s).name}: {r}" for s, r in list(rejected.items())[:8]) + ("; ..." if len(rejected) > 8 else "")
     if not usable:
         head = f"{label}: no {pattern} board (inner corners, columns x rows) found in any of {len(detections)} images"
+    elif len(usable) >= MIN_VIEWS:
+        head = f"{label}: the {pattern} pattern was found in {len(usable)} of {len(detections)} images, but more show a different board"
     else:
         head = f"{label}: only {len(usable)} usable views of the {pattern} board in {len(detections)} images, at least {MIN_VIEWS} are needed"
     text = f"{head}; tried: {tried}; {per_image}"
-    sizes = Counter(r.split("with ")[1].split(" inner")[0] for r in rejected.values() if r.startswith("pattern mismatch"))
-    if sizes:
-        text += f". The pattern {pattern} does not match the board: {sizes.most_common(1)[0][0]} inner corners seen; count the inner corners (a board of 8x7 squares has 7x6)"
+    mismatches = [r for r in rejected.values() if r.startswith("pattern mismatch")]
+    if mismatches:
+        sizes = Counter(m.group(1) for m in (re.search(r"with (\d+x\d+) inner", r) for r in mismatches) if m)
+        seen = f"boards with {sizes.most_common(1)[0][0]} inner corners" if sizes else "boards with more inner corners"
+        text += f". The pattern {pattern} does not match the board ({len(mismatches)} images show {seen}); count the inner corners, columns x rows (a board of 8x7 squares has 7x6)"
     elif not usable and all(r.startswith("incomplete") for r in rejected.values()):
         text += f". Every board seen is smaller than {pattern}: check the pattern (inner corners, not squares)"
     return text
