@@ -17,6 +17,7 @@ top-left pixel; board points are in metres.
 from __future__ import annotations
 
 import glob as globlib
+import multiprocessing
 import os
 import re
 from collections import Counter
@@ -220,7 +221,10 @@ def detect_all(
     if workers == 1 or len(jobs) < 3:
         _init_worker()
         return [_detect_item(job) for job in tqdm(jobs, **bar)]
-    with ProcessPoolExecutor(max_workers=min(workers, len(jobs)), initializer=_init_worker) as pool:
+    # Workers come from a fork server, not a fork of this process: forking a process whose
+    # OpenCV thread pool has run can deadlock the child.
+    context = multiprocessing.get_context("forkserver" if "forkserver" in multiprocessing.get_all_start_methods() else "spawn")
+    with ProcessPoolExecutor(max_workers=min(workers, len(jobs)), initializer=_init_worker, mp_context=context) as pool:
         return list(tqdm(pool.map(_detect_item, jobs, chunksize=1), **bar))
 
 
@@ -473,7 +477,7 @@ def _calibrate(views: dict[str, Detection], pattern: Pattern, model: str, image_
     if model == "fisheye":
         objs = [obj.reshape(1, -1, 3) for _ in img_pts]
         imgs = [p.reshape(1, -1, 2) for p in img_pts]
-        flags = cv2.fisheye.CALIB_RECOMPUTE_EXTRINSIC | cv2.fisheye.CALIB_FIX_SKEW
+        flags = cv2.CALIB_RECOMPUTE_EXTRINSIC | cv2.CALIB_FIX_SKEW  # OpenCV 5: shared CALIB_* flags
         try:
             _, K, dist, rvecs, tvecs = cv2.fisheye.calibrate(objs, imgs, image_size, None, None, flags=flags, criteria=criteria)
         except cv2.error as exc:

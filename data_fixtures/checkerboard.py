@@ -80,16 +80,18 @@ def render_checkerboards(
     noise: tuple[float, float] = (1.0, 4.0),
     jpeg_quality: tuple[int, int] = (80, 95),
     supersample: int = 2,
+    dist_model: str = "opencv",
 ) -> CheckerboardSet:
     """Render ``n_full`` complete views, ``n_cut`` cut-off views and ``n_absent`` views without a board.
 
     Blur (Gaussian sigma, px), noise (sigma, grey levels) and JPEG quality are
     drawn uniformly from their ranges per image; views are shuffled.
+    ``dist_model`` is "opencv" (k1 k2 p1 p2 k3) or "fisheye" (k1..k4).
     """
     rng = np.random.default_rng(seed)
     if K is None or dist is None:
         K, dist = default_camera(image_size)
-    rays = _pixel_rays(K, dist, image_size, supersample)
+    rays = _pixel_rays(K, dist, image_size, supersample, dist_model)
     background = _background(rng, image_size)
     kinds = ["full"] * n_full + ["cut"] * n_cut + ["absent"] * n_absent
     rng.shuffle(kinds)
@@ -100,7 +102,7 @@ def render_checkerboards(
             rvec = tvec = corners = None
             grey = background.copy()
         else:
-            rvec, tvec, corners = _pose(rng, K, dist, image_size, pattern, square, cut=kind == "cut")
+            rvec, tvec, corners = _pose(rng, K, dist, dist_model, image_size, pattern, square, cut=kind == "cut")
             grey = _shade(rays, rvec, tvec, pattern, square, background, supersample)
         images.append(_degrade(rng, grey, blur_px, noise, jpeg_quality))
         views.append(BoardView(name, rvec, tvec, kind, corners))
@@ -124,7 +126,14 @@ def board_points(pattern: tuple[int, int], square: float) -> np.ndarray:
     return np.column_stack([grid, np.zeros(len(grid))])
 
 
-def _pixel_rays(K, dist, image_size, supersample) -> np.ndarray:
+def _project(points, rvec, tvec, K, dist, dist_model) -> np.ndarray:
+    pts = np.asarray(points, dtype=np.float64).reshape(-1, 1, 3)
+    if dist_model == "fisheye":
+        return cv2.fisheye.projectPoints(pts, np.reshape(rvec, (3, 1)), np.reshape(tvec, (3, 1)), K, dist)[0].reshape(-1, 2)
+    return cv2.projectPoints(pts, rvec, tvec, K, dist)[0].reshape(-1, 2)
+
+
+def _pixel_rays(K, dist, image_size, supersample, dist_model="opencv") -> np.ndarray:
     """Normalized rays (h, w, s*s, 2) through the supersampling points of every pixel."""
     w, h = image_size
     offsets = (np.arange(supersample) + 0.5) / supersample - 0.5
@@ -134,7 +143,10 @@ def _pixel_rays(K, dist, image_size, supersample) -> np.ndarray:
     py = (ys[..., None] + oy.ravel()).reshape(-1)
     pts = np.column_stack([px, py]).reshape(-1, 1, 2)
     criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 50, 1e-12)
-    norm = cv2.undistortPoints(pts, K, dist, None, None, None, criteria)
+    if dist_model == "fisheye":
+        norm = cv2.fisheye.undistortPoints(pts, K, dist, None, None, None, criteria)
+    else:
+        norm = cv2.undistortPoints(pts, K, dist, None, None, None, criteria)
     return norm.reshape(h, w, supersample * supersample, 2)
 
 
@@ -174,7 +186,7 @@ def _background(rng, image_size) -> np.ndarray:
     return np.clip(img, 0, 255)
 
 
-def _pose(rng, K, dist, image_size, pattern, square, cut: bool):
+def _pose(rng, K, dist, dist_model, image_size, pattern, square, cut: bool):
     """A random board pose whose inner corners are all in the image (or some outside when ``cut``)."""
     w, h = image_size
     cols, rows = pattern
@@ -195,11 +207,11 @@ def _pose(rng, K, dist, image_size, pattern, square, cut: bool):
         cam = obj @ R.T + t
         if np.any(cam[:, 2] <= 0.05):
             continue
-        uv = cv2.projectPoints(obj.reshape(-1, 1, 3), rvec, t, K, dist)[0].reshape(-1, 2)
+        uv = _project(obj, rvec, t, K, dist, dist_model)
         inside = (uv[:, 0] >= 8) & (uv[:, 0] <= w - 9) & (uv[:, 1] >= 8) & (uv[:, 1] <= h - 9)
         # Make sure the whole board (with its border) is in view for full boards.
         outline = np.array([[-1.6, -1.6], [cols + 0.6, -1.6], [cols + 0.6, rows + 0.6], [-1.6, rows + 0.6]]) * square
-        out_uv = cv2.projectPoints(np.column_stack([outline, np.zeros(4)]).reshape(-1, 1, 3), rvec, t, K, dist)[0].reshape(-1, 2)
+        out_uv = _project(np.column_stack([outline, np.zeros(4)]), rvec, t, K, dist, dist_model)
         outline_inside = np.all((out_uv >= 0) & (out_uv <= [w - 1, h - 1]))
         if not cut and inside.all() and outline_inside:
             return rvec, t, uv
