@@ -11,22 +11,12 @@ import pytest
 from click.testing import CliRunner
 
 from calibration.errors import CalibrationInputError
-from calibration.intrinsics import calibrate_detections, calibrate_images, calibrate_video, detect_all, detect_board, parse_pattern
-from data_fixtures.checkerboard import render_checkerboards, write_checkerboards
+from calibration.intrinsics import calibrate_detections, calibrate_video, detect_all, detect_board, parse_pattern
+from data_fixtures.checkerboard import render_checkerboards
 from tlsync_pipeline.cli import main
 
 PATTERN = parse_pattern("9x6", 0.03)
-SIZE = (800, 600)
-
-
-@pytest.fixture(scope="session")
-def boards():
-    return render_checkerboards(seed=1, n_full=16, n_cut=2, n_absent=1, image_size=SIZE)
-
-
-@pytest.fixture(scope="session")
-def board_dir(boards, tmp_path_factory) -> Path:
-    return write_checkerboards(boards, tmp_path_factory.mktemp("boards"))
+SIZE = (800, 600)  # the conftest's rendered boards
 
 
 @pytest.fixture(scope="session")
