@@ -1,9 +1,9 @@
 """Zhang intrinsics from checkerboard photos or a checkerboard video (OpenCV).
 
 Corner detection: the sector-based detector (findChessboardCornersSB) on a copy
-downscaled to about ``DETECT_SIZE`` px on its long side, then the same detector in
-exhaustive mode on a larger copy, then the classic detector (adaptive threshold);
-the corners found are refined at full resolution with cornerSubPix. Images are
+downscaled to about ``DETECT_SIZE`` px on its long side, then the classic detector
+(adaptive threshold) on a larger copy, then the sector-based detector in exhaustive
+mode; the corners found are refined at full resolution with cornerSubPix. Images are
 processed in parallel (one process per core, one OpenCV thread each).
 
 Calibration: cv2.calibrateCamera with the 5-parameter model ("standard", k1 k2
@@ -34,15 +34,16 @@ from calibration.camera import Camera
 from calibration.errors import CalibrationInputError
 
 MODELS = ("standard", "rational", "fisheye")
-DETECT_SIZE = 1000  # long side (px) of the copy the board is first looked for in
-EXHAUSTIVE_SIZE = 1600  # long side (px) of the copy for the second, exhaustive try
+DETECT_SIZE = 720  # about the long side (px) of the copy the board is first looked for in
+CLASSIC_SIZE = 1280  # about the long side (px) of the copy for the classic detector
+EXHAUSTIVE_SIZE = 2000  # at most the long side (px) of the copy for the last, exhaustive try
 MIN_VIEWS = 5
 OUTLIER_FACTOR = 3.0
 DUPLICATE_FRACTION = 0.004  # views whose corners moved less than this * image diagonal are duplicates
 TRIED = (
-    "sector-based detector (findChessboardCornersSB, normalized image) on a copy downscaled to {small} px, "
-    "the same in exhaustive mode at {large} px, and the classic detector (findChessboardCorners, "
-    "adaptive threshold + normalized image) at {small} px"
+    "sector-based detector (findChessboardCornersSB, normalized image) on a copy downscaled to about {small} px, "
+    f"the classic detector (findChessboardCorners, adaptive threshold + normalized image) at about {CLASSIC_SIZE} px "
+    f"and the sector-based detector in exhaustive mode at up to {EXHAUSTIVE_SIZE} px"
 )
 
 
@@ -95,31 +96,45 @@ class Detection:
 def detect_board(gray: np.ndarray, pattern: tuple[int, int], detect_size: int = DETECT_SIZE) -> tuple[np.ndarray | None, str | None, str | None]:
     """Find the inner corners of a ``pattern`` (cols, rows) board in a grey image.
 
-    Returns (corners (N, 2) float64 at full resolution or None, method, reason).
+    Tries, cheapest first: the sector-based detector on a copy reduced by an
+    integer factor to about ``detect_size`` px, the classic detector at about
+    CLASSIC_SIZE px, the sector-based detector in exhaustive mode at up to
+    EXHAUSTIVE_SIZE px. Returns (corners (N, 2) float64 at full resolution row by
+    row, or None; the method that found them; the reason when none did).
     """
-    for method, size, find in (
-        ("sb", detect_size, lambda img: cv2.findChessboardCornersSB(img, pattern, flags=cv2.CALIB_CB_NORMALIZE_IMAGE)),
-        ("sb-exhaustive", EXHAUSTIVE_SIZE, lambda img: cv2.findChessboardCornersSB(img, pattern, flags=cv2.CALIB_CB_NORMALIZE_IMAGE | cv2.CALIB_CB_EXHAUSTIVE)),
-        ("classic", detect_size, lambda img: cv2.findChessboardCorners(img, pattern, flags=cv2.CALIB_CB_ADAPTIVE_THRESH | cv2.CALIB_CB_NORMALIZE_IMAGE)),
+    copies: dict[int, np.ndarray] = {}
+
+    def reduced(factor: int) -> np.ndarray:
+        if factor not in copies:
+            copies[factor] = _reduce(gray, factor)
+        return copies[factor]
+
+    long_side = max(gray.shape[:2])
+    first = max(1, round(long_side / detect_size))
+    for method, factor, find in (
+        ("sb", first, lambda img: cv2.findChessboardCornersSB(img, pattern, flags=cv2.CALIB_CB_NORMALIZE_IMAGE)),
+        ("classic", max(1, round(long_side / CLASSIC_SIZE)), lambda img: cv2.findChessboardCorners(img, pattern, flags=cv2.CALIB_CB_ADAPTIVE_THRESH | cv2.CALIB_CB_NORMALIZE_IMAGE)),
+        ("sb-exhaustive", max(1, -(-long_side // EXHAUSTIVE_SIZE)), lambda img: cv2.findChessboardCornersSB(img, pattern, flags=cv2.CALIB_CB_NORMALIZE_IMAGE | cv2.CALIB_CB_EXHAUSTIVE)),
     ):
-        small, scale = _downscale(gray, size)
-        found, corners = find(small)
+        found, corners = find(reduced(factor))
         if found and corners is not None and len(corners) == pattern[0] * pattern[1]:
-            corners = (corners.reshape(-1, 2).astype(np.float64) + 0.5) / scale - 0.5
+            corners = (corners.reshape(-1, 2).astype(np.float64) + 0.5) * factor - 0.5
             corners = _refine(gray, corners, pattern)
             if _extends_beyond(gray, corners, pattern):
                 # A part of a larger board: the pattern is wrong, or the views would be inconsistent.
-                return None, None, _diagnose(_downscale(gray, detect_size)[0], pattern, larger=True)
+                return None, None, _diagnose(reduced(first), pattern, larger=True)
             return corners, method, None
-    return None, None, _diagnose(_downscale(gray, detect_size)[0], pattern)
+    return None, None, _diagnose(reduced(first), pattern)
 
 
-def _downscale(gray: np.ndarray, size: int) -> tuple[np.ndarray, float]:
+def _reduce(gray: np.ndarray, factor: int) -> np.ndarray:
+    """Area-average by an integer factor (the last < factor rows/columns are dropped): OpenCV's fast path, and
+    a corner at (u, v) in the copy is at ((u + 0.5) * factor - 0.5, ...) in the image."""
+    if factor == 1:
+        return gray
     h, w = gray.shape[:2]
-    scale = min(1.0, size / max(h, w))
-    if scale == 1.0:
-        return gray, 1.0
-    return cv2.resize(gray, (round(w * scale), round(h * scale)), interpolation=cv2.INTER_AREA), scale
+    h, w = h // factor, w // factor
+    return cv2.resize(gray[: h * factor, : w * factor], (w, h), interpolation=cv2.INTER_AREA)
 
 
 def _refine(gray: np.ndarray, corners: np.ndarray, pattern: tuple[int, int]) -> np.ndarray:
@@ -358,7 +373,7 @@ def sample_video_frames(path: str | Path, max_frames: int = 60, progress: bool =
 
 
 def _sharpness(gray: np.ndarray) -> float:
-    small, _ = _downscale(gray, 640)
+    small = _reduce(gray, max(2, round(max(gray.shape[:2]) / 480)))  # averaging out sensor noise
     return float(cv2.Laplacian(small, cv2.CV_64F).var())
 
 
@@ -450,7 +465,7 @@ def _summary(rejected: dict[str, str]) -> str:
 
 
 def _too_few(label: str, pattern: Pattern, detections, usable, rejected, detect_size: int) -> str:
-    tried = TRIED.format(small=detect_size, large=EXHAUSTIVE_SIZE)
+    tried = TRIED.format(small=detect_size)
     per_image = "; ".join(f"{Path(s).name}: {r}" for s, r in list(rejected.items())[:8]) + ("; ..." if len(rejected) > 8 else "")
     if not usable:
         head = f"{label}: no {pattern} board (inner corners, columns x rows) found in any of {len(detections)} images"
