@@ -37,6 +37,7 @@ MODELS = ("standard", "rational", "fisheye")
 DETECT_SIZE = 720  # about the long side (px) of the copy the board is first looked for in
 CLASSIC_SIZE = 1280  # about the long side (px) of the copy for the classic detector
 EXHAUSTIVE_SIZE = 2000  # at most the long side (px) of the copy for the last, exhaustive try
+SMOOTH_DIVISOR = 30.0  # corner refinement smooths with sigma = square spacing (px) / this
 MIN_VIEWS = 5
 OUTLIER_FACTOR = 3.0
 DUPLICATE_FRACTION = 0.004  # views whose corners moved less than this * image diagonal are duplicates
@@ -138,14 +139,27 @@ def _reduce(gray: np.ndarray, factor: int) -> np.ndarray:
 
 
 def _refine(gray: np.ndarray, corners: np.ndarray, pattern: tuple[int, int]) -> np.ndarray:
-    """cornerSubPix at full resolution, window scaled to the board's smallest square."""
+    """cornerSubPix at full resolution, window scaled to the board's smallest square.
+
+    Where squares are large (phones, 4K), the board's region is first smoothed with
+    a Gaussian of sigma = spacing / SMOOTH_DIVISOR: it averages out sensor noise and
+    a screen's pixel grid, and does not move a checker corner (point symmetric).
+    """
     grid = corners.reshape(pattern[1], pattern[0], 2)
     spacing = min(np.linalg.norm(np.diff(grid, axis=0), axis=2).min(), np.linalg.norm(np.diff(grid, axis=1), axis=2).min())
     half = int(np.clip(0.4 * spacing, 2, 30))
-    pts = corners.astype(np.float32).reshape(-1, 1, 2)
+    sigma = min(spacing / SMOOTH_DIVISOR, 4.0)
+    h, w = gray.shape[:2]
+    margin = half + 4 * max(sigma, 1.0) + 2
+    x0, y0 = (int(max(0, np.floor(v))) for v in corners.min(axis=0) - margin)
+    x1, y1 = (int(min(lim, np.ceil(v))) for v, lim in zip(corners.max(axis=0) + margin, (w, h)))
+    roi = gray[y0:y1, x0:x1]
+    if sigma >= 1.0:
+        roi = cv2.GaussianBlur(roi, (0, 0), sigma)
+    pts = (corners - [x0, y0]).astype(np.float32).reshape(-1, 1, 2)
     criteria = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 40, 0.001)
-    refined = cv2.cornerSubPix(gray, pts, (half, half), (-1, -1), criteria)
-    return refined.reshape(-1, 2).astype(np.float64)
+    refined = cv2.cornerSubPix(roi, pts, (half, half), (-1, -1), criteria)
+    return refined.reshape(-1, 2).astype(np.float64) + [x0, y0]
 
 
 def _extends_beyond(gray: np.ndarray, corners: np.ndarray, pattern: tuple[int, int]) -> bool:

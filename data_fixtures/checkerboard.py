@@ -238,3 +238,29 @@ def _degrade(rng, grey, blur_px, noise, jpeg_quality) -> np.ndarray:
     quality = int(rng.integers(jpeg_quality[0], jpeg_quality[1] + 1))
     ok, buf = cv2.imencode(".jpg", bgr, [cv2.IMWRITE_JPEG_QUALITY, quality])
     return cv2.imdecode(buf, cv2.IMREAD_COLOR)
+
+
+def harsh_photo(image: np.ndarray, seed: int, size: tuple[int, int] | None = None, blur_px: float = 2.5, noise: float = 8.0, light: float = 0.7, screen_period: float | None = None) -> np.ndarray:
+    """A rendered photo made hard: upscaled to ``size`` (exact factor: corners map as (u + 0.5) * f - 0.5),
+    strong defocus blur, a strong light gradient (``light`` = brightness drop across the image), sensor noise
+    and, when ``screen_period`` (px) is given, the board shown on a screen: display gamma and a slightly
+    rotated pixel grid (moire once downscaled). Returns a grey uint8 image."""
+    rng = np.random.default_rng(seed)
+    grey = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY).astype(np.float64) if image.ndim == 3 else image.astype(np.float64)
+    if size is not None:
+        grey = cv2.resize(grey, size, interpolation=cv2.INTER_CUBIC)
+    h, w = grey.shape
+    ys, xs = np.mgrid[0:h, 0:w].astype(np.float64)
+    if screen_period:
+        grey = 255.0 * (grey / 255.0).clip(0, 1) ** 2.2  # the display's gamma, not undone
+        angle = np.radians(rng.uniform(1.0, 4.0))
+        u = xs * np.cos(angle) + ys * np.sin(angle)
+        v = -xs * np.sin(angle) + ys * np.cos(angle)
+        grid = (0.75 + 0.25 * np.cos(2 * np.pi * u / screen_period)) * (0.8 + 0.2 * np.cos(2 * np.pi * v / screen_period))
+        grey = grey * grid + 12.0  # dark pixels of a screen glow a little
+    direction = rng.uniform(0, 2 * np.pi)
+    ramp = (np.cos(direction) * (xs / w - 0.5) + np.sin(direction) * (ys / h - 0.5)) + 0.5
+    grey = grey * (1.0 - light * ramp.clip(0, 1))
+    grey = cv2.GaussianBlur(grey, (0, 0), blur_px)
+    grey = grey + rng.normal(0.0, noise, grey.shape)
+    return np.clip(np.round(grey), 0, 255).astype(np.uint8)

@@ -188,3 +188,19 @@ def test_bad_input_exits_2_with_a_clear_message(tmp_path, boards, make, args, me
     assert result.exit_code == 2, result.output
     assert re.search(message, result.output), result.output
     assert "Traceback" not in result.output and not (tmp_path / "c.json").exists()
+
+
+@pytest.mark.parametrize("screen_period", [None, 3.3], ids=["photo", "screen"])
+def test_harsh_4k_views_are_detected_accurately(screen_period):
+    """4K, strong blur (3 px), noise (sigma 8), a 70% light gradient; optionally a board on a screen (gamma, moire)."""
+    from data_fixtures.checkerboard import default_camera, harsh_photo
+
+    K, dist = default_camera((1920, 1080))
+    boards = render_checkerboards(seed=21, n_full=2, n_cut=0, n_absent=0, image_size=(1920, 1080), K=K, dist=dist, supersample=1, blur_px=(0.5, 0.5), noise=(1, 1))
+    for i, (view, image) in enumerate(zip(boards.views, boards.images)):
+        gray = harsh_photo(image, i, (3840, 2160), blur_px=3.0, noise=8.0, light=0.7, screen_period=screen_period)
+        corners, _, reason = detect_board(gray, PATTERN.size)
+        assert corners is not None, reason
+        truth = (view.corners + 0.5) * 2 - 0.5  # rendered at 1080p, upscaled exactly 2x
+        err = min(np.linalg.norm(corners - truth, axis=1).mean(), np.linalg.norm(corners[::-1] - truth, axis=1).mean())
+        assert err < 0.5
