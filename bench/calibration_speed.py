@@ -16,6 +16,7 @@ import os
 import sys
 import tempfile
 import time
+from collections import Counter
 from pathlib import Path
 
 import cv2
@@ -107,7 +108,7 @@ def main() -> None:
         result = calibrate_images(os.path.join(folder, "*.jpg"), PATTERN)
         total = time.perf_counter() - start
     print(f"\n{args.images} images at 1080p on {os.cpu_count()} cores, read + detect + calibrate: {total:.1f} s ({total / base:.0f} x baseline); "
-          f"{len(result.used)} used, {len(result.rejected)} rejected, RMS {result.rms:.3f} px")
+          f"{len(result.used)} used, {len(result.rejected)} rejected ({dict(Counter(r.split(' (')[0].split(':')[0] for r in result.rejected.values()))}), RMS {result.rms:.3f} px")
 
 
 if __name__ == "__main__":
