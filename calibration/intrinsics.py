@@ -248,8 +248,12 @@ def detect_all(
     workers = workers or os.cpu_count() or 1
     bar = dict(total=len(jobs), desc="detecting corners", unit="img", disable=not progress, leave=False)
     if workers == 1 or len(jobs) < 3:
-        _init_worker()
-        return [_detect_item(job) for job in tqdm(jobs, **bar)]
+        threads = cv2.getNumThreads()
+        cv2.setNumThreads(1)  # as in the workers: detections do not depend on the path taken
+        try:
+            return [_detect_item(job) for job in tqdm(jobs, **bar)]
+        finally:
+            cv2.setNumThreads(threads)
     # Workers come from a fork server, not a fork of this process: forking a process whose
     # OpenCV thread pool has run can deadlock the child.
     context = multiprocessing.get_context("forkserver" if "forkserver" in multiprocessing.get_all_start_methods() else "spawn")

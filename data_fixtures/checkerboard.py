@@ -81,12 +81,14 @@ def render_checkerboards(
     jpeg_quality: tuple[int, int] = (80, 95),
     supersample: int = 2,
     dist_model: str = "opencv",
+    fill: tuple[float, float] = (0.35, 0.75),
 ) -> CheckerboardSet:
     """Render ``n_full`` complete views, ``n_cut`` cut-off views and ``n_absent`` views without a board.
 
     Blur (Gaussian sigma, px), noise (sigma, grey levels) and JPEG quality are
     drawn uniformly from their ranges per image; views are shuffled.
-    ``dist_model`` is "opencv" (k1 k2 p1 p2 k3) or "fisheye" (k1..k4).
+    ``dist_model`` is "opencv" (k1 k2 p1 p2 k3) or "fisheye" (k1..k4); ``fill`` is the
+    range of the board's size as a fraction of the image width.
     """
     rng = np.random.default_rng(seed)
     if K is None or dist is None:
@@ -102,7 +104,7 @@ def render_checkerboards(
             rvec = tvec = corners = None
             grey = background.copy()
         else:
-            rvec, tvec, corners = _pose(rng, K, dist, dist_model, image_size, pattern, square, cut=kind == "cut")
+            rvec, tvec, corners = _pose(rng, K, dist, dist_model, image_size, pattern, square, fill, cut=kind == "cut")
             grey = _shade(rays, rvec, tvec, pattern, square, background, supersample)
         images.append(_degrade(rng, grey, blur_px, noise, jpeg_quality))
         views.append(BoardView(name, rvec, tvec, kind, corners))
@@ -186,7 +188,7 @@ def _background(rng, image_size) -> np.ndarray:
     return np.clip(img, 0, 255)
 
 
-def _pose(rng, K, dist, dist_model, image_size, pattern, square, cut: bool):
+def _pose(rng, K, dist, dist_model, image_size, pattern, square, fill, cut: bool):
     """A random board pose whose inner corners are all in the image (or some outside when ``cut``)."""
     w, h = image_size
     cols, rows = pattern
@@ -194,12 +196,11 @@ def _pose(rng, K, dist, dist_model, image_size, pattern, square, cut: bool):
     centre = obj.mean(axis=0)
     board_size = max(cols + 1, rows + 1) * square
     for _ in range(500):
-        # Board tilted up to ~40 degrees, in-plane rotation anywhere, filling 30-70% of the width.
+        # Board tilted up to ~40 degrees, in-plane rotation anywhere, filling ``fill`` of the width.
         tilt = rng.normal(0.0, 0.35, size=2).clip(-0.7, 0.7)
         spin = rng.uniform(-np.pi, np.pi)
         R = cv2.Rodrigues(np.array([tilt[0], tilt[1], 0.0]))[0] @ cv2.Rodrigues(np.array([0.0, 0.0, spin]))[0]
-        fill = rng.uniform(0.35, 0.75)
-        depth = K[0, 0] * board_size / (fill * w)
+        depth = K[0, 0] * board_size / (rng.uniform(*fill) * w)
         target = rng.uniform([0.15 * w, 0.15 * h], [0.85 * w, 0.85 * h]) if not cut else rng.uniform([0.0, 0.0], [w, h])
         ray = np.linalg.solve(K, [target[0], target[1], 1.0])
         t = ray / ray[2] * depth - R @ centre

@@ -204,3 +204,17 @@ def test_harsh_4k_views_are_detected_accurately(screen_period):
         truth = (view.corners + 0.5) * 2 - 0.5  # rendered at 1080p, upscaled exactly 2x
         err = min(np.linalg.norm(corners - truth, axis=1).mean(), np.linalg.norm(corners[::-1] - truth, axis=1).mean())
         assert err < 0.5
+
+
+@pytest.mark.parametrize("pattern, fill", [((7, 6), (0.15, 0.2)), ((5, 4), (0.08, 0.1))], ids=["7x6", "5x4-small"])
+def test_boards_of_other_sizes_far_away_in_4k(pattern, fill):
+    """Other patterns, boards covering 8-20% of a 4K frame's width (squares of 30-80 px)."""
+    from data_fixtures.checkerboard import default_camera, harsh_photo
+
+    K, dist = default_camera((1920, 1080))
+    boards = render_checkerboards(seed=5, n_full=1, n_cut=0, n_absent=0, image_size=(1920, 1080), K=K, dist=dist, supersample=1, pattern=pattern, fill=fill, blur_px=(0.5, 0.5), noise=(1, 1))
+    gray = harsh_photo(boards.images[0], 0, (3840, 2160), blur_px=1.5, noise=5.0, light=0.5)
+    corners, _, reason = detect_board(gray, pattern)
+    assert corners is not None, reason
+    truth = (boards.views[0].corners + 0.5) * 2 - 0.5
+    assert min(np.linalg.norm(corners - truth, axis=1).mean(), np.linalg.norm(corners[::-1] - truth, axis=1).mean()) < 0.5

@@ -78,4 +78,5 @@ def demo(directory: Path, seed: int, tracking_noise: float) -> None:
 
 from tlsync_pipeline.commands_calibrate import calibrate, calibrate_intrinsics  # noqa: E402  (commands in their own module)
 
-main.add_command(calibrate), main.add_command(calibrate_intrinsics)
+main.add_command(calibrate)
+main.add_command(calibrate_intrinsics)
