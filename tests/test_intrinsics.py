@@ -218,3 +218,11 @@ def test_boards_of_other_sizes_far_away_in_4k(pattern, fill):
     assert corners is not None, reason
     truth = (boards.views[0].corners + 0.5) * 2 - 0.5
     assert min(np.linalg.norm(corners - truth, axis=1).mean(), np.linalg.norm(corners[::-1] - truth, axis=1).mean()) < 0.5
+
+
+def test_a_few_images_of_another_size_are_rejected(detections):
+    from calibration.intrinsics import Detection
+
+    odd = [Detection(f"phone_{i}.jpg", (600, 800), None, None, "no board found") for i in range(2)]
+    result = calibrate_detections(list(detections) + odd, PATTERN)
+    assert result.rejected["phone_0.jpg"] == "different size 600x800 (the calibration uses 800x600)"
