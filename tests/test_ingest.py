@@ -267,7 +267,7 @@ def test_project_ingest(tmp_path, walk):
 @pytest.mark.parametrize(
     "extra, expected",
     [
-        ('origin = "gcps"', "not available yet"),
+        ('origin = "gcps"', "no camera has geodetic"),
         ('origin = [95, 8, 0]', "out of range"),
         ('format = "kml"', "expected one of"),
         ("odometry_transform = { R = [[1, 0, 0], [0, 2, 0], [0, 0, 1]] }", "not a rotation"),

@@ -12,6 +12,7 @@ from pathlib import Path
 
 from tlsync_pipeline import layout
 from tlsync_pipeline.atomic import atomic_path
+from tlsync_pipeline.calibrate import project_origin
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.geodesy import Origin
 from tlsync_pipeline.ingest import read_log
@@ -39,14 +40,9 @@ def report_sidecar(csv_path: Path) -> Path:
 
 
 def target_params(project: Project) -> IngestParams:
-    """IngestParams from the project's [target] table; origin unset = the first fix ("gcps" is not resolved yet)."""
+    """IngestParams from the project's [target] table; the origin follows calibrate.project_origin."""
     target = project.target
-    origin = target["origin"] or "first"
-    if origin == "gcps":
-        raise InputError(
-            f"{project.path}: [target]: origin = \"gcps\" (centroid of the cameras' geodetic ground control points) "
-            "is not available yet; give origin = [lat, lon, alt] or \"first\""
-        )
+    origin = project_origin(project)
     transform = target["odometry_transform"]
     return IngestParams(
         origin=origin,
