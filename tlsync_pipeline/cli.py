@@ -80,3 +80,11 @@ from tlsync_pipeline.track_cli import track, track_video_command  # noqa: E402
 
 main.add_command(track)
 main.add_command(track_video_command)
+from tlsync_pipeline.ingest_cli import ingest, ingest_log_command  # noqa: E402  (the ingest stage's commands)
+
+main.add_command(ingest)
+main.add_command(ingest_log_command)
+from tlsync_pipeline.commands_calibrate import calibrate, calibrate_intrinsics  # noqa: E402  (commands in their own module)
+
+main.add_command(calibrate)
+main.add_command(calibrate_intrinsics)
