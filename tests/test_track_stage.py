@@ -119,3 +119,13 @@ def test_track_camera_needs_a_video(tmp_path, video):
     spec = load_project(_project(tmp_path, video)).camera("cam0")
     with pytest.raises(InputError, match="no 'video' key"):
         track_camera({**spec, "video": None}, progress=False)
+
+
+def test_progress_shows_frames_and_rate_and_quiet_silences_it(tmp_path, video):
+    out = tmp_path / "t.csv"
+    shown = CliRunner().invoke(main, ["track-video", str(video.path), "--out", str(out)])
+    quiet = CliRunner().invoke(main, ["track-video", str(video.path), "--out", str(out), "--quiet"])
+    assert shown.exit_code == 0 and quiet.exit_code == 0
+    text = shown.output + (shown.stderr if shown.stderr_bytes is not None else "")
+    assert "120/120" in text and "frame/s" in text
+    assert "frame/s" not in quiet.output

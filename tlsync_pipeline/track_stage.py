@@ -28,6 +28,7 @@ def track_camera(spec: dict, progress: bool = True) -> Track:
         init_frame=tracker["init_frame"],
         params=tracker["parameters"],
         progress=progress,
+        label=f"{spec['name']} ({Path(spec['video']).name})",
     )
 
 

@@ -80,7 +80,7 @@ def _create(params: CsrtParams):
     return factory(params.opencv())
 
 
-def csrt_steps(path, info, params: CsrtParams, blob_params: BlobParams, box, init_frame: int, progress: bool, detector: BlobDetector):
+def csrt_steps(path, info, params: CsrtParams, blob_params: BlobParams, box, init_frame: int, progress: bool, detector: BlobDetector, label: str | None = None):
     """Yields (frame, time_s, x, y, w, h, score) rows; returns the number of frames read."""
     width, height = info.width, info.height
     acquirer = BlobTracker(blob_params)
@@ -90,7 +90,7 @@ def csrt_steps(path, info, params: CsrtParams, blob_params: BlobParams, box, ini
     last = None  # (cx, cy, w, h) of the last accepted box
     held: list[tuple] = []  # rows of low foreground support, reported only if support comes back
     index = -1
-    for index, time_s, bgr in iter_frames(path, gray=False, progress=progress):
+    for index, time_s, bgr in iter_frames(path, gray=False, progress=progress, desc=label):
         gray = cv2.cvtColor(bgr, cv2.COLOR_BGR2GRAY)
         blobs = detector.detect(gray)
         if index < init_frame:

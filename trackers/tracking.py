@@ -24,6 +24,7 @@ def track_video(
     init_frame: int = 0,
     params: dict | None = None,
     progress: bool = True,
+    label: str | None = None,
 ) -> Track:
     """Track the target through ``path``; frames without a confident position are absent.
 
@@ -31,7 +32,8 @@ def track_video(
     init: optional box [x, y, w, h] (pixels, top-left corner and size)
     around the target in frame ``init_frame`` (0-based); tracking starts
     there. Without it the first confidently moving blob is the target.
-    params: tracker parameters by name (BlobParams, CsrtParams). Returns a
+    params: tracker parameters by name (BlobParams, CsrtParams); label:
+    the progress bar's title (default: the file name). Returns a
     Track with time_s (presentation time, s), w, h and score.
     """
     path = Path(path)
@@ -42,12 +44,12 @@ def track_video(
     where = f"{path}: tracker parameters"
     if kind == "blob":
         blob_params = BlobParams.from_dict(params, where)
-        steps = _blob_steps(path, info, blob_params, box, init_frame, progress)
+        steps = _blob_steps(path, info, blob_params, box, init_frame, progress, label)
     else:
         from trackers.csrt import CsrtParams, csrt_steps
 
         csrt_params, blob_params = CsrtParams.from_dict(params, where)
-        steps = csrt_steps(path, info, csrt_params, blob_params, box, init_frame, progress, _detector(path, blob_params, from_bgr=True))
+        steps = csrt_steps(path, info, csrt_params, blob_params, box, init_frame, progress, _detector(path, blob_params, from_bgr=True), label)
     rows = {}
     while True:
         try:
@@ -76,13 +78,13 @@ def _detector(path: Path, params: BlobParams, from_bgr: bool = False) -> BlobDet
     return BlobDetector(background, params, deviation)
 
 
-def _blob_steps(path, info: VideoInfo, params: BlobParams, box, init_frame: int, progress: bool):
+def _blob_steps(path, info: VideoInfo, params: BlobParams, box, init_frame: int, progress: bool, label: str | None):
     """Yields (frame, time_s, x, y, w, h, score) rows; returns the number of frames read."""
     detector = _detector(path, params)
     tracker = BlobTracker(params, box)
     times = {}
     index = -1
-    for index, time_s, gray in iter_frames(path, gray=True, progress=progress):
+    for index, time_s, gray in iter_frames(path, gray=True, progress=progress, desc=label):
         times[index] = time_s
         blobs = detector.detect(gray)
         if index < init_frame:
