@@ -74,3 +74,17 @@ def demo(directory: Path, seed: int, tracking_noise: float) -> None:
     table, errors = format_truth_comparison(timeline, scene.truth_pairs(), scene.n_frames)
     click.echo("\nrecovered against true relations:\n" + table)
     click.echo(f"\nworst eps_t: {max(errors.values()):.3f} frames; timeline: {project.default_work_dir / 'timeline.json'}")
+
+
+from tlsync_pipeline.track_cli import track, track_video_command  # noqa: E402
+
+main.add_command(track)
+main.add_command(track_video_command)
+from tlsync_pipeline.ingest_cli import ingest, ingest_log_command  # noqa: E402  (the ingest stage's commands)
+
+main.add_command(ingest)
+main.add_command(ingest_log_command)
+from tlsync_pipeline.commands_calibrate import calibrate, calibrate_intrinsics  # noqa: E402  (commands in their own module)
+
+main.add_command(calibrate)
+main.add_command(calibrate_intrinsics)
