@@ -177,7 +177,7 @@ def plot_trajectory(name: str, camera, track, trajectory: Trajectory, line, path
     points = [position_at(trajectory, s) for s in samples]
     keep = np.array([p is not None for p in points], dtype=bool)
     fig, ax = plt.subplots(figsize=(6, 4.5))
-    ax.plot(track.x, track.y, ".", ms=2, c="tab:green", label="tracked")
+    ax.plot(track.x, track.y, "o", ms=4, mfc="none", mew=0.6, c="tab:green", label="tracked")
     if keep.any():
         uv, valid = camera.project(np.array([p for p in points if p is not None]))
         ax.plot(uv[valid, 0], uv[valid, 1], ".", ms=2, c="tab:red", label="trajectory projected at aligned times")
