@@ -3,11 +3,7 @@
 import csv
 import json
 import os
-import subprocess
-import sys
-import textwrap
 
-import numpy as np
 import pytest
 from click.testing import CliRunner
 

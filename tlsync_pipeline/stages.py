@@ -15,6 +15,7 @@ A file the user brings in the project file (``camera = ...``, ``track = ...``,
 from __future__ import annotations
 
 import dataclasses
+import glob
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable
@@ -124,12 +125,12 @@ def build_graph(project: Project, work: Path, options: Options = Options()) -> G
     def add(task: Task) -> None:
         tasks[task.id] = task
 
-    trajectory, trajectory_dep = _trajectory_source(project, work, add, given)
+    trajectory, trajectory_dep = _trajectory_source(project, work, add, given, options.progress)
     cameras = {}
     for spec in project.cameras:
         name = spec["name"]
-        camera_file, camera_dep = _camera_source(project, spec, work, add, given)
-        track_file, track_dep = _track_source(project, spec, work, add, given)
+        camera_file, camera_dep = _camera_source(project, spec, work, add, given, options.progress)
+        track_file, track_dep = _track_source(project, spec, work, add, given, options.progress)
         deps = [d for d in (camera_dep, track_dep, trajectory_dep) if d]
         votes = layout.votes_npz(work, name)
         add(
@@ -183,28 +184,72 @@ def build_graph(project: Project, work: Path, options: Options = Options()) -> G
     return Graph(project, work, tasks, given)
 
 
-def _trajectory_source(project: Project, work: Path, add, given) -> tuple[Path, str | None]:
+def _trajectory_source(project: Project, work: Path, add, given, progress: bool = True) -> tuple[Path, str | None]:
     path = project.target.get("trajectory")
     if path is not None:
         given["ingest"] = Given("ingest", None, path)
         return path, None
-    raise InputError(f"{project.path}: [target]: missing key 'trajectory' (the target's trajectory CSV)")
+    log = project.target.get("log")
+    if log is None:
+        raise InputError(f"{project.path}: [target]: give 'log' (a GPS or odometry log to ingest) or 'trajectory' (a metric trajectory CSV)")
+    inputs = {"log": Path(log), **_origin_inputs(project)}
+    params = {k: v for k, v in project.target.items() if k not in ("trajectory", "log")}
+    out = layout.trajectory_csv(work)
+    add(Task("ingest", None, inputs, params, [out, layout.ingest_report(work)], [], run_ingest, {"project": project, "work": work}))
+    return out, "ingest"
 
 
-def _camera_source(project: Project, spec: dict, work: Path, add, given) -> tuple[Path, str | None]:
+def _origin_inputs(project: Project) -> dict[str, Path]:
+    """Without ``[target] origin``, the ENU origin comes from every camera's GCPs: they are all inputs."""
+    if project.target.get("origin") is not None:
+        return {}
+    gcps = {}
+    for spec in project.cameras:
+        gcp = (spec.get("calibration") or {}).get("gcp")
+        if gcp is not None:
+            gcps[f"origin-gcp:{spec['name']}"] = Path(gcp)
+    return gcps
+
+
+def _camera_source(project: Project, spec: dict, work: Path, add, given, progress: bool = True) -> tuple[Path, str | None]:
     name = spec["name"]
     if spec["camera"] is not None:
         given[f"calibrate/{name}"] = Given("calibrate", name, spec["camera"])
         return spec["camera"], None
-    raise InputError(f"{project.path}: camera {name!r}: missing key 'camera': the camera's calibration (camera.json)")
+    calibration = spec.get("calibration") or {}
+    if not any(calibration.get(k) is not None for k in ("images", "video", "intrinsics", "gcp", "board_pose")):
+        raise InputError(f"{project.path}: camera {name!r}: give 'camera' (a camera.json) or a [cameras.calibration] table to calibrate it from")
+    inputs: dict[str, Path] = {}
+    if calibration.get("images") is not None:
+        matches = sorted(glob.glob(str(calibration["images"])))
+        if not matches:
+            raise InputError(f"{project.path}: camera {name!r}: [cameras.calibration] images: no file matches {calibration['images']}")
+        inputs.update({f"image:{Path(m).name}": Path(m) for m in matches})
+    for key in ("video", "intrinsics", "gcp"):
+        if calibration.get(key) is not None:
+            inputs[key] = Path(calibration[key])
+    if calibration.get("board_pose") is not None:
+        inputs["board_pose_image"] = Path(calibration["board_pose"]["image"])
+    if calibration.get("gcp") is not None:
+        inputs.update(_origin_inputs(project))
+    params = {"calibration": {k: v for k, v in calibration.items() if k != "images"}, "fps": spec["fps"], "origin": project.target.get("origin")}
+    out = layout.camera_json(work, name)
+    outputs = [out, layout.calibration_report(work, name), layout.calibration_picture(work, name)]
+    add(Task("calibrate", name, inputs, params, outputs, [], run_calibrate, {"project": project, "name": name, "work": work, "progress": progress}))
+    return out, f"calibrate/{name}"
 
 
-def _track_source(project: Project, spec: dict, work: Path, add, given) -> tuple[Path, str | None]:
+def _track_source(project: Project, spec: dict, work: Path, add, given, progress: bool = True) -> tuple[Path, str | None]:
     name = spec["name"]
     if spec["track"] is not None:
         given[f"track/{name}"] = Given("track", name, spec["track"])
         return spec["track"], None
-    raise InputError(f"{project.path}: camera {name!r}: missing key 'track': the camera's track (track.csv)")
+    if spec.get("video") is None:
+        raise InputError(f"{project.path}: camera {name!r}: give 'track' (a track.csv) or 'video' (to track the target in)")
+    params = {"tracker": spec.get("tracker"), "fps": spec["fps"]}
+    out = layout.track_csv(work, name)
+    add(Task("track", name, {"video": Path(spec["video"])}, params, [out], [], run_track, {"spec": spec, "out": out, "progress": progress}))
+    return out, f"track/{name}"
 
 
 def check_given(graph: Graph) -> None:
@@ -220,6 +265,36 @@ def check_given(graph: Graph) -> None:
 
 # ---------------------------------------------------------------------------
 # Stage functions (run in worker processes; plain arguments, atomic writes)
+
+
+def run_calibrate(project: Project, name: str, work: Path, progress: bool = True) -> dict:
+    """The calibrate stage: camera.json, calibration_report.json and calibration.png of one camera."""
+    from tlsync_pipeline.calibrate import calibrate_camera, write_calibration
+
+    camera, report = calibrate_camera(project, project.camera(name), progress=progress)
+    write_calibration(work, camera, report)
+    intrinsics = report.get("intrinsics") or {}
+    pose = report.get("pose") or {}
+    return {k: v for k, v in {"rms_px": intrinsics.get("rms_px"), "pose_rms_px": pose.get("rms_px")}.items() if v is not None}
+
+
+def run_track(spec: dict, out: Path, progress: bool = True) -> dict:
+    """The track stage: the target's track in one camera's video, ``track.csv``."""
+    from tlsync_pipeline.track_stage import track_camera
+    from trackers.track import write_track
+
+    track = track_camera(spec, progress=progress)
+    with atomic_path(out) as tmp:
+        write_track(track, tmp)
+    return {"tracked_frames": len(track)}
+
+
+def run_ingest(project: Project, work: Path) -> dict:
+    """The ingest stage: the target's log into ``target/trajectory.csv`` and its report."""
+    from tlsync_pipeline.ingest.stage import ingest_project
+
+    ingest_project(project, work)
+    return {}
 
 
 def save_votes(path: Path, votes, error: str | None = None) -> None:
