@@ -200,8 +200,8 @@ def _trajectory_source(project: Project, work: Path, add, given, progress: bool 
 
 
 def _origin_inputs(project: Project) -> dict[str, Path]:
-    """Without ``[target] origin``, the ENU origin comes from every camera's GCPs: they are all inputs."""
-    if project.target.get("origin") is not None:
+    """When the ENU origin is the centroid of every camera's GCPs (no ``[target] origin``, or "gcps"), they are all inputs."""
+    if project.target.get("origin") not in (None, "gcps"):
         return {}
     gcps = {}
     for spec in project.cameras:
