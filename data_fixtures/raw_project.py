@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from data_fixtures.scene import ZONE_HALF_WIDTH_M, Scene, make_scene
+from data_fixtures.scene import Scene, make_scene
 from tlsync_pipeline.geodesy import Origin, enu_to_geodetic
 
 ORIGIN = Origin(46.5197, 6.6323, 380.0)
@@ -91,25 +91,23 @@ def make_raw_project(directory: str | Path, spec: RawProjectSpec = RawProjectSpe
 
 
 def _write_gcps(path: Path, camera, scene: Scene, name: str, count: int, rng) -> None:
-    """``count`` surveyed points spread over the camera's view of its zone: u,v,lat,lon,alt."""
-    track = scene.tracks[name]
-    # Points of the zone the camera looks at: around where the target is seen, from the ground to 4 m.
-    seen = scene.true_trajectory.xyz[np.unique(np.clip(np.round((track.frame - scene.lines[name].beta) / scene.lines[name].alpha).astype(int), 0, len(scene.true_trajectory) - 1))]
-    centre = seen.mean(axis=0)
+    """``count`` surveyed points spread over the camera's image, at the depths where the target moves: u,v,lat,lon,alt."""
+    line = scene.lines[name]
+    samples = np.clip(np.round((scene.tracks[name].frame - line.beta) / line.alpha).astype(int), 0, len(scene.true_trajectory) - 1)
+    depth = (scene.true_trajectory.xyz[samples] @ camera.R.T + camera.t)[:, 2]
     w, h = camera.image_size
-    chosen: list[tuple[np.ndarray, np.ndarray]] = []
-    for _ in range(2000):
-        point = centre + np.array([*rng.uniform(-1.5, 1.5, 2) * ZONE_HALF_WIDTH_M, 0.0])
-        point[2] = rng.uniform(0.0, 4.0)
-        uv, valid = camera.project(point[None, :])
-        if valid[0] and 0.05 * w < uv[0, 0] < 0.95 * w and 0.05 * h < uv[0, 1] < 0.95 * h:
-            if all(np.linalg.norm(uv[0] - c[1]) > 0.12 * w for c in chosen):
-                chosen.append((point, uv[0]))
-        if len(chosen) == count:
-            break
-    if len(chosen) < 6:
-        raise ValueError(f"{name}: only {len(chosen)} ground control points found in the view")
-    geo = enu_to_geodetic(np.array([c[0] for c in chosen]), ORIGIN)
+    cells = [(i, j) for i in range(4) for j in range(3)]
+    order = rng.permutation(len(cells))[:count]
+    world = []
+    for k in order:  # one point per cell of a 4 x 3 grid over the image: a good spread
+        i, j = cells[k]
+        u, v = (i + rng.uniform(0.2, 0.8)) * w / 4, (j + rng.uniform(0.2, 0.8)) * h / 3
+        ray = np.linalg.solve(camera.K, [u, v, 1.0])
+        world.append(camera.R.T @ (rng.uniform(np.quantile(depth, 0.1), np.quantile(depth, 0.9)) * ray - camera.t))
+    world = np.array(world)
+    uv, valid = camera.project(world)
+    keep = valid & camera.in_image(uv)
+    geo = enu_to_geodetic(world[keep], ORIGIN)
     rows = ["name,u,v,lat,lon,alt"]
-    rows += [f"P{i + 1},{uv[0]:.2f},{uv[1]:.2f},{lat:.8f},{lon:.8f},{alt:.3f}" for i, ((_, uv), (lat, lon, alt)) in enumerate(zip(chosen, geo))]
+    rows += [f"P{i + 1},{p[0]:.2f},{p[1]:.2f},{lat:.8f},{lon:.8f},{alt:.3f}" for i, (p, (lat, lon, alt)) in enumerate(zip(uv[keep], geo))]
     path.write_text("\n".join(rows) + "\n", encoding="utf-8")
