@@ -176,8 +176,9 @@ def _schedule(graph: Graph, executor, wanted: list[str], force: set[str], memo: 
                 why = "forced" if not reasons else reasons[0]
                 echo(f"{tid}: running ({why})")
                 local = task.stage not in PER_CAMERA
+                start = time.perf_counter()
                 future = (SerialExecutor() if local else executor).submit(task.fn, task.kwargs)
-                running[future] = (task, key, inputs, time.perf_counter())
+                running[future] = (task, key, inputs, start)
                 if local:
                     break  # finish it before scheduling more, its dependents may now be ready
         if not running:
