@@ -351,20 +351,17 @@ def read_camera_inputs(cameras: dict[str, dict]) -> dict:
 
 
 def run_sync(cameras: dict[str, dict], trajectory: Path, params: dict, out: Path) -> dict:
-    """The sync stage: each camera's line from its votes, the timeline, ``timeline.json``."""
+    """The sync stage: each camera's line and the timeline, ``timeline.json``.
+
+    The sync method computes the votes it fits from the same camera, track and
+    trajectory files as the vote stage (with its own trajectory handling);
+    ``votes.npz`` is what render draws and what orders the stages.
+    """
     from tlsync_pipeline.sync import synchronize
     from tlsync_pipeline.timeline import write_timeline
     from tlsync_pipeline.trajectory import read_trajectory
 
-    inputs = read_camera_inputs(cameras)
-    votes, failed = {}, {}
-    for name, c in cameras.items():
-        votes[name], error = load_votes(c["votes"])
-        if error:
-            failed[name] = error
-    usable = {n: v for n, v in inputs.items() if n not in failed}
-    timeline, _ = synchronize(usable, read_trajectory(trajectory), SyncParams(**params), votes)
-    timeline = dataclasses.replace(timeline, failed={n: failed.get(n) or timeline.failed[n] for n in cameras if n in failed or n in timeline.failed})
+    timeline, _ = synchronize(read_camera_inputs(cameras), read_trajectory(trajectory), SyncParams(**params))
     with atomic_path(out) as tmp:
         write_timeline(timeline, tmp)
     return {"synchronized": timeline.names, "failed": timeline.failed}

@@ -35,10 +35,9 @@ class CameraResult:
     line: CameraLine
 
 
-def synchronize_camera(name: str, inputs: CameraInput, trajectory: Trajectory, params: SyncParams, votes: Votes | None = None) -> CameraResult:
-    """Votes (computed unless given) and the RANSAC line of one camera; SyncError if it cannot be synchronized."""
-    if votes is None:
-        votes = compute_votes(inputs.camera, inputs.track, trajectory, params.eps_px)
+def synchronize_camera(name: str, inputs: CameraInput, trajectory: Trajectory, params: SyncParams) -> CameraResult:
+    """Votes and the RANSAC line of one camera; SyncError if it cannot be synchronized."""
+    votes = compute_votes(inputs.camera, inputs.track, trajectory, params.eps_px)
     try:
         fit = fit_line_ransac(votes.sample, votes.frame, params.delta, params.p, params.r, params.seed)
     except ValueError as exc:
@@ -47,10 +46,8 @@ def synchronize_camera(name: str, inputs: CameraInput, trajectory: Trajectory, p
     return CameraResult(votes, fit, line)
 
 
-def synchronize(
-    cameras: dict[str, CameraInput], trajectory: Trajectory, params: SyncParams, votes: dict[str, Votes] | None = None
-) -> tuple[Timeline, dict[str, CameraResult]]:
-    """The timeline of all cameras that can be synchronized (votes: precomputed per camera, optional).
+def synchronize(cameras: dict[str, CameraInput], trajectory: Trajectory, params: SyncParams) -> tuple[Timeline, dict[str, CameraResult]]:
+    """The timeline of all cameras that can be synchronized.
 
     Cameras that cannot are listed in ``Timeline.failed`` with the reason.
     """
@@ -58,7 +55,7 @@ def synchronize(
     failed: dict[str, str] = {}
     for name, inputs in cameras.items():
         try:
-            results[name] = synchronize_camera(name, inputs, trajectory, params, (votes or {}).get(name))
+            results[name] = synchronize_camera(name, inputs, trajectory, params)
         except SyncError as exc:
             failed[name] = str(exc)
     timeline = Timeline(
