@@ -11,6 +11,7 @@ from pathlib import Path
 import click
 
 from tlsync_pipeline import pipeline_cli
+from tlsync_pipeline.demo import demo as demo_command
 from tlsync_pipeline.errors import INPUT_ERRORS, SyncError
 from tlsync_pipeline.layout import report_md, timeline_json
 from tlsync_pipeline.pipeline_cli import execute, finish, run_options
@@ -59,24 +60,5 @@ def run(project_file: Path, work_dir: Path | None, out_dir: Path | None, truth: 
         sys.exit(EXIT_SYNC_FAILED)
 
 
-@main.command()
-@click.argument("directory", required=False, type=click.Path(file_okay=False, path_type=Path), default=Path("tlsync-demo"))
-@click.option("--seed", default=0, show_default=True, help="Scene seed.")
-@click.option("--tracking-noise", default=1.0, show_default=True, help="Tracking noise S_t (pixels).")
-def demo(directory: Path, seed: int, tracking_noise: float) -> None:
-    """Build a synthetic three-camera scene in DIRECTORY, synchronize it, compare with the truth."""
-    from data_fixtures.scene import make_scene, write_scene
-
-    scene = make_scene(seed, lines=((2.0, 4.0), (2.0, 45.0), (1.0, -30.5)), n_frames=(512, 512, 300), tracking_noise_px=tracking_noise)
-    project_file = write_scene(scene, directory)
-    click.echo(f"demo scene written to {directory}/ (project: {project_file.name}, truth: truth.json)\n")
-    graph, summary = execute(project_file, None, None, jobs=1, quiet=True)
-    finish(summary)
-    timeline = read_timeline(timeline_json(graph.work))
-    click.echo("\n" + format_table(timeline))
-    table, errors = format_truth_comparison(timeline, scene.truth_pairs(), scene.n_frames)
-    click.echo("\nrecovered against true relations:\n" + table)
-    click.echo(f"\nworst eps_t: {max(errors.values()):.3f} frames; timeline: {timeline_json(graph.work)}; report: {report_md(graph.work)}")
-
-
 pipeline_cli.register(main)
+main.add_command(demo_command)
