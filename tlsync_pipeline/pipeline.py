@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from tlsync_pipeline import layout
+from tlsync_pipeline.atomic import PART_SUFFIX
 from tlsync_pipeline.cache import HashMemo, Manifest, cache_key, read_manifest, staleness, write_manifest
 from tlsync_pipeline.executors import SerialExecutor
 from tlsync_pipeline.lock import WorkLock
@@ -121,6 +122,7 @@ def run_graph(
     summary = RunSummary()
     check_given(graph)
     with WorkLock(graph.work):
+        _remove_leftovers(graph.work)
         memo = HashMemo(layout.hash_memo(graph.work))
         try:
             _schedule(graph, executor, wanted, force, memo, summary, echo or (lambda message: None))
@@ -131,6 +133,12 @@ def run_graph(
             memo.save()
         executor.close()
     return summary
+
+
+def _remove_leftovers(work: Path) -> None:
+    """Delete temporary files a killed run left behind (safe: this run holds the lock)."""
+    for leftover in work.rglob(f".*{PART_SUFFIX}"):
+        leftover.unlink(missing_ok=True)
 
 
 def _closure(graph: Graph, targets: list[str]) -> list[str]:

@@ -157,7 +157,7 @@ def plot_votes(name: str, votes, line, delta: float, path: Path) -> Path:
     ax.scatter(votes.sample[~inliers], votes.frame[~inliers], s=2, c="0.6", label=f"votes ({len(votes)})", rasterized=True)
     ax.scatter(votes.sample[inliers], votes.frame[inliers], s=4, c="tab:red", label=f"inliers ({int(inliers.sum())})")
     xs = np.array([votes.sample.min(), votes.sample.max()]) if len(votes) else np.array([0.0, 1.0])
-    ax.plot(xs, line.alpha * xs + line.beta, "k-", lw=1, label=f"frame = {line.alpha:.4f} sample + {line.beta:.2f}")
+    ax.plot(xs, line.alpha * xs + line.beta, "k-", lw=1, label=f"frame = {line.alpha:.4f} sample {line.beta:+.2f}")
     ax.set_xlabel("target sample t_r")
     ax.set_ylabel(f"frame of {name} t_c")
     ax.set_title(f"{name}: voting space")
