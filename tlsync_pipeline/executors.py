@@ -70,8 +70,14 @@ class ProcessExecutor:
         return list(done)
 
     def close(self, cancel: bool = False) -> None:
+        """Wait for the workers to finish; with cancel (an interrupted run), stop them at once."""
         if self._pool is not None:
-            self._pool.shutdown(wait=True, cancel_futures=cancel)
+            if cancel:
+                # No public API before Python 3.14 (terminate_workers): stop the running tasks too,
+                # their artefacts are written atomically and get no manifest.
+                for process in list(getattr(self._pool, "_processes", {}).values()):
+                    process.terminate()
+            self._pool.shutdown(wait=not cancel, cancel_futures=cancel)
             self._pool = None
         for var, value in self._saved_env.items():
             if value is None:
