@@ -84,7 +84,8 @@ def status(graph: Graph) -> list[TaskState]:
             state = "stale"
         else:
             state = "fresh"
-        reasons += [f"waits for {d} ({rows[d].state})" for d in waiting]
+        if waiting:
+            reasons.append("waits for " + ", ".join(f"{d} ({rows[d].state})" for d in waiting))
         rows[tid] = TaskState(tid, task.stage, task.camera, state, reasons)
     memo.save()
     order = {s: i for i, s in enumerate(("calibrate", "track", "ingest", "vote", "sync", "export", "render"))}

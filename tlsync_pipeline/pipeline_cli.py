@@ -74,6 +74,8 @@ def execute(project_file: Path, work_dir, out_dir, *, force_stages=(), cameras=(
             targets += graph.select(targets_stage, camera)
         force.update(targets)
     elif cameras:
+        if not force_stages:
+            raise InputError("--camera goes with --force STAGE (tlsync run re-runs only what is not fresh, for every camera)")
         force = {t for t in force if graph.tasks[t].camera in (None, *cameras)}
     executor = make_executor(executor_kind, jobs, scheduler)
     summary = run_graph(graph, executor, force, targets, None if quiet else lambda m: click.echo(m, err=True))
