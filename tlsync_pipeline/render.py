@@ -13,7 +13,9 @@ times (Fig. 4 a, b). Per pair of cameras A, B with videos:
   from the trajectory at that instant (red circle) and the tracked position
   (green cross); this is the check for views that do not overlap.
 
-Only the frames drawn are decoded. Everything else comes from the work folder.
+Only the frames drawn are read: each is reached by seeking (decoding starts
+at the keyframe before it), never by reading the video through. Everything
+else comes from the work folder.
 """
 
 from __future__ import annotations
