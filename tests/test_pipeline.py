@@ -64,16 +64,30 @@ def test_parameter_change_is_named_in_status(project_dir):
 def test_force_and_single_stage_commands(project_dir):
     toml = project_dir / "project.toml"
     assert _cli("run", toml, "-j", "1", "-q").exit_code == 0
-    result = _cli("run", toml, "-j", "1", "-q", "--force", "vote", "--camera", "cam0")
+    result = _cli("run", toml, "-j", "1", "--force", "vote", "--camera", "cam0")
     assert "ran: vote/cam0" in result.output
     # identical votes: nothing downstream re-runs (the cache looks at contents)
     assert "sync" not in result.output.split("ran:")[1].splitlines()[0]
-    result = _cli("vote", toml, "--camera", "cam1", "-j", "1", "-q")
+    result = _cli("vote", toml, "--camera", "cam1", "-j", "1")
     assert result.exit_code == 0 and "ran 1," in result.output and "ran: vote/cam1" in result.output
-    result = _cli("sync", toml, "--camera", "cam1", "-j", "1", "-q")
+    result = _cli("sync", toml, "--camera", "cam1", "-j", "1")
     assert "ran: sync" in result.output
+    assert _cli("sync", toml, "-j", "1", "-q").output == ""
     result = _cli("vote", toml, "--camera", "nope", "-j", "1")
     assert result.exit_code == 2 and "no camera named 'nope'" in result.output
+
+
+def test_a_camera_without_inputs_blocks_only_what_needs_it(project_dir):
+    toml = project_dir / "project.toml"
+    toml.write_text(toml.read_text().replace('track = "cam1/track.csv"\n', ""))
+    states = _states(project_dir)
+    assert states["vote/cam1"].state == "blocked" and "give 'track'" in states["vote/cam1"].reasons[0]
+    assert states["sync"].state == "blocked" and states["vote/cam0"].state == "missing"
+    result = _cli("run", toml, "-j", "1")
+    assert result.exit_code == 2 and "camera 'cam1': give 'track' (a track.csv) or 'video'" in result.output
+    assert not (project_dir / "work").exists()
+    result = _cli("vote", toml, "--camera", "cam0", "-j", "1")
+    assert result.exit_code == 0 and "ran: vote/cam0" in result.output
 
 
 def test_artefact_without_manifest_or_modified_is_not_fresh(project_dir):

@@ -20,6 +20,7 @@ from tlsync_pipeline import layout
 from tlsync_pipeline.atomic import PART_SUFFIX
 from tlsync_pipeline.cache import HashMemo, Manifest, cache_key, read_manifest, staleness, write_manifest
 from tlsync_pipeline.executors import SerialExecutor
+from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.lock import WorkLock
 from tlsync_pipeline.stages import PER_CAMERA, Graph, Task, check_given
 
@@ -66,7 +67,7 @@ def task_reasons(graph: Graph, task: Task, memo: HashMemo) -> list[str]:
 
 
 def status(graph: Graph) -> list[TaskState]:
-    """Every stage per camera: fresh, stale (with reasons), missing, or given by the user.
+    """Every stage per camera: fresh, stale (with reasons), missing, given by the user, or blocked.
 
     A task whose input-making task is not fresh is stale ("waits for ...")
     even if its own manifest still matches: it will run after that one.
@@ -78,7 +79,9 @@ def status(graph: Graph) -> list[TaskState]:
     for tid, task in graph.tasks.items():
         reasons = task_reasons(graph, task, memo)
         waiting = [d for d in task.deps if d in rows and rows[d].state in ("stale", "missing")]
-        if not manifest_path(graph, task).exists():
+        if task.problem:
+            state, reasons = "blocked", [task.problem]
+        elif not manifest_path(graph, task).exists():
             state = "missing"
         elif reasons or waiting:
             state = "stale"
@@ -121,7 +124,10 @@ def run_graph(
     force = set(force or ())
     wanted = _closure(graph, targets) if targets is not None else list(graph.tasks)
     summary = RunSummary()
-    check_given(graph)
+    for tid in wanted:
+        if graph.tasks[tid].problem:
+            raise InputError(graph.tasks[tid].problem)
+    check_given(graph, wanted)
     with WorkLock(graph.work):
         _remove_leftovers(graph.work)
         memo = HashMemo(layout.hash_memo(graph.work))

@@ -79,15 +79,19 @@ def execute(project_file: Path, work_dir, out_dir, *, force_stages=(), cameras=(
         force = {t for t in force if graph.tasks[t].camera in (None, *cameras)}
     executor = make_executor(executor_kind, jobs, scheduler)
     summary = run_graph(graph, executor, force, targets, None if quiet else lambda m: click.echo(m, err=True))
-    click.echo(format_summary(summary))
+    if not quiet:
+        click.echo(format_summary(summary))
     return graph, summary
 
 
 def format_summary(summary: RunSummary) -> str:
-    """One line of counts, then what ran and failed."""
+    """One line of counts, what ran (with the messages of the stages that have one) and what was skipped."""
     text = f"ran {len(summary.ran)}, fresh {len(summary.fresh)}, failed {len(summary.failed)}, skipped {len(summary.skipped)}"
     if summary.ran:
         text += "\nran: " + ", ".join(summary.ran)
+    for tid in summary.ran:
+        if summary.summaries[tid].get("message"):
+            text += f"\n{tid}: {summary.summaries[tid]['message']}"
     for tid, why in summary.skipped.items():
         text += f"\nskipped {tid}: {why}"
     return text

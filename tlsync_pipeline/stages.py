@@ -45,6 +45,7 @@ class Task:
     deps: list[str]
     fn: Callable[..., dict]
     kwargs: dict[str, Any] = field(default_factory=dict)
+    problem: str | None = None  # why it cannot run (an input the project does not say how to make)
 
     @property
     def id(self) -> str:
@@ -125,24 +126,39 @@ def build_graph(project: Project, work: Path, options: Options = Options()) -> G
     def add(task: Task) -> None:
         tasks[task.id] = task
 
-    trajectory, trajectory_dep = _trajectory_source(project, work, add, given, options.progress)
+    problems: list[str] = []
+
+    def source(make, *args):
+        """(path, producing task) of an input, or (None, None) with the reason kept in ``problems``."""
+        try:
+            return make(project, *args, work, add, given, options.progress)
+        except InputError as exc:
+            problems.append(str(exc))
+            return None, None
+
+    trajectory, trajectory_dep = source(_trajectory_source)
+    trajectory_problem = problems[-1] if trajectory is None else None
     cameras = {}
     for spec in project.cameras:
         name = spec["name"]
-        camera_file, camera_dep = _camera_source(project, spec, work, add, given, options.progress)
-        track_file, track_dep = _track_source(project, spec, work, add, given, options.progress)
+        before = len(problems)
+        camera_file, camera_dep = source(_camera_source, spec)
+        track_file, track_dep = source(_track_source, spec)
         deps = [d for d in (camera_dep, track_dep, trajectory_dep) if d]
         votes = layout.votes_npz(work, name)
+        inputs = {k: v for k, v in {"camera": camera_file, "track": track_file, "trajectory": trajectory}.items() if v is not None}
+        problem = problems[before] if len(problems) > before else trajectory_problem
         add(
             Task(
                 "vote",
                 name,
-                {"camera": camera_file, "track": track_file, "trajectory": trajectory},
+                inputs,
                 {"eps_px": project.sync.eps_px},
                 [votes],
                 deps,
                 run_vote,
                 {"name": name, "camera": camera_file, "track": track_file, "trajectory": trajectory, "eps_px": project.sync.eps_px, "out": votes},
+                problem,
             )
         )
         cameras[name] = {"camera": camera_file, "track": track_file, "votes": votes, "fps": spec["fps"], "video": spec.get("video"), "deps": deps + [f"vote/{name}"]}
@@ -181,10 +197,16 @@ def build_graph(project: Project, work: Path, options: Options = Options()) -> G
             {"cameras": camera_args, "trajectory": trajectory, "timeline": timeline, "work": work, "truth": render_inputs.get("truth"), **{k: v for k, v in render_params.items() if k != "delta"}, "delta": project.sync.delta},
         )
     )
+    if problems:
+        for task in tasks.values():
+            if task.camera is None and task.stage != "ingest":
+                task.problem = problems[0]
+                task.inputs = {k: v for k, v in task.inputs.items() if v is not None}
     return Graph(project, work, tasks, given)
 
 
 def _trajectory_source(project: Project, work: Path, add, given, progress: bool = True) -> tuple[Path, str | None]:
+    """The trajectory file and the task that makes it (None when the project brings it); InputError when neither."""
     path = project.target.get("trajectory")
     if path is not None:
         given["ingest"] = Given("ingest", None, path)
@@ -252,15 +274,17 @@ def _track_source(project: Project, spec: dict, work: Path, add, given, progress
     return out, f"track/{name}"
 
 
-def check_given(graph: Graph) -> None:
-    """Read every artefact the user brings, so bad input stops the run before any stage runs."""
+def check_given(graph: Graph, wanted: list[str]) -> None:
+    """Read the artefacts the user brings that ``wanted`` tasks use, so bad input stops the run before any stage runs."""
     from calibration.camera import read_camera
     from tlsync_pipeline.trajectory import read_trajectory
     from trackers.track import read_track
 
     readers = {"calibrate": read_camera, "track": read_track, "ingest": read_trajectory}
+    used = {path for tid in wanted for path in graph.tasks[tid].inputs.values()}
     for item in graph.given.values():
-        readers[item.stage](item.path)
+        if item.path in used:
+            readers[item.stage](item.path)
 
 
 # ---------------------------------------------------------------------------
@@ -293,8 +317,8 @@ def run_ingest(project: Project, work: Path) -> dict:
     """The ingest stage: the target's log into ``target/trajectory.csv`` and its report."""
     from tlsync_pipeline.ingest.stage import ingest_project
 
-    ingest_project(project, work)
-    return {}
+    report = ingest_project(project, work)
+    return {"message": report.summary()}
 
 
 def save_votes(path: Path, votes, error: str | None = None) -> None:
