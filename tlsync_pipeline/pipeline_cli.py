@@ -79,22 +79,22 @@ def execute(project_file: Path, work_dir, out_dir, *, force_stages=(), cameras=(
         force = {t for t in force if graph.tasks[t].camera in (None, *cameras)}
     executor = make_executor(executor_kind, jobs, scheduler)
     summary = run_graph(graph, executor, force, targets, None if quiet else lambda m: click.echo(m, err=True))
-    if not quiet:
-        click.echo(format_summary(summary))
+    text = format_summary(summary, counts=not quiet)
+    if text:
+        click.echo(text)
     return graph, summary
 
 
-def format_summary(summary: RunSummary) -> str:
-    """One line of counts, what ran (with the messages of the stages that have one) and what was skipped."""
-    text = f"ran {len(summary.ran)}, fresh {len(summary.fresh)}, failed {len(summary.failed)}, skipped {len(summary.skipped)}"
-    if summary.ran:
-        text += "\nran: " + ", ".join(summary.ran)
-    for tid in summary.ran:
-        if summary.summaries[tid].get("message"):
-            text += f"\n{tid}: {summary.summaries[tid]['message']}"
-    for tid, why in summary.skipped.items():
-        text += f"\nskipped {tid}: {why}"
-    return text
+def format_summary(summary: RunSummary, counts: bool = True) -> str:
+    """What ran and was skipped (with counts), then the result messages of the stages that have one."""
+    lines = []
+    if counts:
+        lines.append(f"ran {len(summary.ran)}, fresh {len(summary.fresh)}, failed {len(summary.failed)}, skipped {len(summary.skipped)}")
+        if summary.ran:
+            lines.append("ran: " + ", ".join(summary.ran))
+        lines += [f"skipped {tid}: {why}" for tid, why in summary.skipped.items()]
+    lines += [f"{tid}: {summary.summaries[tid]['message']}" for tid in summary.ran if summary.summaries[tid].get("message")]
+    return "\n".join(lines)
 
 
 def finish(summary: RunSummary) -> None:

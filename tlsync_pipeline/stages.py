@@ -296,10 +296,11 @@ def run_calibrate(project: Project, name: str, work: Path, progress: bool = True
     from tlsync_pipeline.calibrate import calibrate_camera, write_calibration
 
     camera, report = calibrate_camera(project, project.camera(name), progress=progress)
-    write_calibration(work, camera, report)
-    intrinsics = report.get("intrinsics") or {}
-    pose = report.get("pose") or {}
-    return {k: v for k, v in {"rms_px": intrinsics.get("rms_px"), "pose_rms_px": pose.get("rms_px")}.items() if v is not None}
+    paths = write_calibration(work, camera, report)
+    rms = (report.get("intrinsics") or {}).get("rms_px")
+    pose_rms = (report.get("pose") or {}).get("rms_px")
+    message = f"wrote {paths[0]}" + (f"; intrinsics RMS {rms:.3f} px" if rms is not None else "") + (f"; pose RMS {pose_rms:.2f} px" if pose_rms is not None else "")
+    return {"rms_px": rms, "pose_rms_px": pose_rms, "message": message}
 
 
 def run_track(spec: dict, out: Path, progress: bool = True) -> dict:
@@ -310,7 +311,7 @@ def run_track(spec: dict, out: Path, progress: bool = True) -> dict:
     track = track_camera(spec, progress=progress)
     with atomic_path(out) as tmp:
         write_track(track, tmp)
-    return {"tracked_frames": len(track)}
+    return {"tracked_frames": len(track), "message": f"wrote {out} ({len(track)} tracked frames)"}
 
 
 def run_ingest(project: Project, work: Path) -> dict:
