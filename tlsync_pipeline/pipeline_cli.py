@@ -137,6 +137,9 @@ def stage_command(stage: str, help_text: str, render: bool = False) -> click.Com
     return click.command(stage)(command)
 
 
+calibrate_command = stage_command("calibrate", "Re-run the calibrate stage: camera.json, calibration_report.json, calibration.png per camera.")
+track_command = stage_command("track", "Re-run the track stage: the target's track.csv in each camera's video.")
+ingest_command = stage_command("ingest", "Re-run the ingest stage: the [target] log into target/trajectory.csv and ingest_report.json.")
 vote_command = stage_command("vote", "Re-run the vote stage: (frame, sample) pairs within eps_px, per camera.")
 sync_command = stage_command("sync", "Re-run the sync stage: each camera's line and the timeline (timeline.json).")
 export_command = stage_command("export", "Re-run the export stage: frame map, offsets and ffmpeg commands.")
@@ -152,5 +155,5 @@ def run_options(f):
 def register(group: click.Group) -> None:
     """Add the pipeline's commands to the ``tlsync`` group."""
     group.add_command(status_command, "status")
-    for cmd in (vote_command, sync_command, export_command, render_command):
+    for cmd in (calibrate_command, track_command, ingest_command, vote_command, sync_command, export_command, render_command):
         group.add_command(cmd)
