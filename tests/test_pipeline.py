@@ -164,10 +164,10 @@ def test_process_executor_gives_the_same_timeline(project_dir, tmp_path):
 
 def test_dask_executor_on_a_local_cluster(project_dir, tmp_path):
     distributed = pytest.importorskip("distributed")
-    from tlsync_pipeline.executors import DaskExecutor
 
     with distributed.LocalCluster(n_workers=2, processes=False, threads_per_worker=1, dashboard_address=None) as cluster:
-        with distributed.Client(cluster) as client:
-            summary = run_graph(_graph(project_dir, tmp_path / "dask"), DaskExecutor(client))
-    assert sorted(summary.ran) == ["export", "render", "sync", "vote/cam0", "vote/cam1"]
+        result = _cli("run", project_dir / "project.toml", "--executor", "dask", "--scheduler", cluster.scheduler_address, "--work", tmp_path / "dask")
+    assert result.exit_code == 0, result.output
+    assert sorted(result.output.split("ran: ")[1].splitlines()[0].split(", ")) == ["export", "render", "sync", "vote/cam0", "vote/cam1"]
     assert json.loads((tmp_path / "dask" / "timeline.json").read_text())["cameras"]["cam1"]["alpha"] == pytest.approx(2.0, abs=0.01)
+    assert _cli("run", project_dir / "project.toml", "--executor", "dask").exit_code == 2  # needs --scheduler

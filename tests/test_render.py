@@ -84,3 +84,20 @@ def test_choose_frames_stays_where_both_cameras_record():
     frames = render.choose_frames(track, Relation(1.0, -250.0), n_a=500, n_b=400)
     assert len(frames) == 3 and all(250 <= f < 300 for f in frames)
     assert render.choose_frames(track, Relation(1.0, 10_000.0), n_a=500, n_b=400) == []
+
+
+def test_render_command_with_pair_and_frames(rendered_project, monkeypatch):
+    scene, folder = rendered_project
+    from tlsync_pipeline.stages import Options
+
+    project = load_project(folder / "project.toml")
+    graph = build_graph(project, folder / "work", Options(render_pairs=(("cam1", "cam0"),), render_frames=(150, 160)))
+    run_graph(graph, targets=["sync"])
+    requested = []
+    original = render.read_frames
+    monkeypatch.setattr(render, "read_frames", lambda path, indices: requested.append((path.name, sorted(indices))) or original(path, indices))
+    kwargs = dict(graph.tasks["render"].kwargs)
+    kwargs["cameras"] = {name: {**c, "video": folder / f"{name}.mp4"} for name, c in kwargs["cameras"].items()}
+    result = render.run_render(**kwargs)
+    assert any(p.endswith("swap_cam1_cam0.png") for p in result["outputs"])
+    assert ("cam0.mp4", [150, 160]) in requested
