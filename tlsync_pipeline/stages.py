@@ -78,28 +78,18 @@ class Graph:
     tasks: dict[str, Task]
     given: dict[str, Given]
 
-    def dependents(self, task_id: str) -> list[str]:
-        """Tasks that read, directly or not, what ``task_id`` makes."""
-        out: list[str] = []
-        for tid, task in self.tasks.items():
-            if task_id in task.deps or any(d in out for d in task.deps):
-                out.append(tid)
-        return out
-
-    def select(self, stage: str | None = None, camera: str | None = None) -> list[str]:
-        """Task ids of one stage and/or one camera; InputError when none match."""
-        if stage is not None and stage not in STAGES:
+    def select(self, stage: str, camera: str | None = None) -> list[str]:
+        """Task ids of one stage (for one camera: its task, or the project-wide one); InputError when none."""
+        if stage not in STAGES:
             raise InputError(f"unknown stage {stage!r}; stages: {', '.join(STAGES)}")
         if camera is not None:
             self.project.camera(camera)
-        ids = [t for t, task in self.tasks.items() if (stage is None or task.stage == stage) and (camera is None or task.camera in (camera, None))]
-        if stage is not None and camera is not None and stage not in PER_CAMERA:
-            ids = [t for t in ids if self.tasks[t].stage == stage]
+        ids = [t for t, task in self.tasks.items() if task.stage == stage and (camera is None or task.camera in (camera, None))]
         if not ids:
-            given = [g for g in self.given.values() if (stage is None or g.stage == stage) and (camera is None or g.camera == camera)]
+            given = [g for g in self.given.values() if g.stage == stage and (camera is None or g.camera == camera)]
             if given:
                 raise InputError(f"{given[0].id}: the project brings this artefact ({given[0].path}); there is no stage to run")
-            raise InputError(f"{self.project.path}: no stage {stage or ''} {('for camera ' + camera) if camera else ''} to run".replace("  ", " "))
+            raise InputError(f"{self.project.path}: nothing to run for stage {stage}" + (f" and camera {camera}" if camera else ""))
         return ids
 
 
