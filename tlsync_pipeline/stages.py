@@ -184,7 +184,7 @@ def build_graph(project: Project, work: Path, options: Options = Options()) -> G
             [layout.report_md(work)],
             ["sync", "export"] + sync_deps,
             _render_fn(),
-            {"cameras": camera_args, "trajectory": trajectory, "timeline": timeline, "work": work, "truth": render_inputs.get("truth"), **{k: v for k, v in render_params.items() if k != "delta"}, "delta": project.sync.delta},
+            {"cameras": camera_args, "trajectory": trajectory, "timeline": timeline, "work": work, "truth": render_inputs.get("truth"), **render_params},
         )
     )
     if problems:
