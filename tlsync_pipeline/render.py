@@ -30,7 +30,7 @@ from tlsync_pipeline import layout
 from tlsync_pipeline.atomic import atomic_path
 from tlsync_pipeline.exports import frame_count
 from tlsync_pipeline.ransac import distance_to_line
-from tlsync_pipeline.stages import load_votes, read_camera_inputs
+from tlsync_pipeline.stages import STAGES, load_votes, read_camera_inputs
 from tlsync_pipeline.timeline import Relation, Timeline, read_timeline, read_truth
 from tlsync_pipeline.trajectory import Trajectory, read_trajectory
 
@@ -290,17 +290,25 @@ def run_render(
 
 
 def write_report(timeline: Timeline, work: Path, pictures: list[Path], notes: list[str]) -> Path:
-    """A short Markdown report of the run: the timeline table, offsets, the pictures."""
+    """A short Markdown report of the run: the timeline table, the stages, exports and pictures."""
+    from tlsync_pipeline.cache import read_manifest
     from tlsync_pipeline.run import format_table
 
     lines = ["# tlsync run report", "", "## Timeline", "", "```", format_table(timeline), "```", ""]
-    offsets = layout.offsets_csv(work)
-    if offsets.exists():
+    manifests = [m for m in (read_manifest(p) for p in work.rglob("*.manifest.json")) if m is not None]
+    manifests.sort(key=lambda m: (STAGES.index(m.stage) if m.stage in STAGES else len(STAGES), m.camera or ""))
+    if manifests:
+        lines += ["## Stages", "", "| stage | camera | made (UTC) | seconds |", "|---|---|---|---:|"]
+        lines += [f"| {m.stage} | {m.camera or '-'} | {m.created} | {m.seconds:.1f} |" for m in manifests]
+        lines.append("")
+    if layout.offsets_csv(work).exists():
         lines += ["Exports: [frame map](exports/frame_map.csv), [offsets](exports/offsets.csv), [ffmpeg commands](exports/ffmpeg.sh).", ""]
+    calibrations = [layout.calibration_picture(work, name) for name in timeline.names if layout.calibration_picture(work, name).exists()]
     lines += ["## Pictures", ""]
-    for path in pictures:
+    for path in calibrations + list(pictures):
         rel = Path(path).relative_to(work).as_posix()
-        lines += [f"### {Path(path).stem}", "", f"![{Path(path).stem}]({rel})", ""]
+        title = rel.replace("/", " ").replace(".png", "")
+        lines += [f"### {title}", "", f"![{title}]({rel})", ""]
     if notes:
         lines += ["## Notes", ""] + [f"- {n}" for n in notes] + [""]
     path = layout.report_md(work)
