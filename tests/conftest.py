@@ -20,3 +20,19 @@ def project_dir(tmp_path: Path, paper_scene) -> Path:
     """A complete project folder of the paper scene; returns the folder."""
     write_scene(paper_scene, tmp_path)
     return tmp_path
+
+
+@pytest.fixture(scope="session")
+def boards():
+    """Rendered 9x6 checkerboard photos (800x600, 16 full, 2 cut off, 1 without a board) of a known camera."""
+    from data_fixtures.checkerboard import render_checkerboards
+
+    return render_checkerboards(seed=1, n_full=16, n_cut=2, n_absent=1, image_size=(800, 600))
+
+
+@pytest.fixture(scope="session")
+def board_dir(boards, tmp_path_factory) -> Path:
+    """The ``boards`` photos as PNG files plus truth.json in a folder."""
+    from data_fixtures.checkerboard import write_checkerboards
+
+    return write_checkerboards(boards, tmp_path_factory.mktemp("boards"))

@@ -60,5 +60,11 @@ def run(project_file: Path, work_dir: Path | None, out_dir: Path | None, truth: 
         sys.exit(EXIT_SYNC_FAILED)
 
 
-pipeline_cli.register(main)
+pipeline_cli.register(main)  # run, status and one command per stage (calibrate, ingest, ...), through the cache
 main.add_command(demo_command)
+
+from tlsync_pipeline.commands_calibrate import calibrate_intrinsics  # noqa: E402
+from tlsync_pipeline.ingest_cli import ingest_log_command  # noqa: E402
+
+main.add_command(calibrate_intrinsics)
+main.add_command(ingest_log_command)

@@ -23,6 +23,9 @@ class Origin:
     alt: float
 
     def __post_init__(self) -> None:
+        # Plain floats: a numpy scalar's repr would corrupt the PROJ pipeline string.
+        for name in ("lat", "lon", "alt"):
+            object.__setattr__(self, name, float(getattr(self, name)))
         if not (-90.0 <= self.lat <= 90.0 and -180.0 <= self.lon <= 180.0 and np.isfinite(self.alt)):
             raise ValueError(f"origin out of range: lat={self.lat}, lon={self.lon}, alt={self.alt}")
 

@@ -19,7 +19,11 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover - Python 3.10
     import tomli as tomllib
 
+import numpy as np
+from scipy.spatial.transform import Rotation
+
 from tlsync_pipeline.errors import InputError
+from tlsync_pipeline.geodesy import Origin
 
 WORK_DIR_NAME = "work"
 
@@ -77,14 +81,141 @@ def _integer(value: Any, root: Path) -> int:
     return value
 
 
+def _origin(value: Any, root: Path) -> Origin | str:
+    if value in ("first", "gcps"):
+        return value
+    if not isinstance(value, list) or len(value) != 3:
+        raise ValueError(f'expected "first", "gcps" or [lat, lon, alt] (degrees, degrees, metres), got {value!r}')
+    return Origin(*(_number(v) for v in value))
+
+
+def _glob(value: Any, root: Path) -> str:
+    if not isinstance(value, str) or not value:
+        raise ValueError(f"expected a file pattern (string, e.g. \"boards/*.jpg\"), got {value!r}")
+    return str(root / value)
+
+
+def _pattern(value: Any, root: Path) -> str:
+    parts = value.lower().split("x") if isinstance(value, str) else []
+    if len(parts) != 2 or not all(p.strip().isdigit() and int(p) >= 2 for p in parts):
+        raise ValueError(f"expected inner corners as \"COLSxROWS\" (e.g. \"7x6\" for a board of 8x7 squares), got {value!r}")
+    return value.lower().replace(" ", "")
+
+
+def _model(value: Any, root: Path) -> str:
+    if value not in CALIBRATION_MODELS:
+        raise ValueError(f"expected one of {', '.join(CALIBRATION_MODELS)}, got {value!r}")
+    return value
+
+
+def _board_pose(value: Any, root: Path) -> dict:
+    if not isinstance(value, dict):
+        raise ValueError("expected a table {image = \"board.jpg\", R = [[...], [...], [...]] or rvec = [...], t = [x, y, z]}")
+    unknown = set(value) - {"image", "R", "rvec", "t"}
+    if unknown:
+        raise ValueError(f"unknown key(s) {', '.join(sorted(unknown))}; expected image, R or rvec, t")
+    if "image" not in value or "t" not in value or ("R" in value) == ("rvec" in value):
+        raise ValueError("needs image, t and one of R (3x3) or rvec (3)")
+    try:
+        t = np.asarray(value["t"], dtype=np.float64)
+        rotation = np.asarray(value.get("R", value.get("rvec")), dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError("R, rvec and t must be numbers") from None
+    if t.shape != (3,) or not np.all(np.isfinite(t)):
+        raise ValueError(f"t: expected [x, y, z] metres, got {value['t']!r}")
+    if "rvec" in value:
+        if rotation.shape != (3,) or not np.all(np.isfinite(rotation)):
+            raise ValueError(f"rvec: expected 3 numbers (Rodrigues vector, radians), got {value['rvec']!r}")
+        R = Rotation.from_rotvec(rotation).as_matrix()
+    else:
+        R = rotation
+        if R.shape != (3, 3) or not np.all(np.isfinite(R)) or np.abs(R.T @ R - np.eye(3)).max() > 1e-3 or np.linalg.det(R) < 0:
+            raise ValueError("R: expected a 3x3 rotation matrix (list of rows)")
+    return {"image": _path(value["image"], root), "R": R, "t": t}
+
+
+def _count(value: Any, root: Path) -> int:
+    if _integer(value, root) < 1:
+        raise ValueError(f"expected a positive integer, got {value!r}")
+    return value
+
+
+CALIBRATION_MODELS = ("standard", "rational", "fisheye")
 TARGET_SCHEMA = {
     "trajectory": Field(_path),
+    "origin": Field(_origin),
 }
+# [cameras.calibration]: how the calibrate stage makes this camera's camera.json.
+CALIBRATION_SCHEMA = {
+    "images": Field(_glob),
+    "video": Field(_path),
+    "intrinsics": Field(_path),
+    "pattern": Field(_pattern),
+    "square": Field(_positive),
+    "model": Field(_model, "standard"),
+    "gcp": Field(_path),
+    "board_pose": Field(_board_pose),
+    "max_frames": Field(_count, 60),
+    "max_view_error": Field(_positive, 1.0),
+    "ransac_px": Field(_positive, 8.0),
+}
+
+
+def _log_format(value: Any, root: Path) -> str:
+    formats = ("auto", "gpx", "nmea", "csv", "odometry", "rosbag")
+    if value not in formats:
+        raise ValueError(f"expected one of {', '.join(formats)}, got {value!r}")
+    return value
+
+
+def _non_negative(value: Any, root: Path) -> float:
+    number = _number(value)
+    if number < 0:
+        raise ValueError(f"expected a number >= 0, got {value!r}")
+    return number
+
+
+def _text(value: Any, root: Path) -> str:
+    if not isinstance(value, str) or not value:
+        raise ValueError(f"expected a non-empty string, got {value!r}")
+    return value
+
+
+def _rigid_transform(value: Any, root: Path):
+    from tlsync_pipeline.ingest.process import RigidTransform
+
+    if not isinstance(value, dict) or not set(value) <= {"R", "yaw_deg", "t"} or ("R" in value and "yaw_deg" in value):
+        raise ValueError(f"expected {{R = 3x3 rotation or yaw_deg = degrees, t = [x, y, z] metres}}, got {value!r}")
+    t = value.get("t", [0.0, 0.0, 0.0])
+    if not isinstance(t, list) or len(t) != 3:
+        raise ValueError(f"t: expected [x, y, z] metres, got {t!r}")
+    t = [_number(v) for v in t]
+    if "yaw_deg" in value:
+        return RigidTransform.from_yaw(_number(value["yaw_deg"]), t)
+    R = value.get("R", [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
+    if not isinstance(R, list) or len(R) != 3 or not all(isinstance(r, list) and len(r) == 3 for r in R):
+        raise ValueError(f"R: expected a 3x3 rotation (list of 3 rows), got {R!r}")
+    return RigidTransform([[_number(v) for v in r] for r in R], t)
+
+
+# The ingest stage's keys ([target] log -> work/target/trajectory.csv); docs/ingest.md.
+INGEST_SCHEMA = {
+    "log": Field(_path),
+    "format": Field(_log_format, "auto"),
+    "topic": Field(_text),
+    "rate": Field(_positive),
+    "max_gap_s": Field(_positive),
+    "max_speed_mps": Field(_positive, 60.0),
+    "smoothing_s": Field(_non_negative, 0.0),
+    "odometry_transform": Field(_rigid_transform),
+}
+TARGET_SCHEMA.update(INGEST_SCHEMA)
 CAMERA_SCHEMA = {
     "name": Field(_name, required=True),
     "camera": Field(_path),
     "track": Field(_path),
     "fps": Field(_positive),
+    "calibration": CALIBRATION_SCHEMA,
 }
 SYNC_SCHEMA = {
     "eps_px": Field(_positive, 10.0),

@@ -228,8 +228,10 @@ def _camera_source(project: Project, spec: dict, work: Path, add, given, progres
     if spec["camera"] is not None:
         given[f"calibrate/{name}"] = Given("calibrate", name, spec["camera"])
         return spec["camera"], None
+    from tlsync_pipeline.calibrate import has_calibration
+
     calibration = spec.get("calibration") or {}
-    if not any(calibration.get(k) is not None for k in ("images", "video", "intrinsics", "gcp", "board_pose")):
+    if not has_calibration(spec):
         raise InputError(f"{project.path}: camera {name!r}: give 'camera' (a camera.json) or a [cameras.calibration] table to calibrate it from")
     inputs: dict[str, Path] = {}
     if calibration.get("images") is not None:
@@ -284,13 +286,11 @@ def check_given(graph: Graph, wanted: list[str]) -> None:
 def run_calibrate(project: Project, name: str, work: Path, progress: bool = True) -> dict:
     """The calibrate stage: camera.json, calibration_report.json and calibration.png of one camera."""
     from tlsync_pipeline.calibrate import calibrate_camera, write_calibration
+    from tlsync_pipeline.commands_calibrate import calibration_summary
 
     camera, report = calibrate_camera(project, project.camera(name), progress=progress)
     paths = write_calibration(work, camera, report)
-    rms = (report.get("intrinsics") or {}).get("rms_px")
-    pose_rms = (report.get("pose") or {}).get("rms_px")
-    message = f"wrote {paths[0]}" + (f"; intrinsics RMS {rms:.3f} px" if rms is not None else "") + (f"; pose RMS {pose_rms:.2f} px" if pose_rms is not None else "")
-    return {"rms_px": rms, "pose_rms_px": pose_rms, "message": message}
+    return {"message": f"{calibration_summary(report)}; wrote {paths[0]}"}
 
 
 def run_track(spec: dict, out: Path, progress: bool = True) -> dict:

@@ -1,0 +1,530 @@
+"""Zhang intrinsics from checkerboard photos or a checkerboard video (OpenCV).
+
+Corner detection: the sector-based detector (findChessboardCornersSB) on a copy
+downscaled to about ``DETECT_SIZE`` px on its long side, then the classic detector
+(adaptive threshold) on a larger copy, then the sector-based detector in exhaustive
+mode; the corners found are refined at full resolution with cornerSubPix. Images are
+processed in parallel (one process per core, one OpenCV thread each).
+
+Calibration: cv2.calibrateCamera with the 5-parameter model ("standard", k1 k2
+p1 p2 k3), the rational 8-parameter model ("rational") or cv2.fisheye ("fisheye",
+k1..k4). Pixels are not forced square (fx and fy are free). Views whose RMS
+reprojection error exceeds max(OUTLIER_FACTOR * median, ``max_view_error``) are
+dropped and the camera is calibrated again. Pixel (0, 0) is the centre of the
+top-left pixel; board points are in metres.
+"""
+
+from __future__ import annotations
+
+import glob as globlib
+import multiprocessing
+import os
+import re
+from collections import Counter
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Iterable, Sequence
+
+import cv2
+import numpy as np
+from tqdm import tqdm
+
+from calibration.camera import Camera
+from calibration.errors import CalibrationInputError
+
+MODELS = ("standard", "rational", "fisheye")
+DETECT_SIZE = 720  # about the long side (px) of the copy the board is first looked for in
+CLASSIC_SIZE = 1280  # about the long side (px) of the copy for the classic detector
+EXHAUSTIVE_SIZE = 2000  # at most the long side (px) of the copy for the last, exhaustive try
+SMOOTH_DIVISOR = 30.0  # corner refinement smooths with sigma = square spacing (px) / this
+MIN_VIEWS = 5
+OUTLIER_FACTOR = 3.0
+DUPLICATE_FRACTION = 0.004  # views whose corners moved less than this * image diagonal are duplicates
+TRIED = (
+    "sector-based detector (findChessboardCornersSB, normalized image) on a copy downscaled to about {small} px, "
+    f"the classic detector (findChessboardCorners, adaptive threshold + normalized image) at about {CLASSIC_SIZE} px "
+    f"and the sector-based detector in exhaustive mode at up to {EXHAUSTIVE_SIZE} px"
+)
+
+
+@dataclass(frozen=True)
+class Pattern:
+    """A checkerboard: inner corners (columns x rows) and the square side in metres."""
+
+    cols: int
+    rows: int
+    square: float
+
+    @property
+    def size(self) -> tuple[int, int]:
+        return self.cols, self.rows
+
+    def __str__(self) -> str:
+        return f"{self.cols}x{self.rows}"
+
+    def object_points(self) -> np.ndarray:
+        """(cols * rows, 3) inner-corner coordinates on the board (metres), row by row: corner (i, j) at (i, j, 0) * square."""
+        grid = np.mgrid[0 : self.cols, 0 : self.rows].T.reshape(-1, 2) * self.square
+        return np.column_stack([grid, np.zeros(len(grid))])
+
+
+def parse_pattern(text: str, square: float, source: str = "pattern") -> Pattern:
+    """``"7x6"`` (inner corners, columns x rows) and the square side (m) -> Pattern."""
+    parts = str(text).lower().replace(" ", "").split("x")
+    try:
+        cols, rows = (int(p) for p in parts)
+    except ValueError:
+        raise CalibrationInputError(f"{source}: expected inner corners as COLSxROWS (e.g. 7x6 for a board of 8x7 squares), got {text!r}") from None
+    if cols < 2 or rows < 2 or cols * rows < 6:
+        raise CalibrationInputError(f"{source}: a checkerboard needs at least 2x3 inner corners, got {text!r}")
+    if isinstance(square, bool) or not isinstance(square, (int, float)) or not np.isfinite(square) or square <= 0:
+        raise CalibrationInputError(f"{source}: the square side must be a positive length in metres, got {square!r}")
+    return Pattern(cols, rows, float(square))
+
+
+@dataclass(frozen=True)
+class Detection:
+    """What was found in one image: full-resolution corners (N, 2) row by row, or why not."""
+
+    source: str
+    image_size: tuple[int, int] | None  # (width, height); None when unreadable
+    corners: np.ndarray | None
+    method: str | None  # "sb", "sb-exhaustive" or "classic"
+    reason: str | None  # set when corners is None
+
+
+def detect_board(gray: np.ndarray, pattern: tuple[int, int], detect_size: int = DETECT_SIZE) -> tuple[np.ndarray | None, str | None, str | None]:
+    """Find the inner corners of a ``pattern`` (cols, rows) board in a grey image.
+
+    Tries, cheapest first: the sector-based detector on a copy reduced by an
+    integer factor to about ``detect_size`` px, the classic detector at about
+    CLASSIC_SIZE px, the sector-based detector in exhaustive mode at up to
+    EXHAUSTIVE_SIZE px. Returns (corners (N, 2) float64 at full resolution row by
+    row, or None; the method that found them; the reason when none did).
+    """
+    copies: dict[int, np.ndarray] = {}
+
+    def reduced(factor: int) -> np.ndarray:
+        if factor not in copies:
+            copies[factor] = _reduce(gray, factor)
+        return copies[factor]
+
+    long_side = max(gray.shape[:2])
+    first = max(1, round(long_side / detect_size))
+    for method, factor, find in (
+        ("sb", first, lambda img: cv2.findChessboardCornersSB(img, pattern, flags=cv2.CALIB_CB_NORMALIZE_IMAGE)),
+        ("classic", max(1, round(long_side / CLASSIC_SIZE)), lambda img: cv2.findChessboardCorners(img, pattern, flags=cv2.CALIB_CB_ADAPTIVE_THRESH | cv2.CALIB_CB_NORMALIZE_IMAGE)),
+        ("sb-exhaustive", max(1, -(-long_side // EXHAUSTIVE_SIZE)), lambda img: cv2.findChessboardCornersSB(img, pattern, flags=cv2.CALIB_CB_NORMALIZE_IMAGE | cv2.CALIB_CB_EXHAUSTIVE)),
+    ):
+        found, corners = find(reduced(factor))
+        if found and corners is not None and len(corners) == pattern[0] * pattern[1]:
+            corners = (corners.reshape(-1, 2).astype(np.float64) + 0.5) * factor - 0.5
+            corners = _refine(gray, corners, pattern)
+            if _extends_beyond(gray, corners, pattern):
+                # A part of a larger board: the pattern is wrong, or the views would be inconsistent.
+                return None, None, _diagnose(reduced(first), pattern, larger=True)
+            return corners, method, None
+    return None, None, _diagnose(reduced(first), pattern)
+
+
+def _reduce(gray: np.ndarray, factor: int) -> np.ndarray:
+    """Area-average by an integer factor (the last < factor rows/columns are dropped): OpenCV's fast path, and
+    a corner at (u, v) in the copy is at ((u + 0.5) * factor - 0.5, ...) in the image."""
+    if factor == 1:
+        return gray
+    h, w = gray.shape[:2]
+    h, w = h // factor, w // factor
+    return cv2.resize(gray[: h * factor, : w * factor], (w, h), interpolation=cv2.INTER_AREA)
+
+
+def _refine(gray: np.ndarray, corners: np.ndarray, pattern: tuple[int, int]) -> np.ndarray:
+    """cornerSubPix at full resolution, window scaled to the board's smallest square.
+
+    Where squares are large (phones, 4K), the board's region is first smoothed with
+    a Gaussian of sigma = spacing / SMOOTH_DIVISOR: it averages out sensor noise and
+    a screen's pixel grid, and does not move a checker corner (point symmetric).
+    """
+    grid = corners.reshape(pattern[1], pattern[0], 2)
+    spacing = min(np.linalg.norm(np.diff(grid, axis=0), axis=2).min(), np.linalg.norm(np.diff(grid, axis=1), axis=2).min())
+    half = int(np.clip(0.4 * spacing, 2, 30))
+    sigma = min(spacing / SMOOTH_DIVISOR, 4.0)
+    h, w = gray.shape[:2]
+    margin = half + 4 * max(sigma, 1.0) + 2
+    x0, y0 = (int(max(0, np.floor(v))) for v in corners.min(axis=0) - margin)
+    x1, y1 = (int(min(lim, np.ceil(v))) for v, lim in zip(corners.max(axis=0) + margin, (w, h)))
+    roi = gray[y0:y1, x0:x1]
+    if sigma >= 1.0:
+        roi = cv2.GaussianBlur(roi, (0, 0), sigma)
+    pts = (corners - [x0, y0]).astype(np.float32).reshape(-1, 1, 2)
+    criteria = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 40, 0.001)
+    refined = cv2.cornerSubPix(roi, pts, (half, half), (-1, -1), criteria)
+    return refined.reshape(-1, 2).astype(np.float64) + [x0, y0]
+
+
+def _extends_beyond(gray: np.ndarray, corners: np.ndarray, pattern: tuple[int, int]) -> bool:
+    """Whether the checker pattern continues past a side of the found grid (a larger board).
+
+    At each point one step beyond the grid's outer rows and columns, the four
+    quadrants along the grid's axes are compared: at a checker corner both
+    diagonals differ strongly, at the board's plain border they do not.
+    """
+    grid = corners.reshape(pattern[1], pattern[0], 2)
+    h, w = gray.shape[:2]
+
+    def scores(points, step_a, step_b):
+        out = []
+        for p, a, b in zip(points, step_a, step_b):
+            k = max(3, int(0.2 * min(np.linalg.norm(a), np.linalg.norm(b))))
+            probes = [p + 0.3 * (sa * a + sb * b) for sa, sb in ((1, 1), (-1, -1), (1, -1), (-1, 1))]
+            if not all(k <= x < w - k and k <= y < h - k for x, y in probes):
+                out.append(np.nan)
+                continue
+            q = [float(cv2.getRectSubPix(gray, (k, k), (float(x), float(y))).mean()) for x, y in probes]
+            out.append(min(abs(q[i] - q[j]) for i in (0, 1) for j in (2, 3)))
+        return np.array(out)
+
+    along_x = grid[:, 1:] - grid[:, :-1]  # step to the next column
+    along_y = grid[1:] - grid[:-1]  # step to the next row
+    inner = scores(grid[1:-1, 1:-1].reshape(-1, 2), along_x[1:-1, 1:].reshape(-1, 2), along_y[1:, 1:-1].reshape(-1, 2))
+    reference = np.nanmedian(inner) if np.isfinite(inner).any() else np.nan
+    if not np.isfinite(reference) or reference <= 0:
+        return False
+    sides = (
+        (grid[:, -1] + along_x[:, -1], along_x[:, -1], np.vstack([along_y[:, -1], along_y[-1:, -1]])),
+        (grid[:, 0] - along_x[:, 0], along_x[:, 0], np.vstack([along_y[:, 0], along_y[-1:, 0]])),
+        (grid[-1] + along_y[-1], np.vstack([along_x[-1], along_x[-1, -1:]]), along_y[-1]),
+        (grid[0] - along_y[0], np.vstack([along_x[0], along_x[0, -1:]]), along_y[0]),
+    )
+    for points, step_a, step_b in sides:
+        s = scores(points, step_a, step_b)
+        seen = np.isfinite(s)
+        if seen.sum() >= 2 and np.mean(s[seen] > 0.5 * reference) > 0.5:
+            return True
+    return False
+
+
+def _diagnose(small: np.ndarray, pattern: tuple[int, int], larger: bool = False) -> str:
+    """Why no full board was found: a smaller or larger grid visible, or nothing."""
+    found, corners, meta = cv2.findChessboardCornersSBWithMeta(small, (3, 3), flags=cv2.CALIB_CB_NORMALIZE_IMAGE | cv2.CALIB_CB_LARGER)
+    seen = sorted(meta.shape[:2], reverse=True) if found and meta is not None else None
+    want = sorted(pattern, reverse=True)
+    bigger = seen is not None and (seen[0] > want[0] or seen[1] > want[1])
+    if larger and not bigger:
+        return f"pattern mismatch: a board with more inner corners than {pattern[0]}x{pattern[1]} found"
+    if seen is None:
+        return "no board found"
+    label = f"{seen[0]}x{seen[1]}"
+    if bigger:
+        return f"pattern mismatch: a board with {label} inner corners found"
+    return f"incomplete board: only {label} of the inner corners visible (board cut off, hidden or too oblique)"
+
+
+def _init_worker() -> None:
+    cv2.setNumThreads(1)
+
+
+def _detect_item(item) -> Detection:
+    """Worker: ``item`` is (source, path or grey array, pattern, detect_size)."""
+    source, image, pattern, detect_size = item
+    if not isinstance(image, np.ndarray):
+        image = cv2.imread(str(image), cv2.IMREAD_GRAYSCALE | cv2.IMREAD_IGNORE_ORIENTATION)
+        if image is None:
+            return Detection(source, None, None, None, "unreadable: not an image OpenCV can decode")
+    size = (image.shape[1], image.shape[0])
+    corners, method, reason = detect_board(image, pattern, detect_size)
+    return Detection(source, size, corners, method, reason)
+
+
+def detect_all(
+    items: Sequence[tuple[str, object]],
+    pattern: Pattern,
+    workers: int | None = None,
+    detect_size: int = DETECT_SIZE,
+    progress: bool = False,
+) -> list[Detection]:
+    """Detect the board in every (source, path or grey image) item, in parallel, in order."""
+    jobs = [(source, image, pattern.size, detect_size) for source, image in items]
+    workers = workers or os.cpu_count() or 1
+    bar = dict(total=len(jobs), desc="detecting corners", unit="img", disable=not progress, leave=False)
+    if workers == 1 or len(jobs) < 3:
+        threads = cv2.getNumThreads()
+        cv2.setNumThreads(1)  # as in the workers: detections do not depend on the path taken
+        try:
+            return [_detect_item(job) for job in tqdm(jobs, **bar)]
+        finally:
+            cv2.setNumThreads(threads)
+    # Workers come from a fork server, not a fork of this process: forking a process whose
+    # OpenCV thread pool has run can deadlock the child.
+    context = multiprocessing.get_context("forkserver" if "forkserver" in multiprocessing.get_all_start_methods() else "spawn")
+    with ProcessPoolExecutor(max_workers=min(workers, len(jobs)), initializer=_init_worker, mp_context=context) as pool:
+        return list(tqdm(pool.map(_detect_item, jobs, chunksize=1), **bar))
+
+
+@dataclass(frozen=True)
+class Intrinsics:
+    """A calibration result: K (3x3, px), dist, the model, per-view errors (px), which images were used and rejected."""
+
+    K: np.ndarray
+    dist: np.ndarray
+    dist_model: str  # "opencv" or "fisheye" (Camera.dist_model)
+    model: str  # "standard", "rational" or "fisheye"
+    image_size: tuple[int, int]
+    rms: float  # RMS reprojection error over all corners of the used views (px)
+    per_view: dict[str, float]  # used view -> its RMS reprojection error (px)
+    used: tuple[str, ...]
+    rejected: dict[str, str]  # image -> reason
+    corners: dict[str, np.ndarray]  # used view -> (N, 2) detected corners (px)
+    pattern: Pattern
+    std: dict[str, float]  # one-sigma uncertainty of fx, fy, cx, cy (px) where OpenCV gives it
+    methods: dict[str, str]  # used view -> detector that found it
+
+    def camera(self, name: str = "camera", fps: float | None = None) -> Camera:
+        """An intrinsics-only Camera: identity R and zero t (the pose comes from GCPs or a board); ``rms`` kept in extra."""
+        return Camera(name, self.K.copy(), self.dist.copy(), np.eye(3), np.zeros(3), self.image_size, fps, self.dist_model, {"rms": self.rms})
+
+    def to_report(self) -> dict:
+        """JSON-ready summary: camera, RMS, per-view errors, used and rejected images with reasons."""
+        return {
+            "model": self.model,
+            "pattern": str(self.pattern),
+            "square_m": self.pattern.square,
+            "image_size": list(self.image_size),
+            "K": self.K.tolist(),
+            "dist": self.dist.tolist(),
+            "dist_model": self.dist_model,
+            "std_px": self.std,
+            "rms_px": self.rms,
+            "views_used": len(self.used),
+            "views_rejected": len(self.rejected),
+            "per_view": [{"image": s, "rms_px": self.per_view[s], "detector": self.methods[s]} for s in self.used],
+            "rejected": [{"image": s, "reason": r} for s, r in self.rejected.items()],
+        }
+
+
+def calibrate_images(
+    paths: Iterable[str | Path] | str,
+    pattern: Pattern,
+    model: str = "standard",
+    workers: int | None = None,
+    progress: bool = False,
+    max_view_error: float = 1.0,
+    detect_size: int = DETECT_SIZE,
+) -> Intrinsics:
+    """Calibrate from image files (a list, or a glob pattern string)."""
+    if isinstance(paths, str):
+        label, files = paths, sorted(globlib.glob(os.path.expanduser(paths), recursive=True))
+        if not files:
+            raise CalibrationInputError(f"{paths}: no files match this pattern")
+    else:
+        files = [str(p) for p in paths]
+        label = f"{len(files)} images"
+        if not files:
+            raise CalibrationInputError("no calibration images given")
+    missing = [f for f in files if not Path(f).is_file()]
+    if missing:
+        raise CalibrationInputError(f"{missing[0]}: file not found" + (f" (and {len(missing) - 1} more)" if len(missing) > 1 else ""))
+    detections = detect_all([(f, f) for f in files], pattern, workers, detect_size, progress)
+    return calibrate_detections(detections, pattern, model, label, {}, max_view_error, detect_size)
+
+
+def calibrate_video(
+    path: str | Path,
+    pattern: Pattern,
+    model: str = "standard",
+    max_frames: int = 60,
+    workers: int | None = None,
+    progress: bool = False,
+    max_view_error: float = 1.0,
+    detect_size: int = DETECT_SIZE,
+) -> Intrinsics:
+    """Calibrate from a video of a moving board: ``max_frames`` frames sampled evenly, blurred and duplicate ones skipped."""
+    frames, skipped = sample_video_frames(path, max_frames, progress)
+    detections = detect_all(frames, pattern, workers, detect_size, progress)
+    return calibrate_detections(detections, pattern, model, str(path), skipped, max_view_error, detect_size)
+
+
+def sample_video_frames(path: str | Path, max_frames: int = 60, progress: bool = False, blur_ratio: float = 0.4) -> tuple[list[tuple[str, np.ndarray]], dict[str, str]]:
+    """Evenly sampled grey frames of a video as ("<file>@<frame>", image), and the skipped ones with the reason.
+
+    A frame is "blurred" when its variance of the Laplacian is below ``blur_ratio``
+    times the median of the sampled frames, a "duplicate" when it hardly differs
+    from the previous kept frame (board and camera still). Frames are 0-based.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise CalibrationInputError(f"{path}: file not found")
+    capture = cv2.VideoCapture(str(path))
+    if not capture.isOpened():
+        raise CalibrationInputError(f"{path}: cannot open the video (unknown format or unreadable)")
+    count = int(capture.get(cv2.CAP_PROP_FRAME_COUNT))
+    wanted = set(np.linspace(0, count - 1, min(count, max_frames)).round().astype(int).tolist()) if count > 0 else None
+    frames: list[tuple[str, np.ndarray]] = []
+    index = 0
+    with tqdm(total=count or None, desc="reading video", unit="frame", disable=not progress, leave=False) as bar:
+        while wanted is None or index <= max(wanted):
+            if not capture.grab():
+                break
+            if wanted is None and index % 15 == 0 and len(frames) < max_frames or wanted is not None and index in wanted:
+                ok, frame = capture.retrieve()
+                if ok:
+                    frames.append((f"{path.name}@{index}", cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY) if frame.ndim == 3 else frame))
+            index += 1
+            bar.update()
+    capture.release()
+    if not frames:
+        raise CalibrationInputError(f"{path}: no frame could be decoded")
+    sharp = [_sharpness(img) for _, img in frames]
+    threshold = blur_ratio * float(np.median(sharp))
+    kept, skipped, last = [], {}, None
+    for (source, img), s in zip(frames, sharp):
+        if s < threshold:
+            skipped[source] = f"blurred (variance of Laplacian {s:.0f} < {threshold:.0f})"
+            continue
+        thumb = cv2.resize(img, (64, 36), interpolation=cv2.INTER_AREA).astype(np.float32)
+        if last is not None and np.abs(thumb - last[1]).mean() < 1.5:
+            skipped[source] = f"duplicate (same view as {last[0]})"
+            continue
+        kept.append((source, img))
+        last = (source, thumb)
+    return kept, skipped
+
+
+def _sharpness(gray: np.ndarray) -> float:
+    small = _reduce(gray, max(2, round(max(gray.shape[:2]) / 480)))  # averaging out sensor noise
+    return float(cv2.Laplacian(small, cv2.CV_64F).var())
+
+
+def calibrate_detections(
+    detections: Sequence[Detection],
+    pattern: Pattern,
+    model: str = "standard",
+    label: str = "images",
+    rejected: dict[str, str] | None = None,
+    max_view_error: float = 1.0,
+    detect_size: int = DETECT_SIZE,
+) -> Intrinsics:
+    """Calibrate from detections: checks sizes, drops duplicates and outlier views, reports why each image was rejected."""
+    if model not in MODELS:
+        raise CalibrationInputError(f"model: expected one of {', '.join(MODELS)}, got {model!r}")
+    rejected = dict(rejected or {})
+    unreadable = [d for d in detections if d.image_size is None]
+    if unreadable:
+        raise CalibrationInputError(f"{unreadable[0].source}: cannot read the image ({unreadable[0].reason})" + (f"; {len(unreadable) - 1} more unreadable" if len(unreadable) > 1 else ""))
+    if not detections:
+        raise CalibrationInputError(f"{label}: no images to calibrate from" + _summary(rejected))
+    image_size = _common_size(detections, label)
+    usable: list[Detection] = []
+    for d in detections:
+        if d.image_size != image_size:
+            rejected[d.source] = f"different size {d.image_size[0]}x{d.image_size[1]} (the calibration uses {image_size[0]}x{image_size[1]})"
+        elif d.corners is None:
+            rejected[d.source] = d.reason or "no board found"
+        else:
+            twin = _duplicate_of(d, usable, image_size)
+            if twin is not None:
+                rejected[d.source] = f"duplicate (same view as {twin})"
+            else:
+                usable.append(d)
+    mismatched = sum(r.startswith("pattern mismatch") for r in rejected.values())
+    if len(usable) < MIN_VIEWS or mismatched > len(usable):
+        raise CalibrationInputError(_too_few(label, pattern, detections, usable, rejected, detect_size))
+    views = {d.source: d for d in usable}
+    while True:
+        K, dist, per_view, std = _calibrate(views, pattern, model, image_size)
+        errors = np.array(list(per_view.values()))
+        limit = max(OUTLIER_FACTOR * float(np.median(errors)), max_view_error)
+        worst = [s for s, e in per_view.items() if e > limit]
+        if not worst or len(views) - len(worst) < MIN_VIEWS:
+            break
+        for s in worst:
+            rejected[s] = f"outlier (reprojection error {per_view[s]:.2f} px > {limit:.2f} px)"
+            del views[s]
+    rms = float(np.sqrt(np.mean(errors**2)))  # every view has the same number of corners
+    return Intrinsics(
+        K=K,
+        dist=dist,
+        dist_model="fisheye" if model == "fisheye" else "opencv",
+        model=model,
+        image_size=image_size,
+        rms=rms,
+        per_view=per_view,
+        used=tuple(views),
+        rejected=rejected,
+        corners={s: d.corners for s, d in views.items()},
+        pattern=pattern,
+        std=std,
+        methods={s: d.method for s, d in views.items()},
+    )
+
+
+def _common_size(detections: Sequence[Detection], label: str) -> tuple[int, int]:
+    counts = Counter(d.image_size for d in detections)
+    size, n = counts.most_common(1)[0]
+    if len(counts) > 1 and n < 2 * len(detections) / 3:
+        listing = "; ".join(f"{w}x{h}: {c} (e.g. {next(d.source for d in detections if d.image_size == (w, h))})" for (w, h), c in counts.most_common())
+        raise CalibrationInputError(f"{label}: the images have different sizes ({listing}); calibrate each camera and resolution separately")
+    return size
+
+
+def _duplicate_of(d: Detection, kept: list[Detection], image_size: tuple[int, int]) -> str | None:
+    tolerance = DUPLICATE_FRACTION * float(np.hypot(*image_size))
+    for other in kept:
+        if np.linalg.norm(d.corners - other.corners, axis=1).mean() < tolerance:
+            return other.source
+    return None
+
+
+def _summary(rejected: dict[str, str]) -> str:
+    if not rejected:
+        return ""
+    kinds = Counter(r.split(" (")[0].split(":")[0] for r in rejected.values())
+    return "; rejected: " + ", ".join(f"{n} {k}" for k, n in kinds.most_common())
+
+
+def _too_few(label: str, pattern: Pattern, detections, usable, rejected, detect_size: int) -> str:
+    tried = TRIED.format(small=detect_size)
+    per_image = "; ".join(f"{Path(s).name}: {r}" for s, r in list(rejected.items())[:8]) + ("; ..." if len(rejected) > 8 else "")
+    if not usable:
+        head = f"{label}: no {pattern} board (inner corners, columns x rows) found in any of {len(detections)} images"
+    elif len(usable) >= MIN_VIEWS:
+        head = f"{label}: the {pattern} pattern was found in {len(usable)} of {len(detections)} images, but more show a different board"
+    else:
+        head = f"{label}: only {len(usable)} usable views of the {pattern} board in {len(detections)} images, at least {MIN_VIEWS} are needed"
+    text = f"{head}; tried: {tried}; {per_image}"
+    mismatches = [r for r in rejected.values() if r.startswith("pattern mismatch")]
+    if mismatches:
+        sizes = Counter(m.group(1) for m in (re.search(r"with (\d+x\d+) inner", r) for r in mismatches) if m)
+        seen = f"boards with {sizes.most_common(1)[0][0]} inner corners" if sizes else "boards with more inner corners"
+        text += f". The pattern {pattern} does not match the board ({len(mismatches)} images show {seen}); count the inner corners, columns x rows (a board of 8x7 squares has 7x6)"
+    elif not usable and all(r.startswith("incomplete") for r in rejected.values()):
+        text += f". Every board seen is smaller than {pattern}: check the pattern (inner corners, not squares)"
+    return text
+
+
+def _calibrate(views: dict[str, Detection], pattern: Pattern, model: str, image_size: tuple[int, int]):
+    """One calibration; returns K, dist, per-view RMS errors (px) and the intrinsics' standard deviations."""
+    obj = pattern.object_points()
+    img_pts = [views[s].corners for s in views]
+    criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 100, 1e-10)
+    if model == "fisheye":
+        objs = [obj.reshape(1, -1, 3) for _ in img_pts]
+        imgs = [p.reshape(1, -1, 2) for p in img_pts]
+        flags = cv2.CALIB_RECOMPUTE_EXTRINSIC | cv2.CALIB_FIX_SKEW  # OpenCV 5: shared CALIB_* flags
+        try:
+            _, K, dist, rvecs, tvecs = cv2.fisheye.calibrate(objs, imgs, image_size, None, None, flags=flags, criteria=criteria)
+        except cv2.error as exc:
+            raise CalibrationInputError(f"fisheye calibration failed ({exc.err}); try more views spread over the image") from None
+        projected = [cv2.fisheye.projectPoints(obj.reshape(-1, 1, 3), r, t, K, dist)[0].reshape(-1, 2) for r, t in zip(rvecs, tvecs)]
+        std = {}
+        dist = dist.ravel()
+    else:
+        flags = cv2.CALIB_RATIONAL_MODEL if model == "rational" else 0
+        objs = [obj.astype(np.float32) for _ in img_pts]
+        imgs = [p.astype(np.float32) for p in img_pts]
+        _, K, dist, rvecs, tvecs, std_in, _, _ = cv2.calibrateCameraExtended(objs, imgs, image_size, None, None, flags=flags, criteria=criteria)
+        projected = [cv2.projectPoints(obj, r, t, K, dist)[0].reshape(-1, 2) for r, t in zip(rvecs, tvecs)]
+        std = dict(zip(("fx", "fy", "cx", "cy"), map(float, std_in.ravel()[:4])))
+        dist = dist.ravel()[: 8 if model == "rational" else 5]
+    per_view = {s: float(np.sqrt(np.mean(np.sum((p - q) ** 2, axis=1)))) for s, p, q in zip(views, projected, img_pts)}
+    return K, dist.astype(np.float64), per_view, std

@@ -1,0 +1,401 @@
+"""From log records to a constant-rate local metric trajectory: pure functions.
+
+Order of work: fixes must come in time order (a step back is an error);
+exact duplicates and repeated times are dropped; geodetic fixes go to ENU
+metres at the origin (tlsync_pipeline.geodesy), local ones through the
+optional rigid transform; spikes (implied speed above max_speed_mps from the
+last kept fix) are rejected; gaps (intervals over 3x the median) are found;
+the fixes are resampled onto t = t0 + k / rate by linear interpolation that
+does not bridge intervals longer than max_gap_s (grid samples there are left
+out, keeping their indices k); an optional Savitzky-Golay smoothing runs
+over each unbroken run of grid samples.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import math
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+from scipy.signal import savgol_filter
+
+from tlsync_pipeline.errors import InputError
+from tlsync_pipeline.geodesy import Origin, geodetic_to_enu
+from tlsync_pipeline.ingest.records import GEODETIC, LogRecords
+from tlsync_pipeline.trajectory import Trajectory
+
+GAP_FACTOR = 3.0  # an interval over GAP_FACTOR x the median interval is a gap
+DEFAULT_MAX_SPEED_MPS = 60.0
+DUPLICATE = "exact duplicate"
+REPEATED_TIME = "repeated time, different position (first kept)"
+FIRST_LINES = 5  # provenance numbers kept per drop reason in the report
+MAX_SPAN_S = 1e8  # about 3 years: a longer log has a wrong time in it
+MAX_SAMPLES = 50_000_000  # a trajectory longer than this is a wrong time or rate, not a log
+
+
+@dataclass(frozen=True)
+class RigidTransform:
+    """world = R @ local + t (metres): places a local (odometry) frame in the world frame."""
+
+    R: np.ndarray
+    t: np.ndarray
+
+    def __post_init__(self) -> None:
+        R, t = np.asarray(self.R, dtype=float), np.asarray(self.t, dtype=float)
+        if R.shape != (3, 3) or t.shape != (3,) or not (np.isfinite(R).all() and np.isfinite(t).all()):
+            raise ValueError("expected R as 3x3 and t as 3 finite numbers")
+        if not np.allclose(R @ R.T, np.eye(3), atol=1e-6) or np.linalg.det(R) < 0:
+            raise ValueError("R is not a rotation matrix (orthonormal, determinant +1)")
+        object.__setattr__(self, "R", R)
+        object.__setattr__(self, "t", t)
+
+    @classmethod
+    def from_yaw(cls, yaw_deg: float, t=(0.0, 0.0, 0.0)) -> "RigidTransform":
+        """A rotation of yaw_deg about z (counter-clockwise seen from above), then t."""
+        c, s = math.cos(math.radians(yaw_deg)), math.sin(math.radians(yaw_deg))
+        return cls(np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]), np.asarray(t, dtype=float))
+
+    def apply(self, xyz: np.ndarray) -> np.ndarray:
+        return np.asarray(xyz, dtype=float) @ self.R.T + self.t
+
+
+@dataclass(frozen=True)
+class IngestParams:
+    """origin: an Origin or "first" (the first kept fix); rate (Hz) None = the median rate;
+    max_gap_s None = 3x the median interval; max_speed_mps None = no spike rejection;
+    smoothing_s 0 = none, else the Savitzky-Golay window (s); transform for local logs."""
+
+    origin: Origin | str = "first"
+    rate: float | None = None
+    max_gap_s: float | None = None
+    max_speed_mps: float | None = DEFAULT_MAX_SPEED_MPS
+    smoothing_s: float = 0.0
+    transform: RigidTransform | None = None
+
+
+@dataclass(frozen=True)
+class Gap:
+    """An interval between two kept fixes longer than GAP_FACTOR x the median interval."""
+
+    after: str  # where the fix before the gap came from
+    start_s: float
+    end_s: float
+    duration_s: float
+    bridged: bool  # interpolated over (duration <= max_gap_s)
+
+
+@dataclass(frozen=True)
+class IngestReport:
+    """What ingestion did, for the summary and ingest_report.json."""
+
+    source: str
+    format: str
+    frame: str  # "ENU" (from geodetic) or "local"
+    fixes_read: int
+    fixes_used: int
+    samples: int
+    rate: float
+    t0: float
+    t0_utc: str | None
+    duration_s: float
+    extent_m: list[float]  # size along x/E, y/N, z/U
+    max_gap_s: float
+    gaps: list[Gap]
+    grid_left_out: int  # grid positions inside unbridged gaps
+    dropped: dict[str, dict]  # reason -> {"count", "first": [...]}
+    unit: str  # what the provenance numbers count
+    ignored: int
+    origin: dict | None  # {"lat", "lon", "alt", "rule"} for geodetic logs
+    params: dict
+    warnings: list[str] = field(default_factory=list)
+
+    def to_dict(self) -> dict:
+        out = asdict(self)
+        out["format_version"] = 1
+        return out
+
+    def summary(self) -> str:
+        """The lines printed after ingestion."""
+        lines = [
+            f"log: {self.source} ({self.format})",
+            f"fixes: {self.fixes_read} read, {self.fixes_used} used",
+            f"trajectory: {self.samples} samples at {self.rate:g} Hz over {self.duration_s:.1f} s"
+            + (f" from {self.t0_utc}" if self.t0_utc else f" from t0 = {self.t0:.3f} s"),
+            "extent: " + " x ".join(f"{v:.1f} m" for v in self.extent_m) + (" (E x N x U)" if self.frame == "ENU" else " (x y z)"),
+        ]
+        if self.origin is not None:
+            o = self.origin
+            lines.append(f"origin: lat {o['lat']:.8f}, lon {o['lon']:.8f}, alt {o['alt']:.3f} m ({o['rule']})")
+        if self.gaps:
+            left = f", {self.grid_left_out} grid sample(s) left out" if self.grid_left_out else ""
+            lines.append(f"gaps: {len(self.gaps)} over {GAP_FACTOR:g}x the median interval{left}")
+            for gap in self.gaps[:10]:
+                verdict = "bridged" if gap.bridged else "not bridged"
+                lines.append(f"  {gap.duration_s:.2f} s after {gap.after}: {verdict}")
+            if len(self.gaps) > 10:
+                lines.append(f"  ... {len(self.gaps) - 10} more in the report")
+        else:
+            lines.append("gaps: none")
+        total = sum(d["count"] for d in self.dropped.values())
+        lines.append(f"dropped: {total}" + ("" if total else " (none)"))
+        for reason, d in self.dropped.items():
+            more = ", ..." if d["count"] > len(d["first"]) else ""
+            lines.append(f"  {d['count']} {reason} ({self.unit} {', '.join(map(str, d['first']))}{more})")
+        lines += [f"warning: {w}" for w in self.warnings]
+        return "\n".join(lines)
+
+
+def ingest(records: LogRecords, params: IngestParams = IngestParams()) -> tuple[Trajectory, IngestReport]:
+    """The constant-rate local trajectory of a log and the report; InputError when unusable."""
+    if len(records) == 0:
+        raise InputError(_no_fix_message(records))
+    t, values, numbers, dropped = order_and_dedupe(records)
+    if len(t) < 2:
+        raise InputError(f"{records.where(0)}: only one valid fix in the log; at least 2 are needed")
+    if t[-1] - t[0] > MAX_SPAN_S:
+        raise InputError(
+            f"{records.path}: the log spans {(t[-1] - t[0]) / 86400:.0f} days ({_where(records, numbers[0])} to "
+            f"{_where(records, numbers[-1])}): a time is wrong"
+        )
+    warnings = list(records.warnings)
+    xyz, origin, rule = _to_local(records, values, params, warnings)
+    keep = np.ones(len(t), dtype=bool)
+    if params.max_speed_mps is not None:
+        keep = reject_spikes(t, xyz, params.max_speed_mps)
+        if not keep.all():
+            dropped[f"spike (implied speed over {params.max_speed_mps:g} m/s)"] = numbers[~keep].tolist()
+        if keep.sum() < 2:
+            raise InputError(f"{records.path}: fewer than 2 fixes left after rejecting spikes over {params.max_speed_mps:g} m/s")
+        t, values, xyz, numbers = t[keep], values[keep], xyz[keep], numbers[keep]
+    origin_info = None
+    if origin is not None:
+        if rule == "first fix" and not keep[0]:  # the first fix was a spike: the first kept one
+            origin = Origin(*map(float, values[0]))
+            xyz = geodetic_to_enu(values[:, 0], values[:, 1], values[:, 2], origin)
+        origin_info = {"lat": origin.lat, "lon": origin.lon, "alt": origin.alt, "rule": rule}
+    interval = median_interval(t)
+    rate = params.rate or log_rate(t)
+    max_gap = params.max_gap_s if params.max_gap_s is not None else GAP_FACTOR * interval
+    gaps = [
+        Gap(_where(records, numbers[i]), float(t[i]), float(t[i + 1]), float(t[i + 1] - t[i]), bool(t[i + 1] - t[i] <= max_gap))
+        for i in find_gaps(t)
+    ]
+    try:
+        index, grid_xyz, left_out = resample(t, xyz, rate, max_gap)
+    except ValueError as exc:
+        raise InputError(f"{records.path}: {exc}") from None
+    if params.smoothing_s > 0:
+        grid_xyz = smooth(index, grid_xyz, params.smoothing_s * rate)
+    trajectory = Trajectory(index.astype(np.float64), grid_xyz, float(rate), float(t[0]))
+    report = IngestReport(
+        source=str(records.path),
+        format=records.format,
+        frame="ENU" if records.frame == GEODETIC else "local",
+        fixes_read=len(records),
+        fixes_used=len(t),
+        samples=len(index),
+        rate=float(rate),
+        t0=float(t[0]),
+        t0_utc=_utc(t[0]) if records.utc else None,
+        duration_s=float(index[-1] / rate),
+        extent_m=(grid_xyz.max(axis=0) - grid_xyz.min(axis=0)).round(3).tolist(),
+        max_gap_s=float(max_gap),
+        gaps=gaps,
+        grid_left_out=int(left_out),
+        dropped={reason: {"count": len(n), "first": list(n[:FIRST_LINES])} for reason, n in {**records.dropped, **dropped}.items()},
+        unit=records.unit,
+        ignored=records.ignored,
+        origin=origin_info,
+        params={
+            "origin": params.origin if isinstance(params.origin, str) else [params.origin.lat, params.origin.lon, params.origin.alt],
+            "rate": params.rate,
+            "max_gap_s": params.max_gap_s,
+            "max_speed_mps": params.max_speed_mps,
+            "smoothing_s": params.smoothing_s,
+            "transform": None if params.transform is None else {"R": params.transform.R.tolist(), "t": params.transform.t.tolist()},
+        },
+        warnings=warnings,
+    )
+    return trajectory, report
+
+
+def _to_local(records: LogRecords, values: np.ndarray, params: IngestParams, warnings: list[str]) -> tuple[np.ndarray, Origin | None, str | None]:
+    """(local metres, origin, origin rule): ENU at the origin for geodetic logs, the rigid
+    transform (if any) for local ones (origin None)."""
+    if records.frame != GEODETIC:
+        if isinstance(params.origin, Origin):
+            warnings.append("the origin is not used: the log is already in local metres")
+        return (values if params.transform is None else params.transform.apply(values)), None, None
+    if params.transform is not None:
+        raise InputError(f"{records.path}: a rigid transform applies to local (odometry) logs; this log is geodetic")
+    if isinstance(params.origin, Origin):
+        origin, rule = params.origin, "given"
+    elif params.origin == "first":
+        origin, rule = Origin(*map(float, values[0])), "first fix"
+    else:
+        raise InputError(f"{records.path}: origin {params.origin!r} must be resolved to coordinates before ingestion")
+    return geodetic_to_enu(values[:, 0], values[:, 1], values[:, 2], origin), origin, rule
+
+
+def order_and_dedupe(records: LogRecords) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, list[int]]]:
+    """(t, values, provenance, drops): times checked non-decreasing, repeated times dropped.
+
+    A time that goes backwards is an InputError naming both lines. Of fixes
+    sharing a time the first is kept: an exact copy is a duplicate, a
+    different position at the same time is counted apart.
+    """
+    t, values, numbers = records.t, records.values, records.line
+    if not np.isfinite(t).all():
+        raise InputError(f"{records.where(int(np.flatnonzero(~np.isfinite(t))[0]))}: time is not a finite number")
+    step = np.diff(t)
+    back = np.flatnonzero(step < 0)
+    if len(back):
+        k = int(back[0])
+        raise InputError(
+            f"{records.where(k + 1)}: time goes backwards: {_when(t[k + 1], records.utc)} after {_when(t[k], records.utc)} "
+            f"({records.where(k)}); a log must be in time order"
+        )
+    same = np.flatnonzero(step == 0) + 1
+    dropped: dict[str, list[int]] = {}
+    if len(same):
+        # Compare each repeat with the first fix of its run of equal times.
+        first = np.maximum.accumulate(np.where(np.r_[True, step != 0], np.arange(len(t)), 0))
+        exact = (values[same] == values[first[same]]).all(axis=1)
+        if exact.any():
+            dropped[DUPLICATE] = numbers[same[exact]].tolist()
+        if (~exact).any():
+            dropped[REPEATED_TIME] = numbers[same[~exact]].tolist()
+        keep = np.ones(len(t), dtype=bool)
+        keep[same] = False
+        t, values, numbers = t[keep], values[keep], numbers[keep]
+    return t, values, numbers, dropped
+
+
+def reject_spikes(t: np.ndarray, xyz: np.ndarray, max_speed: float) -> np.ndarray:
+    """Mask of fixes kept: each fix must be reachable from the last kept one at <= max_speed (m/s).
+
+    The walk starts at the first fix whose next two steps are both plausible
+    (so a bad first fix does not condemn the rest) and runs forwards and
+    backwards from there. Since the allowed distance grows with the time since
+    the last kept fix, the walk recovers after a jump.
+    """
+    n = len(t)
+    speed = np.linalg.norm(np.diff(xyz, axis=0), axis=1) / np.diff(t)
+    if n < 2 or (speed <= max_speed).all():
+        return np.ones(n, dtype=bool)
+    ok = speed <= max_speed
+    both = np.flatnonzero(ok[:-1] & ok[1:])
+    start = int(both[0]) if len(both) else int(np.flatnonzero(ok)[0]) if ok.any() else 0
+    keep = np.zeros(n, dtype=bool)
+    keep[start] = True
+    tl, pts = t.tolist(), xyz.tolist()
+    for order in (range(start + 1, n), range(start - 1, -1, -1)):
+        last = start
+        for i in order:
+            if math.dist(pts[i], pts[last]) <= max_speed * abs(tl[i] - tl[last]):
+                keep[i] = True
+                last = i
+    return keep
+
+
+def median_interval(t: np.ndarray) -> float:
+    """Median interval between fixes (s)."""
+    return float(np.median(np.diff(t)))
+
+
+def log_rate(t: np.ndarray) -> float:
+    """The log's own rate (Hz).
+
+    1 / median interval, then refined: over the short steps (up to 10
+    intervals) whose length is a whole number of intervals, rate = intervals /
+    seconds (so rounded time stamps, e.g. 1/15 s written to the millisecond,
+    average out); then by least squares over the whole log when every fix sits
+    on that grid (gaps allowed); finally snapped to a multiple of 1 mHz when
+    within 1 ppm of one.
+    """
+    rate = 1.0 / median_interval(t)
+    step = np.diff(t) * rate
+    whole = np.round(step)
+    short = (whole >= 1) & (whole <= 10) & (np.abs(step - whole) < 0.25)
+    if short.any():
+        rate = float(whole[short].sum() / np.diff(t)[short].sum())
+    elapsed = t - t[0]
+    index = np.round(elapsed * rate)
+    if np.abs(elapsed * rate - index).max() < 0.1:
+        rate = float(index @ elapsed / (elapsed @ elapsed))
+    snapped = round(rate, 3)
+    return snapped if snapped > 0 and abs(rate - snapped) <= 1e-6 * rate else rate
+
+
+def find_gaps(t: np.ndarray, factor: float = GAP_FACTOR) -> np.ndarray:
+    """Indices i where t[i + 1] - t[i] exceeds factor x the median interval."""
+    step = np.diff(t)
+    return np.flatnonzero(step > factor * median_interval(t))
+
+
+def resample(t: np.ndarray, xyz: np.ndarray, rate: float, max_gap_s: float) -> tuple[np.ndarray, np.ndarray, int]:
+    """(grid indices k, positions at t[0] + k / rate, grid positions left out).
+
+    Linear interpolation between the fixes around each grid time; a grid time
+    inside an interval longer than max_gap_s is left out unless a fix falls on
+    it (within 1 us). Indices keep their place (never renumbered). Work and
+    memory grow with the samples kept, not with the time spanned. ValueError
+    when more than MAX_SAMPLES would be made.
+    """
+    elapsed = t - t[0]
+    kf = elapsed * rate
+    if not kf[-1] < MAX_SAMPLES:
+        raise ValueError(f"{elapsed[-1]:.6g} s at {rate:g} Hz is over {MAX_SAMPLES:,} samples: check the log's times or give a lower rate")
+    tol = 1e-6 * rate
+    lo = np.ceil(kf[:-1] - tol).astype(np.int64)
+    hi = np.floor(kf[1:] + tol).astype(np.int64)
+    counts = np.where(np.diff(elapsed) <= max_gap_s, np.maximum(hi - lo + 1, 0), 0)
+    total = int(counts.sum())
+    if total > MAX_SAMPLES:
+        raise ValueError(f"{elapsed[-1]:.6g} s at {rate:g} Hz is over {MAX_SAMPLES:,} samples: check the log's times or give a lower rate")
+    first = np.repeat(lo - np.cumsum(counts) + counts, counts)
+    inside = first + np.arange(total)
+    nearest = np.round(kf).astype(np.int64)
+    on_fix = nearest[np.abs(kf - nearest) <= tol]
+    k = np.unique(np.concatenate([inside, on_fix]))
+    grid = np.column_stack([np.interp(k / rate, elapsed, xyz[:, j]) for j in range(3)])
+    return k, grid, int(np.floor(kf[-1] + tol)) + 1 - len(k)
+
+
+def smooth(index: np.ndarray, xyz: np.ndarray, window_samples: float) -> np.ndarray:
+    """Savitzky-Golay (quadratic) smoothing over each run of consecutive grid indices."""
+    out = xyz.copy()
+    window = int(round(window_samples)) | 1
+    if window < 3:
+        return out
+    breaks = np.flatnonzero(np.diff(index) != 1) + 1
+    for run in np.split(np.arange(len(index)), breaks):
+        w = min(window, len(run) if len(run) % 2 else len(run) - 1)
+        if w >= 3:
+            out[run] = savgol_filter(xyz[run], w, min(2, w - 1), axis=0, mode="interp")
+    return out
+
+
+def _utc(seconds: float) -> str | None:
+    try:
+        return dt.datetime.fromtimestamp(float(seconds), dt.timezone.utc).isoformat().replace("+00:00", "Z")
+    except (OverflowError, OSError, ValueError):
+        return None
+
+
+def _when(seconds: float, utc: bool) -> str:
+    return (_utc(seconds) if utc else None) or f"{seconds:.6f} s"
+
+
+def _where(records: LogRecords, number: int) -> str:
+    return f"line {number}" if records.unit == "line" else f"{records.unit} {number}"
+
+
+def _no_fix_message(records: LogRecords) -> str:
+    total = sum(len(n) for n in records.dropped.values())
+    if not total:
+        what = f"{records.ignored} line(s) without a position" if records.ignored else "nothing readable"
+        return f"{records.path}: no position fix in the log ({what})" + "".join(f"; {w}" for w in records.warnings)
+    reasons = "; ".join(f"{len(n)} {reason} ({_where(records, n[0])}{', ...' if len(n) > 1 else ''})" for reason, n in records.dropped.items())
+    return f"{records.path}: no valid fix; {total} {records.unit}(s) dropped: {reasons}"
