@@ -65,6 +65,8 @@ main.add_command(demo_command)
 
 from tlsync_pipeline.commands_calibrate import calibrate_intrinsics  # noqa: E402
 from tlsync_pipeline.ingest_cli import ingest_log_command  # noqa: E402
+from tlsync_pipeline.track_cli import track_video_command  # noqa: E402
 
 main.add_command(calibrate_intrinsics)
 main.add_command(ingest_log_command)
+main.add_command(track_video_command)

@@ -28,11 +28,9 @@ from tlsync_pipeline.timeline import Timeline, read_timeline
 def frame_count(camera: dict) -> int:
     """Frames of a camera's video (from the container), or its last tracked frame + 1 without a video."""
     if camera.get("video"):
-        import cv2
+        from trackers.video import probe_video
 
-        capture = cv2.VideoCapture(str(camera["video"]))
-        count = int(capture.get(cv2.CAP_PROP_FRAME_COUNT))
-        capture.release()
+        count = probe_video(camera["video"]).n_frames
         if count > 0:
             return count
     from trackers.track import read_track

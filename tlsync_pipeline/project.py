@@ -145,6 +145,45 @@ TARGET_SCHEMA = {
     "trajectory": Field(_path),
     "origin": Field(_origin),
 }
+def _tracker_kind(value: Any, root: Path) -> str:
+    kinds = ("blob", "csrt")
+    if value not in kinds:
+        raise ValueError(f"unknown tracker kind {value!r}{_suggest(str(value), list(kinds))}")
+    return value
+
+
+def _box(value: Any, root: Path) -> tuple[float, float, float, float]:
+    if not isinstance(value, list) or len(value) != 4:
+        raise ValueError(f"expected a box [x, y, w, h] in pixels (top-left corner and size), got {value!r}")
+    box = tuple(_number(v) for v in value)
+    if box[2] <= 0 or box[3] <= 0:
+        raise ValueError(f"box {value!r}: width and height must be positive")
+    return box
+
+
+def _frame_index(value: Any, root: Path) -> int:
+    if _integer(value, root) < 0:
+        raise ValueError(f"expected a 0-based frame index, got {value!r}")
+    return value
+
+
+def _parameters(value: Any, root: Path) -> dict:
+    if not isinstance(value, dict):
+        raise ValueError(f"expected a table of tracker parameters, got {value!r}")
+    for key, number in value.items():
+        _number(number)
+    return dict(value)
+
+
+# [cameras.tracker]: how the track stage follows the target in the camera's video.
+TRACKER_SCHEMA = {
+    "kind": Field(_tracker_kind, "blob"),
+    "init": Field(_box),
+    "init_frame": Field(_frame_index, 0),
+    "parameters": Field(_parameters, {}),
+}
+
+
 # [cameras.calibration]: how the calibrate stage makes this camera's camera.json.
 CALIBRATION_SCHEMA = {
     "images": Field(_glob),
@@ -215,6 +254,8 @@ CAMERA_SCHEMA = {
     "camera": Field(_path),
     "track": Field(_path),
     "fps": Field(_positive),
+    "video": Field(_path),
+    "tracker": TRACKER_SCHEMA,
     "calibration": CALIBRATION_SCHEMA,
 }
 SYNC_SCHEMA = {

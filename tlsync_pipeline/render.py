@@ -33,6 +33,7 @@ from tlsync_pipeline.ransac import distance_to_line
 from tlsync_pipeline.stages import STAGES, load_votes, read_camera_inputs
 from tlsync_pipeline.timeline import Relation, Timeline, read_timeline, read_truth
 from tlsync_pipeline.trajectory import Trajectory, read_trajectory
+from trackers import video
 
 FRAMES_PER_PAIR = 3
 STRIP_HEIGHT = 240  # pixels of each frame in the pictures
@@ -40,20 +41,7 @@ STRIP_HEIGHT = 240  # pixels of each frame in the pictures
 
 def read_frames(path: Path, indices) -> dict[int, np.ndarray]:
     """Decode only the frames ``indices`` (0-based) of a video: {index: BGR image}."""
-    capture = cv2.VideoCapture(str(path))
-    out: dict[int, np.ndarray] = {}
-    position = 0
-    try:
-        for index in sorted(set(int(i) for i in indices)):
-            if index != position:
-                capture.set(cv2.CAP_PROP_POS_FRAMES, index)
-            ok, frame = capture.read()
-            position = index + 1
-            if ok:
-                out[index] = frame
-    finally:
-        capture.release()
-    return out
+    return {i: frame.image for i, frame in video.read_frames(path, indices).items()}
 
 
 def position_at(trajectory: Trajectory, sample: float) -> np.ndarray | None:

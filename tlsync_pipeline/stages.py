@@ -295,12 +295,10 @@ def run_calibrate(project: Project, name: str, work: Path, progress: bool = True
 
 def run_track(spec: dict, out: Path, progress: bool = True) -> dict:
     """The track stage: the target's track in one camera's video, ``track.csv``."""
-    from tlsync_pipeline.track_stage import track_camera
-    from trackers.track import write_track
+    from tlsync_pipeline.track_stage import track_camera, write_track_atomic
 
     track = track_camera(spec, progress=progress)
-    with atomic_path(out) as tmp:
-        write_track(track, tmp)
+    write_track_atomic(track, out)
     return {"tracked_frames": len(track), "message": f"wrote {out} ({len(track)} tracked frames)"}
 
 

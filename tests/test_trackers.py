@@ -1,0 +1,134 @@
+"""Blob and CSRT trackers on rendered videos with known truth."""
+
+import numpy as np
+import pytest
+
+from data_fixtures.video import render_video
+from trackers.blob import BlobParams
+from trackers.csrt import CsrtParams
+from trackers.errors import TrackInputError
+from trackers.tracking import track_video
+
+
+@pytest.fixture(scope="module")
+def video(tmp_path_factory):
+    """300 frames, 320x240: the target leaves and re-enters three times, passes behind a pole, a distractor crosses."""
+    return render_video(tmp_path_factory.mktemp("scene") / "scene.mp4", jitter=0.3)
+
+
+@pytest.fixture(scope="module")
+def tracks(video):
+    return {kind: track_video(video.path, kind=kind, progress=False) for kind in ("blob", "csrt")}
+
+
+def _errors(track, video):
+    f = track.frame
+    return np.hypot(track.x - video.truth[f, 0], track.y - video.truth[f, 1])
+
+
+@pytest.mark.parametrize("kind, limit", [("blob", 1.0), ("csrt", 2.0)])
+def test_median_position_error(tracks, video, kind, limit):
+    track = tracks[kind]
+    visible = video.in_view[track.frame]
+    assert np.median(_errors(track, video)[visible]) <= limit
+    # it follows the target through the video, not just part of it
+    assert visible.sum() >= 0.95 * video.in_view.sum()
+
+
+@pytest.mark.parametrize("kind", ["blob", "csrt"])
+def test_nothing_reported_while_the_target_is_out_of_view(tracks, video, kind):
+    reported = video.out_of_view[tracks[kind].frame].sum()
+    assert video.out_of_view.sum() > 80
+    assert reported <= 0.01 * video.out_of_view.sum()
+
+
+@pytest.mark.parametrize("kind", ["blob", "csrt"])
+def test_reacquired_within_ten_frames_of_reentering(tracks, video, kind):
+    reported = set(tracks[kind].frame.tolist())
+    entries = video.entries()
+    assert len(entries) == 3
+    for entry in entries:
+        assert any(k in reported for k in range(entry, entry + 11)), f"not re-acquired after frame {entry}"
+
+
+@pytest.mark.parametrize("kind", ["blob", "csrt"])
+def test_track_columns(tracks, video, kind):
+    track = tracks[kind]
+    np.testing.assert_allclose(track.time_s, video.times[track.frame], atol=1e-6)
+    assert np.all((track.score > 0) & (track.score <= 1))
+    assert np.all(track.w > 0) and np.all(track.h > 0)
+    assert np.all(np.diff(track.frame) > 0)
+
+
+@pytest.mark.parametrize("kind", ["blob", "csrt"])
+def test_init_box_while_the_distractor_is_in_view(video, kind):
+    """Started at frame 110 (the dark distractor is crossing), it follows the target, not the distractor."""
+    f0 = 110
+    x, y = video.truth[f0]
+    track = track_video(video.path, kind=kind, init=[x - 8, y - 8, 17, 17], init_frame=f0, progress=False)
+    assert track.frame[0] >= f0
+    visible = video.in_view[track.frame]
+    assert np.median(_errors(track, video)[visible]) <= (1.0 if kind == "blob" else 2.0)
+    assert visible.sum() >= 0.95 * video.in_view[f0:].sum()
+    assert video.out_of_view[track.frame].sum() <= 0.01 * video.out_of_view[f0:].sum()
+
+
+def test_same_track_twice(video):
+    a = track_video(video.path, kind="blob", progress=False)
+    b = track_video(video.path, kind="blob", progress=False)
+    np.testing.assert_array_equal(a.frame, b.frame)
+    np.testing.assert_array_equal(a.x, b.x)
+
+
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        (dict(kind="kcf"), "unknown tracker kind 'kcf'; expected one of: blob, csrt"),
+        (dict(init=[300, 100, 40, 40]), r"init box \[300, 100, 40, 40\] is outside the image \(320x240\)"),
+        (dict(init=[10, 10, 0, 5]), "width and height must be positive"),
+        (dict(init=[10, 10, 5]), "init box must be four numbers"),
+        (dict(init_frame=300), r"init frame 300 is past the end of the video \(300 frames\)"),
+        (dict(init_frame=-1), "init frame must be a 0-based frame index"),
+        (dict(params={"treshold": 3}), r"unknown parameter 'treshold' \(did you mean 'threshold'\?\)"),
+        (dict(kind="csrt", params={"patience": 2.5}), "'patience': expected an integer"),
+    ],
+)
+def test_bad_arguments(video, kwargs, message):
+    with pytest.raises(TrackInputError, match=message):
+        track_video(video.path, progress=False, **kwargs)
+
+
+def test_parameter_tables():
+    assert BlobParams.from_dict({"threshold": 5, "confirm": 4}) == BlobParams(threshold=5.0, confirm=4)
+    csrt, blob = CsrtParams.from_dict({"template_size": 100, "gate_px": 30})
+    assert csrt.template_size == 100 and blob.gate_px == 30.0
+    with pytest.raises(TrackInputError, match="blob detector's parameters"):
+        CsrtParams.from_dict({"nope": 1})
+
+
+def test_blob_with_a_downscaled_background_model(tmp_path):
+    """640x360 works on a half-size background model; the centroid is still refined at full resolution."""
+    video = render_video(tmp_path / "wide.mp4", n_frames=160, image_size=(640, 360), radius=8.0, seed=4, noise=3.0)
+    track = track_video(video.path, kind="blob", progress=False, params={"scale": 2})
+    visible = video.in_view[track.frame]
+    assert np.median(_errors(track, video)[visible]) <= 1.0
+    assert visible.sum() >= 0.95 * video.in_view.sum()
+    assert video.out_of_view[track.frame].sum() <= 0.01 * video.out_of_view.sum()
+
+
+def test_blob_from_a_loose_init_box(video):
+    """A box four times the target's size still starts the blob tracker on the target."""
+    f0 = 110
+    x, y = video.truth[f0]
+    track = track_video(video.path, kind="blob", init=[x - 20, y - 20, 40, 40], init_frame=f0, progress=False)
+    assert track.frame[0] == f0
+    assert np.median(_errors(track, video)[video.in_view[track.frame]]) <= 1.0
+
+
+def test_positions_are_in_the_upright_picture_of_a_rotated_video(tmp_path):
+    """Stored sideways with a display rotation: positions come out in the upright (displayed) picture."""
+    video = render_video(tmp_path / "phone.mp4", n_frames=120, rotation=270, seed=2, distractor=False)
+    track = track_video(video.path, kind="blob", progress=False)
+    visible = video.in_view[track.frame]
+    assert visible.sum() >= 0.95 * video.in_view.sum()
+    assert np.median(_errors(track, video)[visible]) <= 1.0

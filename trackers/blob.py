@@ -1,0 +1,363 @@
+"""Blob tracker: background subtraction, connected components, gated association.
+
+Per frame (grey):
+
+1. Background model on a downscaled frame: a per-pixel running mean and mean
+   absolute deviation, initialised from the per-pixel median of frames sampled
+   across the whole video (so a moving target is not part of it), updated
+   where no foreground is found. A global gain (frame mean / background mean
+   over background pixels) absorbs lighting flicker and auto exposure.
+2. Foreground = |frame - gain * background| > max(threshold * deviation,
+   min_contrast); connected components of it, kept if their area is within
+   [min_area, max_area], are the candidate blobs.
+3. Each candidate's centroid is refined at full resolution in a small window
+   around it: the centroid of the full-resolution difference to a
+   full-resolution background, with weights rising from 0 (noise level) to 1
+   (a fraction of the blob's contrast) so edge pixels count by how much the
+   blob covers them and the blob's own texture does not pull the centroid.
+4. Association: while tracking, the candidate nearest to the constant-velocity
+   prediction, within a gate and of a similar size and the same polarity
+   (brighter / darker than the background); after ``patience`` frames without
+   one the target is lost. Lost, a candidate must be followed consistently for
+   ``confirm`` frames (and look like the target seen before: size and
+   polarity) to be (re-)acquired; those frames are then reported too.
+
+The reported point is the blob's centroid (full-resolution pixels, origin at
+the centre of the top-left pixel).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields, replace
+
+import cv2
+import numpy as np
+
+from trackers.errors import TrackInputError
+
+
+@dataclass(frozen=True)
+class BlobParams:
+    """Blob tracker parameters; sizes in full-resolution pixels, counts in frames."""
+
+    scale: int = 0  # downscale factor of the background model; 0: automatic (working width <= 480 px)
+    threshold: float = 4.0  # foreground: difference above threshold x the pixel's mean absolute deviation
+    min_contrast: float = 12.0  # ... and above this many grey levels
+    min_area: float = 6.0  # candidate blob area bounds (pixels)
+    max_area: float = 20000.0
+    learning_rate: float = 0.02  # background update rate per frame
+    background_frames: int = 15  # frames sampled across the video for the initial background
+    gate_px: float = 25.0  # association gate around the prediction
+    size_ratio: float = 3.0  # accepted area ratio to the target's
+    confirm: int = 3  # consecutive consistent frames to (re-)acquire
+    patience: int = 5  # frames without a consistent detection before the target is lost
+    max_speed_px: float = 40.0  # largest motion between frames while acquiring
+    max_candidates: int = 25  # more blobs than this in a frame: a global change, frame skipped
+
+    @classmethod
+    def from_dict(cls, values: dict | None, where: str = "tracker parameters") -> "BlobParams":
+        return params_from_dict(cls, values, where)
+
+
+@dataclass(frozen=True)
+class Blob:
+    """A candidate blob: refined centroid (x, y), area and box (w, h) in full-resolution pixels.
+
+    polarity: +1 brighter than the background, -1 darker; contrast: mean
+    absolute difference to the background (grey levels).
+    """
+
+    x: float
+    y: float
+    area: float
+    w: float
+    h: float
+    polarity: int
+    contrast: float
+
+
+class BlobDetector:
+    """Background model and candidate blobs, frame after frame (grey, full resolution)."""
+
+    def __init__(self, background: np.ndarray, params: BlobParams = BlobParams(), deviation: np.ndarray | None = None):
+        """background: (H, W) full-resolution grey background (e.g. ``median_background``)."""
+        self.params = params
+        h, w = background.shape
+        self.size = (w, h)
+        self.scale = params.scale or max(1, int(math.ceil(w / 480)))
+        self.small_size = (max(1, w // self.scale), max(1, h // self.scale))
+        self.bg_full = background.astype(np.float32)
+        self.bg = self._shrink(self.bg_full)
+        if deviation is None:
+            deviation = np.full((h, w), 2.0, np.float32)
+        self.dev = np.maximum(self._shrink(deviation.astype(np.float32)), 1.0)
+        self.background_mask = np.full(self.small_size[::-1], 255, np.uint8)
+        self.mask = np.zeros(self.small_size[::-1], np.uint8)
+        self.frames = 0
+        self.noise = float(np.median(self.dev)) * 1.25
+
+    def detect(self, gray: np.ndarray) -> list[Blob]:
+        """Update the model with one frame; the candidate blobs, refined at full resolution."""
+        if gray.shape[::-1] != self.size:
+            raise TrackInputError(f"frame size {gray.shape[1]}x{gray.shape[0]} differs from the video's {self.size[0]}x{self.size[1]}")
+        p = self.params
+        s = self.scale
+        small = self._shrink(gray).astype(np.float32)
+        mean_frame = cv2.mean(small, self.background_mask)[0]
+        mean_bg = cv2.mean(self.bg, self.background_mask)[0]
+        gain = mean_frame / mean_bg if mean_bg > 0 else 1.0
+        diff = small - gain * self.bg
+        absdiff = np.abs(diff)
+        fg = absdiff > np.maximum(p.threshold * self.dev, p.min_contrast)
+        self.mask = fg.astype(np.uint8) * 255
+        blobs = []
+        rx, ry, rw, rh = cv2.boundingRect(self.mask)  # components only where there is foreground
+        if rw and rh:
+            count, labels, stats, _ = cv2.connectedComponentsWithStats(self.mask[ry : ry + rh, rx : rx + rw], connectivity=8)
+            keep = [i for i in range(1, count) if p.min_area <= stats[i, cv2.CC_STAT_AREA] * s * s <= p.max_area]
+            if len(keep) > p.max_candidates:
+                keep = []  # a global change (light switched, camera bumped): no trustworthy blob
+            for i in keep:
+                blob = self._refine(gray, labels, i, stats[i], diff[ry : ry + rh, rx : rx + rw], (rx, ry))
+                if blob is not None:
+                    blobs.append(blob)
+        # learn the background where there is no foreground (dilated)
+        self.background_mask = cv2.bitwise_not(cv2.dilate(self.mask, np.ones((3, 3), np.uint8)))
+        cv2.accumulateWeighted(small / gain, self.bg, p.learning_rate, self.background_mask)
+        cv2.accumulateWeighted(absdiff, self.dev, p.learning_rate, self.background_mask)
+        np.maximum(self.dev, 1.0, out=self.dev)
+        self.frames += 1
+        if self.frames % 8 == 0:  # the full-resolution background follows more slowly
+            big_mask = cv2.resize(self.background_mask, self.size, interpolation=cv2.INTER_NEAREST)
+            cv2.accumulateWeighted(gray, self.bg_full, min(1.0, 8 * p.learning_rate), big_mask)
+        return blobs
+
+    def _shrink(self, image: np.ndarray) -> np.ndarray:
+        """Area-average by the scale factor: small pixel (i, j) is the mean of full pixels [i*s, i*s+s) x [j*s, j*s+s).
+
+        The exact integer ratio also takes OpenCV's fast path.
+        """
+        sw, sh = self.small_size
+        s = self.scale
+        return cv2.resize(image[: sh * s, : sw * s], self.small_size, interpolation=cv2.INTER_AREA)
+
+    def support(self, box: tuple[float, float, float, float]) -> float:
+        """Fraction of foreground pixels of the last frame inside box (x, y, w, h), full-resolution pixels."""
+        s = self.scale
+        x0, y0 = max(0, int(box[0] / s)), max(0, int(box[1] / s))
+        x1 = min(self.small_size[0], int(math.ceil((box[0] + box[2]) / s)))
+        y1 = min(self.small_size[1], int(math.ceil((box[1] + box[3]) / s)))
+        if x1 <= x0 or y1 <= y0:
+            return 0.0
+        return float(np.count_nonzero(self.mask[y0:y1, x0:x1])) / ((x1 - x0) * (y1 - y0))
+
+    def _refine(self, gray, labels, label, stat, diff, offset) -> Blob | None:
+        """Labels, stat and diff are of the region starting at small pixel ``offset``."""
+        s = self.scale
+        x, y, bw, bh, area = (int(v) for v in stat)
+        own = diff[y : y + bh, x : x + bw][labels[y : y + bh, x : x + bw] == label]
+        polarity = 1 if float(own.mean()) >= 0 else -1
+        # the component's box grown by two small pixels, in the whole small frame
+        gx0, gy0 = max(0, x + offset[0] - 2), max(0, y + offset[1] - 2)
+        gx1, gy1 = min(self.small_size[0], x + offset[0] + bw + 2), min(self.small_size[1], y + offset[1] + bh + 2)
+        support = np.zeros((gy1 - gy0, gx1 - gx0), np.uint8)
+        lx0, ly0 = max(0, gx0 - offset[0]), max(0, gy0 - offset[1])
+        part = labels[ly0 : gy1 - offset[1], lx0 : gx1 - offset[0]] == label
+        support[ly0 + offset[1] - gy0 : ly0 + offset[1] - gy0 + part.shape[0], lx0 + offset[0] - gx0 : lx0 + offset[0] - gx0 + part.shape[1]] = part
+        support = cv2.dilate(support, np.ones((3, 3), np.uint8))
+        # the same window at full resolution
+        fx0, fy0, fx1, fy1 = gx0 * s, gy0 * s, min(self.size[0], gx1 * s), min(self.size[1], gy1 * s)
+        support = cv2.resize(support, (fx1 - fx0, fy1 - fy0), interpolation=cv2.INTER_NEAREST)
+        window = gray[fy0:fy1, fx0:fx1].astype(np.float32)
+        bg = self.bg_full[fy0:fy1, fx0:fx1]
+        ring = support == 0
+        gain = float(np.median(window[ring]) / max(1e-3, np.median(bg[ring]))) if ring.sum() > 8 else 1.0
+        d = polarity * (window - gain * bg)
+        d[support == 0] = 0.0
+        inside = d[d > 0]
+        if inside.size == 0:
+            return None
+        top = float(np.percentile(inside, 90))
+        low = max(0.25 * top, 3.0 * self.noise)
+        high = 0.6 * top
+        if high <= low:
+            return None
+        weight = np.clip((d - low) / (high - low), 0.0, 1.0)
+        total = float(weight.sum())
+        if total <= 0:
+            return None
+        ys, xs = np.mgrid[fy0:fy1, fx0:fx1]
+        cx = float((weight * xs).sum() / total)
+        cy = float((weight * ys).sum() / total)
+        return Blob(cx, cy, total, float(bw * s), float(bh * s), polarity, float(np.abs(own).mean()))
+
+
+@dataclass
+class _State:
+    x: float
+    y: float
+    vx: float
+    vy: float
+    frame: int
+    area: float
+    polarity: int
+
+
+class BlobTracker:
+    """Associates the detector's blobs over frames into the target's track.
+
+    ``step`` takes a frame index and its blobs and returns the detections to
+    report for this and (on acquisition) the few frames before it, as
+    (frame, Blob, score) tuples. Scores in (0, 1]: how well the blob matches
+    the prediction (position and size).
+    """
+
+    def __init__(self, params: BlobParams = BlobParams(), init: tuple[float, float, float, float] | None = None):
+        self.params = params
+        self.state: _State | None = None
+        self.signature: tuple[float, int] | None = None  # (area, polarity) of the target seen so far
+        self.chains: list[list[tuple[int, Blob]]] = []
+        self.init = init
+        if init is not None:
+            x, y, w, h = init
+            self.state = _State(x + (w - 1) / 2, y + (h - 1) / 2, 0.0, 0.0, -1, math.pi / 4 * w * h, 0)
+
+    def start(self, frame: int) -> None:
+        """Mark the init box's frame (the tracker is told the target is there)."""
+        if self.state is not None and self.state.frame < 0:
+            self.state.frame = frame - 1
+
+    def step(self, frame: int, blobs: list[Blob]) -> list[tuple[int, Blob, float]]:
+        p = self.params
+        if self.state is not None:
+            st = self.state
+            dt = frame - st.frame
+            px, py = st.x + st.vx * dt, st.y + st.vy * dt
+            gate = p.gate_px * (1 + 0.5 * (dt - 1))
+            best, best_cost = None, math.inf
+            for b in blobs:
+                if not st.polarity:  # from the init box, not seen yet: any blob inside the box
+                    x, y, w, h = self.init
+                    if x <= b.x <= x + w and y <= b.y <= y + h and b.area <= 2 * w * h:
+                        cost = (math.hypot(b.x - st.x, b.y - st.y) / max(w, h)) ** 2
+                        if cost < best_cost:
+                            best, best_cost = b, cost
+                    continue
+                if b.polarity != st.polarity:
+                    continue
+                ratio = abs(math.log(max(b.area, 1e-6) / st.area))
+                dist = math.hypot(b.x - px, b.y - py)
+                if dist > gate or ratio > math.log(p.size_ratio):
+                    continue
+                cost = (dist / gate) ** 2 + (ratio / math.log(p.size_ratio)) ** 2
+                if cost < best_cost:
+                    best, best_cost = b, cost
+            if best is not None:
+                self._update(best, frame)
+                return [(frame, best, math.exp(-best_cost))]
+            if dt > p.patience:
+                self.state = None
+                self.chains = []
+            return []
+        return self._acquire(frame, blobs)
+
+    def _update(self, b: Blob, frame: int) -> None:
+        st = self.state
+        dt = frame - st.frame
+        if st.frame >= 0 and st.polarity:
+            a = 0.6
+            st.vx = a * (b.x - st.x) / dt + (1 - a) * st.vx
+            st.vy = a * (b.y - st.y) / dt + (1 - a) * st.vy
+        st.area = 0.8 * st.area + 0.2 * b.area if st.polarity else b.area  # the init box's area is only a guess
+        st.x, st.y, st.frame, st.polarity = b.x, b.y, frame, b.polarity
+        self.signature = (st.area, st.polarity)
+
+    def _plausible(self, b: Blob) -> bool:
+        if self.signature is None:
+            return True
+        area, polarity = self.signature
+        return polarity in (0, b.polarity) and abs(math.log(max(b.area, 1e-6) / area)) <= math.log(self.params.size_ratio)
+
+    def _acquire(self, frame: int, blobs: list[Blob]) -> list[tuple[int, Blob, float]]:
+        p = self.params
+        candidates = [b for b in blobs if self._plausible(b)]
+        extended: list[list[tuple[int, Blob]]] = []
+        used = set()
+        for chain in sorted(self.chains, key=len, reverse=True):
+            last_frame, last = chain[-1]
+            if last_frame != frame - 1:
+                continue
+            if len(chain) >= 2:
+                (_, prev) = chain[-2]
+                px, py = 2 * last.x - prev.x, 2 * last.y - prev.y
+                gate = p.gate_px
+            else:
+                px, py, gate = last.x, last.y, p.max_speed_px
+            best, best_d = None, math.inf
+            for k, b in enumerate(candidates):
+                d = math.hypot(b.x - px, b.y - py)
+                if k not in used and d <= gate and abs(math.log(b.area / last.area)) <= math.log(p.size_ratio) and b.polarity == last.polarity and d < best_d:
+                    best, best_d = k, d
+            if best is not None:
+                used.add(best)
+                extended.append(chain + [(frame, candidates[best])])
+        extended += [[(frame, b)] for k, b in enumerate(candidates) if k not in used]
+        self.chains = extended
+        ready = [c for c in extended if len(c) >= p.confirm]
+        if not ready:
+            return []
+        chain = min(ready, key=self._preference)
+        self.state = _State(chain[0][1].x, chain[0][1].y, 0.0, 0.0, chain[0][0], chain[0][1].area, chain[0][1].polarity)
+        out = [(chain[0][0], chain[0][1], 0.5)]
+        for f, b in chain[1:]:
+            out.append((f, b, 0.5))
+            self._update(b, f)
+        self.chains = []
+        return out
+
+    def _preference(self, chain: list[tuple[int, Blob]]) -> float:
+        """Lower is better: the size of the target seen before, else the most salient (contrast x size)."""
+        b = chain[-1][1]
+        if self.signature is not None:
+            return abs(math.log(b.area / self.signature[0]))
+        return -b.contrast * math.sqrt(b.area)
+
+
+def median_background(frames: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """Per-pixel median of grey frames (each scaled to the common mean first) and the mean absolute deviation.
+
+    Works in strips of rows so that memory stays near the size of the frames themselves.
+    """
+    stack = np.stack(frames)
+    means = np.array([float(f.mean()) for f in frames])
+    gains = (np.median(means) / np.maximum(means, 1e-3)).astype(np.float32)[:, None, None]
+    median = np.empty(stack.shape[1:], np.float32)
+    deviation = np.empty(stack.shape[1:], np.float32)
+    for r in range(0, stack.shape[1], 64):
+        block = stack[:, r : r + 64].astype(np.float32) * gains
+        median[r : r + 64] = np.median(block, axis=0)
+        deviation[r : r + 64] = np.abs(block - median[r : r + 64]).mean(axis=0)
+    return median, deviation
+
+
+def params_from_dict(cls, values: dict | None, where: str):
+    """A parameters dataclass from a table of numbers by name; TrackInputError (with a "did you mean") otherwise."""
+    if not values:
+        return cls()
+    names = {f.name: f for f in fields(cls)}
+    out = cls()
+    for key, value in values.items():
+        if key not in names:
+            import difflib
+
+            close = difflib.get_close_matches(key, list(names), n=1)
+            hint = f" (did you mean {close[0]!r}?)" if close else f" (expected one of: {', '.join(names)})"
+            raise TrackInputError(f"{where}: unknown parameter {key!r}{hint}")
+        default = getattr(out, key)
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or (isinstance(default, int) and not isinstance(value, int)):
+            raise TrackInputError(f"{where}: parameter {key!r}: expected {'an integer' if isinstance(default, int) else 'a number'}, got {value!r}")
+        if value < 0 or not math.isfinite(value):
+            raise TrackInputError(f"{where}: parameter {key!r}: expected a non-negative number, got {value!r}")
+        out = replace(out, **{key: type(default)(value)})
+    return out

@@ -1,0 +1,118 @@
+"""One entry point: a video file in, the target's Track out."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Sequence
+
+import cv2
+import numpy as np
+
+from trackers.blob import BlobDetector, BlobParams, BlobTracker, median_background
+from trackers.errors import TrackInputError
+from trackers.track import Track
+from trackers.video import VideoInfo, iter_frames, probe_video, sample_frames
+
+KINDS = ("blob", "csrt")
+
+
+def track_video(
+    path: str | Path,
+    kind: str = "blob",
+    init: Sequence[float] | None = None,
+    init_frame: int = 0,
+    params: dict | None = None,
+    progress: bool = True,
+    label: str | None = None,
+) -> Track:
+    """Track the target through ``path``; frames without a confident position are absent.
+
+    kind: "blob" (reports the blob centroid) or "csrt" (the box centre);
+    init: optional box [x, y, w, h] (pixels, top-left corner and size)
+    around the target in frame ``init_frame`` (0-based); tracking starts
+    there. Without it the first confidently moving blob is the target.
+    params: tracker parameters by name (BlobParams, CsrtParams); label:
+    the progress bar's title (default: the file name). Returns a
+    Track with time_s (presentation time, s), w, h and score.
+    """
+    path = Path(path)
+    if kind not in KINDS:
+        raise TrackInputError(f"unknown tracker kind {kind!r}; expected one of: {', '.join(KINDS)}")
+    info = probe_video(path)
+    box = _check_init(path, info, init, init_frame)
+    where = f"{path}: tracker parameters"
+    if kind == "blob":
+        blob_params = BlobParams.from_dict(params, where)
+        steps = _blob_steps(path, info, blob_params, box, init_frame, progress, label)
+    else:
+        from trackers.csrt import CsrtParams, csrt_steps
+
+        csrt_params, blob_params = CsrtParams.from_dict(params, where)
+        steps = csrt_steps(path, info, csrt_params, blob_params, box, init_frame, progress, _detector(path, blob_params, from_bgr=True), label)
+    rows = {}
+    while True:
+        try:
+            frame, time_s, x, y, w, h, score = next(steps)
+        except StopIteration as stop:
+            n_read = stop.value
+            break
+        rows[frame] = (time_s, x, y, w, h, score)
+    if init_frame >= n_read:
+        raise TrackInputError(f"{path}: init frame {init_frame} is past the end of the video ({n_read} frames)")
+    frames = np.array(sorted(rows), dtype=np.int64)
+    cols = np.array([rows[f] for f in frames], dtype=np.float64).reshape(-1, 6)
+    return Track(frames, cols[:, 1], cols[:, 2], time_s=cols[:, 0], w=cols[:, 3], h=cols[:, 4], score=cols[:, 5])
+
+
+def _detector(path: Path, params: BlobParams, from_bgr: bool = False) -> BlobDetector:
+    """A blob detector whose background is the median of frames sampled over the video.
+
+    from_bgr: the tracker will feed grey frames converted from BGR (OpenCV's
+    weights, full range) rather than the decoder's luma plane.
+    """
+    frames = sample_frames(path, params.background_frames, gray=not from_bgr)
+    if from_bgr:
+        frames = [cv2.cvtColor(f, cv2.COLOR_BGR2GRAY) for f in frames]
+    background, deviation = median_background(frames)
+    return BlobDetector(background, params, deviation)
+
+
+def _blob_steps(path, info: VideoInfo, params: BlobParams, box, init_frame: int, progress: bool, label: str | None):
+    """Yields (frame, time_s, x, y, w, h, score) rows; returns the number of frames read."""
+    detector = _detector(path, params)
+    tracker = BlobTracker(params, box)
+    times = {}
+    index = -1
+    for index, time_s, gray in iter_frames(path, gray=True, progress=progress, desc=label):
+        times[index] = time_s
+        blobs = detector.detect(gray)
+        if index < init_frame:
+            continue
+        if index == init_frame:
+            tracker.start(index)
+        for frame, blob, score in tracker.step(index, blobs):
+            yield frame, times[frame], blob.x, blob.y, blob.w, blob.h, score
+        times = {f: t for f, t in times.items() if f > index - 2 * params.confirm - 2}
+    return index + 1
+
+
+def _check_init(path: Path, info: VideoInfo, init, init_frame) -> tuple[float, float, float, float] | None:
+    if isinstance(init_frame, bool) or not isinstance(init_frame, (int, np.integer)) or init_frame < 0:
+        raise TrackInputError(f"{path}: init frame must be a 0-based frame index, got {init_frame!r}")
+    if info.counted and init_frame >= info.n_frames:
+        raise TrackInputError(f"{path}: init frame {init_frame} is past the end of the video ({info.n_frames} frames)")
+    if init is None:
+        return None
+    try:
+        x, y, w, h = (float(v) for v in init)
+    except (TypeError, ValueError):
+        raise TrackInputError(f"{path}: init box must be four numbers x, y, w, h (pixels), got {init!r}") from None
+    if not all(math.isfinite(v) for v in (x, y, w, h)) or w <= 0 or h <= 0:
+        raise TrackInputError(f"{path}: init box [{x:g}, {y:g}, {w:g}, {h:g}]: width and height must be positive")
+    if x < 0 or y < 0 or x + w > info.width or y + h > info.height:
+        raise TrackInputError(
+            f"{path}: init box [{x:g}, {y:g}, {w:g}, {h:g}] is outside the image ({info.width}x{info.height}); x, y is the top-left corner"
+        )
+    return x, y, w, h
+

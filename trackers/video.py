@@ -1,0 +1,338 @@
+"""Streaming video reading with PyAV: frame index, presentation time, pixels.
+
+Frames are numbered 0, 1, 2, ... in presentation order as the decoder emits
+them; the presentation time is ``frame.pts * time_base`` in seconds, read from
+the container (not derived from a nominal frame rate, so variable-frame-rate
+video keeps its true times). Frames are returned as displayed: rotation
+metadata (display matrix) is applied. Memory stays flat: one frame at a time.
+
+A file that stops decoding part-way (truncated, corrupt) is read up to its
+last decodable frame with a ``TruncatedVideoWarning`` naming that frame.
+"""
+
+from __future__ import annotations
+
+import warnings
+from bisect import bisect_right
+from dataclasses import dataclass
+from fractions import Fraction
+from pathlib import Path
+from typing import Iterable, Iterator, NamedTuple
+
+import av
+import cv2
+import numpy as np
+
+from trackers.errors import TrackInputError
+
+
+class TruncatedVideoWarning(UserWarning):
+    """A video stopped decoding before its announced end."""
+
+
+class VideoFrame(NamedTuple):
+    """One decoded frame: 0-based index, presentation time (s), image (H, W[, 3]) uint8 BGR or grey."""
+
+    index: int
+    time_s: float
+    image: np.ndarray
+
+
+@dataclass(frozen=True)
+class VideoInfo:
+    """What the container says about a video stream.
+
+    width, height: displayed size in pixels (after rotation); n_frames: the
+    container's frame count (0 when unknown, an estimate from the duration
+    when the container does not store it; counted: the count is stored by
+    the container); fps: average frame rate; rotation: counter-clockwise
+    degrees applied to decoded frames.
+    """
+
+    path: Path
+    width: int
+    height: int
+    n_frames: int
+    fps: float
+    rotation: int
+    codec: str
+    counted: bool
+
+
+def probe_video(path: str | Path) -> VideoInfo:
+    """Open a video and describe its first video stream; TrackInputError if it cannot be read."""
+    path = Path(path)
+    with _open(path) as container:
+        stream = container.streams.video[0]
+        return _info(path, stream, _first_rotation(path, container, stream))
+
+
+def iter_frames(path: str | Path, gray: bool = False, progress: bool = False, desc: str | None = None) -> Iterator[VideoFrame]:
+    """Yield every decodable frame of ``path`` in order, with its index and presentation time.
+
+    gray: yield (H, W) grey frames instead of (H, W, 3) BGR (for YUV video
+    the decoder's luma plane as stored, usually 16-235). progress: a
+    tqdm bar (frames, frames/s, ETA). A video without any decodable frame
+    raises TrackInputError; one that stops early warns (TruncatedVideoWarning).
+    """
+    path = Path(path)
+    with _open(path) as container:
+        stream = container.streams.video[0]
+        stream.thread_type = "AUTO"
+        info = _info(path, stream, None)
+        bar = _progress_bar(info.n_frames, desc or path.name) if progress else None
+        index = -1
+        rotation = None
+        last_time = None
+        try:
+            for frame, error in _decode(container, stream):
+                if error is not None:
+                    _warn_truncated(path, index, last_time, info.n_frames, error)
+                    break
+                index += 1
+                if rotation is None:
+                    rotation = _rotation(frame, stream)
+                last_time = _time(frame, stream, index, info.fps)
+                yield VideoFrame(index, last_time, _to_array(frame, gray, rotation))
+                if bar is not None:
+                    bar.update(1)
+            else:
+                if index >= 0 and info.n_frames and index + 1 < info.n_frames and stream.frames:
+                    _warn_truncated(path, index, last_time, info.n_frames, "end of file")
+        finally:
+            if bar is not None:
+                bar.close()
+        if index < 0:
+            raise TrackInputError(f"{path}: the video has no decodable frame")
+
+
+def read_frames(path: str | Path, indices: Iterable[int], gray: bool = False) -> dict[int, VideoFrame]:
+    """Decode only the frames at ``indices`` (0-based): seek to the keyframe before each, decode forward.
+
+    A demux-only pass over the packets (no decoding) maps frame indices to
+    presentation timestamps, so indices agree with ``iter_frames``. Indices
+    past the end raise TrackInputError.
+    """
+    path = Path(path)
+    wanted = sorted(set(int(i) for i in indices))
+    if not wanted:
+        return {}
+    if wanted[0] < 0:
+        raise TrackInputError(f"{path}: frame index {wanted[0]} is negative; frames are 0-based")
+    pts_list, keyframes = _packet_index(path)
+    if pts_list is None:  # timestamps unknown: decode from the start, keep the wanted ones
+        return _read_sequential(path, wanted, gray)
+    if wanted[-1] >= len(pts_list):
+        raise TrackInputError(f"{path}: frame {wanted[-1]} is past the end of the video ({len(pts_list)} frames)")
+    out: dict[int, VideoFrame] = {}
+    with _open(path) as container:
+        stream = container.streams.video[0]
+        stream.thread_type = "AUTO"
+        fps = _fps(stream)
+        rotation = None
+        position = None  # pts of the last decoded frame, when decoding can continue from it
+        frames = None
+        for i in wanted:
+            target = pts_list[i]
+            start = keyframes[max(0, bisect_right(keyframes, target) - 1)] if keyframes else pts_list[0]
+            if position is None or not (start <= position < target):
+                container.seek(start, stream=stream, backward=True, any_frame=False)
+                frames = _decode(container, stream)
+            for frame, error in frames:
+                if error is not None:
+                    raise TrackInputError(f"{path}: frame {i} cannot be decoded: {error}")
+                if frame.pts is None or frame.pts < target:
+                    continue
+                if frame.pts > target:
+                    raise TrackInputError(f"{path}: frame {i} (pts {target}) not found after seeking")
+                if rotation is None:
+                    rotation = _rotation(frame, stream)
+                out[i] = VideoFrame(i, _time(frame, stream, i, fps), _to_array(frame, gray, rotation))
+                position = frame.pts
+                break
+            else:
+                raise TrackInputError(f"{path}: frame {i} cannot be decoded (the video ends early)")
+    return out
+
+
+def _read_sequential(path: Path, wanted: list[int], gray: bool) -> dict[int, VideoFrame]:
+    out = {}
+    remaining = set(wanted)
+    for frame in iter_frames(path, gray=gray):
+        if frame.index in remaining:
+            out[frame.index] = frame
+            remaining.discard(frame.index)
+            if not remaining:
+                return out
+    raise TrackInputError(f"{path}: frame {min(remaining)} is past the end of the video")
+
+
+def _packet_index(path: Path) -> tuple[list[int] | None, list[int]]:
+    """Sorted presentation timestamps of the video packets, and those of keyframes (demux only)."""
+    pts, keys = [], []
+    with _open(path) as container:
+        stream = container.streams.video[0]
+        try:
+            for packet in container.demux(stream):
+                if packet.size == 0:
+                    continue
+                if packet.pts is None:
+                    return None, []
+                pts.append(packet.pts)
+                if packet.is_keyframe:
+                    keys.append(packet.pts)
+        except av.FFmpegError:
+            pass  # truncated: index what could be read
+    pts.sort()
+    keys.sort()
+    return pts, keys
+
+
+def _open(path: Path):
+    if not path.exists():
+        raise TrackInputError(f"{path}: file not found")
+    if path.is_dir():
+        raise TrackInputError(f"{path}: is a folder, expected a video file")
+    try:
+        container = av.open(str(path), mode="r")
+    except av.error.EOFError:
+        raise TrackInputError(f"{path}: the file ends before any video frame (an empty or truncated video)") from None
+    except (av.FFmpegError, OSError, UnicodeDecodeError) as exc:
+        raise TrackInputError(f"{path}: not a readable video file ({exc})") from None
+    if not container.streams.video:
+        container.close()
+        raise TrackInputError(f"{path}: the file has no video stream")
+    return container
+
+
+def _decode(container, stream) -> Iterator[tuple[object, str | None]]:
+    """Decoded frames; stops with (None, reason) at the first demux or decode error."""
+    packets = container.demux(stream)
+    while True:
+        try:
+            packet = next(packets)
+        except StopIteration:
+            return
+        except av.FFmpegError as exc:
+            yield None, str(exc)
+            return
+        try:
+            frames = packet.decode()
+        except av.FFmpegError as exc:
+            yield None, str(exc)
+            return
+        for frame in frames:
+            yield frame, None
+
+
+def _warn_truncated(path: Path, index: int, time_s: float | None, n_frames: int, why: str) -> None:
+    if index < 0:
+        raise TrackInputError(f"{path}: the video has no decodable frame ({why})")
+    announced = f" of {n_frames} announced" if n_frames else ""
+    warnings.warn(
+        f"{path}: video truncated or corrupt ({why}); read up to frame {index} (t = {time_s:.3f} s), {index + 1} frames{announced}",
+        TruncatedVideoWarning,
+        stacklevel=3,
+    )
+
+
+def _info(path: Path, stream, rotation: int | None) -> VideoInfo:
+    fps = _fps(stream)
+    n = int(stream.frames or 0)
+    if n == 0 and stream.duration and stream.time_base and fps:
+        n = int(round(float(stream.duration * stream.time_base) * fps))
+    width, height = stream.codec_context.width, stream.codec_context.height
+    rotation = rotation or 0
+    if rotation % 180:
+        width, height = height, width
+    return VideoInfo(path, width, height, n, fps, rotation, stream.codec_context.name, bool(stream.frames))
+
+
+def _first_rotation(path: Path, container, stream) -> int:
+    """Rotation of the first decodable frame (display matrix side data or 'rotate' tag)."""
+    stream.thread_type = "AUTO"
+    for frame, error in _decode(container, stream):
+        if error is not None:
+            break
+        return _rotation(frame, stream)
+    raise TrackInputError(f"{path}: the video has no decodable frame")
+
+
+def _rotation(frame, stream) -> int:
+    """Counter-clockwise rotation in degrees (multiple of 90) that displays the frame upright."""
+    angle = frame.rotation or 0
+    if not angle:
+        tag = stream.metadata.get("rotate")
+        try:
+            angle = -int(float(tag)) if tag else 0  # the legacy tag counts clockwise
+        except ValueError:
+            angle = 0
+    return int(round(angle / 90.0)) % 4 * 90
+
+
+# Formats whose first plane is 8-bit luma: grey frames are a copy of it (no colour conversion).
+_LUMA_FIRST = {"yuv420p", "yuvj420p", "yuv422p", "yuvj422p", "yuv444p", "yuvj444p", "nv12", "nv21", "gray"}
+
+
+def _to_array(frame, gray: bool, rotation: int) -> np.ndarray:
+    if gray and frame.format.name in _LUMA_FIRST:
+        plane = frame.planes[0]
+        image = np.frombuffer(plane, np.uint8).reshape(-1, plane.line_size)[: frame.height, : frame.width].copy()
+    elif not gray and frame.format.name == "yuv420p" and frame.color_range != 2 and frame.width % 2 == 0 and frame.height % 2 == 0:
+        # OpenCV's I420 -> BGR (BT.601, limited range) is about 4x faster than swscale here
+        image = cv2.cvtColor(frame.to_ndarray(), cv2.COLOR_YUV2BGR_I420)
+    else:
+        image = frame.to_ndarray(format="gray" if gray else "bgr24")
+    if rotation:
+        image = np.ascontiguousarray(np.rot90(image, k=rotation // 90))
+    return image
+
+
+def _fps(stream) -> float:
+    rate = stream.average_rate or stream.guessed_rate or stream.base_rate
+    return float(rate) if rate else 0.0
+
+
+def _time(frame, stream, index: int, fps: float) -> float:
+    """Presentation time in seconds: pts * time_base, or index / fps when the frame has no pts."""
+    if frame.pts is not None:
+        base = frame.time_base or stream.time_base or Fraction(1, 1)
+        return float(frame.pts * base)
+    return index / fps if fps else float("nan")
+
+
+def _progress_bar(total: int, desc: str):
+    from tqdm import tqdm
+
+    return tqdm(total=total or None, desc=desc, unit="frame", dynamic_ncols=True)
+
+
+def sample_frames(path: str | Path, count: int, gray: bool = True) -> list[np.ndarray]:
+    """Up to ``count`` frames spread evenly over the whole video (decoded by seeking; keyframes when there are enough).
+
+    Falls back to the first ``count`` decodable frames when the video cannot
+    be indexed or seeked (no timestamps, damaged).
+    """
+    path = Path(path)
+    pts_list, keyframes = _packet_index(path)
+    if pts_list:
+        n = len(pts_list)
+        if len(keyframes) >= count:  # keyframes decode on their own: one decode per sample
+            where = {pts: i for i, pts in enumerate(pts_list)}
+            picks = np.linspace(0, len(keyframes) - 1, count).round().astype(int)
+            indices = sorted(set(where[keyframes[k]] for k in picks))
+        else:
+            indices = sorted(set(np.linspace(0, n - 1, min(count, n)).round().astype(int).tolist()))
+        try:
+            frames = read_frames(path, indices, gray=gray)
+            return [frames[i].image for i in indices]
+        except TrackInputError:
+            pass
+    out = []
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", TruncatedVideoWarning)
+        for frame in iter_frames(path, gray=gray):
+            out.append(frame.image)
+            if len(out) >= count:
+                break
+    return out
