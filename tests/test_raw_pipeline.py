@@ -13,18 +13,12 @@ import subprocess
 import sys
 import time
 
-import pytest
-
-pytest.importorskip("tlsync_pipeline.track_stage")
-pytest.importorskip("tlsync_pipeline.calibrate")
-pytest.importorskip("tlsync_pipeline.ingest.stage")
-
-from data_fixtures.raw_project import SMALL, make_raw_project  # noqa: E402
-from tlsync_pipeline.executors import ProcessExecutor  # noqa: E402
-from tlsync_pipeline.pipeline import run_graph, status  # noqa: E402
-from tlsync_pipeline.project import SyncParams, load_project  # noqa: E402
-from tlsync_pipeline.stages import Options, build_graph  # noqa: E402
-from tlsync_pipeline.timeline import eps_t, read_timeline  # noqa: E402
+from data_fixtures.raw_project import SMALL, make_raw_project
+from tlsync_pipeline.executors import ProcessExecutor
+from tlsync_pipeline.pipeline import run_graph, status
+from tlsync_pipeline.project import SyncParams, load_project
+from tlsync_pipeline.stages import Options, build_graph
+from tlsync_pipeline.timeline import eps_t, read_timeline
 
 
 def _graph(project_file):
