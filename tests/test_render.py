@@ -101,3 +101,29 @@ def test_render_command_with_pair_and_frames(rendered_project, monkeypatch):
     result = render.run_render(**kwargs)
     assert any(p.endswith("swap_cam1_cam0.png") for p in result["outputs"])
     assert ("cam0.mp4", [150, 160]) in requested
+
+
+def test_render_never_decodes_the_videos_through(rendered_project, monkeypatch):
+    """Decoding starts at the keyframe before each drawn frame: a few GOPs, not whole videos."""
+    from collections import Counter
+
+    from trackers import video
+
+    scene, folder = rendered_project
+    graph = build_graph(load_project(folder / "project.toml"), folder / "work")
+    run_graph(graph, targets=["sync"])
+    decoded = Counter()
+    original = video._decode
+
+    def counting(container, stream):
+        for frame, error in original(container, stream):
+            decoded[container.name.rsplit("/", 1)[-1]] += 1
+            yield frame, error
+
+    monkeypatch.setattr(video, "_decode", counting)
+    kwargs = dict(graph.tasks["render"].kwargs)
+    kwargs["cameras"] = {name: {**c, "video": folder / f"{name}.mp4"} for name, c in kwargs["cameras"].items()}
+    render.run_render(**kwargs)
+    assert decoded["cam1.mp4"] > 0 and decoded["cam0.mp4"] > 0
+    for name in ("cam0", "cam1"):
+        assert decoded[f"{name}.mp4"] < scene.n_frames[name] / 3, decoded
