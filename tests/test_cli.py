@@ -78,7 +78,7 @@ def test_unsynchronizable_camera_exits_1_and_says_why(project_dir):
 
 
 def test_demo_recovers_the_truth(tmp_path):
-    result = _run("demo", tmp_path / "demo")
+    result = _run("demo", "--quick", tmp_path / "demo")
     assert result.exit_code == 0, result.output
     worst = float(result.output.split("worst eps_t:")[1].split()[0])
     assert np.isfinite(worst) and worst <= 2.0

@@ -260,8 +260,10 @@ def test_project_ingest(tmp_path, walk):
     assert report["origin"]["rule"] == "given" and report["samples"] == len(walk)
     back = read_trajectory(tmp_path / "work" / "target" / "trajectory.csv")
     np.testing.assert_allclose(back.xyz, walk.xyz, atol=0.01)
+    assert "ran: ingest" in result.output and "samples" in result.output  # the stage's summary
+    assert (tmp_path / "work" / "target" / "ingest.manifest.json").exists()  # through the pipeline's cache
     quiet = CliRunner().invoke(main, ["ingest", str(tmp_path / "p.toml"), "--quiet", "--work", str(tmp_path / "w2")])
-    assert quiet.exit_code == 0 and quiet.output == "" and (tmp_path / "w2" / "target" / "trajectory.csv").exists()
+    assert quiet.exit_code == 0 and "running" not in quiet.output and (tmp_path / "w2" / "target" / "trajectory.csv").exists()
 
 
 @pytest.mark.parametrize(
@@ -342,15 +344,14 @@ def test_real_rtk_log_passes_through_unchanged():
 def test_gps_log_of_a_scene_synchronizes_like_its_trajectory(tmp_path, paper_scene):
     """End to end: scene -> NMEA log -> tlsync ingest -> tlsync run recovers the true lines."""
     from data_fixtures import write_scene
-    from tlsync_pipeline.project import load_project
-    from tlsync_pipeline.run import run_project
+    from tlsync_pipeline.timeline import read_timeline
 
     write_scene(paper_scene, tmp_path)
     write_nmea_log(tmp_path / "target.nmea", paper_scene.trajectory, ORIGIN, START, corrupt=[7, 100])
     text = (tmp_path / "project.toml").read_text()
     text = text.replace(
         'trajectory = "trajectory.csv"',
-        'log = "target.nmea"\nmax_speed_mps = 400\ntrajectory = "work/target/trajectory.csv"\n'
+        'log = "target.nmea"\nmax_speed_mps = 400\n'
         # the cameras' world frame is ENU at this origin: the trajectory must share it
         f"origin = [{ORIGIN.lat}, {ORIGIN.lon}, {ORIGIN.alt}]",
     )
@@ -358,7 +359,10 @@ def test_gps_log_of_a_scene_synchronizes_like_its_trajectory(tmp_path, paper_sce
     result = CliRunner().invoke(main, ["ingest", str(tmp_path / "project.toml")])
     assert result.exit_code == 0, result.output
     assert "2 bad checksum" in result.output
-    timeline, _ = run_project(load_project(tmp_path / "project.toml"), tmp_path / "work")
+    result = CliRunner().invoke(main, ["run", str(tmp_path / "project.toml"), "-j", "1"])
+    assert result.exit_code == 0, result.output
+    assert "ingest" not in result.output.split("ran: ")[1].splitlines()[0]  # fresh from `tlsync ingest`
+    timeline = read_timeline(tmp_path / "work" / "timeline.json")
     for name, truth in paper_scene.lines.items():
         line = timeline.cameras[name]
         assert line.alpha == pytest.approx(truth.alpha, rel=2e-3) and line.beta == pytest.approx(truth.beta, abs=0.5)

@@ -62,7 +62,7 @@ def test_work_option_and_camera_selection(tmp_path, video):
     assert (work / "cameras" / "cam0" / "track.csv").exists()
     assert not (work / "cameras" / "cam1").exists()  # brings its own track
     result = _run("track", project, "--camera", "cam1", "--quiet")
-    assert result.exit_code == 2 and "camera 'cam1': no 'video' key" in result.output
+    assert result.exit_code == 2 and "track/cam1: the project brings this artefact" in result.output
 
 
 def test_failed_run_keeps_the_cached_track(tmp_path, video):

@@ -10,10 +10,13 @@ from pathlib import Path
 
 import click
 
+from tlsync_pipeline import pipeline_cli
+from tlsync_pipeline.demo import demo as demo_command
 from tlsync_pipeline.errors import INPUT_ERRORS, SyncError
-from tlsync_pipeline.project import load_project
-from tlsync_pipeline.run import format_table, format_truth_comparison, run_project
-from tlsync_pipeline.timeline import read_truth
+from tlsync_pipeline.layout import report_md, timeline_json
+from tlsync_pipeline.pipeline_cli import execute, finish, run_options
+from tlsync_pipeline.run import format_table, format_truth_comparison
+from tlsync_pipeline.timeline import read_timeline, read_truth
 
 EXIT_SYNC_FAILED = 1
 EXIT_BAD_INPUT = 2
@@ -41,50 +44,29 @@ def main() -> None:
 
 @main.command()
 @click.argument("project_file", type=click.Path(path_type=Path))
-@click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), help="Output folder (default: the project's work folder).")
+@run_options
 @click.option("--truth", type=click.Path(dir_okay=False, path_type=Path), help="A truth.json to compare against (prints eps_t per pair).")
-def run(project_file: Path, out_dir: Path | None, truth: Path | None) -> None:
-    """Synchronize the cameras of PROJECT_FILE and write timeline.json."""
-    project = load_project(project_file)
-    out_dir = out_dir or project.default_work_dir
-    timeline, _ = run_project(project, out_dir)
-    click.echo(format_table(timeline))
+def run(project_file: Path, work_dir: Path | None, out_dir: Path | None, truth: Path | None, force_stages, camera, jobs, executor_kind, scheduler, quiet) -> None:
+    """Run every stage of PROJECT_FILE that is not fresh; write timeline.json, exports, pictures."""
+    graph, summary = execute(project_file, work_dir, out_dir, force_stages=force_stages, cameras=camera, jobs=jobs, executor_kind=executor_kind, scheduler=scheduler, quiet=quiet)
+    finish(summary)
+    timeline = read_timeline(timeline_json(graph.work))
+    click.echo("\n" + format_table(timeline))
     if truth is not None:
         pairs, n_frames = read_truth(truth)
         click.echo("\n" + format_truth_comparison(timeline, pairs, n_frames)[0])
-    click.echo(f"\nwrote {out_dir / 'timeline.json'}")
+    click.echo(f"\nwrote {timeline_json(graph.work)}, {report_md(graph.work)}")
     if timeline.failed:
         sys.exit(EXIT_SYNC_FAILED)
 
 
-@main.command()
-@click.argument("directory", required=False, type=click.Path(file_okay=False, path_type=Path), default=Path("tlsync-demo"))
-@click.option("--seed", default=0, show_default=True, help="Scene seed.")
-@click.option("--tracking-noise", default=1.0, show_default=True, help="Tracking noise S_t (pixels).")
-def demo(directory: Path, seed: int, tracking_noise: float) -> None:
-    """Build a synthetic three-camera scene in DIRECTORY, synchronize it, compare with the truth."""
-    from data_fixtures.scene import make_scene, write_scene
+pipeline_cli.register(main)  # run, status and one command per stage (calibrate, ingest, ...), through the cache
+main.add_command(demo_command)
 
-    scene = make_scene(seed, lines=((2.0, 4.0), (2.0, 45.0), (1.0, -30.5)), n_frames=(512, 512, 300), tracking_noise_px=tracking_noise)
-    project_file = write_scene(scene, directory)
-    click.echo(f"demo scene written to {directory}/ (project: {project_file.name}, truth: truth.json)\n")
-    project = load_project(project_file)
-    timeline, _ = run_project(project, project.default_work_dir)
-    click.echo(format_table(timeline))
-    table, errors = format_truth_comparison(timeline, scene.truth_pairs(), scene.n_frames)
-    click.echo("\nrecovered against true relations:\n" + table)
-    click.echo(f"\nworst eps_t: {max(errors.values()):.3f} frames; timeline: {project.default_work_dir / 'timeline.json'}")
+from tlsync_pipeline.commands_calibrate import calibrate_intrinsics  # noqa: E402
+from tlsync_pipeline.ingest_cli import ingest_log_command  # noqa: E402
+from tlsync_pipeline.track_cli import track_video_command  # noqa: E402
 
-
-from tlsync_pipeline.track_cli import track, track_video_command  # noqa: E402
-
-main.add_command(track)
-main.add_command(track_video_command)
-from tlsync_pipeline.ingest_cli import ingest, ingest_log_command  # noqa: E402  (the ingest stage's commands)
-
-main.add_command(ingest)
-main.add_command(ingest_log_command)
-from tlsync_pipeline.commands_calibrate import calibrate, calibrate_intrinsics  # noqa: E402  (commands in their own module)
-
-main.add_command(calibrate)
 main.add_command(calibrate_intrinsics)
+main.add_command(ingest_log_command)
+main.add_command(track_video_command)

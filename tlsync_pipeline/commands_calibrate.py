@@ -1,4 +1,7 @@
-"""``tlsync calibrate`` (a project's cameras) and ``tlsync calibrate-intrinsics`` (standalone)."""
+"""``tlsync calibrate-intrinsics`` (standalone) and the calibrate stage's summary line.
+
+The project-level ``tlsync calibrate`` is a stage command of the pipeline (pipeline_cli.py).
+"""
 
 from __future__ import annotations
 
@@ -10,27 +13,7 @@ import click
 from calibration.camera import write_camera
 from calibration.intrinsics import MODELS, Intrinsics, calibrate_images, calibrate_video, parse_pattern
 from tlsync_pipeline.atomic import atomic_path
-from tlsync_pipeline.calibrate import calibrate_camera, has_calibration, write_calibration
 from tlsync_pipeline.errors import InputError
-from tlsync_pipeline.project import load_project
-
-
-@click.command("calibrate")
-@click.argument("project_file", type=click.Path(path_type=Path))
-@click.option("--camera", "names", multiple=True, help="Calibrate only this camera (repeatable; default: every camera with a [cameras.calibration] table).")
-@click.option("--work", "work", type=click.Path(file_okay=False, path_type=Path), help="Work folder (default: the project's).")
-@click.option("--quiet", is_flag=True, help="No progress bars.")
-def calibrate(project_file: Path, names: tuple[str, ...], work: Path | None, quiet: bool) -> None:
-    """Calibrate the cameras of PROJECT_FILE: camera.json, calibration_report.json, calibration.png per camera."""
-    project = load_project(project_file)
-    work = work or project.default_work_dir
-    specs = [project.camera(n) for n in names] if names else [c for c in project.cameras if has_calibration(c)]
-    if not specs:
-        raise InputError(f"{project.path}: no camera has a [cameras.calibration] table (images, video or intrinsics, and gcp or board_pose)")
-    for spec in specs:
-        camera, report = calibrate_camera(project, spec, progress=not quiet)
-        paths = write_calibration(work, camera, report)
-        click.echo(_summary(report) + f"\n  wrote {paths[0]}, {paths[1].name}, {paths[2].name}")
 
 
 @click.command("calibrate-intrinsics")
@@ -74,7 +57,8 @@ def _intrinsics_summary(result: Intrinsics) -> str:
     )
 
 
-def _summary(report: dict) -> str:
+def calibration_summary(report: dict) -> str:
+    """One line about a camera's calibration report: views, RMS, intrinsics, pose."""
     intr = report["intrinsics"]
     text = f"{report['camera']}: "
     if "rms_px" in intr:

@@ -1,4 +1,7 @@
-"""``tlsync ingest`` and ``tlsync ingest-log``: GPS/odometry logs to a trajectory CSV, with a summary."""
+"""``tlsync ingest-log``: one GPS/odometry log to a trajectory CSV, with a summary.
+
+The project-level ``tlsync ingest`` is a stage command of the pipeline (pipeline_cli.py).
+"""
 
 from __future__ import annotations
 
@@ -6,25 +9,9 @@ from pathlib import Path
 
 import click
 
-from tlsync_pipeline import layout
 from tlsync_pipeline.ingest.detect import FORMATS
 from tlsync_pipeline.ingest.process import DEFAULT_MAX_SPEED_MPS, IngestParams
-from tlsync_pipeline.ingest.stage import ingest_log, ingest_project, parse_origin, report_sidecar, write_ingest
-from tlsync_pipeline.project import load_project
-
-
-@click.command()
-@click.argument("project_file", type=click.Path(path_type=Path))
-@click.option("--work", "work", type=click.Path(file_okay=False, path_type=Path), help="Work folder (default: the project's).")
-@click.option("--quiet", is_flag=True, help="Print nothing but errors.")
-def ingest(project_file: Path, work: Path | None, quiet: bool) -> None:
-    """Ingest PROJECT_FILE's [target] log into <work>/target/trajectory.csv and ingest_report.json."""
-    project = load_project(project_file)
-    work = work or project.default_work_dir
-    report = ingest_project(project, work)
-    if not quiet:
-        click.echo(report.summary())
-        click.echo(f"wrote {layout.trajectory_csv(work)} and {layout.ingest_report(work)}")
+from tlsync_pipeline.ingest.stage import ingest_log, parse_origin, report_sidecar, write_ingest
 
 
 @click.command("ingest-log")

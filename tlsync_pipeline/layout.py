@@ -4,9 +4,18 @@
     <work>/cameras/<name>/calibration_report.json
     <work>/cameras/<name>/calibration.png
     <work>/cameras/<name>/track.csv              track
+    <work>/cameras/<name>/votes.npz              vote
     <work>/target/trajectory.csv                 ingest
     <work>/target/ingest_report.json
     <work>/timeline.json                         sync
+    <work>/exports/frame_map.csv                 export
+    <work>/exports/offsets.csv
+    <work>/exports/ffmpeg.sh
+    <work>/render/*.png                          render
+    <work>/report.md
+    <dir>/<stage>.manifest.json                  beside each stage's artefacts (cache)
+    <work>/.lock                                 held by the running tlsync
+    <work>/.hashes.json                          remembered file hashes
 """
 
 from __future__ import annotations
@@ -48,3 +57,46 @@ def ingest_report(work: Path) -> Path:
 
 def timeline_json(work: Path) -> Path:
     return work / "timeline.json"
+
+
+def votes_npz(work: Path, name: str) -> Path:
+    return camera_dir(work, name) / "votes.npz"
+
+
+def exports_dir(work: Path) -> Path:
+    return work / "exports"
+
+
+def frame_map_csv(work: Path) -> Path:
+    return exports_dir(work) / "frame_map.csv"
+
+
+def offsets_csv(work: Path) -> Path:
+    return exports_dir(work) / "offsets.csv"
+
+
+def ffmpeg_script(work: Path) -> Path:
+    return exports_dir(work) / "ffmpeg.sh"
+
+
+def render_dir(work: Path) -> Path:
+    return work / "render"
+
+
+def report_md(work: Path) -> Path:
+    return work / "report.md"
+
+
+_GLOBAL_STAGE_DIRS = {"ingest": target_dir, "export": exports_dir, "render": render_dir}
+
+
+def manifest_json(work: Path, stage: str, name: str | None) -> Path:
+    """The manifest of one stage run, beside its artefacts (a camera's, or the global one when name is None)."""
+    if name is not None:
+        return camera_dir(work, name) / f"{stage}.manifest.json"
+    folder = _GLOBAL_STAGE_DIRS.get(stage, lambda w: w)(work)
+    return folder / f"{stage}.manifest.json"
+
+
+def hash_memo(work: Path) -> Path:
+    return work / ".hashes.json"

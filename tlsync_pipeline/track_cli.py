@@ -1,4 +1,7 @@
-"""``tlsync track`` (the project's track stage) and ``tlsync track-video`` (one video, one track.csv)."""
+"""``tlsync track-video``: one video, one track.csv.
+
+The project-level ``tlsync track`` is a stage command of the pipeline (pipeline_cli.py).
+"""
 
 from __future__ import annotations
 
@@ -6,24 +9,8 @@ from pathlib import Path
 
 import click
 
-from tlsync_pipeline.project import load_project
-from tlsync_pipeline.track_stage import track_project, write_track_atomic
+from tlsync_pipeline.track_stage import write_track_atomic
 from trackers.tracking import KINDS, track_video
-
-
-@click.command("track")
-@click.argument("project_file", type=click.Path(path_type=Path))
-@click.option("--camera", help="Track only this camera (default: every camera with a video).")
-@click.option("--work", "work_dir", type=click.Path(file_okay=False, path_type=Path), help="Work folder (default: the project's).")
-@click.option("--quiet", is_flag=True, help="No progress bars.")
-def track(project_file: Path, camera: str | None, work_dir: Path | None, quiet: bool) -> None:
-    """Track the target in the cameras' videos of PROJECT_FILE; writes <work>/cameras/<name>/track.csv."""
-    project = load_project(project_file)
-    written = track_project(project, work_dir or project.default_work_dir, camera=camera, progress=not quiet)
-    for name, path in written.items():
-        click.echo(f"{name}: wrote {path}")
-    if not written:
-        click.echo("no camera has a video to track")
 
 
 def _box(ctx, param, value):

@@ -1,17 +1,16 @@
 """The track stage: each camera's video in, its track.csv out (work folder).
 
 ``track_camera`` is the pure part (a camera table in, a Track out);
-``track_project`` writes ``<work>/cameras/<name>/track.csv`` atomically.
+``write_track_atomic`` the writer. The stage graph (stages.py) runs them per
+camera into ``<work>/cameras/<name>/track.csv``.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
 
-from tlsync_pipeline import layout
 from tlsync_pipeline.atomic import atomic_path
 from tlsync_pipeline.errors import InputError
-from tlsync_pipeline.project import Project
 from trackers.track import Track, write_track
 from trackers.tracking import track_video
 
@@ -36,23 +35,3 @@ def write_track_atomic(track: Track, path: Path) -> None:
     """Write track.csv so that an interrupted run never leaves a half file in its place."""
     with atomic_path(path) as tmp:
         write_track(track, tmp)
-
-
-def track_project(project: Project, work_dir: Path, camera: str | None = None, progress: bool = True) -> dict[str, Path]:
-    """Track every camera that has a video (or only ``camera``); returns the track.csv written per camera.
-
-    Cameras without a video that bring their own track are skipped; a camera
-    with neither is an error.
-    """
-    specs = [project.camera(camera)] if camera is not None else project.cameras
-    for spec in specs:
-        if spec["video"] is None and (camera is not None or spec["track"] is None):
-            raise InputError(f"{project.path}: camera {spec['name']!r}: no 'video' key: the track stage needs the camera's video file")
-    written = {}
-    for spec in specs:
-        if spec["video"] is None:
-            continue
-        path = layout.track_csv(work_dir, spec["name"])
-        write_track_atomic(track_camera(spec, progress=progress), path)
-        written[spec["name"]] = path
-    return written

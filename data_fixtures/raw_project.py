@@ -1,0 +1,113 @@
+"""A complete raw project, as a user would bring it, with its truth.
+
+From a synthetic scene (data_fixtures.scene: cameras with non-overlapping
+views, a target trajectory, each camera's frame = alpha * sample + beta), per
+camera: an H.264 video of the target (data_fixtures.video), checkerboard
+photos taken with that camera's true intrinsics (data_fixtures.checkerboard)
+and a GCP CSV (surveyed world points in the camera's view, as WGS84
+latitude/longitude/height, with their true pixels); for the target: a GPX log
+of its trajectory (data_fixtures.gps_logs). The project file asks tlsync to
+calibrate, track and ingest all of it; truth.json holds the true relations.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from data_fixtures.scene import Scene, make_scene
+from tlsync_pipeline.geodesy import Origin, enu_to_geodetic
+
+ORIGIN = Origin(46.5197, 6.6323, 380.0)
+START_UTC = 1_750_000_000.0  # POSIX seconds of target sample 0
+PATTERN = (7, 5)  # inner corners
+SQUARE_M = 0.04
+
+
+@dataclass(frozen=True)
+class RawProjectSpec:
+    """What to generate: lines (alpha, beta) per camera, frames per camera, image size, target rate (Hz)."""
+
+    lines: tuple[tuple[float, float], ...] = ((3.0, 300.0), (2.5, -150.0), (1.5, 200.0))
+    n_frames: tuple[int, ...] = (900, 750, 450)
+    image_size: tuple[int, int] = (480, 360)
+    target_rate: float = 10.0
+    boards: int = 10
+    gcps: int = 8
+    seed: int = 0
+
+
+# Small and quick, for tests: 30, 25 and 15 fps, shifts of hundreds of frames, 320x240.
+SMALL = RawProjectSpec(lines=((3.0, -210.0), (2.5, -350.0), (1.5, 0.0)), n_frames=(230, 190, 120), image_size=(320, 240), boards=8, gcps=8)
+
+
+def make_raw_project(directory: str | Path, spec: RawProjectSpec = RawProjectSpec(), progress=None) -> tuple[Path, Scene]:
+    """Write the raw project into ``directory``; returns (project.toml, the scene with the truth)."""
+    from data_fixtures.checkerboard import render_checkerboards, write_checkerboards
+    from data_fixtures.gps_logs import write_gpx_log
+    from data_fixtures.video import render_camera_video
+
+    say = progress or (lambda message: None)
+    directory = Path(directory)
+    directory.mkdir(parents=True, exist_ok=True)
+    scene = make_scene(spec.seed, spec.lines, spec.n_frames, target_rate=spec.target_rate, image_size=spec.image_size)
+    rng = np.random.default_rng(spec.seed + 1)
+    write_gpx_log(directory / "target.gpx", scene.true_trajectory, ORIGIN, START_UTC)
+    parts = [
+        "# Made by `tlsync demo`: raw videos, checkerboard photos, GCPs and a GPX log.\n"
+        f'[target]\nlog = "target.gpx"\norigin = [{ORIGIN.lat}, {ORIGIN.lon}, {ORIGIN.alt}]\n'
+    ]
+    for k, (name, camera) in enumerate(scene.true_cameras.items()):
+        folder = directory / name
+        say(f"{name}: video ({scene.n_frames[name]} frames at {camera.fps:g} fps)")
+        track = scene.tracks[name]
+        where = dict(zip(track.frame.tolist(), track.xy))
+        positions = [where.get(f) for f in range(scene.n_frames[name])]
+        folder.mkdir(exist_ok=True)
+        render_camera_video(camera, positions, camera.fps, folder / "video.mp4", seed=spec.seed + k)
+        say(f"{name}: checkerboard photos and GCPs")
+        boards = render_checkerboards(
+            seed=spec.seed + 10 + k, n_full=spec.boards, n_cut=1, n_absent=1, image_size=camera.image_size, pattern=PATTERN, square=SQUARE_M, K=camera.K, dist=camera.dist
+        )
+        write_checkerboards(boards, folder / "boards")
+        _write_gcps(folder / "gcp.csv", camera, scene, name, spec.gcps, rng)
+        parts.append(
+            f'[[cameras]]\nname = "{name}"\nvideo = "{name}/video.mp4"\nfps = {camera.fps!r}\n'
+            f'[cameras.calibration]\nimages = "{name}/boards/*.png"\npattern = "{PATTERN[0]}x{PATTERN[1]}"\nsquare = {SQUARE_M}\ngcp = "{name}/gcp.csv"\n'
+            '[cameras.tracker]\nkind = "blob"\n'
+        )
+    project = directory / "project.toml"
+    project.write_text("\n".join(parts), encoding="utf-8")
+    truth = {
+        "n_frames": scene.n_frames,
+        "cameras_to_target": {n: {"alpha": r.alpha, "beta": r.beta} for n, r in scene.lines.items()},
+        "pairs": {key: {"alpha": r.alpha, "beta": r.beta} for key, r in scene.truth_pairs().items()},
+    }
+    (directory / "truth.json").write_text(json.dumps(truth, indent=1) + "\n", encoding="utf-8")
+    return project, scene
+
+
+def _write_gcps(path: Path, camera, scene: Scene, name: str, count: int, rng) -> None:
+    """``count`` surveyed points spread over the camera's image, at the depths where the target moves: u,v,lat,lon,alt."""
+    line = scene.lines[name]
+    samples = np.clip(np.round((scene.tracks[name].frame - line.beta) / line.alpha).astype(int), 0, len(scene.true_trajectory) - 1)
+    depth = (scene.true_trajectory.xyz[samples] @ camera.R.T + camera.t)[:, 2]
+    w, h = camera.image_size
+    cells = [(i, j) for i in range(4) for j in range(3)]
+    order = rng.permutation(len(cells))[:count]
+    world = []
+    for k in order:  # one point per cell of a 4 x 3 grid over the image: a good spread
+        i, j = cells[k]
+        u, v = (i + rng.uniform(0.2, 0.8)) * w / 4, (j + rng.uniform(0.2, 0.8)) * h / 3
+        ray = np.linalg.solve(camera.K, [u, v, 1.0])
+        world.append(camera.R.T @ (rng.uniform(np.quantile(depth, 0.1), np.quantile(depth, 0.9)) * ray - camera.t))
+    world = np.array(world)
+    uv, valid = camera.project(world)
+    keep = valid & camera.in_image(uv)
+    geo = enu_to_geodetic(world[keep], ORIGIN)
+    rows = ["name,u,v,lat,lon,alt"]
+    rows += [f"P{i + 1},{p[0]:.2f},{p[1]:.2f},{lat:.8f},{lon:.8f},{alt:.3f}" for i, (p, (lat, lon, alt)) in enumerate(zip(uv[keep], geo))]
+    path.write_text("\n".join(rows) + "\n", encoding="utf-8")

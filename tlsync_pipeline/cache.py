@@ -1,0 +1,160 @@
+"""Cache keys and manifests: when is a stage's artefact fresh?
+
+A stage run is described by its inputs (files, hashed by content), its
+parameters (JSON values from the project file) and its version. Their hash is
+the stage's cache key. After the stage has written its artefacts, a manifest
+(JSON, written atomically and last) records the key, what went into it and the
+hash of every artefact. An artefact is fresh when its manifest exists, the key
+it records equals the key of the current inputs, and every artefact still has
+the hash the manifest records; so a run killed between writing an artefact and
+its manifest, or an artefact edited by hand, is never taken as fresh.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from tlsync_pipeline.atomic import atomic_path
+
+MANIFEST_FORMAT = "tlsync-manifest"
+_CHUNK = 1 << 20
+_RACY_NS = 2_000_000_000
+
+
+def file_sha256(path: Path) -> str:
+    """SHA-256 of a file's contents (hex)."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as handle:
+        while chunk := handle.read(_CHUNK):
+            digest.update(chunk)
+    return digest.hexdigest()
+
+
+class HashMemo:
+    """File hashes remembered by (path, size, mtime), so big videos are read once.
+
+    Stored as JSON in the work folder; a changed size or modification time
+    means the file is hashed again.
+    """
+
+    def __init__(self, path: Path | None = None):
+        self.path = path
+        self.entries: dict[str, list] = {}
+        self.dirty = False
+        if path is not None and path.exists():
+            try:
+                self.entries = json.loads(path.read_text(encoding="utf-8"))
+            except (OSError, ValueError):
+                self.entries = {}
+
+    def sha256(self, path: Path) -> str | None:
+        """The file's hash, or None when it does not exist."""
+        try:
+            stat = os.stat(path)
+        except FileNotFoundError:
+            return None
+        key = str(Path(path).resolve())
+        known = self.entries.get(key)
+        if known and known[0] == stat.st_size and known[1] == stat.st_mtime_ns:
+            return known[2]
+        digest = file_sha256(path)
+        # A file modified within the last seconds could change again without
+        # a visible change of mtime (coarse timestamps): do not remember it.
+        if time.time_ns() - stat.st_mtime_ns > _RACY_NS:
+            self.entries[key] = [stat.st_size, stat.st_mtime_ns, digest]
+            self.dirty = True
+        return digest
+
+    def save(self) -> None:
+        if self.path is not None and self.dirty:
+            with atomic_path(self.path) as tmp:
+                tmp.write_text(json.dumps(self.entries), encoding="utf-8")
+            self.dirty = False
+
+
+def cache_key(stage: str, version: int, input_hashes: dict[str, str | None], params: dict[str, Any]) -> str:
+    """SHA-256 over the stage name and version, its inputs' hashes and its parameters."""
+    blob = json.dumps({"stage": stage, "version": version, "inputs": input_hashes, "params": params}, sort_keys=True, default=str)
+    return hashlib.sha256(blob.encode("utf-8")).hexdigest()
+
+
+@dataclass
+class Manifest:
+    """What one stage run used and made; lives beside the stage's main artefact."""
+
+    stage: str
+    camera: str | None
+    version: int
+    key: str
+    inputs: dict[str, dict]  # label -> {"path": str, "sha256": str}
+    params: dict[str, Any]
+    outputs: dict[str, str]  # path relative to the work folder -> sha256
+    seconds: float = 0.0
+    created: str = ""
+    summary: dict = field(default_factory=dict)
+
+    def to_dict(self) -> dict:
+        return {"format": MANIFEST_FORMAT, **self.__dict__}
+
+
+def write_manifest(manifest: Manifest, path: Path) -> None:
+    """Write the manifest atomically (after the artefacts it describes)."""
+    manifest.created = manifest.created or time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())
+    with atomic_path(path) as tmp:
+        tmp.write_text(json.dumps(manifest.to_dict(), indent=1, sort_keys=True, default=str) + "\n", encoding="utf-8")
+
+
+def read_manifest(path: Path) -> Manifest | None:
+    """The manifest at ``path``, or None when it is absent or unreadable (then the stage is missing)."""
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+        if data.pop("format", None) != MANIFEST_FORMAT:
+            return None
+        return Manifest(**data)
+    except (OSError, ValueError, TypeError):
+        return None
+
+
+def staleness(manifest: Manifest | None, key: str, version: int, inputs: dict[str, dict], params: dict, memo: HashMemo, work: Path) -> list[str]:
+    """Why an artefact is not fresh (empty list: fresh).
+
+    Names the input files and parameters that changed since the manifest was
+    written, a new stage version, and artefacts that are gone or were changed.
+    """
+    if manifest is None:
+        return ["never made (no manifest)"]
+    reasons = []
+    if manifest.version != version:
+        reasons.append(f"stage version {manifest.version} -> {version}")
+    for label in sorted(set(inputs) | set(manifest.inputs)):
+        old, new = manifest.inputs.get(label), inputs.get(label)
+        if old is None:
+            reasons.append(f"new input {label}")
+        elif new is None:
+            reasons.append(f"input {label} no longer used")
+        elif old.get("path") != new["path"]:
+            reasons.append(f"input {label} is now {new['path']} (was {old.get('path')})")
+        elif old.get("sha256") != new["sha256"]:
+            reasons.append(f"input {label} changed ({new['path']})" if new["sha256"] else f"input {label} is missing ({new['path']})")
+    for name in sorted(set(params) | set(manifest.params)):
+        if _normal(params.get(name)) != _normal(manifest.params.get(name)):
+            reasons.append(f"parameter {name}: {manifest.params.get(name)!r} -> {params.get(name)!r}")
+    if not reasons and manifest.key != key:
+        reasons.append("cache key changed")
+    for rel, digest in sorted(manifest.outputs.items()):
+        actual = memo.sha256(work / rel)
+        if actual is None:
+            reasons.append(f"artefact {rel} is missing")
+        elif actual != digest:
+            reasons.append(f"artefact {rel} was modified after it was made")
+    return reasons
+
+
+def _normal(value: Any) -> str:
+    return json.dumps(value, sort_keys=True, default=str)
