@@ -16,7 +16,7 @@ import time
 from data_fixtures.raw_project import SMALL, make_raw_project
 from tlsync_pipeline.executors import ProcessExecutor
 from tlsync_pipeline.pipeline import run_graph, status
-from tlsync_pipeline.project import SyncParams, load_project
+from tlsync_pipeline.project import load_project
 from tlsync_pipeline.stages import Options, build_graph
 from tlsync_pipeline.timeline import eps_t, read_timeline
 
@@ -63,12 +63,9 @@ def test_raw_project_end_to_end(tmp_path):
     assert "sync" in summary.ran and any(t.startswith("track/") for t in summary.ran)
 
     timeline = read_timeline(work / "timeline.json")
-    # One frame needs the refined sync method (issue 7); until it is merged the
-    # paper's method gives up to ~5 frames on these short videos.
-    bound = 1.0 if "method" in SyncParams.__dataclass_fields__ else 6.0
     for key, truth in scene.truth_pairs().items():
         a, b = key.split("->")
-        assert eps_t(timeline.relation(a, b), truth, scene.n_frames[a]) <= bound, key
+        assert eps_t(timeline.relation(a, b), truth, scene.n_frames[a]) <= 1.0, key
 
     again = run_graph(_graph(project_file))
     assert again.ran == [] and len(again.fresh) == 13
