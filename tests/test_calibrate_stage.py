@@ -138,7 +138,7 @@ def _edit(root, old, new):
         (lambda r: _edit(r, 'intrinsics = "known.json"', 'intrinsics = "known.json"\nimages = "boards/*.png"'), r"give only one of images, video, intrinsics"),
         (lambda r: _edit(r, 'pattern = "9x6"', 'pattern = "nine by six"'), r"key 'pattern': expected inner corners"),
         (lambda r: _edit(r, 'square = 0.03', 'sqare = 0.03'), r"unknown key 'sqare' \(did you mean 'square'\?\)"),
-        (lambda r: _edit(r, 'square = 0.03', 'square = 0.03\nmodel = "pinhole"'), r"key 'model': expected one of standard, rational, fisheye"),
+        (lambda r: _edit(r, 'square = 0.03', 'square = 0.03\nmodel = "pinhole"'), r"key 'model': unknown model 'pinhole'"),
         (lambda r: _edit(r, 'origin = [', 'origin = [91, '), r"key 'origin'"),
     ],
     ids=["few-gcps", "collinear", "mixed-columns", "outside", "two-sources", "pattern", "typo", "model", "origin"],

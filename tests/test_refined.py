@@ -177,7 +177,7 @@ def test_project_method_key_and_timeline_json(tmp_path):
     assert set(data["cameras"]["cam1"]["line_search"]) >= {"support_frames", "runner_up_frames"}
     text = project_file.read_text().replace("seed = 0", 'seed = 0\nmethod = "papr"')
     project_file.write_text(text)
-    with pytest.raises(InputError, match="method.*'paper', 'refined'"):
+    with pytest.raises(InputError, match="method': unknown sync method 'papr' \\(did you mean 'paper'\\?\\)"):
         load_project(project_file)
 
 

@@ -57,6 +57,17 @@ def _number(value: Any) -> float:
     return float(value)
 
 
+def _choice(*options: str, what: str = "") -> Callable[[Any, Path], str]:
+    """A converter accepting one of ``options``; the message suggests the closest."""
+
+    def convert(value: Any, root: Path) -> str:
+        if value not in options:
+            raise ValueError(f"unknown {what} {value!r}{_suggest(str(value), list(options))}")
+        return value
+
+    return convert
+
+
 def _positive(value: Any, root: Path) -> float:
     number = _number(value)
     if number <= 0:
@@ -76,12 +87,6 @@ def _ratio(value: Any, root: Path) -> float:
     if not 0 < number <= 1:
         raise ValueError(f"expected a number in (0, 1], got {value!r}")
     return number
-
-
-def _method(value: Any, root: Path) -> str:
-    if value not in SYNC_METHODS:
-        raise ValueError(f"expected one of {', '.join(repr(m) for m in SYNC_METHODS)}, got {value!r}")
-    return value
 
 
 def _non_negative(value: Any, root: Path) -> float:
@@ -124,12 +129,6 @@ def _pattern(value: Any, root: Path) -> str:
     return value.lower().replace(" ", "")
 
 
-def _model(value: Any, root: Path) -> str:
-    if value not in CALIBRATION_MODELS:
-        raise ValueError(f"expected one of {', '.join(CALIBRATION_MODELS)}, got {value!r}")
-    return value
-
-
 def _board_pose(value: Any, root: Path) -> dict:
     if not isinstance(value, dict):
         raise ValueError("expected a table {image = \"board.jpg\", R = [[...], [...], [...]] or rvec = [...], t = [x, y, z]}")
@@ -167,11 +166,6 @@ TARGET_SCHEMA = {
     "trajectory": Field(_path),
     "origin": Field(_origin),
 }
-def _tracker_kind(value: Any, root: Path) -> str:
-    kinds = ("blob", "csrt")
-    if value not in kinds:
-        raise ValueError(f"unknown tracker kind {value!r}{_suggest(str(value), list(kinds))}")
-    return value
 
 
 def _box(value: Any, root: Path) -> tuple[float, float, float, float]:
@@ -199,7 +193,7 @@ def _parameters(value: Any, root: Path) -> dict:
 
 # [cameras.tracker]: how the track stage follows the target in the camera's video.
 TRACKER_SCHEMA = {
-    "kind": Field(_tracker_kind, "blob"),
+    "kind": Field(_choice("blob", "csrt", what="tracker kind"), "blob"),
     "init": Field(_box),
     "init_frame": Field(_frame_index, 0),
     "parameters": Field(_parameters, {}),
@@ -213,27 +207,13 @@ CALIBRATION_SCHEMA = {
     "intrinsics": Field(_path),
     "pattern": Field(_pattern),
     "square": Field(_positive),
-    "model": Field(_model, "standard"),
+    "model": Field(_choice(*CALIBRATION_MODELS, what="model"), "standard"),
     "gcp": Field(_path),
     "board_pose": Field(_board_pose),
     "max_frames": Field(_count, 60),
     "max_view_error": Field(_positive, 1.0),
     "ransac_px": Field(_positive, 8.0),
 }
-
-
-def _log_format(value: Any, root: Path) -> str:
-    formats = ("auto", "gpx", "nmea", "csv", "odometry", "rosbag")
-    if value not in formats:
-        raise ValueError(f"expected one of {', '.join(formats)}, got {value!r}")
-    return value
-
-
-def _non_negative(value: Any, root: Path) -> float:
-    number = _number(value)
-    if number < 0:
-        raise ValueError(f"expected a number >= 0, got {value!r}")
-    return number
 
 
 def _text(value: Any, root: Path) -> str:
@@ -262,7 +242,7 @@ def _rigid_transform(value: Any, root: Path):
 # The ingest stage's keys ([target] log -> work/target/trajectory.csv); docs/ingest.md.
 INGEST_SCHEMA = {
     "log": Field(_path),
-    "format": Field(_log_format, "auto"),
+    "format": Field(_choice("auto", "gpx", "nmea", "csv", "odometry", "rosbag", what="log format"), "auto"),
     "topic": Field(_text),
     "rate": Field(_positive),
     "max_gap_s": Field(_positive),
@@ -286,7 +266,7 @@ SYNC_SCHEMA = {
     "p": Field(_probability, 0.99),
     "r": Field(_ratio, 0.05),
     "seed": Field(_integer, 0),
-    "method": Field(_method, "refined"),
+    "method": Field(_choice(*SYNC_METHODS, what="sync method"), "refined"),
     "r_min": Field(_ratio, 0.01),
     "f_scale_px": Field(_positive, 3.0),
     "smooth_trajectory": Field(_boolean, True),
