@@ -17,7 +17,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from calibration.errors import CalibrationInputError
+from calibration.errors import CalibrationInputError, read_text
 
 DISTORTION_MODELS = ("opencv", "fisheye")
 _OPENCV_DIST_LENGTHS = (4, 5, 8, 12, 14)
@@ -153,12 +153,7 @@ class Camera:
 def read_camera(path: str | Path, name: str | None = None) -> Camera:
     """Read and validate a ``camera.json`` file."""
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise CalibrationInputError(f"{path}: file not found") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise CalibrationInputError(f"{path}: cannot read: {exc}") from None
+    text = read_text(path)
     try:
         data = json.loads(text)
     except json.JSONDecodeError as exc:

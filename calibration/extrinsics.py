@@ -19,7 +19,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from calibration.errors import CalibrationInputError
+from calibration.errors import CalibrationInputError, read_text
 from calibration.intrinsics import Pattern
 
 MIN_POINTS = 4
@@ -43,12 +43,7 @@ class GcpTable:
 def read_gcps(path: str | Path) -> GcpTable:
     """Read a GCP CSV (see the module doc); errors name the file, line and column."""
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8-sig")
-    except FileNotFoundError:
-        raise CalibrationInputError(f"{path}: file not found") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise CalibrationInputError(f"{path}: cannot read: {exc}") from None
+    text = read_text(path, "utf-8-sig")
     rows = [(n, row) for n, row in enumerate(csv.reader(text.splitlines()), start=1) if row and not row[0].lstrip().startswith("#") and any(c.strip() for c in row)]
     if not rows:
         raise CalibrationInputError(f"{path}: empty file; expected a header u,v,x,y,z or u,v,lat,lon,alt")
