@@ -12,13 +12,12 @@ calibrate, track and ingest all of it; truth.json holds the true relations.
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from data_fixtures.scene import Scene, make_scene
+from data_fixtures.scene import Scene, make_scene, write_truth
 from tlsync_pipeline.geodesy import Origin, enu_to_geodetic
 
 ORIGIN = Origin(46.5197, 6.6323, 380.0)
@@ -81,12 +80,7 @@ def make_raw_project(directory: str | Path, spec: RawProjectSpec = RawProjectSpe
         )
     project = directory / "project.toml"
     project.write_text("\n".join(parts), encoding="utf-8")
-    truth = {
-        "n_frames": scene.n_frames,
-        "cameras_to_target": {n: {"alpha": r.alpha, "beta": r.beta} for n, r in scene.lines.items()},
-        "pairs": {key: {"alpha": r.alpha, "beta": r.beta} for key, r in scene.truth_pairs().items()},
-    }
-    (directory / "truth.json").write_text(json.dumps(truth, indent=1) + "\n", encoding="utf-8")
+    write_truth(scene, directory)
     return project, scene
 
 

@@ -161,6 +161,12 @@ def write_scene(scene: Scene, directory: str | Path) -> Path:
     parts.append("[sync]\neps_px = 10.0\ndelta = 0.5\np = 0.99\nr = 0.05\nseed = 0\n")
     project = directory / "project.toml"
     project.write_text("\n".join(parts), encoding="utf-8")
+    write_truth(scene, directory)
+    return project
+
+
+def write_truth(scene: Scene, directory: Path) -> None:
+    """Write ``directory/truth.json``: frame counts, camera lines, every pair, noise levels."""
     truth = {
         "n_frames": scene.n_frames,
         "cameras_to_target": {n: {"alpha": r.alpha, "beta": r.beta} for n, r in scene.lines.items()},
@@ -168,7 +174,6 @@ def write_scene(scene: Scene, directory: str | Path) -> Path:
         "noise": scene.noise,
     }
     (directory / "truth.json").write_text(json.dumps(truth, indent=1) + "\n", encoding="utf-8")
-    return project
 
 
 def _visibility_windows(relations: dict[str, Relation], counts: dict[str, int]) -> dict[str, tuple[float, float]]:
