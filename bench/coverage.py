@@ -19,8 +19,8 @@ import multiprocessing
 import numpy as np
 
 from data_fixtures import make_scene
-from tlsync_pipeline.project import SyncParams
-from tlsync_pipeline.sync import CameraInput, synchronize
+from tlsync_pipeline.sync.params import SyncParams
+from tlsync_pipeline.sync.synchronize import CameraInput, synchronize
 
 LINES = ((2.0, 4.37), (2.0, 45.61))
 Z95 = 1.959964

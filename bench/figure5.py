@@ -25,9 +25,9 @@ from pathlib import Path
 import numpy as np
 
 from data_fixtures import make_scene
-from tlsync_pipeline.project import SyncParams
-from tlsync_pipeline.sync import CameraInput, synchronize
-from tlsync_pipeline.timeline import eps_t
+from tlsync_pipeline.sync.params import SyncParams
+from tlsync_pipeline.sync.synchronize import CameraInput, synchronize
+from tlsync_pipeline.sync.timeline import eps_t
 
 FIXED = {"S_t": 2.0, "S_c": 2.0, "S_l": 1.0}
 LEVELS = range(1, 11)

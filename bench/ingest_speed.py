@@ -20,7 +20,12 @@ from pathlib import Path
 import numpy as np
 import pynmea2
 
-from data_fixtures.gps_logs import walk_trajectory, write_csv_log, write_gpx_log, write_nmea_log
+from data_fixtures.gps_logs import (
+    walk_trajectory,
+    write_csv_log,
+    write_gpx_log,
+    write_nmea_log,
+)
 from tlsync_pipeline.geodesy import Origin
 from tlsync_pipeline.ingest import IngestParams, ingest, read_log
 from tlsync_pipeline.ingest.nmea import read_nmea

@@ -19,10 +19,10 @@ from pathlib import Path
 
 import numpy as np
 
-from tlsync_pipeline.project import load_project
-from tlsync_pipeline.run import load_inputs
-from tlsync_pipeline.sync import synchronize
-from tlsync_pipeline.timeline import eps_t, read_truth
+from tlsync_pipeline.pipeline.stages.sync import load_inputs
+from tlsync_pipeline.pipeline.project import load_project
+from tlsync_pipeline.sync.synchronize import synchronize
+from tlsync_pipeline.sync.timeline import eps_t, read_truth
 
 DEFAULT = Path("/work/shared/real/drone2")
 FIGURE = Path(__file__).resolve().parent.parent / "docs" / "real_flight.png"

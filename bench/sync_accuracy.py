@@ -14,9 +14,9 @@ from concurrent.futures import ProcessPoolExecutor
 import numpy as np
 
 from data_fixtures import make_scene
-from tlsync_pipeline.project import SyncParams
-from tlsync_pipeline.sync import CameraInput, synchronize
-from tlsync_pipeline.timeline import eps_t
+from tlsync_pipeline.sync.params import SyncParams
+from tlsync_pipeline.sync.synchronize import CameraInput, synchronize
+from tlsync_pipeline.sync.timeline import eps_t
 
 
 def worst_eps_t(seed: int, tracking_noise_px: float) -> float:

@@ -36,8 +36,8 @@ def _scene(n_frames: int, n_samples: int):
 
 
 def _case(n_frames: int, n_samples: int, queue) -> None:
-    from tlsync_pipeline.ransac import fit_line_ransac
-    from tlsync_pipeline.votes import compute_votes
+    from tlsync_pipeline.sync.ransac import fit_line_ransac
+    from tlsync_pipeline.sync.votes import compute_votes
 
     camera, track, trajectory = _scene(n_frames, n_samples)
     rss_before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss

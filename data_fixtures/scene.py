@@ -28,7 +28,7 @@ from scipy.interpolate import CubicSpline
 from scipy.optimize import brentq
 
 from calibration.camera import Camera, write_camera
-from tlsync_pipeline.timeline import Relation
+from tlsync_pipeline.sync.timeline import Relation
 from tlsync_pipeline.trajectory import Trajectory, write_trajectory
 from trackers.track import Track, write_track
 

@@ -1,7 +1,7 @@
 """The ingest stage: target logs (GPX, NMEA, CSV, odometry, ROS bags) to a constant-rate local trajectory.
 
 ``read_log`` picks the reader; ``ingest`` (pure) turns its records into a
-``Trajectory`` and an ``IngestReport``; ``tlsync_pipeline.ingest.stage`` is
+``Trajectory`` and an ``IngestReport``; ``tlsync_pipeline.pipeline.stages.ingest`` is
 the file edge (project keys, artefacts).
 """
 
@@ -14,7 +14,12 @@ from tlsync_pipeline.ingest.csvlog import read_csv_log
 from tlsync_pipeline.ingest.detect import FORMATS, detect_format
 from tlsync_pipeline.ingest.gpx import read_gpx
 from tlsync_pipeline.ingest.nmea import read_nmea
-from tlsync_pipeline.ingest.process import IngestParams, IngestReport, RigidTransform, ingest
+from tlsync_pipeline.ingest.process import (
+    IngestParams,
+    IngestReport,
+    RigidTransform,
+    ingest,
+)
 from tlsync_pipeline.ingest.records import LogRecords
 from tlsync_pipeline.ingest.rosbag import read_rosbag
 

@@ -17,7 +17,13 @@ import math
 from pathlib import Path
 
 from tlsync_pipeline.errors import InputError
-from tlsync_pipeline.ingest.records import GEODETIC, LOCAL, LogRecords, check_geodetic, make_records
+from tlsync_pipeline.ingest.records import (
+    GEODETIC,
+    LOCAL,
+    LogRecords,
+    check_geodetic,
+    make_records,
+)
 
 ALIASES = {
     "time": ("time", "t", "timestamp"),

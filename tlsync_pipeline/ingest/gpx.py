@@ -21,7 +21,12 @@ import gpxpy
 import gpxpy.gpx
 
 from tlsync_pipeline.errors import InputError
-from tlsync_pipeline.ingest.records import GEODETIC, LogRecords, check_geodetic, make_records
+from tlsync_pipeline.ingest.records import (
+    GEODETIC,
+    LogRecords,
+    check_geodetic,
+    make_records,
+)
 
 UNIT = "track point"
 NO_TIME = "track point without time"

@@ -32,7 +32,12 @@ import numpy as np
 import pynmea2
 
 from tlsync_pipeline.errors import InputError
-from tlsync_pipeline.ingest.records import GEODETIC, LogRecords, check_geodetic, make_records
+from tlsync_pipeline.ingest.records import (
+    GEODETIC,
+    LogRecords,
+    check_geodetic,
+    make_records,
+)
 
 HALF_DAY_S = 43_200.0
 BAD_CHECKSUM = "bad checksum"

@@ -16,7 +16,13 @@ from pathlib import Path
 import numpy as np
 
 from tlsync_pipeline.errors import InputError
-from tlsync_pipeline.ingest.records import GEODETIC, LOCAL, LogRecords, check_geodetic, make_records
+from tlsync_pipeline.ingest.records import (
+    GEODETIC,
+    LOCAL,
+    LogRecords,
+    check_geodetic,
+    make_records,
+)
 
 ODOMETRY = "nav_msgs/msg/Odometry"
 NAVSATFIX = "sensor_msgs/msg/NavSatFix"

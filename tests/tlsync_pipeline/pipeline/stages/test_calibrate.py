@@ -1,0 +1,168 @@
+"""The calibrate stage through the project file and `tlsync calibrate`."""
+
+from __future__ import annotations
+
+import json
+import re
+import shutil
+
+import cv2
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from calibration.camera import Camera, read_camera, write_camera
+from data_fixtures.gcp import looking_at, make_gcps, write_gcp_csv
+from tlsync_pipeline.cli.main import main
+from tlsync_pipeline.geodesy import Origin, enu_to_geodetic, geodetic_to_enu
+from tlsync_pipeline.pipeline.project import load_project
+from tlsync_pipeline.pipeline.stages.calibrate import calibrate_camera, project_origin
+
+ORIGIN = Origin(46.52, 6.57, 420.0)
+
+
+def _cli(*args):
+    return CliRunner().invoke(main, [str(a) for a in args], catch_exceptions=False)
+
+
+def angle_deg(Ra, Rb) -> float:
+    return float(np.degrees(np.linalg.norm(cv2.Rodrigues(Ra @ Rb.T)[0])))
+
+
+@pytest.fixture
+def project(tmp_path, boards, board_dir):
+    """Two cameras: cam0 calibrated from board photos + local GCPs, cam1 from a known camera.json + geodetic GCPs."""
+    shutil.copytree(board_dir, tmp_path / "boards")
+    truth = {}
+    for name, center, seed in (("cam0", (3.0, -15.0, 6.0), 1), ("cam1", (-8.0, 20.0, 9.0), 2)):
+        R, t = looking_at(center, (0.0, 5.0, 0.0))
+        uv, xyz, _ = make_gcps(boards.K, boards.dist, R, t, boards.image_size, n=8, seed=seed)
+        if name == "cam0":
+            write_gcp_csv(tmp_path / "gcp_cam0.csv", uv, xyz)
+        else:
+            write_gcp_csv(tmp_path / "gcp_cam1.csv", uv, enu_to_geodetic(xyz, ORIGIN), geodetic=True)
+            write_gcp_csv(tmp_path / "gcp_cam1_local.csv", uv, xyz)
+        truth[name] = (R, t)
+    write_camera(Camera("known", boards.K, boards.dist, np.eye(3), np.zeros(3), boards.image_size), tmp_path / "known.json")
+    (tmp_path / "project.toml").write_text(
+        f"""
+[target]
+trajectory = "trajectory.csv"
+origin = [{ORIGIN.lat}, {ORIGIN.lon}, {ORIGIN.alt}]
+
+[[cameras]]
+name = "cam0"
+[cameras.calibration]
+images = "boards/board_00*.png"
+pattern = "9x6"
+square = 0.03
+gcp = "gcp_cam0.csv"
+
+[[cameras]]
+name = "cam1"
+fps = 25
+[cameras.calibration]
+intrinsics = "known.json"
+gcp = "gcp_cam1.csv"
+"""
+    )
+    return tmp_path, truth
+
+
+def test_calibrate_writes_every_artefact(project, boards):
+    root, truth = project
+    result = _cli("calibrate", root / "project.toml", "--quiet")
+    assert result.exit_code == 0, result.output
+    assert "cam0: " in result.output and "cam1: " in result.output
+    for name in ("cam0", "cam1"):
+        folder = root / "work" / "cameras" / name
+        camera = read_camera(folder / "camera.json")
+        R, t = truth[name]
+        assert angle_deg(camera.R, R) < 0.1
+        assert np.linalg.norm(camera.center - (-R.T @ t)) < 0.05
+        report = json.loads((folder / "calibration_report.json").read_text())
+        assert len(report["pose"]["points"]) == 8 and report["pose"]["rms_px"] < 0.5
+        assert (folder / "calibration.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    cam0 = json.loads((root / "work" / "cameras" / "cam0" / "camera.json").read_text())
+    assert cam0["rms"] < 0.5 and abs(cam0["K"][0][0] - boards.K[0, 0]) < 0.005 * boards.K[0, 0]
+    report = json.loads((root / "work" / "cameras" / "cam0" / "calibration_report.json").read_text())
+    assert report["intrinsics"]["views_used"] >= 7
+    assert {v["image"] for v in report["intrinsics"]["per_view"]} | {r["image"] for r in report["intrinsics"]["rejected"]} == {str(p) for p in (root / "boards").glob("board_00*.png")}
+    assert read_camera(root / "work" / "cameras" / "cam1" / "camera.json").fps == 25
+
+
+def test_geodetic_and_local_gcps_give_the_same_pose(project):
+    root, _ = project
+    proj = load_project(root / "project.toml")
+    geo_cam, geo_report = calibrate_camera(proj, proj.camera("cam1"), progress=False)
+    text = (root / "project.toml").read_text().replace('gcp = "gcp_cam1.csv"', 'gcp = "gcp_cam1_local.csv"')
+    (root / "local.toml").write_text(text)
+    local = load_project(root / "local.toml")
+    local_cam, _ = calibrate_camera(local, local.camera("cam1"), progress=False)
+    assert angle_deg(geo_cam.R, local_cam.R) < 1e-4
+    assert np.linalg.norm(geo_cam.t - local_cam.t) < 1e-3
+    assert geo_report["pose"]["origin"] == {"lat": ORIGIN.lat, "lon": ORIGIN.lon, "alt": ORIGIN.alt}
+
+
+def test_without_an_origin_the_geodetic_gcps_centroid_is_used(project):
+    root, _ = project
+    text = re.sub(r"origin = .*\n", "", (root / "project.toml").read_text())
+    (root / "project.toml").write_text(text)
+    proj = load_project(root / "project.toml")
+    lat, lon, alt = np.genfromtxt(root / "gcp_cam1.csv", delimiter=",", names=True, usecols=(3, 4, 5)).view((float, 3)).mean(axis=0)
+    origin = project_origin(proj)
+    assert origin == pytest.approx(Origin(lat, lon, alt))
+    cam, report = calibrate_camera(proj, proj.camera("cam1"), progress=False)
+    explicit = json.loads(json.dumps(report))["pose"]["origin"]
+    assert explicit["lat"] == pytest.approx(lat)
+    # Same camera, frame shifted by the origin's offset.
+    shift = geodetic_to_enu([origin.lat], [origin.lon], [origin.alt], ORIGIN)[0]
+    R_local, t_local = looking_at((-8.0, 20.0, 9.0), (0.0, 5.0, 0.0))
+    assert np.linalg.norm(cam.center - ((-R_local.T @ t_local) - shift)) < 0.01
+
+
+def _edit(root, old, new):
+    path = root / "project.toml"
+    text = path.read_text()
+    assert old in text
+    path.write_text(text.replace(old, new, 1))
+
+
+@pytest.mark.parametrize(
+    "damage, message",
+    [
+        (lambda r: (r / "gcp_cam1.csv").write_text("u,v,lat,lon,alt\n1,2,46.5,6.5,400\n2,3,46.6,6.5,400\n4,4,46.5,6.6,401\n"), r"gcp_cam1.csv: 3 points, at least 4 are needed"),
+        (lambda r: (r / "gcp_cam1.csv").write_text("u,v,x,y,z\n10,20,0,0,0\n200,40,1,1,0\n300,300,2,2,0\n400,100,3,3,0\n"), r"gcp_cam1.csv: the world points are collinear"),
+        (lambda r: (r / "gcp_cam1.csv").write_text("name,u,v,x,y,z,lat\np,1,2,3,4,5,6\n"), r"gcp_cam1.csv:1: the header mixes local columns"),
+        (lambda r: (r / "gcp_cam1.csv").write_text("u,v,x,y,z\n1,2,3,4,5\n1,2,3,4,5\n1,2,3,4,5\n5000,2,3,4,5\n"), r"gcp_cam1.csv:5: pixel \(5000, 2\) is outside the 800x600 image"),
+        (lambda r: _edit(r, 'intrinsics = "known.json"', 'intrinsics = "known.json"\nimages = "boards/*.png"'), r"give only one of images, video, intrinsics"),
+        (lambda r: _edit(r, 'pattern = "9x6"', 'pattern = "nine by six"'), r"key 'pattern': expected inner corners"),
+        (lambda r: _edit(r, 'square = 0.03', 'sqare = 0.03'), r"unknown key 'sqare' \(did you mean 'square'\?\)"),
+        (lambda r: _edit(r, 'square = 0.03', 'square = 0.03\nmodel = "pinhole"'), r"key 'model': unknown model 'pinhole'"),
+        (lambda r: _edit(r, 'origin = [', 'origin = [91, '), r"key 'origin'"),
+    ],
+    ids=["few-gcps", "collinear", "mixed-columns", "outside", "two-sources", "pattern", "typo", "model", "origin"],
+)
+def test_bad_input_exits_2(project, damage, message):
+    root, _ = project
+    damage(root)
+    result = _cli("calibrate", root / "project.toml", "--camera", "cam1", "--quiet")
+    assert result.exit_code == 2, result.output
+    assert re.search(message, result.output), result.output
+    assert "Traceback" not in result.output
+    assert not (root / "work" / "cameras" / "cam1" / "camera.json").exists()
+
+
+def test_unknown_camera_name(project):
+    root, _ = project
+    result = _cli("calibrate", root / "project.toml", "--camera", "cam9")
+    assert result.exit_code == 2 and "no camera named 'cam9'" in result.output
+
+
+def test_a_failed_calibration_keeps_the_previous_artefacts(project):
+    root, _ = project
+    assert _cli("calibrate", root / "project.toml", "--camera", "cam1", "--quiet").exit_code == 0
+    before = (root / "work" / "cameras" / "cam1" / "camera.json").read_text()
+    (root / "gcp_cam1.csv").write_text("u,v,x,y,z\n1,2,3\n")
+    assert _cli("calibrate", root / "project.toml", "--camera", "cam1", "--quiet").exit_code == 2
+    assert (root / "work" / "cameras" / "cam1" / "camera.json").read_text() == before

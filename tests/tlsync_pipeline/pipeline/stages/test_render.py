@@ -1,0 +1,130 @@
+"""Render: band-swap and strip pictures, plots, report, decoding only the frames drawn."""
+
+import cv2
+import numpy as np
+import pytest
+
+from data_fixtures import make_scene, write_scene
+from tlsync_pipeline.outputs import pictures as render
+from tlsync_pipeline.pipeline.stages.render import run_render
+from tlsync_pipeline.pipeline.engine import run_graph
+from tlsync_pipeline.pipeline.graph import build_graph
+from tlsync_pipeline.pipeline.project import load_project
+from tlsync_pipeline.sync.timeline import Relation
+
+
+def _write_video(path, camera, track, n_frames):
+    """A plain test video: grey noise with the target drawn as a white disc at its tracked position."""
+    w, h = camera.image_size
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"), camera.fps, (w, h))
+    rng = np.random.default_rng(0)
+    background = rng.integers(60, 120, (h, w, 3), dtype=np.uint8)
+    where = dict(zip(track.frame.tolist(), track.xy))
+    for f in range(n_frames):
+        image = background.copy()
+        if f in where:
+            cv2.circle(image, tuple(int(round(c)) for c in where[f]), 5, (255, 255, 255), -1)
+        writer.write(image)
+    writer.release()
+
+
+@pytest.fixture(scope="module")
+def rendered_project(tmp_path_factory):
+    scene = make_scene(seed=1, n_frames=400, image_size=(320, 240))
+    folder = tmp_path_factory.mktemp("render")
+    write_scene(scene, folder)
+    for name, camera in scene.cameras.items():
+        _write_video(folder / f"{name}.mp4", camera, scene.tracks[name], scene.n_frames[name])
+    return scene, folder
+
+
+def test_render_decodes_only_the_frames_it_draws(rendered_project, monkeypatch):
+    scene, folder = rendered_project
+    project = load_project(folder / "project.toml")
+    graph = build_graph(project, folder / "work")
+    run_graph(graph, targets=["sync", "export"])
+    requested = []
+    original = render.read_frames
+
+    def counting(path, indices):
+        frames = original(path, indices)
+        requested.append((path.name, sorted(frames)))
+        return frames
+
+    monkeypatch.setattr(render, "read_frames", counting)
+    kwargs = dict(graph.tasks["render"].kwargs)
+    for name in kwargs["cameras"]:
+        kwargs["cameras"] = {**kwargs["cameras"], name: {**kwargs["cameras"][name], "video": folder / f"{name}.mp4"}}
+    result = run_render(**kwargs)
+    names = {p.rsplit("/", 1)[-1] for p in result["outputs"]}
+    assert {"swap_cam0_cam1.png", "strip_cam0_cam1.png", "votes_cam0.png", "trajectory_cam1.png"} <= names
+    decoded = {name: set() for name in ("cam0.mp4", "cam1.mp4")}
+    for name, frames in requested:
+        decoded[name] |= set(frames)
+    # three frames of cam1; for each, cam0's frame at the same index and at the estimated match
+    assert len(decoded["cam1.mp4"]) == render.FRAMES_PER_PAIR
+    assert len(decoded["cam0.mp4"]) <= 2 * render.FRAMES_PER_PAIR
+    truth = scene.truth_pairs()["cam1->cam0"]
+    matched = {int(round(float(truth(f)))) for f in decoded["cam1.mp4"]}
+    assert all(min(abs(m - d) for d in decoded["cam0.mp4"]) <= 2 for m in matched)
+    swap = cv2.imread(str(folder / "work" / "render" / "swap_cam0_cam1.png"))
+    assert swap.shape[0] >= render.FRAMES_PER_PAIR * render.STRIP_HEIGHT
+
+
+def test_band_swap_takes_green_from_b_and_red_blue_from_a():
+    a = np.zeros((4, 6, 3), np.uint8)
+    a[..., 0], a[..., 1], a[..., 2] = 10, 20, 30
+    b = np.full((2, 3, 3), 200, np.uint8)
+    out = render.band_swap(a, b)
+    assert out.shape == (2, 3, 3)
+    assert (out[..., 0] == 10).all() and (out[..., 1] == 200).all() and (out[..., 2] == 30).all()
+
+
+def test_choose_frames_stays_where_both_cameras_record():
+    track = np.arange(100, 300)
+    frames = render.choose_frames(track, Relation(1.0, -250.0), n_a=500, n_b=400)
+    assert len(frames) == 3 and all(250 <= f < 300 for f in frames)
+    assert render.choose_frames(track, Relation(1.0, 10_000.0), n_a=500, n_b=400) == []
+
+
+def test_render_command_with_pair_and_frames(rendered_project, monkeypatch):
+    scene, folder = rendered_project
+    from tlsync_pipeline.pipeline.graph import Options
+
+    project = load_project(folder / "project.toml")
+    graph = build_graph(project, folder / "work", Options(render_pairs=(("cam1", "cam0"),), render_frames=(150, 160)))
+    run_graph(graph, targets=["sync"])
+    requested = []
+    original = render.read_frames
+    monkeypatch.setattr(render, "read_frames", lambda path, indices: requested.append((path.name, sorted(indices))) or original(path, indices))
+    kwargs = dict(graph.tasks["render"].kwargs)
+    kwargs["cameras"] = {name: {**c, "video": folder / f"{name}.mp4"} for name, c in kwargs["cameras"].items()}
+    result = run_render(**kwargs)
+    assert any(p.endswith("swap_cam1_cam0.png") for p in result["outputs"])
+    assert ("cam0.mp4", [150, 160]) in requested
+
+
+def test_render_never_decodes_the_videos_through(rendered_project, monkeypatch):
+    """Decoding starts at the keyframe before each drawn frame: a few GOPs, not whole videos."""
+    from collections import Counter
+
+    from trackers import video
+
+    scene, folder = rendered_project
+    graph = build_graph(load_project(folder / "project.toml"), folder / "work")
+    run_graph(graph, targets=["sync"])
+    decoded = Counter()
+    original = video._decode
+
+    def counting(container, stream):
+        for frame, error in original(container, stream):
+            decoded[container.name.rsplit("/", 1)[-1]] += 1
+            yield frame, error
+
+    monkeypatch.setattr(video, "_decode", counting)
+    kwargs = dict(graph.tasks["render"].kwargs)
+    kwargs["cameras"] = {name: {**c, "video": folder / f"{name}.mp4"} for name, c in kwargs["cameras"].items()}
+    run_render(**kwargs)
+    assert decoded["cam1.mp4"] > 0 and decoded["cam0.mp4"] > 0
+    for name in ("cam0", "cam1"):
+        assert decoded[f"{name}.mp4"] < scene.n_frames[name] / 3, decoded

@@ -1,0 +1,173 @@
+"""The stage graph: cache keys, status, forced and single-stage runs, lock, failures, exports."""
+
+import csv
+import json
+import os
+
+import pytest
+from click.testing import CliRunner
+
+from tlsync_pipeline.cli.main import main
+from tlsync_pipeline.pipeline.cache import read_manifest
+from tlsync_pipeline.pipeline.engine import run_graph, status
+from tlsync_pipeline.pipeline.graph import build_graph
+from tlsync_pipeline.pipeline.lock import WorkLock
+from tlsync_pipeline.pipeline.project import load_project
+
+
+def _cli(*args):
+    return CliRunner().invoke(main, [str(a) for a in args], catch_exceptions=False)
+
+
+def _graph(project_dir, work=None):
+    project = load_project(project_dir / "project.toml")
+    return build_graph(project, work or project.default_work_dir)
+
+
+def _states(project_dir):
+    return {row.id: row for row in status(_graph(project_dir))}
+
+
+def test_second_run_does_no_work_and_status_is_fresh(project_dir):
+    first = run_graph(_graph(project_dir))
+    assert sorted(first.ran) == ["export", "render", "sync", "vote/cam0", "vote/cam1"]
+    second = run_graph(_graph(project_dir))
+    assert second.ran == [] and len(second.fresh) == 5
+    states = _states(project_dir)
+    assert {r.state for r in states.values() if r.stage in ("vote", "sync", "export", "render")} == {"fresh"}
+    assert states["track/cam0"].state == "given"
+
+
+def test_changing_one_cameras_file_reruns_exactly_what_follows(project_dir):
+    run_graph(_graph(project_dir))
+    camera = project_dir / "cam1" / "camera.json"
+    data = json.loads(camera.read_text())
+    data["t"][0] += 0.01
+    camera.write_text(json.dumps(data))
+    states = _states(project_dir)
+    assert states["vote/cam1"].state == "stale" and "camera.json" in states["vote/cam1"].reasons[0]
+    assert states["vote/cam0"].state == "fresh"
+    assert states["sync"].state == "stale"
+    summary = run_graph(_graph(project_dir))
+    assert sorted(summary.ran) == ["export", "render", "sync", "vote/cam1"]
+    assert "vote/cam0" in summary.fresh
+
+
+def test_parameter_change_is_named_in_status(project_dir):
+    run_graph(_graph(project_dir))
+    toml = project_dir / "project.toml"
+    toml.write_text(toml.read_text().replace("eps_px = 10.0", "eps_px = 12.0"))
+    states = _states(project_dir)
+    assert any("eps_px: 10.0 -> 12.0" in r for r in states["vote/cam0"].reasons)
+
+
+def test_force_and_single_stage_commands(project_dir):
+    toml = project_dir / "project.toml"
+    assert _cli("run", toml, "-j", "1", "-q").exit_code == 0
+    result = _cli("run", toml, "-j", "1", "--force", "vote", "--camera", "cam0")
+    assert "ran: vote/cam0" in result.output
+    # identical votes: nothing downstream re-runs (the cache looks at contents)
+    assert "sync" not in result.output.split("ran:")[1].splitlines()[0]
+    result = _cli("vote", toml, "--camera", "cam1", "-j", "1")
+    assert result.exit_code == 0 and "ran 1," in result.output and "ran: vote/cam1" in result.output
+    result = _cli("sync", toml, "--camera", "cam1", "-j", "1")
+    assert "ran: sync" in result.output
+    assert _cli("sync", toml, "-j", "1", "-q").output == ""
+    result = _cli("vote", toml, "--camera", "nope", "-j", "1")
+    assert result.exit_code == 2 and "no camera named 'nope'" in result.output
+
+
+def test_a_camera_without_inputs_blocks_only_what_needs_it(project_dir):
+    toml = project_dir / "project.toml"
+    toml.write_text(toml.read_text().replace('track = "cam1/track.csv"\n', ""))
+    states = _states(project_dir)
+    assert states["vote/cam1"].state == "blocked" and "give 'track'" in states["vote/cam1"].reasons[0]
+    assert states["sync"].state == "blocked" and states["vote/cam0"].state == "missing"
+    result = _cli("run", toml, "-j", "1")
+    assert result.exit_code == 2 and "camera 'cam1': give 'track' (a track.csv) or 'video'" in result.output
+    assert not (project_dir / "work").exists()
+    result = _cli("vote", toml, "--camera", "cam0", "-j", "1")
+    assert result.exit_code == 0 and "ran: vote/cam0" in result.output
+
+
+def test_artefact_without_manifest_or_modified_is_not_fresh(project_dir):
+    run_graph(_graph(project_dir))
+    work = project_dir / "work"
+    (work / "cameras" / "cam0" / "vote.manifest.json").unlink()  # as if killed before the manifest was written
+    (work / "timeline.json").write_text("{}")  # edited by hand
+    states = _states(project_dir)
+    assert states["vote/cam0"].state == "missing"
+    assert any("timeline.json was modified" in r for r in states["sync"].reasons)
+    summary = run_graph(_graph(project_dir))
+    assert {"vote/cam0", "sync"} <= set(summary.ran)
+    assert json.loads((work / "timeline.json").read_text())["cameras"]
+
+
+def test_manifest_records_inputs_params_and_outputs(project_dir):
+    run_graph(_graph(project_dir))
+    manifest = read_manifest(project_dir / "work" / "cameras" / "cam0" / "vote.manifest.json")
+    assert manifest.stage == "vote" and manifest.camera == "cam0" and manifest.params == {"eps_px": 10.0}
+    assert manifest.inputs["track"]["path"].endswith("cam0/track.csv") and len(manifest.inputs["track"]["sha256"]) == 64
+    assert list(manifest.outputs) == ["cameras/cam0/votes.npz"]
+
+
+def test_a_second_run_on_a_locked_work_folder_is_refused(project_dir):
+    with WorkLock(project_dir / "work"):
+        result = _cli("run", project_dir / "project.toml", "-j", "1")
+    assert result.exit_code == 2
+    assert "in use by another tlsync run" in result.output and f"pid {os.getpid()}" in result.output
+    assert _cli("run", project_dir / "project.toml", "-j", "1").exit_code == 0
+
+
+def test_failed_stage_keeps_last_good_artefacts_and_runs_the_rest(project_dir):
+    run_graph(_graph(project_dir))
+    good = (project_dir / "work" / "cameras" / "cam1" / "votes.npz").read_bytes()
+    # A broken track that passes no check until its stage reads it: make it the stage's problem.
+    graph = _graph(project_dir)
+    graph.given.clear()
+    (project_dir / "cam1" / "track.csv").write_text("frame,x,y\n0,1\n")
+    summary = run_graph(graph)
+    assert "vote/cam1" in summary.failed and "track.csv:2" in str(summary.failed["vote/cam1"])
+    assert summary.skipped.keys() >= {"sync", "export", "render"}
+    assert (project_dir / "work" / "cameras" / "cam1" / "votes.npz").read_bytes() == good
+    assert _states(project_dir)["vote/cam1"].state == "stale"
+
+
+def test_exports(project_dir, paper_scene):
+    assert _cli("run", project_dir / "project.toml", "-j", "1", "-q").exit_code == 0
+    work = project_dir / "work"
+    with open(work / "exports" / "frame_map.csv", newline="") as handle:
+        rows = list(csv.DictReader(handle))
+    n = {name: int(paper_scene.tracks[name].frame.max()) + 1 for name in ("cam0", "cam1")}
+    assert len(rows) == n["cam0"] + n["cam1"]
+    truth = paper_scene.truth_pairs()["cam0->cam1"]
+    row = next(r for r in rows if r["camera"] == "cam0" and r["frame"] == "200")
+    assert float(row["frame_cam1"]) == pytest.approx(truth(200), abs=1.0)
+    assert float(row["sample"]) == pytest.approx((200 - 4) / 2, abs=0.5)
+    with open(work / "exports" / "offsets.csv", newline="") as handle:
+        offsets = {r["camera"]: r for r in csv.DictReader(handle)}
+    assert float(offsets["cam1"]["start_frames"]) == pytest.approx(-truth.beta / truth.alpha, abs=1.0)
+    script = (work / "exports" / "ffmpeg.sh").read_text()
+    assert "ffmpeg -y -ss" in script and "-itsoffset" in script
+    report = (work / "report.md").read_text()
+    assert "render/votes_cam0.png" in report and (work / "render" / "votes_cam0.png").stat().st_size > 1000
+
+
+def test_process_executor_gives_the_same_timeline(project_dir, tmp_path):
+    toml = project_dir / "project.toml"
+    assert _cli("run", toml, "-j", "1", "-q", "--work", tmp_path / "serial").exit_code == 0
+    assert _cli("run", toml, "-j", "2", "-q", "--out", tmp_path / "pool").exit_code == 0
+    serial = json.loads((tmp_path / "serial" / "timeline.json").read_text())
+    pool = json.loads((tmp_path / "pool" / "timeline.json").read_text())
+    assert serial["cameras"] == pool["cameras"]
+
+
+def test_dask_executor_on_a_local_cluster(project_dir, tmp_path):
+    distributed = pytest.importorskip("distributed")
+
+    with distributed.LocalCluster(n_workers=2, processes=False, threads_per_worker=1, dashboard_address=None) as cluster:
+        result = _cli("run", project_dir / "project.toml", "--executor", "dask", "--scheduler", cluster.scheduler_address, "--work", tmp_path / "dask")
+    assert result.exit_code == 0, result.output
+    assert sorted(result.output.split("ran: ")[1].splitlines()[0].split(", ")) == ["export", "render", "sync", "vote/cam0", "vote/cam1"]
+    assert json.loads((tmp_path / "dask" / "timeline.json").read_text())["cameras"]["cam1"]["alpha"] == pytest.approx(2.0, abs=0.01)
+    assert _cli("run", project_dir / "project.toml", "--executor", "dask").exit_code == 2  # needs --scheduler

@@ -1,0 +1,206 @@
+"""The refined method (default): accuracy, robustness, variable frame rates, uncertainty, fallback."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+import tlsync_pipeline.sync.synchronize as sync_module
+from data_fixtures import make_scene, write_scene
+from tlsync_pipeline.errors import InputError
+from tlsync_pipeline.outputs.summary import format_table
+from tlsync_pipeline.pipeline.stages.sync import run_project
+from tlsync_pipeline.pipeline.project import load_project
+from tlsync_pipeline.sync.clock import camera_clock, frame_map
+from tlsync_pipeline.sync.line_search import find_line, thin_votes
+from tlsync_pipeline.sync.params import SyncParams
+from tlsync_pipeline.sync.ransac import fit_line_ransac
+from tlsync_pipeline.sync.refine import Refinement
+from tlsync_pipeline.sync.synchronize import CameraInput, synchronize
+from tlsync_pipeline.sync.timeline import eps_t
+from trackers.track import Track
+
+FRACTIONAL = ((1.83, 4.37), (2.21, 45.61))  # votes off the frame lattice
+HOVER = dict(lines=((1.0, 4.37), (1.0, 45.61)), n_frames=1200, hover_fraction=0.3, crossings=4, tracking_noise_px=1.0)
+
+
+def _inputs(scene):
+    return {n: CameraInput(scene.cameras[n], scene.tracks[n], scene.cameras[n].fps) for n in scene.cameras}
+
+
+def _worst(scene, method="refined", **params):
+    timeline, results = synchronize(_inputs(scene), scene.trajectory, SyncParams(method=method, **params))
+    if timeline.failed:
+        return float("inf"), timeline
+    errors = [eps_t(timeline.relation(*k.split("->")), t, scene.n_frames[k.split("->")[0]]) for k, t in scene.truth_pairs().items()]
+    return max(errors), timeline
+
+
+def test_refined_at_least_as_good_as_paper_on_noisy_scenes():
+    for seed in range(4):
+        scene = make_scene(seed, lines=FRACTIONAL, tracking_noise_px=2.0, projection_error_px=1.0, localisation_noise_pct=0.5)
+        paper, _ = _worst(scene, "paper")
+        refined, timeline = _worst(scene)
+        assert timeline.method == "refined"
+        assert refined <= paper + 0.02, (seed, paper, refined)
+
+
+def test_subframe_accuracy_with_tracking_noise_only():
+    refined, paper = [], []
+    for seed in range(10):
+        scene = make_scene(200 + seed, lines=FRACTIONAL, tracking_noise_px=2.0)
+        refined.append(_worst(scene)[0])
+        paper.append(_worst(scene, "paper")[0])
+    assert np.median(refined) <= 0.15, refined
+    assert np.median(refined) < np.median(paper) / 3, (refined, paper)
+
+
+def test_hovering_self_crossing_target():
+    paper_failures = 0
+    for seed in range(6):
+        scene = make_scene(seed, **HOVER)
+        refined, timeline = _worst(scene)
+        assert refined <= 1.0, (seed, refined)
+        assert all(line.details["refined"] for line in timeline.cameras.values())
+        paper_failures += _worst(scene, "paper")[0] > 5
+    assert paper_failures >= 1
+
+
+def test_line_search_finds_a_line_holding_one_and_a_half_percent_of_votes():
+    rng = np.random.default_rng(3)
+    s_line = np.arange(0, 150.0)
+    line = (s_line, 1.7 * s_line + 20.3 + rng.normal(0, 0.1, s_line.size))
+    hover_f, hover_s = np.meshgrid(np.arange(400, 700.0), np.arange(300, 330.0))  # 9000 hover votes
+    clutter = (rng.uniform(0, 400, 1000), rng.uniform(0, 800, 1000))
+    sample = np.concatenate([line[0], hover_s.ravel(), clutter[0]])
+    frame = np.round(np.concatenate([line[1], hover_f.ravel(), clutter[1]]))
+    dist = rng.uniform(0, 10, sample.size)
+    assert s_line.size / sample.size < 0.016
+    kept = thin_votes(sample, frame, dist)
+    assert len(kept) < 0.25 * sample.size
+    found = find_line(sample, frame, dist, seed=1)
+    again = find_line(sample, frame, dist, seed=1)
+    assert (found.alpha, found.beta) == (again.alpha, again.beta)
+    assert found.alpha == pytest.approx(1.7, rel=0.01)
+    assert np.max(np.abs(found.alpha * s_line + found.beta - (1.7 * s_line + 20.3))) < 1.0
+
+
+def test_jittered_frame_times_synchronized_in_seconds():
+    for seed in range(3):
+        scene = make_scene(seed, lines=((2.0, 4.37), (1.5, 45.61)), frame_time_jitter=0.1, tracking_noise_px=1.0)
+        timeline, _ = synchronize(_inputs(scene), scene.trajectory, SyncParams())
+        for key, true in scene.truth_pairs().items():
+            a, b = key.split("->")
+            fa, fb = scene.cameras[a].fps, scene.cameras[b].fps
+            assert timeline.cameras[a].details["clock"] == "time_s"
+            t_a = scene.tracks[a].time_s
+            estimated = timeline.seconds_relation(a, b)(t_a)
+            truth = (true.alpha * t_a * fa + true.beta) / fb
+            interval_b = np.mean(np.diff(scene.tracks[b].time_s) / np.diff(scene.tracks[b].frame))
+            assert np.mean(np.abs(estimated - truth)) < interval_b, (seed, key)
+
+
+def test_camera_clock_and_frame_map():
+    frames = np.arange(100)
+    regular = Track(frames, frames * 1.0, frames * 1.0, time_s=frames / 30.0)
+    assert not camera_clock(regular, 30.0).vfr
+    jittered = np.r_[0.0, np.cumsum(1 + np.random.default_rng(0).uniform(-0.1, 0.1, 99))] / 30.0
+    clock = camera_clock(Track(frames, frames * 1.0, frames * 1.0, time_s=jittered), 30.0)
+    assert clock.vfr and np.allclose(clock.frames, jittered * 30.0)
+    mapped = frame_map(frames, jittered, frames, jittered, 1.0, 0.0)
+    assert np.allclose(mapped, frames)
+    assert np.isnan(frame_map(frames[:1], jittered[:1], frames, jittered, 1.0, -1.0)).all()
+
+
+def test_intervals_cover_the_truth_on_a_small_set():
+    # bench/coverage.py runs 200 scenes; loose bounds here.
+    z = []
+    for seed in range(12):
+        scene = make_scene(1000 + seed, lines=FRACTIONAL, tracking_noise_px=2.0, projection_error_px=2.0, localisation_noise_pct=1.0)
+        timeline, _ = synchronize(_inputs(scene), scene.trajectory, SyncParams())
+        for key, true in scene.truth_pairs().items():
+            a, b = key.split("->")
+            z.append((timeline.relation(a, b).beta - true.beta) / np.sqrt(timeline.relation_cov(a, b)[1, 1]))
+    z = np.abs(z)
+    assert 0.75 <= np.mean(z <= 1.96) <= 1.0, z
+    assert np.median(z) > 0.1, z  # not absurdly wide
+
+
+def test_fallback_when_refinement_disagrees(monkeypatch):
+    scene = make_scene(0, lines=FRACTIONAL)
+
+    def shifted(camera, frame, xy, path, alpha, beta, *args, **kwargs):
+        return Refinement(alpha, beta + 30.0, np.diag([1e-10, 1e-4]), len(frame), 0.1, 0.8, True, "shifted")
+
+    monkeypatch.setattr(sync_module, "refine_line", shifted)
+    timeline, results = synchronize(_inputs(scene), scene.trajectory, SyncParams())
+    for name, line in timeline.cameras.items():
+        assert not line.details["refined"]
+        assert "frames whose votes support the line search" in line.details["warnings"][0]
+        assert line.beta == results[name].search.beta
+    assert "warning: cam0:" in format_table(timeline)
+
+
+def test_fallback_when_refinement_impossible():
+    scene = make_scene(0, lines=FRACTIONAL)
+    track = scene.tracks["cam0"]
+    keep = slice(100, 106)
+    scene.tracks["cam0"] = Track(track.frame[keep], track.x[keep], track.y[keep], time_s=track.time_s[keep])
+    timeline, _ = synchronize(_inputs(scene), scene.trajectory, SyncParams())
+    line = timeline.cameras["cam0"]
+    assert not line.details["refined"] and "refinement not possible" in line.details["warnings"][0]
+    assert "few_inliers" in line.details["flags"]
+    assert np.isfinite(line.details["se_beta"])
+
+
+def test_paper_method_is_the_published_ransac():
+    scene = make_scene(1, lines=FRACTIONAL, tracking_noise_px=1.0)
+    timeline, results = synchronize(_inputs(scene), scene.trajectory, SyncParams(method="paper"))
+    assert timeline.method == "paper"
+    for name, result in results.items():
+        votes = result.votes
+        fit = fit_line_ransac(votes.sample, votes.frame)
+        assert (timeline.cameras[name].alpha, timeline.cameras[name].beta) == (fit.alpha, fit.beta)
+        assert "se_beta" not in timeline.cameras[name].details
+
+
+def test_project_method_key_and_timeline_json(tmp_path):
+    scene = make_scene(0, lines=FRACTIONAL, tracking_noise_px=1.0)
+    project_file = write_scene(scene, tmp_path)
+    project = load_project(project_file)
+    assert project.sync.method == "refined"
+    run_project(project, tmp_path / "out")
+    data = json.loads((tmp_path / "out" / "timeline.json").read_text())
+    assert data["method"] == "refined"
+    pair = data["pairs"]["cam0->cam1"]
+    assert pair["se_beta"] > 0 and pair["se_start_offset_s"] > 0 and "seconds" in pair
+    assert set(data["cameras"]["cam1"]["line_search"]) >= {"support_frames", "runner_up_frames"}
+    text = project_file.read_text().replace("seed = 0", 'seed = 0\nmethod = "papr"')
+    project_file.write_text(text)
+    with pytest.raises(InputError, match="method': unknown sync method 'papr' \\(did you mean 'paper'\\?\\)"):
+        load_project(project_file)
+
+
+def test_smoothing_keeps_clean_logs_and_denoises_noisy_ones():
+    from tlsync_pipeline.sync.refine import smooth_trajectory
+
+    clean = make_scene(5)
+    assert np.abs(smooth_trajectory(clean.trajectory).xyz - clean.trajectory.xyz).max() < 1e-3
+    noisy = make_scene(5, localisation_noise_pct=2.0)
+    before = np.sqrt(np.mean((noisy.trajectory.xyz - noisy.true_trajectory.xyz) ** 2))
+    after = np.sqrt(np.mean((smooth_trajectory(noisy.trajectory).xyz - noisy.true_trajectory.xyz) ** 2))
+    assert after < 0.7 * before
+
+
+def test_interpolation_never_bridges_a_gap():
+    from tlsync_pipeline.sync.refine import PiecewiseTrajectory
+    from tlsync_pipeline.trajectory import Trajectory
+
+    sample = np.r_[np.arange(0, 10.0), np.arange(20, 30.0)]
+    xyz = np.column_stack([sample, np.zeros_like(sample), np.zeros_like(sample)])
+    path = PiecewiseTrajectory(Trajectory(sample, xyz))
+    run = path.run_of(np.array([4.5, 15.0, 25.5]))
+    assert list(run) == [0, -1, 1]
+    assert np.allclose(path(np.array([4.5, 25.5]), run[[0, 2]])[:, 0], [4.5, 25.5])

@@ -1,0 +1,50 @@
+"""End to end on synthetic scenes with known truth (paper protocol, Section 4.2)."""
+
+import numpy as np
+import pytest
+
+from data_fixtures import make_scene
+from tlsync_pipeline.sync.params import SyncParams
+from tlsync_pipeline.sync.synchronize import CameraInput, synchronize
+from tlsync_pipeline.sync.timeline import eps_t
+
+
+def _solve(scene):
+    inputs = {n: CameraInput(scene.cameras[n], scene.tracks[n], scene.cameras[n].fps) for n in scene.cameras}
+    timeline, _ = synchronize(inputs, scene.trajectory, SyncParams())
+    assert not timeline.failed
+    return timeline
+
+
+def _errors(scene, timeline):
+    return {k: eps_t(timeline.relation(*k.split("->")), true, scene.n_frames[k.split("->")[0]]) for k, true in scene.truth_pairs().items()}
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_noise_free_scenes_are_within_half_a_frame(seed):
+    scene = make_scene(seed)
+    errors = _errors(scene, _solve(scene))
+    assert max(errors.values()) < 0.5, errors
+
+
+def test_tracking_noise_two_pixels_mostly_within_one_frame():
+    # The bench (bench/sync_accuracy.py) runs 100 scenes; the test runs 20.
+    worst = [max(_errors(s, _solve(s)).values()) for s in (make_scene(seed, tracking_noise_px=2.0) for seed in range(100, 120))]
+    assert np.mean(np.array(worst) <= 1.0) >= 0.95, worst
+
+
+def test_four_cameras_with_rate_ratios_and_large_shifts():
+    # Frame-rate ratios 1, 2, 0.5 and 2.5 to cam0; shifts of thousands of frames.
+    lines = ((2.0, 4.3), (4.0, -2500.7), (1.0, 1200.4), (5.0, -6000.5))
+    scene = make_scene(5, lines=lines, n_frames=(3000, 6000, 2400, 7500), tracking_noise_px=0.5)
+    timeline = _solve(scene)
+    for name, line in timeline.cameras.items():
+        true = scene.lines[name]
+        assert line.alpha == pytest.approx(true.alpha, rel=5e-3), name
+        # While the camera sees the target, its frames map to the right samples.
+        frames = scene.tracks[name].frame
+        assert np.mean(np.abs((frames - line.beta) / line.alpha - (frames - true.beta) / true.alpha)) <= 0.5, name
+    for key, true in scene.truth_pairs().items():
+        estimated = timeline.relation(*key.split("->"))
+        assert estimated.alpha == pytest.approx(true.alpha, rel=5e-3), key
+        assert estimated.beta == pytest.approx(true.beta, rel=5e-3, abs=2.0), key

@@ -1,0 +1,168 @@
+"""Video reading: indices, presentation times, rotation, seeking, damaged and bad files."""
+
+import warnings
+
+import av
+import numpy as np
+import pytest
+
+from data_fixtures.video import render_camera_video, render_video
+from trackers.errors import TrackInputError
+from trackers.video import (
+    TruncatedVideoWarning,
+    iter_frames,
+    probe_video,
+    read_frames,
+    sample_frames,
+)
+
+
+@pytest.fixture(scope="module")
+def jittered(tmp_path_factory):
+    """A variable-frame-rate video: presentation times jittered by up to +-20 % of the interval."""
+    return render_video(tmp_path_factory.mktemp("vfr") / "vfr.mp4", n_frames=90, jitter=0.4, seed=3)
+
+
+def test_indices_and_presentation_times_from_the_container(jittered):
+    frames = list(iter_frames(jittered.path, gray=True))
+    assert [f.index for f in frames] == list(range(90))
+    times = np.array([f.time_s for f in frames])
+    assert np.abs(times - jittered.times).max() < 1e-6
+    # the jitter is real: a constant-rate assumption would be off by several milliseconds
+    assert np.abs(times - np.arange(90) / jittered.fps).max() > 0.004
+    assert frames[0].image.shape == (240, 320) and frames[0].image.dtype == np.uint8
+
+
+def test_bgr_frames_and_probe(jittered):
+    first = next(iter_frames(jittered.path))
+    assert first.image.shape == (240, 320, 3)
+    info = probe_video(jittered.path)
+    assert (info.width, info.height, info.n_frames, info.rotation, info.counted) == (320, 240, 90, 0, True)
+
+
+def test_read_frames_seeks_and_matches_sequential_decoding(jittered):
+    wanted = [0, 31, 32, 59, 60, 61, 89]
+    sequential = {f.index: f for f in iter_frames(jittered.path) if f.index in wanted}
+    sought = read_frames(jittered.path, reversed(wanted))
+    assert sorted(sought) == wanted
+    for i in wanted:
+        assert sought[i].time_s == pytest.approx(sequential[i].time_s, abs=1e-9)
+        np.testing.assert_array_equal(sought[i].image, sequential[i].image)
+
+
+def test_read_frames_past_the_end(jittered):
+    with pytest.raises(TrackInputError, match=r"frame 90 is past the end of the video \(90 frames\)"):
+        read_frames(jittered.path, [3, 90])
+    with pytest.raises(TrackInputError, match="negative"):
+        read_frames(jittered.path, [-1])
+
+
+def test_sample_frames_spread_over_the_video(jittered):
+    frames = sample_frames(jittered.path, 5)
+    assert len(frames) == 5 and frames[0].shape == (240, 320)
+
+
+def test_rotation_metadata_is_honoured(tmp_path):
+    upright = render_video(tmp_path / "upright.mp4", n_frames=12, seed=5, noise=0.0)
+    rotated = render_video(tmp_path / "rotated.mp4", n_frames=12, seed=5, noise=0.0, rotation=90)
+    info = probe_video(rotated.path)
+    assert (info.width, info.height, info.rotation) == (320, 240, 90)
+    a = next(iter_frames(upright.path, gray=True)).image.astype(float)
+    b = next(iter_frames(rotated.path, gray=True)).image.astype(float)
+    assert b.shape == a.shape
+    assert np.abs(a - b).mean() < 3.0  # same picture, up to compression
+    assert np.abs(a - np.flipud(np.fliplr(b))).mean() > 10.0  # a wrong rotation would not be
+    assert read_frames(rotated.path, [5])[5].image.shape == (240, 320, 3)
+
+
+def test_truncated_file_is_read_up_to_its_last_decodable_frame(tmp_path, jittered):
+    data = jittered.path.read_bytes()
+    cut = tmp_path / "cut.mp4"
+    cut.write_bytes(data[: int(len(data) * 0.6)])
+    with pytest.warns(TruncatedVideoWarning, match=r"cut.mp4: video truncated or corrupt .*read up to frame (\d+)") as record:
+        frames = list(iter_frames(cut))
+    assert 10 < len(frames) < 90
+    assert f"read up to frame {frames[-1].index} " in str(record[0].message)
+    assert [f.index for f in frames] == list(range(len(frames)))
+
+
+def test_complete_file_reads_without_warning(jittered):
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert sum(1 for _ in iter_frames(jittered.path)) == 90
+
+
+def _empty_video(path):
+    container = av.open(str(path), "w")
+    stream = container.add_stream("libx264", rate=25)
+    stream.width, stream.height, stream.pix_fmt = 64, 48, "yuv420p"
+    container.start_encoding()
+    container.close()
+    return path
+
+
+def _audio_only(path):
+    container = av.open(str(path), "w")
+    container.add_stream("pcm_s16le", rate=8000)
+    container.start_encoding()
+    container.close()
+    return path
+
+
+@pytest.mark.parametrize(
+    "make, message",
+    [
+        (lambda d: d / "missing.mp4", "file not found"),
+        (lambda d: d, "is a folder"),
+        (lambda d: (d / "notes.mp4").write_text("not a video\n" * 50) and d / "notes.mp4", "not a readable video file"),
+        (lambda d: _audio_only(d / "sound.wav"), "has no video stream"),
+        (lambda d: _empty_video(d / "empty.mkv"), "ends before any video frame"),
+    ],
+)
+def test_bad_files_have_clear_errors(tmp_path, make, message):
+    path = make(tmp_path)
+    with pytest.raises(TrackInputError, match=message) as info:
+        list(iter_frames(path))
+    assert str(path) in str(info.value)
+
+
+def test_video_without_any_decodable_frame(tmp_path, jittered):
+    data = jittered.path.read_bytes()
+    header_only = tmp_path / "header_only.mp4"
+    header_only.write_bytes(data[: data.index(b"mdat") + 4])
+    with pytest.raises(TrackInputError, match="header_only.mp4: the video has no decodable frame"):
+        list(iter_frames(header_only))
+
+
+def test_render_camera_video_draws_given_positions(tmp_path, paper_scene):
+    camera = paper_scene.true_cameras["cam0"]
+    positions = [None] * 5 + [(100.0 + 3 * k, 200.0) for k in range(15)]
+    rendered = render_camera_video(camera, positions, fps=camera.fps, path=tmp_path / "cam0.mp4")
+    info = probe_video(rendered.path)
+    assert (info.width, info.height) == tuple(camera.image_size) and info.n_frames == 20
+    assert info.fps == pytest.approx(camera.fps, rel=1e-3)
+    assert rendered.out_of_view[:5].all() and rendered.in_view[5:].all()
+    frame = read_frames(rendered.path, [10], gray=True)[10].image
+    assert frame[200, 115] > 200 and frame[200, 60] < 200  # the bright disc is where it was asked to be
+
+
+def test_corrupt_middle_stops_with_a_warning_naming_the_last_good_frame(tmp_path, jittered):
+    data = bytearray(jittered.path.read_bytes())
+    middle = len(data) // 2
+    data[middle : middle + 3000] = np.random.default_rng(0).integers(0, 256, 3000, dtype=np.uint8).tobytes()
+    damaged = tmp_path / "damaged.mp4"
+    damaged.write_bytes(bytes(data))
+    with pytest.warns(TruncatedVideoWarning, match="damaged.mp4: video truncated or corrupt") as record:
+        frames = list(iter_frames(damaged))
+    assert 0 < len(frames) < 90
+    assert f"read up to frame {frames[-1].index} " in str(record[0].message)
+
+
+def test_bgr_frames_agree_with_ffmpegs_conversion(jittered):
+    ours = read_frames(jittered.path, [10])[10].image.astype(int)
+    with av.open(str(jittered.path)) as container:
+        for k, frame in enumerate(container.decode(video=0)):
+            if k == 10:
+                reference = frame.to_ndarray(format="bgr24").astype(int)
+                break
+    assert np.abs(ours - reference).max() <= 3

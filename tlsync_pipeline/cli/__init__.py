@@ -1,0 +1,1 @@
+"""The ``tlsync`` command line: parse arguments, call the pipeline, print, exit code."""

@@ -1,0 +1,40 @@
+"""``tlsync ingest-log``: one GPS/odometry log to a trajectory CSV, with a summary.
+
+The project-level ``tlsync ingest`` is a stage command of the pipeline (pipeline_cli.py).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from tlsync_pipeline.ingest.detect import FORMATS
+from tlsync_pipeline.ingest.process import DEFAULT_MAX_SPEED_MPS, IngestParams
+from tlsync_pipeline.pipeline.stages.ingest import (
+    ingest_log,
+    parse_origin,
+    report_sidecar,
+    write_ingest,
+)
+
+
+@click.command("ingest-log")
+@click.argument("log", type=click.Path(path_type=Path))
+@click.option("--format", "fmt", type=click.Choice(("auto", *FORMATS)), default="auto", show_default=True, help="The log's format.")
+@click.option("--origin", default="first", show_default=True, help="ENU origin: LAT,LON,ALT (deg, deg, m above the ellipsoid) or 'first' (first fix).")
+@click.option("--rate", type=click.FloatRange(min=0, min_open=True), help="Output rate in Hz (default: the log's median rate).")
+@click.option("--max-gap", "max_gap_s", type=click.FloatRange(min=0, min_open=True), help="Longest interval bridged by interpolation, s (default: 3x the median interval).")
+@click.option("--max-speed", "max_speed_mps", type=click.FloatRange(min=0, min_open=True), default=DEFAULT_MAX_SPEED_MPS, show_default=True, help="Fixes implying a faster speed are spikes, m/s.")
+@click.option("--smoothing", "smoothing_s", type=click.FloatRange(min=0), default=0.0, show_default=True, help="Savitzky-Golay window in seconds (0: none).")
+@click.option("--topic", help="ROS bag topic (needed when the bag has several).")
+@click.option("--out", required=True, type=click.Path(dir_okay=False, path_type=Path), help="Trajectory CSV to write (report beside it: <stem>.ingest.json).")
+@click.option("--quiet", is_flag=True, help="Print nothing but errors.")
+def ingest_log_command(log: Path, fmt: str, origin: str, rate, max_gap_s, max_speed_mps, smoothing_s, topic, out: Path, quiet: bool) -> None:
+    """Convert one GPS/odometry LOG into a constant-rate local trajectory CSV."""
+    params = IngestParams(parse_origin(origin), rate, max_gap_s, max_speed_mps, smoothing_s)
+    trajectory, report = ingest_log(log, fmt, params, topic)
+    write_ingest(trajectory, report, out, report_sidecar(out))
+    if not quiet:
+        click.echo(report.summary())
+        click.echo(f"wrote {out} and {report_sidecar(out)}")

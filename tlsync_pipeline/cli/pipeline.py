@@ -1,0 +1,159 @@
+"""Commands of the stage graph: run, status and one command per stage.
+
+``tlsync run`` runs what is not fresh; ``tlsync status`` says what is fresh,
+stale (and why) or missing; ``tlsync STAGE PROJECT.toml [--camera NAME]``
+re-runs one stage (for one camera), after whatever it needs that is not fresh.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from tlsync_pipeline.errors import INPUT_ERRORS, InputError, SyncError
+from tlsync_pipeline.pipeline.engine import RunSummary, format_status, run_graph, status
+from tlsync_pipeline.pipeline.executors import EXECUTORS, make_executor
+from tlsync_pipeline.pipeline.graph import STAGES, Options, build_graph
+from tlsync_pipeline.pipeline.project import load_project
+
+
+def work_option(f):
+    f = click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), hidden=True, help="Same as --work.")(f)
+    return click.option("--work", "work_dir", type=click.Path(file_okay=False, path_type=Path), help="Work folder (default: work/ beside the project file).")(f)
+
+
+def executor_options(f):
+    f = click.option("--scheduler", help="Dask scheduler address (with --executor dask), e.g. tcp://host:8786.")(f)
+    f = click.option("--executor", "executor_kind", type=click.Choice(EXECUTORS), default="process", show_default=True, help="Where per-camera stages run.")(f)
+    f = click.option("--jobs", "-j", type=click.IntRange(min=1), help="Worker processes (default: one per core; 1 runs everything in this process).")(f)
+    return click.option("--quiet", "-q", is_flag=True, help="No progress messages.")(f)
+
+
+def resolve_work(project, work_dir: Path | None, out_dir: Path | None) -> Path:
+    if work_dir and out_dir and work_dir.resolve() != out_dir.resolve():
+        raise InputError("--work and --out name different folders; --out is another name for --work")
+    return (work_dir or out_dir or project.default_work_dir).resolve()
+
+
+def _parse_pairs(value: str | None) -> tuple[tuple[str, str], ...] | None:
+    if not value:
+        return None
+    pairs = []
+    for item in value.split(";"):
+        names = [n.strip() for n in item.split(",")]
+        if len(names) != 2 or not all(names):
+            raise InputError(f"--pair {value!r}: expected A,B (several: A,B;A,C)")
+        pairs.append((names[0], names[1]))
+    return tuple(pairs)
+
+
+def _parse_frames(value: str | None) -> tuple[int, ...] | None:
+    if not value:
+        return None
+    try:
+        return tuple(int(v) for v in value.split(","))
+    except ValueError:
+        raise InputError(f"--frames {value!r}: expected frame numbers of the second camera, e.g. 120,340,560") from None
+
+
+def execute(project_file: Path, work_dir, out_dir, *, force_stages=(), cameras=(), targets_stage=None, options=Options(), jobs=None, executor_kind="process", scheduler=None, quiet=False):
+    """Build the graph, run it and print what happened; returns (graph, summary)."""
+    project = load_project(project_file)
+    work = resolve_work(project, work_dir, out_dir)
+    graph = build_graph(project, work, Options(options.render_pairs, options.render_frames, options.truth, not quiet))
+    for a, b in options.render_pairs or ():
+        project.camera(a), project.camera(b)
+    force: set[str] = set()
+    for stage in force_stages:
+        force.update(graph.select(stage, None))
+    targets = None
+    if targets_stage is not None:
+        targets = []
+        for camera in cameras or (None,):
+            targets += graph.select(targets_stage, camera)
+        force.update(targets)
+    elif cameras:
+        if not force_stages:
+            raise InputError("--camera goes with --force STAGE (tlsync run re-runs only what is not fresh, for every camera)")
+        force = {t for t in force if graph.tasks[t].camera in (None, *cameras)}
+    executor = make_executor(executor_kind, jobs, scheduler)
+    summary = run_graph(graph, executor, force, targets, None if quiet else lambda m: click.echo(m, err=True))
+    text = format_summary(summary, counts=not quiet)
+    if text:
+        click.echo(text)
+    return graph, summary
+
+
+def format_summary(summary: RunSummary, counts: bool = True) -> str:
+    """What ran and was skipped (with counts), then the result messages of the stages that have one."""
+    lines = []
+    if counts:
+        lines.append(f"ran {len(summary.ran)}, fresh {len(summary.fresh)}, failed {len(summary.failed)}, skipped {len(summary.skipped)}")
+        if summary.ran:
+            lines.append("ran: " + ", ".join(summary.ran))
+        lines += [f"skipped {tid}: {why}" for tid, why in summary.skipped.items()]
+    lines += [f"{tid}: {summary.summaries[tid]['message']}" for tid in summary.ran if summary.summaries[tid].get("message")]
+    return "\n".join(lines)
+
+
+def finish(summary: RunSummary) -> None:
+    """Re-raise a failed stage's error (the CLI maps it to its exit code)."""
+    for tid, exc in summary.failed.items():
+        if isinstance(exc, INPUT_ERRORS):
+            raise type(exc)(f"{tid}: {exc}")
+    for tid, exc in summary.failed.items():
+        raise SyncError(f"{tid} failed: {type(exc).__name__}: {exc}")
+
+
+@click.command()
+@click.argument("project_file", type=click.Path(dir_okay=False, path_type=Path))
+@work_option
+def status_command(project_file: Path, work_dir: Path | None, out_dir: Path | None) -> None:
+    """Every stage per camera: fresh, stale (and why) or missing; 'given' for files the project brings."""
+    project = load_project(project_file)
+    work = resolve_work(project, work_dir, out_dir)
+    click.echo(f"work folder: {work}")
+    click.echo(format_status(status(build_graph(project, work))))
+
+
+def stage_command(stage: str, help_text: str, render: bool = False) -> click.Command:
+    """``tlsync STAGE PROJECT.toml [--camera NAME]``: re-run one stage (what it needs first, if not fresh)."""
+
+    def command(project_file, work_dir, out_dir, camera, jobs, executor_kind, scheduler, quiet, pair=None, frames=None, truth=None):
+        options = Options(_parse_pairs(pair), _parse_frames(frames), truth)
+        _, summary = execute(project_file, work_dir, out_dir, cameras=camera, targets_stage=stage, options=options, jobs=jobs, executor_kind=executor_kind, scheduler=scheduler, quiet=quiet)
+        finish(summary)
+
+    command.__doc__ = help_text
+    command = executor_options(command)
+    if render:
+        command = click.option("--truth", type=click.Path(dir_okay=False, path_type=Path), help="truth.json: adds pictures at the true relation.")(command)
+        command = click.option("--frames", help="Frames of the second camera of each pair to draw, e.g. 120,340.")(command)
+        command = click.option("--pair", help="Pairs of cameras to draw: A,B (several: 'A,B;A,C'); default: the first camera with each other.")(command)
+    command = click.option("--camera", multiple=True, help="Only this camera (repeatable).")(command)
+    command = work_option(command)
+    command = click.argument("project_file", type=click.Path(dir_okay=False, path_type=Path))(command)
+    return click.command(stage)(command)
+
+
+calibrate_command = stage_command("calibrate", "Re-run the calibrate stage: camera.json, calibration_report.json, calibration.png per camera.")
+track_command = stage_command("track", "Re-run the track stage: the target's track.csv in each camera's video.")
+ingest_command = stage_command("ingest", "Re-run the ingest stage: the [target] log into target/trajectory.csv and ingest_report.json.")
+vote_command = stage_command("vote", "Re-run the vote stage: (frame, sample) pairs within eps_px, per camera.")
+sync_command = stage_command("sync", "Re-run the sync stage: each camera's line and the timeline (timeline.json).")
+export_command = stage_command("export", "Re-run the export stage: frame map, offsets and ffmpeg commands.")
+render_command = stage_command("render", "Draw the overlays and plots (paper Fig. 4) from cached artefacts, and report.md.", render=True)
+
+
+def run_options(f):
+    f = click.option("--camera", multiple=True, help="With --force: force only this camera's stages (repeatable).")(f)
+    f = click.option("--force", "force_stages", multiple=True, type=click.Choice(STAGES), help="Re-run this stage even if fresh (repeatable).")(f)
+    return executor_options(work_option(f))
+
+
+def register(group: click.Group) -> None:
+    """Add the pipeline's commands to the ``tlsync`` group."""
+    group.add_command(status_command, "status")
+    for cmd in (calibrate_command, track_command, ingest_command, vote_command, sync_command, export_command, render_command):
+        group.add_command(cmd)

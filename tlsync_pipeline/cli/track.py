@@ -1,0 +1,39 @@
+"""``tlsync track-video``: one video, one track.csv.
+
+The project-level ``tlsync track`` is a stage command of the pipeline (pipeline_cli.py).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from tlsync_pipeline.pipeline.stages.track import write_track_atomic
+from trackers.tracking import KINDS, track_video
+
+
+def _box(ctx, param, value):
+    if value is None:
+        return None
+    try:
+        box = [float(v) for v in value.split(",")]
+    except ValueError:
+        box = []
+    if len(box) != 4:
+        raise click.BadParameter(f"expected X,Y,W,H (four numbers, pixels), got {value!r}")
+    return box
+
+
+@click.command("track-video")
+@click.argument("video", type=click.Path(path_type=Path))
+@click.option("--tracker", "kind", type=click.Choice(KINDS), default="blob", show_default=True, help="Tracker kind.")
+@click.option("--init", callback=_box, help="Box X,Y,W,H around the target in the init frame (pixels, top-left corner and size).")
+@click.option("--init-frame", default=0, show_default=True, type=click.IntRange(min=0), help="0-based frame of the init box; tracking starts there.")
+@click.option("--out", required=True, type=click.Path(dir_okay=False, path_type=Path), help="track.csv to write.")
+@click.option("--quiet", is_flag=True, help="No progress bar.")
+def track_video_command(video: Path, kind: str, init, init_frame: int, out: Path, quiet: bool) -> None:
+    """Track the target in VIDEO and write its track.csv (frame,x,y,time_s,w,h,score)."""
+    result = track_video(video, kind=kind, init=init, init_frame=init_frame, progress=not quiet)
+    write_track_atomic(result, out)
+    click.echo(f"{len(result)} tracked frames; wrote {out}")

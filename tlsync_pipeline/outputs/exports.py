@@ -1,0 +1,85 @@
+"""Exports for other tools: a frame map CSV, offsets in seconds, ffmpeg commands.
+
+- frame_map.csv: one row per frame of every camera: the camera, its frame,
+  the target sample t_r it shows, that sample's time (s, when the target's
+  clock is known) and the matching frame of every other camera (empty when
+  that camera was not recording then). Matching frames are real numbers (the
+  relation is continuous); round them for a frame index.
+- offsets.csv: per camera, when its frame 0 was taken relative to the
+  reference camera's frame 0 (frames of the reference and seconds), its
+  frame rate, and its clock rate against the reference.
+- ffmpeg.sh: commands that trim every video so that all start at the same
+  instant, and the -itsoffset alternative that keeps the files.
+"""
+
+from __future__ import annotations
+
+import shlex
+from pathlib import Path
+
+import numpy as np
+
+from tlsync_pipeline.sync.timeline import Timeline
+
+
+def frame_map_rows(timeline: Timeline, n_frames: dict[str, int]):
+    """Rows of the frame map (header first), for the synchronized cameras."""
+    names = timeline.names
+    yield ["camera", "frame", "sample", "target_time_s"] + [f"frame_{n}" for n in names]
+    for name in names:
+        line = timeline.cameras[name]
+        frames = np.arange(n_frames[name], dtype=np.float64)
+        sample = (frames - line.beta) / line.alpha
+        seconds = None if timeline.target_rate is None else (timeline.target_t0 or 0.0) + sample / timeline.target_rate
+        others = {}
+        for other in names:
+            if other != name:
+                matched = timeline.relation(name, other)(frames)
+                inside = (matched > -0.5) & (matched < n_frames[other] - 0.5)
+                others[other] = np.where(inside, matched, np.nan)
+        for i in range(len(frames)):
+            row = [name, str(i), f"{sample[i]:.3f}", "" if seconds is None else f"{seconds[i]:.6f}"]
+            for other in names:
+                if other == name:
+                    row.append(str(i))
+                else:
+                    value = others[other][i]
+                    row.append("" if np.isnan(value) else f"{value:.3f}")
+            yield row
+
+
+def offsets(timeline: Timeline, fps: dict[str, float | None]) -> list[dict]:
+    """Per camera: start relative to the reference (frames of the reference, seconds), fps, clock rate.
+
+    clock_rate: seconds elapsed on this camera's nominal clock per second of
+    the reference's (1 when both run at their nominal rates).
+    """
+    ref = timeline.names[0]
+    rows = []
+    for name in timeline.names:
+        frames = float(timeline.relation(name, ref).beta)
+        seconds = frames / fps[ref] if fps.get(ref) else None
+        rel = timeline.relation(ref, name)
+        rate = rel.alpha * fps[ref] / fps[name] if fps.get(ref) and fps.get(name) else None
+        rows.append({"camera": name, "reference": ref, "start_frames": frames, "start_s": seconds, "fps": fps.get(name), "clock_rate": rate})
+    return rows
+
+
+def ffmpeg_commands(rows: list[dict], videos: dict[str, str | None]) -> str:
+    """A shell script trimming every video to the common start (the latest camera's frame 0)."""
+    lines = ["#!/bin/sh", "# Made by tlsync from timeline.json. Times are seconds on each camera's own clock.", "set -e"]
+    timed = [r for r in rows if r["start_s"] is not None]
+    if not timed:
+        lines.append("# The reference camera's frame rate is unknown: offsets in seconds cannot be given (see offsets.csv).")
+        return "\n".join(lines) + "\n"
+    latest = max(r["start_s"] for r in timed)
+    earliest = min(r["start_s"] for r in timed)
+    lines.append(f"# 1) Trim: every output starts at the latest start ({latest:+.3f} s after {rows[0]['reference']}'s frame 0).")
+    for r in timed:
+        video = videos.get(r["camera"]) or f"{r['camera']}.mp4"
+        out = Path(video).with_name(Path(video).stem + "_synced.mp4").name
+        lines.append(f"ffmpeg -y -ss {latest - r['start_s']:.3f} -i {shlex.quote(str(video))} -c:v libx264 -crf 18 -an {shlex.quote(out)}")
+    lines.append("# 2) Or keep the files and delay each input when combining them (-itsoffset before its -i):")
+    inputs = " ".join(f"-itsoffset {r['start_s'] - earliest:.3f} -i {shlex.quote(str(videos.get(r['camera']) or r['camera'] + '.mp4'))}" for r in timed)
+    lines.append(f"# ffmpeg {inputs} -filter_complex hstack=inputs={len(timed)} combined.mp4")
+    return "\n".join(lines) + "\n"

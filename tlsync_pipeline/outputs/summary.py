@@ -1,0 +1,79 @@
+"""Text a person reads after a run: the per-camera table, the comparison with a truth, a
+camera's calibration in one line."""
+
+from __future__ import annotations
+
+from tlsync_pipeline.sync.timeline import Relation, Timeline, eps_t
+
+
+def format_table(timeline: Timeline) -> str:
+    """The per-camera summary a user reads after a run."""
+    rows = [("camera", "alpha", "beta", "votes", "inliers", "start (frames)", "start (s)", "flags")]
+    first = timeline.names[0] if timeline.cameras else None
+    with_se = False
+    for name, line in timeline.cameras.items():
+        frames, seconds = timeline.start_offset(first, name)
+        alpha, beta = f"{line.alpha:.5f}", f"{line.beta:.2f}"
+        start_frames, start_s = f"{frames:+.2f}", "-" if seconds is None else f"{seconds:+.3f}"
+        if line.cov is not None:
+            with_se = True
+            alpha += f" ±{_HALF_95 * line.details['se_alpha']:.2g}"
+            beta += f" ±{_HALF_95 * line.details['se_beta']:.2g}"
+            se = timeline.start_offset_se(first, name)
+            if name != first and se is not None:
+                start_frames += f" ±{_HALF_95 * se[0]:.2g}"
+                start_s += "" if se[1] is None else f" ±{_HALF_95 * se[1]:.2g}"
+        flags = list(line.details.get("flags", [])) + (["fallback"] if line.details.get("warnings") else [])
+        rows.append((name, alpha, beta, str(line.votes), str(line.inliers), start_frames, start_s, ",".join(flags) or "-"))
+    text = _columns(rows)
+    if first is not None:
+        text += f"\nstart: when the camera's frame 0 was taken, in frames and seconds of {first} (positive: later than {first}'s frame 0)"
+    if with_se:
+        text += "\n±: 95 % intervals (1.96 standard errors); flags: few_inliers, ambiguous (a second line with comparable support), along_ray (motion mostly along the viewing ray), fallback (see warnings in timeline.json)"
+    for name, line in timeline.cameras.items():
+        for warning in line.details.get("warnings", []):
+            text += f"\nwarning: {name}: {warning}"
+    for name, why in timeline.failed.items():
+        text += f"\nnot synchronized: {name}: {why}"
+    return text
+
+
+def format_truth_comparison(timeline: Timeline, truth: dict[str, Relation], n_frames: dict[str, int]) -> tuple[str, dict[str, float]]:
+    """Recovered against true pairwise relations, with eps_t per pair (frames of B)."""
+    rows = [("pair", "alpha", "true alpha", "beta", "true beta", "eps_t (frames)")]
+    errors = {}
+    for key, true in truth.items():
+        a, b = key.split("->")
+        if a not in timeline.cameras or b not in timeline.cameras:
+            continue
+        estimated = timeline.relation(a, b)
+        frames_a = n_frames.get(a) or 1
+        errors[key] = eps_t(estimated, true, frames_a)
+        rows.append((key, f"{estimated.alpha:.5f}", f"{true.alpha:.5f}", f"{estimated.beta:.2f}", f"{true.beta:.2f}", f"{errors[key]:.3f}"))
+    return _columns(rows), errors
+
+
+_HALF_95 = 1.959964  # normal quantile of a two-sided 95 % interval
+
+
+def _columns(rows: list[tuple[str, ...]]) -> str:
+    widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
+    return "\n".join("  ".join(cell.rjust(w) if i else cell.ljust(w) for i, (cell, w) in enumerate(zip(r, widths))) for r in rows)
+
+
+def calibration_summary(report: dict) -> str:
+    """One line about a camera's calibration report: views, RMS, intrinsics, pose."""
+    intr = report["intrinsics"]
+    text = f"{report['camera']}: "
+    if "rms_px" in intr:
+        K = intr["K"]
+        text += f"{intr['views_used']}/{intr['views_used'] + intr['views_rejected']} views, RMS {intr['rms_px']:.3f} px, fx {K[0][0]:.2f} fy {K[1][1]:.2f} cx {K[0][2]:.2f} cy {K[1][2]:.2f}"
+    else:
+        text += f"intrinsics from {intr['source']}"
+    pose = report.get("pose")
+    if pose:
+        n_in = sum(p["inlier"] for p in pose["points"])
+        text += f"; pose from {n_in}/{len(pose['points'])} {pose['kind']} points, RMS {pose['rms_px']:.2f} px (+-{pose['rotation_std_deg']:.3f} deg, +-{pose['position_std_m']:.3f} m)"
+    else:
+        text += "; no pose (identity R, zero t)"
+    return text

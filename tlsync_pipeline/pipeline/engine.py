@@ -1,0 +1,243 @@
+"""Running the stage graph: what is fresh, what runs, in which order, where.
+
+A task runs when one of its inputs, parameters or its stage version changed
+since its manifest was written, when an artefact of it is missing or was
+modified, or when it is forced. Its freshness is decided only once the tasks
+that make its inputs are done, so a re-run stage whose artefacts come out
+identical does not re-run what follows it. Per-camera tasks go to the
+executor (parallel processes or a Dask cluster); project-wide ones run here.
+A failed task keeps its last good artefacts; the tasks that need it are
+skipped and everything else still runs.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from tlsync_pipeline.atomic import PART_SUFFIX
+from tlsync_pipeline.errors import InputError
+from tlsync_pipeline.pipeline import layout
+from tlsync_pipeline.pipeline.cache import (
+    HashMemo,
+    Manifest,
+    cache_key,
+    read_manifest,
+    staleness,
+    write_manifest,
+)
+from tlsync_pipeline.pipeline.executors import SerialExecutor
+from tlsync_pipeline.pipeline.graph import Graph, Task, check_given
+from tlsync_pipeline.pipeline.lock import WorkLock
+from tlsync_pipeline.pipeline.stages import PER_CAMERA
+
+
+@dataclass
+class TaskState:
+    """One row of ``tlsync status``: fresh, stale, missing or given, and why."""
+
+    id: str
+    stage: str
+    camera: str | None
+    state: str
+    reasons: list[str] = field(default_factory=list)
+
+
+@dataclass
+class RunSummary:
+    """What a run did: tasks run, found fresh, failed (with the error) and skipped for a failed input."""
+
+    ran: list[str] = field(default_factory=list)
+    fresh: list[str] = field(default_factory=list)
+    failed: dict[str, BaseException] = field(default_factory=dict)
+    skipped: dict[str, str] = field(default_factory=dict)
+    seconds: dict[str, float] = field(default_factory=dict)
+    summaries: dict[str, dict] = field(default_factory=dict)
+
+
+def _input_record(task: Task, memo: HashMemo) -> dict[str, dict]:
+    return {label: {"path": str(path), "sha256": memo.sha256(path)} for label, path in sorted(task.inputs.items())}
+
+
+def _key(task: Task, inputs: dict[str, dict]) -> str:
+    return cache_key(task.stage, task.version, {k: v["sha256"] for k, v in inputs.items()}, task.params)
+
+
+def manifest_path(graph: Graph, task: Task) -> Path:
+    return layout.manifest_json(graph.work, task.stage, task.camera)
+
+
+def task_reasons(graph: Graph, task: Task, memo: HashMemo) -> list[str]:
+    """Why ``task`` must run (empty: its artefacts are fresh), judged on its inputs as they are now."""
+    inputs = _input_record(task, memo)
+    return staleness(read_manifest(manifest_path(graph, task)), _key(task, inputs), task.version, inputs, task.params, memo, graph.work)
+
+
+def status(graph: Graph) -> list[TaskState]:
+    """Every stage per camera: fresh, stale (with reasons), missing, given by the user, or blocked.
+
+    A task whose input-making task is not fresh is stale ("waits for ...")
+    even if its own manifest still matches: it will run after that one.
+    """
+    memo = HashMemo(layout.hash_memo(graph.work))
+    rows: dict[str, TaskState] = {}
+    for item in graph.given.values():
+        rows[item.id] = TaskState(item.id, item.stage, item.camera, "given", [str(item.path)])
+    for tid, task in graph.tasks.items():
+        reasons = task_reasons(graph, task, memo)
+        waiting = [d for d in task.deps if d in rows and rows[d].state in ("stale", "missing")]
+        if task.problem:
+            state, reasons = "blocked", [task.problem]
+        elif not manifest_path(graph, task).exists():
+            state = "missing"
+        elif reasons or waiting:
+            state = "stale"
+        else:
+            state = "fresh"
+        if waiting:
+            reasons.append("waits for " + ", ".join(f"{d} ({rows[d].state})" for d in waiting))
+        rows[tid] = TaskState(tid, task.stage, task.camera, state, reasons)
+    memo.save()
+    order = {s: i for i, s in enumerate(("calibrate", "track", "ingest", "vote", "sync", "export", "render"))}
+    cameras = [c["name"] for c in graph.project.cameras]
+    return sorted(rows.values(), key=lambda r: (order[r.stage], cameras.index(r.camera) if r.camera else -1))
+
+
+def format_status(rows: list[TaskState]) -> str:
+    """The ``tlsync status`` table: stage, camera, state, why."""
+    lines = []
+    width = max(len(r.stage) for r in rows)
+    cam_width = max(len(r.camera or "-") for r in rows)
+    for r in rows:
+        why = "; ".join(r.reasons) if r.state != "fresh" else ""
+        lines.append(f"{r.stage.ljust(width)}  {(r.camera or '-').ljust(cam_width)}  {r.state.ljust(7)}  {why}".rstrip())
+    return "\n".join(lines)
+
+
+def run_graph(
+    graph: Graph,
+    executor=None,
+    force: set[str] | None = None,
+    targets: list[str] | None = None,
+    echo=None,
+) -> RunSummary:
+    """Run what is not fresh, holding the work folder's lock.
+
+    force: task ids to run even when fresh. targets: the tasks wanted (default:
+    all); the tasks they need run first when not fresh, nothing downstream of
+    them runs. echo: a function for one-line progress messages, or None.
+    """
+    executor = executor or SerialExecutor()
+    force = set(force or ())
+    wanted = _closure(graph, targets) if targets is not None else list(graph.tasks)
+    summary = RunSummary()
+    for tid in wanted:
+        if graph.tasks[tid].problem:
+            raise InputError(graph.tasks[tid].problem)
+    check_given(graph, wanted)
+    with WorkLock(graph.work):
+        _remove_leftovers(graph.work)
+        memo = HashMemo(layout.hash_memo(graph.work))
+        try:
+            _schedule(graph, executor, wanted, force, memo, summary, echo or (lambda message: None))
+        except BaseException:
+            executor.close(cancel=True)
+            raise
+        finally:
+            memo.save()
+        executor.close()
+    return summary
+
+
+def _remove_leftovers(work: Path) -> None:
+    """Delete temporary files a killed run left behind (safe: this run holds the lock)."""
+    for leftover in work.rglob(f".*{PART_SUFFIX}"):
+        leftover.unlink(missing_ok=True)
+
+
+def _closure(graph: Graph, targets: list[str]) -> list[str]:
+    needed = set()
+    stack = list(targets)
+    while stack:
+        tid = stack.pop()
+        if tid in needed or tid not in graph.tasks:
+            continue
+        needed.add(tid)
+        stack.extend(graph.tasks[tid].deps)
+    return [t for t in graph.tasks if t in needed]
+
+
+def _schedule(graph: Graph, executor, wanted: list[str], force: set[str], memo: HashMemo, summary: RunSummary, echo) -> None:
+    pending = list(wanted)
+    done: set[str] = set()
+    running: dict = {}
+    while pending or running:
+        progressed = True
+        while progressed:
+            progressed = False
+            # Per-camera tasks first, so the pool works while project-wide tasks run here.
+            for tid in sorted(pending, key=lambda t: graph.tasks[t].stage not in PER_CAMERA):
+                task = graph.tasks[tid]
+                bad = [d for d in task.deps if d in summary.failed or d in summary.skipped]
+                if bad:
+                    summary.skipped[tid] = f"needs {bad[0]}, which did not complete"
+                    pending.remove(tid)
+                    progressed = True
+                    continue
+                if not all(d in done or d not in graph.tasks for d in task.deps):
+                    continue
+                pending.remove(tid)
+                progressed = True
+                inputs = _input_record(task, memo)
+                key = _key(task, inputs)
+                reasons = staleness(read_manifest(manifest_path(graph, task)), key, task.version, inputs, task.params, memo, graph.work)
+                if not reasons and tid not in force:
+                    summary.fresh.append(tid)
+                    done.add(tid)
+                    continue
+                why = "forced" if not reasons else reasons[0]
+                echo(f"{tid}: running ({why})")
+                local = task.stage not in PER_CAMERA
+                start = time.perf_counter()
+                future = (SerialExecutor() if local else executor).submit(task.fn, task.kwargs)
+                running[future] = (task, key, inputs, start)
+                if local:
+                    break  # finish it before scheduling more, its dependents may now be ready
+        if not running:
+            if pending:  # every remaining task waits for something that will not come
+                for tid in pending:
+                    summary.skipped[tid] = "its inputs were not made"
+            break
+        for future in executor_wait(executor, list(running)):
+            task, key, inputs, start = running.pop(future)
+            seconds = time.perf_counter() - start
+            try:
+                result = future.result() or {}
+            except Exception as exc:  # noqa: BLE001 - recorded, reported by the caller
+                summary.failed[task.id] = exc
+                echo(f"{task.id}: FAILED: {exc}")
+                continue
+            _write_manifest(graph, task, key, inputs, result, seconds, memo)
+            summary.ran.append(task.id)
+            summary.seconds[task.id] = seconds
+            summary.summaries[task.id] = result
+            done.add(task.id)
+            echo(f"{task.id}: done in {seconds:.1f} s")
+
+
+def executor_wait(executor, futures: list) -> list:
+    """Futures that are done: the finished ones first (local ones are done at once)."""
+    finished = [f for f in futures if f.done()]
+    return finished or executor.wait_any(futures)
+
+
+def _write_manifest(graph: Graph, task: Task, key: str, inputs: dict, result: dict, seconds: float, memo: HashMemo) -> None:
+    outputs = list(task.outputs) + [Path(p) for p in result.pop("outputs", [])]
+    hashes = {}
+    for path in outputs:
+        digest = memo.sha256(path)
+        if digest is not None:
+            hashes[str(Path(path).relative_to(graph.work))] = digest
+    manifest = Manifest(task.stage, task.camera, task.version, key, inputs, task.params, hashes, round(seconds, 3), summary=result)
+    write_manifest(manifest, manifest_path(graph, task))

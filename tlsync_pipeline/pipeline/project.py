@@ -1,0 +1,363 @@
+"""The project file (TOML): what to synchronize and how.
+
+Paths are relative to the project file. Unknown keys are errors with a
+"did you mean". The schema below is the reference; docs/project.md explains
+each key.
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable, NamedTuple
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover - Python 3.10
+    import tomli as tomllib
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from tlsync_pipeline.errors import InputError
+from tlsync_pipeline.geodesy import Origin
+from tlsync_pipeline.sync.params import SYNC_METHODS, SyncParams
+
+WORK_DIR_NAME = "work"
+
+
+class Field(NamedTuple):
+    """One key of a table: its converter (raises ValueError), default, and whether required."""
+
+    convert: Callable[[Any, Path], Any]
+    default: Any = None
+    required: bool = False
+
+
+def _path(value: Any, root: Path) -> Path:
+    if not isinstance(value, str) or not value:
+        raise ValueError(f"expected a file path (string), got {value!r}")
+    return (root / value).resolve()
+
+
+def _name(value: Any, root: Path) -> str:
+    if not isinstance(value, str) or not value.strip() or any(c in value for c in "/\\:,"):
+        raise ValueError(f"expected a non-empty name without '/', '\\', ':' or ',', got {value!r}")
+    return value
+
+
+def _number(value: Any) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise ValueError(f"expected a number, got {value!r}")
+    return float(value)
+
+
+def _choice(*options: str, what: str = "") -> Callable[[Any, Path], str]:
+    """A converter accepting one of ``options``; the message suggests the closest."""
+
+    def convert(value: Any, root: Path) -> str:
+        if value not in options:
+            raise ValueError(f"unknown {what} {value!r}{_suggest(str(value), list(options))}")
+        return value
+
+    return convert
+
+
+def _positive(value: Any, root: Path) -> float:
+    number = _number(value)
+    if number <= 0:
+        raise ValueError(f"expected a positive number, got {value!r}")
+    return number
+
+
+def _probability(value: Any, root: Path) -> float:
+    number = _number(value)
+    if not 0 < number < 1:
+        raise ValueError(f"expected a number strictly between 0 and 1, got {value!r}")
+    return number
+
+
+def _ratio(value: Any, root: Path) -> float:
+    number = _number(value)
+    if not 0 < number <= 1:
+        raise ValueError(f"expected a number in (0, 1], got {value!r}")
+    return number
+
+
+def _non_negative(value: Any, root: Path) -> float:
+    number = _number(value)
+    if number < 0:
+        raise ValueError(f"expected a number >= 0, got {value!r}")
+    return number
+
+
+def _boolean(value: Any, root: Path) -> bool:
+    if not isinstance(value, bool):
+        raise ValueError(f"expected true or false, got {value!r}")
+    return value
+
+
+def _integer(value: Any, root: Path) -> int:
+    if isinstance(value, bool) or not isinstance(value, int):
+        raise ValueError(f"expected an integer, got {value!r}")
+    return value
+
+
+def _origin(value: Any, root: Path) -> Origin | str:
+    if value in ("first", "gcps"):
+        return value
+    if not isinstance(value, list) or len(value) != 3:
+        raise ValueError(f'expected "first", "gcps" or [lat, lon, alt] (degrees, degrees, metres), got {value!r}')
+    return Origin(*(_number(v) for v in value))
+
+
+def _glob(value: Any, root: Path) -> str:
+    if not isinstance(value, str) or not value:
+        raise ValueError(f"expected a file pattern (string, e.g. \"boards/*.jpg\"), got {value!r}")
+    return str(root / value)
+
+
+def _pattern(value: Any, root: Path) -> str:
+    parts = value.lower().split("x") if isinstance(value, str) else []
+    if len(parts) != 2 or not all(p.strip().isdigit() and int(p) >= 2 for p in parts):
+        raise ValueError(f"expected inner corners as \"COLSxROWS\" (e.g. \"7x6\" for a board of 8x7 squares), got {value!r}")
+    return value.lower().replace(" ", "")
+
+
+def _board_pose(value: Any, root: Path) -> dict:
+    if not isinstance(value, dict):
+        raise ValueError("expected a table {image = \"board.jpg\", R = [[...], [...], [...]] or rvec = [...], t = [x, y, z]}")
+    unknown = set(value) - {"image", "R", "rvec", "t"}
+    if unknown:
+        raise ValueError(f"unknown key(s) {', '.join(sorted(unknown))}; expected image, R or rvec, t")
+    if "image" not in value or "t" not in value or ("R" in value) == ("rvec" in value):
+        raise ValueError("needs image, t and one of R (3x3) or rvec (3)")
+    try:
+        t = np.asarray(value["t"], dtype=np.float64)
+        rotation = np.asarray(value.get("R", value.get("rvec")), dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError("R, rvec and t must be numbers") from None
+    if t.shape != (3,) or not np.all(np.isfinite(t)):
+        raise ValueError(f"t: expected [x, y, z] metres, got {value['t']!r}")
+    if "rvec" in value:
+        if rotation.shape != (3,) or not np.all(np.isfinite(rotation)):
+            raise ValueError(f"rvec: expected 3 numbers (Rodrigues vector, radians), got {value['rvec']!r}")
+        R = Rotation.from_rotvec(rotation).as_matrix()
+    else:
+        R = rotation
+        if R.shape != (3, 3) or not np.all(np.isfinite(R)) or np.abs(R.T @ R - np.eye(3)).max() > 1e-3 or np.linalg.det(R) < 0:
+            raise ValueError("R: expected a 3x3 rotation matrix (list of rows)")
+    return {"image": _path(value["image"], root), "R": R, "t": t}
+
+
+def _count(value: Any, root: Path) -> int:
+    if _integer(value, root) < 1:
+        raise ValueError(f"expected a positive integer, got {value!r}")
+    return value
+
+
+CALIBRATION_MODELS = ("standard", "rational", "fisheye")
+TARGET_SCHEMA = {
+    "trajectory": Field(_path),
+    "origin": Field(_origin),
+}
+
+
+def _box(value: Any, root: Path) -> tuple[float, float, float, float]:
+    if not isinstance(value, list) or len(value) != 4:
+        raise ValueError(f"expected a box [x, y, w, h] in pixels (top-left corner and size), got {value!r}")
+    box = tuple(_number(v) for v in value)
+    if box[2] <= 0 or box[3] <= 0:
+        raise ValueError(f"box {value!r}: width and height must be positive")
+    return box
+
+
+def _frame_index(value: Any, root: Path) -> int:
+    if _integer(value, root) < 0:
+        raise ValueError(f"expected a 0-based frame index, got {value!r}")
+    return value
+
+
+def _parameters(value: Any, root: Path) -> dict:
+    if not isinstance(value, dict):
+        raise ValueError(f"expected a table of tracker parameters, got {value!r}")
+    for key, number in value.items():
+        _number(number)
+    return dict(value)
+
+
+# [cameras.tracker]: how the track stage follows the target in the camera's video.
+TRACKER_SCHEMA = {
+    "kind": Field(_choice("blob", "csrt", what="tracker kind"), "blob"),
+    "init": Field(_box),
+    "init_frame": Field(_frame_index, 0),
+    "parameters": Field(_parameters, {}),
+}
+
+
+# [cameras.calibration]: how the calibrate stage makes this camera's camera.json.
+CALIBRATION_SCHEMA = {
+    "images": Field(_glob),
+    "video": Field(_path),
+    "intrinsics": Field(_path),
+    "pattern": Field(_pattern),
+    "square": Field(_positive),
+    "model": Field(_choice(*CALIBRATION_MODELS, what="model"), "standard"),
+    "gcp": Field(_path),
+    "board_pose": Field(_board_pose),
+    "max_frames": Field(_count, 60),
+    "max_view_error": Field(_positive, 1.0),
+    "ransac_px": Field(_positive, 8.0),
+}
+
+
+def _text(value: Any, root: Path) -> str:
+    if not isinstance(value, str) or not value:
+        raise ValueError(f"expected a non-empty string, got {value!r}")
+    return value
+
+
+def _rigid_transform(value: Any, root: Path):
+    from tlsync_pipeline.ingest.process import RigidTransform
+
+    if not isinstance(value, dict) or not set(value) <= {"R", "yaw_deg", "t"} or ("R" in value and "yaw_deg" in value):
+        raise ValueError(f"expected {{R = 3x3 rotation or yaw_deg = degrees, t = [x, y, z] metres}}, got {value!r}")
+    t = value.get("t", [0.0, 0.0, 0.0])
+    if not isinstance(t, list) or len(t) != 3:
+        raise ValueError(f"t: expected [x, y, z] metres, got {t!r}")
+    t = [_number(v) for v in t]
+    if "yaw_deg" in value:
+        return RigidTransform.from_yaw(_number(value["yaw_deg"]), t)
+    R = value.get("R", [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
+    if not isinstance(R, list) or len(R) != 3 or not all(isinstance(r, list) and len(r) == 3 for r in R):
+        raise ValueError(f"R: expected a 3x3 rotation (list of 3 rows), got {R!r}")
+    return RigidTransform([[_number(v) for v in r] for r in R], t)
+
+
+# The ingest stage's keys ([target] log -> work/target/trajectory.csv); docs/ingest.md.
+INGEST_SCHEMA = {
+    "log": Field(_path),
+    "format": Field(_choice("auto", "gpx", "nmea", "csv", "odometry", "rosbag", what="log format"), "auto"),
+    "topic": Field(_text),
+    "rate": Field(_positive),
+    "max_gap_s": Field(_positive),
+    "max_speed_mps": Field(_positive, 60.0),
+    "smoothing_s": Field(_non_negative, 0.0),
+    "odometry_transform": Field(_rigid_transform),
+}
+TARGET_SCHEMA.update(INGEST_SCHEMA)
+CAMERA_SCHEMA = {
+    "name": Field(_name, required=True),
+    "camera": Field(_path),
+    "track": Field(_path),
+    "fps": Field(_positive),
+    "video": Field(_path),
+    "tracker": TRACKER_SCHEMA,
+    "calibration": CALIBRATION_SCHEMA,
+}
+_SYNC_DEFAULTS = SyncParams()
+SYNC_SCHEMA = {
+    "eps_px": Field(_positive, _SYNC_DEFAULTS.eps_px),
+    "delta": Field(_positive, _SYNC_DEFAULTS.delta),
+    "p": Field(_probability, _SYNC_DEFAULTS.p),
+    "r": Field(_ratio, _SYNC_DEFAULTS.r),
+    "seed": Field(_integer, _SYNC_DEFAULTS.seed),
+    "method": Field(_choice(*SYNC_METHODS, what="sync method"), _SYNC_DEFAULTS.method),
+    "r_min": Field(_ratio, _SYNC_DEFAULTS.r_min),
+    "f_scale_px": Field(_positive, _SYNC_DEFAULTS.f_scale_px),
+    "smooth_trajectory": Field(_boolean, _SYNC_DEFAULTS.smooth_trajectory),
+    "model_error_px": Field(_non_negative, _SYNC_DEFAULTS.model_error_px),
+}
+# A dict is a table, a one-element list an array of tables.
+PROJECT_SCHEMA = {
+    "target": TARGET_SCHEMA,
+    "cameras": [CAMERA_SCHEMA],
+    "sync": SYNC_SCHEMA,
+}
+
+
+@dataclass(frozen=True)
+class Project:
+    """A validated project: absolute paths, per-camera tables in file order."""
+
+    path: Path
+    target: dict
+    cameras: list[dict]
+    sync: SyncParams
+
+    @property
+    def root(self) -> Path:
+        return self.path.parent
+
+    @property
+    def default_work_dir(self) -> Path:
+        return self.root / WORK_DIR_NAME
+
+    def camera(self, name: str) -> dict:
+        """The camera table named ``name``; InputError listing the names otherwise."""
+        for cam in self.cameras:
+            if cam["name"] == name:
+                return cam
+        names = ", ".join(c["name"] for c in self.cameras)
+        raise InputError(f"{self.path}: no camera named {name!r}{_suggest(name, [c['name'] for c in self.cameras])}; cameras: {names}")
+
+
+def load_project(path: str | Path) -> Project:
+    """Read and validate a project file."""
+    path = Path(path).resolve()
+    try:
+        raw = tomllib.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise InputError(f"{path}: file not found") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"{path}: cannot read: {exc}") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(f"{path}: invalid TOML: {exc}") from None
+    data = parse_table(raw, PROJECT_SCHEMA, path, "", path.parent)
+    cameras = data["cameras"]
+    if not cameras:
+        raise InputError(f"{path}: no [[cameras]] table; a project needs at least one camera")
+    seen: set[str] = set()
+    for cam in cameras:
+        if cam["name"] in seen:
+            raise InputError(f"{path}: [[cameras]]: duplicate camera name {cam['name']!r}; names must be unique")
+        seen.add(cam["name"])
+    return Project(path, data["target"], cameras, SyncParams(**data["sync"]))
+
+
+def parse_table(raw: Any, schema: dict, path: Path, where: str, root: Path) -> dict:
+    """Validate one TOML table against a schema; missing optional keys get defaults."""
+    label = f"[{where}]" if where else "top level"
+    if not isinstance(raw, dict):
+        raise InputError(f"{path}: {label}: expected a table, got {type(raw).__name__}")
+    for key in raw:
+        if key not in schema:
+            raise InputError(f"{path}: {label}: unknown key {key!r}{_suggest(key, list(schema))}")
+    out: dict[str, Any] = {}
+    for key, spec in schema.items():
+        sub = f"{where}.{key}" if where else key
+        if isinstance(spec, dict):
+            out[key] = parse_table(raw.get(key, {}), spec, path, sub, root)
+        elif isinstance(spec, list):
+            items = raw.get(key, [])
+            if not isinstance(items, list):
+                raise InputError(f"{path}: {key}: expected an array of tables [[{sub}]]")
+            out[key] = [parse_table(item, spec[0], path, f"{sub} #{i + 1}", root) for i, item in enumerate(items)]
+        elif key in raw:
+            try:
+                out[key] = spec.convert(raw[key], root)
+            except ValueError as exc:
+                raise InputError(f"{path}: {label}: key {key!r}: {exc}") from None
+        elif spec.required:
+            raise InputError(f"{path}: {label}: missing required key {key!r}")
+        else:
+            out[key] = spec.default
+    return out
+
+
+def _suggest(word: str, choices: list[str]) -> str:
+    close = difflib.get_close_matches(word, choices, n=1)
+    return f" (did you mean {close[0]!r}?)" if close else f" (expected one of: {', '.join(choices)})"

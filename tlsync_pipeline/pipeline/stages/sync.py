@@ -1,0 +1,61 @@
+"""The sync stage: every camera's line and the timeline into ``timeline.json``."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from calibration.camera import read_camera
+from tlsync_pipeline.atomic import atomic_path
+from tlsync_pipeline.errors import InputError
+from tlsync_pipeline.pipeline.project import Project
+from tlsync_pipeline.sync.params import SyncParams
+from tlsync_pipeline.sync.synchronize import CameraInput, CameraResult, synchronize
+from tlsync_pipeline.sync.timeline import Timeline, write_timeline
+from tlsync_pipeline.trajectory import Trajectory, read_trajectory
+from trackers.track import read_track
+
+
+def read_camera_inputs(cameras: dict[str, dict]) -> dict:
+    """CameraInput per camera from the paths the graph passes to stage functions."""
+    out = {}
+    for name, c in cameras.items():
+        cam = read_camera(c["camera"], name=name)
+        out[name] = CameraInput(cam, read_track(c["track"]), c["fps"] if c["fps"] is not None else cam.fps)
+    return out
+
+
+def run_sync(cameras: dict[str, dict], trajectory: Path, params: dict, out: Path) -> dict:
+    """The sync stage: each camera's line and the timeline, ``timeline.json``.
+
+    The sync method computes the votes it fits from the same camera, track and
+    trajectory files as the vote stage (with its own trajectory handling);
+    ``votes.npz`` is what render draws and what orders the stages.
+    """
+    timeline, _ = synchronize(read_camera_inputs(cameras), read_trajectory(trajectory), SyncParams(**params))
+    with atomic_path(out) as tmp:
+        write_timeline(timeline, tmp)
+    return {"synchronized": timeline.names, "failed": timeline.failed}
+
+
+def load_inputs(project: Project) -> tuple[dict[str, CameraInput], Trajectory]:
+    """Every camera's calibration and track, and the target's trajectory."""
+    if project.target["trajectory"] is None:
+        raise InputError(f"{project.path}: [target]: missing key 'trajectory' (the target's trajectory CSV)")
+    cameras = {}
+    for spec in project.cameras:
+        for key, what in (("camera", "calibration (camera.json)"), ("track", "track (track.csv)")):
+            if spec[key] is None:
+                raise InputError(f"{project.path}: camera {spec['name']!r}: missing key {key!r}: the camera's {what}")
+        camera = read_camera(spec["camera"], name=spec["name"])
+        fps = spec["fps"] if spec["fps"] is not None else camera.fps
+        cameras[spec["name"]] = CameraInput(camera, read_track(spec["track"]), fps)
+    return cameras, read_trajectory(project.target["trajectory"])
+
+
+def run_project(project: Project, out_dir: Path) -> tuple[Timeline, dict[str, CameraResult]]:
+    """Synchronize the project's cameras and write ``out_dir/timeline.json`` atomically."""
+    cameras, trajectory = load_inputs(project)
+    timeline, results = synchronize(cameras, trajectory, project.sync)
+    with atomic_path(out_dir / "timeline.json") as tmp:
+        write_timeline(timeline, tmp)
+    return timeline, results

@@ -1,0 +1,44 @@
+"""The track stage: each camera's video in, its track.csv out (work folder).
+
+``track_camera`` is the pure part (a camera table in, a Track out);
+``write_track_atomic`` the writer. The stage graph (stages.py) runs them per
+camera into ``<work>/cameras/<name>/track.csv``.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from tlsync_pipeline.atomic import atomic_path
+from tlsync_pipeline.errors import InputError
+from trackers.track import Track, write_track
+from trackers.tracking import track_video
+
+
+def track_camera(spec: dict, progress: bool = True) -> Track:
+    """Track the target in the video of one camera table (``[[cameras]]`` with its ``[cameras.tracker]``)."""
+    if spec.get("video") is None:
+        raise InputError(f"camera {spec['name']!r}: no 'video' key: the track stage needs the camera's video file")
+    tracker = spec["tracker"]
+    return track_video(
+        spec["video"],
+        kind=tracker["kind"],
+        init=tracker["init"],
+        init_frame=tracker["init_frame"],
+        params=tracker["parameters"],
+        progress=progress,
+        label=f"{spec['name']} ({Path(spec['video']).name})",
+    )
+
+
+def write_track_atomic(track: Track, path: Path) -> None:
+    """Write track.csv so that an interrupted run never leaves a half file in its place."""
+    with atomic_path(path) as tmp:
+        write_track(track, tmp)
+
+
+def run_track(spec: dict, out: Path, progress: bool = True) -> dict:
+    """The track stage: the target's track in one camera's video, ``track.csv``."""
+    track = track_camera(spec, progress=progress)
+    write_track_atomic(track, out)
+    return {"tracked_frames": len(track), "message": f"wrote {out} ({len(track)} tracked frames)"}

@@ -1,0 +1,201 @@
+"""Robust search for the line frame = alpha * sample + beta in the voting space.
+
+The default method's replacement for the paper's RANSAC, for voting spaces
+where the true line holds only 1-2 % of the votes (a hovering target makes
+each of its frames vote for hundreds of samples; a path that crosses itself
+adds blobs and false lines):
+
+1. thinning: only the best vote (smallest pixel distance) of each frame and
+   of each sample is kept, so a hover block of H frames x S samples shrinks
+   from H * S votes to at most H + S scattered ones;
+2. hypotheses are lines through two thinned votes, half drawn anywhere and
+   half from votes close in frame order (inliers are contiguous in time), in
+   batches until the count of eq. 4 for the best inlier ratio found so far is
+   reached (adaptive RANSAC, capped);
+3. a hypothesis scores the number of distinct frames among its inliers
+   (orthogonal distance <= delta), not raw votes;
+4. the best hypotheses are polished by least squares on their inliers
+   (local optimisation) and rescored;
+5. a second search without the winner's inliers measures the support of the
+   best competing line (ambiguity, e.g. a periodic path).
+
+Deterministic for a seed.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from tlsync_pipeline.sync.ransac import distance_to_line, least_squares_line
+
+BATCH = 1024  # hypotheses scored per batch
+MAX_HYPOTHESES = 60_000
+SCORE_SUBSET = 12_000  # votes used to rank hypotheses (all votes for the finalists)
+_FINALISTS = 16
+_CHUNK_ELEMENTS = 1 << 22
+
+
+@dataclass(frozen=True)
+class LineSearch:
+    """Result of the line search over votes (sample, frame).
+
+    alpha, beta: the polished line; inliers: mask over all the votes given
+    (orthogonal distance <= delta); support: distinct frames among the thinned
+    inliers; runner_up: the same for the best line not using those inliers;
+    thinned: number of votes kept by thinning; hypotheses: lines scored.
+    """
+
+    alpha: float
+    beta: float
+    inliers: np.ndarray
+    support: int
+    runner_up: int
+    thinned: int
+    hypotheses: int
+    residual_rms: float
+
+    @property
+    def n_inliers(self) -> int:
+        return int(self.inliers.sum())
+
+
+def thin_votes(sample: np.ndarray, frame: np.ndarray, dist: np.ndarray) -> np.ndarray:
+    """Indices of the votes that are the closest of their frame or of their sample."""
+    keep = np.zeros(len(frame), dtype=bool)
+    for key in (frame, sample):
+        order = np.lexsort((dist, key))
+        first = np.ones(len(order), dtype=bool)
+        first[1:] = key[order][1:] != key[order][:-1]
+        keep[order[first]] = True
+    return np.flatnonzero(keep)
+
+
+def _distinct_frames(inlier: np.ndarray, starts: np.ndarray) -> np.ndarray:
+    """Per row of a (hypotheses, votes) mask sorted by frame: frames with an inlier."""
+    return np.maximum.reduceat(inlier, starts, axis=1).sum(axis=1)
+
+
+def _score(sample, frame, starts, alpha, beta, delta) -> np.ndarray:
+    """Distinct inlier frames of each line (votes sorted by frame, group starts given)."""
+    out = np.zeros(len(alpha), dtype=np.int64)
+    step = max(1, _CHUNK_ELEMENTS // max(1, len(sample)))
+    for k in range(0, len(alpha), step):
+        a = alpha[k : k + step, None]
+        b = beta[k : k + step, None]
+        inlier = distance_to_line(sample[None, :], frame[None, :], a, b) <= delta
+        out[k : k + step] = _distinct_frames(inlier, starts)
+    return out
+
+
+def _group_starts(frame_sorted: np.ndarray) -> np.ndarray:
+    return np.flatnonzero(np.r_[True, frame_sorted[1:] != frame_sorted[:-1]])
+
+
+def _hypotheses(rng, sample, frame, n, window):
+    """n lines through pairs of votes (sorted by frame): half global pairs, half local ones."""
+    m = len(sample)
+    i = rng.integers(m, size=n)
+    j = rng.integers(m, size=n)
+    local = np.arange(n) % 2 == 1
+    offset = rng.integers(1, window + 1, size=n) * rng.choice((-1, 1), size=n)
+    j = np.where(local, np.clip(i + offset, 0, m - 1), j)
+    ds = sample[j] - sample[i]
+    usable = ds != 0
+    alpha = np.divide(frame[j] - frame[i], ds, out=np.zeros(n), where=usable)
+    usable &= alpha > 0
+    alpha = alpha[usable]
+    return alpha, frame[i[usable]] - alpha * sample[i[usable]]
+
+
+def _search(rng, sample, frame, delta, p, r_min):
+    """Best line over votes sorted by frame: (alpha, beta, support, hypotheses drawn)."""
+    m = len(sample)
+    if m > SCORE_SUBSET:
+        subset = np.sort(rng.choice(m, SCORE_SUBSET, replace=False))
+    else:
+        subset = np.arange(m)
+    s_sub, f_sub = sample[subset], frame[subset]
+    starts_sub = _group_starts(f_sub)
+    window = max(5, m // 50)
+    needed = min(MAX_HYPOTHESES, _iterations(p, r_min))
+    drawn, best_count = 0, 0
+    pool_a, pool_b, pool_s = [], [], []
+    while drawn < max(BATCH, min(needed, MAX_HYPOTHESES)):
+        a, b = _hypotheses(rng, sample, frame, BATCH, window)
+        drawn += BATCH
+        if len(a) == 0:
+            continue
+        counts = _score(s_sub, f_sub, starts_sub, a, b, delta)
+        top = np.argsort(-counts, kind="stable")[:_FINALISTS]
+        pool_a.append(a[top])
+        pool_b.append(b[top])
+        pool_s.append(counts[top])
+        best_count = max(best_count, int(counts[top[0]]))
+        # The inlier ratio of the best line so far sets how many draws are needed (eq. 4).
+        ratio = max(best_count / len(starts_sub), r_min)
+        needed = min(needed, _iterations(p, min(ratio, 0.999)) * 2)
+    if not pool_a:
+        return None
+    a, b, s = np.concatenate(pool_a), np.concatenate(pool_b), np.concatenate(pool_s)
+    top = np.argsort(-s, kind="stable")[:_FINALISTS]
+    starts = _group_starts(frame)
+    best = None
+    for alpha, beta in zip(a[top], b[top]):
+        alpha, beta = _polish(sample, frame, float(alpha), float(beta), delta)
+        score = int(_score(sample, frame, starts, np.array([alpha]), np.array([beta]), delta)[0])
+        if best is None or score > best[2]:
+            best = (alpha, beta, score)
+    return best[0], best[1], best[2], drawn
+
+
+def _iterations(p: float, r: float) -> int:
+    return max(1, math.ceil(math.log(1 - p) / math.log(1 - r * r)))
+
+
+def _polish(sample, frame, alpha, beta, delta):
+    """Least squares on the inliers, widened then narrowed, until the set settles (LO-RANSAC)."""
+    for threshold in (2 * delta, delta, delta, delta):
+        inlier = distance_to_line(sample, frame, alpha, beta) <= threshold
+        if len(np.unique(sample[inlier])) < 2:
+            break
+        a, b = least_squares_line(sample[inlier], frame[inlier])
+        if not a > 0:
+            break
+        alpha, beta = a, b
+    return alpha, beta
+
+
+def find_line(sample: np.ndarray, frame: np.ndarray, dist: np.ndarray, delta: float = 0.5, p: float = 0.99, r_min: float = 0.01, seed: int = 0) -> LineSearch:
+    """The line frame = alpha * sample + beta best supported by the votes.
+
+    r_min: the smallest inlier ratio (of thinned votes) the search must
+    find with probability p. Raises ValueError when no increasing line
+    exists (fewer than 2 distinct samples, or votes that never move forward).
+    """
+    sample = np.asarray(sample, dtype=np.float64)
+    frame = np.asarray(frame, dtype=np.float64)
+    dist = np.asarray(dist, dtype=np.float64)
+    if len(np.unique(sample)) < 2:
+        raise ValueError("the votes cover fewer than 2 distinct target samples: no line can be fitted")
+    rng = np.random.default_rng(seed)
+    kept = thin_votes(sample, frame, dist)
+    kept = kept[np.lexsort((sample[kept], frame[kept]))]
+    ts, tf = sample[kept], frame[kept]
+    found = _search(rng, ts, tf, delta, p, r_min)
+    if found is None:
+        raise ValueError("no increasing line through any two votes: the votes do not move forward in time")
+    alpha, beta, support, drawn = found
+    on_line = distance_to_line(ts, tf, alpha, beta) <= delta
+    runner_up = 0
+    rest = ~on_line
+    if rest.sum() >= 2 and len(np.unique(ts[rest])) >= 2:
+        second = _search(rng, ts[rest], tf[rest], delta, p, r_min)
+        if second is not None:
+            runner_up = second[2]
+    inliers = distance_to_line(sample, frame, alpha, beta) <= delta
+    residual = tf[on_line] - alpha * ts[on_line] - beta
+    rms = float(np.sqrt(np.mean(residual**2))) if on_line.any() else float("nan")
+    return LineSearch(alpha, beta, inliers, support, runner_up, len(kept), drawn, rms)
