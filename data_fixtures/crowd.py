@@ -1,0 +1,434 @@
+"""Crowd scenes: a logged walker among look-alike walkers, seen by surveillance cameras.
+
+Two (or more) fixed cameras, 5 m up and tilted down, look at disjoint patches
+of ground 5-15 m ahead (people about 100 px tall close by and 40 px far away
+at 480x360). The target walks through each camera's patch, leaves the view at
+a side and comes back, then walks on to the next camera. Its log is the
+position of its body centre (half its height above the ground), sampled at
+``log_rate`` Hz with GPS-like noise.
+
+Distractor walkers have the target's size, colour and speed. Each walks
+straight through the view along a line that crosses the target's route;
+about half of them pass the crossing point within a second or two of the
+target, so they occlude it or merge with its blob. Every person is a dark
+silhouette (an ellipse of 0.45 m by its height) drawn far to near, so nearer
+people hide farther ones. The videos add a global flicker, a lighting drop
+(a cloud) of 20 %, Gaussian sensor noise and H.264 compression.
+
+Truth: per camera, the target's image position per frame (the projection of
+its body centre; NaN where it is out of view), whether it is visible (in
+view and at least half unoccluded), and the camera lines
+frame = alpha * sample + beta of the log's sample grid (different frame
+rates, shifted starts), as a ``data_fixtures.scene.Scene``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import cv2
+import numpy as np
+from scipy.interpolate import CubicSpline
+
+from calibration.camera import Camera, write_camera
+from data_fixtures.scene import Scene, write_truth
+from data_fixtures.video import TIME_BASE, _background
+from tlsync_pipeline.sync.timeline import Relation
+from tlsync_pipeline.trajectory import Trajectory, write_trajectory
+from trackers.track import Track
+
+CAMERA_HEIGHT_M = 5.0
+CAMERA_SPACING_M = 40.0  # between neighbouring cameras along x
+NEAR_M, FAR_M = 5.5, 15.0  # ground patch walked on, distance ahead of the camera
+PATCH_HALF_WIDTH_M = 6.0
+PERSON_WIDTH_M = 0.45
+TARGET_HEIGHT_M = 1.75
+PERSON_GREY = 55.0  # every walker's grey level (target included), +- a little
+
+
+@dataclass(frozen=True)
+class CrowdSpec:
+    """What to render.
+
+    fps / n_frames: per camera; distractors: walkers in view at a time, per
+    camera; speed_mps: walking speed of everyone (+-15 %); gps_noise_m: std
+    of the log's position noise per axis; noise: sensor noise std (grey
+    levels); crf: H.264 quality (higher: more compression).
+    """
+
+    fps: tuple[float, ...] = (10.0, 5.0)
+    n_frames: tuple[int, ...] = (300, 150)
+    image_size: tuple[int, int] = (480, 360)
+    distractors: int = 6
+    log_rate: float = 10.0
+    speed_mps: float = 1.4
+    gps_noise_m: float = 0.02
+    noise: float = 3.0
+    crf: int = 28
+    seed: int = 0
+
+
+# Test size: two cameras at 10 and 5 fps, 30 s each, 480x360.
+SMALL = CrowdSpec()
+
+
+@dataclass
+class CameraTruth:
+    """Per frame of one camera: target centre (N, 2) pixels (NaN out of view), visible (N,), people drawn (N,)."""
+
+    xy: np.ndarray
+    visible: np.ndarray
+    people: np.ndarray
+    video: Path | None = None
+
+
+@dataclass
+class CrowdScene:
+    """The scene (cameras, log, lines, true target tracks) and per-camera frame truth."""
+
+    scene: Scene
+    truth: dict[str, CameraTruth] = field(default_factory=dict)
+
+
+def surveillance_camera(name: str, x_m: float, image_size: tuple[int, int], fps: float, rng) -> Camera:
+    """A camera at (x_m, 0, CAMERA_HEIGHT_M) looking along +y, tilted down at the middle of the patch."""
+    w, h = image_size
+    centre = np.array([x_m, 0.0, CAMERA_HEIGHT_M])
+    aim = np.array([x_m + rng.uniform(-0.5, 0.5), (NEAR_M + FAR_M) / 2 + 1.0, 0.0])
+    forward = (aim - centre) / np.linalg.norm(aim - centre)
+    right = np.cross(forward, [0, 0, 1.0])
+    right /= np.linalg.norm(right)
+    down = np.cross(forward, right)
+    R = np.vstack([right, down, forward])
+    focal = 0.84 * w  # 480 px: a 1.75 m person is ~100 px tall at 6 m and ~40 px at 15 m
+    K = np.array([[focal, 0, (w - 1) / 2 + rng.uniform(-4, 4)], [0, focal, (h - 1) / 2 + rng.uniform(-4, 4)], [0, 0, 1.0]])
+    dist = np.array([rng.uniform(-0.08, -0.02), 0.0, 0.0, 0.0, 0.0])
+    return Camera(name, K, dist, R, -R @ centre, (w, h), float(fps))
+
+
+def make_crowd_scene(spec: CrowdSpec = SMALL, directory: str | Path | None = None) -> CrowdScene:
+    """Build the scene; with ``directory``, also render each camera's video there (``<name>.mp4``)."""
+    rng = np.random.default_rng(spec.seed)
+    names = [f"cam{k}" for k in range(len(spec.fps))]
+    cameras = {n: surveillance_camera(n, k * CAMERA_SPACING_M, spec.image_size, spec.fps[k], rng) for k, n in enumerate(names)}
+    durations = [n / f for n, f in zip(spec.n_frames, spec.fps)]
+    route, stays = _target_route(rng, cameras, durations, spec.speed_mps)
+    end_s = route.duration
+    samples = np.arange(int(math.floor(end_s * spec.log_rate)) + 1, dtype=np.float64)
+    true_xyz = route.at(samples / spec.log_rate)
+    _check_views_disjoint(cameras, route.at(np.linspace(0, end_s, int(end_s * 50))))
+    xyz = true_xyz + rng.normal(0.0, spec.gps_noise_m, true_xyz.shape) if spec.gps_noise_m > 0 else true_xyz
+    lines, tracks, truth = {}, {}, {}
+    for k, name in enumerate(names):
+        camera, fps, count = cameras[name], spec.fps[k], spec.n_frames[k]
+        start_s = stays[k][0] - rng.uniform(0.5, 2.0)  # the camera starts recording a little before the target arrives
+        lines[name] = Relation(fps / spec.log_rate, -start_s * fps)
+        times = start_s + np.arange(count) / fps
+        walkers = _distractors(rng, camera, route, stays[k], (times[0], times[-1]), spec.distractors, spec.speed_mps)
+        frame_truth = _frame_truth(camera, route, walkers, times)
+        seen = np.flatnonzero(np.isfinite(frame_truth.xy[:, 0]))
+        tracks[name] = Track(seen.astype(np.int64), frame_truth.xy[seen, 0], frame_truth.xy[seen, 1], time_s=times[seen] - start_s)
+        if directory is not None:
+            Path(directory).mkdir(parents=True, exist_ok=True)
+            path = Path(directory) / f"{name}.mp4"
+            _render(path, camera, route, walkers, times, start_s, spec, rng)
+            frame_truth.video = path
+        truth[name] = frame_truth
+    scene = Scene(
+        trajectory=Trajectory(samples, xyz, spec.log_rate, 0.0),
+        true_trajectory=Trajectory(samples, true_xyz, spec.log_rate, 0.0),
+        cameras=cameras,
+        true_cameras=cameras,
+        tracks=tracks,
+        lines=lines,
+        n_frames=dict(zip(names, spec.n_frames)),
+        noise={"distractors": spec.distractors, "gps_noise_m": spec.gps_noise_m, "sensor_noise": spec.noise, "crf": spec.crf},
+    )
+    return CrowdScene(scene, truth)
+
+
+def write_crowd_project(directory: str | Path, spec: CrowdSpec = SMALL) -> tuple[Path, CrowdScene]:
+    """A raw project: per camera its video and camera.json, the target's trajectory CSV, truth.json.
+
+    The cameras have no tracker table: the track stage's default (every
+    mover, no init box) is what is exercised.
+    """
+    directory = Path(directory)
+    directory.mkdir(parents=True, exist_ok=True)
+    crowd = make_crowd_scene(spec, directory)
+    scene = crowd.scene
+    write_trajectory(scene.trajectory, directory / "trajectory.csv")
+    parts = ['[target]\ntrajectory = "trajectory.csv"\n']
+    for name, camera in scene.cameras.items():
+        write_camera(camera, directory / f"{name}.json")
+        parts.append(f'[[cameras]]\nname = "{name}"\ncamera = "{name}.json"\nvideo = "{name}.mp4"\nfps = {camera.fps!r}\n')
+    project = directory / "project.toml"
+    project.write_text("\n".join(parts), encoding="utf-8")
+    write_truth(scene, directory)
+    return project, crowd
+
+
+class _Route:
+    """A ground path walked at a constant speed: position (x, y, centre height) at time t (s)."""
+
+    def __init__(self, waypoints: np.ndarray, speed: float, height: float):
+        chord = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(waypoints, axis=0), axis=1))]
+        spline = CubicSpline(chord, waypoints, axis=0, bc_type="natural")
+        dense = np.linspace(0.0, chord[-1], int(chord[-1] * 20) + 2)
+        points = spline(dense)
+        self.arc = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(points, axis=0), axis=1))]
+        self.points = points
+        self.speed = speed
+        self.height = height
+        self.duration = self.arc[-1] / speed
+
+    def ground(self, t: np.ndarray) -> np.ndarray:
+        d = np.clip(np.asarray(t, dtype=np.float64) * self.speed, 0.0, self.arc[-1])
+        return np.column_stack([np.interp(d, self.arc, self.points[:, 0]), np.interp(d, self.arc, self.points[:, 1])])
+
+    def at(self, t: np.ndarray) -> np.ndarray:
+        """Body centre (N, 3), metres."""
+        g = self.ground(t)
+        return np.column_stack([g, np.full(len(g), self.height / 2)])
+
+
+def _patch_point(rng, x_centre: float) -> np.ndarray:
+    return np.array([x_centre + rng.uniform(-PATCH_HALF_WIDTH_M, PATCH_HALF_WIDTH_M), rng.uniform(NEAR_M + 0.5, FAR_M - 0.5)])
+
+
+def _target_route(rng, cameras: dict[str, Camera], durations: list[float], speed: float) -> tuple[_Route, list[tuple[float, float]]]:
+    """The target's waypoints: a wander in each camera's patch (with an exit and return), then on to the next.
+
+    Returns the route and, per camera, the (start, end) time of its stay.
+    """
+    points: list[np.ndarray] = [np.array([-PATCH_HALF_WIDTH_M - 6.0, 3.0])]
+    spans = []
+    for k, camera in enumerate(cameras.values()):
+        x_centre = float(camera.center[0])
+        needed = speed * (durations[k] - 4.0)  # metres to walk during this camera's stay
+        stay: list[np.ndarray] = [_patch_point(rng, x_centre)]
+        length, exit_done = 0.0, False
+        while length < needed:
+            if not exit_done and length > needed * 0.35:
+                side = rng.choice((-1.0, 1.0))  # out of the view at one side, and back
+                nxt = np.array([x_centre + side * (PATCH_HALF_WIDTH_M + 7.0), rng.uniform(NEAR_M + 2.0, FAR_M - 3.0)])
+                exit_done = True
+            else:
+                nxt = _patch_point(rng, x_centre)
+                if np.linalg.norm(nxt - stay[-1]) < 3.0:
+                    continue
+            length += float(np.linalg.norm(nxt - stay[-1]))
+            stay.append(nxt)
+        spans.append((len(points), len(points) + len(stay) - 1))
+        points += stay
+        points.append(np.array([x_centre + CAMERA_SPACING_M / 2, 2.5]))  # between the views, near the cameras' line
+    waypoints = np.array(points)
+    route = _Route(waypoints, speed, TARGET_HEIGHT_M)
+    # stays: from reaching the first patch point to leaving the last one of each camera
+    times = _waypoint_times(route, waypoints)
+    return route, [(times[first], times[last]) for first, last in spans]
+
+
+def _waypoint_times(route: _Route, waypoints: np.ndarray) -> np.ndarray:
+    """Time at which the route passes nearest to each waypoint, in order."""
+    out, lo = [], 0
+    for p in waypoints:
+        d = np.linalg.norm(route.points[lo:] - p, axis=1)
+        k = lo + int(np.argmin(d[: max(1, len(d))]))
+        out.append(route.arc[k] / route.speed)
+        lo = k
+    return np.array(out)
+
+
+@dataclass(frozen=True)
+class _Walker:
+    """A distractor: straight walk from start (at t0) to end, at speed; height; grey level."""
+
+    start: np.ndarray
+    end: np.ndarray
+    t0: float
+    speed: float
+    height: float
+    grey: float
+
+    def ground(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Ground positions (N, 2) at times t and whether the walker is on its way."""
+        t = np.asarray(t, dtype=np.float64)
+        length = float(np.linalg.norm(self.end - self.start))
+        d = (t - self.t0) * self.speed
+        on = (d >= 0) & (d <= length)
+        frac = np.clip(d / length, 0.0, 1.0)[:, None]
+        return self.start + frac * (self.end - self.start), on
+
+
+def _distractors(rng, camera: Camera, route: _Route, stay: tuple[float, float], recording: tuple[float, float], count: int, speed: float) -> list[_Walker]:
+    """About ``count`` walkers in view at any time, each crossing the target's route in this camera's patch."""
+    if count <= 0:
+        return []
+    x_centre = float(camera.center[0])
+    span = recording[1] - recording[0]
+    crossing_s = 2 * (PATCH_HALF_WIDTH_M + 4.0) / speed
+    walkers = []
+    for _ in range(int(math.ceil(count * (span + crossing_s) / crossing_s))):
+        t_target = rng.uniform(*stay)
+        point = route.ground(np.array([t_target]))[0]
+        if abs(point[0] - x_centre) > PATCH_HALF_WIDTH_M or not NEAR_M <= point[1] <= FAR_M:
+            point = _patch_point(rng, x_centre)
+        if rng.random() < 0.5:
+            t_cross = t_target + rng.uniform(-1.5, 1.5)  # at nearly the same time: occlusion or merged blobs
+        else:
+            t_cross = rng.uniform(recording[0] - crossing_s / 2, recording[1] + crossing_s / 2)
+        heading = rng.uniform(-math.pi / 2.5, math.pi / 2.5) + rng.choice((0.0, math.pi))  # mostly across the view
+        direction = np.array([math.cos(heading), math.sin(heading)])
+        half = PATCH_HALF_WIDTH_M + 5.0
+        start, end = point - half * direction, point + half * direction
+        v = speed * rng.uniform(0.85, 1.15)
+        walkers.append(_Walker(start, end, t_cross - half / v, v, rng.uniform(1.6, 1.85), PERSON_GREY + rng.uniform(-8, 8)))
+    return walkers
+
+
+def _people(camera: Camera, route: _Route, walkers: list[_Walker], t: float) -> list[tuple[float, np.ndarray, float, float, bool]]:
+    """People at time t, far to near: (depth, ground xy, height, grey, is_target)."""
+    out = [(None, route.ground(np.array([t]))[0], route.height, PERSON_GREY, True)]
+    for w in walkers:
+        g, on = w.ground(np.array([t]))
+        if on[0]:
+            out.append((None, g[0], w.height, w.grey, False))
+    rows = []
+    for _, g, height, grey, is_target in out:
+        depth = float((camera.R @ np.array([g[0], g[1], height / 2]) + camera.t)[2])
+        rows.append((depth, g, height, grey, is_target))
+    return sorted(rows, key=lambda r: -r[0])
+
+
+def _silhouette(camera: Camera, ground: np.ndarray, height: float):
+    """(centre uv, semi-axes (a, b), angle deg) of a person's image ellipse, or None when behind the camera."""
+    pts = np.array([[ground[0], ground[1], 0.0], [ground[0], ground[1], height / 2], [ground[0], ground[1], height]])
+    uv, valid = camera.project(pts)
+    if not valid.all():
+        return None
+    axis = uv[2] - uv[0]
+    b = float(np.linalg.norm(axis)) / 2
+    depth = float((camera.R @ pts[1] + camera.t)[2])
+    a = PERSON_WIDTH_M / 2 * camera.K[0, 0] / depth
+    angle = math.degrees(math.atan2(axis[1], axis[0])) - 90.0
+    return uv[1], (a, b), angle
+
+
+def _frame_truth(camera: Camera, route: _Route, walkers: list[_Walker], times: np.ndarray) -> CameraTruth:
+    """Target centre per frame (NaN unless the whole body centre is inside), visibility and people counts."""
+    w, h = camera.image_size
+    xy = np.full((len(times), 2), np.nan)
+    visible = np.zeros(len(times), bool)
+    people = np.zeros(len(times), int)
+    for k, t in enumerate(times):
+        rows = _people(camera, route, walkers, t)
+        masks = []
+        for depth, g, height, _, is_target in rows:
+            shape = _silhouette(camera, g, height)
+            if shape is None:
+                masks.append(None)
+                continue
+            (cx, cy), (a, b), _ = shape
+            masks.append(shape)
+            if -a < cx < w + a and -b < cy < h + b:
+                people[k] += 1
+            if is_target and a <= cx <= w - 1 - a and b * 0.5 <= cy <= h - 1 - b * 0.5:
+                xy[k] = (cx, cy)
+        if np.isfinite(xy[k, 0]):
+            visible[k] = _unoccluded_share(rows, masks, (w, h)) >= 0.5
+    return CameraTruth(xy, visible, people)
+
+
+def _ellipse_patch(shape, size: tuple[int, int]) -> tuple[int, int, np.ndarray]:
+    """(x0, y0, coverage) of an image ellipse: anti-aliased, sub-pixel placed, uint8 0-255, clipped to the image."""
+    (cx, cy), (a, b), angle = shape
+    reach = max(a, b) + 2
+    x0, y0 = max(0, int(cx - reach)), max(0, int(cy - reach))
+    x1, y1 = min(size[0], int(cx + reach) + 2), min(size[1], int(cy + reach) + 2)
+    if x1 <= x0 or y1 <= y0:
+        return x0, y0, np.zeros((0, 0), np.uint8)
+    mask = np.zeros((y1 - y0, x1 - x0), np.uint8)
+    scale = 1 << 4
+    centre = (int(round((cx - x0) * scale)), int(round((cy - y0) * scale)))
+    axes = (max(1, int(round(a * scale))), max(1, int(round(b * scale))))
+    cv2.ellipse(mask, centre, axes, angle, 0, 360, 255, -1, cv2.LINE_AA, 4)
+    return x0, y0, mask
+
+
+def _unoccluded_share(rows, masks, size) -> float:
+    """Share of the target's silhouette not covered by the people drawn after it (nearer)."""
+    k = next(i for i, r in enumerate(rows) if r[4])
+    if masks[k] is None:
+        return 0.0
+    x0, y0, own = _ellipse_patch(masks[k], size)
+    own = own > 127
+    total = int(own.sum())
+    if total == 0:
+        return 0.0
+    covered = np.zeros_like(own)
+    for shape in masks[k + 1 :]:
+        if shape is None:
+            continue
+        u0, v0, other = _ellipse_patch(shape, size)
+        ox0, oy0 = max(x0, u0), max(y0, v0)
+        ox1, oy1 = min(x0 + own.shape[1], u0 + other.shape[1]), min(y0 + own.shape[0], v0 + other.shape[0])
+        if ox1 > ox0 and oy1 > oy0:
+            covered[oy0 - y0 : oy1 - y0, ox0 - x0 : ox1 - x0] |= other[oy0 - v0 : oy1 - v0, ox0 - u0 : ox1 - u0] > 127
+    return float((own & ~covered).sum()) / total
+
+
+def _lighting(rng, times: np.ndarray) -> np.ndarray:
+    """Global gain per frame: flicker and a 20 % drop (a cloud) over 1.5 s at a random moment."""
+    t = times - times[0]
+    gain = 1.0 + 0.03 * np.sin(2 * np.pi * t / 3.7) + 0.01 * rng.standard_normal(len(t))
+    at = rng.uniform(0.3, 0.7) * max(t[-1], 1.0)
+    return gain * (1.0 - 0.2 * np.clip((t - at) / 1.5, 0.0, 1.0))
+
+
+def _render(path: Path, camera: Camera, route: _Route, walkers: list[_Walker], times: np.ndarray, start_s: float, spec: CrowdSpec, rng) -> None:
+    """Write the camera's H.264 video: background, people far to near, lighting, noise."""
+    import av
+    from fractions import Fraction
+
+    w, h = camera.image_size
+    background = _background(rng, w, h)
+    gains = _lighting(rng, times)
+    container = av.open(str(path), mode="w", options={"movflags": "+faststart"})
+    try:
+        stream = container.add_stream("libx264", rate=Fraction(camera.fps).limit_denominator(1001))
+        stream.width, stream.height = w, h
+        stream.pix_fmt = "yuv420p"
+        stream.codec_context.time_base = TIME_BASE
+        stream.options = {"crf": str(spec.crf), "preset": "veryfast", "g": "30", "threads": "1"}  # one thread: the same bytes every run
+        for k, t in enumerate(times):
+            image = background.copy()
+            for _, g, height, grey, _ in _people(camera, route, walkers, t):
+                shape = _silhouette(camera, g, height)
+                if shape is None:
+                    continue
+                x0, y0, patch = _ellipse_patch(shape, (w, h))
+                region = image[y0 : y0 + patch.shape[0], x0 : x0 + patch.shape[1]]
+                region += patch.astype(np.float32) / 255.0 * (grey - region)
+            image = image * gains[k] + rng.normal(0.0, spec.noise, image.shape)
+            grey_frame = np.clip(image, 0, 255).astype(np.uint8)
+            frame = av.VideoFrame.from_ndarray(cv2.cvtColor(grey_frame, cv2.COLOR_GRAY2BGR), format="bgr24")
+            frame.pts = int(round((t - start_s) / TIME_BASE))
+            frame.time_base = TIME_BASE
+            for packet in stream.encode(frame):
+                container.mux(packet)
+        for packet in stream.encode():
+            container.mux(packet)
+    finally:
+        container.close()
+
+
+def _check_views_disjoint(cameras: dict[str, Camera], points: np.ndarray) -> None:
+    seen = np.zeros(len(points), dtype=int)
+    for camera in cameras.values():
+        uv, valid = camera.project(points)
+        seen += valid & camera.in_image(np.nan_to_num(uv, nan=-1e9))
+    if (seen > 1).any():
+        raise AssertionError("crowd scene: a point of the target's route is visible in two cameras")
