@@ -2,8 +2,9 @@
 
 Two (or more) fixed cameras, 5 m up and tilted down, look at disjoint patches
 of ground 5-15 m ahead (people about 100 px tall close by and 40 px far away
-at 480x360). The target walks through each camera's patch, leaves the view at
-a side and comes back, then walks on to the next camera. Its log is the
+at 480x360). The target visits each camera's patch in turn, several times
+(VISIT_S seconds each), leaving every view in between; in its first visit to
+the outermost cameras it also walks out of the view sideways and comes back. Its log is the
 position of its body centre (half its height above the ground), sampled at
 ``log_rate`` Hz with GPS-like noise.
 
@@ -30,7 +31,6 @@ from pathlib import Path
 
 import cv2
 import numpy as np
-from scipy.interpolate import CubicSpline
 
 from calibration.camera import Camera, write_camera
 from data_fixtures.scene import Scene, write_truth
@@ -40,9 +40,10 @@ from tlsync_pipeline.trajectory import Trajectory, write_trajectory
 from trackers.track import Track
 
 CAMERA_HEIGHT_M = 5.0
-CAMERA_SPACING_M = 40.0  # between neighbouring cameras along x
+CAMERA_SPACING_M = 16.0  # between neighbouring cameras along x
+VISIT_S = 5.0  # seconds the target walks in a camera's patch per visit
 NEAR_M, FAR_M = 5.5, 15.0  # ground patch walked on, distance ahead of the camera
-PATCH_HALF_WIDTH_M = 6.0
+PATCH_HALF_WIDTH_M = 5.0
 PERSON_WIDTH_M = 0.45
 TARGET_HEIGHT_M = 1.75
 PERSON_GREY = 55.0  # every walker's grey level (target included), +- a little
@@ -59,7 +60,7 @@ class CrowdSpec:
     """
 
     fps: tuple[float, ...] = (10.0, 5.0)
-    n_frames: tuple[int, ...] = (300, 150)
+    n_frames: tuple[int, ...] = (450, 225)
     image_size: tuple[int, int] = (480, 360)
     distractors: int = 6
     log_rate: float = 10.0
@@ -70,18 +71,37 @@ class CrowdSpec:
     seed: int = 0
 
 
-# Test size: two cameras at 10 and 5 fps, 30 s each, 480x360.
+# Test size: two cameras at 10 and 5 fps, 45 s each, 480x360.
 SMALL = CrowdSpec()
 
 
 @dataclass
 class CameraTruth:
-    """Per frame of one camera: target centre (N, 2) pixels (NaN out of view), visible (N,), people drawn (N,)."""
+    """Per frame of one camera, the target's silhouette and the crowd.
+
+    xy: (N, 2) target centre, pixels (NaN when no part of it is in the
+    image); axes: (N, 2) its ellipse's semi-axes (across, along the body),
+    pixels; angle: (N,) the body axis' tilt from vertical, degrees; visible:
+    (N,) centre inside the image and at least half of the body unoccluded;
+    people: (N,) people at least partly in the image.
+    """
 
     xy: np.ndarray
+    axes: np.ndarray
+    angle: np.ndarray
     visible: np.ndarray
     people: np.ndarray
     video: Path | None = None
+
+    def on_target(self, frame: np.ndarray, xy: np.ndarray) -> np.ndarray:
+        """Whether each point (pixels) at each frame lies on the target's silhouette."""
+        frame = np.asarray(frame, dtype=np.int64)
+        d = np.asarray(xy, dtype=np.float64) - self.xy[frame]
+        theta = np.radians(self.angle[frame])
+        across = d[:, 0] * np.cos(theta) + d[:, 1] * np.sin(theta)
+        along = -d[:, 0] * np.sin(theta) + d[:, 1] * np.cos(theta)
+        inside = (across / self.axes[frame, 0]) ** 2 + (along / self.axes[frame, 1]) ** 2 <= 1.0
+        return np.where(np.isfinite(inside), inside, False) & np.isfinite(self.xy[frame, 0])
 
 
 @dataclass
@@ -113,8 +133,8 @@ def make_crowd_scene(spec: CrowdSpec = SMALL, directory: str | Path | None = Non
     rng = np.random.default_rng(spec.seed)
     names = [f"cam{k}" for k in range(len(spec.fps))]
     cameras = {n: surveillance_camera(n, k * CAMERA_SPACING_M, spec.image_size, spec.fps[k], rng) for k, n in enumerate(names)}
-    durations = [n / f for n, f in zip(spec.n_frames, spec.fps)]
-    route, stays = _target_route(rng, cameras, durations, spec.speed_mps)
+    starts = [rng.uniform(0.5, 3.0) for _ in names]  # each camera starts recording at its own time
+    route, stays = _target_route(rng, cameras, max(s + n / f for s, n, f in zip(starts, spec.n_frames, spec.fps)), spec.speed_mps)
     end_s = route.duration
     samples = np.arange(int(math.floor(end_s * spec.log_rate)) + 1, dtype=np.float64)
     true_xyz = route.at(samples / spec.log_rate)
@@ -123,12 +143,12 @@ def make_crowd_scene(spec: CrowdSpec = SMALL, directory: str | Path | None = Non
     lines, tracks, truth = {}, {}, {}
     for k, name in enumerate(names):
         camera, fps, count = cameras[name], spec.fps[k], spec.n_frames[k]
-        start_s = stays[k][0] - rng.uniform(0.5, 2.0)  # the camera starts recording a little before the target arrives
+        start_s = starts[k]
         lines[name] = Relation(fps / spec.log_rate, -start_s * fps)
         times = start_s + np.arange(count) / fps
         walkers = _distractors(rng, camera, route, stays[k], (times[0], times[-1]), spec.distractors, spec.speed_mps)
         frame_truth = _frame_truth(camera, route, walkers, times)
-        seen = np.flatnonzero(np.isfinite(frame_truth.xy[:, 0]))
+        seen = np.flatnonzero(frame_truth.visible)
         tracks[name] = Track(seen.astype(np.int64), frame_truth.xy[seen, 0], frame_truth.xy[seen, 1], time_s=times[seen] - start_s)
         if directory is not None:
             Path(directory).mkdir(parents=True, exist_ok=True)
@@ -171,13 +191,20 @@ def write_crowd_project(directory: str | Path, spec: CrowdSpec = SMALL) -> tuple
 
 
 class _Route:
-    """A ground path walked at a constant speed: position (x, y, centre height) at time t (s)."""
+    """A ground path walked at a constant speed: position (x, y, centre height) at time t (s).
+
+    The path is the waypoints' polyline with its corners rounded (Chaikin's
+    corner cutting, four times): smooth turns that never swing outside the
+    polyline.
+    """
 
     def __init__(self, waypoints: np.ndarray, speed: float, height: float):
-        chord = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(waypoints, axis=0), axis=1))]
-        spline = CubicSpline(chord, waypoints, axis=0, bc_type="natural")
-        dense = np.linspace(0.0, chord[-1], int(chord[-1] * 20) + 2)
-        points = spline(dense)
+        points = np.asarray(waypoints, dtype=np.float64)
+        for _ in range(4):
+            a, b = points[:-1], points[1:]
+            cut = np.empty((2 * len(a), 2))
+            cut[0::2], cut[1::2] = 0.75 * a + 0.25 * b, 0.25 * a + 0.75 * b
+            points = np.vstack([points[:1], cut, points[-1:]])
         self.arc = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(points, axis=0), axis=1))]
         self.points = points
         self.speed = speed
@@ -195,51 +222,53 @@ class _Route:
 
 
 def _patch_point(rng, x_centre: float) -> np.ndarray:
-    return np.array([x_centre + rng.uniform(-PATCH_HALF_WIDTH_M, PATCH_HALF_WIDTH_M), rng.uniform(NEAR_M + 0.5, FAR_M - 0.5)])
+    """A random ground point well inside the camera's view (the view narrows to about 0.6 x distance)."""
+    y = rng.uniform(NEAR_M + 0.5, FAR_M - 0.5)
+    half = min(PATCH_HALF_WIDTH_M, 0.45 * y)
+    return np.array([x_centre + rng.uniform(-half, half), y])
 
 
-def _target_route(rng, cameras: dict[str, Camera], durations: list[float], speed: float) -> tuple[_Route, list[tuple[float, float]]]:
-    """The target's waypoints: a wander in each camera's patch (with an exit and return), then on to the next.
+def _target_route(rng, cameras: dict[str, Camera], duration_s: float, speed: float) -> tuple[_Route, list[list[tuple[float, float]]]]:
+    """The target's waypoints: visits of VISIT_S seconds to each camera's patch in turn, for ``duration_s`` in all.
 
-    Returns the route and, per camera, the (start, end) time of its stay.
+    Between visits it walks out of every view (close to the cameras' line);
+    in its first visit to the outermost cameras it also leaves the view
+    sideways and comes back. Returns the route and, per camera, the
+    (start, end) times of its visits.
     """
-    points: list[np.ndarray] = [np.array([-PATCH_HALF_WIDTH_M - 6.0, 3.0])]
-    spans = []
-    for k, camera in enumerate(cameras.values()):
-        x_centre = float(camera.center[0])
-        needed = speed * (durations[k] - 4.0)  # metres to walk during this camera's stay
-        stay: list[np.ndarray] = [_patch_point(rng, x_centre)]
-        length, exit_done = 0.0, False
-        while length < needed:
-            if not exit_done and length > needed * 0.35:
-                side = rng.choice((-1.0, 1.0))  # out of the view at one side, and back
-                nxt = np.array([x_centre + side * (PATCH_HALF_WIDTH_M + 7.0), rng.uniform(NEAR_M + 2.0, FAR_M - 3.0)])
-                exit_done = True
+    xs = [float(c.center[0]) for c in cameras.values()]
+    points: list[np.ndarray] = [np.array([xs[0] - PATCH_HALF_WIDTH_M, 2.5])]
+    walked, visit = 0.0, 0
+    while walked < speed * (duration_s + 10.0):  # corner rounding shortens the walk a little
+        k = visit % len(xs)
+        stay: list[np.ndarray] = [_patch_point(rng, xs[k])]
+        length = float(np.linalg.norm(stay[0] - points[-1]))
+        sideways = visit < len(xs) and k in (0, len(xs) - 1)
+        side = -1.0 if k == 0 else 1.0  # outward, away from the neighbouring view
+        while length < speed * VISIT_S:
+            if sideways and length > 0.4 * speed * VISIT_S:
+                nxt = np.array([xs[k] + side * (PATCH_HALF_WIDTH_M + 6.0), rng.uniform(NEAR_M + 2.0, FAR_M - 3.0)])
+                sideways = False
             else:
-                nxt = _patch_point(rng, x_centre)
+                nxt = _patch_point(rng, xs[k])
                 if np.linalg.norm(nxt - stay[-1]) < 3.0:
                     continue
             length += float(np.linalg.norm(nxt - stay[-1]))
             stay.append(nxt)
-        spans.append((len(points), len(points) + len(stay) - 1))
         points += stay
-        points.append(np.array([x_centre + CAMERA_SPACING_M / 2, 2.5]))  # between the views, near the cameras' line
-    waypoints = np.array(points)
-    route = _Route(waypoints, speed, TARGET_HEIGHT_M)
-    # stays: from reaching the first patch point to leaving the last one of each camera
-    times = _waypoint_times(route, waypoints)
-    return route, [(times[first], times[last]) for first, last in spans]
-
-
-def _waypoint_times(route: _Route, waypoints: np.ndarray) -> np.ndarray:
-    """Time at which the route passes nearest to each waypoint, in order."""
-    out, lo = [], 0
-    for p in waypoints:
-        d = np.linalg.norm(route.points[lo:] - p, axis=1)
-        k = lo + int(np.argmin(d[: max(1, len(d))]))
-        out.append(route.arc[k] / route.speed)
-        lo = k
-    return np.array(out)
+        nxt_x = xs[(visit + 1) % len(xs)]
+        points.append(np.array([(xs[k] + nxt_x) / 2 if nxt_x != xs[k] else xs[k] + PATCH_HALF_WIDTH_M + 3.0, 2.5]))
+        walked += length + float(np.linalg.norm(points[-1] - stay[-1]))
+        visit += 1
+    route = _Route(np.array(points), speed, TARGET_HEIGHT_M)
+    t = np.arange(0.0, route.duration, 0.1)
+    stays = []
+    for camera in cameras.values():
+        uv, valid = camera.project(route.at(t))
+        seen = np.r_[False, valid & camera.in_image(np.nan_to_num(uv, nan=-1e9)), False].astype(int)
+        edges = np.flatnonzero(np.diff(seen))
+        stays.append([(t[a], t[b - 1]) for a, b in zip(edges[0::2], edges[1::2])])
+    return route, stays
 
 
 @dataclass(frozen=True)
@@ -263,7 +292,7 @@ class _Walker:
         return self.start + frac * (self.end - self.start), on
 
 
-def _distractors(rng, camera: Camera, route: _Route, stay: tuple[float, float], recording: tuple[float, float], count: int, speed: float) -> list[_Walker]:
+def _distractors(rng, camera: Camera, route: _Route, stays: list[tuple[float, float]], recording: tuple[float, float], count: int, speed: float) -> list[_Walker]:
     """About ``count`` walkers in view at any time, each crossing the target's route in this camera's patch."""
     if count <= 0:
         return []
@@ -272,7 +301,7 @@ def _distractors(rng, camera: Camera, route: _Route, stay: tuple[float, float], 
     crossing_s = 2 * (PATCH_HALF_WIDTH_M + 4.0) / speed
     walkers = []
     for _ in range(int(math.ceil(count * (span + crossing_s) / crossing_s))):
-        t_target = rng.uniform(*stay)
+        t_target = rng.uniform(*stays[rng.integers(len(stays))])
         point = route.ground(np.array([t_target]))[0]
         if abs(point[0] - x_centre) > PATCH_HALF_WIDTH_M or not NEAR_M <= point[1] <= FAR_M:
             point = _patch_point(rng, x_centre)
@@ -321,6 +350,8 @@ def _frame_truth(camera: Camera, route: _Route, walkers: list[_Walker], times: n
     """Target centre per frame (NaN unless the whole body centre is inside), visibility and people counts."""
     w, h = camera.image_size
     xy = np.full((len(times), 2), np.nan)
+    axes = np.full((len(times), 2), np.nan)
+    angle = np.zeros(len(times))
     visible = np.zeros(len(times), bool)
     people = np.zeros(len(times), int)
     for k, t in enumerate(times):
@@ -331,15 +362,16 @@ def _frame_truth(camera: Camera, route: _Route, walkers: list[_Walker], times: n
             if shape is None:
                 masks.append(None)
                 continue
-            (cx, cy), (a, b), _ = shape
+            (cx, cy), (a, b), tilt = shape
             masks.append(shape)
-            if -a < cx < w + a and -b < cy < h + b:
-                people[k] += 1
-            if is_target and a <= cx <= w - 1 - a and b * 0.5 <= cy <= h - 1 - b * 0.5:
-                xy[k] = (cx, cy)
-        if np.isfinite(xy[k, 0]):
+            in_image = -a < cx < w + a and -b < cy < h + b
+            people[k] += in_image
+            if is_target and in_image:
+                xy[k], axes[k], angle[k] = (cx, cy), (a, b), tilt
+                visible[k] = 0 <= cx <= w - 1 and 0 <= cy <= h - 1
+        if visible[k]:
             visible[k] = _unoccluded_share(rows, masks, (w, h)) >= 0.5
-    return CameraTruth(xy, visible, people)
+    return CameraTruth(xy, axes, angle, visible, people)
 
 
 def _ellipse_patch(shape, size: tuple[int, int]) -> tuple[int, int, np.ndarray]:
