@@ -30,7 +30,7 @@ from tlsync_pipeline.pipeline.stages.export import run_export
 from tlsync_pipeline.pipeline.stages.ingest import run_ingest
 from tlsync_pipeline.pipeline.stages.render import run_render
 from tlsync_pipeline.pipeline.stages.sync import run_sync
-from tlsync_pipeline.pipeline.stages.track import run_track
+from tlsync_pipeline.pipeline.stages.track import run_track, tracks_every_mover
 from tlsync_pipeline.pipeline.stages.vote import run_vote
 from tlsync_pipeline.trajectory import read_trajectory
 from trackers.track import read_track
@@ -137,9 +137,14 @@ def build_graph(project: Project, work: Path, options: Options = Options()) -> G
         before = len(problems)
         camera_file, camera_dep = source(_camera_source, spec)
         track_file, track_dep = source(_track_source, spec)
+        detections = None
+        if track_file is not None and track_file == layout.detections_csv(work, name):
+            # every mover: the sync stage writes the identified target's track.csv
+            detections, track_file = track_file, layout.track_csv(work, name)
         deps = [d for d in (camera_dep, track_dep, trajectory_dep) if d]
         votes = layout.votes_npz(work, name)
-        inputs = {k: v for k, v in {"camera": camera_file, "track": track_file, "trajectory": trajectory}.items() if v is not None}
+        tracked = {"detections": detections} if detections is not None else {"track": track_file}
+        inputs = {k: v for k, v in {"camera": camera_file, **tracked, "trajectory": trajectory}.items() if v is not None}
         problem = problems[before] if len(problems) > before else trajectory_problem
         add(
             Task(
@@ -150,20 +155,31 @@ def build_graph(project: Project, work: Path, options: Options = Options()) -> G
                 [votes],
                 deps,
                 run_vote,
-                {"name": name, "camera": camera_file, "track": track_file, "trajectory": trajectory, "eps_px": project.sync.eps_px, "out": votes},
+                {"name": name, "camera": camera_file, "track": track_file, "detections": detections, "trajectory": trajectory, "eps_px": project.sync.eps_px, "out": votes},
                 problem,
             )
         )
-        cameras[name] = {"camera": camera_file, "track": track_file, "votes": votes, "fps": spec["fps"], "video": spec.get("video"), "deps": deps + [f"vote/{name}"]}
+        cameras[name] = {
+            "camera": camera_file,
+            "track": track_file,
+            "detections": detections,
+            "votes": votes,
+            "fps": spec["fps"],
+            "video": spec.get("video"),
+            "deps": deps + [f"vote/{name}"],
+        }
 
     names = list(cameras)
-    sync_inputs = {f"{kind}:{n}": cameras[n][kind] for n in names for kind in ("camera", "track", "votes")}
+    sync_inputs = {f"{kind}:{n}": cameras[n][kind] for n in names for kind in ("camera", "votes")}
+    sync_inputs.update({f"track:{n}": cameras[n]["track"] for n in names if cameras[n]["detections"] is None})
+    sync_inputs.update({f"detections:{n}": cameras[n]["detections"] for n in names if cameras[n]["detections"] is not None})
     sync_inputs["trajectory"] = trajectory
     timeline = layout.timeline_json(work)
+    identified_tracks = [cameras[n]["track"] for n in names if cameras[n]["detections"] is not None]
     sync_params = {**dataclasses.asdict(project.sync), "fps": {n: cameras[n]["fps"] for n in names}, "order": names}
     sync_deps = sorted({d for n in names for d in cameras[n]["deps"]})
-    camera_args = {n: {k: cameras[n][k] for k in ("camera", "track", "votes", "fps", "video")} for n in names}
-    add(Task("sync", None, sync_inputs, sync_params, [timeline], sync_deps, run_sync, {"cameras": camera_args, "trajectory": trajectory, "params": dataclasses.asdict(project.sync), "out": timeline}))
+    camera_args = {n: {k: cameras[n][k] for k in ("camera", "track", "detections", "votes", "fps", "video")} for n in names}
+    add(Task("sync", None, sync_inputs, sync_params, [timeline] + identified_tracks, sync_deps, run_sync, {"cameras": camera_args, "trajectory": trajectory, "params": dataclasses.asdict(project.sync), "out": timeline}))
 
     export_inputs = {"timeline": timeline, **{f"track:{n}": cameras[n]["track"] for n in names}}
     export_inputs.update({f"video:{n}": cameras[n]["video"] for n in names if cameras[n]["video"]})
@@ -262,7 +278,7 @@ def _track_source(project: Project, spec: dict, work: Path, add, given, progress
     if spec.get("video") is None:
         raise InputError(f"{project.path}: camera {name!r}: give 'track' (a track.csv) or 'video' (to track the target in)")
     params = {"tracker": spec.get("tracker"), "fps": spec["fps"]}
-    out = layout.track_csv(work, name)
+    out = layout.detections_csv(work, name) if tracks_every_mover(spec) else layout.track_csv(work, name)
     add(Task("track", name, {"video": Path(spec["video"])}, params, [out], [], run_track, {"spec": spec, "out": out, "progress": progress}))
     return out, f"track/{name}"
 

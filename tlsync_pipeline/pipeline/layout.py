@@ -3,7 +3,8 @@
     <work>/cameras/<name>/camera.json            calibrate
     <work>/cameras/<name>/calibration_report.json
     <work>/cameras/<name>/calibration.png
-    <work>/cameras/<name>/track.csv              track
+    <work>/cameras/<name>/detections.csv         track (every mover; no init box)
+    <work>/cameras/<name>/track.csv              track (init box or CSRT), or sync (identified target)
     <work>/cameras/<name>/votes.npz              vote
     <work>/target/trajectory.csv                 ingest
     <work>/target/ingest_report.json
@@ -41,6 +42,10 @@ def calibration_picture(work: Path, name: str) -> Path:
 
 def track_csv(work: Path, name: str) -> Path:
     return camera_dir(work, name) / "track.csv"
+
+
+def detections_csv(work: Path, name: str) -> Path:
+    return camera_dir(work, name) / "detections.csv"
 
 
 def target_dir(work: Path) -> Path:

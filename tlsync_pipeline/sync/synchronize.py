@@ -10,13 +10,14 @@ Pure functions from typed values to typed values; no file I/O here.
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
 from calibration.camera import Camera
 from tlsync_pipeline.errors import SyncError
 from tlsync_pipeline.sync.clock import camera_clock
+from tlsync_pipeline.sync.identify import Identification, identify_target
 from tlsync_pipeline.sync.line_search import LineSearch, find_line
 from tlsync_pipeline.sync.params import SyncParams
 from tlsync_pipeline.sync.ransac import LineFit, distance_to_line, fit_line_ransac
@@ -29,6 +30,7 @@ from tlsync_pipeline.sync.refine import (
 from tlsync_pipeline.sync.timeline import CameraLine, Timeline
 from tlsync_pipeline.sync.votes import Votes, compute_votes
 from tlsync_pipeline.trajectory import Trajectory
+from trackers.detections import Detections
 from trackers.track import Track
 
 # Weak-case thresholds of the refined method (flags in timeline.json).
@@ -44,11 +46,16 @@ SUPPORT_KEPT = 0.5
 
 @dataclass(frozen=True)
 class CameraInput:
-    """What one camera brings: its calibration, its track and its frame rate (or None)."""
+    """What one camera brings: its calibration, its track and its frame rate (or None).
+
+    detections: every mover of its video instead of a track (track None):
+    the target is identified among them first (identify.py).
+    """
 
     camera: Camera
-    track: Track
+    track: Track | None
     fps: float | None
+    detections: Detections | None = None
 
 
 @dataclass(frozen=True)
@@ -64,10 +71,23 @@ class CameraResult:
     line: CameraLine
     search: LineSearch | None = None
     refinement: Refinement | None = None
+    identification: Identification | None = None
 
 
 def synchronize_camera(name: str, inputs: CameraInput, trajectory: Trajectory, params: SyncParams) -> CameraResult:
-    """Votes and the fitted line of one camera; SyncError if it cannot be synchronized."""
+    """Votes and the fitted line of one camera; SyncError if it cannot be synchronized.
+
+    A camera with detections instead of a track is first identified: its
+    line is then fitted on the identified target's track, and the line's
+    details carry the identification summary.
+    """
+    if inputs.track is None:
+        found = identify_target(
+            inputs.camera, inputs.detections, trajectory, inputs.fps, params.eps_px, params.delta, params.p, params.r_min, params.seed, params.f_scale_px
+        )
+        result = synchronize_camera(name, replace(inputs, track=found.track, detections=None), trajectory, params)
+        details = {**result.line.details, "identification": found.summary()}
+        return replace(result, line=replace(result.line, details=details), identification=found)
     votes = compute_votes(inputs.camera, inputs.track, trajectory, params.eps_px)
     if params.method == "refined":
         return _synchronize_refined(name, inputs, trajectory, params, votes)

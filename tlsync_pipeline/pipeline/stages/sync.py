@@ -12,15 +12,24 @@ from tlsync_pipeline.sync.params import SyncParams
 from tlsync_pipeline.sync.synchronize import CameraInput, CameraResult, synchronize
 from tlsync_pipeline.sync.timeline import Timeline, write_timeline
 from tlsync_pipeline.trajectory import Trajectory, read_trajectory
-from trackers.track import read_track
+from trackers.detections import read_detections
+from trackers.track import read_track, write_track
 
 
-def read_camera_inputs(cameras: dict[str, dict]) -> dict:
-    """CameraInput per camera from the paths the graph passes to stage functions."""
+def read_camera_inputs(cameras: dict[str, dict], identify: bool = False) -> dict:
+    """CameraInput per camera from the paths the graph passes to stage functions.
+
+    identify: cameras with detections bring them (the target is still to be
+    identified) instead of their track.
+    """
     out = {}
     for name, c in cameras.items():
         cam = read_camera(c["camera"], name=name)
-        out[name] = CameraInput(cam, read_track(c["track"]), c["fps"] if c["fps"] is not None else cam.fps)
+        fps = c["fps"] if c["fps"] is not None else cam.fps
+        if identify and c.get("detections") is not None:
+            out[name] = CameraInput(cam, None, fps, read_detections(c["detections"]))
+        else:
+            out[name] = CameraInput(cam, read_track(c["track"]), fps)
     return out
 
 
@@ -29,9 +38,19 @@ def run_sync(cameras: dict[str, dict], trajectory: Path, params: dict, out: Path
 
     The sync method computes the votes it fits from the same camera, track and
     trajectory files as the vote stage (with its own trajectory handling);
-    ``votes.npz`` is what render draws and what orders the stages.
+    ``votes.npz`` is what render draws and what orders the stages. For a
+    camera with every mover's detections, the identified target's track is
+    written to its ``track.csv`` (removed when it cannot be identified).
     """
-    timeline, _ = synchronize(read_camera_inputs(cameras), read_trajectory(trajectory), SyncParams(**params))
+    timeline, results = synchronize(read_camera_inputs(cameras, identify=True), read_trajectory(trajectory), SyncParams(**params))
+    for name, c in cameras.items():
+        if c.get("detections") is None:
+            continue
+        if name in results:
+            with atomic_path(Path(c["track"])) as tmp:
+                write_track(results[name].identification.track, tmp)
+        else:
+            Path(c["track"]).unlink(missing_ok=True)
     with atomic_path(out) as tmp:
         write_timeline(timeline, tmp)
     return {"synchronized": timeline.names, "failed": timeline.failed}

@@ -1,8 +1,8 @@
-"""The track stage: each camera's video in, its track.csv out (work folder).
+"""The track stage: each camera's video in, its movers or its target's track out (work folder).
 
-``track_camera`` is the pure part (a camera table in, a Track out);
-``write_track_atomic`` the writer. The stage graph (stages.py) runs them per
-camera into ``<work>/cameras/<name>/track.csv``.
+Without an init box, the blob tracker's kind detects every mover (the
+target is identified among them by the sync stage): ``detections.csv``.
+With an init box, or with CSRT, the single target is tracked: ``track.csv``.
 """
 
 from __future__ import annotations
@@ -11,15 +11,25 @@ from pathlib import Path
 
 from tlsync_pipeline.atomic import atomic_path
 from tlsync_pipeline.errors import InputError
+from trackers.detections import Detections, write_detections
 from trackers.track import Track, write_track
-from trackers.tracking import track_video
+from trackers.tracking import detect_movers, track_video
 
 
-def track_camera(spec: dict, progress: bool = True) -> Track:
-    """Track the target in the video of one camera table (``[[cameras]]`` with its ``[cameras.tracker]``)."""
+def tracks_every_mover(spec: dict) -> bool:
+    """Whether the camera's track stage detects every mover (blob tracker, no init box) rather than one target."""
+    tracker = spec.get("tracker") or {}
+    return tracker.get("kind", "blob") == "blob" and tracker.get("init") is None
+
+
+def track_camera(spec: dict, progress: bool = True) -> Track | Detections:
+    """Every mover (``tracks_every_mover``) or the target in the video of one camera table (``[[cameras]]`` with its ``[cameras.tracker]``)."""
     if spec.get("video") is None:
         raise InputError(f"camera {spec['name']!r}: no 'video' key: the track stage needs the camera's video file")
     tracker = spec["tracker"]
+    label = f"{spec['name']} ({Path(spec['video']).name})"
+    if tracks_every_mover(spec):
+        return detect_movers(spec["video"], params=tracker["parameters"], progress=progress, label=label)
     return track_video(
         spec["video"],
         kind=tracker["kind"],
@@ -27,7 +37,7 @@ def track_camera(spec: dict, progress: bool = True) -> Track:
         init_frame=tracker["init_frame"],
         params=tracker["parameters"],
         progress=progress,
-        label=f"{spec['name']} ({Path(spec['video']).name})",
+        label=label,
     )
 
 
@@ -37,8 +47,17 @@ def write_track_atomic(track: Track, path: Path) -> None:
         write_track(track, tmp)
 
 
+def write_detections_atomic(detections: Detections, path: Path) -> None:
+    """Write detections.csv atomically."""
+    with atomic_path(path) as tmp:
+        write_detections(detections, tmp)
+
+
 def run_track(spec: dict, out: Path, progress: bool = True) -> dict:
-    """The track stage: the target's track in one camera's video, ``track.csv``."""
-    track = track_camera(spec, progress=progress)
-    write_track_atomic(track, out)
-    return {"tracked_frames": len(track), "message": f"wrote {out} ({len(track)} tracked frames)"}
+    """The track stage: ``detections.csv`` (every mover) or ``track.csv`` (one target) at ``out``."""
+    result = track_camera(spec, progress=progress)
+    if isinstance(result, Detections):
+        write_detections_atomic(result, out)
+        return {"detections": len(result), "tracklets": int(len(result.tracklet_ids())), "message": f"wrote {out} ({len(result)} detections)"}
+    write_track_atomic(result, out)
+    return {"tracked_frames": len(result), "message": f"wrote {out} ({len(result)} tracked frames)"}
