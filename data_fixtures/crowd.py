@@ -40,8 +40,8 @@ from tlsync_pipeline.trajectory import Trajectory, write_trajectory
 from trackers.track import Track
 
 CAMERA_HEIGHT_M = 5.0
-CAMERA_SPACING_M = 16.0  # between neighbouring cameras along x
-VISIT_S = 5.0  # seconds the target walks in a camera's patch per visit
+YAW_STEP_DEG = 90.0  # between neighbouring cameras' headings: tilted down, each view spans up to ~85 deg of azimuth near its bottom edge
+VISIT_S = 7.0  # seconds the target walks in a camera's patch per visit
 NEAR_M, FAR_M = 5.5, 15.0  # ground patch walked on, distance ahead of the camera
 PATCH_HALF_WIDTH_M = 5.0
 PERSON_WIDTH_M = 0.45
@@ -112,11 +112,18 @@ class CrowdScene:
     truth: dict[str, CameraTruth] = field(default_factory=dict)
 
 
-def surveillance_camera(name: str, x_m: float, image_size: tuple[int, int], fps: float, rng) -> Camera:
-    """A camera at (x_m, 0, CAMERA_HEIGHT_M) looking along +y, tilted down at the middle of the patch."""
+def _to_world(yaw: float, local: np.ndarray) -> np.ndarray:
+    """Ground point(s) from a camera's local ground frame (x right, y ahead, metres) to the world's."""
+    c, s_ = math.cos(yaw), math.sin(yaw)
+    local = np.asarray(local, dtype=np.float64)
+    return np.stack([c * local[..., 0] - s_ * local[..., 1], s_ * local[..., 0] + c * local[..., 1]], axis=-1)
+
+
+def surveillance_camera(name: str, yaw: float, image_size: tuple[int, int], fps: float, rng) -> Camera:
+    """A camera at (0, 0, CAMERA_HEIGHT_M) turned by ``yaw`` (radians, counter-clockwise from +y), tilted down at the middle of its patch."""
     w, h = image_size
-    centre = np.array([x_m, 0.0, CAMERA_HEIGHT_M])
-    aim = np.array([x_m + rng.uniform(-0.5, 0.5), (NEAR_M + FAR_M) / 2 + 1.0, 0.0])
+    centre = np.array([0.0, 0.0, CAMERA_HEIGHT_M])
+    aim = np.r_[_to_world(yaw, np.array([rng.uniform(-0.3, 0.3), (NEAR_M + FAR_M) / 2 + 1.0])), 0.0]
     forward = (aim - centre) / np.linalg.norm(aim - centre)
     right = np.cross(forward, [0, 0, 1.0])
     right /= np.linalg.norm(right)
@@ -132,21 +139,25 @@ def make_crowd_scene(spec: CrowdSpec = SMALL, directory: str | Path | None = Non
     """Build the scene; with ``directory``, also render each camera's video there (``<name>.mp4``)."""
     rng = np.random.default_rng(spec.seed)
     names = [f"cam{k}" for k in range(len(spec.fps))]
-    cameras = {n: surveillance_camera(n, k * CAMERA_SPACING_M, spec.image_size, spec.fps[k], rng) for k, n in enumerate(names)}
+    yaws = [math.radians(YAW_STEP_DEG * (k - (len(names) - 1) / 2)) for k in range(len(names))]
+    cameras = {n: surveillance_camera(n, yaws[k], spec.image_size, spec.fps[k], rng) for k, n in enumerate(names)}
     starts = [rng.uniform(0.5, 3.0) for _ in names]  # each camera starts recording at its own time
-    route, stays = _target_route(rng, cameras, max(s + n / f for s, n, f in zip(starts, spec.n_frames, spec.fps)), spec.speed_mps)
+    route, stays = _target_route(rng, cameras, yaws, max(s + n / f for s, n, f in zip(starts, spec.n_frames, spec.fps)), spec.speed_mps)
     end_s = route.duration
     samples = np.arange(int(math.floor(end_s * spec.log_rate)) + 1, dtype=np.float64)
     true_xyz = route.at(samples / spec.log_rate)
     _check_views_disjoint(cameras, route.at(np.linspace(0, end_s, int(end_s * 50))))
     xyz = true_xyz + rng.normal(0.0, spec.gps_noise_m, true_xyz.shape) if spec.gps_noise_m > 0 else true_xyz
     lines, tracks, truth = {}, {}, {}
+    walkers = []
+    for k, name in enumerate(names):
+        recording = (starts[k], starts[k] + (spec.n_frames[k] - 1) / spec.fps[k])
+        walkers += _distractors(rng, yaws[k], route, stays[k], recording, spec.distractors, spec.speed_mps)
     for k, name in enumerate(names):
         camera, fps, count = cameras[name], spec.fps[k], spec.n_frames[k]
         start_s = starts[k]
         lines[name] = Relation(fps / spec.log_rate, -start_s * fps)
         times = start_s + np.arange(count) / fps
-        walkers = _distractors(rng, camera, route, stays[k], (times[0], times[-1]), spec.distractors, spec.speed_mps)
         frame_truth = _frame_truth(camera, route, walkers, times)
         seen = np.flatnonzero(frame_truth.visible)
         tracks[name] = Track(seen.astype(np.int64), frame_truth.xy[seen, 0], frame_truth.xy[seen, 1], time_s=times[seen] - start_s)
@@ -193,13 +204,15 @@ def write_crowd_project(directory: str | Path, spec: CrowdSpec = SMALL) -> tuple
 class _Route:
     """A ground path walked at a constant speed: position (x, y, centre height) at time t (s).
 
-    The path is the waypoints' polyline with its corners rounded (Chaikin's
-    corner cutting, four times): smooth turns that never swing outside the
-    polyline.
+    The path is the waypoints' polyline, cut into pieces of at most 1 m,
+    with its corners rounded (Chaikin's corner cutting, four times): turns
+    over about a metre that never swing outside the polyline.
     """
 
     def __init__(self, waypoints: np.ndarray, speed: float, height: float):
-        points = np.asarray(waypoints, dtype=np.float64)
+        waypoints = np.asarray(waypoints, dtype=np.float64)
+        pieces = [np.linspace(a, b, max(1, int(np.ceil(np.linalg.norm(b - a)))) + 1)[:-1] for a, b in zip(waypoints[:-1], waypoints[1:])]
+        points = np.vstack(pieces + [waypoints[-1:]])
         for _ in range(4):
             a, b = points[:-1], points[1:]
             cut = np.empty((2 * len(a), 2))
@@ -221,44 +234,51 @@ class _Route:
         return np.column_stack([g, np.full(len(g), self.height / 2)])
 
 
-def _patch_point(rng, x_centre: float) -> np.ndarray:
-    """A random ground point well inside the camera's view (the view narrows to about 0.6 x distance)."""
-    y = rng.uniform(NEAR_M + 0.5, FAR_M - 0.5)
-    half = min(PATCH_HALF_WIDTH_M, 0.45 * y)
-    return np.array([x_centre + rng.uniform(-half, half), y])
+def _in_patch(yaw: float, point: np.ndarray) -> bool:
+    """Whether a world ground point is well inside a camera's view (the view is about 0.6 x distance wide on each side)."""
+    x, y = _to_world(-yaw, point)
+    return NEAR_M + 0.5 <= y <= FAR_M - 0.5 and abs(x) <= min(PATCH_HALF_WIDTH_M, 0.45 * y)
 
 
-def _target_route(rng, cameras: dict[str, Camera], duration_s: float, speed: float) -> tuple[_Route, list[list[tuple[float, float]]]]:
-    """The target's waypoints: visits of VISIT_S seconds to each camera's patch in turn, for ``duration_s`` in all.
+def _patch_point(rng, yaw: float, near: np.ndarray | None = None) -> np.ndarray:
+    """A random ground point (world) well inside a camera's view; with ``near``, 3-6 m from it."""
+    while True:
+        if near is None:
+            y = rng.uniform(NEAR_M + 0.5, FAR_M - 0.5)
+            point = _to_world(yaw, np.array([rng.uniform(-1.0, 1.0) * min(PATCH_HALF_WIDTH_M, 0.45 * y), y]))
+        else:
+            heading = rng.uniform(0, 2 * math.pi)
+            point = near + rng.uniform(3.0, 6.0) * np.array([math.cos(heading), math.sin(heading)])
+        if _in_patch(yaw, point):
+            return point
 
-    Between visits it walks out of every view (close to the cameras' line);
-    in its first visit to the outermost cameras it also leaves the view
+
+def _target_route(rng, cameras: dict[str, Camera], yaws: list[float], duration_s: float, speed: float) -> tuple[_Route, list[list[tuple[float, float]]]]:
+    """The target's waypoints: visits of about VISIT_S seconds to each camera's patch in turn, for ``duration_s`` in all.
+
+    From one view to the next it crosses the narrow gap between them; in its
+    first visit to the outermost cameras it also walks out of the view
     sideways and comes back. Returns the route and, per camera, the
-    (start, end) times of its visits.
+    (start, end) times of the target's stays in its image.
     """
-    xs = [float(c.center[0]) for c in cameras.values()]
-    points: list[np.ndarray] = [np.array([xs[0] - PATCH_HALF_WIDTH_M, 2.5])]
-    walked, visit = 0.0, 0
-    while walked < speed * (duration_s + 10.0):  # corner rounding shortens the walk a little
-        k = visit % len(xs)
-        stay: list[np.ndarray] = [_patch_point(rng, xs[k])]
+    points: list[np.ndarray] = [_to_world(yaws[0], np.array([0.0, 2.5]))]
+    visit = 0
+    while _Route(np.array(points), speed, TARGET_HEIGHT_M).duration < duration_s + 2.0:
+        k = visit % len(yaws)
+        stay: list[np.ndarray] = [_patch_point(rng, yaws[k])]
         length = float(np.linalg.norm(stay[0] - points[-1]))
-        sideways = visit < len(xs) and k in (0, len(xs) - 1)
-        side = -1.0 if k == 0 else 1.0  # outward, away from the neighbouring view
+        sideways = visit < len(yaws) and yaws[k] != 0 and k in (0, len(yaws) - 1)
+        side = -1.0 if yaws[k] > 0 else 1.0  # outward, away from the neighbouring view
         while length < speed * VISIT_S:
             if sideways and length > 0.4 * speed * VISIT_S:
-                nxt = np.array([xs[k] + side * (PATCH_HALF_WIDTH_M + 6.0), rng.uniform(NEAR_M + 2.0, FAR_M - 3.0)])
+                y = rng.uniform(NEAR_M + 2.0, FAR_M - 3.0)
+                nxt = _to_world(yaws[k], np.array([side * (0.6 * y + 3.0), y]))
                 sideways = False
             else:
-                nxt = _patch_point(rng, xs[k])
-                if np.linalg.norm(nxt - stay[-1]) < 3.0:
-                    continue
+                nxt = _patch_point(rng, yaws[k], stay[-1] if _in_patch(yaws[k], stay[-1]) else None)
             length += float(np.linalg.norm(nxt - stay[-1]))
             stay.append(nxt)
         points += stay
-        nxt_x = xs[(visit + 1) % len(xs)]
-        points.append(np.array([(xs[k] + nxt_x) / 2 if nxt_x != xs[k] else xs[k] + PATCH_HALF_WIDTH_M + 3.0, 2.5]))
-        walked += length + float(np.linalg.norm(points[-1] - stay[-1]))
         visit += 1
     route = _Route(np.array(points), speed, TARGET_HEIGHT_M)
     t = np.arange(0.0, route.duration, 0.1)
@@ -292,24 +312,24 @@ class _Walker:
         return self.start + frac * (self.end - self.start), on
 
 
-def _distractors(rng, camera: Camera, route: _Route, stays: list[tuple[float, float]], recording: tuple[float, float], count: int, speed: float) -> list[_Walker]:
+def _distractors(rng, yaw: float, route: _Route, stays: list[tuple[float, float]], recording: tuple[float, float], count: int, speed: float) -> list[_Walker]:
     """About ``count`` walkers in view at any time, each crossing the target's route in this camera's patch."""
     if count <= 0:
         return []
-    x_centre = float(camera.center[0])
     span = recording[1] - recording[0]
     crossing_s = 2 * (PATCH_HALF_WIDTH_M + 4.0) / speed
     walkers = []
     for _ in range(int(math.ceil(count * (span + crossing_s) / crossing_s))):
-        t_target = rng.uniform(*stays[rng.integers(len(stays))])
+        t_target = rng.uniform(*stays[rng.integers(len(stays))]) if stays else rng.uniform(*recording)
         point = route.ground(np.array([t_target]))[0]
-        if abs(point[0] - x_centre) > PATCH_HALF_WIDTH_M or not NEAR_M <= point[1] <= FAR_M:
-            point = _patch_point(rng, x_centre)
+        local = _to_world(-yaw, point)
+        if abs(local[0]) > 0.6 * local[1] or not NEAR_M <= local[1] <= FAR_M:
+            point = _patch_point(rng, yaw)
         if rng.random() < 0.5:
             t_cross = t_target + rng.uniform(-1.5, 1.5)  # at nearly the same time: occlusion or merged blobs
         else:
             t_cross = rng.uniform(recording[0] - crossing_s / 2, recording[1] + crossing_s / 2)
-        heading = rng.uniform(-math.pi / 2.5, math.pi / 2.5) + rng.choice((0.0, math.pi))  # mostly across the view
+        heading = yaw + rng.uniform(-math.pi / 2.5, math.pi / 2.5) + rng.choice((0.0, math.pi))  # mostly across the view
         direction = np.array([math.cos(heading), math.sin(heading)])
         half = PATCH_HALF_WIDTH_M + 5.0
         start, end = point - half * direction, point + half * direction

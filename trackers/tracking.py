@@ -67,6 +67,11 @@ def track_video(
     return Track(frames, cols[:, 1], cols[:, 2], time_s=cols[:, 0], w=cols[:, 3], h=cols[:, 4], score=cols[:, 5])
 
 
+def follows_every_mover(kind: str, init, init_frame: int = 0) -> bool:
+    """Whether a tracker request means every mover (blob kind, no init box, from the first frame) rather than one target."""
+    return kind == "blob" and init is None and init_frame == 0
+
+
 def detect_movers(path: str | Path, params: dict | None = None, progress: bool = True, label: str | None = None) -> Detections:
     """Every moving-object candidate of every frame of ``path``, linked into tracklets.
 

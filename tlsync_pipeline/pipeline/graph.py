@@ -9,7 +9,10 @@ worker process: it takes plain values (paths, numbers), writes its artefacts
 atomically and returns a small JSON-able summary.
 
 A file the user brings in the project file (``camera = ...``, ``track = ...``,
-``[target] trajectory = ...``) takes the place of the stage that would make it.
+``detections = ...``, ``[target] trajectory = ...``) takes the place of the
+stage that would make it. A camera whose track stage detects every mover, or
+that brings its own detections, gets its ``track.csv`` from the sync stage
+(the identified target).
 """
 
 from __future__ import annotations
@@ -33,6 +36,7 @@ from tlsync_pipeline.pipeline.stages.sync import run_sync
 from tlsync_pipeline.pipeline.stages.track import run_track, tracks_every_mover
 from tlsync_pipeline.pipeline.stages.vote import run_vote
 from tlsync_pipeline.trajectory import read_trajectory
+from trackers.detections import read_detections
 from trackers.track import read_track
 
 
@@ -138,7 +142,7 @@ def build_graph(project: Project, work: Path, options: Options = Options()) -> G
         camera_file, camera_dep = source(_camera_source, spec)
         track_file, track_dep = source(_track_source, spec)
         detections = None
-        if track_file is not None and track_file == layout.detections_csv(work, name):
+        if track_file is not None and (track_file == layout.detections_csv(work, name) or track_file == spec.get("detections")):
             # every mover: the sync stage writes the identified target's track.csv
             detections, track_file = track_file, layout.track_csv(work, name)
         deps = [d for d in (camera_dep, track_dep, trajectory_dep) if d]
@@ -275,6 +279,9 @@ def _track_source(project: Project, spec: dict, work: Path, add, given, progress
     if spec["track"] is not None:
         given[f"track/{name}"] = Given("track", name, spec["track"])
         return spec["track"], None
+    if spec.get("detections") is not None:
+        given[f"track/{name}"] = Given("track", name, spec["detections"])
+        return spec["detections"], None
     if spec.get("video") is None:
         raise InputError(f"{project.path}: camera {name!r}: give 'track' (a track.csv) or 'video' (to track the target in)")
     params = {"tracker": spec.get("tracker"), "fps": spec["fps"]}
@@ -289,4 +296,5 @@ def check_given(graph: Graph, wanted: list[str]) -> None:
     used = {path for tid in wanted for path in graph.tasks[tid].inputs.values()}
     for item in graph.given.values():
         if item.path in used:
-            readers[item.stage](item.path)
+            is_detections = item.stage == "track" and item.path == graph.project.camera(item.camera).get("detections")
+            (read_detections if is_detections else readers[item.stage])(item.path)

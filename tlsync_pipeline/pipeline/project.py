@@ -264,6 +264,7 @@ CAMERA_SCHEMA = {
     "name": Field(_name, required=True),
     "camera": Field(_path),
     "track": Field(_path),
+    "detections": Field(_path),
     "fps": Field(_positive),
     "video": Field(_path),
     "tracker": TRACKER_SCHEMA,

@@ -74,16 +74,18 @@ class CameraResult:
     identification: Identification | None = None
 
 
-def synchronize_camera(name: str, inputs: CameraInput, trajectory: Trajectory, params: SyncParams) -> CameraResult:
+def synchronize_camera(name: str, inputs: CameraInput, trajectory: Trajectory, params: SyncParams, logged: Trajectory | None = None) -> CameraResult:
     """Votes and the fitted line of one camera; SyncError if it cannot be synchronized.
 
-    A camera with detections instead of a track is first identified: its
-    line is then fitted on the identified target's track, and the line's
-    details carry the identification summary.
+    A camera with detections instead of a track is first identified (on the
+    ``logged`` trajectory, before any smoothing: the assignment gate is a
+    few pixels and smoothing rounds a walker's turns); its line is then
+    fitted on the identified target's track, and the line's details carry
+    the identification summary.
     """
     if inputs.track is None:
         found = identify_target(
-            inputs.camera, inputs.detections, trajectory, inputs.fps, params.eps_px, params.delta, params.p, params.r_min, params.seed, params.f_scale_px
+            inputs.camera, inputs.detections, logged if logged is not None else trajectory, inputs.fps, params.eps_px, params.delta, params.p, params.r_min, params.seed, params.f_scale_px
         )
         result = synchronize_camera(name, replace(inputs, track=found.track, detections=None), trajectory, params)
         details = {**result.line.details, "identification": found.summary()}
@@ -206,11 +208,12 @@ def synchronize(cameras: dict[str, CameraInput], trajectory: Trajectory, params:
     """
     results: dict[str, CameraResult] = {}
     failed: dict[str, str] = {}
+    logged = trajectory
     if params.method == "refined" and params.smooth_trajectory:
         trajectory = smooth_trajectory(trajectory)
     for name, inputs in cameras.items():
         try:
-            results[name] = synchronize_camera(name, inputs, trajectory, params)
+            results[name] = synchronize_camera(name, inputs, trajectory, params, logged)
         except SyncError as exc:
             failed[name] = str(exc)
     timeline = Timeline(

@@ -10,6 +10,7 @@ from tlsync_pipeline.outputs.pictures import (
     default_pairs,
     plot_trajectory,
     plot_votes,
+    render_movers,
     render_pair,
 )
 from tlsync_pipeline.outputs.summary import format_table
@@ -21,6 +22,7 @@ from tlsync_pipeline.pipeline.stages.sync import read_camera_inputs
 from tlsync_pipeline.sync.timeline import Timeline, read_timeline, read_truth
 from tlsync_pipeline.sync.votes import load_votes
 from tlsync_pipeline.trajectory import read_trajectory
+from trackers.detections import read_detections
 
 
 def run_render(
@@ -43,6 +45,10 @@ def run_render(
         votes, _ = load_votes(cameras[name]["votes"])
         written.append(plot_votes(name, votes, line, delta, out_dir / f"votes_{name}.png"))
         written.append(plot_trajectory(name, inputs[name].camera, inputs[name].track, traj, line, out_dir / f"trajectory_{name}.png"))
+        if cameras[name].get("detections") is not None and cameras[name].get("video") and not line.details.get("clock"):
+            movers = read_detections(cameras[name]["detections"])
+            picture = out_dir / f"movers_{name}.png"
+            written.append(render_movers(name, Path(cameras[name]["video"]), movers, inputs[name].track, inputs[name].camera, traj, line, picture))
     truth_pairs = read_truth(truth)[0] if truth else None
     videos = {n: Path(c["video"]) for n, c in cameras.items() if c.get("video") and n in tl.cameras}
     pair_list = [tuple(p) for p in pairs] if pairs else default_pairs(tl)

@@ -13,13 +13,13 @@ from tlsync_pipeline.atomic import atomic_path
 from tlsync_pipeline.errors import InputError
 from trackers.detections import Detections, write_detections
 from trackers.track import Track, write_track
-from trackers.tracking import detect_movers, track_video
+from trackers.tracking import detect_movers, follows_every_mover, track_video
 
 
 def tracks_every_mover(spec: dict) -> bool:
     """Whether the camera's track stage detects every mover (blob tracker, no init box) rather than one target."""
     tracker = spec.get("tracker") or {}
-    return tracker.get("kind", "blob") == "blob" and tracker.get("init") is None
+    return follows_every_mover(tracker.get("kind", "blob"), tracker.get("init"), tracker.get("init_frame", 0))
 
 
 def track_camera(spec: dict, progress: bool = True) -> Track | Detections:

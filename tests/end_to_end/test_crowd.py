@@ -1,0 +1,83 @@
+"""Crowd scenes through `tlsync run`: the target found among look-alike walkers without an init box.
+
+Raw projects (videos and camera.json files, a trajectory CSV) of surveillance-like
+views with 6 distractor walkers of the target's size, colour and speed that cross
+its path and occlude it; the target leaves the views and comes back; H.264,
+noise and a lighting drop. Both pairs must be within half a frame and the
+identified tracks on the target.
+"""
+
+import json
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from data_fixtures.crowd import CrowdSpec, write_crowd_project
+from tlsync_pipeline.cli.main import main
+from tlsync_pipeline.sync.timeline import Relation, eps_t, read_timeline
+from trackers.detections import read_detections, write_detections
+from trackers.track import read_track
+
+
+def _run(*args):
+    return CliRunner().invoke(main, [str(a) for a in args], catch_exceptions=False)
+
+
+def _pair_errors(project_dir, timeline):
+    truth = json.loads((project_dir / "truth.json").read_text())
+    out = {}
+    for key, value in truth["pairs"].items():
+        a, b = key.split("->")
+        out[key] = eps_t(timeline.relation(a, b), Relation(value["alpha"], value["beta"]), truth["n_frames"][a])
+    return out
+
+
+@pytest.fixture(scope="module", params=[0, 1])
+def crowd_run(request, tmp_path_factory):
+    directory = tmp_path_factory.mktemp(f"crowd{request.param}")
+    project, crowd = write_crowd_project(directory, CrowdSpec(seed=request.param, distractors=6))
+    result = _run("run", project, "--quiet")
+    return directory, crowd, result
+
+
+def test_both_pairs_within_half_a_frame(crowd_run):
+    directory, _, result = crowd_run
+    assert result.exit_code == 0, result.output
+    timeline = read_timeline(directory / "work" / "timeline.json")
+    errors = _pair_errors(directory, timeline)
+    assert len(errors) == 2 and max(errors.values()) <= 0.5, errors
+
+
+def test_identified_tracks_are_on_the_target(crowd_run):
+    directory, crowd, _ = crowd_run
+    timeline = read_timeline(directory / "work" / "timeline.json")
+    for name, truth in crowd.truth.items():
+        movers = read_detections(directory / "work" / "cameras" / name / "detections.csv")
+        assert len(np.unique(movers.id)) > 20  # every mover, not one target
+        track = read_track(directory / "work" / "cameras" / name / "track.csv")
+        assert truth.on_target(track.frame, track.xy).mean() >= 0.95
+        assert np.isin(np.flatnonzero(truth.visible), track.frame).mean() >= 0.5
+        summary = timeline.cameras[name].details["identification"]
+        assert summary["identified_frames"] == len(track)
+        assert summary["support_frames"] > summary["runner_up_frames"]
+
+
+def test_detections_brought_by_the_user_and_a_camera_without_the_path(crowd_run, tmp_path):
+    """A camera may bring its own detections.csv; one whose view the path never enters is named, the others synchronized (exit 1)."""
+    directory, crowd, _ = crowd_run
+    text = (directory / "project.toml").read_text()
+    movers = read_detections(directory / "work" / "cameras" / "cam1" / "detections.csv")
+    write_detections(movers, directory / "cam1_movers.csv")
+    text = text.replace('video = "cam1.mp4"', 'detections = "cam1_movers.csv"')
+    camera = json.loads((directory / "cam0.json").read_text())
+    camera["t"] = [v - 1e4 if k == 2 else v for k, v in enumerate(camera["t"])]  # the whole path behind this camera
+    (directory / "away.json").write_text(json.dumps(camera))
+    text += '\n[[cameras]]\nname = "away"\ncamera = "away.json"\ndetections = "cam1_movers.csv"\nfps = 5.0\n'
+    (tmp_path / "project.toml").write_text(text.replace('"cam', f'"{directory}/cam').replace('"away.json"', f'"{directory}/away.json"').replace('"trajectory.csv"', f'"{directory}/trajectory.csv"'))
+    result = _run("run", tmp_path / "project.toml", "--quiet")
+    assert result.exit_code == 1, result.output
+    timeline = read_timeline(tmp_path / "work" / "timeline.json")
+    assert set(timeline.names) == {"cam0", "cam1"}
+    assert "the target's projected path never enters its image" in timeline.failed["away"]
+    assert max(_pair_errors(directory, timeline).values()) <= 0.5
