@@ -64,20 +64,24 @@ def test_identified_tracks_are_on_the_target(crowd_run):
 
 
 def test_detections_brought_by_the_user_and_a_camera_without_the_path(crowd_run, tmp_path):
-    """A camera may bring its own detections.csv; one whose view the path never enters is named, the others synchronized (exit 1)."""
-    directory, crowd, _ = crowd_run
-    text = (directory / "project.toml").read_text()
-    movers = read_detections(directory / "work" / "cameras" / "cam1" / "detections.csv")
-    write_detections(movers, directory / "cam1_movers.csv")
-    text = text.replace('video = "cam1.mp4"', 'detections = "cam1_movers.csv"')
+    """Cameras may bring their own detections.csv; one whose view the path never enters is named, the others synchronized (exit 1)."""
+    directory, _, _ = crowd_run
+    parts = [f'[target]\ntrajectory = "{directory / "trajectory.csv"}"\n']
+    for name in ("cam0", "cam1"):
+        movers = read_detections(directory / "work" / "cameras" / name / "detections.csv")
+        write_detections(movers, tmp_path / f"{name}_movers.csv")
+        fps = json.loads((directory / f"{name}.json").read_text())["fps"]
+        parts.append(f'[[cameras]]\nname = "{name}"\ncamera = "{directory / name}.json"\ndetections = "{name}_movers.csv"\nfps = {fps}\n')
     camera = json.loads((directory / "cam0.json").read_text())
-    camera["t"] = [v - 1e4 if k == 2 else v for k, v in enumerate(camera["t"])]  # the whole path behind this camera
-    (directory / "away.json").write_text(json.dumps(camera))
-    text += '\n[[cameras]]\nname = "away"\ncamera = "away.json"\ndetections = "cam1_movers.csv"\nfps = 5.0\n'
-    (tmp_path / "project.toml").write_text(text.replace('"cam', f'"{directory}/cam').replace('"away.json"', f'"{directory}/away.json"').replace('"trajectory.csv"', f'"{directory}/trajectory.csv"'))
+    camera["t"] = [v - 1e4 if k == 2 else v for k, v in enumerate(camera["t"])]  # the whole path 10 km behind this camera
+    (tmp_path / "away.json").write_text(json.dumps(camera))
+    parts.append('[[cameras]]\nname = "away"\ncamera = "away.json"\ndetections = "cam1_movers.csv"\nfps = 5.0\n')
+    (tmp_path / "project.toml").write_text("\n".join(parts))
     result = _run("run", tmp_path / "project.toml", "--quiet")
     assert result.exit_code == 1, result.output
     timeline = read_timeline(tmp_path / "work" / "timeline.json")
     assert set(timeline.names) == {"cam0", "cam1"}
-    assert "the target's projected path never enters its image" in timeline.failed["away"]
+    assert "camera away: the target's projected path never enters its image" in timeline.failed["away"]
     assert max(_pair_errors(directory, timeline).values()) <= 0.5
+    assert (tmp_path / "work" / "cameras" / "cam0" / "track.csv").exists()
+    assert not (tmp_path / "work" / "cameras" / "away" / "track.csv").exists()

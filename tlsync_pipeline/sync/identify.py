@@ -211,7 +211,8 @@ def identify_target(
         if not refinement.converged:
             break
         alpha, beta = refinement.alpha, refinement.beta
-    following = [i for i, s in share.items() if s >= MIN_FOLLOW_SHARE and i in set(detections.id[chosen].tolist())]
+    used = set(detections.id[chosen].tolist())
+    following = [i for i, s in share.items() if s >= MIN_FOLLOW_SHARE and i in used]
     if len(chosen) < MIN_FRAMES or not following:
         best = max(share.values(), default=0.0)
         raise SyncError(
