@@ -7,13 +7,13 @@ import json
 import numpy as np
 import pytest
 
-import tlsync_pipeline.sync.synchronize as sync_module
+import tlsync_pipeline.sync.refined as refined_module
 from data_fixtures import make_scene, write_scene
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.outputs.summary import format_table
 from tlsync_pipeline.pipeline.stages.sync import run_project
 from tlsync_pipeline.pipeline.project import load_project
-from tlsync_pipeline.sync.clock import camera_clock, frame_map
+from tlsync_pipeline.sync.clock import FrameTimes, camera_clock
 from tlsync_pipeline.sync.line_search import find_line, thin_votes
 from tlsync_pipeline.sync.params import SyncParams
 from tlsync_pipeline.sync.ransac import fit_line_ransac
@@ -63,7 +63,7 @@ def test_hovering_self_crossing_target():
         scene = make_scene(seed, **HOVER)
         refined, timeline = _worst(scene)
         assert refined <= 1.0, (seed, refined)
-        assert all(line.details["refined"] for line in timeline.cameras.values())
+        assert all(line.refined for line in timeline.cameras.values())
         paper_failures += _worst(scene, "paper")[0] > 5
     assert paper_failures >= 1
 
@@ -94,7 +94,7 @@ def test_jittered_frame_times_synchronized_in_seconds():
         for key, true in scene.truth_pairs().items():
             a, b = key.split("->")
             fa, fb = scene.cameras[a].fps, scene.cameras[b].fps
-            assert timeline.cameras[a].details["clock"] == "time_s"
+            assert timeline.cameras[a].clock.kind == "time_s"
             t_a = scene.tracks[a].time_s
             estimated = timeline.seconds_relation(a, b)(t_a)
             truth = (true.alpha * t_a * fa + true.beta) / fb
@@ -106,12 +106,17 @@ def test_camera_clock_and_frame_map():
     frames = np.arange(100)
     regular = Track(frames, frames * 1.0, frames * 1.0, time_s=frames / 30.0)
     assert not camera_clock(regular, 30.0).vfr
-    jittered = np.r_[0.0, np.cumsum(1 + np.random.default_rng(0).uniform(-0.1, 0.1, 99))] / 30.0
-    clock = camera_clock(Track(frames, frames * 1.0, frames * 1.0, time_s=jittered), 30.0)
-    assert clock.vfr and np.allclose(clock.frames, jittered * 30.0)
-    mapped = frame_map(frames, jittered, frames, jittered, 1.0, 0.0)
-    assert np.allclose(mapped, frames)
-    assert np.isnan(frame_map(frames[:1], jittered[:1], frames, jittered, 1.0, -1.0)).all()
+    jittered = 1.4 + np.r_[0.0, np.cumsum(1 + np.random.default_rng(0).uniform(-0.1, 0.1, 99))] / 30.0
+    track = Track(frames, frames * 1.0, frames * 1.0, time_s=jittered)
+    clock = camera_clock(track, 30.0)
+    times = FrameTimes.of_track(track)
+    assert clock.vfr and np.array_equal(clock.clock_at(frames, times), jittered * 30.0)
+    assert np.allclose(clock.frames_at(clock.clock_at(frames + 0.3, times), times), frames + 0.3)
+    # Without the times, the linear approximation: frames at 30 fps from the fitted origin (1.4 s).
+    assert clock.origin_s == pytest.approx(1.4, abs=1 / 30.0)
+    assert np.max(np.abs(clock.frames_at(jittered * 30.0) - frames)) < 2.0
+    # Beyond the listed frames the clock continues at the nominal rate.
+    assert clock.frames_at(jittered[-1] * 30.0 + 3.0, times) == pytest.approx(102.0)
 
 
 def test_intervals_cover_the_truth_on_a_small_set():
@@ -134,12 +139,12 @@ def test_fallback_when_refinement_disagrees(monkeypatch):
     def shifted(camera, frame, xy, path, alpha, beta, *args, **kwargs):
         return Refinement(alpha, beta + 30.0, np.diag([1e-10, 1e-4]), len(frame), 0.1, 0.8, True, "shifted")
 
-    monkeypatch.setattr(sync_module, "refine_line", shifted)
+    monkeypatch.setattr(refined_module, "refine_line", shifted)
     timeline, results = synchronize(_inputs(scene), scene.trajectory, SyncParams())
     for name, line in timeline.cameras.items():
-        assert not line.details["refined"]
-        assert "frames whose votes support the line search" in line.details["warnings"][0]
-        assert line.beta == results[name].search.beta
+        assert not line.refined
+        assert "frames whose votes support the line search" in line.warnings[0]
+        assert line.beta == line.line_search.beta
     assert "warning: cam0:" in format_table(timeline)
 
 
@@ -150,9 +155,9 @@ def test_fallback_when_refinement_impossible():
     scene.tracks["cam0"] = Track(track.frame[keep], track.x[keep], track.y[keep], time_s=track.time_s[keep])
     timeline, _ = synchronize(_inputs(scene), scene.trajectory, SyncParams())
     line = timeline.cameras["cam0"]
-    assert not line.details["refined"] and "refinement not possible" in line.details["warnings"][0]
-    assert "few_inliers" in line.details["flags"]
-    assert np.isfinite(line.details["se_beta"])
+    assert not line.refined and "refinement not possible" in line.warnings[0]
+    assert "few_inliers" in line.flags
+    assert np.isfinite(line.se_beta)
 
 
 def test_paper_method_is_the_published_ransac():
@@ -163,7 +168,7 @@ def test_paper_method_is_the_published_ransac():
         votes = result.votes
         fit = fit_line_ransac(votes.sample, votes.frame)
         assert (timeline.cameras[name].alpha, timeline.cameras[name].beta) == (fit.alpha, fit.beta)
-        assert "se_beta" not in timeline.cameras[name].details
+        assert timeline.cameras[name].cov is None and timeline.cameras[name].refined is None
 
 
 def test_project_method_key_and_timeline_json(tmp_path):
@@ -195,8 +200,7 @@ def test_smoothing_keeps_clean_logs_and_denoises_noisy_ones():
 
 
 def test_interpolation_never_bridges_a_gap():
-    from tlsync_pipeline.sync.refine import PiecewiseTrajectory
-    from tlsync_pipeline.trajectory import Trajectory
+    from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
 
     sample = np.r_[np.arange(0, 10.0), np.arange(20, 30.0)]
     xyz = np.column_stack([sample, np.zeros_like(sample), np.zeros_like(sample)])
