@@ -30,6 +30,9 @@ def format_table(timeline: Timeline) -> str:
         text += f"\nstart: when the camera's frame 0 was taken, in frames and seconds of {first} (positive: later than {first}'s frame 0)"
     if with_se:
         text += "\n±: 95 % intervals (1.96 standard errors); flags: few_inliers, ambiguous (a second line with comparable support), along_ray (motion mostly along the viewing ray), fallback (see warnings in timeline.json)"
+    vfr = [name for name, line in timeline.cameras.items() if line.clock.vfr]
+    if vfr:
+        text += f"\nvariable frame rate: {', '.join(vfr)}: starts in frames are approximate; exports/frame_map.csv maps frames exactly"
     for name, line in timeline.cameras.items():
         for warning in line.warnings or ():
             text += f"\nwarning: {name}: {warning}"

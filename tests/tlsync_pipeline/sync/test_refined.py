@@ -13,7 +13,6 @@ from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.outputs.summary import format_table
 from tlsync_pipeline.pipeline.stages.sync import run_project
 from tlsync_pipeline.pipeline.project import load_project
-from tlsync_pipeline.sync.clock import FrameTimes, camera_clock
 from tlsync_pipeline.sync.line_search import find_line, thin_votes
 from tlsync_pipeline.sync.params import SyncParams
 from tlsync_pipeline.sync.ransac import fit_line_ransac
@@ -102,23 +101,6 @@ def test_jittered_frame_times_synchronized_in_seconds():
             assert np.mean(np.abs(estimated - truth)) < interval_b, (seed, key)
 
 
-def test_camera_clock_and_frame_map():
-    frames = np.arange(100)
-    regular = Track(frames, frames * 1.0, frames * 1.0, time_s=frames / 30.0)
-    assert not camera_clock(regular, 30.0).vfr
-    jittered = 1.4 + np.r_[0.0, np.cumsum(1 + np.random.default_rng(0).uniform(-0.1, 0.1, 99))] / 30.0
-    track = Track(frames, frames * 1.0, frames * 1.0, time_s=jittered)
-    clock = camera_clock(track, 30.0)
-    times = FrameTimes.of_track(track)
-    assert clock.vfr and np.array_equal(clock.clock_at(frames, times), jittered * 30.0)
-    assert np.allclose(clock.frames_at(clock.clock_at(frames + 0.3, times), times), frames + 0.3)
-    # Without the times, the linear approximation: frames at 30 fps from the fitted origin (1.4 s).
-    assert clock.origin_s == pytest.approx(1.4, abs=1 / 30.0)
-    assert np.max(np.abs(clock.frames_at(jittered * 30.0) - frames)) < 2.0
-    # Beyond the listed frames the clock continues at the nominal rate.
-    assert clock.frames_at(jittered[-1] * 30.0 + 3.0, times) == pytest.approx(102.0)
-
-
 def test_intervals_cover_the_truth_on_a_small_set():
     # bench/coverage.py runs 200 scenes; loose bounds here.
     z = []
@@ -197,14 +179,3 @@ def test_smoothing_keeps_clean_logs_and_denoises_noisy_ones():
     before = np.sqrt(np.mean((noisy.trajectory.xyz - noisy.true_trajectory.xyz) ** 2))
     after = np.sqrt(np.mean((smooth_trajectory(noisy.trajectory).xyz - noisy.true_trajectory.xyz) ** 2))
     assert after < 0.7 * before
-
-
-def test_interpolation_never_bridges_a_gap():
-    from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
-
-    sample = np.r_[np.arange(0, 10.0), np.arange(20, 30.0)]
-    xyz = np.column_stack([sample, np.zeros_like(sample), np.zeros_like(sample)])
-    path = PiecewiseTrajectory(Trajectory(sample, xyz))
-    run = path.run_of(np.array([4.5, 15.0, 25.5]))
-    assert list(run) == [0, -1, 1]
-    assert np.allclose(path(np.array([4.5, 25.5]), run[[0, 2]])[:, 0], [4.5, 25.5])
