@@ -5,7 +5,8 @@ and the frames it explains, alpha and beta are re-estimated by minimising the
 pixel distance between each tracked position and the trajectory projected at
 the continuous sample s = (frame - beta) / alpha. The trajectory is
 interpolated by the one trajectory model, trajectory.PiecewiseTrajectory (a
-cubic spline per contiguous run of samples; gaps are never bridged). The loss is robust (soft L1, scale ``f_scale`` px), solved by
+cubic spline per contiguous run of samples; gaps are never bridged). The
+loss is robust (soft L1, scale ``f_scale`` px), solved by
 scipy.optimize.least_squares with the line parametrised around the middle of
 the frames used (well conditioned). The covariance of (alpha, beta) is the
 M-estimator sandwich with a Bartlett (Newey-West) kernel over neighbouring

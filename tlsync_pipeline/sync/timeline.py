@@ -91,21 +91,12 @@ class CameraLine:
             object.__setattr__(self, "clock", CameraClock(FRAME, self.fps))  # a frame clock runs at the camera's fps
 
     @property
-    def relation(self) -> Relation:
-        """sample -> clock."""
-        return Relation(self.alpha, self.beta)
-
-    @property
     def se_alpha(self) -> float | None:
         return None if self.cov is None else float(np.sqrt(self.cov[0, 0]))
 
     @property
     def se_beta(self) -> float | None:
         return None if self.cov is None else float(np.sqrt(self.cov[1, 1]))
-
-    def frames_at(self, sample, times: FrameTimes | None = None) -> np.ndarray:
-        """0-based fractional frames taken at target sample(s) (exact with the camera's presentation times)."""
-        return self.clock.frames_at(self.alpha * np.asarray(sample, dtype=np.float64) + self.beta, times)
 
     def sample_at(self, frames, times: FrameTimes | None = None) -> np.ndarray:
         """Target sample(s) at 0-based (fractional) frames (exact with the camera's presentation times)."""
