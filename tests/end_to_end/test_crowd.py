@@ -58,9 +58,9 @@ def test_identified_tracks_are_on_the_target(crowd_run):
         track = read_track(directory / "work" / "cameras" / name / "track.csv")
         assert truth.on_target(track.frame, track.xy).mean() >= 0.95
         assert np.isin(np.flatnonzero(truth.visible), track.frame).mean() >= 0.5
-        summary = timeline.cameras[name].details["identification"]
-        assert summary["identified_frames"] == len(track)
-        assert summary["support_frames"] > summary["runner_up_frames"]
+        summary = timeline.cameras[name].identification
+        assert summary.identified_frames == len(track)
+        assert summary.support_frames > summary.runner_up_frames
 
 
 def test_detections_brought_by_the_user_and_a_camera_without_the_path(crowd_run, tmp_path):

@@ -29,16 +29,19 @@ from scipy.spatial import cKDTree
 
 from calibration.camera import Camera
 from tlsync_pipeline.errors import SyncError
-from tlsync_pipeline.sync.clock import CameraClock, camera_clock
+from tlsync_pipeline.sync.clock import CameraClock, FrameTimes, camera_clock
 from tlsync_pipeline.sync.line_search import LineSearch, find_line
-from tlsync_pipeline.sync.refine import MIN_FRAMES, PiecewiseTrajectory, refine_line
+from tlsync_pipeline.sync.refine import MIN_FRAMES, refine_line
+from tlsync_pipeline.sync.timeline import IdentificationSummary, TrackletShare
 from tlsync_pipeline.sync.votes import Votes
-from tlsync_pipeline.trajectory import Trajectory
+from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
 from trackers.detections import Detections
 from trackers.track import Track
 
 FOLLOW_WEIGHT = 2.0
 MAX_ROUNDS = 5
+R_MIN = 0.01  # smallest inlier ratio (of thinned votes) the line search over every candidate must find
+F_SCALE_PX = 3.0  # robust loss scale of the refinement on the assigned candidates
 MIN_FOLLOW_SHARE = 0.5  # a tracklet "follows" the path when this share of its frames is within the gate
 
 
@@ -73,17 +76,11 @@ class Identification:
     tracklets: tuple[TrackletUse, ...]
     rounds: int
 
-    def summary(self) -> dict:
-        """Entries for timeline.json: tracklets used, share of the track's frames on each, line supports."""
+    def summary(self) -> IdentificationSummary:
+        """What timeline.json reports: tracklets used, share of the track's frames on each, line supports."""
         n = max(len(self.track), 1)
-        return {
-            "candidates_voting": int(np.unique(self.vote_rows).size),
-            "identified_frames": len(self.track),
-            "tracklets": [{"id": t.id, "frames": t.assigned, "share": t.assigned / n, "follow_share": t.follow_share} for t in self.tracklets],
-            "support_frames": self.search.support,
-            "runner_up_frames": self.search.runner_up,
-            "rounds": self.rounds,
-        }
+        tracklets = tuple(TrackletShare(t.id, t.assigned, t.assigned / n, t.follow_share) for t in self.tracklets)
+        return IdentificationSummary(int(np.unique(self.vote_rows).size), len(self.track), tracklets, self.search.support, self.search.runner_up, self.rounds)
 
 
 def detections_clock(detections: Detections, fps: float | None) -> tuple[CameraClock, np.ndarray]:
@@ -92,7 +89,7 @@ def detections_clock(detections: Detections, fps: float | None) -> tuple[CameraC
     times = detections.time_s[first]
     per_frame = Track(frames, np.zeros(len(frames)), np.zeros(len(frames)), time_s=times if np.isfinite(times).all() else None)
     clock = camera_clock(per_frame, fps)
-    return clock, clock.frames[np.searchsorted(frames, detections.frame)]
+    return clock, clock.clock_at(detections.frame, FrameTimes.of_track(per_frame))
 
 
 def candidate_votes(camera: Camera, detections: Detections, trajectory: Trajectory, eps_px: float) -> tuple[Votes, np.ndarray]:
@@ -171,9 +168,9 @@ def identify_target(
     eps_px: float,
     delta: float,
     p: float,
-    r_min: float,
     seed: int,
-    f_scale_px: float = 3.0,
+    r_min: float = R_MIN,
+    f_scale_px: float = F_SCALE_PX,
     gate_px: float | None = None,
     prefer: frozenset[int] = frozenset(),
 ) -> Identification:
@@ -187,7 +184,7 @@ def identify_target(
     """
     gate = eps_px if gate_px is None else gate_px
     votes, vote_rows = candidate_votes(camera, detections, trajectory, eps_px)
-    clock, row_clock = detections_clock(detections, fps)
+    _, row_clock = detections_clock(detections, fps)
     vote_clock = row_clock[vote_rows]
     try:
         search = find_line(votes.sample, vote_clock, votes.dist, delta, p, r_min, seed, group=detections.id[vote_rows])

@@ -45,7 +45,7 @@ def test_identifies_the_target_among_look_alike_walkers(seed):
     name = "cam0"
     detections, target_rows = _crowd_detections(scene, name, seed=seed)
     camera = scene.cameras[name]
-    found = identify_target(camera, detections, scene.trajectory, camera.fps, P.eps_px, P.delta, P.p, P.r_min, P.seed)
+    found = identify_target(camera, detections, scene.trajectory, camera.fps, P.eps_px, P.delta, P.p, P.seed)
     picked = {(f, i) for f, i in zip(detections.frame[found.rows], detections.id[found.rows])}
     assert len(picked & target_rows) >= 0.95 * len(picked)
     assert len(picked & target_rows) >= 0.9 * len(target_rows)
@@ -53,9 +53,9 @@ def test_identifies_the_target_among_look_alike_walkers(seed):
     frames = scene.tracks[name].frame
     assert np.abs((found.alpha - truth.alpha) * (frames - truth.beta) / truth.alpha + found.beta - truth.beta).max() < 0.5
     summary = found.summary()
-    assert {t["id"] for t in summary["tracklets"][:3]} == {0, 1, 2}
-    assert sum(t["frames"] for t in summary["tracklets"]) == len(found.track)
-    assert summary["support_frames"] > summary["runner_up_frames"]
+    assert {t.id for t in summary.tracklets[:3]} == {0, 1, 2}
+    assert sum(t.frames for t in summary.tracklets) == summary.identified_frames == len(found.track)
+    assert summary.support_frames > summary.runner_up_frames
     assert len(np.unique(found.track.frame)) == len(found.track)
 
 
@@ -66,7 +66,7 @@ def test_a_camera_the_path_never_enters_is_named():
     behind = camera.t + [0.0, 0.0, -1e4]  # the whole path 10 km behind the camera
     away = type(camera)(camera.name, camera.K, camera.dist, camera.R, behind, camera.image_size, camera.fps)
     with pytest.raises(SyncError, match="camera cam0: the target's projected path never enters its image"):
-        identify_target(away, detections, scene.trajectory, camera.fps, P.eps_px, P.delta, P.p, P.r_min, P.seed)
+        identify_target(away, detections, scene.trajectory, camera.fps, P.eps_px, P.delta, P.p, P.seed)
 
 
 def test_no_tracklet_following_the_path_is_reported():
@@ -75,7 +75,7 @@ def test_no_tracklet_following_the_path_is_reported():
     detections, target_rows = _crowd_detections(scene, "cam0", walkers=10, seed=3)
     only_walkers = detections.subset(detections.id >= 100)
     with pytest.raises(SyncError, match="camera cam0: no tracklet follows the target's projected path"):
-        identify_target(camera, only_walkers, scene.trajectory, camera.fps, P.eps_px, P.delta, P.p, P.r_min, P.seed)
+        identify_target(camera, only_walkers, scene.trajectory, camera.fps, P.eps_px, P.delta, P.p, P.seed)
 
 
 def test_assignment_prefers_the_tracklet_that_follows_over_a_closer_passer_by():
