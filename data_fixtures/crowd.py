@@ -3,8 +3,7 @@
 Two (or more) fixed cameras, 5 m up and tilted down, look at disjoint patches
 of ground 5-15 m ahead (people about 100 px tall close by and 40 px far away
 at 480x360). The target visits each camera's patch in turn, several times
-(VISIT_S seconds each), leaving every view in between; in its first visit to
-the outermost cameras it also walks out of the view sideways and comes back. Its log is the
+(VISIT_S seconds each), leaving every view in between and coming back to it. Its log is the
 position of its body centre (half its height above the ground), sampled at
 ``log_rate`` Hz with GPS-like noise.
 
@@ -41,7 +40,7 @@ from trackers.track import Track
 
 CAMERA_HEIGHT_M = 5.0
 YAW_STEP_DEG = 90.0  # between neighbouring cameras' headings: tilted down, each view spans up to ~85 deg of azimuth near its bottom edge
-VISIT_S = 7.0  # seconds the target walks in a camera's patch per visit
+VISIT_S = 5.0  # seconds the target walks in a camera's patch per visit
 NEAR_M, FAR_M = 5.5, 15.0  # ground patch walked on, distance ahead of the camera
 PATCH_HALF_WIDTH_M = 5.0
 PERSON_WIDTH_M = 0.45
@@ -256,26 +255,19 @@ def _patch_point(rng, yaw: float, near: np.ndarray | None = None) -> np.ndarray:
 def _target_route(rng, cameras: dict[str, Camera], yaws: list[float], duration_s: float, speed: float) -> tuple[_Route, list[list[tuple[float, float]]]]:
     """The target's waypoints: visits of about VISIT_S seconds to each camera's patch in turn, for ``duration_s`` in all.
 
-    From one view to the next it crosses the narrow gap between them; in its
-    first visit to the outermost cameras it also walks out of the view
-    sideways and comes back. Returns the route and, per camera, the
-    (start, end) times of the target's stays in its image.
+    Between visits it leaves the view it is in (crossing the narrow gap
+    between the views, or the ground below them) and comes back to it a
+    visit later. Returns the route and, per camera, the (start, end) times
+    of the target's stays in its image.
     """
     points: list[np.ndarray] = [_to_world(yaws[0], np.array([0.0, 2.5]))]
     visit = 0
     while _Route(np.array(points), speed, TARGET_HEIGHT_M).duration < duration_s + 2.0:
         k = visit % len(yaws)
         stay: list[np.ndarray] = [_patch_point(rng, yaws[k])]
-        length = float(np.linalg.norm(stay[0] - points[-1]))
-        sideways = visit < len(yaws) and yaws[k] != 0 and k in (0, len(yaws) - 1)
-        side = -1.0 if yaws[k] > 0 else 1.0  # outward, away from the neighbouring view
+        length = 0.0  # walked inside the patch
         while length < speed * VISIT_S:
-            if sideways and length > 0.4 * speed * VISIT_S:
-                y = rng.uniform(NEAR_M + 2.0, FAR_M - 3.0)
-                nxt = _to_world(yaws[k], np.array([side * (0.6 * y + 3.0), y]))
-                sideways = False
-            else:
-                nxt = _patch_point(rng, yaws[k], stay[-1] if _in_patch(yaws[k], stay[-1]) else None)
+            nxt = _patch_point(rng, yaws[k], stay[-1])
             length += float(np.linalg.norm(nxt - stay[-1]))
             stay.append(nxt)
         points += stay
