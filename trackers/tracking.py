@@ -17,6 +17,8 @@ from trackers.track import Track
 from trackers.video import VideoInfo, iter_frames, probe_video, sample_frames
 
 KINDS = ("blob", "csrt")
+# Every-mover detection expects crowds: a frame is taken as a global change (skipped) only above this many blobs.
+MOVERS_MAX_CANDIDATES = 200
 
 
 def track_video(
@@ -81,7 +83,7 @@ def detect_movers(path: str | Path, params: dict | None = None, progress: bool =
     """
     path = Path(path)
     probe_video(path)
-    blob_params = BlobParams.from_dict(params, f"{path}: tracker parameters")
+    blob_params = BlobParams.from_dict({"max_candidates": MOVERS_MAX_CANDIDATES, **(params or {})}, f"{path}: tracker parameters")
     detector = _detector(path, blob_params)
     linker = MoverLinker(blob_params)
     rows = []

@@ -12,7 +12,9 @@ Assignment, given a line: at each frame, the trajectory projects to one
 point; the target is the candidate nearest to it within ``gate_px``,
 preferring candidates whose tracklet stays within the gate over its whole
 stay on the path (cost = distance / gate + FOLLOW_WEIGHT x (1 - the
-tracklet's share of frames within the gate)). The line is refined on the
+tracklet's share of frames within the gate)); assigned candidates whose
+box, in metres at the target's depth, departs from the track's median size
+(merged with a passer-by, cut by an occluder) are left out. The line is refined on the
 assigned candidates (refine.refine_line) and the assignment repeated until
 it no longer changes (at most MAX_ROUNDS rounds).
 
@@ -42,7 +44,8 @@ FOLLOW_WEIGHT = 2.0
 MAX_ROUNDS = 5
 R_MIN = 0.01  # smallest inlier ratio (of thinned votes) the line search over every candidate must find
 F_SCALE_PX = 3.0  # robust loss scale of the refinement on the assigned candidates
-MIN_FOLLOW_SHARE = 0.5  # a tracklet "follows" the path when this share of its frames is within the gate
+MIN_FOLLOW_SHARE = 0.3  # a tracklet "follows" the path when this share of its frames is within the gate
+SIZE_TOLERANCE = 1.35  # an assigned candidate whose size in metres departs from the track's median by more than this factor is left out
 
 
 @dataclass(frozen=True)
@@ -134,6 +137,29 @@ def distances_to_path(camera: Camera, path: PiecewiseTrajectory, clock: np.ndarr
     return out
 
 
+def consistent_size(camera: Camera, path: PiecewiseTrajectory, clock: np.ndarray, w: np.ndarray, h: np.ndarray, alpha: float, beta: float) -> np.ndarray:
+    """Whether each candidate's box, scaled to metres at the target's depth on the line, is within SIZE_TOLERANCE of the median.
+
+    The target keeps its size in metres while its image grows and shrinks
+    with its distance; a blob merged with a passer-by, or cut by an
+    occluder, does not (its centroid is then off the target). Candidates
+    without a box size are kept.
+    """
+    s = (clock - beta) / alpha
+    run = path.run_of(s)
+    depth = np.full(len(clock), np.nan)
+    on = run >= 0
+    if on.any():
+        depth[on] = (path(s[on], run[on]) @ camera.R.T + camera.t)[:, 2]
+    metres = np.column_stack([w * depth / camera.K[0, 0], h * depth / camera.K[1, 1]])
+    known = np.isfinite(metres).all(axis=1) & (metres > 0).all(axis=1)
+    keep = np.ones(len(clock), bool)
+    if known.sum() >= MIN_FRAMES:
+        ratio = np.abs(np.log(metres[known] / np.median(metres[known], axis=0))).max(axis=1)
+        keep[known] = ratio <= np.log(SIZE_TOLERANCE)
+    return keep
+
+
 def assign_target(frame: np.ndarray, tracklet: np.ndarray, distance: np.ndarray, gate_px: float, prefer: frozenset[int] = frozenset()) -> tuple[np.ndarray, dict[int, float]]:
     """Rows chosen as the target (at most one per frame) and each tracklet's share of its on-path rows within the gate.
 
@@ -197,6 +223,7 @@ def identify_target(
     for rounds in range(1, MAX_ROUNDS + 1):
         distance = distances_to_path(camera, path, row_clock, detections.xy, alpha, beta)
         new, share = assign_target(detections.frame, detections.id, distance, gate, prefer)
+        new = new[consistent_size(camera, path, row_clock[new], detections.w[new], detections.h[new], alpha, beta)]
         settled = np.array_equal(new, chosen)
         chosen = new
         if settled or len(chosen) < MIN_FRAMES:

@@ -7,13 +7,14 @@ from data_fixtures import make_scene
 from tlsync_pipeline.errors import SyncError
 from tlsync_pipeline.sync.identify import assign_target, identify_target
 from tlsync_pipeline.sync.params import SyncParams
+from tlsync_pipeline.trajectory import PiecewiseTrajectory
 from trackers.detections import make_detections
 
 P = SyncParams()
 
 
 def _crowd_detections(scene, name, walkers=8, seed=0):
-    """The target's true track (0.5 px noise, 10 % of frames missed, split into 3 tracklets) and
+    """The target's true track (0.5 px noise, 10 % of frames missed, split into 3 tracklets, a box of 0.5 m) and
     ``walkers`` look-alike movers crossing the image at the target's image speed."""
     rng = np.random.default_rng(seed)
     track = scene.tracks[name]
@@ -21,8 +22,11 @@ def _crowd_detections(scene, name, walkers=8, seed=0):
     keep = rng.random(len(track)) > 0.1
     frames = track.frame[keep]
     xy = track.xy[keep] + rng.normal(0, 0.5, (keep.sum(), 2))
+    camera, line = scene.cameras[name], scene.lines[name]
+    position = PiecewiseTrajectory(scene.true_trajectory).positions((frames - line.beta) / line.alpha)
+    size = 0.5 * camera.K[0, 0] / (position @ camera.R.T + camera.t)[:, 2]  # a 0.5 m target, in pixels at its depth
     pieces = np.array_split(np.arange(len(frames)), 3)
-    rows = [(f, f / 30.0, k, x, y, 12, 12, 0.9) for k, idx in enumerate(pieces) for f, (x, y) in zip(frames[idx], xy[idx])]
+    rows = [(frames[i], frames[i] / 30.0, k, xy[i, 0], xy[i, 1], size[i], size[i], 0.9) for k, idx in enumerate(pieces) for i in idx]
     speed = np.median(np.linalg.norm(np.diff(track.xy, axis=0), axis=1))
     n_frames = scene.n_frames[name]
     for j in range(walkers):
