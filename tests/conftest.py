@@ -2,11 +2,16 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import pytest
 
 from data_fixtures import make_scene, write_scene
+from tlsync_pipeline.pipeline.workspace import STRICT_VARIABLE
+
+# A stage that opens a file of the work or project folder it did not declare fails (worker processes inherit this).
+os.environ[STRICT_VARIABLE] = "1"
 
 
 @pytest.fixture(scope="session")

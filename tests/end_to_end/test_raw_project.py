@@ -4,7 +4,8 @@ One small raw project (three cameras at 30, 25 and 15 fps, 320x240, shifts of
 hundreds of frames) serves the whole story: a run killed mid-track resumes
 and completes; the timeline is within one frame of the truth for every pair;
 a second run does nothing; editing one camera's GCPs re-runs exactly that
-camera's calibrate and vote, then sync, export and render.
+camera's calibrate (the pose, not the checkerboards' intrinsics) and vote,
+then sync, export and render.
 """
 
 import os
@@ -16,8 +17,9 @@ import time
 from data_fixtures.raw_project import SMALL, make_raw_project
 from tlsync_pipeline.pipeline.engine import run_graph, status
 from tlsync_pipeline.pipeline.executors import ProcessExecutor
-from tlsync_pipeline.pipeline.graph import Options, build_graph
+from tlsync_pipeline.pipeline.graph import build_graph
 from tlsync_pipeline.pipeline.project import load_project
+from tlsync_pipeline.pipeline.spec import Options
 from tlsync_pipeline.sync.timeline import eps_t, read_timeline
 
 
@@ -68,7 +70,7 @@ def test_raw_project_end_to_end(tmp_path):
         assert eps_t(timeline.relation(a, b), truth, scene.n_frames[a]) <= 1.0, key
 
     again = run_graph(_graph(project_file))
-    assert again.ran == [] and len(again.fresh) == 13
+    assert again.ran == [] and len(again.fresh) == 16
 
     gcp = project_file.parent / "cam1" / "gcp.csv"
     lines = gcp.read_text().splitlines()
@@ -78,5 +80,6 @@ def test_raw_project_end_to_end(tmp_path):
     rows = {row.id: row for row in status(_graph(project_file))}
     assert rows["calibrate/cam1"].state == "stale" and "gcp" in rows["calibrate/cam1"].reasons[0]
     assert rows["calibrate/cam0"].state == "fresh" and rows["track/cam1"].state == "fresh"
+    assert rows["intrinsics/cam1"].state == "fresh"
     edited = run_graph(_graph(project_file))
     assert sorted(edited.ran) == ["calibrate/cam1", "export", "render", "sync", "vote/cam1"]

@@ -2,12 +2,16 @@
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from calibration.camera import read_camera
 from tlsync_pipeline.atomic import atomic_path
 from tlsync_pipeline.errors import InputError
-from tlsync_pipeline.pipeline.project import Project
+from tlsync_pipeline.pipeline.spec import Sources, StageSpec
+from tlsync_pipeline.pipeline.stages.cameras import camera_files, camera_params
+from tlsync_pipeline.pipeline.workspace import StageFiles
 from tlsync_pipeline.sync.params import SyncParams
 from tlsync_pipeline.sync.synchronize import CameraInput, CameraResult, synchronize
 from tlsync_pipeline.sync.timeline import Timeline, write_timeline
@@ -16,7 +20,7 @@ from trackers.track import read_track
 
 
 def read_camera_inputs(cameras: dict[str, dict]) -> dict:
-    """CameraInput per camera from the paths the graph passes to stage functions."""
+    """CameraInput per camera from the paths of ``stages.cameras.camera_files``."""
     out = {}
     for name, c in cameras.items():
         cam = read_camera(c["camera"], name=name)
@@ -24,15 +28,15 @@ def read_camera_inputs(cameras: dict[str, dict]) -> dict:
     return out
 
 
-def run_sync(cameras: dict[str, dict], trajectory: Path, params: dict, out: Path) -> dict:
+def run_sync(files: StageFiles, cameras: list[str], fps: dict[str, float | None], sync: dict) -> dict:
     """The sync stage: each camera's line and the timeline, ``timeline.json``.
 
     The sync method computes the votes it fits from the same camera, track and
     trajectory files as the vote stage (with its own trajectory handling);
     ``votes.npz`` is what render draws and what orders the stages.
     """
-    timeline, _ = synchronize(read_camera_inputs(cameras), read_trajectory(trajectory), SyncParams(**params))
-    with atomic_path(out) as tmp:
+    timeline, _ = synchronize(read_camera_inputs(camera_files(files, cameras, fps)), read_trajectory(files.path("trajectory")), SyncParams(**sync))
+    with files.write("timeline") as tmp:
         write_timeline(timeline, tmp)
     return {"synchronized": timeline.names, "failed": timeline.failed}
 
@@ -59,3 +63,21 @@ def run_project(project: Project, out_dir: Path) -> tuple[Timeline, dict[str, Ca
     with atomic_path(out_dir / "timeline.json") as tmp:
         write_timeline(timeline, tmp)
     return timeline, results
+
+
+def sync_inputs(src: Sources, camera: None) -> dict:
+    """Every camera's calibration, track and votes, and the trajectory."""
+    inputs = {f"{kind}:{spec['name']}": src.artefact(kind, spec["name"]) for spec in src.project.cameras for kind in ("camera", "track", "votes")}
+    return {**inputs, "trajectory": src.artefact("trajectory")}
+
+
+SPEC = StageSpec(
+    "sync",
+    inputs=sync_inputs,
+    params=lambda project, camera, options: {**camera_params(project), "sync": dataclasses.asdict(project.sync)},
+    outputs=("timeline",),
+    run=run_sync,
+)
+
+if TYPE_CHECKING:
+    from tlsync_pipeline.pipeline.project import Project
