@@ -174,3 +174,32 @@ def test_a_failed_calibration_keeps_the_previous_artefacts(project):
     (root / "gcp_cam1.csv").write_text("u,v,x,y,z\n1,2,3\n")
     assert _cli("calibrate", root / "project.toml", "--camera", "cam1", "--quiet").exit_code == 2
     assert (root / "work" / "cameras" / "cam1" / "camera.json").read_text() == before
+
+
+def test_the_executor_decides_how_many_processes_detect_the_boards(project, monkeypatch):
+    """Alone in this process the intrinsics stage may use the executor's cores; in a pool's worker, one (no nested pool)."""
+    from tlsync_pipeline.pipeline.engine import run_graph
+    from tlsync_pipeline.pipeline.executors import ProcessExecutor, SerialExecutor
+    from tlsync_pipeline.pipeline.graph import build_graph
+    from tlsync_pipeline.pipeline.stages import intrinsics
+
+    root, _ = project
+    graph = build_graph(load_project(root / "project.toml"), root / "work")
+    workers = []
+    original = intrinsics.calibrate_images
+    # Record the processes the stage asks for (and detect with one here, to keep the test short).
+    monkeypatch.setattr(intrinsics, "calibrate_images", lambda *a, **k: workers.append(k["workers"]) or original(*a, **{**k, "workers": 1}))
+    assert "intrinsics/cam0" in run_graph(graph, SerialExecutor(cores=3), targets=["intrinsics/cam0"]).ran
+    assert workers == [3]
+
+    class RecordingPool(ProcessExecutor):
+        cores_given: dict = {}
+
+        def submit(self, fn, kwargs):
+            self.cores_given[kwargs["files"].task] = kwargs["files"].cores
+            return super().submit(fn, kwargs)
+
+    pool = RecordingPool(2)
+    summary = run_graph(graph, pool, targets=["calibrate/cam0", "calibrate/cam1"])
+    assert sorted(summary.ran) == ["calibrate/cam0", "calibrate/cam1"] and not summary.failed
+    assert pool.cores_given == {"calibrate/cam0": 1, "calibrate/cam1": 1}
