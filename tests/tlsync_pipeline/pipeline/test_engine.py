@@ -3,6 +3,7 @@
 import csv
 import json
 import os
+import shutil
 
 import pytest
 from click.testing import CliRunner
@@ -107,8 +108,20 @@ def test_manifest_records_inputs_params_and_outputs(project_dir):
     run_graph(_graph(project_dir))
     manifest = read_manifest(project_dir / "work" / "cameras" / "cam0" / "vote.manifest.json")
     assert manifest.stage == "vote" and manifest.camera == "cam0" and manifest.params == {"eps_px": 10.0}
-    assert manifest.inputs["track"]["path"].endswith("cam0/track.csv") and len(manifest.inputs["track"]["sha256"]) == 64
+    assert manifest.inputs["track"]["path"] == "cam0/track.csv" and len(manifest.inputs["track"]["sha256"]) == 64
     assert list(manifest.outputs) == ["cameras/cam0/votes.npz"]
+    assert "tlsync_pipeline.sync.votes" in manifest.code and "tlsync_pipeline.pipeline.engine" not in manifest.code
+    sync = read_manifest(project_dir / "work" / "sync.manifest.json")
+    assert sync.inputs["votes:cam1"]["path"] == "<work>/cameras/cam1/votes.npz"
+
+
+def test_moving_the_project_and_its_work_folder_apart_keeps_everything_fresh(project_dir, tmp_path):
+    run_graph(_graph(project_dir, tmp_path / "work_elsewhere"))
+    shutil.copytree(project_dir, tmp_path / "moved" / "project")
+    shutil.copytree(tmp_path / "work_elsewhere", tmp_path / "moved" / "deeper" / "work")
+    moved = _graph(tmp_path / "moved" / "project", tmp_path / "moved" / "deeper" / "work")
+    assert {row.state for row in status(moved) if row.state != "given"} == {"fresh"}
+    assert run_graph(moved).ran == []
 
 
 def test_a_second_run_on_a_locked_work_folder_is_refused(project_dir):
