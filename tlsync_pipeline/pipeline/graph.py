@@ -12,7 +12,7 @@ artefact, and the stage that would make it has no task.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -93,7 +93,7 @@ class Graph:
     workspace: Workspace
     tasks: dict[str, Task]
     given: dict[str, Given]
-    options: Options = Options()
+    options: Options = field(default_factory=Options)
 
     @property
     def work(self) -> Path:

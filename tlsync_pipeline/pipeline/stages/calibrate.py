@@ -37,8 +37,8 @@ from tlsync_pipeline.pipeline.spec import Sources, StageSpec
 from tlsync_pipeline.pipeline.stages.intrinsics import check_calibration
 from tlsync_pipeline.pipeline.workspace import StageFiles
 
-# Keys of [cameras.calibration] that name files: inputs of the stages, not parameters.
-FILE_KEYS = ("images", "video", "intrinsics", "gcp")
+# Keys of [cameras.calibration] the pose uses as parameters (its files are inputs; the rest is the intrinsics stage's).
+POSE_KEYS = ("pattern", "square", "ransac_px", "board_pose")
 
 
 def has_calibration(spec: dict) -> bool:
@@ -168,9 +168,9 @@ def draw_calibration(report: dict, image_size: tuple[int, int], path: Path) -> N
 def run_calibrate(files: StageFiles, calibration: dict, fps: float | None, origin: Origin | str | None) -> dict:
     """The calibrate stage: camera.json, calibration_report.json and calibration.png of one camera."""
     known = read_camera(files.path("intrinsics"))
-    if files.has("intrinsics_report"):
+    if files.has("intrinsics_report"):  # calibrated by the intrinsics stage: its rms stays in camera.json
         intrinsics_report = json.loads(files.path("intrinsics_report").read_text(encoding="utf-8"))
-    else:
+    else:  # a given camera.json: only its intrinsics are taken
         known = Camera(known.name, known.K, known.dist, known.R, known.t, known.image_size, known.fps, known.dist_model)
         intrinsics_report = known_intrinsics(files.path("intrinsics"))
     gcp = files.path("gcp") if files.has("gcp") else None
@@ -191,7 +191,6 @@ def calibrate_inputs(src: Sources, name: str) -> dict[str, Path]:
     """The intrinsics (the intrinsics stage's, or the given camera.json), the pose's files, and the origin's GCPs."""
     check_calibration(src.project, name)
     cal = src.project.camera(name)["calibration"]
-    inputs = {}
     if src.made("intrinsics", name):
         inputs = {"intrinsics": src.artefact("intrinsics", name), "intrinsics_report": src.artefact("intrinsics_report", name)}
     else:
@@ -205,9 +204,10 @@ def calibrate_inputs(src: Sources, name: str) -> dict[str, Path]:
 
 
 def calibrate_params(project: Project, name: str, options) -> dict:
+    """The pose's keys of [cameras.calibration] (the board's pose without its image, an input), fps and the origin setting."""
     cal = project.camera(name)["calibration"]
-    settings = {k: v for k, v in cal.items() if k not in FILE_KEYS and k not in ("model", "max_frames", "max_view_error")}
-    if settings.get("board_pose") is not None:
+    settings = {k: cal[k] for k in POSE_KEYS}
+    if settings["board_pose"] is not None:
         settings["board_pose"] = {k: v for k, v in settings["board_pose"].items() if k != "image"}
     return {"calibration": settings, "fps": project.camera(name)["fps"], "origin": project.target.get("origin")}
 
