@@ -86,11 +86,6 @@ def _reasons(graph: Graph, task: Task, now: _Key, memo: HashMemo) -> list[str]:
     return staleness(read_manifest(manifest_path(graph, task)), now.key, now.code, now.inputs, now.params, memo, graph.work)
 
 
-def task_reasons(graph: Graph, task: Task, memo: HashMemo) -> list[str]:
-    """Why ``task`` must run (empty: its artefacts are fresh), judged on its inputs and code as they are now."""
-    return _reasons(graph, task, _current(graph, task, memo, {}), memo)
-
-
 def status(graph: Graph) -> list[TaskState]:
     """Every stage per camera: fresh, stale (with reasons), missing, given by the user, or blocked.
 
@@ -218,7 +213,7 @@ def _schedule(graph: Graph, executor, wanted: list[str], force: set[str], memo: 
                 echo(f"{tid}: running ({why})")
                 local = task.stage not in PER_CAMERA
                 start = time.perf_counter()
-                where = SerialExecutor() if local else executor
+                where = SerialExecutor(executor.cores) if local else executor  # local tasks share the machine with the pool
                 files = graph.workspace.files(
                     tid, task.camera, task.inputs, task.outputs, progress=graph.options.progress, cores=where.cores, history=_history(graph) if task.spec.history else []
                 )
