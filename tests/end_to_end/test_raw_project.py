@@ -133,5 +133,7 @@ def test_changing_a_sync_module_makes_sync_and_what_follows_stale(finished, monk
     _changed(monkeypatch, "tlsync_pipeline.sync.refine")
     rows = _states(finished)
     stale = {tid for tid, row in rows.items() if row.state != "fresh"}
-    assert stale == {"sync", "export", "render"}
-    assert rows["sync"].reasons == ["code of tlsync_pipeline.sync.refine changed"]
+    # vote prepares the trajectory through the sync-method registry, which imports every method's modules.
+    assert stale == {"vote/cam0", "vote/cam1", "vote/cam2", "sync", "export", "render"}
+    assert rows["sync"].reasons == ["code of tlsync_pipeline.sync.refine changed", "waits for vote/cam0 (stale), vote/cam1 (stale), vote/cam2 (stale)"]
+    assert rows["vote/cam0"].reasons == ["code of tlsync_pipeline.sync.refine changed"]

@@ -9,7 +9,12 @@ import os
 import numpy as np
 import pytest
 
-from tlsync_pipeline.pipeline.workspace import STRICT_VARIABLE, Artefact, UndeclaredFileError, Workspace
+from tlsync_pipeline.pipeline.workspace import (
+    STRICT_VARIABLE,
+    Artefact,
+    UndeclaredFileError,
+    Workspace,
+)
 
 
 @pytest.fixture

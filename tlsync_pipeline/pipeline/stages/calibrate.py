@@ -37,6 +37,9 @@ from tlsync_pipeline.pipeline.spec import Sources, StageSpec
 from tlsync_pipeline.pipeline.stages.intrinsics import check_calibration
 from tlsync_pipeline.pipeline.workspace import StageFiles
 
+if TYPE_CHECKING:
+    from tlsync_pipeline.pipeline.project import Project
+
 # Keys of [cameras.calibration] the pose uses as parameters (its files are inputs; the rest is the intrinsics stage's).
 POSE_KEYS = ("pattern", "square", "ransac_px", "board_pose")
 
@@ -221,6 +224,3 @@ SPEC = StageSpec(
     per_camera=True,
     applies=lambda project, name: project.camera(name)["camera"] is None and has_calibration(project.camera(name)),
 )
-
-if TYPE_CHECKING:
-    from tlsync_pipeline.pipeline.project import Project

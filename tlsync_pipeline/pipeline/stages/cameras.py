@@ -12,9 +12,12 @@ if TYPE_CHECKING:
 CAMERA_FILES = ("camera", "track", "votes", "video")
 
 
-def camera_files(files: StageFiles, names: list[str], fps: dict[str, float | None]) -> dict[str, dict]:
-    """Per camera, the paths a stage declared as ``<kind>:<camera>`` (kinds: CAMERA_FILES) and the camera's fps."""
-    return {n: {"fps": fps[n], **{k: files.path(f"{k}:{n}") for k in CAMERA_FILES if files.has(f"{k}:{n}")}} for n in names}
+def camera_files(files: StageFiles, names: list[str], fps: dict[str, float | None] | None = None) -> dict[str, dict]:
+    """Per camera, the paths a stage declared as ``<kind>:<camera>`` (kinds: CAMERA_FILES) and, given ``fps``, the camera's fps."""
+    out = {n: {k: files.path(f"{k}:{n}") for k in CAMERA_FILES if files.has(f"{k}:{n}")} for n in names}
+    for n in out if fps is not None else ():
+        out[n]["fps"] = fps[n]
+    return out
 
 
 def camera_params(project: Project) -> dict:

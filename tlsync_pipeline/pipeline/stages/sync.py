@@ -2,21 +2,25 @@
 
 from __future__ import annotations
 
-import dataclasses
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from calibration.camera import read_camera
 from tlsync_pipeline.atomic import atomic_path
-from tlsync_pipeline.errors import InputError
+from tlsync_pipeline.errors import InputError, SyncError
 from tlsync_pipeline.pipeline.spec import Sources, StageSpec
 from tlsync_pipeline.pipeline.stages.cameras import camera_files, camera_params
 from tlsync_pipeline.pipeline.workspace import StageFiles
-from tlsync_pipeline.sync.params import SyncParams
-from tlsync_pipeline.sync.synchronize import CameraInput, CameraResult, synchronize
+from tlsync_pipeline.sync.methods import CameraInput
+from tlsync_pipeline.sync.registry import params_from_table, params_table
+from tlsync_pipeline.sync.synchronize import CameraResult, synchronize
 from tlsync_pipeline.sync.timeline import Timeline, write_timeline
+from tlsync_pipeline.sync.votes import load_votes
 from tlsync_pipeline.trajectory import Trajectory, read_trajectory
 from trackers.track import read_track
+
+if TYPE_CHECKING:
+    from tlsync_pipeline.pipeline.project import Project
 
 
 def read_camera_inputs(cameras: dict[str, dict]) -> dict:
@@ -28,14 +32,22 @@ def read_camera_inputs(cameras: dict[str, dict]) -> dict:
     return out
 
 
-def run_sync(files: StageFiles, cameras: list[str], fps: dict[str, float | None], sync: dict) -> dict:
-    """The sync stage: each camera's line and the timeline, ``timeline.json``.
+def read_votes(cameras: dict[str, dict]) -> dict:
+    """Each camera's votes.npz: its Votes, or the SyncError the vote stage met."""
+    out = {}
+    for name, c in cameras.items():
+        votes, error = load_votes(c["votes"])
+        out[name] = SyncError(error) if error else votes
+    return out
 
-    The sync method computes the votes it fits from the same camera, track and
-    trajectory files as the vote stage (with its own trajectory handling);
-    ``votes.npz`` is what render draws and what orders the stages.
+
+def run_sync(files: StageFiles, cameras: list[str], fps: dict[str, float | None], sync: dict) -> dict:
+    """The sync stage: each camera's line fitted to the vote stage's votes, ``timeline.json``.
+
+    sync: the ``[sync]`` table (sync.registry.params_table).
     """
-    timeline, _ = synchronize(read_camera_inputs(camera_files(files, cameras, fps)), read_trajectory(files.path("trajectory")), SyncParams(**sync))
+    paths = camera_files(files, cameras, fps)
+    timeline, _ = synchronize(read_camera_inputs(paths), read_trajectory(files.path("trajectory")), params_from_table(sync), read_votes(paths))
     with files.write("timeline") as tmp:
         write_timeline(timeline, tmp)
     return {"synchronized": timeline.names, "failed": timeline.failed}
@@ -74,10 +86,7 @@ def sync_inputs(src: Sources, camera: None) -> dict:
 SPEC = StageSpec(
     "sync",
     inputs=sync_inputs,
-    params=lambda project, camera, options: {**camera_params(project), "sync": dataclasses.asdict(project.sync)},
+    params=lambda project, camera, options: {**camera_params(project), "sync": params_table(project.sync)},
     outputs=("timeline",),
     run=run_sync,
 )
-
-if TYPE_CHECKING:
-    from tlsync_pipeline.pipeline.project import Project

@@ -1,6 +1,8 @@
-"""The vote stage: one camera's votes (paper eq. 3) into ``votes.npz``."""
+"""The vote stage: one camera's votes (paper eq. 3) into ``votes.npz``, on the trajectory the sync method fits."""
 
 from __future__ import annotations
+
+from typing import Any
 
 import numpy as np
 
@@ -8,20 +10,28 @@ from calibration.camera import read_camera
 from tlsync_pipeline.errors import SyncError
 from tlsync_pipeline.pipeline.spec import StageSpec
 from tlsync_pipeline.pipeline.workspace import StageFiles
-from tlsync_pipeline.sync.votes import Votes, compute_votes, save_votes
+from tlsync_pipeline.sync.methods import CameraInput
+from tlsync_pipeline.sync.registry import params_from_table, vote_table
+from tlsync_pipeline.sync.synchronize import cast_votes, prepare_trajectory
+from tlsync_pipeline.sync.votes import Votes, save_votes
 from tlsync_pipeline.trajectory import read_trajectory
 from trackers.track import read_track
 
 
-def run_vote(files: StageFiles, eps_px: float) -> dict:
+def run_vote(files: StageFiles, **params: Any) -> dict:
     """The vote stage: every (frame, sample) pair within eps_px, saved to ``votes.npz``.
 
-    A camera without any vote is not an error here: the reason is saved and
-    the sync stage lists the camera as not synchronized.
+    params: the ``[sync]`` keys the votes depend on (sync.registry.vote_table). The votes are cast on the trajectory as the
+    chosen sync method prepares it (smoothed, for "refined"): they are the
+    votes the sync stage fits and render draws. A camera without any vote is
+    not an error here: the reason is saved and the sync stage lists the
+    camera as not synchronized.
     """
-    cam = read_camera(files.path("camera"), name=files.camera)
+    sync_params = params_from_table(params)
+    prepared = prepare_trajectory(read_trajectory(files.path("trajectory")), sync_params)
+    inputs = CameraInput(read_camera(files.path("camera"), name=files.camera), read_track(files.path("track")), None)
     try:
-        votes = compute_votes(cam, read_track(files.path("track")), read_trajectory(files.path("trajectory")), eps_px)
+        votes = cast_votes(inputs, prepared, sync_params)
         error = None
     except SyncError as exc:
         votes, error = Votes(np.zeros(0), np.zeros(0), np.zeros(0)), str(exc)
@@ -32,7 +42,7 @@ def run_vote(files: StageFiles, eps_px: float) -> dict:
 SPEC = StageSpec(
     "vote",
     inputs=lambda src, cam: {"camera": src.artefact("camera", cam), "track": src.artefact("track", cam), "trajectory": src.artefact("trajectory")},
-    params=lambda project, cam, options: {"eps_px": project.sync.eps_px},
+    params=lambda project, cam, options: vote_table(project.sync),
     outputs=("votes",),
     run=run_vote,
     per_camera=True,

@@ -193,7 +193,9 @@ def test_the_executor_decides_how_many_processes_detect_the_boards(project, monk
     assert workers == [3]
 
     class RecordingPool(ProcessExecutor):
-        cores_given: dict = {}
+        def __init__(self, jobs):
+            super().__init__(jobs)
+            self.cores_given = {}
 
         def submit(self, fn, kwargs):
             self.cores_given[kwargs["files"].task] = kwargs["files"].cores
