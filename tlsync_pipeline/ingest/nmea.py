@@ -26,12 +26,14 @@ from __future__ import annotations
 
 import datetime as dt
 import math
+import re
 from pathlib import Path
 
 import numpy as np
 import pynmea2
 
 from tlsync_pipeline.errors import InputError
+from tlsync_pipeline.ingest.reader import Reader, text_of
 from tlsync_pipeline.ingest.records import (
     GEODETIC,
     LogRecords,
@@ -265,3 +267,15 @@ def _place_on_calendar(fixes: np.ndarray, rmc_lines, rmc_tod, rmc_days, rmc_acti
     t = (base + days) * 86400.0 + tod
     gga_rows = np.column_stack([t[is_gga], np.r_[fixes[:, 2:5], np.zeros((len(rmc_lines), 3))][order][is_gga]])
     return gga_rows, lines[order][is_gga].astype(np.int64), warnings
+
+
+_SENTENCE = re.compile(r"\$[A-Z0-9]{5},[^\r\n]*\*[0-9A-Fa-f]{2}")
+
+
+def _sniff(head: bytes) -> bool:
+    """A checksummed sentence in the first 20 lines of a text file."""
+    text = text_of(head)
+    return text is not None and any(_SENTENCE.search(line) for line in text.split("\n")[:20])
+
+
+READER = Reader("nmea", "NMEA 0183 ($..GGA sentences)", read_nmea, _sniff)

@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from tlsync_pipeline.errors import InputError
+from tlsync_pipeline.ingest.reader import Reader
 from tlsync_pipeline.ingest.records import (
     GEODETIC,
     LOCAL,
@@ -92,3 +93,7 @@ def read_rosbag(path: str | Path, topic: str | None = None) -> LogRecords:
     rows, numbers = [rows[i] for i in order], [numbers[i] for i in order]
     frame = GEODETIC if msgtype == NAVSATFIX else LOCAL
     return make_records(path, "rosbag", frame, rows, numbers, unit=f"{topic} {UNIT}", dropped=dropped)
+
+
+BAG_MAGIC = (b"#ROSBAG V2.0", b"\x89MCAP", b"SQLite format 3\x00")
+READER = Reader("rosbag", "ROS bag (ROS 1 .bag, ROS 2 folder with metadata.yaml, .db3 or .mcap)", read_rosbag, lambda head: head.startswith(BAG_MAGIC), topics=True)
