@@ -49,4 +49,4 @@ def test_trajectory_csv_keeps_sigma(tmp_path):
     back = read_trajectory(tmp_path / "t.csv")
     np.testing.assert_allclose(back.sigma, trajectory.sigma)
     np.testing.assert_allclose(back.xyz, trajectory.xyz)
-    assert back.rate == 10.0
+    assert abs(back.rate - 10.0) < 1e-9
