@@ -56,6 +56,8 @@ def target_params(project: Project) -> IngestParams:
         max_speed_mps=target["max_speed_mps"],
         smoothing_s=target["smoothing_s"],
         transform=transform,
+        altitude_reference=target["altitude_reference"],
+        altitude_offset_m=target["altitude_offset_m"],
     )
 
 
