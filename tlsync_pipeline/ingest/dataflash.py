@@ -7,8 +7,9 @@ comes from the GPS week ``GWk`` and milliseconds of week ``GMS`` minus the
 leap seconds in force (tlsync_pipeline.ingest.gps_time); fixes with week 0
 have no UTC and are dropped (a log where no fix has a week is read on the
 boot clock ``TimeUS``: offsets work, UTC does not). Where ``GPA`` is logged
-with a non-zero undulation ``Und`` (how far the ellipsoid is above MSL),
-heights are ellipsoidal, ``Alt - Und``; otherwise they stay above MSL.
+with a non-zero undulation ``Und`` (ArduPilot's: MSL height minus ellipsoidal
+height, as the receiver reports both), heights are ellipsoidal, ``Alt -
+Und``; otherwise they stay above MSL.
 ``GPA.HAcc`` (m) is the per-fix sigma; ``HDop``, ``NSats``, ``Status`` and
 ``GPA.VAcc`` are kept.
 """

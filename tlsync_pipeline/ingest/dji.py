@@ -8,9 +8,11 @@ else ``height_above_takeoff`` (relative to the take-off point). Quality:
 ``satellites`` and ``gpslevel`` are kept.
 
 Time: ``datetime(utc)`` has whole seconds and jitters by up to a second
-against ``time(millisecond)``; UTC = time(millisecond) / 1000 + c, where c is
-the median of datetime - time / 1000 plus half a second (the datetime is the
-second the row fell in), per recording run. A recording pause (both clocks
+against ``time(millisecond)``; UTC = time(millisecond) / 1000 + c per
+recording run. Each row's d = datetime - time / 1000 lies in (c - 1, c]
+when its datetime is the second it fell in, a second off when it jitters:
+c is the mean of the d values in the one-second window holding the most
+of them, plus half a second (the mean fraction of a second). A recording pause (both clocks
 jump) or a restart of time(millisecond) starts a new run with its own c;
 that makes the UTC good to about 0.1-0.2 s, time differences inside a run
 exact. Rows with latitude and longitude 0 (before the first fix) are
@@ -121,7 +123,7 @@ def utc_of_rows(clock_s: np.ndarray, whole_utc_s: np.ndarray) -> tuple[np.ndarra
     """(UTC seconds of each row, number of runs) from the flight clock and the whole-second UTC column.
 
     Runs split where the clock goes back or datetime - clock jumps by more
-    than RUN_BREAK_S; per run, UTC = clock + median(datetime - clock) + 0.5.
+    than RUN_BREAK_S; per run, UTC = clock + offset_of_run(datetime - clock).
     """
     if not len(clock_s):
         return clock_s.copy(), 0
@@ -129,8 +131,16 @@ def utc_of_rows(clock_s: np.ndarray, whole_utc_s: np.ndarray) -> tuple[np.ndarra
     breaks = np.flatnonzero((np.diff(clock_s) < 0) | (np.abs(np.diff(d)) > RUN_BREAK_S)) + 1
     t = np.empty_like(clock_s)
     for run in np.split(np.arange(len(clock_s)), breaks):
-        t[run] = clock_s[run] + np.median(d[run]) + 0.5
+        t[run] = clock_s[run] + offset_of_run(d[run])
     return t, len(breaks) + 1
+
+
+def offset_of_run(d: np.ndarray) -> float:
+    """UTC - clock from d = whole-second UTC - clock: the mean of the densest one-second window of d, plus 0.5 s."""
+    d = np.sort(d)
+    counts = np.searchsorted(d, d + 1.0, side="left") - np.arange(len(d))
+    j = int(np.argmax(counts))
+    return float(d[j : j + counts[j]].mean() + 0.5)
 
 
 READER = Reader("dji", "DJI/AirData CSV (header with time(millisecond), datetime(utc), latitude, longitude)", read_dji, _sniff)

@@ -60,9 +60,9 @@ def klv_items(data: bytes, start: int = 0, end: int | None = None):
 
 
 def _values(data: bytes, kind: str, size: int, repeat: int, offset: int, fields: str | None = None) -> list:
-    """The item's values as a flat list (numbers) or a str (type c/U)."""
+    """The item's values as a flat list (numbers) or a str (types c, U, F)."""
     raw = data[offset : offset + size * repeat]
-    if kind in "cU":
+    if kind in "cUF":
         return raw.split(b"\x00", 1)[0].decode("latin-1")
     if kind == "?":
         if not fields:

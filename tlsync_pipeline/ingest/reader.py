@@ -56,6 +56,6 @@ def text_of(head: bytes) -> str | None:
 
 def xml_root(text: str) -> str | None:
     """Local name of an XML document's root element (after the declaration, comments, DOCTYPE), or None."""
-    body = re.sub(r"<\?.*?\?>|<!--.*?-->|<!DOCTYPE[^>]*>", "", text[:20000], flags=re.S).lstrip()
+    body = re.sub(r"<\?.*?\?>|<!--.*?-->|<!DOCTYPE(?:[^\[>]|\[.*?\])*>", "", text[:20000], flags=re.S).lstrip()
     found = re.match(r"<([A-Za-z_][\w.-]*:)?([A-Za-z_][\w.-]*)", body)
     return found.group(2) if found else None

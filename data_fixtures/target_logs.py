@@ -1,0 +1,262 @@
+"""Target logs of a known trajectory in the formats drones, robots and survey receivers write.
+
+Each writer takes the POSIX UTC times ``t`` (N,) and WGS84 ``geo`` (N, 3)
+lat/lon/height (above the ellipsoid) of the truth (``gps_logs.log_fixes``)
+and writes the file as the device does, with its traps: GPS week and
+leap seconds, boot clocks, 1e-7 degree integers and millimetres, feet,
+whole-second UTC, rows before the fix, heights above MSL (the ellipsoid
+height minus UNDULATION_M) where the format keeps them. Binary formats are written
+with the format's own library where one can write it (pymavlink for tlogs,
+rosbags in tests) and otherwise by following the format's specification
+(ULog, DataFlash, GPMF KLV).
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import struct
+from pathlib import Path
+
+import numpy as np
+
+from tlsync_pipeline.ingest.gps_time import GPS_EPOCH_POSIX, WEEK_S, leap_seconds
+
+UNDULATION_M = 47.25  # geoid above the ellipsoid at the fixtures' site: MSL height = ellipsoid height - this
+
+
+def gps_week_tow(t_utc: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(GPS week, time of week s) of POSIX UTC times (adds the leap seconds in force)."""
+    utc = np.asarray(t_utc, dtype=float)
+    gpst = utc + leap_seconds(utc + 18.0) - GPS_EPOCH_POSIX
+    week = np.floor(gpst / WEEK_S)
+    return week.astype(int), gpst - week * WEEK_S
+
+
+# --- PX4 ULog (format spec: https://docs.px4.io/main/en/dev_log/ulog_file_format.html) ---
+
+_ULOG_FIELDS = (
+    ("uint64_t", "timestamp", "Q"), ("uint64_t", "time_utc_usec", "Q"), ("int32_t", "lat", "i"), ("int32_t", "lon", "i"),
+    ("int32_t", "alt", "i"), ("int32_t", "alt_ellipsoid", "i"), ("float", "eph", "f"), ("float", "epv", "f"),
+    ("uint8_t", "fix_type", "B"), ("uint8_t", "satellites_used", "B"),
+)
+
+
+def _ulog_message(kind: bytes, payload: bytes) -> bytes:
+    return struct.pack("<HB", len(payload), kind[0]) + payload
+
+
+def write_ulog(path, t: np.ndarray, geo: np.ndarray, boot_offset_s: float = 250.0, fix_type=None, eph=None, utc: bool = True) -> Path:
+    """A ULog with a vehicle_gps_position topic: boot-clock ``timestamp`` (UTC - boot_offset_s), UTC
+    ``time_utc_usec`` (0 when ``utc`` is False), 1e-7 degree lat/lon, mm heights (MSL and ellipsoid)."""
+    n = len(t)
+    fix_type = np.full(n, 3) if fix_type is None else np.asarray(fix_type)
+    eph = np.full(n, 0.8) if eph is None else np.asarray(eph)
+    out = bytearray(b"ULog\x01\x12\x35\x01" + struct.pack("<Q", 0))
+    out += _ulog_message(b"B", bytes(16) + bytes(24))
+    out += _ulog_message(b"F", ("vehicle_gps_position:" + "".join(f"{c} {name};" for c, name, _ in _ULOG_FIELDS)).encode())
+    out += _ulog_message(b"A", struct.pack("<BH", 0, 0) + b"vehicle_gps_position")
+    layout = "<H" + "".join(code for _, _, code in _ULOG_FIELDS)
+    for i in range(n):
+        boot_us = int(round((t[i] - t[0] + boot_offset_s) * 1e6))
+        lat, lon, h = geo[i]
+        out += _ulog_message(b"D", struct.pack(
+            layout, 0, boot_us, int(round(t[i] * 1e6)) if utc else 0, int(round(lat * 1e7)), int(round(lon * 1e7)),
+            int(round((h - UNDULATION_M) * 1e3)), int(round(h * 1e3)), float(eph[i]), 1.2 * float(eph[i]), int(fix_type[i]), 14,
+        ))
+    Path(path).write_bytes(bytes(out))
+    return Path(path)
+
+
+# --- ArduPilot DataFlash (.bin): FMT table then messages, each after A3 95 <type> ---
+
+_DF_FMT = (128, "FMT", "BBnNZ", "Type,Length,Name,Format,Columns")
+_DF_GPS = (129, "GPS", "QBBIHBCLLe", "TimeUS,I,Status,GMS,GWk,NSats,HDop,Lat,Lng,Alt")
+_DF_GPA = (130, "GPA", "QBCffIf", "TimeUS,I,VDop,HAcc,VAcc,SMS,Und")
+_DF_CODES = {"Q": "Q", "B": "B", "I": "I", "H": "H", "C": "H", "L": "i", "e": "i", "f": "f", "n": "4s", "N": "16s", "Z": "64s", "i": "i"}
+
+
+def _df_struct(fmt: str) -> str:
+    return "<" + "".join(_DF_CODES[c] for c in fmt)
+
+
+def _df_fmt(kind: int, name: str, fmt: str, columns: str) -> bytes:
+    length = 3 + struct.calcsize(_df_struct(fmt))
+    return b"\xa3\x95\x80" + struct.pack("<BB4s16s64s", kind, length, name.encode(), fmt.encode(), columns.encode())
+
+
+def write_dataflash(path, t: np.ndarray, geo: np.ndarray, boot_offset_s: float = 40.0, status=None, week_zero_first: int = 0, gpa: bool = True) -> Path:
+    """A DataFlash log: FMT table (whose text reads "Type,Length,Name,Format,Columns"), GPS with GPS week/ms
+    and MSL height (cm), and (gpa) GPA with HAcc and ArduPilot's undulation (MSL minus ellipsoidal height, so
+    -UNDULATION_M); the first week_zero_first fixes have week 0."""
+    n = len(t)
+    status = np.full(n, 6) if status is None else np.asarray(status)
+    week, tow = gps_week_tow(t)
+    out = bytearray()
+    for kind, name, fmt, cols in (_DF_FMT, _DF_GPS, _DF_GPA):
+        out += _df_fmt(kind, name, fmt, cols)
+    for i in range(n):
+        boot_us = int(round((t[i] - t[0] + boot_offset_s) * 1e6))
+        lat, lon, h = geo[i]
+        zero = i < week_zero_first
+        out += b"\xa3\x95" + bytes([_DF_GPS[0]]) + struct.pack(
+            _df_struct(_DF_GPS[2]), boot_us, 0, int(status[i]), 0 if zero else int(round(tow[i] * 1e3)), 0 if zero else int(week[i]), 15, 70,
+            int(round(lat * 1e7)), int(round(lon * 1e7)), int(round((h - UNDULATION_M) * 100)),
+        )
+        if gpa:
+            out += b"\xa3\x95" + bytes([_DF_GPA[0]]) + struct.pack(_df_struct(_DF_GPA[2]), boot_us, 0, 90, 0.02, 0.03, int(round(tow[i] * 1e3)), -UNDULATION_M)
+    Path(path).write_bytes(bytes(out))
+    return Path(path)
+
+
+# --- MAVLink telemetry log (.tlog), written with pymavlink ---
+
+
+def write_tlog(path, t: np.ndarray, geo: np.ndarray, boot_offset_s: float = 60.0, latency_s: float = 0.35, reboot_at: int | None = None) -> Path:
+    """A tlog: each packet after its big-endian receive stamp (fix time + latency_s); GPS_RAW_INT on the boot
+    clock with SYSTEM_TIME after each; the autopilot reboots before fix reboot_at (boot clock restarts at 20 s)."""
+    from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+    mav = mavlink.MAVLink(None, srcSystem=1, srcComponent=1)
+    out = bytearray()
+    boot0 = t[0] - boot_offset_s
+    for i in range(len(t)):
+        if reboot_at is not None and i == reboot_at:
+            boot0 = t[i] - 20.0
+        boot = t[i] - boot0
+        lat, lon, h = geo[i]
+        receive = int(round((t[i] + latency_s) * 1e6))
+        gps = mav.gps_raw_int_encode(int(round(boot * 1e6)), 6, int(round(lat * 1e7)), int(round(lon * 1e7)), int(round((h - UNDULATION_M) * 1e3)),
+                                     70, 110, 500, 9000, 15, int(round(h * 1e3)), 20, 30, 100, 0, 0)
+        clock = mav.system_time_encode(int(round((t[i] + 0.01) * 1e6)), int(round((boot + 0.01) * 1e3)))
+        for msg, extra in ((gps, 0), (clock, 5000)):
+            out += struct.pack(">Q", receive + extra) + msg.pack(mav)
+    Path(path).write_bytes(bytes(out))
+    return Path(path)
+
+
+# --- RTKLIB .pos ---
+
+
+def write_rtklib_pos(path, t: np.ndarray, geo: np.ndarray, layout: str = "calendar", system: str = "GPST", geodetic: bool = False,
+                     header: bool = True, q=None, sdn=None) -> Path:
+    """An RTKLIB llh solution: calendar or GPS week/TOW times in GPST or UTC, ellipsoidal (or geodetic: MSL)
+    heights, Q and sdn/sde/sdu columns; header False writes data lines only."""
+    n = len(t)
+    q = np.full(n, 1) if q is None else np.asarray(q)
+    sdn = np.full(n, 0.01) if sdn is None else np.asarray(sdn)
+    times = np.asarray(t, dtype=float) + (leap_seconds(np.asarray(t) + 18.0) if system == "GPST" else 0.0)
+    lines = []
+    if header:
+        lines += [
+            "% program   : RTKPOST ver.2.4.3 b34",
+            f"% (lat/lon/height=WGS84/{'geodetic' if geodetic else 'ellipsoidal'},Q=1:fix,2:float,3:sbas,4:dgps,5:single,6:ppp,ns=# of satellites)",
+            f"%  {system:<23s} latitude(deg) longitude(deg)  height(m)   Q  ns   sdn(m)   sde(m)   sdu(m)  sdne(m)  sdeu(m)  sdun(m) age(s)  ratio",
+        ]
+    for i in range(n):
+        lat, lon, h = geo[i]
+        h = h - UNDULATION_M if geodetic else h
+        if layout == "calendar":
+            when = dt.datetime.fromtimestamp(round(times[i], 3), dt.timezone.utc).strftime("%Y/%m/%d %H:%M:%S.%f")[:-3]
+        else:
+            gpst = times[i] - GPS_EPOCH_POSIX
+            week = int(gpst // WEEK_S)
+            when = f"{week:4d} {gpst - week * WEEK_S:10.3f}"
+        lines.append(f"{when}  {lat:14.9f} {lon:14.9f} {h:10.4f} {int(q[i]):3d} {12:3d} {sdn[i]:8.4f} {sdn[i]:8.4f} {2 * sdn[i]:8.4f} {0:8.4f} {0:8.4f} {0:8.4f} {0:6.2f} {999.9:6.1f}")
+    Path(path).write_text("\n".join(lines) + "\n", encoding="ascii")
+    return Path(path)
+
+
+# --- KML ---
+
+
+def _iso(t: float) -> str:
+    return dt.datetime.fromtimestamp(round(t, 3), dt.timezone.utc).isoformat(timespec="milliseconds").replace("+00:00", "Z")
+
+
+def write_kml_track(path, t: np.ndarray, geo: np.ndarray, altitude_mode: str = "absolute") -> Path:
+    """A Google Earth gx:Track (when / gx:coord pairs, lon lat alt), heights above MSL."""
+    whens = "\n".join(f"        <when>{_iso(ti)}</when>" for ti in t)
+    coords = "\n".join(f"        <gx:coord>{lon:.7f} {lat:.7f} {h - UNDULATION_M:.2f}</gx:coord>" for lat, lon, h in geo)
+    Path(path).write_text(f"""<?xml version="1.0" encoding="UTF-8"?>
+<kml xmlns="http://www.opengis.net/kml/2.2" xmlns:gx="http://www.google.com/kml/ext/2.2">
+  <Document>
+    <name>track</name>
+    <Placemark>
+      <name>flight</name>
+      <gx:Track>
+        <altitudeMode>{altitude_mode}</altitudeMode>
+{whens}
+{coords}
+      </gx:Track>
+    </Placemark>
+  </Document>
+</kml>
+""", encoding="utf-8")
+    return Path(path)
+
+
+# --- TUM ---
+
+
+def write_tum(path, t: np.ndarray, xyz: np.ndarray) -> Path:
+    """``timestamp tx ty tz qx qy qz qw`` lines (identity orientation), with a comment header."""
+    lines = ["# timestamp tx ty tz qx qy qz qw"] + [f"{ti:.6f} {x:.4f} {y:.4f} {z:.4f} 0 0 0 1" for ti, (x, y, z) in zip(t, xyz)]
+    Path(path).write_text("\n".join(lines) + "\n", encoding="ascii")
+    return Path(path)
+
+
+# --- DJI / AirData CSV ---
+
+
+def write_airdata_csv(path, t: np.ndarray, geo: np.ndarray, no_fix_rows: int = 5, jitter_seed: int = 0, pause: tuple[int, float] | None = None) -> Path:
+    """An AirData export: time(millisecond) from the flight start, datetime(utc) in whole seconds that lag
+    the true second by 0 or 1 (jitter), heights in feet above MSL and above take-off, no_fix_rows rows with
+    lat/lon 0 first; pause (row, seconds): the flight clock stops for that long (the UTC does not)."""
+    rng = np.random.default_rng(jitter_seed)
+    header = "time(millisecond),datetime(utc),latitude,longitude,height_above_takeoff(feet),altitude_above_seaLevel(feet),satellites,gpslevel,speed(mph)"
+    rows = [header]
+    clock0 = t[0] - 2.0
+    for k in range(no_fix_rows):
+        ms = int(round((k * 0.1) * 1e3))
+        rows.append(f"{ms},{dt.datetime.fromtimestamp(int(clock0 + k * 0.1), dt.timezone.utc):%Y-%m-%d %H:%M:%S},0.0,0.0,0.0,0.0,0,0,0.0")
+    shift = 0.0
+    for i in range(len(t)):
+        if pause is not None and i == pause[0]:
+            shift += pause[1]
+        clock = t[i] - clock0 - shift
+        whole = int(np.floor(t[i])) - int(rng.random() < 0.3)
+        lat, lon, h = geo[i]
+        msl_ft = (h - UNDULATION_M) / 0.3048
+        rows.append(f"{int(round(clock * 1e3))},{dt.datetime.fromtimestamp(whole, dt.timezone.utc):%Y-%m-%d %H:%M:%S},{lat:.8f},{lon:.8f},"
+                    f"{(h - geo[0, 2]) / 0.3048:.1f},{msl_ft:.2f},17,5,12.3")
+    Path(path).write_text("\n".join(rows) + "\n", encoding="utf-8")
+    return Path(path)
+
+
+# --- GoPro GPMF payloads (KLV) ---
+
+
+def _klv(key: bytes, kind: str, size: int, values: bytes, repeat: int) -> bytes:
+    data = key + bytes([ord(kind) if kind else 0, size]) + struct.pack(">H", repeat) + values
+    return data + bytes((-len(values)) % 4)
+
+
+def gpmf_payload(lat_lon_alt: np.ndarray, gpsu_utc: float | None, fix: int = 3, dop: float = 1.5, msl: bool = False) -> bytes:
+    """One GPMF payload (DEVC > STRM) with GPSU, GPSF, GPSP, SCAL and a GPS5 block of the given samples."""
+    scal = (10_000_000, 10_000_000, 1000, 1000, 100)
+    samples = b"".join(struct.pack(">5i", int(round(a * scal[0])), int(round(b * scal[1])), int(round(c * scal[2])), 0, 0) for a, b, c in lat_lon_alt)
+    stream = b""
+    if gpsu_utc is not None:
+        whole = dt.datetime.fromtimestamp(np.floor(gpsu_utc), dt.timezone.utc)
+        text = whole.strftime("%y%m%d%H%M%S") + f"{gpsu_utc - np.floor(gpsu_utc):.3f}"[1:]
+        stream += _klv(b"GPSU", "U", 16, text.encode().ljust(16, b"\0"), 1)
+    stream += _klv(b"GPSF", "L", 4, struct.pack(">I", fix), 1)
+    stream += _klv(b"GPSP", "S", 2, struct.pack(">H", int(round(dop * 100))), 1)
+    if msl:
+        stream += _klv(b"GPSA", "F", 4, b"MSLV", 1)
+    stream += _klv(b"SCAL", "l", 4, struct.pack(">5i", *scal), 5)
+    stream += _klv(b"GPS5", "l", 20, samples, len(lat_lon_alt))
+    strm = _klv(b"STRM", "", 1, stream, len(stream))
+    return _klv(b"DEVC", "", 1, strm, len(strm))
+
+
