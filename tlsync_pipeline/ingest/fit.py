@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import datetime as dt
 import math
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -56,7 +57,8 @@ def read_fit(path: str | Path) -> LogRecords:
     messages = {name: [] for name in SOURCES}
     correlation = None
     try:
-        with fitdecode.FitReader(str(path), check_crc=fitdecode.CrcCheck.WARN) as reader:
+        with warnings.catch_warnings(record=True) as crc_warnings, fitdecode.FitReader(str(path), check_crc=fitdecode.CrcCheck.WARN) as reader:
+            warnings.simplefilter("always")
             for frame in reader:
                 if not isinstance(frame, fitdecode.FitDataMessage):
                     continue
@@ -100,15 +102,15 @@ def read_fit(path: str | Path) -> LogRecords:
         accuracy = m.get("gps_accuracy")
         sigma.append(float(accuracy) if isinstance(accuracy, (int, float)) else math.nan)
     utc = device_times == 0 or offset is not None
-    warnings = []
+    notes = [f"{w.message} (read on; the content may be damaged)" for w in crc_warnings[:1]]
     if device_times and offset is not None:
-        warnings.append(f"{device_times} fix times on the device clock put on UTC by timestamp_correlation")
+        notes.append(f"{device_times} fix times on the device clock put on UTC by timestamp_correlation")
     elif device_times and device_times < len(rows):
         raise InputError(f"{path}: {source} messages mix UTC and device-clock times and there is no timestamp_correlation to join them")
     rows, numbers, sigma = sort_by_time(rows, numbers, sigma)
     sig = np.asarray(sigma, dtype=float)
     return make_records(
-        path, "fit", GEODETIC, rows, numbers, unit=f"{source} message", utc=utc, dropped=dropped, warnings=warnings,
+        path, "fit", GEODETIC, rows, numbers, unit=f"{source} message", utc=utc, dropped=dropped, warnings=notes,
         altitude=MSL, sigma=None if not len(sig) or np.isnan(sig).all() else sig,
         clock=None if utc else "device clock since power-on (s)",
     )
