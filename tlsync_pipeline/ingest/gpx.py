@@ -118,6 +118,12 @@ def _error_line(message: str, text: str) -> int | None:
         value = None
     if value and value in text:
         return text[: text.index(value)].count("\n") + 1
+    missing = re.search(r"(latitude|longitude) is mandatory", message)
+    if missing:
+        attribute = "lat" if missing.group(1) == "latitude" else "lon"
+        point = re.search(rf"<(trkpt|wpt|rtept)\b(?![^>]*\b{attribute}\s*=)[^>]*>", text)
+        if point:
+            return text[: point.start()].count("\n") + 1
     return None
 
 
