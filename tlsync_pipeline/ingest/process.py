@@ -31,7 +31,7 @@ from scipy.signal import savgol_filter
 
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.geodesy import Origin, geodetic_to_enu
-from tlsync_pipeline.ingest.records import ALTITUDE_REFERENCES, ELLIPSOID, GEODETIC, LogRecords
+from tlsync_pipeline.ingest.records import ALTITUDE_NAMES, ALTITUDE_REFERENCES, ELLIPSOID, GEODETIC, LogRecords
 from tlsync_pipeline.trajectory import Trajectory
 
 GAP_FACTOR = 3.0  # an interval over GAP_FACTOR x the median interval is a gap
@@ -147,7 +147,7 @@ class IngestReport:
         if self.altitude:
             a = self.altitude
             offset = f", offset {a['offset_m']:+.3f} m" if a["offset_m"] else ""
-            lines.append(f"heights: above the {a['reference']} ({a['source']}{offset})")
+            lines.append(f"heights: above {ALTITUDE_NAMES[a['reference']]} (as the {a['source']} says{offset})")
         if self.sigma_m:
             lines.append(f"sigma: median {self.sigma_m['median']:.3f} m, 95% {self.sigma_m['p95']:.3f} m (weights for the refinement)")
         if self.gaps:
@@ -265,10 +265,10 @@ def _altitude(records: LogRecords, params: IngestParams, warnings: list[str]) ->
     if records.frame == GEODETIC and reference != ELLIPSOID and offset == 0.0:
         what = "the geoid undulation (tens of metres)" if reference == "msl" else "the take-off point's ellipsoidal height"
         warnings.append(
-            f"heights are above the {reference}, the GCPs and the origin above the WGS84 ellipsoid: Up is off by {what}; "
+            f"heights are above {ALTITUDE_NAMES[reference]}, the GCPs and the origin above the WGS84 ellipsoid: Up is off by {what}; "
             "give [target] altitude_offset_m (or declare altitude_reference if the log is wrong about it)"
         )
-    return {"reference": reference, "source": "declared" if declared else "log", "offset_m": offset}
+    return {"reference": reference, "source": "project" if declared else "log", "offset_m": offset}
 
 
 def _stats(values: np.ndarray) -> dict:

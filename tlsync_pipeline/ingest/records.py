@@ -17,6 +17,7 @@ ELLIPSOID = "ellipsoid"  # the WGS84 ellipsoid (GNSS receivers' native height; t
 MSL = "msl"  # mean sea level (the geoid): ellipsoid height minus the geoid undulation, tens of metres
 TAKEOFF = "takeoff"  # the take-off point (barometric height of a drone): a relative height
 ALTITUDE_REFERENCES = (ELLIPSOID, MSL, TAKEOFF)
+ALTITUDE_NAMES = {ELLIPSOID: "the WGS84 ellipsoid", MSL: "mean sea level (MSL)", TAKEOFF: "the take-off point"}
 
 
 @dataclass(frozen=True)

@@ -6,9 +6,13 @@ fix by the radio link's latency and jitter. Fix times come from the
 autopilot instead: ``GPS_RAW_INT.time_usec`` is the fix time on the
 autopilot's boot clock (or UTC when over ~30 years), put on UTC by the boot
 clock -> UTC offset that ``SYSTEM_TIME`` (``time_unix_usec`` with
-``time_boot_ms``) reports, the median over each boot. The autopilot may
-reboot mid-log: a boot clock that falls back by more than a second starts a
-new boot with its own offset. A boot without any SYSTEM_TIME UTC takes the
+``time_boot_ms``) reports, the median over each boot. Only the messages of
+the sender of the most GPS_RAW_INT (the autopilot's system and component)
+are used: ground stations and companion computers send SYSTEM_TIME with
+their own clocks. The autopilot may
+reboot mid-log: a boot clock that falls back by more than a second, to less
+than half its value, starts a new boot with its own offset (smaller steps
+back are packets the link repeated). A boot without any SYSTEM_TIME UTC takes the
 median offset of the receive stamps instead, and the report warns.
 ``fix_type`` < 3 is dropped. ``alt_ellipsoid`` (mm) is used when the
 autopilot fills it (not all zero), else ``alt`` (mm above MSL). ``h_acc``
@@ -19,6 +23,7 @@ autopilot fills it (not all zero), else ``alt`` (mm above MSL). ``h_acc``
 from __future__ import annotations
 
 import struct
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -52,8 +57,7 @@ def read_tlog(path: str | Path) -> LogRecords:
     path = Path(path)
     from pymavlink import mavutil
 
-    fixes, offsets, receive = [], [], []  # fixes: (boot index, message number, dict, receive time)
-    boot_index, last_boot = 0, None
+    events: dict[tuple[int, int], list] = {}  # (system, component) -> [(type, message number, dict, receive time)]
     try:
         log = mavutil.mavlogfile(str(path), robust_parsing=True)
         number = 0
@@ -61,26 +65,45 @@ def read_tlog(path: str | Path) -> LogRecords:
             msg = log.recv_match(type=["GPS_RAW_INT", "SYSTEM_TIME"])
             if msg is None:
                 break
-            d = msg.to_dict()
-            if msg.get_type() == "SYSTEM_TIME":
-                boot_s = d["time_boot_ms"] * 1e-3
-            else:
-                number += 1
-                boot_s = d["time_usec"] * 1e-6 if 0 < d["time_usec"] < UTC_US else None
-            if boot_s is not None:
-                if last_boot is not None and boot_s < last_boot - REBOOT_S:
-                    boot_index += 1
-                last_boot = boot_s
-            if msg.get_type() == "SYSTEM_TIME":
-                if d["time_unix_usec"] > UTC_US:
-                    offsets.append((boot_index, d["time_unix_usec"] * 1e-6 - boot_s))
-            else:
-                fixes.append((boot_index, number, d, float(getattr(msg, "_timestamp", np.nan))))
+            number += msg.get_type() == "GPS_RAW_INT"
+            source = (msg.get_srcSystem(), msg.get_srcComponent())
+            events.setdefault(source, []).append((msg.get_type(), number, msg.to_dict(), float(getattr(msg, "_timestamp", np.nan))))
     except Exception as exc:  # pymavlink raises struct/index errors on damaged streams
         raise InputError(f"{path}: not a readable MAVLink telemetry log: {type(exc).__name__}: {exc}") from None
-    if not fixes:
+    gps_count = {source: sum(e[0] == "GPS_RAW_INT" for e in evs) for source, evs in events.items()}
+    if not gps_count or max(gps_count.values()) == 0:
         raise InputError(f"{path}: no GPS_RAW_INT messages in this telemetry log")
-    return tlog_records(path, fixes, offsets)
+    source = max(gps_count, key=gps_count.get)
+    fixes, offsets = split_boots(events[source])
+    records = tlog_records(path, fixes, offsets)
+    others = [s for s, n in gps_count.items() if n and s != source]
+    if others:
+        note = f"GPS_RAW_INT from {len(others) + 1} senders; read system {source[0]} component {source[1]} (the most messages)"
+        records = replace(records, warnings=(*records.warnings, note))
+    return records
+
+
+def split_boots(events: list) -> tuple[list, list]:
+    """(fixes as (boot, number, dict, receive time), offsets as (boot, UTC - boot clock s)) of one sender's
+    messages in file order. A boot clock falling back by more than REBOOT_S and to less than half its
+    value starts a new boot; smaller steps back are packets repeated or delayed by the link."""
+    fixes, offsets = [], []
+    boot_index, last_boot = 0, None
+    for kind, number, d, receive in events:
+        if kind == "SYSTEM_TIME":
+            boot_s = d["time_boot_ms"] * 1e-3
+        else:
+            boot_s = d["time_usec"] * 1e-6 if 0 < d["time_usec"] < UTC_US else None
+        if boot_s is not None:
+            if last_boot is not None and boot_s < min(last_boot - REBOOT_S, 0.5 * last_boot):
+                boot_index += 1
+            last_boot = boot_s
+        if kind == "SYSTEM_TIME":
+            if d["time_unix_usec"] > UTC_US:
+                offsets.append((boot_index, d["time_unix_usec"] * 1e-6 - boot_s))
+        else:
+            fixes.append((boot_index, number, d, receive))
+    return fixes, offsets
 
 
 def tlog_records(path: Path, fixes: list[tuple[int, int, dict, float]], offsets: list[tuple[int, float]]) -> LogRecords:

@@ -127,7 +127,7 @@ def test_dataflash_week_leap_seconds_undulation(tmp_path, truth):
     assert msl.altitude == "msl"
     _close(msl, truth, seconds=0.0011, offset_m=UNDULATION_M)
     _, report = ingest(msl, IngestParams(origin=ORIGIN))
-    assert any("above the msl" in w and "altitude_offset_m" in w for w in report.warnings)
+    assert any("above mean sea level (MSL)" in w and "altitude_offset_m" in w for w in report.warnings)
     _, fixed = ingest(msl, IngestParams(origin=ORIGIN, altitude_offset_m=UNDULATION_M))
     assert not any("altitude_offset_m" in w for w in fixed.warnings) and fixed.altitude["offset_m"] == UNDULATION_M
 
