@@ -7,7 +7,9 @@ each packet's samples evenly over its presentation interval [pts, pts +
 duration). UTC: GPS9 samples carry their own (days since 2000 + seconds
 since midnight); for GPS5 the payload's ``GPSU`` is the UTC of its first
 sample, and the video timeline is put on UTC by the median of GPSU - packet
-start over the file (one offset, so GPSU's jitter does not move samples).
+start over the file (one offset, so GPSU's jitter does not move samples, and a
+stale GPSU, as the first payload often has, is outvoted; the report counts
+those off by more than 0.5 s).
 Heights are above MSL when the stream says ``GPSA`` = ``MSLV``, else above
 the WGS84 ellipsoid (GPS5 on HERO5-HERO7). Payloads with ``GPSF`` < 2 (no
 fix) and GPS9 samples with fix < 2 are dropped; DOP (``GPSP`` / 100) is kept.
@@ -27,6 +29,7 @@ from tlsync_pipeline.ingest.records import ELLIPSOID, GEODETIC, MSL, LogRecords,
 UNIT = "GPS sample"
 NO_FIX = "no fix (GPSF or GPS9 fix < 2)"
 DAYS_2000_POSIX = 946684800.0
+STALE_GPSU_S = 0.5
 
 
 def _sniff(head: bytes) -> bool:
@@ -99,7 +102,11 @@ def gopro_records(path: Path, packets: list[tuple[float, float, bytes]]) -> LogR
     if rows and not nine_seen:
         data = np.asarray(rows)
         if anchors:
-            data[:, 0] += float(np.median(anchors))
+            offset = float(np.median(anchors))
+            data[:, 0] += offset
+            stale = int(np.sum(np.abs(np.asarray(anchors) - offset) > STALE_GPSU_S))
+            if stale:
+                warnings.append(f"{stale} payload(s) with a GPSU more than {STALE_GPSU_S:g} s off the others (stale, as GoPros write before the time settles): not used for UTC")
         else:
             warnings.append("no GPSU in the GPS stream: times are the video's presentation times; offsets work, UTC does not")
         rows = data.tolist()
