@@ -12,7 +12,8 @@ file order; printed: fixes compared, max horizontal and vertical difference
 
 Reference readers: pyulog (ULog), pymavlink (DataFlash: DFReader's own GPS
 clock; tlog: GPS_RAW_INT.time_usec + the median SYSTEM_TIME offset),
-fitdecode (FIT), GoPro's gpmf-parser C demo (GPMF; build it from the
+fitdecode (FIT), RTKLIB's readsolt (bench/rtklib_readpos.c, built as its
+header says, path in $RTKLIB_READPOS), GoPro's gpmf-parser C demo (GPMF; build it from the
 gpmf-parser sources with printf precision raised to %.8f and give its path
 in $GPMF_DEMO), numpy.loadtxt (TUM), the mcap library with mcap-ros2-support
 (MCAP). The GoPro time is compared twice: the sample times on the video
@@ -48,6 +49,7 @@ SOURCES = {
     "freiburg1_xyz-groundtruth.txt": "MichaelGrupp/evo test/data/freiburg1_xyz-groundtruth.txt (TUM RGB-D, CC BY 4.0)",
     "georeferenced.tum": "MichaelGrupp/evo test/data/georeferenced.tum (GPL-3.0)",
     "nav2_turtlebot.mcap": "MichaelGrupp/evo test/data/nav2_turtlebot.mcap (GPL-3.0), topic /odom",
+    "rover_1Hz_rtk.pos": "taroz/MatRTKLIB examples/data/kinematic/rover_1Hz_rtk.pos (MIT; 142 fix, 389 float)",
 }
 
 
@@ -151,6 +153,15 @@ def gopro(path):
     return _compare(path.name, "gopro", shifted, r[:, 0], r[:, 1:], time_note=f"video timeline; payloads' GPSU {jitter}")
 
 
+def rtklib(path):
+    readpos = os.environ.get("RTKLIB_READPOS")
+    if not readpos or not Path(readpos).exists():
+        return None
+    ref = np.loadtxt(subprocess.run([readpos, str(path)], capture_output=True, check=True).stdout.decode().splitlines())
+    ref = ref[ref[:, 4] > 0]
+    return _compare(path.name, "rtklib", read_log(path), ref[:, 0], ref[:, 1:4], time_note="RTKLIB readsolt + gpst2utc")
+
+
 def tum(path):
     ref = np.loadtxt(path, comments="#")
     return _compare(path.name, "tum", read_log(path), ref[:, 0], ref_xyz=ref[:, 1:4], time_note="the file's own clock")
@@ -174,7 +185,7 @@ def mcap(path):
 READERS = {
     "sample_log_small.ulg": ulog, "test.BIN": dataflash, "mav.tlog": tlog, "vtol.tlog": tlog,
     "activity-small-fenix2-run.fit": fit, "max-heromode.mp4": gopro, "freiburg1_xyz-groundtruth.txt": tum,
-    "georeferenced.tum": tum, "nav2_turtlebot.mcap": mcap,
+    "georeferenced.tum": tum, "nav2_turtlebot.mcap": mcap, "rover_1Hz_rtk.pos": rtklib,
 }
 
 

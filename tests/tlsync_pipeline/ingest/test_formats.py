@@ -267,3 +267,19 @@ def test_format_choices_come_from_the_registry(tmp_path, truth):
     assert out.read_text().splitlines()[0] == "t,x,y,z,sigma"
     wrong = CliRunner().invoke(main, ["ingest-log", str(log), "--format", "ulog", "--out", str(out)])
     assert wrong.exit_code == 2 and str(log) in wrong.output and "ULog" in wrong.output
+
+
+def test_rtklib_real_solution_fix_and_float():
+    """A real RTKLIB kinematic solution (MatRTKLIB's example, cut): GPST to UTC, Q and sigmas kept, floats weigh less."""
+    path = DATA / "rover_1Hz_rtk_head.pos"
+    records = read_log(path)
+    solutions = [line for line in path.read_text().splitlines() if not line.startswith("%")]
+    assert records.format == "rtklib" and records.altitude == "ellipsoid" and len(records) == len(solutions) == 128
+    # first line: 2023/07/11 06:04:32.000 GPST = 06:04:14 UTC (18 leap seconds)
+    assert records.t[0] == calendar.timegm((2023, 7, 11, 6, 4, 14))
+    np.testing.assert_allclose(records.values[0], [35.165360854, 136.881409534, 41.4069])
+    q = records.quality["Q"]
+    assert set(np.unique(q)) == {1.0, 2.0}
+    assert np.median(records.sigma[q == 2]) > 3 * np.median(records.sigma[q == 1])
+    trajectory, report = ingest(records)
+    assert trajectory.sigma is not None and any("fix" in w and "float" in w for w in report.warnings)
