@@ -283,3 +283,21 @@ def test_rtklib_real_solution_fix_and_float():
     assert np.median(records.sigma[q == 2]) > 3 * np.median(records.sigma[q == 1])
     trajectory, report = ingest(records)
     assert trajectory.sigma is not None and any("fix" in w and "float" in w for w in report.warnings)
+
+
+def test_fit_device_clock_through_timestamp_correlation(tmp_path):
+    from data_fixtures.target_logs import write_fit_device_clock
+
+    power_on = calendar.timegm((2026, 3, 1, 11, 58, 0)) + 0.25
+    walk = walk_trajectory(seconds=30.0, rate=1.0, gap=None)
+    t, geo = log_fixes(walk, ORIGIN, power_on + 100.0)
+    records = read_log(write_fit_device_clock(tmp_path / "camera.fit", t, geo, power_on))
+    assert records.format == "fit" and records.utc and not records.warnings[1:]
+    assert any("timestamp_correlation" in w for w in records.warnings)
+    np.testing.assert_allclose(records.t, t, atol=1e-3)  # the correlation's fraction reaches the whole-second device times
+    enu = geodetic_to_enu(geo[:, 0], geo[:, 1], geo[:, 2], ORIGIN)
+    got = _enu(records, UNDULATION_M)
+    assert np.linalg.norm(got[:, :2] - enu[:, :2], axis=1).max() < 0.02 and np.abs(got[:, 2] - enu[:, 2]).max() < 0.2
+    alone = read_log(write_fit_device_clock(tmp_path / "alone.fit", t, geo, power_on, correlation=False))
+    assert not alone.utc and "device clock" in alone.clock
+    np.testing.assert_allclose(alone.t, np.round(t - power_on), atol=1e-9)
