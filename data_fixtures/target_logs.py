@@ -306,3 +306,19 @@ def write_fit_device_clock(path, t: np.ndarray, geo: np.ndarray, power_on_utc: f
     data = header + body
     Path(path).write_bytes(data + struct.pack("<H", _fit_crc(data)))
     return Path(path)
+
+
+def gpmf_gps9_payload(t_utc: np.ndarray, lat_lon_alt: np.ndarray, fix: np.ndarray, dop: float = 1.2) -> bytes:
+    """One GPMF payload with a GPS9 block (HERO11 onwards): each sample carries days since 2000 and
+    seconds since midnight (UTC, ms), DOP x 100 and its fix; TYPE ``lllllllSS``, 9 SCAL values."""
+    scal = (10_000_000, 10_000_000, 1000, 1000, 100, 1, 1000, 100, 1)
+    samples = b""
+    for ti, (a, b, c), f in zip(t_utc, lat_lon_alt, fix):
+        days, seconds = divmod(ti - 946684800.0, 86400.0)
+        samples += struct.pack(">7i2H", int(round(a * scal[0])), int(round(b * scal[1])), int(round(c * scal[2])), 0, 0,
+                               int(days), int(round(seconds * 1000)), int(round(dop * 100)), int(f))
+    stream = _klv(b"TYPE", "c", 1, b"lllllllSS", 9)
+    stream += _klv(b"SCAL", "l", 4, struct.pack(">9i", *scal), 9)
+    stream += _klv(b"GPS9", "?", 32, samples, len(t_utc))
+    strm = _klv(b"STRM", "", 1, stream, len(stream))
+    return _klv(b"DEVC", "", 1, strm, len(strm))

@@ -301,3 +301,17 @@ def test_fit_device_clock_through_timestamp_correlation(tmp_path):
     alone = read_log(write_fit_device_clock(tmp_path / "alone.fit", t, geo, power_on, correlation=False))
     assert not alone.utc and "device clock" in alone.clock
     np.testing.assert_allclose(alone.t, np.round(t - power_on), atol=1e-9)
+
+
+def test_gopro_gps9_per_sample_utc(truth):
+    from data_fixtures.target_logs import gpmf_gps9_payload
+
+    t, geo, _ = truth
+    fix = np.full(len(t), 3)
+    fix[7] = 0
+    packets = [(k / 5.0, 1.0, gpmf_gps9_payload(t[k : k + 5], geo[k : k + 5], fix[k : k + 5])) for k in range(0, 100, 5)]
+    records = gopro_records(Path("hero12.mp4"), packets)
+    keep = np.flatnonzero(fix[:100] >= 2)
+    assert records.utc and records.dropped == {"no fix (GPSF or GPS9 fix < 2)": [8]}
+    _close(records, truth, keep, seconds=0.0006)
+    assert records.quality["dop"][0] == pytest.approx(1.2)
