@@ -315,3 +315,30 @@ def test_gopro_gps9_per_sample_utc(truth):
     assert records.utc and records.dropped == {"no fix (GPSF or GPS9 fix < 2)": [8]}
     _close(records, truth, keep, seconds=0.0006)
     assert records.quality["dop"][0] == pytest.approx(1.2)
+
+
+def test_nmea_hdop_fix_quality_and_gst_sigma(tmp_path, truth):
+    from functools import reduce
+    from operator import xor
+
+    from data_fixtures.gps_logs import write_nmea_log
+
+    t, geo, _ = truth
+    walk = walk_trajectory(seconds=20.0, rate=5.0, gap=None)
+    lines = write_nmea_log(tmp_path / "a.nmea", walk, ORIGIN, START).read_text().splitlines()
+    out = []
+    for line in lines:
+        out.append(line)
+        if line[3:6] == "GGA":
+            when = line.split(",")[1]
+            error = 0.5 if when.startswith("12000") else 0.02  # the first 10 s noisy
+            body = f"GPGST,{when},0.3,{error:.3f},{error:.3f},0.0,{error:.3f},{error:.3f},{2 * error:.3f}"
+            out.append(f"${body}*{reduce(xor, body.encode()):02X}")
+    path = tmp_path / "gst.nmea"
+    path.write_text("\r\n".join(out) + "\r\n")
+    records = read_log(path)
+    assert set(records.quality) == {"quality", "hdop"} and np.all(records.quality["quality"] == 1)
+    expected = np.where(records.t - calendar.timegm((2026, 3, 1, 12, 0, 10)) < 0, 0.5, 0.02)
+    np.testing.assert_allclose(records.sigma, expected)
+    trajectory, report = ingest(records)
+    assert report.sigma_m["max"] == pytest.approx(0.5) and report.quality["hdop"]["median"] > 0
