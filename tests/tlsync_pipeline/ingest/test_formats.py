@@ -342,3 +342,21 @@ def test_nmea_hdop_fix_quality_and_gst_sigma(tmp_path, truth):
     np.testing.assert_allclose(records.sigma, expected)
     trajectory, report = ingest(records)
     assert report.sigma_m["max"] == pytest.approx(0.5) and report.quality["hdop"]["median"] > 0
+
+
+def test_project_altitude_keys_reach_the_ingest(tmp_path, truth):
+    import json
+
+    t, geo, _ = truth
+    write_kml_track(tmp_path / "track.kml", t, geo)
+    origin = f"[{ORIGIN.lat}, {ORIGIN.lon}, {ORIGIN.alt}]"
+    (tmp_path / "p.toml").write_text(f'[target]\nlog = "track.kml"\nformat = "kml"\norigin = {origin}\naltitude_offset_m = {UNDULATION_M}\n\n[[cameras]]\nname = "c0"\n')
+    result = CliRunner().invoke(main, ["ingest", str(tmp_path / "p.toml"), "--work", str(tmp_path / "work")])
+    assert result.exit_code == 0, result.output
+    assert "heights: above mean sea level (MSL) (as the log says, offset +47.250 m)" in result.output
+    report = json.loads(next((tmp_path / "work").rglob("ingest_report.json")).read_text())
+    assert report["altitude"] == {"reference": "msl", "source": "log", "offset_m": UNDULATION_M}
+    assert not any("altitude_offset_m" in w for w in report["warnings"])
+    (tmp_path / "p.toml").write_text(f'[target]\nlog = "track.kml"\naltitude_reference = "geoid"\n\n[[cameras]]\nname = "c0"\n')
+    bad = CliRunner().invoke(main, ["ingest", str(tmp_path / "p.toml")])
+    assert bad.exit_code == 2 and "unknown altitude reference 'geoid'" in bad.output
