@@ -236,7 +236,8 @@ def write_airdata_csv(path, t: np.ndarray, geo: np.ndarray, no_fix_rows: int = 5
 # --- GoPro GPMF payloads (KLV) ---
 
 
-def _klv(key: bytes, kind: str, size: int, values: bytes, repeat: int) -> bytes:
+def gpmf_klv(key: bytes, kind: str, size: int, values: bytes, repeat: int) -> bytes:
+    """One KLV item: FourCC, type character ("" = nested), structure size, repeat count, data padded to 4 bytes."""
     data = key + bytes([ord(kind) if kind else 0, size]) + struct.pack(">H", repeat) + values
     return data + bytes((-len(values)) % 4)
 
@@ -249,15 +250,15 @@ def gpmf_payload(lat_lon_alt: np.ndarray, gpsu_utc: float | None, fix: int = 3, 
     if gpsu_utc is not None:
         whole = dt.datetime.fromtimestamp(np.floor(gpsu_utc), dt.timezone.utc)
         text = whole.strftime("%y%m%d%H%M%S") + f"{gpsu_utc - np.floor(gpsu_utc):.3f}"[1:]
-        stream += _klv(b"GPSU", "U", 16, text.encode().ljust(16, b"\0"), 1)
-    stream += _klv(b"GPSF", "L", 4, struct.pack(">I", fix), 1)
-    stream += _klv(b"GPSP", "S", 2, struct.pack(">H", int(round(dop * 100))), 1)
+        stream += gpmf_klv(b"GPSU", "U", 16, text.encode().ljust(16, b"\0"), 1)
+    stream += gpmf_klv(b"GPSF", "L", 4, struct.pack(">I", fix), 1)
+    stream += gpmf_klv(b"GPSP", "S", 2, struct.pack(">H", int(round(dop * 100))), 1)
     if msl:
-        stream += _klv(b"GPSA", "F", 4, b"MSLV", 1)
-    stream += _klv(b"SCAL", "l", 4, struct.pack(">5i", *scal), 5)
-    stream += _klv(b"GPS5", "l", 20, samples, len(lat_lon_alt))
-    strm = _klv(b"STRM", "", 1, stream, len(stream))
-    return _klv(b"DEVC", "", 1, strm, len(strm))
+        stream += gpmf_klv(b"GPSA", "F", 4, b"MSLV", 1)
+    stream += gpmf_klv(b"SCAL", "l", 4, struct.pack(">5i", *scal), 5)
+    stream += gpmf_klv(b"GPS5", "l", 20, samples, len(lat_lon_alt))
+    strm = gpmf_klv(b"STRM", "", 1, stream, len(stream))
+    return gpmf_klv(b"DEVC", "", 1, strm, len(strm))
 
 
 
@@ -317,8 +318,8 @@ def gpmf_gps9_payload(t_utc: np.ndarray, lat_lon_alt: np.ndarray, fix: np.ndarra
         days, seconds = divmod(ti - 946684800.0, 86400.0)
         samples += struct.pack(">7i2H", int(round(a * scal[0])), int(round(b * scal[1])), int(round(c * scal[2])), 0, 0,
                                int(days), int(round(seconds * 1000)), int(round(dop * 100)), int(f))
-    stream = _klv(b"TYPE", "c", 1, b"lllllllSS", 9)
-    stream += _klv(b"SCAL", "l", 4, struct.pack(">9i", *scal), 9)
-    stream += _klv(b"GPS9", "?", 32, samples, len(t_utc))
-    strm = _klv(b"STRM", "", 1, stream, len(stream))
-    return _klv(b"DEVC", "", 1, strm, len(strm))
+    stream = gpmf_klv(b"TYPE", "c", 1, b"lllllllSS", 9)
+    stream += gpmf_klv(b"SCAL", "l", 4, struct.pack(">9i", *scal), 9)
+    stream += gpmf_klv(b"GPS9", "?", 32, samples, len(t_utc))
+    strm = gpmf_klv(b"STRM", "", 1, stream, len(stream))
+    return gpmf_klv(b"DEVC", "", 1, strm, len(strm))

@@ -97,6 +97,8 @@ def gopro_records(path: Path, packets: list[tuple[float, float, bytes]]) -> LogR
                 rows.append([t[i], lat, lon, alt])
                 numbers.append(int(numbers_here[i]))
                 dops.append(block.samples[i, 7] if block.nine else (block.dop if block.dop is not None else np.nan))
+    if number == 0:
+        raise InputError(f"{path}: the GPMF track has no GPS5/GPS9 stream (a camera without GPS, or with GPS switched off)")
     warnings = []
     utc = nine_seen or bool(anchors)
     if rows and not nine_seen:

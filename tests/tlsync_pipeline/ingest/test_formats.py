@@ -236,6 +236,15 @@ def test_gopro_gpmf_payloads(truth):
     assert msl.altitude == "msl" and msl.quality["dop"][0] == pytest.approx(1.5)
 
 
+def test_gopro_without_gps_says_so():
+    from data_fixtures.target_logs import gpmf_klv
+
+    name = gpmf_klv(b"STNM", "c", 1, b"Accelerometer", 13)
+    strm = gpmf_klv(b"STRM", "", 1, name, len(name))
+    with pytest.raises(InputError, match="clip.mp4: the GPMF track has no GPS5/GPS9 stream"):
+        gopro_records(Path("clip.mp4"), [(0.0, 1.0, gpmf_klv(b"DEVC", "", 1, strm, len(strm)))])
+
+
 def test_gopro_payload_cut_short_is_named(truth):
     _, geo, _ = truth
     payload = gpmf_payload(geo[:5], 1.7e9)
