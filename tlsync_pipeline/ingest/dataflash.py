@@ -36,7 +36,7 @@ def read_dataflash(path: str | Path) -> LogRecords:
     path = Path(path)
     from pymavlink.DFReader import DFReader_binary
 
-    gps, gpa = [], {}
+    gps, gpa, log = [], {}, None
     try:
         log = DFReader_binary(str(path), zero_time_base=True)
         while True:
@@ -54,6 +54,9 @@ def read_dataflash(path: str | Path) -> LogRecords:
         raise
     except Exception as exc:  # DFReader raises struct, index and value errors on damaged logs
         raise InputError(f"{path}: not a readable ArduPilot DataFlash log: {type(exc).__name__}: {exc}") from None
+    finally:
+        if log is not None:
+            log.close()
     if not gps:
         raise InputError(f"{path}: no GPS messages in this DataFlash log (was a GPS connected? is LOG_BITMASK logging GPS?)")
     return dataflash_records(path, gps, gpa)

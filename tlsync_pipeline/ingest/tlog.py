@@ -58,6 +58,7 @@ def read_tlog(path: str | Path) -> LogRecords:
     from pymavlink import mavutil
 
     events: dict[tuple[int, int], list] = {}  # (system, component) -> [(type, message number, dict, receive time)]
+    log = None
     try:
         log = mavutil.mavlogfile(str(path), robust_parsing=True)
         number = 0
@@ -70,6 +71,9 @@ def read_tlog(path: str | Path) -> LogRecords:
             events.setdefault(source, []).append((msg.get_type(), number, msg.to_dict(), float(getattr(msg, "_timestamp", np.nan))))
     except Exception as exc:  # pymavlink raises struct/index errors on damaged streams
         raise InputError(f"{path}: not a readable MAVLink telemetry log: {type(exc).__name__}: {exc}") from None
+    finally:
+        if log is not None:
+            log.close()
     gps_count = {source: sum(e[0] == "GPS_RAW_INT" for e in evs) for source, evs in events.items()}
     if not gps_count or max(gps_count.values()) == 0:
         raise InputError(f"{path}: no GPS_RAW_INT messages in this telemetry log")
