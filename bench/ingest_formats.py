@@ -15,7 +15,8 @@ clock; tlog: GPS_RAW_INT.time_usec + the median SYSTEM_TIME offset),
 fitdecode (FIT), RTKLIB's readsolt (bench/rtklib_readpos.c, built as its
 header says, path in $RTKLIB_READPOS), GoPro's gpmf-parser C demo (GPMF; build it from the
 gpmf-parser sources with printf precision raised to %.8f and give its path
-in $GPMF_DEMO), numpy.loadtxt (TUM), the mcap library with mcap-ros2-support
+in $GPMF_DEMO), numpy.loadtxt (TUM), Python's csv module (DJI: a CSV has
+no other reader), the mcap library with mcap-ros2-support
 (MCAP). The GoPro time is compared twice: the sample times on the video
 timeline, and the UTC anchoring (each payload's GPSU against tlsync's one
 median offset: GPSU's own jitter).
@@ -50,6 +51,7 @@ SOURCES = {
     "georeferenced.tum": "MichaelGrupp/evo test/data/georeferenced.tum (GPL-3.0)",
     "nav2_turtlebot.mcap": "MichaelGrupp/evo test/data/nav2_turtlebot.mcap (GPL-3.0), topic /odom",
     "rover_1Hz_rtk.pos": "taroz/MatRTKLIB examples/data/kinematic/rover_1Hz_rtk.pos (MIT; 142 fix, 389 float)",
+    "dvm_drone_log.csv": "egemose/DroneVideoMeasure tests/test_data/test_drone_log.csv (MIT; a DJI Phantom 4 Pro flight, OSD layout)",
 }
 
 
@@ -162,6 +164,21 @@ def rtklib(path):
     return _compare(path.name, "rtklib", read_log(path), ref[:, 0], ref[:, 1:4], time_note="RTKLIB readsolt + gpst2utc")
 
 
+def dji_osd(path):
+    import csv
+    import datetime as dt
+
+    rows = []
+    with path.open(newline="", encoding="latin-1") as handle:
+        for row in csv.DictReader(handle):
+            if row["OSD.isGPSused"] == "True":
+                stamp = row["CUSTOM.updateTime"]
+                when = dt.datetime.strptime(stamp, "%Y/%m/%d %H:%M:%S.%f" if "." in stamp else "%Y/%m/%d %H:%M:%S")
+                rows.append((when.replace(tzinfo=dt.timezone.utc).timestamp(), float(row["OSD.latitude"]), float(row["OSD.longitude"]), float(row["OSD.height [m]"])))
+    r = np.array(rows)
+    return _compare(path.name, "dji", read_log(path), r[:, 0], r[:, 1:], time_note="CUSTOM.updateTime (the app's local clock, ms), by Python's csv")
+
+
 def tum(path):
     ref = np.loadtxt(path, comments="#")
     return _compare(path.name, "tum", read_log(path), ref[:, 0], ref_xyz=ref[:, 1:4], time_note="the file's own clock")
@@ -186,6 +203,7 @@ READERS = {
     "sample_log_small.ulg": ulog, "test.BIN": dataflash, "mav.tlog": tlog, "vtol.tlog": tlog,
     "activity-small-fenix2-run.fit": fit, "max-heromode.mp4": gopro, "freiburg1_xyz-groundtruth.txt": tum,
     "georeferenced.tum": tum, "nav2_turtlebot.mcap": mcap, "rover_1Hz_rtk.pos": rtklib,
+    "dvm_drone_log.csv": dji_osd,
 }
 
 

@@ -1,5 +1,6 @@
-"""DJI flight logs as CSV exports from AirData (and tools writing the same columns).
+"""DJI flight logs as CSV: AirData exports, and the ``OSD.*`` layout of TXTlogToCSVtool / CsvView / PhantomHelp.
 
+**AirData layout.**
 Columns: ``time(millisecond)`` (the flight's own clock), ``datetime(utc)``
 (whole seconds), ``latitude``, ``longitude``, heights in feet (``(feet)``)
 or metres (``(meters)``/``(m)``): ``altitude_above_seaLevel`` (MSL: the
@@ -17,6 +18,14 @@ jump) or a restart of time(millisecond) starts a new run with its own c;
 that makes the UTC good to about 0.1-0.2 s, time differences inside a run
 exact. Rows with latitude and longitude 0 (before the first fix) are
 dropped.
+
+**OSD layout** (``OSD.latitude``, ``OSD.longitude``, ``OSD.height [m]`` or
+``[ft]``, ``CUSTOM.updateTime``, optionally with ``CUSTOM.date``): times are
+the app's clock, to the millisecond: UTC when the column says ``[UTC]``,
+else the phone's local time, whose zone the file does not state (offsets
+work, UTC does not). Height is ``OSD.height``, barometric above the take-off
+point. Rows with ``OSD.isGPSused`` False or latitude and longitude 0 are
+dropped; ``OSD.gpsNum`` and ``OSD.gpsLevel`` are kept.
 """
 
 from __future__ import annotations
@@ -34,6 +43,7 @@ from tlsync_pipeline.ingest.reader import Reader, text_of
 from tlsync_pipeline.ingest.records import GEODETIC, MSL, TAKEOFF, LogRecords, check_geodetic, make_records
 
 NO_FIX = "latitude and longitude 0 (no fix yet)"
+NO_GPS = "GPS not used (OSD.isGPSused False, or latitude and longitude 0)"
 MALFORMED = "malformed row"
 FEET = 0.3048
 RUN_BREAK_S = 2.5  # a jump of datetime - time beyond this starts a new run
@@ -48,7 +58,8 @@ def _sniff(head: bytes) -> bool:
     if text is None:
         return False
     header = {_normal(c) for c in text.split("\n", 1)[0].split(",")}
-    return {"time(millisecond)", "latitude", "longitude"} <= header and "datetime(utc)" in header
+    airdata = {"time(millisecond)", "latitude", "longitude"} <= header and "datetime(utc)" in header
+    return airdata or {"osd.latitude", "osd.longitude"} <= header
 
 
 def _height_column(header: list[str]) -> tuple[int, float, str]:
@@ -65,7 +76,11 @@ def read_dji(path: str | Path) -> LogRecords:
     """Read an AirData-style DJI CSV; see the module notes."""
     path = Path(path)
     try:
-        text = path.read_bytes().decode("utf-8-sig", errors="replace")
+        raw = path.read_bytes()
+        try:
+            text = raw.decode("utf-8-sig")
+        except UnicodeDecodeError:
+            text = raw.decode("latin-1")  # CsvView writes the phone's code page
     except OSError as exc:
         raise InputError(f"{path}: cannot read: {exc.strerror or exc}") from None
     reader = csv.reader(io.StringIO(text))
@@ -75,6 +90,8 @@ def read_dji(path: str | Path) -> LogRecords:
         raise InputError(f"{path}: empty log") from None
     except csv.Error as exc:
         raise InputError(f"{path}:1: not a CSV header: {exc}") from None
+    if "osd.latitude" in header:
+        return _read_osd(path, header, reader)
     try:
         col = {name: header.index(name) for name in ("time(millisecond)", "datetime(utc)", "latitude", "longitude")}
         height, scale, altitude = _height_column(header)
@@ -119,6 +136,64 @@ def read_dji(path: str | Path) -> LogRecords:
     return make_records(path, "dji", GEODETIC, rows, data[:, 0].astype(int), dropped=dropped, warnings=warnings, altitude=altitude, quality=quality)
 
 
+_OSD_TIMES = ("%Y/%m/%d %H:%M:%S.%f", "%Y/%m/%d %H:%M:%S", "%m/%d/%Y %I:%M:%S.%f %p", "%m/%d/%Y %I:%M:%S %p", "%Y-%m-%d %H:%M:%S.%f", "%Y-%m-%d %H:%M:%S")
+
+
+def _osd_time(text: str) -> float:
+    """Seconds (as if UTC) of an OSD-layout time text; ValueError when no known layout fits."""
+    for layout in _OSD_TIMES:
+        try:
+            return dt.datetime.strptime(text.strip(), layout).replace(tzinfo=dt.timezone.utc).timestamp()
+        except ValueError:
+            continue
+    raise ValueError(text)
+
+
+def _read_osd(path: Path, header: list[str], reader) -> LogRecords:
+    """The OSD layout (see the module notes)."""
+    def find(prefix: str) -> int | None:
+        return next((i for i, name in enumerate(header) if name.startswith(prefix)), None)
+
+    time_col, date_col = find("custom.updatetime"), find("custom.date")
+    height_col = find("osd.height_[") if find("osd.height_[") is not None else find("osd.height")
+    lat_col, lon_col = header.index("osd.latitude"), header.index("osd.longitude")
+    if time_col is None or height_col is None:
+        raise InputError(f"{path}:1: an OSD-layout DJI CSV needs CUSTOM.updateTime and OSD.height columns")
+    scale = FEET if "[ft]" in header[height_col] else 1.0
+    utc = header[time_col].endswith("[utc]")
+    used, extras = find("osd.isgpsused"), {name: find(name) for name in ("osd.gpsnum", "osd.gpslevel")}
+    rows, numbers, dropped, quality = [], [], {}, {name: [] for name, i in extras.items() if i is not None}
+    try:
+        for number, row in enumerate(reader, start=2):
+            if not row or not any(c.strip() for c in row):
+                continue
+            try:
+                stamp = (row[date_col] + " " + row[time_col]) if date_col is not None and date_col != time_col else row[time_col]
+                t = _osd_time(stamp)
+                lat, lon, h = float(row[lat_col]), float(row[lon_col]), float(row[height_col]) * scale
+            except (ValueError, IndexError, OverflowError):
+                dropped.setdefault(MALFORMED, []).append(number)
+                continue
+            if not all(math.isfinite(v) for v in (lat, lon, h)):
+                dropped.setdefault(MALFORMED, []).append(number)
+                continue
+            if (used is not None and used < len(row) and row[used].strip() == "False") or (lat == 0.0 and lon == 0.0):
+                dropped.setdefault(NO_GPS, []).append(number)
+                continue
+            check_geodetic(path, lat, lon, h, number)
+            rows.append([t, lat, lon, h])
+            numbers.append(number)
+            for name in quality:
+                value = row[extras[name]] if extras[name] < len(row) else ""
+                quality[name].append(float(value) if value.strip().replace(".", "", 1).isdigit() else math.nan)
+    except csv.Error as exc:
+        raise InputError(f"{path}:{reader.line_num}: not CSV: {exc}") from None
+    return make_records(
+        path, "dji", GEODETIC, rows, numbers, utc=utc, dropped=dropped, altitude=TAKEOFF, quality=quality,
+        clock=None if utc else "the DJI app's local clock (time zone not in the file)",
+    )
+
+
 def utc_of_rows(clock_s: np.ndarray, whole_utc_s: np.ndarray) -> tuple[np.ndarray, int]:
     """(UTC seconds of each row, number of runs) from the flight clock and the whole-second UTC column.
 
@@ -143,4 +218,4 @@ def offset_of_run(d: np.ndarray) -> float:
     return float(d[j : j + counts[j]].mean() + 0.5)
 
 
-READER = Reader("dji", "DJI/AirData CSV (header with time(millisecond), datetime(utc), latitude, longitude)", read_dji, _sniff)
+READER = Reader("dji", "DJI CSV (AirData: time(millisecond), datetime(utc), latitude, longitude; or OSD.latitude, OSD.longitude)", read_dji, _sniff)

@@ -138,7 +138,7 @@ class IngestReport:
             f"log: {self.source} ({self.format})",
             f"fixes: {self.fixes_read} read, {self.fixes_used} used",
             f"trajectory: {self.samples} samples at {self.rate:g} Hz over {self.duration_s:.1f} s"
-            + (f" from {self.t0_utc}" if self.t0_utc else f" from t0 = {self.t0:.3f} s on the {self.clock}: offsets work, UTC does not"),
+            + (f" from {self.t0_utc}" if self.t0_utc else f" from t0 = {self.t0:.3f} s ({self.clock}: offsets work, UTC does not)"),
             "extent: " + " x ".join(f"{v:.1f} m" for v in self.extent_m) + (" (E x N x U)" if self.frame == "ENU" else " (x y z)"),
         ]
         if self.origin is not None:

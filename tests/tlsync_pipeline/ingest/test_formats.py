@@ -369,3 +369,29 @@ def test_project_altitude_keys_reach_the_ingest(tmp_path, truth):
     (tmp_path / "p.toml").write_text(f'[target]\nlog = "track.kml"\naltitude_reference = "geoid"\n\n[[cameras]]\nname = "c0"\n')
     bad = CliRunner().invoke(main, ["ingest", str(tmp_path / "p.toml")])
     assert bad.exit_code == 2 and "unknown altitude reference 'geoid'" in bad.output
+
+
+def test_dji_osd_layout_app_clock_feet_and_no_gps_rows(tmp_path):
+    """The TXTlogToCSVtool / CsvView layout: OSD.* columns, the app's local clock (sometimes without a fraction)."""
+    path = tmp_path / "DJIFlightRecord.csv"
+    rows = [
+        "CUSTOM.updateTime,OSD.latitude,OSD.longitude,OSD.height [ft],OSD.isGPSused,OSD.gpsNum,OSD.gpsLevel",
+        "2018/07/04 09:19:31.500,0,0,0,False,0,0",
+        "2018/07/04 09:19:31.600,55.5071580,10.7170780,0.0,False,4,1",
+        "2018/07/04 09:19:31.700,55.5071580,10.7170780,0.0,True,13,4",
+        "2018/07/04 09:19:31.800,55.5071590,10.7170790,3.3,True,13,4",
+        "2018/07/04 09:19:31.900,55.5071600,10.7170800,6.6,True,13,4",
+        "2018/07/04 09:19:32,55.5071610,10.7170810,9.9,True,14,5",
+        "2018/07/04 09:19:32.100,55.5071620,10.7170820,13.2,True,14,5",
+    ]
+    path.write_text("\n".join(rows) + "\n", encoding="latin-1")
+    assert detect_format(path) == "dji"
+    records = read_log(path)
+    assert not records.utc and "local clock" in records.clock and records.altitude == "takeoff"
+    assert records.dropped == {"GPS not used (OSD.isGPSused False, or latitude and longitude 0)": [2, 3]}
+    start = calendar.timegm((2018, 7, 4, 9, 19, 31))
+    np.testing.assert_allclose(records.t - start, [0.7, 0.8, 0.9, 1.0, 1.1], atol=1e-6)
+    np.testing.assert_allclose(records.values[:, 2], np.arange(5) * 3.3 * 0.3048, atol=1e-9)
+    np.testing.assert_array_equal(records.quality["osd.gpsnum"], [13, 13, 13, 14, 14])
+    _, report = ingest(records)
+    assert "offsets work, UTC does not" in report.summary()
