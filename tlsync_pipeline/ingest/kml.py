@@ -4,8 +4,10 @@ Parsed with defusedxml: a document that declares entities is refused (no
 expansion, no external fetch). Read, in document order:
 
 - ``gx:Track`` (also inside ``gx:MultiTrack``): its ``when`` / ``gx:coord``
-  pairs (``lon lat alt``), one fix each;
-- a Placemark with a ``Point`` and a ``TimeStamp``: one fix;
+  pairs (``lon lat alt``), one fix each; a ``gx:SimpleArrayData`` named
+  ``accuracy`` (as My Tracks writes, metres) gives each fix's sigma;
+- a Placemark with a ``Point`` and a ``TimeStamp``: one fix, unless the file
+  has tracks (then such Points are start/end/waypoint markers, ignored);
 - a Placemark with a ``LineString`` and a ``TimeSpan`` (begin and end): the
   vertices' times are spread between begin and end in proportion to the
   distance along the line (constant speed; the report warns), since a
@@ -23,6 +25,8 @@ from __future__ import annotations
 import datetime as dt
 import math
 from pathlib import Path
+
+import numpy as np
 
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.ingest.reader import Reader, text_of, xml_root
@@ -80,10 +84,12 @@ def read_kml(path: str | Path) -> LogRecords:
     except ParseError as exc:
         line = getattr(exc, "position", (None,))[0]
         raise InputError(f"{path}{f':{line}' if line else ''}: not well-formed XML: {exc}") from None
-    rows, numbers, dropped, modes, warnings = [], [], {}, set(), []
+    rows, numbers, sigmas, dropped, modes, warnings = [], [], [], {}, set(), []
     counter = [0]
+    has_tracks = any(_local(e.tag) == "Track" for e in root.iter())
+    markers = 0
 
-    def add(t, coord, mode):
+    def add(t, coord, mode, sigma=math.nan):
         counter[0] += 1
         if t is None:
             dropped.setdefault(BAD_TIME, []).append(counter[0])
@@ -94,6 +100,7 @@ def read_kml(path: str | Path) -> LogRecords:
         check_geodetic(path, coord[0], coord[1], coord[2], counter[0], UNIT)
         rows.append([t, *coord])
         numbers.append(counter[0])
+        sigmas.append(sigma)
         modes.add(mode)
 
     spread = 0
@@ -105,8 +112,9 @@ def read_kml(path: str | Path) -> LogRecords:
         if name == "Track":
             whens = [c.text for c in element if _local(c.tag) == "when"]
             coords = [c.text or "" for c in element if _local(c.tag) == "coord"]
-            for when, coord in zip(whens, coords):
-                add(_iso(when), _coord(coord, None), mode)
+            accuracy = _accuracy(element, len(whens))
+            for when, coord, sigma in zip(whens, coords, accuracy):
+                add(_iso(when), _coord(coord, None), mode, sigma)
             extra = abs(len(whens) - len(coords))
             if extra:
                 dropped.setdefault(UNEQUAL, []).extend(range(counter[0] + 1, counter[0] + 1 + extra))
@@ -115,8 +123,11 @@ def read_kml(path: str | Path) -> LogRecords:
             stamp, span = _child(element, "TimeStamp"), _child(element, "TimeSpan")
             point, line = _child(element, "Point"), _child(element, "LineString")
             if point is not None and stamp is not None and _child(element, "Track") is None:
-                coordinates = _child(point, "coordinates")
-                add(_iso(_text(_child(stamp, "when"))), _coord(_text(coordinates), ","), mode)
+                if has_tracks:
+                    markers += 1
+                    continue
+                coordinates = _text(_child(point, "coordinates")).strip()
+                add(_iso(_text(_child(stamp, "when"))), _coord(coordinates, "," if "," in coordinates else None), mode)
             elif line is not None and span is not None:
                 begin, end = _iso(_text(_child(span, "begin"))), _iso(_text(_child(span, "end")))
                 vertices = [_coord(v, ",") for v in _text(_child(line, "coordinates")).split()]
@@ -125,11 +136,31 @@ def read_kml(path: str | Path) -> LogRecords:
                 spread += 1
     if spread:
         warnings.append(f"{spread} LineString(s) with only a TimeSpan: vertex times spread at constant speed between begin and end")
+    if markers:
+        warnings.append(f"{markers} time-stamped Point placemark(s) ignored: with tracks in the file they are markers (start, end, waypoints)")
     altitude = MSL
     if modes - {"absolute"}:
         warnings.append(f"altitudeMode {', '.join(sorted(modes - {'absolute'}))}: heights are not above a datum (read as written)")
-    rows, numbers = sort_by_time(rows, numbers)
-    return make_records(path, "kml", GEODETIC, rows, numbers, unit=UNIT, dropped=dropped, warnings=warnings, altitude=altitude)
+    rows, numbers, sigmas = sort_by_time(rows, numbers, sigmas)
+    sigma = np.asarray(sigmas, dtype=float)
+    return make_records(
+        path, "kml", GEODETIC, rows, numbers, unit=UNIT, dropped=dropped, ignored=markers, warnings=warnings, altitude=altitude,
+        sigma=sigma if np.isfinite(sigma).any() else None,
+    )
+
+
+def _accuracy(track, n: int) -> list[float]:
+    """Per-point accuracy (m) from the track's gx:SimpleArrayData name="accuracy", NaN where absent."""
+    for data in track.iter():
+        if _local(data.tag) == "SimpleArrayData" and data.get("name") == "accuracy":
+            values = []
+            for value in (v for v in data if _local(v.tag) == "value"):
+                try:
+                    values.append(float(value.text))
+                except (TypeError, ValueError):
+                    values.append(math.nan)
+            return (values + [math.nan] * n)[:n]
+    return [math.nan] * n
 
 
 def _text(element) -> str:

@@ -395,3 +395,23 @@ def test_dji_osd_layout_app_clock_feet_and_no_gps_rows(tmp_path):
     np.testing.assert_array_equal(records.quality["osd.gpsnum"], [13, 13, 13, 14, 14])
     _, report = ingest(records)
     assert "offsets work, UTC does not" in report.summary()
+
+
+def test_kml_my_tracks_layout_markers_and_accuracy(tmp_path):
+    """As Google My Tracks writes: start/end Point markers beside a gx:MultiTrack, per-point accuracy."""
+    path = tmp_path / "mytracks.kml"
+    path.write_text("""<?xml version="1.0" encoding="UTF-8"?>
+<kml xmlns:gx="http://www.google.com/kml/ext/2.2" xmlns="http://www.opengis.net/kml/2.2"><Document>
+<Placemark><name>(Start)</name><TimeStamp><when>2015-10-20T23:53:59.609Z</when></TimeStamp><Point><coordinates>-111.891225,40.763656,1405.0</coordinates></Point></Placemark>
+<Placemark id="tour"><gx:MultiTrack><altitudeMode>absolute</altitudeMode><gx:Track>
+<when>2015-10-20T23:53:59.609Z</when><gx:coord>-111.891225 40.763656 1405.0</gx:coord>
+<when>2015-10-20T23:54:00.609Z</when><gx:coord>-111.891200 40.763660 1405.5</gx:coord>
+<when>2015-10-20T23:54:01.639Z</when><gx:coord>-111.891052 40.763578 1412.0</gx:coord>
+<ExtendedData><SchemaData schemaUrl="#schema"><gx:SimpleArrayData name="accuracy"><gx:value>26.0</gx:value><gx:value>12.0</gx:value><gx:value>4.0</gx:value></gx:SimpleArrayData></SchemaData></ExtendedData>
+</gx:Track></gx:MultiTrack></Placemark>
+<Placemark><name>(End)</name><TimeStamp><when>2015-10-21T00:21:31.587Z</when></TimeStamp><Point><coordinates>-111.891052 40.763578 1412.0</coordinates></Point></Placemark>
+</Document></kml>""")
+    records = read_log(path)
+    assert len(records) == 3 and records.ignored == 2 and any("markers" in w for w in records.warnings)
+    np.testing.assert_allclose(records.sigma, [26.0, 12.0, 4.0])
+    np.testing.assert_allclose(records.t[-1] - records.t[0], 2.03, atol=1e-6)
