@@ -111,12 +111,15 @@ def write_dataflash(path, t: np.ndarray, geo: np.ndarray, boot_offset_s: float =
 # --- MAVLink telemetry log (.tlog), written with pymavlink ---
 
 
-def write_tlog(path, t: np.ndarray, geo: np.ndarray, boot_offset_s: float = 60.0, latency_s: float = 0.35, reboot_at: int | None = None) -> Path:
+def write_tlog(path, t: np.ndarray, geo: np.ndarray, boot_offset_s: float = 60.0, latency_s: float = 0.35, reboot_at: int | None = None,
+               ground_station: bool = False) -> Path:
     """A tlog: each packet after its big-endian receive stamp (fix time + latency_s); GPS_RAW_INT on the boot
-    clock with SYSTEM_TIME after each; the autopilot reboots before fix reboot_at (boot clock restarts at 20 s)."""
+    clock with SYSTEM_TIME after each; the autopilot reboots before fix reboot_at (boot clock restarts at 20 s);
+    ground_station: the ground station (system 255) also sends SYSTEM_TIME, with its own boot clock and a UTC 3 s off."""
     from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
     mav = mavlink.MAVLink(None, srcSystem=1, srcComponent=1)
+    gcs = mavlink.MAVLink(None, srcSystem=255, srcComponent=190)
     out = bytearray()
     boot0 = t[0] - boot_offset_s
     for i in range(len(t)):
@@ -130,6 +133,9 @@ def write_tlog(path, t: np.ndarray, geo: np.ndarray, boot_offset_s: float = 60.0
         clock = mav.system_time_encode(int(round((t[i] + 0.01) * 1e6)), int(round((boot + 0.01) * 1e3)))
         for msg, extra in ((gps, 0), (clock, 5000)):
             out += struct.pack(">Q", receive + extra) + msg.pack(mav)
+        if ground_station:
+            other = gcs.system_time_encode(int(round((t[i] + 3.0) * 1e6)), int(round((t[i] - t[0] + 1.0) * 1e3)))
+            out += struct.pack(">Q", receive + 7000) + other.pack(gcs)
     Path(path).write_bytes(bytes(out))
     return Path(path)
 

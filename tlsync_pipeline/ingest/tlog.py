@@ -34,6 +34,7 @@ from tlsync_pipeline.ingest.records import ELLIPSOID, GEODETIC, MSL, LogRecords,
 
 UNIT = "GPS_RAW_INT message"
 NO_FIX = "fix_type < 3 (no 3D fix)"
+NO_TIME = "time_usec 0 (no fix time)"
 UTC_US = 1e15  # a time_usec above this (2001 onwards) is already UTC, not a boot clock
 REBOOT_S = 1.0
 
@@ -122,12 +123,15 @@ def tlog_records(path: Path, fixes: list[tuple[int, int, dict, float]], offsets:
     fix = fix_type >= 3
     if (~fix).any():
         dropped[NO_FIX] = numbers[~fix].tolist()
+    if (fix & (time_usec <= 0)).any():
+        dropped[NO_TIME] = numbers[fix & (time_usec <= 0)].tolist()
+        fix &= time_usec > 0
     t = np.where(time_usec >= UTC_US, time_usec * 1e-6, np.nan)
     by_boot = {}
     for boot, offset in offsets:
         by_boot.setdefault(boot, []).append(offset)
     for boot in np.unique(boots):
-        mine = (boots == boot) & (time_usec < UTC_US)
+        mine = (boots == boot) & (time_usec > 0) & (time_usec < UTC_US)
         if not mine.any():
             continue
         if boot in by_boot:

@@ -139,6 +139,8 @@ def test_tlog_fix_times_not_receive_times_across_a_reboot(tmp_path, truth):
     _close(records, truth, seconds=0.002)
     assert any("rebooted 1 time" in w for w in records.warnings)
     np.testing.assert_allclose(records.sigma, 0.02)
+    with_gcs = read_log(write_tlog(tmp_path / "gcs.tlog", t, geo, ground_station=True))
+    _close(with_gcs, truth, seconds=0.002)  # the ground station's SYSTEM_TIME (its own clocks) is not the autopilot's
 
 
 @pytest.mark.parametrize("layout", ["calendar", "week"])
