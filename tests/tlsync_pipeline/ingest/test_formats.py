@@ -368,7 +368,7 @@ def test_project_altitude_keys_reach_the_ingest(tmp_path, truth):
     report = json.loads(next((tmp_path / "work").rglob("ingest_report.json")).read_text())
     assert report["altitude"] == {"reference": "msl", "source": "log", "offset_m": UNDULATION_M}
     assert not any("altitude_offset_m" in w for w in report["warnings"])
-    (tmp_path / "p.toml").write_text(f'[target]\nlog = "track.kml"\naltitude_reference = "geoid"\n\n[[cameras]]\nname = "c0"\n')
+    (tmp_path / "p.toml").write_text('[target]\nlog = "track.kml"\naltitude_reference = "geoid"\n\n[[cameras]]\nname = "c0"\n')
     bad = CliRunner().invoke(main, ["ingest", str(tmp_path / "p.toml")])
     assert bad.exit_code == 2 and "unknown altitude reference 'geoid'" in bad.output
 
