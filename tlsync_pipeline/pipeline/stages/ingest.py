@@ -53,6 +53,8 @@ def target_params(target: dict, origin: Origin | str) -> IngestParams:
         max_speed_mps=target["max_speed_mps"],
         smoothing_s=target["smoothing_s"],
         transform=target["odometry_transform"],
+        altitude_reference=target["altitude_reference"],
+        altitude_offset_m=target["altitude_offset_m"],
     )
 
 
