@@ -2,36 +2,40 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from calibration.camera import read_camera
 from tlsync_pipeline.atomic import atomic_path
 from tlsync_pipeline.errors import InputError, SyncError
-from tlsync_pipeline.pipeline.project import Project
+from tlsync_pipeline.pipeline.spec import Sources, StageSpec
+from tlsync_pipeline.pipeline.stages.cameras import camera_files, camera_params
+from tlsync_pipeline.pipeline.stages.identify import read_identification
+from tlsync_pipeline.pipeline.workspace import StageFiles
 from tlsync_pipeline.sync.methods import CameraInput
-from tlsync_pipeline.sync.registry import params_from_table
+from tlsync_pipeline.sync.registry import params_from_table, params_table
 from tlsync_pipeline.sync.synchronize import CameraResult, synchronize
-from tlsync_pipeline.sync.timeline import Timeline, write_timeline
+from tlsync_pipeline.sync.timeline import IdentificationSummary, Timeline, write_timeline
 from tlsync_pipeline.sync.votes import load_votes
 from tlsync_pipeline.trajectory import Trajectory, read_trajectory
-from trackers.detections import read_detections
-from trackers.track import read_track, write_track
+from trackers.track import read_track
+
+if TYPE_CHECKING:
+    from tlsync_pipeline.pipeline.project import Project
 
 
-def read_camera_inputs(cameras: dict[str, dict], identify: bool = False) -> dict:
-    """CameraInput per camera from the paths the graph passes to stage functions.
+def read_camera_inputs(cameras: dict[str, dict]) -> dict:
+    """CameraInput per camera from the paths of ``stages.cameras.camera_files``.
 
-    identify: cameras with detections bring them (the target is still to be
-    identified) instead of their track.
+    A camera whose target could not be identified among its movers has no
+    track.csv (its votes carry the reason): its track is None.
     """
     out = {}
     for name, c in cameras.items():
         cam = read_camera(c["camera"], name=name)
-        fps = c["fps"] if c["fps"] is not None else cam.fps
-        if identify and c.get("detections") is not None:
-            out[name] = CameraInput(cam, None, fps, read_detections(c["detections"]))
-        else:
-            out[name] = CameraInput(cam, read_track(c["track"]), fps)
+        track = None if c.get("identification") is not None and not c["track"].exists() else read_track(c["track"])
+        out[name] = CameraInput(cam, track, c["fps"] if c["fps"] is not None else cam.fps)
     return out
 
 
@@ -44,25 +48,23 @@ def read_votes(cameras: dict[str, dict]) -> dict:
     return out
 
 
-def run_sync(cameras: dict[str, dict], trajectory: Path, params: dict, out: Path) -> dict:
+def run_sync(files: StageFiles, cameras: list[str], fps: dict[str, float | None], sync: dict) -> dict:
     """The sync stage: each camera's line fitted to the vote stage's votes, ``timeline.json``.
 
-    params: the ``[sync]`` table. For a camera with every mover's
-    detections, the target is identified among them and its track written
-    to the camera's ``track.csv`` (removed when it cannot be identified).
+    sync: the ``[sync]`` table (sync.registry.params_table).
     """
-    timeline, results = synchronize(read_camera_inputs(cameras, identify=True), read_trajectory(trajectory), params_from_table(params), read_votes(cameras))
-    for name, c in cameras.items():
-        if c.get("detections") is None:
-            continue
-        if name in results:
-            with atomic_path(Path(c["track"])) as tmp:
-                write_track(results[name].identification.track, tmp)
-        else:
-            Path(c["track"]).unlink(missing_ok=True)
-    with atomic_path(out) as tmp:
+    paths = camera_files(files, cameras, fps)
+    timeline, _ = synchronize(read_camera_inputs(paths), read_trajectory(files.path("trajectory")), params_from_table(sync), read_votes(paths))
+    timeline = with_identifications(timeline, {n: read_identification(c["identification"]) for n, c in paths.items() if c.get("identification") is not None})
+    with files.write("timeline") as tmp:
         write_timeline(timeline, tmp)
     return {"synchronized": timeline.names, "failed": timeline.failed}
+
+
+def with_identifications(timeline: Timeline, found: dict) -> Timeline:
+    """The timeline with each identified camera's line carrying its identification summary."""
+    lines = {n: replace(line, identification=found[n]) if isinstance(found.get(n), IdentificationSummary) else line for n, line in timeline.cameras.items()}
+    return replace(timeline, cameras=lines)
 
 
 def load_inputs(project: Project) -> tuple[dict[str, CameraInput], Trajectory]:
@@ -87,3 +89,19 @@ def run_project(project: Project, out_dir: Path) -> tuple[Timeline, dict[str, Ca
     with atomic_path(out_dir / "timeline.json") as tmp:
         write_timeline(timeline, tmp)
     return timeline, results
+
+
+def sync_inputs(src: Sources, camera: None) -> dict:
+    """Every camera's calibration, track and votes, and the trajectory."""
+    inputs = {f"{kind}:{spec['name']}": src.artefact(kind, spec["name"]) for spec in src.project.cameras for kind in ("camera", "track", "votes")}
+    inputs.update({f"identification:{spec['name']}": src.artefact("identification", spec["name"]) for spec in src.project.cameras if src.made("identification", spec["name"])})
+    return {**inputs, "trajectory": src.artefact("trajectory")}
+
+
+SPEC = StageSpec(
+    "sync",
+    inputs=sync_inputs,
+    params=lambda project, camera, options: {**camera_params(project), "sync": params_table(project.sync)},
+    outputs=("timeline",),
+    run=run_sync,
+)

@@ -1,8 +1,10 @@
 """The track stage: each camera's video in, its movers or its target's track out (work folder).
 
-Without an init box, the blob tracker's kind detects every mover (the
-target is identified among them by the sync stage): ``detections.csv``.
-With an init box, or with CSRT, the single target is tracked: ``track.csv``.
+Without an init box (blob kind), every mover is detected: ``detections.csv``
+(the identify stage then picks the target among them and writes
+``track.csv``). With an init box, or with CSRT, the one target is tracked:
+``track.csv``. ``track_camera`` is the pure part; ``write_track_atomic`` and
+``write_detections_atomic`` the writers (also used by ``tlsync track-video``).
 """
 
 from __future__ import annotations
@@ -11,13 +13,15 @@ from pathlib import Path
 
 from tlsync_pipeline.atomic import atomic_path
 from tlsync_pipeline.errors import InputError
+from tlsync_pipeline.pipeline.spec import StageSpec
+from tlsync_pipeline.pipeline.workspace import StageFiles
 from trackers.detections import Detections, write_detections
 from trackers.track import Track, write_track
 from trackers.tracking import detect_movers, follows_every_mover, track_video
 
 
 def tracks_every_mover(spec: dict) -> bool:
-    """Whether the camera's track stage detects every mover (blob tracker, no init box) rather than one target."""
+    """Whether the camera's track stage detects every mover (blob kind, no init box) rather than one target."""
     tracker = spec.get("tracker") or {}
     return follows_every_mover(tracker.get("kind", "blob"), tracker.get("init"), tracker.get("init_frame", 0))
 
@@ -27,9 +31,8 @@ def track_camera(spec: dict, progress: bool = True) -> Track | Detections:
     if spec.get("video") is None:
         raise InputError(f"camera {spec['name']!r}: no 'video' key: the track stage needs the camera's video file")
     tracker = spec["tracker"]
-    label = f"{spec['name']} ({Path(spec['video']).name})"
     if tracks_every_mover(spec):
-        return detect_movers(spec["video"], params=tracker["parameters"], progress=progress, label=label)
+        return detect_movers(spec["video"], params=tracker["parameters"], progress=progress, label=f"{spec['name']} ({Path(spec['video']).name})")
     return track_video(
         spec["video"],
         kind=tracker["kind"],
@@ -37,7 +40,7 @@ def track_camera(spec: dict, progress: bool = True) -> Track | Detections:
         init_frame=tracker["init_frame"],
         params=tracker["parameters"],
         progress=progress,
-        label=label,
+        label=f"{spec['name']} ({Path(spec['video']).name})",
     )
 
 
@@ -53,11 +56,27 @@ def write_detections_atomic(detections: Detections, path: Path) -> None:
         write_detections(detections, tmp)
 
 
-def run_track(spec: dict, out: Path, progress: bool = True) -> dict:
-    """The track stage: ``detections.csv`` (every mover) or ``track.csv`` (one target) at ``out``."""
-    result = track_camera(spec, progress=progress)
+def run_track(files: StageFiles, tracker: dict) -> dict:
+    """The track stage: ``detections.csv`` (every mover) or ``track.csv`` (one target) of one camera's video."""
+    result = track_camera({"name": files.camera, "video": files.path("video"), "tracker": tracker}, progress=files.progress)
     if isinstance(result, Detections):
-        write_detections_atomic(result, out)
-        return {"detections": len(result), "tracklets": int(len(result.tracklet_ids())), "message": f"wrote {out} ({len(result)} detections)"}
-    write_track_atomic(result, out)
-    return {"tracked_frames": len(result), "message": f"wrote {out} ({len(result)} tracked frames)"}
+        write_detections_atomic(result, files.output("detections"))
+        return {"detections": len(result), "tracklets": int(len(result.tracklet_ids())), "message": f"wrote {files.output('detections')} ({len(result)} detections)"}
+    write_track_atomic(result, files.output("track"))
+    return {"tracked_frames": len(result), "message": f"wrote {files.output('track')} ({len(result)} tracked frames)"}
+
+
+def _applies(project, cam: str) -> bool:
+    spec = project.camera(cam)
+    return spec["track"] is None and spec.get("video") is not None
+
+
+SPEC = StageSpec(
+    "track",
+    inputs=lambda src, cam: {"video": src.project.camera(cam)["video"]},
+    params=lambda project, cam, options: {"tracker": project.camera(cam)["tracker"]},
+    outputs=("track", "detections"),  # one of them: detections.csv for every mover (track.csv then comes from identify)
+    run=run_track,
+    per_camera=True,
+    applies=_applies,
+)

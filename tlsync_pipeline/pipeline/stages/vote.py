@@ -1,27 +1,29 @@
 """The vote stage: one camera's votes (paper eq. 3) into ``votes.npz``, on the trajectory the sync method fits.
 
-A camera that brings every mover (detections.csv) votes with every candidate.
+A camera whose target could not be identified among its movers (identify
+stage) gets no votes, with that reason.
 """
 
 from __future__ import annotations
 
-from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from calibration.camera import read_camera
 from tlsync_pipeline.errors import SyncError
-from tlsync_pipeline.sync.identify import candidate_votes
+from tlsync_pipeline.pipeline.spec import Sources, StageSpec
+from tlsync_pipeline.pipeline.stages.identify import read_identification
+from tlsync_pipeline.pipeline.workspace import StageFiles
 from tlsync_pipeline.sync.methods import CameraInput
-from tlsync_pipeline.sync.registry import params_from_table
+from tlsync_pipeline.sync.registry import params_from_table, vote_table
 from tlsync_pipeline.sync.synchronize import cast_votes, prepare_trajectory
 from tlsync_pipeline.sync.votes import Votes, save_votes
 from tlsync_pipeline.trajectory import read_trajectory
-from trackers.detections import read_detections
 from trackers.track import read_track
 
 
-def run_vote(name: str, camera: Path, track: Path, trajectory: Path, params: dict, out: Path, detections: Path | None = None) -> dict:
+def run_vote(files: StageFiles, **params: Any) -> dict:
     """The vote stage: every (frame, sample) pair within eps_px, saved to ``votes.npz``.
 
     params: the ``[sync]`` keys the votes depend on (sync.registry.vote_table). The votes are cast on the trajectory as the
@@ -31,14 +33,32 @@ def run_vote(name: str, camera: Path, track: Path, trajectory: Path, params: dic
     camera as not synchronized.
     """
     sync_params = params_from_table(params)
-    prepared = prepare_trajectory(read_trajectory(trajectory), sync_params)
+    prepared = prepare_trajectory(read_trajectory(files.path("trajectory")), sync_params)
     try:
-        if detections is not None:
-            votes, _ = candidate_votes(read_camera(camera, name=name), read_detections(detections), prepared, sync_params.eps_px)
-        else:
-            votes = cast_votes(CameraInput(read_camera(camera, name=name), read_track(track), None), prepared, sync_params)
+        if files.has("identification") and isinstance(found := read_identification(files.path("identification")), SyncError):
+            raise found
+        inputs = CameraInput(read_camera(files.path("camera"), name=files.camera), read_track(files.path("track")), None)
+        votes = cast_votes(inputs, prepared, sync_params)
         error = None
     except SyncError as exc:
         votes, error = Votes(np.zeros(0), np.zeros(0), np.zeros(0)), str(exc)
-    save_votes(out, votes, error)
+    save_votes(files.output("votes"), votes, error)
     return {"votes": len(votes), **({"error": error} if error else {})}
+
+
+def vote_inputs(src: Sources, cam: str) -> dict:
+    """The camera, its track and the trajectory; for a camera identified among its movers, the identification too."""
+    inputs = {"camera": src.artefact("camera", cam), "track": src.artefact("track", cam), "trajectory": src.artefact("trajectory")}
+    if src.made("identification", cam):
+        inputs["identification"] = src.artefact("identification", cam)
+    return inputs
+
+
+SPEC = StageSpec(
+    "vote",
+    inputs=vote_inputs,
+    params=lambda project, cam, options: vote_table(project.sync),
+    outputs=("votes",),
+    run=run_vote,
+    per_camera=True,
+)
