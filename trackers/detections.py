@@ -68,6 +68,11 @@ class Detections:
         return Track(chosen.frame, chosen.x, chosen.y, time_s=time_s, w=chosen.w, h=chosen.h, score=chosen.score)
 
 
+def follows_every_mover(kind: str, init, init_frame: int = 0) -> bool:
+    """Whether a tracker request means every mover (blob kind, no init box, from the first frame) rather than one target."""
+    return kind == "blob" and init is None and init_frame == 0
+
+
 def make_detections(rows: list[tuple] | np.ndarray) -> Detections:
     """Detections from rows (frame, time_s, id, x, y, w, h, score), sorted by frame then id."""
     values = np.asarray(rows, dtype=np.float64).reshape(-1, len(COLUMNS))

@@ -10,7 +10,7 @@ import cv2
 import numpy as np
 
 from trackers.blob import BlobDetector, BlobParams, BlobTracker, median_background
-from trackers.detections import Detections, make_detections
+from trackers.detections import Detections, follows_every_mover, make_detections
 from trackers.errors import TrackInputError
 from trackers.movers import MoverLinker
 from trackers.track import Track
@@ -67,11 +67,6 @@ def track_video(
     frames = np.array(sorted(rows), dtype=np.int64)
     cols = np.array([rows[f] for f in frames], dtype=np.float64).reshape(-1, 6)
     return Track(frames, cols[:, 1], cols[:, 2], time_s=cols[:, 0], w=cols[:, 3], h=cols[:, 4], score=cols[:, 5])
-
-
-def follows_every_mover(kind: str, init, init_frame: int = 0) -> bool:
-    """Whether a tracker request means every mover (blob kind, no init box, from the first frame) rather than one target."""
-    return kind == "blob" and init is None and init_frame == 0
 
 
 def detect_movers(path: str | Path, params: dict | None = None, progress: bool = True, label: str | None = None) -> Detections:

@@ -10,7 +10,8 @@ from pathlib import Path
 import click
 
 from tlsync_pipeline.pipeline.stages.track import write_detections_atomic, write_track_atomic
-from trackers.tracking import KINDS, detect_movers, follows_every_mover, track_video
+from trackers.detections import follows_every_mover
+from trackers.tracking import KINDS, detect_movers, track_video
 
 
 def _box(ctx, param, value):

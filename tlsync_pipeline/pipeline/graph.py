@@ -174,8 +174,13 @@ def build_graph(project: Project, work: Path, options: Options = Options()) -> G
 
 def check_given(graph: Graph, wanted: list[str]) -> None:
     """Read the artefacts the user brings that ``wanted`` tasks use, so bad input stops the run before any stage runs."""
-    readers = {MAKER[kind]: reader for kind, (_, reader, _) in _GIVEN.items()}
+    names = [c["name"] for c in graph.project.cameras]
+    readers = {}  # each brought file's reader, by the project key it is given under
+    for kind, (key, reader, _) in _GIVEN.items():
+        for cam in names if kind != "trajectory" else [None]:
+            if key(graph.project, cam) is not None:
+                readers[key(graph.project, cam)] = reader
     used = {path for tid in wanted for path in graph.tasks[tid].inputs.values()}
     for item in graph.given.values():
         if item.path in used:
-            readers[item.stage](item.path)
+            readers[item.path](item.path)

@@ -18,14 +18,12 @@ from typing import Any
 from calibration.camera import read_camera
 from tlsync_pipeline.errors import SyncError
 from tlsync_pipeline.pipeline.spec import StageSpec
-from tlsync_pipeline.pipeline.stages.track import tracks_every_mover
 from tlsync_pipeline.pipeline.workspace import StageFiles
 from tlsync_pipeline.sync.identify import identify_target
 from tlsync_pipeline.sync.registry import params_from_table, params_table
 from tlsync_pipeline.sync.synchronize import prepare_trajectory
-from tlsync_pipeline.sync.timeline import IdentificationSummary
 from tlsync_pipeline.trajectory import read_trajectory
-from trackers.detections import read_detections
+from trackers.detections import follows_every_mover, read_detections
 from trackers.track import write_track
 
 
@@ -48,18 +46,14 @@ def run_identify(files: StageFiles, fps: float | None, sync: dict[str, Any]) -> 
     return {"identified_frames": len(found.track), "message": f"wrote {files.output('track')} ({len(found.track)} identified frames)"}
 
 
-def read_identification(path) -> IdentificationSummary | SyncError:
-    """identification.json: the summary, or the SyncError that kept the target from being identified."""
-    data = json.loads(path.read_text(encoding="utf-8"))
-    return SyncError(data["error"]) if "error" in data else IdentificationSummary.from_dict(data)
-
-
 def brings_movers(project, cam: str) -> bool:
     """Whether the camera's target is to be identified among every mover (detected, or brought as ``detections``)."""
     spec = project.camera(cam)
     if spec["track"] is not None:
         return False
-    return spec.get("detections") is not None or (spec.get("video") is not None and tracks_every_mover(spec))
+    tracker = spec.get("tracker") or {}
+    every_mover = follows_every_mover(tracker.get("kind", "blob"), tracker.get("init"), tracker.get("init_frame", 0))
+    return spec.get("detections") is not None or (spec.get("video") is not None and every_mover)
 
 
 SPEC = StageSpec(

@@ -10,8 +10,7 @@ from calibration.camera import read_camera
 from tlsync_pipeline.atomic import atomic_path
 from tlsync_pipeline.errors import InputError, SyncError
 from tlsync_pipeline.pipeline.spec import Sources, StageSpec
-from tlsync_pipeline.pipeline.stages.cameras import camera_files, camera_params
-from tlsync_pipeline.pipeline.stages.identify import read_identification
+from tlsync_pipeline.pipeline.stages.cameras import camera_files, camera_params, read_identification
 from tlsync_pipeline.pipeline.workspace import StageFiles
 from tlsync_pipeline.sync.methods import CameraInput
 from tlsync_pipeline.sync.registry import params_from_table, params_table

@@ -15,9 +15,9 @@ from tlsync_pipeline.atomic import atomic_path
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.pipeline.spec import StageSpec
 from tlsync_pipeline.pipeline.workspace import StageFiles
-from trackers.detections import Detections, write_detections
+from trackers.detections import Detections, follows_every_mover, write_detections
 from trackers.track import Track, write_track
-from trackers.tracking import detect_movers, follows_every_mover, track_video
+from trackers.tracking import detect_movers, track_video
 
 
 def tracks_every_mover(spec: dict) -> bool:

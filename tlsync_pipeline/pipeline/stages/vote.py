@@ -13,7 +13,7 @@ import numpy as np
 from calibration.camera import read_camera
 from tlsync_pipeline.errors import SyncError
 from tlsync_pipeline.pipeline.spec import Sources, StageSpec
-from tlsync_pipeline.pipeline.stages.identify import read_identification
+from tlsync_pipeline.pipeline.stages.cameras import read_identification
 from tlsync_pipeline.pipeline.workspace import StageFiles
 from tlsync_pipeline.sync.methods import CameraInput
 from tlsync_pipeline.sync.registry import params_from_table, vote_table
