@@ -177,6 +177,7 @@ def build_graph(project: Project, work: Path, options: Options = Options()) -> G
         "pairs": [list(p) for p in options.render_pairs] if options.render_pairs else None,
         "frames": list(options.render_frames) if options.render_frames else None,
         "delta": project.sync.delta,
+        "proxy": {spec["name"]: spec["proxy"] for spec in project.cameras},
     }
     add(
         Task(
@@ -184,7 +185,7 @@ def build_graph(project: Project, work: Path, options: Options = Options()) -> G
             None,
             render_inputs,
             render_params,
-            [layout.report_md(work)],
+            [layout.report_html(work), layout.report_md(work)],
             ["sync", "export"] + sync_deps,
             run_render,
             {"cameras": camera_args, "trajectory": trajectory, "timeline": timeline, "work": work, "truth": render_inputs.get("truth"), **render_params},

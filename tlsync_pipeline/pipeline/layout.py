@@ -11,7 +11,12 @@
     <work>/exports/frame_map.csv                 export
     <work>/exports/offsets.csv
     <work>/exports/ffmpeg.sh
+    <work>/exports/timeline.otio
+    <work>/exports/timeline.fcpxml
+    <work>/exports/sync.json
     <work>/render/*.png                          render
+    <work>/render/proxy/<name>.mp4               render (videos a browser cannot play)
+    <work>/report.html
     <work>/report.md
     <dir>/<stage>.manifest.json                  beside each stage's artefacts (cache)
     <work>/.lock                                 held by the running tlsync
@@ -79,8 +84,24 @@ def ffmpeg_script(work: Path) -> Path:
     return exports_dir(work) / "ffmpeg.sh"
 
 
+def timeline_otio(work: Path) -> Path:
+    return exports_dir(work) / "timeline.otio"
+
+
+def timeline_fcpxml(work: Path) -> Path:
+    return exports_dir(work) / "timeline.fcpxml"
+
+
+def sync_json(work: Path) -> Path:
+    return exports_dir(work) / "sync.json"
+
+
 def render_dir(work: Path) -> Path:
     return work / "render"
+
+
+def report_html(work: Path) -> Path:
+    return work / "report.html"
 
 
 def report_md(work: Path) -> Path:

@@ -255,6 +255,7 @@ CAMERA_SCHEMA = {
     "track": Field(_path),
     "fps": Field(_positive),
     "video": Field(_path),
+    "proxy": Field(_choice("auto", "always", "never", what="proxy policy"), "auto"),
     "tracker": TRACKER_SCHEMA,
     "calibration": CALIBRATION_SCHEMA,
 }

@@ -1,14 +1,21 @@
-"""The export stage: frame_map.csv, offsets.csv and ffmpeg.sh from timeline.json."""
+"""The export stage: frame_map.csv, offsets.csv, ffmpeg.sh and the editors' timelines from timeline.json.
+
+Editors' timelines (timeline.otio, timeline.fcpxml when the OTIO FCPXML
+adapter is installed, sync.json) need the reference camera's frame rate.
+"""
 
 from __future__ import annotations
 
 import csv
+import json
 from pathlib import Path
 
 from tlsync_pipeline.atomic import atomic_path
+from tlsync_pipeline.outputs.diagnostics import HALF_95
+from tlsync_pipeline.outputs.editors import Placement, fcpxml_text, otio_text, sync_document
 from tlsync_pipeline.outputs.exports import ffmpeg_commands, frame_map_rows, offsets
 from tlsync_pipeline.pipeline import layout
-from tlsync_pipeline.sync.timeline import read_timeline
+from tlsync_pipeline.sync.timeline import Timeline, read_timeline
 from trackers.track import read_track
 from trackers.video import probe_video
 
@@ -24,7 +31,11 @@ def frame_count(camera: dict) -> int:
 
 
 def run_export(cameras: dict[str, dict], timeline: Path, work: Path) -> dict:
-    """The export stage: frame_map.csv, offsets.csv and ffmpeg.sh from timeline.json."""
+    """The export stage: frame_map.csv, offsets.csv, ffmpeg.sh and the editors' timelines from timeline.json.
+
+Editors' timelines (timeline.otio, timeline.fcpxml when the OTIO FCPXML
+adapter is installed, sync.json) need the reference camera's frame rate.
+"""
     tl = read_timeline(timeline)
     if not tl.cameras:
         return {"exported": []}
@@ -42,4 +53,35 @@ def run_export(cameras: dict[str, dict], timeline: Path, work: Path) -> dict:
     videos = {name: (str(c["video"]) if c.get("video") else None) for name, c in cameras.items()}
     with atomic_path(layout.ffmpeg_script(work)) as tmp:
         tmp.write_text(ffmpeg_commands(rows, videos), encoding="utf-8")
-    return {"exported": tl.names, "n_frames": n_frames}
+    written = [layout.frame_map_csv(work), layout.offsets_csv(work), layout.ffmpeg_script(work)]
+    notes = []
+    placements = editor_placements(tl, rows, videos, n_frames)
+    if placements is None:
+        notes.append(f"no editor timelines: the reference camera {tl.names[0]} has no frame rate")
+    else:
+        texts = {layout.timeline_otio(work): otio_text(placements), layout.sync_json(work): json.dumps(sync_document(placements, tl.names[0]), indent=1) + "\n"}
+        fcpxml, why_not = fcpxml_text(placements)
+        if fcpxml is None:
+            notes.append(f"no timeline.fcpxml: {why_not}")
+        else:
+            texts[layout.timeline_fcpxml(work)] = fcpxml
+        for path, text in texts.items():
+            with atomic_path(path) as tmp:
+                tmp.write_text(text, encoding="utf-8")
+        written += list(texts)
+    return {"exported": tl.names, "n_frames": n_frames, "outputs": [str(p) for p in written], "warnings": notes}
+
+
+def editor_placements(tl: Timeline, rows: list[dict], videos: dict[str, str | None], n_frames: dict[str, int]) -> list[Placement] | None:
+    """Each camera's placement on the editors' timeline from its offsets.csv row; None without the reference's fps."""
+    if any(r["start_s"] is None or not r["fps"] for r in rows):
+        return None
+    reference = tl.names[0]
+    placements = []
+    for r in rows:
+        name = r["camera"]
+        se = tl.start_offset_se(reference, name) if name != reference else None
+        half = None if se is None or se[1] is None else HALF_95 * se[1]
+        vfr = tl.cameras[name].details.get("clock") == "time_s"
+        placements.append(Placement(name, videos.get(name), r["start_s"], r["fps"], n_frames[name], n_frames[name] / r["fps"], r["clock_rate"], half, vfr))
+    return placements

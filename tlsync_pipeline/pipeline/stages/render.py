@@ -1,18 +1,49 @@
-"""The render stage: plots per camera, pictures per pair and report.md, from cached artefacts."""
+"""The render stage: pictures, charts, the player's proxies, report.html and report.md, from cached artefacts.
+
+Writes under ``<work>/render/``: per camera the voting space, the trajectory
+check and the before/after band swap; per pair of cameras the strip of
+matching frames; the offsets and residuals charts; proxy clips for videos a
+browser cannot play. Then ``<work>/report.html`` (self-contained) and
+``<work>/report.md``, which gather every stage's warnings.
+"""
 
 from __future__ import annotations
 
+import json
+import os
 from pathlib import Path
+from urllib.parse import quote
+
+import numpy as np
 
 from tlsync_pipeline.atomic import atomic_path
+from tlsync_pipeline.ingest.process import Gap, IngestReport
+from tlsync_pipeline.outputs import bandswap
+from tlsync_pipeline.outputs.diagnostics import (
+    StageWarning,
+    all_statuses,
+    calibration_warnings,
+    ingest_warnings,
+    summary_warnings,
+    sync_warnings,
+)
 from tlsync_pipeline.outputs.pictures import (
     choose_frames,
     default_pairs,
     plot_trajectory,
     plot_votes,
+    position_at,
+    read_frames,
     render_pair,
+    write_png,
 )
-from tlsync_pipeline.outputs.summary import format_table
+from tlsync_pipeline.outputs.player import PlayerVideo, player_data
+from tlsync_pipeline.outputs.plots import line_clock, offsets_plot, residuals_plot, track_residuals
+from tlsync_pipeline.outputs.proxy import make_proxy, needs_proxy
+from tlsync_pipeline.outputs.report_content import Picture, ReportContent, StageRun
+from tlsync_pipeline.outputs.report_html import report_html
+from tlsync_pipeline.outputs.report_md import report_markdown
+from tlsync_pipeline.outputs.summary import calibration_summary
 from tlsync_pipeline.pipeline import layout
 from tlsync_pipeline.pipeline.cache import read_manifest
 from tlsync_pipeline.pipeline.stages import STAGES
@@ -20,7 +51,17 @@ from tlsync_pipeline.pipeline.stages.export import frame_count
 from tlsync_pipeline.pipeline.stages.sync import read_camera_inputs
 from tlsync_pipeline.sync.timeline import Timeline, read_timeline, read_truth
 from tlsync_pipeline.sync.votes import load_votes
-from tlsync_pipeline.trajectory import read_trajectory
+from tlsync_pipeline.trajectory import Trajectory, read_trajectory
+from trackers.video import frame_times, probe_video
+
+EXPORT_LABELS = (
+    ("frame map (CSV)", "frame_map.csv"),
+    ("offsets (CSV)", "offsets.csv"),
+    ("ffmpeg commands", "ffmpeg.sh"),
+    ("OpenTimelineIO timeline (DaVinci Resolve, Premiere via plug-in, ...)", "timeline.otio"),
+    ("FCPXML timeline (Final Cut Pro, DaVinci Resolve)", "timeline.fcpxml"),
+    ("sync.json (offsets with their sign convention)", "sync.json"),
+)
 
 
 def run_render(
@@ -32,55 +73,224 @@ def run_render(
     pairs: list | None = None,
     frames: list | None = None,
     delta: float = 0.5,
+    proxy: dict | None = None,
 ) -> dict:
-    """The render stage: plots per camera, pictures per pair, report.md; returns the files written."""
+    """The render stage: pictures, charts, proxies, report.html and report.md; returns the files written.
+
+    proxy: camera -> "auto" | "always" | "never" (default auto: a proxy when
+    the browser cannot play the camera's video).
+    """
     tl = read_timeline(timeline)
     traj = read_trajectory(trajectory)
     inputs = read_camera_inputs({n: c for n, c in cameras.items() if n in tl.cameras})
     out_dir = layout.render_dir(work)
     written: list[Path] = []
+    camera_pictures: dict[str, list[Picture]] = {name: [] for name in tl.cameras}
+    videos = {n: Path(c["video"]) for n, c in cameras.items() if c.get("video") and n in tl.cameras}
+    n_frames = {n: frame_count(cameras[n]) for n in tl.cameras}
     for name, line in tl.cameras.items():
         votes, _ = load_votes(cameras[name]["votes"])
-        written.append(plot_votes(name, votes, line, delta, out_dir / f"votes_{name}.png"))
-        written.append(plot_trajectory(name, inputs[name].camera, inputs[name].track, traj, line, out_dir / f"trajectory_{name}.png"))
+        made = [
+            plot_votes(name, votes, line, delta, out_dir / f"votes_{name}.png"),
+            plot_trajectory(name, inputs[name].camera, inputs[name].track, traj, line, out_dir / f"trajectory_{name}.png"),
+        ]
+        if name in videos:
+            made.append(write_band_swap(name, inputs[name], line, traj, videos[name], out_dir / f"swap_{name}.png"))
+        written += made
+        titles = ("voting space", "tracked against projected", "band swap: before and after")
+        camera_pictures[name] = [_picture(title, path, work) for title, path in zip(titles, made)]
+
     truth_pairs = read_truth(truth)[0] if truth else None
-    videos = {n: Path(c["video"]) for n, c in cameras.items() if c.get("video") and n in tl.cameras}
     pair_list = [tuple(p) for p in pairs] if pairs else default_pairs(tl)
     notes = []
+    pair_pictures = []
     for a, b in pair_list:
         if a not in videos or b not in videos:
-            notes.append(f"{a}, {b}: no band-swap or strip pictures (needs both cameras' videos)")
+            notes.append(f"{a}, {b}: no strip of matching frames (needs both cameras' videos)")
             continue
-        n_frames = {a: frame_count(cameras[a]), b: frame_count(cameras[b])}
         chosen = list(frames) if frames else choose_frames(inputs[b].track.frame, tl.relation(b, a), n_frames[a], n_frames[b])
         made = render_pair(a, b, chosen, tl, inputs, traj, videos, n_frames, truth_pairs, out_dir)
         if not made:
             notes.append(f"{a}, {b}: the two videos never record at the same time")
         written += made
-    report = write_report(tl, work, written, notes)
-    return {"outputs": [str(p) for p in written], "notes": notes, "report": str(report)}
+        pair_pictures += [_picture(f"{a} and {b}: matching frames", path, work) for path in made]
+
+    statuses = all_statuses(tl)
+    charts = [
+        _write_chart(out_dir / "offsets.png", offsets_plot(tl, statuses), work, "offsets: every camera's start with its 95 % interval"),
+        _write_chart(
+            out_dir / "residuals.png",
+            residuals_plot(
+                {n: track_residuals(inputs[n].camera, inputs[n].track, traj, tl.cameras[n]) for n in tl.cameras},
+                float(tl.params.get("eps_px", 10.0)),
+                1.0 / tl.target_rate if tl.target_rate else None,
+            ),
+            work,
+            "residuals: tracked minus projected position over time, with the vote gate",
+        ),
+    ]
+    written += [work / c.href for c in charts]
+
+    played, proxies = player_videos(tl, cameras, videos, n_frames, proxy or {}, work)
+    written += proxies
+    ingest = _read_json(layout.ingest_report(work))
+    player = player_data(tl, {n: inputs[n].camera for n in tl.cameras}, traj, played, utc=bool(ingest and ingest.get("t0_utc")))
+
+    content = ReportContent(
+        title="tlsync run report",
+        timeline=tl,
+        statuses=statuses,
+        warnings=gather_warnings(work, tl, list(cameras), notes),
+        stages=stage_runs(work),
+        calibration={n: calibration_summary(r) for n in cameras if (r := _read_json(layout.calibration_report(work, n)))},
+        ingest=_ingest_summary(ingest),
+        charts=charts,
+        camera_pictures=camera_pictures,
+        pair_pictures=pair_pictures,
+        calibration_pictures=[_picture(f"{n}: calibration", layout.calibration_picture(work, n), work) for n in cameras if layout.calibration_picture(work, n).exists()],
+        exports=[(label, f"exports/{name}") for label, name in EXPORT_LABELS if (layout.exports_dir(work) / name).exists()],
+        player=player,
+    )
+    with atomic_path(layout.report_html(work)) as tmp:
+        tmp.write_text(report_html(content), encoding="utf-8")
+    with atomic_path(layout.report_md(work)) as tmp:
+        tmp.write_text(report_markdown(content), encoding="utf-8")
+    written.append(layout.report_html(work))
+    return {"outputs": [str(p) for p in written], "notes": notes, "report": str(layout.report_html(work))}
 
 
-def write_report(timeline: Timeline, work: Path, pictures: list[Path], notes: list[str]) -> Path:
-    """A short Markdown report of the run: the timeline table, the stages, exports and pictures."""
-    lines = ["# tlsync run report", "", "## Timeline", "", "```", format_table(timeline), "```", ""]
-    manifests = [m for m in (read_manifest(p) for p in work.rglob("*.manifest.json")) if m is not None]
-    manifests.sort(key=lambda m: (STAGES.index(m.stage) if m.stage in STAGES else len(STAGES), m.camera or ""))
-    if manifests:
-        lines += ["## Stages", "", "| stage | camera | made (UTC) | seconds |", "|---|---|---|---:|"]
-        lines += [f"| {m.stage} | {m.camera or '-'} | {m.created} | {m.seconds:.1f} |" for m in manifests]
-        lines.append("")
-    if layout.offsets_csv(work).exists():
-        lines += ["Exports: [frame map](exports/frame_map.csv), [offsets](exports/offsets.csv), [ffmpeg commands](exports/ffmpeg.sh).", ""]
-    calibrations = [layout.calibration_picture(work, name) for name in timeline.names if layout.calibration_picture(work, name).exists()]
-    lines += ["## Pictures", ""]
-    for path in calibrations + list(pictures):
-        rel = Path(path).relative_to(work).as_posix()
-        title = rel.replace("/", " ").replace(".png", "")
-        lines += [f"### {title}", "", f"![{title}]({rel})", ""]
-    if notes:
-        lines += ["## Notes", ""] + [f"- {n}" for n in notes] + [""]
-    path = layout.report_md(work)
+def write_band_swap(name: str, inputs, line, trajectory: Trajectory, video: Path, path: Path) -> Path:
+    """swap_<camera>.png: band swaps of tracked frames, the target rendered before and after synchronization."""
+    track = inputs.track
+    picks = sorted({int(f) for f in np.quantile(track.frame, [0.2, 0.5, 0.8], method="nearest")})
+    images = read_frames(video, picks)
+    fps = line.details.get("clock_fps") or line.fps or inputs.fps
+    times = dict(zip(track.frame.tolist(), track.time_s.tolist())) if track.time_s is not None else {}
+    rows = []
+    for f in picks:
+        own_time = times.get(f, f / fps if fps else None)
+        before = own_time * trajectory.rate if own_time is not None and trajectory.rate else float(f)
+        after = float((line_clock(line, np.array([f]), np.array([own_time]) if own_time is not None else None)[0] - line.beta) / line.alpha)
+        rows.append(
+            (
+                _panel(inputs.camera, images[f], trajectory, before, f"before: {name} frame {f}, its time {_seconds(own_time)} as log time"),
+                _panel(inputs.camera, images[f], trajectory, after, f"after: {name} frame {f} at log time {_seconds(_log_seconds(trajectory, after))}"),
+            )
+        )
+    picture = bandswap.before_after(rows, bandswap.target_radius(track))
+    return write_png(path, picture)
+
+
+def _seconds(value: float | None) -> str:
+    return "?" if value is None else f"{value:.2f} s"
+
+
+def _log_seconds(trajectory: Trajectory, sample: float) -> float | None:
+    """Seconds from the log's first sample to ``sample``, or None without a rate."""
+    return sample / trajectory.rate if trajectory.rate else None
+
+
+def _panel(camera, image: np.ndarray, trajectory: Trajectory, sample: float, text: str) -> bandswap.Panel:
+    point = position_at(trajectory, sample)
+    uv = None
+    if point is not None:
+        projected, valid = camera.project(point[None, :])
+        if valid[0] and camera.in_image(projected)[0]:
+            uv = (float(projected[0, 0]), float(projected[0, 1]))
+    if uv is None:
+        text += " (target out of view)"
+    return bandswap.Panel(image, uv, text)
+
+
+def player_videos(tl: Timeline, cameras: dict, videos: dict[str, Path], n_frames: dict[str, int], policy: dict, work: Path) -> tuple[dict[str, PlayerVideo], list[Path]]:
+    """What the player plays per camera (the video, or a proxy made now when needed) and the proxies written."""
+    played, proxies = {}, []
+    for name, line in tl.cameras.items():
+        video = videos.get(name)
+        if video is None:
+            fps = line.fps or cameras[name].get("fps") or 1.0
+            played[name] = PlayerVideo(None, False, None, np.arange(n_frames[name]) / fps)
+            continue
+        codec = probe_video(video).codec
+        source, is_proxy = video, False
+        if needs_proxy(codec, video.suffix, policy.get(name, "auto")):
+            source, is_proxy = ensure_proxy(video, layout.render_dir(work) / "proxy" / f"{name}.mp4"), True
+            proxies.append(source)
+        src = quote(Path(os.path.relpath(source, work)).as_posix())
+        played[name] = PlayerVideo(src, is_proxy, codec, frame_times(source))
+    return played, proxies
+
+
+def ensure_proxy(video: Path, path: Path) -> Path:
+    """The proxy of ``video`` at ``path``, made again only when the video changed (size, modification time)."""
+    stat = video.stat()
+    stamp = {"source": str(video.resolve()), "size": stat.st_size, "mtime_ns": stat.st_mtime_ns}
+    marker = path.with_suffix(".json")
+    if path.exists() and _read_json(marker) == stamp:
+        return path
+    path.parent.mkdir(parents=True, exist_ok=True)
     with atomic_path(path) as tmp:
-        tmp.write_text("\n".join(lines), encoding="utf-8")
+        make_proxy(video, tmp)
+    with atomic_path(marker) as tmp:
+        tmp.write_text(json.dumps(stamp), encoding="utf-8")
     return path
+
+
+def gather_warnings(work: Path, tl: Timeline, names: list[str], notes: list[str]) -> list[StageWarning]:
+    """Every warning the stages recorded, in stage order, and render's own notes."""
+    found: list[StageWarning] = []
+    for name in names:
+        report = _read_json(layout.calibration_report(work, name))
+        if report:
+            found += calibration_warnings(name, report)
+    ingest = _read_json(layout.ingest_report(work))
+    if ingest:
+        found += ingest_warnings(ingest)
+    for manifest in _manifests(work):
+        if manifest.stage != "render":
+            found += summary_warnings(manifest.stage, manifest.camera, manifest.summary)
+    found += sync_warnings(tl)
+    found += [StageWarning("render", None, note) for note in notes]
+    order = {stage: k for k, stage in enumerate(STAGES)}
+    return sorted(found, key=lambda w: order.get(w.stage, len(STAGES)))
+
+
+def stage_runs(work: Path) -> list[StageRun]:
+    """The stages that made the work folder's artefacts, in pipeline order, and this render."""
+    runs = [StageRun(m.stage, m.camera, m.created, m.seconds) for m in _manifests(work) if m.stage != "render"]
+    return runs + [StageRun("render", None, "this run", None)]
+
+
+def _manifests(work: Path) -> list:
+    manifests = [m for m in (read_manifest(p) for p in work.rglob("*.manifest.json")) if m is not None]
+    order = {stage: k for k, stage in enumerate(STAGES)}
+    return sorted(manifests, key=lambda m: (order.get(m.stage, len(STAGES)), m.camera or ""))
+
+
+def _read_json(path: Path) -> dict | None:
+    try:
+        return json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+
+
+def _ingest_summary(report: dict | None) -> str | None:
+    if not report:
+        return None
+    fields = {k: v for k, v in report.items() if k != "format_version"}
+    fields["gaps"] = [Gap(**g) for g in fields.get("gaps", [])]
+    try:
+        return IngestReport(**fields).summary()
+    except TypeError:
+        return None
+
+
+def _picture(title: str, path: Path, work: Path) -> Picture:
+    return Picture(title, Path(path).relative_to(work).as_posix(), Path(path).read_bytes())
+
+
+def _write_chart(path: Path, png: bytes, work: Path, title: str) -> Picture:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with atomic_path(path) as tmp:
+        tmp.write_bytes(png)
+    return Picture(title, path.relative_to(work).as_posix(), png)

@@ -7,12 +7,14 @@ camera into ``<work>/cameras/<name>/track.csv``.
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 from tlsync_pipeline.atomic import atomic_path
 from tlsync_pipeline.errors import InputError
 from trackers.track import Track, write_track
 from trackers.tracking import track_video
+from trackers.video import TruncatedVideoWarning
 
 
 def track_camera(spec: dict, progress: bool = True) -> Track:
@@ -38,7 +40,16 @@ def write_track_atomic(track: Track, path: Path) -> None:
 
 
 def run_track(spec: dict, out: Path, progress: bool = True) -> dict:
-    """The track stage: the target's track in one camera's video, ``track.csv``."""
-    track = track_camera(spec, progress=progress)
+    """The track stage: the target's track in one camera's video, ``track.csv``.
+
+    Warnings raised while reading the video (a truncated file) are recorded in
+    the summary's ``warnings`` (the manifest keeps them for the report).
+    """
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", TruncatedVideoWarning)
+        track = track_camera(spec, progress=progress)
+    for warning in caught:  # still shown where they were before
+        warnings.warn_explicit(warning.message, warning.category, warning.filename, warning.lineno)
     write_track_atomic(track, out)
-    return {"tracked_frames": len(track), "message": f"wrote {out} ({len(track)} tracked frames)"}
+    recorded = sorted({str(w.message) for w in caught if issubclass(w.category, TruncatedVideoWarning)})
+    return {"tracked_frames": len(track), "warnings": recorded, "message": f"wrote {out} ({len(track)} tracked frames)"}
