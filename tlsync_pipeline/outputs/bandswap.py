@@ -26,6 +26,7 @@ import numpy as np
 DEFAULT_RADIUS_PX = 6.0
 PANEL_HEIGHT = 240  # pixels of each frame in the pictures
 CAPTION_HEIGHT = 22
+MIN_TEXT_SCALE = 0.3
 _FONT = cv2.FONT_HERSHEY_SIMPLEX
 
 
@@ -56,11 +57,17 @@ def band_swap_target(frame: np.ndarray, target_uv: tuple[float, float] | None, r
 
 
 def caption(image: np.ndarray, text: str) -> np.ndarray:
-    """The image with a white bar above it holding ``text`` in black, once, shrunk until it fits the width."""
+    """The image with a white bar above it holding ``text`` in black, once, shrunk (then shortened) to fit the width."""
     width = image.shape[1]
     scale = 0.45
-    while scale > 0.25 and cv2.getTextSize(text, _FONT, scale, 1)[0][0] > 0.9 * (width - 8):
+
+    def fits(candidate: str) -> bool:
+        return cv2.getTextSize(candidate, _FONT, scale, 1)[0][0] <= 0.9 * (width - 8)
+
+    while scale > MIN_TEXT_SCALE and not fits(text):
         scale *= 0.95
+    while len(text) > 4 and not fits(text):
+        text = text[:-4] + "..."
     bar = np.full((CAPTION_HEIGHT, width, 3), 255, np.uint8)
     cv2.putText(bar, text, (4, CAPTION_HEIGHT - 7), _FONT, scale, (0, 0, 0), 1, cv2.LINE_AA)
     return np.vstack([bar, image])

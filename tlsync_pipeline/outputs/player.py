@@ -41,11 +41,11 @@ def encode_times(times: np.ndarray) -> dict:
     times = np.asarray(times, dtype=np.float64)
     if len(times) < 2:
         return {"start": float(times[0]) if len(times) else 0.0, "step": 0.0, "n": int(len(times))}
-    steps = np.diff(times)
     step = (times[-1] - times[0]) / (len(times) - 1)
     if np.max(np.abs(times - (times[0] + step * np.arange(len(times))))) <= REGULAR_TOLERANCE_S:
         return {"start": float(times[0]), "step": float(step), "n": int(len(times))}
-    return {"start": float(times[0]), "deltas_us": np.round(steps * 1e6).astype(np.int64).tolist()}
+    micro = np.round((times - times[0]) * 1e6).astype(np.int64)
+    return {"start": float(times[0]), "deltas_us": np.diff(micro).tolist()}
 
 
 def decode_times(encoded: dict) -> np.ndarray:
