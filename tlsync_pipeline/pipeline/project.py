@@ -29,6 +29,7 @@ from calibration.intrinsics import calibrate_video, parse_corners
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.geodesy import Origin
 from tlsync_pipeline.ingest.process import IngestParams
+from tlsync_pipeline.outputs.proxy import POLICIES as PROXY_POLICIES
 from tlsync_pipeline.sync.params import SYNC_METHODS, SyncParams
 from trackers.tracking import KINDS as TRACKER_KINDS
 from trackers.tracking import track_video
@@ -266,7 +267,7 @@ CAMERA_SCHEMA = {
     "track": Field(_path),
     "fps": Field(_positive),
     "video": Field(_path),
-    "proxy": Field(_choice("auto", "always", "never", what="proxy policy"), "auto"),
+    "proxy": Field(_choice(*PROXY_POLICIES, what="proxy policy"), PROXY_POLICIES[0]),
     "tracker": TRACKER_SCHEMA,
     "calibration": CALIBRATION_SCHEMA,
 }
