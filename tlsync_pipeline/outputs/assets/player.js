@@ -191,7 +191,7 @@
       if (view.video) {
         if (f < 0) { if (!view.video.paused) view.video.pause(); }
         else if (view.video.paused) { view.video.currentTime = videoTime(c, s); view.video.play().catch(function () {}); }
-        else if (Math.abs(view.video.currentTime - videoTime(c, s)) > 2 * c.interval) view.video.currentTime = videoTime(c, s);
+        else if (Math.abs(view.video.currentTime - videoTime(c, s)) > Math.max(3 * c.interval, 0.15)) view.video.currentTime = videoTime(c, s);
       }
       drawOverlay(view, s);
     });
@@ -249,8 +249,9 @@
   });
   window.addEventListener("resize", function () { views.forEach(function (v) { drawOverlay(v, position); }); });
 
-  // The first position where most cameras record: the middle of the shared range.
-  setPosition((data.range[0] + data.range[1]) / 2, true);
+  // Start in the middle of the reference camera's recording.
+  const first = cameras.find(function (c) { return c.name === data.reference; }) || cameras[0];
+  setPosition(first ? sampleOfFrame(first, Math.floor(first.n / 2)) : data.range[0], true);
   root.classList.add("ready");
   window.tlsyncPlayer = { setPosition: setPosition, frameAt: frameAt, seekTime: seekTime, sampleOfFrame: sampleOfFrame, step: step, views: views, get position() { return position; } };
 })();
