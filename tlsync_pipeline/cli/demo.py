@@ -16,7 +16,7 @@ import click
 
 from tlsync_pipeline.cli.pipeline import execute, finish
 from tlsync_pipeline.outputs.summary import format_table, format_truth_comparison
-from tlsync_pipeline.pipeline.layout import render_dir, report_md, timeline_json
+from tlsync_pipeline.pipeline.layout import render_dir, report_html, timeline_json
 from tlsync_pipeline.sync.timeline import read_timeline
 
 
@@ -50,4 +50,4 @@ def demo(directory: Path, quick: bool, seed: int, tracking_noise: float, jobs: i
     table, errors = format_truth_comparison(timeline, scene.truth_pairs(), scene.n_frames)
     click.echo("\nrecovered against true relations:\n" + table)
     click.echo(f"\nworst eps_t: {max(errors.values()):.3f} frames, in {time.perf_counter() - start:.0f} s")
-    click.echo(f"timeline: {timeline_json(graph.work)}\nreport: {report_md(graph.work)}\npictures: {render_dir(graph.work)}/")
+    click.echo(f"timeline: {timeline_json(graph.work)}\nreport: {report_html(graph.work)}\npictures: {render_dir(graph.work)}/")

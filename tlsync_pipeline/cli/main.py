@@ -15,7 +15,7 @@ from tlsync_pipeline.cli.demo import demo as demo_command
 from tlsync_pipeline.cli.pipeline import execute, finish, run_options
 from tlsync_pipeline.errors import INPUT_ERRORS, SyncError
 from tlsync_pipeline.outputs.summary import format_table, format_truth_comparison
-from tlsync_pipeline.pipeline.layout import report_md, timeline_json
+from tlsync_pipeline.pipeline.layout import report_html, timeline_json
 from tlsync_pipeline.sync.timeline import read_timeline, read_truth
 
 EXIT_SYNC_FAILED = 1
@@ -55,7 +55,7 @@ def run(project_file: Path, work_dir: Path | None, out_dir: Path | None, truth: 
     if truth is not None:
         pairs, n_frames = read_truth(truth)
         click.echo("\n" + format_truth_comparison(timeline, pairs, n_frames)[0])
-    click.echo(f"\nwrote {timeline_json(graph.work)}, {report_md(graph.work)}")
+    click.echo(f"\nwrote {timeline_json(graph.work)}, {report_html(graph.work)}")
     if timeline.failed:
         sys.exit(EXIT_SYNC_FAILED)
 

@@ -95,7 +95,7 @@ def summary_warnings(stage: str, camera: str | None, summary: dict) -> list[Stag
 
 
 def camera_status(timeline: Timeline, name: str) -> CameraStatus:
-    """failed (not synchronized), weak (flags, a fallback, or an interval wider than a frame) or ok."""
+    """failed (not synchronized), weak (flags, a fallback, or a start interval wider than one of its frames) or ok."""
     if name in timeline.failed:
         return CameraStatus(name, "failed", timeline.failed[name])
     line = timeline.cameras[name]
@@ -105,8 +105,11 @@ def camera_status(timeline: Timeline, name: str) -> CameraStatus:
         reasons.append("the refinement was not used (see warnings)")
     reference = timeline.names[0]
     se = timeline.start_offset_se(reference, name) if name != reference else None
-    if se is not None and HALF_95 * se[0] > 1.0:
-        reasons.append(f"start known to ±{HALF_95 * se[0]:.1f} frames only")
+    if se is not None:
+        own_frames = HALF_95 * (se[1] * line.fps if se[1] is not None and line.fps else se[0])
+        if own_frames > 1.0:
+            seconds = "" if se[1] is None else f"±{HALF_95 * se[1]:.2g} s, "
+            reasons.append(f"start known to {seconds}±{own_frames:.1f} of its frames only")
     if reasons:
         return CameraStatus(name, "weak", "; ".join(reasons) + f" ({support})")
     return CameraStatus(name, "ok", support)

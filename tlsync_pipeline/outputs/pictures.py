@@ -152,7 +152,7 @@ def _draw_target(image: np.ndarray, camera, point, tracked, scale: float) -> np.
 
 
 def render_pair(a: str, b: str, frames_b: list[int], timeline: Timeline, inputs: dict, trajectory: Trajectory, videos: dict, n_frames: dict, truth: dict | None, out_dir: Path) -> list[Path]:
-    """The strip of the pair A, B at frames ``frames_b`` of B: B's frame, A's matching frame (and A's true match with a truth)."""
+    """The strip of the pair A, B at frames ``frames_b`` of B: A's matching frame, B's frame (and A's true match with a truth)."""
     columns = {"estimated": timeline.relation(b, a)}
     if truth and f"{b}->{a}" in truth:
         columns["truth"] = truth[f"{b}->{a}"]
@@ -168,7 +168,7 @@ def render_pair(a: str, b: str, frames_b: list[int], timeline: Timeline, inputs:
             continue
         fb, scale_b = fit_height(images_b[f])
         point = position_at(trajectory, (f - line_b.beta) / line_b.alpha)
-        row = [caption(_draw_target(fb, inputs[b].camera, point, tracked[b].get(f), scale_b), f"{b} frame {f}")]
+        row = []
         for title, mapping in wanted_a.items():
             fa = mapping[f]
             if fa in images_a:
@@ -176,6 +176,7 @@ def render_pair(a: str, b: str, frames_b: list[int], timeline: Timeline, inputs:
                 row.append(caption(_draw_target(img_a, inputs[a].camera, point, tracked[a].get(fa), scale_a), f"{a} frame {fa} ({title} match)"))
             else:
                 row.append(caption(_blank(fb.shape[1]), f"{a}: no frame {fa} ({title} match)"))
+        row.insert(1, caption(_draw_target(fb, inputs[b].camera, point, tracked[b].get(f), scale_b), f"{b} frame {f}"))
         rows.append(row)
     if not rows:
         return []
