@@ -14,12 +14,13 @@ from tlsync_pipeline.sync.timeline import Timeline
 
 @dataclass(frozen=True)
 class Picture:
-    """A PNG or JPEG: its title, its path relative to the work folder, its bytes (None: link only)."""
+    """A picture: its title, its path relative to the work folder, the bytes to embed (None: link only) and their type."""
 
     title: str
     href: str
     data: bytes | None = None
     caption: str = ""
+    media_type: str = "image/png"
 
 
 @dataclass(frozen=True)

@@ -32,8 +32,7 @@ def _image(picture: Picture) -> str:
     if picture.data is None:
         src = picture.href
     else:
-        kind = "jpeg" if picture.href.lower().endswith((".jpg", ".jpeg")) else "png"
-        src = f"data:image/{kind};base64," + base64.b64encode(picture.data).decode("ascii")
+        src = f"data:{picture.media_type};base64," + base64.b64encode(picture.data).decode("ascii")
     caption = f"<figcaption><b>{_e(picture.title)}</b>" + (f" — {_e(picture.caption)}" if picture.caption else "") + "</figcaption>"
     return f'<figure><img class="picture" alt="{_e(picture.title)}" src="{src}">{caption}</figure>'
 

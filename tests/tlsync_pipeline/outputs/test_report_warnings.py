@@ -24,6 +24,8 @@ from tlsync_pipeline.pipeline.engine import run_graph
 from tlsync_pipeline.pipeline.graph import build_graph
 from tlsync_pipeline.pipeline.project import load_project
 
+pytestmark = pytest.mark.filterwarnings("ignore::trackers.video.TruncatedVideoWarning")  # cam3's video, on purpose
+
 
 def _write_log(path, trajectory, damaged_row: int, hole: tuple[float, float]) -> None:
     """``t,x,y,z`` rows of the trajectory (t = sample / rate), one row cut short, none inside ``hole`` (s)."""

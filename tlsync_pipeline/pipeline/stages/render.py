@@ -14,6 +14,7 @@ import os
 from pathlib import Path
 from urllib.parse import quote
 
+import cv2
 import numpy as np
 
 from tlsync_pipeline.atomic import atomic_path
@@ -54,6 +55,7 @@ from tlsync_pipeline.sync.votes import load_votes
 from tlsync_pipeline.trajectory import Trajectory, read_trajectory
 from trackers.video import frame_times, probe_video
 
+EMBEDDED_JPEG_QUALITY = 85
 EXPORT_LABELS = (
     ("frame map (CSV)", "frame_map.csv"),
     ("offsets (CSV)", "offsets.csv"),
@@ -98,7 +100,7 @@ def run_render(
             made.append(write_band_swap(name, inputs[name], line, traj, videos[name], out_dir / f"swap_{name}.png"))
         written += made
         titles = ("voting space", "tracked against projected", "band swap: before and after")
-        camera_pictures[name] = [_picture(title, path, work) for title, path in zip(titles, made)]
+        camera_pictures[name] = [(_photo if title.startswith("band swap") else _picture)(title, path, work) for title, path in zip(titles, made)]
 
     truth_pairs = read_truth(truth)[0] if truth else None
     pair_list = [tuple(p) for p in pairs] if pairs else default_pairs(tl)
@@ -113,7 +115,7 @@ def run_render(
         if not made:
             notes.append(f"{a}, {b}: the two videos never record at the same time")
         written += made
-        pair_pictures += [_picture(f"{a} and {b}: matching frames", path, work) for path in made]
+        pair_pictures += [_photo(f"{a} and {b}: matching frames", path, work) for path in made]
 
     statuses = all_statuses(tl)
     charts = [
@@ -287,6 +289,14 @@ def _ingest_summary(report: dict | None) -> str | None:
 
 def _picture(title: str, path: Path, work: Path) -> Picture:
     return Picture(title, Path(path).relative_to(work).as_posix(), Path(path).read_bytes())
+
+
+def _photo(title: str, path: Path, work: Path) -> Picture:
+    """A picture of video frames, embedded as JPEG (a fifth of the PNG beside it)."""
+    ok, data = cv2.imencode(".jpg", cv2.imread(str(path)), [cv2.IMWRITE_JPEG_QUALITY, EMBEDDED_JPEG_QUALITY])
+    if not ok:
+        return _picture(title, path, work)
+    return Picture(title, Path(path).relative_to(work).as_posix(), data.tobytes(), media_type="image/jpeg")
 
 
 def _write_chart(path: Path, png: bytes, work: Path, title: str) -> Picture:
