@@ -90,6 +90,8 @@ def camera_rows(timeline: Timeline, statuses: list[CameraStatus]) -> list[Camera
             relation = f"frame = {a} × frame of {reference} {b}"
         vfr = line.details.get("clock") == "time_s"
         fps = line.details.get("clock_fps") if vfr else line.fps
+        if vfr and name != reference:
+            relation += " (linear approximation; exact matches in frame_map.csv)"
         clock = ("VFR (presentation times)" if vfr else "CFR (frame indices)") + (f", {fps:.3f} fps" if fps else "")
         rows.append(CameraRow(name, status.status, status.reason, start, relation, clock, f"{line.inliers} / {line.votes}"))
     return rows
