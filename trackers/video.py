@@ -155,19 +155,18 @@ def read_frames(path: str | Path, indices: Iterable[int], gray: bool = False) ->
     return out
 
 
-def frame_times(path: str | Path) -> np.ndarray:
-    """Presentation time (s) of every frame, in frame-index order, from a demux-only pass (no decoding).
+def presentation_times(path: str | Path) -> np.ndarray | None:
+    """Presentation time (s) of every frame, indexed as ``iter_frames`` numbers them (demux only, no decoding).
 
-    The same times iter_frames gives; a stream without timestamps is decoded
-    instead.
+    None when the container has no timestamps.
     """
     path = Path(path)
     pts_list, _ = _packet_index(path)
-    if pts_list is None:
-        return np.array([frame.time_s for frame in iter_frames(path, gray=True)])
+    if not pts_list:
+        return None
     with _open(path) as container:
         base = container.streams.video[0].time_base or Fraction(1, 1)
-    return np.array([float(pts * base) for pts in pts_list], dtype=np.float64)
+    return np.array([float(pts * base) for pts in pts_list])
 
 
 def _read_sequential(path: Path, wanted: list[int], gray: bool) -> dict[int, VideoFrame]:

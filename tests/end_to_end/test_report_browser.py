@@ -29,7 +29,7 @@ from tlsync_pipeline.pipeline.engine import run_graph
 from tlsync_pipeline.pipeline.graph import build_graph
 from tlsync_pipeline.pipeline.project import load_project
 from trackers.track import Track
-from trackers.video import frame_times
+from trackers.video import presentation_times
 
 SIZE = (320, 240)
 N_FRAMES = 360
@@ -110,17 +110,21 @@ def report(tmp_path_factory):
     return graph.work
 
 
-READ_VIEWS = """
-(async (position) => {
+PAGE_HELPERS = """
+window.__armSeeks = () => {
+  // Promises of every video's next 'seeked' (or 5 s), set before the action that seeks.
+  window.__seeks = window.tlsyncPlayer.views.map(view => new Promise(done => {
+    view.video.addEventListener('seeked', done, {once: true});
+    setTimeout(done, 5000);
+  }));
+};
+window.__readViews = async () => {
   const player = window.tlsyncPlayer;
-  const videos = player.views.map(v => v.video);
-  const seeked = videos.map(v => new Promise(r => v.addEventListener('seeked', r, {once: true})));
-  %s
-  await Promise.all(seeked.filter((_, i) => player.views[i].frame >= 0));
+  await Promise.all(window.__seeks.filter((_, i) => player.views[i].frame >= 0));
   await new Promise(r => requestAnimationFrame(() => requestAnimationFrame(r)));
   const canvas = document.createElement('canvas');
-  return player.views.map((view, i) => {
-    const v = videos[i], w = v.videoWidth, h = v.videoHeight;
+  return player.views.map(view => {
+    const v = view.video, w = v.videoWidth, h = v.videoHeight;
     canvas.width = w; canvas.height = h;
     const ctx = canvas.getContext('2d');
     ctx.drawImage(v, 0, 0, w, h);
@@ -132,20 +136,23 @@ READ_VIEWS = """
     }
     return {camera: view.camera.name, frame: view.frame, time: v.currentTime, code: code};
   });
-})(%s)
-"""
+};
+""" % BITS
 
 
-def move_slider(browser: Browser, position: float) -> list[dict]:
-    """Set the shared slider as a user would (input event) and read every view back."""
-    action = "const s = document.getElementById('player-slider'); s.value = position; s.dispatchEvent(new Event('input'));"
-    return browser.evaluate(READ_VIEWS % (action, BITS, repr(float(position))))
+def move_slider(browser: Browser, position: float) -> dict[str, dict]:
+    """Set the shared slider as a user would (an input event) and read every view back (frame, currentTime, code shown)."""
+    browser.evaluate("window.__armSeeks()")
+    browser.evaluate(f"(() => {{ const s = document.getElementById('player-slider'); s.value = {float(position)!r}; s.dispatchEvent(new Event('input')); }})()")
+    return {v["camera"]: v for v in browser.evaluate("window.__readViews()")}
 
 
-def press(browser: Browser, key: str, code: int) -> list[dict]:
+def press(browser: Browser, key: str, code: int) -> dict[str, dict]:
+    """Press a key in the page (DevTools input events) and read every view back."""
+    browser.evaluate("window.__armSeeks()")
     browser.call("Input.dispatchKeyEvent", type="keyDown", key=key, code=key, windowsVirtualKeyCode=code)
     browser.call("Input.dispatchKeyEvent", type="keyUp", key=key, code=key, windowsVirtualKeyCode=code)
-    return browser.evaluate(READ_VIEWS % ("", BITS, "0"))
+    return {v["camera"]: v for v in browser.evaluate("window.__readViews()")}
 
 
 def read_frame_map(work) -> dict[tuple[str, int], dict]:
@@ -158,7 +165,7 @@ def test_report_in_chromium(report, tmp_path):
     frame_map = read_frame_map(work)
     played = {"cam0": work / "render" / "proxy" / "cam0.mp4", "cam1": work.parent / "cam1.mp4"}
     assert played["cam0"].exists()  # MPEG-4 part 2: the player gets an H.264 proxy
-    times = {name: frame_times(path) for name, path in played.items()}
+    times = {name: presentation_times(path) for name, path in played.items()}
     with Browser(CHROMIUM, width=1280, height=1400) as browser:
         browser.navigate((work / "report.html").as_uri())
         ready = browser.evaluate(
@@ -166,10 +173,11 @@ def test_report_in_chromium(report, tmp_path):
             " new Promise((ok, fail) => { v.addEventListener('loadeddata', () => ok(1)); v.addEventListener('error', () => fail(v.src)); })))"
         )
         assert ready == [1, 1]
+        browser.evaluate(PAGE_HELPERS)
         checked = 0
         for frame_b in (60, 150, 240, 300):
             row = frame_map[("cam1", frame_b)]
-            views = {v["camera"]: v for v in move_slider(browser, float(row["sample"]))}
+            views = move_slider(browser, float(row["sample"]))
             expected = {"cam1": frame_b}
             if row["frame_cam0"]:
                 expected["cam0"] = int(round(float(row["frame_cam0"])))
@@ -182,12 +190,14 @@ def test_report_in_chromium(report, tmp_path):
                 assert view["code"] == frame, (name, frame, view)  # and the browser shows that very frame
                 checked += 1
         assert checked >= 6
-        # → steps the reference camera (cam0) by one frame; the other view follows through the timeline
-        before = {v["camera"]: v for v in move_slider(browser, float(frame_map[("cam1", 150)]["sample"]))}
-        after = {v["camera"]: v for v in press(browser, "ArrowRight", 39)}
-        assert after["cam0"]["frame"] == before["cam0"]["frame"] + 1
-        assert after["cam0"]["code"] == before["cam0"]["frame"] + 1
-        assert abs(after["cam1"]["frame"] - before["cam1"]["frame"]) <= 1
+        # → steps the reference camera (cam0) by one frame; the other view follows through the frame map
+        row = next(r for (name, _), r in frame_map.items() if name == "cam0" and r["frame_cam1"] and 100 < float(r["frame_cam1"]) < 200)
+        before = move_slider(browser, float(row["sample"]))
+        after = press(browser, "ArrowRight", 39)
+        stepped = before["cam0"]["frame"] + 1
+        assert after["cam0"]["frame"] == stepped and after["cam0"]["code"] == stepped
+        expected_b = int(round(float(frame_map[("cam0", stepped)]["frame_cam1"])))  # the other view follows the frame map
+        assert after["cam1"]["frame"] == expected_b and after["cam1"]["code"] == expected_b, (before, after)
         assert browser.errors() == []
         screenshot = browser.screenshot()
     path = tmp_path / "report.png"

@@ -82,8 +82,8 @@ def sync_warnings(timeline: Timeline) -> list[StageWarning]:
     """Per camera: the sync method's warnings and flags, and why failed cameras failed."""
     out = []
     for name, line in timeline.cameras.items():
-        out += [StageWarning("sync", name, text) for text in line.details.get("warnings", [])]
-        out += [StageWarning("sync", name, f"{flag}: {FLAG_MEANING.get(flag, flag)}") for flag in line.details.get("flags", [])]
+        out += [StageWarning("sync", name, text) for text in line.warnings or ()]
+        out += [StageWarning("sync", name, f"{flag}: {FLAG_MEANING.get(flag, flag)}") for flag in line.flags or ()]
     out += [StageWarning("sync", name, f"not synchronized: {why}") for name, why in timeline.failed.items()]
     return out
 
@@ -100,8 +100,8 @@ def camera_status(timeline: Timeline, name: str) -> CameraStatus:
         return CameraStatus(name, "failed", timeline.failed[name])
     line = timeline.cameras[name]
     support = f"{line.inliers} of {line.votes} votes on the line"
-    reasons = [FLAG_MEANING.get(flag, flag) for flag in line.details.get("flags", [])]
-    if line.details.get("warnings"):
+    reasons = [FLAG_MEANING.get(flag, flag) for flag in line.flags or ()]
+    if line.warnings:
         reasons.append("the refinement was not used (see warnings)")
     reference = timeline.names[0]
     se = timeline.start_offset_se(reference, name) if name != reference else None

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from tlsync_pipeline.sync.clock import FrameTimes
 from tlsync_pipeline.sync.timeline import CameraLine, Timeline
 from tlsync_pipeline.trajectory import Trajectory
 
@@ -58,11 +59,8 @@ def decode_times(encoded: dict) -> np.ndarray:
 def recording_samples(line: CameraLine, frame_times: np.ndarray) -> tuple[float, float]:
     """The target samples at which a camera's first and last frames were taken."""
     n = len(frame_times)
-    if line.details.get("clock") == "time_s":
-        clocks = np.array([frame_times[0], frame_times[-1]]) * line.details["clock_fps"]
-    else:
-        clocks = np.array([0.0, n - 1.0])
-    lo, hi = sorted((clocks - line.beta) / line.alpha)
+    table = FrameTimes(np.arange(n, dtype=np.float64), np.asarray(frame_times, dtype=np.float64))
+    lo, hi = sorted(line.sample_at(np.array([0.0, n - 1.0]), table))
     return float(lo), float(hi)
 
 
@@ -113,7 +111,7 @@ def player_data(timeline: Timeline, cameras: dict, trajectory: Trajectory, video
                 "alpha": line.alpha,
                 "beta": line.beta,
                 "fps": line.fps or 0.0,
-                "clock_fps": line.details.get("clock_fps") if line.details.get("clock") == "time_s" else None,
+                "clock_fps": line.clock.fps if line.clock.vfr else None,
                 "times": encode_times(video.frame_times),
                 "size": list(cameras[name].image_size),
                 "path": projected_path(cameras[name], trajectory, lo, hi),

@@ -11,8 +11,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from tlsync_pipeline.outputs.diagnostics import HALF_95, CameraStatus
+from tlsync_pipeline.sync.clock import FrameTimes
 from tlsync_pipeline.sync.timeline import CameraLine, Timeline
-from tlsync_pipeline.trajectory import Trajectory
+from tlsync_pipeline.trajectory import PiecewiseTrajectory
 
 STATUS_COLOURS = {"ok": "tab:green", "weak": "tab:orange", "failed": "tab:red"}
 
@@ -35,22 +36,15 @@ class Residuals:
         return np.hypot(self.dx, self.dy)
 
 
-def line_clock(line: CameraLine, frames: np.ndarray, times_s: np.ndarray | None) -> np.ndarray:
-    """The clock a camera's line runs on at the given frames: frame indices, or time_s x fps for VFR cameras."""
-    if line.details.get("clock") == "time_s" and times_s is not None:
-        return np.asarray(times_s, dtype=np.float64) * line.details["clock_fps"]
-    return np.asarray(frames, dtype=np.float64)
+def track_residuals(camera, track, path_model: PiecewiseTrajectory, line: CameraLine, times: FrameTimes | None = None) -> Residuals:
+    """Tracked minus projected (px) at every tracked frame, the trajectory model taken at the line's sample.
 
-
-def track_residuals(camera, track, trajectory: Trajectory, line: CameraLine) -> Residuals:
-    """Tracked minus projected (px) at every tracked frame, the trajectory taken at the line's sample."""
-    samples = (line_clock(line, track.frame, track.time_s) - line.beta) / line.alpha
-    inside = (samples >= trajectory.sample[0]) & (samples <= trajectory.sample[-1])
-    k = np.clip(np.searchsorted(trajectory.sample, samples), 1, len(trajectory.sample) - 1)
-    in_gap = np.diff(trajectory.sample)[k - 1] > 1.5
-    keep = inside & ~in_gap
-    xyz = np.column_stack([np.interp(samples[keep], trajectory.sample, trajectory.xyz[:, i]) for i in range(3)])
-    uv, valid = camera.project(xyz) if len(xyz) else (np.zeros((0, 2)), np.zeros(0, dtype=bool))
+    times: the camera's presentation times (exact for a presentation-time clock).
+    """
+    samples = np.atleast_1d(line.sample_at(track.frame, times))
+    points = path_model.positions(samples)
+    keep = np.isfinite(points[:, 0])
+    uv, valid = camera.project(points[keep]) if keep.any() else (np.zeros((0, 2)), np.zeros(0, dtype=bool))
     tracked = track.xy[keep][valid]
     return Residuals(samples[keep][valid], tracked[:, 0] - uv[valid, 0], tracked[:, 1] - uv[valid, 1])
 

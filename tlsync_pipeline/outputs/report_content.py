@@ -88,8 +88,8 @@ def camera_rows(timeline: Timeline, statuses: list[CameraStatus]) -> list[Camera
             a = f"{rel.alpha:.5f}" + ("" if cov is None else f" ± {HALF_95 * cov[0, 0] ** 0.5:.2g}")
             b = f"{rel.beta:+.2f}" + ("" if cov is None else f" ± {HALF_95 * cov[1, 1] ** 0.5:.2g}")
             relation = f"frame = {a} × frame of {reference} {b}"
-        vfr = line.details.get("clock") == "time_s"
-        fps = line.details.get("clock_fps") if vfr else line.fps
+        vfr = line.clock.vfr
+        fps = line.clock.fps if vfr else line.fps
         if vfr and name != reference:
             relation += " (linear approximation; exact matches in frame_map.csv)"
         clock = ("VFR (presentation times)" if vfr else "CFR (frame indices)") + (f", {fps:.3f} fps" if fps else "")

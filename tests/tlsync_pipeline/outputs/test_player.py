@@ -5,6 +5,7 @@ import pytest
 
 from data_fixtures import make_scene
 from tlsync_pipeline.outputs.player import decode_times, encode_times, projected_path, recording_samples
+from tlsync_pipeline.sync.clock import TIME_S, CameraClock
 from tlsync_pipeline.sync.timeline import CameraLine
 from tlsync_pipeline.trajectory import Trajectory
 
@@ -25,7 +26,7 @@ def test_recording_range_follows_the_clock():
     times = 0.5 + np.arange(101) / 30.0
     cfr = CameraLine("c", 2.0, 10.0, 0, 0, 0.0, 30.0)
     assert recording_samples(cfr, times) == pytest.approx((-5.0, 45.0))
-    vfr = CameraLine("c", 2.0, 10.0, 0, 0, 0.0, 30.0, {"clock": "time_s", "clock_fps": 30.0})
+    vfr = CameraLine("c", 2.0, 10.0, 0, 0, 0.0, 30.0, clock=CameraClock(TIME_S, 30.0))
     assert recording_samples(vfr, times) == pytest.approx(((15.0 - 10.0) / 2.0, (115.0 - 10.0) / 2.0))
 
 

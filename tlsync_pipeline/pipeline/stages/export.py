@@ -1,7 +1,8 @@
 """The export stage: frame_map.csv, offsets.csv, ffmpeg.sh and the editors' timelines from timeline.json.
 
 Editors' timelines (timeline.otio, timeline.fcpxml when the OTIO FCPXML
-adapter is installed, sync.json) need the reference camera's frame rate.
+adapter can write the cameras' rates, sync.json) need the reference camera's
+frame rate.
 """
 
 from __future__ import annotations
@@ -10,14 +11,17 @@ import csv
 import json
 from pathlib import Path
 
+import numpy as np
+
 from tlsync_pipeline.atomic import atomic_path
 from tlsync_pipeline.outputs.diagnostics import HALF_95
 from tlsync_pipeline.outputs.editors import Placement, fcpxml_text, otio_text, sync_document
 from tlsync_pipeline.outputs.exports import ffmpeg_commands, frame_map_rows, offsets
 from tlsync_pipeline.pipeline import layout
-from tlsync_pipeline.sync.timeline import Timeline, read_timeline
+from tlsync_pipeline.sync.clock import FrameTimes
+from tlsync_pipeline.sync.timeline import CameraLine, Timeline, read_timeline
 from trackers.track import read_track
-from trackers.video import probe_video
+from trackers.video import presentation_times, probe_video
 
 
 def frame_count(camera: dict) -> int:
@@ -30,21 +34,33 @@ def frame_count(camera: dict) -> int:
     return int(track.frame.max()) + 1
 
 
-def run_export(cameras: dict[str, dict], timeline: Path, work: Path) -> dict:
-    """The export stage: frame_map.csv, offsets.csv, ffmpeg.sh and the editors' timelines from timeline.json.
+def frame_times(camera: dict, line: CameraLine) -> FrameTimes | None:
+    """Presentation times that make a camera's frame mapping exact.
 
-Editors' timelines (timeline.otio, timeline.fcpxml when the OTIO FCPXML
-adapter is installed, sync.json) need the reference camera's frame rate.
-"""
+    None for a frame-index clock (it needs none); for a presentation-time
+    clock the video's own table of every frame, else (no video, or no
+    timestamps) the tracked frames' times from track.csv.
+    """
+    if not line.clock.vfr:
+        return None
+    if camera.get("video"):
+        times = presentation_times(camera["video"])
+        if times is not None:
+            return FrameTimes(np.arange(len(times), dtype=np.float64), times)
+    return FrameTimes.of_track(read_track(camera["track"]))
+
+
+def run_export(cameras: dict[str, dict], timeline: Path, work: Path) -> dict:
+    """The export stage: frame_map.csv, offsets.csv, ffmpeg.sh, timeline.otio, timeline.fcpxml and sync.json."""
     tl = read_timeline(timeline)
     if not tl.cameras:
         return {"exported": []}
     n_frames = {name: frame_count(cameras[name]) for name in tl.names}
+    times = {name: frame_times(cameras[name], line) for name, line in tl.cameras.items()}
     with atomic_path(layout.frame_map_csv(work)) as tmp:
         with tmp.open("w", newline="", encoding="utf-8") as handle:
-            csv.writer(handle).writerows(frame_map_rows(tl, n_frames))
-    fps = {name: tl.cameras[name].fps for name in tl.names}
-    rows = offsets(tl, fps)
+            csv.writer(handle).writerows(frame_map_rows(tl, n_frames, times))
+    rows = offsets(tl, times)
     with atomic_path(layout.offsets_csv(work)) as tmp:
         with tmp.open("w", newline="", encoding="utf-8") as handle:
             writer = csv.DictWriter(handle, fieldnames=list(rows[0]))
@@ -73,7 +89,7 @@ adapter is installed, sync.json) need the reference camera's frame rate.
 
 
 def editor_placements(tl: Timeline, rows: list[dict], videos: dict[str, str | None], n_frames: dict[str, int]) -> list[Placement] | None:
-    """Each camera's placement on the editors' timeline from its offsets.csv row; None without the reference's fps."""
+    """Each camera's placement on the editors' timeline from its offsets.csv row; None without every camera's fps."""
     if any(r["start_s"] is None or not r["fps"] for r in rows):
         return None
     reference = tl.names[0]
@@ -82,6 +98,6 @@ def editor_placements(tl: Timeline, rows: list[dict], videos: dict[str, str | No
         name = r["camera"]
         se = tl.start_offset_se(reference, name) if name != reference else None
         half = None if se is None or se[1] is None else HALF_95 * se[1]
-        vfr = tl.cameras[name].details.get("clock") == "time_s"
+        vfr = tl.cameras[name].clock.vfr
         placements.append(Placement(name, videos.get(name), r["start_s"], r["fps"], n_frames[name], n_frames[name] / r["fps"], r["clock_rate"], half, vfr))
     return placements

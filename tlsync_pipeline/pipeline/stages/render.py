@@ -31,15 +31,15 @@ from tlsync_pipeline.outputs.diagnostics import (
 from tlsync_pipeline.outputs.pictures import (
     choose_frames,
     default_pairs,
+    pair_frames,
     plot_trajectory,
     plot_votes,
-    position_at,
     read_frames,
     render_pair,
     write_png,
 )
 from tlsync_pipeline.outputs.player import PlayerVideo, player_data
-from tlsync_pipeline.outputs.plots import line_clock, offsets_plot, residuals_plot, track_residuals
+from tlsync_pipeline.outputs.plots import offsets_plot, residuals_plot, track_residuals
 from tlsync_pipeline.outputs.proxy import make_proxy, needs_proxy
 from tlsync_pipeline.outputs.report_content import Picture, ReportContent, StageRun
 from tlsync_pipeline.outputs.report_html import report_html
@@ -48,12 +48,15 @@ from tlsync_pipeline.outputs.summary import calibration_summary
 from tlsync_pipeline.pipeline import layout
 from tlsync_pipeline.pipeline.cache import read_manifest
 from tlsync_pipeline.pipeline.stages import STAGES
-from tlsync_pipeline.pipeline.stages.export import frame_count
+from tlsync_pipeline.pipeline.stages.export import frame_count, frame_times
 from tlsync_pipeline.pipeline.stages.sync import read_camera_inputs
-from tlsync_pipeline.sync.timeline import Timeline, read_timeline, read_truth
+from tlsync_pipeline.sync.clock import FrameTimes
+from tlsync_pipeline.sync.registry import params_from_table
+from tlsync_pipeline.sync.synchronize import prepare_trajectory
+from tlsync_pipeline.sync.timeline import CameraLine, Timeline, read_timeline, read_truth
 from tlsync_pipeline.sync.votes import load_votes
-from tlsync_pipeline.trajectory import Trajectory, read_trajectory
-from trackers.video import frame_times, probe_video
+from tlsync_pipeline.trajectory import PiecewiseTrajectory, read_trajectory
+from trackers.video import presentation_times, probe_video
 
 EMBEDDED_JPEG_QUALITY = 85
 EXPORT_LABELS = (
@@ -84,7 +87,9 @@ def run_render(
     """
     tl = read_timeline(timeline)
     traj = read_trajectory(trajectory)
+    path_model = PiecewiseTrajectory(prepare_trajectory(traj, params_from_table(tl.params)))
     inputs = read_camera_inputs({n: c for n, c in cameras.items() if n in tl.cameras})
+    times = {name: frame_times(cameras[name], line) for name, line in tl.cameras.items()}
     out_dir = layout.render_dir(work)
     written: list[Path] = []
     camera_pictures: dict[str, list[Picture]] = {name: [] for name in tl.cameras}
@@ -93,11 +98,11 @@ def run_render(
     for name, line in tl.cameras.items():
         votes, _ = load_votes(cameras[name]["votes"])
         made = [
-            plot_votes(name, votes, line, delta, out_dir / f"votes_{name}.png"),
-            plot_trajectory(name, inputs[name].camera, inputs[name].track, traj, line, out_dir / f"trajectory_{name}.png"),
+            plot_votes(name, votes, line, delta, out_dir / f"votes_{name}.png", times[name]),
+            plot_trajectory(name, inputs[name].camera, inputs[name].track, path_model, line, out_dir / f"trajectory_{name}.png", times[name]),
         ]
         if name in videos:
-            made.append(write_band_swap(name, inputs[name], line, traj, videos[name], out_dir / f"swap_{name}.png"))
+            made.append(write_band_swap(name, inputs[name], line, path_model, traj.rate, times[name], videos[name], out_dir / f"swap_{name}.png"))
         written += made
         titles = ("voting space", "tracked against projected", "band swap: before and after")
         camera_pictures[name] = [(_photo if title.startswith("band swap") else _picture)(title, path, work) for title, path in zip(titles, made)]
@@ -105,15 +110,18 @@ def run_render(
     truth_pairs = read_truth(truth)[0] if truth else None
     pair_list = [tuple(p) for p in pairs] if pairs else default_pairs(tl)
     notes = []
+    drawn = {}
     pair_pictures = []
     for a, b in pair_list:
         if a not in videos or b not in videos:
             notes.append(f"{a}, {b}: no strip of matching frames (needs both cameras' videos)")
             continue
-        chosen = list(frames) if frames else choose_frames(inputs[b].track.frame, tl.relation(b, a), n_frames[a], n_frames[b])
-        made = render_pair(a, b, chosen, tl, inputs, traj, videos, n_frames, truth_pairs, out_dir)
+        chosen = list(frames) if frames else choose_frames(inputs[b].track.frame, lambda f: tl.match(b, a, f, times), n_frames[a], n_frames[b])
+        made = render_pair(a, b, chosen, tl, inputs, path_model, videos, n_frames, truth_pairs, out_dir, times)
         if not made:
             notes.append(f"{a}, {b}: the two videos never record at the same time")
+        else:
+            drawn[f"{a},{b}"] = [[f, fa] for f, fa in pair_frames(a, b, chosen, tl, times).items()]
         written += made
         pair_pictures += [_photo(f"{a} and {b}: matching frames", path, work) for path in made]
 
@@ -123,7 +131,7 @@ def run_render(
         _write_chart(
             out_dir / "residuals.png",
             residuals_plot(
-                {n: track_residuals(inputs[n].camera, inputs[n].track, traj, tl.cameras[n]) for n in tl.cameras},
+                {n: track_residuals(inputs[n].camera, inputs[n].track, path_model, tl.cameras[n], times[n]) for n in tl.cameras},
                 float(tl.params.get("eps_px", 10.0)),
                 1.0 / tl.target_rate if tl.target_rate else None,
             ),
@@ -158,25 +166,28 @@ def run_render(
     with atomic_path(layout.report_md(work)) as tmp:
         tmp.write_text(report_markdown(content), encoding="utf-8")
     written.append(layout.report_html(work))
-    return {"outputs": [str(p) for p in written], "notes": notes, "report": str(layout.report_html(work))}
+    return {"outputs": [str(p) for p in written], "notes": notes, "report": str(layout.report_html(work)), "frames": drawn}
 
 
-def write_band_swap(name: str, inputs, line, trajectory: Trajectory, video: Path, path: Path) -> Path:
-    """swap_<camera>.png: band swaps of tracked frames, the target rendered before and after synchronization."""
+def write_band_swap(name: str, inputs, line: CameraLine, path_model: PiecewiseTrajectory, rate: float | None, times: FrameTimes | None, video: Path, path: Path) -> Path:
+    """swap_<camera>.png: band swaps of tracked frames, the target rendered before and after synchronization.
+
+    after: at the sample the camera's line gives the frame; before: at the
+    frame's own time since the camera's frame 0 (seconds on its clock, frame
+    index / fps), taken as time since the log's first sample.
+    """
     track = inputs.track
     picks = sorted({int(f) for f in np.quantile(track.frame, [0.2, 0.5, 0.8], method="nearest")})
     images = read_frames(video, picks)
-    fps = line.details.get("clock_fps") or line.fps or inputs.fps
-    times = dict(zip(track.frame.tolist(), track.time_s.tolist())) if track.time_s is not None else {}
     rows = []
     for f in picks:
-        own_time = times.get(f, f / fps if fps else None)
-        before = own_time * trajectory.rate if own_time is not None and trajectory.rate else float(f)
-        after = float((line_clock(line, np.array([f]), np.array([own_time]) if own_time is not None else None)[0] - line.beta) / line.alpha)
+        own = float(line.clock.seconds_at(line.clock.clock_at(float(f), times), times)) if line.clock.fps else None
+        before = own * rate if own is not None and rate else float(f)
+        after = float(line.sample_at(float(f), times))
         rows.append(
             (
-                _panel(inputs.camera, images[f], trajectory, before, f"before: {name} frame {f}, its time {_seconds(own_time)} as log time"),
-                _panel(inputs.camera, images[f], trajectory, after, f"after: {name} frame {f} at log time {_seconds(_log_seconds(trajectory, after))}"),
+                _panel(inputs.camera, images[f], path_model, before, f"before: {name} frame {f}, its time {_seconds(own)} as log time"),
+                _panel(inputs.camera, images[f], path_model, after, f"after: {name} frame {f} at log time {_seconds(after / rate if rate else None)}"),
             )
         )
     picture = bandswap.before_after(rows, bandswap.target_radius(track))
@@ -187,15 +198,10 @@ def _seconds(value: float | None) -> str:
     return "?" if value is None else f"{value:.2f} s"
 
 
-def _log_seconds(trajectory: Trajectory, sample: float) -> float | None:
-    """Seconds from the log's first sample to ``sample``, or None without a rate."""
-    return sample / trajectory.rate if trajectory.rate else None
-
-
-def _panel(camera, image: np.ndarray, trajectory: Trajectory, sample: float, text: str) -> bandswap.Panel:
-    point = position_at(trajectory, sample)
+def _panel(camera, image: np.ndarray, path_model: PiecewiseTrajectory, sample: float, text: str) -> bandswap.Panel:
+    point = path_model.positions(sample)[0]
     uv = None
-    if point is not None:
+    if np.isfinite(point[0]):
         projected, valid = camera.project(point[None, :])
         if valid[0] and camera.in_image(projected)[0]:
             uv = (float(projected[0, 0]), float(projected[0, 1]))
@@ -219,7 +225,8 @@ def player_videos(tl: Timeline, cameras: dict, videos: dict[str, Path], n_frames
             source, is_proxy = ensure_proxy(video, layout.render_dir(work) / "proxy" / f"{name}.mp4"), True
             proxies.append(source)
         src = quote(Path(os.path.relpath(source, work)).as_posix())
-        played[name] = PlayerVideo(src, is_proxy, codec, frame_times(source))
+        table = presentation_times(source)
+        played[name] = PlayerVideo(src, is_proxy, codec, table if table is not None else np.arange(n_frames[name]) / (line.fps or 1.0))
     return played, proxies
 
 

@@ -92,7 +92,7 @@ def test_band_swap_after_synchronization_puts_the_rendered_target_on_the_real_on
 
 def test_proxies_for_videos_the_browser_cannot_play(rendered_project):
     """The fixture's MPEG-4 part 2 videos get H.264 proxies with the same frames and times, linked from report.html."""
-    from trackers.video import frame_times, probe_video
+    from trackers.video import presentation_times, probe_video
 
     scene, folder = rendered_project
     graph = build_graph(load_project(folder / "project.toml"), folder / "work")
@@ -102,7 +102,7 @@ def test_proxies_for_videos_the_browser_cannot_play(rendered_project):
     assert str(proxy) in result["outputs"]
     info = probe_video(proxy)
     assert info.codec == "h264" and info.height == 240
-    np.testing.assert_allclose(frame_times(proxy), frame_times(folder / "cam1.mp4"), atol=1e-4)
+    np.testing.assert_allclose(presentation_times(proxy), presentation_times(folder / "cam1.mp4"), atol=1e-4)
     assert 'render/proxy/cam1.mp4' in (folder / "work" / "report.html").read_text()
     before = proxy.stat().st_mtime_ns
     run_render(**_with_videos(graph, folder, proxy="auto"))
