@@ -24,7 +24,6 @@ import pytest
 
 from data_fixtures import make_scene, write_scene
 from tests.browser import Browser, find_chromium
-from tlsync_pipeline.pipeline import layout
 from tlsync_pipeline.pipeline.engine import run_graph
 from tlsync_pipeline.pipeline.graph import build_graph
 from tlsync_pipeline.pipeline.project import load_project
@@ -105,7 +104,7 @@ def report(tmp_path_factory):
     graph = build_graph(load_project(project), folder / "work")
     summary = run_graph(graph, targets=["render"])
     assert not summary.failed, summary.failed
-    timeline = json.loads(layout.timeline_json(graph.work).read_text())
+    timeline = json.loads((graph.work / "timeline.json").read_text())
     assert timeline["cameras"]["cam1"].get("clock") == "time_s"  # the VFR camera runs on its presentation times
     return graph.work
 
@@ -156,7 +155,7 @@ def press(browser: Browser, key: str, code: int) -> dict[str, dict]:
 
 
 def read_frame_map(work) -> dict[tuple[str, int], dict]:
-    with layout.frame_map_csv(work).open() as handle:
+    with (work / "exports" / "frame_map.csv").open() as handle:
         return {(row["camera"], int(row["frame"])): row for row in csv.DictReader(handle)}
 
 

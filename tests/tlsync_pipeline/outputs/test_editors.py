@@ -11,7 +11,6 @@ import pytest
 
 from data_fixtures import make_scene, write_scene
 from tlsync_pipeline.outputs.editors import Placement, fcpxml_text, otio_timeline
-from tlsync_pipeline.pipeline import layout
 from tlsync_pipeline.pipeline.engine import run_graph
 from tlsync_pipeline.pipeline.graph import build_graph
 from tlsync_pipeline.pipeline.project import load_project
@@ -30,7 +29,7 @@ def exported(tmp_path_factory):
     project.write_text(text)
     graph = build_graph(load_project(project), folder / "work")
     run_graph(graph, targets=["export"])
-    with layout.offsets_csv(graph.work).open() as handle:
+    with (graph.work / "exports" / "offsets.csv").open() as handle:
         offsets = {row["camera"]: row for row in csv.DictReader(handle)}
     return graph.work, offsets, scene
 
@@ -55,7 +54,7 @@ def _clip_starts(timeline) -> dict[str, tuple[float, float, object]]:
 
 def test_otio_round_trip_places_every_clip_at_its_offset(exported):
     work, offsets, scene = exported
-    timeline = otio.adapters.read_from_file(str(layout.timeline_otio(work)))
+    timeline = otio.adapters.read_from_file(str((work / "exports" / "timeline.otio")))
     starts = _clip_starts(timeline)
     assert set(starts) == set(offsets)
     earliest = min(float(r["start_s"]) for r in offsets.values())
@@ -71,7 +70,7 @@ def test_otio_round_trip_places_every_clip_at_its_offset(exported):
 
 def test_fcpxml_round_trip_places_every_clip_within_a_frame(exported):
     work, offsets, _ = exported
-    timeline = otio.adapters.read_from_file(str(layout.timeline_fcpxml(work)), adapter_name="fcpx_xml")
+    timeline = otio.adapters.read_from_file(str((work / "exports" / "timeline.fcpxml")), adapter_name="fcpx_xml")
     starts = {}
     for track in timeline.video_tracks():
         for clip in track.find_clips():
@@ -85,7 +84,7 @@ def test_fcpxml_round_trip_places_every_clip_within_a_frame(exported):
 
 def test_sync_json_states_its_convention_and_matches_offsets(exported):
     work, offsets, _ = exported
-    data = json.loads(layout.sync_json(work).read_text())
+    data = json.loads((work / "exports" / "sync.json").read_text())
     assert "positive means the camera started later than the reference" in data["sign_convention"]
     assert data["reference"] == next(iter(offsets))
     for name, row in offsets.items():

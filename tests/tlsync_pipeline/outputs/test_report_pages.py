@@ -6,7 +6,6 @@ from pathlib import Path
 import pytest
 
 from data_fixtures import make_scene, write_scene
-from tlsync_pipeline.pipeline import layout
 from tlsync_pipeline.pipeline.engine import run_graph
 from tlsync_pipeline.pipeline.graph import build_graph
 from tlsync_pipeline.pipeline.project import load_project
@@ -18,7 +17,7 @@ def pages(tmp_path_factory):
     scene = make_scene(seed=0, lines=((2.0, 4.0), (2.0, 45.0), (1.0, -30.5)), n_frames=(400, 400, 300))
     graph = build_graph(load_project(write_scene(scene, folder)), folder / "work")
     assert not run_graph(graph, targets=["render"]).failed
-    return graph.work, layout.report_html(graph.work).read_text(), layout.report_md(graph.work).read_text()
+    return graph.work, (graph.work / "report.html").read_text(), (graph.work / "report.md").read_text()
 
 
 def test_markdown_has_tables_and_readable_headings(pages):

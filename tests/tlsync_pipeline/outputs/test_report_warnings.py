@@ -19,7 +19,6 @@ from data_fixtures import make_scene, write_scene
 from data_fixtures.checkerboard import render_checkerboards, write_checkerboards
 from data_fixtures.raw_project import PATTERN, SQUARE_M
 from data_fixtures.video import render_video
-from tlsync_pipeline.pipeline import layout
 from tlsync_pipeline.pipeline.engine import run_graph
 from tlsync_pipeline.pipeline.graph import build_graph
 from tlsync_pipeline.pipeline.project import load_project
@@ -60,10 +59,10 @@ def reported(tmp_path_factory):
     graph = build_graph(load_project(project), folder / "work")
     summary = run_graph(graph, targets=["render"])
     assert not summary.failed, summary.failed
-    page = layout.report_html(graph.work).read_text()
+    page = (graph.work / "report.html").read_text()
     section = re.search(r'<ul class="warnings">(.*?)</ul>', page, re.S).group(1)
     items = [html.unescape(re.sub(r"<[^>]+>", "", item)) for item in re.findall(r"<li>(.*?)</li>", section, re.S)]
-    return items, layout.report_md(graph.work).read_text()
+    return items, (graph.work / "report.md").read_text()
 
 
 @pytest.mark.parametrize(

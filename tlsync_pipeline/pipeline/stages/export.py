@@ -9,15 +9,15 @@ from __future__ import annotations
 
 import csv
 import json
-from pathlib import Path
 
 import numpy as np
 
-from tlsync_pipeline.atomic import atomic_path
 from tlsync_pipeline.outputs.diagnostics import HALF_95
 from tlsync_pipeline.outputs.editors import Placement, fcpxml_text, otio_text, sync_document
 from tlsync_pipeline.outputs.exports import ffmpeg_commands, frame_map_rows, offsets
-from tlsync_pipeline.pipeline import layout
+from tlsync_pipeline.pipeline.spec import Sources, StageSpec
+from tlsync_pipeline.pipeline.stages.cameras import camera_files
+from tlsync_pipeline.pipeline.workspace import StageFiles
 from tlsync_pipeline.sync.clock import FrameTimes
 from tlsync_pipeline.sync.timeline import CameraLine, Timeline, read_timeline
 from trackers.track import read_track
@@ -50,42 +50,41 @@ def frame_times(camera: dict, line: CameraLine) -> FrameTimes | None:
     return FrameTimes.of_track(read_track(camera["track"]))
 
 
-def run_export(cameras: dict[str, dict], timeline: Path, work: Path) -> dict:
+def run_export(files: StageFiles, cameras: list[str]) -> dict:
     """The export stage: frame_map.csv, offsets.csv, ffmpeg.sh, timeline.otio, timeline.fcpxml and sync.json."""
-    tl = read_timeline(timeline)
+    cameras = camera_files(files, cameras)
+    tl = read_timeline(files.path("timeline"))
     if not tl.cameras:
         return {"exported": []}
     n_frames = {name: frame_count(cameras[name]) for name in tl.names}
     times = {name: frame_times(cameras[name], line) for name, line in tl.cameras.items()}
-    with atomic_path(layout.frame_map_csv(work)) as tmp:
+    with files.write("frame_map") as tmp:
         with tmp.open("w", newline="", encoding="utf-8") as handle:
             csv.writer(handle).writerows(frame_map_rows(tl, n_frames, times))
     rows = offsets(tl, times)
-    with atomic_path(layout.offsets_csv(work)) as tmp:
+    with files.write("offsets") as tmp:
         with tmp.open("w", newline="", encoding="utf-8") as handle:
             writer = csv.DictWriter(handle, fieldnames=list(rows[0]))
             writer.writeheader()
             writer.writerows({k: ("" if v is None else (f"{v:.6f}" if isinstance(v, float) else v)) for k, v in r.items()} for r in rows)
     videos = {name: (str(c["video"]) if c.get("video") else None) for name, c in cameras.items()}
-    with atomic_path(layout.ffmpeg_script(work)) as tmp:
+    with files.write("ffmpeg") as tmp:
         tmp.write_text(ffmpeg_commands(rows, videos), encoding="utf-8")
-    written = [layout.frame_map_csv(work), layout.offsets_csv(work), layout.ffmpeg_script(work)]
     notes = []
     placements = editor_placements(tl, rows, videos, n_frames)
     if placements is None:
         notes.append(f"no editor timelines: the reference camera {tl.names[0]} has no frame rate")
     else:
-        texts = {layout.timeline_otio(work): otio_text(placements), layout.sync_json(work): json.dumps(sync_document(placements, tl.names[0]), indent=1) + "\n"}
+        texts = {"timeline_otio": otio_text(placements), "sync_json": json.dumps(sync_document(placements, tl.names[0]), indent=1) + "\n"}
         fcpxml, why_not = fcpxml_text(placements)
         if fcpxml is None:
             notes.append(f"no timeline.fcpxml: {why_not}")
         else:
-            texts[layout.timeline_fcpxml(work)] = fcpxml
-        for path, text in texts.items():
-            with atomic_path(path) as tmp:
+            texts["timeline_fcpxml"] = fcpxml
+        for kind, text in texts.items():
+            with files.write(kind) as tmp:
                 tmp.write_text(text, encoding="utf-8")
-        written += list(texts)
-    return {"exported": tl.names, "n_frames": n_frames, "outputs": [str(p) for p in written], "warnings": notes}
+    return {"exported": tl.names, "n_frames": n_frames, "warnings": notes}
 
 
 def editor_placements(tl: Timeline, rows: list[dict], videos: dict[str, str | None], n_frames: dict[str, int]) -> list[Placement] | None:
@@ -101,3 +100,22 @@ def editor_placements(tl: Timeline, rows: list[dict], videos: dict[str, str | No
         vfr = tl.cameras[name].clock.vfr
         placements.append(Placement(name, videos.get(name), r["start_s"], r["fps"], n_frames[name], n_frames[name] / r["fps"], r["clock_rate"], half, vfr))
     return placements
+
+
+def export_inputs(src: Sources, camera: None) -> dict:
+    """timeline.json, and every camera's track and video (frame counts)."""
+    inputs = {"timeline": src.artefact("timeline")}
+    for spec in src.project.cameras:
+        inputs[f"track:{spec['name']}"] = src.artefact("track", spec["name"])
+        if spec.get("video") is not None:
+            inputs[f"video:{spec['name']}"] = spec["video"]
+    return inputs
+
+
+SPEC = StageSpec(
+    "export",
+    inputs=export_inputs,
+    params=lambda project, camera, options: {"cameras": [c["name"] for c in project.cameras]},
+    outputs=("frame_map", "offsets", "ffmpeg", "timeline_otio", "timeline_fcpxml", "sync_json"),
+    run=run_export,
+)

@@ -45,11 +45,11 @@ from tlsync_pipeline.outputs.report_content import Picture, ReportContent, Stage
 from tlsync_pipeline.outputs.report_html import report_html
 from tlsync_pipeline.outputs.report_md import report_markdown
 from tlsync_pipeline.outputs.summary import calibration_summary
-from tlsync_pipeline.pipeline import layout
-from tlsync_pipeline.pipeline.cache import read_manifest
-from tlsync_pipeline.pipeline.stages import STAGES
+from tlsync_pipeline.pipeline.spec import Sources, StageSpec
+from tlsync_pipeline.pipeline.stages.cameras import camera_files, camera_params
 from tlsync_pipeline.pipeline.stages.export import frame_count, frame_times
 from tlsync_pipeline.pipeline.stages.sync import read_camera_inputs
+from tlsync_pipeline.pipeline.workspace import StageFiles
 from tlsync_pipeline.sync.clock import FrameTimes
 from tlsync_pipeline.sync.registry import params_from_table
 from tlsync_pipeline.sync.synchronize import prepare_trajectory
@@ -70,27 +70,29 @@ EXPORT_LABELS = (
 
 
 def run_render(
-    cameras: dict[str, dict],
-    trajectory: Path,
-    timeline: Path,
-    work: Path,
-    truth: Path | None = None,
+    files: StageFiles,
+    cameras: list[str],
+    fps: dict[str, float | None],
     pairs: list | None = None,
     frames: list | None = None,
     delta: float = 0.5,
     proxy: dict | None = None,
 ) -> dict:
-    """The render stage: pictures, charts, proxies, report.html and report.md; returns the files written.
+    """The render stage: pictures, charts, proxies, report.html and report.md.
 
     proxy: camera -> "auto" | "always" | "never" (default auto: a proxy when
-    the browser cannot play the camera's video).
+    the browser cannot play the camera's video). Returns the files written
+    and, per pair "A,B", the frames drawn: [frame of B, frame of A].
     """
-    tl = read_timeline(timeline)
-    traj = read_trajectory(trajectory)
+    tl = read_timeline(files.path("timeline"))
+    traj = read_trajectory(files.path("trajectory"))
     path_model = PiecewiseTrajectory(prepare_trajectory(traj, params_from_table(tl.params)))
+    names = cameras
+    cameras = camera_files(files, cameras, fps)
     inputs = read_camera_inputs({n: c for n, c in cameras.items() if n in tl.cameras})
     times = {name: frame_times(cameras[name], line) for name, line in tl.cameras.items()}
-    out_dir = layout.render_dir(work)
+    work = files.output("report").parent
+    out_dir = files.output("pictures")
     written: list[Path] = []
     camera_pictures: dict[str, list[Picture]] = {name: [] for name in tl.cameras}
     videos = {n: Path(c["video"]) for n, c in cameras.items() if c.get("video") and n in tl.cameras}
@@ -107,7 +109,7 @@ def run_render(
         titles = ("voting space", "tracked against projected", "band swap: before and after")
         camera_pictures[name] = [(_photo if title.startswith("band swap") else _picture)(title, path, work) for title, path in zip(titles, made)]
 
-    truth_pairs = read_truth(truth)[0] if truth else None
+    truth_pairs = read_truth(files.path("truth"))[0] if files.has("truth") else None
     pair_list = [tuple(p) for p in pairs] if pairs else default_pairs(tl)
     notes = []
     drawn = {}
@@ -141,32 +143,31 @@ def run_render(
     ]
     written += [work / c.href for c in charts]
 
-    played, proxies = player_videos(tl, cameras, videos, n_frames, proxy or {}, work)
+    played, proxies = player_videos(tl, videos, n_frames, proxy or {}, out_dir / "proxy", work)
     written += proxies
-    ingest = _read_json(layout.ingest_report(work))
+    ingest = _read_json(files.path("ingest_report")) if files.has("ingest_report") else None
     player = player_data(tl, {n: inputs[n].camera for n in tl.cameras}, traj, played, utc=bool(ingest and ingest.get("t0_utc")))
 
     content = ReportContent(
         title="tlsync run report",
         timeline=tl,
         statuses=statuses,
-        warnings=gather_warnings(work, tl, list(cameras), notes),
-        stages=stage_runs(work),
-        calibration={n: calibration_summary(r) for n in cameras if (r := _read_json(layout.calibration_report(work, n)))},
+        warnings=gather_warnings(files, tl, names, ingest, notes),
+        stages=[StageRun(h["stage"], h["camera"], h["created"], h["seconds"]) for h in files.history if h["stage"] != "render"] + [StageRun("render", None, "this run", None)],
+        calibration={n: calibration_summary(r) for n in names if (r := _declared_json(files, f"calibration_report:{n}"))},
         ingest=_ingest_summary(ingest),
         charts=charts,
         camera_pictures=camera_pictures,
         pair_pictures=pair_pictures,
-        calibration_pictures=[_picture(f"{n}: calibration", layout.calibration_picture(work, n), work) for n in cameras if layout.calibration_picture(work, n).exists()],
-        exports=[(label, f"exports/{name}") for label, name in EXPORT_LABELS if (layout.exports_dir(work) / name).exists()],
+        calibration_pictures=[_picture(f"{n}: calibration", files.path(f"calibration_picture:{n}"), work) for n in names if files.has(f"calibration_picture:{n}") and files.path(f"calibration_picture:{n}").exists()],
+        exports=[(label, f"exports/{name}") for label, name in EXPORT_LABELS if (work / "exports" / name).exists()],
         player=player,
     )
-    with atomic_path(layout.report_html(work)) as tmp:
+    with files.write("report_html") as tmp:
         tmp.write_text(report_html(content), encoding="utf-8")
-    with atomic_path(layout.report_md(work)) as tmp:
+    with files.write("report") as tmp:
         tmp.write_text(report_markdown(content), encoding="utf-8")
-    written.append(layout.report_html(work))
-    return {"outputs": [str(p) for p in written], "notes": notes, "report": str(layout.report_html(work)), "frames": drawn}
+    return {"outputs": [str(p) for p in written], "notes": notes, "report": str(files.output("report_html")), "frames": drawn}
 
 
 def write_band_swap(name: str, inputs, line: CameraLine, path_model: PiecewiseTrajectory, rate: float | None, times: FrameTimes | None, video: Path, path: Path) -> Path:
@@ -210,19 +211,19 @@ def _panel(camera, image: np.ndarray, path_model: PiecewiseTrajectory, sample: f
     return bandswap.Panel(image, uv, text)
 
 
-def player_videos(tl: Timeline, cameras: dict, videos: dict[str, Path], n_frames: dict[str, int], policy: dict, work: Path) -> tuple[dict[str, PlayerVideo], list[Path]]:
+def player_videos(tl: Timeline, videos: dict[str, Path], n_frames: dict[str, int], policy: dict, proxy_dir: Path, work: Path) -> tuple[dict[str, PlayerVideo], list[Path]]:
     """What the player plays per camera (the video, or a proxy made now when needed) and the proxies written."""
     played, proxies = {}, []
     for name, line in tl.cameras.items():
         video = videos.get(name)
         if video is None:
-            fps = line.fps or cameras[name].get("fps") or 1.0
+            fps = line.fps or 1.0
             played[name] = PlayerVideo(None, False, None, np.arange(n_frames[name]) / fps)
             continue
         codec = probe_video(video).codec
         source, is_proxy = video, False
         if needs_proxy(codec, video.suffix, policy.get(name, "auto")):
-            source, is_proxy = ensure_proxy(video, layout.render_dir(work) / "proxy" / f"{name}.mp4"), True
+            source, is_proxy = ensure_proxy(video, proxy_dir / f"{name}.mp4"), True
             proxies.append(source)
         src = quote(Path(os.path.relpath(source, work)).as_posix())
         table = presentation_times(source)
@@ -245,35 +246,29 @@ def ensure_proxy(video: Path, path: Path) -> Path:
     return path
 
 
-def gather_warnings(work: Path, tl: Timeline, names: list[str], notes: list[str]) -> list[StageWarning]:
+def gather_warnings(files: StageFiles, tl: Timeline, names: list[str], ingest: dict | None, notes: list[str]) -> list[StageWarning]:
     """Every warning the stages recorded, in stage order, and render's own notes."""
     found: list[StageWarning] = []
     for name in names:
-        report = _read_json(layout.calibration_report(work, name))
+        report = _declared_json(files, f"calibration_report:{name}")
         if report:
             found += calibration_warnings(name, report)
-    ingest = _read_json(layout.ingest_report(work))
     if ingest:
         found += ingest_warnings(ingest)
-    for manifest in _manifests(work):
-        if manifest.stage != "render":
-            found += summary_warnings(manifest.stage, manifest.camera, manifest.summary)
+    for run in files.history:
+        if run["stage"] != "render":
+            found += summary_warnings(run["stage"], run["camera"], {"warnings": run.get("warnings")})
     found += sync_warnings(tl)
     found += [StageWarning("render", None, note) for note in notes]
-    order = {stage: k for k, stage in enumerate(STAGES)}
-    return sorted(found, key=lambda w: order.get(w.stage, len(STAGES)))
+    order = {}  # pipeline order: the history lists the graph's tasks in it
+    for run in files.history + [{"stage": w.stage} for w in found]:
+        order.setdefault(run["stage"], len(order))
+    return sorted(found, key=lambda w: order[w.stage] if w.stage != "render" else len(order))
 
 
-def stage_runs(work: Path) -> list[StageRun]:
-    """The stages that made the work folder's artefacts, in pipeline order, and this render."""
-    runs = [StageRun(m.stage, m.camera, m.created, m.seconds) for m in _manifests(work) if m.stage != "render"]
-    return runs + [StageRun("render", None, "this run", None)]
-
-
-def _manifests(work: Path) -> list:
-    manifests = [m for m in (read_manifest(p) for p in work.rglob("*.manifest.json")) if m is not None]
-    order = {stage: k for k, stage in enumerate(STAGES)}
-    return sorted(manifests, key=lambda m: (order.get(m.stage, len(STAGES)), m.camera or ""))
+def _declared_json(files: StageFiles, label: str) -> dict | None:
+    """A declared JSON input (None when not declared or unreadable)."""
+    return _read_json(files.path(label)) if files.has(label) else None
 
 
 def _read_json(path: Path) -> dict | None:
@@ -311,3 +306,42 @@ def _write_chart(path: Path, png: bytes, work: Path, title: str) -> Picture:
     with atomic_path(path) as tmp:
         tmp.write_bytes(png)
     return Picture(title, path.relative_to(work).as_posix(), png)
+
+
+def render_inputs(src: Sources, camera: None) -> dict:
+    """What the pictures and the report show: every camera's files, votes and calibration report, the trajectory and
+    its ingest report, the timeline, the exports."""
+    inputs = {"timeline": src.artefact("timeline"), "trajectory": src.artefact("trajectory"), "offsets": src.artefact("offsets")}
+    if src.made("ingest_report"):
+        inputs["ingest_report"] = src.artefact("ingest_report")
+    for spec in src.project.cameras:
+        name = spec["name"]
+        inputs.update({f"{kind}:{name}": src.artefact(kind, name) for kind in ("camera", "track", "votes")})
+        if spec.get("video") is not None:
+            inputs[f"video:{name}"] = spec["video"]
+        for kind in ("calibration_picture", "calibration_report"):
+            if src.made(kind, name):
+                inputs[f"{kind}:{name}"] = src.artefact(kind, name)
+    if src.options.truth is not None:
+        inputs["truth"] = Path(src.options.truth).resolve()
+    return inputs
+
+
+def render_params(project, camera: None, options) -> dict:
+    return {
+        **camera_params(project),
+        "pairs": [list(p) for p in options.render_pairs] if options.render_pairs else None,
+        "frames": list(options.render_frames) if options.render_frames else None,
+        "delta": project.sync.delta,
+        "proxy": {spec["name"]: spec["proxy"] for spec in project.cameras},
+    }
+
+
+SPEC = StageSpec(
+    "render",
+    inputs=render_inputs,
+    params=render_params,
+    outputs=("pictures", "report_html", "report"),
+    run=run_render,
+    history=True,
+)

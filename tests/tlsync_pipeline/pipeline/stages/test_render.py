@@ -1,15 +1,17 @@
 """Render: band-swap and strip pictures, plots, report, proxies, decoding only the frames drawn."""
 
+import json
+
 import cv2
 import numpy as np
 import pytest
 
 from data_fixtures import make_scene, write_scene
 from tlsync_pipeline.outputs import pictures as render
-from tlsync_pipeline.pipeline.stages.render import run_render
 from tlsync_pipeline.pipeline.engine import run_graph
 from tlsync_pipeline.pipeline.graph import build_graph
 from tlsync_pipeline.pipeline.project import load_project
+from tlsync_pipeline.pipeline.spec import Options
 from tlsync_pipeline.sync.timeline import Relation
 
 
@@ -33,9 +35,19 @@ def rendered_project(tmp_path_factory):
     scene = make_scene(seed=1, n_frames=400, image_size=(320, 240))
     folder = tmp_path_factory.mktemp("render")
     write_scene(scene, folder)
+    toml = folder / "project.toml"
     for name, camera in scene.cameras.items():
         _write_video(folder / f"{name}.mp4", camera, scene.tracks[name], scene.n_frames[name])
+        toml.write_text(toml.read_text().replace(f'track = "{name}/track.csv"', f'track = "{name}/track.csv"\nvideo = "{name}.mp4"\nproxy = "never"'))
     return scene, folder
+
+
+def _render(graph) -> list[str]:
+    """Run the render stage alone (its inputs are made already); the pictures it wrote."""
+    summary = run_graph(graph, force={"render"}, targets=["render"])
+    assert summary.ran == ["render"], summary
+    manifest = json.loads((graph.work / "render" / "render.manifest.json").read_text())
+    return [rel.rsplit("/", 1)[-1] for rel in manifest["outputs"] if rel.endswith(".png")]
 
 
 def test_render_decodes_only_the_frames_it_draws(rendered_project, monkeypatch):
@@ -52,37 +64,28 @@ def test_render_decodes_only_the_frames_it_draws(rendered_project, monkeypatch):
         return frames
 
     monkeypatch.setattr(render, "read_frames", counting)
-    kwargs = _with_videos(graph, folder, proxy="never")
-    result = run_render(**kwargs)
-    names = {p.rsplit("/", 1)[-1] for p in result["outputs"]}
-    assert {"swap_cam0.png", "swap_cam1.png", "strip_cam0_cam1.png", "votes_cam0.png", "trajectory_cam1.png", "offsets.png", "residuals.png", "report.html"} <= names
-    strip_frames = {name: set() for name in ("cam0.mp4", "cam1.mp4")}
+    names = set(_render(graph))
+    assert {"swap_cam0.png", "swap_cam1.png", "strip_cam0_cam1.png", "votes_cam0.png", "trajectory_cam1.png", "offsets.png", "residuals.png"} <= names
+    assert (folder / "work" / "report.html").exists()
+    decoded = {name: set() for name in ("cam0.mp4", "cam1.mp4")}
     for name, frames in requested:
-        strip_frames[name] |= set(frames)
+        decoded[name] |= set(frames)
     # per camera three tracked frames for its band swap; for the strip three frames of cam1 and cam0's matches
     for name in ("cam0", "cam1"):
-        assert len(strip_frames[f"{name}.mp4"]) <= 2 * render.FRAMES_PER_PAIR
+        assert len(decoded[f"{name}.mp4"]) <= 2 * render.FRAMES_PER_PAIR
     truth = scene.truth_pairs()["cam1->cam0"]
-    matched = {int(round(float(truth(f)))) for f in strip_frames["cam1.mp4"] if 0 <= truth(f) < scene.n_frames["cam0"]}
-    assert matched and all(min(abs(m - d) for d in strip_frames["cam0.mp4"]) <= 2 for m in matched)
+    matched = {int(round(float(truth(f)))) for f in decoded["cam1.mp4"] if 0 <= truth(f) < scene.n_frames["cam0"]}
+    assert matched and all(min(abs(m - d) for d in decoded["cam0.mp4"]) <= 2 for m in matched)
     strip = cv2.imread(str(folder / "work" / "render" / "strip_cam0_cam1.png"))
     assert strip.shape[0] >= render.FRAMES_PER_PAIR * render.PANEL_HEIGHT
-
-
-def _with_videos(graph, folder, proxy: str):
-    """The render task's arguments with every camera's video and one proxy policy."""
-    kwargs = dict(graph.tasks["render"].kwargs)
-    kwargs["cameras"] = {name: {**c, "video": folder / f"{name}.mp4"} for name, c in kwargs["cameras"].items()}
-    kwargs["proxy"] = {name: proxy for name in kwargs["cameras"]}
-    return kwargs
 
 
 def test_band_swap_after_synchronization_puts_the_rendered_target_on_the_real_one(rendered_project):
     """The test videos draw the target white at its tracked position: after = yellow overlap, before = apart."""
     scene, folder = rendered_project
     graph = build_graph(load_project(folder / "project.toml"), folder / "work")
-    run_graph(graph, targets=["sync"])
-    run_render(**_with_videos(graph, folder, proxy="never"))
+    run_graph(graph, targets=["sync", "export"])
+    _render(graph)
     swap = cv2.imread(str(folder / "work" / "render" / "swap_cam1.png"))
     half = swap.shape[1] // 2
     yellow = (swap[..., 2] > 200) & (swap[..., 1] > 200) & (swap[..., 0] < 50)  # not the white caption bars
@@ -95,18 +98,23 @@ def test_proxies_for_videos_the_browser_cannot_play(rendered_project):
     from trackers.video import presentation_times, probe_video
 
     scene, folder = rendered_project
-    graph = build_graph(load_project(folder / "project.toml"), folder / "work")
-    run_graph(graph, targets=["sync"])
-    result = run_render(**_with_videos(graph, folder, proxy="auto"))
-    proxy = folder / "work" / "render" / "proxy" / "cam1.mp4"
-    assert str(proxy) in result["outputs"]
-    info = probe_video(proxy)
-    assert info.codec == "h264" and info.height == 240
-    np.testing.assert_allclose(presentation_times(proxy), presentation_times(folder / "cam1.mp4"), atol=1e-4)
-    assert 'render/proxy/cam1.mp4' in (folder / "work" / "report.html").read_text()
-    before = proxy.stat().st_mtime_ns
-    run_render(**_with_videos(graph, folder, proxy="auto"))
-    assert proxy.stat().st_mtime_ns == before  # the video did not change: the proxy is kept
+    toml = folder / "project.toml"
+    policy = toml.read_text()
+    try:
+        toml.write_text(policy.replace('proxy = "never"', 'proxy = "auto"'))
+        graph = build_graph(load_project(toml), folder / "work")
+        run_graph(graph, targets=["sync", "export"])
+        _render(graph)
+        proxy = folder / "work" / "render" / "proxy" / "cam1.mp4"
+        info = probe_video(proxy)
+        assert info.codec == "h264" and info.height == 240
+        np.testing.assert_allclose(presentation_times(proxy), presentation_times(folder / "cam1.mp4"), atol=1e-4)
+        assert "render/proxy/cam1.mp4" in (folder / "work" / "report.html").read_text()
+        before = proxy.stat().st_mtime_ns
+        _render(graph)
+        assert proxy.stat().st_mtime_ns == before  # the video did not change: the proxy is kept
+    finally:
+        toml.write_text(policy)
 
 
 def test_choose_frames_stays_where_both_cameras_record():
@@ -118,16 +126,13 @@ def test_choose_frames_stays_where_both_cameras_record():
 
 def test_render_command_with_pair_and_frames(rendered_project, monkeypatch):
     scene, folder = rendered_project
-    from tlsync_pipeline.pipeline.graph import Options
-
     project = load_project(folder / "project.toml")
     graph = build_graph(project, folder / "work", Options(render_pairs=(("cam1", "cam0"),), render_frames=(150, 160)))
-    run_graph(graph, targets=["sync"])
+    run_graph(graph, targets=["sync", "export"])
     requested = []
     original = render.read_frames
     monkeypatch.setattr(render, "read_frames", lambda path, indices: requested.append((path.name, sorted(indices))) or original(path, indices))
-    result = run_render(**_with_videos(graph, folder, proxy="never"))
-    assert any(p.endswith("strip_cam1_cam0.png") for p in result["outputs"])
+    assert "strip_cam1_cam0.png" in _render(graph)
     assert ("cam0.mp4", [150, 160]) in requested
 
 
@@ -139,7 +144,7 @@ def test_render_never_decodes_the_videos_through(rendered_project, monkeypatch):
 
     scene, folder = rendered_project
     graph = build_graph(load_project(folder / "project.toml"), folder / "work")
-    run_graph(graph, targets=["sync"])
+    run_graph(graph, targets=["sync", "export"])
     decoded = Counter()
     original = video._decode
 
@@ -149,7 +154,7 @@ def test_render_never_decodes_the_videos_through(rendered_project, monkeypatch):
             yield frame, error
 
     monkeypatch.setattr(video, "_decode", counting)
-    run_render(**_with_videos(graph, folder, proxy="never"))
+    _render(graph)
     assert decoded["cam1.mp4"] > 0 and decoded["cam0.mp4"] > 0
     for name in ("cam0", "cam1"):
         assert decoded[f"{name}.mp4"] < scene.n_frames[name] / 3, decoded
