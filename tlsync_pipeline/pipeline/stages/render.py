@@ -146,7 +146,7 @@ def run_render(
     played, proxies = player_videos(tl, videos, n_frames, proxy or {}, out_dir / "proxy", work)
     written += proxies
     ingest = _read_json(files.path("ingest_report")) if files.has("ingest_report") else None
-    player = player_data(tl, {n: inputs[n].camera for n in tl.cameras}, traj, played, utc=bool(ingest and ingest.get("t0_utc")))
+    player = player_data(tl, {n: inputs[n].camera for n in tl.cameras}, traj, played, utc=bool(ingest and ingest.get("t0_utc") and ingest.get("clock", "UTC") == "UTC"))
 
     content = ReportContent(
         title="tlsync run report",
