@@ -1,7 +1,6 @@
 """report.html and report.md of a quick run: the camera table, readable headings, stages with render, local links only."""
 
 import re
-from pathlib import Path
 
 import pytest
 
