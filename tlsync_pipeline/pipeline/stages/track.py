@@ -9,6 +9,7 @@ Without an init box (blob kind), every mover is detected: ``detections.csv``
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 from tlsync_pipeline.atomic import atomic_path
@@ -18,6 +19,7 @@ from tlsync_pipeline.pipeline.workspace import StageFiles
 from trackers.detections import Detections, follows_every_mover, write_detections
 from trackers.track import Track, write_track
 from trackers.tracking import detect_movers, track_video
+from trackers.video import TruncatedVideoWarning
 
 
 def tracks_every_mover(spec: dict) -> bool:
@@ -57,13 +59,23 @@ def write_detections_atomic(detections: Detections, path: Path) -> None:
 
 
 def run_track(files: StageFiles, tracker: dict) -> dict:
-    """The track stage: ``detections.csv`` (every mover) or ``track.csv`` (one target) of one camera's video."""
-    result = track_camera({"name": files.camera, "video": files.path("video"), "tracker": tracker}, progress=files.progress)
+    """The track stage: ``detections.csv`` (every mover) or ``track.csv`` (one target) of one camera's video.
+
+    Warnings raised while reading the video (a truncated file) are recorded in
+    the summary's ``warnings`` (the manifest keeps them for the report).
+    """
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", TruncatedVideoWarning)
+        result = track_camera({"name": files.camera, "video": files.path("video"), "tracker": tracker}, progress=files.progress)
+    for warning in caught:  # still shown where they were before
+        warnings.warn_explicit(warning.message, warning.category, warning.filename, warning.lineno)
+    recorded = sorted({str(w.message) for w in caught if issubclass(w.category, TruncatedVideoWarning)})
     if isinstance(result, Detections):
         write_detections_atomic(result, files.output("detections"))
-        return {"detections": len(result), "tracklets": int(len(result.tracklet_ids())), "message": f"wrote {files.output('detections')} ({len(result)} detections)"}
+        count = f"{len(result)} detections"
+        return {"detections": len(result), "tracklets": int(len(result.tracklet_ids())), "warnings": recorded, "message": f"wrote {files.output('detections')} ({count})"}
     write_track_atomic(result, files.output("track"))
-    return {"tracked_frames": len(result), "message": f"wrote {files.output('track')} ({len(result)} tracked frames)"}
+    return {"tracked_frames": len(result), "warnings": recorded, "message": f"wrote {files.output('track')} ({len(result)} tracked frames)"}
 
 
 def _applies(project, cam: str) -> bool:
