@@ -1,6 +1,6 @@
 """The tasks a project makes of the stage specs.
 
-intrinsics -> calibrate -> track -> ingest -> vote -> sync -> export -> render.
+intrinsics -> calibrate -> track -> ingest -> identify -> vote -> sync -> export -> render.
 A task is one stage for one camera (or the project). Everything about it
 comes from its stage's SPEC (pipeline/spec.py): the files it reads (hashed
 for its cache key), its parameters, the artefacts it writes, and the function
