@@ -7,7 +7,8 @@ adds blobs and false lines):
 
 1. thinning: only the best vote (smallest pixel distance) of each frame and
    of each sample is kept, so a hover block of H frames x S samples shrinks
-   from H * S votes to at most H + S scattered ones;
+   from H * S votes to at most H + S scattered ones (with several candidates
+   per frame, each candidate object is thinned on its own);
 2. hypotheses are lines through two thinned votes, half drawn anywhere and
    half from votes close in frame order (inliers are contiguous in time), in
    batches until the count of eq. 4 for the best inlier ratio found so far is
@@ -62,13 +63,19 @@ class LineSearch:
         return int(self.inliers.sum())
 
 
-def thin_votes(sample: np.ndarray, frame: np.ndarray, dist: np.ndarray) -> np.ndarray:
-    """Indices of the votes that are the closest of their frame or of their sample."""
+def thin_votes(sample: np.ndarray, frame: np.ndarray, dist: np.ndarray, group: np.ndarray | None = None) -> np.ndarray:
+    """Indices of the votes that are the closest of their frame or of their sample.
+
+    group: optional (M,) object id of each vote (e.g. a tracklet): the
+    closest per frame and per sample are then taken within each group.
+    """
     keep = np.zeros(len(frame), dtype=bool)
+    if group is None:
+        group = np.zeros(len(frame))
     for key in (frame, sample):
-        order = np.lexsort((dist, key))
+        order = np.lexsort((dist, key, group))
         first = np.ones(len(order), dtype=bool)
-        first[1:] = key[order][1:] != key[order][:-1]
+        first[1:] = (key[order][1:] != key[order][:-1]) | (group[order][1:] != group[order][:-1])
         keep[order[first]] = True
     return np.flatnonzero(keep)
 
@@ -168,11 +175,14 @@ def _polish(sample, frame, alpha, beta, delta):
     return alpha, beta
 
 
-def find_line(sample: np.ndarray, frame: np.ndarray, dist: np.ndarray, delta: float = 0.5, p: float = 0.99, r_min: float = 0.01, seed: int = 0) -> LineSearch:
+def find_line(
+    sample: np.ndarray, frame: np.ndarray, dist: np.ndarray, delta: float = 0.5, p: float = 0.99, r_min: float = 0.01, seed: int = 0, group: np.ndarray | None = None
+) -> LineSearch:
     """The line frame = alpha * sample + beta best supported by the votes.
 
     r_min: the smallest inlier ratio (of thinned votes) the search must
-    find with probability p. Raises ValueError when no increasing line
+    find with probability p; group: the object each vote comes from when
+    several candidates vote per frame (thinning is per object). Raises ValueError when no increasing line
     exists (fewer than 2 distinct samples, or votes that never move forward).
     """
     sample = np.asarray(sample, dtype=np.float64)
@@ -181,7 +191,7 @@ def find_line(sample: np.ndarray, frame: np.ndarray, dist: np.ndarray, delta: fl
     if len(np.unique(sample)) < 2:
         raise ValueError("the votes cover fewer than 2 distinct target samples: no line can be fitted")
     rng = np.random.default_rng(seed)
-    kept = thin_votes(sample, frame, dist)
+    kept = thin_votes(sample, frame, dist, None if group is None else np.asarray(group))
     kept = kept[np.lexsort((sample[kept], frame[kept]))]
     ts, tf = sample[kept], frame[kept]
     found = _search(rng, ts, tf, delta, p, r_min)
