@@ -7,15 +7,23 @@ re-runs one stage (for one camera), after whatever it needs that is not fresh.
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 import click
 
-from tlsync_pipeline.errors import INPUT_ERRORS, InputError, SyncError
+from tlsync_pipeline.cli.console import ConsoleProgress, describe, one_line
+from tlsync_pipeline.cli.exit_codes import ExitCode, exit_code_for
+from tlsync_pipeline.errors import InputError
+from tlsync_pipeline.outputs.summary import format_table, format_truth_comparison
 from tlsync_pipeline.pipeline.engine import RunSummary, format_status, run_graph, status
-from tlsync_pipeline.pipeline.executors import EXECUTORS, make_executor
+from tlsync_pipeline.pipeline.executors import EXECUTORS, SerialExecutor, make_executor
 from tlsync_pipeline.pipeline.graph import STAGES, Options, build_graph
 from tlsync_pipeline.pipeline.project import load_project
+from tlsync_pipeline.pipeline.layout import timeline_json
+from tlsync_pipeline.pipeline.lock import check_writable
+from tlsync_pipeline.pipeline.stages import PER_CAMERA
+from tlsync_pipeline.sync.timeline import read_timeline, read_truth
 
 
 def work_option(f):
@@ -58,10 +66,17 @@ def _parse_frames(value: str | None) -> tuple[int, ...] | None:
 
 
 def execute(project_file: Path, work_dir, out_dir, *, force_stages=(), cameras=(), targets_stage=None, options=Options(), jobs=None, executor_kind="process", scheduler=None, quiet=False):
-    """Build the graph, run it and print what happened; returns (graph, summary)."""
+    """Build the graph, run it and print what ran; returns (graph, summary).
+
+    Stages draw their own progress bars only when they run one at a time in
+    this process; tasks in parallel workers get one bar drawn here.
+    """
     project = load_project(project_file)
     work = resolve_work(project, work_dir, out_dir)
-    graph = build_graph(project, work, Options(options.render_pairs, options.render_frames, options.truth, not quiet))
+    _check_camera_option(cameras, [targets_stage] if targets_stage is not None else list(force_stages))
+    executor = make_executor(executor_kind, jobs, scheduler)
+    stage_bars = not quiet and isinstance(executor, SerialExecutor)
+    graph = build_graph(project, work, Options(options.render_pairs, options.render_frames, options.truth, stage_bars))
     for a, b in options.render_pairs or ():
         project.camera(a), project.camera(b)
     force: set[str] = set()
@@ -74,15 +89,27 @@ def execute(project_file: Path, work_dir, out_dir, *, force_stages=(), cameras=(
             targets += graph.select(targets_stage, camera)
         force.update(targets)
     elif cameras:
-        if not force_stages:
-            raise InputError("--camera goes with --force STAGE (tlsync run re-runs only what is not fresh, for every camera)")
-        force = {t for t in force if graph.tasks[t].camera in (None, *cameras)}
-    executor = make_executor(executor_kind, jobs, scheduler)
-    summary = run_graph(graph, executor, force, targets, None if quiet else lambda m: click.echo(m, err=True))
+        force = {t for t in force if graph.tasks[t].camera in cameras}
+    progress = ConsoleProgress(quiet)
+    try:
+        summary = run_graph(graph, executor, force, targets, progress)
+    finally:
+        progress.close()
     text = format_summary(summary, counts=not quiet)
     if text:
         click.echo(text)
     return graph, summary
+
+
+def _check_camera_option(cameras, stages: list[str]) -> None:
+    """--camera needs a per-camera stage (the stage command's, or --force's with tlsync run)."""
+    if not cameras:
+        return
+    if not stages:
+        raise InputError("--camera goes with --force STAGE (tlsync run re-runs only what is not fresh, for every camera)")
+    project_wide = [s for s in stages if s not in PER_CAMERA]
+    if project_wide:
+        raise InputError(f"--camera: the {project_wide[0]} stage is not per camera (it uses every camera); per-camera stages: {', '.join(PER_CAMERA)}")
 
 
 def format_summary(summary: RunSummary, counts: bool = True) -> str:
@@ -97,13 +124,29 @@ def format_summary(summary: RunSummary, counts: bool = True) -> str:
     return "\n".join(lines)
 
 
-def finish(summary: RunSummary) -> None:
-    """Re-raise a failed stage's error (the CLI maps it to its exit code)."""
-    for tid, exc in summary.failed.items():
-        if isinstance(exc, INPUT_ERRORS):
-            raise type(exc)(f"{tid}: {exc}")
-    for tid, exc in summary.failed.items():
-        raise SyncError(f"{tid} failed: {type(exc).__name__}: {exc}")
+def report_outcome(summary: RunSummary, quiet: bool = False) -> ExitCode:
+    """Print the stages' warnings (unless quiet) and each failure once, on one line; returns the exit code they mean."""
+    if not quiet:
+        for tid in summary.ran:
+            for warning in summary.summaries[tid].get("warnings", []):
+                click.echo(f"warning: {tid}: {one_line(warning)}", err=True)
+    code = ExitCode.OK
+    for tid, error in summary.failed.items():
+        click.echo(f"error: {tid}: {describe(error)}", err=True)
+        code = max(code, exit_code_for(error))
+    return ExitCode(code)
+
+
+def print_timeline(graph, summary: RunSummary, truth: Path | None = None):
+    """Print the timeline table (and the comparison with ``truth``) when this run's sync stage completed; returns the Timeline or None."""
+    if "sync" not in summary.ran + summary.fresh:
+        return None
+    timeline = read_timeline(timeline_json(graph.work))
+    click.echo("\n" + format_table(timeline))
+    if truth is not None:
+        pairs, n_frames = read_truth(truth)
+        click.echo("\n" + format_truth_comparison(timeline, pairs, n_frames)[0])
+    return timeline
 
 
 @click.command()
@@ -115,6 +158,7 @@ def status_command(project_file: Path, work_dir: Path | None, out_dir: Path | No
     work = resolve_work(project, work_dir, out_dir)
     click.echo(f"work folder: {work}")
     click.echo(format_status(status(build_graph(project, work))))
+    check_writable(work)
 
 
 def stage_command(stage: str, help_text: str, render: bool = False) -> click.Command:
@@ -123,7 +167,9 @@ def stage_command(stage: str, help_text: str, render: bool = False) -> click.Com
     def command(project_file, work_dir, out_dir, camera, jobs, executor_kind, scheduler, quiet, pair=None, frames=None, truth=None):
         options = Options(_parse_pairs(pair), _parse_frames(frames), truth)
         _, summary = execute(project_file, work_dir, out_dir, cameras=camera, targets_stage=stage, options=options, jobs=jobs, executor_kind=executor_kind, scheduler=scheduler, quiet=quiet)
-        finish(summary)
+        code = report_outcome(summary, quiet)
+        if code:
+            sys.exit(code)
 
     command.__doc__ = help_text
     command = executor_options(command)

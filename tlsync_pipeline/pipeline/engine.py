@@ -44,6 +44,23 @@ class TaskState:
     reasons: list[str] = field(default_factory=list)
 
 
+class Progress:
+    """What a run tells its caller as it goes (the default tells nothing).
+
+    ``parallel`` says whether the task went to the executor's workers (True)
+    or runs in this process.
+    """
+
+    def started(self, task_id: str, why: str, parallel: bool) -> None:
+        pass
+
+    def finished(self, task_id: str, seconds: float, parallel: bool) -> None:
+        pass
+
+    def failed(self, task_id: str, error: BaseException, parallel: bool) -> None:
+        pass
+
+
 @dataclass
 class RunSummary:
     """What a run did: tasks run, found fresh, failed (with the error) and skipped for a failed input."""
@@ -98,7 +115,10 @@ def status(graph: Graph) -> list[TaskState]:
         if waiting:
             reasons.append("waits for " + ", ".join(f"{d} ({rows[d].state})" for d in waiting))
         rows[tid] = TaskState(tid, task.stage, task.camera, state, reasons)
-    memo.save()
+    try:
+        memo.save()
+    except OSError:
+        pass  # a read-only work folder: the hashes are only not remembered
     order = {s: i for i, s in enumerate(("calibrate", "track", "ingest", "vote", "sync", "export", "render"))}
     cameras = [c["name"] for c in graph.project.cameras]
     return sorted(rows.values(), key=lambda r: (order[r.stage], cameras.index(r.camera) if r.camera else -1))
@@ -120,13 +140,13 @@ def run_graph(
     executor=None,
     force: set[str] | None = None,
     targets: list[str] | None = None,
-    echo=None,
+    progress: Progress | None = None,
 ) -> RunSummary:
     """Run what is not fresh, holding the work folder's lock.
 
     force: task ids to run even when fresh. targets: the tasks wanted (default:
     all); the tasks they need run first when not fresh, nothing downstream of
-    them runs. echo: a function for one-line progress messages, or None.
+    them runs. progress: told when each task starts, finishes or fails.
     """
     executor = executor or SerialExecutor()
     force = set(force or ())
@@ -140,7 +160,7 @@ def run_graph(
         _remove_leftovers(graph.work)
         memo = HashMemo(layout.hash_memo(graph.work))
         try:
-            _schedule(graph, executor, wanted, force, memo, summary, echo or (lambda message: None))
+            _schedule(graph, executor, wanted, force, memo, summary, progress or Progress())
         except BaseException:
             executor.close(cancel=True)
             raise
@@ -168,7 +188,7 @@ def _closure(graph: Graph, targets: list[str]) -> list[str]:
     return [t for t in graph.tasks if t in needed]
 
 
-def _schedule(graph: Graph, executor, wanted: list[str], force: set[str], memo: HashMemo, summary: RunSummary, echo) -> None:
+def _schedule(graph: Graph, executor, wanted: list[str], force: set[str], memo: HashMemo, summary: RunSummary, progress: Progress) -> None:
     pending = list(wanted)
     done: set[str] = set()
     running: dict = {}
@@ -197,11 +217,11 @@ def _schedule(graph: Graph, executor, wanted: list[str], force: set[str], memo: 
                     done.add(tid)
                     continue
                 why = "forced" if not reasons else reasons[0]
-                echo(f"{tid}: running ({why})")
-                local = task.stage not in PER_CAMERA
+                local = task.stage not in PER_CAMERA or isinstance(executor, SerialExecutor)
+                progress.started(tid, why, not local)
                 start = time.perf_counter()
                 future = (SerialExecutor() if local else executor).submit(task.fn, task.kwargs)
-                running[future] = (task, key, inputs, start)
+                running[future] = (task, key, inputs, start, not local)
                 if local:
                     break  # finish it before scheduling more, its dependents may now be ready
         if not running:
@@ -210,20 +230,20 @@ def _schedule(graph: Graph, executor, wanted: list[str], force: set[str], memo: 
                     summary.skipped[tid] = "its inputs were not made"
             break
         for future in executor_wait(executor, list(running)):
-            task, key, inputs, start = running.pop(future)
+            task, key, inputs, start, parallel = running.pop(future)
             seconds = time.perf_counter() - start
             try:
                 result = future.result() or {}
             except Exception as exc:  # noqa: BLE001 - recorded, reported by the caller
                 summary.failed[task.id] = exc
-                echo(f"{task.id}: FAILED: {exc}")
+                progress.failed(task.id, exc, parallel)
                 continue
             _write_manifest(graph, task, key, inputs, result, seconds, memo)
             summary.ran.append(task.id)
             summary.seconds[task.id] = seconds
             summary.summaries[task.id] = result
             done.add(task.id)
-            echo(f"{task.id}: done in {seconds:.1f} s")
+            progress.finished(task.id, seconds, parallel)
 
 
 def executor_wait(executor, futures: list) -> list:

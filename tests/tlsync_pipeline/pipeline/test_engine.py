@@ -70,7 +70,7 @@ def test_force_and_single_stage_commands(project_dir):
     assert "sync" not in result.output.split("ran:")[1].splitlines()[0]
     result = _cli("vote", toml, "--camera", "cam1", "-j", "1")
     assert result.exit_code == 0 and "ran 1," in result.output and "ran: vote/cam1" in result.output
-    result = _cli("sync", toml, "--camera", "cam1", "-j", "1")
+    result = _cli("sync", toml, "-j", "1")
     assert "ran: sync" in result.output
     assert _cli("sync", toml, "-j", "1", "-q").output == ""
     result = _cli("vote", toml, "--camera", "nope", "-j", "1")

@@ -87,4 +87,4 @@ __all__ = ["RigidTransform", "ingest_log", "ingest_project", "parse_origin", "re
 def run_ingest(project: Project, work: Path) -> dict:
     """The ingest stage: the target's log into ``target/trajectory.csv`` and its report."""
     report = ingest_project(project, work)
-    return {"message": report.summary()}
+    return {"message": report.summary(with_warnings=False), "warnings": list(report.warnings)}

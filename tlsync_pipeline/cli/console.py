@@ -1,0 +1,91 @@
+"""What the command line prints while and after a run.
+
+Progress lines and bars go to stderr. Tasks that run in parallel workers draw
+no bars of their own (several processes writing bars to one terminal garble
+each other): this process draws one bar over them. Each failure is printed
+once, after the run, as one plain line; warnings the stages raise are
+printed as ``warning: <task>: ...`` unless ``--quiet``.
+"""
+
+from __future__ import annotations
+
+import sys
+
+import click
+
+from tlsync_pipeline.errors import INPUT_ERRORS, EnvironmentProblem, SyncError, os_error_problem
+from tlsync_pipeline.pipeline.engine import Progress
+
+MAX_LINE = 300  # characters of one printed reason
+
+
+def one_line(text: str, limit: int = MAX_LINE) -> str:
+    """``text`` on one line (runs of white space become one space), cut at ``limit`` characters."""
+    text = " ".join(str(text).split())
+    return text if len(text) <= limit else text[: limit - 4].rstrip() + " ..."
+
+
+def describe(error: BaseException) -> str:
+    """A failure as one plain sentence: tlsync's own errors as they are, anything else with its kind."""
+    if isinstance(error, OSError):
+        error = os_error_problem(error)
+    if isinstance(error, (*INPUT_ERRORS, EnvironmentProblem, SyncError)):
+        return one_line(str(error))
+    return one_line(f"unexpected {type(error).__name__}: {error}")
+
+
+class ConsoleProgress(Progress):
+    """Task start and end lines and one bar over the tasks running in parallel workers; nothing when quiet."""
+
+    def __init__(self, quiet: bool = False):
+        self.quiet = quiet
+        self._bar = None
+        self._running: list[str] = []
+        self._done = 0
+        self._total = 0
+
+    def say(self, message: str) -> None:
+        if self.quiet:
+            return
+        if self._bar is not None:
+            self._bar.write(message, file=sys.stderr)
+        else:
+            click.echo(message, err=True)
+
+    def started(self, task_id: str, why: str, parallel: bool) -> None:
+        self.say(f"{task_id}: running ({one_line(why)})")
+        if parallel and not self.quiet:
+            self._running.append(task_id)
+            self._total += 1
+            if self._bar is None:
+                from tqdm import tqdm
+
+                self._bar = tqdm(total=self._total, initial=self._done, desc="per-camera tasks", unit="task", file=sys.stderr, dynamic_ncols=True, leave=False)
+            self._bar.total = self._total
+            self._show_running()
+
+    def finished(self, task_id: str, seconds: float, parallel: bool) -> None:
+        self.say(f"{task_id}: done in {seconds:.1f} s")
+        self._task_ended(task_id, parallel)
+
+    def failed(self, task_id: str, error: BaseException, parallel: bool) -> None:
+        self.say(f"{task_id}: failed")
+        self._task_ended(task_id, parallel)
+
+    def close(self) -> None:
+        if self._bar is not None:
+            self._bar.close()
+            self._bar = None
+
+    def _task_ended(self, task_id: str, parallel: bool) -> None:
+        """Count a parallel task as done; the bar goes away while no task runs in parallel."""
+        if parallel and self._bar is not None:
+            self._running.remove(task_id)
+            self._done += 1
+            self._bar.update(1)
+            self._show_running()
+            if not self._running:
+                self.close()
+
+    def _show_running(self) -> None:
+        self._bar.set_postfix_str("running: " + (", ".join(self._running) or "-"), refresh=True)
