@@ -8,6 +8,7 @@ each key.
 from __future__ import annotations
 
 import difflib
+import inspect
 import math
 import sys
 from dataclasses import dataclass
@@ -22,9 +23,15 @@ else:  # pragma: no cover - Python 3.10
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from calibration.extrinsics import pose_from_points
+from calibration.intrinsics import MODELS as CALIBRATION_MODELS
+from calibration.intrinsics import calibrate_video, parse_corners
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.geodesy import Origin
+from tlsync_pipeline.ingest.process import IngestParams
 from tlsync_pipeline.sync.params import SYNC_METHODS, SyncParams
+from trackers.tracking import KINDS as TRACKER_KINDS
+from trackers.tracking import track_video
 
 WORK_DIR_NAME = "work"
 
@@ -35,6 +42,11 @@ class Field(NamedTuple):
     convert: Callable[[Any, Path], Any]
     default: Any = None
     required: bool = False
+
+
+def _default(function: Callable, parameter: str) -> Any:
+    """The default value of a component's parameter: defaults are defined once, by the component."""
+    return inspect.signature(function).parameters[parameter].default
 
 
 def _path(value: Any, root: Path) -> Path:
@@ -132,10 +144,10 @@ def _glob(value: Any, root: Path) -> str:
 
 
 def _pattern(value: Any, root: Path) -> str:
-    parts = value.lower().split("x") if isinstance(value, str) else []
-    if len(parts) != 2 or not all(p.strip().isdigit() and int(p) >= 2 for p in parts):
+    if not isinstance(value, str):
         raise ValueError(f"expected inner corners as \"COLSxROWS\" (e.g. \"7x6\" for a board of 8x7 squares), got {value!r}")
-    return value.lower().replace(" ", "")
+    cols, rows = parse_corners(value)
+    return f"{cols}x{rows}"
 
 
 def _board_pose(value: Any, root: Path) -> dict:
@@ -170,7 +182,6 @@ def _count(value: Any, root: Path) -> int:
     return value
 
 
-CALIBRATION_MODELS = ("standard", "rational", "fisheye")
 TARGET_SCHEMA = {
     "trajectory": Field(_path),
     "origin": Field(_origin),
@@ -202,7 +213,7 @@ def _parameters(value: Any, root: Path) -> dict:
 
 # [cameras.tracker]: how the track stage follows the target in the camera's video.
 TRACKER_SCHEMA = {
-    "kind": Field(_choice("blob", "csrt", what="tracker kind"), "blob"),
+    "kind": Field(_choice(*TRACKER_KINDS, what="tracker kind"), _default(track_video, "kind")),
     "init": Field(_box),
     "init_frame": Field(_frame_index, 0),
     "parameters": Field(_parameters, {}),
@@ -216,12 +227,12 @@ CALIBRATION_SCHEMA = {
     "intrinsics": Field(_path),
     "pattern": Field(_pattern),
     "square": Field(_positive),
-    "model": Field(_choice(*CALIBRATION_MODELS, what="model"), "standard"),
+    "model": Field(_choice(*CALIBRATION_MODELS, what="model"), CALIBRATION_MODELS[0]),
     "gcp": Field(_path),
     "board_pose": Field(_board_pose),
-    "max_frames": Field(_count, 60),
-    "max_view_error": Field(_positive, 1.0),
-    "ransac_px": Field(_positive, 8.0),
+    "max_frames": Field(_count, _default(calibrate_video, "max_frames")),
+    "max_view_error": Field(_positive, _default(calibrate_video, "max_view_error")),
+    "ransac_px": Field(_positive, _default(pose_from_points, "ransac_px")),
 }
 
 
@@ -255,8 +266,8 @@ INGEST_SCHEMA = {
     "topic": Field(_text),
     "rate": Field(_positive),
     "max_gap_s": Field(_positive),
-    "max_speed_mps": Field(_positive, 60.0),
-    "smoothing_s": Field(_non_negative, 0.0),
+    "max_speed_mps": Field(_positive, IngestParams.max_speed_mps),
+    "smoothing_s": Field(_non_negative, IngestParams.smoothing_s),
     "odometry_transform": Field(_rigid_transform),
 }
 TARGET_SCHEMA.update(INGEST_SCHEMA)
