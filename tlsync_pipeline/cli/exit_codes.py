@@ -7,6 +7,7 @@ from __future__ import annotations
 
 from enum import IntEnum
 
+from tlsync_pipeline.cli.__main__ import INTERRUPTED
 from tlsync_pipeline.errors import INPUT_ERRORS, EnvironmentProblem, os_error_problem
 
 
@@ -17,7 +18,7 @@ class ExitCode(IntEnum):
     NOT_SYNCHRONIZED = 1
     BAD_INPUT = 2
     ENVIRONMENT = 3
-    INTERRUPTED = 130
+    INTERRUPTED = INTERRUPTED
 
 
 MEANINGS = {

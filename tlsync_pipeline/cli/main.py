@@ -15,6 +15,7 @@ from pathlib import Path
 import click
 
 from tlsync_pipeline.cli import pipeline as pipeline_cli
+from tlsync_pipeline.cli.__main__ import INTERRUPTED_MESSAGE, interrupt
 from tlsync_pipeline.cli.console import describe
 from tlsync_pipeline.cli.demo import demo as demo_command
 from tlsync_pipeline.cli.exit_codes import ExitCode, exit_code_for
@@ -31,7 +32,7 @@ class TlsyncGroup(click.Group):
             with _terminate_as_interrupt():
                 return super().invoke(ctx)
         except KeyboardInterrupt:
-            click.echo("interrupted: the next run resumes where this one stopped", err=True)
+            click.echo(INTERRUPTED_MESSAGE, err=True)
             sys.exit(ExitCode.INTERRUPTED)
         except (*INPUT_ERRORS, EnvironmentProblem, SyncError, OSError) as exc:
             click.echo(f"error: {describe(exc)}", err=True)
@@ -44,10 +45,6 @@ def _terminate_as_interrupt():
     if threading.current_thread() is not threading.main_thread():
         yield
         return
-
-    def interrupt(signum, frame):
-        raise KeyboardInterrupt
-
     previous = signal.signal(signal.SIGTERM, interrupt)
     try:
         yield

@@ -1,0 +1,171 @@
+"""Failing like a trusted tool: the exit-code contract, one line per failure, the environment named.
+
+Each test is the paper scene's project (given cameras, tracks, trajectory)
+with one thing changed, as a new user would change it.
+"""
+
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner
+
+from tlsync_pipeline.cli.exit_codes import MEANINGS, ExitCode, markdown_table
+from tlsync_pipeline.cli.main import main
+from tlsync_pipeline.pipeline.lock import WorkLock
+
+README = Path(__file__).resolve().parents[3] / "README.md"
+
+
+def _cli(*args):
+    return CliRunner().invoke(main, [str(a) for a in args], catch_exceptions=False)
+
+
+def test_the_readme_documents_the_exit_codes_the_code_uses():
+    assert markdown_table() in README.read_text(encoding="utf-8")
+    assert [int(code) for code in MEANINGS] == [0, 1, 2, 3, 130]
+    assert set(MEANINGS) == set(ExitCode)
+
+
+def test_a_busy_work_folder_is_an_environment_problem(project_dir):
+    with WorkLock(project_dir / "work"):
+        result = _cli("run", project_dir / "project.toml", "-j", "1")
+    assert result.exit_code == ExitCode.ENVIRONMENT, result.output
+    assert re.search(r"work folder in use by another tlsync run \(pid \d+", result.output)
+
+
+def test_render_failure_still_prints_the_timeline_and_reports_the_failure_once(project_dir):
+    (project_dir / "work").mkdir()
+    (project_dir / "work" / "render").write_text("a file where render wants its folder\n")
+    result = _cli("run", project_dir / "project.toml", "-j", "1")
+    assert result.exit_code == ExitCode.ENVIRONMENT, result.output
+    assert re.search(r"^cam1 +2\.0", result.output, re.M), result.output  # the timeline table
+    errors = [line for line in result.output.splitlines() if line.startswith("error:")]
+    assert len(errors) == 1 and errors[0].startswith("error: render: ") and "work/render" in errors[0], result.output
+    assert "Traceback" not in result.output
+
+
+def test_each_failure_is_printed_once_on_one_plain_line(project_dir):
+    """A camera file that breaks inside the vote stage (not caught before the run): one line, no repr, bounded."""
+    camera = project_dir / "cam1" / "camera.json"
+    camera.write_text(camera.read_text().replace('"K"', '"K_unused"', 1))
+    result = _cli("run", project_dir / "project.toml", "-j", "1")
+    assert result.exit_code == ExitCode.BAD_INPUT, result.output
+    errors = [line for line in result.output.splitlines() if "error" in line.lower()]
+    assert len(errors) == 1, result.output
+    assert "camera.json" in errors[0] and len(errors[0]) < 400 and "{" not in errors[0]
+
+
+@pytest.mark.parametrize("name", [".", "..", ".hidden", "a/b", "..\\\\x", " cam", "cam\\t"])
+def test_camera_names_that_would_leave_or_scatter_the_work_folder_are_refused(project_dir, name):
+    toml = project_dir / "project.toml"
+    toml.write_text(toml.read_text().replace('name = "cam1"', f'name = "{name}"', 1))
+    result = _cli("run", toml, "-j", "1")
+    assert result.exit_code == ExitCode.BAD_INPUT, result.output
+    assert "project.toml" in result.output and "name" in result.output, result.output
+    assert not (project_dir / "work").exists()
+
+
+def test_camera_names_differing_only_in_case_are_refused(project_dir):
+    toml = project_dir / "project.toml"
+    toml.write_text(toml.read_text().replace('name = "cam1"', 'name = "CAM0"', 1))
+    result = _cli("run", toml, "-j", "1")
+    assert result.exit_code == ExitCode.BAD_INPUT and "same as 'cam0'" in result.output, result.output
+
+
+def test_camera_option_on_a_project_wide_stage_is_refused(project_dir):
+    toml = project_dir / "project.toml"
+    for args in (("sync", toml, "--camera", "cam1"), ("export", toml, "--camera", "cam0"), ("run", toml, "--force", "sync", "--camera", "cam1")):
+        result = _cli(*args, "-j", "1")
+        assert result.exit_code == ExitCode.BAD_INPUT, result.output
+        assert "is not per camera" in result.output
+
+
+def test_ffmpeg_script_writes_one_video_per_camera_beside_the_work_folder(project_dir, tmp_path):
+    """Run exports/ffmpeg.sh with an ffmpeg that records what it was asked to write."""
+    from data_fixtures.video import render_video
+
+    toml = project_dir / "project.toml"
+    text = toml.read_text()
+    for name in ("cam0", "cam1"):
+        render_video(project_dir / name / "video.mp4", n_frames=5, image_size=(64, 48))
+        text = text.replace(f'name = "{name}"\n', f'name = "{name}"\nvideo = "{name}/video.mp4"\n', 1)
+    toml.write_text(text)
+    assert _cli("export", toml, "-j", "1", "-q").exit_code == 0
+    fake = tmp_path / "bin"
+    fake.mkdir()
+    (fake / "ffmpeg").write_text('#!/bin/sh\nfor last; do :; done\necho "$PWD/$last" >> "$FFMPEG_LOG"\n')
+    (fake / "ffmpeg").chmod(0o755)
+    log = tmp_path / "ffmpeg.log"
+    env = {**os.environ, "PATH": f"{fake}:{os.environ['PATH']}", "FFMPEG_LOG": str(log)}
+    subprocess.run(["sh", str(project_dir / "work" / "exports" / "ffmpeg.sh")], cwd=tmp_path, env=env, check=True)
+    outputs = log.read_text().split()
+    assert outputs == [str(project_dir / "cam0_synced.mp4"), str(project_dir / "cam1_synced.mp4")]
+
+
+def test_demo_does_not_overwrite_a_folder_the_user_edited(project_dir):
+    """A folder of the user's (the paper scene's project here), and a demo folder edited after it was made."""
+    before = (project_dir / "project.toml").read_text()
+    result = _cli("demo", "--quick", project_dir)
+    assert result.exit_code == ExitCode.BAD_INPUT and "did not write" in result.output, result.output
+    assert (project_dir / "project.toml").read_text() == before
+
+
+# --- The environment: subprocesses in a user namespace, where a read-only or a full file system can be mounted.
+
+
+def _namespace_available() -> bool:
+    if shutil.which("unshare") is None:
+        return False
+    return subprocess.run(["unshare", "-Urm", "true"], capture_output=True).returncode == 0
+
+
+needs_namespace = pytest.mark.skipif(not _namespace_available(), reason="needs unshare -Urm (user and mount namespaces) to mount a small or read-only file system")
+
+
+def _in_namespace(setup: str, *tlsync_args, cwd: Path) -> subprocess.CompletedProcess:
+    """Run ``setup`` (mounts) then ``tlsync ARGS`` as root of a new user and mount namespace."""
+    command = " ".join(f"'{a}'" for a in tlsync_args)
+    script = f"set -e\n{setup}\n'{sys.executable}' -c 'from tlsync_pipeline.cli.main import main; main()' {command}"
+    return subprocess.run(["unshare", "-Urm", "sh", "-c", script], capture_output=True, text=True, cwd=cwd)
+
+
+@pytest.fixture
+def shared_project(paper_scene):
+    """The paper scene's project in a folder of open permissions (a user namespace maps only this user)."""
+    from data_fixtures import write_scene
+
+    folder = Path(tempfile.mkdtemp(prefix="tlsync-env-"))
+    write_scene(paper_scene, folder)
+    yield folder
+    subprocess.run(["umount", "-l", str(folder / "work")], capture_output=True)
+    shutil.rmtree(folder, ignore_errors=True)
+
+
+@needs_namespace
+def test_a_full_disk_exits_3_naming_the_path(shared_project):
+    work = shared_project / "work"
+    work.mkdir()
+    result = _in_namespace(f"mount -t tmpfs -o size=24k tmpfs '{work}'", "run", shared_project / "project.toml", "-j", "1", cwd=shared_project)
+    output = result.stdout + result.stderr
+    assert result.returncode == ExitCode.ENVIRONMENT, output
+    assert re.search(rf"error: .*{re.escape(str(work))}\S*: the disk is full", output), output
+    assert "Traceback" not in output
+
+
+@needs_namespace
+@pytest.mark.parametrize("command", ["run", "status"])
+def test_a_read_only_work_folder_exits_3_in_one_line_naming_it(shared_project, command):
+    work = shared_project / "work"
+    assert _cli("run", shared_project / "project.toml", "-j", "1", "-q").exit_code == 0
+    setup = f"mount --bind '{work}' '{work}'\nmount -o remount,bind,ro '{work}'"
+    result = _in_namespace(setup, command, shared_project / "project.toml", "-j", "1", cwd=shared_project) if command == "run" else _in_namespace(setup, command, shared_project / "project.toml", cwd=shared_project)
+    assert result.returncode == ExitCode.ENVIRONMENT, result.stdout + result.stderr
+    errors = [line for line in result.stderr.splitlines() if line.strip()]
+    assert errors == [f"error: {work}: cannot write into the work folder (the file system is read-only); fix it or give another --work folder"], result.stderr
+    assert "Traceback" not in result.stdout + result.stderr
