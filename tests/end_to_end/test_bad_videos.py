@@ -7,6 +7,7 @@ from click.testing import CliRunner
 
 from data_fixtures.raw_project import SMALL, make_raw_project
 from tlsync_pipeline.cli.main import main
+from tlsync_pipeline.sync.timeline import read_timeline
 
 
 def _cli(*args):
@@ -47,3 +48,23 @@ def test_parallel_workers_draw_no_bars_of_their_own(raw_project):
     assert result.exit_code == 0, result.output
     assert "per-camera tasks" in result.output
     assert "video.mp4)" not in result.output  # the tracker's own bar is titled "cam0 (video.mp4)"
+
+
+def test_a_camera_whose_video_never_shows_the_target_does_not_block_the_others(raw_project):
+    """cam2's video without the target, then with a single frame: cam2 is reported, cam0 and cam1 synchronized and exported."""
+    import numpy as np
+
+    from data_fixtures.video import render_video
+
+    toml = raw_project / "project.toml"
+    video = raw_project / "cam2" / "video.mp4"
+    for n_frames in (SMALL.n_frames[2], 1):
+        render_video(video, n_frames=n_frames, image_size=SMALL.image_size, fps=15.0, positions=np.full((n_frames, 2), np.nan), distractor=False)
+        result = _cli("run", toml, "-j", "2", "-q")
+        assert result.exit_code == 1, result.output
+        failures = [line for line in result.output.splitlines() if "cam2" in line and "never found" in line]
+        assert len(failures) == 1 and f"{video}: the target was never found" in failures[0], result.output
+        timeline = read_timeline(raw_project / "work" / "timeline.json")
+        assert timeline.names == ["cam0", "cam1"] and list(timeline.failed) == ["cam2"]
+        offsets = (raw_project / "work" / "exports" / "offsets.csv").read_text()
+        assert "cam1" in offsets and "cam2" not in offsets

@@ -150,7 +150,7 @@ def build_graph(project: Project, work: Path, options: Options = Options()) -> G
                 [votes],
                 deps,
                 run_vote,
-                {"name": name, "camera": camera_file, "track": track_file, "trajectory": trajectory, "eps_px": project.sync.eps_px, "out": votes},
+                {"name": name, "camera": camera_file, "track": track_file, "trajectory": trajectory, "eps_px": project.sync.eps_px, "out": votes, "source": spec.get("video") if track_dep else None},
                 problem,
             )
         )

@@ -169,3 +169,42 @@ def test_a_read_only_work_folder_exits_3_in_one_line_naming_it(shared_project, c
     errors = [line for line in result.stderr.splitlines() if line.strip()]
     assert errors == [f"error: {work}: cannot write into the work folder (the file system is read-only); fix it or give another --work folder"], result.stderr
     assert "Traceback" not in result.stdout + result.stderr
+
+
+def _shift_trajectory(project_dir, metres: float) -> None:
+    path = project_dir / "trajectory.csv"
+    lines = path.read_text().splitlines()
+    header = lines[0].split(",")
+    x = header.index("x")
+    rows = [line.split(",") for line in lines[1:]]
+    for row in rows:
+        row[x] = repr(float(row[x]) + metres)
+    path.write_text("\n".join([lines[0]] + [",".join(r) for r in rows]) + "\n")
+
+
+def test_no_result_of_an_earlier_sync_survives_a_sync_where_no_camera_synchronizes(project_dir):
+    toml = project_dir / "project.toml"
+    work = project_dir / "work"
+    assert _cli("run", toml, "-j", "1", "-q").exit_code == 0
+    assert (work / "exports" / "offsets.csv").exists() and list((work / "render").glob("*.png"))
+    _shift_trajectory(project_dir, 300.0)
+    result = _cli("run", toml, "-j", "1")
+    assert result.exit_code == ExitCode.NOT_SYNCHRONIZED, result.output
+    assert "not synchronized: cam0" in result.output and "not synchronized: cam1" in result.output
+    assert sorted(p.name for p in (work / "exports").iterdir()) == ["export.manifest.json"]
+    assert list((work / "render").glob("*.png")) == []
+    assert not [line for line in (work / "report.md").read_text().splitlines() if re.match(r"cam[01] ", line)]  # no timeline row
+
+
+def test_a_camera_that_no_longer_synchronizes_loses_its_pictures_and_exports(project_dir):
+    toml = project_dir / "project.toml"
+    work = project_dir / "work"
+    assert _cli("run", toml, "-j", "1", "-q").exit_code == 0
+    assert (work / "render" / "votes_cam1.png").exists()
+    rows = "\n".join(f"{f},{-900 + f % 3},{-900.0}" for f in range(50))
+    (project_dir / "cam1" / "track.csv").write_text("frame,x,y\n" + rows + "\n")
+    result = _cli("run", toml, "-j", "1", "-q")
+    assert result.exit_code == ExitCode.NOT_SYNCHRONIZED, result.output
+    assert sorted(p.name for p in (work / "render").glob("*.png")) == ["trajectory_cam0.png", "votes_cam0.png"]
+    assert "cam1" not in (work / "exports" / "offsets.csv").read_text()
+    assert "frame_cam1" not in (work / "exports" / "frame_map.csv").read_text().splitlines()[0]

@@ -24,10 +24,13 @@ def frame_count(camera: dict) -> int:
 
 
 def run_export(cameras: dict[str, dict], timeline: Path, work: Path) -> dict:
-    """The export stage: frame_map.csv, offsets.csv and ffmpeg.sh from timeline.json."""
+    """The export stage: frame_map.csv, offsets.csv and ffmpeg.sh from timeline.json (of its synchronized cameras only)."""
     tl = read_timeline(timeline)
     if not tl.cameras:
-        return {"exported": []}
+        # No camera synchronized: exports of an earlier timeline would look current.
+        for path in (layout.frame_map_csv(work), layout.offsets_csv(work), layout.ffmpeg_script(work)):
+            path.unlink(missing_ok=True)
+        return {"exported": [], "message": "no camera synchronized: no exports (earlier ones removed)"}
     n_frames = {name: frame_count(cameras[name]) for name in tl.names}
     with atomic_path(layout.frame_map_csv(work)) as tmp:
         with tmp.open("w", newline="", encoding="utf-8") as handle:

@@ -57,8 +57,22 @@ def run_render(
         if not made:
             notes.append(f"{a}, {b}: the two videos never record at the same time")
         written += made
+    removed = remove_other_pictures(out_dir, written)
     report = write_report(tl, work, written, notes)
-    return {"outputs": [str(p) for p in written], "notes": notes, "report": str(report)}
+    return {"outputs": [str(p) for p in written], "notes": notes, "report": str(report), "removed": [p.name for p in removed]}
+
+
+def remove_other_pictures(out_dir: Path, written: list[Path]) -> list[Path]:
+    """Delete the pictures in ``out_dir`` this run did not draw (of cameras no longer synchronized, of other pairs); returns them.
+
+    render/ belongs to the render stage: a picture left from an earlier
+    timeline would look like a result of this one.
+    """
+    keep = {Path(p).resolve() for p in written}
+    stale = [p for p in out_dir.glob("*.png") if p.resolve() not in keep] if out_dir.is_dir() else []
+    for path in stale:
+        path.unlink(missing_ok=True)
+    return stale
 
 
 def write_report(timeline: Timeline, work: Path, pictures: list[Path], notes: list[str]) -> Path:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 from calibration.camera import read_camera
@@ -11,6 +12,7 @@ from tlsync_pipeline.pipeline.project import Project
 from tlsync_pipeline.sync.params import SyncParams
 from tlsync_pipeline.sync.synchronize import CameraInput, CameraResult, synchronize
 from tlsync_pipeline.sync.timeline import Timeline, write_timeline
+from tlsync_pipeline.sync.votes import load_votes
 from tlsync_pipeline.trajectory import Trajectory, read_trajectory
 from trackers.track import read_track
 
@@ -29,9 +31,15 @@ def run_sync(cameras: dict[str, dict], trajectory: Path, params: dict, out: Path
 
     The sync method computes the votes it fits from the same camera, track and
     trajectory files as the vote stage (with its own trajectory handling);
-    ``votes.npz`` is what render draws and what orders the stages.
+    ``votes.npz`` is what render draws and what orders the stages. A camera
+    whose ``votes.npz`` records why it has no vote (the target never found,
+    never near its projection) is listed under ``failed`` with that reason,
+    without reading its files.
     """
-    timeline, _ = synchronize(read_camera_inputs(cameras), read_trajectory(trajectory), SyncParams(**params))
+    unusable = {name: error for name, c in cameras.items() if (error := load_votes(c["votes"])[1]) is not None}
+    usable = {name: c for name, c in cameras.items() if name not in unusable}
+    timeline, _ = synchronize(read_camera_inputs(usable), read_trajectory(trajectory), SyncParams(**params))
+    timeline = replace(timeline, failed={name: unusable.get(name) or timeline.failed[name] for name in cameras if name in unusable or name in timeline.failed})
     with atomic_path(out) as tmp:
         write_timeline(timeline, tmp)
     return {"synchronized": timeline.names, "failed": timeline.failed}
