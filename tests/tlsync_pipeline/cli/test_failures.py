@@ -17,7 +17,6 @@ from click.testing import CliRunner
 
 from tlsync_pipeline.cli.exit_codes import MEANINGS, ExitCode, markdown_table
 from tlsync_pipeline.cli.main import main
-from tlsync_pipeline.pipeline.lock import WorkLock
 
 README = Path(__file__).resolve().parents[3] / "README.md"
 
@@ -30,13 +29,6 @@ def test_the_readme_documents_the_exit_codes_the_code_uses():
     assert markdown_table() in README.read_text(encoding="utf-8")
     assert [int(code) for code in MEANINGS] == [0, 1, 2, 3, 130]
     assert set(MEANINGS) == set(ExitCode)
-
-
-def test_a_busy_work_folder_is_an_environment_problem(project_dir):
-    with WorkLock(project_dir / "work"):
-        result = _cli("run", project_dir / "project.toml", "-j", "1")
-    assert result.exit_code == ExitCode.ENVIRONMENT, result.output
-    assert re.search(r"work folder in use by another tlsync run \(pid \d+", result.output)
 
 
 def test_render_failure_still_prints_the_timeline_and_reports_the_failure_once(project_dir):

@@ -7,6 +7,7 @@ import os
 import pytest
 from click.testing import CliRunner
 
+from tlsync_pipeline.cli.exit_codes import ExitCode
 from tlsync_pipeline.cli.main import main
 from tlsync_pipeline.pipeline.cache import read_manifest
 from tlsync_pipeline.pipeline.engine import run_graph, status
@@ -114,7 +115,7 @@ def test_manifest_records_inputs_params_and_outputs(project_dir):
 def test_a_second_run_on_a_locked_work_folder_is_refused(project_dir):
     with WorkLock(project_dir / "work"):
         result = _cli("run", project_dir / "project.toml", "-j", "1")
-    assert result.exit_code == 2
+    assert result.exit_code == ExitCode.ENVIRONMENT
     assert "in use by another tlsync run" in result.output and f"pid {os.getpid()}" in result.output
     assert _cli("run", project_dir / "project.toml", "-j", "1").exit_code == 0
 
