@@ -23,6 +23,7 @@ from typing import Any, Callable
 from calibration.camera import read_camera
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.pipeline import layout
+from tlsync_pipeline.pipeline.checks import check_track_fits_video
 from tlsync_pipeline.pipeline.project import Project
 from tlsync_pipeline.pipeline.stages import STAGE_VERSIONS, STAGES
 from tlsync_pipeline.pipeline.stages.calibrate import has_calibration, run_calibrate
@@ -274,3 +275,6 @@ def check_given(graph: Graph, wanted: list[str]) -> None:
     for item in graph.given.values():
         if item.path in used:
             readers[item.stage](item.path)
+            video = graph.project.camera(item.camera).get("video") if item.stage == "track" else None
+            if video is not None:
+                check_track_fits_video(item.path, video)

@@ -91,6 +91,26 @@ class WorkLock:
             _remove_empty_tree(self.work)
 
 
+def running_run(work: Path) -> dict | None:
+    """The run holding ``work``'s lock now: {"pid", "host", "started", "command"} (values may be None), or None."""
+    path = Path(work) / ".lock"
+    try:
+        handle = open(path, encoding="utf-8")
+    except OSError:
+        return None
+    with handle:
+        try:
+            fcntl.flock(handle.fileno(), fcntl.LOCK_SH | fcntl.LOCK_NB)
+        except BlockingIOError:
+            try:
+                info = json.loads(handle.read())
+            except ValueError:
+                info = {}
+            return {k: info.get(k) if isinstance(info, dict) else None for k in ("pid", "host", "started", "command")}
+        fcntl.flock(handle.fileno(), fcntl.LOCK_UN)
+    return None
+
+
 def _describe(text: str) -> str:
     try:
         info = json.loads(text)

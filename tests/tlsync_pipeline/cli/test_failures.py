@@ -85,7 +85,8 @@ def test_ffmpeg_script_writes_one_video_per_camera_beside_the_work_folder(projec
     toml = project_dir / "project.toml"
     text = toml.read_text()
     for name in ("cam0", "cam1"):
-        render_video(project_dir / name / "video.mp4", n_frames=5, image_size=(64, 48))
+        last = max(int(row.split(",")[0]) for row in (project_dir / name / "track.csv").read_text().splitlines()[1:])
+        render_video(project_dir / name / "video.mp4", n_frames=last + 1, image_size=(32, 24))
         text = text.replace(f'name = "{name}"\n', f'name = "{name}"\nvideo = "{name}/video.mp4"\n', 1)
     toml.write_text(text)
     assert _cli("export", toml, "-j", "1", "-q").exit_code == 0
@@ -200,3 +201,18 @@ def test_a_camera_that_no_longer_synchronizes_loses_its_pictures_and_exports(pro
     assert sorted(p.name for p in (work / "render").glob("*.png")) == ["trajectory_cam0.png", "votes_cam0.png"]
     assert "cam1" not in (work / "exports" / "offsets.csv").read_text()
     assert "frame_cam1" not in (work / "exports" / "frame_map.csv").read_text().splitlines()[0]
+
+
+def test_a_given_track_past_the_end_of_the_camera_video_is_bad_input(project_dir):
+    from data_fixtures.video import render_video
+
+    toml = project_dir / "project.toml"
+    render_video(project_dir / "cam1" / "video.mp4", n_frames=40, image_size=(64, 48))
+    toml.write_text(toml.read_text().replace('name = "cam1"\n', 'name = "cam1"\nvideo = "cam1/video.mp4"\n', 1))
+    lines = (project_dir / "cam1" / "track.csv").read_text().splitlines()
+    line = next(i for i, text in enumerate(lines[1:], start=2) if int(text.split(",")[0]) >= 40)
+    result = _cli("run", toml, "-j", "1")
+    assert result.exit_code == ExitCode.BAD_INPUT, result.output
+    frame = lines[line - 1].split(",")[0]
+    assert f"cam1/track.csv:{line}: frame {frame} is past the end of the camera's video" in result.output and "which has 40 frames" in result.output, result.output
+    assert not (project_dir / "work" / "timeline.json").exists()
