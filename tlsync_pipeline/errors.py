@@ -45,3 +45,21 @@ def os_error_problem(exc: OSError) -> InputError | EnvironmentProblem:
     if isinstance(exc, (FileNotFoundError, IsADirectoryError, NotADirectoryError)):
         return InputError(f"{path}: {exc.strerror or exc}")
     return EnvironmentProblem(f"{path}: {os_error_reason(exc)}")
+
+
+MAX_REASON = 300  # characters of a printed or recorded reason
+
+
+def one_line(text: str, limit: int = MAX_REASON) -> str:
+    """``text`` on one line (runs of white space become one space), cut at ``limit`` characters."""
+    text = " ".join(str(text).split())
+    return text if len(text) <= limit else text[: limit - 4].rstrip() + " ..."
+
+
+def describe_error(error: BaseException) -> str:
+    """A failure as one plain sentence: tlsync's own errors as they are, anything else with its kind."""
+    if isinstance(error, OSError):
+        error = os_error_problem(error)
+    if isinstance(error, (*INPUT_ERRORS, EnvironmentProblem, SyncError)):
+        return one_line(str(error))
+    return one_line(f"unexpected {type(error).__name__}: {error}")

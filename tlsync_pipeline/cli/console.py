@@ -13,25 +13,8 @@ import sys
 
 import click
 
-from tlsync_pipeline.errors import INPUT_ERRORS, EnvironmentProblem, SyncError, os_error_problem
+from tlsync_pipeline.errors import one_line
 from tlsync_pipeline.pipeline.engine import Progress
-
-MAX_LINE = 300  # characters of one printed reason
-
-
-def one_line(text: str, limit: int = MAX_LINE) -> str:
-    """``text`` on one line (runs of white space become one space), cut at ``limit`` characters."""
-    text = " ".join(str(text).split())
-    return text if len(text) <= limit else text[: limit - 4].rstrip() + " ..."
-
-
-def describe(error: BaseException) -> str:
-    """A failure as one plain sentence: tlsync's own errors as they are, anything else with its kind."""
-    if isinstance(error, OSError):
-        error = os_error_problem(error)
-    if isinstance(error, (*INPUT_ERRORS, EnvironmentProblem, SyncError)):
-        return one_line(str(error))
-    return one_line(f"unexpected {type(error).__name__}: {error}")
 
 
 class ConsoleProgress(Progress):

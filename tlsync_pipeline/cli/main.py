@@ -16,12 +16,13 @@ import click
 
 from tlsync_pipeline.cli import pipeline as pipeline_cli
 from tlsync_pipeline.cli.__main__ import INTERRUPTED_MESSAGE, interrupt
-from tlsync_pipeline.cli.console import describe
 from tlsync_pipeline.cli.demo import demo as demo_command
 from tlsync_pipeline.cli.exit_codes import ExitCode, exit_code_for
+from tlsync_pipeline.cli.json_output import dumps, run_document
 from tlsync_pipeline.cli.pipeline import execute, print_timeline, report_outcome, run_options
-from tlsync_pipeline.errors import INPUT_ERRORS, EnvironmentProblem, SyncError
+from tlsync_pipeline.errors import INPUT_ERRORS, EnvironmentProblem, SyncError, describe_error
 from tlsync_pipeline.pipeline.layout import report_md, timeline_json
+from tlsync_pipeline.sync.timeline import read_timeline
 
 
 class TlsyncGroup(click.Group):
@@ -35,7 +36,7 @@ class TlsyncGroup(click.Group):
             click.echo(INTERRUPTED_MESSAGE, err=True)
             sys.exit(ExitCode.INTERRUPTED)
         except (*INPUT_ERRORS, EnvironmentProblem, SyncError, OSError) as exc:
-            click.echo(f"error: {describe(exc)}", err=True)
+            click.echo(f"error: {describe_error(exc)}", err=True)
             sys.exit(exit_code_for(exc))
 
 
@@ -62,15 +63,24 @@ def main() -> None:
 @click.argument("project_file", type=click.Path(path_type=Path))
 @run_options
 @click.option("--truth", type=click.Path(dir_okay=False, path_type=Path), help="A truth.json to compare against (prints eps_t per pair).")
-def run(project_file: Path, work_dir: Path | None, out_dir: Path | None, truth: Path | None, force_stages, camera, jobs, executor_kind, scheduler, quiet) -> None:
+@click.option("--json", "as_json", is_flag=True, help="Print a JSON summary of the run on stdout instead of the tables (docs/formats.md).")
+def run(project_file: Path, work_dir: Path | None, out_dir: Path | None, truth: Path | None, as_json: bool, force_stages, camera, jobs, executor_kind, scheduler, quiet) -> None:
     """Run every stage of PROJECT_FILE that is not fresh; write timeline.json, exports, pictures."""
-    graph, summary = execute(project_file, work_dir, out_dir, force_stages=force_stages, cameras=camera, jobs=jobs, executor_kind=executor_kind, scheduler=scheduler, quiet=quiet)
+    graph, summary = execute(
+        project_file, work_dir, out_dir, force_stages=force_stages, cameras=camera, jobs=jobs, executor_kind=executor_kind, scheduler=scheduler, quiet=quiet, summary_text=not as_json
+    )
     code = report_outcome(summary, quiet)
-    timeline = print_timeline(graph, summary, truth)
-    if timeline is not None:
-        click.echo(f"\nwrote {timeline_json(graph.work)}" + (f", {report_md(graph.work)}" if "render" in summary.ran + summary.fresh else ""))
-        if timeline.failed:
+    if as_json:
+        synchronized = "sync" in summary.ran + summary.fresh
+        if synchronized and read_timeline(timeline_json(graph.work)).failed:
             code = max(code, ExitCode.NOT_SYNCHRONIZED)
+        click.echo(dumps(run_document(graph, summary, code)))
+    else:
+        timeline = print_timeline(graph, summary, truth)
+        if timeline is not None:
+            click.echo(f"\nwrote {timeline_json(graph.work)}" + (f", {report_md(graph.work)}" if "render" in summary.ran + summary.fresh else ""))
+            if timeline.failed:
+                code = max(code, ExitCode.NOT_SYNCHRONIZED)
     if code:
         sys.exit(code)
 

@@ -12,16 +12,17 @@ from pathlib import Path
 
 import click
 
-from tlsync_pipeline.cli.console import ConsoleProgress, describe, one_line
+from tlsync_pipeline.cli.console import ConsoleProgress
 from tlsync_pipeline.cli.exit_codes import ExitCode, exit_code_for
-from tlsync_pipeline.errors import InputError
+from tlsync_pipeline.cli.json_output import dumps, status_document
+from tlsync_pipeline.errors import EnvironmentProblem, InputError, describe_error, one_line
 from tlsync_pipeline.outputs.summary import format_table, format_truth_comparison
 from tlsync_pipeline.pipeline.engine import RunSummary, format_status, run_graph, status
 from tlsync_pipeline.pipeline.executors import EXECUTORS, SerialExecutor, make_executor
 from tlsync_pipeline.pipeline.graph import STAGES, Options, build_graph
 from tlsync_pipeline.pipeline.project import load_project
 from tlsync_pipeline.pipeline.layout import timeline_json
-from tlsync_pipeline.pipeline.lock import check_writable
+from tlsync_pipeline.pipeline.lock import check_writable, running_run
 from tlsync_pipeline.pipeline.stages import PER_CAMERA
 from tlsync_pipeline.sync.timeline import read_timeline, read_truth
 
@@ -65,8 +66,8 @@ def _parse_frames(value: str | None) -> tuple[int, ...] | None:
         raise InputError(f"--frames {value!r}: expected frame numbers of the second camera, e.g. 120,340,560") from None
 
 
-def execute(project_file: Path, work_dir, out_dir, *, force_stages=(), cameras=(), targets_stage=None, options=Options(), jobs=None, executor_kind="process", scheduler=None, quiet=False):
-    """Build the graph, run it and print what ran; returns (graph, summary).
+def execute(project_file: Path, work_dir, out_dir, *, force_stages=(), cameras=(), targets_stage=None, options=Options(), jobs=None, executor_kind="process", scheduler=None, quiet=False, summary_text=True):
+    """Build the graph, run it and print what ran (summary_text: on stdout); returns (graph, summary).
 
     Stages draw their own progress bars only when they run one at a time in
     this process; tasks in parallel workers get one bar drawn here.
@@ -95,7 +96,7 @@ def execute(project_file: Path, work_dir, out_dir, *, force_stages=(), cameras=(
         summary = run_graph(graph, executor, force, targets, progress)
     finally:
         progress.close()
-    text = format_summary(summary, counts=not quiet)
+    text = format_summary(summary, counts=not quiet) if summary_text else ""
     if text:
         click.echo(text)
     return graph, summary
@@ -132,7 +133,7 @@ def report_outcome(summary: RunSummary, quiet: bool = False) -> ExitCode:
                 click.echo(f"warning: {tid}: {one_line(warning)}", err=True)
     code = ExitCode.OK
     for tid, error in summary.failed.items():
-        click.echo(f"error: {tid}: {describe(error)}", err=True)
+        click.echo(f"error: {tid}: {describe_error(error)}", err=True)
         code = max(code, exit_code_for(error))
     return ExitCode(code)
 
@@ -152,13 +153,37 @@ def print_timeline(graph, summary: RunSummary, truth: Path | None = None):
 @click.command()
 @click.argument("project_file", type=click.Path(dir_okay=False, path_type=Path))
 @work_option
-def status_command(project_file: Path, work_dir: Path | None, out_dir: Path | None) -> None:
-    """Every stage per camera: fresh, stale (and why) or missing; 'given' for files the project brings."""
+@click.option("--json", "as_json", is_flag=True, help="Print a JSON document instead (docs/formats.md).")
+def status_command(project_file: Path, work_dir: Path | None, out_dir: Path | None, as_json: bool) -> None:
+    """Every stage per camera: fresh, stale (and why), missing, failed (and why); 'given' for files the project brings.
+
+    Also the cameras that failed to synchronize and the run in progress, if any.
+    Exit code 0 when everything is fresh or given, 1 when something is stale,
+    missing or failed, 3 when the work folder cannot be written into.
+    """
     project = load_project(project_file)
     work = resolve_work(project, work_dir, out_dir)
-    click.echo(f"work folder: {work}")
-    click.echo(format_status(status(build_graph(project, work))))
-    check_writable(work)
+    graph = build_graph(project, work)
+    rows = status(graph)
+    running = running_run(work)
+    code = ExitCode.NOT_SYNCHRONIZED if any(r.state not in ("fresh", "given") for r in rows) else ExitCode.OK
+    try:
+        check_writable(work)
+    except EnvironmentProblem as exc:
+        problem, code = exc, ExitCode.ENVIRONMENT
+    else:
+        problem = None
+    if as_json:
+        click.echo(dumps(status_document(graph, rows, running, code)))
+    else:
+        click.echo(f"work folder: {work}")
+        if running is not None:
+            click.echo(f"run in progress: pid {running['pid']} on {running['host']}, started {running['started']}: {running['command']}")
+        click.echo(format_status(rows))
+    if problem is not None:
+        click.echo(f"error: {problem}", err=True)
+    if code:
+        sys.exit(code)
 
 
 def stage_command(stage: str, help_text: str, render: bool = False) -> click.Command:

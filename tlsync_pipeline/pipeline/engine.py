@@ -17,14 +17,17 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from tlsync_pipeline.atomic import PART_SUFFIX
-from tlsync_pipeline.errors import InputError
+from tlsync_pipeline.errors import InputError, describe_error
 from tlsync_pipeline.pipeline import layout
 from tlsync_pipeline.pipeline.cache import (
     HashMemo,
     Manifest,
     cache_key,
+    failure_path,
+    read_failure,
     read_manifest,
     staleness,
+    write_failure,
     write_manifest,
 )
 from tlsync_pipeline.pipeline.executors import SerialExecutor
@@ -35,13 +38,18 @@ from tlsync_pipeline.pipeline.stages import PER_CAMERA
 
 @dataclass
 class TaskState:
-    """One row of ``tlsync status``: fresh, stale, missing or given, and why."""
+    """One row of ``tlsync status``: fresh, stale, missing, given, blocked or failed, why, and the artefacts on record.
+
+    A camera the sync stage could not synchronize has a row of its own
+    (id ``sync/<camera>``, state failed, the reason).
+    """
 
     id: str
     stage: str
     camera: str | None
     state: str
     reasons: list[str] = field(default_factory=list)
+    artefacts: list[str] = field(default_factory=list)  # relative to the work folder, as the manifest records them
 
 
 class Progress:
@@ -85,12 +93,6 @@ def manifest_path(graph: Graph, task: Task) -> Path:
     return layout.manifest_json(graph.work, task.stage, task.camera)
 
 
-def task_reasons(graph: Graph, task: Task, memo: HashMemo) -> list[str]:
-    """Why ``task`` must run (empty: its artefacts are fresh), judged on its inputs as they are now."""
-    inputs = _input_record(task, memo)
-    return staleness(read_manifest(manifest_path(graph, task)), _key(task, inputs), task.version, inputs, task.params, memo, graph.work)
-
-
 def status(graph: Graph) -> list[TaskState]:
     """Every stage per camera: fresh, stale (with reasons), missing, given by the user, or blocked.
 
@@ -102,11 +104,16 @@ def status(graph: Graph) -> list[TaskState]:
     for item in graph.given.values():
         rows[item.id] = TaskState(item.id, item.stage, item.camera, "given", [str(item.path)])
     for tid, task in graph.tasks.items():
-        reasons = task_reasons(graph, task, memo)
-        waiting = [d for d in task.deps if d in rows and rows[d].state in ("stale", "missing")]
+        inputs = _input_record(task, memo)
+        manifest = read_manifest(manifest_path(graph, task))
+        reasons = staleness(manifest, _key(task, inputs), task.version, inputs, task.params, memo, graph.work)
+        waiting = [d for d in task.deps if d in rows and rows[d].state in ("stale", "missing", "failed", "blocked")]
+        failure = read_failure(failure_path(manifest_path(graph, task)))
         if task.problem:
             state, reasons = "blocked", [task.problem]
-        elif not manifest_path(graph, task).exists():
+        elif failure is not None and failure["key"] == _key(task, inputs) and not waiting:
+            state, reasons = "failed", [failure["reason"]]  # same inputs: it would fail again
+        elif manifest is None:
             state = "missing"
         elif reasons or waiting:
             state = "stale"
@@ -114,7 +121,10 @@ def status(graph: Graph) -> list[TaskState]:
             state = "fresh"
         if waiting:
             reasons.append("waits for " + ", ".join(f"{d} ({rows[d].state})" for d in waiting))
-        rows[tid] = TaskState(tid, task.stage, task.camera, state, reasons)
+        rows[tid] = TaskState(tid, task.stage, task.camera, state, reasons, sorted(manifest.outputs) if manifest else [])
+        if task.stage == "sync" and state == "fresh":
+            for camera, why in manifest.summary.get("failed", {}).items():
+                rows[f"sync/{camera}"] = TaskState(f"sync/{camera}", "sync", camera, "failed", [why])
     try:
         memo.save()
     except OSError:
@@ -236,8 +246,10 @@ def _schedule(graph: Graph, executor, wanted: list[str], force: set[str], memo: 
                 result = future.result() or {}
             except Exception as exc:  # noqa: BLE001 - recorded, reported by the caller
                 summary.failed[task.id] = exc
+                write_failure(failure_path(manifest_path(graph, task)), key, describe_error(exc))
                 progress.failed(task.id, exc, parallel)
                 continue
+            failure_path(manifest_path(graph, task)).unlink(missing_ok=True)
             _write_manifest(graph, task, key, inputs, result, seconds, memo)
             summary.ran.append(task.id)
             summary.seconds[task.id] = seconds

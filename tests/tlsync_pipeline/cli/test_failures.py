@@ -4,6 +4,7 @@ Each test is the paper scene's project (given cameras, tracks, trajectory)
 with one thing changed, as a new user would change it.
 """
 
+import json
 import os
 import re
 import shutil
@@ -17,6 +18,7 @@ from click.testing import CliRunner
 
 from tlsync_pipeline.cli.exit_codes import MEANINGS, ExitCode, markdown_table
 from tlsync_pipeline.cli.main import main
+from tlsync_pipeline.pipeline.lock import WorkLock
 
 README = Path(__file__).resolve().parents[3] / "README.md"
 
@@ -216,3 +218,53 @@ def test_a_given_track_past_the_end_of_the_camera_video_is_bad_input(project_dir
     frame = lines[line - 1].split(",")[0]
     assert f"cam1/track.csv:{line}: frame {frame} is past the end of the camera's video" in result.output and "which has 40 frames" in result.output, result.output
     assert not (project_dir / "work" / "timeline.json").exists()
+
+
+def _status(project_dir, *more):
+    return _cli("status", project_dir / "project.toml", *more)
+
+
+def test_status_tells_the_truth_and_its_exit_code_says_whether_everything_is_fresh(project_dir):
+    assert _status(project_dir).exit_code == ExitCode.NOT_SYNCHRONIZED  # nothing made yet
+    assert _cli("run", project_dir / "project.toml", "-j", "1", "-q").exit_code == 0
+    assert _status(project_dir).exit_code == ExitCode.OK
+    rows = "\n".join(f"{f},{-900 + f % 3},{-900.0}" for f in range(50))
+    (project_dir / "cam1" / "track.csv").write_text("frame,x,y\n" + rows + "\n")
+    assert _status(project_dir).exit_code == ExitCode.NOT_SYNCHRONIZED  # stale
+    assert _cli("run", project_dir / "project.toml", "-j", "1", "-q").exit_code == ExitCode.NOT_SYNCHRONIZED
+    result = _status(project_dir)
+    assert result.exit_code == ExitCode.NOT_SYNCHRONIZED, result.output
+    assert re.search(r"^sync +cam1 +failed +camera cam1: ", result.output, re.M), result.output
+    document = json.loads(_status(project_dir, "--json").output)
+    assert document["format"] == "tlsync-status" and document["exit_code"] == 1 and document["running"] is None
+    assert document["cameras"]["cam0"] == {"state": "synchronized", "reason": None}
+    assert document["cameras"]["cam1"]["state"] == "failed" and document["cameras"]["cam1"]["reason"].startswith("camera cam1: ")
+    tasks = {t["id"]: t for t in document["tasks"]}
+    assert tasks["sync"]["state"] == "fresh" and tasks["sync"]["artefacts"] == ["timeline.json"]
+    assert tasks["sync/cam1"]["state"] == "failed"
+
+
+def test_status_shows_a_failed_stage_with_its_reason_and_a_run_in_progress(project_dir):
+    (project_dir / "work" / "exports" / "frame_map.csv").mkdir(parents=True)  # a folder where export writes a file
+    assert _cli("run", project_dir / "project.toml", "-j", "1", "-q").exit_code != 0
+    with WorkLock(project_dir / "work"):
+        result = _status(project_dir)
+        document = json.loads(_status(project_dir, "--json").output)
+    assert result.exit_code == ExitCode.NOT_SYNCHRONIZED
+    assert re.search(r"^export +- +failed +.*exports/frame_map.csv", result.output, re.M), result.output
+    assert re.search(r"^render +- +missing +.*waits for export \(failed\)", result.output, re.M), result.output
+    assert f"run in progress: pid {os.getpid()} on " in result.output
+    assert document["running"]["pid"] == os.getpid()
+    assert {t["id"]: t["state"] for t in document["tasks"]}["export"] == "failed"
+
+
+def test_run_json_is_a_machine_readable_summary(project_dir):
+    result = CliRunner(mix_stderr=False).invoke(main, ["run", str(project_dir / "project.toml"), "-j", "1", "--json"], catch_exceptions=False) if "mix_stderr" in CliRunner.__init__.__code__.co_varnames else None
+    if result is None:  # click >= 8.2 keeps stdout and stderr apart
+        result = CliRunner().invoke(main, ["run", str(project_dir / "project.toml"), "-j", "1", "--json"], catch_exceptions=False)
+    document = json.loads(result.stdout)
+    assert result.exit_code == 0 and document["format"] == "tlsync-run" and document["exit_code"] == 0
+    tasks = {t["id"]: t for t in document["tasks"]}
+    assert tasks["sync"]["state"] == "ran" and tasks["sync"]["artefacts"] == ["timeline.json"] and tasks["sync"]["seconds"] >= 0
+    assert tasks["export"]["artefacts"] == ["exports/ffmpeg.sh", "exports/frame_map.csv", "exports/offsets.csv"]
+    assert document["cameras"] == {"cam0": {"state": "synchronized", "reason": None}, "cam1": {"state": "synchronized", "reason": None}}
