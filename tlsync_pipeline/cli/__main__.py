@@ -9,19 +9,13 @@ import os
 import signal
 import sys
 
-INTERRUPTED = 130
-INTERRUPTED_MESSAGE = "interrupted: the next run resumes where this one stopped"
-
-
-def interrupt(signum, frame):
-    """A signal handler that stops the program as Ctrl-C does."""
-    raise KeyboardInterrupt
+from tlsync_pipeline.cli.signals import INTERRUPTED, INTERRUPTED_MESSAGE, interrupt
 
 
 def main() -> None:
     signal.signal(signal.SIGTERM, interrupt)
     try:
-        from tlsync_pipeline.cli.main import main as command_line
+        from tlsync_pipeline.cli.main import main as command_line  # noqa: PLC0415 - after the handler, so an early signal is handled
 
         command_line()
     except KeyboardInterrupt:

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from enum import IntEnum
 
-from tlsync_pipeline.cli.__main__ import INTERRUPTED
+from tlsync_pipeline.cli.signals import INTERRUPTED
 from tlsync_pipeline.errors import INPUT_ERRORS, EnvironmentProblem, os_error_problem
 
 

@@ -15,7 +15,7 @@ from pathlib import Path
 import click
 
 from tlsync_pipeline.cli import pipeline as pipeline_cli
-from tlsync_pipeline.cli.__main__ import INTERRUPTED_MESSAGE, interrupt
+from tlsync_pipeline.cli.signals import INTERRUPTED_MESSAGE, interrupt
 from tlsync_pipeline.cli.demo import demo as demo_command
 from tlsync_pipeline.cli.exit_codes import ExitCode, exit_code_for
 from tlsync_pipeline.cli.json_output import dumps, run_document

@@ -52,7 +52,7 @@ def _watch_parent(parent_pid: int) -> None:
     os._exit(1)
 
 
-def run_task(fn: Callable[..., dict | None], kwargs: dict) -> dict:
+def call_recording_warnings(fn: Callable[..., dict | None], kwargs: dict) -> dict:
     """Run one stage function; the warnings meant for users it raises go into its result's ``warnings``.
 
     Users' warnings (UserWarning and its kinds, such as a truncated video) come
@@ -78,7 +78,7 @@ def call(fn: Callable[..., Any], kwargs: dict) -> dict:
     import cv2
 
     cv2.setNumThreads(1)
-    return run_task(fn, kwargs)
+    return call_recording_warnings(fn, kwargs)
 
 
 class SerialExecutor:
@@ -89,7 +89,7 @@ class SerialExecutor:
     def submit(self, fn: Callable, kwargs: dict) -> cf.Future:
         future: cf.Future = cf.Future()
         try:
-            future.set_result(run_task(fn, kwargs))
+            future.set_result(call_recording_warnings(fn, kwargs))
         except BaseException as exc:  # noqa: BLE001 - handed to the caller through the future
             if isinstance(exc, (KeyboardInterrupt, SystemExit)):
                 raise

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from tlsync_pipeline.pipeline.executors import SerialExecutor, run_task
+from tlsync_pipeline.pipeline.executors import SerialExecutor, call_recording_warnings
 
 TASK = """
 import os, time
@@ -94,5 +94,5 @@ def test_users_warnings_come_back_in_the_result_as_one_line():
         warnings.warn("cam0/video.mp4: video truncated\n  read up to frame 9", UserWarning)
         return {"message": "done"}
 
-    assert run_task(stage, {}) == {"message": "done", "warnings": ["cam0/video.mp4: video truncated read up to frame 9"]}
+    assert call_recording_warnings(stage, {}) == {"message": "done", "warnings": ["cam0/video.mp4: video truncated read up to frame 9"]}
     assert SerialExecutor().submit(stage, {}).result()["warnings"] == ["cam0/video.mp4: video truncated read up to frame 9"]
