@@ -29,7 +29,8 @@ from calibration.intrinsics import calibrate_video, parse_corners
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.geodesy import Origin
 from tlsync_pipeline.ingest.process import IngestParams
-from tlsync_pipeline.sync.params import SYNC_METHODS, SyncParams
+from tlsync_pipeline.sync.params import SyncParams, parameter_fields
+from tlsync_pipeline.sync.registry import METHODS, params_from_table
 from trackers.tracking import KINDS as TRACKER_KINDS
 from trackers.tracking import track_video
 
@@ -280,25 +281,29 @@ CAMERA_SCHEMA = {
     "tracker": TRACKER_SCHEMA,
     "calibration": CALIBRATION_SCHEMA,
 }
-_SYNC_DEFAULTS = SyncParams()
-SYNC_SCHEMA = {
-    "eps_px": Field(_positive, _SYNC_DEFAULTS.eps_px),
-    "delta": Field(_positive, _SYNC_DEFAULTS.delta),
-    "p": Field(_probability, _SYNC_DEFAULTS.p),
-    "r": Field(_ratio, _SYNC_DEFAULTS.r),
-    "seed": Field(_integer, _SYNC_DEFAULTS.seed),
-    "method": Field(_choice(*SYNC_METHODS, what="sync method"), _SYNC_DEFAULTS.method),
-    "r_min": Field(_ratio, _SYNC_DEFAULTS.r_min),
-    "f_scale_px": Field(_positive, _SYNC_DEFAULTS.f_scale_px),
-    "smooth_trajectory": Field(_boolean, _SYNC_DEFAULTS.smooth_trajectory),
-    "model_error_px": Field(_non_negative, _SYNC_DEFAULTS.model_error_px),
+# Converters of the checks that sync parameters declare (sync/params.py).
+_CHECKS = {
+    "positive": _positive,
+    "probability": _probability,
+    "ratio": _ratio,
+    "non_negative": _non_negative,
+    "integer": _integer,
+    "boolean": _boolean,
 }
-# A dict is a table, a one-element list an array of tables.
-PROJECT_SCHEMA = {
-    "target": TARGET_SCHEMA,
-    "cameras": [CAMERA_SCHEMA],
-    "sync": SYNC_SCHEMA,
-}
+
+
+def sync_schema() -> dict[str, Field]:
+    """The [sync] table's keys: the shared parameters, ``method`` (a registered method) and every method's own parameters."""
+    schema = {name: Field(_CHECKS[check], default) for name, (default, check) in parameter_fields(SyncParams).items()}
+    schema["method"] = Field(_choice(*METHODS, what="sync method"), SyncParams().method)
+    for method in METHODS.values():
+        schema.update({name: Field(_CHECKS[check], default) for name, (default, check) in parameter_fields(method.params_type).items()})
+    return schema
+
+
+def project_schema() -> dict:
+    """The whole project file's schema (the [sync] keys as registered now); a dict is a table, a one-element list an array of tables."""
+    return {"target": TARGET_SCHEMA, "cameras": [CAMERA_SCHEMA], "sync": sync_schema()}
 
 
 @dataclass(frozen=True)
@@ -338,7 +343,7 @@ def load_project(path: str | Path) -> Project:
         raise InputError(f"{path}: cannot read: {exc}") from None
     except tomllib.TOMLDecodeError as exc:
         raise InputError(f"{path}: invalid TOML: {exc}") from None
-    data = parse_table(raw, PROJECT_SCHEMA, path, "", path.parent)
+    data = parse_table(raw, project_schema(), path, "", path.parent)
     cameras = data["cameras"]
     if not cameras:
         raise InputError(f"{path}: no [[cameras]] table; a project needs at least one camera")
@@ -349,7 +354,7 @@ def load_project(path: str | Path) -> Project:
             same = "" if seen[folded] == cam["name"] else f" (same as {seen[folded]!r} on file systems that ignore case)"
             raise InputError(f"{path}: [[cameras]]: duplicate camera name {cam['name']!r}{same}; names must be unique")
         seen[folded] = cam["name"]
-    return Project(path, data["target"], cameras, SyncParams(**data["sync"]))
+    return Project(path, data["target"], cameras, params_from_table(data["sync"]))
 
 
 def parse_table(raw: Any, schema: dict, path: Path, where: str, root: Path) -> dict:

@@ -7,10 +7,11 @@ from pathlib import Path
 
 from calibration.camera import read_camera
 from tlsync_pipeline.atomic import atomic_path
-from tlsync_pipeline.errors import InputError
+from tlsync_pipeline.errors import InputError, SyncError
 from tlsync_pipeline.pipeline.project import Project
-from tlsync_pipeline.sync.params import SyncParams
-from tlsync_pipeline.sync.synchronize import CameraInput, CameraResult, synchronize
+from tlsync_pipeline.sync.methods import CameraInput
+from tlsync_pipeline.sync.registry import params_from_table
+from tlsync_pipeline.sync.synchronize import CameraResult, synchronize
 from tlsync_pipeline.sync.timeline import Timeline, write_timeline
 from tlsync_pipeline.sync.votes import load_votes
 from tlsync_pipeline.trajectory import Trajectory, read_trajectory
@@ -26,20 +27,27 @@ def read_camera_inputs(cameras: dict[str, dict]) -> dict:
     return out
 
 
-def run_sync(cameras: dict[str, dict], trajectory: Path, params: dict, out: Path) -> dict:
-    """The sync stage: each camera's line and the timeline, ``timeline.json``.
+def read_votes(cameras: dict[str, dict]) -> dict:
+    """Each camera's votes.npz: its Votes, or the SyncError the vote stage met."""
+    out = {}
+    for name, c in cameras.items():
+        votes, error = load_votes(c["votes"])
+        out[name] = SyncError(error) if error else votes
+    return out
 
-    The sync method computes the votes it fits from the same camera, track and
-    trajectory files as the vote stage (with its own trajectory handling);
-    ``votes.npz`` is what render draws and what orders the stages. A camera
-    whose ``votes.npz`` records why it has no vote (the target never found,
-    never near its projection) is listed under ``failed`` with that reason,
-    without reading its files.
+
+def run_sync(cameras: dict[str, dict], trajectory: Path, params: dict, out: Path) -> dict:
+    """The sync stage: each camera's line fitted to the vote stage's votes, ``timeline.json``.
+
+    params: the ``[sync]`` table. A camera whose ``votes.npz`` records why it
+    has no vote (the target never found, never near its projection) is listed
+    under ``failed`` with that reason, without reading its other files.
     """
-    unusable = {name: error for name, c in cameras.items() if (error := load_votes(c["votes"])[1]) is not None}
-    usable = {name: c for name, c in cameras.items() if name not in unusable}
-    timeline, _ = synchronize(read_camera_inputs(usable), read_trajectory(trajectory), SyncParams(**params))
-    timeline = replace(timeline, failed={name: unusable.get(name) or timeline.failed[name] for name in cameras if name in unusable or name in timeline.failed})
+    votes = read_votes(cameras)
+    usable = {name: c for name, c in cameras.items() if not isinstance(votes[name], SyncError)}
+    timeline, _ = synchronize(read_camera_inputs(usable), read_trajectory(trajectory), params_from_table(params), votes)
+    failed = {name: str(votes[name]) if name not in usable else timeline.failed[name] for name in cameras if name not in usable or name in timeline.failed}
+    timeline = replace(timeline, failed=failed)
     with atomic_path(out) as tmp:
         write_timeline(timeline, tmp)
     return {"synchronized": timeline.names, "failed": timeline.failed}
