@@ -134,7 +134,8 @@ def test_failed_stage_keeps_last_good_artefacts_and_runs_the_rest(project_dir):
     assert "vote/cam1" in summary.failed and "track.csv:2" in str(summary.failed["vote/cam1"])
     assert summary.skipped.keys() >= {"sync", "export", "render"}
     assert (project_dir / "work" / "cameras" / "cam1" / "votes.npz").read_bytes() == good
-    assert _states(project_dir)["vote/cam1"].state == "stale"
+    row = _states(project_dir)["vote/cam1"]  # its manifest is the last good run's; its inputs make it fail
+    assert row.state == "failed" and "track.csv:2" in row.reasons[0]
 
 
 def test_exports(project_dir, paper_scene):
