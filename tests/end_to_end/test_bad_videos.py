@@ -1,5 +1,6 @@
 """A copy of a small raw project (what ``tlsync demo`` writes, smaller) with one video changed."""
 
+import re
 import shutil
 
 import pytest
@@ -68,3 +69,21 @@ def test_a_camera_whose_video_never_shows_the_target_does_not_block_the_others(r
         assert timeline.names == ["cam0", "cam1"] and list(timeline.failed) == ["cam2"]
         offsets = (raw_project / "work" / "exports" / "offsets.csv").read_text()
         assert "cam1" in offsets and "cam2" not in offsets
+
+
+def test_a_truncated_video_is_carried_into_the_timeline_and_the_frame_map(raw_project):
+    import csv
+
+    _truncate(raw_project / "cam1" / "video.mp4", 0.8)
+    result = _cli("run", raw_project / "project.toml", "-j", "2")
+    assert result.exit_code == 0, result.output  # every camera synchronized: a warning, not a failure
+    warning = [line for line in result.output.splitlines() if line.startswith("warning: track/cam1: ") and "video truncated" in line]
+    assert len(warning) == 1, result.output
+    frames = int(warning[0].split(" frames of ")[0].rsplit(" ", 1)[1])  # "..., N frames of M announced"
+    timeline = read_timeline(raw_project / "work" / "timeline.json")
+    assert "truncated" in timeline.cameras["cam1"].flags and "truncated" not in (timeline.cameras["cam0"].flags or ())
+    assert re.search(r"^cam1 .* truncated$", result.output, re.M), result.output  # the summary table's flags
+    assert "truncated" in (raw_project / "work" / "report.md").read_text()
+    with open(raw_project / "work" / "exports" / "frame_map.csv", newline="") as handle:
+        cam1_frames = [int(row["frame"]) for row in csv.DictReader(handle) if row["camera"] == "cam1"]
+    assert max(cam1_frames) == frames - 1 and len(cam1_frames) == frames

@@ -157,19 +157,22 @@ def build_graph(project: Project, work: Path, options: Options = Options()) -> G
                 problem,
             )
         )
-        cameras[name] = {"camera": camera_file, "track": track_file, "votes": votes, "fps": spec["fps"], "video": spec.get("video"), "deps": deps + [f"vote/{name}"]}
+        info = layout.video_info(work, name) if track_dep else None
+        cameras[name] = {"camera": camera_file, "track": track_file, "votes": votes, "fps": spec["fps"], "video": spec.get("video"), "video_info": info, "deps": deps + [f"vote/{name}"]}
 
     names = list(cameras)
     sync_inputs = {f"{kind}:{n}": cameras[n][kind] for n in names for kind in ("camera", "track", "votes")}
     sync_inputs["trajectory"] = trajectory
+    sync_inputs.update({f"video_info:{n}": cameras[n]["video_info"] for n in names if cameras[n]["video_info"]})
     timeline = layout.timeline_json(work)
     sync_params = {**sync_table, "fps": {n: cameras[n]["fps"] for n in names}, "order": names}
     sync_deps = sorted({d for n in names for d in cameras[n]["deps"]})
-    camera_args = {n: {k: cameras[n][k] for k in ("camera", "track", "votes", "fps", "video")} for n in names}
+    camera_args = {n: {k: cameras[n][k] for k in ("camera", "track", "votes", "fps", "video", "video_info")} for n in names}
     add(Task("sync", None, sync_inputs, sync_params, [timeline], sync_deps, run_sync, {"cameras": camera_args, "trajectory": trajectory, "params": sync_table, "out": timeline}))
 
     export_inputs = {"timeline": timeline, **{f"track:{n}": cameras[n]["track"] for n in names}}
     export_inputs.update({f"video:{n}": cameras[n]["video"] for n in names if cameras[n]["video"]})
+    export_inputs.update({f"video_info:{n}": cameras[n]["video_info"] for n in names if cameras[n]["video_info"]})
     outputs = [layout.frame_map_csv(work), layout.offsets_csv(work), layout.ffmpeg_script(work)]
     add(Task("export", None, export_inputs, {"fps": sync_params["fps"]}, outputs, ["sync"] + [d for d in sync_deps if d.startswith("track/")], run_export, {"cameras": camera_args, "timeline": timeline, "work": work}))
 
@@ -265,8 +268,8 @@ def _track_source(project: Project, spec: dict, work: Path, add, given, progress
     if spec.get("video") is None:
         raise InputError(f"{project.path}: camera {name!r}: give 'track' (a track.csv) or 'video' (to track the target in)")
     params = {"tracker": spec.get("tracker"), "fps": spec["fps"]}
-    out = layout.track_csv(work, name)
-    add(Task("track", name, {"video": Path(spec["video"])}, params, [out], [], run_track, {"spec": spec, "out": out, "progress": progress}))
+    out, info = layout.track_csv(work, name), layout.video_info(work, name)
+    add(Task("track", name, {"video": Path(spec["video"])}, params, [out, info], [], run_track, {"spec": spec, "out": out, "info_out": info, "progress": progress}))
     return out, f"track/{name}"
 
 

@@ -4,6 +4,7 @@
     <work>/cameras/<name>/calibration_report.json
     <work>/cameras/<name>/calibration.png
     <work>/cameras/<name>/track.csv              track
+    <work>/cameras/<name>/video.json             track (frames decoded, truncation)
     <work>/cameras/<name>/votes.npz              vote
     <work>/target/trajectory.csv                 ingest
     <work>/target/ingest_report.json
@@ -41,6 +42,10 @@ def calibration_picture(work: Path, name: str) -> Path:
 
 def track_csv(work: Path, name: str) -> Path:
     return camera_dir(work, name) / "track.csv"
+
+
+def video_info(work: Path, name: str) -> Path:
+    return camera_dir(work, name) / "video.json"
 
 
 def target_dir(work: Path) -> Path:

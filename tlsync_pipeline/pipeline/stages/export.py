@@ -10,6 +10,7 @@ import numpy as np
 from tlsync_pipeline.atomic import atomic_path
 from tlsync_pipeline.outputs.exports import ffmpeg_commands, frame_map_rows, offsets
 from tlsync_pipeline.pipeline import layout
+from tlsync_pipeline.pipeline.stages.track import read_video_info
 from tlsync_pipeline.sync.clock import FrameTimes
 from tlsync_pipeline.sync.timeline import CameraLine, read_timeline
 from trackers.track import read_track
@@ -17,7 +18,10 @@ from trackers.video import presentation_times, probe_video
 
 
 def frame_count(camera: dict) -> int:
-    """Frames of a camera's video (from the container), or its last tracked frame + 1 without a video."""
+    """Frames of a camera's video: as decoded by the track stage (a truncated video holds fewer than announced),
+    else from the container; without a video, its last tracked frame + 1."""
+    if camera.get("video_info"):
+        return int(read_video_info(camera["video_info"])["frames"])
     if camera.get("video"):
         count = probe_video(camera["video"]).n_frames
         if count > 0:

@@ -15,7 +15,10 @@ from tlsync_pipeline.sync.synchronize import CameraResult, synchronize
 from tlsync_pipeline.sync.timeline import Timeline, write_timeline
 from tlsync_pipeline.sync.votes import load_votes
 from tlsync_pipeline.trajectory import Trajectory, read_trajectory
+from tlsync_pipeline.pipeline.stages.track import read_video_info
 from trackers.track import read_track
+
+TRUNCATED = "truncated"  # flag of a camera whose video ends before its announced end
 
 
 def read_camera_inputs(cameras: dict[str, dict]) -> dict:
@@ -41,16 +44,26 @@ def run_sync(cameras: dict[str, dict], trajectory: Path, params: dict, out: Path
 
     params: the ``[sync]`` table. A camera whose ``votes.npz`` records why it
     has no vote (the target never found, never near its projection) is listed
-    under ``failed`` with that reason, without reading its other files.
+    under ``failed`` with that reason, without reading its other files. A
+    camera whose video the track stage found truncated gets the flag
+    ``truncated``.
     """
     votes = read_votes(cameras)
     usable = {name: c for name, c in cameras.items() if not isinstance(votes[name], SyncError)}
     timeline, _ = synchronize(read_camera_inputs(usable), read_trajectory(trajectory), params_from_table(params), votes)
     failed = {name: str(votes[name]) if name not in usable else timeline.failed[name] for name in cameras if name not in usable or name in timeline.failed}
-    timeline = replace(timeline, failed=failed)
+    lines = {name: _flag_truncated(line, cameras[name]) for name, line in timeline.cameras.items()}
+    timeline = replace(timeline, cameras=lines, failed=failed)
     with atomic_path(out) as tmp:
         write_timeline(timeline, tmp)
     return {"synchronized": timeline.names, "failed": timeline.failed}
+
+
+def _flag_truncated(line, camera: dict):
+    """The camera's line with the flag ``truncated`` when the track stage found its video shorter than announced."""
+    if not camera.get("video_info") or not read_video_info(camera["video_info"])["truncated"]:
+        return line
+    return replace(line, flags=(*(line.flags or ()), TRUNCATED))
 
 
 def load_inputs(project: Project) -> tuple[dict[str, CameraInput], Trajectory]:
