@@ -44,10 +44,11 @@ def test_a_truncated_video_is_a_tlsync_warning_that_quiet_silences(raw_project):
     assert quiet.exit_code == 0 and "video truncated" not in quiet.output, quiet.output
 
 
-def test_parallel_workers_draw_no_bars_of_their_own(raw_project):
+def test_parallel_workers_draw_no_bars_of_their_own(raw_project, monkeypatch):
+    monkeypatch.setattr("tlsync_pipeline.cli.console.stderr_is_terminal", lambda: True)  # as in a terminal
     result = _cli("track", raw_project / "project.toml", "-j", "2")
     assert result.exit_code == 0, result.output
-    assert "per-camera tasks" in result.output
+    assert "per-camera tasks" in result.output  # one bar, drawn by the calling process
     assert "video.mp4)" not in result.output  # the tracker's own bar is titled "cam0 (video.mp4)"
 
 

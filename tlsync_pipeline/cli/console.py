@@ -17,11 +17,17 @@ from tlsync_pipeline.errors import one_line
 from tlsync_pipeline.pipeline.engine import Progress
 
 
+def stderr_is_terminal() -> bool:
+    return sys.stderr.isatty()
+
+
 class ConsoleProgress(Progress):
     """Task start and end lines and one bar over the tasks running in parallel workers; nothing when quiet."""
 
-    def __init__(self, quiet: bool = False):
+    def __init__(self, quiet: bool = False, bar: bool | None = None):
+        """bar: draw the bar over parallel tasks (None: when stderr is a terminal; in a log it only adds noise)."""
         self.quiet = quiet
+        self.draw_bar = (not quiet) and (stderr_is_terminal() if bar is None else bar)
         self._bar = None
         self._running: list[str] = []
         self._done = 0
@@ -37,7 +43,7 @@ class ConsoleProgress(Progress):
 
     def started(self, task_id: str, why: str, parallel: bool) -> None:
         self.say(f"{task_id}: running ({one_line(why)})")
-        if parallel and not self.quiet:
+        if parallel and self.draw_bar:
             self._running.append(task_id)
             self._total += 1
             if self._bar is None:
