@@ -12,6 +12,7 @@ skipped and everything else still runs.
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -210,6 +211,15 @@ def _schedule(graph: Graph, executor, wanted: list[str], force: set[str], memo: 
             for tid in sorted(pending, key=lambda t: graph.tasks[t].stage not in PER_CAMERA):
                 task = graph.tasks[tid]
                 bad = [d for d in task.deps if d in summary.failed or d in summary.skipped]
+                if bad and task.runs_without_failed_cameras and all(graph.tasks[d].camera for d in bad) and not all(d in done or d in bad for d in task.deps):
+                    continue  # wait until every dependency is settled before deciding which cameras to leave out
+                if bad and task.runs_without_failed_cameras and all(graph.tasks[d].camera for d in bad):
+                    reasons = {}
+                    for d in bad:
+                        reasons.setdefault(graph.tasks[d].camera, _incomplete(d, summary))
+                    if len(reasons) < len(graph.project.cameras):
+                        task = dataclasses.replace(task.leaving_out(reasons), deps=[d for d in task.deps if d not in bad])
+                        bad = []
                 if bad:
                     summary.skipped[tid] = f"needs {bad[0]}, which did not complete"
                     pending.remove(tid)
@@ -256,6 +266,13 @@ def _schedule(graph: Graph, executor, wanted: list[str], force: set[str], memo: 
             summary.summaries[task.id] = result
             done.add(task.id)
             progress.finished(task.id, seconds, parallel)
+
+
+def _incomplete(task_id: str, summary: RunSummary) -> str:
+    """Why a task did not complete, as one line: its failure, or why it was skipped."""
+    if task_id in summary.failed:
+        return f"{task_id} failed: {describe_error(summary.failed[task_id])}"
+    return f"{task_id} did not run: {summary.skipped[task_id]}"
 
 
 def executor_wait(executor, futures: list) -> list:

@@ -14,6 +14,7 @@ A file the user brings in the project file (``camera = ...``, ``track = ...``,
 
 from __future__ import annotations
 
+import dataclasses
 import glob
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -56,8 +57,27 @@ class Task:
         return f"{self.stage}/{self.camera}" if self.camera else self.stage
 
     @property
+    def runs_without_failed_cameras(self) -> bool:
+        """Whether the task still runs, for the other cameras, when a camera's own tasks did not complete (sync, export, render)."""
+        return self.stage in CAMERA_TOLERANT
+
+    def leaving_out(self, reasons: dict[str, str]) -> Task:
+        """This task without the cameras in ``reasons`` (camera -> why): their inputs dropped, the reasons a parameter.
+
+        The sync stage lists them as not synchronized, with the reason.
+        """
+        inputs = {label: path for label, path in self.inputs.items() if ":" not in label or label.rpartition(":")[2] not in reasons}
+        kwargs = {**self.kwargs, "cameras": {n: c for n, c in self.kwargs["cameras"].items() if n not in reasons}}
+        if self.stage == "sync":
+            kwargs["left_out"] = reasons
+        return dataclasses.replace(self, inputs=inputs, params={**self.params, "left_out": reasons}, kwargs=kwargs)
+
+    @property
     def version(self) -> int:
         return STAGE_VERSIONS[self.stage]
+
+
+CAMERA_TOLERANT = ("sync", "export", "render")
 
 
 @dataclass

@@ -39,21 +39,22 @@ def read_votes(cameras: dict[str, dict]) -> dict:
     return out
 
 
-def run_sync(cameras: dict[str, dict], trajectory: Path, params: dict, out: Path) -> dict:
+def run_sync(cameras: dict[str, dict], trajectory: Path, params: dict, out: Path, left_out: dict[str, str] | None = None) -> dict:
     """The sync stage: each camera's line fitted to the vote stage's votes, ``timeline.json``.
 
     params: the ``[sync]`` table. A camera whose ``votes.npz`` records why it
     has no vote (the target never found, never near its projection) is listed
     under ``failed`` with that reason, without reading its other files. A
     camera whose video the track stage found truncated gets the flag
-    ``truncated``.
+    ``truncated``. ``left_out``: cameras whose own tasks did not complete
+    (camera -> why), listed under ``failed`` too.
     """
     votes = read_votes(cameras)
     usable = {name: c for name, c in cameras.items() if not isinstance(votes[name], SyncError)}
     timeline, _ = synchronize(read_camera_inputs(usable), read_trajectory(trajectory), params_from_table(params), votes)
     failed = {name: str(votes[name]) if name not in usable else timeline.failed[name] for name in cameras if name not in usable or name in timeline.failed}
     lines = {name: _flag_truncated(line, cameras[name]) for name, line in timeline.cameras.items()}
-    timeline = replace(timeline, cameras=lines, failed=failed)
+    timeline = replace(timeline, cameras=lines, failed={**failed, **(left_out or {})})
     with atomic_path(out) as tmp:
         write_timeline(timeline, tmp)
     return {"synchronized": timeline.names, "failed": timeline.failed}

@@ -1,4 +1,4 @@
-"""A copy of a small raw project (what ``tlsync demo`` writes, smaller) with one video changed."""
+"""A copy of a small raw project (what ``tlsync demo`` writes, smaller) with one camera's file changed."""
 
 import re
 import shutil
@@ -88,3 +88,20 @@ def test_a_truncated_video_is_carried_into_the_timeline_and_the_frame_map(raw_pr
     with open(raw_project / "work" / "exports" / "frame_map.csv", newline="") as handle:
         cam1_frames = [int(row["frame"]) for row in csv.DictReader(handle) if row["camera"] == "cam1"]
     assert max(cam1_frames) == frames - 1 and len(cam1_frames) == frames
+
+
+def test_a_camera_that_cannot_be_calibrated_does_not_block_the_others(raw_project):
+    gcp = raw_project / "cam2" / "gcp.csv"
+    lines = gcp.read_text().splitlines()
+    name, u, rest = lines[1].split(",", 2)
+    lines[1] = f"{name},9999,{rest}"  # a pixel far outside the 320x240 image
+    gcp.write_text("\n".join(lines) + "\n")
+    result = _cli("run", raw_project / "project.toml", "-j", "2", "-q")
+    assert result.exit_code == 2, result.output  # bad input, the most serious outcome of the run
+    errors = [line for line in result.output.splitlines() if line.startswith("error:")]
+    assert len(errors) == 1 and errors[0].startswith("error: calibrate/cam2: ") and "gcp.csv:2" in errors[0], result.output
+    timeline = read_timeline(raw_project / "work" / "timeline.json")
+    assert timeline.names == ["cam0", "cam1"]
+    assert timeline.failed["cam2"].startswith("calibrate/cam2 failed: ") and "gcp.csv:2" in timeline.failed["cam2"]
+    assert "cam1" in (raw_project / "work" / "exports" / "offsets.csv").read_text()
+    assert (raw_project / "work" / "render" / "votes_cam1.png").exists()
