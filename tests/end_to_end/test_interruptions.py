@@ -32,7 +32,8 @@ from data_fixtures.raw_project import SMALL, make_raw_project
 from tlsync_pipeline.cli.exit_codes import ExitCode
 from tlsync_pipeline.pipeline.cache import read_manifest
 from tlsync_pipeline.pipeline.engine import manifest_path, status
-from tlsync_pipeline.pipeline.graph import Options, build_graph
+from tlsync_pipeline.pipeline.graph import build_graph
+from tlsync_pipeline.pipeline.spec import Options
 from tlsync_pipeline.pipeline.project import load_project
 
 STOPS = [(signal.SIGKILL, 1), (signal.SIGTERM, 2), (signal.SIGINT, 3), (signal.SIGKILL, 4), (signal.SIGTERM, 5), (signal.SIGINT, 6)]

@@ -20,7 +20,6 @@ from tlsync_pipeline.cli.pipeline import execute, print_timeline, report_outcome
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.outputs.summary import format_truth_comparison
 from tlsync_pipeline.pipeline.cache import file_sha256
-from tlsync_pipeline.pipeline.layout import render_dir, report_md, timeline_json
 from tlsync_pipeline.pipeline.project import WORK_DIR_NAME
 from tlsync_pipeline.sync.timeline import read_truth
 
@@ -60,7 +59,8 @@ def demo(directory: Path, quick: bool, seed: int, tracking_noise: float, jobs: i
         click.echo("\nrecovered against true relations:\n" + table)
         if errors:
             click.echo(f"\nworst eps_t: {max(errors.values()):.3f} frames, in {time.perf_counter() - start:.0f} s")
-        click.echo(f"timeline: {timeline_json(graph.work)}\nreport: {report_md(graph.work)}\npictures: {render_dir(graph.work)}/")
+        ws = graph.workspace
+        click.echo(f"timeline: {ws.path('timeline')}\nreport: {ws.path('report')}\npictures: {ws.path('pictures')}/")
     if code:
         sys.exit(code)
 

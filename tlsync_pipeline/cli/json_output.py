@@ -15,7 +15,6 @@ from tlsync_pipeline.errors import describe_error, one_line
 from tlsync_pipeline.pipeline.cache import read_manifest
 from tlsync_pipeline.pipeline.engine import RunSummary, TaskState, manifest_path
 from tlsync_pipeline.pipeline.graph import Graph
-from tlsync_pipeline.pipeline.layout import timeline_json
 
 STATUS_FORMAT = "tlsync-status"
 RUN_FORMAT = "tlsync-run"
@@ -68,7 +67,7 @@ def run_document(graph: Graph, summary: RunSummary, exit_code: int) -> dict:
         )
     cameras = {name: {"state": "unknown", "reason": None} for name in _camera_names(graph)}
     if "sync" in summary.ran + summary.fresh:
-        data = json.loads(timeline_json(graph.work).read_text(encoding="utf-8"))
+        data = json.loads(graph.workspace.path("timeline").read_text(encoding="utf-8"))
         for name in cameras:
             failed = data.get("failed", {}).get(name)
             cameras[name] = {"state": "failed", "reason": one_line(failed)} if failed else {"state": "synchronized", "reason": None}

@@ -21,7 +21,6 @@ from tlsync_pipeline.cli.exit_codes import ExitCode, exit_code_for
 from tlsync_pipeline.cli.json_output import dumps, run_document
 from tlsync_pipeline.cli.pipeline import execute, print_timeline, report_outcome, run_options
 from tlsync_pipeline.errors import INPUT_ERRORS, EnvironmentProblem, SyncError, describe_error
-from tlsync_pipeline.pipeline.layout import report_md, timeline_json
 from tlsync_pipeline.sync.timeline import read_timeline
 
 
@@ -72,13 +71,13 @@ def run(project_file: Path, work_dir: Path | None, out_dir: Path | None, truth: 
     code = report_outcome(summary, quiet)
     if as_json:
         synchronized = "sync" in summary.ran + summary.fresh
-        if synchronized and read_timeline(timeline_json(graph.work)).failed:
+        if synchronized and read_timeline(graph.workspace.path("timeline")).failed:
             code = max(code, ExitCode.NOT_SYNCHRONIZED)
         click.echo(dumps(run_document(graph, summary, code)))
     else:
         timeline = print_timeline(graph, summary, truth)
         if timeline is not None:
-            click.echo(f"\nwrote {timeline_json(graph.work)}" + (f", {report_md(graph.work)}" if "render" in summary.ran + summary.fresh else ""))
+            click.echo(f"\nwrote {graph.workspace.path('timeline')}" + (f", {graph.workspace.path('report')}" if "render" in summary.ran + summary.fresh else ""))
             if timeline.failed:
                 code = max(code, ExitCode.NOT_SYNCHRONIZED)
     if code:

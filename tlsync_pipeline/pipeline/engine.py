@@ -1,7 +1,7 @@
 """Running the stage graph: what is fresh, what runs, in which order, where.
 
-A task runs when one of its inputs, parameters or its stage version changed
-since its manifest was written, when an artefact of it is missing or was
+A task runs when one of its inputs, parameters or the code of its stage
+changed since its manifest was written, when an artefact of it is missing or was
 modified, or when it is forced. Its freshness is decided only once the tasks
 that make its inputs are done, so a re-run stage whose artefacts come out
 identical does not re-run what follows it. Per-camera tasks go to the
@@ -19,7 +19,6 @@ from pathlib import Path
 
 from tlsync_pipeline.atomic import PART_SUFFIX
 from tlsync_pipeline.errors import InputError, describe_error
-from tlsync_pipeline.pipeline import layout
 from tlsync_pipeline.pipeline.cache import (
     HashMemo,
     Manifest,
@@ -31,10 +30,11 @@ from tlsync_pipeline.pipeline.cache import (
     write_failure,
     write_manifest,
 )
+from tlsync_pipeline.pipeline.codehash import code_digests
 from tlsync_pipeline.pipeline.executors import SerialExecutor
-from tlsync_pipeline.pipeline.graph import Graph, Task, check_given
+from tlsync_pipeline.pipeline.graph import PER_CAMERA, STAGES, Graph, Task, check_given
 from tlsync_pipeline.pipeline.lock import WorkLock
-from tlsync_pipeline.pipeline.stages import PER_CAMERA
+from tlsync_pipeline.pipeline.workspace import FOLDERS, StageFiles
 
 
 @dataclass
@@ -82,16 +82,34 @@ class RunSummary:
     summaries: dict[str, dict] = field(default_factory=dict)
 
 
-def _input_record(task: Task, memo: HashMemo) -> dict[str, dict]:
-    return {label: {"path": str(path), "sha256": memo.sha256(path)} for label, path in sorted(task.inputs.items())}
+@dataclass
+class _Key:
+    """What a task's cache key is made of, as it is now: code, inputs (portable path and hash), parameters."""
+
+    code: dict[str, str]
+    inputs: dict[str, dict]
+    params: dict
+    key: str
 
 
-def _key(task: Task, inputs: dict[str, dict]) -> str:
-    return cache_key(task.stage, task.version, {k: v["sha256"] for k, v in inputs.items()}, task.params)
+def _current(graph: Graph, task: Task, memo: HashMemo, code: dict[str, dict]) -> _Key:
+    """The task's key from its declaration; ``code`` caches module digests per stage module for one pass."""
+    ws = graph.workspace
+    module = task.spec.run.__module__
+    if module not in code:
+        code[module] = code_digests(module)
+    inputs = {label: {"path": ws.portable(source), "sha256": memo.sha256(ws.resolve(source))} for label, source in sorted(task.inputs.items())}
+    params = ws.portable(task.params)
+    key = cache_key(task.stage, code[module], {k: v["sha256"] for k, v in inputs.items()}, params)
+    return _Key(code[module], inputs, params, key)
 
 
 def manifest_path(graph: Graph, task: Task) -> Path:
-    return layout.manifest_json(graph.work, task.stage, task.camera)
+    return graph.workspace.manifest(task.stage, task.camera)
+
+
+def _reasons(graph: Graph, task: Task, now: _Key, memo: HashMemo) -> list[str]:
+    return staleness(read_manifest(manifest_path(graph, task)), now.key, now.code, now.inputs, now.params, memo, graph.work)
 
 
 def status(graph: Graph) -> list[TaskState]:
@@ -100,19 +118,20 @@ def status(graph: Graph) -> list[TaskState]:
     A task whose input-making task is not fresh is stale ("waits for ...")
     even if its own manifest still matches: it will run after that one.
     """
-    memo = HashMemo(layout.hash_memo(graph.work))
+    memo = HashMemo(graph.workspace.hash_memo)
+    code: dict[str, dict] = {}
     rows: dict[str, TaskState] = {}
     for item in graph.given.values():
         rows[item.id] = TaskState(item.id, item.stage, item.camera, "given", [str(item.path)])
     for tid, task in graph.tasks.items():
-        inputs = _input_record(task, memo)
+        now = _current(graph, task, memo, code)
         manifest = read_manifest(manifest_path(graph, task))
-        reasons = staleness(manifest, _key(task, inputs), task.version, inputs, task.params, memo, graph.work)
+        reasons = staleness(manifest, now.key, now.code, now.inputs, now.params, memo, graph.work)
         waiting = [d for d in task.deps if d in rows and rows[d].state in ("stale", "missing", "failed", "blocked")]
         failure = read_failure(failure_path(manifest_path(graph, task)))
         if task.problem:
             state, reasons = "blocked", [task.problem]
-        elif failure is not None and failure["key"] == _key(task, inputs) and not waiting:
+        elif failure is not None and failure["key"] == now.key and not waiting:
             state, reasons = "failed", [failure["reason"]]  # same inputs: it would fail again
         elif manifest is None:
             state = "missing"
@@ -130,7 +149,7 @@ def status(graph: Graph) -> list[TaskState]:
         memo.save()
     except OSError:
         pass  # a read-only work folder: the hashes are only not remembered
-    order = {s: i for i, s in enumerate(("calibrate", "track", "ingest", "vote", "sync", "export", "render"))}
+    order = {s: i for i, s in enumerate(STAGES)}
     cameras = [c["name"] for c in graph.project.cameras]
     return sorted(rows.values(), key=lambda r: (order[r.stage], cameras.index(r.camera) if r.camera else -1))
 
@@ -169,7 +188,7 @@ def run_graph(
     check_given(graph, wanted)
     with WorkLock(graph.work):
         _remove_leftovers(graph.work)
-        memo = HashMemo(layout.hash_memo(graph.work))
+        memo = HashMemo(graph.workspace.hash_memo)
         try:
             _schedule(graph, executor, wanted, force, memo, summary, progress or Progress())
         except BaseException:
@@ -200,6 +219,7 @@ def _closure(graph: Graph, targets: list[str]) -> list[str]:
 
 
 def _schedule(graph: Graph, executor, wanted: list[str], force: set[str], memo: HashMemo, summary: RunSummary, progress: Progress) -> None:
+    code: dict[str, dict] = {}
     pending = list(wanted)
     done: set[str] = set()
     running: dict = {}
@@ -211,9 +231,9 @@ def _schedule(graph: Graph, executor, wanted: list[str], force: set[str], memo: 
             for tid in sorted(pending, key=lambda t: graph.tasks[t].stage not in PER_CAMERA):
                 task = graph.tasks[tid]
                 bad = [d for d in task.deps if d in summary.failed or d in summary.skipped]
-                if bad and task.runs_without_failed_cameras and all(graph.tasks[d].camera for d in bad) and not all(d in done or d in bad for d in task.deps):
+                if bad and task.spec.runs_without_failed_cameras and all(graph.tasks[d].camera for d in bad) and not all(d in done or d in bad for d in task.deps):
                     continue  # wait until every dependency is settled before deciding which cameras to leave out
-                if bad and task.runs_without_failed_cameras and all(graph.tasks[d].camera for d in bad):
+                if bad and task.spec.runs_without_failed_cameras and all(graph.tasks[d].camera for d in bad):
                     reasons = {}
                     for d in bad:
                         reasons.setdefault(graph.tasks[d].camera, _incomplete(d, summary))
@@ -229,9 +249,8 @@ def _schedule(graph: Graph, executor, wanted: list[str], force: set[str], memo: 
                     continue
                 pending.remove(tid)
                 progressed = True
-                inputs = _input_record(task, memo)
-                key = _key(task, inputs)
-                reasons = staleness(read_manifest(manifest_path(graph, task)), key, task.version, inputs, task.params, memo, graph.work)
+                now = _current(graph, task, memo, code)
+                reasons = _reasons(graph, task, now, memo)
                 if not reasons and tid not in force:
                     summary.fresh.append(tid)
                     done.add(tid)
@@ -240,8 +259,12 @@ def _schedule(graph: Graph, executor, wanted: list[str], force: set[str], memo: 
                 local = task.stage not in PER_CAMERA or isinstance(executor, SerialExecutor)
                 progress.started(tid, why, not local)
                 start = time.perf_counter()
-                future = (SerialExecutor() if local else executor).submit(task.fn, task.kwargs)
-                running[future] = (task, key, inputs, start, not local)
+                where = SerialExecutor(executor.cores) if local else executor  # local tasks share the machine with the pool
+                files = graph.workspace.files(
+                    tid, task.camera, task.inputs, task.outputs, progress=graph.options.progress, cores=where.cores, history=_history(graph) if task.spec.history else []
+                )
+                future = where.submit(run_task, {"run": task.spec.run, "files": files, "params": task.params})
+                running[future] = (task, now, start, not local)
                 if local:
                     break  # finish it before scheduling more, its dependents may now be ready
         if not running:
@@ -250,17 +273,17 @@ def _schedule(graph: Graph, executor, wanted: list[str], force: set[str], memo: 
                     summary.skipped[tid] = "its inputs were not made"
             break
         for future in executor_wait(executor, list(running)):
-            task, key, inputs, start, parallel = running.pop(future)
+            task, now, start, parallel = running.pop(future)
             seconds = time.perf_counter() - start
             try:
                 result = future.result() or {}
             except Exception as exc:  # noqa: BLE001 - recorded, reported by the caller
                 summary.failed[task.id] = exc
-                write_failure(failure_path(manifest_path(graph, task)), key, describe_error(exc))
+                write_failure(failure_path(manifest_path(graph, task)), now.key, describe_error(exc))
                 progress.failed(task.id, exc, parallel)
                 continue
             failure_path(manifest_path(graph, task)).unlink(missing_ok=True)
-            _write_manifest(graph, task, key, inputs, result, seconds, memo)
+            _write_manifest(graph, task, now, result, seconds, memo)
             summary.ran.append(task.id)
             summary.seconds[task.id] = seconds
             summary.summaries[task.id] = result
@@ -281,12 +304,29 @@ def executor_wait(executor, futures: list) -> list:
     return finished or executor.wait_any(futures)
 
 
-def _write_manifest(graph: Graph, task: Task, key: str, inputs: dict, result: dict, seconds: float, memo: HashMemo) -> None:
-    outputs = list(task.outputs) + [Path(p) for p in result.pop("outputs", [])]
+def run_task(run, files: StageFiles, params: dict) -> dict:
+    """Call a stage's function with its files and parameters (in whichever process the executor chose)."""
+    with files.running():
+        return run(files, **params)
+
+
+def _history(graph: Graph) -> list[dict]:
+    """When and how long each task of the graph last ran, from the manifests (for the report)."""
+    rows = []
+    for task in graph.tasks.values():
+        manifest = read_manifest(manifest_path(graph, task))
+        if manifest is not None:
+            rows.append({"stage": manifest.stage, "camera": manifest.camera, "created": manifest.created, "seconds": manifest.seconds})
+    return rows
+
+
+def _write_manifest(graph: Graph, task: Task, now: _Key, result: dict, seconds: float, memo: HashMemo) -> None:
+    ws = graph.workspace
+    outputs = [ws.resolve(a) for a in task.outputs if a.kind not in FOLDERS] + [Path(p) for p in result.pop("outputs", [])]
     hashes = {}
     for path in outputs:
         digest = memo.sha256(path)
         if digest is not None:
-            hashes[str(Path(path).relative_to(graph.work))] = digest
-    manifest = Manifest(task.stage, task.camera, task.version, key, inputs, task.params, hashes, round(seconds, 3), summary=result)
+            hashes[Path(path).relative_to(graph.work).as_posix()] = digest
+    manifest = Manifest(task.stage, task.camera, now.code, now.key, now.inputs, now.params, hashes, round(seconds, 3), summary=result)
     write_manifest(manifest, manifest_path(graph, task))

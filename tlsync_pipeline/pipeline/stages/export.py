@@ -3,14 +3,13 @@
 from __future__ import annotations
 
 import csv
-from pathlib import Path
 
 import numpy as np
 
-from tlsync_pipeline.atomic import atomic_path
 from tlsync_pipeline.outputs.exports import ffmpeg_commands, frame_map_rows, offsets
-from tlsync_pipeline.pipeline import layout
-from tlsync_pipeline.pipeline.stages.track import read_video_info
+from tlsync_pipeline.pipeline.spec import Sources, StageSpec
+from tlsync_pipeline.pipeline.stages.cameras import camera_files, read_video_info
+from tlsync_pipeline.pipeline.workspace import StageFiles
 from tlsync_pipeline.sync.clock import FrameTimes
 from tlsync_pipeline.sync.timeline import CameraLine, read_timeline
 from trackers.track import read_track
@@ -46,26 +45,52 @@ def frame_times(camera: dict, line: CameraLine) -> FrameTimes | None:
     return FrameTimes.of_track(read_track(camera["track"]))
 
 
-def run_export(cameras: dict[str, dict], timeline: Path, work: Path) -> dict:
-    """The export stage: frame_map.csv, offsets.csv and ffmpeg.sh from timeline.json (of its synchronized cameras only)."""
-    tl = read_timeline(timeline)
+def run_export(files: StageFiles, cameras: list[str], left_out: dict[str, str] | None = None) -> dict:
+    """The export stage: frame_map.csv, offsets.csv and ffmpeg.sh from timeline.json (of its synchronized cameras only).
+
+    left_out: cameras whose own tasks did not complete (camera -> why); they are not in the timeline either.
+    """
+    cameras = camera_files(files, cameras)
+    tl = read_timeline(files.path("timeline"))
     if not tl.cameras:
         # No camera synchronized: exports of an earlier timeline would look current.
-        for path in (layout.frame_map_csv(work), layout.offsets_csv(work), layout.ffmpeg_script(work)):
-            path.unlink(missing_ok=True)
-        return {"exported": [], "message": "no camera synchronized: no exports (earlier ones removed)"}
+        for kind in ("frame_map", "offsets", "ffmpeg"):
+            files.output(kind).unlink(missing_ok=True)
+        return {"exported": [], "left_out": sorted(left_out or {}), "message": "no camera synchronized: no exports (earlier ones removed)"}
     n_frames = {name: frame_count(cameras[name]) for name in tl.names}
     times = {name: frame_times(cameras[name], line) for name, line in tl.cameras.items()}
-    with atomic_path(layout.frame_map_csv(work)) as tmp:
+    with files.write("frame_map") as tmp:
         with tmp.open("w", newline="", encoding="utf-8") as handle:
             csv.writer(handle).writerows(frame_map_rows(tl, n_frames, times))
     rows = offsets(tl, times)
-    with atomic_path(layout.offsets_csv(work)) as tmp:
+    with files.write("offsets") as tmp:
         with tmp.open("w", newline="", encoding="utf-8") as handle:
             writer = csv.DictWriter(handle, fieldnames=list(rows[0]))
             writer.writeheader()
             writer.writerows({k: ("" if v is None else (f"{v:.6f}" if isinstance(v, float) else v)) for k, v in r.items()} for r in rows)
     videos = {name: (str(c["video"]) if c.get("video") else None) for name, c in cameras.items()}
-    with atomic_path(layout.ffmpeg_script(work)) as tmp:
+    with files.write("ffmpeg") as tmp:
         tmp.write_text(ffmpeg_commands(rows, videos), encoding="utf-8")
-    return {"exported": tl.names, "n_frames": n_frames}
+    return {"exported": tl.names, "n_frames": n_frames, "left_out": sorted(left_out or {})}
+
+
+def export_inputs(src: Sources, camera: None) -> dict:
+    """timeline.json, and every camera's track and video (frame counts; video.json when the track stage makes it)."""
+    inputs = {"timeline": src.artefact("timeline")}
+    for spec in src.project.cameras:
+        inputs[f"track:{spec['name']}"] = src.artefact("track", spec["name"])
+        if spec.get("video") is not None:
+            inputs[f"video:{spec['name']}"] = spec["video"]
+        if src.made("video_info", spec["name"]):
+            inputs[f"video_info:{spec['name']}"] = src.artefact("video_info", spec["name"])
+    return inputs
+
+
+SPEC = StageSpec(
+    "export",
+    inputs=export_inputs,
+    params=lambda project, camera, options: {"cameras": [c["name"] for c in project.cameras]},
+    outputs=("frame_map", "offsets", "ffmpeg"),
+    run=run_export,
+    runs_without_failed_cameras=True,
+)

@@ -4,25 +4,30 @@ from __future__ import annotations
 
 from dataclasses import replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from calibration.camera import read_camera
 from tlsync_pipeline.atomic import atomic_path
 from tlsync_pipeline.errors import InputError, SyncError
-from tlsync_pipeline.pipeline.project import Project
+from tlsync_pipeline.pipeline.spec import Sources, StageSpec
+from tlsync_pipeline.pipeline.stages.cameras import camera_files, camera_params, read_video_info
+from tlsync_pipeline.pipeline.workspace import StageFiles
 from tlsync_pipeline.sync.methods import CameraInput
-from tlsync_pipeline.sync.registry import params_from_table
+from tlsync_pipeline.sync.registry import params_from_table, params_table
 from tlsync_pipeline.sync.synchronize import CameraResult, synchronize
 from tlsync_pipeline.sync.timeline import Timeline, write_timeline
 from tlsync_pipeline.sync.votes import load_votes
 from tlsync_pipeline.trajectory import Trajectory, read_trajectory
-from tlsync_pipeline.pipeline.stages.track import read_video_info
 from trackers.track import read_track
 
 TRUNCATED = "truncated"  # flag of a camera whose video ends before its announced end
 
+if TYPE_CHECKING:
+    from tlsync_pipeline.pipeline.project import Project
+
 
 def read_camera_inputs(cameras: dict[str, dict]) -> dict:
-    """CameraInput per camera from the paths the graph passes to stage functions."""
+    """CameraInput per camera from the paths of ``stages.cameras.camera_files``."""
     out = {}
     for name, c in cameras.items():
         cam = read_camera(c["camera"], name=name)
@@ -39,23 +44,24 @@ def read_votes(cameras: dict[str, dict]) -> dict:
     return out
 
 
-def run_sync(cameras: dict[str, dict], trajectory: Path, params: dict, out: Path, left_out: dict[str, str] | None = None) -> dict:
+def run_sync(files: StageFiles, cameras: list[str], fps: dict[str, float | None], sync: dict, left_out: dict[str, str] | None = None) -> dict:
     """The sync stage: each camera's line fitted to the vote stage's votes, ``timeline.json``.
 
-    params: the ``[sync]`` table. A camera whose ``votes.npz`` records why it
-    has no vote (the target never found, never near its projection) is listed
-    under ``failed`` with that reason, without reading its other files. A
-    camera whose video the track stage found truncated gets the flag
-    ``truncated``. ``left_out``: cameras whose own tasks did not complete
-    (camera -> why), listed under ``failed`` too.
+    sync: the ``[sync]`` table (sync.registry.params_table). A camera whose
+    ``votes.npz`` records why it has no vote (the target never found, never
+    near its projection) is listed under ``failed`` with that reason, without
+    reading its other files. A camera whose video the track stage found
+    truncated gets the flag ``truncated``. ``left_out``: cameras whose own
+    tasks did not complete (camera -> why), listed under ``failed`` too.
     """
-    votes = read_votes(cameras)
-    usable = {name: c for name, c in cameras.items() if not isinstance(votes[name], SyncError)}
-    timeline, _ = synchronize(read_camera_inputs(usable), read_trajectory(trajectory), params_from_table(params), votes)
-    failed = {name: str(votes[name]) if name not in usable else timeline.failed[name] for name in cameras if name not in usable or name in timeline.failed}
-    lines = {name: _flag_truncated(line, cameras[name]) for name, line in timeline.cameras.items()}
+    paths = camera_files(files, cameras, fps)
+    votes = read_votes(paths)
+    usable = {name: c for name, c in paths.items() if not isinstance(votes[name], SyncError)}
+    timeline, _ = synchronize(read_camera_inputs(usable), read_trajectory(files.path("trajectory")), params_from_table(sync), votes)
+    failed = {name: str(votes[name]) if name not in usable else timeline.failed[name] for name in paths if name not in usable or name in timeline.failed}
+    lines = {name: _flag_truncated(line, paths[name]) for name, line in timeline.cameras.items()}
     timeline = replace(timeline, cameras=lines, failed={**failed, **(left_out or {})})
-    with atomic_path(out) as tmp:
+    with files.write("timeline") as tmp:
         write_timeline(timeline, tmp)
     return {"synchronized": timeline.names, "failed": timeline.failed}
 
@@ -89,3 +95,20 @@ def run_project(project: Project, out_dir: Path) -> tuple[Timeline, dict[str, Ca
     with atomic_path(out_dir / "timeline.json") as tmp:
         write_timeline(timeline, tmp)
     return timeline, results
+
+
+def sync_inputs(src: Sources, camera: None) -> dict:
+    """Every camera's calibration, track and votes (and video.json when the track stage makes it), and the trajectory."""
+    inputs = {f"{kind}:{spec['name']}": src.artefact(kind, spec["name"]) for spec in src.project.cameras for kind in ("camera", "track", "votes")}
+    inputs.update({f"video_info:{spec['name']}": src.artefact("video_info", spec["name"]) for spec in src.project.cameras if src.made("video_info", spec["name"])})
+    return {**inputs, "trajectory": src.artefact("trajectory")}
+
+
+SPEC = StageSpec(
+    "sync",
+    inputs=sync_inputs,
+    params=lambda project, camera, options: {**camera_params(project), "sync": params_table(project.sync)},
+    outputs=("timeline",),
+    run=run_sync,
+    runs_without_failed_cameras=True,
+)

@@ -1,8 +1,7 @@
 """The track stage: each camera's video in, its track.csv out (work folder).
 
 ``track_camera`` is the pure part (a camera table in, a Track out);
-``write_track_atomic`` the writer. The stage graph (stages.py) runs them per
-camera into ``<work>/cameras/<name>/track.csv``.
+``write_track_atomic`` the writer (also used by ``tlsync track-video``).
 """
 
 from __future__ import annotations
@@ -13,11 +12,12 @@ from pathlib import Path
 
 from tlsync_pipeline.atomic import atomic_path
 from tlsync_pipeline.errors import InputError
+from tlsync_pipeline.pipeline.spec import StageSpec
+from tlsync_pipeline.pipeline.stages.cameras import VIDEO_INFO_FORMAT
+from tlsync_pipeline.pipeline.workspace import StageFiles
 from trackers.track import Track, write_track
 from trackers.tracking import track_video
 from trackers.video import TruncatedVideoWarning, probe_video
-
-VIDEO_INFO_FORMAT = "tlsync-video"
 
 
 def track_camera(spec: dict, progress: bool = True) -> Track:
@@ -42,21 +42,23 @@ def write_track_atomic(track: Track, path: Path) -> None:
         write_track(track, tmp)
 
 
-def run_track(spec: dict, out: Path, info_out: Path, progress: bool = True) -> dict:
+def run_track(files: StageFiles, tracker: dict) -> dict:
     """The track stage: the target's track in one camera's video, ``track.csv``, and what the video holds, ``video.json``.
 
     A truncated video still gives a track (of the frames it holds); its
     warning is the stage's, and video.json says how many frames exist.
     """
+    video = files.path("video")
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", TruncatedVideoWarning)
-        track = track_camera(spec, progress=progress)
+        track = track_camera({"name": files.camera, "video": video, "tracker": tracker}, progress=files.progress)
     truncation = next((w.message for w in caught if isinstance(w.message, TruncatedVideoWarning)), None)
     for item in caught:
         warnings.warn_explicit(item.message, item.category, item.filename, item.lineno)
-    write_track_atomic(track, out)
-    write_video_info(video_info(spec["video"], truncation), info_out)
-    return {"tracked_frames": len(track), "message": f"wrote {out} ({len(track)} tracked frames)"}
+    write_track_atomic(track, files.output("track"))
+    with files.write("video_info") as tmp:
+        tmp.write_text(json.dumps(video_info(video, truncation), indent=1) + "\n", encoding="utf-8")
+    return {"tracked_frames": len(track), "message": f"wrote {files.output('track')} ({len(track)} tracked frames)"}
 
 
 def video_info(video: Path, truncation: TruncatedVideoWarning | None) -> dict:
@@ -66,11 +68,17 @@ def video_info(video: Path, truncation: TruncatedVideoWarning | None) -> dict:
     return {"format": VIDEO_INFO_FORMAT, "video": str(video), "frames": frames, "announced": announced, "truncated": truncation is not None}
 
 
-def write_video_info(info: dict, path: Path) -> None:
-    with atomic_path(path) as tmp:
-        tmp.write_text(json.dumps(info, indent=1) + "\n", encoding="utf-8")
+def _applies(project, cam: str) -> bool:
+    spec = project.camera(cam)
+    return spec["track"] is None and spec.get("video") is not None
 
 
-def read_video_info(path: Path) -> dict:
-    """video.json as the track stage wrote it."""
-    return json.loads(Path(path).read_text(encoding="utf-8"))
+SPEC = StageSpec(
+    "track",
+    inputs=lambda src, cam: {"video": src.project.camera(cam)["video"]},
+    params=lambda project, cam, options: {"tracker": project.camera(cam)["tracker"]},
+    outputs=("track", "video_info"),
+    run=run_track,
+    per_camera=True,
+    applies=_applies,
+)

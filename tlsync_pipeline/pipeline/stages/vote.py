@@ -3,20 +3,23 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from calibration.camera import read_camera
 from tlsync_pipeline.errors import SyncError
+from tlsync_pipeline.pipeline.spec import StageSpec
+from tlsync_pipeline.pipeline.workspace import StageFiles
 from tlsync_pipeline.sync.methods import CameraInput
-from tlsync_pipeline.sync.registry import params_from_table
+from tlsync_pipeline.sync.registry import params_from_table, vote_table
 from tlsync_pipeline.sync.synchronize import cast_votes, prepare_trajectory
 from tlsync_pipeline.sync.votes import Votes, save_votes
 from tlsync_pipeline.trajectory import read_trajectory
 from trackers.track import read_track
 
 
-def run_vote(name: str, camera: Path, track: Path, trajectory: Path, params: dict, out: Path, source: Path | None = None) -> dict:
+def run_vote(files: StageFiles, source: Path | None = None, **params: Any) -> dict:
     """The vote stage: every (frame, sample) pair within eps_px, saved to ``votes.npz``.
 
     params: the ``[sync]`` keys the votes depend on (sync.registry.vote_table). The votes are cast on the trajectory as the
@@ -24,19 +27,20 @@ def run_vote(name: str, camera: Path, track: Path, trajectory: Path, params: dic
     votes the sync stage fits and render draws. A camera without any vote is
     not an error here: the reason is saved and the sync stage lists the
     camera as not synchronized. So is a camera whose track stage found the
-    target in no frame of ``source`` (its video).
+    target in no frame of ``source`` (its video; None when the project
+    brings the track).
     """
     sync_params = params_from_table(params)
-    cam = read_camera(camera, name=name)
+    camera = read_camera(files.path("camera"), name=files.camera)
     try:
-        if source is not None and _no_tracked_frame(track):
+        if source is not None and _no_tracked_frame(files.path("track")):
             raise SyncError(f"{source}: the target was never found (the track stage found it in no frame)")
-        prepared = prepare_trajectory(read_trajectory(trajectory), sync_params)
-        votes = cast_votes(CameraInput(cam, read_track(track), None), prepared, sync_params)
+        prepared = prepare_trajectory(read_trajectory(files.path("trajectory")), sync_params)
+        votes = cast_votes(CameraInput(camera, read_track(files.path("track")), None), prepared, sync_params)
         error = None
     except SyncError as exc:
         votes, error = Votes(np.zeros(0), np.zeros(0), np.zeros(0)), str(exc)
-    save_votes(out, votes, error)
+    save_votes(files.output("votes"), votes, error)
     return {"votes": len(votes), **({"error": error} if error else {})}
 
 
@@ -44,3 +48,19 @@ def _no_tracked_frame(track: Path) -> bool:
     """Whether a track.csv the track stage wrote holds its header and no row."""
     with open(track, encoding="utf-8") as handle:
         return sum(1 for line in handle if line.strip()) <= 1
+
+
+def _tracked_video(project, cam: str) -> Path | None:
+    """The video the track stage tracks this camera's target in (None when the project brings the track)."""
+    spec = project.camera(cam)
+    return spec.get("video") if spec["track"] is None else None
+
+
+SPEC = StageSpec(
+    "vote",
+    inputs=lambda src, cam: {"camera": src.artefact("camera", cam), "track": src.artefact("track", cam), "trajectory": src.artefact("trajectory")},
+    params=lambda project, cam, options: {**vote_table(project.sync), "source": _tracked_video(project, cam)},
+    outputs=("votes",),
+    run=run_vote,
+    per_camera=True,
+)
