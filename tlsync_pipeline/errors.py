@@ -47,7 +47,7 @@ def os_error_problem(exc: OSError) -> InputError | EnvironmentProblem:
     return EnvironmentProblem(f"{path}: {os_error_reason(exc)}")
 
 
-MAX_REASON = 300  # characters of a printed or recorded reason
+MAX_REASON = 1000  # characters of a printed or recorded reason (a whole sentence, never kilobytes)
 
 
 def one_line(text: str, limit: int = MAX_REASON) -> str:
