@@ -77,7 +77,7 @@ def run(project_file: Path, work_dir: Path | None, out_dir: Path | None, truth: 
     else:
         timeline = print_timeline(graph, summary, truth)
         if timeline is not None:
-            click.echo(f"\nwrote {graph.workspace.path('timeline')}" + (f", {graph.workspace.path('report')}" if "render" in summary.ran + summary.fresh else ""))
+            click.echo(f"\nwrote {graph.workspace.path('timeline')}" + (f", {graph.workspace.path('report_html')}" if "render" in summary.ran + summary.fresh else ""))
             if timeline.failed:
                 code = max(code, ExitCode.NOT_SYNCHRONIZED)
     if code:
