@@ -144,7 +144,7 @@ def run_render(
             work,
             "residuals: tracked minus projected position over time, with the vote gate",
         ),
-    ]
+    ] if tl.cameras else []  # no camera synchronized: no chart (nor any picture of an earlier timeline)
     written += [work / c.href for c in charts]
 
     played, proxies = player_videos(tl, videos, n_frames, proxy or {}, out_dir / "proxy", work)
