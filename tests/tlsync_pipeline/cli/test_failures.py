@@ -200,7 +200,8 @@ def test_a_camera_that_no_longer_synchronizes_loses_its_pictures_and_exports(pro
     (project_dir / "cam1" / "track.csv").write_text("frame,x,y\n" + rows + "\n")
     result = _cli("run", toml, "-j", "1", "-q")
     assert result.exit_code == ExitCode.NOT_SYNCHRONIZED, result.output
-    assert sorted(p.name for p in (work / "render").glob("*.png")) == ["trajectory_cam0.png", "votes_cam0.png"]
+    pictures = {p.name for p in (work / "render").glob("*.png")}
+    assert {"trajectory_cam0.png", "votes_cam0.png"} <= pictures and not [name for name in pictures if "cam1" in name]
     assert "cam1" not in (work / "exports" / "offsets.csv").read_text()
     assert "frame_cam1" not in (work / "exports" / "frame_map.csv").read_text().splitlines()[0]
 
@@ -266,5 +267,5 @@ def test_run_json_is_a_machine_readable_summary(project_dir):
     assert result.exit_code == 0 and document["format"] == "tlsync-run" and document["exit_code"] == 0
     tasks = {t["id"]: t for t in document["tasks"]}
     assert tasks["sync"]["state"] == "ran" and tasks["sync"]["artefacts"] == ["timeline.json"] and tasks["sync"]["seconds"] >= 0
-    assert tasks["export"]["artefacts"] == ["exports/ffmpeg.sh", "exports/frame_map.csv", "exports/offsets.csv"]
+    assert {"exports/ffmpeg.sh", "exports/frame_map.csv", "exports/offsets.csv"} <= set(tasks["export"]["artefacts"])
     assert document["cameras"] == {"cam0": {"state": "synchronized", "reason": None}, "cam1": {"state": "synchronized", "reason": None}}
