@@ -38,8 +38,9 @@ from tlsync_pipeline.pipeline.project import load_project
 
 STOPS = [(signal.SIGKILL, 1), (signal.SIGTERM, 2), (signal.SIGINT, 3), (signal.SIGKILL, 4), (signal.SIGTERM, 5), (signal.SIGINT, 6)]
 MARKER = "TLSYNC_INTERRUPTION_TEST"
-# report.md lists when and for how long each stage ran: it differs between any two runs.
-RUN_RECORDS = {"report.md"}
+# report.md and report.html list when and for how long each stage ran (they differ between any two runs);
+# ingest_report.json names the log by its absolute path (the reference is another copy of the project).
+RUN_RECORDS = {"report.md", "report.html", "target/ingest_report.json"}
 
 
 def _tlsync_run(project_file: Path, marker: str, log: Path) -> subprocess.Popen:
