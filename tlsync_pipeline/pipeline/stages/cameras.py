@@ -36,6 +36,12 @@ def read_identification(path) -> IdentificationSummary | SyncError:
     return SyncError(data["error"]) if "error" in data else IdentificationSummary.from_dict(data)
 
 
+def has_no_rows(csv_path: Path) -> bool:
+    """Whether a CSV artefact a stage wrote (track.csv, detections.csv) holds its header and no row."""
+    with open(csv_path, encoding="utf-8") as handle:
+        return sum(1 for line in handle if line.strip()) <= 1
+
+
 def read_video_info(path: Path) -> dict:
     """video.json as the track stage wrote it: frames (that exist), announced, truncated (docs/formats.md)."""
     return json.loads(Path(path).read_text(encoding="utf-8"))

@@ -18,6 +18,7 @@ from typing import Any
 from calibration.camera import read_camera
 from tlsync_pipeline.errors import SyncError
 from tlsync_pipeline.pipeline.spec import StageSpec
+from tlsync_pipeline.pipeline.stages.cameras import has_no_rows
 from tlsync_pipeline.pipeline.workspace import StageFiles
 from tlsync_pipeline.sync.identify import identify_target
 from tlsync_pipeline.sync.registry import params_from_table, params_table
@@ -27,12 +28,18 @@ from trackers.detections import follows_every_mover, read_detections
 from trackers.track import write_track
 
 
-def run_identify(files: StageFiles, fps: float | None, sync: dict[str, Any]) -> dict:
-    """The identify stage: ``track.csv`` of the identified target and ``identification.json``."""
+def run_identify(files: StageFiles, fps: float | None, sync: dict[str, Any], source: str | None = None) -> dict:
+    """The identify stage: ``track.csv`` of the identified target and ``identification.json``.
+
+    source: the video the track stage detected the movers in (None when the
+    project brings its detections); no mover in it: the target was never found.
+    """
     params = params_from_table(sync)
     camera = read_camera(files.path("camera"), name=files.camera)
     prepared = prepare_trajectory(read_trajectory(files.path("trajectory")), params)
     try:
+        if source is not None and has_no_rows(files.path("detections")):
+            raise SyncError(f"{source}: the target was never found (no moving object in any frame)")
         found = identify_target(camera, read_detections(files.path("detections")), prepared, fps or camera.fps, params.eps_px, params.delta, params.p, params.seed)
     except SyncError as exc:
         files.output("track").unlink(missing_ok=True)
@@ -56,10 +63,16 @@ def brings_movers(project, cam: str) -> bool:
     return spec.get("detections") is not None or (spec.get("video") is not None and every_mover)
 
 
+def _detected_video(project, cam: str) -> str | None:
+    """The video the track stage detects this camera's movers in (None when the project brings its detections)."""
+    spec = project.camera(cam)
+    return None if spec.get("detections") is not None else spec.get("video")
+
+
 SPEC = StageSpec(
     "identify",
     inputs=lambda src, cam: {"camera": src.artefact("camera", cam), "detections": src.artefact("detections", cam), "trajectory": src.artefact("trajectory")},
-    params=lambda project, cam, options: {"fps": project.camera(cam)["fps"], "sync": params_table(project.sync)},
+    params=lambda project, cam, options: {"fps": project.camera(cam)["fps"], "sync": params_table(project.sync), "source": _detected_video(project, cam)},
     outputs=("track", "identification"),
     run=run_identify,
     per_camera=True,

@@ -14,7 +14,7 @@ import numpy as np
 from calibration.camera import read_camera
 from tlsync_pipeline.errors import SyncError
 from tlsync_pipeline.pipeline.spec import Sources, StageSpec
-from tlsync_pipeline.pipeline.stages.cameras import read_identification
+from tlsync_pipeline.pipeline.stages.cameras import has_no_rows, read_identification
 from tlsync_pipeline.pipeline.workspace import StageFiles
 from tlsync_pipeline.sync.methods import CameraInput
 from tlsync_pipeline.sync.registry import params_from_table, vote_table
@@ -40,7 +40,7 @@ def run_vote(files: StageFiles, source: Path | None = None, **params: Any) -> di
     try:
         if files.has("identification") and isinstance(found := read_identification(files.path("identification")), SyncError):
             raise found
-        if source is not None and _no_tracked_frame(files.path("track")):
+        if source is not None and has_no_rows(files.path("track")):
             raise SyncError(f"{source}: the target was never found (the track stage found it in no frame)")
         prepared = prepare_trajectory(read_trajectory(files.path("trajectory")), sync_params)
         votes = cast_votes(CameraInput(camera, read_track(files.path("track")), None), prepared, sync_params)
@@ -57,12 +57,6 @@ def vote_inputs(src: Sources, cam: str) -> dict:
     if src.made("identification", cam):
         inputs["identification"] = src.artefact("identification", cam)
     return inputs
-
-
-def _no_tracked_frame(track: Path) -> bool:
-    """Whether a track.csv the track stage wrote holds its header and no row."""
-    with open(track, encoding="utf-8") as handle:
-        return sum(1 for line in handle if line.strip()) <= 1
 
 
 def _tracked_video(project, cam: str) -> Path | None:
