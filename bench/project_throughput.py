@@ -41,7 +41,8 @@ import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+REPOSITORY = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPOSITORY))
 
 from data_fixtures.raw_project import RawProjectSpec, make_raw_project  # noqa: E402
 
@@ -93,11 +94,12 @@ def make_project(workload: Workload, folder: Path) -> tuple[Path, float]:
     return project, time.perf_counter() - start
 
 
-def decode_luma(path: str) -> int:
-    """Decode every frame of ``path`` to its luma plane (a numpy copy, as the trackers get it); returns the frame count."""
+def decode_luma(path: str) -> tuple[int, float]:
+    """Decode every frame of ``path`` to its luma plane (a numpy copy, as the trackers get it); (frames, CPU s of this process, FFmpeg's threads included)."""
     import av
     import numpy as np
 
+    cpu = time.process_time()
     n = 0
     with av.open(path) as container:
         stream = container.streams.video[0]
@@ -106,7 +108,7 @@ def decode_luma(path: str) -> int:
             plane = frame.planes[0]
             np.frombuffer(plane, np.uint8).reshape(-1, plane.line_size)[: frame.height, : frame.width].copy()
             n += 1
-    return n
+    return n, time.process_time() - cpu
 
 
 def _warm_up(_: int) -> None:
@@ -137,24 +139,24 @@ class Measure:
 def decode_floor(videos: list[Path], jobs: int) -> tuple[Measure, int]:
     """Decode all videos, ``jobs`` processes (started beforehand), largest files first; (measure, frames decoded).
 
-    The CPU time is the workers' whole life (start-up included, well under a second).
+    The CPU time is the decoding's only (the workers' start-up is not counted).
     """
     order = sorted(videos, key=lambda p: p.stat().st_size, reverse=True)
-    cpu = _children_cpu()
     with cf.ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("spawn")) as pool:
         list(pool.map(_warm_up, range(jobs)))
         load, start = os.getloadavg()[0], time.perf_counter()
-        frames = sum(pool.map(decode_luma, [str(p) for p in order]))
+        done = list(pool.map(decode_luma, [str(p) for p in order]))
         wall = time.perf_counter() - start
-    return Measure(wall, _children_cpu() - cpu, (load, os.getloadavg()[0])), frames
+    return Measure(wall, sum(cpu for _, cpu in done), (load, os.getloadavg()[0])), sum(n for n, _ in done)
 
 
-def tlsync_run(project: Path, work: Path, jobs: int) -> Measure:
-    """`tlsync run` in a child process; CPU time and peak RSS of it and its workers."""
-    command = [str(Path(sys.executable).with_name("tlsync")), "run", str(project), "--work", str(work), "--quiet", "--jobs", str(jobs)]
+def tlsync_run(project: Path, work: Path, jobs: int, code: Path = REPOSITORY) -> Measure:
+    """`tlsync run` of the source tree ``code`` in a child process; CPU time and peak RSS of it and its workers."""
+    command = [sys.executable, "-c", "import sys; from tlsync_pipeline.cli.main import main; sys.exit(main())", "run", str(project), "--work", str(work), "--quiet", "--jobs", str(jobs)]
+    env = dict(os.environ, PYTHONPATH=str(code))
     load = os.getloadavg()[0]
     cpu, start = _children_cpu(), time.perf_counter()
-    done = subprocess.run(command, capture_output=True, text=True)
+    done = subprocess.run(command, capture_output=True, text=True, env=env)
     wall = time.perf_counter() - start
     if done.returncode not in (0, 1):  # 1: ran through, some camera not synchronized
         raise SystemExit(f"tlsync run failed (exit {done.returncode}):\n{done.stdout}\n{done.stderr}")
@@ -191,6 +193,7 @@ def main() -> None:
     parser.add_argument("--trackers", default="blob,csrt")
     parser.add_argument("--keep", type=Path, help="make (or reuse) the project in this folder")
     parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1)
+    parser.add_argument("--compare", type=Path, help="also run the tlsync of this source tree (e.g. a `git archive` of main), for before/after in one session")
     args = parser.parse_args()
     width, height = (int(v) for v in args.size.lower().split("x"))
     workload = QUICK if args.quick else Workload(args.cameras, args.seconds, (width, height), args.scene)
@@ -206,13 +209,15 @@ def main() -> None:
         print(f"decode floor: {frames} frames in {floor.wall:.1f} s wall, {floor.cpu:.1f} s CPU ({floor.utilisation(cores):.0%} of {cores} cores), load {floor.load[0]:.1f} -> {floor.load[1]:.1f}")
         rows = [("decode floor (PyAV luma, %d processes)" % cores, floor, None)]
         stages = {}
+        trees = [("", REPOSITORY)] + ([(f" ({args.compare.name})", args.compare)] if args.compare else [])
         for kind in args.trackers.split(","):
-            work = Path(tmp) / f"work_{kind}"
             variant = with_tracker(project, kind, folder)
-            run = tlsync_run(variant, work, cores)
-            stages[kind] = stage_seconds(work)
-            again = tlsync_run(variant, work, cores)
-            rows += [(f"tlsync run, {kind}", run, kind), (f"cached re-run, {kind}", again, None)]
+            for suffix, code in trees:
+                work = Path(tmp) / f"work_{kind}{suffix.strip(' ()')}"
+                run = tlsync_run(variant, work, cores, code)
+                stages[kind + suffix] = stage_seconds(work)
+                again = tlsync_run(variant, work, cores, code)
+                rows += [(f"tlsync run, {kind}{suffix}", run, kind), (f"cached re-run, {kind}{suffix}", again, None)]
         print(f"\n{'':38} {'wall s':>7} {'x floor':>7} {'CPU s':>7} {'x floor':>7} {'CPU use':>7} {'peak MB':>7} {'load':>10}")
         for name, m, _ in rows:
             peak = f"{m.peak_mb:7.0f}" if m.peak_mb else " " * 7
