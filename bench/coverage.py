@@ -20,6 +20,7 @@ import numpy as np
 
 from data_fixtures import make_scene
 from tlsync_pipeline.sync.params import SyncParams
+from tlsync_pipeline.sync.refined import RefinedParams
 from tlsync_pipeline.sync.synchronize import CameraInput, synchronize
 
 LINES = ((2.0, 4.37), (2.0, 45.61))
@@ -31,7 +32,7 @@ def scene_z(args) -> list[float]:
     seed, st, sc, sl, model_error = args
     scene = make_scene(seed, lines=LINES, tracking_noise_px=st, projection_error_px=sc, localisation_noise_pct=sl)
     inputs = {k: CameraInput(scene.cameras[k], scene.tracks[k], scene.cameras[k].fps) for k in scene.cameras}
-    params = SyncParams() if model_error is None else SyncParams(model_error_px=model_error)
+    params = SyncParams() if model_error is None else SyncParams(options={"refined": RefinedParams(model_error_px=model_error)})
     timeline, _ = synchronize(inputs, scene.trajectory, params)
     z = []
     for name, true in scene.lines.items():
@@ -39,7 +40,7 @@ def scene_z(args) -> list[float]:
         if line is None:
             z += [np.nan, np.nan]
             continue
-        z += [(line.alpha - true.alpha) / line.details["se_alpha"], (line.beta - true.beta) / line.details["se_beta"]]
+        z += [(line.alpha - true.alpha) / line.se_alpha, (line.beta - true.beta) / line.se_beta]
     for key, true in scene.truth_pairs().items():
         a, b = key.split("->")
         if a in timeline.cameras and b in timeline.cameras:
@@ -77,7 +78,7 @@ def main() -> None:
     parser.add_argument("--processes", type=int, default=2)
     args = parser.parse_args()
     result = coverage(args.scenes, args.st, args.sc, args.sl, args.model_error, processes=args.processes)
-    model = SyncParams().model_error_px if args.model_error is None else args.model_error
+    model = RefinedParams().model_error_px if args.model_error is None else args.model_error
     print(f"S_t={args.st} S_c={args.sc} S_l={args.sl} model_error_px={model:g} scenes={args.scenes} (failed {result['failed']})")
     for name, value in result["per_quantity"].items():
         print(f"  {name:16s} {100 * value:5.1f} %")

@@ -18,8 +18,8 @@ import cv2
 import numpy as np
 
 from calibration.errors import CalibrationInputError, read_text
+from calibration.lens import DISTORTION_MODELS, project_points
 
-DISTORTION_MODELS = ("opencv", "fisheye")
 _OPENCV_DIST_LENGTHS = (4, 5, 8, 12, 14)
 
 # Projected points whose undistorted (pinhole) position lies further than this
@@ -83,13 +83,8 @@ class Camera:
 
     def _distort(self, normalized: np.ndarray) -> np.ndarray:
         """Pixels of normalized image points (N, 2) through the lens model."""
-        pts = np.column_stack([normalized, np.ones(len(normalized))]).reshape(-1, 1, 3)
-        zero = np.zeros(3)
-        if self.dist_model == "fisheye":
-            uv, _ = cv2.fisheye.projectPoints(pts, zero, zero, self.K, self.dist)
-        else:
-            uv, _ = cv2.projectPoints(pts, zero, zero, self.K, self.dist)
-        return uv.reshape(-1, 2)
+        rays = np.column_stack([normalized, np.ones(len(normalized))])
+        return project_points(rays, np.zeros(3), np.zeros(3), self.K, self.dist, self.dist_model)
 
     def in_image(self, uv: np.ndarray) -> np.ndarray:
         """Boolean mask of pixel positions (N, 2) inside the image."""

@@ -21,6 +21,7 @@ import numpy as np
 
 from calibration.errors import CalibrationInputError, read_text
 from calibration.intrinsics import Pattern
+from calibration.lens import project_points, undistort_pixels
 
 MIN_POINTS = 4
 RANSAC_MIN_POINTS = 6
@@ -149,7 +150,7 @@ def pose_from_points(
         raise CalibrationInputError(f"{source}: {len(uv)} points, at least {MIN_POINTS} are needed for a camera pose")
     _check_spread(xyz, source, "world points", "m", 1e-3)
     _check_spread(uv, source, "pixel positions", "px", 1.0)
-    ideal = _ideal_pixels(uv, K, dist, dist_model)
+    ideal = undistort_pixels(uv, K, dist, dist_model, P=K)
     inliers = np.ones(len(uv), dtype=bool)
     method = "SQPnP"
     if len(uv) >= RANSAC_MIN_POINTS:
@@ -172,7 +173,7 @@ def pose_from_points(
     depth = xyz @ R.T[:, 2] + t[2]
     if np.any(depth[inliers] <= 0):
         raise CalibrationInputError(f"{source}: the best pose puts {int(np.sum(depth[inliers] <= 0))} points behind the camera; check the pixel <-> world pairs and the axes")
-    projected = _project(xyz, rvec, tvec, K, dist, dist_model)
+    projected = project_points(xyz, rvec, tvec, K, dist, dist_model)
     errors = np.linalg.norm(projected - uv, axis=1)
     rms = float(np.sqrt(np.mean(errors[inliers] ** 2)))
     rot_std, pos_std = _uncertainty(xyz[inliers], uv[inliers], rvec, tvec, K, dist, dist_model, errors[inliers])
@@ -188,22 +189,6 @@ def _check_spread(points: np.ndarray, source: str, what: str, unit: str, toleran
         raise CalibrationInputError(f"{source}: the {what} are collinear (on one line, within {s[1] / np.sqrt(len(points)):.3g} {unit}); a pose needs points off that line")
 
 
-def _ideal_pixels(uv: np.ndarray, K: np.ndarray, dist: np.ndarray, dist_model: str) -> np.ndarray:
-    """Distortion-free pixel positions (N, 2) of distorted pixels (same K)."""
-    pts = uv.reshape(-1, 1, 2)
-    if dist_model == "fisheye":
-        return cv2.fisheye.undistortPoints(pts, K, dist, P=K).reshape(-1, 2)
-    criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 50, 1e-10)
-    return cv2.undistortPoints(pts, K, dist, None, None, K, criteria).reshape(-1, 2)
-
-
-def _project(xyz, rvec, tvec, K, dist, dist_model) -> np.ndarray:
-    pts = np.asarray(xyz, dtype=np.float64).reshape(-1, 1, 3)
-    if dist_model == "fisheye":
-        return cv2.fisheye.projectPoints(pts, np.asarray(rvec, float).reshape(3, 1), np.asarray(tvec, float).reshape(3, 1), K, dist)[0].reshape(-1, 2)
-    return cv2.projectPoints(pts, rvec, tvec, K, dist)[0].reshape(-1, 2)
-
-
 def _uncertainty(xyz, uv, rvec, tvec, K, dist, dist_model, errors) -> tuple[float, float]:
     """First-order one-sigma rotation (deg) and camera-centre (m) uncertainty from the residuals."""
     n = len(xyz)
@@ -212,7 +197,7 @@ def _uncertainty(xyz, uv, rvec, tvec, K, dist, dist_model, errors) -> tuple[floa
     params = np.concatenate([np.ravel(rvec), np.ravel(tvec)])
 
     def residual(p):
-        return _project(xyz, p[:3], p[3:], K, dist, dist_model).ravel()
+        return project_points(xyz, p[:3], p[3:], K, dist, dist_model).ravel()
 
     base = residual(params)
     J = np.empty((2 * n, 6))
@@ -264,7 +249,7 @@ def pose_from_board(
     chosen = None
     for order in (grid, grid[::-1, ::-1], grid[:, ::-1], grid[::-1, :]):
         pts = order.reshape(-1, 2)
-        ideal = _ideal_pixels(pts, K, dist, dist_model)
+        ideal = undistort_pixels(pts, K, dist, dist_model, P=K)
         ok, rvec, tvec = cv2.solvePnP(board, ideal, K, None, flags=cv2.SOLVEPNP_IPPE)
         if not ok:
             continue
@@ -273,7 +258,7 @@ def pose_from_board(
             continue
         s = pattern.square
         probes = np.array([[-0.5, -0.5, 0], [0.5, 0.5, 0], [0.5, -0.5, 0], [-0.5, 0.5, 0]]) * s
-        at = _project(probes, rvec, tvec, K, dist, dist_model)
+        at = project_points(probes, rvec, tvec, K, dist, dist_model)
         level = [float(cv2.getRectSubPix(gray, (3, 3), (float(x), float(y))).mean()) for x, y in at]
         if level[0] + level[1] < level[2] + level[3]:
             chosen = pts

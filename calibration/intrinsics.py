@@ -32,8 +32,11 @@ from tqdm import tqdm
 
 from calibration.camera import Camera
 from calibration.errors import CalibrationInputError
+from calibration.lens import project_points
 
-MODELS = ("standard", "rational", "fisheye")
+# Calibration model -> the lens model (calibration.lens) of the cameras it makes.
+MODEL_LENS = {"standard": "opencv", "rational": "opencv", "fisheye": "fisheye"}
+MODELS = tuple(MODEL_LENS)
 DETECT_SIZE = 720  # about the long side (px) of the copy the board is first looked for in
 CLASSIC_SIZE = 1280  # about the long side (px) of the copy for the classic detector
 EXHAUSTIVE_SIZE = 2000  # at most the long side (px) of the copy for the last, exhaustive try
@@ -69,15 +72,24 @@ class Pattern:
         return np.column_stack([grid, np.zeros(len(grid))])
 
 
-def parse_pattern(text: str, square: float, source: str = "pattern") -> Pattern:
-    """``"7x6"`` (inner corners, columns x rows) and the square side (m) -> Pattern."""
+def parse_corners(text: str) -> tuple[int, int]:
+    """``"7x6"`` -> (7, 6): inner corners, columns x rows; CalibrationInputError when not a board."""
     parts = str(text).lower().replace(" ", "").split("x")
     try:
         cols, rows = (int(p) for p in parts)
     except ValueError:
-        raise CalibrationInputError(f"{source}: expected inner corners as COLSxROWS (e.g. 7x6 for a board of 8x7 squares), got {text!r}") from None
+        raise CalibrationInputError(f"expected inner corners as COLSxROWS (e.g. 7x6 for a board of 8x7 squares), got {text!r}") from None
     if cols < 2 or rows < 2 or cols * rows < 6:
-        raise CalibrationInputError(f"{source}: a checkerboard needs at least 2x3 inner corners, got {text!r}")
+        raise CalibrationInputError(f"a checkerboard needs at least 2x3 inner corners, got {text!r}")
+    return cols, rows
+
+
+def parse_pattern(text: str, square: float, source: str = "pattern") -> Pattern:
+    """``"7x6"`` (inner corners, columns x rows) and the square side (m) -> Pattern."""
+    try:
+        cols, rows = parse_corners(text)
+    except CalibrationInputError as exc:
+        raise CalibrationInputError(f"{source}: {exc}") from None
     if isinstance(square, bool) or not isinstance(square, (int, float)) or not np.isfinite(square) or square <= 0:
         raise CalibrationInputError(f"{source}: the square side must be a positive length in metres, got {square!r}")
     return Pattern(cols, rows, float(square))
@@ -444,7 +456,7 @@ def calibrate_detections(
     return Intrinsics(
         K=K,
         dist=dist,
-        dist_model="fisheye" if model == "fisheye" else "opencv",
+        dist_model=MODEL_LENS[model],
         model=model,
         image_size=image_size,
         rms=rms,
@@ -515,7 +527,6 @@ def _calibrate(views: dict[str, Detection], pattern: Pattern, model: str, image_
             _, K, dist, rvecs, tvecs = cv2.fisheye.calibrate(objs, imgs, image_size, None, None, flags=flags, criteria=criteria)
         except cv2.error as exc:
             raise CalibrationInputError(f"fisheye calibration failed ({exc.err}); try more views spread over the image") from None
-        projected = [cv2.fisheye.projectPoints(obj.reshape(-1, 1, 3), r, t, K, dist)[0].reshape(-1, 2) for r, t in zip(rvecs, tvecs)]
         std = {}
         dist = dist.ravel()
     else:
@@ -523,8 +534,8 @@ def _calibrate(views: dict[str, Detection], pattern: Pattern, model: str, image_
         objs = [obj.astype(np.float32) for _ in img_pts]
         imgs = [p.astype(np.float32) for p in img_pts]
         _, K, dist, rvecs, tvecs, std_in, _, _ = cv2.calibrateCameraExtended(objs, imgs, image_size, None, None, flags=flags, criteria=criteria)
-        projected = [cv2.projectPoints(obj, r, t, K, dist)[0].reshape(-1, 2) for r, t in zip(rvecs, tvecs)]
         std = dict(zip(("fx", "fy", "cx", "cy"), map(float, std_in.ravel()[:4])))
         dist = dist.ravel()[: 8 if model == "rational" else 5]
+    projected = [project_points(obj, r, t, K, dist, MODEL_LENS[model]) for r, t in zip(rvecs, tvecs)]
     per_view = {s: float(np.sqrt(np.mean(np.sum((p - q) ** 2, axis=1)))) for s, p, q in zip(views, projected, img_pts)}
     return K, dist.astype(np.float64), per_view, std

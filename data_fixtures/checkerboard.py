@@ -19,6 +19,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from calibration.lens import project_points, undistort_pixels
+
 
 @dataclass(frozen=True)
 class BoardView:
@@ -128,13 +130,6 @@ def board_points(pattern: tuple[int, int], square: float) -> np.ndarray:
     return np.column_stack([grid, np.zeros(len(grid))])
 
 
-def _project(points, rvec, tvec, K, dist, dist_model) -> np.ndarray:
-    pts = np.asarray(points, dtype=np.float64).reshape(-1, 1, 3)
-    if dist_model == "fisheye":
-        return cv2.fisheye.projectPoints(pts, np.reshape(rvec, (3, 1)), np.reshape(tvec, (3, 1)), K, dist)[0].reshape(-1, 2)
-    return cv2.projectPoints(pts, rvec, tvec, K, dist)[0].reshape(-1, 2)
-
-
 def _pixel_rays(K, dist, image_size, supersample, dist_model="opencv") -> np.ndarray:
     """Normalized rays (h, w, s*s, 2) through the supersampling points of every pixel."""
     w, h = image_size
@@ -143,12 +138,7 @@ def _pixel_rays(K, dist, image_size, supersample, dist_model="opencv") -> np.nda
     ys, xs = np.mgrid[0:h, 0:w].astype(np.float64)
     px = (xs[..., None] + ox.ravel()).reshape(-1)
     py = (ys[..., None] + oy.ravel()).reshape(-1)
-    pts = np.column_stack([px, py]).reshape(-1, 1, 2)
-    criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 50, 1e-12)
-    if dist_model == "fisheye":
-        norm = cv2.fisheye.undistortPoints(pts, K, dist, None, None, None, criteria)
-    else:
-        norm = cv2.undistortPoints(pts, K, dist, None, None, None, criteria)
+    norm = undistort_pixels(np.column_stack([px, py]), K, dist, dist_model)
     return norm.reshape(h, w, supersample * supersample, 2)
 
 
@@ -208,11 +198,11 @@ def _pose(rng, K, dist, dist_model, image_size, pattern, square, fill, cut: bool
         cam = obj @ R.T + t
         if np.any(cam[:, 2] <= 0.05):
             continue
-        uv = _project(obj, rvec, t, K, dist, dist_model)
+        uv = project_points(obj, rvec, t, K, dist, dist_model)
         inside = (uv[:, 0] >= 8) & (uv[:, 0] <= w - 9) & (uv[:, 1] >= 8) & (uv[:, 1] <= h - 9)
         # Make sure the whole board (with its border) is in view for full boards.
         outline = np.array([[-1.6, -1.6], [cols + 0.6, -1.6], [cols + 0.6, rows + 0.6], [-1.6, rows + 0.6]]) * square
-        out_uv = _project(np.column_stack([outline, np.zeros(4)]), rvec, t, K, dist, dist_model)
+        out_uv = project_points(np.column_stack([outline, np.zeros(4)]), rvec, t, K, dist, dist_model)
         outline_inside = np.all((out_uv >= 0) & (out_uv <= [w - 1, h - 1]))
         if not cut and inside.all() and outline_inside:
             return rvec, t, uv

@@ -81,6 +81,7 @@ def render_video(
     rotation: int = 0,
     crf: int = 20,
     gop: int = 30,
+    times: np.ndarray | None = None,
 ) -> RenderedVideo:
     """Render the scene to ``path`` (MP4, moov at the front) and return the truth.
 
@@ -89,7 +90,8 @@ def render_video(
     frame interval (uniform, times stay increasing); rotation: a display
     rotation (counter-clockwise degrees, multiple of 90) written as metadata,
     the stored pixels being rotated the other way, so a reader honouring it
-    sees the scene upright.
+    sees the scene upright; times: the frames' presentation times (s,
+    increasing; e.g. ``phone_times``) instead of fps with ``jitter``.
     """
     path = Path(path)
     rng = np.random.default_rng(seed)
@@ -103,7 +105,7 @@ def render_video(
         background[:, pole_x - 1 : pole_x + 2] = 45.0
     texture = rng.uniform(-25, 25, size=(int(2 * radius + 8),) * 2)
     gains = 1.0 + flicker * np.sin(2 * np.pi * np.arange(n_frames) / 37.0) + flicker * 0.3 * rng.standard_normal(n_frames)
-    times = _times(rng, n_frames, fps, jitter)
+    times = _times(rng, n_frames, fps, jitter) if times is None else np.asarray(times, dtype=np.float64)
     yy, xx = np.mgrid[0:h, 0:w].astype(np.float32)
 
     container = av.open(str(path), mode="w", options={"movflags": "+faststart"})
@@ -191,6 +193,18 @@ def _draw_distractor(image, k: int, n_frames: int, w: int, h: int) -> None:
     s = (k - start) / max(1, stop - start - 1)
     cx, cy = -30 + s * (w + 60), h * 0.8 - s * h * 0.5
     cv2.rectangle(image, (int(cx - 12), int(cy - 8)), (int(cx + 12), int(cy + 8)), 25.0, -1)
+
+
+def phone_times(n_frames: int, fps: float, interval_jitter: float, start_s: float = 0.0, seed: int = 0) -> np.ndarray:
+    """Presentation times (s) of a phone-like variable-frame-rate stream.
+
+    Each frame interval is (1 + U(-interval_jitter, interval_jitter)) / fps,
+    so the times drift from any constant rate; frame 0 is at start_s (streams
+    need not start at 0).
+    """
+    rng = np.random.default_rng(seed)
+    intervals = (1.0 + rng.uniform(-interval_jitter, interval_jitter, n_frames - 1)) / fps
+    return start_s + np.r_[0.0, np.cumsum(intervals)]
 
 
 def _times(rng: np.random.Generator, n_frames: int, fps: float, jitter: float) -> np.ndarray:

@@ -15,8 +15,11 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from scipy.interpolate import make_interp_spline
 
 from tlsync_pipeline.errors import InputError
+
+GAP_SAMPLES = 1.5  # consecutive samples further apart than this (grid units) are a gap, never bridged
 
 
 @dataclass(frozen=True)
@@ -44,21 +47,80 @@ class Trajectory:
         return (self.t0 or 0.0) + np.asarray(sample) / self.rate
 
 
-def trajectory_from_times(t: np.ndarray, xyz: np.ndarray, rate: float | None = None) -> Trajectory:
-    """A trajectory whose grid is set by its times t (seconds).
+def grid_rate(t: np.ndarray) -> float:
+    """The rate (Hz) of the constant-rate grid that times t (seconds, increasing) sit on.
 
-    rate defaults to 1 / median interval, refined by least squares when the
-    times sit on a regular grid (with or without gaps) so that rounding in
-    the written times does not bias it; t0 = t[0]; t must increase strictly.
+    1 / median interval, then refined: over the short steps (up to 10
+    intervals) whose length is a whole number of intervals, rate = intervals /
+    seconds (so rounded time stamps, e.g. 1/15 s written to the millisecond,
+    average out); then by least squares over all the times when every one
+    sits on that grid (gaps allowed).
+    """
+    t = np.asarray(t, dtype=np.float64)
+    step = np.diff(t)
+    rate = 1.0 / float(np.median(step))
+    whole = np.round(step * rate)
+    short = (whole >= 1) & (whole <= 10) & (np.abs(step * rate - whole) < 0.25)
+    if short.any():
+        rate = float(whole[short].sum() / step[short].sum())
+    elapsed = t - t[0]
+    index = np.round(elapsed * rate)
+    if np.abs(elapsed * rate - index).max() < 0.1:
+        rate = float(index @ elapsed / (elapsed @ elapsed))
+    return rate
+
+
+def trajectory_from_times(t: np.ndarray, xyz: np.ndarray, rate: float | None = None) -> Trajectory:
+    """A trajectory whose grid is set by its times t (seconds, strictly increasing).
+
+    rate defaults to grid_rate(t); t0 = t[0].
     """
     t = np.asarray(t, dtype=np.float64)
     if rate is None:
-        rate = 1.0 / float(np.median(np.diff(t)))
-        elapsed = t - t[0]
-        index = np.round(elapsed * rate)
-        if np.abs(elapsed * rate - index).max() < 0.1:
-            rate = float(index @ elapsed / (elapsed @ elapsed))
+        rate = grid_rate(t)
     return Trajectory((t - t[0]) * rate, np.asarray(xyz, dtype=np.float64), rate, float(t[0]))
+
+
+class PiecewiseTrajectory:
+    """The trajectory model: C2 interpolation (cubic spline) over each contiguous run of grid samples.
+
+    Runs are separated by gaps of more than GAP_SAMPLES; runs of fewer than
+    4 samples are left out. Used by the fit (sync/refine.py) and the pictures.
+    """
+
+    def __init__(self, trajectory: Trajectory):
+        sample, xyz = trajectory.sample, trajectory.xyz
+        cuts = np.flatnonzero(np.diff(sample) > GAP_SAMPLES) + 1
+        self.runs = []
+        for idx in np.split(np.arange(len(sample)), cuts):
+            if len(idx) >= 4:
+                self.runs.append((sample[idx[0]], sample[idx[-1]], make_interp_spline(sample[idx], xyz[idx], k=3, axis=0)))
+        self.starts = np.array([r[0] for r in self.runs])
+        self.ends = np.array([r[1] for r in self.runs])
+
+    def run_of(self, s: np.ndarray) -> np.ndarray:
+        """Index of the run containing each s, or -1."""
+        k = np.searchsorted(self.starts, s, side="right") - 1
+        inside = (k >= 0) & (s <= self.ends[np.clip(k, 0, None)]) if len(self.runs) else np.zeros(len(s), bool)
+        return np.where(inside, k, -1)
+
+    def __call__(self, s: np.ndarray, run: np.ndarray, nu: int = 0) -> np.ndarray:
+        """Positions (or derivatives) at s, evaluated on the given runs, clamped to them."""
+        out = np.empty((len(s), 3))
+        for k in np.unique(run):
+            sel = run == k
+            lo, hi, spline = self.runs[k]
+            out[sel] = spline(np.clip(s[sel], lo, hi), nu=nu)
+        return out
+
+    def positions(self, s) -> np.ndarray:
+        """Positions (m) at continuous samples s: (N, 3), NaN outside the runs (before, after, in a gap)."""
+        s = np.atleast_1d(np.asarray(s, dtype=np.float64))
+        run = self.run_of(s)
+        out = np.full((len(s), 3), np.nan)
+        inside = run >= 0
+        out[inside] = self(s[inside], run[inside])
+        return out
 
 
 def read_trajectory(path: str | Path) -> Trajectory:

@@ -155,6 +155,20 @@ def read_frames(path: str | Path, indices: Iterable[int], gray: bool = False) ->
     return out
 
 
+def presentation_times(path: str | Path) -> np.ndarray | None:
+    """Presentation time (s) of every frame, indexed as ``iter_frames`` numbers them (demux only, no decoding).
+
+    None when the container has no timestamps.
+    """
+    path = Path(path)
+    pts_list, _ = _packet_index(path)
+    if not pts_list:
+        return None
+    with _open(path) as container:
+        base = container.streams.video[0].time_base or Fraction(1, 1)
+    return np.array([float(pts * base) for pts in pts_list])
+
+
 def _read_sequential(path: Path, wanted: list[int], gray: bool) -> dict[int, VideoFrame]:
     out = {}
     remaining = set(wanted)

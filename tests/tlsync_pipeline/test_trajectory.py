@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 from tlsync_pipeline.errors import InputError
-from tlsync_pipeline.trajectory import Trajectory, read_trajectory, write_trajectory
+from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory, grid_rate, read_trajectory, write_trajectory
 
 
 def test_times_define_the_grid_and_gaps_stay_gaps(tmp_path):
@@ -51,3 +51,23 @@ def test_bad_trajectories(tmp_path, text, message):
     with pytest.raises(InputError, match=message) as info:
         read_trajectory(path)
     assert str(path) in str(info.value)
+
+
+def test_interpolation_never_bridges_a_gap():
+    sample = np.r_[np.arange(0, 10.0), np.arange(20, 30.0)]
+    xyz = np.column_stack([sample, np.zeros_like(sample), np.zeros_like(sample)])
+    path = PiecewiseTrajectory(Trajectory(sample, xyz))
+    run = path.run_of(np.array([4.5, 15.0, 25.5]))
+    assert list(run) == [0, -1, 1]
+    assert np.allclose(path(np.array([4.5, 25.5]), run[[0, 2]])[:, 0], [4.5, 25.5])
+    # positions(): NaN outside the runs (before, in the gap, after).
+    positions = path.positions([-1.0, 4.5, 15.0, 29.0, 31.0])
+    assert np.isnan(positions[[0, 2, 4], 0]).all() and np.allclose(positions[[1, 3], 0], [4.5, 29.0])
+
+
+def test_grid_rate_of_rounded_times_with_gaps():
+    # 15 Hz written to the millisecond, with a gap of 4 samples: the grid rate, not 1 / median interval.
+    k = np.r_[np.arange(0, 100), np.arange(104, 200)]
+    t = np.round(1_700_000_000.0 + k / 15.0, 3)
+    assert grid_rate(t) == pytest.approx(15.0, rel=1e-6)
+    assert abs(1.0 / np.median(np.diff(t)) - 15.0) > 1e-3

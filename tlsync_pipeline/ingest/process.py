@@ -23,7 +23,7 @@ from scipy.signal import savgol_filter
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.geodesy import Origin, geodetic_to_enu
 from tlsync_pipeline.ingest.records import GEODETIC, LogRecords
-from tlsync_pipeline.trajectory import Trajectory
+from tlsync_pipeline.trajectory import Trajectory, grid_rate
 
 GAP_FACTOR = 3.0  # an interval over GAP_FACTOR x the median interval is a gap
 DEFAULT_MAX_SPEED_MPS = 60.0
@@ -305,25 +305,12 @@ def median_interval(t: np.ndarray) -> float:
 
 
 def log_rate(t: np.ndarray) -> float:
-    """The log's own rate (Hz).
+    """The log's own rate (Hz): trajectory.grid_rate, snapped to a multiple of 1 mHz when within 1 ppm of one.
 
-    1 / median interval, then refined: over the short steps (up to 10
-    intervals) whose length is a whole number of intervals, rate = intervals /
-    seconds (so rounded time stamps, e.g. 1/15 s written to the millisecond,
-    average out); then by least squares over the whole log when every fix sits
-    on that grid (gaps allowed); finally snapped to a multiple of 1 mHz when
-    within 1 ppm of one.
+    Ingest chooses the grid it resamples onto, so a round rate is kept when
+    the log allows it.
     """
-    rate = 1.0 / median_interval(t)
-    step = np.diff(t) * rate
-    whole = np.round(step)
-    short = (whole >= 1) & (whole <= 10) & (np.abs(step - whole) < 0.25)
-    if short.any():
-        rate = float(whole[short].sum() / np.diff(t)[short].sum())
-    elapsed = t - t[0]
-    index = np.round(elapsed * rate)
-    if np.abs(elapsed * rate - index).max() < 0.1:
-        rate = float(index @ elapsed / (elapsed @ elapsed))
+    rate = grid_rate(t)
     snapped = round(rate, 3)
     return snapped if snapped > 0 and abs(rate - snapped) <= 1e-6 * rate else rate
 

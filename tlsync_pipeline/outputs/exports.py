@@ -4,7 +4,9 @@
   the target sample t_r it shows, that sample's time (s, when the target's
   clock is known) and the matching frame of every other camera (empty when
   that camera was not recording then). Matching frames are real numbers (the
-  relation is continuous); round them for a frame index.
+  relation is continuous); round them for a frame index. They go through
+  each camera's clock (Timeline.match): exact for variable-frame-rate
+  cameras too, through their videos' presentation times.
 - offsets.csv: per camera, when its frame 0 was taken relative to the
   reference camera's frame 0 (frames of the reference and seconds), its
   frame rate, and its clock rate against the reference.
@@ -19,22 +21,28 @@ from pathlib import Path
 
 import numpy as np
 
+from tlsync_pipeline.sync.clock import FrameTimes
 from tlsync_pipeline.sync.timeline import Timeline
 
 
-def frame_map_rows(timeline: Timeline, n_frames: dict[str, int]):
-    """Rows of the frame map (header first), for the synchronized cameras."""
+def frame_map_rows(timeline: Timeline, n_frames: dict[str, int], times: dict[str, FrameTimes | None] | None = None):
+    """Rows of the frame map (header first), for the synchronized cameras.
+
+    times: presentation times of variable-frame-rate cameras (by name), with
+    which the matches are exact (Timeline.match).
+    """
+    times = times or {}
     names = timeline.names
     yield ["camera", "frame", "sample", "target_time_s"] + [f"frame_{n}" for n in names]
     for name in names:
         line = timeline.cameras[name]
         frames = np.arange(n_frames[name], dtype=np.float64)
-        sample = (frames - line.beta) / line.alpha
+        sample = line.sample_at(frames, times.get(name))
         seconds = None if timeline.target_rate is None else (timeline.target_t0 or 0.0) + sample / timeline.target_rate
         others = {}
         for other in names:
             if other != name:
-                matched = timeline.relation(name, other)(frames)
+                matched = timeline.match(name, other, frames, times)
                 inside = (matched > -0.5) & (matched < n_frames[other] - 0.5)
                 others[other] = np.where(inside, matched, np.nan)
         for i in range(len(frames)):
@@ -48,20 +56,29 @@ def frame_map_rows(timeline: Timeline, n_frames: dict[str, int]):
             yield row
 
 
-def offsets(timeline: Timeline, fps: dict[str, float | None]) -> list[dict]:
+def offsets(timeline: Timeline, times: dict[str, FrameTimes | None] | None = None) -> list[dict]:
     """Per camera: start relative to the reference (frames of the reference, seconds), fps, clock rate.
 
-    clock_rate: seconds elapsed on this camera's nominal clock per second of
-    the reference's (1 when both run at their nominal rates).
+    start_frames: the reference's (fractional) frame taken with the camera's
+    frame 0 (Timeline.match, exact with ``times``); start_s: seconds from the
+    reference's frame 0 to then, on the reference's clock. clock_rate:
+    seconds elapsed on this camera's nominal clock per second of the
+    reference's (1 when both run at their nominal rates).
     """
+    times = times or {}
     ref = timeline.names[0]
+    ref_line = timeline.cameras[ref]
     rows = []
     for name in timeline.names:
-        frames = float(timeline.relation(name, ref).beta)
-        seconds = frames / fps[ref] if fps.get(ref) else None
-        rel = timeline.relation(ref, name)
-        rate = rel.alpha * fps[ref] / fps[name] if fps.get(ref) and fps.get(name) else None
-        rows.append({"camera": name, "reference": ref, "start_frames": frames, "start_s": seconds, "fps": fps.get(name), "clock_rate": rate})
+        line = timeline.cameras[name]
+        frames = float(timeline.match(name, ref, np.zeros(1), times)[0])
+        seconds = None
+        if ref_line.clock.fps:
+            ref_clock = ref_line.clock.clock_at(frames, times.get(ref))
+            seconds = float(ref_line.clock.seconds_at(ref_clock, times.get(ref)))
+        rel = timeline.clock_relation(ref, name)
+        rate = rel.alpha * ref_line.fps / line.fps if ref_line.fps and line.fps else None
+        rows.append({"camera": name, "reference": ref, "start_frames": frames, "start_s": seconds, "fps": line.fps, "clock_rate": rate})
     return rows
 
 

@@ -1,12 +1,14 @@
 """Pictures of a synchronization (paper Fig. 4) and the run's report, from cached artefacts.
 
 Per camera: the voting space (votes, inliers, fitted line; Fig. 4 c, f) and
-the tracked path against the logged trajectory projected at the aligned
-times (Fig. 4 a, b). Per pair of cameras A, B with videos:
+the tracked path against the trajectory projected at the aligned times
+(Fig. 4 a, b), with the fit's own trajectory model (the method's prepared
+trajectory through trajectory.PiecewiseTrajectory). Per pair of cameras A, B with videos:
 
 - band swap: the green band of frame t_B of B with the red and blue bands of
   the matching frame t_A of A (both resized to B's size): *before* (t_A = t_B,
-  the same index), *after* (t_A from the estimated relation) and, with a
+  the same index), *after* (t_A matched through the cameras' clocks,
+  Timeline.match) and, with a
   truth file, *truth*. Where the views overlap, a well aligned pair shows a
   moving object without colour fringes;
 - strip: matching frames side by side with the target's position projected
@@ -20,16 +22,17 @@ else comes from the work folder.
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
+from typing import Callable
 
 import cv2
 import numpy as np
 
 from tlsync_pipeline.atomic import atomic_path
+from tlsync_pipeline.sync.clock import FrameTimes
 from tlsync_pipeline.sync.ransac import distance_to_line
-from tlsync_pipeline.sync.timeline import Relation, Timeline
-from tlsync_pipeline.trajectory import Trajectory
+from tlsync_pipeline.sync.timeline import Timeline
+from tlsync_pipeline.trajectory import PiecewiseTrajectory
 from trackers import video
 
 FRAMES_PER_PAIR = 3
@@ -41,30 +44,24 @@ def read_frames(path: Path, indices) -> dict[int, np.ndarray]:
     return {i: frame.image for i, frame in video.read_frames(path, indices).items()}
 
 
-def position_at(trajectory: Trajectory, sample: float) -> np.ndarray | None:
-    """The target's position (m) at a continuous sample, or None outside the log or inside a gap."""
-    s = trajectory.sample
-    if not s[0] <= sample <= s[-1]:
-        return None
-    k = int(np.searchsorted(s, sample))
-    if k > 0 and k < len(s) and s[k] - s[k - 1] > 1.5:
-        return None
-    return np.array([np.interp(sample, s, trajectory.xyz[:, i]) for i in range(3)])
-
-
 def default_pairs(timeline: Timeline) -> list[tuple[str, str]]:
     """The reference camera with each other synchronized camera."""
     names = timeline.names
     return [(names[0], other) for other in names[1:]]
 
 
-def choose_frames(track_frames: np.ndarray, relation_b_to_a: Relation, n_a: int, n_b: int, count: int = FRAMES_PER_PAIR) -> list[int]:
-    """Frames of B to draw: tracked frames whose matching frame of A exists, spread over the track."""
-    candidates = track_frames[(relation_b_to_a(track_frames) >= 0) & (relation_b_to_a(track_frames) <= n_a - 1)]
+def choose_frames(track_frames: np.ndarray, to_a: Callable[[np.ndarray], np.ndarray], n_a: int, n_b: int, count: int = FRAMES_PER_PAIR) -> list[int]:
+    """Frames of B to draw: tracked frames whose matching frame of A exists, spread over the track.
+
+    to_a: B's frames -> the matching (fractional) frames of A (Timeline.match).
+    Without such a tracked frame, any frame of B whose match exists.
+    """
+    matched = to_a(track_frames)
+    candidates = track_frames[(matched >= 0) & (matched <= n_a - 1)]
     if len(candidates) == 0:
-        lo, hi = sorted(relation_b_to_a.inverse()(np.array([0.0, n_a - 1.0])))
-        lo, hi = max(0, math.ceil(lo)), min(n_b - 1, math.floor(hi))
-        candidates = np.arange(lo, hi + 1) if hi >= lo else np.zeros(0, dtype=int)
+        every = np.arange(n_b)
+        matched = to_a(every)
+        candidates = every[(matched >= 0) & (matched <= n_a - 1)]
     if len(candidates) == 0:
         return []
     picks = np.quantile(candidates, np.linspace(0.2, 0.8, count), method="nearest")
@@ -132,41 +129,44 @@ def _save_figure(fig, path: Path) -> Path:
     return path
 
 
-def plot_votes(name: str, votes, line, delta: float, path: Path) -> Path:
-    """The voting space of one camera: votes, inliers (within delta of the line), the line."""
+def plot_votes(name: str, votes, line, delta: float, path: Path, times: FrameTimes | None = None) -> Path:
+    """The voting space of one camera: votes on the line's clock, inliers (within delta of the line), the line.
+
+    times: the camera's presentation times (for a presentation-time clock).
+    """
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    clock = line.clock.clock_at(votes.frame, times)
     fig, ax = plt.subplots(figsize=(6, 4.5))
-    inliers = distance_to_line(votes.sample, votes.frame, line.alpha, line.beta) <= delta
-    ax.scatter(votes.sample[~inliers], votes.frame[~inliers], s=2, c="0.6", label=f"votes ({len(votes)})", rasterized=True)
-    ax.scatter(votes.sample[inliers], votes.frame[inliers], s=4, c="tab:red", label=f"inliers ({int(inliers.sum())})")
+    inliers = distance_to_line(votes.sample, clock, line.alpha, line.beta) <= delta
+    ax.scatter(votes.sample[~inliers], clock[~inliers], s=2, c="0.6", label=f"votes ({len(votes)})", rasterized=True)
+    ax.scatter(votes.sample[inliers], clock[inliers], s=4, c="tab:red", label=f"inliers ({int(inliers.sum())})")
     xs = np.array([votes.sample.min(), votes.sample.max()]) if len(votes) else np.array([0.0, 1.0])
-    ax.plot(xs, line.alpha * xs + line.beta, "k-", lw=1, label=f"frame = {line.alpha:.4f} sample {line.beta:+.2f}")
+    ax.plot(xs, line.alpha * xs + line.beta, "k-", lw=1, label=f"clock = {line.alpha:.4f} sample {line.beta:+.2f}")
     ax.set_xlabel("target sample t_r")
-    ax.set_ylabel(f"frame of {name} t_c")
+    ax.set_ylabel(f"{name}: time x fps (frames)" if line.clock.vfr else f"frame of {name} t_c")
     ax.set_title(f"{name}: voting space")
     ax.legend(loc="best", fontsize=8)
     fig.tight_layout()
     return _save_figure(fig, path)
 
 
-def plot_trajectory(name: str, camera, track, trajectory: Trajectory, line, path: Path) -> Path:
-    """Tracked positions against the trajectory projected at the aligned samples, in the image."""
+def plot_trajectory(name: str, camera, track, path_model: PiecewiseTrajectory, line, path: Path, times: FrameTimes | None = None) -> Path:
+    """Tracked positions against the trajectory (the fit's model) projected at the aligned samples, in the image."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    samples = (track.frame - line.beta) / line.alpha
-    points = [position_at(trajectory, s) for s in samples]
-    keep = np.array([p is not None for p in points], dtype=bool)
+    points = path_model.positions(line.sample_at(track.frame, times))
+    keep = np.isfinite(points[:, 0])
     fig, ax = plt.subplots(figsize=(6, 4.5))
     ax.plot(track.x, track.y, "o", ms=4, mfc="none", mew=0.6, c="tab:green", label="tracked")
     if keep.any():
-        uv, valid = camera.project(np.array([p for p in points if p is not None]))
+        uv, valid = camera.project(points[keep])
         ax.plot(uv[valid, 0], uv[valid, 1], ".", ms=2, c="tab:red", label="trajectory projected at aligned times")
         error = np.linalg.norm(uv[valid] - track.xy[keep][valid], axis=1)
         if len(error):
@@ -194,13 +194,29 @@ def _draw_target(image: np.ndarray, camera, point, tracked, scale: float) -> np.
     return image
 
 
-def render_pair(a: str, b: str, frames_b: list[int], timeline: Timeline, inputs: dict, trajectory: Trajectory, videos: dict, n_frames: dict, truth: dict | None, out_dir: Path) -> list[Path]:
+def pair_frames(a: str, b: str, frames_b: list[int], timeline: Timeline, times: dict[str, FrameTimes | None]) -> dict[int, int]:
+    """Frame of A drawn with each frame of B: the nearest to Timeline.match (exact with the cameras' presentation times)."""
+    matched = timeline.match(b, a, np.asarray(frames_b, dtype=np.float64), times)
+    return {f: int(round(float(m))) for f, m in zip(frames_b, matched)}
+
+
+def render_pair(
+    a: str,
+    b: str,
+    frames_b: list[int],
+    timeline: Timeline,
+    inputs: dict,
+    path_model: PiecewiseTrajectory,
+    videos: dict,
+    n_frames: dict,
+    truth: dict | None,
+    out_dir: Path,
+    times: dict[str, FrameTimes | None],
+) -> list[Path]:
     """Band-swap and strip pictures of the pair A, B at frames ``frames_b`` of B."""
-    after = timeline.relation(b, a)
-    columns = {"before (same index)": Relation(1.0, 0.0), "after (estimated)": after}
+    wanted_a = {"before (same index)": {f: f for f in frames_b}, "after (estimated)": pair_frames(a, b, frames_b, timeline, times)}
     if truth and f"{b}->{a}" in truth:
-        columns["truth"] = truth[f"{b}->{a}"]
-    wanted_a = {name: {f: int(round(float(rel(f)))) for f in frames_b} for name, rel in columns.items()}
+        wanted_a["truth"] = {f: int(round(float(truth[f"{b}->{a}"](f)))) for f in frames_b}
     needed_a = sorted({i for m in wanted_a.values() for i in m.values() if 0 <= i < n_frames[a]})
     images_a = read_frames(videos[a], needed_a)
     images_b = read_frames(videos[b], frames_b)
@@ -219,7 +235,8 @@ def render_pair(a: str, b: str, frames_b: list[int], timeline: Timeline, inputs:
             else:
                 row.append(_label(_blank(fb.shape[1]), f"{title}: {a} has no frame {fa}"))
         swap_rows.append(row)
-        point = position_at(trajectory, (f - line_b.beta) / line_b.alpha)
+        position = path_model.positions(line_b.sample_at(float(f), times.get(b)))[0]
+        point = position if np.isfinite(position[0]) else None
         fa = wanted_a["after (estimated)"][f]
         if fa in images_a:
             img_a, scale_a = _fit(images_a[fa])

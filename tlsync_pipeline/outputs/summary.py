@@ -17,21 +17,24 @@ def format_table(timeline: Timeline) -> str:
         start_frames, start_s = f"{frames:+.2f}", "-" if seconds is None else f"{seconds:+.3f}"
         if line.cov is not None:
             with_se = True
-            alpha += f" ±{_HALF_95 * line.details['se_alpha']:.2g}"
-            beta += f" ±{_HALF_95 * line.details['se_beta']:.2g}"
+            alpha += f" ±{_HALF_95 * line.se_alpha:.2g}"
+            beta += f" ±{_HALF_95 * line.se_beta:.2g}"
             se = timeline.start_offset_se(first, name)
             if name != first and se is not None:
                 start_frames += f" ±{_HALF_95 * se[0]:.2g}"
                 start_s += "" if se[1] is None else f" ±{_HALF_95 * se[1]:.2g}"
-        flags = list(line.details.get("flags", [])) + (["fallback"] if line.details.get("warnings") else [])
+        flags = list(line.flags or ()) + (["fallback"] if line.warnings else [])
         rows.append((name, alpha, beta, str(line.votes), str(line.inliers), start_frames, start_s, ",".join(flags) or "-"))
     text = _columns(rows)
     if first is not None:
         text += f"\nstart: when the camera's frame 0 was taken, in frames and seconds of {first} (positive: later than {first}'s frame 0)"
     if with_se:
         text += "\n±: 95 % intervals (1.96 standard errors); flags: few_inliers, ambiguous (a second line with comparable support), along_ray (motion mostly along the viewing ray), fallback (see warnings in timeline.json)"
+    vfr = [name for name, line in timeline.cameras.items() if line.clock.vfr]
+    if vfr:
+        text += f"\nvariable frame rate: {', '.join(vfr)}: starts in frames are approximate; exports/frame_map.csv maps frames exactly"
     for name, line in timeline.cameras.items():
-        for warning in line.details.get("warnings", []):
+        for warning in line.warnings or ():
             text += f"\nwarning: {name}: {warning}"
     for name, why in timeline.failed.items():
         text += f"\nnot synchronized: {name}: {why}"

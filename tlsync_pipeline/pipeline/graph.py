@@ -14,7 +14,6 @@ A file the user brings in the project file (``camera = ...``, ``track = ...``,
 
 from __future__ import annotations
 
-import dataclasses
 import glob
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -32,6 +31,7 @@ from tlsync_pipeline.pipeline.stages.render import run_render
 from tlsync_pipeline.pipeline.stages.sync import run_sync
 from tlsync_pipeline.pipeline.stages.track import run_track
 from tlsync_pipeline.pipeline.stages.vote import run_vote
+from tlsync_pipeline.sync.registry import params_table, vote_table
 from tlsync_pipeline.trajectory import read_trajectory
 from trackers.track import read_track
 
@@ -131,6 +131,8 @@ def build_graph(project: Project, work: Path, options: Options = Options()) -> G
 
     trajectory, trajectory_dep = source(_trajectory_source)
     trajectory_problem = problems[-1] if trajectory is None else None
+    sync_table = params_table(project.sync)
+    vote_params = vote_table(project.sync)
     cameras = {}
     for spec in project.cameras:
         name = spec["name"]
@@ -146,11 +148,11 @@ def build_graph(project: Project, work: Path, options: Options = Options()) -> G
                 "vote",
                 name,
                 inputs,
-                {"eps_px": project.sync.eps_px},
+                vote_params,
                 [votes],
                 deps,
                 run_vote,
-                {"name": name, "camera": camera_file, "track": track_file, "trajectory": trajectory, "eps_px": project.sync.eps_px, "out": votes},
+                {"name": name, "camera": camera_file, "track": track_file, "trajectory": trajectory, "params": vote_params, "out": votes},
                 problem,
             )
         )
@@ -160,10 +162,10 @@ def build_graph(project: Project, work: Path, options: Options = Options()) -> G
     sync_inputs = {f"{kind}:{n}": cameras[n][kind] for n in names for kind in ("camera", "track", "votes")}
     sync_inputs["trajectory"] = trajectory
     timeline = layout.timeline_json(work)
-    sync_params = {**dataclasses.asdict(project.sync), "fps": {n: cameras[n]["fps"] for n in names}, "order": names}
+    sync_params = {**sync_table, "fps": {n: cameras[n]["fps"] for n in names}, "order": names}
     sync_deps = sorted({d for n in names for d in cameras[n]["deps"]})
     camera_args = {n: {k: cameras[n][k] for k in ("camera", "track", "votes", "fps", "video")} for n in names}
-    add(Task("sync", None, sync_inputs, sync_params, [timeline], sync_deps, run_sync, {"cameras": camera_args, "trajectory": trajectory, "params": dataclasses.asdict(project.sync), "out": timeline}))
+    add(Task("sync", None, sync_inputs, sync_params, [timeline], sync_deps, run_sync, {"cameras": camera_args, "trajectory": trajectory, "params": sync_table, "out": timeline}))
 
     export_inputs = {"timeline": timeline, **{f"track:{n}": cameras[n]["track"] for n in names}}
     export_inputs.update({f"video:{n}": cameras[n]["video"] for n in names if cameras[n]["video"]})

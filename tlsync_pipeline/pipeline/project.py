@@ -8,6 +8,7 @@ each key.
 from __future__ import annotations
 
 import difflib
+import inspect
 import math
 import sys
 from dataclasses import dataclass
@@ -22,9 +23,16 @@ else:  # pragma: no cover - Python 3.10
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from calibration.extrinsics import pose_from_points
+from calibration.intrinsics import MODELS as CALIBRATION_MODELS
+from calibration.intrinsics import calibrate_video, parse_corners
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.geodesy import Origin
-from tlsync_pipeline.sync.params import SYNC_METHODS, SyncParams
+from tlsync_pipeline.ingest.process import IngestParams
+from tlsync_pipeline.sync.params import SyncParams, parameter_fields
+from tlsync_pipeline.sync.registry import METHODS, params_from_table
+from trackers.tracking import KINDS as TRACKER_KINDS
+from trackers.tracking import track_video
 
 WORK_DIR_NAME = "work"
 
@@ -35,6 +43,11 @@ class Field(NamedTuple):
     convert: Callable[[Any, Path], Any]
     default: Any = None
     required: bool = False
+
+
+def _default(function: Callable, parameter: str) -> Any:
+    """The default value of a component's parameter: defaults are defined once, by the component."""
+    return inspect.signature(function).parameters[parameter].default
 
 
 def _path(value: Any, root: Path) -> Path:
@@ -121,10 +134,10 @@ def _glob(value: Any, root: Path) -> str:
 
 
 def _pattern(value: Any, root: Path) -> str:
-    parts = value.lower().split("x") if isinstance(value, str) else []
-    if len(parts) != 2 or not all(p.strip().isdigit() and int(p) >= 2 for p in parts):
+    if not isinstance(value, str):
         raise ValueError(f"expected inner corners as \"COLSxROWS\" (e.g. \"7x6\" for a board of 8x7 squares), got {value!r}")
-    return value.lower().replace(" ", "")
+    cols, rows = parse_corners(value)
+    return f"{cols}x{rows}"
 
 
 def _board_pose(value: Any, root: Path) -> dict:
@@ -159,7 +172,6 @@ def _count(value: Any, root: Path) -> int:
     return value
 
 
-CALIBRATION_MODELS = ("standard", "rational", "fisheye")
 TARGET_SCHEMA = {
     "trajectory": Field(_path),
     "origin": Field(_origin),
@@ -191,7 +203,7 @@ def _parameters(value: Any, root: Path) -> dict:
 
 # [cameras.tracker]: how the track stage follows the target in the camera's video.
 TRACKER_SCHEMA = {
-    "kind": Field(_choice("blob", "csrt", what="tracker kind"), "blob"),
+    "kind": Field(_choice(*TRACKER_KINDS, what="tracker kind"), _default(track_video, "kind")),
     "init": Field(_box),
     "init_frame": Field(_frame_index, 0),
     "parameters": Field(_parameters, {}),
@@ -205,12 +217,12 @@ CALIBRATION_SCHEMA = {
     "intrinsics": Field(_path),
     "pattern": Field(_pattern),
     "square": Field(_positive),
-    "model": Field(_choice(*CALIBRATION_MODELS, what="model"), "standard"),
+    "model": Field(_choice(*CALIBRATION_MODELS, what="model"), CALIBRATION_MODELS[0]),
     "gcp": Field(_path),
     "board_pose": Field(_board_pose),
-    "max_frames": Field(_count, 60),
-    "max_view_error": Field(_positive, 1.0),
-    "ransac_px": Field(_positive, 8.0),
+    "max_frames": Field(_count, _default(calibrate_video, "max_frames")),
+    "max_view_error": Field(_positive, _default(calibrate_video, "max_view_error")),
+    "ransac_px": Field(_positive, _default(pose_from_points, "ransac_px")),
 }
 
 
@@ -244,8 +256,8 @@ INGEST_SCHEMA = {
     "topic": Field(_text),
     "rate": Field(_positive),
     "max_gap_s": Field(_positive),
-    "max_speed_mps": Field(_positive, 60.0),
-    "smoothing_s": Field(_non_negative, 0.0),
+    "max_speed_mps": Field(_positive, IngestParams.max_speed_mps),
+    "smoothing_s": Field(_non_negative, IngestParams.smoothing_s),
     "odometry_transform": Field(_rigid_transform),
 }
 TARGET_SCHEMA.update(INGEST_SCHEMA)
@@ -258,25 +270,29 @@ CAMERA_SCHEMA = {
     "tracker": TRACKER_SCHEMA,
     "calibration": CALIBRATION_SCHEMA,
 }
-_SYNC_DEFAULTS = SyncParams()
-SYNC_SCHEMA = {
-    "eps_px": Field(_positive, _SYNC_DEFAULTS.eps_px),
-    "delta": Field(_positive, _SYNC_DEFAULTS.delta),
-    "p": Field(_probability, _SYNC_DEFAULTS.p),
-    "r": Field(_ratio, _SYNC_DEFAULTS.r),
-    "seed": Field(_integer, _SYNC_DEFAULTS.seed),
-    "method": Field(_choice(*SYNC_METHODS, what="sync method"), _SYNC_DEFAULTS.method),
-    "r_min": Field(_ratio, _SYNC_DEFAULTS.r_min),
-    "f_scale_px": Field(_positive, _SYNC_DEFAULTS.f_scale_px),
-    "smooth_trajectory": Field(_boolean, _SYNC_DEFAULTS.smooth_trajectory),
-    "model_error_px": Field(_non_negative, _SYNC_DEFAULTS.model_error_px),
+# Converters of the checks that sync parameters declare (sync/params.py).
+_CHECKS = {
+    "positive": _positive,
+    "probability": _probability,
+    "ratio": _ratio,
+    "non_negative": _non_negative,
+    "integer": _integer,
+    "boolean": _boolean,
 }
-# A dict is a table, a one-element list an array of tables.
-PROJECT_SCHEMA = {
-    "target": TARGET_SCHEMA,
-    "cameras": [CAMERA_SCHEMA],
-    "sync": SYNC_SCHEMA,
-}
+
+
+def sync_schema() -> dict[str, Field]:
+    """The [sync] table's keys: the shared parameters, ``method`` (a registered method) and every method's own parameters."""
+    schema = {name: Field(_CHECKS[check], default) for name, (default, check) in parameter_fields(SyncParams).items()}
+    schema["method"] = Field(_choice(*METHODS, what="sync method"), SyncParams().method)
+    for method in METHODS.values():
+        schema.update({name: Field(_CHECKS[check], default) for name, (default, check) in parameter_fields(method.params_type).items()})
+    return schema
+
+
+def project_schema() -> dict:
+    """The whole project file's schema (the [sync] keys as registered now); a dict is a table, a one-element list an array of tables."""
+    return {"target": TARGET_SCHEMA, "cameras": [CAMERA_SCHEMA], "sync": sync_schema()}
 
 
 @dataclass(frozen=True)
@@ -316,7 +332,7 @@ def load_project(path: str | Path) -> Project:
         raise InputError(f"{path}: cannot read: {exc}") from None
     except tomllib.TOMLDecodeError as exc:
         raise InputError(f"{path}: invalid TOML: {exc}") from None
-    data = parse_table(raw, PROJECT_SCHEMA, path, "", path.parent)
+    data = parse_table(raw, project_schema(), path, "", path.parent)
     cameras = data["cameras"]
     if not cameras:
         raise InputError(f"{path}: no [[cameras]] table; a project needs at least one camera")
@@ -325,7 +341,7 @@ def load_project(path: str | Path) -> Project:
         if cam["name"] in seen:
             raise InputError(f"{path}: [[cameras]]: duplicate camera name {cam['name']!r}; names must be unique")
         seen.add(cam["name"])
-    return Project(path, data["target"], cameras, SyncParams(**data["sync"]))
+    return Project(path, data["target"], cameras, params_from_table(data["sync"]))
 
 
 def parse_table(raw: Any, schema: dict, path: Path, where: str, root: Path) -> dict:

@@ -6,8 +6,13 @@ irregular (phones, action cameras: intervals that vary from frame to frame),
 the line is fitted on the camera's clock in seconds, expressed in units of
 its nominal frame interval: clock = time_s * fps. A camera line
 clock = alpha * sample + beta is then a relation between the camera's and
-the target's clocks in seconds, and frame maps go through the video's own
-table of presentation times (``frame_map``).
+the target's clocks in seconds.
+
+Frames and clock values are converted by ``CameraClock.clock_at`` and
+``CameraClock.frames_at`` only: exactly through a table of presentation
+times (``FrameTimes``: the video's own, or the tracked frames'), or, without
+one, by the clock's linear approximation (frames at the nominal rate from
+``origin_s``).
 """
 
 from __future__ import annotations
@@ -22,21 +27,88 @@ from trackers.track import Track
 # line by more than this fraction of the mean frame interval.
 IRREGULAR = 0.25
 
+FRAME = "frame"  # clock = 0-based frame index
+TIME_S = "time_s"  # clock = presentation time (s) x fps
+
+
+@dataclass(frozen=True)
+class FrameTimes:
+    """Presentation times of some of a camera's frames.
+
+    frame: (K,) increasing 0-based frame indices; time_s: (K,) their
+    presentation times (s), increasing. Every frame of the video (its own
+    table) or the tracked frames (a track's ``time_s``). Between listed
+    frames times are interpolated linearly; beyond them they continue at the
+    clock's nominal rate.
+    """
+
+    frame: np.ndarray
+    time_s: np.ndarray
+
+    @classmethod
+    def of_track(cls, track: Track) -> "FrameTimes | None":
+        """The tracked frames' presentation times, or None when the track has none."""
+        if track.time_s is None or len(track) == 0:
+            return None
+        return cls(track.frame.astype(np.float64), np.asarray(track.time_s, dtype=np.float64))
+
 
 @dataclass(frozen=True)
 class CameraClock:
-    """Clock coordinate (frames) of each tracked row; fps: nominal rate; vfr: whether from time_s."""
+    """The clock a camera's line is on.
 
-    frames: np.ndarray
-    fps: float | None
-    vfr: bool
-    jitter: float = 0.0
+    kind: FRAME (clock = frame index) or TIME_S (clock = presentation time
+    x fps); fps: nominal frames per second (None when unknown; set for
+    TIME_S clocks); origin_s: TIME_S clocks: presentation time (s) of frame 0
+    for frames at the nominal rate (least squares over the tracked frames),
+    used only without a table of presentation times; jitter_frames: largest
+    departure of the tracked frames' times from the best constant-rate line
+    (frame intervals).
+    """
 
-    def details(self) -> dict:
-        """Entries for timeline.json (only for variable-frame-rate cameras)."""
+    kind: str = FRAME
+    fps: float | None = None
+    origin_s: float = 0.0
+    jitter_frames: float = 0.0
+
+    @property
+    def vfr(self) -> bool:
+        """Whether the clock is presentation time (variable frame rate)."""
+        return self.kind == TIME_S
+
+    def clock_at(self, frames, times: FrameTimes | None = None) -> np.ndarray:
+        """Clock values (frame units) of 0-based (fractional) frames.
+
+        Frame clocks: the frames themselves. TIME_S clocks: presentation
+        time x fps, exact through ``times`` at listed frames, else the
+        linear approximation.
+        """
+        frames = np.asarray(frames, dtype=np.float64)
         if not self.vfr:
-            return {}
-        return {"clock": "time_s", "clock_fps": self.fps, "time_jitter_frames": self.jitter}
+            return frames
+        if times is None:
+            return frames + self.origin_s * self.fps
+        return _extended_interp(frames, times.frame, times.time_s, 1.0 / self.fps) * self.fps
+
+    def frames_at(self, clock, times: FrameTimes | None = None) -> np.ndarray:
+        """0-based fractional frames at clock values; the inverse of ``clock_at``."""
+        clock = np.asarray(clock, dtype=np.float64)
+        if not self.vfr:
+            return clock
+        if times is None:
+            return clock - self.origin_s * self.fps
+        return _extended_interp(clock / self.fps, times.time_s, times.frame, self.fps)
+
+    def seconds_at(self, clock, times: FrameTimes | None = None) -> np.ndarray:
+        """Seconds since frame 0 on this camera's clock at clock values (needs fps)."""
+        return (np.asarray(clock, dtype=np.float64) - self.clock_at(0.0, times)) / self.fps
+
+
+def _extended_interp(x: np.ndarray, xp: np.ndarray, fp: np.ndarray, slope: float) -> np.ndarray:
+    """np.interp inside [xp[0], xp[-1]]; beyond it straight lines of the given slope from the ends."""
+    out = np.interp(x, xp, fp)
+    out = np.where(x < xp[0], fp[0] + (x - xp[0]) * slope, out)
+    return np.where(x > xp[-1], fp[-1] + (x - xp[-1]) * slope, out)
 
 
 def camera_clock(track: Track, fps: float | None) -> CameraClock:
@@ -48,24 +120,13 @@ def camera_clock(track: Track, fps: float | None) -> CameraClock:
     """
     frames = track.frame.astype(np.float64)
     if track.time_s is None or len(track) < 3:
-        return CameraClock(frames, fps, False)
+        return CameraClock(FRAME, fps)
     slope, intercept = np.polyfit(frames, track.time_s, 1)
     if not slope > 0:
-        return CameraClock(frames, fps, False)
+        return CameraClock(FRAME, fps)
     jitter = float(np.max(np.abs(track.time_s - (slope * frames + intercept))) / slope)
     if jitter <= IRREGULAR:
-        return CameraClock(frames, fps, False)
+        return CameraClock(FRAME, fps)
     rate = fps if fps else 1.0 / slope
-    return CameraClock(track.time_s * rate, rate, True, jitter)
-
-
-def frame_map(frames_a: np.ndarray, times_a: np.ndarray, frames_b: np.ndarray, times_b: np.ndarray, a: float, b: float) -> np.ndarray:
-    """Fractional frame of B shown at each frame of A, given time_B = a * time_A + b (seconds).
-
-    times_*: presentation times of the listed frames (increasing); NaN
-    outside B's recorded times.
-    """
-    t_b = a * np.asarray(times_a, dtype=np.float64) + b
-    out = np.interp(t_b, times_b, np.asarray(frames_b, dtype=np.float64))
-    out[(t_b < times_b[0]) | (t_b > times_b[-1])] = np.nan
-    return out
+    origin = float(np.mean(track.time_s - frames / rate))
+    return CameraClock(TIME_S, rate, origin, jitter)

@@ -1,33 +1,48 @@
-"""Parameters of the sync stage (paper Table 1 defaults), shared by every sync method."""
+"""Parameters of the sync stage: those every method shares and, per method, its own.
+
+Each parameter is a dataclass field made with ``param``: its default and the
+check the project file applies to it (one of CHECKS). The ``[sync]`` table of
+the project file holds the shared keys, ``method`` and every registered
+method's own keys (sync/registry.py).
+"""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field, fields
+from typing import Any
 
-# "paper": Brito et al.'s RANSAC as published; "refined": robust line search +
-# continuous-time refinement with uncertainty (docs/algorithm.md).
-SYNC_METHODS = ("paper", "refined")
+# Checks a project-file value must pass: "positive" (> 0), "probability" (in (0, 1)),
+# "ratio" (in (0, 1]), "non_negative" (>= 0), "integer", "boolean".
+CHECKS = ("positive", "probability", "ratio", "non_negative", "integer", "boolean")
+
+
+def param(default: Any, check: str) -> Any:
+    """A parameter field: its default and its check (one of CHECKS)."""
+    if check not in CHECKS:
+        raise ValueError(f"unknown check {check!r}; one of {', '.join(CHECKS)}")
+    return field(default=default, metadata={"check": check})
+
+
+def parameter_fields(params_type: type) -> dict[str, tuple[Any, str]]:
+    """Name -> (default, check) of a parameters dataclass's ``param`` fields."""
+    return {f.name: (f.default, f.metadata["check"]) for f in fields(params_type) if "check" in f.metadata}
 
 
 @dataclass(frozen=True)
 class SyncParams:
-    """Voting and line-fit parameters (paper Table 1 defaults).
+    """The sync stage's parameters (paper Table 1 defaults).
 
-    method: "refined" (default) or "paper"; r_min: smallest inlier ratio the
-    refined line search must find; f_scale_px: robust loss scale of the
-    refinement (pixels); smooth_trajectory: the refined method first smooths
-    the logged trajectory (cross-validated smoothing spline). r is the
-    paper's expected inlier ratio; model_error_px: pixel error of the
-    calibration and log that the refined method's intervals allow for.
+    eps_px: vote radius (pixels, eq. 3); delta: inlier band around a line in
+    the voting space (orthogonal distance, frames); p: probability that the
+    line fit draws a good hypothesis (eq. 4); seed: random seed; method: a
+    registered method's name; options: method name -> that method's own
+    parameters (an instance of its ``params_type``); a method not listed
+    runs with its defaults.
     """
 
-    eps_px: float = 10.0
-    delta: float = 0.5
-    p: float = 0.99
-    r: float = 0.05
-    seed: int = 0
+    eps_px: float = param(10.0, "positive")
+    delta: float = param(0.5, "positive")
+    p: float = param(0.99, "probability")
+    seed: int = param(0, "integer")
     method: str = "refined"
-    r_min: float = 0.01
-    f_scale_px: float = 3.0
-    smooth_trajectory: bool = True
-    model_error_px: float = 3.0
+    options: dict[str, Any] = field(default_factory=dict)

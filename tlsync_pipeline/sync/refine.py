@@ -4,8 +4,9 @@ Given a starting line frame = alpha * sample + beta (from the line search)
 and the frames it explains, alpha and beta are re-estimated by minimising the
 pixel distance between each tracked position and the trajectory projected at
 the continuous sample s = (frame - beta) / alpha. The trajectory is
-interpolated by a cubic spline per contiguous run of samples (gaps are never
-bridged). The loss is robust (soft L1, scale ``f_scale`` px), solved by
+interpolated by the one trajectory model, trajectory.PiecewiseTrajectory (a
+cubic spline per contiguous run of samples; gaps are never bridged). The
+loss is robust (soft L1, scale ``f_scale`` px), solved by
 scipy.optimize.least_squares with the line parametrised around the middle of
 the frames used (well conditioned). The covariance of (alpha, beta) is the
 M-estimator sandwich with a Bartlett (Newey-West) kernel over neighbouring
@@ -21,13 +22,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.interpolate import make_interp_spline, make_smoothing_spline
+from scipy.interpolate import make_smoothing_spline
 from scipy.optimize import least_squares
 
 from calibration.camera import Camera
-from tlsync_pipeline.trajectory import Trajectory
+from tlsync_pipeline.trajectory import GAP_SAMPLES, PiecewiseTrajectory, Trajectory
 
-GAP_SAMPLES = 1.5  # consecutive samples further apart than this start a new run
 MIN_FRAMES = 8
 PASSES = 4  # fits, each on the frames within gate_px of the previous one
 
@@ -108,35 +108,6 @@ def _cv_lambda(x: np.ndarray, y: np.ndarray) -> float:
         errors.append(err)
     # Halving the points halves the data term: the full series needs twice the lam.
     return float(2 * _LAMBDAS[int(np.argmin(errors))])
-
-
-class PiecewiseTrajectory:
-    """C2 interpolation of a trajectory over each contiguous run of grid samples."""
-
-    def __init__(self, trajectory: Trajectory):
-        sample, xyz = trajectory.sample, trajectory.xyz
-        cuts = np.flatnonzero(np.diff(sample) > GAP_SAMPLES) + 1
-        self.runs = []
-        for idx in np.split(np.arange(len(sample)), cuts):
-            if len(idx) >= 4:
-                self.runs.append((sample[idx[0]], sample[idx[-1]], make_interp_spline(sample[idx], xyz[idx], k=3, axis=0)))
-        self.starts = np.array([r[0] for r in self.runs])
-        self.ends = np.array([r[1] for r in self.runs])
-
-    def run_of(self, s: np.ndarray) -> np.ndarray:
-        """Index of the run containing each s, or -1."""
-        k = np.searchsorted(self.starts, s, side="right") - 1
-        inside = (k >= 0) & (s <= self.ends[np.clip(k, 0, None)]) if len(self.runs) else np.zeros(len(s), bool)
-        return np.where(inside, k, -1)
-
-    def __call__(self, s: np.ndarray, run: np.ndarray, nu: int = 0) -> np.ndarray:
-        """Positions (or derivatives) at s, evaluated on the given runs, clamped to them."""
-        out = np.empty((len(s), 3))
-        for k in np.unique(run):
-            sel = run == k
-            lo, hi, spline = self.runs[k]
-            out[sel] = spline(np.clip(s[sel], lo, hi), nu=nu)
-        return out
 
 
 def refine_line(

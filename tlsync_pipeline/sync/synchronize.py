@@ -1,196 +1,90 @@
-"""Synchronization of cameras against the target: votes, line fit, timeline.
+"""Synchronization of cameras against the target: votes, each camera's line, the timeline.
 
-Two methods (``[sync] method``): "paper", Brito et al.'s RANSAC as published,
-and "refined" (default): robust line search (line_search.py), then
-continuous-time refinement with uncertainty (refine.py), falling back to the
-line-search line with a warning when the refinement fails or disagrees.
+The same for every sync method (``[sync] method``, sync/registry.py): the
+method prepares the trajectory (``prepare_trajectory``); the votes are cast
+on that trajectory (``cast_votes``: the vote stage writes these to
+votes.npz, the sync stage passes them back in); each camera's votes are put
+on its clock (sync/clock.py) and the method fits the line.
 
 Pure functions from typed values to typed values; no file I/O here.
 """
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from collections.abc import Mapping
+from dataclasses import dataclass
 
-import numpy as np
-
-from calibration.camera import Camera
 from tlsync_pipeline.errors import SyncError
-from tlsync_pipeline.sync.clock import camera_clock
-from tlsync_pipeline.sync.line_search import LineSearch, find_line
+from tlsync_pipeline.sync.clock import FrameTimes, camera_clock
+from tlsync_pipeline.sync.methods import CameraData, CameraInput
 from tlsync_pipeline.sync.params import SyncParams
-from tlsync_pipeline.sync.ransac import LineFit, distance_to_line, fit_line_ransac
-from tlsync_pipeline.sync.refine import (
-    PiecewiseTrajectory,
-    Refinement,
-    refine_line,
-    smooth_trajectory,
-)
+from tlsync_pipeline.sync.registry import get_method, method_options, params_table
 from tlsync_pipeline.sync.timeline import CameraLine, Timeline
 from tlsync_pipeline.sync.votes import Votes, compute_votes
 from tlsync_pipeline.trajectory import Trajectory
-from trackers.track import Track
 
-# Weak-case thresholds of the refined method (flags in timeline.json).
-FEW_INLIER_FRAMES = 30
-AMBIGUOUS_RATIO = 0.5
-ALONG_RAY = 0.15
-# The refinement regrows its frame set to tracked frames within GATE_EPS x eps_px
-# of the fitted projection: a tight gate keeps only frames whose calibration
-# error happens to agree with a biased line (eps_t x3 at S_c = 8 px).
-GATE_EPS = 10.0
-SUPPORT_KEPT = 0.5
-
-
-@dataclass(frozen=True)
-class CameraInput:
-    """What one camera brings: its calibration, its track and its frame rate (or None)."""
-
-    camera: Camera
-    track: Track
-    fps: float | None
+__all__ = ["CameraInput", "CameraResult", "cast_votes", "prepare_trajectory", "synchronize", "synchronize_camera"]
 
 
 @dataclass(frozen=True)
 class CameraResult:
-    """One camera's votes, fitted line and summary.
-
-    fit: the paper's RANSAC fit (method "paper") or None; search and
-    refinement: the refined method's pieces (refinement None on fallback).
-    """
+    """One camera's votes (frame indices, as in votes.npz) and fitted line."""
 
     votes: Votes
-    fit: LineFit | None
     line: CameraLine
-    search: LineSearch | None = None
-    refinement: Refinement | None = None
 
 
-def synchronize_camera(name: str, inputs: CameraInput, trajectory: Trajectory, params: SyncParams) -> CameraResult:
-    """Votes and the fitted line of one camera; SyncError if it cannot be synchronized."""
-    votes = compute_votes(inputs.camera, inputs.track, trajectory, params.eps_px)
-    if params.method == "refined":
-        return _synchronize_refined(name, inputs, trajectory, params, votes)
-    try:
-        fit = fit_line_ransac(votes.sample, votes.frame, params.delta, params.p, params.r, params.seed)
-    except ValueError as exc:
-        raise SyncError(f"camera {name}: {exc} ({len(votes)} votes)") from None
-    line = CameraLine(name, fit.alpha, fit.beta, len(votes), fit.n_inliers, fit.residual_rms, inputs.fps)
-    return CameraResult(votes, fit, line)
+def prepare_trajectory(trajectory: Trajectory, params: SyncParams) -> Trajectory:
+    """The trajectory the chosen method votes on and fits to (vote stage, sync and render all use this)."""
+    return get_method(params.method).prepare_trajectory(trajectory, method_options(params))
 
 
-def _synchronize_refined(name: str, inputs: CameraInput, trajectory: Trajectory, params: SyncParams, votes: Votes) -> CameraResult:
+def cast_votes(inputs: CameraInput, prepared: Trajectory, params: SyncParams) -> Votes:
+    """One camera's votes on the prepared trajectory (eq. 3); SyncError when there is none."""
+    return compute_votes(inputs.camera, inputs.track, prepared, params.eps_px)
+
+
+def synchronize_camera(name: str, inputs: CameraInput, votes: Votes, prepared: Trajectory, params: SyncParams) -> CameraResult:
+    """The fitted line of one camera from its votes; SyncError if it cannot be synchronized."""
     track = inputs.track
     clock = camera_clock(track, inputs.fps)
-    # Votes carry frame indices; the line lives on the camera clock (frames, or time x fps for VFR).
-    vote_clock = clock.frames[np.searchsorted(track.frame, votes.frame.astype(np.int64))]
-    try:
-        search = find_line(votes.sample, vote_clock, votes.dist, params.delta, params.p, params.r_min, params.seed)
-    except ValueError as exc:
-        raise SyncError(f"camera {name}: {exc} ({len(votes)} votes)") from None
-    start = np.zeros(len(track), dtype=bool)
-    start[np.searchsorted(track.frame, votes.frame[search.inliers].astype(np.int64))] = True
-    flags, warnings = [], []
-    refinement = None
-    try:
-        refinement = refine_line(
-            inputs.camera, clock.frames, track.xy, PiecewiseTrajectory(trajectory), search.alpha, search.beta, start, params.f_scale_px, GATE_EPS * params.eps_px, params.model_error_px
-        )
-    except ValueError as exc:
-        warnings.append(f"refinement not possible ({exc}); using the line-search line")
-    if refinement is not None:
-        reason = _disagreement(refinement, search, votes, vote_clock, params.delta)
-        if not refinement.converged:
-            reason = f"refinement did not converge ({refinement.message})"
-        if reason:
-            warnings.append(f"{reason}; using the line-search line")
-    fallback = bool(warnings)
-    if fallback:
-        alpha, beta = search.alpha, search.beta
-        cov = _line_search_cov(search, votes.sample[search.inliers])
-    else:
-        alpha, beta, cov = refinement.alpha, refinement.beta, refinement.cov
-    if search.support < FEW_INLIER_FRAMES:
-        flags.append("few_inliers")
-    if search.runner_up >= AMBIGUOUS_RATIO * search.support:
-        flags.append("ambiguous")
-    if refinement is not None and refinement.perpendicular < ALONG_RAY:
-        flags.append("along_ray")
-    details = {
-        "se_alpha": float(np.sqrt(cov[0, 0])),
-        "se_beta": float(np.sqrt(cov[1, 1])),
-        "cov": cov.tolist(),
-        "flags": flags,
-        "warnings": warnings,
-        "refined": not fallback,
-        "line_search": {
-            "alpha": search.alpha,
-            "beta": search.beta,
-            "support_frames": search.support,
-            "runner_up_frames": search.runner_up,
-            "thinned_votes": search.thinned,
-            "hypotheses": search.hypotheses,
-        },
-    }
-    if refinement is not None:
-        details["refinement"] = {
-            "frames_used": refinement.frames_used,
-            "scale_px": refinement.scale_px,
-            "perpendicular": refinement.perpendicular,
-            "converged": refinement.converged,
-        }
-    details.update(clock.details())
-    fps = clock.fps if clock.fps is not None else inputs.fps
-    line = CameraLine(name, alpha, beta, len(votes), search.n_inliers, search.residual_rms, fps, details)
-    return CameraResult(votes, None, line, search, refinement)
+    times = FrameTimes.of_track(track)
+    data = CameraData(
+        name=name,
+        camera=inputs.camera,
+        track=track,
+        fps=clock.fps if clock.fps is not None else inputs.fps,
+        votes=votes,
+        clock=clock,
+        track_clock=clock.clock_at(track.frame, times),
+        vote_clock=clock.clock_at(votes.frame, times),
+    )
+    line = get_method(params.method).fit(data, prepared, params, method_options(params))
+    return CameraResult(votes, line)
 
 
-def _disagreement(refinement: Refinement, search: LineSearch, votes: Votes, clock: np.ndarray, delta: float) -> str:
-    """Why the refined line cannot be trusted over the line-search one, or ''.
-
-    The refined line must keep at least SUPPORT_KEPT of the distinct frames
-    whose votes lie within 4 delta of the line-search line: a refinement
-    that slid to another pass of the path loses them. (Comparing the lines'
-    ends against the refinement's standard error rejected good refinements
-    when the line search's few inliers left its slope loose.)
-    """
-
-    def near(alpha: float, beta: float) -> int:
-        return np.unique(votes.frame[distance_to_line(votes.sample, clock, alpha, beta) <= 4 * delta]).size
-
-    before, after = near(search.alpha, search.beta), near(refinement.alpha, refinement.beta)
-    if after < SUPPORT_KEPT * before:
-        return f"refined line keeps {after} of the {before} frames whose votes support the line search"
-    return ""
-
-
-def _line_search_cov(search: LineSearch, inlier_samples: np.ndarray) -> np.ndarray:
-    """Covariance of the line-search line: least squares with the inliers' residual spread.
-
-    Conservative floor: residuals of at least delta / sqrt(3) (uniform within the band).
-    """
-    if len(inlier_samples) < 3:
-        return np.full((2, 2), np.inf)
-    design = np.column_stack([inlier_samples, np.ones(len(inlier_samples))])
-    sigma2 = max(search.residual_rms**2, 0.5**2 / 3)
-    try:
-        return sigma2 * np.linalg.inv(design.T @ design)
-    except np.linalg.LinAlgError:
-        return np.full((2, 2), np.inf)
-
-
-def synchronize(cameras: dict[str, CameraInput], trajectory: Trajectory, params: SyncParams) -> tuple[Timeline, dict[str, CameraResult]]:
+def synchronize(
+    cameras: dict[str, CameraInput],
+    trajectory: Trajectory,
+    params: SyncParams,
+    votes: Mapping[str, Votes | SyncError] | None = None,
+) -> tuple[Timeline, dict[str, CameraResult]]:
     """The timeline of all cameras that can be synchronized.
 
-    Cameras that cannot are listed in ``Timeline.failed`` with the reason.
+    votes: each camera's votes as the vote stage cast them (cast_votes on
+    prepare_trajectory's output), or the SyncError it met; None: cast here.
+    Cameras that cannot be synchronized are listed in ``Timeline.failed``
+    with the reason.
     """
+    prepared = prepare_trajectory(trajectory, params)
     results: dict[str, CameraResult] = {}
     failed: dict[str, str] = {}
-    if params.method == "refined" and params.smooth_trajectory:
-        trajectory = smooth_trajectory(trajectory)
     for name, inputs in cameras.items():
         try:
-            results[name] = synchronize_camera(name, inputs, trajectory, params)
+            cast = votes[name] if votes is not None else cast_votes(inputs, prepared, params)
+            if isinstance(cast, SyncError):
+                raise cast
+            results[name] = synchronize_camera(name, inputs, cast, prepared, params)
         except SyncError as exc:
             failed[name] = str(exc)
     timeline = Timeline(
@@ -198,7 +92,7 @@ def synchronize(cameras: dict[str, CameraInput], trajectory: Trajectory, params:
         trajectory.rate,
         trajectory.t0,
         method=params.method,
-        params=asdict(params),
+        params=params_table(params),
         failed=failed,
     )
     return timeline, results

@@ -1,8 +1,11 @@
 """The timeline: every camera's line, the line in R^(N+1) and all pairwise relations.
 
-Camera lines map target samples to frames, frame = alpha * sample + beta
-(0-based frames, samples on the trajectory grid). A pairwise relation "A->B"
-maps frames of A to frames of B: frame_B = alpha * frame_A + beta.
+Camera lines map target samples to the camera's clock, clock = alpha *
+sample + beta (samples on the trajectory grid; the clock is the 0-based
+frame index, or presentation time x fps for a variable-frame-rate camera:
+sync/clock.py). A pairwise relation "A->B" maps frames of A to frames of B:
+frame_B = alpha * frame_A + beta, exact between constant-rate cameras and
+approximate otherwise; ``Timeline.match`` is the exact mapping.
 """
 
 from __future__ import annotations
@@ -15,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from tlsync_pipeline.errors import InputError
+from tlsync_pipeline.sync.clock import FRAME, CameraClock, FrameTimes
 
 FORMAT_VERSION = 1
 
@@ -34,11 +38,37 @@ class Relation:
 
 
 @dataclass(frozen=True)
-class CameraLine:
-    """One camera's fitted line frame = alpha * sample + beta, with its support.
+class LineSearchSummary:
+    """The refined method's line search: its line, the distinct frames backing it and its best rival, votes kept, lines tried."""
 
-    votes: votes cast; inliers: votes on the line; residual_rms: frames;
-    fps: nominal frame rate or None.
+    alpha: float
+    beta: float
+    support_frames: int
+    runner_up_frames: int
+    thinned_votes: int
+    hypotheses: int
+
+
+@dataclass(frozen=True)
+class RefinementSummary:
+    """The refined method's continuous-time fit: frames used, robust pixel scale, |sin| velocity/ray, solver verdict."""
+
+    frames_used: int
+    scale_px: float
+    perpendicular: float
+    converged: bool
+
+
+@dataclass(frozen=True)
+class CameraLine:
+    """One camera's fitted line clock = alpha * sample + beta, with its support.
+
+    The clock is frame indices, or presentation time x fps for a
+    variable-frame-rate camera (``clock``). votes: votes cast; inliers:
+    votes on the line; residual_rms: clock units (frames); fps: nominal
+    frame rate or None. What a method does not report is None: cov (2x2 of
+    alpha, beta), flags (weak cases), warnings, refined (whether the
+    refinement's line was kept), line_search and refinement summaries.
     """
 
     name: str
@@ -48,18 +78,68 @@ class CameraLine:
     inliers: int
     residual_rms: float
     fps: float | None = None
-    details: dict = field(default_factory=dict)
+    cov: np.ndarray | None = None
+    flags: tuple[str, ...] | None = None
+    warnings: tuple[str, ...] | None = None
+    refined: bool | None = None
+    line_search: LineSearchSummary | None = None
+    refinement: RefinementSummary | None = None
+    clock: CameraClock = CameraClock()
+
+    def __post_init__(self):
+        if not self.clock.vfr and self.clock.fps is None and self.fps is not None:
+            object.__setattr__(self, "clock", CameraClock(FRAME, self.fps))  # a frame clock runs at the camera's fps
 
     @property
-    def relation(self) -> Relation:
-        """sample -> frame."""
-        return Relation(self.alpha, self.beta)
+    def se_alpha(self) -> float | None:
+        return None if self.cov is None else float(np.sqrt(self.cov[0, 0]))
 
     @property
-    def cov(self) -> np.ndarray | None:
-        """2x2 covariance of (alpha, beta), or None when the method gives none."""
-        cov = self.details.get("cov")
-        return None if cov is None else np.asarray(cov, dtype=np.float64)
+    def se_beta(self) -> float | None:
+        return None if self.cov is None else float(np.sqrt(self.cov[1, 1]))
+
+    def sample_at(self, frames, times: FrameTimes | None = None) -> np.ndarray:
+        """Target sample(s) at 0-based (fractional) frames (exact with the camera's presentation times)."""
+        return (self.clock.clock_at(frames, times) - self.beta) / self.alpha
+
+    def to_dict(self) -> dict:
+        """The camera's entry in timeline.json, without the offsets to the reference."""
+        entry = {"alpha": self.alpha, "beta": self.beta, "votes": self.votes, "inliers": self.inliers, "residual_rms": self.residual_rms, "fps": self.fps}
+        if self.cov is not None:
+            entry.update(se_alpha=self.se_alpha, se_beta=self.se_beta, cov=np.asarray(self.cov).tolist())
+        for key in ("flags", "warnings"):
+            if getattr(self, key) is not None:
+                entry[key] = list(getattr(self, key))
+        if self.refined is not None:
+            entry["refined"] = self.refined
+        for key in ("line_search", "refinement"):
+            if getattr(self, key) is not None:
+                entry[key] = asdict(getattr(self, key))
+        if self.clock.vfr:
+            entry.update(
+                clock=self.clock.kind,
+                clock_fps=self.clock.fps,
+                time_jitter_frames=self.clock.jitter_frames,
+                clock_origin_s=self.clock.origin_s,
+            )
+        return entry
+
+    @classmethod
+    def from_dict(cls, name: str, entry: dict) -> "CameraLine":
+        """A camera entry of timeline.json back into a CameraLine (KeyError/TypeError when malformed)."""
+        clock = CameraClock(FRAME, entry.get("fps"))
+        if entry.get("clock", FRAME) != FRAME:
+            clock = CameraClock(entry["clock"], float(entry["clock_fps"]), float(entry.get("clock_origin_s", 0.0)), float(entry["time_jitter_frames"]))
+        optional = {
+            "cov": None if entry.get("cov") is None else np.asarray(entry["cov"], dtype=np.float64),
+            "flags": None if entry.get("flags") is None else tuple(entry["flags"]),
+            "warnings": None if entry.get("warnings") is None else tuple(entry["warnings"]),
+            "refined": entry.get("refined"),
+            "line_search": None if entry.get("line_search") is None else LineSearchSummary(**entry["line_search"]),
+            "refinement": None if entry.get("refinement") is None else RefinementSummary(**entry["refinement"]),
+        }
+        base = {k: entry[k] for k in ("alpha", "beta", "votes", "inliers", "residual_rms")}
+        return cls(name, fps=entry.get("fps"), clock=clock, **base, **optional)
 
 
 @dataclass(frozen=True)
@@ -77,11 +157,37 @@ class Timeline:
     def names(self) -> list[str]:
         return list(self.cameras)
 
-    def relation(self, a: str, b: str) -> Relation:
-        """frame_B = alpha * frame_A + beta, through the target's grid."""
+    def clock_relation(self, a: str, b: str) -> Relation:
+        """clock_B = alpha * clock_A + beta, through the target's grid (exact; clocks as in CameraLine)."""
         la, lb = self.cameras[a], self.cameras[b]
         alpha = lb.alpha / la.alpha
         return Relation(alpha, lb.beta - alpha * la.beta)
+
+    def relation(self, a: str, b: str) -> Relation:
+        """frame_B = alpha * frame_A + beta: ``match`` without presentation-time tables.
+
+        Exact between constant-rate cameras; for a variable-frame-rate camera
+        the linear approximation of its clock (``pairs`` in timeline.json).
+        """
+        rel = self.clock_relation(a, b)
+        offset_a = self.cameras[a].clock.clock_at(0.0)
+        offset_b = self.cameras[b].clock.clock_at(0.0)
+        return Relation(rel.alpha, float(rel.alpha * offset_a + rel.beta - offset_b))
+
+    def match(self, a: str, b: str, frames_a, times: dict[str, FrameTimes | None] | None = None) -> np.ndarray:
+        """Fractional frames of B taken at the instants of A's (fractional) frames.
+
+        The one mapping between cameras' frames: through each camera's clock,
+        exact with the cameras' presentation times (``times`` by name; frame
+        clocks need none).
+        """
+        times = times or {}
+        clock_a = self.cameras[a].clock.clock_at(frames_a, times.get(a))
+        return self.cameras[b].clock.frames_at(self.clock_relation(a, b)(clock_a), times.get(b))
+
+    def approximate(self, a: str, b: str) -> bool:
+        """Whether relation(a, b) only approximates ``match`` (a variable-frame-rate camera)."""
+        return self.cameras[a].clock.vfr or self.cameras[b].clock.vfr
 
     def relation_cov(self, a: str, b: str) -> np.ndarray | None:
         """2x2 covariance of relation(a, b)'s (alpha, beta), cameras independent; None without covariances."""
@@ -104,7 +210,7 @@ class Timeline:
         fa, fb = self.cameras[a].fps, self.cameras[b].fps
         if not fa or not fb:
             return None
-        rel = self.relation(a, b)
+        rel = self.clock_relation(a, b)
         return Relation(rel.alpha * fa / fb, rel.beta / fb)
 
     def pairs(self) -> dict[str, Relation]:
@@ -146,8 +252,7 @@ class Timeline:
         first = self.names[0] if self.cameras else None
         cameras = {}
         for name, c in self.cameras.items():
-            entry = {k: v for k, v in asdict(c).items() if k not in ("name", "details")}
-            entry.update(c.details)
+            entry = c.to_dict()
             if first is not None:
                 entry["start_offset_frames"], entry["start_offset_s"] = self.start_offset(first, name)
                 if name != first:
@@ -165,6 +270,8 @@ class Timeline:
             timed = self.seconds_relation(a, b)
             if timed is not None:
                 pairs[key]["seconds"] = {"alpha": timed.alpha, "beta": timed.beta}
+            if self.approximate(a, b):
+                pairs[key].update(approximate=True, exact="exports/frame_map.csv")
         return {
             "format": "tlsync-timeline",
             "version": FORMAT_VERSION,
@@ -191,16 +298,11 @@ def write_timeline(timeline: Timeline, path: str | Path) -> None:
 
 
 def read_timeline(path: str | Path) -> Timeline:
-    """Read ``timeline.json`` back into a Timeline (pairs are recomputed)."""
+    """Read ``timeline.json`` back into a Timeline of typed camera lines (pairs are recomputed)."""
     path = Path(path)
     try:
         data = json.loads(path.read_text(encoding="utf-8"))
-        cameras = {}
-        for name, c in data["cameras"].items():
-            base = {k: c[k] for k in ("alpha", "beta", "votes", "inliers", "residual_rms")}
-            skip = set(base) | {"fps", "start_offset_frames", "start_offset_s", "se_start_offset_frames", "se_start_offset_s"}
-            details = {k: v for k, v in c.items() if k not in skip}
-            cameras[name] = CameraLine(name, fps=c.get("fps"), details=details, **base)
+        cameras = {name: CameraLine.from_dict(name, c) for name, c in data["cameras"].items()}
         target = data.get("target", {})
         return Timeline(
             cameras, target.get("rate"), target.get("t0"), data.get("method", "paper"), data.get("params", {}), data.get("failed", {})
@@ -209,7 +311,7 @@ def read_timeline(path: str | Path) -> Timeline:
         raise InputError(f"{path}: file not found") from None
     except json.JSONDecodeError as exc:
         raise InputError(f"{path}:{exc.lineno}: invalid JSON: {exc.msg}") from None
-    except (KeyError, TypeError, AttributeError) as exc:
+    except (KeyError, TypeError, ValueError, AttributeError) as exc:
         raise InputError(f"{path}: not a tlsync timeline (missing or malformed field {exc})") from None
 
 

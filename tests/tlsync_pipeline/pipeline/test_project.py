@@ -17,7 +17,7 @@ def test_paths_are_relative_to_the_project_and_defaults_apply(tmp_path):
     assert project.target["trajectory"] == sub / "t.csv"
     assert project.cameras[0]["camera"] == sub / "a" / "c.json"
     assert project.cameras[0]["track"] is None
-    assert project.sync.eps_px == 12.0 and project.sync.delta == 0.5 and project.sync.r == 0.05
+    assert project.sync.eps_px == 12.0 and project.sync.delta == 0.5 and project.sync.options["paper"].r == 0.05
 
 
 @pytest.mark.parametrize(

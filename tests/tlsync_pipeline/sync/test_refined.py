@@ -7,13 +7,12 @@ import json
 import numpy as np
 import pytest
 
-import tlsync_pipeline.sync.synchronize as sync_module
+import tlsync_pipeline.sync.refined as refined_module
 from data_fixtures import make_scene, write_scene
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.outputs.summary import format_table
 from tlsync_pipeline.pipeline.stages.sync import run_project
 from tlsync_pipeline.pipeline.project import load_project
-from tlsync_pipeline.sync.clock import camera_clock, frame_map
 from tlsync_pipeline.sync.line_search import find_line, thin_votes
 from tlsync_pipeline.sync.params import SyncParams
 from tlsync_pipeline.sync.ransac import fit_line_ransac
@@ -63,7 +62,7 @@ def test_hovering_self_crossing_target():
         scene = make_scene(seed, **HOVER)
         refined, timeline = _worst(scene)
         assert refined <= 1.0, (seed, refined)
-        assert all(line.details["refined"] for line in timeline.cameras.values())
+        assert all(line.refined for line in timeline.cameras.values())
         paper_failures += _worst(scene, "paper")[0] > 5
     assert paper_failures >= 1
 
@@ -94,24 +93,12 @@ def test_jittered_frame_times_synchronized_in_seconds():
         for key, true in scene.truth_pairs().items():
             a, b = key.split("->")
             fa, fb = scene.cameras[a].fps, scene.cameras[b].fps
-            assert timeline.cameras[a].details["clock"] == "time_s"
+            assert timeline.cameras[a].clock.kind == "time_s"
             t_a = scene.tracks[a].time_s
             estimated = timeline.seconds_relation(a, b)(t_a)
             truth = (true.alpha * t_a * fa + true.beta) / fb
             interval_b = np.mean(np.diff(scene.tracks[b].time_s) / np.diff(scene.tracks[b].frame))
             assert np.mean(np.abs(estimated - truth)) < interval_b, (seed, key)
-
-
-def test_camera_clock_and_frame_map():
-    frames = np.arange(100)
-    regular = Track(frames, frames * 1.0, frames * 1.0, time_s=frames / 30.0)
-    assert not camera_clock(regular, 30.0).vfr
-    jittered = np.r_[0.0, np.cumsum(1 + np.random.default_rng(0).uniform(-0.1, 0.1, 99))] / 30.0
-    clock = camera_clock(Track(frames, frames * 1.0, frames * 1.0, time_s=jittered), 30.0)
-    assert clock.vfr and np.allclose(clock.frames, jittered * 30.0)
-    mapped = frame_map(frames, jittered, frames, jittered, 1.0, 0.0)
-    assert np.allclose(mapped, frames)
-    assert np.isnan(frame_map(frames[:1], jittered[:1], frames, jittered, 1.0, -1.0)).all()
 
 
 def test_intervals_cover_the_truth_on_a_small_set():
@@ -134,12 +121,12 @@ def test_fallback_when_refinement_disagrees(monkeypatch):
     def shifted(camera, frame, xy, path, alpha, beta, *args, **kwargs):
         return Refinement(alpha, beta + 30.0, np.diag([1e-10, 1e-4]), len(frame), 0.1, 0.8, True, "shifted")
 
-    monkeypatch.setattr(sync_module, "refine_line", shifted)
+    monkeypatch.setattr(refined_module, "refine_line", shifted)
     timeline, results = synchronize(_inputs(scene), scene.trajectory, SyncParams())
     for name, line in timeline.cameras.items():
-        assert not line.details["refined"]
-        assert "frames whose votes support the line search" in line.details["warnings"][0]
-        assert line.beta == results[name].search.beta
+        assert not line.refined
+        assert "frames whose votes support the line search" in line.warnings[0]
+        assert line.beta == line.line_search.beta
     assert "warning: cam0:" in format_table(timeline)
 
 
@@ -150,9 +137,9 @@ def test_fallback_when_refinement_impossible():
     scene.tracks["cam0"] = Track(track.frame[keep], track.x[keep], track.y[keep], time_s=track.time_s[keep])
     timeline, _ = synchronize(_inputs(scene), scene.trajectory, SyncParams())
     line = timeline.cameras["cam0"]
-    assert not line.details["refined"] and "refinement not possible" in line.details["warnings"][0]
-    assert "few_inliers" in line.details["flags"]
-    assert np.isfinite(line.details["se_beta"])
+    assert not line.refined and "refinement not possible" in line.warnings[0]
+    assert "few_inliers" in line.flags
+    assert np.isfinite(line.se_beta)
 
 
 def test_paper_method_is_the_published_ransac():
@@ -163,7 +150,7 @@ def test_paper_method_is_the_published_ransac():
         votes = result.votes
         fit = fit_line_ransac(votes.sample, votes.frame)
         assert (timeline.cameras[name].alpha, timeline.cameras[name].beta) == (fit.alpha, fit.beta)
-        assert "se_beta" not in timeline.cameras[name].details
+        assert timeline.cameras[name].cov is None and timeline.cameras[name].refined is None
 
 
 def test_project_method_key_and_timeline_json(tmp_path):
@@ -192,15 +179,3 @@ def test_smoothing_keeps_clean_logs_and_denoises_noisy_ones():
     before = np.sqrt(np.mean((noisy.trajectory.xyz - noisy.true_trajectory.xyz) ** 2))
     after = np.sqrt(np.mean((smooth_trajectory(noisy.trajectory).xyz - noisy.true_trajectory.xyz) ** 2))
     assert after < 0.7 * before
-
-
-def test_interpolation_never_bridges_a_gap():
-    from tlsync_pipeline.sync.refine import PiecewiseTrajectory
-    from tlsync_pipeline.trajectory import Trajectory
-
-    sample = np.r_[np.arange(0, 10.0), np.arange(20, 30.0)]
-    xyz = np.column_stack([sample, np.zeros_like(sample), np.zeros_like(sample)])
-    path = PiecewiseTrajectory(Trajectory(sample, xyz))
-    run = path.run_of(np.array([4.5, 15.0, 25.5]))
-    assert list(run) == [0, -1, 1]
-    assert np.allclose(path(np.array([4.5, 25.5]), run[[0, 2]])[:, 0], [4.5, 25.5])

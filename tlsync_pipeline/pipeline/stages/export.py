@@ -5,12 +5,15 @@ from __future__ import annotations
 import csv
 from pathlib import Path
 
+import numpy as np
+
 from tlsync_pipeline.atomic import atomic_path
 from tlsync_pipeline.outputs.exports import ffmpeg_commands, frame_map_rows, offsets
 from tlsync_pipeline.pipeline import layout
-from tlsync_pipeline.sync.timeline import read_timeline
+from tlsync_pipeline.sync.clock import FrameTimes
+from tlsync_pipeline.sync.timeline import CameraLine, read_timeline
 from trackers.track import read_track
-from trackers.video import probe_video
+from trackers.video import presentation_times, probe_video
 
 
 def frame_count(camera: dict) -> int:
@@ -23,17 +26,33 @@ def frame_count(camera: dict) -> int:
     return int(track.frame.max()) + 1
 
 
+def frame_times(camera: dict, line: CameraLine) -> FrameTimes | None:
+    """Presentation times that make a camera's frame mapping exact.
+
+    None for a frame-index clock (it needs none); for a presentation-time
+    clock the video's own table of every frame, else (no video, or no
+    timestamps) the tracked frames' times from track.csv.
+    """
+    if not line.clock.vfr:
+        return None
+    if camera.get("video"):
+        times = presentation_times(camera["video"])
+        if times is not None:
+            return FrameTimes(np.arange(len(times), dtype=np.float64), times)
+    return FrameTimes.of_track(read_track(camera["track"]))
+
+
 def run_export(cameras: dict[str, dict], timeline: Path, work: Path) -> dict:
     """The export stage: frame_map.csv, offsets.csv and ffmpeg.sh from timeline.json."""
     tl = read_timeline(timeline)
     if not tl.cameras:
         return {"exported": []}
     n_frames = {name: frame_count(cameras[name]) for name in tl.names}
+    times = {name: frame_times(cameras[name], line) for name, line in tl.cameras.items()}
     with atomic_path(layout.frame_map_csv(work)) as tmp:
         with tmp.open("w", newline="", encoding="utf-8") as handle:
-            csv.writer(handle).writerows(frame_map_rows(tl, n_frames))
-    fps = {name: tl.cameras[name].fps for name in tl.names}
-    rows = offsets(tl, fps)
+            csv.writer(handle).writerows(frame_map_rows(tl, n_frames, times))
+    rows = offsets(tl, times)
     with atomic_path(layout.offsets_csv(work)) as tmp:
         with tmp.open("w", newline="", encoding="utf-8") as handle:
             writer = csv.DictWriter(handle, fieldnames=list(rows[0]))

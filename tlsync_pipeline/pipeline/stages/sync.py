@@ -6,11 +6,13 @@ from pathlib import Path
 
 from calibration.camera import read_camera
 from tlsync_pipeline.atomic import atomic_path
-from tlsync_pipeline.errors import InputError
+from tlsync_pipeline.errors import InputError, SyncError
 from tlsync_pipeline.pipeline.project import Project
-from tlsync_pipeline.sync.params import SyncParams
-from tlsync_pipeline.sync.synchronize import CameraInput, CameraResult, synchronize
+from tlsync_pipeline.sync.methods import CameraInput
+from tlsync_pipeline.sync.registry import params_from_table
+from tlsync_pipeline.sync.synchronize import CameraResult, synchronize
 from tlsync_pipeline.sync.timeline import Timeline, write_timeline
+from tlsync_pipeline.sync.votes import load_votes
 from tlsync_pipeline.trajectory import Trajectory, read_trajectory
 from trackers.track import read_track
 
@@ -24,14 +26,21 @@ def read_camera_inputs(cameras: dict[str, dict]) -> dict:
     return out
 
 
-def run_sync(cameras: dict[str, dict], trajectory: Path, params: dict, out: Path) -> dict:
-    """The sync stage: each camera's line and the timeline, ``timeline.json``.
+def read_votes(cameras: dict[str, dict]) -> dict:
+    """Each camera's votes.npz: its Votes, or the SyncError the vote stage met."""
+    out = {}
+    for name, c in cameras.items():
+        votes, error = load_votes(c["votes"])
+        out[name] = SyncError(error) if error else votes
+    return out
 
-    The sync method computes the votes it fits from the same camera, track and
-    trajectory files as the vote stage (with its own trajectory handling);
-    ``votes.npz`` is what render draws and what orders the stages.
+
+def run_sync(cameras: dict[str, dict], trajectory: Path, params: dict, out: Path) -> dict:
+    """The sync stage: each camera's line fitted to the vote stage's votes, ``timeline.json``.
+
+    params: the ``[sync]`` table.
     """
-    timeline, _ = synchronize(read_camera_inputs(cameras), read_trajectory(trajectory), SyncParams(**params))
+    timeline, _ = synchronize(read_camera_inputs(cameras), read_trajectory(trajectory), params_from_table(params), read_votes(cameras))
     with atomic_path(out) as tmp:
         write_timeline(timeline, tmp)
     return {"synchronized": timeline.names, "failed": timeline.failed}

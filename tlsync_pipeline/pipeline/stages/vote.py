@@ -1,4 +1,4 @@
-"""The vote stage: one camera's votes (paper eq. 3) into ``votes.npz``."""
+"""The vote stage: one camera's votes (paper eq. 3) into ``votes.npz``, on the trajectory the sync method fits."""
 
 from __future__ import annotations
 
@@ -8,20 +8,28 @@ import numpy as np
 
 from calibration.camera import read_camera
 from tlsync_pipeline.errors import SyncError
-from tlsync_pipeline.sync.votes import Votes, compute_votes, save_votes
+from tlsync_pipeline.sync.methods import CameraInput
+from tlsync_pipeline.sync.registry import params_from_table
+from tlsync_pipeline.sync.synchronize import cast_votes, prepare_trajectory
+from tlsync_pipeline.sync.votes import Votes, save_votes
 from tlsync_pipeline.trajectory import read_trajectory
 from trackers.track import read_track
 
 
-def run_vote(name: str, camera: Path, track: Path, trajectory: Path, eps_px: float, out: Path) -> dict:
+def run_vote(name: str, camera: Path, track: Path, trajectory: Path, params: dict, out: Path) -> dict:
     """The vote stage: every (frame, sample) pair within eps_px, saved to ``votes.npz``.
 
-    A camera without any vote is not an error here: the reason is saved and
-    the sync stage lists the camera as not synchronized.
+    params: the ``[sync]`` keys the votes depend on (sync.registry.vote_table). The votes are cast on the trajectory as the
+    chosen sync method prepares it (smoothed, for "refined"): they are the
+    votes the sync stage fits and render draws. A camera without any vote is
+    not an error here: the reason is saved and the sync stage lists the
+    camera as not synchronized.
     """
-    cam = read_camera(camera, name=name)
+    sync_params = params_from_table(params)
+    prepared = prepare_trajectory(read_trajectory(trajectory), sync_params)
+    inputs = CameraInput(read_camera(camera, name=name), read_track(track), None)
     try:
-        votes = compute_votes(cam, read_track(track), read_trajectory(trajectory), eps_px)
+        votes = cast_votes(inputs, prepared, sync_params)
         error = None
     except SyncError as exc:
         votes, error = Votes(np.zeros(0), np.zeros(0), np.zeros(0)), str(exc)

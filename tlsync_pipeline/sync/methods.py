@@ -1,0 +1,76 @@
+"""The sync-method interface: what a method is given and what it returns.
+
+A method fits one camera's line clock = alpha * sample + beta from that
+camera's votes. ``synchronize`` (sync/synchronize.py) does the rest the same
+way for every method: it prepares the trajectory with the method, casts the
+votes on it (or takes the vote stage's), puts them on the camera's clock and
+builds the timeline. Methods are registered by name in sync/registry.py;
+docs/architecture.md ("Adding a sync method") has the recipe.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Protocol
+
+import numpy as np
+
+from calibration.camera import Camera
+from tlsync_pipeline.sync.clock import CameraClock
+from tlsync_pipeline.sync.params import SyncParams
+from tlsync_pipeline.sync.timeline import CameraLine
+from tlsync_pipeline.sync.votes import Votes
+from tlsync_pipeline.trajectory import Trajectory
+from trackers.track import Track
+
+
+@dataclass(frozen=True)
+class CameraInput:
+    """What one camera brings: its calibration, its track and its frame rate (or None)."""
+
+    camera: Camera
+    track: Track
+    fps: float | None
+
+
+@dataclass(frozen=True)
+class CameraData:
+    """One camera as a method sees it: inputs and votes on the camera's clock.
+
+    track_clock: (N,) clock value of each tracked frame (frame units);
+    vote_clock: (M,) clock value of each vote's frame; clock: how the clock
+    reads (frame indices or presentation time x fps).
+    """
+
+    name: str
+    camera: Camera
+    track: Track
+    fps: float | None
+    votes: Votes
+    clock: CameraClock
+    track_clock: np.ndarray
+    vote_clock: np.ndarray
+
+    def line(self, alpha: float, beta: float, inliers: int, residual_rms: float, **reported: Any) -> CameraLine:
+        """The camera's line with its name, vote count, fps and clock filled in; ``reported``: CameraLine's optional fields."""
+        return CameraLine(self.name, alpha, beta, len(self.votes), inliers, residual_rms, self.fps, clock=self.clock, **reported)
+
+
+class SyncMethod(Protocol):
+    """A way to fit a camera's line from its votes.
+
+    name: the ``[sync] method`` value; params_type: a frozen dataclass whose
+    ``param`` fields (sync/params.py) are the method's own ``[sync]`` keys,
+    with their defaults.
+    """
+
+    name: str
+    params_type: type
+
+    def prepare_trajectory(self, trajectory: Trajectory, options: Any) -> Trajectory:
+        """The trajectory votes are cast on and the line is fitted to (the vote stage and render use it too)."""
+        ...
+
+    def fit(self, data: CameraData, trajectory: Trajectory, params: SyncParams, options: Any) -> CameraLine:
+        """The camera's line (``data.line(...)``); SyncError naming the camera when none can be fitted."""
+        ...
