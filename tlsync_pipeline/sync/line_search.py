@@ -63,14 +63,25 @@ class LineSearch:
 
 
 def thin_votes(sample: np.ndarray, frame: np.ndarray, dist: np.ndarray) -> np.ndarray:
-    """Indices of the votes that are the closest of their frame or of their sample."""
+    """Indices of the votes that are the closest of their frame or of their sample (the first such vote on a tie)."""
     keep = np.zeros(len(frame), dtype=bool)
     for key in (frame, sample):
-        order = np.lexsort((dist, key))
-        first = np.ones(len(order), dtype=bool)
-        first[1:] = key[order][1:] != key[order][:-1]
-        keep[order[first]] = True
+        codes, groups = _group_codes(key)
+        closest = np.full(groups, np.inf)
+        np.minimum.at(closest, codes, dist)
+        candidates = np.flatnonzero(dist == closest[codes])
+        _, first = np.unique(codes[candidates], return_index=True)
+        keep[candidates[first]] = True
     return np.flatnonzero(keep)
+
+
+def _group_codes(key: np.ndarray) -> tuple[np.ndarray, int]:
+    """A code 0..groups-1 per element, equal for equal values: the offset from the smallest for whole numbers (no sort), else by np.unique."""
+    low, high = float(key.min()), float(key.max())
+    if high - low < 4 * len(key) + 1024 and np.array_equal(key, np.floor(key)):
+        return (key - low).astype(np.intp), int(high - low) + 1
+    values, codes = np.unique(key, return_inverse=True)
+    return codes.ravel(), len(values)
 
 
 def _distinct_frames(inlier: np.ndarray, starts: np.ndarray) -> np.ndarray:
