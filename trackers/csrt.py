@@ -13,13 +13,15 @@ declared lost when
   leaves, so those frames are withdrawn from the track.
 
 Lost, the blob tracker re-acquires the target (a consistent blob looking like
-the target: size and polarity) and CSRT restarts on a box around it. The
-reported point is the box centre, (x + (w - 1) / 2, y + (h - 1) / 2) in
-full-resolution pixels.
+the target: size and polarity) and CSRT restarts on a box around it.
 
-Speed: CSRT runs on the full frame with a lighter configuration than
-OpenCV's default (no colour names, no segmentation, 9 scales); its cost is
-set by its template (``template_size``), not by the frame size.
+CSRT runs only where the blobs leave doubt: while the target is followed, a
+frame with exactly one blob fitting the target near its predicted position
+and no other blob near reports that blob's centroid; the other frames go to
+CSRT. The reported point is then the box centre, (x + (w - 1) / 2,
+y + (h - 1) / 2), full-resolution pixels. CSRT uses a lighter configuration
+than OpenCV's default (no colour names, no segmentation, 9 scales) on the
+luma plane, refreshed only in the window it reads (``_Canvas``).
 """
 
 from __future__ import annotations
