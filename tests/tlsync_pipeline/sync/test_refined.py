@@ -194,17 +194,18 @@ def test_smoothed_values_are_scipys_smoothing_spline(n, lam, jitter):
     np.testing.assert_allclose(smoothed_values(x, y, lam), make_smoothing_spline(x, y, lam=lam)(x), atol=1e-10)
 
 
-@pytest.mark.parametrize("scale", [1.0, 1.001])
-def test_thin_votes_keeps_the_closest_vote_of_each_frame_and_of_each_sample(scale):
-    """Whole-number keys (grouped by offset) and fractional ones (grouped by np.unique): the closest vote of every frame and every sample, the first on a tie."""
+@pytest.mark.parametrize("scale, groups", [(1.0, 1), (1.001, 1), (1.0, 3)])
+def test_thin_votes_keeps_the_closest_vote_of_each_frame_and_of_each_sample(scale, groups):
+    """Whole-number keys (grouped by offset) and fractional ones (by np.unique), with or without objects: the closest vote of every frame and every sample of each object, the first on a tie."""
     rng = np.random.default_rng(2)
     frame = rng.integers(0, 300, 5000) * scale
     sample = rng.integers(0, 200, 5000).astype(float)
     dist = np.round(rng.uniform(0, 10, 5000), 1)  # ties
-    kept = set(thin_votes(sample, frame, dist).tolist())
+    group = rng.integers(0, groups, 5000)
+    kept = set(thin_votes(sample, frame, dist, group if groups > 1 else None).tolist())
     expected = set()
     for key in (frame, sample):
-        for value in np.unique(key):
-            members = np.flatnonzero(key == value)
+        for value, owner in set(zip(key.tolist(), group.tolist())):
+            members = np.flatnonzero((key == value) & (group == owner))
             expected.add(int(members[np.argmin(dist[members])]))
     assert kept == expected
