@@ -156,7 +156,7 @@ def tlsync_run(project: Path, work: Path, jobs: int, code: Path = REPOSITORY) ->
     env = dict(os.environ, PYTHONPATH=str(code))
     load = os.getloadavg()[0]
     cpu, start = _children_cpu(), time.perf_counter()
-    done = subprocess.run(command, capture_output=True, text=True, env=env)
+    done = subprocess.run(command, capture_output=True, text=True, env=env, cwd=code)  # "-c" puts the working folder first on sys.path
     wall = time.perf_counter() - start
     if done.returncode not in (0, 1):  # 1: ran through, some camera not synchronized
         raise SystemExit(f"tlsync run failed (exit {done.returncode}):\n{done.stdout}\n{done.stderr}")
