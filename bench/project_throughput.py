@@ -14,9 +14,10 @@
    own threads as the pipeline uses them), as many processes as cores,
    longest videos first.
 3. For each tracker kind: the whole `tlsync run` in a fresh work folder (a
-   child process; its CPU time includes its workers), the time per stage
-   (the sum of the stage's task times from the manifests), and a cached
-   re-run (nothing to do).
+   child process; its CPU time includes its workers), the run time and CPU
+   time per stage (sums of the stage's tasks' own figures from the
+   manifests; CPU/run above 1 means FFmpeg's decoding threads overlap the
+   Python tracker), and a cached re-run (nothing to do).
 
 Prints wall times, CPU times, CPU utilisation (CPU s / (wall s x cores)),
 peak RSS of the largest process, the ratios to the floor and the load
@@ -165,13 +166,14 @@ def tlsync_run(project: Path, work: Path, jobs: int, code: Path = REPOSITORY) ->
     return Measure(wall, _children_cpu() - cpu, (load, os.getloadavg()[0]), peak, missed)
 
 
-def stage_seconds(work: Path) -> dict[str, tuple[float, int]]:
-    """Per stage: the sum of its tasks' recorded seconds (manifests) and the number of tasks."""
-    out: dict[str, tuple[float, int]] = {}
+def stage_seconds(work: Path) -> dict[str, tuple[float, float, int]]:
+    """Per stage: the sums of its tasks' run seconds and CPU seconds as the manifests record them (CPU NaN when not recorded), and the number of tasks."""
+    out: dict[str, tuple[float, float, int]] = {}
     for path in work.rglob("*.manifest.json"):
         manifest = json.loads(path.read_text())
-        total, count = out.get(manifest["stage"], (0.0, 0))
-        out[manifest["stage"]] = (total + float(manifest.get("seconds") or 0.0), count + 1)
+        total, cpu, count = out.get(manifest["stage"], (0.0, 0.0, 0))
+        cpu += float(manifest["cpu_seconds"]) if manifest.get("cpu_seconds") is not None else float("nan")
+        out[manifest["stage"]] = (total + float(manifest.get("seconds") or 0.0), cpu, count + 1)
     return out
 
 
@@ -225,11 +227,11 @@ def main() -> None:
             for note in m.notes:
                 print(f"    {note}")
         for kind, per_stage in stages.items():
-            print(f"\nstages, {kind} (sum of task seconds as recorded in the manifests; x floor wall):")
+            print(f"\nstages, {kind} (sums over the stage's tasks as the manifests record them; x floor: of the floor's wall and CPU):")
             for stage in ("calibrate", "track", "ingest", "vote", "sync", "export", "render"):
                 if stage in per_stage:
-                    seconds, count = per_stage[stage]
-                    print(f"  {stage:10} {seconds:7.1f} s {seconds / floor.wall:6.2f}x  ({count} task{'s' if count > 1 else ''})")
+                    seconds, cpu, count = per_stage[stage]
+                    print(f"  {stage:10} {seconds:7.1f} s {seconds / floor.wall:6.2f}x  CPU {cpu:7.1f} s {cpu / floor.cpu:6.2f}x  CPU/run {cpu / seconds if seconds else float('nan'):5.2f}  ({count} task{'s' if count > 1 else ''})")
         print(f"\nload average at the end {_load()}")
 
 
