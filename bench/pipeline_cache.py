@@ -17,8 +17,9 @@ from pathlib import Path
 
 from data_fixtures.scene import make_scene, write_scene
 from tlsync_pipeline.pipeline.engine import run_graph, status
-from tlsync_pipeline.pipeline.graph import Options, build_graph
+from tlsync_pipeline.pipeline.graph import build_graph
 from tlsync_pipeline.pipeline.project import load_project
+from tlsync_pipeline.pipeline.spec import Options
 
 
 def main() -> None:

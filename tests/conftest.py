@@ -13,6 +13,10 @@ settings.register_profile("ci", derandomize=True, print_blob=True)
 settings.load_profile("ci" if os.environ.get("CI") else "default")
 
 from data_fixtures import make_scene, write_scene
+from tlsync_pipeline.pipeline.workspace import STRICT_VARIABLE
+
+# A stage that opens a file of the work or project folder it did not declare fails (worker processes inherit this).
+os.environ[STRICT_VARIABLE] = "1"
 
 
 @pytest.fixture(scope="session")

@@ -4,7 +4,9 @@ Positions are in the local metric world frame (metres, East-North-Up for GPS).
 Each position has a sample coordinate t_r on the trajectory's constant-rate
 grid: t_r = (t - t0) * rate, 0-based. A file without times is taken as already
 on that grid (t_r = 0, 1, 2, ...). Samples missing in a gap keep their grid
-positions: t_r values are never renumbered.
+positions: t_r values are never renumbered. An optional per-sample sigma
+(metres, the log's stated horizontal 1-sigma position uncertainty) weights
+the sub-frame refinement: samples with a large sigma count less.
 """
 
 from __future__ import annotations
@@ -29,13 +31,15 @@ class Trajectory:
     sample: float64 (N,) strictly increasing grid coordinates t_r;
     xyz: float64 (N, 3) metres; rate: samples per second, or None when the
     file had no times; t0: time of sample 0 in seconds (POSIX UTC seconds for
-    GPS logs), or None.
+    GPS logs), or None; sigma: float64 (N,) metres per sample, or None when
+    the log states no uncertainty.
     """
 
     sample: np.ndarray
     xyz: np.ndarray
     rate: float | None = None
     t0: float | None = None
+    sigma: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.sample)
@@ -70,15 +74,15 @@ def grid_rate(t: np.ndarray) -> float:
     return rate
 
 
-def trajectory_from_times(t: np.ndarray, xyz: np.ndarray, rate: float | None = None) -> Trajectory:
-    """A trajectory whose grid is set by its times t (seconds, strictly increasing).
+def trajectory_from_times(t: np.ndarray, xyz: np.ndarray, rate: float | None = None, sigma: np.ndarray | None = None) -> Trajectory:
+    """A trajectory whose grid is set by its times t (seconds, strictly increasing), with optional sigmas (m).
 
     rate defaults to grid_rate(t); t0 = t[0].
     """
     t = np.asarray(t, dtype=np.float64)
     if rate is None:
         rate = grid_rate(t)
-    return Trajectory((t - t[0]) * rate, np.asarray(xyz, dtype=np.float64), rate, float(t[0]))
+    return Trajectory((t - t[0]) * rate, np.asarray(xyz, dtype=np.float64), rate, float(t[0]), sigma)
 
 
 class PiecewiseTrajectory:
@@ -91,6 +95,7 @@ class PiecewiseTrajectory:
     def __init__(self, trajectory: Trajectory):
         sample, xyz = trajectory.sample, trajectory.xyz
         cuts = np.flatnonzero(np.diff(sample) > GAP_SAMPLES) + 1
+        self.sample, self.sigmas = sample, trajectory.sigma
         self.runs = []
         for idx in np.split(np.arange(len(sample)), cuts):
             if len(idx) >= 4:
@@ -103,6 +108,10 @@ class PiecewiseTrajectory:
         k = np.searchsorted(self.starts, s, side="right") - 1
         inside = (k >= 0) & (s <= self.ends[np.clip(k, 0, None)]) if len(self.runs) else np.zeros(len(s), bool)
         return np.where(inside, k, -1)
+
+    def sigma(self, s: np.ndarray) -> np.ndarray | None:
+        """Per-sample sigma (m) at s, linearly interpolated; None when the trajectory has none."""
+        return None if self.sigmas is None else np.interp(s, self.sample, self.sigmas)
 
     def __call__(self, s: np.ndarray, run: np.ndarray, nu: int = 0) -> np.ndarray:
         """Positions (or derivatives) at s, evaluated on the given runs, clamped to them."""
@@ -124,7 +133,7 @@ class PiecewiseTrajectory:
 
 
 def read_trajectory(path: str | Path) -> Trajectory:
-    """Read a trajectory CSV with columns ``x,y,z`` and optional ``t`` (seconds)."""
+    """Read a trajectory CSV with columns ``x,y,z``, optional ``t`` (seconds) and ``sigma`` (metres, > 0)."""
     path = Path(path)
     try:
         with path.open(newline="", encoding="utf-8") as handle:
@@ -141,7 +150,7 @@ def read_trajectory(path: str | Path) -> Trajectory:
     missing = [c for c in ("x", "y", "z") if c not in header]
     if missing:
         raise InputError(f"{path}:1: header {','.join(header)!r} lacks column(s) {', '.join(missing)}; expected x,y,z with optional t")
-    wanted = ["t", "x", "y", "z"] if "t" in header else ["x", "y", "z"]
+    wanted = (["t"] if "t" in header else []) + ["x", "y", "z"] + (["sigma"] if "sigma" in header else [])
     index = [header.index(c) for c in wanted]
     values, lines = [], []
     for line_no, row in enumerate(rows[1:], start=2):
@@ -157,14 +166,17 @@ def read_trajectory(path: str | Path) -> Trajectory:
                 raise InputError(f"{path}:{line_no}: column '{col}': not a number: {row[i]!r}") from None
             if not math.isfinite(v):
                 raise InputError(f"{path}:{line_no}: column '{col}': {row[i]} is not a finite number")
+            if col == "sigma" and v <= 0:
+                raise InputError(f"{path}:{line_no}: column 'sigma': {row[i]} m; a sigma must be positive")
             record.append(v)
         values.append(record)
         lines.append(line_no)
     if len(values) < 2:
         raise InputError(f"{path}: the trajectory has {len(values)} sample(s); at least 2 are needed")
     data = np.asarray(values)
+    sigma = data[:, -1].copy() if "sigma" in header else None
     if "t" not in header:
-        return Trajectory(np.arange(len(data), dtype=np.float64), data)
+        return Trajectory(np.arange(len(data), dtype=np.float64), data[:, :3], sigma=sigma)
     t = data[:, 0]
     step = np.diff(t)
     bad = np.flatnonzero(step <= 0)
@@ -172,16 +184,17 @@ def read_trajectory(path: str | Path) -> Trajectory:
         k = bad[0]
         what = "repeats" if step[k] == 0 else "goes backwards"
         raise InputError(f"{path}:{lines[k + 1]}: time {t[k + 1]:g} s {what} (previous line {lines[k]}: {t[k]:g} s); times must increase")
-    return trajectory_from_times(t, data[:, 1:])
+    return trajectory_from_times(t, data[:, 1:4], sigma=sigma)
 
 
 def write_trajectory(trajectory: Trajectory, path: str | Path) -> None:
-    """Write the trajectory CSV: ``t,x,y,z`` when the rate is known, else ``x,y,z``."""
+    """Write the trajectory CSV: ``t,x,y,z`` when the rate is known, else ``x,y,z``; then ``sigma`` when known."""
+    t = trajectory.seconds(trajectory.sample)
+    columns, fmt, data = ["x", "y", "z"], ["%.4f"] * 3, [trajectory.xyz]
+    if t is not None:
+        columns, fmt, data = ["t", *columns], ["%.6f", *fmt], [t, *data]
+    if trajectory.sigma is not None:
+        columns, fmt, data = [*columns, "sigma"], [*fmt, "%.4f"], [*data, trajectory.sigma]
     with Path(path).open("w", newline="", encoding="utf-8") as handle:
-        t = trajectory.seconds(trajectory.sample)
-        if t is None:
-            handle.write("x,y,z\n")
-            np.savetxt(handle, trajectory.xyz, fmt="%.4f", delimiter=",")
-        else:
-            handle.write("t,x,y,z\n")
-            np.savetxt(handle, np.column_stack([t, trajectory.xyz]), fmt=["%.6f", "%.4f", "%.4f", "%.4f"], delimiter=",")
+        handle.write(",".join(columns) + "\n")
+        np.savetxt(handle, np.column_stack(data), fmt=fmt, delimiter=",")

@@ -3,21 +3,29 @@
 One small raw project (three cameras at 30, 25 and 15 fps, 320x240, shifts of
 hundreds of frames) serves the whole story: a run killed mid-track resumes
 and completes; the timeline is within one frame of the truth for every pair;
-a second run does nothing; editing one camera's GCPs re-runs exactly that
-camera's calibrate and vote, then sync, export and render.
+a second run does nothing. Then, each on its own copy of the finished
+project (so each is also a moved project): the copy is all fresh; editing one
+camera's GCPs re-runs exactly that camera's calibrate (the pose, not the
+checkerboards' intrinsics) and vote, then sync, export and render; changing
+a module's code makes exactly the stages that run it stale.
 """
 
 import os
+import shutil
 import signal
 import subprocess
 import sys
 import time
 
+import pytest
+
 from data_fixtures.raw_project import SMALL, make_raw_project
+from tlsync_pipeline.pipeline import codehash
 from tlsync_pipeline.pipeline.engine import run_graph, status
 from tlsync_pipeline.pipeline.executors import ProcessExecutor
-from tlsync_pipeline.pipeline.graph import Options, build_graph
+from tlsync_pipeline.pipeline.graph import build_graph
 from tlsync_pipeline.pipeline.project import load_project
+from tlsync_pipeline.pipeline.spec import Options
 from tlsync_pipeline.sync.timeline import eps_t, read_timeline
 
 
@@ -48,8 +56,10 @@ def _kill_mid_track(project_file, work):
     return "".join(lines)
 
 
-def test_raw_project_end_to_end(tmp_path):
-    project_file, scene = make_raw_project(tmp_path / "raw", SMALL)
+@pytest.fixture(scope="module")
+def finished(tmp_path_factory):
+    """The raw project after a killed run, its resumed run and a second (no-op) run; its project file."""
+    project_file, scene = make_raw_project(tmp_path_factory.mktemp("raw") / "raw", SMALL)
     work = project_file.parent / "work"
     log = _kill_mid_track(project_file, work)
     assert "track/" in log, log
@@ -68,15 +78,62 @@ def test_raw_project_end_to_end(tmp_path):
         assert eps_t(timeline.relation(a, b), truth, scene.n_frames[a]) <= 1.0, key
 
     again = run_graph(_graph(project_file))
-    assert again.ran == [] and len(again.fresh) == 13
+    assert again.ran == [] and len(again.fresh) == 16
+    return project_file
 
+
+def _copy(project_file, tmp_path):
+    """A copy of the finished project (with its work folder) in another folder; its project file."""
+    shutil.copytree(project_file.parent, tmp_path / "copy")
+    return tmp_path / "copy" / project_file.name
+
+
+def _states(project_file):
+    return {row.id: row for row in status(_graph(project_file))}
+
+
+def test_a_copied_project_is_fresh_and_runs_nothing(finished, tmp_path):
+    copy = _copy(finished, tmp_path)
+    states = _states(copy)
+    assert {row.state for row in states.values()} == {"fresh"}, {t: r.reasons for t, r in states.items() if r.state != "fresh"}
+    assert run_graph(_graph(copy)).ran == []
+
+
+def test_editing_a_gcp_reruns_the_pose_not_the_intrinsics(finished, tmp_path):
+    project_file = _copy(finished, tmp_path)
     gcp = project_file.parent / "cam1" / "gcp.csv"
     lines = gcp.read_text().splitlines()
     name, u, v, *rest = lines[1].split(",")
     lines[1] = ",".join([name, f"{float(u) + 0.5:.2f}", v, *rest])
     gcp.write_text("\n".join(lines) + "\n")
-    rows = {row.id: row for row in status(_graph(project_file))}
+    rows = _states(project_file)
     assert rows["calibrate/cam1"].state == "stale" and "gcp" in rows["calibrate/cam1"].reasons[0]
     assert rows["calibrate/cam0"].state == "fresh" and rows["track/cam1"].state == "fresh"
+    assert rows["intrinsics/cam1"].state == "fresh"
     edited = run_graph(_graph(project_file))
     assert sorted(edited.ran) == ["calibrate/cam1", "export", "render", "sync", "vote/cam1"]
+
+
+def _changed(monkeypatch, module):
+    """Make ``module``'s source (as the cache sees it) differ from the one the manifests recorded."""
+    original = codehash.module_source
+    monkeypatch.setattr(codehash, "module_source", lambda name: original(name) + (b"\n# changed\n" if name == module else b""))
+
+
+def test_changing_the_trackers_code_makes_only_track_and_what_follows_stale(finished, monkeypatch):
+    _changed(monkeypatch, "trackers.blob")
+    rows = _states(finished)
+    stale = {tid for tid, row in rows.items() if row.state != "fresh"}
+    assert stale == {"track/cam0", "track/cam1", "track/cam2", "vote/cam0", "vote/cam1", "vote/cam2", "sync", "export", "render"}
+    assert rows["track/cam0"].reasons == ["code of trackers.blob changed"]
+    assert rows["vote/cam0"].reasons == ["waits for track/cam0 (stale)"]
+
+
+def test_changing_a_sync_module_makes_sync_and_what_follows_stale(finished, monkeypatch):
+    _changed(monkeypatch, "tlsync_pipeline.sync.refine")
+    rows = _states(finished)
+    stale = {tid for tid, row in rows.items() if row.state != "fresh"}
+    # vote prepares the trajectory through the sync-method registry, which imports every method's modules.
+    assert stale == {"vote/cam0", "vote/cam1", "vote/cam2", "sync", "export", "render"}
+    assert rows["sync"].reasons == ["code of tlsync_pipeline.sync.refine changed", "waits for vote/cam0 (stale), vote/cam1 (stale), vote/cam2 (stale)"]
+    assert rows["vote/cam0"].reasons == ["code of tlsync_pipeline.sync.refine changed"]

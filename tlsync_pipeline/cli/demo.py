@@ -16,7 +16,6 @@ import click
 
 from tlsync_pipeline.cli.pipeline import execute, finish
 from tlsync_pipeline.outputs.summary import format_table, format_truth_comparison
-from tlsync_pipeline.pipeline.layout import render_dir, report_md, timeline_json
 from tlsync_pipeline.sync.timeline import read_timeline
 
 
@@ -45,9 +44,10 @@ def demo(directory: Path, quick: bool, seed: int, tracking_noise: float, jobs: i
         click.echo(f"raw project written to {directory}/ (project: {project_file.name}, truth: truth.json): videos, checkerboard photos, GCPs, GPX log")
     graph, summary = execute(project_file, None, None, jobs=jobs, quiet=quiet)
     finish(summary)
-    timeline = read_timeline(timeline_json(graph.work))
+    timeline = read_timeline(graph.workspace.path("timeline"))
     click.echo("\n" + format_table(timeline))
     table, errors = format_truth_comparison(timeline, scene.truth_pairs(), scene.n_frames)
     click.echo("\nrecovered against true relations:\n" + table)
     click.echo(f"\nworst eps_t: {max(errors.values()):.3f} frames, in {time.perf_counter() - start:.0f} s")
-    click.echo(f"timeline: {timeline_json(graph.work)}\nreport: {report_md(graph.work)}\npictures: {render_dir(graph.work)}/")
+    ws = graph.workspace
+    click.echo(f"timeline: {ws.path('timeline')}\nreport: {ws.path('report')}\npictures: {ws.path('pictures')}/")

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import click
 
-from tlsync_pipeline.ingest.detect import FORMATS
+from tlsync_pipeline.ingest import ALTITUDE_REFERENCES, FORMATS
 from tlsync_pipeline.ingest.process import DEFAULT_MAX_SPEED_MPS, IngestParams
 from tlsync_pipeline.pipeline.stages.ingest import (
     ingest_log,
@@ -27,12 +27,14 @@ from tlsync_pipeline.pipeline.stages.ingest import (
 @click.option("--max-gap", "max_gap_s", type=click.FloatRange(min=0, min_open=True), help="Longest interval bridged by interpolation, s (default: 3x the median interval).")
 @click.option("--max-speed", "max_speed_mps", type=click.FloatRange(min=0, min_open=True), default=DEFAULT_MAX_SPEED_MPS, show_default=True, help="Fixes implying a faster speed are spikes, m/s.")
 @click.option("--smoothing", "smoothing_s", type=click.FloatRange(min=0), default=0.0, show_default=True, help="Savitzky-Golay window in seconds (0: none).")
-@click.option("--topic", help="ROS bag topic (needed when the bag has several).")
+@click.option("--topic", help="ROS bag topic (needed when the bag has several; the error lists them).")
+@click.option("--altitude-reference", type=click.Choice(ALTITUDE_REFERENCES), help="What the log's heights are above, when the log says otherwise or nothing (default: as the reader says).")
+@click.option("--altitude-offset", "altitude_offset_m", type=float, default=0.0, show_default=True, help="Metres added to every height to make it ellipsoidal (e.g. the geoid undulation for MSL heights).")
 @click.option("--out", required=True, type=click.Path(dir_okay=False, path_type=Path), help="Trajectory CSV to write (report beside it: <stem>.ingest.json).")
 @click.option("--quiet", is_flag=True, help="Print nothing but errors.")
-def ingest_log_command(log: Path, fmt: str, origin: str, rate, max_gap_s, max_speed_mps, smoothing_s, topic, out: Path, quiet: bool) -> None:
+def ingest_log_command(log: Path, fmt: str, origin: str, rate, max_gap_s, max_speed_mps, smoothing_s, topic, altitude_reference, altitude_offset_m, out: Path, quiet: bool) -> None:
     """Convert one GPS/odometry LOG into a constant-rate local trajectory CSV."""
-    params = IngestParams(parse_origin(origin), rate, max_gap_s, max_speed_mps, smoothing_s)
+    params = IngestParams(parse_origin(origin), rate, max_gap_s, max_speed_mps, smoothing_s, altitude_reference=altitude_reference, altitude_offset_m=altitude_offset_m)
     trajectory, report = ingest_log(log, fmt, params, topic)
     write_ingest(trajectory, report, out, report_sidecar(out))
     if not quiet:

@@ -15,7 +15,6 @@ from tlsync_pipeline.cli.demo import demo as demo_command
 from tlsync_pipeline.cli.pipeline import execute, finish, run_options
 from tlsync_pipeline.errors import INPUT_ERRORS, SyncError
 from tlsync_pipeline.outputs.summary import format_table, format_truth_comparison
-from tlsync_pipeline.pipeline.layout import report_md, timeline_json
 from tlsync_pipeline.sync.timeline import read_timeline, read_truth
 
 EXIT_SYNC_FAILED = 1
@@ -50,12 +49,12 @@ def run(project_file: Path, work_dir: Path | None, out_dir: Path | None, truth: 
     """Run every stage of PROJECT_FILE that is not fresh; write timeline.json, exports, pictures."""
     graph, summary = execute(project_file, work_dir, out_dir, force_stages=force_stages, cameras=camera, jobs=jobs, executor_kind=executor_kind, scheduler=scheduler, quiet=quiet)
     finish(summary)
-    timeline = read_timeline(timeline_json(graph.work))
+    timeline = read_timeline(graph.workspace.path("timeline"))
     click.echo("\n" + format_table(timeline))
     if truth is not None:
         pairs, n_frames = read_truth(truth)
         click.echo("\n" + format_truth_comparison(timeline, pairs, n_frames)[0])
-    click.echo(f"\nwrote {timeline_json(graph.work)}, {report_md(graph.work)}")
+    click.echo(f"\nwrote {graph.workspace.path('timeline')}, {graph.workspace.path('report')}")
     if timeline.failed:
         sys.exit(EXIT_SYNC_FAILED)
 

@@ -14,8 +14,9 @@ import click
 from tlsync_pipeline.errors import INPUT_ERRORS, InputError, SyncError
 from tlsync_pipeline.pipeline.engine import RunSummary, format_status, run_graph, status
 from tlsync_pipeline.pipeline.executors import EXECUTORS, make_executor
-from tlsync_pipeline.pipeline.graph import STAGES, Options, build_graph
+from tlsync_pipeline.pipeline.graph import STAGES, build_graph
 from tlsync_pipeline.pipeline.project import load_project
+from tlsync_pipeline.pipeline.spec import Options
 
 
 def work_option(f):
@@ -137,7 +138,8 @@ def stage_command(stage: str, help_text: str, render: bool = False) -> click.Com
     return click.command(stage)(command)
 
 
-calibrate_command = stage_command("calibrate", "Re-run the calibrate stage: camera.json, calibration_report.json, calibration.png per camera.")
+intrinsics_command = stage_command("intrinsics", "Re-run the intrinsics stage: checkerboard detection and intrinsics.json per camera.")
+calibrate_command = stage_command("calibrate", "Re-run the calibrate stage: the pose; camera.json, calibration_report.json, calibration.png per camera.")
 track_command = stage_command("track", "Re-run the track stage: the target's track.csv in each camera's video.")
 ingest_command = stage_command("ingest", "Re-run the ingest stage: the [target] log into target/trajectory.csv and ingest_report.json.")
 vote_command = stage_command("vote", "Re-run the vote stage: (frame, sample) pairs within eps_px, per camera.")
@@ -155,5 +157,5 @@ def run_options(f):
 def register(group: click.Group) -> None:
     """Add the pipeline's commands to the ``tlsync`` group."""
     group.add_command(status_command, "status")
-    for cmd in (calibrate_command, track_command, ingest_command, vote_command, sync_command, export_command, render_command):
+    for cmd in (intrinsics_command, calibrate_command, track_command, ingest_command, vote_command, sync_command, export_command, render_command):
         group.add_command(cmd)

@@ -17,6 +17,7 @@ import math
 from pathlib import Path
 
 from tlsync_pipeline.errors import InputError
+from tlsync_pipeline.ingest.reader import Reader, text_of
 from tlsync_pipeline.ingest.records import (
     GEODETIC,
     LOCAL,
@@ -135,3 +136,17 @@ def read_csv_log(path: str | Path, fmt: str = "csv") -> LogRecords:
         warnings.append("no altitude column: heights set to 0 m (on the ellipsoid); the Up coordinate means nothing")
     frame = GEODETIC if geodetic else LOCAL
     return make_records(path, "odometry" if fmt == "odometry" else "csv", frame, rows, numbers, utc=geodetic or iso, dropped=dropped, ignored=comments, warnings=warnings)
+
+
+def _sniff(head: bytes) -> bool:
+    """A header (after # comments) naming a time and lat/lon or x/y/z columns."""
+    text = text_of(head)
+    if text is None:
+        return False
+    header = next((line for line in text.split("\n")[:50] if line.strip() and not line.lstrip().startswith("#")), "")
+    _, columns = header_columns(header)
+    return "time" in columns and ({"lat", "lon"} <= set(columns) or {"x", "y", "z"} <= set(columns))
+
+
+READER = Reader("csv", "CSV with a header time,lat,lon,alt or t,x,y,z", read_csv_log, _sniff)
+ODOMETRY_READER = Reader("odometry", "odometry CSV time,x,y,z (by name only: --format odometry)", lambda path: read_csv_log(path, "odometry"), None)

@@ -1,20 +1,22 @@
-"""Which reader a log needs, from its first bytes (never from its name alone)."""
+"""Which reader a log needs, from its content (never from its name)."""
 
 from __future__ import annotations
 
-import re
 from pathlib import Path
 
 from tlsync_pipeline.errors import InputError
-from tlsync_pipeline.ingest.csvlog import header_columns
-
-FORMATS = ("gpx", "nmea", "csv", "odometry", "rosbag")
-_NMEA = re.compile(r"\$[A-Z0-9]{5},[^\r\n]*\*[0-9A-Fa-f]{2}")
-_BAG_MAGIC = (b"#ROSBAG V2.0", b"\x89MCAP", b"SQLite format 3\x00")
+from tlsync_pipeline.ingest.reader import HEAD_BYTES, text_of
+from tlsync_pipeline.ingest.registry import FORMATS, READERS
 
 
 def detect_format(path: str | Path) -> str:
-    """One of FORMATS for the log at path; InputError saying what was expected otherwise."""
+    """One of FORMATS for the log at path; InputError saying what was expected otherwise.
+
+    A folder is a ROS 2 bag when it holds metadata.yaml. A file is tested
+    against each reader's content test in registry order. The error never
+    echoes binary content: it shows the first bytes in hex for a binary file,
+    the first line for a text file.
+    """
     path = Path(path)
     if path.is_dir():
         if (path / "metadata.yaml").exists():
@@ -22,26 +24,21 @@ def detect_format(path: str | Path) -> str:
         raise InputError(f"{path}: a folder, and not a ROS 2 bag (no metadata.yaml)")
     try:
         with path.open("rb") as handle:
-            head = handle.read(65536)
+            head = handle.read(HEAD_BYTES)
     except FileNotFoundError:
         raise InputError(f"{path}: file not found") from None
     except OSError as exc:
         raise InputError(f"{path}: cannot read: {exc.strerror or exc}") from None
-    if head.startswith(_BAG_MAGIC):
-        return "rosbag"
-    text = head.decode("latin-1").lstrip("\ufeff\xef\xbb\xbf \t\r\n")
-    if not text.strip():
+    if not head.strip():
         raise InputError(f"{path}: empty log")
-    if text.startswith("<?xml") or "<gpx" in text[:2000]:
-        return "gpx"
-    lines = [line for line in text.split("\n")[:50] if line.strip()]
-    if any(_NMEA.search(line) for line in lines[:20]):
-        return "nmea"
-    header = next((line for line in lines if not line.lstrip().startswith("#")), "")
-    _, columns = header_columns(header)
-    if "time" in columns and ({"lat", "lon"} <= set(columns) or {"x", "y", "z"} <= set(columns)):
-        return "csv"
-    raise InputError(
-        f"{path}: cannot detect the log format (first line {lines[0][:60]!r}); expected GPX (XML), NMEA 0183 "
-        "($..GGA sentences), CSV with a header time,lat,lon,alt or t,x,y,z, or a ROS bag; give --format (or [target] format)"
-    )
+    for reader in READERS:
+        if reader.sniff is not None and reader.sniff(head):
+            return reader.name
+    text = text_of(head)
+    if text is None:
+        seen = f"a binary file starting with bytes {head[:8].hex(' ')}"
+    else:
+        first = next((line for line in text.split("\n") if line.strip()), "")
+        seen = f"first line {first.strip()[:60]!r}"
+    expected = "; ".join(r.describe for r in READERS if r.sniff is not None)
+    raise InputError(f"{path}: cannot detect the log format ({seen}); expected one of: {expected}; or give --format (or [target] format), one of {', '.join(FORMATS)}")

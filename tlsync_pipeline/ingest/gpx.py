@@ -21,6 +21,7 @@ import gpxpy
 import gpxpy.gpx
 
 from tlsync_pipeline.errors import InputError
+from tlsync_pipeline.ingest.reader import Reader, text_of, xml_root
 from tlsync_pipeline.ingest.records import (
     GEODETIC,
     LogRecords,
@@ -117,4 +118,18 @@ def _error_line(message: str, text: str) -> int | None:
         value = None
     if value and value in text:
         return text[: text.index(value)].count("\n") + 1
+    missing = re.search(r"(latitude|longitude) is mandatory", message)
+    if missing:
+        attribute = "lat" if missing.group(1) == "latitude" else "lon"
+        point = re.search(rf"<(trkpt|wpt|rtept)\b(?![^>]*\b{attribute}\s*=)[^>]*>", text)
+        if point:
+            return text[: point.start()].count("\n") + 1
     return None
+
+
+def _sniff(head: bytes) -> bool:
+    text = text_of(head)
+    return text is not None and text.startswith("<") and xml_root(text) == "gpx"
+
+
+READER = Reader("gpx", "GPX (XML root <gpx>)", read_gpx, _sniff)

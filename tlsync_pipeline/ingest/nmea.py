@@ -14,6 +14,11 @@ and is dropped. RMC's date places GGA's time of day on the calendar; a time
 of day that falls by more than 12 h is a day rollover. Without any dated RMC
 the times are seconds from 1970-01-01 plus the time of day (with a warning).
 
+Quality: GGA's fix quality (1 GPS, 2 DGPS, 4 RTK fixed, 5 RTK float, ...)
+and HDOP are kept for the report. A GST sentence with the same time of day
+gives the fix's sigma, sqrt((lat error^2 + lon error^2) / 2) (m); HDOP is
+not a sigma and is not used as one.
+
 Well-formed lines take a fast path: checksums for the whole file at once
 (XOR prefix sums in numpy), fields by ``split``, numbers converted column by
 column. pynmea2 costs ~8 us a line to parse plus as much to read its fields,
@@ -26,12 +31,14 @@ from __future__ import annotations
 
 import datetime as dt
 import math
+import re
 from pathlib import Path
 
 import numpy as np
 import pynmea2
 
 from tlsync_pipeline.errors import InputError
+from tlsync_pipeline.ingest.reader import Reader, text_of
 from tlsync_pipeline.ingest.records import (
     GEODETIC,
     LogRecords,
@@ -47,7 +54,7 @@ NO_FIX = "GGA fix quality 0 (no fix)"
 BAD_FIELDS = "malformed GGA fields"
 NO_TIME = "GGA without time"
 # Field positions (field 0 is talker + type) of what is read.
-GGA_FIELDS = {"time": 1, "lat": 2, "ns": 3, "lon": 4, "ew": 5, "quality": 6, "alt": 9, "sep": 11}
+GGA_FIELDS = {"time": 1, "lat": 2, "ns": 3, "lon": 4, "ew": 5, "quality": 6, "hdop": 8, "alt": 9, "sep": 11}
 RMC_FIELDS = {"time": 1, "status": 2, "date": 9}
 _HEX = np.full(256, -1, dtype=np.int16)
 _HEX[np.frombuffer(b"0123456789ABCDEF", dtype=np.uint8)] = np.arange(16)
@@ -140,6 +147,7 @@ def read_nmea(path: str | Path) -> LogRecords:
     # Columns of strings (not lists per line: those would keep the garbage collector busy).
     gga = {name: [] for name in ("line", *GGA_FIELDS)}
     rmc = {name: [] for name in ("line", *RMC_FIELDS)}
+    gst: dict[str, tuple[str, str]] = {}  # time of day -> (lat error, lon error) text
     n_lines = len(starts)
     for i, good, a, b in zip(range(n_lines), ok.tolist(), dollar.tolist(), star.tolist()):
         fields = text[a + 1 : b].split(",") if good else None
@@ -161,6 +169,8 @@ def read_nmea(path: str | Path) -> LogRecords:
             gga["line"].append(i + 1)
             for name, j in GGA_FIELDS.items():
                 gga[name].append(fields[j])
+        elif kind == "GST" and len(fields) >= 8:
+            gst[fields[1]] = (fields[6], fields[7])
         elif kind == "RMC" and len(fields) >= 10:
             rmc["line"].append(i + 1)
             for name, j in RMC_FIELDS.items():
@@ -176,7 +186,20 @@ def read_nmea(path: str | Path) -> LogRecords:
     for lines in dropped.values():
         lines.sort()
     dated = len(rmc_lines) > 0  # without a dated RMC the times are not true UTC
-    return make_records(path, "nmea", GEODETIC, rows, numbers, utc=dated, dropped=dropped, ignored=ignored, warnings=warnings)
+    quality, sigma = _quality(gga, gst, numbers)
+    return make_records(path, "nmea", GEODETIC, rows, numbers, utc=dated, dropped=dropped, ignored=ignored, warnings=warnings, sigma=sigma, quality=quality)
+
+
+def _quality(gga: dict[str, list], gst: dict[str, tuple[str, str]], numbers) -> tuple[dict[str, np.ndarray], np.ndarray | None]:
+    """({"quality", "hdop"} per fix, GST sigma per fix or None) for the fixes at GGA lines ``numbers``."""
+    index = {line: i for i, line in enumerate(gga["line"])}
+    rows = [index[int(n)] for n in numbers]
+    quality = {"quality": _floats([gga["quality"][i] for i in rows]), "hdop": _floats([gga["hdop"][i] or "nan" for i in rows])}
+    if not gst:
+        return quality, None
+    errors = [gst.get(gga["time"][i], ("", "")) for i in rows]
+    lat, lon = _floats([e[0] or "nan" for e in errors]), _floats([e[1] or "nan" for e in errors])
+    return quality, np.sqrt((lat**2 + lon**2) / 2)
 
 
 def _gga_fixes(path: Path, gga: dict[str, list], dropped: dict[str, list[int]]) -> tuple[np.ndarray, int]:
@@ -265,3 +288,15 @@ def _place_on_calendar(fixes: np.ndarray, rmc_lines, rmc_tod, rmc_days, rmc_acti
     t = (base + days) * 86400.0 + tod
     gga_rows = np.column_stack([t[is_gga], np.r_[fixes[:, 2:5], np.zeros((len(rmc_lines), 3))][order][is_gga]])
     return gga_rows, lines[order][is_gga].astype(np.int64), warnings
+
+
+_SENTENCE = re.compile(r"\$[A-Z0-9]{5},[^\r\n]*\*[0-9A-Fa-f]{2}")
+
+
+def _sniff(head: bytes) -> bool:
+    """A checksummed sentence in the first 20 lines of a text file."""
+    text = text_of(head)
+    return text is not None and any(_SENTENCE.search(line) for line in text.split("\n")[:20])
+
+
+READER = Reader("nmea", "NMEA 0183 ($..GGA sentences)", read_nmea, _sniff)

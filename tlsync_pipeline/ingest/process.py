@@ -8,7 +8,16 @@ last kept fix) are rejected; gaps (intervals over 3x the median) are found;
 the fixes are resampled onto t = t0 + k / rate by linear interpolation that
 does not bridge intervals longer than max_gap_s (grid samples there are left
 out, keeping their indices k); an optional Savitzky-Golay smoothing runs
-over each unbroken run of grid samples.
+over each unbroken run of grid samples. Per-fix sigmas (where the log states
+them) are interpolated onto the same grid as the trajectory's weights.
+
+Heights: the reader says what the log's heights are measured from
+(ellipsoid, MSL, take-off point); the project may declare it instead
+(``altitude_reference``) and give ``altitude_offset_m``, added to every
+height to bring it onto the ellipsoidal heights the GCPs and the origin use.
+A log whose heights are not ellipsoidal, with no offset given, is read as
+it is and the report warns: its Up coordinate is off by a constant (the
+geoid undulation, tens of metres, or the take-off point's height).
 """
 
 from __future__ import annotations
@@ -22,7 +31,7 @@ from scipy.signal import savgol_filter
 
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.geodesy import Origin, geodetic_to_enu
-from tlsync_pipeline.ingest.records import GEODETIC, LogRecords
+from tlsync_pipeline.ingest.records import ALTITUDE_NAMES, ALTITUDE_REFERENCES, ELLIPSOID, GEODETIC, LogRecords
 from tlsync_pipeline.trajectory import Trajectory, grid_rate
 
 GAP_FACTOR = 3.0  # an interval over GAP_FACTOR x the median interval is a gap
@@ -64,7 +73,9 @@ class RigidTransform:
 class IngestParams:
     """origin: an Origin or "first" (the first kept fix); rate (Hz) None = the median rate;
     max_gap_s None = 3x the median interval; max_speed_mps None = no spike rejection;
-    smoothing_s 0 = none, else the Savitzky-Golay window (s); transform for local logs."""
+    smoothing_s 0 = none, else the Savitzky-Golay window (s); transform for local logs;
+    altitude_reference: what the log's heights are above (one of ALTITUDE_REFERENCES), None =
+    as the reader says; altitude_offset_m: added to every height (m) to make it ellipsoidal."""
 
     origin: Origin | str = "first"
     rate: float | None = None
@@ -72,6 +83,8 @@ class IngestParams:
     max_speed_mps: float | None = DEFAULT_MAX_SPEED_MPS
     smoothing_s: float = 0.0
     transform: RigidTransform | None = None
+    altitude_reference: str | None = None
+    altitude_offset_m: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -109,6 +122,10 @@ class IngestReport:
     origin: dict | None  # {"lat", "lon", "alt", "rule"} for geodetic logs
     params: dict
     warnings: list[str] = field(default_factory=list)
+    clock: str = "UTC"  # what t0 counts: UTC, or a relative clock (offsets work, UTC does not)
+    altitude: dict = field(default_factory=dict)  # {"reference", "source" (log/declared), "offset_m"}
+    quality: dict = field(default_factory=dict)  # column -> {"min", "median", "max"} over the fixes used
+    sigma_m: dict | None = None  # {"median", "p95", "max"} of the per-fix sigmas used as weights
 
     def to_dict(self) -> dict:
         out = asdict(self)
@@ -121,12 +138,18 @@ class IngestReport:
             f"log: {self.source} ({self.format})",
             f"fixes: {self.fixes_read} read, {self.fixes_used} used",
             f"trajectory: {self.samples} samples at {self.rate:g} Hz over {self.duration_s:.1f} s"
-            + (f" from {self.t0_utc}" if self.t0_utc else f" from t0 = {self.t0:.3f} s"),
+            + (f" from {self.t0_utc}" if self.t0_utc else f" from t0 = {self.t0:.3f} s ({self.clock}: offsets work, UTC does not)"),
             "extent: " + " x ".join(f"{v:.1f} m" for v in self.extent_m) + (" (E x N x U)" if self.frame == "ENU" else " (x y z)"),
         ]
         if self.origin is not None:
             o = self.origin
             lines.append(f"origin: lat {o['lat']:.8f}, lon {o['lon']:.8f}, alt {o['alt']:.3f} m ({o['rule']})")
+        if self.altitude:
+            a = self.altitude
+            offset = f", offset {a['offset_m']:+.3f} m" if a["offset_m"] else ""
+            lines.append(f"heights: above {ALTITUDE_NAMES[a['reference']]} (as the {a['source']} says{offset})")
+        if self.sigma_m:
+            lines.append(f"sigma: median {self.sigma_m['median']:.3f} m, 95% {self.sigma_m['p95']:.3f} m (weights for the refinement)")
         if self.gaps:
             left = f", {self.grid_left_out} grid sample(s) left out" if self.grid_left_out else ""
             lines.append(f"gaps: {len(self.gaps)} over {GAP_FACTOR:g}x the median interval{left}")
@@ -150,7 +173,8 @@ def ingest(records: LogRecords, params: IngestParams = IngestParams()) -> tuple[
     """The constant-rate local trajectory of a log and the report; InputError when unusable."""
     if len(records) == 0:
         raise InputError(_no_fix_message(records))
-    t, values, numbers, dropped = order_and_dedupe(records)
+    t, values, numbers, dropped, index = order_and_dedupe(records)
+    sigma = None if records.sigma is None else records.sigma[index]
     if len(t) < 2:
         raise InputError(f"{records.where(0)}: only one valid fix in the log; at least 2 are needed")
     if t[-1] - t[0] > MAX_SPAN_S:
@@ -159,6 +183,9 @@ def ingest(records: LogRecords, params: IngestParams = IngestParams()) -> tuple[
             f"{_where(records, numbers[-1])}): a time is wrong"
         )
     warnings = list(records.warnings)
+    altitude = _altitude(records, params, warnings)
+    if altitude["offset_m"]:
+        values = values + np.array([0.0, 0.0, altitude["offset_m"]])
     xyz, origin, rule = _to_local(records, values, params, warnings)
     keep = np.ones(len(t), dtype=bool)
     if params.max_speed_mps is not None:
@@ -167,7 +194,8 @@ def ingest(records: LogRecords, params: IngestParams = IngestParams()) -> tuple[
             dropped[f"spike (implied speed over {params.max_speed_mps:g} m/s)"] = numbers[~keep].tolist()
         if keep.sum() < 2:
             raise InputError(f"{records.path}: fewer than 2 fixes left after rejecting spikes over {params.max_speed_mps:g} m/s")
-        t, values, xyz, numbers = t[keep], values[keep], xyz[keep], numbers[keep]
+        t, values, xyz, numbers, index = t[keep], values[keep], xyz[keep], numbers[keep], index[keep]
+        sigma = None if sigma is None else sigma[keep]
     origin_info = None
     if origin is not None:
         if rule == "first fix" and not keep[0]:  # the first fix was a spike: the first kept one
@@ -182,23 +210,24 @@ def ingest(records: LogRecords, params: IngestParams = IngestParams()) -> tuple[
         for i in find_gaps(t)
     ]
     try:
-        index, grid_xyz, left_out = resample(t, xyz, rate, max_gap)
+        grid_index, grid_xyz, left_out = resample(t, xyz, rate, max_gap)
     except ValueError as exc:
         raise InputError(f"{records.path}: {exc}") from None
     if params.smoothing_s > 0:
-        grid_xyz = smooth(index, grid_xyz, params.smoothing_s * rate)
-    trajectory = Trajectory(index.astype(np.float64), grid_xyz, float(rate), float(t[0]))
+        grid_xyz = smooth(grid_index, grid_xyz, params.smoothing_s * rate)
+    grid_sigma = grid_sigmas(t, sigma, grid_index, rate)
+    trajectory = Trajectory(grid_index.astype(np.float64), grid_xyz, float(rate), float(t[0]), grid_sigma)
     report = IngestReport(
         source=str(records.path),
         format=records.format,
         frame="ENU" if records.frame == GEODETIC else "local",
         fixes_read=len(records),
         fixes_used=len(t),
-        samples=len(index),
+        samples=len(grid_index),
         rate=float(rate),
         t0=float(t[0]),
         t0_utc=_utc(t[0]) if records.utc else None,
-        duration_s=float(index[-1] / rate),
+        duration_s=float(grid_index[-1] / rate),
         extent_m=(grid_xyz.max(axis=0) - grid_xyz.min(axis=0)).round(3).tolist(),
         max_gap_s=float(max_gap),
         gaps=gaps,
@@ -214,10 +243,57 @@ def ingest(records: LogRecords, params: IngestParams = IngestParams()) -> tuple[
             "max_speed_mps": params.max_speed_mps,
             "smoothing_s": params.smoothing_s,
             "transform": None if params.transform is None else {"R": params.transform.R.tolist(), "t": params.transform.t.tolist()},
+            "altitude_reference": params.altitude_reference,
+            "altitude_offset_m": params.altitude_offset_m,
         },
         warnings=warnings,
+        clock=records.clock,
+        altitude=altitude if records.frame == GEODETIC else {},
+        quality={name: _stats(column[index]) for name, column in records.quality.items() if np.isfinite(column[index]).any()},
+        sigma_m=None if grid_sigma is None else _sigma_summary(sigma),
     )
     return trajectory, report
+
+
+def _altitude(records: LogRecords, params: IngestParams, warnings: list[str]) -> dict:
+    """The heights' reference (declared or the log's) and offset; warns when they are not ellipsoidal."""
+    declared = params.altitude_reference
+    if declared is not None and declared not in ALTITUDE_REFERENCES:
+        raise InputError(f"altitude reference {declared!r}: expected one of {', '.join(ALTITUDE_REFERENCES)}")
+    reference = declared or records.altitude
+    offset = float(params.altitude_offset_m)
+    if records.frame == GEODETIC and reference != ELLIPSOID and offset == 0.0:
+        what = "the geoid undulation (tens of metres)" if reference == "msl" else "the take-off point's ellipsoidal height"
+        warnings.append(
+            f"heights are above {ALTITUDE_NAMES[reference]}, the GCPs and the origin above the WGS84 ellipsoid: Up is off by {what}; "
+            "give [target] altitude_offset_m (or declare altitude_reference if the log is wrong about it)"
+        )
+    return {"reference": reference, "source": "project" if declared else "log", "offset_m": offset}
+
+
+def _stats(values: np.ndarray) -> dict:
+    v = np.asarray(values, dtype=float)
+    v = v[np.isfinite(v)]
+    if not len(v):
+        return {"min": None, "median": None, "max": None}
+    return {"min": float(v.min()), "median": float(np.median(v)), "max": float(v.max())}
+
+
+def _sigma_summary(sigma: np.ndarray) -> dict:
+    v = sigma[np.isfinite(sigma)]
+    return {"median": float(np.median(v)), "p95": float(np.percentile(v, 95)), "max": float(v.max())}
+
+
+def grid_sigmas(t: np.ndarray, sigma: np.ndarray | None, grid_index: np.ndarray, rate: float) -> np.ndarray | None:
+    """Per-sample sigma (m) on the grid: linear interpolation of the fixes' sigmas, unknown ones (NaN) filled
+    with the median of the known; None when no fix states one."""
+    if sigma is None:
+        return None
+    known = np.isfinite(sigma) & (sigma > 0)
+    if not known.any():
+        return None
+    filled = np.where(known, sigma, np.median(sigma[known]))
+    return np.interp(grid_index / rate, t - t[0], filled)
 
 
 def _to_local(records: LogRecords, values: np.ndarray, params: IngestParams, warnings: list[str]) -> tuple[np.ndarray, Origin | None, str | None]:
@@ -238,8 +314,8 @@ def _to_local(records: LogRecords, values: np.ndarray, params: IngestParams, war
     return geodetic_to_enu(values[:, 0], values[:, 1], values[:, 2], origin), origin, rule
 
 
-def order_and_dedupe(records: LogRecords) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, list[int]]]:
-    """(t, values, provenance, drops): times checked non-decreasing, repeated times dropped.
+def order_and_dedupe(records: LogRecords) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, list[int]], np.ndarray]:
+    """(t, values, provenance, drops, record indices kept): times checked non-decreasing, repeated times dropped.
 
     A time that goes backwards is an InputError naming both lines. Of fixes
     sharing a time the first is kept: an exact copy is a duplicate, a
@@ -258,6 +334,7 @@ def order_and_dedupe(records: LogRecords) -> tuple[np.ndarray, np.ndarray, np.nd
         )
     same = np.flatnonzero(step == 0) + 1
     dropped: dict[str, list[int]] = {}
+    index = np.arange(len(t))
     if len(same):
         # Compare each repeat with the first fix of its run of equal times.
         first = np.maximum.accumulate(np.where(np.r_[True, step != 0], np.arange(len(t)), 0))
@@ -268,8 +345,8 @@ def order_and_dedupe(records: LogRecords) -> tuple[np.ndarray, np.ndarray, np.nd
             dropped[REPEATED_TIME] = numbers[same[~exact]].tolist()
         keep = np.ones(len(t), dtype=bool)
         keep[same] = False
-        t, values, numbers = t[keep], values[keep], numbers[keep]
-    return t, values, numbers, dropped
+        t, values, numbers, index = t[keep], values[keep], numbers[keep], index[keep]
+    return t, values, numbers, dropped, index
 
 
 def reject_spikes(t: np.ndarray, xyz: np.ndarray, max_speed: float) -> np.ndarray:

@@ -9,8 +9,15 @@ import numpy as np
 
 from tlsync_pipeline.errors import InputError
 
-GEODETIC = "geodetic"  # values are latitude, longitude (degrees), height above the WGS84 ellipsoid (m)
+GEODETIC = "geodetic"  # values are latitude, longitude (degrees), height (m, see ALTITUDE_REFERENCES)
 LOCAL = "local"  # values are x, y, z metres in the log's own frame
+
+# What a geodetic log's heights are measured from.
+ELLIPSOID = "ellipsoid"  # the WGS84 ellipsoid (GNSS receivers' native height; the GCPs' reference)
+MSL = "msl"  # mean sea level (the geoid): ellipsoid height minus the geoid undulation, tens of metres
+TAKEOFF = "takeoff"  # the take-off point (barometric height of a drone): a relative height
+ALTITUDE_REFERENCES = (ELLIPSOID, MSL, TAKEOFF)
+ALTITUDE_NAMES = {ELLIPSOID: "the WGS84 ellipsoid", MSL: "mean sea level (MSL)", TAKEOFF: "the take-off point"}
 
 
 @dataclass(frozen=True)
@@ -23,7 +30,14 @@ class LogRecords:
     each record, counted in ``unit`` ("line", "track point", "message");
     dropped: reason -> provenance numbers of the lines left out; ignored: lines
     that carry no position (other sentences, comments, waypoints); warnings:
-    things the user should know about the whole log.
+    things the user should know about the whole log; altitude: what the heights
+    are measured from (one of ALTITUDE_REFERENCES; local logs: ELLIPSOID, unused);
+    sigma: float64 (N,) horizontal 1-sigma position uncertainty (m) of each
+    record as the receiver states it, NaN where unknown, None when the log
+    states none; quality: per-record quality columns kept for the report
+    (name -> float64 (N,), e.g. RTKLIB "Q", "sdn", ULog "eph"); clock: for
+    ``utc`` False, what the times count (e.g. "boot clock"): offsets work,
+    UTC does not.
     """
 
     path: Path
@@ -37,6 +51,10 @@ class LogRecords:
     dropped: dict[str, list[int]] = field(default_factory=dict)
     ignored: int = 0
     warnings: tuple[str, ...] = ()
+    altitude: str = ELLIPSOID
+    sigma: np.ndarray | None = None
+    quality: dict[str, np.ndarray] = field(default_factory=dict)
+    clock: str = "UTC"
 
     def __len__(self) -> int:
         return len(self.t)
@@ -51,13 +69,25 @@ def where(path: Path, number: int, unit: str = "line") -> str:
     return f"{path}:{number}" if unit == "line" else f"{path}: {unit} {number}"
 
 
-def make_records(path, fmt, frame, rows, lines, unit="line", utc=True, dropped=None, ignored=0, warnings=()) -> LogRecords:
-    """LogRecords from a list of (t, a, b, c) rows and their provenance numbers."""
+def make_records(
+    path, fmt, frame, rows, lines, unit="line", utc=True, dropped=None, ignored=0, warnings=(),
+    altitude=ELLIPSOID, sigma=None, quality=None, clock=None,
+) -> LogRecords:
+    """LogRecords from a list of (t, a, b, c) rows and their provenance numbers (sigma, quality: one value per row)."""
     data = np.asarray(rows, dtype=np.float64).reshape(-1, 4)
+    n = len(data)
+    sigma = None if sigma is None else np.asarray(sigma, dtype=np.float64).reshape(n)
+    quality = {name: np.asarray(v, dtype=np.float64).reshape(n) for name, v in (quality or {}).items()}
     return LogRecords(
         Path(path), fmt, frame, data[:, 0].copy(), data[:, 1:].copy(), np.asarray(lines, dtype=np.int64).reshape(-1),
-        unit, utc, dict(dropped or {}), ignored, tuple(warnings),
+        unit, utc, dict(dropped or {}), ignored, tuple(warnings), altitude, sigma, quality, "UTC" if utc else clock or "the log's own clock",
     )
+
+
+def sort_by_time(rows: list, numbers: list, *columns: list) -> tuple[list, ...]:
+    """rows, numbers and any parallel columns reordered by the rows' times (stable)."""
+    order = sorted(range(len(rows)), key=lambda i: rows[i][0])
+    return tuple([seq[i] for i in order] for seq in (rows, numbers, *columns))
 
 
 def check_geodetic(path: Path, lat: float, lon: float, alt: float, number: int, unit: str = "line") -> None:

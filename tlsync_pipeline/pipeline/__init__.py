@@ -1,2 +1,2 @@
-"""The engine: project file, work folder layout, stage graph, cache, executors, lock, and one
-module per stage under ``stages``."""
+"""The engine: project file, Workspace (the work folder), stage specs (one module per stage under
+``stages``), graph, engine, cache, executors, lock."""

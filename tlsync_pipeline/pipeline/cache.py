@@ -1,8 +1,10 @@
 """Cache keys and manifests: when is a stage's artefact fresh?
 
 A stage run is described by its inputs (files, hashed by content), its
-parameters (JSON values from the project file) and its version. Their hash is
-the stage's cache key. After the stage has written its artefacts, a manifest
+parameters (JSON values from the project file) and its code (the source of
+the modules it runs, see codehash.py). Their hash is the stage's cache key;
+paths in it are relative (see Workspace.portable), so a moved project keeps
+its keys. After the stage has written its artefacts, a manifest
 (JSON, written atomically and last) records the key, what went into it and the
 hash of every artefact. An artefact is fresh when its manifest exists, the key
 it records equals the key of the current inputs, and every artefact still has
@@ -78,9 +80,9 @@ class HashMemo:
             self.dirty = False
 
 
-def cache_key(stage: str, version: int, input_hashes: dict[str, str | None], params: dict[str, Any]) -> str:
-    """SHA-256 over the stage name and version, its inputs' hashes and its parameters."""
-    blob = json.dumps({"stage": stage, "version": version, "inputs": input_hashes, "params": params}, sort_keys=True, default=str)
+def cache_key(stage: str, code: dict[str, str], input_hashes: dict[str, str | None], params: dict[str, Any]) -> str:
+    """SHA-256 over the stage name, its code (module -> source hash), its inputs' hashes and its parameters."""
+    blob = json.dumps({"stage": stage, "code": code, "inputs": input_hashes, "params": params}, sort_keys=True, default=str)
     return hashlib.sha256(blob.encode("utf-8")).hexdigest()
 
 
@@ -90,9 +92,9 @@ class Manifest:
 
     stage: str
     camera: str | None
-    version: int
+    code: dict[str, str]  # module -> SHA-256 of its source
     key: str
-    inputs: dict[str, dict]  # label -> {"path": str, "sha256": str}
+    inputs: dict[str, dict]  # label -> {"path": str (relative, see Workspace.portable), "sha256": str}
     params: dict[str, Any]
     outputs: dict[str, str]  # path relative to the work folder -> sha256
     seconds: float = 0.0
@@ -121,17 +123,20 @@ def read_manifest(path: Path) -> Manifest | None:
         return None
 
 
-def staleness(manifest: Manifest | None, key: str, version: int, inputs: dict[str, dict], params: dict, memo: HashMemo, work: Path) -> list[str]:
+def staleness(manifest: Manifest | None, key: str, code: dict[str, str], inputs: dict[str, dict], params: dict, memo: HashMemo, work: Path) -> list[str]:
     """Why an artefact is not fresh (empty list: fresh).
 
-    Names the input files and parameters that changed since the manifest was
-    written, a new stage version, and artefacts that are gone or were changed.
+    Names the modules whose code changed, the input files and parameters that
+    changed since the manifest was written, and artefacts that are gone or
+    were changed.
     """
     if manifest is None:
         return ["never made (no manifest)"]
     reasons = []
-    if manifest.version != version:
-        reasons.append(f"stage version {manifest.version} -> {version}")
+    for module in sorted(set(code) | set(manifest.code)):
+        old, new = manifest.code.get(module), code.get(module)
+        if old != new:
+            reasons.append(f"code of {module} " + ("is new" if old is None else "is no longer used" if new is None else "changed"))
     for label in sorted(set(inputs) | set(manifest.inputs)):
         old, new = manifest.inputs.get(label), inputs.get(label)
         if old is None:

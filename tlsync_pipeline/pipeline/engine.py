@@ -1,7 +1,7 @@
 """Running the stage graph: what is fresh, what runs, in which order, where.
 
-A task runs when one of its inputs, parameters or its stage version changed
-since its manifest was written, when an artefact of it is missing or was
+A task runs when one of its inputs, parameters or the code of its stage
+changed since its manifest was written, when an artefact of it is missing or was
 modified, or when it is forced. Its freshness is decided only once the tasks
 that make its inputs are done, so a re-run stage whose artefacts come out
 identical does not re-run what follows it. Per-camera tasks go to the
@@ -18,7 +18,6 @@ from pathlib import Path
 
 from tlsync_pipeline.atomic import PART_SUFFIX
 from tlsync_pipeline.errors import InputError
-from tlsync_pipeline.pipeline import layout
 from tlsync_pipeline.pipeline.cache import (
     HashMemo,
     Manifest,
@@ -27,10 +26,11 @@ from tlsync_pipeline.pipeline.cache import (
     staleness,
     write_manifest,
 )
+from tlsync_pipeline.pipeline.codehash import code_digests
 from tlsync_pipeline.pipeline.executors import SerialExecutor
-from tlsync_pipeline.pipeline.graph import Graph, Task, check_given
+from tlsync_pipeline.pipeline.graph import PER_CAMERA, STAGES, Graph, Task, check_given
 from tlsync_pipeline.pipeline.lock import WorkLock
-from tlsync_pipeline.pipeline.stages import PER_CAMERA
+from tlsync_pipeline.pipeline.workspace import FOLDERS, StageFiles
 
 
 @dataclass
@@ -56,22 +56,34 @@ class RunSummary:
     summaries: dict[str, dict] = field(default_factory=dict)
 
 
-def _input_record(task: Task, memo: HashMemo) -> dict[str, dict]:
-    return {label: {"path": str(path), "sha256": memo.sha256(path)} for label, path in sorted(task.inputs.items())}
+@dataclass
+class _Key:
+    """What a task's cache key is made of, as it is now: code, inputs (portable path and hash), parameters."""
+
+    code: dict[str, str]
+    inputs: dict[str, dict]
+    params: dict
+    key: str
 
 
-def _key(task: Task, inputs: dict[str, dict]) -> str:
-    return cache_key(task.stage, task.version, {k: v["sha256"] for k, v in inputs.items()}, task.params)
+def _current(graph: Graph, task: Task, memo: HashMemo, code: dict[str, dict]) -> _Key:
+    """The task's key from its declaration; ``code`` caches module digests per stage module for one pass."""
+    ws = graph.workspace
+    module = task.spec.run.__module__
+    if module not in code:
+        code[module] = code_digests(module)
+    inputs = {label: {"path": ws.portable(source), "sha256": memo.sha256(ws.resolve(source))} for label, source in sorted(task.inputs.items())}
+    params = ws.portable(task.params)
+    key = cache_key(task.stage, code[module], {k: v["sha256"] for k, v in inputs.items()}, params)
+    return _Key(code[module], inputs, params, key)
 
 
 def manifest_path(graph: Graph, task: Task) -> Path:
-    return layout.manifest_json(graph.work, task.stage, task.camera)
+    return graph.workspace.manifest(task.stage, task.camera)
 
 
-def task_reasons(graph: Graph, task: Task, memo: HashMemo) -> list[str]:
-    """Why ``task`` must run (empty: its artefacts are fresh), judged on its inputs as they are now."""
-    inputs = _input_record(task, memo)
-    return staleness(read_manifest(manifest_path(graph, task)), _key(task, inputs), task.version, inputs, task.params, memo, graph.work)
+def _reasons(graph: Graph, task: Task, now: _Key, memo: HashMemo) -> list[str]:
+    return staleness(read_manifest(manifest_path(graph, task)), now.key, now.code, now.inputs, now.params, memo, graph.work)
 
 
 def status(graph: Graph) -> list[TaskState]:
@@ -80,12 +92,13 @@ def status(graph: Graph) -> list[TaskState]:
     A task whose input-making task is not fresh is stale ("waits for ...")
     even if its own manifest still matches: it will run after that one.
     """
-    memo = HashMemo(layout.hash_memo(graph.work))
+    memo = HashMemo(graph.workspace.hash_memo)
+    code: dict[str, dict] = {}
     rows: dict[str, TaskState] = {}
     for item in graph.given.values():
         rows[item.id] = TaskState(item.id, item.stage, item.camera, "given", [str(item.path)])
     for tid, task in graph.tasks.items():
-        reasons = task_reasons(graph, task, memo)
+        reasons = _reasons(graph, task, _current(graph, task, memo, code), memo)
         waiting = [d for d in task.deps if d in rows and rows[d].state in ("stale", "missing")]
         if task.problem:
             state, reasons = "blocked", [task.problem]
@@ -99,7 +112,7 @@ def status(graph: Graph) -> list[TaskState]:
             reasons.append("waits for " + ", ".join(f"{d} ({rows[d].state})" for d in waiting))
         rows[tid] = TaskState(tid, task.stage, task.camera, state, reasons)
     memo.save()
-    order = {s: i for i, s in enumerate(("calibrate", "track", "ingest", "vote", "sync", "export", "render"))}
+    order = {s: i for i, s in enumerate(STAGES)}
     cameras = [c["name"] for c in graph.project.cameras]
     return sorted(rows.values(), key=lambda r: (order[r.stage], cameras.index(r.camera) if r.camera else -1))
 
@@ -138,7 +151,7 @@ def run_graph(
     check_given(graph, wanted)
     with WorkLock(graph.work):
         _remove_leftovers(graph.work)
-        memo = HashMemo(layout.hash_memo(graph.work))
+        memo = HashMemo(graph.workspace.hash_memo)
         try:
             _schedule(graph, executor, wanted, force, memo, summary, echo or (lambda message: None))
         except BaseException:
@@ -169,6 +182,7 @@ def _closure(graph: Graph, targets: list[str]) -> list[str]:
 
 
 def _schedule(graph: Graph, executor, wanted: list[str], force: set[str], memo: HashMemo, summary: RunSummary, echo) -> None:
+    code: dict[str, dict] = {}
     pending = list(wanted)
     done: set[str] = set()
     running: dict = {}
@@ -189,9 +203,8 @@ def _schedule(graph: Graph, executor, wanted: list[str], force: set[str], memo: 
                     continue
                 pending.remove(tid)
                 progressed = True
-                inputs = _input_record(task, memo)
-                key = _key(task, inputs)
-                reasons = staleness(read_manifest(manifest_path(graph, task)), key, task.version, inputs, task.params, memo, graph.work)
+                now = _current(graph, task, memo, code)
+                reasons = _reasons(graph, task, now, memo)
                 if not reasons and tid not in force:
                     summary.fresh.append(tid)
                     done.add(tid)
@@ -200,8 +213,12 @@ def _schedule(graph: Graph, executor, wanted: list[str], force: set[str], memo: 
                 echo(f"{tid}: running ({why})")
                 local = task.stage not in PER_CAMERA
                 start = time.perf_counter()
-                future = (SerialExecutor() if local else executor).submit(task.fn, task.kwargs)
-                running[future] = (task, key, inputs, start)
+                where = SerialExecutor(executor.cores) if local else executor  # local tasks share the machine with the pool
+                files = graph.workspace.files(
+                    tid, task.camera, task.inputs, task.outputs, progress=graph.options.progress, cores=where.cores, history=_history(graph) if task.spec.history else []
+                )
+                future = where.submit(run_task, {"run": task.spec.run, "files": files, "params": task.params})
+                running[future] = (task, now, start)
                 if local:
                     break  # finish it before scheduling more, its dependents may now be ready
         if not running:
@@ -210,7 +227,7 @@ def _schedule(graph: Graph, executor, wanted: list[str], force: set[str], memo: 
                     summary.skipped[tid] = "its inputs were not made"
             break
         for future in executor_wait(executor, list(running)):
-            task, key, inputs, start = running.pop(future)
+            task, now, start = running.pop(future)
             seconds = time.perf_counter() - start
             try:
                 result = future.result() or {}
@@ -218,7 +235,7 @@ def _schedule(graph: Graph, executor, wanted: list[str], force: set[str], memo: 
                 summary.failed[task.id] = exc
                 echo(f"{task.id}: FAILED: {exc}")
                 continue
-            _write_manifest(graph, task, key, inputs, result, seconds, memo)
+            _write_manifest(graph, task, now, result, seconds, memo)
             summary.ran.append(task.id)
             summary.seconds[task.id] = seconds
             summary.summaries[task.id] = result
@@ -232,12 +249,29 @@ def executor_wait(executor, futures: list) -> list:
     return finished or executor.wait_any(futures)
 
 
-def _write_manifest(graph: Graph, task: Task, key: str, inputs: dict, result: dict, seconds: float, memo: HashMemo) -> None:
-    outputs = list(task.outputs) + [Path(p) for p in result.pop("outputs", [])]
+def run_task(run, files: StageFiles, params: dict) -> dict:
+    """Call a stage's function with its files and parameters (in whichever process the executor chose)."""
+    with files.running():
+        return run(files, **params)
+
+
+def _history(graph: Graph) -> list[dict]:
+    """When and how long each task of the graph last ran, from the manifests (for the report)."""
+    rows = []
+    for task in graph.tasks.values():
+        manifest = read_manifest(manifest_path(graph, task))
+        if manifest is not None:
+            rows.append({"stage": manifest.stage, "camera": manifest.camera, "created": manifest.created, "seconds": manifest.seconds})
+    return rows
+
+
+def _write_manifest(graph: Graph, task: Task, now: _Key, result: dict, seconds: float, memo: HashMemo) -> None:
+    ws = graph.workspace
+    outputs = [ws.resolve(a) for a in task.outputs if a.kind not in FOLDERS] + [Path(p) for p in result.pop("outputs", [])]
     hashes = {}
     for path in outputs:
         digest = memo.sha256(path)
         if digest is not None:
-            hashes[str(Path(path).relative_to(graph.work))] = digest
-    manifest = Manifest(task.stage, task.camera, task.version, key, inputs, task.params, hashes, round(seconds, 3), summary=result)
+            hashes[Path(path).relative_to(graph.work).as_posix()] = digest
+    manifest = Manifest(task.stage, task.camera, now.code, now.key, now.inputs, now.params, hashes, round(seconds, 3), summary=result)
     write_manifest(manifest, manifest_path(graph, task))

@@ -3,6 +3,10 @@
 All three offer ``submit(fn, kwargs) -> future`` and ``wait_any(futures)``;
 futures have ``result()``. Worker processes use one thread each for OpenCV
 and the BLAS/OpenMP libraries, so N workers do not oversubscribe N cores.
+``cores`` is how many processes a task may start itself (the checkerboard
+detection of the intrinsics stage): 1 in a pool's or a cluster's worker, so
+pools are never nested; the executor's share of the machine when it runs
+tasks one at a time in this process.
 """
 
 from __future__ import annotations
@@ -29,6 +33,9 @@ class SerialExecutor:
 
     name = "serial"
 
+    def __init__(self, cores: int | None = None):
+        self.cores = cores or os.cpu_count() or 1
+
     def submit(self, fn: Callable, kwargs: dict) -> cf.Future:
         future: cf.Future = cf.Future()
         try:
@@ -50,6 +57,7 @@ class ProcessExecutor:
     """A pool of ``jobs`` worker processes (spawned, so they start with one thread per library)."""
 
     name = "process"
+    cores = 1
 
     def __init__(self, jobs: int | None = None):
         self.jobs = jobs or os.cpu_count() or 1
@@ -95,6 +103,7 @@ class DaskExecutor:
     """
 
     name = "dask"
+    cores = 1
 
     def __init__(self, scheduler: str | Any):
         try:
@@ -125,7 +134,7 @@ def make_executor(kind: str = "process", jobs: int | None = None, scheduler: Any
     from tlsync_pipeline.errors import InputError
 
     if kind == "serial" or (kind == "process" and jobs == 1):
-        return SerialExecutor()
+        return SerialExecutor(jobs)
     if kind == "process":
         return ProcessExecutor(jobs)
     if kind == "dask":

@@ -28,6 +28,7 @@ from calibration.intrinsics import MODELS as CALIBRATION_MODELS
 from calibration.intrinsics import calibrate_video, parse_corners
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.geodesy import Origin
+from tlsync_pipeline.ingest import ALTITUDE_REFERENCES, FORMATS
 from tlsync_pipeline.ingest.process import IngestParams
 from tlsync_pipeline.sync.params import SyncParams, parameter_fields
 from tlsync_pipeline.sync.registry import METHODS, params_from_table
@@ -77,6 +78,10 @@ def _choice(*options: str, what: str = "") -> Callable[[Any, Path], str]:
         return value
 
     return convert
+
+
+def _finite(value: Any, root: Path) -> float:
+    return _number(value)
 
 
 def _positive(value: Any, root: Path) -> float:
@@ -252,13 +257,15 @@ def _rigid_transform(value: Any, root: Path):
 # The ingest stage's keys ([target] log -> work/target/trajectory.csv); docs/ingest.md.
 INGEST_SCHEMA = {
     "log": Field(_path),
-    "format": Field(_choice("auto", "gpx", "nmea", "csv", "odometry", "rosbag", what="log format"), "auto"),
+    "format": Field(_choice("auto", *FORMATS, what="log format"), "auto"),
     "topic": Field(_text),
     "rate": Field(_positive),
     "max_gap_s": Field(_positive),
     "max_speed_mps": Field(_positive, IngestParams.max_speed_mps),
     "smoothing_s": Field(_non_negative, IngestParams.smoothing_s),
     "odometry_transform": Field(_rigid_transform),
+    "altitude_reference": Field(_choice(*ALTITUDE_REFERENCES, what="altitude reference")),
+    "altitude_offset_m": Field(_finite, IngestParams.altitude_offset_m),
 }
 TARGET_SCHEMA.update(INGEST_SCHEMA)
 CAMERA_SCHEMA = {

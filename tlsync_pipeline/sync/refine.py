@@ -13,6 +13,14 @@ M-estimator sandwich with a Bartlett (Newey-West) kernel over neighbouring
 frames, so residuals correlated in time (pose and log errors move neighbouring
 frames alike) widen the interval.
 
+Per-sample sigmas of the trajectory (``Trajectory.sigma``, metres: the log's
+stated position uncertainty) weight the residuals: a sample's sigma, seen
+from the camera, is sigma_px = focal length x sigma / depth, and its
+frame's residual is scaled by f_scale / sqrt(f_scale^2 + sigma_px^2). A log
+whose sigmas are small against the tracker's pixel noise is fitted as
+without weights; a noisy stretch (a float or single solution among RTK
+fixes) counts less.
+
 "frame" may be any camera clock coordinate in frame units (the frame index,
 or presentation time x nominal fps for a variable-frame-rate video).
 """
@@ -96,7 +104,7 @@ def smooth_trajectory(trajectory: Trajectory) -> Trajectory:
                 chunk = chunk[first : first + CV_SAMPLES]
             lam = _cv_lambda(sample[idx][chunk], values[chunk])
             xyz[idx, k] = smoothed_values(sample[idx], values, lam)
-    return Trajectory(sample, xyz, trajectory.rate, trajectory.t0)
+    return Trajectory(sample, xyz, trajectory.rate, trajectory.t0, trajectory.sigma)
 
 
 def smoothed_values(x: np.ndarray, y: np.ndarray, lam: float) -> np.ndarray:
@@ -192,15 +200,16 @@ def _fit(camera, frame, xy, path, alpha, beta, f_scale, model_error_px):
     keep = run >= 0
     frame, xy, run = frame[keep], xy[keep], run[keep]
     span = max(float(frame[-1] - frame[0]), 1.0)
+    x0 = np.array([1.0 / alpha, (c_mid - beta) / alpha])
+    weight = sigma_weights(camera, path, x0[1] + x0[0] * (frame - c_mid), run, f_scale)
 
     def residual(x):
         s = x[1] + x[0] * (frame - c_mid)
         uv, valid = camera.project(path(s, run))
-        r = uv - xy
+        r = (uv - xy) * weight[:, None]
         r[~valid] = 10.0 * f_scale
         return r.ravel()
 
-    x0 = np.array([1.0 / alpha, (c_mid - beta) / alpha])
     scale = np.array([0.1 / span * abs(x0[0]) + 1e-9, 0.1])
     solution = least_squares(residual, x0, loss="soft_l1", f_scale=f_scale, x_scale=scale, method="trf", max_nfev=200)
     x = solution.x
@@ -242,6 +251,16 @@ def _fit(camera, frame, xy, path, alpha, beta, f_scale, model_error_px):
     perpendicular = _perpendicular(camera, path, x[1] + x[0] * (frame - c_mid), run)
     ok = bool(solution.success and np.all(np.isfinite(cov)) and u > 0)
     return float(a), float(b), cov, scale_px, ok, str(solution.message), perpendicular
+
+
+def sigma_weights(camera: Camera, path: PiecewiseTrajectory, s: np.ndarray, run: np.ndarray, f_scale: float) -> np.ndarray:
+    """Residual scale per frame: f_scale / sqrt(f_scale^2 + sigma_px^2), sigma_px = focal x sigma / depth (ones without sigmas)."""
+    sigma = path.sigma(s)
+    if sigma is None:
+        return np.ones(len(s))
+    depth = np.maximum((path(s, run) @ camera.R.T + camera.t)[:, 2], 1e-6)
+    sigma_px = 0.5 * (camera.K[0, 0] + camera.K[1, 1]) * sigma / depth
+    return f_scale / np.sqrt(f_scale**2 + sigma_px**2)
 
 
 def _perpendicular(camera: Camera, path: PiecewiseTrajectory, s: np.ndarray, run: np.ndarray) -> float:

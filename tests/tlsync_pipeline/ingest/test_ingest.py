@@ -282,7 +282,7 @@ def test_project_ingest(tmp_path, walk):
     [
         ('origin = "gcps"', "no camera has geodetic"),
         ('origin = [95, 8, 0]', "out of range"),
-        ('format = "kml"', "unknown log format"),
+        ('format = "kmz"', "unknown log format"),
         ("odometry_transform = { R = [[1, 0, 0], [0, 2, 0], [0, 0, 1]] }", "not a rotation"),
         ("max_gap = 3", "did you mean 'max_gap_s'"),
     ],

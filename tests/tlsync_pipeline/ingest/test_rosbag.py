@@ -66,7 +66,7 @@ def bag(tmp_path):
 
 def test_navsatfix_topic(bag):
     assert detect_format(bag) == "rosbag"
-    with pytest.raises(InputError, match="several Odometry/NavSatFix topics.*/fix.*/odom"):
+    with pytest.raises(InputError, match="several NavSatFix/Odometry/PoseStamped topics: /fix .NavSatFix, 20 messages., /odom .Odometry"):
         read_log(bag)
     records = read_log(bag, "rosbag", topic="/fix")
     assert records.dropped == {"NavSatFix status -1 (no fix)": [5]} and records.unit == "/fix message"
@@ -84,7 +84,7 @@ def test_odometry_topic_via_cli(bag, tmp_path):
     assert result.exit_code == 0, result.output
     assert "20 samples at 5 Hz" in result.output
     missing = CliRunner().invoke(main, ["ingest-log", str(bag), "--topic", "/nope", "--out", str(out)])
-    assert missing.exit_code == 2 and "no Odometry/NavSatFix topic '/nope'" in missing.output
+    assert missing.exit_code == 2 and "no NavSatFix/Odometry/PoseStamped topic '/nope'" in missing.output
 
 
 def test_message_conversion_functions():
@@ -110,3 +110,36 @@ def test_damaged_bags_give_input_errors(tmp_path, magic, data):
         ingest(read_log(path))
     except InputError as exc:
         assert str(exc).startswith(str(path))
+
+
+def test_bare_mcap_with_pose_topic_sim_clock_and_covariance_sigma(tmp_path):
+    """An MCAP bag's .mcap file alone (no metadata.yaml), PoseStamped and NavSatFix with covariance, sim time."""
+    from rosbags.rosbag2 import StoragePlugin
+
+    path = tmp_path / "sim"
+    with Writer(path, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
+        pose = writer.add_connection("/pose", "geometry_msgs/msg/PoseStamped", typestore=STORE)
+        fix = writer.add_connection("/gps/fix", "sensor_msgs/msg/NavSatFix", typestore=STORE)
+        for i in range(10):
+            stamp = T["builtin_interfaces/msg/Time"](sec=100 + i, nanosec=0)
+            header = T["std_msgs/msg/Header"](stamp=stamp, frame_id="map")
+            point = T["geometry_msgs/msg/Point"](x=float(i), y=2.0, z=0.5)
+            msg = T["geometry_msgs/msg/PoseStamped"](header=header, pose=T["geometry_msgs/msg/Pose"](position=point, orientation=T["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=1.0)))
+            writer.write(pose, (100 + i) * 10**9, STORE.serialize_cdr(msg, "geometry_msgs/msg/PoseStamped"))
+            gps = _fix(i)
+            gps.header.stamp = stamp
+            gps.position_covariance = np.diag([0.04, 0.09, 0.25]).ravel()
+            gps.position_covariance_type = 2
+            writer.write(fix, (100 + i) * 10**9, STORE.serialize_cdr(gps, "sensor_msgs/msg/NavSatFix"))
+    (path / "metadata.yaml").unlink()
+    mcap = next(path.glob("*.mcap"))
+    assert detect_format(mcap) == "rosbag"
+    with pytest.raises(InputError, match=r"/gps/fix \(NavSatFix, 10 messages\), /pose \(PoseStamped, 10 messages\)"):
+        read_log(mcap)
+    poses = read_log(mcap, topic="/pose")
+    assert poses.frame == "local" and not poses.utc and "simulation" in poses.clock
+    np.testing.assert_allclose(poses.values[:, 0], np.arange(10.0))
+    trajectory, report = ingest(poses)
+    assert report.t0_utc is None and "offsets work, UTC does not" in report.summary()
+    fixes = read_log(mcap, topic="/gps/fix")
+    np.testing.assert_allclose(fixes.sigma, np.sqrt((0.04 + 0.09) / 2))

@@ -3,6 +3,7 @@
 import csv
 import json
 import os
+import shutil
 
 import pytest
 from click.testing import CliRunner
@@ -110,8 +111,20 @@ def test_manifest_records_inputs_params_and_outputs(project_dir):
     # The votes depend on eps_px and on the method's trajectory preparation, not on other methods' keys.
     assert manifest.params["eps_px"] == 10.0 and manifest.params["method"] == "refined" and manifest.params["smooth_trajectory"] is True
     assert "r" not in manifest.params
-    assert manifest.inputs["track"]["path"].endswith("cam0/track.csv") and len(manifest.inputs["track"]["sha256"]) == 64
+    assert manifest.inputs["track"]["path"] == "cam0/track.csv" and len(manifest.inputs["track"]["sha256"]) == 64
     assert list(manifest.outputs) == ["cameras/cam0/votes.npz"]
+    assert "tlsync_pipeline.sync.votes" in manifest.code and "tlsync_pipeline.pipeline.engine" not in manifest.code
+    sync = read_manifest(project_dir / "work" / "sync.manifest.json")
+    assert sync.inputs["votes:cam1"]["path"] == "<work>/cameras/cam1/votes.npz"
+
+
+def test_moving_the_project_and_its_work_folder_apart_keeps_everything_fresh(project_dir, tmp_path):
+    run_graph(_graph(project_dir, tmp_path / "work_elsewhere"))
+    shutil.copytree(project_dir, tmp_path / "moved" / "project")
+    shutil.copytree(tmp_path / "work_elsewhere", tmp_path / "moved" / "deeper" / "work")
+    moved = _graph(tmp_path / "moved" / "project", tmp_path / "moved" / "deeper" / "work")
+    assert {row.state for row in status(moved) if row.state != "given"} == {"fresh"}
+    assert run_graph(moved).ran == []
 
 
 def test_a_second_run_on_a_locked_work_folder_is_refused(project_dir):

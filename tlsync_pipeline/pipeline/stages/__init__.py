@@ -1,6 +1,6 @@
-"""One module per stage: calibrate, track, ingest, vote, sync, export, render."""
+"""One module per stage, each declaring its ``SPEC``: intrinsics, calibrate, track, ingest, vote, sync, export, render
+(and ``cameras``, the per-camera files the project-wide stages share).
 
-# Stage name -> version; bump a version when the stage's output for the same inputs changes.
-STAGE_VERSIONS = {"calibrate": 1, "track": 1, "ingest": 1, "vote": 2, "sync": 2, "export": 2, "render": 2}
-STAGES = tuple(STAGE_VERSIONS)
-PER_CAMERA = ("calibrate", "track", "vote")
+The list of stages is in ``pipeline.graph`` (STAGE_SPECS); this package imports nothing, so that a
+stage's code (its cache key) is only what its own module imports.
+"""

@@ -1,18 +1,21 @@
-"""The calibrate stage: a camera's ``[cameras.calibration]`` table -> Camera and report.
+"""The calibrate stage: a camera's pose (and its intrinsics, from the intrinsics stage or a camera.json) -> Camera and report.
 
-Intrinsics come from checkerboard photos (``images``), a checkerboard video
-(``video``) or an existing camera.json (``intrinsics``); the pose from ground
-control points (``gcp``) or a board at a known world pose (``board_pose``).
-Geodetic GCPs (u,v,lat,lon,alt) are converted to the project's local ENU frame
-with tlsync_pipeline.geodesy, around the project's origin (see project_origin),
-so cameras and trajectory share one world frame. Without a pose source the
-camera.json has identity R and zero t (intrinsics only).
+The intrinsics come from the intrinsics stage (checkerboard photos or video,
+``cameras/<cam>/intrinsics.json``) or from an existing camera.json
+(``intrinsics``); the pose from ground control points (``gcp``) or a board at
+a known world pose (``board_pose``). Geodetic GCPs (u,v,lat,lon,alt) are
+converted to the project's local ENU frame with tlsync_pipeline.geodesy,
+around the project's origin (see pipeline/origin.py), so cameras and trajectory
+share one world frame. Without a pose source the camera.json has identity R
+and zero t (intrinsics only). Editing a GCP file re-runs this stage only, not
+the checkerboard detection.
 """
 
 from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
@@ -25,51 +28,26 @@ from calibration.extrinsics import (
     pose_from_points,
     read_gcps,
 )
-from calibration.intrinsics import (
-    Intrinsics,
-    calibrate_images,
-    calibrate_video,
-    detect_board,
-    parse_pattern,
-)
-from tlsync_pipeline.atomic import atomic_path
+from calibration.intrinsics import detect_board, parse_pattern
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.geodesy import Origin, geodetic_to_enu
 from tlsync_pipeline.outputs.summary import calibration_summary
-from tlsync_pipeline.pipeline import layout
-from tlsync_pipeline.pipeline.project import Project
+from tlsync_pipeline.pipeline.origin import origin_inputs, resolve_origin
+from tlsync_pipeline.pipeline.spec import Sources, StageSpec
+from tlsync_pipeline.pipeline.stages.intrinsics import check_calibration
+from tlsync_pipeline.pipeline.workspace import StageFiles
+
+if TYPE_CHECKING:
+    from tlsync_pipeline.pipeline.project import Project
+
+# Keys of [cameras.calibration] the pose uses as parameters (its files are inputs; the rest is the intrinsics stage's).
+POSE_KEYS = ("pattern", "square", "ransac_px", "board_pose")
 
 
 def has_calibration(spec: dict) -> bool:
     """Whether the camera table has a [cameras.calibration] table with something to calibrate from."""
     cal = spec.get("calibration") or {}
     return any(cal.get(k) is not None for k in ("images", "video", "intrinsics", "gcp", "board_pose"))
-
-
-def project_origin(project: Project) -> Origin | str:
-    """The ENU origin shared by geodetic GCPs and the target's log (ingest uses this too).
-
-    ``[target] origin = [lat, lon, alt]``: that point. ``"gcps"``, or unset while
-    some camera has geodetic GCPs: the centroid (mean latitude, longitude,
-    height) of every camera's geodetic GCPs. ``"first"``, or unset without
-    geodetic GCPs: the string "first" (the log's first fix, known to ingest only).
-    """
-    origin = project.target.get("origin")
-    if isinstance(origin, Origin) or origin == "first":
-        return origin
-    points = []
-    for spec in project.cameras:
-        gcp = (spec.get("calibration") or {}).get("gcp")
-        if gcp is not None:
-            table = read_gcps(gcp)
-            if table.geodetic is not None:
-                points.append(table.geodetic)
-    if not points:
-        if origin == "gcps":
-            raise InputError(f'{project.path}: [target]: origin = "gcps" but no camera has geodetic (lat,lon,alt) ground control points')
-        return "first"
-    lat, lon, alt = np.concatenate(points).mean(axis=0)
-    return Origin(float(lat), float(lon), float(alt))
 
 
 def gcp_world_points(table: GcpTable, origin: Origin | None) -> np.ndarray:
@@ -84,52 +62,21 @@ def gcp_world_points(table: GcpTable, origin: Origin | None) -> np.ndarray:
     return geodetic_to_enu(table.geodetic[:, 0], table.geodetic[:, 1], table.geodetic[:, 2], origin)
 
 
-def calibrate_camera(project: Project, spec: dict, progress: bool = True) -> tuple[Camera, dict]:
-    """Calibrate one camera from its ``[cameras.calibration]`` table; writes nothing.
+def calibrate_pose(name: str, cal: dict, known: Camera, intrinsics_report: dict, origin: Origin | str | None, fps: float | None, gcp: Path | None, board_image: Path | None) -> tuple[Camera, dict]:
+    """A camera from known intrinsics and its pose source (``gcp`` or ``board_image``); writes nothing.
 
-    Returns the Camera (world = the project's local frame) and a JSON-ready report:
-    ``intrinsics`` (RMS, per-view errors and detected corners, rejected images with
-    reasons) and ``pose`` (per-point reprojection errors, predicted uncertainty).
+    ``cal``: the [cameras.calibration] settings (pattern, square, ransac_px,
+    board_pose R and t). Returns the Camera (world = the project's local
+    frame) and a JSON-ready report: ``intrinsics`` (as given) and ``pose``
+    (per-point reprojection errors, predicted uncertainty).
     """
-    name = spec["name"]
-    where = f"{project.path}: camera {name!r}: [cameras.calibration]"
-    cal = spec.get("calibration") or {}
-    sources = [k for k in ("images", "video", "intrinsics") if cal.get(k) is not None]
-    if not sources:
-        raise InputError(f"{where}: give the intrinsics' source: images (a glob of checkerboard photos), video, or intrinsics (a camera.json)")
-    if len(sources) > 1:
-        raise InputError(f"{where}: give only one of images, video, intrinsics (got {', '.join(sources)})")
-    if cal.get("gcp") is not None and cal.get("board_pose") is not None:
-        raise InputError(f"{where}: give either gcp or board_pose for the camera's pose, not both")
-    pattern = None
-    if cal.get("images") or cal.get("video") or cal.get("board_pose"):
-        missing = [k for k in ("pattern", "square") if cal.get(k) is None]
-        if missing:
-            raise InputError(f"{where}: missing key(s) {', '.join(missing)} (the checkerboard's inner corners COLSxROWS and square side in metres)")
-        pattern = parse_pattern(cal["pattern"], cal["square"], source=f"{where}: pattern")
-
-    report: dict = {"camera": name}
-    intrinsics: Intrinsics | None = None
-    if cal.get("images") is not None:
-        intrinsics = calibrate_images(cal["images"], pattern, cal["model"], progress=progress, max_view_error=cal["max_view_error"])
-    elif cal.get("video") is not None:
-        intrinsics = calibrate_video(cal["video"], pattern, cal["model"], cal["max_frames"], progress=progress, max_view_error=cal["max_view_error"])
-    if intrinsics is not None:
-        K, dist, dist_model, size = intrinsics.K, intrinsics.dist, intrinsics.dist_model, intrinsics.image_size
-        report["intrinsics"] = intrinsics.to_report()
-        report["intrinsics"]["source"] = str(cal.get("images") or cal.get("video"))
-        for view in report["intrinsics"]["per_view"]:
-            view["corners"] = np.round(intrinsics.corners[view["image"]], 3).tolist()
-    else:
-        known = read_camera(cal["intrinsics"])
-        K, dist, dist_model, size = known.K, known.dist, known.dist_model, known.image_size
-        report["intrinsics"] = {"source": str(cal["intrinsics"]), "K": K.tolist(), "dist": dist.tolist(), "dist_model": dist_model, "image_size": list(size)}
-
+    K, dist, dist_model, size = known.K, known.dist, known.dist_model, known.image_size
+    report: dict = {"camera": name, "intrinsics": intrinsics_report}
     pose: Pose | None = None
-    if cal.get("gcp") is not None:
-        table = read_gcps(cal["gcp"])
+    if gcp is not None:
+        table = read_gcps(gcp)
         _check_in_image(table, size)
-        origin = project_origin(project) if table.geodetic is not None else None
+        origin = origin if table.geodetic is not None else None
         xyz = gcp_world_points(table, origin)
         pose = pose_from_points(table.uv, xyz, K, dist, dist_model, cal["ransac_px"], source=table.source)
         report["pose"] = {"source": table.source, "kind": "geodetic" if table.geodetic is not None else "local", **pose.to_report(table.names)}
@@ -137,26 +84,32 @@ def calibrate_camera(project: Project, spec: dict, progress: bool = True) -> tup
             point.update(uv=uv.tolist(), xyz=world.tolist())
         if isinstance(origin, Origin):
             report["pose"]["origin"] = {"lat": origin.lat, "lon": origin.lon, "alt": origin.alt}
-    elif cal.get("board_pose") is not None:
+    elif board_image is not None:
         board = cal["board_pose"]
-        gray = cv2.imread(str(board["image"]), cv2.IMREAD_GRAYSCALE | cv2.IMREAD_IGNORE_ORIENTATION)
+        pattern = parse_pattern(cal["pattern"], cal["square"], source=f"camera {name!r}: [cameras.calibration] pattern")
+        gray = cv2.imread(str(board_image), cv2.IMREAD_GRAYSCALE | cv2.IMREAD_IGNORE_ORIENTATION)
         if gray is None:
-            raise InputError(f"{board['image']}: cannot read the image (board_pose)")
+            raise InputError(f"{board_image}: cannot read the image (board_pose)")
         if (gray.shape[1], gray.shape[0]) != tuple(size):
-            raise InputError(f"{board['image']}: image is {gray.shape[1]}x{gray.shape[0]}, the camera's intrinsics are for {size[0]}x{size[1]}")
+            raise InputError(f"{board_image}: image is {gray.shape[1]}x{gray.shape[0]}, the camera's intrinsics are for {size[0]}x{size[1]}")
         corners, _, reason = detect_board(gray, pattern.size)
         if corners is None:
-            raise InputError(f"{board['image']}: board_pose: {reason} (pattern {pattern})")
-        pose = pose_from_board(gray, corners, pattern, board["R"], board["t"], K, dist, dist_model, source=str(board["image"]))
-        report["pose"] = {"source": str(board["image"]), "kind": "board", **pose.to_report()}
+            raise InputError(f"{board_image}: board_pose: {reason} (pattern {pattern})")
+        pose = pose_from_board(gray, corners, pattern, board["R"], board["t"], K, dist, dist_model, source=str(board_image))
+        report["pose"] = {"source": str(board_image), "kind": "board", **pose.to_report()}
     else:
         report["pose"] = None
         report["warning"] = "no gcp or board_pose: camera.json has identity R and zero t (intrinsics only)"
 
     R, t = (pose.R, pose.t) if pose is not None else (np.eye(3), np.zeros(3))
-    extra = {"rms": intrinsics.rms} if intrinsics is not None else {}
-    camera = Camera(name, K, dist, R, t, tuple(size), spec.get("fps"), dist_model, extra)
+    camera = Camera(name, K, dist, R, t, tuple(size), fps, dist_model, dict(known.extra))
     return camera, report
+
+
+def known_intrinsics(path: Path) -> dict:
+    """The intrinsics part of the report for intrinsics taken from an existing camera.json."""
+    known = read_camera(path)
+    return {"source": str(path), "K": known.K.tolist(), "dist": known.dist.tolist(), "dist_model": known.dist_model, "image_size": list(known.image_size)}
 
 
 def _check_in_image(table: GcpTable, size: tuple[int, int]) -> None:
@@ -164,18 +117,6 @@ def _check_in_image(table: GcpTable, size: tuple[int, int]) -> None:
     for (u, v), line in zip(table.uv, table.lines):
         if not (-0.5 <= u <= w - 0.5 and -0.5 <= v <= h - 0.5):
             raise InputError(f"{table.source}:{line}: pixel ({u:g}, {v:g}) is outside the {w}x{h} image")
-
-
-def write_calibration(work: Path, camera: Camera, report: dict) -> list[Path]:
-    """Write camera.json, calibration_report.json and calibration.png atomically; returns the paths."""
-    paths = [layout.camera_json(work, camera.name), layout.calibration_report(work, camera.name), layout.calibration_picture(work, camera.name)]
-    with atomic_path(paths[0]) as tmp:
-        write_camera(camera, tmp)
-    with atomic_path(paths[1]) as tmp:
-        tmp.write_text(json.dumps(report, indent=1) + "\n", encoding="utf-8")
-    with atomic_path(paths[2]) as tmp:
-        draw_calibration(report, camera.image_size, tmp)
-    return paths
 
 
 def draw_calibration(report: dict, image_size: tuple[int, int], path: Path) -> None:
@@ -227,8 +168,59 @@ def draw_calibration(report: dict, image_size: tuple[int, int], path: Path) -> N
     plt.close(fig)
 
 
-def run_calibrate(project: Project, name: str, work: Path, progress: bool = True) -> dict:
+def run_calibrate(files: StageFiles, calibration: dict, fps: float | None, origin: Origin | str | None) -> dict:
     """The calibrate stage: camera.json, calibration_report.json and calibration.png of one camera."""
-    camera, report = calibrate_camera(project, project.camera(name), progress=progress)
-    paths = write_calibration(work, camera, report)
-    return {"message": f"{calibration_summary(report)}; wrote {paths[0]}"}
+    known = read_camera(files.path("intrinsics"))
+    if files.has("intrinsics_report"):  # calibrated by the intrinsics stage: its rms stays in camera.json
+        intrinsics_report = json.loads(files.path("intrinsics_report").read_text(encoding="utf-8"))
+    else:  # a given camera.json: only its intrinsics are taken
+        known = Camera(known.name, known.K, known.dist, known.R, known.t, known.image_size, known.fps, known.dist_model)
+        intrinsics_report = known_intrinsics(files.path("intrinsics"))
+    gcp = files.path("gcp") if files.has("gcp") else None
+    if gcp is not None and read_gcps(gcp).geodetic is not None:
+        origin = resolve_origin(origin, [files.path(label) for label in files.inputs if label.startswith("origin-gcp:")], "[target]")
+    board_image = files.path("board_pose_image") if files.has("board_pose_image") else None
+    camera, report = calibrate_pose(files.camera, calibration, known, intrinsics_report, origin, fps, gcp, board_image)
+    with files.write("camera") as tmp:
+        write_camera(camera, tmp)
+    with files.write("calibration_report") as tmp:
+        tmp.write_text(json.dumps(report, indent=1) + "\n", encoding="utf-8")
+    with files.write("calibration_picture") as tmp:
+        draw_calibration(report, camera.image_size, tmp)
+    return {"message": f"{calibration_summary(report)}; wrote {files.output('camera')}"}
+
+
+def calibrate_inputs(src: Sources, name: str) -> dict[str, Path]:
+    """The intrinsics (the intrinsics stage's, or the given camera.json), the pose's files, and the origin's GCPs."""
+    check_calibration(src.project, name)
+    cal = src.project.camera(name)["calibration"]
+    if src.made("intrinsics", name):
+        inputs = {"intrinsics": src.artefact("intrinsics", name), "intrinsics_report": src.artefact("intrinsics_report", name)}
+    else:
+        inputs = {"intrinsics": cal["intrinsics"]}
+    if cal.get("gcp") is not None:
+        inputs["gcp"] = cal["gcp"]
+        inputs.update(origin_inputs(src.project))
+    if cal.get("board_pose") is not None:
+        inputs["board_pose_image"] = cal["board_pose"]["image"]
+    return inputs
+
+
+def calibrate_params(project: Project, name: str, options) -> dict:
+    """The pose's keys of [cameras.calibration] (the board's pose without its image, an input), fps and the origin setting."""
+    cal = project.camera(name)["calibration"]
+    settings = {k: cal[k] for k in POSE_KEYS}
+    if settings["board_pose"] is not None:
+        settings["board_pose"] = {k: v for k, v in settings["board_pose"].items() if k != "image"}
+    return {"calibration": settings, "fps": project.camera(name)["fps"], "origin": project.target.get("origin")}
+
+
+SPEC = StageSpec(
+    "calibrate",
+    inputs=calibrate_inputs,
+    params=calibrate_params,
+    outputs=("camera", "calibration_report", "calibration_picture"),
+    run=run_calibrate,
+    per_camera=True,
+    applies=lambda project, name: project.camera(name)["camera"] is None and has_calibration(project.camera(name)),
+)

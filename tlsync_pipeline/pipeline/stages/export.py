@@ -3,13 +3,13 @@
 from __future__ import annotations
 
 import csv
-from pathlib import Path
 
 import numpy as np
 
-from tlsync_pipeline.atomic import atomic_path
 from tlsync_pipeline.outputs.exports import ffmpeg_commands, frame_map_rows, offsets
-from tlsync_pipeline.pipeline import layout
+from tlsync_pipeline.pipeline.spec import Sources, StageSpec
+from tlsync_pipeline.pipeline.stages.cameras import camera_files
+from tlsync_pipeline.pipeline.workspace import StageFiles
 from tlsync_pipeline.sync.clock import FrameTimes
 from tlsync_pipeline.sync.timeline import CameraLine, read_timeline
 from trackers.track import read_track
@@ -42,23 +42,43 @@ def frame_times(camera: dict, line: CameraLine) -> FrameTimes | None:
     return FrameTimes.of_track(read_track(camera["track"]))
 
 
-def run_export(cameras: dict[str, dict], timeline: Path, work: Path) -> dict:
+def run_export(files: StageFiles, cameras: list[str]) -> dict:
     """The export stage: frame_map.csv, offsets.csv and ffmpeg.sh from timeline.json."""
-    tl = read_timeline(timeline)
+    cameras = camera_files(files, cameras)
+    tl = read_timeline(files.path("timeline"))
     if not tl.cameras:
         return {"exported": []}
     n_frames = {name: frame_count(cameras[name]) for name in tl.names}
     times = {name: frame_times(cameras[name], line) for name, line in tl.cameras.items()}
-    with atomic_path(layout.frame_map_csv(work)) as tmp:
+    with files.write("frame_map") as tmp:
         with tmp.open("w", newline="", encoding="utf-8") as handle:
             csv.writer(handle).writerows(frame_map_rows(tl, n_frames, times))
     rows = offsets(tl, times)
-    with atomic_path(layout.offsets_csv(work)) as tmp:
+    with files.write("offsets") as tmp:
         with tmp.open("w", newline="", encoding="utf-8") as handle:
             writer = csv.DictWriter(handle, fieldnames=list(rows[0]))
             writer.writeheader()
             writer.writerows({k: ("" if v is None else (f"{v:.6f}" if isinstance(v, float) else v)) for k, v in r.items()} for r in rows)
     videos = {name: (str(c["video"]) if c.get("video") else None) for name, c in cameras.items()}
-    with atomic_path(layout.ffmpeg_script(work)) as tmp:
+    with files.write("ffmpeg") as tmp:
         tmp.write_text(ffmpeg_commands(rows, videos), encoding="utf-8")
     return {"exported": tl.names, "n_frames": n_frames}
+
+
+def export_inputs(src: Sources, camera: None) -> dict:
+    """timeline.json, and every camera's track and video (frame counts)."""
+    inputs = {"timeline": src.artefact("timeline")}
+    for spec in src.project.cameras:
+        inputs[f"track:{spec['name']}"] = src.artefact("track", spec["name"])
+        if spec.get("video") is not None:
+            inputs[f"video:{spec['name']}"] = spec["video"]
+    return inputs
+
+
+SPEC = StageSpec(
+    "export",
+    inputs=export_inputs,
+    params=lambda project, camera, options: {"cameras": [c["name"] for c in project.cameras]},
+    outputs=("frame_map", "offsets", "ffmpeg"),
+    run=run_export,
+)

@@ -20,9 +20,9 @@ from tlsync_pipeline.ingest.process import (
     RigidTransform,
     ingest,
 )
-from tlsync_pipeline.pipeline import layout
-from tlsync_pipeline.pipeline.project import Project
-from tlsync_pipeline.pipeline.stages.calibrate import project_origin
+from tlsync_pipeline.pipeline.origin import origin_inputs, resolve_origin
+from tlsync_pipeline.pipeline.spec import StageSpec
+from tlsync_pipeline.pipeline.workspace import StageFiles
 from tlsync_pipeline.trajectory import Trajectory, write_trajectory
 
 
@@ -44,30 +44,18 @@ def report_sidecar(csv_path: Path) -> Path:
     return csv_path.with_name(csv_path.stem + ".ingest.json")
 
 
-def target_params(project: Project) -> IngestParams:
-    """IngestParams from the project's [target] table; the origin follows calibrate.project_origin."""
-    target = project.target
-    origin = project_origin(project)
-    transform = target["odometry_transform"]
+def target_params(target: dict, origin: Origin | str) -> IngestParams:
+    """IngestParams from the project's [target] table and the resolved ENU origin (see pipeline/origin.py)."""
     return IngestParams(
         origin=origin,
         rate=target["rate"],
         max_gap_s=target["max_gap_s"],
         max_speed_mps=target["max_speed_mps"],
         smoothing_s=target["smoothing_s"],
-        transform=transform,
+        transform=target["odometry_transform"],
+        altitude_reference=target["altitude_reference"],
+        altitude_offset_m=target["altitude_offset_m"],
     )
-
-
-def ingest_project(project: Project, work: Path) -> IngestReport:
-    """Ingest the project's [target] log into the work folder's target/ artefacts."""
-    target = project.target
-    if target["log"] is None:
-        hint = " (its 'trajectory' is already a metric trajectory: nothing to ingest)" if target["trajectory"] is not None else ""
-        raise InputError(f"{project.path}: [target]: no 'log' to ingest{hint}")
-    trajectory, report = ingest_log(target["log"], target["format"], target_params(project), target["topic"])
-    write_ingest(trajectory, report, layout.trajectory_csv(work), layout.ingest_report(work))
-    return report
 
 
 def parse_origin(text: str) -> Origin | str:
@@ -81,10 +69,25 @@ def parse_origin(text: str) -> Origin | str:
         raise InputError(f"--origin {text!r}: expected LAT,LON,ALT (degrees, degrees, metres) or 'first' ({exc})") from None
 
 
-__all__ = ["RigidTransform", "ingest_log", "ingest_project", "parse_origin", "report_sidecar", "target_params", "write_ingest"]
+__all__ = ["RigidTransform", "ingest_log", "parse_origin", "report_sidecar", "target_params", "write_ingest"]
 
 
-def run_ingest(project: Project, work: Path) -> dict:
-    """The ingest stage: the target's log into ``target/trajectory.csv`` and its report."""
-    report = ingest_project(project, work)
+def run_ingest(files: StageFiles, target: dict) -> dict:
+    """The ingest stage: the target's log into ``target/trajectory.csv`` and its report.
+
+    ``target``: the project's [target] table without its file keys (log, trajectory).
+    """
+    origin = resolve_origin(target["origin"], [files.path(label) for label in files.inputs if label.startswith("origin-gcp:")], "[target]")
+    trajectory, report = ingest_log(files.path("log"), target["format"], target_params(target, origin), target["topic"])
+    write_ingest(trajectory, report, files.output("trajectory"), files.output("ingest_report"))
     return {"message": report.summary()}
+
+
+SPEC = StageSpec(
+    "ingest",
+    inputs=lambda src, cam: {"log": src.project.target["log"], **origin_inputs(src.project)},
+    params=lambda project, cam, options: {"target": {k: v for k, v in project.target.items() if k not in ("trajectory", "log")}},
+    outputs=("trajectory", "ingest_report"),
+    run=run_ingest,
+    applies=lambda project, cam: project.target["trajectory"] is None and project.target["log"] is not None,
+)

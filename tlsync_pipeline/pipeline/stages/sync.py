@@ -3,22 +3,28 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from calibration.camera import read_camera
 from tlsync_pipeline.atomic import atomic_path
 from tlsync_pipeline.errors import InputError, SyncError
-from tlsync_pipeline.pipeline.project import Project
+from tlsync_pipeline.pipeline.spec import Sources, StageSpec
+from tlsync_pipeline.pipeline.stages.cameras import camera_files, camera_params
+from tlsync_pipeline.pipeline.workspace import StageFiles
 from tlsync_pipeline.sync.methods import CameraInput
-from tlsync_pipeline.sync.registry import params_from_table
+from tlsync_pipeline.sync.registry import params_from_table, params_table
 from tlsync_pipeline.sync.synchronize import CameraResult, synchronize
 from tlsync_pipeline.sync.timeline import Timeline, write_timeline
 from tlsync_pipeline.sync.votes import load_votes
 from tlsync_pipeline.trajectory import Trajectory, read_trajectory
 from trackers.track import read_track
 
+if TYPE_CHECKING:
+    from tlsync_pipeline.pipeline.project import Project
+
 
 def read_camera_inputs(cameras: dict[str, dict]) -> dict:
-    """CameraInput per camera from the paths the graph passes to stage functions."""
+    """CameraInput per camera from the paths of ``stages.cameras.camera_files``."""
     out = {}
     for name, c in cameras.items():
         cam = read_camera(c["camera"], name=name)
@@ -35,13 +41,14 @@ def read_votes(cameras: dict[str, dict]) -> dict:
     return out
 
 
-def run_sync(cameras: dict[str, dict], trajectory: Path, params: dict, out: Path) -> dict:
+def run_sync(files: StageFiles, cameras: list[str], fps: dict[str, float | None], sync: dict) -> dict:
     """The sync stage: each camera's line fitted to the vote stage's votes, ``timeline.json``.
 
-    params: the ``[sync]`` table.
+    sync: the ``[sync]`` table (sync.registry.params_table).
     """
-    timeline, _ = synchronize(read_camera_inputs(cameras), read_trajectory(trajectory), params_from_table(params), read_votes(cameras))
-    with atomic_path(out) as tmp:
+    paths = camera_files(files, cameras, fps)
+    timeline, _ = synchronize(read_camera_inputs(paths), read_trajectory(files.path("trajectory")), params_from_table(sync), read_votes(paths))
+    with files.write("timeline") as tmp:
         write_timeline(timeline, tmp)
     return {"synchronized": timeline.names, "failed": timeline.failed}
 
@@ -68,3 +75,18 @@ def run_project(project: Project, out_dir: Path) -> tuple[Timeline, dict[str, Ca
     with atomic_path(out_dir / "timeline.json") as tmp:
         write_timeline(timeline, tmp)
     return timeline, results
+
+
+def sync_inputs(src: Sources, camera: None) -> dict:
+    """Every camera's calibration, track and votes, and the trajectory."""
+    inputs = {f"{kind}:{spec['name']}": src.artefact(kind, spec["name"]) for spec in src.project.cameras for kind in ("camera", "track", "votes")}
+    return {**inputs, "trajectory": src.artefact("trajectory")}
+
+
+SPEC = StageSpec(
+    "sync",
+    inputs=sync_inputs,
+    params=lambda project, camera, options: {**camera_params(project), "sync": params_table(project.sync)},
+    outputs=("timeline",),
+    run=run_sync,
+)

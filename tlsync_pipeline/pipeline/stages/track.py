@@ -1,8 +1,7 @@
 """The track stage: each camera's video in, its track.csv out (work folder).
 
 ``track_camera`` is the pure part (a camera table in, a Track out);
-``write_track_atomic`` the writer. The stage graph (stages.py) runs them per
-camera into ``<work>/cameras/<name>/track.csv``.
+``write_track_atomic`` the writer (also used by ``tlsync track-video``).
 """
 
 from __future__ import annotations
@@ -11,6 +10,8 @@ from pathlib import Path
 
 from tlsync_pipeline.atomic import atomic_path
 from tlsync_pipeline.errors import InputError
+from tlsync_pipeline.pipeline.spec import StageSpec
+from tlsync_pipeline.pipeline.workspace import StageFiles
 from trackers.track import Track, write_track
 from trackers.tracking import track_video
 
@@ -37,8 +38,24 @@ def write_track_atomic(track: Track, path: Path) -> None:
         write_track(track, tmp)
 
 
-def run_track(spec: dict, out: Path, progress: bool = True) -> dict:
+def run_track(files: StageFiles, tracker: dict) -> dict:
     """The track stage: the target's track in one camera's video, ``track.csv``."""
-    track = track_camera(spec, progress=progress)
-    write_track_atomic(track, out)
-    return {"tracked_frames": len(track), "message": f"wrote {out} ({len(track)} tracked frames)"}
+    track = track_camera({"name": files.camera, "video": files.path("video"), "tracker": tracker}, progress=files.progress)
+    write_track_atomic(track, files.output("track"))
+    return {"tracked_frames": len(track), "message": f"wrote {files.output('track')} ({len(track)} tracked frames)"}
+
+
+def _applies(project, cam: str) -> bool:
+    spec = project.camera(cam)
+    return spec["track"] is None and spec.get("video") is not None
+
+
+SPEC = StageSpec(
+    "track",
+    inputs=lambda src, cam: {"video": src.project.camera(cam)["video"]},
+    params=lambda project, cam, options: {"tracker": project.camera(cam)["tracker"]},
+    outputs=("track",),
+    run=run_track,
+    per_camera=True,
+    applies=_applies,
+)

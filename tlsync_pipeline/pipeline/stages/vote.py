@@ -2,21 +2,23 @@
 
 from __future__ import annotations
 
-from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from calibration.camera import read_camera
 from tlsync_pipeline.errors import SyncError
+from tlsync_pipeline.pipeline.spec import StageSpec
+from tlsync_pipeline.pipeline.workspace import StageFiles
 from tlsync_pipeline.sync.methods import CameraInput
-from tlsync_pipeline.sync.registry import params_from_table
+from tlsync_pipeline.sync.registry import params_from_table, vote_table
 from tlsync_pipeline.sync.synchronize import cast_votes, prepare_trajectory
 from tlsync_pipeline.sync.votes import Votes, save_votes
 from tlsync_pipeline.trajectory import read_trajectory
 from trackers.track import read_track
 
 
-def run_vote(name: str, camera: Path, track: Path, trajectory: Path, params: dict, out: Path) -> dict:
+def run_vote(files: StageFiles, **params: Any) -> dict:
     """The vote stage: every (frame, sample) pair within eps_px, saved to ``votes.npz``.
 
     params: the ``[sync]`` keys the votes depend on (sync.registry.vote_table). The votes are cast on the trajectory as the
@@ -26,12 +28,22 @@ def run_vote(name: str, camera: Path, track: Path, trajectory: Path, params: dic
     camera as not synchronized.
     """
     sync_params = params_from_table(params)
-    prepared = prepare_trajectory(read_trajectory(trajectory), sync_params)
-    inputs = CameraInput(read_camera(camera, name=name), read_track(track), None)
+    prepared = prepare_trajectory(read_trajectory(files.path("trajectory")), sync_params)
+    inputs = CameraInput(read_camera(files.path("camera"), name=files.camera), read_track(files.path("track")), None)
     try:
         votes = cast_votes(inputs, prepared, sync_params)
         error = None
     except SyncError as exc:
         votes, error = Votes(np.zeros(0), np.zeros(0), np.zeros(0)), str(exc)
-    save_votes(out, votes, error)
+    save_votes(files.output("votes"), votes, error)
     return {"votes": len(votes), **({"error": error} if error else {})}
+
+
+SPEC = StageSpec(
+    "vote",
+    inputs=lambda src, cam: {"camera": src.artefact("camera", cam), "track": src.artefact("track", cam), "trajectory": src.artefact("trajectory")},
+    params=lambda project, cam, options: vote_table(project.sync),
+    outputs=("votes",),
+    run=run_vote,
+    per_camera=True,
+)

@@ -15,8 +15,9 @@ from calibration.camera import Camera, read_camera, write_camera
 from data_fixtures.gcp import looking_at, make_gcps, write_gcp_csv
 from tlsync_pipeline.cli.main import main
 from tlsync_pipeline.geodesy import Origin, enu_to_geodetic, geodetic_to_enu
+from tlsync_pipeline.pipeline.origin import project_origin
 from tlsync_pipeline.pipeline.project import load_project
-from tlsync_pipeline.pipeline.stages.calibrate import calibrate_camera, project_origin
+from tlsync_pipeline.pipeline.stages.calibrate import calibrate_pose, known_intrinsics
 
 ORIGIN = Origin(46.52, 6.57, 420.0)
 
@@ -27,6 +28,13 @@ def _cli(*args):
 
 def angle_deg(Ra, Rb) -> float:
     return float(np.degrees(np.linalg.norm(cv2.Rodrigues(Ra @ Rb.T)[0])))
+
+
+def calibrate_camera(proj, name):
+    """A camera's pose from its known intrinsics and GCPs, as the calibrate stage computes it (no files written)."""
+    cal = proj.camera(name)["calibration"]
+    known = read_camera(cal["intrinsics"])
+    return calibrate_pose(name, cal, known, known_intrinsics(cal["intrinsics"]), project_origin(proj), proj.camera(name)["fps"], cal["gcp"], None)
 
 
 @pytest.fixture
@@ -94,11 +102,11 @@ def test_calibrate_writes_every_artefact(project, boards):
 def test_geodetic_and_local_gcps_give_the_same_pose(project):
     root, _ = project
     proj = load_project(root / "project.toml")
-    geo_cam, geo_report = calibrate_camera(proj, proj.camera("cam1"), progress=False)
+    geo_cam, geo_report = calibrate_camera(proj, "cam1")
     text = (root / "project.toml").read_text().replace('gcp = "gcp_cam1.csv"', 'gcp = "gcp_cam1_local.csv"')
     (root / "local.toml").write_text(text)
     local = load_project(root / "local.toml")
-    local_cam, _ = calibrate_camera(local, local.camera("cam1"), progress=False)
+    local_cam, _ = calibrate_camera(local, "cam1")
     assert angle_deg(geo_cam.R, local_cam.R) < 1e-4
     assert np.linalg.norm(geo_cam.t - local_cam.t) < 1e-3
     assert geo_report["pose"]["origin"] == {"lat": ORIGIN.lat, "lon": ORIGIN.lon, "alt": ORIGIN.alt}
@@ -112,7 +120,7 @@ def test_without_an_origin_the_geodetic_gcps_centroid_is_used(project):
     lat, lon, alt = np.genfromtxt(root / "gcp_cam1.csv", delimiter=",", names=True, usecols=(3, 4, 5)).view((float, 3)).mean(axis=0)
     origin = project_origin(proj)
     assert origin == pytest.approx(Origin(lat, lon, alt))
-    cam, report = calibrate_camera(proj, proj.camera("cam1"), progress=False)
+    cam, report = calibrate_camera(proj, "cam1")
     explicit = json.loads(json.dumps(report))["pose"]["origin"]
     assert explicit["lat"] == pytest.approx(lat)
     # Same camera, frame shifted by the origin's offset.
@@ -166,3 +174,34 @@ def test_a_failed_calibration_keeps_the_previous_artefacts(project):
     (root / "gcp_cam1.csv").write_text("u,v,x,y,z\n1,2,3\n")
     assert _cli("calibrate", root / "project.toml", "--camera", "cam1", "--quiet").exit_code == 2
     assert (root / "work" / "cameras" / "cam1" / "camera.json").read_text() == before
+
+
+def test_the_executor_decides_how_many_processes_detect_the_boards(project, monkeypatch):
+    """Alone in this process the intrinsics stage may use the executor's cores; in a pool's worker, one (no nested pool)."""
+    from tlsync_pipeline.pipeline.engine import run_graph
+    from tlsync_pipeline.pipeline.executors import ProcessExecutor, SerialExecutor
+    from tlsync_pipeline.pipeline.graph import build_graph
+    from tlsync_pipeline.pipeline.stages import intrinsics
+
+    root, _ = project
+    graph = build_graph(load_project(root / "project.toml"), root / "work")
+    workers = []
+    original = intrinsics.calibrate_images
+    # Record the processes the stage asks for (and detect with one here, to keep the test short).
+    monkeypatch.setattr(intrinsics, "calibrate_images", lambda *a, **k: workers.append(k["workers"]) or original(*a, **{**k, "workers": 1}))
+    assert "intrinsics/cam0" in run_graph(graph, SerialExecutor(cores=3), targets=["intrinsics/cam0"]).ran
+    assert workers == [3]
+
+    class RecordingPool(ProcessExecutor):
+        def __init__(self, jobs):
+            super().__init__(jobs)
+            self.cores_given = {}
+
+        def submit(self, fn, kwargs):
+            self.cores_given[kwargs["files"].task] = kwargs["files"].cores
+            return super().submit(fn, kwargs)
+
+    pool = RecordingPool(2)
+    summary = run_graph(graph, pool, targets=["calibrate/cam0", "calibrate/cam1"])
+    assert sorted(summary.ran) == ["calibrate/cam0", "calibrate/cam1"] and not summary.failed
+    assert pool.cores_given == {"calibrate/cam0": 1, "calibrate/cam1": 1}

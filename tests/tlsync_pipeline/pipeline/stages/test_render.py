@@ -1,15 +1,17 @@
 """Render: band-swap and strip pictures, plots, report, decoding only the frames drawn."""
 
+import json
+
 import cv2
 import numpy as np
 import pytest
 
 from data_fixtures import make_scene, write_scene
 from tlsync_pipeline.outputs import pictures as render
-from tlsync_pipeline.pipeline.stages.render import run_render
 from tlsync_pipeline.pipeline.engine import run_graph
 from tlsync_pipeline.pipeline.graph import build_graph
 from tlsync_pipeline.pipeline.project import load_project
+from tlsync_pipeline.pipeline.spec import Options
 from tlsync_pipeline.sync.timeline import Relation
 
 
@@ -33,9 +35,19 @@ def rendered_project(tmp_path_factory):
     scene = make_scene(seed=1, n_frames=400, image_size=(320, 240))
     folder = tmp_path_factory.mktemp("render")
     write_scene(scene, folder)
+    toml = folder / "project.toml"
     for name, camera in scene.cameras.items():
         _write_video(folder / f"{name}.mp4", camera, scene.tracks[name], scene.n_frames[name])
+        toml.write_text(toml.read_text().replace(f'track = "{name}/track.csv"', f'track = "{name}/track.csv"\nvideo = "{name}.mp4"'))
     return scene, folder
+
+
+def _render(graph) -> list[str]:
+    """Run the render stage alone (its inputs are made already); the pictures it wrote."""
+    summary = run_graph(graph, force={"render"}, targets=["render"])
+    assert summary.ran == ["render"], summary
+    manifest = json.loads((graph.work / "render" / "render.manifest.json").read_text())
+    return [rel.rsplit("/", 1)[-1] for rel in manifest["outputs"] if rel.endswith(".png")]
 
 
 def test_render_decodes_only_the_frames_it_draws(rendered_project, monkeypatch):
@@ -52,11 +64,7 @@ def test_render_decodes_only_the_frames_it_draws(rendered_project, monkeypatch):
         return frames
 
     monkeypatch.setattr(render, "read_frames", counting)
-    kwargs = dict(graph.tasks["render"].kwargs)
-    for name in kwargs["cameras"]:
-        kwargs["cameras"] = {**kwargs["cameras"], name: {**kwargs["cameras"][name], "video": folder / f"{name}.mp4"}}
-    result = run_render(**kwargs)
-    names = {p.rsplit("/", 1)[-1] for p in result["outputs"]}
+    names = set(_render(graph))
     assert {"swap_cam0_cam1.png", "strip_cam0_cam1.png", "votes_cam0.png", "trajectory_cam1.png"} <= names
     decoded = {name: set() for name in ("cam0.mp4", "cam1.mp4")}
     for name, frames in requested:
@@ -89,18 +97,13 @@ def test_choose_frames_stays_where_both_cameras_record():
 
 def test_render_command_with_pair_and_frames(rendered_project, monkeypatch):
     scene, folder = rendered_project
-    from tlsync_pipeline.pipeline.graph import Options
-
     project = load_project(folder / "project.toml")
     graph = build_graph(project, folder / "work", Options(render_pairs=(("cam1", "cam0"),), render_frames=(150, 160)))
-    run_graph(graph, targets=["sync"])
+    run_graph(graph, targets=["sync", "export"])
     requested = []
     original = render.read_frames
     monkeypatch.setattr(render, "read_frames", lambda path, indices: requested.append((path.name, sorted(indices))) or original(path, indices))
-    kwargs = dict(graph.tasks["render"].kwargs)
-    kwargs["cameras"] = {name: {**c, "video": folder / f"{name}.mp4"} for name, c in kwargs["cameras"].items()}
-    result = run_render(**kwargs)
-    assert any(p.endswith("swap_cam1_cam0.png") for p in result["outputs"])
+    assert "swap_cam1_cam0.png" in _render(graph)
     assert ("cam0.mp4", [150, 160]) in requested
 
 
@@ -112,7 +115,7 @@ def test_render_never_decodes_the_videos_through(rendered_project, monkeypatch):
 
     scene, folder = rendered_project
     graph = build_graph(load_project(folder / "project.toml"), folder / "work")
-    run_graph(graph, targets=["sync"])
+    run_graph(graph, targets=["sync", "export"])
     decoded = Counter()
     original = video._decode
 
@@ -122,9 +125,7 @@ def test_render_never_decodes_the_videos_through(rendered_project, monkeypatch):
             yield frame, error
 
     monkeypatch.setattr(video, "_decode", counting)
-    kwargs = dict(graph.tasks["render"].kwargs)
-    kwargs["cameras"] = {name: {**c, "video": folder / f"{name}.mp4"} for name, c in kwargs["cameras"].items()}
-    run_render(**kwargs)
+    _render(graph)
     assert decoded["cam1.mp4"] > 0 and decoded["cam0.mp4"] > 0
     for name in ("cam0", "cam1"):
         assert decoded[f"{name}.mp4"] < scene.n_frames[name] / 3, decoded

@@ -1,0 +1,25 @@
+"""Per-camera files and parameters of the project-wide stages (sync, export, render); not a stage."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from tlsync_pipeline.pipeline.workspace import StageFiles
+
+if TYPE_CHECKING:
+    from tlsync_pipeline.pipeline.project import Project
+
+CAMERA_FILES = ("camera", "track", "votes", "video")
+
+
+def camera_files(files: StageFiles, names: list[str], fps: dict[str, float | None] | None = None) -> dict[str, dict]:
+    """Per camera, the paths a stage declared as ``<kind>:<camera>`` (kinds: CAMERA_FILES) and, given ``fps``, the camera's fps."""
+    out = {n: {k: files.path(f"{k}:{n}") for k in CAMERA_FILES if files.has(f"{k}:{n}")} for n in names}
+    for n in out if fps is not None else ():
+        out[n]["fps"] = fps[n]
+    return out
+
+
+def camera_params(project: Project) -> dict:
+    """The cameras in project order and their fps (None: the camera.json's)."""
+    return {"cameras": [c["name"] for c in project.cameras], "fps": {c["name"]: c["fps"] for c in project.cameras}}

@@ -1,0 +1,102 @@
+"""The intrinsics stage: a camera's checkerboard photos or video -> ``intrinsics.json`` and its report.
+
+A stage of its own so that the slow part (detecting the board in every view)
+is cached apart from the pose: editing a GCP file re-runs only calibrate.
+``intrinsics.json`` is a camera.json with identity R and zero t (``rms`` kept);
+``intrinsics_report.json`` holds the calibration report's ``intrinsics`` part
+(per-view errors and detected corners, rejected views with reasons).
+"""
+
+from __future__ import annotations
+
+import glob
+import json
+import os
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from calibration.camera import write_camera
+from calibration.intrinsics import calibrate_images, calibrate_video, parse_pattern
+from tlsync_pipeline.errors import InputError
+from tlsync_pipeline.pipeline.spec import Sources, StageSpec
+from tlsync_pipeline.pipeline.workspace import StageFiles
+
+if TYPE_CHECKING:
+    from tlsync_pipeline.pipeline.project import Project
+
+IMAGE_PREFIX = "image:"
+INTRINSICS_SOURCES = ("images", "video", "intrinsics")
+
+
+def check_calibration(project: Project, name: str) -> None:
+    """InputError when a camera's [cameras.calibration] table cannot work (no or several intrinsics sources, ...)."""
+    where = f"{project.path}: camera {name!r}: [cameras.calibration]"
+    cal = project.camera(name).get("calibration") or {}
+    sources = [k for k in INTRINSICS_SOURCES if cal.get(k) is not None]
+    if not sources:
+        raise InputError(f"{where}: give the intrinsics' source: images (a glob of checkerboard photos), video, or intrinsics (a camera.json)")
+    if len(sources) > 1:
+        raise InputError(f"{where}: give only one of images, video, intrinsics (got {', '.join(sources)})")
+    if cal.get("gcp") is not None and cal.get("board_pose") is not None:
+        raise InputError(f"{where}: give either gcp or board_pose for the camera's pose, not both")
+    if cal.get("images") or cal.get("video") or cal.get("board_pose"):
+        missing = [k for k in ("pattern", "square") if cal.get(k) is None]
+        if missing:
+            raise InputError(f"{where}: missing key(s) {', '.join(missing)} (the checkerboard's inner corners COLSxROWS and square side in metres)")
+
+
+def run_intrinsics(files: StageFiles, pattern: str, square: float, model: str, max_view_error: float, source: str, max_frames: int | None = None) -> dict:
+    """Calibrate the camera's intrinsics from its board views (``image:*`` inputs or ``video``), with ``files.cores`` processes.
+
+    ``source``: what the report names as the views' origin (the images glob or the video), relative to the project folder.
+    """
+    board = parse_pattern(pattern, square, source=f"camera {files.camera!r}: [cameras.calibration] pattern")
+    if files.has("video"):
+        result = calibrate_video(files.path("video"), board, model, max_frames, workers=files.cores, progress=files.progress, max_view_error=max_view_error)
+    else:
+        images = [str(files.path(label)) for label in files.inputs if label.startswith(IMAGE_PREFIX)]
+        result = calibrate_images(images, board, model, workers=files.cores, progress=files.progress, max_view_error=max_view_error)
+    report = result.to_report()
+    report["source"] = source
+    for view in report["per_view"]:
+        view["corners"] = np.round(result.corners[view["image"]], 3).tolist()
+    with files.write("intrinsics") as tmp:
+        write_camera(result.camera(files.camera), tmp)
+    with files.write("intrinsics_report") as tmp:
+        tmp.write_text(json.dumps(report, indent=1) + "\n", encoding="utf-8")
+    return {"rms_px": result.rms, "views_used": len(result.used)}
+
+
+def intrinsics_inputs(src: Sources, name: str) -> dict[str, Path]:
+    """The board views: every image the glob matches (labelled by path relative to the project folder), or the video."""
+    check_calibration(src.project, name)
+    cal = src.project.camera(name)["calibration"]
+    if cal["video"] is not None:
+        return {"video": cal["video"]}
+    matches = [Path(m) for m in sorted(glob.glob(os.path.expanduser(cal["images"]), recursive=True))]
+    if not matches:
+        raise InputError(f"{src.project.path}: camera {name!r}: [cameras.calibration] images: no file matches {cal['images']}")
+    return {IMAGE_PREFIX + os.path.relpath(m, src.project.root): m for m in matches}
+
+
+def intrinsics_params(project, name: str, options) -> dict:
+    cal = project.camera(name)["calibration"]
+    source = cal["video"] or cal["images"]
+    params = {k: cal[k] for k in ("pattern", "square", "model", "max_view_error")}
+    params["source"] = os.path.relpath(source, project.root)
+    if cal["video"] is not None:
+        params["max_frames"] = cal["max_frames"]
+    return params
+
+
+SPEC = StageSpec(
+    "intrinsics",
+    inputs=intrinsics_inputs,
+    params=intrinsics_params,
+    outputs=("intrinsics", "intrinsics_report"),
+    run=run_intrinsics,
+    per_camera=True,
+    applies=lambda project, name: project.camera(name)["camera"] is None and any((project.camera(name)["calibration"] or {}).get(k) is not None for k in ("images", "video")),
+)
