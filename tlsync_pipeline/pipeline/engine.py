@@ -190,8 +190,7 @@ def _schedule(graph: Graph, executor, wanted: list[str], force: set[str], memo: 
         progressed = True
         while progressed:
             progressed = False
-            # Per-camera tasks first, so the pool works while project-wide tasks run here.
-            for tid in sorted(pending, key=lambda t: graph.tasks[t].stage not in PER_CAMERA):
+            for tid in sorted(pending, key=lambda t: _priority(graph.tasks[t])):
                 task = graph.tasks[tid]
                 bad = [d for d in task.deps if d in summary.failed or d in summary.skipped]
                 if bad:
@@ -212,13 +211,12 @@ def _schedule(graph: Graph, executor, wanted: list[str], force: set[str], memo: 
                 why = "forced" if not reasons else reasons[0]
                 echo(f"{tid}: running ({why})")
                 local = task.stage not in PER_CAMERA
-                start = time.perf_counter()
                 where = SerialExecutor(executor.cores) if local else executor  # local tasks share the machine with the pool
                 files = graph.workspace.files(
                     tid, task.camera, task.inputs, task.outputs, progress=graph.options.progress, cores=where.cores, history=_history(graph) if task.spec.history else []
                 )
                 future = where.submit(run_task, {"run": task.spec.run, "files": files, "params": task.params})
-                running[future] = (task, now, start)
+                running[future] = (task, now)
                 if local:
                     break  # finish it before scheduling more, its dependents may now be ready
         if not running:
@@ -227,20 +225,20 @@ def _schedule(graph: Graph, executor, wanted: list[str], force: set[str], memo: 
                     summary.skipped[tid] = "its inputs were not made"
             break
         for future in executor_wait(executor, list(running)):
-            task, now, start = running.pop(future)
-            seconds = time.perf_counter() - start
+            task, now = running.pop(future)
             try:
-                result = future.result() or {}
+                ran = future.result()
             except Exception as exc:  # noqa: BLE001 - recorded, reported by the caller
                 summary.failed[task.id] = exc
                 echo(f"{task.id}: FAILED: {exc}")
                 continue
-            _write_manifest(graph, task, now, result, seconds, memo)
+            result = ran.result or {}
+            _write_manifest(graph, task, now, result, ran, memo)
             summary.ran.append(task.id)
-            summary.seconds[task.id] = seconds
+            summary.seconds[task.id] = ran.seconds
             summary.summaries[task.id] = result
             done.add(task.id)
-            echo(f"{task.id}: done in {seconds:.1f} s")
+            echo(f"{task.id}: done in {ran.seconds:.1f} s (CPU {ran.cpu_seconds:.1f} s)")
 
 
 def executor_wait(executor, futures: list) -> list:
@@ -249,10 +247,39 @@ def executor_wait(executor, futures: list) -> list:
     return finished or executor.wait_any(futures)
 
 
-def run_task(run, files: StageFiles, params: dict) -> dict:
-    """Call a stage's function with its files and parameters (in whichever process the executor chose)."""
+@dataclass(frozen=True)
+class TaskRun:
+    """A task's result and its own cost where it ran: seconds from start to end and CPU seconds of that process (its threads included).
+
+    Measured in the process that ran it, so a task that waited in the
+    executor's queue is not charged for the wait.
+    """
+
+    result: dict | None
+    seconds: float
+    cpu_seconds: float
+
+
+def run_task(run, files: StageFiles, params: dict) -> TaskRun:
+    """Call a stage's function with its files and parameters (in whichever process the executor chose), timed there."""
+    start, cpu = time.perf_counter(), time.process_time()
     with files.running():
-        return run(files, **params)
+        result = run(files, **params)
+    return TaskRun(result, time.perf_counter() - start, time.process_time() - cpu)
+
+
+def _priority(task: Task) -> tuple:
+    """Order in which ready tasks are handed out: per-camera tasks before project-wide ones (the pool works
+    while those run here); tracks first, the largest video first (the longest task must not start last and
+    leave one worker alone at the end); then the other per-camera tasks (calibrations fill the workers as
+    tracks end)."""
+    per_camera = task.stage in PER_CAMERA
+    track = task.stage == "track"
+    size = 0
+    if track:
+        video = task.inputs.get("video")
+        size = Path(video).stat().st_size if isinstance(video, Path) and Path(video).is_file() else 0
+    return (not per_camera, not track, -size)
 
 
 def _history(graph: Graph) -> list[dict]:
@@ -265,7 +292,7 @@ def _history(graph: Graph) -> list[dict]:
     return rows
 
 
-def _write_manifest(graph: Graph, task: Task, now: _Key, result: dict, seconds: float, memo: HashMemo) -> None:
+def _write_manifest(graph: Graph, task: Task, now: _Key, result: dict, ran: TaskRun, memo: HashMemo) -> None:
     ws = graph.workspace
     outputs = [ws.resolve(a) for a in task.outputs if a.kind not in FOLDERS] + [Path(p) for p in result.pop("outputs", [])]
     hashes = {}
@@ -273,5 +300,7 @@ def _write_manifest(graph: Graph, task: Task, now: _Key, result: dict, seconds: 
         digest = memo.sha256(path)
         if digest is not None:
             hashes[Path(path).relative_to(graph.work).as_posix()] = digest
-    manifest = Manifest(task.stage, task.camera, now.code, now.key, now.inputs, now.params, hashes, round(seconds, 3), summary=result)
+    manifest = Manifest(
+        task.stage, task.camera, now.code, now.key, now.inputs, now.params, hashes, round(ran.seconds, 3), cpu_seconds=round(ran.cpu_seconds, 3), summary=result
+    )
     write_manifest(manifest, manifest_path(graph, task))
