@@ -46,6 +46,7 @@ REPOSITORY = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPOSITORY))
 
 from data_fixtures.raw_project import RawProjectSpec, make_raw_project  # noqa: E402
+from tlsync_pipeline.pipeline.graph import STAGES  # noqa: E402
 
 FPS_CYCLE = (30.0, 25.0, 50.0, 30000 / 1001)
 TARGET_RATE = 10.0  # Hz, the GPX log
@@ -228,8 +229,7 @@ def main() -> None:
                 print(f"    {note}")
         for kind, per_stage in stages.items():
             print(f"\nstages, {kind} (sums over the stage's tasks as the manifests record them; x floor: of the floor's wall and CPU):")
-            for stage in ("calibrate", "track", "ingest", "vote", "sync", "export", "render"):
-                if stage in per_stage:
+            for stage in [s for s in STAGES if s in per_stage]:
                     seconds, cpu, count = per_stage[stage]
                     print(f"  {stage:10} {seconds:7.1f} s {seconds / floor.wall:6.2f}x  CPU {cpu:7.1f} s {cpu / floor.cpu:6.2f}x  CPU/run {cpu / seconds if seconds else float('nan'):5.2f}  ({count} task{'s' if count > 1 else ''})")
         print(f"\nload average at the end {_load()}")
