@@ -50,4 +50,4 @@ def demo(directory: Path, quick: bool, seed: int, tracking_noise: float, jobs: i
     click.echo("\nrecovered against true relations:\n" + table)
     click.echo(f"\nworst eps_t: {max(errors.values()):.3f} frames, in {time.perf_counter() - start:.0f} s")
     ws = graph.workspace
-    click.echo(f"timeline: {ws.path('timeline')}\nreport: {ws.path('report')}\npictures: {ws.path('pictures')}/")
+    click.echo(f"timeline: {ws.path('timeline')}\nreport: {ws.path('report_html')}\npictures: {ws.path('pictures')}/")

@@ -54,7 +54,7 @@ def run(project_file: Path, work_dir: Path | None, out_dir: Path | None, truth: 
     if truth is not None:
         pairs, n_frames = read_truth(truth)
         click.echo("\n" + format_truth_comparison(timeline, pairs, n_frames)[0])
-    click.echo(f"\nwrote {graph.workspace.path('timeline')}, {graph.workspace.path('report')}")
+    click.echo(f"\nwrote {graph.workspace.path('timeline')}, {graph.workspace.path('report_html')}")
     if timeline.failed:
         sys.exit(EXIT_SYNC_FAILED)
 

@@ -145,7 +145,7 @@ ingest_command = stage_command("ingest", "Re-run the ingest stage: the [target] 
 vote_command = stage_command("vote", "Re-run the vote stage: (frame, sample) pairs within eps_px, per camera.")
 sync_command = stage_command("sync", "Re-run the sync stage: each camera's line and the timeline (timeline.json).")
 export_command = stage_command("export", "Re-run the export stage: frame map, offsets and ffmpeg commands.")
-render_command = stage_command("render", "Draw the overlays and plots (paper Fig. 4) from cached artefacts, and report.md.", render=True)
+render_command = stage_command("render", "Draw the pictures and charts from cached artefacts, and write report.html and report.md.", render=True)
 
 
 def run_options(f):

@@ -3,17 +3,12 @@
 Per camera: the voting space (votes, inliers, fitted line; Fig. 4 c, f) and
 the tracked path against the trajectory projected at the aligned times
 (Fig. 4 a, b), with the fit's own trajectory model (the method's prepared
-trajectory through trajectory.PiecewiseTrajectory). Per pair of cameras A, B with videos:
-
-- band swap: the green band of frame t_B of B with the red and blue bands of
-  the matching frame t_A of A (both resized to B's size): *before* (t_A = t_B,
-  the same index), *after* (t_A matched through the cameras' clocks,
-  Timeline.match) and, with a
-  truth file, *truth*. Where the views overlap, a well aligned pair shows a
-  moving object without colour fringes;
-- strip: matching frames side by side with the target's position projected
-  from the trajectory at that instant (red circle) and the tracked position
-  (green cross); this is the check for views that do not overlap.
+trajectory through trajectory.PiecewiseTrajectory); its before/after band
+swap is in bandswap.py. Per pair of cameras A, B with videos, the strip:
+matching frames side by side (matched through the cameras' clocks,
+Timeline.match) with the target's position projected from the trajectory at
+that instant (red circle) and the tracked position (green cross), and A's
+true match when a truth file is given.
 
 Only the frames drawn are read: each is reached by seeking (decoding starts
 at the keyframe before it), never by reading the video through. Everything
@@ -29,6 +24,7 @@ import cv2
 import numpy as np
 
 from tlsync_pipeline.atomic import atomic_path
+from tlsync_pipeline.outputs.bandswap import PANEL_HEIGHT, caption, fit_height, mosaic
 from tlsync_pipeline.sync.clock import FrameTimes
 from tlsync_pipeline.sync.ransac import distance_to_line
 from tlsync_pipeline.sync.timeline import Timeline
@@ -36,7 +32,6 @@ from tlsync_pipeline.trajectory import PiecewiseTrajectory
 from trackers import video
 
 FRAMES_PER_PAIR = 3
-STRIP_HEIGHT = 240  # pixels of each frame in the pictures
 
 
 def read_frames(path: Path, indices) -> dict[int, np.ndarray]:
@@ -68,49 +63,11 @@ def choose_frames(track_frames: np.ndarray, to_a: Callable[[np.ndarray], np.ndar
     return sorted(set(int(p) for p in picks))
 
 
-def band_swap(frame_a: np.ndarray, frame_b: np.ndarray) -> np.ndarray:
-    """B's green band with A's red and blue bands, A resized to B's size (BGR in, BGR out)."""
-    h, w = frame_b.shape[:2]
-    a = cv2.resize(frame_a, (w, h), interpolation=cv2.INTER_AREA)
-    out = a.copy()
-    out[..., 1] = frame_b[..., 1]
-    return out
-
-
-def _fit(image: np.ndarray, height: int = STRIP_HEIGHT) -> tuple[np.ndarray, float]:
-    scale = height / image.shape[0]
-    return cv2.resize(image, (max(1, round(image.shape[1] * scale)), height), interpolation=cv2.INTER_AREA), scale
-
-
-def _label(image: np.ndarray, text: str) -> np.ndarray:
-    image = image.copy()
-    cv2.putText(image, text, (6, 18), cv2.FONT_HERSHEY_SIMPLEX, 0.5, (0, 0, 0), 3, cv2.LINE_AA)
-    cv2.putText(image, text, (6, 18), cv2.FONT_HERSHEY_SIMPLEX, 0.5, (255, 255, 255), 1, cv2.LINE_AA)
-    return image
-
-
-def _blank(width: int, height: int = STRIP_HEIGHT) -> np.ndarray:
+def _blank(width: int, height: int = PANEL_HEIGHT) -> np.ndarray:
     return np.full((height, width, 3), 40, np.uint8)
 
 
-def _mosaic(rows: list[list[np.ndarray]]) -> np.ndarray:
-    width = max(sum(img.shape[1] for img in row) + 4 * (len(row) - 1) for row in rows)
-    lines = []
-    for row in rows:
-        parts = []
-        for k, img in enumerate(row):
-            parts.append(img)
-            if k < len(row) - 1:
-                parts.append(np.full((img.shape[0], 4, 3), 255, np.uint8))
-        line = np.hstack(parts)
-        if line.shape[1] < width:
-            line = np.hstack([line, np.full((line.shape[0], width - line.shape[1], 3), 255, np.uint8)])
-        lines.append(line)
-        lines.append(np.full((4, width, 3), 255, np.uint8))
-    return np.vstack(lines[:-1])
-
-
-def _write_png(path: Path, image: np.ndarray) -> Path:
+def write_png(path: Path, image: np.ndarray) -> Path:
     ok, data = cv2.imencode(".png", image)
     if not ok:
         raise RuntimeError(f"{path}: PNG encoding failed")
@@ -213,41 +170,32 @@ def render_pair(
     out_dir: Path,
     times: dict[str, FrameTimes | None],
 ) -> list[Path]:
-    """Band-swap and strip pictures of the pair A, B at frames ``frames_b`` of B."""
-    wanted_a = {"before (same index)": {f: f for f in frames_b}, "after (estimated)": pair_frames(a, b, frames_b, timeline, times)}
+    """The strip of the pair A, B at frames ``frames_b`` of B: A's matching frame, B's frame (and A's true match with a truth)."""
+    wanted_a = {"estimated": pair_frames(a, b, frames_b, timeline, times)}
     if truth and f"{b}->{a}" in truth:
         wanted_a["truth"] = {f: int(round(float(truth[f"{b}->{a}"](f)))) for f in frames_b}
     needed_a = sorted({i for m in wanted_a.values() for i in m.values() if 0 <= i < n_frames[a]})
     images_a = read_frames(videos[a], needed_a)
     images_b = read_frames(videos[b], frames_b)
-    swap_rows, strip_rows = [], []
     line_b = timeline.cameras[b]
     tracked = {name: dict(zip(inp.track.frame.tolist(), inp.track.xy)) for name, inp in inputs.items()}
+    rows = []
     for f in frames_b:
         if f not in images_b:
             continue
-        fb, scale_b = _fit(images_b[f])
+        fb, scale_b = fit_height(images_b[f])
+        position = path_model.positions(line_b.sample_at(float(f), times.get(b)))[0]
+        point = position if np.isfinite(position[0]) else None
         row = []
         for title, mapping in wanted_a.items():
             fa = mapping[f]
             if fa in images_a:
-                row.append(_label(_fit(band_swap(images_a[fa], images_b[f]))[0], f"{title}: {a} {fa} / {b} {f}"))
+                img_a, scale_a = fit_height(images_a[fa])
+                row.append(caption(_draw_target(img_a, inputs[a].camera, point, tracked[a].get(fa), scale_a), f"{a} frame {fa} ({title} match)"))
             else:
-                row.append(_label(_blank(fb.shape[1]), f"{title}: {a} has no frame {fa}"))
-        swap_rows.append(row)
-        position = path_model.positions(line_b.sample_at(float(f), times.get(b)))[0]
-        point = position if np.isfinite(position[0]) else None
-        fa = wanted_a["after (estimated)"][f]
-        if fa in images_a:
-            img_a, scale_a = _fit(images_a[fa])
-            left = _label(_draw_target(img_a, inputs[a].camera, point, tracked[a].get(fa), scale_a), f"{a} frame {fa}")
-        else:
-            left = _label(_blank(fb.shape[1]), f"{a}: no frame {fa}")
-        right = _label(_draw_target(fb, inputs[b].camera, point, tracked[b].get(f), scale_b), f"{b} frame {f}")
-        strip_rows.append([left, right])
-    if not swap_rows:
+                row.append(caption(_blank(fb.shape[1]), f"{a}: no frame {fa} ({title} match)"))
+        row.insert(1, caption(_draw_target(fb, inputs[b].camera, point, tracked[b].get(f), scale_b), f"{b} frame {f}"))
+        rows.append(row)
+    if not rows:
         return []
-    return [
-        _write_png(out_dir / f"swap_{a}_{b}.png", _mosaic(swap_rows)),
-        _write_png(out_dir / f"strip_{a}_{b}.png", _mosaic(strip_rows)),
-    ]
+    return [write_png(out_dir / f"strip_{a}_{b}.png", mosaic(rows))]

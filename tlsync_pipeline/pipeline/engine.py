@@ -283,12 +283,20 @@ def _priority(task: Task) -> tuple:
 
 
 def _history(graph: Graph) -> list[dict]:
-    """When and how long each task of the graph last ran, from the manifests (for the report)."""
+    """When and how long each task of the graph last ran, and the warnings it recorded, from the manifests (for the report)."""
     rows = []
     for task in graph.tasks.values():
         manifest = read_manifest(manifest_path(graph, task))
         if manifest is not None:
-            rows.append({"stage": manifest.stage, "camera": manifest.camera, "created": manifest.created, "seconds": manifest.seconds})
+            rows.append(
+                {
+                    "stage": manifest.stage,
+                    "camera": manifest.camera,
+                    "created": manifest.created,
+                    "seconds": manifest.seconds,
+                    "warnings": list(manifest.summary.get("warnings") or []),
+                }
+            )
     return rows
 
 

@@ -30,6 +30,7 @@ from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.geodesy import Origin
 from tlsync_pipeline.ingest import ALTITUDE_REFERENCES, FORMATS
 from tlsync_pipeline.ingest.process import IngestParams
+from tlsync_pipeline.outputs.proxy import POLICIES as PROXY_POLICIES
 from tlsync_pipeline.sync.params import SyncParams, parameter_fields
 from tlsync_pipeline.sync.registry import METHODS, params_from_table
 from trackers.tracking import KINDS as TRACKER_KINDS
@@ -274,6 +275,7 @@ CAMERA_SCHEMA = {
     "track": Field(_path),
     "fps": Field(_positive),
     "video": Field(_path),
+    "proxy": Field(_choice(*PROXY_POLICIES, what="proxy policy"), PROXY_POLICIES[0]),
     "tracker": TRACKER_SCHEMA,
     "calibration": CALIBRATION_SCHEMA,
 }

@@ -9,7 +9,8 @@ Layout (relative to the work folder; docs/pipeline.md lists it for users):
     target/trajectory.csv, target/ingest_report.json                ingest
     timeline.json                                                   sync
     exports/frame_map.csv, offsets.csv, ffmpeg.sh                   export
-    render/*.png, report.md                                         render
+    exports/timeline.otio, timeline.fcpxml, sync.json               export (editors' timelines)
+    render/*.png, render/proxy/<cam>.mp4, report.html, report.md    render
     <folder of the stage's artefacts>/<stage>.manifest.json         the cache's record of a run
     .lock, .hashes.json                                             the running tlsync, remembered hashes
 
@@ -48,7 +49,11 @@ ARTEFACTS: dict[str, str] = {
     "frame_map": "exports/frame_map.csv",
     "offsets": "exports/offsets.csv",
     "ffmpeg": "exports/ffmpeg.sh",
+    "timeline_otio": "exports/timeline.otio",
+    "timeline_fcpxml": "exports/timeline.fcpxml",
+    "sync_json": "exports/sync.json",
     "pictures": "render",
+    "report_html": "report.html",
     "report": "report.md",
 }
 FOLDERS = frozenset({"pictures"})
@@ -146,7 +151,7 @@ class StageFiles:
     guarded: tuple[Path, ...]  # folders whose files must be declared to be opened (work, project)
     progress: bool = True
     cores: int = 1
-    history: list[dict] = field(default_factory=list)  # earlier runs' records (stage, camera, created, seconds), for the report
+    history: list[dict] = field(default_factory=list)  # earlier runs' records (stage, camera, created, seconds, warnings), for the report
 
     def path(self, label: str) -> Path:
         """A declared input's path."""

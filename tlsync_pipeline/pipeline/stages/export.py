@@ -1,17 +1,25 @@
-"""The export stage: frame_map.csv, offsets.csv and ffmpeg.sh from timeline.json."""
+"""The export stage: frame_map.csv, offsets.csv, ffmpeg.sh and the editors' timelines from timeline.json.
+
+Editors' timelines (timeline.otio, timeline.fcpxml when the OTIO FCPXML
+adapter can write the cameras' rates, sync.json) need the reference camera's
+frame rate.
+"""
 
 from __future__ import annotations
 
 import csv
+import json
 
 import numpy as np
 
+from tlsync_pipeline.outputs.diagnostics import HALF_95
+from tlsync_pipeline.outputs.editors import Placement, fcpxml_text, otio_text, sync_document
 from tlsync_pipeline.outputs.exports import ffmpeg_commands, frame_map_rows, offsets
 from tlsync_pipeline.pipeline.spec import Sources, StageSpec
 from tlsync_pipeline.pipeline.stages.cameras import camera_files
 from tlsync_pipeline.pipeline.workspace import StageFiles
 from tlsync_pipeline.sync.clock import FrameTimes
-from tlsync_pipeline.sync.timeline import CameraLine, read_timeline
+from tlsync_pipeline.sync.timeline import CameraLine, Timeline, read_timeline
 from trackers.track import read_track
 from trackers.video import presentation_times, probe_video
 
@@ -43,7 +51,7 @@ def frame_times(camera: dict, line: CameraLine) -> FrameTimes | None:
 
 
 def run_export(files: StageFiles, cameras: list[str]) -> dict:
-    """The export stage: frame_map.csv, offsets.csv and ffmpeg.sh from timeline.json."""
+    """The export stage: frame_map.csv, offsets.csv, ffmpeg.sh, timeline.otio, timeline.fcpxml and sync.json."""
     cameras = camera_files(files, cameras)
     tl = read_timeline(files.path("timeline"))
     if not tl.cameras:
@@ -62,7 +70,36 @@ def run_export(files: StageFiles, cameras: list[str]) -> dict:
     videos = {name: (str(c["video"]) if c.get("video") else None) for name, c in cameras.items()}
     with files.write("ffmpeg") as tmp:
         tmp.write_text(ffmpeg_commands(rows, videos), encoding="utf-8")
-    return {"exported": tl.names, "n_frames": n_frames}
+    notes = []
+    placements = editor_placements(tl, rows, videos, n_frames)
+    if placements is None:
+        notes.append(f"no editor timelines: the reference camera {tl.names[0]} has no frame rate")
+    else:
+        texts = {"timeline_otio": otio_text(placements), "sync_json": json.dumps(sync_document(placements, tl.names[0]), indent=1) + "\n"}
+        fcpxml, why_not = fcpxml_text(placements)
+        if fcpxml is None:
+            notes.append(f"no timeline.fcpxml: {why_not}")
+        else:
+            texts["timeline_fcpxml"] = fcpxml
+        for kind, text in texts.items():
+            with files.write(kind) as tmp:
+                tmp.write_text(text, encoding="utf-8")
+    return {"exported": tl.names, "n_frames": n_frames, "warnings": notes}
+
+
+def editor_placements(tl: Timeline, rows: list[dict], videos: dict[str, str | None], n_frames: dict[str, int]) -> list[Placement] | None:
+    """Each camera's placement on the editors' timeline from its offsets.csv row; None without every camera's fps."""
+    if any(r["start_s"] is None or not r["fps"] for r in rows):
+        return None
+    reference = tl.names[0]
+    placements = []
+    for r in rows:
+        name = r["camera"]
+        se = tl.start_offset_se(reference, name) if name != reference else None
+        half = None if se is None or se[1] is None else HALF_95 * se[1]
+        vfr = tl.cameras[name].clock.vfr
+        placements.append(Placement(name, videos.get(name), r["start_s"], r["fps"], n_frames[name], n_frames[name] / r["fps"], r["clock_rate"], half, vfr))
+    return placements
 
 
 def export_inputs(src: Sources, camera: None) -> dict:
@@ -79,6 +116,6 @@ SPEC = StageSpec(
     "export",
     inputs=export_inputs,
     params=lambda project, camera, options: {"cameras": [c["name"] for c in project.cameras]},
-    outputs=("frame_map", "offsets", "ffmpeg"),
+    outputs=("frame_map", "offsets", "ffmpeg", "timeline_otio", "timeline_fcpxml", "sync_json"),
     run=run_export,
 )

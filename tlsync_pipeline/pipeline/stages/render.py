@@ -1,28 +1,72 @@
-"""The render stage: plots per camera, pictures per pair and report.md, from cached artefacts."""
+"""The render stage: pictures, charts, the player's proxies, report.html and report.md, from cached artefacts.
+
+Writes under ``<work>/render/``: per camera the voting space, the trajectory
+check and the before/after band swap; per pair of cameras the strip of
+matching frames; the offsets and residuals charts; proxy clips for videos a
+browser cannot play. Then ``<work>/report.html`` (self-contained) and
+``<work>/report.md``, which gather every stage's warnings.
+"""
 
 from __future__ import annotations
 
+import json
+import os
 from pathlib import Path
+from urllib.parse import quote
 
+import cv2
+import numpy as np
+
+from tlsync_pipeline.atomic import atomic_path
+from tlsync_pipeline.ingest.process import Gap, IngestReport
+from tlsync_pipeline.outputs import bandswap
+from tlsync_pipeline.outputs.diagnostics import (
+    StageWarning,
+    all_statuses,
+    calibration_warnings,
+    ingest_warnings,
+    summary_warnings,
+    sync_warnings,
+)
 from tlsync_pipeline.outputs.pictures import (
     choose_frames,
     default_pairs,
     pair_frames,
     plot_trajectory,
     plot_votes,
+    read_frames,
     render_pair,
+    write_png,
 )
-from tlsync_pipeline.outputs.summary import format_table
+from tlsync_pipeline.outputs.player import PlayerVideo, player_data
+from tlsync_pipeline.outputs.plots import offsets_plot, residuals_plot, track_residuals
+from tlsync_pipeline.outputs.proxy import make_proxy, needs_proxy
+from tlsync_pipeline.outputs.report_content import Picture, ReportContent, StageRun
+from tlsync_pipeline.outputs.report_html import report_html
+from tlsync_pipeline.outputs.report_md import report_markdown
+from tlsync_pipeline.outputs.summary import calibration_summary
 from tlsync_pipeline.pipeline.spec import Sources, StageSpec
 from tlsync_pipeline.pipeline.stages.cameras import camera_files, camera_params
 from tlsync_pipeline.pipeline.stages.export import frame_count, frame_times
 from tlsync_pipeline.pipeline.stages.sync import read_camera_inputs
 from tlsync_pipeline.pipeline.workspace import StageFiles
+from tlsync_pipeline.sync.clock import FrameTimes
 from tlsync_pipeline.sync.registry import params_from_table
 from tlsync_pipeline.sync.synchronize import prepare_trajectory
-from tlsync_pipeline.sync.timeline import Timeline, read_timeline, read_truth
+from tlsync_pipeline.sync.timeline import CameraLine, Timeline, read_timeline, read_truth
 from tlsync_pipeline.sync.votes import load_votes
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, read_trajectory
+from trackers.video import presentation_times, probe_video
+
+EMBEDDED_JPEG_QUALITY = 85
+EXPORT_LABELS = (
+    ("frame map (CSV)", "frame_map.csv"),
+    ("offsets (CSV)", "offsets.csv"),
+    ("ffmpeg commands", "ffmpeg.sh"),
+    ("OpenTimelineIO timeline (DaVinci Resolve, Premiere via plug-in, ...)", "timeline.otio"),
+    ("FCPXML timeline (Final Cut Pro, DaVinci Resolve)", "timeline.fcpxml"),
+    ("sync.json (offsets with their sign convention)", "sync.json"),
+)
 
 
 def run_render(
@@ -32,32 +76,48 @@ def run_render(
     pairs: list | None = None,
     frames: list | None = None,
     delta: float = 0.5,
+    proxy: dict | None = None,
 ) -> dict:
-    """The render stage: plots per camera, pictures per pair, report.md.
+    """The render stage: pictures, charts, proxies, report.html and report.md.
 
-    Returns the files written and, per pair "A,B", the frames drawn: [frame of B, frame of A].
+    proxy: camera -> "auto" | "always" | "never" (default auto: a proxy when
+    the browser cannot play the camera's video). Returns the files written
+    and, per pair "A,B", the frames drawn: [frame of B, frame of A].
     """
     tl = read_timeline(files.path("timeline"))
-    path_model = PiecewiseTrajectory(prepare_trajectory(read_trajectory(files.path("trajectory")), params_from_table(tl.params)))
+    traj = read_trajectory(files.path("trajectory"))
+    path_model = PiecewiseTrajectory(prepare_trajectory(traj, params_from_table(tl.params)))
+    names = cameras
     cameras = camera_files(files, cameras, fps)
     inputs = read_camera_inputs({n: c for n, c in cameras.items() if n in tl.cameras})
     times = {name: frame_times(cameras[name], line) for name, line in tl.cameras.items()}
+    work = files.output("report").parent
     out_dir = files.output("pictures")
     written: list[Path] = []
+    camera_pictures: dict[str, list[Picture]] = {name: [] for name in tl.cameras}
+    videos = {n: Path(c["video"]) for n, c in cameras.items() if c.get("video") and n in tl.cameras}
+    n_frames = {n: frame_count(cameras[n]) for n in tl.cameras}
     for name, line in tl.cameras.items():
         votes, _ = load_votes(cameras[name]["votes"])
-        written.append(plot_votes(name, votes, line, delta, files.output("pictures", f"votes_{name}.png"), times[name]))
-        written.append(plot_trajectory(name, inputs[name].camera, inputs[name].track, path_model, line, files.output("pictures", f"trajectory_{name}.png"), times[name]))
+        made = [
+            plot_votes(name, votes, line, delta, out_dir / f"votes_{name}.png", times[name]),
+            plot_trajectory(name, inputs[name].camera, inputs[name].track, path_model, line, out_dir / f"trajectory_{name}.png", times[name]),
+        ]
+        if name in videos:
+            made.append(write_band_swap(name, inputs[name], line, path_model, traj.rate, times[name], videos[name], out_dir / f"swap_{name}.png"))
+        written += made
+        titles = ("voting space", "tracked against projected", "band swap: before and after")
+        camera_pictures[name] = [(_photo if title.startswith("band swap") else _picture)(title, path, work) for title, path in zip(titles, made)]
+
     truth_pairs = read_truth(files.path("truth"))[0] if files.has("truth") else None
-    videos = {n: Path(c["video"]) for n, c in cameras.items() if c.get("video") and n in tl.cameras}
     pair_list = [tuple(p) for p in pairs] if pairs else default_pairs(tl)
     notes = []
     drawn = {}
+    pair_pictures = []
     for a, b in pair_list:
         if a not in videos or b not in videos:
-            notes.append(f"{a}, {b}: no band-swap or strip pictures (needs both cameras' videos)")
+            notes.append(f"{a}, {b}: no strip of matching frames (needs both cameras' videos)")
             continue
-        n_frames = {a: frame_count(cameras[a]), b: frame_count(cameras[b])}
         chosen = list(frames) if frames else choose_frames(inputs[b].track.frame, lambda f: tl.match(b, a, f, times), n_frames[a], n_frames[b])
         made = render_pair(a, b, chosen, tl, inputs, path_model, videos, n_frames, truth_pairs, out_dir, times)
         if not made:
@@ -65,44 +125,203 @@ def run_render(
         else:
             drawn[f"{a},{b}"] = [[f, fa] for f, fa in pair_frames(a, b, chosen, tl, times).items()]
         written += made
-    report = write_report(files, tl, written, notes)
-    return {"outputs": [str(p) for p in written], "notes": notes, "report": str(report), "frames": drawn}
+        pair_pictures += [_photo(f"{a} and {b}: matching frames", path, work) for path in made]
 
+    statuses = all_statuses(tl)
+    charts = [
+        _write_chart(out_dir / "offsets.png", offsets_plot(tl, statuses), work, "offsets: every camera's start with its 95 % interval"),
+        _write_chart(
+            out_dir / "residuals.png",
+            residuals_plot(
+                {n: track_residuals(inputs[n].camera, inputs[n].track, path_model, tl.cameras[n], times[n]) for n in tl.cameras},
+                float(tl.params.get("eps_px", 10.0)),
+                1.0 / tl.target_rate if tl.target_rate else None,
+            ),
+            work,
+            "residuals: tracked minus projected position over time, with the vote gate",
+        ),
+    ]
+    written += [work / c.href for c in charts]
 
-def write_report(files: StageFiles, timeline: Timeline, pictures: list[Path], notes: list[str]) -> Path:
-    """A short Markdown report of the run: the timeline table, the stages, exports and pictures."""
-    lines = ["# tlsync run report", "", "## Timeline", "", "```", format_table(timeline), "```", ""]
-    if files.history:
-        lines += ["## Stages", "", "| stage | camera | made (UTC) | seconds |", "|---|---|---|---:|"]
-        lines += [f"| {m['stage']} | {m['camera'] or '-'} | {m['created']} | {m['seconds']:.1f} |" for m in files.history]
-        lines.append("")
-    if files.has("offsets") and files.path("offsets").exists():
-        lines += ["Exports: [frame map](exports/frame_map.csv), [offsets](exports/offsets.csv), [ffmpeg commands](exports/ffmpeg.sh).", ""]
-    calibrations = [files.path(f"calibration_picture:{name}") for name in timeline.names if files.has(f"calibration_picture:{name}")]
-    calibrations = [path for path in calibrations if path.exists()]
-    work = files.output("report").parent
-    lines += ["## Pictures", ""]
-    for path in calibrations + list(pictures):
-        rel = Path(path).relative_to(work).as_posix()
-        title = rel.replace("/", " ").replace(".png", "")
-        lines += [f"### {title}", "", f"![{title}]({rel})", ""]
-    if notes:
-        lines += ["## Notes", ""] + [f"- {n}" for n in notes] + [""]
+    played, proxies = player_videos(tl, videos, n_frames, proxy or {}, out_dir / "proxy", work)
+    written += proxies
+    ingest = _read_json(files.path("ingest_report")) if files.has("ingest_report") else None
+    player = player_data(tl, {n: inputs[n].camera for n in tl.cameras}, traj, played, utc=bool(ingest and ingest.get("t0_utc") and ingest.get("clock", "UTC") == "UTC"))
+
+    content = ReportContent(
+        title="tlsync run report",
+        timeline=tl,
+        statuses=statuses,
+        warnings=gather_warnings(files, tl, names, ingest, notes),
+        stages=[StageRun(h["stage"], h["camera"], h["created"], h["seconds"]) for h in files.history if h["stage"] != "render"] + [StageRun("render", None, "this run", None)],
+        calibration={n: calibration_summary(r) for n in names if (r := _declared_json(files, f"calibration_report:{n}"))},
+        ingest=_ingest_summary(ingest),
+        charts=charts,
+        camera_pictures=camera_pictures,
+        pair_pictures=pair_pictures,
+        calibration_pictures=[_picture(f"{n}: calibration", files.path(f"calibration_picture:{n}"), work) for n in names if files.has(f"calibration_picture:{n}") and files.path(f"calibration_picture:{n}").exists()],
+        exports=[(label, f"exports/{name}") for label, name in EXPORT_LABELS if (work / "exports" / name).exists()],
+        player=player,
+    )
+    with files.write("report_html") as tmp:
+        tmp.write_text(report_html(content), encoding="utf-8")
     with files.write("report") as tmp:
-        tmp.write_text("\n".join(lines), encoding="utf-8")
-    return files.output("report")
+        tmp.write_text(report_markdown(content), encoding="utf-8")
+    return {"outputs": [str(p) for p in written], "notes": notes, "report": str(files.output("report_html")), "frames": drawn}
+
+
+def write_band_swap(name: str, inputs, line: CameraLine, path_model: PiecewiseTrajectory, rate: float | None, times: FrameTimes | None, video: Path, path: Path) -> Path:
+    """swap_<camera>.png: band swaps of tracked frames, the target rendered before and after synchronization.
+
+    after: at the sample the camera's line gives the frame; before: at the
+    frame's own time since the camera's frame 0 (seconds on its clock, frame
+    index / fps), taken as time since the log's first sample.
+    """
+    track = inputs.track
+    picks = sorted({int(f) for f in np.quantile(track.frame, [0.2, 0.5, 0.8], method="nearest")})
+    images = read_frames(video, picks)
+    rows = []
+    for f in picks:
+        own = float(line.clock.seconds_at(line.clock.clock_at(float(f), times), times)) if line.clock.fps else None
+        before = own * rate if own is not None and rate else float(f)
+        after = float(line.sample_at(float(f), times))
+        rows.append(
+            (
+                _panel(inputs.camera, images[f], path_model, before, f"before: {name} frame {f}, its time {_seconds(own)} as log time"),
+                _panel(inputs.camera, images[f], path_model, after, f"after: {name} frame {f} at log time {_seconds(after / rate if rate else None)}"),
+            )
+        )
+    picture = bandswap.before_after(rows, bandswap.target_radius(track))
+    return write_png(path, picture)
+
+
+def _seconds(value: float | None) -> str:
+    return "?" if value is None else f"{value:.2f} s"
+
+
+def _panel(camera, image: np.ndarray, path_model: PiecewiseTrajectory, sample: float, text: str) -> bandswap.Panel:
+    point = path_model.positions(sample)[0]
+    uv = None
+    if np.isfinite(point[0]):
+        projected, valid = camera.project(point[None, :])
+        if valid[0] and camera.in_image(projected)[0]:
+            uv = (float(projected[0, 0]), float(projected[0, 1]))
+    if uv is None:
+        text += " (target out of view)"
+    return bandswap.Panel(image, uv, text)
+
+
+def player_videos(tl: Timeline, videos: dict[str, Path], n_frames: dict[str, int], policy: dict, proxy_dir: Path, work: Path) -> tuple[dict[str, PlayerVideo], list[Path]]:
+    """What the player plays per camera (the video, or a proxy made now when needed) and the proxies written."""
+    played, proxies = {}, []
+    for name, line in tl.cameras.items():
+        video = videos.get(name)
+        if video is None:
+            fps = line.fps or 1.0
+            played[name] = PlayerVideo(None, False, None, np.arange(n_frames[name]) / fps)
+            continue
+        codec = probe_video(video).codec
+        source, is_proxy = video, False
+        if needs_proxy(codec, video.suffix, policy.get(name, "auto")):
+            source, is_proxy = ensure_proxy(video, proxy_dir / f"{name}.mp4"), True
+            proxies.append(source)
+        src = quote(Path(os.path.relpath(source, work)).as_posix())
+        table = presentation_times(source)
+        played[name] = PlayerVideo(src, is_proxy, codec, table if table is not None else np.arange(n_frames[name]) / (line.fps or 1.0))
+    return played, proxies
+
+
+def ensure_proxy(video: Path, path: Path) -> Path:
+    """The proxy of ``video`` at ``path``, made again only when the video changed (size, modification time)."""
+    stat = video.stat()
+    stamp = {"source": str(video.resolve()), "size": stat.st_size, "mtime_ns": stat.st_mtime_ns}
+    marker = path.with_suffix(".json")
+    if path.exists() and _read_json(marker) == stamp:
+        return path
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with atomic_path(path) as tmp:
+        make_proxy(video, tmp)
+    with atomic_path(marker) as tmp:
+        tmp.write_text(json.dumps(stamp), encoding="utf-8")
+    return path
+
+
+def gather_warnings(files: StageFiles, tl: Timeline, names: list[str], ingest: dict | None, notes: list[str]) -> list[StageWarning]:
+    """Every warning the stages recorded, in stage order, and render's own notes."""
+    found: list[StageWarning] = []
+    for name in names:
+        report = _declared_json(files, f"calibration_report:{name}")
+        if report:
+            found += calibration_warnings(name, report)
+    if ingest:
+        found += ingest_warnings(ingest)
+    for run in files.history:
+        if run["stage"] != "render":
+            found += summary_warnings(run["stage"], run["camera"], {"warnings": run.get("warnings")})
+    found += sync_warnings(tl)
+    found += [StageWarning("render", None, note) for note in notes]
+    order = {}  # pipeline order: the history lists the graph's tasks in it
+    for run in files.history + [{"stage": w.stage} for w in found]:
+        order.setdefault(run["stage"], len(order))
+    return sorted(found, key=lambda w: order[w.stage] if w.stage != "render" else len(order))
+
+
+def _declared_json(files: StageFiles, label: str) -> dict | None:
+    """A declared JSON input (None when not declared or unreadable)."""
+    return _read_json(files.path(label)) if files.has(label) else None
+
+
+def _read_json(path: Path) -> dict | None:
+    try:
+        return json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+
+
+def _ingest_summary(report: dict | None) -> str | None:
+    if not report:
+        return None
+    fields = {k: v for k, v in report.items() if k != "format_version"}
+    fields["gaps"] = [Gap(**g) for g in fields.get("gaps", [])]
+    try:
+        return IngestReport(**fields).summary()
+    except TypeError:
+        return None
+
+
+def _picture(title: str, path: Path, work: Path) -> Picture:
+    return Picture(title, Path(path).relative_to(work).as_posix(), Path(path).read_bytes())
+
+
+def _photo(title: str, path: Path, work: Path) -> Picture:
+    """A picture of video frames, embedded as JPEG (a fifth of the PNG beside it)."""
+    ok, data = cv2.imencode(".jpg", cv2.imread(str(path)), [cv2.IMWRITE_JPEG_QUALITY, EMBEDDED_JPEG_QUALITY])
+    if not ok:
+        return _picture(title, path, work)
+    return Picture(title, Path(path).relative_to(work).as_posix(), data.tobytes(), media_type="image/jpeg")
+
+
+def _write_chart(path: Path, png: bytes, work: Path, title: str) -> Picture:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with atomic_path(path) as tmp:
+        tmp.write_bytes(png)
+    return Picture(title, path.relative_to(work).as_posix(), png)
 
 
 def render_inputs(src: Sources, camera: None) -> dict:
-    """What the pictures and the report show: every camera's files and votes, the trajectory, the timeline, the exports."""
+    """What the pictures and the report show: every camera's files, votes and calibration report, the trajectory and
+    its ingest report, the timeline, the exports."""
     inputs = {"timeline": src.artefact("timeline"), "trajectory": src.artefact("trajectory"), "offsets": src.artefact("offsets")}
+    if src.made("ingest_report"):
+        inputs["ingest_report"] = src.artefact("ingest_report")
     for spec in src.project.cameras:
         name = spec["name"]
         inputs.update({f"{kind}:{name}": src.artefact(kind, name) for kind in ("camera", "track", "votes")})
         if spec.get("video") is not None:
             inputs[f"video:{name}"] = spec["video"]
-        if src.made("calibration_picture", name):
-            inputs[f"calibration_picture:{name}"] = src.artefact("calibration_picture", name)
+        for kind in ("calibration_picture", "calibration_report"):
+            if src.made(kind, name):
+                inputs[f"{kind}:{name}"] = src.artefact(kind, name)
     if src.options.truth is not None:
         inputs["truth"] = Path(src.options.truth).resolve()
     return inputs
@@ -114,6 +333,7 @@ def render_params(project, camera: None, options) -> dict:
         "pairs": [list(p) for p in options.render_pairs] if options.render_pairs else None,
         "frames": list(options.render_frames) if options.render_frames else None,
         "delta": project.sync.delta,
+        "proxy": {spec["name"]: spec["proxy"] for spec in project.cameras},
     }
 
 
@@ -121,7 +341,7 @@ SPEC = StageSpec(
     "render",
     inputs=render_inputs,
     params=render_params,
-    outputs=("pictures", "report"),
+    outputs=("pictures", "report_html", "report"),
     run=run_render,
     history=True,
 )

@@ -6,6 +6,7 @@
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 from tlsync_pipeline.atomic import atomic_path
@@ -14,6 +15,7 @@ from tlsync_pipeline.pipeline.spec import StageSpec
 from tlsync_pipeline.pipeline.workspace import StageFiles
 from trackers.track import Track, write_track
 from trackers.tracking import track_video
+from trackers.video import TruncatedVideoWarning
 
 
 def track_camera(spec: dict, progress: bool = True) -> Track:
@@ -39,10 +41,19 @@ def write_track_atomic(track: Track, path: Path) -> None:
 
 
 def run_track(files: StageFiles, tracker: dict) -> dict:
-    """The track stage: the target's track in one camera's video, ``track.csv``."""
-    track = track_camera({"name": files.camera, "video": files.path("video"), "tracker": tracker}, progress=files.progress)
+    """The track stage: the target's track in one camera's video, ``track.csv``.
+
+    Warnings raised while reading the video (a truncated file) are recorded in
+    the summary's ``warnings`` (the manifest keeps them for the report).
+    """
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", TruncatedVideoWarning)
+        track = track_camera({"name": files.camera, "video": files.path("video"), "tracker": tracker}, progress=files.progress)
+    for warning in caught:  # still shown where they were before
+        warnings.warn_explicit(warning.message, warning.category, warning.filename, warning.lineno)
     write_track_atomic(track, files.output("track"))
-    return {"tracked_frames": len(track), "message": f"wrote {files.output('track')} ({len(track)} tracked frames)"}
+    recorded = sorted({str(w.message) for w in caught if issubclass(w.category, TruncatedVideoWarning)})
+    return {"tracked_frames": len(track), "warnings": recorded, "message": f"wrote {files.output('track')} ({len(track)} tracked frames)"}
 
 
 def _applies(project, cam: str) -> bool:

@@ -1,4 +1,4 @@
-"""Render: band-swap and strip pictures, plots, report, decoding only the frames drawn."""
+"""Render: band-swap and strip pictures, plots, report, proxies, decoding only the frames drawn."""
 
 import json
 
@@ -38,7 +38,7 @@ def rendered_project(tmp_path_factory):
     toml = folder / "project.toml"
     for name, camera in scene.cameras.items():
         _write_video(folder / f"{name}.mp4", camera, scene.tracks[name], scene.n_frames[name])
-        toml.write_text(toml.read_text().replace(f'track = "{name}/track.csv"', f'track = "{name}/track.csv"\nvideo = "{name}.mp4"'))
+        toml.write_text(toml.read_text().replace(f'track = "{name}/track.csv"', f'track = "{name}/track.csv"\nvideo = "{name}.mp4"\nproxy = "never"'))
     return scene, folder
 
 
@@ -65,27 +65,56 @@ def test_render_decodes_only_the_frames_it_draws(rendered_project, monkeypatch):
 
     monkeypatch.setattr(render, "read_frames", counting)
     names = set(_render(graph))
-    assert {"swap_cam0_cam1.png", "strip_cam0_cam1.png", "votes_cam0.png", "trajectory_cam1.png"} <= names
+    assert {"swap_cam0.png", "swap_cam1.png", "strip_cam0_cam1.png", "votes_cam0.png", "trajectory_cam1.png", "offsets.png", "residuals.png"} <= names
+    assert (folder / "work" / "report.html").exists()
     decoded = {name: set() for name in ("cam0.mp4", "cam1.mp4")}
     for name, frames in requested:
         decoded[name] |= set(frames)
-    # three frames of cam1; for each, cam0's frame at the same index and at the estimated match
-    assert len(decoded["cam1.mp4"]) == render.FRAMES_PER_PAIR
-    assert len(decoded["cam0.mp4"]) <= 2 * render.FRAMES_PER_PAIR
+    # per camera three tracked frames for its band swap; for the strip three frames of cam1 and cam0's matches
+    for name in ("cam0", "cam1"):
+        assert len(decoded[f"{name}.mp4"]) <= 2 * render.FRAMES_PER_PAIR
     truth = scene.truth_pairs()["cam1->cam0"]
-    matched = {int(round(float(truth(f)))) for f in decoded["cam1.mp4"]}
-    assert all(min(abs(m - d) for d in decoded["cam0.mp4"]) <= 2 for m in matched)
-    swap = cv2.imread(str(folder / "work" / "render" / "swap_cam0_cam1.png"))
-    assert swap.shape[0] >= render.FRAMES_PER_PAIR * render.STRIP_HEIGHT
+    matched = {int(round(float(truth(f)))) for f in decoded["cam1.mp4"] if 0 <= truth(f) < scene.n_frames["cam0"]}
+    assert matched and all(min(abs(m - d) for d in decoded["cam0.mp4"]) <= 2 for m in matched)
+    strip = cv2.imread(str(folder / "work" / "render" / "strip_cam0_cam1.png"))
+    assert strip.shape[0] >= render.FRAMES_PER_PAIR * render.PANEL_HEIGHT
 
 
-def test_band_swap_takes_green_from_b_and_red_blue_from_a():
-    a = np.zeros((4, 6, 3), np.uint8)
-    a[..., 0], a[..., 1], a[..., 2] = 10, 20, 30
-    b = np.full((2, 3, 3), 200, np.uint8)
-    out = render.band_swap(a, b)
-    assert out.shape == (2, 3, 3)
-    assert (out[..., 0] == 10).all() and (out[..., 1] == 200).all() and (out[..., 2] == 30).all()
+def test_band_swap_after_synchronization_puts_the_rendered_target_on_the_real_one(rendered_project):
+    """The test videos draw the target white at its tracked position: after = yellow overlap, before = apart."""
+    scene, folder = rendered_project
+    graph = build_graph(load_project(folder / "project.toml"), folder / "work")
+    run_graph(graph, targets=["sync", "export"])
+    _render(graph)
+    swap = cv2.imread(str(folder / "work" / "render" / "swap_cam1.png"))
+    half = swap.shape[1] // 2
+    yellow = (swap[..., 2] > 200) & (swap[..., 1] > 200) & (swap[..., 0] < 50)  # not the white caption bars
+    assert yellow[:, half:].sum() > 3 * 20  # three frames, each with the target's disc overlapping
+    assert yellow[:, :half].sum() < yellow[:, half:].sum() / 4
+
+
+def test_proxies_for_videos_the_browser_cannot_play(rendered_project):
+    """The fixture's MPEG-4 part 2 videos get H.264 proxies with the same frames and times, linked from report.html."""
+    from trackers.video import presentation_times, probe_video
+
+    scene, folder = rendered_project
+    toml = folder / "project.toml"
+    policy = toml.read_text()
+    try:
+        toml.write_text(policy.replace('proxy = "never"', 'proxy = "auto"'))
+        graph = build_graph(load_project(toml), folder / "work")
+        run_graph(graph, targets=["sync", "export"])
+        _render(graph)
+        proxy = folder / "work" / "render" / "proxy" / "cam1.mp4"
+        info = probe_video(proxy)
+        assert info.codec == "h264" and info.height == 240
+        np.testing.assert_allclose(presentation_times(proxy), presentation_times(folder / "cam1.mp4"), atol=1e-4)
+        assert "render/proxy/cam1.mp4" in (folder / "work" / "report.html").read_text()
+        before = proxy.stat().st_mtime_ns
+        _render(graph)
+        assert proxy.stat().st_mtime_ns == before  # the video did not change: the proxy is kept
+    finally:
+        toml.write_text(policy)
 
 
 def test_choose_frames_stays_where_both_cameras_record():
@@ -103,7 +132,7 @@ def test_render_command_with_pair_and_frames(rendered_project, monkeypatch):
     requested = []
     original = render.read_frames
     monkeypatch.setattr(render, "read_frames", lambda path, indices: requested.append((path.name, sorted(indices))) or original(path, indices))
-    assert "swap_cam1_cam0.png" in _render(graph)
+    assert "strip_cam1_cam0.png" in _render(graph)
     assert ("cam0.mp4", [150, 160]) in requested
 
 

@@ -1,0 +1,120 @@
+"""What a person checks after a run: each camera's status and every warning the stages recorded.
+
+Warnings come from where each stage records them:
+
+- calibrate: ``calibration_report.json`` (checkerboard views rejected with
+  their reason, ground control points left out as outliers, a camera without
+  a pose);
+- track: the stage's manifest summary ``warnings`` (a truncated video);
+- ingest: ``ingest_report.json`` (fixes dropped per reason, gaps in the log,
+  the readers' warnings);
+- sync: ``timeline.json`` (per camera ``warnings`` and ``flags``, cameras that
+  failed);
+- any stage: a ``warnings`` list in its manifest summary, and render's notes.
+
+Pure functions of the parsed files.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from tlsync_pipeline.sync.timeline import Timeline
+
+HALF_95 = 1.959964  # normal quantile of a two-sided 95 % interval
+
+FLAG_MEANING = {
+    "few_inliers": "few frames support the line",
+    "ambiguous": "a second line has comparable support",
+    "along_ray": "the target moves mostly along the viewing ray",
+}
+
+
+@dataclass(frozen=True)
+class StageWarning:
+    """One warning: the stage that wrote it, the camera (None: the whole run) and the text."""
+
+    stage: str
+    camera: str | None
+    text: str
+
+
+@dataclass(frozen=True)
+class CameraStatus:
+    """ok, weak or failed, and why, in words."""
+
+    camera: str
+    status: str
+    reason: str
+
+
+def calibration_warnings(name: str, report: dict) -> list[StageWarning]:
+    """Rejected checkerboard views, GCP outliers and a missing pose, from calibration_report.json."""
+    out = []
+    intrinsics = report.get("intrinsics") or {}
+    for view in intrinsics.get("rejected", []):
+        out.append(StageWarning("calibrate", name, f"checkerboard view {view['image']} rejected: {view['reason']}"))
+    pose = report.get("pose") or {}
+    for point in pose.get("points", []):
+        if not point.get("inlier", True):
+            out.append(StageWarning("calibrate", name, f"ground control point {point.get('name', '?')} left out as an outlier ({point.get('error_px', float('nan')):.1f} px)"))
+    if report.get("warning"):
+        out.append(StageWarning("calibrate", name, report["warning"]))
+    return out
+
+
+def ingest_warnings(report: dict) -> list[StageWarning]:
+    """Dropped fixes, gaps and the readers' warnings, from ingest_report.json."""
+    out = []
+    unit = report.get("unit", "line")
+    for reason, dropped in (report.get("dropped") or {}).items():
+        first = ", ".join(str(n) for n in dropped.get("first", []))
+        more = ", ..." if dropped["count"] > len(dropped.get("first", [])) else ""
+        out.append(StageWarning("ingest", None, f"{dropped['count']} fix(es) dropped: {reason} ({unit} {first}{more})"))
+    for gap in report.get("gaps") or []:
+        verdict = "bridged by interpolation" if gap["bridged"] else "not bridged: no target samples there"
+        out.append(StageWarning("ingest", None, f"gap of {gap['duration_s']:.2f} s in the log after {gap['after']} ({verdict})"))
+    out += [StageWarning("ingest", None, text) for text in report.get("warnings") or []]
+    return out
+
+
+def sync_warnings(timeline: Timeline) -> list[StageWarning]:
+    """Per camera: the sync method's warnings and flags, and why failed cameras failed."""
+    out = []
+    for name, line in timeline.cameras.items():
+        out += [StageWarning("sync", name, text) for text in line.warnings or ()]
+        out += [StageWarning("sync", name, f"{flag}: {FLAG_MEANING.get(flag, flag)}") for flag in line.flags or ()]
+    out += [StageWarning("sync", name, f"not synchronized: {why}") for name, why in timeline.failed.items()]
+    return out
+
+
+def summary_warnings(stage: str, camera: str | None, summary: dict) -> list[StageWarning]:
+    """A stage's ``warnings`` (and render's ``notes``) from its manifest summary."""
+    texts = list(summary.get("warnings") or []) + list(summary.get("notes") or [])
+    return [StageWarning(stage, camera, str(text)) for text in texts]
+
+
+def camera_status(timeline: Timeline, name: str) -> CameraStatus:
+    """failed (not synchronized), weak (flags, a fallback, or a start interval wider than one of its frames) or ok."""
+    if name in timeline.failed:
+        return CameraStatus(name, "failed", timeline.failed[name])
+    line = timeline.cameras[name]
+    support = f"{line.inliers} of {line.votes} votes on the line"
+    reasons = [FLAG_MEANING.get(flag, flag) for flag in line.flags or ()]
+    if line.warnings:
+        reasons.append("the refinement was not used (see warnings)")
+    reference = timeline.names[0]
+    se = timeline.start_offset_se(reference, name) if name != reference else None
+    if se is not None:
+        own_frames = HALF_95 * (se[1] * line.fps if se[1] is not None and line.fps else se[0])
+        if own_frames > 1.0:
+            seconds = "" if se[1] is None else f"±{HALF_95 * se[1]:.2g} s, "
+            reasons.append(f"start known to {seconds}±{own_frames:.1f} of its frames only")
+    if reasons:
+        return CameraStatus(name, "weak", "; ".join(reasons) + f" ({support})")
+    return CameraStatus(name, "ok", support)
+
+
+def all_statuses(timeline: Timeline) -> list[CameraStatus]:
+    """Every synchronized camera's status, then the failed ones."""
+    return [camera_status(timeline, name) for name in list(timeline.cameras) + list(timeline.failed)]

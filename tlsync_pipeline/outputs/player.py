@@ -1,0 +1,125 @@
+"""The synchronized player's data: per camera its line, its frames' presentation times and the projected path.
+
+The report's player (player.js) runs on one shared position, the target
+sample t_r (seconds: t0 + t_r / rate, UTC for GPS logs). For a camera it maps
+t_r to the camera's clock with its line (clock = alpha t_r + beta), the clock
+to the nearest frame (frame index, or presentation time x fps for VFR
+cameras: the same rule as the frame map), and seeks its video to the middle
+of that frame's display interval. The target's projected position is drawn
+over each video from a table sampled on the target grid.
+
+Pure functions: typed values in, a JSON-ready dict out.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from tlsync_pipeline.sync.clock import FrameTimes
+from tlsync_pipeline.sync.timeline import CameraLine, Timeline
+from tlsync_pipeline.trajectory import Trajectory
+
+MAX_PATH_POINTS = 6000  # projected path samples per camera (the grid is thinned beyond)
+REGULAR_TOLERANCE_S = 1e-6
+GRID_TOLERANCE = 1e-3  # samples: a grid position is present when a trajectory sample lies this close
+
+
+@dataclass(frozen=True)
+class PlayerVideo:
+    """One camera's playable file: its URL relative to report.html (None: no video), whether it is a proxy,
+    its codec, and the presentation time (s) of each frame, as the browser's currentTime counts it."""
+
+    src: str | None
+    proxy: bool
+    codec: str | None
+    frame_times: np.ndarray
+
+
+def encode_times(times: np.ndarray) -> dict:
+    """Frame times compactly: {start, step, n} when regular, else {start, deltas_us} (integer microseconds)."""
+    times = np.asarray(times, dtype=np.float64)
+    if len(times) < 2:
+        return {"start": float(times[0]) if len(times) else 0.0, "step": 0.0, "n": int(len(times))}
+    step = (times[-1] - times[0]) / (len(times) - 1)
+    if np.max(np.abs(times - (times[0] + step * np.arange(len(times))))) <= REGULAR_TOLERANCE_S:
+        return {"start": float(times[0]), "step": float(step), "n": int(len(times))}
+    micro = np.round((times - times[0]) * 1e6).astype(np.int64)
+    return {"start": float(times[0]), "deltas_us": np.diff(micro).tolist()}
+
+
+def decode_times(encoded: dict) -> np.ndarray:
+    """The inverse of encode_times (what player.js does), to microseconds."""
+    if "deltas_us" in encoded:
+        return encoded["start"] + np.concatenate([[0], np.cumsum(encoded["deltas_us"])]) * 1e-6
+    return encoded["start"] + encoded["step"] * np.arange(encoded["n"])
+
+
+def recording_samples(line: CameraLine, frame_times: np.ndarray) -> tuple[float, float]:
+    """The target samples at which a camera's first and last frames were taken."""
+    n = len(frame_times)
+    table = FrameTimes(np.arange(n, dtype=np.float64), np.asarray(frame_times, dtype=np.float64))
+    lo, hi = sorted(line.sample_at(np.array([0.0, n - 1.0]), table))
+    return float(lo), float(hi)
+
+
+def projected_path(camera, trajectory: Trajectory, lo: float, hi: float) -> dict:
+    """The target's projected image position on the grid samples in [lo, hi], thinned to MAX_PATH_POINTS.
+
+    {start, step, uv}: sample of the first entry, samples between entries, and
+    [u, v] pairs in tenths of a pixel (null where the target is absent, behind
+    the camera, or more than one image size outside the view).
+    """
+    grid = trajectory.sample
+    inside = grid[(grid >= np.floor(lo)) & (grid <= np.ceil(hi))]
+    if len(inside) == 0:
+        return {"start": lo, "step": 1.0, "uv": []}
+    first, last = float(inside[0]), float(inside[-1])
+    step = max(1.0, float(np.ceil((last - first + 1) / MAX_PATH_POINTS)))
+    samples = np.arange(first, last + 0.5, step)
+    index = np.clip(np.searchsorted(grid, samples - GRID_TOLERANCE), 0, len(grid) - 1)
+    present = np.abs(grid[index] - samples) <= GRID_TOLERANCE
+    uv = np.full((len(samples), 2), np.nan)
+    if present.any():
+        projected, valid = camera.project(trajectory.xyz[index[present]])
+        w, h = camera.image_size
+        near = valid & (projected[:, 0] > -w) & (projected[:, 0] < 2 * w) & (projected[:, 1] > -h) & (projected[:, 1] < 2 * h)
+        uv[np.flatnonzero(present)[near]] = projected[near]
+    flat = [None if np.isnan(value) else int(round(value * 10)) for value in uv.ravel()]
+    return {"start": first, "step": step, "uv": flat}
+
+
+def player_data(timeline: Timeline, cameras: dict, trajectory: Trajectory, videos: dict[str, PlayerVideo], utc: bool) -> dict:
+    """The JSON the player reads: the target clock, the shared range and per camera its line, times and path.
+
+    cameras: name -> Camera (calibration); videos: name -> PlayerVideo; utc:
+    whether t0 + t_r / rate is POSIX time (GPS logs).
+    """
+    entries = []
+    ranges = []
+    for name, line in timeline.cameras.items():
+        video = videos[name]
+        lo, hi = recording_samples(line, video.frame_times)
+        ranges.append((lo, hi))
+        entries.append(
+            {
+                "name": name,
+                "src": video.src,
+                "proxy": video.proxy,
+                "codec": video.codec,
+                "alpha": line.alpha,
+                "beta": line.beta,
+                "fps": line.fps or 0.0,
+                "clock_fps": line.clock.fps if line.clock.vfr else None,
+                "times": encode_times(video.frame_times),
+                "size": list(cameras[name].image_size),
+                "path": projected_path(cameras[name], trajectory, lo, hi),
+            }
+        )
+    return {
+        "target": {"rate": timeline.target_rate or 1.0, "t0": timeline.target_t0 or 0.0, "utc": bool(utc), "seconds": timeline.target_rate is not None},
+        "range": [min(r[0] for r in ranges), max(r[1] for r in ranges)] if ranges else [0.0, 1.0],
+        "reference": timeline.names[0] if timeline.names else None,
+        "cameras": entries,
+    }
