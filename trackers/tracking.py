@@ -1,4 +1,4 @@
-"""One entry point: a video file in, the target's Track out."""
+"""Entry points: a video file in, the target's Track (``track_video``) or every mover (``detect_movers``) out."""
 
 from __future__ import annotations
 
@@ -9,11 +9,15 @@ from typing import Sequence
 import numpy as np
 
 from trackers.blob import BlobDetector, BlobParams, BlobTracker, median_background
+from trackers.detections import Detections, follows_every_mover, make_detections
 from trackers.errors import TrackInputError
+from trackers.movers import MoverLinker
 from trackers.track import Track
 from trackers.video import VideoInfo, iter_frames, probe_video, sample_frames
 
 KINDS = ("blob", "csrt")
+# Every-mover detection expects crowds: a frame is taken as a global change (skipped) only above this many blobs.
+MOVERS_MAX_CANDIDATES = 200
 
 
 def track_video(
@@ -62,6 +66,25 @@ def track_video(
     frames = np.array(sorted(rows), dtype=np.int64)
     cols = np.array([rows[f] for f in frames], dtype=np.float64).reshape(-1, 6)
     return Track(frames, cols[:, 1], cols[:, 2], time_s=cols[:, 0], w=cols[:, 3], h=cols[:, 4], score=cols[:, 5])
+
+
+def detect_movers(path: str | Path, params: dict | None = None, progress: bool = True, label: str | None = None) -> Detections:
+    """Every moving-object candidate of every frame of ``path``, linked into tracklets.
+
+    The blob detector's candidates (background subtraction) linked by
+    trackers.movers.MoverLinker; params: BlobParams by name; label: the
+    progress bar's title. Detections carry time_s (presentation time, s).
+    """
+    path = Path(path)
+    probe_video(path)
+    blob_params = BlobParams.from_dict({"max_candidates": MOVERS_MAX_CANDIDATES, **(params or {})}, f"{path}: tracker parameters")
+    detector = _detector(path, blob_params)
+    linker = MoverLinker(blob_params)
+    rows = []
+    for index, time_s, gray in iter_frames(path, gray=True, progress=progress, desc=label):
+        for tracklet, blob, score in linker.step(index, detector.detect(gray)):
+            rows.append((index, time_s, tracklet, blob.x, blob.y, blob.w, blob.h, score))
+    return make_detections(rows)
 
 
 def _detector(path: Path, params: BlobParams) -> BlobDetector:

@@ -78,7 +78,7 @@ def finished(tmp_path_factory):
         assert eps_t(timeline.relation(a, b), truth, scene.n_frames[a]) <= 1.0, key
 
     again = run_graph(_graph(project_file))
-    assert again.ran == [] and len(again.fresh) == 16
+    assert again.ran == [] and len(again.fresh) == 19  # intrinsics, calibrate, track, identify, vote per camera; ingest, sync, export, render
     return project_file
 
 
@@ -111,7 +111,7 @@ def test_editing_a_gcp_reruns_the_pose_not_the_intrinsics(finished, tmp_path):
     assert rows["calibrate/cam0"].state == "fresh" and rows["track/cam1"].state == "fresh"
     assert rows["intrinsics/cam1"].state == "fresh"
     edited = run_graph(_graph(project_file))
-    assert sorted(edited.ran) == ["calibrate/cam1", "export", "render", "sync", "vote/cam1"]
+    assert sorted(edited.ran) == ["calibrate/cam1", "export", "identify/cam1", "render", "sync", "vote/cam1"]
 
 
 def _changed(monkeypatch, module):
@@ -124,16 +124,19 @@ def test_changing_the_trackers_code_makes_only_track_and_what_follows_stale(fini
     _changed(monkeypatch, "trackers.blob")
     rows = _states(finished)
     stale = {tid for tid, row in rows.items() if row.state != "fresh"}
-    assert stale == {"track/cam0", "track/cam1", "track/cam2", "vote/cam0", "vote/cam1", "vote/cam2", "sync", "export", "render"}
+    cameras = ("cam0", "cam1", "cam2")
+    assert stale == {f"{stage}/{cam}" for stage in ("track", "identify", "vote") for cam in cameras} | {"sync", "export", "render"}
     assert rows["track/cam0"].reasons == ["code of trackers.blob changed"]
-    assert rows["vote/cam0"].reasons == ["waits for track/cam0 (stale)"]
+    assert rows["identify/cam0"].reasons == ["waits for track/cam0 (stale)"]
+    assert rows["vote/cam0"].reasons == ["waits for identify/cam0 (stale)"]
 
 
 def test_changing_a_sync_module_makes_sync_and_what_follows_stale(finished, monkeypatch):
     _changed(monkeypatch, "tlsync_pipeline.sync.refine")
     rows = _states(finished)
     stale = {tid for tid, row in rows.items() if row.state != "fresh"}
-    # vote prepares the trajectory through the sync-method registry, which imports every method's modules.
-    assert stale == {"vote/cam0", "vote/cam1", "vote/cam2", "sync", "export", "render"}
-    assert rows["sync"].reasons == ["code of tlsync_pipeline.sync.refine changed", "waits for vote/cam0 (stale), vote/cam1 (stale), vote/cam2 (stale)"]
-    assert rows["vote/cam0"].reasons == ["code of tlsync_pipeline.sync.refine changed"]
+    # identify and vote prepare the trajectory through the sync-method registry, which imports every method's modules.
+    assert stale == {f"{stage}/{cam}" for stage in ("identify", "vote") for cam in ("cam0", "cam1", "cam2")} | {"sync", "export", "render"}
+    assert rows["sync"].reasons[0] == "code of tlsync_pipeline.sync.refine changed"
+    assert rows["identify/cam0"].reasons == ["code of tlsync_pipeline.sync.refine changed"]
+    assert rows["vote/cam0"].reasons == ["code of tlsync_pipeline.sync.refine changed", "waits for identify/cam0 (stale)"]

@@ -1,4 +1,4 @@
-"""``tlsync track-video``: one video, one track.csv.
+"""``tlsync track-video``: one video, its every mover (detections.csv) or one target (track.csv).
 
 The project-level ``tlsync track`` is a stage command of the pipeline (pipeline_cli.py).
 """
@@ -9,8 +9,9 @@ from pathlib import Path
 
 import click
 
-from tlsync_pipeline.pipeline.stages.track import write_track_atomic
-from trackers.tracking import KINDS, track_video
+from tlsync_pipeline.pipeline.stages.track import write_detections_atomic, write_track_atomic
+from trackers.detections import follows_every_mover
+from trackers.tracking import KINDS, detect_movers, track_video
 
 
 def _box(ctx, param, value):
@@ -30,10 +31,16 @@ def _box(ctx, param, value):
 @click.option("--tracker", "kind", type=click.Choice(KINDS), default="blob", show_default=True, help="Tracker kind.")
 @click.option("--init", callback=_box, help="Box X,Y,W,H around the target in the init frame (pixels, top-left corner and size).")
 @click.option("--init-frame", default=0, show_default=True, type=click.IntRange(min=0), help="0-based frame of the init box; tracking starts there.")
-@click.option("--out", required=True, type=click.Path(dir_okay=False, path_type=Path), help="track.csv to write.")
+@click.option("--out", required=True, type=click.Path(dir_okay=False, path_type=Path), help="detections.csv (blob, no --init) or track.csv to write.")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
 def track_video_command(video: Path, kind: str, init, init_frame: int, out: Path, quiet: bool) -> None:
-    """Track the target in VIDEO and write its track.csv (frame,x,y,time_s,w,h,score)."""
+    """Detect every mover in VIDEO (detections.csv: frame,time_s,id,x,y,w,h,score), or, with --init or
+    --tracker csrt, track one target (track.csv: frame,x,y,time_s,w,h,score)."""
+    if follows_every_mover(kind, init, init_frame):
+        detections = detect_movers(video, progress=not quiet)
+        write_detections_atomic(detections, out)
+        click.echo(f"{len(detections)} detections in {len(detections.tracklet_ids())} tracklets; wrote {out}")
+        return
     result = track_video(video, kind=kind, init=init, init_frame=init_frame, progress=not quiet)
     write_track_atomic(result, out)
     click.echo(f"{len(result)} tracked frames; wrote {out}")

@@ -10,6 +10,11 @@ Timeline.match) with the target's position projected from the trajectory at
 that instant (red circle) and the tracked position (green cross), and A's
 true match when a truth file is given.
 
+Per camera synchronized from every mover (detections.csv): one frame with
+the detections coloured by tracklet (with their recent trails), the
+identified target (green cross), where the trajectory projects at that
+frame's time (red circle) and the whole projected path (yellow).
+
 Only the frames drawn are read: each is reached by seeking (decoding starts
 at the keyframe before it), never by reading the video through. Everything
 else comes from the work folder.
@@ -199,3 +204,57 @@ def render_pair(
     if not rows:
         return []
     return [write_png(out_dir / f"strip_{a}_{b}.png", mosaic(rows))]
+
+
+def tracklet_colour(tracklet: int) -> tuple[int, int, int]:
+    """A stable, well spread BGR colour per tracklet id."""
+    hue = int((tracklet * 0.618033988749895 % 1.0) * 179)
+    hsv = np.uint8([[[hue, 200, 255]]])
+    return tuple(int(c) for c in cv2.cvtColor(hsv, cv2.COLOR_HSV2BGR)[0, 0])
+
+
+def choose_movers_frame(detections, track) -> int:
+    """The identified frame with the most detections (ties: nearest the middle of the track)."""
+    frames, counts = np.unique(detections.frame, return_counts=True)
+    per_frame = dict(zip(frames.tolist(), counts.tolist()))
+    middle = np.median(track.frame)
+    return int(max(track.frame.tolist(), key=lambda f: (per_frame.get(f, 0), -abs(f - middle))))
+
+
+def draw_movers(image: np.ndarray, frame: int, detections, track, camera, path_model: PiecewiseTrajectory, line, times: FrameTimes | None = None, trail: int = 20) -> np.ndarray:
+    """``image`` (frame ``frame``, BGR) with the projected path, every mover by tracklet, the identified target and its projection.
+
+    path_model: the trajectory model the line was fitted to; line: the
+    camera's CameraLine; times: the camera's presentation times (VFR).
+    """
+    out = image.copy()
+    samples = np.concatenate([np.linspace(lo, hi, max(2, int(hi - lo) * 4)) for lo, hi, _ in path_model.runs]) if path_model.runs else np.zeros(0)
+    uv, valid = camera.project(path_model.positions(samples)) if len(samples) else (np.zeros((0, 2)), np.zeros(0, bool))
+    inside = valid & camera.in_image(np.nan_to_num(uv, nan=-1e9))
+    for a, b, ok in zip(uv[:-1], uv[1:], inside[:-1] & inside[1:]):
+        if ok:
+            cv2.line(out, tuple(int(round(c)) for c in a), tuple(int(round(c)) for c in b), (0, 220, 255), 1, cv2.LINE_AA)
+    recent = (detections.frame <= frame) & (detections.frame > frame - trail)
+    for tracklet in np.unique(detections.id[recent]):
+        rows = np.flatnonzero(recent & (detections.id == tracklet))
+        colour = tracklet_colour(int(tracklet))
+        points = np.round(detections.xy[rows]).astype(np.int32)
+        if len(points) > 1:
+            cv2.polylines(out, [points.reshape(-1, 1, 2)], False, colour, 1, cv2.LINE_AA)
+        last = rows[-1]
+        if detections.frame[last] == frame:
+            w = detections.w[last] if np.isfinite(detections.w[last]) else 12.0
+            h = detections.h[last] if np.isfinite(detections.h[last]) else 12.0
+            x, y = detections.x[last], detections.y[last]
+            cv2.rectangle(out, (int(x - w / 2), int(y - h / 2)), (int(x + w / 2), int(y + h / 2)), colour, 1)
+            cv2.putText(out, str(int(tracklet)), (int(x + w / 2) + 2, int(y)), cv2.FONT_HERSHEY_SIMPLEX, 0.35, colour, 1, cv2.LINE_AA)
+    point = path_model.positions(line.sample_at(float(frame), times))[0]
+    tracked = dict(zip(track.frame.tolist(), track.xy)).get(frame)
+    return caption(_draw_target(out, camera, point, tracked, 1.0), f"frame {frame}: movers, target +, projection o")
+
+
+def render_movers(video_path: Path, detections, track, camera, path_model: PiecewiseTrajectory, line, times: FrameTimes | None, path: Path) -> Path:
+    """``movers_<name>.png``: one frame of the camera drawn by ``draw_movers``."""
+    frame = choose_movers_frame(detections, track)
+    image = read_frames(video_path, [frame])[frame]
+    return write_png(path, draw_movers(image, frame, detections, track, camera, path_model, line, times))

@@ -1,13 +1,15 @@
 """The tasks a project makes of the stage specs.
 
-intrinsics -> calibrate -> track -> ingest -> vote -> sync -> export -> render.
+intrinsics -> calibrate -> track -> ingest -> identify -> vote -> sync -> export -> render.
 A task is one stage for one camera (or the project). Everything about it
 comes from its stage's SPEC (pipeline/spec.py): the files it reads (hashed
 for its cache key), its parameters, the artefacts it writes, and the function
 called with them. Its dependencies are the tasks that make its input
 artefacts. A file the user brings in the project file (``camera = ...``,
-``track = ...``, ``[target] trajectory = ...``) takes the place of the
-artefact, and the stage that would make it has no task.
+``track = ...``, ``detections = ...``, ``[target] trajectory = ...``) takes
+the place of the artefact, and the stage that would make it has no task. A
+camera with every mover (detections) gets its track.csv from the identify
+stage, which later in the stage order takes that artefact over.
 """
 
 from __future__ import annotations
@@ -23,6 +25,7 @@ from tlsync_pipeline.pipeline.spec import Options, StageSpec
 from tlsync_pipeline.pipeline.stages import (
     calibrate,
     export,
+    identify,
     ingest,
     intrinsics,
     render,
@@ -32,17 +35,25 @@ from tlsync_pipeline.pipeline.stages import (
 )
 from tlsync_pipeline.pipeline.workspace import Artefact, Workspace
 from tlsync_pipeline.trajectory import read_trajectory
+from trackers.detections import read_detections
 from trackers.track import read_track
 
-STAGE_SPECS: dict[str, StageSpec] = {s.name: s for s in (intrinsics.SPEC, calibrate.SPEC, track.SPEC, ingest.SPEC, vote.SPEC, sync.SPEC, export.SPEC, render.SPEC)}
+STAGE_SPECS: dict[str, StageSpec] = {
+    s.name: s for s in (intrinsics.SPEC, calibrate.SPEC, track.SPEC, ingest.SPEC, identify.SPEC, vote.SPEC, sync.SPEC, export.SPEC, render.SPEC)
+}
 STAGES = tuple(STAGE_SPECS)
 PER_CAMERA = tuple(name for name, spec in STAGE_SPECS.items() if spec.per_camera)
-MAKER = {kind: spec.name for spec in STAGE_SPECS.values() for kind in spec.outputs}  # artefact kind -> the stage that makes it
+# Artefact kind -> the stage that first makes it (a camera's track.csv: the track stage, or identify for every mover).
+MAKER: dict[str, str] = {}
+for _spec in STAGE_SPECS.values():
+    for _kind in _spec.outputs:
+        MAKER.setdefault(_kind, _spec.name)
 
 # Artefacts a project may bring instead: (kind, camera or None) -> project key, the reader that checks it, and what to say when neither.
 _GIVEN = {
     "camera": (lambda p, cam: p.camera(cam)["camera"], read_camera, "give 'camera' (a camera.json) or a [cameras.calibration] table to calibrate it from"),
     "track": (lambda p, cam: p.camera(cam)["track"], read_track, "give 'track' (a track.csv) or 'video' (to track the target in)"),
+    "detections": (lambda p, cam: p.camera(cam).get("detections"), read_detections, "give 'detections' (a detections.csv) or 'video' (to detect every mover in)"),
     "trajectory": (lambda p, cam: p.target["trajectory"], read_trajectory, "give 'log' (a GPS or odometry log to ingest) or 'trajectory' (a metric trajectory CSV)"),
 }
 
@@ -163,8 +174,13 @@ def build_graph(project: Project, work: Path, options: Options = Options()) -> G
 
 def check_given(graph: Graph, wanted: list[str]) -> None:
     """Read the artefacts the user brings that ``wanted`` tasks use, so bad input stops the run before any stage runs."""
-    readers = {MAKER[kind]: reader for kind, (_, reader, _) in _GIVEN.items()}
+    names = [c["name"] for c in graph.project.cameras]
+    readers = {}  # each brought file's reader, by the project key it is given under
+    for kind, (key, reader, _) in _GIVEN.items():
+        for cam in names if kind != "trajectory" else [None]:
+            if key(graph.project, cam) is not None:
+                readers[key(graph.project, cam)] = reader
     used = {path for tid in wanted for path in graph.tasks[tid].inputs.values()}
     for item in graph.given.values():
         if item.path in used:
-            readers[item.stage](item.path)
+            readers[item.path](item.path)

@@ -273,6 +273,7 @@ CAMERA_SCHEMA = {
     "name": Field(_name, required=True),
     "camera": Field(_path),
     "track": Field(_path),
+    "detections": Field(_path),
     "fps": Field(_positive),
     "video": Field(_path),
     "proxy": Field(_choice(*PROXY_POLICIES, what="proxy policy"), PROXY_POLICIES[0]),

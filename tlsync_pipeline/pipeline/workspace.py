@@ -42,6 +42,8 @@ ARTEFACTS: dict[str, str] = {
     "calibration_report": "cameras/{camera}/calibration_report.json",
     "calibration_picture": "cameras/{camera}/calibration.png",
     "track": "cameras/{camera}/track.csv",
+    "detections": "cameras/{camera}/detections.csv",
+    "identification": "cameras/{camera}/identification.json",
     "votes": "cameras/{camera}/votes.npz",
     "trajectory": "target/trajectory.csv",
     "ingest_report": "target/ingest_report.json",

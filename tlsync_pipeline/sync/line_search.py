@@ -7,7 +7,8 @@ adds blobs and false lines):
 
 1. thinning: only the best vote (smallest pixel distance) of each frame and
    of each sample is kept, so a hover block of H frames x S samples shrinks
-   from H * S votes to at most H + S scattered ones;
+   from H * S votes to at most H + S scattered ones (with several candidates
+   per frame, each candidate object is thinned on its own);
 2. hypotheses are lines through two thinned votes, half drawn anywhere and
    half from votes close in frame order (inliers are contiguous in time), in
    batches until the count of eq. 4 for the best inlier ratio found so far is
@@ -72,7 +73,7 @@ def thin_votes(sample: np.ndarray, frame: np.ndarray, dist: np.ndarray, group: n
     for key in (frame, sample):
         codes, groups = _group_codes(key)
         if group is not None and len(codes):
-            owner, owners = _group_codes(np.asarray(group))
+            owner, _ = _group_codes(np.asarray(group))
             _, codes = np.unique(owner.astype(np.int64) * groups + codes, return_inverse=True)
             codes, groups = codes.ravel(), int(codes.max()) + 1
         closest = np.full(groups, np.inf)
@@ -189,11 +190,14 @@ def _polish(sample, frame, alpha, beta, delta):
     return alpha, beta
 
 
-def find_line(sample: np.ndarray, frame: np.ndarray, dist: np.ndarray, delta: float = 0.5, p: float = 0.99, r_min: float = 0.01, seed: int = 0) -> LineSearch:
+def find_line(
+    sample: np.ndarray, frame: np.ndarray, dist: np.ndarray, delta: float = 0.5, p: float = 0.99, r_min: float = 0.01, seed: int = 0, group: np.ndarray | None = None
+) -> LineSearch:
     """The line frame = alpha * sample + beta best supported by the votes.
 
     r_min: the smallest inlier ratio (of thinned votes) the search must
-    find with probability p. Raises ValueError when no increasing line
+    find with probability p; group: the object each vote comes from when
+    several candidates vote per frame (thinning is per object). Raises ValueError when no increasing line
     exists (fewer than 2 distinct samples, or votes that never move forward).
     """
     sample = np.asarray(sample, dtype=np.float64)
@@ -202,7 +206,7 @@ def find_line(sample: np.ndarray, frame: np.ndarray, dist: np.ndarray, delta: fl
     if len(np.unique(sample)) < 2:
         raise ValueError("the votes cover fewer than 2 distinct target samples: no line can be fitted")
     rng = np.random.default_rng(seed)
-    kept = thin_votes(sample, frame, dist)
+    kept = thin_votes(sample, frame, dist, None if group is None else np.asarray(group))
     kept = kept[np.lexsort((sample[kept], frame[kept]))]
     ts, tf = sample[kept], frame[kept]
     found = _search(rng, ts, tf, delta, p, r_min)

@@ -21,16 +21,22 @@ from tlsync_pipeline.sync.params import SyncParams
 from tlsync_pipeline.sync.timeline import CameraLine
 from tlsync_pipeline.sync.votes import Votes
 from tlsync_pipeline.trajectory import Trajectory
+from trackers.detections import Detections
 from trackers.track import Track
 
 
 @dataclass(frozen=True)
 class CameraInput:
-    """What one camera brings: its calibration, its track and its frame rate (or None)."""
+    """What one camera brings: its calibration, its track and its frame rate (or None).
+
+    detections: every mover of its video instead of a track (track None):
+    ``synchronize`` identifies the target among them first (sync/identify.py).
+    """
 
     camera: Camera
-    track: Track
+    track: Track | None
     fps: float | None
+    detections: Detections | None = None
 
 
 @dataclass(frozen=True)

@@ -85,8 +85,10 @@ def smooth_trajectory(trajectory: Trajectory) -> Trajectory:
     ``smoothed_values``) of each coordinate is
     chosen by two-fold cross-validation (even samples predict odd ones and
     back) on the CV_SAMPLES consecutive samples of the run where the
-    coordinate spans the widest range (motion, not hover), then applied to
-    the whole run: a clean log is left nearly as is, a noisy one (GPS) loses
+    coordinate spans the widest range (motion, not hover) and on those where
+    it bends most (turns); the smaller lam of the two is applied to the whole
+    run (a lam fitted on a straight stretch rounds a walker's turns by
+    decimetres): a clean log is left nearly as is, a noisy one (GPS) loses
     most of its sample-to-sample noise. Runs shorter than 8 samples are kept
     as they are.
     """
@@ -97,12 +99,13 @@ def smooth_trajectory(trajectory: Trajectory) -> Trajectory:
             continue
         for k in range(3):
             values = xyz[idx, k]
-            chunk = np.arange(len(idx))
+            chunks = [np.arange(len(idx))]
             if len(idx) > CV_SAMPLES:
                 windows = np.lib.stride_tricks.sliding_window_view(values, CV_SAMPLES)[::10]
-                first = 10 * int(np.argmax(np.ptp(windows, axis=1)))
-                chunk = chunk[first : first + CV_SAMPLES]
-            lam = _cv_lambda(sample[idx][chunk], values[chunk])
+                bends = np.lib.stride_tricks.sliding_window_view(np.r_[0.0, np.diff(values, 2) ** 2, 0.0], CV_SAMPLES)[::10].sum(axis=1)
+                starts = {10 * int(np.argmax(np.ptp(windows, axis=1))), 10 * int(np.argmax(bends))}
+                chunks = [np.arange(first, first + CV_SAMPLES) for first in sorted(starts)]
+            lam = min(_cv_lambda(sample[idx][chunk], values[chunk]) for chunk in chunks)
             xyz[idx, k] = smoothed_values(sample[idx], values, lam)
     return Trajectory(sample, xyz, trajectory.rate, trajectory.t0, trajectory.sigma)
 

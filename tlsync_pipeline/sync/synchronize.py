@@ -4,7 +4,11 @@ The same for every sync method (``[sync] method``, sync/registry.py): the
 method prepares the trajectory (``prepare_trajectory``); the votes are cast
 on that trajectory (``cast_votes``: the vote stage writes these to
 votes.npz, the sync stage passes them back in); each camera's votes are put
-on its clock (sync/clock.py) and the method fits the line.
+on its clock (sync/clock.py) and the method fits the line. A camera that
+brings every mover (detections) instead of a track has its target
+identified among them first (sync/identify.py); its line is then fitted on
+the identified track's votes (votes.npz holds every candidate's: what render
+draws).
 
 Pure functions from typed values to typed values; no file I/O here.
 """
@@ -12,10 +16,11 @@ Pure functions from typed values to typed values; no file I/O here.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from tlsync_pipeline.errors import SyncError
 from tlsync_pipeline.sync.clock import FrameTimes, camera_clock
+from tlsync_pipeline.sync.identify import Identification, identify_target
 from tlsync_pipeline.sync.methods import CameraData, CameraInput
 from tlsync_pipeline.sync.params import SyncParams
 from tlsync_pipeline.sync.registry import get_method, method_options, params_table
@@ -23,15 +28,16 @@ from tlsync_pipeline.sync.timeline import CameraLine, Timeline
 from tlsync_pipeline.sync.votes import Votes, compute_votes
 from tlsync_pipeline.trajectory import Trajectory
 
-__all__ = ["CameraInput", "CameraResult", "cast_votes", "prepare_trajectory", "synchronize", "synchronize_camera"]
+__all__ = ["CameraInput", "CameraResult", "cast_votes", "identify_and_synchronize", "prepare_trajectory", "synchronize", "synchronize_camera"]
 
 
 @dataclass(frozen=True)
 class CameraResult:
-    """One camera's votes (frame indices, as in votes.npz) and fitted line."""
+    """One camera's votes (frame indices) and fitted line; identification: how its target was found among every mover, or None."""
 
     votes: Votes
     line: CameraLine
+    identification: Identification | None = None
 
 
 def prepare_trajectory(trajectory: Trajectory, params: SyncParams) -> Trajectory:
@@ -63,6 +69,14 @@ def synchronize_camera(name: str, inputs: CameraInput, votes: Votes, prepared: T
     return CameraResult(votes, line)
 
 
+def identify_and_synchronize(name: str, inputs: CameraInput, prepared: Trajectory, params: SyncParams) -> CameraResult:
+    """A camera that brings every mover: the target identified among them, then its line fitted on the identified track's votes."""
+    found = identify_target(inputs.camera, inputs.detections, prepared, inputs.fps, params.eps_px, params.delta, params.p, params.seed)
+    identified = CameraInput(inputs.camera, found.track, inputs.fps)
+    result = synchronize_camera(name, identified, cast_votes(identified, prepared, params), prepared, params)
+    return CameraResult(result.votes, replace(result.line, identification=found.summary()), found)
+
+
 def synchronize(
     cameras: dict[str, CameraInput],
     trajectory: Trajectory,
@@ -81,10 +95,13 @@ def synchronize(
     failed: dict[str, str] = {}
     for name, inputs in cameras.items():
         try:
-            cast = votes[name] if votes is not None else cast_votes(inputs, prepared, params)
+            cast = votes[name] if votes is not None else None
             if isinstance(cast, SyncError):
                 raise cast
-            results[name] = synchronize_camera(name, inputs, cast, prepared, params)
+            if inputs.track is None:
+                results[name] = identify_and_synchronize(name, inputs, prepared, params)
+                continue
+            results[name] = synchronize_camera(name, inputs, cast if cast is not None else cast_votes(inputs, prepared, params), prepared, params)
         except SyncError as exc:
             failed[name] = str(exc)
     timeline = Timeline(

@@ -60,6 +60,39 @@ class RefinementSummary:
 
 
 @dataclass(frozen=True)
+class TrackletShare:
+    """One tracklet of an identified track: its id, frames assigned to the target, their share of the track, and the share of the tracklet's own frames within the gate of the projected path."""
+
+    id: int
+    frames: int
+    share: float
+    follow_share: float
+
+
+@dataclass(frozen=True)
+class IdentificationSummary:
+    """How the target was found among every mover (sync/identify.py).
+
+    candidates_voting: detections with at least one vote; identified_frames:
+    frames of the identified track; tracklets: those it uses, most frames
+    first; support_frames / runner_up_frames: distinct frames on the best
+    line and on the best line without its votes, over every candidate's
+    votes; rounds: assignment rounds run.
+    """
+
+    candidates_voting: int
+    identified_frames: int
+    tracklets: tuple[TrackletShare, ...]
+    support_frames: int
+    runner_up_frames: int
+    rounds: int
+
+    @classmethod
+    def from_dict(cls, entry: dict) -> "IdentificationSummary":
+        return cls(**{**entry, "tracklets": tuple(TrackletShare(**t) for t in entry["tracklets"])})
+
+
+@dataclass(frozen=True)
 class CameraLine:
     """One camera's fitted line clock = alpha * sample + beta, with its support.
 
@@ -68,7 +101,9 @@ class CameraLine:
     votes on the line; residual_rms: clock units (frames); fps: nominal
     frame rate or None. What a method does not report is None: cov (2x2 of
     alpha, beta), flags (weak cases), warnings, refined (whether the
-    refinement's line was kept), line_search and refinement summaries.
+    refinement's line was kept), line_search and refinement summaries;
+    identification: how the target was found, for a camera that brought
+    every mover rather than a track.
     """
 
     name: str
@@ -85,6 +120,7 @@ class CameraLine:
     line_search: LineSearchSummary | None = None
     refinement: RefinementSummary | None = None
     clock: CameraClock = CameraClock()
+    identification: IdentificationSummary | None = None
 
     def __post_init__(self):
         if not self.clock.vfr and self.clock.fps is None and self.fps is not None:
@@ -112,7 +148,7 @@ class CameraLine:
                 entry[key] = list(getattr(self, key))
         if self.refined is not None:
             entry["refined"] = self.refined
-        for key in ("line_search", "refinement"):
+        for key in ("line_search", "refinement", "identification"):
             if getattr(self, key) is not None:
                 entry[key] = asdict(getattr(self, key))
         if self.clock.vfr:
@@ -137,6 +173,7 @@ class CameraLine:
             "refined": entry.get("refined"),
             "line_search": None if entry.get("line_search") is None else LineSearchSummary(**entry["line_search"]),
             "refinement": None if entry.get("refinement") is None else RefinementSummary(**entry["refinement"]),
+            "identification": None if entry.get("identification") is None else IdentificationSummary.from_dict(entry["identification"]),
         }
         base = {k: entry[k] for k in ("alpha", "beta", "votes", "inliers", "residual_rms")}
         return cls(name, fps=entry.get("fps"), clock=clock, **base, **optional)

@@ -2,14 +2,17 @@
 
 from __future__ import annotations
 
+import json
 from typing import TYPE_CHECKING
 
+from tlsync_pipeline.errors import SyncError
 from tlsync_pipeline.pipeline.workspace import StageFiles
+from tlsync_pipeline.sync.timeline import IdentificationSummary
 
 if TYPE_CHECKING:
     from tlsync_pipeline.pipeline.project import Project
 
-CAMERA_FILES = ("camera", "track", "votes", "video")
+CAMERA_FILES = ("camera", "track", "votes", "video", "identification", "detections")
 
 
 def camera_files(files: StageFiles, names: list[str], fps: dict[str, float | None] | None = None) -> dict[str, dict]:
@@ -23,3 +26,9 @@ def camera_files(files: StageFiles, names: list[str], fps: dict[str, float | Non
 def camera_params(project: Project) -> dict:
     """The cameras in project order and their fps (None: the camera.json's)."""
     return {"cameras": [c["name"] for c in project.cameras], "fps": {c["name"]: c["fps"] for c in project.cameras}}
+
+
+def read_identification(path) -> IdentificationSummary | SyncError:
+    """A camera's identification.json (identify stage): the summary, or the SyncError that kept its target from being identified."""
+    data = json.loads(path.read_text(encoding="utf-8"))
+    return SyncError(data["error"]) if "error" in data else IdentificationSummary.from_dict(data)

@@ -35,6 +35,7 @@ from tlsync_pipeline.outputs.pictures import (
     plot_trajectory,
     plot_votes,
     read_frames,
+    render_movers,
     render_pair,
     write_png,
 )
@@ -56,6 +57,7 @@ from tlsync_pipeline.sync.synchronize import prepare_trajectory
 from tlsync_pipeline.sync.timeline import CameraLine, Timeline, read_timeline, read_truth
 from tlsync_pipeline.sync.votes import load_votes
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, read_trajectory
+from trackers.detections import read_detections
 from trackers.video import presentation_times, probe_video
 
 EMBEDDED_JPEG_QUALITY = 85
@@ -103,10 +105,15 @@ def run_render(
             plot_votes(name, votes, line, delta, out_dir / f"votes_{name}.png", times[name]),
             plot_trajectory(name, inputs[name].camera, inputs[name].track, path_model, line, out_dir / f"trajectory_{name}.png", times[name]),
         ]
+        titles = ["voting space", "tracked against projected"]
         if name in videos:
             made.append(write_band_swap(name, inputs[name], line, path_model, traj.rate, times[name], videos[name], out_dir / f"swap_{name}.png"))
+            titles.append("band swap: before and after")
+        if cameras[name].get("detections") is not None and name in videos:
+            movers = read_detections(cameras[name]["detections"])
+            made.append(render_movers(videos[name], movers, inputs[name].track, inputs[name].camera, path_model, line, times[name], out_dir / f"movers_{name}.png"))
+            titles.append("every mover, the identified target and the projected path")
         written += made
-        titles = ("voting space", "tracked against projected", "band swap: before and after")
         camera_pictures[name] = [(_photo if title.startswith("band swap") else _picture)(title, path, work) for title, path in zip(titles, made)]
 
     truth_pairs = read_truth(files.path("truth"))[0] if files.has("truth") else None
@@ -317,6 +324,8 @@ def render_inputs(src: Sources, camera: None) -> dict:
     for spec in src.project.cameras:
         name = spec["name"]
         inputs.update({f"{kind}:{name}": src.artefact(kind, name) for kind in ("camera", "track", "votes")})
+        if src.made("identification", name):
+            inputs[f"detections:{name}"] = src.artefact("detections", name)
         if spec.get("video") is not None:
             inputs[f"video:{name}"] = spec["video"]
         for kind in ("calibration_picture", "calibration_report"):

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -9,12 +10,12 @@ from calibration.camera import read_camera
 from tlsync_pipeline.atomic import atomic_path
 from tlsync_pipeline.errors import InputError, SyncError
 from tlsync_pipeline.pipeline.spec import Sources, StageSpec
-from tlsync_pipeline.pipeline.stages.cameras import camera_files, camera_params
+from tlsync_pipeline.pipeline.stages.cameras import camera_files, camera_params, read_identification
 from tlsync_pipeline.pipeline.workspace import StageFiles
 from tlsync_pipeline.sync.methods import CameraInput
 from tlsync_pipeline.sync.registry import params_from_table, params_table
 from tlsync_pipeline.sync.synchronize import CameraResult, synchronize
-from tlsync_pipeline.sync.timeline import Timeline, write_timeline
+from tlsync_pipeline.sync.timeline import IdentificationSummary, Timeline, write_timeline
 from tlsync_pipeline.sync.votes import load_votes
 from tlsync_pipeline.trajectory import Trajectory, read_trajectory
 from trackers.track import read_track
@@ -24,11 +25,16 @@ if TYPE_CHECKING:
 
 
 def read_camera_inputs(cameras: dict[str, dict]) -> dict:
-    """CameraInput per camera from the paths of ``stages.cameras.camera_files``."""
+    """CameraInput per camera from the paths of ``stages.cameras.camera_files``.
+
+    A camera whose target could not be identified among its movers has no
+    track.csv (its votes carry the reason): its track is None.
+    """
     out = {}
     for name, c in cameras.items():
         cam = read_camera(c["camera"], name=name)
-        out[name] = CameraInput(cam, read_track(c["track"]), c["fps"] if c["fps"] is not None else cam.fps)
+        track = None if c.get("identification") is not None and not c["track"].exists() else read_track(c["track"])
+        out[name] = CameraInput(cam, track, c["fps"] if c["fps"] is not None else cam.fps)
     return out
 
 
@@ -48,9 +54,16 @@ def run_sync(files: StageFiles, cameras: list[str], fps: dict[str, float | None]
     """
     paths = camera_files(files, cameras, fps)
     timeline, _ = synchronize(read_camera_inputs(paths), read_trajectory(files.path("trajectory")), params_from_table(sync), read_votes(paths))
+    timeline = with_identifications(timeline, {n: read_identification(c["identification"]) for n, c in paths.items() if c.get("identification") is not None})
     with files.write("timeline") as tmp:
         write_timeline(timeline, tmp)
     return {"synchronized": timeline.names, "failed": timeline.failed}
+
+
+def with_identifications(timeline: Timeline, found: dict) -> Timeline:
+    """The timeline with each identified camera's line carrying its identification summary."""
+    lines = {n: replace(line, identification=found[n]) if isinstance(found.get(n), IdentificationSummary) else line for n, line in timeline.cameras.items()}
+    return replace(timeline, cameras=lines)
 
 
 def load_inputs(project: Project) -> tuple[dict[str, CameraInput], Trajectory]:
@@ -80,6 +93,7 @@ def run_project(project: Project, out_dir: Path) -> tuple[Timeline, dict[str, Ca
 def sync_inputs(src: Sources, camera: None) -> dict:
     """Every camera's calibration, track and votes, and the trajectory."""
     inputs = {f"{kind}:{spec['name']}": src.artefact(kind, spec["name"]) for spec in src.project.cameras for kind in ("camera", "track", "votes")}
+    inputs.update({f"identification:{spec['name']}": src.artefact("identification", spec["name"]) for spec in src.project.cameras if src.made("identification", spec["name"])})
     return {**inputs, "trajectory": src.artefact("trajectory")}
 
 

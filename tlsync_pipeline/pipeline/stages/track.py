@@ -1,7 +1,10 @@
-"""The track stage: each camera's video in, its track.csv out (work folder).
+"""The track stage: each camera's video in, its movers or its target's track out (work folder).
 
-``track_camera`` is the pure part (a camera table in, a Track out);
-``write_track_atomic`` the writer (also used by ``tlsync track-video``).
+Without an init box (blob kind), every mover is detected: ``detections.csv``
+(the identify stage then picks the target among them and writes
+``track.csv``). With an init box, or with CSRT, the one target is tracked:
+``track.csv``. ``track_camera`` is the pure part; ``write_track_atomic`` and
+``write_detections_atomic`` the writers (also used by ``tlsync track-video``).
 """
 
 from __future__ import annotations
@@ -13,16 +16,25 @@ from tlsync_pipeline.atomic import atomic_path
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.pipeline.spec import StageSpec
 from tlsync_pipeline.pipeline.workspace import StageFiles
+from trackers.detections import Detections, follows_every_mover, write_detections
 from trackers.track import Track, write_track
-from trackers.tracking import track_video
+from trackers.tracking import detect_movers, track_video
 from trackers.video import TruncatedVideoWarning
 
 
-def track_camera(spec: dict, progress: bool = True) -> Track:
-    """Track the target in the video of one camera table (``[[cameras]]`` with its ``[cameras.tracker]``)."""
+def tracks_every_mover(spec: dict) -> bool:
+    """Whether the camera's track stage detects every mover (blob kind, no init box) rather than one target."""
+    tracker = spec.get("tracker") or {}
+    return follows_every_mover(tracker.get("kind", "blob"), tracker.get("init"), tracker.get("init_frame", 0))
+
+
+def track_camera(spec: dict, progress: bool = True) -> Track | Detections:
+    """Every mover (``tracks_every_mover``) or the target in the video of one camera table (``[[cameras]]`` with its ``[cameras.tracker]``)."""
     if spec.get("video") is None:
         raise InputError(f"camera {spec['name']!r}: no 'video' key: the track stage needs the camera's video file")
     tracker = spec["tracker"]
+    if tracks_every_mover(spec):
+        return detect_movers(spec["video"], params=tracker["parameters"], progress=progress, label=f"{spec['name']} ({Path(spec['video']).name})")
     return track_video(
         spec["video"],
         kind=tracker["kind"],
@@ -40,20 +52,30 @@ def write_track_atomic(track: Track, path: Path) -> None:
         write_track(track, tmp)
 
 
+def write_detections_atomic(detections: Detections, path: Path) -> None:
+    """Write detections.csv atomically."""
+    with atomic_path(path) as tmp:
+        write_detections(detections, tmp)
+
+
 def run_track(files: StageFiles, tracker: dict) -> dict:
-    """The track stage: the target's track in one camera's video, ``track.csv``.
+    """The track stage: ``detections.csv`` (every mover) or ``track.csv`` (one target) of one camera's video.
 
     Warnings raised while reading the video (a truncated file) are recorded in
     the summary's ``warnings`` (the manifest keeps them for the report).
     """
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", TruncatedVideoWarning)
-        track = track_camera({"name": files.camera, "video": files.path("video"), "tracker": tracker}, progress=files.progress)
+        result = track_camera({"name": files.camera, "video": files.path("video"), "tracker": tracker}, progress=files.progress)
     for warning in caught:  # still shown where they were before
         warnings.warn_explicit(warning.message, warning.category, warning.filename, warning.lineno)
-    write_track_atomic(track, files.output("track"))
     recorded = sorted({str(w.message) for w in caught if issubclass(w.category, TruncatedVideoWarning)})
-    return {"tracked_frames": len(track), "warnings": recorded, "message": f"wrote {files.output('track')} ({len(track)} tracked frames)"}
+    if isinstance(result, Detections):
+        write_detections_atomic(result, files.output("detections"))
+        count = f"{len(result)} detections"
+        return {"detections": len(result), "tracklets": int(len(result.tracklet_ids())), "warnings": recorded, "message": f"wrote {files.output('detections')} ({count})"}
+    write_track_atomic(result, files.output("track"))
+    return {"tracked_frames": len(result), "warnings": recorded, "message": f"wrote {files.output('track')} ({len(result)} tracked frames)"}
 
 
 def _applies(project, cam: str) -> bool:
@@ -65,7 +87,7 @@ SPEC = StageSpec(
     "track",
     inputs=lambda src, cam: {"video": src.project.camera(cam)["video"]},
     params=lambda project, cam, options: {"tracker": project.camera(cam)["tracker"]},
-    outputs=("track",),
+    outputs=("track", "detections"),  # one of them: detections.csv for every mover (track.csv then comes from identify)
     run=run_track,
     per_camera=True,
     applies=_applies,

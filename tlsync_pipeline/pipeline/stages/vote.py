@@ -1,4 +1,8 @@
-"""The vote stage: one camera's votes (paper eq. 3) into ``votes.npz``, on the trajectory the sync method fits."""
+"""The vote stage: one camera's votes (paper eq. 3) into ``votes.npz``, on the trajectory the sync method fits.
+
+A camera whose target could not be identified among its movers (identify
+stage) gets no votes, with that reason.
+"""
 
 from __future__ import annotations
 
@@ -8,7 +12,8 @@ import numpy as np
 
 from calibration.camera import read_camera
 from tlsync_pipeline.errors import SyncError
-from tlsync_pipeline.pipeline.spec import StageSpec
+from tlsync_pipeline.pipeline.spec import Sources, StageSpec
+from tlsync_pipeline.pipeline.stages.cameras import read_identification
 from tlsync_pipeline.pipeline.workspace import StageFiles
 from tlsync_pipeline.sync.methods import CameraInput
 from tlsync_pipeline.sync.registry import params_from_table, vote_table
@@ -29,8 +34,10 @@ def run_vote(files: StageFiles, **params: Any) -> dict:
     """
     sync_params = params_from_table(params)
     prepared = prepare_trajectory(read_trajectory(files.path("trajectory")), sync_params)
-    inputs = CameraInput(read_camera(files.path("camera"), name=files.camera), read_track(files.path("track")), None)
     try:
+        if files.has("identification") and isinstance(found := read_identification(files.path("identification")), SyncError):
+            raise found
+        inputs = CameraInput(read_camera(files.path("camera"), name=files.camera), read_track(files.path("track")), None)
         votes = cast_votes(inputs, prepared, sync_params)
         error = None
     except SyncError as exc:
@@ -39,9 +46,17 @@ def run_vote(files: StageFiles, **params: Any) -> dict:
     return {"votes": len(votes), **({"error": error} if error else {})}
 
 
+def vote_inputs(src: Sources, cam: str) -> dict:
+    """The camera, its track and the trajectory; for a camera identified among its movers, the identification too."""
+    inputs = {"camera": src.artefact("camera", cam), "track": src.artefact("track", cam), "trajectory": src.artefact("trajectory")}
+    if src.made("identification", cam):
+        inputs["identification"] = src.artefact("identification", cam)
+    return inputs
+
+
 SPEC = StageSpec(
     "vote",
-    inputs=lambda src, cam: {"camera": src.artefact("camera", cam), "track": src.artefact("track", cam), "trajectory": src.artefact("trajectory")},
+    inputs=vote_inputs,
     params=lambda project, cam, options: vote_table(project.sync),
     outputs=("votes",),
     run=run_vote,

@@ -1,5 +1,6 @@
 """The track stage in a project and on the command line: same track whichever way it is asked for."""
 
+import numpy as np
 import pytest
 from click.testing import CliRunner
 
@@ -8,6 +9,7 @@ from tlsync_pipeline.cli.main import main
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.pipeline.project import load_project
 from tlsync_pipeline.pipeline.stages.track import track_camera
+from trackers.detections import read_detections
 from trackers.track import read_track
 from trackers.tracking import track_video
 
@@ -28,10 +30,25 @@ def _project(tmp_path, video, tracker="", extra_camera=""):
     return path
 
 
+def test_without_init_box_stage_and_command_write_the_same_movers(tmp_path, video):
+    project = _project(tmp_path, video)
+    result = _run("track", project, "--quiet")
+    assert result.exit_code == 0, result.output
+    staged = tmp_path / "work" / "cameras" / "cam0" / "detections.csv"
+    out = tmp_path / "standalone.csv"
+    result = _run("track-video", video.path, "--out", out, "--quiet")
+    assert result.exit_code == 0, result.output
+    assert staged.read_bytes() == out.read_bytes()
+    movers = read_detections(staged)
+    on_target = np.hypot(movers.x - video.truth[movers.frame, 0], movers.y - video.truth[movers.frame, 1]) < 2.0
+    assert on_target.sum() >= 0.9 * video.in_view.sum()  # the target is among the movers in its frames
+    assert not (tmp_path / "work" / "cameras" / "cam0" / "track.csv").exists()
+
+
 @pytest.mark.parametrize(
     "tracker_table, options",
     [
-        ("", []),
+        ('[cameras.tracker]\ninit = [{x0}, {y0}, 17, 17]\ninit_frame = 70\n', ["--init", "{x0},{y0},17,17", "--init-frame", "70"]),
         ('[cameras.tracker]\nkind = "csrt"\ninit = [{x0}, {y0}, 17, 17]\ninit_frame = 70\n', ["--tracker", "csrt", "--init", "{x0},{y0},17,17", "--init-frame", "70"]),
     ],
 )
@@ -59,7 +76,7 @@ def test_work_option_and_camera_selection(tmp_path, video):
     work = tmp_path / "elsewhere"
     result = _run("track", project, "--work", work, "--quiet")
     assert result.exit_code == 0, result.output
-    assert (work / "cameras" / "cam0" / "track.csv").exists()
+    assert (work / "cameras" / "cam0" / "detections.csv").exists()
     assert not (work / "cameras" / "cam1").exists()  # brings its own track
     result = _run("track", project, "--camera", "cam1", "--quiet")
     assert result.exit_code == 2 and "track/cam1: the project brings this artefact" in result.output

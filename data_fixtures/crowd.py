@@ -1,0 +1,478 @@
+"""Crowd scenes: a logged walker among look-alike walkers, seen by surveillance cameras.
+
+Two (or more) fixed cameras, 5 m up and tilted down, look at disjoint patches
+of ground 5-15 m ahead (people about 100 px tall close by and 40 px far away
+at 480x360). The target visits each camera's patch in turn, several times
+(VISIT_S seconds each), leaving every view in between and coming back to it. Its log is the
+position of its body centre (half its height above the ground), sampled at
+``log_rate`` Hz with GPS-like noise.
+
+Distractor walkers have the target's size, colour and speed. Each walks
+straight through the view along a line that crosses the target's route;
+about half of them pass the crossing point within a second or two of the
+target, so they occlude it or merge with its blob. Every person is a dark
+silhouette (an ellipse of 0.45 m by its height) drawn far to near, so nearer
+people hide farther ones. The videos add a global flicker, a lighting drop
+(a cloud) of 20 %, Gaussian sensor noise and H.264 compression.
+
+Truth: per camera, the target's image position per frame (the projection of
+its body centre; NaN where it is out of view), whether it is visible (in
+view and at least half unoccluded), and the camera lines
+frame = alpha * sample + beta of the log's sample grid (different frame
+rates, shifted starts), as a ``data_fixtures.scene.Scene``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from calibration.camera import Camera, write_camera
+from data_fixtures.scene import Scene, write_truth
+from data_fixtures.video import TIME_BASE, _background
+from tlsync_pipeline.sync.timeline import Relation
+from tlsync_pipeline.trajectory import Trajectory, write_trajectory
+from trackers.track import Track
+
+CAMERA_HEIGHT_M = 5.0
+YAW_STEP_DEG = 90.0  # between neighbouring cameras' headings: tilted down, each view spans up to ~85 deg of azimuth near its bottom edge
+VISIT_S = 5.0  # seconds the target walks in a camera's patch per visit
+NEAR_M, FAR_M = 5.5, 15.0  # ground patch walked on, distance ahead of the camera
+PATCH_HALF_WIDTH_M = 5.0
+PERSON_WIDTH_M = 0.45
+TARGET_HEIGHT_M = 1.75
+PERSON_GREY = 55.0  # every walker's grey level (target included), +- a little
+
+
+@dataclass(frozen=True)
+class CrowdSpec:
+    """What to render.
+
+    fps / n_frames: per camera; distractors: walkers in view at a time, per
+    camera; speed_mps: walking speed of everyone (+-15 %); gps_noise_m: std
+    of the log's position noise per axis; noise: sensor noise std (grey
+    levels); crf: H.264 quality (higher: more compression).
+    """
+
+    fps: tuple[float, ...] = (10.0, 5.0)
+    n_frames: tuple[int, ...] = (450, 225)
+    image_size: tuple[int, int] = (480, 360)
+    distractors: int = 6
+    log_rate: float = 10.0
+    speed_mps: float = 1.4
+    gps_noise_m: float = 0.02
+    noise: float = 3.0
+    crf: int = 28
+    seed: int = 0
+
+
+# Test size: two cameras at 10 and 5 fps, 45 s each, 480x360.
+SMALL = CrowdSpec()
+
+
+@dataclass
+class CameraTruth:
+    """Per frame of one camera, the target's silhouette and the crowd.
+
+    xy: (N, 2) target centre, pixels (NaN when no part of it is in the
+    image); axes: (N, 2) its ellipse's semi-axes (across, along the body),
+    pixels; angle: (N,) the body axis' tilt from vertical, degrees; visible:
+    (N,) centre inside the image and at least half of the body unoccluded;
+    people: (N,) people at least partly in the image.
+    """
+
+    xy: np.ndarray
+    axes: np.ndarray
+    angle: np.ndarray
+    visible: np.ndarray
+    people: np.ndarray
+    video: Path | None = None
+
+    def on_target(self, frame: np.ndarray, xy: np.ndarray) -> np.ndarray:
+        """Whether each point (pixels) at each frame lies on the target's silhouette."""
+        frame = np.asarray(frame, dtype=np.int64)
+        d = np.asarray(xy, dtype=np.float64) - self.xy[frame]
+        theta = np.radians(self.angle[frame])
+        across = d[:, 0] * np.cos(theta) + d[:, 1] * np.sin(theta)
+        along = -d[:, 0] * np.sin(theta) + d[:, 1] * np.cos(theta)
+        inside = (across / self.axes[frame, 0]) ** 2 + (along / self.axes[frame, 1]) ** 2 <= 1.0
+        return np.where(np.isfinite(inside), inside, False) & np.isfinite(self.xy[frame, 0])
+
+
+@dataclass
+class CrowdScene:
+    """The scene (cameras, log, lines, true target tracks) and per-camera frame truth."""
+
+    scene: Scene
+    truth: dict[str, CameraTruth] = field(default_factory=dict)
+
+
+def _to_world(yaw: float, local: np.ndarray) -> np.ndarray:
+    """Ground point(s) from a camera's local ground frame (x right, y ahead, metres) to the world's."""
+    c, s_ = math.cos(yaw), math.sin(yaw)
+    local = np.asarray(local, dtype=np.float64)
+    return np.stack([c * local[..., 0] - s_ * local[..., 1], s_ * local[..., 0] + c * local[..., 1]], axis=-1)
+
+
+def surveillance_camera(name: str, yaw: float, image_size: tuple[int, int], fps: float, rng) -> Camera:
+    """A camera at (0, 0, CAMERA_HEIGHT_M) turned by ``yaw`` (radians, counter-clockwise from +y), tilted down at the middle of its patch."""
+    w, h = image_size
+    centre = np.array([0.0, 0.0, CAMERA_HEIGHT_M])
+    aim = np.r_[_to_world(yaw, np.array([rng.uniform(-0.3, 0.3), (NEAR_M + FAR_M) / 2 + 1.0])), 0.0]
+    forward = (aim - centre) / np.linalg.norm(aim - centre)
+    right = np.cross(forward, [0, 0, 1.0])
+    right /= np.linalg.norm(right)
+    down = np.cross(forward, right)
+    R = np.vstack([right, down, forward])
+    focal = 0.84 * w  # 480 px: a 1.75 m person is ~100 px tall at 6 m and ~40 px at 15 m
+    K = np.array([[focal, 0, (w - 1) / 2 + rng.uniform(-4, 4)], [0, focal, (h - 1) / 2 + rng.uniform(-4, 4)], [0, 0, 1.0]])
+    dist = np.array([rng.uniform(-0.08, -0.02), 0.0, 0.0, 0.0, 0.0])
+    return Camera(name, K, dist, R, -R @ centre, (w, h), float(fps))
+
+
+def make_crowd_scene(spec: CrowdSpec = SMALL, directory: str | Path | None = None) -> CrowdScene:
+    """Build the scene; with ``directory``, also render each camera's video there (``<name>.mp4``)."""
+    rng = np.random.default_rng(spec.seed)
+    names = [f"cam{k}" for k in range(len(spec.fps))]
+    yaws = [math.radians(YAW_STEP_DEG * (k - (len(names) - 1) / 2)) for k in range(len(names))]
+    cameras = {n: surveillance_camera(n, yaws[k], spec.image_size, spec.fps[k], rng) for k, n in enumerate(names)}
+    starts = [rng.uniform(0.5, 3.0) for _ in names]  # each camera starts recording at its own time
+    route, stays = _target_route(rng, cameras, yaws, max(s + n / f for s, n, f in zip(starts, spec.n_frames, spec.fps)), spec.speed_mps)
+    end_s = route.duration
+    samples = np.arange(int(math.floor(end_s * spec.log_rate)) + 1, dtype=np.float64)
+    true_xyz = route.at(samples / spec.log_rate)
+    _check_views_disjoint(cameras, route.at(np.linspace(0, end_s, int(end_s * 50))))
+    xyz = true_xyz + rng.normal(0.0, spec.gps_noise_m, true_xyz.shape) if spec.gps_noise_m > 0 else true_xyz
+    lines, tracks, truth = {}, {}, {}
+    walkers = []
+    for k, name in enumerate(names):
+        recording = (starts[k], starts[k] + (spec.n_frames[k] - 1) / spec.fps[k])
+        walkers += _distractors(rng, yaws[k], route, stays[k], recording, spec.distractors, spec.speed_mps)
+    for k, name in enumerate(names):
+        camera, fps, count = cameras[name], spec.fps[k], spec.n_frames[k]
+        start_s = starts[k]
+        lines[name] = Relation(fps / spec.log_rate, -start_s * fps)
+        times = start_s + np.arange(count) / fps
+        frame_truth = _frame_truth(camera, route, walkers, times)
+        seen = np.flatnonzero(frame_truth.visible)
+        tracks[name] = Track(seen.astype(np.int64), frame_truth.xy[seen, 0], frame_truth.xy[seen, 1], time_s=times[seen] - start_s)
+        if directory is not None:
+            Path(directory).mkdir(parents=True, exist_ok=True)
+            path = Path(directory) / f"{name}.mp4"
+            _render(path, camera, route, walkers, times, start_s, spec, rng)
+            frame_truth.video = path
+        truth[name] = frame_truth
+    scene = Scene(
+        trajectory=Trajectory(samples, xyz, spec.log_rate, 0.0),
+        true_trajectory=Trajectory(samples, true_xyz, spec.log_rate, 0.0),
+        cameras=cameras,
+        true_cameras=cameras,
+        tracks=tracks,
+        lines=lines,
+        n_frames=dict(zip(names, spec.n_frames)),
+        noise={"distractors": spec.distractors, "gps_noise_m": spec.gps_noise_m, "sensor_noise": spec.noise, "crf": spec.crf},
+    )
+    return CrowdScene(scene, truth)
+
+
+def write_crowd_project(directory: str | Path, spec: CrowdSpec = SMALL) -> tuple[Path, CrowdScene]:
+    """A raw project: per camera its video and camera.json, the target's trajectory CSV, truth.json.
+
+    The cameras have no tracker table: the track stage's default (every
+    mover, no init box) is what is exercised.
+    """
+    directory = Path(directory)
+    directory.mkdir(parents=True, exist_ok=True)
+    crowd = make_crowd_scene(spec, directory)
+    scene = crowd.scene
+    write_trajectory(scene.trajectory, directory / "trajectory.csv")
+    parts = ['[target]\ntrajectory = "trajectory.csv"\n']
+    for name, camera in scene.cameras.items():
+        write_camera(camera, directory / f"{name}.json")
+        parts.append(f'[[cameras]]\nname = "{name}"\ncamera = "{name}.json"\nvideo = "{name}.mp4"\nfps = {camera.fps!r}\n')
+    project = directory / "project.toml"
+    project.write_text("\n".join(parts), encoding="utf-8")
+    write_truth(scene, directory)
+    return project, crowd
+
+
+class _Route:
+    """A ground path walked at a constant speed: position (x, y, centre height) at time t (s).
+
+    The path is the waypoints' polyline, cut into pieces of at most 1 m,
+    with its corners rounded (Chaikin's corner cutting, four times): turns
+    over about a metre that never swing outside the polyline.
+    """
+
+    def __init__(self, waypoints: np.ndarray, speed: float, height: float):
+        waypoints = np.asarray(waypoints, dtype=np.float64)
+        pieces = [np.linspace(a, b, max(1, int(np.ceil(np.linalg.norm(b - a)))) + 1)[:-1] for a, b in zip(waypoints[:-1], waypoints[1:])]
+        points = np.vstack(pieces + [waypoints[-1:]])
+        for _ in range(4):
+            a, b = points[:-1], points[1:]
+            cut = np.empty((2 * len(a), 2))
+            cut[0::2], cut[1::2] = 0.75 * a + 0.25 * b, 0.25 * a + 0.75 * b
+            points = np.vstack([points[:1], cut, points[-1:]])
+        self.arc = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(points, axis=0), axis=1))]
+        self.points = points
+        self.speed = speed
+        self.height = height
+        self.duration = self.arc[-1] / speed
+
+    def ground(self, t: np.ndarray) -> np.ndarray:
+        d = np.clip(np.asarray(t, dtype=np.float64) * self.speed, 0.0, self.arc[-1])
+        return np.column_stack([np.interp(d, self.arc, self.points[:, 0]), np.interp(d, self.arc, self.points[:, 1])])
+
+    def at(self, t: np.ndarray) -> np.ndarray:
+        """Body centre (N, 3), metres."""
+        g = self.ground(t)
+        return np.column_stack([g, np.full(len(g), self.height / 2)])
+
+
+def _in_patch(yaw: float, point: np.ndarray) -> bool:
+    """Whether a world ground point is well inside a camera's view (the view is about 0.6 x distance wide on each side)."""
+    x, y = _to_world(-yaw, point)
+    return NEAR_M + 0.5 <= y <= FAR_M - 0.5 and abs(x) <= min(PATCH_HALF_WIDTH_M, 0.45 * y)
+
+
+def _patch_point(rng, yaw: float, near: np.ndarray | None = None) -> np.ndarray:
+    """A random ground point (world) well inside a camera's view; with ``near``, 3-6 m from it."""
+    while True:
+        if near is None:
+            y = rng.uniform(NEAR_M + 0.5, FAR_M - 0.5)
+            point = _to_world(yaw, np.array([rng.uniform(-1.0, 1.0) * min(PATCH_HALF_WIDTH_M, 0.45 * y), y]))
+        else:
+            heading = rng.uniform(0, 2 * math.pi)
+            point = near + rng.uniform(3.0, 6.0) * np.array([math.cos(heading), math.sin(heading)])
+        if _in_patch(yaw, point):
+            return point
+
+
+def _target_route(rng, cameras: dict[str, Camera], yaws: list[float], duration_s: float, speed: float) -> tuple[_Route, list[list[tuple[float, float]]]]:
+    """The target's waypoints: visits of about VISIT_S seconds to each camera's patch in turn, for ``duration_s`` in all.
+
+    Between visits it leaves the view it is in (crossing the narrow gap
+    between the views, or the ground below them) and comes back to it a
+    visit later. Returns the route and, per camera, the (start, end) times
+    of the target's stays in its image.
+    """
+    points: list[np.ndarray] = [_to_world(yaws[0], np.array([0.0, 2.5]))]
+    visit = 0
+    while _Route(np.array(points), speed, TARGET_HEIGHT_M).duration < duration_s + 2.0:
+        k = visit % len(yaws)
+        stay: list[np.ndarray] = [_patch_point(rng, yaws[k])]
+        length = 0.0  # walked inside the patch
+        while length < speed * VISIT_S:
+            nxt = _patch_point(rng, yaws[k], stay[-1])
+            length += float(np.linalg.norm(nxt - stay[-1]))
+            stay.append(nxt)
+        points += stay
+        visit += 1
+    route = _Route(np.array(points), speed, TARGET_HEIGHT_M)
+    t = np.arange(0.0, route.duration, 0.1)
+    stays = []
+    for camera in cameras.values():
+        uv, valid = camera.project(route.at(t))
+        seen = np.r_[False, valid & camera.in_image(np.nan_to_num(uv, nan=-1e9)), False].astype(int)
+        edges = np.flatnonzero(np.diff(seen))
+        stays.append([(t[a], t[b - 1]) for a, b in zip(edges[0::2], edges[1::2])])
+    return route, stays
+
+
+@dataclass(frozen=True)
+class _Walker:
+    """A distractor: straight walk from start (at t0) to end, at speed; height; grey level."""
+
+    start: np.ndarray
+    end: np.ndarray
+    t0: float
+    speed: float
+    height: float
+    grey: float
+
+    def ground(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Ground positions (N, 2) at times t and whether the walker is on its way."""
+        t = np.asarray(t, dtype=np.float64)
+        length = float(np.linalg.norm(self.end - self.start))
+        d = (t - self.t0) * self.speed
+        on = (d >= 0) & (d <= length)
+        frac = np.clip(d / length, 0.0, 1.0)[:, None]
+        return self.start + frac * (self.end - self.start), on
+
+
+def _distractors(rng, yaw: float, route: _Route, stays: list[tuple[float, float]], recording: tuple[float, float], count: int, speed: float) -> list[_Walker]:
+    """About ``count`` walkers in view at any time, each crossing the target's route in this camera's patch."""
+    if count <= 0:
+        return []
+    span = recording[1] - recording[0]
+    crossing_s = 2 * (PATCH_HALF_WIDTH_M + 4.0) / speed
+    walkers = []
+    for _ in range(int(math.ceil(count * (span + crossing_s) / crossing_s))):
+        t_target = rng.uniform(*stays[rng.integers(len(stays))]) if stays else rng.uniform(*recording)
+        point = route.ground(np.array([t_target]))[0]
+        local = _to_world(-yaw, point)
+        if abs(local[0]) > 0.6 * local[1] or not NEAR_M <= local[1] <= FAR_M:
+            point = _patch_point(rng, yaw)
+        if rng.random() < 0.5:
+            t_cross = t_target + rng.uniform(-1.5, 1.5)  # at nearly the same time: occlusion or merged blobs
+        else:
+            t_cross = rng.uniform(recording[0] - crossing_s / 2, recording[1] + crossing_s / 2)
+        heading = yaw + rng.uniform(-math.pi / 2.5, math.pi / 2.5) + rng.choice((0.0, math.pi))  # mostly across the view
+        direction = np.array([math.cos(heading), math.sin(heading)])
+        half = PATCH_HALF_WIDTH_M + 5.0
+        start, end = point - half * direction, point + half * direction
+        v = speed * rng.uniform(0.85, 1.15)
+        walkers.append(_Walker(start, end, t_cross - half / v, v, rng.uniform(1.6, 1.85), PERSON_GREY + rng.uniform(-8, 8)))
+    return walkers
+
+
+def _people(camera: Camera, route: _Route, walkers: list[_Walker], t: float) -> list[tuple[float, np.ndarray, float, float, bool]]:
+    """People at time t, far to near: (depth, ground xy, height, grey, is_target)."""
+    out = [(None, route.ground(np.array([t]))[0], route.height, PERSON_GREY, True)]
+    for w in walkers:
+        g, on = w.ground(np.array([t]))
+        if on[0]:
+            out.append((None, g[0], w.height, w.grey, False))
+    rows = []
+    for _, g, height, grey, is_target in out:
+        depth = float((camera.R @ np.array([g[0], g[1], height / 2]) + camera.t)[2])
+        rows.append((depth, g, height, grey, is_target))
+    return sorted(rows, key=lambda r: -r[0])
+
+
+def _silhouette(camera: Camera, ground: np.ndarray, height: float):
+    """(centre uv, semi-axes (a, b), angle deg) of a person's image ellipse, or None when behind the camera."""
+    pts = np.array([[ground[0], ground[1], 0.0], [ground[0], ground[1], height / 2], [ground[0], ground[1], height]])
+    uv, valid = camera.project(pts)
+    if not valid.all():
+        return None
+    axis = uv[2] - uv[0]
+    b = float(np.linalg.norm(axis)) / 2
+    depth = float((camera.R @ pts[1] + camera.t)[2])
+    a = PERSON_WIDTH_M / 2 * camera.K[0, 0] / depth
+    angle = math.degrees(math.atan2(axis[1], axis[0])) - 90.0
+    return uv[1], (a, b), angle
+
+
+def _frame_truth(camera: Camera, route: _Route, walkers: list[_Walker], times: np.ndarray) -> CameraTruth:
+    """Target centre per frame (NaN unless the whole body centre is inside), visibility and people counts."""
+    w, h = camera.image_size
+    xy = np.full((len(times), 2), np.nan)
+    axes = np.full((len(times), 2), np.nan)
+    angle = np.zeros(len(times))
+    visible = np.zeros(len(times), bool)
+    people = np.zeros(len(times), int)
+    for k, t in enumerate(times):
+        rows = _people(camera, route, walkers, t)
+        masks = []
+        for depth, g, height, _, is_target in rows:
+            shape = _silhouette(camera, g, height)
+            if shape is None:
+                masks.append(None)
+                continue
+            (cx, cy), (a, b), tilt = shape
+            masks.append(shape)
+            in_image = -a < cx < w + a and -b < cy < h + b
+            people[k] += in_image
+            if is_target and in_image:
+                xy[k], axes[k], angle[k] = (cx, cy), (a, b), tilt
+                visible[k] = 0 <= cx <= w - 1 and 0 <= cy <= h - 1
+        if visible[k]:
+            visible[k] = _unoccluded_share(rows, masks, (w, h)) >= 0.5
+    return CameraTruth(xy, axes, angle, visible, people)
+
+
+def _ellipse_patch(shape, size: tuple[int, int]) -> tuple[int, int, np.ndarray]:
+    """(x0, y0, coverage) of an image ellipse: anti-aliased, sub-pixel placed, uint8 0-255, clipped to the image."""
+    (cx, cy), (a, b), angle = shape
+    reach = max(a, b) + 2
+    x0, y0 = max(0, int(cx - reach)), max(0, int(cy - reach))
+    x1, y1 = min(size[0], int(cx + reach) + 2), min(size[1], int(cy + reach) + 2)
+    if x1 <= x0 or y1 <= y0:
+        return x0, y0, np.zeros((0, 0), np.uint8)
+    mask = np.zeros((y1 - y0, x1 - x0), np.uint8)
+    scale = 1 << 4
+    centre = (int(round((cx - x0) * scale)), int(round((cy - y0) * scale)))
+    axes = (max(1, int(round(a * scale))), max(1, int(round(b * scale))))
+    cv2.ellipse(mask, centre, axes, angle, 0, 360, 255, -1, cv2.LINE_AA, 4)
+    return x0, y0, mask
+
+
+def _unoccluded_share(rows, masks, size) -> float:
+    """Share of the target's silhouette not covered by the people drawn after it (nearer)."""
+    k = next(i for i, r in enumerate(rows) if r[4])
+    if masks[k] is None:
+        return 0.0
+    x0, y0, own = _ellipse_patch(masks[k], size)
+    own = own > 127
+    total = int(own.sum())
+    if total == 0:
+        return 0.0
+    covered = np.zeros_like(own)
+    for shape in masks[k + 1 :]:
+        if shape is None:
+            continue
+        u0, v0, other = _ellipse_patch(shape, size)
+        ox0, oy0 = max(x0, u0), max(y0, v0)
+        ox1, oy1 = min(x0 + own.shape[1], u0 + other.shape[1]), min(y0 + own.shape[0], v0 + other.shape[0])
+        if ox1 > ox0 and oy1 > oy0:
+            covered[oy0 - y0 : oy1 - y0, ox0 - x0 : ox1 - x0] |= other[oy0 - v0 : oy1 - v0, ox0 - u0 : ox1 - u0] > 127
+    return float((own & ~covered).sum()) / total
+
+
+def _lighting(rng, times: np.ndarray) -> np.ndarray:
+    """Global gain per frame: flicker and a 20 % drop (a cloud) over 1.5 s at a random moment."""
+    t = times - times[0]
+    gain = 1.0 + 0.03 * np.sin(2 * np.pi * t / 3.7) + 0.01 * rng.standard_normal(len(t))
+    at = rng.uniform(0.3, 0.7) * max(t[-1], 1.0)
+    return gain * (1.0 - 0.2 * np.clip((t - at) / 1.5, 0.0, 1.0))
+
+
+def _render(path: Path, camera: Camera, route: _Route, walkers: list[_Walker], times: np.ndarray, start_s: float, spec: CrowdSpec, rng) -> None:
+    """Write the camera's H.264 video: background, people far to near, lighting, noise."""
+    import av
+    from fractions import Fraction
+
+    w, h = camera.image_size
+    background = _background(rng, w, h)
+    gains = _lighting(rng, times)
+    container = av.open(str(path), mode="w", options={"movflags": "+faststart"})
+    try:
+        stream = container.add_stream("libx264", rate=Fraction(camera.fps).limit_denominator(1001))
+        stream.width, stream.height = w, h
+        stream.pix_fmt = "yuv420p"
+        stream.codec_context.time_base = TIME_BASE
+        stream.options = {"crf": str(spec.crf), "preset": "veryfast", "g": "30", "threads": "1"}  # one thread: the same bytes every run
+        for k, t in enumerate(times):
+            image = background.copy()
+            for _, g, height, grey, _ in _people(camera, route, walkers, t):
+                shape = _silhouette(camera, g, height)
+                if shape is None:
+                    continue
+                x0, y0, patch = _ellipse_patch(shape, (w, h))
+                region = image[y0 : y0 + patch.shape[0], x0 : x0 + patch.shape[1]]
+                region += patch.astype(np.float32) / 255.0 * (grey - region)
+            image = image * gains[k] + rng.normal(0.0, spec.noise, image.shape)
+            grey_frame = np.clip(image, 0, 255).astype(np.uint8)
+            frame = av.VideoFrame.from_ndarray(cv2.cvtColor(grey_frame, cv2.COLOR_GRAY2BGR), format="bgr24")
+            frame.pts = int(round((t - start_s) / TIME_BASE))
+            frame.time_base = TIME_BASE
+            for packet in stream.encode(frame):
+                container.mux(packet)
+        for packet in stream.encode():
+            container.mux(packet)
+    finally:
+        container.close()
+
+
+def _check_views_disjoint(cameras: dict[str, Camera], points: np.ndarray) -> None:
+    seen = np.zeros(len(points), dtype=int)
+    for camera in cameras.values():
+        uv, valid = camera.project(points)
+        seen += valid & camera.in_image(np.nan_to_num(uv, nan=-1e9))
+    if (seen > 1).any():
+        raise AssertionError("crowd scene: a point of the target's route is visible in two cameras")

@@ -1,0 +1,94 @@
+"""Identification of the target among every mover, on synthetic detections with known truth."""
+
+import numpy as np
+import pytest
+
+from data_fixtures import make_scene
+from tlsync_pipeline.errors import SyncError
+from tlsync_pipeline.sync.identify import assign_target, identify_target
+from tlsync_pipeline.sync.params import SyncParams
+from tlsync_pipeline.trajectory import PiecewiseTrajectory
+from trackers.detections import make_detections
+
+P = SyncParams()
+
+
+def _crowd_detections(scene, name, walkers=8, seed=0):
+    """The target's true track (0.5 px noise, 10 % of frames missed, split into 3 tracklets, a box of 0.5 m) and
+    ``walkers`` look-alike movers crossing the image at the target's image speed."""
+    rng = np.random.default_rng(seed)
+    track = scene.tracks[name]
+    w, h = scene.cameras[name].image_size
+    keep = rng.random(len(track)) > 0.1
+    frames = track.frame[keep]
+    xy = track.xy[keep] + rng.normal(0, 0.5, (keep.sum(), 2))
+    camera, line = scene.cameras[name], scene.lines[name]
+    position = PiecewiseTrajectory(scene.true_trajectory).positions((frames - line.beta) / line.alpha)
+    size = 0.5 * camera.K[0, 0] / (position @ camera.R.T + camera.t)[:, 2]  # a 0.5 m target, in pixels at its depth
+    pieces = np.array_split(np.arange(len(frames)), 3)
+    rows = [(frames[i], frames[i] / 30.0, k, xy[i, 0], xy[i, 1], size[i], size[i], 0.9) for k, idx in enumerate(pieces) for i in idx]
+    speed = np.median(np.linalg.norm(np.diff(track.xy, axis=0), axis=1))
+    n_frames = scene.n_frames[name]
+    for j in range(walkers):
+        start = rng.integers(0, n_frames - 100)
+        length = int(rng.integers(80, 200))
+        p0 = rng.uniform([0, 0], [w, h])
+        heading = rng.uniform(0, 2 * np.pi)
+        v = speed * rng.uniform(0.7, 1.3) * np.array([np.cos(heading), np.sin(heading)])
+        for f in range(start, min(n_frames, start + length)):
+            x, y = p0 + v * (f - start)
+            if 0 <= x < w and 0 <= y < h:
+                rows.append((f, f / 30.0, 100 + j, x, y, 12, 12, 0.8))
+    target_rows = {(f, k) for k, idx in enumerate(pieces) for f in frames[idx]}
+    return make_detections(rows), target_rows
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_identifies_the_target_among_look_alike_walkers(seed):
+    scene = make_scene(seed=seed)
+    name = "cam0"
+    detections, target_rows = _crowd_detections(scene, name, seed=seed)
+    camera = scene.cameras[name]
+    found = identify_target(camera, detections, scene.trajectory, camera.fps, P.eps_px, P.delta, P.p, P.seed)
+    picked = {(f, i) for f, i in zip(detections.frame[found.rows], detections.id[found.rows])}
+    assert len(picked & target_rows) >= 0.95 * len(picked)
+    assert len(picked & target_rows) >= 0.9 * len(target_rows)
+    truth = scene.lines[name]
+    frames = scene.tracks[name].frame
+    assert np.abs((found.alpha - truth.alpha) * (frames - truth.beta) / truth.alpha + found.beta - truth.beta).max() < 0.5
+    summary = found.summary()
+    assert {t.id for t in summary.tracklets[:3]} == {0, 1, 2}
+    assert sum(t.frames for t in summary.tracklets) == summary.identified_frames == len(found.track)
+    assert summary.support_frames > summary.runner_up_frames
+    assert len(np.unique(found.track.frame)) == len(found.track)
+
+
+def test_a_camera_the_path_never_enters_is_named():
+    scene = make_scene(seed=0)
+    camera = scene.cameras["cam0"]
+    detections, _ = _crowd_detections(scene, "cam0")
+    behind = camera.t + [0.0, 0.0, -1e4]  # the whole path 10 km behind the camera
+    away = type(camera)(camera.name, camera.K, camera.dist, camera.R, behind, camera.image_size, camera.fps)
+    with pytest.raises(SyncError, match="camera cam0: the target's projected path never enters its image"):
+        identify_target(away, detections, scene.trajectory, camera.fps, P.eps_px, P.delta, P.p, P.seed)
+
+
+def test_no_tracklet_following_the_path_is_reported():
+    scene = make_scene(seed=0)
+    camera = scene.cameras["cam0"]
+    detections, target_rows = _crowd_detections(scene, "cam0", walkers=10, seed=3)
+    only_walkers = detections.subset(detections.id >= 100)
+    with pytest.raises(SyncError, match="camera cam0: no tracklet follows the target's projected path"):
+        identify_target(camera, only_walkers, scene.trajectory, camera.fps, P.eps_px, P.delta, P.p, P.seed)
+
+
+def test_assignment_prefers_the_tracklet_that_follows_over_a_closer_passer_by():
+    frame = np.array([0, 0, 1, 1, 2, 2, 3])
+    tracklet = np.array([1, 2, 1, 2, 1, 3, 1])
+    # tracklet 1 stays 4 px from the path; 2 touches it once then leaves it, 3 is never near
+    distance = np.array([4.0, 1.0, 4.0, 60.0, 4.0, 50.0, 4.0])
+    rows, share = assign_target(frame, tracklet, distance, gate_px=10.0)
+    assert tracklet[rows].tolist() == [1, 1, 1, 1]
+    assert share == {1: 1.0, 2: 0.5, 3: 0.0}
+    rows, _ = assign_target(frame, tracklet, distance, gate_px=10.0, prefer=frozenset({2}))
+    assert tracklet[rows[0]] == 2

@@ -1,0 +1,66 @@
+"""detections.csv: round trip, validation messages naming file and line, single-target tracks from rows."""
+
+import numpy as np
+import pytest
+
+from trackers.detections import make_detections, read_detections, write_detections
+from trackers.errors import TrackInputError
+
+
+def _sample():
+    return make_detections(
+        [
+            (3, 0.3, 1, 50.0, 60.0, 10, 20, 0.9),
+            (0, 0.0, 0, 10.5, 20.25, 8, 16, 0.5),
+            (0, 0.0, 1, 30.0, 40.0, 9, 18, 0.7),
+            (1, 0.1, 0, 11.5, 21.25, 8, 16, 0.8),
+        ]
+    )
+
+
+def test_round_trip_keeps_every_row_sorted_by_frame_then_id(tmp_path):
+    path = tmp_path / "detections.csv"
+    write_detections(_sample(), path)
+    assert path.read_text().splitlines()[0] == "frame,time_s,id,x,y,w,h,score"
+    back = read_detections(path)
+    assert back.frame.tolist() == [0, 0, 1, 3]
+    assert back.id.tolist() == [0, 1, 0, 1]
+    np.testing.assert_allclose(back.xy, [[10.5, 20.25], [30.0, 40.0], [11.5, 21.25], [50.0, 60.0]])
+    np.testing.assert_allclose(back.time_s, [0.0, 0.0, 0.1, 0.3])
+
+
+def test_minimal_columns_get_defaults(tmp_path):
+    path = tmp_path / "d.csv"
+    path.write_text("frame,id,x,y\n0,4,1,2\n2,4,3,4\n")
+    back = read_detections(path)
+    assert back.score.tolist() == [1.0, 1.0]
+    assert np.isnan(back.time_s).all()
+    track = back.to_track(np.array([0, 1]))
+    assert track.time_s is None and track.frame.tolist() == [0, 2]
+
+
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        ("frame,x,y\n0,1,2\n", "lacks column(s) id"),
+        ("frame,id,x,y\n0,1,2,abc\n", ":2: column 'y': not a number"),
+        ("frame,id,x,y\n0,1,2,3\n1.5,1,2,3\n", ":3: column 'frame': expected a 0-based integer"),
+        ("frame,id,x,y\n0,-1,2,3\n", "non-negative integer tracklet id"),
+        ("frame,id,x,y\n0,1,2,3\n0,1,5,6\n", "tracklet 1 has two detections in frame 0"),
+        ("frame,id,x,y\n", "no detection"),
+    ],
+)
+def test_bad_files_are_named_with_the_line(tmp_path, text, message):
+    path = tmp_path / "bad.csv"
+    path.write_text(text)
+    with pytest.raises(TrackInputError, match="bad.csv") as info:
+        read_detections(path)
+    assert message in str(info.value)
+
+
+def test_a_track_takes_one_row_per_frame():
+    detections = _sample()
+    with pytest.raises(ValueError, match="at most one"):
+        detections.to_track(np.array([0, 1]))
+    track = detections.to_track(detections.id == 0)
+    assert track.frame.tolist() == [0, 1]

@@ -1,0 +1,67 @@
+"""The identify stage: a camera's every mover in, its target's track.csv and identification.json out.
+
+For a camera whose track stage detected every mover (no init box), or that
+brings its own ``detections = ...``: the trajectory, projected into the
+camera, picks the target among the movers (sync/identify.py). The
+identified target's ``track.csv`` then serves the vote, sync, export and
+render stages as any track does; ``identification.json`` holds the summary
+that sync writes into timeline.json, or the reason the target could not be
+identified (the camera is then listed as not synchronized, the others are).
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import asdict
+from typing import Any
+
+from calibration.camera import read_camera
+from tlsync_pipeline.errors import SyncError
+from tlsync_pipeline.pipeline.spec import StageSpec
+from tlsync_pipeline.pipeline.workspace import StageFiles
+from tlsync_pipeline.sync.identify import identify_target
+from tlsync_pipeline.sync.registry import params_from_table, params_table
+from tlsync_pipeline.sync.synchronize import prepare_trajectory
+from tlsync_pipeline.trajectory import read_trajectory
+from trackers.detections import follows_every_mover, read_detections
+from trackers.track import write_track
+
+
+def run_identify(files: StageFiles, fps: float | None, sync: dict[str, Any]) -> dict:
+    """The identify stage: ``track.csv`` of the identified target and ``identification.json``."""
+    params = params_from_table(sync)
+    camera = read_camera(files.path("camera"), name=files.camera)
+    prepared = prepare_trajectory(read_trajectory(files.path("trajectory")), params)
+    try:
+        found = identify_target(camera, read_detections(files.path("detections")), prepared, fps or camera.fps, params.eps_px, params.delta, params.p, params.seed)
+    except SyncError as exc:
+        files.output("track").unlink(missing_ok=True)
+        with files.write("identification") as tmp:
+            tmp.write_text(json.dumps({"error": str(exc)}, indent=1) + "\n", encoding="utf-8")
+        return {"error": str(exc)}
+    with files.write("track") as tmp:
+        write_track(found.track, tmp)
+    with files.write("identification") as tmp:
+        tmp.write_text(json.dumps(asdict(found.summary()), indent=1) + "\n", encoding="utf-8")
+    return {"identified_frames": len(found.track), "message": f"wrote {files.output('track')} ({len(found.track)} identified frames)"}
+
+
+def brings_movers(project, cam: str) -> bool:
+    """Whether the camera's target is to be identified among every mover (detected, or brought as ``detections``)."""
+    spec = project.camera(cam)
+    if spec["track"] is not None:
+        return False
+    tracker = spec.get("tracker") or {}
+    every_mover = follows_every_mover(tracker.get("kind", "blob"), tracker.get("init"), tracker.get("init_frame", 0))
+    return spec.get("detections") is not None or (spec.get("video") is not None and every_mover)
+
+
+SPEC = StageSpec(
+    "identify",
+    inputs=lambda src, cam: {"camera": src.artefact("camera", cam), "detections": src.artefact("detections", cam), "trajectory": src.artefact("trajectory")},
+    params=lambda project, cam, options: {"fps": project.camera(cam)["fps"], "sync": params_table(project.sync)},
+    outputs=("track", "identification"),
+    run=run_identify,
+    per_camera=True,
+    applies=brings_movers,
+)

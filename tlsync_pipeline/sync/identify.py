@@ -1,0 +1,250 @@
+"""Which mover is the target: let the known trajectory pick it among every candidate.
+
+The trajectory's path, projected into the camera, says where the target goes
+but not when. Every candidate of every frame (detections.csv) votes: a pair
+(frame, sample) for each trajectory sample projecting within eps pixels of
+it, so a candidate never near the projected path gives no vote. The line
+search (line_search.find_line) then finds the line frame = alpha * sample +
+beta most frames agree on; other movers do not follow the path on one
+consistent timeline.
+
+Assignment, given a line: at each frame, the trajectory projects to one
+point; the target is the candidate nearest to it within ``gate_px``,
+preferring candidates whose tracklet stays within the gate over its whole
+stay on the path (cost = distance / gate + FOLLOW_WEIGHT x (1 - the
+tracklet's share of frames within the gate)); assigned candidates whose
+box, in metres at the target's depth, departs from the track's median size
+(merged with a passer-by, cut by an occluder) are left out. The line is refined on the
+assigned candidates (refine.refine_line) and the assignment repeated until
+it no longer changes (at most MAX_ROUNDS rounds).
+
+Frames are 0-based frame indices; the line lives on the camera clock
+(clock.camera_clock: frames, or presentation time x fps for VFR videos).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from calibration.camera import Camera
+from tlsync_pipeline.errors import SyncError
+from tlsync_pipeline.sync.clock import CameraClock, FrameTimes, camera_clock
+from tlsync_pipeline.sync.line_search import LineSearch, find_line
+from tlsync_pipeline.sync.refine import MIN_FRAMES, refine_line
+from tlsync_pipeline.sync.timeline import IdentificationSummary, TrackletShare
+from tlsync_pipeline.sync.votes import Votes
+from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
+from trackers.detections import Detections
+from trackers.track import Track
+
+FOLLOW_WEIGHT = 2.0
+MAX_ROUNDS = 5
+R_MIN = 0.01  # smallest inlier ratio (of thinned votes) the line search over every candidate must find
+F_SCALE_PX = 3.0  # robust loss scale of the refinement on the assigned candidates
+MIN_FOLLOW_SHARE = 0.3  # a tracklet "follows" the path when this share of its frames is within the gate
+SIZE_TOLERANCE = 1.35  # an assigned candidate whose size in metres departs from the track's median by more than this factor is left out
+
+
+@dataclass(frozen=True)
+class TrackletUse:
+    """One tracklet in the identified track: frames assigned to the target, of its frames on the path."""
+
+    id: int
+    assigned: int
+    length: int
+    follow_share: float
+
+
+@dataclass(frozen=True)
+class Identification:
+    """The identified target and how it was found.
+
+    track: the target's Track (one candidate per frame); rows: indices of
+    those candidates in the detections; votes / vote_rows: every candidate's
+    votes and the detection row of each; search: the line search over them;
+    alpha, beta: the last line (camera clock); tracklets: the tracklets the
+    track uses, most frames first; rounds: assignment rounds run.
+    """
+
+    track: Track
+    rows: np.ndarray
+    votes: Votes
+    vote_rows: np.ndarray
+    search: LineSearch
+    alpha: float
+    beta: float
+    tracklets: tuple[TrackletUse, ...]
+    rounds: int
+
+    def summary(self) -> IdentificationSummary:
+        """What timeline.json reports: tracklets used, share of the track's frames on each, line supports."""
+        n = max(len(self.track), 1)
+        tracklets = tuple(TrackletShare(t.id, t.assigned, t.assigned / n, t.follow_share) for t in self.tracklets)
+        return IdentificationSummary(int(np.unique(self.vote_rows).size), len(self.track), tracklets, self.search.support, self.search.runner_up, self.rounds)
+
+
+def detections_clock(detections: Detections, fps: float | None) -> tuple[CameraClock, np.ndarray]:
+    """The camera clock of the frames that have detections, and each detection row's clock value."""
+    frames, first = np.unique(detections.frame, return_index=True)
+    times = detections.time_s[first]
+    per_frame = Track(frames, np.zeros(len(frames)), np.zeros(len(frames)), time_s=times if np.isfinite(times).all() else None)
+    clock = camera_clock(per_frame, fps)
+    return clock, clock.clock_at(detections.frame, FrameTimes.of_track(per_frame))
+
+
+def candidate_votes(camera: Camera, detections: Detections, trajectory: Trajectory, eps_px: float) -> tuple[Votes, np.ndarray]:
+    """Votes of every candidate (frame, sample, pixel distance) and the detection row of each.
+
+    Raises SyncError when the projected path never enters the image or no
+    candidate comes within eps_px of it.
+    """
+    uv, valid = camera.project(trajectory.xyz)
+    inside = valid & camera.in_image(np.nan_to_num(uv, nan=-1e9))
+    if not inside.any():
+        raise SyncError(
+            f"camera {camera.name}: the target's projected path never enters its image; "
+            "check the camera pose (R, t) and that the trajectory is in the same world frame"
+        )
+    uv, sample = uv[inside], trajectory.sample[inside]
+    if len(detections) == 0:
+        raise SyncError(f"camera {camera.name}: no moving object was detected in its video")
+    projected = cKDTree(uv)
+    pairs = cKDTree(detections.xy).sparse_distance_matrix(projected, eps_px, output_type="ndarray")
+    if len(pairs) == 0:
+        dist, _ = projected.query(detections.xy, k=1)
+        k = int(np.argmin(dist))
+        raise SyncError(
+            f"camera {camera.name}: no moving object comes within eps = {eps_px:g} px of the target's projected path; "
+            f"the closest is {dist[k]:.1f} px (frame {detections.frame[k]}). Check the camera pose, or raise [sync] eps_px"
+        )
+    rows = pairs["i"].astype(np.int64)
+    return Votes(detections.frame[rows].astype(np.float64), sample[pairs["j"]], pairs["v"].astype(np.float64)), rows
+
+
+def distances_to_path(camera: Camera, path: PiecewiseTrajectory, clock: np.ndarray, xy: np.ndarray, alpha: float, beta: float) -> np.ndarray:
+    """Pixel distance of each candidate to the trajectory's projection at its frame's time on the line (inf off the path)."""
+    s = (clock - beta) / alpha
+    run = path.run_of(s)
+    on = run >= 0
+    out = np.full(len(clock), np.inf)
+    if on.any():
+        uv, valid = camera.project(path(s[on], run[on]))
+        where = np.flatnonzero(on)[valid]
+        out[where] = np.linalg.norm(uv[valid] - xy[where], axis=1)
+    return out
+
+
+def consistent_size(camera: Camera, path: PiecewiseTrajectory, clock: np.ndarray, w: np.ndarray, h: np.ndarray, alpha: float, beta: float) -> np.ndarray:
+    """Whether each candidate's box, scaled to metres at the target's depth on the line, is within SIZE_TOLERANCE of the median.
+
+    The target keeps its size in metres while its image grows and shrinks
+    with its distance; a blob merged with a passer-by, or cut by an
+    occluder, does not (its centroid is then off the target). Candidates
+    without a box size are kept.
+    """
+    s = (clock - beta) / alpha
+    run = path.run_of(s)
+    depth = np.full(len(clock), np.nan)
+    on = run >= 0
+    if on.any():
+        depth[on] = (path(s[on], run[on]) @ camera.R.T + camera.t)[:, 2]
+    metres = np.column_stack([w * depth / camera.K[0, 0], h * depth / camera.K[1, 1]])
+    known = np.isfinite(metres).all(axis=1) & (metres > 0).all(axis=1)
+    keep = np.ones(len(clock), bool)
+    if known.sum() >= MIN_FRAMES:
+        ratio = np.abs(np.log(metres[known] / np.median(metres[known], axis=0))).max(axis=1)
+        keep[known] = ratio <= np.log(SIZE_TOLERANCE)
+    return keep
+
+
+def assign_target(frame: np.ndarray, tracklet: np.ndarray, distance: np.ndarray, gate_px: float, prefer: frozenset[int] = frozenset()) -> tuple[np.ndarray, dict[int, float]]:
+    """Rows chosen as the target (at most one per frame) and each tracklet's share of its on-path rows within the gate.
+
+    A tracklet's share counts only its rows where the path projects (finite
+    distance). ``prefer``: tracklet ids known to be the target (an init box),
+    counted as following the path fully.
+    """
+    near = distance <= gate_px
+    on_path = np.isfinite(distance)
+    ids, inverse = np.unique(tracklet, return_inverse=True)
+    within = np.bincount(inverse, weights=near, minlength=len(ids))
+    total = np.bincount(inverse, weights=on_path, minlength=len(ids))
+    share = np.divide(within, total, out=np.zeros(len(ids)), where=total > 0)
+    for k, i in enumerate(ids):
+        if int(i) in prefer:
+            share[k] = 1.0
+    candidates = np.flatnonzero(near)
+    if len(candidates) == 0:
+        return candidates, dict(zip(ids.tolist(), share.tolist()))
+    cost = distance[candidates] / gate_px + FOLLOW_WEIGHT * (1.0 - share[inverse[candidates]])
+    order = np.lexsort((cost, frame[candidates]))
+    ranked = candidates[order]
+    first = np.r_[True, frame[ranked][1:] != frame[ranked][:-1]]
+    return np.sort(ranked[first]), dict(zip(ids.tolist(), share.tolist()))
+
+
+def identify_target(
+    camera: Camera,
+    detections: Detections,
+    trajectory: Trajectory,
+    fps: float | None,
+    eps_px: float,
+    delta: float,
+    p: float,
+    seed: int,
+    r_min: float = R_MIN,
+    f_scale_px: float = F_SCALE_PX,
+    gate_px: float | None = None,
+    prefer: frozenset[int] = frozenset(),
+) -> Identification:
+    """The target's track among every candidate (see the module docstring).
+
+    gate_px: assignment gate around the projected path (default eps_px);
+    prefer: tracklet ids an init box says are the target. Raises SyncError
+    (naming the camera and why) when the projected path never enters the
+    image, no candidate comes near it, no line is found, or no tracklet
+    follows the path.
+    """
+    gate = eps_px if gate_px is None else gate_px
+    votes, vote_rows = candidate_votes(camera, detections, trajectory, eps_px)
+    _, row_clock = detections_clock(detections, fps)
+    vote_clock = row_clock[vote_rows]
+    try:
+        search = find_line(votes.sample, vote_clock, votes.dist, delta, p, r_min, seed, group=detections.id[vote_rows])
+    except ValueError as exc:
+        raise SyncError(f"camera {camera.name}: {exc} ({len(votes)} votes from {np.unique(vote_rows).size} candidates)") from None
+    path = PiecewiseTrajectory(trajectory)
+    alpha, beta = search.alpha, search.beta
+    chosen, share = np.zeros(0, np.int64), {}
+    rounds = 0
+    for rounds in range(1, MAX_ROUNDS + 1):
+        distance = distances_to_path(camera, path, row_clock, detections.xy, alpha, beta)
+        new, share = assign_target(detections.frame, detections.id, distance, gate, prefer)
+        new = new[consistent_size(camera, path, row_clock[new], detections.w[new], detections.h[new], alpha, beta)]
+        settled = np.array_equal(new, chosen)
+        chosen = new
+        if settled or len(chosen) < MIN_FRAMES:
+            break
+        try:
+            refinement = refine_line(camera, row_clock[chosen], detections.xy[chosen], path, alpha, beta, np.ones(len(chosen), bool), f_scale_px, gate)
+        except ValueError:
+            break
+        if not refinement.converged:
+            break
+        alpha, beta = refinement.alpha, refinement.beta
+    used = set(detections.id[chosen].tolist())
+    following = [i for i, s in share.items() if s >= MIN_FOLLOW_SHARE and i in used]
+    if len(chosen) < MIN_FRAMES or not following:
+        best = max(share.values(), default=0.0)
+        raise SyncError(
+            f"camera {camera.name}: no tracklet follows the target's projected path "
+            f"({len(chosen)} frames have a candidate within {gate:g} px of it; the best tracklet stays within the gate in {100 * best:.0f} % of its frames)"
+        )
+    ids, counts = np.unique(detections.id[chosen], return_counts=True)
+    lengths = {int(i): int(n) for i, n in zip(*np.unique(detections.id, return_counts=True))}
+    order = np.argsort(-counts, kind="stable")
+    uses = tuple(TrackletUse(int(ids[k]), int(counts[k]), lengths[int(ids[k])], float(share[int(ids[k])])) for k in order)
+    return Identification(detections.to_track(chosen), chosen, votes, vote_rows, search, alpha, beta, uses, rounds)

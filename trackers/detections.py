@@ -1,0 +1,154 @@
+"""Every mover in one video and its ``detections.csv`` file.
+
+One row per moving-object candidate per frame: frame (0-based decoded frame
+index), time_s (presentation time, s), id (the tracklet the candidate is
+linked into; candidates of one tracklet are one object followed over
+frames), x, y (pixels, origin at the centre of the top-left pixel), w, h
+(box size, pixels) and score (detection confidence in [0, 1]). A frame may
+have several rows or none.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from trackers.errors import TrackInputError
+from trackers.track import Track
+
+COLUMNS = ("frame", "time_s", "id", "x", "y", "w", "h", "score")
+REQUIRED_COLUMNS = ("frame", "id", "x", "y")
+
+
+@dataclass(frozen=True)
+class Detections:
+    """Candidates of every frame, sorted by frame then id.
+
+    frame, id: int64 (N,); time_s, x, y, w, h, score: float64 (N,) (time_s,
+    w, h NaN when unknown; score 1 when unknown).
+    """
+
+    frame: np.ndarray
+    time_s: np.ndarray
+    id: np.ndarray
+    x: np.ndarray
+    y: np.ndarray
+    w: np.ndarray
+    h: np.ndarray
+    score: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.frame)
+
+    @property
+    def xy(self) -> np.ndarray:
+        """(N, 2) pixel positions."""
+        return np.column_stack([self.x, self.y])
+
+    def tracklet_ids(self) -> np.ndarray:
+        """Distinct tracklet ids, ascending."""
+        return np.unique(self.id)
+
+    def subset(self, rows: np.ndarray) -> "Detections":
+        """The given rows (indices or boolean mask), in frame order."""
+        rows = np.flatnonzero(rows) if np.asarray(rows).dtype == bool else np.asarray(rows, dtype=np.int64)
+        rows = rows[np.lexsort((self.id[rows], self.frame[rows]))]
+        return Detections(*(getattr(self, c)[rows] for c in COLUMNS))
+
+    def to_track(self, rows: np.ndarray) -> Track:
+        """A single-target Track from rows with at most one per frame (indices or boolean mask)."""
+        chosen = self.subset(rows)
+        if len(np.unique(chosen.frame)) != len(chosen):
+            raise ValueError("a track takes at most one detection per frame")
+        time_s = chosen.time_s if np.isfinite(chosen.time_s).all() else None
+        return Track(chosen.frame, chosen.x, chosen.y, time_s=time_s, w=chosen.w, h=chosen.h, score=chosen.score)
+
+
+def follows_every_mover(kind: str, init, init_frame: int = 0) -> bool:
+    """Whether a tracker request means every mover (blob kind, no init box, from the first frame) rather than one target."""
+    return kind == "blob" and init is None and init_frame == 0
+
+
+def make_detections(rows: list[tuple] | np.ndarray) -> Detections:
+    """Detections from rows (frame, time_s, id, x, y, w, h, score), sorted by frame then id."""
+    values = np.asarray(rows, dtype=np.float64).reshape(-1, len(COLUMNS))
+    order = np.lexsort((values[:, 2], values[:, 0]))
+    values = values[order]
+    cols = {c: values[:, k] for k, c in enumerate(COLUMNS)}
+    cols["frame"] = cols["frame"].astype(np.int64)
+    cols["id"] = cols["id"].astype(np.int64)
+    return Detections(**cols)
+
+
+def read_detections(path: str | Path) -> Detections:
+    """Read and validate ``detections.csv``; errors name the file and line.
+
+    Required columns: frame, id, x, y; time_s, w, h, score are optional.
+    """
+    path = Path(path)
+    try:
+        handle = path.open(newline="", encoding="utf-8")
+    except FileNotFoundError:
+        raise TrackInputError(f"{path}: file not found") from None
+    except OSError as exc:
+        raise TrackInputError(f"{path}: cannot read: {exc}") from None
+    with handle:
+        try:
+            rows = list(csv.reader(handle))
+        except (csv.Error, UnicodeDecodeError) as exc:
+            raise TrackInputError(f"{path}: not a readable CSV file: {exc}") from None
+    if not rows or not any(cell.strip() for cell in rows[0]):
+        raise TrackInputError(f"{path}: empty file; expected a header '{','.join(COLUMNS)}' and one row per detection")
+    header = [cell.strip() for cell in rows[0]]
+    missing = [c for c in REQUIRED_COLUMNS if c not in header]
+    if missing:
+        raise TrackInputError(f"{path}:1: header {','.join(header)!r} lacks column(s) {', '.join(missing)}; expected at least {','.join(REQUIRED_COLUMNS)}")
+    if len(set(header)) != len(header):
+        raise TrackInputError(f"{path}:1: duplicate column names in header {','.join(header)!r}")
+    defaults = {"time_s": math.nan, "w": math.nan, "h": math.nan, "score": 1.0}
+    index = {c: header.index(c) for c in COLUMNS if c in header}
+    values = []
+    for line_no, row in enumerate(rows[1:], start=2):
+        if not row or all(not cell.strip() for cell in row):
+            continue
+        if len(row) != len(header):
+            raise TrackInputError(f"{path}:{line_no}: expected {len(header)} fields, got {len(row)}")
+        record = []
+        for col in COLUMNS:
+            if col not in index:
+                record.append(defaults[col])
+                continue
+            text = row[index[col]]
+            try:
+                v = float(text)
+            except ValueError:
+                raise TrackInputError(f"{path}:{line_no}: column '{col}': not a number: {text!r}") from None
+            if not math.isfinite(v):
+                raise TrackInputError(f"{path}:{line_no}: column '{col}': {text} is not a finite number")
+            if col in ("frame", "id") and (v < 0 or v != int(v)):
+                what = "a 0-based integer frame index" if col == "frame" else "a non-negative integer tracklet id"
+                raise TrackInputError(f"{path}:{line_no}: column '{col}': expected {what}, got {text!r}")
+            record.append(v)
+        values.append(record)
+    if not values:
+        raise TrackInputError(f"{path}: no detection (a header but no row)")
+    detections = make_detections(values)
+    pairs = detections.frame * (int(detections.id.max()) + 1) + detections.id
+    dup = np.flatnonzero(np.diff(pairs) == 0)
+    if len(dup):
+        k = dup[0]
+        raise TrackInputError(f"{path}: tracklet {detections.id[k]} has two detections in frame {detections.frame[k]}")
+    return detections
+
+
+def write_detections(detections: Detections, path: str | Path) -> None:
+    """Write ``detections.csv`` (all columns)."""
+    fmt = ["%d", "%.6f", "%d", "%.4f", "%.4f", "%.2f", "%.2f", "%.4f"]
+    with Path(path).open("w", newline="", encoding="utf-8") as handle:
+        handle.write(",".join(COLUMNS) + "\n")
+        if len(detections):
+            np.savetxt(handle, np.column_stack([getattr(detections, c) for c in COLUMNS]), fmt=fmt, delimiter=",")
