@@ -1,4 +1,8 @@
-"""Errors the command line turns into exit codes."""
+"""Errors the command line turns into exit codes (see tlsync_pipeline.cli.exit_codes)."""
+
+from __future__ import annotations
+
+import errno
 
 from calibration.errors import CalibrationInputError
 from trackers.errors import TrackInputError
@@ -12,5 +16,50 @@ class SyncError(RuntimeError):
     """A camera cannot be synchronized (exit code 1); the message says why."""
 
 
+class EnvironmentProblem(RuntimeError):
+    """The machine, not the input, stops the run (exit code 3): a full disk, a read-only folder, a busy work folder."""
+
+
 # Every kind of bad-input error, whichever package raised it.
 INPUT_ERRORS = (InputError, CalibrationInputError, TrackInputError)
+
+_OS_REASONS = {
+    errno.ENOSPC: "the disk is full",
+    errno.EDQUOT: "the disk quota is exceeded",
+    errno.EROFS: "the file system is read-only",
+    errno.EACCES: "permission denied",
+    errno.EPERM: "permission denied",
+    errno.EIO: "input/output error",
+    errno.EFBIG: "the file is too large for this file system or for the process's limit",
+}
+
+
+def os_error_reason(exc: OSError) -> str:
+    """What went wrong, in words (without the path): "the disk is full", "the file system is read-only", ..."""
+    return _OS_REASONS.get(exc.errno, exc.strerror or str(exc))
+
+
+def os_error_problem(exc: OSError) -> InputError | EnvironmentProblem:
+    """The tlsync error for an OSError: a missing file is bad input, anything else the environment; the path is named."""
+    path = exc.filename if exc.filename is not None else "a file"
+    if isinstance(exc, (FileNotFoundError, IsADirectoryError, NotADirectoryError)):
+        return InputError(f"{path}: {exc.strerror or exc}")
+    return EnvironmentProblem(f"{path}: {os_error_reason(exc)}")
+
+
+MAX_REASON = 1000  # characters of a printed or recorded reason (a whole sentence, never kilobytes)
+
+
+def one_line(text: str, limit: int = MAX_REASON) -> str:
+    """``text`` on one line (runs of white space become one space), cut at ``limit`` characters."""
+    text = " ".join(str(text).split())
+    return text if len(text) <= limit else text[: limit - 4].rstrip() + " ..."
+
+
+def describe_error(error: BaseException) -> str:
+    """A failure as one plain sentence: tlsync's own errors as they are, anything else with its kind."""
+    if isinstance(error, OSError):
+        error = os_error_problem(error)
+    if isinstance(error, (*INPUT_ERRORS, EnvironmentProblem, SyncError)):
+        return one_line(str(error))
+    return one_line(f"unexpected {type(error).__name__}: {error}")

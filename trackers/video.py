@@ -27,7 +27,12 @@ from trackers.errors import TrackInputError
 
 
 class TruncatedVideoWarning(UserWarning):
-    """A video stopped decoding before its announced end."""
+    """A video stopped decoding before its announced end: ``frames_read`` of ``frames_announced`` (0: unknown) frames."""
+
+    def __init__(self, message: str, frames_read: int = 0, frames_announced: int = 0):
+        super().__init__(message)
+        self.frames_read = frames_read
+        self.frames_announced = frames_announced
 
 
 class VideoFrame(NamedTuple):
@@ -243,11 +248,8 @@ def _warn_truncated(path: Path, index: int, time_s: float | None, n_frames: int,
     if index < 0:
         raise TrackInputError(f"{path}: the video has no decodable frame ({why})")
     announced = f" of {n_frames} announced" if n_frames else ""
-    warnings.warn(
-        f"{path}: video truncated or corrupt ({why}); read up to frame {index} (t = {time_s:.3f} s), {index + 1} frames{announced}",
-        TruncatedVideoWarning,
-        stacklevel=3,
-    )
+    message = f"{path}: video truncated or corrupt ({why}); read up to frame {index} (t = {time_s:.3f} s), {index + 1} frames{announced}"
+    warnings.warn(TruncatedVideoWarning(message, index + 1, n_frames), stacklevel=3)
 
 
 def _info(path: Path, stream, rotation: int | None) -> VideoInfo:

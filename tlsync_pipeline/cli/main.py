@@ -1,38 +1,55 @@
 """The ``tlsync`` command line: parses arguments, calls the pipeline, maps errors to exit codes.
 
-Exit codes: 0 success, 1 a camera could not be synchronized, 2 bad input.
+Exit codes: see tlsync_pipeline.cli.exit_codes (the README's table). SIGTERM
+stops a command as Ctrl-C does.
 """
 
 from __future__ import annotations
 
+import signal
 import sys
+import threading
+from contextlib import contextmanager
 from pathlib import Path
 
 import click
 
 from tlsync_pipeline.cli import pipeline as pipeline_cli
+from tlsync_pipeline.cli.signals import INTERRUPTED_MESSAGE, interrupt
 from tlsync_pipeline.cli.demo import demo as demo_command
-from tlsync_pipeline.cli.pipeline import execute, finish, run_options
-from tlsync_pipeline.errors import INPUT_ERRORS, SyncError
-from tlsync_pipeline.outputs.summary import format_table, format_truth_comparison
-from tlsync_pipeline.sync.timeline import read_timeline, read_truth
-
-EXIT_SYNC_FAILED = 1
-EXIT_BAD_INPUT = 2
+from tlsync_pipeline.cli.exit_codes import ExitCode, exit_code_for
+from tlsync_pipeline.cli.json_output import dumps, run_document
+from tlsync_pipeline.cli.pipeline import execute, print_timeline, report_outcome, run_options
+from tlsync_pipeline.errors import INPUT_ERRORS, EnvironmentProblem, SyncError, describe_error
+from tlsync_pipeline.sync.timeline import read_timeline
 
 
 class TlsyncGroup(click.Group):
-    """Turns tlsync's errors into a one-line message and an exit code."""
+    """Turns tlsync's errors into a one-line message and an exit code; SIGTERM into Ctrl-C."""
 
     def invoke(self, ctx):
         try:
-            return super().invoke(ctx)
-        except INPUT_ERRORS as exc:
-            click.echo(f"error: {exc}", err=True)
-            sys.exit(EXIT_BAD_INPUT)
-        except SyncError as exc:
-            click.echo(f"error: {exc}", err=True)
-            sys.exit(EXIT_SYNC_FAILED)
+            with _terminate_as_interrupt():
+                return super().invoke(ctx)
+        except KeyboardInterrupt:
+            click.echo(INTERRUPTED_MESSAGE, err=True)
+            sys.exit(ExitCode.INTERRUPTED)
+        except (*INPUT_ERRORS, EnvironmentProblem, SyncError, OSError) as exc:
+            click.echo(f"error: {describe_error(exc)}", err=True)
+            sys.exit(exit_code_for(exc))
+
+
+@contextmanager
+def _terminate_as_interrupt():
+    """While a command runs, SIGTERM raises KeyboardInterrupt as Ctrl-C does (main thread only)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGTERM, interrupt)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 @click.group(cls=TlsyncGroup)
@@ -45,18 +62,26 @@ def main() -> None:
 @click.argument("project_file", type=click.Path(path_type=Path))
 @run_options
 @click.option("--truth", type=click.Path(dir_okay=False, path_type=Path), help="A truth.json to compare against (prints eps_t per pair).")
-def run(project_file: Path, work_dir: Path | None, out_dir: Path | None, truth: Path | None, force_stages, camera, jobs, executor_kind, scheduler, quiet) -> None:
+@click.option("--json", "as_json", is_flag=True, help="Print a JSON summary of the run on stdout instead of the tables (docs/formats.md).")
+def run(project_file: Path, work_dir: Path | None, out_dir: Path | None, truth: Path | None, as_json: bool, force_stages, camera, jobs, executor_kind, scheduler, quiet) -> None:
     """Run every stage of PROJECT_FILE that is not fresh; write timeline.json, exports, pictures."""
-    graph, summary = execute(project_file, work_dir, out_dir, force_stages=force_stages, cameras=camera, jobs=jobs, executor_kind=executor_kind, scheduler=scheduler, quiet=quiet)
-    finish(summary)
-    timeline = read_timeline(graph.workspace.path("timeline"))
-    click.echo("\n" + format_table(timeline))
-    if truth is not None:
-        pairs, n_frames = read_truth(truth)
-        click.echo("\n" + format_truth_comparison(timeline, pairs, n_frames)[0])
-    click.echo(f"\nwrote {graph.workspace.path('timeline')}, {graph.workspace.path('report_html')}")
-    if timeline.failed:
-        sys.exit(EXIT_SYNC_FAILED)
+    graph, summary = execute(
+        project_file, work_dir, out_dir, force_stages=force_stages, cameras=camera, jobs=jobs, executor_kind=executor_kind, scheduler=scheduler, quiet=quiet, summary_text=not as_json
+    )
+    code = report_outcome(summary, quiet)
+    if as_json:
+        synchronized = "sync" in summary.ran + summary.fresh
+        if synchronized and read_timeline(graph.workspace.path("timeline")).failed:
+            code = max(code, ExitCode.NOT_SYNCHRONIZED)
+        click.echo(dumps(run_document(graph, summary, code)))
+    else:
+        timeline = print_timeline(graph, summary, truth)
+        if timeline is not None:
+            click.echo(f"\nwrote {graph.workspace.path('timeline')}" + (f", {graph.workspace.path('report_html')}" if "render" in summary.ran + summary.fresh else ""))
+            if timeline.failed:
+                code = max(code, ExitCode.NOT_SYNCHRONIZED)
+    if code:
+        sys.exit(code)
 
 
 pipeline_cli.register(main)  # run, status and one command per stage (calibrate, ingest, ...), through the cache

@@ -7,16 +7,23 @@ re-runs one stage (for one camera), after whatever it needs that is not fresh.
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 import click
 
-from tlsync_pipeline.errors import INPUT_ERRORS, InputError, SyncError
+from tlsync_pipeline.cli.console import ConsoleProgress
+from tlsync_pipeline.cli.exit_codes import ExitCode, exit_code_for
+from tlsync_pipeline.cli.json_output import dumps, status_document
+from tlsync_pipeline.errors import EnvironmentProblem, InputError, describe_error, one_line
+from tlsync_pipeline.outputs.summary import format_table, format_truth_comparison
 from tlsync_pipeline.pipeline.engine import RunSummary, format_status, run_graph, status
-from tlsync_pipeline.pipeline.executors import EXECUTORS, make_executor
-from tlsync_pipeline.pipeline.graph import STAGES, build_graph
+from tlsync_pipeline.pipeline.executors import EXECUTORS, SerialExecutor, make_executor
+from tlsync_pipeline.pipeline.graph import PER_CAMERA, STAGES, build_graph
+from tlsync_pipeline.pipeline.lock import check_writable, running_run
 from tlsync_pipeline.pipeline.project import load_project
 from tlsync_pipeline.pipeline.spec import Options
+from tlsync_pipeline.sync.timeline import read_timeline, read_truth
 
 
 def work_option(f):
@@ -58,11 +65,18 @@ def _parse_frames(value: str | None) -> tuple[int, ...] | None:
         raise InputError(f"--frames {value!r}: expected frame numbers of the second camera, e.g. 120,340,560") from None
 
 
-def execute(project_file: Path, work_dir, out_dir, *, force_stages=(), cameras=(), targets_stage=None, options=Options(), jobs=None, executor_kind="process", scheduler=None, quiet=False):
-    """Build the graph, run it and print what happened; returns (graph, summary)."""
+def execute(project_file: Path, work_dir, out_dir, *, force_stages=(), cameras=(), targets_stage=None, options=Options(), jobs=None, executor_kind="process", scheduler=None, quiet=False, summary_text=True):
+    """Build the graph, run it and print what ran (summary_text: on stdout); returns (graph, summary).
+
+    Stages draw their own progress bars only when they run one at a time in
+    this process; tasks in parallel workers get one bar drawn here.
+    """
     project = load_project(project_file)
     work = resolve_work(project, work_dir, out_dir)
-    graph = build_graph(project, work, Options(options.render_pairs, options.render_frames, options.truth, not quiet))
+    _check_camera_option(cameras, [targets_stage] if targets_stage is not None else list(force_stages))
+    executor = make_executor(executor_kind, jobs, scheduler)
+    stage_bars = not quiet and isinstance(executor, SerialExecutor)
+    graph = build_graph(project, work, Options(options.render_pairs, options.render_frames, options.truth, stage_bars))
     for a, b in options.render_pairs or ():
         project.camera(a), project.camera(b)
     force: set[str] = set()
@@ -75,15 +89,27 @@ def execute(project_file: Path, work_dir, out_dir, *, force_stages=(), cameras=(
             targets += graph.select(targets_stage, camera)
         force.update(targets)
     elif cameras:
-        if not force_stages:
-            raise InputError("--camera goes with --force STAGE (tlsync run re-runs only what is not fresh, for every camera)")
-        force = {t for t in force if graph.tasks[t].camera in (None, *cameras)}
-    executor = make_executor(executor_kind, jobs, scheduler)
-    summary = run_graph(graph, executor, force, targets, None if quiet else lambda m: click.echo(m, err=True))
-    text = format_summary(summary, counts=not quiet)
+        force = {t for t in force if graph.tasks[t].camera in cameras}
+    progress = ConsoleProgress(quiet)
+    try:
+        summary = run_graph(graph, executor, force, targets, progress)
+    finally:
+        progress.close()
+    text = format_summary(summary, counts=not quiet) if summary_text else ""
     if text:
         click.echo(text)
     return graph, summary
+
+
+def _check_camera_option(cameras, stages: list[str]) -> None:
+    """--camera needs a per-camera stage (the stage command's, or --force's with tlsync run)."""
+    if not cameras:
+        return
+    if not stages:
+        raise InputError("--camera goes with --force STAGE (tlsync run re-runs only what is not fresh, for every camera)")
+    project_wide = [s for s in stages if s not in PER_CAMERA]
+    if project_wide:
+        raise InputError(f"--camera: the {project_wide[0]} stage is not per camera (it uses every camera); per-camera stages: {', '.join(PER_CAMERA)}")
 
 
 def format_summary(summary: RunSummary, counts: bool = True) -> str:
@@ -98,24 +124,65 @@ def format_summary(summary: RunSummary, counts: bool = True) -> str:
     return "\n".join(lines)
 
 
-def finish(summary: RunSummary) -> None:
-    """Re-raise a failed stage's error (the CLI maps it to its exit code)."""
-    for tid, exc in summary.failed.items():
-        if isinstance(exc, INPUT_ERRORS):
-            raise type(exc)(f"{tid}: {exc}")
-    for tid, exc in summary.failed.items():
-        raise SyncError(f"{tid} failed: {type(exc).__name__}: {exc}")
+def report_outcome(summary: RunSummary, quiet: bool = False) -> ExitCode:
+    """Print the stages' warnings (unless quiet) and each failure once, on one line; returns the exit code they mean."""
+    if not quiet:
+        for tid in summary.ran:
+            for warning in summary.summaries[tid].get("warnings", []):
+                click.echo(f"warning: {tid}: {one_line(warning)}", err=True)
+    code = ExitCode.OK
+    for tid, error in summary.failed.items():
+        click.echo(f"error: {tid}: {describe_error(error)}", err=True)
+        code = max(code, exit_code_for(error))
+    return ExitCode(code)
+
+
+def print_timeline(graph, summary: RunSummary, truth: Path | None = None):
+    """Print the timeline table (and the comparison with ``truth``) when this run's sync stage completed; returns the Timeline or None."""
+    if "sync" not in summary.ran + summary.fresh:
+        return None
+    timeline = read_timeline(graph.workspace.path("timeline"))
+    click.echo("\n" + format_table(timeline))
+    if truth is not None:
+        pairs, n_frames = read_truth(truth)
+        click.echo("\n" + format_truth_comparison(timeline, pairs, n_frames)[0])
+    return timeline
 
 
 @click.command()
 @click.argument("project_file", type=click.Path(dir_okay=False, path_type=Path))
 @work_option
-def status_command(project_file: Path, work_dir: Path | None, out_dir: Path | None) -> None:
-    """Every stage per camera: fresh, stale (and why) or missing; 'given' for files the project brings."""
+@click.option("--json", "as_json", is_flag=True, help="Print a JSON document instead (docs/formats.md).")
+def status_command(project_file: Path, work_dir: Path | None, out_dir: Path | None, as_json: bool) -> None:
+    """Every stage per camera: fresh, stale (and why), missing, failed (and why); 'given' for files the project brings.
+
+    Also the cameras that failed to synchronize and the run in progress, if any.
+    Exit code 0 when everything is fresh or given, 1 when something is stale,
+    missing or failed, 3 when the work folder cannot be written into.
+    """
     project = load_project(project_file)
     work = resolve_work(project, work_dir, out_dir)
-    click.echo(f"work folder: {work}")
-    click.echo(format_status(status(build_graph(project, work))))
+    graph = build_graph(project, work)
+    rows = status(graph)
+    running = running_run(work)
+    code = ExitCode.NOT_SYNCHRONIZED if any(r.state not in ("fresh", "given") for r in rows) else ExitCode.OK
+    try:
+        check_writable(work)
+    except EnvironmentProblem as exc:
+        problem, code = exc, ExitCode.ENVIRONMENT
+    else:
+        problem = None
+    if as_json:
+        click.echo(dumps(status_document(graph, rows, running, code)))
+    else:
+        click.echo(f"work folder: {work}")
+        if running is not None:
+            click.echo(f"run in progress: pid {running['pid']} on {running['host']}, started {running['started']}: {running['command']}")
+        click.echo(format_status(rows))
+    if problem is not None:
+        click.echo(f"error: {problem}", err=True)
+    if code:
+        sys.exit(code)
 
 
 def stage_command(stage: str, help_text: str, render: bool = False) -> click.Command:
@@ -124,7 +191,9 @@ def stage_command(stage: str, help_text: str, render: bool = False) -> click.Com
     def command(project_file, work_dir, out_dir, camera, jobs, executor_kind, scheduler, quiet, pair=None, frames=None, truth=None):
         options = Options(_parse_pairs(pair), _parse_frames(frames), truth)
         _, summary = execute(project_file, work_dir, out_dir, cameras=camera, targets_stage=stage, options=options, jobs=jobs, executor_kind=executor_kind, scheduler=scheduler, quiet=quiet)
-        finish(summary)
+        code = report_outcome(summary, quiet)
+        if code:
+            sys.exit(code)
 
     command.__doc__ = help_text
     command = executor_options(command)

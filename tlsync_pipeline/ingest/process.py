@@ -132,8 +132,8 @@ class IngestReport:
         out["format_version"] = 1
         return out
 
-    def summary(self) -> str:
-        """The lines printed after ingestion."""
+    def summary(self, with_warnings: bool = True) -> str:
+        """The lines printed after ingestion (with_warnings: and a ``warning:`` line per warning)."""
         lines = [
             f"log: {self.source} ({self.format})",
             f"fixes: {self.fixes_read} read, {self.fixes_used} used",
@@ -165,7 +165,8 @@ class IngestReport:
         for reason, d in self.dropped.items():
             more = ", ..." if d["count"] > len(d["first"]) else ""
             lines.append(f"  {d['count']} {reason} ({self.unit} {', '.join(map(str, d['first']))}{more})")
-        lines += [f"warning: {w}" for w in self.warnings]
+        if with_warnings:
+            lines += [f"warning: {w}" for w in self.warnings]
         return "\n".join(lines)
 
 

@@ -17,7 +17,6 @@
 from __future__ import annotations
 
 import shlex
-from pathlib import Path
 
 import numpy as np
 
@@ -82,9 +81,23 @@ def offsets(timeline: Timeline, times: dict[str, FrameTimes | None] | None = Non
     return rows
 
 
+def synced_video(camera: str) -> str:
+    """The file ffmpeg.sh writes a camera's trimmed video to, beside the work folder."""
+    return f"{camera}_synced.mp4"
+
+
 def ffmpeg_commands(rows: list[dict], videos: dict[str, str | None]) -> str:
-    """A shell script trimming every video to the common start (the latest camera's frame 0)."""
-    lines = ["#!/bin/sh", "# Made by tlsync from timeline.json. Times are seconds on each camera's own clock.", "set -e"]
+    """A shell script (kept at <work>/exports/) trimming every video to the common start (the latest camera's frame 0).
+
+    Each camera's trimmed video goes to its own file, named after the camera
+    (synced_video), in the folder that holds the work folder.
+    """
+    lines = [
+        "#!/bin/sh",
+        "# Made by tlsync from timeline.json. Times are seconds on each camera's own clock.",
+        "set -e",
+        'cd "$(dirname "$0")/../.."  # the folder that holds the work folder: the outputs go there',
+    ]
     timed = [r for r in rows if r["start_s"] is not None]
     if not timed:
         lines.append("# The reference camera's frame rate is unknown: offsets in seconds cannot be given (see offsets.csv).")
@@ -94,9 +107,9 @@ def ffmpeg_commands(rows: list[dict], videos: dict[str, str | None]) -> str:
     lines.append(f"# 1) Trim: every output starts at the latest start ({latest:+.3f} s after {rows[0]['reference']}'s frame 0).")
     for r in timed:
         video = videos.get(r["camera"]) or f"{r['camera']}.mp4"
-        out = Path(video).with_name(Path(video).stem + "_synced.mp4").name
+        out = synced_video(r["camera"])
         lines.append(f"ffmpeg -y -ss {latest - r['start_s']:.3f} -i {shlex.quote(str(video))} -c:v libx264 -crf 18 -an {shlex.quote(out)}")
     lines.append("# 2) Or keep the files and delay each input when combining them (-itsoffset before its -i):")
     inputs = " ".join(f"-itsoffset {r['start_s'] - earliest:.3f} -i {shlex.quote(str(videos.get(r['camera']) or r['camera'] + '.mp4'))}" for r in timed)
-    lines.append(f"# ffmpeg {inputs} -filter_complex hstack=inputs={len(timed)} combined.mp4")
+    lines.append(f"# ffmpeg {inputs} -filter_complex hstack=inputs={len(timed)} combined_synced.mp4")
     return "\n".join(lines) + "\n"

@@ -124,6 +124,33 @@ def read_manifest(path: Path) -> Manifest | None:
         return None
 
 
+FAILURE_FORMAT = "tlsync-failure"
+
+
+def failure_path(manifest: Path) -> Path:
+    """Where a task's last failure is recorded: ``<stage>.failure.json`` beside its manifest."""
+    return manifest.with_name(manifest.name.replace(".manifest.json", ".failure.json"))
+
+
+def write_failure(path: Path, key: str, reason: str) -> None:
+    """Record that the task with cache key ``key`` failed, and why (one line); best effort (the disk may be full)."""
+    record = {"format": FAILURE_FORMAT, "key": key, "reason": reason, "created": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())}
+    try:
+        with atomic_path(path) as tmp:
+            tmp.write_text(json.dumps(record, indent=1) + "\n", encoding="utf-8")
+    except OSError:
+        pass
+
+
+def read_failure(path: Path) -> dict | None:
+    """The failure record at ``path`` ({"key", "reason", "created"}), or None."""
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    return data if isinstance(data, dict) and data.get("format") == FAILURE_FORMAT else None
+
+
 def staleness(manifest: Manifest | None, key: str, code: dict[str, str], inputs: dict[str, dict], params: dict, memo: HashMemo, work: Path) -> list[str]:
     """Why an artefact is not fresh (empty list: fresh).
 

@@ -12,18 +12,22 @@ skipped and everything else still runs.
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from tlsync_pipeline.atomic import PART_SUFFIX
-from tlsync_pipeline.errors import InputError
+from tlsync_pipeline.errors import InputError, describe_error
 from tlsync_pipeline.pipeline.cache import (
     HashMemo,
     Manifest,
     cache_key,
+    failure_path,
+    read_failure,
     read_manifest,
     staleness,
+    write_failure,
     write_manifest,
 )
 from tlsync_pipeline.pipeline.codehash import code_digests
@@ -35,13 +39,35 @@ from tlsync_pipeline.pipeline.workspace import FOLDERS, StageFiles
 
 @dataclass
 class TaskState:
-    """One row of ``tlsync status``: fresh, stale, missing or given, and why."""
+    """One row of ``tlsync status``: fresh, stale, missing, given, blocked or failed, why, and the artefacts on record.
+
+    A camera the sync stage could not synchronize has a row of its own
+    (id ``sync/<camera>``, state failed, the reason).
+    """
 
     id: str
     stage: str
     camera: str | None
     state: str
     reasons: list[str] = field(default_factory=list)
+    artefacts: list[str] = field(default_factory=list)  # relative to the work folder, as the manifest records them
+
+
+class Progress:
+    """What a run tells its caller as it goes (the default tells nothing).
+
+    ``parallel`` says whether the task went to the executor's workers (True)
+    or runs in this process.
+    """
+
+    def started(self, task_id: str, why: str, parallel: bool) -> None:
+        pass
+
+    def finished(self, task_id: str, seconds: float, parallel: bool) -> None:
+        pass
+
+    def failed(self, task_id: str, error: BaseException, parallel: bool) -> None:
+        pass
 
 
 @dataclass
@@ -98,11 +124,16 @@ def status(graph: Graph) -> list[TaskState]:
     for item in graph.given.values():
         rows[item.id] = TaskState(item.id, item.stage, item.camera, "given", [str(item.path)])
     for tid, task in graph.tasks.items():
-        reasons = _reasons(graph, task, _current(graph, task, memo, code), memo)
-        waiting = [d for d in task.deps if d in rows and rows[d].state in ("stale", "missing")]
+        now = _current(graph, task, memo, code)
+        manifest = read_manifest(manifest_path(graph, task))
+        reasons = staleness(manifest, now.key, now.code, now.inputs, now.params, memo, graph.work)
+        waiting = [d for d in task.deps if d in rows and rows[d].state in ("stale", "missing", "failed", "blocked")]
+        failure = read_failure(failure_path(manifest_path(graph, task)))
         if task.problem:
             state, reasons = "blocked", [task.problem]
-        elif not manifest_path(graph, task).exists():
+        elif failure is not None and failure["key"] == now.key and not waiting:
+            state, reasons = "failed", [failure["reason"]]  # same inputs: it would fail again
+        elif manifest is None:
             state = "missing"
         elif reasons or waiting:
             state = "stale"
@@ -110,8 +141,14 @@ def status(graph: Graph) -> list[TaskState]:
             state = "fresh"
         if waiting:
             reasons.append("waits for " + ", ".join(f"{d} ({rows[d].state})" for d in waiting))
-        rows[tid] = TaskState(tid, task.stage, task.camera, state, reasons)
-    memo.save()
+        rows[tid] = TaskState(tid, task.stage, task.camera, state, reasons, sorted(manifest.outputs) if manifest else [])
+        if task.stage == "sync" and state == "fresh":
+            for camera, why in manifest.summary.get("failed", {}).items():
+                rows[f"sync/{camera}"] = TaskState(f"sync/{camera}", "sync", camera, "failed", [why])
+    try:
+        memo.save()
+    except OSError:
+        pass  # a read-only work folder: the hashes are only not remembered
     order = {s: i for i, s in enumerate(STAGES)}
     cameras = [c["name"] for c in graph.project.cameras]
     return sorted(rows.values(), key=lambda r: (order[r.stage], cameras.index(r.camera) if r.camera else -1))
@@ -133,13 +170,13 @@ def run_graph(
     executor=None,
     force: set[str] | None = None,
     targets: list[str] | None = None,
-    echo=None,
+    progress: Progress | None = None,
 ) -> RunSummary:
     """Run what is not fresh, holding the work folder's lock.
 
     force: task ids to run even when fresh. targets: the tasks wanted (default:
     all); the tasks they need run first when not fresh, nothing downstream of
-    them runs. echo: a function for one-line progress messages, or None.
+    them runs. progress: told when each task starts, finishes or fails.
     """
     executor = executor or SerialExecutor()
     force = set(force or ())
@@ -153,7 +190,7 @@ def run_graph(
         _remove_leftovers(graph.work)
         memo = HashMemo(graph.workspace.hash_memo)
         try:
-            _schedule(graph, executor, wanted, force, memo, summary, echo or (lambda message: None))
+            _schedule(graph, executor, wanted, force, memo, summary, progress or Progress())
         except BaseException:
             executor.close(cancel=True)
             raise
@@ -181,7 +218,7 @@ def _closure(graph: Graph, targets: list[str]) -> list[str]:
     return [t for t in graph.tasks if t in needed]
 
 
-def _schedule(graph: Graph, executor, wanted: list[str], force: set[str], memo: HashMemo, summary: RunSummary, echo) -> None:
+def _schedule(graph: Graph, executor, wanted: list[str], force: set[str], memo: HashMemo, summary: RunSummary, progress: Progress) -> None:
     code: dict[str, dict] = {}
     pending = list(wanted)
     done: set[str] = set()
@@ -193,6 +230,15 @@ def _schedule(graph: Graph, executor, wanted: list[str], force: set[str], memo: 
             for tid in sorted(pending, key=lambda t: _priority(graph.tasks[t])):
                 task = graph.tasks[tid]
                 bad = [d for d in task.deps if d in summary.failed or d in summary.skipped]
+                if bad and task.spec.runs_without_failed_cameras and all(graph.tasks[d].camera for d in bad) and not all(d in done or d in bad for d in task.deps):
+                    continue  # wait until every dependency is settled before deciding which cameras to leave out
+                if bad and task.spec.runs_without_failed_cameras and all(graph.tasks[d].camera for d in bad):
+                    reasons = {}
+                    for d in bad:
+                        reasons.setdefault(graph.tasks[d].camera, _incomplete(d, summary))
+                    if len(reasons) < len(graph.project.cameras):
+                        task = dataclasses.replace(task.leaving_out(reasons), deps=[d for d in task.deps if d not in bad])
+                        bad = []
                 if bad:
                     summary.skipped[tid] = f"needs {bad[0]}, which did not complete"
                     pending.remove(tid)
@@ -209,14 +255,14 @@ def _schedule(graph: Graph, executor, wanted: list[str], force: set[str], memo: 
                     done.add(tid)
                     continue
                 why = "forced" if not reasons else reasons[0]
-                echo(f"{tid}: running ({why})")
-                local = task.stage not in PER_CAMERA
+                local = task.stage not in PER_CAMERA or isinstance(executor, SerialExecutor)
+                progress.started(tid, why, not local)
                 where = SerialExecutor(executor.cores) if local else executor  # local tasks share the machine with the pool
                 files = graph.workspace.files(
                     tid, task.camera, task.inputs, task.outputs, progress=graph.options.progress, cores=where.cores, history=_history(graph) if task.spec.history else []
                 )
                 future = where.submit(run_task, {"run": task.spec.run, "files": files, "params": task.params})
-                running[future] = (task, now)
+                running[future] = (task, now, not local)
                 if local:
                     break  # finish it before scheduling more, its dependents may now be ready
         if not running:
@@ -225,20 +271,29 @@ def _schedule(graph: Graph, executor, wanted: list[str], force: set[str], memo: 
                     summary.skipped[tid] = "its inputs were not made"
             break
         for future in executor_wait(executor, list(running)):
-            task, now = running.pop(future)
+            task, now, parallel = running.pop(future)
             try:
                 ran = future.result()
             except Exception as exc:  # noqa: BLE001 - recorded, reported by the caller
                 summary.failed[task.id] = exc
-                echo(f"{task.id}: FAILED: {exc}")
+                write_failure(failure_path(manifest_path(graph, task)), now.key, describe_error(exc))
+                progress.failed(task.id, exc, parallel)
                 continue
             result = ran.result or {}
+            failure_path(manifest_path(graph, task)).unlink(missing_ok=True)
             _write_manifest(graph, task, now, result, ran, memo)
             summary.ran.append(task.id)
             summary.seconds[task.id] = ran.seconds
             summary.summaries[task.id] = result
             done.add(task.id)
-            echo(f"{task.id}: done in {ran.seconds:.1f} s (CPU {ran.cpu_seconds:.1f} s)")
+            progress.finished(task.id, ran.seconds, parallel)
+
+
+def _incomplete(task_id: str, summary: RunSummary) -> str:
+    """Why a task did not complete, as one line: its failure, or why it was skipped."""
+    if task_id in summary.failed:
+        return f"{task_id} failed: {describe_error(summary.failed[task_id])}"
+    return f"{task_id} did not run: {summary.skipped[task_id]}"
 
 
 def executor_wait(executor, futures: list) -> list:

@@ -7,25 +7,82 @@ and the BLAS/OpenMP libraries, so N workers do not oversubscribe N cores.
 detection of the intrinsics stage): 1 in a pool's or a cluster's worker, so
 pools are never nested; the executor's share of the machine when it runs
 tasks one at a time in this process.
+
+Local workers never outlive the run that started them: they ignore Ctrl-C
+(the terminal sends it to the whole process group; the run stops them
+itself), the kernel kills them when their parent dies (Linux
+``PR_SET_PDEATHSIG``), and a watchdog thread in each worker exits as soon as
+the parent pid changes (every platform, within ``PARENT_POLL_S``), so a
+``kill -9`` of ``tlsync run`` leaves no worker writing into the work folder
+without the lock.
 """
 
 from __future__ import annotations
 
 import concurrent.futures as cf
+import ctypes
 import multiprocessing
 import os
+import signal
+import sys
+import threading
+import time
+import warnings
 from typing import Any, Callable
 
 THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMEXPR_NUM_THREADS", "VECLIB_MAXIMUM_THREADS")
 EXECUTORS = ("process", "serial", "dask")
+PARENT_POLL_S = 0.2  # how often a worker checks that its parent is alive (seconds)
+STOP_GRACE_S = 3.0  # how long a stopped worker may take to exit before it is killed (seconds)
+_PR_SET_PDEATHSIG = 1
 
 
-def call(fn: Callable[..., Any], kwargs: dict) -> Any:
+def die_with_parent(parent_pid: int) -> None:
+    """Initializer of a worker process: ignore Ctrl-C and exit when ``parent_pid`` ends."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if sys.platform.startswith("linux"):
+        try:
+            ctypes.CDLL(None, use_errno=True).prctl(_PR_SET_PDEATHSIG, int(signal.SIGKILL))
+        except (OSError, AttributeError):
+            pass  # the watchdog below still applies
+    if os.getppid() != parent_pid:  # the parent died before the request above took effect
+        os._exit(1)
+    threading.Thread(target=_watch_parent, args=(parent_pid,), name="tlsync-parent-watchdog", daemon=True).start()
+
+
+def _watch_parent(parent_pid: int) -> None:
+    while os.getppid() == parent_pid:
+        time.sleep(PARENT_POLL_S)
+    os._exit(1)
+
+
+def call_recording_warnings(fn: Callable[..., dict | None], kwargs: dict) -> dict:
+    """Run one stage function; the warnings meant for users it raises go into its result's ``warnings``.
+
+    Users' warnings (UserWarning and its kinds, such as a truncated video) come
+    back as one-line messages for the caller to print; other warnings are shown
+    as Python shows them.
+    """
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", UserWarning)
+        result = dict(fn(**kwargs) or {})
+    messages = list(result.get("warnings", []))
+    for item in caught:
+        if issubclass(item.category, UserWarning):
+            messages.append(" ".join(str(item.message).split()))
+        else:
+            warnings.showwarning(item.message, item.category, item.filename, item.lineno)
+    if messages:
+        result["warnings"] = list(dict.fromkeys(messages))
+    return result
+
+
+def call(fn: Callable[..., Any], kwargs: dict) -> dict:
     """Run one task in a worker (single-threaded libraries)."""
     import cv2
 
     cv2.setNumThreads(1)
-    return fn(**kwargs)
+    return call_recording_warnings(fn, kwargs)
 
 
 class SerialExecutor:
@@ -39,7 +96,7 @@ class SerialExecutor:
     def submit(self, fn: Callable, kwargs: dict) -> cf.Future:
         future: cf.Future = cf.Future()
         try:
-            future.set_result(fn(**kwargs))
+            future.set_result(call_recording_warnings(fn, kwargs))
         except BaseException as exc:  # noqa: BLE001 - handed to the caller through the future
             if isinstance(exc, (KeyboardInterrupt, SystemExit)):
                 raise
@@ -70,7 +127,9 @@ class ProcessExecutor:
             for var in THREAD_VARIABLES:
                 self._saved_env[var] = os.environ.get(var)
                 os.environ[var] = "1"
-            self._pool = cf.ProcessPoolExecutor(self.jobs, mp_context=multiprocessing.get_context("spawn"))
+            self._pool = cf.ProcessPoolExecutor(
+                self.jobs, mp_context=multiprocessing.get_context("spawn"), initializer=die_with_parent, initargs=(os.getpid(),)
+            )
         return self._pool.submit(call, fn, kwargs)
 
     def wait_any(self, futures: list) -> list:
@@ -83,8 +142,15 @@ class ProcessExecutor:
             if cancel:
                 # No public API before Python 3.14 (terminate_workers): stop the running tasks too,
                 # their artefacts are written atomically and get no manifest.
-                for process in list(getattr(self._pool, "_processes", {}).values()):
+                processes = list((getattr(self._pool, "_processes", None) or {}).values())
+                for process in processes:
                     process.terminate()
+                deadline = time.monotonic() + STOP_GRACE_S
+                for process in processes:
+                    process.join(max(0.0, deadline - time.monotonic()))
+                    if process.is_alive():
+                        process.kill()
+                        process.join()
             self._pool.shutdown(wait=not cancel, cancel_futures=cancel)
             self._pool = None
         for var, value in self._saved_env.items():
@@ -114,9 +180,12 @@ class DaskExecutor:
             raise InputError("--executor dask needs the optional extra: pip install 'tlsync[dask]'") from None
         self._own = not hasattr(scheduler, "submit")
         self.client = Client(scheduler) if self._own else scheduler
+        self._futures: list = []
 
     def submit(self, fn: Callable, kwargs: dict):
-        return self.client.submit(call, fn, kwargs, pure=False)
+        future = self.client.submit(call, fn, kwargs, pure=False)
+        self._futures.append(future)
+        return future
 
     def wait_any(self, futures: list) -> list:
         from distributed import wait
@@ -125,6 +194,10 @@ class DaskExecutor:
         return list(done)
 
     def close(self, cancel: bool = False) -> None:
+        """With cancel (an interrupted run), cancel this run's tasks on the cluster."""
+        if cancel:
+            self.client.cancel([f for f in self._futures if not f.done()])
+        self._futures = []
         if self._own:
             self.client.close()
 

@@ -14,12 +14,14 @@ stage, which later in the stage order takes that artefact over.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from calibration.camera import read_camera
 from tlsync_pipeline.errors import InputError
+from tlsync_pipeline.pipeline.checks import check_track_fits_video
 from tlsync_pipeline.pipeline.project import Project
 from tlsync_pipeline.pipeline.spec import Options, StageSpec
 from tlsync_pipeline.pipeline.stages import (
@@ -77,6 +79,15 @@ class Task:
     @property
     def id(self) -> str:
         return task_id(self.stage, self.camera)
+
+    def leaving_out(self, reasons: dict[str, str]) -> Task:
+        """This task without the cameras in ``reasons`` (camera -> why): their inputs dropped, ``cameras`` and ``left_out`` parameters set.
+
+        For a stage that runs without failed cameras (StageSpec.runs_without_failed_cameras).
+        """
+        inputs = {label: source for label, source in self.inputs.items() if ":" not in label or label.rpartition(":")[2] not in reasons}
+        params = {**self.params, "cameras": [n for n in self.params["cameras"] if n not in reasons], "left_out": reasons}
+        return dataclasses.replace(self, inputs=inputs, params=params)
 
 
 @dataclass
@@ -184,3 +195,6 @@ def check_given(graph: Graph, wanted: list[str]) -> None:
     for item in graph.given.values():
         if item.path in used:
             readers[item.path](item.path)
+            spec = graph.project.camera(item.camera) if item.camera else None
+            if spec is not None and item.path == spec["track"] and spec.get("video") is not None:
+                check_track_fits_video(item.path, spec["video"])

@@ -13,14 +13,31 @@ import json
 import os
 import socket
 import sys
+import tempfile
 import time
 from pathlib import Path
 
-from tlsync_pipeline.errors import InputError
+from tlsync_pipeline.errors import EnvironmentProblem, os_error_reason
 
 
-class WorkFolderBusy(InputError):
+class WorkFolderBusy(EnvironmentProblem):
     """Another tlsync run holds the work folder's lock."""
+
+
+def unusable_work_folder(work: Path, error: OSError) -> EnvironmentProblem:
+    """The one-line problem of a work folder tlsync cannot write into (read-only, no permission, disk full)."""
+    return EnvironmentProblem(f"{work}: cannot write into the work folder ({os_error_reason(error)}); fix it or give another --work folder")
+
+
+def check_writable(work: Path) -> None:
+    """EnvironmentProblem when the existing folder ``work`` cannot be written into (nothing to check when absent)."""
+    if not Path(work).is_dir():
+        return
+    try:
+        with tempfile.TemporaryFile(dir=work, prefix=".tlsync-probe-"):
+            pass
+    except OSError as exc:
+        raise unusable_work_folder(work, exc) from None
 
 
 class WorkLock:
@@ -38,8 +55,11 @@ class WorkLock:
 
     def __enter__(self) -> "WorkLock":
         self._created_work = not self.work.exists()
-        self.work.mkdir(parents=True, exist_ok=True)
-        handle = open(self.path, "a+", encoding="utf-8")
+        try:
+            self.work.mkdir(parents=True, exist_ok=True)
+            handle = open(self.path, "a+", encoding="utf-8")
+        except OSError as exc:
+            raise unusable_work_folder(self.work, exc) from None
         try:
             fcntl.flock(handle.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
@@ -69,6 +89,26 @@ class WorkLock:
         if self._created_work:
             self.path.unlink(missing_ok=True)
             _remove_empty_tree(self.work)
+
+
+def running_run(work: Path) -> dict | None:
+    """The run holding ``work``'s lock now: {"pid", "host", "started", "command"} (values may be None), or None."""
+    path = Path(work) / ".lock"
+    try:
+        handle = open(path, encoding="utf-8")
+    except OSError:
+        return None
+    with handle:
+        try:
+            fcntl.flock(handle.fileno(), fcntl.LOCK_SH | fcntl.LOCK_NB)
+        except BlockingIOError:
+            try:
+                info = json.loads(handle.read())
+            except ValueError:
+                info = {}
+            return {k: info.get(k) if isinstance(info, dict) else None for k in ("pid", "host", "started", "command")}
+        fcntl.flock(handle.fileno(), fcntl.LOCK_UN)
+    return None
 
 
 def _describe(text: str) -> str:

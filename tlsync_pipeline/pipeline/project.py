@@ -58,9 +58,20 @@ def _path(value: Any, root: Path) -> Path:
     return (root / value).resolve()
 
 
+_NAME_FORBIDDEN = '/\\:,*?"<>|'
+
+
 def _name(value: Any, root: Path) -> str:
-    if not isinstance(value, str) or not value.strip() or any(c in value for c in "/\\:,"):
-        raise ValueError(f"expected a non-empty name without '/', '\\', ':' or ',', got {value!r}")
+    """A camera name, used as a folder name in the work folder and in file names (cameras/<name>/, votes_<name>.png).
+
+    Refused: names that would leave or scatter that folder ('.', '..', a leading
+    dot, path separators), and characters some file systems or CSV headers reject.
+    """
+    expected = f"a name that does not start with '.', without spaces at its ends and without any of {_NAME_FORBIDDEN}"
+    if not isinstance(value, str) or not value or value != value.strip():
+        raise ValueError(f"expected {expected}, got {value!r}")
+    if value.startswith(".") or any(c in _NAME_FORBIDDEN or not c.isprintable() for c in value):
+        raise ValueError(f"{value!r} cannot be a camera name: it is used as a folder name in the work folder; expected {expected}")
     return value
 
 
@@ -346,11 +357,13 @@ def load_project(path: str | Path) -> Project:
     cameras = data["cameras"]
     if not cameras:
         raise InputError(f"{path}: no [[cameras]] table; a project needs at least one camera")
-    seen: set[str] = set()
+    seen: dict[str, str] = {}
     for cam in cameras:
-        if cam["name"] in seen:
-            raise InputError(f"{path}: [[cameras]]: duplicate camera name {cam['name']!r}; names must be unique")
-        seen.add(cam["name"])
+        folded = cam["name"].casefold()
+        if folded in seen:
+            same = "" if seen[folded] == cam["name"] else f" (same as {seen[folded]!r} on file systems that ignore case)"
+            raise InputError(f"{path}: [[cameras]]: duplicate camera name {cam['name']!r}{same}; names must be unique")
+        seen[folded] = cam["name"]
     return Project(path, data["target"], cameras, params_from_table(data["sync"]))
 
 

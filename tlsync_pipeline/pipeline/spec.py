@@ -58,3 +58,6 @@ class StageSpec:
     per_camera: bool = False
     applies: Callable[[Project, str | None], bool] = lambda project, camera: True  # does the project need this task?
     history: bool = False  # the task gets the earlier runs' records (StageFiles.history)
+    # Runs for the other cameras when a camera's own tasks did not complete: its params' ``cameras``
+    # list drops that camera, and run gets ``left_out`` (camera -> why); see Task.leaving_out.
+    runs_without_failed_cameras: bool = False

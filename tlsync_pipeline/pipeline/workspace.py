@@ -4,7 +4,7 @@ Layout (relative to the work folder; docs/pipeline.md lists it for users):
 
     cameras/<cam>/intrinsics.json, intrinsics_report.json          intrinsics
     cameras/<cam>/camera.json, calibration_report.json, calibration.png   calibrate
-    cameras/<cam>/track.csv                                         track
+    cameras/<cam>/track.csv, cameras/<cam>/video.json               track
     cameras/<cam>/votes.npz                                         vote
     target/trajectory.csv, target/ingest_report.json                ingest
     timeline.json                                                   sync
@@ -44,6 +44,7 @@ ARTEFACTS: dict[str, str] = {
     "track": "cameras/{camera}/track.csv",
     "detections": "cameras/{camera}/detections.csv",
     "identification": "cameras/{camera}/identification.json",
+    "video_info": "cameras/{camera}/video.json",
     "votes": "cameras/{camera}/votes.npz",
     "trajectory": "target/trajectory.csv",
     "ingest_report": "target/ingest_report.json",

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 from tlsync_pipeline.errors import SyncError
@@ -12,7 +13,8 @@ from tlsync_pipeline.sync.timeline import IdentificationSummary
 if TYPE_CHECKING:
     from tlsync_pipeline.pipeline.project import Project
 
-CAMERA_FILES = ("camera", "track", "votes", "video", "identification", "detections")
+CAMERA_FILES = ("camera", "track", "votes", "video", "identification", "detections", "video_info")
+VIDEO_INFO_FORMAT = "tlsync-video"  # video.json, written by the track stage
 
 
 def camera_files(files: StageFiles, names: list[str], fps: dict[str, float | None] | None = None) -> dict[str, dict]:
@@ -32,3 +34,8 @@ def read_identification(path) -> IdentificationSummary | SyncError:
     """A camera's identification.json (identify stage): the summary, or the SyncError that kept its target from being identified."""
     data = json.loads(path.read_text(encoding="utf-8"))
     return SyncError(data["error"]) if "error" in data else IdentificationSummary.from_dict(data)
+
+
+def read_video_info(path: Path) -> dict:
+    """video.json as the track stage wrote it: frames (that exist), announced, truncated (docs/formats.md)."""
+    return json.loads(Path(path).read_text(encoding="utf-8"))

@@ -16,7 +16,7 @@ from tlsync_pipeline.outputs.diagnostics import HALF_95
 from tlsync_pipeline.outputs.editors import Placement, fcpxml_text, otio_text, sync_document
 from tlsync_pipeline.outputs.exports import ffmpeg_commands, frame_map_rows, offsets
 from tlsync_pipeline.pipeline.spec import Sources, StageSpec
-from tlsync_pipeline.pipeline.stages.cameras import camera_files
+from tlsync_pipeline.pipeline.stages.cameras import camera_files, read_video_info
 from tlsync_pipeline.pipeline.workspace import StageFiles
 from tlsync_pipeline.sync.clock import FrameTimes
 from tlsync_pipeline.sync.timeline import CameraLine, Timeline, read_timeline
@@ -25,7 +25,10 @@ from trackers.video import presentation_times, probe_video
 
 
 def frame_count(camera: dict) -> int:
-    """Frames of a camera's video (from the container), or its last tracked frame + 1 without a video."""
+    """Frames of a camera's video: as decoded by the track stage (a truncated video holds fewer than announced),
+    else from the container; without a video, its last tracked frame + 1."""
+    if camera.get("video_info"):
+        return int(read_video_info(camera["video_info"])["frames"])
     if camera.get("video"):
         count = probe_video(camera["video"]).n_frames
         if count > 0:
@@ -50,12 +53,18 @@ def frame_times(camera: dict, line: CameraLine) -> FrameTimes | None:
     return FrameTimes.of_track(read_track(camera["track"]))
 
 
-def run_export(files: StageFiles, cameras: list[str]) -> dict:
-    """The export stage: frame_map.csv, offsets.csv, ffmpeg.sh, timeline.otio, timeline.fcpxml and sync.json."""
+def run_export(files: StageFiles, cameras: list[str], left_out: dict[str, str] | None = None) -> dict:
+    """The export stage: frame_map.csv, offsets.csv, ffmpeg.sh, timeline.otio, timeline.fcpxml and sync.json (synchronized cameras only).
+
+    left_out: cameras whose own tasks did not complete (camera -> why); they are not in the timeline either.
+    """
     cameras = camera_files(files, cameras)
     tl = read_timeline(files.path("timeline"))
     if not tl.cameras:
-        return {"exported": []}
+        # No camera synchronized: exports of an earlier timeline would look current.
+        for kind in ("frame_map", "offsets", "ffmpeg", "timeline_otio", "timeline_fcpxml", "sync_json"):
+            files.output(kind).unlink(missing_ok=True)
+        return {"exported": [], "left_out": sorted(left_out or {}), "message": "no camera synchronized: no exports (earlier ones removed)"}
     n_frames = {name: frame_count(cameras[name]) for name in tl.names}
     times = {name: frame_times(cameras[name], line) for name, line in tl.cameras.items()}
     with files.write("frame_map") as tmp:
@@ -84,7 +93,7 @@ def run_export(files: StageFiles, cameras: list[str]) -> dict:
         for kind, text in texts.items():
             with files.write(kind) as tmp:
                 tmp.write_text(text, encoding="utf-8")
-    return {"exported": tl.names, "n_frames": n_frames, "warnings": notes}
+    return {"exported": tl.names, "n_frames": n_frames, "warnings": notes, "left_out": sorted(left_out or {})}
 
 
 def editor_placements(tl: Timeline, rows: list[dict], videos: dict[str, str | None], n_frames: dict[str, int]) -> list[Placement] | None:
@@ -103,12 +112,14 @@ def editor_placements(tl: Timeline, rows: list[dict], videos: dict[str, str | No
 
 
 def export_inputs(src: Sources, camera: None) -> dict:
-    """timeline.json, and every camera's track and video (frame counts)."""
+    """timeline.json, and every camera's track and video (frame counts; video.json when the track stage makes it)."""
     inputs = {"timeline": src.artefact("timeline")}
     for spec in src.project.cameras:
         inputs[f"track:{spec['name']}"] = src.artefact("track", spec["name"])
         if spec.get("video") is not None:
             inputs[f"video:{spec['name']}"] = spec["video"]
+        if src.made("video_info", spec["name"]):
+            inputs[f"video_info:{spec['name']}"] = src.artefact("video_info", spec["name"])
     return inputs
 
 
@@ -118,4 +129,5 @@ SPEC = StageSpec(
     params=lambda project, camera, options: {"cameras": [c["name"] for c in project.cameras]},
     outputs=("frame_map", "offsets", "ffmpeg", "timeline_otio", "timeline_fcpxml", "sync_json"),
     run=run_export,
+    runs_without_failed_cameras=True,
 )

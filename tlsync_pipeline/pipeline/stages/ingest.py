@@ -80,7 +80,7 @@ def run_ingest(files: StageFiles, target: dict) -> dict:
     origin = resolve_origin(target["origin"], [files.path(label) for label in files.inputs if label.startswith("origin-gcp:")], "[target]")
     trajectory, report = ingest_log(files.path("log"), target["format"], target_params(target, origin), target["topic"])
     write_ingest(trajectory, report, files.output("trajectory"), files.output("ingest_report"))
-    return {"message": report.summary()}
+    return {"message": report.summary(with_warnings=False), "warnings": list(report.warnings)}
 
 
 SPEC = StageSpec(

@@ -79,12 +79,16 @@ def run_render(
     frames: list | None = None,
     delta: float = 0.5,
     proxy: dict | None = None,
+    left_out: dict[str, str] | None = None,
 ) -> dict:
     """The render stage: pictures, charts, proxies, report.html and report.md.
 
     proxy: camera -> "auto" | "always" | "never" (default auto: a proxy when
-    the browser cannot play the camera's video). Returns the files written
-    and, per pair "A,B", the frames drawn: [frame of B, frame of A].
+    the browser cannot play the camera's video). left_out: cameras whose own
+    tasks did not complete (camera -> why), named in the report's notes.
+    Returns the files written and, per pair "A,B", the frames drawn: [frame
+    of B, frame of A]. Pictures of an earlier run that this one did not draw
+    are removed (remove_other_pictures).
     """
     tl = read_timeline(files.path("timeline"))
     traj = read_trajectory(files.path("trajectory"))
@@ -118,7 +122,7 @@ def run_render(
 
     truth_pairs = read_truth(files.path("truth"))[0] if files.has("truth") else None
     pair_list = [tuple(p) for p in pairs] if pairs else default_pairs(tl)
-    notes = []
+    notes = [f"{name}: no pictures ({why})" for name, why in (left_out or {}).items()]
     drawn = {}
     pair_pictures = []
     for a, b in pair_list:
@@ -147,7 +151,7 @@ def run_render(
             work,
             "residuals: tracked minus projected position over time, with the vote gate",
         ),
-    ]
+    ] if tl.cameras else []  # no camera synchronized: no chart (nor any picture of an earlier timeline)
     written += [work / c.href for c in charts]
 
     played, proxies = player_videos(tl, videos, n_frames, proxy or {}, out_dir / "proxy", work)
@@ -170,11 +174,25 @@ def run_render(
         exports=[(label, f"exports/{name}") for label, name in EXPORT_LABELS if (work / "exports" / name).exists()],
         player=player,
     )
+    removed = remove_other_pictures(out_dir, written)
     with files.write("report_html") as tmp:
         tmp.write_text(report_html(content), encoding="utf-8")
     with files.write("report") as tmp:
         tmp.write_text(report_markdown(content), encoding="utf-8")
-    return {"outputs": [str(p) for p in written], "notes": notes, "report": str(files.output("report_html")), "frames": drawn}
+    return {"outputs": [str(p) for p in written], "notes": notes, "report": str(files.output("report_html")), "frames": drawn, "removed": [p.name for p in removed]}
+
+
+def remove_other_pictures(out_dir: Path, written: list[Path]) -> list[Path]:
+    """Delete the pictures in ``out_dir`` this run did not draw (of cameras no longer synchronized, of other pairs); returns them.
+
+    render/ belongs to the render stage: a picture left from an earlier
+    timeline would look like a result of this one.
+    """
+    keep = {Path(p).resolve() for p in written}
+    stale = [p for p in out_dir.glob("*.png") if p.resolve() not in keep] if out_dir.is_dir() else []
+    for path in stale:
+        path.unlink(missing_ok=True)
+    return stale
 
 
 def write_band_swap(name: str, inputs, line: CameraLine, path_model: PiecewiseTrajectory, rate: float | None, times: FrameTimes | None, video: Path, path: Path) -> Path:
@@ -328,7 +346,7 @@ def render_inputs(src: Sources, camera: None) -> dict:
             inputs[f"detections:{name}"] = src.artefact("detections", name)
         if spec.get("video") is not None:
             inputs[f"video:{name}"] = spec["video"]
-        for kind in ("calibration_picture", "calibration_report"):
+        for kind in ("calibration_picture", "calibration_report", "video_info"):
             if src.made(kind, name):
                 inputs[f"{kind}:{name}"] = src.artefact(kind, name)
     if src.options.truth is not None:
@@ -353,4 +371,5 @@ SPEC = StageSpec(
     outputs=("pictures", "report_html", "report"),
     run=run_render,
     history=True,
+    runs_without_failed_cameras=True,
 )

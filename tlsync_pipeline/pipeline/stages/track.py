@@ -9,17 +9,19 @@ Without an init box (blob kind), every mover is detected: ``detections.csv``
 
 from __future__ import annotations
 
+import json
 import warnings
 from pathlib import Path
 
 from tlsync_pipeline.atomic import atomic_path
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.pipeline.spec import StageSpec
+from tlsync_pipeline.pipeline.stages.cameras import VIDEO_INFO_FORMAT
 from tlsync_pipeline.pipeline.workspace import StageFiles
 from trackers.detections import Detections, follows_every_mover, write_detections
 from trackers.track import Track, write_track
 from trackers.tracking import detect_movers, track_video
-from trackers.video import TruncatedVideoWarning
+from trackers.video import TruncatedVideoWarning, probe_video
 
 
 def tracks_every_mover(spec: dict) -> bool:
@@ -59,23 +61,34 @@ def write_detections_atomic(detections: Detections, path: Path) -> None:
 
 
 def run_track(files: StageFiles, tracker: dict) -> dict:
-    """The track stage: ``detections.csv`` (every mover) or ``track.csv`` (one target) of one camera's video.
+    """The track stage: ``detections.csv`` (every mover) or ``track.csv`` (one target) of one camera's video, and what the video holds, ``video.json``.
 
-    Warnings raised while reading the video (a truncated file) are recorded in
-    the summary's ``warnings`` (the manifest keeps them for the report).
+    A truncated video still gives a track (of the frames it holds); its
+    warning is the stage's, and video.json says how many frames exist.
     """
+    video = files.path("video")
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", TruncatedVideoWarning)
-        result = track_camera({"name": files.camera, "video": files.path("video"), "tracker": tracker}, progress=files.progress)
-    for warning in caught:  # still shown where they were before
-        warnings.warn_explicit(warning.message, warning.category, warning.filename, warning.lineno)
+        result = track_camera({"name": files.camera, "video": video, "tracker": tracker}, progress=files.progress)
+    truncation = next((w.message for w in caught if isinstance(w.message, TruncatedVideoWarning)), None)
+    for item in caught:
+        warnings.warn_explicit(item.message, item.category, item.filename, item.lineno)
     recorded = sorted({str(w.message) for w in caught if issubclass(w.category, TruncatedVideoWarning)})
+    with files.write("video_info") as tmp:
+        tmp.write_text(json.dumps(video_info(video, truncation), indent=1) + "\n", encoding="utf-8")
     if isinstance(result, Detections):
         write_detections_atomic(result, files.output("detections"))
         count = f"{len(result)} detections"
         return {"detections": len(result), "tracklets": int(len(result.tracklet_ids())), "warnings": recorded, "message": f"wrote {files.output('detections')} ({count})"}
     write_track_atomic(result, files.output("track"))
     return {"tracked_frames": len(result), "warnings": recorded, "message": f"wrote {files.output('track')} ({len(result)} tracked frames)"}
+
+
+def video_info(video: Path, truncation: TruncatedVideoWarning | None) -> dict:
+    """What a camera's video holds: its frames (0-based indices 0..frames-1 exist), the container's count, whether it is truncated."""
+    announced = probe_video(video).n_frames
+    frames = truncation.frames_read if truncation is not None else announced
+    return {"format": VIDEO_INFO_FORMAT, "video": str(video), "frames": frames, "announced": announced, "truncated": truncation is not None}
 
 
 def _applies(project, cam: str) -> bool:
@@ -87,7 +100,7 @@ SPEC = StageSpec(
     "track",
     inputs=lambda src, cam: {"video": src.project.camera(cam)["video"]},
     params=lambda project, cam, options: {"tracker": project.camera(cam)["tracker"]},
-    outputs=("track", "detections"),  # one of them: detections.csv for every mover (track.csv then comes from identify)
+    outputs=("track", "detections", "video_info"),  # track.csv or detections.csv (every mover: track.csv then comes from identify), and video.json
     run=run_track,
     per_camera=True,
     applies=_applies,

@@ -6,6 +6,7 @@ stage) gets no votes, with that reason.
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -23,22 +24,26 @@ from tlsync_pipeline.trajectory import read_trajectory
 from trackers.track import read_track
 
 
-def run_vote(files: StageFiles, **params: Any) -> dict:
+def run_vote(files: StageFiles, source: Path | None = None, **params: Any) -> dict:
     """The vote stage: every (frame, sample) pair within eps_px, saved to ``votes.npz``.
 
     params: the ``[sync]`` keys the votes depend on (sync.registry.vote_table). The votes are cast on the trajectory as the
     chosen sync method prepares it (smoothed, for "refined"): they are the
     votes the sync stage fits and render draws. A camera without any vote is
     not an error here: the reason is saved and the sync stage lists the
-    camera as not synchronized.
+    camera as not synchronized. So is a camera whose track stage found the
+    target in no frame of ``source`` (its video; None when the project
+    brings the track).
     """
     sync_params = params_from_table(params)
-    prepared = prepare_trajectory(read_trajectory(files.path("trajectory")), sync_params)
+    camera = read_camera(files.path("camera"), name=files.camera)
     try:
         if files.has("identification") and isinstance(found := read_identification(files.path("identification")), SyncError):
             raise found
-        inputs = CameraInput(read_camera(files.path("camera"), name=files.camera), read_track(files.path("track")), None)
-        votes = cast_votes(inputs, prepared, sync_params)
+        if source is not None and _no_tracked_frame(files.path("track")):
+            raise SyncError(f"{source}: the target was never found (the track stage found it in no frame)")
+        prepared = prepare_trajectory(read_trajectory(files.path("trajectory")), sync_params)
+        votes = cast_votes(CameraInput(camera, read_track(files.path("track")), None), prepared, sync_params)
         error = None
     except SyncError as exc:
         votes, error = Votes(np.zeros(0), np.zeros(0), np.zeros(0)), str(exc)
@@ -54,10 +59,22 @@ def vote_inputs(src: Sources, cam: str) -> dict:
     return inputs
 
 
+def _no_tracked_frame(track: Path) -> bool:
+    """Whether a track.csv the track stage wrote holds its header and no row."""
+    with open(track, encoding="utf-8") as handle:
+        return sum(1 for line in handle if line.strip()) <= 1
+
+
+def _tracked_video(project, cam: str) -> Path | None:
+    """The video the track stage tracks this camera's target in (None when the project brings the track)."""
+    spec = project.camera(cam)
+    return spec.get("video") if spec["track"] is None else None
+
+
 SPEC = StageSpec(
     "vote",
     inputs=vote_inputs,
-    params=lambda project, cam, options: vote_table(project.sync),
+    params=lambda project, cam, options: {**vote_table(project.sync), "source": _tracked_video(project, cam)},
     outputs=("votes",),
     run=run_vote,
     per_camera=True,

@@ -1,0 +1,98 @@
+"""Local worker processes never outlive the process that started them.
+
+A parent script submits tasks that record their pid and then sleep; the
+parent is then killed (kill -9, which it cannot handle) or interrupted.
+"""
+
+import os
+import signal
+import subprocess
+import sys
+import time
+import warnings
+from pathlib import Path
+
+import pytest
+
+from tlsync_pipeline.pipeline.executors import SerialExecutor, call_recording_warnings
+
+TASK = """
+import os, time
+
+def sleep_and_record(path, seconds):
+    with open(path + ".part", "w") as handle:
+        handle.write(str(os.getpid()))
+    os.replace(path + ".part", path)
+    time.sleep(seconds)
+    return {}
+"""
+
+PARENT = """
+import sys
+sys.path.insert(0, {folder!r})
+import sleeper
+from tlsync_pipeline.pipeline.executors import ProcessExecutor
+
+if __name__ == "__main__":
+    executor = ProcessExecutor(2)
+    futures = [executor.submit(sleeper.sleep_and_record, {{"path": {folder!r} + f"/worker{{i}}", "seconds": 120}}) for i in range(2)]
+    try:
+        executor.wait_any(futures)
+    except KeyboardInterrupt:
+        executor.close(cancel=True)
+        sys.exit(130)
+"""
+
+
+def alive(pid: int) -> bool:
+    """Whether a process runs (a zombie waiting for its parent to reap it does not)."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+    except (FileNotFoundError, IndexError):
+        return True
+
+
+def _start_parent(tmp_path: Path) -> tuple[subprocess.Popen, list[int]]:
+    (tmp_path / "sleeper.py").write_text(TASK)
+    (tmp_path / "parent.py").write_text(PARENT.format(folder=str(tmp_path)))
+    parent = subprocess.Popen([sys.executable, str(tmp_path / "parent.py")], start_new_session=True)
+    files = [tmp_path / "worker0", tmp_path / "worker1"]
+    deadline = time.monotonic() + 120
+    while not all(f.exists() for f in files):
+        assert parent.poll() is None and time.monotonic() < deadline, "the workers did not start"
+        time.sleep(0.1)
+    return parent, [int(f.read_text()) for f in files]
+
+
+def _gone_within(pids: list[int], seconds: float) -> bool:
+    deadline = time.monotonic() + seconds
+    while any(alive(p) for p in pids) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    return not any(alive(p) for p in pids)
+
+
+@pytest.mark.parametrize("how", [signal.SIGKILL, signal.SIGINT])
+def test_workers_end_with_their_parent(tmp_path, how):
+    parent, workers = _start_parent(tmp_path)
+    try:
+        assert all(alive(p) for p in workers)
+        os.kill(parent.pid, how)
+        parent.wait(timeout=30)
+        assert _gone_within(workers, 5.0), f"workers still running 5 s after {how.name} of their parent"
+    finally:
+        for pid in [parent.pid, *workers]:
+            if alive(pid):
+                os.kill(pid, signal.SIGKILL)
+
+
+def test_users_warnings_come_back_in_the_result_as_one_line():
+    def stage():
+        warnings.warn("cam0/video.mp4: video truncated\n  read up to frame 9", UserWarning)
+        return {"message": "done"}
+
+    assert call_recording_warnings(stage, {}) == {"message": "done", "warnings": ["cam0/video.mp4: video truncated read up to frame 9"]}
+    assert SerialExecutor().submit(stage, {}).result()["warnings"] == ["cam0/video.mp4: video truncated read up to frame 9"]

@@ -1,0 +1,39 @@
+"""The ``tlsync`` executable (also ``python -m tlsync_pipeline.cli``).
+
+SIGTERM and Ctrl-C stop it with exit code 130 from its first instant, while
+the command line's modules are still being imported; tlsync_pipeline.cli.main
+keeps to the same contract once a command runs.
+"""
+
+import os
+import signal
+import sys
+
+from tlsync_pipeline.cli.signals import INTERRUPTED, INTERRUPTED_MESSAGE, interrupt
+
+
+def main() -> None:
+    signal.signal(signal.SIGTERM, interrupt)
+    try:
+        from tlsync_pipeline.cli.main import main as command_line  # noqa: PLC0415 - after the handler, so an early signal is handled
+
+        command_line()
+    except KeyboardInterrupt:
+        print(INTERRUPTED_MESSAGE, file=sys.stderr)
+        _exit_interrupted()
+    except SystemExit as exc:
+        if exc.code == INTERRUPTED:
+            _exit_interrupted()
+        raise
+
+
+def _exit_interrupted() -> None:
+    """Exit with 130 now: after a KeyboardInterrupt raised inside some C-level code (an import), Python would
+    end a normal exit by killing itself with SIGINT instead. The run has already stopped its workers."""
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(INTERRUPTED)
+
+
+if __name__ == "__main__":
+    main()

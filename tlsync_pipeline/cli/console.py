@@ -1,0 +1,80 @@
+"""What the command line prints while and after a run.
+
+Progress lines and bars go to stderr. Tasks that run in parallel workers draw
+no bars of their own (several processes writing bars to one terminal garble
+each other): this process draws one bar over them. Each failure is printed
+once, after the run, as one plain line; warnings the stages raise are
+printed as ``warning: <task>: ...`` unless ``--quiet``.
+"""
+
+from __future__ import annotations
+
+import sys
+
+import click
+
+from tlsync_pipeline.errors import one_line
+from tlsync_pipeline.pipeline.engine import Progress
+
+
+def stderr_is_terminal() -> bool:
+    return sys.stderr.isatty()
+
+
+class ConsoleProgress(Progress):
+    """Task start and end lines and one bar over the tasks running in parallel workers; nothing when quiet."""
+
+    def __init__(self, quiet: bool = False, bar: bool | None = None):
+        """bar: draw the bar over parallel tasks (None: when stderr is a terminal; in a log it only adds noise)."""
+        self.quiet = quiet
+        self.draw_bar = (not quiet) and (stderr_is_terminal() if bar is None else bar)
+        self._bar = None
+        self._running: list[str] = []
+        self._done = 0
+        self._total = 0
+
+    def say(self, message: str) -> None:
+        if self.quiet:
+            return
+        if self._bar is not None:
+            self._bar.write(message, file=sys.stderr)
+        else:
+            click.echo(message, err=True)
+
+    def started(self, task_id: str, why: str, parallel: bool) -> None:
+        self.say(f"{task_id}: running ({one_line(why)})")
+        if parallel and self.draw_bar:
+            self._running.append(task_id)
+            self._total += 1
+            if self._bar is None:
+                from tqdm import tqdm
+
+                self._bar = tqdm(total=self._total, initial=self._done, desc="per-camera tasks", unit="task", file=sys.stderr, dynamic_ncols=True, leave=False)
+            self._bar.total = self._total
+            self._show_running()
+
+    def finished(self, task_id: str, seconds: float, parallel: bool) -> None:
+        self.say(f"{task_id}: done in {seconds:.1f} s")
+        self._task_ended(task_id, parallel)
+
+    def failed(self, task_id: str, error: BaseException, parallel: bool) -> None:
+        self.say(f"{task_id}: failed")
+        self._task_ended(task_id, parallel)
+
+    def close(self) -> None:
+        if self._bar is not None:
+            self._bar.close()
+            self._bar = None
+
+    def _task_ended(self, task_id: str, parallel: bool) -> None:
+        """Count a parallel task as done; the bar goes away while no task runs in parallel."""
+        if parallel and self._bar is not None:
+            self._running.remove(task_id)
+            self._done += 1
+            self._bar.update(1)
+            self._show_running()
+            if not self._running:
+                self.close()
+
+    def _show_running(self) -> None:
+        self._bar.set_postfix_str("running: " + (", ".join(self._running) or "-"), refresh=True)
