@@ -273,20 +273,20 @@ def _schedule(graph: Graph, executor, wanted: list[str], force: set[str], memo: 
         for future in executor_wait(executor, list(running)):
             task, now, parallel = running.pop(future)
             try:
-                ran = future.result()
+                result = future.result() or {}
             except Exception as exc:  # noqa: BLE001 - recorded, reported by the caller
                 summary.failed[task.id] = exc
                 write_failure(failure_path(manifest_path(graph, task)), now.key, describe_error(exc))
                 progress.failed(task.id, exc, parallel)
                 continue
-            result = ran.result or {}
+            seconds, cpu_seconds = result.pop(RUN_TIME)
             failure_path(manifest_path(graph, task)).unlink(missing_ok=True)
-            _write_manifest(graph, task, now, result, ran, memo)
+            _write_manifest(graph, task, now, result, seconds, cpu_seconds, memo)
             summary.ran.append(task.id)
-            summary.seconds[task.id] = ran.seconds
+            summary.seconds[task.id] = seconds
             summary.summaries[task.id] = result
             done.add(task.id)
-            progress.finished(task.id, ran.seconds, parallel)
+            progress.finished(task.id, seconds, parallel)
 
 
 def _incomplete(task_id: str, summary: RunSummary) -> str:
@@ -302,25 +302,15 @@ def executor_wait(executor, futures: list) -> list:
     return finished or executor.wait_any(futures)
 
 
-@dataclass(frozen=True)
-class TaskRun:
-    """A task's result and its own cost where it ran: seconds from start to end and CPU seconds of that process (its threads included).
-
-    Measured in the process that ran it, so a task that waited in the
-    executor's queue is not charged for the wait.
-    """
-
-    result: dict | None
-    seconds: float
-    cpu_seconds: float
+RUN_TIME = "run_time"  # key of a task's result holding (seconds, CPU seconds) of its own run, taken out before its manifest is written
 
 
-def run_task(run, files: StageFiles, params: dict) -> TaskRun:
+def run_task(run, files: StageFiles, params: dict) -> dict:
     """Call a stage's function with its files and parameters (in whichever process the executor chose), timed there."""
     start, cpu = time.perf_counter(), time.process_time()
     with files.running():
         result = run(files, **params)
-    return TaskRun(result, time.perf_counter() - start, time.process_time() - cpu)
+    return {**(result or {}), RUN_TIME: (time.perf_counter() - start, time.process_time() - cpu)}
 
 
 def _priority(task: Task) -> tuple:
@@ -355,7 +345,7 @@ def _history(graph: Graph) -> list[dict]:
     return rows
 
 
-def _write_manifest(graph: Graph, task: Task, now: _Key, result: dict, ran: TaskRun, memo: HashMemo) -> None:
+def _write_manifest(graph: Graph, task: Task, now: _Key, result: dict, seconds: float, cpu_seconds: float, memo: HashMemo) -> None:
     ws = graph.workspace
     outputs = [ws.resolve(a) for a in task.outputs if a.kind not in FOLDERS] + [Path(p) for p in result.pop("outputs", [])]
     hashes = {}
@@ -364,6 +354,6 @@ def _write_manifest(graph: Graph, task: Task, now: _Key, result: dict, ran: Task
         if digest is not None:
             hashes[Path(path).relative_to(graph.work).as_posix()] = digest
     manifest = Manifest(
-        task.stage, task.camera, now.code, now.key, now.inputs, now.params, hashes, round(ran.seconds, 3), cpu_seconds=round(ran.cpu_seconds, 3), summary=result
+        task.stage, task.camera, now.code, now.key, now.inputs, now.params, hashes, round(seconds, 3), cpu_seconds=round(cpu_seconds, 3), summary=result
     )
     write_manifest(manifest, manifest_path(graph, task))
