@@ -1,6 +1,6 @@
 """Tracking throughput and memory: blob and CSRT against decode-only, in the same run.
 
-    python bench/track_throughput.py [--frames 600] [--memory | --memory-only] [--long-frames 2400]
+    python bench/track_throughput.py [--frames 600] [--memory | --memory-only] [--long-frames 2400] [--accuracy-only]
 
 1. Renders a 720p H.264 video (data_fixtures.video: textured background,
    flicker, noise, a moving target) into a temporary folder.
@@ -10,7 +10,15 @@
    sampling, decoding, tracking), and a naive full-frame CSRT loop (OpenCV's
    default CSRT on VideoCapture frames from the true initial box), as
    frames/s and as ratios to decode-only.
-4. --memory: peak resident memory of tracking 1080p videos of two lengths
+4. Accuracy of both trackers on the tests' scene (tests/trackers: 320x240,
+   jittered times, the target leaves and re-enters three times, a pole, a
+   distractor; also started from a box at frame 110) and on the 720p video:
+   median position error over the frames where the target is in view,
+   the share of those frames tracked, false reports (frames reported while
+   the target is out of view, per cent of those frames) and the worst
+   re-acquisition delay after the target re-enters (frames); with the
+   tracker's CPU time as a ratio to decoding (PyAV grey) in the same run.
+5. --memory: peak resident memory of tracking 1080p videos of two lengths
    (each in a fresh process), generated quickly (a few noisy backgrounds
    cycled, ultrafast x264), to show memory does not grow with length and
    extrapolate to 10 minutes (18,000 frames at 30 fps).
@@ -74,6 +82,45 @@ def naive_csrt_fps(path: Path, box: tuple[int, int, int, int]) -> float:
         tracker.update(frame)
         n += 1
     return n / (time.perf_counter() - t)
+
+
+def accuracy(track, video, start: int = 0) -> tuple[float, float, float, int]:
+    """From frame ``start`` on: (median error px over in-view frames, % of in-view frames tracked, % of out-of-view frames reported, worst re-acquisition delay in frames)."""
+    f = track.frame
+    visible = video.in_view[f]
+    errors = np.hypot(track.x - video.truth[f, 0], track.y - video.truth[f, 1])[visible]
+    reported = set(f.tolist())
+    entries = [e for e in video.entries() if e >= start]
+    delays = [next((k - entry for k in range(entry, len(video.truth)) if k in reported), len(video.truth) - entry) for entry in entries]
+    return (
+        float(np.median(errors)) if errors.size else float("nan"),
+        100.0 * visible.sum() / max(1, video.in_view[start:].sum()),
+        100.0 * video.out_of_view[f].sum() / max(1, video.out_of_view[start:].sum()),
+        max(delays, default=0),
+    )
+
+
+def accuracy_table(folder: Path, video720=None) -> None:
+    """Accuracy and CPU time (x decode) of both trackers on the tests' scene and on the 720p video."""
+    scene = render_video(folder / "scene.mp4", jitter=0.3)
+    cases = [("tests' scene", scene, {}), ("tests' scene, box at 110", scene, {"init_frame": 110})]
+    if video720 is not None:
+        cases.append(("720p video", video720, {}))
+    print(f"\n{'accuracy':34} {'tracker':>7} {'median px':>9} {'in view %':>9} {'false %':>8} {'re-acq':>6} {'CPU x decode':>12}")
+    for name, video, extra in cases:
+        start = time.process_time()
+        sum(1 for _ in iter_frames(video.path, gray=True))
+        decode = time.process_time() - start
+        for kind in ("blob", "csrt"):
+            kwargs = dict(extra)
+            if "init_frame" in kwargs:
+                x, y = video.truth[kwargs["init_frame"]]
+                kwargs["init"] = [x - 8, y - 8, 17, 17]
+            start = time.process_time()
+            track = track_video(video.path, kind=kind, progress=False, **kwargs)
+            cpu = time.process_time() - start
+            median, seen, false, reacq = accuracy(track, video, extra.get("init_frame", 0))
+            print(f"{name:34} {kind:>7} {median:>9.3f} {seen:>9.1f} {false:>8.2f} {reacq:>6} {cpu / decode:>12.2f}")
 
 
 def write_long_video(path: Path, n_frames: int, size=(1920, 1080), fps=30) -> None:
@@ -140,6 +187,7 @@ def main() -> None:
     parser.add_argument("--memory", action="store_true", help="also measure peak memory on 1080p videos")
     parser.add_argument("--long-frames", type=int, default=2400, help="length of the longer 1080p video")
     parser.add_argument("--memory-only", action="store_true", help="only the memory measurement")
+    parser.add_argument("--accuracy-only", action="store_true", help="only the accuracy table (tests' scene)")
     parser.add_argument("--memory-child", nargs=2, metavar=("VIDEO", "KIND"), help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.memory_child:
@@ -149,6 +197,9 @@ def main() -> None:
         folder = Path(tmp)
         if args.memory_only:
             memory(args.long_frames, folder)
+            return
+        if args.accuracy_only:
+            accuracy_table(folder)
             return
         t = time.perf_counter()
         size = (1280, 720)
@@ -166,6 +217,7 @@ def main() -> None:
         print(f"\n{'':42} {'frames/s':>9} {'x decode':>9} {'tracked':>8}")
         for name, fps, n in rows:
             print(f"{name:42} {fps:>9.1f} {fps / base:>9.2f} {'' if n is None else n:>8}")
+        accuracy_table(folder, video)
         if args.memory:
             memory(args.long_frames, folder)
 

@@ -43,13 +43,20 @@ class RawProjectSpec:
 SMALL = RawProjectSpec(lines=((3.0, -210.0), (2.5, -350.0), (1.5, 0.0)), n_frames=(230, 190, 120), image_size=(320, 240), boards=8, gcps=8)
 
 
-def make_raw_project(directory: str | Path, spec: RawProjectSpec = RawProjectSpec(), progress=None) -> tuple[Path, Scene]:
-    """Write the raw project into ``directory``; returns (project.toml, the scene with the truth)."""
+def make_raw_project(directory: str | Path, spec: RawProjectSpec = RawProjectSpec(), progress=None, render=None) -> tuple[Path, Scene]:
+    """Write the raw project into ``directory``; returns (project.toml, the scene with the truth).
+
+    render: the scene renderer, called as ``render(camera, positions, fps,
+    path, seed=...)`` with the target's true pixel position per frame (None
+    where it is not in the picture); default
+    ``data_fixtures.video.render_camera_video``.
+    """
     from data_fixtures.checkerboard import render_checkerboards, write_checkerboards
     from data_fixtures.gps_logs import write_gpx_log
     from data_fixtures.video import render_camera_video
 
     say = progress or (lambda message: None)
+    render = render or render_camera_video
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
     scene = make_scene(spec.seed, spec.lines, spec.n_frames, target_rate=spec.target_rate, image_size=spec.image_size)
@@ -66,7 +73,7 @@ def make_raw_project(directory: str | Path, spec: RawProjectSpec = RawProjectSpe
         where = dict(zip(track.frame.tolist(), track.xy))
         positions = [where.get(f) for f in range(scene.n_frames[name])]
         folder.mkdir(exist_ok=True)
-        render_camera_video(camera, positions, camera.fps, folder / "video.mp4", seed=spec.seed + k)
+        render(camera, positions, camera.fps, folder / "video.mp4", seed=spec.seed + k)
         say(f"{name}: checkerboard photos and GCPs")
         boards = render_checkerboards(
             seed=spec.seed + 10 + k, n_full=spec.boards, n_cut=1, n_absent=1, image_size=camera.image_size, pattern=PATTERN, square=SQUARE_M, K=camera.K, dist=camera.dist

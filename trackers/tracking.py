@@ -6,7 +6,6 @@ import math
 from pathlib import Path
 from typing import Sequence
 
-import cv2
 import numpy as np
 
 from trackers.blob import BlobDetector, BlobParams, BlobTracker, median_background
@@ -53,7 +52,7 @@ def track_video(
         from trackers.csrt import CsrtParams, csrt_steps
 
         csrt_params, blob_params = CsrtParams.from_dict(params, where)
-        steps = csrt_steps(path, info, csrt_params, blob_params, box, init_frame, progress, _detector(path, blob_params, from_bgr=True), label)
+        steps = csrt_steps(path, info, csrt_params, blob_params, box, init_frame, progress, _detector(path, blob_params), label)
     rows = {}
     while True:
         try:
@@ -88,15 +87,9 @@ def detect_movers(path: str | Path, params: dict | None = None, progress: bool =
     return make_detections(rows)
 
 
-def _detector(path: Path, params: BlobParams, from_bgr: bool = False) -> BlobDetector:
-    """A blob detector whose background is the median of frames sampled over the video.
-
-    from_bgr: the tracker will feed grey frames converted from BGR (OpenCV's
-    weights, full range) rather than the decoder's luma plane.
-    """
-    frames = sample_frames(path, params.background_frames, gray=not from_bgr)
-    if from_bgr:
-        frames = [cv2.cvtColor(f, cv2.COLOR_BGR2GRAY) for f in frames]
+def _detector(path: Path, params: BlobParams) -> BlobDetector:
+    """A blob detector whose background is the median of (luma) frames sampled over the video."""
+    frames = sample_frames(path, params.background_frames, gray=True)
     background, deviation = median_background(frames)
     return BlobDetector(background, params, deviation)
 

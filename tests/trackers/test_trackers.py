@@ -132,3 +132,19 @@ def test_positions_are_in_the_upright_picture_of_a_rotated_video(tmp_path):
     visible = video.in_view[track.frame]
     assert visible.sum() >= 0.95 * video.in_view.sum()
     assert np.median(_errors(track, video)[visible]) <= 1.0
+
+
+def test_median_background_is_the_per_pixel_median_after_the_lighting_gain():
+    """Frames of different brightness: the median of the gain-scaled frames (within half a grey level), odd and even counts."""
+    from trackers.blob import median_background
+
+    rng = np.random.default_rng(3)
+    scene = rng.uniform(40, 200, (37, 53))
+    for count in (15, 8):
+        gains = rng.uniform(0.8, 1.2, count)
+        frames = [np.clip(scene * g + rng.normal(0, 4, scene.shape), 0, 255).astype(np.uint8) for g in gains]
+        means = np.array([f.mean() for f in frames])
+        scaled = np.stack([f * (np.median(means) / m) for f, m in zip(frames, means)])
+        median, deviation = median_background(frames)
+        np.testing.assert_allclose(median, np.median(scaled, axis=0), atol=0.51)
+        np.testing.assert_allclose(deviation, np.abs(scaled - np.median(scaled, axis=0)).mean(axis=0), atol=0.6)

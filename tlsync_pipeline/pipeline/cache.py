@@ -97,7 +97,8 @@ class Manifest:
     inputs: dict[str, dict]  # label -> {"path": str (relative, see Workspace.portable), "sha256": str}
     params: dict[str, Any]
     outputs: dict[str, str]  # path relative to the work folder -> sha256
-    seconds: float = 0.0
+    seconds: float = 0.0  # the task's own run time, where it ran (not its wait in a queue)
+    cpu_seconds: float | None = None  # CPU time of the process that ran it, its threads included (None: not recorded)
     created: str = ""
     summary: dict = field(default_factory=dict)
 

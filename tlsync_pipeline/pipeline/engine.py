@@ -227,8 +227,7 @@ def _schedule(graph: Graph, executor, wanted: list[str], force: set[str], memo: 
         progressed = True
         while progressed:
             progressed = False
-            # Per-camera tasks first, so the pool works while project-wide tasks run here.
-            for tid in sorted(pending, key=lambda t: graph.tasks[t].stage not in PER_CAMERA):
+            for tid in sorted(pending, key=lambda t: _priority(graph.tasks[t])):
                 task = graph.tasks[tid]
                 bad = [d for d in task.deps if d in summary.failed or d in summary.skipped]
                 if bad and task.spec.runs_without_failed_cameras and all(graph.tasks[d].camera for d in bad) and not all(d in done or d in bad for d in task.deps):
@@ -258,13 +257,12 @@ def _schedule(graph: Graph, executor, wanted: list[str], force: set[str], memo: 
                 why = "forced" if not reasons else reasons[0]
                 local = task.stage not in PER_CAMERA or isinstance(executor, SerialExecutor)
                 progress.started(tid, why, not local)
-                start = time.perf_counter()
                 where = SerialExecutor(executor.cores) if local else executor  # local tasks share the machine with the pool
                 files = graph.workspace.files(
                     tid, task.camera, task.inputs, task.outputs, progress=graph.options.progress, cores=where.cores, history=_history(graph) if task.spec.history else []
                 )
                 future = where.submit(run_task, {"run": task.spec.run, "files": files, "params": task.params})
-                running[future] = (task, now, start, not local)
+                running[future] = (task, now, not local)
                 if local:
                     break  # finish it before scheduling more, its dependents may now be ready
         if not running:
@@ -273,8 +271,7 @@ def _schedule(graph: Graph, executor, wanted: list[str], force: set[str], memo: 
                     summary.skipped[tid] = "its inputs were not made"
             break
         for future in executor_wait(executor, list(running)):
-            task, now, start, parallel = running.pop(future)
-            seconds = time.perf_counter() - start
+            task, now, parallel = running.pop(future)
             try:
                 result = future.result() or {}
             except Exception as exc:  # noqa: BLE001 - recorded, reported by the caller
@@ -282,8 +279,9 @@ def _schedule(graph: Graph, executor, wanted: list[str], force: set[str], memo: 
                 write_failure(failure_path(manifest_path(graph, task)), now.key, describe_error(exc))
                 progress.failed(task.id, exc, parallel)
                 continue
+            seconds, cpu_seconds = result.pop(RUN_TIME)
             failure_path(manifest_path(graph, task)).unlink(missing_ok=True)
-            _write_manifest(graph, task, now, result, seconds, memo)
+            _write_manifest(graph, task, now, result, seconds, cpu_seconds, memo)
             summary.ran.append(task.id)
             summary.seconds[task.id] = seconds
             summary.summaries[task.id] = result
@@ -304,10 +302,29 @@ def executor_wait(executor, futures: list) -> list:
     return finished or executor.wait_any(futures)
 
 
+RUN_TIME = "run_time"  # key of a task's result holding (seconds, CPU seconds) of its own run, taken out before its manifest is written
+
+
 def run_task(run, files: StageFiles, params: dict) -> dict:
-    """Call a stage's function with its files and parameters (in whichever process the executor chose)."""
+    """Call a stage's function with its files and parameters (in whichever process the executor chose), timed there."""
+    start, cpu = time.perf_counter(), time.process_time()
     with files.running():
-        return run(files, **params)
+        result = run(files, **params)
+    return {**(result or {}), RUN_TIME: (time.perf_counter() - start, time.process_time() - cpu)}
+
+
+def _priority(task: Task) -> tuple:
+    """Order in which ready tasks are handed out: per-camera tasks before project-wide ones (the pool works
+    while those run here); tracks first, the largest video first (the longest task must not start last and
+    leave one worker alone at the end); then the other per-camera tasks (calibrations fill the workers as
+    tracks end)."""
+    per_camera = task.stage in PER_CAMERA
+    track = task.stage == "track"
+    size = 0
+    if track:
+        video = task.inputs.get("video")
+        size = Path(video).stat().st_size if isinstance(video, Path) and Path(video).is_file() else 0
+    return (not per_camera, not track, -size)
 
 
 def _history(graph: Graph) -> list[dict]:
@@ -328,7 +345,7 @@ def _history(graph: Graph) -> list[dict]:
     return rows
 
 
-def _write_manifest(graph: Graph, task: Task, now: _Key, result: dict, seconds: float, memo: HashMemo) -> None:
+def _write_manifest(graph: Graph, task: Task, now: _Key, result: dict, seconds: float, cpu_seconds: float, memo: HashMemo) -> None:
     ws = graph.workspace
     outputs = [ws.resolve(a) for a in task.outputs if a.kind not in FOLDERS] + [Path(p) for p in result.pop("outputs", [])]
     hashes = {}
@@ -336,5 +353,7 @@ def _write_manifest(graph: Graph, task: Task, now: _Key, result: dict, seconds: 
         digest = memo.sha256(path)
         if digest is not None:
             hashes[Path(path).relative_to(graph.work).as_posix()] = digest
-    manifest = Manifest(task.stage, task.camera, now.code, now.key, now.inputs, now.params, hashes, round(seconds, 3), summary=result)
+    manifest = Manifest(
+        task.stage, task.camera, now.code, now.key, now.inputs, now.params, hashes, round(seconds, 3), cpu_seconds=round(cpu_seconds, 3), summary=result
+    )
     write_manifest(manifest, manifest_path(graph, task))

@@ -64,20 +64,35 @@ class LineSearch:
 
 
 def thin_votes(sample: np.ndarray, frame: np.ndarray, dist: np.ndarray, group: np.ndarray | None = None) -> np.ndarray:
-    """Indices of the votes that are the closest of their frame or of their sample.
+    """Indices of the votes that are the closest of their frame or of their sample (the first such vote on a tie).
 
     group: optional (M,) object id of each vote (e.g. a tracklet): the
     closest per frame and per sample are then taken within each group.
     """
     keep = np.zeros(len(frame), dtype=bool)
-    if group is None:
-        group = np.zeros(len(frame))
     for key in (frame, sample):
-        order = np.lexsort((dist, key, group))
-        first = np.ones(len(order), dtype=bool)
-        first[1:] = (key[order][1:] != key[order][:-1]) | (group[order][1:] != group[order][:-1])
-        keep[order[first]] = True
+        codes, groups = _group_codes(key)
+        if group is not None and len(codes):
+            owner, _ = _group_codes(np.asarray(group))
+            _, codes = np.unique(owner.astype(np.int64) * groups + codes, return_inverse=True)
+            codes, groups = codes.ravel(), int(codes.max()) + 1
+        closest = np.full(groups, np.inf)
+        np.minimum.at(closest, codes, dist)
+        candidates = np.flatnonzero(dist == closest[codes])
+        _, first = np.unique(codes[candidates], return_index=True)
+        keep[candidates[first]] = True
     return np.flatnonzero(keep)
+
+
+def _group_codes(key: np.ndarray) -> tuple[np.ndarray, int]:
+    """A code 0..groups-1 per element, equal for equal values: the offset from the smallest for whole numbers (no sort), else by np.unique."""
+    if len(key) == 0:
+        return np.zeros(0, np.intp), 0
+    low, high = float(key.min()), float(key.max())
+    if high - low < 4 * len(key) + 1024 and np.array_equal(key, np.floor(key)):
+        return (key - low).astype(np.intp), int(high - low) + 1
+    values, codes = np.unique(key, return_inverse=True)
+    return codes.ravel(), len(values)
 
 
 def _distinct_frames(inlier: np.ndarray, starts: np.ndarray) -> np.ndarray:

@@ -115,6 +115,7 @@ def test_manifest_records_inputs_params_and_outputs(project_dir):
     assert manifest.inputs["track"]["path"] == "cam0/track.csv" and len(manifest.inputs["track"]["sha256"]) == 64
     assert list(manifest.outputs) == ["cameras/cam0/votes.npz"]
     assert "tlsync_pipeline.sync.votes" in manifest.code and "tlsync_pipeline.pipeline.engine" not in manifest.code
+    assert manifest.seconds >= 0 and manifest.cpu_seconds is not None and manifest.cpu_seconds >= 0  # the task's own run, where it ran
     sync = read_manifest(project_dir / "work" / "sync.manifest.json")
     assert sync.inputs["votes:cam1"]["path"] == "<work>/cameras/cam1/votes.npz"
 
@@ -191,3 +192,30 @@ def test_dask_executor_on_a_local_cluster(project_dir, tmp_path):
     assert sorted(result.output.split("ran: ")[1].splitlines()[0].split(", ")) == ["export", "render", "sync", "vote/cam0", "vote/cam1"]
     assert json.loads((tmp_path / "dask" / "timeline.json").read_text())["cameras"]["cam1"]["alpha"] == pytest.approx(2.0, abs=0.01)
     assert _cli("run", project_dir / "project.toml", "--executor", "dask").exit_code == 2  # needs --scheduler
+
+
+def test_ready_tasks_go_out_tracks_first_the_largest_video_first(tmp_path):
+    """Tracks before the other per-camera tasks (largest video first), project-wide tasks last."""
+    from tlsync_pipeline.pipeline.engine import _priority
+
+    (tmp_path / "boards").mkdir()
+    (tmp_path / "boards" / "a.png").write_bytes(b"")
+    (tmp_path / "target.gpx").write_text("")
+    (tmp_path / "gcp.csv").write_text("name,u,v,lat,lon,alt\n")
+    cameras = []
+    for name, size in (("cam0", 1000), ("cam1", 5000), ("cam2", 3000)):
+        (tmp_path / f"{name}.mp4").write_bytes(os.urandom(size))
+        cameras.append(
+            f'[[cameras]]\nname = "{name}"\nvideo = "{name}.mp4"\n'
+            '[cameras.calibration]\nimages = "boards/*.png"\npattern = "7x5"\nsquare = 0.04\ngcp = "gcp.csv"\n'
+        )
+    (tmp_path / "project.toml").write_text('[target]\nlog = "target.gpx"\norigin = [46.5, 6.6, 380.0]\n' + "".join(cameras))
+    graph = _graph(tmp_path)
+    order = sorted(graph.tasks, key=lambda t: _priority(graph.tasks[t]))
+    assert order[:3] == ["track/cam1", "track/cam2", "track/cam0"]
+    from tlsync_pipeline.pipeline.graph import PER_CAMERA
+
+    stages = [graph.tasks[t].stage for t in order]
+    assert "track" not in stages[3:] and {"intrinsics", "calibrate", "vote"} <= set(stages)
+    per_camera = [stage in PER_CAMERA for stage in stages]
+    assert per_camera == sorted(per_camera, reverse=True)  # the project-wide tasks last

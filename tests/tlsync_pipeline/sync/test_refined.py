@@ -179,3 +179,33 @@ def test_smoothing_keeps_clean_logs_and_denoises_noisy_ones():
     before = np.sqrt(np.mean((noisy.trajectory.xyz - noisy.true_trajectory.xyz) ** 2))
     after = np.sqrt(np.mean((smooth_trajectory(noisy.trajectory).xyz - noisy.true_trajectory.xyz) ** 2))
     assert after < 0.7 * before
+
+
+@pytest.mark.parametrize("n, lam, jitter", [(5, 0.5, 0.0), (50, 0.3, 0.3), (2000, 40.0, 0.0), (300, 1e-3, 0.0)])
+def test_smoothed_values_are_scipys_smoothing_spline(n, lam, jitter):
+    """The banded (Reinsch) solve gives scipy's make_smoothing_spline at the data points, spacing uneven or not."""
+    from scipy.interpolate import make_smoothing_spline
+
+    from tlsync_pipeline.sync.refine import smoothed_values
+
+    rng = np.random.default_rng(n)
+    x = np.arange(n, dtype=float) + rng.uniform(0, jitter, n)
+    y = np.sin(x / 20) + rng.normal(0, 0.1, n)
+    np.testing.assert_allclose(smoothed_values(x, y, lam), make_smoothing_spline(x, y, lam=lam)(x), atol=1e-10)
+
+
+@pytest.mark.parametrize("scale, groups", [(1.0, 1), (1.001, 1), (1.0, 3)])
+def test_thin_votes_keeps_the_closest_vote_of_each_frame_and_of_each_sample(scale, groups):
+    """Whole-number keys (grouped by offset) and fractional ones (by np.unique), with or without objects: the closest vote of every frame and every sample of each object, the first on a tie."""
+    rng = np.random.default_rng(2)
+    frame = rng.integers(0, 300, 5000) * scale
+    sample = rng.integers(0, 200, 5000).astype(float)
+    dist = np.round(rng.uniform(0, 10, 5000), 1)  # ties
+    group = rng.integers(0, groups, 5000)
+    kept = set(thin_votes(sample, frame, dist, group if groups > 1 else None).tolist())
+    expected = set()
+    for key in (frame, sample):
+        for value, owner in set(zip(key.tolist(), group.tolist())):
+            members = np.flatnonzero((key == value) & (group == owner))
+            expected.add(int(members[np.argmin(dist[members])]))
+    assert kept == expected

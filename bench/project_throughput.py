@@ -1,0 +1,260 @@
+"""Whole-project throughput: `tlsync run` against the decode-only floor of its videos, in the same run.
+
+    python bench/project_throughput.py [--quick] [--cameras 4] [--seconds 60] [--size 1920x1080]
+        [--trackers blob,csrt] [--scene long|textured] [--keep DIR] [--jobs N]
+
+1. Makes a raw project (data_fixtures.raw_project: per camera an H.264 video,
+   checkerboard photos and GCPs; a GPX log of the target). The scene renderer
+   is pluggable (``--scene``, the SCENES table): ``long`` renders 1080p
+   minutes quickly (data_fixtures.long_video), ``textured`` is the tests'
+   renderer (data_fixtures.video, slower). Cameras run at 30, 25, 50 and
+   29.97 fps in turn. ``--keep DIR`` keeps the project there and reuses it
+   when the same one is asked for again.
+2. Decode-only floor: every video decoded with PyAV (luma plane, FFmpeg's
+   own threads as the pipeline uses them), as many processes as cores,
+   longest videos first.
+3. For each tracker kind: the whole `tlsync run` in a fresh work folder (a
+   child process; its CPU time includes its workers), the run time and CPU
+   time per stage (sums of the stage's tasks' own figures from the
+   manifests; CPU/run above 1 means FFmpeg's decoding threads overlap the
+   Python tracker), and a cached re-run (nothing to do).
+
+Prints wall times, CPU times, CPU utilisation (CPU s / (wall s x cores)),
+peak RSS of the largest process, the ratios to the floor and the load
+average (``os.getloadavg``) around each measurement: on a shared machine
+the ratios are the figures to compare, not the seconds.
+"""
+
+from __future__ import annotations
+
+import argparse
+import concurrent.futures as cf
+import json
+import multiprocessing
+import os
+import re
+import resource
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+REPOSITORY = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPOSITORY))
+
+from data_fixtures.raw_project import RawProjectSpec, make_raw_project  # noqa: E402
+from tlsync_pipeline.pipeline.graph import STAGES  # noqa: E402
+
+FPS_CYCLE = (30.0, 25.0, 50.0, 30000 / 1001)
+TARGET_RATE = 10.0  # Hz, the GPX log
+
+
+def _scenes():
+    from data_fixtures.long_video import render_long_camera_video
+    from data_fixtures.video import render_camera_video
+
+    return {"long": render_long_camera_video, "textured": render_camera_video}
+
+
+@dataclass(frozen=True)
+class Workload:
+    cameras: int
+    seconds: float
+    size: tuple[int, int]
+    scene: str
+
+    def spec(self) -> RawProjectSpec:
+        """Cameras at FPS_CYCLE rates; each video ``seconds`` long, its target window starting a little after its start."""
+        lines, n_frames = [], []
+        for k in range(self.cameras):
+            fps = FPS_CYCLE[k % len(FPS_CYCLE)]
+            alpha = fps / TARGET_RATE
+            n = int(round(self.seconds * fps))
+            lines.append((alpha, -alpha * (k * self.seconds * TARGET_RATE) + 0.1 * n))
+            n_frames.append(n)
+        return RawProjectSpec(lines=tuple(lines), n_frames=tuple(n_frames), image_size=self.size, target_rate=TARGET_RATE, boards=8, gcps=8)
+
+
+QUICK = Workload(cameras=2, seconds=10.0, size=(320, 240), scene="textured")
+
+
+def make_project(workload: Workload, folder: Path) -> tuple[Path, float]:
+    """The raw project in ``folder`` (reused when it was made for the same workload); returns (project.toml, seconds spent making it)."""
+    marker = folder / "workload.json"
+    wanted = json.dumps(asdict(workload), sort_keys=True)
+    project = folder / "project.toml"
+    if project.exists() and marker.exists() and marker.read_text() == wanted:
+        return project, 0.0
+    if folder.exists():
+        shutil.rmtree(folder)
+    start = time.perf_counter()
+    make_raw_project(folder, workload.spec(), render=_scenes()[workload.scene])
+    marker.write_text(wanted)
+    return project, time.perf_counter() - start
+
+
+def decode_luma(path: str) -> tuple[int, float]:
+    """Decode every frame of ``path`` to its luma plane (a numpy copy, as the trackers get it); (frames, CPU s of this process, FFmpeg's threads included)."""
+    import av
+    import numpy as np
+
+    cpu = time.process_time()
+    n = 0
+    with av.open(path) as container:
+        stream = container.streams.video[0]
+        stream.thread_type = "AUTO"
+        for frame in container.decode(stream):
+            plane = frame.planes[0]
+            np.frombuffer(plane, np.uint8).reshape(-1, plane.line_size)[: frame.height, : frame.width].copy()
+            n += 1
+    return n, time.process_time() - cpu
+
+
+def _warm_up(_: int) -> None:
+    """Import what decoding needs, so that the timed part is decoding only."""
+    import av  # noqa: F401
+    import numpy  # noqa: F401
+
+    time.sleep(0.2)  # long enough for every worker to get one
+
+
+def _children_cpu() -> float:
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
+
+
+@dataclass
+class Measure:
+    wall: float
+    cpu: float
+    load: tuple[float, float]  # 1-minute load average before and after
+    peak_mb: float = 0.0
+    notes: list[str] = field(default_factory=list)
+
+    def utilisation(self, cores: int) -> float:
+        return self.cpu / (self.wall * cores)
+
+
+def decode_floor(videos: list[Path], jobs: int) -> tuple[Measure, int]:
+    """Decode all videos, ``jobs`` processes (started beforehand), largest files first; (measure, frames decoded).
+
+    The CPU time is the decoding's only (the workers' start-up is not counted).
+    """
+    order = sorted(videos, key=lambda p: p.stat().st_size, reverse=True)
+    with cf.ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("spawn")) as pool:
+        list(pool.map(_warm_up, range(jobs)))
+        load, start = os.getloadavg()[0], time.perf_counter()
+        done = list(pool.map(decode_luma, [str(p) for p in order]))
+        wall = time.perf_counter() - start
+    return Measure(wall, sum(cpu for _, cpu in done), (load, os.getloadavg()[0])), sum(n for n, _ in done)
+
+
+def tlsync_run(project: Path, work: Path, jobs: int, code: Path = REPOSITORY) -> Measure:
+    """`tlsync run` of the source tree ``code`` in a child process; CPU time and peak RSS of it and its workers."""
+    command = [sys.executable, "-c", "import sys; from tlsync_pipeline.cli.main import main; sys.exit(main())", "run", str(project), "--work", str(work), "--quiet", "--jobs", str(jobs)]
+    env = dict(os.environ, PYTHONPATH=str(code))
+    load = os.getloadavg()[0]
+    cpu, start = _children_cpu(), time.perf_counter()
+    done = subprocess.run(command, capture_output=True, text=True, env=env, cwd=code)  # "-c" puts the working folder first on sys.path
+    wall = time.perf_counter() - start
+    if done.returncode not in (0, 1):  # 1: ran through, some camera not synchronized
+        raise SystemExit(f"tlsync run failed (exit {done.returncode}):\n{done.stdout}\n{done.stderr}")
+    peak = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024
+    missed = [line for line in done.stdout.splitlines() if line.startswith("not synchronized")]
+    return Measure(wall, _children_cpu() - cpu, (load, os.getloadavg()[0]), peak, missed)
+
+
+def stage_seconds(work: Path) -> dict[str, tuple[float, float, int]]:
+    """Per stage: the sums of its tasks' run seconds and CPU seconds as the manifests record them (CPU NaN when not recorded), and the number of tasks."""
+    out: dict[str, tuple[float, float, int]] = {}
+    for path in work.rglob("*.manifest.json"):
+        manifest = json.loads(path.read_text())
+        total, cpu, count = out.get(manifest["stage"], (0.0, 0.0, 0))
+        cpu += float(manifest["cpu_seconds"]) if manifest.get("cpu_seconds") is not None else float("nan")
+        out[manifest["stage"]] = (total + float(manifest.get("seconds") or 0.0), cpu, count + 1)
+    return out
+
+
+def with_tracker(project: Path, kind: str, folder: Path) -> Path:
+    """A copy of project.toml (same folder, so relative paths hold) with every camera's tracker kind set."""
+    text = re.sub(r'kind = "\w+"', f'kind = "{kind}"', project.read_text())
+    out = folder / f"project_{kind}.toml"
+    out.write_text(text)
+    return out
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--quick", action="store_true", help="CI-size inputs (2 cameras, 320x240, 10 s)")
+    parser.add_argument("--cameras", type=int, default=4)
+    parser.add_argument("--seconds", type=float, default=60.0, help="length of each camera's video")
+    parser.add_argument("--size", default="1920x1080")
+    parser.add_argument("--scene", default="long", choices=sorted(_scenes()))
+    parser.add_argument("--trackers", default="blob,csrt")
+    parser.add_argument("--keep", type=Path, help="make (or reuse) the project in this folder")
+    parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1)
+    parser.add_argument("--compare", type=Path, help="also run the tlsync of this source tree (e.g. a `git archive` of main), for before/after in one session")
+    args = parser.parse_args()
+    width, height = (int(v) for v in args.size.lower().split("x"))
+    workload = QUICK if args.quick else Workload(args.cameras, args.seconds, (width, height), args.scene)
+    cores = args.jobs
+    with tempfile.TemporaryDirectory(prefix="tlsync-throughput-") as tmp:
+        folder = args.keep or Path(tmp) / "project"
+        print(f"machine: {os.cpu_count()} cores, {_cpu_model()}; {cores} processes; load average at start {_load()}")
+        project, made = make_project(workload, folder)
+        videos = sorted(folder.glob("*/video.mp4"))
+        minutes = sum(_duration(v) for v in videos) / 60
+        print(f"project: {workload.cameras} cameras, {workload.size[0]}x{workload.size[1]}, {minutes:.1f} min of video, scene {workload.scene!r}" + (f", made in {made:.0f} s" if made else ", reused"))
+        floor, frames = decode_floor(videos, cores)
+        print(f"decode floor: {frames} frames in {floor.wall:.1f} s wall, {floor.cpu:.1f} s CPU ({floor.utilisation(cores):.0%} of {cores} cores), load {floor.load[0]:.1f} -> {floor.load[1]:.1f}")
+        rows = [("decode floor (PyAV luma, %d processes)" % cores, floor, None)]
+        stages = {}
+        trees = [("", REPOSITORY)] + ([(f" ({args.compare.name})", args.compare)] if args.compare else [])
+        for kind in args.trackers.split(","):
+            variant = with_tracker(project, kind, folder)
+            for suffix, code in trees:
+                work = Path(tmp) / f"work_{kind}{suffix.strip(' ()')}"
+                run = tlsync_run(variant, work, cores, code)
+                stages[kind + suffix] = stage_seconds(work)
+                again = tlsync_run(variant, work, cores, code)
+                rows += [(f"tlsync run, {kind}{suffix}", run, kind), (f"cached re-run, {kind}{suffix}", again, None)]
+        print(f"\n{'':38} {'wall s':>7} {'x floor':>7} {'CPU s':>7} {'x floor':>7} {'CPU use':>7} {'peak MB':>7} {'load':>10}")
+        for name, m, _ in rows:
+            peak = f"{m.peak_mb:7.0f}" if m.peak_mb else " " * 7
+            print(f"{name:38} {m.wall:7.1f} {m.wall / floor.wall:7.2f} {m.cpu:7.1f} {m.cpu / floor.cpu:7.2f} {m.utilisation(cores):7.0%} {peak} {m.load[0]:4.1f}->{m.load[1]:<4.1f}")
+            for note in m.notes:
+                print(f"    {note}")
+        for kind, per_stage in stages.items():
+            print(f"\nstages, {kind} (sums over the stage's tasks as the manifests record them; x floor: of the floor's wall and CPU):")
+            for stage in [s for s in STAGES if s in per_stage]:
+                    seconds, cpu, count = per_stage[stage]
+                    print(f"  {stage:10} {seconds:7.1f} s {seconds / floor.wall:6.2f}x  CPU {cpu:7.1f} s {cpu / floor.cpu:6.2f}x  CPU/run {cpu / seconds if seconds else float('nan'):5.2f}  ({count} task{'s' if count > 1 else ''})")
+        print(f"\nload average at the end {_load()}")
+
+
+def _duration(path: Path) -> float:
+    from trackers.video import probe_video
+
+    info = probe_video(path)
+    return info.n_frames / info.fps if info.fps else 0.0
+
+
+def _load() -> str:
+    return " ".join(f"{v:.2f}" for v in os.getloadavg())
+
+
+def _cpu_model() -> str:
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return "unknown CPU"
+
+
+if __name__ == "__main__":
+    main()
