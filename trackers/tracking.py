@@ -9,7 +9,7 @@ from typing import Sequence
 import numpy as np
 
 from trackers.blob import BlobDetector, BlobParams, BlobTracker, median_background
-from trackers.detections import Detections, follows_every_mover, make_detections
+from trackers.detections import Detections, make_detections
 from trackers.errors import TrackInputError
 from trackers.movers import MoverLinker
 from trackers.track import Track

@@ -1,6 +1,5 @@
 """Linking blobs into tracklets: identities kept through near passes and short gaps."""
 
-import numpy as np
 
 from trackers.blob import Blob, BlobParams
 from trackers.movers import MoverLinker
