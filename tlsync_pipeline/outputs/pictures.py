@@ -15,15 +15,17 @@ the detections coloured by tracklet (with their recent trails), the
 identified target (green cross), where the trajectory projects at that
 frame's time (red circle) and the whole projected path (yellow).
 
-Only the frames drawn are read: each is reached by seeking (decoding starts
-at the keyframe before it), never by reading the video through. Everything
-else comes from the work folder.
+Only the frames drawn are read, each once: every frame any picture of a
+camera needs is decoded in one forward pass over its video (each_frame_once),
+seeking to a keyframe only past the last decoded frame, never reading the
+video through. Everything else comes from the work folder.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
+from typing import Callable, Iterator
 
 import cv2
 import numpy as np
@@ -37,11 +39,28 @@ from tlsync_pipeline.trajectory import PiecewiseTrajectory
 from trackers import video
 
 FRAMES_PER_PAIR = 3
+DECODED_BYTES = 256 * 2**20  # most decoded frame bytes held at once while a video's frames are drawn
 
 
 def read_frames(path: Path, indices) -> dict[int, np.ndarray]:
     """Decode only the frames ``indices`` (0-based) of a video: {index: BGR image}."""
     return {i: frame.image for i, frame in video.read_frames(path, indices).items()}
+
+
+def each_frame_once(path: Path, indices, frame_bytes: int) -> Iterator[tuple[int, np.ndarray]]:
+    """(index, BGR image) of every frame in ``indices``, in order, each decoded once.
+
+    One forward pass over the video (read_frames seeks only to a keyframe
+    past the last decoded frame), in batches of at most DECODED_BYTES of
+    frames of ``frame_bytes`` each, so memory stays bounded however many
+    frames are drawn.
+    """
+    wanted = sorted(set(int(i) for i in indices))
+    per_batch = max(1, DECODED_BYTES // max(1, frame_bytes))
+    for start in range(0, len(wanted), per_batch):
+        batch = read_frames(path, wanted[start : start + per_batch])
+        for index in wanted[start : start + per_batch]:
+            yield index, batch.pop(index)
 
 
 def default_pairs(timeline: Timeline) -> list[tuple[str, str]]:
@@ -162,48 +181,92 @@ def pair_frames(a: str, b: str, frames_b: list[int], timeline: Timeline, times: 
     return {f: int(round(float(m))) for f, m in zip(frames_b, matched)}
 
 
-def render_pair(
+@dataclass(frozen=True)
+class PanelRequest:
+    """One frame of a strip to draw: 0-based ``frame``, the target's position from the trajectory (metres, None:
+    not on the path), the tracked position (px, None: not tracked) and the caption."""
+
+    frame: int
+    point: np.ndarray | None
+    tracked: tuple[float, float] | None
+    text: str
+
+
+@dataclass(frozen=True)
+class PairPlan:
+    """The strip of a pair A, B: per frame of B its row of panels (A's estimated match, B's frame, A's true match).
+
+    ``rows[i]`` lists (camera, request index) per panel; a request index of
+    None is a blank panel (A has no such frame) captioned with ``blanks[i][j]``.
+    """
+
+    a: str
+    b: str
+    rows: list[list[tuple[str, int | None]]]
+    blanks: list[list[str | None]]
+
+
+def plan_pair(
     a: str,
     b: str,
     frames_b: list[int],
     timeline: Timeline,
     inputs: dict,
     path_model: PiecewiseTrajectory,
-    videos: dict,
     n_frames: dict,
     truth: dict | None,
-    out_dir: Path,
     times: dict[str, FrameTimes | None],
-) -> list[Path]:
-    """The strip of the pair A, B at frames ``frames_b`` of B: A's matching frame, B's frame (and A's true match with a truth)."""
+    requests: dict[str, list[PanelRequest]],
+) -> PairPlan:
+    """The strip of the pair A, B at frames ``frames_b`` of B: A's matching frame, B's frame (and A's true match with a truth).
+
+    Appends the panels to draw to ``requests`` (camera -> its PanelRequests):
+    each video's panels are drawn in one pass over it (draw_panels).
+    """
     wanted_a = {"estimated": pair_frames(a, b, frames_b, timeline, times)}
     if truth and f"{b}->{a}" in truth:
         wanted_a["truth"] = {f: int(round(float(truth[f"{b}->{a}"](f)))) for f in frames_b}
-    needed_a = sorted({i for m in wanted_a.values() for i in m.values() if 0 <= i < n_frames[a]})
-    images_a = read_frames(videos[a], needed_a)
-    images_b = read_frames(videos[b], frames_b)
     line_b = timeline.cameras[b]
-    tracked = {name: dict(zip(inp.track.frame.tolist(), inp.track.xy)) for name, inp in inputs.items()}
-    rows = []
+    tracked = {name: dict(zip(inputs[name].track.frame.tolist(), inputs[name].track.xy)) for name in (a, b)}
+
+    def request(camera: str, frame: int, point, text: str) -> int:
+        found = tracked[camera].get(frame)
+        requests.setdefault(camera, []).append(PanelRequest(frame, point, None if found is None else tuple(found), text))
+        return len(requests[camera]) - 1
+
+    rows, blanks = [], []
     for f in frames_b:
-        if f not in images_b:
-            continue
-        fb, scale_b = fit_height(images_b[f])
         position = path_model.positions(line_b.sample_at(float(f), times.get(b)))[0]
         point = position if np.isfinite(position[0]) else None
-        row = []
+        row, blank = [], []
         for title, mapping in wanted_a.items():
             fa = mapping[f]
-            if fa in images_a:
-                img_a, scale_a = fit_height(images_a[fa])
-                row.append(caption(_draw_target(img_a, inputs[a].camera, point, tracked[a].get(fa), scale_a), f"{a} frame {fa} ({title} match)"))
+            if 0 <= fa < n_frames[a]:
+                row.append((a, request(a, fa, point, f"{a} frame {fa} ({title} match)")))
+                blank.append(None)
             else:
-                row.append(caption(_blank(fb.shape[1]), f"{a}: no frame {fa} ({title} match)"))
-        row.insert(1, caption(_draw_target(fb, inputs[b].camera, point, tracked[b].get(f), scale_b), f"{b} frame {f}"))
+                row.append((a, None))
+                blank.append(f"{a}: no frame {fa} ({title} match)")
+        row.insert(1, (b, request(b, f, point, f"{b} frame {f}")))
+        blank.insert(1, None)
         rows.append(row)
-    if not rows:
-        return []
-    return [write_png(out_dir / f"strip_{a}_{b}.png", mosaic(rows))]
+        blanks.append(blank)
+    return PairPlan(a, b, rows, blanks)
+
+
+def draw_panel(image: np.ndarray, camera, request: PanelRequest) -> np.ndarray:
+    """One strip panel: the frame at PANEL_HEIGHT with the projected target (red circle) and the tracked one (green cross)."""
+    fitted, scale = fit_height(image)
+    return caption(_draw_target(fitted, camera, request.point, request.tracked, scale), request.text)
+
+
+def assemble_pair(plan: PairPlan, panels: dict[str, list[np.ndarray]]) -> np.ndarray | None:
+    """The strip of ``plan`` from each camera's drawn panels (in its requests' order); None without a row."""
+    rows = []
+    for cells, blanks in zip(plan.rows, plan.blanks):
+        width = next(panels[cam][i].shape[1] for cam, i in cells if cam == plan.b)
+        rows.append([panels[cam][i] if i is not None else caption(_blank(width), text) for (cam, i), text in zip(cells, blanks)])
+    return mosaic(rows) if rows else None
 
 
 def tracklet_colour(tracklet: int) -> tuple[int, int, int]:
@@ -253,8 +316,6 @@ def draw_movers(image: np.ndarray, frame: int, detections, track, camera, path_m
     return caption(_draw_target(out, camera, point, tracked, 1.0), f"frame {frame}: movers, target +, projection o")
 
 
-def render_movers(video_path: Path, detections, track, camera, path_model: PiecewiseTrajectory, line, times: FrameTimes | None, path: Path) -> Path:
-    """``movers_<name>.png``: one frame of the camera drawn by ``draw_movers``."""
-    frame = choose_movers_frame(detections, track)
-    image = read_frames(video_path, [frame])[frame]
+def render_movers(image: np.ndarray, frame: int, detections, track, camera, path_model: PiecewiseTrajectory, line, times: FrameTimes | None, path: Path) -> Path:
+    """``movers_<name>.png``: frame ``frame`` (``image``, BGR; choose_movers_frame) drawn by ``draw_movers``."""
     return write_png(path, draw_movers(image, frame, detections, track, camera, path_model, line, times))

@@ -259,7 +259,14 @@ def _schedule(graph: Graph, executor, wanted: list[str], force: set[str], memo: 
                 progress.started(tid, why, not local)
                 where = SerialExecutor(executor.cores) if local else executor  # local tasks share the machine with the pool
                 files = graph.workspace.files(
-                    tid, task.camera, task.inputs, task.outputs, progress=graph.options.progress, cores=where.cores, history=_history(graph) if task.spec.history else []
+                    tid,
+                    task.camera,
+                    task.inputs,
+                    task.outputs,
+                    progress=graph.options.progress,
+                    cores=where.cores,
+                    history=_history(graph) if task.spec.history else [],
+                    workers=executor if local else None,
                 )
                 future = where.submit(run_task, {"run": task.spec.run, "files": files, "params": task.params})
                 running[future] = (task, now, not local)

@@ -202,6 +202,18 @@ class DaskExecutor:
             self.client.close()
 
 
+def run_each(executor, fn: Callable[..., dict], calls: list[dict]) -> list[dict]:
+    """``fn(**kwargs)`` for each of ``calls`` on ``executor`` (in parallel on its workers), results in the calls' order.
+
+    For a task of the engine's own process with independent parts (render's
+    cameras): it hands them to the run's executor, so no pool is started
+    inside another. Each result carries the users' warnings its call raised
+    (``warnings``); the first failed call's error is raised.
+    """
+    futures = [executor.submit(fn, kwargs) for kwargs in calls]
+    return [future.result() for future in futures]
+
+
 def make_executor(kind: str = "process", jobs: int | None = None, scheduler: Any = None):
     """An executor by name: process (default), serial, or dask (needs ``scheduler``)."""
     from tlsync_pipeline.errors import InputError

@@ -145,6 +145,9 @@ class StageFiles:
     It travels to worker processes (plain paths). ``progress`` and ``cores``
     are how the caller wants the task run: progress bars or not, how many
     processes the task may start itself (1 inside a pool's worker).
+    ``workers``: the run's executor, for a task running in the engine's
+    process that hands independent parts of its work to the run's workers
+    (executors.run_each); None in a worker (no pool inside a pool).
     """
 
     task: str
@@ -155,6 +158,7 @@ class StageFiles:
     progress: bool = True
     cores: int = 1
     history: list[dict] = field(default_factory=list)  # earlier runs' records (stage, camera, created, seconds, warnings), for the report
+    workers: Any = field(default=None, repr=False, compare=False)
 
     def path(self, label: str) -> Path:
         """A declared input's path."""

@@ -96,3 +96,25 @@ def test_users_warnings_come_back_in_the_result_as_one_line():
 
     assert call_recording_warnings(stage, {}) == {"message": "done", "warnings": ["cam0/video.mp4: video truncated read up to frame 9"]}
     assert SerialExecutor().submit(stage, {}).result()["warnings"] == ["cam0/video.mp4: video truncated read up to frame 9"]
+
+
+def where_and_square(value):
+    """A part of a task run by run_each: which process ran it, and a result."""
+    if value == 2:
+        warnings.warn(f"part {value}: a warning for users", UserWarning)
+    return {"pid": os.getpid(), "square": value * value}
+
+
+def test_run_each_hands_the_parts_to_the_runs_workers_in_order():
+    from tlsync_pipeline.pipeline.executors import ProcessExecutor, run_each
+
+    executor = ProcessExecutor(2)
+    try:
+        results = run_each(executor, where_and_square, [{"value": v} for v in range(4)])
+    finally:
+        executor.close()
+    assert [r["square"] for r in results] == [0, 1, 4, 9]
+    assert all(r["pid"] != os.getpid() for r in results)  # in the pool's workers, not here
+    assert results[2]["warnings"] == ["part 2: a warning for users"] and "warnings" not in results[1]
+    serial = run_each(SerialExecutor(), where_and_square, [{"value": 3}])
+    assert serial[0] == {"pid": os.getpid(), "square": 9}

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import os
+from dataclasses import dataclass
 from pathlib import Path
 from urllib.parse import quote
 
@@ -29,14 +30,18 @@ from tlsync_pipeline.outputs.diagnostics import (
     sync_warnings,
 )
 from tlsync_pipeline.outputs.pictures import (
+    PanelRequest,
+    assemble_pair,
     choose_frames,
+    choose_movers_frame,
     default_pairs,
+    draw_panel,
+    each_frame_once,
     pair_frames,
+    plan_pair,
     plot_trajectory,
     plot_votes,
-    read_frames,
     render_movers,
-    render_pair,
     write_png,
 )
 from tlsync_pipeline.outputs.player import PlayerVideo, player_data
@@ -46,12 +51,14 @@ from tlsync_pipeline.outputs.report_content import Picture, ReportContent, Stage
 from tlsync_pipeline.outputs.report_html import report_html
 from tlsync_pipeline.outputs.report_md import report_markdown
 from tlsync_pipeline.outputs.summary import calibration_summary
+from tlsync_pipeline.pipeline.executors import SerialExecutor, run_each
 from tlsync_pipeline.pipeline.spec import Sources, StageSpec
 from tlsync_pipeline.pipeline.stages.cameras import camera_files, camera_params
 from tlsync_pipeline.pipeline.stages.export import frame_count, frame_times
 from tlsync_pipeline.pipeline.stages.sync import read_camera_inputs
 from tlsync_pipeline.pipeline.workspace import StageFiles
 from tlsync_pipeline.sync.clock import FrameTimes
+from tlsync_pipeline.sync.methods import CameraInput
 from tlsync_pipeline.sync.registry import params_from_table
 from tlsync_pipeline.sync.synchronize import prepare_trajectory
 from tlsync_pipeline.sync.timeline import CameraLine, Timeline, read_timeline, read_truth
@@ -99,44 +106,45 @@ def run_render(
     times = {name: frame_times(cameras[name], line) for name, line in tl.cameras.items()}
     work = files.output("report").parent
     out_dir = files.output("pictures")
-    written: list[Path] = []
-    camera_pictures: dict[str, list[Picture]] = {name: [] for name in tl.cameras}
     videos = {n: Path(c["video"]) for n, c in cameras.items() if c.get("video") and n in tl.cameras}
     n_frames = {n: frame_count(cameras[n]) for n in tl.cameras}
-    for name, line in tl.cameras.items():
-        votes, _ = load_votes(cameras[name]["votes"])
-        made = [
-            plot_votes(name, votes, line, delta, out_dir / f"votes_{name}.png", times[name]),
-            plot_trajectory(name, inputs[name].camera, inputs[name].track, path_model, line, out_dir / f"trajectory_{name}.png", times[name]),
-        ]
-        titles = ["voting space", "tracked against projected"]
-        if name in videos:
-            made.append(write_band_swap(name, inputs[name], line, path_model, traj.rate, times[name], videos[name], out_dir / f"swap_{name}.png"))
-            titles.append("band swap: before and after")
-        if cameras[name].get("detections") is not None and name in videos:
-            movers = read_detections(cameras[name]["detections"])
-            made.append(render_movers(videos[name], movers, inputs[name].track, inputs[name].camera, path_model, line, times[name], out_dir / f"movers_{name}.png"))
-            titles.append("every mover, the identified target and the projected path")
-        written += made
-        camera_pictures[name] = [(_photo if title.startswith("band swap") else _picture)(title, path, work) for title, path in zip(titles, made)]
 
     truth_pairs = read_truth(files.path("truth"))[0] if files.has("truth") else None
     pair_list = [tuple(p) for p in pairs] if pairs else default_pairs(tl)
     notes = [f"{name}: no pictures ({why})" for name, why in (left_out or {}).items()]
     drawn = {}
-    pair_pictures = []
+    plans = []
+    requests: dict[str, list[PanelRequest]] = {}
     for a, b in pair_list:
         if a not in videos or b not in videos:
             notes.append(f"{a}, {b}: no strip of matching frames (needs both cameras' videos)")
             continue
         chosen = list(frames) if frames else choose_frames(inputs[b].track.frame, lambda f: tl.match(b, a, f, times), n_frames[a], n_frames[b])
-        made = render_pair(a, b, chosen, tl, inputs, path_model, videos, n_frames, truth_pairs, out_dir, times)
-        if not made:
+        plan = plan_pair(a, b, chosen, tl, inputs, path_model, n_frames, truth_pairs, times, requests)
+        if not plan.rows:
             notes.append(f"{a}, {b}: the two videos never record at the same time")
         else:
             drawn[f"{a},{b}"] = [[f, fa] for f, fa in pair_frames(a, b, chosen, tl, times).items()]
-        written += made
-        pair_pictures += [_photo(f"{a} and {b}: matching frames", path, work) for path in made]
+            plans.append(plan)
+
+    jobs = [
+        CameraJob(
+            name, inputs[name], line, path_model, traj.rate, delta, cameras[name]["votes"], times[name], videos.get(name),
+            cameras[name].get("detections") if name in videos else None, requests.get(name, []),
+            (proxy or {}).get(name, "auto"), n_frames[name], out_dir, work,
+        )
+        for name, line in tl.cameras.items()
+    ]
+    drawn_cameras = run_each(files.workers or SerialExecutor(), draw_camera, [{"job": job} for job in jobs])
+    warnings = [w for result in drawn_cameras for w in result.get("warnings", [])]
+    written: list[Path] = [path for result in drawn_cameras for path in result["written"]]
+    camera_pictures = {job.name: result["pictures"] for job, result in zip(jobs, drawn_cameras)}
+    panels = {job.name: result["panels"] for job, result in zip(jobs, drawn_cameras)}
+    pair_pictures = []
+    for plan in plans:
+        path = write_png(out_dir / f"strip_{plan.a}_{plan.b}.png", assemble_pair(plan, panels))
+        written.append(path)
+        pair_pictures.append(_photo(f"{plan.a} and {plan.b}: matching frames", path, work))
 
     statuses = all_statuses(tl)
     charts = [
@@ -154,8 +162,8 @@ def run_render(
     ] if tl.cameras else []  # no camera synchronized: no chart (nor any picture of an earlier timeline)
     written += [work / c.href for c in charts]
 
-    played, proxies = player_videos(tl, videos, n_frames, proxy or {}, out_dir / "proxy", work)
-    written += proxies
+    played = {job.name: result["player"] for job, result in zip(jobs, drawn_cameras)}
+    written += [result["proxy"] for result in drawn_cameras if result["proxy"] is not None]
     ingest = _read_json(files.path("ingest_report")) if files.has("ingest_report") else None
     player = player_data(tl, {n: inputs[n].camera for n in tl.cameras}, traj, played, utc=bool(ingest and ingest.get("t0_utc") and ingest.get("clock", "UTC") == "UTC"))
 
@@ -179,7 +187,8 @@ def run_render(
         tmp.write_text(report_html(content), encoding="utf-8")
     with files.write("report") as tmp:
         tmp.write_text(report_markdown(content), encoding="utf-8")
-    return {"outputs": [str(p) for p in written], "notes": notes, "report": str(files.output("report_html")), "frames": drawn, "removed": [p.name for p in removed]}
+    summary = {"outputs": [str(p) for p in written], "notes": notes, "report": str(files.output("report_html")), "frames": drawn, "removed": [p.name for p in removed]}
+    return {**summary, "warnings": list(dict.fromkeys(warnings))} if warnings else summary
 
 
 def remove_other_pictures(out_dir: Path, written: list[Path]) -> list[Path]:
@@ -195,28 +204,98 @@ def remove_other_pictures(out_dir: Path, written: list[Path]) -> list[Path]:
     return stale
 
 
-def write_band_swap(name: str, inputs, line: CameraLine, path_model: PiecewiseTrajectory, rate: float | None, times: FrameTimes | None, video: Path, path: Path) -> Path:
-    """swap_<camera>.png: band swaps of tracked frames, the target rendered before and after synchronization.
+@dataclass(frozen=True)
+class CameraJob:
+    """What draw_camera needs to draw one camera's pictures (plain values: it may run in another process).
+
+    requests: the panels of the pairs' strips to draw from its video;
+    proxy: the camera's proxy policy; n_frames: its video's frames.
+    """
+
+    name: str
+    inputs: CameraInput
+    line: CameraLine
+    path_model: PiecewiseTrajectory
+    rate: float | None
+    delta: float
+    votes: Path
+    times: FrameTimes | None
+    video: Path | None
+    detections: Path | None
+    requests: list[PanelRequest]
+    proxy: str
+    n_frames: int
+    out_dir: Path
+    work: Path
+
+
+def draw_camera(job: CameraJob) -> dict:
+    """One camera's pictures, its strip panels and what the player plays, decoding its video once.
+
+    The voting space, the tracked path against the projected one, and with a
+    video: the band swap, the movers (detections), the strip panels
+    (job.requests), every frame they need decoded in one forward pass.
+    Returns {"pictures": [Picture], "written": [Path], "panels": [image],
+    "player": PlayerVideo, "proxy": Path or None}.
+    """
+    name, line, track = job.name, job.line, job.inputs.track
+    votes, _ = load_votes(job.votes)
+    made = [
+        plot_votes(name, votes, line, job.delta, job.out_dir / f"votes_{name}.png", job.times),
+        plot_trajectory(name, job.inputs.camera, track, job.path_model, line, job.out_dir / f"trajectory_{name}.png", job.times),
+    ]
+    titles = ["voting space", "tracked against projected"]
+    panels: list[np.ndarray] = []
+    if job.video is not None:
+        swap_frames = band_swap_frames(track)
+        movers = read_detections(job.detections) if job.detections is not None else None
+        movers_frame = choose_movers_frame(movers, track) if movers is not None else None
+        kept = set(swap_frames) | ({movers_frame} if movers is not None else set())
+        panels_of = {}
+        for i, request in enumerate(job.requests):
+            panels_of.setdefault(request.frame, []).append(i)
+        images, drawn = {}, {}
+        width, height = job.inputs.camera.image_size
+        for index, image in each_frame_once(job.video, kept | set(panels_of), int(width) * int(height) * 3):
+            for i in panels_of.get(index, []):
+                drawn[i] = draw_panel(image, job.inputs.camera, job.requests[i])
+            if index in kept:
+                images[index] = image
+        panels = [drawn[i] for i in range(len(job.requests))]
+        made.append(write_band_swap(name, job.inputs, line, job.path_model, job.rate, job.times, {f: images[f] for f in swap_frames}, job.out_dir / f"swap_{name}.png"))
+        titles.append("band swap: before and after")
+        if movers is not None:
+            made.append(render_movers(images[movers_frame], movers_frame, movers, track, job.inputs.camera, job.path_model, line, job.times, job.out_dir / f"movers_{name}.png"))
+            titles.append("every mover, the identified target and the projected path")
+    pictures = [(_photo if title.startswith("band swap") else _picture)(title, path, job.work) for title, path in zip(titles, made)]
+    player, proxy = player_video(job)
+    return {"pictures": pictures, "written": made, "panels": panels, "player": player, "proxy": proxy}
+
+
+def band_swap_frames(track) -> list[int]:
+    """The tracked frames a band swap shows: at 20, 50 and 80 % of the track."""
+    return sorted({int(f) for f in np.quantile(track.frame, [0.2, 0.5, 0.8], method="nearest")})
+
+
+def write_band_swap(name: str, inputs, line: CameraLine, path_model: PiecewiseTrajectory, rate: float | None, times: FrameTimes | None, images: dict[int, np.ndarray], path: Path) -> Path:
+    """swap_<camera>.png: band swaps of the tracked frames ``images`` (band_swap_frames), the target rendered before and after synchronization.
 
     after: at the sample the camera's line gives the frame; before: at the
     frame's own time since the camera's frame 0 (seconds on its clock, frame
     index / fps), taken as time since the log's first sample.
     """
-    track = inputs.track
-    picks = sorted({int(f) for f in np.quantile(track.frame, [0.2, 0.5, 0.8], method="nearest")})
-    images = read_frames(video, picks)
     rows = []
-    for f in picks:
+    for f, image in sorted(images.items()):
         own = float(line.clock.seconds_at(line.clock.clock_at(float(f), times), times)) if line.clock.fps else None
         before = own * rate if own is not None and rate else float(f)
         after = float(line.sample_at(float(f), times))
         rows.append(
             (
-                _panel(inputs.camera, images[f], path_model, before, f"before: {name} frame {f}, its time {_seconds(own)} as log time"),
-                _panel(inputs.camera, images[f], path_model, after, f"after: {name} frame {f} at log time {_seconds(after / rate if rate else None)}"),
+                _panel(inputs.camera, image, path_model, before, f"before: {name} frame {f}, its time {_seconds(own)} as log time"),
+                _panel(inputs.camera, image, path_model, after, f"after: {name} frame {f} at log time {_seconds(after / rate if rate else None)}"),
             )
         )
-    picture = bandswap.before_after(rows, bandswap.target_radius(track))
+    picture = bandswap.before_after(rows, bandswap.target_radius(inputs.track))
     return write_png(path, picture)
 
 
@@ -236,24 +315,18 @@ def _panel(camera, image: np.ndarray, path_model: PiecewiseTrajectory, sample: f
     return bandswap.Panel(image, uv, text)
 
 
-def player_videos(tl: Timeline, videos: dict[str, Path], n_frames: dict[str, int], policy: dict, proxy_dir: Path, work: Path) -> tuple[dict[str, PlayerVideo], list[Path]]:
-    """What the player plays per camera (the video, or a proxy made now when needed) and the proxies written."""
-    played, proxies = {}, []
-    for name, line in tl.cameras.items():
-        video = videos.get(name)
-        if video is None:
-            fps = line.fps or 1.0
-            played[name] = PlayerVideo(None, False, None, np.arange(n_frames[name]) / fps)
-            continue
-        codec = probe_video(video).codec
-        source, is_proxy = video, False
-        if needs_proxy(codec, video.suffix, policy.get(name, "auto")):
-            source, is_proxy = ensure_proxy(video, proxy_dir / f"{name}.mp4"), True
-            proxies.append(source)
-        src = quote(Path(os.path.relpath(source, work)).as_posix())
-        table = presentation_times(source)
-        played[name] = PlayerVideo(src, is_proxy, codec, table if table is not None else np.arange(n_frames[name]) / (line.fps or 1.0))
-    return played, proxies
+def player_video(job: CameraJob) -> tuple[PlayerVideo, Path | None]:
+    """What the player plays for the camera (its video, or a proxy made now when needed), and the proxy written."""
+    fps = job.line.fps or 1.0
+    if job.video is None:
+        return PlayerVideo(None, False, None, np.arange(job.n_frames) / fps), None
+    codec = probe_video(job.video).codec
+    source, proxy = job.video, None
+    if needs_proxy(codec, job.video.suffix, job.proxy):
+        source = proxy = ensure_proxy(job.video, job.out_dir / "proxy" / f"{job.name}.mp4")
+    src = quote(Path(os.path.relpath(source, job.work)).as_posix())
+    table = presentation_times(source)
+    return PlayerVideo(src, proxy is not None, codec, table if table is not None else np.arange(job.n_frames) / fps), proxy
 
 
 def ensure_proxy(video: Path, path: Path) -> Path:
