@@ -12,6 +12,8 @@ last decodable frame with a ``TruncatedVideoWarning`` naming that frame.
 
 from __future__ import annotations
 
+import math
+import struct
 import warnings
 from bisect import bisect_right
 from dataclasses import dataclass
@@ -65,11 +67,17 @@ class VideoInfo:
 
 
 def probe_video(path: str | Path) -> VideoInfo:
-    """Open a video and describe its first video stream; TrackInputError if it cannot be read."""
+    """Open a video and describe its first video stream; TrackInputError if it cannot be read.
+
+    Reads the container's metadata only; decodes the first frame only when
+    the rotation is not stored where it can be read without decoding (the
+    MP4/MOV track header: _stored_rotation).
+    """
     path = Path(path)
     with _open(path) as container:
         stream = container.streams.video[0]
-        return _info(path, stream, _first_rotation(path, container, stream))
+        rotation = _stored_rotation(path, container, stream)
+        return _info(path, stream, _first_rotation(path, container, stream) if rotation is None else rotation)
 
 
 def iter_frames(path: str | Path, gray: bool = False, progress: bool = False, desc: str | None = None) -> Iterator[VideoFrame]:
@@ -129,6 +137,11 @@ def read_frames(path: str | Path, indices: Iterable[int], gray: bool = False) ->
         return _read_sequential(path, wanted, gray)
     if wanted[-1] >= len(pts_list):
         raise TrackInputError(f"{path}: frame {wanted[-1]} is past the end of the video ({len(pts_list)} frames)")
+    return _read_indexed(path, wanted, gray, pts_list, keyframes)
+
+
+def _read_indexed(path: Path, wanted: list[int], gray: bool, pts_list: list[int], keyframes: list[int]) -> dict[int, VideoFrame]:
+    """read_frames with the video's packet index (_packet_index) at hand: ``wanted`` sorted, within the video."""
     out: dict[int, VideoFrame] = {}
     with _open(path) as container:
         stream = container.streams.video[0]
@@ -274,6 +287,70 @@ def _first_rotation(path: Path, container, stream) -> int:
     raise TrackInputError(f"{path}: the video has no decodable frame")
 
 
+_ISO_MEDIA = {"mov", "mp4", "m4a", "3gp", "3g2", "mj2"}  # FFmpeg's names of the ISO base media (MP4/MOV) demuxer
+_BOX_HEADER = struct.Struct(">I4s")
+
+
+def _stored_rotation(path: Path, container, stream) -> int | None:
+    """Counter-clockwise rotation (degrees, multiple of 90) from the display matrix of the stream's MP4/MOV track
+    header (tkhd), as FFmpeg applies it to decoded frames; None for other containers or a header not found."""
+    if not _ISO_MEDIA & set(container.format.name.split(",")) or stream.metadata.get("rotate"):
+        return None
+    try:
+        with path.open("rb") as handle:
+            matrix = _track_matrix(handle, int(stream.id))
+    except (OSError, struct.error):
+        return None
+    if matrix is None:
+        return None
+    a, b, c, d = (v / 65536.0 for v in (matrix[0], matrix[1], matrix[3], matrix[4]))
+    if not (math.hypot(a, c) and math.hypot(b, d)):
+        return None
+    angle = -math.degrees(math.atan2(b / math.hypot(b, d), a / math.hypot(a, c)))  # FFmpeg's av_display_rotation_get
+    return int(round(angle / 90.0)) % 4 * 90
+
+
+def _boxes(handle, start: int, end: int) -> Iterator[tuple[bytes, int, int]]:
+    """(type, payload start, payload end) of the ISO media boxes between byte offsets ``start`` and ``end``."""
+    position = start
+    while position + 8 <= end:
+        handle.seek(position)
+        size, kind = _BOX_HEADER.unpack(handle.read(8))
+        header = 8
+        if size == 1:
+            size, header = struct.unpack(">Q", handle.read(8))[0], 16
+        elif size == 0:
+            size = end - position
+        if size < header:
+            return
+        yield kind, position + header, min(position + size, end)
+        position += size
+
+
+def _track_matrix(handle, track_id: int) -> list[int] | None:
+    """The 3x3 display matrix (9 integers, row-major, 16.16 and 2.30 fixed point) of track ``track_id``'s tkhd box."""
+    handle.seek(0, 2)
+    for kind, start, end in _boxes(handle, 0, handle.tell()):
+        if kind != b"moov":
+            continue
+        for trak, trak_start, trak_end in _boxes(handle, start, end):
+            if trak != b"trak":
+                continue
+            for tkhd, at, tkhd_end in _boxes(handle, trak_start, trak_end):
+                if tkhd != b"tkhd":
+                    continue
+                handle.seek(at)
+                version = handle.read(1)[0]
+                ids_at = at + (20 if version == 1 else 12)  # version, flags, creation and modification times
+                handle.seek(ids_at)
+                if struct.unpack(">I", handle.read(4))[0] != track_id:
+                    break
+                handle.seek(ids_at + 4 + 4 + (8 if version == 1 else 4) + 16)  # track id, reserved, duration, reserved, layer...volume
+                return list(struct.unpack(">9i", handle.read(36)))
+        return None
+    return None
+
+
 def _rotation(frame, stream) -> int:
     """Counter-clockwise rotation in degrees (multiple of 90) that displays the frame upright."""
     angle = frame.rotation or 0
@@ -323,8 +400,16 @@ def _progress_bar(total: int, desc: str):
     return tqdm(total=total or None, desc=desc, unit="frame", dynamic_ncols=True)
 
 
+MIN_KEYFRAME_SAMPLES = 8  # sample_frames takes only keyframes when the video has at least this many (or ``count``)
+
+
 def sample_frames(path: str | Path, count: int, gray: bool = True) -> list[np.ndarray]:
-    """Up to ``count`` frames spread evenly over the whole video (decoded by seeking; keyframes when there are enough).
+    """Up to ``count`` frames spread evenly over the whole video, each decoded once by seeking.
+
+    Keyframes when the video has at least ``count`` of them, or at least
+    MIN_KEYFRAME_SAMPLES (then every keyframe: a keyframe decodes on its own,
+    any other frame costs the frames from its keyframe, up to a whole GOP);
+    else frames spread evenly.
 
     Falls back to the first ``count`` decodable frames when the video cannot
     be indexed or seeked (no timestamps, damaged).
@@ -333,14 +418,14 @@ def sample_frames(path: str | Path, count: int, gray: bool = True) -> list[np.nd
     pts_list, keyframes = _packet_index(path)
     if pts_list:
         n = len(pts_list)
-        if len(keyframes) >= count:  # keyframes decode on their own: one decode per sample
+        if len(keyframes) >= min(count, MIN_KEYFRAME_SAMPLES):  # keyframes decode on their own: one decode per sample
             where = {pts: i for i, pts in enumerate(pts_list)}
-            picks = np.linspace(0, len(keyframes) - 1, count).round().astype(int)
+            picks = np.linspace(0, len(keyframes) - 1, min(count, len(keyframes))).round().astype(int)
             indices = sorted(set(where[keyframes[k]] for k in picks))
         else:
             indices = sorted(set(np.linspace(0, n - 1, min(count, n)).round().astype(int).tolist()))
         try:
-            frames = read_frames(path, indices, gray=gray)
+            frames = _read_indexed(path, indices, gray, pts_list, keyframes)
             return [frames[i].image for i in indices]
         except TrackInputError:
             pass

@@ -62,6 +62,59 @@ def test_sample_frames_spread_over_the_video(jittered):
     assert len(frames) == 5 and frames[0].shape == (240, 320)
 
 
+def _counting_decodes(monkeypatch):
+    """Counts the frames trackers.video decodes (every path goes through _decode)."""
+    from trackers import video
+
+    decoded = []
+    original = video._decode
+
+    def counting(container, stream):
+        for frame, error in original(container, stream):
+            decoded.append(frame)
+            yield frame, error
+
+    monkeypatch.setattr(video, "_decode", counting)
+    return decoded
+
+
+@pytest.mark.parametrize("rotation", [0, 90, 180, 270])
+def test_probe_reads_the_rotation_from_the_container_without_decoding(tmp_path, monkeypatch, rotation):
+    rotated = render_video(tmp_path / "rotated.mp4", n_frames=4, seed=5, noise=0.0, rotation=rotation)
+    decoded = _counting_decodes(monkeypatch)
+    info = probe_video(rotated.path)
+    assert decoded == []
+    assert (info.width, info.height, info.rotation) == (320, 240, rotation)
+    assert next(iter_frames(rotated.path)).image.shape == (240, 320, 3)  # what decoding gives
+
+
+def test_probe_of_a_container_without_a_track_header_decodes_the_first_frame(tmp_path, monkeypatch):
+    """Matroska keeps no MP4 track header: the rotation comes from the first decoded frame."""
+    path = tmp_path / "clip.mkv"
+    with av.open(str(path), "w") as container:
+        stream = container.add_stream("mpeg4", rate=25)
+        stream.width, stream.height, stream.pix_fmt = 64, 48, "yuv420p"
+        for i in range(3):
+            frame = av.VideoFrame.from_ndarray(np.full((48, 64, 3), 40 * i, np.uint8), format="bgr24")
+            container.mux(stream.encode(frame))
+        container.mux(stream.encode())
+    decoded = _counting_decodes(monkeypatch)
+    info = probe_video(path)
+    assert (info.width, info.height, info.rotation) == (64, 48, 0) and len(decoded) == 1
+
+
+def test_background_samples_are_keyframes_each_decoded_once(tmp_path, monkeypatch):
+    """A video with fewer keyframes than samples asked for, but enough: every keyframe, one decode each."""
+    clip = render_video(tmp_path / "gop.mp4", n_frames=100, seed=2, gop=10)
+    decoded = _counting_decodes(monkeypatch)
+    frames = sample_frames(clip.path, 15)
+    assert len(frames) == 10 and len(decoded) == 10
+    assert all(f.key_frame for f in decoded)
+    keyframes = read_frames(clip.path, range(0, 100, 10), gray=True)
+    for frame, index in zip(frames, range(0, 100, 10)):
+        np.testing.assert_array_equal(frame, keyframes[index].image)
+
+
 def test_rotation_metadata_is_honoured(tmp_path):
     upright = render_video(tmp_path / "upright.mp4", n_frames=12, seed=5, noise=0.0)
     rotated = render_video(tmp_path / "rotated.mp4", n_frames=12, seed=5, noise=0.0, rotation=90)
