@@ -370,7 +370,11 @@ _LUMA_FIRST = {"yuv420p", "yuvj420p", "yuv422p", "yuvj422p", "yuv444p", "yuvj444
 def _to_array(frame, gray: bool, rotation: int) -> np.ndarray:
     if gray and frame.format.name in _LUMA_FIRST:
         plane = frame.planes[0]
-        image = np.frombuffer(plane, np.uint8).reshape(-1, plane.line_size)[: frame.height, : frame.width].copy()
+        image = np.frombuffer(plane, np.uint8).reshape(-1, plane.line_size)[: frame.height, : frame.width]
+        if plane.line_size == frame.width and not rotation:
+            image.flags.writeable = False  # the decoder's own buffer (kept alive by the array), which it may still predict from
+            return image
+        image = image.copy()
     elif not gray and frame.format.name == "yuv420p" and frame.color_range != 2 and frame.width % 2 == 0 and frame.height % 2 == 0:
         # OpenCV's I420 -> BGR (BT.601, limited range) is about 4x faster than swscale here
         image = cv2.cvtColor(frame.to_ndarray(), cv2.COLOR_YUV2BGR_I420)

@@ -219,3 +219,16 @@ def test_bgr_frames_agree_with_ffmpegs_conversion(jittered):
                 reference = frame.to_ndarray(format="bgr24").astype(int)
                 break
     assert np.abs(ours - reference).max() <= 3
+
+
+def test_grey_frames_are_read_only_views_that_stay_intact(tmp_path):
+    """Grey frames are the decoder's luma buffer when its rows are unpadded (not a copy): read-only, and unchanged
+    by decoding further frames."""
+    clip = render_video(tmp_path / "wide.mp4", n_frames=60, seed=4, image_size=(640, 240))
+    kept = [f.image for f in iter_frames(clip.path, gray=True)][::10]
+    assert not kept[0].flags.writeable and kept[0].shape == (240, 640)
+    with pytest.raises(ValueError):
+        kept[0][0, 0] = 0
+    again = read_frames(clip.path, range(0, 60, 10), gray=True)
+    for image, index in zip(kept, range(0, 60, 10)):
+        np.testing.assert_array_equal(image, again[index].image)
