@@ -20,9 +20,9 @@ adds blobs and false lines):
 5. a second search without the winner's inliers measures the support of the
    best competing line (ambiguity, e.g. a periodic path).
 
-With a slope band (sync/slope.py: what the frame rates say), each
-hypothesis's slope is clipped into the band and the line kept through its
-first vote, so one inlier vote makes a good hypothesis (the count of eq. 4
+With a slope band (sync/slope.py: what the frame rates say), a
+hypothesis whose slope falls outside the band takes the band's middle (the
+nominal slope) and keeps the line through its first vote, so one inlier vote makes a good hypothesis (the count of eq. 4
 for one point, not two); polishing keeps the slope in the band.
 
 Deterministic for a seed.
@@ -124,9 +124,9 @@ def _group_starts(frame_sorted: np.ndarray) -> np.ndarray:
 def _hypotheses(rng, sample, frame, n, window, band):
     """n lines through pairs of votes (sorted by frame): half global pairs, half local ones.
 
-    band: (low, high) slopes, or None; with it, each slope is clipped into
-    the band (the band's middle for a pair of one sample) and the line goes
-    through the first vote of its pair.
+    band: (low, high) slopes, or None; with it, a slope outside the band
+    (or a pair of one sample) is replaced by the band's middle, and the line
+    goes through the first vote of its pair.
     """
     m = len(sample)
     i = rng.integers(m, size=n)
@@ -138,7 +138,7 @@ def _hypotheses(rng, sample, frame, n, window, band):
     usable = ds != 0
     alpha = np.divide(frame[j] - frame[i], ds, out=np.zeros(n), where=usable)
     if band is not None:
-        alpha = np.where(usable, np.clip(alpha, *band), 0.5 * (band[0] + band[1]))
+        alpha = np.where(usable & (alpha >= band[0]) & (alpha <= band[1]), alpha, 0.5 * (band[0] + band[1]))
         usable = np.ones(n, dtype=bool)
     usable &= alpha > 0
     alpha = alpha[usable]
