@@ -117,8 +117,15 @@ def candidate_votes(camera: Camera, detections: Detections, trajectory: Trajecto
     if len(detections) == 0:
         raise SyncError(f"camera {camera.name}: no moving object was detected in its video")
     projected = cKDTree(uv)
-    pairs = cKDTree(detections.xy).sparse_distance_matrix(projected, eps_px, output_type="ndarray")
-    if len(pairs) == 0:
+    radius = np.fmax(eps_px, 0.5 * np.hypot(detections.w, detections.h))
+    near = projected.query_ball_point(detections.xy, radius)
+    i = np.repeat(np.arange(len(detections)), [len(n) for n in near])
+    j = np.fromiter((k for n in near for k in n), dtype=np.int64, count=len(i))
+    offset = uv[j] - detections.xy[i]
+    dist = np.linalg.norm(offset, axis=1)
+    keep = (dist <= eps_px) | covers(offset, detections.w[i], detections.h[i])
+    pairs = {"i": i[keep], "j": j[keep], "v": dist[keep]}
+    if not keep.any():
         dist, _ = projected.query(detections.xy, k=1)
         k = int(np.argmin(dist))
         raise SyncError(
@@ -275,7 +282,7 @@ def identify_target(
     _, row_clock = detections_clock(detections, fps)
     vote_clock = row_clock[vote_rows]
     try:
-        search = find_line(votes.sample, vote_clock, votes.dist, delta, p, r_min, seed, group=detections.id[vote_rows], band=prior and prior.band)
+        search = find_line(votes.sample, vote_clock, votes.dist, delta, p, r_min, seed, group=detections.id[vote_rows], prior=prior)
     except ValueError as exc:
         raise SyncError(f"camera {camera.name}: {exc} ({len(votes)} votes from {np.unique(vote_rows).size} candidates)") from None
     path = PiecewiseTrajectory(trajectory)

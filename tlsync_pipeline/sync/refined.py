@@ -61,7 +61,7 @@ class RefinedMethod:
         votes, track = data.votes, data.track
         prior = slope_prior(data.fps, trajectory.rate, params.rate_sigma)
         try:
-            search = find_line(votes.sample, data.vote_clock, votes.dist, params.delta, params.p, options.r_min, params.seed, band=prior and prior.band)
+            search = find_line(votes.sample, data.vote_clock, votes.dist, params.delta, params.p, options.r_min, params.seed, prior=prior)
         except ValueError as exc:
             raise SyncError(f"camera {data.name}: {exc} ({len(votes)} votes)") from None
         start = np.zeros(len(track), dtype=bool)
