@@ -31,7 +31,7 @@ from tlsync_pipeline.pipeline.cache import (
     write_manifest,
 )
 from tlsync_pipeline.pipeline.codehash import code_digests
-from tlsync_pipeline.pipeline.executors import SerialExecutor
+from tlsync_pipeline.pipeline.executors import WORKER_CPU, SerialExecutor
 from tlsync_pipeline.pipeline.graph import PER_CAMERA, STAGES, Graph, Task, check_given
 from tlsync_pipeline.pipeline.lock import WorkLock
 from tlsync_pipeline.pipeline.workspace import FOLDERS, StageFiles
@@ -313,11 +313,15 @@ RUN_TIME = "run_time"  # key of a task's result holding (seconds, CPU seconds) o
 
 
 def run_task(run, files: StageFiles, params: dict) -> dict:
-    """Call a stage's function with its files and parameters (in whichever process the executor chose), timed there."""
+    """Call a stage's function with its files and parameters (in whichever process the executor chose), timed there.
+
+    Its CPU time includes what its parts used in the run's workers (a stage's WORKER_CPU result).
+    """
     start, cpu = time.perf_counter(), time.process_time()
     with files.running():
-        result = run(files, **params)
-    return {**(result or {}), RUN_TIME: (time.perf_counter() - start, time.process_time() - cpu)}
+        result = dict(run(files, **params) or {})
+    elsewhere = result.pop(WORKER_CPU, 0.0)  # its parts' CPU in the run's workers (executors.run_each)
+    return {**result, RUN_TIME: (time.perf_counter() - start, time.process_time() - cpu + elsewhere)}
 
 
 def _priority(task: Task) -> tuple:

@@ -202,16 +202,27 @@ class DaskExecutor:
             self.client.close()
 
 
+WORKER_CPU = "worker_cpu_s"  # result key: CPU seconds a part of a task used in another process (run_each)
+
+
 def run_each(executor, fn: Callable[..., dict], calls: list[dict]) -> list[dict]:
     """``fn(**kwargs)`` for each of ``calls`` on ``executor`` (in parallel on its workers), results in the calls' order.
 
     For a task of the engine's own process with independent parts (render's
     cameras): it hands them to the run's executor, so no pool is started
     inside another. Each result carries the users' warnings its call raised
-    (``warnings``); the first failed call's error is raised.
+    (``warnings``) and under WORKER_CPU the CPU seconds it used in another
+    process (0 in this one, whose CPU time counts it already), for the task
+    to add to its own; the first failed call's error is raised.
     """
-    futures = [executor.submit(fn, kwargs) for kwargs in calls]
+    futures = [executor.submit(_part, {"fn": fn, "kwargs": kwargs, "caller": os.getpid()}) for kwargs in calls]
     return [future.result() for future in futures]
+
+
+def _part(fn: Callable[..., dict], kwargs: dict, caller: int) -> dict:
+    start = time.process_time()
+    result = dict(fn(**kwargs) or {})
+    return {**result, WORKER_CPU: time.process_time() - start if os.getpid() != caller else 0.0}
 
 
 def make_executor(kind: str = "process", jobs: int | None = None, scheduler: Any = None):

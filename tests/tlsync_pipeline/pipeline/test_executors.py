@@ -106,7 +106,7 @@ def where_and_square(value):
 
 
 def test_run_each_hands_the_parts_to_the_runs_workers_in_order():
-    from tlsync_pipeline.pipeline.executors import ProcessExecutor, run_each
+    from tlsync_pipeline.pipeline.executors import WORKER_CPU, ProcessExecutor, run_each
 
     executor = ProcessExecutor(2)
     try:
@@ -115,6 +115,7 @@ def test_run_each_hands_the_parts_to_the_runs_workers_in_order():
         executor.close()
     assert [r["square"] for r in results] == [0, 1, 4, 9]
     assert all(r["pid"] != os.getpid() for r in results)  # in the pool's workers, not here
+    assert all(r[WORKER_CPU] >= 0.0 for r in results)  # their CPU, for the task to count as its own
     assert results[2]["warnings"] == ["part 2: a warning for users"] and "warnings" not in results[1]
     serial = run_each(SerialExecutor(), where_and_square, [{"value": 3}])
-    assert serial[0] == {"pid": os.getpid(), "square": 9}
+    assert serial[0] == {"pid": os.getpid(), "square": 9, WORKER_CPU: 0.0}  # this process's CPU time counts it already

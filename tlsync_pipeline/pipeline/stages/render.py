@@ -51,7 +51,7 @@ from tlsync_pipeline.outputs.report_content import Picture, ReportContent, Stage
 from tlsync_pipeline.outputs.report_html import report_html
 from tlsync_pipeline.outputs.report_md import report_markdown
 from tlsync_pipeline.outputs.summary import calibration_summary
-from tlsync_pipeline.pipeline.executors import SerialExecutor, run_each
+from tlsync_pipeline.pipeline.executors import WORKER_CPU, SerialExecutor, run_each
 from tlsync_pipeline.pipeline.spec import Sources, StageSpec
 from tlsync_pipeline.pipeline.stages.cameras import camera_files, camera_params
 from tlsync_pipeline.pipeline.stages.export import frame_count, frame_times
@@ -187,7 +187,14 @@ def run_render(
         tmp.write_text(report_html(content), encoding="utf-8")
     with files.write("report") as tmp:
         tmp.write_text(report_markdown(content), encoding="utf-8")
-    summary = {"outputs": [str(p) for p in written], "notes": notes, "report": str(files.output("report_html")), "frames": drawn, "removed": [p.name for p in removed]}
+    summary = {
+        "outputs": [str(p) for p in written],
+        "notes": notes,
+        "report": str(files.output("report_html")),
+        "frames": drawn,
+        "removed": [p.name for p in removed],
+        WORKER_CPU: sum(result[WORKER_CPU] for result in drawn_cameras),
+    }
     return {**summary, "warnings": list(dict.fromkeys(warnings))} if warnings else summary
 
 
