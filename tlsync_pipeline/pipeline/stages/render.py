@@ -129,9 +129,21 @@ def run_render(
 
     jobs = [
         CameraJob(
-            name, inputs[name], line, path_model, traj.rate, delta, cameras[name]["votes"], times[name], videos.get(name),
-            cameras[name].get("detections") if name in videos else None, requests.get(name, []),
-            (proxy or {}).get(name, "auto"), n_frames[name], out_dir, work,
+            name=name,
+            inputs=inputs[name],
+            line=line,
+            path_model=path_model,
+            rate=traj.rate,
+            delta=delta,
+            votes=cameras[name]["votes"],
+            times=times[name],
+            video=videos.get(name),
+            detections=cameras[name].get("detections") if name in videos else None,
+            requests=requests.get(name, []),
+            proxy=(proxy or {}).get(name, "auto"),
+            n_frames=n_frames[name],
+            out_dir=out_dir,
+            work=work,
         )
         for name, line in tl.cameras.items()
     ]
