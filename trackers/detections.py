@@ -69,8 +69,28 @@ class Detections:
 
 
 def follows_every_mover(kind: str, init, init_frame: int = 0) -> bool:
-    """Whether a tracker request means every mover (blob kind, no init box, from the first frame) rather than one target."""
+    """Whether a single-video request (``tlsync track-video``) means every mover (blob kind, no init box, from the first frame) rather than one target."""
     return kind == "blob" and init is None and init_frame == 0
+
+
+SEED_FRAMES = 5  # frames either side of the init frame where a mover in the init box is looked for
+
+
+def seed_tracklets(detections: Detections, box, init_frame: int) -> frozenset[int]:
+    """The tracklet an init box [x, y, w, h] (pixels, top-left corner and size) points at in ``init_frame`` (0-based).
+
+    The candidate whose centre lies inside the box, in the frame nearest
+    init_frame (within SEED_FRAMES), nearest the box centre; empty when no
+    mover is there (the target stood still, or the box is elsewhere).
+    """
+    x, y, w, h = (float(v) for v in box)
+    near = np.abs(detections.frame - init_frame) <= SEED_FRAMES
+    inside = near & (detections.x >= x) & (detections.x <= x + w) & (detections.y >= y) & (detections.y <= y + h)
+    rows = np.flatnonzero(inside)
+    if len(rows) == 0:
+        return frozenset()
+    order = np.lexsort((np.hypot(detections.x[rows] - (x + w / 2), detections.y[rows] - (y + h / 2)), np.abs(detections.frame[rows] - init_frame)))
+    return frozenset({int(detections.id[rows[order[0]]])})
 
 
 def make_detections(rows: list[tuple] | np.ndarray) -> Detections:
