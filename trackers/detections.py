@@ -59,6 +59,15 @@ class Detections:
         rows = rows[np.lexsort((self.id[rows], self.frame[rows]))]
         return Detections(*(getattr(self, c)[rows] for c in COLUMNS))
 
+    def matching(self, track: Track, tolerance_px: float = 0.01) -> np.ndarray:
+        """(N,) whether each row is a position of ``track`` (same frame, within tolerance_px): the rows an identified track was made of."""
+        out = np.zeros(len(self), dtype=bool)
+        where = np.searchsorted(track.frame, self.frame).clip(0, max(len(track) - 1, 0))
+        if len(track):
+            same = track.frame[where] == self.frame
+            out[same] = np.hypot(track.x[where[same]] - self.x[same], track.y[where[same]] - self.y[same]) <= tolerance_px
+        return out
+
     def to_track(self, rows: np.ndarray) -> Track:
         """A single-target Track from rows with at most one per frame (indices or boolean mask)."""
         chosen = self.subset(rows)

@@ -86,6 +86,9 @@ def test_identified_tracks_are_on_the_target(crowd_run):
         summary = timeline.cameras[name].identification
         assert summary.identified_frames == len(track)
         assert summary.support_frames > summary.runner_up_frames
+        pictures = directory / "work" / "render"
+        assert (pictures / f"movers_{name}.png").stat().st_size > 0 and (pictures / f"votes_movers_{name}.png").stat().st_size > 0
+        assert movers.matching(track).sum() == len(track)  # the identified track is made of detected movers
 
 
 def test_detections_brought_by_the_user_and_a_camera_without_the_path(two_walkers, tmp_path):

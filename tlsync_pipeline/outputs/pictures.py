@@ -116,6 +116,33 @@ def plot_votes(name: str, votes, line, delta: float, path: Path, times: FrameTim
     return _save_figure(fig, path)
 
 
+def plot_candidate_votes(name: str, votes, target: np.ndarray, line, delta: float, path: Path, times: FrameTimes | None = None) -> Path:
+    """The voting space of every mover of one camera: the other movers' votes, the identified target's, and the line.
+
+    target: (M,) whether each vote comes from a candidate of the identified
+    track; times: the camera's presentation times (for a presentation-time clock).
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    clock = line.clock.clock_at(votes.frame, times)
+    fig, ax = plt.subplots(figsize=(6, 4.5))
+    ax.scatter(votes.sample[~target], clock[~target], s=2, c="0.6", label=f"other movers' votes ({int((~target).sum())})", rasterized=True)
+    near = distance_to_line(votes.sample, clock, line.alpha, line.beta) <= delta
+    ax.scatter(votes.sample[target & ~near], clock[target & ~near], s=3, c="tab:blue", label=f"identified target's, off the line ({int((target & ~near).sum())})")
+    ax.scatter(votes.sample[target & near], clock[target & near], s=4, c="tab:red", label=f"identified target's, on the line ({int((target & near).sum())})")
+    xs = np.array([votes.sample.min(), votes.sample.max()]) if len(votes) else np.array([0.0, 1.0])
+    ax.plot(xs, line.alpha * xs + line.beta, "k-", lw=1, label=f"clock = {line.alpha:.4f} sample {line.beta:+.2f}")
+    ax.set_xlabel("target sample t_r")
+    ax.set_ylabel(f"{name}: time x fps (frames)" if line.clock.vfr else f"frame of {name} t_c")
+    ax.set_title(f"{name}: voting space of every mover")
+    ax.legend(loc="best", fontsize=8)
+    fig.tight_layout()
+    return _save_figure(fig, path)
+
+
 def plot_trajectory(name: str, camera, track, path_model: PiecewiseTrajectory, line, path: Path, times: FrameTimes | None = None) -> Path:
     """Tracked positions against the trajectory (the fit's model) projected at the aligned samples, in the image."""
     import matplotlib
