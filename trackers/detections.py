@@ -10,7 +10,6 @@ have several rows or none.
 
 from __future__ import annotations
 
-import csv
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -18,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from trackers.errors import TrackInputError
-from trackers.track import Track
+from trackers.track import Track, check_indices, read_table
 
 COLUMNS = ("frame", "time_s", "id", "x", "y", "w", "h", "score")
 REQUIRED_COLUMNS = ("frame", "id", "x", "y")
@@ -119,53 +118,14 @@ def read_detections(path: str | Path) -> Detections:
     Required columns: frame, id, x, y; time_s, w, h, score are optional.
     """
     path = Path(path)
-    try:
-        handle = path.open(newline="", encoding="utf-8")
-    except FileNotFoundError:
-        raise TrackInputError(f"{path}: file not found") from None
-    except OSError as exc:
-        raise TrackInputError(f"{path}: cannot read: {exc}") from None
-    with handle:
-        try:
-            rows = list(csv.reader(handle))
-        except (csv.Error, UnicodeDecodeError) as exc:
-            raise TrackInputError(f"{path}: not a readable CSV file: {exc}") from None
-    if not rows or not any(cell.strip() for cell in rows[0]):
-        raise TrackInputError(f"{path}: empty file; expected a header '{','.join(COLUMNS)}' and one row per detection")
-    header = [cell.strip() for cell in rows[0]]
-    missing = [c for c in REQUIRED_COLUMNS if c not in header]
-    if missing:
-        raise TrackInputError(f"{path}:1: header {','.join(header)!r} lacks column(s) {', '.join(missing)}; expected at least {','.join(REQUIRED_COLUMNS)}")
-    if len(set(header)) != len(header):
-        raise TrackInputError(f"{path}:1: duplicate column names in header {','.join(header)!r}")
-    defaults = {"time_s": math.nan, "w": math.nan, "h": math.nan, "score": 1.0}
-    index = {c: header.index(c) for c in COLUMNS if c in header}
-    values = []
-    for line_no, row in enumerate(rows[1:], start=2):
-        if not row or all(not cell.strip() for cell in row):
-            continue
-        if len(row) != len(header):
-            raise TrackInputError(f"{path}:{line_no}: expected {len(header)} fields, got {len(row)}")
-        record = []
-        for col in COLUMNS:
-            if col not in index:
-                record.append(defaults[col])
-                continue
-            text = row[index[col]]
-            try:
-                v = float(text)
-            except ValueError:
-                raise TrackInputError(f"{path}:{line_no}: column '{col}': not a number: {text!r}") from None
-            if not math.isfinite(v):
-                raise TrackInputError(f"{path}:{line_no}: column '{col}': {text} is not a finite number")
-            if col in ("frame", "id") and (v < 0 or v != int(v)):
-                what = "a 0-based integer frame index" if col == "frame" else "a non-negative integer tracklet id"
-                raise TrackInputError(f"{path}:{line_no}: column '{col}': expected {what}, got {text!r}")
-            record.append(v)
-        values.append(record)
-    if not values:
+    optional = tuple(c for c in COLUMNS if c not in REQUIRED_COLUMNS)
+    cols, lines = read_table(path, REQUIRED_COLUMNS, optional, f"a header '{','.join(COLUMNS)}' and one row per detection")
+    check_indices(path, "frame", cols["frame"], lines, "a 0-based integer frame index")
+    check_indices(path, "id", cols["id"], lines, "a non-negative integer tracklet id")
+    if len(lines) == 0:
         raise TrackInputError(f"{path}: no detection (a header but no row)")
-    detections = make_detections(values)
+    defaults = {"time_s": math.nan, "w": math.nan, "h": math.nan, "score": 1.0}
+    detections = make_detections(np.column_stack([cols[c] if c in cols else np.full(len(lines), defaults[c]) for c in COLUMNS]))
     pairs = detections.frame * (int(detections.id.max()) + 1) + detections.id
     dup = np.flatnonzero(np.diff(pairs) == 0)
     if len(dup):
