@@ -39,6 +39,7 @@ from tlsync_pipeline.outputs.pictures import (
     each_frame_once,
     pair_frames,
     plan_pair,
+    plot_candidate_votes,
     plot_trajectory,
     plot_votes,
     render_movers,
@@ -58,12 +59,13 @@ from tlsync_pipeline.pipeline.stages.export import frame_count, frame_times
 from tlsync_pipeline.pipeline.stages.sync import read_camera_inputs
 from tlsync_pipeline.pipeline.workspace import StageFiles
 from tlsync_pipeline.sync.clock import FrameTimes
+from tlsync_pipeline.sync.identify import candidate_votes
 from tlsync_pipeline.sync.methods import CameraInput
 from tlsync_pipeline.sync.registry import params_from_table
 from tlsync_pipeline.sync.synchronize import prepare_trajectory
 from tlsync_pipeline.sync.timeline import CameraLine, Timeline, read_timeline, read_truth
 from tlsync_pipeline.sync.votes import load_votes
-from tlsync_pipeline.trajectory import PiecewiseTrajectory, read_trajectory
+from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory, read_trajectory
 from trackers.detections import read_detections
 from trackers.video import presentation_times, probe_video
 
@@ -99,7 +101,9 @@ def run_render(
     """
     tl = read_timeline(files.path("timeline"))
     traj = read_trajectory(files.path("trajectory"))
-    path_model = PiecewiseTrajectory(prepare_trajectory(traj, params_from_table(tl.params)))
+    sync_params = params_from_table(tl.params)
+    prepared = prepare_trajectory(traj, sync_params)
+    path_model = PiecewiseTrajectory(prepared)
     names = cameras
     cameras = camera_files(files, cameras, fps)
     inputs = read_camera_inputs({n: c for n, c in cameras.items() if n in tl.cameras})
@@ -133,6 +137,8 @@ def run_render(
             inputs=inputs[name],
             line=line,
             path_model=path_model,
+            prepared=prepared,
+            eps_px=sync_params.eps_px,
             rate=traj.rate,
             delta=delta,
             votes=cameras[name]["votes"],
@@ -235,6 +241,8 @@ class CameraJob:
     inputs: CameraInput
     line: CameraLine
     path_model: PiecewiseTrajectory
+    prepared: Trajectory  # the trajectory the line was fitted to (path_model's), for every mover's votes
+    eps_px: float
     rate: float | None
     delta: float
     votes: Path
@@ -286,6 +294,9 @@ def draw_camera(job: CameraJob) -> dict:
         if movers is not None:
             made.append(render_movers(images[movers_frame], movers_frame, movers, track, job.inputs.camera, job.path_model, line, job.times, job.out_dir / f"movers_{name}.png"))
             titles.append("every mover, the identified target and the projected path")
+            votes, rows = candidate_votes(job.inputs.camera, movers, job.prepared, job.eps_px)
+            made.append(plot_candidate_votes(name, votes, movers.matching(track)[rows], line, job.delta, job.out_dir / f"votes_movers_{name}.png", job.times))
+            titles.append("voting space of every mover")
     pictures = [(_photo if title.startswith("band swap") else _picture)(title, path, job.work) for title, path in zip(titles, made)]
     player, proxy = player_video(job)
     return {"pictures": pictures, "written": made, "panels": panels, "player": player, "proxy": proxy}
