@@ -113,8 +113,9 @@ class BlobDetector:
         p = self.params
         s = self.scale
         small = self._shrink(gray).astype(np.float32)
-        mean_frame = cv2.mean(small, self.background_mask)[0]
-        mean_bg = cv2.mean(self.bg, self.background_mask)[0]
+        # the gain from every other row (a strided view OpenCV reads in place) is as good and half the work
+        mean_frame = cv2.mean(small[::2], self.background_mask[::2])[0]
+        mean_bg = cv2.mean(self.bg[::2], self.background_mask[::2])[0]
         gain = mean_frame / mean_bg if mean_bg > 0 else 1.0
         diff = cv2.scaleAdd(self.bg, -gain, small)
         absdiff = np.abs(diff)
@@ -189,22 +190,19 @@ class BlobDetector:
         fx0, fy0, fx1, fy1 = gx0 * s, gy0 * s, gx1 * s, gy1 * s
         if s > 1:
             support = cv2.resize(support, (fx1 - fx0, fy1 - fy0), interpolation=cv2.INTER_NEAREST)
-        d = cv2.scaleAdd(self.bg_full[fy0:fy1, fx0:fx1], -gain, gray[fy0:fy1, fx0:fx1].astype(np.float32))
-        if polarity < 0:
-            np.negative(d, out=d)
-        d[support == 0] = 0.0
-        top = _upper_decile(d)
+        d = cv2.addWeighted(gray[fy0:fy1, fx0:fx1], polarity, self.bg_full[fy0:fy1, fx0:fx1], -polarity * gain, 0.0, dtype=cv2.CV_32F)
+        top = _upper_decile(d[::2], support[::2])  # every other row: as good an estimate, half the work
         if top is None:
             return None
         low = max(0.25 * top, 3.0 * self.noise)
         high = 0.6 * top
         if high <= low:
             return None
-        # weight = clip((d - low) / (high - low), 0, 1), as moments of d - low clipped to [0, high - low]
+        # weight = clip((d - low) / (high - low), 0, 1) on the support, as moments of d - low clipped to [0, high - low]
         d -= low
         cv2.threshold(d, 0.0, 0.0, cv2.THRESH_TOZERO, dst=d)
         cv2.threshold(d, high - low, 0.0, cv2.THRESH_TRUNC, dst=d)
-        moments = cv2.moments(d)
+        moments = cv2.moments(cv2.copyTo(d, support))
         if moments["m00"] <= 0:
             return None
         cx = fx0 + moments["m10"] / moments["m00"]
@@ -215,15 +213,25 @@ class BlobDetector:
 _KERNEL3 = np.ones((3, 3), np.uint8)
 
 
-def _upper_decile(values: np.ndarray) -> float | None:
-    """The 90th percentile of the positive values (linear interpolation), None if there are none."""
-    positive = values[values > 0]
-    if positive.size == 0:
+_DECILE_BINS = 2048  # histogram of the differences for their 90th percentile: quarter grey levels
+_DECILE_RANGE = (2.0**-20, 512.0)  # positive values only
+
+
+def _upper_decile(values: np.ndarray, mask: np.ndarray) -> float | None:
+    """The 90th percentile of the positive float32 values where mask is set (to about 1/4 grey level); None if there are none.
+
+    A histogram (one pass in OpenCV) costs a fraction of selecting the
+    positive values and partitioning them in numpy.
+    """
+    hist = cv2.calcHist([values], [0], mask, [_DECILE_BINS], _DECILE_RANGE).ravel()
+    cumulative = np.cumsum(hist)
+    if cumulative[-1] <= 0:
         return None
-    rank = 0.9 * (positive.size - 1)
-    k = int(rank)
-    part = np.partition(positive, (k, min(k + 1, positive.size - 1)))
-    return float(part[k] + (rank - k) * (part[min(k + 1, positive.size - 1)] - part[k]))
+    rank = 0.9 * (cumulative[-1] - 1) + 0.5  # numpy's linear rank 0.9 (n - 1), as a position in the counts
+    k = int(np.searchsorted(cumulative, rank))
+    below = cumulative[k] - hist[k]
+    width = (_DECILE_RANGE[1] - _DECILE_RANGE[0]) / _DECILE_BINS
+    return float(_DECILE_RANGE[0] + (k + (rank - below) / hist[k]) * width)
 
 
 @dataclass
