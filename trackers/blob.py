@@ -129,8 +129,9 @@ class BlobDetector:
             keep = keep[keep > 0]
             if len(keep) > p.max_candidates:
                 keep = keep[:0]  # a global change (light switched, camera bumped): no trustworthy blob
+            signed_and_abs = cv2.merge([diff, absdiff]) if len(keep) else None
             for i in keep.tolist():
-                blob = self._refine(gray, labels, i, stats[i], diff, absdiff, (rx, ry), gain)
+                blob = self._refine(gray, labels, i, stats[i], signed_and_abs, (rx, ry), gain)
                 if blob is not None:
                     blobs.append(blob)
         # learn the background where there is no foreground (dilated)
@@ -172,17 +173,20 @@ class BlobDetector:
             return 0.0
         return float(np.count_nonzero(self.mask[y0:y1, x0:x1])) / ((x1 - x0) * (y1 - y0))
 
-    def _refine(self, gray, labels, label, stat, diff, absdiff, offset, gain) -> Blob | None:
-        """The component ``label`` (labels and stat of the region starting at small pixel ``offset``) refined at full resolution."""
+    def _refine(self, gray, labels, label, stat, signed_and_abs, offset, gain) -> Blob | None:
+        """The component ``label`` (labels and stat of the region starting at small pixel ``offset``) refined at full resolution.
+
+        signed_and_abs: the small frame's difference to the background and its absolute value, as two channels.
+        """
         s = self.scale
         x, y, bw, bh, area = (int(v) for v in stat)
         x0, y0 = x + offset[0], y + offset[1]  # the component's box in the whole small frame
         own = (labels[y : y + bh, x : x + bw] == label).view(np.uint8)
-        polarity = 1 if cv2.mean(diff[y0 : y0 + bh, x0 : x0 + bw], own)[0] >= 0 else -1
-        contrast = cv2.mean(absdiff[y0 : y0 + bh, x0 : x0 + bw], own)[0]
-        # the component's box grown by two small pixels (clipped to the frame), dilated by one
-        gx0, gy0 = max(0, x0 - 2), max(0, y0 - 2)
-        gx1, gy1 = min(self.small_size[0], x0 + bw + 2), min(self.small_size[1], y0 + bh + 2)
+        mean_diff, contrast = cv2.mean(signed_and_abs[y0 : y0 + bh, x0 : x0 + bw], own)[:2]
+        polarity = 1 if mean_diff >= 0 else -1
+        # the component dilated by one small pixel, in its box grown by one (clipped to the frame)
+        gx0, gy0 = max(0, x0 - 1), max(0, y0 - 1)
+        gx1, gy1 = min(self.small_size[0], x0 + bw + 1), min(self.small_size[1], y0 + bh + 1)
         support = np.zeros((gy1 - gy0, gx1 - gx0), np.uint8)
         support[y0 - gy0 : y0 - gy0 + bh, x0 - gx0 : x0 - gx0 + bw] = own
         support = cv2.dilate(support, _KERNEL3)
@@ -199,10 +203,10 @@ class BlobDetector:
         if high <= low:
             return None
         # weight = clip((d - low) / (high - low), 0, 1) on the support, as moments of d - low clipped to [0, high - low]
-        d -= low
-        cv2.threshold(d, 0.0, 0.0, cv2.THRESH_TOZERO, dst=d)
-        cv2.threshold(d, high - low, 0.0, cv2.THRESH_TRUNC, dst=d)
-        moments = cv2.moments(cv2.copyTo(d, support))
+        w = cv2.subtract(d, low, dst=np.zeros_like(d), mask=support)
+        cv2.threshold(w, 0.0, 0.0, cv2.THRESH_TOZERO, dst=w)
+        cv2.threshold(w, high - low, 0.0, cv2.THRESH_TRUNC, dst=w)
+        moments = cv2.moments(w)
         if moments["m00"] <= 0:
             return None
         cx = fx0 + moments["m10"] / moments["m00"]
@@ -213,12 +217,12 @@ class BlobDetector:
 _KERNEL3 = np.ones((3, 3), np.uint8)
 
 
-_DECILE_BINS = 2048  # histogram of the differences for their 90th percentile: quarter grey levels
+_DECILE_BINS = 512  # histogram of the differences for their 90th percentile: grey levels
 _DECILE_RANGE = (2.0**-20, 512.0)  # positive values only
 
 
 def _upper_decile(values: np.ndarray, mask: np.ndarray) -> float | None:
-    """The 90th percentile of the positive float32 values where mask is set (to about 1/4 grey level); None if there are none.
+    """The 90th percentile of the positive float32 values where mask is set (to about a grey level); None if there are none.
 
     A histogram (one pass in OpenCV) costs a fraction of selecting the
     positive values and partitioning them in numpy.
