@@ -34,6 +34,8 @@ from tlsync_pipeline.errors import SyncError
 from tlsync_pipeline.sync.clock import CameraClock, FrameTimes, camera_clock
 from tlsync_pipeline.sync.line_search import LineSearch, find_line
 from tlsync_pipeline.sync.refine import MIN_FRAMES, refine_line
+from tlsync_pipeline.sync.slope import SlopePrior
+from tlsync_pipeline.sync.target_size import depth, sizes_in_metres
 from tlsync_pipeline.sync.timeline import IdentificationSummary, TrackletShare
 from tlsync_pipeline.sync.votes import Votes
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
@@ -44,7 +46,10 @@ FOLLOW_WEIGHT = 2.0
 MAX_ROUNDS = 5
 R_MIN = 0.01  # smallest inlier ratio (of thinned votes) the line search over every candidate must find
 F_SCALE_PX = 3.0  # robust loss scale of the refinement on the assigned candidates
-MIN_FOLLOW_SHARE = 0.3  # a tracklet "follows" the path when this share of its frames is within the gate
+MIN_FOLLOW_SHARE = 0.3  # a tracklet "follows" the path around a frame when this share of its frames there is near the path
+FOLLOW_WINDOW_S = 2.0  # seconds either side of a frame over which a tracklet's following is judged
+FOLLOW_WINDOW_FRAMES = 20  # the same, in frames, for a camera of unknown fps
+UNSEEN_ROWS = 2  # rows off the path every tracklet's following share starts with
 SIZE_TOLERANCE = 1.35  # an assigned candidate whose size in metres departs from the track's median by more than this factor is left out
 
 
@@ -112,8 +117,15 @@ def candidate_votes(camera: Camera, detections: Detections, trajectory: Trajecto
     if len(detections) == 0:
         raise SyncError(f"camera {camera.name}: no moving object was detected in its video")
     projected = cKDTree(uv)
-    pairs = cKDTree(detections.xy).sparse_distance_matrix(projected, eps_px, output_type="ndarray")
-    if len(pairs) == 0:
+    radius = np.fmax(eps_px, 0.5 * np.hypot(detections.w, detections.h))
+    near = projected.query_ball_point(detections.xy, radius)
+    i = np.repeat(np.arange(len(detections)), [len(n) for n in near])
+    j = np.fromiter((k for n in near for k in n), dtype=np.int64, count=len(i))
+    offset = uv[j] - detections.xy[i]
+    dist = np.linalg.norm(offset, axis=1)
+    keep = (dist <= eps_px) | covers(offset, detections.w[i], detections.h[i])
+    pairs = {"i": i[keep], "j": j[keep], "v": dist[keep]}
+    if not keep.any():
         dist, _ = projected.query(detections.xy, k=1)
         k = int(np.argmin(dist))
         raise SyncError(
@@ -124,17 +136,27 @@ def candidate_votes(camera: Camera, detections: Detections, trajectory: Trajecto
     return Votes(detections.frame[rows].astype(np.float64), sample[pairs["j"]], pairs["v"].astype(np.float64)), rows
 
 
-def distances_to_path(camera: Camera, path: PiecewiseTrajectory, clock: np.ndarray, xy: np.ndarray, alpha: float, beta: float) -> np.ndarray:
-    """Pixel distance of each candidate to the trajectory's projection at its frame's time on the line (inf off the path)."""
+def offsets_to_path(camera: Camera, path: PiecewiseTrajectory, clock: np.ndarray, xy: np.ndarray, alpha: float, beta: float) -> np.ndarray:
+    """(N, 2) pixel offset from each candidate to the trajectory's projection at its frame's time on the line (inf off the path)."""
     s = (clock - beta) / alpha
     run = path.run_of(s)
     on = run >= 0
-    out = np.full(len(clock), np.inf)
+    out = np.full((len(clock), 2), np.inf)
     if on.any():
         uv, valid = camera.project(path(s[on], run[on]))
         where = np.flatnonzero(on)[valid]
-        out[where] = np.linalg.norm(uv[valid] - xy[where], axis=1)
+        out[where] = uv[valid] - xy[where]
     return out
+
+
+def covers(offset: np.ndarray, w: np.ndarray, h: np.ndarray) -> np.ndarray:
+    """Whether the projection lies inside each candidate's box (w, h pixels around its centre; False without a size).
+
+    A blob merged with a passer-by, or cut by an occluder, has its centre
+    off the target's, but its box still holds the target.
+    """
+    with np.errstate(invalid="ignore"):
+        return (np.abs(offset[:, 0]) <= w / 2) & (np.abs(offset[:, 1]) <= h / 2)
 
 
 def consistent_size(camera: Camera, path: PiecewiseTrajectory, clock: np.ndarray, w: np.ndarray, h: np.ndarray, alpha: float, beta: float) -> np.ndarray:
@@ -147,11 +169,11 @@ def consistent_size(camera: Camera, path: PiecewiseTrajectory, clock: np.ndarray
     """
     s = (clock - beta) / alpha
     run = path.run_of(s)
-    depth = np.full(len(clock), np.nan)
+    z = np.full(len(clock), np.nan)
     on = run >= 0
     if on.any():
-        depth[on] = (path(s[on], run[on]) @ camera.R.T + camera.t)[:, 2]
-    metres = np.column_stack([w * depth / camera.K[0, 0], h * depth / camera.K[1, 1]])
+        z[on] = depth(camera, path(s[on], run[on]))
+    metres = sizes_in_metres(camera, w, h, z)
     known = np.isfinite(metres).all(axis=1) & (metres > 0).all(axis=1)
     keep = np.ones(len(clock), bool)
     if known.sum() >= MIN_FRAMES:
@@ -160,30 +182,75 @@ def consistent_size(camera: Camera, path: PiecewiseTrajectory, clock: np.ndarray
     return keep
 
 
-def assign_target(frame: np.ndarray, tracklet: np.ndarray, distance: np.ndarray, gate_px: float, prefer: frozenset[int] = frozenset()) -> tuple[np.ndarray, dict[int, float]]:
-    """Rows chosen as the target (at most one per frame) and each tracklet's share of its on-path rows within the gate.
+@dataclass(frozen=True)
+class Assignment:
+    """Rows chosen as the target (at most one per frame, ascending); share: each tracklet's share of its on-path rows near the path;
+    local: per detection row, its tracklet's share within +-window frames of it, counting UNSEEN_ROWS more rows off the path
+    (one row near the path is weak evidence of following it; twenty in a row are strong)."""
 
-    A tracklet's share counts only its rows where the path projects (finite
-    distance). ``prefer``: tracklet ids known to be the target (an init box),
-    counted as following the path fully.
+    rows: np.ndarray
+    share: dict[int, float]
+    local: np.ndarray
+
+
+def assign_target(
+    frame: np.ndarray,
+    tracklet: np.ndarray,
+    distance: np.ndarray,
+    gate_px: float,
+    prefer: frozenset[int] = frozenset(),
+    inside: np.ndarray | None = None,
+    window: float | None = None,
+) -> Assignment:
+    """The target's candidate in each frame: near the path, preferring tracklets that follow it.
+
+    A row is near the path when within ``gate_px`` of the projection or, with
+    ``inside``, when its box holds the projection. Shares count only rows
+    where the path projects (finite distance). window: frames (camera
+    clock) either side over which a tracklet's share is taken for the cost
+    (None: its whole length), so a tracklet that swaps from the target to a
+    passer-by keeps the target's stretch. ``prefer``: tracklet ids known to
+    be the target (an init box), counted as following the path fully.
     """
     near = distance <= gate_px
+    if inside is not None:
+        near |= inside
     on_path = np.isfinite(distance)
     ids, inverse = np.unique(tracklet, return_inverse=True)
     within = np.bincount(inverse, weights=near, minlength=len(ids))
     total = np.bincount(inverse, weights=on_path, minlength=len(ids))
     share = np.divide(within, total, out=np.zeros(len(ids)), where=total > 0)
-    for k, i in enumerate(ids):
-        if int(i) in prefer:
-            share[k] = 1.0
+    if window is None:
+        local = (within / (total + UNSEEN_ROWS))[inverse]
+    else:
+        local = _windowed_share(frame, inverse, near, on_path, window)
+    preferred = np.isin(tracklet, list(prefer))
+    share[np.isin(ids, list(prefer))] = 1.0
+    local[preferred] = 1.0
+    shares = dict(zip(ids.tolist(), share.tolist()))
     candidates = np.flatnonzero(near)
     if len(candidates) == 0:
-        return candidates, dict(zip(ids.tolist(), share.tolist()))
-    cost = distance[candidates] / gate_px + FOLLOW_WEIGHT * (1.0 - share[inverse[candidates]])
+        return Assignment(candidates, shares, local)
+    cost = np.minimum(distance[candidates] / gate_px, 1.0) + FOLLOW_WEIGHT * (1.0 - local[candidates])
     order = np.lexsort((cost, frame[candidates]))
     ranked = candidates[order]
     first = np.r_[True, frame[ranked][1:] != frame[ranked][:-1]]
-    return np.sort(ranked[first]), dict(zip(ids.tolist(), share.tolist()))
+    return Assignment(np.sort(ranked[first]), shares, local)
+
+
+def _windowed_share(frame: np.ndarray, group: np.ndarray, near: np.ndarray, on_path: np.ndarray, window: float) -> np.ndarray:
+    """Per row: near rows / (on-path rows + UNSEEN_ROWS) of its group within +-window frames of it."""
+    order = np.lexsort((frame, group))
+    f, g = frame[order].astype(np.float64), group[order].astype(np.float64)
+    key = g * (float(f.max() - f.min()) + 2 * window + 1) + (f - f.min())
+    near_sum = np.r_[0.0, np.cumsum(near[order])]
+    path_sum = np.r_[0.0, np.cumsum(on_path[order])]
+    lo = np.searchsorted(key, key - window, side="left")
+    hi = np.searchsorted(key, key + window, side="right")
+    within, total = near_sum[hi] - near_sum[lo], path_sum[hi] - path_sum[lo]
+    out = np.empty(len(frame))
+    out[order] = within / (total + UNSEEN_ROWS)
+    return out
 
 
 def identify_target(
@@ -199,11 +266,13 @@ def identify_target(
     f_scale_px: float = F_SCALE_PX,
     gate_px: float | None = None,
     prefer: frozenset[int] = frozenset(),
+    prior: SlopePrior | None = None,
 ) -> Identification:
     """The target's track among every candidate (see the module docstring).
 
     gate_px: assignment gate around the projected path (default eps_px);
-    prefer: tracklet ids an init box says are the target. Raises SyncError
+    prefer: tracklet ids an init box says are the target; prior: what the
+    frame rates say about the slope (sync/slope.py), or None. Raises SyncError
     (naming the camera and why) when the projected path never enters the
     image, no candidate comes near it, no line is found, or no tracklet
     follows the path.
@@ -213,35 +282,40 @@ def identify_target(
     _, row_clock = detections_clock(detections, fps)
     vote_clock = row_clock[vote_rows]
     try:
-        search = find_line(votes.sample, vote_clock, votes.dist, delta, p, r_min, seed, group=detections.id[vote_rows])
+        search = find_line(votes.sample, vote_clock, votes.dist, delta, p, r_min, seed, group=detections.id[vote_rows], prior=prior)
     except ValueError as exc:
         raise SyncError(f"camera {camera.name}: {exc} ({len(votes)} votes from {np.unique(vote_rows).size} candidates)") from None
     path = PiecewiseTrajectory(trajectory)
+    window = FOLLOW_WINDOW_S * fps if fps else FOLLOW_WINDOW_FRAMES
     alpha, beta = search.alpha, search.beta
-    chosen, share = np.zeros(0, np.int64), {}
+    chosen = np.zeros(0, np.int64)
     rounds = 0
     for rounds in range(1, MAX_ROUNDS + 1):
-        distance = distances_to_path(camera, path, row_clock, detections.xy, alpha, beta)
-        new, share = assign_target(detections.frame, detections.id, distance, gate, prefer)
+        offset = offsets_to_path(camera, path, row_clock, detections.xy, alpha, beta)
+        distance = np.linalg.norm(offset, axis=1)
+        assignment = assign_target(detections.frame, detections.id, distance, gate, prefer, covers(offset, detections.w, detections.h), window)
+        new = assignment.rows[distance[assignment.rows] <= gate]
         new = new[consistent_size(camera, path, row_clock[new], detections.w[new], detections.h[new], alpha, beta)]
         settled = np.array_equal(new, chosen)
         chosen = new
         if settled or len(chosen) < MIN_FRAMES:
             break
         try:
-            refinement = refine_line(camera, row_clock[chosen], detections.xy[chosen], path, alpha, beta, np.ones(len(chosen), bool), f_scale_px, gate)
+            box = np.column_stack([detections.w[chosen], detections.h[chosen]])
+            refinement = refine_line(camera, row_clock[chosen], detections.xy[chosen], path, alpha, beta, np.ones(len(chosen), bool), f_scale_px, gate, prior=prior, box=box)
         except ValueError:
             break
         if not refinement.converged:
             break
         alpha, beta = refinement.alpha, refinement.beta
-    used = set(detections.id[chosen].tolist())
-    following = [i for i, s in share.items() if s >= MIN_FOLLOW_SHARE and i in used]
-    if len(chosen) < MIN_FRAMES or not following:
+    share = assignment.share
+    following = int((assignment.local[chosen] >= MIN_FOLLOW_SHARE).sum())
+    if following < MIN_FRAMES:
         best = max(share.values(), default=0.0)
         raise SyncError(
             f"camera {camera.name}: no tracklet follows the target's projected path "
-            f"({len(chosen)} frames have a candidate within {gate:g} px of it; the best tracklet stays within the gate in {100 * best:.0f} % of its frames)"
+            f"({len(chosen)} frames have a candidate within {gate:g} px of it, {following} of them on a tracklet that stays near it "
+            f"over +-{window:g} frames; the best tracklet stays near it in {100 * best:.0f} % of its frames)"
         )
     ids, counts = np.unique(detections.id[chosen], return_counts=True)
     lengths = {int(i): int(n) for i, n in zip(*np.unique(detections.id, return_counts=True))}

@@ -20,6 +20,14 @@ adds blobs and false lines):
 5. a second search without the winner's inliers measures the support of the
    best competing line (ambiguity, e.g. a periodic path).
 
+With a slope prior (sync/slope.py: what the frame rates say), a
+hypothesis whose slope falls outside the prior's band takes the nominal
+slope and keeps the line through its first vote, so one inlier vote makes
+a good hypothesis (the count of eq. 4 for one point, not two); polishing
+is then least squares with the prior as one more equation (its weight: the
+variance of votes within the inlier band over the prior's variance), the
+slope kept in the band.
+
 Deterministic for a seed.
 """
 
@@ -31,6 +39,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from tlsync_pipeline.sync.ransac import distance_to_line, least_squares_line
+from tlsync_pipeline.sync.slope import SlopePrior
 
 BATCH = 1024  # hypotheses scored per batch
 MAX_HYPOTHESES = 60_000
@@ -116,8 +125,13 @@ def _group_starts(frame_sorted: np.ndarray) -> np.ndarray:
     return np.flatnonzero(np.r_[True, frame_sorted[1:] != frame_sorted[:-1]])
 
 
-def _hypotheses(rng, sample, frame, n, window):
-    """n lines through pairs of votes (sorted by frame): half global pairs, half local ones."""
+def _hypotheses(rng, sample, frame, n, window, prior):
+    """n lines through pairs of votes (sorted by frame): half global pairs, half local ones.
+
+    prior: a SlopePrior, or None; with it, a slope outside its band (or a
+    pair of one sample) is replaced by the nominal slope, and the line goes
+    through the first vote of its pair.
+    """
     m = len(sample)
     i = rng.integers(m, size=n)
     j = rng.integers(m, size=n)
@@ -127,12 +141,16 @@ def _hypotheses(rng, sample, frame, n, window):
     ds = sample[j] - sample[i]
     usable = ds != 0
     alpha = np.divide(frame[j] - frame[i], ds, out=np.zeros(n), where=usable)
+    if prior is not None:
+        low, high = prior.band
+        alpha = np.where(usable & (alpha >= low) & (alpha <= high), alpha, prior.alpha)
+        usable = np.ones(n, dtype=bool)
     usable &= alpha > 0
     alpha = alpha[usable]
     return alpha, frame[i[usable]] - alpha * sample[i[usable]]
 
 
-def _search(rng, sample, frame, delta, p, r_min):
+def _search(rng, sample, frame, delta, p, r_min, prior):
     """Best line over votes sorted by frame: (alpha, beta, support, hypotheses drawn)."""
     m = len(sample)
     if m > SCORE_SUBSET:
@@ -142,11 +160,12 @@ def _search(rng, sample, frame, delta, p, r_min):
     s_sub, f_sub = sample[subset], frame[subset]
     starts_sub = _group_starts(f_sub)
     window = max(5, m // 50)
-    needed = min(MAX_HYPOTHESES, _iterations(p, r_min))
+    points = 1 if prior is not None else 2
+    needed = min(MAX_HYPOTHESES, _iterations(p, r_min, points))
     drawn, best_count = 0, 0
     pool_a, pool_b, pool_s = [], [], []
     while drawn < max(BATCH, min(needed, MAX_HYPOTHESES)):
-        a, b = _hypotheses(rng, sample, frame, BATCH, window)
+        a, b = _hypotheses(rng, sample, frame, BATCH, window, prior)
         drawn += BATCH
         if len(a) == 0:
             continue
@@ -158,7 +177,7 @@ def _search(rng, sample, frame, delta, p, r_min):
         best_count = max(best_count, int(counts[top[0]]))
         # The inlier ratio of the best line so far sets how many draws are needed (eq. 4).
         ratio = max(best_count / len(starts_sub), r_min)
-        needed = min(needed, _iterations(p, min(ratio, 0.999)) * 2)
+        needed = min(needed, _iterations(p, min(ratio, 0.999), points) * 2)
     if not pool_a:
         return None
     a, b, s = np.concatenate(pool_a), np.concatenate(pool_b), np.concatenate(pool_s)
@@ -166,38 +185,66 @@ def _search(rng, sample, frame, delta, p, r_min):
     starts = _group_starts(frame)
     best = None
     for alpha, beta in zip(a[top], b[top]):
-        alpha, beta = _polish(sample, frame, float(alpha), float(beta), delta)
+        alpha, beta = _polish(sample, frame, float(alpha), float(beta), delta, prior)
         score = int(_score(sample, frame, starts, np.array([alpha]), np.array([beta]), delta)[0])
         if best is None or score > best[2]:
             best = (alpha, beta, score)
     return best[0], best[1], best[2], drawn
 
 
-def _iterations(p: float, r: float) -> int:
-    return max(1, math.ceil(math.log(1 - p) / math.log(1 - r * r)))
+def _iterations(p: float, r: float, points: int = 2) -> int:
+    """Hypotheses needed to draw ``points`` inliers at once with probability p at inlier ratio r (eq. 4)."""
+    return max(1, math.ceil(math.log(1 - p) / math.log(1 - r**points)))
 
 
-def _polish(sample, frame, alpha, beta, delta):
-    """Least squares on the inliers, widened then narrowed, until the set settles (LO-RANSAC)."""
+def _polish(sample, frame, alpha, beta, delta, prior=None):
+    """Least squares on the inliers, widened then narrowed, until the set settles (LO-RANSAC); with the prior, a MAP fit kept in its band."""
     for threshold in (2 * delta, delta, delta, delta):
         inlier = distance_to_line(sample, frame, alpha, beta) <= threshold
         if len(np.unique(sample[inlier])) < 2:
             break
-        a, b = least_squares_line(sample[inlier], frame[inlier])
+        if prior is None:
+            a, b = least_squares_line(sample[inlier], frame[inlier])
+        else:
+            a, b = _map_line(sample[inlier], frame[inlier], prior, delta)
         if not a > 0:
             break
         alpha, beta = a, b
     return alpha, beta
 
 
+def _map_line(sample, frame, prior: SlopePrior, delta: float) -> tuple[float, float]:
+    """Least squares line with the slope prior as one more equation, the slope then kept in the prior's band.
+
+    Weight of the prior: the variance of a vote uniform in the inlier band
+    (delta^2 / 3) over the prior's variance (sigma x alpha)^2.
+    """
+    weight = delta**2 / 3 / (prior.sigma * prior.alpha) ** 2
+    s_mean, f_mean = sample.mean(), frame.mean()
+    ds, df = sample - s_mean, frame - f_mean
+    a = (ds @ df + weight * prior.alpha) / (ds @ ds + weight)
+    a = float(np.clip(a, *prior.band))
+    return a, float(f_mean - a * s_mean)
+
+
 def find_line(
-    sample: np.ndarray, frame: np.ndarray, dist: np.ndarray, delta: float = 0.5, p: float = 0.99, r_min: float = 0.01, seed: int = 0, group: np.ndarray | None = None
+    sample: np.ndarray,
+    frame: np.ndarray,
+    dist: np.ndarray,
+    delta: float = 0.5,
+    p: float = 0.99,
+    r_min: float = 0.01,
+    seed: int = 0,
+    group: np.ndarray | None = None,
+    prior: SlopePrior | None = None,
 ) -> LineSearch:
     """The line frame = alpha * sample + beta best supported by the votes.
 
     r_min: the smallest inlier ratio (of thinned votes) the search must
     find with probability p; group: the object each vote comes from when
-    several candidates vote per frame (thinning is per object). Raises ValueError when no increasing line
+    several candidates vote per frame (thinning is per object); prior:
+    what the frame rates say about the slope (sync/slope.py), or None for
+    any increasing line. Raises ValueError when no increasing line
     exists (fewer than 2 distinct samples, or votes that never move forward).
     """
     sample = np.asarray(sample, dtype=np.float64)
@@ -209,7 +256,7 @@ def find_line(
     kept = thin_votes(sample, frame, dist, None if group is None else np.asarray(group))
     kept = kept[np.lexsort((sample[kept], frame[kept]))]
     ts, tf = sample[kept], frame[kept]
-    found = _search(rng, ts, tf, delta, p, r_min)
+    found = _search(rng, ts, tf, delta, p, r_min, prior)
     if found is None:
         raise ValueError("no increasing line through any two votes: the votes do not move forward in time")
     alpha, beta, support, drawn = found
@@ -217,7 +264,7 @@ def find_line(
     runner_up = 0
     rest = ~on_line
     if rest.sum() >= 2 and len(np.unique(ts[rest])) >= 2:
-        second = _search(rng, ts[rest], tf[rest], delta, p, r_min)
+        second = _search(rng, ts[rest], tf[rest], delta, p, r_min, prior)
         if second is not None:
             runner_up = second[2]
     inliers = distance_to_line(sample, frame, alpha, beta) <= delta

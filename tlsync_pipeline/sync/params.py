@@ -34,7 +34,11 @@ class SyncParams:
 
     eps_px: vote radius (pixels, eq. 3); delta: inlier band around a line in
     the voting space (orthogonal distance, frames); p: probability that the
-    line fit draws a good hypothesis (eq. 4); seed: random seed; method: a
+    line fit draws a good hypothesis (eq. 4); seed: random seed; rate_sigma:
+    relative std of a camera's true frame rate against its stated fps (the
+    refined method and identification keep each line's slope near fps / log
+    rate, sync/slope.py; 0: free slope, e.g. a time-lapse video whose fps
+    is not its capture rate); method: a
     registered method's name; options: method name -> that method's own
     parameters (an instance of its ``params_type``); a method not listed
     runs with its defaults.
@@ -44,5 +48,6 @@ class SyncParams:
     delta: float = param(0.5, "positive")
     p: float = param(0.99, "probability")
     seed: int = param(0, "integer")
+    rate_sigma: float = param(0.001, "non_negative")
     method: str = "refined"
     options: dict[str, Any] = field(default_factory=dict)

@@ -21,6 +21,12 @@ whose sigmas are small against the tracker's pixel noise is fitted as
 without weights; a noisy stretch (a float or single solution among RTK
 fixes) counts less.
 
+With a slope prior (sync/slope.py) the fit holds alpha near the nominal
+fps / log rate: one more residual, f_scale x (alpha / alpha_0 - 1) / sigma
+(the prior counts as a pixel residual of the loss scale at one sigma, under
+a plain quadratic loss: a stretch of biased positions must not outweigh it
+the way it outweighs one outlying frame), in the fit and in the covariance.
+
 "frame" may be any camera clock coordinate in frame units (the frame index,
 or presentation time x nominal fps for a variable-frame-rate video).
 """
@@ -35,6 +41,8 @@ from scipy.linalg import solveh_banded
 from scipy.optimize import least_squares
 
 from calibration.camera import Camera
+from tlsync_pipeline.sync.slope import SlopePrior
+from tlsync_pipeline.sync.target_size import box_slack, depth, reference_size, sizes_in_metres
 from tlsync_pipeline.trajectory import GAP_SAMPLES, PiecewiseTrajectory, Trajectory
 
 MIN_FRAMES = 8
@@ -159,6 +167,8 @@ def refine_line(
     f_scale: float = 3.0,
     gate_px: float = 10.0,
     model_error_px: float = 0.0,
+    prior: SlopePrior | None = None,
+    box: np.ndarray | None = None,
 ) -> Refinement:
     """Refine frame = alpha * sample + beta from the tracked positions.
 
@@ -167,18 +177,23 @@ def refine_line(
     After a first fit on them, every tracked frame whose reprojection is
     within gate_px joins and the fit is repeated. model_error_px: std of a
     pixel offset shared by each of BLOCKS runs of frames (calibration and log
-    errors), added to the covariance. Raises ValueError when fewer than
+    errors), added to the covariance; prior: what the frame rates say about
+    alpha (sync/slope.py), or None; box: (N, 2) tracked box sizes, pixels
+    (NaN unknown), whose excess over the target's size (sync/target_size.py)
+    becomes slack around the tracked position. Raises ValueError when fewer than
     MIN_FRAMES frames can be used.
     """
     path = trajectory if isinstance(trajectory, PiecewiseTrajectory) else PiecewiseTrajectory(trajectory)
     frame = np.asarray(frame, dtype=np.float64)
     xy = np.asarray(xy, dtype=np.float64)
+    box = None if box is None else np.asarray(box, dtype=np.float64)
     use = np.asarray(start, dtype=bool) & (path.run_of((frame - beta) / alpha) >= 0)
     if use.sum() < MIN_FRAMES:
         raise ValueError(f"only {int(use.sum())} tracked frames fall on the trajectory under the line")
     result = None
     for _ in range(PASSES):
-        result = _fit(camera, frame[use], xy[use], path, alpha, beta, f_scale, model_error_px)
+        slack = None if box is None else _slack(camera, path, frame[use], box[use], alpha, beta)
+        result = _fit(camera, frame[use], xy[use], path, alpha, beta, f_scale, model_error_px, prior, slack)
         alpha, beta = result[0], result[1]
         s = (frame - beta) / alpha
         run = path.run_of(s)
@@ -194,39 +209,68 @@ def refine_line(
     return Refinement(alpha, beta, cov, int(use.sum()), scale, perpendicular, converged, message)
 
 
-def _fit(camera, frame, xy, path, alpha, beta, f_scale, model_error_px):
-    """One robust fit; returns (alpha, beta, cov, scale_px, converged, message, perpendicular)."""
+def _slack(camera, path, frame, box, alpha, beta):
+    """(N, 2) box slack (pixels) of each frame at the target's depth on the line; None when the boxes give no reference size."""
+    s = (frame - beta) / alpha
+    run = path.run_of(s)
+    z = np.full(len(frame), np.nan)
+    on = run >= 0
+    z[on] = depth(camera, path(s[on], run[on]))
+    reference = reference_size(sizes_in_metres(camera, box[:, 0], box[:, 1], z))
+    return None if reference is None else box_slack(camera, box, z, reference)
+
+
+def _fit(camera, frame, xy, path, alpha, beta, f_scale, model_error_px, prior=None, slack=None):
+    """One robust fit; returns (alpha, beta, cov, scale_px, converged, message, perpendicular).
+
+    slack: (N, 2) pixels either side of each position within which the
+    projection leaves no residual, or None.
+    """
     order = np.argsort(frame, kind="stable")
     frame, xy = frame[order], xy[order]
+    slack = np.zeros_like(xy) if slack is None else slack[order]
     c_mid = float(np.median(frame))
     run = path.run_of((frame - beta) / alpha)
     keep = run >= 0
-    frame, xy, run = frame[keep], xy[keep], run[keep]
+    frame, xy, run, slack = frame[keep], xy[keep], run[keep], slack[keep]
     span = max(float(frame[-1] - frame[0]), 1.0)
     x0 = np.array([1.0 / alpha, (c_mid - beta) / alpha])
     weight = sigma_weights(camera, path, x0[1] + x0[0] * (frame - c_mid), run, f_scale)
 
-    def residual(x):
+    def pixel_residual(x):
         s = x[1] + x[0] * (frame - c_mid)
         uv, valid = camera.project(path(s, run))
-        r = (uv - xy) * weight[:, None]
+        d = uv - xy
+        r = np.sign(d) * np.maximum(np.abs(d) - slack, 0.0) * weight[:, None]
         r[~valid] = 10.0 * f_scale
         return r.ravel()
 
+    def prior_residual(x):
+        # x[0] = 1 / alpha
+        return np.array([f_scale * (prior.alpha * x[0] - 1.0) / prior.sigma]) if prior is not None else np.zeros(0)
+
+    def residual(x):
+        return np.concatenate([pixel_residual(x), prior_residual(x)])
+
     scale = np.array([0.1 / span * abs(x0[0]) + 1e-9, 0.1])
-    solution = least_squares(residual, x0, loss="soft_l1", f_scale=f_scale, x_scale=scale, method="trf", max_nfev=200)
+    loss = "soft_l1" if prior is None else _soft_l1_but_last
+    solution = least_squares(residual, x0, loss=loss, f_scale=f_scale, x_scale=scale, method="trf", max_nfev=200)
     x = solution.x
-    r = residual(x).reshape(-1, 2)
+    r = pixel_residual(x).reshape(-1, 2)
     # Jacobian per frame (central differences), 2 rows per frame.
     jac = np.empty((len(frame), 2, 2))
     for k, h in enumerate((1e-4 * abs(x[0]) / max(1.0, span / 100), 1e-3)):
         step = np.zeros(2)
         step[k] = h
-        jac[:, :, k] = (residual(x + step) - residual(x - step)).reshape(-1, 2) / (2 * h)
+        jac[:, :, k] = (pixel_residual(x + step) - pixel_residual(x - step)).reshape(-1, 2) / (2 * h)
     z = (r / f_scale) ** 2
     psi = r / np.sqrt(1 + z)  # soft L1 influence
     dpsi = (1 + z) ** -1.5
-    bread = np.einsum("nik,ni,nil->kl", jac, dpsi, jac)
+    # The prior is information (bread) and, at one sigma = f_scale, noise (meat).
+    prior_info = np.zeros((2, 2))
+    if prior is not None:
+        prior_info[0, 0] = (f_scale * prior.alpha / prior.sigma) ** 2
+    bread = np.einsum("nik,ni,nil->kl", jac, dpsi, jac) + prior_info
     g = np.einsum("nik,ni->nk", jac, psi)
     n = len(g)
     try:
@@ -243,7 +287,7 @@ def _fit(camera, frame, xy, path, alpha, beta, f_scale, model_error_px):
     # block of frames (pose and log errors), which the residuals cannot show.
     lever = np.array([b.sum(axis=0) for b in np.array_split(jac * dpsi[:, :, None], min(BLOCKS, n))])
     systematic = model_error_px**2 * np.einsum("bik,bil->kl", lever, lever)
-    cov_x = inv @ (meat + systematic) @ inv
+    cov_x = inv @ (meat + systematic + f_scale**2 * prior_info) @ inv
     u, s0 = x
     a = 1.0 / u
     b = c_mid - a * s0
@@ -254,6 +298,14 @@ def _fit(camera, frame, xy, path, alpha, beta, f_scale, model_error_px):
     perpendicular = _perpendicular(camera, path, x[1] + x[0] * (frame - c_mid), run)
     ok = bool(solution.success and np.all(np.isfinite(cov)) and u > 0)
     return float(a), float(b), cov, scale_px, ok, str(solution.message), perpendicular
+
+
+def _soft_l1_but_last(z: np.ndarray) -> np.ndarray:
+    """scipy least_squares loss (rho, rho', rho''): soft L1 for every residual but the last (the slope prior), which stays quadratic."""
+    t = 1.0 + z
+    out = np.vstack([2.0 * (np.sqrt(t) - 1.0), t**-0.5, -0.5 * t**-1.5])
+    out[:, -1] = z[-1], 1.0, 0.0
+    return out
 
 
 def sigma_weights(camera: Camera, path: PiecewiseTrajectory, s: np.ndarray, run: np.ndarray, f_scale: float) -> np.ndarray:

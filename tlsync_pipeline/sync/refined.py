@@ -19,6 +19,7 @@ from tlsync_pipeline.sync.methods import CameraData
 from tlsync_pipeline.sync.params import SyncParams, param
 from tlsync_pipeline.sync.ransac import distance_to_line
 from tlsync_pipeline.sync.refine import Refinement, refine_line, smooth_trajectory
+from tlsync_pipeline.sync.slope import slope_prior
 from tlsync_pipeline.sync.timeline import CameraLine, LineSearchSummary, RefinementSummary
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
 
@@ -58,8 +59,9 @@ class RefinedMethod:
 
     def fit(self, data: CameraData, trajectory: Trajectory, params: SyncParams, options: RefinedParams) -> CameraLine:
         votes, track = data.votes, data.track
+        prior = slope_prior(data.fps, trajectory.rate, params.rate_sigma)
         try:
-            search = find_line(votes.sample, data.vote_clock, votes.dist, params.delta, params.p, options.r_min, params.seed)
+            search = find_line(votes.sample, data.vote_clock, votes.dist, params.delta, params.p, options.r_min, params.seed, prior=prior)
         except ValueError as exc:
             raise SyncError(f"camera {data.name}: {exc} ({len(votes)} votes)") from None
         start = np.zeros(len(track), dtype=bool)
@@ -78,6 +80,8 @@ class RefinedMethod:
                 options.f_scale_px,
                 GATE_EPS * params.eps_px,
                 options.model_error_px,
+                prior,
+                None if track.w is None or track.h is None else np.column_stack([track.w, track.h]),
             )
         except ValueError as exc:
             warnings.append(f"refinement not possible ({exc}); using the line-search line")

@@ -18,17 +18,20 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
 
+from calibration.camera import Camera
 from tlsync_pipeline.errors import SyncError
 from tlsync_pipeline.sync.clock import FrameTimes, camera_clock
 from tlsync_pipeline.sync.identify import Identification, identify_target
 from tlsync_pipeline.sync.methods import CameraData, CameraInput
 from tlsync_pipeline.sync.params import SyncParams
+from tlsync_pipeline.sync.slope import slope_prior
 from tlsync_pipeline.sync.registry import get_method, method_options, params_table
 from tlsync_pipeline.sync.timeline import CameraLine, Timeline
 from tlsync_pipeline.sync.votes import Votes, compute_votes
 from tlsync_pipeline.trajectory import Trajectory
+from trackers.detections import Detections
 
-__all__ = ["CameraInput", "CameraResult", "cast_votes", "identify_and_synchronize", "prepare_trajectory", "synchronize", "synchronize_camera"]
+__all__ = ["CameraInput", "CameraResult", "cast_votes", "identify", "identify_and_synchronize", "prepare_trajectory", "synchronize", "synchronize_camera"]
 
 
 @dataclass(frozen=True)
@@ -69,9 +72,15 @@ def synchronize_camera(name: str, inputs: CameraInput, votes: Votes, prepared: T
     return CameraResult(votes, line)
 
 
+def identify(camera: Camera, detections: Detections, prepared: Trajectory, fps: float | None, params: SyncParams) -> Identification:
+    """The target among every mover of one camera, with the sync parameters (SyncError when it cannot be found)."""
+    prior = slope_prior(fps, prepared.rate, params.rate_sigma)
+    return identify_target(camera, detections, prepared, fps, params.eps_px, params.delta, params.p, params.seed, prior=prior)
+
+
 def identify_and_synchronize(name: str, inputs: CameraInput, prepared: Trajectory, params: SyncParams) -> CameraResult:
     """A camera that brings every mover: the target identified among them, then its line fitted on the identified track's votes."""
-    found = identify_target(inputs.camera, inputs.detections, prepared, inputs.fps, params.eps_px, params.delta, params.p, params.seed)
+    found = identify(inputs.camera, inputs.detections, prepared, inputs.fps, params)
     identified = CameraInput(inputs.camera, found.track, inputs.fps)
     result = synchronize_camera(name, identified, cast_votes(identified, prepared, params), prepared, params)
     return CameraResult(result.votes, replace(result.line, identification=found.summary()), found)

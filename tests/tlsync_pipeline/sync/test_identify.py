@@ -5,7 +5,7 @@ import pytest
 
 from data_fixtures import make_scene
 from tlsync_pipeline.errors import SyncError
-from tlsync_pipeline.sync.identify import assign_target, identify_target
+from tlsync_pipeline.sync.identify import assign_target, covers, identify_target
 from tlsync_pipeline.sync.params import SyncParams
 from tlsync_pipeline.trajectory import PiecewiseTrajectory
 from trackers.detections import make_detections
@@ -87,8 +87,34 @@ def test_assignment_prefers_the_tracklet_that_follows_over_a_closer_passer_by():
     tracklet = np.array([1, 2, 1, 2, 1, 3, 1])
     # tracklet 1 stays 4 px from the path; 2 touches it once then leaves it, 3 is never near
     distance = np.array([4.0, 1.0, 4.0, 60.0, 4.0, 50.0, 4.0])
-    rows, share = assign_target(frame, tracklet, distance, gate_px=10.0)
-    assert tracklet[rows].tolist() == [1, 1, 1, 1]
-    assert share == {1: 1.0, 2: 0.5, 3: 0.0}
-    rows, _ = assign_target(frame, tracklet, distance, gate_px=10.0, prefer=frozenset({2}))
-    assert tracklet[rows[0]] == 2
+    found = assign_target(frame, tracklet, distance, gate_px=10.0)
+    assert tracklet[found.rows].tolist() == [1, 1, 1, 1]
+    assert found.share == {1: 1.0, 2: 0.5, 3: 0.0}
+    preferred = assign_target(frame, tracklet, distance, gate_px=10.0, prefer=frozenset({2}))
+    assert tracklet[preferred.rows[0]] == 2
+
+
+def test_a_tracklet_that_swaps_to_a_passer_by_keeps_the_target_stretch():
+    # Tracklet 1 is the target for frames 0-19, then swaps to a passer-by (far from the path) for
+    # frames 20-99; tracklet 2 passes 2 px from the path at frame 10 only. Over its whole length
+    # tracklet 1 follows the path in 20 % of its frames, but around frame 10 it follows it fully.
+    frame = np.r_[np.arange(100), 10]
+    tracklet = np.r_[np.ones(100, int), 2]
+    distance = np.r_[np.full(20, 5.0), np.full(80, 80.0), 2.0]
+    whole = assign_target(frame, tracklet, distance, gate_px=10.0)
+    assert whole.share[1] == pytest.approx(0.2)
+    assert tracklet[whole.rows[frame[whole.rows] == 10]] == 2  # over their whole lengths, the passer-by follows better
+    local = assign_target(frame, tracklet, distance, gate_px=10.0, window=5)
+    assert tracklet[local.rows[frame[local.rows] == 10]] == 1
+    assert local.local[10] == pytest.approx(11 / 13) and local.local[60] == 0.0 and local.local[100] == pytest.approx(1 / 3)
+
+
+def test_a_merged_blob_whose_box_holds_the_projection_counts_as_near():
+    frame = np.array([0, 1, 2])
+    tracklet = np.array([1, 1, 1])
+    offset = np.array([[3.0, 1.0], [18.0, 2.0], [30.0, 0.0]])  # frame 1: merged with a passer-by, 40 px wide
+    w, h = np.array([12.0, 40.0, 12.0]), np.array([40.0, 40.0, 40.0])
+    inside = covers(offset, w, h)
+    assert inside.tolist() == [True, True, False]
+    found = assign_target(frame, tracklet, np.linalg.norm(offset, axis=1), gate_px=10.0, inside=inside)
+    assert found.rows.tolist() == [0, 1]

@@ -20,9 +20,8 @@ from tlsync_pipeline.errors import SyncError
 from tlsync_pipeline.pipeline.spec import StageSpec
 from tlsync_pipeline.pipeline.stages.cameras import has_no_rows
 from tlsync_pipeline.pipeline.workspace import StageFiles
-from tlsync_pipeline.sync.identify import identify_target
 from tlsync_pipeline.sync.registry import params_from_table, params_table
-from tlsync_pipeline.sync.synchronize import prepare_trajectory
+from tlsync_pipeline.sync.synchronize import identify, prepare_trajectory
 from tlsync_pipeline.trajectory import read_trajectory
 from trackers.detections import follows_every_mover, read_detections
 from trackers.track import write_track
@@ -40,7 +39,7 @@ def run_identify(files: StageFiles, fps: float | None, sync: dict[str, Any], sou
     try:
         if source is not None and has_no_rows(files.path("detections")):
             raise SyncError(f"{source}: the target was never found (no moving object in any frame)")
-        found = identify_target(camera, read_detections(files.path("detections")), prepared, fps or camera.fps, params.eps_px, params.delta, params.p, params.seed)
+        found = identify(camera, read_detections(files.path("detections")), prepared, fps or camera.fps, params)
     except SyncError as exc:
         files.output("track").unlink(missing_ok=True)
         with files.write("identification") as tmp:

@@ -1,0 +1,52 @@
+"""The target's size in metres, from the boxes of its tracked positions.
+
+A tracked box of w x h pixels at depth z (metres, along the optical axis)
+spans w z / f_x by h z / f_y metres. The target keeps its size in metres
+while its image grows and shrinks with distance; a blob merged with a
+passer-by does not (it is wider or taller), nor one cut by an occluder.
+
+The reference size is a low quantile (SIZE_QUANTILE) of the sizes in
+metres, not their median: in a crowd a third or more of the target's blobs
+may be merged with someone else's, all larger than the target alone.
+
+The refinement uses it for a box slack: a box larger than the reference by
+more than SLACK_TOLERANCE says the target is somewhere inside it, not at its
+centre, so the residual of that frame is the distance from the projection
+to the region where the target's centre can be, (box - reference) / 2 either
+side of the box centre, and not to the centre itself.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from calibration.camera import Camera
+
+SIZE_QUANTILE = 0.3
+SLACK_TOLERANCE = 1.15
+MIN_SIZES = 8  # known sizes needed for a reference
+
+
+def depth(camera: Camera, xyz: np.ndarray) -> np.ndarray:
+    """(N,) depth of world points (N, 3) along the camera's optical axis, metres."""
+    return (np.asarray(xyz, dtype=np.float64) @ camera.R.T + camera.t)[:, 2]
+
+
+def sizes_in_metres(camera: Camera, w: np.ndarray, h: np.ndarray, z: np.ndarray) -> np.ndarray:
+    """(N, 2) box width and height in metres at depths z (NaN where a size or depth is unknown)."""
+    return np.column_stack([np.asarray(w) * z / camera.K[0, 0], np.asarray(h) * z / camera.K[1, 1]])
+
+
+def reference_size(metres: np.ndarray) -> np.ndarray | None:
+    """(2,) the target's width and height in metres (SIZE_QUANTILE of the known sizes), or None with fewer than MIN_SIZES."""
+    known = np.isfinite(metres).all(axis=1) & (metres > 0).all(axis=1)
+    if known.sum() < MIN_SIZES:
+        return None
+    return np.quantile(metres[known], SIZE_QUANTILE, axis=0)
+
+
+def box_slack(camera: Camera, box_px: np.ndarray, z: np.ndarray, reference_m: np.ndarray) -> np.ndarray:
+    """(N, 2) pixels either side of each box's centre where the target's centre may be (0 for a box of the target's size or less)."""
+    expected = reference_m[None, :] * np.array([camera.K[0, 0], camera.K[1, 1]]) / np.maximum(z, 1e-9)[:, None]
+    slack = 0.5 * (box_px - SLACK_TOLERANCE * expected)
+    return np.where(np.isfinite(slack) & (slack > 0), slack, 0.0)
