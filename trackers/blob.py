@@ -179,7 +179,7 @@ class BlobDetector:
         signed_and_abs: the small frame's difference to the background and its absolute value, as two channels.
         """
         s = self.scale
-        x, y, bw, bh, area = (int(v) for v in stat)
+        x, y, bw, bh, _ = stat.tolist()
         x0, y0 = x + offset[0], y + offset[1]  # the component's box in the whole small frame
         own = (labels[y : y + bh, x : x + bw] == label).view(np.uint8)
         mean_diff, contrast = cv2.mean(signed_and_abs[y0 : y0 + bh, x0 : x0 + bw], own)[:2]
@@ -187,8 +187,7 @@ class BlobDetector:
         # the component dilated by one small pixel, in its box grown by one (clipped to the frame)
         gx0, gy0 = max(0, x0 - 1), max(0, y0 - 1)
         gx1, gy1 = min(self.small_size[0], x0 + bw + 1), min(self.small_size[1], y0 + bh + 1)
-        support = np.zeros((gy1 - gy0, gx1 - gx0), np.uint8)
-        support[y0 - gy0 : y0 - gy0 + bh, x0 - gx0 : x0 - gx0 + bw] = own
+        support = cv2.copyMakeBorder(own, y0 - gy0, gy1 - y0 - bh, x0 - gx0, gx1 - x0 - bw, cv2.BORDER_CONSTANT, value=0)
         support = cv2.dilate(support, _KERNEL3)
         # the same window at full resolution: the difference to the background, of the blob's polarity, on its support
         fx0, fy0, fx1, fy1 = gx0 * s, gy0 * s, gx1 * s, gy1 * s
