@@ -28,12 +28,13 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import av
 import cv2
 import numpy as np
 
 from calibration.camera import Camera, write_camera
-from data_fixtures.scene import Scene, write_truth
-from data_fixtures.video import TIME_BASE, _background
+from data_fixtures.scene import Scene, check_views_disjoint, write_truth
+from data_fixtures.video import _background, h264_writer
 from tlsync_pipeline.sync.timeline import Relation
 from tlsync_pipeline.trajectory import Trajectory, write_trajectory
 from trackers.track import Track
@@ -145,7 +146,7 @@ def make_crowd_scene(spec: CrowdSpec = SMALL, directory: str | Path | None = Non
     end_s = route.duration
     samples = np.arange(int(math.floor(end_s * spec.log_rate)) + 1, dtype=np.float64)
     true_xyz = route.at(samples / spec.log_rate)
-    _check_views_disjoint(cameras, route.at(np.linspace(0, end_s, int(end_s * 50))))
+    check_views_disjoint(cameras, route.at(np.linspace(0, end_s, int(end_s * 50))), "crowd scene: a point of the target's route")
     xyz = true_xyz + rng.normal(0.0, spec.gps_noise_m, true_xyz.shape) if spec.gps_noise_m > 0 else true_xyz
     lines, tracks, truth = {}, {}, {}
     walkers = []
@@ -434,19 +435,10 @@ def _lighting(rng, times: np.ndarray) -> np.ndarray:
 
 def _render(path: Path, camera: Camera, route: _Route, walkers: list[_Walker], times: np.ndarray, start_s: float, spec: CrowdSpec, rng) -> None:
     """Write the camera's H.264 video: background, people far to near, lighting, noise."""
-    import av
-    from fractions import Fraction
-
     w, h = camera.image_size
     background = _background(rng, w, h)
     gains = _lighting(rng, times)
-    container = av.open(str(path), mode="w", options={"movflags": "+faststart"})
-    try:
-        stream = container.add_stream("libx264", rate=Fraction(camera.fps).limit_denominator(1001))
-        stream.width, stream.height = w, h
-        stream.pix_fmt = "yuv420p"
-        stream.codec_context.time_base = TIME_BASE
-        stream.options = {"crf": str(spec.crf), "preset": "veryfast", "g": "30", "threads": "1"}  # one thread: the same bytes every run
+    with h264_writer(path, camera.fps, (w, h), {"crf": str(spec.crf), "preset": "veryfast", "g": "30", "threads": "1"}) as write:  # one thread: the same bytes every run
         for k, t in enumerate(times):
             image = background.copy()
             for _, g, height, grey, _ in _people(camera, route, walkers, t):
@@ -458,21 +450,4 @@ def _render(path: Path, camera: Camera, route: _Route, walkers: list[_Walker], t
                 region += patch.astype(np.float32) / 255.0 * (grey - region)
             image = image * gains[k] + rng.normal(0.0, spec.noise, image.shape)
             grey_frame = np.clip(image, 0, 255).astype(np.uint8)
-            frame = av.VideoFrame.from_ndarray(cv2.cvtColor(grey_frame, cv2.COLOR_GRAY2BGR), format="bgr24")
-            frame.pts = int(round((t - start_s) / TIME_BASE))
-            frame.time_base = TIME_BASE
-            for packet in stream.encode(frame):
-                container.mux(packet)
-        for packet in stream.encode():
-            container.mux(packet)
-    finally:
-        container.close()
-
-
-def _check_views_disjoint(cameras: dict[str, Camera], points: np.ndarray) -> None:
-    seen = np.zeros(len(points), dtype=int)
-    for camera in cameras.values():
-        uv, valid = camera.project(points)
-        seen += valid & camera.in_image(np.nan_to_num(uv, nan=-1e9))
-    if (seen > 1).any():
-        raise AssertionError("crowd scene: a point of the target's route is visible in two cameras")
+            write(av.VideoFrame.from_ndarray(cv2.cvtColor(grey_frame, cv2.COLOR_GRAY2BGR), format="bgr24"), t - start_s)

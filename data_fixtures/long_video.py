@@ -16,14 +16,13 @@ about 130 ms for ``data_fixtures.video.render_video``.
 
 from __future__ import annotations
 
-from fractions import Fraction
 from pathlib import Path
 
 import av
 import cv2
 import numpy as np
 
-from data_fixtures.video import TIME_BASE, _background, _draw_target
+from data_fixtures.video import _background, _draw_target, h264_writer
 
 NOISE_MARGIN = 64  # pixels of noise field beyond the frame, in each direction, for the random shifts
 
@@ -61,12 +60,7 @@ def render_long_video(
     n_frames = len(positions)
     gains = 1.0 + flicker * np.sin(2 * np.pi * np.arange(n_frames) / 37.0) + flicker * 0.3 * rng.standard_normal(n_frames)
     shifts = rng.integers(0, NOISE_MARGIN, size=(n_frames, 2))
-    container = av.open(str(path), mode="w", options={"movflags": "+faststart"})
-    try:
-        stream = container.add_stream("libx264", rate=Fraction(fps).limit_denominator(1001))
-        stream.width, stream.height, stream.pix_fmt = w, h, "yuv420p"
-        stream.codec_context.time_base = TIME_BASE
-        stream.options = {"crf": str(crf), "preset": "veryfast", "g": str(gop), "keyint_min": str(gop)}
+    with h264_writer(path, fps, (w, h), {"crf": str(crf), "preset": "veryfast", "g": str(gop), "keyint_min": str(gop)}) as write:
         for k in range(n_frames):
             luma = cv2.convertScaleAbs(background, alpha=float(gains[k]))
             cx, cy = positions[k]
@@ -75,15 +69,7 @@ def render_long_video(
             dy, dx = shifts[k]
             cv2.add(luma, brighter[dy : dy + h, dx : dx + w], dst=luma)
             cv2.subtract(luma, darker[dy : dy + h, dx : dx + w], dst=luma)
-            frame = av.VideoFrame.from_ndarray(np.concatenate([luma, chroma]), format="yuv420p")
-            frame.pts = int(round(k / fps / TIME_BASE))
-            frame.time_base = TIME_BASE
-            for packet in stream.encode(frame):
-                container.mux(packet)
-        for packet in stream.encode():
-            container.mux(packet)
-    finally:
-        container.close()
+            write(av.VideoFrame.from_ndarray(np.concatenate([luma, chroma]), format="yuv420p"), k / fps)
     return path
 
 

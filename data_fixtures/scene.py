@@ -112,7 +112,7 @@ def make_scene(
         n: _look_at_camera(rng, n, zones[n], spline(np.linspace(*windows[n], 200)), image_size, relations[n].alpha * target_rate)
         for n in names
     }
-    _check_views_disjoint(true_cameras, spline(np.linspace(0, n_samples - 1, 20 * n_samples)))
+    check_views_disjoint(true_cameras, spline(np.linspace(0, n_samples - 1, 20 * n_samples)))
 
     tracks = {}
     for n, count in zip(names, counts):
@@ -290,13 +290,14 @@ def _look_at_camera(rng, name, zone, window_points, image_size, fps) -> Camera:
     return Camera(name, K, dist, R, t, (w, h), float(fps))
 
 
-def _check_views_disjoint(cameras: dict[str, Camera], points: np.ndarray) -> None:
+def check_views_disjoint(cameras: dict[str, Camera], points: np.ndarray, what: str = "scene generator: a trajectory point") -> None:
+    """Raise AssertionError when any world point (N, 3) is seen by two cameras (the views must not overlap)."""
     seen = np.zeros(len(points), dtype=int)
     for camera in cameras.values():
         uv, valid = camera.project(points)
         seen += valid & camera.in_image(np.nan_to_num(uv, nan=-1e9))
     if (seen > 1).any():
-        raise AssertionError("scene generator: a trajectory point is visible in two cameras")
+        raise AssertionError(f"{what} is visible in two cameras")
 
 
 def _track(rng, camera: Camera, spline, line: Relation, n_frames: int, n_samples: int, noise_px: float, jitter: float = 0.0) -> Track:

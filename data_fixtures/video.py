@@ -12,6 +12,8 @@ the image. Presentation times may be jittered (variable frame rate).
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from fractions import Fraction
 from pathlib import Path
@@ -108,16 +110,8 @@ def render_video(
     times = _times(rng, n_frames, fps, jitter) if times is None else np.asarray(times, dtype=np.float64)
     yy, xx = np.mgrid[0:h, 0:w].astype(np.float32)
 
-    container = av.open(str(path), mode="w", options={"movflags": "+faststart"})
-    try:
-        stream = container.add_stream("libx264", rate=Fraction(fps).limit_denominator(1001))
-        sw, sh = (h, w) if rotation % 180 else (w, h)
-        stream.width, stream.height = sw, sh
-        stream.pix_fmt = "yuv420p"
-        stream.codec_context.time_base = TIME_BASE
-        stream.options = {"crf": str(crf), "preset": "veryfast", "g": str(gop), "keyint_min": str(gop)}
-        if rotation:
-            stream.set_display_rotation(rotation)
+    sw, sh = (h, w) if rotation % 180 else (w, h)
+    with h264_writer(path, fps, (sw, sh), {"crf": str(crf), "preset": "veryfast", "g": str(gop), "keyint_min": str(gop)}, rotation) as write:
         for k in range(n_frames):
             image = background.copy()
             if distractor:
@@ -132,20 +126,42 @@ def render_video(
             bgr = cv2.merge([grey, np.clip(grey.astype(np.int16) + 6, 0, 255).astype(np.uint8), grey])
             if rotation:
                 bgr = np.ascontiguousarray(np.rot90(bgr, k=-(rotation // 90)))
-            frame = av.VideoFrame.from_ndarray(bgr, format="bgr24")
-            frame.pts = int(round(times[k] / TIME_BASE))
-            frame.time_base = TIME_BASE
-            for packet in stream.encode(frame):
-                container.mux(packet)
-        for packet in stream.encode():
-            container.mux(packet)
-    finally:
-        container.close()
+            write(av.VideoFrame.from_ndarray(bgr, format="bgr24"), times[k])
     margin_in = (positions[:, 0] >= radius) & (positions[:, 0] <= w - 1 - radius) & (positions[:, 1] >= radius) & (positions[:, 1] <= h - 1 - radius)
     margin_out = (positions[:, 0] < -radius - 1) | (positions[:, 0] > w + radius) | (positions[:, 1] < -radius - 1) | (positions[:, 1] > h + radius)
     absent = ~np.isfinite(positions[:, 0])
     exact_times = np.round(times / float(TIME_BASE)) * float(TIME_BASE)
     return RenderedVideo(path, positions, exact_times, margin_in & ~absent, margin_out | absent, (w, h), radius, fps)
+
+
+@contextmanager
+def h264_writer(path: str | Path, fps: float, size: tuple[int, int], options: dict[str, str], rotation: int = 0) -> Iterator[Callable[[av.VideoFrame, float], None]]:
+    """An H.264 MP4 (yuv420p, TIME_BASE) at ``path``: yields write(frame, time_s) (presentation time, s); flushes and closes on exit.
+
+    size: (width, height) of the encoded frames, pixels; options: libx264's
+    (crf, preset, g, ...); rotation: display rotation, degrees clockwise.
+    """
+    container = av.open(str(path), mode="w", options={"movflags": "+faststart"})
+    try:
+        stream = container.add_stream("libx264", rate=Fraction(fps).limit_denominator(1001))
+        stream.width, stream.height = size
+        stream.pix_fmt = "yuv420p"
+        stream.codec_context.time_base = TIME_BASE
+        stream.options = options
+        if rotation:
+            stream.set_display_rotation(rotation)
+
+        def write(frame: av.VideoFrame, time_s: float) -> None:
+            frame.pts = int(round(time_s / TIME_BASE))
+            frame.time_base = TIME_BASE
+            for packet in stream.encode(frame):
+                container.mux(packet)
+
+        yield write
+        for packet in stream.encode():
+            container.mux(packet)
+    finally:
+        container.close()
 
 
 def render_camera_video(camera, positions, fps: float, path: str | Path, seed: int = 0, radius: float = 6.0) -> RenderedVideo:

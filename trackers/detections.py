@@ -10,7 +10,6 @@ have several rows or none.
 
 from __future__ import annotations
 
-import csv
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -18,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from trackers.errors import TrackInputError
-from trackers.track import Track
+from trackers.track import Track, check_indices, read_table
 
 COLUMNS = ("frame", "time_s", "id", "x", "y", "w", "h", "score")
 REQUIRED_COLUMNS = ("frame", "id", "x", "y")
@@ -59,6 +58,15 @@ class Detections:
         rows = rows[np.lexsort((self.id[rows], self.frame[rows]))]
         return Detections(*(getattr(self, c)[rows] for c in COLUMNS))
 
+    def matching(self, track: Track, tolerance_px: float = 0.01) -> np.ndarray:
+        """(N,) whether each row is a position of ``track`` (same frame, within tolerance_px): the rows an identified track was made of."""
+        out = np.zeros(len(self), dtype=bool)
+        where = np.searchsorted(track.frame, self.frame).clip(0, max(len(track) - 1, 0))
+        if len(track):
+            same = track.frame[where] == self.frame
+            out[same] = np.hypot(track.x[where[same]] - self.x[same], track.y[where[same]] - self.y[same]) <= tolerance_px
+        return out
+
     def to_track(self, rows: np.ndarray) -> Track:
         """A single-target Track from rows with at most one per frame (indices or boolean mask)."""
         chosen = self.subset(rows)
@@ -69,8 +77,28 @@ class Detections:
 
 
 def follows_every_mover(kind: str, init, init_frame: int = 0) -> bool:
-    """Whether a tracker request means every mover (blob kind, no init box, from the first frame) rather than one target."""
+    """Whether a single-video request (``tlsync track-video``) means every mover (blob kind, no init box, from the first frame) rather than one target."""
     return kind == "blob" and init is None and init_frame == 0
+
+
+SEED_FRAMES = 5  # frames either side of the init frame where a mover in the init box is looked for
+
+
+def seed_tracklets(detections: Detections, box, init_frame: int) -> frozenset[int]:
+    """The tracklet an init box [x, y, w, h] (pixels, top-left corner and size) points at in ``init_frame`` (0-based).
+
+    The candidate whose centre lies inside the box, in the frame nearest
+    init_frame (within SEED_FRAMES), nearest the box centre; empty when no
+    mover is there (the target stood still, or the box is elsewhere).
+    """
+    x, y, w, h = (float(v) for v in box)
+    near = np.abs(detections.frame - init_frame) <= SEED_FRAMES
+    inside = near & (detections.x >= x) & (detections.x <= x + w) & (detections.y >= y) & (detections.y <= y + h)
+    rows = np.flatnonzero(inside)
+    if len(rows) == 0:
+        return frozenset()
+    order = np.lexsort((np.hypot(detections.x[rows] - (x + w / 2), detections.y[rows] - (y + h / 2)), np.abs(detections.frame[rows] - init_frame)))
+    return frozenset({int(detections.id[rows[order[0]]])})
 
 
 def make_detections(rows: list[tuple] | np.ndarray) -> Detections:
@@ -90,53 +118,14 @@ def read_detections(path: str | Path) -> Detections:
     Required columns: frame, id, x, y; time_s, w, h, score are optional.
     """
     path = Path(path)
-    try:
-        handle = path.open(newline="", encoding="utf-8")
-    except FileNotFoundError:
-        raise TrackInputError(f"{path}: file not found") from None
-    except OSError as exc:
-        raise TrackInputError(f"{path}: cannot read: {exc}") from None
-    with handle:
-        try:
-            rows = list(csv.reader(handle))
-        except (csv.Error, UnicodeDecodeError) as exc:
-            raise TrackInputError(f"{path}: not a readable CSV file: {exc}") from None
-    if not rows or not any(cell.strip() for cell in rows[0]):
-        raise TrackInputError(f"{path}: empty file; expected a header '{','.join(COLUMNS)}' and one row per detection")
-    header = [cell.strip() for cell in rows[0]]
-    missing = [c for c in REQUIRED_COLUMNS if c not in header]
-    if missing:
-        raise TrackInputError(f"{path}:1: header {','.join(header)!r} lacks column(s) {', '.join(missing)}; expected at least {','.join(REQUIRED_COLUMNS)}")
-    if len(set(header)) != len(header):
-        raise TrackInputError(f"{path}:1: duplicate column names in header {','.join(header)!r}")
-    defaults = {"time_s": math.nan, "w": math.nan, "h": math.nan, "score": 1.0}
-    index = {c: header.index(c) for c in COLUMNS if c in header}
-    values = []
-    for line_no, row in enumerate(rows[1:], start=2):
-        if not row or all(not cell.strip() for cell in row):
-            continue
-        if len(row) != len(header):
-            raise TrackInputError(f"{path}:{line_no}: expected {len(header)} fields, got {len(row)}")
-        record = []
-        for col in COLUMNS:
-            if col not in index:
-                record.append(defaults[col])
-                continue
-            text = row[index[col]]
-            try:
-                v = float(text)
-            except ValueError:
-                raise TrackInputError(f"{path}:{line_no}: column '{col}': not a number: {text!r}") from None
-            if not math.isfinite(v):
-                raise TrackInputError(f"{path}:{line_no}: column '{col}': {text} is not a finite number")
-            if col in ("frame", "id") and (v < 0 or v != int(v)):
-                what = "a 0-based integer frame index" if col == "frame" else "a non-negative integer tracklet id"
-                raise TrackInputError(f"{path}:{line_no}: column '{col}': expected {what}, got {text!r}")
-            record.append(v)
-        values.append(record)
-    if not values:
+    optional = tuple(c for c in COLUMNS if c not in REQUIRED_COLUMNS)
+    cols, lines = read_table(path, REQUIRED_COLUMNS, optional, f"a header '{','.join(COLUMNS)}' and one row per detection")
+    check_indices(path, "frame", cols["frame"], lines, "a 0-based integer frame index")
+    check_indices(path, "id", cols["id"], lines, "a non-negative integer tracklet id")
+    if len(lines) == 0:
         raise TrackInputError(f"{path}: no detection (a header but no row)")
-    detections = make_detections(values)
+    defaults = {"time_s": math.nan, "w": math.nan, "h": math.nan, "score": 1.0}
+    detections = make_detections(np.column_stack([cols[c] if c in cols else np.full(len(lines), defaults[c]) for c in COLUMNS]))
     pairs = detections.frame * (int(detections.id.max()) + 1) + detections.id
     dup = np.flatnonzero(np.diff(pairs) == 0)
     if len(dup):

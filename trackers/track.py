@@ -52,8 +52,13 @@ class Track:
         return {n: getattr(self, n) for n in names if getattr(self, n) is not None}
 
 
-def read_track(path: str | Path) -> Track:
-    """Read and validate ``track.csv``; errors name the file and line."""
+def read_table(path: str | Path, required: tuple[str, ...], optional: tuple[str, ...], expected: str) -> tuple[dict[str, np.ndarray], np.ndarray]:
+    """The numeric columns of a CSV file with a header, and the 1-based line of each row; errors name the file and line.
+
+    Returns the present columns of required + optional (float64 (N,)) and
+    the (N,) line numbers; blank lines are skipped. expected: what the file
+    should hold, for the empty-file message. Raises TrackInputError.
+    """
     path = Path(path)
     try:
         handle = path.open(newline="", encoding="utf-8")
@@ -67,16 +72,17 @@ def read_track(path: str | Path) -> Track:
         except (csv.Error, UnicodeDecodeError) as exc:
             raise TrackInputError(f"{path}: not a readable CSV file: {exc}") from None
     if not rows or not any(cell.strip() for cell in rows[0]):
-        raise TrackInputError(f"{path}: empty file; expected a header 'frame,x,y' and one row per tracked frame")
+        raise TrackInputError(f"{path}: empty file; expected {expected}")
     header = [cell.strip() for cell in rows[0]]
-    missing = [c for c in REQUIRED_COLUMNS if c not in header]
+    missing = [c for c in required if c not in header]
     if missing:
-        raise TrackInputError(f"{path}:1: header {','.join(header)!r} lacks column(s) {', '.join(missing)}; expected at least frame,x,y")
+        raise TrackInputError(f"{path}:1: header {','.join(header)!r} lacks column(s) {', '.join(missing)}; expected at least {','.join(required)}")
     if len(set(header)) != len(header):
         raise TrackInputError(f"{path}:1: duplicate column names in header {','.join(header)!r}")
-    wanted = [c for c in REQUIRED_COLUMNS + OPTIONAL_COLUMNS if c in header]
+    wanted = [c for c in required + optional if c in header]
     index = [header.index(c) for c in wanted]
     values = np.empty((len(rows) - 1, len(wanted)))
+    lines = np.empty(len(rows) - 1, dtype=np.int64)
     n = 0
     for line_no, row in enumerate(rows[1:], start=2):
         if not row or all(not cell.strip() for cell in row):
@@ -91,19 +97,36 @@ def read_track(path: str | Path) -> Track:
             if not math.isfinite(v):
                 raise TrackInputError(f"{path}:{line_no}: column '{col}': {row[i]} is not a finite number")
             values[n, k] = v
-        frame = values[n, 0]
-        if frame < 0 or frame != int(frame):
-            raise TrackInputError(f"{path}:{line_no}: column 'frame': expected a 0-based integer frame index, got {row[index[0]]!r}")
+        lines[n] = line_no
         n += 1
-    if n == 0:
+    return {c: values[:n, k] for k, c in enumerate(wanted)}, lines[:n]
+
+
+def check_indices(path: str | Path, name: str, values: np.ndarray, lines: np.ndarray, what: str) -> None:
+    """Raise TrackInputError naming the line of the first value that is not a non-negative integer (``what`` says what it should be)."""
+    bad = np.flatnonzero((values < 0) | (values != np.floor(values)))
+    if len(bad):
+        k = bad[0]
+        raise TrackInputError(f"{path}:{lines[k]}: column '{name}': expected {what}, got {_number(values[k])!r}")
+
+
+def _number(v: float) -> str:
+    return str(int(v)) if v == int(v) else repr(float(v))
+
+
+def read_track(path: str | Path) -> Track:
+    """Read and validate ``track.csv``; errors name the file and line."""
+    path = Path(path)
+    cols, lines = read_table(path, REQUIRED_COLUMNS, OPTIONAL_COLUMNS, "a header 'frame,x,y' and one row per tracked frame")
+    check_indices(path, "frame", cols["frame"], lines, "a 0-based integer frame index")
+    if len(lines) == 0:
         raise TrackInputError(f"{path}: the track is empty (a header but no tracked frame)")
-    values = values[:n]
-    order = np.argsort(values[:, 0], kind="stable")
-    frames = values[order, 0].astype(np.int64)
+    order = np.argsort(cols["frame"], kind="stable")
+    frames = cols["frame"][order].astype(np.int64)
     dup = np.flatnonzero(np.diff(frames) == 0)
     if len(dup):
         raise TrackInputError(f"{path}: frame {frames[dup[0]]} appears more than once")
-    cols = {c: values[order, k] for k, c in enumerate(wanted)}
+    cols = {c: v[order] for c, v in cols.items()}
     cols["frame"] = frames
     return Track(**cols)
 

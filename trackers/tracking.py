@@ -87,6 +87,12 @@ def detect_movers(path: str | Path, params: dict | None = None, progress: bool =
     return make_detections(rows)
 
 
+def check_init_box(path: str | Path, init: Sequence[float] | None, init_frame: int = 0) -> None:
+    """Raise TrackInputError when an init box [x, y, w, h] (or its 0-based frame) does not fit the video at ``path``."""
+    path = Path(path)
+    _check_init(path, probe_video(path), init, init_frame)
+
+
 def _detector(path: Path, params: BlobParams) -> BlobDetector:
     """A blob detector whose background is the median of (luma) frames sampled over the video."""
     frames = sample_frames(path, params.background_frames, gray=True)

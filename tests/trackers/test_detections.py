@@ -1,9 +1,9 @@
-"""detections.csv: round trip, validation messages naming file and line, single-target tracks from rows."""
+"""detections.csv: round trip, validation messages naming file and line, single-target tracks from rows, init-box seeds."""
 
 import numpy as np
 import pytest
 
-from trackers.detections import make_detections, read_detections, write_detections
+from trackers.detections import make_detections, read_detections, seed_tracklets, write_detections
 from trackers.errors import TrackInputError
 
 
@@ -64,3 +64,17 @@ def test_a_track_takes_one_row_per_frame():
         detections.to_track(np.array([0, 1]))
     track = detections.to_track(detections.id == 0)
     assert track.frame.tolist() == [0, 1]
+
+
+def test_an_init_box_points_at_the_mover_inside_it_nearest_its_frame_and_centre():
+    rows = [
+        (10, 1.0, 1, 50.0, 50.0, 10, 20, 0.9),  # inside the box, at the init frame, off its centre
+        (10, 1.0, 2, 44.0, 44.0, 10, 20, 0.9),  # inside, nearer the centre
+        (10, 1.0, 3, 200.0, 50.0, 10, 20, 0.9),  # elsewhere
+        (12, 1.2, 4, 45.0, 45.0, 10, 20, 0.9),  # inside, two frames later
+    ]
+    movers = make_detections(rows)
+    assert seed_tracklets(movers, (35, 30, 20, 30), 10) == {2}
+    assert seed_tracklets(movers, (35, 30, 20, 30), 13) == {4}  # the nearest frame first
+    assert seed_tracklets(movers, (35, 30, 20, 30), 30) == frozenset()  # nothing within SEED_FRAMES
+    assert seed_tracklets(movers, (300, 300, 20, 30), 10) == frozenset()

@@ -96,21 +96,43 @@ def plot_votes(name: str, votes, line, delta: float, path: Path, times: FrameTim
 
     times: the camera's presentation times (for a presentation-time clock).
     """
+    clock = line.clock.clock_at(votes.frame, times)
+    inliers = distance_to_line(votes.sample, clock, line.alpha, line.beta) <= delta
+    groups = [(~inliers, 2, "0.6", f"votes ({len(votes)})"), (inliers, 4, "tab:red", f"inliers ({int(inliers.sum())})")]
+    return _plot_voting_space(name, votes, clock, groups, line, f"{name}: voting space", path)
+
+
+def plot_candidate_votes(name: str, votes, target: np.ndarray, line, delta: float, path: Path, times: FrameTimes | None = None) -> Path:
+    """The voting space of every mover of one camera: the other movers' votes, the identified target's, and the line.
+
+    target: (M,) whether each vote comes from a candidate of the identified
+    track; times: the camera's presentation times (for a presentation-time clock).
+    """
+    clock = line.clock.clock_at(votes.frame, times)
+    near = distance_to_line(votes.sample, clock, line.alpha, line.beta) <= delta
+    groups = [
+        (~target, 2, "0.6", f"other movers' votes ({int((~target).sum())})"),
+        (target & ~near, 3, "tab:blue", f"identified target's, off the line ({int((target & ~near).sum())})"),
+        (target & near, 4, "tab:red", f"identified target's, on the line ({int((target & near).sum())})"),
+    ]
+    return _plot_voting_space(name, votes, clock, groups, line, f"{name}: voting space of every mover", path)
+
+
+def _plot_voting_space(name: str, votes, clock: np.ndarray, groups, line, title: str, path: Path) -> Path:
+    """Votes (sample, clock) drawn in groups (mask, marker size, colour, label), in order, with the line."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    clock = line.clock.clock_at(votes.frame, times)
     fig, ax = plt.subplots(figsize=(6, 4.5))
-    inliers = distance_to_line(votes.sample, clock, line.alpha, line.beta) <= delta
-    ax.scatter(votes.sample[~inliers], clock[~inliers], s=2, c="0.6", label=f"votes ({len(votes)})", rasterized=True)
-    ax.scatter(votes.sample[inliers], clock[inliers], s=4, c="tab:red", label=f"inliers ({int(inliers.sum())})")
+    for mask, size, colour, label in groups:
+        ax.scatter(votes.sample[mask], clock[mask], s=size, c=colour, label=label, rasterized=True)
     xs = np.array([votes.sample.min(), votes.sample.max()]) if len(votes) else np.array([0.0, 1.0])
     ax.plot(xs, line.alpha * xs + line.beta, "k-", lw=1, label=f"clock = {line.alpha:.4f} sample {line.beta:+.2f}")
     ax.set_xlabel("target sample t_r")
     ax.set_ylabel(f"{name}: time x fps (frames)" if line.clock.vfr else f"frame of {name} t_c")
-    ax.set_title(f"{name}: voting space")
+    ax.set_title(title)
     ax.legend(loc="best", fontsize=8)
     fig.tight_layout()
     return _save_figure(fig, path)

@@ -20,13 +20,16 @@ adds blobs and false lines):
 5. a second search without the winner's inliers measures the support of the
    best competing line (ambiguity, e.g. a periodic path).
 
-With a slope prior (sync/slope.py: what the frame rates say), a
-hypothesis whose slope falls outside the prior's band takes the nominal
-slope and keeps the line through its first vote, so one inlier vote makes
-a good hypothesis (the count of eq. 4 for one point, not two); polishing
-is then least squares with the prior as one more equation (its weight: the
-variance of votes within the inlier band over the prior's variance), the
-slope kept in the band.
+With a slope prior (sync/slope.py: what the frame rates say), steps 2-3 are
+replaced by an exhaustive sweep: for slopes across the prior's band, spaced
+so that neighbouring slopes part by less than delta over the votes' span,
+each vote's intercept beta = frame - alpha x sample is computed and the
+windows of width 2 delta (vertically: 2 delta sqrt(1 + alpha^2)) holding
+the most votes give the candidate lines (a sort and a binary search per
+slope: no random draws, nothing missed); polishing is then least squares
+with the prior as one more equation (its weight: the variance of votes
+within the inlier band over the prior's variance), the slope kept in the
+band.
 
 Deterministic for a seed.
 """
@@ -125,13 +128,8 @@ def _group_starts(frame_sorted: np.ndarray) -> np.ndarray:
     return np.flatnonzero(np.r_[True, frame_sorted[1:] != frame_sorted[:-1]])
 
 
-def _hypotheses(rng, sample, frame, n, window, prior):
-    """n lines through pairs of votes (sorted by frame): half global pairs, half local ones.
-
-    prior: a SlopePrior, or None; with it, a slope outside its band (or a
-    pair of one sample) is replaced by the nominal slope, and the line goes
-    through the first vote of its pair.
-    """
+def _hypotheses(rng, sample, frame, n, window):
+    """n lines through pairs of votes (sorted by frame): half global pairs, half local ones."""
     m = len(sample)
     i = rng.integers(m, size=n)
     j = rng.integers(m, size=n)
@@ -141,17 +139,15 @@ def _hypotheses(rng, sample, frame, n, window, prior):
     ds = sample[j] - sample[i]
     usable = ds != 0
     alpha = np.divide(frame[j] - frame[i], ds, out=np.zeros(n), where=usable)
-    if prior is not None:
-        low, high = prior.band
-        alpha = np.where(usable & (alpha >= low) & (alpha <= high), alpha, prior.alpha)
-        usable = np.ones(n, dtype=bool)
     usable &= alpha > 0
     alpha = alpha[usable]
     return alpha, frame[i[usable]] - alpha * sample[i[usable]]
 
 
 def _search(rng, sample, frame, delta, p, r_min, prior):
-    """Best line over votes sorted by frame: (alpha, beta, support, hypotheses drawn)."""
+    """Best line over votes sorted by frame: (alpha, beta, support, lines scored); the sweep with a prior, adaptive RANSAC without."""
+    if prior is not None:
+        return _sweep(sample, frame, delta, prior)
     m = len(sample)
     if m > SCORE_SUBSET:
         subset = np.sort(rng.choice(m, SCORE_SUBSET, replace=False))
@@ -160,12 +156,11 @@ def _search(rng, sample, frame, delta, p, r_min, prior):
     s_sub, f_sub = sample[subset], frame[subset]
     starts_sub = _group_starts(f_sub)
     window = max(5, m // 50)
-    points = 1 if prior is not None else 2
-    needed = min(MAX_HYPOTHESES, _iterations(p, r_min, points))
+    needed = min(MAX_HYPOTHESES, _iterations(p, r_min))
     drawn, best_count = 0, 0
     pool_a, pool_b, pool_s = [], [], []
     while drawn < max(BATCH, min(needed, MAX_HYPOTHESES)):
-        a, b = _hypotheses(rng, sample, frame, BATCH, window, prior)
+        a, b = _hypotheses(rng, sample, frame, BATCH, window)
         drawn += BATCH
         if len(a) == 0:
             continue
@@ -177,24 +172,60 @@ def _search(rng, sample, frame, delta, p, r_min, prior):
         best_count = max(best_count, int(counts[top[0]]))
         # The inlier ratio of the best line so far sets how many draws are needed (eq. 4).
         ratio = max(best_count / len(starts_sub), r_min)
-        needed = min(needed, _iterations(p, min(ratio, 0.999), points) * 2)
+        needed = min(needed, _iterations(p, min(ratio, 0.999)) * 2)
     if not pool_a:
         return None
-    a, b, s = np.concatenate(pool_a), np.concatenate(pool_b), np.concatenate(pool_s)
-    top = np.argsort(-s, kind="stable")[:_FINALISTS]
+    return (*_best_finalist(sample, frame, np.concatenate(pool_a), np.concatenate(pool_b), np.concatenate(pool_s), delta, None), drawn)
+
+
+SWEEP_PEAKS = 4  # candidate lines kept per slope of the sweep
+MAX_SWEEP_SLOPES = 512
+
+
+def _sweep(sample, frame, delta, prior: SlopePrior):
+    """Best line with its slope in the prior's band, by sweeping slopes and intercepts: (alpha, beta, support, lines scored)."""
+    low, high = prior.band
+    span = float(np.ptp(sample))
+    steps = int(min(MAX_SWEEP_SLOPES, max(1, math.ceil((high - low) * span / delta))))
+    slopes = np.unique(np.r_[prior.alpha, np.linspace(low, high, steps + 1)]) if steps > 1 else np.array([prior.alpha])
+    pool_a, pool_b, pool_s = [], [], []
+    for alpha in slopes:
+        width = 2 * delta * math.sqrt(1 + alpha * alpha)
+        intercept = np.sort(frame - alpha * sample)
+        counts = np.searchsorted(intercept, intercept + width, side="right") - np.arange(len(intercept))
+        for k in _peaks(intercept, counts, width):
+            pool_a.append(alpha)
+            pool_b.append(intercept[k] + width / 2)
+            pool_s.append(counts[k])
+    return (*_best_finalist(sample, frame, np.array(pool_a), np.array(pool_b), np.array(pool_s), delta, prior), len(slopes) * len(sample))
+
+
+def _peaks(intercept: np.ndarray, counts: np.ndarray, width: float) -> list[int]:
+    """Up to SWEEP_PEAKS windows of most votes, each starting more than one window width from those kept before."""
+    kept: list[int] = []
+    for k in np.argsort(-counts, kind="stable"):
+        if all(abs(intercept[k] - intercept[j]) > width for j in kept):
+            kept.append(int(k))
+            if len(kept) == SWEEP_PEAKS:
+                break
+    return kept
+
+
+def _best_finalist(sample, frame, alpha, beta, counts, delta, prior):
+    """Of the candidate lines, the _FINALISTS with most votes polished and scored on every vote: (alpha, beta, support)."""
+    top = np.argsort(-counts, kind="stable")[:_FINALISTS]
     starts = _group_starts(frame)
     best = None
-    for alpha, beta in zip(a[top], b[top]):
-        alpha, beta = _polish(sample, frame, float(alpha), float(beta), delta, prior)
-        score = int(_score(sample, frame, starts, np.array([alpha]), np.array([beta]), delta)[0])
+    for a, b in zip(alpha[top], beta[top]):
+        a, b = _polish(sample, frame, float(a), float(b), delta, prior)
+        score = int(_score(sample, frame, starts, np.array([a]), np.array([b]), delta)[0])
         if best is None or score > best[2]:
-            best = (alpha, beta, score)
-    return best[0], best[1], best[2], drawn
+            best = (a, b, score)
+    return best
 
 
-def _iterations(p: float, r: float, points: int = 2) -> int:
-    """Hypotheses needed to draw ``points`` inliers at once with probability p at inlier ratio r (eq. 4)."""
-    return max(1, math.ceil(math.log(1 - p) / math.log(1 - r**points)))
+def _iterations(p: float, r: float) -> int:
+    return max(1, math.ceil(math.log(1 - p) / math.log(1 - r * r)))
 
 
 def _polish(sample, frame, alpha, beta, delta, prior=None):

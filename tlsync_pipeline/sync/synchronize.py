@@ -72,10 +72,13 @@ def synchronize_camera(name: str, inputs: CameraInput, votes: Votes, prepared: T
     return CameraResult(votes, line)
 
 
-def identify(camera: Camera, detections: Detections, prepared: Trajectory, fps: float | None, params: SyncParams) -> Identification:
-    """The target among every mover of one camera, with the sync parameters (SyncError when it cannot be found)."""
+def identify(camera: Camera, detections: Detections, prepared: Trajectory, fps: float | None, params: SyncParams, prefer: frozenset[int] = frozenset()) -> Identification:
+    """The target among every mover of one camera, with the sync parameters (SyncError when it cannot be found).
+
+    prefer: tracklet ids an init box says are the target.
+    """
     prior = slope_prior(fps, prepared.rate, params.rate_sigma)
-    return identify_target(camera, detections, prepared, fps, params.eps_px, params.delta, params.p, params.seed, prior=prior)
+    return identify_target(camera, detections, prepared, fps, params.eps_px, params.delta, params.p, params.seed, prefer=prefer, prior=prior)
 
 
 def identify_and_synchronize(name: str, inputs: CameraInput, prepared: Trajectory, params: SyncParams) -> CameraResult:

@@ -1,8 +1,9 @@
 """The identify stage: a camera's every mover in, its target's track.csv and identification.json out.
 
-For a camera whose track stage detected every mover (no init box), or that
+For a camera whose track stage detected every mover (blob kind), or that
 brings its own ``detections = ...``: the trajectory, projected into the
-camera, picks the target among the movers (sync/identify.py). The
+camera, picks the target among the movers (sync/identify.py). An init box
+seeds the identity: the tracklet in it at the init frame is preferred. The
 identified target's ``track.csv`` then serves the vote, sync, export and
 render stages as any track does; ``identification.json`` holds the summary
 that sync writes into timeline.json, or the reason the target could not be
@@ -19,37 +20,48 @@ from calibration.camera import read_camera
 from tlsync_pipeline.errors import SyncError
 from tlsync_pipeline.pipeline.spec import StageSpec
 from tlsync_pipeline.pipeline.stages.cameras import has_no_rows
+from tlsync_pipeline.pipeline.stages.track import tracks_every_mover
 from tlsync_pipeline.pipeline.workspace import StageFiles
 from tlsync_pipeline.sync.registry import params_from_table, params_table
 from tlsync_pipeline.sync.synchronize import identify, prepare_trajectory
 from tlsync_pipeline.trajectory import read_trajectory
-from trackers.detections import follows_every_mover, read_detections
+from trackers.detections import read_detections, seed_tracklets
 from trackers.track import write_track
+from trackers.tracking import check_init_box
 
 
-def run_identify(files: StageFiles, fps: float | None, sync: dict[str, Any], source: str | None = None) -> dict:
+def run_identify(files: StageFiles, fps: float | None, sync: dict[str, Any], source: str | None = None, seed: dict | None = None) -> dict:
     """The identify stage: ``track.csv`` of the identified target and ``identification.json``.
 
     source: the video the track stage detected the movers in (None when the
-    project brings its detections); no mover in it: the target was never found.
+    project brings its detections); no mover in it: the target was never
+    found. seed: the tracker's ``init`` box and ``init_frame``, or None.
     """
     params = params_from_table(sync)
+    warnings: list[str] = []
     camera = read_camera(files.path("camera"), name=files.camera)
     prepared = prepare_trajectory(read_trajectory(files.path("trajectory")), params)
     try:
         if source is not None and has_no_rows(files.path("detections")):
             raise SyncError(f"{source}: the target was never found (no moving object in any frame)")
-        found = identify(camera, read_detections(files.path("detections")), prepared, fps or camera.fps, params)
+        detections = read_detections(files.path("detections"))
+        if seed:
+            check_init_box(source, seed["init"], seed["init_frame"])
+        prefer = seed_tracklets(detections, seed["init"], seed["init_frame"]) if seed else frozenset()
+        if seed and not prefer:
+            warnings.append(f"camera {files.camera}: no mover inside the init box {seed['init']} near frame {seed['init_frame']}; the target is identified without it")
+        found = identify(camera, detections, prepared, fps or camera.fps, params, prefer)
     except SyncError as exc:
         files.output("track").unlink(missing_ok=True)
         with files.write("identification") as tmp:
             tmp.write_text(json.dumps({"error": str(exc)}, indent=1) + "\n", encoding="utf-8")
-        return {"error": str(exc)}
+        return {"error": str(exc), "warnings": warnings}
     with files.write("track") as tmp:
         write_track(found.track, tmp)
     with files.write("identification") as tmp:
         tmp.write_text(json.dumps(asdict(found.summary()), indent=1) + "\n", encoding="utf-8")
-    return {"identified_frames": len(found.track), "message": f"wrote {files.output('track')} ({len(found.track)} identified frames)"}
+    seeded = f", seeded by the init box (tracklet {min(prefer)})" if prefer else ""
+    return {"identified_frames": len(found.track), "warnings": warnings, "message": f"wrote {files.output('track')} ({len(found.track)} identified frames{seeded})"}
 
 
 def brings_movers(project, cam: str) -> bool:
@@ -57,9 +69,15 @@ def brings_movers(project, cam: str) -> bool:
     spec = project.camera(cam)
     if spec["track"] is not None:
         return False
-    tracker = spec.get("tracker") or {}
-    every_mover = follows_every_mover(tracker.get("kind", "blob"), tracker.get("init"), tracker.get("init_frame", 0))
-    return spec.get("detections") is not None or (spec.get("video") is not None and every_mover)
+    return spec.get("detections") is not None or (spec.get("video") is not None and tracks_every_mover(spec))
+
+
+def _init_seed(project, cam: str) -> dict | None:
+    """The blob tracker's init box and frame, which seed the identity, or None."""
+    tracker = project.camera(cam).get("tracker") or {}
+    if project.camera(cam).get("detections") is not None or tracker.get("init") is None:
+        return None
+    return {"init": list(tracker["init"]), "init_frame": tracker.get("init_frame", 0)}
 
 
 def _detected_video(project, cam: str) -> str | None:
@@ -71,7 +89,7 @@ def _detected_video(project, cam: str) -> str | None:
 SPEC = StageSpec(
     "identify",
     inputs=lambda src, cam: {"camera": src.artefact("camera", cam), "detections": src.artefact("detections", cam), "trajectory": src.artefact("trajectory")},
-    params=lambda project, cam, options: {"fps": project.camera(cam)["fps"], "sync": params_table(project.sync), "source": _detected_video(project, cam)},
+    params=lambda project, cam, options: {"fps": project.camera(cam)["fps"], "sync": params_table(project.sync), "source": _detected_video(project, cam), "seed": _init_seed(project, cam)},
     outputs=("track", "identification"),
     run=run_identify,
     per_camera=True,

@@ -33,6 +33,7 @@ from tlsync_pipeline.outputs.pictures import (
     default_pairs,
     pair_frames,
     plot_trajectory,
+    plot_candidate_votes,
     plot_votes,
     read_frames,
     render_movers,
@@ -53,6 +54,7 @@ from tlsync_pipeline.pipeline.stages.sync import read_camera_inputs
 from tlsync_pipeline.pipeline.workspace import StageFiles
 from tlsync_pipeline.sync.clock import FrameTimes
 from tlsync_pipeline.sync.registry import params_from_table
+from tlsync_pipeline.sync.identify import candidate_votes
 from tlsync_pipeline.sync.synchronize import prepare_trajectory
 from tlsync_pipeline.sync.timeline import CameraLine, Timeline, read_timeline, read_truth
 from tlsync_pipeline.sync.votes import load_votes
@@ -92,7 +94,9 @@ def run_render(
     """
     tl = read_timeline(files.path("timeline"))
     traj = read_trajectory(files.path("trajectory"))
-    path_model = PiecewiseTrajectory(prepare_trajectory(traj, params_from_table(tl.params)))
+    sync_params = params_from_table(tl.params)
+    prepared = prepare_trajectory(traj, sync_params)
+    path_model = PiecewiseTrajectory(prepared)
     names = cameras
     cameras = camera_files(files, cameras, fps)
     inputs = read_camera_inputs({n: c for n, c in cameras.items() if n in tl.cameras})
@@ -117,6 +121,9 @@ def run_render(
             movers = read_detections(cameras[name]["detections"])
             made.append(render_movers(videos[name], movers, inputs[name].track, inputs[name].camera, path_model, line, times[name], out_dir / f"movers_{name}.png"))
             titles.append("every mover, the identified target and the projected path")
+            votes, rows = candidate_votes(inputs[name].camera, movers, prepared, sync_params.eps_px)
+            made.append(plot_candidate_votes(name, votes, movers.matching(inputs[name].track)[rows], line, delta, out_dir / f"votes_movers_{name}.png", times[name]))
+            titles.append("voting space of every mover")
         written += made
         camera_pictures[name] = [(_photo if title.startswith("band swap") else _picture)(title, path, work) for title, path in zip(titles, made)]
 

@@ -1,9 +1,9 @@
 """The track stage: each camera's video in, its movers or its target's track out (work folder).
 
-Without an init box (blob kind), every mover is detected: ``detections.csv``
-(the identify stage then picks the target among them and writes
-``track.csv``). With an init box, or with CSRT, the one target is tracked:
-``track.csv``. ``track_camera`` is the pure part; ``write_track_atomic`` and
+With the blob kind every mover is detected: ``detections.csv`` (the
+identify stage then picks the target among them, the init box if any
+seeding the identity, and writes ``track.csv``). With CSRT the one target
+is tracked from its init box: ``track.csv``. ``track_camera`` is the pure part; ``write_track_atomic`` and
 ``write_detections_atomic`` the writers (also used by ``tlsync track-video``).
 """
 
@@ -18,16 +18,15 @@ from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.pipeline.spec import StageSpec
 from tlsync_pipeline.pipeline.stages.cameras import VIDEO_INFO_FORMAT
 from tlsync_pipeline.pipeline.workspace import StageFiles
-from trackers.detections import Detections, follows_every_mover, write_detections
+from trackers.detections import Detections, write_detections
 from trackers.track import Track, write_track
 from trackers.tracking import detect_movers, track_video
 from trackers.video import TruncatedVideoWarning, probe_video
 
 
 def tracks_every_mover(spec: dict) -> bool:
-    """Whether the camera's track stage detects every mover (blob kind, no init box) rather than one target."""
-    tracker = spec.get("tracker") or {}
-    return follows_every_mover(tracker.get("kind", "blob"), tracker.get("init"), tracker.get("init_frame", 0))
+    """Whether the camera's track stage detects every mover (blob kind) rather than one target (CSRT)."""
+    return (spec.get("tracker") or {}).get("kind", "blob") == "blob"
 
 
 def track_camera(spec: dict, progress: bool = True) -> Track | Detections:
@@ -91,6 +90,13 @@ def video_info(video: Path, truncation: TruncatedVideoWarning | None) -> dict:
     return {"format": VIDEO_INFO_FORMAT, "video": str(video), "frames": frames, "announced": announced, "truncated": truncation is not None}
 
 
+def tracking_params(tracker: dict) -> dict:
+    """What the track stage's work depends on: the tracker table, without the init box for the blob kind (it seeds identify, not detection)."""
+    if tracker.get("kind", "blob") != "blob":
+        return tracker
+    return {k: v for k, v in tracker.items() if k not in ("init", "init_frame")}
+
+
 def _applies(project, cam: str) -> bool:
     spec = project.camera(cam)
     return spec["track"] is None and spec.get("video") is not None
@@ -99,7 +105,7 @@ def _applies(project, cam: str) -> bool:
 SPEC = StageSpec(
     "track",
     inputs=lambda src, cam: {"video": src.project.camera(cam)["video"]},
-    params=lambda project, cam, options: {"tracker": project.camera(cam)["tracker"]},
+    params=lambda project, cam, options: {"tracker": tracking_params(project.camera(cam)["tracker"])},
     outputs=("track", "detections", "video_info"),  # track.csv or detections.csv (every mover: track.csv then comes from identify), and video.json
     run=run_track,
     per_camera=True,

@@ -45,10 +45,25 @@ def test_without_init_box_stage_and_command_write_the_same_movers(tmp_path, vide
     assert not (tmp_path / "work" / "cameras" / "cam0" / "track.csv").exists()
 
 
+def test_a_blob_init_box_still_detects_every_mover(tmp_path, video):
+    # In a project the blob tracker's init box seeds the identity (identify stage): the track stage
+    # writes every mover, as `track-video` without --init; with --init, track-video follows one target.
+    x0, y0 = (round(v) - 8 for v in video.truth[70])
+    project = _project(tmp_path, video, f"[cameras.tracker]\ninit = [{x0}, {y0}, 17, 17]\ninit_frame = 70\n")
+    result = _run("track", project, "--quiet")
+    assert result.exit_code == 0, result.output
+    staged = tmp_path / "work" / "cameras" / "cam0" / "detections.csv"
+    out = tmp_path / "standalone.csv"
+    assert _run("track-video", video.path, "--out", out, "--quiet").exit_code == 0
+    assert staged.read_bytes() == out.read_bytes()
+    single = tmp_path / "single.csv"
+    assert _run("track-video", video.path, "--out", single, "--quiet", "--init", f"{x0},{y0},17,17", "--init-frame", "70").exit_code == 0
+    assert len(read_track(single)) > 40
+
+
 @pytest.mark.parametrize(
     "tracker_table, options",
     [
-        ('[cameras.tracker]\ninit = [{x0}, {y0}, 17, 17]\ninit_frame = 70\n', ["--init", "{x0},{y0},17,17", "--init-frame", "70"]),
         ('[cameras.tracker]\nkind = "csrt"\ninit = [{x0}, {y0}, 17, 17]\ninit_frame = 70\n', ["--tracker", "csrt", "--init", "{x0},{y0},17,17", "--init-frame", "70"]),
     ],
 )
@@ -83,7 +98,7 @@ def test_work_option_and_camera_selection(tmp_path, video):
 
 
 def test_failed_run_keeps_the_cached_track(tmp_path, video):
-    project = _project(tmp_path, video, '[cameras.tracker]\ninit = [10, 10, 17, 17]\ninit_frame = 500\n')
+    project = _project(tmp_path, video, '[cameras.tracker]\nkind = "csrt"\ninit = [10, 10, 17, 17]\ninit_frame = 500\n')
     cached = tmp_path / "work" / "cameras" / "cam0" / "track.csv"
     cached.parent.mkdir(parents=True)
     cached.write_text("frame,x,y\n0,1,2\n")
@@ -100,7 +115,7 @@ def test_failed_run_keeps_the_cached_track(tmp_path, video):
         ("[cameras.tracker]\ninit = [1, 2, 3]\n", r"expected a box \[x, y, w, h\]"),
         ("[cameras.tracker]\ninit_frame = -2\n", "expected a 0-based frame index"),
         ("[cameras.tracker]\nkindd = 3\n", r"unknown key 'kindd' \(did you mean 'kind'\?\)"),
-        ("[cameras.tracker]\ninit = [400, 10, 20, 20]\n", r"init box \[400, 10, 20, 20\] is outside the image \(320x240\)"),
+        ('[cameras.tracker]\nkind = "csrt"\ninit = [400, 10, 20, 20]\n', r"init box \[400, 10, 20, 20\] is outside the image \(320x240\)"),
         ("[cameras.tracker.parameters]\ngate = 3\n", r"unknown parameter 'gate' \(did you mean 'gate_px'\?\)"),
     ],
 )
