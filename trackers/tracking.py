@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 from typing import Sequence
 
@@ -13,7 +12,7 @@ from trackers.detections import Detections, make_detections
 from trackers.errors import TrackInputError
 from trackers.movers import MoverLinker
 from trackers.track import Track
-from trackers.video import VideoInfo, iter_frames, probe_video, sample_frames
+from trackers.video import VideoInfo, check_init_box, iter_frames, probe_video, sample_frames
 
 KINDS = ("blob", "csrt")
 # Every-mover detection expects crowds: a frame is taken as a global change (skipped) only above this many blobs.
@@ -43,7 +42,7 @@ def track_video(
     if kind not in KINDS:
         raise TrackInputError(f"unknown tracker kind {kind!r}; expected one of: {', '.join(KINDS)}")
     info = probe_video(path)
-    box = _check_init(path, info, init, init_frame)
+    box = check_init_box(path, info, init, init_frame)
     where = f"{path}: tracker parameters"
     if kind == "blob":
         blob_params = BlobParams.from_dict(params, where)
@@ -87,12 +86,6 @@ def detect_movers(path: str | Path, params: dict | None = None, progress: bool =
     return make_detections(rows)
 
 
-def check_init_box(path: str | Path, init: Sequence[float] | None, init_frame: int = 0) -> None:
-    """Raise TrackInputError when an init box [x, y, w, h] (or its 0-based frame) does not fit the video at ``path``."""
-    path = Path(path)
-    _check_init(path, probe_video(path), init, init_frame)
-
-
 def _detector(path: Path, params: BlobParams) -> BlobDetector:
     """A blob detector whose background is the median of (luma) frames sampled over the video."""
     frames = sample_frames(path, params.background_frames, gray=True)
@@ -117,24 +110,3 @@ def _blob_steps(path, info: VideoInfo, params: BlobParams, box, init_frame: int,
             yield frame, times[frame], blob.x, blob.y, blob.w, blob.h, score
         times = {f: t for f, t in times.items() if f > index - 2 * params.confirm - 2}
     return index + 1
-
-
-def _check_init(path: Path, info: VideoInfo, init, init_frame) -> tuple[float, float, float, float] | None:
-    if isinstance(init_frame, bool) or not isinstance(init_frame, (int, np.integer)) or init_frame < 0:
-        raise TrackInputError(f"{path}: init frame must be a 0-based frame index, got {init_frame!r}")
-    if info.counted and init_frame >= info.n_frames:
-        raise TrackInputError(f"{path}: init frame {init_frame} is past the end of the video ({info.n_frames} frames)")
-    if init is None:
-        return None
-    try:
-        x, y, w, h = (float(v) for v in init)
-    except (TypeError, ValueError):
-        raise TrackInputError(f"{path}: init box must be four numbers x, y, w, h (pixels), got {init!r}") from None
-    if not all(math.isfinite(v) for v in (x, y, w, h)) or w <= 0 or h <= 0:
-        raise TrackInputError(f"{path}: init box [{x:g}, {y:g}, {w:g}, {h:g}]: width and height must be positive")
-    if x < 0 or y < 0 or x + w > info.width or y + h > info.height:
-        raise TrackInputError(
-            f"{path}: init box [{x:g}, {y:g}, {w:g}, {h:g}] is outside the image ({info.width}x{info.height}); x, y is the top-left corner"
-        )
-    return x, y, w, h
-

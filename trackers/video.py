@@ -12,6 +12,7 @@ last decodable frame with a ``TruncatedVideoWarning`` naming that frame.
 
 from __future__ import annotations
 
+import math
 import warnings
 from bisect import bisect_right
 from dataclasses import dataclass
@@ -352,3 +353,25 @@ def sample_frames(path: str | Path, count: int, gray: bool = True) -> list[np.nd
             if len(out) >= count:
                 break
     return out
+
+
+def check_init_box(path: Path, info: VideoInfo, init, init_frame) -> tuple[float, float, float, float] | None:
+    """The init box [x, y, w, h] (pixels, top-left corner and size) as floats, or None; TrackInputError naming ``path`` when it or its 0-based frame does not fit the video."""
+    if isinstance(init_frame, bool) or not isinstance(init_frame, (int, np.integer)) or init_frame < 0:
+        raise TrackInputError(f"{path}: init frame must be a 0-based frame index, got {init_frame!r}")
+    if info.counted and init_frame >= info.n_frames:
+        raise TrackInputError(f"{path}: init frame {init_frame} is past the end of the video ({info.n_frames} frames)")
+    if init is None:
+        return None
+    try:
+        x, y, w, h = (float(v) for v in init)
+    except (TypeError, ValueError):
+        raise TrackInputError(f"{path}: init box must be four numbers x, y, w, h (pixels), got {init!r}") from None
+    if not all(math.isfinite(v) for v in (x, y, w, h)) or w <= 0 or h <= 0:
+        raise TrackInputError(f"{path}: init box [{x:g}, {y:g}, {w:g}, {h:g}]: width and height must be positive")
+    if x < 0 or y < 0 or x + w > info.width or y + h > info.height:
+        raise TrackInputError(
+            f"{path}: init box [{x:g}, {y:g}, {w:g}, {h:g}] is outside the image ({info.width}x{info.height}); x, y is the top-left corner"
+        )
+    return x, y, w, h
+

@@ -50,6 +50,7 @@ MIN_FOLLOW_SHARE = 0.3  # a tracklet "follows" the path around a frame when this
 FOLLOW_WINDOW_S = 2.0  # seconds either side of a frame over which a tracklet's following is judged
 FOLLOW_WINDOW_FRAMES = 20  # the same, in frames, for a camera of unknown fps
 UNSEEN_ROWS = 2  # rows off the path every tracklet's following share starts with
+REACH_BAND_PX = 8.0  # candidates are paired with the projected path in bands of this many pixels of reach
 SIZE_TOLERANCE = 1.35  # an assigned candidate whose size in metres departs from the track's median by more than this factor is left out
 
 
@@ -117,13 +118,16 @@ def candidate_votes(camera: Camera, detections: Detections, trajectory: Trajecto
     if len(detections) == 0:
         raise SyncError(f"camera {camera.name}: no moving object was detected in its video")
     projected = cKDTree(uv)
-    radius = np.fmax(eps_px, 0.5 * np.hypot(detections.w, detections.h))
-    near = projected.query_ball_point(detections.xy, radius)
-    i = np.repeat(np.arange(len(detections)), [len(n) for n in near])
-    j = np.fromiter((k for n in near for k in n), dtype=np.int64, count=len(i))
-    offset = uv[j] - detections.xy[i]
-    dist = np.linalg.norm(offset, axis=1)
-    keep = (dist <= eps_px) | covers(offset, detections.w[i], detections.h[i])
+    # Each candidate reaches eps_px, or its box's half diagonal: pairs are found per band of reach (C loops, not Python).
+    reach = np.fmax(eps_px, 0.5 * np.hypot(detections.w, detections.h))
+    band = np.ceil(reach / REACH_BAND_PX).astype(np.int64)
+    found = []
+    for b in np.unique(band):
+        members = np.flatnonzero(band == b)
+        pairs = cKDTree(detections.xy[members]).sparse_distance_matrix(projected, float(b * REACH_BAND_PX), output_type="ndarray")
+        found.append((members[pairs["i"]], pairs["j"].astype(np.int64), pairs["v"].astype(np.float64)))
+    i, j, dist = (np.concatenate(parts) for parts in zip(*found))
+    keep = (dist <= eps_px) | covers(uv[j] - detections.xy[i], detections.w[i], detections.h[i])
     pairs = {"i": i[keep], "j": j[keep], "v": dist[keep]}
     if not keep.any():
         dist, _ = projected.query(detections.xy, k=1)

@@ -201,13 +201,17 @@ def _sweep(sample, frame, delta, prior: SlopePrior):
 
 
 def _peaks(intercept: np.ndarray, counts: np.ndarray, width: float) -> list[int]:
-    """Up to SWEEP_PEAKS windows of most votes, each starting more than one window width from those kept before."""
+    """Up to SWEEP_PEAKS windows of most votes (intercepts sorted), each starting more than one window width from those kept before."""
     kept: list[int] = []
-    for k in np.argsort(-counts, kind="stable"):
-        if all(abs(intercept[k] - intercept[j]) > width for j in kept):
-            kept.append(int(k))
-            if len(kept) == SWEEP_PEAKS:
-                break
+    left = counts.astype(np.float64)
+    for _ in range(SWEEP_PEAKS):
+        k = int(np.argmax(left))
+        if left[k] <= 0:
+            break
+        kept.append(k)
+        lo = np.searchsorted(intercept, intercept[k] - width, side="left")
+        hi = np.searchsorted(intercept, intercept[k] + width, side="right")
+        left[lo:hi] = -1.0
     return kept
 
 
@@ -232,7 +236,7 @@ def _polish(sample, frame, alpha, beta, delta, prior=None):
     """Least squares on the inliers, widened then narrowed, until the set settles (LO-RANSAC); with the prior, a MAP fit kept in its band."""
     for threshold in (2 * delta, delta, delta, delta):
         inlier = distance_to_line(sample, frame, alpha, beta) <= threshold
-        if len(np.unique(sample[inlier])) < 2:
+        if not inlier.any() or np.ptp(sample[inlier]) == 0:  # fewer than 2 distinct samples
             break
         if prior is None:
             a, b = least_squares_line(sample[inlier], frame[inlier])

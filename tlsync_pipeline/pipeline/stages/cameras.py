@@ -36,6 +36,11 @@ def read_identification(path) -> IdentificationSummary | SyncError:
     return SyncError(data["error"]) if "error" in data else IdentificationSummary.from_dict(data)
 
 
+def tracks_every_mover(spec: dict) -> bool:
+    """Whether a camera's track stage detects every mover (blob kind) rather than one target (CSRT)."""
+    return (spec.get("tracker") or {}).get("kind", "blob") == "blob"
+
+
 def has_no_rows(csv_path: Path) -> bool:
     """Whether a CSV artefact a stage wrote (track.csv, detections.csv) holds its header and no row."""
     with open(csv_path, encoding="utf-8") as handle:

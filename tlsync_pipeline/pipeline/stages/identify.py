@@ -13,21 +13,21 @@ identified (the camera is then listed as not synchronized, the others are).
 from __future__ import annotations
 
 import json
+from pathlib import Path
 from dataclasses import asdict
 from typing import Any
 
 from calibration.camera import read_camera
 from tlsync_pipeline.errors import SyncError
 from tlsync_pipeline.pipeline.spec import StageSpec
-from tlsync_pipeline.pipeline.stages.cameras import has_no_rows
-from tlsync_pipeline.pipeline.stages.track import tracks_every_mover
+from tlsync_pipeline.pipeline.stages.cameras import has_no_rows, tracks_every_mover
 from tlsync_pipeline.pipeline.workspace import StageFiles
 from tlsync_pipeline.sync.registry import params_from_table, params_table
 from tlsync_pipeline.sync.synchronize import identify, prepare_trajectory
 from tlsync_pipeline.trajectory import read_trajectory
 from trackers.detections import read_detections, seed_tracklets
 from trackers.track import write_track
-from trackers.tracking import check_init_box
+from trackers.video import check_init_box, probe_video
 
 
 def run_identify(files: StageFiles, fps: float | None, sync: dict[str, Any], source: str | None = None, seed: dict | None = None) -> dict:
@@ -46,7 +46,7 @@ def run_identify(files: StageFiles, fps: float | None, sync: dict[str, Any], sou
             raise SyncError(f"{source}: the target was never found (no moving object in any frame)")
         detections = read_detections(files.path("detections"))
         if seed:
-            check_init_box(source, seed["init"], seed["init_frame"])
+            check_init_box(Path(source), probe_video(source), seed["init"], seed["init_frame"])
         prefer = seed_tracklets(detections, seed["init"], seed["init_frame"]) if seed else frozenset()
         if seed and not prefer:
             warnings.append(f"camera {files.camera}: no mover inside the init box {seed['init']} near frame {seed['init_frame']}; the target is identified without it")

@@ -16,17 +16,12 @@ from pathlib import Path
 from tlsync_pipeline.atomic import atomic_path
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.pipeline.spec import StageSpec
-from tlsync_pipeline.pipeline.stages.cameras import VIDEO_INFO_FORMAT
+from tlsync_pipeline.pipeline.stages.cameras import VIDEO_INFO_FORMAT, tracks_every_mover
 from tlsync_pipeline.pipeline.workspace import StageFiles
 from trackers.detections import Detections, write_detections
 from trackers.track import Track, write_track
 from trackers.tracking import detect_movers, track_video
 from trackers.video import TruncatedVideoWarning, probe_video
-
-
-def tracks_every_mover(spec: dict) -> bool:
-    """Whether the camera's track stage detects every mover (blob kind) rather than one target (CSRT)."""
-    return (spec.get("tracker") or {}).get("kind", "blob") == "blob"
 
 
 def track_camera(spec: dict, progress: bool = True) -> Track | Detections:
