@@ -78,24 +78,19 @@ class MoverLinker:
         return out
 
     def _costs(self, frame: int, blobs: list[Blob]) -> np.ndarray:
+        """(live tracklets x blobs) link costs, _INFEASIBLE where they cannot be linked."""
         p = self.params
         log_ratio_max = math.log(p.size_ratio)
-        bx = np.array([b.x for b in blobs])
-        by = np.array([b.y for b in blobs])
-        barea = np.array([max(b.area, 1e-6) for b in blobs])
-        bpol = np.array([b.polarity for b in blobs])
-        bsize = np.array([max(b.w, b.h) for b in blobs])
-        cost = np.full((len(self.live), len(blobs)), _INFEASIBLE)
-        for i, t in enumerate(self.live):
-            dt = frame - t.frame
-            px, py = t.x + t.vx * dt, t.y + t.vy * dt
-            gate = np.maximum(p.gate_px, 0.5 * bsize) * (1 + 0.5 * (dt - 1))
-            dist = np.hypot(bx - px, by - py)
-            ratio = np.abs(np.log(barea / t.area))
-            c = (dist / gate) ** 2 + (ratio / log_ratio_max) ** 2
-            ok = (dist <= gate) & (ratio <= log_ratio_max) & (bpol == t.polarity)
-            cost[i, ok] = c[ok]
-        return cost
+        blob_cols = np.array([(b.x, b.y, max(b.area, 1e-6), b.polarity, max(b.w, b.h)) for b in blobs]).T
+        bx, by, barea, bpol, bsize = (c[None, :] for c in blob_cols)
+        tx, ty, tvx, tvy, tarea, tpol, tframe = (c[:, None] for c in np.array([(t.x, t.y, t.vx, t.vy, t.area, t.polarity, t.frame) for t in self.live]).T)
+        dt = frame - tframe
+        gate = np.maximum(p.gate_px, 0.5 * bsize) * (1 + 0.5 * (dt - 1))
+        dist = np.hypot(bx - (tx + tvx * dt), by - (ty + tvy * dt))
+        ratio = np.abs(np.log(barea / tarea))
+        cost = (dist / gate) ** 2 + (ratio / log_ratio_max) ** 2
+        ok = (dist <= gate) & (ratio <= log_ratio_max) & (bpol == tpol)
+        return np.where(ok, cost, _INFEASIBLE)
 
     @staticmethod
     def _update(t: _Tracklet, b: Blob, frame: int) -> None:
