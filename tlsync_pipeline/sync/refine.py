@@ -83,6 +83,7 @@ class Refinement:
 
 
 CV_SAMPLES = 100  # samples used to choose the smoothing of a run
+BEND_AVERAGE = 9  # samples averaged before the bends that choose the turning stretch are measured
 _LAMBDAS = np.geomspace(1e-4, 1e4, 17)
 
 
@@ -94,8 +95,10 @@ def smooth_trajectory(trajectory: Trajectory) -> Trajectory:
     chosen by two-fold cross-validation (even samples predict odd ones and
     back) on the CV_SAMPLES consecutive samples of the run where the
     coordinate spans the widest range (motion, not hover) and on those where
-    it bends most (turns); the smaller lam of the two is applied to the whole
-    run (a lam fitted on a straight stretch rounds a walker's turns by
+    it bends most (turns: by its raw second differences, and by those of its
+    BEND_AVERAGE-sample moving average, since a noisy log's raw second
+    differences are mostly noise and may point at a straight stretch); the
+    smallest lam of these is applied to the whole run (a lam fitted on a straight stretch rounds a walker's turns by
     decimetres): a clean log is left nearly as is, a noisy one (GPS) loses
     most of its sample-to-sample noise. Runs shorter than 8 samples are kept
     as they are.
@@ -110,8 +113,11 @@ def smooth_trajectory(trajectory: Trajectory) -> Trajectory:
             chunks = [np.arange(len(idx))]
             if len(idx) > CV_SAMPLES:
                 windows = np.lib.stride_tricks.sliding_window_view(values, CV_SAMPLES)[::10]
-                bends = np.lib.stride_tricks.sliding_window_view(np.r_[0.0, np.diff(values, 2) ** 2, 0.0], CV_SAMPLES)[::10].sum(axis=1)
-                starts = {10 * int(np.argmax(np.ptp(windows, axis=1))), 10 * int(np.argmax(bends))}
+                starts = {10 * int(np.argmax(np.ptp(windows, axis=1)))}
+                # bends of the series as it is and averaged over BEND_AVERAGE samples (a noisy log's raw second differences are its noise)
+                for series in (values, np.convolve(values, np.ones(BEND_AVERAGE) / BEND_AVERAGE, mode="same")):
+                    bends = np.lib.stride_tricks.sliding_window_view(np.r_[0.0, np.diff(series, 2) ** 2, 0.0], CV_SAMPLES)[::10].sum(axis=1)
+                    starts.add(10 * int(np.argmax(bends)))
                 chunks = [np.arange(first, first + CV_SAMPLES) for first in sorted(starts)]
             lam = min(_cv_lambda(sample[idx][chunk], values[chunk]) for chunk in chunks)
             xyz[idx, k] = smoothed_values(sample[idx], values, lam)
