@@ -53,6 +53,12 @@ def _tlsync_run(project_file: Path, marker: str, log: Path) -> subprocess.Popen:
         return subprocess.Popen(command, stdout=handle, stderr=subprocess.STDOUT, env=env)
 
 
+def _has_finished(log: Path) -> bool:
+    """Whether the run's log ends with its last line (the timeline and report written)."""
+    lines = log.read_text().strip().splitlines()
+    return bool(lines) and lines[-1].startswith("wrote ") and "timeline.json" in lines[-1]
+
+
 def _processes_with(marker: str) -> list[int]:
     """Live processes (not zombies) whose environment carries ``MARKER=marker``."""
     found = []
@@ -104,7 +110,8 @@ def test_runs_stopped_at_random_moments_leave_no_process_and_no_false_fresh_arte
         log = tmp_path / f"stop{seed}.log"
         process = _tlsync_run(project_file, marker, log)
         time.sleep(random.Random(seed).uniform(0.5, 4.0))
-        finished_first = process.poll() is not None
+        # A run that has printed where its timeline is has done all its work: a signal then only meets its exit.
+        finished_first = process.poll() is not None or _has_finished(log)
         process.send_signal(how)
         signalled = time.monotonic()
         code = process.wait(timeout=60)
