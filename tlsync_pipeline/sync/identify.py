@@ -12,11 +12,20 @@ Assignment, given a line: at each frame, the trajectory projects to one
 point; the target is the candidate nearest to it within ``gate_px``,
 preferring candidates whose tracklet stays within the gate over its whole
 stay on the path (cost = distance / gate + FOLLOW_WEIGHT x (1 - the
-tracklet's share of frames within the gate)); assigned candidates whose
-box, in metres at the target's depth, departs from the track's median size
-(merged with a passer-by, cut by an occluder) are left out. The line is refined on the
-assigned candidates (refine.refine_line) and the assignment repeated until
-it no longer changes (at most MAX_ROUNDS rounds).
+tracklet's share of frames within the gate)). A candidate whose box holds
+the projection is near too: a blob merged with passers-by has its centre
+off the target's. Such a box, larger than the target's size in metres at
+its depth (sync/target_size.py), holds the target somewhere in its slack;
+an assigned candidate is kept when the projection comes within the gate of
+that region (the refinement's residual), so a passer-by's box of the
+target's size that merely reaches over the projection is left out. The line is refined on the
+kept candidates with the box slack (refine.refine_line) and the assignment
+repeated until it no longer changes (at most MAX_ROUNDS rounds).
+
+The identified track holds, per frame, the target's part of its blob: for
+a box larger than the target, the target's box inside it nearest the
+projection on the final line (target_size.target_within); for a box of
+the target's size, the blob itself.
 
 Frames are 0-based frame indices; the line lives on the camera clock
 (clock.camera_clock: frames, or presentation time x fps for VFR videos).
@@ -35,7 +44,7 @@ from tlsync_pipeline.sync.clock import CameraClock, FrameTimes, camera_clock
 from tlsync_pipeline.sync.line_search import LineSearch, find_line
 from tlsync_pipeline.sync.refine import MIN_FRAMES, refine_line
 from tlsync_pipeline.sync.slope import SlopePrior
-from tlsync_pipeline.sync.target_size import depth, sizes_in_metres
+from tlsync_pipeline.sync.target_size import beyond_slack, slack_on_line, target_within
 from tlsync_pipeline.sync.timeline import IdentificationSummary, TrackletShare
 from tlsync_pipeline.sync.votes import Votes
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
@@ -51,7 +60,6 @@ FOLLOW_WINDOW_S = 2.0  # seconds either side of a frame over which a tracklet's 
 FOLLOW_WINDOW_FRAMES = 20  # the same, in frames, for a camera of unknown fps
 UNSEEN_ROWS = 2  # rows off the path every tracklet's following share starts with
 REACH_BAND_PX = 8.0  # candidates are paired with the projected path in bands of this many pixels of reach
-SIZE_TOLERANCE = 1.35  # an assigned candidate whose size in metres departs from the track's median by more than this factor is left out
 
 
 @dataclass(frozen=True)
@@ -161,29 +169,6 @@ def covers(offset: np.ndarray, w: np.ndarray, h: np.ndarray) -> np.ndarray:
     """
     with np.errstate(invalid="ignore"):
         return (np.abs(offset[:, 0]) <= w / 2) & (np.abs(offset[:, 1]) <= h / 2)
-
-
-def consistent_size(camera: Camera, path: PiecewiseTrajectory, clock: np.ndarray, w: np.ndarray, h: np.ndarray, alpha: float, beta: float) -> np.ndarray:
-    """Whether each candidate's box, scaled to metres at the target's depth on the line, is within SIZE_TOLERANCE of the median.
-
-    The target keeps its size in metres while its image grows and shrinks
-    with its distance; a blob merged with a passer-by, or cut by an
-    occluder, does not (its centroid is then off the target). Candidates
-    without a box size are kept.
-    """
-    s = (clock - beta) / alpha
-    run = path.run_of(s)
-    z = np.full(len(clock), np.nan)
-    on = run >= 0
-    if on.any():
-        z[on] = depth(camera, path(s[on], run[on]))
-    metres = sizes_in_metres(camera, w, h, z)
-    known = np.isfinite(metres).all(axis=1) & (metres > 0).all(axis=1)
-    keep = np.ones(len(clock), bool)
-    if known.sum() >= MIN_FRAMES:
-        ratio = np.abs(np.log(metres[known] / np.median(metres[known], axis=0))).max(axis=1)
-        keep[known] = ratio <= np.log(SIZE_TOLERANCE)
-    return keep
 
 
 @dataclass(frozen=True)
@@ -298,8 +283,7 @@ def identify_target(
         offset = offsets_to_path(camera, path, row_clock, detections.xy, alpha, beta)
         distance = np.linalg.norm(offset, axis=1)
         assignment = assign_target(detections.frame, detections.id, distance, gate, prefer, covers(offset, detections.w, detections.h), window)
-        new = assignment.rows[distance[assignment.rows] <= gate]
-        new = new[consistent_size(camera, path, row_clock[new], detections.w[new], detections.h[new], alpha, beta)]
+        new = assignment.rows[np.linalg.norm(beyond_slack(offset[assignment.rows], _slack(camera, path, row_clock, detections, assignment.rows, alpha, beta)), axis=1) <= gate]
         settled = np.array_equal(new, chosen)
         chosen = new
         if settled or len(chosen) < MIN_FRAMES:
@@ -321,8 +305,25 @@ def identify_target(
             f"({len(chosen)} frames have a candidate within {gate:g} px of it, {following} of them on a tracklet that stays near it "
             f"over +-{window:g} frames; the best tracklet stays near it in {100 * best:.0f} % of its frames)"
         )
+    track = _target_track(camera, path, row_clock, detections, chosen, alpha, beta)
     ids, counts = np.unique(detections.id[chosen], return_counts=True)
     lengths = {int(i): int(n) for i, n in zip(*np.unique(detections.id, return_counts=True))}
     order = np.argsort(-counts, kind="stable")
     uses = tuple(TrackletUse(int(ids[k]), int(counts[k]), lengths[int(ids[k])], float(share[int(ids[k])])) for k in order)
-    return Identification(detections.to_track(chosen), chosen, votes, vote_rows, search, alpha, beta, uses, rounds)
+    return Identification(track, chosen, votes, vote_rows, search, alpha, beta, uses, rounds)
+
+
+def _slack(camera: Camera, path: PiecewiseTrajectory, clock: np.ndarray, detections: Detections, rows: np.ndarray, alpha: float, beta: float) -> np.ndarray:
+    """(len(rows), 2) box slack of the given detection rows under the line, pixels (zeros when their boxes give no reference size)."""
+    box = np.column_stack([detections.w[rows], detections.h[rows]])
+    slack = slack_on_line(camera, path, clock[rows], box, alpha, beta)
+    return np.zeros((len(rows), 2)) if slack is None else slack
+
+
+def _target_track(camera: Camera, path: PiecewiseTrajectory, clock: np.ndarray, detections: Detections, rows: np.ndarray, alpha: float, beta: float) -> Track:
+    """The identified rows as a Track of the target's part of each blob (target_size.target_within) under the line."""
+    track = detections.to_track(rows)
+    offset = offsets_to_path(camera, path, clock[rows], detections.xy[rows], alpha, beta)
+    box = np.column_stack([detections.w[rows], detections.h[rows]])
+    xy, size = target_within(detections.xy[rows], box, offset, _slack(camera, path, clock, detections, rows, alpha, beta))
+    return Track(track.frame, xy[:, 0], xy[:, 1], time_s=track.time_s, w=size[:, 0], h=size[:, 1], score=track.score)

@@ -42,7 +42,7 @@ from scipy.optimize import least_squares
 
 from calibration.camera import Camera
 from tlsync_pipeline.sync.slope import SlopePrior
-from tlsync_pipeline.sync.target_size import box_slack, depth, reference_size, sizes_in_metres
+from tlsync_pipeline.sync.target_size import beyond_slack, slack_on_line
 from tlsync_pipeline.trajectory import GAP_SAMPLES, PiecewiseTrajectory, Trajectory
 
 MIN_FRAMES = 8
@@ -198,7 +198,7 @@ def refine_line(
         raise ValueError(f"only {int(use.sum())} tracked frames fall on the trajectory under the line")
     result = None
     for _ in range(PASSES):
-        slack = None if box is None else _slack(camera, path, frame[use], box[use], alpha, beta)
+        slack = None if box is None else slack_on_line(camera, path, frame[use], box[use], alpha, beta)
         result = _fit(camera, frame[use], xy[use], path, alpha, beta, f_scale, model_error_px, prior, slack)
         alpha, beta = result[0], result[1]
         s = (frame - beta) / alpha
@@ -213,17 +213,6 @@ def refine_line(
         use = grown
     alpha, beta, cov, scale, converged, message, perpendicular = result
     return Refinement(alpha, beta, cov, int(use.sum()), scale, perpendicular, converged, message)
-
-
-def _slack(camera, path, frame, box, alpha, beta):
-    """(N, 2) box slack (pixels) of each frame at the target's depth on the line; None when the boxes give no reference size."""
-    s = (frame - beta) / alpha
-    run = path.run_of(s)
-    z = np.full(len(frame), np.nan)
-    on = run >= 0
-    z[on] = depth(camera, path(s[on], run[on]))
-    reference = reference_size(sizes_in_metres(camera, box[:, 0], box[:, 1], z))
-    return None if reference is None else box_slack(camera, box, z, reference)
 
 
 def _fit(camera, frame, xy, path, alpha, beta, f_scale, model_error_px, prior=None, slack=None):
@@ -247,7 +236,7 @@ def _fit(camera, frame, xy, path, alpha, beta, f_scale, model_error_px, prior=No
         s = x[1] + x[0] * (frame - c_mid)
         uv, valid = camera.project(path(s, run))
         d = uv - xy
-        r = np.sign(d) * np.maximum(np.abs(d) - slack, 0.0) * weight[:, None]
+        r = beyond_slack(d, slack) * weight[:, None]
         r[~valid] = 10.0 * f_scale
         return r.ravel()
 
