@@ -59,12 +59,26 @@ class Detections:
         return Detections(*(getattr(self, c)[rows] for c in COLUMNS))
 
     def matching(self, track: Track, tolerance_px: float = 0.01) -> np.ndarray:
-        """(N,) whether each row is a position of ``track`` (same frame, within tolerance_px): the rows an identified track was made of."""
+        """(N,) whether each row is the one an identified track took its position from: the rows a track was made of.
+
+        The row of the track's frame whose box holds the track's position
+        (widened by tolerance_px; a row without a size: its centre within
+        tolerance_px), the nearest centre when several boxes do. An
+        identified track may hold the target's part of a merged blob, not
+        its centre.
+        """
         out = np.zeros(len(self), dtype=bool)
-        where = np.searchsorted(track.frame, self.frame).clip(0, max(len(track) - 1, 0))
-        if len(track):
-            same = track.frame[where] == self.frame
-            out[same] = np.hypot(track.x[where[same]] - self.x[same], track.y[where[same]] - self.y[same]) <= tolerance_px
+        if not len(track):
+            return out
+        where = np.searchsorted(track.frame, self.frame).clip(0, len(track) - 1)
+        same = track.frame[where] == self.frame
+        dx, dy = np.abs(track.x[where] - self.x), np.abs(track.y[where] - self.y)
+        half_w, half_h = (np.where(np.isfinite(s), s / 2, 0.0) + tolerance_px for s in (self.w, self.h))
+        holds = np.flatnonzero(same & (dx <= half_w) & (dy <= half_h))
+        if not len(holds):
+            return out
+        nearest = holds[np.lexsort((np.hypot(dx[holds], dy[holds]), self.frame[holds]))]
+        out[nearest[np.r_[True, self.frame[nearest][1:] != self.frame[nearest][:-1]]]] = True
         return out
 
     def to_track(self, rows: np.ndarray) -> Track:

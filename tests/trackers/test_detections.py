@@ -5,6 +5,7 @@ import pytest
 
 from trackers.detections import make_detections, read_detections, seed_tracklets, write_detections
 from trackers.errors import TrackInputError
+from trackers.track import Track
 
 
 def _sample():
@@ -78,3 +79,18 @@ def test_an_init_box_points_at_the_mover_inside_it_nearest_its_frame_and_centre(
     assert seed_tracklets(movers, (35, 30, 20, 30), 13) == {4}  # the nearest frame first
     assert seed_tracklets(movers, (35, 30, 20, 30), 30) == frozenset()  # nothing within SEED_FRAMES
     assert seed_tracklets(movers, (300, 300, 20, 30), 10) == frozenset()
+
+
+def test_a_track_matches_the_box_its_position_was_taken_from():
+    movers = make_detections(
+        [
+            (0, 0.0, 1, 100.0, 100.0, 60, 100, 0.9),  # a merged blob: the track holds its left part
+            (0, 0.0, 2, 200.0, 100.0, 20, 50, 0.9),
+            (1, 0.1, 1, 105.0, 100.0, 20, 50, 0.9),  # the track's own blob, and a fragment next to it
+            (1, 0.1, 3, 108.0, 104.0, 4, 4, 0.5),
+            (2, 0.2, 2, 300.0, 100.0, 20, 50, 0.9),  # a frame the track does not hold
+        ]
+    )
+    track = Track(np.array([0, 1]), np.array([80.0, 105.0]), np.array([100.0, 100.0]))
+    assert movers.matching(track).tolist() == [True, False, True, False, False]
+    assert not movers.matching(Track(np.array([0]), np.array([140.0]), np.array([100.0]))).any()  # outside every box

@@ -7,7 +7,11 @@ passer-by does not (it is wider or taller), nor one cut by an occluder.
 
 The reference size is a low quantile (SIZE_QUANTILE) of the sizes in
 metres, not their median: in a crowd most of the target's blobs may be
-merged with someone else's, all larger than the target alone.
+merged with someone else's, all larger than the target alone. Fragments
+(a few pixels of the target seen between occluders, smaller than
+FRAGMENT_RATIO of the median on either side) are left out of it first: a
+reference that small would give every other box a slack that leaves the
+line free.
 
 The refinement uses it for a box slack: a box larger than the reference by
 more than SLACK_TOLERANCE says the target is somewhere inside it, not at its
@@ -27,6 +31,7 @@ from tlsync_pipeline.trajectory import PiecewiseTrajectory
 
 SIZE_QUANTILE = 0.1
 SLACK_TOLERANCE = 1.15
+FRAGMENT_RATIO = 0.4  # a box smaller than this share of the median size (either side) is a fragment, left out of the reference
 MIN_SIZES = 8  # known sizes needed for a reference
 
 
@@ -41,11 +46,15 @@ def sizes_in_metres(camera: Camera, w: np.ndarray, h: np.ndarray, z: np.ndarray)
 
 
 def reference_size(metres: np.ndarray) -> np.ndarray | None:
-    """(2,) the target's width and height in metres (SIZE_QUANTILE of the known sizes), or None with fewer than MIN_SIZES."""
+    """(2,) the target's width and height in metres (SIZE_QUANTILE of the known sizes but fragments), or None with fewer than MIN_SIZES."""
     known = np.isfinite(metres).all(axis=1) & (metres > 0).all(axis=1)
     if known.sum() < MIN_SIZES:
         return None
-    return np.quantile(metres[known], SIZE_QUANTILE, axis=0)
+    sizes = metres[known]
+    whole = (sizes >= FRAGMENT_RATIO * np.median(sizes, axis=0)).all(axis=1)
+    if whole.sum() >= MIN_SIZES:
+        sizes = sizes[whole]
+    return np.quantile(sizes, SIZE_QUANTILE, axis=0)
 
 
 def box_slack(camera: Camera, box_px: np.ndarray, z: np.ndarray, reference_m: np.ndarray) -> np.ndarray:
