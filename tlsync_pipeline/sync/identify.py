@@ -16,11 +16,12 @@ tracklet's share of frames within the gate)). A candidate whose box holds
 the projection is near too: a blob merged with passers-by has its centre
 off the target's. Such a box, larger than the target's size in metres at
 its depth (sync/target_size.py), holds the target somewhere in its slack;
-an assigned candidate is kept when the projection comes within the gate of
-that region (the refinement's residual), so a passer-by's box of the
-target's size that merely reaches over the projection is left out. The line is refined on the
-kept candidates with the box slack (refine.refine_line) and the assignment
-repeated until it no longer changes (at most MAX_ROUNDS rounds).
+an assigned candidate is kept when the projection comes within the gate
+of that region (the refinement's residual), so a passer-by's box of the
+target's size that merely reaches over the projection is left out. The
+line is refined on the kept candidates with the box slack
+(refine.refine_line) and the assignment repeated until it no longer
+changes (at most MAX_ROUNDS rounds).
 
 The identified track holds, per frame, the target's part of its blob: for
 a box larger than the target, the target's box inside it nearest the
@@ -76,8 +77,9 @@ class TrackletUse:
 class Identification:
     """The identified target and how it was found.
 
-    track: the target's Track (one candidate per frame); rows: indices of
-    those candidates in the detections; votes / vote_rows: every candidate's
+    track: the target's Track (one candidate per frame: the target's part
+    of a merged blob, target_size.target_within); rows: indices of those
+    candidates in the detections; votes / vote_rows: every candidate's
     votes and the detection row of each; search: the line search over them;
     alpha, beta: the last line (camera clock); tracklets: the tracklets the
     track uses, most frames first; rounds: assignment rounds run.
@@ -283,7 +285,9 @@ def identify_target(
         offset = offsets_to_path(camera, path, row_clock, detections.xy, alpha, beta)
         distance = np.linalg.norm(offset, axis=1)
         assignment = assign_target(detections.frame, detections.id, distance, gate, prefer, covers(offset, detections.w, detections.h), window)
-        new = assignment.rows[np.linalg.norm(beyond_slack(offset[assignment.rows], _slack(camera, path, row_clock, detections, assignment.rows, alpha, beta)), axis=1) <= gate]
+        rows = assignment.rows
+        room = _slack(camera, path, row_clock, detections, rows, alpha, beta)
+        new = rows[np.linalg.norm(beyond_slack(offset[rows], room), axis=1) <= gate]
         settled = np.array_equal(new, chosen)
         chosen = new
         if settled or len(chosen) < MIN_FRAMES:
@@ -302,7 +306,7 @@ def identify_target(
         best = max(share.values(), default=0.0)
         raise SyncError(
             f"camera {camera.name}: no tracklet follows the target's projected path "
-            f"({len(chosen)} frames have a candidate within {gate:g} px of it, {following} of them on a tracklet that stays near it "
+            f"({len(chosen)} frames have a candidate within {gate:g} px of it or a merged blob holding it, {following} of them on a tracklet that stays near it "
             f"over +-{window:g} frames; the best tracklet stays near it in {100 * best:.0f} % of its frames)"
         )
     track = _target_track(camera, path, row_clock, detections, chosen, alpha, beta)
