@@ -8,10 +8,11 @@ passer-by does not (it is wider or taller), nor one cut by an occluder.
 The reference size is a low quantile (SIZE_QUANTILE) of the sizes in
 metres, not their median: in a crowd most of the target's blobs may be
 merged with someone else's, all larger than the target alone. Fragments
-(a few pixels of the target seen between occluders, smaller than
-FRAGMENT_RATIO of the median on either side) are left out of it first: a
-reference that small would give every other box a slack that leaves the
-line free.
+(a few pixels of the target seen between occluders: less than
+FRAGMENT_AREA of the median area) are left out of it first: a reference
+that small would give every other box a slack that leaves the line free.
+The area, not each side: when most blobs are merged side by side, the
+target alone is less than half the median width but not a fragment.
 
 The refinement uses it for a box slack: a box larger than the reference by
 more than SLACK_TOLERANCE says the target is somewhere inside it, not at its
@@ -31,7 +32,7 @@ from tlsync_pipeline.trajectory import PiecewiseTrajectory
 
 SIZE_QUANTILE = 0.1
 SLACK_TOLERANCE = 1.15
-FRAGMENT_RATIO = 0.4  # a box smaller than this share of the median size (either side) is a fragment, left out of the reference
+FRAGMENT_AREA = 0.2  # a box of less than this share of the median area (in square metres) is a fragment, left out of the reference
 MIN_SIZES = 8  # known sizes needed for a reference
 
 
@@ -51,7 +52,8 @@ def reference_size(metres: np.ndarray) -> np.ndarray | None:
     if known.sum() < MIN_SIZES:
         return None
     sizes = metres[known]
-    whole = (sizes >= FRAGMENT_RATIO * np.median(sizes, axis=0)).all(axis=1)
+    area = sizes.prod(axis=1)
+    whole = area >= FRAGMENT_AREA * np.median(area)
     if whole.sum() >= MIN_SIZES:
         sizes = sizes[whole]
     return np.quantile(sizes, SIZE_QUANTILE, axis=0)

@@ -118,3 +118,26 @@ def test_a_merged_blob_whose_box_holds_the_projection_counts_as_near():
     assert inside.tolist() == [True, True, False]
     found = assign_target(frame, tracklet, np.linalg.norm(offset, axis=1), gate_px=10.0, inside=inside)
     assert found.rows.tolist() == [0, 1]
+
+
+def test_a_target_merged_with_passers_by_in_most_frames_is_kept_and_reported_on_itself():
+    scene = make_scene(seed=0)
+    name = "cam0"
+    detections, target_rows = _crowd_detections(scene, name, seed=2)
+    # Two in three of the target's blobs merged side by side with a passer-by: three times as wide, centre one target width off.
+    merged = (detections.id < 100) & (np.arange(len(detections)) % 3 != 0)
+    w = np.where(merged, 3 * detections.w, detections.w)
+    x = np.where(merged, detections.x + detections.w, detections.x)
+    detections = type(detections)(detections.frame, detections.time_s, detections.id, x, detections.y, w, detections.h, detections.score)
+    camera = scene.cameras[name]
+    found = identify_target(camera, detections, scene.trajectory, camera.fps, P.eps_px, P.delta, P.p, P.seed)
+    picked = {(f, i) for f, i in zip(detections.frame[found.rows], detections.id[found.rows])}
+    assert len(picked & target_rows) >= 0.9 * len(target_rows)  # the merged frames are kept
+    truth = scene.tracks[name]
+    true_xy = truth.xy[np.searchsorted(truth.frame, found.track.frame)]
+    assert np.median(np.abs(found.track.x - true_xy[:, 0])) < 2.0  # the target's part of a merged blob, not its centre
+    was_merged = merged[found.rows]
+    assert np.median(found.track.w[was_merged] / w[found.rows][was_merged]) < 0.5  # and its own box
+    frames = scene.tracks[name].frame
+    line = scene.lines[name]
+    assert np.abs((found.alpha - line.alpha) * (frames - line.beta) / line.alpha + found.beta - line.beta).max() < 0.5

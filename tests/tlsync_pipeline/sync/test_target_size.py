@@ -8,7 +8,7 @@ from tlsync_pipeline.sync.target_size import reference_size, target_within
 def test_the_reference_size_is_the_target_alone_among_merged_blobs_and_fragments():
     rng = np.random.default_rng(0)
     alone = np.column_stack([rng.uniform(0.48, 0.55, 15), rng.uniform(1.6, 1.75, 15)])
-    merged = np.column_stack([rng.uniform(0.8, 1.6, 60), rng.uniform(1.7, 2.8, 60)])  # 3 in 4 blobs merged with passers-by
+    merged = np.column_stack([rng.uniform(1.2, 1.8, 60), rng.uniform(1.6, 1.9, 60)])  # 3 in 4 blobs merged side by side with passers-by
     fragments = np.column_stack([rng.uniform(0.05, 0.2, 10), rng.uniform(0.1, 0.4, 10)])  # bits seen between occluders
     reference = reference_size(np.vstack([alone, merged, fragments]))
     assert np.allclose(reference, [0.5, 1.68], rtol=0.1), reference
