@@ -94,7 +94,7 @@ class BlobDetector:
 
     def __init__(self, background: np.ndarray, params: BlobParams = BlobParams(), deviation: np.ndarray | None = None):
         """background: (H, W) full-resolution grey background (e.g. ``median_background``)."""
-        from trackers import blob_passes  # numba takes 0.4 s to import: a detector's process pays it, not every tlsync process
+        import trackers.blob_passes as blob_passes  # numba takes 0.4 s to import: a detector's process pays it, not every tlsync process
 
         self.passes = blob_passes
         self.params = params
