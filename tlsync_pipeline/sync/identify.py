@@ -18,7 +18,10 @@ off the target's. Such a box, larger than the target's size in metres at
 its depth (sync/target_size.py), holds the target somewhere in its slack;
 an assigned candidate is kept when the projection comes within the gate
 of that region (the refinement's residual), so a passer-by's box of the
-target's size that merely reaches over the projection is left out. The
+target's size that merely reaches over the projection is left out; of
+the candidates whose box leaves no slack, those whose size in metres
+departs from the others' median (cut by an occluder or the image's edge)
+are left out too. The
 line is refined on the kept candidates with the box slack
 (refine.refine_line) and the assignment repeated until it no longer
 changes (at most MAX_ROUNDS rounds).
@@ -45,7 +48,7 @@ from tlsync_pipeline.sync.clock import CameraClock, FrameTimes, camera_clock
 from tlsync_pipeline.sync.line_search import LineSearch, find_line
 from tlsync_pipeline.sync.refine import MIN_FRAMES, refine_line
 from tlsync_pipeline.sync.slope import SlopePrior
-from tlsync_pipeline.sync.target_size import beyond_slack, slack_on_line, target_within
+from tlsync_pipeline.sync.target_size import beyond_slack, depth, sizes_in_metres, slack_on_line, target_within
 from tlsync_pipeline.sync.timeline import IdentificationSummary, TrackletShare
 from tlsync_pipeline.sync.votes import Votes
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
@@ -61,6 +64,7 @@ FOLLOW_WINDOW_S = 2.0  # seconds either side of a frame over which a tracklet's 
 FOLLOW_WINDOW_FRAMES = 20  # the same, in frames, for a camera of unknown fps
 UNSEEN_ROWS = 2  # rows off the path every tracklet's following share starts with
 REACH_BAND_PX = 8.0  # candidates are paired with the projected path in bands of this many pixels of reach
+SIZE_TOLERANCE = 1.35  # a kept candidate without box slack whose size in metres departs from the others' median by more than this factor is left out
 
 
 @dataclass(frozen=True)
@@ -171,6 +175,30 @@ def covers(offset: np.ndarray, w: np.ndarray, h: np.ndarray) -> np.ndarray:
     """
     with np.errstate(invalid="ignore"):
         return (np.abs(offset[:, 0]) <= w / 2) & (np.abs(offset[:, 1]) <= h / 2)
+
+
+def consistent_size(camera: Camera, path: PiecewiseTrajectory, clock: np.ndarray, w: np.ndarray, h: np.ndarray, alpha: float, beta: float) -> np.ndarray:
+    """Whether each candidate's box, scaled to metres at the target's depth on the line, is within SIZE_TOLERANCE of the median.
+
+    The target keeps its size in metres while its image grows and shrinks
+    with its distance; a blob cut by an occluder or the image's edge does
+    not (its centroid is then off the target). Identification applies it
+    to the candidates whose box leaves no slack (merged blobs are judged
+    by their slack). Candidates without a box size are kept.
+    """
+    s = (clock - beta) / alpha
+    run = path.run_of(s)
+    z = np.full(len(clock), np.nan)
+    on = run >= 0
+    if on.any():
+        z[on] = depth(camera, path(s[on], run[on]))
+    metres = sizes_in_metres(camera, w, h, z)
+    known = np.isfinite(metres).all(axis=1) & (metres > 0).all(axis=1)
+    keep = np.ones(len(clock), bool)
+    if known.sum() >= MIN_FRAMES:
+        ratio = np.abs(np.log(metres[known] / np.median(metres[known], axis=0))).max(axis=1)
+        keep[known] = ratio <= np.log(SIZE_TOLERANCE)
+    return keep
 
 
 @dataclass(frozen=True)
@@ -287,7 +315,10 @@ def identify_target(
         assignment = assign_target(detections.frame, detections.id, distance, gate, prefer, covers(offset, detections.w, detections.h), window)
         rows = assignment.rows
         room = _slack(camera, path, row_clock, detections, rows, alpha, beta)
-        new = rows[np.linalg.norm(beyond_slack(offset[rows], room), axis=1) <= gate]
+        keep = np.linalg.norm(beyond_slack(offset[rows], room), axis=1) <= gate
+        plain = np.flatnonzero(keep & ~(room > 0).any(axis=1))
+        keep[plain] = consistent_size(camera, path, row_clock[rows[plain]], detections.w[rows[plain]], detections.h[rows[plain]], alpha, beta)
+        new = rows[keep]
         settled = np.array_equal(new, chosen)
         chosen = new
         if settled or len(chosen) < MIN_FRAMES:
