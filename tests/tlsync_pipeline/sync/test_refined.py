@@ -102,7 +102,7 @@ def test_jittered_frame_times_synchronized_in_seconds():
 
 
 def test_intervals_cover_the_truth_on_a_small_set():
-    # bench/coverage.py runs 200 scenes; loose bounds here.
+    # bench/interval_coverage.py runs 200 scenes; loose bounds here.
     z = []
     for seed in range(12):
         scene = make_scene(1000 + seed, lines=FRACTIONAL, tracking_noise_px=2.0, projection_error_px=2.0, localisation_noise_pct=1.0)
