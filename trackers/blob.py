@@ -10,14 +10,18 @@ Per frame (grey):
 2. Foreground = |frame - gain * background| > max(threshold * deviation,
    min_contrast); connected components of it, kept if their area is within
    [min_area, max_area], are the candidate blobs.
-3. Each candidate's centroid is refined at full resolution in a small window
-   around it: the centroid (image moments) of the full-resolution difference
-   to a full-resolution background (kept, like the downscaled one, in the
-   lighting of the initial background and scaled by the frame's global
-   gain), with weights rising from 0 (noise level) to 1 (a fraction of the
-   blob's contrast) so edge pixels count by how much the blob covers them
-   and the blob's own texture does not pull the centroid. A gain measured
-   around each blob instead is pulled by neighbouring walkers in a crowd.
+3. Each candidate's centroid is refined in a small window around it: the
+   centroid (image moments) of the difference to a background at that
+   resolution (kept, like the downscaled one, in the lighting of the initial
+   background and scaled by the frame's global gain), with weights rising
+   from 0 (noise level) to 1 (a fraction of the blob's contrast) so edge
+   pixels count by how much the blob covers them and the blob's own texture
+   does not pull the centroid. A gain measured around each blob instead is
+   pulled by neighbouring walkers in a crowd. The resolution is the
+   coarsest level of the downscale's halvings (full, 1/2, 1/4, ...) where
+   the blob's smaller side still spans REFINE_MIN_SIDE pixels: a small blob
+   is refined at full resolution, a walker 300 px tall at 1080p at a quarter
+   of it, for a fraction of the work and an error far below its own size.
 4. Association: while tracking, the candidate nearest to the constant-velocity
    prediction, within a gate and of a similar size and the same polarity
    (brighter / darker than the background); after ``patience`` frames without
@@ -37,6 +41,7 @@ from dataclasses import dataclass, fields, replace
 import cv2
 import numpy as np
 
+from trackers.blob_passes import foreground, frame_gain, learn, learn_level, refine
 from trackers.errors import TrackInputError
 
 
@@ -48,7 +53,7 @@ class BlobParams:
     threshold: float = 4.0  # foreground: difference above threshold x the pixel's mean absolute deviation
     min_contrast: float = 12.0  # ... and above this many grey levels
     min_area: float = 6.0  # candidate blob area bounds (pixels)
-    max_area: float = 20000.0
+    max_area: float = 0.0  # 0: automatic, the larger of 20,000 px and 1/20 of the frame
     learning_rate: float = 0.02  # background update rate per frame
     background_frames: int = 15  # frames sampled across the video for the initial background
     gate_px: float = 25.0  # association gate around the prediction
@@ -80,6 +85,11 @@ class Blob:
     contrast: float
 
 
+REFINE_MIN_SIDE = 24  # pixels the blob's smaller side spans at the resolution it is refined at (at least)
+AUTO_MAX_AREA_PX = 20000.0  # the automatic max_area: at least this many pixels ...
+AUTO_MAX_AREA_SHARE = 1 / 20  # ... or this share of the frame
+
+
 class BlobDetector:
     """Background model and candidate blobs, frame after frame (grey, full resolution)."""
 
@@ -90,17 +100,20 @@ class BlobDetector:
         self.size = (w, h)
         self.scale = params.scale or max(1, int(math.ceil(w / 480)))
         self.small_size = (max(1, w // self.scale), max(1, h // self.scale))
-        # Both backgrounds are kept in the lighting of the initial one; a frame's gain maps them to its own.
-        self.bg_full = background.astype(np.float32)
-        self.bg = self._shrink(self.bg_full)
+        self.max_area = params.max_area or max(AUTO_MAX_AREA_PX, AUTO_MAX_AREA_SHARE * w * h)
+        # The backgrounds are kept in the lighting of the initial one; a frame's gain maps them to its own.
+        # bg: the working scale's, learnt every frame; bg_levels: the finer ones (full resolution and the
+        # halvings above the working scale), for the refinement only. At scale 1 bg is the full-resolution one.
+        levels = self._pyramid(background.astype(np.float32))
+        self.bg = levels.pop(self.scale)
+        self.bg_levels = levels
         if deviation is None:
             deviation = np.full((h, w), 2.0, np.float32)
-        self.dev = np.maximum(self._shrink(deviation.astype(np.float32)), 1.0)
+        self.dev = np.maximum(self._pyramid(deviation.astype(np.float32))[self.scale], 1.0)
         self.background_mask = np.full(self.small_size[::-1], 255, np.uint8)
         self.mask = np.zeros(self.small_size[::-1], np.uint8)
         self.frames = 0
         self.noise = float(np.median(self.dev)) * 1.25
-        self._normalized = np.empty((h, w), np.float32)  # a frame divided by its gain, for the full-resolution update
         # 16-bit labels when they cannot overflow (8-connected components of a small frame: at most a quarter of its
         # pixels, rounded up per axis): OpenCV computes the components' statistics about three times faster.
         most = ((self.small_size[0] + 1) // 2) * ((self.small_size[1] + 1) // 2)
@@ -112,56 +125,54 @@ class BlobDetector:
             raise TrackInputError(f"frame size {gray.shape[1]}x{gray.shape[0]} differs from the video's {self.size[0]}x{self.size[1]}")
         p = self.params
         s = self.scale
-        small = self._shrink(gray).astype(np.float32)
-        # the gain from every other row (a strided view OpenCV reads in place) is as good and half the work
-        mean_frame = cv2.mean(small[::2], self.background_mask[::2])[0]
-        mean_bg = cv2.mean(self.bg[::2], self.background_mask[::2])[0]
-        gain = mean_frame / mean_bg if mean_bg > 0 else 1.0
-        diff = cv2.scaleAdd(self.bg, -gain, small)
-        absdiff = np.abs(diff)
-        self.mask = cv2.compare(absdiff, cv2.max(p.threshold * self.dev, p.min_contrast), cv2.CMP_GT)
+        levels = self._pyramid(gray)
+        small = levels[s]
+        gain = frame_gain(small, self.bg, self.background_mask)
+        diff = np.empty(small.shape, np.float32)
+        foreground(small, self.bg, self.dev, gain, p.threshold, p.min_contrast, diff, self.mask)
         blobs = []
         rx, ry, rw, rh = cv2.boundingRect(self.mask)  # components only where there is foreground
         if rw and rh:
             count, labels, stats, _ = cv2.connectedComponentsWithStats(self.mask[ry : ry + rh, rx : rx + rw], connectivity=8, ltype=self._label_type)
             areas = stats[:, cv2.CC_STAT_AREA] * (s * s)
-            keep = np.flatnonzero((areas >= p.min_area) & (areas <= p.max_area))
+            keep = np.flatnonzero((areas >= p.min_area) & (areas <= self.max_area))
             keep = keep[keep > 0]
             if len(keep) > p.max_candidates:
                 keep = keep[:0]  # a global change (light switched, camera bumped): no trustworthy blob
-            signed_and_abs = cv2.merge([diff, absdiff]) if len(keep) else None
             for i in keep.tolist():
-                blob = self._refine(gray, labels, i, stats[i], signed_and_abs, (rx, ry), gain)
+                blob = self._refine(levels, labels, i, stats[i], diff, (rx, ry), gain)
                 if blob is not None:
                     blobs.append(blob)
         # learn the background where there is no foreground (dilated)
         self.background_mask = cv2.bitwise_not(cv2.dilate(self.mask, _KERNEL3))
-        cv2.accumulateWeighted(small * (1.0 / gain), self.bg, p.learning_rate, self.background_mask)
-        cv2.accumulateWeighted(absdiff, self.dev, p.learning_rate, self.background_mask)
-        np.maximum(self.dev, 1.0, out=self.dev)
+        learn(small, diff, self.bg, self.dev, self.background_mask, gain, p.learning_rate)
         self.frames += 1
-        if self.frames % 8 == 0:  # the full-resolution background follows more slowly
-            big_mask = cv2.resize(self.background_mask, self.size, interpolation=cv2.INTER_NEAREST)
-            np.multiply(gray, np.float32(1.0 / gain), out=self._normalized)
-            cv2.accumulateWeighted(self._normalized, self.bg_full, min(1.0, 8 * p.learning_rate), big_mask)
+        if self.frames % 8 == 0:  # the refinement's backgrounds follow more slowly
+            for f, background in self.bg_levels.items():
+                learn_level(levels[f], background, self.background_mask, s // f, gain, min(1.0, 8 * p.learning_rate))
         return blobs
 
-    def _shrink(self, image: np.ndarray) -> np.ndarray:
-        """Area-average by the scale factor: small pixel (i, j) is the mean of full pixels [i*s, i*s+s) x [j*s, j*s+s).
+    def _pyramid(self, image: np.ndarray) -> dict[int, np.ndarray]:
+        """{factor: image area-averaged by factor} for 1 (full), each halving, and the scale factor (the working frame).
 
-        Even factors go by halves (OpenCV's vectorised path; several times
-        faster than one step by 4 or 8 on 8-bit frames, each half rounding to
-        the nearest grey level).
+        Pixel (i, j) at factor f is the mean of full pixels [i*f, i*f+f) x
+        [j*f, j*f+f) (the frame cropped to a multiple of the scale). Even
+        factors go by halves (OpenCV's vectorised path; several times faster
+        than one step by 4 or 8 on 8-bit frames, each half rounding to the
+        nearest grey level).
         """
         sw, sh = self.small_size
         s = self.scale
+        levels = {1: image}
         image = image[: sh * s, : sw * s]
-        while s % 2 == 0:
-            s //= 2
-            image = cv2.resize(image, (sw * s, sh * s), interpolation=cv2.INTER_AREA)
-        if s > 1:
-            image = cv2.resize(image, (sw, sh), interpolation=cv2.INTER_AREA)
-        return image
+        f = 1
+        while (s // f) % 2 == 0:
+            f *= 2
+            image = cv2.resize(image, (sw * s // f, sh * s // f), interpolation=cv2.INTER_AREA)
+            levels[f] = image
+        if f < s:
+            levels[s] = cv2.resize(image, (sw, sh), interpolation=cv2.INTER_AREA)
+        return levels
 
     def support(self, box: tuple[float, float, float, float]) -> float:
         """Fraction of foreground pixels of the last frame inside box (x, y, w, h), full-resolution pixels."""
@@ -173,68 +184,29 @@ class BlobDetector:
             return 0.0
         return float(np.count_nonzero(self.mask[y0:y1, x0:x1])) / ((x1 - x0) * (y1 - y0))
 
-    def _refine(self, gray, labels, label, stat, signed_and_abs, offset, gain) -> Blob | None:
-        """The component ``label`` (labels and stat of the region starting at small pixel ``offset``) refined at full resolution.
+    def _refine(self, levels, labels, label, stat, diff, offset, gain) -> Blob | None:
+        """The component ``label`` (labels and stat of the region starting at small pixel ``offset``), refined.
 
-        signed_and_abs: the small frame's difference to the background and its absolute value, as two channels.
+        levels: the frame's pyramid (``_pyramid``); diff: the small frame's
+        difference to the background. The refinement (trackers.blob_passes.refine)
+        runs at the coarsest level where the blob's smaller side spans
+        REFINE_MIN_SIDE pixels; the result is in full-resolution pixels.
         """
         s = self.scale
         x, y, bw, bh, _ = stat.tolist()
-        x0, y0 = x + offset[0], y + offset[1]  # the component's box in the whole small frame
-        own = (labels[y : y + bh, x : x + bw] == label).view(np.uint8)
-        mean_diff, contrast = cv2.mean(signed_and_abs[y0 : y0 + bh, x0 : x0 + bw], own)[:2]
-        polarity = 1 if mean_diff >= 0 else -1
-        # the component dilated by one small pixel, in its box grown by one (clipped to the frame)
-        gx0, gy0 = max(0, x0 - 1), max(0, y0 - 1)
-        gx1, gy1 = min(self.small_size[0], x0 + bw + 1), min(self.small_size[1], y0 + bh + 1)
-        support = cv2.copyMakeBorder(own, y0 - gy0, gy1 - y0 - bh, x0 - gx0, gx1 - x0 - bw, cv2.BORDER_CONSTANT, value=0)
-        support = cv2.dilate(support, _KERNEL3)
-        # the same window at full resolution: the difference to the background, of the blob's polarity, on its support
-        fx0, fy0, fx1, fy1 = gx0 * s, gy0 * s, gx1 * s, gy1 * s
-        if s > 1:
-            support = cv2.resize(support, (fx1 - fx0, fy1 - fy0), interpolation=cv2.INTER_NEAREST)
-        d = cv2.addWeighted(gray[fy0:fy1, fx0:fx1], polarity, self.bg_full[fy0:fy1, fx0:fx1], -polarity * gain, 0.0, dtype=cv2.CV_32F)
-        top = _upper_decile(d[::2], support[::2])  # every other row: as good an estimate, half the work
-        if top is None:
+        f = max((f for f in levels if min(bw, bh) * s >= REFINE_MIN_SIDE * f), default=1)
+        background = self.bg if f == s else self.bg_levels[f]
+        ok, polarity, contrast, area, wx, wy = refine(labels, label, (x, y, bw, bh), offset, diff, levels[f], background, s // f, gain, self.noise, self.small_size)
+        if not ok:
             return None
-        low = max(0.25 * top, 3.0 * self.noise)
-        high = 0.6 * top
-        if high <= low:
-            return None
-        # weight = clip((d - low) / (high - low), 0, 1) on the support, as moments of d - low clipped to [0, high - low]
-        w = cv2.subtract(d, low, dst=np.zeros_like(d), mask=support)
-        cv2.threshold(w, 0.0, 0.0, cv2.THRESH_TOZERO, dst=w)
-        cv2.threshold(w, high - low, 0.0, cv2.THRESH_TRUNC, dst=w)
-        moments = cv2.moments(w)
-        if moments["m00"] <= 0:
-            return None
-        cx = fx0 + moments["m10"] / moments["m00"]
-        cy = fy0 + moments["m01"] / moments["m00"]
-        return Blob(cx, cy, moments["m00"] / (high - low), float(bw * s), float(bh * s), polarity, contrast)
+        # the window starts at the box grown by one small pixel; level pixel i covers full pixels [i*f, i*f+f)
+        wx0, wy0 = max(0, x + offset[0] - 1) * (s // f), max(0, y + offset[1] - 1) * (s // f)
+        cx = (wx0 + wx) * f + (f - 1) / 2
+        cy = (wy0 + wy) * f + (f - 1) / 2
+        return Blob(cx, cy, area * f * f, float(bw * s), float(bh * s), polarity, contrast)
 
 
 _KERNEL3 = np.ones((3, 3), np.uint8)
-
-
-_DECILE_BINS = 512  # histogram of the differences for their 90th percentile: grey levels
-_DECILE_RANGE = (2.0**-20, 512.0)  # positive values only
-
-
-def _upper_decile(values: np.ndarray, mask: np.ndarray) -> float | None:
-    """The 90th percentile of the positive float32 values where mask is set (to about a grey level); None if there are none.
-
-    A histogram (one pass in OpenCV) costs a fraction of selecting the
-    positive values and partitioning them in numpy.
-    """
-    hist = cv2.calcHist([values], [0], mask, [_DECILE_BINS], _DECILE_RANGE).ravel()
-    cumulative = np.cumsum(hist)
-    if cumulative[-1] <= 0:
-        return None
-    rank = 0.9 * (cumulative[-1] - 1) + 0.5  # numpy's linear rank 0.9 (n - 1), as a position in the counts
-    k = int(np.searchsorted(cumulative, rank))
-    below = cumulative[k] - hist[k]
-    width = (_DECILE_RANGE[1] - _DECILE_RANGE[0]) / _DECILE_BINS
-    return float(_DECILE_RANGE[0] + (k + (rank - below) / hist[k]) * width)
 
 
 @dataclass
