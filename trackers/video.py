@@ -13,7 +13,9 @@ last decodable frame with a ``TruncatedVideoWarning`` naming that frame.
 from __future__ import annotations
 
 import math
+import queue
 import struct
+import threading
 import warnings
 from bisect import bisect_right
 from dataclasses import dataclass
@@ -87,6 +89,8 @@ def iter_frames(path: str | Path, gray: bool = False, progress: bool = False, de
     the decoder's luma plane as stored, usually 16-235). progress: a
     tqdm bar (frames, frames/s, ETA). A video without any decodable frame
     raises TrackInputError; one that stops early warns (TruncatedVideoWarning).
+    Frames are decoded up to READ_AHEAD frames ahead in a thread of their own
+    (``_decode_ahead``), so decoding overlaps the caller's work.
     """
     path = Path(path)
     with _open(path) as container:
@@ -98,7 +102,7 @@ def iter_frames(path: str | Path, gray: bool = False, progress: bool = False, de
         rotation = None
         last_time = None
         try:
-            for frame, error in _decode(container, stream):
+            for frame, error in _decode_ahead(container, stream):
                 if error is not None:
                     _warn_truncated(path, index, last_time, info.n_frames, error)
                     break
@@ -255,6 +259,51 @@ def _decode(container, stream) -> Iterator[tuple[object, str | None]]:
             return
         for frame in frames:
             yield frame, None
+
+
+READ_AHEAD = 4  # frames decoded ahead of the caller by iter_frames
+_END = object()
+
+
+def _decode_ahead(container, stream) -> Iterator[tuple[object, str | None]]:
+    """``_decode``'s items, decoded in a background thread up to READ_AHEAD frames ahead.
+
+    FFmpeg releases the GIL while it decodes, so the next frames decode while
+    the caller works on this one (a tracker's detector), on another core when
+    one is free. The thread stops, and is joined, when the caller stops
+    iterating; its exceptions are raised in the caller.
+    """
+    items: queue.Queue = queue.Queue(READ_AHEAD)
+    stop = threading.Event()
+
+    def put(item) -> bool:
+        while not stop.is_set():
+            try:
+                items.put(item, timeout=0.05)
+                return True
+            except queue.Full:
+                continue
+        return False
+
+    def produce() -> None:
+        try:
+            for item in _decode(container, stream):
+                if not put(item):
+                    return
+            put(_END)
+        except BaseException as exc:  # handed to the caller, which raises it
+            put(exc)
+
+    thread = threading.Thread(target=produce, name="decode-ahead", daemon=True)
+    thread.start()
+    try:
+        while (item := items.get()) is not _END:
+            if isinstance(item, BaseException):
+                raise item
+            yield item
+    finally:
+        stop.set()
+        thread.join()
 
 
 def _warn_truncated(path: Path, index: int, time_s: float | None, n_frames: int, why: str) -> None:
