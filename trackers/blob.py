@@ -41,7 +41,6 @@ from dataclasses import dataclass, fields, replace
 import cv2
 import numpy as np
 
-from trackers.blob_passes import foreground, frame_gain, learn, learn_level, refine
 from trackers.errors import TrackInputError
 
 
@@ -95,6 +94,9 @@ class BlobDetector:
 
     def __init__(self, background: np.ndarray, params: BlobParams = BlobParams(), deviation: np.ndarray | None = None):
         """background: (H, W) full-resolution grey background (e.g. ``median_background``)."""
+        import trackers.blob_passes as blob_passes  # numba takes 0.4 s to import: a detector's process pays it, not every tlsync process
+
+        self.passes = blob_passes
         self.params = params
         h, w = background.shape
         self.size = (w, h)
@@ -127,9 +129,9 @@ class BlobDetector:
         s = self.scale
         levels = self._pyramid(gray)
         small = levels[s]
-        gain = frame_gain(small, self.bg, self.background_mask)
+        gain = self.passes.frame_gain(small, self.bg, self.background_mask)
         diff = np.empty(small.shape, np.float32)
-        foreground(small, self.bg, self.dev, gain, p.threshold, p.min_contrast, diff, self.mask)
+        self.passes.foreground(small, self.bg, self.dev, gain, p.threshold, p.min_contrast, diff, self.mask)
         blobs = []
         rx, ry, rw, rh = cv2.boundingRect(self.mask)  # components only where there is foreground
         if rw and rh:
@@ -145,11 +147,11 @@ class BlobDetector:
                     blobs.append(blob)
         # learn the background where there is no foreground (dilated)
         self.background_mask = cv2.bitwise_not(cv2.dilate(self.mask, _KERNEL3))
-        learn(small, diff, self.bg, self.dev, self.background_mask, gain, p.learning_rate)
+        self.passes.learn(small, diff, self.bg, self.dev, self.background_mask, gain, p.learning_rate)
         self.frames += 1
         if self.frames % 8 == 0:  # the refinement's backgrounds follow more slowly
             for f, background in self.bg_levels.items():
-                learn_level(levels[f], background, self.background_mask, s // f, gain, min(1.0, 8 * p.learning_rate))
+                self.passes.learn_level(levels[f], background, self.background_mask, s // f, gain, min(1.0, 8 * p.learning_rate))
         return blobs
 
     def _pyramid(self, image: np.ndarray) -> dict[int, np.ndarray]:
@@ -196,7 +198,7 @@ class BlobDetector:
         x, y, bw, bh, _ = stat.tolist()
         f = max((f for f in levels if min(bw, bh) * s >= REFINE_MIN_SIDE * f), default=1)
         background = self.bg if f == s else self.bg_levels[f]
-        ok, polarity, contrast, area, wx, wy = refine(labels, label, (x, y, bw, bh), offset, diff, levels[f], background, s // f, gain, self.noise, self.small_size)
+        ok, polarity, contrast, area, wx, wy = self.passes.refine(labels, label, (x, y, bw, bh), offset, diff, levels[f], background, s // f, gain, self.noise, self.small_size)
         if not ok:
             return None
         # the window starts at the box grown by one small pixel; level pixel i covers full pixels [i*f, i*f+f)

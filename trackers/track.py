@@ -68,12 +68,16 @@ def read_table(path: str | Path, required: tuple[str, ...], optional: tuple[str,
         raise TrackInputError(f"{path}: cannot read: {exc}") from None
     with handle:
         try:
-            rows = list(csv.reader(handle))
-        except (csv.Error, UnicodeDecodeError) as exc:
+            text = handle.read()
+        except UnicodeDecodeError as exc:
             raise TrackInputError(f"{path}: not a readable CSV file: {exc}") from None
-    if not rows or not any(cell.strip() for cell in rows[0]):
+    lines_text = text.splitlines()
+    try:
+        header = [cell.strip() for cell in next(csv.reader(lines_text[:1]), [])]
+    except csv.Error as exc:
+        raise TrackInputError(f"{path}: not a readable CSV file: {exc}") from None
+    if not any(header):
         raise TrackInputError(f"{path}: empty file; expected {expected}")
-    header = [cell.strip() for cell in rows[0]]
     missing = [c for c in required if c not in header]
     if missing:
         raise TrackInputError(f"{path}:1: header {','.join(header)!r} lacks column(s) {', '.join(missing)}; expected at least {','.join(required)}")
@@ -81,10 +85,17 @@ def read_table(path: str | Path, required: tuple[str, ...], optional: tuple[str,
         raise TrackInputError(f"{path}:1: duplicate column names in header {','.join(header)!r}")
     wanted = [c for c in required + optional if c in header]
     index = [header.index(c) for c in wanted]
-    values = np.empty((len(rows) - 1, len(wanted)))
-    lines = np.empty(len(rows) - 1, dtype=np.int64)
+    table = _plain_numbers(lines_text[1:], len(header))
+    if table is not None:
+        return {c: table[:, i].copy() for c, i in zip(wanted, index)}, np.arange(2, len(table) + 2, dtype=np.int64)
+    try:
+        rows = list(csv.reader(lines_text[1:]))
+    except csv.Error as exc:
+        raise TrackInputError(f"{path}: not a readable CSV file: {exc}") from None
+    values = np.empty((len(rows), len(wanted)))
+    lines = np.empty(len(rows), dtype=np.int64)
     n = 0
-    for line_no, row in enumerate(rows[1:], start=2):
+    for line_no, row in enumerate(rows, start=2):
         if not row or all(not cell.strip() for cell in row):
             continue
         if len(row) != len(header):
@@ -100,6 +111,23 @@ def read_table(path: str | Path, required: tuple[str, ...], optional: tuple[str,
         lines[n] = line_no
         n += 1
     return {c: values[:n, k] for k, c in enumerate(wanted)}, lines[:n]
+
+
+def _plain_numbers(rows: list[str], n_columns: int) -> np.ndarray | None:
+    """(N, n_columns) float64 when every row is n_columns finite numbers (NumPy's C parser, ~10x faster); else None.
+
+    None sends the table to the line-by-line reader, whose errors name the
+    line (a blank line, a text column, a missing field, a quoted value).
+    """
+    if not rows:
+        return np.empty((0, n_columns))
+    try:
+        table = np.loadtxt(rows, delimiter=",", comments=None, ndmin=2, dtype=np.float64)
+    except ValueError:
+        return None
+    if table.shape != (len(rows), n_columns) or not np.isfinite(table).all():
+        return None
+    return table
 
 
 def check_indices(path: str | Path, name: str, values: np.ndarray, lines: np.ndarray, what: str) -> None:

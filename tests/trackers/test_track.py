@@ -29,14 +29,28 @@ def test_round_trip_keeps_optional_columns_and_sorts(tmp_path):
         ("frame,x,y\n0,1,2\n1,nan,2\n", r":3: column 'x': nan is not a finite"),
         ("frame,x,y\n0,1,inf\n", r":2: column 'y'"),
         ("frame,x,y\n0,1,2\n1,2\n", r":3: expected 3 fields"),
+        ("frame,x,y\n0,1,2\n\n1,2,3\n-2,1,2\n", r":5: column 'frame'"),  # line numbers count the blank line
+        ("frame,x,y\n0,1,2\n1,2,3,4\n", r":3: expected 3 fields"),
         ("frame,x,y\n-1,1,2\n", "0-based integer frame"),
         ("frame,x,y\n1.5,1,2\n", "0-based integer frame"),
         ("frame,x,y\n2,1,2\n2,1,2\n", "frame 2 appears more than once"),
     ],
 )
 def test_bad_tracks_name_file_and_line(tmp_path, text, message):
+    """Well-formed tables take NumPy's parser; anything else the line-by-line reader, which names the line."""
     path = tmp_path / "track.csv"
     path.write_text(text)
     with pytest.raises(TrackInputError, match=message) as info:
         read_track(path)
     assert str(path) in str(info.value)
+
+
+def test_both_readers_agree(tmp_path):
+    """A blank line sends a table to the line-by-line reader: the values are the same as NumPy's parser gives."""
+    rows = [f"{k},{k * 1.5:.6f},{-k / 3:.6f},{k / 25:.6f}" for k in range(50)]
+    plain, spaced = tmp_path / "plain.csv", tmp_path / "spaced.csv"
+    plain.write_text("frame,x,y,time_s\n" + "\n".join(rows) + "\n")
+    spaced.write_text("frame,x,y,time_s\n" + "\n".join(rows[:20]) + "\n\n" + "\n".join(rows[20:]) + "\n")
+    a, b = read_track(plain), read_track(spaced)
+    for column in ("frame", "x", "y", "time_s"):
+        assert np.array_equal(getattr(a, column), getattr(b, column))
