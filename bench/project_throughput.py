@@ -155,7 +155,10 @@ def decode_floor(videos: list[Path], jobs: int) -> tuple[Measure, int]:
 
 def tlsync_run(project: Path, work: Path, jobs: int, code: Path = REPOSITORY) -> Measure:
     """`tlsync run` of the source tree ``code`` in a child process; CPU time and peak RSS of it and its workers."""
-    command = [sys.executable, "-c", "import sys; from tlsync_pipeline.cli.main import main; sys.exit(main())", "run", str(project), "--work", str(work), "--quiet", "--jobs", str(jobs)]
+    # The run reports its own peak (its process and its workers): this process's RUSAGE_CHILDREN keeps the
+    # largest child it ever had, the project's renderers and the floor's decoders included.
+    report_peak = "import atexit, resource; atexit.register(lambda: print('peak-rss-kb', max(resource.getrusage(w).ru_maxrss for w in (resource.RUSAGE_SELF, resource.RUSAGE_CHILDREN)), file=sys.stderr))"
+    command = [sys.executable, "-c", f"import sys; {report_peak}; from tlsync_pipeline.cli.main import main; sys.exit(main())", "run", str(project), "--work", str(work), "--quiet", "--jobs", str(jobs)]
     env = dict(os.environ, PYTHONPATH=str(code))
     load = os.getloadavg()[0]
     cpu, start = _children_cpu(), time.perf_counter()
@@ -163,7 +166,7 @@ def tlsync_run(project: Path, work: Path, jobs: int, code: Path = REPOSITORY) ->
     wall = time.perf_counter() - start
     if done.returncode not in (0, 1):  # 1: ran through, some camera not synchronized
         raise SystemExit(f"tlsync run failed (exit {done.returncode}):\n{done.stdout}\n{done.stderr}")
-    peak = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024
+    peak = max((int(line.split()[1]) / 1024 for line in done.stderr.splitlines() if line.startswith("peak-rss-kb ")), default=0.0)
     missed = [line for line in done.stdout.splitlines() if line.startswith("not synchronized")]
     return Measure(wall, _children_cpu() - cpu, (load, os.getloadavg()[0]), peak, missed)
 

@@ -1,9 +1,11 @@
 """Zhang intrinsics from checkerboard photos or a checkerboard video (OpenCV).
 
-Corner detection: the sector-based detector (findChessboardCornersSB) on a copy
-downscaled to about ``DETECT_SIZE`` px on its long side, then the classic detector
-(adaptive threshold) on a larger copy, then the sector-based detector in exhaustive
-mode; the corners found are refined at full resolution with cornerSubPix. Images are
+Corner detection: the classic detector (adaptive threshold) on a copy downscaled
+to about ``CLASSIC_SIZE`` px on its long side, then the sector-based detector
+(findChessboardCornersSB) on a copy of about ``DETECT_SIZE`` px, then, where a part
+of a checker grid is seen, the sector-based detector in exhaustive mode; the
+corners found are refined at full resolution with cornerSubPix (the same corners,
+to 0.01 px, whichever detector found them). Images are
 processed in parallel (one process per core, one OpenCV thread each).
 
 Calibration: cv2.calibrateCamera with the 5-parameter model ("standard", k1 k2
@@ -43,11 +45,12 @@ EXHAUSTIVE_SIZE = 2000  # at most the long side (px) of the copy for the last, e
 SMOOTH_DIVISOR = 30.0  # corner refinement smooths with sigma = square spacing (px) / this
 MIN_VIEWS = 5
 OUTLIER_FACTOR = 3.0
+NO_BOARD = "no board found"  # the diagnosis when not even a 3x3 part of a checker grid is seen
 DUPLICATE_FRACTION = 0.004  # views whose corners moved less than this * image diagonal are duplicates
 TRIED = (
-    "sector-based detector (findChessboardCornersSB, normalized image) on a copy downscaled to about {small} px, "
-    f"the classic detector (findChessboardCorners, adaptive threshold + normalized image) at about {CLASSIC_SIZE} px "
-    f"and the sector-based detector in exhaustive mode at up to {EXHAUSTIVE_SIZE} px"
+    f"the classic detector (findChessboardCorners, adaptive threshold + normalized image) on a copy downscaled to about {CLASSIC_SIZE} px, "
+    "the sector-based detector (findChessboardCornersSB, normalized image) at about {small} px "
+    f"and, where a part of a board is seen, the sector-based detector in exhaustive mode at up to {EXHAUSTIVE_SIZE} px"
 )
 
 
@@ -109,11 +112,14 @@ class Detection:
 def detect_board(gray: np.ndarray, pattern: tuple[int, int], detect_size: int = DETECT_SIZE) -> tuple[np.ndarray | None, str | None, str | None]:
     """Find the inner corners of a ``pattern`` (cols, rows) board in a grey image.
 
-    Tries, cheapest first: the sector-based detector on a copy reduced by an
-    integer factor to about ``detect_size`` px, the classic detector at about
-    CLASSIC_SIZE px, the sector-based detector in exhaustive mode at up to
-    EXHAUSTIVE_SIZE px. Returns (corners (N, 2) float64 at full resolution row by
-    row, or None; the method that found them; the reason when none did).
+    Tries, cheapest first: the classic detector on a copy reduced by an
+    integer factor to about CLASSIC_SIZE px (a few ms where the board is
+    clear), the sector-based detector at about ``detect_size`` px, and, when
+    a part of a checker grid is seen in that copy (the diagnosis), the
+    sector-based detector in exhaustive mode at up to EXHAUSTIVE_SIZE px
+    (hundreds of ms, not spent on a photo without any board). Returns
+    (corners (N, 2) float64 at full resolution row by row, or None; the
+    method that found them; the reason when none did).
     """
     copies: dict[int, np.ndarray] = {}
 
@@ -124,11 +130,16 @@ def detect_board(gray: np.ndarray, pattern: tuple[int, int], detect_size: int = 
 
     long_side = max(gray.shape[:2])
     first = max(1, round(long_side / detect_size))
+    reason = None
     for method, factor, find in (
-        ("sb", first, lambda img: cv2.findChessboardCornersSB(img, pattern, flags=cv2.CALIB_CB_NORMALIZE_IMAGE)),
         ("classic", max(1, round(long_side / CLASSIC_SIZE)), lambda img: cv2.findChessboardCorners(img, pattern, flags=cv2.CALIB_CB_ADAPTIVE_THRESH | cv2.CALIB_CB_NORMALIZE_IMAGE)),
+        ("sb", first, lambda img: cv2.findChessboardCornersSB(img, pattern, flags=cv2.CALIB_CB_NORMALIZE_IMAGE)),
         ("sb-exhaustive", max(1, -(-long_side // EXHAUSTIVE_SIZE)), lambda img: cv2.findChessboardCornersSB(img, pattern, flags=cv2.CALIB_CB_NORMALIZE_IMAGE | cv2.CALIB_CB_EXHAUSTIVE)),
     ):
+        if method == "sb-exhaustive":
+            reason = _diagnose(reduced(first), pattern)
+            if reason == NO_BOARD:
+                return None, None, reason
         found, corners = find(reduced(factor))
         if found and corners is not None and len(corners) == pattern[0] * pattern[1]:
             corners = (corners.reshape(-1, 2).astype(np.float64) + 0.5) * factor - 0.5
@@ -137,7 +148,7 @@ def detect_board(gray: np.ndarray, pattern: tuple[int, int], detect_size: int = 
                 # A part of a larger board: the pattern is wrong, or the views would be inconsistent.
                 return None, None, _diagnose(reduced(first), pattern, larger=True)
             return corners, method, None
-    return None, None, _diagnose(reduced(first), pattern)
+    return None, None, reason
 
 
 def _reduce(gray: np.ndarray, factor: int) -> np.ndarray:
@@ -225,7 +236,7 @@ def _diagnose(small: np.ndarray, pattern: tuple[int, int], larger: bool = False)
     if larger and not bigger:
         return f"pattern mismatch: a board with more inner corners than {pattern[0]}x{pattern[1]} found"
     if seen is None:
-        return "no board found"
+        return NO_BOARD
     label = f"{seen[0]}x{seen[1]}"
     if bigger:
         return f"pattern mismatch: a board with {label} inner corners found"
@@ -431,7 +442,7 @@ def calibrate_detections(
         if d.image_size != image_size:
             rejected[d.source] = f"different size {d.image_size[0]}x{d.image_size[1]} (the calibration uses {image_size[0]}x{image_size[1]})"
         elif d.corners is None:
-            rejected[d.source] = d.reason or "no board found"
+            rejected[d.source] = d.reason or NO_BOARD
         else:
             twin = _duplicate_of(d, usable, image_size)
             if twin is not None:

@@ -22,6 +22,7 @@ from scipy.interpolate import CubicSpline
 from calibration.camera import write_camera
 from data_fixtures import make_scene
 from data_fixtures.video import phone_times, render_video
+from tlsync_pipeline.outputs.player import decode_times
 from tlsync_pipeline.pipeline.engine import run_graph
 from tlsync_pipeline.pipeline.graph import build_graph
 from tlsync_pipeline.pipeline.project import load_project
@@ -134,3 +135,9 @@ def test_phone_videos_with_a_late_stream_map_frames_exactly(tmp_path):
     assert len(drawn) == 3
     for frame_b, frame_a in drawn:
         assert frame_a == round(mapped["cam1"][frame_b])
+
+    # The player seeks each video through its own presentation times (the late start included).
+    html = (tmp_path / "work" / "report.html").read_text(encoding="utf-8")
+    player = json.loads(html.split('id="tlsync-player-data">', 1)[1].split("</script>", 1)[0])
+    for entry in player["cameras"]:
+        np.testing.assert_allclose(decode_times(entry["times"]), times[entry["name"]], atol=2e-6)

@@ -27,7 +27,6 @@ import math
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
-from scipy.signal import savgol_filter
 
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.geodesy import Origin, geodetic_to_enu
@@ -430,6 +429,8 @@ def resample(t: np.ndarray, xyz: np.ndarray, rate: float, max_gap_s: float) -> t
 
 def smooth(index: np.ndarray, xyz: np.ndarray, window_samples: float) -> np.ndarray:
     """Savitzky-Golay (quadratic) smoothing over each run of consecutive grid indices."""
+    from scipy.signal import savgol_filter  # scipy.signal costs about 1 s of start-up in every process, and smoothing is off by default
+
     out = xyz.copy()
     window = int(round(window_samples)) | 1
     if window < 3:

@@ -57,19 +57,23 @@ def _imports(name: str) -> tuple[str, ...]:
             base = node.module or ""
             if node.level:
                 base = ".".join(package.split(".")[: len(package.split(".")) - node.level + 1] + ([base] if base else []))
+            if not _counted(base):
+                continue  # another package's names: no need to ask the import system about them
             for alias in node.names:
                 found.append(f"{base}.{alias.name}" if _is_module(f"{base}.{alias.name}") else base)
     return tuple(sorted({m for m in found if _counted(m) and _is_module(m)}))
 
 
-def _runtime_nodes(node: ast.AST):
+def _runtime_nodes(tree: ast.AST):
     """Every node of the tree except the bodies of ``if TYPE_CHECKING:`` blocks (imports for annotations only)."""
-    for child in ast.iter_child_nodes(node):
-        if isinstance(child, ast.If) and "TYPE_CHECKING" in ast.unparse(child.test):
-            yield from (n for orelse in child.orelse for n in [orelse, *_runtime_nodes(orelse)])
+    stack = list(ast.iter_child_nodes(tree))
+    while stack:
+        node = stack.pop()
+        if isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test):
+            stack.extend(node.orelse)
             continue
-        yield child
-        yield from _runtime_nodes(child)
+        yield node
+        stack.extend(ast.iter_child_nodes(node))
 
 
 @cache

@@ -5,7 +5,9 @@ changed since its manifest was written, when an artefact of it is missing or was
 modified, or when it is forced. Its freshness is decided only once the tasks
 that make its inputs are done, so a re-run stage whose artefacts come out
 identical does not re-run what follows it. Per-camera tasks go to the
-executor (parallel processes or a Dask cluster); project-wide ones run here.
+executor (parallel processes or a Dask cluster); project-wide ones run here,
+and so do light per-camera ones (StageSpec.light) while the executor's local
+workers are not started.
 A failed task keeps its last good artefacts; the tasks that need it are
 skipped and everything else still runs.
 """
@@ -255,7 +257,7 @@ def _schedule(graph: Graph, executor, wanted: list[str], force: set[str], memo: 
                     done.add(tid)
                     continue
                 why = "forced" if not reasons else reasons[0]
-                local = task.stage not in PER_CAMERA or isinstance(executor, SerialExecutor)
+                local = task.stage not in PER_CAMERA or isinstance(executor, SerialExecutor) or (task.spec.light and not getattr(executor, "started", True))
                 progress.started(tid, why, not local)
                 where = SerialExecutor(executor.cores) if local else executor  # local tasks share the machine with the pool
                 files = graph.workspace.files(

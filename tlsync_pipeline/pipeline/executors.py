@@ -132,6 +132,11 @@ class ProcessExecutor:
             )
         return self._pool.submit(call, fn, kwargs)
 
+    @property
+    def started(self) -> bool:
+        """Whether the worker processes have been started (by a first task)."""
+        return self._pool is not None
+
     def wait_any(self, futures: list) -> list:
         done, _ = cf.wait(futures, return_when=cf.FIRST_COMPLETED)
         return list(done)
@@ -210,11 +215,17 @@ def run_each(executor, fn: Callable[..., dict], calls: list[dict]) -> list[dict]
 
     For a task of the engine's own process with independent parts (render's
     cameras): it hands them to the run's executor, so no pool is started
-    inside another. Each result carries the users' warnings its call raised
+    inside another. A local pool that no task has started yet is not started
+    for them: each worker would first import the pipeline and matplotlib
+    (1.5-2 s CPU), more than a camera's pictures cost, so the parts run in
+    this process (``tlsync render`` alone, a run where only render is stale).
+    Each result carries the users' warnings its call raised
     (``warnings``) and under WORKER_CPU the CPU seconds it used in another
     process (0 in this one, whose CPU time counts it already), for the task
     to add to its own; the first failed call's error is raised.
     """
+    if isinstance(executor, ProcessExecutor) and not executor.started:
+        executor = SerialExecutor()
     futures = [executor.submit(_part, {"fn": fn, "kwargs": kwargs, "caller": os.getpid()}) for kwargs in calls]
     return [future.result() for future in futures]
 

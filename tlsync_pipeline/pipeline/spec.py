@@ -56,6 +56,9 @@ class StageSpec:
     outputs: tuple[str, ...]
     run: Callable[..., dict]
     per_camera: bool = False
+    # A per-camera stage of about a second: it runs in the calling process while the run's workers are not up
+    # (starting a worker costs more: it imports the pipeline), on the workers once a longer task started them.
+    light: bool = False
     applies: Callable[[Project, str | None], bool] = lambda project, camera: True  # does the project need this task?
     history: bool = False  # the task gets the earlier runs' records (StageFiles.history)
     # Runs for the other cameras when a camera's own tasks did not complete: its params' ``cameras``

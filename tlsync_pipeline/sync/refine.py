@@ -36,7 +36,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.interpolate import make_smoothing_spline
 from scipy.linalg import solveh_banded
 from scipy.optimize import least_squares
 
@@ -91,7 +90,7 @@ def smooth_trajectory(trajectory: Trajectory) -> Trajectory:
     """The trajectory with each run of samples replaced by a cubic smoothing spline.
 
     The smoothing (scipy make_smoothing_spline's lam; values by
-    ``smoothed_values``) of each coordinate is
+    ``smoothed_values``, the cross-validation's by ``smoothing_spline_at``) of each coordinate is
     chosen by two-fold cross-validation (even samples predict odd ones and
     back) on the CV_SAMPLES consecutive samples of the run where the
     coordinate spans the widest range (motion, not hover) and on those where
@@ -127,12 +126,37 @@ def smooth_trajectory(trajectory: Trajectory) -> Trajectory:
 def smoothed_values(x: np.ndarray, y: np.ndarray, lam: float) -> np.ndarray:
     """The cubic smoothing spline of (x, y) at x: scipy's ``make_smoothing_spline(x, y, lam=lam)(x)``, in O(n).
 
+    x strictly increasing, at least 3 points (see ``_reinsch``).
+    """
+    return _reinsch(x, y, lam)[0]
+
+
+def smoothing_spline_at(x: np.ndarray, y: np.ndarray, lam: float, at: np.ndarray) -> np.ndarray:
+    """The cubic smoothing spline of (x, y) at the points ``at``: scipy's ``make_smoothing_spline(x, y, lam=lam)(at)``, in O(n).
+
+    Each point takes the cubic of the interval it falls in (of the first or
+    last interval outside [x[0], x[-1]], as scipy extrapolates) from the
+    spline's values and second derivatives at the knots (Press et al.,
+    Numerical Recipes, 3.3.3).
+    """
+    g, second = _reinsch(x, y, lam)
+    i = np.clip(np.searchsorted(x, at) - 1, 0, len(x) - 2)
+    h = x[i + 1] - x[i]
+    a = (x[i + 1] - at) / h
+    b = 1.0 - a
+    return a * g[i] + b * g[i + 1] + ((a**3 - a) * second[i] + (b**3 - b) * second[i + 1]) * h**2 / 6.0
+
+
+def _reinsch(x: np.ndarray, y: np.ndarray, lam: float) -> tuple[np.ndarray, np.ndarray]:
+    """The cubic smoothing spline of (x, y) with scipy's ``lam``: its values and second derivatives at x (natural: 0 at the ends).
+
     Reinsch's form (Green and Silverman, 1994): with Q the (n, n-2) second
     divided differences and R the (n-2, n-2) tridiagonal spline matrix,
-    gamma = (R + lam Q^T Q)^-1 Q^T y and the values are y - lam Q gamma,
-    one symmetric banded solve. scipy builds its spline with a Python loop
-    per point (about 1 s per coordinate for a 3-hour 10 Hz log). x strictly
-    increasing, at least 3 points.
+    gamma = (R + lam Q^T Q)^-1 Q^T y are the second derivatives at the inner
+    points and the values are y - lam Q gamma, one symmetric banded solve.
+    scipy builds its spline with a Python loop per point (about 1 s per
+    coordinate for a 3-hour 10 Hz log). x strictly increasing, at least 3
+    points.
     """
     h = np.diff(x)
     inv = 1.0 / h
@@ -146,7 +170,7 @@ def smoothed_values(x: np.ndarray, y: np.ndarray, lam: float) -> np.ndarray:
     q_gamma[:-2] += a * gamma
     q_gamma[1:-1] += b * gamma
     q_gamma[2:] += c * gamma
-    return y - lam * q_gamma
+    return y - lam * q_gamma, np.concatenate(([0.0], gamma, [0.0]))
 
 
 def _cv_lambda(x: np.ndarray, y: np.ndarray) -> float:
@@ -156,7 +180,7 @@ def _cv_lambda(x: np.ndarray, y: np.ndarray) -> float:
     for lam in _LAMBDAS:
         err = 0.0
         for fit, test in ((even, odd), (odd, even)):
-            err += np.sum((make_smoothing_spline(x[fit], y[fit], lam=lam)(x[test]) - y[test]) ** 2)
+            err += np.sum((smoothing_spline_at(x[fit], y[fit], lam, x[test]) - y[test]) ** 2)
         errors.append(err)
     # Halving the points halves the data term: the full series needs twice the lam.
     return float(2 * _LAMBDAS[int(np.argmin(errors))])

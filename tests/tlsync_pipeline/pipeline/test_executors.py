@@ -110,6 +110,7 @@ def test_run_each_hands_the_parts_to_the_runs_workers_in_order():
 
     executor = ProcessExecutor(2)
     try:
+        executor.submit(where_and_square, {"value": 0}).result()  # a task started the pool
         results = run_each(executor, where_and_square, [{"value": v} for v in range(4)])
     finally:
         executor.close()
@@ -119,3 +120,17 @@ def test_run_each_hands_the_parts_to_the_runs_workers_in_order():
     assert results[2]["warnings"] == ["part 2: a warning for users"] and "warnings" not in results[1]
     serial = run_each(SerialExecutor(), where_and_square, [{"value": 3}])
     assert serial[0] == {"pid": os.getpid(), "square": 9, WORKER_CPU: 0.0}  # this process's CPU time counts it already
+
+
+def test_run_each_does_not_start_a_pool_for_its_parts():
+    """A pool no task has started stays unstarted: the parts run in this process (starting workers costs more than they do)."""
+    from tlsync_pipeline.pipeline.executors import WORKER_CPU, ProcessExecutor, run_each
+
+    executor = ProcessExecutor(2)
+    try:
+        results = run_each(executor, where_and_square, [{"value": v} for v in range(3)])
+        assert not executor.started
+    finally:
+        executor.close()
+    assert [(r["pid"], r["square"], r[WORKER_CPU]) for r in results] == [(os.getpid(), v * v, 0.0) for v in range(3)]
+    assert results[2]["warnings"] == ["part 2: a warning for users"]

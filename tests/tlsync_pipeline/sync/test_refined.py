@@ -102,7 +102,7 @@ def test_jittered_frame_times_synchronized_in_seconds():
 
 
 def test_intervals_cover_the_truth_on_a_small_set():
-    # bench/coverage.py runs 200 scenes; loose bounds here.
+    # bench/interval_coverage.py runs 200 scenes; loose bounds here.
     z = []
     for seed in range(12):
         scene = make_scene(1000 + seed, lines=FRACTIONAL, tracking_noise_px=2.0, projection_error_px=2.0, localisation_noise_pct=1.0)
@@ -207,6 +207,20 @@ def test_smoothed_values_are_scipys_smoothing_spline(n, lam, jitter):
     x = np.arange(n, dtype=float) + rng.uniform(0, jitter, n)
     y = np.sin(x / 20) + rng.normal(0, 0.1, n)
     np.testing.assert_allclose(smoothed_values(x, y, lam), make_smoothing_spline(x, y, lam=lam)(x), atol=1e-10)
+
+
+@pytest.mark.parametrize("n, lam, jitter", [(5, 0.5, 0.0), (50, 0.3, 0.3), (101, 1e4, 0.0), (300, 1e-4, 0.4)])
+def test_smoothing_spline_at_other_points_is_scipys(n, lam, jitter):
+    """Between the knots, at them and outside them (extrapolated as scipy does), the cross-validation's spline is scipy's make_smoothing_spline."""
+    from scipy.interpolate import make_smoothing_spline
+
+    from tlsync_pipeline.sync.refine import smoothing_spline_at
+
+    rng = np.random.default_rng(n)
+    x = 2.0 * np.arange(n) + rng.uniform(0, jitter, n)
+    y = np.cos(x / 9) + rng.normal(0, 0.1, n)
+    at = np.concatenate([x, x[:-1] + np.diff(x) / 2, [x[0] - 1.0, x[-1] + 1.5], rng.uniform(x[0] - 3, x[-1] + 3, 40)])
+    np.testing.assert_allclose(smoothing_spline_at(x, y, lam, at), make_smoothing_spline(x, y, lam=lam)(at), atol=1e-9)
 
 
 @pytest.mark.parametrize("scale, groups", [(1.0, 1), (1.001, 1), (1.0, 3)])

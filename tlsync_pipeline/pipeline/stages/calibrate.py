@@ -222,5 +222,6 @@ SPEC = StageSpec(
     outputs=("camera", "calibration_report", "calibration_picture"),
     run=run_calibrate,
     per_camera=True,
+    light=True,
     applies=lambda project, name: project.camera(name)["camera"] is None and has_calibration(project.camera(name)),
 )

@@ -100,5 +100,6 @@ SPEC = StageSpec(
     outputs=("track", "identification"),
     run=run_identify,
     per_camera=True,
+    light=True,
     applies=brings_movers,
 )

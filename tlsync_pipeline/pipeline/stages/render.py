@@ -346,7 +346,11 @@ def _panel(camera, image: np.ndarray, path_model: PiecewiseTrajectory, sample: f
 
 
 def player_video(job: CameraJob) -> tuple[PlayerVideo, Path | None]:
-    """What the player plays for the camera (its video, or a proxy made now when needed), and the proxy written."""
+    """What the player plays for the camera (its video, or a proxy made now when needed), and the proxy written.
+
+    The frames' presentation times: ``job.times`` when it holds every frame's (run_render read the video's table
+    for a presentation-time clock), else the played video's own, demuxed here.
+    """
     fps = job.line.fps or 1.0
     if job.video is None:
         return PlayerVideo(None, False, None, np.arange(job.n_frames) / fps), None
@@ -355,7 +359,10 @@ def player_video(job: CameraJob) -> tuple[PlayerVideo, Path | None]:
     if needs_proxy(codec, job.video.suffix, job.proxy):
         source = proxy = ensure_proxy(job.video, job.out_dir / "proxy" / f"{job.name}.mp4")
     src = quote(Path(os.path.relpath(source, job.work)).as_posix())
-    table = presentation_times(source)
+    if proxy is None and job.times is not None and len(job.times.frame) == job.n_frames:
+        table = job.times.time_s  # every frame's time, already read (a presentation-time clock): not demuxed again
+    else:
+        table = presentation_times(source)
     return PlayerVideo(src, proxy is not None, codec, table if table is not None else np.arange(job.n_frames) / fps), proxy
 
 

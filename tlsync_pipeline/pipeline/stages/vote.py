@@ -72,4 +72,5 @@ SPEC = StageSpec(
     outputs=("votes",),
     run=run_vote,
     per_camera=True,
+    light=True,
 )

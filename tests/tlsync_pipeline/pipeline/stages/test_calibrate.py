@@ -201,7 +201,14 @@ def test_the_executor_decides_how_many_processes_detect_the_boards(project, monk
             self.cores_given[kwargs["files"].task] = kwargs["files"].cores
             return super().submit(fn, kwargs)
 
+    calibrations = ["calibrate/cam0", "calibrate/cam1"]
+    cold = RecordingPool(2)
+    summary = run_graph(graph, cold, force=set(calibrations), targets=calibrations)
+    assert sorted(summary.ran) == calibrations and not summary.failed
+    assert cold.cores_given == {}  # nothing submitted: light tasks run here while no worker is up
+
     pool = RecordingPool(2)
-    summary = run_graph(graph, pool, targets=["calibrate/cam0", "calibrate/cam1"])
-    assert sorted(summary.ran) == ["calibrate/cam0", "calibrate/cam1"] and not summary.failed
-    assert pool.cores_given == {"calibrate/cam0": 1, "calibrate/cam1": 1}
+    summary = run_graph(graph, pool, force={"intrinsics/cam0", *calibrations}, targets=calibrations)
+    assert sorted(summary.ran) == [*calibrations, "intrinsics/cam0"] and not summary.failed
+    # The intrinsics task starts the workers and detects with one process there; the calibrations follow it onto them.
+    assert pool.cores_given == {"intrinsics/cam0": 1, "calibrate/cam0": 1, "calibrate/cam1": 1}

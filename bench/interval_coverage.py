@@ -8,7 +8,7 @@ variance factor that would give exactly 95 % (to re-calibrate
 tlsync_pipeline.refine.COVARIANCE_FACTOR, which the standard errors already
 include).
 
-    nice -n 10 python bench/coverage.py --scenes 200 --st 2 --sc 2 --sl 1
+    nice -n 10 python bench/interval_coverage.py --scenes 200 --st 2 --sc 2 --sl 1
 """
 
 from __future__ import annotations
