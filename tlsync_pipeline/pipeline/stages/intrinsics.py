@@ -60,8 +60,11 @@ def run_intrinsics(files: StageFiles, pattern: str, square: float, model: str, m
         result = calibrate_images(images, board, model, workers=files.cores, progress=files.progress, max_view_error=max_view_error)
     report = result.to_report()
     report["source"] = source
+    relative = {str(files.path(label)): label[len(IMAGE_PREFIX) :] for label in files.inputs if label.startswith(IMAGE_PREFIX)}
     for view in report["per_view"]:
         view["corners"] = np.round(result.corners[view["image"]], 3).tolist()
+    for view in report["per_view"] + report["rejected"]:  # photos named like source: relative to the project folder
+        view["image"] = relative.get(view["image"], view["image"])
     with files.write("intrinsics") as tmp:
         write_camera(result.camera(files.camera), tmp)
     with files.write("intrinsics_report") as tmp:
