@@ -36,7 +36,8 @@ class Browser:
 
     def __init__(self, executable: str, width: int = 1280, height: int = 900, timeout: float = 60.0):
         self.timeout = timeout
-        self.profile = tempfile.TemporaryDirectory(prefix="tlsync-chromium-")
+        # chromium's helper processes may still write to the profile for a moment after it exits
+        self.profile = tempfile.TemporaryDirectory(prefix="tlsync-chromium-", ignore_cleanup_errors=True)
         self.process = subprocess.Popen(
             [
                 executable,

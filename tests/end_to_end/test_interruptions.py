@@ -42,7 +42,7 @@ MARKER = "TLSYNC_INTERRUPTION_TEST"
 # report.md and report.html list when and for how long each stage ran (they differ between any two runs);
 # ingest_report.json names the log, and each camera's video.json its video, by absolute path (the reference
 # is another copy of the project); other artefacts that name a project file by absolute path (the GCP file in
-# calibration_report.json) must be the same but for the project's folder.
+# calibration_report.json, the videos in the exports) must be the same but for the project's folder.
 RUN_RECORDS = {"report.md", "report.html", "target/ingest_report.json"}
 NAMES_ITS_SOURCE = "video.json"
 
@@ -81,9 +81,11 @@ def _sha256(path: Path) -> str:
 
 def _same_but_project_folder(ours: Path, our_project: Path, theirs: Path, their_project: Path) -> bool:
     """Whether two text artefacts are the same once each project's folder is replaced by the same placeholder."""
-    if not (ours.suffix == theirs.suffix == ".json" and theirs.exists()):
+    try:
+        mine, reference = ours.read_text(encoding="utf-8"), theirs.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError):  # missing, or not text
         return False
-    return ours.read_text().replace(str(our_project), "<project>") == theirs.read_text().replace(str(their_project), "<project>")
+    return mine.replace(str(our_project), "<project>") == reference.replace(str(their_project), "<project>")
 
 
 def _fresh_artefacts(project_file: Path) -> dict[str, str]:
