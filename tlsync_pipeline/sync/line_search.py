@@ -147,7 +147,7 @@ def _hypotheses(rng, sample, frame, n, window):
 def _search(rng, sample, frame, delta, p, r_min, prior):
     """Best line over votes sorted by frame: (alpha, beta, support, lines scored); the sweep with a prior, adaptive RANSAC without."""
     if prior is not None:
-        return _sweep(sample, frame, delta, prior)
+        return _sweep(rng, sample, frame, delta, prior)
     m = len(sample)
     if m > SCORE_SUBSET:
         subset = np.sort(rng.choice(m, SCORE_SUBSET, replace=False))
@@ -180,24 +180,32 @@ def _search(rng, sample, frame, delta, p, r_min, prior):
 
 SWEEP_PEAKS = 4  # candidate lines kept per slope of the sweep
 MAX_SWEEP_SLOPES = 512
+SWEEP_SUBSET = 4 * SCORE_SUBSET  # votes the sweep counts windows on (all votes for the finalists)
 
 
-def _sweep(sample, frame, delta, prior: SlopePrior):
-    """Best line with its slope in the prior's band, by sweeping slopes and intercepts: (alpha, beta, support, lines scored)."""
+def _sweep(rng, sample, frame, delta, prior: SlopePrior):
+    """Best line with its slope in the prior's band, by sweeping slopes and intercepts: (alpha, beta, support, lines scored).
+
+    The windows are counted on at most SWEEP_SUBSET votes drawn at random
+    (a line of 1 % support still has hundreds there); the finalists are
+    polished and scored on every vote.
+    """
     low, high = prior.band
     span = float(np.ptp(sample))
     steps = int(min(MAX_SWEEP_SLOPES, max(1, math.ceil((high - low) * span / delta))))
     slopes = np.unique(np.r_[prior.alpha, np.linspace(low, high, steps + 1)]) if steps > 1 else np.array([prior.alpha])
+    counted = np.sort(rng.choice(len(sample), SWEEP_SUBSET, replace=False)) if len(sample) > SWEEP_SUBSET else slice(None)
+    s_counted, f_counted = sample[counted], frame[counted]
     pool_a, pool_b, pool_s = [], [], []
     for alpha in slopes:
         width = 2 * delta * math.sqrt(1 + alpha * alpha)
-        intercept = np.sort(frame - alpha * sample)
+        intercept = np.sort(f_counted - alpha * s_counted)
         counts = np.searchsorted(intercept, intercept + width, side="right") - np.arange(len(intercept))
         for k in _peaks(intercept, counts, width):
             pool_a.append(alpha)
             pool_b.append(intercept[k] + width / 2)
             pool_s.append(counts[k])
-    return (*_best_finalist(sample, frame, np.array(pool_a), np.array(pool_b), np.array(pool_s), delta, prior), len(slopes) * len(sample))
+    return (*_best_finalist(sample, frame, np.array(pool_a), np.array(pool_b), np.array(pool_s), delta, prior), len(slopes) * len(s_counted))
 
 
 def _peaks(intercept: np.ndarray, counts: np.ndarray, width: float) -> list[int]:
