@@ -135,7 +135,7 @@ class BlobDetector:
         blobs = []
         rx, ry, rw, rh = cv2.boundingRect(self.mask)  # components only where there is foreground
         if rw and rh:
-            count, labels, stats, _ = cv2.connectedComponentsWithStats(self.mask[ry : ry + rh, rx : rx + rw], connectivity=8, ltype=self._label_type)
+            _, labels, stats, _ = cv2.connectedComponentsWithStats(self.mask[ry : ry + rh, rx : rx + rw], connectivity=8, ltype=self._label_type)
             areas = stats[:, cv2.CC_STAT_AREA] * (s * s)
             keep = np.flatnonzero((areas >= p.min_area) & (areas <= self.max_area))
             keep = keep[keep > 0]
@@ -198,14 +198,11 @@ class BlobDetector:
         x, y, bw, bh, _ = stat.tolist()
         f = max((f for f in levels if min(bw, bh) * s >= REFINE_MIN_SIDE * f), default=1)
         background = self.bg if f == s else self.bg_levels[f]
-        ok, polarity, contrast, area, wx, wy = self.passes.refine(labels, label, (x, y, bw, bh), offset, diff, levels[f], background, s // f, gain, self.noise, self.small_size)
+        ok, polarity, contrast, area, lx, ly = self.passes.refine(labels, label, (x, y, bw, bh), offset, diff, levels[f], background, s // f, gain, self.noise, self.small_size)
         if not ok:
             return None
-        # the window starts at the box grown by one small pixel; level pixel i covers full pixels [i*f, i*f+f)
-        wx0, wy0 = max(0, x + offset[0] - 1) * (s // f), max(0, y + offset[1] - 1) * (s // f)
-        cx = (wx0 + wx) * f + (f - 1) / 2
-        cy = (wy0 + wy) * f + (f - 1) / 2
-        return Blob(cx, cy, area * f * f, float(bw * s), float(bh * s), polarity, contrast)
+        # level pixel i covers full pixels [i*f, i*f+f)
+        return Blob(lx * f + (f - 1) / 2, ly * f + (f - 1) / 2, area * f * f, float(bw * s), float(bh * s), polarity, contrast)
 
 
 _KERNEL3 = np.ones((3, 3), np.uint8)

@@ -113,8 +113,7 @@ def refine(labels, label, box, offset, diff, image, background, k, gain, noise, 
     the blob covers them. Returns (ok, polarity, contrast, area, x, y):
     polarity +1/-1, contrast the mean |diff| over the component, area the
     weights' sum / (high - low) (level pixels) and (x, y) their centroid in
-    the level's window, which starts at level pixel (offset + box - 1) x k
-    (clipped at 0).
+    the level's pixels.
     """
     bx, by, bw, bh = box
     x0, y0 = bx + offset[0], by + offset[1]
@@ -157,7 +156,7 @@ def refine(labels, label, box, offset, diff, image, background, k, gain, noise, 
     p = np.float32(polarity)
     pg = np.float32(polarity * gain)
     lo, hi = DECILE_RANGE
-    width = (hi - lo) / DECILE_BINS
+    bin_width = (hi - lo) / DECILE_BINS
     hist = np.zeros(DECILE_BINS, np.float64)
     column_cell = np.empty(cols, np.int64)  # the support's column of each window column (no division per pixel)
     for x in range(cols):
@@ -168,7 +167,7 @@ def refine(labels, label, box, offset, diff, image, background, k, gain, noise, 
             if support_row[column_cell[x]]:
                 d = p * np.float32(image[fy0 + y, fx0 + x]) - pg * background[fy0 + y, fx0 + x]
                 if lo <= d < hi:
-                    hist[min(int((d - lo) / width), DECILE_BINS - 1)] += 1
+                    hist[min(int((d - lo) / bin_width), DECILE_BINS - 1)] += 1
     top = upper_decile(hist)
     if top < 0:
         return False, polarity, contrast, 0.0, 0.0, 0.0
@@ -192,4 +191,4 @@ def refine(labels, label, box, offset, diff, image, background, k, gain, noise, 
                 m01 += w * y
     if m00 <= 0:
         return False, polarity, contrast, 0.0, 0.0, 0.0
-    return True, polarity, contrast, m00 / span, m10 / m00, m01 / m00
+    return True, polarity, contrast, m00 / span, fx0 + m10 / m00, fy0 + m01 / m00

@@ -48,7 +48,7 @@ from tlsync_pipeline.sync.clock import CameraClock, FrameTimes, camera_clock
 from tlsync_pipeline.sync.line_search import LineSearch, find_line
 from tlsync_pipeline.sync.refine import MIN_FRAMES, refine_line
 from tlsync_pipeline.sync.slope import SlopePrior
-from tlsync_pipeline.sync.target_size import beyond_slack, depth, sizes_in_metres, slack_on_line, target_within
+from tlsync_pipeline.sync.target_size import beyond_slack, depth_on_line, sizes_in_metres, slack_on_line, target_within
 from tlsync_pipeline.sync.timeline import IdentificationSummary, TrackletShare
 from tlsync_pipeline.sync.votes import Votes
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
@@ -186,13 +186,7 @@ def consistent_size(camera: Camera, path: PiecewiseTrajectory, clock: np.ndarray
     to the candidates whose box leaves no slack (merged blobs are judged
     by their slack). Candidates without a box size are kept.
     """
-    s = (clock - beta) / alpha
-    run = path.run_of(s)
-    z = np.full(len(clock), np.nan)
-    on = run >= 0
-    if on.any():
-        z[on] = depth(camera, path(s[on], run[on]))
-    metres = sizes_in_metres(camera, w, h, z)
+    metres = sizes_in_metres(camera, w, h, depth_on_line(camera, path, clock, alpha, beta))
     known = np.isfinite(metres).all(axis=1) & (metres > 0).all(axis=1)
     keep = np.ones(len(clock), bool)
     if known.sum() >= MIN_FRAMES:

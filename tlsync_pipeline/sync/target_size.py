@@ -41,6 +41,17 @@ def depth(camera: Camera, xyz: np.ndarray) -> np.ndarray:
     return (np.asarray(xyz, dtype=np.float64) @ camera.R.T + camera.t)[:, 2]
 
 
+def depth_on_line(camera: Camera, path: PiecewiseTrajectory, clock: np.ndarray, alpha: float, beta: float) -> np.ndarray:
+    """(N,) depth (metres) of the target at each clock value's sample under the line clock = alpha * sample + beta; NaN off the path."""
+    s = (np.asarray(clock, dtype=np.float64) - beta) / alpha
+    run = path.run_of(s)
+    z = np.full(len(s), np.nan)
+    on = run >= 0
+    if on.any():
+        z[on] = depth(camera, path(s[on], run[on]))
+    return z
+
+
 def sizes_in_metres(camera: Camera, w: np.ndarray, h: np.ndarray, z: np.ndarray) -> np.ndarray:
     """(N, 2) box width and height in metres at depths z (NaN where a size or depth is unknown)."""
     return np.column_stack([np.asarray(w) * z / camera.K[0, 0], np.asarray(h) * z / camera.K[1, 1]])
@@ -72,12 +83,7 @@ def slack_on_line(camera: Camera, path: PiecewiseTrajectory, clock: np.ndarray, 
     The reference size is taken from these boxes; None when they give none
     (fewer than MIN_SIZES boxes with a size on the path).
     """
-    s = (np.asarray(clock, dtype=np.float64) - beta) / alpha
-    run = path.run_of(s)
-    z = np.full(len(s), np.nan)
-    on = run >= 0
-    if on.any():
-        z[on] = depth(camera, path(s[on], run[on]))
+    z = depth_on_line(camera, path, clock, alpha, beta)
     reference = reference_size(sizes_in_metres(camera, box_px[:, 0], box_px[:, 1], z))
     return None if reference is None else box_slack(camera, box_px, z, reference)
 
