@@ -380,8 +380,7 @@ def identify_target(
         rows = assignment.rows
         room = _slack(camera, path, row_clock, detections, rows, alpha, beta)
         whole = rows[~(room > 0).any(axis=1)]  # blobs of the target's size: their centre is the target's
-        judged = whole if len(whole) >= max(3 * MIN_FRAMES, len(rows) / 2) else rows  # most merged: all of them
-        estimate = lift_of(camera, logged, row_clock[judged], detections.xy[judged], alpha, beta)
+        estimate = lift_of(camera, logged, row_clock[whole], detections.xy[whole], alpha, beta)
         if abs(estimate - lift) > LIFT_STEP_M:
             lift, path = estimate, lowered(trajectory, estimate)
             offset, assignment = assigned(path, alpha, beta)
