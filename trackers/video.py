@@ -23,7 +23,6 @@ from fractions import Fraction
 from pathlib import Path
 from typing import Iterable, Iterator, NamedTuple
 
-import av
 import cv2
 import numpy as np
 
@@ -205,6 +204,8 @@ def _read_sequential(path: Path, wanted: list[int], gray: bool) -> dict[int, Vid
 
 def _packet_index(path: Path) -> tuple[list[int] | None, list[int]]:
     """Sorted presentation timestamps of the video packets, and those of keyframes (demux only)."""
+    import av
+
     pts, keys = [], []
     with _open(path) as container:
         stream = container.streams.video[0]
@@ -225,6 +226,9 @@ def _packet_index(path: Path) -> tuple[list[int] | None, list[int]]:
 
 
 def _open(path: Path):
+    """The video opened with PyAV (imported here: 0.1 s that processes which never read a video do not pay)."""
+    import av
+
     if not path.exists():
         raise TrackInputError(f"{path}: file not found")
     if path.is_dir():
@@ -243,6 +247,8 @@ def _open(path: Path):
 
 def _decode(container, stream) -> Iterator[tuple[object, str | None]]:
     """Decoded frames; stops with (None, reason) at the first demux or decode error."""
+    import av
+
     packets = container.demux(stream)
     while True:
         try:
