@@ -45,7 +45,7 @@ from scipy.spatial import cKDTree
 from calibration.camera import Camera
 from tlsync_pipeline.errors import SyncError
 from tlsync_pipeline.sync.clock import CameraClock, FrameTimes, camera_clock
-from tlsync_pipeline.sync.line_search import LineSearch, find_line
+from tlsync_pipeline.sync.line_search import LineSearch, find_line, thin_votes
 from tlsync_pipeline.sync.refine import MIN_FRAMES, refine_line
 from tlsync_pipeline.sync.slope import SlopePrior
 from tlsync_pipeline.sync.target_size import beyond_slack, depth_on_line, sizes_in_metres, slack_on_line, target_within
@@ -64,6 +64,7 @@ FOLLOW_WINDOW_S = 2.0  # seconds either side of a frame over which a tracklet's 
 FOLLOW_WINDOW_FRAMES = 20  # the same, in frames, for a camera of unknown fps
 UNSEEN_ROWS = 2  # rows off the path every tracklet's following share starts with
 REACH_BAND_PX = 8.0  # candidates are paired with the projected path in bands of this many pixels of reach
+CHUNK_ROWS = 5_000  # detections voted on at a time
 SIZE_TOLERANCE = 1.35  # a kept candidate without box slack whose size in metres departs from the others' median by more than this factor is left out
 
 
@@ -116,7 +117,15 @@ def detections_clock(detections: Detections, fps: float | None) -> tuple[CameraC
 
 
 def candidate_votes(camera: Camera, detections: Detections, trajectory: Trajectory, eps_px: float) -> tuple[Votes, np.ndarray]:
-    """Votes of every candidate (frame, sample, pixel distance) and the detection row of each.
+    """Votes of every candidate (frame, sample, pixel distance), thinned as the line search thins them, and the detection row of each.
+
+    A candidate votes for each sample projecting within eps_px of it or
+    inside its box; of those, per tracklet, only the closest vote of each
+    frame and of each sample is kept (line_search.thin_votes: the votes the
+    line search uses). Thinning runs on chunks of CHUNK_ROWS detections and
+    once more on their union (the same votes as thinning all at once), so
+    memory stays flat in the video's length where a box over a path that
+    passes many times gives each candidate dozens of votes.
 
     Raises SyncError when the projected path never enters the image or no
     candidate comes within eps_px of it.
@@ -132,26 +141,36 @@ def candidate_votes(camera: Camera, detections: Detections, trajectory: Trajecto
     if len(detections) == 0:
         raise SyncError(f"camera {camera.name}: no moving object was detected in its video")
     projected = cKDTree(uv)
+    parts = [_chunk_votes(detections, rows, projected, uv, sample, eps_px) for rows in np.array_split(np.arange(len(detections)), -(-len(detections) // CHUNK_ROWS))]
+    rows, j, dist = (np.concatenate(part) for part in zip(*parts))
+    if len(rows) == 0:
+        nearest, _ = projected.query(detections.xy, k=1)
+        k = int(np.argmin(nearest))
+        raise SyncError(
+            f"camera {camera.name}: no moving object comes within eps = {eps_px:g} px of the target's projected path; "
+            f"the closest is {nearest[k]:.1f} px (frame {detections.frame[k]}). Check the camera pose, or raise [sync] eps_px"
+        )
+    kept = thin_votes(sample[j], detections.frame[rows].astype(np.float64), dist, detections.id[rows])
+    rows = rows[kept]
+    return Votes(detections.frame[rows].astype(np.float64), sample[j[kept]], dist[kept]), rows
+
+
+def _chunk_votes(detections: Detections, rows: np.ndarray, projected: cKDTree, uv: np.ndarray, sample: np.ndarray, eps_px: float):
+    """Thinned votes of the given detection rows: (detection rows, indices into the projected path, pixel distances)."""
+    xy, w, h = detections.xy[rows], detections.w[rows], detections.h[rows]
     # Each candidate reaches eps_px, or its box's half diagonal: pairs are found per band of reach (C loops, not Python).
-    reach = np.fmax(eps_px, 0.5 * np.hypot(detections.w, detections.h))
+    reach = np.fmax(eps_px, 0.5 * np.hypot(w, h))
     band = np.ceil(reach / REACH_BAND_PX).astype(np.int64)
     found = []
     for b in np.unique(band):
         members = np.flatnonzero(band == b)
-        pairs = cKDTree(detections.xy[members]).sparse_distance_matrix(projected, float(b * REACH_BAND_PX), output_type="ndarray")
-        found.append((members[pairs["i"]], pairs["j"].astype(np.int64), pairs["v"].astype(np.float64)))
-    i, j, dist = (np.concatenate(parts) for parts in zip(*found))
-    keep = (dist <= eps_px) | covers(uv[j] - detections.xy[i], detections.w[i], detections.h[i])
-    pairs = {"i": i[keep], "j": j[keep], "v": dist[keep]}
-    if not keep.any():
-        dist, _ = projected.query(detections.xy, k=1)
-        k = int(np.argmin(dist))
-        raise SyncError(
-            f"camera {camera.name}: no moving object comes within eps = {eps_px:g} px of the target's projected path; "
-            f"the closest is {dist[k]:.1f} px (frame {detections.frame[k]}). Check the camera pose, or raise [sync] eps_px"
-        )
-    rows = pairs["i"].astype(np.int64)
-    return Votes(detections.frame[rows].astype(np.float64), sample[pairs["j"]], pairs["v"].astype(np.float64)), rows
+        pairs = cKDTree(xy[members]).sparse_distance_matrix(projected, float(b * REACH_BAND_PX), output_type="ndarray")
+        i, j, dist = members[pairs["i"]], pairs["j"].astype(np.int64), pairs["v"].astype(np.float64)
+        keep = (dist <= eps_px) | covers(uv[j] - xy[i], w[i], h[i])
+        found.append((i[keep], j[keep], dist[keep]))
+    i, j, dist = (np.concatenate(part) for part in zip(*found))
+    kept = thin_votes(sample[j], detections.frame[rows[i]].astype(np.float64), dist, detections.id[rows[i]])
+    return rows[i[kept]], j[kept], dist[kept]
 
 
 def offsets_to_path(camera: Camera, path: PiecewiseTrajectory, clock: np.ndarray, xy: np.ndarray, alpha: float, beta: float) -> np.ndarray:

@@ -8,7 +8,10 @@ interpolated by the one trajectory model, trajectory.PiecewiseTrajectory (a
 cubic spline per contiguous run of samples; gaps are never bridged). The
 loss is robust (soft L1, scale ``f_scale`` px), solved by
 scipy.optimize.least_squares with the line parametrised around the middle of
-the frames used (well conditioned). The covariance of (alpha, beta) is the
+the frames used (well conditioned). Each frame's residual depends on the line
+only through its sample s, so the Jacobian is the projection's rate along the
+path (pixels per sample, one projected step of the spline's derivative) times
+ds/d(parameters): one evaluation gives residuals and Jacobian. The covariance of (alpha, beta) is the
 M-estimator sandwich with a Bartlett (Newey-West) kernel over neighbouring
 frames, so residuals correlated in time (pose and log errors move neighbouring
 frames alike) widen the interval.
@@ -50,6 +53,8 @@ PASSES = 4  # fits, each on the frames within gate_px of the previous one
 
 # Contiguous blocks of frames for the clustered covariance and the model error.
 BLOCKS = 8
+# Step along the trajectory (samples) of the projection's rate, the refinement's Jacobian.
+RATE_STEP = 1e-4
 
 
 @dataclass(frozen=True)
@@ -256,39 +261,47 @@ def _fit(camera, frame, xy, path, alpha, beta, f_scale, model_error_px, prior=No
     x0 = np.array([1.0 / alpha, (c_mid - beta) / alpha])
     weight = sigma_weights(camera, path, x0[1] + x0[0] * (frame - c_mid), run, f_scale)
 
-    def pixel_residual(x):
-        s = x[1] + x[0] * (frame - c_mid)
-        uv, valid = camera.project(path(s, run))
-        d = uv - xy
-        r = beyond_slack(d, slack) * weight[:, None]
-        r[~valid] = 10.0 * f_scale
-        return r.ravel()
+    prior_slope = f_scale * prior.alpha / prior.sigma if prior is not None else 0.0
 
-    def prior_residual(x):
-        # x[0] = 1 / alpha
-        return np.array([f_scale * (prior.alpha * x[0] - 1.0) / prior.sigma]) if prior is not None else np.zeros(0)
+    def pixel_fit(x):
+        """(N, 2) weighted residuals beyond the slack and (N, 2, 2) their Jacobian in x."""
+        s = x[1] + x[0] * (frame - c_mid)
+        r, rate = _offsets_and_rates(camera, path, s, run, xy)
+        outside = np.abs(r) > slack
+        r = beyond_slack(r, slack) * weight[:, None]
+        rate = np.where(outside, rate, 0.0) * weight[:, None]
+        invalid = ~np.isfinite(r).all(axis=1)
+        r[invalid] = 10.0 * f_scale
+        rate[invalid | ~np.isfinite(rate).all(axis=1)] = 0.0
+        return r, rate[:, :, None] * np.stack([frame - c_mid, np.ones(len(frame))], axis=1)[:, None, :]
+
+    last = {}  # least_squares asks for the residuals, then the Jacobian, at the same x
+
+    def evaluated(x):
+        key = x.tobytes()
+        if key not in last:
+            last.clear()
+            last[key] = pixel_fit(x)
+        return last[key]
 
     def residual(x):
-        return np.concatenate([pixel_residual(x), prior_residual(x)])
+        r = evaluated(x)[0].ravel()
+        return np.append(r, f_scale * (prior.alpha * x[0] - 1.0) / prior.sigma) if prior is not None else r
+
+    def jacobian(x):
+        jac = evaluated(x)[1].reshape(-1, 2)
+        return np.vstack([jac, [prior_slope, 0.0]]) if prior is not None else jac
 
     scale = np.array([0.1 / span * abs(x0[0]) + 1e-9, 0.1])
     loss = "soft_l1" if prior is None else _soft_l1_but_last
-    solution = least_squares(residual, x0, loss=loss, f_scale=f_scale, x_scale=scale, method="trf", max_nfev=200)
+    solution = least_squares(residual, x0, jac=jacobian, loss=loss, f_scale=f_scale, x_scale=scale, method="trf", max_nfev=200)
     x = solution.x
-    r = pixel_residual(x).reshape(-1, 2)
-    # Jacobian per frame (central differences), 2 rows per frame.
-    jac = np.empty((len(frame), 2, 2))
-    for k, h in enumerate((1e-4 * abs(x[0]) / max(1.0, span / 100), 1e-3)):
-        step = np.zeros(2)
-        step[k] = h
-        jac[:, :, k] = (pixel_residual(x + step) - pixel_residual(x - step)).reshape(-1, 2) / (2 * h)
+    r, jac = evaluated(x)
     z = (r / f_scale) ** 2
     psi = r / np.sqrt(1 + z)  # soft L1 influence
     dpsi = (1 + z) ** -1.5
     # The prior is information (bread) and, at one sigma = f_scale, noise (meat).
-    prior_info = np.zeros((2, 2))
-    if prior is not None:
-        prior_info[0, 0] = (f_scale * prior.alpha / prior.sigma) ** 2
+    prior_info = np.diag([prior_slope**2, 0.0])
     bread = np.einsum("nik,ni,nil->kl", jac, dpsi, jac) + prior_info
     g = np.einsum("nik,ni->nk", jac, psi)
     n = len(g)
@@ -317,6 +330,15 @@ def _fit(camera, frame, xy, path, alpha, beta, f_scale, model_error_px, prior=No
     perpendicular = _perpendicular(camera, path, x[1] + x[0] * (frame - c_mid), run)
     ok = bool(solution.success and np.all(np.isfinite(cov)) and u > 0)
     return float(a), float(b), cov, scale_px, ok, str(solution.message), perpendicular
+
+
+def _offsets_and_rates(camera: Camera, path: PiecewiseTrajectory, s: np.ndarray, run: np.ndarray, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(N, 2) pixel offset from xy to the projection at samples s (NaN where it does not project) and (N, 2) its rate, pixels per sample."""
+    position = path(s, run)
+    moved = position + RATE_STEP * path(s, run, nu=1)
+    uv, _ = camera.project(np.concatenate([position, moved]))
+    n = len(s)
+    return uv[:n] - xy, (uv[n:] - uv[:n]) / RATE_STEP
 
 
 def _soft_l1_but_last(z: np.ndarray) -> np.ndarray:

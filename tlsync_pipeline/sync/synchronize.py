@@ -7,8 +7,8 @@ votes.npz, the sync stage passes them back in); each camera's votes are put
 on its clock (sync/clock.py) and the method fits the line. A camera that
 brings every mover (detections) instead of a track has its target
 identified among them first (sync/identify.py); its line is then fitted on
-the identified track's votes (votes.npz holds every candidate's: what render
-draws).
+the identified track's votes (in the pipeline the identify stage writes that
+track, and votes.npz holds its votes).
 
 Pure functions from typed values to typed values; no file I/O here.
 """

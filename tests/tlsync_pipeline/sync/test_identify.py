@@ -5,7 +5,9 @@ import pytest
 
 from data_fixtures import make_scene
 from tlsync_pipeline.errors import SyncError
-from tlsync_pipeline.sync.identify import assign_target, covers, identify_target
+from tlsync_pipeline.sync import identify
+from tlsync_pipeline.sync.identify import assign_target, candidate_votes, covers, identify_target
+from tlsync_pipeline.sync.line_search import thin_votes
 from tlsync_pipeline.sync.params import SyncParams
 from tlsync_pipeline.trajectory import PiecewiseTrajectory
 from trackers.detections import make_detections
@@ -61,6 +63,33 @@ def test_identifies_the_target_among_look_alike_walkers(seed):
     assert sum(t.frames for t in summary.tracklets) == summary.identified_frames == len(found.track)
     assert summary.support_frames > summary.runner_up_frames
     assert len(np.unique(found.track.frame)) == len(found.track)
+
+
+def test_candidate_votes_thinned_by_chunks_are_those_of_thinning_every_vote_at_once(monkeypatch):
+    """Large boxes over a path that passes often give each candidate many votes; chunked thinning keeps exactly the votes thinning them all keeps."""
+    scene = make_scene(seed=2)
+    name = "cam0"
+    detections, _ = _crowd_detections(scene, name, walkers=6, seed=2)
+    detections = detections.subset(np.arange(len(detections)))
+    rng = np.random.default_rng(2)
+    detections.w[:] = rng.uniform(5, 60, len(detections))
+    detections.h[:] = rng.uniform(5, 120, len(detections))
+    camera = scene.cameras[name]
+    uv, valid = camera.project(scene.trajectory.xyz)
+    inside = valid & camera.in_image(np.nan_to_num(uv, nan=-1e9))
+    uv, sample = uv[inside], scene.trajectory.sample[inside]
+    offset = uv[None, :, :] - detections.xy[:, None, :]
+    dist = np.linalg.norm(offset, axis=2)
+    box = (np.abs(offset[..., 0]) <= detections.w[:, None] / 2) & (np.abs(offset[..., 1]) <= detections.h[:, None] / 2)
+    rows, j = np.nonzero((dist <= P.eps_px) | box)
+    kept = thin_votes(sample[j], detections.frame[rows].astype(float), dist[rows, j], detections.id[rows])
+    assert len(kept) < 0.5 * len(rows)  # the boxes give many votes the line search does not use
+    expected = sorted(zip(rows[kept].tolist(), sample[j[kept]].tolist()))
+    for chunk in (37, 100_000):
+        monkeypatch.setattr(identify, "CHUNK_ROWS", chunk)
+        votes, vote_rows = candidate_votes(camera, detections, scene.trajectory, P.eps_px)
+        assert sorted(zip(vote_rows.tolist(), votes.sample.tolist())) == expected
+        np.testing.assert_array_equal(votes.frame, detections.frame[vote_rows])
 
 
 def test_a_camera_the_path_never_enters_is_named():
