@@ -82,24 +82,35 @@ def learn_level(image, background, where, k, gain, rate) -> None:
     """Where the working frame's mask ``where`` (k times coarser than image) is set: background moves by rate toward image / gain.
 
     Pixels beyond the working frame's coverage (the frame cropped to a multiple of k) are left alone.
+    Each row is updated whole (one branch-free loop, which vectorises), then
+    the pixels of the mask's unset cells (the foreground: few) get their
+    values back.
     """
     r = np.float32(rate)
     inverse_gain = np.float32(1.0 / gain)
     rows = min(where.shape[0], background.shape[0] // k)
     cols = min(where.shape[1], background.shape[1] // k)
-    selected = np.empty(cols * k, np.float32)  # a row of the mask at the level's resolution, 0 or 1
+    held = np.empty(cols, np.int64)  # the unset cells of a mask row
+    kept = np.empty(cols * k, np.float32)  # their pixels' values in one level row, before the update
     for wy in range(rows):
         where_row = where[wy]
+        n_held = 0
         for wx in range(cols):
-            value = np.float32(1.0) if where_row[wx] else np.float32(0.0)
-            for j in range(k):
-                selected[wx * k + j] = value
+            if not where_row[wx]:
+                held[n_held] = wx
+                n_held += 1
         for y in range(wy * k, wy * k + k):
             background_row = background[y]
             image_row = image[y]
-            for x in range(cols * k):  # branch-free, so that it vectorises
+            for i in range(n_held):
+                for j in range(k):
+                    kept[i * k + j] = background_row[held[i] * k + j]
+            for x in range(cols * k):
                 b = background_row[x]
-                background_row[x] = b + selected[x] * r * (np.float32(image_row[x]) * inverse_gain - b)
+                background_row[x] = b + r * (np.float32(image_row[x]) * inverse_gain - b)
+            for i in range(n_held):
+                for j in range(k):
+                    background_row[held[i] * k + j] = kept[i * k + j]
 
 
 @numba.njit(**_COMPILE)
