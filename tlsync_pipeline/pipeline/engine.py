@@ -7,7 +7,9 @@ that make its inputs are done, so a re-run stage whose artefacts come out
 identical does not re-run what follows it. Per-camera tasks go to the
 executor (parallel processes or a Dask cluster); project-wide ones run here,
 and so do light per-camera ones (StageSpec.light) while the executor's local
-workers are not started.
+workers are not started. This process's BLAS runs one thread, as the workers'
+do: its tasks run beside them, and two BLAS threads contending for busy cores
+made the sync of 20 cameras 1.4x slower (docs/performance.md).
 A failed task keeps its last good artefacts; the tasks that need it are
 skipped and everything else still runs.
 """
@@ -33,7 +35,7 @@ from tlsync_pipeline.pipeline.cache import (
     write_manifest,
 )
 from tlsync_pipeline.pipeline.codehash import code_digests
-from tlsync_pipeline.pipeline.executors import WORKER_CPU, SerialExecutor
+from tlsync_pipeline.pipeline.executors import WORKER_CPU, SerialExecutor, one_blas_thread
 from tlsync_pipeline.pipeline.graph import PER_CAMERA, STAGES, Graph, Task, check_given
 from tlsync_pipeline.pipeline.lock import WorkLock
 from tlsync_pipeline.pipeline.workspace import FOLDERS, StageFiles
@@ -192,7 +194,8 @@ def run_graph(
         _remove_leftovers(graph.work)
         memo = HashMemo(graph.workspace.hash_memo)
         try:
-            _schedule(graph, executor, wanted, force, memo, summary, progress or Progress())
+            with one_blas_thread():
+                _schedule(graph, executor, wanted, force, memo, summary, progress or Progress())
         except BaseException:
             executor.close(cancel=True)
             raise

@@ -2,7 +2,8 @@
 
 All three offer ``submit(fn, kwargs) -> future`` and ``wait_any(futures)``;
 futures have ``result()``. Worker processes use one thread each for OpenCV
-and the BLAS/OpenMP libraries, so N workers do not oversubscribe N cores.
+and the BLAS/OpenMP libraries, so N workers do not oversubscribe N cores; the
+engine's process runs its own tasks with one BLAS thread too (one_blas_thread).
 ``cores`` is how many processes a task may start itself (the checkerboard
 detection of the intrinsics stage): 1 in a pool's or a cluster's worker, so
 pools are never nested; the executor's share of the machine when it runs
@@ -75,6 +76,14 @@ def call_recording_warnings(fn: Callable[..., dict | None], kwargs: dict) -> dic
     if messages:
         result["warnings"] = list(dict.fromkeys(messages))
     return result
+
+
+def one_blas_thread():
+    """A context in which numpy's and scipy's OpenBLAS (two libraries in their wheels) run one thread each."""
+    import scipy.linalg  # noqa: F401 - loads scipy's OpenBLAS, so that the limit covers it too
+    from threadpoolctl import threadpool_limits
+
+    return threadpool_limits(limits=1, user_api="blas")
 
 
 def call(fn: Callable[..., Any], kwargs: dict) -> dict:
