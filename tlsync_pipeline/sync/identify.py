@@ -26,10 +26,19 @@ line is refined on the kept candidates with the box slack
 (refine.refine_line) and the assignment repeated until it no longer
 changes (at most MAX_ROUNDS rounds).
 
+The logged point need not be the blob's centre: a GPS in a pocket, on a
+backpack or a helmet sits 0.2-0.9 m above a walker's centre, 10-40 px at
+surveillance distances, beyond the gate. Each round estimates that height
+(``lift_of``: the median over the assigned candidates of their offset from
+the projection along the image of the world's up axis, ENU z) and matches
+candidates against the path lowered by it.
+
 The identified track holds, per frame, the target's part of its blob: for
 a box larger than the target, the target's box inside it nearest the
 projection on the final line (target_size.target_within); for a box of
-the target's size, the blob itself.
+the target's size, the blob itself; moved by the image of the estimated
+height, so that it is where the logged point is seen (what the sync
+matches against the projection).
 
 Frames are 0-based frame indices; the line lives on the camera clock
 (clock.camera_clock: frames, or presentation time x fps for VFR videos).
@@ -37,7 +46,7 @@ Frames are 0-based frame indices; the line lives on the camera clock
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -65,6 +74,9 @@ FOLLOW_WINDOW_FRAMES = 20  # the same, in frames, for a camera of unknown fps
 UNSEEN_ROWS = 2  # rows off the path every tracklet's following share starts with
 REACH_BAND_PX = 8.0  # candidates are paired with the projected path in bands of this many pixels of reach
 CHUNK_ROWS = 5_000  # detections voted on at a time
+MAX_LIFT_M = 2.0  # largest height (metres) of the logged point above or below the tracked point that is estimated
+LIFT_STEP_M = 0.05  # a change of the estimated height smaller than this keeps the round's assignment
+UP = np.array([0.0, 0.0, 1.0])  # the world's up axis (trajectories are local ENU metres)
 SIZE_TOLERANCE = 1.35  # a kept candidate without box slack whose size in metres departs from the others' median by more than this factor is left out
 
 
@@ -87,7 +99,9 @@ class Identification:
     candidates in the detections; votes / vote_rows: every candidate's
     votes and the detection row of each; search: the line search over them;
     alpha, beta: the last line (camera clock); tracklets: the tracklets the
-    track uses, most frames first; rounds: assignment rounds run.
+    track uses, most frames first; rounds: assignment rounds run; lift_m:
+    estimated height of the logged point above the tracked point (metres,
+    world up).
     """
 
     track: Track
@@ -99,12 +113,13 @@ class Identification:
     beta: float
     tracklets: tuple[TrackletUse, ...]
     rounds: int
+    lift_m: float = 0.0
 
     def summary(self) -> IdentificationSummary:
         """What timeline.json reports: tracklets used, share of the track's frames on each, line supports."""
         n = max(len(self.track), 1)
         tracklets = tuple(TrackletShare(t.id, t.assigned, t.assigned / n, t.follow_share) for t in self.tracklets)
-        return IdentificationSummary(int(np.unique(self.vote_rows).size), len(self.track), tracklets, self.search.support, self.search.runner_up, self.rounds)
+        return IdentificationSummary(int(np.unique(self.vote_rows).size), len(self.track), tracklets, self.search.support, self.search.runner_up, self.rounds, round(self.lift_m, 3))
 
 
 def detections_clock(detections: Detections, fps: float | None) -> tuple[CameraClock, np.ndarray]:
@@ -184,6 +199,32 @@ def offsets_to_path(camera: Camera, path: PiecewiseTrajectory, clock: np.ndarray
         where = np.flatnonzero(on)[valid]
         out[where] = uv[valid] - xy[where]
     return out
+
+
+def lift_of(camera: Camera, path: PiecewiseTrajectory, clock: np.ndarray, xy: np.ndarray, alpha: float, beta: float) -> float:
+    """Height (metres, world up) of the logged point above the given candidates' centres under the line: the median of each one's.
+
+    A candidate's offset from the projection, along the image of one metre
+    up at its sample, in metres; clipped to +-MAX_LIFT_M; 0 with fewer than
+    MIN_FRAMES candidates on the path.
+    """
+    s = (np.asarray(clock, dtype=np.float64) - beta) / alpha
+    run = path.run_of(s)
+    on = np.flatnonzero(run >= 0)
+    if len(on) < MIN_FRAMES:
+        return 0.0
+    position = path(s[on], run[on])
+    uv, _ = camera.project(position)
+    rate = camera.project(position + UP)[0] - uv  # pixels per metre up
+    norm = np.einsum("ij,ij->i", rate, rate)
+    lift = -np.einsum("ij,ij->i", xy[on] - uv, rate) / norm
+    lift = lift[np.isfinite(lift) & (norm > 1e-9)]
+    return float(np.clip(np.median(lift), -MAX_LIFT_M, MAX_LIFT_M)) if len(lift) >= MIN_FRAMES else 0.0
+
+
+def lowered(trajectory: Trajectory, lift_m: float) -> PiecewiseTrajectory:
+    """The trajectory model of the tracked point: the logged path lift_m metres lower (world up)."""
+    return PiecewiseTrajectory(replace(trajectory, xyz=trajectory.xyz - lift_m * UP))
 
 
 def covers(offset: np.ndarray, w: np.ndarray, h: np.ndarray) -> np.ndarray:
@@ -317,17 +358,29 @@ def identify_target(
         search = find_line(votes.sample, vote_clock, votes.dist, delta, p, r_min, seed, group=detections.id[vote_rows], prior=prior)
     except ValueError as exc:
         raise SyncError(f"camera {camera.name}: {exc} ({len(votes)} votes from {np.unique(vote_rows).size} candidates)") from None
-    path = PiecewiseTrajectory(trajectory)
+    logged = path = PiecewiseTrajectory(trajectory)
+    lift = 0.0
     window = FOLLOW_WINDOW_S * fps if fps else FOLLOW_WINDOW_FRAMES
     alpha, beta = search.alpha, search.beta
     chosen = np.zeros(0, np.int64)
     rounds = 0
-    for rounds in range(1, MAX_ROUNDS + 1):
+
+    def assigned(path, alpha, beta):
         offset = offsets_to_path(camera, path, row_clock, detections.xy, alpha, beta)
         distance = np.linalg.norm(offset, axis=1)
-        assignment = assign_target(detections.frame, detections.id, distance, gate, prefer, covers(offset, detections.w, detections.h), window)
+        return offset, assign_target(detections.frame, detections.id, distance, gate, prefer, covers(offset, detections.w, detections.h), window)
+
+    for rounds in range(1, MAX_ROUNDS + 1):
+        offset, assignment = assigned(path, alpha, beta)
         rows = assignment.rows
         room = _slack(camera, path, row_clock, detections, rows, alpha, beta)
+        whole = rows[~(room > 0).any(axis=1)]  # blobs of the target's size: their centre is the target's
+        estimate = lift_of(camera, logged, row_clock[whole], detections.xy[whole], alpha, beta)
+        if abs(estimate - lift) > LIFT_STEP_M:
+            lift, path = estimate, lowered(trajectory, estimate)
+            offset, assignment = assigned(path, alpha, beta)
+            rows = assignment.rows
+            room = _slack(camera, path, row_clock, detections, rows, alpha, beta)
         keep = np.linalg.norm(beyond_slack(offset[rows], room), axis=1) <= gate
         plain = np.flatnonzero(keep & ~(room > 0).any(axis=1))
         keep[plain] = consistent_size(camera, path, row_clock[rows[plain]], detections.w[rows[plain]], detections.h[rows[plain]], alpha, beta)
@@ -353,12 +406,12 @@ def identify_target(
             f"({len(chosen)} frames have a candidate within {gate:g} px of it or a merged blob holding it, {following} of them on a tracklet that stays near it "
             f"over +-{window:g} frames; the best tracklet stays near it in {100 * best:.0f} % of its frames)"
         )
-    track = _target_track(camera, path, row_clock, detections, chosen, alpha, beta)
+    track = _target_track(camera, path, logged, row_clock, detections, chosen, alpha, beta)
     ids, counts = np.unique(detections.id[chosen], return_counts=True)
     lengths = {int(i): int(n) for i, n in zip(*np.unique(detections.id, return_counts=True))}
     order = np.argsort(-counts, kind="stable")
     uses = tuple(TrackletUse(int(ids[k]), int(counts[k]), lengths[int(ids[k])], float(share[int(ids[k])])) for k in order)
-    return Identification(track, chosen, votes, vote_rows, search, alpha, beta, uses, rounds)
+    return Identification(track, chosen, votes, vote_rows, search, alpha, beta, uses, rounds, lift)
 
 
 def _slack(camera: Camera, path: PiecewiseTrajectory, clock: np.ndarray, detections: Detections, rows: np.ndarray, alpha: float, beta: float) -> np.ndarray:
@@ -368,10 +421,16 @@ def _slack(camera: Camera, path: PiecewiseTrajectory, clock: np.ndarray, detecti
     return np.zeros((len(rows), 2)) if slack is None else slack
 
 
-def _target_track(camera: Camera, path: PiecewiseTrajectory, clock: np.ndarray, detections: Detections, rows: np.ndarray, alpha: float, beta: float) -> Track:
-    """The identified rows as a Track of the target's part of each blob (target_size.target_within) under the line."""
+def _target_track(camera: Camera, path: PiecewiseTrajectory, logged: PiecewiseTrajectory, clock: np.ndarray, detections: Detections, rows: np.ndarray, alpha: float, beta: float) -> Track:
+    """The identified rows as a Track of the target's part of each blob (target_size.target_within) under the line, moved to where the logged point is seen.
+
+    path: the tracked point's trajectory model (the logged one lowered by
+    the estimated height); logged: the log's own.
+    """
     track = detections.to_track(rows)
     offset = offsets_to_path(camera, path, clock[rows], detections.xy[rows], alpha, beta)
     box = np.column_stack([detections.w[rows], detections.h[rows]])
     xy, size = target_within(detections.xy[rows], box, offset, _slack(camera, path, clock, detections, rows, alpha, beta))
+    lift = offsets_to_path(camera, logged, clock[rows], detections.xy[rows], alpha, beta) - offset  # the logged point's image less the tracked point's
+    xy = xy + np.where(np.isfinite(lift), lift, 0.0)
     return Track(track.frame, xy[:, 0], xy[:, 1], time_s=track.time_s, w=size[:, 0], h=size[:, 1], score=track.score)

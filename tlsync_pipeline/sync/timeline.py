@@ -77,7 +77,8 @@ class IdentificationSummary:
     frames of the identified track; tracklets: those it uses, most frames
     first; support_frames / runner_up_frames: distinct frames on the best
     line and on the best line without its votes, over every candidate's
-    votes; rounds: assignment rounds run.
+    votes; rounds: assignment rounds run; logged_point_above_m: estimated
+    height of the logged point above the tracked point (metres, world up).
     """
 
     candidates_voting: int
@@ -86,6 +87,7 @@ class IdentificationSummary:
     support_frames: int
     runner_up_frames: int
     rounds: int
+    logged_point_above_m: float = 0.0
 
     @classmethod
     def from_dict(cls, entry: dict) -> "IdentificationSummary":

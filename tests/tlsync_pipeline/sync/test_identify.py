@@ -1,5 +1,7 @@
 """Identification of the target among every mover, on synthetic detections with known truth."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -9,6 +11,7 @@ from tlsync_pipeline.sync import identify
 from tlsync_pipeline.sync.identify import assign_target, candidate_votes, covers, identify_target
 from tlsync_pipeline.sync.line_search import thin_votes
 from tlsync_pipeline.sync.params import SyncParams
+from tlsync_pipeline.sync.slope import slope_prior
 from tlsync_pipeline.trajectory import PiecewiseTrajectory
 from trackers.detections import make_detections
 
@@ -90,6 +93,32 @@ def test_candidate_votes_thinned_by_chunks_are_those_of_thinning_every_vote_at_o
         votes, vote_rows = candidate_votes(camera, detections, scene.trajectory, P.eps_px)
         assert sorted(zip(vote_rows.tolist(), votes.sample.tolist())) == expected
         np.testing.assert_array_equal(votes.frame, detections.frame[vote_rows])
+
+
+def test_a_logged_point_above_the_tracked_centre_is_estimated_and_the_track_moved_to_it():
+    """The log rides 0.6 m above the blob centres (a GPS on a helmet): 40 px off in the image, beyond the gate, inside a person's box."""
+    scene = make_scene(seed=0)
+    name = "cam0"
+    detections, target_rows = _crowd_detections(scene, name, seed=0)
+    camera = scene.cameras[name]
+    raised = dataclasses.replace(scene.trajectory, xyz=scene.trajectory.xyz + [0.0, 0.0, 0.6])
+    shift = np.nanmedian(np.linalg.norm(camera.project(raised.xyz)[0] - camera.project(scene.trajectory.xyz)[0], axis=1))
+    assert shift > 3 * P.eps_px
+    detections = detections.subset(np.arange(len(detections)))
+    detections.h[:] = 3 * shift
+    detections.w[:] = shift
+    prior = slope_prior(camera.fps, raised.rate, P.rate_sigma)
+    found = identify_target(camera, detections, raised, camera.fps, P.eps_px, P.delta, P.p, P.seed, prior=prior)
+    assert found.lift_m == pytest.approx(0.6, abs=0.1)
+    assert found.summary().logged_point_above_m == pytest.approx(found.lift_m, abs=1e-3)
+    picked = {(f, i) for f, i in zip(detections.frame[found.rows], detections.id[found.rows])}
+    assert len(picked & target_rows) >= 0.95 * len(picked)
+    assert len(picked & target_rows) >= 0.8 * len(target_rows)
+    truth = scene.lines[name]
+    frames = scene.tracks[name].frame
+    assert np.abs((found.alpha - truth.alpha) * (frames - truth.beta) / truth.alpha + found.beta - truth.beta).max() < 0.5
+    seen = camera.project(PiecewiseTrajectory(raised).positions((found.track.frame - truth.beta) / truth.alpha))[0]
+    assert np.nanmedian(np.linalg.norm(found.track.xy - seen, axis=1)) < 0.25 * shift  # the track is where the logged point is seen
 
 
 def test_a_camera_the_path_never_enters_is_named():

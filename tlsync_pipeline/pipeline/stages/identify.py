@@ -60,7 +60,8 @@ def run_identify(files: StageFiles, fps: float | None, sync: dict[str, Any], sou
     with files.write("identification") as tmp:
         tmp.write_text(json.dumps(asdict(found.summary()), indent=1) + "\n", encoding="utf-8")
     seeded = f", seeded by the init box (tracklet {min(prefer)})" if prefer else ""
-    return {"identified_frames": len(found.track), "warnings": warnings, "message": f"wrote {files.output('track')} ({len(found.track)} identified frames{seeded})"}
+    lift = f"; the log's point is {abs(found.lift_m):.2f} m {'above' if found.lift_m > 0 else 'below'} the movers' centres, the track moved to it" if found.lift_m else ""
+    return {"identified_frames": len(found.track), "warnings": warnings, "message": f"wrote {files.output('track')} ({len(found.track)} identified frames{seeded}{lift})"}
 
 
 def brings_movers(project, cam: str) -> bool:
