@@ -21,6 +21,7 @@ from scipy.interpolate import make_interp_spline
 
 from tlsync_pipeline.errors import InputError
 
+UP = np.array([0.0, 0.0, 1.0])  # the world's up axis: trajectories are local ENU metres
 GAP_SAMPLES = 1.5  # consecutive samples further apart than this (grid units) are a gap, never bridged
 
 

@@ -297,6 +297,7 @@ _CHECKS = {
     "probability": _probability,
     "ratio": _ratio,
     "non_negative": _non_negative,
+    "finite": _finite,
     "integer": _integer,
     "boolean": _boolean,
 }

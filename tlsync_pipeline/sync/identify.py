@@ -60,7 +60,7 @@ from tlsync_pipeline.sync.slope import SlopePrior
 from tlsync_pipeline.sync.target_size import beyond_slack, depth_on_line, sizes_in_metres, slack_on_line, target_within
 from tlsync_pipeline.sync.timeline import IdentificationSummary, TrackletShare
 from tlsync_pipeline.sync.votes import Votes
-from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
+from tlsync_pipeline.trajectory import UP, PiecewiseTrajectory, Trajectory
 from trackers.detections import Detections
 from trackers.track import Track
 
@@ -76,7 +76,6 @@ REACH_BAND_PX = 8.0  # candidates are paired with the projected path in bands of
 CHUNK_ROWS = 5_000  # detections voted on at a time
 MAX_LIFT_M = 2.0  # largest height (metres) of the logged point above or below the tracked point that is estimated
 LIFT_STEP_M = 0.05  # a change of the estimated height smaller than this keeps the round's assignment
-UP = np.array([0.0, 0.0, 1.0])  # the world's up axis (trajectories are local ENU metres)
 SIZE_TOLERANCE = 1.35  # a kept candidate without box slack whose size in metres departs from the others' median by more than this factor is left out
 
 

@@ -12,8 +12,8 @@ from dataclasses import dataclass, field, fields
 from typing import Any
 
 # Checks a project-file value must pass: "positive" (> 0), "probability" (in (0, 1)),
-# "ratio" (in (0, 1]), "non_negative" (>= 0), "integer", "boolean".
-CHECKS = ("positive", "probability", "ratio", "non_negative", "integer", "boolean")
+# "ratio" (in (0, 1]), "non_negative" (>= 0), "finite" (any number), "integer", "boolean".
+CHECKS = ("positive", "probability", "ratio", "non_negative", "finite", "integer", "boolean")
 
 
 def param(default: Any, check: str) -> Any:
@@ -38,7 +38,10 @@ class SyncParams:
     relative std of a camera's true frame rate against its stated fps (the
     refined method and identification keep each line's slope near fps / log
     rate, sync/slope.py; 0: free slope, e.g. a time-lapse video whose fps
-    is not its capture rate); method: a
+    is not its capture rate); logged_point_above_m: height of the logged
+    point above the tracked point, metres along the world's up axis (a GPS
+    at a walker's chest, the blob's centre tracked: about 0.4; negative
+    below it), the trajectory lowered by it before voting; method: a
     registered method's name; options: method name -> that method's own
     parameters (an instance of its ``params_type``); a method not listed
     runs with its defaults.
@@ -49,5 +52,6 @@ class SyncParams:
     p: float = param(0.99, "probability")
     seed: int = param(0, "integer")
     rate_sigma: float = param(0.001, "non_negative")
+    logged_point_above_m: float = param(0.0, "finite")
     method: str = "refined"
     options: dict[str, Any] = field(default_factory=dict)

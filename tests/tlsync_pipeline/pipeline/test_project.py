@@ -13,11 +13,12 @@ def _write(tmp_path, text):
 def test_paths_are_relative_to_the_project_and_defaults_apply(tmp_path):
     sub = tmp_path / "p"
     sub.mkdir()
-    project = load_project(_write(sub, '[target]\ntrajectory = "t.csv"\n[[cameras]]\nname = "a"\ncamera = "a/c.json"\nfps = 25\n[sync]\neps_px = 12\n'))
+    project = load_project(_write(sub, '[target]\ntrajectory = "t.csv"\n[[cameras]]\nname = "a"\ncamera = "a/c.json"\nfps = 25\n[sync]\neps_px = 12\nlogged_point_above_m = -0.2\n'))
     assert project.target["trajectory"] == sub / "t.csv"
     assert project.cameras[0]["camera"] == sub / "a" / "c.json"
     assert project.cameras[0]["track"] is None
     assert project.sync.eps_px == 12.0 and project.sync.delta == 0.5 and project.sync.options["paper"].r == 0.05
+    assert project.sync.logged_point_above_m == -0.2  # below the tracked point: any number
 
 
 @pytest.mark.parametrize(
@@ -31,6 +32,7 @@ def test_paths_are_relative_to_the_project_and_defaults_apply(tmp_path):
         ('[[cameras]]\nname = "a"\nfps = -3\n', "'fps': expected a positive number"),
         ('[sync]\np = 1.5\n[[cameras]]\nname = "a"\n', "'p': expected a number strictly between 0 and 1"),
         ('[sync]\nseed = 0.5\n[[cameras]]\nname = "a"\n', "'seed': expected an integer"),
+        ('[sync]\nlogged_point_above_m = "head"\n[[cameras]]\nname = "a"\n', "'logged_point_above_m': expected a number"),
         ("[target]\ntrajectory = 'x.csv'\n", r"no \[\[cameras\]\]"),
         ("[target\n", "invalid TOML"),
     ],
