@@ -8,7 +8,7 @@ import pytest
 from data_fixtures import make_scene
 from tlsync_pipeline.errors import SyncError
 from tlsync_pipeline.sync import identify
-from tlsync_pipeline.sync.identify import assign_target, candidate_votes, covers, identify_target
+from tlsync_pipeline.sync.identify import along_tracklets, assign_target, candidate_votes, covers, identify_target
 from tlsync_pipeline.sync.line_search import thin_votes
 from tlsync_pipeline.sync.params import SyncParams
 from tlsync_pipeline.sync.slope import slope_prior
@@ -119,6 +119,32 @@ def test_a_logged_point_above_the_tracked_centre_is_estimated_and_the_track_move
     assert np.abs((found.alpha - truth.alpha) * (frames - truth.beta) / truth.alpha + found.beta - truth.beta).max() < 0.5
     seen = camera.project(PiecewiseTrajectory(raised).positions((found.track.frame - truth.beta) / truth.alpha))[0]
     assert np.nanmedian(np.linalg.norm(found.track.xy - seen, axis=1)) < 0.25 * shift  # the track is where the logged point is seen
+
+
+def test_a_stretch_off_the_projection_by_calibration_error_stays_in_the_identified_track():
+    """For 80 frames the target's tracklet is 15 px off the projection (beyond the 10 px gate), as calibration errors put the real flight's."""
+    scene = make_scene(seed=1)
+    name = "cam0"
+    detections, target_rows = _crowd_detections(scene, name, seed=1)
+    detections = detections.subset(np.arange(len(detections)))
+    stretch = np.flatnonzero(detections.id == 1)[20:100]
+    detections.x[stretch] += 15.0
+    camera = scene.cameras[name]
+    found = identify_target(camera, detections, scene.trajectory, camera.fps, P.eps_px, P.delta, P.p, P.seed)
+    assert np.isin(stretch, found.rows).mean() >= 0.95
+    picked = {(f, i) for f, i in zip(detections.frame[found.rows], detections.id[found.rows])}
+    assert len(picked & target_rows) >= 0.95 * len(picked)
+
+
+def test_along_tracklets_adds_only_identified_tracklets_in_free_frames_within_three_gates():
+    frame = np.array([0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 10, 11, 11, 12, 2])
+    tracklet = np.array([1] * 10 + [1, 2, 1, 2, 1, 2])
+    distance = np.array([1.0] * 10 + [25.0, 5.0, 35.0, 5.0, np.inf, 1.0])
+    chosen = np.arange(10)
+    rows = along_tracklets(frame, tracklet, distance, chosen, 10.0)
+    # frame 10: tracklet 1 at 25 px joins (tracklet 2 is not identified); frame 11: 35 px is beyond; frame 12: off the path; frame 2 had a row
+    assert rows.tolist() == list(range(10)) + [10]
+    assert along_tracklets(frame, tracklet, distance, chosen[:7], 10.0).tolist() == list(range(7))  # 7 chosen rows: not an identified tracklet
 
 
 def test_a_camera_the_path_never_enters_is_named():
