@@ -22,17 +22,33 @@ DECILE_BINS = 512  # histogram of the differences for their 90th percentile: gre
 DECILE_RANGE = (2.0**-20, 512.0)  # positive values only
 
 
-@numba.njit(**_COMPILE)
+@numba.njit(fastmath={"reassoc"}, **_COMPILE)
 def frame_gain(small: np.ndarray, background: np.ndarray, mask: np.ndarray) -> float:
-    """Frame mean / background mean over the mask's pixels of every other row (1.0 when there are none)."""
-    frame_sum = 0.0
+    """Frame mean / background mean over the mask's pixels of every other row (1.0 when there are none).
+
+    Branch-free, the frame's sum in integers and the background's in float64
+    summed in any order (``reassoc``), so that the loop vectorises.
+    """
+    frame_sum = 0
     background_sum = 0.0
     for y in range(0, small.shape[0], 2):
         for x in range(small.shape[1]):
-            if mask[y, x]:
-                frame_sum += small[y, x]
-                background_sum += background[y, x]
+            selected = mask[y, x] != 0
+            frame_sum += np.int64(small[y, x]) if selected else 0
+            background_sum += np.float64(background[y, x]) if selected else 0.0
     return frame_sum / background_sum if background_sum > 0 else 1.0
+
+
+@numba.njit(**_COMPILE)
+def halve(image: np.ndarray, out: np.ndarray) -> None:
+    """out = the 8-bit image area-averaged by 2 (out's shape; each 2 x 2 mean rounded half up, as OpenCV's INTER_AREA by 2)."""
+    for y in range(out.shape[0]):
+        top = image[2 * y]
+        bottom = image[2 * y + 1]
+        row = out[y]
+        for x in range(out.shape[1]):
+            total = np.uint16(top[2 * x]) + np.uint16(top[2 * x + 1]) + np.uint16(bottom[2 * x]) + np.uint16(bottom[2 * x + 1])
+            row[x] = np.uint8((total + 2) >> 2)
 
 
 @numba.njit(**_COMPILE)
@@ -66,19 +82,35 @@ def learn_level(image, background, where, k, gain, rate) -> None:
     """Where the working frame's mask ``where`` (k times coarser than image) is set: background moves by rate toward image / gain.
 
     Pixels beyond the working frame's coverage (the frame cropped to a multiple of k) are left alone.
+    Each row is updated whole (one branch-free loop, which vectorises), then
+    the pixels of the mask's unset cells (the foreground: few) get their
+    values back.
     """
     r = np.float32(rate)
     inverse_gain = np.float32(1.0 / gain)
     rows = min(where.shape[0], background.shape[0] // k)
     cols = min(where.shape[1], background.shape[1] // k)
-    selected = np.empty(cols * k, np.float32)  # a row of the mask at the level's resolution, 0 or 1
+    held = np.empty(cols, np.int64)  # the unset cells of a mask row
+    kept = np.empty(cols * k, np.float32)  # their pixels' values in one level row, before the update
     for wy in range(rows):
+        where_row = where[wy]
+        n_held = 0
         for wx in range(cols):
-            selected[wx * k : wx * k + k] = 1.0 if where[wy, wx] else 0.0
+            if not where_row[wx]:
+                held[n_held] = wx
+                n_held += 1
         for y in range(wy * k, wy * k + k):
-            for x in range(cols * k):  # branch-free, so that it vectorises
-                b = background[y, x]
-                background[y, x] = b + selected[x] * r * (np.float32(image[y, x]) * inverse_gain - b)
+            background_row = background[y]
+            image_row = image[y]
+            for i in range(n_held):
+                for j in range(k):
+                    kept[i * k + j] = background_row[held[i] * k + j]
+            for x in range(cols * k):
+                b = background_row[x]
+                background_row[x] = b + r * (np.float32(image_row[x]) * inverse_gain - b)
+            for i in range(n_held):
+                for j in range(k):
+                    background_row[held[i] * k + j] = kept[i * k + j]
 
 
 @numba.njit(**_COMPILE)

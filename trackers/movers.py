@@ -23,7 +23,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import linear_sum_assignment
 
 from trackers.blob import Blob, BlobParams
 
@@ -62,6 +61,8 @@ class MoverLinker:
         out: list[tuple[int, Blob, float]] = []
         linked = set()
         if self.live and blobs:
+            from scipy.optimize import linear_sum_assignment  # 0.4-0.5 s to import: paid by the processes that link, not by every one importing trackers
+
             cost = self._costs(frame, blobs)
             rows, cols = linear_sum_assignment(cost)
             for i, j in zip(rows, cols):

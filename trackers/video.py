@@ -23,7 +23,6 @@ from fractions import Fraction
 from pathlib import Path
 from typing import Iterable, Iterator, NamedTuple
 
-import av
 import cv2
 import numpy as np
 
@@ -177,6 +176,49 @@ def _read_indexed(path: Path, wanted: list[int], gray: bool, pts_list: list[int]
     return out
 
 
+def _read_keyframes(path: Path, targets: list[int], gray: bool) -> list[np.ndarray]:
+    """The keyframes at presentation timestamps ``targets`` (sorted), each decoded alone.
+
+    After each seek only the keyframe's packet is decoded, then the decoder
+    is drained: it returns the frame at once, where decoding on would feed it
+    the next packets first (its frame threads' and reordering delay: about
+    five packets a frame at 1080p). The next seek resets the decoder.
+    TrackInputError when a keyframe is not where the packet index put it.
+    """
+    import av
+
+    out = []
+    with _open(path) as container:
+        stream = container.streams.video[0]
+        stream.thread_type = "AUTO"
+        rotation = None
+        for target in targets:
+            container.seek(target, stream=stream, backward=True, any_frame=False)
+            frame = None
+            try:
+                for packet in container.demux(stream):
+                    if packet.pts is None or packet.size == 0:
+                        continue
+                    if packet.pts == target:
+                        frame = next((f for f in _decode_alone(stream, packet) if f.pts == target), None)
+                        break
+                    if packet.is_keyframe and packet.pts > target:
+                        break
+            except av.FFmpegError as exc:
+                raise TrackInputError(f"{path}: the keyframe at pts {target} cannot be decoded: {exc}") from None
+            if frame is None:
+                raise TrackInputError(f"{path}: the keyframe at pts {target} not found after seeking")
+            if rotation is None:
+                rotation = _rotation(frame, stream)
+            out.append(_to_array(frame, gray, rotation))
+    return out
+
+
+def _decode_alone(stream, packet) -> list:
+    """The frames of one packet decoded on its own: the packet sent, then the decoder drained (until the next seek)."""
+    return list(stream.decode(packet)) + list(stream.decode(None))
+
+
 def presentation_times(path: str | Path) -> np.ndarray | None:
     """Presentation time (s) of every frame, indexed as ``iter_frames`` numbers them (demux only, no decoding).
 
@@ -205,6 +247,8 @@ def _read_sequential(path: Path, wanted: list[int], gray: bool) -> dict[int, Vid
 
 def _packet_index(path: Path) -> tuple[list[int] | None, list[int]]:
     """Sorted presentation timestamps of the video packets, and those of keyframes (demux only)."""
+    import av
+
     pts, keys = [], []
     with _open(path) as container:
         stream = container.streams.video[0]
@@ -225,6 +269,9 @@ def _packet_index(path: Path) -> tuple[list[int] | None, list[int]]:
 
 
 def _open(path: Path):
+    """The video opened with PyAV (imported here: 0.1 s that processes which never read a video do not pay)."""
+    import av
+
     if not path.exists():
         raise TrackInputError(f"{path}: file not found")
     if path.is_dir():
@@ -243,6 +290,8 @@ def _open(path: Path):
 
 def _decode(container, stream) -> Iterator[tuple[object, str | None]]:
     """Decoded frames; stops with (None, reason) at the first demux or decode error."""
+    import av
+
     packets = container.demux(stream)
     while True:
         try:
@@ -477,6 +526,11 @@ def sample_frames(path: str | Path, count: int, gray: bool = True) -> list[np.nd
             indices = sorted(set(where[keyframes[k]] for k in picks))
         else:
             indices = sorted(set(np.linspace(0, n - 1, min(count, n)).round().astype(int).tolist()))
+        if set(pts_list[i] for i in indices) <= set(keyframes):
+            try:
+                return _read_keyframes(path, [pts_list[i] for i in indices], gray)
+            except TrackInputError:
+                pass  # decoded from their keyframes below, as any other frame
         try:
             frames = _read_indexed(path, indices, gray, pts_list, keyframes)
             return [frames[i].image for i in indices]

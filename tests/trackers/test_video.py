@@ -62,19 +62,31 @@ def test_sample_frames_spread_over_the_video(jittered):
     assert len(frames) == 5 and frames[0].shape == (240, 320)
 
 
-def _counting_decodes(monkeypatch):
-    """Counts the frames trackers.video decodes (every path goes through _decode)."""
+def _counting_decodes(monkeypatch, alone: list | None = None):
+    """Counts the frames trackers.video decodes (every path goes through _decode or _decode_alone).
+
+    alone: if given, gets the packet of each _decode_alone call (a packet decoded on its own).
+    """
     from trackers import video
 
     decoded = []
     original = video._decode
+    original_alone = video._decode_alone
 
     def counting(container, stream):
         for frame, error in original(container, stream):
             decoded.append(frame)
             yield frame, error
 
+    def counting_alone(stream, packet):
+        frames = original_alone(stream, packet)
+        decoded.extend(frames)
+        if alone is not None:
+            alone.append(packet)
+        return frames
+
     monkeypatch.setattr(video, "_decode", counting)
+    monkeypatch.setattr(video, "_decode_alone", counting_alone)
     return decoded
 
 
@@ -106,10 +118,12 @@ def test_probe_of_a_container_without_a_track_header_decodes_the_first_frame(tmp
 def test_background_samples_are_keyframes_each_decoded_once(tmp_path, monkeypatch):
     """A video with fewer keyframes than samples asked for, but enough: every keyframe, one decode each."""
     clip = render_video(tmp_path / "gop.mp4", n_frames=100, seed=2, gop=10)
-    decoded = _counting_decodes(monkeypatch)
+    packets = []
+    decoded = _counting_decodes(monkeypatch, packets)
     frames = sample_frames(clip.path, 15)
     assert len(frames) == 10 and len(decoded) == 10
     assert all(f.key_frame for f in decoded)
+    assert len(packets) == 10 and all(p.is_keyframe for p in packets)  # the decoder got the keyframes' packets only
     keyframes = read_frames(clip.path, range(0, 100, 10), gray=True)
     for frame, index in zip(frames, range(0, 100, 10)):
         np.testing.assert_array_equal(frame, keyframes[index].image)
