@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import csv
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -131,6 +131,11 @@ class PiecewiseTrajectory:
         inside = run >= 0
         out[inside] = self(s[inside], run[inside])
         return out
+
+
+def lowered(trajectory: Trajectory, metres: float) -> Trajectory:
+    """The trajectory ``metres`` lower along the world's up axis (the logged point brought down to the tracked one)."""
+    return replace(trajectory, xyz=trajectory.xyz - metres * UP)
 
 
 def read_trajectory(path: str | Path) -> Trajectory:

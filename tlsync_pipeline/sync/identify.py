@@ -29,8 +29,9 @@ changes (at most MAX_ROUNDS rounds).
 The logged point need not be the blob's centre: a GPS in a pocket, on a
 backpack or a helmet sits 0.2-0.9 m above a walker's centre, 10-40 px at
 surveillance distances, beyond the gate. Each round estimates that height
-(``lift_of``: the median over the assigned candidates of their offset from
-the projection along the image of the world's up axis, ENU z) and matches
+(``lift_of``: the median over the assigned candidates of the target's size
+of their offset from the projection along the image of the world's up
+axis, ENU z) and matches
 candidates against the path lowered by it.
 
 Where calibration and log errors put the projection more than the gate
@@ -51,7 +52,7 @@ Frames are 0-based frame indices; the line lives on the camera clock
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -65,7 +66,7 @@ from tlsync_pipeline.sync.slope import SlopePrior
 from tlsync_pipeline.sync.target_size import beyond_slack, depth_on_line, sizes_in_metres, slack_on_line, target_within
 from tlsync_pipeline.sync.timeline import IdentificationSummary, TrackletShare
 from tlsync_pipeline.sync.votes import Votes
-from tlsync_pipeline.trajectory import UP, PiecewiseTrajectory, Trajectory
+from tlsync_pipeline.trajectory import UP, PiecewiseTrajectory, Trajectory, lowered
 from trackers.detections import Detections
 from trackers.track import Track
 
@@ -227,11 +228,6 @@ def lift_of(camera: Camera, path: PiecewiseTrajectory, clock: np.ndarray, xy: np
     return float(np.clip(np.median(lift), -MAX_LIFT_M, MAX_LIFT_M)) if len(lift) >= MIN_FRAMES else 0.0
 
 
-def lowered(trajectory: Trajectory, lift_m: float) -> PiecewiseTrajectory:
-    """The trajectory model of the tracked point: the logged path lift_m metres lower (world up)."""
-    return PiecewiseTrajectory(replace(trajectory, xyz=trajectory.xyz - lift_m * UP))
-
-
 def covers(offset: np.ndarray, w: np.ndarray, h: np.ndarray) -> np.ndarray:
     """Whether the projection lies inside each candidate's box (w, h pixels around its centre; False without a size).
 
@@ -382,7 +378,7 @@ def identify_target(
         whole = rows[~(room > 0).any(axis=1)]  # blobs of the target's size: their centre is the target's
         estimate = lift_of(camera, logged, row_clock[whole], detections.xy[whole], alpha, beta)
         if abs(estimate - lift) > LIFT_STEP_M:
-            lift, path = estimate, lowered(trajectory, estimate)
+            lift, path = estimate, PiecewiseTrajectory(lowered(trajectory, estimate))
             offset, assignment = assigned(path, alpha, beta)
             rows = assignment.rows
             room = _slack(camera, path, row_clock, detections, rows, alpha, beta)

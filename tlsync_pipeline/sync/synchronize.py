@@ -28,7 +28,7 @@ from tlsync_pipeline.sync.slope import slope_prior
 from tlsync_pipeline.sync.registry import get_method, method_options, params_table
 from tlsync_pipeline.sync.timeline import CameraLine, Timeline
 from tlsync_pipeline.sync.votes import Votes, compute_votes
-from tlsync_pipeline.trajectory import UP, Trajectory
+from tlsync_pipeline.trajectory import Trajectory, lowered
 from trackers.detections import Detections
 
 __all__ = ["CameraInput", "CameraResult", "cast_votes", "identify", "identify_and_synchronize", "prepare_trajectory", "synchronize", "synchronize_camera"]
@@ -46,7 +46,7 @@ class CameraResult:
 def prepare_trajectory(trajectory: Trajectory, params: SyncParams) -> Trajectory:
     """The trajectory the chosen method votes on and fits to (vote stage, sync and render all use this), lowered to the tracked point by ``logged_point_above_m``."""
     prepared = get_method(params.method).prepare_trajectory(trajectory, method_options(params))
-    return replace(prepared, xyz=prepared.xyz - params.logged_point_above_m * UP) if params.logged_point_above_m else prepared
+    return lowered(prepared, params.logged_point_above_m) if params.logged_point_above_m else prepared
 
 
 def cast_votes(inputs: CameraInput, prepared: Trajectory, params: SyncParams) -> Votes:
