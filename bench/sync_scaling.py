@@ -169,19 +169,17 @@ def _scale_case_body(kind: str, queue) -> None:
         alpha, beta = 3.0, -3.0 * first + float(rng.uniform(-300, 300))
         truth[name] = (alpha, beta)
         cameras[name] = CameraInput(camera, _tracks(camera, alpha, beta, n_frames, path, rng), 30.0)
-    note = ""
     if kind == "movers":
         cpu = time.process_time()
         synchronize(cameras, trajectory, SyncParams())
         alone = time.process_time() - cpu
         target = cameras["cam00"]
         cameras = {"cam00": CameraInput(target.camera, None, 30.0, _movers(target.camera, *truth["cam00"], n_frames, path, target.track, rng))}
-        note = f"; identification + sync {{cpu:.2f}} s CPU, {{ratio:.1f}}x the sync of the true track alone ({alone:.2f} s)"
         start, cpu = time.perf_counter(), time.process_time()
         timeline, _ = synchronize(cameras, trajectory, SyncParams())
         done, cpu_done = time.perf_counter(), time.process_time()
         peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-        note = note.format(cpu=cpu_done - cpu, ratio=(cpu_done - cpu) / alone)
+        note = f"; identification + sync {cpu_done - cpu:.2f} s CPU, {(cpu_done - cpu) / alone:.1f}x the sync of the true track alone ({alone:.2f} s)"
         what = f"1 camera, {len(cameras['cam00'].detections):,} detections of 11 movers (person boxes), {n_samples:,} samples"
         queue.put((what, 0.0, done - start, 0.0, cpu_done - cpu, peak, *_outcome(timeline, truth, names), note))
         return
@@ -193,7 +191,7 @@ def _scale_case_body(kind: str, queue) -> None:
     done, cpu_done = time.perf_counter(), time.process_time()
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     what = f"{len(names)} camera(s), {tracked:,} tracked frames, {n_samples:,} samples, {votes:,} votes"
-    queue.put((what, voted - start, done - voted, cpu_voted - cpu, cpu_done - cpu_voted, peak, *_outcome(timeline, truth, names), note))
+    queue.put((what, voted - start, done - voted, cpu_voted - cpu, cpu_done - cpu_voted, peak, *_outcome(timeline, truth, names), ""))
 
 
 def _outcome(timeline, truth: dict, names: list[str]) -> tuple[str, tuple[float, float]]:
