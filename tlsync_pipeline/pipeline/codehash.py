@@ -65,15 +65,21 @@ def _imports(name: str) -> tuple[str, ...]:
 
 
 def _runtime_nodes(tree: ast.AST):
-    """Every node of the tree except the bodies of ``if TYPE_CHECKING:`` blocks (imports for annotations only)."""
-    stack = list(ast.iter_child_nodes(tree))
+    """Every statement of the tree, nested ones included, except the bodies of ``if TYPE_CHECKING:`` blocks (imports for annotations only).
+
+    Only statements are visited: an import is a statement, and statements
+    sit only in other statements' bodies (``body``, ``orelse``,
+    ``finalbody``, ``handlers``, ``cases``), never inside expressions.
+    """
+    stack = list(tree.body)
     while stack:
         node = stack.pop()
         if isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test):
             stack.extend(node.orelse)
             continue
         yield node
-        stack.extend(ast.iter_child_nodes(node))
+        for field in ("body", "orelse", "finalbody", "handlers", "cases"):
+            stack.extend(getattr(node, field, ()))
 
 
 @cache
