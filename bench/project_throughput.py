@@ -1,14 +1,16 @@
 """Whole-project throughput: `tlsync run` against the decode-only floor of its videos, in the same run.
 
     python bench/project_throughput.py [--quick] [--cameras 4] [--seconds 60] [--size 1920x1080]
-        [--trackers blob,csrt] [--scene long|textured] [--keep DIR] [--jobs N]
+        [--look-alikes 6] [--trackers blob,csrt] [--scene long|textured] [--keep DIR] [--jobs N]
 
 1. Makes a raw project (data_fixtures.raw_project: per camera an H.264 video,
    checkerboard photos and GCPs; a GPX log of the target). The scene renderer
    is pluggable (``--scene``, the SCENES table): ``long`` renders 1080p
-   minutes quickly (data_fixtures.long_video), ``textured`` is the tests'
-   renderer (data_fixtures.video, slower). Cameras run at 30, 25, 50 and
-   29.97 fps in turn. ``--keep DIR`` keeps the project there and reuses it
+   minutes quickly (data_fixtures.long_video), with ``--look-alikes``
+   discs like the target wandering each view at its speed (6 by default,
+   the crowd the default tracker is built for); ``textured`` is the tests'
+   renderer (data_fixtures.video, slower, no look-alikes). Cameras run at
+   30, 25, 50 and 29.97 fps in turn. ``--keep DIR`` keeps the project there and reuses it
    when the same one is asked for again.
 2. Decode-only floor: every video decoded with PyAV (luma plane, FFmpeg's
    own threads as the pipeline uses them), as many processes as cores,
@@ -17,7 +19,9 @@
    child process; its CPU time includes its workers), the run time and CPU
    time per stage (sums of the stage's tasks' own figures from the
    manifests; CPU/run above 1 means FFmpeg's decoding threads overlap the
-   Python tracker), and a cached re-run (nothing to do).
+   Python tracker), the run's worst eps_t against the project's truth (a
+   fast run that found a look-alike is no result), and a cached re-run
+   (nothing to do).
 
 Prints wall times, CPU times, CPU utilisation (CPU s / (wall s x cores)),
 peak RSS of the largest process, the ratios to the floor and the load
@@ -29,6 +33,7 @@ from __future__ import annotations
 
 import argparse
 import concurrent.futures as cf
+import functools
 import json
 import multiprocessing
 import os
@@ -42,11 +47,14 @@ import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
+import numpy as np
+
 REPOSITORY = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPOSITORY))
 
 from data_fixtures.raw_project import RawProjectSpec, make_raw_project  # noqa: E402
 from tlsync_pipeline.pipeline.graph import STAGES  # noqa: E402
+from tlsync_pipeline.sync.timeline import eps_t, read_timeline, read_truth  # noqa: E402
 
 FPS_CYCLE = (30.0, 25.0, 50.0, 30000 / 1001)
 TARGET_RATE = 10.0  # Hz, the GPX log
@@ -65,6 +73,12 @@ class Workload:
     seconds: float
     size: tuple[int, int]
     scene: str
+    look_alikes: int = 0
+
+    def renderer(self):
+        """The scene renderer for make_raw_project."""
+        render = _scenes()[self.scene]
+        return functools.partial(render, look_alikes=self.look_alikes) if self.look_alikes else render
 
     def spec(self) -> RawProjectSpec:
         """Cameras at FPS_CYCLE rates; each video ``seconds`` long, its target window starting a little after its start."""
@@ -91,9 +105,25 @@ def make_project(workload: Workload, folder: Path) -> tuple[Path, float]:
     if folder.exists():
         shutil.rmtree(folder)
     start = time.perf_counter()
-    make_raw_project(folder, workload.spec(), render=_scenes()[workload.scene])
+    _, scene = make_raw_project(folder, workload.spec(), render=workload.renderer())
+    (folder / INIT_BOXES).write_text(json.dumps(init_boxes(scene, workload.size, workload.size[0] / 160)))
     marker.write_text(wanted)
     return project, time.perf_counter() - start
+
+
+INIT_BOXES = "init_boxes.json"  # per camera, CSRT's start among look-alikes: [init_frame, [x, y, w, h]]
+
+
+def init_boxes(scene, size: tuple[int, int], radius: float) -> dict[str, list]:
+    """Per camera, a box (pixels, top-left corner and size) around the target in the first frame where the whole box is in view, and that 0-based frame."""
+    out = {}
+    side = 2.5 * radius
+    for name, track in scene.tracks.items():
+        inside = np.all((track.xy >= side) & (track.xy <= np.array(size) - 1 - side), axis=1)
+        k = int(np.argmax(inside))
+        x, y = track.xy[k]
+        out[name] = [int(track.frame[k]), [round(x - side / 2, 1), round(y - side / 2, 1), round(side, 1), round(side, 1)]]
+    return out
 
 
 def decode_luma(path: str) -> tuple[int, float]:
@@ -168,7 +198,21 @@ def tlsync_run(project: Path, work: Path, jobs: int, code: Path = REPOSITORY) ->
         raise SystemExit(f"tlsync run failed (exit {done.returncode}):\n{done.stdout}\n{done.stderr}")
     peak = max((int(line.split()[1]) / 1024 for line in done.stderr.splitlines() if line.startswith("peak-rss-kb ")), default=0.0)
     missed = [line for line in done.stdout.splitlines() if line.startswith("not synchronized")]
-    return Measure(wall, _children_cpu() - cpu, (load, os.getloadavg()[0]), peak, missed)
+    return Measure(wall, _children_cpu() - cpu, (load, os.getloadavg()[0]), peak, missed + [worst_error(project.parent, work)])
+
+
+def worst_error(folder: Path, work: Path) -> str:
+    """The run's worst pair against the project's truth.json: eps_t (eq. 5), frames."""
+    timeline_file = work / "timeline.json"
+    if not timeline_file.exists():
+        return "no timeline.json: nothing synchronized"
+    timeline = read_timeline(timeline_file)
+    truth, n_frames = read_truth(folder / "truth.json")
+    errors = {key: eps_t(timeline.relation(*key.split("->")), rel, n_frames[key.split("->")[0]]) for key, rel in truth.items() if set(key.split("->")) <= set(timeline.names)}
+    if not errors:
+        return "no pair synchronized"
+    key = max(errors, key=errors.get)
+    return f"worst eps_t {errors[key]:.3f} frame ({key}; {len(errors)} of {len(truth)} pairs)"
 
 
 def stage_seconds(work: Path) -> dict[str, tuple[float, float, int]]:
@@ -183,8 +227,18 @@ def stage_seconds(work: Path) -> dict[str, tuple[float, float, int]]:
 
 
 def with_tracker(project: Path, kind: str, folder: Path) -> Path:
-    """A copy of project.toml (same folder, so relative paths hold) with every camera's tracker kind set."""
-    text = re.sub(r'kind = "\w+"', f'kind = "{kind}"', project.read_text())
+    """A copy of project.toml (same folder, so relative paths hold) with every camera's tracker kind set.
+
+    CSRT, which follows one target from a box, starts from INIT_BOXES: the
+    default tracker finds the target among the look-alikes by itself.
+    """
+    boxes = json.loads((folder / INIT_BOXES).read_text()) if kind == "csrt" and (folder / INIT_BOXES).exists() else {}
+    blocks = project.read_text().split("[[cameras]]")
+    for k, block in enumerate(blocks[1:], start=1):
+        name = re.search(r'name = "([^"]+)"', block).group(1)
+        start = f"\ninit = {boxes[name][1]}\ninit_frame = {boxes[name][0]}" if name in boxes else ""
+        blocks[k] = re.sub(r'kind = "\w+"', lambda _: f'kind = "{kind}"{start}', block)
+    text = "[[cameras]]".join(blocks)
     out = folder / f"project_{kind}.toml"
     out.write_text(text)
     return out
@@ -197,13 +251,14 @@ def main() -> None:
     parser.add_argument("--seconds", type=float, default=60.0, help="length of each camera's video")
     parser.add_argument("--size", default="1920x1080")
     parser.add_argument("--scene", default="long", choices=sorted(_scenes()))
+    parser.add_argument("--look-alikes", type=int, default=6, help="discs like the target wandering each view (scene 'long')")
     parser.add_argument("--trackers", default="blob,csrt")
     parser.add_argument("--keep", type=Path, help="make (or reuse) the project in this folder")
     parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1)
     parser.add_argument("--compare", type=Path, help="also run the tlsync of this source tree (e.g. a `git archive` of main), for before/after in one session")
     args = parser.parse_args()
     width, height = (int(v) for v in args.size.lower().split("x"))
-    workload = QUICK if args.quick else Workload(args.cameras, args.seconds, (width, height), args.scene)
+    workload = QUICK if args.quick else Workload(args.cameras, args.seconds, (width, height), args.scene, args.look_alikes if args.scene == "long" else 0)
     cores = args.jobs
     with tempfile.TemporaryDirectory(prefix="tlsync-throughput-") as tmp:
         folder = args.keep or Path(tmp) / "project"
@@ -211,7 +266,7 @@ def main() -> None:
         project, made = make_project(workload, folder)
         videos = sorted(folder.glob("*/video.mp4"))
         minutes = sum(_duration(v) for v in videos) / 60
-        print(f"project: {workload.cameras} cameras, {workload.size[0]}x{workload.size[1]}, {minutes:.1f} min of video, scene {workload.scene!r}" + (f", made in {made:.0f} s" if made else ", reused"))
+        print(f"project: {workload.cameras} cameras, {workload.size[0]}x{workload.size[1]}, {minutes:.1f} min of video, scene {workload.scene!r}, {workload.look_alikes} look-alikes" + (f", made in {made:.0f} s" if made else ", reused"))
         floor, frames = decode_floor(videos, cores)
         print(f"decode floor: {frames} frames in {floor.wall:.1f} s wall, {floor.cpu:.1f} s CPU ({floor.utilisation(cores):.0%} of {cores} cores), load {floor.load[0]:.1f} -> {floor.load[1]:.1f}")
         rows = [("decode floor (PyAV luma, %d processes)" % cores, floor, None)]
