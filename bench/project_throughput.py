@@ -185,10 +185,13 @@ def decode_floor(videos: list[Path], jobs: int) -> tuple[Measure, int]:
 
 def tlsync_run(project: Path, work: Path, jobs: int, code: Path = REPOSITORY) -> Measure:
     """`tlsync run` of the source tree ``code`` in a child process; CPU time and peak RSS of it and its workers."""
-    # The run reports its own peak (its process and its workers): this process's RUSAGE_CHILDREN keeps the
-    # largest child it ever had, the project's renderers and the floor's decoders included.
-    report_peak = "import atexit, resource; atexit.register(lambda: print('peak-rss-kb', max(resource.getrusage(w).ru_maxrss for w in (resource.RUSAGE_SELF, resource.RUSAGE_CHILDREN)), file=sys.stderr))"
-    command = [sys.executable, "-c", f"import sys; {report_peak}; from tlsync_pipeline.cli.main import main; sys.exit(main())", "run", str(project), "--work", str(work), "--quiet", "--jobs", str(jobs)]
+    # The run reports its own peak: this process's RUSAGE_CHILDREN keeps the largest child it ever had (the
+    # project's renderers and the floor's decoders included), and a child's own ru_maxrss starts at its parent's
+    # RSS when it was forked, so the run's process reads its high-water mark from /proc (VmHWM: this program only)
+    # and takes its workers' from RUSAGE_CHILDREN (forked from it, so never above its own peak).
+    report_peak = "import atexit, resource; atexit.register(lambda: print('peak-rss-kb', max(_own_peak_kb(), resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss), file=sys.stderr))"
+    own_peak = "def _own_peak_kb():\n    import resource\n    try:\n        return next(int(line.split()[1]) for line in open('/proc/self/status') if line.startswith('VmHWM:'))\n    except (OSError, StopIteration):\n        return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss\n"
+    command = [sys.executable, "-c", f"import sys\n{own_peak}{report_peak}\nfrom tlsync_pipeline.cli.main import main\nsys.exit(main())", "run", str(project), "--work", str(work), "--quiet", "--jobs", str(jobs)]
     env = dict(os.environ, PYTHONPATH=str(code))
     load = os.getloadavg()[0]
     cpu, start = _children_cpu(), time.perf_counter()
