@@ -20,6 +20,7 @@ import warnings
 from bisect import bisect_right
 from dataclasses import dataclass
 from fractions import Fraction
+from functools import lru_cache
 from pathlib import Path
 from typing import Iterable, Iterator, NamedTuple
 
@@ -143,7 +144,7 @@ def read_frames(path: str | Path, indices: Iterable[int], gray: bool = False) ->
     return _read_indexed(path, wanted, gray, pts_list, keyframes)
 
 
-def _read_indexed(path: Path, wanted: list[int], gray: bool, pts_list: list[int], keyframes: list[int]) -> dict[int, VideoFrame]:
+def _read_indexed(path: Path, wanted: list[int], gray: bool, pts_list: tuple[int, ...], keyframes: tuple[int, ...]) -> dict[int, VideoFrame]:
     """read_frames with the video's packet index (_packet_index) at hand: ``wanted`` sorted, within the video."""
     out: dict[int, VideoFrame] = {}
     with _open(path) as container:
@@ -245,8 +246,21 @@ def _read_sequential(path: Path, wanted: list[int], gray: bool) -> dict[int, Vid
     raise TrackInputError(f"{path}: frame {min(remaining)} is past the end of the video")
 
 
-def _packet_index(path: Path) -> tuple[list[int] | None, list[int]]:
-    """Sorted presentation timestamps of the video packets, and those of keyframes (demux only)."""
+def _packet_index(path: Path) -> tuple[tuple[int, ...] | None, tuple[int, ...]]:
+    """Sorted presentation timestamps of the video packets, and those of keyframes (demux only).
+
+    Kept for the video as it is (path, size, modification time): a process
+    that reads a video's frames and its times demuxes it once.
+    """
+    if not path.is_file():
+        return _index_packets(path, None)  # _open names what is wrong
+    stat = path.stat()
+    return _index_packets(path, (stat.st_size, stat.st_mtime_ns))
+
+
+@lru_cache(maxsize=16)
+def _index_packets(path: Path, stamp: tuple[int, int] | None) -> tuple[tuple[int, ...] | None, tuple[int, ...]]:
+    """``_packet_index`` of ``path``, whose (size, modification time) is ``stamp``."""
     import av
 
     pts, keys = [], []
@@ -257,15 +271,13 @@ def _packet_index(path: Path) -> tuple[list[int] | None, list[int]]:
                 if packet.size == 0:
                     continue
                 if packet.pts is None:
-                    return None, []
+                    return None, ()
                 pts.append(packet.pts)
                 if packet.is_keyframe:
                     keys.append(packet.pts)
         except av.FFmpegError:
             pass  # truncated: index what could be read
-    pts.sort()
-    keys.sort()
-    return pts, keys
+    return tuple(sorted(pts)), tuple(sorted(keys))
 
 
 def _open(path: Path):
