@@ -27,8 +27,10 @@ def sleep_and_record(path, seconds):
     return {}
 """
 
+# Interrupted, the parent stops its workers and leaves as tlsync does (cli/__main__.py): with os._exit, since
+# a normal exit joins concurrent.futures' manager thread, which can wait forever for a worker stopped mid-write.
 PARENT = """
-import sys
+import os, sys
 sys.path.insert(0, {folder!r})
 import sleeper
 from tlsync_pipeline.pipeline.executors import ProcessExecutor
@@ -40,7 +42,7 @@ if __name__ == "__main__":
         executor.wait_any(futures)
     except KeyboardInterrupt:
         executor.close(cancel=True)
-        sys.exit(130)
+        os._exit(130)
 """
 
 
@@ -81,7 +83,7 @@ def test_workers_end_with_their_parent(tmp_path, how):
     try:
         assert all(alive(p) for p in workers)
         os.kill(parent.pid, how)
-        parent.wait(timeout=30)
+        assert parent.wait(timeout=30) == (-signal.SIGKILL if how == signal.SIGKILL else 130)
         assert _gone_within(workers, 5.0), f"workers still running 5 s after {how.name} of their parent"
     finally:
         for pid in [parent.pid, *workers]:
