@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import signal
 from pathlib import Path
 
 import pytest
@@ -17,6 +18,11 @@ from tlsync_pipeline.pipeline.workspace import STRICT_VARIABLE
 
 # A stage that opens a file of the work or project folder it did not declare fails (worker processes inherit this).
 os.environ[STRICT_VARIABLE] = "1"
+
+# Tests send SIGINT (Ctrl-C) to the processes they start. A suite started in the background by a non-interactive
+# shell (a CI script, nohup ... &) gets SIGINT ignored, and its children would inherit that and never see it.
+if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+    signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 @pytest.fixture(scope="session")

@@ -126,8 +126,6 @@ def test_runs_stopped_at_random_moments_leave_no_process_and_no_false_fresh_arte
         signalled = time.monotonic()
         code = process.wait(timeout=60)
         output = log.read_text()
-        # A signal that comes as the run prints its last lines, or as it exits, meets a run that has done its work.
-        finished_first = finished_first or (code == 0 and _has_finished(log))
         if not finished_first:
             stopped_in.append(output.strip().splitlines()[-1] if output.strip() else "start")
             if how != signal.SIGKILL:

@@ -27,10 +27,8 @@ def sleep_and_record(path, seconds):
     return {}
 """
 
-# Interrupted, the parent stops its workers and leaves as tlsync does (cli/__main__.py): with os._exit, since
-# a normal exit joins concurrent.futures' manager thread, which can wait forever for a worker stopped mid-write.
 PARENT = """
-import os, sys
+import sys
 sys.path.insert(0, {folder!r})
 import sleeper
 from tlsync_pipeline.pipeline.executors import ProcessExecutor
@@ -42,7 +40,7 @@ if __name__ == "__main__":
         executor.wait_any(futures)
     except KeyboardInterrupt:
         executor.close(cancel=True)
-        os._exit(130)
+        sys.exit(130)
 """
 
 
