@@ -1,7 +1,7 @@
 """Whole-project throughput: `tlsync run` against the decode-only floor of its videos, in the same run.
 
     python bench/project_throughput.py [--quick] [--cameras 4] [--seconds 60] [--size 1920x1080]
-        [--look-alikes 6] [--trackers blob,csrt] [--scene long|textured] [--keep DIR] [--jobs N]
+        [--look-alikes 6] [--trackers blob,csrt] [--scene long|textured] [--keep DIR] [--jobs N] [--rounds 1]
 
 1. Makes a raw project (data_fixtures.raw_project: per camera an H.264 video,
    checkerboard photos and GCPs; a GPX log of the target). The scene renderer
@@ -22,6 +22,9 @@
    Python tracker), the run's worst eps_t against the project's truth (a
    fast run that found a look-alike is no result), and a cached re-run
    (nothing to do).
+4. ``--rounds N``: N - 1 more rounds of the floor and a fresh run of each
+   tracker, in turn, and each run's ratios to its round's floor with their
+   median: on a shared machine one round's ratios move by 0.1-0.3.
 
 Prints wall times, CPU times, CPU utilisation (CPU s / (wall s x cores)),
 peak RSS of the largest process, the ratios to the floor and the load
@@ -259,6 +262,7 @@ def main() -> None:
     parser.add_argument("--keep", type=Path, help="make (or reuse) the project in this folder")
     parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1)
     parser.add_argument("--compare", type=Path, help="also run the tlsync of this source tree (e.g. a `git archive` of main), for before/after in one session")
+    parser.add_argument("--rounds", type=int, default=1, help="rounds of the floor and a fresh run of each tracker, in turn (ratios and their median)")
     args = parser.parse_args()
     width, height = (int(v) for v in args.size.lower().split("x"))
     workload = QUICK if args.quick else Workload(args.cameras, args.seconds, (width, height), args.scene, args.look_alikes if args.scene == "long" else 0)
@@ -283,6 +287,16 @@ def main() -> None:
                 stages[kind + suffix] = stage_seconds(work)
                 again = tlsync_run(variant, work, cores, code)
                 rows += [(f"tlsync run, {kind}{suffix}", run, kind), (f"cached re-run, {kind}{suffix}", again, None)]
+        ratios = {name: [(m.wall / floor.wall, m.cpu / floor.cpu)] for name, m, kind in rows if kind}
+        for round_ in range(2, args.rounds + 1):
+            again_floor, _ = decode_floor(videos, cores)
+            for kind in args.trackers.split(","):
+                for suffix, code in trees:
+                    work = Path(tmp) / f"work_{kind}{suffix.strip(' ()')}_{round_}"
+                    run = tlsync_run(folder / f"project_{kind}.toml", work, cores, code)
+                    shutil.rmtree(work, ignore_errors=True)
+                    ratios[f"tlsync run, {kind}{suffix}"].append((run.wall / again_floor.wall, run.cpu / again_floor.cpu))
+                    print(f"round {round_}: {kind}{suffix} {run.wall / again_floor.wall:.2f}x wall, {run.cpu / again_floor.cpu:.2f}x CPU (floor {again_floor.wall:.1f} s wall, {again_floor.cpu:.1f} s CPU); {run.notes[-1]}", flush=True)
         print(f"\n{'':38} {'wall s':>7} {'x floor':>7} {'CPU s':>7} {'x floor':>7} {'CPU use':>7} {'peak MB':>7} {'load':>10}")
         for name, m, _ in rows:
             peak = f"{m.peak_mb:7.0f}" if m.peak_mb else " " * 7
@@ -294,6 +308,11 @@ def main() -> None:
             for stage in [s for s in STAGES if s in per_stage]:
                     seconds, cpu, count = per_stage[stage]
                     print(f"  {stage:10} {seconds:7.1f} s {seconds / floor.wall:6.2f}x  CPU {cpu:7.1f} s {cpu / floor.cpu:6.2f}x  CPU/run {cpu / seconds if seconds else float('nan'):5.2f}  ({count} task{'s' if count > 1 else ''})")
+        if args.rounds > 1:
+            print(f"\nx floor over {args.rounds} rounds (each run against its round's floor), wall | CPU, and their medians:")
+            for name, values in ratios.items():
+                walls, cpus = (sorted(v[k] for v in values) for k in (0, 1))
+                print(f"  {name:30} {' '.join(f'{w:.2f}' for w, _ in values)} -> {walls[len(walls) // 2]:.2f}  |  {' '.join(f'{c:.2f}' for _, c in values)} -> {cpus[len(cpus) // 2]:.2f}")
         print(f"\nload average at the end {_load()}")
 
 
