@@ -37,6 +37,7 @@ from __future__ import annotations
 import argparse
 import concurrent.futures as cf
 import functools
+import inspect
 import json
 import multiprocessing
 import os
@@ -55,6 +56,7 @@ import numpy as np
 REPOSITORY = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPOSITORY))
 
+from _memory import peak_rss_mb  # noqa: E402
 from data_fixtures.raw_project import RawProjectSpec, make_raw_project  # noqa: E402
 from tlsync_pipeline.pipeline.graph import STAGES  # noqa: E402
 from tlsync_pipeline.sync.timeline import eps_t, read_timeline, read_truth  # noqa: E402
@@ -191,10 +193,9 @@ def tlsync_run(project: Path, work: Path, jobs: int, code: Path = REPOSITORY) ->
     # The run reports its own peak: this process's RUSAGE_CHILDREN keeps the largest child it ever had (the
     # project's renderers and the floor's decoders included), and a child's own ru_maxrss starts at its parent's
     # RSS when it was forked, so the run's process reads its high-water mark from /proc (VmHWM: this program only)
-    # and takes its workers' from RUSAGE_CHILDREN (forked from it, so never above its own peak).
-    report_peak = "import atexit, resource; atexit.register(lambda: print('peak-rss-kb', max(_own_peak_kb(), resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss), file=sys.stderr))"
-    own_peak = "def _own_peak_kb():\n    import resource\n    try:\n        return next(int(line.split()[1]) for line in open('/proc/self/status') if line.startswith('VmHWM:'))\n    except (OSError, StopIteration):\n        return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss\n"
-    command = [sys.executable, "-c", f"import sys\n{own_peak}{report_peak}\nfrom tlsync_pipeline.cli.main import main\nsys.exit(main())", "run", str(project), "--work", str(work), "--quiet", "--jobs", str(jobs)]
+    # (bench/_memory.py) and takes its workers' from RUSAGE_CHILDREN (forked from it, so never above its own peak).
+    report_peak = "import atexit, resource; atexit.register(lambda: print('peak-rss-mb', max(peak_rss_mb(), resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024), file=sys.stderr))"
+    command = [sys.executable, "-c", f"import sys\n{inspect.getsource(peak_rss_mb)}{report_peak}\nfrom tlsync_pipeline.cli.main import main\nsys.exit(main())", "run", str(project), "--work", str(work), "--quiet", "--jobs", str(jobs)]
     env = dict(os.environ, PYTHONPATH=str(code))
     load = os.getloadavg()[0]
     cpu, start = _children_cpu(), time.perf_counter()
@@ -202,7 +203,7 @@ def tlsync_run(project: Path, work: Path, jobs: int, code: Path = REPOSITORY) ->
     wall = time.perf_counter() - start
     if done.returncode not in (0, 1):  # 1: ran through, some camera not synchronized
         raise SystemExit(f"tlsync run failed (exit {done.returncode}):\n{done.stdout}\n{done.stderr}")
-    peak = max((int(line.split()[1]) / 1024 for line in done.stderr.splitlines() if line.startswith("peak-rss-kb ")), default=0.0)
+    peak = max((float(line.split()[1]) for line in done.stderr.splitlines() if line.startswith("peak-rss-mb ")), default=0.0)
     missed = [line for line in done.stdout.splitlines() if line.startswith("not synchronized")]
     return Measure(wall, _children_cpu() - cpu, (load, os.getloadavg()[0]), peak, missed + [worst_error(project.parent, work)])
 

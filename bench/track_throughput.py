@@ -41,6 +41,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from _memory import peak_rss_mb  # noqa: E402
 from data_fixtures.video import loop_positions, render_video  # noqa: E402
 from trackers.tracking import track_video  # noqa: E402
 from trackers.video import iter_frames  # noqa: E402
@@ -150,21 +151,6 @@ def memory_child(path: str, kind: str) -> None:
     """Track in this process and print the peak RSS in MB."""
     track = track_video(path, kind=kind, progress=False)
     print(len(track), peak_rss_mb())
-
-
-def peak_rss_mb() -> float:
-    """This program's peak resident memory, MB: its high-water mark (VmHWM, Linux), else ru_maxrss.
-
-    ru_maxrss alone would start at the parent's RSS when this process was
-    forked (the bench, which renders the videos).
-    """
-    import resource
-
-    try:
-        with open("/proc/self/status") as status:
-            return next(int(line.split()[1]) for line in status if line.startswith("VmHWM:")) / 1024.0
-    except (OSError, StopIteration):
-        return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
 
 def memory(long_frames: int, folder: Path) -> None:
