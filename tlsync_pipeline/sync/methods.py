@@ -11,7 +11,7 @@ docs/architecture.md ("Adding a sync method") has the recipe.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Protocol
+from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 
 import numpy as np
 
@@ -23,6 +23,10 @@ from tlsync_pipeline.sync.votes import Votes
 from tlsync_pipeline.trajectory import Trajectory
 from trackers.detections import Detections
 from trackers.track import Track
+
+if TYPE_CHECKING:
+    from tlsync_pipeline.sync.log_bias import LogBias
+    from tlsync_pipeline.sync.log_model import LogModel
 
 
 @dataclass(frozen=True)
@@ -45,7 +49,9 @@ class CameraData:
 
     track_clock: (N,) clock value of each tracked frame (frame units);
     vote_clock: (M,) clock value of each vote's frame; clock: how the clock
-    reads (frame indices or presentation time x fps).
+    reads (frame indices or presentation time x fps); eps_px: the camera's
+    vote radius (pixels: [sync] eps_px, widened for the log's error,
+    log_model.vote_radius).
     """
 
     name: str
@@ -56,10 +62,22 @@ class CameraData:
     clock: CameraClock
     track_clock: np.ndarray
     vote_clock: np.ndarray
+    eps_px: float = 10.0
 
     def line(self, alpha: float, beta: float, inliers: int, residual_rms: float, **reported: Any) -> CameraLine:
         """The camera's line with its name, vote count, fps and clock filled in; ``reported``: CameraLine's optional fields."""
         return CameraLine(self.name, alpha, beta, len(self.votes), inliers, residual_rms, self.fps, clock=self.clock, **reported)
+
+
+@runtime_checkable
+class JointMethod(Protocol):
+    """A method that can also fit every camera's line together with the log's bias (the refined one)."""
+
+    def refine_with_log_bias(
+        self, cameras: dict[str, CameraData], lines: dict[str, CameraLine], trajectory: Trajectory, params: SyncParams, options: Any, model: LogModel
+    ) -> tuple[dict[str, CameraLine], LogBias | None]:
+        """The lines refined with the bias (sync/log_bias.py) and the bias; lines unchanged and None when it cannot."""
+        ...
 
 
 class SyncMethod(Protocol):

@@ -41,7 +41,10 @@ class SyncParams:
     is not its capture rate); logged_point_above_m: height of the logged
     point above the tracked point, metres along the world's up axis (a GPS
     at a walker's chest, the blob's centre tracked: about 0.4; negative
-    below it), the trajectory lowered by it before voting; method: a
+    below it), the trajectory lowered by it before voting; log_bias: fit
+    the log's bias with the lines when the log's error model has one
+    (sync/log_bias.py; false: each camera alone, the log taken as exact);
+    method: a
     registered method's name; options: method name -> that method's own
     parameters (an instance of its ``params_type``); a method not listed
     runs with its defaults.
@@ -53,6 +56,7 @@ class SyncParams:
     seed: int = param(0, "integer")
     rate_sigma: float = param(0.001, "non_negative")
     logged_point_above_m: float = param(0.0, "finite")
+    log_bias: bool = param(True, "boolean")
     method: str = "refined"
     options: dict[str, Any] = field(default_factory=dict)
 

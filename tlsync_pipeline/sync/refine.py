@@ -61,8 +61,9 @@ RATE_STEP = 1e-4
 class Refinement:
     """The refined line and its uncertainty.
 
-    cov: 2x2 covariance of (alpha, beta); frames_used: tracked frames in the
-    final fit; scale_px: robust residual scale (1.4826 MAD of pixel
+    cov: 2x2 covariance of (alpha, beta), of which cov_model is the part the
+    model error (calibration, log) adds; frames_used: tracked frames in the
+    final fit (used: which of the given frames); scale_px: robust residual scale (1.4826 MAD of pixel
     residuals); perpendicular: median |sin| of the angle between the target's
     velocity and the viewing ray over those frames (near 0: motion along the
     ray, little timing information); converged: the solver's verdict.
@@ -76,6 +77,8 @@ class Refinement:
     perpendicular: float
     converged: bool
     message: str
+    cov_model: np.ndarray
+    used: np.ndarray
 
     @property
     def se_alpha(self) -> float:
@@ -239,12 +242,13 @@ def refine_line(
         if grown.sum() < MIN_FRAMES or np.array_equal(grown, use):
             break
         use = grown
-    return Refinement(fit.alpha, fit.beta, fit.cov, int(use.sum()), fit.scale_px, fit.perpendicular, fit.converged, fit.message)
+    return Refinement(fit.alpha, fit.beta, fit.cov, int(use.sum()), fit.scale_px, fit.perpendicular, fit.converged, fit.message, fit.cov_model, use)
 
 
 @dataclass(frozen=True)
 class _Fit:
-    """One robust fit: the line, its covariance, the robust residual scale (px), the solver's verdict, and perpendicular (Refinement)."""
+    """One robust fit: the line, its covariance (and the model error's part of it), the robust residual scale (px),
+    the solver's verdict, and perpendicular (Refinement)."""
 
     alpha: float
     beta: float
@@ -253,6 +257,7 @@ class _Fit:
     converged: bool
     message: str
     perpendicular: float
+    cov_model: np.ndarray
 
 
 class _PixelResiduals:
@@ -320,7 +325,7 @@ def _fit(camera: Camera, frame: np.ndarray, xy: np.ndarray, path: PiecewiseTraje
     solution = least_squares(problem.residual, x0, jac=problem.jacobian, loss=loss, f_scale=f_scale, x_scale=scale, method="trf", max_nfev=200)
     x = solution.x
     r, jac = problem.pixels(x)
-    cov_x = _sandwich_covariance(r, jac, f_scale, model_error_px, problem.prior_slope)
+    cov_x, model_x = _sandwich_covariance(r, jac, f_scale, model_error_px, problem.prior_slope)
     u, s0 = x
     a = 1.0 / u
     d = np.array([[-1.0 / u**2, 0.0], [s0 / u**2, -a]])  # d(alpha, beta) / d(x)
@@ -329,11 +334,12 @@ def _fit(camera: Camera, frame: np.ndarray, xy: np.ndarray, path: PiecewiseTraje
     scale_px = float(1.4826 * np.median(np.abs(residual_px - np.median(residual_px)))) if len(r) else float("nan")
     perpendicular = _perpendicular(camera, path, x[1] + x[0] * (frame - c_mid), run)
     ok = bool(solution.success and np.all(np.isfinite(cov)) and u > 0)
-    return _Fit(float(a), float(c_mid - a * s0), cov, scale_px, ok, str(solution.message), perpendicular)
+    return _Fit(float(a), float(c_mid - a * s0), cov, scale_px, ok, str(solution.message), perpendicular, d @ model_x @ d.T)
 
 
-def _sandwich_covariance(r: np.ndarray, jac: np.ndarray, f_scale: float, model_error_px: float, prior_slope: float) -> np.ndarray:
-    """Covariance of x: the soft L1 M-estimator's sandwich, frame by frame or block by block (the larger), plus the model error.
+def _sandwich_covariance(r: np.ndarray, jac: np.ndarray, f_scale: float, model_error_px: float, prior_slope: float) -> tuple[np.ndarray, np.ndarray]:
+    """Covariance of x: the soft L1 M-estimator's sandwich, frame by frame or block by block (the larger), plus the
+    model error; and the model error's part of it.
 
     r: (N, 2) residuals (px); jac: (N, 2, 2) their Jacobian; prior_slope: the
     slope prior's Jacobian (0 without a prior), whose information counts as
@@ -360,7 +366,7 @@ def _sandwich_covariance(r: np.ndarray, jac: np.ndarray, f_scale: float, model_e
     # block of frames (pose and log errors), which the residuals cannot show.
     lever = np.array([b.sum(axis=0) for b in np.array_split(jac * dpsi[:, :, None], min(BLOCKS, n))])
     systematic = model_error_px**2 * np.einsum("bik,bil->kl", lever, lever)
-    return inv @ (meat + systematic + f_scale**2 * prior_info) @ inv
+    return inv @ (meat + systematic + f_scale**2 * prior_info) @ inv, inv @ systematic @ inv
 
 
 def _offsets_and_rates(camera: Camera, path: PiecewiseTrajectory, s: np.ndarray, run: np.ndarray, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

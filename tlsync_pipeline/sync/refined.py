@@ -9,7 +9,7 @@ disagrees with the votes the line-search line is kept, with a warning.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -18,9 +18,11 @@ from tlsync_pipeline.sync.line_search import LineSearch, find_line
 from tlsync_pipeline.sync.methods import CameraData
 from tlsync_pipeline.sync.params import SyncParams, param
 from tlsync_pipeline.sync.ransac import distance_to_line
-from tlsync_pipeline.sync.refine import Refinement, refine_line, smooth_trajectory
-from tlsync_pipeline.sync.slope import slope_prior
-from tlsync_pipeline.sync.timeline import CameraLine, LineSearchSummary, RefinementSummary
+from tlsync_pipeline.sync.log_bias import BiasCamera, LogBias, fit_log_bias
+from tlsync_pipeline.sync.log_model import LogModel
+from tlsync_pipeline.sync.refine import Refinement, refine_line, sigma_weights, smooth_trajectory
+from tlsync_pipeline.sync.slope import SlopePrior, slope_prior
+from tlsync_pipeline.sync.timeline import CameraLine, ErrorBudget, LineSearchSummary, LogBiasSummary, RefinementSummary
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
 
 # Weak-case thresholds (flags in timeline.json).
@@ -79,20 +81,7 @@ class RefinedMethod:
         flags, warnings = [], []
         refinement = None
         try:
-            refinement = refine_line(
-                data.camera,
-                data.track_clock,
-                track.xy,
-                PiecewiseTrajectory(trajectory),
-                search.alpha,
-                search.beta,
-                start,
-                options.f_scale_px,
-                GATE_EPS * params.eps_px,
-                options.model_error_px,
-                prior,
-                None if track.w is None or track.h is None else np.column_stack([track.w, track.h]),
-            )
+            refinement = _refine(data, PiecewiseTrajectory(trajectory), search.alpha, search.beta, start, options, prior)
         except ValueError as exc:
             warnings.append(f"refinement not possible ({exc}); using the line-search line")
         if refinement is not None:
@@ -102,11 +91,13 @@ class RefinedMethod:
             if reason:
                 warnings.append(f"{reason}; using the line-search line")
         fallback = bool(warnings)
+        budget = None
         if fallback or refinement is None:
             alpha, beta = search.alpha, search.beta
             cov = _line_search_cov(search, votes.sample[search.inliers])
         else:
             alpha, beta, cov = refinement.alpha, refinement.beta, refinement.cov
+            budget = error_budget(refinement, data.track_clock, np.zeros((2, 2)))
         if search.support < FEW_INLIER_FRAMES:
             flags.append("few_inliers")
         if search.runner_up >= AMBIGUOUS_RATIO * search.support:
@@ -128,7 +119,108 @@ class RefinedMethod:
             refined=not fallback,
             line_search=summary,
             refinement=refinement_summary,
+            budget=budget,
         )
+
+    def refine_with_log_bias(
+        self, cameras: dict[str, CameraData], lines: dict[str, CameraLine], trajectory: Trajectory, params: SyncParams, options: RefinedParams, model: LogModel
+    ) -> tuple[dict[str, CameraLine], LogBias | None]:
+        """Every camera's line refined together with the log's bias (sync/log_bias.py), their intervals including it.
+
+        Cameras whose own refinement was not kept (a fallback) keep their line.
+        When the joint fit fails, or a camera's refinement on the corrected
+        log loses its frames (the fit slid), the lines stay as they were and
+        only their intervals grow by what the bias leaves uncertain.
+        """
+        path = PiecewiseTrajectory(trajectory)
+        own: dict[str, Refinement] = {}
+        for name, line in lines.items():
+            if line.refined:
+                data = cameras[name]
+                try:
+                    start = _near_line(data, path, line.alpha, line.beta, GATE_EPS * data.eps_px)
+                    own[name] = _refine(data, path, line.alpha, line.beta, start, options, slope_prior(data.fps, trajectory.rate, params.rate_sigma))
+                except ValueError:
+                    continue
+        if not own or trajectory.rate is None:
+            return lines, None
+        joint = [_bias_camera(cameras[n], path, r, options.f_scale_px, slope_prior(cameras[n].fps, trajectory.rate, params.rate_sigma)) for n, r in own.items()]
+        bias = fit_log_bias(joint, path, trajectory.rate, model, options.f_scale_px)
+        corrected = PiecewiseTrajectory(replace(trajectory, xyz=trajectory.xyz + bias.at(trajectory.sample)))
+        again: dict[str, Refinement] = {}
+        for name, r in own.items():
+            data = cameras[name]
+            try:
+                refit = _refine(data, corrected, *bias.lines[name], r.used, options, slope_prior(data.fps, trajectory.rate, params.rate_sigma))
+            except ValueError:
+                break
+            if not refit.converged or refit.frames_used < SUPPORT_KEPT * r.frames_used:
+                break
+            again[name] = refit
+        if len(again) < len(own):  # the estimate is not trusted: the lines as they were, the bias's uncertainty at the prior
+            bias = fit_log_bias(joint, path, trajectory.rate, model, options.f_scale_px, estimate=False)
+            again = own
+        out = dict(lines)
+        for name, r in again.items():
+            middle = _visit_middle(cameras[name].track_clock[r.used], r.alpha, r.beta)
+            estimate, se = bias.at(np.array([middle]))[0], bias.std_at(middle)
+            out[name] = replace(
+                lines[name],
+                alpha=r.alpha,
+                beta=r.beta,
+                cov=r.cov + bias.line_cov(name, name),
+                budget=error_budget(r, cameras[name].track_clock, bias.line_cov(name, name)),
+                log_bias=LogBiasSummary(tuple(map(float, estimate)), tuple(map(float, se)), bias.observability(middle)),  # type: ignore[arg-type]
+            )
+        return out, bias
+
+
+def _refine(data: CameraData, path: PiecewiseTrajectory, alpha: float, beta: float, start: np.ndarray, options: RefinedParams, prior: SlopePrior | None) -> Refinement:
+    """The camera's refinement from a line and the frames it starts from (refine.refine_line with the method's settings)."""
+    track = data.track
+    box = None if track.w is None or track.h is None else np.column_stack([track.w, track.h])
+    return refine_line(data.camera, data.track_clock, track.xy, path, alpha, beta, start, options.f_scale_px, GATE_EPS * data.eps_px, options.model_error_px, prior, box)
+
+
+def _near_line(data: CameraData, path: PiecewiseTrajectory, alpha: float, beta: float, gate_px: float) -> np.ndarray:
+    """Which tracked frames lie within gate_px of the path projected under the line."""
+    s = (data.track_clock - beta) / alpha
+    run = path.run_of(s)
+    on = np.flatnonzero(run >= 0)
+    uv, valid = data.camera.project(path(s[on], run[on]))
+    near = np.zeros(len(s), bool)
+    near[on[valid]] = np.linalg.norm(uv[valid] - data.track.xy[on[valid]], axis=1) <= gate_px
+    return near
+
+
+def _visit_middle(clock: np.ndarray, alpha: float, beta: float) -> float:
+    """The sample at the middle clock value of the frames used."""
+    return (float(np.median(clock)) - beta) / alpha
+
+
+def error_budget(refinement: Refinement, clock: np.ndarray, log_cov: np.ndarray) -> ErrorBudget:
+    """Tracking, calibration and log parts of a camera's clock uncertainty (std, frames) at the middle of the frames the refinement used.
+
+    log_cov: the part of the (alpha, beta) covariance the log's bias adds (zeros without a bias model).
+    """
+    middle = _visit_middle(clock[refinement.used], refinement.alpha, refinement.beta)
+    g = np.array([middle, 1.0])
+
+    def std(cov: np.ndarray) -> float:
+        return float(np.sqrt(max(g @ cov @ g, 0.0)))
+
+    return ErrorBudget(std(refinement.cov - refinement.cov_model), std(refinement.cov_model), std(log_cov))
+
+
+def _bias_camera(data: CameraData, path: PiecewiseTrajectory, refinement: Refinement, f_scale: float, prior: SlopePrior | None) -> BiasCamera:
+    """The frames a camera's refinement used, as the joint fit with the log's bias takes them."""
+    clock, xy = data.track_clock[refinement.used], data.track.xy[refinement.used]
+    s = (clock - refinement.beta) / refinement.alpha
+    run = path.run_of(s)
+    weight = np.ones(len(s))
+    on = run >= 0
+    weight[on] = sigma_weights(data.camera, path, s[on], run[on], f_scale)
+    return BiasCamera(data.name, data.camera, clock, xy, weight, refinement.alpha, refinement.beta, refinement.cov, prior)
 
 
 def _disagreement(refinement: Refinement, search: LineSearch, data: CameraData, delta: float) -> str:

@@ -16,13 +16,16 @@ Pure functions from typed values to typed values; no file I/O here.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, replace
+from dataclasses import asdict, dataclass, replace
+
+import numpy as np
 
 from calibration.camera import Camera
 from tlsync_pipeline.errors import SyncError
 from tlsync_pipeline.sync.clock import FrameTimes, camera_clock
 from tlsync_pipeline.sync.identify import Identification, IdentifyParams, identify_target
-from tlsync_pipeline.sync.methods import CameraData, CameraInput
+from tlsync_pipeline.sync.log_model import PRESETS, LogModel, vote_radius
+from tlsync_pipeline.sync.methods import CameraData, CameraInput, JointMethod
 from tlsync_pipeline.sync.params import Preparation, SyncParams
 from tlsync_pipeline.sync.refined import RefinedParams
 from tlsync_pipeline.sync.registry import get_method, method_options, params_table, preparation_of
@@ -42,6 +45,10 @@ class CameraResult:
     line: CameraLine
     identification: Identification | None = None
 
+    def track(self, inputs: CameraInput) -> Track | None:
+        """The track the line was fitted to: the identified one, or the camera's own."""
+        return self.identification.track if self.identification is not None else inputs.track
+
 
 def prepare_trajectory(trajectory: Trajectory, preparation: Preparation) -> Trajectory:
     """The trajectory the chosen method votes on and fits to (vote stage, sync and render all use this), lowered to the tracked point by ``logged_point_above_m``."""
@@ -60,13 +67,23 @@ def identify_params(params: SyncParams) -> IdentifyParams:
     return IdentifyParams(params.eps_px, params.delta, params.p, params.seed, params.rate_sigma, refined.r_min, refined.f_scale_px)
 
 
-def synchronize_camera(name: str, inputs: CameraInput, votes: Votes, prepared: Trajectory, params: SyncParams) -> CameraResult:
-    """The fitted line of one camera from its votes; SyncError if it cannot be synchronized."""
+def synchronize_camera(name: str, inputs: CameraInput, votes: Votes, prepared: Trajectory, params: SyncParams, eps_px: float | None = None) -> CameraResult:
+    """The fitted line of one camera from its votes; SyncError if it cannot be synchronized.
+
+    eps_px: the camera's vote radius (log_model.vote_radius; None: [sync] eps_px).
+    """
+    track = inputs.track
+    assert track is not None, "a camera without a track is identified first (identify_and_synchronize)"
+    return CameraResult(votes, get_method(params.method).fit(camera_data(name, inputs, votes, eps_px or params.eps_px), prepared, params, method_options(params)))
+
+
+def camera_data(name: str, inputs: CameraInput, votes: Votes, eps_px: float) -> CameraData:
+    """One camera with a track as a sync method sees it: its track and votes on its clock."""
     track = inputs.track
     assert track is not None, "a camera without a track is identified first (identify_and_synchronize)"
     clock = camera_clock(track, inputs.fps)
     times = FrameTimes.of_track(track)
-    data = CameraData(
+    return CameraData(
         name=name,
         camera=inputs.camera,
         track=track,
@@ -75,18 +92,25 @@ def synchronize_camera(name: str, inputs: CameraInput, votes: Votes, prepared: T
         clock=clock,
         track_clock=clock.clock_at(track.frame, times),
         vote_clock=clock.clock_at(votes.frame, times),
+        eps_px=eps_px,
     )
-    line = get_method(params.method).fit(data, prepared, params, method_options(params))
-    return CameraResult(votes, line)
 
 
-def identify_and_synchronize(name: str, inputs: CameraInput, prepared: Trajectory, params: SyncParams) -> CameraResult:
+def identify_and_synchronize(name: str, inputs: CameraInput, prepared: Trajectory, params: SyncParams, eps_px: float | None = None) -> CameraResult:
     """A camera that brings every mover: the target identified among them, then its line fitted on the identified track's votes."""
     assert inputs.detections is not None, "a camera without a track brings every mover"
-    found = identify_target(inputs.camera, inputs.detections, prepared, inputs.fps, identify_params(params))
+    radius = eps_px or params.eps_px
+    found = identify_target(inputs.camera, inputs.detections, prepared, inputs.fps, replace(identify_params(params), eps_px=radius))
     identified = CameraInput(inputs.camera, found.track, inputs.fps)
-    result = synchronize_camera(name, identified, cast_votes(inputs.camera, found.track, prepared, params.eps_px), prepared, params)
+    result = synchronize_camera(name, identified, cast_votes(inputs.camera, found.track, prepared, radius), prepared, params, radius)
     return CameraResult(result.votes, replace(result.line, identification=found.summary()), found)
+
+
+def with_log_noise(trajectory: Trajectory, model: LogModel) -> Trajectory:
+    """The trajectory with the model's white noise as every sample's sigma, when the log states none."""
+    if trajectory.sigma is not None or model.white_m <= 0:
+        return trajectory
+    return replace(trajectory, sigma=np.full(len(trajectory), model.white_m))
 
 
 def synchronize(
@@ -94,34 +118,54 @@ def synchronize(
     trajectory: Trajectory,
     params: SyncParams,
     votes: Mapping[str, Votes | SyncError] | None = None,
+    log_model: LogModel = PRESETS["none"],
 ) -> tuple[Timeline, dict[str, CameraResult]]:
     """The timeline of all cameras that can be synchronized.
 
     votes: each camera's votes as the vote stage cast them (cast_votes on
-    prepare_trajectory's output), or the SyncError it met; None: cast here.
-    Cameras that cannot be synchronized are listed in ``Timeline.failed``
-    with the reason.
+    prepare_trajectory's output with each camera's vote_radius), or the
+    SyncError it met; None: cast here. log_model: what is known of the log's
+    error (sync/log_model.py): it widens each camera's vote radius and, with
+    a bias and a method that can (the refined one), the lines are fitted
+    together with the bias, their intervals including what it leaves
+    uncertain. Cameras that cannot be synchronized are listed in
+    ``Timeline.failed`` with the reason.
     """
-    prepared = prepare_trajectory(trajectory, preparation_of(params))
+    prepared = with_log_noise(prepare_trajectory(trajectory, preparation_of(params)), log_model)
     results: dict[str, CameraResult] = {}
     failed: dict[str, str] = {}
+    radius: dict[str, float] = {}
     for name, inputs in cameras.items():
+        radius[name] = vote_radius(inputs.camera, prepared, params.eps_px, log_model)
         try:
             cast = votes[name] if votes is not None else None
             if isinstance(cast, SyncError):
                 raise cast
             if inputs.track is None:
-                results[name] = identify_and_synchronize(name, inputs, prepared, params)
+                results[name] = identify_and_synchronize(name, inputs, prepared, params, radius[name])
                 continue
-            results[name] = synchronize_camera(name, inputs, cast if cast is not None else cast_votes(inputs.camera, inputs.track, prepared, params.eps_px), prepared, params)
+            if cast is None:
+                cast = cast_votes(inputs.camera, inputs.track, prepared, radius[name])
+            results[name] = synchronize_camera(name, inputs, cast, prepared, params, radius[name])
         except SyncError as exc:
             failed[name] = str(exc)
+    lines = {name: r.line for name, r in results.items()}
+    shared: dict[str, np.ndarray] = {}
+    method = get_method(params.method)
+    if params.log_bias and log_model.has_bias and isinstance(method, JointMethod) and lines:
+        data = {name: camera_data(name, replace(cameras[name], track=r.track(cameras[name])), r.votes, radius[name]) for name, r in results.items()}
+        lines, bias = method.refine_with_log_bias(data, lines, prepared, params, method_options(params), log_model)
+        if bias is not None:
+            names = [n for n in lines if n in bias.sensitivity]
+            shared = {f"{a}|{b}": bias.line_cov(a, b) for i, a in enumerate(names) for b in names[i + 1 :]}
     timeline = Timeline(
-        {name: r.line for name, r in results.items()},
+        lines,
         trajectory.rate,
         trajectory.t0,
         method=params.method,
         params=params_table(params),
         failed=failed,
+        shared_cov=shared,
+        log_model=asdict(log_model) if log_model.name != "none" else None,
     )
     return timeline, results

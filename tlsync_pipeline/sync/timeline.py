@@ -62,6 +62,41 @@ class RefinementSummary:
 
 
 @dataclass(frozen=True)
+class ErrorBudget:
+    """Where a camera's timing uncertainty comes from: standard deviations (frames of its clock) at the middle of the
+    target's visit, from tracking (pixel noise), calibration (the model error allowed for calibration and pose) and
+    the log's bias; they add in quadrature."""
+
+    tracking_frames: float
+    calibration_frames: float
+    log_frames: float
+
+    @property
+    def total_frames(self) -> float:
+        return math.sqrt(self.tracking_frames**2 + self.calibration_frames**2 + self.log_frames**2)
+
+    @property
+    def dominant(self) -> str:
+        """"tracking", "calibration" or "log"."""
+        parts = {"tracking": self.tracking_frames, "calibration": self.calibration_frames, "log": self.log_frames}
+        return max(parts, key=lambda k: parts[k])
+
+
+@dataclass(frozen=True)
+class LogBiasSummary:
+    """The log's bias during the camera's visit (sync/log_bias.py): estimate (m, ENU), posterior std (m), and its
+    observability (1 - posterior / prior horizontal variance: 0, only the prior; 1, known)."""
+
+    estimate_m: tuple[float, float, float]
+    se_m: tuple[float, float, float]
+    observability: float
+
+    @classmethod
+    def from_dict(cls, data: dict) -> LogBiasSummary:
+        return cls(tuple(data["estimate_m"]), tuple(data["se_m"]), float(data["observability"]))  # type: ignore[arg-type]
+
+
+@dataclass(frozen=True)
 class TrackletShare:
     """One tracklet of an identified track: its id, frames assigned to the target, their share of the track, and the share of the tracklet's own frames within the gate of the projected path."""
 
@@ -125,6 +160,8 @@ class CameraLine:
     refinement: RefinementSummary | None = None
     clock: CameraClock = CameraClock()
     identification: IdentificationSummary | None = None
+    budget: ErrorBudget | None = None
+    log_bias: LogBiasSummary | None = None
 
     def __post_init__(self):
         if not self.clock.vfr and self.clock.fps is None and self.fps is not None:
@@ -152,7 +189,7 @@ class CameraLine:
                 entry[key] = list(getattr(self, key))
         if self.refined is not None:
             entry["refined"] = self.refined
-        for key in ("line_search", "refinement", "identification"):
+        for key in ("line_search", "refinement", "identification", "budget", "log_bias"):
             if getattr(self, key) is not None:
                 entry[key] = asdict(getattr(self, key))
         if self.clock.vfr:
@@ -178,6 +215,8 @@ class CameraLine:
             "line_search": None if entry.get("line_search") is None else LineSearchSummary(**entry["line_search"]),
             "refinement": None if entry.get("refinement") is None else RefinementSummary(**entry["refinement"]),
             "identification": None if entry.get("identification") is None else IdentificationSummary.from_dict(entry["identification"]),
+            "budget": None if entry.get("budget") is None else ErrorBudget(**entry["budget"]),
+            "log_bias": None if entry.get("log_bias") is None else LogBiasSummary.from_dict(entry["log_bias"]),
         }
         base = {k: entry[k] for k in ("alpha", "beta", "votes", "inliers", "residual_rms")}
         return cls(name, fps=entry.get("fps"), clock=clock, **base, **optional)
@@ -193,6 +232,17 @@ class Timeline:
     method: str = "paper"
     params: dict = field(default_factory=dict)
     failed: dict[str, str] = field(default_factory=dict)
+    # Covariance between two cameras' (alpha, beta) through an error they share (the log's bias), "A|B" -> 2x2 (rows: A's).
+    shared_cov: dict[str, np.ndarray] = field(default_factory=dict)
+    log_model: dict | None = None  # the log's error model the fit assumed (sync/log_model.py), or None
+
+    def cross_cov(self, a: str, b: str) -> np.ndarray:
+        """2x2 covariance between camera a's and camera b's (alpha, beta) (zeros when independent)."""
+        if f"{a}|{b}" in self.shared_cov:
+            return self.shared_cov[f"{a}|{b}"]
+        if f"{b}|{a}" in self.shared_cov:
+            return self.shared_cov[f"{b}|{a}"].T
+        return np.zeros((2, 2))
 
     @property
     def names(self) -> list[str]:
@@ -231,7 +281,7 @@ class Timeline:
         return self.cameras[a].clock.vfr or self.cameras[b].clock.vfr
 
     def relation_cov(self, a: str, b: str) -> np.ndarray | None:
-        """2x2 covariance of relation(a, b)'s (alpha, beta), cameras independent; None without covariances."""
+        """2x2 covariance of relation(a, b)'s (alpha, beta), with what the cameras share (cross_cov); None without covariances."""
         la, lb = self.cameras[a], self.cameras[b]
         if la.cov is None or lb.cov is None:
             return None
@@ -244,6 +294,8 @@ class Timeline:
         )
         joint = np.zeros((4, 4))
         joint[:2, :2], joint[2:, 2:] = la.cov, lb.cov
+        joint[:2, 2:] = self.cross_cov(a, b)
+        joint[2:, :2] = joint[:2, 2:].T
         return grad @ joint @ grad.T
 
     def seconds_relation(self, a: str, b: str) -> Relation | None:
@@ -324,6 +376,7 @@ class Timeline:
             "failed": self.failed,
             "line": self.line(),
             "pairs": pairs,
+            **({"log_error": {"model": self.log_model, "shared_cov": {k: np.asarray(v).tolist() for k, v in self.shared_cov.items()}}} if self.log_model else {}),
         }
 
 
@@ -345,8 +398,10 @@ def read_timeline(path: str | Path) -> Timeline:
         data = json.loads(path.read_text(encoding="utf-8"))
         cameras = {name: CameraLine.from_dict(name, c) for name, c in data["cameras"].items()}
         target = data.get("target", {})
+        log_error = data.get("log_error") or {}
+        shared = {k: np.asarray(v, dtype=np.float64).reshape(2, 2) for k, v in (log_error.get("shared_cov") or {}).items()}
         return Timeline(
-            cameras, target.get("rate"), target.get("t0"), data.get("method", "paper"), data.get("params", {}), data.get("failed", {})
+            cameras, target.get("rate"), target.get("t0"), data.get("method", "paper"), data.get("params", {}), data.get("failed", {}), shared, log_error.get("model")
         )
     except FileNotFoundError:
         raise InputError(f"{path}: file not found") from None

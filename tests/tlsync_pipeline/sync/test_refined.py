@@ -119,7 +119,7 @@ def test_fallback_when_refinement_disagrees(monkeypatch):
     scene = make_scene(0, lines=FRACTIONAL)
 
     def shifted(camera, frame, xy, path, alpha, beta, *args, **kwargs):
-        return Refinement(alpha, beta + 30.0, np.diag([1e-10, 1e-4]), len(frame), 0.1, 0.8, True, "shifted")
+        return Refinement(alpha, beta + 30.0, np.diag([1e-10, 1e-4]), len(frame), 0.1, 0.8, True, "shifted", np.zeros((2, 2)), np.ones(len(frame), bool))
 
     monkeypatch.setattr(refined_module, "refine_line", shifted)
     timeline, results = synchronize(_inputs(scene), scene.trajectory, SyncParams())

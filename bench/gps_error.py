@@ -1,0 +1,99 @@
+"""Synchronization against the logs users carry: eps_t and interval coverage per log error model.
+
+Walk scenes (data_fixtures/walk.py): a pedestrian at 1.4 m/s through 2-3
+non-overlapping 30 fps views (a drone at 5 m/s), true tracks plus 2 px of noise, logged by a
+receiver of each model of data_fixtures/log_error.py (RTK; white 0.3 m at
+1 Hz; a consumer drone's Gauss-Markov 1 m / 30 s at 10 Hz; phones at 1 Hz
+with Gauss-Markov 1 m or 2 m / 60 s). Per model: the median and p90 over
+scenes of the worst pair's eps_t (frames, eq. 5), and the share of pairs
+whose 95 % interval of the start offset contains the truth. The log's error
+model is declared to the sync as a user would ([target] log_model).
+
+    nice python bench/gps_error.py --scenes 30 [--models rtk phone] [--route straight] [--no-bias-model]
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import multiprocessing
+import time
+
+import numpy as np
+
+from data_fixtures.log_error import PRESETS
+from data_fixtures.walk import WalkSpec, make_walk_scene
+from tlsync_pipeline.sync.log_model import PRESETS as LOG_MODELS
+from tlsync_pipeline.sync.log_model import LogModel
+from tlsync_pipeline.sync.params import SyncParams
+from tlsync_pipeline.sync.synchronize import CameraInput, synchronize
+from tlsync_pipeline.sync.timeline import eps_t
+
+Z95 = 1.959964
+SPEED_MPS = {"drone": 5.0}  # a drone flies through the views; the others walk at 1.4 m/s
+
+
+def run_scene(args: tuple) -> dict:
+    """One scene: the worst pair's eps_t (inf when a camera failed), and each pair's |z| of its start offset."""
+    seed, model, route, cameras, params = args
+    scene = make_walk_scene(seed, WalkSpec(cameras=cameras, route=route, log=PRESETS[model], speed_mps=SPEED_MPS.get(model, 1.4)))
+    inputs = {n: CameraInput(c, scene.tracks[n], c.fps) for n, c in scene.cameras.items()}
+    start = time.process_time()
+    timeline, _ = synchronize(inputs, scene.trajectory, params, log_model=_declared(model))
+    seconds = time.process_time() - start
+    errors, z = [], []
+    for key, truth in scene.truth_pairs().items():
+        a, b = key.split("->")
+        if a not in timeline.cameras or b not in timeline.cameras:
+            errors.append(np.inf)
+            z.append(np.inf)
+            continue
+        errors.append(eps_t(timeline.relation(a, b), truth, scene.n_frames[a]))
+        cov = timeline.relation_cov(a, b)
+        z.append(abs(timeline.relation(a, b).beta - truth.beta) / np.sqrt(cov[1, 1]) if cov is not None else np.inf)
+    return {"worst": max(errors), "z": z, "seconds": seconds}
+
+
+def _declared(model: str) -> LogModel:
+    """The preset a user of such a receiver declares ([target] log_model): both phones are "phone"."""
+    return LOG_MODELS["phone" if model.startswith("phone") else model]
+
+
+def summary(results: list[dict]) -> dict:
+    worst = np.array([r["worst"] for r in results])
+    z = np.concatenate([r["z"] for r in results])
+    return {
+        "median": float(np.median(worst)),
+        "p90": float(np.quantile(worst, 0.9)),
+        "coverage": float(np.mean(z <= Z95)),
+        "failed": int(np.sum(~np.isfinite(worst))),
+        "seconds": float(np.median([r["seconds"] for r in results])),
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--scenes", type=int, default=30)
+    parser.add_argument("--first-seed", type=int, default=0)
+    parser.add_argument("--models", nargs="+", default=list(PRESETS), choices=list(PRESETS))
+    parser.add_argument("--route", default="turns", choices=("turns", "straight"))
+    parser.add_argument("--cameras", type=int, default=3)
+    parser.add_argument("--rate-sigma", type=float, default=None, help="[sync] rate_sigma (default: the project default)")
+    parser.add_argument("--no-bias-model", action="store_true", help="sync without estimating the log's bias")
+    parser.add_argument("--processes", type=int, default=2)
+    args = parser.parse_args()
+    params = SyncParams() if args.rate_sigma is None else SyncParams(rate_sigma=args.rate_sigma)
+    if args.no_bias_model:
+        params = dataclasses.replace(params, log_bias=False)
+    print(f"{args.scenes} walk scenes per model, route {args.route!r}, {args.cameras} cameras, rate_sigma {params.rate_sigma:g}, bias model {'off' if args.no_bias_model else 'on'}")
+    print("| log | median eps_t | p90 | 95 % intervals that contain the truth | failed scenes | CPU s / scene |")
+    print("|---|---|---|---|---|---|")
+    with multiprocessing.Pool(args.processes) as pool:
+        for model in args.models:
+            jobs = [(args.first_seed + k, model, args.route, args.cameras, params) for k in range(args.scenes)]
+            s = summary(pool.map(run_scene, jobs, chunksize=1))
+            print(f"| {model} | {s['median']:.2f} | {s['p90']:.2f} | {100 * s['coverage']:.0f} % | {s['failed']} | {s['seconds']:.1f} |", flush=True)
+
+
+if __name__ == "__main__":
+    main()

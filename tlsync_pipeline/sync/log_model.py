@@ -1,0 +1,66 @@
+"""What is known of the target log's error: white noise per fix, and a bias that wanders slowly.
+
+A receiver's position error is white noise (the per-fix accuracy a log
+states, or ``white_m``) plus a bias that wanders over a minute or so: a
+first-order Gauss-Markov process per axis, standard deviation ``bias_m``
+(horizontal) and ``bias_vertical_m``, correlation time ``tau_s``. An RTK
+log has neither to speak of; a consumer drone's or a phone's has metres of
+bias. Presets are named by the receivers users carry (docs/algorithm.md,
+"The log's error"); ingest suggests one from the log's format and quality.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from calibration.camera import Camera
+from tlsync_pipeline.trajectory import Trajectory
+
+VOTE_SIGMAS = 3.0  # a vote's radius covers this many standard deviations of the log's error, seen from the camera
+
+
+@dataclass(frozen=True)
+class LogModel:
+    """A log's error model (metres, seconds): white std per fix when the log states none, and the Gauss-Markov
+    bias (horizontal and vertical std, correlation time); ``name``: the preset it came from, or "custom"."""
+
+    name: str
+    white_m: float = 0.0
+    bias_m: float = 0.0
+    bias_vertical_m: float = 0.0
+    tau_s: float = 60.0
+
+    @property
+    def has_bias(self) -> bool:
+        return self.bias_m > 0 or self.bias_vertical_m > 0
+
+    @property
+    def horizontal_m(self) -> float:
+        """Total horizontal std of a fix's error (white and bias), metres."""
+        return math.hypot(self.white_m, self.bias_m)
+
+
+PRESETS: dict[str, LogModel] = {
+    "none": LogModel("none"),
+    "rtk": LogModel("rtk", 0.02),
+    "white": LogModel("white", 0.3),
+    "drone": LogModel("drone", 0.1, 1.0, 2.0, 30.0),
+    "phone": LogModel("phone", 0.5, 2.0, 4.0, 60.0),
+}
+
+
+def vote_radius(camera: Camera, trajectory: Trajectory, eps_px: float, model: LogModel) -> float:
+    """The vote radius for one camera (pixels): eps_px, or VOTE_SIGMAS times the log's horizontal error as this camera
+    sees it at the median depth of the path in its view, whichever is larger."""
+    if model.horizontal_m <= 0:
+        return eps_px
+    uv, valid = camera.project(trajectory.xyz)
+    seen = valid & camera.in_image(np.nan_to_num(uv, nan=-1e9))
+    if not seen.any():
+        return eps_px
+    depth = float(np.median((trajectory.xyz[seen] @ camera.R.T + camera.t)[:, 2]))
+    focal = 0.5 * (camera.K[0, 0] + camera.K[1, 1])
+    return max(eps_px, VOTE_SIGMAS * focal * model.horizontal_m / depth)
