@@ -132,27 +132,29 @@ def gopro(path):
     demo = os.environ.get("GPMF_DEMO")
     if not demo or not Path(demo).exists():
         return None
-    text = subprocess.run([demo, str(path), "-a", "-fGPS5"], capture_output=True, check=True).stdout.decode("latin-1")
-    gpsu = re.findall(r'GPSU type .U. size 16 data: "(\d{12}\.\d{3})"', subprocess.run([demo, str(path), "-a", "-g", "-fGPSU"], capture_output=True, check=True).stdout.decode("latin-1"))
-    rows, anchors = [], []
-    for k, (start, end, body) in enumerate(re.findall(r"PAYLOAD TIME:\s+([\d.]+) to ([\d.]+) seconds\s+SCALED DATA:\n((?:\s+GPS5 .*\n)+)", text)):
-        samples = [[float(v) for v in re.findall(r"(-?[\d.]+)(?:deg|m)", line)[:3]] for line in body.strip().splitlines()]
-        times = float(start) + (float(end) - float(start)) * np.arange(len(samples)) / len(samples)
-        rows += [[ti, *s] for ti, s in zip(times, samples)]
-        if k < len(gpsu):
-            g = gpsu[k]
-            import calendar
+    import calendar
 
-            utc = calendar.timegm((2000 + int(g[:2]), int(g[2:4]), int(g[4:6]), int(g[6:8]), int(g[8:10]), 0)) + float(g[10:])
-            anchors.append(utc - float(start))
-    r = np.array(rows)
+    run = lambda *args: subprocess.run([demo, str(path), *args], capture_output=True, check=True).stdout.decode("latin-1")  # noqa: E731
+    text, rates = run("-a", "-fGPS5"), run("-s")
+    clock = re.search(r"GPS5 sampling rate = ([\d.]+)Hz \(time (-?[\d.]+) to", rates)
+    rate, first = float(clock.group(1)), float(clock.group(2))
+    samples = [[float(v) for v in re.findall(r"(-?[\d.]+)(?:deg|m)", line)[:3]] for line in re.findall(r"^\s+GPS5 (.*deg.*)$", text, flags=re.M)]
+    ref_t = first + np.arange(len(samples)) / rate  # gpmf-parser's sample clock: first + n / rate
+    gpsu = re.findall(r'GPSU type .U. size 16 data: "(\d{12}\.\d{3})"', run("-a", "-g", "-fGPSU"))
+    counts = [len(body.strip().splitlines()) for body in re.findall(r"SCALED DATA:\n((?:\s+GPS5 .*\n)*)", text)]
+    starts = np.cumsum([0] + counts[:-1])
+    anchors = []
+    for g, n0 in zip(gpsu, starts):
+        utc = calendar.timegm((2000 + int(g[:2]), int(g[2:4]), int(g[4:6]), int(g[6:8]), int(g[8:10]), 0)) + float(g[10:])
+        anchors.append(utc - ref_t[n0])
     ours = read_log(path)
     offset = float(np.median(anchors))
     deviation = np.abs(np.array(anchors) - offset)
     stale = deviation > 0.5
-    jitter = f"within {deviation[~stale].max():.3f} s of the one UTC offset" + (f", {stale.sum()} stale GPSU off by {deviation[stale].max():.2f} s (ignored)" if stale.any() else "")
-    shifted = type(ours)(**{**ours.__dict__, "t": ours.t - offset})
-    return _compare(path.name, "gopro", shifted, r[:, 0], r[:, 1:], time_note=f"video timeline; payloads' GPSU {jitter}")
+    jitter = f"GPSU within {deviation[~stale].max():.3f} s of one UTC offset" + (f", {stale.sum()} stale by {deviation[stale].max():.2f} s (left out)" if stale.any() else "")
+    shifted = type(ours)(**{**ours.__dict__, "t": ours.t - ours.video_time_zero})
+    note = f"gpmf-parser's sample clock ({rate:.4f} Hz from {first:.4f} s) on the video timeline; tlsync's UTC is {ours.video_time_zero - offset:+.4f} s from the reference's median; {jitter}"
+    return _compare(path.name, "gopro", shifted, ref_t, np.array(samples), time_note=note)
 
 
 def rtklib(path):

@@ -248,11 +248,16 @@ def gpmf_klv(key: bytes, kind: str, size: int, values: bytes, repeat: int) -> by
     return data + bytes((-len(values)) % 4)
 
 
-def gpmf_payload(lat_lon_alt: np.ndarray, gpsu_utc: float | None, fix: int = 3, dop: float = 1.5, msl: bool = False) -> bytes:
-    """One GPMF payload (DEVC > STRM) with GPSU, GPSF, GPSP, SCAL and a GPS5 block of the given samples."""
+def gpmf_payload(lat_lon_alt: np.ndarray, gpsu_utc: float | None, fix: int = 3, dop: float = 1.5, msl: bool = False,
+                 stmp_us: int | None = None, shutter_stmp_us: int | None = None) -> bytes:
+    """One GPMF payload (DEVC > STRM) with GPSU, GPSF, GPSP, SCAL and a GPS5 block of the given samples.
+
+    stmp_us: the GPS stream's STMP (camera microseconds at its first sample, HERO8 onwards);
+    shutter_stmp_us: a SHUT stream (the video's exposure times) with that STMP, before the GPS stream.
+    """
     scal = (10_000_000, 10_000_000, 1000, 1000, 100)
     samples = b"".join(struct.pack(">5i", int(round(a * scal[0])), int(round(b * scal[1])), int(round(c * scal[2])), 0, 0) for a, b, c in lat_lon_alt)
-    stream = b""
+    stream = b"" if stmp_us is None else gpmf_klv(b"STMP", "J", 8, struct.pack(">Q", stmp_us), 1)
     if gpsu_utc is not None:
         whole = dt.datetime.fromtimestamp(np.floor(gpsu_utc), dt.timezone.utc)
         text = whole.strftime("%y%m%d%H%M%S") + f"{gpsu_utc - np.floor(gpsu_utc):.3f}"[1:]
@@ -264,6 +269,9 @@ def gpmf_payload(lat_lon_alt: np.ndarray, gpsu_utc: float | None, fix: int = 3, 
     stream += gpmf_klv(b"SCAL", "l", 4, struct.pack(">5i", *scal), 5)
     stream += gpmf_klv(b"GPS5", "l", 20, samples, len(lat_lon_alt))
     strm = gpmf_klv(b"STRM", "", 1, stream, len(stream))
+    if shutter_stmp_us is not None:
+        shut = gpmf_klv(b"STMP", "J", 8, struct.pack(">Q", shutter_stmp_us), 1) + gpmf_klv(b"SHUT", "f", 4, struct.pack(">f", 0.001), 1)
+        strm = gpmf_klv(b"STRM", "", 1, shut, len(shut)) + strm
     return gpmf_klv(b"DEVC", "", 1, strm, len(strm))
 
 
