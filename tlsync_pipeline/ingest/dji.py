@@ -10,13 +10,10 @@ else ``height_above_takeoff`` (relative to the take-off point). Quality:
 
 Time: ``datetime(utc)`` has whole seconds and jitters by up to a second
 against ``time(millisecond)``; UTC = time(millisecond) / 1000 + c per
-recording run. Each row's d = datetime - time / 1000 lies in (c - 1, c]
-when its datetime is the second it fell in, a second off when it jitters:
-c is the mean of the d values in the one-second window holding the most
-of them, plus half a second (the mean fraction of a second). A recording pause (both clocks
-jump) or a restart of time(millisecond) starts a new run with its own c;
-that makes the UTC good to about 0.1-0.2 s, time differences inside a run
-exact. Rows with latitude and longitude 0 (before the first fix) are
+recording run, c from the whole seconds (tlsync_pipeline.ingest.clocks). A
+recording pause (both clocks jump) or a restart of time(millisecond) starts
+a new run with its own c; that makes the UTC good to about 0.1 s, time
+differences inside a run exact. Rows with latitude and longitude 0 (before the first fix) are
 dropped.
 
 **OSD layout** (``OSD.latitude``, ``OSD.longitude``, ``OSD.height [m]`` or
@@ -39,6 +36,7 @@ from pathlib import Path
 import numpy as np
 
 from tlsync_pipeline.errors import InputError
+from tlsync_pipeline.ingest.clocks import onto_coarse_clock
 from tlsync_pipeline.ingest.reader import Reader, text_of
 from tlsync_pipeline.ingest.records import GEODETIC, MSL, TAKEOFF, LogRecords, check_geodetic, make_records
 
@@ -125,7 +123,8 @@ def read_dji(path: str | Path) -> LogRecords:
     except csv.Error as exc:
         raise InputError(f"{path}:{reader.line_num}: not CSV: {exc}") from None
     data = np.array(raw, dtype=float).reshape(-1, 6 + len(extras))
-    t, runs = utc_of_rows(data[:, 1], data[:, 2])
+    t, run = onto_coarse_clock(data[:, 1], data[:, 2], whole_seconds=True, break_s=RUN_BREAK_S)
+    runs = int(run[-1]) + 1 if len(run) else 0
     warnings = []
     if runs > 1:
         warnings.append(f"{runs} recording runs (pauses or clock restarts): each put on UTC separately")
@@ -192,30 +191,6 @@ def _read_osd(path: Path, header: list[str], reader) -> LogRecords:
         path, "dji", GEODETIC, rows, numbers, utc=utc, dropped=dropped, altitude=TAKEOFF, quality=quality,
         clock=None if utc else "the DJI app's local clock (time zone not in the file)",
     )
-
-
-def utc_of_rows(clock_s: np.ndarray, whole_utc_s: np.ndarray) -> tuple[np.ndarray, int]:
-    """(UTC seconds of each row, number of runs) from the flight clock and the whole-second UTC column.
-
-    Runs split where the clock goes back or datetime - clock jumps by more
-    than RUN_BREAK_S; per run, UTC = clock + offset_of_run(datetime - clock).
-    """
-    if not len(clock_s):
-        return clock_s.copy(), 0
-    d = whole_utc_s - clock_s
-    breaks = np.flatnonzero((np.diff(clock_s) < 0) | (np.abs(np.diff(d)) > RUN_BREAK_S)) + 1
-    t = np.empty_like(clock_s)
-    for run in np.split(np.arange(len(clock_s)), breaks):
-        t[run] = clock_s[run] + offset_of_run(d[run])
-    return t, len(breaks) + 1
-
-
-def offset_of_run(d: np.ndarray) -> float:
-    """UTC - clock from d = whole-second UTC - clock: the mean of the densest one-second window of d, plus 0.5 s."""
-    d = np.sort(d)
-    counts = np.searchsorted(d, d + 1.0, side="left") - np.arange(len(d))
-    j = int(np.argmax(counts))
-    return float(d[j : j + counts[j]].mean() + 0.5)
 
 
 READER = Reader("dji", "DJI CSV (AirData: time(millisecond), datetime(utc), latitude, longitude; or OSD.latitude, OSD.longitude)", read_dji, _sniff)
