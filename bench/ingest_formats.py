@@ -52,11 +52,23 @@ SOURCES = {
     "nav2_turtlebot.mcap": "MichaelGrupp/evo test/data/nav2_turtlebot.mcap (GPL-3.0), topic /odom",
     "rover_1Hz_rtk.pos": "taroz/MatRTKLIB examples/data/kinematic/rover_1Hz_rtk.pos (MIT; 142 fix, 389 float)",
     "dvm_drone_log.csv": "egemose/DroneVideoMeasure tests/test_data/test_drone_log.csv (MIT; a DJI Phantom 4 Pro flight, OSD layout)",
+    "dji_srt_old_format.SRT": "JuanIrache/DJI_SRT_Parser samples/old_format.SRT (MIT; Phantom 3/4 layout: HOME(lon,lat) date, GPS(lon,lat,sats) Hb Hs, 1 Hz)",
+    "dji_srt_mavic_pro.SRT": "JuanIrache/DJI_SRT_Parser samples/mavic_pro.SRT (MIT; Mavic Pro: HOME(lon,lat) date, GPS(lon,lat,sats) BAROMETER, 1 Hz)",
+    "dji_srt_p4p_sample.SRT": "JuanIrache/DJI_SRT_Parser samples/p4p_sample.SRT (MIT; Phantom 4 Pro: F/, SS, GPS (lon, lat, sats), D, H, H.S; no date)",
+    "dji_srt_mavic_mini.SRT": "JuanIrache/DJI_SRT_Parser samples/mavic_mini.SRT (MIT; Mavic Mini: GPS (lon, lat, sats), D, H; no date)",
+    "dji_srt_p4_rtk.SRT": "JuanIrache/DJI_SRT_Parser samples/p4_rtk.SRT (MIT; Phantom 4 RTK: GPS (lon, lat, sats), HOME (lon, lat, alt), D, H; 6 decimals)",
+    "dji_srt_mavic_2_style.SRT": "JuanIrache/DJI_SRT_Parser samples/mavic_2_style.SRT (MIT; Mavic 2 early firmware: no subtitle times, [latitude : ..] [longtitude : ..])",
+    "dji_srt_m2zoom.SRT": "JuanIrache/DJI_SRT_Parser samples/m2zoom.SRT (MIT; Mavic 2 Zoom: per frame, date with ms and us, [latitude : ..] [longtitude : ..] [altitude: ..])",
+    "dji_srt_mavic_2pro_new.SRT": "JuanIrache/DJI_SRT_Parser samples/mavic_2pro_new.SRT (MIT; Mavic 2 Pro: per frame, 12 clips joined in one file)",
+    "dji_srt_mavic_air2.srt": "JuanIrache/DJI_SRT_Parser samples/mavic_air2.srt (MIT; Air 2: per frame, [latitude: ..] [longitude: ..] [altitude: ..])",
+    "dji_srt_air2s.srt": "JuanIrache/DJI_SRT_Parser samples/air2s.srt (MIT; Air 2S: per frame)",
+    "dji_srt_MAVIC3.srt": "JuanIrache/DJI_SRT_Parser samples/MAVIC3.srt (MIT; Mavic 3: per frame, date with ms, [rel_alt: .. abs_alt: ..]; coordinates altered by the sample's author)",
+    "dji_srt_matrice_300.srt": "JuanIrache/DJI_SRT_Parser samples/matrice_300.srt (MIT; Matrice 300: GPS(lat,lon,altM) BAROMETER, 1 Hz)",
 }
 
 
-def _compare(name, fmt, ours, ref_t, ref_geo=None, ref_xyz=None, time_note=""):
-    """One table row: ours (LogRecords) against reference times and geodetic or local positions."""
+def _compare(name, fmt, ours, ref_t, ref_geo=None, ref_xyz=None, time_note="", counts=None):
+    """One table row: ours (LogRecords) against reference times and geodetic or local positions (matched in order)."""
     n = min(len(ours), len(ref_t))
     if ref_geo is not None:
         origin = Origin(*map(float, ref_geo[0]))
@@ -67,7 +79,7 @@ def _compare(name, fmt, ours, ref_t, ref_geo=None, ref_xyz=None, time_note=""):
     horizontal = float(np.linalg.norm(a[:, :2] - b[:, :2], axis=1).max())
     vertical = float(np.abs(a[:, 2] - b[:, 2]).max())
     seconds = float(np.abs(ours.t[:n] - ref_t[:n]).max())
-    counts = f"{len(ours)} / {len(ref_t)}"
+    counts = counts or f"{len(ours)} / {len(ref_t)}"
     return f"| `{name}` | {fmt} | {counts} | {horizontal:.4f} | {vertical:.4f} | {seconds:.4f} | {time_note} |"
 
 
@@ -181,6 +193,60 @@ def dji_osd(path):
     return _compare(path.name, "dji", read_log(path), r[:, 0], r[:, 1:], time_note="CUSTOM.updateTime (the app's local clock, ms), by Python's csv")
 
 
+SRT_REFERENCE_JS = """
+const [parser, file] = process.argv.slice(1);
+const data = require(parser)(require('fs').readFileSync(file, 'utf8'), file);
+data.setSmoothing(0);
+const packets = data.metadata().packets.map(p => [p.TIMECODE || null, p.DATE, p.GPS.LATITUDE, p.GPS.LONGITUDE, p.ALTITUDE ?? p.BAROMETER ?? p.HB ?? null]);
+process.stdout.write(JSON.stringify(packets));
+"""
+
+
+def srt(path):
+    """DJI_SRT_Parser (smoothing off) against tlsync's SRT reader, fixes matched by subtitle time (else in order).
+
+    The reference puts the local wall clock on UTC with the time zone at the first fix (tz-lookup);
+    tlsync keeps it local without [target] utc_offset: the whole-hour difference is removed and named.
+    Times compared: the wall clock where it has milliseconds; else the subtitle (video) times, the
+    whole-second wall clock only anchoring them (the reference's whole seconds jitter by a second).
+    """
+    import json
+
+    parser = os.environ.get("DJI_SRT_PARSER")
+    if not parser or not Path(parser).exists():
+        return None
+    ref = json.loads(subprocess.run(["node", "-e", SRT_REFERENCE_JS, str(Path(parser).resolve()), str(path)], capture_output=True, check=True).stdout)
+    ours = read_log(path)
+    lines = path.read_text(encoding="utf-8-sig", errors="replace").replace("\r", "").split("\n")
+    ours_code = [lines[n].split(" -->")[0].strip() if n < len(lines) and "-->" in lines[n] else None for n in ours.line]
+    by_code = {code: i for i, code in enumerate(ours_code) if code}
+    pairs = [(by_code[r[0]], k) for k, r in enumerate(ref) if r[0] in by_code] if by_code else list(zip(range(len(ours)), range(len(ref))))
+    i, k = np.array(pairs).T
+    r = np.array([[np.nan if v is None else float(v) for v in row[1:]] for row in ref])
+    geo = r[k, 1:4]
+    matched = type(ours)(**{**ours.__dict__, "t": ours.t[i], "values": ours.values[i]})
+    if np.isnan(geo[:, 2]).all():
+        geo[:, 2] = matched.values[:, 2]  # the reference reads no height here: compare positions only
+    milliseconds = "subtitle (video) times agree" in ours.notes[1]
+    ref_wall = r[k, 0] * 1e-3
+    zone = round(float(np.median(matched.t - ref_wall)) / 900) * 900  # the reference's tz-lookup offset, whole quarter hours
+    ref_wall = ref_wall + zone
+    if milliseconds or not by_code:
+        # the reference moves a date that repeats the next one back by half the step before it: not a reading difference
+        repeated = np.r_[matched.t[1:] == matched.t[:-1], False]
+        ref_t = np.where(repeated, matched.t, ref_wall)
+        what = f"wall clock; the reference's time zone (UTC{zone / 3600:+g} h) removed" + (f", {repeated.sum()} repeated dates it moves left out" if repeated.any() else "")
+    else:
+        codes = [ref[j][0] for j in k]
+        ref_t = np.array([int(c[:2]) * 3600 + int(c[3:5]) * 60 + int(c[6:8]) + int(c[9:12]) / 1000 for c in codes]) + ours.video_time_zero
+        what = "subtitle times"
+        if np.isfinite(ref_wall).all() and "wall clock" in ours.notes[1]:
+            what += f" anchored on the whole-second dates, which are within {np.abs(matched.t - ref_wall).max():.2f} s of them (UTC{zone / 3600:+g} h removed)"
+    precision = next(n for n in ours.notes if n.startswith("precision"))
+    note = f"{what}; {len(k)} matched; {precision.split(',')[0].removeprefix('precision: ')}"
+    return _compare(path.name, "srt", matched, ref_t, geo, time_note=note, counts=f"{len(ours)} / {len(ref)}")
+
+
 def tum(path):
     ref = np.loadtxt(path, comments="#")
     return _compare(path.name, "tum", read_log(path), ref[:, 0], ref_xyz=ref[:, 1:4], time_note="the file's own clock")
@@ -206,6 +272,7 @@ READERS = {
     "activity-small-fenix2-run.fit": fit, "max-heromode.mp4": gopro, "freiburg1_xyz-groundtruth.txt": tum,
     "georeferenced.tum": tum, "nav2_turtlebot.mcap": mcap, "rover_1Hz_rtk.pos": rtklib,
     "dvm_drone_log.csv": dji_osd,
+    **{name: srt for name in SOURCES if name.startswith("dji_srt_")},
 }
 
 

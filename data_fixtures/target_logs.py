@@ -239,6 +239,66 @@ def write_airdata_csv(path, t: np.ndarray, geo: np.ndarray, no_fix_rows: int = 5
     return Path(path)
 
 
+# --- DJI SRT subtitles ---
+
+SRT_LAYOUTS = ("mavic_pro", "p4p", "m300", "air2", "mavic3")
+
+
+def _timecode(seconds: float) -> str:
+    ms = int(round(seconds * 1000))
+    return f"{ms // 3_600_000:02d}:{ms // 60_000 % 60:02d}:{ms // 1000 % 60:02d},{ms % 1000:03d}"
+
+
+def write_dji_srt(path, t: np.ndarray, geo: np.ndarray, layout: str, utc_offset_s: float = 7200.0, home=None, decimals: int | None = None) -> Path:
+    """A DJI subtitle file: one block per instant t (UTC), subtitle times from 0 at t[0], the wall clock in local
+    time (UTC + utc_offset_s) as each generation writes it (layout, one of SRT_LAYOUTS):
+
+    - "mavic_pro": HOME(lon,lat) and a whole-second date, GPS(lon,lat,satellites) BAROMETER (4 decimals);
+    - "p4p": one line, GPS (lon, lat, satellites), D (to home, m), H (m), H.S (m/s); no date (4 decimals);
+    - "m300": whole-second date, GPS(lat,lon,0.0M) BAROMETER (4 decimals);
+    - "air2": per frame, date with ms and us, [latitude: ..] [longitude: ..] [altitude: ..] (6 decimals);
+    - "mavic3": per frame, date with ms, [latitude: ..] [longitude: ..] [rel_alt: .. abs_alt: ..] (5 decimals).
+
+    Heights: BAROMETER, H and rel_alt above geo[0]; altitude and abs_alt MSL (h - UNDULATION_M).
+    home (lat, lon): the HOME point, geo[0] by default.
+    """
+    home = geo[0, :2] if home is None else np.asarray(home, dtype=float)
+    places = decimals if decimals is not None else {"air2": 6, "mavic3": 5}.get(layout, 4)
+    f = lambda v: f"{v:.{places}f}"  # noqa: E731
+    media = np.asarray(t) - t[0]
+    step = float(np.median(np.diff(media))) if len(media) > 1 else 1.0
+    blocks = []
+    for k, (ti, (lat, lon, h)) in enumerate(zip(t, geo)):
+        local = dt.datetime.fromtimestamp(ti + utc_offset_s, dt.timezone.utc)
+        rel, msl = h - geo[0, 2], h - UNDULATION_M
+        north = np.radians(lat - home[0]) * 6_371_000.0
+        east = np.radians(lon - home[1]) * 6_371_000.0 * np.cos(np.radians(lat))
+        speed = 0.0 if k == 0 else float(np.hypot(*(np.radians(geo[k, :2] - geo[k - 1, :2]) * 6_371_000.0 * [1.0, np.cos(np.radians(lat))])) / (t[k] - t[k - 1]))
+        if layout == "mavic_pro":
+            body = (f"HOME({f(home[1])},{f(home[0])}) {local:%Y.%m.%d %H:%M:%S}\nGPS({f(lon)},{f(lat)},17) BAROMETER:{rel:.1f}\n"
+                    "ISO:100 Shutter:60 EV: Fnum:2.2")
+        elif layout == "p4p":
+            body = (f"F/3.2, SS 160, ISO 100, EV 0, GPS ({f(lon)}, {f(lat)}, 18), D {np.hypot(north, east):.2f}m, H {rel:.2f}m, "
+                    f"H.S {speed:.2f}m/s, V.S 0.00m/s")
+        elif layout == "m300":
+            body = f"{local:%Y.%m.%d %H:%M:%S}\nGPS({f(lat)},{f(lon)},0.0M) BAROMETER:{rel:.1f}M"
+        elif layout == "air2":
+            body = (f'<font size="36">SrtCnt : {k + 1}, DiffTime : {int(round(step * 1000))}ms\n'
+                    f"{local:%Y-%m-%d %H:%M:%S},{local.microsecond // 1000:03d},{local.microsecond % 1000:03d}\n"
+                    f"[iso : 100] [shutter : 1/500.0] [fnum : 280] [ev : 0] [ct : 5500] [color_md : default] [focal_len : 240] "
+                    f"[latitude: {f(lat)}] [longitude: {f(lon)}] [altitude: {msl:.6f}] </font>")
+        elif layout == "mavic3":
+            body = (f'<font size="28">FrameCnt: {k + 1}, DiffTime: {int(round(step * 1000))}ms\n'
+                    f"{local:%Y-%m-%d %H:%M:%S}.{local.microsecond // 1000:03d}\n"
+                    f"[iso: 220] [shutter: 1/8000.0] [fnum: 3.2] [ev: 0] [ct: 5115] [color_md : default] [focal_len: 24.00] "
+                    f"[latitude: {f(lat)}] [longitude: {f(lon)}] [rel_alt: {rel:.3f} abs_alt: {msl:.3f}] </font>")
+        else:
+            raise ValueError(f"layout {layout!r}: expected one of {SRT_LAYOUTS}")
+        blocks.append(f"{k + 1}\n{_timecode(media[k])} --> {_timecode(media[k] + step)}\n{body}\n")
+    Path(path).write_text("\n".join(blocks), encoding="utf-8")
+    return Path(path)
+
+
 # --- GoPro GPMF payloads (KLV) ---
 
 

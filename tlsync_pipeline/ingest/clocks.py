@@ -10,8 +10,10 @@ pause, a restart, clips joined into one file).
 - Whole-second coarse times (the second the instant fell in, now and then a
   second off): each d = w - c lies in (offset - 1, offset]; the offset is
   the mean of the d values in the one-second window holding the most of
-  them, plus half a second (the mean fraction of a second). Good to about
-  a tenth of a second, time differences inside a run exact.
+  them, plus half a second (the mean fraction of a second). It is good to
+  half the widest gap between the rows' phases within a second (rows 0.1 s
+  apart: 0.05 s; rows exactly 1 s apart, all at one phase: 0.5 s); time
+  differences inside a run are exact.
 """
 
 from __future__ import annotations
@@ -40,3 +42,12 @@ def onto_coarse_clock(fine_s: np.ndarray, coarse_s: np.ndarray, whole_seconds: b
         run[rows] = k
         t[rows] = fine_s[rows] + (whole_second_offset(d[rows]) if whole_seconds else float(np.median(d[rows])))
     return t, run
+
+
+def whole_second_uncertainty(fine_s: np.ndarray) -> float:
+    """How far a whole-second anchor can be off (s): half the widest gap between the rows' phases within a second."""
+    phases = np.sort(np.mod(np.asarray(fine_s, dtype=float), 1.0))
+    if not len(phases):
+        return 0.5
+    gaps = np.diff(np.r_[phases, phases[0] + 1.0])
+    return float(gaps.max() / 2)

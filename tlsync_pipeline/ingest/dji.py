@@ -36,7 +36,7 @@ from pathlib import Path
 import numpy as np
 
 from tlsync_pipeline.errors import InputError
-from tlsync_pipeline.ingest.clocks import onto_coarse_clock
+from tlsync_pipeline.ingest.clocks import onto_coarse_clock, whole_second_uncertainty
 from tlsync_pipeline.ingest.reader import Reader, text_of
 from tlsync_pipeline.ingest.records import GEODETIC, MSL, TAKEOFF, LogRecords, check_geodetic, make_records
 
@@ -70,8 +70,8 @@ def _height_column(header: list[str]) -> tuple[int, float, str]:
     raise InputError("no height column: expected altitude_above_seaLevel(feet) or height_above_takeoff(feet)")
 
 
-def read_dji(path: str | Path) -> LogRecords:
-    """Read an AirData-style DJI CSV; see the module notes."""
+def read_dji(path: str | Path, utc_offset_s: float | None = None) -> LogRecords:
+    """Read a DJI CSV; utc_offset_s: local - UTC (s) of the OSD layout's app clock when it is local. See the module notes."""
     path = Path(path)
     try:
         raw = path.read_bytes()
@@ -89,7 +89,7 @@ def read_dji(path: str | Path) -> LogRecords:
     except csv.Error as exc:
         raise InputError(f"{path}:1: not a CSV header: {exc}") from None
     if "osd.latitude" in header:
-        return _read_osd(path, header, reader)
+        return _read_osd(path, header, reader, utc_offset_s)
     try:
         col = {name: header.index(name) for name in ("time(millisecond)", "datetime(utc)", "latitude", "longitude")}
         height, scale, altitude = _height_column(header)
@@ -130,9 +130,14 @@ def read_dji(path: str | Path) -> LogRecords:
         warnings.append(f"{runs} recording runs (pauses or clock restarts): each put on UTC separately")
     if altitude == TAKEOFF:
         warnings.append("heights are above the take-off point (no altitude_above_seaLevel column)")
+    if utc_offset_s is not None:
+        warnings.append("utc_offset is not used: an AirData CSV's datetime(utc) is UTC")
     rows = np.column_stack([t, data[:, 3:6]])
     quality = {name: data[:, 6 + k] for k, name in enumerate(extras)}
-    return make_records(path, "dji", GEODETIC, rows, data[:, 0].astype(int), dropped=dropped, warnings=warnings, altitude=altitude, quality=quality)
+    note = (f"times: time(millisecond) put on UTC by the whole-second datetime(utc), one offset per run "
+            f"(within {whole_second_uncertainty(data[:, 1]):.2f} s)")
+    return make_records(path, "dji", GEODETIC, rows, data[:, 0].astype(int), dropped=dropped, warnings=warnings, altitude=altitude, quality=quality,
+                        notes=[note])
 
 
 _OSD_TIMES = ("%Y/%m/%d %H:%M:%S.%f", "%Y/%m/%d %H:%M:%S", "%m/%d/%Y %I:%M:%S.%f %p", "%m/%d/%Y %I:%M:%S %p", "%Y-%m-%d %H:%M:%S.%f", "%Y-%m-%d %H:%M:%S")
@@ -148,7 +153,7 @@ def _osd_time(text: str) -> float:
     raise ValueError(text)
 
 
-def _read_osd(path: Path, header: list[str], reader) -> LogRecords:
+def _read_osd(path: Path, header: list[str], reader, utc_offset_s: float | None) -> LogRecords:
     """The OSD layout (see the module notes)."""
     def find(prefix: str) -> int | None:
         return next((i for i, name in enumerate(header) if name.startswith(prefix)), None)
@@ -187,10 +192,17 @@ def _read_osd(path: Path, header: list[str], reader) -> LogRecords:
                 quality[name].append(float(value) if value.strip().replace(".", "", 1).isdigit() else math.nan)
     except csv.Error as exc:
         raise InputError(f"{path}:{reader.line_num}: not CSV: {exc}") from None
+    warnings = []
+    if utc_offset_s is not None and utc:
+        warnings.append("utc_offset is not used: the CUSTOM.updateTime column is UTC")
+    elif utc_offset_s is not None:
+        rows = [[r[0] - utc_offset_s, *r[1:]] for r in rows]
+        utc = True
     return make_records(
-        path, "dji", GEODETIC, rows, numbers, utc=utc, dropped=dropped, altitude=TAKEOFF, quality=quality,
+        path, "dji", GEODETIC, rows, numbers, utc=utc, dropped=dropped, altitude=TAKEOFF, quality=quality, warnings=warnings,
         clock=None if utc else "the DJI app's local clock (time zone not in the file)",
     )
 
 
-READER = Reader("dji", "DJI CSV (AirData: time(millisecond), datetime(utc), latitude, longitude; or OSD.latitude, OSD.longitude)", read_dji, _sniff)
+READER = Reader("dji", "DJI CSV (AirData: time(millisecond), datetime(utc), latitude, longitude; or OSD.latitude, OSD.longitude)", read_dji, _sniff,
+                local_clock=True)

@@ -19,7 +19,7 @@ device time = timestamp - system_timestamp, each with its sub-second part:
 ``fractional_timestamp`` / ``fractional_system_timestamp``); without one,
 through the whole-second ``utc_timestamp`` a VIRB writes in each
 ``gps_metadata`` (the offset from the whole seconds,
-tlsync_pipeline.ingest.clocks: good to about 0.1 s); without either they
+tlsync_pipeline.ingest.clocks: within 0.05 s at 10 Hz); without either they
 stay on the device clock: offsets work, UTC does not. ``utc_timestamp`` is
 never a fix's time itself: it has whole seconds, and the ``timestamp_ms``
 beside it belongs to ``timestamp``. The report states which sub-second
@@ -36,7 +36,7 @@ from pathlib import Path
 import numpy as np
 
 from tlsync_pipeline.errors import InputError
-from tlsync_pipeline.ingest.clocks import onto_coarse_clock
+from tlsync_pipeline.ingest.clocks import onto_coarse_clock, whole_second_uncertainty
 from tlsync_pipeline.ingest.reader import Reader
 from tlsync_pipeline.ingest.records import GEODETIC, MSL, LogRecords, check_geodetic, make_records, sort_by_time
 
@@ -121,7 +121,7 @@ def read_fit(path: str | Path) -> LogRecords:
         data[:, 0], run = onto_coarse_clock(device, whole, whole_seconds=True, break_s=RUN_BREAK_S)
         rows, offset = data.tolist(), float(np.median(data[:, 0] - device))
         notes.append(f"device clock put on UTC by the whole-second utc_timestamp of each {source} (no timestamp_correlation; "
-                     f"{int(run[-1]) + 1} run(s), good to about 0.1 s)")
+                     f"{int(run[-1]) + 1} run(s), within {whole_second_uncertainty(device):.2f} s)")
     utc = device_times == 0 or offset is not None
     if device_times and not utc and device_times < len(rows):
         raise InputError(f"{path}: {source} messages mix UTC and device-clock times and there is no timestamp_correlation to join them")
