@@ -52,6 +52,7 @@ SOURCES = {
     "nav2_turtlebot.mcap": "MichaelGrupp/evo test/data/nav2_turtlebot.mcap (GPL-3.0), topic /odom",
     "rover_1Hz_rtk.pos": "taroz/MatRTKLIB examples/data/kinematic/rover_1Hz_rtk.pos (MIT; 142 fix, 389 float)",
     "dvm_drone_log.csv": "egemose/DroneVideoMeasure tests/test_data/test_drone_log.csv (MIT; a DJI Phantom 4 Pro flight, OSD layout)",
+    "airdata_mini2.csv": "ANG13T/DroneXtract test-data/Airdata-Files/AirdataCSV.csv, with AirdataGPX.gpx beside it as airdata_mini2.gpx (MIT; a 2-cell DJI drone, Mini 2 class, AirData layout)",
     "dji_srt_old_format.SRT": "JuanIrache/DJI_SRT_Parser samples/old_format.SRT (MIT; Phantom 3/4 layout: HOME(lon,lat) date, GPS(lon,lat,sats) Hb Hs, 1 Hz)",
     "dji_srt_mavic_pro.SRT": "JuanIrache/DJI_SRT_Parser samples/mavic_pro.SRT (MIT; Mavic Pro: HOME(lon,lat) date, GPS(lon,lat,sats) BAROMETER, 1 Hz)",
     "dji_srt_p4p_sample.SRT": "JuanIrache/DJI_SRT_Parser samples/p4p_sample.SRT (MIT; Phantom 4 Pro: F/, SS, GPS (lon, lat, sats), D, H, H.S; no date)",
@@ -193,6 +194,52 @@ def dji_osd(path):
     return _compare(path.name, "dji", read_log(path), r[:, 0], r[:, 1:], time_note="CUSTOM.updateTime (the app's local clock, ms), by Python's csv")
 
 
+def airdata(path):
+    """AirData's own GPX export of the same flight (the .gpx beside the CSV) against tlsync's reading of the CSV.
+
+    Fixes are matched by their coordinates (the GPX copies the CSV's digits); times compared after
+    removing one constant, which is named: AirData's GPX anchors time(millisecond) on the first row's
+    whole second, tlsync on all rows' (tlsync_pipeline.ingest.clocks). The GPX leaves rows out; a
+    comparison that interpolates it there sees the row's distance from the chord.
+    """
+    import csv
+    import datetime as dt
+
+    import gpxpy
+
+    gpx_path = path.with_suffix(".gpx")
+    if not gpx_path.exists():
+        return None
+    with gpx_path.open(encoding="utf-8") as handle:
+        points = [p for track in gpxpy.parse(handle).tracks for segment in track.segments for p in segment.points]
+    ref = np.array([[p.time.timestamp(), p.latitude, p.longitude, p.elevation] for p in points])
+    ours = read_log(path)
+    index = {}
+    for i, (lat, lon) in enumerate(ours.values[:, :2]):
+        index.setdefault((round(lat, 9), round(lon, 9)), i)
+    pairs = [(index[key], k) for k, key in enumerate((round(a, 9), round(b, 9)) for a, b in ref[:, 1:3]) if key in index]
+    i, k = np.array(pairs).T
+    shift = float(np.median(ours.t[i] - ref[k, 0]))
+    matched = type(ours)(**{**ours.__dict__, "t": ours.t[i], "values": ours.values[i]})
+    with path.open(newline="", encoding="utf-8") as handle:
+        rows = list(csv.DictReader(handle))
+    clock = np.array([float(r["time(millisecond)"]) / 1000 for r in rows])
+    whole = np.array([dt.datetime.fromisoformat(r["datetime(utc)"]).replace(tzinfo=dt.timezone.utc).timestamp() for r in rows])
+    tlsync_c = float(np.median(ours.t - clock[ours.line - 2]))
+    agree = lambda c: np.mean(np.floor(clock + c + 1e-6) == whole)  # noqa: E731
+    left_out = np.setdiff1d(np.arange(len(ours)), i)
+    left_out = left_out[(left_out > 0) & (left_out < len(ours) - 1)]
+    origin = Origin(*map(float, ref[0, 1:]))
+    a = geodetic_to_enu(ours.values[left_out, 0], ours.values[left_out, 1], ours.values[left_out, 2], origin)
+    b = geodetic_to_enu(ref[:, 1], ref[:, 2], ref[:, 3], origin)
+    chord = np.column_stack([np.interp(ours.t[left_out] - shift, ref[:, 0], b[:, j]) for j in range(3)])
+    off = np.linalg.norm(a[:, :2] - chord[:, :2], axis=1)
+    note = (f"after removing {shift:.3f} s: the GPX is time(millisecond) + the first row's whole second; datetime(utc) is the floor of "
+            f"tlsync's UTC in {agree(tlsync_c):.1%} of rows, of the GPX's in {agree(tlsync_c - shift):.1%}. The GPX leaves out "
+            f"{len(ours) - len(i)} rows; interpolated there it is {np.median(off):.3f} m (median) to {off.max():.3f} m off them")
+    return _compare(path.name, "dji", matched, ref[k, 0] + shift, ref[k, 1:], time_note=note, counts=f"{len(ours)} / {len(ref)}")
+
+
 SRT_REFERENCE_JS = """
 const [parser, file] = process.argv.slice(1);
 const data = require(parser)(require('fs').readFileSync(file, 'utf8'), file);
@@ -272,6 +319,7 @@ READERS = {
     "activity-small-fenix2-run.fit": fit, "max-heromode.mp4": gopro, "freiburg1_xyz-groundtruth.txt": tum,
     "georeferenced.tum": tum, "nav2_turtlebot.mcap": mcap, "rover_1Hz_rtk.pos": rtklib,
     "dvm_drone_log.csv": dji_osd,
+    "airdata_mini2.csv": airdata,
     **{name: srt for name in SOURCES if name.startswith("dji_srt_")},
 }
 
