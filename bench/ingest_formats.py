@@ -161,12 +161,11 @@ def gopro(path):
         utc = calendar.timegm((2000 + int(g[:2]), int(g[2:4]), int(g[4:6]), int(g[6:8]), int(g[8:10]), 0)) + float(g[10:])
         anchors.append(utc - ref_t[n0])
     ours = read_log(path)
-    offset = float(np.median(anchors))
-    deviation = np.abs(np.array(anchors) - offset)
+    deviation = np.abs(np.array(anchors) - np.median(anchors))
     stale = deviation > 0.5
     jitter = f"GPSU within {deviation[~stale].max():.3f} s of one UTC offset" + (f", {stale.sum()} stale by {deviation[stale].max():.2f} s (left out)" if stale.any() else "")
     shifted = type(ours)(**{**ours.__dict__, "t": ours.t - ours.video_time_zero})
-    note = f"gpmf-parser's sample clock ({rate:.4f} Hz from {first:.4f} s) on the video timeline; tlsync's UTC is {ours.video_time_zero - offset:+.4f} s from the reference's median; {jitter}"
+    note = f"gpmf-parser's sample clock ({rate:.4f} Hz from {first:.4f} s) on the video timeline; {jitter}"
     return _compare(path.name, "gopro", shifted, ref_t, np.array(samples), time_note=note)
 
 

@@ -217,8 +217,8 @@ def read_srt(path: str | Path, utc_offset_s: float | None = None) -> LogRecords:
     step_n = M_PER_DEG * 10.0 ** -decimals[:, 0]
     step_e = M_PER_DEG * 10.0 ** -decimals[:, 1] * np.cos(np.radians(lat))
     sigma = np.sqrt((step_n**2 + step_e**2) / 24)
-    fewest = int(decimals.min())
-    notes.append(f"precision: {fewest} to {int(decimals.max())} decimals of a degree ({M_PER_DEG * 10.0 ** -fewest:.2g} m steps north), "
+    fewest, most = int(decimals.min()), int(decimals.max())
+    notes.append(f"precision: {fewest if fewest == most else f'{fewest} to {most}'} decimals of a degree ({M_PER_DEG * 10.0 ** -fewest:.2g} m steps north), "
                  f"per-fix sigma {sigma.min():.2g}-{sigma.max():.2g} m from the rounding alone")
     if fewest <= 4:
         warnings.append(f"coordinates have {fewest} decimals: {M_PER_DEG * 10.0 ** -fewest:.0f} m steps; expect a staircase track")
