@@ -183,7 +183,7 @@ def gopro_records(path: Path, packets: list[tuple[float, float, bytes]]) -> LogR
             numbers.append(int(numbers_here[i]))
             dops.append(block.samples[i, 7] if nine else (block.dop if block.dop is not None else np.nan))
     utc = bool(anchors)
-    media_to_utc = None
+    media_to_utc, spread = None, None
     if anchors:
         a = np.asarray(anchors)
         media_to_utc = float(np.median(a))
@@ -207,7 +207,7 @@ def gopro_records(path: Path, packets: list[tuple[float, float, bytes]]) -> LogR
     return make_records(
         path, "gopro", GEODETIC, rows, numbers, unit=UNIT, utc=utc, dropped=dropped, warnings=warnings, altitude=altitude,
         quality={"dop": dops}, clock=None if utc else "video presentation time (s)", notes=notes,
-        video_time_zero=media_to_utc if utc else 0.0,
+        video_time_zero=media_to_utc if utc else 0.0, video_zero_spread_s=spread,
     )
 
 

@@ -207,7 +207,7 @@ def read_srt(path: str | Path, utc_offset_s: float | None = None) -> LogRecords:
         notes.append(f"GPS(...) read as ({'latitude, longitude' if lat_first else 'longitude, latitude'}): {reason}")
         if conflict:
             warnings.append(f"the latitude/longitude order of GPS(...) is uncertain: {conflict}")
-    t, time_note, utc, clock, zero = _times(path, [f[0] for f in fixes], utc_offset_s, warnings)
+    t, time_note, utc, clock, zero, spread = _times(path, [f[0] for f in fixes], utc_offset_s, warnings)
     notes.append(time_note)
     heights, altitude, height_note = _heights(np.array([f[0].heights for f in fixes]), _fpv(text), warnings)
     notes.append(height_note)
@@ -228,7 +228,7 @@ def read_srt(path: str | Path, utc_offset_s: float | None = None) -> LogRecords:
     rows = np.column_stack([t, lat, lon, heights])
     return make_records(
         path, "srt", GEODETIC, rows, lines, utc=utc, dropped=dropped, warnings=warnings, altitude=altitude, sigma=sigma,
-        clock=clock, notes=notes, video_time_zero=zero,
+        clock=clock, notes=notes, video_time_zero=zero, video_zero_spread_s=spread,
     )
 
 
@@ -304,7 +304,7 @@ def _speed_evidence(pairs: np.ndarray, blocks: list[_Block], window: int = 10) -
 
 
 def _times(path: Path, blocks: list[_Block], utc_offset_s: float | None, warnings: list[str]):
-    """(t, note, utc, clock, video_time_zero) of the fixes; see the module notes."""
+    """(t, note, utc, clock, video_time_zero, how far that can be off) of the fixes; see the module notes."""
     media = np.array([b.media for b in blocks])
     wall = np.array([b.wall for b in blocks])
     has_media, has_wall = np.isfinite(media).all(), np.isfinite(wall).all()
@@ -329,14 +329,14 @@ def _times(path: Path, blocks: list[_Block], utc_offset_s: float | None, warning
             note = f"times: the wall clock, {zone}; the subtitle (video) times agree within {spread * 1000:.0f} ms"
             t, zero = wall, float(np.median(wall[first] - media[first]))
         else:
-            note = (f"times: the subtitle (video) times, anchored to the wall clock's whole seconds (within "
-                    f"{whole_second_uncertainty(media):.2f} s), {zone}")
+            spread = whole_second_uncertainty(media[first])
+            note = f"times: the subtitle (video) times, anchored to the wall clock's whole seconds (within {spread:.2f} s), {zone}"
             t, zero = anchored, float(anchored[0] - media[0])
-        return t, note, utc, None if utc else "the drone's local wall clock (time zone not in the file)", zero
+        return t, note, utc, None if utc else "the drone's local wall clock (time zone not in the file)", zero, spread
     if has_wall:
-        return wall, f"times: the wall clock (no subtitle times), {zone}", utc, None if utc else "the drone's local wall clock (time zone not in the file)", None
+        return wall, f"times: the wall clock (no subtitle times), {zone}", utc, None if utc else "the drone's local wall clock (time zone not in the file)", None, None
     if has_media:
-        return media, "times: subtitle times on the video's timeline (the file has no date)", False, "the video's timeline (subtitle times)", 0.0
+        return media, "times: subtitle times on the video's timeline (the file has no date)", False, "the video's timeline (subtitle times)", 0.0, 0.0
     raise InputError(f"{path}:{blocks[0].line}: a subtitle block with neither a timecode nor a date (and others like it)")
 
 
