@@ -8,15 +8,21 @@ the tolerance. A result that disagrees by more is flagged ``CLOCK_FLAG``
 (a named reason on the camera, with the numbers in ``clock_prior`` of
 timeline.json), never moved to the prior: the prior checks the result, it
 does not steer the search, so a wrong prior cannot hide a right answer.
+The result's own 95 % half-width (from the line's covariance, when the
+method gives one) is added to the tolerance: a disagreement is one beyond
+what either side can answer for.
 """
 
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, replace
 
+import numpy as np
+
 from tlsync_pipeline.sync.clock import FrameTimes
 
 CLOCK_FLAG = "clock_disagrees"
+HALF_95 = 1.96
 
 
 @dataclass(frozen=True)
@@ -31,7 +37,8 @@ class ClockPrior:
 @dataclass(frozen=True)
 class ClockCheck:
     """A line against its camera's clock prior. result_utc_s: the line's frame 0 on the target log's UTC (None when
-    the log's clock is not UTC: nothing to compare); offset_s: result - prior (s); agrees: within the tolerance
+    the log's clock is not UTC: nothing to compare); offset_s: result - prior (s); result_half_width_s: the
+    result's 95 % half-width (s, 0 without a covariance); agrees: |offset| within the tolerance plus that half-width
     (None when not compared)."""
 
     source: str
@@ -40,6 +47,7 @@ class ClockCheck:
     result_utc_s: float | None
     offset_s: float | None
     agrees: bool | None
+    result_half_width_s: float = 0.0
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -58,9 +66,14 @@ def check_clock(line, target_rate: float | None, target_t0: float | None, log_ut
     """
     if not log_utc or target_rate is None or target_t0 is None:
         return ClockCheck(prior.source, prior.utc_s, prior.tolerance_s, None, None, None)
-    result = float(target_t0 + line.sample_at(0.0, times) / target_rate)
+    sample0 = float(line.sample_at(0.0, times))
+    result = float(target_t0 + sample0 / target_rate)
     offset = result - prior.utc_s
-    return ClockCheck(prior.source, prior.utc_s, prior.tolerance_s, result, offset, abs(offset) <= prior.tolerance_s)
+    half = 0.0
+    if line.cov is not None:
+        gradient = np.array([-sample0 / line.alpha, -1.0 / line.alpha])  # of (clock(0) - beta) / alpha in (alpha, beta)
+        half = HALF_95 * float(np.sqrt(max(gradient @ np.asarray(line.cov) @ gradient, 0.0))) / target_rate
+    return ClockCheck(prior.source, prior.utc_s, prior.tolerance_s, result, offset, abs(offset) <= prior.tolerance_s + half, half)
 
 
 def with_clock_checks(timeline, priors: dict[str, ClockPrior], log_utc: bool, times: dict[str, FrameTimes | None] | None = None):

@@ -38,3 +38,15 @@ def test_no_comparison_when_the_log_is_not_on_utc():
     assert check.agrees is None and check.result_utc_s is None
     timeline = with_clock_checks(_timeline(), {"cam": ClockPrior(T0 + 999.0, 1.0, "GoPro GPSU")}, log_utc=False)
     assert CLOCK_FLAG not in timeline.cameras["cam"].flags and timeline.cameras["cam"].clock_check.agrees is None
+
+
+def test_the_results_own_interval_widens_the_tolerance():
+    import dataclasses
+
+    import numpy as np
+
+    loose = dataclasses.replace(_timeline().cameras["cam"], cov=np.diag([0.0, 50.0**2]))  # beta +-50 frames: +-2 s
+    check = check_clock(loose, RATE, T0, True, ClockPrior(T0 + 14.5, 1.0, "QuickTime creationdate"))
+    assert check.result_half_width_s == pytest.approx(1.96 * 2.0) and check.agrees  # 2.5 s off: within 1 s + 3.9 s
+    tight = check_clock(_timeline().cameras["cam"], RATE, T0, True, ClockPrior(T0 + 14.5, 1.0, "QuickTime creationdate"))
+    assert tight.result_half_width_s == 0.0 and not tight.agrees
