@@ -59,6 +59,23 @@ def parse_utc(text: str) -> float | None:
     return None if when.tzinfo is None else when.timestamp()
 
 
+def parse_utc_offset(value) -> float:
+    """Local time - UTC (s) from hours (a number: 2, -3.5) or text ("+02:00", "-0330", "Z"); ValueError otherwise."""
+    if isinstance(value, bool):
+        raise ValueError(f"expected hours (e.g. 2 or -3.5) or \"+HH:MM\", got {value!r}")
+    if isinstance(value, (int, float)) and -14 <= value <= 14:
+        return float(value) * 3600.0
+    if isinstance(value, str):
+        text = value.strip()
+        if text == "Z":
+            return 0.0
+        digits = text[1:].replace(":", "")
+        if text[:1] in "+-" and len(digits) == 4 and digits.isdigit() and int(digits[:2]) <= 14 and int(digits[2:]) < 60:
+            seconds = int(digits[:2]) * 3600 + int(digits[2:]) * 60
+            return float(seconds if text[0] == "+" else -seconds)
+    raise ValueError(f"expected hours between -14 and 14 (e.g. 2 or -3.5) or \"+HH:MM\", got {value!r}")
+
+
 def _gopro(video: Path) -> RecordingTime | None:
     from tlsync_pipeline.ingest.gopro import read_gopro
 
@@ -114,3 +131,18 @@ def recording_time(video: str | Path, utc_offset_s: float | None = None) -> list
     if (created := parse_utc(tags.get("creation_time", ""))) is not None:
         found.append(RecordingTime(created, None, "MP4 creation_time", False))
     return found
+
+
+def choose(found: list[RecordingTime], tolerance_s: float | None = None) -> RecordingTime | str:
+    """The recording time to check a camera against, or why there is none.
+
+    The first trusted one with its own tolerance; with ``tolerance_s`` (the
+    project's), the first of any trust, with that tolerance.
+    """
+    usable = found if tolerance_s is not None else [r for r in found if r.trusted and r.tolerance_s is not None]
+    if usable:
+        chosen = usable[0]
+        return RecordingTime(chosen.utc_s, tolerance_s if tolerance_s is not None else chosen.tolerance_s, chosen.source, chosen.trusted)
+    if found:
+        return f"only {', '.join(r.source for r in found)}, not trusted: give [cameras.clock] tolerance_s to use it"
+    return "the video's metadata says nothing of when it was recorded"

@@ -317,7 +317,7 @@ def _times(path: Path, blocks: list[_Block], utc_offset_s: float | None, warning
     if has_wall and not zulu and utc_offset_s is not None:
         wall = wall - utc_offset_s
     utc = has_wall and (zulu or utc_offset_s is not None)
-    zone = "UTC (the file says Z)" if zulu else (f"local time, UTC{_hours(utc_offset_s)} as the project says" if utc_offset_s is not None else
+    zone = "UTC (the file says Z)" if zulu else (f"local time, UTC{_hours(utc_offset_s)} as given (utc_offset)" if utc_offset_s is not None else
                                                   "the drone's local time (no zone in the file; give [target] utc_offset for UTC)")
     if has_media and has_wall:
         anchored, run = onto_coarse_clock(media, wall, whole_seconds=not subsecond, break_s=RUN_BREAK_S)

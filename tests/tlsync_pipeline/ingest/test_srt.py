@@ -70,7 +70,7 @@ def test_utc_offset_puts_the_local_wall_clock_on_utc():
     utc = read_log(DATA / "mavic_pro.SRT", utc_offset_s=10 * 3600)
     assert utc.utc and not local.utc and "drone's local" in local.clock
     np.testing.assert_allclose(utc.t, local.t - 36000)
-    assert any("UTC+10:00 as the project says" in n for n in utc.notes)
+    assert any("UTC+10:00 as given" in n for n in utc.notes)
     assert any("utc_offset is not used" in w for w in read_log(DATA / "p4p_sample.SRT", utc_offset_s=3600).warnings)
     assert any("utc_offset is not used" in w for w in read_log(Path(__file__).parent / "data" / "garmin-fenix-5-bike.fit", utc_offset_s=3600).warnings)
 
