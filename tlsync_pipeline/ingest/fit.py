@@ -65,7 +65,7 @@ def read_fit(path: str | Path) -> LogRecords:
     path = Path(path)
     import fitdecode
 
-    messages = {name: [] for name in SOURCES}
+    messages: dict[str, list[dict]] = {name: [] for name in SOURCES}
     correlation = None
     try:
         with warnings.catch_warnings(record=True) as crc_warnings, fitdecode.FitReader(str(path), check_crc=fitdecode.CrcCheck.WARN) as reader:
@@ -81,7 +81,12 @@ def read_fit(path: str | Path) -> LogRecords:
         raise InputError(f"{path}: not a readable FIT file: {type(exc).__name__}: {exc}") from None
     source = max(SOURCES, key=lambda name: sum(1 for m in messages[name] if m.get("position_lat") is not None))
     offset, anchor = _correlation_offset(correlation)
-    rows, numbers, sigma, dropped, coarse, fractions = [], [], [], {}, [], set()
+    rows: list[list[float]] = []
+    numbers: list[int] = []
+    sigma: list[float] = []
+    dropped: dict[str, list[int]] = {}
+    coarse: list[float] = []
+    fractions: set[str | None] = set()
     device_times = 0
     for number, m in enumerate(messages[source], start=1):
         fraction, unit = _fraction(m.get("timestamp_ms"), m.get("fractional_timestamp"))

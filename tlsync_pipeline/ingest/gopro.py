@@ -157,7 +157,11 @@ def gopro_records(path: Path, packets: list[tuple[float, float, bytes]]) -> LogR
     clock = sample_clock([Payload(s, e, len(b.samples), b.stmp_us, base, b.timo_s) for _, s, e, b, base in timed], packets[0][0])
     notes.append(f"sample times on the video timeline: t = {clock.first_s:.4f} s + n / {clock.rate_hz:.4f} Hz "
                      f"({'camera STMP timestamps' if clock.method == 'STMP' else 'least squares over the MP4 payload times'}, as gpmf-parser)")
-    rows, numbers, dops, dropped, anchors = [], [], [], {}, []
+    rows: list[list[float]] = []
+    numbers: list[int] = []
+    dops: list[float] = []
+    dropped: dict[str, list[int]] = {}
+    anchors: list[float] = []
     msl_seen, number = set(), 0
     for _, _, _, block, _ in entries:
         n = len(block.samples)

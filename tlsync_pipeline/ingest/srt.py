@@ -211,7 +211,7 @@ def read_srt(path: str | Path, utc_offset_s: float | None = None) -> LogRecords:
     notes.append(time_note)
     heights, altitude, height_note = _heights(np.array([f[0].heights for f in fixes]), _fpv(text), warnings)
     notes.append(height_note)
-    decimals = np.array([[_decimals(f[0].a), _decimals(f[0].b)] for f in fixes])
+    decimals = np.array([[_decimals(f[0].a or ""), _decimals(f[0].b or "")] for f in fixes])
     if not fixes[0][0].labelled and not lat_first:
         decimals = decimals[:, ::-1]
     step_n = M_PER_DEG * 10.0 ** -decimals[:, 0]
