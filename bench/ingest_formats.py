@@ -13,13 +13,18 @@ file order; printed: fixes compared, max horizontal and vertical difference
 Reference readers: pyulog (ULog), pymavlink (DataFlash: DFReader's own GPS
 clock; tlog: GPS_RAW_INT.time_usec + the median SYSTEM_TIME offset),
 fitdecode (FIT), RTKLIB's readsolt (bench/rtklib_readpos.c, built as its
-header says, path in $RTKLIB_READPOS), GoPro's gpmf-parser C demo (GPMF; build it from the
-gpmf-parser sources with printf precision raised to %.8f and give its path
-in $GPMF_DEMO), numpy.loadtxt (TUM), Python's csv module (DJI: a CSV has
-no other reader), the mcap library with mcap-ros2-support
-(MCAP). The GoPro time is compared twice: the sample times on the video
-timeline, and the UTC anchoring (each payload's GPSU against tlsync's one
-median offset: GPSU's own jitter).
+header says, path in $RTKLIB_READPOS), GoPro's gpmf-parser C demo (GPMF; build
+it from the gpmf-parser sources with the printf precision of its scaled data,
+payload times and computed sample rates raised to 8-9 decimals, and give its
+path in $GPMF_DEMO; the sample times compared are its sample clock, first +
+n / rate from the computed GPS5 sample rate), numpy.loadtxt (TUM), Python's
+csv module (DJI OSD layout: a CSV has no other reader), AirData's own GPX
+export of the same flight (AirData CSV: the .gpx beside the .csv), the mcap
+library with mcap-ros2-support (MCAP), DJI_SRT_Parser (DJI SRT: the path of
+its index.js in $DJI_SRT_PARSER, with its npm dependencies moment-timezone
+and tz-lookup installed beside it; smoothing off). The GoPro time is
+compared on the video timeline; the UTC anchoring (each payload's GPSU
+against the one median offset) is named in the row.
 """
 
 from __future__ import annotations
