@@ -195,15 +195,19 @@ def read_srt(path: str | Path, utc_offset_s: float | None = None) -> LogRecords:
         raise InputError(f"{path}: no position fix in the subtitle blocks{reasons} (expected GPS(...) or [latitude: ..] [longitude: ..])")
     notes, warnings = [], []
     pairs = np.array([(a, b) for _, a, b in fixes])
-    if fixes[0][0].labelled:
-        lat, lon = pairs[:, 0], pairs[:, 1]
-        if np.abs(lat).max() <= math.pi / 2 and np.abs(lon).max() <= math.pi and np.ptp(lat) < 1e-3 and np.ptp(lon) < 1e-3:
-            lat, lon = np.degrees(lat), np.degrees(lon)
+    labelled = np.array([f[0].labelled for f in fixes])
+    lat, lon = pairs[:, 0].copy(), pairs[:, 1].copy()
+    swapped = np.zeros(len(fixes), dtype=bool)  # rows written (longitude, latitude)
+    if labelled.any():
+        la, lo = lat[labelled], lon[labelled]
+        if np.abs(la).max() <= math.pi / 2 and np.abs(lo).max() <= math.pi and np.ptp(la) < 1e-3 and np.ptp(lo) < 1e-3:
+            lat[labelled], lon[labelled] = np.degrees(la), np.degrees(lo)
             warnings.append("the coordinates are in radians (a DJI firmware bug): converted to degrees")
         notes.append("latitude and longitude as labelled ([latitude: ..] [longitude: ..])")
-    else:
-        lat_first, reason, conflict = gps_order(pairs, [f[0] for f in fixes])
-        lat, lon = (pairs[:, 0], pairs[:, 1]) if lat_first else (pairs[:, 1], pairs[:, 0])
+    if (~labelled).any():
+        lat_first, reason, conflict = gps_order(pairs[~labelled], [f[0] for f in fixes if not f[0].labelled])
+        swapped[~labelled] = not lat_first
+        lat[swapped], lon[swapped] = pairs[swapped, 1], pairs[swapped, 0]
         notes.append(f"GPS(...) read as ({'latitude, longitude' if lat_first else 'longitude, latitude'}): {reason}")
         if conflict:
             warnings.append(f"the latitude/longitude order of GPS(...) is uncertain: {conflict}")
@@ -212,8 +216,7 @@ def read_srt(path: str | Path, utc_offset_s: float | None = None) -> LogRecords:
     heights, altitude, height_note = _heights(np.array([f[0].heights for f in fixes]), _fpv(text), warnings)
     notes.append(height_note)
     decimals = np.array([[_decimals(f[0].a or ""), _decimals(f[0].b or "")] for f in fixes])
-    if not fixes[0][0].labelled and not lat_first:
-        decimals = decimals[:, ::-1]
+    decimals[swapped] = decimals[swapped, ::-1]
     step_n = M_PER_DEG * 10.0 ** -decimals[:, 0]
     step_e = M_PER_DEG * 10.0 ** -decimals[:, 1] * np.cos(np.radians(lat))
     sigma = np.sqrt((step_n**2 + step_e**2) / 24)

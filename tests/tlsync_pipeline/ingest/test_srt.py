@@ -134,3 +134,11 @@ def test_blocks_without_a_position_are_counted_and_a_file_without_any_is_refused
     mixed.write_text((DATA / "p4p_sample.SRT").read_text().replace("GPS (8.2090, 47.4692, 18)", "GPS (0.0, 0.0, 0)", 1), encoding="utf-8")
     records = read_log(mixed)
     assert len(records) == 4 and records.dropped == {"no position (n/a, or latitude and longitude 0)": [1]}
+
+
+def test_a_file_mixing_layouts_reads_each_block_by_its_own():
+    """DJI_SRT_Parser's mixed sample: P4 RTK blocks (GPS (lon, lat, sats)) then Mavic 2 Pro blocks (labelled)."""
+    records = read_log(DATA / "mix_p4rtk_mavic2pro.srt")
+    assert len(records) == 12 and np.abs(records.values[:, 0] + 34.65).max() < 0.01 and np.abs(records.values[:, 1] + 59.41).max() < 0.01
+    assert any("labelled" in n for n in records.notes) and any("(longitude, latitude)" in n for n in records.notes)
+    assert any("have no date" in w for w in records.warnings) and not records.utc
