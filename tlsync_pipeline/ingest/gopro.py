@@ -70,7 +70,7 @@ class SampleClock:
 @dataclass(frozen=True)
 class Payload:
     """What the clock needs of one payload holding GPS samples: its presentation interval on the
-    MP4 track (s), its sample count, and its STMP / SHUT STMP (us) and TIMO (s) when present."""
+    MP4 track (s), its sample count, and its STMP / SHUT STMP (us), TIMO (s) and TSMP when present."""
 
     start_s: float
     end_s: float
@@ -78,6 +78,7 @@ class Payload:
     stmp_us: int | None = None
     base_us: int | None = None
     timo_s: float = 0.0
+    tsmp: int | None = None
 
 
 def _sniff(head: bytes) -> bool:
@@ -124,7 +125,9 @@ def sample_clock(payloads: list[Payload], track_start_s: float) -> SampleClock:
         return SampleClock(first.start_s - first.timo_s, first.samples / max(first.end_s - first.start_s, 1e-9), "MP4 sample table")
     approx = total / (last.end_s - first.start_s)
     if first.stmp_us is not None and last.stmp_us is not None and last.stmp_us > first.stmp_us:
-        rate = (total - last.samples) / ((last.stmp_us - first.stmp_us) * 1e-6)
+        # samples delivered between the two STMPs: by TSMP (which also counts samples a payload lost), else counted here
+        between = (last.tsmp - last.samples) - (first.tsmp - first.samples) if first.tsmp is not None and last.tsmp is not None else total - last.samples
+        rate = between / ((last.stmp_us - first.stmp_us) * 1e-6)
         if 0.9 * rate < approx < 1.1 * rate:
             base = first.base_us if first.base_us is not None else first.stmp_us
             return SampleClock((first.stmp_us - base) * 1e-6 - first.timo_s + track_start_s, rate, "STMP")
@@ -154,7 +157,7 @@ def gopro_records(path: Path, packets: list[tuple[float, float, bytes]]) -> LogR
     if not timed:
         raise InputError(f"{path}: the GPMF track has no GPS5/GPS9 stream (a camera without GPS, or with GPS switched off)")
     notes, warnings = [], []
-    clock = sample_clock([Payload(s, e, len(b.samples), b.stmp_us, base, b.timo_s) for _, s, e, b, base in timed], packets[0][0])
+    clock = sample_clock([Payload(s, e, len(b.samples), b.stmp_us, base, b.timo_s, b.tsmp) for _, s, e, b, base in timed], packets[0][0])
     notes.append(f"sample times on the video timeline: t = {clock.first_s:.4f} s + n / {clock.rate_hz:.4f} Hz "
                      f"({'camera STMP timestamps' if clock.method == 'STMP' else 'least squares over the MP4 payload times'}, as gpmf-parser)")
     rows: list[list[float]] = []

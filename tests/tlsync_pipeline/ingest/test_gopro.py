@@ -75,6 +75,9 @@ def test_sample_clock_single_payload_and_timo():
     assert clock.first_s == pytest.approx(1.9) and clock.rate_hz == pytest.approx(18.0)
     stamped = sample_clock([Payload(0.0, 1.0, 18, 1_100_000, 1_000_000), Payload(1.0, 2.0, 18, 2_090_000, 2_000_000)], track_start_s=0.0)
     assert stamped.method == "STMP" and stamped.first_s == pytest.approx(0.1) and stamped.rate_hz == pytest.approx(18 / 0.99)
+    # TSMP counts a sample the first payload's data lost: the rate counts it, as gpmf-parser's does
+    counted = sample_clock([Payload(0.0, 1.0, 18, 1_100_000, 1_000_000, tsmp=18), Payload(1.0, 2.0, 18, 2_090_000, 2_000_000, tsmp=37)], track_start_s=0.0)
+    assert counted.rate_hz == pytest.approx(19 / 0.99)
 
 
 def test_real_hero7_payloads_gpsu_against_the_sample_clock():
