@@ -99,7 +99,7 @@ def log_on_utc(files: StageFiles, timeline: Timeline) -> bool:
 
 def with_identifications(timeline: Timeline, found: dict[str, IdentificationSummary | SyncError]) -> Timeline:
     """The timeline with each identified camera's line carrying its identification summary."""
-    lines = {n: replace(line, identification=found[n]) if isinstance(found.get(n), IdentificationSummary) else line for n, line in timeline.cameras.items()}
+    lines = {n: replace(line, identification=summary) if isinstance(summary := found.get(n), IdentificationSummary) else line for n, line in timeline.cameras.items()}
     return replace(timeline, cameras=lines)
 
 
