@@ -21,6 +21,7 @@ import numpy as np
 
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.sync.clock import FRAME, CameraClock, FrameTimes
+from tlsync_pipeline.sync.clock_prior import ClockCheck
 
 FORMAT_VERSION = 1
 
@@ -162,6 +163,7 @@ class CameraLine:
     identification: IdentificationSummary | None = None
     budget: ErrorBudget | None = None
     log_bias: LogBiasSummary | None = None
+    clock_check: ClockCheck | None = None
 
     def __post_init__(self):
         if not self.clock.vfr and self.clock.fps is None and self.fps is not None:
@@ -192,6 +194,8 @@ class CameraLine:
         for key in ("line_search", "refinement", "identification", "budget", "log_bias"):
             if getattr(self, key) is not None:
                 entry[key] = asdict(getattr(self, key))
+        if self.clock_check is not None:
+            entry["clock_prior"] = self.clock_check.to_dict()
         if self.clock.vfr:
             entry.update(
                 clock=self.clock.kind,
@@ -217,6 +221,7 @@ class CameraLine:
             "identification": None if entry.get("identification") is None else IdentificationSummary.from_dict(entry["identification"]),
             "budget": None if entry.get("budget") is None else ErrorBudget(**entry["budget"]),
             "log_bias": None if entry.get("log_bias") is None else LogBiasSummary.from_dict(entry["log_bias"]),
+            "clock_check": None if entry.get("clock_prior") is None else ClockCheck.from_dict(entry["clock_prior"]),
         }
         base = {k: entry[k] for k in ("alpha", "beta", "votes", "inliers", "residual_rms")}
         return cls(name, fps=entry.get("fps"), clock=clock, **base, **optional)
