@@ -126,6 +126,7 @@ class IngestReport:
     altitude: dict = field(default_factory=dict)  # {"reference", "source" (log/declared), "offset_m"}
     quality: dict = field(default_factory=dict)  # column -> {"min", "median", "max"} over the fixes used
     sigma_m: dict | None = None  # {"median", "p95", "max"} of the per-fix sigmas used as weights
+    log_model: dict = field(default_factory=dict)  # {"name", "why"}: the error model the log's kind suggests (suggested_log_model)
     notes: list[str] = field(default_factory=list)  # how the reader read the file where it chose (time base, sub-seconds, lat/lon order)
     video_time_zero: float | None = None  # logs in or beside a video: the log's time (t0's clock, s) at the video's time 0
 
@@ -157,6 +158,8 @@ class IngestReport:
             offset = f", offset {a['offset_m']:+.3f} m" if a["offset_m"] else ""
             lines.append(f"heights: above {ALTITUDE_NAMES[a['reference']]} (as the {a['source']} says{offset})")
         lines += [f"read: {note}" for note in self.notes]
+        if self.log_model:
+            lines.append(f"error model: {self.log_model['name']} ({self.log_model['why']}; [target] log_model overrides it)")
         if self.sigma_m:
             lines.append(f"sigma: median {self.sigma_m['median']:.3f} m, 95% {self.sigma_m['p95']:.3f} m (weights for the refinement)")
         if self.gaps:
@@ -250,8 +253,30 @@ def ingest(records: LogRecords, params: IngestParams = IngestParams()) -> tuple[
         sigma_m=None if fixes.sigma is None or trajectory.sigma is None else _sigma_summary(fixes.sigma),
         notes=list(records.notes),
         video_time_zero=records.video_time_zero,
+        log_model=suggested_log_model(records, fixes.index),
     )
     return trajectory, report
+
+
+# Fix qualities that mean an RTK (or better) solution: rtklib's Q, NMEA GGA's quality, PX4's and MAVLink's fix_type.
+_RTK = {"Q": (1.0,), "quality": (4.0,), "fix_type": (6.0,)}
+_DRONES = ("ulog", "dataflash", "tlog", "dji", "srt")
+_LOCAL = ("tum", "odometry", "rosbag")
+
+
+def suggested_log_model(records: LogRecords, used: np.ndarray) -> dict:
+    """The error model (a preset of sync/log_model.py) the log's kind suggests, and why: "rtk" when most fixes used are
+    RTK-fixed, "none" for local odometry, "drone" for flight controllers' and drones' logs, else "phone" (phones,
+    watches, action cameras, handheld receivers)."""
+    for column, fixed in _RTK.items():
+        values = records.quality.get(column)
+        if values is not None and np.isin(values[used], fixed).mean() > 0.5:
+            return {"name": "rtk", "why": f"most fixes RTK-fixed ({column})"}
+    if records.format in _LOCAL or records.frame != GEODETIC:
+        return {"name": "none", "why": "local positions: no satellite bias"}
+    if records.format in _DRONES:
+        return {"name": "drone", "why": f"a drone's or flight controller's log ({records.format})"}
+    return {"name": "phone", "why": f"a consumer receiver's log ({records.format})"}
 
 
 def _ordered_fixes(records: LogRecords) -> tuple[_Fixes, dict[str, list[int]]]:

@@ -52,6 +52,35 @@ PRESETS: dict[str, LogModel] = {
 }
 
 
+AUTO = "auto"
+
+
+@dataclass(frozen=True)
+class LogModelChoice:
+    """[target]'s choice of the log's error model: a preset name, or "auto" (what ingest suggests from the log's kind;
+    "none" for a trajectory the project brings), and overrides (metres, seconds; None: the preset's). An override of
+    the bias sets the vertical one to twice it, as the presets have it."""
+
+    name: str = AUTO
+    white_m: float | None = None
+    bias_m: float | None = None
+    tau_s: float | None = None
+
+    def resolve(self, suggested: str | None) -> LogModel:
+        """The model: the preset chosen (``suggested`` for "auto", "none" without a suggestion) with the overrides."""
+        base = PRESETS[(suggested or "none") if self.name == AUTO else self.name]
+        if self.white_m is None and self.bias_m is None and self.tau_s is None:
+            return base
+        bias = base.bias_m if self.bias_m is None else self.bias_m
+        return LogModel(
+            "custom",
+            base.white_m if self.white_m is None else self.white_m,
+            bias,
+            base.bias_vertical_m if self.bias_m is None else 2.0 * bias,
+            base.tau_s if self.tau_s is None else self.tau_s,
+        )
+
+
 def vote_radius(camera: Camera, trajectory: Trajectory, eps_px: float, model: LogModel) -> float:
     """The vote radius for one camera (pixels): eps_px, or VOTE_SIGMAS times the log's horizontal error as this camera
     sees it at the median depth of the path in its view, whichever is larger."""

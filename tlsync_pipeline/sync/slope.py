@@ -17,6 +17,7 @@ import math
 from dataclasses import dataclass
 
 BAND_SIGMAS = 5.0
+BAND_FLOOR = 1e-3  # the line search's band is at least alpha x (1 +- this): a stated fps a little off (29.84 for 29.87) stays in it
 
 
 @dataclass(frozen=True)
@@ -28,8 +29,9 @@ class SlopePrior:
 
     @property
     def band(self) -> tuple[float, float]:
-        """The slopes the line search considers: alpha x (1 +- BAND_SIGMAS x sigma)."""
-        return self.alpha * (1.0 - BAND_SIGMAS * self.sigma), self.alpha * (1.0 + BAND_SIGMAS * self.sigma)
+        """The slopes the line search considers: alpha x (1 +- max(BAND_SIGMAS x sigma, BAND_FLOOR))."""
+        half = max(BAND_SIGMAS * self.sigma, BAND_FLOOR)
+        return self.alpha * (1.0 - half), self.alpha * (1.0 + half)
 
 
 def slope_prior(fps: float | None, rate: float | None, sigma: float) -> SlopePrior | None:
