@@ -1,0 +1,485 @@
+"""A camera's pose from the target itself: no survey needed, and GCPs that are only roughly right still serve.
+
+The target gives thousands of (pixel, 3D position) pairs, known up to the
+camera's line clock = alpha * sample + beta that is being estimated. With
+alpha held by the clock prior (sync/slope.py: the camera's fps over the log's
+rate), only beta is unknown:
+
+1. search over beta (``search_offsets``): for each candidate beta, each of
+   SEARCH_POINTS tracked positions (spread over the track) is paired with
+   the trajectory at its sample, and a pose is fitted to the pairs
+   (OpenCV's SQPnP on distortion-free pixels, then twice again on the
+   better half of the pairs, which is robust to a share of wrong
+   positions); the candidate's support is the pairs the pose explains
+   within the threshold. A coarse pass (3 x the threshold, steps of half
+   the threshold over the track's image speed) and a fine pass around its
+   best peaks;
+2. the best CANDIDATES peaks of distinct offsets are fitted: pose, line
+   (and the free intrinsics) jointly on every tracked position, with the
+   GCPs as a prior (sync/pose_fit.py); with GCPs, the pose the GCPs alone
+   give and the line the votes find under it are one more candidate;
+3. the fit with the most frames within the gate wins; the best fit at an
+   offset more than DISTINCT_S away is the runner-up (its support is kept,
+   as the line search keeps its runner-up's);
+4. degenerate cases fail with a named cause and a remedy (``PoseError``),
+   never with a confident wrong pose: too few frames, a path that is nearly
+   a straight line in the image (the pose turns freely about it), two
+   offsets with comparable support, or a pose whose uncertainty is too
+   large. With GCPs the straightness and ambiguity tests are left to the
+   uncertainty: the GCPs hold the pose where the path alone cannot.
+
+Without K (a camera.json with the image size only) the search fits a
+projection matrix (DLT, normalised) instead of a pose, and the joint fit
+frees the focal length, principal point and k1 with weak priors: what the
+target determines (posterior std under half the prior's) is kept, the rest
+is held. A target moving in a plane (a walker on flat ground) does not
+determine the focal length: the search's DLT is degenerate there and the
+camera fails with the cause ``planar_path``.
+
+Clock values are the camera clock in frame units (sync/clock.py); pixels
+as tracked (distorted); world metres.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import cv2
+import numpy as np
+from scipy.spatial import cKDTree
+
+from calibration.camera import Camera
+from calibration.lens import undistort_pixels
+from tlsync_pipeline.errors import SyncError
+from tlsync_pipeline.sync.line_search import find_line
+from tlsync_pipeline.sync.pose_fit import GcpPrior, IntrinsicsPrior, JointFit, fit_pose_and_line, reprojection_errors
+from tlsync_pipeline.sync.slope import SlopePrior
+from tlsync_pipeline.trajectory import PiecewiseTrajectory
+
+SEARCH_POINTS = 200  # tracked positions paired with the trajectory per candidate offset
+COARSE = 3.0  # the coarse pass's threshold and step, in units of the fine pass's
+FINE_PEAKS = 8  # coarse peaks searched finely
+CANDIDATES = 6  # fine peaks fitted jointly
+MIN_PAIRS = 12  # pairs on the trajectory a candidate offset needs
+MIN_FRAMES = 20  # frames a pose from the target needs within the gate
+STRAIGHT = 0.04  # smallest ratio of the image path's second to first singular value (below: a straight line)
+AMBIGUOUS = 0.7  # a distinct offset with this share of the best support makes the pose ambiguous
+DISTINCT_S = 1.0  # offsets further apart than this (seconds) are distinct
+MAX_ROTATION_STD_DEG = 1.0
+MAX_CENTER_STD = 0.05  # of the median distance to the target
+MAX_SE_BETA_FRAMES = 1.0
+DETERMINED = 0.5  # an intrinsic is determined when its posterior std is below this share of its prior's
+BATCH = 256  # candidate offsets whose trajectory positions are evaluated at once
+
+SOURCES = ("gcp", "board", "target", "gcp+target")
+
+REMEDIES = {
+    "no_clock": "give the camera's fps and a log with times, or add 4 GCPs (gcp = ...)",
+    "too_few_frames": "record the target longer in this view, or add 4 GCPs (gcp = ...)",
+    "straight_path": "walk a curved path through the view (turns, not a straight line), or add 4 GCPs (gcp = ...)",
+    "ambiguous_offset": "walk a path through the view that does not repeat itself (turns of different shapes), or add 4 GCPs (gcp = ...)",
+    "pose_undetermined": "walk a curved path spread over the whole view, near and far, or add 4 GCPs (gcp = ...)",
+    "no_fit": "check the intrinsics (K, dist) and that the log covers the video, or add 4 GCPs (gcp = ...)",
+    "planar_path": "calibrate the intrinsics with checkerboard photos (a target moving in a plane does not determine the focal length), or fly it at different heights",
+}
+
+
+class PoseError(SyncError):
+    """The pose cannot be estimated from the target: ``cause`` (a key of REMEDIES), what was seen, and the remedy."""
+
+    def __init__(self, camera: str, cause: str, detail: str):
+        self.cause = cause
+        self.remedy = REMEDIES[cause]
+        super().__init__(f"camera {camera}: pose not determined from the target ({cause}): {detail}; {self.remedy}")
+
+
+@dataclass(frozen=True)
+class OffsetSearch:
+    """The search over beta: the fine pass's offsets and supports (pairs within the threshold), pairs per offset, threshold and steps."""
+
+    betas: np.ndarray
+    support: np.ndarray
+    pairs: int
+    threshold_px: float
+    coarse_step: float
+    fine_step: float
+    offsets_tried: int
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """A starting point for the joint fit: camera (pose), line, and where it comes from (``search`` or ``gcp``)."""
+
+    camera: Camera
+    alpha: float
+    beta: float
+    origin: str
+
+
+@dataclass(frozen=True)
+class TargetPose:
+    """A camera's pose from the target.
+
+    camera: the fitted camera (pose; intrinsics where they were free);
+    fit: the winning joint fit; source: ``target`` or ``gcp+target``;
+    runner_up / runner_up_beta: support (frames) and beta of the best fit
+    at a distinct offset (0 / NaN without one); search: the offset search;
+    straightness: the image path's second to first singular value; gcp_pose:
+    the camera from the GCPs alone (None without GCPs); moved_m / moved_deg:
+    how far the pose moved from it; intrinsics: each intrinsic the fit was
+    free to move: (value, std, determined).
+    """
+
+    camera: Camera
+    fit: JointFit
+    source: str
+    runner_up: int
+    runner_up_beta: float
+    search: OffsetSearch
+    straightness: float
+    gcp_pose: Camera | None = None
+    moved_m: float = float("nan")
+    moved_deg: float = float("nan")
+    intrinsics: dict[str, tuple[float, float, bool]] | None = None
+
+    @property
+    def support(self) -> int:
+        return self.fit.support
+
+
+def pose_from_track(
+    camera: Camera,
+    clock: np.ndarray,
+    xy: np.ndarray,
+    path: PiecewiseTrajectory,
+    prior: SlopePrior | None,
+    gate_px: float = 10.0,
+    gcps: GcpPrior | None = None,
+    gcp_camera: Camera | None = None,
+    free: tuple[str, ...] = (),
+    f_scale: float = 3.0,
+    seed: int = 0,
+    delta: float = 0.5,
+) -> TargetPose:
+    """The camera's pose (and line) from its track of the target; PoseError with the cause when it is not determined.
+
+    camera: its intrinsics (its pose is ignored); clock / xy: (N,) camera
+    clock and (N, 2) pixels of the tracked frames; path: the trajectory
+    model (as the sync method prepares it); prior: the clock prior (needed);
+    gate_px: a frame supports a fit when its reprojection is within it;
+    gcps / gcp_camera: GCPs as a prior and the camera they give alone (a
+    starting candidate); free: intrinsics the fit may move (``f``, ``cx``,
+    ``k1``); delta: the line search's band for the GCP candidate's line.
+    """
+    name = camera.name
+    clock = np.asarray(clock, dtype=np.float64)
+    xy = np.asarray(xy, dtype=np.float64)
+    if prior is None:
+        raise PoseError(name, "no_clock", "the camera's fps or the log's rate is unknown, so the offset cannot be searched with the slope held")
+    if len(clock) < MIN_FRAMES:
+        raise PoseError(name, "too_few_frames", f"{len(clock)} tracked frames, at least {MIN_FRAMES} are needed")
+    search, candidates = search_offsets(camera, clock, xy, path, prior.alpha, seed, dlt="f" in free and not _has_focal(camera))
+    if gcp_camera is not None:
+        found = _gcp_candidate(gcp_camera, clock, xy, path, prior, gate_px, delta, seed)
+        if found is not None:
+            candidates.append(found)
+    fits = []
+    for candidate in candidates:
+        start = reprojection_errors(candidate.camera, clock, xy, path, candidate.alpha, candidate.beta) <= (search.threshold_px if candidate.origin == "search" else gate_px)
+        if start.sum() < MIN_FRAMES // 2:
+            continue
+        try:
+            fit = fit_pose_and_line(candidate.camera, clock, xy, path, candidate.alpha, candidate.beta, start, gate_px, f_scale, prior, gcps, free)
+        except ValueError:
+            continue
+        if fit.converged:
+            fits.append(fit)
+    if not fits:
+        raise PoseError(name, "no_fit", f"no offset of {search.offsets_tried} tried gives a pose that explains {MIN_FRAMES} tracked frames within {gate_px:g} px")
+    fits.sort(key=lambda f: (-f.support, f.scale_px))
+    best = fits[0]
+    distinct = [f for f in fits if abs(f.beta - best.beta) > DISTINCT_S * prior.alpha * _rate(prior, camera)]
+    runner = distinct[0] if distinct else None
+    result = TargetPose(
+        best.camera,
+        best,
+        "gcp+target" if gcps is not None else "target",
+        runner.support if runner else 0,
+        runner.beta if runner else float("nan"),
+        search,
+        straightness(xy[best.inliers]),
+    )
+    if free:
+        result = _settle_intrinsics(result, clock, xy, path, prior, gate_px, f_scale, gcps, free)
+    if gcp_camera is not None:
+        result = replace(result, gcp_pose=gcp_camera, moved_m=float(np.linalg.norm(result.camera.center - gcp_camera.center)), moved_deg=rotation_between(result.camera.R, gcp_camera.R))
+    check_determined(result, clock, path, gcps is not None)
+    return result
+
+
+def _rate(prior: SlopePrior, camera: Camera) -> float:
+    """Log samples per second implied by the prior and the camera's fps (1 when the fps is unknown: DISTINCT_S then counts samples)."""
+    return camera.fps / prior.alpha if camera.fps else 1.0
+
+
+def _has_focal(camera: Camera) -> bool:
+    return "intrinsics" not in camera.to_estimate
+
+
+def check_determined(result: TargetPose, clock: np.ndarray, path: PiecewiseTrajectory, with_gcps: bool) -> None:
+    """Raise PoseError when the pose is not determined (see the module docstring, step 4)."""
+    fit, name = result.fit, result.camera.name
+    if fit.support < MIN_FRAMES:
+        raise PoseError(name, "too_few_frames", f"{fit.support} frames within the gate, at least {MIN_FRAMES} are needed")
+    if not with_gcps and result.straightness < STRAIGHT:
+        raise PoseError(name, "straight_path", f"the target's path is nearly a straight line in the image (width {result.straightness:.3f} of its length)")
+    if not with_gcps and result.runner_up >= AMBIGUOUS * fit.support:
+        raise PoseError(
+            name, "ambiguous_offset", f"two offsets explain the track alike ({fit.support} and {result.runner_up} frames, beta {fit.beta:.1f} and {result.runner_up_beta:.1f})"
+        )
+    depth = median_depth(fit.camera, clock[fit.inliers], path, fit.alpha, fit.beta)
+    loose = []
+    if not fit.rotation_std_deg <= MAX_ROTATION_STD_DEG:
+        loose.append(f"rotation +-{fit.rotation_std_deg:.2g} deg")
+    if not fit.center_std_m <= MAX_CENTER_STD * depth:
+        loose.append(f"centre +-{fit.center_std_m:.2g} m at {depth:.0f} m")
+    if not fit.se_beta <= MAX_SE_BETA_FRAMES:
+        loose.append(f"offset +-{fit.se_beta:.2g} frames")
+    if loose:
+        cause = "straight_path" if result.straightness < 3 * STRAIGHT else "pose_undetermined"
+        raise PoseError(name, cause, "the track leaves the pose loose (" + ", ".join(loose) + ")")
+
+
+def median_depth(camera: Camera, clock: np.ndarray, path: PiecewiseTrajectory, alpha: float, beta: float) -> float:
+    """Median distance (metres, along the optical axis) of the target at the given frames under the line."""
+    s = (clock - beta) / alpha
+    run = path.run_of(s)
+    on = run >= 0
+    if not on.any():
+        return float("nan")
+    return float(np.median((path(s[on], run[on]) @ camera.R.T + camera.t)[:, 2]))
+
+
+def straightness(xy: np.ndarray) -> float:
+    """Second over first singular value of the centred pixel positions (N, 2): 0 for points on one line."""
+    if len(xy) < 3:
+        return 0.0
+    s = np.linalg.svd(xy - xy.mean(axis=0), compute_uv=False)
+    return float(s[1] / s[0]) if s[0] > 0 else 0.0
+
+
+def rotation_between(Ra: np.ndarray, Rb: np.ndarray) -> float:
+    """Angle (degrees) of the rotation taking Ra to Rb."""
+    cos = (np.trace(Ra @ Rb.T) - 1.0) / 2.0
+    return float(np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))))
+
+
+def search_offsets(camera: Camera, clock: np.ndarray, xy: np.ndarray, path: PiecewiseTrajectory, alpha: float, seed: int = 0, dlt: bool = False) -> tuple[OffsetSearch, list[Candidate]]:
+    """The search over beta with alpha held (module docstring, step 1): the fine pass and the CANDIDATES best peaks as cameras.
+
+    dlt: fit a projection matrix (unknown intrinsics) instead of a pose.
+    """
+    w, h = camera.image_size
+    threshold = max(8.0, 0.01 * float(np.hypot(w, h)))
+    speed = image_speed(clock, xy)
+    fine = float(np.clip(0.5 * threshold / speed, 0.5, 2.0 * alpha))
+    coarse = COARSE * fine
+    rows = np.linspace(0, len(clock) - 1, min(SEARCH_POINTS, len(clock))).round().astype(np.int64)
+    rows = np.unique(rows)
+    c = clock[rows]
+    ideal = xy[rows] if dlt else undistort_pixels(xy[rows], camera.K, camera.dist, camera.dist_model, P=camera.K)
+    lo = float(c.min() - alpha * path.ends.max())
+    hi = float(c.max() - alpha * path.starts.min())
+    score = _Scorer(camera.K, c, ideal, path, alpha, dlt)
+    betas = np.arange(lo, hi + coarse, coarse)
+    support = score.many(betas, COARSE * threshold)
+    tried = len(betas)
+    peaks = _peaks(support, FINE_PEAKS)
+    fine_betas = np.unique(np.concatenate([np.arange(betas[k] - 1.5 * coarse, betas[k] + 1.5 * coarse + fine, fine) for k in peaks])) if peaks else np.zeros(0)
+    fine_support = score.many(fine_betas, threshold)
+    tried += len(fine_betas)
+    search = OffsetSearch(fine_betas, fine_support, len(rows), threshold, coarse, fine, tried)
+    candidates = []
+    for k in _peaks(fine_support, CANDIDATES, separation=coarse / fine):
+        found = score.camera_at(camera, float(fine_betas[k]), threshold)
+        if found is not None:
+            candidates.append(Candidate(found, alpha, float(fine_betas[k]), "search"))
+    return search, candidates
+
+
+def image_speed(clock: np.ndarray, xy: np.ndarray) -> float:
+    """The track's image speed, pixels per clock unit: the 75th percentile over consecutive tracked frames (at least 0.05)."""
+    dc = np.diff(clock)
+    step = np.linalg.norm(np.diff(xy, axis=0), axis=1)
+    near = (dc > 0) & (dc <= 2.0)
+    if not near.any():
+        return 1.0
+    return max(float(np.quantile(step[near] / dc[near], 0.75)), 0.05)
+
+
+def _peaks(support: np.ndarray, count: int, separation: float = 2.0) -> list[int]:
+    """Indices of up to ``count`` local maxima of most support, each more than ``separation`` indices from those kept before."""
+    order = np.argsort(-support, kind="stable")
+    kept: list[int] = []
+    for k in order:
+        if support[k] < MIN_PAIRS or len(kept) == count:
+            break
+        if all(abs(int(k) - j) > separation for j in kept):
+            kept.append(int(k))
+    return kept
+
+
+class _Scorer:
+    """Support of candidate offsets: pose (or projection matrix) fitted to the pairs, trimmed twice, pairs within a threshold."""
+
+    def __init__(self, K: np.ndarray, clock: np.ndarray, ideal: np.ndarray, path: PiecewiseTrajectory, alpha: float, dlt: bool):
+        self.K, self.clock, self.ideal, self.path, self.alpha, self.dlt = K, clock, ideal, path, alpha, dlt
+
+    def pairs(self, beta: float) -> tuple[np.ndarray, np.ndarray]:
+        s = (self.clock - beta) / self.alpha
+        run = self.path.run_of(s)
+        on = run >= 0
+        return self.path(s[on], run[on]), self.ideal[on]
+
+    def many(self, betas: np.ndarray, threshold: float) -> np.ndarray:
+        """(len(betas),) support of each offset."""
+        out = np.zeros(len(betas), dtype=np.int64)
+        for first in range(0, len(betas), BATCH):
+            chunk = betas[first : first + BATCH]
+            s = (self.clock[None, :] - chunk[:, None]) / self.alpha
+            run = self.path.run_of(s.ravel())
+            on = run >= 0
+            xyz = np.full((s.size, 3), np.nan)
+            if on.any():
+                xyz[on] = self.path(s.ravel()[on], run[on])
+            xyz = xyz.reshape(len(chunk), len(self.clock), 3)
+            on = on.reshape(len(chunk), -1)
+            for k in range(len(chunk)):
+                if on[k].sum() >= MIN_PAIRS:
+                    out[first + k] = self.fit(xyz[k][on[k]], self.ideal[on[k]], threshold)[0]
+        return out
+
+    def fit(self, xyz: np.ndarray, uv: np.ndarray, threshold: float):
+        """(support, pose or projection) of one offset's pairs."""
+        keep = np.ones(len(xyz), dtype=bool)
+        model = None
+        for _ in range(3):
+            model = _dlt(xyz[keep], uv[keep]) if self.dlt else _pnp(xyz[keep], uv[keep], self.K)
+            if model is None:
+                return 0, None
+            error = _errors(model, xyz, uv, self.K, self.dlt)
+            keep = error <= np.quantile(error, 0.5)
+            if keep.sum() < 6:
+                return 0, None
+        return int((error <= threshold).sum()), model
+
+    def camera_at(self, camera: Camera, beta: float, threshold: float) -> Camera | None:
+        """The camera of the pose fitted at ``beta`` (with K and R, t from the projection matrix under DLT), or None."""
+        xyz, uv = self.pairs(beta)
+        if len(xyz) < MIN_PAIRS:
+            return None
+        _, model = self.fit(xyz, uv, threshold)
+        if model is None:
+            return None
+        if self.dlt:
+            K, R, t = _decompose(model, camera.image_size)
+            if K is None:
+                return None
+            return Camera(camera.name, K, np.zeros(5), R, t, camera.image_size, camera.fps, camera.dist_model, dict(camera.extra))
+        rvec, tvec = model
+        return Camera(camera.name, camera.K, camera.dist, cv2.Rodrigues(rvec)[0], tvec.ravel(), camera.image_size, camera.fps, camera.dist_model, dict(camera.extra))
+
+
+def _pnp(xyz: np.ndarray, uv: np.ndarray, K: np.ndarray):
+    """SQPnP's pose (rvec, tvec) of pairs, or None (no solution, or points too close together: OpenCV asserts)."""
+    try:
+        ok, rvec, tvec = cv2.solvePnP(xyz, uv, K, None, flags=cv2.SOLVEPNP_SQPNP)
+    except cv2.error:
+        return None
+    return (rvec, tvec) if ok else None
+
+
+def _errors(model, xyz: np.ndarray, uv: np.ndarray, K: np.ndarray, dlt: bool) -> np.ndarray:
+    """Pixel error of each pair under a pose (rvec, tvec) or a projection matrix; inf behind the camera."""
+    if dlt:
+        h = xyz @ model[:, :3].T + model[:, 3]
+    else:
+        rvec, tvec = model
+        h = (xyz @ cv2.Rodrigues(rvec)[0].T + tvec.ravel()) @ K.T
+    with np.errstate(divide="ignore", invalid="ignore"):
+        error = np.linalg.norm(h[:, :2] / h[:, 2:3] - uv, axis=1)
+    return np.where((h[:, 2] > 0) & np.isfinite(error), error, 1e12)
+
+
+def _dlt(xyz: np.ndarray, uv: np.ndarray) -> np.ndarray | None:
+    """3x4 projection matrix from pairs by the normalised DLT (Hartley), its sign making depths positive; None when degenerate."""
+    if len(xyz) < 6:
+        return None
+    mx, my = xyz.mean(axis=0), uv.mean(axis=0)
+    sx = np.sqrt(3) / max(np.sqrt(((xyz - mx) ** 2).sum(axis=1).mean()), 1e-12)
+    sy = np.sqrt(2) / max(np.sqrt(((uv - my) ** 2).sum(axis=1).mean()), 1e-12)
+    X = np.column_stack([(xyz - mx) * sx, np.ones(len(xyz))])
+    x = (uv - my) * sy
+    A = np.zeros((2 * len(X), 12))
+    A[0::2, 0:4] = X
+    A[0::2, 8:12] = -x[:, :1] * X
+    A[1::2, 4:8] = X
+    A[1::2, 8:12] = -x[:, 1:] * X
+    _, sv, vt = np.linalg.svd(A, full_matrices=False)
+    if sv[-2] < 1e-9 * sv[0]:
+        return None
+    P = vt[-1].reshape(3, 4)
+    T = np.diag([sx, sx, sx, 1.0])
+    T[:3, 3] = -sx * mx
+    Ti = np.array([[1 / sy, 0, my[0]], [0, 1 / sy, my[1]], [0, 0, 1.0]])
+    P = Ti @ P @ T
+    if np.median(xyz @ P[2, :3] + P[2, 3]) < 0:
+        P = -P
+    return P
+
+
+def _decompose(P: np.ndarray, image_size: tuple[int, int]) -> tuple[np.ndarray | None, np.ndarray, np.ndarray]:
+    """K (square pixels, no skew), R, t of a projection matrix; K None when it is not a camera's (negative focal, centre far outside)."""
+    K, R, centre = cv2.decomposeProjectionMatrix(P)[:3]
+    signs = np.diag(np.sign(np.diag(K)))
+    K, R = K @ signs, signs @ R
+    if np.linalg.det(R) < 0:
+        R = -R
+    K = K / K[2, 2]
+    centre = centre[:3, 0] / centre[3, 0]
+    w, h = image_size
+    f = 0.5 * (abs(K[0, 0]) + abs(K[1, 1]))
+    if not (f > 0.1 * w and abs(K[0, 2] - w / 2) < w and abs(K[1, 2] - h / 2) < h):
+        return None, R, -R @ centre
+    K = np.array([[f, 0.0, K[0, 2]], [0.0, f, K[1, 2]], [0.0, 0.0, 1.0]])
+    return K, R, -R @ centre
+
+
+def _gcp_candidate(gcp_camera: Camera, clock, xy, path, prior: SlopePrior, gate_px: float, delta: float, seed: int) -> Candidate | None:
+    """The GCPs' own pose with the line the votes find under it (the nearest sample within the gate of each tracked frame), or None."""
+    uv, valid = gcp_camera.project(path.positions(np.arange(path.starts.min(), path.ends.max() + 1)) if len(path.starts) else np.zeros((0, 3)))
+    samples = np.arange(path.starts.min(), path.ends.max() + 1)[valid]
+    if len(samples) < 2:
+        return None
+    pairs = cKDTree(xy).sparse_distance_matrix(cKDTree(uv[valid]), gate_px, output_type="ndarray")
+    if len(pairs) < 2:
+        return None
+    try:
+        line = find_line(samples[pairs["j"]], clock[pairs["i"]], pairs["v"], delta, seed=seed, prior=prior)
+    except ValueError:
+        return None
+    return Candidate(gcp_camera, line.alpha, line.beta, "gcp")
+
+
+def _settle_intrinsics(result: TargetPose, clock, xy, path, prior, gate_px, f_scale, gcps, free) -> TargetPose:
+    """Keep free the intrinsics the target determines (posterior std below DETERMINED x the prior's), refit with the others held."""
+    fit = result.fit
+    priors = IntrinsicsPrior.around(result.camera)
+    stds = fit.intrinsics_std
+    prior_std = {"f": priors.f[1], "cx": priors.cx[1], "cy": priors.cy[1], "k1": priors.k1[1]}
+    kept = tuple(k for k in free if stds.get(k, np.inf) < DETERMINED * prior_std[k])
+    if kept != tuple(free):
+        fit = fit_pose_and_line(fit.camera, clock, xy, path, fit.alpha, fit.beta, fit.inliers, gate_px, f_scale, prior, gcps, kept)
+    values = {"f": fit.camera.K[0, 0], "cx": fit.camera.K[0, 2], "cy": fit.camera.K[1, 2], "k1": fit.camera.dist[0]}
+    report = {k: (float(values[k]), float(fit.intrinsics_std.get(k, stds.get(k, np.nan))), k in kept) for k in free}
+    return replace(result, camera=fit.camera, fit=fit, intrinsics=report)
