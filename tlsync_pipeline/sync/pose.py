@@ -62,12 +62,13 @@ FINE_PEAKS = 8  # coarse peaks searched finely
 CANDIDATES = 6  # fine peaks fitted jointly
 MIN_PAIRS = 12  # pairs on the trajectory a candidate offset needs
 MIN_FRAMES = 20  # frames a pose from the target needs within the gate
-STRAIGHT = 0.04  # smallest ratio of the image path's second to first singular value (below: a straight line)
-AMBIGUOUS = 0.7  # a distinct offset with this share of the best support makes the pose ambiguous
+STRAIGHT = 0.02  # smallest ratio of the image path's second to first singular value (below: a straight line)
+NEARLY_STRAIGHT = 0.05  # a loose pose on a path below this ratio is put down to its straightness
+AMBIGUOUS = 0.85  # a distinct offset scoring this share of the best's score (msac at TIGHT median residuals) makes the pose ambiguous
+TIGHT = 3.0  # median residuals of the best fit within which frames count for the ambiguity test
 DISTINCT_S = 1.0  # offsets further apart than this (seconds) are distinct
-MAX_ROTATION_STD_DEG = 1.0
-MAX_CENTER_STD = 0.05  # of the median distance to the target
-MAX_SE_BETA_FRAMES = 1.0
+MAX_ROTATION_STD_DEG = 3.0
+MAX_CENTER_STD = 0.15  # of the median distance to the target
 DETERMINED = 0.5  # an intrinsic is determined when its posterior std is below this share of its prior's
 BATCH = 256  # candidate offsets whose trajectory positions are evaluated at once
 
@@ -95,7 +96,7 @@ class PoseError(SyncError):
 
 @dataclass(frozen=True)
 class OffsetSearch:
-    """The search over beta: the fine pass's offsets and supports (pairs within the threshold), pairs per offset, threshold and steps."""
+    """The search over beta: the fine pass's offsets and supports (MSAC scores of the pairs, ``_Scorer.fit``), pairs per offset, threshold and steps."""
 
     betas: np.ndarray
     support: np.ndarray
@@ -122,8 +123,12 @@ class TargetPose:
 
     camera: the fitted camera (pose; intrinsics where they were free);
     fit: the winning joint fit; source: ``target`` or ``gcp+target``;
-    runner_up / runner_up_beta: support (frames) and beta of the best fit
-    at a distinct offset (0 / NaN without one); search: the offset search;
+    runner_up / runner_up_beta: frames within ``tight_px`` (TIGHT median
+    residuals of the winner) and beta of the best fit at a distinct offset (0 /
+    NaN without one); tight_support: the winner's frames within tight_px;
+    runner_up_ratio: the runner-up's MSAC score over the winner's (``msac``
+    at tight_px: near 1 when both explain the track alike);
+    search: the offset search;
     straightness: the image path's second to first singular value; gcp_pose:
     the camera from the GCPs alone (None without GCPs); moved_m / moved_deg:
     how far the pose moved from it; intrinsics: each intrinsic the fit was
@@ -135,6 +140,9 @@ class TargetPose:
     source: str
     runner_up: int
     runner_up_beta: float
+    tight_support: int
+    tight_px: float
+    runner_up_ratio: float
     search: OffsetSearch
     straightness: float
     gcp_pose: Camera | None = None
@@ -153,6 +161,7 @@ def pose_from_track(
     xy: np.ndarray,
     path: PiecewiseTrajectory,
     prior: SlopePrior | None,
+    fps: float | None,
     gate_px: float = 10.0,
     gcps: GcpPrior | None = None,
     gcp_camera: Camera | None = None,
@@ -174,7 +183,7 @@ def pose_from_track(
     name = camera.name
     clock = np.asarray(clock, dtype=np.float64)
     xy = np.asarray(xy, dtype=np.float64)
-    if prior is None:
+    if prior is None or not fps:
         raise PoseError(name, "no_clock", "the camera's fps or the log's rate is unknown, so the offset cannot be searched with the slope held")
     if len(clock) < MIN_FRAMES:
         raise PoseError(name, "too_few_frames", f"{len(clock)} tracked frames, at least {MIN_FRAMES} are needed")
@@ -198,14 +207,18 @@ def pose_from_track(
         raise PoseError(name, "no_fit", f"no offset of {search.offsets_tried} tried gives a pose that explains {MIN_FRAMES} tracked frames within {gate_px:g} px")
     fits.sort(key=lambda f: (-f.support, f.scale_px))
     best = fits[0]
-    distinct = [f for f in fits if abs(f.beta - best.beta) > DISTINCT_S * prior.alpha * _rate(prior, camera)]
-    runner = distinct[0] if distinct else None
+    tight = TIGHT * max(float(np.median(best.errors[best.inliers])), 0.5)
+    distinct = [f for f in fits if abs(f.beta - best.beta) > DISTINCT_S * fps]
+    runner = max(distinct, key=lambda f: msac(f.errors, tight)) if distinct else None
     result = TargetPose(
         best.camera,
         best,
         "gcp+target" if gcps is not None else "target",
-        runner.support if runner else 0,
+        runner.within(tight) if runner else 0,
         runner.beta if runner else float("nan"),
+        best.within(tight),
+        tight,
+        msac(runner.errors, tight) / max(msac(best.errors, tight), 1e-9) if runner else 0.0,
         search,
         straightness(xy[best.inliers]),
     )
@@ -215,11 +228,6 @@ def pose_from_track(
         result = replace(result, gcp_pose=gcp_camera, moved_m=float(np.linalg.norm(result.camera.center - gcp_camera.center)), moved_deg=rotation_between(result.camera.R, gcp_camera.R))
     check_determined(result, clock, path, gcps is not None)
     return result
-
-
-def _rate(prior: SlopePrior, camera: Camera) -> float:
-    """Log samples per second implied by the prior and the camera's fps (1 when the fps is unknown: DISTINCT_S then counts samples)."""
-    return camera.fps / prior.alpha if camera.fps else 1.0
 
 
 def _has_focal(camera: Camera) -> bool:
@@ -233,9 +241,12 @@ def check_determined(result: TargetPose, clock: np.ndarray, path: PiecewiseTraje
         raise PoseError(name, "too_few_frames", f"{fit.support} frames within the gate, at least {MIN_FRAMES} are needed")
     if not with_gcps and result.straightness < STRAIGHT:
         raise PoseError(name, "straight_path", f"the target's path is nearly a straight line in the image (width {result.straightness:.3f} of its length)")
-    if not with_gcps and result.runner_up >= AMBIGUOUS * fit.support:
+    if not with_gcps and result.runner_up_ratio >= AMBIGUOUS:
         raise PoseError(
-            name, "ambiguous_offset", f"two offsets explain the track alike ({fit.support} and {result.runner_up} frames, beta {fit.beta:.1f} and {result.runner_up_beta:.1f})"
+            name,
+            "ambiguous_offset",
+            f"two offsets explain the track alike (scores {result.runner_up_ratio:.2f} to 1, {result.runner_up} and {result.tight_support} frames within {result.tight_px:.1f} px, "
+            f"beta {result.runner_up_beta:.1f} and {fit.beta:.1f})",
         )
     depth = median_depth(fit.camera, clock[fit.inliers], path, fit.alpha, fit.beta)
     loose = []
@@ -243,10 +254,8 @@ def check_determined(result: TargetPose, clock: np.ndarray, path: PiecewiseTraje
         loose.append(f"rotation +-{fit.rotation_std_deg:.2g} deg")
     if not fit.center_std_m <= MAX_CENTER_STD * depth:
         loose.append(f"centre +-{fit.center_std_m:.2g} m at {depth:.0f} m")
-    if not fit.se_beta <= MAX_SE_BETA_FRAMES:
-        loose.append(f"offset +-{fit.se_beta:.2g} frames")
     if loose:
-        cause = "straight_path" if result.straightness < 3 * STRAIGHT else "pose_undetermined"
+        cause = "straight_path" if result.straightness < NEARLY_STRAIGHT else "pose_undetermined"
         raise PoseError(name, cause, "the track leaves the pose loose (" + ", ".join(loose) + ")")
 
 
@@ -300,7 +309,7 @@ def search_offsets(camera: Camera, clock: np.ndarray, xy: np.ndarray, path: Piec
     tried += len(fine_betas)
     search = OffsetSearch(fine_betas, fine_support, len(rows), threshold, coarse, fine, tried)
     candidates = []
-    for k in _peaks(fine_support, CANDIDATES, separation=coarse / fine):
+    for k in _peaks(fine_support, CANDIDATES, separation=3 * coarse / fine):
         found = score.camera_at(camera, float(fine_betas[k]), threshold)
         if found is not None:
             candidates.append(Candidate(found, alpha, float(fine_betas[k]), "search"))
@@ -343,7 +352,7 @@ class _Scorer:
 
     def many(self, betas: np.ndarray, threshold: float) -> np.ndarray:
         """(len(betas),) support of each offset."""
-        out = np.zeros(len(betas), dtype=np.int64)
+        out = np.zeros(len(betas))
         for first in range(0, len(betas), BATCH):
             chunk = betas[first : first + BATCH]
             s = (self.clock[None, :] - chunk[:, None]) / self.alpha
@@ -360,7 +369,14 @@ class _Scorer:
         return out
 
     def fit(self, xyz: np.ndarray, uv: np.ndarray, threshold: float):
-        """(support, pose or projection) of one offset's pairs."""
+        """(support, pose or projection) of one offset's pairs.
+
+        The support is the truncated quadratic score of the pairs,
+        sum(max(0, 1 - (error / threshold)^2)) (MSAC): pairs within the
+        threshold count, the closer the more, so a track that several
+        offsets explain within the threshold still ranks the one that
+        explains it best first.
+        """
         keep = np.ones(len(xyz), dtype=bool)
         model = None
         for _ in range(3):
@@ -371,7 +387,7 @@ class _Scorer:
             keep = error <= np.quantile(error, 0.5)
             if keep.sum() < 6:
                 return 0, None
-        return int((error <= threshold).sum()), model
+        return msac(error, threshold), model
 
     def camera_at(self, camera: Camera, beta: float, threshold: float) -> Camera | None:
         """The camera of the pose fitted at ``beta`` (with K and R, t from the projection matrix under DLT), or None."""
@@ -483,3 +499,9 @@ def _settle_intrinsics(result: TargetPose, clock, xy, path, prior, gate_px, f_sc
     values = {"f": fit.camera.K[0, 0], "cx": fit.camera.K[0, 2], "cy": fit.camera.K[1, 2], "k1": fit.camera.dist[0]}
     report = {k: (float(values[k]), float(fit.intrinsics_std.get(k, stds.get(k, np.nan))), k in kept) for k in free}
     return replace(result, camera=fit.camera, fit=fit, intrinsics=report)
+
+
+def msac(errors: np.ndarray, threshold: float) -> float:
+    """Truncated quadratic score of pixel errors: sum(max(0, 1 - (error / threshold)^2)); inf errors count 0."""
+    with np.errstate(invalid="ignore"):
+        return float(np.clip(1.0 - (np.asarray(errors) / threshold) ** 2, 0.0, None).sum())

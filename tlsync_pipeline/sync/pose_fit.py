@@ -144,7 +144,18 @@ class JointFit:
     gcp_errors_px: np.ndarray
     converged: bool
     message: str
-    inliers: np.ndarray  # (N,) the given frames within the gate
+    errors: np.ndarray  # (N,) pixel error of each given frame under the fit (inf off the trajectory)
+
+    @property
+    def inliers(self) -> np.ndarray:
+        """(N,) the given frames within the gate."""
+        return self.errors <= self.gate_px
+
+    gate_px: float = 10.0
+
+    def within(self, px: float) -> int:
+        """Given frames whose reprojection is within ``px``."""
+        return int((self.errors <= px).sum())
 
 
 def camera_at(camera: Camera, x: np.ndarray, layout: Layout) -> Camera:
@@ -207,7 +218,6 @@ def fit_pose_and_line(
             break
         use = grown
     error = reprojection_errors(camera, clock, xy, path, alpha, beta)
-    inliers = error <= gate_px
     return JointFit(
         camera,
         alpha,
@@ -215,7 +225,7 @@ def fit_pose_and_line(
         result["cov"],
         layout,
         result["frames"],
-        int(inliers.sum()),
+        int((error <= gate_px).sum()),
         result["scale_px"],
         result["center_std_m"],
         result["rotation_std_deg"],
@@ -224,7 +234,8 @@ def fit_pose_and_line(
         gcps.errors_px(camera) if gcps is not None else np.zeros(0),
         result["converged"],
         result["message"],
-        inliers,
+        error,
+        gate_px,
     )
 
 
