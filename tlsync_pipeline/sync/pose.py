@@ -20,7 +20,9 @@ rate), only beta is unknown:
    give and the line the votes find under it are one more candidate;
 3. the fit with the most frames within the gate wins; the best fit at an
    offset more than DISTINCT_S away is the runner-up (its support is kept,
-   as the line search keeps its runner-up's);
+   as the line search keeps its runner-up's); with GCPs, only fits that
+   keep the GCPs within GCP_AGREE of their sigmas count (a straight path
+   explains the track from many poses, the GCPs tell them apart);
 4. degenerate cases fail with a named cause and a remedy (``PoseError``),
    never with a confident wrong pose: too few frames, a path that is nearly
    a straight line in the image (the pose turns freely about it), two
@@ -49,6 +51,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from calibration.camera import Camera
+from calibration.extrinsics import pose_from_points
 from calibration.lens import undistort_pixels
 from tlsync_pipeline.errors import SyncError
 from tlsync_pipeline.sync.line_search import find_line
@@ -67,6 +70,7 @@ NEARLY_STRAIGHT = 0.05  # a loose pose on a path below this ratio is put down to
 AMBIGUOUS = 0.85  # a distinct offset scoring this share of the best's score (msac at TIGHT median residuals) makes the pose ambiguous
 TIGHT = 3.0  # median residuals of the best fit within which frames count for the ambiguity test
 DISTINCT_S = 1.0  # offsets further apart than this (seconds) are distinct
+GCP_AGREE = 3.0  # a pose agrees with the GCPs when their median error is within this many of their sigmas
 MAX_ROTATION_STD_DEG = 3.0
 MAX_CENTER_STD = 0.15  # of the median distance to the target
 DETERMINED = 0.5  # an intrinsic is determined when its posterior std is below this share of its prior's
@@ -80,6 +84,7 @@ REMEDIES = {
     "straight_path": "walk a curved path through the view (turns, not a straight line), or add 4 GCPs (gcp = ...)",
     "ambiguous_offset": "walk a path through the view that does not repeat itself (turns of different shapes), or add 4 GCPs (gcp = ...)",
     "pose_undetermined": "walk a curved path spread over the whole view, near and far, or add 4 GCPs (gcp = ...)",
+    "gcp_conflict": "check the GCP file (each pixel against its world point) and gcp_sigma_m, and that the log is in the GCPs' frame",
     "no_fit": "check the intrinsics (K, dist) and that the log covers the video, or add 4 GCPs (gcp = ...)",
     "planar_path": "calibrate the intrinsics with checkerboard photos (a target moving in a plane does not determine the focal length), or fly it at different heights",
 }
@@ -205,6 +210,11 @@ def pose_from_track(
             fits.append(fit)
     if not fits:
         raise PoseError(name, "no_fit", f"no offset of {search.offsets_tried} tried gives a pose that explains {MIN_FRAMES} tracked frames within {gate_px:g} px")
+    if gcps is not None:
+        agreeing = [f for f in fits if gcps_agree(gcps, f)]
+        if not agreeing:
+            raise PoseError(name, "gcp_conflict", f"no offset gives a pose that both explains the track and keeps the GCPs within {GCP_AGREE:g} sigmas ({gcps.sigma_m:g} m)")
+        fits = agreeing
     fits.sort(key=lambda f: (-f.support, f.scale_px))
     best = fits[0]
     tight = TIGHT * max(float(np.median(best.errors[best.inliers])), 0.5)
@@ -257,6 +267,11 @@ def check_determined(result: TargetPose, clock: np.ndarray, path: PiecewiseTraje
     if loose:
         cause = "straight_path" if result.straightness < NEARLY_STRAIGHT else "pose_undetermined"
         raise PoseError(name, cause, "the track leaves the pose loose (" + ", ".join(loose) + ")")
+
+
+def gcps_agree(gcps: GcpPrior, fit: JointFit) -> bool:
+    """Whether the fitted pose keeps the GCPs within GCP_AGREE of their sigmas (median over the points: one bad point is allowed)."""
+    return bool(np.median(fit.gcp_errors_px / gcps.sigma_px(fit.camera)) <= GCP_AGREE)
 
 
 def median_depth(camera: Camera, clock: np.ndarray, path: PiecewiseTrajectory, alpha: float, beta: float) -> float:
@@ -469,6 +484,20 @@ def _decompose(P: np.ndarray, image_size: tuple[int, int]) -> tuple[np.ndarray |
         return None, R, -R @ centre
     K = np.array([[f, 0.0, K[0, 2]], [0.0, f, K[1, 2]], [0.0, 0.0, 1.0]])
     return K, R, -R @ centre
+
+
+def gcp_camera(camera: Camera, gcps: GcpPrior, ransac_px: float = 8.0) -> Camera:
+    """The camera posed by its GCPs alone (CalibrationInputError when they cannot give a pose: too few, collinear).
+
+    The RANSAC threshold is widened to GCP_AGREE sigmas of the survey at
+    the points' depths (under a first pose from all the points): with a
+    rough survey every point is off by tens of pixels, none is an outlier.
+    """
+    pose = pose_from_points(gcps.uv, gcps.xyz, camera.K, camera.dist, camera.dist_model, 1e6, source="GCPs")
+    first = replace(camera, R=pose.R, t=pose.t, to_estimate=())
+    threshold = max(ransac_px, GCP_AGREE * float(np.median(gcps.sigma_px(first))))
+    pose = pose_from_points(gcps.uv, gcps.xyz, camera.K, camera.dist, camera.dist_model, threshold, source="GCPs")
+    return replace(camera, R=pose.R, t=pose.t, to_estimate=())
 
 
 def _gcp_candidate(gcp_camera: Camera, clock, xy, path, prior: SlopePrior, gate_px: float, delta: float, seed: int) -> Candidate | None:
