@@ -55,7 +55,7 @@ from calibration.extrinsics import pose_from_points
 from calibration.lens import undistort_pixels
 from tlsync_pipeline.errors import SyncError
 from tlsync_pipeline.sync.line_search import find_line
-from tlsync_pipeline.sync.pose_fit import GcpPrior, IntrinsicsPrior, JointFit, fit_pose_and_line, reprojection_errors
+from tlsync_pipeline.sync.pose_fit import INTRINSICS, GcpPrior, JointFit, fit_pose_and_line, reprojection_errors
 from tlsync_pipeline.sync.slope import SlopePrior
 from tlsync_pipeline.trajectory import PiecewiseTrajectory
 
@@ -73,7 +73,9 @@ DISTINCT_S = 1.0  # offsets further apart than this (seconds) are distinct
 GCP_AGREE = 3.0  # a pose agrees with the GCPs when their median error is within this many of their sigmas
 MAX_ROTATION_STD_DEG = 3.0
 MAX_CENTER_STD = 0.15  # of the median distance to the target
-DETERMINED = 0.5  # an intrinsic is determined when its posterior std is below this share of its prior's
+# An intrinsic the target determines: its posterior std below these (f: share of f; cx, cy: share of the image width; k1: absolute).
+DETERMINED = {"f": 0.05, "cx": 0.02, "cy": 0.02, "k1": 0.05}
+PLANAR = 0.02  # a log whose smallest spread is below this share of its largest moves in a plane
 BATCH = 256  # candidate offsets whose trajectory positions are evaluated at once
 
 SOURCES = ("gcp", "board", "target", "gcp+target")
@@ -192,7 +194,10 @@ def pose_from_track(
         raise PoseError(name, "no_clock", "the camera's fps or the log's rate is unknown, so the offset cannot be searched with the slope held")
     if len(clock) < MIN_FRAMES:
         raise PoseError(name, "too_few_frames", f"{len(clock)} tracked frames, at least {MIN_FRAMES} are needed")
-    search, candidates = search_offsets(camera, clock, xy, path, prior.alpha, seed, dlt="f" in free and not _has_focal(camera))
+    dlt = "intrinsics" in camera.to_estimate
+    if dlt:
+        free = tuple(sorted(set(free) | {"f", "cx", "k1"}, key=INTRINSICS.index))
+    search, candidates = search_offsets(camera, clock, xy, path, prior.alpha, seed, dlt=dlt)
     if gcp_camera is not None:
         found = _gcp_candidate(gcp_camera, clock, xy, path, prior, gate_px, delta, seed)
         if found is not None:
@@ -208,6 +213,8 @@ def pose_from_track(
             continue
         if fit.converged:
             fits.append(fit)
+    if not fits and dlt and planarity(path) < PLANAR:
+        raise PoseError(name, "planar_path", f"the camera has no K and the target moves in a plane (its height spread is {planarity(path):.3f} of its extent)")
     if not fits:
         raise PoseError(name, "no_fit", f"no offset of {search.offsets_tried} tried gives a pose that explains {MIN_FRAMES} tracked frames within {gate_px:g} px")
     if gcps is not None:
@@ -233,15 +240,19 @@ def pose_from_track(
         straightness(xy[best.inliers]),
     )
     if free:
-        result = _settle_intrinsics(result, clock, xy, path, prior, gate_px, f_scale, gcps, free)
+        result = _settle_intrinsics(result, clock, xy, path, prior, gate_px, f_scale, gcps, free, dlt)
     if gcp_camera is not None:
         result = replace(result, gcp_pose=gcp_camera, moved_m=float(np.linalg.norm(result.camera.center - gcp_camera.center)), moved_deg=rotation_between(result.camera.R, gcp_camera.R))
     check_determined(result, clock, path, gcps is not None)
     return result
 
 
-def _has_focal(camera: Camera) -> bool:
-    return "intrinsics" not in camera.to_estimate
+def planarity(path: PiecewiseTrajectory) -> float:
+    """Smallest over largest singular value of the trajectory's centred sample positions (0: a plane)."""
+    xyz = path.positions(np.arange(path.starts.min(), path.ends.max() + 1))
+    xyz = xyz[np.isfinite(xyz[:, 0])]
+    s = np.linalg.svd(xyz - xyz.mean(axis=0), compute_uv=False)
+    return float(s[2] / s[0]) if s[0] > 0 else 0.0
 
 
 def check_determined(result: TargetPose, clock: np.ndarray, path: PiecewiseTrajectory, with_gcps: bool) -> None:
@@ -516,17 +527,24 @@ def _gcp_candidate(gcp_camera: Camera, clock, xy, path, prior: SlopePrior, gate_
     return Candidate(gcp_camera, line.alpha, line.beta, "gcp")
 
 
-def _settle_intrinsics(result: TargetPose, clock, xy, path, prior, gate_px, f_scale, gcps, free) -> TargetPose:
-    """Keep free the intrinsics the target determines (posterior std below DETERMINED x the prior's), refit with the others held."""
+def _settle_intrinsics(result: TargetPose, clock, xy, path, prior, gate_px, f_scale, gcps, free, unknown_k: bool) -> TargetPose:
+    """Keep free the intrinsics the target determines (posterior std below DETERMINED), refit with the others held.
+
+    A camera without K whose focal length is not determined fails
+    (pose_undetermined): its pose would rest on a guess.
+    """
     fit = result.fit
-    priors = IntrinsicsPrior.around(result.camera)
+    width = result.camera.image_size[0]
+    limit = {"f": DETERMINED["f"] * fit.camera.K[0, 0], "cx": DETERMINED["cx"] * width, "cy": DETERMINED["cy"] * width, "k1": DETERMINED["k1"]}
     stds = fit.intrinsics_std
-    prior_std = {"f": priors.f[1], "cx": priors.cx[1], "cy": priors.cy[1], "k1": priors.k1[1]}
-    kept = tuple(k for k in free if stds.get(k, np.inf) < DETERMINED * prior_std[k])
+    kept = tuple(k for k in free if stds.get(k, np.inf) < limit[k] and (k != "cx" or stds.get("cy", np.inf) < limit["cy"]))
+    if unknown_k and "f" not in kept:
+        raise PoseError(result.camera.name, "pose_undetermined", f"the track does not determine the focal length (+-{stds.get('f', np.inf):.0f} px)")
     if kept != tuple(free):
         fit = fit_pose_and_line(fit.camera, clock, xy, path, fit.alpha, fit.beta, fit.inliers, gate_px, f_scale, prior, gcps, kept)
     values = {"f": fit.camera.K[0, 0], "cx": fit.camera.K[0, 2], "cy": fit.camera.K[1, 2], "k1": fit.camera.dist[0]}
-    report = {k: (float(values[k]), float(fit.intrinsics_std.get(k, stds.get(k, np.nan))), k in kept) for k in free}
+    names = [k for k in INTRINSICS if k in free or (k == "cy" and "cx" in free)]
+    report = {k: (float(values[k]), float(fit.intrinsics_std.get(k, stds.get(k, np.nan))), k in kept or (k == "cy" and "cx" in kept)) for k in names}
     return replace(result, camera=fit.camera, fit=fit, intrinsics=report)
 
 

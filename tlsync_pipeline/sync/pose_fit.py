@@ -29,7 +29,9 @@ parameter vector, and the trajectory is evaluated through ``positions``.
 The covariance is the M-estimator sandwich of sync/refine.py: the track's
 part of the meat is the larger (in the metric of the frame-by-frame one) of
 the frame-by-frame and the BLOCKS-block sums of scores (errors shared by
-neighbouring frames); GCPs and priors count at their stated sigmas.
+neighbouring frames), plus a model-error term (an unseen pixel offset of
+std model_error_px shared by each block: the log's and the model's errors,
+which the fit absorbs); GCPs and priors count at their stated sigmas.
 """
 
 from __future__ import annotations
@@ -49,6 +51,7 @@ BLOCKS = 8
 PASSES = 4
 MIN_FRAMES = 8
 MAX_FIT_FRAMES = 2000  # frames of a long track used per fit (evenly spread); all are scored
+MODEL_ERROR_PX = 1.0  # pixel offset shared by each block of frames that the residuals cannot show (log, model), in the covariance
 INTRINSICS = ("f", "cx", "cy", "k1")
 
 
@@ -187,13 +190,17 @@ def fit_pose_and_line(
     gcps: GcpPrior | None = None,
     free: tuple[str, ...] = (),
     intrinsics_prior: IntrinsicsPrior | None = None,
+    model_error_px: float = MODEL_ERROR_PX,
 ) -> JointFit:
     """Fit pose, line (and the ``free`` intrinsics) to the tracked positions, from the camera's pose and the line given.
 
     clock: (N,) camera clock of the tracked frames (frame units); xy: (N, 2)
     tracked pixels; start: (N,) frames to fit first (those the starting
     pose and line explain). After each fit the frame set becomes every
-    frame within gate_px of its projection, at most PASSES fits. Raises
+    frame within gate_px of its projection, at most PASSES fits.
+    model_error_px: std of an unseen pixel offset shared by each of BLOCKS
+    runs of frames (the log's and the model's errors), added to the
+    covariance as in sync/refine.py. Raises
     ValueError when fewer than MIN_FRAMES frames fall on the trajectory.
     """
     layout = Layout(tuple(k for k in INTRINSICS if k in free or (k == "cy" and "cx" in free)))
@@ -210,7 +217,7 @@ def fit_pose_and_line(
         c_mid = float(np.median(clock[use]))
         x = _vector(camera, alpha, beta, c_mid, layout)
         fit_rows = _spread(np.flatnonzero(use), MAX_FIT_FRAMES)
-        result = _solve(camera, clock[fit_rows], xy[fit_rows], path, x, c_mid, layout, f_scale, prior, gcps, intrinsics_prior)
+        result = _solve(camera, clock[fit_rows], xy[fit_rows], path, x, c_mid, layout, f_scale, prior, gcps, intrinsics_prior, model_error_px)
         camera, alpha, beta = result["camera"], result["alpha"], result["beta"]
         error = reprojection_errors(camera, clock, xy, path, alpha, beta)
         grown = error <= gate_px
@@ -263,7 +270,7 @@ def _vector(camera: Camera, alpha: float, beta: float, c_mid: float, layout: Lay
     return np.array([*camera.rvec, *camera.t, 1.0 / alpha, (c_mid - beta) / alpha, *[values[k] for k in layout.names[8:]]], dtype=np.float64)
 
 
-def _solve(camera, clock, xy, path, x0, c_mid, layout, f_scale, prior, gcps, intrinsics_prior) -> dict:
+def _solve(camera, clock, xy, path, x0, c_mid, layout, f_scale, prior, gcps, intrinsics_prior, model_error_px) -> dict:
     """One robust fit from x0; returns the fitted camera, line, covariance and uncertainty summaries."""
     run = path.run_of(x0[7] + x0[6] * (clock - c_mid))
     keep = run >= 0
@@ -294,7 +301,7 @@ def _solve(camera, clock, xy, path, x0, c_mid, layout, f_scale, prior, gcps, int
     x = solution.x
     r, jac = evaluate(x)
     fitted = camera_at(camera, x, layout)
-    cov = _covariance(r, jac, n, n_robust, f_scale)
+    cov = _covariance(r, jac, n, n_robust, f_scale, model_error_px)
     u, s0 = x[6], x[7]
     alpha, beta = 1.0 / u, c_mid - s0 / u
     d_beta = np.zeros(len(x))
@@ -380,7 +387,7 @@ def _intrinsic_columns(jac: np.ndarray, blocks: dict, layout: Layout, camera: Ca
         jac[:, :, layout.index("k1")] = blocks["dist"][:, :, 0]
 
 
-def _covariance(r: np.ndarray, jac: np.ndarray, n_frames: int, n_robust: int, f_scale: float) -> np.ndarray:
+def _covariance(r: np.ndarray, jac: np.ndarray, n_frames: int, n_robust: int, f_scale: float, model_error_px: float) -> np.ndarray:
     """Sandwich covariance of the parameters (see the module docstring)."""
     p = jac.shape[1]
     z = (r[:n_robust] / f_scale) ** 2
@@ -405,6 +412,8 @@ def _covariance(r: np.ndarray, jac: np.ndarray, n_frames: int, n_robust: int, f_
     meat = clustered if ratio > 1.0 else independent
     rest = jac[track:]
     meat = meat + f_scale**2 * rest.T @ (rest * dpsi[track:, None])  # GCPs and priors at their stated sigma (one sigma = f_scale)
+    lever = np.array([b.sum(axis=0) for b in np.array_split((jac[:track] * dpsi[:track, None]).reshape(n_frames, 2, p), min(BLOCKS, n_frames))])
+    meat = meat + model_error_px**2 * np.einsum("bik,bil->kl", lever, lever)
     return inv @ meat @ inv
 
 
