@@ -61,7 +61,7 @@ class PoseInfo:
         return out
 
     @classmethod
-    def from_dict(cls, data, source: str) -> "PoseInfo":
+    def from_dict(cls, data, source: str) -> PoseInfo:
         if not isinstance(data, dict) or data.get("source") not in POSE_SOURCES:
             raise CalibrationInputError(f"{source}: field 'pose': expected an object with 'source' one of {', '.join(POSE_SOURCES)}, got {data!r}")
         values = {}

@@ -54,10 +54,22 @@ from calibration.camera import Camera
 from calibration.extrinsics import pose_from_points
 from calibration.lens import undistort_pixels
 from tlsync_pipeline.errors import SyncError
+from tlsync_pipeline.sync.identify import (
+    Identification,
+    detections_clock,
+    identify_target,
+)
 from tlsync_pipeline.sync.line_search import find_line
-from tlsync_pipeline.sync.pose_fit import INTRINSICS, GcpPrior, JointFit, fit_pose_and_line, reprojection_errors
+from tlsync_pipeline.sync.pose_fit import (
+    INTRINSICS,
+    GcpPrior,
+    JointFit,
+    fit_pose_and_line,
+    reprojection_errors,
+)
 from tlsync_pipeline.sync.slope import SlopePrior
-from tlsync_pipeline.trajectory import PiecewiseTrajectory
+from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
+from trackers.detections import Detections
 
 SEARCH_POINTS = 200  # tracked positions paired with the trajectory per candidate offset
 COARSE = 3.0  # the coarse pass's threshold and step, in units of the fine pass's
@@ -77,6 +89,9 @@ MAX_CENTER_STD = 0.15  # of the median distance to the target
 DETERMINED = {"f": 0.05, "cx": 0.02, "cy": 0.02, "k1": 0.05}
 PLANAR = 0.02  # a log whose smallest spread is below this share of its largest moves in a plane
 BATCH = 256  # candidate offsets whose trajectory positions are evaluated at once
+MAX_TRACKLETS = 40  # movers' tracklets tried as the target's track, longest image paths first
+MIN_TRACKLET_FRAMES = 12  # frames a mover's tracklet needs to be tried
+TRACKLET_CANDIDATES = 2  # fits at distinct offsets of each tracklet under which the target is identified
 
 SOURCES = ("gcp", "board", "target", "gcp+target")
 
@@ -179,24 +194,57 @@ def pose_from_track(
 ) -> TargetPose:
     """The camera's pose (and line) from its track of the target; PoseError with the cause when it is not determined.
 
-    camera: its intrinsics (its pose is ignored); clock / xy: (N,) camera
+    camera: its intrinsics (its pose is ignored; without K, ``to_estimate``
+    holds "intrinsics" and they are fitted too); clock / xy: (N,) camera
     clock and (N, 2) pixels of the tracked frames; path: the trajectory
-    model (as the sync method prepares it); prior: the clock prior (needed);
-    gate_px: a frame supports a fit when its reprojection is within it;
-    gcps / gcp_camera: GCPs as a prior and the camera they give alone (a
-    starting candidate); free: intrinsics the fit may move (``f``, ``cx``,
-    ``k1``); delta: the line search's band for the GCP candidate's line.
+    model (as the sync method prepares it); prior: the clock prior and fps
+    the camera's nominal frame rate (both needed); gate_px: a frame
+    supports a fit when its reprojection is within it; gcps / gcp_camera:
+    GCPs as a prior and the camera they give alone (a starting candidate);
+    free: intrinsics the fit may move (``f``, ``cx``, ``k1``); delta: the
+    line search's band for the GCP candidate's line.
     """
-    name = camera.name
     clock = np.asarray(clock, dtype=np.float64)
     xy = np.asarray(xy, dtype=np.float64)
+    unknown_k = "intrinsics" in camera.to_estimate
+    if unknown_k:
+        free = tuple(sorted(set(free) | {"f", "cx", "k1"}, key=INTRINSICS.index))
+    search, fits = candidate_fits(camera, clock, xy, path, prior, fps, gate_px, gcps, gcp_camera, free, f_scale, seed, delta)
+    result = ranked_pose(fits, search, xy, fps or 0.0, gcps is not None, gcp_camera)
+    if free:
+        result = _settle_intrinsics(result, clock, xy, path, prior, gate_px, f_scale, gcps, free, unknown_k)
+    check_determined(result, clock, path, gcps is not None)
+    return result
+
+
+def candidate_fits(
+    camera: Camera,
+    clock: np.ndarray,
+    xy: np.ndarray,
+    path: PiecewiseTrajectory,
+    prior: SlopePrior | None,
+    fps: float | None,
+    gate_px: float,
+    gcps: GcpPrior | None,
+    gcp_camera: Camera | None,
+    free: tuple[str, ...],
+    f_scale: float,
+    seed: int,
+    delta: float,
+    min_frames: int = MIN_FRAMES,
+) -> tuple[OffsetSearch, list[JointFit]]:
+    """The offset search and the joint fits of its candidates (and the GCP candidate), best first (most frames within the gate).
+
+    With GCPs only the fits that keep them within GCP_AGREE sigmas. Raises
+    PoseError when there is none (no_clock, too_few_frames, planar_path,
+    no_fit, gcp_conflict).
+    """
+    name = camera.name
     if prior is None or not fps:
         raise PoseError(name, "no_clock", "the camera's fps or the log's rate is unknown, so the offset cannot be searched with the slope held")
-    if len(clock) < MIN_FRAMES:
-        raise PoseError(name, "too_few_frames", f"{len(clock)} tracked frames, at least {MIN_FRAMES} are needed")
+    if len(clock) < min_frames:
+        raise PoseError(name, "too_few_frames", f"{len(clock)} tracked frames, at least {min_frames} are needed")
     dlt = "intrinsics" in camera.to_estimate
-    if dlt:
-        free = tuple(sorted(set(free) | {"f", "cx", "k1"}, key=INTRINSICS.index))
     search, candidates = search_offsets(camera, clock, xy, path, prior.alpha, seed, dlt=dlt)
     if gcp_camera is not None:
         found = _gcp_candidate(gcp_camera, clock, xy, path, prior, gate_px, delta, seed)
@@ -205,7 +253,7 @@ def pose_from_track(
     fits = []
     for candidate in candidates:
         start = reprojection_errors(candidate.camera, clock, xy, path, candidate.alpha, candidate.beta) <= (search.threshold_px if candidate.origin == "search" else gate_px)
-        if start.sum() < MIN_FRAMES // 2:
+        if start.sum() < min_frames // 2:
             continue
         try:
             fit = fit_pose_and_line(candidate.camera, clock, xy, path, candidate.alpha, candidate.beta, start, gate_px, f_scale, prior, gcps, free)
@@ -218,11 +266,18 @@ def pose_from_track(
     if not fits:
         raise PoseError(name, "no_fit", f"no offset of {search.offsets_tried} tried gives a pose that explains {MIN_FRAMES} tracked frames within {gate_px:g} px")
     if gcps is not None:
-        agreeing = [f for f in fits if gcps_agree(gcps, f)]
-        if not agreeing:
+        fits = [f for f in fits if gcps_agree(gcps, f)]
+        if not fits:
             raise PoseError(name, "gcp_conflict", f"no offset gives a pose that both explains the track and keeps the GCPs within {GCP_AGREE:g} sigmas ({gcps.sigma_m:g} m)")
-        fits = agreeing
     fits.sort(key=lambda f: (-f.support, f.scale_px))
+    return search, fits
+
+
+def ranked_pose(fits: list[JointFit], search: OffsetSearch, xy: np.ndarray, fps: float, with_gcps: bool, gcp_camera: Camera | None) -> TargetPose:
+    """The best of the fits (first: most support) with its runner-up at a distinct offset, as a TargetPose (not yet checked).
+
+    xy: the winner's tracked pixels (its straightness is measured on its inliers).
+    """
     best = fits[0]
     tight = TIGHT * max(float(np.median(best.errors[best.inliers])), 0.5)
     distinct = [f for f in fits if abs(f.beta - best.beta) > DISTINCT_S * fps]
@@ -230,7 +285,7 @@ def pose_from_track(
     result = TargetPose(
         best.camera,
         best,
-        "gcp+target" if gcps is not None else "target",
+        "gcp+target" if with_gcps else "target",
         runner.within(tight) if runner else 0,
         runner.beta if runner else float("nan"),
         best.within(tight),
@@ -239,20 +294,9 @@ def pose_from_track(
         search,
         straightness(xy[best.inliers]),
     )
-    if free:
-        result = _settle_intrinsics(result, clock, xy, path, prior, gate_px, f_scale, gcps, free, dlt)
     if gcp_camera is not None:
         result = replace(result, gcp_pose=gcp_camera, moved_m=float(np.linalg.norm(result.camera.center - gcp_camera.center)), moved_deg=rotation_between(result.camera.R, gcp_camera.R))
-    check_determined(result, clock, path, gcps is not None)
     return result
-
-
-def planarity(path: PiecewiseTrajectory) -> float:
-    """Smallest over largest singular value of the trajectory's centred sample positions (0: a plane)."""
-    xyz = path.positions(np.arange(path.starts.min(), path.ends.max() + 1))
-    xyz = xyz[np.isfinite(xyz[:, 0])]
-    s = np.linalg.svd(xyz - xyz.mean(axis=0), compute_uv=False)
-    return float(s[2] / s[0]) if s[0] > 0 else 0.0
 
 
 def check_determined(result: TargetPose, clock: np.ndarray, path: PiecewiseTrajectory, with_gcps: bool) -> None:
@@ -293,6 +337,14 @@ def median_depth(camera: Camera, clock: np.ndarray, path: PiecewiseTrajectory, a
     if not on.any():
         return float("nan")
     return float(np.median((path(s[on], run[on]) @ camera.R.T + camera.t)[:, 2]))
+
+
+def planarity(path: PiecewiseTrajectory) -> float:
+    """Smallest over largest singular value of the trajectory's centred sample positions (0: a plane)."""
+    xyz = path.positions(np.arange(path.starts.min(), path.ends.max() + 1))
+    xyz = xyz[np.isfinite(xyz[:, 0])]
+    s = np.linalg.svd(xyz - xyz.mean(axis=0), compute_uv=False)
+    return float(s[2] / s[0]) if s[0] > 0 else 0.0
 
 
 def straightness(xy: np.ndarray) -> float:
@@ -552,3 +604,100 @@ def msac(errors: np.ndarray, threshold: float) -> float:
     """Truncated quadratic score of pixel errors: sum(max(0, 1 - (error / threshold)^2)); inf errors count 0."""
     with np.errstate(invalid="ignore"):
         return float(np.clip(1.0 - (np.asarray(errors) / threshold) ** 2, 0.0, None).sum())
+
+
+@dataclass(frozen=True)
+class MoverPose:
+    """A pose from every mover: the pose (fitted on the identified track), the identification under it, the tracklet it started from, and the tracklets tried (id -> why they gave nothing, or "")."""
+
+    pose: TargetPose
+    identification: Identification
+    tracklet: int
+    tried: dict[int, str]
+
+
+def pose_from_movers(
+    camera: Camera,
+    detections: Detections,
+    trajectory: Trajectory,
+    fps: float | None,
+    prior: SlopePrior | None,
+    eps_px: float,
+    delta: float,
+    p: float,
+    seed: int = 0,
+    gcps: GcpPrior | None = None,
+    gcp_camera: Camera | None = None,
+    free: tuple[str, ...] = (),
+    f_scale: float = 3.0,
+) -> MoverPose:
+    """The camera's pose from every mover of its video (detections), without a track of the target.
+
+    Identification needs a projection to pick the target, so the movers'
+    tracklets are the candidates. Each tracklet of at least MIN_TRACKLET_FRAMES
+    frames whose image path is not a straight line (a straight walk fits a
+    pose from any straight stretch of the log), the longest image paths
+    first, at most MAX_TRACKLETS, gets the offset search and joint fits of
+    ``pose_from_track``; under each of its TRACKLET_CANDIDATES best fits at
+    distinct offsets, the target is identified among every mover
+    (sync/identify.py: its other tracklets, other visits to the view join)
+    and the pose and line are fitted again on the identified track. One
+    tracklet of a few seconds seldom determines a pose; the identified
+    track, with every visit, does. The refitted pose with most frames wins,
+    with the best one at a distinct offset as its runner-up, and is checked
+    as ``pose_from_track``'s. Raises PoseError when no tracklet leads to a
+    determined pose.
+    """
+    path = PiecewiseTrajectory(trajectory)
+    _, row_clock = detections_clock(detections, fps)
+    ids, counts = np.unique(detections.id, return_counts=True)
+    tried: dict[int, str] = {}
+    ranked = []
+    for tid in ids[counts >= MIN_TRACKLET_FRAMES]:
+        rows = np.flatnonzero(detections.id == tid)
+        xy = detections.xy[rows]
+        if straightness(xy) < STRAIGHT:
+            tried[int(tid)] = "straight_path"
+            continue
+        ranked.append((-float(np.linalg.norm(np.diff(xy, axis=0), axis=1).sum()), int(tid), rows))
+    ranked.sort(key=lambda item: item[:2])
+    if not ranked:
+        raise PoseError(camera.name, "too_few_frames", f"no mover's tracklet has {MIN_TRACKLET_FRAMES} frames on a path that is not straight ({len(ids)} tracklets)")
+    finals: list[tuple[JointFit, Identification, int, OffsetSearch]] = []
+    for _, tid, rows in ranked[:MAX_TRACKLETS]:
+        try:
+            search, fits = candidate_fits(camera, row_clock[rows], detections.xy[rows], path, prior, fps, eps_px, gcps, gcp_camera, free, f_scale, seed, delta, MIN_TRACKLET_FRAMES)
+        except PoseError as exc:
+            tried[tid] = exc.cause
+            continue
+        starts: list[JointFit] = []
+        for fit in fits:
+            if len(starts) < TRACKLET_CANDIDATES and all(abs(fit.beta - other.beta) > DISTINCT_S * (fps or 0.0) for other in starts):
+                starts.append(fit)
+        reasons = []
+        for fit in starts:
+            try:
+                identified = identify_target(fit.camera, detections, trajectory, fps, eps_px, delta, p, seed, prior=prior)
+                clock = row_clock[identified.rows]
+                start = reprojection_errors(fit.camera, clock, identified.track.xy, path, identified.alpha, identified.beta) <= eps_px
+                refit = fit_pose_and_line(fit.camera, clock, identified.track.xy, path, identified.alpha, identified.beta, start, eps_px, f_scale, prior, gcps, fit.layout.free)
+            except (SyncError, ValueError) as exc:
+                reasons.append(str(exc).split(": ", 1)[-1][:80])
+                continue
+            if gcps is None or gcps_agree(gcps, refit):
+                finals.append((refit, identified, tid, search))
+        tried[tid] = "; ".join(reasons)
+    if not finals:
+        causes = ", ".join(sorted({c for c in tried.values() if c})) or "no fit"
+        raise PoseError(camera.name, "no_fit", f"none of the {min(len(ranked), MAX_TRACKLETS)} longest curved tracklets leads to a pose under which the target is identified ({causes[:200]})")
+    order = sorted(range(len(finals)), key=lambda k: (-finals[k][0].support, finals[k][0].scale_px))
+    best, identified, tid, search = finals[order[0]]
+    pose = ranked_pose([finals[k][0] for k in order], search, identified.track.xy, fps or 0.0, gcps is not None, gcp_camera)
+    if free:
+        pose = replace(pose, intrinsics={k: (float(v), float(best.intrinsics_std.get(k, np.nan)), True) for k, v in _intrinsic_values(best.camera).items() if k in best.layout.free})
+    check_determined(pose, row_clock[identified.rows], path, gcps is not None)
+    return MoverPose(pose, identified, tid, tried)
+
+
+def _intrinsic_values(camera: Camera) -> dict[str, float]:
+    return {"f": camera.K[0, 0], "cx": camera.K[0, 2], "cy": camera.K[1, 2], "k1": camera.dist[0]}

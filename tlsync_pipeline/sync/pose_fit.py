@@ -94,7 +94,7 @@ class IntrinsicsPrior:
     k1: tuple[float, float]
 
     @classmethod
-    def around(cls, camera: Camera) -> "IntrinsicsPrior":
+    def around(cls, camera: Camera) -> IntrinsicsPrior:
         """Weak priors around the camera's values: f within 50 %, the principal point within 5 % of the image, k1 within 0.2."""
         w, h = camera.image_size
         K = camera.K
@@ -211,8 +211,7 @@ def fit_pose_and_line(
     use = np.asarray(start, dtype=bool) & (path.run_of((clock - beta) / alpha) >= 0)
     if use.sum() < MIN_FRAMES:
         raise ValueError(f"only {int(use.sum())} tracked frames fall on the trajectory under the line")
-    x = _vector(camera, alpha, beta, float(np.median(clock[use])), layout)
-    result = None
+    result: dict = {}
     for _ in range(PASSES):
         c_mid = float(np.median(clock[use]))
         x = _vector(camera, alpha, beta, c_mid, layout)
