@@ -131,6 +131,12 @@ class IngestReport:
         out["format_version"] = 1
         return out
 
+    @classmethod
+    def from_dict(cls, data: dict) -> IngestReport:
+        """The report as ``to_dict`` wrote it (ingest_report.json)."""
+        fields = {k: v for k, v in data.items() if k != "format_version"}
+        return cls(**{**fields, "gaps": [Gap(**g) for g in fields.get("gaps", [])]})
+
     def summary(self, with_warnings: bool = True) -> str:
         """The lines printed after ingestion (with_warnings: and a ``warning:`` line per warning)."""
         lines = [

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from tlsync_pipeline.outputs.diagnostics import HALF_95, CameraStatus, StageWarning
+from tlsync_pipeline.outputs.diagnostics import HALF_95, CameraStatus, StageRun, StageWarning
 from tlsync_pipeline.sync.timeline import Timeline
 
 
@@ -21,16 +21,6 @@ class Picture:
     data: bytes | None = None
     caption: str = ""
     media_type: str = "image/png"
-
-
-@dataclass(frozen=True)
-class StageRun:
-    """One stage run from its manifest: stage, camera (None: global), when (UTC), seconds."""
-
-    stage: str
-    camera: str | None
-    created: str
-    seconds: float | None
 
 
 @dataclass(frozen=True)

@@ -175,9 +175,7 @@ def staleness(manifest: Manifest | None, key: str, code: dict[str, str], inputs:
             reasons.append(f"input {label} is now {new['path']} (was {old.get('path')})")
         elif old.get("sha256") != new["sha256"]:
             reasons.append(f"input {label} changed ({new['path']})" if new["sha256"] else f"input {label} is missing ({new['path']})")
-    for name in sorted(set(params) | set(manifest.params)):
-        if _normal(params.get(name)) != _normal(manifest.params.get(name)):
-            reasons.append(f"parameter {name}: {manifest.params.get(name)!r} -> {params.get(name)!r}")
+    reasons += [f"parameter {name}: {old!r} -> {new!r}" for name, old, new in _changes(manifest.params, params)]
     if not reasons and manifest.key != key:
         reasons.append("cache key changed")
     for rel, digest in sorted(manifest.outputs.items()):
@@ -187,6 +185,13 @@ def staleness(manifest: Manifest | None, key: str, code: dict[str, str], inputs:
         elif actual != digest:
             reasons.append(f"artefact {rel} was modified after it was made")
     return reasons
+
+
+def _changes(old: Any, new: Any, name: str = "") -> list[tuple[str, Any, Any]]:
+    """(dotted name, old, new) of each parameter that differs, tables compared key by key (``sync.eps_px``)."""
+    if isinstance(old, dict) and isinstance(new, dict):
+        return [change for key in sorted(set(old) | set(new)) for change in _changes(old.get(key), new.get(key), f"{name}.{key}" if name else key)]
+    return [] if _normal(old) == _normal(new) else [(name, old, new)]
 
 
 def _normal(value: Any) -> str:

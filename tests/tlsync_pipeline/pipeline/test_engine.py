@@ -110,8 +110,9 @@ def test_manifest_records_inputs_params_and_outputs(project_dir):
     manifest = read_manifest(project_dir / "work" / "cameras" / "cam0" / "vote.manifest.json")
     assert manifest.stage == "vote" and manifest.camera == "cam0"
     # The votes depend on eps_px and on the method's trajectory preparation, not on other methods' keys.
-    assert manifest.params["eps_px"] == 10.0 and manifest.params["method"] == "refined" and manifest.params["smooth_trajectory"] is True
-    assert "r" not in manifest.params
+    assert manifest.params["eps_px"] == 10.0
+    assert manifest.params["preparation"] == {"method": "refined", "options": {"smooth_trajectory": True}, "logged_point_above_m": 0.0}
+    assert "r" not in manifest.params and "delta" not in manifest.params
     assert manifest.inputs["track"]["path"] == "cam0/track.csv" and len(manifest.inputs["track"]["sha256"]) == 64
     assert list(manifest.outputs) == ["cameras/cam0/votes.npz"]
     assert "tlsync_pipeline.sync.votes" in manifest.code and "tlsync_pipeline.pipeline.engine" not in manifest.code

@@ -9,37 +9,31 @@ is tracked from its init box: ``track.csv``. ``track_camera`` is the pure part; 
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import warnings
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from tlsync_pipeline.atomic import atomic_path
-from tlsync_pipeline.errors import InputError
-from tlsync_pipeline.pipeline.spec import StageSpec
-from tlsync_pipeline.pipeline.stages.cameras import VIDEO_INFO_FORMAT, tracks_every_mover
+from tlsync_pipeline.pipeline.spec import Options, StageResult, StageSpec
+from tlsync_pipeline.pipeline.stages.cameras import VIDEO_INFO_FORMAT
 from tlsync_pipeline.pipeline.workspace import StageFiles
 from trackers.detections import Detections, write_detections
 from trackers.track import Track, write_track
 from trackers.tracking import detect_movers, track_video
 from trackers.video import TruncatedVideoWarning, probe_video
 
+if TYPE_CHECKING:
+    from tlsync_pipeline.pipeline.project import Project, TrackerConfig
 
-def track_camera(spec: dict, progress: bool = True) -> Track | Detections:
-    """Every mover (``tracks_every_mover``) or the target in the video of one camera table (``[[cameras]]`` with its ``[cameras.tracker]``)."""
-    if spec.get("video") is None:
-        raise InputError(f"camera {spec['name']!r}: no 'video' key: the track stage needs the camera's video file")
-    tracker = spec["tracker"]
-    if tracks_every_mover(spec):
-        return detect_movers(spec["video"], params=tracker["parameters"], progress=progress, label=f"{spec['name']} ({Path(spec['video']).name})")
-    return track_video(
-        spec["video"],
-        kind=tracker["kind"],
-        init=tracker["init"],
-        init_frame=tracker["init_frame"],
-        params=tracker["parameters"],
-        progress=progress,
-        label=f"{spec['name']} ({Path(spec['video']).name})",
-    )
+
+def track_camera(name: str, video: Path, tracker: TrackerConfig, progress: bool = True) -> Track | Detections:
+    """Every mover (``tracker.every_mover``) or the target (CSRT from its init box) in one camera's video."""
+    label = f"{name} ({video.name})"
+    if tracker.every_mover:
+        return detect_movers(video, params=dict(tracker.parameters), progress=progress, label=label)
+    return track_video(video, kind=tracker.kind, init=tracker.init, init_frame=tracker.init_frame, params=dict(tracker.parameters), progress=progress, label=label)
 
 
 def write_track_atomic(track: Track, path: Path) -> None:
@@ -54,7 +48,7 @@ def write_detections_atomic(detections: Detections, path: Path) -> None:
         write_detections(detections, tmp)
 
 
-def run_track(files: StageFiles, tracker: dict) -> dict:
+def run_track(files: StageFiles, tracker: TrackerConfig) -> StageResult:
     """The track stage: ``detections.csv`` (every mover) or ``track.csv`` (one target) of one camera's video, and what the video holds, ``video.json``.
 
     A truncated video still gives a track (of the frames it holds); its
@@ -63,19 +57,19 @@ def run_track(files: StageFiles, tracker: dict) -> dict:
     video = files.path("video")
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", TruncatedVideoWarning)
-        result = track_camera({"name": files.camera, "video": video, "tracker": tracker}, progress=files.progress)
+        result = track_camera(files.camera or "", video, tracker, progress=files.progress)
     truncation = next((w.message for w in caught if isinstance(w.message, TruncatedVideoWarning)), None)
     for item in caught:
         warnings.warn_explicit(item.message, item.category, item.filename, item.lineno)
-    recorded = sorted({str(w.message) for w in caught if issubclass(w.category, TruncatedVideoWarning)})
+    recorded = tuple(sorted({str(w.message) for w in caught if issubclass(w.category, TruncatedVideoWarning)}))
     with files.write("video_info") as tmp:
         tmp.write_text(json.dumps(video_info(video, truncation), indent=1) + "\n", encoding="utf-8")
     if isinstance(result, Detections):
         write_detections_atomic(result, files.output("detections"))
-        count = f"{len(result)} detections"
-        return {"detections": len(result), "tracklets": int(len(result.tracklet_ids())), "warnings": recorded, "message": f"wrote {files.output('detections')} ({count})"}
+        facts = {"detections": len(result), "tracklets": int(len(result.tracklet_ids()))}
+        return StageResult(f"wrote {files.output('detections')} ({len(result)} detections)", recorded, facts=facts)
     write_track_atomic(result, files.output("track"))
-    return {"tracked_frames": len(result), "warnings": recorded, "message": f"wrote {files.output('track')} ({len(result)} tracked frames)"}
+    return StageResult(f"wrote {files.output('track')} ({len(result)} tracked frames)", recorded, facts={"tracked_frames": len(result)})
 
 
 def video_info(video: Path, truncation: TruncatedVideoWarning | None) -> dict:
@@ -85,24 +79,19 @@ def video_info(video: Path, truncation: TruncatedVideoWarning | None) -> dict:
     return {"format": VIDEO_INFO_FORMAT, "video": str(video), "frames": frames, "announced": announced, "truncated": truncation is not None}
 
 
-def tracking_params(tracker: dict) -> dict:
-    """What the track stage's work depends on: the tracker table, without the init box for the blob kind (it seeds identify, not detection)."""
-    if tracker.get("kind", "blob") != "blob":
-        return tracker
-    return {k: v for k, v in tracker.items() if k not in ("init", "init_frame")}
-
-
-def _applies(project, cam: str) -> bool:
-    spec = project.camera(cam)
-    return spec["track"] is None and spec.get("video") is not None
+def tracking_params(project: Project, cam: str, options: Options) -> TrackerConfig:
+    """What the track stage's work depends on: the tracker table, without the init box for every mover (it seeds identify, not detection)."""
+    tracker = project.camera(cam).tracker
+    return dataclasses.replace(tracker, init=None, init_frame=0) if tracker.every_mover else tracker
 
 
 SPEC = StageSpec(
     "track",
-    inputs=lambda src, cam: {"video": src.project.camera(cam)["video"]},
-    params=lambda project, cam, options: {"tracker": tracking_params(project.camera(cam)["tracker"])},
+    inputs=lambda src, cam: {"video": src.project.camera(cam).video},
+    params=tracking_params,
     outputs=("track", "detections", "video_info"),  # track.csv or detections.csv (every mover: track.csv then comes from identify), and video.json
     run=run_track,
     per_camera=True,
-    applies=_applies,
+    heavy=True,
+    applies=lambda project, cam: project.camera(cam).tracked,
 )
