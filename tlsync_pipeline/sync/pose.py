@@ -50,10 +50,12 @@ import cv2
 import numpy as np
 from scipy.spatial import cKDTree
 
-from calibration.camera import Camera
+from calibration.camera import Camera, PoseInfo
+from calibration.errors import CalibrationInputError
 from calibration.extrinsics import pose_from_points
 from calibration.lens import undistort_pixels
 from tlsync_pipeline.errors import SyncError
+from tlsync_pipeline.sync.clock import FrameTimes, camera_clock
 from tlsync_pipeline.sync.identify import (
     Identification,
     detections_clock,
@@ -67,9 +69,10 @@ from tlsync_pipeline.sync.pose_fit import (
     fit_pose_and_line,
     reprojection_errors,
 )
-from tlsync_pipeline.sync.slope import SlopePrior
+from tlsync_pipeline.sync.slope import SlopePrior, slope_prior
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
 from trackers.detections import Detections
+from trackers.track import Track
 
 SEARCH_POINTS = 200  # tracked positions paired with the trajectory per candidate offset
 COARSE = 3.0  # the coarse pass's threshold and step, in units of the fine pass's
@@ -621,15 +624,10 @@ def pose_from_movers(
     detections: Detections,
     trajectory: Trajectory,
     fps: float | None,
-    prior: SlopePrior | None,
-    eps_px: float,
-    delta: float,
-    p: float,
-    seed: int = 0,
+    params: IdentifyParams,
     gcps: GcpPrior | None = None,
     gcp_camera: Camera | None = None,
     free: tuple[str, ...] = (),
-    f_scale: float = 3.0,
 ) -> MoverPose:
     """The camera's pose from every mover of its video (detections), without a track of the target.
 
@@ -645,9 +643,16 @@ def pose_from_movers(
     tracklet of a few seconds seldom determines a pose; the identified
     track, with every visit, does. The refitted pose with most frames wins,
     with the best one at a distinct offset as its runner-up, and is checked
-    as ``pose_from_track``'s. Raises PoseError when no tracklet leads to a
+    as ``pose_from_track``'s. trajectory: the prepared trajectory; params:
+    identification's (its eps_px is the pose's gate, its f_scale_px the
+    fit's loss scale). Raises PoseError when no tracklet leads to a
     determined pose.
     """
+    prior = slope_prior(fps, trajectory.rate, params.rate_sigma)
+    eps_px, delta, seed, f_scale = params.eps_px, params.delta, params.seed, params.f_scale_px
+    unknown_k = "intrinsics" in camera.to_estimate
+    if unknown_k:
+        free = tuple(sorted(set(free) | {"f", "cx", "k1"}, key=INTRINSICS.index))
     path = PiecewiseTrajectory(trajectory)
     _, row_clock = detections_clock(detections, fps)
     ids, counts = np.unique(detections.id, return_counts=True)
@@ -677,7 +682,7 @@ def pose_from_movers(
         reasons = []
         for fit in starts:
             try:
-                identified = identify_target(fit.camera, detections, trajectory, fps, eps_px, delta, p, seed, prior=prior)
+                identified = identify_target(fit.camera, detections, trajectory, fps, params)
                 clock = row_clock[identified.rows]
                 start = reprojection_errors(fit.camera, clock, identified.track.xy, path, identified.alpha, identified.beta) <= eps_px
                 refit = fit_pose_and_line(fit.camera, clock, identified.track.xy, path, identified.alpha, identified.beta, start, eps_px, f_scale, prior, gcps, fit.layout.free)
@@ -693,11 +698,66 @@ def pose_from_movers(
     order = sorted(range(len(finals)), key=lambda k: (-finals[k][0].support, finals[k][0].scale_px))
     best, identified, tid, search = finals[order[0]]
     pose = ranked_pose([finals[k][0] for k in order], search, identified.track.xy, fps or 0.0, gcps is not None, gcp_camera)
+    clock = row_clock[identified.rows]
     if free:
-        pose = replace(pose, intrinsics={k: (float(v), float(best.intrinsics_std.get(k, np.nan)), True) for k, v in _intrinsic_values(best.camera).items() if k in best.layout.free})
-    check_determined(pose, row_clock[identified.rows], path, gcps is not None)
+        pose = _settle_intrinsics(pose, clock, identified.track.xy, path, prior, eps_px, f_scale, gcps, free, unknown_k)
+    check_determined(pose, clock, path, gcps is not None)
     return MoverPose(pose, identified, tid, tried)
 
 
-def _intrinsic_values(camera: Camera) -> dict[str, float]:
-    return {"f": camera.K[0, 0], "cx": camera.K[0, 2], "cy": camera.K[1, 2], "k1": camera.dist[0]}
+def estimate_pose(
+    camera: Camera,
+    track: Track | None,
+    detections: Detections | None,
+    trajectory: Trajectory,
+    fps: float | None,
+    params: IdentifyParams,
+    gcps: GcpPrior | None = None,
+    ransac_px: float = 8.0,
+) -> tuple[TargetPose, Identification | None]:
+    """A camera's pose from the target: from its track when it has one (``pose_from_track``), else from every mover (``pose_from_movers``).
+
+    trajectory: the prepared trajectory (the one the sync fits); params:
+    identification's parameters (eps_px is the gate, f_scale_px the loss
+    scale, rate_sigma the clock prior's width); gcps: GCPs as a prior (with
+    4 or more, their own pose is a starting candidate; ransac_px: its
+    outlier threshold before widening). A camera without K gets its
+    intrinsics fitted too. Returns the pose and, from movers, the
+    identification under it. Raises PoseError.
+    """
+    start = None
+    if gcps is not None and len(gcps.xyz) >= 4:
+        try:
+            start = gcp_camera(camera, gcps, ransac_px)
+        except CalibrationInputError:
+            start = None
+    if track is None:
+        if detections is None:
+            raise PoseError(camera.name, "too_few_frames", "neither a track nor any mover's detections")
+        found = pose_from_movers(camera, detections, trajectory, fps, params, gcps, start)
+        return found.pose, found.identification
+    clock = camera_clock(track, fps)
+    values = clock.clock_at(track.frame, FrameTimes.of_track(track))
+    prior = slope_prior(fps, trajectory.rate, params.rate_sigma)
+    pose = pose_from_track(camera, values, track.xy, PiecewiseTrajectory(trajectory), prior, fps, params.eps_px, gcps, start, (), params.f_scale_px, params.seed, params.delta)
+    return pose, None
+
+
+METRE_LEVEL_M = 0.3  # a log whose stated median sigma reaches this gives a pose good for timing, not for 3D
+
+
+def pose_info(pose: TargetPose, log_sigma_m: float | None) -> PoseInfo:
+    """What camera.json says of a pose from the target: its source, uncertainty, and whether it serves 3D.
+
+    The pose absorbs the log's slowly varying error (a consumer GPS's metres
+    of bias), so it is as good in 3D as the log: ``for_3d`` only when the
+    log states its accuracy (per-fix sigmas) and their median is below
+    METRE_LEVEL_M. log_sigma_m: that median, or None when the log states none.
+    """
+    if log_sigma_m is None:
+        for_3d, note = False, "good for timing; in 3D only as good as the log, which states no accuracy"
+    elif log_sigma_m >= METRE_LEVEL_M:
+        for_3d, note = False, f"good for timing, not for 3D: the log's error (median {log_sigma_m:.2g} m) is in the pose"
+    else:
+        for_3d, note = True, ""
+    return PoseInfo(pose.source, round(pose.fit.center_std_m, 4), round(pose.fit.rotation_std_deg, 4), for_3d, note)

@@ -8,7 +8,9 @@ on its clock (sync/clock.py) and the method fits the line. A camera that
 brings every mover (detections) instead of a track has its target
 identified among them first (sync/identify.py); its line is then fitted on
 the identified track's votes (in the pipeline the identify stage writes that
-track, and votes.npz holds its votes).
+track, and votes.npz holds its votes). A camera without a pose gets it from
+the target before anything else (sync/pose.py; in the pipeline, the pose
+stage).
 
 Pure functions from typed values to typed values; no file I/O here.
 """
@@ -18,12 +20,15 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
 
+import numpy as np
+
 from calibration.camera import Camera
 from tlsync_pipeline.errors import SyncError
 from tlsync_pipeline.sync.clock import FrameTimes, camera_clock
 from tlsync_pipeline.sync.identify import Identification, IdentifyParams, identify_target
 from tlsync_pipeline.sync.methods import CameraData, CameraInput
 from tlsync_pipeline.sync.params import Preparation, SyncParams
+from tlsync_pipeline.sync.pose import TargetPose, estimate_pose, pose_info
 from tlsync_pipeline.sync.refined import RefinedParams
 from tlsync_pipeline.sync.registry import get_method, method_options, params_table, preparation_of
 from tlsync_pipeline.sync.timeline import CameraLine, Timeline
@@ -36,11 +41,13 @@ __all__ = ["CameraInput", "CameraResult", "cast_votes", "identify_and_synchroniz
 
 @dataclass(frozen=True)
 class CameraResult:
-    """One camera's votes (frame indices) and fitted line; identification: how its target was found among every mover, or None."""
+    """One camera's votes (frame indices) and fitted line; identification: how its target was found among every mover, or None;
+    pose: the pose from the target of a camera that had none, or None."""
 
     votes: Votes
     line: CameraLine
     identification: Identification | None = None
+    pose: TargetPose | None = None
 
 
 def prepare_trajectory(trajectory: Trajectory, preparation: Preparation) -> Trajectory:
@@ -87,6 +94,14 @@ def identify_and_synchronize(name: str, inputs: CameraInput, prepared: Trajector
     return CameraResult(result.votes, replace(result.line, identification=found.summary()), found)
 
 
+def posed(inputs: CameraInput, prepared: Trajectory, params: SyncParams) -> tuple[CameraInput, TargetPose]:
+    """The camera's inputs with its pose from the target (its ``gcps`` as a prior), and that pose; PoseError when it is not determined."""
+    pose, _ = estimate_pose(inputs.camera, inputs.track, inputs.detections, prepared, inputs.fps, identify_params(params), inputs.gcps)
+    sigma = None if prepared.sigma is None else float(np.median(prepared.sigma))
+    camera = replace(pose.camera, name=inputs.camera.name, fps=inputs.camera.fps, pose_info=pose_info(pose, sigma))
+    return replace(inputs, camera=camera), pose
+
+
 def synchronize(
     cameras: dict[str, CameraInput],
     trajectory: Trajectory,
@@ -108,10 +123,14 @@ def synchronize(
             cast = votes[name] if votes is not None else None
             if isinstance(cast, SyncError):
                 raise cast
+            pose = None
+            if not inputs.camera.posed:
+                inputs, pose = posed(inputs, prepared, params)
             if inputs.track is None:
-                results[name] = identify_and_synchronize(name, inputs, prepared, params)
+                results[name] = replace(identify_and_synchronize(name, inputs, prepared, params), pose=pose)
                 continue
-            results[name] = synchronize_camera(name, inputs, cast if cast is not None else cast_votes(inputs.camera, inputs.track, prepared, params.eps_px), prepared, params)
+            result = synchronize_camera(name, inputs, cast if cast is not None else cast_votes(inputs.camera, inputs.track, prepared, params.eps_px), prepared, params)
+            results[name] = replace(result, pose=pose)
         except SyncError as exc:
             failed[name] = str(exc)
     timeline = Timeline(
