@@ -52,7 +52,7 @@ from scipy.spatial import cKDTree
 
 from calibration.camera import Camera, PoseInfo
 from calibration.errors import CalibrationInputError
-from calibration.extrinsics import pose_from_points
+from calibration.extrinsics import Pose, pose_from_points
 from calibration.lens import undistort_pixels
 from tlsync_pipeline.errors import SyncError
 from tlsync_pipeline.sync.clock import FrameTimes, camera_clock
@@ -86,6 +86,7 @@ AMBIGUOUS = 0.85  # a distinct offset scoring this share of the best's score (ms
 TIGHT = 3.0  # median residuals of the best fit within which frames count for the ambiguity test
 DISTINCT_S = 1.0  # offsets further apart than this (seconds) are distinct
 GCP_AGREE = 3.0  # a pose agrees with the GCPs when their median error is within this many of their sigmas
+GCP_SIGMA_M = 1.0  # default survey quality of GCPs (metres per coordinate): read off a web map or walked with a phone
 MAX_ROTATION_STD_DEG = 3.0
 MAX_CENTER_STD = 0.15  # of the median distance to the target
 # An intrinsic the target determines: its posterior std below these (f: share of f; cx, cy: share of the image width; k1: absolute).
@@ -178,6 +179,36 @@ class TargetPose:
     @property
     def support(self) -> int:
         return self.fit.support
+
+    def to_report(self, info: PoseInfo, gcps: GcpPrior | None = None) -> dict:
+        """The pose from the target as calibration_report.json's ``target_pose`` (docs/calibration.md)."""
+        fit = self.fit
+        out: dict = {
+            **info.to_dict(),
+            "camera_center_m": fit.camera.center.tolist(),
+            "alpha": fit.alpha,
+            "beta": fit.beta,
+            "se_beta": fit.se_beta,
+            "frames": fit.support,
+            "scale_px": fit.scale_px,
+            "runner_up_ratio": self.runner_up_ratio,
+            "runner_up_beta": None if not np.isfinite(self.runner_up_beta) else self.runner_up_beta,
+            "straightness": self.straightness,
+            "search": {"offsets_tried": self.search.offsets_tried, "threshold_px": self.search.threshold_px, "step_frames": self.search.fine_step},
+        }
+        if self.gcp_pose is not None:
+            out.update(moved_m=self.moved_m, moved_deg=self.moved_deg)
+        if gcps is not None:
+            before = gcps.errors_px(self.gcp_pose) if self.gcp_pose is not None else np.full(len(gcps.xyz), np.nan)
+            names = gcps.names or tuple(str(k) for k in range(len(gcps.xyz)))
+            out["gcp_sigma_m"] = gcps.sigma_m
+            out["gcps"] = [
+                {"name": n, "before_px": None if not np.isfinite(b) else float(b), "after_px": None if not np.isfinite(a) else float(a)}
+                for n, b, a in zip(names, before, fit.gcp_errors_px)
+            ]
+        if self.intrinsics:
+            out["intrinsics"] = {k: {"value": v, "std": sd, "determined": kept} for k, (v, sd, kept) in self.intrinsics.items()}
+        return out
 
 
 def pose_from_track(
@@ -552,8 +583,8 @@ def _decompose(P: np.ndarray, image_size: tuple[int, int]) -> tuple[np.ndarray |
     return K, R, -R @ centre
 
 
-def gcp_camera(camera: Camera, gcps: GcpPrior, ransac_px: float = 8.0) -> Camera:
-    """The camera posed by its GCPs alone (CalibrationInputError when they cannot give a pose: too few, collinear).
+def gcp_pose(camera: Camera, gcps: GcpPrior, ransac_px: float = 8.0) -> Pose:
+    """The pose the GCPs give alone (CalibrationInputError when they cannot: too few, collinear, none within the threshold).
 
     The RANSAC threshold is widened to GCP_AGREE sigmas of the survey at
     the points' depths (under a first pose from all the points): with a
@@ -562,7 +593,12 @@ def gcp_camera(camera: Camera, gcps: GcpPrior, ransac_px: float = 8.0) -> Camera
     pose = pose_from_points(gcps.uv, gcps.xyz, camera.K, camera.dist, camera.dist_model, 1e6, source="GCPs")
     first = replace(camera, R=pose.R, t=pose.t, to_estimate=())
     threshold = max(ransac_px, GCP_AGREE * float(np.median(gcps.sigma_px(first))))
-    pose = pose_from_points(gcps.uv, gcps.xyz, camera.K, camera.dist, camera.dist_model, threshold, source="GCPs")
+    return pose_from_points(gcps.uv, gcps.xyz, camera.K, camera.dist, camera.dist_model, threshold, source="GCPs")
+
+
+def gcp_camera(camera: Camera, gcps: GcpPrior, ransac_px: float = 8.0) -> Camera:
+    """The camera posed by its GCPs alone (``gcp_pose``)."""
+    pose = gcp_pose(camera, gcps, ransac_px)
     return replace(camera, R=pose.R, t=pose.t, to_estimate=())
 
 
@@ -714,6 +750,7 @@ def estimate_pose(
     params: IdentifyParams,
     gcps: GcpPrior | None = None,
     ransac_px: float = 8.0,
+    start: Camera | None = None,
 ) -> tuple[TargetPose, Identification | None]:
     """A camera's pose from the target: from its track when it has one (``pose_from_track``), else from every mover (``pose_from_movers``).
 
@@ -721,12 +758,11 @@ def estimate_pose(
     identification's parameters (eps_px is the gate, f_scale_px the loss
     scale, rate_sigma the clock prior's width); gcps: GCPs as a prior (with
     4 or more, their own pose is a starting candidate; ransac_px: its
-    outlier threshold before widening). A camera without K gets its
-    intrinsics fitted too. Returns the pose and, from movers, the
-    identification under it. Raises PoseError.
+    outlier threshold before widening; start: that pose when already
+    known). A camera without K gets its intrinsics fitted too. Returns the
+    pose and, from movers, the identification under it. Raises PoseError.
     """
-    start = None
-    if gcps is not None and len(gcps.xyz) >= 4:
+    if start is None and gcps is not None and len(gcps.xyz) >= 4:
         try:
             start = gcp_camera(camera, gcps, ransac_px)
         except CalibrationInputError:

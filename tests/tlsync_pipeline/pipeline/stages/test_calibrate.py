@@ -35,12 +35,13 @@ def calibrate_camera(proj, name):
     """A camera's pose from its known intrinsics and GCPs, as the calibrate stage computes it (no files written)."""
     cal = proj.camera(name).calibration
     known = read_camera(cal.intrinsics)
-    return calibrate_pose(name, calibrate_params(proj, name, Options()), known, known_intrinsics(cal.intrinsics), project_origin(proj), cal.gcp, None)
+    camera, report, _ = calibrate_pose(name, calibrate_params(proj, name, Options()), known, known_intrinsics(cal.intrinsics), project_origin(proj), cal.gcp, None)
+    return camera, report
 
 
 @pytest.fixture
 def project(tmp_path, boards, board_dir):
-    """Two cameras: cam0 calibrated from board photos + local GCPs, cam1 from a known camera.json + geodetic GCPs."""
+    """Two cameras: cam0 calibrated from board photos + local GCPs, cam1 from a known camera.json + geodetic GCPs; the GCPs exact (their pose alone)."""
     shutil.copytree(board_dir, tmp_path / "boards")
     truth = {}
     for name, center, seed in (("cam0", (3.0, -15.0, 6.0), 1), ("cam1", (-8.0, 20.0, 9.0), 2)):
@@ -58,6 +59,9 @@ def project(tmp_path, boards, board_dir):
 [target]
 trajectory = "trajectory.csv"
 origin = [{ORIGIN.lat}, {ORIGIN.lon}, {ORIGIN.alt}]
+
+[calibration]
+gcp_sigma_m = 0
 
 [[cameras]]
 name = "cam0"
