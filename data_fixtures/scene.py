@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import cv2
@@ -141,11 +141,12 @@ def make_scene(
     )
 
 
-def write_scene(scene: Scene, directory: str | Path) -> Path:
+def write_scene(scene: Scene, directory: str | Path, poses: bool = True) -> Path:
     """Write the scene as a project folder; returns the path of project.toml.
 
     Layout: project.toml, trajectory.csv, truth.json, and camK/camera.json +
-    camK/track.csv per camera.
+    camK/track.csv per camera. poses: False writes each camera.json without
+    R, t (K, dist, image_size only): the poses are then to come from the target.
     """
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
@@ -153,7 +154,7 @@ def write_scene(scene: Scene, directory: str | Path) -> Path:
     parts = ['[target]\ntrajectory = "trajectory.csv"\n']
     for name, camera in scene.cameras.items():
         (directory / name).mkdir(exist_ok=True)
-        write_camera(camera, directory / name / "camera.json")
+        write_camera(camera if poses else replace(camera, to_estimate=("pose",)), directory / name / "camera.json")
         write_track(scene.tracks[name], directory / name / "track.csv")
         parts.append(
             f'[[cameras]]\nname = "{name}"\ncamera = "{name}/camera.json"\ntrack = "{name}/track.csv"\nfps = {camera.fps!r}\n'

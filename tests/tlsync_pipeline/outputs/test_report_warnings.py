@@ -3,9 +3,9 @@
 One project, run by the engine: cam0-cam2 synthetic (cam2 at 15 fps, a
 rate FCPXML cannot hold: export warns), no videos for them (render notes
 it has no strip), and cam3 raw: checkerboard photos with one without a
-board (calibrate rejects it) and no pose source (calibrate warns), a
-truncated video (track warns), hence an identity pose that cannot be
-synchronized (sync). The target comes as a local CSV log with a damaged
+board (calibrate rejects it) and surveyed GCPs with one wrong point
+(calibrate leaves it out), a truncated video (track warns) of no target,
+hence a camera that cannot be synchronized (sync). The target comes as a local CSV log with a damaged
 line and a hole of 2 s (ingest drops the line and reports the gap).
 """
 
@@ -17,6 +17,7 @@ import pytest
 
 from data_fixtures import make_scene, write_scene
 from data_fixtures.checkerboard import render_checkerboards, write_checkerboards
+from data_fixtures.gcp import looking_at, make_gcps, write_gcp_csv
 from data_fixtures.raw_project import PATTERN, SQUARE_M
 from data_fixtures.video import render_video
 from tlsync_pipeline.pipeline.engine import run_graph
@@ -46,13 +47,17 @@ def reported(tmp_path_factory):
     _write_log(folder / "log.csv", scene.trajectory, damaged_row=20, hole=(25.0, 27.0))
     boards = render_checkerboards(seed=5, n_full=5, n_cut=0, n_absent=1, image_size=(320, 240), pattern=PATTERN, square=SQUARE_M)
     write_checkerboards(boards, folder / "cam3" / "boards")
+    R, t = looking_at((3.0, -15.0, 6.0), (0.0, 5.0, 0.0))
+    uv, xyz, _ = make_gcps(boards.K, boards.dist, R, t, boards.image_size, n=8, seed=1)
+    uv[3] += [40.0, -30.0]  # a point clicked in the wrong place
+    write_gcp_csv(folder / "cam3" / "gcp.csv", uv, xyz)
     video = render_video(folder / "cam3" / "full.mp4", n_frames=90, seed=2)
     data = video.path.read_bytes()
     (folder / "cam3" / "video.mp4").write_bytes(data[: int(len(data) * 0.6)])
     text = project.read_text().replace('trajectory = "trajectory.csv"', 'log = "log.csv"')
     text += (
         f'\n[[cameras]]\nname = "cam3"\nvideo = "cam3/video.mp4"\nfps = 25.0\n'
-        f'[cameras.calibration]\nimages = "cam3/boards/*.png"\npattern = "{PATTERN[0]}x{PATTERN[1]}"\nsquare = {SQUARE_M}\n'
+        f'[cameras.calibration]\nimages = "cam3/boards/*.png"\npattern = "{PATTERN[0]}x{PATTERN[1]}"\nsquare = {SQUARE_M}\ngcp = "cam3/gcp.csv"\ngcp_sigma_m = 0\n'
         '[cameras.tracker]\nkind = "blob"\n'
     )
     project.write_text(text)
@@ -69,7 +74,7 @@ def reported(tmp_path_factory):
     "stage, camera, words",
     [
         ("calibrate", "cam3", "rejected: no board"),
-        ("calibrate", "cam3", "no gcp or board_pose"),
+        ("calibrate", "cam3", "left out as an outlier"),
         ("track", "cam3", "video truncated or corrupt"),
         ("ingest", None, "fix(es) dropped"),
         ("ingest", None, "gap of 2."),
@@ -90,6 +95,6 @@ def test_each_stage_warning_is_in_the_report(reported, stage, camera, words):
 def test_warnings_come_in_pipeline_order(reported):
     items, _ = reported
     stages = [item.split(" ", 1)[0] for item in items]
-    order = ["calibrate", "track", "ingest", "vote", "sync", "export", "render"]
+    order = ["track", "ingest", "calibrate", "vote", "sync", "export", "render"]
     assert stages == sorted(stages, key=order.index)
     assert np.unique(stages).size >= 6

@@ -226,7 +226,7 @@ def run_calibrate(files: StageFiles, params: CalibrateParams) -> StageResult:
     with files.write("calibration_picture") as tmp:
         tmp.write_bytes(calibration_plot(report, camera.image_size))
     warnings = tuple(w for w in (report.get("warning"), (report.get("target_pose") or {}).get("note")) if w)
-    return StageResult(message=f"{calibration_summary(report)}; wrote {files.output('camera')}", warnings=tuple(f"camera {files.camera}: {w}" for w in warnings))
+    return StageResult(message=f"{calibration_summary(report)}; wrote {files.output('camera')}", warnings=warnings)
 
 
 def target_pose_wanted(project: Project, name: str) -> bool:
