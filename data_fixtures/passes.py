@@ -70,11 +70,14 @@ def make_pass_scene(
     log_noise_m: float = 0.02,
     gcp_noise_m: float = 0.0,
     image_size: tuple[int, int] = (640, 480),
+    view_walk_s: float = 0.0,
 ) -> PassScene:
     """A deterministic pass scene, one camera per entry of ``paths`` (``"turn"`` or ``"straight"``).
 
     log_noise_m: white noise per axis of the logged positions (RTK: 0.02);
-    gcp_noise_m: survey error per horizontal axis of each GCP.
+    gcp_noise_m: survey error per horizontal axis of each GCP; view_walk_s:
+    seconds a ``"turn"`` walk lasts at least inside its view (more random
+    waypoints in the view: a long track, for the speed bench).
     """
     rng = np.random.default_rng(seed)
     names = [f"cam{k}" for k in range(len(paths))]
@@ -84,6 +87,8 @@ def make_pass_scene(
         if kind == "turn":
             for u in np.sort(rng.uniform(-0.8, 0.8, 4)) * VIEW_HALF_M:
                 waypoints.append(np.array([x0 + u, rng.uniform(-5.0, 7.0)]))
+            while view_walk_s > 0 and _walked(waypoints, x0) < speed_mps * view_walk_s:
+                waypoints.append(np.array([x0 + rng.uniform(-0.8, 0.8) * VIEW_HALF_M, rng.uniform(-5.0, 7.0)]))
         elif kind != "straight":
             raise ValueError(f"unknown path kind {kind!r}: 'turn' or 'straight'")
         waypoints.append(np.array([x0 + VIEW_HALF_M + 15.0, 0.0]))
@@ -133,6 +138,12 @@ def make_pass_scene(
         noise={"S_t_px": tracking_noise_px, "log_noise_m": log_noise_m, "gcp_noise_m": gcp_noise_m, "paths": list(paths), "drone": drone},
     )
     return PassScene(scene, gcps)
+
+
+def _walked(waypoints: list[np.ndarray], x0: float) -> float:
+    """Metres of the polyline walked between waypoints inside the view centred at x0."""
+    inside = [w for w in waypoints if abs(w[0] - x0) <= VIEW_HALF_M]
+    return float(np.linalg.norm(np.diff(inside, axis=0), axis=1).sum()) if len(inside) > 1 else 0.0
 
 
 def _gcps(rng, camera: Camera, noise_m: float) -> GcpSet:
