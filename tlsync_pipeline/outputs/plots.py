@@ -154,7 +154,9 @@ def calibration_plot(report: dict, image_size: tuple[int, int]) -> bytes:
     ax.set_aspect("equal")
     target = report.get("target_pose")
     title = f"{report['camera']}: corner coverage ({len(views)} views), {w}x{h}"
-    if target:
+    if target and "error" in target:
+        title += f"\nno pose from the target ({target.get('cause') or 'see the report'})"
+    elif target:
         title += f"\npose from the target ({target['source']}): +-{target['center_std_m']:.3f} m, +-{target['rotation_std_deg']:.3f} deg" + ("" if target.get("for_3d", True) else ", timing only")
     ax.set_title(title, fontsize=9)
     ax = axes[1]

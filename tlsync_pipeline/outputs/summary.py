@@ -78,7 +78,9 @@ def calibration_summary(report: dict) -> str:
         n_in = sum(p["inlier"] for p in pose["points"])
         text += f"; pose from {n_in}/{len(pose['points'])} {pose['kind']} points, RMS {pose['rms_px']:.2f} px (+-{pose['rotation_std_deg']:.3f} deg, +-{pose['position_std_m']:.3f} m)"
     target = report.get("target_pose")
-    if target:
+    if target and "error" in target:
+        text += "; no pose from the target" + (f" ({target['cause']}: the camera is not synchronized)" if target.get("cause") else ": the camera is not synchronized")
+    elif target:
         text += f"; {target_pose_summary(target)}"
     elif not pose:
         text += "; no pose"

@@ -41,12 +41,13 @@ from calibration.extrinsics import (
     read_gcps,
 )
 from calibration.intrinsics import detect_board, parse_pattern
-from tlsync_pipeline.errors import InputError
+from tlsync_pipeline.errors import InputError, SyncError
 from tlsync_pipeline.geodesy import Origin, geodetic_to_enu
 from tlsync_pipeline.outputs.plots import calibration_plot
 from tlsync_pipeline.outputs.summary import calibration_summary
 from tlsync_pipeline.pipeline.origin import origin_inputs, resolve_origin
 from tlsync_pipeline.pipeline.spec import Options, Sources, StageResult, StageSpec
+from tlsync_pipeline.pipeline.stages.cameras import POSE_ERROR, has_no_rows
 from tlsync_pipeline.pipeline.stages.intrinsics import check_calibration
 from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
 from tlsync_pipeline.sync.identify import IdentifyParams
@@ -75,11 +76,13 @@ class KnownBoard:
 @dataclass(frozen=True)
 class TargetPoseParams:
     """What a pose from the target reads: the GCPs' survey sigma (metres; None without GCPs), identification's
-    parameters (gate, loss scale, clock prior: sync/identify.py) and how the trajectory is prepared."""
+    parameters (gate, loss scale, clock prior: sync/identify.py), how the trajectory is prepared, and the video
+    the track stage found the target or the movers in (None: the project brings them)."""
 
     gcp_sigma_m: float | None
     identify: IdentifyParams
     preparation: Preparation
+    source: Path | None = None
 
 
 @dataclass(frozen=True)
@@ -215,10 +218,14 @@ def run_calibrate(files: StageFiles, params: CalibrateParams) -> StageResult:
         origin = resolve_origin(origin, [files.path(label) for label in files.inputs if label.startswith("origin-gcp:")], "[target]")
     board_image = files.path("board_pose_image") if files.has("board_pose_image") else None
     camera, report, prior = calibrate_pose(files.camera or "", params, known, intrinsics_report, origin, gcp, board_image)
+    failed = {}
     if params.target is not None:
-        track = read_track(files.path("track")) if files.has("track") else None
-        detections = read_detections(files.path("detections")) if files.has("detections") else None
-        camera, report["target_pose"] = pose_from_target(camera, params.target, prior, track, detections, read_trajectory(files.path("trajectory")), params.ransac_px or 8.0)
+        try:
+            camera, report["target_pose"] = _pose_from_target_files(files, camera, params, prior)
+        except SyncError as exc:  # the camera cannot be synchronized: camera.json without a pose says why, identify and vote pass it on
+            failed[files.camera or ""] = str(exc)
+            camera = replace(camera, R=np.eye(3), t=np.zeros(3), to_estimate=tuple(sorted(set(camera.to_estimate) | {"pose"})), pose_info=None, extra={**camera.extra, POSE_ERROR: str(exc)})
+            report["target_pose"] = {"error": str(exc), "cause": getattr(exc, "cause", None), "remedy": getattr(exc, "remedy", None)}
     with files.write("camera") as tmp:
         write_camera(camera, tmp)
     with files.write("calibration_report") as tmp:
@@ -226,7 +233,18 @@ def run_calibrate(files: StageFiles, params: CalibrateParams) -> StageResult:
     with files.write("calibration_picture") as tmp:
         tmp.write_bytes(calibration_plot(report, camera.image_size))
     warnings = tuple(w for w in (report.get("warning"), (report.get("target_pose") or {}).get("note")) if w)
-    return StageResult(message=f"{calibration_summary(report)}; wrote {files.output('camera')}", warnings=warnings)
+    return StageResult(message=f"{calibration_summary(report)}; wrote {files.output('camera')}", warnings=warnings, failed=failed)
+
+
+def _pose_from_target_files(files: StageFiles, camera: Camera, params: CalibrateParams, prior: GcpPrior | None) -> tuple[Camera, dict]:
+    """``pose_from_target`` on the task's track (or detections) and trajectory; SyncError when the target was never found or gives no pose."""
+    assert params.target is not None
+    label = "track" if files.has("track") else "detections"
+    if params.target.source is not None and has_no_rows(files.path(label)):
+        raise SyncError(f"{params.target.source}: the target was never found (no moving object in any frame)")
+    track = read_track(files.path("track")) if label == "track" else None
+    detections = read_detections(files.path("detections")) if label == "detections" else None
+    return pose_from_target(camera, params.target, prior, track, detections, read_trajectory(files.path("trajectory")), params.ransac_px or 8.0)
 
 
 def target_pose_wanted(project: Project, name: str) -> bool:
@@ -300,7 +318,8 @@ def calibrate_params(project: Project, name: str, options: Options) -> Calibrate
         board = KnownBoard(cal.pattern, cal.square, cal.board_pose.R, cal.board_pose.t)
     target = None
     if target_pose_wanted(project, name):
-        target = TargetPoseParams(gcp_sigma(project, name) if cal.gcp is not None else None, identify_params(project.sync), preparation_of(project.sync))
+        source = camera.video if camera.tracked else None
+        target = TargetPoseParams(gcp_sigma(project, name) if cal.gcp is not None else None, identify_params(project.sync), preparation_of(project.sync), source)
     if cal.gcp is None:
         return CalibrateParams(camera.fps, board=board, target=target)
     return CalibrateParams(camera.fps, cal.ransac_px, project.target.origin, board, target)

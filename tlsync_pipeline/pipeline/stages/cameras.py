@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from calibration.camera import Camera
 from tlsync_pipeline.errors import SyncError
 from tlsync_pipeline.pipeline.spec import ProjectWide
 from tlsync_pipeline.pipeline.workspace import StageFiles
@@ -71,3 +72,13 @@ def has_no_rows(csv_path: Path) -> bool:
 def read_video_info(path: Path) -> dict:
     """video.json as the track stage wrote it: frames (that exist), announced, truncated (docs/formats.md)."""
     return json.loads(Path(path).read_text(encoding="utf-8"))
+
+
+POSE_ERROR = "pose_error"  # camera.json field: why the calibrate stage found no pose (the camera is then not synchronized)
+
+
+def pose_problem(camera: Camera) -> SyncError | None:
+    """Why a camera cannot be synchronized for want of a pose (the calibrate stage's reason, in its camera.json), or None when it has one."""
+    if camera.posed:
+        return None
+    return SyncError(str(camera.extra.get(POSE_ERROR) or f"camera {camera.name}: it has no pose (R, t)"))

@@ -237,7 +237,10 @@ def test_a_camera_without_a_pose_gets_it_from_the_target_and_a_straight_walk_fai
     assert result.exit_code == 1, result.output  # cam1 is not synchronized: never exit 0 with a wrong pose
     assert "straight_path" in result.output and "walk a curved path" in result.output
     work = root / "work"
-    assert not (work / "cameras" / "cam1" / "camera.json").exists()
+    failed = read_camera(work / "cameras" / "cam1" / "camera.json")
+    assert not failed.posed and "straight_path" in failed.extra["pose_error"]  # no pose, and why
+    report = json.loads((work / "cameras" / "cam1" / "calibration_report.json").read_text())
+    assert report["target_pose"]["cause"] == "straight_path" and "curved path" in report["target_pose"]["remedy"]
     timeline = json.loads((work / "timeline.json").read_text())
     assert set(timeline["cameras"]) == {"cam0", "cam2"} and "straight_path" in timeline["failed"]["cam1"]
     for name in ("cam0", "cam2"):
