@@ -98,7 +98,7 @@ def make_pass_scene(
         route = Route(plan, speed_mps, 0.0)
     else:
         route = Route(ground, speed_mps, 2 * WALKER_CENTRE_M)
-    samples = np.arange(int(math.floor(route.duration * log_rate)) + 1, dtype=np.float64)
+    samples = np.arange(math.floor(route.duration * log_rate) + 1, dtype=np.float64)
     true_xyz = route.at(samples / log_rate)
     xyz = true_xyz + log_noise_m * rng.standard_normal(true_xyz.shape)
     cameras, tracks, lines, counts, gcps = {}, {}, {}, {}, {}

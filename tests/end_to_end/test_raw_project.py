@@ -129,8 +129,8 @@ def test_changing_the_trackers_code_makes_only_track_and_what_follows_stale(fini
     assert stale == {f"{stage}/{cam}" for stage in ("track", "calibrate", "identify", "vote") for cam in cameras} | {"sync", "export", "render"}
     assert rows["track/cam0"].reasons == ["code of trackers.blob changed"]
     assert rows["calibrate/cam0"].reasons[-1] == "waits for track/cam0 (stale)"
-    assert rows["identify/cam0"].reasons == ["waits for track/cam0 (stale), calibrate/cam0 (stale)"]
-    assert rows["vote/cam0"].reasons == ["waits for identify/cam0 (stale)"]
+    assert rows["identify/cam0"].reasons == ["waits for calibrate/cam0 (stale), track/cam0 (stale)"]
+    assert rows["vote/cam0"].reasons == ["waits for calibrate/cam0 (stale), identify/cam0 (stale)"]
 
 
 def test_changing_a_sync_module_makes_sync_and_what_follows_stale(finished, monkeypatch):
@@ -140,6 +140,6 @@ def test_changing_a_sync_module_makes_sync_and_what_follows_stale(finished, monk
     # calibrate (the pose from the target), identify and vote prepare the trajectory through the sync-method registry, which imports every method's modules.
     assert stale == {f"{stage}/{cam}" for stage in ("calibrate", "identify", "vote") for cam in ("cam0", "cam1", "cam2")} | {"sync", "export", "render"}
     assert rows["sync"].reasons[0] == "code of tlsync_pipeline.sync.refine changed"
-    assert rows["identify/cam0"].reasons == ["code of tlsync_pipeline.sync.refine changed"]
-    assert rows["vote/cam0"].reasons == ["code of tlsync_pipeline.sync.refine changed", "waits for identify/cam0 (stale)"]
+    assert rows["identify/cam0"].reasons == ["code of tlsync_pipeline.sync.refine changed", "waits for calibrate/cam0 (stale)"]
+    assert rows["vote/cam0"].reasons == ["code of tlsync_pipeline.sync.refine changed", "waits for calibrate/cam0 (stale), identify/cam0 (stale)"]
     assert rows["calibrate/cam0"].reasons == ["code of tlsync_pipeline.sync.refine changed"]

@@ -97,10 +97,8 @@ MAX_TRACKLETS = 40  # movers' tracklets tried as the target's track, longest ima
 MIN_TRACKLET_FRAMES = 12  # frames a mover's tracklet needs to be tried
 TRACKLET_CANDIDATES = 2  # fits at distinct offsets of each tracklet under which the target is identified
 
-SOURCES = ("gcp", "board", "target", "gcp+target")
-
 REMEDIES = {
-    "no_clock": "give the camera's fps and a log with times, or add 4 GCPs (gcp = ...)",
+    "no_clock": "give the camera's fps and a log with times, or 4 GCPs with gcp_sigma_m = 0 (their pose alone)",
     "too_few_frames": "record the target longer in this view, or add 4 GCPs (gcp = ...)",
     "straight_path": "walk a curved path through the view (turns, not a straight line), or add 4 GCPs (gcp = ...)",
     "ambiguous_offset": "walk a path through the view that does not repeat itself (turns of different shapes), or add 4 GCPs (gcp = ...)",

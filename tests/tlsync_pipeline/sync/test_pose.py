@@ -12,14 +12,21 @@ from calibration.lens import project_points
 from data_fixtures.passes import make_pass_scene
 from tlsync_pipeline.sync import pose as P
 from tlsync_pipeline.sync.params import SyncParams
-from tlsync_pipeline.sync.pose_fit import GcpPrior, Layout, _prior_rows, _residuals, _vector, fit_pose_and_line, reprojection_errors
+from tlsync_pipeline.sync.pose_fit import (
+    GcpPrior,
+    Layout,
+    _prior_rows,
+    _residuals,
+    _vector,
+    fit_pose_and_line,
+    reprojection_errors,
+)
 from tlsync_pipeline.sync.refine import smooth_trajectory
 from tlsync_pipeline.sync.slope import slope_prior
 from tlsync_pipeline.sync.synchronize import CameraInput, identify_params, synchronize
-from tlsync_pipeline.sync.timeline import eps_t
+from tlsync_pipeline.sync.timeline import Relation, eps_t
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
 from trackers.detections import make_detections
-from trackers.track import Track
 
 
 @pytest.fixture(scope="module")
@@ -149,9 +156,8 @@ def test_synchronize_poses_cameras_without_one_and_fails_the_degenerate_one(scen
     timeline, results = synchronize(inputs, s.trajectory, SyncParams())
     assert "cam1" in timeline.failed and "straight_path" in timeline.failed["cam1"]
     assert results["cam0"].pose is not None and results["cam0"].line.refined
-    assert results["cam0"].pose.camera.pose_info is None or True
     # cam0 from its pose from the target against cam0 with its true pose: the same clock
-    assert eps_t(timeline.relation("cam0", "cam2"), type(timeline.relation("cam0", "cam2"))(1.0, 0.0), s.n_frames["cam0"]) < 0.5
+    assert eps_t(timeline.relation("cam0", "cam2"), Relation(1.0, 0.0), s.n_frames["cam0"]) < 0.5
 
 
 def test_the_joint_fit_jacobian_is_the_residuals_derivative(scene):
@@ -216,4 +222,3 @@ def test_the_pose_info_says_what_the_pose_serves(scene):
     assert not P.pose_info(found, 2.0).for_3d and "not for 3D" in P.pose_info(found, 2.0).note
     assert not P.pose_info(found, None).for_3d and P.pose_info(found, None).source == "target"
     assert P.pose_info(found, 0.02).center_std_m == pytest.approx(found.fit.center_std_m, abs=1e-4)
-    assert isinstance(Track, type)
