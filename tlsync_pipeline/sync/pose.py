@@ -58,6 +58,7 @@ from tlsync_pipeline.errors import SyncError
 from tlsync_pipeline.sync.clock import FrameTimes, camera_clock
 from tlsync_pipeline.sync.identify import (
     Identification,
+    IdentifyParams,
     detections_clock,
     identify_target,
 )

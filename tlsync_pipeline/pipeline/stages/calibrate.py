@@ -98,11 +98,11 @@ class CalibrateParams:
     target: TargetPoseParams | None = None
 
 
-def gcp_world_points(table: GcpTable, origin: Origin | None) -> np.ndarray:
+def gcp_world_points(table: GcpTable, origin: Origin | str | None) -> np.ndarray:
     """Local metres (N, 3) of a GCP table; geodetic points go through geodetic_to_enu around ``origin``."""
     if table.xyz is not None:
         return table.xyz
-    if not isinstance(origin, Origin):
+    if not isinstance(origin, Origin) or table.geodetic is None:
         raise InputError(
             f'{table.source}: geodetic GCPs cannot use origin = "first" (the log\'s first fix is not known when calibrating); '
             'set [target] origin = [lat, lon, alt] or "gcps"'
@@ -171,7 +171,7 @@ def calibrate_pose(
         report.setdefault("pose", None)
         return replace(known, name=name, fps=params.fps, R=np.eye(3), t=np.zeros(3), to_estimate=tuple(sorted(set(known.to_estimate) | {"pose"})), pose_info=None), report, prior
     info = PoseInfo(source or "gcp", pose.position_std_m, pose.rotation_std_deg)
-    camera = Camera(name, K, dist, pose.R, pose.t, tuple(size), params.fps, dist_model, dict(known.extra), pose_info=info)
+    camera = Camera(name, K, dist, pose.R, pose.t, (int(size[0]), int(size[1])), params.fps, dist_model, dict(known.extra), pose_info=info)
     return camera, report, prior
 
 
@@ -217,13 +217,13 @@ def run_calibrate(files: StageFiles, params: CalibrateParams) -> StageResult:
     if gcp is not None and read_gcps(gcp).geodetic is not None:
         origin = resolve_origin(origin, [files.path(label) for label in files.inputs if label.startswith("origin-gcp:")], "[target]")
     board_image = files.path("board_pose_image") if files.has("board_pose_image") else None
-    camera, report, prior = calibrate_pose(files.camera or "", params, known, intrinsics_report, origin, gcp, board_image)
+    camera, report, prior = calibrate_pose(files.camera_name, params, known, intrinsics_report, origin, gcp, board_image)
     failed = {}
     if params.target is not None:
         try:
             camera, report["target_pose"] = _pose_from_target_files(files, camera, params, prior)
         except SyncError as exc:  # the camera cannot be synchronized: camera.json without a pose says why, identify and vote pass it on
-            failed[files.camera or ""] = str(exc)
+            failed[files.camera_name] = str(exc)
             camera = replace(camera, R=np.eye(3), t=np.zeros(3), to_estimate=tuple(sorted(set(camera.to_estimate) | {"pose"})), pose_info=None, extra={**camera.extra, POSE_ERROR: str(exc)})
             report["target_pose"] = {"error": str(exc), "cause": getattr(exc, "cause", None), "remedy": getattr(exc, "remedy", None)}
     with files.write("camera") as tmp:

@@ -16,6 +16,7 @@ from tlsync_pipeline.atomic import atomic_path
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.geodesy import Origin
 from tlsync_pipeline.ingest import read_log
+from tlsync_pipeline.ingest.recording_time import parse_utc_offset
 from tlsync_pipeline.ingest.process import (
     IngestParams,
     IngestReport,
@@ -23,17 +24,18 @@ from tlsync_pipeline.ingest.process import (
     ingest,
 )
 from tlsync_pipeline.pipeline.origin import origin_inputs, resolve_origin
-from tlsync_pipeline.pipeline.spec import StageResult, StageSpec
-from tlsync_pipeline.pipeline.workspace import StageFiles
+from tlsync_pipeline.pipeline.spec import Sources, StageResult, StageSpec
+from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
 from tlsync_pipeline.trajectory import Trajectory, write_trajectory
 
 if TYPE_CHECKING:
     from tlsync_pipeline.pipeline.project import TargetConfig
 
 
-def ingest_log(path: str | Path, fmt: str = "auto", params: IngestParams = IngestParams(), topic: str | None = None) -> tuple[Trajectory, IngestReport]:
-    """Read and ingest one log."""
-    return ingest(read_log(path, fmt, topic), params)
+def ingest_log(path: str | Path, fmt: str = "auto", params: IngestParams = IngestParams(), topic: str | None = None,
+               utc_offset_s: float | None = None) -> tuple[Trajectory, IngestReport]:
+    """Read and ingest one log (utc_offset_s: local - UTC of a log whose clock is local)."""
+    return ingest(read_log(path, fmt, topic, utc_offset_s), params)
 
 
 def write_ingest(trajectory: Trajectory, report: IngestReport, csv_path: Path, report_path: Path) -> None:
@@ -60,7 +62,19 @@ def parse_origin(text: str) -> Origin | str:
         raise InputError(f"--origin {text!r}: expected LAT,LON,ALT (degrees, degrees, metres) or 'first' ({exc})") from None
 
 
-__all__ = ["RigidTransform", "ingest_log", "parse_origin", "report_sidecar", "write_ingest"]
+def parse_utc_offset_option(text: str) -> float:
+    """--utc-offset: hours (``2``, ``-3.5``) or ``+HH:MM``, to seconds (local - UTC)."""
+    try:
+        value: float | str = float(text)
+    except ValueError:
+        value = text
+    try:
+        return parse_utc_offset(value)
+    except ValueError as exc:
+        raise InputError(f"--utc-offset {text!r}: {exc}") from None
+
+
+__all__ = ["RigidTransform", "ingest_log", "parse_origin", "parse_utc_offset_option", "report_sidecar", "write_ingest"]
 
 
 def run_ingest(files: StageFiles, target: TargetConfig) -> StageResult:
@@ -69,14 +83,20 @@ def run_ingest(files: StageFiles, target: TargetConfig) -> StageResult:
     ``target``: the project's [target] without its files (log, trajectory: inputs).
     """
     origin = resolve_origin(target.origin, [files.path(label) for label in files.inputs if label.startswith("origin-gcp:")], "[target]")
-    trajectory, report = ingest_log(files.path("log"), target.format, target.ingest_params(origin), target.topic)
+    trajectory, report = ingest_log(files.path("log"), target.format, target.ingest_params(origin), target.topic, target.utc_offset)
     write_ingest(trajectory, report, files.output("trajectory"), files.output("ingest_report"))
     return StageResult(report.summary(with_warnings=False), tuple(report.warnings))
 
 
+def ingest_inputs(src: Sources, camera: None) -> dict[str, Path | Artefact]:
+    """The log, and the GCP files when the ENU origin is their centroid."""
+    assert src.project.target.log is not None, "the stage applies to a project with a log"
+    return {"log": src.project.target.log, **origin_inputs(src.project)}
+
+
 SPEC = StageSpec(
     "ingest",
-    inputs=lambda src, cam: {"log": src.project.target.log, **origin_inputs(src.project)},
+    inputs=ingest_inputs,
     params=lambda project, cam, options: dataclasses.replace(project.target, log=None, trajectory=None),
     outputs=("trajectory", "ingest_report"),
     run=run_ingest,
