@@ -148,13 +148,12 @@ class JointFit:
     converged: bool
     message: str
     errors: np.ndarray  # (N,) pixel error of each given frame under the fit (inf off the trajectory)
+    gate_px: float = 10.0
 
     @property
     def inliers(self) -> np.ndarray:
         """(N,) the given frames within the gate."""
         return self.errors <= self.gate_px
-
-    gate_px: float = 10.0
 
     def within(self, px: float) -> int:
         """Given frames whose reprojection is within ``px``."""
@@ -211,13 +210,12 @@ def fit_pose_and_line(
     use = np.asarray(start, dtype=bool) & (path.run_of((clock - beta) / alpha) >= 0)
     if use.sum() < MIN_FRAMES:
         raise ValueError(f"only {int(use.sum())} tracked frames fall on the trajectory under the line")
-    result: dict = {}
     for _ in range(PASSES):
         c_mid = float(np.median(clock[use]))
         x = _vector(camera, alpha, beta, c_mid, layout)
         fit_rows = _spread(np.flatnonzero(use), MAX_FIT_FRAMES)
-        result = _solve(camera, clock[fit_rows], xy[fit_rows], path, x, c_mid, layout, f_scale, prior, gcps, intrinsics_prior, model_error_px)
-        camera, alpha, beta = result["camera"], result["alpha"], result["beta"]
+        solved = _solve(camera, clock[fit_rows], xy[fit_rows], path, x, c_mid, layout, f_scale, prior, gcps, intrinsics_prior, model_error_px)
+        camera, alpha, beta = solved.camera, solved.alpha, solved.beta
         error = reprojection_errors(camera, clock, xy, path, alpha, beta)
         grown = error <= gate_px
         if grown.sum() < MIN_FRAMES or np.array_equal(grown, use):
@@ -228,18 +226,18 @@ def fit_pose_and_line(
         camera,
         alpha,
         beta,
-        result["cov"],
+        solved.cov,
         layout,
-        result["frames"],
+        solved.frames,
         int((error <= gate_px).sum()),
-        result["scale_px"],
-        result["center_std_m"],
-        result["rotation_std_deg"],
-        result["se_beta"],
-        result["intrinsics_std"],
+        solved.scale_px,
+        solved.center_std_m,
+        solved.rotation_std_deg,
+        solved.se_beta,
+        solved.intrinsics_std,
         gcps.errors_px(camera) if gcps is not None else np.zeros(0),
-        result["converged"],
-        result["message"],
+        solved.converged,
+        solved.message,
         error,
         gate_px,
     )
@@ -269,8 +267,26 @@ def _vector(camera: Camera, alpha: float, beta: float, c_mid: float, layout: Lay
     return np.array([*camera.rvec, *camera.t, 1.0 / alpha, (c_mid - beta) / alpha, *[values[k] for k in layout.names[8:]]], dtype=np.float64)
 
 
-def _solve(camera, clock, xy, path, x0, c_mid, layout, f_scale, prior, gcps, intrinsics_prior, model_error_px) -> dict:
-    """One robust fit from x0; returns the fitted camera, line, covariance and uncertainty summaries."""
+@dataclass(frozen=True)
+class _Solved:
+    """One fit's result (the fields of JointFit it fills)."""
+
+    camera: Camera
+    alpha: float
+    beta: float
+    cov: np.ndarray
+    frames: int
+    scale_px: float
+    center_std_m: float
+    rotation_std_deg: float
+    se_beta: float
+    intrinsics_std: dict[str, float]
+    converged: bool
+    message: str
+
+
+def _solve(camera, clock, xy, path, x0, c_mid, layout, f_scale, prior, gcps, intrinsics_prior, model_error_px) -> _Solved:
+    """One robust fit from x0: the fitted camera, line, covariance and uncertainty summaries."""
     run = path.run_of(x0[7] + x0[6] * (clock - c_mid))
     keep = run >= 0
     clock, xy, run = clock[keep], xy[keep], run[keep]
@@ -307,20 +323,20 @@ def _solve(camera, clock, xy, path, x0, c_mid, layout, f_scale, prior, gcps, int
     d_beta[6], d_beta[7] = s0 / u**2, -1.0 / u
     pixel = np.linalg.norm(r[: 2 * n].reshape(n, 2), axis=1)
     converged = bool(solution.success and np.all(np.isfinite(cov)) and u > 0)
-    return {
-        "camera": fitted,
-        "alpha": float(alpha),
-        "beta": float(beta),
-        "cov": cov,
-        "frames": n,
-        "scale_px": float(1.4826 * np.median(np.abs(pixel - np.median(pixel)))),
-        "center_std_m": _center_std(x, cov),
-        "rotation_std_deg": float(np.degrees(np.sqrt(max(np.trace(cov[:3, :3]), 0.0)))),
-        "se_beta": float(np.sqrt(max(d_beta @ cov @ d_beta, 0.0))),
-        "intrinsics_std": {k: float(np.sqrt(max(cov[layout.index(k), layout.index(k)], 0.0))) for k in layout.names[8:]},
-        "converged": converged,
-        "message": str(solution.message),
-    }
+    return _Solved(
+        fitted,
+        float(alpha),
+        float(beta),
+        cov,
+        n,
+        float(1.4826 * np.median(np.abs(pixel - np.median(pixel)))),
+        _center_std(x, cov),
+        float(np.degrees(np.sqrt(max(np.trace(cov[:3, :3]), 0.0)))),
+        float(np.sqrt(max(d_beta @ cov @ d_beta, 0.0))),
+        {k: float(np.sqrt(max(cov[layout.index(k), layout.index(k)], 0.0))) for k in layout.names[8:]},
+        converged,
+        str(solution.message),
+    )
 
 
 _INTRINSIC_SCALE = {"f": 10.0, "cx": 5.0, "cy": 5.0, "k1": 0.01}
