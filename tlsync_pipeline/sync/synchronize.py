@@ -9,8 +9,8 @@ brings every mover (detections) instead of a track has its target
 identified among them first (sync/identify.py); its line is then fitted on
 the identified track's votes (in the pipeline the identify stage writes that
 track, and votes.npz holds its votes). A camera without a pose gets it from
-the target before anything else (sync/pose.py; in the pipeline, the pose
-stage).
+the target before anything else (sync/pose.py; in the pipeline, the
+calibrate stage).
 
 Pure functions from typed values to typed values; no file I/O here.
 """
