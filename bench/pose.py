@@ -114,7 +114,7 @@ def pass_table(all_rows: list[dict]) -> str:
         errors = np.array([e for r in all_rows for e in r[key]["errors"]]) if any(r[key]["errors"] for r in all_rows) else np.zeros((0, 2))
         missing = sum(r[key]["missing"] for r in all_rows)
         pose = f"{np.median(errors[:, 0]):.3f} / {np.quantile(errors[:, 0], 0.9):.3f} | {np.median(errors[:, 1]):.3f}" if len(errors) else "- | -"
-        return f"| {label} | {np.median(worst):.3f} | {np.quantile(worst, 0.9):.3f} | {pose} | {missing} / {3 * len(all_rows)} |"
+        return f"| {label} | {np.median(worst):.3f} | {np.quantile(worst, 0.9, method='higher'):.3f} | {pose} | {missing} / {3 * len(all_rows)} |"
 
     lines = [
         "| poses | median eps_t | p90 eps_t | pose centre error, median / p90 (m) | rotation error, median (deg) | cameras without a pose |",
