@@ -47,13 +47,38 @@ def os_error_problem(exc: OSError) -> InputError | EnvironmentProblem:
     return EnvironmentProblem(f"{path}: {os_error_reason(exc)}")
 
 
-MAX_REASON = 1000  # characters of a printed or recorded reason (a whole sentence, never kilobytes)
+MAX_REASON = 1000  # characters of a recorded reason (a whole sentence, never kilobytes)
+MAX_LINE = 200  # characters of an error's reason on the terminal (the rest, and its details, with --verbose)
 
 
 def one_line(text: str, limit: int = MAX_REASON) -> str:
     """``text`` on one line (runs of white space become one space), cut at ``limit`` characters."""
     text = " ".join(str(text).split())
     return text if len(text) <= limit else text[: limit - 4].rstrip() + " ..."
+
+
+def shorten(text: str, limit: int = MAX_LINE) -> str:
+    """``text`` on one line and at most about ``limit`` characters: its start (the file) and its end (the fix) kept, the middle elided."""
+    text = one_line(text)
+    if len(text) <= limit:
+        return text
+    head, tail = text[: limit * 3 // 5], text[-(limit * 2 // 5) :]
+    head = head[: head.rfind(" ")] if " " in head[limit // 3 :] else head
+    tail = tail[tail.find(" ") + 1 :] if " " in tail[: limit // 5] else tail
+    return f"{head} ... {tail}"
+
+
+def with_details(error: BaseException, *details: str) -> BaseException:
+    """``error`` with ``details`` (lines the terminal shows under its one line with --verbose, the report in full)."""
+    for text in details:
+        if text:
+            error.add_note(text)
+    return error
+
+
+def error_details(error: BaseException) -> list[str]:
+    """The details added to an error (with_details), one entry per note."""
+    return [str(note) for note in getattr(error, "__notes__", ())]
 
 
 def describe_error(error: BaseException) -> str:

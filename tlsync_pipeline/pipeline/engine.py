@@ -151,10 +151,11 @@ def status(graph: Graph) -> list[TaskState]:
         if state == "fresh" and task.camera is None:
             for camera, why in (manifest.summary.get("failed") or {}).items():
                 rows[task_id(task.stage, camera)] = TaskState(task_id(task.stage, camera), task.stage, camera, "failed", [why])
-    try:
-        memo.save()
-    except OSError:
-        pass  # a read-only work folder: the hashes are only not remembered
+    if graph.work.is_dir():  # status reads only: it never makes the work folder
+        try:
+            memo.save()
+        except OSError:
+            pass  # a read-only work folder: the hashes are only not remembered
     order = {s: i for i, s in enumerate(STAGES)}
     cameras = graph.project.names
     return sorted(rows.values(), key=lambda r: (order[r.stage], cameras.index(r.camera) if r.camera else -1))

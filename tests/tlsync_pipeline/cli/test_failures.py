@@ -77,7 +77,8 @@ def test_camera_option_on_a_project_wide_stage_is_refused(project_dir):
     for args in (("sync", toml, "--camera", "cam1"), ("export", toml, "--camera", "cam0"), ("run", toml, "--force", "sync", "--camera", "cam1")):
         result = _cli(*args, "-j", "1")
         assert result.exit_code == ExitCode.BAD_INPUT, result.output
-        assert "is not per camera" in result.output
+        assert re.search(r"^error: .*the (sync|export) stage (is not per camera|uses every camera)", result.output), result.output
+        assert len(result.output.splitlines()) == 1, result.output
 
 
 def test_ffmpeg_script_writes_one_video_per_camera_beside_the_work_folder(project_dir, tmp_path):
@@ -149,7 +150,7 @@ def test_a_full_disk_exits_3_naming_the_path(shared_project):
     result = _in_namespace(f"mount -t tmpfs -o size=24k tmpfs '{work}'", "run", shared_project / "project.toml", "-j", "1", cwd=shared_project)
     output = result.stdout + result.stderr
     assert result.returncode == ExitCode.ENVIRONMENT, output
-    assert re.search(rf"error: .*{re.escape(str(work))}\S*: the disk is full", output), output
+    assert re.search(r"error: .*\bwork/\S*: the disk is full", output), output  # paths under the current folder are relative
     assert "Traceback" not in output
 
 
@@ -162,7 +163,7 @@ def test_a_read_only_work_folder_exits_3_in_one_line_naming_it(shared_project, c
     result = _in_namespace(setup, command, shared_project / "project.toml", "-j", "1", cwd=shared_project) if command == "run" else _in_namespace(setup, command, shared_project / "project.toml", cwd=shared_project)
     assert result.returncode == ExitCode.ENVIRONMENT, result.stdout + result.stderr
     errors = [line for line in result.stderr.splitlines() if line.strip()]
-    assert errors == [f"error: {work}: cannot write into the work folder (the file system is read-only); fix it or give another --work folder"], result.stderr
+    assert errors == ["error: work: cannot write into the work folder (the file system is read-only); fix it or give another --work folder"], result.stderr
     assert "Traceback" not in result.stdout + result.stderr
 
 

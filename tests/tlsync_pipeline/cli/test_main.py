@@ -25,10 +25,12 @@ def test_run_writes_timeline_and_prints_table(project_dir):
     assert data["line"]["direction"][0] == 1.0
 
 
-def test_out_option(project_dir, tmp_path):
+def test_work_option_and_a_folder_as_the_project(project_dir, tmp_path):
     out = tmp_path / "elsewhere"
-    assert _run("run", project_dir / "project.toml", "--out", out).exit_code == 0
+    assert _run("run", project_dir, "--work", out).exit_code == 0
     assert (out / "timeline.json").exists()
+    refused = _run("run", project_dir, "--out", out)
+    assert refused.exit_code == 2 and refused.output.startswith("error: --out: names the file a standalone command writes"), refused.output
 
 
 def _replace(path, old, new):

@@ -19,8 +19,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from calibration.camera import write_camera
+from calibration.errors import PatternMismatch
 from calibration.intrinsics import calibrate_images, calibrate_video, parse_pattern
-from tlsync_pipeline.errors import InputError
+from tlsync_pipeline.errors import InputError, error_details, with_details
 from tlsync_pipeline.pipeline.spec import Options, Sources, StageResult, StageSpec
 from tlsync_pipeline.pipeline.workspace import StageFiles
 
@@ -64,11 +65,14 @@ def check_calibration(project: Project, name: str) -> None:
 def run_intrinsics(files: StageFiles, params: IntrinsicsParams) -> StageResult:
     """Calibrate the camera's intrinsics from its board views (``image:*`` inputs or ``video``), with ``files.cores`` processes."""
     board = parse_pattern(params.pattern, params.square, source=f"camera {files.camera!r}: [cameras.calibration] pattern")
-    if files.has("video"):
-        result = calibrate_video(files.path("video"), board, params.model, params.max_frames, workers=files.cores, progress=files.progress, max_view_error=params.max_view_error)
-    else:
-        images = [str(files.path(label)) for label in files.inputs if label.startswith(IMAGE_PREFIX)]
-        result = calibrate_images(images, board, params.model, workers=files.cores, progress=files.progress, max_view_error=params.max_view_error)
+    try:
+        if files.has("video"):
+            result = calibrate_video(files.path("video"), board, params.model, params.max_frames, workers=files.cores, progress=files.progress, max_view_error=params.max_view_error)
+        else:
+            images = [str(files.path(label)) for label in files.inputs if label.startswith(IMAGE_PREFIX)]
+            result = calibrate_images(images, board, params.model, workers=files.cores, progress=files.progress, max_view_error=params.max_view_error, label=params.source)
+    except PatternMismatch as exc:
+        raise with_details(InputError(f'{exc}: set pattern = "{exc.seen}" in [cameras.calibration]'), *error_details(exc)) from None
     report = result.to_report()
     report["source"] = params.source
     relative = {str(files.path(label)): label[len(IMAGE_PREFIX) :] for label in files.inputs if label.startswith(IMAGE_PREFIX)}
