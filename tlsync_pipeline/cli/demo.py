@@ -16,6 +16,7 @@ from pathlib import Path
 
 import click
 
+from tlsync_pipeline.cli.console import shown
 from tlsync_pipeline.cli.options import jobs_option, quiet_option, verbose_option
 from tlsync_pipeline.cli.pipeline import execute, print_timeline, report_outcome
 from tlsync_pipeline.errors import InputError
@@ -53,7 +54,7 @@ def demo(directory: Path, quick: bool, seed: int, tracking_noise: float, jobs: i
     else:
         click.echo(f"{directory}/ holds this demo's project, untouched: running it again")
     graph, summary = execute(project_file, None, jobs=jobs, quiet=quiet)
-    code = report_outcome(summary, quiet)
+    code = report_outcome(graph, summary, quiet)
     timeline = print_timeline(graph, summary)
     if timeline is not None:
         pairs, n_frames = read_truth(directory / "truth.json")
@@ -62,7 +63,7 @@ def demo(directory: Path, quick: bool, seed: int, tracking_noise: float, jobs: i
         if errors:
             click.echo(f"\nworst eps_t: {max(errors.values()):.3f} frames, in {time.perf_counter() - start:.0f} s")
         ws = graph.workspace
-        click.echo(f"timeline: {ws.path('timeline')}\nreport: {ws.path('report_html')}\npictures: {ws.path('pictures')}/")
+        click.echo(shown(f"timeline: {ws.path('timeline')}\nreport: {ws.path('report_html')}\npictures: {ws.path('pictures')}/"))
     if code:
         sys.exit(code)
 

@@ -16,7 +16,7 @@ import click
 
 from tlsync_pipeline.cli import pipeline as pipeline_cli
 from tlsync_pipeline.cli.signals import INTERRUPTED_MESSAGE, interrupt
-from tlsync_pipeline.cli.console import print_error, usage_error_text
+from tlsync_pipeline.cli.console import print_error, shown, usage_error_text
 from tlsync_pipeline.cli.demo import demo as demo_command
 from tlsync_pipeline.cli.exit_codes import ExitCode, exit_code_for
 from tlsync_pipeline.cli.json_output import dumps, run_document
@@ -88,7 +88,7 @@ def run(project: Path, work_dir: Path | None, truth: Path | None, as_json: bool,
     PROJECT is the project file, or the folder that holds it (project.toml).
     """
     graph, summary = execute(project, work_dir, force_stages=force_stages, cameras=camera, jobs=jobs, executor_kind=executor_kind, scheduler=scheduler, quiet=quiet, summary_text=not as_json)
-    code = report_outcome(summary, quiet)
+    code = report_outcome(graph, summary, quiet)
     if as_json:
         synchronized = "sync" in summary.ran + summary.fresh
         if synchronized and read_timeline(graph.workspace.path("timeline")).failed:
@@ -97,7 +97,7 @@ def run(project: Path, work_dir: Path | None, truth: Path | None, as_json: bool,
     else:
         timeline = print_timeline(graph, summary, truth)
         if timeline is not None:
-            click.echo(f"\nwrote {graph.workspace.path('timeline')}" + (f", {graph.workspace.path('report_html')}" if "render" in summary.ran + summary.fresh else ""))
+            click.echo(shown(f"\nwrote {graph.workspace.path('timeline')}" + (f", {graph.workspace.path('report_html')}" if "render" in summary.ran + summary.fresh else "")))
             if timeline.failed:
                 code = max(code, ExitCode.NOT_SYNCHRONIZED)
         elif camera and not quiet:

@@ -12,18 +12,19 @@ from pathlib import Path
 
 import click
 
-from tlsync_pipeline.cli.console import ConsoleProgress, print_error
+from tlsync_pipeline.cli.console import ConsoleProgress, print_error, shown
 from tlsync_pipeline.cli.exit_codes import ExitCode, exit_code_for
 from tlsync_pipeline.cli.json_output import dumps, status_document
 from tlsync_pipeline.cli.options import camera_option, executor_options, in_order, project_argument, quiet_option, refused_camera, verbose_option, work_option
 from tlsync_pipeline.errors import EnvironmentProblem, InputError, describe_error, one_line
 from tlsync_pipeline.outputs.summary import format_table, format_truth_comparison
-from tlsync_pipeline.pipeline.engine import RunSummary, format_status, run_graph, status
+from tlsync_pipeline.pipeline.engine import RunSummary, format_status, run_graph, status, task_files
 from tlsync_pipeline.pipeline.executors import SerialExecutor, make_executor
-from tlsync_pipeline.pipeline.graph import PER_CAMERA, STAGES, build_graph
-from tlsync_pipeline.pipeline.lock import check_writable, running_run
+from tlsync_pipeline.pipeline.graph import PER_CAMERA, STAGES, Graph, build_graph
+from tlsync_pipeline.pipeline.lock import WorkLock, check_writable, running_run
 from tlsync_pipeline.pipeline.project import load_project
 from tlsync_pipeline.pipeline.spec import Options
+from tlsync_pipeline.pipeline.stages.render import StripRequest, draw_requested
 from tlsync_pipeline.sync.timeline import read_timeline, read_truth
 
 
@@ -53,11 +54,13 @@ def _parse_frames(value: str | None) -> tuple[int, ...] | None:
         raise InputError(f"--frames {value!r}: expected frame numbers of the second camera, e.g. 120,340,560") from None
 
 
-def execute(project_file: Path, work_dir: Path | None, *, force_stages=(), cameras=(), targets_stage=None, options=Options(), jobs=None, executor_kind="process", scheduler=None, quiet=False, summary_text=True):
+def execute(project_file: Path, work_dir: Path | None, *, force_stages=(), cameras=(), targets_stage=None, force_target=True, jobs=None, executor_kind="process", scheduler=None, quiet=False, summary_text=True):
     """Build the graph, run it and print what ran (summary_text: on stdout); returns (graph, summary).
 
-    cameras: only these cameras' per-camera tasks (those of ``targets_stage``
-    when given), with what they need first; forced stages only for them.
+    targets_stage: run that stage's tasks and what they need, nothing after
+    them (force_target: even when fresh). cameras: only these cameras'
+    per-camera tasks (those of ``targets_stage`` when given), with what they
+    need first; forced stages only for them.
     Stages draw their own progress bars only when they run one at a time in
     this process; tasks in parallel workers get one bar drawn here.
     """
@@ -68,14 +71,15 @@ def execute(project_file: Path, work_dir: Path | None, *, force_stages=(), camer
     _check_force_with_cameras(cameras, force_stages)
     executor = make_executor(executor_kind, jobs, scheduler)
     stage_bars = not quiet and isinstance(executor, SerialExecutor)
-    graph = build_graph(project, work, Options(options.render_pairs, options.render_frames, options.truth, stage_bars))
+    graph = build_graph(project, work, Options(progress=stage_bars))
     force: set[str] = set()
     for stage in force_stages:
         force.update(graph.select(stage, None))
     targets = None
     if targets_stage is not None:
         targets = [tid for camera in cameras or (None,) for tid in graph.select(targets_stage, camera)]
-        force.update(targets)
+        if force_target:
+            force.update(targets)
     elif cameras:
         targets = [tid for tid, task in graph.tasks.items() if task.camera in cameras]
     if cameras:
@@ -107,20 +111,49 @@ def format_summary(summary: RunSummary, counts: bool = True) -> str:
             lines.append("ran: " + ", ".join(summary.ran))
         lines += [f"skipped {tid}: {why}" for tid, why in summary.skipped.items()]
     lines += [f"{tid}: {summary.results[tid].message}" for tid in summary.ran if summary.results[tid].message]
-    return "\n".join(lines)
+    return shown("\n".join(lines))
 
 
-def report_outcome(summary: RunSummary, quiet: bool = False) -> ExitCode:
-    """Print the stages' warnings (unless quiet) and each failure once, on one line; returns the exit code they mean."""
+def report_outcome(graph: Graph, summary: RunSummary, quiet: bool = False) -> ExitCode:
+    """Print the run's warnings (unless quiet) and each failure once, on one line; returns the exit code they mean.
+
+    The warnings of the tasks that ran, grouped by task in pipeline order
+    (at most WARNINGS_PER_TASK each), then how many the run has in all, the
+    fresh tasks' included: the list report.html and timeline.json hold.
+    """
     if not quiet:
-        for tid in summary.ran:
-            for warning in summary.results[tid].warnings:
-                click.echo(f"warning: {tid}: {one_line(warning)}", err=True)
+        print_warnings(graph, summary)
     code = ExitCode.OK
     for tid, error in summary.failed.items():
         print_error(describe_error(error), error, where=tid)
         code = max(code, exit_code_for(error))
     return ExitCode(code)
+
+
+WARNINGS_PER_TASK = 5  # warning lines printed per task (the rest counted; the report lists them all)
+
+
+def print_warnings(graph: Graph, summary: RunSummary) -> None:
+    """``warning: TASK: text`` per warning of the tasks that ran, then ``N warnings (see report.html)`` (stderr)."""
+    total = sum(len(w) for w in summary.warnings.values())
+    if not total:
+        return
+    printed = 0
+    for tid in graph.tasks:
+        if tid not in summary.ran:
+            continue
+        texts = summary.warnings.get(tid, ())
+        for text in texts[:WARNINGS_PER_TASK]:
+            click.echo(f"warning: {tid}: {shown(one_line(text))}", err=True)
+        if len(texts) > WARNINGS_PER_TASK:
+            click.echo(f"warning: {tid}: ... and {len(texts) - WARNINGS_PER_TASK} more like these", err=True)
+        printed += len(texts)
+    line = f"{total} warning{'s' if total > 1 else ''}"
+    if printed < total:
+        line += f" ({total - printed} from stages that did not run again)" if printed else ""
+    if "render" in summary.ran + summary.fresh:
+        line += f"; see {shown(str(graph.workspace.path('report_html')))}"
+    click.echo(line, err=True)
 
 
 def print_timeline(graph, summary: RunSummary, truth: Path | None = None):
@@ -180,17 +213,26 @@ def stage_command(stage: str, help_text: str, render: bool = False) -> click.Com
     """``tlsync STAGE PROJECT [--camera NAME]``: re-run one stage (what it needs first, if not fresh)."""
 
     def command(project, work_dir, jobs, executor_kind, scheduler, quiet, camera=(), pair=None, frames=None, truth=None):
-        options = Options(_parse_pairs(pair), _parse_frames(frames), truth)
-        _, summary = execute(project, work_dir, cameras=camera, targets_stage=stage, options=options, jobs=jobs, executor_kind=executor_kind, scheduler=scheduler, quiet=quiet)
-        code = report_outcome(summary, quiet)
+        request = StripRequest(_parse_pairs(pair), _parse_frames(frames), read_truth(truth)[0] if truth else None) if pair or frames or truth else None
+        if request is not None and request.pairs:
+            loaded = load_project(project)
+            for name in {n for p in request.pairs for n in p}:
+                loaded.camera(name)
+        graph, summary = execute(project, work_dir, cameras=camera, targets_stage=stage, force_target=request is None, jobs=jobs, executor_kind=executor_kind, scheduler=scheduler, quiet=quiet)
+        code = report_outcome(graph, summary, quiet)
+        if request is not None and stage in summary.ran + summary.fresh:
+            task = graph.tasks[stage]
+            with WorkLock(graph.work):
+                written = draw_requested(task_files(graph, stage), task.params, request)
+            click.echo("wrote " + ", ".join(shown(str(path)) for path in written))
         if code:
             sys.exit(code)
 
     command.__doc__ = help_text
     render_options = (
-        click.option("--pair", help="Pairs of cameras to draw: A,B (several: 'A,B;A,C'); default: the first camera with each other."),
-        click.option("--frames", help="Frames of the second camera of each pair to draw, e.g. 120,340."),
-        click.option("--truth", type=click.Path(dir_okay=False, path_type=Path), help="truth.json: adds pictures at the true relation."),
+        click.option("--pair", metavar="A,B", help="Draw the strip of matching frames of cameras A and B (several: 'A,B;A,C'), kept beside the other pictures as render/pair_A_B....png."),
+        click.option("--frames", metavar="F,F", help="Frames of the second camera of each pair to draw, e.g. 120,340 (default: chosen; without --pair: the default pairs)."),
+        click.option("--truth", type=click.Path(dir_okay=False, path_type=Path), help="truth.json: the strips show A's true match too."),
     )
     camera = camera_option("Only this camera (repeatable).") if stage in PER_CAMERA else refused_camera(stage, PER_CAMERA)
     command = in_order(project_argument, work_option, camera, *(render_options if render else ()), executor_options, quiet_option(), verbose_option)(command)

@@ -157,7 +157,7 @@ class StageFiles:
     guarded: tuple[Path, ...]  # folders whose files must be declared to be opened (work, project)
     progress: bool = True
     cores: int = 1
-    history: list[dict] = field(default_factory=list)  # earlier runs' records (stage, camera, created, seconds, warnings), for the report
+    history: list[Any] = field(default_factory=list)  # the needed tasks' last runs (outputs.diagnostics.StageRun), in pipeline order
     workers: Any = field(default=None, repr=False, compare=False)
 
     def path(self, label: str) -> Path:

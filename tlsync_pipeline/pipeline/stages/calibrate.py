@@ -154,7 +154,18 @@ def run_calibrate(files: StageFiles, params: CalibrateParams) -> StageResult:
         tmp.write_text(json.dumps(report, indent=1) + "\n", encoding="utf-8")
     with files.write("calibration_picture") as tmp:
         tmp.write_bytes(calibration_plot(report, camera.image_size))
-    return StageResult(message=f"{calibration_summary(report)}; wrote {files.output('camera')}")
+    return StageResult(message=f"{calibration_summary(report)}; wrote {files.output('camera')}", warnings=pose_warnings(report))
+
+
+def pose_warnings(report: dict) -> tuple[str, ...]:
+    """The calibrate stage's warnings, from its report: ground control points left out as outliers, a camera without a pose."""
+    pose = report.get("pose") or {}
+    out = [
+        f"ground control point {point.get('name', '?')} left out as an outlier ({point.get('error_px', float('nan')):.1f} px)"
+        for point in pose.get("points", [])
+        if not point.get("inlier", True)
+    ]
+    return tuple(out + ([report["warning"]] if report.get("warning") else []))
 
 
 def calibrate_inputs(src: Sources, name: str) -> dict[str, Path]:

@@ -60,6 +60,9 @@ def run_export(files: StageFiles, params: ProjectWide) -> StageResult:
     """The export stage: frame_map.csv, offsets.csv, ffmpeg.sh, timeline.otio, timeline.fcpxml and sync.json (synchronized cameras only).
 
     Cameras left out (their own tasks did not complete) are not in the timeline either.
+    An editor timeline it cannot write is said in its message (the report's
+    exports section shows it), not as a warning: warnings are about the
+    inputs and the timeline (timeline.json lists them).
     """
     cameras = camera_files(files, params)
     tl = read_timeline(files.path("timeline"))
@@ -96,7 +99,7 @@ def run_export(files: StageFiles, params: ProjectWide) -> StageResult:
         for kind, text in texts.items():
             with files.write(kind) as tmp:
                 tmp.write_text(text, encoding="utf-8")
-    return StageResult(warnings=tuple(notes), facts={"exported": tl.names, "n_frames": n_frames})
+    return StageResult("; ".join(notes) or None, facts={"exported": tl.names, "n_frames": n_frames})
 
 
 def editor_placements(tl: Timeline, rows: list[dict], videos: dict[str, str | None], n_frames: dict[str, int]) -> list[Placement] | None:

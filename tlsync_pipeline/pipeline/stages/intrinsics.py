@@ -84,7 +84,8 @@ def run_intrinsics(files: StageFiles, params: IntrinsicsParams) -> StageResult:
         write_camera(result.camera(files.camera), tmp)
     with files.write("intrinsics_report") as tmp:
         tmp.write_text(json.dumps(report, indent=1) + "\n", encoding="utf-8")
-    return StageResult(facts={"rms_px": result.rms, "views_used": len(result.used)})
+    rejected = tuple(f"checkerboard view {view['image']} rejected: {view['reason']}" for view in report["rejected"])
+    return StageResult(warnings=rejected, facts={"rms_px": result.rms, "views_used": len(result.used)})
 
 
 def intrinsics_inputs(src: Sources, name: str) -> dict[str, Path]:
