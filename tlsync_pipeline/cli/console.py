@@ -18,6 +18,7 @@ import click
 
 from tlsync_pipeline.cli.options import verbose
 from tlsync_pipeline.errors import INPUT_ERRORS, MAX_LINE, EnvironmentProblem, SyncError, error_details, one_line, shorten
+from tlsync_pipeline.pipeline.cache import NOT_MADE
 from tlsync_pipeline.pipeline.engine import Progress
 
 
@@ -82,7 +83,7 @@ class ConsoleProgress(Progress):
             click.echo(message, err=True)
 
     def started(self, task_id: str, why: str, parallel: bool) -> None:
-        self.say(f"{task_id}: running ({one_line(why)})")
+        self.say(f"{task_id}: running" + ("" if why == NOT_MADE else f" ({one_line(why)})"))
         if parallel and self.draw_bar:
             self._running.append(task_id)
             self._total += 1

@@ -60,8 +60,9 @@ def demo(directory: Path, quick: bool, seed: int, tracking_noise: float, jobs: i
         pairs, n_frames = read_truth(directory / "truth.json")
         table, errors = format_truth_comparison(timeline, pairs, n_frames)
         click.echo("\nrecovered against true relations:\n" + table)
+        failed = len(pairs) - len(errors)
         if errors:
-            click.echo(f"\nworst eps_t: {max(errors.values()):.3f} frames, in {time.perf_counter() - start:.0f} s")
+            click.echo(f"\nworst eps_t: {max(errors.values()):.3f} frames" + (f" ({failed} pairs failed)" if failed else "") + f", in {time.perf_counter() - start:.0f} s")
         ws = graph.workspace
         click.echo(shown(f"timeline: {ws.path('timeline')}\nreport: {ws.path('report_html')}\npictures: {ws.path('pictures')}/"))
     if code:

@@ -93,15 +93,20 @@ def test_ffmpeg_script_writes_one_video_per_camera_beside_the_work_folder(projec
         text = text.replace(f'name = "{name}"\n', f'name = "{name}"\nvideo = "{name}/video.mp4"\n', 1)
     toml.write_text(text)
     assert _cli("export", toml, "-j", "1", "-q").exit_code == 0
+    script = (project_dir / "work" / "exports" / "ffmpeg.sh").read_text()
+    assert str(project_dir) not in script  # relative paths: the script works wherever the project is moved
+    moved = tmp_path / "moved"
+    shutil.copytree(project_dir, moved, ignore=shutil.ignore_patterns("moved", "bin"))
     fake = tmp_path / "bin"
     fake.mkdir()
-    (fake / "ffmpeg").write_text('#!/bin/sh\nfor last; do :; done\necho "$PWD/$last" >> "$FFMPEG_LOG"\n')
+    # records the file it was asked to write, after checking that its input (the argument after -i) exists
+    (fake / "ffmpeg").write_text('#!/bin/sh\nwhile [ "$1" != -i ]; do shift; done\n[ -f "$2" ] || exit 9\nfor last; do :; done\necho "$PWD/$last" >> "$FFMPEG_LOG"\n')
     (fake / "ffmpeg").chmod(0o755)
     log = tmp_path / "ffmpeg.log"
     env = {**os.environ, "PATH": f"{fake}:{os.environ['PATH']}", "FFMPEG_LOG": str(log)}
-    subprocess.run(["sh", str(project_dir / "work" / "exports" / "ffmpeg.sh")], cwd=tmp_path, env=env, check=True)
+    subprocess.run(["sh", str(moved / "work" / "exports" / "ffmpeg.sh")], cwd=tmp_path, env=env, check=True)
     outputs = log.read_text().split()
-    assert outputs == [str(project_dir / "cam0_synced.mp4"), str(project_dir / "cam1_synced.mp4")]
+    assert outputs == [str(moved / "cam0_synced.mp4"), str(moved / "cam1_synced.mp4")]
 
 
 def test_demo_does_not_overwrite_a_folder_the_user_edited(project_dir):

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import csv
 import json
+import os
 from pathlib import Path
 
 import numpy as np
@@ -83,8 +84,9 @@ def run_export(files: StageFiles, params: ProjectWide) -> StageResult:
             writer.writeheader()
             writer.writerows({k: ("" if v is None else (f"{v:.6f}" if isinstance(v, float) else v)) for k, v in r.items()} for r in rows)
     videos = {name: (str(c.video) if c.video is not None else None) for name, c in cameras.items()}
+    base = files.output("ffmpeg").parent.parent.parent  # ffmpeg.sh runs in the folder that holds the work folder
     with files.write("ffmpeg") as tmp:
-        tmp.write_text(ffmpeg_commands(rows, videos), encoding="utf-8")
+        tmp.write_text(ffmpeg_commands(rows, {name: None if v is None else os.path.relpath(v, base) for name, v in videos.items()}), encoding="utf-8")
     notes = []
     placements = editor_placements(tl, rows, videos, n_frames)
     if placements is None:
