@@ -4,7 +4,9 @@ from pathlib import Path
 
 
 class CalibrationInputError(ValueError):
-    """Bad input: the message names the file and the field, line or image (details, if any, in its notes)."""
+    """Bad input: the message names the file and the field, line or image; ``details``: what was tried, per image."""
+
+    details: tuple[str, ...] = ()
 
 
 class PatternMismatch(CalibrationInputError):

@@ -132,7 +132,7 @@ def render_video(
             if distractor:
                 _draw_distractor(image, k, n_frames, w, h)
             if lookalike:
-                _draw_target(image, xx, yy, *lookalike_at[k], radius, texture, LOOKALIKE_GREY)
+                _draw_target(image, xx, yy, float(lookalike_at[k, 0]), float(lookalike_at[k, 1]), radius, texture, LOOKALIKE_GREY)
             cx, cy = positions[k]
             if np.isfinite(cx):
                 _draw_target(image, xx, yy, cx, cy, radius, texture)
@@ -164,7 +164,7 @@ def h264_writer(path: str | Path, fps: float, size: tuple[int, int], options: di
         stream.width, stream.height = size
         stream.pix_fmt = "yuv420p"
         stream.codec_context.time_base = TIME_BASE
-        stream.options = options
+        stream.options = dict(options)
         if rotation:
             stream.set_display_rotation(rotation)
 

@@ -9,7 +9,9 @@ from trackers.errors import TrackInputError
 
 
 class InputError(ValueError):
-    """Bad input (exit code 2): the message names the file and line or field."""
+    """Bad input (exit code 2): the message names the file and line or field; ``details``: more, for --verbose."""
+
+    details: tuple[str, ...] = ()
 
 
 class SyncError(RuntimeError):
@@ -36,7 +38,7 @@ _OS_REASONS = {
 
 def os_error_reason(exc: OSError) -> str:
     """What went wrong, in words (without the path): "the disk is full", "the file system is read-only", ..."""
-    return _OS_REASONS.get(exc.errno, exc.strerror or str(exc))
+    return _OS_REASONS.get(exc.errno, exc.strerror or str(exc)) if exc.errno is not None else exc.strerror or str(exc)
 
 
 def os_error_problem(exc: OSError) -> InputError | EnvironmentProblem:
@@ -69,16 +71,18 @@ def shorten(text: str, limit: int = MAX_LINE) -> str:
 
 
 def with_details(error: BaseException, *details: str) -> BaseException:
-    """``error`` with ``details`` (lines the terminal shows under its one line with --verbose, the report in full)."""
-    for text in details:
-        if text:
-            error.add_note(text)
+    """``error`` with ``details`` (lines the terminal shows under its one line with --verbose), after any it had.
+
+    Kept as the error's ``details`` attribute, which survives pickling (a
+    worker process's error), as tlsync's and the calibration's errors declare.
+    """
+    setattr(error, "details", (*error_details(error), *(text for text in details if text)))
     return error
 
 
 def error_details(error: BaseException) -> list[str]:
-    """The details added to an error (with_details), one entry per note."""
-    return [str(note) for note in getattr(error, "__notes__", ())]
+    """The details an error carries (with_details, or set where it was raised), one entry per block of lines."""
+    return [str(text) for text in getattr(error, "details", ())]
 
 
 def describe_error(error: BaseException) -> str:

@@ -14,6 +14,8 @@ import sys
 import traceback
 from pathlib import Path
 
+from typing import Any
+
 import click
 
 from tlsync_pipeline.cli.options import verbose
@@ -69,7 +71,7 @@ class ConsoleProgress(Progress):
         """bar: draw the bar over parallel tasks (None: when stderr is a terminal; in a log it only adds noise)."""
         self.quiet = quiet
         self.draw_bar = (not quiet) and (stderr_is_terminal() if bar is None else bar)
-        self._bar = None
+        self._bar: Any = None  # tqdm's bar while parallel tasks run
         self._running: list[str] = []
         self._done = 0
         self._total = 0

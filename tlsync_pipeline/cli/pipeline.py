@@ -193,7 +193,8 @@ def status_command(project: Path, work_dir: Path | None, as_json: bool, quiet: b
     try:
         check_writable(work)
     except EnvironmentProblem as exc:
-        problem, code = exc, ExitCode.ENVIRONMENT
+        problem: EnvironmentProblem | None = exc
+        code = ExitCode.ENVIRONMENT
     else:
         problem = None
     if as_json:

@@ -21,6 +21,7 @@ import hashlib
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 from tlsync_pipeline.atomic import PART_SUFFIX
 from tlsync_pipeline.errors import InputError, describe_error
@@ -156,7 +157,7 @@ def status(graph: Graph) -> list[TaskState]:
         if waiting:
             reasons.append("waits for " + ", ".join(f"{d} ({rows[d].state})" for d in waiting))
         rows[tid] = TaskState(tid, task.stage, task.camera, state, reasons, sorted(manifest.outputs) if manifest else [])
-        if state == "fresh" and task.camera is None:
+        if state == "fresh" and task.camera is None and manifest is not None:
             for camera, why in (manifest.summary.get("failed") or {}).items():
                 rows[task_id(task.stage, camera)] = TaskState(task_id(task.stage, camera), task.stage, camera, "failed", [why])
     if graph.work.is_dir():  # status reads only: it never makes the work folder
@@ -249,7 +250,7 @@ class _Scheduler:
     """Hands out the wanted tasks as their inputs are made, collects their results, records what each did."""
 
     graph: Graph
-    executor: object
+    executor: Any
     force: set[str]
     memo: HashMemo
     summary: RunSummary

@@ -30,9 +30,12 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from tlsync_pipeline.atomic import atomic_path
+
+if TYPE_CHECKING:
+    from tlsync_pipeline.outputs.diagnostics import StageRun
 
 # Artefact kind -> path relative to the work folder ({camera}: the camera's name). "pictures" is a folder.
 ARTEFACTS: dict[str, str] = {
@@ -157,8 +160,15 @@ class StageFiles:
     guarded: tuple[Path, ...]  # folders whose files must be declared to be opened (work, project)
     progress: bool = True
     cores: int = 1
-    history: list[Any] = field(default_factory=list)  # the needed tasks' last runs (outputs.diagnostics.StageRun), in pipeline order
+    history: list[StageRun] = field(default_factory=list)  # the needed tasks' last runs, in pipeline order
     workers: Any = field(default=None, repr=False, compare=False)
+
+    @property
+    def camera_name(self) -> str:
+        """The task's camera (a per-camera stage's)."""
+        if self.camera is None:
+            raise ValueError(f"{self.task}: not a per-camera task")
+        return self.camera
 
     def path(self, label: str) -> Path:
         """A declared input's path."""
@@ -206,8 +216,8 @@ class StageFiles:
             return
         if path.endswith(".manifest.json") and not writing:
             return  # the cache's records, not artefacts
-        for out in self.outputs.values():
-            out = str(out)
+        for output in self.outputs.values():
+            out = str(output)
             if path == out or path.startswith(out + os.sep):
                 return
             head, name = os.path.split(out)

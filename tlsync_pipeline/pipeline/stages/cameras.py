@@ -46,7 +46,7 @@ def camera_files(files: StageFiles, params: ProjectWide) -> dict[str, CameraFile
     """Per camera the stage serves, the files it declared (kinds: CAMERA_FILES) and, with CamerasParams, its fps."""
     fps = params.fps if isinstance(params, CamerasParams) else {}
     return {
-        n: CameraFiles(n, **{k: files.path(f"{k}:{n}") for k in CAMERA_FILES if files.has(f"{k}:{n}")}, fps=fps.get(n))  # type: ignore[arg-type]
+        n: CameraFiles(n, **{k: files.path(f"{k}:{n}") for k in CAMERA_FILES if files.has(f"{k}:{n}")}, fps=fps.get(n))
         for n in params.cameras
     }
 

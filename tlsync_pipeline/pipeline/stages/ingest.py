@@ -25,8 +25,8 @@ from tlsync_pipeline.ingest.process import (
     ingest,
 )
 from tlsync_pipeline.pipeline.origin import check_log_near_gcps, origin_inputs, resolve_origin
-from tlsync_pipeline.pipeline.spec import StageResult, StageSpec
-from tlsync_pipeline.pipeline.workspace import StageFiles
+from tlsync_pipeline.pipeline.spec import Sources, StageResult, StageSpec
+from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
 from tlsync_pipeline.trajectory import Trajectory, write_trajectory
 
 if TYPE_CHECKING:
@@ -80,9 +80,15 @@ def run_ingest(files: StageFiles, target: TargetConfig) -> StageResult:
     return StageResult(report.summary(with_warnings=False), tuple(report.warnings))
 
 
+def ingest_inputs(src: Sources, camera: None) -> dict[str, Path | Artefact]:
+    """The log, and the GCP files when the ENU origin is their centroid."""
+    assert src.project.target.log is not None, "the stage applies to a project with a log"
+    return {"log": src.project.target.log, **origin_inputs(src.project)}
+
+
 SPEC = StageSpec(
     "ingest",
-    inputs=lambda src, cam: {"log": src.project.target.log, **origin_inputs(src.project)},
+    inputs=ingest_inputs,
     params=lambda project, cam, options: dataclasses.replace(project.target, log=None, trajectory=None),
     outputs=("trajectory", "ingest_report"),
     run=run_ingest,

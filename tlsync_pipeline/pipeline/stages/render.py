@@ -17,6 +17,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+import numpy as np
+
 from tlsync_pipeline.atomic import atomic_path
 from tlsync_pipeline.ingest.process import IngestReport
 from tlsync_pipeline.errors import InputError
@@ -142,10 +144,10 @@ def run_render(files: StageFiles, params: RenderParams) -> StageResult:
     written = [path for camera in cameras.values() for path in camera.written] + [camera.proxy for camera in cameras.values() if camera.proxy is not None]
     strips = []
     for plan in plans:
-        path = write_png(out_dir / f"strip_{plan.a}_{plan.b}.png", assemble_pair(plan, panels))
+        path = write_png(out_dir / f"strip_{plan.a}_{plan.b}.png", strip_of(plan, panels))
         written.append(path)
         strips.append(photo(f"{plan.a} and {plan.b}: matching frames", path, work))
-    requested = [write_png(out_dir / name, assemble_pair(plan, panels)) for plan, name in asked]
+    requested = [write_png(out_dir / name, strip_of(plan, panels)) for plan, name in asked]
     charts = _charts(scene, out_dir, work)
     written += [work / c.href for c in charts]
     notes = list(dict.fromkeys([*notes, *(w for call in called for w in call.warnings)]))
@@ -225,6 +227,13 @@ def _plan_strips(scene: _Scene, pairs: list[tuple[str, str]], request: StripRequ
     return plans, drawn
 
 
+def strip_of(plan: PairPlan, panels: dict[str, list]) -> np.ndarray:
+    """The strip of a planned pair (it has rows: _plan_strips keeps only those)."""
+    strip = assemble_pair(plan, panels)
+    assert strip is not None, "a planned strip has rows"
+    return strip
+
+
 def read_requests(out_dir: Path) -> list[StripRequest]:
     """The strips asked for so far (``render/requests.json``), oldest first; none when absent or unreadable."""
     try:
@@ -256,7 +265,7 @@ def draw_requested(files: StageFiles, params: RenderParams, request: StripReques
     if notes:
         raise InputError(notes[0])
     panels = {name: draw_panels(scene.videos[name], scene.inputs[name].camera, wanted) for name, wanted in requests.items()}
-    written = [write_png(out_dir / request.file_name(plan.a, plan.b), assemble_pair(plan, panels)) for plan in plans]
+    written = [write_png(out_dir / request.file_name(plan.a, plan.b), strip_of(plan, panels)) for plan in plans]
     kept = [r for r in read_requests(out_dir) if r != request] + [request]
     with atomic_path(out_dir / REQUESTS) as tmp:
         tmp.write_text(json.dumps([r.to_dict() for r in kept], indent=1) + "\n", encoding="utf-8")

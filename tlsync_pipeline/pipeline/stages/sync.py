@@ -87,7 +87,7 @@ def run_sync(files: StageFiles, params: SyncStageParams) -> StageResult:
 
 def with_identifications(timeline: Timeline, found: dict[str, IdentificationSummary | SyncError]) -> Timeline:
     """The timeline with each identified camera's line carrying its identification summary."""
-    lines = {n: replace(line, identification=found[n]) if isinstance(found.get(n), IdentificationSummary) else line for n, line in timeline.cameras.items()}
+    lines = {n: replace(line, identification=summary) if isinstance(summary := found.get(n), IdentificationSummary) else line for n, line in timeline.cameras.items()}
     return replace(timeline, cameras=lines)
 
 
