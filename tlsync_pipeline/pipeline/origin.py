@@ -60,7 +60,8 @@ def check_gcp_places(table: GcpTable, origin: Origin | None = None, origin_label
     if len(odd):
         i = int(odd[0])
         cause = likely_slip(lat[odd], lon[odd], centre) or "check its lat and lon (WGS84 degrees)"
-        raise InputError(f"{table.source}:{table.lines[i]}: point {table.names[i]} is {apart[i] / 1000:,.0f} km from the file's other points; {cause}")
+        point = "the point" if table.names[i] == f"line {table.lines[i]}" else f"point {table.names[i]}"
+        raise InputError(f"{table.source}:{table.lines[i]}: {point} is {apart[i] / 1000:,.0f} km from the file's other points; {cause}")
     if origin is None:
         return
     far = float(np.median(horizontal_distance(lat, lon, origin)))
