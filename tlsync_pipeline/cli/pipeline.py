@@ -243,6 +243,7 @@ def stage_command(stage: str, help_text: str, render: bool = False) -> click.Com
 intrinsics_command = stage_command("intrinsics", "Re-run the intrinsics stage: checkerboard detection and intrinsics.json per camera.")
 calibrate_command = stage_command("calibrate", "Re-run the calibrate stage: the pose; camera.json, calibration_report.json, calibration.png per camera.")
 track_command = stage_command("track", "Re-run the track stage: every mover's detections.csv (blob) or the target's track.csv (CSRT) in each camera's video.")
+clock_command = stage_command("clock", "Re-run the clock stage: each camera's recording time (its video's metadata or [cameras.clock] recorded) into clock.json.")
 identify_command = stage_command("identify", "Re-run the identify stage: the target among every mover (the init box, if any, seeding it); track.csv and identification.json per camera.")
 ingest_command = stage_command("ingest", "Re-run the ingest stage: the [target] log into target/trajectory.csv and ingest_report.json.")
 vote_command = stage_command("vote", "Re-run the vote stage: (frame, sample) pairs within eps_px, per camera.")
@@ -264,5 +265,5 @@ def run_options(f):
 def register(group: click.Group) -> None:
     """Add the pipeline's commands to the ``tlsync`` group."""
     group.add_command(status_command, "status")
-    for cmd in (intrinsics_command, calibrate_command, track_command, ingest_command, identify_command, vote_command, sync_command, export_command, render_command):
+    for cmd in (intrinsics_command, calibrate_command, track_command, clock_command, ingest_command, identify_command, vote_command, sync_command, export_command, render_command):
         group.add_command(cmd)

@@ -23,6 +23,7 @@ FLAG_MEANING = {
     "few_inliers": "few frames support the line",
     "ambiguous": "a second line has comparable support",
     "along_ray": "the target moves mostly along the viewing ray",
+    "clock_disagrees": "the offset disagrees with the camera's own clock by more than its tolerance (see clock_prior)",
 }
 
 

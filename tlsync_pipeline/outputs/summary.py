@@ -31,7 +31,7 @@ def format_table(timeline: Timeline) -> str:
     if first:
         text += f"\nstart: when the camera's frame 0 was taken, in frames and seconds of {first} (positive: later than {first}'s frame 0)"
     if with_se:
-        text += "\n±: 95 % intervals (1.96 standard errors); flags: few_inliers, ambiguous (a second line with comparable support), along_ray (motion mostly along the viewing ray), fallback (see the sync stage's warnings), truncated (the video ends before its announced end; only the frames it holds are mapped)"
+        text += "\n±: 95 % intervals (1.96 standard errors); flags: few_inliers, ambiguous (a second line with comparable support), along_ray (motion mostly along the viewing ray), fallback (see the sync stage's warnings), truncated (the video ends before its announced end; only the frames it holds are mapped), clock_disagrees (the offset disagrees with the camera's own clock by more than its tolerance: see clock_prior in timeline.json)"
     vfr = [name for name, line in timeline.cameras.items() if line.clock.vfr]
     if vfr:
         text += f"\nvariable frame rate: {', '.join(vfr)}: starts in frames are approximate; exports/frame_map.csv maps frames exactly"

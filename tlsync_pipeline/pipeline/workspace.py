@@ -5,6 +5,7 @@ Layout (relative to the work folder; docs/pipeline.md lists it for users):
     cameras/<cam>/intrinsics.json, intrinsics_report.json          intrinsics
     cameras/<cam>/camera.json, calibration_report.json, calibration.png   calibrate
     cameras/<cam>/track.csv, cameras/<cam>/video.json               track
+    cameras/<cam>/clock.json                                        clock
     cameras/<cam>/votes.npz                                         vote
     target/trajectory.csv, target/ingest_report.json                ingest
     timeline.json                                                   sync
@@ -48,6 +49,7 @@ ARTEFACTS: dict[str, str] = {
     "detections": "cameras/{camera}/detections.csv",
     "identification": "cameras/{camera}/identification.json",
     "video_info": "cameras/{camera}/video.json",
+    "clock": "cameras/{camera}/clock.json",
     "votes": "cameras/{camera}/votes.npz",
     "trajectory": "target/trajectory.csv",
     "ingest_report": "target/ingest_report.json",

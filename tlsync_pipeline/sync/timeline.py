@@ -21,6 +21,7 @@ import numpy as np
 
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.sync.clock import FRAME, CameraClock, FrameTimes
+from tlsync_pipeline.sync.clock_prior import ClockCheck
 
 FORMAT_VERSION = 1
 
@@ -125,6 +126,7 @@ class CameraLine:
     refinement: RefinementSummary | None = None
     clock: CameraClock = CameraClock()
     identification: IdentificationSummary | None = None
+    clock_check: ClockCheck | None = None
 
     def __post_init__(self):
         if not self.clock.vfr and self.clock.fps is None and self.fps is not None:
@@ -155,6 +157,8 @@ class CameraLine:
         for key in ("line_search", "refinement", "identification"):
             if getattr(self, key) is not None:
                 entry[key] = asdict(getattr(self, key))
+        if self.clock_check is not None:
+            entry["clock_prior"] = self.clock_check.to_dict()
         if self.clock.vfr:
             entry.update(
                 clock=self.clock.kind,
@@ -178,6 +182,7 @@ class CameraLine:
             "line_search": None if entry.get("line_search") is None else LineSearchSummary(**entry["line_search"]),
             "refinement": None if entry.get("refinement") is None else RefinementSummary(**entry["refinement"]),
             "identification": None if entry.get("identification") is None else IdentificationSummary.from_dict(entry["identification"]),
+            "clock_check": None if entry.get("clock_prior") is None else ClockCheck.from_dict(entry["clock_prior"]),
         }
         base = {k: entry[k] for k in ("alpha", "beta", "votes", "inliers", "residual_rms")}
         return cls(name, fps=entry.get("fps"), clock=clock, **base, **optional)

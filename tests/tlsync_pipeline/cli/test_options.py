@@ -192,7 +192,16 @@ def _bag_case(result: Result, world: World) -> None:
     assert (world.root / "odom.csv").exists()
 
 
-PER_CAMERA = ("intrinsics", "calibrate", "track", "identify", "vote")
+SRT = Path(__file__).resolve().parents[1] / "ingest" / "data" / "dji_srt" / "mavic_pro.SRT"  # a DJI drone's local wall clock
+
+
+def _utc_offset(result: Result, world: World) -> None:
+    """The drone's local clock read as UTC+10: the trajectory starts at 04:11:51 UTC, 14:11:51 on the drone."""
+    assert result.exit_code == 0, result.output
+    assert "from 2017-08-05T04:11:51.500000Z" in result.output
+
+
+PER_CAMERA = ("intrinsics", "calibrate", "track", "clock", "identify", "vote")
 PROJECT_WIDE = ("ingest", "sync", "export", "render")
 
 CASES = [
@@ -224,6 +233,7 @@ CASES = [
         _files("t.csv", "t.ingest.json"),
     ),
     Case("ingest-log", ("{bag}", "--format", "rosbag", "--topic", "/odom", "--out", "{root}/odom.csv", "--quiet"), _bag_case),
+    Case("ingest-log", (str(SRT), "--utc-offset", "10", "-o", "{root}/srt.csv"), _utc_offset),
     Case("track-video", ("{raw}/cam0/video.mp4", "-o", "{root}/detections.csv", "-q"), _files("detections.csv")),
     Case("track-video", ("{raw}/cam0/video.mp4", "--tracker", "csrt", "--init", "{init}", "--init-frame", "{frame}", "--out", "{root}/csrt.csv", "--verbose"), _files("csrt.csv")),
 ]
