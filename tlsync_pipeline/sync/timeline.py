@@ -189,8 +189,24 @@ class CameraLine:
 
 
 @dataclass(frozen=True)
+class StageWarning:
+    """One warning of a run: the stage that raised it, the camera of its task (None: a project-wide stage) and the text."""
+
+    stage: str
+    camera: str | None
+    text: str
+
+    def to_dict(self) -> dict:
+        return {"stage": self.stage, "camera": self.camera, "text": self.text}
+
+
+@dataclass(frozen=True)
 class Timeline:
-    """All cameras' lines on one target grid (rate in samples/s, t0 in s)."""
+    """All cameras' lines on one target grid (rate in samples/s, t0 in s).
+
+    warnings: those of the run's stages that made its inputs, then the sync
+    stage's own, in pipeline order (the same list report.html shows).
+    """
 
     cameras: dict[str, CameraLine]
     target_rate: float | None = None
@@ -198,6 +214,7 @@ class Timeline:
     method: str = "paper"
     params: dict = field(default_factory=dict)
     failed: dict[str, str] = field(default_factory=dict)
+    warnings: tuple[StageWarning, ...] = ()
 
     @property
     def names(self) -> list[str]:
@@ -327,6 +344,7 @@ class Timeline:
             "reference": first,
             "cameras": cameras,
             "failed": self.failed,
+            "warnings": [w.to_dict() for w in self.warnings],
             "line": self.line(),
             "pairs": pairs,
         }
@@ -350,9 +368,8 @@ def read_timeline(path: str | Path) -> Timeline:
         data = json.loads(path.read_text(encoding="utf-8"))
         cameras = {name: CameraLine.from_dict(name, c) for name, c in data["cameras"].items()}
         target = data.get("target", {})
-        return Timeline(
-            cameras, target.get("rate"), target.get("t0"), data.get("method", "paper"), data.get("params", {}), data.get("failed", {})
-        )
+        warnings = tuple(StageWarning(w["stage"], w.get("camera"), w["text"]) for w in data.get("warnings", []))
+        return Timeline(cameras, target.get("rate"), target.get("t0"), data.get("method", "paper"), data.get("params", {}), data.get("failed", {}), warnings)
     except FileNotFoundError:
         raise InputError(f"{path}: file not found") from None
     except json.JSONDecodeError as exc:

@@ -45,7 +45,7 @@ from tlsync_pipeline.errors import InputError, SyncError
 from tlsync_pipeline.geodesy import Origin, geodetic_to_enu
 from tlsync_pipeline.outputs.plots import calibration_plot
 from tlsync_pipeline.outputs.summary import calibration_summary
-from tlsync_pipeline.pipeline.origin import origin_inputs, resolve_origin
+from tlsync_pipeline.pipeline.origin import check_gcp_places, origin_inputs, resolve_origin
 from tlsync_pipeline.pipeline.spec import Options, Sources, StageResult, StageSpec
 from tlsync_pipeline.pipeline.stages.cameras import POSE_ERROR, has_no_rows
 from tlsync_pipeline.pipeline.stages.intrinsics import check_calibration
@@ -133,6 +133,8 @@ def calibrate_pose(
         table = read_gcps(gcp)
         _check_in_image(table, size)
         origin = origin if table.geodetic is not None else None
+        if isinstance(origin, Origin):
+            check_gcp_places(table, origin, "the [target] origin" if isinstance(params.origin, Origin) else "the origin (the centroid of every camera's GCPs)")
         xyz = gcp_world_points(table, origin)
         assert params.ransac_px is not None, "calibrate_params gives GCPs their threshold"
         target = params.target
@@ -232,8 +234,20 @@ def run_calibrate(files: StageFiles, params: CalibrateParams) -> StageResult:
         tmp.write_text(json.dumps(report, indent=1) + "\n", encoding="utf-8")
     with files.write("calibration_picture") as tmp:
         tmp.write_bytes(calibration_plot(report, camera.image_size))
-    warnings = tuple(w for w in (report.get("warning"), (report.get("target_pose") or {}).get("note")) if w)
-    return StageResult(message=f"{calibration_summary(report)}; wrote {files.output('camera')}", warnings=warnings, failed=failed)
+    return StageResult(message=f"{calibration_summary(report)}; wrote {files.output('camera')}", warnings=pose_warnings(report), failed=failed)
+
+
+def pose_warnings(report: dict) -> tuple[str, ...]:
+    """The calibrate stage's warnings, from its report: ground control points left out as outliers, GCPs that give no
+    pose, a pose from the target that serves timing but not 3D."""
+    pose = report.get("pose") or {}
+    out = [
+        f"ground control point {point.get('name', '?')} left out as an outlier ({point.get('error_px', float('nan')):.1f} px)"
+        for point in pose.get("points", [])
+        if not point.get("inlier", True)
+    ]
+    note = (report.get("target_pose") or {}).get("note")
+    return tuple(out + [w for w in (report.get("warning"), note) if w])
 
 
 def _pose_from_target_files(files: StageFiles, camera: Camera, params: CalibrateParams, prior: GcpPrior | None) -> tuple[Camera, dict]:
