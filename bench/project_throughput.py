@@ -74,11 +74,21 @@ def _scenes():
 
 @dataclass(frozen=True)
 class Workload:
+    """cameras, seconds (each video), size, scene renderer and look-alikes per view; fps: per camera (default FPS_CYCLE).
+
+    starts_s: the cameras record at the same time, each starting at these
+    seconds of the log (None: one after the other, each sharing the target
+    with the next); stay_s: then the target stays in each view for at most
+    this long (None: the cameras share its time equally)."""
+
     cameras: int
     seconds: float
     size: tuple[int, int]
     scene: str
     look_alikes: int = 0
+    stay_s: float | None = None
+    starts_s: tuple[float, ...] | None = None
+    fps: tuple[float, ...] = FPS_CYCLE
 
     def renderer(self):
         """The scene renderer for make_raw_project."""
@@ -86,15 +96,27 @@ class Workload:
         return functools.partial(render, look_alikes=self.look_alikes) if self.look_alikes else render
 
     def spec(self) -> RawProjectSpec:
-        """Cameras at FPS_CYCLE rates; each video ``seconds`` long, its target window starting a little after its start."""
+        """Cameras at FPS_CYCLE rates; each video ``seconds`` long; see the class docstring for when they record."""
         lines, n_frames = [], []
         for k in range(self.cameras):
-            fps = FPS_CYCLE[k % len(FPS_CYCLE)]
+            fps = self.fps[k % len(self.fps)]
             alpha = fps / TARGET_RATE
             n = int(round(self.seconds * fps))
-            lines.append((alpha, -alpha * (k * self.seconds * TARGET_RATE) + 0.1 * n))
+            if self.starts_s is not None:
+                lines.append((alpha, -fps * self.starts_s[k % len(self.starts_s)]))
+            else:
+                lines.append((alpha, -alpha * (k * self.seconds * TARGET_RATE) + 0.1 * n))
             n_frames.append(n)
-        return RawProjectSpec(lines=tuple(lines), n_frames=tuple(n_frames), image_size=self.size, target_rate=TARGET_RATE, boards=8, gcps=8)
+        window = self.stay_s * TARGET_RATE if self.stay_s is not None else None
+        return RawProjectSpec(lines=tuple(lines), n_frames=tuple(n_frames), image_size=self.size, target_rate=TARGET_RATE, boards=8, gcps=8, window_samples=window)
+
+
+# Named workloads (--workload): the long recording of issue 26 (the target in view about 12 % of each video, look-alikes
+# all the time) and the short 720p project in which it is in view in a third of the frames.
+WORKLOADS = {
+    "long-recording": dict(cameras=3, seconds=540.0, size=(1280, 720), scene="long", look_alikes=6, stay_s=65.0, starts_s=(-20.0, 15.0, 40.0)),
+    "short-720p": dict(cameras=3, seconds=80.0, size=(1280, 720), scene="long", look_alikes=6, starts_s=(0.0, 2.0, 4.0), fps=(30.0, 25.0, 15.0)),
+}
 
 
 QUICK = Workload(cameras=2, seconds=10.0, size=(320, 240), scene="textured")
@@ -254,6 +276,7 @@ def with_tracker(project: Path, kind: str, folder: Path) -> Path:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--quick", action="store_true", help="CI-size inputs (2 cameras, 320x240, 10 s)")
+    parser.add_argument("--workload", choices=sorted(WORKLOADS), help="a named workload (WORKLOADS) instead of --cameras, --seconds, --size, --scene, --look-alikes")
     parser.add_argument("--cameras", type=int, default=4)
     parser.add_argument("--seconds", type=float, default=60.0, help="length of each camera's video")
     parser.add_argument("--size", default="1920x1080")
@@ -266,7 +289,12 @@ def main() -> None:
     parser.add_argument("--rounds", type=int, default=1, help="rounds of the floor and a fresh run of each tracker, in turn (ratios and their median)")
     args = parser.parse_args()
     width, height = (int(v) for v in args.size.lower().split("x"))
-    workload = QUICK if args.quick else Workload(args.cameras, args.seconds, (width, height), args.scene, args.look_alikes if args.scene == "long" else 0)
+    if args.quick:
+        workload = QUICK
+    elif args.workload:
+        workload = Workload(**WORKLOADS[args.workload])
+    else:
+        workload = Workload(args.cameras, args.seconds, (width, height), args.scene, args.look_alikes if args.scene == "long" else 0)
     cores = args.jobs
     with tempfile.TemporaryDirectory(prefix="tlsync-throughput-") as tmp:
         folder = args.keep or Path(tmp) / "project"

@@ -28,7 +28,11 @@ SQUARE_M = 0.04
 
 @dataclass(frozen=True)
 class RawProjectSpec:
-    """What to generate: lines (alpha, beta) per camera, frames per camera, image size, target rate (Hz)."""
+    """What to generate: lines (alpha, beta) per camera, frames per camera, image size, target rate (Hz).
+
+    window_samples: longest stay of the target in each camera's zone (samples;
+    None: its whole share, see data_fixtures.scene.make_scene).
+    """
 
     lines: tuple[tuple[float, float], ...] = ((3.0, 300.0), (2.5, -150.0), (1.5, 200.0))
     n_frames: tuple[int, ...] = (900, 750, 450)
@@ -37,6 +41,7 @@ class RawProjectSpec:
     boards: int = 10
     gcps: int = 8
     seed: int = 0
+    window_samples: float | None = None
 
 
 # Small and quick, for tests: 30, 25 and 15 fps, shifts of hundreds of frames, 320x240.
@@ -59,7 +64,7 @@ def make_raw_project(directory: str | Path, spec: RawProjectSpec = RawProjectSpe
     render = render or render_camera_video
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
-    scene = make_scene(spec.seed, spec.lines, spec.n_frames, target_rate=spec.target_rate, image_size=spec.image_size)
+    scene = make_scene(spec.seed, spec.lines, spec.n_frames, target_rate=spec.target_rate, image_size=spec.image_size, window_samples=spec.window_samples)
     rng = np.random.default_rng(spec.seed + 1)
     write_gpx_log(directory / "target.gpx", scene.true_trajectory, ORIGIN, START_UTC)
     parts = [
