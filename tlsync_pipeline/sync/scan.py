@@ -14,9 +14,10 @@ when to within a second or two:
    search without the votes near it gives the best competing line;
 2. windows: the frames at which the coarse line puts the target's
    projected path inside the image (widened by EDGE_SHARE of the image),
-   widened by a margin (a keyframe interval, MARGIN_S seconds and three
-   times the coarse line's scatter), each window starting at a keyframe
-   (what is decoded before it is then detected on too); the fine pass
+   widened by a margin (MARGIN_S seconds and three times the coarse line's
+   scatter), each window starting at the keyframe before it (what is
+   decoded from there is detected on too: the background model's warm-up);
+   windows closer than a keyframe interval are merged; the fine pass
    (the track stage) decodes and detects every frame inside them only, and
    identification, voting and the fit then run as on a whole video.
 
@@ -54,7 +55,7 @@ from trackers.video import merge_windows
 
 SCAN_MODES = ("auto", "full")
 COARSE_DELTA = 2.0  # inlier band of the coarse line: orthogonal distance in the voting space (frames and samples)
-MIN_KEYFRAMES = 6  # keyframes on the coarse line below which it is not trusted
+MIN_KEYFRAMES = 5  # keyframes on the coarse line below which it is not trusted
 AMBIGUOUS = 0.5  # a competing line with this share of the coarse line's keyframes (or more): ambiguous
 MIN_KEYFRAME_INTERVAL = 10  # frames between keyframes (median) below which reading keyframes costs about as much as every frame
 MAX_SHARE = 0.75  # windows (or the path's time in view) covering more of the video than this: every frame is read
@@ -76,7 +77,9 @@ class CoarseLine:
 
     support: keyframes with a vote on it; runner_up: keyframes on the best
     line away from it (outside its margin); keyframes: keyframes read;
-    scatter: rms of its inlier votes' clock residuals (frames).
+    scatter: rms of its inlier votes' clock residuals (frames). A competing
+    line is looked for among the votes further than a window's margin and a
+    keyframe interval from it.
     """
 
     alpha: float
@@ -201,7 +204,7 @@ def coarse_line(camera: Camera, keyframe_movers: Detections, trajectory: Traject
     residual = clock - search.alpha * sample - search.beta
     on_line = search.inliers
     scatter = float(np.sqrt(np.mean(residual[on_line] ** 2))) if on_line.any() else float("nan")
-    away = np.abs(residual) > margin_frames(keyframes, n_frames, fps, scatter)
+    away = np.abs(residual) > margin_frames(fps, scatter) + _keyframe_interval(keyframes, n_frames)
     runner_up = 0
     if len(np.unique(sample[away])) >= 2:
         try:
@@ -211,9 +214,9 @@ def coarse_line(camera: Camera, keyframe_movers: Detections, trajectory: Traject
     return CoarseLine(float(search.alpha), float(search.beta), int(search.support), int(runner_up), len(keyframes), scatter)
 
 
-def margin_frames(keyframes: np.ndarray, n_frames: int, fps: float | None, scatter: float) -> float:
-    """Frames added on each side of a window: a keyframe interval, MARGIN_S seconds and three times the coarse line's scatter."""
-    return _keyframe_interval(keyframes, n_frames) + MARGIN_S * (fps or 30.0) + 3.0 * (scatter if math.isfinite(scatter) else 0.0)
+def margin_frames(fps: float | None, scatter: float) -> float:
+    """Frames added on each side of a window: MARGIN_S seconds and three times the coarse line's scatter (frames)."""
+    return MARGIN_S * (fps or 30.0) + 3.0 * (scatter if math.isfinite(scatter) else 0.0)
 
 
 def plan_windows(camera: Camera, trajectory: Trajectory, line: CoarseLine, clock: CameraClock, times: FrameTimes | None, n_frames: int, keyframes: np.ndarray, fps: float | None) -> ScanPlan:
@@ -229,7 +232,7 @@ def plan_windows(camera: Camera, trajectory: Trajectory, line: CoarseLine, clock
     if seen.any():
         uv, valid = camera.project(xyz[seen])
         seen[np.flatnonzero(seen)[~(valid & _in_view(camera, uv))]] = False
-    margin = int(math.ceil(margin_frames(keyframes, n_frames, fps, line.scatter)))
+    margin = int(math.ceil(margin_frames(fps, line.scatter)))
     runs = _runs(seen)
     widened = [(max(0, a - margin), min(n_frames, b + margin)) for a, b in runs]
     starts = np.asarray(keyframes, dtype=np.int64)
