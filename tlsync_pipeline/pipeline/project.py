@@ -11,7 +11,7 @@ import difflib
 import inspect
 import math
 import sys
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, NamedTuple
 
@@ -33,6 +33,7 @@ from tlsync_pipeline.ingest.process import IngestParams
 from tlsync_pipeline.outputs.proxy import POLICIES as PROXY_POLICIES
 from tlsync_pipeline.sync.params import SyncParams, parameter_fields
 from tlsync_pipeline.sync.registry import METHODS, params_from_table
+from tlsync_pipeline.sync.scan import SCAN_MODES
 from trackers.tracking import KINDS as TRACKER_KINDS
 from trackers.tracking import track_video
 
@@ -312,9 +313,16 @@ def sync_schema() -> dict[str, Field]:
     return schema
 
 
+# [track]: how the track stage reads each camera's video. scan: "auto" reads every frame only where a coarse pass over
+# the keyframes puts the target in view (sync/scan.py), "full" every frame of the video.
+TRACK_SCHEMA = {
+    "scan": Field(_choice(*SCAN_MODES, what="scan mode"), SCAN_MODES[0]),
+}
+
+
 def project_schema() -> dict:
     """The whole project file's schema (the [sync] keys as registered now); a dict is a table, a one-element list an array of tables."""
-    return {"target": TARGET_SCHEMA, "cameras": [CAMERA_SCHEMA], "sync": sync_schema()}
+    return {"target": TARGET_SCHEMA, "cameras": [CAMERA_SCHEMA], "track": TRACK_SCHEMA, "sync": sync_schema()}
 
 
 @dataclass(frozen=True)
@@ -325,6 +333,7 @@ class Project:
     target: dict
     cameras: list[dict]
     sync: SyncParams
+    track: dict = field(default_factory=lambda: {"scan": SCAN_MODES[0]})
 
     @property
     def root(self) -> Path:
@@ -365,7 +374,7 @@ def load_project(path: str | Path) -> Project:
             same = "" if seen[folded] == cam["name"] else f" (same as {seen[folded]!r} on file systems that ignore case)"
             raise InputError(f"{path}: [[cameras]]: duplicate camera name {cam['name']!r}{same}; names must be unique")
         seen[folded] = cam["name"]
-    return Project(path, data["target"], cameras, params_from_table(data["sync"]))
+    return Project(path, data["target"], cameras, params_from_table(data["sync"]), data["track"])
 
 
 def parse_table(raw: Any, schema: dict, path: Path, where: str, root: Path) -> dict:

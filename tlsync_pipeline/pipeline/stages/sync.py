@@ -15,7 +15,7 @@ from tlsync_pipeline.pipeline.workspace import StageFiles
 from tlsync_pipeline.sync.methods import CameraInput
 from tlsync_pipeline.sync.registry import params_from_table, params_table
 from tlsync_pipeline.sync.synchronize import CameraResult, synchronize
-from tlsync_pipeline.sync.timeline import IdentificationSummary, Timeline, write_timeline
+from tlsync_pipeline.sync.timeline import IdentificationSummary, ScanSummary, Timeline, write_timeline
 from tlsync_pipeline.sync.votes import load_votes
 from tlsync_pipeline.trajectory import Trajectory, read_trajectory
 from trackers.track import read_track
@@ -64,7 +64,7 @@ def run_sync(files: StageFiles, cameras: list[str], fps: dict[str, float | None]
     usable = {name: c for name, c in paths.items() if not isinstance(votes[name], SyncError)}
     timeline, _ = synchronize(read_camera_inputs(usable), read_trajectory(files.path("trajectory")), params_from_table(sync), votes)
     failed = {name: str(votes[name]) if name not in usable else timeline.failed[name] for name in paths if name not in usable or name in timeline.failed}
-    lines = {name: _flag_truncated(line, paths[name]) for name, line in timeline.cameras.items()}
+    lines = {name: _with_scan(_flag_truncated(line, paths[name]), paths[name]) for name, line in timeline.cameras.items()}
     timeline = replace(timeline, cameras=lines, failed={**failed, **(left_out or {})})
     timeline = with_identifications(timeline, {n: read_identification(c["identification"]) for n, c in paths.items() if c.get("identification") is not None})
     with files.write("timeline") as tmp:
@@ -76,6 +76,14 @@ def with_identifications(timeline: Timeline, found: dict) -> Timeline:
     """The timeline with each identified camera's line carrying its identification summary."""
     lines = {n: replace(line, identification=found[n]) if isinstance(found.get(n), IdentificationSummary) else line for n, line in timeline.cameras.items()}
     return replace(timeline, cameras=lines)
+
+
+def _with_scan(line, camera: dict):
+    """The camera's line with how its video was read (video.json), when the track stage read it."""
+    info = read_video_info(camera["video_info"]) if camera.get("video_info") else {}
+    if "scan" not in info:
+        return line
+    return replace(line, scan=ScanSummary(info["scan"], info["scan_reason"], int(info["frames"]), int(info["keyframes_decoded"]), int(info["frames_decoded"])))
 
 
 def _flag_truncated(line, camera: dict):

@@ -17,20 +17,27 @@ from tlsync_pipeline.atomic import atomic_path
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.pipeline.spec import StageSpec
 from tlsync_pipeline.pipeline.stages.cameras import VIDEO_INFO_FORMAT, tracks_every_mover
+from tlsync_pipeline.pipeline.stages.scan import read_plan, scans
+from tlsync_pipeline.sync.scan import ScanPlan
 from tlsync_pipeline.pipeline.workspace import StageFiles
 from trackers.detections import Detections, write_detections
 from trackers.track import Track, write_track
 from trackers.tracking import detect_movers, track_video
-from trackers.video import TruncatedVideoWarning, probe_video
+from trackers.video import DecodeCount, TruncatedVideoWarning, probe_video
 
 
-def track_camera(spec: dict, progress: bool = True) -> Track | Detections:
-    """Every mover (``tracks_every_mover``) or the target in the video of one camera table (``[[cameras]]`` with its ``[cameras.tracker]``)."""
+def track_camera(spec: dict, progress: bool = True, plan: ScanPlan | None = None, count: DecodeCount | None = None) -> Track | Detections:
+    """Every mover (``tracks_every_mover``) or the target in the video of one camera table (``[[cameras]]`` with its ``[cameras.tracker]``).
+
+    plan: the scan stage's windows for every mover (None or full: every
+    frame); count: filled with the frames decoded.
+    """
     if spec.get("video") is None:
         raise InputError(f"camera {spec['name']!r}: no 'video' key: the track stage needs the camera's video file")
     tracker = spec["tracker"]
     if tracks_every_mover(spec):
-        return detect_movers(spec["video"], params=tracker["parameters"], progress=progress, label=f"{spec['name']} ({Path(spec['video']).name})")
+        windows = None if plan is None or plan.full else plan.windows
+        return detect_movers(spec["video"], params=tracker["parameters"], progress=progress, label=f"{spec['name']} ({Path(spec['video']).name})", windows=windows, count=count)
     return track_video(
         spec["video"],
         kind=tracker["kind"],
@@ -61,21 +68,41 @@ def run_track(files: StageFiles, tracker: dict) -> dict:
     warning is the stage's, and video.json says how many frames exist.
     """
     video = files.path("video")
+    plan = read_plan(files.path("scan")) if files.has("scan") else None
+    count = DecodeCount()
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", TruncatedVideoWarning)
-        result = track_camera({"name": files.camera, "video": video, "tracker": tracker}, progress=files.progress)
+        result = track_camera({"name": files.camera, "video": video, "tracker": tracker}, progress=files.progress, plan=plan, count=count)
     truncation = next((w.message for w in caught if isinstance(w.message, TruncatedVideoWarning)), None)
     for item in caught:
         warnings.warn_explicit(item.message, item.category, item.filename, item.lineno)
     recorded = sorted({str(w.message) for w in caught if issubclass(w.category, TruncatedVideoWarning)})
+    info = video_info(video, truncation)
+    read = reading(plan, count, info["frames"], isinstance(result, Detections))
     with files.write("video_info") as tmp:
-        tmp.write_text(json.dumps(video_info(video, truncation), indent=1) + "\n", encoding="utf-8")
+        tmp.write_text(json.dumps({**info, **read}, indent=1) + "\n", encoding="utf-8")
     if isinstance(result, Detections):
         write_detections_atomic(result, files.output("detections"))
-        count = f"{len(result)} detections"
-        return {"detections": len(result), "tracklets": int(len(result.tracklet_ids())), "warnings": recorded, "message": f"wrote {files.output('detections')} ({count})"}
+        return {"detections": len(result), "tracklets": int(len(result.tracklet_ids())), "warnings": recorded, **read, "message": f"wrote {files.output('detections')} ({len(result)} detections; {read_summary(read, info['frames'])})"}
     write_track_atomic(result, files.output("track"))
     return {"tracked_frames": len(result), "warnings": recorded, "message": f"wrote {files.output('track')} ({len(result)} tracked frames)"}
+
+
+def reading(plan: ScanPlan | None, count: DecodeCount, frames: int, every_mover: bool) -> dict:
+    """How the video was read, for video.json: "scan" ("windows" or "full"), why every frame ("scan_reason"), frames
+    decoded by the coarse pass ("keyframes_decoded") and by this stage ("frames_decoded")."""
+    if plan is None:
+        why = '[track] scan = "full"' if every_mover else "one target followed from frame to frame"
+        return {"scan": "full", "scan_reason": why, "keyframes_decoded": 0, "frames_decoded": count.decoded or frames}
+    return {"scan": "full" if plan.full else "windows", "scan_reason": plan.reason, "keyframes_decoded": plan.keyframes_read, "frames_decoded": count.decoded}
+
+
+def read_summary(read: dict, frames: int) -> str:
+    """Frames decoded against frames skipped, and why every frame when so."""
+    if read["scan"] == "full":
+        return f"every frame decoded: {read['scan_reason']}"
+    skipped = max(0, frames - read["frames_decoded"])
+    return f"{read['frames_decoded']} of {frames} frames decoded, {skipped} skipped, after {read['keyframes_decoded']} keyframes"
 
 
 def video_info(video: Path, truncation: TruncatedVideoWarning | None) -> dict:
@@ -97,9 +124,17 @@ def _applies(project, cam: str) -> bool:
     return spec["track"] is None and spec.get("video") is not None
 
 
+def track_inputs(src, cam: str) -> dict:
+    """The camera's video, and the scan stage's windows when it has them."""
+    inputs = {"video": src.project.camera(cam)["video"]}
+    if scans(src.project, cam):
+        inputs["scan"] = src.artefact("scan", cam)
+    return inputs
+
+
 SPEC = StageSpec(
     "track",
-    inputs=lambda src, cam: {"video": src.project.camera(cam)["video"]},
+    inputs=track_inputs,
     params=lambda project, cam, options: {"tracker": tracking_params(project.camera(cam)["tracker"])},
     outputs=("track", "detections", "video_info"),  # track.csv or detections.csv (every mover: track.csv then comes from identify), and video.json
     run=run_track,

@@ -1,0 +1,88 @@
+"""The scan stage: where in a camera's video the track stage must read every frame (``scan.json``).
+
+For a camera whose movers the track stage detects (blob kind) in its own
+video, with ``[track] scan = "auto"`` (the default): the coarse pass
+(sync/scan.py) reads the keyframes only, finds when the target is in view
+and writes the windows of frames the track stage then reads in full; or,
+with the reason, that every frame is to be read (``"full"``: a short video,
+no packet index, an ambiguous coarse line, ...). With ``scan = "full"`` the
+stage does not run and the track stage reads every frame.
+
+Its cache key holds the camera and the trajectory; the track stage's holds
+only scan.json, so a changed calibration re-runs this pass (about a tenth
+of decoding the video) and the track stage only when the windows change.
+"""
+
+from __future__ import annotations
+
+import json
+from typing import Any
+
+from calibration.camera import read_camera
+from tlsync_pipeline.pipeline.spec import StageSpec
+from tlsync_pipeline.pipeline.stages.cameras import tracks_every_mover
+from tlsync_pipeline.pipeline.workspace import StageFiles
+from tlsync_pipeline.sync.registry import params_from_table, params_table
+from tlsync_pipeline.sync.scan import ScanPlan, before_coarse, full_scan, plan_scan
+from tlsync_pipeline.sync.synchronize import prepare_trajectory
+from tlsync_pipeline.trajectory import read_trajectory
+from trackers.tracking import detect_keyframe_movers
+from trackers.video import DecodeCount, frame_count, keyframe_indices, presentation_times, probe_video
+
+SCAN_FORMAT = "tlsync-scan"
+
+
+def run_scan(files: StageFiles, fps: float | None, sync: dict[str, Any], parameters: dict) -> dict:
+    """The scan stage: ``scan.json`` (ScanPlan.to_dict) of the camera's video.
+
+    fps: the project's for the camera (None: its camera.json's); sync: the
+    [sync] table (eps_px, rate_sigma, p, seed, the method's trajectory);
+    parameters: the blob detector's (the tracker table's ``parameters``).
+    """
+    video = files.path("video")
+    params = params_from_table(sync)
+    camera = read_camera(files.path("camera"), name=files.camera)
+    fps = fps or camera.fps
+    prepared = prepare_trajectory(read_trajectory(files.path("trajectory")), params)
+    n_frames, keys = frame_count(video), keyframe_indices(video)
+    why = before_coarse(camera, prepared, n_frames, keys, fps, params)
+    if why is not None:
+        plan = full_scan(n_frames if n_frames is not None else probe_video(video).n_frames, why)
+    else:
+        count = DecodeCount()
+        movers = detect_keyframe_movers(video, parameters, count=count)
+        plan = plan_scan(camera, movers, prepared, fps, params, keys, n_frames, presentation_times(video))
+    write_plan(files, plan)
+    return {**plan.to_dict(), "windows": len(plan.windows), "message": f"{files.output('scan')}: {plan.summary()}"}
+
+
+def write_plan(files: StageFiles, plan: ScanPlan) -> None:
+    """scan.json, atomically."""
+    with files.write("scan") as tmp:
+        tmp.write_text(json.dumps({"format": SCAN_FORMAT, **plan.to_dict()}, indent=1) + "\n", encoding="utf-8")
+
+
+def read_plan(path) -> ScanPlan:
+    """scan.json as run_scan wrote it."""
+    return ScanPlan.from_dict(json.loads(path.read_text(encoding="utf-8")))
+
+
+def scans(project, cam: str) -> bool:
+    """Whether the camera's video gets a coarse pass: every mover detected in its own video, ``[track] scan = "auto"``."""
+    spec = project.camera(cam)
+    return project.track["scan"] == "auto" and spec["track"] is None and spec.get("detections") is None and spec.get("video") is not None and tracks_every_mover(spec)
+
+
+SPEC = StageSpec(
+    "scan",
+    inputs=lambda src, cam: {"video": src.project.camera(cam)["video"], "camera": src.artefact("camera", cam), "trajectory": src.artefact("trajectory")},
+    params=lambda project, cam, options: {
+        "fps": project.camera(cam)["fps"],
+        "sync": params_table(project.sync),
+        "parameters": project.camera(cam)["tracker"]["parameters"],
+    },
+    outputs=("scan",),
+    run=run_scan,
+    per_camera=True,
+    applies=scans,
+)
