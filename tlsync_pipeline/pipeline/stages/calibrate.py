@@ -34,6 +34,7 @@ from tlsync_pipeline.geodesy import Origin, geodetic_to_enu
 from tlsync_pipeline.outputs.summary import calibration_summary
 from tlsync_pipeline.pipeline.origin import origin_inputs, resolve_origin
 from tlsync_pipeline.pipeline.spec import Sources, StageSpec
+from tlsync_pipeline.pipeline.stages.cameras import has_calibration
 from tlsync_pipeline.pipeline.stages.intrinsics import check_calibration
 from tlsync_pipeline.pipeline.workspace import StageFiles
 
@@ -42,12 +43,6 @@ if TYPE_CHECKING:
 
 # Keys of [cameras.calibration] the pose uses as parameters (its files are inputs; the rest is the intrinsics stage's).
 POSE_KEYS = ("pattern", "square", "ransac_px", "board_pose")
-
-
-def has_calibration(spec: dict) -> bool:
-    """Whether the camera table has a [cameras.calibration] table with something to calibrate from."""
-    cal = spec.get("calibration") or {}
-    return any(cal.get(k) is not None for k in ("images", "video", "intrinsics", "gcp", "board_pose"))
 
 
 def gcp_world_points(table: GcpTable, origin: Origin | None) -> np.ndarray:

@@ -41,6 +41,22 @@ def tracks_every_mover(spec: dict) -> bool:
     return (spec.get("tracker") or {}).get("kind", "blob") == "blob"
 
 
+def has_calibration(spec: dict) -> bool:
+    """Whether the camera table has a [cameras.calibration] table with something to calibrate from."""
+    cal = spec.get("calibration") or {}
+    return any(cal.get(k) is not None for k in ("images", "video", "intrinsics", "gcp", "board_pose"))
+
+
+def scans(project: Project, cam: str) -> bool:
+    """Whether the camera's video gets a coarse pass (the scan stage): every mover detected in its own video,
+    ``[track] scan = "auto"``, and a calibration and a trajectory to vote with (a project of videos alone is tracked whole)."""
+    spec = project.camera(cam)
+    every_mover = spec["track"] is None and spec.get("detections") is None and spec.get("video") is not None and tracks_every_mover(spec)
+    calibrated = spec["camera"] is not None or has_calibration(spec)
+    logged = project.target["trajectory"] is not None or project.target["log"] is not None
+    return project.track["scan"] == "auto" and every_mover and calibrated and logged
+
+
 def has_no_rows(csv_path: Path) -> bool:
     """Whether a CSV artefact a stage wrote (track.csv, detections.csv) holds its header and no row."""
     with open(csv_path, encoding="utf-8") as handle:

@@ -20,10 +20,10 @@ from typing import Any
 
 from calibration.camera import read_camera
 from tlsync_pipeline.pipeline.spec import StageSpec
-from tlsync_pipeline.pipeline.stages.cameras import tracks_every_mover
+from tlsync_pipeline.pipeline.stages.cameras import scans
 from tlsync_pipeline.pipeline.workspace import StageFiles
 from tlsync_pipeline.sync.registry import params_from_table, params_table
-from tlsync_pipeline.sync.scan import ScanPlan, before_coarse, full_scan, plan_scan
+from tlsync_pipeline.sync.scan import before_coarse, full_scan, plan_scan
 from tlsync_pipeline.sync.synchronize import prepare_trajectory
 from tlsync_pipeline.trajectory import read_trajectory
 from trackers.tracking import detect_keyframe_movers
@@ -52,25 +52,9 @@ def run_scan(files: StageFiles, fps: float | None, sync: dict[str, Any], paramet
         count = DecodeCount()
         movers = detect_keyframe_movers(video, parameters, count=count)
         plan = plan_scan(camera, movers, prepared, fps, params, keys, n_frames, presentation_times(video))
-    write_plan(files, plan)
-    return {**plan.to_dict(), "windows": len(plan.windows), "message": f"{files.output('scan')}: {plan.summary()}"}
-
-
-def write_plan(files: StageFiles, plan: ScanPlan) -> None:
-    """scan.json, atomically."""
     with files.write("scan") as tmp:
         tmp.write_text(json.dumps({"format": SCAN_FORMAT, **plan.to_dict()}, indent=1) + "\n", encoding="utf-8")
-
-
-def read_plan(path) -> ScanPlan:
-    """scan.json as run_scan wrote it."""
-    return ScanPlan.from_dict(json.loads(path.read_text(encoding="utf-8")))
-
-
-def scans(project, cam: str) -> bool:
-    """Whether the camera's video gets a coarse pass: every mover detected in its own video, ``[track] scan = "auto"``."""
-    spec = project.camera(cam)
-    return project.track["scan"] == "auto" and spec["track"] is None and spec.get("detections") is None and spec.get("video") is not None and tracks_every_mover(spec)
+    return {**plan.to_dict(), "windows": len(plan.windows), "message": f"{files.output('scan')}: {plan.summary()}"}
 
 
 SPEC = StageSpec(

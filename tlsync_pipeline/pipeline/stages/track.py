@@ -16,9 +16,7 @@ from pathlib import Path
 from tlsync_pipeline.atomic import atomic_path
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.pipeline.spec import StageSpec
-from tlsync_pipeline.pipeline.stages.cameras import VIDEO_INFO_FORMAT, tracks_every_mover
-from tlsync_pipeline.pipeline.stages.scan import read_plan, scans
-from tlsync_pipeline.sync.scan import ScanPlan
+from tlsync_pipeline.pipeline.stages.cameras import VIDEO_INFO_FORMAT, scans, tracks_every_mover
 from tlsync_pipeline.pipeline.workspace import StageFiles
 from trackers.detections import Detections, write_detections
 from trackers.track import Track, write_track
@@ -26,17 +24,17 @@ from trackers.tracking import detect_movers, track_video
 from trackers.video import DecodeCount, TruncatedVideoWarning, probe_video
 
 
-def track_camera(spec: dict, progress: bool = True, plan: ScanPlan | None = None, count: DecodeCount | None = None) -> Track | Detections:
+def track_camera(spec: dict, progress: bool = True, plan: dict | None = None, count: DecodeCount | None = None) -> Track | Detections:
     """Every mover (``tracks_every_mover``) or the target in the video of one camera table (``[[cameras]]`` with its ``[cameras.tracker]``).
 
-    plan: the scan stage's windows for every mover (None or full: every
-    frame); count: filled with the frames decoded.
+    plan: the scan stage's scan.json for every mover (None, or mode
+    "full": every frame); count: filled with the frames decoded.
     """
     if spec.get("video") is None:
         raise InputError(f"camera {spec['name']!r}: no 'video' key: the track stage needs the camera's video file")
     tracker = spec["tracker"]
     if tracks_every_mover(spec):
-        windows = None if plan is None or plan.full else plan.windows
+        windows = None if plan is None or plan["mode"] == "full" else [tuple(w) for w in plan["windows"]]
         return detect_movers(spec["video"], params=tracker["parameters"], progress=progress, label=f"{spec['name']} ({Path(spec['video']).name})", windows=windows, count=count)
     return track_video(
         spec["video"],
@@ -68,7 +66,7 @@ def run_track(files: StageFiles, tracker: dict) -> dict:
     warning is the stage's, and video.json says how many frames exist.
     """
     video = files.path("video")
-    plan = read_plan(files.path("scan")) if files.has("scan") else None
+    plan = json.loads(files.path("scan").read_text(encoding="utf-8")) if files.has("scan") else None
     count = DecodeCount()
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", TruncatedVideoWarning)
@@ -88,13 +86,13 @@ def run_track(files: StageFiles, tracker: dict) -> dict:
     return {"tracked_frames": len(result), "warnings": recorded, "message": f"wrote {files.output('track')} ({len(result)} tracked frames)"}
 
 
-def reading(plan: ScanPlan | None, count: DecodeCount, frames: int, every_mover: bool) -> dict:
+def reading(plan: dict | None, count: DecodeCount, frames: int, every_mover: bool) -> dict:
     """How the video was read, for video.json: "scan" ("windows" or "full"), why every frame ("scan_reason"), frames
     decoded by the coarse pass ("keyframes_decoded") and by this stage ("frames_decoded")."""
     if plan is None:
         why = '[track] scan = "full"' if every_mover else "one target followed from frame to frame"
         return {"scan": "full", "scan_reason": why, "keyframes_decoded": 0, "frames_decoded": count.decoded or frames}
-    return {"scan": "full" if plan.full else "windows", "scan_reason": plan.reason, "keyframes_decoded": plan.keyframes_read, "frames_decoded": count.decoded}
+    return {"scan": plan["mode"], "scan_reason": plan["reason"], "keyframes_decoded": plan["keyframes_read"], "frames_decoded": count.decoded}
 
 
 def read_summary(read: dict, frames: int) -> str:
