@@ -227,7 +227,35 @@ def tlsync_run(project: Path, work: Path, jobs: int, code: Path = REPOSITORY) ->
         raise SystemExit(f"tlsync run failed (exit {done.returncode}):\n{done.stdout}\n{done.stderr}")
     peak = max((float(line.split()[1]) for line in done.stderr.splitlines() if line.startswith("peak-rss-mb ")), default=0.0)
     missed = [line for line in done.stdout.splitlines() if line.startswith("not synchronized")]
-    return Measure(wall, _children_cpu() - cpu, (load, os.getloadavg()[0]), peak, missed + [worst_error(project.parent, work)])
+    return Measure(wall, _children_cpu() - cpu, (load, os.getloadavg()[0]), peak, missed + [worst_error(project.parent, work), frames_decoded(work)])
+
+
+def frames_decoded(work: Path) -> str:
+    """What the run decoded, from timeline.json's per-camera ``scan``: keyframes and frames against the videos' frames."""
+    timeline_file = work / "timeline.json"
+    if not timeline_file.exists():
+        return "frames decoded: no timeline.json"
+    scans = {name: line.scan for name, line in read_timeline(timeline_file).cameras.items() if line.scan is not None}
+    if not scans:
+        return "frames decoded: not recorded"
+    frames = sum(s.frames for s in scans.values())
+    keys, decoded = sum(s.keyframes_decoded for s in scans.values()), sum(s.frames_decoded for s in scans.values())
+    full = [f"{name} ({s.reason})" for name, s in scans.items() if s.mode == "full"]
+    return f"decoded {keys} keyframes + {decoded} frames = {(keys + decoded) / frames:.1%} of {frames} frames" + (f"; every frame: {', '.join(full)}" if full else "")
+
+
+def against_full_pass(work: Path, full: Path, n_frames: dict[str, int]) -> str:
+    """The worst pair of the run against the same project's full pass (every frame read): eps_t, frames."""
+    a_file, b_file = work / "timeline.json", full / "timeline.json"
+    if not (a_file.exists() and b_file.exists()):
+        return "against the full pass: a timeline is missing"
+    run, reference = read_timeline(a_file), read_timeline(b_file)
+    names = [n for n in reference.names if n in run.names]
+    errors = {f"{a}->{b}": eps_t(run.relation(a, b), reference.relation(a, b), n_frames[a]) for a in names for b in names if a != b}
+    if not errors:
+        return "against the full pass: no pair in both"
+    key = max(errors, key=errors.get)
+    return f"against the full pass (every frame read): worst eps_t {errors[key]:.4f} frame ({key}; {len(errors)} pairs)"
 
 
 def worst_error(folder: Path, work: Path) -> str:
@@ -255,20 +283,23 @@ def stage_seconds(work: Path) -> dict[str, tuple[float, float, int]]:
     return out
 
 
-def with_tracker(project: Path, kind: str, folder: Path) -> Path:
+def with_tracker(project: Path, variant: str, folder: Path) -> Path:
     """A copy of project.toml (same folder, so relative paths hold) with every camera's tracker kind set.
 
-    CSRT, which follows one target from a box, starts from INIT_BOXES: the
-    default tracker finds the target among the look-alikes by itself.
+    variant: the kind, or "<kind>-full" for ``[track] scan = "full"`` (every
+    frame read, no coarse pass). CSRT, which follows one target from a box,
+    starts from INIT_BOXES: the default tracker finds the target among the
+    look-alikes by itself.
     """
+    kind, _, scan = variant.partition("-")
     boxes = json.loads((folder / INIT_BOXES).read_text()) if kind == "csrt" and (folder / INIT_BOXES).exists() else {}
     blocks = project.read_text().split("[[cameras]]")
     for k, block in enumerate(blocks[1:], start=1):
         name = re.search(r'name = "([^"]+)"', block).group(1)
         start = f"\ninit = {boxes[name][1]}\ninit_frame = {boxes[name][0]}" if name in boxes else ""
         blocks[k] = re.sub(r'kind = "\w+"', lambda _: f'kind = "{kind}"{start}', block)
-    text = "[[cameras]]".join(blocks)
-    out = folder / f"project_{kind}.toml"
+    text = "[[cameras]]".join(blocks) + (f'\n[track]\nscan = "{scan}"\n' if scan else "")
+    out = folder / f"project_{variant}.toml"
     out.write_text(text)
     return out
 
@@ -282,7 +313,7 @@ def main() -> None:
     parser.add_argument("--size", default="1920x1080")
     parser.add_argument("--scene", default="long", choices=sorted(_scenes()))
     parser.add_argument("--look-alikes", type=int, default=6, help="discs like the target wandering each view (scene 'long')")
-    parser.add_argument("--trackers", default="blob,csrt")
+    parser.add_argument("--trackers", default="blob,blob-full,csrt", help='tracker kinds; "<kind>-full": with [track] scan = "full" (every frame read), the reference of the runs of that kind')
     parser.add_argument("--keep", type=Path, help="make (or reuse) the project in this folder")
     parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1)
     parser.add_argument("--compare", type=Path, help="also run the tlsync of this source tree (e.g. a `git archive` of main), for before/after in one session")
@@ -316,6 +347,10 @@ def main() -> None:
                 stages[kind + suffix] = stage_seconds(work)
                 again = tlsync_run(variant, work, cores, code)
                 rows += [(f"tlsync run, {kind}{suffix}", run, kind), (f"cached re-run, {kind}{suffix}", again, None)]
+        n_frames = {name: int(v) for name, v in json.loads((folder / "truth.json").read_text())["n_frames"].items()}
+        for name, measure, kind in rows:
+            if kind and not kind.endswith("-full") and (Path(tmp) / f"work_{kind}-full").exists():
+                measure.notes.append(against_full_pass(Path(tmp) / f"work_{kind}", Path(tmp) / f"work_{kind}-full", n_frames))
         ratios = {name: [(m.wall / floor.wall, m.cpu / floor.cpu)] for name, m, kind in rows if kind}
         for round_ in range(2, args.rounds + 1):
             again_floor, _ = decode_floor(videos, cores)
@@ -325,7 +360,7 @@ def main() -> None:
                     run = tlsync_run(folder / f"project_{kind}.toml", work, cores, code)
                     shutil.rmtree(work, ignore_errors=True)
                     ratios[f"tlsync run, {kind}{suffix}"].append((run.wall / again_floor.wall, run.cpu / again_floor.cpu))
-                    print(f"round {round_}: {kind}{suffix} {run.wall / again_floor.wall:.2f}x wall, {run.cpu / again_floor.cpu:.2f}x CPU (floor {again_floor.wall:.1f} s wall, {again_floor.cpu:.1f} s CPU); {run.notes[-1]}", flush=True)
+                    print(f"round {round_}: {kind}{suffix} {run.wall / again_floor.wall:.2f}x wall, {run.cpu / again_floor.cpu:.2f}x CPU (floor {again_floor.wall:.1f} s wall, {again_floor.cpu:.1f} s CPU); {'; '.join(run.notes[-2:])}", flush=True)
         print(f"\n{'':38} {'wall s':>7} {'x floor':>7} {'CPU s':>7} {'x floor':>7} {'CPU use':>7} {'peak MB':>7} {'load':>10}")
         for name, m, _ in rows:
             peak = f"{m.peak_mb:7.0f}" if m.peak_mb else " " * 7
