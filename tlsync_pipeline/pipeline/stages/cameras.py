@@ -13,7 +13,7 @@ from tlsync_pipeline.sync.timeline import IdentificationSummary
 if TYPE_CHECKING:
     from tlsync_pipeline.pipeline.project import Project
 
-CAMERA_FILES = ("camera", "track", "votes", "video", "identification", "detections", "video_info")
+CAMERA_FILES = ("camera", "track", "votes", "video", "identification", "detections", "video_info", "scan")
 VIDEO_INFO_FORMAT = "tlsync-video"  # video.json, written by the track stage
 
 

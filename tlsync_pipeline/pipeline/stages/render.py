@@ -147,6 +147,7 @@ def run_render(
             detections=cameras[name].get("detections") if name in videos else None,
             requests=requests.get(name, []),
             proxy=(proxy or {}).get(name, "auto"),
+            windows=read_windows(cameras[name].get("scan")),
             n_frames=n_frames[name],
             out_dir=out_dir,
             work=work,
@@ -234,7 +235,9 @@ class CameraJob:
     """What draw_camera needs to draw one camera's pictures (plain values: it may run in another process).
 
     requests: the panels of the pairs' strips to draw from its video;
-    proxy: the camera's proxy policy; n_frames: its video's frames.
+    proxy: the camera's proxy policy; windows: the frames the track stage
+    read, when it read windows (a proxy holds those only); n_frames: its
+    video's frames.
     """
 
     name: str
@@ -251,6 +254,7 @@ class CameraJob:
     detections: Path | None
     requests: list[PanelRequest]
     proxy: str
+    windows: list[tuple[int, int]] | None
     n_frames: int
     out_dir: Path
     work: Path
@@ -357,28 +361,37 @@ def player_video(job: CameraJob) -> tuple[PlayerVideo, Path | None]:
     codec = probe_video(job.video).codec
     source, proxy = job.video, None
     if needs_proxy(codec, job.video.suffix, job.proxy):
-        source = proxy = ensure_proxy(job.video, job.out_dir / "proxy" / f"{job.name}.mp4")
+        source = proxy = ensure_proxy(job.video, job.out_dir / "proxy" / f"{job.name}.mp4", job.windows)
     src = quote(Path(os.path.relpath(source, job.work)).as_posix())
-    if proxy is None and job.times is not None and len(job.times.frame) == job.n_frames:
+    if job.times is not None and len(job.times.frame) == job.n_frames:
         table = job.times.time_s  # every frame's time, already read (a presentation-time clock): not demuxed again
     else:
-        table = presentation_times(source)
+        table = presentation_times(job.video)  # a proxy keeps the video's times, and may hold only its windows
     return PlayerVideo(src, proxy is not None, codec, table if table is not None else np.arange(job.n_frames) / fps), proxy
 
 
-def ensure_proxy(video: Path, path: Path) -> Path:
-    """The proxy of ``video`` at ``path``, made again only when the video changed (size, modification time)."""
+def ensure_proxy(video: Path, path: Path, windows: list[tuple[int, int]] | None = None) -> Path:
+    """The proxy of ``video`` (of its ``windows`` only, when given) at ``path``, made again only when the video (size,
+    modification time) or the windows changed."""
     stat = video.stat()
-    stamp = {"source": str(video.resolve()), "size": stat.st_size, "mtime_ns": stat.st_mtime_ns}
+    stamp = {"source": str(video.resolve()), "size": stat.st_size, "mtime_ns": stat.st_mtime_ns, "windows": [list(w) for w in windows] if windows else None}
     marker = path.with_suffix(".json")
     if path.exists() and _read_json(marker) == stamp:
         return path
     path.parent.mkdir(parents=True, exist_ok=True)
     with atomic_path(path) as tmp:
-        make_proxy(video, tmp)
+        make_proxy(video, tmp, windows=windows)
     with atomic_path(marker) as tmp:
         tmp.write_text(json.dumps(stamp), encoding="utf-8")
     return path
+
+
+def read_windows(scan: Path | None) -> list[tuple[int, int]] | None:
+    """The windows of a scan.json (the scan stage's) when the track stage read windows, else None."""
+    if scan is None:
+        return None
+    plan = json.loads(Path(scan).read_text(encoding="utf-8"))
+    return [(int(a), int(b)) for a, b in plan["windows"]] if plan["mode"] == "windows" else None
 
 
 def gather_warnings(files: StageFiles, tl: Timeline, names: list[str], ingest: dict | None, notes: list[str]) -> list[StageWarning]:
@@ -456,7 +469,7 @@ def render_inputs(src: Sources, camera: None) -> dict:
             inputs[f"detections:{name}"] = src.artefact("detections", name)
         if spec.get("video") is not None:
             inputs[f"video:{name}"] = spec["video"]
-        for kind in ("calibration_picture", "calibration_report", "video_info"):
+        for kind in ("calibration_picture", "calibration_report", "video_info", "scan"):
             if src.made(kind, name):
                 inputs[f"{kind}:{name}"] = src.artefact(kind, name)
     if src.options.truth is not None:
