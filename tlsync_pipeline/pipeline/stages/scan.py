@@ -18,18 +18,35 @@ from __future__ import annotations
 import json
 from typing import Any
 
-from calibration.camera import read_camera
+from pathlib import Path
+
+from calibration.camera import Camera, read_camera
 from tlsync_pipeline.pipeline.spec import StageSpec
 from tlsync_pipeline.pipeline.stages.cameras import scans
 from tlsync_pipeline.pipeline.workspace import StageFiles
+from tlsync_pipeline.sync.params import SyncParams
 from tlsync_pipeline.sync.registry import params_from_table, params_table
-from tlsync_pipeline.sync.scan import before_coarse, full_scan, plan_scan
+from tlsync_pipeline.sync.scan import ScanPlan, before_coarse, full_scan, plan_scan
 from tlsync_pipeline.sync.synchronize import prepare_trajectory
-from tlsync_pipeline.trajectory import read_trajectory
+from tlsync_pipeline.trajectory import Trajectory, read_trajectory
 from trackers.tracking import detect_keyframe_movers
-from trackers.video import DecodeCount, frame_count, keyframe_indices, presentation_times, probe_video
+from trackers.video import frame_count, keyframe_indices, presentation_times, probe_video
 
 SCAN_FORMAT = "tlsync-scan"
+
+
+def scan_video(video: Path, camera: Camera, prepared: Trajectory, fps: float | None, params: SyncParams, parameters: dict | None = None) -> ScanPlan:
+    """The scan of one video: every frame (with the reason) when the coarse pass would not pay, else its plan.
+
+    prepared: the trajectory as the sync method prepares it; parameters:
+    the blob detector's by name.
+    """
+    n_frames, keys = frame_count(video), keyframe_indices(video)
+    why = before_coarse(camera, prepared, n_frames, keys, fps, params)
+    if why is not None:
+        return full_scan(n_frames if n_frames is not None else probe_video(video).n_frames, why)
+    movers = detect_keyframe_movers(video, parameters)
+    return plan_scan(camera, movers, prepared, fps, params, keys, n_frames, presentation_times(video))
 
 
 def run_scan(files: StageFiles, fps: float | None, sync: dict[str, Any], parameters: dict) -> dict:
@@ -39,19 +56,10 @@ def run_scan(files: StageFiles, fps: float | None, sync: dict[str, Any], paramet
     [sync] table (eps_px, rate_sigma, p, seed, the method's trajectory);
     parameters: the blob detector's (the tracker table's ``parameters``).
     """
-    video = files.path("video")
     params = params_from_table(sync)
     camera = read_camera(files.path("camera"), name=files.camera)
-    fps = fps or camera.fps
     prepared = prepare_trajectory(read_trajectory(files.path("trajectory")), params)
-    n_frames, keys = frame_count(video), keyframe_indices(video)
-    why = before_coarse(camera, prepared, n_frames, keys, fps, params)
-    if why is not None:
-        plan = full_scan(n_frames if n_frames is not None else probe_video(video).n_frames, why)
-    else:
-        count = DecodeCount()
-        movers = detect_keyframe_movers(video, parameters, count=count)
-        plan = plan_scan(camera, movers, prepared, fps, params, keys, n_frames, presentation_times(video))
+    plan = scan_video(files.path("video"), camera, prepared, fps or camera.fps, params, parameters)
     with files.write("scan") as tmp:
         tmp.write_text(json.dumps({"format": SCAN_FORMAT, **plan.to_dict()}, indent=1) + "\n", encoding="utf-8")
     return {**plan.to_dict(), "windows": len(plan.windows), "message": f"{files.output('scan')}: {plan.summary()}"}
