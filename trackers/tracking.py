@@ -109,12 +109,13 @@ def detect_movers(
     return make_detections(rows)
 
 
-def detect_keyframe_movers(path: str | Path, params: dict | None = None, count: DecodeCount | None = None) -> Detections:
-    """Every moving-object candidate of every keyframe of ``path`` (``iter_keyframes``): the coarse pass over a long video.
+def detect_keyframe_movers(path: str | Path, params: dict | None = None, count: DecodeCount | None = None, indices: Sequence[int] | None = None, first_id: int = 0) -> Detections:
+    """Every moving-object candidate of every keyframe (or of those at frame ``indices``) of ``path`` (``iter_keyframes``): the coarse pass.
 
     The same detector and background model as ``detect_movers``, fed the
     keyframes only (each decoded alone). Keyframes are too far apart to link
-    movers over, so each candidate is a tracklet of its own (its row's id).
+    movers over, so each candidate is a tracklet of its own (ids from
+    ``first_id`` on).
     TrackInputError when the video has no packet index.
     """
     path = Path(path)
@@ -122,9 +123,9 @@ def detect_keyframe_movers(path: str | Path, params: dict | None = None, count: 
     blob_params = movers_params(path, params)
     detector = BlobDetector(*_background(path, blob_params))
     rows = []
-    for index, time_s, gray in iter_keyframes(path, gray=True, count=count):
+    for index, time_s, gray in iter_keyframes(path, gray=True, count=count, indices=indices):
         for blob in detector.detect(gray):
-            rows.append((index, time_s, len(rows), blob.x, blob.y, blob.w, blob.h, 1.0))
+            rows.append((index, time_s, first_id + len(rows), blob.x, blob.y, blob.w, blob.h, 1.0))
     return make_detections(rows)
 
 

@@ -238,8 +238,8 @@ def frame_count(path: str | Path) -> int | None:
     return len(pts_list) if pts_list else None
 
 
-def iter_keyframes(path: str | Path, gray: bool = True, count: DecodeCount | None = None) -> Iterator[VideoFrame]:
-    """Every keyframe of ``path`` in order, with its 0-based index and presentation time, each decoded alone.
+def iter_keyframes(path: str | Path, gray: bool = True, count: DecodeCount | None = None, indices: Iterable[int] | None = None) -> Iterator[VideoFrame]:
+    """Every keyframe of ``path`` (or those at the 0-based frame ``indices``) in order, with its index and presentation time, each decoded alone.
 
     The packets are demuxed in order (no seeking) and only keyframes' are
     decoded, each on its own: the decoder is drained after it and reset
@@ -255,6 +255,8 @@ def iter_keyframes(path: str | Path, gray: bool = True, count: DecodeCount | Non
     if not pts_list:
         raise TrackInputError(f"{path}: the video has no timestamps to index its keyframes by")
     where = {pts: i for i, pts in enumerate(pts_list)}
+    if indices is not None:
+        keys = tuple(pts_list[i] for i in indices if 0 <= i < len(pts_list))
     keys = set(keys)
     with _open(path) as container:
         stream = container.streams.video[0]

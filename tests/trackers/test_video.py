@@ -109,6 +109,7 @@ def test_keyframes_alone_each_decoded_once(jittered, monkeypatch):
     for frame in frames:
         assert frame.time_s == pytest.approx(sequential[frame.index].time_s, abs=1e-9)
         np.testing.assert_array_equal(frame.image, sequential[frame.index].image)
+    assert [f.index for f in iter_keyframes(jittered.path, indices=[60, 0])] == [0, 60]
 
 
 def test_windows_give_the_frames_of_a_whole_pass(jittered):

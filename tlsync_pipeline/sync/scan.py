@@ -5,8 +5,9 @@ trajectory says where the target will be in the image but not when; the
 keyframes, decoded alone for about a tenth of the cost of every frame, say
 when to within a second or two:
 
-1. coarse pass: every mover of every keyframe (trackers.tracking.
-   detect_keyframe_movers) votes as in identification (identify.
+1. coarse pass: every mover of the keyframes (about 4 s apart: every
+   keyframe, or every k-th where they are closer; 2 s apart when those
+   cannot decide; trackers.tracking.detect_keyframe_movers) votes as in identification (identify.
    candidate_votes); the line search, with the slope held by the frame
    rates (slope.py), finds the coarse line clock = alpha x sample + beta
    through the most keyframes (inlier band COARSE_DELTA, wider than the
@@ -60,6 +61,7 @@ AMBIGUOUS = 0.5  # a competing line with this share of the coarse line's keyfram
 MIN_KEYFRAME_INTERVAL = 10  # frames between keyframes (median) below which reading keyframes costs about as much as every frame
 MAX_SHARE = 0.75  # windows (or the path's time in view) covering more of the video than this: every frame is read
 MARGIN_S = 1.0  # seconds around each window for the coarse line's error, beyond a keyframe interval
+COARSE_STEPS_S = (4.0, 2.0)  # seconds between the keyframes the coarse pass reads, about: first, then when that cannot decide
 EDGE_SHARE = 0.05  # the image widened by this share of its size on each side: a target half in view is detected
 
 
@@ -96,7 +98,9 @@ class ScanPlan:
 
     reason: why every frame is read (empty when windows are); coarse: the
     coarse line (None when it was not found); keyframes_read: frames the
-    coarse pass decoded; n_frames: frames in the video.
+    coarse pass decoded; n_frames: frames in the video; undecided: every
+    frame because the keyframes read could not decide (more keyframes
+    might; not written to scan.json).
     """
 
     full: bool
@@ -105,6 +109,7 @@ class ScanPlan:
     n_frames: int
     coarse: CoarseLine | None = None
     keyframes_read: int = 0
+    undecided: bool = False
 
     @property
     def frames_in_windows(self) -> int:
@@ -137,9 +142,9 @@ class ScanPlan:
         return f"{read} of {n} frames read in {len(self.windows)} window{'s' if len(self.windows) != 1 else ''}, {n - read} skipped, after {self.keyframes_read} keyframes"
 
 
-def full_scan(n_frames: int, reason: str, coarse: CoarseLine | None = None, keyframes_read: int = 0) -> ScanPlan:
+def full_scan(n_frames: int, reason: str, coarse: CoarseLine | None = None, keyframes_read: int = 0, undecided: bool = False) -> ScanPlan:
     """Every frame is read, for ``reason``."""
-    return ScanPlan(True, reason, ((0, n_frames),), n_frames, coarse, keyframes_read)
+    return ScanPlan(True, reason, ((0, n_frames),), n_frames, coarse, keyframes_read, undecided)
 
 
 def before_coarse(camera: Camera, trajectory: Trajectory, n_frames: int | None, keyframes: np.ndarray | None, fps: float | None, params: SyncParams) -> str | None:
@@ -161,9 +166,17 @@ def before_coarse(camera: Camera, trajectory: Trajectory, n_frames: int | None, 
     seen = in_view * prior.alpha
     if seen >= MAX_SHARE * n_frames:
         return f"the target's path is in view for {in_view} log samples, about {seen:.0f} frames: {min(1.0, seen / n_frames):.0%} of the video's {n_frames}"
-    if len(keyframes) < 2 * MIN_KEYFRAMES:
-        return f"only {len(keyframes)} keyframes: too few for a coarse line"
+    read = len(keyframes[:: coarse_stride(keyframes, n_frames, fps, COARSE_STEPS_S[-1])])
+    if read < 2 * MIN_KEYFRAMES:
+        return f"only {read} keyframes {COARSE_STEPS_S[-1]:g} s or more apart: too few for a coarse line"
     return None
+
+
+def coarse_stride(keyframes: np.ndarray, n_frames: int, fps: float | None, step_s: float) -> int:
+    """Read every k-th keyframe, k such that they are about ``step_s`` seconds apart (1: every keyframe; also without an fps)."""
+    if not fps:
+        return 1
+    return max(1, int(round(step_s * fps / _keyframe_interval(keyframes, n_frames))))
 
 
 def keyframe_range(trajectory: Trajectory, alpha: float, prior: OffsetPrior | None, n_frames: int, margin: float) -> tuple[int, int]:
@@ -183,8 +196,8 @@ def keyframe_range(trajectory: Trajectory, alpha: float, prior: OffsetPrior | No
 def coarse_line(camera: Camera, keyframe_movers: Detections, trajectory: Trajectory, fps: float | None, params: SyncParams, keyframes: np.ndarray, n_frames: int, prior: OffsetPrior | None = None) -> CoarseLine:
     """The coarse line from every mover of the keyframes (see the module docstring); SyncError naming why none can be trusted.
 
-    keyframes: indices of the keyframes read (their count, and the interval
-    that sets the competing line's distance).
+    keyframes: indices of the keyframes read (their count, and their
+    interval, which sets the competing line's distance).
     """
     slope = slope_prior(fps, trajectory.rate, params.rate_sigma)
     if slope is None:
@@ -256,19 +269,22 @@ def plan_scan(
     n_frames: int,
     times: np.ndarray | None = None,
     prior: OffsetPrior | None = None,
+    read: np.ndarray | None = None,
 ) -> ScanPlan:
     """The fine pass's plan from the coarse pass's movers: windows under a trusted coarse line, else every frame with the reason.
 
-    times: every frame's presentation time (s), or None.
+    keyframes: every keyframe of the video; read: those the coarse pass
+    read (None: all); times: every frame's presentation time (s), or None.
     """
+    read = np.asarray(keyframes if read is None else read)
     try:
-        line = coarse_line(camera, keyframe_movers, trajectory, fps, params, keyframes, n_frames, prior)
+        line = coarse_line(camera, keyframe_movers, trajectory, fps, params, read, n_frames, prior)
     except SyncError as exc:
-        return full_scan(n_frames, f"coarse pass: {exc}", keyframes_read=len(keyframes))
+        return full_scan(n_frames, f"coarse pass: {exc}", keyframes_read=len(read), undecided=True)
     if line.support < MIN_KEYFRAMES:
-        return full_scan(n_frames, f"only {line.support} keyframes show the target on the coarse line (fewer than {MIN_KEYFRAMES})", line, len(keyframes))
+        return full_scan(n_frames, f"only {line.support} keyframes show the target on the coarse line (fewer than {MIN_KEYFRAMES})", line, len(read), undecided=True)
     if line.runner_up >= AMBIGUOUS * line.support:
-        return full_scan(n_frames, f"the coarse line is ambiguous: a competing line has {line.runner_up} keyframes against its {line.support}", line, len(keyframes))
+        return full_scan(n_frames, f"the coarse line is ambiguous: a competing line has {line.runner_up} keyframes against its {line.support}", line, len(read), undecided=True)
     clock, table = _frame_clock(times, fps, n_frames)
     return plan_windows(camera, trajectory, line, clock, table, n_frames, keyframes, fps)
 

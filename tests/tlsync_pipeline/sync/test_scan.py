@@ -7,7 +7,7 @@ import pytest
 
 from data_fixtures import make_scene
 from tlsync_pipeline.sync.params import SyncParams
-from tlsync_pipeline.sync.scan import MIN_KEYFRAMES, OffsetPrior, ScanPlan, before_coarse, keyframe_range, plan_scan
+from tlsync_pipeline.sync.scan import MIN_KEYFRAMES, OffsetPrior, ScanPlan, before_coarse, coarse_stride, keyframe_range, plan_scan
 from trackers.detections import make_detections
 
 P = SyncParams()
@@ -80,6 +80,27 @@ def test_a_look_alike_on_the_path_at_another_time_makes_it_ambiguous(long_scene)
     assert plan.windows == ((0, long_scene.n_frames[name]),)
 
 
+def test_keyframes_read_about_so_many_seconds_apart():
+    assert coarse_stride(np.arange(0, 9000, 60), 9000, 50.0, 2.0) == 2  # every 1.2 s: every other one
+    assert coarse_stride(np.arange(0, 9000, 60), 9000, 25.0, 2.0) == 1
+    assert coarse_stride(np.arange(0, 9000, 15), 9000, 30.0, 2.0) == 4
+    assert coarse_stride(np.arange(0, 9000, 60), 9000, 30.0, 4.0) == 2
+    assert coarse_stride(np.arange(0, 9000, 15), 9000, None, 4.0) == 1
+
+
+def test_every_other_keyframe_finds_the_line(long_scene):
+    name = "cam0"
+    movers, keys = _keyframe_movers(long_scene, name)
+    every_other = movers.subset(np.isin(movers.frame, keys[::2]))
+    plan = _plan(long_scene, name, every_other, keys, read=keys[::2])
+    assert not plan.full and plan.keyframes_read == len(keys[::2])
+    assert all(a in keys for a, _ in plan.windows)  # windows start at any keyframe, read or not
+    inside = np.zeros(long_scene.n_frames[name], bool)
+    for a, b in plan.windows:
+        inside[a:b] = True
+    assert inside[long_scene.tracks[name].frame].all()
+
+
 def test_too_few_keyframes_show_the_target(long_scene):
     name = "cam1"
     movers, keys = _keyframe_movers(long_scene, name, shown=MIN_KEYFRAMES - 2)
@@ -118,3 +139,29 @@ def test_an_offset_prior_narrows_the_keyframes_read(long_scene):
     kept = movers.subset((movers.frame >= lo) & (movers.frame < hi))
     plan = _plan(long_scene, name, kept, keys[(keys >= lo) & (keys < hi)], prior=OffsetPrior(truth.beta + 40, 150.0))
     assert not plan.full and abs(plan.coarse.beta - truth.beta) < 2 * truth.alpha
+
+
+def test_the_keyframes_between_are_read_when_the_first_ones_cannot_decide(long_scene, monkeypatch):
+    """Keyframes 4 s apart first; the target shows only on those between them: the 2 s ones are read and decide."""
+    from tlsync_pipeline.pipeline.stages import scan as stage
+
+    name = "cam0"
+    movers, keys = _keyframe_movers(long_scene, name, walkers=3)
+    track = np.isin(movers.frame, long_scene.tracks[name].frame) & (movers.id < 1000)
+    hidden = track & (movers.frame % (4 * GOP) == 0)  # not on the 4 s keyframes
+    movers = movers.subset(~hidden)
+    calls = []
+
+    def detect(video, parameters, indices, first_id):
+        calls.append(list(indices))
+        rows = movers.subset(np.isin(movers.frame, indices))
+        return dataclasses.replace(rows, id=np.arange(first_id, first_id + len(rows)))
+
+    monkeypatch.setattr(stage, "detect_keyframe_movers", detect)
+    monkeypatch.setattr(stage, "frame_count", lambda video: long_scene.n_frames[name])
+    monkeypatch.setattr(stage, "keyframe_indices", lambda video: keys)
+    monkeypatch.setattr(stage, "presentation_times", lambda video: None)
+    camera = long_scene.cameras[name]
+    plan = stage.scan_video("v.mp4", camera, long_scene.trajectory, camera.fps, P)
+    assert calls[0] == keys[::4].tolist() and calls[1] == np.setdiff1d(keys[::2], keys[::4]).tolist()
+    assert not plan.full and plan.keyframes_read == len(keys[::2])

@@ -20,15 +20,18 @@ from typing import Any
 
 from pathlib import Path
 
+import numpy as np
+
 from calibration.camera import Camera, read_camera
 from tlsync_pipeline.pipeline.spec import StageSpec
 from tlsync_pipeline.pipeline.stages.cameras import scans
 from tlsync_pipeline.pipeline.workspace import StageFiles
 from tlsync_pipeline.sync.params import SyncParams
 from tlsync_pipeline.sync.registry import params_from_table, params_table
-from tlsync_pipeline.sync.scan import ScanPlan, before_coarse, full_scan, plan_scan
+from tlsync_pipeline.sync.scan import COARSE_STEPS_S, ScanPlan, before_coarse, coarse_stride, full_scan, plan_scan
 from tlsync_pipeline.sync.synchronize import prepare_trajectory
 from tlsync_pipeline.trajectory import Trajectory, read_trajectory
+from trackers.detections import COLUMNS, make_detections
 from trackers.tracking import detect_keyframe_movers
 from trackers.video import frame_count, keyframe_indices, presentation_times, probe_video
 
@@ -38,6 +41,10 @@ SCAN_FORMAT = "tlsync-scan"
 def scan_video(video: Path, camera: Camera, prepared: Trajectory, fps: float | None, params: SyncParams, parameters: dict | None = None) -> ScanPlan:
     """The scan of one video: every frame (with the reason) when the coarse pass would not pay, else its plan.
 
+    The coarse pass reads keyframes about COARSE_STEPS_S[0] apart, and the
+    ones between (about COARSE_STEPS_S[1] apart) only when those could not
+    decide (too few on the line, a competing line, no line).
+
     prepared: the trajectory as the sync method prepares it; parameters:
     the blob detector's by name.
     """
@@ -45,8 +52,19 @@ def scan_video(video: Path, camera: Camera, prepared: Trajectory, fps: float | N
     why = before_coarse(camera, prepared, n_frames, keys, fps, params)
     if why is not None:
         return full_scan(n_frames if n_frames is not None else probe_video(video).n_frames, why)
-    movers = detect_keyframe_movers(video, parameters)
-    return plan_scan(camera, movers, prepared, fps, params, keys, n_frames, presentation_times(video))
+    times = presentation_times(video)
+    read, found = np.zeros(0, np.int64), []
+    for step in COARSE_STEPS_S:  # about 4 s apart; 2 s where those cannot decide
+        more = np.setdiff1d(keys[:: coarse_stride(keys, n_frames, fps, step)], read)
+        if len(more) == 0:
+            continue
+        found.append(detect_keyframe_movers(video, parameters, indices=more, first_id=sum(len(f) for f in found)))
+        read = np.union1d(read, more)
+        movers = make_detections(np.concatenate([np.column_stack([getattr(f, c) for c in COLUMNS]) for f in found]))
+        plan = plan_scan(camera, movers, prepared, fps, params, keys, n_frames, times, read=read)
+        if not plan.undecided:
+            break
+    return plan
 
 
 def run_scan(files: StageFiles, fps: float | None, sync: dict[str, Any], parameters: dict) -> dict:
