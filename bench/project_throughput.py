@@ -114,8 +114,8 @@ class Workload:
 # Named workloads (--workload): the long recording of issue 26 (the target in view about 12 % of each video, look-alikes
 # all the time) and the short 720p project in which it is in view in a third of the frames.
 WORKLOADS = {
-    "long-recording": dict(cameras=3, seconds=540.0, size=(1280, 720), scene="long", look_alikes=6, stay_s=65.0, starts_s=(-20.0, 15.0, 40.0)),
-    "short-720p": dict(cameras=3, seconds=80.0, size=(1280, 720), scene="long", look_alikes=6, starts_s=(0.0, 2.0, 4.0), fps=(30.0, 25.0, 15.0)),
+    "long-recording": Workload(cameras=3, seconds=540.0, size=(1280, 720), scene="long", look_alikes=6, stay_s=65.0, starts_s=(-20.0, 15.0, 40.0)),
+    "short-720p": Workload(cameras=3, seconds=80.0, size=(1280, 720), scene="long", look_alikes=6, starts_s=(0.0, 2.0, 4.0), fps=(30.0, 25.0, 15.0)),
 }
 
 
@@ -323,7 +323,7 @@ def main() -> None:
     if args.quick:
         workload = QUICK
     elif args.workload:
-        workload = Workload(**WORKLOADS[args.workload])
+        workload = WORKLOADS[args.workload]
     else:
         workload = Workload(args.cameras, args.seconds, (width, height), args.scene, args.look_alikes if args.scene == "long" else 0)
     cores = args.jobs

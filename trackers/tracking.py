@@ -96,7 +96,7 @@ def detect_movers(
     else:
         frames = iter_windows(path, windows, gray=True, progress=progress, desc=label, count=count)
     rows = []
-    detector, last = None, None
+    detector, last = None, -2
     for index, time_s, gray in frames:
         if detector is None or index != last + 1:
             detector = BlobDetector(*background)
@@ -122,7 +122,7 @@ def detect_keyframe_movers(path: str | Path, params: dict | None = None, count: 
     probe_video(path)
     blob_params = movers_params(path, params)
     detector = BlobDetector(*_background(path, blob_params))
-    rows = []
+    rows: list[tuple] = []
     for index, time_s, gray in iter_keyframes(path, gray=True, count=count, indices=indices):
         for blob in detector.detect(gray):
             rows.append((index, time_s, first_id + len(rows), blob.x, blob.y, blob.w, blob.h, 1.0))

@@ -255,9 +255,7 @@ def iter_keyframes(path: str | Path, gray: bool = True, count: DecodeCount | Non
     if not pts_list:
         raise TrackInputError(f"{path}: the video has no timestamps to index its keyframes by")
     where = {pts: i for i, pts in enumerate(pts_list)}
-    if indices is not None:
-        keys = tuple(pts_list[i] for i in indices if 0 <= i < len(pts_list))
-    keys = set(keys)
+    wanted = set(keys) if indices is None else {pts_list[i] for i in indices if 0 <= i < len(pts_list)}
     with _open(path) as container:
         stream = container.streams.video[0]
         stream.thread_type = "AUTO"
@@ -265,7 +263,7 @@ def iter_keyframes(path: str | Path, gray: bool = True, count: DecodeCount | Non
         rotation = None
         try:
             for packet in container.demux(stream):
-                if packet.pts is None or packet.size == 0 or packet.pts not in keys:
+                if packet.pts is None or packet.size == 0 or packet.pts not in wanted:
                     continue
                 frames = _decode_alone(stream, packet)
                 stream.codec_context.flush_buffers()
@@ -327,7 +325,7 @@ def iter_windows(
         fps = _fps(stream)
         bar = _progress_bar(sum(b - a for a, b in plan), desc or path.name) if progress else None
         rotation = None
-        last = (-1, None)
+        last: tuple[int, float | None] = (-1, None)
         try:
             for item in _ahead(_decode_windows(container, stream, plan, pts_list, keyframes, where)):
                 frame, index, error = item

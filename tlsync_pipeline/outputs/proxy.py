@@ -84,12 +84,12 @@ def make_proxy(source: Path, destination: Path, target_height: int = PROXY_HEIGH
 
 def _proxy_frames(source: Path, windows: Sequence[tuple[int, int]] | None, size: tuple[int, int]) -> Iterator[tuple[float, np.ndarray]]:
     """(presentation time s, image at ``size``) of every frame, or of the windows' frames with a card at each gap's first frame."""
-    if windows is None:
+    times = None if windows is None else presentation_times(source)
+    if windows is None or times is None:  # no timestamps: no windows to read either
         for frame in iter_frames(source):
             yield frame.time_s, cv2.resize(frame.image, size, interpolation=cv2.INTER_AREA)
         return
-    times = presentation_times(source)
-    n = len(times) if times is not None else 0
+    n = len(times)
     windows = merge_windows(windows)
     gaps = [(a, b) for a, b in zip([0] + [w[1] for w in windows], [w[0] for w in windows] + [n]) if b > a]
     card = _card(size)

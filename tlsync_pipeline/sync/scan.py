@@ -249,7 +249,7 @@ def plan_windows(camera: Camera, trajectory: Trajectory, line: CoarseLine, clock
     runs = _runs(seen)
     widened = [(max(0, a - margin), min(n_frames, b + margin)) for a, b in runs]
     starts = np.asarray(keyframes, dtype=np.int64)
-    aligned = [(int(starts[max(0, np.searchsorted(starts, a, side="right") - 1)]) if len(starts) else 0, b) for a, b in widened]
+    aligned = [(int(starts[max(0, int(np.searchsorted(starts, a, side="right")) - 1)]) if len(starts) else 0, b) for a, b in widened]
     windows = tuple(merge_windows(aligned, gap=int(_keyframe_interval(keyframes, n_frames))))
     read = sum(b - a for a, b in windows)
     if not windows:

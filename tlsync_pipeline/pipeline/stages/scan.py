@@ -31,7 +31,7 @@ from tlsync_pipeline.sync.registry import params_from_table, params_table
 from tlsync_pipeline.sync.scan import COARSE_STEPS_S, ScanPlan, before_coarse, coarse_stride, full_scan, plan_scan
 from tlsync_pipeline.sync.synchronize import prepare_trajectory
 from tlsync_pipeline.trajectory import Trajectory, read_trajectory
-from trackers.detections import COLUMNS, make_detections
+from trackers.detections import COLUMNS, Detections, make_detections
 from trackers.tracking import detect_keyframe_movers
 from trackers.video import frame_count, keyframe_indices, presentation_times, probe_video
 
@@ -50,15 +50,17 @@ def scan_video(video: Path, camera: Camera, prepared: Trajectory, fps: float | N
     """
     n_frames, keys = frame_count(video), keyframe_indices(video)
     why = before_coarse(camera, prepared, n_frames, keys, fps, params)
-    if why is not None:
-        return full_scan(n_frames if n_frames is not None else probe_video(video).n_frames, why)
+    if why is not None or n_frames is None or keys is None:
+        return full_scan(n_frames if n_frames is not None else probe_video(video).n_frames, why or "no packet index")
     times = presentation_times(video)
-    read, found = np.zeros(0, np.int64), []
+    read = np.zeros(0, np.int64)
+    found: list[Detections] = []
+    plan = full_scan(n_frames, "no keyframe to read")
     for step in COARSE_STEPS_S:  # about 4 s apart; 2 s where those cannot decide
         more = np.setdiff1d(keys[:: coarse_stride(keys, n_frames, fps, step)], read)
         if len(more) == 0:
             continue
-        found.append(detect_keyframe_movers(video, parameters, indices=more, first_id=sum(len(f) for f in found)))
+        found.append(detect_keyframe_movers(video, parameters, indices=more.tolist(), first_id=sum(len(f) for f in found)))
         read = np.union1d(read, more)
         movers = make_detections(np.concatenate([np.column_stack([getattr(f, c) for c in COLUMNS]) for f in found]))
         plan = plan_scan(camera, movers, prepared, fps, params, keys, n_frames, times, read=read)

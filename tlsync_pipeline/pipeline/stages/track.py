@@ -122,7 +122,7 @@ def _applies(project, cam: str) -> bool:
     return spec["track"] is None and spec.get("video") is not None
 
 
-def track_inputs(src, cam: str) -> dict:
+def track_inputs(src, cam) -> dict:
     """The camera's video, and the scan stage's windows when it has them."""
     inputs = {"video": src.project.camera(cam)["video"]}
     if scans(src.project, cam):
