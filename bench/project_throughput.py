@@ -1,7 +1,8 @@
 """Whole-project throughput: `tlsync run` against the decode-only floor of its videos, in the same run.
 
     python bench/project_throughput.py [--quick] [--cameras 4] [--seconds 60] [--size 1920x1080]
-        [--look-alikes 6] [--trackers blob,csrt] [--scene long|textured] [--keep DIR] [--jobs N] [--rounds 1]
+        [--look-alikes 6] [--trackers blob,blob-full,csrt] [--scene long|textured] [--keep DIR] [--jobs N] [--rounds 1]
+        [--workload long-recording|short-720p]
 
 1. Makes a raw project (data_fixtures.raw_project: per camera an H.264 video,
    checkerboard photos and GCPs; a GPX log of the target). The scene renderer
@@ -11,7 +12,11 @@
    the crowd the default tracker is built for); ``textured`` is the tests'
    renderer (data_fixtures.video, slower, no look-alikes). Cameras run at
    30, 25, 50 and 29.97 fps in turn. ``--keep DIR`` keeps the project there and reuses it
-   when the same one is asked for again.
+   when the same one is asked for again. ``--workload`` names one of WORKLOADS
+   instead: ``long-recording`` (3 cameras recording 9 minutes of 720p at the
+   same time, the target in each view for 65 s, about 12 % of the frames,
+   6 look-alikes all the time) or ``short-720p`` (3 cameras, 2,400, 2,000
+   and 1,200 frames, the target in view a third of the time).
 2. Decode-only floor: every video decoded with PyAV (luma plane, FFmpeg's
    own threads as the pipeline uses them), as many processes as cores,
    longest videos first.
@@ -20,8 +25,12 @@
    time per stage (sums of the stage's tasks' own figures from the
    manifests; CPU/run above 1 means FFmpeg's decoding threads overlap the
    Python tracker), the run's worst eps_t against the project's truth (a
-   fast run that found a look-alike is no result), and a cached re-run
-   (nothing to do).
+   fast run that found a look-alike is no result), the frames it decoded
+   (keyframes of the coarse pass and frames of the track stage, from
+   timeline.json; the cameras read whole and why), and a cached re-run
+   (nothing to do). A kind "<kind>-full" runs with ``[track] scan =
+   "full"`` (every frame read): the runs of that kind also give their
+   worst pair against it.
 4. ``--rounds N``: N - 1 more rounds of the floor and a fresh run of each
    tracker, in turn, and each run's ratios to its round's floor with their
    median: on a shared machine one round's ratios move by 0.1-0.3.
