@@ -43,6 +43,7 @@ from tlsync_pipeline.outputs.pictures import (
     plot_trajectory,
     plot_votes,
     render_movers,
+    toward_keyframes,
     write_png,
 )
 from tlsync_pipeline.outputs.player import PlayerVideo, player_data
@@ -67,9 +68,10 @@ from tlsync_pipeline.sync.timeline import CameraLine, Timeline, read_timeline, r
 from tlsync_pipeline.sync.votes import load_votes
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory, read_trajectory
 from trackers.detections import read_detections
-from trackers.video import presentation_times, probe_video
+from trackers.video import keyframe_indices, presentation_times, probe_video
 
 EMBEDDED_JPEG_QUALITY = 85
+KEYFRAME_REACH = 0.05  # a band swap's frame moves to a tracked keyframe within this share of the track's span
 EXPORT_LABELS = (
     ("frame map (CSV)", "frame_map.csv"),
     ("offsets (CSV)", "offsets.csv"),
@@ -278,9 +280,10 @@ def draw_camera(job: CameraJob) -> dict:
     titles = ["voting space", "tracked against projected"]
     panels: list[np.ndarray] = []
     if job.video is not None:
-        swap_frames = band_swap_frames(track)
+        keyframes = keyframe_indices(job.video)  # read_frames indexes the video's packets anyway (kept per process)
+        swap_frames = band_swap_frames(track, keyframes)
         movers = read_detections(job.detections) if job.detections is not None else None
-        movers_frame = choose_movers_frame(movers, track) if movers is not None else None
+        movers_frame = choose_movers_frame(movers, track, keyframes) if movers is not None else None
         kept = set(swap_frames) | ({movers_frame} if movers is not None else set())
         panels_of = {}
         for i, request in enumerate(job.requests):
@@ -306,9 +309,11 @@ def draw_camera(job: CameraJob) -> dict:
     return {"pictures": pictures, "written": made, "panels": panels, "player": player, "proxy": proxy}
 
 
-def band_swap_frames(track) -> list[int]:
-    """The tracked frames a band swap shows: at 20, 50 and 80 % of the track."""
-    return sorted({int(f) for f in np.quantile(track.frame, [0.2, 0.5, 0.8], method="nearest")})
+def band_swap_frames(track, keyframes: np.ndarray | None = None) -> list[int]:
+    """The tracked frames a band swap shows: at 20, 50 and 80 % of the track, each moved to a tracked keyframe
+    within 5 % of the track's span when there is one (``toward_keyframes``: it decodes alone)."""
+    picks = [int(f) for f in np.quantile(track.frame, [0.2, 0.5, 0.8], method="nearest")]
+    return toward_keyframes(picks, track.frame, keyframes, KEYFRAME_REACH * float(np.ptp(track.frame)))
 
 
 def write_band_swap(name: str, inputs, line: CameraLine, path_model: PiecewiseTrajectory, rate: float | None, times: FrameTimes | None, images: dict[int, np.ndarray], path: Path) -> Path:
