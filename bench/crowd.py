@@ -44,7 +44,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from data_fixtures.crowd import CrowdSpec, make_crowd_scene  # noqa: E402
 from tlsync_pipeline.pipeline.stages.scan import scan_video  # noqa: E402
 from tlsync_pipeline.sync.params import SyncParams  # noqa: E402
-from tlsync_pipeline.sync.synchronize import CameraInput, prepare_trajectory, synchronize  # noqa: E402
+from tlsync_pipeline.sync.registry import preparation_of  # noqa: E402
+from tlsync_pipeline.sync.synchronize import CameraInput, identify_params, prepare_trajectory, synchronize  # noqa: E402
 from tlsync_pipeline.sync.timeline import eps_t  # noqa: E402
 from trackers.tracking import detect_movers  # noqa: E402
 
@@ -57,7 +58,8 @@ def one_scene(seed: int, distractors: int, logged_above_m: float = 0.0, log_rate
         crowd = make_crowd_scene(CrowdSpec(seed=seed, distractors=distractors, log_rate=log_rate, gps_noise_m=gps_noise_m), tmp)
         scene = crowd.scene
         logged = dataclasses.replace(scene.trajectory, xyz=scene.trajectory.xyz + [0.0, 0.0, logged_above_m])
-        plans = {n: scan_video(crowd.truth[n].video, c, prepare_trajectory(logged, params), c.fps, params) for n, c in scene.cameras.items()} if scan == "auto" else {}
+        prepared = prepare_trajectory(logged, preparation_of(params))
+        plans = {n: scan_video(crowd.truth[n].video, c, prepared, c.fps, identify_params(params)) for n, c in scene.cameras.items()} if scan == "auto" else {}
         detections = {n: detect_movers(crowd.truth[n].video, progress=False, windows=None if n not in plans or plans[n].full else plans[n].windows) for n in scene.cameras}
     identify_inputs = {n: CameraInput(c, None, c.fps, detections[n]) for n, c in scene.cameras.items()}
     truth_inputs = {n: CameraInput(c, scene.tracks[n], c.fps) for n, c in scene.cameras.items()}

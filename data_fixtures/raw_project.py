@@ -104,13 +104,13 @@ def _write_gcps(path: Path, camera, scene: Scene, name: str, count: int, rng) ->
     w, h = camera.image_size
     cells = [(i, j) for i in range(4) for j in range(3)]
     order = rng.permutation(len(cells))[:count]
-    world = []
+    rays = []
     for k in order:  # one point per cell of a 4 x 3 grid over the image: a good spread
         i, j = cells[k]
         u, v = (i + rng.uniform(0.2, 0.8)) * w / 4, (j + rng.uniform(0.2, 0.8)) * h / 3
         ray = np.linalg.solve(camera.K, [u, v, 1.0])
-        world.append(camera.R.T @ (rng.uniform(np.quantile(depth, 0.1), np.quantile(depth, 0.9)) * ray - camera.t))
-    world = np.array(world)
+        rays.append(camera.R.T @ (rng.uniform(np.quantile(depth, 0.1), np.quantile(depth, 0.9)) * ray - camera.t))
+    world = np.array(rays)
     uv, valid = camera.project(world)
     keep = valid & camera.in_image(uv)
     geo = enu_to_geodetic(world[keep], ORIGIN)

@@ -256,7 +256,8 @@ def _trajectory_spline(rng, windows, zones, n_samples, crossings: int = 0, rest:
     that many times, evenly spaced over the rest of the window. With rest,
     the target walks to the scene's centre between stays (``_rest``).
     """
-    times, points = [], []
+    times: list[float] = []
+    points: list[list[float]] = []
     stays = sorted(windows.items(), key=lambda item: item[1][0])
     for order, (name, (lo, hi)) in enumerate(stays):
         travel = float(np.linalg.norm(zones[name][:2])) / REST_SPEED_M  # samples between the centre and the zone
@@ -282,9 +283,8 @@ def _trajectory_spline(rng, windows, zones, n_samples, crossings: int = 0, rest:
             position = position + step
     if rest and stays:
         _rest(rng, times, points, times[-1] + travel, n_samples - REST_EVERY / 2)
-    times = np.array([-1.0] + times + [n_samples])
-    points = np.array([[0.0, 0.0, 2.0]] + points + [[0.0, 0.0, 2.0]])
-    return CubicSpline(times, points, axis=0, bc_type="natural")
+    knots = np.array([-1.0] + times + [n_samples])
+    return CubicSpline(knots, np.array([[0.0, 0.0, 2.0]] + points + [[0.0, 0.0, 2.0]]), axis=0, bc_type="natural")
 
 
 def _rest(rng, times: list, points: list, start: float, stop: float) -> None:
@@ -330,6 +330,7 @@ def _track(rng, camera: Camera, spline, line: Relation, n_frames: int, n_samples
     clock = frames.astype(np.float64)  # camera clock in frame units: time_s * fps
     if jitter > 0:
         clock = np.r_[0.0, np.cumsum(1.0 + rng.uniform(-jitter, jitter, n_frames - 1))]
+    assert camera.fps is not None, "the scene's cameras have their frame rates"
     times = clock / camera.fps
     sample = (clock - line.beta) / line.alpha
     inside = (sample >= 0) & (sample <= n_samples - 1)

@@ -147,7 +147,7 @@ def h264_writer(path: str | Path, fps: float, size: tuple[int, int], options: di
         stream.width, stream.height = size
         stream.pix_fmt = "yuv420p"
         stream.codec_context.time_base = TIME_BASE
-        stream.options = options
+        stream.options = dict(options)
         if rotation:
             stream.set_display_rotation(rotation)
 

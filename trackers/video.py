@@ -22,7 +22,7 @@ from dataclasses import dataclass
 from fractions import Fraction
 from functools import lru_cache
 from pathlib import Path
-from typing import Iterable, Iterator, NamedTuple
+from typing import Any, Iterable, Iterator, NamedTuple
 
 import cv2
 import numpy as np
@@ -42,7 +42,7 @@ class TruncatedVideoWarning(UserWarning):
 class VideoFrame(NamedTuple):
     """One decoded frame: 0-based index, presentation time (s), image (H, W[, 3]) uint8 BGR or grey."""
 
-    index: int
+    index: int  # type: ignore[assignment]  # the field's name shadows tuple.index, which nothing here calls
     time_s: float
     image: np.ndarray
 
@@ -153,7 +153,7 @@ def _read_indexed(path: Path, wanted: list[int], gray: bool, pts_list: tuple[int
         fps = _fps(stream)
         rotation = None
         position = None  # pts of the last decoded frame, when decoding can continue from it
-        frames = None
+        frames: Iterator[tuple[Any, str | None]] = iter(())
         for i in wanted:
             target = pts_list[i]
             start = keyframes[max(0, bisect_right(keyframes, target) - 1)] if keyframes else pts_list[0]
@@ -350,7 +350,7 @@ def iter_windows(
                 bar.close()
 
 
-def _decode_windows(container, stream, plan, pts_list, keyframes, where) -> Iterator[tuple[object, int | None, str | None]]:
+def _decode_windows(container, stream, plan, pts_list, keyframes, where) -> Iterator[tuple[Any, int | None, str | None]]:
     """(frame, its index when inside the window being read else None, error) for every frame decoded to read ``plan``'s windows."""
     for start, stop in plan:
         seek_to = keyframes[max(0, bisect_right(keyframes, pts_list[start]) - 1)] if keyframes else pts_list[0]
@@ -455,7 +455,7 @@ def _open(path: Path):
     return container
 
 
-def _decode(container, stream) -> Iterator[tuple[object, str | None]]:
+def _decode(container, stream) -> Iterator[tuple[Any, str | None]]:
     """Decoded frames; stops with (None, reason) at the first demux or decode error."""
     import av
 
@@ -481,12 +481,12 @@ READ_AHEAD = 4  # frames decoded ahead of the caller by iter_frames
 _END = object()
 
 
-def _decode_ahead(container, stream) -> Iterator[tuple[object, str | None]]:
+def _decode_ahead(container, stream) -> Iterator[tuple[Any, str | None]]:
     """``_decode``'s items, decoded in a background thread up to READ_AHEAD frames ahead (``_ahead``)."""
     return _ahead(_decode(container, stream))
 
 
-def _ahead(source: Iterator):
+def _ahead(source: Iterator) -> Iterator:
     """``source``'s items, produced in a background thread up to READ_AHEAD items ahead.
 
     FFmpeg releases the GIL while it decodes, so the next frames decode while

@@ -49,7 +49,7 @@ def _kill_mid_track(project_file, work):
     for line in process.stderr:
         lines.append(line)
         if line.startswith("track/"):
-            time.sleep(1.0)
+            time.sleep(0.2)  # mid-track: with 2 workers the third camera has not been tracked yet
             break
     os.killpg(process.pid, signal.SIGKILL)
     process.wait()

@@ -131,7 +131,7 @@ def test_phone_videos_with_a_late_stream_map_frames_exactly(tmp_path):
     assert float(offsets["cam1"]["start_s"]) == pytest.approx(np.interp(true_start, np.arange(300), times["cam0"]) - times["cam0"][0], abs=0.5 / 30)
 
     # The pictures draw, with each frame of cam1, the frame of cam0 the frame map gives.
-    drawn = summary.summaries["render"]["frames"]["cam0,cam1"]
+    drawn = summary.results["render"].facts["frames"]["cam0,cam1"]
     assert len(drawn) == 3
     for frame_b, frame_a in drawn:
         assert frame_a == round(mapped["cam1"][frame_b])

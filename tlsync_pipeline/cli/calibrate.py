@@ -1,6 +1,6 @@
 """``tlsync calibrate-intrinsics`` (standalone) and the calibrate stage's summary line.
 
-The project-level ``tlsync calibrate`` is a stage command of the pipeline (pipeline_cli.py).
+The project-level ``tlsync calibrate`` is a stage command of the pipeline (cli/pipeline.py).
 """
 
 from __future__ import annotations

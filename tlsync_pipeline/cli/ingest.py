@@ -1,6 +1,6 @@
 """``tlsync ingest-log``: one GPS/odometry log to a trajectory CSV, with a summary.
 
-The project-level ``tlsync ingest`` is a stage command of the pipeline (pipeline_cli.py).
+The project-level ``tlsync ingest`` is a stage command of the pipeline (cli/pipeline.py).
 """
 
 from __future__ import annotations

@@ -42,6 +42,7 @@ def run_document(graph: Graph, summary: RunSummary, exit_code: int) -> dict:
     """The ``tlsync run --json`` document: what this run did with each task, and each camera's result."""
     tasks = []
     for tid, task in graph.tasks.items():
+        reasons: list[str]
         if tid in summary.ran:
             state, reasons = "ran", []
         elif tid in summary.fresh:
@@ -60,7 +61,7 @@ def run_document(graph: Graph, summary: RunSummary, exit_code: int) -> dict:
                 "camera": task.camera,
                 "state": state,
                 "reasons": reasons,
-                "warnings": [one_line(w) for w in summary.summaries.get(tid, {}).get("warnings", [])],
+                "warnings": [one_line(w) for w in summary.results[tid].warnings] if tid in summary.results else [],
                 "seconds": summary.seconds.get(tid),
                 "artefacts": sorted(manifest.outputs) if manifest else [],
             }
@@ -79,7 +80,7 @@ def dumps(document: dict) -> str:
 
 
 def _camera_names(graph: Graph) -> list[str]:
-    return [c["name"] for c in graph.project.cameras]
+    return graph.project.names
 
 
 def _document(fmt: str, graph: Graph, exit_code: int, tasks: list[dict], cameras: dict, **extra) -> dict:

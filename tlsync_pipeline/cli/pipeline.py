@@ -120,7 +120,7 @@ def format_summary(summary: RunSummary, counts: bool = True) -> str:
         if summary.ran:
             lines.append("ran: " + ", ".join(summary.ran))
         lines += [f"skipped {tid}: {why}" for tid, why in summary.skipped.items()]
-    lines += [f"{tid}: {summary.summaries[tid]['message']}" for tid in summary.ran if summary.summaries[tid].get("message")]
+    lines += [f"{tid}: {summary.results[tid].message}" for tid in summary.ran if summary.results[tid].message]
     return "\n".join(lines)
 
 
@@ -128,7 +128,7 @@ def report_outcome(summary: RunSummary, quiet: bool = False) -> ExitCode:
     """Print the stages' warnings (unless quiet) and each failure once, on one line; returns the exit code they mean."""
     if not quiet:
         for tid in summary.ran:
-            for warning in summary.summaries[tid].get("warnings", []):
+            for warning in summary.results[tid].warnings:
                 click.echo(f"warning: {tid}: {one_line(warning)}", err=True)
     code = ExitCode.OK
     for tid, error in summary.failed.items():
@@ -169,7 +169,8 @@ def status_command(project_file: Path, work_dir: Path | None, out_dir: Path | No
     try:
         check_writable(work)
     except EnvironmentProblem as exc:
-        problem, code = exc, ExitCode.ENVIRONMENT
+        problem: EnvironmentProblem | None = exc
+        code = ExitCode.ENVIRONMENT
     else:
         problem = None
     if as_json:

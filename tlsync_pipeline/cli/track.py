@@ -1,6 +1,6 @@
 """``tlsync track-video``: one video, its every mover (detections.csv) or one target (track.csv).
 
-The project-level ``tlsync track`` is a stage command of the pipeline (pipeline_cli.py).
+The project-level ``tlsync track`` is a stage command of the pipeline (cli/pipeline.py).
 """
 
 from __future__ import annotations

@@ -100,7 +100,8 @@ def read_dji(path: str | Path) -> LogRecords:
     except InputError as exc:
         raise InputError(f"{path}:1: {exc}") from None
     extras = {name: header.index(name) for name in ("satellites", "gpslevel") if name in header}
-    raw, dropped = [], {}
+    parsed: list[tuple] = []
+    dropped: dict[str, list[int]] = {}
     try:
         for number, row in enumerate(reader, start=2):
             if not row or not any(c.strip() for c in row):
@@ -121,10 +122,10 @@ def read_dji(path: str | Path) -> LogRecords:
                 dropped.setdefault(NO_FIX, []).append(number)
                 continue
             check_geodetic(path, lat, lon, h, number)
-            raw.append((number, ms * 1e-3, when, lat, lon, h, *extra))
+            parsed.append((number, ms * 1e-3, when, lat, lon, h, *extra))
     except csv.Error as exc:
         raise InputError(f"{path}:{reader.line_num}: not CSV: {exc}") from None
-    data = np.array(raw, dtype=float).reshape(-1, 6 + len(extras))
+    data = np.array(parsed, dtype=float).reshape(-1, 6 + len(extras))
     t, runs = utc_of_rows(data[:, 1], data[:, 2])
     warnings = []
     if runs > 1:
@@ -162,7 +163,10 @@ def _read_osd(path: Path, header: list[str], reader) -> LogRecords:
     scale = FEET if "[ft]" in header[height_col] else 1.0
     utc = header[time_col].endswith("[utc]")
     used, extras = find("osd.isgpsused"), {name: find(name) for name in ("osd.gpsnum", "osd.gpslevel")}
-    rows, numbers, dropped, quality = [], [], {}, {name: [] for name, i in extras.items() if i is not None}
+    rows, numbers = [], []
+    dropped: dict[str, list[int]] = {}
+    columns = {name: i for name, i in extras.items() if i is not None}
+    quality: dict[str, list[float]] = {name: [] for name in columns}
     try:
         for number, row in enumerate(reader, start=2):
             if not row or not any(c.strip() for c in row):
@@ -184,7 +188,7 @@ def _read_osd(path: Path, header: list[str], reader) -> LogRecords:
             rows.append([t, lat, lon, h])
             numbers.append(number)
             for name in quality:
-                value = row[extras[name]] if extras[name] < len(row) else ""
+                value = row[columns[name]] if columns[name] < len(row) else ""
                 quality[name].append(float(value) if value.strip().replace(".", "", 1).isdigit() else math.nan)
     except csv.Error as exc:
         raise InputError(f"{path}:{reader.line_num}: not CSV: {exc}") from None

@@ -54,7 +54,7 @@ def read_fit(path: str | Path) -> LogRecords:
     path = Path(path)
     import fitdecode
 
-    messages = {name: [] for name in SOURCES}
+    messages: dict[str, list] = {name: [] for name in SOURCES}
     correlation = None
     try:
         with warnings.catch_warnings(record=True) as crc_warnings, fitdecode.FitReader(str(path), check_crc=fitdecode.CrcCheck.WARN) as reader:
@@ -71,11 +71,12 @@ def read_fit(path: str | Path) -> LogRecords:
     source = max(SOURCES, key=lambda name: sum(1 for m in messages[name] if m.get("position_lat") is not None))
     offset = None
     if correlation is not None:
-        utc = _seconds(correlation.get("timestamp"), float(correlation.get("fractional_timestamp") or 0.0))
+        at_utc = _seconds(correlation.get("timestamp"), float(correlation.get("fractional_timestamp") or 0.0))
         device = _seconds(correlation.get("system_timestamp"), float(correlation.get("fractional_system_timestamp") or 0.0))
-        if utc is not None and device is not None and utc[1]:
-            offset = utc[0] - device[0]
-    rows, numbers, sigma, dropped = [], [], [], {}
+        if at_utc is not None and device is not None and at_utc[1]:
+            offset = at_utc[0] - device[0]
+    rows, numbers, sigma = [], [], []
+    dropped: dict[str, list[int]] = {}
     device_times = 0
     for number, m in enumerate(messages[source], start=1):
         fraction = float(m.get("fractional_timestamp") or 0.0) + float(m.get("timestamp_ms") or 0.0) * 1e-3

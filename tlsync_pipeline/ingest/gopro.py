@@ -66,7 +66,8 @@ def read_gopro(path: str | Path) -> LogRecords:
 
 def gopro_records(path: Path, packets: list[tuple[float, float, bytes]]) -> LogRecords:
     """LogRecords from (start s, duration s, GPMF payload) packets in video time order."""
-    rows, numbers, dops, dropped = [], [], [], {}
+    rows, numbers, dops = [], [], []
+    dropped: dict[str, list[int]] = {}
     anchors = []  # GPSU - video time of the packet's first sample
     msl_seen, nine_seen, number = set(), False, 0
     for k, (start, duration, payload) in enumerate(packets):

@@ -16,6 +16,8 @@ import calendar
 import struct
 from dataclasses import dataclass
 
+from typing import Any
+
 import numpy as np
 
 _TYPES = {"b": "b", "B": "B", "s": "h", "S": "H", "l": "i", "L": "I", "f": "f", "d": "d", "j": "q", "J": "Q", "q": "i", "Q": "q"}
@@ -59,7 +61,7 @@ def klv_items(data: bytes, start: int = 0, end: int | None = None):
             break
 
 
-def _values(data: bytes, kind: str, size: int, repeat: int, offset: int, fields: str | None = None) -> list:
+def _values(data: bytes, kind: str, size: int, repeat: int, offset: int, fields: str | None = None) -> list | str:
     """The item's values as a flat list (numbers) or a str (types c, U, F)."""
     raw = data[offset : offset + size * repeat]
     if kind in "cUF":
@@ -100,7 +102,7 @@ def gps_blocks(payload: bytes) -> list[GPSBlock]:
 
 
 def _stream(data: bytes, start: int, end: int) -> list[GPSBlock]:
-    sticky: dict[bytes, object] = {}
+    sticky: dict[bytes, Any] = {}
     blocks = []
     for key, kind, size, repeat, offset in klv_items(data, start, end):
         k = chr(kind) if kind else "\0"

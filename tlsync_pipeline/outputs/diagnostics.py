@@ -40,6 +40,17 @@ class StageWarning:
 
 
 @dataclass(frozen=True)
+class StageRun:
+    """One stage's last run, from its manifest: stage, camera (None: the project), when (UTC), seconds, its warnings."""
+
+    stage: str
+    camera: str | None
+    created: str
+    seconds: float | None
+    warnings: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
 class CameraStatus:
     """ok, weak or failed, and why, in words."""
 
@@ -88,10 +99,27 @@ def sync_warnings(timeline: Timeline) -> list[StageWarning]:
     return out
 
 
-def summary_warnings(stage: str, camera: str | None, summary: dict) -> list[StageWarning]:
-    """A stage's ``warnings`` (and render's ``notes``) from its manifest summary."""
-    texts = list(summary.get("warnings") or []) + list(summary.get("notes") or [])
-    return [StageWarning(stage, camera, str(text)) for text in texts]
+def gather_warnings(calibration_reports: dict[str, dict], ingest: dict | None, runs: list[StageRun], timeline: Timeline, notes: list[str]) -> list[StageWarning]:
+    """Every warning the stages recorded, in stage order, then render's own notes.
+
+    calibration_reports: camera -> its calibration_report.json; ingest: the
+    ingest_report.json or None; runs: the stages' last runs (their
+    manifests' warnings), in pipeline order; notes: render's own.
+    """
+    found: list[StageWarning] = []
+    for name, report in calibration_reports.items():
+        found += calibration_warnings(name, report)
+    if ingest:
+        found += ingest_warnings(ingest)
+    for run in runs:
+        if run.stage != "render":
+            found += [StageWarning(run.stage, run.camera, text) for text in run.warnings]
+    found += sync_warnings(timeline)
+    order: dict[str, int] = {}
+    for stage in [run.stage for run in runs] + [w.stage for w in found]:
+        order.setdefault(stage, len(order))
+    found.sort(key=lambda w: order[w.stage] if w.stage != "render" else len(order))
+    return found + [StageWarning("render", None, note) for note in notes]
 
 
 def camera_status(timeline: Timeline, name: str) -> CameraStatus:

@@ -1,4 +1,4 @@
-"""Charts read at a glance: residuals over time per camera, and every camera's offset with its interval.
+"""Charts read at a glance: residuals over time per camera, every camera's offset with its interval, a camera's calibration.
 
 Pure functions: typed values in, PNG bytes out (matplotlib, Agg backend).
 """
@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import io
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -104,7 +105,8 @@ def offsets_plot(timeline: Timeline, statuses: list[CameraStatus]) -> bytes:
         frames, seconds = timeline.start_offset(reference, name)
         value = seconds if in_seconds else frames
         se = timeline.start_offset_se(reference, name) if name != reference else None
-        half = None if se is None else HALF_95 * (se[1] if in_seconds else se[0])
+        spread = None if se is None else se[1] if in_seconds else se[0]
+        half = None if spread is None else HALF_95 * spread
         colour = STATUS_COLOURS[status.get(name, "ok")]
         ax.errorbar([value], [row], xerr=None if half is None else [[half], [half]], fmt="o", color=colour, capsize=5, ms=5)
         text = f"{value:+.3f} {unit}" + ("" if half is None else f" ± {half:.2g}") + (" (reference)" if name == reference else "")
@@ -114,5 +116,53 @@ def offsets_plot(timeline: Timeline, statuses: list[CameraStatus]) -> bytes:
     ax.axvline(0, color="0.6", lw=0.8)
     ax.set_xlabel(f"start: when frame 0 was taken, {unit} after {reference}'s frame 0 (bars: 95 % interval)")
     ax.margins(x=0.25)
+    fig.tight_layout()
+    return _png(fig)
+
+
+def calibration_plot(report: dict, image_size: tuple[int, int]) -> bytes:
+    """The calibration picture (PNG): detected corners (one colour per view) and GCPs over the image frame; per-view errors.
+
+    report: the calibrate stage's calibration_report.json.
+    """
+    plt = _pyplot()
+
+    intr = report.get("intrinsics") or {}
+    views = intr.get("per_view") or []
+    w, h = image_size
+    fig, axes = plt.subplots(1, 2, figsize=(13, 5), gridspec_kw={"width_ratios": [1.4, 1]})
+    ax = axes[0]
+    cmap = plt.get_cmap("tab20")
+    for i, view in enumerate(views):
+        c = np.asarray(view.get("corners", []))
+        if len(c):
+            ax.plot(c[:, 0], c[:, 1], ".", ms=2.5, color=cmap(i % 20))
+    pose = report.get("pose")
+    if pose and pose.get("kind") != "board":
+        uv = np.array([p["uv"] for p in pose["points"]])
+        inl = np.array([p["inlier"] for p in pose["points"]])
+        ax.plot(uv[inl, 0], uv[inl, 1], "k+", ms=10, label="GCP")
+        if (~inl).any():
+            ax.plot(uv[~inl, 0], uv[~inl, 1], "rx", ms=10, label="GCP outlier")
+        for p in pose["points"]:
+            ax.annotate(f"{p['name']} {p['error_px']:.1f}px", p["uv"], fontsize=7, xytext=(4, 4), textcoords="offset points")
+        ax.legend(loc="lower right", fontsize=8)
+    ax.set_xlim(-0.5, w - 0.5)
+    ax.set_ylim(h - 0.5, -0.5)
+    ax.set_aspect("equal")
+    ax.set_title(f"{report['camera']}: corner coverage ({len(views)} views), {w}x{h}")
+    ax = axes[1]
+    if views:
+        errors = [v["rms_px"] for v in views]
+        ax.bar(range(len(views)), errors, color=[cmap(i % 20) for i in range(len(views))])
+        ax.axhline(intr["rms_px"], color="k", ls="--", lw=1, label=f"RMS {intr['rms_px']:.3f} px")
+        ax.set_xticks(range(len(views)), [Path(v["image"]).name for v in views], rotation=90, fontsize=6)
+        ax.set_ylabel("RMS reprojection error (px)")
+        ax.legend(fontsize=8)
+        rejected = len(intr.get("rejected", []))
+        ax.set_title(f"per-view error; {rejected} image(s) rejected (see report)")
+    else:
+        ax.text(0.5, 0.5, "intrinsics from\n" + str(intr.get("source", "?")), ha="center", va="center", transform=ax.transAxes)
+        ax.set_axis_off()
     fig.tight_layout()
     return _png(fig)

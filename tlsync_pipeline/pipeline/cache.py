@@ -166,18 +166,16 @@ def staleness(manifest: Manifest | None, key: str, code: dict[str, str], inputs:
         if old != new:
             reasons.append(f"code of {module} " + ("is new" if old is None else "is no longer used" if new is None else "changed"))
     for label in sorted(set(inputs) | set(manifest.inputs)):
-        old, new = manifest.inputs.get(label), inputs.get(label)
-        if old is None:
+        was, now = manifest.inputs.get(label), inputs.get(label)  # {"path", "sha256"} or None
+        if was is None:
             reasons.append(f"new input {label}")
-        elif new is None:
+        elif now is None:
             reasons.append(f"input {label} no longer used")
-        elif old.get("path") != new["path"]:
-            reasons.append(f"input {label} is now {new['path']} (was {old.get('path')})")
-        elif old.get("sha256") != new["sha256"]:
-            reasons.append(f"input {label} changed ({new['path']})" if new["sha256"] else f"input {label} is missing ({new['path']})")
-    for name in sorted(set(params) | set(manifest.params)):
-        if _normal(params.get(name)) != _normal(manifest.params.get(name)):
-            reasons.append(f"parameter {name}: {manifest.params.get(name)!r} -> {params.get(name)!r}")
+        elif was.get("path") != now["path"]:
+            reasons.append(f"input {label} is now {now['path']} (was {was.get('path')})")
+        elif was.get("sha256") != now["sha256"]:
+            reasons.append(f"input {label} changed ({now['path']})" if now["sha256"] else f"input {label} is missing ({now['path']})")
+    reasons += [f"parameter {name}: {old!r} -> {new!r}" for name, old, new in _changes(manifest.params, params)]
     if not reasons and manifest.key != key:
         reasons.append("cache key changed")
     for rel, digest in sorted(manifest.outputs.items()):
@@ -187,6 +185,13 @@ def staleness(manifest: Manifest | None, key: str, code: dict[str, str], inputs:
         elif actual != digest:
             reasons.append(f"artefact {rel} was modified after it was made")
     return reasons
+
+
+def _changes(old: Any, new: Any, name: str = "") -> list[tuple[str, Any, Any]]:
+    """(dotted name, old, new) of each parameter that differs, tables compared key by key (``sync.eps_px``)."""
+    if isinstance(old, dict) and isinstance(new, dict):
+        return [change for key in sorted(set(old) | set(new)) for change in _changes(old.get(key), new.get(key), f"{name}.{key}" if name else key)]
+    return [] if _normal(old) == _normal(new) else [(name, old, new)]
 
 
 def _normal(value: Any) -> str:

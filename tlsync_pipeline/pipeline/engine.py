@@ -8,21 +8,22 @@ identical does not re-run what follows it. Per-camera tasks go to the
 executor (parallel processes or a Dask cluster); project-wide ones run here,
 and so do light per-camera ones (StageSpec.light) while the executor's local
 workers are not started. This process's BLAS runs one thread, as the workers'
-do: its tasks run beside them, and two BLAS threads contending for busy cores
-made the sync of 20 cameras 1.4x slower (docs/performance.md).
-A failed task keeps its last good artefacts; the tasks that need it are
-skipped and everything else still runs.
+do: its tasks run beside them on busy cores. A failed task keeps its last
+good artefacts; the tasks that need it are skipped and everything else still
+runs. Every stage's result is a StageResult, handled the same way: the
+engine names no stage.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 from tlsync_pipeline.atomic import PART_SUFFIX
 from tlsync_pipeline.errors import InputError, describe_error
+from tlsync_pipeline.outputs.diagnostics import StageRun
 from tlsync_pipeline.pipeline.cache import (
     HashMemo,
     Manifest,
@@ -35,9 +36,10 @@ from tlsync_pipeline.pipeline.cache import (
     write_manifest,
 )
 from tlsync_pipeline.pipeline.codehash import code_digests
-from tlsync_pipeline.pipeline.executors import WORKER_CPU, SerialExecutor, one_blas_thread
-from tlsync_pipeline.pipeline.graph import PER_CAMERA, STAGES, Graph, Task, check_given
+from tlsync_pipeline.pipeline.executors import Called, SerialExecutor, one_blas_thread
+from tlsync_pipeline.pipeline.graph import STAGES, Graph, Task, check_given, task_id
 from tlsync_pipeline.pipeline.lock import WorkLock
+from tlsync_pipeline.pipeline.spec import StageResult, params_json
 from tlsync_pipeline.pipeline.workspace import FOLDERS, StageFiles
 
 
@@ -45,8 +47,9 @@ from tlsync_pipeline.pipeline.workspace import FOLDERS, StageFiles
 class TaskState:
     """One row of ``tlsync status``: fresh, stale, missing, given, blocked or failed, why, and the artefacts on record.
 
-    A camera the sync stage could not synchronize has a row of its own
-    (id ``sync/<camera>``, state failed, the reason).
+    A camera a project-wide stage could not serve (the sync stage's cameras
+    that are not synchronized) has a row of its own (id ``<stage>/<camera>``,
+    state failed, the reason).
     """
 
     id: str
@@ -83,7 +86,7 @@ class RunSummary:
     failed: dict[str, BaseException] = field(default_factory=dict)
     skipped: dict[str, str] = field(default_factory=dict)
     seconds: dict[str, float] = field(default_factory=dict)
-    summaries: dict[str, dict] = field(default_factory=dict)
+    results: dict[str, StageResult] = field(default_factory=dict)
 
 
 @dataclass
@@ -103,7 +106,7 @@ def _current(graph: Graph, task: Task, memo: HashMemo, code: dict[str, dict]) ->
     if module not in code:
         code[module] = code_digests(module)
     inputs = {label: {"path": ws.portable(source), "sha256": memo.sha256(ws.resolve(source))} for label, source in sorted(task.inputs.items())}
-    params = ws.portable(task.params)
+    params = ws.portable(params_json(task.params))
     key = cache_key(task.stage, code[module], {k: v["sha256"] for k, v in inputs.items()}, params)
     return _Key(code[module], inputs, params, key)
 
@@ -146,15 +149,15 @@ def status(graph: Graph) -> list[TaskState]:
         if waiting:
             reasons.append("waits for " + ", ".join(f"{d} ({rows[d].state})" for d in waiting))
         rows[tid] = TaskState(tid, task.stage, task.camera, state, reasons, sorted(manifest.outputs) if manifest else [])
-        if task.stage == "sync" and state == "fresh":
-            for camera, why in manifest.summary.get("failed", {}).items():
-                rows[f"sync/{camera}"] = TaskState(f"sync/{camera}", "sync", camera, "failed", [why])
+        if state == "fresh" and task.camera is None and manifest is not None:
+            for camera, why in (manifest.summary.get("failed") or {}).items():
+                rows[task_id(task.stage, camera)] = TaskState(task_id(task.stage, camera), task.stage, camera, "failed", [why])
     try:
         memo.save()
     except OSError:
         pass  # a read-only work folder: the hashes are only not remembered
     order = {s: i for i, s in enumerate(STAGES)}
-    cameras = [c["name"] for c in graph.project.cameras]
+    cameras = graph.project.names
     return sorted(rows.values(), key=lambda r: (order[r.stage], cameras.index(r.camera) if r.camera else -1))
 
 
@@ -224,81 +227,119 @@ def _closure(graph: Graph, targets: list[str]) -> list[str]:
 
 
 def _schedule(graph: Graph, executor, wanted: list[str], force: set[str], memo: HashMemo, summary: RunSummary, progress: Progress) -> None:
-    code: dict[str, dict] = {}
-    pending = list(wanted)
-    done: set[str] = set()
-    running: dict = {}
-    while pending or running:
+    _Scheduler(graph, executor, force, memo, summary, progress, list(wanted)).run()
+
+
+@dataclass
+class _Scheduler:
+    """Hands out the wanted tasks as their inputs are made, collects their results, records what each did."""
+
+    graph: Graph
+    executor: Any
+    force: set[str]
+    memo: HashMemo
+    summary: RunSummary
+    progress: Progress
+    pending: list[str]
+    done: set[str] = field(default_factory=set)
+    running: dict = field(default_factory=dict)  # future -> (task, its key, ran in a worker)
+    code: dict[str, dict] = field(default_factory=dict)
+
+    def run(self) -> None:
+        while self.pending or self.running:
+            self._hand_out()
+            if not self.running:
+                for tid in self.pending:  # every remaining task waits for something that will not come
+                    self.summary.skipped[tid] = "its inputs were not made"
+                return
+            for future in executor_wait(self.executor, list(self.running)):
+                self._collect(future)
+
+    def _hand_out(self) -> None:
+        """Start every task whose inputs are settled, in priority order; after a task run here, look again (its dependents may be ready)."""
         progressed = True
         while progressed:
             progressed = False
-            for tid in sorted(pending, key=lambda t: _priority(graph.tasks[t])):
-                task = graph.tasks[tid]
-                bad = [d for d in task.deps if d in summary.failed or d in summary.skipped]
-                if bad and task.spec.runs_without_failed_cameras and all(graph.tasks[d].camera for d in bad) and not all(d in done or d in bad for d in task.deps):
-                    continue  # wait until every dependency is settled before deciding which cameras to leave out
-                if bad and task.spec.runs_without_failed_cameras and all(graph.tasks[d].camera for d in bad):
-                    reasons = {}
-                    for d in bad:
-                        reasons.setdefault(graph.tasks[d].camera, _incomplete(d, summary))
-                    if len(reasons) < len(graph.project.cameras):
-                        task = dataclasses.replace(task.leaving_out(reasons), deps=[d for d in task.deps if d not in bad])
-                        bad = []
-                if bad:
-                    summary.skipped[tid] = f"needs {bad[0]}, which did not complete"
-                    pending.remove(tid)
-                    progressed = True
+            for tid in sorted(self.pending, key=lambda t: _priority(self.graph.tasks[t])):
+                task = self._ready(tid)
+                if task is None:
                     continue
-                if not all(d in done or d not in graph.tasks for d in task.deps):
-                    continue
-                pending.remove(tid)
+                self.pending.remove(tid)
                 progressed = True
-                now = _current(graph, task, memo, code)
-                reasons = _reasons(graph, task, now, memo)
-                if not reasons and tid not in force:
-                    summary.fresh.append(tid)
-                    done.add(tid)
+                if task is _SKIPPED:
                     continue
-                why = "forced" if not reasons else reasons[0]
-                local = task.stage not in PER_CAMERA or isinstance(executor, SerialExecutor) or (task.spec.light and not getattr(executor, "started", True))
-                progress.started(tid, why, not local)
-                where = SerialExecutor(executor.cores) if local else executor  # local tasks share the machine with the pool
-                files = graph.workspace.files(
-                    tid,
-                    task.camera,
-                    task.inputs,
-                    task.outputs,
-                    progress=graph.options.progress,
-                    cores=where.cores,
-                    history=_history(graph) if task.spec.history else [],
-                    workers=executor if local else None,
-                )
-                future = where.submit(run_task, {"run": task.spec.run, "files": files, "params": task.params})
-                running[future] = (task, now, not local)
-                if local:
-                    break  # finish it before scheduling more, its dependents may now be ready
-        if not running:
-            if pending:  # every remaining task waits for something that will not come
-                for tid in pending:
-                    summary.skipped[tid] = "its inputs were not made"
-            break
-        for future in executor_wait(executor, list(running)):
-            task, now, parallel = running.pop(future)
-            try:
-                result = future.result() or {}
-            except Exception as exc:  # noqa: BLE001 - recorded, reported by the caller
-                summary.failed[task.id] = exc
-                write_failure(failure_path(manifest_path(graph, task)), now.key, describe_error(exc))
-                progress.failed(task.id, exc, parallel)
-                continue
-            seconds, cpu_seconds = result.pop(RUN_TIME)
-            failure_path(manifest_path(graph, task)).unlink(missing_ok=True)
-            _write_manifest(graph, task, now, result, seconds, cpu_seconds, memo)
-            summary.ran.append(task.id)
-            summary.seconds[task.id] = seconds
-            summary.summaries[task.id] = result
-            done.add(task.id)
-            progress.finished(task.id, seconds, parallel)
+                if self._start(task):
+                    break
+
+    def _ready(self, tid: str):
+        """The task to run now (less the cameras whose tasks did not complete, for a stage that runs without them),
+        _SKIPPED when it cannot run (recorded), or None while an input is still being made."""
+        task = self.graph.tasks[tid]
+        bad = [d for d in task.deps if d in self.summary.failed or d in self.summary.skipped]
+        if bad and task.spec.runs_without_failed_cameras and all(self.graph.tasks[d].camera for d in bad):
+            if not all(d in self.done or d in bad for d in task.deps):
+                return None  # wait until every dependency is settled before deciding which cameras to leave out
+            reasons: dict[str, str] = {}
+            for d in bad:
+                reasons.setdefault(self.graph.tasks[d].camera or "", _incomplete(d, self.summary))
+            if len(reasons) < len(self.graph.project.cameras):
+                task, bad = task.leaving_out(reasons, bad), []
+        if bad:
+            self.summary.skipped[tid] = f"needs {bad[0]}, which did not complete"
+            return _SKIPPED
+        if not all(d in self.done or d not in self.graph.tasks for d in task.deps):
+            return None
+        return task
+
+    def _start(self, task: Task) -> bool:
+        """Run the task unless it is fresh; whether it ran in this process (and is done)."""
+        now = _current(self.graph, task, self.memo, self.code)
+        reasons = _reasons(self.graph, task, now, self.memo)
+        if not reasons and task.id not in self.force:
+            self.summary.fresh.append(task.id)
+            self.done.add(task.id)
+            return False
+        executor = self.executor
+        local = task.camera is None or isinstance(executor, SerialExecutor) or (task.spec.light and not getattr(executor, "started", True))
+        self.progress.started(task.id, "forced" if not reasons else reasons[0], not local)
+        where = SerialExecutor(executor.cores) if local else executor  # local tasks share the machine with the pool
+        files = self.graph.workspace.files(
+            task.id,
+            task.camera,
+            task.inputs,
+            task.outputs,
+            progress=self.graph.options.progress,
+            cores=where.cores,
+            history=_history(self.graph) if task.spec.history else [],
+            workers=executor if local else None,
+        )
+        future = where.submit(run_task, {"run": task.spec.run, "files": files, "params": task.params})
+        self.running[future] = (task, now, not local)
+        if local:
+            self._collect(future)
+        return local
+
+    def _collect(self, future) -> None:
+        """Record a finished task: its manifest (its artefacts are good), or its failure (its last good artefacts stay)."""
+        task, now, parallel = self.running.pop(future)
+        try:
+            called: Called = future.result()
+        except Exception as exc:  # noqa: BLE001 - recorded, reported by the caller
+            self.summary.failed[task.id] = exc
+            write_failure(failure_path(manifest_path(self.graph, task)), now.key, describe_error(exc))
+            self.progress.failed(task.id, exc, parallel)
+            return
+        result = dataclasses.replace(called.value, warnings=tuple(dict.fromkeys(called.value.warnings + called.warnings)))
+        failure_path(manifest_path(self.graph, task)).unlink(missing_ok=True)
+        _write_manifest(self.graph, task, now, result, called.seconds, called.cpu_s + result.worker_cpu_s, self.memo)
+        self.summary.ran.append(task.id)
+        self.summary.seconds[task.id] = called.seconds
+        self.summary.results[task.id] = result
+        self.done.add(task.id)
+        self.progress.finished(task.id, called.seconds, parallel)
+
+
+_SKIPPED = object()  # _Scheduler._ready: the task cannot run
 
 
 def _incomplete(task_id: str, summary: RunSummary) -> str:
@@ -314,62 +355,41 @@ def executor_wait(executor, futures: list) -> list:
     return finished or executor.wait_any(futures)
 
 
-RUN_TIME = "run_time"  # key of a task's result holding (seconds, CPU seconds) of its own run, taken out before its manifest is written
-
-
-def run_task(run, files: StageFiles, params: dict) -> dict:
-    """Call a stage's function with its files and parameters (in whichever process the executor chose), timed there.
-
-    Its CPU time includes what its parts used in the run's workers (a stage's WORKER_CPU result).
-    """
-    start, cpu = time.perf_counter(), time.process_time()
+def run_task(run, files: StageFiles, params) -> StageResult:
+    """Call a stage's function with its files and parameters (in whichever process the executor chose)."""
     with files.running():
-        result = dict(run(files, **params) or {})
-    elsewhere = result.pop(WORKER_CPU, 0.0)  # its parts' CPU in the run's workers (executors.run_each)
-    return {**result, RUN_TIME: (time.perf_counter() - start, time.process_time() - cpu + elsewhere)}
+        return run(files, params)
 
 
 def _priority(task: Task) -> tuple:
-    """Order in which ready tasks are handed out: per-camera tasks before project-wide ones (the pool works
-    while those run here); tracks first, the largest video first (the longest task must not start last and
-    leave one worker alone at the end); then the other per-camera tasks (calibrations fill the workers as
-    tracks end)."""
-    per_camera = task.stage in PER_CAMERA
-    track = task.stage == "track"
+    """Order in which ready tasks are handed out: per-camera tasks before project-wide ones (the pool works while
+    those run here); heavy ones first (StageSpec.heavy), the largest inputs first, so that the longest task does not
+    start last and leave one worker alone at the end; then the other per-camera tasks."""
     size = 0
-    if track:
-        video = task.inputs.get("video")
-        size = Path(video).stat().st_size if isinstance(video, Path) and Path(video).is_file() else 0
-    return (not per_camera, not track, -size)
+    if task.spec.heavy:
+        size = sum(Path(p).stat().st_size for p in task.inputs.values() if isinstance(p, Path) and Path(p).is_file())
+    return (task.camera is None, not task.spec.heavy, -size)
 
 
-def _history(graph: Graph) -> list[dict]:
+def _history(graph: Graph) -> list[StageRun]:
     """When and how long each task of the graph last ran, and the warnings it recorded, from the manifests (for the report)."""
     rows = []
     for task in graph.tasks.values():
         manifest = read_manifest(manifest_path(graph, task))
         if manifest is not None:
-            rows.append(
-                {
-                    "stage": manifest.stage,
-                    "camera": manifest.camera,
-                    "created": manifest.created,
-                    "seconds": manifest.seconds,
-                    "warnings": list(manifest.summary.get("warnings") or []),
-                }
-            )
+            rows.append(StageRun(manifest.stage, manifest.camera, manifest.created, manifest.seconds, tuple(manifest.summary.get("warnings") or ())))
     return rows
 
 
-def _write_manifest(graph: Graph, task: Task, now: _Key, result: dict, seconds: float, cpu_seconds: float, memo: HashMemo) -> None:
+def _write_manifest(graph: Graph, task: Task, now: _Key, result: StageResult, seconds: float, cpu_seconds: float, memo: HashMemo) -> None:
     ws = graph.workspace
-    outputs = [ws.resolve(a) for a in task.outputs if a.kind not in FOLDERS] + [Path(p) for p in result.pop("outputs", [])]
+    outputs = [ws.resolve(a) for a in task.outputs if a.kind not in FOLDERS] + [Path(p) for p in result.outputs]
     hashes = {}
     for path in outputs:
         digest = memo.sha256(path)
         if digest is not None:
             hashes[Path(path).relative_to(graph.work).as_posix()] = digest
     manifest = Manifest(
-        task.stage, task.camera, now.code, now.key, now.inputs, now.params, hashes, round(seconds, 3), cpu_seconds=round(cpu_seconds, 3), summary=result
+        task.stage, task.camera, now.code, now.key, now.inputs, now.params, hashes, round(seconds, 3), cpu_seconds=round(cpu_seconds, 3), summary=result.record()
     )
     write_manifest(manifest, manifest_path(graph, task))

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import concurrent.futures as cf
 import ctypes
+import dataclasses
 import multiprocessing
 import os
 import signal
@@ -29,6 +30,7 @@ import sys
 import threading
 import time
 import warnings
+from dataclasses import dataclass
 from typing import Any, Callable
 
 THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMEXPR_NUM_THREADS", "VECLIB_MAXIMUM_THREADS")
@@ -57,25 +59,37 @@ def _watch_parent(parent_pid: int) -> None:
     os._exit(1)
 
 
-def call_recording_warnings(fn: Callable[..., dict | None], kwargs: dict) -> dict:
-    """Run one stage function; the warnings meant for users it raises go into its result's ``warnings``.
+@dataclass(frozen=True)
+class Called:
+    """What one call on an executor gave: the function's value, the users' warnings it raised (one line each,
+    in order, without repeats), its wall and CPU seconds where it ran, and whether that was another process than
+    the caller's (run_each)."""
+
+    value: Any
+    warnings: tuple[str, ...] = ()
+    seconds: float = 0.0
+    cpu_s: float = 0.0
+    elsewhere: bool = False
+
+
+def call_recording_warnings(fn: Callable[..., Any], kwargs: dict) -> Called:
+    """Run one function, timed; the warnings meant for users it raises come back with its value.
 
     Users' warnings (UserWarning and its kinds, such as a truncated video) come
     back as one-line messages for the caller to print; other warnings are shown
     as Python shows them.
     """
+    start, cpu = time.perf_counter(), time.process_time()
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", UserWarning)
-        result = dict(fn(**kwargs) or {})
-    messages = list(result.get("warnings", []))
+        value = fn(**kwargs)
+    messages = []
     for item in caught:
         if issubclass(item.category, UserWarning):
             messages.append(" ".join(str(item.message).split()))
         else:
             warnings.showwarning(item.message, item.category, item.filename, item.lineno)
-    if messages:
-        result["warnings"] = list(dict.fromkeys(messages))
-    return result
+    return Called(value, tuple(dict.fromkeys(messages)), time.perf_counter() - start, time.process_time() - cpu)
 
 
 def one_blas_thread():
@@ -86,7 +100,7 @@ def one_blas_thread():
     return threadpool_limits(limits=1, user_api="blas")
 
 
-def call(fn: Callable[..., Any], kwargs: dict) -> dict:
+def call(fn: Callable[..., Any], kwargs: dict) -> Called:
     """Run one task in a worker (single-threaded libraries)."""
     import cv2
 
@@ -193,7 +207,7 @@ class DaskExecutor:
 
             raise InputError("--executor dask needs the optional extra: pip install 'tlsync[dask]'") from None
         self._own = not hasattr(scheduler, "submit")
-        self.client = Client(scheduler) if self._own else scheduler
+        self.client: Any = Client(scheduler) if self._own else scheduler
         self._futures: list = []
 
     def submit(self, fn: Callable, kwargs: dict):
@@ -216,11 +230,8 @@ class DaskExecutor:
             self.client.close()
 
 
-WORKER_CPU = "worker_cpu_s"  # result key: CPU seconds a part of a task used in another process (run_each)
-
-
-def run_each(executor, fn: Callable[..., dict], calls: list[dict]) -> list[dict]:
-    """``fn(**kwargs)`` for each of ``calls`` on ``executor`` (in parallel on its workers), results in the calls' order.
+def run_each(executor, fn: Callable[..., Any], calls: list[dict]) -> list[Called]:
+    """``fn(**kwargs)`` for each of ``calls`` on ``executor`` (in parallel on its workers), in the calls' order.
 
     For a task of the engine's own process with independent parts (render's
     cameras): it hands them to the run's executor, so no pool is started
@@ -228,21 +239,19 @@ def run_each(executor, fn: Callable[..., dict], calls: list[dict]) -> list[dict]
     for them: each worker would first import the pipeline and matplotlib
     (1.5-2 s CPU), more than a camera's pictures cost, so the parts run in
     this process (``tlsync render`` alone, a run where only render is stale).
-    Each result carries the users' warnings its call raised
-    (``warnings``) and under WORKER_CPU the CPU seconds it used in another
-    process (0 in this one, whose CPU time counts it already), for the task
-    to add to its own; the first failed call's error is raised.
+    Each Called says whether it ran in another process (its CPU is then not
+    in this one's, for the task to add to its own); the first failed call's
+    error is raised.
     """
     if isinstance(executor, ProcessExecutor) and not executor.started:
         executor = SerialExecutor()
     futures = [executor.submit(_part, {"fn": fn, "kwargs": kwargs, "caller": os.getpid()}) for kwargs in calls]
-    return [future.result() for future in futures]
+    return [future.result().value for future in futures]
 
 
-def _part(fn: Callable[..., dict], kwargs: dict, caller: int) -> dict:
-    start = time.process_time()
-    result = dict(fn(**kwargs) or {})
-    return {**result, WORKER_CPU: time.process_time() - start if os.getpid() != caller else 0.0}
+def _part(fn: Callable[..., Any], kwargs: dict, caller: int) -> Called:
+    called = call_recording_warnings(fn, kwargs)
+    return dataclasses.replace(called, elsewhere=os.getpid() != caller)
 
 
 def make_executor(kind: str = "process", jobs: int | None = None, scheduler: Any = None):

@@ -15,6 +15,7 @@ stage, which later in the stage order takes that artefact over.
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -52,12 +53,21 @@ for _spec in STAGE_SPECS.values():
     for _kind in _spec.outputs:
         MAKER.setdefault(_kind, _spec.name)
 
-# Artefacts a project may bring instead: (kind, camera or None) -> project key, the reader that checks it, and what to say when neither.
+@dataclass(frozen=True)
+class _Givable:
+    """An artefact a project may bring instead of a stage making it: the file the project names (camera None:
+    [target]), the reader that checks it, and what to say when neither is there."""
+
+    given: Callable[[Project, Any], Path | None]
+    reader: Callable[[Path], object]
+    missing: str
+
+
 _GIVEN = {
-    "camera": (lambda p, cam: p.camera(cam)["camera"], read_camera, "give 'camera' (a camera.json) or a [cameras.calibration] table to calibrate it from"),
-    "track": (lambda p, cam: p.camera(cam)["track"], read_track, "give 'track' (a track.csv) or 'video' (to track the target in)"),
-    "detections": (lambda p, cam: p.camera(cam).get("detections"), read_detections, "give 'detections' (a detections.csv) or 'video' (to detect every mover in)"),
-    "trajectory": (lambda p, cam: p.target["trajectory"], read_trajectory, "give 'log' (a GPS or odometry log to ingest) or 'trajectory' (a metric trajectory CSV)"),
+    "camera": _Givable(lambda p, cam: p.camera(cam).camera, read_camera, "give 'camera' (a camera.json) or a [cameras.calibration] table to calibrate it from"),
+    "track": _Givable(lambda p, cam: p.camera(cam).track, read_track, "give 'track' (a track.csv) or 'video' (to track the target in)"),
+    "detections": _Givable(lambda p, cam: p.camera(cam).detections, read_detections, "give 'detections' (a detections.csv) or 'video' (to detect every mover in)"),
+    "trajectory": _Givable(lambda p, cam: p.target.trajectory, read_trajectory, "give 'log' (a GPS or odometry log to ingest) or 'trajectory' (a metric trajectory CSV)"),
 }
 
 
@@ -68,7 +78,7 @@ class Task:
     spec: StageSpec
     camera: str | None
     inputs: dict[str, Path | Artefact]
-    params: dict[str, Any]
+    params: Any  # the stage's parameters (StageSpec.params); None when the task cannot run
     outputs: list[Artefact]
     deps: list[str]
     problem: str | None = None  # why it cannot run (an input the project does not say how to make)
@@ -81,14 +91,15 @@ class Task:
     def id(self) -> str:
         return task_id(self.stage, self.camera)
 
-    def leaving_out(self, reasons: dict[str, str]) -> Task:
-        """This task without the cameras in ``reasons`` (camera -> why): their inputs dropped, ``cameras`` and ``left_out`` parameters set.
+    def leaving_out(self, reasons: dict[str, str], incomplete: list[str]) -> Task:
+        """This task without the cameras in ``reasons`` (camera -> why) and the ``incomplete`` tasks it waited for.
 
-        For a stage that runs without failed cameras (StageSpec.runs_without_failed_cameras).
+        For a stage that runs without failed cameras (StageSpec.runs_without_failed_cameras): the cameras'
+        inputs are dropped, its ProjectWide parameters leave them out and say why.
         """
         inputs = {label: source for label, source in self.inputs.items() if ":" not in label or label.rpartition(":")[2] not in reasons}
-        params = {**self.params, "cameras": [n for n in self.params["cameras"] if n not in reasons], "left_out": reasons}
-        return dataclasses.replace(self, inputs=inputs, params=params)
+        deps = [d for d in self.deps if d not in incomplete]
+        return dataclasses.replace(self, inputs=inputs, params=self.params.leaving_out(reasons), deps=deps)
 
 
 @dataclass
@@ -149,36 +160,37 @@ class _Sources:
     def artefact(self, kind: str, camera: str | None = None) -> Path | Artefact:
         if self.made(kind, camera):
             return Artefact(kind, camera)
-        given, _, missing = _GIVEN[kind]
-        path = given(self.project, camera)
+        givable = _GIVEN[kind]
+        path = givable.given(self.project, camera)
         if path is None:
             where = f"camera {camera!r}" if camera else "[target]"
-            raise InputError(f"{self.project.path}: {where}: {missing}")
+            raise InputError(f"{self.project.path}: {where}: {givable.missing}")
         return path
 
 
 def build_graph(project: Project, work: Path, options: Options = Options()) -> Graph:
     """The tasks of ``project`` with artefacts under ``work``; a task whose input cannot be made gets its ``problem``."""
     workspace = Workspace(work, project.root)
-    names = [c["name"] for c in project.cameras]
+    names = project.names
     wanted = [(spec, cam) for spec in STAGE_SPECS.values() for cam in (names if spec.per_camera else [None]) if spec.applies(project, cam)]
     producers = {Artefact(kind, cam): task_id(spec.name, cam) for spec, cam in wanted for kind in spec.outputs}
     sources = _Sources(project, options, producers)
     tasks: dict[str, Task] = {}
     for spec, cam in wanted:
-        problem = None
+        problem, params = None, None
         try:
             inputs = spec.inputs(sources, cam)
+            params = spec.params(project, cam, options)
         except InputError as exc:
             inputs, problem = {}, str(exc)
         deps = sorted({producers[source] for source in inputs.values() if isinstance(source, Artefact)})
         outputs = [Artefact(kind, cam) for kind in spec.outputs]
-        task = Task(spec, cam, inputs, spec.params(project, cam, options), outputs, deps, problem)
+        task = Task(spec, cam, inputs, params, outputs, deps, problem)
         tasks[task.id] = task
     given = {}
-    for kind, (key, _, _) in _GIVEN.items():
+    for kind, givable in _GIVEN.items():
         for cam in names if kind != "trajectory" else [None]:
-            path = key(project, cam)
+            path = givable.given(project, cam)
             if path is not None and Artefact(kind, cam) not in producers:
                 given[task_id(MAKER[kind], cam)] = Given(MAKER[kind], cam, path)
     return Graph(project, workspace, tasks, given, options)
@@ -186,16 +198,16 @@ def build_graph(project: Project, work: Path, options: Options = Options()) -> G
 
 def check_given(graph: Graph, wanted: list[str]) -> None:
     """Read the artefacts the user brings that ``wanted`` tasks use, so bad input stops the run before any stage runs."""
-    names = [c["name"] for c in graph.project.cameras]
-    readers = {}  # each brought file's reader, by the project key it is given under
-    for kind, (key, reader, _) in _GIVEN.items():
-        for cam in names if kind != "trajectory" else [None]:
-            if key(graph.project, cam) is not None:
-                readers[key(graph.project, cam)] = reader
+    readers = {}  # each brought file's reader, by its path
+    for kind, givable in _GIVEN.items():
+        for cam in graph.project.names if kind != "trajectory" else [None]:
+            path = givable.given(graph.project, cam)
+            if path is not None:
+                readers[path] = givable.reader
     used = {path for tid in wanted for path in graph.tasks[tid].inputs.values()}
     for item in graph.given.values():
         if item.path in used:
             readers[item.path](item.path)
-            spec = graph.project.camera(item.camera) if item.camera else None
-            if spec is not None and item.path == spec["track"] and spec.get("video") is not None:
-                check_track_fits_video(item.path, spec["video"])
+            camera = graph.project.camera(item.camera) if item.camera else None
+            if camera is not None and item.path == camera.track and camera.video is not None:
+                check_track_fits_video(item.path, camera.video)

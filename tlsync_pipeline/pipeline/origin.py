@@ -21,14 +21,9 @@ if TYPE_CHECKING:
 
 def origin_inputs(project: Project) -> dict[str, Path]:
     """When the ENU origin is the centroid of every camera's GCPs (no ``[target] origin``, or "gcps"), they are all inputs."""
-    if project.target.get("origin") not in (None, "gcps"):
+    if project.target.origin not in (None, "gcps"):
         return {}
-    gcps = {}
-    for spec in project.cameras:
-        gcp = (spec.get("calibration") or {}).get("gcp")
-        if gcp is not None:
-            gcps[f"origin-gcp:{spec['name']}"] = Path(gcp)
-    return gcps
+    return {f"origin-gcp:{camera.name}": camera.calibration.gcp for camera in project.cameras if camera.calibration.gcp is not None}
 
 
 def resolve_origin(origin: Origin | str | None, gcp_files: list[Path], where: str) -> Origin | str:
@@ -52,4 +47,4 @@ def resolve_origin(origin: Origin | str | None, gcp_files: list[Path], where: st
 
 def project_origin(project: Project) -> Origin | str:
     """The project's ENU origin (resolve_origin over every camera's GCP file)."""
-    return resolve_origin(project.target.get("origin"), list(origin_inputs(project).values()), f"{project.path}: [target]")
+    return resolve_origin(project.target.origin, list(origin_inputs(project).values()), f"{project.path}: [target]")

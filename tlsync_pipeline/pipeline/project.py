@@ -1,8 +1,13 @@
-"""The project file (TOML): what to synchronize and how.
+"""The project file (TOML): what to synchronize and how, as typed, frozen configuration.
 
-Paths are relative to the project file. Unknown keys are errors with a
-"did you mean". The schema below is the reference; docs/project.md explains
-each key.
+``load_project`` parses the file once into a ``Project``: its ``[target]``
+(``TargetConfig``), each ``[[cameras]]`` table (``CameraConfig`` with its
+``[cameras.tracker]`` and ``[cameras.calibration]``) and ``[sync]``
+(``SyncParams``, sync/params.py). Each key is a dataclass field declared with
+``key``: its converter (which checks the value) and its default, the one place
+defaults live. Paths are absolute (relative to the project file in the file).
+Unknown keys are errors with a "did you mean"; docs/project.md explains each
+key.
 """
 
 from __future__ import annotations
@@ -11,9 +16,10 @@ import difflib
 import inspect
 import math
 import sys
-from dataclasses import dataclass, field
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field, fields
 from pathlib import Path
-from typing import Any, Callable, NamedTuple
+from typing import Any, TypeVar
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -29,7 +35,7 @@ from calibration.intrinsics import calibrate_video, parse_corners
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.geodesy import Origin
 from tlsync_pipeline.ingest import ALTITUDE_REFERENCES, FORMATS
-from tlsync_pipeline.ingest.process import IngestParams
+from tlsync_pipeline.ingest.process import IngestParams, RigidTransform
 from tlsync_pipeline.outputs.proxy import POLICIES as PROXY_POLICIES
 from tlsync_pipeline.sync.params import SyncParams, parameter_fields
 from tlsync_pipeline.sync.registry import METHODS, params_from_table
@@ -39,18 +45,29 @@ from trackers.tracking import track_video
 
 WORK_DIR_NAME = "work"
 
-
-class Field(NamedTuple):
-    """One key of a table: its converter (raises ValueError), default, and whether required."""
-
-    convert: Callable[[Any, Path], Any]
-    default: Any = None
-    required: bool = False
+Converter = Callable[[Any, Path], Any]
+Config = TypeVar("Config")
 
 
-def _default(function: Callable, parameter: str) -> Any:
-    """The default value of a component's parameter: defaults are defined once, by the component."""
+def key(convert: Converter, default: Any = None, *, required: bool = False, factory: Callable[[], Any] | None = None) -> Any:
+    """A key of a table: its converter (raises ValueError naming what it expected) and default."""
+    metadata = {"convert": convert, "required": required}
+    if factory is not None:
+        return field(default_factory=factory, metadata=metadata)
+    return field(default=default, metadata=metadata)
+
+
+def table(config: type) -> Any:
+    """A sub-table (``[cameras.tracker]``) parsed into ``config``; absent: ``config``'s defaults."""
+    return field(default_factory=config, metadata={"table": config})
+
+
+def _component_default(function: Callable, parameter: str) -> Any:
+    """The default of a component's parameter: the component defines it."""
     return inspect.signature(function).parameters[parameter].default
+
+
+# Converters: (value from TOML, project folder) -> typed value, ValueError when the value is wrong.
 
 
 def _path(value: Any, root: Path) -> Path:
@@ -82,12 +99,12 @@ def _number(value: Any) -> float:
     return float(value)
 
 
-def _choice(*options: str, what: str = "") -> Callable[[Any, Path], str]:
+def _choice(*options: str, what: str = "") -> Converter:
     """A converter accepting one of ``options``; the message suggests the closest."""
 
     def convert(value: Any, root: Path) -> str:
         if value not in options:
-            raise ValueError(f"unknown {what} {value!r}{_suggest(str(value), list(options))}")
+            raise ValueError(f"unknown {what} {value!r}{suggest(str(value), list(options))}")
         return value
 
     return convert
@@ -137,6 +154,24 @@ def _integer(value: Any, root: Path) -> int:
     return value
 
 
+def _count(value: Any, root: Path) -> int:
+    if _integer(value, root) < 1:
+        raise ValueError(f"expected a positive integer, got {value!r}")
+    return value
+
+
+def _frame_index(value: Any, root: Path) -> int:
+    if _integer(value, root) < 0:
+        raise ValueError(f"expected a 0-based frame index, got {value!r}")
+    return value
+
+
+def _text(value: Any, root: Path) -> str:
+    if not isinstance(value, str) or not value:
+        raise ValueError(f"expected a non-empty string, got {value!r}")
+    return value
+
+
 def _origin(value: Any, root: Path) -> Origin | str:
     if value in ("first", "gcps"):
         return value
@@ -158,7 +193,33 @@ def _pattern(value: Any, root: Path) -> str:
     return f"{cols}x{rows}"
 
 
-def _board_pose(value: Any, root: Path) -> dict:
+def _box(value: Any, root: Path) -> tuple[float, float, float, float]:
+    if not isinstance(value, list) or len(value) != 4:
+        raise ValueError(f"expected a box [x, y, w, h] in pixels (top-left corner and size), got {value!r}")
+    x, y, w, h = (_number(v) for v in value)
+    if w <= 0 or h <= 0:
+        raise ValueError(f"box {value!r}: width and height must be positive")
+    return x, y, w, h
+
+
+def _parameters(value: Any, root: Path) -> dict[str, float]:
+    if not isinstance(value, dict):
+        raise ValueError(f"expected a table of tracker parameters, got {value!r}")
+    for number in value.values():
+        _number(number)
+    return dict(value)
+
+
+@dataclass(frozen=True, eq=False)
+class BoardPose:
+    """A checkerboard at a known world pose: its photo, and board -> world rotation R (3x3) and translation t (metres)."""
+
+    image: Path
+    R: np.ndarray
+    t: np.ndarray
+
+
+def _board_pose(value: Any, root: Path) -> BoardPose:
     if not isinstance(value, dict):
         raise ValueError("expected a table {image = \"board.jpg\", R = [[...], [...], [...]] or rvec = [...], t = [x, y, z]}")
     unknown = set(value) - {"image", "R", "rvec", "t"}
@@ -181,78 +242,10 @@ def _board_pose(value: Any, root: Path) -> dict:
         R = rotation
         if R.shape != (3, 3) or not np.all(np.isfinite(R)) or np.abs(R.T @ R - np.eye(3)).max() > 1e-3 or np.linalg.det(R) < 0:
             raise ValueError("R: expected a 3x3 rotation matrix (list of rows)")
-    return {"image": _path(value["image"], root), "R": R, "t": t}
+    return BoardPose(_path(value["image"], root), R, t)
 
 
-def _count(value: Any, root: Path) -> int:
-    if _integer(value, root) < 1:
-        raise ValueError(f"expected a positive integer, got {value!r}")
-    return value
-
-
-TARGET_SCHEMA = {
-    "trajectory": Field(_path),
-    "origin": Field(_origin),
-}
-
-
-def _box(value: Any, root: Path) -> tuple[float, float, float, float]:
-    if not isinstance(value, list) or len(value) != 4:
-        raise ValueError(f"expected a box [x, y, w, h] in pixels (top-left corner and size), got {value!r}")
-    box = tuple(_number(v) for v in value)
-    if box[2] <= 0 or box[3] <= 0:
-        raise ValueError(f"box {value!r}: width and height must be positive")
-    return box
-
-
-def _frame_index(value: Any, root: Path) -> int:
-    if _integer(value, root) < 0:
-        raise ValueError(f"expected a 0-based frame index, got {value!r}")
-    return value
-
-
-def _parameters(value: Any, root: Path) -> dict:
-    if not isinstance(value, dict):
-        raise ValueError(f"expected a table of tracker parameters, got {value!r}")
-    for key, number in value.items():
-        _number(number)
-    return dict(value)
-
-
-# [cameras.tracker]: how the track stage follows the target in the camera's video.
-TRACKER_SCHEMA = {
-    "kind": Field(_choice(*TRACKER_KINDS, what="tracker kind"), _default(track_video, "kind")),
-    "init": Field(_box),
-    "init_frame": Field(_frame_index, 0),
-    "parameters": Field(_parameters, {}),
-}
-
-
-# [cameras.calibration]: how the calibrate stage makes this camera's camera.json.
-CALIBRATION_SCHEMA = {
-    "images": Field(_glob),
-    "video": Field(_path),
-    "intrinsics": Field(_path),
-    "pattern": Field(_pattern),
-    "square": Field(_positive),
-    "model": Field(_choice(*CALIBRATION_MODELS, what="model"), CALIBRATION_MODELS[0]),
-    "gcp": Field(_path),
-    "board_pose": Field(_board_pose),
-    "max_frames": Field(_count, _default(calibrate_video, "max_frames")),
-    "max_view_error": Field(_positive, _default(calibrate_video, "max_view_error")),
-    "ransac_px": Field(_positive, _default(pose_from_points, "ransac_px")),
-}
-
-
-def _text(value: Any, root: Path) -> str:
-    if not isinstance(value, str) or not value:
-        raise ValueError(f"expected a non-empty string, got {value!r}")
-    return value
-
-
-def _rigid_transform(value: Any, root: Path):
-    from tlsync_pipeline.ingest.process import RigidTransform
-
+def _rigid_transform(value: Any, root: Path) -> RigidTransform:
     if not isinstance(value, dict) or not set(value) <= {"R", "yaw_deg", "t"} or ("R" in value and "yaw_deg" in value):
         raise ValueError(f"expected {{R = 3x3 rotation or yaw_deg = degrees, t = [x, y, z] metres}}, got {value!r}")
     t = value.get("t", [0.0, 0.0, 0.0])
@@ -264,36 +257,161 @@ def _rigid_transform(value: Any, root: Path):
     R = value.get("R", [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
     if not isinstance(R, list) or len(R) != 3 or not all(isinstance(r, list) and len(r) == 3 for r in R):
         raise ValueError(f"R: expected a 3x3 rotation (list of 3 rows), got {R!r}")
-    return RigidTransform([[_number(v) for v in r] for r in R], t)
+    return RigidTransform(np.array([[_number(v) for v in r] for r in R]), np.array(t))
 
 
-# The ingest stage's keys ([target] log -> work/target/trajectory.csv); docs/ingest.md.
-INGEST_SCHEMA = {
-    "log": Field(_path),
-    "format": Field(_choice("auto", *FORMATS, what="log format"), "auto"),
-    "topic": Field(_text),
-    "rate": Field(_positive),
-    "max_gap_s": Field(_positive),
-    "max_speed_mps": Field(_positive, IngestParams.max_speed_mps),
-    "smoothing_s": Field(_non_negative, IngestParams.smoothing_s),
-    "odometry_transform": Field(_rigid_transform),
-    "altitude_reference": Field(_choice(*ALTITUDE_REFERENCES, what="altitude reference")),
-    "altitude_offset_m": Field(_finite, IngestParams.altitude_offset_m),
-}
-TARGET_SCHEMA.update(INGEST_SCHEMA)
-CAMERA_SCHEMA = {
-    "name": Field(_name, required=True),
-    "camera": Field(_path),
-    "track": Field(_path),
-    "detections": Field(_path),
-    "fps": Field(_positive),
-    "video": Field(_path),
-    "proxy": Field(_choice(*PROXY_POLICIES, what="proxy policy"), PROXY_POLICIES[0]),
-    "tracker": TRACKER_SCHEMA,
-    "calibration": CALIBRATION_SCHEMA,
-}
+@dataclass(frozen=True)
+class TargetConfig:
+    """[target]: the target's trajectory CSV, or its raw log and how the ingest stage reads it (docs/ingest.md).
+
+    origin: the ENU origin shared by the log and geodetic GCPs (an Origin, "first",
+    "gcps", or None: see pipeline/origin.py). The other keys are IngestParams'.
+    """
+
+    trajectory: Path | None = key(_path)
+    origin: Origin | str | None = key(_origin)
+    log: Path | None = key(_path)
+    format: str = key(_choice("auto", *FORMATS, what="log format"), "auto")
+    topic: str | None = key(_text)
+    rate: float | None = key(_positive, IngestParams.rate)
+    max_gap_s: float | None = key(_positive, IngestParams.max_gap_s)
+    max_speed_mps: float | None = key(_positive, IngestParams.max_speed_mps)
+    smoothing_s: float = key(_non_negative, IngestParams.smoothing_s)
+    odometry_transform: RigidTransform | None = key(_rigid_transform, IngestParams.transform)
+    altitude_reference: str | None = key(_choice(*ALTITUDE_REFERENCES, what="altitude reference"), IngestParams.altitude_reference)
+    altitude_offset_m: float = key(_finite, IngestParams.altitude_offset_m)
+
+    def ingest_params(self, origin: Origin | str) -> IngestParams:
+        """The ingest's parameters, with the ENU origin resolved (pipeline/origin.py)."""
+        return IngestParams(
+            origin=origin,
+            rate=self.rate,
+            max_gap_s=self.max_gap_s,
+            max_speed_mps=self.max_speed_mps,
+            smoothing_s=self.smoothing_s,
+            transform=self.odometry_transform,
+            altitude_reference=self.altitude_reference,
+            altitude_offset_m=self.altitude_offset_m,
+        )
+
+
+@dataclass(frozen=True)
+class TrackerConfig:
+    """[cameras.tracker]: how the track stage follows the target (docs/tracking.md).
+
+    kind: "blob" (every mover; identify then picks the target) or "csrt";
+    init: box [x, y, w, h] pixels in frame init_frame (0-based): CSRT starts
+    there, for blob it seeds the identity; parameters: the tracker's by name.
+    """
+
+    kind: str = key(_choice(*TRACKER_KINDS, what="tracker kind"), _component_default(track_video, "kind"))
+    init: tuple[float, float, float, float] | None = key(_box)
+    init_frame: int = key(_frame_index, 0)
+    parameters: Mapping[str, float] = key(_parameters, factory=dict)
+
+    @property
+    def every_mover(self) -> bool:
+        """Whether the track stage detects every mover (blob) rather than following one target (CSRT)."""
+        return self.kind == "blob"
+
+
+@dataclass(frozen=True)
+class CalibrationConfig:
+    """[cameras.calibration]: where the calibrate stages take the camera's intrinsics and pose from (docs/calibration.md)."""
+
+    images: str | None = key(_glob)
+    video: Path | None = key(_path)
+    intrinsics: Path | None = key(_path)
+    pattern: str | None = key(_pattern)
+    square: float | None = key(_positive)
+    model: str = key(_choice(*CALIBRATION_MODELS, what="model"), CALIBRATION_MODELS[0])
+    gcp: Path | None = key(_path)
+    board_pose: BoardPose | None = key(_board_pose)
+    max_frames: int = key(_count, _component_default(calibrate_video, "max_frames"))
+    max_view_error: float = key(_positive, _component_default(calibrate_video, "max_view_error"))
+    ransac_px: float = key(_positive, _component_default(pose_from_points, "ransac_px"))
+
+    @property
+    def board_views(self) -> bool:
+        """Whether the intrinsics come from checkerboard views (photos or a video) the intrinsics stage calibrates from."""
+        return self.images is not None or self.video is not None
+
+    @property
+    def given(self) -> bool:
+        """Whether the table says anything to calibrate from."""
+        return self.board_views or any(v is not None for v in (self.intrinsics, self.gcp, self.board_pose))
+
+
+@dataclass(frozen=True)
+class CameraConfig:
+    """One [[cameras]] table: the files the camera brings (absolute paths) and how to make the others."""
+
+    name: str = key(_name, "", required=True)
+    camera: Path | None = key(_path)
+    track: Path | None = key(_path)
+    detections: Path | None = key(_path)
+    fps: float | None = key(_positive)
+    video: Path | None = key(_path)
+    proxy: str = key(_choice(*PROXY_POLICIES, what="proxy policy"), PROXY_POLICIES[0])
+    tracker: TrackerConfig = table(TrackerConfig)
+    calibration: CalibrationConfig = table(CalibrationConfig)
+
+    @property
+    def tracked(self) -> bool:
+        """Whether the track stage runs: a video and no track of the user's."""
+        return self.track is None and self.video is not None
+
+    @property
+    def brings_movers(self) -> bool:
+        """Whether the target is identified among every mover: detections brought, or detected in the video (blob)."""
+        return self.track is None and (self.detections is not None or (self.video is not None and self.tracker.every_mover))
+
+
+@dataclass(frozen=True)
+class TrackConfig:
+    """[track]: how the track stage reads every camera's video (docs/tracking.md).
+
+    scan: "auto" (a coarse pass over the keyframes of each camera whose every
+    mover is detected in its video; every frame is then read only in the
+    windows where it puts the target in view, sync/scan.py) or "full"
+    (every frame of every video).
+    """
+
+    scan: str = key(_choice(*SCAN_MODES, what="scan mode"), SCAN_MODES[0])
+
+
+@dataclass(frozen=True)
+class Project:
+    """A validated project: its file, [target], the cameras in file order (the first is the reference), [sync], [track]."""
+
+    path: Path
+    target: TargetConfig
+    cameras: tuple[CameraConfig, ...]
+    sync: SyncParams
+    track: TrackConfig = field(default_factory=TrackConfig)
+
+    @property
+    def root(self) -> Path:
+        return self.path.parent
+
+    @property
+    def default_work_dir(self) -> Path:
+        return self.root / WORK_DIR_NAME
+
+    @property
+    def names(self) -> list[str]:
+        return [c.name for c in self.cameras]
+
+    def camera(self, name: str) -> CameraConfig:
+        """The camera named ``name``; InputError listing the names otherwise."""
+        for cam in self.cameras:
+            if cam.name == name:
+                return cam
+        raise InputError(f"{self.path}: no camera named {name!r}{suggest(name, self.names)}; cameras: {', '.join(self.names)}")
+
+
 # Converters of the checks that sync parameters declare (sync/params.py).
-_CHECKS = {
+_CHECKS: dict[str, Converter] = {
     "positive": _positive,
     "probability": _probability,
     "ratio": _ratio,
@@ -304,109 +422,90 @@ _CHECKS = {
 }
 
 
-def sync_schema() -> dict[str, Field]:
-    """The [sync] table's keys: the shared parameters, ``method`` (a registered method) and every method's own parameters."""
-    schema = {name: Field(_CHECKS[check], default) for name, (default, check) in parameter_fields(SyncParams).items()}
-    schema["method"] = Field(_choice(*METHODS, what="sync method"), SyncParams().method)
+def sync_keys() -> dict[str, Converter]:
+    """The [sync] table's keys and their converters: the shared parameters, ``method`` and every registered method's own."""
+    keys = {name: _CHECKS[check] for name, (_, check) in parameter_fields(SyncParams).items()}
+    keys["method"] = _choice(*METHODS, what="sync method")
     for method in METHODS.values():
-        schema.update({name: Field(_CHECKS[check], default) for name, (default, check) in parameter_fields(method.params_type).items()})
-    return schema
-
-
-# [track]: how the track stage reads each camera's video. scan: "auto" reads every frame only where a coarse pass over
-# the keyframes puts the target in view (sync/scan.py), "full" every frame of the video.
-TRACK_SCHEMA = {
-    "scan": Field(_choice(*SCAN_MODES, what="scan mode"), SCAN_MODES[0]),
-}
-
-
-def project_schema() -> dict:
-    """The whole project file's schema (the [sync] keys as registered now); a dict is a table, a one-element list an array of tables."""
-    return {"target": TARGET_SCHEMA, "cameras": [CAMERA_SCHEMA], "track": TRACK_SCHEMA, "sync": sync_schema()}
-
-
-@dataclass(frozen=True)
-class Project:
-    """A validated project: absolute paths, per-camera tables in file order."""
-
-    path: Path
-    target: dict
-    cameras: list[dict]
-    sync: SyncParams
-    track: dict = field(default_factory=lambda: {"scan": SCAN_MODES[0]})
-
-    @property
-    def root(self) -> Path:
-        return self.path.parent
-
-    @property
-    def default_work_dir(self) -> Path:
-        return self.root / WORK_DIR_NAME
-
-    def camera(self, name: str) -> dict:
-        """The camera table named ``name``; InputError listing the names otherwise."""
-        for cam in self.cameras:
-            if cam["name"] == name:
-                return cam
-        names = ", ".join(c["name"] for c in self.cameras)
-        raise InputError(f"{self.path}: no camera named {name!r}{_suggest(name, [c['name'] for c in self.cameras])}; cameras: {names}")
+        keys.update({name: _CHECKS[check] for name, (_, check) in parameter_fields(method.params_type).items()})
+    return keys
 
 
 def load_project(path: str | Path) -> Project:
-    """Read and validate a project file."""
+    """Read and validate a project file; InputError naming the file, the table and the key otherwise."""
     path = Path(path).resolve()
     try:
         raw = tomllib.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:
         raise InputError(f"{path}: file not found") from None
+    except IsADirectoryError:
+        raise InputError(f"{path}: is a folder; give the project file (project.toml) in it") from None
     except (OSError, UnicodeDecodeError) as exc:
         raise InputError(f"{path}: cannot read: {exc}") from None
     except tomllib.TOMLDecodeError as exc:
         raise InputError(f"{path}: invalid TOML: {exc}") from None
-    data = parse_table(raw, project_schema(), path, "", path.parent)
-    cameras = data["cameras"]
+    _check_keys(raw, ["target", "cameras", "track", "sync"], path, "top level")
+    target = parse_config(TargetConfig, raw.get("target", {}), path, "target")
+    items = raw.get("cameras", [])
+    if not isinstance(items, list):
+        raise InputError(f"{path}: cameras: expected an array of tables [[cameras]]")
+    cameras = tuple(parse_config(CameraConfig, item, path, f"cameras #{i + 1}") for i, item in enumerate(items))
     if not cameras:
         raise InputError(f"{path}: no [[cameras]] table; a project needs at least one camera")
-    seen: dict[str, str] = {}
-    for cam in cameras:
-        folded = cam["name"].casefold()
-        if folded in seen:
-            same = "" if seen[folded] == cam["name"] else f" (same as {seen[folded]!r} on file systems that ignore case)"
-            raise InputError(f"{path}: [[cameras]]: duplicate camera name {cam['name']!r}{same}; names must be unique")
-        seen[folded] = cam["name"]
-    return Project(path, data["target"], cameras, params_from_table(data["sync"]), data["track"])
+    _check_unique_names(cameras, path)
+    return Project(path, target, cameras, _parse_sync(raw.get("sync", {}), path), parse_config(TrackConfig, raw.get("track", {}), path, "track"))
 
 
-def parse_table(raw: Any, schema: dict, path: Path, where: str, root: Path) -> dict:
-    """Validate one TOML table against a schema; missing optional keys get defaults."""
-    label = f"[{where}]" if where else "top level"
+def parse_config(config: type[Config], raw: Any, path: Path, where: str) -> Config:
+    """One TOML table parsed into the dataclass ``config`` (fields declared with ``key`` or ``table``); missing keys take their defaults."""
+    _check_keys(raw, [f.name for f in fields(config)], path, f"[{where}]")  # type: ignore[arg-type]
+    values: dict[str, Any] = {}
+    for item in fields(config):  # type: ignore[arg-type]
+        sub = f"{where}.{item.name}"
+        if "table" in item.metadata:
+            values[item.name] = parse_config(item.metadata["table"], raw.get(item.name, {}), path, sub)
+        elif item.name in raw:
+            try:
+                values[item.name] = item.metadata["convert"](raw[item.name], path.parent)
+            except ValueError as exc:
+                raise InputError(f"{path}: [{where}]: key {item.name!r}: {exc}") from None
+        elif item.metadata.get("required"):
+            raise InputError(f"{path}: [{where}]: missing required key {item.name!r}")
+    return config(**values)
+
+
+def _parse_sync(raw: Any, path: Path) -> SyncParams:
+    keys = sync_keys()
+    _check_keys(raw, list(keys), path, "[sync]")
+    values = {}
+    for name, value in raw.items():
+        try:
+            values[name] = keys[name](value, path.parent)
+        except ValueError as exc:
+            raise InputError(f"{path}: [sync]: key {name!r}: {exc}") from None
+    return params_from_table(values)
+
+
+def _check_keys(raw: Any, known: list[str], path: Path, label: str) -> None:
     if not isinstance(raw, dict):
         raise InputError(f"{path}: {label}: expected a table, got {type(raw).__name__}")
-    for key in raw:
-        if key not in schema:
-            raise InputError(f"{path}: {label}: unknown key {key!r}{_suggest(key, list(schema))}")
-    out: dict[str, Any] = {}
-    for key, spec in schema.items():
-        sub = f"{where}.{key}" if where else key
-        if isinstance(spec, dict):
-            out[key] = parse_table(raw.get(key, {}), spec, path, sub, root)
-        elif isinstance(spec, list):
-            items = raw.get(key, [])
-            if not isinstance(items, list):
-                raise InputError(f"{path}: {key}: expected an array of tables [[{sub}]]")
-            out[key] = [parse_table(item, spec[0], path, f"{sub} #{i + 1}", root) for i, item in enumerate(items)]
-        elif key in raw:
-            try:
-                out[key] = spec.convert(raw[key], root)
-            except ValueError as exc:
-                raise InputError(f"{path}: {label}: key {key!r}: {exc}") from None
-        elif spec.required:
-            raise InputError(f"{path}: {label}: missing required key {key!r}")
-        else:
-            out[key] = spec.default
-    return out
+    for name in raw:
+        if name not in known:
+            raise InputError(f"{path}: {label}: unknown key {name!r}{suggest(name, known)}")
 
 
-def _suggest(word: str, choices: list[str]) -> str:
+def _check_unique_names(cameras: tuple[CameraConfig, ...], path: Path) -> None:
+    seen: dict[str, str] = {}
+    for cam in cameras:
+        folded = cam.name.casefold()
+        if folded in seen:
+            same = "" if seen[folded] == cam.name else f" (same as {seen[folded]!r} on file systems that ignore case)"
+            raise InputError(f"{path}: [[cameras]]: duplicate camera name {cam.name!r}{same}; names must be unique")
+        seen[folded] = cam.name
+
+
+def suggest(word: str, choices: list[str]) -> str:
+    """' (did you mean X?)' for the closest of ``choices``, else the list of them."""
     close = difflib.get_close_matches(word, choices, n=1)
     return f" (did you mean {close[0]!r}?)" if close else f" (expected one of: {', '.join(choices)})"
+

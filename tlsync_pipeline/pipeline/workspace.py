@@ -30,9 +30,12 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from tlsync_pipeline.atomic import atomic_path
+
+if TYPE_CHECKING:
+    from tlsync_pipeline.outputs.diagnostics import StageRun
 
 # Artefact kind -> path relative to the work folder ({camera}: the camera's name). "pictures" is a folder.
 ARTEFACTS: dict[str, str] = {
@@ -158,8 +161,15 @@ class StageFiles:
     guarded: tuple[Path, ...]  # folders whose files must be declared to be opened (work, project)
     progress: bool = True
     cores: int = 1
-    history: list[dict] = field(default_factory=list)  # earlier runs' records (stage, camera, created, seconds, warnings), for the report
+    history: list[StageRun] = field(default_factory=list)  # earlier runs' records (stage, camera, created, seconds, warnings), for the report
     workers: Any = field(default=None, repr=False, compare=False)
+
+    @property
+    def camera_name(self) -> str:
+        """The task's camera (a per-camera stage's)."""
+        if self.camera is None:
+            raise ValueError(f"{self.task}: not a per-camera task")
+        return self.camera
 
     def path(self, label: str) -> Path:
         """A declared input's path."""
@@ -207,8 +217,8 @@ class StageFiles:
             return
         if path.endswith(".manifest.json") and not writing:
             return  # the cache's records, not artefacts
-        for out in self.outputs.values():
-            out = str(out)
+        for output in self.outputs.values():
+            out = str(output)
             if path == out or path.startswith(out + os.sep):
                 return
             head, name = os.path.split(out)

@@ -62,7 +62,7 @@ from tlsync_pipeline.errors import SyncError
 from tlsync_pipeline.sync.clock import CameraClock, FrameTimes, camera_clock
 from tlsync_pipeline.sync.line_search import LineSearch, find_line, thin_votes
 from tlsync_pipeline.sync.refine import MIN_FRAMES, refine_line
-from tlsync_pipeline.sync.slope import SlopePrior
+from tlsync_pipeline.sync.slope import SlopePrior, slope_prior
 from tlsync_pipeline.sync.target_size import beyond_slack, depth_on_line, sizes_in_metres, slack_on_line, target_within
 from tlsync_pipeline.sync.timeline import IdentificationSummary, TrackletShare
 from tlsync_pipeline.sync.votes import Votes
@@ -72,8 +72,6 @@ from trackers.track import Track
 
 FOLLOW_WEIGHT = 2.0
 MAX_ROUNDS = 5
-R_MIN = 0.01  # smallest inlier ratio (of thinned votes) the line search over every candidate must find
-F_SCALE_PX = 3.0  # robust loss scale of the refinement on the assigned candidates
 MIN_FOLLOW_SHARE = 0.3  # a tracklet "follows" the path around a frame when this share of its frames there is near the path
 FOLLOW_WINDOW_S = 2.0  # seconds either side of a frame over which a tracklet's following is judged
 FOLLOW_WINDOW_FRAMES = 20  # the same, in frames, for a camera of unknown fps
@@ -327,93 +325,167 @@ def _windowed_share(frame: np.ndarray, group: np.ndarray, near: np.ndarray, on_p
     return out
 
 
-def identify_target(
-    camera: Camera,
-    detections: Detections,
-    trajectory: Trajectory,
-    fps: float | None,
-    eps_px: float,
-    delta: float,
-    p: float,
-    seed: int,
-    r_min: float = R_MIN,
-    f_scale_px: float = F_SCALE_PX,
-    gate_px: float | None = None,
-    prefer: frozenset[int] = frozenset(),
-    prior: SlopePrior | None = None,
-) -> Identification:
+@dataclass(frozen=True)
+class IdentifyParams:
+    """What identification reads (synchronize.identify_params makes it from [sync]).
+
+    eps_px: vote radius and assignment gate (pixels); delta, p, seed, r_min:
+    the line search's band (frames), success probability, random seed and
+    smallest inlier ratio (sync/line_search.py); rate_sigma: width of the
+    slope prior (sync/slope.py); f_scale_px: robust loss scale of the
+    refinement on the assigned candidates (pixels).
+    """
+
+    eps_px: float
+    delta: float
+    p: float
+    seed: int
+    rate_sigma: float
+    r_min: float
+    f_scale_px: float
+
+
+def identify_target(camera: Camera, detections: Detections, trajectory: Trajectory, fps: float | None, params: IdentifyParams, prefer: frozenset[int] = frozenset()) -> Identification:
     """The target's track among every candidate (see the module docstring).
 
-    gate_px: assignment gate around the projected path (default eps_px);
-    prefer: tracklet ids an init box says are the target; prior: what the
-    frame rates say about the slope (sync/slope.py), or None. Raises SyncError
-    (naming the camera and why) when the projected path never enters the
-    image, no candidate comes near it, no line is found, or no tracklet
-    follows the path.
+    trajectory: the prepared trajectory (synchronize.prepare_trajectory);
+    fps: the camera's nominal frame rate, or None; prefer: tracklet ids an
+    init box says are the target. Raises SyncError (naming the camera and
+    why) when the projected path never enters the image, no candidate comes
+    near it, no line is found, or no tracklet follows the path.
     """
-    gate = eps_px if gate_px is None else gate_px
-    votes, vote_rows = candidate_votes(camera, detections, trajectory, eps_px)
+    prior = slope_prior(fps, trajectory.rate, params.rate_sigma)
+    votes, vote_rows = candidate_votes(camera, detections, trajectory, params.eps_px)
     _, row_clock = detections_clock(detections, fps)
-    vote_clock = row_clock[vote_rows]
     try:
-        search = find_line(votes.sample, vote_clock, votes.dist, delta, p, r_min, seed, group=detections.id[vote_rows], prior=prior)
+        search = find_line(votes.sample, row_clock[vote_rows], votes.dist, params.delta, params.p, params.r_min, params.seed, group=detections.id[vote_rows], prior=prior)
     except ValueError as exc:
         raise SyncError(f"camera {camera.name}: {exc} ({len(votes)} votes from {np.unique(vote_rows).size} candidates)") from None
+    candidates = _Candidates(camera, detections, row_clock, params.eps_px, prefer, FOLLOW_WINDOW_S * fps if fps else FOLLOW_WINDOW_FRAMES)
+    found = _assignment_rounds(candidates, trajectory, search.alpha, search.beta, params.f_scale_px, prior)
+    _check_following(candidates, found)
+    chosen = along_tracklets(detections.frame, detections.id, np.linalg.norm(candidates.offsets(found.path, found.alpha, found.beta), axis=1), found.rows, candidates.gate)
+    track = _target_track(camera, found.path, PiecewiseTrajectory(trajectory), row_clock, detections, chosen, found.alpha, found.beta)
+    return Identification(track, chosen, votes, vote_rows, search, found.alpha, found.beta, _tracklet_uses(detections, chosen, found.assignment.share), found.rounds, found.lift)
+
+
+@dataclass(frozen=True)
+class _Round:
+    """One assignment under a line: every row's offset to the projected path, the assignment, the assigned rows' box slack (pixels)."""
+
+    offset: np.ndarray
+    assignment: Assignment
+    room: np.ndarray
+
+    @property
+    def whole(self) -> np.ndarray:
+        """Assigned rows whose box leaves no slack (blobs of the target's size: their centre is the target's)."""
+        return self.assignment.rows[~(self.room > 0).any(axis=1)]
+
+
+@dataclass(frozen=True)
+class _Candidates:
+    """Every detection row of one camera as identification matches them against a path under a line.
+
+    clock: each row's camera clock value; gate: assignment gate (pixels);
+    prefer: tracklets an init box says are the target; window: frames either
+    side over which a tracklet's following is judged.
+    """
+
+    camera: Camera
+    detections: Detections
+    clock: np.ndarray
+    gate: float
+    prefer: frozenset[int]
+    window: float
+
+    def offsets(self, path: PiecewiseTrajectory, alpha: float, beta: float) -> np.ndarray:
+        return offsets_to_path(self.camera, path, self.clock, self.detections.xy, alpha, beta)
+
+    def assign(self, path: PiecewiseTrajectory, alpha: float, beta: float) -> _Round:
+        offset = self.offsets(path, alpha, beta)
+        d = self.detections
+        assignment = assign_target(d.frame, d.id, np.linalg.norm(offset, axis=1), self.gate, self.prefer, covers(offset, d.w, d.h), self.window)
+        return _Round(offset, assignment, _slack(self.camera, path, self.clock, d, assignment.rows, alpha, beta))
+
+    def kept(self, current: _Round, path: PiecewiseTrajectory, alpha: float, beta: float) -> np.ndarray:
+        """The assigned rows near the path beyond their box slack, less blobs without slack whose size in metres departs from the others'."""
+        rows, room = current.assignment.rows, current.room
+        keep = np.linalg.norm(beyond_slack(current.offset[rows], room), axis=1) <= self.gate
+        plain = np.flatnonzero(keep & ~(room > 0).any(axis=1))
+        d = self.detections
+        keep[plain] = consistent_size(self.camera, path, self.clock[rows[plain]], d.w[rows[plain]], d.h[rows[plain]], alpha, beta)
+        return rows[keep]
+
+
+@dataclass(frozen=True)
+class _Found:
+    """The outcome of the assignment rounds: the kept rows, the last assignment, the path (lowered by lift metres), the line, rounds run."""
+
+    rows: np.ndarray
+    assignment: Assignment
+    path: PiecewiseTrajectory
+    alpha: float
+    beta: float
+    rounds: int
+    lift: float
+
+
+def _assignment_rounds(candidates: _Candidates, trajectory: Trajectory, alpha: float, beta: float, f_scale_px: float, prior: SlopePrior | None) -> _Found:
+    """Assign, estimate the logged point's height, keep, refine the line on the kept rows; until the kept rows no longer change (MAX_ROUNDS at most)."""
     logged = path = PiecewiseTrajectory(trajectory)
     lift = 0.0
-    window = FOLLOW_WINDOW_S * fps if fps else FOLLOW_WINDOW_FRAMES
-    alpha, beta = search.alpha, search.beta
     chosen = np.zeros(0, np.int64)
     rounds = 0
-
-    def assigned(path, alpha, beta):
-        offset = offsets_to_path(camera, path, row_clock, detections.xy, alpha, beta)
-        distance = np.linalg.norm(offset, axis=1)
-        return offset, assign_target(detections.frame, detections.id, distance, gate, prefer, covers(offset, detections.w, detections.h), window)
-
     for rounds in range(1, MAX_ROUNDS + 1):
-        offset, assignment = assigned(path, alpha, beta)
-        rows = assignment.rows
-        room = _slack(camera, path, row_clock, detections, rows, alpha, beta)
-        whole = rows[~(room > 0).any(axis=1)]  # blobs of the target's size: their centre is the target's
-        estimate = lift_of(camera, logged, row_clock[whole], detections.xy[whole], alpha, beta)
+        current = candidates.assign(path, alpha, beta)
+        whole = current.whole
+        estimate = lift_of(candidates.camera, logged, candidates.clock[whole], candidates.detections.xy[whole], alpha, beta)
         if abs(estimate - lift) > LIFT_STEP_M:
             lift, path = estimate, PiecewiseTrajectory(lowered(trajectory, estimate))
-            offset, assignment = assigned(path, alpha, beta)
-            rows = assignment.rows
-            room = _slack(camera, path, row_clock, detections, rows, alpha, beta)
-        keep = np.linalg.norm(beyond_slack(offset[rows], room), axis=1) <= gate
-        plain = np.flatnonzero(keep & ~(room > 0).any(axis=1))
-        keep[plain] = consistent_size(camera, path, row_clock[rows[plain]], detections.w[rows[plain]], detections.h[rows[plain]], alpha, beta)
-        new = rows[keep]
+            current = candidates.assign(path, alpha, beta)
+        new = candidates.kept(current, path, alpha, beta)
         settled = np.array_equal(new, chosen)
         chosen = new
         if settled or len(chosen) < MIN_FRAMES:
             break
-        try:
-            box = np.column_stack([detections.w[chosen], detections.h[chosen]])
-            refinement = refine_line(camera, row_clock[chosen], detections.xy[chosen], path, alpha, beta, np.ones(len(chosen), bool), f_scale_px, gate, prior=prior, box=box)
-        except ValueError:
+        line = _refined_line(candidates, chosen, path, alpha, beta, f_scale_px, prior)
+        if line is None:
             break
-        if not refinement.converged:
-            break
-        alpha, beta = refinement.alpha, refinement.beta
-    share = assignment.share
-    following = int((assignment.local[chosen] >= MIN_FOLLOW_SHARE).sum())
-    if following < MIN_FRAMES:
-        best = max(share.values(), default=0.0)
-        raise SyncError(
-            f"camera {camera.name}: no tracklet follows the target's projected path "
-            f"({len(chosen)} frames have a candidate within {gate:g} px of it or a merged blob holding it, {following} of them on a tracklet that stays near it "
-            f"over +-{window:g} frames; the best tracklet stays near it in {100 * best:.0f} % of its frames)"
-        )
-    chosen = along_tracklets(detections.frame, detections.id, np.linalg.norm(offsets_to_path(camera, path, row_clock, detections.xy, alpha, beta), axis=1), chosen, gate)
-    track = _target_track(camera, path, logged, row_clock, detections, chosen, alpha, beta)
+        alpha, beta = line
+    return _Found(chosen, current.assignment, path, alpha, beta, rounds, lift)
+
+
+def _refined_line(candidates: _Candidates, rows: np.ndarray, path: PiecewiseTrajectory, alpha: float, beta: float, f_scale_px: float, prior: SlopePrior | None) -> tuple[float, float] | None:
+    """The line refined on the given rows (with their box slack), or None when the refinement fails or does not converge."""
+    d = candidates.detections
+    try:
+        box = np.column_stack([d.w[rows], d.h[rows]])
+        refinement = refine_line(candidates.camera, candidates.clock[rows], d.xy[rows], path, alpha, beta, np.ones(len(rows), bool), f_scale_px, candidates.gate, prior=prior, box=box)
+    except ValueError:
+        return None
+    return (refinement.alpha, refinement.beta) if refinement.converged else None
+
+
+def _check_following(candidates: _Candidates, found: _Found) -> None:
+    """SyncError when fewer than MIN_FRAMES kept rows lie on a tracklet that stays near the path."""
+    following = int((found.assignment.local[found.rows] >= MIN_FOLLOW_SHARE).sum())
+    if following >= MIN_FRAMES:
+        return
+    best = max(found.assignment.share.values(), default=0.0)
+    raise SyncError(
+        f"camera {candidates.camera.name}: no tracklet follows the target's projected path "
+        f"({len(found.rows)} frames have a candidate within {candidates.gate:g} px of it or a merged blob holding it, {following} of them on a tracklet that stays near it "
+        f"over +-{candidates.window:g} frames; the best tracklet stays near it in {100 * best:.0f} % of its frames)"
+    )
+
+
+def _tracklet_uses(detections: Detections, chosen: np.ndarray, share: dict[int, float]) -> tuple[TrackletUse, ...]:
+    """The tracklets the identified track uses, most assigned frames first."""
     ids, counts = np.unique(detections.id[chosen], return_counts=True)
     lengths = {int(i): int(n) for i, n in zip(*np.unique(detections.id, return_counts=True))}
     order = np.argsort(-counts, kind="stable")
-    uses = tuple(TrackletUse(int(ids[k]), int(counts[k]), lengths[int(ids[k])], float(share[int(ids[k])])) for k in order)
-    return Identification(track, chosen, votes, vote_rows, search, alpha, beta, uses, rounds, lift)
+    return tuple(TrackletUse(int(ids[k]), int(counts[k]), lengths[int(ids[k])], float(share[int(ids[k])])) for k in order)
 
 
 def along_tracklets(frame: np.ndarray, tracklet: np.ndarray, distance: np.ndarray, chosen: np.ndarray, gate_px: float) -> np.ndarray:

@@ -70,10 +70,17 @@ class SyncMethod(Protocol):
     with their defaults.
     """
 
-    name: str
-    params_type: type
+    @property
+    def name(self) -> str: ...
 
-    def prepare_trajectory(self, trajectory: Trajectory, options: Any) -> Trajectory:
+    @property
+    def params_type(self) -> type: ...
+
+    def preparation(self, options: Any) -> Any:
+        """The part of the method's ``options`` that prepare_trajectory reads (a frozen dataclass), or None."""
+        ...
+
+    def prepare_trajectory(self, trajectory: Trajectory, preparation: Any) -> Trajectory:
         """The trajectory votes are cast on and the line is fitted to (the vote stage and render use it too)."""
         ...
 

@@ -25,7 +25,11 @@ class PaperMethod:
     name = "paper"
     params_type = PaperParams
 
-    def prepare_trajectory(self, trajectory: Trajectory, options: PaperParams) -> Trajectory:
+    def preparation(self, options: PaperParams) -> None:
+        """Nothing: the trajectory is used as logged."""
+        return None
+
+    def prepare_trajectory(self, trajectory: Trajectory, preparation: None) -> Trajectory:
         """The logged trajectory, unchanged."""
         return trajectory
 

@@ -55,3 +55,18 @@ class SyncParams:
     logged_point_above_m: float = param(0.0, "finite")
     method: str = "refined"
     options: dict[str, Any] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Preparation:
+    """What preparing the trajectory reads (sync/synchronize.prepare_trajectory), and nothing else.
+
+    method: the sync method's name; options: the method's own preparation
+    options (its ``preparation(options)``; None when it prepares nothing);
+    logged_point_above_m: as in SyncParams. The vote, identify and render
+    stages key their caches on this, not on every [sync] key.
+    """
+
+    method: str
+    options: Any
+    logged_point_above_m: float = 0.0

@@ -47,15 +47,25 @@ class RefinedParams:
     model_error_px: float = param(3.0, "non_negative")
 
 
+@dataclass(frozen=True)
+class Smoothing:
+    """The refined method's trajectory preparation: smooth the logged trajectory or not (RefinedParams.smooth_trajectory)."""
+
+    smooth_trajectory: bool
+
+
 class RefinedMethod:
     """Line search over the votes, refinement on the tracked positions, fallback with a warning."""
 
     name = "refined"
     params_type = RefinedParams
 
-    def prepare_trajectory(self, trajectory: Trajectory, options: RefinedParams) -> Trajectory:
+    def preparation(self, options: RefinedParams) -> Smoothing:
+        return Smoothing(options.smooth_trajectory)
+
+    def prepare_trajectory(self, trajectory: Trajectory, preparation: Smoothing) -> Trajectory:
         """The trajectory smoothed run by run (unless smooth_trajectory is off)."""
-        return smooth_trajectory(trajectory) if options.smooth_trajectory else trajectory
+        return smooth_trajectory(trajectory) if preparation.smooth_trajectory else trajectory
 
     def fit(self, data: CameraData, trajectory: Trajectory, params: SyncParams, options: RefinedParams) -> CameraLine:
         votes, track = data.votes, data.track
@@ -92,7 +102,7 @@ class RefinedMethod:
             if reason:
                 warnings.append(f"{reason}; using the line-search line")
         fallback = bool(warnings)
-        if fallback:
+        if fallback or refinement is None:
             alpha, beta = search.alpha, search.beta
             cov = _line_search_cov(search, votes.sample[search.inliers])
         else:

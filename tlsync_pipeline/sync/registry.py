@@ -12,7 +12,7 @@ from typing import Any
 
 from tlsync_pipeline.sync.methods import SyncMethod
 from tlsync_pipeline.sync.paper import PaperMethod
-from tlsync_pipeline.sync.params import SyncParams, parameter_fields
+from tlsync_pipeline.sync.params import Preparation, SyncParams, parameter_fields
 from tlsync_pipeline.sync.refined import RefinedMethod
 
 METHODS: dict[str, SyncMethod] = {}
@@ -53,9 +53,10 @@ def params_table(params: SyncParams) -> dict[str, Any]:
     return table
 
 
-def vote_table(params: SyncParams) -> dict[str, Any]:
-    """The ``[sync]`` keys the votes depend on: eps_px, method and the method's own keys (its trajectory preparation)."""
-    return {"eps_px": params.eps_px, "method": params.method, **asdict(method_options(params))}
+def preparation_of(params: SyncParams) -> Preparation:
+    """What preparing the trajectory reads of ``params``: the method, its preparation options, logged_point_above_m."""
+    method = get_method(params.method)
+    return Preparation(method.name, method.preparation(method_options(params)), params.logged_point_above_m)
 
 
 def params_from_table(table: dict[str, Any]) -> SyncParams:

@@ -45,9 +45,8 @@ import numpy as np
 from calibration.camera import Camera
 from tlsync_pipeline.errors import SyncError
 from tlsync_pipeline.sync.clock import CameraClock, FrameTimes, FRAME, camera_clock
-from tlsync_pipeline.sync.identify import R_MIN, candidate_votes, detections_clock
+from tlsync_pipeline.sync.identify import IdentifyParams, candidate_votes, detections_clock
 from tlsync_pipeline.sync.line_search import find_line
-from tlsync_pipeline.sync.params import SyncParams
 from tlsync_pipeline.sync.slope import slope_prior
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
 from trackers.detections import Detections
@@ -147,7 +146,7 @@ def full_scan(n_frames: int, reason: str, coarse: CoarseLine | None = None, keyf
     return ScanPlan(True, reason, ((0, n_frames),), n_frames, coarse, keyframes_read, undecided)
 
 
-def before_coarse(camera: Camera, trajectory: Trajectory, n_frames: int | None, keyframes: np.ndarray | None, fps: float | None, params: SyncParams) -> str | None:
+def before_coarse(camera: Camera, trajectory: Trajectory, n_frames: int | None, keyframes: np.ndarray | None, fps: float | None, params: IdentifyParams) -> str | None:
     """Why the coarse pass would not pay (then every frame is read), checked before decoding anything; None when it may.
 
     n_frames, keyframes: the video's frame count and keyframe indices from
@@ -193,7 +192,7 @@ def keyframe_range(trajectory: Trajectory, alpha: float, prior: OffsetPrior | No
     return int(np.clip(math.floor(lo), 0, n_frames)), int(np.clip(math.ceil(hi) + 1, 0, n_frames))
 
 
-def coarse_line(camera: Camera, keyframe_movers: Detections, trajectory: Trajectory, fps: float | None, params: SyncParams, keyframes: np.ndarray, n_frames: int, prior: OffsetPrior | None = None) -> CoarseLine:
+def coarse_line(camera: Camera, keyframe_movers: Detections, trajectory: Trajectory, fps: float | None, params: IdentifyParams, keyframes: np.ndarray, n_frames: int, prior: OffsetPrior | None = None) -> CoarseLine:
     """The coarse line from every mover of the keyframes (see the module docstring); SyncError naming why none can be trusted.
 
     keyframes: indices of the keyframes read (their count, and their
@@ -211,7 +210,7 @@ def coarse_line(camera: Camera, keyframe_movers: Detections, trajectory: Traject
         near = np.abs(clock - slope.alpha * sample - prior.beta) <= prior.tolerance
         sample, dist, clock, group = sample[near], dist[near], clock[near], group[near]
     try:
-        search = find_line(sample, clock, dist, COARSE_DELTA, params.p, R_MIN, params.seed, group=group, prior=slope)
+        search = find_line(sample, clock, dist, COARSE_DELTA, params.p, params.r_min, params.seed, group=group, prior=slope)
     except ValueError as exc:
         raise SyncError(f"no coarse line: {exc}") from None
     residual = clock - search.alpha * sample - search.beta
@@ -221,7 +220,7 @@ def coarse_line(camera: Camera, keyframe_movers: Detections, trajectory: Traject
     runner_up = 0
     if len(np.unique(sample[away])) >= 2:
         try:
-            runner_up = find_line(sample[away], clock[away], dist[away], COARSE_DELTA, params.p, R_MIN, params.seed, group=group[away], prior=slope).support
+            runner_up = find_line(sample[away], clock[away], dist[away], COARSE_DELTA, params.p, params.r_min, params.seed, group=group[away], prior=slope).support
         except ValueError:
             runner_up = 0
     return CoarseLine(float(search.alpha), float(search.beta), int(search.support), int(runner_up), len(keyframes), scatter)
@@ -264,7 +263,7 @@ def plan_scan(
     keyframe_movers: Detections,
     trajectory: Trajectory,
     fps: float | None,
-    params: SyncParams,
+    params: IdentifyParams,
     keyframes: np.ndarray,
     n_frames: int,
     times: np.ndarray | None = None,

@@ -21,17 +21,17 @@ from dataclasses import dataclass, replace
 from calibration.camera import Camera
 from tlsync_pipeline.errors import SyncError
 from tlsync_pipeline.sync.clock import FrameTimes, camera_clock
-from tlsync_pipeline.sync.identify import Identification, identify_target
+from tlsync_pipeline.sync.identify import Identification, IdentifyParams, identify_target
 from tlsync_pipeline.sync.methods import CameraData, CameraInput
-from tlsync_pipeline.sync.params import SyncParams
-from tlsync_pipeline.sync.slope import slope_prior
-from tlsync_pipeline.sync.registry import get_method, method_options, params_table
+from tlsync_pipeline.sync.params import Preparation, SyncParams
+from tlsync_pipeline.sync.refined import RefinedParams
+from tlsync_pipeline.sync.registry import get_method, method_options, params_table, preparation_of
 from tlsync_pipeline.sync.timeline import CameraLine, Timeline
 from tlsync_pipeline.sync.votes import Votes, compute_votes
 from tlsync_pipeline.trajectory import Trajectory, lowered
-from trackers.detections import Detections
+from trackers.track import Track
 
-__all__ = ["CameraInput", "CameraResult", "cast_votes", "identify", "identify_and_synchronize", "prepare_trajectory", "synchronize", "synchronize_camera"]
+__all__ = ["CameraInput", "CameraResult", "cast_votes", "identify_and_synchronize", "identify_params", "prepare_trajectory", "synchronize", "synchronize_camera"]
 
 
 @dataclass(frozen=True)
@@ -43,20 +43,27 @@ class CameraResult:
     identification: Identification | None = None
 
 
-def prepare_trajectory(trajectory: Trajectory, params: SyncParams) -> Trajectory:
+def prepare_trajectory(trajectory: Trajectory, preparation: Preparation) -> Trajectory:
     """The trajectory the chosen method votes on and fits to (vote stage, sync and render all use this), lowered to the tracked point by ``logged_point_above_m``."""
-    prepared = get_method(params.method).prepare_trajectory(trajectory, method_options(params))
-    return lowered(prepared, params.logged_point_above_m) if params.logged_point_above_m else prepared
+    prepared = get_method(preparation.method).prepare_trajectory(trajectory, preparation.options)
+    return lowered(prepared, preparation.logged_point_above_m) if preparation.logged_point_above_m else prepared
 
 
-def cast_votes(inputs: CameraInput, prepared: Trajectory, params: SyncParams) -> Votes:
+def cast_votes(camera: Camera, track: Track, prepared: Trajectory, eps_px: float) -> Votes:
     """One camera's votes on the prepared trajectory (eq. 3); SyncError when there is none."""
-    return compute_votes(inputs.camera, inputs.track, prepared, params.eps_px)
+    return compute_votes(camera, track, prepared, eps_px)
+
+
+def identify_params(params: SyncParams) -> IdentifyParams:
+    """What identification reads of the [sync] keys: the shared ones, and the refined method's r_min and f_scale_px (whatever the method)."""
+    refined = params.options.get("refined") or RefinedParams()
+    return IdentifyParams(params.eps_px, params.delta, params.p, params.seed, params.rate_sigma, refined.r_min, refined.f_scale_px)
 
 
 def synchronize_camera(name: str, inputs: CameraInput, votes: Votes, prepared: Trajectory, params: SyncParams) -> CameraResult:
     """The fitted line of one camera from its votes; SyncError if it cannot be synchronized."""
     track = inputs.track
+    assert track is not None, "a camera without a track is identified first (identify_and_synchronize)"
     clock = camera_clock(track, inputs.fps)
     times = FrameTimes.of_track(track)
     data = CameraData(
@@ -73,20 +80,12 @@ def synchronize_camera(name: str, inputs: CameraInput, votes: Votes, prepared: T
     return CameraResult(votes, line)
 
 
-def identify(camera: Camera, detections: Detections, prepared: Trajectory, fps: float | None, params: SyncParams, prefer: frozenset[int] = frozenset()) -> Identification:
-    """The target among every mover of one camera, with the sync parameters (SyncError when it cannot be found).
-
-    prefer: tracklet ids an init box says are the target.
-    """
-    prior = slope_prior(fps, prepared.rate, params.rate_sigma)
-    return identify_target(camera, detections, prepared, fps, params.eps_px, params.delta, params.p, params.seed, prefer=prefer, prior=prior)
-
-
 def identify_and_synchronize(name: str, inputs: CameraInput, prepared: Trajectory, params: SyncParams) -> CameraResult:
     """A camera that brings every mover: the target identified among them, then its line fitted on the identified track's votes."""
-    found = identify(inputs.camera, inputs.detections, prepared, inputs.fps, params)
+    assert inputs.detections is not None, "a camera without a track brings every mover"
+    found = identify_target(inputs.camera, inputs.detections, prepared, inputs.fps, identify_params(params))
     identified = CameraInput(inputs.camera, found.track, inputs.fps)
-    result = synchronize_camera(name, identified, cast_votes(identified, prepared, params), prepared, params)
+    result = synchronize_camera(name, identified, cast_votes(inputs.camera, found.track, prepared, params.eps_px), prepared, params)
     return CameraResult(result.votes, replace(result.line, identification=found.summary()), found)
 
 
@@ -103,7 +102,7 @@ def synchronize(
     Cameras that cannot be synchronized are listed in ``Timeline.failed``
     with the reason.
     """
-    prepared = prepare_trajectory(trajectory, params)
+    prepared = prepare_trajectory(trajectory, preparation_of(params))
     results: dict[str, CameraResult] = {}
     failed: dict[str, str] = {}
     for name, inputs in cameras.items():
@@ -114,7 +113,7 @@ def synchronize(
             if inputs.track is None:
                 results[name] = identify_and_synchronize(name, inputs, prepared, params)
                 continue
-            results[name] = synchronize_camera(name, inputs, cast if cast is not None else cast_votes(inputs, prepared, params), prepared, params)
+            results[name] = synchronize_camera(name, inputs, cast if cast is not None else cast_votes(inputs.camera, inputs.track, prepared, params.eps_px), prepared, params)
         except SyncError as exc:
             failed[name] = str(exc)
     timeline = Timeline(

@@ -15,6 +15,8 @@ import math
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
+from typing import Any
+
 import numpy as np
 
 from tlsync_pipeline.errors import InputError
@@ -162,7 +164,7 @@ class CameraLine:
 
     def to_dict(self) -> dict:
         """The camera's entry in timeline.json, without the offsets to the reference."""
-        entry = {"alpha": self.alpha, "beta": self.beta, "votes": self.votes, "inliers": self.inliers, "residual_rms": self.residual_rms, "fps": self.fps}
+        entry: dict[str, Any] = {"alpha": self.alpha, "beta": self.beta, "votes": self.votes, "inliers": self.inliers, "residual_rms": self.residual_rms, "fps": self.fps}
         if self.cov is not None:
             entry.update(se_alpha=self.se_alpha, se_beta=self.se_beta, cov=np.asarray(self.cov).tolist())
         for key in ("flags", "warnings"):
@@ -188,7 +190,7 @@ class CameraLine:
         clock = CameraClock(FRAME, entry.get("fps"))
         if entry.get("clock", FRAME) != FRAME:
             clock = CameraClock(entry["clock"], float(entry["clock_fps"]), float(entry.get("clock_origin_s", 0.0)), float(entry["time_jitter_frames"]))
-        optional = {
+        optional: dict[str, Any] = {
             "cov": None if entry.get("cov") is None else np.asarray(entry["cov"], dtype=np.float64),
             "flags": None if entry.get("flags") is None else tuple(entry["flags"]),
             "warnings": None if entry.get("warnings") is None else tuple(entry["warnings"]),
@@ -318,7 +320,7 @@ class Timeline:
                 if name != first:
                     entry.update(self._offset_errors(first, name))
             cameras[name] = entry
-        pairs = {}
+        pairs: dict[str, dict[str, Any]] = {}
         for key, rel in self.pairs().items():
             a, b = key.split("->")
             frames, seconds = self.start_offset(a, b)

@@ -110,8 +110,9 @@ def test_manifest_records_inputs_params_and_outputs(project_dir):
     manifest = read_manifest(project_dir / "work" / "cameras" / "cam0" / "vote.manifest.json")
     assert manifest.stage == "vote" and manifest.camera == "cam0"
     # The votes depend on eps_px and on the method's trajectory preparation, not on other methods' keys.
-    assert manifest.params["eps_px"] == 10.0 and manifest.params["method"] == "refined" and manifest.params["smooth_trajectory"] is True
-    assert "r" not in manifest.params
+    assert manifest.params["eps_px"] == 10.0
+    assert manifest.params["preparation"] == {"method": "refined", "options": {"smooth_trajectory": True}, "logged_point_above_m": 0.0}
+    assert "r" not in manifest.params and "delta" not in manifest.params
     assert manifest.inputs["track"]["path"] == "cam0/track.csv" and len(manifest.inputs["track"]["sha256"]) == 64
     assert list(manifest.outputs) == ["cameras/cam0/votes.npz"]
     assert "tlsync_pipeline.sync.votes" in manifest.code and "tlsync_pipeline.pipeline.engine" not in manifest.code
@@ -195,7 +196,7 @@ def test_dask_executor_on_a_local_cluster(project_dir, tmp_path):
 
 
 def test_ready_tasks_go_out_tracks_first_the_largest_video_first(tmp_path):
-    """Tracks before the other per-camera tasks (largest video first), project-wide tasks last."""
+    """Scans and tracks before the other per-camera tasks (largest video first), project-wide tasks last."""
     from tlsync_pipeline.pipeline.engine import _priority
 
     (tmp_path / "boards").mkdir()
@@ -212,10 +213,10 @@ def test_ready_tasks_go_out_tracks_first_the_largest_video_first(tmp_path):
     (tmp_path / "project.toml").write_text('[target]\nlog = "target.gpx"\norigin = [46.5, 6.6, 380.0]\n' + "".join(cameras))
     graph = _graph(tmp_path)
     order = sorted(graph.tasks, key=lambda t: _priority(graph.tasks[t]))
-    assert order[:3] == ["track/cam1", "track/cam2", "track/cam0"]
+    assert order[:6] == ["scan/cam1", "track/cam1", "scan/cam2", "track/cam2", "scan/cam0", "track/cam0"]
     from tlsync_pipeline.pipeline.graph import PER_CAMERA
 
     stages = [graph.tasks[t].stage for t in order]
-    assert "track" not in stages[3:] and {"intrinsics", "calibrate", "vote"} <= set(stages)
+    assert not {"scan", "track"} & set(stages[6:]) and {"intrinsics", "calibrate", "vote"} <= set(stages)
     per_camera = [stage in PER_CAMERA for stage in stages]
     assert per_camera == sorted(per_camera, reverse=True)  # the project-wide tasks last

@@ -94,8 +94,9 @@ def test_users_warnings_come_back_in_the_result_as_one_line():
         warnings.warn("cam0/video.mp4: video truncated\n  read up to frame 9", UserWarning)
         return {"message": "done"}
 
-    assert call_recording_warnings(stage, {}) == {"message": "done", "warnings": ["cam0/video.mp4: video truncated read up to frame 9"]}
-    assert SerialExecutor().submit(stage, {}).result()["warnings"] == ["cam0/video.mp4: video truncated read up to frame 9"]
+    called = call_recording_warnings(stage, {})
+    assert called.value == {"message": "done"} and called.warnings == ("cam0/video.mp4: video truncated read up to frame 9",)
+    assert SerialExecutor().submit(stage, {}).result().warnings == ("cam0/video.mp4: video truncated read up to frame 9",)
 
 
 def where_and_square(value):
@@ -106,7 +107,7 @@ def where_and_square(value):
 
 
 def test_run_each_hands_the_parts_to_the_runs_workers_in_order():
-    from tlsync_pipeline.pipeline.executors import WORKER_CPU, ProcessExecutor, run_each
+    from tlsync_pipeline.pipeline.executors import ProcessExecutor, run_each
 
     executor = ProcessExecutor(2)
     try:
@@ -114,17 +115,17 @@ def test_run_each_hands_the_parts_to_the_runs_workers_in_order():
         results = run_each(executor, where_and_square, [{"value": v} for v in range(4)])
     finally:
         executor.close()
-    assert [r["square"] for r in results] == [0, 1, 4, 9]
-    assert all(r["pid"] != os.getpid() for r in results)  # in the pool's workers, not here
-    assert all(r[WORKER_CPU] >= 0.0 for r in results)  # their CPU, for the task to count as its own
-    assert results[2]["warnings"] == ["part 2: a warning for users"] and "warnings" not in results[1]
+    assert [r.value["square"] for r in results] == [0, 1, 4, 9]
+    assert all(r.value["pid"] != os.getpid() and r.elsewhere for r in results)  # in the pool's workers, not here
+    assert all(r.cpu_s >= 0.0 for r in results)  # their CPU, for the task to count as its own
+    assert results[2].warnings == ("part 2: a warning for users",) and results[1].warnings == ()
     serial = run_each(SerialExecutor(), where_and_square, [{"value": 3}])
-    assert serial[0] == {"pid": os.getpid(), "square": 9, WORKER_CPU: 0.0}  # this process's CPU time counts it already
+    assert serial[0].value == {"pid": os.getpid(), "square": 9} and not serial[0].elsewhere  # this process's CPU time counts it already
 
 
 def test_run_each_does_not_start_a_pool_for_its_parts():
     """A pool no task has started stays unstarted: the parts run in this process (starting workers costs more than they do)."""
-    from tlsync_pipeline.pipeline.executors import WORKER_CPU, ProcessExecutor, run_each
+    from tlsync_pipeline.pipeline.executors import ProcessExecutor, run_each
 
     executor = ProcessExecutor(2)
     try:
@@ -132,5 +133,5 @@ def test_run_each_does_not_start_a_pool_for_its_parts():
         assert not executor.started
     finally:
         executor.close()
-    assert [(r["pid"], r["square"], r[WORKER_CPU]) for r in results] == [(os.getpid(), v * v, 0.0) for v in range(3)]
-    assert results[2]["warnings"] == ["part 2: a warning for users"]
+    assert [(r.value["pid"], r.value["square"], r.elsewhere) for r in results] == [(os.getpid(), v * v, False) for v in range(3)]
+    assert results[2].warnings == ("part 2: a warning for users",)

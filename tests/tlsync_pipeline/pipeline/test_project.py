@@ -14,9 +14,10 @@ def test_paths_are_relative_to_the_project_and_defaults_apply(tmp_path):
     sub = tmp_path / "p"
     sub.mkdir()
     project = load_project(_write(sub, '[target]\ntrajectory = "t.csv"\n[[cameras]]\nname = "a"\ncamera = "a/c.json"\nfps = 25\n[sync]\neps_px = 12\nlogged_point_above_m = -0.2\n'))
-    assert project.target["trajectory"] == sub / "t.csv"
-    assert project.cameras[0]["camera"] == sub / "a" / "c.json"
-    assert project.cameras[0]["track"] is None
+    assert project.target.trajectory == sub / "t.csv"
+    assert project.cameras[0].camera == sub / "a" / "c.json"
+    assert project.cameras[0].track is None
+    assert project.cameras[0].tracker.kind == "blob" and project.cameras[0].calibration.ransac_px == 8.0
     assert project.sync.eps_px == 12.0 and project.sync.delta == 0.5 and project.sync.options["paper"].r == 0.05
     assert project.sync.logged_point_above_m == -0.2  # below the tracked point: any number
 

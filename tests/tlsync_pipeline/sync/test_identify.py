@@ -11,11 +11,13 @@ from tlsync_pipeline.sync import identify
 from tlsync_pipeline.sync.identify import along_tracklets, assign_target, candidate_votes, covers, identify_target
 from tlsync_pipeline.sync.line_search import thin_votes
 from tlsync_pipeline.sync.params import SyncParams
-from tlsync_pipeline.sync.slope import slope_prior
+from tlsync_pipeline.sync.synchronize import identify_params
 from tlsync_pipeline.trajectory import PiecewiseTrajectory
 from trackers.detections import make_detections
 
 P = SyncParams()
+PRIOR = identify_params(P)  # the slope held near fps / log rate, as the pipeline does
+FREE = dataclasses.replace(PRIOR, rate_sigma=0.0)  # a free slope
 
 
 def _crowd_detections(scene, name, walkers=8, seed=0):
@@ -64,7 +66,7 @@ def test_identifies_the_target_among_look_alike_walkers(seed):
     name = "cam0"
     detections, target_rows = _crowd_detections(scene, name, seed=seed)
     camera = scene.cameras[name]
-    found = identify_target(camera, detections, scene.trajectory, camera.fps, P.eps_px, P.delta, P.p, P.seed)
+    found = identify_target(camera, detections, scene.trajectory, camera.fps, FREE)
     _assert_found(found, detections, target_rows, scene, name, recall=0.9)
     summary = found.summary()
     assert {t.id for t in summary.tracklets[:3]} == {0, 1, 2}
@@ -112,8 +114,7 @@ def test_a_logged_point_above_the_tracked_centre_is_estimated_and_the_track_move
     detections = detections.subset(np.arange(len(detections)))
     detections.h[:] = 3 * shift
     detections.w[:] = shift
-    prior = slope_prior(camera.fps, raised.rate, P.rate_sigma)
-    found = identify_target(camera, detections, raised, camera.fps, P.eps_px, P.delta, P.p, P.seed, prior=prior)
+    found = identify_target(camera, detections, raised, camera.fps, PRIOR)
     assert found.lift_m == pytest.approx(0.6, abs=0.1)
     assert found.summary().logged_point_above_m == pytest.approx(found.lift_m, abs=1e-3)
     _assert_found(found, detections, target_rows, scene, name, recall=0.8)
@@ -131,7 +132,7 @@ def test_a_stretch_off_the_projection_by_calibration_error_stays_in_the_identifi
     stretch = np.flatnonzero(detections.id == 1)[20:100]
     detections.x[stretch] += 15.0
     camera = scene.cameras[name]
-    found = identify_target(camera, detections, scene.trajectory, camera.fps, P.eps_px, P.delta, P.p, P.seed)
+    found = identify_target(camera, detections, scene.trajectory, camera.fps, FREE)
     assert np.isin(stretch, found.rows).mean() >= 0.95
     picked = {(f, i) for f, i in zip(detections.frame[found.rows], detections.id[found.rows])}
     assert len(picked & target_rows) >= 0.95 * len(picked)
@@ -155,7 +156,7 @@ def test_a_camera_the_path_never_enters_is_named():
     behind = camera.t + [0.0, 0.0, -1e4]  # the whole path 10 km behind the camera
     away = type(camera)(camera.name, camera.K, camera.dist, camera.R, behind, camera.image_size, camera.fps)
     with pytest.raises(SyncError, match="camera cam0: the target's projected path never enters its image"):
-        identify_target(away, detections, scene.trajectory, camera.fps, P.eps_px, P.delta, P.p, P.seed)
+        identify_target(away, detections, scene.trajectory, camera.fps, FREE)
 
 
 def test_no_tracklet_following_the_path_is_reported():
@@ -164,7 +165,7 @@ def test_no_tracklet_following_the_path_is_reported():
     detections, target_rows = _crowd_detections(scene, "cam0", walkers=10, seed=3)
     only_walkers = detections.subset(detections.id >= 100)
     with pytest.raises(SyncError, match="camera cam0: no tracklet follows the target's projected path"):
-        identify_target(camera, only_walkers, scene.trajectory, camera.fps, P.eps_px, P.delta, P.p, P.seed)
+        identify_target(camera, only_walkers, scene.trajectory, camera.fps, FREE)
 
 
 def test_assignment_prefers_the_tracklet_that_follows_over_a_closer_passer_by():
@@ -215,7 +216,7 @@ def test_a_target_merged_with_passers_by_in_most_frames_is_kept_and_reported_on_
     x = np.where(merged, detections.x + detections.w, detections.x)
     detections = type(detections)(detections.frame, detections.time_s, detections.id, x, detections.y, w, detections.h, detections.score)
     camera = scene.cameras[name]
-    found = identify_target(camera, detections, scene.trajectory, camera.fps, P.eps_px, P.delta, P.p, P.seed)
+    found = identify_target(camera, detections, scene.trajectory, camera.fps, FREE)
     picked = {(f, i) for f, i in zip(detections.frame[found.rows], detections.id[found.rows])}
     assert len(picked & target_rows) >= 0.9 * len(target_rows)  # the merged frames are kept
     truth = scene.tracks[name]

@@ -7,6 +7,7 @@ import pytest
 
 from data_fixtures import make_scene
 from tlsync_pipeline.sync.params import SyncParams
+from tlsync_pipeline.sync.registry import preparation_of
 from tlsync_pipeline.sync.synchronize import CameraInput, prepare_trajectory, synchronize
 from tlsync_pipeline.sync.timeline import eps_t
 
@@ -60,7 +61,7 @@ def test_a_log_riding_above_the_tracked_point_is_lowered_by_logged_point_above_m
     declared, _ = synchronize(inputs, raised, SyncParams(logged_point_above_m=0.3))
     assert not declared.failed
     assert max(_errors(scene, declared).values()) < 0.5
-    assert np.allclose(prepare_trajectory(raised, SyncParams(logged_point_above_m=0.3)).xyz, prepare_trajectory(scene.trajectory, SyncParams()).xyz)
+    assert np.allclose(prepare_trajectory(raised, preparation_of(SyncParams(logged_point_above_m=0.3))).xyz, prepare_trajectory(scene.trajectory, preparation_of(SyncParams())).xyz)
     ignored, _ = synchronize(inputs, raised, SyncParams())
     worst = max(_errors(scene, ignored).values()) if not ignored.failed else np.inf
     assert worst > 0.1  # undeclared, the 20 px offset costs a quarter of a frame here

@@ -31,7 +31,10 @@ class ToyMethod:
     name = "toy"
     params_type = ToyParams
 
-    def prepare_trajectory(self, trajectory: Trajectory, options: ToyParams) -> Trajectory:
+    def preparation(self, options: ToyParams) -> None:
+        return None
+
+    def prepare_trajectory(self, trajectory: Trajectory, preparation: None) -> Trajectory:
         return trajectory
 
     def fit(self, data: CameraData, trajectory: Trajectory, params: SyncParams, options: ToyParams) -> CameraLine:

@@ -3,10 +3,13 @@
 from __future__ import annotations
 
 import json
+from collections.abc import Mapping
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from tlsync_pipeline.errors import SyncError
+from tlsync_pipeline.pipeline.spec import ProjectWide
 from tlsync_pipeline.pipeline.workspace import StageFiles
 from tlsync_pipeline.sync.timeline import IdentificationSummary
 
@@ -17,17 +20,41 @@ CAMERA_FILES = ("camera", "track", "votes", "video", "identification", "detectio
 VIDEO_INFO_FORMAT = "tlsync-video"  # video.json, written by the track stage
 
 
-def camera_files(files: StageFiles, names: list[str], fps: dict[str, float | None] | None = None) -> dict[str, dict]:
-    """Per camera, the paths a stage declared as ``<kind>:<camera>`` (kinds: CAMERA_FILES) and, given ``fps``, the camera's fps."""
-    out = {n: {k: files.path(f"{k}:{n}") for k in CAMERA_FILES if files.has(f"{k}:{n}")} for n in names}
-    for n in out if fps is not None else ():
-        out[n]["fps"] = fps[n]
-    return out
+@dataclass(frozen=True)
+class CameraFiles:
+    """One camera's files a project-wide stage declared as ``<kind>:<camera>`` (None: not declared) and its nominal fps."""
+
+    name: str
+    camera: Path | None = None
+    track: Path | None = None
+    votes: Path | None = None
+    video: Path | None = None
+    identification: Path | None = None
+    detections: Path | None = None
+    video_info: Path | None = None
+    scan: Path | None = None
+    fps: float | None = None
 
 
-def camera_params(project: Project) -> dict:
+@dataclass(frozen=True)
+class CamerasParams(ProjectWide):
+    """The cameras a project-wide stage serves (ProjectWide) and each one's nominal fps (None: its camera.json's)."""
+
+    fps: Mapping[str, float | None] = field(default_factory=dict)
+
+
+def camera_files(files: StageFiles, params: ProjectWide) -> dict[str, CameraFiles]:
+    """Per camera the stage serves, the files it declared (kinds: CAMERA_FILES) and, with CamerasParams, its fps."""
+    fps = params.fps if isinstance(params, CamerasParams) else {}
+    return {
+        n: CameraFiles(n, **{k: files.path(f"{k}:{n}") for k in CAMERA_FILES if files.has(f"{k}:{n}")}, fps=fps.get(n))
+        for n in params.cameras
+    }
+
+
+def cameras_params(project: Project) -> CamerasParams:
     """The cameras in project order and their fps (None: the camera.json's)."""
-    return {"cameras": [c["name"] for c in project.cameras], "fps": {c["name"]: c["fps"] for c in project.cameras}}
+    return CamerasParams(tuple(project.names), fps={c.name: c.fps for c in project.cameras})
 
 
 def read_identification(path) -> IdentificationSummary | SyncError:
@@ -36,25 +63,14 @@ def read_identification(path) -> IdentificationSummary | SyncError:
     return SyncError(data["error"]) if "error" in data else IdentificationSummary.from_dict(data)
 
 
-def tracks_every_mover(spec: dict) -> bool:
-    """Whether a camera's track stage detects every mover (blob kind) rather than one target (CSRT)."""
-    return (spec.get("tracker") or {}).get("kind", "blob") == "blob"
-
-
-def has_calibration(spec: dict) -> bool:
-    """Whether the camera table has a [cameras.calibration] table with something to calibrate from."""
-    cal = spec.get("calibration") or {}
-    return any(cal.get(k) is not None for k in ("images", "video", "intrinsics", "gcp", "board_pose"))
-
-
 def scans(project: Project, cam: str) -> bool:
     """Whether the camera's video gets a coarse pass (the scan stage): every mover detected in its own video,
     ``[track] scan = "auto"``, and a calibration and a trajectory to vote with (a project of videos alone is tracked whole)."""
-    spec = project.camera(cam)
-    every_mover = spec["track"] is None and spec.get("detections") is None and spec.get("video") is not None and tracks_every_mover(spec)
-    calibrated = spec["camera"] is not None or has_calibration(spec)
-    logged = project.target["trajectory"] is not None or project.target["log"] is not None
-    return project.track["scan"] == "auto" and every_mover and calibrated and logged
+    camera = project.camera(cam)
+    every_mover = camera.track is None and camera.detections is None and camera.video is not None and camera.tracker.every_mover
+    calibrated = camera.camera is not None or camera.calibration.given
+    logged = project.target.trajectory is not None or project.target.log is not None
+    return project.track.scan == "auto" and every_mover and calibrated and logged
 
 
 def has_no_rows(csv_path: Path) -> bool:

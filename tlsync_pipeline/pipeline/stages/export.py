@@ -9,35 +9,37 @@ from __future__ import annotations
 
 import csv
 import json
+from pathlib import Path
 
 import numpy as np
 
 from tlsync_pipeline.outputs.diagnostics import HALF_95
 from tlsync_pipeline.outputs.editors import Placement, fcpxml_text, otio_text, sync_document
 from tlsync_pipeline.outputs.exports import ffmpeg_commands, frame_map_rows, offsets
-from tlsync_pipeline.pipeline.spec import Sources, StageSpec
-from tlsync_pipeline.pipeline.stages.cameras import camera_files, read_video_info
-from tlsync_pipeline.pipeline.workspace import StageFiles
+from tlsync_pipeline.pipeline.spec import ProjectWide, Sources, StageResult, StageSpec
+from tlsync_pipeline.pipeline.stages.cameras import CameraFiles, camera_files, read_video_info
+from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
 from tlsync_pipeline.sync.clock import FrameTimes
 from tlsync_pipeline.sync.timeline import CameraLine, Timeline, read_timeline
 from trackers.track import read_track
 from trackers.video import presentation_times, probe_video
 
 
-def frame_count(camera: dict) -> int:
+def frame_count(camera: CameraFiles) -> int:
     """Frames of a camera's video: as decoded by the track stage (a truncated video holds fewer than announced),
     else from the container; without a video, its last tracked frame + 1."""
-    if camera.get("video_info"):
-        return int(read_video_info(camera["video_info"])["frames"])
-    if camera.get("video"):
-        count = probe_video(camera["video"]).n_frames
+    if camera.video_info is not None:
+        return int(read_video_info(camera.video_info)["frames"])
+    if camera.video is not None:
+        count = probe_video(camera.video).n_frames
         if count > 0:
             return count
-    track = read_track(camera["track"])
+    assert camera.track is not None, "declared by the stage"
+    track = read_track(camera.track)
     return int(track.frame.max()) + 1
 
 
-def frame_times(camera: dict, line: CameraLine) -> FrameTimes | None:
+def frame_times(camera: CameraFiles, line: CameraLine) -> FrameTimes | None:
     """Presentation times that make a camera's frame mapping exact.
 
     None for a frame-index clock (it needs none); for a presentation-time
@@ -46,25 +48,26 @@ def frame_times(camera: dict, line: CameraLine) -> FrameTimes | None:
     """
     if not line.clock.vfr:
         return None
-    if camera.get("video"):
-        times = presentation_times(camera["video"])
+    if camera.video is not None:
+        times = presentation_times(camera.video)
         if times is not None:
             return FrameTimes(np.arange(len(times), dtype=np.float64), times)
-    return FrameTimes.of_track(read_track(camera["track"]))
+    assert camera.track is not None, "declared by the stage"
+    return FrameTimes.of_track(read_track(camera.track))
 
 
-def run_export(files: StageFiles, cameras: list[str], left_out: dict[str, str] | None = None) -> dict:
+def run_export(files: StageFiles, params: ProjectWide) -> StageResult:
     """The export stage: frame_map.csv, offsets.csv, ffmpeg.sh, timeline.otio, timeline.fcpxml and sync.json (synchronized cameras only).
 
-    left_out: cameras whose own tasks did not complete (camera -> why); they are not in the timeline either.
+    Cameras left out (their own tasks did not complete) are not in the timeline either.
     """
-    cameras = camera_files(files, cameras)
+    cameras = camera_files(files, params)
     tl = read_timeline(files.path("timeline"))
     if not tl.cameras:
         # No camera synchronized: exports of an earlier timeline would look current.
         for kind in ("frame_map", "offsets", "ffmpeg", "timeline_otio", "timeline_fcpxml", "sync_json"):
             files.output(kind).unlink(missing_ok=True)
-        return {"exported": [], "left_out": sorted(left_out or {}), "message": "no camera synchronized: no exports (earlier ones removed)"}
+        return StageResult("no camera synchronized: no exports (earlier ones removed)", facts={"exported": []})
     n_frames = {name: frame_count(cameras[name]) for name in tl.names}
     times = {name: frame_times(cameras[name], line) for name, line in tl.cameras.items()}
     with files.write("frame_map") as tmp:
@@ -76,7 +79,7 @@ def run_export(files: StageFiles, cameras: list[str], left_out: dict[str, str] |
             writer = csv.DictWriter(handle, fieldnames=list(rows[0]))
             writer.writeheader()
             writer.writerows({k: ("" if v is None else (f"{v:.6f}" if isinstance(v, float) else v)) for k, v in r.items()} for r in rows)
-    videos = {name: (str(c["video"]) if c.get("video") else None) for name, c in cameras.items()}
+    videos = {name: (str(c.video) if c.video is not None else None) for name, c in cameras.items()}
     with files.write("ffmpeg") as tmp:
         tmp.write_text(ffmpeg_commands(rows, videos), encoding="utf-8")
     notes = []
@@ -93,7 +96,7 @@ def run_export(files: StageFiles, cameras: list[str], left_out: dict[str, str] |
         for kind, text in texts.items():
             with files.write(kind) as tmp:
                 tmp.write_text(text, encoding="utf-8")
-    return {"exported": tl.names, "n_frames": n_frames, "warnings": notes, "left_out": sorted(left_out or {})}
+    return StageResult(warnings=tuple(notes), facts={"exported": tl.names, "n_frames": n_frames})
 
 
 def editor_placements(tl: Timeline, rows: list[dict], videos: dict[str, str | None], n_frames: dict[str, int]) -> list[Placement] | None:
@@ -111,22 +114,22 @@ def editor_placements(tl: Timeline, rows: list[dict], videos: dict[str, str | No
     return placements
 
 
-def export_inputs(src: Sources, camera: None) -> dict:
+def export_inputs(src: Sources, camera: None) -> dict[str, Path | Artefact]:
     """timeline.json, and every camera's track and video (frame counts; video.json when the track stage makes it)."""
     inputs = {"timeline": src.artefact("timeline")}
     for spec in src.project.cameras:
-        inputs[f"track:{spec['name']}"] = src.artefact("track", spec["name"])
-        if spec.get("video") is not None:
-            inputs[f"video:{spec['name']}"] = spec["video"]
-        if src.made("video_info", spec["name"]):
-            inputs[f"video_info:{spec['name']}"] = src.artefact("video_info", spec["name"])
+        inputs[f"track:{spec.name}"] = src.artefact("track", spec.name)
+        if spec.video is not None:
+            inputs[f"video:{spec.name}"] = spec.video
+        if src.made("video_info", spec.name):
+            inputs[f"video_info:{spec.name}"] = src.artefact("video_info", spec.name)
     return inputs
 
 
 SPEC = StageSpec(
     "export",
     inputs=export_inputs,
-    params=lambda project, camera, options: {"cameras": [c["name"] for c in project.cameras]},
+    params=lambda project, camera, options: ProjectWide(tuple(project.names)),
     outputs=("frame_map", "offsets", "ffmpeg", "timeline_otio", "timeline_fcpxml", "sync_json"),
     run=run_export,
     runs_without_failed_cameras=True,

@@ -13,94 +13,109 @@ identified (the camera is then listed as not synchronized, the others are).
 from __future__ import annotations
 
 import json
-from dataclasses import asdict
-from typing import Any
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
 
 from calibration.camera import read_camera
 from tlsync_pipeline.errors import SyncError
-from tlsync_pipeline.pipeline.spec import StageSpec
-from tlsync_pipeline.pipeline.stages.cameras import has_no_rows, tracks_every_mover
-from tlsync_pipeline.pipeline.workspace import StageFiles
-from tlsync_pipeline.sync.registry import params_from_table, params_table
-from tlsync_pipeline.sync.synchronize import identify, prepare_trajectory
+from tlsync_pipeline.pipeline.spec import Options, Sources, StageResult, StageSpec
+from tlsync_pipeline.pipeline.stages.cameras import has_no_rows
+from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
+from tlsync_pipeline.sync.identify import IdentifyParams, identify_target
+from tlsync_pipeline.sync.params import Preparation
+from tlsync_pipeline.sync.registry import preparation_of
+from tlsync_pipeline.sync.synchronize import identify_params, prepare_trajectory
 from tlsync_pipeline.trajectory import read_trajectory
 from trackers.detections import read_detections, seed_tracklets
 from trackers.track import write_track
 from trackers.video import check_init_box, probe_video
 
+if TYPE_CHECKING:
+    from tlsync_pipeline.pipeline.project import Project
 
-def run_identify(files: StageFiles, fps: float | None, sync: dict[str, Any], source: str | None = None, seed: dict | None = None) -> dict:
+
+@dataclass(frozen=True)
+class InitSeed:
+    """The blob tracker's init box [x, y, w, h] (pixels) and its 0-based frame: the mover in it is preferred as the target."""
+
+    box: tuple[float, float, float, float]
+    frame: int
+
+
+@dataclass(frozen=True)
+class IdentifyStageParams:
+    """fps: the camera's nominal frame rate (None: camera.json's); identify: identification's [sync] keys;
+    preparation: how the trajectory is prepared; source: the video the movers were detected in (None: the
+    project brings its detections); seed: an init box, or None."""
+
+    fps: float | None
+    identify: IdentifyParams
+    preparation: Preparation
+    source: Path | None = None
+    seed: InitSeed | None = None
+
+
+def run_identify(files: StageFiles, params: IdentifyStageParams) -> StageResult:
     """The identify stage: ``track.csv`` of the identified target and ``identification.json``.
 
-    source: the video the track stage detected the movers in (None when the
-    project brings its detections); no mover in it: the target was never
-    found. seed: the tracker's ``init`` box and ``init_frame``, or None.
+    A camera whose target cannot be identified (no mover in its video, none
+    near the projected path) gets no track.csv and an identification.json
+    holding why; the stage reports it as failed for that camera.
     """
-    params = params_from_table(sync)
     warnings: list[str] = []
     camera = read_camera(files.path("camera"), name=files.camera)
-    prepared = prepare_trajectory(read_trajectory(files.path("trajectory")), params)
+    prepared = prepare_trajectory(read_trajectory(files.path("trajectory")), params.preparation)
+    seed = params.seed
     try:
-        if source is not None and has_no_rows(files.path("detections")):
-            raise SyncError(f"{source}: the target was never found (no moving object in any frame)")
+        if params.source is not None and has_no_rows(files.path("detections")):
+            raise SyncError(f"{params.source}: the target was never found (no moving object in any frame)")
         detections = read_detections(files.path("detections"))
-        if seed:
-            check_init_box(files.path("video"), probe_video(files.path("video")), seed["init"], seed["init_frame"])
-        prefer = seed_tracklets(detections, seed["init"], seed["init_frame"]) if seed else frozenset()
-        if seed and not prefer:
-            warnings.append(f"camera {files.camera}: no mover inside the init box {seed['init']} near frame {seed['init_frame']}; the target is identified without it")
-        found = identify(camera, detections, prepared, fps or camera.fps, params, prefer)
+        if seed is not None:
+            check_init_box(files.path("video"), probe_video(files.path("video")), list(seed.box), seed.frame)
+        prefer = seed_tracklets(detections, list(seed.box), seed.frame) if seed is not None else frozenset()
+        if seed is not None and not prefer:
+            warnings.append(f"camera {files.camera}: no mover inside the init box {list(seed.box)} near frame {seed.frame}; the target is identified without it")
+        found = identify_target(camera, detections, prepared, params.fps or camera.fps, params.identify, prefer)
     except SyncError as exc:
         files.output("track").unlink(missing_ok=True)
         with files.write("identification") as tmp:
             tmp.write_text(json.dumps({"error": str(exc)}, indent=1) + "\n", encoding="utf-8")
-        return {"error": str(exc), "warnings": warnings}
+        return StageResult(warnings=tuple(warnings), failed={files.camera_name: str(exc)})
     with files.write("track") as tmp:
         write_track(found.track, tmp)
     with files.write("identification") as tmp:
         tmp.write_text(json.dumps(asdict(found.summary()), indent=1) + "\n", encoding="utf-8")
     seeded = f", seeded by the init box (tracklet {min(prefer)})" if prefer else ""
     lift = f"; the log's point is {abs(found.lift_m):.2f} m {'above' if found.lift_m > 0 else 'below'} the movers' centres, the track moved to it" if found.lift_m else ""
-    return {"identified_frames": len(found.track), "warnings": warnings, "message": f"wrote {files.output('track')} ({len(found.track)} identified frames{seeded}{lift})"}
+    message = f"wrote {files.output('track')} ({len(found.track)} identified frames{seeded}{lift})"
+    return StageResult(message, tuple(warnings), facts={"identified_frames": len(found.track)})
 
 
-def brings_movers(project, cam: str) -> bool:
-    """Whether the camera's target is to be identified among every mover (detected, or brought as ``detections``)."""
-    spec = project.camera(cam)
-    if spec["track"] is not None:
-        return False
-    return spec.get("detections") is not None or (spec.get("video") is not None and tracks_every_mover(spec))
+def identify_stage_params(project: Project, cam: str, options: Options) -> IdentifyStageParams:
+    camera = project.camera(cam)
+    tracker = camera.tracker
+    seed = InitSeed(tracker.init, tracker.init_frame) if camera.detections is None and tracker.init is not None else None
+    source = camera.video if camera.detections is None else None
+    return IdentifyStageParams(camera.fps, identify_params(project.sync), preparation_of(project.sync), source, seed)
 
 
-def _init_seed(project, cam: str) -> dict | None:
-    """The blob tracker's init box and frame, which seed the identity, or None."""
-    tracker = project.camera(cam).get("tracker") or {}
-    if project.camera(cam).get("detections") is not None or tracker.get("init") is None:
-        return None
-    return {"init": list(tracker["init"]), "init_frame": tracker.get("init_frame", 0)}
-
-
-def _detected_video(project, cam: str) -> str | None:
-    """The video the track stage detects this camera's movers in (None when the project brings its detections)."""
-    spec = project.camera(cam)
-    return None if spec.get("detections") is not None else spec.get("video")
-
-
-def identify_inputs(src, cam: str) -> dict:
+def identify_inputs(src: Sources, cam: str) -> dict[str, Path | Artefact]:
     """The camera, its movers and the trajectory; with an init box, the video it is checked against."""
+    camera = src.project.camera(cam)
     inputs = {"camera": src.artefact("camera", cam), "detections": src.artefact("detections", cam), "trajectory": src.artefact("trajectory")}
-    if _init_seed(src.project, cam) is not None:
-        inputs["video"] = src.project.camera(cam)["video"]
+    if camera.detections is None and camera.tracker.init is not None and camera.video is not None:
+        inputs["video"] = camera.video
     return inputs
 
 
 SPEC = StageSpec(
     "identify",
     inputs=identify_inputs,
-    params=lambda project, cam, options: {"fps": project.camera(cam)["fps"], "sync": params_table(project.sync), "source": _detected_video(project, cam), "seed": _init_seed(project, cam)},
+    params=identify_stage_params,
     outputs=("track", "identification"),
     run=run_identify,
     per_camera=True,
     light=True,
-    applies=brings_movers,
+    applies=lambda project, cam: project.camera(cam).brings_movers,
 )

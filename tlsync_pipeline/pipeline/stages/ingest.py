@@ -7,8 +7,10 @@ t0, gaps, drops), both written atomically.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from tlsync_pipeline.atomic import atomic_path
 from tlsync_pipeline.errors import InputError
@@ -21,9 +23,12 @@ from tlsync_pipeline.ingest.process import (
     ingest,
 )
 from tlsync_pipeline.pipeline.origin import origin_inputs, resolve_origin
-from tlsync_pipeline.pipeline.spec import StageSpec
-from tlsync_pipeline.pipeline.workspace import StageFiles
+from tlsync_pipeline.pipeline.spec import Sources, StageResult, StageSpec
+from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
 from tlsync_pipeline.trajectory import Trajectory, write_trajectory
+
+if TYPE_CHECKING:
+    from tlsync_pipeline.pipeline.project import TargetConfig
 
 
 def ingest_log(path: str | Path, fmt: str = "auto", params: IngestParams = IngestParams(), topic: str | None = None) -> tuple[Trajectory, IngestReport]:
@@ -44,20 +49,6 @@ def report_sidecar(csv_path: Path) -> Path:
     return csv_path.with_name(csv_path.stem + ".ingest.json")
 
 
-def target_params(target: dict, origin: Origin | str) -> IngestParams:
-    """IngestParams from the project's [target] table and the resolved ENU origin (see pipeline/origin.py)."""
-    return IngestParams(
-        origin=origin,
-        rate=target["rate"],
-        max_gap_s=target["max_gap_s"],
-        max_speed_mps=target["max_speed_mps"],
-        smoothing_s=target["smoothing_s"],
-        transform=target["odometry_transform"],
-        altitude_reference=target["altitude_reference"],
-        altitude_offset_m=target["altitude_offset_m"],
-    )
-
-
 def parse_origin(text: str) -> Origin | str:
     """``LAT,LON,ALT`` (degrees, degrees, metres) or ``first``, for the command line."""
     if text.strip().lower() == "first":
@@ -69,25 +60,31 @@ def parse_origin(text: str) -> Origin | str:
         raise InputError(f"--origin {text!r}: expected LAT,LON,ALT (degrees, degrees, metres) or 'first' ({exc})") from None
 
 
-__all__ = ["RigidTransform", "ingest_log", "parse_origin", "report_sidecar", "target_params", "write_ingest"]
+__all__ = ["RigidTransform", "ingest_log", "parse_origin", "report_sidecar", "write_ingest"]
 
 
-def run_ingest(files: StageFiles, target: dict) -> dict:
+def run_ingest(files: StageFiles, target: TargetConfig) -> StageResult:
     """The ingest stage: the target's log into ``target/trajectory.csv`` and its report.
 
-    ``target``: the project's [target] table without its file keys (log, trajectory).
+    ``target``: the project's [target] without its files (log, trajectory: inputs).
     """
-    origin = resolve_origin(target["origin"], [files.path(label) for label in files.inputs if label.startswith("origin-gcp:")], "[target]")
-    trajectory, report = ingest_log(files.path("log"), target["format"], target_params(target, origin), target["topic"])
+    origin = resolve_origin(target.origin, [files.path(label) for label in files.inputs if label.startswith("origin-gcp:")], "[target]")
+    trajectory, report = ingest_log(files.path("log"), target.format, target.ingest_params(origin), target.topic)
     write_ingest(trajectory, report, files.output("trajectory"), files.output("ingest_report"))
-    return {"message": report.summary(with_warnings=False), "warnings": list(report.warnings)}
+    return StageResult(report.summary(with_warnings=False), tuple(report.warnings))
+
+
+def ingest_inputs(src: Sources, camera: None) -> dict[str, Path | Artefact]:
+    """The log, and the GCP files when the ENU origin is their centroid."""
+    assert src.project.target.log is not None, "the stage applies to a project with a log"
+    return {"log": src.project.target.log, **origin_inputs(src.project)}
 
 
 SPEC = StageSpec(
     "ingest",
-    inputs=lambda src, cam: {"log": src.project.target["log"], **origin_inputs(src.project)},
-    params=lambda project, cam, options: {"target": {k: v for k, v in project.target.items() if k not in ("trajectory", "log")}},
+    inputs=ingest_inputs,
+    params=lambda project, cam, options: dataclasses.replace(project.target, log=None, trajectory=None),
     outputs=("trajectory", "ingest_report"),
     run=run_ingest,
-    applies=lambda project, cam: project.target["trajectory"] is None and project.target["log"] is not None,
+    applies=lambda project, cam: project.target.trajectory is None and project.target.log is not None,
 )

@@ -16,29 +16,34 @@ of decoding the video) and the track stage only when the windows change.
 from __future__ import annotations
 
 import json
-from typing import Any
-
+from collections.abc import Mapping
+from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from calibration.camera import Camera, read_camera
-from tlsync_pipeline.pipeline.spec import StageSpec
+from tlsync_pipeline.pipeline.spec import Options, Sources, StageResult, StageSpec
 from tlsync_pipeline.pipeline.stages.cameras import scans
-from tlsync_pipeline.pipeline.workspace import StageFiles
-from tlsync_pipeline.sync.params import SyncParams
-from tlsync_pipeline.sync.registry import params_from_table, params_table
+from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
+from tlsync_pipeline.sync.identify import IdentifyParams
+from tlsync_pipeline.sync.params import Preparation
 from tlsync_pipeline.sync.scan import COARSE_STEPS_S, ScanPlan, before_coarse, coarse_stride, full_scan, plan_scan
-from tlsync_pipeline.sync.synchronize import prepare_trajectory
+from tlsync_pipeline.sync.registry import preparation_of
+from tlsync_pipeline.sync.synchronize import identify_params, prepare_trajectory
 from tlsync_pipeline.trajectory import Trajectory, read_trajectory
 from trackers.detections import COLUMNS, Detections, make_detections
 from trackers.tracking import detect_keyframe_movers
 from trackers.video import frame_count, keyframe_indices, presentation_times, probe_video
 
+if TYPE_CHECKING:
+    from tlsync_pipeline.pipeline.project import Project
+
 SCAN_FORMAT = "tlsync-scan"
 
 
-def scan_video(video: Path, camera: Camera, prepared: Trajectory, fps: float | None, params: SyncParams, parameters: dict | None = None) -> ScanPlan:
+def scan_video(video: Path, camera: Camera, prepared: Trajectory, fps: float | None, params: IdentifyParams, parameters: dict | None = None) -> ScanPlan:
     """The scan of one video: every frame (with the reason) when the coarse pass would not pay, else its plan.
 
     The coarse pass reads keyframes about COARSE_STEPS_S[0] apart, and the
@@ -69,32 +74,48 @@ def scan_video(video: Path, camera: Camera, prepared: Trajectory, fps: float | N
     return plan
 
 
-def run_scan(files: StageFiles, fps: float | None, sync: dict[str, Any], parameters: dict) -> dict:
-    """The scan stage: ``scan.json`` (ScanPlan.to_dict) of the camera's video.
+@dataclass(frozen=True)
+class ScanStageParams:
+    """fps: the camera's nominal frame rate (None: camera.json's); identify: identification's [sync] keys (the
+    coarse pass votes and searches as it does); preparation: how the trajectory is prepared; parameters: the
+    blob detector's (the tracker table's ``parameters``)."""
 
-    fps: the project's for the camera (None: its camera.json's); sync: the
-    [sync] table (eps_px, rate_sigma, p, seed, the method's trajectory);
-    parameters: the blob detector's (the tracker table's ``parameters``).
-    """
-    params = params_from_table(sync)
+    fps: float | None
+    identify: IdentifyParams
+    preparation: Preparation
+    parameters: Mapping[str, float]
+
+
+def run_scan(files: StageFiles, params: ScanStageParams) -> StageResult:
+    """The scan stage: ``scan.json`` (ScanPlan.to_dict) of the camera's video."""
     camera = read_camera(files.path("camera"), name=files.camera)
-    prepared = prepare_trajectory(read_trajectory(files.path("trajectory")), params)
-    plan = scan_video(files.path("video"), camera, prepared, fps or camera.fps, params, parameters)
+    prepared = prepare_trajectory(read_trajectory(files.path("trajectory")), params.preparation)
+    plan = scan_video(files.path("video"), camera, prepared, params.fps or camera.fps, params.identify, dict(params.parameters))
     with files.write("scan") as tmp:
         tmp.write_text(json.dumps({"format": SCAN_FORMAT, **plan.to_dict()}, indent=1) + "\n", encoding="utf-8")
-    return {**plan.to_dict(), "windows": len(plan.windows), "message": f"{files.output('scan')}: {plan.summary()}"}
+    facts = {k: v for k, v in plan.to_dict().items() if k != "windows"}
+    return StageResult(f"{files.output('scan')}: {plan.summary()}", facts={**facts, "windows": len(plan.windows)})
+
+
+def scan_stage_params(project: Project, cam: str, options: Options) -> ScanStageParams:
+    camera = project.camera(cam)
+    return ScanStageParams(camera.fps, identify_params(project.sync), preparation_of(project.sync), camera.tracker.parameters)
+
+
+def scan_inputs(src: Sources, cam: str) -> dict[str, Path | Artefact]:
+    """The camera's video, its calibration and the trajectory."""
+    video = src.project.camera(cam).video
+    assert video is not None, "the stage applies to a camera with a video"
+    return {"video": video, "camera": src.artefact("camera", cam), "trajectory": src.artefact("trajectory")}
 
 
 SPEC = StageSpec(
     "scan",
-    inputs=lambda src, cam: {"video": src.project.camera(cam)["video"], "camera": src.artefact("camera", cam), "trajectory": src.artefact("trajectory")},
-    params=lambda project, cam, options: {
-        "fps": project.camera(cam)["fps"],
-        "sync": params_table(project.sync),
-        "parameters": project.camera(cam)["tracker"]["parameters"],
-    },
+    inputs=scan_inputs,
+    params=scan_stage_params,
     outputs=("scan",),
     run=run_scan,
     per_camera=True,
+    heavy=True,
     applies=scans,
 )

@@ -9,42 +9,36 @@ is tracked from its init box: ``track.csv``. ``track_camera`` is the pure part; 
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import warnings
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from tlsync_pipeline.atomic import atomic_path
-from tlsync_pipeline.errors import InputError
-from tlsync_pipeline.pipeline.spec import StageSpec
-from tlsync_pipeline.pipeline.stages.cameras import VIDEO_INFO_FORMAT, scans, tracks_every_mover
-from tlsync_pipeline.pipeline.workspace import StageFiles
+from tlsync_pipeline.pipeline.spec import Options, Sources, StageResult, StageSpec
+from tlsync_pipeline.pipeline.stages.cameras import VIDEO_INFO_FORMAT, scans
+from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
 from trackers.detections import Detections, write_detections
 from trackers.track import Track, write_track
 from trackers.tracking import detect_movers, track_video
 from trackers.video import DecodeCount, TruncatedVideoWarning, probe_video
 
+if TYPE_CHECKING:
+    from tlsync_pipeline.pipeline.project import Project, TrackerConfig
 
-def track_camera(spec: dict, progress: bool = True, plan: dict | None = None, count: DecodeCount | None = None) -> Track | Detections:
-    """Every mover (``tracks_every_mover``) or the target in the video of one camera table (``[[cameras]]`` with its ``[cameras.tracker]``).
+
+def track_camera(name: str, video: Path, tracker: TrackerConfig, progress: bool = True, plan: dict | None = None, count: DecodeCount | None = None) -> Track | Detections:
+    """Every mover (``tracker.every_mover``) or the target (CSRT from its init box) in one camera's video.
 
     plan: the scan stage's scan.json for every mover (None, or mode
     "full": every frame); count: filled with the frames decoded.
     """
-    if spec.get("video") is None:
-        raise InputError(f"camera {spec['name']!r}: no 'video' key: the track stage needs the camera's video file")
-    tracker = spec["tracker"]
-    if tracks_every_mover(spec):
-        windows = None if plan is None or plan["mode"] == "full" else [tuple(w) for w in plan["windows"]]
-        return detect_movers(spec["video"], params=tracker["parameters"], progress=progress, label=f"{spec['name']} ({Path(spec['video']).name})", windows=windows, count=count)
-    return track_video(
-        spec["video"],
-        kind=tracker["kind"],
-        init=tracker["init"],
-        init_frame=tracker["init_frame"],
-        params=tracker["parameters"],
-        progress=progress,
-        label=f"{spec['name']} ({Path(spec['video']).name})",
-    )
+    label = f"{name} ({video.name})"
+    if tracker.every_mover:
+        windows = None if plan is None or plan["mode"] == "full" else [(int(a), int(b)) for a, b in plan["windows"]]
+        return detect_movers(video, params=dict(tracker.parameters), progress=progress, label=label, windows=windows, count=count)
+    return track_video(video, kind=tracker.kind, init=tracker.init, init_frame=tracker.init_frame, params=dict(tracker.parameters), progress=progress, label=label)
 
 
 def write_track_atomic(track: Track, path: Path) -> None:
@@ -59,31 +53,32 @@ def write_detections_atomic(detections: Detections, path: Path) -> None:
         write_detections(detections, tmp)
 
 
-def run_track(files: StageFiles, tracker: dict) -> dict:
+def run_track(files: StageFiles, tracker: TrackerConfig) -> StageResult:
     """The track stage: ``detections.csv`` (every mover) or ``track.csv`` (one target) of one camera's video, and what the video holds, ``video.json``.
 
     A truncated video still gives a track (of the frames it holds); its
     warning is the stage's, and video.json says how many frames exist.
     """
     video = files.path("video")
-    plan = json.loads(files.path("scan").read_text(encoding="utf-8")) if files.has("scan") else None
+    plan = json.loads(files.path("scan").read_text(encoding="utf-8")) if files.has("scan") else None  # plain JSON: this stage's code does not import sync
     count = DecodeCount()
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", TruncatedVideoWarning)
-        result = track_camera({"name": files.camera, "video": video, "tracker": tracker}, progress=files.progress, plan=plan, count=count)
+        result = track_camera(files.camera_name, video, tracker, progress=files.progress, plan=plan, count=count)
     truncation = next((w.message for w in caught if isinstance(w.message, TruncatedVideoWarning)), None)
     for item in caught:
         warnings.warn_explicit(item.message, item.category, item.filename, item.lineno)
-    recorded = sorted({str(w.message) for w in caught if issubclass(w.category, TruncatedVideoWarning)})
+    recorded = tuple(sorted({str(w.message) for w in caught if issubclass(w.category, TruncatedVideoWarning)}))
     info = video_info(video, truncation)
     read = reading(plan, count, info["frames"], isinstance(result, Detections))
     with files.write("video_info") as tmp:
         tmp.write_text(json.dumps({**info, **read}, indent=1) + "\n", encoding="utf-8")
     if isinstance(result, Detections):
         write_detections_atomic(result, files.output("detections"))
-        return {"detections": len(result), "tracklets": int(len(result.tracklet_ids())), "warnings": recorded, **read, "message": f"wrote {files.output('detections')} ({len(result)} detections; {read_summary(read, info['frames'])})"}
+        facts = {"detections": len(result), "tracklets": int(len(result.tracklet_ids())), **read}
+        return StageResult(f"wrote {files.output('detections')} ({len(result)} detections; {read_summary(read, info['frames'])})", recorded, facts=facts)
     write_track_atomic(result, files.output("track"))
-    return {"tracked_frames": len(result), "warnings": recorded, "message": f"wrote {files.output('track')} ({len(result)} tracked frames)"}
+    return StageResult(f"wrote {files.output('track')} ({len(result)} tracked frames)", recorded, facts={"tracked_frames": len(result)})
 
 
 def reading(plan: dict | None, count: DecodeCount, frames: int, every_mover: bool) -> dict:
@@ -110,21 +105,17 @@ def video_info(video: Path, truncation: TruncatedVideoWarning | None) -> dict:
     return {"format": VIDEO_INFO_FORMAT, "video": str(video), "frames": frames, "announced": announced, "truncated": truncation is not None}
 
 
-def tracking_params(tracker: dict) -> dict:
-    """What the track stage's work depends on: the tracker table, without the init box for the blob kind (it seeds identify, not detection)."""
-    if tracker.get("kind", "blob") != "blob":
-        return tracker
-    return {k: v for k, v in tracker.items() if k not in ("init", "init_frame")}
+def tracking_params(project: Project, cam: str, options: Options) -> TrackerConfig:
+    """What the track stage's work depends on: the tracker table, without the init box for every mover (it seeds identify, not detection)."""
+    tracker = project.camera(cam).tracker
+    return dataclasses.replace(tracker, init=None, init_frame=0) if tracker.every_mover else tracker
 
 
-def _applies(project, cam: str) -> bool:
-    spec = project.camera(cam)
-    return spec["track"] is None and spec.get("video") is not None
-
-
-def track_inputs(src, cam) -> dict:
+def track_inputs(src: Sources, cam: str) -> dict[str, Path | Artefact]:
     """The camera's video, and the scan stage's windows when it has them."""
-    inputs = {"video": src.project.camera(cam)["video"]}
+    video = src.project.camera(cam).video
+    assert video is not None, "the stage applies to a camera with a video"
+    inputs: dict[str, Path | Artefact] = {"video": video}
     if scans(src.project, cam):
         inputs["scan"] = src.artefact("scan", cam)
     return inputs
@@ -133,9 +124,10 @@ def track_inputs(src, cam) -> dict:
 SPEC = StageSpec(
     "track",
     inputs=track_inputs,
-    params=lambda project, cam, options: {"tracker": tracking_params(project.camera(cam)["tracker"])},
+    params=tracking_params,
     outputs=("track", "detections", "video_info"),  # track.csv or detections.csv (every mover: track.csv then comes from identify), and video.json
     run=run_track,
     per_camera=True,
-    applies=_applies,
+    heavy=True,
+    applies=lambda project, cam: project.camera(cam).tracked,
 )

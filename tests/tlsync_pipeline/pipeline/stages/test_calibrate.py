@@ -17,7 +17,8 @@ from tlsync_pipeline.cli.main import main
 from tlsync_pipeline.geodesy import Origin, enu_to_geodetic, geodetic_to_enu
 from tlsync_pipeline.pipeline.origin import project_origin
 from tlsync_pipeline.pipeline.project import load_project
-from tlsync_pipeline.pipeline.stages.calibrate import calibrate_pose, known_intrinsics
+from tlsync_pipeline.pipeline.spec import Options
+from tlsync_pipeline.pipeline.stages.calibrate import calibrate_params, calibrate_pose, known_intrinsics
 
 ORIGIN = Origin(46.52, 6.57, 420.0)
 
@@ -32,9 +33,9 @@ def angle_deg(Ra, Rb) -> float:
 
 def calibrate_camera(proj, name):
     """A camera's pose from its known intrinsics and GCPs, as the calibrate stage computes it (no files written)."""
-    cal = proj.camera(name)["calibration"]
-    known = read_camera(cal["intrinsics"])
-    return calibrate_pose(name, cal, known, known_intrinsics(cal["intrinsics"]), project_origin(proj), proj.camera(name)["fps"], cal["gcp"], None)
+    cal = proj.camera(name).calibration
+    known = read_camera(cal.intrinsics)
+    return calibrate_pose(name, calibrate_params(proj, name, Options()), known, known_intrinsics(cal.intrinsics), project_origin(proj), cal.gcp, None)
 
 
 @pytest.fixture

@@ -165,7 +165,7 @@ def test_render_never_decodes_the_videos_through(rendered_project, monkeypatch):
 
 def test_pictures_prefer_tracked_keyframes_nearby():
     """A keyframe decodes alone: a band swap's or the movers picture's frame moves to a tracked keyframe close by, if any."""
-    from tlsync_pipeline.pipeline.stages.render import band_swap_frames
+    from tlsync_pipeline.outputs.camera_pictures import band_swap_frames
     from trackers.detections import make_detections
     from trackers.track import Track
 

@@ -6,7 +6,6 @@ from click.testing import CliRunner
 
 from data_fixtures.video import render_video
 from tlsync_pipeline.cli.main import main
-from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.pipeline.project import load_project
 from tlsync_pipeline.pipeline.stages.track import track_camera
 from trackers.detections import read_detections
@@ -80,8 +79,8 @@ def test_same_track_from_project_stage_and_standalone_command(tmp_path, video, t
     assert result.exit_code == 0, result.output
     assert staged.read_bytes() == out.read_bytes()
     spec = load_project(project).camera("cam0")
-    track = track_camera(spec, progress=False)
-    direct = track_video(video.path, kind=spec["tracker"]["kind"], init=spec["tracker"]["init"], init_frame=spec["tracker"]["init_frame"], progress=False)
+    track = track_camera(spec.name, spec.video, spec.tracker, progress=False)
+    direct = track_video(video.path, kind=spec.tracker.kind, init=spec.tracker.init, init_frame=spec.tracker.init_frame, progress=False)
     assert (track.frame == direct.frame).all() and (track.x == direct.x).all()
     assert len(read_track(staged)) > 40
 
@@ -145,12 +144,6 @@ def test_track_video_unreadable_file_exit_2(tmp_path):
     bad.write_text("hello")
     result = _run("track-video", bad, "--out", tmp_path / "t.csv", "--quiet")
     assert result.exit_code == 2 and f"error: {bad}: not a readable video file" in result.output
-
-
-def test_track_camera_needs_a_video(tmp_path, video):
-    spec = load_project(_project(tmp_path, video)).camera("cam0")
-    with pytest.raises(InputError, match="no 'video' key"):
-        track_camera({**spec, "video": None}, progress=False)
 
 
 def test_progress_shows_frames_and_rate_and_quiet_silences_it(tmp_path, video):

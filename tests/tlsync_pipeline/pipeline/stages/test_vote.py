@@ -41,7 +41,7 @@ def test_votes_npz_are_the_votes_sync_fits(tmp_path):
     save_votes(work / "cameras" / second / "votes.npz", Votes(np.zeros(0), np.zeros(0), np.zeros(0)), "no vote (test)")
     graph = build_graph(project, work)
     sync = graph.tasks["sync"]
-    run_sync(graph.workspace.files("sync", None, sync.inputs, sync.outputs), **sync.params)
+    run_sync(graph.workspace.files("sync", None, sync.inputs, sync.outputs), sync.params)
     again = json.loads((work / "timeline.json").read_text())
     assert again["failed"][second] == "no vote (test)"
     assert again["cameras"][first]["votes"] == int(half.sum()) < written["cameras"][first]["votes"]

@@ -1,0 +1,81 @@
+"""Exact cache keys: a project key makes stale exactly the stages that read it, and status says which key changed.
+
+The paper scene with cam1 bringing every mover (its target's rows and a
+walker's) instead of a track, so that identify runs too.
+"""
+
+import shutil
+
+import numpy as np
+import pytest
+
+from data_fixtures import make_scene, write_scene
+from tlsync_pipeline.pipeline.engine import run_graph, status
+from tlsync_pipeline.pipeline.graph import build_graph
+from tlsync_pipeline.pipeline.project import load_project
+from tlsync_pipeline.pipeline.spec import Options
+from trackers.detections import make_detections, write_detections
+
+
+def _graph(folder):
+    project = load_project(folder / "project.toml")
+    return build_graph(project, project.default_work_dir, Options(progress=False))
+
+
+@pytest.fixture(scope="module")
+def finished(tmp_path_factory):
+    """The project after a complete run."""
+    scene = make_scene(seed=0)
+    folder = tmp_path_factory.mktemp("keys")
+    write_scene(scene, folder)
+    track = scene.tracks["cam1"]
+    walker = np.column_stack([track.frame, track.x[::-1], track.y + 60.0])  # crosses the view, off the path
+    fps = scene.cameras["cam1"].fps
+    rows = [(f, f / fps, 1, x, y, 12.0, 12.0, 1.0) for f, x, y in zip(track.frame, track.x, track.y)]
+    rows += [(f, f / fps, 2, x, y, 12.0, 12.0, 1.0) for f, x, y in walker]
+    write_detections(make_detections(rows), folder / "cam1" / "detections.csv")
+    toml = folder / "project.toml"
+    toml.write_text(toml.read_text().replace('track = "cam1/track.csv"', 'detections = "cam1/detections.csv"'))
+    summary = run_graph(_graph(folder))
+    assert not summary.failed and {"identify/cam1", "vote/cam0", "vote/cam1", "sync", "render"} <= set(summary.ran)
+    return folder
+
+
+def _edited(finished, tmp_path, old, new):
+    folder = tmp_path / "copy"
+    shutil.copytree(finished, folder)
+    toml = folder / "project.toml"
+    assert old in toml.read_text()
+    toml.write_text(toml.read_text().replace(old, new, 1))
+    return folder
+
+
+def _stale_by_own_reasons(folder) -> dict[str, list[str]]:
+    """Tasks stale for a reason of their own (not only waiting for another), with those reasons."""
+    own = {row.id: [r for r in row.reasons if not r.startswith("waits for")] for row in status(_graph(folder)) if row.state == "stale"}
+    return {tid: reasons for tid, reasons in own.items() if reasons}
+
+
+@pytest.mark.parametrize(
+    "old, new, stale, named",
+    [
+        ("seed = 0\n", "seed = 0\nmodel_error_px = 7.0\n", {"sync"}, "model_error_px: 3.0 -> 7.0"),
+        ("eps_px = 10.0", "eps_px = 12.0", {"identify/cam1", "vote/cam0", "vote/cam1", "sync"}, "eps_px: 10.0 -> 12.0"),
+        ("seed = 0\n", "seed = 0\nr_min = 0.02\n", {"identify/cam1", "sync"}, "r_min: 0.01 -> 0.02"),
+        ("seed = 0\n", "seed = 0\nsmooth_trajectory = false\n", {"identify/cam1", "vote/cam0", "vote/cam1", "sync"}, "smooth_trajectory: True -> False"),
+        ('name = "cam0"\n', 'name = "cam0"\nproxy = "never"\n', {"render"}, "proxy.cam0: 'auto' -> 'never'"),
+    ],
+    ids=["model_error_px", "eps_px", "r_min", "smooth_trajectory", "proxy"],
+)
+def test_a_key_makes_stale_exactly_the_stages_that_read_it(finished, tmp_path, old, new, stale, named):
+    folder = _edited(finished, tmp_path, old, new)
+    found = _stale_by_own_reasons(folder)
+    assert set(found) == stale
+    assert all(any(named in reason for reason in reasons) for reasons in found.values()), found
+
+
+def test_a_key_only_the_intervals_read_reruns_sync_export_and_render_only(finished, tmp_path):
+    folder = _edited(finished, tmp_path, "seed = 0\n", "seed = 0\nmodel_error_px = 7.0\n")
+    summary = run_graph(_graph(folder))
+    assert sorted(summary.ran) == ["export", "render", "sync"]
+    assert {"identify/cam1", "vote/cam0", "vote/cam1"} <= set(summary.fresh)
