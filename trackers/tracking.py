@@ -109,24 +109,38 @@ def detect_movers(
     return make_detections(rows)
 
 
-def detect_keyframe_movers(path: str | Path, params: dict | None = None, count: DecodeCount | None = None, indices: Sequence[int] | None = None, first_id: int = 0) -> Detections:
+def detect_keyframe_movers(
+    path: str | Path,
+    params: dict | None = None,
+    count: DecodeCount | None = None,
+    indices: Sequence[int] | None = None,
+    first_id: int = 0,
+    detector: BlobDetector | None = None,
+) -> Detections:
     """Every moving-object candidate of every keyframe (or of those at frame ``indices``) of ``path`` (``iter_keyframes``): the coarse pass.
 
-    The same detector and background model as ``detect_movers``, fed the
-    keyframes only (each decoded alone). Keyframes are too far apart to link
-    movers over, so each candidate is a tracklet of its own (ids from
-    ``first_id`` on).
-    TrackInputError when the video has no packet index.
+    The same detector and background model as ``detect_movers`` (or
+    ``detector``, one ``movers_detector`` made for the video and kept across
+    calls), fed the keyframes only (each decoded alone). Keyframes are too
+    far apart to link movers over, so each candidate is a tracklet of its
+    own (ids from ``first_id`` on). TrackInputError when the video has no
+    packet index.
     """
     path = Path(path)
-    probe_video(path)
-    blob_params = movers_params(path, params)
-    detector = BlobDetector(*_background(path, blob_params))
+    if detector is None:
+        detector = movers_detector(path, params)
     rows: list[tuple] = []
     for index, time_s, gray in iter_keyframes(path, gray=True, count=count, indices=indices):
         for blob in detector.detect(gray):
             rows.append((index, time_s, first_id + len(rows), blob.x, blob.y, blob.w, blob.h, 1.0))
     return make_detections(rows)
+
+
+def movers_detector(path: str | Path, params: dict | None = None) -> BlobDetector:
+    """The blob detector of every-mover detection for ``path``: its background the median of frames sampled over the video."""
+    path = Path(path)
+    probe_video(path)
+    return BlobDetector(*_background(path, movers_params(path, params)))
 
 
 def movers_params(path: Path, params: dict | None) -> BlobParams:

@@ -172,10 +172,10 @@ def before_coarse(camera: Camera, trajectory: Trajectory, n_frames: int | None, 
 
 
 def coarse_stride(keyframes: np.ndarray, n_frames: int, fps: float | None, step_s: float) -> int:
-    """Read every k-th keyframe, k such that they are about ``step_s`` seconds apart (1: every keyframe; also without an fps)."""
+    """Read every k-th keyframe, the largest k that keeps them at most ``step_s`` seconds apart (1: every keyframe; also without an fps)."""
     if not fps:
         return 1
-    return max(1, int(round(step_s * fps / _keyframe_interval(keyframes, n_frames))))
+    return max(1, int(step_s * fps / _keyframe_interval(keyframes, n_frames)))
 
 
 def keyframe_range(trajectory: Trajectory, alpha: float, prior: OffsetPrior | None, n_frames: int, margin: float) -> tuple[int, int]:

@@ -82,8 +82,9 @@ def test_a_look_alike_on_the_path_at_another_time_makes_it_ambiguous(long_scene)
 
 
 def test_keyframes_read_about_so_many_seconds_apart():
-    assert coarse_stride(np.arange(0, 9000, 60), 9000, 50.0, 2.0) == 2  # every 1.2 s: every other one
-    assert coarse_stride(np.arange(0, 9000, 60), 9000, 25.0, 2.0) == 1
+    assert coarse_stride(np.arange(0, 9000, 60), 9000, 50.0, 2.0) == 1  # every 1.2 s: two would be 2.4 s apart
+    assert coarse_stride(np.arange(0, 9000, 60), 9000, 50.0, 4.0) == 3
+    assert coarse_stride(np.arange(0, 9000, 60), 9000, 25.0, 4.0) == 1  # every 2.4 s
     assert coarse_stride(np.arange(0, 9000, 15), 9000, 30.0, 2.0) == 4
     assert coarse_stride(np.arange(0, 9000, 60), 9000, 30.0, 4.0) == 2
     assert coarse_stride(np.arange(0, 9000, 15), 9000, None, 4.0) == 1
@@ -153,12 +154,13 @@ def test_the_keyframes_between_are_read_when_the_first_ones_cannot_decide(long_s
     movers = movers.subset(~hidden)
     calls = []
 
-    def detect(video, parameters, indices, first_id):
+    def detect(video, indices, first_id, detector):
         calls.append(list(indices))
         rows = movers.subset(np.isin(movers.frame, indices))
         return dataclasses.replace(rows, id=np.arange(first_id, first_id + len(rows)))
 
     monkeypatch.setattr(stage, "detect_keyframe_movers", detect)
+    monkeypatch.setattr(stage, "movers_detector", lambda video, parameters: None)
     monkeypatch.setattr(stage, "frame_count", lambda video: long_scene.n_frames[name])
     monkeypatch.setattr(stage, "keyframe_indices", lambda video: keys)
     monkeypatch.setattr(stage, "presentation_times", lambda video: None)

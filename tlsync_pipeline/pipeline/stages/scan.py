@@ -34,7 +34,7 @@ from tlsync_pipeline.sync.registry import preparation_of
 from tlsync_pipeline.sync.synchronize import identify_params, prepare_trajectory
 from tlsync_pipeline.trajectory import Trajectory, read_trajectory
 from trackers.detections import COLUMNS, Detections, make_detections
-from trackers.tracking import detect_keyframe_movers
+from trackers.tracking import detect_keyframe_movers, movers_detector
 from trackers.video import frame_count, keyframe_indices, presentation_times, probe_video
 
 if TYPE_CHECKING:
@@ -46,9 +46,10 @@ SCAN_FORMAT = "tlsync-scan"
 def scan_video(video: Path, camera: Camera, prepared: Trajectory, fps: float | None, params: IdentifyParams, parameters: dict | None = None) -> ScanPlan:
     """The scan of one video: every frame (with the reason) when the coarse pass would not pay, else its plan.
 
-    The coarse pass reads keyframes about COARSE_STEPS_S[0] apart, and the
-    ones between (about COARSE_STEPS_S[1] apart) only when those could not
-    decide (too few on the line, a competing line, no line).
+    The coarse pass reads keyframes at most COARSE_STEPS_S[0] apart, and
+    the ones between (at most COARSE_STEPS_S[1] apart) only when those could
+    not decide (too few on the line, a competing line, no line), with one
+    detector (one background model) for both.
 
     prepared: the trajectory as the sync method prepares it; parameters:
     the blob detector's by name.
@@ -58,6 +59,7 @@ def scan_video(video: Path, camera: Camera, prepared: Trajectory, fps: float | N
     if why is not None or n_frames is None or keys is None:
         return full_scan(n_frames if n_frames is not None else probe_video(video).n_frames, why or "no packet index")
     times = presentation_times(video)
+    detector = movers_detector(video, parameters)
     read = np.zeros(0, np.int64)
     found: list[Detections] = []
     plan = full_scan(n_frames, "no keyframe to read")
@@ -65,7 +67,7 @@ def scan_video(video: Path, camera: Camera, prepared: Trajectory, fps: float | N
         more = np.setdiff1d(keys[:: coarse_stride(keys, n_frames, fps, step)], read)
         if len(more) == 0:
             continue
-        found.append(detect_keyframe_movers(video, parameters, indices=more.tolist(), first_id=sum(len(f) for f in found)))
+        found.append(detect_keyframe_movers(video, indices=more.tolist(), first_id=sum(len(f) for f in found), detector=detector))
         read = np.union1d(read, more)
         movers = make_detections(np.concatenate([np.column_stack([getattr(f, c) for c in COLUMNS]) for f in found]))
         plan = plan_scan(camera, movers, prepared, fps, params, keys, n_frames, times, read=read)
