@@ -90,6 +90,6 @@ def test_each_stage_warning_is_in_the_report(reported, stage, camera, words):
 def test_warnings_come_in_pipeline_order(reported):
     items, _ = reported
     stages = [item.split(" ", 1)[0] for item in items]
-    order = ["calibrate", "track", "ingest", "vote", "sync", "export", "render"]
+    order = ["calibrate", "ingest", "scan", "track", "vote", "sync", "export", "render"]
     assert stages == sorted(stages, key=order.index)
     assert np.unique(stages).size >= 6
