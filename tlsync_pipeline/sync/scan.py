@@ -59,7 +59,7 @@ MIN_KEYFRAMES = 5  # keyframes on the coarse line below which it is not trusted
 AMBIGUOUS = 0.5  # a competing line with this share of the coarse line's keyframes (or more): ambiguous
 MIN_KEYFRAME_INTERVAL = 10  # frames between keyframes (median) below which reading keyframes costs about as much as every frame
 MAX_SHARE = 0.75  # windows (or the path's time in view) covering more of the video than this: every frame is read
-MARGIN_S = 1.0  # seconds around each window for the coarse line's error, beyond a keyframe interval
+MARGIN_S = 0.5  # seconds around each window for the coarse line's error, beyond a keyframe interval
 COARSE_STEPS_S = (4.0, 2.0)  # seconds between the keyframes the coarse pass reads, about: first, then when that cannot decide
 EDGE_SHARE = 0.05  # the image widened by this share of its size on each side: a target half in view is detected
 
@@ -172,10 +172,10 @@ def before_coarse(camera: Camera, trajectory: Trajectory, n_frames: int | None, 
 
 
 def coarse_stride(keyframes: np.ndarray, n_frames: int, fps: float | None, step_s: float) -> int:
-    """Read every k-th keyframe, the largest k that keeps them at most ``step_s`` seconds apart (1: every keyframe; also without an fps)."""
+    """Read every k-th keyframe, k such that they are about ``step_s`` seconds apart (1: every keyframe; also without an fps)."""
     if not fps:
         return 1
-    return max(1, int(step_s * fps / _keyframe_interval(keyframes, n_frames)))
+    return max(1, int(round(step_s * fps / _keyframe_interval(keyframes, n_frames))))
 
 
 def keyframe_range(trajectory: Trajectory, alpha: float, prior: OffsetPrior | None, n_frames: int, margin: float) -> tuple[int, int]:

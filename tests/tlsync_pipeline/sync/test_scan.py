@@ -82,9 +82,9 @@ def test_a_look_alike_on_the_path_at_another_time_makes_it_ambiguous(long_scene)
 
 
 def test_keyframes_read_about_so_many_seconds_apart():
-    assert coarse_stride(np.arange(0, 9000, 60), 9000, 50.0, 2.0) == 1  # every 1.2 s: two would be 2.4 s apart
+    assert coarse_stride(np.arange(0, 9000, 60), 9000, 50.0, 2.0) == 2  # every 1.2 s: every other one, 2.4 s apart
     assert coarse_stride(np.arange(0, 9000, 60), 9000, 50.0, 4.0) == 3
-    assert coarse_stride(np.arange(0, 9000, 60), 9000, 25.0, 4.0) == 1  # every 2.4 s
+    assert coarse_stride(np.arange(0, 9000, 60), 9000, 25.0, 4.0) == 2  # every 2.4 s: 4.8 s apart
     assert coarse_stride(np.arange(0, 9000, 15), 9000, 30.0, 2.0) == 4
     assert coarse_stride(np.arange(0, 9000, 60), 9000, 30.0, 4.0) == 2
     assert coarse_stride(np.arange(0, 9000, 15), 9000, None, 4.0) == 1

@@ -46,9 +46,9 @@ SCAN_FORMAT = "tlsync-scan"
 def scan_video(video: Path, camera: Camera, prepared: Trajectory, fps: float | None, params: IdentifyParams, parameters: dict | None = None) -> ScanPlan:
     """The scan of one video: every frame (with the reason) when the coarse pass would not pay, else its plan.
 
-    The coarse pass reads keyframes at most COARSE_STEPS_S[0] apart, and
-    the ones between (at most COARSE_STEPS_S[1] apart) only when those could
-    not decide (too few on the line, a competing line, no line), with one
+    The coarse pass reads keyframes about COARSE_STEPS_S[0] apart, and the
+    ones between (about COARSE_STEPS_S[1] apart) only when those could not
+    decide (too few on the line, a competing line, no line), with one
     detector (one background model) for both.
 
     prepared: the trajectory as the sync method prepares it; parameters:
