@@ -178,6 +178,12 @@ def coarse_stride(keyframes: np.ndarray, n_frames: int, fps: float | None, step_
     return max(1, int(round(step_s * fps / _keyframe_interval(keyframes, n_frames))))
 
 
+def prior_slope(fps: float | None, trajectory: Trajectory, params: IdentifyParams) -> float:
+    """The slope the frame rates give (camera frames per log sample; 1 without them), for placing the log in the video."""
+    prior = slope_prior(fps, trajectory.rate, params.rate_sigma)
+    return prior.alpha if prior is not None else (fps / trajectory.rate if fps and trajectory.rate else 1.0)
+
+
 def keyframe_range(trajectory: Trajectory, alpha: float, prior: OffsetPrior | None, n_frames: int, margin: float) -> tuple[int, int]:
     """Frames [start, stop) where the log can be seen under an offset prior (the whole video without one), widened by ``margin`` frames.
 

@@ -168,3 +168,30 @@ def test_the_keyframes_between_are_read_when_the_first_ones_cannot_decide(long_s
     plan = stage.scan_video("v.mp4", camera, long_scene.trajectory, camera.fps, P)
     assert calls[0] == keys[::4].tolist() and calls[1] == np.setdiff1d(keys[::2], keys[::4]).tolist()
     assert not plan.full and plan.keyframes_read == len(keys[::2])
+
+
+def test_a_camera_clock_prior_reads_only_the_keyframes_near_the_log(long_scene, monkeypatch):
+    """With an offset prior, the keyframes read are those where the log can be seen (its span, the tolerance, a margin)."""
+    from tlsync_pipeline.pipeline.stages import scan as stage
+
+    name = "cam1"
+    movers, keys = _keyframe_movers(long_scene, name)
+    calls = []
+
+    def detect(video, indices, first_id, detector):
+        calls.extend(indices)
+        rows = movers.subset(np.isin(movers.frame, indices))
+        return dataclasses.replace(rows, id=np.arange(first_id, first_id + len(rows)))
+
+    monkeypatch.setattr(stage, "detect_keyframe_movers", detect)
+    monkeypatch.setattr(stage, "movers_detector", lambda video, parameters: None)
+    monkeypatch.setattr(stage, "frame_count", lambda video: long_scene.n_frames[name])
+    monkeypatch.setattr(stage, "keyframe_indices", lambda video: keys)
+    monkeypatch.setattr(stage, "presentation_times", lambda video: None)
+    camera, truth = long_scene.cameras[name], long_scene.lines[name]
+    prior = OffsetPrior(truth.beta + 40, 150.0)
+    plan = stage.scan_video("v.mp4", camera, long_scene.trajectory, camera.fps, P, prior=prior)
+    lo, hi = keyframe_range(long_scene.trajectory, truth.alpha, prior, long_scene.n_frames[name], 0.5 * camera.fps + 1)
+    assert calls and min(calls) >= lo and max(calls) < hi
+    assert (keys < lo).sum() + (keys >= hi).sum() >= 10  # keyframes the prior kept from being read
+    assert not plan.full and abs(plan.coarse.beta - truth.beta) < 2 * truth.alpha

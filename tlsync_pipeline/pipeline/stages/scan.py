@@ -29,7 +29,7 @@ from tlsync_pipeline.pipeline.stages.cameras import scans
 from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
 from tlsync_pipeline.sync.identify import IdentifyParams
 from tlsync_pipeline.sync.params import Preparation
-from tlsync_pipeline.sync.scan import COARSE_STEPS_S, ScanPlan, before_coarse, coarse_stride, full_scan, plan_scan
+from tlsync_pipeline.sync.scan import COARSE_STEPS_S, OffsetPrior, ScanPlan, before_coarse, coarse_stride, full_scan, keyframe_range, margin_frames, plan_scan, prior_slope
 from tlsync_pipeline.sync.registry import preparation_of
 from tlsync_pipeline.sync.synchronize import identify_params, prepare_trajectory
 from tlsync_pipeline.trajectory import Trajectory, read_trajectory
@@ -43,7 +43,9 @@ if TYPE_CHECKING:
 SCAN_FORMAT = "tlsync-scan"
 
 
-def scan_video(video: Path, camera: Camera, prepared: Trajectory, fps: float | None, params: IdentifyParams, parameters: dict | None = None) -> ScanPlan:
+def scan_video(
+    video: Path, camera: Camera, prepared: Trajectory, fps: float | None, params: IdentifyParams, parameters: dict | None = None, prior: OffsetPrior | None = None
+) -> ScanPlan:
     """The scan of one video: every frame (with the reason) when the coarse pass would not pay, else its plan.
 
     The coarse pass reads keyframes about COARSE_STEPS_S[0] apart, and the
@@ -52,7 +54,9 @@ def scan_video(video: Path, camera: Camera, prepared: Trajectory, fps: float | N
     detector (one background model) for both.
 
     prepared: the trajectory as the sync method prepares it; parameters:
-    the blob detector's by name.
+    the blob detector's by name; prior: what the camera's clock says about
+    its offset (the keyframes read are those where the log can be seen,
+    ``keyframe_range``); None: every keyframe may show the target.
     """
     n_frames, keys = frame_count(video), keyframe_indices(video)
     why = before_coarse(camera, prepared, n_frames, keys, fps, params)
@@ -63,14 +67,18 @@ def scan_video(video: Path, camera: Camera, prepared: Trajectory, fps: float | N
     read = np.zeros(0, np.int64)
     found: list[Detections] = []
     plan = full_scan(n_frames, "no keyframe to read")
+    candidates = keys
+    if prior is not None:
+        lo, hi = keyframe_range(prepared, prior_slope(fps, prepared, params), prior, n_frames, margin_frames(fps, 0.0))
+        candidates = keys[(keys >= lo) & (keys < hi)]
     for step in COARSE_STEPS_S:  # about 4 s apart; 2 s where those cannot decide
-        more = np.setdiff1d(keys[:: coarse_stride(keys, n_frames, fps, step)], read)
+        more = np.setdiff1d(candidates[:: coarse_stride(keys, n_frames, fps, step)], read)
         if len(more) == 0:
             continue
         found.append(detect_keyframe_movers(video, indices=more.tolist(), first_id=sum(len(f) for f in found), detector=detector))
         read = np.union1d(read, more)
         movers = make_detections(np.concatenate([np.column_stack([getattr(f, c) for c in COLUMNS]) for f in found]))
-        plan = plan_scan(camera, movers, prepared, fps, params, keys, n_frames, times, read=read)
+        plan = plan_scan(camera, movers, prepared, fps, params, keys, n_frames, times, prior, read=read)
         if not plan.undecided:
             break
     return plan
