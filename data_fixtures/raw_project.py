@@ -28,11 +28,10 @@ SQUARE_M = 0.04
 
 @dataclass(frozen=True)
 class RawProjectSpec:
-    """What to generate: lines (alpha, beta) per camera, frames per camera, image size, target rate (Hz).
-
-    window_samples: longest stay of the target in each camera's zone (samples;
-    None: its whole share, see data_fixtures.scene.make_scene).
-    """
+    """What to generate: lines (alpha, beta) per camera, frames per camera, image size, target rate (Hz);
+    recorded_zone_s: the videos carry the recording time a phone writes (its true start, whole seconds, in
+    this time zone: local - UTC, s), None for none; window_samples: longest stay of the target in each
+    camera's zone (samples; None: its whole share, see data_fixtures.scene.make_scene)."""
 
     lines: tuple[tuple[float, float], ...] = ((3.0, 300.0), (2.5, -150.0), (1.5, 200.0))
     n_frames: tuple[int, ...] = (900, 750, 450)
@@ -42,6 +41,7 @@ class RawProjectSpec:
     gcps: int = 8
     seed: int = 0
     window_samples: float | None = None
+    recorded_zone_s: float | None = 7200.0
 
 
 # Small and quick, for tests: 30, 25 and 15 fps, shifts of hundreds of frames, 320x240.
@@ -58,7 +58,7 @@ def make_raw_project(directory: str | Path, spec: RawProjectSpec = RawProjectSpe
     """
     from data_fixtures.checkerboard import render_checkerboards, write_checkerboards
     from data_fixtures.gps_logs import write_gpx_log
-    from data_fixtures.video import render_camera_video
+    from data_fixtures.video import render_camera_video, tag_recording_time
 
     say = progress or (lambda message: None)
     render = render or render_camera_video
@@ -79,6 +79,8 @@ def make_raw_project(directory: str | Path, spec: RawProjectSpec = RawProjectSpe
         positions = [where.get(f) for f in range(scene.n_frames[name])]
         folder.mkdir(exist_ok=True)
         render(camera, positions, camera.fps, folder / "video.mp4", seed=spec.seed + k)
+        if spec.recorded_zone_s is not None:
+            tag_recording_time(folder / "video.mp4", recording_utc(scene, name), spec.recorded_zone_s)
         say(f"{name}: checkerboard photos and GCPs")
         boards = render_checkerboards(
             seed=spec.seed + 10 + k, n_full=spec.boards, n_cut=1, n_absent=1, image_size=camera.image_size, pattern=PATTERN, square=SQUARE_M, K=camera.K, dist=camera.dist
@@ -94,6 +96,13 @@ def make_raw_project(directory: str | Path, spec: RawProjectSpec = RawProjectSpe
     project.write_text("\n".join(parts), encoding="utf-8")
     write_truth(scene, directory)
     return project, scene
+
+
+def recording_utc(scene: Scene, name: str) -> float:
+    """POSIX seconds of the camera's frame 0 (its true line: frame = alpha * sample + beta; sample 0 at START_UTC)."""
+    line, rate = scene.lines[name], scene.true_trajectory.rate
+    assert rate is not None, "a scene's trajectory has a rate"
+    return START_UTC + (-line.beta / line.alpha) / rate
 
 
 def _write_gcps(path: Path, camera, scene: Scene, name: str, count: int, rng) -> None:

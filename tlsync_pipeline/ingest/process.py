@@ -126,6 +126,8 @@ class IngestReport:
     altitude: dict = field(default_factory=dict)  # {"reference", "source" (log/declared), "offset_m"}
     quality: dict = field(default_factory=dict)  # column -> {"min", "median", "max"} over the fixes used
     sigma_m: dict | None = None  # {"median", "p95", "max"} of the per-fix sigmas used as weights
+    notes: list[str] = field(default_factory=list)  # how the reader read the file where it chose (time base, sub-seconds, lat/lon order)
+    video_time_zero: float | None = None  # logs in or beside a video: the log's time (t0's clock, s) at the video's time 0
 
     def to_dict(self) -> dict:
         out = asdict(self)
@@ -154,6 +156,7 @@ class IngestReport:
             a = self.altitude
             offset = f", offset {a['offset_m']:+.3f} m" if a["offset_m"] else ""
             lines.append(f"heights: above {ALTITUDE_NAMES[a['reference']]} (as the {a['source']} says{offset})")
+        lines += [f"read: {note}" for note in self.notes]
         if self.sigma_m:
             lines.append(f"sigma: median {self.sigma_m['median']:.3f} m, 95% {self.sigma_m['p95']:.3f} m (weights for the refinement)")
         if self.gaps:
@@ -245,6 +248,8 @@ def ingest(records: LogRecords, params: IngestParams = IngestParams()) -> tuple[
         altitude=altitude if records.frame == GEODETIC else {},
         quality={name: _stats(column[fixes.index]) for name, column in records.quality.items() if np.isfinite(column[fixes.index]).any()},
         sigma_m=None if fixes.sigma is None or trajectory.sigma is None else _sigma_summary(fixes.sigma),
+        notes=list(records.notes),
+        video_time_zero=records.video_time_zero,
     )
     return trajectory, report
 

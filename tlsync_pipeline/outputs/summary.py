@@ -31,25 +31,25 @@ def format_table(timeline: Timeline) -> str:
     if first:
         text += f"\nstart: when the camera's frame 0 was taken, in frames and seconds of {first} (positive: later than {first}'s frame 0)"
     if with_se:
-        text += "\n±: 95 % intervals (1.96 standard errors); flags: few_inliers, ambiguous (a second line with comparable support), along_ray (motion mostly along the viewing ray), fallback (see warnings in timeline.json), truncated (the video ends before its announced end; only the frames it holds are mapped)"
+        text += "\n±: 95 % intervals (1.96 standard errors); flags: few_inliers, ambiguous (a second line with comparable support), along_ray (motion mostly along the viewing ray), fallback (see the sync stage's warnings), truncated (the video ends before its announced end; only the frames it holds are mapped), clock_disagrees (the offset disagrees with the camera's own clock by more than its tolerance: see clock_prior in timeline.json)"
     vfr = [name for name, line in timeline.cameras.items() if line.clock.vfr]
     if vfr:
         text += f"\nvariable frame rate: {', '.join(vfr)}: starts in frames are approximate; exports/frame_map.csv maps frames exactly"
-    for name, line in timeline.cameras.items():
-        for warning in line.warnings or ():
-            text += f"\nwarning: {name}: {warning}"
     for name, why in timeline.failed.items():
         text += f"\nnot synchronized: {name}: {why}"
     return text
 
 
 def format_truth_comparison(timeline: Timeline, truth: dict[str, Relation], n_frames: dict[str, int]) -> tuple[str, dict[str, float]]:
-    """Recovered against true pairwise relations, with eps_t per pair (frames of B)."""
+    """Recovered against true pairwise relations, with eps_t per pair (frames of B); a pair with a camera that was
+    not synchronized is a row that says so (no eps_t)."""
     rows = [("pair", "alpha", "true alpha", "beta", "true beta", "eps_t (frames)")]
     errors = {}
     for key, true in truth.items():
         a, b = key.split("->")
-        if a not in timeline.cameras or b not in timeline.cameras:
+        missing = [name for name in (a, b) if name not in timeline.cameras]
+        if missing:
+            rows.append((key, "-", f"{true.alpha:.5f}", "-", f"{true.beta:.2f}", f"failed: {', '.join(missing)} not synchronized"))
             continue
         estimated = timeline.relation(a, b)
         frames_a = n_frames.get(a) or 1

@@ -1,6 +1,6 @@
 """The tasks a project makes of the stage specs.
 
-intrinsics -> calibrate -> ingest -> scan -> track -> identify -> vote -> sync -> export -> render.
+intrinsics -> calibrate -> clock -> ingest -> scan -> track -> identify -> vote -> sync -> export -> render.
 A task is one stage for one camera (or the project). Everything about it
 comes from its stage's SPEC (pipeline/spec.py): the files it reads (hashed
 for its cache key), its parameters, the artefacts it writes, and the function
@@ -27,6 +27,7 @@ from tlsync_pipeline.pipeline.project import Project
 from tlsync_pipeline.pipeline.spec import Options, StageSpec
 from tlsync_pipeline.pipeline.stages import (
     calibrate,
+    clock,
     export,
     identify,
     ingest,
@@ -43,7 +44,7 @@ from trackers.detections import read_detections
 from trackers.track import read_track
 
 STAGE_SPECS: dict[str, StageSpec] = {
-    s.name: s for s in (intrinsics.SPEC, calibrate.SPEC, ingest.SPEC, scan.SPEC, track.SPEC, identify.SPEC, vote.SPEC, sync.SPEC, export.SPEC, render.SPEC)
+    s.name: s for s in (intrinsics.SPEC, calibrate.SPEC, clock.SPEC, ingest.SPEC, scan.SPEC, track.SPEC, identify.SPEC, vote.SPEC, sync.SPEC, export.SPEC, render.SPEC)
 }
 STAGES = tuple(STAGE_SPECS)
 PER_CAMERA = tuple(name for name, spec in STAGE_SPECS.items() if spec.per_camera)

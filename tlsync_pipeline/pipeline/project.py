@@ -36,6 +36,7 @@ from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.geodesy import Origin
 from tlsync_pipeline.ingest import ALTITUDE_REFERENCES, FORMATS
 from tlsync_pipeline.ingest.process import IngestParams, RigidTransform
+from tlsync_pipeline.ingest.recording_time import parse_utc, parse_utc_offset
 from tlsync_pipeline.outputs.proxy import POLICIES as PROXY_POLICIES
 from tlsync_pipeline.sync.params import SyncParams, parameter_fields
 from tlsync_pipeline.sync.registry import METHODS, params_from_table
@@ -44,6 +45,7 @@ from trackers.tracking import KINDS as TRACKER_KINDS
 from trackers.tracking import track_video
 
 WORK_DIR_NAME = "work"
+PROJECT_FILE_NAME = "project.toml"  # what a folder given as the project holds
 
 Converter = Callable[[Any, Path], Any]
 Config = TypeVar("Config")
@@ -245,6 +247,20 @@ def _board_pose(value: Any, root: Path) -> BoardPose:
     return BoardPose(_path(value["image"], root), R, t)
 
 
+def _utc_offset(value: Any, root: Path) -> float:
+    """Local time - UTC in seconds, from hours (2, -3.5) or "+02:00" / "-0330" / "Z"."""
+    return parse_utc_offset(value)
+
+
+def _recorded(value: Any, root: Path) -> str:
+    """"metadata", "off", or an ISO 8601 time with its zone (kept as written)."""
+    if value in ("metadata", "off"):
+        return value
+    if not isinstance(value, str) or parse_utc(value) is None:
+        raise ValueError(f'expected "metadata", "off" or an ISO 8601 time with its zone (e.g. "2026-03-01T13:00:05+01:00"), got {value!r}')
+    return value
+
+
 def _rigid_transform(value: Any, root: Path) -> RigidTransform:
     if not isinstance(value, dict) or not set(value) <= {"R", "yaw_deg", "t"} or ("R" in value and "yaw_deg" in value):
         raise ValueError(f"expected {{R = 3x3 rotation or yaw_deg = degrees, t = [x, y, z] metres}}, got {value!r}")
@@ -280,6 +296,7 @@ class TargetConfig:
     odometry_transform: RigidTransform | None = key(_rigid_transform, IngestParams.transform)
     altitude_reference: str | None = key(_choice(*ALTITUDE_REFERENCES, what="altitude reference"), IngestParams.altitude_reference)
     altitude_offset_m: float = key(_finite, IngestParams.altitude_offset_m)
+    utc_offset: float | None = key(_utc_offset)  # s: local - UTC of a log whose clock is local (DJI SRT, the DJI app's CSV)
 
     def ingest_params(self, origin: Origin | str) -> IngestParams:
         """The ingest's parameters, with the ENU origin resolved (pipeline/origin.py)."""
@@ -343,6 +360,23 @@ class CalibrationConfig:
 
 
 @dataclass(frozen=True)
+class ClockConfig:
+    """[cameras.clock]: the camera's own clock as a check on its offset (docs/algorithm.md, docs/ingest.md).
+
+    recorded: "metadata" (the video's trusted recording time: GoPro GPS, a DJI
+    subtitle file on UTC, a phone's QuickTime creationdate), "off", or the UTC
+    of the video's time 0 as an ISO 8601 time with its zone; tolerance_s: how
+    far that may be off (s; None: the source's own), which also lets an
+    untrusted source (MP4 creation_time) be used; utc_offset: local - UTC (s)
+    of a DJI subtitle file beside the video.
+    """
+
+    recorded: str = key(_recorded, "metadata")
+    tolerance_s: float | None = key(_positive)
+    utc_offset: float | None = key(_utc_offset)
+
+
+@dataclass(frozen=True)
 class CameraConfig:
     """One [[cameras]] table: the files the camera brings (absolute paths) and how to make the others."""
 
@@ -355,6 +389,7 @@ class CameraConfig:
     proxy: str = key(_choice(*PROXY_POLICIES, what="proxy policy"), PROXY_POLICIES[0])
     tracker: TrackerConfig = table(TrackerConfig)
     calibration: CalibrationConfig = table(CalibrationConfig)
+    clock: ClockConfig = table(ClockConfig)
 
     @property
     def tracked(self) -> bool:
@@ -431,15 +466,25 @@ def sync_keys() -> dict[str, Converter]:
     return keys
 
 
+def project_file(path: str | Path) -> Path:
+    """``path`` itself, or for a folder the project.toml it holds; InputError naming what the folder holds otherwise."""
+    path = Path(path)
+    if not path.is_dir():
+        return path
+    if (path / PROJECT_FILE_NAME).is_file():
+        return path / PROJECT_FILE_NAME
+    others = sorted(p.name for p in path.glob("*.toml") if p.is_file())
+    hint = f"give the project file, e.g. {path / others[0]}" if others else "give the project file, or the folder that holds it"
+    raise InputError(f"{path}: no {PROJECT_FILE_NAME} in this folder; {hint}")
+
+
 def load_project(path: str | Path) -> Project:
-    """Read and validate a project file; InputError naming the file, the table and the key otherwise."""
-    path = Path(path).resolve()
+    """Read and validate a project file (or the project.toml of a folder); InputError naming the file, the table and the key otherwise."""
+    path = project_file(path).resolve()
     try:
         raw = tomllib.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:
         raise InputError(f"{path}: file not found") from None
-    except IsADirectoryError:
-        raise InputError(f"{path}: is a folder; give the project file (project.toml) in it") from None
     except (OSError, UnicodeDecodeError) as exc:
         raise InputError(f"{path}: cannot read: {exc}") from None
     except tomllib.TOMLDecodeError as exc:

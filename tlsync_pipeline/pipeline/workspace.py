@@ -5,6 +5,7 @@ Layout (relative to the work folder; docs/pipeline.md lists it for users):
     cameras/<cam>/intrinsics.json, intrinsics_report.json          intrinsics
     cameras/<cam>/camera.json, calibration_report.json, calibration.png   calibrate
     cameras/<cam>/track.csv, cameras/<cam>/video.json               track
+    cameras/<cam>/clock.json                                        clock
     cameras/<cam>/votes.npz                                         vote
     target/trajectory.csv, target/ingest_report.json                ingest
     timeline.json                                                   sync
@@ -49,6 +50,7 @@ ARTEFACTS: dict[str, str] = {
     "scan": "cameras/{camera}/scan.json",
     "identification": "cameras/{camera}/identification.json",
     "video_info": "cameras/{camera}/video.json",
+    "clock": "cameras/{camera}/clock.json",
     "votes": "cameras/{camera}/votes.npz",
     "trajectory": "target/trajectory.csv",
     "ingest_report": "target/ingest_report.json",
@@ -161,7 +163,7 @@ class StageFiles:
     guarded: tuple[Path, ...]  # folders whose files must be declared to be opened (work, project)
     progress: bool = True
     cores: int = 1
-    history: list[StageRun] = field(default_factory=list)  # earlier runs' records (stage, camera, created, seconds, warnings), for the report
+    history: list[StageRun] = field(default_factory=list)  # the needed tasks' last runs, in pipeline order
     workers: Any = field(default=None, repr=False, compare=False)
 
     @property

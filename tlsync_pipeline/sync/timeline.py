@@ -21,6 +21,7 @@ import numpy as np
 
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.sync.clock import FRAME, CameraClock, FrameTimes
+from tlsync_pipeline.sync.clock_prior import ClockCheck
 
 FORMAT_VERSION = 1
 
@@ -145,6 +146,7 @@ class CameraLine:
     clock: CameraClock = CameraClock()
     identification: IdentificationSummary | None = None
     scan: ScanSummary | None = None
+    clock_check: ClockCheck | None = None
 
     def __post_init__(self):
         if not self.clock.vfr and self.clock.fps is None and self.fps is not None:
@@ -175,6 +177,8 @@ class CameraLine:
         for key in ("line_search", "refinement", "identification", "scan"):
             if getattr(self, key) is not None:
                 entry[key] = asdict(getattr(self, key))
+        if self.clock_check is not None:
+            entry["clock_prior"] = self.clock_check.to_dict()
         if self.clock.vfr:
             entry.update(
                 clock=self.clock.kind,
@@ -199,14 +203,31 @@ class CameraLine:
             "refinement": None if entry.get("refinement") is None else RefinementSummary(**entry["refinement"]),
             "identification": None if entry.get("identification") is None else IdentificationSummary.from_dict(entry["identification"]),
             "scan": None if entry.get("scan") is None else ScanSummary(**entry["scan"]),
+            "clock_check": None if entry.get("clock_prior") is None else ClockCheck.from_dict(entry["clock_prior"]),
         }
         base = {k: entry[k] for k in ("alpha", "beta", "votes", "inliers", "residual_rms")}
         return cls(name, fps=entry.get("fps"), clock=clock, **base, **optional)
 
 
 @dataclass(frozen=True)
+class StageWarning:
+    """One warning of a run: the stage that raised it, the camera of its task (None: a project-wide stage) and the text."""
+
+    stage: str
+    camera: str | None
+    text: str
+
+    def to_dict(self) -> dict:
+        return {"stage": self.stage, "camera": self.camera, "text": self.text}
+
+
+@dataclass(frozen=True)
 class Timeline:
-    """All cameras' lines on one target grid (rate in samples/s, t0 in s)."""
+    """All cameras' lines on one target grid (rate in samples/s, t0 in s).
+
+    warnings: those of the run's stages that made its inputs, then the sync
+    stage's own, in pipeline order (the same list report.html shows).
+    """
 
     cameras: dict[str, CameraLine]
     target_rate: float | None = None
@@ -214,6 +235,7 @@ class Timeline:
     method: str = "paper"
     params: dict = field(default_factory=dict)
     failed: dict[str, str] = field(default_factory=dict)
+    warnings: tuple[StageWarning, ...] = ()
 
     @property
     def names(self) -> list[str]:
@@ -343,6 +365,7 @@ class Timeline:
             "reference": first,
             "cameras": cameras,
             "failed": self.failed,
+            "warnings": [w.to_dict() for w in self.warnings],
             "line": self.line(),
             "pairs": pairs,
         }
@@ -366,9 +389,8 @@ def read_timeline(path: str | Path) -> Timeline:
         data = json.loads(path.read_text(encoding="utf-8"))
         cameras = {name: CameraLine.from_dict(name, c) for name, c in data["cameras"].items()}
         target = data.get("target", {})
-        return Timeline(
-            cameras, target.get("rate"), target.get("t0"), data.get("method", "paper"), data.get("params", {}), data.get("failed", {})
-        )
+        warnings = tuple(StageWarning(w["stage"], w.get("camera"), w["text"]) for w in data.get("warnings", []))
+        return Timeline(cameras, target.get("rate"), target.get("t0"), data.get("method", "paper"), data.get("params", {}), data.get("failed", {}), warnings)
     except FileNotFoundError:
         raise InputError(f"{path}: file not found") from None
     except json.JSONDecodeError as exc:

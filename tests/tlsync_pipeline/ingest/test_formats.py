@@ -277,7 +277,7 @@ def test_format_choices_come_from_the_registry(tmp_path, truth):
     assert result.exit_code == 0, result.output
     assert out.read_text().splitlines()[0] == "t,x,y,z,sigma"
     wrong = CliRunner().invoke(main, ["ingest-log", str(log), "--format", "ulog", "--out", str(out)])
-    assert wrong.exit_code == 2 and str(log) in wrong.output and "ULog" in wrong.output
+    assert wrong.exit_code == 2 and "sol.txt" in wrong.output and "ULog" in wrong.output
 
 
 def test_rtklib_real_solution_fix_and_float():
@@ -304,7 +304,7 @@ def test_fit_device_clock_through_timestamp_correlation(tmp_path):
     t, geo = log_fixes(walk, ORIGIN, power_on + 100.0)
     records = read_log(write_fit_device_clock(tmp_path / "camera.fit", t, geo, power_on))
     assert records.format == "fit" and records.utc and not records.warnings[1:]
-    assert any("timestamp_correlation" in w for w in records.warnings)
+    assert any("timestamp_correlation" in n for n in records.notes)
     np.testing.assert_allclose(records.t, t, atol=1e-3)  # the correlation's fraction reaches the whole-second device times
     enu = geodetic_to_enu(geo[:, 0], geo[:, 1], geo[:, 2], ORIGIN)
     got = _enu(records, UNDULATION_M)

@@ -16,7 +16,7 @@ from tlsync_pipeline.sync.timeline import IdentificationSummary
 if TYPE_CHECKING:
     from tlsync_pipeline.pipeline.project import Project
 
-CAMERA_FILES = ("camera", "track", "votes", "video", "identification", "detections", "video_info", "scan")
+CAMERA_FILES = ("camera", "track", "votes", "video", "identification", "detections", "video_info", "scan", "clock")
 VIDEO_INFO_FORMAT = "tlsync-video"  # video.json, written by the track stage
 
 
@@ -33,6 +33,7 @@ class CameraFiles:
     detections: Path | None = None
     video_info: Path | None = None
     scan: Path | None = None
+    clock: Path | None = None
     fps: float | None = None
 
 
