@@ -36,7 +36,8 @@ class RawProjectSpec:
     """What to generate: lines (alpha, beta) per camera, frames per camera, image size, target rate (Hz), checkerboard
     photos and GCPs per camera (0: no GCP file), the GCPs' survey error (metres per horizontal axis), seed;
     recorded_zone_s: the videos carry the recording time a phone writes (its true start, whole seconds, in
-    this time zone: local - UTC, s), None for none."""
+    this time zone: local - UTC, s), None for none; window_samples: longest stay of the target in each
+    camera's zone (samples; None: its whole share, see data_fixtures.scene.make_scene)."""
 
     lines: tuple[tuple[float, float], ...] = ((3.0, 300.0), (2.5, -150.0), (1.5, 200.0))
     n_frames: tuple[int, ...] = (900, 750, 450)
@@ -46,6 +47,7 @@ class RawProjectSpec:
     gcps: int = 8
     seed: int = 0
     gcp_noise_m: float = 0.0
+    window_samples: float | None = None
     recorded_zone_s: float | None = 7200.0
 
 
@@ -69,7 +71,7 @@ def make_raw_project(directory: str | Path, spec: RawProjectSpec = RawProjectSpe
     render = render or render_camera_video
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
-    scene = make_scene(spec.seed, spec.lines, spec.n_frames, target_rate=spec.target_rate, image_size=spec.image_size)
+    scene = make_scene(spec.seed, spec.lines, spec.n_frames, target_rate=spec.target_rate, image_size=spec.image_size, window_samples=spec.window_samples)
     rng = np.random.default_rng(spec.seed + 1)
     write_gpx_log(directory / "target.gpx", scene.true_trajectory, ORIGIN, START_UTC)
     parts = [

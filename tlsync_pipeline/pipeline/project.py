@@ -41,6 +41,7 @@ from tlsync_pipeline.outputs.proxy import POLICIES as PROXY_POLICIES
 from tlsync_pipeline.sync.params import SyncParams, parameter_fields
 from tlsync_pipeline.sync.pose import GCP_SIGMA_M
 from tlsync_pipeline.sync.registry import METHODS, params_from_table
+from tlsync_pipeline.sync.scan import SCAN_MODES
 from trackers.tracking import KINDS as TRACKER_KINDS
 from trackers.tracking import track_video
 
@@ -416,14 +417,28 @@ class CameraConfig:
 
 
 @dataclass(frozen=True)
+class TrackConfig:
+    """[track]: how the track stage reads every camera's video (docs/tracking.md).
+
+    scan: "auto" (a coarse pass over the keyframes of each camera whose every
+    mover is detected in its video; every frame is then read only in the
+    windows where it puts the target in view, sync/scan.py) or "full"
+    (every frame of every video).
+    """
+
+    scan: str = key(_choice(*SCAN_MODES, what="scan mode"), SCAN_MODES[0])
+
+
+@dataclass(frozen=True)
 class Project:
-    """A validated project: its file, [target], the cameras in file order (the first is the reference), [sync], [calibration]."""
+    """A validated project: its file, [target], the cameras in file order (the first is the reference), [sync], [calibration], [track]."""
 
     path: Path
     target: TargetConfig
     cameras: tuple[CameraConfig, ...]
     sync: SyncParams
     calibration: ProjectCalibration = field(default_factory=ProjectCalibration)
+    track: TrackConfig = field(default_factory=TrackConfig)
 
     @property
     def root(self) -> Path:
@@ -489,7 +504,7 @@ def load_project(path: str | Path) -> Project:
         raise InputError(f"{path}: cannot read: {exc}") from None
     except tomllib.TOMLDecodeError as exc:
         raise InputError(f"{path}: invalid TOML: {exc}") from None
-    _check_keys(raw, ["target", "cameras", "sync", "calibration"], path, "top level")
+    _check_keys(raw, ["target", "cameras", "track", "sync", "calibration"], path, "top level")
     target = parse_config(TargetConfig, raw.get("target", {}), path, "target")
     items = raw.get("cameras", [])
     if not isinstance(items, list):
@@ -499,7 +514,8 @@ def load_project(path: str | Path) -> Project:
         raise InputError(f"{path}: no [[cameras]] table; a project needs at least one camera")
     _check_unique_names(cameras, path)
     calibration = parse_config(ProjectCalibration, raw.get("calibration", {}), path, "calibration")
-    return Project(path, target, cameras, _parse_sync(raw.get("sync", {}), path), calibration)
+    track = parse_config(TrackConfig, raw.get("track", {}), path, "track")
+    return Project(path, target, cameras, _parse_sync(raw.get("sync", {}), path), calibration, track)
 
 
 def parse_config(config: type[Config], raw: Any, path: Path, where: str) -> Config:

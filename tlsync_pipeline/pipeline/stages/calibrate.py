@@ -47,7 +47,7 @@ from tlsync_pipeline.outputs.plots import calibration_plot
 from tlsync_pipeline.outputs.summary import calibration_summary
 from tlsync_pipeline.pipeline.origin import check_gcp_places, origin_inputs, resolve_origin
 from tlsync_pipeline.pipeline.spec import Options, Sources, StageResult, StageSpec
-from tlsync_pipeline.pipeline.stages.cameras import POSE_ERROR, has_no_rows
+from tlsync_pipeline.pipeline.stages.cameras import POSE_ERROR, gcp_sigma, has_no_rows, target_pose_wanted
 from tlsync_pipeline.pipeline.stages.intrinsics import check_calibration
 from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
 from tlsync_pipeline.sync.identify import IdentifyParams
@@ -206,8 +206,10 @@ def _check_in_image(table: GcpTable, size: tuple[int, int]) -> None:
             raise InputError(f"{table.source}:{line}: pixel ({u:g}, {v:g}) is outside the {w}x{h} image")
 
 
-def run_calibrate(files: StageFiles, params: CalibrateParams) -> StageResult:
-    """The calibrate stage: camera.json, calibration_report.json and calibration.png of one camera."""
+def survey_pose(files: StageFiles, params: CalibrateParams) -> tuple[Camera, dict, GcpPrior | None]:
+    """The camera from its intrinsics and its surveyed pose (GCPs or a board at a known pose; none without them), the
+    report, and the GCPs as a prior for a pose from the target (calibrate_pose), from the task's declared files
+    (survey_inputs)."""
     known = read_camera(files.path("intrinsics"))
     if files.has("intrinsics_report"):  # calibrated by the intrinsics stage: its rms stays in camera.json
         intrinsics_report = json.loads(files.path("intrinsics_report").read_text(encoding="utf-8"))
@@ -219,7 +221,12 @@ def run_calibrate(files: StageFiles, params: CalibrateParams) -> StageResult:
     if gcp is not None and read_gcps(gcp).geodetic is not None:
         origin = resolve_origin(origin, [files.path(label) for label in files.inputs if label.startswith("origin-gcp:")], "[target]")
     board_image = files.path("board_pose_image") if files.has("board_pose_image") else None
-    camera, report, prior = calibrate_pose(files.camera_name, params, known, intrinsics_report, origin, gcp, board_image)
+    return calibrate_pose(files.camera_name, params, known, intrinsics_report, origin, gcp, board_image)
+
+
+def run_calibrate(files: StageFiles, params: CalibrateParams) -> StageResult:
+    """The calibrate stage: camera.json, calibration_report.json and calibration.png of one camera."""
+    camera, report, prior = survey_pose(files, params)
     failed = {}
     if params.target is not None:
         try:
@@ -261,35 +268,8 @@ def _pose_from_target_files(files: StageFiles, camera: Camera, params: Calibrate
     return pose_from_target(camera, params.target, prior, track, detections, read_trajectory(files.path("trajectory")), params.ransac_px or 8.0)
 
 
-def target_pose_wanted(project: Project, name: str) -> bool:
-    """Whether the camera's pose comes from the target: a camera.json of its own without a pose, or a calibration
-    table without board_pose whose GCPs, if any, are a prior (gcp_sigma_m > 0)."""
-    camera = project.camera(name)
-    if camera.camera is not None:
-        return not _posed(camera.camera)
-    cal = camera.calibration
-    if not cal.given or cal.board_pose is not None:
-        return False
-    return cal.gcp is None or gcp_sigma(project, name) > 0
-
-
-def gcp_sigma(project: Project, name: str) -> float:
-    """The camera's GCP survey sigma (metres): its [cameras.calibration] gcp_sigma_m, else [calibration]'s."""
-    own = project.camera(name).calibration.gcp_sigma_m
-    return project.calibration.gcp_sigma_m if own is None else own
-
-
-def _posed(path: Path) -> bool:
-    """Whether a camera.json the project brings has a pose (an unreadable one counts as posed: reading it later names the fault)."""
-    try:
-        return read_camera(path).posed
-    except CalibrationInputError:
-        return True
-
-
-def calibrate_inputs(src: Sources, name: str) -> dict[str, Path | Artefact]:
-    """The intrinsics (the intrinsics stage's, the given camera.json), the pose's files and the origin's GCPs; for a pose
-    from the target also the track (or every mover's detections) and the trajectory."""
+def survey_inputs(src: Sources, name: str) -> dict[str, Path | Artefact]:
+    """The intrinsics (the intrinsics stage's, the given camera.json), the surveyed pose's files and the origin's GCPs."""
     camera = src.project.camera(name)
     cal = camera.calibration
     inputs: dict[str, Path | Artefact] = {}
@@ -308,6 +288,13 @@ def calibrate_inputs(src: Sources, name: str) -> dict[str, Path | Artefact]:
         inputs.update(origin_inputs(src.project))
     if cal.board_pose is not None:
         inputs["board_pose_image"] = cal.board_pose.image
+    return inputs
+
+
+def calibrate_inputs(src: Sources, name: str) -> dict[str, Path | Artefact]:
+    """survey_inputs; for a pose from the target also the track (or every mover's detections) and the trajectory."""
+    camera, cal = src.project.camera(name), src.project.camera(name).calibration
+    inputs = survey_inputs(src, name)
     if target_pose_wanted(src.project, name):
         try:
             inputs["trajectory"] = src.artefact("trajectory")
@@ -321,22 +308,27 @@ def calibrate_inputs(src: Sources, name: str) -> dict[str, Path | Artefact]:
     return inputs
 
 
-def calibrate_params(project: Project, name: str, options: Options) -> CalibrateParams:
-    """The camera's fps; the GCPs' threshold and the origin setting with GCPs; the board (without its photo, an input) with
-    board_pose; a pose from the target's parameters when it gives the pose."""
+def survey_params(project: Project, name: str) -> CalibrateParams:
+    """The camera's fps; the GCPs' threshold and the origin setting with GCPs; the board (without its photo, an input) with board_pose."""
     camera = project.camera(name)
     cal = camera.calibration
     board = None
     if cal.board_pose is not None:
         assert cal.pattern is not None and cal.square is not None  # check_calibration
         board = KnownBoard(cal.pattern, cal.square, cal.board_pose.R, cal.board_pose.t)
-    target = None
-    if target_pose_wanted(project, name):
-        source = camera.video if camera.tracked else None
-        target = TargetPoseParams(gcp_sigma(project, name) if cal.gcp is not None else None, identify_params(project.sync), preparation_of(project.sync), source)
     if cal.gcp is None:
-        return CalibrateParams(camera.fps, board=board, target=target)
-    return CalibrateParams(camera.fps, cal.ransac_px, project.target.origin, board, target)
+        return CalibrateParams(camera.fps, board=board)
+    return CalibrateParams(camera.fps, cal.ransac_px, project.target.origin, board)
+
+
+def calibrate_params(project: Project, name: str, options: Options) -> CalibrateParams:
+    """survey_params, and a pose from the target's parameters when it gives the pose."""
+    camera = project.camera(name)
+    if not target_pose_wanted(project, name):
+        return survey_params(project, name)
+    source = camera.video if camera.tracked else None
+    target = TargetPoseParams(gcp_sigma(project, name) if camera.calibration.gcp is not None else None, identify_params(project.sync), preparation_of(project.sync), source)
+    return replace(survey_params(project, name), target=target)
 
 
 SPEC = StageSpec(

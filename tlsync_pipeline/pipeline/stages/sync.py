@@ -19,7 +19,7 @@ from tlsync_pipeline.sync.methods import CameraInput
 from tlsync_pipeline.sync.clock_prior import with_clock_checks
 from tlsync_pipeline.sync.params import SyncParams
 from tlsync_pipeline.sync.synchronize import CameraResult, synchronize
-from tlsync_pipeline.sync.timeline import CameraLine, IdentificationSummary, StageWarning, Timeline, write_timeline
+from tlsync_pipeline.sync.timeline import CameraLine, IdentificationSummary, ScanSummary, StageWarning, Timeline, write_timeline
 from tlsync_pipeline.sync.votes import Votes, load_votes
 from tlsync_pipeline.trajectory import Trajectory, read_trajectory
 from trackers.track import read_track
@@ -81,7 +81,7 @@ def run_sync(files: StageFiles, params: SyncStageParams) -> StageResult:
     usable = {name: c for name, c in paths.items() if not isinstance(votes[name], SyncError)}
     timeline, _ = synchronize(read_camera_inputs(usable), read_trajectory(files.path("trajectory")), params.sync, votes)
     failed = {name: str(votes[name]) if name not in usable else timeline.failed[name] for name in paths if name not in usable or name in timeline.failed}
-    lines = {name: _flag_truncated(line, paths[name]) for name, line in timeline.cameras.items()}
+    lines = {name: _with_scan(_flag_truncated(line, paths[name]), paths[name]) for name, line in timeline.cameras.items()}
     timeline = replace(timeline, cameras=lines, failed={**failed, **params.left_out})
     timeline = with_identifications(timeline, {n: read_identification(c.identification) for n, c in paths.items() if c.identification is not None})
     priors = {n: prior for n, c in paths.items() if c.clock is not None and (prior := read_clock(c.clock)) is not None}
@@ -106,6 +106,14 @@ def with_identifications(timeline: Timeline, found: dict[str, IdentificationSumm
     """The timeline with each identified camera's line carrying its identification summary."""
     lines = {n: replace(line, identification=summary) if isinstance(summary := found.get(n), IdentificationSummary) else line for n, line in timeline.cameras.items()}
     return replace(timeline, cameras=lines)
+
+
+def _with_scan(line: CameraLine, camera: CameraFiles) -> CameraLine:
+    """The camera's line with how its video was read (video.json), when the track stage read it."""
+    info = read_video_info(camera.video_info) if camera.video_info is not None else {}
+    if "scan" not in info:
+        return line
+    return replace(line, scan=ScanSummary(info["scan"], info["scan_reason"], int(info["frames"]), int(info["keyframes_decoded"]), int(info["frames_decoded"])))
 
 
 def _flag_truncated(line: CameraLine, camera: CameraFiles) -> CameraLine:
