@@ -31,25 +31,25 @@ def format_table(timeline: Timeline) -> str:
     if first:
         text += f"\nstart: when the camera's frame 0 was taken, in frames and seconds of {first} (positive: later than {first}'s frame 0)"
     if with_se:
-        text += "\n±: 95 % intervals (1.96 standard errors); flags: few_inliers, ambiguous (a second line with comparable support), along_ray (motion mostly along the viewing ray), fallback (see warnings in timeline.json), truncated (the video ends before its announced end; only the frames it holds are mapped), clock_disagrees (the offset disagrees with the camera's own clock by more than its tolerance: see clock_prior in timeline.json)"
+        text += "\n±: 95 % intervals (1.96 standard errors); flags: few_inliers, ambiguous (a second line with comparable support), along_ray (motion mostly along the viewing ray), fallback (see the sync stage's warnings), truncated (the video ends before its announced end; only the frames it holds are mapped), clock_disagrees (the offset disagrees with the camera's own clock by more than its tolerance: see clock_prior in timeline.json)"
     vfr = [name for name, line in timeline.cameras.items() if line.clock.vfr]
     if vfr:
         text += f"\nvariable frame rate: {', '.join(vfr)}: starts in frames are approximate; exports/frame_map.csv maps frames exactly"
-    for name, line in timeline.cameras.items():
-        for warning in line.warnings or ():
-            text += f"\nwarning: {name}: {warning}"
     for name, why in timeline.failed.items():
         text += f"\nnot synchronized: {name}: {why}"
     return text
 
 
 def format_truth_comparison(timeline: Timeline, truth: dict[str, Relation], n_frames: dict[str, int]) -> tuple[str, dict[str, float]]:
-    """Recovered against true pairwise relations, with eps_t per pair (frames of B)."""
+    """Recovered against true pairwise relations, with eps_t per pair (frames of B); a pair with a camera that was
+    not synchronized is a row that says so (no eps_t)."""
     rows = [("pair", "alpha", "true alpha", "beta", "true beta", "eps_t (frames)")]
     errors = {}
     for key, true in truth.items():
         a, b = key.split("->")
-        if a not in timeline.cameras or b not in timeline.cameras:
+        missing = [name for name in (a, b) if name not in timeline.cameras]
+        if missing:
+            rows.append((key, "-", f"{true.alpha:.5f}", "-", f"{true.beta:.2f}", f"failed: {', '.join(missing)} not synchronized"))
             continue
         estimated = timeline.relation(a, b)
         frames_a = n_frames.get(a) or 1
@@ -79,6 +79,22 @@ def calibration_summary(report: dict) -> str:
     if pose:
         n_in = sum(p["inlier"] for p in pose["points"])
         text += f"; pose from {n_in}/{len(pose['points'])} {pose['kind']} points, RMS {pose['rms_px']:.2f} px (+-{pose['rotation_std_deg']:.3f} deg, +-{pose['position_std_m']:.3f} m)"
-    else:
-        text += "; no pose (identity R, zero t)"
+    target = report.get("target_pose")
+    if target and "error" in target:
+        text += "; no pose from the target" + (f" ({target['cause']}: the camera is not synchronized)" if target.get("cause") else ": the camera is not synchronized")
+    elif target:
+        text += f"; {target_pose_summary(target)}"
+    elif not pose:
+        text += "; no pose"
+    return text
+
+
+def target_pose_summary(target: dict) -> str:
+    """One clause about a pose from the target (calibration_report.json's ``target_pose``): source, frames, uncertainty, how far it moved, what it serves."""
+    text = f"pose from the target ({target['source']}, {target['frames']} frames, +-{target['center_std_m']:.3f} m, +-{target['rotation_std_deg']:.3f} deg"
+    if target.get("moved_m") is not None:
+        text += f"; {target['moved_m']:.2f} m and {target['moved_deg']:.2f} deg from the GCPs' pose"
+    text += ")"
+    if not target.get("for_3d", True):
+        text += ": good for timing, not for 3D"
     return text

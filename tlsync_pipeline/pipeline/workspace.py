@@ -47,6 +47,7 @@ ARTEFACTS: dict[str, str] = {
     "calibration_picture": "cameras/{camera}/calibration.png",
     "track": "cameras/{camera}/track.csv",
     "detections": "cameras/{camera}/detections.csv",
+    "scan": "cameras/{camera}/scan.json",
     "identification": "cameras/{camera}/identification.json",
     "video_info": "cameras/{camera}/video.json",
     "clock": "cameras/{camera}/clock.json",
@@ -162,7 +163,7 @@ class StageFiles:
     guarded: tuple[Path, ...]  # folders whose files must be declared to be opened (work, project)
     progress: bool = True
     cores: int = 1
-    history: list[StageRun] = field(default_factory=list)  # earlier runs' records (stage, camera, created, seconds, warnings), for the report
+    history: list[StageRun] = field(default_factory=list)  # the needed tasks' last runs, in pipeline order
     workers: Any = field(default=None, repr=False, compare=False)
 
     @property

@@ -8,7 +8,9 @@ on its clock (sync/clock.py) and the method fits the line. A camera that
 brings every mover (detections) instead of a track has its target
 identified among them first (sync/identify.py); its line is then fitted on
 the identified track's votes (in the pipeline the identify stage writes that
-track, and votes.npz holds its votes).
+track, and votes.npz holds its votes). A camera without a pose gets it from
+the target before anything else (sync/pose.py; in the pipeline, the
+calibrate stage).
 
 Pure functions from typed values to typed values; no file I/O here.
 """
@@ -20,6 +22,8 @@ from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
+import numpy as np
+
 from calibration.camera import Camera
 from tlsync_pipeline.errors import SyncError
 from tlsync_pipeline.sync.clock import FrameTimes, camera_clock
@@ -27,6 +31,7 @@ from tlsync_pipeline.sync.identify import Identification, IdentifyParams, identi
 from tlsync_pipeline.sync.log_model import PRESETS, LogModel, vote_radius
 from tlsync_pipeline.sync.methods import CameraData, CameraInput, JointMethod
 from tlsync_pipeline.sync.params import Preparation, SyncParams
+from tlsync_pipeline.sync.pose import TargetPose, estimate_pose, pose_info
 from tlsync_pipeline.sync.refined import RefinedParams
 from tlsync_pipeline.sync.registry import get_method, method_options, params_table, preparation_of
 from tlsync_pipeline.sync.timeline import CameraLine, Timeline
@@ -39,11 +44,13 @@ __all__ = ["CameraInput", "CameraResult", "cast_votes", "identify_and_synchroniz
 
 @dataclass(frozen=True)
 class CameraResult:
-    """One camera's votes (frame indices) and fitted line; identification: how its target was found among every mover, or None."""
+    """One camera's votes (frame indices) and fitted line; identification: how its target was found among every mover, or None;
+    pose: the pose from the target of a camera that had none, or None."""
 
     votes: Votes
     line: CameraLine
     identification: Identification | None = None
+    pose: TargetPose | None = None
 
     def track(self, inputs: CameraInput) -> Track | None:
         """The track the line was fitted to: the identified one, or the camera's own."""
@@ -106,11 +113,24 @@ def identify_and_synchronize(name: str, inputs: CameraInput, prepared: Trajector
     return CameraResult(result.votes, replace(result.line, identification=found.summary()), found)
 
 
+def _pose_from_target(camera: Camera) -> bool:
+    """Whether the camera's pose was fitted to the target (camera.json's pose source "target" or "gcp+target")."""
+    return camera.pose_info is not None and "target" in camera.pose_info.source
+
+
 def with_log_noise(trajectory: Trajectory, model: LogModel) -> Trajectory:
     """The trajectory with the model's white noise as every sample's sigma, when the log states none."""
     if trajectory.sigma is not None or model.white_m <= 0:
         return trajectory
     return replace(trajectory, sigma=np.full(len(trajectory), model.white_m))
+
+
+def posed(inputs: CameraInput, prepared: Trajectory, params: SyncParams) -> tuple[CameraInput, TargetPose]:
+    """The camera's inputs with its pose from the target (its ``gcps`` as a prior), and that pose; PoseError when it is not determined."""
+    pose, _ = estimate_pose(inputs.camera, inputs.track, inputs.detections, prepared, inputs.fps, identify_params(params), inputs.gcps)
+    sigma = None if prepared.sigma is None else float(np.median(prepared.sigma))
+    camera = replace(pose.camera, name=inputs.camera.name, fps=inputs.camera.fps, pose_info=pose_info(pose, sigma))
+    return replace(inputs, camera=camera), pose
 
 
 def synchronize(
@@ -135,26 +155,34 @@ def synchronize(
     results: dict[str, CameraResult] = {}
     failed: dict[str, str] = {}
     radius: dict[str, float] = {}
+    used: dict[str, CameraInput] = {}
     for name, inputs in cameras.items():
-        radius[name] = vote_radius(inputs.camera, prepared, params.eps_px, log_model)
         try:
             cast = votes[name] if votes is not None else None
             if isinstance(cast, SyncError):
                 raise cast
+            pose = None
+            if not inputs.camera.posed:
+                inputs, pose = posed(inputs, prepared, params)
+            used[name] = inputs
+            radius[name] = vote_radius(inputs.camera, prepared, params.eps_px, log_model)
             if inputs.track is None:
-                results[name] = identify_and_synchronize(name, inputs, prepared, params, radius[name])
+                results[name] = replace(identify_and_synchronize(name, inputs, prepared, params, radius[name]), pose=pose)
                 continue
             if cast is None:
                 cast = cast_votes(inputs.camera, inputs.track, prepared, radius[name])
-            results[name] = synchronize_camera(name, inputs, cast, prepared, params, radius[name])
+            results[name] = replace(synchronize_camera(name, inputs, cast, prepared, params, radius[name]), pose=pose)
         except SyncError as exc:
             failed[name] = str(exc)
     lines = {name: r.line for name, r in results.items()}
     shared: dict[str, np.ndarray] = {}
     method = get_method(params.method)
-    if params.log_bias and log_model.has_bias and isinstance(method, JointMethod) and lines:
-        data = {name: camera_data(name, replace(cameras[name], track=r.track(cameras[name])), r.votes, radius[name]) for name, r in results.items()}
-        lines, bias = method.refine_with_log_bias(data, lines, prepared, params, method_options(params), log_model)
+    # A camera whose pose comes from the target absorbed the log's bias during its visit in that pose: it stays out.
+    surveyed = {name: r for name, r in results.items() if not _pose_from_target(used[name].camera)}
+    if params.log_bias and log_model.has_bias and isinstance(method, JointMethod) and surveyed:
+        data = {name: camera_data(name, replace(used[name], track=r.track(used[name])), r.votes, radius[name]) for name, r in surveyed.items()}
+        fitted, bias = method.refine_with_log_bias(data, {n: lines[n] for n in surveyed}, prepared, params, method_options(params), log_model)
+        lines = {**lines, **fitted}
         if bias is not None:
             names = [n for n in lines if n in bias.sensitivity]
             shared = {f"{a}|{b}": bias.line_cov(a, b) for i, a in enumerate(names) for b in names[i + 1 :]}

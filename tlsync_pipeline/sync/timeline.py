@@ -94,7 +94,7 @@ class LogBiasSummary:
 
     @classmethod
     def from_dict(cls, data: dict) -> LogBiasSummary:
-        return cls(tuple(data["estimate_m"]), tuple(data["se_m"]), float(data["observability"]))  # type: ignore[arg-type]
+        return cls(tuple(data["estimate_m"]), tuple(data["se_m"]), float(data["observability"]))
 
 
 @dataclass(frozen=True)
@@ -133,6 +133,24 @@ class IdentificationSummary:
 
 
 @dataclass(frozen=True)
+class ScanSummary:
+    """How the camera's video was read (the scan and track stages, sync/scan.py).
+
+    mode: "windows" (every frame only where a coarse pass over the keyframes
+    put the target in view) or "full" (every frame); reason: why every
+    frame (empty for windows); frames: frames in the video;
+    keyframes_decoded: frames the coarse pass decoded; frames_decoded:
+    frames the track stage decoded.
+    """
+
+    mode: str
+    reason: str
+    frames: int
+    keyframes_decoded: int
+    frames_decoded: int
+
+
+@dataclass(frozen=True)
 class CameraLine:
     """One camera's fitted line clock = alpha * sample + beta, with its support.
 
@@ -143,7 +161,8 @@ class CameraLine:
     alpha, beta), flags (weak cases), warnings, refined (whether the
     refinement's line was kept), line_search and refinement summaries;
     identification: how the target was found, for a camera that brought
-    every mover rather than a track.
+    every mover rather than a track; scan: how its video was read (None:
+    the project brought its track or detections).
     """
 
     name: str
@@ -163,6 +182,7 @@ class CameraLine:
     identification: IdentificationSummary | None = None
     budget: ErrorBudget | None = None
     log_bias: LogBiasSummary | None = None
+    scan: ScanSummary | None = None
     clock_check: ClockCheck | None = None
 
     def __post_init__(self):
@@ -191,7 +211,7 @@ class CameraLine:
                 entry[key] = list(getattr(self, key))
         if self.refined is not None:
             entry["refined"] = self.refined
-        for key in ("line_search", "refinement", "identification", "budget", "log_bias"):
+        for key in ("line_search", "refinement", "identification", "scan", "budget", "log_bias"):
             if getattr(self, key) is not None:
                 entry[key] = asdict(getattr(self, key))
         if self.clock_check is not None:
@@ -219,6 +239,7 @@ class CameraLine:
             "line_search": None if entry.get("line_search") is None else LineSearchSummary(**entry["line_search"]),
             "refinement": None if entry.get("refinement") is None else RefinementSummary(**entry["refinement"]),
             "identification": None if entry.get("identification") is None else IdentificationSummary.from_dict(entry["identification"]),
+            "scan": None if entry.get("scan") is None else ScanSummary(**entry["scan"]),
             "budget": None if entry.get("budget") is None else ErrorBudget(**entry["budget"]),
             "log_bias": None if entry.get("log_bias") is None else LogBiasSummary.from_dict(entry["log_bias"]),
             "clock_check": None if entry.get("clock_prior") is None else ClockCheck.from_dict(entry["clock_prior"]),
@@ -228,8 +249,24 @@ class CameraLine:
 
 
 @dataclass(frozen=True)
+class StageWarning:
+    """One warning of a run: the stage that raised it, the camera of its task (None: a project-wide stage) and the text."""
+
+    stage: str
+    camera: str | None
+    text: str
+
+    def to_dict(self) -> dict:
+        return {"stage": self.stage, "camera": self.camera, "text": self.text}
+
+
+@dataclass(frozen=True)
 class Timeline:
-    """All cameras' lines on one target grid (rate in samples/s, t0 in s)."""
+    """All cameras' lines on one target grid (rate in samples/s, t0 in s).
+
+    warnings: those of the run's stages that made its inputs, then the sync
+    stage's own, in pipeline order (the same list report.html shows).
+    """
 
     cameras: dict[str, CameraLine]
     target_rate: float | None = None
@@ -237,6 +274,7 @@ class Timeline:
     method: str = "paper"
     params: dict = field(default_factory=dict)
     failed: dict[str, str] = field(default_factory=dict)
+    warnings: tuple[StageWarning, ...] = ()
     # Covariance between two cameras' (alpha, beta) through an error they share (the log's bias), "A|B" -> 2x2 (rows: A's).
     shared_cov: dict[str, np.ndarray] = field(default_factory=dict)
     log_model: dict | None = None  # the log's error model the fit assumed (sync/log_model.py), or None
@@ -379,6 +417,7 @@ class Timeline:
             "reference": first,
             "cameras": cameras,
             "failed": self.failed,
+            "warnings": [w.to_dict() for w in self.warnings],
             "line": self.line(),
             "pairs": pairs,
             **({"log_error": {"model": self.log_model, "shared_cov": {k: np.asarray(v).tolist() for k, v in self.shared_cov.items()}}} if self.log_model else {}),
@@ -403,10 +442,11 @@ def read_timeline(path: str | Path) -> Timeline:
         data = json.loads(path.read_text(encoding="utf-8"))
         cameras = {name: CameraLine.from_dict(name, c) for name, c in data["cameras"].items()}
         target = data.get("target", {})
+        warnings = tuple(StageWarning(w["stage"], w.get("camera"), w["text"]) for w in data.get("warnings", []))
         log_error = data.get("log_error") or {}
         shared = {k: np.asarray(v, dtype=np.float64).reshape(2, 2) for k, v in (log_error.get("shared_cov") or {}).items()}
         return Timeline(
-            cameras, target.get("rate"), target.get("t0"), data.get("method", "paper"), data.get("params", {}), data.get("failed", {}), shared, log_error.get("model")
+            cameras, target.get("rate"), target.get("t0"), data.get("method", "paper"), data.get("params", {}), data.get("failed", {}), warnings, shared, log_error.get("model")
         )
     except FileNotFoundError:
         raise InputError(f"{path}: file not found") from None

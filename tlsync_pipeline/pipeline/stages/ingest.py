@@ -12,9 +12,11 @@ import json
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+import numpy as np
+
 from tlsync_pipeline.atomic import atomic_path
 from tlsync_pipeline.errors import InputError
-from tlsync_pipeline.geodesy import Origin
+from tlsync_pipeline.geodesy import Origin, enu_to_geodetic
 from tlsync_pipeline.ingest import read_log
 from tlsync_pipeline.ingest.recording_time import parse_utc_offset
 from tlsync_pipeline.ingest.process import (
@@ -23,7 +25,7 @@ from tlsync_pipeline.ingest.process import (
     RigidTransform,
     ingest,
 )
-from tlsync_pipeline.pipeline.origin import origin_inputs, resolve_origin
+from tlsync_pipeline.pipeline.origin import check_log_near_gcps, origin_inputs, resolve_origin
 from tlsync_pipeline.pipeline.spec import Sources, StageResult, StageSpec
 from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
 from tlsync_pipeline.trajectory import Trajectory, write_trajectory
@@ -82,8 +84,12 @@ def run_ingest(files: StageFiles, target: TargetConfig) -> StageResult:
 
     ``target``: the project's [target] without its files (log, trajectory: inputs).
     """
-    origin = resolve_origin(target.origin, [files.path(label) for label in files.inputs if label.startswith("origin-gcp:")], "[target]")
+    gcp_files = [files.path(label) for label in files.inputs if label.startswith("origin-gcp:")]
+    origin = resolve_origin(target.origin, gcp_files, "[target]")
     trajectory, report = ingest_log(files.path("log"), target.format, target.ingest_params(origin), target.topic, target.utc_offset)
+    if isinstance(origin, Origin) and not isinstance(target.origin, Origin) and len(trajectory):
+        lat, lon, alt = enu_to_geodetic(np.median(trajectory.xyz, axis=0), origin)[0]
+        check_log_near_gcps(Origin(lat, lon, alt), files.path("log"), gcp_files, origin)
     write_ingest(trajectory, report, files.output("trajectory"), files.output("ingest_report"))
     return StageResult(report.summary(with_warnings=False), tuple(report.warnings))
 

@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING
 from calibration.camera import read_camera
 from tlsync_pipeline.atomic import atomic_path
 from tlsync_pipeline.errors import InputError, SyncError
+from tlsync_pipeline.outputs.diagnostics import run_warnings
 from tlsync_pipeline.pipeline.spec import Options, Sources, StageResult, StageSpec
 from tlsync_pipeline.pipeline.stages.clock import read_clock
 from tlsync_pipeline.pipeline.stages.cameras import CameraFiles, CamerasParams, camera_files, cameras_params, read_identification, read_video_info
@@ -18,7 +19,7 @@ from tlsync_pipeline.sync.methods import CameraInput
 from tlsync_pipeline.sync.clock_prior import with_clock_checks
 from tlsync_pipeline.sync.params import SyncParams
 from tlsync_pipeline.sync.synchronize import CameraResult, synchronize
-from tlsync_pipeline.sync.timeline import CameraLine, IdentificationSummary, Timeline, write_timeline
+from tlsync_pipeline.sync.timeline import CameraLine, IdentificationSummary, ScanSummary, StageWarning, Timeline, write_timeline
 from tlsync_pipeline.sync.votes import Votes, load_votes
 from tlsync_pipeline.trajectory import Trajectory, read_trajectory
 from trackers.track import read_track
@@ -65,6 +66,8 @@ def read_votes(cameras: dict[str, CameraFiles]) -> dict[str, Votes | SyncError]:
 def run_sync(files: StageFiles, params: SyncStageParams) -> StageResult:
     """The sync stage: each camera's line fitted to the vote stage's votes, ``timeline.json``.
 
+    timeline.json's ``warnings``: those the stages that made its inputs
+    recorded, then the sync method's per camera (also this stage's warnings).
     A camera whose ``votes.npz`` records why it has no vote (the target never
     found, never near its projection) is listed under ``failed`` with that
     reason, without reading its other files. A camera whose video the track
@@ -78,15 +81,17 @@ def run_sync(files: StageFiles, params: SyncStageParams) -> StageResult:
     usable = {name: c for name, c in paths.items() if not isinstance(votes[name], SyncError)}
     timeline, _ = synchronize(read_camera_inputs(usable), read_trajectory(files.path("trajectory")), params.sync, votes)
     failed = {name: str(votes[name]) if name not in usable else timeline.failed[name] for name in paths if name not in usable or name in timeline.failed}
-    lines = {name: _flag_truncated(line, paths[name]) for name, line in timeline.cameras.items()}
+    lines = {name: _with_scan(_flag_truncated(line, paths[name]), paths[name]) for name, line in timeline.cameras.items()}
     timeline = replace(timeline, cameras=lines, failed={**failed, **params.left_out})
     timeline = with_identifications(timeline, {n: read_identification(c.identification) for n, c in paths.items() if c.identification is not None})
     priors = {n: prior for n, c in paths.items() if c.clock is not None and (prior := read_clock(c.clock)) is not None}
     if priors:
         timeline = with_clock_checks(timeline, priors, log_on_utc(files, timeline))
+    own = tuple(f"{name}: {text}" for name, line in timeline.cameras.items() for text in line.warnings or ())
+    timeline = replace(timeline, warnings=(*run_warnings(files.history), *(StageWarning("sync", None, text) for text in own)))
     with files.write("timeline") as tmp:
         write_timeline(timeline, tmp)
-    return StageResult(failed=timeline.failed, facts={"synchronized": timeline.names})
+    return StageResult(warnings=own, failed=timeline.failed, facts={"synchronized": timeline.names})
 
 
 def log_on_utc(files: StageFiles, timeline: Timeline) -> bool:
@@ -101,6 +106,14 @@ def with_identifications(timeline: Timeline, found: dict[str, IdentificationSumm
     """The timeline with each identified camera's line carrying its identification summary."""
     lines = {n: replace(line, identification=summary) if isinstance(summary := found.get(n), IdentificationSummary) else line for n, line in timeline.cameras.items()}
     return replace(timeline, cameras=lines)
+
+
+def _with_scan(line: CameraLine, camera: CameraFiles) -> CameraLine:
+    """The camera's line with how its video was read (video.json), when the track stage read it."""
+    info = read_video_info(camera.video_info) if camera.video_info is not None else {}
+    if "scan" not in info:
+        return line
+    return replace(line, scan=ScanSummary(info["scan"], info["scan_reason"], int(info["frames"]), int(info["keyframes_decoded"]), int(info["frames_decoded"])))
 
 
 def _flag_truncated(line: CameraLine, camera: CameraFiles) -> CameraLine:
@@ -156,5 +169,6 @@ SPEC = StageSpec(
     params=sync_params,
     outputs=("timeline",),
     run=run_sync,
+    history=True,
     runs_without_failed_cameras=True,
 )
