@@ -57,6 +57,14 @@ def run_warnings(runs: list[StageRun]) -> list[StageWarning]:
     return found
 
 
+# What dominates a camera's interval (timeline.ErrorBudget.dominant), and what to do about it.
+DOMINANT_CAUSE = {
+    "log": "the log's bias dominates: walk a curved path through this view, or use an RTK log",
+    "calibration": "calibration or pose dominates: add or check ground control points, or check the camera's calibration",
+    "tracking": "tracking dominates: a longer or closer pass through the view, or a sharper video",
+}
+
+
 def camera_status(timeline: Timeline, name: str) -> CameraStatus:
     """failed (not synchronized), weak (flags, a fallback, or a start interval wider than one of its frames) or ok."""
     if name in timeline.failed:
@@ -72,7 +80,8 @@ def camera_status(timeline: Timeline, name: str) -> CameraStatus:
         own_frames = HALF_95 * (se[1] * line.fps if se[1] is not None and line.fps else se[0])
         if own_frames > 1.0:
             seconds = "" if se[1] is None else f"±{HALF_95 * se[1]:.2g} s, "
-            reasons.append(f"start known to {seconds}±{own_frames:.1f} of its frames only")
+            cause = f": {DOMINANT_CAUSE[line.budget.dominant]}" if line.budget is not None and line.budget.total_frames > 0 else ""
+            reasons.append(f"start known to {seconds}±{own_frames:.1f} of its frames only{cause}")
     if reasons:
         return CameraStatus(name, "weak", "; ".join(reasons) + f" ({support})")
     return CameraStatus(name, "ok", support)

@@ -38,6 +38,8 @@ from tlsync_pipeline.ingest import ALTITUDE_REFERENCES, FORMATS
 from tlsync_pipeline.ingest.process import IngestParams, RigidTransform
 from tlsync_pipeline.ingest.recording_time import parse_utc, parse_utc_offset
 from tlsync_pipeline.outputs.proxy import POLICIES as PROXY_POLICIES
+from tlsync_pipeline.sync.log_model import AUTO, LogModelChoice
+from tlsync_pipeline.sync.log_model import PRESETS as LOG_MODELS
 from tlsync_pipeline.sync.params import SyncParams, parameter_fields
 from tlsync_pipeline.sync.pose import GCP_SIGMA_M
 from tlsync_pipeline.sync.registry import METHODS, params_from_table
@@ -298,6 +300,15 @@ class TargetConfig:
     altitude_reference: str | None = key(_choice(*ALTITUDE_REFERENCES, what="altitude reference"), IngestParams.altitude_reference)
     altitude_offset_m: float = key(_finite, IngestParams.altitude_offset_m)
     utc_offset: float | None = key(_utc_offset)  # s: local - UTC of a log whose clock is local (DJI SRT, the DJI app's CSV)
+    log_model: str = key(_choice(AUTO, *LOG_MODELS, what="log model"), AUTO)  # the log's error model (sync/log_model.py)
+    white_sigma_m: float | None = key(_non_negative)
+    bias_sigma_m: float | None = key(_non_negative)
+    bias_tau_s: float | None = key(_positive)
+
+    @property
+    def log_error(self) -> LogModelChoice:
+        """The log's error model as [target] chooses it: a preset or "auto", and overrides."""
+        return LogModelChoice(self.log_model, self.white_sigma_m, self.bias_sigma_m, self.bias_tau_s)
 
     def ingest_params(self, origin: Origin | str) -> IngestParams:
         """The ingest's parameters, with the ENU origin resolved (pipeline/origin.py)."""

@@ -64,8 +64,9 @@ def _stale_by_own_reasons(folder) -> dict[str, list[str]]:
         ("seed = 0\n", "seed = 0\nr_min = 0.02\n", {"identify/cam1", "sync"}, "r_min: 0.01 -> 0.02"),
         ("seed = 0\n", "seed = 0\nsmooth_trajectory = false\n", {"identify/cam1", "vote/cam0", "vote/cam1", "sync"}, "smooth_trajectory: True -> False"),
         ('name = "cam0"\n', 'name = "cam0"\nproxy = "never"\n', {"render"}, "proxy.cam0: 'auto' -> 'never'"),
+        ('trajectory = "trajectory.csv"\n', 'trajectory = "trajectory.csv"\nlog_model = "drone"\n', {"identify/cam1", "vote/cam0", "vote/cam1", "sync"}, "log_model.name: 'auto' -> 'drone'"),
     ],
-    ids=["model_error_px", "eps_px", "r_min", "smooth_trajectory", "proxy"],
+    ids=["model_error_px", "eps_px", "r_min", "smooth_trajectory", "proxy", "log_model"],
 )
 def test_a_key_makes_stale_exactly_the_stages_that_read_it(finished, tmp_path, old, new, stale, named):
     folder = _edited(finished, tmp_path, old, new)

@@ -60,8 +60,9 @@ def test_a_log_riding_above_the_tracked_point_is_lowered_by_logged_point_above_m
     inputs = {n: CameraInput(scene.cameras[n], scene.tracks[n], scene.cameras[n].fps) for n in scene.cameras}
     declared, _ = synchronize(inputs, raised, SyncParams(logged_point_above_m=0.3))
     assert not declared.failed
-    assert max(_errors(scene, declared).values()) < 0.5
+    declared_worst = max(_errors(scene, declared).values())
+    assert declared_worst < 0.5
     assert np.allclose(prepare_trajectory(raised, preparation_of(SyncParams(logged_point_above_m=0.3))).xyz, prepare_trajectory(scene.trajectory, preparation_of(SyncParams())).xyz)
     ignored, _ = synchronize(inputs, raised, SyncParams())
     worst = max(_errors(scene, ignored).values()) if not ignored.failed else np.inf
-    assert worst > 0.1  # undeclared, the 20 px offset costs a quarter of a frame here
+    assert worst > 2 * declared_worst  # undeclared, the 20 px offset costs timing

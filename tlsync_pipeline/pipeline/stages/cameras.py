@@ -11,8 +11,9 @@ from typing import TYPE_CHECKING
 from calibration.camera import Camera, read_camera
 from calibration.errors import CalibrationInputError
 from tlsync_pipeline.errors import SyncError
-from tlsync_pipeline.pipeline.spec import ProjectWide
-from tlsync_pipeline.pipeline.workspace import StageFiles
+from tlsync_pipeline.pipeline.spec import ProjectWide, Sources
+from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
+from tlsync_pipeline.sync.log_model import LogModel, LogModelChoice
 from tlsync_pipeline.sync.timeline import IdentificationSummary
 
 if TYPE_CHECKING:
@@ -132,3 +133,17 @@ def pose_problem(camera: Camera) -> SyncError | None:
     if camera.posed:
         return None
     return SyncError(str(camera.extra.get(POSE_ERROR) or f"camera {camera.name}: it has no pose (R, t)"))
+
+
+def log_model_of(files: StageFiles, choice: LogModelChoice) -> LogModel:
+    """The log's error model: [target]'s choice, "auto" resolved by what ingest_report.json suggests (when the task
+    declares it: the project ingests a log), else "none"."""
+    suggested = None
+    if files.has("ingest_report"):
+        suggested = (json.loads(files.path("ingest_report").read_text(encoding="utf-8")).get("log_model") or {}).get("name")
+    return choice.resolve(suggested)
+
+
+def ingest_report_input(src: Sources) -> dict[str, Path | Artefact]:
+    """The ingest report, when the project ingests a log (what its log model suggests, its clock)."""
+    return {"ingest_report": src.artefact("ingest_report")} if src.made("ingest_report") else {}

@@ -13,16 +13,17 @@ identified (the camera is then listed as not synchronized, the others are).
 from __future__ import annotations
 
 import json
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from calibration.camera import read_camera
 from tlsync_pipeline.errors import SyncError
 from tlsync_pipeline.pipeline.spec import Options, Sources, StageResult, StageSpec
-from tlsync_pipeline.pipeline.stages.cameras import has_no_rows, pose_problem
+from tlsync_pipeline.pipeline.stages.cameras import has_no_rows, ingest_report_input, log_model_of, pose_problem
 from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
 from tlsync_pipeline.sync.identify import IdentifyParams, identify_target
+from tlsync_pipeline.sync.log_model import LogModelChoice, vote_radius
 from tlsync_pipeline.sync.params import Preparation
 from tlsync_pipeline.sync.registry import preparation_of
 from tlsync_pipeline.sync.synchronize import identify_params, prepare_trajectory
@@ -47,13 +48,15 @@ class InitSeed:
 class IdentifyStageParams:
     """fps: the camera's nominal frame rate (None: camera.json's); identify: identification's [sync] keys;
     preparation: how the trajectory is prepared; source: the video the movers were detected in (None: the
-    project brings its detections); seed: an init box, or None."""
+    project brings its detections); seed: an init box, or None; log_model: the log's error, which widens the
+    camera's vote radius and gate (log_model.vote_radius)."""
 
     fps: float | None
     identify: IdentifyParams
     preparation: Preparation
     source: Path | None = None
     seed: InitSeed | None = None
+    log_model: LogModelChoice = field(default_factory=LogModelChoice)
 
 
 def run_identify(files: StageFiles, params: IdentifyStageParams) -> StageResult:
@@ -78,7 +81,8 @@ def run_identify(files: StageFiles, params: IdentifyStageParams) -> StageResult:
         prefer = seed_tracklets(detections, list(seed.box), seed.frame) if seed is not None else frozenset()
         if seed is not None and not prefer:
             warnings.append(f"camera {files.camera}: no mover inside the init box {list(seed.box)} near frame {seed.frame}; the target is identified without it")
-        found = identify_target(camera, detections, prepared, params.fps or camera.fps, params.identify, prefer)
+        radius = vote_radius(camera, prepared, params.identify.eps_px, log_model_of(files, params.log_model))
+        found = identify_target(camera, detections, prepared, params.fps or camera.fps, replace(params.identify, eps_px=radius), prefer)
     except SyncError as exc:
         files.output("track").unlink(missing_ok=True)
         with files.write("identification") as tmp:
@@ -99,7 +103,7 @@ def identify_stage_params(project: Project, cam: str, options: Options) -> Ident
     tracker = camera.tracker
     seed = InitSeed(tracker.init, tracker.init_frame) if camera.detections is None and tracker.init is not None else None
     source = camera.video if camera.detections is None else None
-    return IdentifyStageParams(camera.fps, identify_params(project.sync), preparation_of(project.sync), source, seed)
+    return IdentifyStageParams(camera.fps, identify_params(project.sync), preparation_of(project.sync), source, seed, project.target.log_error)
 
 
 def identify_inputs(src: Sources, cam: str) -> dict[str, Path | Artefact]:
@@ -108,7 +112,7 @@ def identify_inputs(src: Sources, cam: str) -> dict[str, Path | Artefact]:
     inputs = {"camera": src.artefact("camera", cam), "detections": src.artefact("detections", cam), "trajectory": src.artefact("trajectory")}
     if camera.detections is None and camera.tracker.init is not None and camera.video is not None:
         inputs["video"] = camera.video
-    return inputs
+    return {**inputs, **ingest_report_input(src)}
 
 
 SPEC = StageSpec(

@@ -13,10 +13,11 @@ from tlsync_pipeline.errors import InputError, SyncError
 from tlsync_pipeline.outputs.diagnostics import run_warnings
 from tlsync_pipeline.pipeline.spec import Options, Sources, StageResult, StageSpec
 from tlsync_pipeline.pipeline.stages.clock import read_clock
-from tlsync_pipeline.pipeline.stages.cameras import CameraFiles, CamerasParams, camera_files, cameras_params, read_identification, read_video_info
+from tlsync_pipeline.pipeline.stages.cameras import CameraFiles, CamerasParams, camera_files, cameras_params, log_model_of, read_identification, read_video_info
 from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
 from tlsync_pipeline.sync.methods import CameraInput
 from tlsync_pipeline.sync.clock_prior import with_clock_checks
+from tlsync_pipeline.sync.log_model import LogModelChoice
 from tlsync_pipeline.sync.params import SyncParams
 from tlsync_pipeline.sync.synchronize import CameraResult, synchronize
 from tlsync_pipeline.sync.timeline import CameraLine, IdentificationSummary, ScanSummary, StageWarning, Timeline, write_timeline
@@ -33,9 +34,10 @@ if TYPE_CHECKING:
 
 @dataclass(frozen=True)
 class SyncStageParams(CamerasParams):
-    """The cameras, their fps (CamerasParams) and every [sync] key (the lines' fit reads them all)."""
+    """The cameras, their fps (CamerasParams), every [sync] key (the lines' fit reads them all) and the log's error model."""
 
     sync: SyncParams = field(default_factory=SyncParams)
+    log_model: LogModelChoice = field(default_factory=LogModelChoice)
 
 
 def read_camera_inputs(cameras: dict[str, CameraFiles]) -> dict[str, CameraInput]:
@@ -79,7 +81,7 @@ def run_sync(files: StageFiles, params: SyncStageParams) -> StageResult:
     paths = camera_files(files, params)
     votes = read_votes(paths)
     usable = {name: c for name, c in paths.items() if not isinstance(votes[name], SyncError)}
-    timeline, _ = synchronize(read_camera_inputs(usable), read_trajectory(files.path("trajectory")), params.sync, votes)
+    timeline, _ = synchronize(read_camera_inputs(usable), read_trajectory(files.path("trajectory")), params.sync, votes, log_model_of(files, params.log_model))
     failed = {name: str(votes[name]) if name not in usable else timeline.failed[name] for name in paths if name not in usable or name in timeline.failed}
     lines = {name: _with_scan(_flag_truncated(line, paths[name]), paths[name]) for name, line in timeline.cameras.items()}
     timeline = replace(timeline, cameras=lines, failed={**failed, **params.left_out})
@@ -160,7 +162,7 @@ def sync_inputs(src: Sources, camera: None) -> dict[str, Path | Artefact]:
 
 def sync_params(project: Project, camera: None, options: Options) -> SyncStageParams:
     cameras = cameras_params(project)
-    return SyncStageParams(cameras.cameras, fps=cameras.fps, sync=project.sync)
+    return SyncStageParams(cameras.cameras, fps=cameras.fps, sync=project.sync, log_model=project.target.log_error)
 
 
 SPEC = StageSpec(

@@ -6,7 +6,7 @@ stage) gets no votes, with that reason.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -15,8 +15,9 @@ import numpy as np
 from calibration.camera import read_camera
 from tlsync_pipeline.errors import SyncError
 from tlsync_pipeline.pipeline.spec import Options, Sources, StageResult, StageSpec
-from tlsync_pipeline.pipeline.stages.cameras import has_no_rows, pose_problem, read_identification
+from tlsync_pipeline.pipeline.stages.cameras import has_no_rows, ingest_report_input, log_model_of, pose_problem, read_identification
 from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
+from tlsync_pipeline.sync.log_model import LogModelChoice, vote_radius
 from tlsync_pipeline.sync.params import Preparation
 from tlsync_pipeline.sync.registry import preparation_of
 from tlsync_pipeline.sync.synchronize import cast_votes, prepare_trajectory
@@ -31,11 +32,13 @@ if TYPE_CHECKING:
 @dataclass(frozen=True)
 class VoteParams:
     """eps_px: vote radius (pixels, eq. 3); preparation: the trajectory the votes are cast on (the sync method's);
-    source: the video the track stage tracked the target in (None when the project brings the track)."""
+    source: the video the track stage tracked the target in (None when the project brings the track); log_model:
+    the log's error, which widens the camera's vote radius (log_model.vote_radius)."""
 
     eps_px: float
     preparation: Preparation
     source: Path | None = None
+    log_model: LogModelChoice = field(default_factory=LogModelChoice)
 
 
 def run_vote(files: StageFiles, params: VoteParams) -> StageResult:
@@ -57,7 +60,8 @@ def run_vote(files: StageFiles, params: VoteParams) -> StageResult:
         if params.source is not None and has_no_rows(files.path("track")):
             raise SyncError(f"{params.source}: the target was never found (the track stage found it in no frame)")
         prepared = prepare_trajectory(read_trajectory(files.path("trajectory")), params.preparation)
-        votes = cast_votes(camera, read_track(files.path("track")), prepared, params.eps_px)
+        radius = vote_radius(camera, prepared, params.eps_px, log_model_of(files, params.log_model))
+        votes = cast_votes(camera, read_track(files.path("track")), prepared, radius)
         error = None
     except SyncError as exc:
         votes, error = Votes(np.zeros(0), np.zeros(0), np.zeros(0)), str(exc)
@@ -70,12 +74,12 @@ def vote_inputs(src: Sources, cam: str) -> dict[str, Path | Artefact]:
     inputs = {"camera": src.artefact("camera", cam), "track": src.artefact("track", cam), "trajectory": src.artefact("trajectory")}
     if src.made("identification", cam):
         inputs["identification"] = src.artefact("identification", cam)
-    return inputs
+    return {**inputs, **ingest_report_input(src)}
 
 
 def vote_params(project: Project, cam: str, options: Options) -> VoteParams:
     camera = project.camera(cam)
-    return VoteParams(project.sync.eps_px, preparation_of(project.sync), camera.video if camera.track is None else None)
+    return VoteParams(project.sync.eps_px, preparation_of(project.sync), camera.video if camera.track is None else None, project.target.log_error)
 
 
 SPEC = StageSpec(

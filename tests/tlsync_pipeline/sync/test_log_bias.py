@@ -1,0 +1,101 @@
+"""The log's bias fitted with the lines (sync/log_bias.py), on walk scenes with known truth, and its pieces."""
+
+import numpy as np
+import pytest
+
+from data_fixtures.log_error import LogErrorModel, gauss_markov
+from data_fixtures.walk import WalkSpec, make_walk_scene
+from tlsync_pipeline.sync.log_bias import _prior_whitening
+from tlsync_pipeline.sync.log_model import PRESETS, LogModel, LogModelChoice, vote_radius
+from tlsync_pipeline.sync.params import SyncParams
+from tlsync_pipeline.sync.synchronize import CameraInput, synchronize
+from tlsync_pipeline.sync.timeline import eps_t
+
+# A receiver whose bias is a near-constant metre (tau 10^5 s), with the model that says so.
+CONSTANT = LogErrorModel("constant", 10.0, 0.01, 0.01, 1.0, 0.0, 1e5)
+DECLARED = LogModel("constant", 0.01, 1.0, 0.01, 1e5)
+
+
+def _run(scene, log_bias: bool, model: LogModel = DECLARED):
+    inputs = {n: CameraInput(c, scene.tracks[n], c.fps) for n, c in scene.cameras.items()}
+    timeline, _ = synchronize(inputs, scene.trajectory, SyncParams(log_bias=log_bias), log_model=model)
+    return timeline
+
+
+def _visit_errors(scene, timeline) -> dict[str, tuple[float, float]]:
+    """Per camera: its clock's error (frames) at the middle of the target's visit, and the 95 % half-width there."""
+    out = {}
+    for name, line in timeline.cameras.items():
+        truth = scene.lines[name]
+        middle = float(np.median((scene.tracks[name].frame - truth.beta) / truth.alpha))
+        g = np.array([middle, 1.0])
+        out[name] = (line.alpha * middle + line.beta - (truth.alpha * middle + truth.beta), 1.96 * float(np.sqrt(g @ line.cov @ g)))
+    return out
+
+
+def test_the_prior_whitening_makes_the_gauss_markov_covariance_the_identity():
+    knots = np.array([0.0, 3.0, 4.0, 20.0, 21.5])
+    sigma = np.array([1.0, 1.0, 2.0])
+    w = _prior_whitening(knots, 2.0, 30.0, sigma)
+    dt = np.abs(knots[:, None] - knots[None, :]) / 2.0
+    cov = np.kron(np.exp(-dt / 30.0), np.diag(sigma**2))
+    assert np.allclose(w @ cov @ w.T, np.eye(15), atol=1e-6)
+
+
+def test_gauss_markov_samples_have_the_stated_spread_and_memory():
+    t = np.arange(0.0, 20000.0, 1.0)
+    x = gauss_markov(np.random.default_rng(0), t, np.array([2.0]), 60.0)[:, 0]
+    assert np.std(x) == pytest.approx(2.0, rel=0.1)
+    assert np.corrcoef(x[:-60], x[60:])[0, 1] == pytest.approx(np.exp(-1.0), abs=0.08)
+
+
+def test_a_log_model_choice_resolves_auto_and_overrides():
+    assert LogModelChoice().resolve(None) == PRESETS["none"]
+    assert LogModelChoice().resolve("drone") == PRESETS["drone"]
+    custom = LogModelChoice("phone", bias_m=3.0).resolve("rtk")
+    assert (custom.bias_m, custom.bias_vertical_m, custom.white_m, custom.tau_s) == (3.0, 6.0, PRESETS["phone"].white_m, PRESETS["phone"].tau_s)
+
+
+def test_the_vote_radius_covers_the_log_error_as_the_camera_sees_it():
+    scene = make_walk_scene(0, WalkSpec(cameras=2))
+    camera = scene.cameras["cam0"]
+    assert vote_radius(camera, scene.trajectory, 10.0, PRESETS["rtk"]) == 10.0
+    phone = vote_radius(camera, scene.trajectory, 10.0, PRESETS["phone"])
+    assert 100.0 < phone < 600.0  # 3 x 2.06 m at about 18 m with a 960 px focal length
+
+
+def test_a_bias_shared_by_every_visit_is_fitted_out_and_the_intervals_hold():
+    """A near-constant metre of bias: 10-50 frames of error per camera alone; with the bias fitted, about a frame."""
+    for seed in (0, 2):
+        scene = make_walk_scene(seed, WalkSpec(log=CONSTANT))
+        alone = _visit_errors(scene, _run(scene, log_bias=False))
+        together = _run(scene, log_bias=True)
+        fitted = _visit_errors(scene, together)
+        assert max(abs(e) for e, _ in alone.values()) > 5.0, alone
+        assert max(abs(e) for e, _ in fitted.values()) < 2.0, fitted
+        assert all(abs(e) <= half for e, half in fitted.values()), fitted
+        for name, line in together.cameras.items():
+            assert line.log_bias is not None and line.log_bias.observability > 0.8
+            true_bias = scene.noise["bias_m"][int(round(float(np.median((scene.tracks[name].frame - scene.lines[name].beta) / scene.lines[name].alpha))))]
+            assert np.allclose(-np.array(line.log_bias.estimate_m)[:2], true_bias[:2], atol=0.2)  # the fit's bias corrects the log: minus the log's error
+        pairs = scene.truth_pairs()
+        for key, truth in pairs.items():
+            a, b = key.split("->")
+            assert together.shared_cov, "cameras that share the bias are correlated"
+            z = abs(together.relation(a, b).beta - truth.beta) / np.sqrt(together.relation_cov(a, b)[1, 1])
+            assert z < 1.96, (key, z)
+
+
+def test_straight_walks_in_opposite_directions_do_not_diverge_and_say_the_log_dominates():
+    """Straight crossings: a bias along the walk is a time offset; the fit keeps it at its prior and widens the intervals."""
+    scene = make_walk_scene(1, WalkSpec(cameras=2, route="straight", log=LogErrorModel("phone", 1.0, 0.5, 1.0, 1.0, 2.0, 60.0)))
+    alone = _visit_errors(scene, _run(scene, log_bias=False, model=PRESETS["phone"]))
+    timeline = _run(scene, log_bias=True, model=PRESETS["phone"])
+    fitted = _visit_errors(scene, timeline)
+    assert max(abs(e) for e, _ in fitted.values()) <= 1.5 * max(abs(e) for e, _ in alone.values()) + 5.0  # no divergence
+    assert all(half > 20.0 and abs(e) <= 1.5 * half for e, half in fitted.values()), fitted  # wide, and honest (coverage: bench/gps_error.py)
+    for line in timeline.cameras.values():
+        assert line.budget is not None and line.budget.dominant == "log"
+        assert line.log_bias is not None and line.log_bias.observability < 0.9
+    truth = scene.truth_pairs()["cam0->cam1"]
+    assert eps_t(timeline.relation("cam0", "cam1"), truth, scene.n_frames["cam0"]) < 200
