@@ -280,6 +280,7 @@ def find_line(
     seed: int = 0,
     group: np.ndarray | None = None,
     prior: SlopePrior | None = None,
+    apart: float = 0.0,
 ) -> LineSearch:
     """The line frame = alpha * sample + beta best supported by the votes.
 
@@ -287,8 +288,12 @@ def find_line(
     find with probability p; group: the object each vote comes from when
     several candidates vote per frame (thinning is per object); prior:
     what the frame rates say about the slope (sync/slope.py), or None for
-    any increasing line. Raises ValueError when no increasing line
-    exists (fewer than 2 distinct samples, or votes that never move forward).
+    any increasing line; apart: frames (along the frame axis) within which a
+    line is the same answer as the best one, not a rival: the runner-up is
+    searched among the votes farther than that (and than delta) from the
+    best line.
+    Raises ValueError when no increasing line exists (fewer than 2 distinct
+    samples, or votes that never move forward).
     """
     sample = np.asarray(sample, dtype=np.float64)
     frame = np.asarray(frame, dtype=np.float64)
@@ -305,7 +310,7 @@ def find_line(
     alpha, beta, support, drawn = found
     on_line = distance_to_line(ts, tf, alpha, beta) <= delta
     runner_up = 0
-    rest = ~on_line
+    rest = distance_to_line(ts, tf, alpha, beta) > max(delta, apart / np.hypot(1.0, alpha))
     if rest.sum() >= 2 and len(np.unique(ts[rest])) >= 2:
         second = _search(rng, ts[rest], tf[rest], delta, p, r_min, prior)
         if second is not None:

@@ -34,6 +34,8 @@ ALONG_RAY = 0.15
 # error happens to agree with a biased line (eps_t x3 at S_c = 8 px).
 GATE_EPS = 10.0
 SUPPORT_KEPT = 0.5
+MIN_SPEED_FRAMES = 10  # consecutive tracked frames needed to measure the target's image speed
+MAX_APART_FRAMES = 300.0  # a rival line is never required to be farther than this (frames)
 
 
 @dataclass(frozen=True)
@@ -73,7 +75,7 @@ class RefinedMethod:
         votes, track = data.votes, data.track
         prior = slope_prior(data.fps, trajectory.rate, params.rate_sigma)
         try:
-            search = find_line(votes.sample, data.vote_clock, votes.dist, params.delta, params.p, options.r_min, params.seed, prior=prior)
+            search = find_line(votes.sample, data.vote_clock, votes.dist, params.delta, params.p, options.r_min, params.seed, prior=prior, apart=_radius_frames(data))
         except ValueError as exc:
             raise SyncError(f"camera {data.name}: {exc} ({len(votes)} votes)") from None
         start = np.zeros(len(track), dtype=bool)
@@ -95,6 +97,9 @@ class RefinedMethod:
         if fallback or refinement is None:
             alpha, beta = search.alpha, search.beta
             cov = _line_search_cov(search, votes.sample[search.inliers])
+            if refinement is not None:  # the two fits disagree: either may be right, the interval spans both
+                gap = np.array([refinement.alpha - search.alpha, refinement.beta - search.beta])
+                cov = cov + np.outer(gap, gap)
         else:
             alpha, beta, cov = refinement.alpha, refinement.beta, refinement.cov
             budget = error_budget(refinement, data.track_clock, np.zeros((2, 2)))
@@ -181,6 +186,19 @@ def _refine(data: CameraData, path: PiecewiseTrajectory, alpha: float, beta: flo
     track = data.track
     box = None if track.w is None or track.h is None else np.column_stack([track.w, track.h])
     return refine_line(data.camera, data.track_clock, track.xy, path, alpha, beta, start, options.f_scale_px, GATE_EPS * data.eps_px, options.model_error_px, prior, box)
+
+
+def _radius_frames(data: CameraData) -> float:
+    """How many frames the vote radius spans along the target's image path (median image speed over consecutive tracked
+    frames): a line within that of the best is the same answer seen through a wide radius, not a rival."""
+    track = data.track
+    step = np.diff(track.frame)
+    moved = np.linalg.norm(np.diff(track.xy, axis=0), axis=1)
+    consecutive = step == 1
+    if consecutive.sum() < MIN_SPEED_FRAMES:
+        return 0.0
+    speed = float(np.median(moved[consecutive]))
+    return float(min(data.eps_px / max(speed, 1e-6), MAX_APART_FRAMES))
 
 
 def _near_line(data: CameraData, path: PiecewiseTrajectory, alpha: float, beta: float, gate_px: float) -> np.ndarray:
