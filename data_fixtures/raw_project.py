@@ -77,6 +77,7 @@ def make_raw_project(directory: str | Path, spec: RawProjectSpec = RawProjectSpe
     parts = [
         "# Made by `tlsync demo`: raw videos, checkerboard photos, GCPs and a GPX log.\n"
         f'[target]\nlog = "target.gpx"\norigin = [{ORIGIN.lat}, {ORIGIN.lon}, {ORIGIN.alt}]\n'
+        'log_model = "rtk"  # the GPX holds an RTK-grade path; a phone\'s or a watch\'s: leave the default (auto)\n'
     ]
     if spec.gcps and not spec.gcp_noise_m:
         parts.append(f"[calibration]\ngcp_sigma_m = {SURVEYED_M}  # the GCPs are surveyed (RTK); a phone's or a web map's: leave the default\n")

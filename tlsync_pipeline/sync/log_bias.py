@@ -173,6 +173,10 @@ class _Joint:
         self.quadratic = np.r_[np.zeros(pixels, bool), np.ones(len(self.priors) + whiten.shape[0], bool)]
         self.loss: Callable = _soft_l1_except(self.quadratic)
         self._cache: dict[bytes, tuple[list[np.ndarray], list[np.ndarray]]] = {}
+        self.inflation = np.ones(self.n)
+        start = np.concatenate([self.x0, np.zeros(3 * len(knots))])
+        self.inflation = np.array([_inflation(c, r, j, f_scale, start[2 * k : 2 * k + 2]) for k, (c, r, j) in enumerate(zip(cameras, *self._pixels(start)))])
+        self._cache.clear()
 
     def line(self, z: np.ndarray, k: int) -> tuple[float, float]:
         u, s0 = z[2 * k : 2 * k + 2]
@@ -189,8 +193,9 @@ class _Joint:
                 u, s0 = z[2 * k : 2 * k + 2]
                 s = s0 + u * (c.clock - c.middle)
                 r, jac = _camera_rows(c, self.path, self.knots, bias, s)
-                residuals.append(r)
-                jacobians.append(np.concatenate([jac[:, :, :1] * (c.clock - c.middle)[:, None, None], jac[:, :, :1], jac[:, :, 1:]], axis=2))
+                scale = 1.0 / np.sqrt(self.inflation[k])
+                residuals.append(r * scale)
+                jacobians.append(scale * np.concatenate([jac[:, :, :1] * (c.clock - c.middle)[:, None, None], jac[:, :, :1], jac[:, :, 1:]], axis=2))
             self._cache[key] = (residuals, jacobians)
         return self._cache[key]
 
@@ -230,15 +235,7 @@ class _Joint:
         information = self.whiten.T @ self.whiten
         blocks = []
         for k, (r, jac) in enumerate(zip(residuals, jacobians)):
-            c = self.cameras[k]
-            q = (r / self.f_scale) ** 2
-            psi, dpsi = r / np.sqrt(1.0 + q), (1.0 + q) ** -1.5
-            flat_j = jac.reshape(-1, jac.shape[2])
-            bread = flat_j.T @ (dpsi.ravel()[:, None] * flat_j)
-            if c.prior is not None:
-                bread[0, 0] += (c.prior.alpha / c.prior.sigma) ** 2
-            variance = max(float(np.sum(psi**2) / max(np.sum(dpsi), 1e-12)), 1e-6)
-            h = bread / (variance * _correlation_factor(c, bread, variance, z[2 * k : 2 * k + 2]))
+            h = _bread(self.cameras[k], r, jac, self.f_scale) / _inflation(self.cameras[k], r, jac, self.f_scale, z[2 * k : 2 * k + 2])
             h_tt, h_tb, h_bb = h[:2, :2], h[:2, 2:], h[2:, 2:]
             gain = np.linalg.pinv(h_tt) @ h_tb  # (2, 3K); a camera whose line the residuals do not determine tells nothing of the bias
             information = information + h_bb - h_tb.T @ gain
@@ -276,6 +273,25 @@ def _camera_rows(c: BiasCamera, path: PiecewiseTrajectory, knots: np.ndarray, bi
     r[bad] = 10.0
     jac[bad] = 0.0
     return r, jac
+
+
+def _bread(c: BiasCamera, r: np.ndarray, jac: np.ndarray, f_scale: float) -> np.ndarray:
+    """One camera's robust Gauss-Newton information J^T psi' J (its slope prior included), in (its x, the knots)."""
+    dpsi = (1.0 + (r / f_scale) ** 2) ** -1.5
+    flat_j = jac.reshape(-1, jac.shape[2])
+    bread = flat_j.T @ (dpsi.ravel()[:, None] * flat_j)
+    if c.prior is not None:
+        bread[0, 0] += (c.prior.alpha / c.prior.sigma) ** 2
+    return bread
+
+
+def _inflation(c: BiasCamera, r: np.ndarray, jac: np.ndarray, f_scale: float, x: np.ndarray) -> float:
+    """What one camera's residuals' information is divided by: their variance factor (sum psi^2 / sum psi', the
+    M-estimator's) times how much more its own refinement's covariance says than that naive one (>= 1)."""
+    q = (r / f_scale) ** 2
+    psi, dpsi = r / np.sqrt(1.0 + q), (1.0 + q) ** -1.5
+    variance = max(float(np.sum(psi**2) / max(np.sum(dpsi), 1e-12)), 1e-6)
+    return variance * _correlation_factor(c, _bread(c, r, jac, f_scale), variance, x)
 
 
 def _correlation_factor(c: BiasCamera, bread: np.ndarray, variance: float, x: np.ndarray) -> float:
