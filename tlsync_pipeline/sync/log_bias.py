@@ -103,7 +103,8 @@ class LogBias:
 def fit_log_bias(cameras: list[BiasCamera], path: PiecewiseTrajectory, rate: float, model: LogModel, f_scale: float, estimate: bool = True) -> LogBias:
     """Every camera's line and the log's bias, fitted together (see the module); ``rate``: log samples per second.
 
-    estimate False: no fit; the bias at zero, the cameras' lines as they are, and what the bias leaves uncertain given them.
+    estimate False: no fit; the bias at zero, the cameras' lines as they are, and the bias's uncertainty at its prior
+    (the data told nothing that was used).
     """
     knots = _knots(cameras, path, rate, model)
     prior = np.array([model.bias_m, model.bias_m, model.bias_vertical_m])
@@ -115,6 +116,8 @@ def fit_log_bias(cameras: list[BiasCamera], path: PiecewiseTrajectory, rate: flo
         solution = least_squares(problem.residual, z, jac=problem.jacobian, loss=problem.loss, f_scale=f_scale, x_scale=problem.scale, method="trf", max_nfev=100)
         z, converged = solution.x, bool(solution.success)
     posterior, sensitivity = problem.uncertainty(z)
+    if not estimate:
+        posterior = np.linalg.pinv(whiten.T @ whiten)
     lines = {c.name: problem.line(z, k) for k, c in enumerate(cameras)}
     return LogBias(knots, z[2 * len(cameras) :].reshape(-1, 3), posterior, prior, lines, sensitivity, converged)
 
