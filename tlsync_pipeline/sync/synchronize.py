@@ -15,8 +15,11 @@ Pure functions from typed values to typed values; no file I/O here.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
+
+import numpy as np
 
 from calibration.camera import Camera
 from tlsync_pipeline.errors import SyncError
@@ -24,11 +27,14 @@ from tlsync_pipeline.sync.clock import FrameTimes, camera_clock
 from tlsync_pipeline.sync.identify import Identification, IdentifyParams, identify_target
 from tlsync_pipeline.sync.methods import CameraData, CameraInput
 from tlsync_pipeline.sync.params import Preparation, SyncParams
+from tlsync_pipeline.sync.plausibility import Judged, diagnose, judge_line, motion_slope
 from tlsync_pipeline.sync.refined import RefinedParams
 from tlsync_pipeline.sync.registry import get_method, method_options, params_table, preparation_of
+from tlsync_pipeline.sync.slope import slope_prior
+from tlsync_pipeline.sync.status import AMBIGUOUS, FAILED
 from tlsync_pipeline.sync.timeline import CameraLine, Timeline
 from tlsync_pipeline.sync.votes import Votes, compute_votes
-from tlsync_pipeline.trajectory import Trajectory, lowered
+from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory, lowered
 from trackers.track import Track
 
 __all__ = ["CameraInput", "CameraResult", "cast_votes", "identify_and_synchronize", "identify_params", "prepare_trajectory", "synchronize", "synchronize_camera"]
@@ -97,29 +103,79 @@ def synchronize(
 
     votes: each camera's votes as the vote stage cast them (cast_votes on
     prepare_trajectory's output), or the SyncError it met; None: cast here.
-    Cameras that cannot be synchronized are listed in ``Timeline.failed``
-    with the reason.
+    Every line is then checked against its camera's evidence
+    (sync/plausibility.py): a line the checks contradict, or with a rival as
+    strong, is not synchronized (``Timeline.rejected``). Cameras that cannot
+    be synchronized are listed in ``Timeline.failed`` with the reason; a
+    camera whose fit raises anything else fails alone. Raises LogUnitError
+    (an InputError) when every camera's evidence says the log is not in
+    seconds or metres.
     """
     prepared = prepare_trajectory(trajectory, preparation_of(params))
+    path = PiecewiseTrajectory(prepared)
     results: dict[str, CameraResult] = {}
     failed: dict[str, str] = {}
+    judged: dict[str, Judged] = {}
     for name, inputs in cameras.items():
+        prior = slope_prior(inputs.fps, trajectory.rate, params.rate_sigma)
         try:
             cast = votes[name] if votes is not None else None
             if isinstance(cast, SyncError):
                 raise cast
             if inputs.track is None:
-                results[name] = identify_and_synchronize(name, inputs, prepared, params)
-                continue
-            results[name] = synchronize_camera(name, inputs, cast if cast is not None else cast_votes(inputs.camera, inputs.track, prepared, params.eps_px), prepared, params)
+                result = identify_and_synchronize(name, inputs, prepared, params)
+            else:
+                result = synchronize_camera(name, inputs, cast if cast is not None else cast_votes(inputs.camera, inputs.track, prepared, params.eps_px), prepared, params)
+            results[name], judged[name] = _judge(name, inputs, result, path, params, prior)
         except SyncError as exc:
             failed[name] = str(exc)
+            judged[name] = Judged(inputs.camera, inputs.track, None, None if prior is None else prior.alpha, True)
+        except (ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
+            failed[name] = f"camera {name}: the fit failed ({type(exc).__name__}: {exc})"
+            judged[name] = Judged(inputs.camera, inputs.track, None, None if prior is None else prior.alpha, True)
+    found = diagnose(judged, prepared, params.eps_px)
+    lines, rejected = {}, {}
+    for name, result in results.items():
+        line = result.line
+        if name in found:
+            line = replace(line, checks=(*(line.checks or ()), found[name]))
+        stopping = [r.text for r in line.checks or () if r.severity in (AMBIGUOUS, FAILED)]
+        if stopping:
+            rejected[name] = line
+            failed[name] = f"camera {name}: " + "; ".join(stopping)
+        else:
+            lines[name] = line
     timeline = Timeline(
-        {name: r.line for name, r in results.items()},
+        lines,
         trajectory.rate,
         trajectory.t0,
         method=params.method,
         params=params_table(params),
-        failed=failed,
+        failed={name: failed[name] for name in cameras if name in failed},
+        rejected=rejected,
     )
     return timeline, results
+
+
+def _judge(name: str, inputs: CameraInput, result: CameraResult, path: PiecewiseTrajectory, params: SyncParams, prior) -> tuple[CameraResult, Judged]:
+    """The camera's result with its line checked (CameraLine.checks), and what ``diagnose`` needs of it.
+
+    A line with a non-finite slope or intercept is a SyncError; a covariance
+    that is not finite is dropped (no interval rather than an infinite one).
+    """
+    line = result.line
+    if not (math.isfinite(line.alpha) and math.isfinite(line.beta)) or line.alpha <= 0:
+        raise SyncError(f"camera {name}: no usable line (alpha {line.alpha:g}, beta {line.beta:g})")
+    if line.cov is not None and not np.isfinite(line.cov).all():
+        line = replace(line, cov=None)
+    track = inputs.track if inputs.track is not None else result.identification.track  # type: ignore[union-attr]
+    clock = camera_clock(track, inputs.fps)
+    times = FrameTimes.of_track(track)
+    track_clock = clock.clock_at(track.frame, times)
+    fps = clock.fps if clock.fps is not None else inputs.fps
+    slope = motion_slope(inputs.camera, track, track_clock, path, clock.clock_at(result.votes.frame, times), result.votes.sample, fps)
+    alpha_prior = None if prior is None else prior.alpha
+    checks = judge_line(inputs.camera, track, track_clock, path, line, params.eps_px, fps, alpha_prior, slope)
+    line = replace(line, checks=checks)
+    contradicted = any(r.severity == FAILED for r in checks)
+    return replace(result, line=line), Judged(inputs.camera, track, slope, alpha_prior, contradicted)

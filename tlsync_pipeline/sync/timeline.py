@@ -19,6 +19,7 @@ import numpy as np
 
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.sync.clock import FRAME, CameraClock, FrameTimes
+from tlsync_pipeline.sync.status import CameraStatus, Reason, statuses
 
 FORMAT_VERSION = 1
 
@@ -39,7 +40,8 @@ class Relation:
 
 @dataclass(frozen=True)
 class LineSearchSummary:
-    """The refined method's line search: its line, the distinct frames backing it and its best rival, votes kept, lines tried."""
+    """The refined method's line search: its line, the distinct frames backing it and its best rival (and that
+    rival's line, None when there is none), votes kept, lines tried."""
 
     alpha: float
     beta: float
@@ -47,6 +49,8 @@ class LineSearchSummary:
     runner_up_frames: int
     thinned_votes: int
     hypotheses: int
+    rival_alpha: float | None = None
+    rival_beta: float | None = None
 
 
 @dataclass(frozen=True)
@@ -123,6 +127,7 @@ class CameraLine:
     refinement: RefinementSummary | None = None
     clock: CameraClock = CameraClock()
     identification: IdentificationSummary | None = None
+    checks: tuple[Reason, ...] | None = None
 
     def __post_init__(self):
         if not self.clock.vfr and self.clock.fps is None and self.fps is not None:
@@ -153,6 +158,8 @@ class CameraLine:
         for key in ("line_search", "refinement", "identification"):
             if getattr(self, key) is not None:
                 entry[key] = asdict(getattr(self, key))
+        if self.checks is not None:
+            entry["checks"] = [r.to_dict() for r in self.checks]
         if self.clock.vfr:
             entry.update(
                 clock=self.clock.kind,
@@ -176,14 +183,22 @@ class CameraLine:
             "line_search": None if entry.get("line_search") is None else LineSearchSummary(**entry["line_search"]),
             "refinement": None if entry.get("refinement") is None else RefinementSummary(**entry["refinement"]),
             "identification": None if entry.get("identification") is None else IdentificationSummary.from_dict(entry["identification"]),
+            "checks": None if entry.get("checks") is None else tuple(Reason.from_dict(r) for r in entry["checks"]),
         }
-        base = {k: entry[k] for k in ("alpha", "beta", "votes", "inliers", "residual_rms")}
+        base = {k: entry[k] for k in ("alpha", "beta", "votes", "inliers")}
+        base["residual_rms"] = float("nan") if entry["residual_rms"] is None else entry["residual_rms"]
         return cls(name, fps=entry.get("fps"), clock=clock, **base, **optional)
 
 
 @dataclass(frozen=True)
 class Timeline:
-    """All cameras' lines on one target grid (rate in samples/s, t0 in s)."""
+    """All cameras' lines on one target grid (rate in samples/s, t0 in s).
+
+    cameras: the synchronized cameras' lines (status ok or weak, sync/status.py);
+    failed: every camera that is not synchronized, with why in one line;
+    rejected: the lines of those of them that have one (ambiguous, or
+    contradicted by the plausibility checks): for diagnosis, never for exports.
+    """
 
     cameras: dict[str, CameraLine]
     target_rate: float | None = None
@@ -191,10 +206,15 @@ class Timeline:
     method: str = "paper"
     params: dict = field(default_factory=dict)
     failed: dict[str, str] = field(default_factory=dict)
+    rejected: dict[str, CameraLine] = field(default_factory=dict)
 
     @property
     def names(self) -> list[str]:
         return list(self.cameras)
+
+    def statuses(self) -> dict[str, CameraStatus]:
+        """Every camera's status (sync/status.py), synchronized first."""
+        return {s.camera: s for s in statuses(self)}
 
     def clock_relation(self, a: str, b: str) -> Relation:
         """clock_B = alpha * clock_A + beta, through the target's grid (exact; clocks as in CameraLine)."""
@@ -287,7 +307,10 @@ class Timeline:
         }
 
     def to_dict(self) -> dict:
-        """The ``timeline.json`` content (contract in docs/formats.md)."""
+        """The ``timeline.json`` content (contract in docs/formats.md); a number that is not finite is written as null."""
+        return _finite(self._document())
+
+    def _document(self) -> dict:
         first = self.names[0] if self.cameras else None
         cameras = {}
         for name, c in self.cameras.items():
@@ -320,9 +343,22 @@ class Timeline:
             "reference": first,
             "cameras": cameras,
             "failed": self.failed,
+            "status": {name: status.to_dict() for name, status in self.statuses().items()},
+            "rejected": {name: line.to_dict() for name, line in self.rejected.items()},
             "line": self.line(),
             "pairs": pairs,
         }
+
+
+def _finite(value):
+    """``value`` (JSON-like) with every float that is not finite replaced by None: no NaN or infinity reaches a file."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {k: _finite(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_finite(v) for v in value]
+    return value
 
 
 def eps_t(estimated: Relation, truth: Relation, n_frames_a: int) -> float:
@@ -342,9 +378,10 @@ def read_timeline(path: str | Path) -> Timeline:
     try:
         data = json.loads(path.read_text(encoding="utf-8"))
         cameras = {name: CameraLine.from_dict(name, c) for name, c in data["cameras"].items()}
+        rejected = {name: CameraLine.from_dict(name, c) for name, c in data.get("rejected", {}).items()}
         target = data.get("target", {})
         return Timeline(
-            cameras, target.get("rate"), target.get("t0"), data.get("method", "paper"), data.get("params", {}), data.get("failed", {})
+            cameras, target.get("rate"), target.get("t0"), data.get("method", "paper"), data.get("params", {}), data.get("failed", {}), rejected
         )
     except FileNotFoundError:
         raise InputError(f"{path}: file not found") from None

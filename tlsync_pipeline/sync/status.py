@@ -1,0 +1,151 @@
+"""Each camera's status, the one model every output speaks: ok, weak, ambiguous or failed, with reasons and a remedy.
+
+- ``ok``: synchronized, nothing to say;
+- ``weak``: synchronized, with a stated reason (few frames, motion along the
+  viewing ray, an interval wider than a frame, ...); its interval says how
+  far off it may be;
+- ``ambiguous``: two lines far apart have comparable support: not
+  synchronized;
+- ``failed``: not synchronized: no line, or a line the camera's own evidence
+  contradicts (the plausibility checks, sync/plausibility.py), or a task of
+  the camera that did not complete.
+
+A status is the worst severity among its reasons; each ``Reason`` has a
+stable ``code``, a sentence with the numbers and a remedy. Reasons come
+from the line's flags (``FLAGS``: a flag another part of tlsync adds to a
+line becomes a reason by adding it there), its warnings, its
+``checks`` (the plausibility checks' reasons), its interval, and
+``Timeline.failed``. ``camera_status`` is what timeline.json, ``tlsync
+status --json``, the terminal table, report.html and the exit code all use:
+exit 0 only when every camera is ok or weak.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from tlsync_pipeline.sync.timeline import Timeline
+
+OK, WEAK, AMBIGUOUS, FAILED = "ok", "weak", "ambiguous", "failed"
+SEVERITY = {OK: 0, WEAK: 1, AMBIGUOUS: 2, FAILED: 3}
+SYNCHRONIZED = (OK, WEAK)
+HALF_95 = 1.959964  # normal quantile of a two-sided 95 % interval
+WIDE_FRAMES = 1.0  # a start known to more than this many of the camera's frames (95 %) is weak
+
+
+@dataclass(frozen=True)
+class Reason:
+    """Why a camera is not plainly ok: a stable code, how serious (WEAK, AMBIGUOUS or FAILED), a sentence, what to do."""
+
+    code: str
+    severity: str
+    text: str
+    remedy: str
+
+    def to_dict(self) -> dict:
+        return {"code": self.code, "severity": self.severity, "text": self.text, "remedy": self.remedy}
+
+    @classmethod
+    def from_dict(cls, entry: dict) -> Reason:
+        return cls(str(entry["code"]), str(entry["severity"]), str(entry["text"]), str(entry.get("remedy", "")))
+
+
+# A line's flags (CameraLine.flags) as reasons: severity, sentence, remedy.
+FLAGS: dict[str, tuple[str, str, str]] = {
+    "few_inliers": (WEAK, "few frames support the line", "a longer pass of the target through the view, or check the track"),
+    "along_ray": (WEAK, "the target moves mostly along the viewing ray (little timing information)", "a pass of the target across the view"),
+    "truncated": (WEAK, "the video ends before its announced end; only the frames it holds are mapped", "check the video file (re-copy or re-encode it)"),
+    "clock_disagrees": (WEAK, "the offset disagrees with the camera's own clock by more than its tolerance (see clock_prior)", "check the camera's clock and the log's time base"),
+}
+
+
+@dataclass(frozen=True)
+class CameraStatus:
+    """A camera's status (OK, WEAK, AMBIGUOUS or FAILED) and its reasons, worst first."""
+
+    camera: str
+    status: str
+    reasons: tuple[Reason, ...] = ()
+
+    @property
+    def synchronized(self) -> bool:
+        return self.status in SYNCHRONIZED
+
+    @property
+    def reason(self) -> str:
+        """The reasons in one line ("" when ok)."""
+        return "; ".join(r.text for r in self.reasons)
+
+    @property
+    def remedy(self) -> str:
+        """What to do about the worst reason ("" when ok)."""
+        return self.reasons[0].remedy if self.reasons else ""
+
+    def to_dict(self) -> dict:
+        return {"status": self.status, "synchronized": self.synchronized, "reason": self.reason, "remedy": self.remedy, "reasons": [r.to_dict() for r in self.reasons]}
+
+
+def status_of(camera: str, reasons: list[Reason] | tuple[Reason, ...]) -> CameraStatus:
+    """The status its reasons make: the worst severity (OK without any), reasons worst first."""
+    ordered = tuple(sorted(reasons, key=lambda r: -SEVERITY[r.severity]))
+    return CameraStatus(camera, ordered[0].severity if ordered else OK, ordered)
+
+
+def failure(text: str, code: str = "not_synchronized", remedy: str = "") -> Reason:
+    """A reason that leaves a camera not synchronized (a SyncError's message, a task that did not complete)."""
+    return Reason(code, FAILED, text, remedy or _failure_remedy(text))
+
+
+def _failure_remedy(text: str) -> str:
+    """A remedy for the failures tlsync words itself (no vote, no target, a task that did not complete)."""
+    if "never comes within" in text or "projects into its image" in text:
+        return "check the camera's pose (GCPs), that the log is in the same world frame, and the track"
+    if "never found" in text:
+        return "check that the target crosses the view, or give the tracker an init box"
+    if " failed: " in text or "did not run" in text:
+        return "fix that task's error (see `tlsync status`) and run again"
+    return "see the reason; `tlsync status` lists what ran and failed"
+
+
+def camera_status(timeline: Timeline, name: str) -> CameraStatus:
+    """The camera's status from the timeline: its line's flags, warnings, checks and interval, or why it failed."""
+    line = timeline.cameras.get(name) or timeline.rejected.get(name)
+    if line is None:
+        return status_of(name, [failure(timeline.failed.get(name, "not synchronized"))])
+    reasons = list(line.checks or ())
+    for flag in line.flags or ():
+        severity, text, remedy = FLAGS.get(flag, (WEAK, flag, "see timeline.json"))
+        reasons.append(Reason(flag, severity, text, remedy))
+    for warning in line.warnings or ():
+        reasons.append(Reason("fallback", WEAK, f"the refinement was not used: {warning}", "check the track and the calibration near this camera's frames"))
+    if name in timeline.cameras:
+        wide = _wide_interval(timeline, name)
+        if wide is not None:
+            reasons.append(wide)
+    elif not any(r.severity in (AMBIGUOUS, FAILED) for r in reasons):
+        reasons.append(failure(timeline.failed.get(name, "not synchronized")))
+    return status_of(name, reasons)
+
+
+def _wide_interval(timeline: Timeline, name: str) -> Reason | None:
+    """WEAK when the camera's start, against the reference's, is known to more than WIDE_FRAMES of its own frames (95 %)."""
+    reference = timeline.names[0]
+    if name == reference:
+        return None
+    se = timeline.start_offset_se(reference, name)
+    if se is None:
+        return None
+    line = timeline.cameras[name]
+    own_frames = HALF_95 * (se[1] * line.fps if se[1] is not None and line.fps else se[0])
+    if not own_frames > WIDE_FRAMES:
+        return None
+    seconds = "" if se[1] is None else f"±{HALF_95 * se[1]:.2g} s, "
+    return Reason("wide_interval", WEAK, f"start known to {seconds}±{own_frames:.1f} of its frames only", "a longer or better-calibrated pass of the target through the view narrows it")
+
+
+def statuses(timeline: Timeline, names: list[str] | None = None) -> list[CameraStatus]:
+    """Every camera's status: ``names`` in that order (default: the synchronized, then the rejected, then the failed)."""
+    names = names or list(dict.fromkeys([*timeline.cameras, *timeline.rejected, *timeline.failed]))
+    return [camera_status(timeline, name) for name in names]
