@@ -19,9 +19,8 @@ from tlsync_pipeline.cli.signals import INTERRUPTED_MESSAGE, interrupt
 from tlsync_pipeline.cli.demo import demo as demo_command
 from tlsync_pipeline.cli.exit_codes import ExitCode, exit_code_for
 from tlsync_pipeline.cli.json_output import dumps, run_document
-from tlsync_pipeline.cli.pipeline import execute, print_timeline, report_outcome, run_options
+from tlsync_pipeline.cli.pipeline import execute, print_timeline, report_outcome, run_options, synchronized_code
 from tlsync_pipeline.errors import INPUT_ERRORS, EnvironmentProblem, SyncError, describe_error
-from tlsync_pipeline.sync.timeline import read_timeline
 
 
 class TlsyncGroup(click.Group):
@@ -68,18 +67,13 @@ def run(project_file: Path, work_dir: Path | None, out_dir: Path | None, truth: 
     graph, summary = execute(
         project_file, work_dir, out_dir, force_stages=force_stages, cameras=camera, jobs=jobs, executor_kind=executor_kind, scheduler=scheduler, quiet=quiet, summary_text=not as_json
     )
-    code = report_outcome(summary, quiet)
+    code = max(report_outcome(summary, quiet), synchronized_code(graph, summary))
     if as_json:
-        synchronized = "sync" in summary.ran + summary.fresh
-        if synchronized and read_timeline(graph.workspace.path("timeline")).failed:
-            code = max(code, ExitCode.NOT_SYNCHRONIZED)
         click.echo(dumps(run_document(graph, summary, code)))
     else:
         timeline = print_timeline(graph, summary, truth)
         if timeline is not None:
             click.echo(f"\nwrote {graph.workspace.path('timeline')}" + (f", {graph.workspace.path('report_html')}" if "render" in summary.ran + summary.fresh else ""))
-            if timeline.failed:
-                code = max(code, ExitCode.NOT_SYNCHRONIZED)
     if code:
         sys.exit(code)
 

@@ -137,6 +137,13 @@ def report_outcome(summary: RunSummary, quiet: bool = False) -> ExitCode:
     return ExitCode(code)
 
 
+def synchronized_code(graph, summary: RunSummary) -> ExitCode:
+    """NOT_SYNCHRONIZED when this run's sync stage completed and some camera is not synchronized (ambiguous or failed), else OK."""
+    if "sync" in summary.ran + summary.fresh and read_timeline(graph.workspace.path("timeline")).failed:
+        return ExitCode.NOT_SYNCHRONIZED
+    return ExitCode.OK
+
+
 def print_timeline(graph, summary: RunSummary, truth: Path | None = None):
     """Print the timeline table (and the comparison with ``truth``) when this run's sync stage completed; returns the Timeline or None."""
     if "sync" not in summary.ran + summary.fresh:
@@ -190,8 +197,8 @@ def stage_command(stage: str, help_text: str, render: bool = False) -> click.Com
 
     def command(project_file, work_dir, out_dir, camera, jobs, executor_kind, scheduler, quiet, pair=None, frames=None, truth=None):
         options = Options(_parse_pairs(pair), _parse_frames(frames), truth)
-        _, summary = execute(project_file, work_dir, out_dir, cameras=camera, targets_stage=stage, options=options, jobs=jobs, executor_kind=executor_kind, scheduler=scheduler, quiet=quiet)
-        code = report_outcome(summary, quiet)
+        graph, summary = execute(project_file, work_dir, out_dir, cameras=camera, targets_stage=stage, options=options, jobs=jobs, executor_kind=executor_kind, scheduler=scheduler, quiet=quiet)
+        code = max(report_outcome(summary, quiet), synchronized_code(graph, summary))
         if code:
             sys.exit(code)
 

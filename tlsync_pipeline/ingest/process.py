@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import datetime as dt
 import math
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
 
@@ -74,7 +74,9 @@ class IngestParams:
     max_gap_s None = 3x the median interval; max_speed_mps None = no spike rejection;
     smoothing_s 0 = none, else the Savitzky-Golay window (s); transform for local logs;
     altitude_reference: what the log's heights are above (one of ALTITUDE_REFERENCES), None =
-    as the reader says; altitude_offset_m: added to every height (m) to make it ellipsoidal."""
+    as the reader says; altitude_offset_m: added to every height (m) to make it ellipsoidal;
+    time_unit, length_unit: seconds per unit of the log's times and metres per unit of its
+    local positions or heights (ingest/units.py), applied before anything else."""
 
     origin: Origin | str = "first"
     rate: float | None = None
@@ -84,6 +86,8 @@ class IngestParams:
     transform: RigidTransform | None = None
     altitude_reference: str | None = None
     altitude_offset_m: float = 0.0
+    time_unit: float = 1.0
+    length_unit: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -175,10 +179,23 @@ class IngestReport:
         return "\n".join(lines)
 
 
+def in_seconds_and_metres(records: LogRecords, time_unit: float, length_unit: float) -> LogRecords:
+    """The records with times in seconds and local positions (or a geodetic log's heights) in metres."""
+    if time_unit == 1.0 and length_unit == 1.0:
+        return records
+    values = records.values.copy()
+    if records.frame == GEODETIC:
+        values[:, 2] *= length_unit
+    else:
+        values *= length_unit
+    return replace(records, t=records.t * time_unit, values=values)
+
+
 def ingest(records: LogRecords, params: IngestParams = IngestParams()) -> tuple[Trajectory, IngestReport]:
     """The constant-rate local trajectory of a log and the report; InputError when unusable."""
     if len(records) == 0:
         raise InputError(_no_fix_message(records))
+    records = in_seconds_and_metres(records, params.time_unit, params.length_unit)
     t, values, numbers, dropped, index = order_and_dedupe(records)
     sigma = None if records.sigma is None else records.sigma[index]
     if len(t) < 2:
@@ -251,6 +268,8 @@ def ingest(records: LogRecords, params: IngestParams = IngestParams()) -> tuple[
             "transform": None if params.transform is None else {"R": params.transform.R.tolist(), "t": params.transform.t.tolist()},
             "altitude_reference": params.altitude_reference,
             "altitude_offset_m": params.altitude_offset_m,
+            "time_unit": params.time_unit,
+            "length_unit": params.length_unit,
         },
         warnings=warnings,
         clock=records.clock,

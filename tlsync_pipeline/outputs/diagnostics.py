@@ -1,4 +1,4 @@
-"""What a person checks after a run: each camera's status and every warning the stages recorded.
+"""What a person checks after a run: every warning the stages recorded (each camera's status is sync/status.py's).
 
 Warnings come from where each stage records them:
 
@@ -19,15 +19,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from tlsync_pipeline.sync.status import FLAGS
 from tlsync_pipeline.sync.timeline import Timeline
-
-HALF_95 = 1.959964  # normal quantile of a two-sided 95 % interval
-
-FLAG_MEANING = {
-    "few_inliers": "few frames support the line",
-    "ambiguous": "a second line has comparable support",
-    "along_ray": "the target moves mostly along the viewing ray",
-}
 
 
 @dataclass(frozen=True)
@@ -48,15 +41,6 @@ class StageRun:
     created: str
     seconds: float | None
     warnings: tuple[str, ...] = ()
-
-
-@dataclass(frozen=True)
-class CameraStatus:
-    """ok, weak or failed, and why, in words."""
-
-    camera: str
-    status: str
-    reason: str
 
 
 def calibration_warnings(name: str, report: dict) -> list[StageWarning]:
@@ -94,7 +78,7 @@ def sync_warnings(timeline: Timeline) -> list[StageWarning]:
     out = []
     for name, line in timeline.cameras.items():
         out += [StageWarning("sync", name, text) for text in line.warnings or ()]
-        out += [StageWarning("sync", name, f"{flag}: {FLAG_MEANING.get(flag, flag)}") for flag in line.flags or ()]
+        out += [StageWarning("sync", name, f"{flag}: {FLAGS[flag][1] if flag in FLAGS else flag}") for flag in line.flags or ()]
     out += [StageWarning("sync", name, f"not synchronized: {why}") for name, why in timeline.failed.items()]
     return out
 
@@ -120,29 +104,3 @@ def gather_warnings(calibration_reports: dict[str, dict], ingest: dict | None, r
         order.setdefault(stage, len(order))
     found.sort(key=lambda w: order[w.stage] if w.stage != "render" else len(order))
     return found + [StageWarning("render", None, note) for note in notes]
-
-
-def camera_status(timeline: Timeline, name: str) -> CameraStatus:
-    """failed (not synchronized), weak (flags, a fallback, or a start interval wider than one of its frames) or ok."""
-    if name in timeline.failed:
-        return CameraStatus(name, "failed", timeline.failed[name])
-    line = timeline.cameras[name]
-    support = f"{line.inliers} of {line.votes} votes on the line"
-    reasons = [FLAG_MEANING.get(flag, flag) for flag in line.flags or ()]
-    if line.warnings:
-        reasons.append("the refinement was not used (see warnings)")
-    reference = timeline.names[0]
-    se = timeline.start_offset_se(reference, name) if name != reference else None
-    if se is not None:
-        own_frames = HALF_95 * (se[1] * line.fps if se[1] is not None and line.fps else se[0])
-        if own_frames > 1.0:
-            seconds = "" if se[1] is None else f"±{HALF_95 * se[1]:.2g} s, "
-            reasons.append(f"start known to {seconds}±{own_frames:.1f} of its frames only")
-    if reasons:
-        return CameraStatus(name, "weak", "; ".join(reasons) + f" ({support})")
-    return CameraStatus(name, "ok", support)
-
-
-def all_statuses(timeline: Timeline) -> list[CameraStatus]:
-    """Every synchronized camera's status, then the failed ones."""
-    return [camera_status(timeline, name) for name in list(timeline.cameras) + list(timeline.failed)]

@@ -36,9 +36,10 @@ from tlsync_pipeline.pipeline.cache import (
 )
 from tlsync_pipeline.pipeline.codehash import code_digests
 from tlsync_pipeline.pipeline.executors import Called, SerialExecutor, one_blas_thread
-from tlsync_pipeline.pipeline.graph import STAGES, Graph, Task, check_given, task_id
+from tlsync_pipeline.pipeline.graph import STAGES, Graph, Task, task_id
 from tlsync_pipeline.pipeline.lock import WorkLock
 from tlsync_pipeline.pipeline.spec import StageResult, params_json
+from tlsync_pipeline.pipeline.validate import validate_project
 from tlsync_pipeline.pipeline.workspace import FOLDERS, StageFiles
 
 
@@ -188,10 +189,10 @@ def run_graph(
     force = set(force or ())
     wanted = _closure(graph, targets) if targets is not None else list(graph.tasks)
     summary = RunSummary()
+    validate_project(graph.project, {source for tid in wanted for source in graph.tasks[tid].inputs.values() if isinstance(source, Path)})
     for tid in wanted:
         if graph.tasks[tid].problem:
             raise InputError(graph.tasks[tid].problem)
-    check_given(graph, wanted)
     with WorkLock(graph.work):
         _remove_leftovers(graph.work)
         memo = HashMemo(graph.workspace.hash_memo)

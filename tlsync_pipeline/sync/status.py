@@ -15,24 +15,22 @@ stable ``code``, a sentence with the numbers and a remedy. Reasons come
 from the line's flags (``FLAGS``: a flag another part of tlsync adds to a
 line becomes a reason by adding it there), its warnings, its
 ``checks`` (the plausibility checks' reasons), its interval, and
-``Timeline.failed``. ``camera_status`` is what timeline.json, ``tlsync
-status --json``, the terminal table, report.html and the exit code all use:
-exit 0 only when every camera is ok or weak.
+``Timeline.failed`` (``Timeline.status``, sync/timeline.py). That status is
+what timeline.json, ``tlsync status --json``, the terminal table,
+report.html and the exit code all use: exit 0 only when every camera is ok
+or weak.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
-
-if TYPE_CHECKING:
-    from tlsync_pipeline.sync.timeline import Timeline
 
 OK, WEAK, AMBIGUOUS, FAILED = "ok", "weak", "ambiguous", "failed"
 SEVERITY = {OK: 0, WEAK: 1, AMBIGUOUS: 2, FAILED: 3}
 SYNCHRONIZED = (OK, WEAK)
 HALF_95 = 1.959964  # normal quantile of a two-sided 95 % interval
 WIDE_FRAMES = 1.0  # a start known to more than this many of the camera's frames (95 %) is weak
+WIDE_REMEDY = "a longer or better-calibrated pass of the target through the view narrows it"
 
 
 @dataclass(frozen=True)
@@ -75,8 +73,8 @@ class CameraStatus:
 
     @property
     def reason(self) -> str:
-        """The reasons in one line ("" when ok)."""
-        return "; ".join(r.text for r in self.reasons)
+        """Why the camera has its status, in one line: the reasons of its own severity ("" when ok)."""
+        return "; ".join(r.text for r in self.reasons if r.severity == self.status)
 
     @property
     def remedy(self) -> str:
@@ -93,6 +91,17 @@ def status_of(camera: str, reasons: list[Reason] | tuple[Reason, ...]) -> Camera
     return CameraStatus(camera, ordered[0].severity if ordered else OK, ordered)
 
 
+def line_reasons(flags: tuple[str, ...] | None, warnings: tuple[str, ...] | None, checks: tuple[Reason, ...] | None) -> list[Reason]:
+    """The reasons a camera line carries: its checks, its flags (FLAGS) and its warnings (a fallback of the method)."""
+    reasons = list(checks or ())
+    for flag in flags or ():
+        severity, text, remedy = FLAGS.get(flag, (WEAK, flag, "see timeline.json"))
+        reasons.append(Reason(flag, severity, text, remedy))
+    for warning in warnings or ():
+        reasons.append(Reason("fallback", WEAK, f"the refinement was not used: {warning}", "check the track and the calibration near this camera's frames"))
+    return reasons
+
+
 def failure(text: str, code: str = "not_synchronized", remedy: str = "") -> Reason:
     """A reason that leaves a camera not synchronized (a SyncError's message, a task that did not complete)."""
     return Reason(code, FAILED, text, remedy or _failure_remedy(text))
@@ -107,45 +116,3 @@ def _failure_remedy(text: str) -> str:
     if " failed: " in text or "did not run" in text:
         return "fix that task's error (see `tlsync status`) and run again"
     return "see the reason; `tlsync status` lists what ran and failed"
-
-
-def camera_status(timeline: Timeline, name: str) -> CameraStatus:
-    """The camera's status from the timeline: its line's flags, warnings, checks and interval, or why it failed."""
-    line = timeline.cameras.get(name) or timeline.rejected.get(name)
-    if line is None:
-        return status_of(name, [failure(timeline.failed.get(name, "not synchronized"))])
-    reasons = list(line.checks or ())
-    for flag in line.flags or ():
-        severity, text, remedy = FLAGS.get(flag, (WEAK, flag, "see timeline.json"))
-        reasons.append(Reason(flag, severity, text, remedy))
-    for warning in line.warnings or ():
-        reasons.append(Reason("fallback", WEAK, f"the refinement was not used: {warning}", "check the track and the calibration near this camera's frames"))
-    if name in timeline.cameras:
-        wide = _wide_interval(timeline, name)
-        if wide is not None:
-            reasons.append(wide)
-    elif not any(r.severity in (AMBIGUOUS, FAILED) for r in reasons):
-        reasons.append(failure(timeline.failed.get(name, "not synchronized")))
-    return status_of(name, reasons)
-
-
-def _wide_interval(timeline: Timeline, name: str) -> Reason | None:
-    """WEAK when the camera's start, against the reference's, is known to more than WIDE_FRAMES of its own frames (95 %)."""
-    reference = timeline.names[0]
-    if name == reference:
-        return None
-    se = timeline.start_offset_se(reference, name)
-    if se is None:
-        return None
-    line = timeline.cameras[name]
-    own_frames = HALF_95 * (se[1] * line.fps if se[1] is not None and line.fps else se[0])
-    if not own_frames > WIDE_FRAMES:
-        return None
-    seconds = "" if se[1] is None else f"±{HALF_95 * se[1]:.2g} s, "
-    return Reason("wide_interval", WEAK, f"start known to {seconds}±{own_frames:.1f} of its frames only", "a longer or better-calibrated pass of the target through the view narrows it")
-
-
-def statuses(timeline: Timeline, names: list[str] | None = None) -> list[CameraStatus]:
-    """Every camera's status: ``names`` in that order (default: the synchronized, then the rejected, then the failed)."""
-    names = names or list(dict.fromkeys([*timeline.cameras, *timeline.rejected, *timeline.failed]))
-    return [camera_status(timeline, name) for name in names]

@@ -19,7 +19,7 @@ import numpy as np
 
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.sync.clock import FRAME, CameraClock, FrameTimes
-from tlsync_pipeline.sync.status import CameraStatus, Reason, statuses
+from tlsync_pipeline.sync.status import AMBIGUOUS, FAILED, HALF_95, WEAK, WIDE_FRAMES, WIDE_REMEDY, CameraStatus, Reason, failure, line_reasons, status_of
 
 FORMAT_VERSION = 1
 
@@ -212,9 +212,37 @@ class Timeline:
     def names(self) -> list[str]:
         return list(self.cameras)
 
-    def statuses(self) -> dict[str, CameraStatus]:
-        """Every camera's status (sync/status.py), synchronized first."""
-        return {s.camera: s for s in statuses(self)}
+    def status(self, name: str) -> CameraStatus:
+        """The camera's status (sync/status.py): its line's checks, flags, warnings and interval, or why it failed."""
+        line = self.cameras.get(name) or self.rejected.get(name)
+        if line is None:
+            return status_of(name, [failure(self.failed.get(name, "not synchronized"))])
+        reasons = line_reasons(line.flags, line.warnings, line.checks)
+        if name in self.cameras:
+            wide = self._wide_interval(name)
+            if wide is not None:
+                reasons.append(wide)
+        elif not any(r.severity in (AMBIGUOUS, FAILED) for r in reasons):
+            reasons.append(failure(self.failed.get(name, "not synchronized")))
+        return status_of(name, reasons)
+
+    def _wide_interval(self, name: str) -> Reason | None:
+        """WEAK when the camera's start, against the reference's, is known to more than WIDE_FRAMES of its own frames (95 %)."""
+        reference = self.names[0]
+        se = self.start_offset_se(reference, name) if name != reference else None
+        if se is None:
+            return None
+        line = self.cameras[name]
+        own_frames = HALF_95 * (se[1] * line.fps if se[1] is not None and line.fps else se[0])
+        if not own_frames > WIDE_FRAMES:
+            return None
+        seconds = "" if se[1] is None else f"±{HALF_95 * se[1]:.2g} s, "
+        return Reason("wide_interval", WEAK, f"start known to {seconds}±{own_frames:.1f} of its frames only", WIDE_REMEDY)
+
+    def statuses(self, names: list[str] | None = None) -> dict[str, CameraStatus]:
+        """Every camera's status by name: ``names`` in that order (default: the synchronized, then the rejected, then the failed)."""
+        names = names or list(dict.fromkeys([*self.cameras, *self.rejected, *self.failed]))
+        return {name: self.status(name) for name in names}
 
     def clock_relation(self, a: str, b: str) -> Relation:
         """clock_B = alpha * clock_A + beta, through the target's grid (exact; clocks as in CameraLine)."""
