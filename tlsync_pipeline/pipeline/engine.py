@@ -201,11 +201,22 @@ def run_graph(
                 _schedule(graph, executor, wanted, force, memo, summary, progress or Progress())
         except BaseException:
             executor.close(cancel=True)
+            _save_memo(memo, summary)
             raise
-        finally:
-            memo.save()
+        _save_memo(memo, summary)
         executor.close()
     return summary
+
+
+CACHE_TASK = "cache"  # the id under which a run reports that it could not remember its file hashes
+
+
+def _save_memo(memo: HashMemo, summary: RunSummary) -> None:
+    """Remember the file hashes; a failure (a full disk) is the run's to report beside its tasks', never in their place."""
+    try:
+        memo.save()
+    except OSError as exc:
+        summary.failed[CACHE_TASK] = exc
 
 
 def _remove_leftovers(work: Path) -> None:
@@ -330,8 +341,13 @@ class _Scheduler:
             self.progress.failed(task.id, exc, parallel)
             return
         result = dataclasses.replace(called.value, warnings=tuple(dict.fromkeys(called.value.warnings + called.warnings)))
-        failure_path(manifest_path(self.graph, task)).unlink(missing_ok=True)
-        _write_manifest(self.graph, task, now, result, called.seconds, called.cpu_s + result.worker_cpu_s, self.memo)
+        try:
+            failure_path(manifest_path(self.graph, task)).unlink(missing_ok=True)
+            _write_manifest(self.graph, task, now, result, called.seconds, called.cpu_s + result.worker_cpu_s, self.memo)
+        except OSError as exc:  # a full disk: the artefacts are written but not recorded, so the task stays stale
+            self.summary.failed[task.id] = exc
+            self.progress.failed(task.id, exc, parallel)
+            return
         self.summary.ran.append(task.id)
         self.summary.seconds[task.id] = called.seconds
         self.summary.results[task.id] = result

@@ -37,6 +37,9 @@ from scipy.spatial import cKDTree
 
 from calibration.camera import Camera
 from tlsync_pipeline.errors import InputError
+from tlsync_pipeline.sync.line_search import find_line
+from tlsync_pipeline.sync.ransac import distance_to_line
+from tlsync_pipeline.sync.slope import SlopePrior
 from tlsync_pipeline.sync.status import AMBIGUOUS, FAILED, WEAK, Reason
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
 from trackers.track import Track
@@ -226,6 +229,9 @@ RIVAL_RATIO = 0.5  # a rival line with this share of the line's support ...
 RIVAL_SECONDS = 1.0  # ... further than this from it (median over the tracked frames) makes the camera ambiguous
 RIVAL_SAMPLES = 10.0  # the same, in samples, without frame rates
 SLOPE_OFF = 1.3  # motion slope / clock prior beyond this factor (either way): the clock is wrong
+BACKWARD_BELOW = 60  # a line backed by fewer frames is checked against the best line running backwards in time ...
+MIN_BACKWARD = 20  # ... which, with at least this many frames ...
+BACKWARD_RATIO = 1.2  # ... and this many times the line's, says the log is reversed in time
 
 
 def judge_line(
@@ -238,11 +244,14 @@ def judge_line(
     fps: float | None,
     alpha_prior: float | None,
     slope: MotionSlope | None,
+    support: tuple[int, int | None] = (0, None),
 ) -> tuple[Reason, ...]:
     """The plausibility checks of one camera's line (a sync.timeline.CameraLine): the reasons they find, or ().
 
     alpha_prior: the clock prior's slope (fps / log rate), None when unknown
-    or the slope is free; slope: what the votes' motion says (``motion_slope``).
+    or the slope is free; slope: what the votes' motion says (``motion_slope``);
+    support: the frames whose votes back the line, and those backing the best
+    line running backwards in time (``backward_support``; None: not measured).
     """
     evidence = line_evidence(camera, track, clock, path, line.alpha, line.beta, GATE_EPS * eps_px, fps)
     reasons = []
@@ -270,10 +279,34 @@ def judge_line(
             reasons.append(Reason("clock", FAILED, f"the target's speed in the image says {fps_text}one unit of the log's t is {along:.3g} s", "set the camera's fps, or [target] time_unit"))
         if slope.against.reliable and _near_one(against) and not (slope.along.reliable and _near_one(along)):
             reasons.append(Reason("reversed", FAILED, "the target moves along the logged path backwards, at the logged speed: the log looks reversed in time", "check the log's time order"))
+    forward, backward = support
+    if backward is not None and backwards_better(forward, backward) and not any(r.code == "reversed" for r in reasons):
+        reasons.append(Reason("reversed", FAILED, f"the votes back a line running backwards in time better ({backward} frames, against {forward} forwards): the log looks reversed in time", "check the log's time order"))
     rival = _rival(line, track, clock, fps)
     if rival is not None:
         reasons.append(rival)
     return tuple(reasons)
+
+
+def line_support(vote_sample: np.ndarray, vote_clock: np.ndarray, alpha: float, beta: float, delta: float) -> int:
+    """Distinct frames with a vote within delta (orthogonal distance in the voting space) of the line."""
+    near = distance_to_line(vote_sample, vote_clock, alpha, beta) <= delta
+    return int(np.unique(np.asarray(vote_clock)[near]).size)
+
+
+def backward_support(vote_sample: np.ndarray, vote_clock: np.ndarray, vote_dist: np.ndarray, delta: float, prior: SlopePrior | None, seed: int) -> int:
+    """``line_support`` of the best line clock = -alpha x sample + beta (alpha in the prior's band): the log read backwards."""
+    backwards = -np.asarray(vote_sample, dtype=np.float64)
+    try:
+        found = find_line(backwards, vote_clock, vote_dist, delta, seed=seed, prior=prior)
+    except ValueError:
+        return 0
+    return line_support(backwards, vote_clock, found.alpha, found.beta, delta)
+
+
+def backwards_better(forward: int, backward: int) -> bool:
+    """Whether the votes back a line running backwards in time (``backward`` frames) clearly better than the forward one."""
+    return backward >= max(MIN_BACKWARD, BACKWARD_RATIO * forward)
 
 
 def _near_one(factor: float) -> bool:

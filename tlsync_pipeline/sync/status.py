@@ -111,6 +111,8 @@ def _failure_remedy(text: str) -> str:
     """A remedy for the failures tlsync words itself (no vote, no target, a task that did not complete)."""
     if "never comes within" in text or "projects into its image" in text:
         return "check the camera's pose (GCPs), that the log is in the same world frame, and the track"
+    if "reversed in time" in text:
+        return "check the order of the log's times"
     if "never found" in text:
         return "check that the target crosses the view, or give the tracker an init box"
     if " failed: " in text or "did not run" in text:

@@ -27,7 +27,7 @@ from tlsync_pipeline.sync.clock import FrameTimes, camera_clock
 from tlsync_pipeline.sync.identify import Identification, IdentifyParams, identify_target
 from tlsync_pipeline.sync.methods import CameraData, CameraInput
 from tlsync_pipeline.sync.params import Preparation, SyncParams
-from tlsync_pipeline.sync.plausibility import Judged, diagnose, judge_line, motion_slope
+from tlsync_pipeline.sync.plausibility import BACKWARD_BELOW, Judged, backward_support, diagnose, judge_line, line_support, motion_slope
 from tlsync_pipeline.sync.refined import RefinedParams
 from tlsync_pipeline.sync.registry import get_method, method_options, params_table, preparation_of
 from tlsync_pipeline.sync.slope import slope_prior
@@ -173,9 +173,13 @@ def _judge(name: str, inputs: CameraInput, result: CameraResult, path: Piecewise
     times = FrameTimes.of_track(track)
     track_clock = clock.clock_at(track.frame, times)
     fps = clock.fps if clock.fps is not None else inputs.fps
-    slope = motion_slope(inputs.camera, track, track_clock, path, clock.clock_at(result.votes.frame, times), result.votes.sample, fps)
+    votes = result.votes
+    vote_clock = clock.clock_at(votes.frame, times)
+    slope = motion_slope(inputs.camera, track, track_clock, path, vote_clock, votes.sample, fps)
     alpha_prior = None if prior is None else prior.alpha
-    checks = judge_line(inputs.camera, track, track_clock, path, line, params.eps_px, fps, alpha_prior, slope)
+    support = line_support(votes.sample, vote_clock, line.alpha, line.beta, params.delta)
+    backward = backward_support(votes.sample, vote_clock, votes.dist, params.delta, prior, params.seed) if support < BACKWARD_BELOW else None
+    checks = judge_line(inputs.camera, track, track_clock, path, line, params.eps_px, fps, alpha_prior, slope, (support, backward))
     line = replace(line, checks=checks)
     contradicted = any(r.severity == FAILED for r in checks)
     return replace(result, line=line), Judged(inputs.camera, track, slope, alpha_prior, contradicted)
