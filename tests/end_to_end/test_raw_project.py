@@ -11,15 +11,20 @@ a module's code makes exactly the stages that run it stale.
 """
 
 import os
+import re
 import shutil
 import signal
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import pytest
+from click.testing import CliRunner
 
 from data_fixtures.raw_project import SMALL, make_raw_project
+from tlsync_pipeline.cli.exit_codes import ExitCode
+from tlsync_pipeline.cli.main import main
 from tlsync_pipeline.pipeline import codehash
 from tlsync_pipeline.pipeline.engine import run_graph, status
 from tlsync_pipeline.pipeline.executors import ProcessExecutor
@@ -140,3 +145,22 @@ def test_changing_a_sync_module_makes_sync_and_what_follows_stale(finished, monk
     assert rows["sync"].reasons[0] == "code of tlsync_pipeline.sync.refine changed"
     assert rows["identify/cam0"].reasons == ["code of tlsync_pipeline.sync.refine changed"]
     assert rows["vote/cam0"].reasons == ["code of tlsync_pipeline.sync.refine changed", "waits for identify/cam0 (stale)"]
+
+
+def _reverse_gpx(path: Path) -> None:
+    """The GPX's track points in reverse order, each keeping the time of the point it replaces (a log reversed in time)."""
+    text = path.read_text(encoding="utf-8")
+    point = re.compile(r'<trkpt lat="([^"]+)" lon="([^"]+)"><ele>([^<]+)</ele>(<time>[^<]+</time>)</trkpt>')
+    found = point.findall(text)
+    swapped = iter([(*where[:3], when[3]) for where, when in zip(found[::-1], found)])
+    path.write_text(point.sub(lambda m: '<trkpt lat="{}" lon="{}"><ele>{}</ele>{}</trkpt>'.format(*next(swapped)), text), encoding="utf-8")
+
+
+def test_a_log_reversed_in_time_is_named_never_synchronized(finished, tmp_path):
+    copy = _copy(finished, tmp_path)
+    _reverse_gpx(copy.parent / "target.gpx")
+    result = CliRunner().invoke(main, ["sync", str(copy), "-j", "1", "-q"], catch_exceptions=False)
+    assert result.exit_code == ExitCode.NOT_SYNCHRONIZED, result.output
+    timeline = read_timeline(copy.parent / "work" / "timeline.json")
+    assert not timeline.cameras
+    assert all("reversed in time" in timeline.status(name).reason for name in ("cam0", "cam1", "cam2")), timeline.failed

@@ -371,8 +371,9 @@ class LogUnitError(InputError):
 # Length units a log's positions are often written in by mistake: metres per unit, the length_unit value.
 LENGTH_SUSPECTS = ((0.3048, "ft"), (0.01, "cm"), (0.001, "mm"))
 SCALE_FIT = 0.6  # mean path share a rescaled log or track must reach ...
-SCALE_GAIN = 2.0  # ... and this many times the share as given (plus 0.1)
+SCALE_GAIN = 3.0  # ... leaving this many times fewer frames off the path than as given
 UNIT_AGREEMENT = 1.15  # cameras' motion slopes within this factor of each other agree on a time unit
+RATE_ROUNDING = 0.03  # a log rate the motion slope puts within this fraction of a whole number of hertz is that number
 
 
 @dataclass(frozen=True)
@@ -411,7 +412,7 @@ def diagnose(judged: dict[str, Judged], prepared: Trajectory, eps_px: float) -> 
         for scale, unit in LENGTH_SUSPECTS:
             scaled = PiecewiseTrajectory(replace(prepared, xyz=prepared.xyz * scale))
             share = float(np.mean([path_share(j.camera, j.track.xy, scaled, gate) for j in tracked.values()]))  # type: ignore[union-attr]
-            if share >= SCALE_FIT and share >= SCALE_GAIN * given + 0.1:
+            if _fits_better(given, share):
                 raise LogUnitError(
                     "x, y, z",
                     f"the positions look like {unit}: x {scale:g} they lie on the target's tracks in {share:.0%} of the frames, "
@@ -424,7 +425,7 @@ def diagnose(judged: dict[str, Judged], prepared: Trajectory, eps_px: float) -> 
         given = path_share(j.camera, j.track.xy, path, gate)  # type: ignore[union-attr]
         for scale in (2.0, 0.5):
             share = path_share(j.camera, j.track.xy * scale, path, gate)  # type: ignore[union-attr]
-            if share >= SCALE_FIT and share >= SCALE_GAIN * given + 0.1:
+            if _fits_better(given, share):
                 reasons[name] = Reason(
                     "track_scale",
                     FAILED,
@@ -435,6 +436,11 @@ def diagnose(judged: dict[str, Judged], prepared: Trajectory, eps_px: float) -> 
     return reasons
 
 
+def _fits_better(given: float, rescaled: float) -> bool:
+    """Whether a rescaled log or track lies on the other's path clearly better than as given (shares of frames on it)."""
+    return rescaled >= SCALE_FIT and SCALE_GAIN * (1.0 - rescaled) <= 1.0 - given
+
+
 def _time_unit_message(factor: float, cameras: int) -> str:
     """What every camera's motion says about the log's time unit (factor: seconds per unit of t)."""
     named = {1e-3: "ms", 1e-6: "us", 60.0: "min"}
@@ -442,7 +448,14 @@ def _time_unit_message(factor: float, cameras: int) -> str:
     if close is not None:
         fix = f'set [target] time_unit = "{close}"'
         what = f"t looks like {'milliseconds' if close == 'ms' else 'microseconds' if close == 'us' else 'minutes'}"
+    elif factor < 1:
+        rate = 1.0 / factor
+        whole = round(rate)
+        if whole >= 1 and abs(rate / whole - 1.0) < RATE_ROUNDING:
+            rate, factor = float(whole), 1.0 / whole
+        fix = f"set [target] time_unit = {factor:.6g} (seconds per unit of t)"
+        what = f"t looks like sample numbers at {rate:.3g} Hz"
     else:
         fix = f"set [target] time_unit = {factor:.4g} (seconds per unit of t)"
-        what = f"t looks like sample numbers at {1 / factor:.3g} Hz" if factor < 1 else f"one unit of t looks like {factor:.3g} s"
+        what = f"one unit of t looks like {factor:.3g} s"
     return f"the target's speed in every camera's image ({cameras} cameras) says one unit of t is {factor:.3g} s, not 1 s: {what}; {fix}, or write t in seconds"

@@ -161,12 +161,13 @@ def _judge(name: str, inputs: CameraInput, result: CameraResult, path: Piecewise
     """The camera's result with its line checked (CameraLine.checks), and what ``diagnose`` needs of it.
 
     A line with a non-finite slope or intercept is a SyncError; a covariance
-    that is not finite is dropped (no interval rather than an infinite one).
+    that is not finite or has a negative variance is dropped (no interval
+    rather than a meaningless one).
     """
     line = result.line
     if not (math.isfinite(line.alpha) and math.isfinite(line.beta)) or line.alpha <= 0:
         raise SyncError(f"camera {name}: no usable line (alpha {line.alpha:g}, beta {line.beta:g})")
-    if line.cov is not None and not np.isfinite(line.cov).all():
+    if line.cov is not None and not (np.isfinite(line.cov).all() and (np.diag(line.cov) >= 0).all()):
         line = replace(line, cov=None)
     track = inputs.track if inputs.track is not None else result.identification.track  # type: ignore[union-attr]
     clock = camera_clock(track, inputs.fps)

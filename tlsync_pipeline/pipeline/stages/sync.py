@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING
 
 from calibration.camera import read_camera
 from tlsync_pipeline.atomic import atomic_path
-from tlsync_pipeline.errors import InputError, SyncError
+from tlsync_pipeline.errors import INPUT_ERRORS, InputError, SyncError
 from tlsync_pipeline.pipeline.spec import Options, Sources, StageResult, StageSpec
 from tlsync_pipeline.pipeline.stages.cameras import CameraFiles, CamerasParams, camera_files, cameras_params, container_fps, read_identification, read_video_info
 from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
@@ -54,6 +54,19 @@ def read_camera_inputs(cameras: dict[str, CameraFiles]) -> dict[str, CameraInput
     return out
 
 
+def _readable(paths: dict[str, CameraFiles], usable: dict[str, CameraFiles]) -> dict[str, CameraInput]:
+    """Every usable camera's inputs, and those of the cameras without votes whose files can be read (what they
+    track helps tell a log in another unit, sync/plausibility.py)."""
+    out = {}
+    for name, c in paths.items():
+        try:
+            out.update(read_camera_inputs({name: c}))
+        except INPUT_ERRORS:
+            if name in usable:
+                raise
+    return out
+
+
 def read_votes(cameras: dict[str, CameraFiles]) -> dict[str, Votes | SyncError]:
     """Each camera's votes.npz: its Votes, or the SyncError the vote stage met."""
     out: dict[str, Votes | SyncError] = {}
@@ -77,7 +90,7 @@ def run_sync(files: StageFiles, params: SyncStageParams) -> StageResult:
     votes = read_votes(paths)
     usable = {name: c for name, c in paths.items() if not isinstance(votes[name], SyncError)}
     try:
-        timeline, _ = synchronize(read_camera_inputs(usable), read_trajectory(files.path("trajectory")), params.sync, votes)
+        timeline, _ = synchronize(_readable(paths, usable), read_trajectory(files.path("trajectory")), params.sync, votes)
     except LogUnitError as exc:
         key, source = params.source or ("trajectory", files.path("trajectory"))
         raise InputError(f"{source} ([target] {key}): {exc}") from None
