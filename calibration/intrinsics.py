@@ -440,6 +440,7 @@ def calibrate_detections(
     usable: list[Detection] = []
     for d in detections:
         if d.image_size != image_size:
+            assert d.image_size is not None  # unreadable images stopped the calibration above
             rejected[d.source] = f"different size {d.image_size[0]}x{d.image_size[1]} (the calibration uses {image_size[0]}x{image_size[1]})"
         elif d.corners is None:
             rejected[d.source] = d.reason or NO_BOARD
@@ -474,15 +475,21 @@ def calibrate_detections(
         per_view=per_view,
         used=tuple(views),
         rejected=rejected,
-        corners={s: d.corners for s, d in views.items()},
+        corners={s: _found(d) for s, d in views.items()},
         pattern=pattern,
         std=std,
-        methods={s: d.method for s, d in views.items()},
+        methods={s: d.method or "" for s, d in views.items()},
     )
 
 
+def _found(d: Detection) -> np.ndarray:
+    """The corners of a view where the board was found."""
+    assert d.corners is not None, "only views with corners are calibrated"
+    return d.corners
+
+
 def _common_size(detections: Sequence[Detection], label: str) -> tuple[int, int]:
-    counts = Counter(d.image_size for d in detections)
+    counts = Counter(d.image_size for d in detections if d.image_size is not None)
     size, n = counts.most_common(1)[0]
     if len(counts) > 1 and n < 2 * len(detections) / 3:
         listing = "; ".join(f"{w}x{h}: {c} (e.g. {next(d.source for d in detections if d.image_size == (w, h))})" for (w, h), c in counts.most_common())
@@ -493,7 +500,7 @@ def _common_size(detections: Sequence[Detection], label: str) -> tuple[int, int]
 def _duplicate_of(d: Detection, kept: list[Detection], image_size: tuple[int, int]) -> str | None:
     tolerance = DUPLICATE_FRACTION * float(np.hypot(*image_size))
     for other in kept:
-        if np.linalg.norm(d.corners - other.corners, axis=1).mean() < tolerance:
+        if np.linalg.norm(_found(d) - _found(other), axis=1).mean() < tolerance:
             return other.source
     return None
 
@@ -528,7 +535,7 @@ def _too_few(label: str, pattern: Pattern, detections, usable, rejected, detect_
 def _calibrate(views: dict[str, Detection], pattern: Pattern, model: str, image_size: tuple[int, int]):
     """One calibration; returns K, dist, per-view RMS errors (px) and the intrinsics' standard deviations."""
     obj = pattern.object_points()
-    img_pts = [views[s].corners for s in views]
+    img_pts = [_found(views[s]) for s in views]
     criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 100, 1e-10)
     if model == "fisheye":
         objs = [obj.reshape(1, -1, 3) for _ in img_pts]

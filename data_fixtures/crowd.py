@@ -369,7 +369,7 @@ def _frame_truth(camera: Camera, route: _Route, walkers: list[_Walker], times: n
     people = np.zeros(len(times), int)
     for k, t in enumerate(times):
         rows = _people(camera, route, walkers, t)
-        masks = []
+        masks: list = []
         for depth, g, height, _, is_target in rows:
             shape = _silhouette(camera, g, height)
             if shape is None:
@@ -436,6 +436,7 @@ def _lighting(rng, times: np.ndarray) -> np.ndarray:
 def _render(path: Path, camera: Camera, route: _Route, walkers: list[_Walker], times: np.ndarray, start_s: float, spec: CrowdSpec, rng) -> None:
     """Write the camera's H.264 video: background, people far to near, lighting, noise."""
     w, h = camera.image_size
+    assert camera.fps is not None, "the crowd's cameras have their frame rates"
     background = _background(rng, w, h)
     gains = _lighting(rng, times)
     with h264_writer(path, camera.fps, (w, h), {"crf": str(spec.crf), "preset": "veryfast", "g": "30", "threads": "1"}) as write:  # one thread: the same bytes every run

@@ -28,7 +28,9 @@ SQUARE_M = 0.04
 
 @dataclass(frozen=True)
 class RawProjectSpec:
-    """What to generate: lines (alpha, beta) per camera, frames per camera, image size, target rate (Hz)."""
+    """What to generate: lines (alpha, beta) per camera, frames per camera, image size, target rate (Hz);
+    recorded_zone_s: the videos carry the recording time a phone writes (its true start, whole seconds, in
+    this time zone: local - UTC, s), None for none."""
 
     lines: tuple[tuple[float, float], ...] = ((3.0, 300.0), (2.5, -150.0), (1.5, 200.0))
     n_frames: tuple[int, ...] = (900, 750, 450)
@@ -37,6 +39,7 @@ class RawProjectSpec:
     boards: int = 10
     gcps: int = 8
     seed: int = 0
+    recorded_zone_s: float | None = 7200.0
 
 
 # Small and quick, for tests: 30, 25 and 15 fps, shifts of hundreds of frames, 320x240.
@@ -53,7 +56,7 @@ def make_raw_project(directory: str | Path, spec: RawProjectSpec = RawProjectSpe
     """
     from data_fixtures.checkerboard import render_checkerboards, write_checkerboards
     from data_fixtures.gps_logs import write_gpx_log
-    from data_fixtures.video import render_camera_video
+    from data_fixtures.video import render_camera_video, tag_recording_time
 
     say = progress or (lambda message: None)
     render = render or render_camera_video
@@ -74,6 +77,8 @@ def make_raw_project(directory: str | Path, spec: RawProjectSpec = RawProjectSpe
         positions = [where.get(f) for f in range(scene.n_frames[name])]
         folder.mkdir(exist_ok=True)
         render(camera, positions, camera.fps, folder / "video.mp4", seed=spec.seed + k)
+        if spec.recorded_zone_s is not None:
+            tag_recording_time(folder / "video.mp4", recording_utc(scene, name), spec.recorded_zone_s)
         say(f"{name}: checkerboard photos and GCPs")
         boards = render_checkerboards(
             seed=spec.seed + 10 + k, n_full=spec.boards, n_cut=1, n_absent=1, image_size=camera.image_size, pattern=PATTERN, square=SQUARE_M, K=camera.K, dist=camera.dist
@@ -91,6 +96,13 @@ def make_raw_project(directory: str | Path, spec: RawProjectSpec = RawProjectSpe
     return project, scene
 
 
+def recording_utc(scene: Scene, name: str) -> float:
+    """POSIX seconds of the camera's frame 0 (its true line: frame = alpha * sample + beta; sample 0 at START_UTC)."""
+    line, rate = scene.lines[name], scene.true_trajectory.rate
+    assert rate is not None, "a scene's trajectory has a rate"
+    return START_UTC + (-line.beta / line.alpha) / rate
+
+
 def _write_gcps(path: Path, camera, scene: Scene, name: str, count: int, rng) -> None:
     """``count`` surveyed points spread over the camera's image, at the depths where the target moves: u,v,lat,lon,alt."""
     line = scene.lines[name]
@@ -99,13 +111,13 @@ def _write_gcps(path: Path, camera, scene: Scene, name: str, count: int, rng) ->
     w, h = camera.image_size
     cells = [(i, j) for i in range(4) for j in range(3)]
     order = rng.permutation(len(cells))[:count]
-    world = []
+    rays = []
     for k in order:  # one point per cell of a 4 x 3 grid over the image: a good spread
         i, j = cells[k]
         u, v = (i + rng.uniform(0.2, 0.8)) * w / 4, (j + rng.uniform(0.2, 0.8)) * h / 3
         ray = np.linalg.solve(camera.K, [u, v, 1.0])
-        world.append(camera.R.T @ (rng.uniform(np.quantile(depth, 0.1), np.quantile(depth, 0.9)) * ray - camera.t))
-    world = np.array(world)
+        rays.append(camera.R.T @ (rng.uniform(np.quantile(depth, 0.1), np.quantile(depth, 0.9)) * ray - camera.t))
+    world = np.array(rays)
     uv, valid = camera.project(world)
     keep = valid & camera.in_image(uv)
     geo = enu_to_geodetic(world[keep], ORIGIN)

@@ -264,9 +264,8 @@ def _trajectory_spline(rng, windows, zones, n_samples, crossings: int = 0) -> Cu
                 heading = math.atan2(to_centre[1], to_centre[0]) + rng.uniform(-0.5, 0.5)
                 step = WAYPOINT_STEP_M * np.array([math.cos(heading), math.sin(heading)])
             position = position + step
-    times = np.array([-1.0] + times + [n_samples])
-    points = np.array([[0.0, 0.0, 2.0]] + points + [[0.0, 0.0, 2.0]])
-    return CubicSpline(times, points, axis=0, bc_type="natural")
+    knots = np.array([-1.0] + times + [n_samples])
+    return CubicSpline(knots, np.array([[0.0, 0.0, 2.0]] + points + [[0.0, 0.0, 2.0]]), axis=0, bc_type="natural")
 
 
 def _look_at_camera(rng, name, zone, window_points, image_size, fps) -> Camera:
@@ -305,6 +304,7 @@ def _track(rng, camera: Camera, spline, line: Relation, n_frames: int, n_samples
     clock = frames.astype(np.float64)  # camera clock in frame units: time_s * fps
     if jitter > 0:
         clock = np.r_[0.0, np.cumsum(1.0 + rng.uniform(-jitter, jitter, n_frames - 1))]
+    assert camera.fps is not None, "the scene's cameras have their frame rates"
     times = clock / camera.fps
     sample = (clock - line.beta) / line.alpha
     inside = (sample >= 0) & (sample <= n_samples - 1)

@@ -239,6 +239,66 @@ def write_airdata_csv(path, t: np.ndarray, geo: np.ndarray, no_fix_rows: int = 5
     return Path(path)
 
 
+# --- DJI SRT subtitles ---
+
+SRT_LAYOUTS = ("mavic_pro", "p4p", "m300", "air2", "mavic3")
+
+
+def _timecode(seconds: float) -> str:
+    ms = int(round(seconds * 1000))
+    return f"{ms // 3_600_000:02d}:{ms // 60_000 % 60:02d}:{ms // 1000 % 60:02d},{ms % 1000:03d}"
+
+
+def write_dji_srt(path, t: np.ndarray, geo: np.ndarray, layout: str, utc_offset_s: float = 7200.0, home=None, decimals: int | None = None) -> Path:
+    """A DJI subtitle file: one block per instant t (UTC), subtitle times from 0 at t[0], the wall clock in local
+    time (UTC + utc_offset_s) as each generation writes it (layout, one of SRT_LAYOUTS):
+
+    - "mavic_pro": HOME(lon,lat) and a whole-second date, GPS(lon,lat,satellites) BAROMETER (4 decimals);
+    - "p4p": one line, GPS (lon, lat, satellites), D (to home, m), H (m), H.S (m/s); no date (4 decimals);
+    - "m300": whole-second date, GPS(lat,lon,0.0M) BAROMETER (4 decimals);
+    - "air2": per frame, date with ms and us, [latitude: ..] [longitude: ..] [altitude: ..] (6 decimals);
+    - "mavic3": per frame, date with ms, [latitude: ..] [longitude: ..] [rel_alt: .. abs_alt: ..] (5 decimals).
+
+    Heights: BAROMETER, H and rel_alt above geo[0]; altitude and abs_alt MSL (h - UNDULATION_M).
+    home (lat, lon): the HOME point, geo[0] by default.
+    """
+    home = geo[0, :2] if home is None else np.asarray(home, dtype=float)
+    places = decimals if decimals is not None else {"air2": 6, "mavic3": 5}.get(layout, 4)
+    f = lambda v: f"{v:.{places}f}"  # noqa: E731
+    media = np.asarray(t) - t[0]
+    step = float(np.median(np.diff(media))) if len(media) > 1 else 1.0
+    blocks = []
+    for k, (ti, (lat, lon, h)) in enumerate(zip(t, geo)):
+        local = dt.datetime.fromtimestamp(ti + utc_offset_s, dt.timezone.utc)
+        rel, msl = h - geo[0, 2], h - UNDULATION_M
+        north = np.radians(lat - home[0]) * 6_371_000.0
+        east = np.radians(lon - home[1]) * 6_371_000.0 * np.cos(np.radians(lat))
+        speed = 0.0 if k == 0 else float(np.hypot(*(np.radians(geo[k, :2] - geo[k - 1, :2]) * 6_371_000.0 * [1.0, np.cos(np.radians(lat))])) / (t[k] - t[k - 1]))
+        if layout == "mavic_pro":
+            body = (f"HOME({f(home[1])},{f(home[0])}) {local:%Y.%m.%d %H:%M:%S}\nGPS({f(lon)},{f(lat)},17) BAROMETER:{rel:.1f}\n"
+                    "ISO:100 Shutter:60 EV: Fnum:2.2")
+        elif layout == "p4p":
+            body = (f"F/3.2, SS 160, ISO 100, EV 0, GPS ({f(lon)}, {f(lat)}, 18), D {np.hypot(north, east):.2f}m, H {rel:.2f}m, "
+                    f"H.S {speed:.2f}m/s, V.S 0.00m/s")
+        elif layout == "m300":
+            body = f"{local:%Y.%m.%d %H:%M:%S}\nGPS({f(lat)},{f(lon)},0.0M) BAROMETER:{rel:.1f}M"
+        elif layout == "air2":
+            body = (f'<font size="36">SrtCnt : {k + 1}, DiffTime : {int(round(step * 1000))}ms\n'
+                    f"{local:%Y-%m-%d %H:%M:%S},{local.microsecond // 1000:03d},{local.microsecond % 1000:03d}\n"
+                    f"[iso : 100] [shutter : 1/500.0] [fnum : 280] [ev : 0] [ct : 5500] [color_md : default] [focal_len : 240] "
+                    f"[latitude: {f(lat)}] [longitude: {f(lon)}] [altitude: {msl:.6f}] </font>")
+        elif layout == "mavic3":
+            body = (f'<font size="28">FrameCnt: {k + 1}, DiffTime: {int(round(step * 1000))}ms\n'
+                    f"{local:%Y-%m-%d %H:%M:%S}.{local.microsecond // 1000:03d}\n"
+                    f"[iso: 220] [shutter: 1/8000.0] [fnum: 3.2] [ev: 0] [ct: 5115] [color_md : default] [focal_len: 24.00] "
+                    f"[latitude: {f(lat)}] [longitude: {f(lon)}] [rel_alt: {rel:.3f} abs_alt: {msl:.3f}] </font>")
+        else:
+            raise ValueError(f"layout {layout!r}: expected one of {SRT_LAYOUTS}")
+        blocks.append(f"{k + 1}\n{_timecode(media[k])} --> {_timecode(media[k] + step)}\n{body}\n")
+    Path(path).write_text("\n".join(blocks), encoding="utf-8")
+    return Path(path)
+
+
 # --- GoPro GPMF payloads (KLV) ---
 
 
@@ -248,11 +308,16 @@ def gpmf_klv(key: bytes, kind: str, size: int, values: bytes, repeat: int) -> by
     return data + bytes((-len(values)) % 4)
 
 
-def gpmf_payload(lat_lon_alt: np.ndarray, gpsu_utc: float | None, fix: int = 3, dop: float = 1.5, msl: bool = False) -> bytes:
-    """One GPMF payload (DEVC > STRM) with GPSU, GPSF, GPSP, SCAL and a GPS5 block of the given samples."""
+def gpmf_payload(lat_lon_alt: np.ndarray, gpsu_utc: float | None, fix: int = 3, dop: float = 1.5, msl: bool = False,
+                 stmp_us: int | None = None, shutter_stmp_us: int | None = None) -> bytes:
+    """One GPMF payload (DEVC > STRM) with GPSU, GPSF, GPSP, SCAL and a GPS5 block of the given samples.
+
+    stmp_us: the GPS stream's STMP (camera microseconds at its first sample, HERO8 onwards);
+    shutter_stmp_us: a SHUT stream (the video's exposure times) with that STMP, before the GPS stream.
+    """
     scal = (10_000_000, 10_000_000, 1000, 1000, 100)
     samples = b"".join(struct.pack(">5i", int(round(a * scal[0])), int(round(b * scal[1])), int(round(c * scal[2])), 0, 0) for a, b, c in lat_lon_alt)
-    stream = b""
+    stream = b"" if stmp_us is None else gpmf_klv(b"STMP", "J", 8, struct.pack(">Q", stmp_us), 1)
     if gpsu_utc is not None:
         whole = dt.datetime.fromtimestamp(np.floor(gpsu_utc), dt.timezone.utc)
         text = whole.strftime("%y%m%d%H%M%S") + f"{gpsu_utc - np.floor(gpsu_utc):.3f}"[1:]
@@ -264,6 +329,9 @@ def gpmf_payload(lat_lon_alt: np.ndarray, gpsu_utc: float | None, fix: int = 3, 
     stream += gpmf_klv(b"SCAL", "l", 4, struct.pack(">5i", *scal), 5)
     stream += gpmf_klv(b"GPS5", "l", 20, samples, len(lat_lon_alt))
     strm = gpmf_klv(b"STRM", "", 1, stream, len(stream))
+    if shutter_stmp_us is not None:
+        shut = gpmf_klv(b"STMP", "J", 8, struct.pack(">Q", shutter_stmp_us), 1) + gpmf_klv(b"SHUT", "f", 4, struct.pack(">f", 0.001), 1)
+        strm = gpmf_klv(b"STRM", "", 1, shut, len(shut)) + strm
     return gpmf_klv(b"DEVC", "", 1, strm, len(strm))
 
 
@@ -308,6 +376,41 @@ def write_fit_device_clock(path, t: np.ndarray, geo: np.ndarray, power_on_utc: f
     rows = [(int(d), int(round(lat * semicircle)), int(round(lon * semicircle)), int(round(((h - UNDULATION_M) + 500.0) * 5)))
             for d, (lat, lon, h) in zip(device, geo)]
     body += _fit_message(2, 20, [(253, "I", 0x86), (0, "i", 0x85), (1, "i", 0x85), (78, "I", 0x86)], rows)
+    header = struct.pack("<BBHI4s", 14, 0x20, 2132, len(body), b".FIT")
+    header += struct.pack("<H", _fit_crc(header))
+    data = header + body
+    Path(path).write_bytes(data + struct.pack("<H", _fit_crc(data)))
+    return Path(path)
+
+
+def write_fit_virb(path, t: np.ndarray, geo: np.ndarray, power_on_utc: float, correlation: str | None = "ms", jitter_seed: int = 0) -> Path:
+    """A Garmin VIRB-style FIT: ``gps_metadata`` fixes (10 Hz) timed by ``timestamp`` (whole seconds since
+    power-on) + ``timestamp_ms``, each with a whole-second ``utc_timestamp`` (the UTC second it fell in, 30 % of
+    them a second early), semicircles, enhanced_altitude (MSL: ellipsoid - UNDULATION_M); and a
+    ``timestamp_correlation`` written 2.5 s after power-on with its sub-seconds in ``timestamp_ms`` /
+    ``system_timestamp_ms`` (correlation "ms", as the VIRB), in ``fractional_timestamp`` /
+    ``fractional_system_timestamp`` ("fractional"), or none (None)."""
+    rng = np.random.default_rng(jitter_seed)
+    device = np.asarray(t) - power_on_utc
+    body = _fit_message(0, 0, [(0, "B", 0x00), (4, "I", 0x86)], [(4, int(power_on_utc) - FIT_EPOCH_POSIX)])
+    device_c, utc_c = 2.5, power_on_utc + 2.5
+    if correlation == "ms":
+        body += _fit_message(1, 162, [(253, "I", 0x86), (4, "H", 0x84), (1, "I", 0x86), (5, "H", 0x84)],
+                             [(int(utc_c) - FIT_EPOCH_POSIX, int(round((utc_c % 1) * 1000)), int(device_c), int(round((device_c % 1) * 1000)))])
+    elif correlation == "fractional":
+        body += _fit_message(1, 162, [(253, "I", 0x86), (0, "H", 0x84), (1, "I", 0x86), (2, "H", 0x84)],
+                             [(int(utc_c) - FIT_EPOCH_POSIX, int(round((utc_c % 1) * 32768)), int(device_c), int(round((device_c % 1) * 32768)))])
+    semicircle = 2**31 / 180.0
+    rows = []
+    for d, ti, (lat, lon, h) in zip(device, t, geo):
+        whole = int(np.floor(d))
+        ms = int(round((d - whole) * 1000))
+        if ms == 1000:
+            whole, ms = whole + 1, 0
+        utc_second = int(np.floor(ti)) - int(rng.random() < 0.3)
+        rows.append((whole, ms, int(round(lat * semicircle)), int(round(lon * semicircle)), int(round(((h - UNDULATION_M) + 500.0) * 5)),
+                     utc_second - FIT_EPOCH_POSIX))
+    body += _fit_message(2, 160, [(253, "I", 0x86), (0, "H", 0x84), (1, "i", 0x85), (2, "i", 0x85), (3, "I", 0x86), (6, "I", 0x86)], rows)
     header = struct.pack("<BBHI4s", 14, 0x20, 2132, len(body), b".FIT")
     header += struct.pack("<H", _fit_crc(header))
     data = header + body

@@ -208,8 +208,8 @@ def _gap_over(root: Path, index: int) -> None:
     _, rows = _table(_camera_file(root, index, "track"))
     samples = (rows[:, 0] - line["beta"]) / line["alpha"]
     header, data = _table(_trajectory(root))
-    index = np.arange(len(data))
-    keep = (index < samples.min() - 2) | (index > samples.max() + 2)
+    sample = np.arange(len(data))
+    keep = (sample < samples.min() - 2) | (sample > samples.max() + 2)
     _write_table(_trajectory(root), header, data[keep])
 
 

@@ -147,7 +147,7 @@ def h264_writer(path: str | Path, fps: float, size: tuple[int, int], options: di
         stream.width, stream.height = size
         stream.pix_fmt = "yuv420p"
         stream.codec_context.time_base = TIME_BASE
-        stream.options = options
+        stream.options = dict(options)
         if rotation:
             stream.set_display_rotation(rotation)
 
@@ -162,6 +162,29 @@ def h264_writer(path: str | Path, fps: float, size: tuple[int, int], options: di
             container.mux(packet)
     finally:
         container.close()
+
+
+def tag_recording_time(path: str | Path, utc_s: float, zone_s: float = 7200.0) -> Path:
+    """Give a video the recording time a phone writes: ``com.apple.quicktime.creationdate`` (local time with its
+    zone, whole seconds, truncated) and ``creation_time`` (UTC, whole seconds); the packets are copied unchanged."""
+    import datetime as dt
+    import os
+
+    path = Path(path)
+    utc = dt.datetime.fromtimestamp(int(np.floor(utc_s)), dt.timezone.utc)
+    local = utc.astimezone(dt.timezone(dt.timedelta(seconds=zone_s)))
+    tags = {"com.apple.quicktime.creationdate": local.strftime("%Y-%m-%dT%H:%M:%S%z"), "creation_time": utc.strftime("%Y-%m-%dT%H:%M:%S.000000Z")}
+    tmp = path.with_name(path.name + ".part")
+    with av.open(str(path)) as source, av.open(str(tmp), "w", format="mp4", options={"movflags": "use_metadata_tags+faststart"}) as out:
+        out.metadata.update(tags)
+        streams = {s.index: out.add_stream_from_template(s) for s in source.streams.video}
+        for packet in source.demux(*source.streams.video):
+            if packet.dts is None:
+                continue
+            packet.stream = streams[packet.stream.index]
+            out.mux(packet)
+    os.replace(tmp, path)
+    return path
 
 
 def render_camera_video(camera, positions, fps: float, path: str | Path, seed: int = 0, radius: float = 6.0) -> RenderedVideo:

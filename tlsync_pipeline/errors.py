@@ -36,7 +36,7 @@ _OS_REASONS = {
 
 def os_error_reason(exc: OSError) -> str:
     """What went wrong, in words (without the path): "the disk is full", "the file system is read-only", ..."""
-    return _OS_REASONS.get(exc.errno, exc.strerror or str(exc))
+    return _OS_REASONS.get(exc.errno, exc.strerror or str(exc)) if exc.errno is not None else exc.strerror or str(exc)
 
 
 def os_error_problem(exc: OSError) -> InputError | EnvironmentProblem:

@@ -197,7 +197,7 @@ def write_trajectory(trajectory: Trajectory, path: str | Path) -> None:
     t = trajectory.seconds(trajectory.sample)
     columns, fmt, data = ["x", "y", "z"], ["%.4f"] * 3, [trajectory.xyz]
     if t is not None:
-        columns, fmt, data = ["t", *columns], ["%.6f", *fmt], [t, *data]
+        columns, fmt, data = ["t", *columns], ["%.6f", *fmt], [np.asarray(t), *data]
     if trajectory.sigma is not None:
         columns, fmt, data = [*columns, "sigma"], [*fmt, "%.4f"], [*data, trajectory.sigma]
     with Path(path).open("w", newline="", encoding="utf-8") as handle:

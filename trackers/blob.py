@@ -261,6 +261,7 @@ class BlobTracker:
             best, best_cost = None, math.inf
             for b in blobs:
                 if not st.polarity:  # from the init box, not seen yet: any blob inside the box
+                    assert self.init is not None, "a state without polarity comes from the init box"
                     x, y, w, h = self.init
                     if x <= b.x <= x + w and y <= b.y <= y + h and b.area <= 2 * w * h:
                         cost = (math.hypot(b.x - st.x, b.y - st.y) / max(w, h)) ** 2
@@ -287,6 +288,7 @@ class BlobTracker:
 
     def _update(self, b: Blob, frame: int) -> None:
         st = self.state
+        assert st is not None, "updated only while following"
         dt = frame - st.frame
         if st.frame >= 0 and st.polarity:
             a = 0.6

@@ -13,10 +13,12 @@ uint8, non-zero where set.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numba
 import numpy as np
 
-_COMPILE = {"nogil": True, "cache": True}
+_COMPILE: dict[str, Any] = {"nogil": True, "cache": True}
 
 DECILE_BINS = 512  # histogram of the differences for their 90th percentile: grey levels
 DECILE_RANGE = (2.0**-20, 512.0)  # positive values only
@@ -29,7 +31,7 @@ def frame_gain(small: np.ndarray, background: np.ndarray, mask: np.ndarray) -> f
     Branch-free, the frame's sum in integers and the background's in float64
     summed in any order (``reassoc``), so that the loop vectorises.
     """
-    frame_sum = 0
+    frame_sum = np.int64(0)
     background_sum = 0.0
     for y in range(0, small.shape[0], 2):
         for x in range(small.shape[1]):

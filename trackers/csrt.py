@@ -67,7 +67,8 @@ class CsrtParams:
                 raise TrackInputError(f"{exc}; the blob detector's parameters ({', '.join(sorted(blob_keys))}) are accepted too") from None
             raise
 
-    def opencv(self) -> "cv2.TrackerCSRT_Params":
+    def opencv(self):
+        """OpenCV's TrackerCSRT.Params with these values."""
         p = cv2.TrackerCSRT.Params()
         p.psr_threshold = float(self.psr_threshold)
         p.number_of_scales = int(self.number_of_scales)
@@ -79,7 +80,7 @@ class CsrtParams:
 
 
 def _create(params: CsrtParams):
-    factory = getattr(cv2.TrackerCSRT, "create", None) or cv2.TrackerCSRT_create
+    factory = getattr(cv2.TrackerCSRT, "create", None) or getattr(cv2, "TrackerCSRT_create")
     return factory(params.opencv())
 
 
@@ -194,6 +195,7 @@ def csrt_steps(path, info, params: CsrtParams, blob_params: BlobParams, box, ini
             if tracker is None:  # restart CSRT on the last reported box, in the frame it was reported in
                 tracker = _create(params)
                 start = (int(round(last[0] - (last[2] - 1) / 2)), int(round(last[1] - (last[3] - 1) / 2)), int(round(last[2])), int(round(last[3])))
+                assert previous is not None, "a box was reported in an earlier frame"
                 tracker.init(canvas.fill(previous, last[:2], last[2:]), start)
             ok, rect = tracker.update(canvas.fill(gray, last[:2], last[2:]))
             cx, cy, w, h = _centre(rect)
@@ -215,7 +217,7 @@ def csrt_steps(path, info, params: CsrtParams, blob_params: BlobParams, box, ini
             else:
                 held.append(row)
                 lost = len(held) > params.patience
-            if blob is not None and acquirer.signature[1] != 0:
+            if blob is not None and acquirer.signature is not None and acquirer.signature[1] != 0:
                 area, polarity = acquirer.signature
                 acquirer.signature = (0.8 * area + 0.2 * blob.area, polarity)
             a = 0.6

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 from fractions import Fraction
 from functools import lru_cache
 from pathlib import Path
-from typing import Iterable, Iterator, NamedTuple
+from typing import Any, Iterable, Iterator, NamedTuple
 
 import cv2
 import numpy as np
@@ -43,7 +43,7 @@ class TruncatedVideoWarning(UserWarning):
 class VideoFrame(NamedTuple):
     """One decoded frame: 0-based index, presentation time (s), image (H, W[, 3]) uint8 BGR or grey."""
 
-    index: int
+    index: int  # type: ignore[assignment]  # the field's name shadows tuple.index, which nothing here calls
     time_s: float
     image: np.ndarray
 
@@ -154,7 +154,7 @@ def _read_indexed(path: Path, wanted: list[int], gray: bool, pts_list: tuple[int
         fps = _fps(stream)
         rotation = None
         position = None  # pts of the last decoded frame, when decoding can continue from it
-        frames = None
+        frames: Iterator[tuple[Any, str | None]] = iter(())
         for i in wanted:
             target = pts_list[i]
             start = keyframes[max(0, bisect_right(keyframes, target) - 1)] if keyframes else pts_list[0]
@@ -303,7 +303,7 @@ def _open(path: Path):
     return container
 
 
-def _decode(container, stream) -> Iterator[tuple[object, str | None]]:
+def _decode(container, stream) -> Iterator[tuple[Any, str | None]]:
     """Decoded frames; stops with (None, reason) at the first demux or decode error."""
     import av
 
@@ -329,7 +329,7 @@ READ_AHEAD = 4  # frames decoded ahead of the caller by iter_frames
 _END = object()
 
 
-def _decode_ahead(container, stream) -> Iterator[tuple[object, str | None]]:
+def _decode_ahead(container, stream) -> Iterator[tuple[Any, str | None]]:
     """``_decode``'s items, decoded in a background thread up to READ_AHEAD frames ahead.
 
     FFmpeg releases the GIL while it decodes, so the next frames decode while

@@ -83,7 +83,7 @@ def finished(tmp_path_factory):
         assert eps_t(timeline.relation(a, b), truth, scene.n_frames[a]) <= 1.0, key
 
     again = run_graph(_graph(project_file))
-    assert again.ran == [] and len(again.fresh) == 19  # intrinsics, calibrate, track, identify, vote per camera; ingest, sync, export, render
+    assert again.ran == [] and len(again.fresh) == 22  # intrinsics, calibrate, track, clock, identify, vote per camera; ingest, sync, export, render
     return project_file
 
 
@@ -117,6 +117,35 @@ def test_editing_a_gcp_reruns_the_pose_not_the_intrinsics(finished, tmp_path):
     assert rows["intrinsics/cam1"].state == "fresh"
     edited = run_graph(_graph(project_file))
     assert sorted(edited.ran) == ["calibrate/cam1", "export", "identify/cam1", "render", "sync", "vote/cam1"]
+
+
+def test_the_cameras_own_clocks_check_the_result_and_a_wrong_one_is_flagged_not_obeyed(finished, tmp_path):
+    """The videos carry a phone's creation time (their true starts, whole seconds): every line agrees with it.
+    Set one camera's clock a minute late in the project: only its clock stage and sync onwards re-run, the
+    camera is flagged clock_disagrees (weak, with the numbers in timeline.json), and no line moves."""
+    import datetime as dt
+
+    from data_fixtures.raw_project import START_UTC
+    from tlsync_pipeline.outputs.diagnostics import camera_status
+    from tlsync_pipeline.sync.clock_prior import CLOCK_FLAG
+
+    right = read_timeline(finished.parent / "work" / "timeline.json")
+    for name, line in right.cameras.items():
+        check = line.clock_check
+        assert check.source.startswith("QuickTime") and check.agrees and abs(check.offset_s) < 1.0, (name, check)
+        assert CLOCK_FLAG not in (line.flags or ()) and camera_status(right, name).status == "ok"
+    project_file = _copy(finished, tmp_path)
+    alpha, beta = SMALL.lines[1]
+    late = dt.datetime.fromtimestamp(START_UTC - beta / alpha / SMALL.target_rate + 60.0, dt.timezone.utc).isoformat()
+    head, cam0, cam1, cam2 = project_file.read_text().split("[[cameras]]")
+    project_file.write_text("[[cameras]]".join([head, cam0, cam1.rstrip("\n") + f'\n[cameras.clock]\nrecorded = "{late}"\n\n', cam2]))
+    assert sorted(run_graph(_graph(project_file)).ran) == ["clock/cam1", "export", "render", "sync"]
+    wrong = read_timeline(project_file.parent / "work" / "timeline.json")
+    check = wrong.cameras["cam1"].clock_check
+    assert CLOCK_FLAG in wrong.cameras["cam1"].flags and check.source.startswith("the project") and abs(check.offset_s + 60.0) < 1.0
+    assert camera_status(wrong, "cam1").status == "weak" and camera_status(wrong, "cam0").status == "ok"
+    for name in right.names:
+        assert (wrong.cameras[name].alpha, wrong.cameras[name].beta) == (right.cameras[name].alpha, right.cameras[name].beta)
 
 
 def _changed(monkeypatch, module):

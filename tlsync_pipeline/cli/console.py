@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import sys
 
+from typing import Any
+
 import click
 
 from tlsync_pipeline.errors import one_line
@@ -28,7 +30,7 @@ class ConsoleProgress(Progress):
         """bar: draw the bar over parallel tasks (None: when stderr is a terminal; in a log it only adds noise)."""
         self.quiet = quiet
         self.draw_bar = (not quiet) and (stderr_is_terminal() if bar is None else bar)
-        self._bar = None
+        self._bar: Any = None  # tqdm's bar while parallel tasks run
         self._running: list[str] = []
         self._done = 0
         self._total = 0

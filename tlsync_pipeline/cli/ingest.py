@@ -14,6 +14,7 @@ from tlsync_pipeline.ingest.process import DEFAULT_MAX_SPEED_MPS, IngestParams
 from tlsync_pipeline.pipeline.stages.ingest import (
     ingest_log,
     parse_origin,
+    parse_utc_offset_option,
     report_sidecar,
     write_ingest,
 )
@@ -30,12 +31,14 @@ from tlsync_pipeline.pipeline.stages.ingest import (
 @click.option("--topic", help="ROS bag topic (needed when the bag has several; the error lists them).")
 @click.option("--altitude-reference", type=click.Choice(ALTITUDE_REFERENCES), help="What the log's heights are above, when the log says otherwise or nothing (default: as the reader says).")
 @click.option("--altitude-offset", "altitude_offset_m", type=float, default=0.0, show_default=True, help="Metres added to every height to make it ellipsoidal (e.g. the geoid undulation for MSL heights).")
+@click.option("--utc-offset", "utc_offset", help="Local time - UTC of a log whose clock is local (DJI SRT, the DJI app's CSV): hours (2, -3.5) or +HH:MM.")
 @click.option("--out", required=True, type=click.Path(dir_okay=False, path_type=Path), help="Trajectory CSV to write (report beside it: <stem>.ingest.json).")
 @click.option("--quiet", is_flag=True, help="Print nothing but errors.")
-def ingest_log_command(log: Path, fmt: str, origin: str, rate, max_gap_s, max_speed_mps, smoothing_s, topic, altitude_reference, altitude_offset_m, out: Path, quiet: bool) -> None:
+def ingest_log_command(log: Path, fmt: str, origin: str, rate, max_gap_s, max_speed_mps, smoothing_s, topic, altitude_reference, altitude_offset_m,
+                       utc_offset, out: Path, quiet: bool) -> None:
     """Convert one GPS/odometry LOG into a constant-rate local trajectory CSV."""
     params = IngestParams(parse_origin(origin), rate, max_gap_s, max_speed_mps, smoothing_s, altitude_reference=altitude_reference, altitude_offset_m=altitude_offset_m)
-    trajectory, report = ingest_log(log, fmt, params, topic)
+    trajectory, report = ingest_log(log, fmt, params, topic, None if utc_offset is None else parse_utc_offset_option(utc_offset))
     write_ingest(trajectory, report, out, report_sidecar(out))
     if not quiet:
         click.echo(report.summary())

@@ -38,6 +38,7 @@ def run_document(graph: Graph, summary: RunSummary, exit_code: int) -> dict:
     """The ``tlsync run --json`` document: what this run did with each task, and each camera's result."""
     tasks = []
     for tid, task in graph.tasks.items():
+        reasons: list[str]
         if tid in summary.ran:
             state, reasons = "ran", []
         elif tid in summary.fresh:

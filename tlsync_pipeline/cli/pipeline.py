@@ -176,7 +176,8 @@ def status_command(project_file: Path, work_dir: Path | None, out_dir: Path | No
     try:
         check_writable(work)
     except EnvironmentProblem as exc:
-        problem, code = exc, ExitCode.ENVIRONMENT
+        problem: EnvironmentProblem | None = exc
+        code = ExitCode.ENVIRONMENT
     else:
         problem = None
     if as_json:

@@ -8,6 +8,7 @@ is the file edge (project keys, artefacts).
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 from tlsync_pipeline.errors import InputError
@@ -23,8 +24,13 @@ from tlsync_pipeline.ingest.records import ALTITUDE_REFERENCES, LogRecords
 from tlsync_pipeline.ingest.registry import BY_NAME, FORMATS
 
 
-def read_log(path: str | Path, fmt: str = "auto", topic: str | None = None) -> LogRecords:
-    """Read a log with the reader for ``fmt`` ("auto": detected from the content)."""
+def read_log(path: str | Path, fmt: str = "auto", topic: str | None = None, utc_offset_s: float | None = None) -> LogRecords:
+    """Read a log with the reader for ``fmt`` ("auto": detected from the content).
+
+    utc_offset_s: local time - UTC (s) of a log whose clock is local with no
+    zone in the file (DJI SRT, the DJI app's CSV clock); a log whose times are
+    UTC already, or relative, keeps them and its records warn that it was not used.
+    """
     path = Path(path)
     if not path.exists():
         raise InputError(f"{path}: file not found")
@@ -38,10 +44,14 @@ def read_log(path: str | Path, fmt: str = "auto", topic: str | None = None) -> L
     if path.is_dir() and not reader.topics:
         raise InputError(f"{path}: a folder; the {fmt} reader reads a file")
     if reader.topics:
-        return reader.read(path, topic)
-    if topic is not None:
+        records = reader.read(path, topic)
+    elif topic is not None:
         raise InputError(f"{path}: --topic (or [target] topic) applies to ROS bags; this is a {fmt} log")
-    return reader.read(path)
+    else:
+        records = reader.read(path, utc_offset_s=utc_offset_s) if reader.local_clock else reader.read(path)
+    if utc_offset_s is not None and not reader.local_clock:
+        records = replace(records, warnings=(*records.warnings, f"utc_offset is not used: the {fmt} log's times are {records.clock}, not a local wall clock"))
+    return records
 
 
 __all__ = ["ALTITUDE_REFERENCES", "FORMATS", "IngestParams", "IngestReport", "LogRecords", "RigidTransform", "detect_format", "ingest", "read_log"]

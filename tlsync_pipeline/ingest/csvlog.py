@@ -93,7 +93,8 @@ def read_csv_log(path: str | Path, fmt: str = "csv") -> LogRecords:
         )
     width = len(lines[header_no].split(delimiter))
     index = [columns.get(c) for c in wanted]
-    rows, numbers, dropped = [], [], {}
+    rows, numbers = [], []
+    dropped: dict[str, list[int]] = {}
     iso = False
     comments = 0
     for number, line in enumerate(lines[header_no + 1 :], start=header_no + 2):
@@ -108,7 +109,7 @@ def read_csv_log(path: str | Path, fmt: str = "csv") -> LogRecords:
             reason = f"expected {width} fields"
         else:
             try:
-                t, was_iso = parse_time(cells[index[0]].strip().strip('"'))
+                t, was_iso = parse_time(cells[columns["time"]].strip().strip('"'))
                 iso |= was_iso
             except (ValueError, OverflowError, OSError):
                 reason = "unreadable time"

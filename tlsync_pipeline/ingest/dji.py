@@ -10,13 +10,10 @@ else ``height_above_takeoff`` (relative to the take-off point). Quality:
 
 Time: ``datetime(utc)`` has whole seconds and jitters by up to a second
 against ``time(millisecond)``; UTC = time(millisecond) / 1000 + c per
-recording run. Each row's d = datetime - time / 1000 lies in (c - 1, c]
-when its datetime is the second it fell in, a second off when it jitters:
-c is the mean of the d values in the one-second window holding the most
-of them, plus half a second (the mean fraction of a second). A recording pause (both clocks
-jump) or a restart of time(millisecond) starts a new run with its own c;
-that makes the UTC good to about 0.1-0.2 s, time differences inside a run
-exact. Rows with latitude and longitude 0 (before the first fix) are
+recording run, c from the whole seconds (tlsync_pipeline.ingest.clocks). A
+recording pause (both clocks jump) or a restart of time(millisecond) starts
+a new run with its own c; that makes the UTC good to about 0.1 s, time
+differences inside a run exact. Rows with latitude and longitude 0 (before the first fix) are
 dropped.
 
 **OSD layout** (``OSD.latitude``, ``OSD.longitude``, ``OSD.height [m]`` or
@@ -39,6 +36,7 @@ from pathlib import Path
 import numpy as np
 
 from tlsync_pipeline.errors import InputError
+from tlsync_pipeline.ingest.clocks import onto_coarse_clock, whole_second_uncertainty
 from tlsync_pipeline.ingest.reader import Reader, text_of
 from tlsync_pipeline.ingest.records import GEODETIC, MSL, TAKEOFF, LogRecords, check_geodetic, make_records
 
@@ -72,8 +70,8 @@ def _height_column(header: list[str]) -> tuple[int, float, str]:
     raise InputError("no height column: expected altitude_above_seaLevel(feet) or height_above_takeoff(feet)")
 
 
-def read_dji(path: str | Path) -> LogRecords:
-    """Read an AirData-style DJI CSV; see the module notes."""
+def read_dji(path: str | Path, utc_offset_s: float | None = None) -> LogRecords:
+    """Read a DJI CSV; utc_offset_s: local - UTC (s) of the OSD layout's app clock when it is local. See the module notes."""
     path = Path(path)
     try:
         raw = path.read_bytes()
@@ -91,7 +89,7 @@ def read_dji(path: str | Path) -> LogRecords:
     except csv.Error as exc:
         raise InputError(f"{path}:1: not a CSV header: {exc}") from None
     if "osd.latitude" in header:
-        return _read_osd(path, header, reader)
+        return _read_osd(path, header, reader, utc_offset_s)
     try:
         col = {name: header.index(name) for name in ("time(millisecond)", "datetime(utc)", "latitude", "longitude")}
         height, scale, altitude = _height_column(header)
@@ -100,7 +98,8 @@ def read_dji(path: str | Path) -> LogRecords:
     except InputError as exc:
         raise InputError(f"{path}:1: {exc}") from None
     extras = {name: header.index(name) for name in ("satellites", "gpslevel") if name in header}
-    raw, dropped = [], {}
+    parsed: list[tuple] = []
+    dropped: dict[str, list[int]] = {}
     try:
         for number, row in enumerate(reader, start=2):
             if not row or not any(c.strip() for c in row):
@@ -121,19 +120,25 @@ def read_dji(path: str | Path) -> LogRecords:
                 dropped.setdefault(NO_FIX, []).append(number)
                 continue
             check_geodetic(path, lat, lon, h, number)
-            raw.append((number, ms * 1e-3, when, lat, lon, h, *extra))
+            parsed.append((number, ms * 1e-3, when, lat, lon, h, *extra))
     except csv.Error as exc:
         raise InputError(f"{path}:{reader.line_num}: not CSV: {exc}") from None
-    data = np.array(raw, dtype=float).reshape(-1, 6 + len(extras))
-    t, runs = utc_of_rows(data[:, 1], data[:, 2])
+    data = np.array(parsed, dtype=float).reshape(-1, 6 + len(extras))
+    t, run = onto_coarse_clock(data[:, 1], data[:, 2], whole_seconds=True, break_s=RUN_BREAK_S)
+    runs = int(run[-1]) + 1 if len(run) else 0
     warnings = []
     if runs > 1:
         warnings.append(f"{runs} recording runs (pauses or clock restarts): each put on UTC separately")
     if altitude == TAKEOFF:
         warnings.append("heights are above the take-off point (no altitude_above_seaLevel column)")
+    if utc_offset_s is not None:
+        warnings.append("utc_offset is not used: an AirData CSV's datetime(utc) is UTC")
     rows = np.column_stack([t, data[:, 3:6]])
     quality = {name: data[:, 6 + k] for k, name in enumerate(extras)}
-    return make_records(path, "dji", GEODETIC, rows, data[:, 0].astype(int), dropped=dropped, warnings=warnings, altitude=altitude, quality=quality)
+    note = (f"times: time(millisecond) put on UTC by the whole-second datetime(utc), one offset per run "
+            f"(within {whole_second_uncertainty(data[:, 1]):.2f} s)")
+    return make_records(path, "dji", GEODETIC, rows, data[:, 0].astype(int), dropped=dropped, warnings=warnings, altitude=altitude, quality=quality,
+                        notes=[note])
 
 
 _OSD_TIMES = ("%Y/%m/%d %H:%M:%S.%f", "%Y/%m/%d %H:%M:%S", "%m/%d/%Y %I:%M:%S.%f %p", "%m/%d/%Y %I:%M:%S %p", "%Y-%m-%d %H:%M:%S.%f", "%Y-%m-%d %H:%M:%S")
@@ -149,7 +154,7 @@ def _osd_time(text: str) -> float:
     raise ValueError(text)
 
 
-def _read_osd(path: Path, header: list[str], reader) -> LogRecords:
+def _read_osd(path: Path, header: list[str], reader, utc_offset_s: float | None) -> LogRecords:
     """The OSD layout (see the module notes)."""
     def find(prefix: str) -> int | None:
         return next((i for i, name in enumerate(header) if name.startswith(prefix)), None)
@@ -162,7 +167,10 @@ def _read_osd(path: Path, header: list[str], reader) -> LogRecords:
     scale = FEET if "[ft]" in header[height_col] else 1.0
     utc = header[time_col].endswith("[utc]")
     used, extras = find("osd.isgpsused"), {name: find(name) for name in ("osd.gpsnum", "osd.gpslevel")}
-    rows, numbers, dropped, quality = [], [], {}, {name: [] for name, i in extras.items() if i is not None}
+    rows, numbers = [], []
+    dropped: dict[str, list[int]] = {}
+    columns = {name: i for name, i in extras.items() if i is not None}
+    quality: dict[str, list[float]] = {name: [] for name in columns}
     try:
         for number, row in enumerate(reader, start=2):
             if not row or not any(c.strip() for c in row):
@@ -184,38 +192,21 @@ def _read_osd(path: Path, header: list[str], reader) -> LogRecords:
             rows.append([t, lat, lon, h])
             numbers.append(number)
             for name in quality:
-                value = row[extras[name]] if extras[name] < len(row) else ""
+                value = row[columns[name]] if columns[name] < len(row) else ""
                 quality[name].append(float(value) if value.strip().replace(".", "", 1).isdigit() else math.nan)
     except csv.Error as exc:
         raise InputError(f"{path}:{reader.line_num}: not CSV: {exc}") from None
+    warnings = []
+    if utc_offset_s is not None and utc:
+        warnings.append("utc_offset is not used: the CUSTOM.updateTime column is UTC")
+    elif utc_offset_s is not None:
+        rows = [[r[0] - utc_offset_s, *r[1:]] for r in rows]
+        utc = True
     return make_records(
-        path, "dji", GEODETIC, rows, numbers, utc=utc, dropped=dropped, altitude=TAKEOFF, quality=quality,
+        path, "dji", GEODETIC, rows, numbers, utc=utc, dropped=dropped, altitude=TAKEOFF, quality=quality, warnings=warnings,
         clock=None if utc else "the DJI app's local clock (time zone not in the file)",
     )
 
 
-def utc_of_rows(clock_s: np.ndarray, whole_utc_s: np.ndarray) -> tuple[np.ndarray, int]:
-    """(UTC seconds of each row, number of runs) from the flight clock and the whole-second UTC column.
-
-    Runs split where the clock goes back or datetime - clock jumps by more
-    than RUN_BREAK_S; per run, UTC = clock + offset_of_run(datetime - clock).
-    """
-    if not len(clock_s):
-        return clock_s.copy(), 0
-    d = whole_utc_s - clock_s
-    breaks = np.flatnonzero((np.diff(clock_s) < 0) | (np.abs(np.diff(d)) > RUN_BREAK_S)) + 1
-    t = np.empty_like(clock_s)
-    for run in np.split(np.arange(len(clock_s)), breaks):
-        t[run] = clock_s[run] + offset_of_run(d[run])
-    return t, len(breaks) + 1
-
-
-def offset_of_run(d: np.ndarray) -> float:
-    """UTC - clock from d = whole-second UTC - clock: the mean of the densest one-second window of d, plus 0.5 s."""
-    d = np.sort(d)
-    counts = np.searchsorted(d, d + 1.0, side="left") - np.arange(len(d))
-    j = int(np.argmax(counts))
-    return float(d[j : j + counts[j]].mean() + 0.5)
-
-
-READER = Reader("dji", "DJI CSV (AirData: time(millisecond), datetime(utc), latitude, longitude; or OSD.latitude, OSD.longitude)", read_dji, _sniff)
+READER = Reader("dji", "DJI CSV (AirData: time(millisecond), datetime(utc), latitude, longitude; or OSD.latitude, OSD.longitude)", read_dji, _sniff,
+                local_clock=True)

@@ -1,28 +1,50 @@
 """GoPro MP4 files: the GPS fixes in the GPMF metadata track, demuxed with PyAV.
 
 The metadata track is the data stream whose packets start with a ``DEVC``
-item (handler "GoPro MET"); each packet (about one second) is parsed by
-tlsync_pipeline.ingest.gpmf. Sample times on the video's timeline spread
-each packet's samples evenly over its presentation interval [pts, pts +
-duration). UTC: GPS9 samples carry their own (days since 2000 + seconds
-since midnight); for GPS5 the payload's ``GPSU`` is the UTC of its first
-sample, and the video timeline is put on UTC by the median of GPSU - packet
-start over the file (one offset, so GPSU's jitter does not move samples, and a
-stale GPSU, as the first payload often has, is outvoted; the report counts
-those off by more than 0.5 s).
-Heights are above MSL when the stream says ``GPSA`` = ``MSLV``, else above
-the WGS84 ellipsoid (GPS5 on HERO5-HERO7). Payloads with ``GPSF`` < 2 (no
-fix) and GPS9 samples with fix < 2 are dropped; DOP (``GPSP`` / 100) is kept.
+item (handler "GoPro MET"); each packet (a payload of about one second) is
+parsed by tlsync_pipeline.ingest.gpmf.
+
+Sample times on the video's timeline (media time, s) come from one linear
+clock per GPS stream, t_n = first + n / rate for the n-th sample of the
+stream (0-based, counted over the file), as GoPro's gpmf-parser computes it
+(``GetGPMFSampleRate`` with ``GPMF_SAMPLE_RATE_PRECISE``):
+
+- with ``STMP`` (HERO8 onwards, MAX; camera microseconds): rate = samples
+  between the first and the last GPS payload / their STMP difference;
+  first = (the first GPS STMP - the SHUT STMP of that payload) - TIMO + the
+  first payload's presentation time (the track's edit-list start);
+- without (HERO5-HERO7): a least-squares line through (end time of each GPS
+  payload on the MP4 sample table, samples delivered up to its end); first
+  = the line's zero crossing - TIMO.
+
+Spreading each payload's samples evenly over its presentation interval is
+50-60 ms off at the first sample (the GPS data of a payload trail its start).
+
+UTC: GPS9 samples carry their own (days since 2000 + seconds since midnight,
+ms). For GPS5, ``GPSU`` is taken as the UTC of the payload's first GPS
+sample, as GoPro documents it (written about once a second, with a jitter
+of about one sample period): UTC = media time + the median of (GPSU - media
+time of the payload's first sample) over the file. That is the only anchor a
+GPS5 camera gives, and a loose one: in real HERO11 payloads, whose GPS9
+samples carry their own times, GPSU is 1.4 s after the payload's first
+sample. The report states the offset, the payloads' spread
+around it and this caveat; GPSU more than 0.5 s off the median (stale, as
+the first payload often is) are left out and counted. Heights are above MSL when
+the stream says ``GPSA`` = ``MSLV``, else above the WGS84 ellipsoid (GPS5 on
+HERO5-HERO7). Payloads with ``GPSF`` < 2 (no fix) and GPS9 samples with fix
+< 2 are dropped; DOP (``GPSP`` / 100) is kept.
 """
 
 from __future__ import annotations
 
+import datetime as dt
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from tlsync_pipeline.errors import InputError
-from tlsync_pipeline.ingest.gpmf import GPMFError, gps_blocks
+from tlsync_pipeline.ingest.gpmf import GPMFError, GPSBlock, gps_blocks, stream_stamp
 from tlsync_pipeline.ingest.reader import Reader
 from tlsync_pipeline.ingest.records import ELLIPSOID, GEODETIC, MSL, LogRecords, check_geodetic, make_records
 
@@ -30,6 +52,33 @@ UNIT = "GPS sample"
 NO_FIX = "no fix (GPSF or GPS9 fix < 2)"
 DAYS_2000_POSIX = 946684800.0
 STALE_GPSU_S = 0.5
+GPSU_LAG_NOTE = "GPSU is 1.4 s after the payload's first sample on real HERO11 payloads (GPS9 times): this UTC is good to about 1.5 s"
+
+
+@dataclass(frozen=True)
+class SampleClock:
+    """Media time of a GPMF stream's samples: t_n = first_s + n / rate_hz (n counted from the stream's first sample)."""
+
+    first_s: float
+    rate_hz: float
+    method: str  # "STMP" (camera timestamps) or "MP4 sample table" (payload times)
+
+    def times(self, n: np.ndarray) -> np.ndarray:
+        return self.first_s + np.asarray(n, dtype=float) / self.rate_hz
+
+
+@dataclass(frozen=True)
+class Payload:
+    """What the clock needs of one payload holding GPS samples: its presentation interval on the
+    MP4 track (s), its sample count, and its STMP / SHUT STMP (us), TIMO (s) and TSMP when present."""
+
+    start_s: float
+    end_s: float
+    samples: int
+    stmp_us: int | None = None
+    base_us: int | None = None
+    timo_s: float = 0.0
+    tsmp: int | None = None
 
 
 def _sniff(head: bytes) -> bool:
@@ -64,60 +113,108 @@ def read_gopro(path: str | Path) -> LogRecords:
     return gopro_records(path, packets)
 
 
+def sample_clock(payloads: list[Payload], track_start_s: float) -> SampleClock:
+    """The stream's linear sample clock (see the module notes); payloads in order, each with samples > 0.
+
+    track_start_s: the presentation time of the metadata track's first payload
+    (its edit-list start), added to STMP-based times as gpmf-parser does.
+    """
+    first, last = payloads[0], payloads[-1]
+    total = sum(p.samples for p in payloads)
+    if len(payloads) == 1 or last.end_s <= first.start_s:
+        return SampleClock(first.start_s - first.timo_s, first.samples / max(first.end_s - first.start_s, 1e-9), "MP4 sample table")
+    approx = total / (last.end_s - first.start_s)
+    if first.stmp_us is not None and last.stmp_us is not None and last.stmp_us > first.stmp_us:
+        # samples delivered between the two STMPs: by TSMP (which also counts samples a payload lost), else counted here
+        between = (last.tsmp - last.samples) - (first.tsmp - first.samples) if first.tsmp is not None and last.tsmp is not None else total - last.samples
+        rate = between / ((last.stmp_us - first.stmp_us) * 1e-6)
+        if 0.9 * rate < approx < 1.1 * rate:
+            base = first.base_us if first.base_us is not None else first.stmp_us
+            return SampleClock((first.stmp_us - base) * 1e-6 - first.timo_s + track_start_s, rate, "STMP")
+    x = np.array([p.end_s for p in payloads])
+    y = np.cumsum([p.samples for p in payloads]).astype(float)
+    slope = float(np.sum((x - x.mean()) * (y - y.mean())) / np.sum((x - x.mean()) ** 2))
+    if not slope > 0:
+        return SampleClock(first.start_s - first.timo_s, approx, "MP4 sample table")
+    intercept = float(y.mean() - slope * x.mean())
+    return SampleClock(-intercept / slope - first.timo_s, slope, "MP4 sample table")
+
+
 def gopro_records(path: Path, packets: list[tuple[float, float, bytes]]) -> LogRecords:
     """LogRecords from (start s, duration s, GPMF payload) packets in video time order."""
-    rows, numbers, dops, dropped = [], [], [], {}
-    anchors = []  # GPSU - video time of the packet's first sample
-    msl_seen, nine_seen, number = set(), False, 0
+    streams: dict[bool, list[tuple[int, float, float, GPSBlock, int | None]]] = {False: [], True: []}
     for k, (start, duration, payload) in enumerate(packets):
         try:
             blocks = gps_blocks(payload)
+            base = stream_stamp(payload) if any(b.stmp_us is not None for b in blocks) else None
         except GPMFError as exc:
             raise InputError(f"{path}: GPMF packet {k + 1} (at {start:.3f} s): {exc}") from None
         for block in blocks:
-            n = len(block.samples)
-            video_t = start + duration * np.arange(n) / max(n, 1)
-            ok = np.full(n, block.fix is None or block.fix >= 2)
-            if block.nine:
-                ok &= block.samples[:, 8] >= 2
-                t = DAYS_2000_POSIX + block.samples[:, 5] * 86400.0 + block.samples[:, 6]
-                nine_seen = True
-            else:
-                t = video_t
-                if block.utc is not None and ok.any():
-                    anchors.append(block.utc - video_t[0])
-            numbers_here = number + 1 + np.arange(n)
-            number += n
-            if (~ok).any():
-                dropped.setdefault(NO_FIX, []).extend(numbers_here[~ok].tolist())
-            msl_seen.add(block.msl)
-            for i in np.flatnonzero(ok):
-                lat, lon, alt = block.samples[i, :3]
-                check_geodetic(path, lat, lon, alt, int(numbers_here[i]), UNIT)
-                rows.append([t[i], lat, lon, alt])
-                numbers.append(int(numbers_here[i]))
-                dops.append(block.samples[i, 7] if block.nine else (block.dop if block.dop is not None else np.nan))
-    if number == 0:
+            streams[block.nine].append((k, start, start + duration, block, base))
+    nine = bool(streams[True])  # GPS9 (HERO11 on) has each sample's UTC: read it, not the GPS5 it duplicates
+    entries = streams[nine]
+    timed = [e for e in entries if len(e[3].samples)]
+    if not timed:
         raise InputError(f"{path}: the GPMF track has no GPS5/GPS9 stream (a camera without GPS, or with GPS switched off)")
-    warnings = []
-    utc = nine_seen or bool(anchors)
-    if rows and not nine_seen:
-        data = np.asarray(rows)
-        if anchors:
-            offset = float(np.median(anchors))
-            data[:, 0] += offset
-            stale = int(np.sum(np.abs(np.asarray(anchors) - offset) > STALE_GPSU_S))
-            if stale:
-                warnings.append(f"{stale} payload(s) with a GPSU more than {STALE_GPSU_S:g} s off the others (stale, as GoPros write before the time settles): not used for UTC")
+    notes, warnings = [], []
+    clock = sample_clock([Payload(s, e, len(b.samples), b.stmp_us, base, b.timo_s, b.tsmp) for _, s, e, b, base in timed], packets[0][0])
+    notes.append(f"sample times on the video timeline: t = {clock.first_s:.4f} s + n / {clock.rate_hz:.4f} Hz "
+                     f"({'camera STMP timestamps' if clock.method == 'STMP' else 'least squares over the MP4 payload times'}, as gpmf-parser)")
+    rows: list[list[float]] = []
+    numbers: list[int] = []
+    dops: list[float] = []
+    dropped: dict[str, list[int]] = {}
+    anchors: list[float] = []
+    msl_seen, number = set(), 0
+    for _, _, _, block, _ in entries:
+        n = len(block.samples)
+        media = clock.times(number + np.arange(n))
+        ok = np.full(n, block.fix is None or block.fix >= 2)
+        if nine:
+            ok &= block.samples[:, 8] >= 2
+            t = DAYS_2000_POSIX + block.samples[:, 5] * 86400.0 + block.samples[:, 6]
+            anchors += (t[ok] - media[ok]).tolist()
         else:
-            warnings.append("no GPSU in the GPS stream: times are the video's presentation times; offsets work, UTC does not")
-        rows = data.tolist()
+            t = media
+            if block.utc is not None and ok.any():
+                anchors.append(block.utc - media[0])
+        numbers_here = number + 1 + np.arange(n)
+        number += n
+        if (~ok).any():
+            dropped.setdefault(NO_FIX, []).extend(numbers_here[~ok].tolist())
+        msl_seen.add(block.msl)
+        for i in np.flatnonzero(ok):
+            lat, lon, alt = block.samples[i, :3]
+            check_geodetic(path, lat, lon, alt, int(numbers_here[i]), UNIT)
+            rows.append([t[i], lat, lon, alt])
+            numbers.append(int(numbers_here[i]))
+            dops.append(block.samples[i, 7] if nine else (block.dop if block.dop is not None else np.nan))
+    utc = bool(anchors)
+    media_to_utc, spread = None, None
+    if anchors:
+        a = np.asarray(anchors)
+        media_to_utc = float(np.median(a))
+        off = np.abs(a - media_to_utc)
+        stale = off > STALE_GPSU_S
+        spread = float(off[~stale].max())
+        zero = dt.datetime.fromtimestamp(media_to_utc, dt.timezone.utc).isoformat(timespec="milliseconds").replace("+00:00", "Z")
+        if nine:
+            notes.append(f"UTC from each GPS9 sample's own time; video time 0 is {zero} (the samples within {spread:.3f} s of one offset)")
+        else:
+            notes.append(f"UTC = video time + the median of (GPSU - the payload's first sample time) over {int((~stale).sum())} payloads: "
+                         f"video time 0 is {zero} (the payloads spread by up to {spread:.3f} s; {GPSU_LAG_NOTE})")
+            if stale.any():
+                warnings.append(f"{int(stale.sum())} payload(s) with a GPSU more than {STALE_GPSU_S:g} s off the others (stale, as GoPros write before the time settles): not used for UTC")
+            rows = (np.asarray(rows).reshape(-1, 4) + [media_to_utc, 0.0, 0.0, 0.0]).tolist()
+    elif rows:
+        warnings.append("no GPSU in the GPS stream: times are the video's presentation times; offsets work, UTC does not")
     if len(msl_seen) > 1:
         warnings.append("the GPS stream changes its altitude system (GPSA) mid-file: heights mix MSL and ellipsoid")
     altitude = MSL if True in msl_seen and False not in msl_seen else ELLIPSOID
     return make_records(
         path, "gopro", GEODETIC, rows, numbers, unit=UNIT, utc=utc, dropped=dropped, warnings=warnings, altitude=altitude,
-        quality={"dop": dops}, clock=None if utc else "video presentation time (s)",
+        quality={"dop": dops}, clock=None if utc else "video presentation time (s)", notes=notes,
+        video_time_zero=media_to_utc if utc else 0.0, video_zero_spread_s=spread,
     )
 
 

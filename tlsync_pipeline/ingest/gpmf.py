@@ -4,7 +4,11 @@ A KLV item is an 8-byte header, FourCC key, type character, structure size
 (bytes) and repeat count (big-endian uint16), then size x repeat bytes of
 data padded to a multiple of 4. Type 0 nests items. A ``DEVC`` holds
 ``STRM`` streams; a stream's sticky items (``SCAL``, ``GPSF``, ``GPSU``,
-``GPSP``, ``GPSA``, ``TYPE``) describe the samples that follow them.
+``GPSP``, ``GPSA``, ``TYPE``, and the timing items ``STMP``, ``TSMP``,
+``TIMO``) describe the samples that follow them. ``STMP`` (HERO8 onwards,
+MAX) is the camera's microsecond clock at the stream's first sample in the
+payload, ``TSMP`` the stream's sample count since the recording started
+(this payload's included), ``TIMO`` a delay of the stream's data (s).
 ``GPS5`` samples are int32 latitude, longitude (deg x SCAL), altitude (m x
 SCAL), 2D and 3D speed; ``GPS9`` (HERO11 onwards) add days since 2000,
 seconds since midnight (UTC), DOP x 100 and fix type, one time per sample.
@@ -15,6 +19,8 @@ from __future__ import annotations
 import calendar
 import struct
 from dataclasses import dataclass
+
+from typing import Any
 
 import numpy as np
 
@@ -32,7 +38,8 @@ class GPSBlock:
     samples: float64 (n, k) scaled values (GPS5: lat, lon, alt, speed2d,
     speed3d; GPS9 adds days, seconds, dop, fix); utc: GPSU as POSIX seconds
     or None; fix: GPSF (0 none, 2 2D, 3 3D) or None; dop: GPSP / 100 or None;
-    msl: GPSA says "MSLV" (heights above MSL) ; nine: a GPS9 stream.
+    msl: GPSA says "MSLV" (heights above MSL) ; nine: a GPS9 stream;
+    stmp_us: STMP (us) or None; tsmp: TSMP or None; timo_s: TIMO (s), 0 when absent.
     """
 
     samples: np.ndarray
@@ -41,6 +48,9 @@ class GPSBlock:
     dop: float | None
     msl: bool
     nine: bool
+    stmp_us: int | None = None
+    tsmp: int | None = None
+    timo_s: float = 0.0
 
 
 def klv_items(data: bytes, start: int = 0, end: int | None = None):
@@ -59,7 +69,7 @@ def klv_items(data: bytes, start: int = 0, end: int | None = None):
             break
 
 
-def _values(data: bytes, kind: str, size: int, repeat: int, offset: int, fields: str | None = None) -> list:
+def _values(data: bytes, kind: str, size: int, repeat: int, offset: int, fields: str | None = None) -> list | str:
     """The item's values as a flat list (numbers) or a str (types c, U, F)."""
     raw = data[offset : offset + size * repeat]
     if kind in "cUF":
@@ -87,24 +97,44 @@ def _gpsu(text: str) -> float | None:
         return None
 
 
-def gps_blocks(payload: bytes) -> list[GPSBlock]:
-    """The GPS5/GPS9 blocks of one GPMF payload, in order; GPMFError on a malformed payload."""
-    blocks = []
+def _streams(payload: bytes):
+    """(start, end) byte ranges of every STRM of every DEVC in a payload."""
     for key, kind, size, repeat, offset in klv_items(payload):
         if key != b"DEVC" or kind != 0:
             continue
         for skey, skind, ssize, srepeat, soffset in klv_items(payload, offset, offset + size * repeat):
             if skey == b"STRM" and skind == 0:
-                blocks += _stream(payload, soffset, soffset + ssize * srepeat)
-    return blocks
+                yield soffset, soffset + ssize * srepeat
+
+
+def gps_blocks(payload: bytes) -> list[GPSBlock]:
+    """The GPS5/GPS9 blocks of one GPMF payload, in order; GPMFError on a malformed payload."""
+    return [block for start, end in _streams(payload) for block in _stream(payload, start, end)]
+
+
+def stream_stamp(payload: bytes, key: bytes = b"SHUT") -> int | None:
+    """STMP (us) of the stream holding ``key`` samples in a payload, None without one.
+
+    The shutter stream (SHUT) is the video's own: gpmf-parser counts every
+    stream's STMP from the SHUT STMP of the stream's first payload.
+    """
+    for start, end in _streams(payload):
+        stamp = None
+        for skey, kind, size, repeat, offset in klv_items(payload, start, end):
+            if skey == b"STMP" and kind:
+                values = _values(payload, chr(kind), size, repeat, offset)
+                stamp = int(values[0]) if isinstance(values, list) and values else None
+            elif skey == key:
+                return stamp
+    return None
 
 
 def _stream(data: bytes, start: int, end: int) -> list[GPSBlock]:
-    sticky: dict[bytes, object] = {}
+    sticky: dict[bytes, Any] = {}
     blocks = []
     for key, kind, size, repeat, offset in klv_items(data, start, end):
         k = chr(kind) if kind else "\0"
-        if key in (b"SCAL", b"GPSF", b"GPSP", b"GPSU", b"GPSA", b"TYPE"):
+        if key in (b"SCAL", b"GPSF", b"GPSP", b"GPSU", b"GPSA", b"TYPE", b"STMP", b"TSMP", b"TIMO"):
             sticky[key] = _values(data, k, size, repeat, offset)
         elif key in (b"GPS5", b"GPS9"):
             width = 5 if key == b"GPS5" else 9
@@ -117,6 +147,7 @@ def _stream(data: bytes, start: int, end: int) -> list[GPSBlock]:
             fix = sticky.get(b"GPSF")
             dop = sticky.get(b"GPSP")
             utc = sticky.get(b"GPSU")
+            stmp, tsmp, timo = sticky.get(b"STMP"), sticky.get(b"TSMP"), sticky.get(b"TIMO")
             blocks.append(
                 GPSBlock(
                     values.reshape(-1, width) / scale,
@@ -125,6 +156,9 @@ def _stream(data: bytes, start: int, end: int) -> list[GPSBlock]:
                     float(dop[0]) / 100 if isinstance(dop, list) and dop else None,
                     sticky.get(b"GPSA") == "MSLV",
                     width == 9,
+                    int(stmp[0]) if isinstance(stmp, list) and stmp else None,
+                    int(tsmp[0]) if isinstance(tsmp, list) and tsmp else None,
+                    float(timo[0]) if isinstance(timo, list) and timo else 0.0,
                 )
             )
     return blocks

@@ -51,11 +51,13 @@ def read_gpx(path: str | Path) -> LogRecords:
     try:
         gpx = gpxpy.parse(text)
     except Exception as exc:  # gpxpy raises GPXException but lets some XML/attribute errors through
-        line = _error_line(str(exc), text)
-        at = f"{path}:{line}" if line else str(path)
+        error_line = _error_line(str(exc), text)
+        at = f"{path}:{error_line}" if error_line else str(path)
         hint = " (the file may be cut short)" if not text.rstrip().endswith(">") or "unclosed" in str(exc) or "no element found" in str(exc) else ""
         raise InputError(f"{at}: not a valid GPX file{hint}: {exc}") from None
-    rows, numbers, dropped = [], [], {}
+    rows: list[list[float]] = []
+    numbers: list[int] = []
+    dropped: dict[str, list[int]] = {}
     no_ele = []
     number = 0
     segment_of = []  # segment ordinal of each row

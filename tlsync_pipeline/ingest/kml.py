@@ -84,7 +84,8 @@ def read_kml(path: str | Path) -> LogRecords:
     except ParseError as exc:
         line = getattr(exc, "position", (None,))[0]
         raise InputError(f"{path}{f':{line}' if line else ''}: not well-formed XML: {exc}") from None
-    rows, numbers, sigmas, dropped, modes, warnings = [], [], [], {}, set(), []
+    rows, numbers, sigmas, modes, warnings = [], [], [], set(), []
+    dropped: dict[str, list[int]] = {}
     counter = [0]
     has_tracks = any(_local(e.tag) == "Track" for e in root.iter())
     markers = 0
@@ -142,10 +143,10 @@ def read_kml(path: str | Path) -> LogRecords:
     if modes - {"absolute"}:
         warnings.append(f"altitudeMode {', '.join(sorted(modes - {'absolute'}))}: heights are not above a datum (read as written)")
     rows, numbers, sigmas = sort_by_time(rows, numbers, sigmas)
-    sigma = np.asarray(sigmas, dtype=float)
+    sigma_m = np.asarray(sigmas, dtype=float)
     return make_records(
         path, "kml", GEODETIC, rows, numbers, unit=UNIT, dropped=dropped, ignored=markers, warnings=warnings, altitude=altitude,
-        sigma=sigma if np.isfinite(sigma).any() else None,
+        sigma=sigma_m if np.isfinite(sigma_m).any() else None,
     )
 
 

@@ -145,8 +145,8 @@ def read_nmea(path: str | Path) -> LogRecords:
     dropped: dict[str, list[int]] = {}
     ignored = 0
     # Columns of strings (not lists per line: those would keep the garbage collector busy).
-    gga = {name: [] for name in ("line", *GGA_FIELDS)}
-    rmc = {name: [] for name in ("line", *RMC_FIELDS)}
+    gga: dict[str, list] = {name: [] for name in ("line", *GGA_FIELDS)}
+    rmc: dict[str, list] = {name: [] for name in ("line", *RMC_FIELDS)}
     gst: dict[str, tuple[str, str]] = {}  # time of day -> (lat error, lon error) text
     n_lines = len(starts)
     for i, good, a, b in zip(range(n_lines), ok.tolist(), dollar.tolist(), star.tolist()):

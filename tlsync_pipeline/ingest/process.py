@@ -22,9 +22,10 @@ geoid undulation, tens of metres, or the take-off point's height).
 
 from __future__ import annotations
 
+import dataclasses
 import datetime as dt
 import math
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
@@ -129,6 +130,8 @@ class IngestReport:
     altitude: dict = field(default_factory=dict)  # {"reference", "source" (log/declared), "offset_m"}
     quality: dict = field(default_factory=dict)  # column -> {"min", "median", "max"} over the fixes used
     sigma_m: dict | None = None  # {"median", "p95", "max"} of the per-fix sigmas used as weights
+    notes: list[str] = field(default_factory=list)  # how the reader read the file where it chose (time base, sub-seconds, lat/lon order)
+    video_time_zero: float | None = None  # logs in or beside a video: the log's time (t0's clock, s) at the video's time 0
 
     def to_dict(self) -> dict:
         out = asdict(self)
@@ -157,6 +160,7 @@ class IngestReport:
             a = self.altitude
             offset = f", offset {a['offset_m']:+.3f} m" if a["offset_m"] else ""
             lines.append(f"heights: above {ALTITUDE_NAMES[a['reference']]} (as the {a['source']} says{offset})")
+        lines += [f"read: {note}" for note in self.notes]
         if self.sigma_m:
             lines.append(f"sigma: median {self.sigma_m['median']:.3f} m, 95% {self.sigma_m['p95']:.3f} m (weights for the refinement)")
         if self.gaps:
@@ -188,68 +192,63 @@ def in_seconds_and_metres(records: LogRecords, time_unit: float, length_unit: fl
         values[:, 2] *= length_unit
     else:
         values *= length_unit
-    return replace(records, t=records.t * time_unit, values=values)
+    return dataclasses.replace(records, t=records.t * time_unit, values=values)
+
+
+@dataclass(frozen=True)
+class _Fixes:
+    """The fixes kept, in time order: times (s), values (the log's coordinates), positions (local metres, once
+    placed), provenance numbers (lines, records), indices into the records, per-fix sigmas (m) or None."""
+
+    t: np.ndarray
+    values: np.ndarray
+    xyz: np.ndarray
+    numbers: np.ndarray
+    index: np.ndarray
+    sigma: np.ndarray | None
+
+    def kept(self, keep: np.ndarray) -> _Fixes:
+        sigma = None if self.sigma is None else self.sigma[keep]
+        return _Fixes(self.t[keep], self.values[keep], self.xyz[keep], self.numbers[keep], self.index[keep], sigma)
 
 
 def ingest(records: LogRecords, params: IngestParams = IngestParams()) -> tuple[Trajectory, IngestReport]:
     """The constant-rate local trajectory of a log and the report; InputError when unusable."""
-    if len(records) == 0:
-        raise InputError(_no_fix_message(records))
-    records = in_seconds_and_metres(records, params.time_unit, params.length_unit)
-    t, values, numbers, dropped, index = order_and_dedupe(records)
-    sigma = None if records.sigma is None else records.sigma[index]
-    if len(t) < 2:
-        raise InputError(f"{records.where(0)}: only one valid fix in the log; at least 2 are needed")
-    if t[-1] - t[0] > MAX_SPAN_S:
-        raise InputError(
-            f"{records.path}: the log spans {(t[-1] - t[0]) / 86400:.0f} days ({_where(records, numbers[0])} to "
-            f"{_where(records, numbers[-1])}): a time is wrong"
-        )
+    fixes, dropped = _ordered_fixes(in_seconds_and_metres(records, params.time_unit, params.length_unit))
     warnings = list(records.warnings)
     altitude = _altitude(records, params, warnings)
-    if altitude["offset_m"]:
-        values = values + np.array([0.0, 0.0, altitude["offset_m"]])
+    values = fixes.values + np.array([0.0, 0.0, altitude["offset_m"]]) if altitude["offset_m"] else fixes.values
     xyz, origin, rule = _to_local(records, values, params, warnings)
-    keep = np.ones(len(t), dtype=bool)
-    if params.max_speed_mps is not None:
-        keep = reject_spikes(t, xyz, params.max_speed_mps)
-        if not keep.all():
-            dropped[f"spike (implied speed over {params.max_speed_mps:g} m/s)"] = numbers[~keep].tolist()
-        if keep.sum() < 2:
-            raise InputError(f"{records.path}: fewer than 2 fixes left after rejecting spikes over {params.max_speed_mps:g} m/s")
-        t, values, xyz, numbers, index = t[keep], values[keep], xyz[keep], numbers[keep], index[keep]
-        sigma = None if sigma is None else sigma[keep]
-    origin_info = None
-    if origin is not None:
-        if rule == "first fix" and not keep[0]:  # the first fix was a spike: the first kept one
-            origin = Origin(*map(float, values[0]))
-            xyz = geodetic_to_enu(values[:, 0], values[:, 1], values[:, 2], origin)
-        origin_info = {"lat": origin.lat, "lon": origin.lon, "alt": origin.alt, "rule": rule}
-    interval = median_interval(t)
-    rate = params.rate or log_rate(t)
-    max_gap = params.max_gap_s if params.max_gap_s is not None else GAP_FACTOR * interval
-    gaps = [
-        Gap(_where(records, numbers[i]), float(t[i]), float(t[i + 1]), float(t[i + 1] - t[i]), bool(t[i + 1] - t[i] <= max_gap))
-        for i in find_gaps(t)
-    ]
+    fixes = dataclasses.replace(fixes, values=values, xyz=xyz)
+    keep = _without_spikes(records, fixes, params, dropped)
+    fixes = fixes.kept(keep)
+    if origin is not None and rule == "first fix" and not keep[0]:  # the first fix was a spike: the first kept one
+        origin = Origin(*map(float, fixes.values[0]))
+        fixes = dataclasses.replace(fixes, xyz=geodetic_to_enu(fixes.values[:, 0], fixes.values[:, 1], fixes.values[:, 2], origin))
+    rate = params.rate or log_rate(fixes.t)
+    max_gap = params.max_gap_s if params.max_gap_s is not None else GAP_FACTOR * median_interval(fixes.t)
     try:
-        grid_index, grid_xyz, left_out = resample(t, xyz, rate, max_gap)
+        grid_index, grid_xyz, left_out = resample(fixes.t, fixes.xyz, rate, max_gap)
     except ValueError as exc:
         raise InputError(f"{records.path}: {exc}") from None
     if params.smoothing_s > 0:
         grid_xyz = smooth(grid_index, grid_xyz, params.smoothing_s * rate)
-    grid_sigma = grid_sigmas(t, sigma, grid_index, rate)
-    trajectory = Trajectory(grid_index.astype(np.float64), grid_xyz, float(rate), float(t[0]), grid_sigma)
+    trajectory = Trajectory(grid_index.astype(np.float64), grid_xyz, float(rate), float(fixes.t[0]), grid_sigmas(fixes.t, fixes.sigma, grid_index, rate))
+    origin_info = None if origin is None else {"lat": origin.lat, "lon": origin.lon, "alt": origin.alt, "rule": rule}
+    gaps = [
+        Gap(_where(records, fixes.numbers[i]), float(fixes.t[i]), float(fixes.t[i + 1]), float(fixes.t[i + 1] - fixes.t[i]), bool(fixes.t[i + 1] - fixes.t[i] <= max_gap))
+        for i in find_gaps(fixes.t)
+    ]
     report = IngestReport(
         source=str(records.path),
         format=records.format,
         frame="ENU" if records.frame == GEODETIC else "local",
         fixes_read=len(records),
-        fixes_used=len(t),
+        fixes_used=len(fixes.t),
         samples=len(grid_index),
         rate=float(rate),
-        t0=float(t[0]),
-        t0_utc=_utc(t[0]) if records.utc else None,
+        t0=float(fixes.t[0]),
+        t0_utc=_utc(fixes.t[0]) if records.utc else None,
         duration_s=float(grid_index[-1] / rate),
         extent_m=(grid_xyz.max(axis=0) - grid_xyz.min(axis=0)).round(3).tolist(),
         max_gap_s=float(max_gap),
@@ -259,25 +258,59 @@ def ingest(records: LogRecords, params: IngestParams = IngestParams()) -> tuple[
         unit=records.unit,
         ignored=records.ignored,
         origin=origin_info,
-        params={
-            "origin": params.origin if isinstance(params.origin, str) else [params.origin.lat, params.origin.lon, params.origin.alt],
-            "rate": params.rate,
-            "max_gap_s": params.max_gap_s,
-            "max_speed_mps": params.max_speed_mps,
-            "smoothing_s": params.smoothing_s,
-            "transform": None if params.transform is None else {"R": params.transform.R.tolist(), "t": params.transform.t.tolist()},
-            "altitude_reference": params.altitude_reference,
-            "altitude_offset_m": params.altitude_offset_m,
-            "time_unit": params.time_unit,
-            "length_unit": params.length_unit,
-        },
+        params=_params_record(params),
         warnings=warnings,
         clock=records.clock,
         altitude=altitude if records.frame == GEODETIC else {},
-        quality={name: _stats(column[index]) for name, column in records.quality.items() if np.isfinite(column[index]).any()},
-        sigma_m=None if grid_sigma is None else _sigma_summary(sigma),
+        quality={name: _stats(column[fixes.index]) for name, column in records.quality.items() if np.isfinite(column[fixes.index]).any()},
+        sigma_m=None if fixes.sigma is None or trajectory.sigma is None else _sigma_summary(fixes.sigma),
+        notes=list(records.notes),
+        video_time_zero=records.video_time_zero,
     )
     return trajectory, report
+
+
+def _ordered_fixes(records: LogRecords) -> tuple[_Fixes, dict[str, list[int]]]:
+    """The log's fixes in time order without duplicates (not yet placed: xyz holds the values), and the drops by reason."""
+    if len(records) == 0:
+        raise InputError(_no_fix_message(records))
+    t, values, numbers, dropped, index = order_and_dedupe(records)
+    if len(t) < 2:
+        raise InputError(f"{records.where(0)}: only one valid fix in the log; at least 2 are needed")
+    if t[-1] - t[0] > MAX_SPAN_S:
+        raise InputError(
+            f"{records.path}: the log spans {(t[-1] - t[0]) / 86400:.0f} days ({_where(records, numbers[0])} to "
+            f"{_where(records, numbers[-1])}): a time is wrong"
+        )
+    return _Fixes(t, values, values, numbers, index, None if records.sigma is None else records.sigma[index]), dropped
+
+
+def _without_spikes(records: LogRecords, fixes: _Fixes, params: IngestParams, dropped: dict[str, list[int]]) -> np.ndarray:
+    """Which fixes to keep: those not implying a speed over max_speed_mps from the last kept one (the others recorded in ``dropped``)."""
+    if params.max_speed_mps is None:
+        return np.ones(len(fixes.t), dtype=bool)
+    keep = reject_spikes(fixes.t, fixes.xyz, params.max_speed_mps)
+    if not keep.all():
+        dropped[f"spike (implied speed over {params.max_speed_mps:g} m/s)"] = fixes.numbers[~keep].tolist()
+    if keep.sum() < 2:
+        raise InputError(f"{records.path}: fewer than 2 fixes left after rejecting spikes over {params.max_speed_mps:g} m/s")
+    return keep
+
+
+def _params_record(params: IngestParams) -> dict:
+    """The ingest's parameters as the report records them."""
+    return {
+        "origin": params.origin if isinstance(params.origin, str) else [params.origin.lat, params.origin.lon, params.origin.alt],
+        "rate": params.rate,
+        "max_gap_s": params.max_gap_s,
+        "max_speed_mps": params.max_speed_mps,
+        "smoothing_s": params.smoothing_s,
+        "transform": None if params.transform is None else {"R": params.transform.R.tolist(), "t": params.transform.t.tolist()},
+        "altitude_reference": params.altitude_reference,
+        "altitude_offset_m": params.altitude_offset_m,
+        "time_unit": params.time_unit,
+        "length_unit": params.length_unit,
+    }
 
 
 def _altitude(records: LogRecords, params: IngestParams, warnings: list[str]) -> dict:

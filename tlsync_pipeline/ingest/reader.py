@@ -19,13 +19,16 @@ class Reader:
     """name: the format's key; describe: what detection expects (for error messages);
     read(path, topic): the records (topic only for readers with ``topics``);
     sniff(head): True when the first bytes (up to HEAD_BYTES) are this format;
-    None for formats that are only chosen by name."""
+    None for formats that are only chosen by name; local_clock: the format may
+    carry local time without a zone, and read takes ``utc_offset_s`` (local -
+    UTC, s) to put it on UTC."""
 
     name: str
     describe: str
     read: Callable[..., LogRecords]
     sniff: Callable[[bytes], bool] | None
     topics: bool = False
+    local_clock: bool = False
 
 
 HEAD_BYTES = 65536

@@ -37,7 +37,12 @@ class LogRecords:
     states none; quality: per-record quality columns kept for the report
     (name -> float64 (N,), e.g. RTKLIB "Q", "sdn", ULog "eph"); clock: for
     ``utc`` False, what the times count (e.g. "boot clock"): offsets work,
-    UTC does not.
+    UTC does not; notes: how the reader read the file where a choice was made
+    (the time base, sub-second source, lat/lon order, precision), for the
+    report; video_time_zero: for logs written in or beside a video (GoPro
+    GPMF, DJI SRT), the log's time (seconds, on ``t``'s clock) at the video's
+    time 0, None for other logs; video_zero_spread_s: how far the file's own
+    evidence lets video_time_zero be off (s), None when it says nothing.
     """
 
     path: Path
@@ -55,6 +60,9 @@ class LogRecords:
     sigma: np.ndarray | None = None
     quality: dict[str, np.ndarray] = field(default_factory=dict)
     clock: str = "UTC"
+    notes: tuple[str, ...] = ()
+    video_time_zero: float | None = None
+    video_zero_spread_s: float | None = None
 
     def __len__(self) -> int:
         return len(self.t)
@@ -71,7 +79,7 @@ def where(path: Path, number: int, unit: str = "line") -> str:
 
 def make_records(
     path, fmt, frame, rows, lines, unit="line", utc=True, dropped=None, ignored=0, warnings=(),
-    altitude=ELLIPSOID, sigma=None, quality=None, clock=None,
+    altitude=ELLIPSOID, sigma=None, quality=None, clock=None, notes=(), video_time_zero=None, video_zero_spread_s=None,
 ) -> LogRecords:
     """LogRecords from a list of (t, a, b, c) rows and their provenance numbers (sigma, quality: one value per row)."""
     data = np.asarray(rows, dtype=np.float64).reshape(-1, 4)
@@ -81,6 +89,8 @@ def make_records(
     return LogRecords(
         Path(path), fmt, frame, data[:, 0].copy(), data[:, 1:].copy(), np.asarray(lines, dtype=np.int64).reshape(-1),
         unit, utc, dict(dropped or {}), ignored, tuple(warnings), altitude, sigma, quality, "UTC" if utc else clock or "the log's own clock",
+        tuple(notes), None if video_time_zero is None else float(video_time_zero),
+        None if video_zero_spread_s is None else float(video_zero_spread_s),
     )
 
 

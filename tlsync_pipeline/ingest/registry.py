@@ -2,7 +2,7 @@
 
 Binary magic numbers first (ULog, DataFlash, MAVLink tlog, ROS bags, FIT,
 MP4), then XML roots (GPX, KML), then text layouts, most specific first
-(NMEA, RTKLIB, DJI CSV, TUM, generic CSV). A text test never runs on a
+(NMEA, RTKLIB, DJI SRT subtitles, DJI CSV, TUM, generic CSV). A text test never runs on a
 binary file (``reader.text_of``), so a text fragment inside a binary log
 cannot decide. FORMATS, in this order, is what ``--format`` and ``[target]
 format`` accept (besides ``auto``).
@@ -22,10 +22,11 @@ from tlsync_pipeline.ingest.nmea import READER as NMEA
 from tlsync_pipeline.ingest.reader import Reader
 from tlsync_pipeline.ingest.rosbag import READER as ROSBAG
 from tlsync_pipeline.ingest.rtklib import READER as RTKLIB
+from tlsync_pipeline.ingest.srt import READER as SRT
 from tlsync_pipeline.ingest.tlog import READER as TLOG
 from tlsync_pipeline.ingest.tum import READER as TUM
 from tlsync_pipeline.ingest.ulog import READER as ULOG
 
-READERS: tuple[Reader, ...] = (ULOG, DATAFLASH, TLOG, ROSBAG, FIT, GOPRO, GPX, KML, NMEA, RTKLIB, DJI, TUM, CSV, ODOMETRY_READER)
+READERS: tuple[Reader, ...] = (ULOG, DATAFLASH, TLOG, ROSBAG, FIT, GOPRO, GPX, KML, NMEA, RTKLIB, SRT, DJI, TUM, CSV, ODOMETRY_READER)
 FORMATS: tuple[str, ...] = tuple(r.name for r in READERS)
 BY_NAME = {r.name: r for r in READERS}

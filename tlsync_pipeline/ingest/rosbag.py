@@ -100,7 +100,8 @@ def read_rosbag(path: str | Path, topic: str | None = None) -> LogRecords:
                 raise InputError(f"{path}: no NavSatFix/Odometry/PoseStamped topic {topic!r}; usable topics: {found}")
             msgtype = usable[topic]
             connections = [c for c in reader.connections if c.topic == topic]
-            rows, numbers, sigmas, dropped = [], [], [], {}
+            rows, numbers, sigmas = [], [], []
+            dropped: dict[str, list[int]] = {}
             for number, (conn, receive_ns, raw) in enumerate(reader.messages(connections=connections), start=1):
                 msg = reader.deserialize(raw, conn.msgtype)
                 row = navsatfix_row(msg, receive_ns) if msgtype == NAVSATFIX else odometry_row(msg, receive_ns)

@@ -73,7 +73,8 @@ def read_rtklib(path: str | Path) -> LogRecords:
         raise InputError(f"{path}: cannot read: {exc.strerror or exc}") from None
     lines = text.splitlines()
     system, altitude, dms = _header(path, lines)
-    rows, numbers, sigma, quality = [], [], [], {"Q": [], "ns": [], "sdn": [], "sde": [], "sdu": []}
+    rows, numbers, sigma = [], [], []
+    quality: dict[str, list[float]] = {"Q": [], "ns": [], "sdn": [], "sde": [], "sdu": []}
     dropped: dict[str, list[int]] = {}
     ignored = 0
     for number, line in enumerate(lines, start=1):

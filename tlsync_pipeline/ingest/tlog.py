@@ -78,7 +78,7 @@ def read_tlog(path: str | Path) -> LogRecords:
     gps_count = {source: sum(e[0] == "GPS_RAW_INT" for e in evs) for source, evs in events.items()}
     if not gps_count or max(gps_count.values()) == 0:
         raise InputError(f"{path}: no GPS_RAW_INT messages in this telemetry log")
-    source = max(gps_count, key=gps_count.get)
+    source = max(gps_count, key=lambda key: gps_count[key])
     fixes, offsets = split_boots(events[source])
     records = tlog_records(path, fixes, offsets)
     others = [s for s, n in gps_count.items() if n and s != source]
@@ -127,7 +127,7 @@ def tlog_records(path: Path, fixes: list[tuple[int, int, dict, float]], offsets:
         dropped[NO_TIME] = numbers[fix & (time_usec <= 0)].tolist()
         fix &= time_usec > 0
     t = np.where(time_usec >= UTC_US, time_usec * 1e-6, np.nan)
-    by_boot = {}
+    by_boot: dict[int, list] = {}
     for boot, offset in offsets:
         by_boot.setdefault(boot, []).append(offset)
     for boot in np.unique(boots):

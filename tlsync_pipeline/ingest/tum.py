@@ -48,7 +48,10 @@ def read_tum(path: str | Path) -> LogRecords:
         text = path.read_bytes().decode("utf-8", errors="replace")
     except OSError as exc:
         raise InputError(f"{path}: cannot read: {exc.strerror or exc}") from None
-    rows, numbers, dropped, ignored = [], [], {}, 0
+    rows: list[list[float]] = []
+    numbers: list[int] = []
+    dropped: dict[str, list[int]] = {}
+    ignored = 0
     for number, line in enumerate(text.splitlines(), start=1):
         if not line.strip() or line.lstrip().startswith("#"):
             ignored += 1

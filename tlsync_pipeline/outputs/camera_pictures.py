@@ -94,6 +94,7 @@ def draw_camera(job: CameraJob) -> DrawnCamera:
     (job.requests), every frame they need decoded in one forward pass.
     """
     name, line, track = job.name, job.line, job.inputs.track
+    assert track is not None, "a synchronized camera has a track"
     votes, _ = load_votes(job.votes)
     made = [
         plot_votes(name, votes, line, job.delta, job.out_dir / f"votes_{name}.png", job.times),
@@ -105,11 +106,12 @@ def draw_camera(job: CameraJob) -> DrawnCamera:
         swap_frames = band_swap_frames(track)
         movers = read_detections(job.detections) if job.detections is not None else None
         movers_frame = choose_movers_frame(movers, track) if movers is not None else None
-        kept = set(swap_frames) | ({movers_frame} if movers is not None else set())
-        panels_of = {}
+        kept = set(swap_frames) | ({movers_frame} if movers_frame is not None else set())
+        panels_of: dict[int, list[int]] = {}
         for i, request in enumerate(job.requests):
             panels_of.setdefault(request.frame, []).append(i)
-        images, drawn = {}, {}
+        images: dict[int, np.ndarray] = {}
+        drawn: dict[int, np.ndarray] = {}
         width, height = job.inputs.camera.image_size
         for index, image in each_frame_once(job.video, kept | set(panels_of), int(width) * int(height) * 3):
             for i in panels_of.get(index, []):
@@ -119,7 +121,7 @@ def draw_camera(job: CameraJob) -> DrawnCamera:
         panels = [drawn[i] for i in range(len(job.requests))]
         made.append(write_band_swap(name, job.inputs, line, job.path_model, job.rate, job.times, {f: images[f] for f in swap_frames}, job.out_dir / f"swap_{name}.png"))
         titles.append("band swap: before and after")
-        if movers is not None:
+        if movers is not None and movers_frame is not None:
             made.append(render_movers(images[movers_frame], movers_frame, movers, track, job.inputs.camera, job.path_model, line, job.times, job.out_dir / f"movers_{name}.png"))
             titles.append("every mover, the identified target and the projected path")
             votes, rows = candidate_votes(job.inputs.camera, movers, job.prepared, job.eps_px)
@@ -187,6 +189,7 @@ def player_video(job: CameraJob) -> tuple[PlayerVideo, Path | None]:
     if needs_proxy(codec, job.video.suffix, job.proxy):
         source = proxy = ensure_proxy(job.video, job.out_dir / "proxy" / f"{job.name}.mp4")
     src = quote(Path(os.path.relpath(source, job.work)).as_posix())
+    table: np.ndarray | None
     if proxy is None and job.times is not None and len(job.times.frame) == job.n_frames:
         table = job.times.time_s  # every frame's time, already read (a presentation-time clock): not demuxed again
     else:

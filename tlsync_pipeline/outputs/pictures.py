@@ -256,11 +256,13 @@ def plan_pair(
         requests.setdefault(camera, []).append(PanelRequest(frame, point, None if found is None else tuple(found), text))
         return len(requests[camera]) - 1
 
-    rows, blanks = [], []
+    rows: list[list[tuple[str, int | None]]] = []
+    blanks: list[list[str | None]] = []
     for f in frames_b:
         position = path_model.positions(line_b.sample_at(float(f), times.get(b)))[0]
         point = position if np.isfinite(position[0]) else None
-        row, blank = [], []
+        row: list[tuple[str, int | None]] = []
+        blank: list[str | None] = []
         for title, mapping in wanted_a.items():
             fa = mapping[f]
             if 0 <= fa < n_frames[a]:
@@ -286,16 +288,16 @@ def assemble_pair(plan: PairPlan, panels: dict[str, list[np.ndarray]]) -> np.nda
     """The strip of ``plan`` from each camera's drawn panels (in its requests' order); None without a row."""
     rows = []
     for cells, blanks in zip(plan.rows, plan.blanks):
-        width = next(panels[cam][i].shape[1] for cam, i in cells if cam == plan.b)
-        rows.append([panels[cam][i] if i is not None else caption(_blank(width), text) for (cam, i), text in zip(cells, blanks)])
+        width = next(panels[cam][i].shape[1] for cam, i in cells if cam == plan.b and i is not None)
+        rows.append([panels[cam][i] if i is not None else caption(_blank(width), text or "") for (cam, i), text in zip(cells, blanks)])
     return mosaic(rows) if rows else None
 
 
 def tracklet_colour(tracklet: int) -> tuple[int, int, int]:
     """A stable, well spread BGR colour per tracklet id."""
     hue = int((tracklet * 0.618033988749895 % 1.0) * 179)
-    hsv = np.uint8([[[hue, 200, 255]]])
-    return tuple(int(c) for c in cv2.cvtColor(hsv, cv2.COLOR_HSV2BGR)[0, 0])
+    blue, green, red = cv2.cvtColor(np.array([[[hue, 200, 255]]], dtype=np.uint8), cv2.COLOR_HSV2BGR)[0, 0]
+    return int(blue), int(green), int(red)
 
 
 def choose_movers_frame(detections, track) -> int:

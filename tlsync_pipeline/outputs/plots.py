@@ -105,7 +105,8 @@ def offsets_plot(timeline: Timeline, statuses: list[CameraStatus]) -> bytes:
         frames, seconds = timeline.start_offset(reference, name)
         value = seconds if in_seconds else frames
         se = timeline.start_offset_se(reference, name) if name != reference else None
-        half = None if se is None else HALF_95 * (se[1] if in_seconds else se[0])
+        spread = None if se is None else se[1] if in_seconds else se[0]
+        half = None if spread is None else HALF_95 * spread
         colour = STATUS_COLOURS[status.get(name, "ok")]
         ax.errorbar([value], [row], xerr=None if half is None else [[half], [half]], fmt="o", color=colour, capsize=5, ms=5)
         text = f"{value:+.3f} {unit}" + ("" if half is None else f" ± {half:.2g}") + (" (reference)" if name == reference else "")

@@ -59,7 +59,7 @@ class CameraRow:
 
 def camera_rows(timeline: Timeline, statuses: list[CameraStatus]) -> list[CameraRow]:
     """The per-camera table: status, start and relation to the reference with 95 % intervals, clock."""
-    reference = timeline.names[0] if timeline.cameras else None
+    reference = timeline.names[0] if timeline.cameras else ""
     rows = []
     for status in statuses:
         name = status.camera
@@ -73,8 +73,9 @@ def camera_rows(timeline: Timeline, statuses: list[CameraStatus]) -> list[Camera
             start, relation = "0 (reference)", "reference"
         else:
             start = f"{seconds:+.3f} s" if seconds is not None else f"{frames:+.2f} frames of {reference}"
-            if se is not None:
-                start += f" ± {HALF_95 * (se[1] if seconds is not None else se[0]):.2g}"
+            spread = None if se is None else se[0] if seconds is None else se[1]
+            if spread is not None:
+                start += f" ± {HALF_95 * spread:.2g}"
             rel = timeline.relation(reference, name)
             cov = timeline.relation_cov(reference, name)
             a = f"{rel.alpha:.5f}" + ("" if cov is None else f" ± {HALF_95 * cov[0, 0] ** 0.5:.2g}")

@@ -22,7 +22,7 @@ from tlsync_pipeline.sync.status import SEVERITY as STATUSES
 
 
 def _asset(name: str) -> str:
-    return resources.files("tlsync_pipeline.outputs").joinpath("assets", name).read_text(encoding="utf-8")
+    return resources.files("tlsync_pipeline.outputs").joinpath("assets").joinpath(name).read_text(encoding="utf-8")
 
 
 def _e(text) -> str:
@@ -42,7 +42,7 @@ def _pictures(pictures: list[Picture]) -> str:
     return '<div class="pictures">' + "".join(_image(p) for p in pictures) + "</div>"
 
 
-def _table(header: list[str], rows: list[list[str]], numeric: set[int] = frozenset()) -> str:
+def _table(header: list[str], rows: list[list[str]], numeric: frozenset[int] = frozenset()) -> str:
     head = "".join(f"<th>{_e(h)}</th>" for h in header)
     body = "".join("<tr>" + "".join(f'<td{" class=num" if i in numeric else ""}>{cell}</td>' for i, cell in enumerate(row)) + "</tr>" for row in rows)
     return f"<table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>"
@@ -56,7 +56,7 @@ def _cameras_section(content: ReportContent) -> str:
     table = _table(
         ["camera", "status", "why", "what to do", f"start after {reference}'s frame 0 (95 %)", f"relation to {reference} (95 %)", "clock", "inliers / votes"],
         [[_e(r.camera), f'<span class="badge {r.status}">{r.status}</span>', _e(r.reason), _e(r.remedy), _e(r.start), _e(r.relation), _e(r.clock), _e(r.support)] for r in rows],
-        numeric={4, 7},
+        numeric=frozenset({4, 7}),
     )
     note = (
         '<p class="hint">start: when the camera\'s frame 0 was taken, in seconds after the reference camera\'s frame 0 '
@@ -123,7 +123,7 @@ def _stages_section(content: ReportContent) -> str:
     if not content.stages:
         return ""
     rows = [[_e(s.stage), _e(s.camera or "-"), _e(s.created), "-" if s.seconds is None else f"{s.seconds:.1f}"] for s in content.stages]
-    return '<h2 id="stages">Stages</h2>' + _table(["stage", "camera", "made (UTC)", "seconds"], rows, numeric={3})
+    return '<h2 id="stages">Stages</h2>' + _table(["stage", "camera", "made (UTC)", "seconds"], rows, numeric=frozenset({3}))
 
 
 def _exports_section(content: ReportContent) -> str:

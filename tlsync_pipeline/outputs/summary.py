@@ -3,6 +3,8 @@ camera's calibration in one line."""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 from tlsync_pipeline.sync.status import OK
 from tlsync_pipeline.sync.timeline import Relation, Timeline, eps_t
 
@@ -10,14 +12,14 @@ from tlsync_pipeline.sync.timeline import Relation, Timeline, eps_t
 def format_table(timeline: Timeline) -> str:
     """The per-camera summary a user reads after a run: each camera's status (sync/status.py), its line, its start."""
     rows = [("camera", "status", "alpha", "beta", "votes", "inliers", "start (frames)", "start (s)")]
-    first = timeline.names[0] if timeline.cameras else None
+    first = timeline.names[0] if timeline.cameras else ""
     with_se = False
     status = timeline.statuses()
     for name, line in timeline.cameras.items():
         frames, seconds = timeline.start_offset(first, name)
         alpha, beta = f"{line.alpha:.5f}", f"{line.beta:.2f}"
         start_frames, start_s = f"{frames:+.2f}", "-" if seconds is None else f"{seconds:+.3f}"
-        if line.cov is not None:
+        if line.se_alpha is not None and line.se_beta is not None:
             with_se = True
             alpha += f" ±{_HALF_95 * line.se_alpha:.2g}"
             beta += f" ±{_HALF_95 * line.se_beta:.2g}"
@@ -29,7 +31,7 @@ def format_table(timeline: Timeline) -> str:
     for name in timeline.failed:
         rows.append((name, status[name].status, "-", "-", "-", "-", "-", "-"))
     text = _columns(rows)
-    if first is not None:
+    if first:
         text += f"\nstart: when the camera's frame 0 was taken, in frames and seconds of {first} (positive: later than {first}'s frame 0)"
     if with_se:
         text += "\n±: 95 % intervals (1.96 standard errors)"
@@ -61,7 +63,7 @@ def format_truth_comparison(timeline: Timeline, truth: dict[str, Relation], n_fr
 _HALF_95 = 1.959964  # normal quantile of a two-sided 95 % interval
 
 
-def _columns(rows: list[tuple[str, ...]]) -> str:
+def _columns(rows: Sequence[Sequence[str]]) -> str:
     widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
     return "\n".join("  ".join(cell.rjust(w) if i else cell.ljust(w) for i, (cell, w) in enumerate(zip(r, widths))) for r in rows)
 

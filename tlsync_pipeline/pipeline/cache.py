@@ -166,15 +166,15 @@ def staleness(manifest: Manifest | None, key: str, code: dict[str, str], inputs:
         if old != new:
             reasons.append(f"code of {module} " + ("is new" if old is None else "is no longer used" if new is None else "changed"))
     for label in sorted(set(inputs) | set(manifest.inputs)):
-        old, new = manifest.inputs.get(label), inputs.get(label)
-        if old is None:
+        was, now = manifest.inputs.get(label), inputs.get(label)  # {"path", "sha256"} or None
+        if was is None:
             reasons.append(f"new input {label}")
-        elif new is None:
+        elif now is None:
             reasons.append(f"input {label} no longer used")
-        elif old.get("path") != new["path"]:
-            reasons.append(f"input {label} is now {new['path']} (was {old.get('path')})")
-        elif old.get("sha256") != new["sha256"]:
-            reasons.append(f"input {label} changed ({new['path']})" if new["sha256"] else f"input {label} is missing ({new['path']})")
+        elif was.get("path") != now["path"]:
+            reasons.append(f"input {label} is now {now['path']} (was {was.get('path')})")
+        elif was.get("sha256") != now["sha256"]:
+            reasons.append(f"input {label} changed ({now['path']})" if now["sha256"] else f"input {label} is missing ({now['path']})")
     reasons += [f"parameter {name}: {old!r} -> {new!r}" for name, old, new in _changes(manifest.params, params)]
     if not reasons and manifest.key != key:
         reasons.append("cache key changed")

@@ -28,6 +28,8 @@ _ENGINE_PACKAGES = ("tlsync_pipeline.cli",)
 def module_source(name: str) -> bytes:
     """The source of a project module (bytes of its file)."""
     spec = importlib.util.find_spec(name)
+    if spec is None or spec.origin is None:
+        raise ImportError(f"no source for module {name}")
     with open(spec.origin, "rb") as handle:
         return handle.read()
 
@@ -48,7 +50,7 @@ def _imports(name: str) -> tuple[str, ...]:
     """The project modules one module's source imports."""
     spec = importlib.util.find_spec(name)
     tree = ast.parse(module_source(name))
-    package = name if spec.submodule_search_locations is not None else name.rpartition(".")[0]
+    package = name if spec is not None and spec.submodule_search_locations is not None else name.rpartition(".")[0]
     found = []
     for node in _runtime_nodes(tree):
         if isinstance(node, ast.Import):
@@ -64,7 +66,7 @@ def _imports(name: str) -> tuple[str, ...]:
     return tuple(sorted({m for m in found if _counted(m) and _is_module(m)}))
 
 
-def _runtime_nodes(tree: ast.AST):
+def _runtime_nodes(tree: ast.Module):
     """Every statement of the tree, nested ones included, except the bodies of ``if TYPE_CHECKING:`` blocks (imports for annotations only).
 
     Only statements are visited: an import is a statement, and statements

@@ -19,6 +19,7 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 from tlsync_pipeline.atomic import PART_SUFFIX
 from tlsync_pipeline.errors import InputError, describe_error
@@ -149,7 +150,7 @@ def status(graph: Graph) -> list[TaskState]:
         if waiting:
             reasons.append("waits for " + ", ".join(f"{d} ({rows[d].state})" for d in waiting))
         rows[tid] = TaskState(tid, task.stage, task.camera, state, reasons, sorted(manifest.outputs) if manifest else [])
-        if state == "fresh" and task.camera is None:
+        if state == "fresh" and task.camera is None and manifest is not None:
             for camera, why in (manifest.summary.get("failed") or {}).items():
                 rows[task_id(task.stage, camera)] = TaskState(task_id(task.stage, camera), task.stage, camera, "failed", [why])
     try:
@@ -201,6 +202,7 @@ def run_graph(
                 _schedule(graph, executor, wanted, force, memo, summary, progress or Progress())
         except BaseException:
             executor.close(cancel=True)
+            _remove_leftovers(graph.work)  # the stopped workers' temporary files (this run still holds the lock)
             _save_memo(memo, summary)
             raise
         _save_memo(memo, summary)
@@ -246,7 +248,7 @@ class _Scheduler:
     """Hands out the wanted tasks as their inputs are made, collects their results, records what each did."""
 
     graph: Graph
-    executor: object
+    executor: Any
     force: set[str]
     memo: HashMemo
     summary: RunSummary

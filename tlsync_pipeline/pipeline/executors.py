@@ -207,7 +207,7 @@ class DaskExecutor:
 
             raise InputError("--executor dask needs the optional extra: pip install 'tlsync[dask]'") from None
         self._own = not hasattr(scheduler, "submit")
-        self.client = Client(scheduler) if self._own else scheduler
+        self.client: Any = Client(scheduler) if self._own else scheduler
         self._futures: list = []
 
     def submit(self, fn: Callable, kwargs: dict):

@@ -25,6 +25,7 @@ from tlsync_pipeline.pipeline.project import Project
 from tlsync_pipeline.pipeline.spec import Options, StageSpec
 from tlsync_pipeline.pipeline.stages import (
     calibrate,
+    clock,
     export,
     identify,
     ingest,
@@ -37,7 +38,7 @@ from tlsync_pipeline.pipeline.stages import (
 from tlsync_pipeline.pipeline.workspace import Artefact, Workspace
 
 STAGE_SPECS: dict[str, StageSpec] = {
-    s.name: s for s in (intrinsics.SPEC, calibrate.SPEC, track.SPEC, ingest.SPEC, identify.SPEC, vote.SPEC, sync.SPEC, export.SPEC, render.SPEC)
+    s.name: s for s in (intrinsics.SPEC, calibrate.SPEC, track.SPEC, clock.SPEC, ingest.SPEC, identify.SPEC, vote.SPEC, sync.SPEC, export.SPEC, render.SPEC)
 }
 STAGES = tuple(STAGE_SPECS)
 PER_CAMERA = tuple(name for name, spec in STAGE_SPECS.items() if spec.per_camera)

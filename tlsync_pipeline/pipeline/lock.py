@@ -16,6 +16,7 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+from typing import TextIO
 
 from tlsync_pipeline.errors import EnvironmentProblem, os_error_reason
 
@@ -50,7 +51,7 @@ class WorkLock:
     def __init__(self, work: Path):
         self.work = Path(work)
         self.path = self.work / ".lock"
-        self._handle = None
+        self._handle: TextIO | None = None
         self._created_work = False
 
     def __enter__(self) -> "WorkLock":

@@ -36,6 +36,7 @@ from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.geodesy import Origin
 from tlsync_pipeline.ingest import ALTITUDE_REFERENCES, FORMATS
 from tlsync_pipeline.ingest.process import IngestParams, RigidTransform
+from tlsync_pipeline.ingest.recording_time import parse_utc, parse_utc_offset
 from tlsync_pipeline.ingest.units import LENGTH_UNITS, TIME_UNITS, unit_scale
 from tlsync_pipeline.outputs.proxy import POLICIES as PROXY_POLICIES
 from tlsync_pipeline.sync.params import SyncParams, parameter_fields
@@ -253,6 +254,20 @@ def _board_pose(value: Any, root: Path) -> BoardPose:
     return BoardPose(_path(value["image"], root), R, t)
 
 
+def _utc_offset(value: Any, root: Path) -> float:
+    """Local time - UTC in seconds, from hours (2, -3.5) or "+02:00" / "-0330" / "Z"."""
+    return parse_utc_offset(value)
+
+
+def _recorded(value: Any, root: Path) -> str:
+    """"metadata", "off", or an ISO 8601 time with its zone (kept as written)."""
+    if value in ("metadata", "off"):
+        return value
+    if not isinstance(value, str) or parse_utc(value) is None:
+        raise ValueError(f'expected "metadata", "off" or an ISO 8601 time with its zone (e.g. "2026-03-01T13:00:05+01:00"), got {value!r}')
+    return value
+
+
 def _rigid_transform(value: Any, root: Path) -> RigidTransform:
     if not isinstance(value, dict) or not set(value) <= {"R", "yaw_deg", "t"} or ("R" in value and "yaw_deg" in value):
         raise ValueError(f"expected {{R = 3x3 rotation or yaw_deg = degrees, t = [x, y, z] metres}}, got {value!r}")
@@ -290,6 +305,7 @@ class TargetConfig:
     odometry_transform: RigidTransform | None = key(_rigid_transform, IngestParams.transform)
     altitude_reference: str | None = key(_choice(*ALTITUDE_REFERENCES, what="altitude reference"), IngestParams.altitude_reference)
     altitude_offset_m: float = key(_finite, IngestParams.altitude_offset_m)
+    utc_offset: float | None = key(_utc_offset)  # s: local - UTC of a log whose clock is local (DJI SRT, the DJI app's CSV)
     time_unit: float = key(_time_unit, IngestParams.time_unit)
     length_unit: float = key(_length_unit, IngestParams.length_unit)
 
@@ -362,6 +378,23 @@ class CalibrationConfig:
 
 
 @dataclass(frozen=True)
+class ClockConfig:
+    """[cameras.clock]: the camera's own clock as a check on its offset (docs/algorithm.md, docs/ingest.md).
+
+    recorded: "metadata" (the video's trusted recording time: GoPro GPS, a DJI
+    subtitle file on UTC, a phone's QuickTime creationdate), "off", or the UTC
+    of the video's time 0 as an ISO 8601 time with its zone; tolerance_s: how
+    far that may be off (s; None: the source's own), which also lets an
+    untrusted source (MP4 creation_time) be used; utc_offset: local - UTC (s)
+    of a DJI subtitle file beside the video.
+    """
+
+    recorded: str = key(_recorded, "metadata")
+    tolerance_s: float | None = key(_positive)
+    utc_offset: float | None = key(_utc_offset)
+
+
+@dataclass(frozen=True)
 class CameraConfig:
     """One [[cameras]] table: the files the camera brings (absolute paths) and how to make the others."""
 
@@ -374,6 +407,7 @@ class CameraConfig:
     proxy: str = key(_choice(*PROXY_POLICIES, what="proxy policy"), PROXY_POLICIES[0])
     tracker: TrackerConfig = table(TrackerConfig)
     calibration: CalibrationConfig = table(CalibrationConfig)
+    clock: ClockConfig = table(ClockConfig)
 
     @property
     def tracked(self) -> bool:

@@ -5,6 +5,7 @@ Layout (relative to the work folder; docs/pipeline.md lists it for users):
     cameras/<cam>/intrinsics.json, intrinsics_report.json          intrinsics
     cameras/<cam>/camera.json, calibration_report.json, calibration.png   calibrate
     cameras/<cam>/track.csv, cameras/<cam>/video.json               track
+    cameras/<cam>/clock.json                                        clock
     cameras/<cam>/votes.npz                                         vote
     target/trajectory.csv, target/ingest_report.json                ingest
     timeline.json                                                   sync
@@ -30,9 +31,12 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from tlsync_pipeline.atomic import atomic_path
+
+if TYPE_CHECKING:
+    from tlsync_pipeline.outputs.diagnostics import StageRun
 
 # Artefact kind -> path relative to the work folder ({camera}: the camera's name). "pictures" is a folder.
 ARTEFACTS: dict[str, str] = {
@@ -45,6 +49,7 @@ ARTEFACTS: dict[str, str] = {
     "detections": "cameras/{camera}/detections.csv",
     "identification": "cameras/{camera}/identification.json",
     "video_info": "cameras/{camera}/video.json",
+    "clock": "cameras/{camera}/clock.json",
     "votes": "cameras/{camera}/votes.npz",
     "trajectory": "target/trajectory.csv",
     "ingest_report": "target/ingest_report.json",
@@ -157,8 +162,15 @@ class StageFiles:
     guarded: tuple[Path, ...]  # folders whose files must be declared to be opened (work, project)
     progress: bool = True
     cores: int = 1
-    history: list[dict] = field(default_factory=list)  # earlier runs' records (stage, camera, created, seconds, warnings), for the report
+    history: list[StageRun] = field(default_factory=list)  # earlier runs' records (stage, camera, created, seconds, warnings), for the report
     workers: Any = field(default=None, repr=False, compare=False)
+
+    @property
+    def camera_name(self) -> str:
+        """The task's camera (a per-camera stage's)."""
+        if self.camera is None:
+            raise ValueError(f"{self.task}: not a per-camera task")
+        return self.camera
 
     def path(self, label: str) -> Path:
         """A declared input's path."""
@@ -206,8 +218,8 @@ class StageFiles:
             return
         if path.endswith(".manifest.json") and not writing:
             return  # the cache's records, not artefacts
-        for out in self.outputs.values():
-            out = str(out)
+        for output in self.outputs.values():
+            out = str(output)
             if path == out or path.startswith(out + os.sep):
                 return
             head, name = os.path.split(out)

@@ -86,6 +86,7 @@ class CameraClock:
         frames = np.asarray(frames, dtype=np.float64)
         if not self.vfr:
             return frames
+        assert self.fps is not None, "a presentation-time clock has its fps"
         if times is None:
             return frames + self.origin_s * self.fps
         return _extended_interp(frames, times.frame, times.time_s, 1.0 / self.fps) * self.fps
@@ -95,6 +96,7 @@ class CameraClock:
         clock = np.asarray(clock, dtype=np.float64)
         if not self.vfr:
             return clock
+        assert self.fps is not None, "a presentation-time clock has its fps"
         if times is None:
             return clock - self.origin_s * self.fps
         return _extended_interp(clock / self.fps, times.time_s, times.frame, self.fps)

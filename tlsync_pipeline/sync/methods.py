@@ -70,8 +70,11 @@ class SyncMethod(Protocol):
     with their defaults.
     """
 
-    name: str
-    params_type: type
+    @property
+    def name(self) -> str: ...
+
+    @property
+    def params_type(self) -> type: ...
 
     def preparation(self, options: Any) -> Any:
         """The part of the method's ``options`` that prepare_trajectory reads (a frozen dataclass), or None."""

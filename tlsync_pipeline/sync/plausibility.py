@@ -408,7 +408,7 @@ def diagnose(judged: dict[str, Judged], prepared: Trajectory, eps_px: float) -> 
     gate = GATE_EPS * eps_px
     path = PiecewiseTrajectory(prepared)
     if tracked and all(j.contradicted for j in tracked.values()):
-        given = np.mean([path_share(j.camera, j.track.xy, path, gate) for j in tracked.values()])  # type: ignore[union-attr]
+        given = float(np.mean([path_share(j.camera, j.track.xy, path, gate) for j in tracked.values()]))  # type: ignore[union-attr]
         for scale, unit in LENGTH_SUSPECTS:
             scaled = PiecewiseTrajectory(replace(prepared, xyz=prepared.xyz * scale))
             share = float(np.mean([path_share(j.camera, j.track.xy, scaled, gate) for j in tracked.values()]))  # type: ignore[union-attr]

@@ -225,11 +225,10 @@ def refine_line(
     use = np.asarray(start, dtype=bool) & (path.run_of((frame - beta) / alpha) >= 0)
     if use.sum() < MIN_FRAMES:
         raise ValueError(f"only {int(use.sum())} tracked frames fall on the trajectory under the line")
-    result = None
     for _ in range(PASSES):
         slack = None if box is None else slack_on_line(camera, path, frame[use], box[use], alpha, beta)
-        result = _fit(camera, frame[use], xy[use], path, alpha, beta, f_scale, model_error_px, prior, slack)
-        alpha, beta = result[0], result[1]
+        fit = _fit(camera, frame[use], xy[use], path, alpha, beta, f_scale, model_error_px, prior, slack)
+        alpha, beta = fit.alpha, fit.beta
         s = (frame - beta) / alpha
         run = path.run_of(s)
         candidate = run >= 0
@@ -240,12 +239,67 @@ def refine_line(
         if grown.sum() < MIN_FRAMES or np.array_equal(grown, use):
             break
         use = grown
-    alpha, beta, cov, scale, converged, message, perpendicular = result
-    return Refinement(alpha, beta, cov, int(use.sum()), scale, perpendicular, converged, message)
+    return Refinement(fit.alpha, fit.beta, fit.cov, int(use.sum()), fit.scale_px, fit.perpendicular, fit.converged, fit.message)
 
 
-def _fit(camera, frame, xy, path, alpha, beta, f_scale, model_error_px, prior=None, slack=None):
-    """One robust fit; returns (alpha, beta, cov, scale_px, converged, message, perpendicular).
+@dataclass(frozen=True)
+class _Fit:
+    """One robust fit: the line, its covariance, the robust residual scale (px), the solver's verdict, and perpendicular (Refinement)."""
+
+    alpha: float
+    beta: float
+    cov: np.ndarray
+    scale_px: float
+    converged: bool
+    message: str
+    perpendicular: float
+
+
+class _PixelResiduals:
+    """The fit's residuals and Jacobian in x = (1 / alpha, sample at c_mid): tracked minus projected position beyond the slack,
+    weighted per frame (sigma_weights), and the slope prior's residual last (when there is a prior).
+
+    least_squares asks for the residuals, then the Jacobian, at the same x: one evaluation serves both.
+    """
+
+    def __init__(self, camera: Camera, path: PiecewiseTrajectory, frame: np.ndarray, xy: np.ndarray, run: np.ndarray, slack: np.ndarray, weight: np.ndarray, c_mid: float, f_scale: float, prior: SlopePrior | None):
+        self.camera, self.path, self.frame, self.xy, self.run, self.slack, self.weight = camera, path, frame, xy, run, slack, weight
+        self.c_mid, self.f_scale, self.prior = c_mid, f_scale, prior
+        self.prior_slope = f_scale * prior.alpha / prior.sigma if prior is not None else 0.0
+        self._last: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
+
+    def pixels(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(N, 2) weighted residuals beyond the slack and (N, 2, 2) their Jacobian in x."""
+        key = x.tobytes()
+        if key not in self._last:
+            self._last.clear()
+            self._last[key] = self._evaluate(x)
+        return self._last[key]
+
+    def _evaluate(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        s = x[1] + x[0] * (self.frame - self.c_mid)
+        r, rate = _offsets_and_rates(self.camera, self.path, s, self.run, self.xy)
+        outside = np.abs(r) > self.slack
+        r = beyond_slack(r, self.slack) * self.weight[:, None]
+        rate = np.where(outside, rate, 0.0) * self.weight[:, None]
+        invalid = ~np.isfinite(r).all(axis=1)
+        r[invalid] = 10.0 * self.f_scale
+        rate[invalid | ~np.isfinite(rate).all(axis=1)] = 0.0
+        return r, rate[:, :, None] * np.stack([self.frame - self.c_mid, np.ones(len(self.frame))], axis=1)[:, None, :]
+
+    def residual(self, x: np.ndarray) -> np.ndarray:
+        r = self.pixels(x)[0].ravel()
+        if self.prior is None:
+            return r
+        return np.append(r, self.f_scale * (self.prior.alpha * x[0] - 1.0) / self.prior.sigma)
+
+    def jacobian(self, x: np.ndarray) -> np.ndarray:
+        jac = self.pixels(x)[1].reshape(-1, 2)
+        return np.vstack([jac, [self.prior_slope, 0.0]]) if self.prior is not None else jac
+
+
+def _fit(camera: Camera, frame: np.ndarray, xy: np.ndarray, path: PiecewiseTrajectory, alpha: float, beta: float, f_scale: float, model_error_px: float, prior: SlopePrior | None = None, slack: np.ndarray | None = None) -> _Fit:
+    """One robust fit of the line on the frames that fall on the path under the starting line.
 
     slack: (N, 2) pixels either side of each position within which the
     projection leaves no residual, or None.
@@ -260,47 +314,34 @@ def _fit(camera, frame, xy, path, alpha, beta, f_scale, model_error_px, prior=No
     span = max(float(frame[-1] - frame[0]), 1.0)
     x0 = np.array([1.0 / alpha, (c_mid - beta) / alpha])
     weight = sigma_weights(camera, path, x0[1] + x0[0] * (frame - c_mid), run, f_scale)
-
-    prior_slope = f_scale * prior.alpha / prior.sigma if prior is not None else 0.0
-
-    def pixel_fit(x):
-        """(N, 2) weighted residuals beyond the slack and (N, 2, 2) their Jacobian in x."""
-        s = x[1] + x[0] * (frame - c_mid)
-        r, rate = _offsets_and_rates(camera, path, s, run, xy)
-        outside = np.abs(r) > slack
-        r = beyond_slack(r, slack) * weight[:, None]
-        rate = np.where(outside, rate, 0.0) * weight[:, None]
-        invalid = ~np.isfinite(r).all(axis=1)
-        r[invalid] = 10.0 * f_scale
-        rate[invalid | ~np.isfinite(rate).all(axis=1)] = 0.0
-        return r, rate[:, :, None] * np.stack([frame - c_mid, np.ones(len(frame))], axis=1)[:, None, :]
-
-    last = {}  # least_squares asks for the residuals, then the Jacobian, at the same x
-
-    def evaluated(x):
-        key = x.tobytes()
-        if key not in last:
-            last.clear()
-            last[key] = pixel_fit(x)
-        return last[key]
-
-    def residual(x):
-        r = evaluated(x)[0].ravel()
-        return np.append(r, f_scale * (prior.alpha * x[0] - 1.0) / prior.sigma) if prior is not None else r
-
-    def jacobian(x):
-        jac = evaluated(x)[1].reshape(-1, 2)
-        return np.vstack([jac, [prior_slope, 0.0]]) if prior is not None else jac
-
+    problem = _PixelResiduals(camera, path, frame, xy, run, slack, weight, c_mid, f_scale, prior)
     scale = np.array([0.1 / span * abs(x0[0]) + 1e-9, 0.1])
     loss = "soft_l1" if prior is None else _soft_l1_but_last
-    solution = least_squares(residual, x0, jac=jacobian, loss=loss, f_scale=f_scale, x_scale=scale, method="trf", max_nfev=200)
+    solution = least_squares(problem.residual, x0, jac=problem.jacobian, loss=loss, f_scale=f_scale, x_scale=scale, method="trf", max_nfev=200)
     x = solution.x
-    r, jac = evaluated(x)
+    r, jac = problem.pixels(x)
+    cov_x = _sandwich_covariance(r, jac, f_scale, model_error_px, problem.prior_slope)
+    u, s0 = x
+    a = 1.0 / u
+    d = np.array([[-1.0 / u**2, 0.0], [s0 / u**2, -a]])  # d(alpha, beta) / d(x)
+    cov = d @ cov_x @ d.T
+    residual_px = np.linalg.norm(r, axis=1)
+    scale_px = float(1.4826 * np.median(np.abs(residual_px - np.median(residual_px)))) if len(r) else float("nan")
+    perpendicular = _perpendicular(camera, path, x[1] + x[0] * (frame - c_mid), run)
+    ok = bool(solution.success and np.all(np.isfinite(cov)) and u > 0)
+    return _Fit(float(a), float(c_mid - a * s0), cov, scale_px, ok, str(solution.message), perpendicular)
+
+
+def _sandwich_covariance(r: np.ndarray, jac: np.ndarray, f_scale: float, model_error_px: float, prior_slope: float) -> np.ndarray:
+    """Covariance of x: the soft L1 M-estimator's sandwich, frame by frame or block by block (the larger), plus the model error.
+
+    r: (N, 2) residuals (px); jac: (N, 2, 2) their Jacobian; prior_slope: the
+    slope prior's Jacobian (0 without a prior), whose information counts as
+    bread and, at one sigma = f_scale, as noise (meat).
+    """
     z = (r / f_scale) ** 2
     psi = r / np.sqrt(1 + z)  # soft L1 influence
     dpsi = (1 + z) ** -1.5
-    # The prior is information (bread) and, at one sigma = f_scale, noise (meat).
     prior_info = np.diag([prior_slope**2, 0.0])
     bread = np.einsum("nik,ni,nil->kl", jac, dpsi, jac) + prior_info
     g = np.einsum("nik,ni->nk", jac, psi)
@@ -310,7 +351,7 @@ def _fit(camera, frame, xy, path, alpha, beta, f_scale, model_error_px, prior=No
     except np.linalg.LinAlgError:
         inv = np.full((2, 2), np.inf)
     # Frame by frame (heteroscedasticity) and block by block (errors shared by
-    # neighbouring frames: pose, log); the larger, times the calibrated factor.
+    # neighbouring frames: pose, log); the larger.
     independent = g.T @ g * n / max(n - 2, 1)
     blocks = np.array([b.sum(axis=0) for b in np.array_split(g, min(BLOCKS, n))])
     clustered = blocks.T @ blocks * len(blocks) / max(len(blocks) - 1, 1)
@@ -319,17 +360,7 @@ def _fit(camera, frame, xy, path, alpha, beta, f_scale, model_error_px, prior=No
     # block of frames (pose and log errors), which the residuals cannot show.
     lever = np.array([b.sum(axis=0) for b in np.array_split(jac * dpsi[:, :, None], min(BLOCKS, n))])
     systematic = model_error_px**2 * np.einsum("bik,bil->kl", lever, lever)
-    cov_x = inv @ (meat + systematic + f_scale**2 * prior_info) @ inv
-    u, s0 = x
-    a = 1.0 / u
-    b = c_mid - a * s0
-    d = np.array([[-1.0 / u**2, 0.0], [s0 / u**2, -a]])
-    cov = d @ cov_x @ d.T
-    residual_px = np.linalg.norm(r, axis=1)
-    scale_px = float(1.4826 * np.median(np.abs(residual_px - np.median(residual_px)))) if n else float("nan")
-    perpendicular = _perpendicular(camera, path, x[1] + x[0] * (frame - c_mid), run)
-    ok = bool(solution.success and np.all(np.isfinite(cov)) and u > 0)
-    return float(a), float(b), cov, scale_px, ok, str(solution.message), perpendicular
+    return inv @ (meat + systematic + f_scale**2 * prior_info) @ inv
 
 
 def _offsets_and_rates(camera: Camera, path: PiecewiseTrajectory, s: np.ndarray, run: np.ndarray, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

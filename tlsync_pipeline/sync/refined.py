@@ -101,7 +101,7 @@ class RefinedMethod:
             if reason:
                 warnings.append(f"{reason}; using the line-search line")
         fallback = bool(warnings)
-        if fallback:
+        if fallback or refinement is None:
             alpha, beta = search.alpha, search.beta
             cov = _line_search_cov(search, votes.sample[search.inliers])
         else:

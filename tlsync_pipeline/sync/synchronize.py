@@ -69,6 +69,7 @@ def identify_params(params: SyncParams) -> IdentifyParams:
 def synchronize_camera(name: str, inputs: CameraInput, votes: Votes, prepared: Trajectory, params: SyncParams) -> CameraResult:
     """The fitted line of one camera from its votes; SyncError if it cannot be synchronized."""
     track = inputs.track
+    assert track is not None, "a camera without a track is identified first (identify_and_synchronize)"
     clock = camera_clock(track, inputs.fps)
     times = FrameTimes.of_track(track)
     data = CameraData(
@@ -87,6 +88,7 @@ def synchronize_camera(name: str, inputs: CameraInput, votes: Votes, prepared: T
 
 def identify_and_synchronize(name: str, inputs: CameraInput, prepared: Trajectory, params: SyncParams) -> CameraResult:
     """A camera that brings every mover: the target identified among them, then its line fitted on the identified track's votes."""
+    assert inputs.detections is not None, "a camera without a track brings every mover"
     found = identify_target(inputs.camera, inputs.detections, prepared, inputs.fps, identify_params(params))
     identified = CameraInput(inputs.camera, found.track, inputs.fps)
     result = synchronize_camera(name, identified, cast_votes(inputs.camera, found.track, prepared, params.eps_px), prepared, params)

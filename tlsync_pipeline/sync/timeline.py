@@ -15,10 +15,13 @@ import math
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
+from typing import Any
+
 import numpy as np
 
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.sync.clock import FRAME, CameraClock, FrameTimes
+from tlsync_pipeline.sync.clock_prior import ClockCheck
 from tlsync_pipeline.sync.status import AMBIGUOUS, FAILED, HALF_95, WEAK, WIDE_FRAMES, WIDE_REMEDY, CameraStatus, Reason, failure, line_reasons, status_of
 
 FORMAT_VERSION = 1
@@ -128,6 +131,7 @@ class CameraLine:
     clock: CameraClock = CameraClock()
     identification: IdentificationSummary | None = None
     checks: tuple[Reason, ...] | None = None
+    clock_check: ClockCheck | None = None
 
     def __post_init__(self):
         if not self.clock.vfr and self.clock.fps is None and self.fps is not None:
@@ -147,7 +151,7 @@ class CameraLine:
 
     def to_dict(self) -> dict:
         """The camera's entry in timeline.json, without the offsets to the reference."""
-        entry = {"alpha": self.alpha, "beta": self.beta, "votes": self.votes, "inliers": self.inliers, "residual_rms": self.residual_rms, "fps": self.fps}
+        entry: dict[str, Any] = {"alpha": self.alpha, "beta": self.beta, "votes": self.votes, "inliers": self.inliers, "residual_rms": self.residual_rms, "fps": self.fps}
         if self.cov is not None:
             entry.update(se_alpha=self.se_alpha, se_beta=self.se_beta, cov=np.asarray(self.cov).tolist())
         for key in ("flags", "warnings"):
@@ -160,6 +164,8 @@ class CameraLine:
                 entry[key] = asdict(getattr(self, key))
         if self.checks is not None:
             entry["checks"] = [r.to_dict() for r in self.checks]
+        if self.clock_check is not None:
+            entry["clock_prior"] = self.clock_check.to_dict()
         if self.clock.vfr:
             entry.update(
                 clock=self.clock.kind,
@@ -175,7 +181,7 @@ class CameraLine:
         clock = CameraClock(FRAME, entry.get("fps"))
         if entry.get("clock", FRAME) != FRAME:
             clock = CameraClock(entry["clock"], float(entry["clock_fps"]), float(entry.get("clock_origin_s", 0.0)), float(entry["time_jitter_frames"]))
-        optional = {
+        optional: dict[str, Any] = {
             "cov": None if entry.get("cov") is None else np.asarray(entry["cov"], dtype=np.float64),
             "flags": None if entry.get("flags") is None else tuple(entry["flags"]),
             "warnings": None if entry.get("warnings") is None else tuple(entry["warnings"]),
@@ -184,6 +190,7 @@ class CameraLine:
             "refinement": None if entry.get("refinement") is None else RefinementSummary(**entry["refinement"]),
             "identification": None if entry.get("identification") is None else IdentificationSummary.from_dict(entry["identification"]),
             "checks": None if entry.get("checks") is None else tuple(Reason.from_dict(r) for r in entry["checks"]),
+            "clock_check": None if entry.get("clock_prior") is None else ClockCheck.from_dict(entry["clock_prior"]),
         }
         base = {k: entry[k] for k in ("alpha", "beta", "votes", "inliers")}
         base["residual_rms"] = float("nan") if entry["residual_rms"] is None else entry["residual_rms"]
@@ -348,7 +355,7 @@ class Timeline:
                 if name != first:
                     entry.update(self._offset_errors(first, name))
             cameras[name] = entry
-        pairs = {}
+        pairs: dict[str, dict[str, Any]] = {}
         for key, rel in self.pairs().items():
             a, b = key.split("->")
             frames, seconds = self.start_offset(a, b)

@@ -63,11 +63,11 @@ class CalibrateParams:
     board: KnownBoard | None = None
 
 
-def gcp_world_points(table: GcpTable, origin: Origin | None) -> np.ndarray:
+def gcp_world_points(table: GcpTable, origin: Origin | str | None) -> np.ndarray:
     """Local metres (N, 3) of a GCP table; geodetic points go through geodetic_to_enu around ``origin``."""
     if table.xyz is not None:
         return table.xyz
-    if not isinstance(origin, Origin):
+    if not isinstance(origin, Origin) or table.geodetic is None:
         raise InputError(
             f'{table.source}: geodetic GCPs cannot use origin = "first" (the log\'s first fix is not known when calibrating); '
             'set [target] origin = [lat, lon, alt] or "gcps"'
@@ -115,7 +115,7 @@ def calibrate_pose(name: str, params: CalibrateParams, known: Camera, intrinsics
         report["warning"] = "no gcp or board_pose: camera.json has identity R and zero t (intrinsics only)"
 
     R, t = (pose.R, pose.t) if pose is not None else (np.eye(3), np.zeros(3))
-    camera = Camera(name, K, dist, R, t, tuple(size), params.fps, dist_model, dict(known.extra))
+    camera = Camera(name, K, dist, R, t, (int(size[0]), int(size[1])), params.fps, dist_model, dict(known.extra))
     return camera, report
 
 
@@ -145,7 +145,7 @@ def run_calibrate(files: StageFiles, params: CalibrateParams) -> StageResult:
     if gcp is not None and read_gcps(gcp).geodetic is not None:
         origin = resolve_origin(origin, [files.path(label) for label in files.inputs if label.startswith("origin-gcp:")], "[target]")
     board_image = files.path("board_pose_image") if files.has("board_pose_image") else None
-    camera, report = calibrate_pose(files.camera, params, known, intrinsics_report, origin, gcp, board_image)
+    camera, report = calibrate_pose(files.camera_name, params, known, intrinsics_report, origin, gcp, board_image)
     with files.write("camera") as tmp:
         write_camera(camera, tmp)
     with files.write("calibration_report") as tmp:
@@ -155,7 +155,7 @@ def run_calibrate(files: StageFiles, params: CalibrateParams) -> StageResult:
     return StageResult(message=f"{calibration_summary(report)}; wrote {files.output('camera')}")
 
 
-def calibrate_inputs(src: Sources, name: str) -> dict[str, Path]:
+def calibrate_inputs(src: Sources, name: str) -> dict[str, Path | Artefact]:
     """The intrinsics (the intrinsics stage's, or the given camera.json), the pose's files, and the origin's GCPs."""
     check_calibration(src.project, name)
     cal = src.project.camera(name).calibration

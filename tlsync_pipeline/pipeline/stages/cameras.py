@@ -18,7 +18,7 @@ from trackers.video import probe_video
 if TYPE_CHECKING:
     from tlsync_pipeline.pipeline.project import Project
 
-CAMERA_FILES = ("camera", "track", "votes", "video", "identification", "detections", "video_info")
+CAMERA_FILES = ("camera", "track", "votes", "video", "identification", "detections", "video_info", "clock")
 VIDEO_INFO_FORMAT = "tlsync-video"  # video.json, written by the track stage
 
 
@@ -34,6 +34,7 @@ class CameraFiles:
     identification: Path | None = None
     detections: Path | None = None
     video_info: Path | None = None
+    clock: Path | None = None
     fps: float | None = None
 
 
@@ -48,7 +49,7 @@ def camera_files(files: StageFiles, params: ProjectWide) -> dict[str, CameraFile
     """Per camera the stage serves, the files it declared (kinds: CAMERA_FILES) and, with CamerasParams, its fps."""
     fps = params.fps if isinstance(params, CamerasParams) else {}
     return {
-        n: CameraFiles(n, **{k: files.path(f"{k}:{n}") for k in CAMERA_FILES if files.has(f"{k}:{n}")}, fps=fps.get(n))  # type: ignore[arg-type]
+        n: CameraFiles(n, **{k: files.path(f"{k}:{n}") for k in CAMERA_FILES if files.has(f"{k}:{n}")}, fps=fps.get(n))
         for n in params.cameras
     }
 

@@ -81,7 +81,7 @@ def run_identify(files: StageFiles, params: IdentifyStageParams) -> StageResult:
         files.output("track").unlink(missing_ok=True)
         with files.write("identification") as tmp:
             tmp.write_text(json.dumps({"error": str(exc)}, indent=1) + "\n", encoding="utf-8")
-        return StageResult(warnings=tuple(warnings), failed={files.camera or "": str(exc)})
+        return StageResult(warnings=tuple(warnings), failed={files.camera_name: str(exc)})
     with files.write("track") as tmp:
         write_track(found.track, tmp)
     with files.write("identification") as tmp:

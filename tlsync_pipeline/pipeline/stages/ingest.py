@@ -18,6 +18,7 @@ from tlsync_pipeline.atomic import atomic_path
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.geodesy import Origin
 from tlsync_pipeline.ingest import read_log
+from tlsync_pipeline.ingest.recording_time import parse_utc_offset
 from tlsync_pipeline.ingest.process import (
     IngestParams,
     IngestReport,
@@ -34,9 +35,10 @@ if TYPE_CHECKING:
     from tlsync_pipeline.pipeline.project import TargetConfig
 
 
-def ingest_log(path: str | Path, fmt: str = "auto", params: IngestParams = IngestParams(), topic: str | None = None) -> tuple[Trajectory, IngestReport]:
-    """Read and ingest one log."""
-    return ingest(read_log(path, fmt, topic), params)
+def ingest_log(path: str | Path, fmt: str = "auto", params: IngestParams = IngestParams(), topic: str | None = None,
+               utc_offset_s: float | None = None) -> tuple[Trajectory, IngestReport]:
+    """Read and ingest one log (utc_offset_s: local - UTC of a log whose clock is local)."""
+    return ingest(read_log(path, fmt, topic, utc_offset_s), params)
 
 
 def write_ingest(trajectory: Trajectory, report: IngestReport, csv_path: Path, report_path: Path) -> None:
@@ -63,7 +65,19 @@ def parse_origin(text: str) -> Origin | str:
         raise InputError(f"--origin {text!r}: expected LAT,LON,ALT (degrees, degrees, metres) or 'first' ({exc})") from None
 
 
-__all__ = ["RigidTransform", "ingest_log", "parse_origin", "report_sidecar", "write_ingest"]
+def parse_utc_offset_option(text: str) -> float:
+    """--utc-offset: hours (``2``, ``-3.5``) or ``+HH:MM``, to seconds (local - UTC)."""
+    try:
+        value: float | str = float(text)
+    except ValueError:
+        value = text
+    try:
+        return parse_utc_offset(value)
+    except ValueError as exc:
+        raise InputError(f"--utc-offset {text!r}: {exc}") from None
+
+
+__all__ = ["RigidTransform", "ingest_log", "parse_origin", "parse_utc_offset_option", "report_sidecar", "write_ingest"]
 
 
 def run_ingest(files: StageFiles, target: TargetConfig) -> StageResult:
@@ -76,8 +90,8 @@ def run_ingest(files: StageFiles, target: TargetConfig) -> StageResult:
         trajectory, report = convert_trajectory(files.path("given"), target.time_unit, target.length_unit)
     else:
         origin = resolve_origin(target.origin, [files.path(label) for label in files.inputs if label.startswith("origin-gcp:")], "[target]")
-        trajectory, report = ingest_log(files.path("log"), target.format, target.ingest_params(origin), target.topic)
-        problem = implausible_motion(trajectory.seconds(trajectory.sample), trajectory.xyz)
+        trajectory, report = ingest_log(files.path("log"), target.format, target.ingest_params(origin), target.topic, target.utc_offset)
+        problem = implausible_motion(np.asarray(trajectory.seconds(trajectory.sample)), trajectory.xyz)
         if problem:
             raise InputError(f"{files.path('log')} ([target] log): {problem}")
     write_ingest(trajectory, report, files.output("trajectory"), files.output("ingest_report"))
@@ -126,6 +140,7 @@ def ingest_inputs(src: Sources, camera: None) -> dict[str, Path | Artefact]:
     if target.trajectory is not None:
         assert target.converts_trajectory, "the stage applies"
         return {"given": target.trajectory}
+    assert target.log is not None, "the stage applies to a project with a log"
     return {"log": target.log, **origin_inputs(src.project)}
 
 

@@ -22,7 +22,7 @@ from calibration.camera import write_camera
 from calibration.intrinsics import calibrate_images, calibrate_video, parse_pattern
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.pipeline.spec import Options, Sources, StageResult, StageSpec
-from tlsync_pipeline.pipeline.workspace import StageFiles
+from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
 
 if TYPE_CHECKING:
     from tlsync_pipeline.pipeline.project import Project
@@ -65,6 +65,7 @@ def run_intrinsics(files: StageFiles, params: IntrinsicsParams) -> StageResult:
     """Calibrate the camera's intrinsics from its board views (``image:*`` inputs or ``video``), with ``files.cores`` processes."""
     board = parse_pattern(params.pattern, params.square, source=f"camera {files.camera!r}: [cameras.calibration] pattern")
     if files.has("video"):
+        assert params.max_frames is not None, "intrinsics_params gives a video its frame count"
         result = calibrate_video(files.path("video"), board, params.model, params.max_frames, workers=files.cores, progress=files.progress, max_view_error=params.max_view_error)
     else:
         images = [str(files.path(label)) for label in files.inputs if label.startswith(IMAGE_PREFIX)]
@@ -77,13 +78,13 @@ def run_intrinsics(files: StageFiles, params: IntrinsicsParams) -> StageResult:
     for view in report["per_view"] + report["rejected"]:  # photos named like source: relative to the project folder
         view["image"] = relative.get(view["image"], view["image"])
     with files.write("intrinsics") as tmp:
-        write_camera(result.camera(files.camera), tmp)
+        write_camera(result.camera(files.camera_name), tmp)
     with files.write("intrinsics_report") as tmp:
         tmp.write_text(json.dumps(report, indent=1) + "\n", encoding="utf-8")
     return StageResult(facts={"rms_px": result.rms, "views_used": len(result.used)})
 
 
-def intrinsics_inputs(src: Sources, name: str) -> dict[str, Path]:
+def intrinsics_inputs(src: Sources, name: str) -> dict[str, Path | Artefact]:
     """The board views: every image the glob matches (labelled by path relative to the project folder), or the video."""
     check_calibration(src.project, name)
     cal = src.project.camera(name).calibration

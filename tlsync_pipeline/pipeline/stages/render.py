@@ -100,7 +100,9 @@ def run_render(files: StageFiles, params: RenderParams) -> StageResult:
     written = [path for camera in cameras.values() for path in camera.written] + [camera.proxy for camera in cameras.values() if camera.proxy is not None]
     strips = []
     for plan in plans:
-        path = write_png(out_dir / f"strip_{plan.a}_{plan.b}.png", assemble_pair(plan, {n: c.panels for n, c in cameras.items()}))
+        strip = assemble_pair(plan, {n: c.panels for n, c in cameras.items()})
+        assert strip is not None, "a planned strip has rows"
+        path = write_png(out_dir / f"strip_{plan.a}_{plan.b}.png", strip)
         written.append(path)
         strips.append(photo(f"{plan.a} and {plan.b}: matching frames", path, work))
     charts = _charts(scene, out_dir, work)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -12,11 +13,13 @@ from tlsync_pipeline.atomic import atomic_path
 from tlsync_pipeline.errors import INPUT_ERRORS, InputError, SyncError
 from tlsync_pipeline.pipeline.spec import Options, Sources, StageResult, StageSpec
 from tlsync_pipeline.pipeline.stages.cameras import CameraFiles, CamerasParams, camera_files, cameras_params, container_fps, read_identification, read_video_info
+from tlsync_pipeline.pipeline.stages.clock import read_clock
 from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
 from tlsync_pipeline.sync.methods import CameraInput
+from tlsync_pipeline.sync.clock_prior import with_clock_checks
 from tlsync_pipeline.sync.params import SyncParams
-from tlsync_pipeline.sync.status import WEAK, Reason
 from tlsync_pipeline.sync.plausibility import LogUnitError
+from tlsync_pipeline.sync.status import WEAK, Reason
 from tlsync_pipeline.sync.synchronize import CameraResult, synchronize
 from tlsync_pipeline.sync.timeline import CameraLine, IdentificationSummary, Timeline, write_timeline
 from tlsync_pipeline.sync.votes import Votes, load_votes
@@ -24,6 +27,7 @@ from tlsync_pipeline.trajectory import Trajectory, read_trajectory
 from trackers.track import read_track
 
 TRUNCATED = "truncated"  # flag of a camera whose video ends before its announced end
+POSIX_2000 = 946_684_800.0
 
 if TYPE_CHECKING:
     from tlsync_pipeline.pipeline.project import Project
@@ -83,8 +87,10 @@ def run_sync(files: StageFiles, params: SyncStageParams) -> StageResult:
     A camera whose ``votes.npz`` records why it has no vote (the target never
     found, never near its projection) is listed under ``failed`` with that
     reason, without reading its other files. A camera whose video the track
-    stage found truncated gets the flag ``truncated``. Cameras left out
-    (their own tasks did not complete) are listed under ``failed`` too.
+    stage found truncated gets the flag ``truncated``; one whose clock stage
+    found a recording time is checked against it (the flag ``clock_disagrees``
+    when they disagree: sync/clock_prior.py). Cameras left out (their own tasks
+    did not complete) are listed under ``failed`` too.
     """
     paths = camera_files(files, params)
     votes = read_votes(paths)
@@ -99,14 +105,25 @@ def run_sync(files: StageFiles, params: SyncStageParams) -> StageResult:
     lines = {name: _with_container_fps(line, params.fps.get(name), params.container_fps.get(name)) for name, line in lines.items()}
     timeline = replace(timeline, cameras=lines, failed={**failed, **params.left_out})
     timeline = with_identifications(timeline, {n: read_identification(c.identification) for n, c in paths.items() if c.identification is not None})
+    priors = {n: prior for n, c in paths.items() if c.clock is not None and (prior := read_clock(c.clock)) is not None}
+    if priors:
+        timeline = with_clock_checks(timeline, priors, log_on_utc(files, timeline))
     with files.write("timeline") as tmp:
         write_timeline(timeline, tmp)
     return StageResult(failed=timeline.failed, facts={"synchronized": timeline.names})
 
 
+def log_on_utc(files: StageFiles, timeline: Timeline) -> bool:
+    """Whether the target's times are UTC: as the ingest report says; a trajectory the project brings, when its
+    times are after 2000 (POSIX seconds, docs/formats.md)."""
+    if files.has("ingest_report"):
+        return json.loads(files.path("ingest_report").read_text(encoding="utf-8")).get("clock") == "UTC"
+    return timeline.target_t0 is not None and timeline.target_t0 >= POSIX_2000
+
+
 def with_identifications(timeline: Timeline, found: dict[str, IdentificationSummary | SyncError]) -> Timeline:
     """The timeline with each identified camera's line carrying its identification summary."""
-    lines = {n: replace(line, identification=found[n]) if isinstance(found.get(n), IdentificationSummary) else line for n, line in timeline.cameras.items()}
+    lines = {n: replace(line, identification=summary) if isinstance(summary := found.get(n), IdentificationSummary) else line for n, line in timeline.cameras.items()}
     return replace(timeline, cameras=lines)
 
 
@@ -162,6 +179,9 @@ def sync_inputs(src: Sources, camera: None) -> dict[str, Path | Artefact]:
     inputs = {f"{kind}:{name}": src.artefact(kind, name) for name in names for kind in ("camera", "track", "votes")}
     inputs.update({f"identification:{name}": src.artefact("identification", name) for name in names if src.made("identification", name)})
     inputs.update({f"video_info:{name}": src.artefact("video_info", name) for name in names if src.made("video_info", name)})
+    inputs.update({f"clock:{name}": src.artefact("clock", name) for name in names if src.made("clock", name)})
+    if src.made("ingest_report"):
+        inputs["ingest_report"] = src.artefact("ingest_report")
     return {**inputs, "trajectory": src.artefact("trajectory")}
 
 

@@ -16,9 +16,9 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from tlsync_pipeline.atomic import atomic_path
-from tlsync_pipeline.pipeline.spec import Options, StageResult, StageSpec
+from tlsync_pipeline.pipeline.spec import Options, Sources, StageResult, StageSpec
 from tlsync_pipeline.pipeline.stages.cameras import VIDEO_INFO_FORMAT
-from tlsync_pipeline.pipeline.workspace import StageFiles
+from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
 from trackers.detections import Detections, write_detections
 from trackers.track import Track, write_track
 from trackers.tracking import detect_movers, track_video
@@ -57,7 +57,7 @@ def run_track(files: StageFiles, tracker: TrackerConfig) -> StageResult:
     video = files.path("video")
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", TruncatedVideoWarning)
-        result = track_camera(files.camera or "", video, tracker, progress=files.progress)
+        result = track_camera(files.camera_name, video, tracker, progress=files.progress)
     truncation = next((w.message for w in caught if isinstance(w.message, TruncatedVideoWarning)), None)
     for item in caught:
         warnings.warn_explicit(item.message, item.category, item.filename, item.lineno)
@@ -85,9 +85,15 @@ def tracking_params(project: Project, cam: str, options: Options) -> TrackerConf
     return dataclasses.replace(tracker, init=None, init_frame=0) if tracker.every_mover else tracker
 
 
+def track_inputs(src: Sources, cam: str) -> dict[str, Path | Artefact]:
+    video = src.project.camera(cam).video
+    assert video is not None, "the stage applies to a camera with a video"
+    return {"video": video}
+
+
 SPEC = StageSpec(
     "track",
-    inputs=lambda src, cam: {"video": src.project.camera(cam).video},
+    inputs=track_inputs,
     params=tracking_params,
     outputs=("track", "detections", "video_info"),  # track.csv or detections.csv (every mover: track.csv then comes from identify), and video.json
     run=run_track,

@@ -60,7 +60,7 @@ def run_vote(files: StageFiles, params: VoteParams) -> StageResult:
     except SyncError as exc:
         votes, error = Votes(np.zeros(0), np.zeros(0), np.zeros(0)), str(exc)
     save_votes(files.output("votes"), votes, error)
-    return StageResult(failed={files.camera or "": error} if error else {}, facts={"votes": len(votes)})
+    return StageResult(failed={files.camera_name: error} if error else {}, facts={"votes": len(votes)})
 
 
 def vote_inputs(src: Sources, cam: str) -> dict[str, Path | Artefact]:
