@@ -11,17 +11,25 @@ wrong answer cannot fake:
   the path only where the two cross);
 - motion: over pairs of tracked frames about MOTION_WINDOW_S apart, the
   tracked displacement against the projected one under the line: the share
-  that agree (same direction, comparable length), the share that point
-  against each other, and the median ratio of their lengths (a log reversed
-  in time, or a line whose slope is off, moves the projection the wrong way
-  or at the wrong speed);
+  that agree (same direction, comparable length) and the share that point
+  against each other (a log reversed in time, or a line whose slope is off,
+  moves the projection the wrong way or at the wrong speed);
 - motion slope: what the votes say about the slope alone, without a line:
   at each vote, the projected speed (pixels per sample) over the tracked
   speed (pixels per frame) is frames per sample; the mode of that ratio over
   the votes whose directions agree is compared with the clock prior (fps /
   log rate): their quotient is the log's true seconds per second of ``t``
   (all cameras alike: the log's time unit) or the camera's true fps over its
-  stated one (one camera alone).
+  stated one (one camera alone); over the votes whose directions are
+  opposite, a log reversed in time;
+- backward support: the frames backing the votes' best line running
+  backwards in time, against the line's own;
+- a rival: the line search's best line without the line's votes, as strong
+  and far from it.
+
+``judge_line`` turns the measures into reasons of the camera's status
+(sync/status.py); ``diagnose`` looks at every camera together (a time or
+length unit of the log, a track of another resolution).
 
 Thresholds are in pixels, seconds of the camera's clock, or samples of the
 trajectory grid (independent of the unit the log's times were given in).
@@ -62,9 +70,7 @@ class LineEvidence:
     tracked: tracked frames; covered: share of them the line maps inside the
     log's runs; on_path: share of the covered ones within the gate of the
     projection; moving: displacement pairs with measurable motion; agree /
-    against: share of those that agree / point against each other;
-    speed_ratio: median projected over tracked displacement length, among
-    those pointing the same way (NaN when none).
+    against: share of those that agree / point against each other.
     """
 
     tracked: int
@@ -73,7 +79,6 @@ class LineEvidence:
     moving: int
     agree: float
     against: float
-    speed_ratio: float
 
 
 def motion_window(fps: float | None) -> int:
@@ -97,8 +102,8 @@ def line_evidence(camera: Camera, track: Track, clock: np.ndarray, path: Piecewi
     both = inside[i] & inside[j] & np.isfinite(uv[i, 0]) & np.isfinite(uv[j, 0])
     i, j = i[both], j[both]
     d_img, d_proj = xy[j] - xy[i], uv[j] - uv[i]
-    agree, against, ratio, moving = _compare(d_img, d_proj)
-    return LineEvidence(n, covered / n if n else 0.0, float(near.sum()) / covered if covered else 0.0, moving, agree, against, ratio)
+    agree, against, moving = _compare(d_img, d_proj)
+    return LineEvidence(n, covered / n if n else 0.0, float(near.sum()) / covered if covered else 0.0, moving, agree, against)
 
 
 def _pairs(clock: np.ndarray, window: int) -> tuple[np.ndarray, np.ndarray]:
@@ -111,22 +116,19 @@ def _pairs(clock: np.ndarray, window: int) -> tuple[np.ndarray, np.ndarray]:
     return i[keep], j[keep]
 
 
-def _compare(d_img: np.ndarray, d_proj: np.ndarray) -> tuple[float, float, float, int]:
-    """(agree share, against share, median length ratio projected/tracked among same-way pairs, moving pairs)."""
+def _compare(d_img: np.ndarray, d_proj: np.ndarray) -> tuple[float, float, int]:
+    """(share of the moving pairs that agree, share pointing against each other, moving pairs)."""
     l_img, l_proj = np.linalg.norm(d_img, axis=1), np.linalg.norm(d_proj, axis=1)
     longer = np.maximum(l_img, l_proj)
     moving = longer >= MOVING_PX
     m = int(moving.sum())
     if m == 0:
-        return 0.0, 0.0, float("nan"), 0
+        return 0.0, 0.0, 0
     d_img, d_proj, l_img, l_proj, longer = d_img[moving], d_proj[moving], l_img[moving], l_proj[moving], longer[moving]
     agree = np.linalg.norm(d_img - d_proj, axis=1) <= AGREE_ERROR * longer
     with np.errstate(invalid="ignore", divide="ignore"):
-        cos = np.einsum("ij,ij->i", d_img, d_proj) / (l_img * l_proj)
-    against = cos < -0.5
-    same = (cos > 0.5) & (l_img > 0)
-    ratio = float(np.median(l_proj[same] / l_img[same])) if same.any() else float("nan")
-    return float(agree.mean()), float(against.mean()), ratio, m
+        against = np.einsum("ij,ij->i", d_img, d_proj) / (l_img * l_proj) < -0.5
+    return float(agree.mean()), float(against.mean()), m
 
 
 @dataclass(frozen=True)
@@ -347,10 +349,19 @@ def _rival(line, track: Track, clock: np.ndarray, fps: float | None) -> Reason |
     )
 
 
-def path_share(camera: Camera, xy: np.ndarray, path: PiecewiseTrajectory, gate_px: float, step: float = 0.25) -> float:
-    """Share of tracked positions within gate_px of the trajectory's projection anywhere (any time): the path, not the timing."""
+PATH_POINTS = 400_000  # most points of the path model projected to measure a path share
+
+
+def path_share(camera: Camera, xy: np.ndarray, path: PiecewiseTrajectory, gate_px: float) -> float:
+    """Share of tracked positions within gate_px of the trajectory's projection anywhere (any time): the path, not the timing.
+
+    The path model is evaluated every quarter sample (coarser for a log so
+    long that this would exceed PATH_POINTS points).
+    """
     if len(xy) == 0 or not path.runs:
         return 0.0
+    span = sum(hi - lo for lo, hi, _ in path.runs)
+    step = max(0.25, span / PATH_POINTS)
     s = np.concatenate([np.arange(lo, hi + step / 2, step) for lo, hi, _ in path.runs])
     uv, valid = camera.project(path.positions(s))
     if not valid.any():

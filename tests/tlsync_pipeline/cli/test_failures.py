@@ -143,14 +143,19 @@ def shared_project(paper_scene):
 
 
 @needs_namespace
-def test_a_full_disk_exits_3_naming_the_path(shared_project):
+@pytest.mark.parametrize("size", ["24k", "48k"])
+def test_a_full_disk_exits_3_naming_every_task_that_failed(shared_project, size):
     work = shared_project / "work"
     work.mkdir()
-    result = _in_namespace(f"mount -t tmpfs -o size=24k tmpfs '{work}'", "run", shared_project / "project.toml", "-j", "1", cwd=shared_project)
+    result = _in_namespace(f"mount -t tmpfs -o size={size} tmpfs '{work}'", "run", shared_project / "project.toml", "-j", "1", cwd=shared_project)
     output = result.stdout + result.stderr
     assert result.returncode == ExitCode.ENVIRONMENT, output
     assert re.search(rf"error: .*{re.escape(str(work))}\S*: the disk is full", output), output
     assert "Traceback" not in output
+    failed = {line.split(":")[1].strip() for line in output.splitlines() if line.startswith("error: ")}
+    ran = {line.split(":")[0] for line in output.splitlines() if line.endswith(": running (never made (no manifest))")}
+    done = {line.split(":")[0] for line in output.splitlines() if ": done in " in line}
+    assert ran - done <= failed and ran - done, output  # every task that started and did not finish is named
 
 
 @needs_namespace
