@@ -35,7 +35,7 @@ def _exit_interrupted() -> None:
     The multiprocessing finalizers run first: they unlink the semaphores of the stopped worker pool's queues,
     which the resource tracker would otherwise find at its own exit and warn about ("leaked semaphore objects").
     """
-    multiprocessing.util._run_finalizers(0)  # noqa: SLF001 - the one way to release them without a normal exit
+    multiprocessing.util._run_finalizers(0)  # type: ignore[attr-defined]  # noqa: SLF001 - the one way to release them without a normal exit
     sys.stdout.flush()
     sys.stderr.flush()
     os._exit(INTERRUPTED)
