@@ -208,7 +208,10 @@ def test_terminal_report_status_and_timeline_agree_and_the_exit_code_follows(pro
         assert document["cameras"][name]["status"] == written[name]["status"] == status.status
         assert document["cameras"][name]["reason"] == written[name]["reason"] == status.reason
         assert re.search(rf"<td>{name}</td><td><span class=\"badge {status.status}\">{status.status}</span></td>", report)
-    assert _cli("status", project / "project.toml").exit_code == ExitCode.NOT_SYNCHRONIZED
+    text = _cli("status", project / "project.toml")
+    assert text.exit_code == ExitCode.NOT_SYNCHRONIZED
+    for name, status in statuses.items():
+        assert f"camera {name}: {status.status}" + (f": {status.reason}" if status.reason else "") in text.output
 
 
 needs_real = pytest.mark.skipif(not REAL.is_dir(), reason="the real flight (../shared/real/drone2) is not here")

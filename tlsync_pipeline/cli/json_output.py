@@ -26,7 +26,7 @@ VERSION = 1
 def status_document(graph: Graph, rows: list[TaskState], running: dict | None, exit_code: int) -> dict:
     """The ``tlsync status --json`` document."""
     sync = next((r for r in rows if r.id == "sync"), None)
-    cameras = _cameras(graph, sync is not None and sync.state == "fresh")
+    cameras = camera_statuses(graph, sync is not None and sync.state == "fresh")
     tasks = [
         {"id": r.id, "stage": r.stage, "camera": r.camera, "state": r.state, "reasons": [] if r.state == "given" else r.reasons, "artefacts": r.reasons if r.state == "given" else r.artefacts}
         for r in rows
@@ -62,7 +62,7 @@ def run_document(graph: Graph, summary: RunSummary, exit_code: int) -> dict:
                 "artefacts": sorted(manifest.outputs) if manifest else [],
             }
         )
-    return _document(RUN_FORMAT, graph, exit_code, tasks, _cameras(graph, "sync" in summary.ran + summary.fresh))
+    return _document(RUN_FORMAT, graph, exit_code, tasks, camera_statuses(graph, "sync" in summary.ran + summary.fresh))
 
 
 def dumps(document: dict) -> str:
@@ -72,7 +72,7 @@ def dumps(document: dict) -> str:
 UNKNOWN = {"status": "unknown", "synchronized": False, "reason": "no current timeline (run the sync stage)", "remedy": "tlsync run", "reasons": []}
 
 
-def _cameras(graph: Graph, current: bool) -> dict[str, dict]:
+def camera_statuses(graph: Graph, current: bool) -> dict[str, dict]:
     """Every camera's status from timeline.json when it is current, else ``unknown``."""
     if not current:
         return {name: dict(UNKNOWN) for name in graph.project.names}

@@ -14,7 +14,7 @@ import click
 
 from tlsync_pipeline.cli.console import ConsoleProgress
 from tlsync_pipeline.cli.exit_codes import ExitCode, exit_code_for
-from tlsync_pipeline.cli.json_output import dumps, status_document
+from tlsync_pipeline.cli.json_output import camera_statuses, dumps, status_document
 from tlsync_pipeline.errors import EnvironmentProblem, InputError, describe_error, one_line
 from tlsync_pipeline.outputs.summary import format_table, format_truth_comparison
 from tlsync_pipeline.pipeline.engine import RunSummary, format_status, run_graph, status
@@ -187,6 +187,9 @@ def status_command(project_file: Path, work_dir: Path | None, out_dir: Path | No
         if running is not None:
             click.echo(f"run in progress: pid {running['pid']} on {running['host']}, started {running['started']}: {running['command']}")
         click.echo(format_status(rows))
+        sync = next((r for r in rows if r.id == "sync"), None)
+        for name, camera in camera_statuses(graph, sync is not None and sync.state == "fresh").items():
+            click.echo(f"camera {name}: {camera['status']}" + (f": {camera['reason']}" if camera["reason"] else ""))
     if problem is not None:
         click.echo(f"error: {problem}", err=True)
     if code:
