@@ -168,10 +168,12 @@ def motion_slope(camera: Camera, track: Track, clock: np.ndarray, path: Piecewis
     if m < MIN_MOVING:
         none = SlopeMode(float("nan"), 0, m)
         return MotionSlope(none, none)
-    position = path(s[ok], run[ok])
+    samples, which = np.unique(s[ok], return_inverse=True)  # votes share their samples: project each once
+    runs = path.run_of(samples)
+    position = path(samples, runs)
     step = 1e-3
-    uv, _ = camera.project(np.concatenate([position, position + step * path(s[ok], run[ok], nu=1)]))
-    v_proj = (uv[m:] - uv[:m]) / step
+    uv, _ = camera.project(np.concatenate([position, position + step * path(samples, runs, nu=1)]))
+    v_proj = ((uv[len(samples) :] - uv[: len(samples)]) / step)[which.ravel()]
     v_img = velocity[at[ok]]
     l_img, l_proj = np.linalg.norm(v_img, axis=1), np.linalg.norm(v_proj, axis=1)
     moving = np.isfinite(l_proj) & (l_img * 2 * half >= MOVING_PX) & (l_proj > 0)
