@@ -7,7 +7,23 @@ MAX_TEXT_BYTES = 256 << 20  # a calibration text file (camera.json, GCPs) larger
 
 
 class CalibrationInputError(ValueError):
-    """Bad input: the message names the file and the field, line or image."""
+    """Bad input: the message names the file and the field, line or image; ``details``: what was tried, per image."""
+
+    details: tuple[str, ...] = ()
+
+
+class PatternMismatch(CalibrationInputError):
+    """The checkerboard photos show another board than the pattern given.
+
+    Attributes set where it is raised: ``seen`` (the inner corners most of
+    the images show, "COLSxROWS"), ``count`` (how many show it), ``total``
+    (images searched), ``pattern`` (the one given).
+    """
+
+    seen: str
+    count: int
+    total: int
+    pattern: str
 
 
 def read_text(path: Path, encoding: str = "utf-8") -> str:

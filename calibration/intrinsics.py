@@ -33,7 +33,7 @@ import numpy as np
 from tqdm import tqdm
 
 from calibration.camera import Camera
-from calibration.errors import CalibrationInputError
+from calibration.errors import CalibrationInputError, PatternMismatch
 from calibration.lens import project_points
 
 # Calibration model -> the lens model (calibration.lens) of the cameras it makes.
@@ -333,15 +333,16 @@ def calibrate_images(
     progress: bool = False,
     max_view_error: float = 1.0,
     detect_size: int = DETECT_SIZE,
+    label: str | None = None,
 ) -> Intrinsics:
-    """Calibrate from image files (a list, or a glob pattern string)."""
+    """Calibrate from image files (a list, or a glob pattern string); ``label`` names them in messages (default: the glob, or "N images")."""
     if isinstance(paths, str):
-        label, files = paths, sorted(globlib.glob(os.path.expanduser(paths), recursive=True))
+        label, files = label or paths, sorted(globlib.glob(os.path.expanduser(paths), recursive=True))
         if not files:
             raise CalibrationInputError(f"{paths}: no files match this pattern")
     else:
         files = [str(p) for p in paths]
-        label = f"{len(files)} images"
+        label = label or f"{len(files)} images"
         if not files:
             raise CalibrationInputError("no calibration images given")
     missing = [f for f in files if not Path(f).is_file()]
@@ -452,7 +453,7 @@ def calibrate_detections(
                 usable.append(d)
     mismatched = sum(r.startswith("pattern mismatch") for r in rejected.values())
     if len(usable) < MIN_VIEWS or mismatched > len(usable):
-        raise CalibrationInputError(_too_few(label, pattern, detections, usable, rejected, detect_size))
+        raise _too_few(label, pattern, detections, usable, rejected, detect_size)
     views = {d.source: d for d in usable}
     while True:
         K, dist, per_view, std = _calibrate(views, pattern, model, image_size)
@@ -492,7 +493,7 @@ def _common_size(detections: Sequence[Detection], label: str) -> tuple[int, int]
     counts = Counter(d.image_size for d in detections if d.image_size is not None)
     size, n = counts.most_common(1)[0]
     if len(counts) > 1 and n < 2 * len(detections) / 3:
-        listing = "; ".join(f"{w}x{h}: {c} (e.g. {next(d.source for d in detections if d.image_size == (w, h))})" for (w, h), c in counts.most_common())
+        listing = "; ".join(f"{w}x{h}: {c} (e.g. {Path(next(d.source for d in detections if d.image_size == (w, h))).name})" for (w, h), c in counts.most_common())
         raise CalibrationInputError(f"{label}: the images have different sizes ({listing}); calibrate each camera and resolution separately")
     return size
 
@@ -512,24 +513,44 @@ def _summary(rejected: dict[str, str]) -> str:
     return "; rejected: " + ", ".join(f"{n} {k}" for k, n in kinds.most_common())
 
 
-def _too_few(label: str, pattern: Pattern, detections, usable, rejected, detect_size: int) -> str:
-    tried = TRIED.format(small=detect_size)
-    per_image = "; ".join(f"{Path(s).name}: {r}" for s, r in list(rejected.items())[:8]) + ("; ..." if len(rejected) > 8 else "")
-    if not usable:
-        head = f"{label}: no {pattern} board (inner corners, columns x rows) found in any of {len(detections)} images"
+_SEEN = re.compile(r"(?:only|with) (\d+)x(\d+) (?:of the )?inner corners")  # the grid a rejection reason says it saw (_diagnose)
+
+
+def board_shown(reasons: Iterable[str], pattern: Pattern) -> tuple[str, int] | None:
+    """The board most rejected images show instead of ``pattern`` ("COLSxROWS", how many), when it is clear.
+
+    Clear: at least 3 images and more than half of those where a grid was
+    seen show the same inner corners, and that is not ``pattern``. A few cut
+    off views of the right board show grids of every size, never a majority.
+    """
+    sizes = Counter(f"{m.group(1)}x{m.group(2)}" for m in map(_SEEN.search, reasons) if m)
+    if not sizes:
+        return None
+    size, count = sizes.most_common(1)[0]
+    cols, rows = map(int, size.split("x"))
+    if sorted((cols, rows)) == sorted(pattern.size) or count < 3 or 2 * count <= sum(sizes.values()):
+        return None
+    return size, count
+
+
+def _too_few(label: str, pattern: Pattern, detections, usable, rejected, detect_size: int) -> CalibrationInputError:
+    """Why the views cannot calibrate: one short line (PatternMismatch when the images show another board),
+    what was tried and each image's reason as details (the error's notes)."""
+    total = len(detections)
+    shown = board_shown(rejected.values(), pattern)
+    error: CalibrationInputError
+    if shown is not None:
+        mismatch = PatternMismatch(f"{label}: {shown[1]} of {total} images show a {shown[0]} board (inner corners, columns x rows), not {pattern}")
+        mismatch.seen, mismatch.count, mismatch.total, mismatch.pattern = shown[0], shown[1], total, str(pattern)
+        error = mismatch
+    elif not usable:
+        error = CalibrationInputError(f"{label}: no {pattern} board (inner corners, columns x rows) in any of {total} images" + _summary(rejected))
     elif len(usable) >= MIN_VIEWS:
-        head = f"{label}: the {pattern} pattern was found in {len(usable)} of {len(detections)} images, but more show a different board"
+        error = CalibrationInputError(f"{label}: the {pattern} board is in {len(usable)} of {total} images, but more show another board; count the inner corners, columns x rows")
     else:
-        head = f"{label}: only {len(usable)} usable views of the {pattern} board in {len(detections)} images, at least {MIN_VIEWS} are needed"
-    text = f"{head}; tried: {tried}; {per_image}"
-    mismatches = [r for r in rejected.values() if r.startswith("pattern mismatch")]
-    if mismatches:
-        sizes = Counter(m.group(1) for m in (re.search(r"with (\d+x\d+) inner", r) for r in mismatches) if m)
-        seen = f"boards with {sizes.most_common(1)[0][0]} inner corners" if sizes else "boards with more inner corners"
-        text += f". The pattern {pattern} does not match the board ({len(mismatches)} images show {seen}); count the inner corners, columns x rows (a board of 8x7 squares has 7x6)"
-    elif not usable and all(r.startswith("incomplete") for r in rejected.values()):
-        text += f". Every board seen is smaller than {pattern}: check the pattern (inner corners, not squares)"
-    return text
+        error = CalibrationInputError(f"{label}: only {len(usable)} usable views of the {pattern} board in {total} images, at least {MIN_VIEWS} are needed" + _summary(rejected))
+    error.details = ("tried: " + TRIED.format(small=detect_size), "\n".join(f"{Path(s).name}: {r}" for s, r in rejected.items()))
+    return error
 
 
 def _calibrate(views: dict[str, Detection], pattern: Pattern, model: str, image_size: tuple[int, int]):

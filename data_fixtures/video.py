@@ -7,7 +7,9 @@ edges; its true position is the disc centre in pixels (origin at the centre
 of the top-left pixel, the Track convention). By default it follows a loop
 wider than the image, so it leaves and re-enters the view; a thin static pole
 occludes it partly when it passes behind; a larger dark distractor crosses
-the image. Presentation times may be jittered (variable frame rate).
+the image; optionally a grey look-alike of the target's size wanders inside
+the view from the first frame to the last. Presentation times may be
+jittered (variable frame rate).
 """
 
 from __future__ import annotations
@@ -67,6 +69,16 @@ def loop_positions(n_frames: int, image_size: tuple[int, int], period: float = 2
     return np.column_stack([x, y])
 
 
+LOOKALIKE_GREY = 185.0  # the look-alike's grey: brighter than the background, like the target (225)
+
+
+def lookalike_positions(n_frames: int, image_size: tuple[int, int], period: float = 170.0) -> np.ndarray:
+    """A loop inside the view (never within 15 % of an edge) that crosses the target's ``loop_positions`` path."""
+    w, h = image_size
+    phase = 2 * np.pi * np.arange(n_frames, dtype=np.float64) / period
+    return np.column_stack([(w - 1) / 2 + 0.35 * w * np.cos(phase), (h - 1) / 2 + 0.3 * h * np.sin(3 * phase + 1.0)])
+
+
 def render_video(
     path: str | Path,
     n_frames: int = 300,
@@ -79,6 +91,7 @@ def render_video(
     flicker: float = 0.06,
     occluder: bool = True,
     distractor: bool = True,
+    lookalike: bool = False,
     jitter: float = 0.0,
     rotation: int = 0,
     crf: int = 20,
@@ -88,7 +101,8 @@ def render_video(
     """Render the scene to ``path`` (MP4, moov at the front) and return the truth.
 
     positions: (n_frames, 2) target centres (NaN rows: no target), default
-    ``loop_positions``; jitter: presentation-time jitter as a fraction of the
+    ``loop_positions``; lookalike: a grey disc of the target's size moving
+    inside the view in every frame (``lookalike_positions``); jitter: presentation-time jitter as a fraction of the
     frame interval (uniform, times stay increasing); rotation: a display
     rotation (counter-clockwise degrees, multiple of 90) written as metadata,
     the stored pixels being rotated the other way, so a reader honouring it
@@ -109,6 +123,7 @@ def render_video(
     gains = 1.0 + flicker * np.sin(2 * np.pi * np.arange(n_frames) / 37.0) + flicker * 0.3 * rng.standard_normal(n_frames)
     times = _times(rng, n_frames, fps, jitter) if times is None else np.asarray(times, dtype=np.float64)
     yy, xx = np.mgrid[0:h, 0:w].astype(np.float32)
+    lookalike_at = lookalike_positions(n_frames, image_size)
 
     sw, sh = (h, w) if rotation % 180 else (w, h)
     with h264_writer(path, fps, (sw, sh), {"crf": str(crf), "preset": "veryfast", "g": str(gop), "keyint_min": str(gop)}, rotation) as write:
@@ -116,6 +131,8 @@ def render_video(
             image = background.copy()
             if distractor:
                 _draw_distractor(image, k, n_frames, w, h)
+            if lookalike:
+                _draw_target(image, xx, yy, float(lookalike_at[k, 0]), float(lookalike_at[k, 1]), radius, texture, LOOKALIKE_GREY)
             cx, cy = positions[k]
             if np.isfinite(cx):
                 _draw_target(image, xx, yy, cx, cy, radius, texture)
@@ -211,8 +228,8 @@ def _background(rng: np.random.Generator, w: int, h: int) -> np.ndarray:
     return np.clip(image, 40, 190)
 
 
-def _draw_target(image, xx, yy, cx, cy, radius, texture) -> None:
-    """A bright disc (grey ~225) with a weak texture, anti-aliased by pixel coverage."""
+def _draw_target(image, xx, yy, cx, cy, radius, texture, grey: float = 225.0) -> None:
+    """A bright disc (``grey``, ~225 for the target) with a weak texture, anti-aliased by pixel coverage."""
     x0, x1 = int(max(0, np.floor(cx - radius - 2))), int(min(image.shape[1], np.ceil(cx + radius + 3)))
     y0, y1 = int(max(0, np.floor(cy - radius - 2))), int(min(image.shape[0], np.ceil(cy + radius + 3)))
     if x0 >= x1 or y0 >= y1:
@@ -220,7 +237,7 @@ def _draw_target(image, xx, yy, cx, cy, radius, texture) -> None:
     d = np.hypot(xx[y0:y1, x0:x1] - cx, yy[y0:y1, x0:x1] - cy)
     cover = np.clip(radius + 0.5 - d, 0.0, 1.0)
     tex = texture[: y1 - y0, : x1 - x0]
-    patch = 225.0 + tex * (d < radius * 0.7)
+    patch = grey + tex * (d < radius * 0.7)
     image[y0:y1, x0:x1] = image[y0:y1, x0:x1] * (1 - cover) + patch * cover
 
 

@@ -25,6 +25,13 @@ if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
     signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
+@pytest.fixture(autouse=True)
+def _in_own_folder(tmp_path: Path, monkeypatch) -> None:
+    """Each test runs in its own temporary folder (its project's, with project_dir), as a user runs tlsync in the
+    project's folder: messages name the files under it relative to it."""
+    monkeypatch.chdir(tmp_path)
+
+
 @pytest.fixture(scope="session")
 def paper_scene():
     """The paper's default two-camera scene (t_c1 = 2 t_r + 4, t_c2 = 2 t_r + 45), noise-free."""

@@ -9,7 +9,9 @@ from trackers.errors import TrackInputError
 
 
 class InputError(ValueError):
-    """Bad input (exit code 2): the message names the file and line or field."""
+    """Bad input (exit code 2): the message names the file and line or field; ``details``: more, for --verbose."""
+
+    details: tuple[str, ...] = ()
 
 
 class SyncError(RuntimeError):
@@ -47,13 +49,40 @@ def os_error_problem(exc: OSError) -> InputError | EnvironmentProblem:
     return EnvironmentProblem(f"{path}: {os_error_reason(exc)}")
 
 
-MAX_REASON = 1000  # characters of a printed or recorded reason (a whole sentence, never kilobytes)
+MAX_REASON = 1000  # characters of a recorded reason (a whole sentence, never kilobytes)
+MAX_LINE = 200  # characters of an error's reason on the terminal (the rest, and its details, with --verbose)
 
 
 def one_line(text: str, limit: int = MAX_REASON) -> str:
     """``text`` on one line (runs of white space become one space), cut at ``limit`` characters."""
     text = " ".join(str(text).split())
     return text if len(text) <= limit else text[: limit - 4].rstrip() + " ..."
+
+
+def shorten(text: str, limit: int = MAX_LINE) -> str:
+    """``text`` on one line and at most about ``limit`` characters: its start (the file) and its end (the fix) kept, the middle elided."""
+    text = one_line(text)
+    if len(text) <= limit:
+        return text
+    head, tail = text[: limit * 3 // 5], text[-(limit * 2 // 5) :]
+    head = head[: head.rfind(" ")] if " " in head[limit // 3 :] else head
+    tail = tail[tail.find(" ") + 1 :] if " " in tail[: limit // 5] else tail
+    return f"{head} ... {tail}"
+
+
+def with_details(error: BaseException, *details: str) -> BaseException:
+    """``error`` with ``details`` (lines the terminal shows under its one line with --verbose), after any it had.
+
+    Kept as the error's ``details`` attribute, which survives pickling (a
+    worker process's error), as tlsync's and the calibration's errors declare.
+    """
+    setattr(error, "details", (*error_details(error), *(text for text in details if text)))
+    return error
+
+
+def error_details(error: BaseException) -> list[str]:
+    """The details an error carries (with_details, or set where it was raised), one entry per block of lines."""
+    return [str(text) for text in getattr(error, "details", ())]
 
 
 def describe_error(error: BaseException) -> str:

@@ -51,3 +51,43 @@ def enu_to_geodetic(enu: np.ndarray, origin: Origin) -> np.ndarray:
     enu = np.asarray(enu, dtype=np.float64).reshape(-1, 3)
     lon, lat, alt = _to_enu(origin).transform(enu[:, 0], enu[:, 1], enu[:, 2], direction="INVERSE")
     return np.column_stack([lat, lon, alt])
+
+
+FAR_M = 10_000.0  # geodetic points this far (horizontally) from where they should be are a slip, not a survey error
+FOOT_M = 0.3048
+
+# Common slips in a table of geodetic points, each with the edit that undoes it.
+SLIPS = (
+    ("latitude and longitude look swapped: exchange the lat and lon columns", lambda lat, lon: (lon, lat)),
+    ("the longitude's sign looks wrong (west of Greenwich is negative)", lambda lat, lon: (lat, -lon)),
+    ("the latitude's sign looks wrong (south of the equator is negative)", lambda lat, lon: (-lat, lon)),
+    ("the signs of latitude and longitude look wrong (west and south are negative)", lambda lat, lon: (-lat, -lon)),
+)
+
+
+def horizontal_distance(lat, lon, origin: Origin) -> np.ndarray:
+    """Horizontal distances (m) of WGS84 points (degrees) from ``origin``."""
+    enu = geodetic_to_enu(lat, lon, np.full(np.shape(lat), origin.alt), origin)
+    return np.hypot(enu[:, 0], enu[:, 1])
+
+
+def likely_slip(lat, lon, near: Origin, limit_m: float = FAR_M) -> str | None:
+    """Which common slip (latitude and longitude swapped, a sign) explains points that lie far from ``near``:
+    the one whose edit brings every point within ``limit_m`` of it, in words; None when none does."""
+    lat, lon = np.asarray(lat, dtype=np.float64), np.asarray(lon, dtype=np.float64)
+    for words, undo in SLIPS:
+        new_lat, new_lon = undo(lat, lon)
+        if np.all(np.abs(new_lat) <= 90.0) and np.all(horizontal_distance(new_lat, new_lon, near) <= limit_m):
+            return words
+    return None
+
+
+def heights_in_feet(alt, near: Origin, high_m: float = 300.0, tolerance_m: float = 100.0) -> bool:
+    """Whether heights (m, as given) far above or below ``near`` would lie at its height if they were feet."""
+    alt = np.asarray(alt, dtype=np.float64)
+    return bool(abs(np.median(alt) - near.alt) > high_m and abs(np.median(alt) * FOOT_M - near.alt) <= tolerance_m)
+
+
+def median_point(lat, lon, alt) -> Origin:
+    """The per-coordinate median of WGS84 points: a reference that one wrong point does not move."""
+    return Origin(float(np.median(lat)), float(np.median(lon)), float(np.median(alt)))

@@ -27,7 +27,12 @@ Per frame (grey):
    (brighter / darker than the background); after ``patience`` frames without
    one the target is lost. Lost, a candidate must be followed consistently for
    ``confirm`` frames (and look like the target seen before: size and
-   polarity) to be (re-)acquired; those frames are then reported too.
+   polarity) to be (re-)acquired; those frames are then reported too. Once the
+   target has been seen, only a new object can be it again: one that appears
+   after the target was last seen, entering the view at its edge or within
+   reach of where the target vanished; the other blobs, followed all along,
+   never are (a look-alike that wanders in the view while the target is out
+   of it is not reported).
 
 The reported point is the blob's centroid (full-resolution pixels, origin at
 the centre of the top-left pixel).
@@ -227,6 +232,16 @@ class _State:
     polarity: int
 
 
+@dataclass(frozen=True)
+class _Lost:
+    """Where and when the target was last seen, for its re-acquisition: frame, position (px), speed (px/frame)."""
+
+    frame: int
+    x: float
+    y: float
+    speed: float
+
+
 class BlobTracker:
     """Associates the detector's blobs over frames into the target's track.
 
@@ -234,14 +249,28 @@ class BlobTracker:
     report for this and (on acquisition) the few frames before it, as
     (frame, Blob, score) tuples. Scores in (0, 1]: how well the blob matches
     the prediction (position and size).
+
+    Once the target has been seen, the other blobs are followed too (as
+    chains of consistent detections), and a lost target is re-acquired only
+    by a new object where the target can be: a chain that starts after the
+    target was last seen, entering the view at its edge (within
+    ``edge_margin`` of it; with ``image_size``) or within reach of where the
+    target was last seen (the gate plus twice its speed for each frame
+    since). A look-alike that was in view while the target was followed is
+    never taken for it. Gates grow with the target's size (its area's square
+    root, when above ``gate_px``): at 720p a target moves more pixels per
+    frame than at 240p.
     """
 
-    def __init__(self, params: BlobParams = BlobParams(), init: tuple[float, float, float, float] | None = None):
+    def __init__(self, params: BlobParams = BlobParams(), init: tuple[float, float, float, float] | None = None, image_size: tuple[int, int] | None = None):
+        """image_size: (width, height) of the frames, pixels (None: re-acquisition within reach only)."""
         self.params = params
         self.state: _State | None = None
         self.signature: tuple[float, int] | None = None  # (area, polarity) of the target seen so far
         self.chains: list[list[tuple[int, Blob]]] = []
         self.init = init
+        self.image_size = image_size
+        self.lost: _Lost | None = None  # the target seen, then lost: where to look for it again
         if init is not None:
             x, y, w, h = init
             self.state = _State(x + (w - 1) / 2, y + (h - 1) / 2, 0.0, 0.0, -1, math.pi / 4 * w * h, 0)
@@ -252,43 +281,48 @@ class BlobTracker:
             self.state.frame = frame - 1
 
     def step(self, frame: int, blobs: list[Blob]) -> list[tuple[int, Blob, float]]:
+        if self.state is None:
+            return self._acquire(frame, blobs)
         p = self.params
-        if self.state is not None:
-            st = self.state
-            dt = frame - st.frame
-            px, py = st.x + st.vx * dt, st.y + st.vy * dt
-            gate = p.gate_px * (1 + 0.5 * (dt - 1))
-            best, best_cost = None, math.inf
-            for b in blobs:
-                if not st.polarity:  # from the init box, not seen yet: any blob inside the box
-                    assert self.init is not None, "a state without polarity comes from the init box"
-                    x, y, w, h = self.init
-                    if x <= b.x <= x + w and y <= b.y <= y + h and b.area <= 2 * w * h:
-                        cost = (math.hypot(b.x - st.x, b.y - st.y) / max(w, h)) ** 2
-                        if cost < best_cost:
-                            best, best_cost = b, cost
-                    continue
-                if b.polarity != st.polarity:
-                    continue
-                ratio = abs(math.log(max(b.area, 1e-6) / st.area))
-                dist = math.hypot(b.x - px, b.y - py)
-                if dist > gate or ratio > math.log(p.size_ratio):
-                    continue
-                cost = (dist / gate) ** 2 + (ratio / math.log(p.size_ratio)) ** 2
-                if cost < best_cost:
-                    best, best_cost = b, cost
-            if best is not None:
-                self._update(best, frame)
-                return [(frame, best, math.exp(-best_cost))]
-            if dt > p.patience:
-                self.state = None
+        st = self.state
+        dt = frame - st.frame
+        px, py = st.x + st.vx * dt, st.y + st.vy * dt
+        gate = max(p.gate_px, math.sqrt(st.area)) * (1 + 0.5 * (dt - 1))  # a large target moves more pixels per frame
+        best, best_cost = None, math.inf
+        for b in blobs:
+            if not st.polarity:  # from the init box, not seen yet: any blob inside the box
+                assert self.init is not None, "a state without polarity comes from the init box"
+                x, y, w, h = self.init
+                if x <= b.x <= x + w and y <= b.y <= y + h and b.area <= 2 * w * h:
+                    cost = (math.hypot(b.x - st.x, b.y - st.y) / max(w, h)) ** 2
+                    if cost < best_cost:
+                        best, best_cost = b, cost
+                continue
+            if b.polarity != st.polarity:
+                continue
+            ratio = abs(math.log(max(b.area, 1e-6) / st.area))
+            dist = math.hypot(b.x - px, b.y - py)
+            if dist > gate or ratio > math.log(p.size_ratio):
+                continue
+            cost = (dist / gate) ** 2 + (ratio / math.log(p.size_ratio)) ** 2
+            if cost < best_cost:
+                best, best_cost = b, cost
+        if self.signature is not None:  # the other movers, so that none is later taken for the target
+            self._extend_chains(frame, [b for b in blobs if b is not best])
+        if best is not None:
+            self._update(best, frame)
+            return [(frame, best, math.exp(-best_cost))]
+        if dt > p.patience:
+            if st.polarity:
+                self.lost = _Lost(st.frame, st.x, st.y, math.hypot(st.vx, st.vy))
+            self.state = None
+            if self.lost is None:
                 self.chains = []
-            return []
-        return self._acquire(frame, blobs)
+        return []
 
     def _update(self, b: Blob, frame: int) -> None:
         st = self.state
-        assert st is not None, "updated only while following"
+        assert st is not None, "updated while tracking"
         dt = frame - st.frame
         if st.frame >= 0 and st.polarity:
             a = 0.6
@@ -304,9 +338,10 @@ class BlobTracker:
         area, polarity = self.signature
         return polarity in (0, b.polarity) and abs(math.log(max(b.area, 1e-6) / area)) <= math.log(self.params.size_ratio)
 
-    def _acquire(self, frame: int, blobs: list[Blob]) -> list[tuple[int, Blob, float]]:
+    def _extend_chains(self, frame: int, blobs: list[Blob]) -> list[list[tuple[int, Blob]]]:
+        """Continue each chain that reached the previous frame with its nearest consistent blob (constant velocity
+        after two detections, max_speed_px before); every blob left over starts a chain. Returns the chains."""
         p = self.params
-        candidates = [b for b in blobs if self._plausible(b)]
         extended: list[list[tuple[int, Blob]]] = []
         used = set()
         for chain in sorted(self.chains, key=len, reverse=True):
@@ -316,29 +351,66 @@ class BlobTracker:
             if len(chain) >= 2:
                 (_, prev) = chain[-2]
                 px, py = 2 * last.x - prev.x, 2 * last.y - prev.y
-                gate = p.gate_px
+                gate = max(p.gate_px, math.sqrt(last.area))
             else:
                 px, py, gate = last.x, last.y, p.max_speed_px
             best, best_d = None, math.inf
-            for k, b in enumerate(candidates):
+            for k, b in enumerate(blobs):
                 d = math.hypot(b.x - px, b.y - py)
                 if k not in used and d <= gate and abs(math.log(b.area / last.area)) <= math.log(p.size_ratio) and b.polarity == last.polarity and d < best_d:
                     best, best_d = k, d
             if best is not None:
                 used.add(best)
-                extended.append(chain + [(frame, candidates[best])])
-        extended += [[(frame, b)] for k, b in enumerate(candidates) if k not in used]
+                extended.append(chain + [(frame, blobs[best])])
+        extended += [[(frame, b)] for k, b in enumerate(blobs) if k not in used]
         self.chains = extended
-        ready = [c for c in extended if len(c) >= p.confirm]
+        return extended
+
+    def _plausible_tail(self, chain: list[tuple[int, Blob]]) -> list[tuple[int, Blob]]:
+        """The chain's last detections that look like the target (all of them before the target was seen)."""
+        k = len(chain)
+        while k > 0 and self._plausible(chain[k - 1][1]):
+            k -= 1
+        return chain[k:]
+
+    def _may_be_the_target(self, chain: list[tuple[int, Blob]]) -> bool:
+        """Whether a chain can be the lost target: a new object (started after the target was last seen) entering
+        the view at its edge or appearing within reach of where the target was last seen."""
+        lost = self.lost
+        if lost is None:
+            return True
+        frame, first = chain[0]
+        if frame <= lost.frame:
+            return False
+        reach = max(self.params.gate_px, math.sqrt(first.area)) + 2.0 * lost.speed * (frame - lost.frame)
+        if math.hypot(first.x - lost.x, first.y - lost.y) <= reach:
+            return True
+        if self.image_size is None:
+            return False
+        w, h = self.image_size
+        margin = self.edge_margin(first)
+        return first.x < margin or first.y < margin or first.x > w - 1 - margin or first.y > h - 1 - margin
+
+    def edge_margin(self, blob: Blob) -> float:
+        """Pixels from the image's edge within which an object entering the view is first seen: the gate, or
+        the blob's larger side."""
+        return max(self.params.gate_px, blob.w, blob.h)
+
+    def _acquire(self, frame: int, blobs: list[Blob]) -> list[tuple[int, Blob, float]]:
+        p = self.params
+        extended = self._extend_chains(frame, [b for b in blobs if self._plausible(b)] if self.lost is None else blobs)
+        ready = [c for c in extended if len(self._plausible_tail(c)) >= p.confirm and self._may_be_the_target(c)]
         if not ready:
             return []
-        chain = min(ready, key=self._preference)
+        chosen = min(ready, key=self._preference)
+        chain = self._plausible_tail(chosen)  # an object entering the view is first seen cut by the edge: smaller
         self.state = _State(chain[0][1].x, chain[0][1].y, 0.0, 0.0, chain[0][0], chain[0][1].area, chain[0][1].polarity)
         out = [(chain[0][0], chain[0][1], 0.5)]
         for f, b in chain[1:]:
             out.append((f, b, 0.5))
             self._update(b, f)
-        self.chains = []
+        self.chains = [c for c in extended if c is not chosen]
+        self.lost = None
         return out
 
     def _preference(self, chain: list[tuple[int, Blob]]) -> float:

@@ -96,7 +96,7 @@ def _detector(path: Path, params: BlobParams) -> BlobDetector:
 def _blob_steps(path, info: VideoInfo, params: BlobParams, box, init_frame: int, progress: bool, label: str | None):
     """Yields (frame, time_s, x, y, w, h, score) rows; returns the number of frames read."""
     detector = _detector(path, params)
-    tracker = BlobTracker(params, box)
+    tracker = BlobTracker(params, box, (info.width, info.height))
     times = {}
     index = -1
     for index, time_s, gray in iter_frames(path, gray=True, progress=progress, desc=label):

@@ -126,14 +126,13 @@ def test_the_cameras_own_clocks_check_the_result_and_a_wrong_one_is_flagged_not_
     import datetime as dt
 
     from data_fixtures.raw_project import START_UTC
-    from tlsync_pipeline.outputs.diagnostics import camera_status
     from tlsync_pipeline.sync.clock_prior import CLOCK_FLAG
 
     right = read_timeline(finished.parent / "work" / "timeline.json")
     for name, line in right.cameras.items():
         check = line.clock_check
         assert check.source.startswith("QuickTime") and check.agrees and abs(check.offset_s) < 1.0, (name, check)
-        assert CLOCK_FLAG not in (line.flags or ()) and camera_status(right, name).status == "ok"
+        assert CLOCK_FLAG not in (line.flags or ()) and right.status(name).status == "ok"
     project_file = _copy(finished, tmp_path)
     alpha, beta = SMALL.lines[1]
     late = dt.datetime.fromtimestamp(START_UTC - beta / alpha / SMALL.target_rate + 60.0, dt.timezone.utc).isoformat()
@@ -143,7 +142,7 @@ def test_the_cameras_own_clocks_check_the_result_and_a_wrong_one_is_flagged_not_
     wrong = read_timeline(project_file.parent / "work" / "timeline.json")
     check = wrong.cameras["cam1"].clock_check
     assert CLOCK_FLAG in wrong.cameras["cam1"].flags and check.source.startswith("the project") and abs(check.offset_s + 60.0) < 1.0
-    assert camera_status(wrong, "cam1").status == "weak" and camera_status(wrong, "cam0").status == "ok"
+    assert wrong.status("cam1").status == "weak" and wrong.status("cam0").status == "ok"
     for name in right.names:
         assert (wrong.cameras[name].alpha, wrong.cameras[name].beta) == (right.cameras[name].alpha, right.cameras[name].beta)
 

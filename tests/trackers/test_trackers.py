@@ -148,3 +148,35 @@ def test_median_background_is_the_per_pixel_median_after_the_lighting_gain():
         median, deviation = median_background(frames)
         np.testing.assert_allclose(median, np.median(scaled, axis=0), atol=0.51)
         np.testing.assert_allclose(deviation, np.abs(scaled - np.median(scaled, axis=0)).mean(axis=0), atol=0.6)
+
+
+@pytest.fixture(scope="module")
+def lookalike_video(tmp_path_factory):
+    """The target leaves and re-enters the view four times; a grey look-alike of its size wanders inside the view
+    from the first frame to the last (and crosses its path)."""
+    return render_video(tmp_path_factory.mktemp("lookalike") / "lookalike.mp4", n_frames=400, lookalike=True, distractor=False, seed=3)
+
+
+def test_an_init_box_tracks_the_target_and_nothing_while_it_is_out_of_view(lookalike_video, tmp_path):
+    """``tlsync track-video VIDEO --tracker blob --init X,Y,W,H`` reports the target, never the look-alike."""
+    from click.testing import CliRunner
+
+    from tlsync_pipeline.cli.main import main
+    from trackers.track import read_track
+
+    video = lookalike_video
+    first = int(np.flatnonzero(video.in_view)[0])
+    x, y = video.truth[first]
+    box = f"{x - 12:.0f},{y - 12:.0f},24,24"
+    out = tmp_path / "track.csv"
+    result = CliRunner().invoke(main, ["track-video", str(video.path), "--tracker", "blob", "--init", box, "--init-frame", str(first), "-o", str(out), "-q"], catch_exceptions=False)
+    assert result.exit_code == 0, result.output
+    track = read_track(out)
+    assert video.out_of_view.sum() > 100
+    assert video.out_of_view[track.frame].sum() == 0  # nothing while the target is out of view
+    visible = video.in_view[track.frame]
+    assert np.max(_errors(track, video)[visible]) <= 3 * video.radius  # every report is the target
+    assert np.median(_errors(track, video)[visible]) <= 1.0
+    assert visible.sum() >= 0.95 * video.in_view[first:].sum()  # and it is followed after each return
+    reported = set(track.frame.tolist())
+    assert all(any(k in reported for k in range(entry, entry + 11)) for entry in video.entries())

@@ -11,6 +11,7 @@ from pathlib import Path
 import click
 
 from calibration.camera import write_camera
+from calibration.errors import PatternMismatch
 from calibration.intrinsics import (
     MODELS,
     Intrinsics,
@@ -19,7 +20,8 @@ from calibration.intrinsics import (
     parse_pattern,
 )
 from tlsync_pipeline.atomic import atomic_path
-from tlsync_pipeline.errors import InputError
+from tlsync_pipeline.cli.options import jobs_option, out_option, quiet_option, verbose_option
+from tlsync_pipeline.errors import InputError, error_details, with_details
 
 
 @click.command("calibrate-intrinsics")
@@ -28,20 +30,24 @@ from tlsync_pipeline.errors import InputError
 @click.option("--pattern", required=True, help="Inner corners COLSxROWS, e.g. 7x6 for a board of 8x7 squares.")
 @click.option("--square", required=True, type=float, help="Square side in metres.")
 @click.option("--model", type=click.Choice(MODELS), default="standard", show_default=True, help="standard: k1 k2 p1 p2 k3; rational: 8 coefficients; fisheye: k1..k4.")
-@click.option("--out", required=True, type=click.Path(dir_okay=False, path_type=Path), help="camera.json to write (K, dist, image_size, rms; identity R, zero t).")
+@out_option("camera.json to write (K, dist, image_size, rms; identity R, zero t).")
 @click.option("--report", type=click.Path(dir_okay=False, path_type=Path), help="Also write the calibration report (JSON) here.")
 @click.option("--max-frames", default=60, show_default=True, help="Video: frames sampled evenly.")
-@click.option("--workers", type=int, help="Processes for corner detection (default: all cores).")
-@click.option("--quiet", is_flag=True, help="No progress bars.")
-def calibrate_intrinsics(images, video, pattern, square, model, out, report, max_frames, workers, quiet) -> None:
+@jobs_option
+@quiet_option("No progress bar.")
+@verbose_option
+def calibrate_intrinsics(images, video, pattern, square, model, out, report, max_frames, jobs, quiet) -> None:
     """Intrinsics from checkerboard photos or a video, written as a camera.json."""
     if (images is None) == (video is None):
         raise InputError("calibrate-intrinsics: give exactly one of --images GLOB or --video FILE")
     board = parse_pattern(pattern, square, source="--pattern")
-    if images is not None:
-        result = calibrate_images(images, board, model, workers=workers, progress=not quiet)
-    else:
-        result = calibrate_video(video, board, model, max_frames, workers=workers, progress=not quiet)
+    try:
+        if images is not None:
+            result = calibrate_images(images, board, model, workers=jobs, progress=not quiet)
+        else:
+            result = calibrate_video(video, board, model, max_frames, workers=jobs, progress=not quiet)
+    except PatternMismatch as exc:
+        raise with_details(InputError(f"{exc}: use --pattern {exc.seen}"), *error_details(exc)) from None
     camera = result.camera(out.stem)
     with atomic_path(out) as tmp:
         write_camera(camera, tmp)

@@ -9,14 +9,55 @@ printed as ``warning: <task>: ...`` unless ``--quiet``.
 
 from __future__ import annotations
 
+import os
 import sys
+import traceback
+from pathlib import Path
 
 from typing import Any
 
 import click
 
-from tlsync_pipeline.errors import one_line
+from tlsync_pipeline.cli.options import verbose
+from tlsync_pipeline.errors import INPUT_ERRORS, MAX_LINE, EnvironmentProblem, SyncError, error_details, one_line, shorten
+from tlsync_pipeline.pipeline.cache import NOT_MADE
 from tlsync_pipeline.pipeline.engine import Progress
+
+
+def shown(text: str) -> str:
+    """``text`` with the paths under the current folder made relative to it, as the user would type them."""
+    here = str(Path.cwd())
+    return text.replace(here + os.sep, "") if here != os.sep else text
+
+
+def print_error(text: str, error: BaseException | None = None, where: str | None = None) -> None:
+    """One ``error: [WHERE: ]TEXT`` line on stderr, TEXT shortened to about MAX_LINE characters (its middle elided).
+
+    With --verbose: TEXT whole, then the error's details (error_details; the
+    traceback of an error that is not tlsync's own), indented.
+    """
+    text = shown(one_line(text))
+    long = verbose()
+    line = text if long else shorten(text, MAX_LINE)
+    click.echo(f"error: {where + ': ' if where else ''}{line}", err=True)
+    if not long or error is None:
+        return
+    details = [shown(d) for d in error_details(error)]
+    if not isinstance(error, (*INPUT_ERRORS, EnvironmentProblem, SyncError, OSError)):
+        details += traceback.format_exception(error)
+    for block in details:
+        for row in block.rstrip().splitlines():
+            click.echo(f"  {row}", err=True)
+
+
+def usage_error_text(exc: click.ClickException) -> str:
+    """A click error (unknown option, missing argument, bad value) as tlsync's one line, pointing at the command's help."""
+    message = exc.format_message().strip().rstrip(".")
+    message = message[:1].lower() + message[1:]
+    ctx = getattr(exc, "ctx", None)
+    if ctx is not None:
+        message += f" (see '{ctx.command_path} --help')"
+    return message
 
 
 def stderr_is_terminal() -> bool:
@@ -44,7 +85,7 @@ class ConsoleProgress(Progress):
             click.echo(message, err=True)
 
     def started(self, task_id: str, why: str, parallel: bool) -> None:
-        self.say(f"{task_id}: running ({one_line(why)})")
+        self.say(f"{task_id}: running" + ("" if why == NOT_MADE else f" ({one_line(why)})"))
         if parallel and self.draw_bar:
             self._running.append(task_id)
             self._total += 1

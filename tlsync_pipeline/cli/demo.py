@@ -16,6 +16,8 @@ from pathlib import Path
 
 import click
 
+from tlsync_pipeline.cli.console import shown
+from tlsync_pipeline.cli.options import jobs_option, quiet_option, verbose_option
 from tlsync_pipeline.cli.pipeline import execute, print_timeline, report_outcome
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.outputs.summary import format_truth_comparison
@@ -31,9 +33,10 @@ MARKER = ".tlsync-demo.json"  # what the demo wrote: its options and the hash of
 @click.option("--quick", is_flag=True, help="Synthetic calibrations and tracks instead of raw videos, photos and logs (seconds).")
 @click.option("--seed", default=0, show_default=True, help="Scene seed.")
 @click.option("--tracking-noise", default=1.0, show_default=True, help="With --quick: tracking noise S_t (pixels).")
-@click.option("--jobs", "-j", type=click.IntRange(min=1), help="Worker processes (default: one per core).")
+@jobs_option
 @click.option("--overwrite", is_flag=True, help="Write the project even over files in DIRECTORY that the demo did not write or that were edited.")
-@click.option("--quiet", "-q", is_flag=True, help="No progress messages.")
+@quiet_option()
+@verbose_option
 def demo(directory: Path, quick: bool, seed: int, tracking_noise: float, jobs: int | None, overwrite: bool, quiet: bool) -> None:
     """Generate a three-camera project in DIRECTORY, run the pipeline on it, compare with the truth.
 
@@ -50,17 +53,18 @@ def demo(directory: Path, quick: bool, seed: int, tracking_noise: float, jobs: i
         project_file = _generate(directory, options, quiet)
     else:
         click.echo(f"{directory}/ holds this demo's project, untouched: running it again")
-    graph, summary = execute(project_file, None, None, jobs=jobs, quiet=quiet)
-    code = report_outcome(summary, quiet)
+    graph, summary = execute(project_file, None, jobs=jobs, quiet=quiet)
+    code = report_outcome(graph, summary, quiet)
     timeline = print_timeline(graph, summary)
     if timeline is not None:
         pairs, n_frames = read_truth(directory / "truth.json")
         table, errors = format_truth_comparison(timeline, pairs, n_frames)
         click.echo("\nrecovered against true relations:\n" + table)
+        failed = len(pairs) - len(errors)
         if errors:
-            click.echo(f"\nworst eps_t: {max(errors.values()):.3f} frames, in {time.perf_counter() - start:.0f} s")
+            click.echo(f"\nworst eps_t: {max(errors.values()):.3f} frames" + (f" ({failed} pairs failed)" if failed else "") + f", in {time.perf_counter() - start:.0f} s")
         ws = graph.workspace
-        click.echo(f"timeline: {ws.path('timeline')}\nreport: {ws.path('report_html')}\npictures: {ws.path('pictures')}/")
+        click.echo(shown(f"timeline: {ws.path('timeline')}\nreport: {ws.path('report_html')}\npictures: {ws.path('pictures')}/"))
     if code:
         sys.exit(code)
 

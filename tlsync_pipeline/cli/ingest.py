@@ -9,6 +9,7 @@ from pathlib import Path
 
 import click
 
+from tlsync_pipeline.cli.options import out_option, quiet_option, verbose_option
 from tlsync_pipeline.ingest import ALTITUDE_REFERENCES, FORMATS
 from tlsync_pipeline.ingest.process import DEFAULT_MAX_SPEED_MPS, IngestParams
 from tlsync_pipeline.pipeline.stages.ingest import (
@@ -32,8 +33,9 @@ from tlsync_pipeline.pipeline.stages.ingest import (
 @click.option("--altitude-reference", type=click.Choice(ALTITUDE_REFERENCES), help="What the log's heights are above, when the log says otherwise or nothing (default: as the reader says).")
 @click.option("--altitude-offset", "altitude_offset_m", type=float, default=0.0, show_default=True, help="Metres added to every height to make it ellipsoidal (e.g. the geoid undulation for MSL heights).")
 @click.option("--utc-offset", "utc_offset", help="Local time - UTC of a log whose clock is local (DJI SRT, the DJI app's CSV): hours (2, -3.5) or +HH:MM.")
-@click.option("--out", required=True, type=click.Path(dir_okay=False, path_type=Path), help="Trajectory CSV to write (report beside it: <stem>.ingest.json).")
-@click.option("--quiet", is_flag=True, help="Print nothing but errors.")
+@out_option("Trajectory CSV to write (report beside it: <stem>.ingest.json).")
+@quiet_option("Print nothing but errors.")
+@verbose_option
 def ingest_log_command(log: Path, fmt: str, origin: str, rate, max_gap_s, max_speed_mps, smoothing_s, topic, altitude_reference, altitude_offset_m,
                        utc_offset, out: Path, quiet: bool) -> None:
     """Convert one GPS/odometry LOG into a constant-rate local trajectory CSV."""

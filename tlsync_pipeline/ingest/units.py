@@ -51,14 +51,9 @@ def implausible_motion(t: np.ndarray, xyz: np.ndarray) -> str | None:
     fastest = float(np.percentile(speed, 90))
     if fastest < SLOWEST_MPS and interval >= SPARSEST_S:
         unit = next((name for name in ("ms", "us", "ns") if interval * TIME_UNITS[name] <= 10.0), "ns")
-        return (
-            f"column t: one sample every {interval:.3g} s and the target moving at {fastest:.2g} m/s at most (90th percentile) if t is in seconds: "
-            f"t looks like {'milliseconds' if unit == 'ms' else 'microseconds' if unit == 'us' else 'nanoseconds'}; set [target] time_unit = \"{unit}\" (or write t in seconds)"
-        )
+        word = {"ms": "milliseconds", "us": "microseconds", "ns": "nanoseconds"}[unit]
+        return f"column t: in seconds, one sample every {interval:.3g} s and the target at {fastest:.2g} m/s at most ({word}?); set [target] time_unit = \"{unit}\""
     moving = speed[speed > MOVING_MPS]
     if len(moving) and float(np.median(moving)) > FASTEST_MPS:
-        return (
-            f"columns t and x, y, z: the target moves at {float(np.median(moving)):.3g} m/s (median) if t is in seconds and x, y, z in metres: "
-            "set [target] time_unit (t in minutes?) or length_unit (positions in mm or cm?)"
-        )
+        return f"columns t, x, y, z: in seconds and metres the target moves at {float(np.median(moving)):.3g} m/s; set [target] time_unit (minutes?) or length_unit (mm, cm?)"
     return None

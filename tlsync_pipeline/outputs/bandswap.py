@@ -26,6 +26,7 @@ import numpy as np
 DEFAULT_RADIUS_PX = 6.0
 PANEL_HEIGHT = 240  # pixels of each frame in the pictures
 CAPTION_HEIGHT = 22
+LINE_STEP = 16  # pixels between the lines of a two-line caption
 MIN_TEXT_SCALE = 0.3
 _FONT = cv2.FONT_HERSHEY_SIMPLEX
 
@@ -56,20 +57,38 @@ def band_swap_target(frame: np.ndarray, target_uv: tuple[float, float] | None, r
     return np.dstack([np.zeros_like(gray), render, gray])
 
 
-def caption(image: np.ndarray, text: str) -> np.ndarray:
-    """The image with a white bar above it holding ``text`` in black, once, shrunk (then shortened) to fit the width."""
-    width = image.shape[1]
-    scale = 0.45
+def caption_layout(text: str, width: int) -> tuple[list[str], float]:
+    """How ``text`` fits above an image ``width`` px wide: its lines (one, or two split before a parenthesis or at
+    the space nearest the middle: never cut) and the font scale."""
+    room = 0.9 * (width - 8)
 
-    def fits(candidate: str) -> bool:
-        return cv2.getTextSize(candidate, _FONT, scale, 1)[0][0] <= 0.9 * (width - 8)
+    def widest(lines: list[str], scale: float) -> int:
+        return max(cv2.getTextSize(line, _FONT, scale, 1)[0][0] for line in lines)
 
-    while scale > MIN_TEXT_SCALE and not fits(text):
+    layouts = [[text]]
+    spaces = [i for i, c in enumerate(text) if c == " "]
+    if spaces:
+        cut = text.rfind(" (") if text.rfind(" (") > 0 else min(spaces, key=lambda i: abs(i - len(text) / 2))
+        layouts.append([text[:cut], text[cut + 1 :]])
+    for lines in layouts:
+        scale = 0.45
+        while scale > MIN_TEXT_SCALE and widest(lines, scale) > room:
+            scale *= 0.95
+        if widest(lines, scale) <= room:
+            return lines, scale
+    while widest(lines, scale) > room:  # narrower than any readable caption: smaller still, never cut
         scale *= 0.95
-    while len(text) > 4 and not fits(text):
-        text = text[:-4] + "..."
-    bar = np.full((CAPTION_HEIGHT, width, 3), 255, np.uint8)
-    cv2.putText(bar, text, (4, CAPTION_HEIGHT - 7), _FONT, scale, (0, 0, 0), 1, cv2.LINE_AA)
+    return lines, scale
+
+
+def caption(image: np.ndarray, text: str, lines: int = 1) -> np.ndarray:
+    """The image with a white bar above it holding ``text`` in black, whole: shrunk, or on two lines
+    (caption_layout); the bar holds at least ``lines`` lines, so that panels side by side stay aligned."""
+    width = image.shape[1]
+    rows, scale = caption_layout(text, width)
+    bar = np.full((CAPTION_HEIGHT + LINE_STEP * (max(lines, len(rows)) - 1), width, 3), 255, np.uint8)
+    for i, row in enumerate(rows):
+        cv2.putText(bar, row, (4, CAPTION_HEIGHT - 7 + LINE_STEP * i), _FONT, scale, (0, 0, 0), 1, cv2.LINE_AA)
     return np.vstack([bar, image])
 
 
@@ -80,11 +99,11 @@ def fit_height(image: np.ndarray, height: int = PANEL_HEIGHT) -> tuple[np.ndarra
     return cv2.resize(image, size, interpolation=cv2.INTER_AREA), scale
 
 
-def panel_image(panel: Panel, radius: float) -> np.ndarray:
-    """A panel drawn at PANEL_HEIGHT with its caption."""
+def panel_image(panel: Panel, radius: float, lines: int = 1) -> np.ndarray:
+    """A panel drawn at PANEL_HEIGHT with its caption (a bar of at least ``lines`` lines)."""
     swapped = band_swap_target(panel.image, panel.target_uv, radius)
     fitted, _ = fit_height(swapped)
-    return caption(fitted, panel.caption)
+    return caption(fitted, panel.caption, lines)
 
 
 def mosaic(rows: list[list[np.ndarray]], gap: int = 4) -> np.ndarray:
@@ -103,5 +122,10 @@ def mosaic(rows: list[list[np.ndarray]], gap: int = 4) -> np.ndarray:
 
 
 def before_after(rows: list[tuple[Panel, Panel]], radius: float) -> np.ndarray:
-    """The picture: one row per frame, before on the left, after on the right."""
-    return mosaic([[panel_image(before, radius), panel_image(after, radius)] for before, after in rows])
+    """The picture: one row per frame, before on the left, after on the right (captions of a row as many lines)."""
+    out = []
+    for before, after in rows:
+        width = round(before.image.shape[1] * PANEL_HEIGHT / before.image.shape[0])
+        lines = max(len(caption_layout(panel.caption, width)[0]) for panel in (before, after))
+        out.append([panel_image(before, radius, lines), panel_image(after, radius, lines)])
+    return mosaic(out)

@@ -132,6 +132,19 @@ def draw_camera(job: CameraJob) -> DrawnCamera:
     return DrawnCamera(pictures, made, panels, player, proxy)
 
 
+def draw_panels(video: Path, camera, requests: list[PanelRequest]) -> list[np.ndarray]:
+    """The strip panels ``requests`` of one camera's video (in order), every frame they need decoded once."""
+    panels_of: dict[int, list[int]] = {}
+    for i, request in enumerate(requests):
+        panels_of.setdefault(request.frame, []).append(i)
+    width, height = camera.image_size
+    drawn = {}
+    for index, image in each_frame_once(video, set(panels_of), int(width) * int(height) * 3):
+        for i in panels_of[index]:
+            drawn[i] = draw_panel(image, camera, requests[i])
+    return [drawn[i] for i in range(len(requests))]
+
+
 def band_swap_frames(track) -> list[int]:
     """The tracked frames a band swap shows: at 20, 50 and 80 % of the track."""
     return sorted({int(f) for f in np.quantile(track.frame, [0.2, 0.5, 0.8], method="nearest")})

@@ -89,8 +89,11 @@ def synced_video(camera: str) -> str:
 def ffmpeg_commands(rows: list[dict], videos: dict[str, str | None]) -> str:
     """A shell script (kept at <work>/exports/) trimming every video to the common start (the latest camera's frame 0).
 
-    Each camera's trimmed video goes to its own file, named after the camera
-    (synced_video), in the folder that holds the work folder.
+    videos: camera -> its video's path relative to the folder that holds the
+    work folder, where the script runs (it changes to it), so that the
+    script still works when the project is moved or copied with its work
+    folder. Each camera's trimmed video goes to its own file, named after
+    the camera (synced_video), in that folder.
     """
     lines = [
         "#!/bin/sh",

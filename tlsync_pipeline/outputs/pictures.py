@@ -63,12 +63,6 @@ def each_frame_once(path: Path, indices, frame_bytes: int) -> Iterator[tuple[int
             yield index, batch.pop(index)
 
 
-def default_pairs(timeline: Timeline) -> list[tuple[str, str]]:
-    """The reference camera with each other synchronized camera."""
-    names = timeline.names
-    return [(names[0], other) for other in names[1:]]
-
-
 def choose_frames(track_frames: np.ndarray, to_a: Callable[[np.ndarray], np.ndarray], n_a: int, n_b: int, count: int = FRAMES_PER_PAIR) -> list[int]:
     """Frames of B to draw: tracked frames whose matching frame of A exists, spread over the track.
 

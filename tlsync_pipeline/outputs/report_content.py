@@ -8,9 +8,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from tlsync_pipeline.outputs.diagnostics import StageRun, StageWarning
+from tlsync_pipeline.outputs.diagnostics import StageRun
 from tlsync_pipeline.sync.status import HALF_95, CameraStatus
-from tlsync_pipeline.sync.timeline import Timeline
+from tlsync_pipeline.sync.timeline import StageWarning, Timeline
 
 
 @dataclass(frozen=True)
@@ -40,6 +40,7 @@ class ReportContent:
     pair_pictures: list[Picture] = field(default_factory=list)
     calibration_pictures: list[Picture] = field(default_factory=list)
     exports: list[tuple[str, str]] = field(default_factory=list)  # (label, path relative to the work folder)
+    notes: dict[str, list[str]] = field(default_factory=dict)  # section ("pictures", "exports") -> what was not drawn or written, and why
     player: dict | None = None  # player.player_data
 
 

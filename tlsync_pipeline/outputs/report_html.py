@@ -102,6 +102,7 @@ def _camera_pictures_section(content: ReportContent) -> str:
             parts.append(f"<h3>{_e(name)}</h3>{_pictures(pictures)}")
     if content.pair_pictures:
         parts.append("<h3>Matching frames of two cameras</h3>" + _pictures(content.pair_pictures))
+    parts += [f'<p class="hint">{_e(note)}</p>' for note in content.notes.get("pictures", [])]
     if not parts:
         return ""
     hint = (
@@ -127,10 +128,11 @@ def _stages_section(content: ReportContent) -> str:
 
 
 def _exports_section(content: ReportContent) -> str:
-    if not content.exports:
+    notes = content.notes.get("exports", [])
+    if not content.exports and not notes:
         return ""
     items = "".join(f'<li><a href="{_e(href)}">{_e(label)}</a> <span class="hint">{_e(href)}</span></li>' for label, href in content.exports)
-    return f'<h2 id="exports">Exports</h2><ul>{items}</ul>'
+    return f'<h2 id="exports">Exports</h2><ul>{items}</ul>' + "".join(f'<p class="hint">{_e(note)}</p>' for note in notes)
 
 
 def report_html(content: ReportContent) -> str:

@@ -43,8 +43,9 @@ def report_markdown(content: ReportContent) -> str:
             [[s.stage, s.camera or "-", s.created, "-" if s.seconds is None else f"{s.seconds:.1f}"] for s in content.stages],
             "lllr",
         )
-    if content.exports:
+    if content.exports or content.notes.get("exports"):
         lines += ["## Exports", ""] + [f"- [{label}]({href})" for label, href in content.exports] + [""]
+        lines += [note for text in content.notes.get("exports", []) for note in (text, "")]
     lines += ["## Pictures", ""]
     for picture in content.charts:
         lines += [f"### {picture.title}", "", f"![{picture.title}]({picture.href})", ""]
@@ -53,5 +54,6 @@ def report_markdown(content: ReportContent) -> str:
             lines += [f"### {name}: {picture.title}", "", f"![{name}: {picture.title}]({picture.href})", ""]
     for picture in content.pair_pictures + content.calibration_pictures:
         lines += [f"### {picture.title}", "", f"![{picture.title}]({picture.href})", ""]
+    lines += [note for text in content.notes.get("pictures", []) for note in (text, "")]
     lines += ["The interactive report with the synchronized player: [report.html](report.html).", ""]
     return "\n".join(lines)

@@ -46,12 +46,15 @@ def format_table(timeline: Timeline) -> str:
 
 
 def format_truth_comparison(timeline: Timeline, truth: dict[str, Relation], n_frames: dict[str, int]) -> tuple[str, dict[str, float]]:
-    """Recovered against true pairwise relations, with eps_t per pair (frames of B)."""
+    """Recovered against true pairwise relations, with eps_t per pair (frames of B); a pair with a camera that was
+    not synchronized is a row that says so (no eps_t)."""
     rows = [("pair", "alpha", "true alpha", "beta", "true beta", "eps_t (frames)")]
     errors = {}
     for key, true in truth.items():
         a, b = key.split("->")
-        if a not in timeline.cameras or b not in timeline.cameras:
+        missing = [name for name in (a, b) if name not in timeline.cameras]
+        if missing:
+            rows.append((key, "-", f"{true.alpha:.5f}", "-", f"{true.beta:.2f}", f"failed: {', '.join(missing)} not synchronized"))
             continue
         estimated = timeline.relation(a, b)
         frames_a = n_frames.get(a) or 1

@@ -151,6 +151,9 @@ def read_failure(path: Path) -> dict | None:
     return data if isinstance(data, dict) and data.get("format") == FAILURE_FORMAT else None
 
 
+NOT_MADE = "not made yet"  # why a task without a manifest runs
+
+
 def staleness(manifest: Manifest | None, key: str, code: dict[str, str], inputs: dict[str, dict], params: dict, memo: HashMemo, work: Path) -> list[str]:
     """Why an artefact is not fresh (empty list: fresh).
 
@@ -159,7 +162,7 @@ def staleness(manifest: Manifest | None, key: str, code: dict[str, str], inputs:
     were changed.
     """
     if manifest is None:
-        return ["never made (no manifest)"]
+        return [NOT_MADE]
     reasons = []
     for module in sorted(set(code) | set(manifest.code)):
         old, new = manifest.code.get(module), code.get(module)

@@ -17,6 +17,8 @@ engine names no stage.
 from __future__ import annotations
 
 import dataclasses
+import hashlib
+import json
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -88,6 +90,7 @@ class RunSummary:
     skipped: dict[str, str] = field(default_factory=dict)
     seconds: dict[str, float] = field(default_factory=dict)
     results: dict[str, StageResult] = field(default_factory=dict)
+    warnings: dict[str, tuple[str, ...]] = field(default_factory=dict)  # of every task that ran or was fresh (its manifest's)
 
 
 @dataclass
@@ -107,9 +110,14 @@ def _current(graph: Graph, task: Task, memo: HashMemo, code: dict[str, dict]) ->
     if module not in code:
         code[module] = code_digests(module)
     inputs = {label: {"path": ws.portable(source), "sha256": memo.sha256(ws.resolve(source))} for label, source in sorted(task.inputs.items())}
+    if task.spec.history:  # it shows the earlier stages' warnings: they are part of what it makes
+        inputs[WARNINGS_INPUT] = {"path": "<the earlier stages' warnings>", "sha256": _warnings_digest(_history(graph, task))}
     params = ws.portable(params_json(task.params))
     key = cache_key(task.stage, code[module], {k: v["sha256"] for k, v in inputs.items()}, params)
     return _Key(code[module], inputs, params, key)
+
+
+WARNINGS_INPUT = "warnings"  # the label of a history stage's earlier warnings among its key's inputs
 
 
 def manifest_path(graph: Graph, task: Task) -> Path:
@@ -153,10 +161,11 @@ def status(graph: Graph) -> list[TaskState]:
         if state == "fresh" and task.camera is None and manifest is not None:
             for camera, why in (manifest.summary.get("failed") or {}).items():
                 rows[task_id(task.stage, camera)] = TaskState(task_id(task.stage, camera), task.stage, camera, "failed", [why])
-    try:
-        memo.save()
-    except OSError:
-        pass  # a read-only work folder: the hashes are only not remembered
+    if graph.work.is_dir():  # status reads only: it never makes the work folder
+        try:
+            memo.save()
+        except OSError:
+            pass  # a read-only work folder: the hashes are only not remembered
     order = {s: i for i, s in enumerate(STAGES)}
     cameras = graph.project.names
     return sorted(rows.values(), key=lambda r: (order[r.stage], cameras.index(r.camera) if r.camera else -1))
@@ -171,6 +180,12 @@ def format_status(rows: list[TaskState]) -> str:
         why = "; ".join(r.reasons) if r.state != "fresh" else ""
         lines.append(f"{r.stage.ljust(width)}  {(r.camera or '-').ljust(cam_width)}  {r.state.ljust(7)}  {why}".rstrip())
     return "\n".join(lines)
+
+
+def task_files(graph: Graph, tid: str) -> StageFiles:
+    """One task's view of its inputs and artefacts outside a run (the caller holds the work folder's lock)."""
+    task = graph.tasks[tid]
+    return graph.workspace.files(task.id, task.camera, task.inputs, task.outputs, progress=graph.options.progress)
 
 
 def run_graph(
@@ -310,6 +325,8 @@ class _Scheduler:
         reasons = _reasons(self.graph, task, now, self.memo)
         if not reasons and task.id not in self.force:
             self.summary.fresh.append(task.id)
+            manifest = read_manifest(manifest_path(self.graph, task))
+            self.summary.warnings[task.id] = tuple(manifest.summary.get("warnings") or ()) if manifest is not None else ()
             self.done.add(task.id)
             return False
         executor = self.executor
@@ -323,7 +340,7 @@ class _Scheduler:
             task.outputs,
             progress=self.graph.options.progress,
             cores=where.cores,
-            history=_history(self.graph) if task.spec.history else [],
+            history=_history(self.graph, task) if task.spec.history else [],
             workers=executor if local else None,
         )
         future = where.submit(run_task, {"run": task.spec.run, "files": files, "params": task.params})
@@ -353,6 +370,7 @@ class _Scheduler:
         self.summary.ran.append(task.id)
         self.summary.seconds[task.id] = called.seconds
         self.summary.results[task.id] = result
+        self.summary.warnings[task.id] = result.warnings
         self.done.add(task.id)
         self.progress.finished(task.id, called.seconds, parallel)
 
@@ -389,14 +407,22 @@ def _priority(task: Task) -> tuple:
     return (task.camera is None, not task.spec.heavy, -size)
 
 
-def _history(graph: Graph) -> list[StageRun]:
-    """When and how long each task of the graph last ran, and the warnings it recorded, from the manifests (for the report)."""
+def _history(graph: Graph, task: Task) -> list[StageRun]:
+    """When and how long each task ``task`` needs (directly or not) last ran, and the warnings it recorded, in pipeline
+    order, from their manifests (for the timeline's and the report's warnings, and the report's stage table)."""
     rows = []
-    for task in graph.tasks.values():
-        manifest = read_manifest(manifest_path(graph, task))
+    for tid in _closure(graph, list(task.deps)):
+        manifest = read_manifest(manifest_path(graph, graph.tasks[tid]))
         if manifest is not None:
-            rows.append(StageRun(manifest.stage, manifest.camera, manifest.created, manifest.seconds, tuple(manifest.summary.get("warnings") or ())))
+            summary = manifest.summary
+            rows.append(StageRun(manifest.stage, manifest.camera, manifest.created, manifest.seconds, tuple(summary.get("warnings") or ()), summary.get("message")))
     return rows
+
+
+def _warnings_digest(runs: list[StageRun]) -> str:
+    """SHA-256 of the warnings the runs recorded (what a history stage shows of them)."""
+    blob = json.dumps([[run.stage, run.camera, list(run.warnings)] for run in runs])
+    return hashlib.sha256(blob.encode("utf-8")).hexdigest()
 
 
 def _write_manifest(graph: Graph, task: Task, now: _Key, result: StageResult, seconds: float, cpu_seconds: float, memo: HashMemo) -> None:

@@ -45,6 +45,7 @@ from trackers.tracking import KINDS as TRACKER_KINDS
 from trackers.tracking import track_video
 
 WORK_DIR_NAME = "work"
+PROJECT_FILE_NAME = "project.toml"  # what a folder given as the project holds
 
 Converter = Callable[[Any, Path], Any]
 Config = TypeVar("Config")
@@ -470,15 +471,25 @@ def sync_keys() -> dict[str, Converter]:
     return keys
 
 
+def project_file(path: str | Path) -> Path:
+    """``path`` itself, or for a folder the project.toml it holds; InputError naming what the folder holds otherwise."""
+    path = Path(path)
+    if not path.is_dir():
+        return path
+    if (path / PROJECT_FILE_NAME).is_file():
+        return path / PROJECT_FILE_NAME
+    others = sorted(p.name for p in path.glob("*.toml") if p.is_file())
+    hint = f"give the project file, e.g. {path / others[0]}" if others else "give the project file, or the folder that holds it"
+    raise InputError(f"{path}: no {PROJECT_FILE_NAME} in this folder; {hint}")
+
+
 def load_project(path: str | Path) -> Project:
-    """Read and validate a project file; InputError naming the file, the table and the key otherwise."""
-    path = Path(path).resolve()
+    """Read and validate a project file (or the project.toml of a folder); InputError naming the file, the table and the key otherwise."""
+    path = project_file(path).resolve()
     try:
         raw = tomllib.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:
         raise InputError(f"{path}: file not found") from None
-    except IsADirectoryError:
-        raise InputError(f"{path}: is a folder; give the project file (project.toml) in it") from None
     except (OSError, UnicodeDecodeError) as exc:
         raise InputError(f"{path}: cannot read: {exc}") from None
     except tomllib.TOMLDecodeError as exc:

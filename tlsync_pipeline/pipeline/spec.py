@@ -33,11 +33,8 @@ if TYPE_CHECKING:
 
 @dataclass(frozen=True)
 class Options:
-    """Run options that are stage parameters (they enter the cache keys), and whether to show progress."""
+    """How a run shows itself: whether stages draw their progress bars."""
 
-    render_pairs: tuple[tuple[str, str], ...] | None = None
-    render_frames: tuple[int, ...] | None = None
-    truth: Path | None = None
     progress: bool = True
 
 
@@ -98,7 +95,9 @@ class StageSpec:
     # first, the largest inputs first, so that the longest task does not start last and leave a worker alone.
     heavy: bool = False
     applies: Callable[[Project, Any], bool] = lambda project, camera: True  # does the project need this task?
-    history: bool = False  # the task gets the earlier runs' records (StageFiles.history)
+    # The task gets the last runs of the tasks it needs (StageFiles.history: their warnings, when, how long);
+    # their warnings are part of its cache key.
+    history: bool = False
     # Runs for the other cameras when a camera's own tasks did not complete: its params (a ProjectWide)
     # then leave that camera out and name it with why (ProjectWide.leaving_out).
     runs_without_failed_cameras: bool = False

@@ -10,8 +10,8 @@ and detections are sniffed from their first bytes, videos are probed
 a track's frames within its video and its positions within the camera's
 image, the camera's image_size the video's size, a trajectory that moves
 like a target in seconds and metres, and no file given for two cameras.
-The error names the project file, the camera and the key, then the file's
-own message (its line, field or frame).
+The error names the camera and the key (the project file is the command's),
+then the file's own message (its line, field or frame).
 """
 
 from __future__ import annotations
@@ -60,12 +60,12 @@ def validate_project(project: Project, used: set[Path] | None = None) -> None:
 
 
 def _checked(project: Project, where: str, key: str, path: Path, check: Callable[[Path], object]) -> object:
-    """check(path), its errors prefixed with the project key: ``project.toml: [[cameras]] 'cam1' video: FILE: why``."""
+    """check(path), its errors prefixed with the project key: ``[[cameras]] 'cam1' video: FILE: why``."""
     try:
         return check(path)
     except INPUT_ERRORS as exc:
         text = str(exc)
-        raise InputError(f"{project.path}: {where} {key}: " + (text if text.startswith(str(path)) else f"{path}: {text}")) from None
+        raise InputError(f"{where} {key}: " + (text if text.startswith(str(path)) else f"{path}: {text}")) from None
 
 
 def _relative(project: Project, path: Path) -> str:
@@ -157,8 +157,8 @@ def _track_in_image(path: Path, track: Track, camera: Camera) -> None:
     if outside.mean() > OUTSIDE_SHARE:
         k = int(np.argmax(outside))
         raise InputError(
-            f"{path}: {outside.mean():.0%} of the tracked positions lie outside the camera's {w} x {h} image "
-            f"(frame {track.frame[k]}: {xy[k, 0]:.1f}, {xy[k, 1]:.1f}); is the track of another resolution, or the camera.json of another camera?"
+            f"{path}: {outside.mean():.0%} of its positions lie outside the camera's {w} x {h} image (frame {track.frame[k]}: {xy[k, 0]:.0f}, {xy[k, 1]:.0f}): "
+            "a track of another resolution, or another camera's camera.json?"
         )
 
 
@@ -172,10 +172,7 @@ def _same_files(project: Project) -> None:
                 continue
             identity = _identity(path)
             if identity in seen:
-                raise InputError(
-                    f"{project.path}: [[cameras]] {camera.name!r} {key} ({_relative(project, path)}) is the same file as the {key} of camera "
-                    f"{seen[identity]!r}: each camera needs its own"
-                )
+                raise InputError(f"[[cameras]] {camera.name!r} {key} ({_relative(project, path)}) is the same file as the {key} of camera {seen[identity]!r}: each camera needs its own")
             seen[identity] = camera.name
 
 

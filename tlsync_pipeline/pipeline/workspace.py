@@ -162,7 +162,7 @@ class StageFiles:
     guarded: tuple[Path, ...]  # folders whose files must be declared to be opened (work, project)
     progress: bool = True
     cores: int = 1
-    history: list[StageRun] = field(default_factory=list)  # earlier runs' records (stage, camera, created, seconds, warnings), for the report
+    history: list[StageRun] = field(default_factory=list)  # the needed tasks' last runs, in pipeline order
     workers: Any = field(default=None, repr=False, compare=False)
 
     @property

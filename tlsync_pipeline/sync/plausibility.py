@@ -428,8 +428,7 @@ def diagnose(judged: dict[str, Judged], prepared: Trajectory, eps_px: float) -> 
             if _fits_better(given, share):
                 raise LogUnitError(
                     "x, y, z",
-                    f"the positions look like {unit}: x {scale:g} they lie on the target's tracks in {share:.0%} of the frames, "
-                    f"as given in {given:.0%}; set [target] length_unit = \"{unit}\" (or write them in metres)",
+                    f"not metres: x {scale:g} they lie on the tracks in {share:.0%} of the frames, as given in {given:.0%} ({unit}?); set [target] length_unit = \"{unit}\"",
                 )
     reasons = {}
     for name, j in tracked.items():
@@ -455,20 +454,17 @@ def _fits_better(given: float, rescaled: float) -> bool:
 
 
 def _time_unit_message(factor: float, cameras: int) -> str:
-    """What every camera's motion says about the log's time unit (factor: seconds per unit of t)."""
-    named = {1e-3: "ms", 1e-6: "us", 60.0: "min"}
-    close = next((unit for value, unit in named.items() if abs(math.log(factor / value)) < math.log(UNIT_AGREEMENT)), None)
+    """What every camera's motion says about the log's time unit (factor: seconds per unit of t), with the fix."""
+    named = {1e-3: ("ms", "milliseconds"), 1e-6: ("us", "microseconds"), 60.0: ("min", "minutes")}
+    close = next((names for value, names in named.items() if abs(math.log(factor / value)) < math.log(UNIT_AGREEMENT)), None)
     if close is not None:
-        fix = f'set [target] time_unit = "{close}"'
-        what = f"t looks like {'milliseconds' if close == 'ms' else 'microseconds' if close == 'us' else 'minutes'}"
+        what, fix = close[1], f'"{close[0]}"'
     elif factor < 1:
         rate = 1.0 / factor
         whole = round(rate)
         if whole >= 1 and abs(rate / whole - 1.0) < RATE_ROUNDING:
             rate, factor = float(whole), 1.0 / whole
-        fix = f"set [target] time_unit = {factor:.6g} (seconds per unit of t)"
-        what = f"t looks like sample numbers at {rate:.3g} Hz"
+        what, fix = f"sample numbers at {rate:.3g} Hz", f"{factor:.6g}"
     else:
-        fix = f"set [target] time_unit = {factor:.4g} (seconds per unit of t)"
-        what = f"one unit of t looks like {factor:.3g} s"
-    return f"the target's speed in every camera's image ({cameras} cameras) says one unit of t is {factor:.3g} s, not 1 s: {what}; {fix}, or write t in seconds"
+        what, fix = f"units of {factor:.3g} s", f"{factor:.4g}"
+    return f"not seconds: in every camera ({cameras}) the target moves as if a unit of t were {factor:.3g} s ({what}?); set [target] time_unit = {fix}"

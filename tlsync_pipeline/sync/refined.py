@@ -115,10 +115,11 @@ class RefinedMethod:
         refinement_summary = None
         if refinement is not None:
             refinement_summary = RefinementSummary(refinement.frames_used, refinement.scale_px, refinement.perpendicular, refinement.converged)
+        on_line = int((distance_to_line(votes.sample, data.vote_clock, alpha, beta) <= params.delta).sum())  # as the voting chart counts them
         return data.line(
             alpha,
             beta,
-            search.n_inliers,
+            on_line,
             search.residual_rms,
             cov=cov,
             flags=tuple(flags),

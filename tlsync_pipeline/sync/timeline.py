@@ -198,13 +198,28 @@ class CameraLine:
 
 
 @dataclass(frozen=True)
+class StageWarning:
+    """One warning of a run: the stage that raised it, the camera of its task (None: a project-wide stage) and the text."""
+
+    stage: str
+    camera: str | None
+    text: str
+
+    def to_dict(self) -> dict:
+        return {"stage": self.stage, "camera": self.camera, "text": self.text}
+
+
+@dataclass(frozen=True)
 class Timeline:
     """All cameras' lines on one target grid (rate in samples/s, t0 in s).
 
     cameras: the synchronized cameras' lines (status ok or weak, sync/status.py);
     failed: every camera that is not synchronized, with why in one line;
-    rejected: the lines of those of them that have one (ambiguous, or
-    contradicted by the plausibility checks): for diagnosis, never for exports.
+    warnings: those of the run's stages that made its inputs, then the sync
+    stage's own, in pipeline order (the same list report.html shows);
+    rejected: the lines of the cameras not synchronized that have one
+    (ambiguous, or contradicted by the plausibility checks): for diagnosis,
+    never for exports.
     """
 
     cameras: dict[str, CameraLine]
@@ -213,6 +228,7 @@ class Timeline:
     method: str = "paper"
     params: dict = field(default_factory=dict)
     failed: dict[str, str] = field(default_factory=dict)
+    warnings: tuple[StageWarning, ...] = ()
     rejected: dict[str, CameraLine] = field(default_factory=dict)
 
     @property
@@ -380,6 +396,7 @@ class Timeline:
             "failed": self.failed,
             "status": {name: status.to_dict() for name, status in self.statuses().items()},
             "rejected": {name: line.to_dict() for name, line in self.rejected.items()},
+            "warnings": [w.to_dict() for w in self.warnings],
             "line": self.line(),
             "pairs": pairs,
         }
@@ -415,9 +432,8 @@ def read_timeline(path: str | Path) -> Timeline:
         cameras = {name: CameraLine.from_dict(name, c) for name, c in data["cameras"].items()}
         rejected = {name: CameraLine.from_dict(name, c) for name, c in data.get("rejected", {}).items()}
         target = data.get("target", {})
-        return Timeline(
-            cameras, target.get("rate"), target.get("t0"), data.get("method", "paper"), data.get("params", {}), data.get("failed", {}), rejected
-        )
+        warnings = tuple(StageWarning(w["stage"], w.get("camera"), w["text"]) for w in data.get("warnings", []))
+        return Timeline(cameras, target.get("rate"), target.get("t0"), data.get("method", "paper"), data.get("params", {}), data.get("failed", {}), warnings, rejected)
     except FileNotFoundError:
         raise InputError(f"{path}: file not found") from None
     except json.JSONDecodeError as exc:

@@ -1,6 +1,7 @@
 """The command line end to end: exit codes, messages, timeline.json."""
 
 import json
+import re
 
 import numpy as np
 import pytest
@@ -25,10 +26,12 @@ def test_run_writes_timeline_and_prints_table(project_dir):
     assert data["line"]["direction"][0] == 1.0
 
 
-def test_out_option(project_dir, tmp_path):
+def test_work_option_and_a_folder_as_the_project(project_dir, tmp_path):
     out = tmp_path / "elsewhere"
-    assert _run("run", project_dir / "project.toml", "--out", out).exit_code == 0
+    assert _run("run", project_dir, "--work", out).exit_code == 0
     assert (out / "timeline.json").exists()
+    refused = _run("run", project_dir, "--out", out)
+    assert refused.exit_code == 2 and refused.output.startswith("error: --out: names the file a standalone command writes"), refused.output
 
 
 def _replace(path, old, new):
@@ -54,7 +57,7 @@ def test_bad_input_exits_2_with_a_clear_message(project_dir, damage, message):
     before = (project_dir / "work").exists()
     result = _run("run", project_dir / "project.toml")
     assert result.exit_code == 2, result.output
-    assert "error:" in result.output and __import__("re").search(message, result.output), result.output
+    assert "error:" in result.output and re.search(message, result.output), result.output
     assert "Traceback" not in result.output
     assert (project_dir / "work").exists() == before
 
@@ -70,7 +73,9 @@ def test_failed_run_keeps_the_previous_timeline(project_dir):
 def test_unsynchronizable_camera_exits_1_and_says_why(project_dir):
     rows = "\n".join(f"{f},{2 + f % 3},{2.0}" for f in range(50))
     (project_dir / "cam1" / "track.csv").write_text("frame,x,y\n" + rows + "\n")
-    result = _run("run", project_dir / "project.toml")
+    result = _run("run", project_dir / "project.toml", "--truth", project_dir / "truth.json")
+    for pair in ("cam0->cam1", "cam1->cam0"):  # the failed camera's pairs are in the eps_t table, as failed
+        assert re.search(rf"^{pair} .* failed: cam1 not synchronized$", result.output, re.M), result.output
     assert result.exit_code == 1
     assert "cam1" in result.output and "closest is" in result.output
     data = json.loads((project_dir / "work" / "timeline.json").read_text())

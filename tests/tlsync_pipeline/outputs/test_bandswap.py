@@ -39,16 +39,21 @@ def test_target_out_of_view_leaves_the_green_band_empty():
 def test_caption_sits_above_the_image_whole_and_once():
     image = np.full((50, 200, 3), 128, np.uint8)
     long_text = "after: cam12 frame 12377 at log time 1234.56 s (target out of view)"
+    lines, _ = bandswap.caption_layout(long_text, 200)
+    assert lines == ["after: cam12 frame 12377 at log time 1234.56 s", "(target out of view)"]  # whole, never cut
     out = bandswap.caption(image, long_text)
-    assert out.shape == (50 + bandswap.CAPTION_HEIGHT, 200, 3)
-    assert (out[bandswap.CAPTION_HEIGHT :] == image).all()  # nothing drawn over the picture
-    ink = np.nonzero(out[: bandswap.CAPTION_HEIGHT].min(axis=2) < 255)
+    bar_height = bandswap.CAPTION_HEIGHT + bandswap.LINE_STEP
+    assert out.shape == (50 + bar_height, 200, 3)
+    assert (out[bar_height:] == image).all()  # nothing drawn over the picture
+    ink = np.nonzero(out[:bar_height].min(axis=2) < 255)
     assert ink[1].min() >= 1 and ink[1].max() <= 200 - 2  # not clipped at either side
-    assert ink[0].min() >= 1 and ink[0].max() <= bandswap.CAPTION_HEIGHT - 2
+    assert ink[0].min() >= 1 and ink[0].max() <= bar_height - 2
     # drawn once, black on white: the old label was white over a thick black copy, shifted
-    bar = out[: bandswap.CAPTION_HEIGHT].astype(int)
+    bar = out[:bar_height].astype(int)
     assert (bar[..., 0] == bar[..., 1]).all() and (bar[..., 1] == bar[..., 2]).all()
     assert bar.min() < 60 and np.mean(bar < 255) < 0.35
+    short = bandswap.caption(image, "after: frame 3", lines=2)
+    assert short.shape == out.shape  # a row's panels keep one bar height
 
 
 def test_before_after_puts_one_row_per_frame():

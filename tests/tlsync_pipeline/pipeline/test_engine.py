@@ -179,7 +179,7 @@ def test_exports(project_dir, paper_scene):
 def test_process_executor_gives_the_same_timeline(project_dir, tmp_path):
     toml = project_dir / "project.toml"
     assert _cli("run", toml, "-j", "1", "-q", "--work", tmp_path / "serial").exit_code == 0
-    assert _cli("run", toml, "-j", "2", "-q", "--out", tmp_path / "pool").exit_code == 0
+    assert _cli("run", toml, "-j", "2", "-q", "--work", tmp_path / "pool").exit_code == 0
     serial = json.loads((tmp_path / "serial" / "timeline.json").read_text())
     pool = json.loads((tmp_path / "pool" / "timeline.json").read_text())
     assert serial["cameras"] == pool["cameras"]

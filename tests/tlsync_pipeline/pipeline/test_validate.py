@@ -45,7 +45,7 @@ def test_a_trajectory_in_milliseconds_is_named_with_its_fix(project_dir):
     t = np.arange(0.0, 120.0, 0.2)
     rows = "\n".join(f"{1000 * v:.1f},{1.4 * v:.3f},0.0,1.5" for v in t)  # a walker at 5 Hz, t written in ms
     (project_dir / "trajectory.csv").write_text("t,x,y,z\n" + rows + "\n")
-    with pytest.raises(InputError, match=r'\[target\] trajectory: .*column t: one sample every 200 s .*time_unit = "ms"'):
+    with pytest.raises(InputError, match=r'\[target\] trajectory: .*column t: in seconds, one sample every 200 s .*\(milliseconds\?\); set \[target\] time_unit = "ms"'):
         _validate(project_dir)
     edit_key(project_dir, None, "time_unit", "ms")
     _validate(project_dir)

@@ -34,7 +34,7 @@ from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.geodesy import Origin, geodetic_to_enu
 from tlsync_pipeline.outputs.plots import calibration_plot
 from tlsync_pipeline.outputs.summary import calibration_summary
-from tlsync_pipeline.pipeline.origin import origin_inputs, resolve_origin
+from tlsync_pipeline.pipeline.origin import check_gcp_places, origin_inputs, resolve_origin
 from tlsync_pipeline.pipeline.spec import Options, Sources, StageResult, StageSpec
 from tlsync_pipeline.pipeline.stages.intrinsics import check_calibration
 from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
@@ -89,6 +89,8 @@ def calibrate_pose(name: str, params: CalibrateParams, known: Camera, intrinsics
         table = read_gcps(gcp)
         _check_in_image(table, size)
         origin = origin if table.geodetic is not None else None
+        if isinstance(origin, Origin):
+            check_gcp_places(table, origin, "the [target] origin" if isinstance(params.origin, Origin) else "the origin (the centroid of every camera's GCPs)")
         xyz = gcp_world_points(table, origin)
         assert params.ransac_px is not None, "calibrate_params gives GCPs their threshold"
         pose = pose_from_points(table.uv, xyz, K, dist, dist_model, params.ransac_px, source=table.source)
@@ -152,7 +154,18 @@ def run_calibrate(files: StageFiles, params: CalibrateParams) -> StageResult:
         tmp.write_text(json.dumps(report, indent=1) + "\n", encoding="utf-8")
     with files.write("calibration_picture") as tmp:
         tmp.write_bytes(calibration_plot(report, camera.image_size))
-    return StageResult(message=f"{calibration_summary(report)}; wrote {files.output('camera')}")
+    return StageResult(message=f"{calibration_summary(report)}; wrote {files.output('camera')}", warnings=pose_warnings(report))
+
+
+def pose_warnings(report: dict) -> tuple[str, ...]:
+    """The calibrate stage's warnings, from its report: ground control points left out as outliers, a camera without a pose."""
+    pose = report.get("pose") or {}
+    out = [
+        f"ground control point {point.get('name', '?')} left out as an outlier ({point.get('error_px', float('nan')):.1f} px)"
+        for point in pose.get("points", [])
+        if not point.get("inlier", True)
+    ]
+    return tuple(out + ([report["warning"]] if report.get("warning") else []))
 
 
 def calibrate_inputs(src: Sources, name: str) -> dict[str, Path | Artefact]:

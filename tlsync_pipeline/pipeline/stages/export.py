@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import csv
 import json
+import os
 from pathlib import Path
 
 import numpy as np
@@ -60,6 +61,9 @@ def run_export(files: StageFiles, params: ProjectWide) -> StageResult:
     """The export stage: frame_map.csv, offsets.csv, ffmpeg.sh, timeline.otio, timeline.fcpxml and sync.json (synchronized cameras only).
 
     Cameras left out (their own tasks did not complete) are not in the timeline either.
+    An editor timeline it cannot write is said in its message (the report's
+    exports section shows it), not as a warning: warnings are about the
+    inputs and the timeline (timeline.json lists them).
     """
     cameras = camera_files(files, params)
     tl = read_timeline(files.path("timeline"))
@@ -80,8 +84,9 @@ def run_export(files: StageFiles, params: ProjectWide) -> StageResult:
             writer.writeheader()
             writer.writerows({k: ("" if v is None else (f"{v:.6f}" if isinstance(v, float) else v)) for k, v in r.items()} for r in rows)
     videos = {name: (str(c.video) if c.video is not None else None) for name, c in cameras.items()}
+    base = files.output("ffmpeg").parent.parent.parent  # ffmpeg.sh runs in the folder that holds the work folder
     with files.write("ffmpeg") as tmp:
-        tmp.write_text(ffmpeg_commands(rows, videos), encoding="utf-8")
+        tmp.write_text(ffmpeg_commands(rows, {name: None if v is None else os.path.relpath(v, base) for name, v in videos.items()}), encoding="utf-8")
     notes = []
     placements = editor_placements(tl, rows, videos, n_frames)
     if placements is None:
@@ -96,7 +101,7 @@ def run_export(files: StageFiles, params: ProjectWide) -> StageResult:
         for kind, text in texts.items():
             with files.write(kind) as tmp:
                 tmp.write_text(text, encoding="utf-8")
-    return StageResult(warnings=tuple(notes), facts={"exported": tl.names, "n_frames": n_frames})
+    return StageResult("; ".join(notes) or None, facts={"exported": tl.names, "n_frames": n_frames})
 
 
 def editor_placements(tl: Timeline, rows: list[dict], videos: dict[str, str | None], n_frames: dict[str, int]) -> list[Placement] | None:

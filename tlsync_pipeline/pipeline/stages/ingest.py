@@ -10,13 +10,13 @@ from __future__ import annotations
 import dataclasses
 import json
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-from typing import TYPE_CHECKING
 
 from tlsync_pipeline.atomic import atomic_path
 from tlsync_pipeline.errors import InputError
-from tlsync_pipeline.geodesy import Origin
+from tlsync_pipeline.geodesy import Origin, enu_to_geodetic
 from tlsync_pipeline.ingest import read_log
 from tlsync_pipeline.ingest.recording_time import parse_utc_offset
 from tlsync_pipeline.ingest.process import (
@@ -25,8 +25,8 @@ from tlsync_pipeline.ingest.process import (
     RigidTransform,
     ingest,
 )
-from tlsync_pipeline.pipeline.origin import origin_inputs, resolve_origin
 from tlsync_pipeline.ingest.units import implausible_motion
+from tlsync_pipeline.pipeline.origin import check_log_near_gcps, origin_inputs, resolve_origin
 from tlsync_pipeline.pipeline.spec import Sources, StageResult, StageSpec
 from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
 from tlsync_pipeline.trajectory import Trajectory, read_trajectory, trajectory_from_times, write_trajectory
@@ -89,11 +89,15 @@ def run_ingest(files: StageFiles, target: TargetConfig) -> StageResult:
     if files.has("given"):
         trajectory, report = convert_trajectory(files.path("given"), target.time_unit, target.length_unit)
     else:
-        origin = resolve_origin(target.origin, [files.path(label) for label in files.inputs if label.startswith("origin-gcp:")], "[target]")
+        gcp_files = [files.path(label) for label in files.inputs if label.startswith("origin-gcp:")]
+        origin = resolve_origin(target.origin, gcp_files, "[target]")
         trajectory, report = ingest_log(files.path("log"), target.format, target.ingest_params(origin), target.topic, target.utc_offset)
         problem = implausible_motion(np.asarray(trajectory.seconds(trajectory.sample)), trajectory.xyz)
         if problem:
             raise InputError(f"{files.path('log')} ([target] log): {problem}")
+        if isinstance(origin, Origin) and not isinstance(target.origin, Origin) and len(trajectory):
+            lat, lon, alt = enu_to_geodetic(np.median(trajectory.xyz, axis=0), origin)[0]
+            check_log_near_gcps(Origin(lat, lon, alt), files.path("log"), gcp_files, origin)
     write_ingest(trajectory, report, files.output("trajectory"), files.output("ingest_report"))
     return StageResult(report.summary(with_warnings=False), tuple(report.warnings))
 

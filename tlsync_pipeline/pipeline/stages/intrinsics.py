@@ -19,8 +19,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from calibration.camera import write_camera
+from calibration.errors import PatternMismatch
 from calibration.intrinsics import calibrate_images, calibrate_video, parse_pattern
-from tlsync_pipeline.errors import InputError
+from tlsync_pipeline.errors import InputError, error_details, with_details
 from tlsync_pipeline.pipeline.spec import Options, Sources, StageResult, StageSpec
 from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
 
@@ -64,12 +65,15 @@ def check_calibration(project: Project, name: str) -> None:
 def run_intrinsics(files: StageFiles, params: IntrinsicsParams) -> StageResult:
     """Calibrate the camera's intrinsics from its board views (``image:*`` inputs or ``video``), with ``files.cores`` processes."""
     board = parse_pattern(params.pattern, params.square, source=f"camera {files.camera!r}: [cameras.calibration] pattern")
-    if files.has("video"):
-        assert params.max_frames is not None, "intrinsics_params gives a video its frame count"
-        result = calibrate_video(files.path("video"), board, params.model, params.max_frames, workers=files.cores, progress=files.progress, max_view_error=params.max_view_error)
-    else:
-        images = [str(files.path(label)) for label in files.inputs if label.startswith(IMAGE_PREFIX)]
-        result = calibrate_images(images, board, params.model, workers=files.cores, progress=files.progress, max_view_error=params.max_view_error)
+    try:
+        if files.has("video"):
+            assert params.max_frames is not None, "intrinsics_params gives a video its frame count"
+            result = calibrate_video(files.path("video"), board, params.model, params.max_frames, workers=files.cores, progress=files.progress, max_view_error=params.max_view_error)
+        else:
+            images = [str(files.path(label)) for label in files.inputs if label.startswith(IMAGE_PREFIX)]
+            result = calibrate_images(images, board, params.model, workers=files.cores, progress=files.progress, max_view_error=params.max_view_error, label=params.source)
+    except PatternMismatch as exc:
+        raise with_details(InputError(f'{exc}: set pattern = "{exc.seen}" in [cameras.calibration]'), *error_details(exc)) from None
     report = result.to_report()
     report["source"] = params.source
     relative = {str(files.path(label)): label[len(IMAGE_PREFIX) :] for label in files.inputs if label.startswith(IMAGE_PREFIX)}
@@ -81,7 +85,8 @@ def run_intrinsics(files: StageFiles, params: IntrinsicsParams) -> StageResult:
         write_camera(result.camera(files.camera_name), tmp)
     with files.write("intrinsics_report") as tmp:
         tmp.write_text(json.dumps(report, indent=1) + "\n", encoding="utf-8")
-    return StageResult(facts={"rms_px": result.rms, "views_used": len(result.used)})
+    rejected = tuple(f"checkerboard view {view['image']} rejected: {view['reason']}" for view in report["rejected"])
+    return StageResult(warnings=rejected, facts={"rms_px": result.rms, "views_used": len(result.used)})
 
 
 def intrinsics_inputs(src: Sources, name: str) -> dict[str, Path | Artefact]:

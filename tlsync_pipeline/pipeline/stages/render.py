@@ -17,11 +17,14 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+import numpy as np
+
 from tlsync_pipeline.atomic import atomic_path
 from tlsync_pipeline.ingest.process import IngestReport
-from tlsync_pipeline.outputs.camera_pictures import CameraJob, DrawnCamera, draw_camera, photo, picture
-from tlsync_pipeline.outputs.diagnostics import StageRun, gather_warnings
-from tlsync_pipeline.outputs.pictures import PairPlan, PanelRequest, assemble_pair, choose_frames, default_pairs, pair_frames, plan_pair, write_png
+from tlsync_pipeline.errors import InputError
+from tlsync_pipeline.outputs.camera_pictures import CameraJob, DrawnCamera, draw_camera, draw_panels, photo, picture
+from tlsync_pipeline.outputs.diagnostics import StageRun, run_warnings
+from tlsync_pipeline.outputs.pictures import PairPlan, PanelRequest, assemble_pair, choose_frames, pair_frames, plan_pair, write_png
 from tlsync_pipeline.outputs.player import player_data
 from tlsync_pipeline.outputs.plots import offsets_plot, residuals_plot, track_residuals
 from tlsync_pipeline.outputs.report_content import Picture, ReportContent
@@ -38,11 +41,14 @@ from tlsync_pipeline.sync.clock import FrameTimes
 from tlsync_pipeline.sync.methods import CameraInput
 from tlsync_pipeline.sync.registry import params_from_table, preparation_of
 from tlsync_pipeline.sync.synchronize import prepare_trajectory
-from tlsync_pipeline.sync.timeline import Timeline, read_timeline, read_truth
+from tlsync_pipeline.sync.timeline import Relation, Timeline, read_timeline
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory, read_trajectory
 
 if TYPE_CHECKING:
     from tlsync_pipeline.pipeline.project import Project
+
+REQUESTS = "requests.json"  # in render/: the strips asked for (StripRequest), drawn again by every render
+REQUESTED_PREFIX = "pair_"  # the pictures of StripRequests (the render stage's own never start with it)
 
 EXPORT_LABELS = (
     ("frame map (CSV)", "frame_map.csv"),
@@ -56,13 +62,44 @@ EXPORT_LABELS = (
 
 @dataclass(frozen=True)
 class RenderParams(CamerasParams):
-    """The cameras and their fps (CamerasParams); pairs: the pairs of cameras whose strips to draw (None: the
-    first camera with each other); frames: 0-based frames of each pair's second camera (None: chosen); proxy:
-    camera -> proxy policy ("auto", "always", "never")."""
+    """The cameras and their fps (CamerasParams); proxy: camera -> proxy policy ("auto", "always", "never")."""
+
+    proxy: Mapping[str, str] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class StripRequest:
+    """Strips asked for with ``tlsync render --pair/--frames/--truth``, drawn beside the default pictures.
+
+    pairs: (A, B) pairs (None: the default pairs); frames: 0-based frames of
+    each pair's second camera (None: chosen); truth: true relations "A->B"
+    (truth.json's pairs) to draw A's true match too (None: none). Each strip
+    is ``render/pair_<A>_<B>[_frames_<f>_<f>...][_truth].png``; requests are
+    kept in ``render/requests.json`` and drawn again whenever the render
+    stage runs, so a picture never shows an earlier timeline.
+    """
 
     pairs: tuple[tuple[str, str], ...] | None = None
     frames: tuple[int, ...] | None = None
-    proxy: Mapping[str, str] = field(default_factory=dict)
+    truth: Mapping[str, Relation] | None = None
+
+    def file_name(self, a: str, b: str) -> str:
+        frames = "".join(f"_{f}" for f in self.frames or ())
+        return f"{REQUESTED_PREFIX}{a}_{b}" + (f"_frames{frames}" if frames else "") + ("_truth" if self.truth else "") + ".png"
+
+    def to_dict(self) -> dict:
+        return {
+            "pairs": None if self.pairs is None else [list(p) for p in self.pairs],
+            "frames": None if self.frames is None else list(self.frames),
+            "truth": None if self.truth is None else {k: {"alpha": r.alpha, "beta": r.beta} for k, r in self.truth.items()},
+        }
+
+    @classmethod
+    def from_dict(cls, data: dict) -> StripRequest:
+        pairs = None if data.get("pairs") is None else tuple((str(a), str(b)) for a, b in data["pairs"])
+        frames = None if data.get("frames") is None else tuple(int(f) for f in data["frames"])
+        truth = None if data.get("truth") is None else {k: Relation(float(v["alpha"]), float(v["beta"])) for k, v in data["truth"].items()}
+        return cls(pairs, frames, truth)
 
 
 @dataclass(frozen=True)
@@ -82,39 +119,46 @@ class _Scene:
 
 
 def run_render(files: StageFiles, params: RenderParams) -> StageResult:
-    """The render stage: pictures, charts, proxies, report.html and report.md.
+    """The render stage: pictures, charts, proxies, report.html and report.md; and the strips asked for earlier.
 
     Pictures of an earlier run that this one did not draw are removed
-    (remove_other_pictures). The result's facts: per pair "A,B", the frames
-    drawn ([frame of B, frame of A]) and the pictures removed.
+    (remove_other_pictures): of cameras no longer synchronized, of strips
+    asked for that cannot be drawn now. The asked-for strips (StripRequest)
+    are drawn again, but are not the stage's artefacts: they never make it
+    stale. The result's facts: per default pair "A,B", the frames drawn
+    ([frame of B, frame of A]) and the pictures removed.
     """
     scene = _read_scene(files, params)
     work, out_dir = files.output("report").parent, files.output("pictures")
-    notes = [f"{name}: no pictures ({why})" for name, why in params.left_out.items()]
+    notes: list[str] = []
     requests: dict[str, list[PanelRequest]] = {}
-    truth = read_truth(files.path("truth"))[0] if files.has("truth") else None
-    plans, drawn = _plan_strips(scene, params, truth, requests, notes)
+    plans, drawn = _plan_strips(scene, default_pairs(scene), StripRequest(), requests, notes)
+    asked = []
+    for request in read_requests(out_dir):
+        pairs = [pair for pair in request.pairs or default_pairs(scene) if not _strip_problem(scene, *pair, request.frames)]
+        asked += [(plan, request.file_name(plan.a, plan.b)) for plan in _plan_strips(scene, pairs, request, requests, [])[0]]
     jobs = [_camera_job(scene, name, params, requests.get(name, []), out_dir, work) for name in scene.timeline.cameras]
     called = run_each(files.workers or SerialExecutor(), draw_camera, [{"job": job} for job in jobs])
     cameras: dict[str, DrawnCamera] = {job.name: call.value for job, call in zip(jobs, called)}
+    panels = {n: c.panels for n, c in cameras.items()}
     written = [path for camera in cameras.values() for path in camera.written] + [camera.proxy for camera in cameras.values() if camera.proxy is not None]
     strips = []
     for plan in plans:
-        strip = assemble_pair(plan, {n: c.panels for n, c in cameras.items()})
-        assert strip is not None, "a planned strip has rows"
-        path = write_png(out_dir / f"strip_{plan.a}_{plan.b}.png", strip)
+        path = write_png(out_dir / f"strip_{plan.a}_{plan.b}.png", strip_of(plan, panels))
         written.append(path)
         strips.append(photo(f"{plan.a} and {plan.b}: matching frames", path, work))
+    requested = [write_png(out_dir / name, strip_of(plan, panels)) for plan, name in asked]
     charts = _charts(scene, out_dir, work)
     written += [work / c.href for c in charts]
+    notes = list(dict.fromkeys([*notes, *(w for call in called for w in call.warnings)]))
     content = _report_content(files, scene, params, cameras, strips, charts, notes)
-    removed = remove_other_pictures(out_dir, written)
+    removed = remove_other_pictures(out_dir, written + requested)
     with files.write("report_html") as tmp:
         tmp.write_text(report_html(content), encoding="utf-8")
     with files.write("report") as tmp:
         tmp.write_text(report_markdown(content), encoding="utf-8")
     return StageResult(
-        warnings=tuple(dict.fromkeys(w for call in called for w in call.warnings)),
+        "; ".join(notes) or None,
         outputs=tuple(written),
         facts={"frames": drawn, "removed": [p.name for p in removed], "report": str(files.output("report_html"))},
         worker_cpu_s=sum(call.cpu_s for call in called if call.elsewhere),
@@ -140,26 +184,92 @@ def _read_scene(files: StageFiles, params: RenderParams) -> _Scene:
     )
 
 
-def _plan_strips(scene: _Scene, params: RenderParams, truth: dict | None, requests: dict[str, list[PanelRequest]], notes: list[str]) -> tuple[list[PairPlan], dict[str, list[list[int]]]]:
-    """The strips of matching frames to draw (their panels appended to ``requests``) and, per pair "A,B", the frames drawn.
+def default_pairs(scene: _Scene) -> list[tuple[str, str]]:
+    """The strips drawn by default: the first synchronized camera with a video, with each other one with a video.
 
-    truth: the true relations (truth.json's pairs) to draw A's true match too, or None.
+    Cameras without a video have no strip (a tracks-only project has none):
+    that is expected, not a warning.
+    """
+    names = [n for n in scene.timeline.names if n in scene.videos]
+    return [(names[0], other) for other in names[1:]] if names else []
+
+
+def _strip_problem(scene: _Scene, a: str, b: str, frames: tuple[int, ...] | None) -> str | None:
+    """Why the strip of A, B cannot be drawn from this timeline (a camera not synchronized, without a video, a frame
+    past B's end), or None."""
+    for name in (a, b):
+        if name not in scene.timeline.cameras:
+            return f"{name} is not synchronized"
+        if name not in scene.videos:
+            return f"{name} has no video (a strip shows video frames)"
+    late = [f for f in frames or () if not 0 <= f < scene.n_frames[b]]
+    if late:
+        return f"frame {late[0]} is not a frame of {b} (0 to {scene.n_frames[b] - 1})"
+    return None
+
+
+def _plan_strips(scene: _Scene, pairs: list[tuple[str, str]], request: StripRequest, requests: dict[str, list[PanelRequest]], notes: list[str]) -> tuple[list[PairPlan], dict[str, list[list[int]]]]:
+    """The strips of ``pairs`` to draw (their panels appended to ``requests``) and, per pair "A,B", the frames drawn.
+
+    request: the frames of B asked for (None: chosen) and the true relations (A's true match drawn too), or none.
     """
     tl, plans, drawn = scene.timeline, [], {}
-    for a, b in params.pairs or default_pairs(tl):
-        if a not in scene.videos or b not in scene.videos:
-            notes.append(f"{a}, {b}: no strip of matching frames (needs both cameras' videos)")
-            continue
+    for a, b in pairs:
         track_b = scene.inputs[b].track
         assert track_b is not None, "a synchronized camera has a track"
-        chosen = list(params.frames) if params.frames else choose_frames(track_b.frame, lambda f: tl.match(b, a, f, scene.times), scene.n_frames[a], scene.n_frames[b])
-        plan = plan_pair(a, b, chosen, tl, scene.inputs, scene.path_model, scene.n_frames, truth, scene.times, requests)
+        chosen = list(request.frames) if request.frames else choose_frames(track_b.frame, lambda f: tl.match(b, a, f, scene.times), scene.n_frames[a], scene.n_frames[b])
+        plan = plan_pair(a, b, chosen, tl, scene.inputs, scene.path_model, scene.n_frames, dict(request.truth) if request.truth else None, scene.times, requests)
         if not plan.rows:
-            notes.append(f"{a}, {b}: the two videos never record at the same time")
+            notes.append(f"{a}, {b}: no strip of matching frames: the two videos never record at the same time")
             continue
         drawn[f"{a},{b}"] = [[f, fa] for f, fa in pair_frames(a, b, chosen, tl, scene.times).items()]
         plans.append(plan)
     return plans, drawn
+
+
+def strip_of(plan: PairPlan, panels: dict[str, list]) -> np.ndarray:
+    """The strip of a planned pair (it has rows: _plan_strips keeps only those)."""
+    strip = assemble_pair(plan, panels)
+    assert strip is not None, "a planned strip has rows"
+    return strip
+
+
+def read_requests(out_dir: Path) -> list[StripRequest]:
+    """The strips asked for so far (``render/requests.json``), oldest first; none when absent or unreadable."""
+    try:
+        return [StripRequest.from_dict(item) for item in json.loads((out_dir / REQUESTS).read_text(encoding="utf-8"))]
+    except (OSError, ValueError, TypeError, KeyError):
+        return []
+
+
+def draw_requested(files: StageFiles, params: RenderParams, request: StripRequest) -> list[Path]:
+    """Draw the strips ``request`` asks for from the render stage's inputs (cached artefacts), beside its pictures,
+    and remember the request so that the next render draws it again; returns the pictures written.
+
+    InputError when a pair cannot be drawn from the current timeline. The
+    caller holds the work folder's lock; the render stage's artefacts and
+    manifest are not touched.
+    """
+    scene = _read_scene(files, params)
+    out_dir = files.output("pictures")
+    pairs = list(request.pairs or default_pairs(scene))
+    if not pairs:
+        raise InputError("render: no pair of synchronized cameras with videos to draw a strip of; give --pair A,B")
+    for a, b in pairs:
+        problem = _strip_problem(scene, a, b, request.frames)
+        if problem:
+            raise InputError(f"--pair {a},{b}: {problem}")
+    requests: dict[str, list[PanelRequest]] = {}
+    notes: list[str] = []
+    plans, _ = _plan_strips(scene, pairs, request, requests, notes)
+    if notes:
+        raise InputError(notes[0])
+    panels = {name: draw_panels(scene.videos[name], scene.inputs[name].camera, wanted) for name, wanted in requests.items()}
+    written = [write_png(out_dir / request.file_name(plan.a, plan.b), strip_of(plan, panels)) for plan in plans]
+    kept = [r for r in read_requests(out_dir) if r != request] + [request]
+    with atomic_path(out_dir / REQUESTS) as tmp:
+        tmp.write_text(json.dumps([r.to_dict() for r in kept], indent=1) + "\n", encoding="utf-8")
+    return written
 
 
 def _camera_job(scene: _Scene, name: str, params: RenderParams, requests: list[PanelRequest], out_dir: Path, work: Path) -> CameraJob:
@@ -215,10 +325,11 @@ def _report_content(files: StageFiles, scene: _Scene, params: RenderParams, came
         title="tlsync run report",
         timeline=tl,
         statuses=list(tl.statuses([n for n in params.cameras if n in tl.cameras or n in tl.failed]).values()),
-        warnings=gather_warnings(reports, ingest, runs, tl, notes),
+        warnings=run_warnings(runs),
+        notes={"pictures": notes, "exports": [run.message for run in runs if run.stage == "export" and run.message]},
         stages=runs + [StageRun("render", None, "this run", None)],
         calibration={n: calibration_summary(r) for n, r in reports.items()},
-        ingest=IngestReport.from_dict(ingest).summary() if ingest else None,
+        ingest=IngestReport.from_dict(ingest).summary(with_warnings=False) if ingest else None,
         charts=charts,
         camera_pictures={n: c.pictures for n, c in cameras.items()},
         pair_pictures=strips,
@@ -229,7 +340,8 @@ def _report_content(files: StageFiles, scene: _Scene, params: RenderParams, came
 
 
 def remove_other_pictures(out_dir: Path, written: list[Path]) -> list[Path]:
-    """Delete the pictures in ``out_dir`` this run did not draw (of cameras no longer synchronized, of other pairs); returns them.
+    """Delete the pictures in ``out_dir`` this run did not draw (of cameras no longer synchronized, of strips asked
+    for that cannot be drawn now); returns them.
 
     render/ belongs to the render stage: a picture left from an earlier
     timeline would look like a result of this one.
@@ -271,14 +383,12 @@ def render_inputs(src: Sources, camera: None) -> dict[str, Path | Artefact]:
         for kind in ("calibration_picture", "calibration_report", "video_info"):
             if src.made(kind, name):
                 inputs[f"{kind}:{name}"] = src.artefact(kind, name)
-    if src.options.truth is not None:
-        inputs["truth"] = Path(src.options.truth).resolve()
     return inputs
 
 
 def render_params(project: Project, camera: None, options: Options) -> RenderParams:
     cameras = cameras_params(project)
-    return RenderParams(cameras.cameras, fps=cameras.fps, pairs=options.render_pairs, frames=options.render_frames, proxy={c.name: c.proxy for c in project.cameras})
+    return RenderParams(cameras.cameras, fps=cameras.fps, proxy={c.name: c.proxy for c in project.cameras})
 
 
 SPEC = StageSpec(

@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING
 from calibration.camera import read_camera
 from tlsync_pipeline.atomic import atomic_path
 from tlsync_pipeline.errors import INPUT_ERRORS, InputError, SyncError
+from tlsync_pipeline.outputs.diagnostics import run_warnings
 from tlsync_pipeline.pipeline.spec import Options, Sources, StageResult, StageSpec
 from tlsync_pipeline.pipeline.stages.cameras import CameraFiles, CamerasParams, camera_files, cameras_params, container_fps, read_identification, read_video_info
 from tlsync_pipeline.pipeline.stages.clock import read_clock
@@ -21,7 +22,7 @@ from tlsync_pipeline.sync.params import SyncParams
 from tlsync_pipeline.sync.plausibility import LogUnitError
 from tlsync_pipeline.sync.status import WEAK, Reason
 from tlsync_pipeline.sync.synchronize import CameraResult, synchronize
-from tlsync_pipeline.sync.timeline import CameraLine, IdentificationSummary, Timeline, write_timeline
+from tlsync_pipeline.sync.timeline import CameraLine, IdentificationSummary, StageWarning, Timeline, write_timeline
 from tlsync_pipeline.sync.votes import Votes, load_votes
 from tlsync_pipeline.trajectory import Trajectory, read_trajectory
 from trackers.track import read_track
@@ -84,6 +85,8 @@ def read_votes(cameras: dict[str, CameraFiles]) -> dict[str, Votes | SyncError]:
 def run_sync(files: StageFiles, params: SyncStageParams) -> StageResult:
     """The sync stage: each camera's line fitted to the vote stage's votes, ``timeline.json``.
 
+    timeline.json's ``warnings``: those the stages that made its inputs
+    recorded, then the sync method's per camera (also this stage's warnings).
     A camera whose ``votes.npz`` records why it has no vote (the target never
     found, never near its projection) is listed under ``failed`` with that
     reason, without reading its other files. A camera whose video the track
@@ -108,9 +111,11 @@ def run_sync(files: StageFiles, params: SyncStageParams) -> StageResult:
     priors = {n: prior for n, c in paths.items() if c.clock is not None and (prior := read_clock(c.clock)) is not None}
     if priors:
         timeline = with_clock_checks(timeline, priors, log_on_utc(files, timeline))
+    own = tuple(f"{name}: {text}" for name, line in timeline.cameras.items() for text in line.warnings or ())
+    timeline = replace(timeline, warnings=(*run_warnings(files.history), *(StageWarning("sync", None, text) for text in own)))
     with files.write("timeline") as tmp:
         write_timeline(timeline, tmp)
-    return StageResult(failed=timeline.failed, facts={"synchronized": timeline.names})
+    return StageResult(warnings=own, failed=timeline.failed, facts={"synchronized": timeline.names})
 
 
 def log_on_utc(files: StageFiles, timeline: Timeline) -> bool:
@@ -198,5 +203,6 @@ SPEC = StageSpec(
     params=sync_params,
     outputs=("timeline",),
     run=run_sync,
+    history=True,
     runs_without_failed_cameras=True,
 )

@@ -140,7 +140,7 @@ def _edit(root, old, new):
 @pytest.mark.parametrize(
     "damage, message",
     [
-        (lambda r: (r / "gcp_cam1.csv").write_text("u,v,lat,lon,alt\n1,2,46.5,6.5,400\n2,3,46.6,6.5,400\n4,4,46.5,6.6,401\n"), r"gcp_cam1.csv: 3 points, at least 4 are needed"),
+        (lambda r: (r / "gcp_cam1.csv").write_text("u,v,lat,lon,alt\n1,2,46.5,6.5,400\n2,3,46.5001,6.5,400\n4,4,46.5,6.5001,401\n"), r"gcp_cam1.csv: 3 points, at least 4 are needed"),
         (lambda r: (r / "gcp_cam1.csv").write_text("u,v,x,y,z\n10,20,0,0,0\n200,40,1,1,0\n300,300,2,2,0\n400,100,3,3,0\n"), r"gcp_cam1.csv: the world points are collinear"),
         (lambda r: (r / "gcp_cam1.csv").write_text("name,u,v,x,y,z,lat\np,1,2,3,4,5,6\n"), r"gcp_cam1.csv:1: the header mixes local columns"),
         (lambda r: (r / "gcp_cam1.csv").write_text("u,v,x,y,z\n1,2,3,4,5\n1,2,3,4,5\n1,2,3,4,5\n5000,2,3,4,5\n"), r"gcp_cam1.csv:5: pixel \(5000, 2\) is outside the 800x600 image"),

@@ -11,7 +11,6 @@ from tlsync_pipeline.outputs import pictures as render
 from tlsync_pipeline.pipeline.engine import run_graph
 from tlsync_pipeline.pipeline.graph import build_graph
 from tlsync_pipeline.pipeline.project import load_project
-from tlsync_pipeline.pipeline.spec import Options
 from tlsync_pipeline.sync.timeline import Relation
 
 
@@ -124,18 +123,42 @@ def test_choose_frames_stays_where_both_cameras_record():
     assert render.choose_frames(track, Relation(1.0, 10_000.0), n_a=500, n_b=400) == []
 
 
-def test_render_command_with_pair_and_frames(rendered_project, monkeypatch):
+def test_pictures_asked_for_are_kept_beside_the_defaults_and_never_make_the_project_stale(rendered_project, monkeypatch):
+    """README's example: ``tlsync render project.toml --pair cam1,cam0 --frames 150,160``, then status and run."""
+    from click.testing import CliRunner
+
+    from tlsync_pipeline.cli.main import main
+
     scene, folder = rendered_project
-    project = load_project(folder / "project.toml")
-    graph = build_graph(project, folder / "work", Options(render_pairs=(("cam1", "cam0"),), render_frames=(150, 160)))
-    run_graph(graph, targets=["sync", "export"])
+    toml, render_dir = folder / "project.toml", folder / "work" / "render"
+
+    def cli(*args):
+        return CliRunner().invoke(main, [str(a) for a in args], catch_exceptions=False)
+
+    assert cli("run", toml, "-j", "1", "-q").exit_code == 0
+    defaults = {p.name: p.read_bytes() for p in render_dir.glob("*.png")}
+    manifest = (render_dir / "render.manifest.json").read_text()
     requested = []
     original = render.read_frames
     monkeypatch.setattr(render, "read_frames", lambda path, indices: requested.append((path.name, sorted(indices))) or original(path, indices))
-    assert "strip_cam1_cam0.png" in _render(graph)
-    # each video is read once, for every picture of its camera: cam0's read has the frames asked for
-    assert sorted(name for name, _ in requested) == ["cam0.mp4", "cam1.mp4"]
-    assert {150, 160} <= set(dict(requested)["cam0.mp4"])
+    result = cli("render", toml, "--pair", "cam1,cam0", "--frames", "150,160", "-j", "1")
+    assert result.exit_code == 0, result.output
+    asked = render_dir / "pair_cam1_cam0_frames_150_160.png"
+    assert asked.stat().st_size > 1000 and "wrote " in result.output
+    assert sorted(name for name, _ in requested) == ["cam0.mp4", "cam1.mp4"]  # only the strip's frames, each video once
+    assert {150, 160} == set(dict(requested)["cam0.mp4"])
+    assert {p.name: p.read_bytes() for p in render_dir.glob("*.png") if p != asked} == defaults  # the defaults untouched
+    assert (render_dir / "render.manifest.json").read_text() == manifest
+    assert cli("status", toml, "-q").exit_code == 0  # still fresh
+    assert "ran 0," in cli("run", toml, "-j", "1").output and asked.exists()
+    before = asked.stat().st_mtime_ns
+    assert cli("run", toml, "-j", "1", "-q", "--force", "render").exit_code == 0
+    assert asked.exists() and asked.stat().st_mtime_ns > before  # drawn again with the other pictures
+    assert cli("status", toml, "-q").exit_code == 0
+    bad = cli("render", toml, "--pair", "cam1,cam7")
+    assert bad.exit_code == 2 and bad.output.startswith("error: ") and "no camera named 'cam7'" in bad.output and len(bad.output.splitlines()) == 1, bad.output
+    late = cli("render", toml, "--pair", "cam1,cam0", "--frames", "99999")
+    assert late.exit_code == 2 and "frame 99999 is not a frame of cam0" in late.output, late.output
 
 
 def test_render_never_decodes_the_videos_through(rendered_project, monkeypatch):

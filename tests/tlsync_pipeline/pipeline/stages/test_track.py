@@ -143,7 +143,7 @@ def test_track_video_unreadable_file_exit_2(tmp_path):
     bad = tmp_path / "clip.mp4"
     bad.write_text("hello")
     result = _run("track-video", bad, "--out", tmp_path / "t.csv", "--quiet")
-    assert result.exit_code == 2 and f"error: {bad}: not a readable video file" in result.output
+    assert result.exit_code == 2 and "error: clip.mp4: not a readable video file" in result.output
 
 
 def test_progress_shows_frames_and_rate_and_quiet_silences_it(tmp_path, video):
