@@ -59,6 +59,7 @@ AGREE_ERROR = 0.5  # displacements agree when |d_img - d_proj| <= AGREE_ERROR x 
 SLOPE_BIN = math.log(1.08)  # width of the bins of log(frames per sample) the motion slope's mode is taken over
 VELOCITY_HALF_S = 0.1  # seconds either side of a frame over which its tracked velocity is fitted
 MIN_MOVING = 8  # displacement pairs (or votes) needed before a motion measure says anything
+MAX_SLOPE_VOTES = 200_000  # votes (evenly picked) the motion slope is taken over
 MIN_SLOPE_SUPPORT = 20  # votes that must back the motion slope ...
 SLOPE_SHARE = 0.15  # ... and this share of the moving votes
 
@@ -160,8 +161,9 @@ def motion_slope(camera: Camera, track: Track, clock: np.ndarray, path: Piecewis
     clock = np.asarray(clock, dtype=np.float64)
     half = max(1, round(VELOCITY_HALF_S * fps)) if fps else 2
     velocity = _velocity(clock, track.xy, half)
-    at = np.clip(np.searchsorted(clock, np.asarray(vote_clock, dtype=np.float64)), 0, len(clock) - 1)
-    s = np.asarray(vote_sample, dtype=np.float64)
+    every = max(1, math.ceil(len(vote_clock) / MAX_SLOPE_VOTES))  # a mode needs no more votes: memory and time stay bounded
+    at = np.clip(np.searchsorted(clock, np.asarray(vote_clock[::every], dtype=np.float64)), 0, len(clock) - 1)
+    s = np.asarray(vote_sample[::every], dtype=np.float64)
     run = path.run_of(s)
     ok = (run >= 0) & np.isfinite(velocity[at, 0])
     m = int(ok.sum())

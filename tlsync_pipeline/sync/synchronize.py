@@ -180,9 +180,11 @@ def _judge(name: str, inputs: CameraInput, result: CameraResult, path: Piecewise
     vote_clock = clock.clock_at(votes.frame, times)
     slope = motion_slope(inputs.camera, track, track_clock, path, vote_clock, votes.sample, fps)
     alpha_prior = None if prior is None else prior.alpha
-    support = line_support(votes.sample, vote_clock, line.alpha, line.beta, params.delta)
-    backward = backward_support(votes.sample, vote_clock, votes.dist, params.delta, prior, params.seed) if support < BACKWARD_BELOW else None
-    checks = judge_line(inputs.camera, track, track_clock, path, line, params.eps_px, fps, alpha_prior, slope, (support, backward))
+    thin = line.line_search.support_frames if line.line_search is not None else line_support(votes.sample, vote_clock, line.alpha, line.beta, params.delta)
+    support: tuple[int, int | None] = (thin, None)
+    if thin < BACKWARD_BELOW:  # a thin line: would the log read backwards explain the votes better?
+        support = (line_support(votes.sample, vote_clock, line.alpha, line.beta, params.delta), backward_support(votes.sample, vote_clock, votes.dist, params.delta, prior, params.seed))
+    checks = judge_line(inputs.camera, track, track_clock, path, line, params.eps_px, fps, alpha_prior, slope, support)
     line = replace(line, checks=checks)
     contradicted = any(r.severity == FAILED for r in checks)
     return replace(result, line=line), Judged(inputs.camera, track, slope, alpha_prior, contradicted)
