@@ -1,7 +1,8 @@
 """Whole-project throughput: `tlsync run` against the decode-only floor of its videos, in the same run.
 
     python bench/project_throughput.py [--quick] [--cameras 4] [--seconds 60] [--size 1920x1080]
-        [--look-alikes 6] [--trackers blob,csrt] [--scene long|textured] [--keep DIR] [--jobs N] [--rounds 1]
+        [--look-alikes 6] [--trackers blob,blob-full,csrt] [--scene long|textured] [--keep DIR] [--jobs N] [--rounds 1]
+        [--workload long-recording|short-720p]
 
 1. Makes a raw project (data_fixtures.raw_project: per camera an H.264 video,
    checkerboard photos and GCPs; a GPX log of the target). The scene renderer
@@ -11,7 +12,11 @@
    the crowd the default tracker is built for); ``textured`` is the tests'
    renderer (data_fixtures.video, slower, no look-alikes). Cameras run at
    30, 25, 50 and 29.97 fps in turn. ``--keep DIR`` keeps the project there and reuses it
-   when the same one is asked for again.
+   when the same one is asked for again. ``--workload`` names one of WORKLOADS
+   instead: ``long-recording`` (3 cameras recording 9 minutes of 720p at the
+   same time, the target in each view for 65 s, about 12 % of the frames,
+   6 look-alikes all the time) or ``short-720p`` (3 cameras, 2,400, 2,000
+   and 1,200 frames, the target in view a third of the time).
 2. Decode-only floor: every video decoded with PyAV (luma plane, FFmpeg's
    own threads as the pipeline uses them), as many processes as cores,
    longest videos first.
@@ -20,8 +25,12 @@
    time per stage (sums of the stage's tasks' own figures from the
    manifests; CPU/run above 1 means FFmpeg's decoding threads overlap the
    Python tracker), the run's worst eps_t against the project's truth (a
-   fast run that found a look-alike is no result), and a cached re-run
-   (nothing to do).
+   fast run that found a look-alike is no result), the frames it decoded
+   (keyframes of the coarse pass and frames of the track stage, from
+   timeline.json; the cameras read whole and why), and a cached re-run
+   (nothing to do). A kind "<kind>-full" runs with ``[track] scan =
+   "full"`` (every frame read): the runs of that kind also give their
+   worst pair against it.
 4. ``--rounds N``: N - 1 more rounds of the floor and a fresh run of each
    tracker, in turn, and each run's ratios to its round's floor with their
    median: on a shared machine one round's ratios move by 0.1-0.3.
@@ -74,11 +83,21 @@ def _scenes():
 
 @dataclass(frozen=True)
 class Workload:
+    """cameras, seconds (each video), size, scene renderer and look-alikes per view; fps: per camera (default FPS_CYCLE).
+
+    starts_s: the cameras record at the same time, each starting at these
+    seconds of the log (None: one after the other, each sharing the target
+    with the next); stay_s: then the target stays in each view for at most
+    this long (None: the cameras share its time equally)."""
+
     cameras: int
     seconds: float
     size: tuple[int, int]
     scene: str
     look_alikes: int = 0
+    stay_s: float | None = None
+    starts_s: tuple[float, ...] | None = None
+    fps: tuple[float, ...] = FPS_CYCLE
 
     def renderer(self):
         """The scene renderer for make_raw_project."""
@@ -86,15 +105,27 @@ class Workload:
         return functools.partial(render, look_alikes=self.look_alikes) if self.look_alikes else render
 
     def spec(self) -> RawProjectSpec:
-        """Cameras at FPS_CYCLE rates; each video ``seconds`` long, its target window starting a little after its start."""
+        """Cameras at FPS_CYCLE rates; each video ``seconds`` long; see the class docstring for when they record."""
         lines, n_frames = [], []
         for k in range(self.cameras):
-            fps = FPS_CYCLE[k % len(FPS_CYCLE)]
+            fps = self.fps[k % len(self.fps)]
             alpha = fps / TARGET_RATE
             n = int(round(self.seconds * fps))
-            lines.append((alpha, -alpha * (k * self.seconds * TARGET_RATE) + 0.1 * n))
+            if self.starts_s is not None:
+                lines.append((alpha, -fps * self.starts_s[k % len(self.starts_s)]))
+            else:
+                lines.append((alpha, -alpha * (k * self.seconds * TARGET_RATE) + 0.1 * n))
             n_frames.append(n)
-        return RawProjectSpec(lines=tuple(lines), n_frames=tuple(n_frames), image_size=self.size, target_rate=TARGET_RATE, boards=8, gcps=8)
+        window = self.stay_s * TARGET_RATE if self.stay_s is not None else None
+        return RawProjectSpec(lines=tuple(lines), n_frames=tuple(n_frames), image_size=self.size, target_rate=TARGET_RATE, boards=8, gcps=8, window_samples=window)
+
+
+# Named workloads (--workload): the long recording of issue 26 (the target in view about 12 % of each video, look-alikes
+# all the time) and the short 720p project in which it is in view in a third of the frames.
+WORKLOADS = {
+    "long-recording": Workload(cameras=3, seconds=540.0, size=(1280, 720), scene="long", look_alikes=6, stay_s=65.0, starts_s=(-20.0, 15.0, 40.0)),
+    "short-720p": Workload(cameras=3, seconds=80.0, size=(1280, 720), scene="long", look_alikes=6, starts_s=(0.0, 2.0, 4.0), fps=(30.0, 25.0, 15.0)),
+}
 
 
 QUICK = Workload(cameras=2, seconds=10.0, size=(320, 240), scene="textured")
@@ -205,7 +236,35 @@ def tlsync_run(project: Path, work: Path, jobs: int, code: Path = REPOSITORY) ->
         raise SystemExit(f"tlsync run failed (exit {done.returncode}):\n{done.stdout}\n{done.stderr}")
     peak = max((float(line.split()[1]) for line in done.stderr.splitlines() if line.startswith("peak-rss-mb ")), default=0.0)
     missed = [line for line in done.stdout.splitlines() if line.startswith("not synchronized")]
-    return Measure(wall, _children_cpu() - cpu, (load, os.getloadavg()[0]), peak, missed + [worst_error(project.parent, work)])
+    return Measure(wall, _children_cpu() - cpu, (load, os.getloadavg()[0]), peak, missed + [worst_error(project.parent, work), frames_decoded(work)])
+
+
+def frames_decoded(work: Path) -> str:
+    """What the run decoded, from timeline.json's per-camera ``scan``: keyframes and frames against the videos' frames."""
+    timeline_file = work / "timeline.json"
+    if not timeline_file.exists():
+        return "frames decoded: no timeline.json"
+    scans = {name: line.scan for name, line in read_timeline(timeline_file).cameras.items() if line.scan is not None}
+    if not scans:
+        return "frames decoded: not recorded"
+    frames = sum(s.frames for s in scans.values())
+    keys, decoded = sum(s.keyframes_decoded for s in scans.values()), sum(s.frames_decoded for s in scans.values())
+    full = [f"{name} ({s.reason})" for name, s in scans.items() if s.mode == "full"]
+    return f"decoded {keys} keyframes + {decoded} frames = {(keys + decoded) / frames:.1%} of {frames} frames" + (f"; every frame: {', '.join(full)}" if full else "")
+
+
+def against_full_pass(work: Path, full: Path, n_frames: dict[str, int]) -> str:
+    """The worst pair of the run against the same project's full pass (every frame read): eps_t, frames."""
+    a_file, b_file = work / "timeline.json", full / "timeline.json"
+    if not (a_file.exists() and b_file.exists()):
+        return "against the full pass: a timeline is missing"
+    run, reference = read_timeline(a_file), read_timeline(b_file)
+    names = [n for n in reference.names if n in run.names]
+    errors = {f"{a}->{b}": eps_t(run.relation(a, b), reference.relation(a, b), n_frames[a]) for a in names for b in names if a != b}
+    if not errors:
+        return "against the full pass: no pair in both"
+    key = max(errors, key=errors.get)
+    return f"against the full pass (every frame read): worst eps_t {errors[key]:.4f} frame ({key}; {len(errors)} pairs)"
 
 
 def worst_error(folder: Path, work: Path) -> str:
@@ -233,20 +292,23 @@ def stage_seconds(work: Path) -> dict[str, tuple[float, float, int]]:
     return out
 
 
-def with_tracker(project: Path, kind: str, folder: Path) -> Path:
+def with_tracker(project: Path, variant: str, folder: Path) -> Path:
     """A copy of project.toml (same folder, so relative paths hold) with every camera's tracker kind set.
 
-    CSRT, which follows one target from a box, starts from INIT_BOXES: the
-    default tracker finds the target among the look-alikes by itself.
+    variant: the kind, or "<kind>-full" for ``[track] scan = "full"`` (every
+    frame read, no coarse pass). CSRT, which follows one target from a box,
+    starts from INIT_BOXES: the default tracker finds the target among the
+    look-alikes by itself.
     """
+    kind, _, scan = variant.partition("-")
     boxes = json.loads((folder / INIT_BOXES).read_text()) if kind == "csrt" and (folder / INIT_BOXES).exists() else {}
     blocks = project.read_text().split("[[cameras]]")
     for k, block in enumerate(blocks[1:], start=1):
         name = re.search(r'name = "([^"]+)"', block).group(1)
         start = f"\ninit = {boxes[name][1]}\ninit_frame = {boxes[name][0]}" if name in boxes else ""
         blocks[k] = re.sub(r'kind = "\w+"', lambda _: f'kind = "{kind}"{start}', block)
-    text = "[[cameras]]".join(blocks)
-    out = folder / f"project_{kind}.toml"
+    text = "[[cameras]]".join(blocks) + (f'\n[track]\nscan = "{scan}"\n' if scan else "")
+    out = folder / f"project_{variant}.toml"
     out.write_text(text)
     return out
 
@@ -254,19 +316,25 @@ def with_tracker(project: Path, kind: str, folder: Path) -> Path:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--quick", action="store_true", help="CI-size inputs (2 cameras, 320x240, 10 s)")
+    parser.add_argument("--workload", choices=sorted(WORKLOADS), help="a named workload (WORKLOADS) instead of --cameras, --seconds, --size, --scene, --look-alikes")
     parser.add_argument("--cameras", type=int, default=4)
     parser.add_argument("--seconds", type=float, default=60.0, help="length of each camera's video")
     parser.add_argument("--size", default="1920x1080")
     parser.add_argument("--scene", default="long", choices=sorted(_scenes()))
     parser.add_argument("--look-alikes", type=int, default=6, help="discs like the target wandering each view (scene 'long')")
-    parser.add_argument("--trackers", default="blob,csrt")
+    parser.add_argument("--trackers", default="blob,blob-full,csrt", help='tracker kinds; "<kind>-full": with [track] scan = "full" (every frame read), the reference of the runs of that kind')
     parser.add_argument("--keep", type=Path, help="make (or reuse) the project in this folder")
     parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1)
     parser.add_argument("--compare", type=Path, help="also run the tlsync of this source tree (e.g. a `git archive` of main), for before/after in one session")
     parser.add_argument("--rounds", type=int, default=1, help="rounds of the floor and a fresh run of each tracker, in turn (ratios and their median)")
     args = parser.parse_args()
     width, height = (int(v) for v in args.size.lower().split("x"))
-    workload = QUICK if args.quick else Workload(args.cameras, args.seconds, (width, height), args.scene, args.look_alikes if args.scene == "long" else 0)
+    if args.quick:
+        workload = QUICK
+    elif args.workload:
+        workload = WORKLOADS[args.workload]
+    else:
+        workload = Workload(args.cameras, args.seconds, (width, height), args.scene, args.look_alikes if args.scene == "long" else 0)
     cores = args.jobs
     with tempfile.TemporaryDirectory(prefix="tlsync-throughput-") as tmp:
         folder = args.keep or Path(tmp) / "project"
@@ -288,6 +356,10 @@ def main() -> None:
                 stages[kind + suffix] = stage_seconds(work)
                 again = tlsync_run(variant, work, cores, code)
                 rows += [(f"tlsync run, {kind}{suffix}", run, kind), (f"cached re-run, {kind}{suffix}", again, None)]
+        n_frames = {name: int(v) for name, v in json.loads((folder / "truth.json").read_text())["n_frames"].items()}
+        for name, measure, kind in rows:
+            if kind and not kind.endswith("-full") and (Path(tmp) / f"work_{kind}-full").exists():
+                measure.notes.append(against_full_pass(Path(tmp) / f"work_{kind}", Path(tmp) / f"work_{kind}-full", n_frames))
         ratios = {name: [(m.wall / floor.wall, m.cpu / floor.cpu)] for name, m, kind in rows if kind}
         for round_ in range(2, args.rounds + 1):
             again_floor, _ = decode_floor(videos, cores)
@@ -297,7 +369,7 @@ def main() -> None:
                     run = tlsync_run(folder / f"project_{kind}.toml", work, cores, code)
                     shutil.rmtree(work, ignore_errors=True)
                     ratios[f"tlsync run, {kind}{suffix}"].append((run.wall / again_floor.wall, run.cpu / again_floor.cpu))
-                    print(f"round {round_}: {kind}{suffix} {run.wall / again_floor.wall:.2f}x wall, {run.cpu / again_floor.cpu:.2f}x CPU (floor {again_floor.wall:.1f} s wall, {again_floor.cpu:.1f} s CPU); {run.notes[-1]}", flush=True)
+                    print(f"round {round_}: {kind}{suffix} {run.wall / again_floor.wall:.2f}x wall, {run.cpu / again_floor.cpu:.2f}x CPU (floor {again_floor.wall:.1f} s wall, {again_floor.cpu:.1f} s CPU); {'; '.join(run.notes[-2:])}", flush=True)
         print(f"\n{'':38} {'wall s':>7} {'x floor':>7} {'CPU s':>7} {'x floor':>7} {'CPU use':>7} {'peak MB':>7} {'load':>10}")
         for name, m, _ in rows:
             peak = f"{m.peak_mb:7.0f}" if m.peak_mb else " " * 7

@@ -5,6 +5,12 @@ camera coordinates are X_cam = R @ X_world + t (OpenCV: x right, y down,
 z forward); pixels have their origin at the centre of the top-left pixel;
 ``dist`` is OpenCV's order (k1, k2, p1, p2[, k3[, k4, k5, k6]]) for the
 ``opencv`` model, or (k1, k2, k3, k4) for the ``fisheye`` model.
+
+A camera.json without a pose (no R, t) is a camera whose pose is to be
+estimated (from the target); one without K either, a camera whose
+intrinsics are to be estimated too (``Camera.to_estimate``). Such a camera
+cannot project until they are. ``pose`` in camera.json says where a pose
+comes from and how good it is (``PoseInfo``).
 """
 
 from __future__ import annotations
@@ -29,6 +35,48 @@ OUTSIDE_MARGIN = 0.5
 MAX_IMAGE_SIDE = 100_000  # pixels: no camera's image is wider or higher
 CENTRE_SLACK = 0.45  # the principal point lies within this fraction of the image's size from its centre
 
+POSE_SOURCES = ("gcp", "board", "target", "gcp+target")
+GUESSED_FOCAL = 1.0  # focal length of a camera without K, in image widths (about 53 degrees across): the search's start
+
+
+@dataclass(frozen=True)
+class PoseInfo:
+    """Where a camera's pose comes from and how good it is (``pose`` in camera.json).
+
+    source: one of POSE_SOURCES; center_std_m: one-sigma uncertainty of the
+    camera centre (metres); rotation_std_deg: of its rotation (degrees)
+    (None: not known); for_3d: False when the pose serves timing but not 3D
+    (fitted to a log whose error is metre-level, which the pose absorbs);
+    note: what the user should know, or "".
+    """
+
+    source: str
+    center_std_m: float | None = None
+    rotation_std_deg: float | None = None
+    for_3d: bool = True
+    note: str = ""
+
+    def to_dict(self) -> dict:
+        out: dict = {"source": self.source, "center_std_m": self.center_std_m, "rotation_std_deg": self.rotation_std_deg, "for_3d": self.for_3d}
+        if self.note:
+            out["note"] = self.note
+        return out
+
+    @classmethod
+    def from_dict(cls, data, source: str) -> PoseInfo:
+        if not isinstance(data, dict) or data.get("source") not in POSE_SOURCES:
+            raise CalibrationInputError(f"{source}: field 'pose': expected an object with 'source' one of {', '.join(POSE_SOURCES)}, got {data!r}")
+        values = {}
+        for key in ("center_std_m", "rotation_std_deg"):
+            value = data.get(key)
+            if value is not None and (isinstance(value, bool) or not isinstance(value, (int, float)) or value < 0):
+                raise CalibrationInputError(f"{source}: field 'pose.{key}': expected a non-negative number or null, got {value!r}")
+            values[key] = None if value is None else float(value)
+        for_3d = data.get("for_3d", True)
+        if not isinstance(for_3d, bool):
+            raise CalibrationInputError(f"{source}: field 'pose.for_3d': expected true or false, got {for_3d!r}")
+        return cls(data["source"], values["center_std_m"], values["rotation_std_deg"], for_3d, str(data.get("note", "")))
+
 
 @dataclass(frozen=True)
 class Camera:
@@ -36,7 +84,10 @@ class Camera:
 
     K: 3x3 intrinsics (pixels); dist: distortion coefficients; R: 3x3 rotation
     world->camera; t: translation (metres); image_size: (width, height) in
-    pixels; fps: nominal frame rate (frames per second) or None.
+    pixels; fps: nominal frame rate (frames per second) or None;
+    to_estimate: what the camera does not know yet, "pose" (R is the
+    identity and t zero until then) and "intrinsics" (K a guess);
+    pose_info: where the pose comes from and how good it is, or None.
     """
 
     name: str
@@ -48,6 +99,13 @@ class Camera:
     fps: float | None = None
     dist_model: str = "opencv"
     extra: dict = field(default_factory=dict, compare=False)
+    to_estimate: tuple[str, ...] = ()
+    pose_info: PoseInfo | None = None
+
+    @property
+    def posed(self) -> bool:
+        """Whether the camera has a pose (it can project)."""
+        return "pose" not in self.to_estimate
 
     @property
     def rvec(self) -> np.ndarray:
@@ -66,6 +124,8 @@ class Camera:
         that is False for points behind the camera or far outside the image
         (see OUTSIDE_MARGIN); uv is NaN where valid is False.
         """
+        if not self.posed:
+            raise ValueError(f"camera {self.name}: its pose is still to be estimated; it cannot project")
         points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
         cam = points @ self.R.T + self.t
         z = cam[:, 2]
@@ -96,14 +156,15 @@ class Camera:
 
     def to_dict(self) -> dict:
         """The ``camera.json`` content (contract in docs/formats.md)."""
-        out = {
-            "name": self.name,
-            "K": self.K.tolist(),
-            "dist": self.dist.tolist(),
-            "R": self.R.tolist(),
-            "t": self.t.tolist(),
-            "image_size": list(self.image_size),
-        }
+        out: dict = {"name": self.name}
+        if "intrinsics" not in self.to_estimate:
+            out["K"] = self.K.tolist()
+        out["dist"] = self.dist.tolist()
+        if self.posed:
+            out.update(R=self.R.tolist(), t=self.t.tolist())
+        out["image_size"] = list(self.image_size)
+        if self.pose_info is not None:
+            out["pose"] = self.pose_info.to_dict()
         if self.dist_model != "opencv":
             out["dist_model"] = self.dist_model
         if self.fps is not None:
@@ -117,27 +178,40 @@ class Camera:
 
         Accepts ``K`` + ``dist`` + (``R`` + ``t`` | ``rvec`` + ``tvec``), or a
         3x4 ``P`` (decomposed into K, R, t; no distortion unless ``dist``).
-        Raises CalibrationInputError naming ``source`` and the field.
+        Without any pose field the pose is to be estimated; without K
+        either, the intrinsics too (K is then a guess: GUESSED_FOCAL image
+        widths, the principal point at the centre). Raises
+        CalibrationInputError naming ``source`` and the field.
         """
         if not isinstance(data, dict):
             raise CalibrationInputError(f"{source}: expected a JSON object, got {type(data).__name__}")
-        known = {"name", "K", "dist", "R", "t", "rvec", "tvec", "P", "image_size", "fps", "dist_model"}
+        known = {"name", "K", "dist", "R", "t", "rvec", "tvec", "P", "image_size", "fps", "dist_model", "pose"}
         extra = {k: v for k, v in data.items() if k not in known}
         dist_model = data.get("dist_model", "opencv")
         if dist_model not in DISTORTION_MODELS:
             raise CalibrationInputError(
                 f"{source}: field 'dist_model': expected one of {', '.join(DISTORTION_MODELS)}, got {dist_model!r}"
             )
+        to_estimate: tuple[str, ...] = ()
+        image_size = _image_size(data, source)
         if "P" in data:
             if "K" in data or "R" in data:
                 raise CalibrationInputError(f"{source}: give either 'P' or 'K' with 'R'/'rvec', not both")
             K, R, t = _decompose_projection(_matrix(data, "P", (3, 4), source), source)
         else:
-            K = _matrix(data, "K", (3, 3), source)
-            R, t = _pose(data, source)
+            if not any(k in data for k in ("R", "t", "rvec", "tvec")):
+                to_estimate = ("pose",)
+                R, t = np.eye(3), np.zeros(3)
+            else:
+                R, t = _pose(data, source)
+            if "K" not in data and to_estimate:
+                to_estimate = ("pose", "intrinsics")
+                w, h = image_size
+                K = np.array([[GUESSED_FOCAL * w, 0.0, (w - 1) / 2], [0.0, GUESSED_FOCAL * w, (h - 1) / 2], [0.0, 0.0, 1.0]])
+            else:
+                K = _matrix(data, "K", (3, 3), source)
         _check_intrinsics(K, source)
         dist = _distortion(data.get("dist", [0.0] * 5), dist_model, source)
-        image_size = _image_size(data, source)
         _check_principal_point(K, image_size, source)
         fps = data.get("fps")
         if fps is not None:
@@ -145,7 +219,8 @@ class Camera:
         cam_name = name if name is not None else data.get("name", Path(source).stem)
         if not isinstance(cam_name, str) or not cam_name:
             raise CalibrationInputError(f"{source}: field 'name': expected a non-empty string")
-        return cls(cam_name, K, dist, R, t, image_size, fps, dist_model, extra)
+        pose_info = PoseInfo.from_dict(data["pose"], source) if data.get("pose") is not None else None
+        return cls(cam_name, K, dist, R, t, image_size, fps, dist_model, extra, to_estimate, pose_info)
 
 
 def read_camera(path: str | Path, name: str | None = None) -> Camera:

@@ -303,8 +303,8 @@ class Intrinsics:
     methods: dict[str, str]  # used view -> detector that found it
 
     def camera(self, name: str = "camera", fps: float | None = None) -> Camera:
-        """An intrinsics-only Camera: identity R and zero t (the pose comes from GCPs or a board); ``rms`` kept in extra."""
-        return Camera(name, self.K.copy(), self.dist.copy(), np.eye(3), np.zeros(3), self.image_size, fps, self.dist_model, {"rms": self.rms})
+        """An intrinsics-only Camera: its pose to estimate (from GCPs, a board or the target; camera.json without R, t); ``rms`` kept in extra."""
+        return Camera(name, self.K.copy(), self.dist.copy(), np.eye(3), np.zeros(3), self.image_size, fps, self.dist_model, {"rms": self.rms}, ("pose",))
 
     def to_report(self) -> dict:
         """JSON-ready summary: camera, RMS, per-view errors, used and rejected images with reasons."""

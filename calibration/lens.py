@@ -30,3 +30,25 @@ def undistort_pixels(uv, K: np.ndarray, dist: np.ndarray, dist_model: str, P: np
     if dist_model == "fisheye":
         return cv2.fisheye.undistortPoints(pts, K, dist, None, None, P, _UNDISTORT_CRITERIA).reshape(-1, 2)
     return cv2.undistortPoints(pts, K, dist, None, None, P, _UNDISTORT_CRITERIA).reshape(-1, 2)
+
+
+def project_with_jacobian(points, rvec, tvec, K: np.ndarray, dist: np.ndarray, dist_model: str) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """Pixels (N, 2) of 3D points (N, 3) and their Jacobians, (N, 2, k) blocks by parameter.
+
+    Blocks: ``rvec`` (3), ``tvec`` (3; also d pixel / d camera-frame point),
+    ``f`` (fx, fy), ``c`` (cx, cy), ``dist`` (the model's coefficients).
+    OpenCV's projectPoints and fisheye.projectPoints give them analytically.
+    """
+    pts = np.asarray(points, dtype=np.float64).reshape(-1, 1, 3)
+    rvec = np.asarray(rvec, dtype=np.float64).reshape(3, 1)
+    tvec = np.asarray(tvec, dtype=np.float64).reshape(3, 1)
+    n = len(pts)
+    if dist_model == "fisheye":
+        uv, jac = cv2.fisheye.projectPoints(pts, rvec, tvec, K, dist)
+        jac = jac.reshape(n, 2, -1)
+        blocks = {"f": jac[:, :, 0:2], "c": jac[:, :, 2:4], "dist": jac[:, :, 4:8], "rvec": jac[:, :, 8:11], "tvec": jac[:, :, 11:14]}
+    else:
+        uv, jac = cv2.projectPoints(pts, rvec, tvec, K, dist)
+        jac = jac.reshape(n, 2, -1)
+        blocks = {"rvec": jac[:, :, 0:3], "tvec": jac[:, :, 3:6], "f": jac[:, :, 6:8], "c": jac[:, :, 8:10], "dist": jac[:, :, 10:]}
+    return uv.reshape(-1, 2), blocks

@@ -201,12 +201,14 @@ def write_crowd_project(directory: str | Path, spec: CrowdSpec = SMALL) -> tuple
     return project, crowd
 
 
-class _Route:
-    """A ground path walked at a constant speed: position (x, y, centre height) at time t (s).
+class Route:
+    """A path walked (or flown) at a constant speed: position (x, y, centre height) at time t (s).
 
     The path is the waypoints' polyline, cut into pieces of at most 1 m,
     with its corners rounded (Chaikin's corner cutting, four times): turns
-    over about a metre that never swing outside the polyline.
+    over about a metre that never swing outside the polyline. Waypoints
+    (N, 2) are on the ground (the centre at half the walker's ``height``);
+    waypoints (N, 3) give the centre's height themselves (a drone).
     """
 
     def __init__(self, waypoints: np.ndarray, speed: float, height: float):
@@ -215,7 +217,7 @@ class _Route:
         points = np.vstack(pieces + [waypoints[-1:]])
         for _ in range(4):
             a, b = points[:-1], points[1:]
-            cut = np.empty((2 * len(a), 2))
+            cut = np.empty((2 * len(a), points.shape[1]))
             cut[0::2], cut[1::2] = 0.75 * a + 0.25 * b, 0.25 * a + 0.75 * b
             points = np.vstack([points[:1], cut, points[-1:]])
         self.arc = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(points, axis=0), axis=1))]
@@ -231,6 +233,9 @@ class _Route:
     def at(self, t: np.ndarray) -> np.ndarray:
         """Body centre (N, 3), metres."""
         g = self.ground(t)
+        if self.points.shape[1] == 3:
+            d = np.clip(np.asarray(t, dtype=np.float64) * self.speed, 0.0, self.arc[-1])
+            return np.column_stack([g, np.interp(d, self.arc, self.points[:, 2])])
         return np.column_stack([g, np.full(len(g), self.height / 2)])
 
 
@@ -253,7 +258,7 @@ def _patch_point(rng, yaw: float, near: np.ndarray | None = None) -> np.ndarray:
             return point
 
 
-def _target_route(rng, cameras: dict[str, Camera], yaws: list[float], duration_s: float, speed: float) -> tuple[_Route, list[list[tuple[float, float]]]]:
+def _target_route(rng, cameras: dict[str, Camera], yaws: list[float], duration_s: float, speed: float) -> tuple[Route, list[list[tuple[float, float]]]]:
     """The target's waypoints: visits of about VISIT_S seconds to each camera's patch in turn, for ``duration_s`` in all.
 
     Between visits it leaves the view it is in (crossing the narrow gap
@@ -263,7 +268,7 @@ def _target_route(rng, cameras: dict[str, Camera], yaws: list[float], duration_s
     """
     points: list[np.ndarray] = [_to_world(yaws[0], np.array([0.0, 2.5]))]
     visit = 0
-    while _Route(np.array(points), speed, TARGET_HEIGHT_M).duration < duration_s + 2.0:
+    while Route(np.array(points), speed, TARGET_HEIGHT_M).duration < duration_s + 2.0:
         k = visit % len(yaws)
         stay: list[np.ndarray] = [_patch_point(rng, yaws[k])]
         length = 0.0  # walked inside the patch
@@ -273,7 +278,7 @@ def _target_route(rng, cameras: dict[str, Camera], yaws: list[float], duration_s
             stay.append(nxt)
         points += stay
         visit += 1
-    route = _Route(np.array(points), speed, TARGET_HEIGHT_M)
+    route = Route(np.array(points), speed, TARGET_HEIGHT_M)
     t = np.arange(0.0, route.duration, 0.1)
     stays = []
     for camera in cameras.values():
@@ -305,7 +310,7 @@ class _Walker:
         return self.start + frac * (self.end - self.start), on
 
 
-def _distractors(rng, yaw: float, route: _Route, stays: list[tuple[float, float]], recording: tuple[float, float], count: int, speed: float) -> list[_Walker]:
+def _distractors(rng, yaw: float, route: Route, stays: list[tuple[float, float]], recording: tuple[float, float], count: int, speed: float) -> list[_Walker]:
     """About ``count`` walkers in view at any time, each crossing the target's route in this camera's patch."""
     if count <= 0:
         return []
@@ -331,7 +336,7 @@ def _distractors(rng, yaw: float, route: _Route, stays: list[tuple[float, float]
     return walkers
 
 
-def _people(camera: Camera, route: _Route, walkers: list[_Walker], t: float) -> list[tuple[float, np.ndarray, float, float, bool]]:
+def _people(camera: Camera, route: Route, walkers: list[_Walker], t: float) -> list[tuple[float, np.ndarray, float, float, bool]]:
     """People at time t, far to near: (depth, ground xy, height, grey, is_target)."""
     out = [(None, route.ground(np.array([t]))[0], route.height, PERSON_GREY, True)]
     for w in walkers:
@@ -359,7 +364,7 @@ def _silhouette(camera: Camera, ground: np.ndarray, height: float):
     return uv[1], (a, b), angle
 
 
-def _frame_truth(camera: Camera, route: _Route, walkers: list[_Walker], times: np.ndarray) -> CameraTruth:
+def _frame_truth(camera: Camera, route: Route, walkers: list[_Walker], times: np.ndarray) -> CameraTruth:
     """Target centre per frame (NaN unless the whole body centre is inside), visibility and people counts."""
     w, h = camera.image_size
     xy = np.full((len(times), 2), np.nan)
@@ -433,7 +438,7 @@ def _lighting(rng, times: np.ndarray) -> np.ndarray:
     return gain * (1.0 - 0.2 * np.clip((t - at) / 1.5, 0.0, 1.0))
 
 
-def _render(path: Path, camera: Camera, route: _Route, walkers: list[_Walker], times: np.ndarray, start_s: float, spec: CrowdSpec, rng) -> None:
+def _render(path: Path, camera: Camera, route: Route, walkers: list[_Walker], times: np.ndarray, start_s: float, spec: CrowdSpec, rng) -> None:
     """Write the camera's H.264 video: background, people far to near, lighting, noise."""
     w, h = camera.image_size
     assert camera.fps is not None, "the crowd's cameras have their frame rates"

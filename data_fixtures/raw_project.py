@@ -5,9 +5,13 @@ views, a target trajectory, each camera's frame = alpha * sample + beta), per
 camera: an H.264 video of the target (data_fixtures.video), checkerboard
 photos taken with that camera's true intrinsics (data_fixtures.checkerboard)
 and a GCP CSV (surveyed world points in the camera's view, as WGS84
-latitude/longitude/height, with their true pixels); for the target: a GPX log
-of its trajectory (data_fixtures.gps_logs). The project file asks tlsync to
-calibrate, track and ingest all of it; truth.json holds the true relations.
+latitude/longitude/height, with their true pixels; their world points
+surveyed with ``gcp_noise_m`` of error per horizontal axis, as a phone or a
+web map gives them, the project then leaving gcp_sigma_m at its default;
+exact GCPs are declared surveyed, SURVEYED_M; no GCP file with ``gcps = 0``:
+the poses then come from the target); for the target: a GPX log of its trajectory
+(data_fixtures.gps_logs). The project file asks tlsync to calibrate, track
+and ingest all of it; truth.json holds the true relations.
 """
 
 from __future__ import annotations
@@ -23,14 +27,17 @@ from tlsync_pipeline.geodesy import Origin, enu_to_geodetic
 ORIGIN = Origin(46.5197, 6.6323, 380.0)
 START_UTC = 1_750_000_000.0  # POSIX seconds of target sample 0
 PATTERN = (7, 5)  # inner corners
+SURVEYED_M = 0.02  # what the project says of exact GCPs: an RTK survey
 SQUARE_M = 0.04
 
 
 @dataclass(frozen=True)
 class RawProjectSpec:
-    """What to generate: lines (alpha, beta) per camera, frames per camera, image size, target rate (Hz);
+    """What to generate: lines (alpha, beta) per camera, frames per camera, image size, target rate (Hz), checkerboard
+    photos and GCPs per camera (0: no GCP file), the GCPs' survey error (metres per horizontal axis), seed;
     recorded_zone_s: the videos carry the recording time a phone writes (its true start, whole seconds, in
-    this time zone: local - UTC, s), None for none."""
+    this time zone: local - UTC, s), None for none; window_samples: longest stay of the target in each
+    camera's zone (samples; None: its whole share, see data_fixtures.scene.make_scene)."""
 
     lines: tuple[tuple[float, float], ...] = ((3.0, 300.0), (2.5, -150.0), (1.5, 200.0))
     n_frames: tuple[int, ...] = (900, 750, 450)
@@ -39,6 +46,8 @@ class RawProjectSpec:
     boards: int = 10
     gcps: int = 8
     seed: int = 0
+    gcp_noise_m: float = 0.0
+    window_samples: float | None = None
     recorded_zone_s: float | None = 7200.0
 
 
@@ -62,13 +71,15 @@ def make_raw_project(directory: str | Path, spec: RawProjectSpec = RawProjectSpe
     render = render or render_camera_video
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
-    scene = make_scene(spec.seed, spec.lines, spec.n_frames, target_rate=spec.target_rate, image_size=spec.image_size)
+    scene = make_scene(spec.seed, spec.lines, spec.n_frames, target_rate=spec.target_rate, image_size=spec.image_size, window_samples=spec.window_samples)
     rng = np.random.default_rng(spec.seed + 1)
     write_gpx_log(directory / "target.gpx", scene.true_trajectory, ORIGIN, START_UTC)
     parts = [
         "# Made by `tlsync demo`: raw videos, checkerboard photos, GCPs and a GPX log.\n"
         f'[target]\nlog = "target.gpx"\norigin = [{ORIGIN.lat}, {ORIGIN.lon}, {ORIGIN.alt}]\n'
     ]
+    if spec.gcps and not spec.gcp_noise_m:
+        parts.append(f"[calibration]\ngcp_sigma_m = {SURVEYED_M}  # the GCPs are surveyed (RTK); a phone's or a web map's: leave the default\n")
     for k, (name, camera) in enumerate(scene.true_cameras.items()):
         folder = directory / name
         say(f"{name}: video ({scene.n_frames[name]} frames at {camera.fps:g} fps)")
@@ -84,10 +95,14 @@ def make_raw_project(directory: str | Path, spec: RawProjectSpec = RawProjectSpe
             seed=spec.seed + 10 + k, n_full=spec.boards, n_cut=1, n_absent=1, image_size=camera.image_size, pattern=PATTERN, square=SQUARE_M, K=camera.K, dist=camera.dist
         )
         write_checkerboards(boards, folder / "boards")
-        _write_gcps(folder / "gcp.csv", camera, scene, name, spec.gcps, rng)
+        gcp_line = ""
+        if spec.gcps:
+            survey = spec.gcp_noise_m * np.random.default_rng([spec.seed, 7, k]).standard_normal((spec.gcps, 2))
+            _write_gcps(folder / "gcp.csv", camera, scene, name, spec.gcps, rng, survey)
+            gcp_line = f'gcp = "{name}/gcp.csv"\n'
         parts.append(
             f'[[cameras]]\nname = "{name}"\nvideo = "{name}/video.mp4"\nfps = {camera.fps!r}\n'
-            f'[cameras.calibration]\nimages = "{name}/boards/*.png"\npattern = "{PATTERN[0]}x{PATTERN[1]}"\nsquare = {SQUARE_M}\ngcp = "{name}/gcp.csv"\n'
+            f'[cameras.calibration]\nimages = "{name}/boards/*.png"\npattern = "{PATTERN[0]}x{PATTERN[1]}"\nsquare = {SQUARE_M}\n{gcp_line}'
             '[cameras.tracker]\nkind = "blob"\n'
         )
     project = directory / "project.toml"
@@ -103,8 +118,14 @@ def recording_utc(scene: Scene, name: str) -> float:
     return START_UTC + (-line.beta / line.alpha) / rate
 
 
-def _write_gcps(path: Path, camera, scene: Scene, name: str, count: int, rng) -> None:
-    """``count`` surveyed points spread over the camera's image, at the depths where the target moves: u,v,lat,lon,alt."""
+def _write_gcps(path: Path, camera, scene: Scene, name: str, count: int, rng, survey: np.ndarray | None = None) -> None:
+    """``count`` surveyed points spread over the camera's image, at the depths where the target moves: u,v,lat,lon,alt.
+
+    The pixels are the points' true projections; their world positions are
+    off by ``survey`` (count, 2: metres east and north; drawn by the caller
+    from a generator of its own, so the scene and the other files stay the
+    same at every noise level).
+    """
     line = scene.lines[name]
     samples = np.clip(np.round((scene.tracks[name].frame - line.beta) / line.alpha).astype(int), 0, len(scene.true_trajectory) - 1)
     depth = (scene.true_trajectory.xyz[samples] @ camera.R.T + camera.t)[:, 2]
@@ -120,7 +141,10 @@ def _write_gcps(path: Path, camera, scene: Scene, name: str, count: int, rng) ->
     world = np.array(rays)
     uv, valid = camera.project(world)
     keep = valid & camera.in_image(uv)
-    geo = enu_to_geodetic(world[keep], ORIGIN)
+    surveyed = world.copy()
+    if survey is not None:
+        surveyed[:, :2] += survey[: len(world)]
+    geo = enu_to_geodetic(surveyed[keep], ORIGIN)
     rows = ["name,u,v,lat,lon,alt"]
     rows += [f"P{i + 1},{p[0]:.2f},{p[1]:.2f},{lat:.8f},{lon:.8f},{alt:.3f}" for i, (p, (lat, lon, alt)) in enumerate(zip(uv[keep], geo))]
     path.write_text("\n".join(rows) + "\n", encoding="utf-8")

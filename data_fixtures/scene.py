@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import cv2
@@ -40,6 +40,8 @@ ZONE_HALF_WIDTH_M = 7.0
 WAYPOINT_EVERY = 20  # samples between random waypoints inside a zone
 WAYPOINT_STEP_M = 5.0  # metres between consecutive waypoints
 TRANSIT_SAMPLES = 8  # samples kept free between two cameras' windows
+REST_SPEED_M = WAYPOINT_STEP_M / WAYPOINT_EVERY  # metres per sample on the way to and from the rest point
+REST_EVERY = 100  # samples between waypoints while the target rests, out of every view
 
 
 @dataclass
@@ -83,6 +85,7 @@ def make_scene(
     hover_fraction: float = 0.0,
     crossings: int = 0,
     frame_time_jitter: float = 0.0,
+    window_samples: float | None = None,
 ) -> Scene:
     """Build a deterministic scene: one camera per (alpha, beta) in ``lines``.
 
@@ -95,15 +98,19 @@ def make_scene(
     frame_time_jitter: each frame interval is (1 + U(-j, j)) / fps, so the
     presentation times (track time_s) drift; lines then map samples to the
     camera clock in frame units, time_s * fps.
+    window_samples: longest stay in each camera's zone (samples), centred in
+    the share of the videos it would have had; between stays the target
+    walks to the scene's centre, behind every camera, and rests there (a long
+    recording in which it crosses each view once).
     """
     rng = np.random.default_rng(seed)
     names = [f"cam{k}" for k in range(len(lines))]
     counts = [n_frames] * len(lines) if isinstance(n_frames, int) else list(n_frames)
     relations = {n: Relation(float(a), float(b)) for n, (a, b) in zip(names, lines)}
-    windows = _visibility_windows(relations, dict(zip(names, counts)))
+    windows = _visibility_windows(relations, dict(zip(names, counts)), window_samples)
     n_samples = int(math.ceil(max(w[1] for w in windows.values()))) + 2 * TRANSIT_SAMPLES
     zones = {n: _zone_centre(k, len(names)) for k, n in enumerate(names)}
-    spline = _trajectory_spline(rng, windows, zones, n_samples, crossings)
+    spline = _trajectory_spline(rng, windows, zones, n_samples, crossings, rest=window_samples is not None)
     if hover_fraction > 0:
         spline = _Hovering(spline, windows, hover_fraction)
     samples = np.arange(n_samples, dtype=np.float64)
@@ -141,11 +148,12 @@ def make_scene(
     )
 
 
-def write_scene(scene: Scene, directory: str | Path) -> Path:
+def write_scene(scene: Scene, directory: str | Path, poses: bool = True) -> Path:
     """Write the scene as a project folder; returns the path of project.toml.
 
     Layout: project.toml, trajectory.csv, truth.json, and camK/camera.json +
-    camK/track.csv per camera.
+    camK/track.csv per camera. poses: False writes each camera.json without
+    R, t (K, dist, image_size only): the poses are then to come from the target.
     """
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
@@ -153,7 +161,7 @@ def write_scene(scene: Scene, directory: str | Path) -> Path:
     parts = ['[target]\ntrajectory = "trajectory.csv"\n']
     for name, camera in scene.cameras.items():
         (directory / name).mkdir(exist_ok=True)
-        write_camera(camera, directory / name / "camera.json")
+        write_camera(camera if poses else replace(camera, to_estimate=("pose",)), directory / name / "camera.json")
         write_track(scene.tracks[name], directory / name / "track.csv")
         parts.append(
             f'[[cameras]]\nname = "{name}"\ncamera = "{name}/camera.json"\ntrack = "{name}/track.csv"\nfps = {camera.fps!r}\n'
@@ -176,11 +184,12 @@ def write_truth(scene: Scene, directory: Path) -> None:
     (directory / "truth.json").write_text(json.dumps(truth, indent=1) + "\n", encoding="utf-8")
 
 
-def _visibility_windows(relations: dict[str, Relation], counts: dict[str, int]) -> dict[str, tuple[float, float]]:
+def _visibility_windows(relations: dict[str, Relation], counts: dict[str, int], longest: float | None = None) -> dict[str, tuple[float, float]]:
     """Disjoint sample intervals, one per camera, inside the samples its video covers.
 
     Cameras are served earliest coverage end first; each takes an equal share
-    of what is left of its coverage with the cameras still waiting for it.
+    of what is left of its coverage with the cameras still waiting for it
+    (with ``longest``: at most that many samples, centred in the share).
     """
     coverage = {}
     for n, rel in relations.items():
@@ -195,6 +204,9 @@ def _visibility_windows(relations: dict[str, Relation], counts: dict[str, int]) 
         hi = min(coverage[n][1], lo + max(3 * WAYPOINT_EVERY, (coverage[n][1] - lo) / sharing))
         if hi - lo < 3 * WAYPOINT_EVERY:
             raise ValueError(f"camera {n}: its video covers too few target samples apart from the other cameras' ({max(hi - lo, 0):.0f})")
+        if longest is not None and hi - lo > longest:
+            lo = lo + (hi - lo - longest) / 2
+            hi = lo + longest
         windows[n] = (lo, hi)
         cursor = hi
     return windows
@@ -236,16 +248,22 @@ def _anchor(grid: np.ndarray) -> int:
     return int(np.argmin(np.abs(grid - (grid[0] + (grid[-1] - grid[0]) / 3))))
 
 
-def _trajectory_spline(rng, windows, zones, n_samples, crossings: int = 0) -> CubicSpline:
+def _trajectory_spline(rng, windows, zones, n_samples, crossings: int = 0, rest: bool = False) -> CubicSpline:
     """A C2 path that wanders inside each camera's zone during its window.
 
     Inside a zone, waypoints are a random walk of constant step and bounded
     turn (so the target never stops), kept within the zone; heights vary.
     With crossings > 0, the waypoint a third into the window is revisited
-    that many times, evenly spaced over the rest of the window.
+    that many times, evenly spaced over the rest of the window. With rest,
+    the target walks to the scene's centre between stays (``_rest``).
     """
-    times, points = [], []
-    for name, (lo, hi) in sorted(windows.items(), key=lambda item: item[1][0]):
+    times: list[float] = []
+    points: list[list[float]] = []
+    stays = sorted(windows.items(), key=lambda item: item[1][0])
+    for order, (name, (lo, hi)) in enumerate(stays):
+        travel = float(np.linalg.norm(zones[name][:2])) / REST_SPEED_M  # samples between the centre and the zone
+        if rest:
+            _rest(rng, times, points, times[-1] + travel if times else REST_EVERY / 2, lo - travel)
         grid = _waypoint_times(lo, hi)
         count = len(grid)
         position = zones[name][:2] + rng.uniform(-0.5, 0.5, 2) * ZONE_HALF_WIDTH_M
@@ -264,8 +282,17 @@ def _trajectory_spline(rng, windows, zones, n_samples, crossings: int = 0) -> Cu
                 heading = math.atan2(to_centre[1], to_centre[0]) + rng.uniform(-0.5, 0.5)
                 step = WAYPOINT_STEP_M * np.array([math.cos(heading), math.sin(heading)])
             position = position + step
+    if rest and stays:
+        _rest(rng, times, points, times[-1] + travel, n_samples - REST_EVERY / 2)
     knots = np.array([-1.0] + times + [n_samples])
     return CubicSpline(knots, np.array([[0.0, 0.0, 2.0]] + points + [[0.0, 0.0, 2.0]]), axis=0, bc_type="natural")
+
+
+def _rest(rng, times: list, points: list, start: float, stop: float) -> None:
+    """Waypoints near the scene's centre (behind every camera) every REST_EVERY samples in [start, stop); none when the gap is too short."""
+    for t in np.arange(start, stop - WAYPOINT_EVERY, REST_EVERY):
+        times.append(float(t))
+        points.append([*rng.uniform(-2.0, 2.0, 2), 1.5])
 
 
 def _look_at_camera(rng, name, zone, window_points, image_size, fps) -> Camera:

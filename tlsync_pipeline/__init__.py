@@ -1,1 +1,1 @@
-"""tlsync's pipeline: project file, stages (calibrate, track, ingest, vote, sync, render), cache and CLI."""
+"""tlsync's pipeline: project file, stages (calibrate, ingest, scan, track, vote, sync, render), cache and CLI."""

@@ -12,7 +12,7 @@ from trackers.detections import Detections, make_detections
 from trackers.errors import TrackInputError
 from trackers.movers import MoverLinker
 from trackers.track import Track
-from trackers.video import VideoInfo, check_init_box, iter_frames, probe_video, sample_frames
+from trackers.video import DecodeCount, VideoInfo, check_init_box, iter_frames, iter_keyframes, iter_windows, probe_video, sample_frames
 
 KINDS = ("blob", "csrt")
 # Every-mover detection expects crowds: a frame is taken as a global change (skipped) only above this many blobs.
@@ -67,30 +67,96 @@ def track_video(
     return Track(frames, cols[:, 1], cols[:, 2], time_s=cols[:, 0], w=cols[:, 3], h=cols[:, 4], score=cols[:, 5])
 
 
-def detect_movers(path: str | Path, params: dict | None = None, progress: bool = True, label: str | None = None) -> Detections:
+def detect_movers(
+    path: str | Path,
+    params: dict | None = None,
+    progress: bool = True,
+    label: str | None = None,
+    windows: Sequence[tuple[int, int]] | None = None,
+    count: DecodeCount | None = None,
+) -> Detections:
     """Every moving-object candidate of every frame of ``path``, linked into tracklets.
 
     The blob detector's candidates (background subtraction) linked by
     trackers.movers.MoverLinker; params: BlobParams by name; label: the
     progress bar's title. Detections carry time_s (presentation time, s).
+    windows: read only the frames inside these [start, stop) windows
+    (0-based, stop excluded; ``iter_windows``), None: every frame. The
+    background model starts afresh from the video's median at each window
+    (frames 1 apart continue it), so a window's detections do not depend
+    on the frames skipped before it. count: filled with the frames decoded.
     """
     path = Path(path)
     probe_video(path)
-    blob_params = BlobParams.from_dict({"max_candidates": MOVERS_MAX_CANDIDATES, **(params or {})}, f"{path}: tracker parameters")
-    detector = _detector(path, blob_params)
+    blob_params = movers_params(path, params)
+    background = _background(path, blob_params)
     linker = MoverLinker(blob_params)
+    if windows is None:
+        frames = iter_frames(path, gray=True, progress=progress, desc=label)
+    else:
+        frames = iter_windows(path, windows, gray=True, progress=progress, desc=label, count=count)
     rows = []
-    for index, time_s, gray in iter_frames(path, gray=True, progress=progress, desc=label):
+    detector, last = None, -2
+    for index, time_s, gray in frames:
+        if detector is None or index != last + 1:
+            detector = BlobDetector(*background)
+        last = index
         for tracklet, blob, score in linker.step(index, detector.detect(gray)):
             rows.append((index, time_s, tracklet, blob.x, blob.y, blob.w, blob.h, score))
+        if windows is None and count is not None:
+            count.decoded += 1
+            count.yielded += 1
     return make_detections(rows)
+
+
+def detect_keyframe_movers(
+    path: str | Path,
+    params: dict | None = None,
+    count: DecodeCount | None = None,
+    indices: Sequence[int] | None = None,
+    first_id: int = 0,
+    detector: BlobDetector | None = None,
+) -> Detections:
+    """Every moving-object candidate of every keyframe (or of those at frame ``indices``) of ``path`` (``iter_keyframes``): the coarse pass.
+
+    The same detector and background model as ``detect_movers`` (or
+    ``detector``, one ``movers_detector`` made for the video and kept across
+    calls), fed the keyframes only (each decoded alone). Keyframes are too
+    far apart to link movers over, so each candidate is a tracklet of its
+    own (ids from ``first_id`` on). TrackInputError when the video has no
+    packet index.
+    """
+    path = Path(path)
+    if detector is None:
+        detector = movers_detector(path, params)
+    rows: list[tuple] = []
+    for index, time_s, gray in iter_keyframes(path, gray=True, count=count, indices=indices):
+        for blob in detector.detect(gray):
+            rows.append((index, time_s, first_id + len(rows), blob.x, blob.y, blob.w, blob.h, 1.0))
+    return make_detections(rows)
+
+
+def movers_detector(path: str | Path, params: dict | None = None) -> BlobDetector:
+    """The blob detector of every-mover detection for ``path``: its background the median of frames sampled over the video."""
+    path = Path(path)
+    probe_video(path)
+    return BlobDetector(*_background(path, movers_params(path, params)))
+
+
+def movers_params(path: Path, params: dict | None) -> BlobParams:
+    """The blob parameters of every-mover detection: the user's over MOVERS_MAX_CANDIDATES."""
+    return BlobParams.from_dict({"max_candidates": MOVERS_MAX_CANDIDATES, **(params or {})}, f"{path}: tracker parameters")
+
+
+def _background(path: Path, params: BlobParams) -> tuple[np.ndarray, BlobParams, np.ndarray]:
+    """A blob detector's arguments: the median of (luma) frames sampled over the video, the parameters, the deviation."""
+    background, deviation = median_background(sample_frames(path, params.background_frames, gray=True))
+    return background, params, deviation
 
 
 def _detector(path: Path, params: BlobParams) -> BlobDetector:
     """A blob detector whose background is the median of (luma) frames sampled over the video."""
-    frames = sample_frames(path, params.background_frames, gray=True)
-    background, deviation = median_background(frames)
-    return BlobDetector(background, params, deviation)
+    return BlobDetector(*_background(path, params))
 
 
 def _blob_steps(path, info: VideoInfo, params: BlobParams, box, init_frame: int, progress: bool, label: str | None):

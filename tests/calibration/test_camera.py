@@ -4,7 +4,7 @@ import cv2
 import numpy as np
 import pytest
 
-from calibration.camera import Camera, read_camera, write_camera
+from calibration.camera import Camera, PoseInfo, read_camera, write_camera
 from calibration.errors import CalibrationInputError
 
 
@@ -83,3 +83,41 @@ def test_missing_and_invalid_json(tmp_path):
     bad.write_text('{"K": [1, 2,\n')
     with pytest.raises(CalibrationInputError, match=r"bad.json:\d+: invalid JSON"):
         read_camera(bad)
+
+
+def test_a_camera_json_without_a_pose_is_a_pose_to_estimate(tmp_path):
+    cam = _camera()
+    data = {"K": cam.K.tolist(), "dist": cam.dist.tolist(), "image_size": [640, 480], "fps": 25}
+    (tmp_path / "c.json").write_text(json.dumps(data))
+    back = read_camera(tmp_path / "c.json")
+    assert not back.posed and back.to_estimate == ("pose",)
+    np.testing.assert_allclose(back.K, cam.K)
+    with pytest.raises(ValueError, match="pose is still to be estimated"):
+        back.project(np.zeros((1, 3)))
+    write_camera(back, tmp_path / "again.json")
+    again = json.loads((tmp_path / "again.json").read_text())
+    assert "R" not in again and "t" not in again and again["K"] == data["K"]  # written back without a pose
+    with pytest.raises(CalibrationInputError, match="missing field 't'"):  # half a pose is still an error
+        Camera.from_dict({**data, "R": np.eye(3).tolist()})
+
+
+def test_a_camera_json_with_the_image_size_only_has_its_intrinsics_to_estimate():
+    back = Camera.from_dict({"image_size": [640, 480]})
+    assert back.to_estimate == ("pose", "intrinsics")
+    assert back.K[0, 0] == 640 and back.K[0, 2] == pytest.approx(319.5)  # a guess: about 53 degrees across, centred
+    assert "K" not in back.to_dict() and "R" not in back.to_dict()
+    with pytest.raises(CalibrationInputError, match="missing field 'K'"):  # with a pose, K is required
+        Camera.from_dict({"image_size": [640, 480], "R": np.eye(3).tolist(), "t": [0, 0, 0]})
+
+
+def test_the_pose_source_and_uncertainty_round_trip(tmp_path):
+    cam = _camera()
+    posed = Camera(cam.name, cam.K, cam.dist, cam.R, cam.t, cam.image_size, cam.fps, pose_info=PoseInfo("gcp+target", 0.03, 0.05, False, "good for timing, not for 3D"))
+    write_camera(posed, tmp_path / "c.json")
+    data = json.loads((tmp_path / "c.json").read_text())
+    assert data["pose"] == {"source": "gcp+target", "center_std_m": 0.03, "rotation_std_deg": 0.05, "for_3d": False, "note": "good for timing, not for 3D"}
+    assert read_camera(tmp_path / "c.json").pose_info == posed.pose_info
+    assert read_camera(tmp_path / "c.json").posed
+    data["pose"] = {"source": "guess"}
+    with pytest.raises(CalibrationInputError, match="field 'pose'"):
+        Camera.from_dict(data)

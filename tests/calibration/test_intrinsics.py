@@ -156,8 +156,8 @@ def test_cli_writes_an_intrinsics_only_camera_json(board_dir, tmp_path, boards):
     import json
 
     data = json.loads(out.read_text())
-    assert {"K", "dist", "image_size", "rms", "R", "t"} <= set(data)
-    assert data["R"] == np.eye(3).tolist() and data["t"] == [0, 0, 0] and data["image_size"] == list(SIZE)
+    assert {"K", "dist", "image_size", "rms"} <= set(data) and not {"R", "t"} & set(data)  # the pose is to be estimated
+    assert data["image_size"] == list(SIZE)
     assert "rejected" in result.output and json.loads((tmp_path / "r.json").read_text())["views_used"] >= 7
 
 

@@ -15,7 +15,7 @@ BENCH = Path(__file__).resolve().parents[2] / "bench" / "project_throughput.py"
 
 
 def test_quick_run_prints_the_ratios_to_the_decode_floor(tmp_path):
-    done = subprocess.run([sys.executable, str(BENCH), "--quick", "--trackers", "blob", "--rounds", "2", "--keep", str(tmp_path / "project")], capture_output=True, text=True, timeout=900)
+    done = subprocess.run([sys.executable, str(BENCH), "--quick", "--trackers", "blob,blob-full", "--rounds", "2", "--keep", str(tmp_path / "project")], capture_output=True, text=True, timeout=900)
     assert done.returncode == 0, done.stderr
     out = done.stdout
     assert re.search(r"decode floor: \d+ frames in [\d.]+ s wall, [\d.]+ s CPU", out)
@@ -25,7 +25,9 @@ def test_quick_run_prints_the_ratios_to_the_decode_floor(tmp_path):
     for stage in ("calibrate", "track", "vote", "sync", "render"):
         assert re.search(rf"^\s+{stage}\s+[\d.]+ s\s+[\d.]+x", out, re.M), f"no time for stage {stage}:\n{out}"
     assert "load average" in out
-    assert re.search(r"tlsync run, blob.*\n\s+worst eps_t 0\.[0-4]\d* frame", out), f"the bench's run is not synchronized within half a frame:\n{out}"
+    assert re.search(r"tlsync run, blob .*\n\s+worst eps_t 0\.[0-4]\d* frame", out), f"the bench's run is not synchronized within half a frame:\n{out}"
+    assert re.search(r"\n\s+decoded \d+ keyframes \+ \d+ frames = [\d.]+% of \d+ frames", out), out
+    assert re.search(r"\n\s+against the full pass \(every frame read\): worst eps_t 0\.0[0-4]\d* frame", out), out
     assert re.search(r"round 2: blob [\d.]+x wall, [\d.]+x CPU .*worst eps_t 0\.[0-4]", out), out
     assert re.search(r"tlsync run, blob\s+[\d.]+ [\d.]+ -> [\d.]+\s+\|\s+[\d.]+ [\d.]+ -> [\d.]+", out), out
 

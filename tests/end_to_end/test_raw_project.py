@@ -83,7 +83,7 @@ def finished(tmp_path_factory):
         assert eps_t(timeline.relation(a, b), truth, scene.n_frames[a]) <= 1.0, key
 
     again = run_graph(_graph(project_file))
-    assert again.ran == [] and len(again.fresh) == 22  # intrinsics, calibrate, track, clock, identify, vote per camera; ingest, sync, export, render
+    assert again.ran == [] and len(again.fresh) == 25  # intrinsics, calibrate, clock, scan, track, identify, vote per camera; ingest, sync, export, render
     return project_file
 
 
@@ -113,10 +113,11 @@ def test_editing_a_gcp_reruns_the_pose_not_the_intrinsics(finished, tmp_path):
     gcp.write_text("\n".join(lines) + "\n")
     rows = _states(project_file)
     assert rows["calibrate/cam1"].state == "stale" and "gcp" in rows["calibrate/cam1"].reasons[0]
-    assert rows["calibrate/cam0"].state == "fresh" and rows["track/cam1"].state == "fresh"
+    assert rows["calibrate/cam0"].state == "fresh" and rows["track/cam1"].reasons == ["waits for scan/cam1 (stale)"]
     assert rows["intrinsics/cam1"].state == "fresh"
     edited = run_graph(_graph(project_file))
-    assert sorted(edited.ran) == ["calibrate/cam1", "export", "identify/cam1", "render", "sync", "vote/cam1"]
+    # the coarse pass again (it votes with the camera), not the track stage: its windows did not change
+    assert sorted(edited.ran) == ["calibrate/cam1", "export", "identify/cam1", "render", "scan/cam1", "sync", "vote/cam1"]
 
 
 def test_the_cameras_own_clocks_check_the_result_and_a_wrong_one_is_flagged_not_obeyed(finished, tmp_path):
@@ -158,21 +159,26 @@ def test_changing_the_trackers_code_makes_only_track_and_what_follows_stale(fini
     rows = _states(finished)
     stale = {tid for tid, row in rows.items() if row.state != "fresh"}
     cameras = ("cam0", "cam1", "cam2")
-    assert stale == {f"{stage}/{cam}" for stage in ("track", "identify", "vote") for cam in cameras} | {"sync", "export", "render"}
-    assert rows["track/cam0"].reasons == ["code of trackers.blob changed"]
-    assert rows["identify/cam0"].reasons == ["waits for track/cam0 (stale)"]
-    assert rows["vote/cam0"].reasons == ["waits for identify/cam0 (stale)"]
+    # scan (keyframe movers) and track run the tracker's code; calibrate fits each camera's pose to its target, so it waits for the track
+    assert stale == {f"{stage}/{cam}" for stage in ("scan", "track", "calibrate", "identify", "vote") for cam in cameras} | {"sync", "export", "render"}
+    assert rows["track/cam0"].reasons == ["code of trackers.blob changed", "waits for scan/cam0 (stale)"]
+    assert rows["calibrate/cam0"].reasons[-1] == "waits for track/cam0 (stale)"
+    assert rows["identify/cam0"].reasons == ["waits for calibrate/cam0 (stale), track/cam0 (stale)"]
+    assert rows["vote/cam0"].reasons == ["waits for calibrate/cam0 (stale), identify/cam0 (stale)"]
 
 
 def test_changing_a_sync_module_makes_sync_and_what_follows_stale(finished, monkeypatch):
     _changed(monkeypatch, "tlsync_pipeline.sync.refine")
     rows = _states(finished)
     stale = {tid for tid, row in rows.items() if row.state != "fresh"}
-    # identify and vote prepare the trajectory through the sync-method registry, which imports every method's modules.
-    assert stale == {f"{stage}/{cam}" for stage in ("identify", "vote") for cam in ("cam0", "cam1", "cam2")} | {"sync", "export", "render"}
+    # scan, calibrate (the pose from the target), identify and vote prepare the trajectory through the sync-method registry,
+    # which imports every method's modules; the track stage's own code does not: it waits for its windows.
+    assert stale == {f"{stage}/{cam}" for stage in ("scan", "track", "calibrate", "identify", "vote") for cam in ("cam0", "cam1", "cam2")} | {"sync", "export", "render"}
+    assert rows["track/cam0"].reasons == ["waits for scan/cam0 (stale)"]
     assert rows["sync"].reasons[0] == "code of tlsync_pipeline.sync.refine changed"
-    assert rows["identify/cam0"].reasons == ["code of tlsync_pipeline.sync.refine changed"]
-    assert rows["vote/cam0"].reasons == ["code of tlsync_pipeline.sync.refine changed", "waits for identify/cam0 (stale)"]
+    assert rows["calibrate/cam0"].reasons == ["code of tlsync_pipeline.sync.refine changed", "waits for track/cam0 (stale)"]
+    assert rows["identify/cam0"].reasons == ["code of tlsync_pipeline.sync.refine changed", "waits for calibrate/cam0 (stale), track/cam0 (stale)"]
+    assert rows["vote/cam0"].reasons == ["code of tlsync_pipeline.sync.refine changed", "waits for calibrate/cam0 (stale), identify/cam0 (stale)"]
 
 
 def _reverse_gpx(path: Path) -> None:

@@ -9,8 +9,13 @@ import pytest
 from data_fixtures.video import render_camera_video, render_video
 from trackers.errors import TrackInputError
 from trackers.video import (
+    DecodeCount,
     TruncatedVideoWarning,
     iter_frames,
+    iter_keyframes,
+    iter_windows,
+    keyframe_indices,
+    merge_windows,
     probe_video,
     read_frames,
     sample_frames,
@@ -88,6 +93,41 @@ def _counting_decodes(monkeypatch, alone: list | None = None):
     monkeypatch.setattr(video, "_decode", counting)
     monkeypatch.setattr(video, "_decode_alone", counting_alone)
     return decoded
+
+
+def test_keyframes_alone_each_decoded_once(jittered, monkeypatch):
+    """The keyframes of a VFR video, at their true indices and times, decoded from their own packets only."""
+    sequential = {f.index: f for f in iter_frames(jittered.path, gray=True)}
+    keys = keyframe_indices(jittered.path)
+    assert keys.tolist() == [0, 30, 60]
+    packets = []
+    decoded = _counting_decodes(monkeypatch, packets)
+    count = DecodeCount()
+    frames = list(iter_keyframes(jittered.path, count=count))
+    assert [f.index for f in frames] == keys.tolist() and count.decoded == 3 and len(decoded) == 3
+    assert all(p.is_keyframe for p in packets)
+    for frame in frames:
+        assert frame.time_s == pytest.approx(sequential[frame.index].time_s, abs=1e-9)
+        np.testing.assert_array_equal(frame.image, sequential[frame.index].image)
+    assert [f.index for f in iter_keyframes(jittered.path, indices=[60, 0])] == [0, 60]
+
+
+def test_windows_give_the_frames_of_a_whole_pass(jittered):
+    """Frames inside windows: the indices, times and pixels of iter_frames; decoding starts at each window's keyframe."""
+    sequential = {f.index: f for f in iter_frames(jittered.path, gray=True)}
+    count = DecodeCount()
+    frames = list(iter_windows(jittered.path, [(40, 45), (33, 41), (70, 200), (0, 3)], gray=True, count=count))
+    expected = [*range(0, 3), *range(33, 45), *range(70, 90)]
+    assert [f.index for f in frames] == expected
+    for frame in frames:
+        assert frame.time_s == pytest.approx(sequential[frame.index].time_s, abs=1e-9)
+        np.testing.assert_array_equal(frame.image, sequential[frame.index].image)
+    # from keyframe 0 to frame 2, from keyframe 30 to 44, from keyframe 60 to the end
+    assert (count.yielded, count.decoded) == (len(expected), 3 + 15 + 30)
+
+
+def test_merge_windows():
+    assert merge_windows([(10, 20), (0, 5), (18, 30), (33, 40), (50, 50)], gap=3) == [(0, 5), (10, 40)]
 
 
 @pytest.mark.parametrize("rotation", [0, 90, 180, 270])

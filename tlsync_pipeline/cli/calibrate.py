@@ -30,7 +30,7 @@ from tlsync_pipeline.errors import InputError, error_details, with_details
 @click.option("--pattern", required=True, help="Inner corners COLSxROWS, e.g. 7x6 for a board of 8x7 squares.")
 @click.option("--square", required=True, type=float, help="Square side in metres.")
 @click.option("--model", type=click.Choice(MODELS), default="standard", show_default=True, help="standard: k1 k2 p1 p2 k3; rational: 8 coefficients; fisheye: k1..k4.")
-@out_option("camera.json to write (K, dist, image_size, rms; identity R, zero t).")
+@out_option("camera.json to write (K, dist, image_size, rms; no pose: R, t come from GCPs, a board or the target).")
 @click.option("--report", type=click.Path(dir_okay=False, path_type=Path), help="Also write the calibration report (JSON) here.")
 @click.option("--max-frames", default=60, show_default=True, help="Video: frames sampled evenly.")
 @jobs_option

@@ -24,6 +24,7 @@ from tlsync_pipeline.outputs import bandswap
 from tlsync_pipeline.outputs.pictures import (
     PanelRequest,
     choose_movers_frame,
+    toward_keyframes,
     draw_panel,
     each_frame_once,
     plot_candidate_votes,
@@ -42,9 +43,10 @@ from tlsync_pipeline.sync.timeline import CameraLine
 from tlsync_pipeline.sync.votes import load_votes
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
 from trackers.detections import read_detections
-from trackers.video import presentation_times, probe_video
+from trackers.video import keyframe_indices, presentation_times, probe_video
 
 EMBEDDED_JPEG_QUALITY = 85
+KEYFRAME_REACH = 0.05  # a band swap's frame moves to a tracked keyframe within this share of the track's span
 
 
 @dataclass(frozen=True)
@@ -64,7 +66,9 @@ class CameraJob:
     """What draw_camera needs to draw one camera's pictures (plain values: it may run in another process).
 
     requests: the panels of the pairs' strips to draw from its video;
-    proxy: the camera's proxy policy; n_frames: its video's frames.
+    proxy: the camera's proxy policy; windows: the frames the track stage
+    read, when it read windows (a proxy holds those only); n_frames: its
+    video's frames.
     """
 
     name: str
@@ -81,6 +85,7 @@ class CameraJob:
     detections: Path | None
     requests: list[PanelRequest]
     proxy: str
+    windows: list[tuple[int, int]] | None
     n_frames: int
     out_dir: Path
     work: Path
@@ -103,9 +108,10 @@ def draw_camera(job: CameraJob) -> DrawnCamera:
     titles = ["voting space", "tracked against projected"]
     panels: list[np.ndarray] = []
     if job.video is not None:
-        swap_frames = band_swap_frames(track)
+        keyframes = keyframe_indices(job.video)  # read_frames indexes the video's packets anyway (kept per process)
+        swap_frames = band_swap_frames(track, keyframes)
         movers = read_detections(job.detections) if job.detections is not None else None
-        movers_frame = choose_movers_frame(movers, track) if movers is not None else None
+        movers_frame = choose_movers_frame(movers, track, keyframes) if movers is not None else None
         kept = set(swap_frames) | ({movers_frame} if movers_frame is not None else set())
         panels_of: dict[int, list[int]] = {}
         for i, request in enumerate(job.requests):
@@ -145,9 +151,11 @@ def draw_panels(video: Path, camera, requests: list[PanelRequest]) -> list[np.nd
     return [drawn[i] for i in range(len(requests))]
 
 
-def band_swap_frames(track) -> list[int]:
-    """The tracked frames a band swap shows: at 20, 50 and 80 % of the track."""
-    return sorted({int(f) for f in np.quantile(track.frame, [0.2, 0.5, 0.8], method="nearest")})
+def band_swap_frames(track, keyframes: np.ndarray | None = None) -> list[int]:
+    """The tracked frames a band swap shows: at 20, 50 and 80 % of the track, each moved to a tracked keyframe
+    within KEYFRAME_REACH of the track's span when there is one (``toward_keyframes``: it decodes alone)."""
+    picks = [int(f) for f in np.quantile(track.frame, [0.2, 0.5, 0.8], method="nearest")]
+    return toward_keyframes(picks, track.frame, keyframes, KEYFRAME_REACH * float(np.ptp(track.frame)))
 
 
 def write_band_swap(name: str, inputs, line: CameraLine, path_model: PiecewiseTrajectory, rate: float | None, times: FrameTimes | None, images: dict[int, np.ndarray], path: Path) -> Path:
@@ -200,26 +208,27 @@ def player_video(job: CameraJob) -> tuple[PlayerVideo, Path | None]:
     codec = probe_video(job.video).codec
     source, proxy = job.video, None
     if needs_proxy(codec, job.video.suffix, job.proxy):
-        source = proxy = ensure_proxy(job.video, job.out_dir / "proxy" / f"{job.name}.mp4")
+        source = proxy = ensure_proxy(job.video, job.out_dir / "proxy" / f"{job.name}.mp4", job.windows)
     src = quote(Path(os.path.relpath(source, job.work)).as_posix())
     table: np.ndarray | None
-    if proxy is None and job.times is not None and len(job.times.frame) == job.n_frames:
+    if job.times is not None and len(job.times.frame) == job.n_frames:
         table = job.times.time_s  # every frame's time, already read (a presentation-time clock): not demuxed again
     else:
-        table = presentation_times(source)
+        table = presentation_times(job.video)  # a proxy keeps the video's times, and may hold only its windows
     return PlayerVideo(src, proxy is not None, codec, table if table is not None else np.arange(job.n_frames) / fps), proxy
 
 
-def ensure_proxy(video: Path, path: Path) -> Path:
-    """The proxy of ``video`` at ``path``, made again only when the video changed (size, modification time)."""
+def ensure_proxy(video: Path, path: Path, windows: list[tuple[int, int]] | None = None) -> Path:
+    """The proxy of ``video`` (of its ``windows`` only, when given) at ``path``, made again only when the video (size,
+    modification time) or the windows changed."""
     stat = video.stat()
-    stamp = {"source": str(video.resolve()), "size": stat.st_size, "mtime_ns": stat.st_mtime_ns}
+    stamp = {"source": str(video.resolve()), "size": stat.st_size, "mtime_ns": stat.st_mtime_ns, "windows": [list(w) for w in windows] if windows else None}
     marker = path.with_suffix(".json")
     if path.exists() and _stamp(marker) == stamp:
         return path
     path.parent.mkdir(parents=True, exist_ok=True)
     with atomic_path(path) as tmp:
-        make_proxy(video, tmp)
+        make_proxy(video, tmp, windows=windows)
     with atomic_path(marker) as tmp:
         tmp.write_text(json.dumps(stamp), encoding="utf-8")
     return path

@@ -294,12 +294,29 @@ def tracklet_colour(tracklet: int) -> tuple[int, int, int]:
     return int(blue), int(green), int(red)
 
 
-def choose_movers_frame(detections, track) -> int:
-    """The identified frame with the most detections (ties: nearest the middle of the track)."""
+def choose_movers_frame(detections, track, keyframes: np.ndarray | None = None) -> int:
+    """The identified frame with the most detections (ties: nearest the middle of the track); among the identified
+    keyframes when there are some (a keyframe decodes alone)."""
     frames, counts = np.unique(detections.frame, return_counts=True)
     per_frame = dict(zip(frames.tolist(), counts.tolist()))
     middle = np.median(track.frame)
-    return int(max(track.frame.tolist(), key=lambda f: (per_frame.get(f, 0), -abs(f - middle))))
+    keyed = np.intersect1d(track.frame, keyframes) if keyframes is not None else np.zeros(0, np.int64)
+    pool = keyed if len(keyed) else track.frame
+    return int(max(pool.tolist(), key=lambda f: (per_frame.get(f, 0), -abs(f - middle))))
+
+
+def toward_keyframes(picks: list[int], candidates: np.ndarray, keyframes: np.ndarray | None, reach: float) -> list[int]:
+    """Each pick moved to the nearest candidate frame that is a keyframe within ``reach`` frames, else kept; sorted, distinct.
+
+    A keyframe decodes alone; any other frame costs the frames from the
+    keyframe before it (up to a keyframe interval).
+    """
+    keyed = np.intersect1d(candidates, keyframes) if keyframes is not None else np.zeros(0, np.int64)
+    out = set()
+    for pick in picks:
+        nearest = keyed[np.argmin(np.abs(keyed - pick))] if len(keyed) else None
+        out.add(int(nearest) if nearest is not None and abs(int(nearest) - pick) <= reach else int(pick))
+    return sorted(out)
 
 
 def draw_movers(image: np.ndarray, frame: int, detections, track, camera, path_model: PiecewiseTrajectory, line, times: FrameTimes | None = None, trail: int = 20) -> np.ndarray:

@@ -123,7 +123,8 @@ def offsets_plot(timeline: Timeline, statuses: list[CameraStatus]) -> bytes:
 def calibration_plot(report: dict, image_size: tuple[int, int]) -> bytes:
     """The calibration picture (PNG): detected corners (one colour per view) and GCPs over the image frame; per-view errors.
 
-    report: the calibrate stage's calibration_report.json.
+    report: the calibrate stage's calibration_report.json (GCP errors under the GCPs' pose, and "-> after" under
+    the pose from the target when there is one).
     """
     plt = _pyplot()
 
@@ -144,13 +145,21 @@ def calibration_plot(report: dict, image_size: tuple[int, int]) -> bytes:
         ax.plot(uv[inl, 0], uv[inl, 1], "k+", ms=10, label="GCP")
         if (~inl).any():
             ax.plot(uv[~inl, 0], uv[~inl, 1], "rx", ms=10, label="GCP outlier")
+        after = {g["name"]: g["after_px"] for g in (report.get("target_pose") or {}).get("gcps", [])}
         for p in pose["points"]:
-            ax.annotate(f"{p['name']} {p['error_px']:.1f}px", p["uv"], fontsize=7, xytext=(4, 4), textcoords="offset points")
+            moved = f" -> {after[p['name']]:.1f}px" if after.get(p["name"]) is not None else ""
+            ax.annotate(f"{p['name']} {p['error_px']:.1f}px{moved}", p["uv"], fontsize=7, xytext=(4, 4), textcoords="offset points")
         ax.legend(loc="lower right", fontsize=8)
     ax.set_xlim(-0.5, w - 0.5)
     ax.set_ylim(h - 0.5, -0.5)
     ax.set_aspect("equal")
-    ax.set_title(f"{report['camera']}: corner coverage ({len(views)} views), {w}x{h}")
+    target = report.get("target_pose")
+    title = f"{report['camera']}: corner coverage ({len(views)} views), {w}x{h}"
+    if target and "error" in target:
+        title += f"\nno pose from the target ({target.get('cause') or 'see the report'})"
+    elif target:
+        title += f"\npose from the target ({target['source']}): +-{target['center_std_m']:.3f} m, +-{target['rotation_std_deg']:.3f} deg" + ("" if target.get("for_3d", True) else ", timing only")
+    ax.set_title(title, fontsize=9)
     ax = axes[1]
     if views:
         errors = [v["rms_px"] for v in views]

@@ -8,17 +8,25 @@ each frame's presentation time kept, so frame indices and times are those of
 the original and the frame map applies unchanged.
 
 The policy per camera: "auto" (a proxy only when needed), "always", "never".
+
+A video the track stage read in windows (a long recording, sync/scan.py)
+gets a proxy of those windows only, each gap marked by one grey card at
+its first frame's time (the player then shows the card there): a proxy of
+every frame would cost about three decodes of the whole recording, where
+the rest of the run decoded a tenth of it.
 """
 
 from __future__ import annotations
 
+from collections.abc import Iterator, Sequence
 from fractions import Fraction
 from pathlib import Path
 
 import av
 import cv2
+import numpy as np
 
-from trackers.video import iter_frames, probe_video
+from trackers.video import iter_frames, iter_windows, merge_windows, presentation_times, probe_video
 
 PROXY_HEIGHT = 360
 BROWSER_CODECS = frozenset({"h264", "vp8", "vp9", "av1"})
@@ -45,8 +53,12 @@ def proxy_size(width: int, height: int, target_height: int = PROXY_HEIGHT) -> tu
     return max(2, round(width * scale / 2) * 2), max(2, round(height * scale / 2) * 2)
 
 
-def make_proxy(source: Path, destination: Path, target_height: int = PROXY_HEIGHT) -> Path:
-    """Transcode ``source`` into an H.264 MP4 at ``destination`` (the caller makes the write atomic)."""
+def make_proxy(source: Path, destination: Path, target_height: int = PROXY_HEIGHT, windows: Sequence[tuple[int, int]] | None = None) -> Path:
+    """Transcode ``source`` into an H.264 MP4 at ``destination`` (the caller makes the write atomic).
+
+    windows: only the frames inside these [start, stop) windows (0-based),
+    and a card at the first frame of each gap; None: every frame.
+    """
     info = probe_video(source)
     width, height = proxy_size(info.width, info.height, target_height)
     rate = Fraction(info.fps).limit_denominator(1001) if info.fps else Fraction(30)
@@ -57,10 +69,9 @@ def make_proxy(source: Path, destination: Path, target_height: int = PROXY_HEIGH
         stream.codec_context.time_base = _TIME_BASE
         stream.options = {"crf": "28", "preset": "veryfast", "g": str(max(1, round(float(rate))))}
         last_pts = None
-        for frame in iter_frames(source):
-            image = cv2.resize(frame.image, (width, height), interpolation=cv2.INTER_AREA)
+        for time_s, image in _proxy_frames(source, windows, (width, height)):
             out = av.VideoFrame.from_ndarray(image, format="bgr24")
-            pts = round(frame.time_s / _TIME_BASE)
+            pts = round(time_s / _TIME_BASE)
             out.pts = pts if last_pts is None or pts > last_pts else last_pts + 1
             out.time_base = _TIME_BASE
             last_pts = out.pts
@@ -69,3 +80,34 @@ def make_proxy(source: Path, destination: Path, target_height: int = PROXY_HEIGH
         for packet in stream.encode():
             output.mux(packet)
     return destination
+
+
+def _proxy_frames(source: Path, windows: Sequence[tuple[int, int]] | None, size: tuple[int, int]) -> Iterator[tuple[float, np.ndarray]]:
+    """(presentation time s, image at ``size``) of every frame, or of the windows' frames with a card at each gap's first frame."""
+    times = None if windows is None else presentation_times(source)
+    if windows is None or times is None:  # no timestamps: no windows to read either
+        for frame in iter_frames(source):
+            yield frame.time_s, cv2.resize(frame.image, size, interpolation=cv2.INTER_AREA)
+        return
+    n = len(times)
+    windows = merge_windows(windows)
+    gaps = [(a, b) for a, b in zip([0] + [w[1] for w in windows], [w[0] for w in windows] + [n]) if b > a]
+    card = _card(size)
+    frames = iter_windows(source, windows)
+    pending = next(frames, None)
+    for start, _ in gaps + [(n, n)]:
+        while pending is not None and pending.index < start:
+            yield pending.time_s, cv2.resize(pending.image, size, interpolation=cv2.INTER_AREA)
+            pending = next(frames, None)
+        if start < n:
+            yield float(times[start]), card
+
+
+def _card(size: tuple[int, int]) -> np.ndarray:
+    """A grey frame saying that the frames up to the next picture were not decoded (the target is not in view there)."""
+    width, height = size
+    image = np.full((height, width, 3), 96, np.uint8)
+    scale = max(0.35, width / 1200)
+    for k, line in enumerate(("not in this proxy:", "the target is not in view here")):
+        cv2.putText(image, line, (max(4, width // 20), height // 2 + int((k - 0.5) * 40 * scale)), cv2.FONT_HERSHEY_SIMPLEX, scale, (230, 230, 230), 1, cv2.LINE_AA)
+    return image

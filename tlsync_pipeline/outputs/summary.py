@@ -84,6 +84,22 @@ def calibration_summary(report: dict) -> str:
     if pose:
         n_in = sum(p["inlier"] for p in pose["points"])
         text += f"; pose from {n_in}/{len(pose['points'])} {pose['kind']} points, RMS {pose['rms_px']:.2f} px (+-{pose['rotation_std_deg']:.3f} deg, +-{pose['position_std_m']:.3f} m)"
-    else:
-        text += "; no pose (identity R, zero t)"
+    target = report.get("target_pose")
+    if target and "error" in target:
+        text += "; no pose from the target" + (f" ({target['cause']}: the camera is not synchronized)" if target.get("cause") else ": the camera is not synchronized")
+    elif target:
+        text += f"; {target_pose_summary(target)}"
+    elif not pose:
+        text += "; no pose"
+    return text
+
+
+def target_pose_summary(target: dict) -> str:
+    """One clause about a pose from the target (calibration_report.json's ``target_pose``): source, frames, uncertainty, how far it moved, what it serves."""
+    text = f"pose from the target ({target['source']}, {target['frames']} frames, +-{target['center_std_m']:.3f} m, +-{target['rotation_std_deg']:.3f} deg"
+    if target.get("moved_m") is not None:
+        text += f"; {target['moved_m']:.2f} m and {target['moved_deg']:.2f} deg from the GCPs' pose"
+    text += ")"
+    if not target.get("for_3d", True):
+        text += ": good for timing, not for 3D"
     return text

@@ -1,6 +1,9 @@
 """The tasks a project makes of the stage specs.
 
-intrinsics -> calibrate -> track -> ingest -> identify -> vote -> sync -> export -> render.
+intrinsics -> clock -> ingest -> scan -> track -> calibrate -> identify -> vote -> sync -> export -> render
+(calibrate after track and ingest: a camera whose pose comes from the target reads its track, or
+every mover, and the trajectory; scan, the coarse pass over a long recording, takes its pose from
+the camera.json the project brings or from the GCPs or board alone).
 A task is one stage for one camera (or the project). Everything about it
 comes from its stage's SPEC (pipeline/spec.py): the files it reads (hashed
 for its cache key), its parameters, the artefacts it writes, and the function
@@ -31,6 +34,7 @@ from tlsync_pipeline.pipeline.stages import (
     ingest,
     intrinsics,
     render,
+    scan,
     sync,
     track,
     vote,
@@ -38,7 +42,7 @@ from tlsync_pipeline.pipeline.stages import (
 from tlsync_pipeline.pipeline.workspace import Artefact, Workspace
 
 STAGE_SPECS: dict[str, StageSpec] = {
-    s.name: s for s in (intrinsics.SPEC, calibrate.SPEC, track.SPEC, clock.SPEC, ingest.SPEC, identify.SPEC, vote.SPEC, sync.SPEC, export.SPEC, render.SPEC)
+    s.name: s for s in (intrinsics.SPEC, clock.SPEC, ingest.SPEC, scan.SPEC, track.SPEC, calibrate.SPEC, identify.SPEC, vote.SPEC, sync.SPEC, export.SPEC, render.SPEC)
 }
 STAGES = tuple(STAGE_SPECS)
 PER_CAMERA = tuple(name for name, spec in STAGE_SPECS.items() if spec.per_camera)

@@ -40,7 +40,9 @@ from tlsync_pipeline.ingest.recording_time import parse_utc, parse_utc_offset
 from tlsync_pipeline.ingest.units import LENGTH_UNITS, TIME_UNITS, unit_scale
 from tlsync_pipeline.outputs.proxy import POLICIES as PROXY_POLICIES
 from tlsync_pipeline.sync.params import SyncParams, parameter_fields
+from tlsync_pipeline.sync.pose import GCP_SIGMA_M
 from tlsync_pipeline.sync.registry import METHODS, params_from_table
+from tlsync_pipeline.sync.scan import SCAN_MODES
 from trackers.tracking import KINDS as TRACKER_KINDS
 from trackers.tracking import track_video
 
@@ -366,6 +368,7 @@ class CalibrationConfig:
     max_frames: int = key(_count, _component_default(calibrate_video, "max_frames"))
     max_view_error: float = key(_positive, _component_default(calibrate_video, "max_view_error"))
     ransac_px: float = key(_positive, _component_default(pose_from_points, "ransac_px"))
+    gcp_sigma_m: float | None = key(_non_negative)
 
     @property
     def board_views(self) -> bool:
@@ -376,6 +379,18 @@ class CalibrationConfig:
     def given(self) -> bool:
         """Whether the table says anything to calibrate from."""
         return self.board_views or any(v is not None for v in (self.intrinsics, self.gcp, self.board_pose))
+
+
+@dataclass(frozen=True)
+class ProjectCalibration:
+    """[calibration]: what holds for every camera's calibration unless its [cameras.calibration] says otherwise.
+
+    gcp_sigma_m: how good the GCPs' survey is (metres per coordinate, one
+    sigma): the target refines the GCPs' pose with them as a prior; 0: the
+    GCPs are exact and give the pose alone (docs/calibration.md).
+    """
+
+    gcp_sigma_m: float = key(_non_negative, GCP_SIGMA_M)
 
 
 @dataclass(frozen=True)
@@ -422,13 +437,28 @@ class CameraConfig:
 
 
 @dataclass(frozen=True)
+class TrackConfig:
+    """[track]: how the track stage reads every camera's video (docs/tracking.md).
+
+    scan: "auto" (a coarse pass over the keyframes of each camera whose every
+    mover is detected in its video; every frame is then read only in the
+    windows where it puts the target in view, sync/scan.py) or "full"
+    (every frame of every video).
+    """
+
+    scan: str = key(_choice(*SCAN_MODES, what="scan mode"), SCAN_MODES[0])
+
+
+@dataclass(frozen=True)
 class Project:
-    """A validated project: its file, [target], the cameras in file order (the first is the reference), [sync]."""
+    """A validated project: its file, [target], the cameras in file order (the first is the reference), [sync], [calibration], [track]."""
 
     path: Path
     target: TargetConfig
     cameras: tuple[CameraConfig, ...]
     sync: SyncParams
+    calibration: ProjectCalibration = field(default_factory=ProjectCalibration)
+    track: TrackConfig = field(default_factory=TrackConfig)
 
     @property
     def root(self) -> Path:
@@ -494,7 +524,7 @@ def load_project(path: str | Path) -> Project:
         raise InputError(f"{path}: cannot read: {exc}") from None
     except tomllib.TOMLDecodeError as exc:
         raise InputError(f"{path}: invalid TOML: {exc}") from None
-    _check_keys(raw, ["target", "cameras", "sync"], path, "top level")
+    _check_keys(raw, ["target", "cameras", "track", "sync", "calibration"], path, "top level")
     target = parse_config(TargetConfig, raw.get("target", {}), path, "target")
     items = raw.get("cameras", [])
     if not isinstance(items, list):
@@ -503,7 +533,9 @@ def load_project(path: str | Path) -> Project:
     if not cameras:
         raise InputError(f"{path}: no [[cameras]] table; a project needs at least one camera")
     _check_unique_names(cameras, path)
-    return Project(path, target, cameras, _parse_sync(raw.get("sync", {}), path))
+    calibration = parse_config(ProjectCalibration, raw.get("calibration", {}), path, "calibration")
+    track = parse_config(TrackConfig, raw.get("track", {}), path, "track")
+    return Project(path, target, cameras, _parse_sync(raw.get("sync", {}), path), calibration, track)
 
 
 def parse_config(config: type[Config], raw: Any, path: Path, where: str) -> Config:

@@ -47,6 +47,7 @@ ARTEFACTS: dict[str, str] = {
     "calibration_picture": "cameras/{camera}/calibration.png",
     "track": "cameras/{camera}/track.csv",
     "detections": "cameras/{camera}/detections.csv",
+    "scan": "cameras/{camera}/scan.json",
     "identification": "cameras/{camera}/identification.json",
     "video_info": "cameras/{camera}/video.json",
     "clock": "cameras/{camera}/clock.json",

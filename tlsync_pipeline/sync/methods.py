@@ -18,6 +18,7 @@ import numpy as np
 from calibration.camera import Camera
 from tlsync_pipeline.sync.clock import CameraClock
 from tlsync_pipeline.sync.params import SyncParams
+from tlsync_pipeline.sync.pose_fit import GcpPrior
 from tlsync_pipeline.sync.timeline import CameraLine
 from tlsync_pipeline.sync.votes import Votes
 from tlsync_pipeline.trajectory import Trajectory
@@ -31,12 +32,15 @@ class CameraInput:
 
     detections: every mover of its video instead of a track (track None):
     ``synchronize`` identifies the target among them first (sync/identify.py).
+    A camera without a pose (``Camera.posed`` false) gets it from the target
+    first (sync/pose.py), with ``gcps`` as a prior when given.
     """
 
     camera: Camera
     track: Track | None
     fps: float | None
     detections: Detections | None = None
+    gcps: GcpPrior | None = None
 
 
 @dataclass(frozen=True)

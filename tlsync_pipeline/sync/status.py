@@ -23,6 +23,7 @@ or weak.
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 
 OK, WEAK, AMBIGUOUS, FAILED = "ok", "weak", "ambiguous", "failed"
@@ -103,8 +104,18 @@ def line_reasons(flags: tuple[str, ...] | None, warnings: tuple[str, ...] | None
 
 
 def failure(text: str, code: str = "not_synchronized", remedy: str = "") -> Reason:
-    """A reason that leaves a camera not synchronized (a SyncError's message, a task that did not complete)."""
+    """A reason that leaves a camera not synchronized (a SyncError's message, a task that did not complete).
+
+    A pose the target could not determine (sync/pose.py's message) keeps its
+    cause as the code and its remedy; two offsets alike make it ambiguous.
+    """
+    pose = _POSE_FAILURE.search(text)
+    if pose is not None:
+        return Reason(pose["cause"], AMBIGUOUS if pose["cause"] == "ambiguous_offset" else FAILED, text, pose["remedy"])
     return Reason(code, FAILED, text, remedy or _failure_remedy(text))
+
+
+_POSE_FAILURE = re.compile(r"pose not determined from the target \((?P<cause>[a-z_]+)\): .*; (?P<remedy>[^;]+)$")
 
 
 def _failure_remedy(text: str) -> str:

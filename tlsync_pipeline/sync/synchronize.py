@@ -8,7 +8,9 @@ on its clock (sync/clock.py) and the method fits the line. A camera that
 brings every mover (detections) instead of a track has its target
 identified among them first (sync/identify.py); its line is then fitted on
 the identified track's votes (in the pipeline the identify stage writes that
-track, and votes.npz holds its votes).
+track, and votes.npz holds its votes). A camera without a pose gets it from
+the target before anything else (sync/pose.py; in the pipeline, the
+calibrate stage).
 
 Pure functions from typed values to typed values; no file I/O here.
 """
@@ -28,6 +30,7 @@ from tlsync_pipeline.sync.identify import Identification, IdentifyParams, identi
 from tlsync_pipeline.sync.methods import CameraData, CameraInput
 from tlsync_pipeline.sync.params import Preparation, SyncParams
 from tlsync_pipeline.sync.plausibility import BACKWARD_BELOW, Judged, backward_support, diagnose, judge_line, line_support, motion_slope
+from tlsync_pipeline.sync.pose import TargetPose, estimate_pose, pose_info
 from tlsync_pipeline.sync.refined import RefinedParams
 from tlsync_pipeline.sync.registry import get_method, method_options, params_table, preparation_of
 from tlsync_pipeline.sync.slope import slope_prior
@@ -42,11 +45,13 @@ __all__ = ["CameraInput", "CameraResult", "cast_votes", "identify_and_synchroniz
 
 @dataclass(frozen=True)
 class CameraResult:
-    """One camera's votes (frame indices) and fitted line; identification: how its target was found among every mover, or None."""
+    """One camera's votes (frame indices) and fitted line; identification: how its target was found among every mover, or None;
+    pose: the pose from the target of a camera that had none, or None."""
 
     votes: Votes
     line: CameraLine
     identification: Identification | None = None
+    pose: TargetPose | None = None
 
 
 def prepare_trajectory(trajectory: Trajectory, preparation: Preparation) -> Trajectory:
@@ -95,6 +100,14 @@ def identify_and_synchronize(name: str, inputs: CameraInput, prepared: Trajector
     return CameraResult(result.votes, replace(result.line, identification=found.summary()), found)
 
 
+def posed(inputs: CameraInput, prepared: Trajectory, params: SyncParams) -> tuple[CameraInput, TargetPose]:
+    """The camera's inputs with its pose from the target (its ``gcps`` as a prior), and that pose; PoseError when it is not determined."""
+    pose, _ = estimate_pose(inputs.camera, inputs.track, inputs.detections, prepared, inputs.fps, identify_params(params), inputs.gcps)
+    sigma = None if prepared.sigma is None else float(np.median(prepared.sigma))
+    camera = replace(pose.camera, name=inputs.camera.name, fps=inputs.camera.fps, pose_info=pose_info(pose, sigma))
+    return replace(inputs, camera=camera), pose
+
+
 def synchronize(
     cameras: dict[str, CameraInput],
     trajectory: Trajectory,
@@ -124,17 +137,20 @@ def synchronize(
             cast = votes[name] if votes is not None else None
             if isinstance(cast, SyncError):
                 raise cast
+            pose = None
+            if not inputs.camera.posed:
+                inputs, pose = posed(inputs, prepared, params)
             if inputs.track is None:
                 result = identify_and_synchronize(name, inputs, prepared, params)
             else:
                 result = synchronize_camera(name, inputs, cast if cast is not None else cast_votes(inputs.camera, inputs.track, prepared, params.eps_px), prepared, params)
-            results[name], judged[name] = _judge(name, inputs, result, path, params, prior)
+            results[name], judged[name] = _judge(name, inputs, replace(result, pose=pose), path, params, prior)
         except SyncError as exc:
             failed[name] = str(exc)
-            judged[name] = Judged(inputs.camera, inputs.track, None, None if prior is None else prior.alpha, True)
+            judged[name] = _unjudged(inputs, prior)
         except (ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
             failed[name] = f"camera {name}: the fit failed ({type(exc).__name__}: {exc})"
-            judged[name] = Judged(inputs.camera, inputs.track, None, None if prior is None else prior.alpha, True)
+            judged[name] = _unjudged(inputs, prior)
     found = diagnose(judged, prepared, params.eps_px)
     lines, rejected = {}, {}
     for name, result in results.items():
@@ -157,6 +173,11 @@ def synchronize(
         rejected=rejected,
     )
     return timeline, results
+
+
+def _unjudged(inputs: CameraInput, prior) -> Judged:
+    """What ``diagnose`` knows of a camera without a line: its track, when its camera has a pose to project with."""
+    return Judged(inputs.camera, inputs.track if inputs.camera.posed else None, None, None if prior is None else prior.alpha, True)
 
 
 def _judge(name: str, inputs: CameraInput, result: CameraResult, path: PiecewiseTrajectory, params: SyncParams, prior) -> tuple[CameraResult, Judged]:

@@ -102,6 +102,24 @@ class IdentificationSummary:
 
 
 @dataclass(frozen=True)
+class ScanSummary:
+    """How the camera's video was read (the scan and track stages, sync/scan.py).
+
+    mode: "windows" (every frame only where a coarse pass over the keyframes
+    put the target in view) or "full" (every frame); reason: why every
+    frame (empty for windows); frames: frames in the video;
+    keyframes_decoded: frames the coarse pass decoded; frames_decoded:
+    frames the track stage decoded.
+    """
+
+    mode: str
+    reason: str
+    frames: int
+    keyframes_decoded: int
+    frames_decoded: int
+
+
+@dataclass(frozen=True)
 class CameraLine:
     """One camera's fitted line clock = alpha * sample + beta, with its support.
 
@@ -112,7 +130,8 @@ class CameraLine:
     alpha, beta), flags (weak cases), warnings, refined (whether the
     refinement's line was kept), line_search and refinement summaries;
     identification: how the target was found, for a camera that brought
-    every mover rather than a track.
+    every mover rather than a track; scan: how its video was read (None:
+    the project brought its track or detections).
     """
 
     name: str
@@ -131,6 +150,7 @@ class CameraLine:
     clock: CameraClock = CameraClock()
     identification: IdentificationSummary | None = None
     checks: tuple[Reason, ...] | None = None
+    scan: ScanSummary | None = None
     clock_check: ClockCheck | None = None
 
     def __post_init__(self):
@@ -159,7 +179,7 @@ class CameraLine:
                 entry[key] = list(getattr(self, key))
         if self.refined is not None:
             entry["refined"] = self.refined
-        for key in ("line_search", "refinement", "identification"):
+        for key in ("line_search", "refinement", "identification", "scan"):
             if getattr(self, key) is not None:
                 entry[key] = asdict(getattr(self, key))
         if self.checks is not None:
@@ -190,6 +210,7 @@ class CameraLine:
             "refinement": None if entry.get("refinement") is None else RefinementSummary(**entry["refinement"]),
             "identification": None if entry.get("identification") is None else IdentificationSummary.from_dict(entry["identification"]),
             "checks": None if entry.get("checks") is None else tuple(Reason.from_dict(r) for r in entry["checks"]),
+            "scan": None if entry.get("scan") is None else ScanSummary(**entry["scan"]),
             "clock_check": None if entry.get("clock_prior") is None else ClockCheck.from_dict(entry["clock_prior"]),
         }
         base = {k: entry[k] for k in ("alpha", "beta", "votes", "inliers")}

@@ -3,9 +3,9 @@
 One project, run by the engine: cam0-cam2 synthetic (cam2 at 15 fps, a
 rate FCPXML cannot hold: export warns), no videos for them (render notes
 it has no strip), and cam3 raw: checkerboard photos with one without a
-board (calibrate rejects it) and no pose source (calibrate warns), a
-truncated video (track warns), hence an identity pose that cannot be
-synchronized (sync). The target comes as a local CSV log with a damaged
+board (intrinsics rejects it) and surveyed GCPs with one wrong point
+(calibrate leaves it out), a truncated video (track warns) of no target,
+hence a camera that cannot be synchronized (sync). The target comes as a local CSV log with a damaged
 line and a hole of 2 s (ingest drops the line and reports the gap).
 """
 
@@ -18,6 +18,7 @@ from click.testing import CliRunner
 
 from data_fixtures import make_scene, write_scene
 from data_fixtures.checkerboard import render_checkerboards, write_checkerboards
+from data_fixtures.gcp import looking_at, make_gcps, write_gcp_csv
 from data_fixtures.raw_project import PATTERN, SQUARE_M
 from data_fixtures.video import render_video
 from tlsync_pipeline.cli.main import main
@@ -46,18 +47,22 @@ def reported(tmp_path_factory):
     _write_log(folder / "log.csv", scene.trajectory, damaged_row=20, hole=(25.0, 27.0))
     boards = render_checkerboards(seed=5, n_full=5, n_cut=0, n_absent=1, image_size=(320, 240), pattern=PATTERN, square=SQUARE_M)
     write_checkerboards(boards, folder / "cam3" / "boards")
+    R, t = looking_at((3.0, -15.0, 6.0), (0.0, 5.0, 0.0))
+    uv, xyz, _ = make_gcps(boards.K, boards.dist, R, t, boards.image_size, n=8, seed=1)
+    uv[3] += [40.0, -30.0]  # a point clicked in the wrong place
+    write_gcp_csv(folder / "cam3" / "gcp.csv", uv, xyz)
     video = render_video(folder / "cam3" / "full.mp4", n_frames=90, seed=2)
     data = video.path.read_bytes()
     (folder / "cam3" / "video.mp4").write_bytes(data[: int(len(data) * 0.6)])
     text = project.read_text().replace('trajectory = "trajectory.csv"', 'log = "log.csv"')
     text += (
         f'\n[[cameras]]\nname = "cam3"\nvideo = "cam3/video.mp4"\nfps = 25.0\n'
-        f'[cameras.calibration]\nimages = "cam3/boards/*.png"\npattern = "{PATTERN[0]}x{PATTERN[1]}"\nsquare = {SQUARE_M}\n'
+        f'[cameras.calibration]\nimages = "cam3/boards/*.png"\npattern = "{PATTERN[0]}x{PATTERN[1]}"\nsquare = {SQUARE_M}\ngcp = "cam3/gcp.csv"\ngcp_sigma_m = 0\n'
         '[cameras.tracker]\nkind = "blob"\n'
     )
     project.write_text(text)
     result = CliRunner().invoke(main, ["run", str(project), "-j", "1"], catch_exceptions=False)
-    assert result.exit_code == 1, result.output  # cam3 cannot be synchronized (no pose)
+    assert result.exit_code == 1, result.output  # cam3 cannot be synchronized (its video has no target)
     work = folder / "work"
     page = (work / "report.html").read_text()
     section = re.search(r'<ul class="warnings">(.*?)</ul>', page, re.S).group(1)
@@ -90,7 +95,7 @@ def test_one_list_of_warnings_on_the_terminal_in_the_report_and_in_timeline_json
     "stage, camera, words",
     [
         ("intrinsics", "cam3", "rejected: no board"),  # the stage that detects the boards, not calibrate
-        ("calibrate", "cam3", "no gcp or board_pose"),
+        ("calibrate", "cam3", "left out as an outlier"),
         ("track", "cam3", "video truncated or corrupt"),
     ],
 )

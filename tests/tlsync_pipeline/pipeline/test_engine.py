@@ -197,7 +197,7 @@ def test_dask_executor_on_a_local_cluster(project_dir, tmp_path):
 
 
 def test_ready_tasks_go_out_tracks_first_the_largest_video_first(tmp_path):
-    """Tracks before the other per-camera tasks (largest video first), project-wide tasks last."""
+    """Scans and tracks before the other per-camera tasks (largest video first), project-wide tasks last."""
     from tlsync_pipeline.pipeline.engine import _priority
 
     (tmp_path / "boards").mkdir()
@@ -214,10 +214,10 @@ def test_ready_tasks_go_out_tracks_first_the_largest_video_first(tmp_path):
     (tmp_path / "project.toml").write_text('[target]\nlog = "target.gpx"\norigin = [46.5, 6.6, 380.0]\n' + "".join(cameras))
     graph = _graph(tmp_path)
     order = sorted(graph.tasks, key=lambda t: _priority(graph.tasks[t]))
-    assert order[:3] == ["track/cam1", "track/cam2", "track/cam0"]
+    assert order[:6] == ["scan/cam1", "track/cam1", "scan/cam2", "track/cam2", "scan/cam0", "track/cam0"]
     from tlsync_pipeline.pipeline.graph import PER_CAMERA
 
     stages = [graph.tasks[t].stage for t in order]
-    assert "track" not in stages[3:] and {"intrinsics", "calibrate", "vote"} <= set(stages)
+    assert not {"scan", "track"} & set(stages[6:]) and {"intrinsics", "calibrate", "vote"} <= set(stages)
     per_camera = [stage in PER_CAMERA for stage in stages]
     assert per_camera == sorted(per_camera, reverse=True)  # the project-wide tasks last

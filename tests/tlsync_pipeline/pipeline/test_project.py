@@ -35,6 +35,8 @@ def test_paths_are_relative_to_the_project_and_defaults_apply(tmp_path):
         ('[sync]\nseed = 0.5\n[[cameras]]\nname = "a"\n', "'seed': expected an integer"),
         ('[sync]\nlogged_point_above_m = "head"\n[[cameras]]\nname = "a"\n', "'logged_point_above_m': expected a number"),
         ("[target]\ntrajectory = 'x.csv'\n", r"no \[\[cameras\]\]"),
+        ('[calibration]\ngcp_sigma_m = -1\n[[cameras]]\nname = "a"\n', r"\[calibration\]: key 'gcp_sigma_m': expected a number >= 0"),
+        ('[[cameras]]\nname = "a"\n[cameras.calibration]\ngcp_sigma = 1\n', r"did you mean 'gcp_sigma_m'"),
         ("[target\n", "invalid TOML"),
     ],
 )
@@ -46,3 +48,14 @@ def test_bad_projects(tmp_path, text, message):
 def test_missing_project_file(tmp_path):
     with pytest.raises(InputError, match="file not found"):
         load_project(tmp_path / "none.toml")
+
+
+def test_the_gcp_survey_sigma_is_project_wide_unless_a_camera_says_otherwise(tmp_path):
+    from tlsync_pipeline.pipeline.stages.calibrate import gcp_sigma
+
+    text = '[[cameras]]\nname = "a"\n[[cameras]]\nname = "b"\n[cameras.calibration]\ngcp_sigma_m = 0.02\n'
+    default = load_project(_write(tmp_path, text))
+    assert default.calibration.gcp_sigma_m == 1.0  # a web map or a phone
+    assert gcp_sigma(default, "a") == 1.0 and gcp_sigma(default, "b") == 0.02
+    project = load_project(_write(tmp_path, "[calibration]\ngcp_sigma_m = 0\n" + text))
+    assert gcp_sigma(project, "a") == 0.0 and gcp_sigma(project, "b") == 0.02

@@ -1,27 +1,38 @@
 """The calibrate stage: a camera's pose (and its intrinsics, from the intrinsics stage or a camera.json) -> Camera and report.
 
 The intrinsics come from the intrinsics stage (checkerboard photos or video,
-``cameras/<cam>/intrinsics.json``) or from an existing camera.json
-(``intrinsics``); the pose from ground control points (``gcp``) or a board at
-a known world pose (``board_pose``). Geodetic GCPs (u,v,lat,lon,alt) are
-converted to the project's local ENU frame with tlsync_pipeline.geodesy,
-around the project's origin (see pipeline/origin.py), so cameras and trajectory
-share one world frame. Without a pose source the camera.json has identity R
-and zero t (intrinsics only). Editing a GCP file re-runs this stage only, not
-the checkerboard detection.
+``cameras/<cam>/intrinsics.json``), from an existing camera.json
+(``intrinsics``), or from the camera's own camera.json when it has no pose
+(``camera = ...`` without R, t). The pose comes from:
+
+- a board at a known world pose (``board_pose``): source ``board``;
+- ground control points (``gcp``) with ``gcp_sigma_m = 0`` (an exact
+  survey): source ``gcp``;
+- the target (sync/pose.py), with the GCPs as a prior weighted by
+  ``gcp_sigma_m`` (source ``gcp+target``) or without any (source
+  ``target``). The task then also reads the camera's track (or every
+  mover's detections) and the trajectory, so it runs after the track and
+  ingest stages; a pose the target does not determine fails the camera
+  with the cause and its remedy.
+
+Geodetic GCPs (u,v,lat,lon,alt) are converted to the project's local ENU
+frame with tlsync_pipeline.geodesy, around the project's origin (see
+pipeline/origin.py), so cameras and trajectory share one world frame.
+Editing a GCP file re-runs this stage only, not the checkerboard detection.
 """
 
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
 
-from calibration.camera import Camera, read_camera, write_camera
+from calibration.camera import Camera, PoseInfo, read_camera, write_camera
+from calibration.errors import CalibrationInputError
 from calibration.extrinsics import (
     GcpTable,
     Pose,
@@ -30,14 +41,24 @@ from calibration.extrinsics import (
     read_gcps,
 )
 from calibration.intrinsics import detect_board, parse_pattern
-from tlsync_pipeline.errors import InputError
+from tlsync_pipeline.errors import InputError, SyncError
 from tlsync_pipeline.geodesy import Origin, geodetic_to_enu
 from tlsync_pipeline.outputs.plots import calibration_plot
 from tlsync_pipeline.outputs.summary import calibration_summary
 from tlsync_pipeline.pipeline.origin import check_gcp_places, origin_inputs, resolve_origin
 from tlsync_pipeline.pipeline.spec import Options, Sources, StageResult, StageSpec
+from tlsync_pipeline.pipeline.stages.cameras import POSE_ERROR, gcp_sigma, has_no_rows, target_pose_wanted
 from tlsync_pipeline.pipeline.stages.intrinsics import check_calibration
 from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
+from tlsync_pipeline.sync.identify import IdentifyParams
+from tlsync_pipeline.sync.params import Preparation
+from tlsync_pipeline.sync.pose import estimate_pose, gcp_pose, pose_info
+from tlsync_pipeline.sync.pose_fit import GcpPrior
+from tlsync_pipeline.sync.registry import preparation_of
+from tlsync_pipeline.sync.synchronize import identify_params, prepare_trajectory
+from tlsync_pipeline.trajectory import Trajectory, read_trajectory
+from trackers.detections import Detections, read_detections
+from trackers.track import Track, read_track
 
 if TYPE_CHECKING:
     from tlsync_pipeline.pipeline.project import Project
@@ -53,14 +74,28 @@ class KnownBoard:
 
 
 @dataclass(frozen=True)
+class TargetPoseParams:
+    """What a pose from the target reads: the GCPs' survey sigma (metres; None without GCPs), identification's
+    parameters (gate, loss scale, clock prior: sync/identify.py), how the trajectory is prepared, and the video
+    the track stage found the target or the movers in (None: the project brings them)."""
+
+    gcp_sigma_m: float | None
+    identify: IdentifyParams
+    preparation: Preparation
+    source: Path | None = None
+
+
+@dataclass(frozen=True)
 class CalibrateParams:
     """What the pose reads: the camera's fps (kept in camera.json); with GCPs, their outlier threshold (pixels)
-    and the ENU origin setting; with a board at a known pose, the board (its photo is an input)."""
+    and the ENU origin setting; with a board at a known pose, the board (its photo is an input); with a pose
+    from the target, its parameters."""
 
     fps: float | None
     ransac_px: float | None = None
     origin: Origin | str | None = None
     board: KnownBoard | None = None
+    target: TargetPoseParams | None = None
 
 
 def gcp_world_points(table: GcpTable, origin: Origin | str | None) -> np.ndarray:
@@ -75,16 +110,25 @@ def gcp_world_points(table: GcpTable, origin: Origin | str | None) -> np.ndarray
     return geodetic_to_enu(table.geodetic[:, 0], table.geodetic[:, 1], table.geodetic[:, 2], origin)
 
 
-def calibrate_pose(name: str, params: CalibrateParams, known: Camera, intrinsics_report: dict, origin: Origin | str | None, gcp: Path | None, board_image: Path | None) -> tuple[Camera, dict]:
-    """A camera from known intrinsics and its pose source (``gcp`` or ``board_image``); writes nothing.
+def calibrate_pose(
+    name: str, params: CalibrateParams, known: Camera, intrinsics_report: dict, origin: Origin | str | None, gcp: Path | None, board_image: Path | None
+) -> tuple[Camera, dict, GcpPrior | None]:
+    """A camera from known intrinsics and its GCPs or board (``gcp`` or ``board_image``); writes nothing.
 
     origin: the resolved ENU origin (geodetic GCPs). Returns the Camera (world =
-    the project's local frame) and a JSON-ready report: ``intrinsics`` (as
-    given) and ``pose`` (per-point reprojection errors, predicted uncertainty).
+    the project's local frame; without a pose when neither gives one), a
+    JSON-ready report: ``intrinsics`` (as given) and ``pose`` (per-point
+    reprojection errors, predicted uncertainty), and the GCPs as a prior for
+    a pose from the target (``params.target``; None otherwise). With a pose
+    from the target the GCPs' own pose is only its start: when they give
+    none (too few, a survey too rough for every point) the report says so
+    and the target's pose goes on without it.
     """
     K, dist, dist_model, size = known.K, known.dist, known.dist_model, known.image_size
     report: dict = {"camera": name, "intrinsics": intrinsics_report}
     pose: Pose | None = None
+    prior: GcpPrior | None = None
+    source = None
     if gcp is not None:
         table = read_gcps(gcp)
         _check_in_image(table, size)
@@ -93,12 +137,24 @@ def calibrate_pose(name: str, params: CalibrateParams, known: Camera, intrinsics
             check_gcp_places(table, origin, "the [target] origin" if isinstance(params.origin, Origin) else "the origin (the centroid of every camera's GCPs)")
         xyz = gcp_world_points(table, origin)
         assert params.ransac_px is not None, "calibrate_params gives GCPs their threshold"
-        pose = pose_from_points(table.uv, xyz, K, dist, dist_model, params.ransac_px, source=table.source)
-        report["pose"] = {"source": table.source, "kind": "geodetic" if table.geodetic is not None else "local", **pose.to_report(table.names)}
-        for point, uv, world in zip(report["pose"]["points"], table.uv, xyz):
-            point.update(uv=uv.tolist(), xyz=world.tolist())
-        if isinstance(origin, Origin):
-            report["pose"]["origin"] = {"lat": origin.lat, "lon": origin.lon, "alt": origin.alt}
+        target = params.target
+        if target is not None and target.gcp_sigma_m is not None:
+            prior = GcpPrior(table.uv, xyz, target.gcp_sigma_m, table.names)
+            try:
+                if "intrinsics" in known.to_estimate:
+                    raise CalibrationInputError("the camera has no K yet")
+                pose = gcp_pose(known, prior, params.ransac_px)
+            except CalibrationInputError as exc:
+                report["warning"] = f"the GCPs alone give no pose ({exc}); the target's pose starts without them"
+        else:
+            pose = pose_from_points(table.uv, xyz, K, dist, dist_model, params.ransac_px, source=table.source)
+        if pose is not None:
+            source = "gcp"
+            report["pose"] = {"source": table.source, "kind": "geodetic" if table.geodetic is not None else "local", **pose.to_report(table.names)}
+            for point, uv, world in zip(report["pose"]["points"], table.uv, xyz):
+                point.update(uv=uv.tolist(), xyz=world.tolist())
+            if isinstance(origin, Origin):
+                report["pose"]["origin"] = {"lat": origin.lat, "lon": origin.lon, "alt": origin.alt}
     elif board_image is not None and params.board is not None:
         board = params.board
         pattern = parse_pattern(board.pattern, board.square, source=f"camera {name!r}: [cameras.calibration] pattern")
@@ -112,19 +168,35 @@ def calibrate_pose(name: str, params: CalibrateParams, known: Camera, intrinsics
             raise InputError(f"{board_image}: board_pose: {reason} (pattern {pattern})")
         pose = pose_from_board(gray, corners, pattern, board.R, board.t, K, dist, dist_model, source=str(board_image))
         report["pose"] = {"source": str(board_image), "kind": "board", **pose.to_report()}
-    else:
-        report["pose"] = None
-        report["warning"] = "no gcp or board_pose: camera.json has identity R and zero t (intrinsics only)"
+        source = "board"
+    if pose is None:
+        report.setdefault("pose", None)
+        return replace(known, name=name, fps=params.fps, R=np.eye(3), t=np.zeros(3), to_estimate=tuple(sorted(set(known.to_estimate) | {"pose"})), pose_info=None), report, prior
+    info = PoseInfo(source or "gcp", pose.position_std_m, pose.rotation_std_deg)
+    camera = Camera(name, K, dist, pose.R, pose.t, (int(size[0]), int(size[1])), params.fps, dist_model, dict(known.extra), pose_info=info)
+    return camera, report, prior
 
-    R, t = (pose.R, pose.t) if pose is not None else (np.eye(3), np.zeros(3))
-    camera = Camera(name, K, dist, R, t, (int(size[0]), int(size[1])), params.fps, dist_model, dict(known.extra))
-    return camera, report
+
+def pose_from_target(camera: Camera, params: TargetPoseParams, prior: GcpPrior | None, track: Track | None, detections: Detections | None, trajectory: Trajectory, ransac_px: float) -> tuple[Camera, dict]:
+    """The camera posed by the target (its GCPs, if any, a prior; its GCP pose, if any, the start), and the report's ``target_pose``.
+
+    Raises PoseError (sync/pose.py) when the target does not determine the pose.
+    """
+    prepared = prepare_trajectory(trajectory, params.preparation)
+    start = camera if camera.posed else None
+    unposed = camera if not camera.posed else replace(camera, R=np.eye(3), t=np.zeros(3), to_estimate=("pose",), pose_info=None)
+    found, _ = estimate_pose(unposed, track, detections, prepared, camera.fps, params.identify, prior, ransac_px, start)
+    sigma = None if prepared.sigma is None else float(np.median(prepared.sigma))
+    info = pose_info(found, sigma)
+    posed = replace(found.camera, name=camera.name, fps=camera.fps, extra=dict(camera.extra), pose_info=info)
+    return posed, found.to_report(info, prior)
 
 
 def known_intrinsics(path: Path) -> dict:
-    """The intrinsics part of the report for intrinsics taken from an existing camera.json."""
+    """The intrinsics part of the report for intrinsics taken from an existing camera.json (K null when it has none: the target's to fit)."""
     known = read_camera(path)
-    return {"source": str(path), "K": known.K.tolist(), "dist": known.dist.tolist(), "dist_model": known.dist_model, "image_size": list(known.image_size)}
+    K = None if "intrinsics" in known.to_estimate else known.K.tolist()
+    return {"source": str(path), "K": K, "dist": known.dist.tolist(), "dist_model": known.dist_model, "image_size": list(known.image_size)}
 
 
 def _check_in_image(table: GcpTable, size: tuple[int, int]) -> None:
@@ -134,49 +206,83 @@ def _check_in_image(table: GcpTable, size: tuple[int, int]) -> None:
             raise InputError(f"{table.source}:{line}: pixel ({u:g}, {v:g}) is outside the {w}x{h} image")
 
 
-def run_calibrate(files: StageFiles, params: CalibrateParams) -> StageResult:
-    """The calibrate stage: camera.json, calibration_report.json and calibration.png of one camera."""
+def survey_pose(files: StageFiles, params: CalibrateParams) -> tuple[Camera, dict, GcpPrior | None]:
+    """The camera from its intrinsics and its surveyed pose (GCPs or a board at a known pose; none without them), the
+    report, and the GCPs as a prior for a pose from the target (calibrate_pose), from the task's declared files
+    (survey_inputs)."""
     known = read_camera(files.path("intrinsics"))
     if files.has("intrinsics_report"):  # calibrated by the intrinsics stage: its rms stays in camera.json
         intrinsics_report = json.loads(files.path("intrinsics_report").read_text(encoding="utf-8"))
     else:  # a given camera.json: only its intrinsics are taken
-        known = Camera(known.name, known.K, known.dist, known.R, known.t, known.image_size, known.fps, known.dist_model)
+        known = Camera(known.name, known.K, known.dist, known.R, known.t, known.image_size, known.fps, known.dist_model, to_estimate=known.to_estimate)
         intrinsics_report = known_intrinsics(files.path("intrinsics"))
     gcp = files.path("gcp") if files.has("gcp") else None
     origin = params.origin
     if gcp is not None and read_gcps(gcp).geodetic is not None:
         origin = resolve_origin(origin, [files.path(label) for label in files.inputs if label.startswith("origin-gcp:")], "[target]")
     board_image = files.path("board_pose_image") if files.has("board_pose_image") else None
-    camera, report = calibrate_pose(files.camera_name, params, known, intrinsics_report, origin, gcp, board_image)
+    return calibrate_pose(files.camera_name, params, known, intrinsics_report, origin, gcp, board_image)
+
+
+def run_calibrate(files: StageFiles, params: CalibrateParams) -> StageResult:
+    """The calibrate stage: camera.json, calibration_report.json and calibration.png of one camera."""
+    camera, report, prior = survey_pose(files, params)
+    failed = {}
+    if params.target is not None:
+        try:
+            camera, report["target_pose"] = _pose_from_target_files(files, camera, params, prior)
+        except SyncError as exc:  # the camera cannot be synchronized: camera.json without a pose says why, identify and vote pass it on
+            failed[files.camera_name] = str(exc)
+            camera = replace(camera, R=np.eye(3), t=np.zeros(3), to_estimate=tuple(sorted(set(camera.to_estimate) | {"pose"})), pose_info=None, extra={**camera.extra, POSE_ERROR: str(exc)})
+            report["target_pose"] = {"error": str(exc), "cause": getattr(exc, "cause", None), "remedy": getattr(exc, "remedy", None)}
     with files.write("camera") as tmp:
         write_camera(camera, tmp)
     with files.write("calibration_report") as tmp:
         tmp.write_text(json.dumps(report, indent=1) + "\n", encoding="utf-8")
     with files.write("calibration_picture") as tmp:
         tmp.write_bytes(calibration_plot(report, camera.image_size))
-    return StageResult(message=f"{calibration_summary(report)}; wrote {files.output('camera')}", warnings=pose_warnings(report))
+    return StageResult(message=f"{calibration_summary(report)}; wrote {files.output('camera')}", warnings=pose_warnings(report), failed=failed)
 
 
 def pose_warnings(report: dict) -> tuple[str, ...]:
-    """The calibrate stage's warnings, from its report: ground control points left out as outliers, a camera without a pose."""
+    """The calibrate stage's warnings, from its report: ground control points left out as outliers, GCPs that give no
+    pose, a pose from the target that serves timing but not 3D."""
     pose = report.get("pose") or {}
     out = [
         f"ground control point {point.get('name', '?')} left out as an outlier ({point.get('error_px', float('nan')):.1f} px)"
         for point in pose.get("points", [])
         if not point.get("inlier", True)
     ]
-    return tuple(out + ([report["warning"]] if report.get("warning") else []))
+    note = (report.get("target_pose") or {}).get("note")
+    return tuple(out + [w for w in (report.get("warning"), note) if w])
 
 
-def calibrate_inputs(src: Sources, name: str) -> dict[str, Path | Artefact]:
-    """The intrinsics (the intrinsics stage's, or the given camera.json), the pose's files, and the origin's GCPs."""
-    check_calibration(src.project, name)
-    cal = src.project.camera(name).calibration
+def _pose_from_target_files(files: StageFiles, camera: Camera, params: CalibrateParams, prior: GcpPrior | None) -> tuple[Camera, dict]:
+    """``pose_from_target`` on the task's track (or detections) and trajectory; SyncError when the target was never found or gives no pose."""
+    assert params.target is not None
+    label = "track" if files.has("track") else "detections"
+    if params.target.source is not None and has_no_rows(files.path(label)):
+        raise SyncError(f"{params.target.source}: the target was never found (no moving object in any frame)")
+    track = read_track(files.path("track")) if label == "track" else None
+    detections = read_detections(files.path("detections")) if label == "detections" else None
+    return pose_from_target(camera, params.target, prior, track, detections, read_trajectory(files.path("trajectory")), params.ransac_px or 8.0)
+
+
+def survey_inputs(src: Sources, name: str) -> dict[str, Path | Artefact]:
+    """The intrinsics (the intrinsics stage's, the given camera.json), the surveyed pose's files and the origin's GCPs."""
+    camera = src.project.camera(name)
+    cal = camera.calibration
     inputs: dict[str, Path | Artefact] = {}
-    if src.made("intrinsics", name):
-        inputs = {"intrinsics": src.artefact("intrinsics", name), "intrinsics_report": src.artefact("intrinsics_report", name)}
-    elif cal.intrinsics is not None:
-        inputs = {"intrinsics": cal.intrinsics}
+    if camera.camera is not None:
+        if cal.board_views or cal.intrinsics is not None:
+            raise InputError(f"{src.project.path}: camera {name!r}: give either 'camera' (a camera.json) or an intrinsics source in [cameras.calibration], not both")
+        inputs = {"intrinsics": camera.camera}
+    else:
+        check_calibration(src.project, name)
+        if src.made("intrinsics", name):
+            inputs = {"intrinsics": src.artefact("intrinsics", name), "intrinsics_report": src.artefact("intrinsics_report", name)}
+        elif cal.intrinsics is not None:
+            inputs = {"intrinsics": cal.intrinsics}
     if cal.gcp is not None:
         inputs["gcp"] = cal.gcp
         inputs.update(origin_inputs(src.project))
@@ -185,7 +291,24 @@ def calibrate_inputs(src: Sources, name: str) -> dict[str, Path | Artefact]:
     return inputs
 
 
-def calibrate_params(project: Project, name: str, options: Options) -> CalibrateParams:
+def calibrate_inputs(src: Sources, name: str) -> dict[str, Path | Artefact]:
+    """survey_inputs; for a pose from the target also the track (or every mover's detections) and the trajectory."""
+    camera, cal = src.project.camera(name), src.project.camera(name).calibration
+    inputs = survey_inputs(src, name)
+    if target_pose_wanted(src.project, name):
+        try:
+            inputs["trajectory"] = src.artefact("trajectory")
+            if camera.brings_movers:
+                inputs["detections"] = src.artefact("detections", name)
+            else:
+                inputs["track"] = src.artefact("track", name)
+        except InputError as exc:
+            alone = "; or set gcp_sigma_m = 0 for the GCPs' pose alone" if cal.gcp is not None else ""
+            raise InputError(f"{exc} (its pose comes from the target{alone})") from None
+    return inputs
+
+
+def survey_params(project: Project, name: str) -> CalibrateParams:
     """The camera's fps; the GCPs' threshold and the origin setting with GCPs; the board (without its photo, an input) with board_pose."""
     camera = project.camera(name)
     cal = camera.calibration
@@ -198,6 +321,16 @@ def calibrate_params(project: Project, name: str, options: Options) -> Calibrate
     return CalibrateParams(camera.fps, cal.ransac_px, project.target.origin, board)
 
 
+def calibrate_params(project: Project, name: str, options: Options) -> CalibrateParams:
+    """survey_params, and a pose from the target's parameters when it gives the pose."""
+    camera = project.camera(name)
+    if not target_pose_wanted(project, name):
+        return survey_params(project, name)
+    source = camera.video if camera.tracked else None
+    target = TargetPoseParams(gcp_sigma(project, name) if camera.calibration.gcp is not None else None, identify_params(project.sync), preparation_of(project.sync), source)
+    return replace(survey_params(project, name), target=target)
+
+
 SPEC = StageSpec(
     "calibrate",
     inputs=calibrate_inputs,
@@ -206,5 +339,5 @@ SPEC = StageSpec(
     run=run_calibrate,
     per_camera=True,
     light=True,
-    applies=lambda project, name: project.camera(name).camera is None and project.camera(name).calibration.given,
+    applies=lambda project, name: (project.camera(name).camera is None and project.camera(name).calibration.given) or target_pose_wanted(project, name),
 )

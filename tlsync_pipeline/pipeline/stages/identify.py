@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING
 from calibration.camera import read_camera
 from tlsync_pipeline.errors import SyncError
 from tlsync_pipeline.pipeline.spec import Options, Sources, StageResult, StageSpec
-from tlsync_pipeline.pipeline.stages.cameras import has_no_rows
+from tlsync_pipeline.pipeline.stages.cameras import has_no_rows, pose_problem
 from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
 from tlsync_pipeline.sync.identify import IdentifyParams, identify_target
 from tlsync_pipeline.sync.params import Preparation
@@ -68,6 +68,8 @@ def run_identify(files: StageFiles, params: IdentifyStageParams) -> StageResult:
     prepared = prepare_trajectory(read_trajectory(files.path("trajectory")), params.preparation)
     seed = params.seed
     try:
+        if (problem := pose_problem(camera)) is not None:
+            raise problem
         if params.source is not None and has_no_rows(files.path("detections")):
             raise SyncError(f"{params.source}: the target was never found (no moving object in any frame)")
         detections = read_detections(files.path("detections"))

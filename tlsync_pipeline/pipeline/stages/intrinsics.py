@@ -2,7 +2,7 @@
 
 A stage of its own so that the slow part (detecting the board in every view)
 is cached apart from the pose: editing a GCP file re-runs only calibrate.
-``intrinsics.json`` is a camera.json with identity R and zero t (``rms`` kept);
+``intrinsics.json`` is a camera.json without a pose (no R, t; ``rms`` kept);
 ``intrinsics_report.json`` holds the calibration report's ``intrinsics`` part
 (per-view errors and detected corners, rejected views with reasons).
 """

@@ -290,6 +290,7 @@ def _camera_job(scene: _Scene, name: str, params: RenderParams, requests: list[P
         detections=files.detections if name in scene.videos else None,
         requests=requests,
         proxy=params.proxy.get(name, "auto"),
+        windows=read_windows(files.scan),
         n_frames=scene.n_frames[name],
         out_dir=out_dir,
         work=work,
@@ -367,6 +368,14 @@ def _write_chart(path: Path, png: bytes, work: Path, title: str) -> Picture:
     return Picture(title, path.relative_to(work).as_posix(), png)
 
 
+def read_windows(scan: Path | None) -> list[tuple[int, int]] | None:
+    """The windows of a scan.json (the scan stage's) when the track stage read windows, else None."""
+    if scan is None:
+        return None
+    plan = json.loads(Path(scan).read_text(encoding="utf-8"))
+    return [(int(a), int(b)) for a, b in plan["windows"]] if plan["mode"] == "windows" else None
+
+
 def render_inputs(src: Sources, camera: None) -> dict[str, Path | Artefact]:
     """What the pictures and the report show: every camera's files, votes and calibration report, the trajectory and
     its ingest report, the timeline, the exports."""
@@ -380,7 +389,7 @@ def render_inputs(src: Sources, camera: None) -> dict[str, Path | Artefact]:
             inputs[f"detections:{name}"] = src.artefact("detections", name)
         if spec.video is not None:
             inputs[f"video:{name}"] = spec.video
-        for kind in ("calibration_picture", "calibration_report", "video_info"):
+        for kind in ("calibration_picture", "calibration_report", "video_info", "scan"):
             if src.made(kind, name):
                 inputs[f"{kind}:{name}"] = src.artefact(kind, name)
     return inputs

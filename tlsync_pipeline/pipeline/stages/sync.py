@@ -22,7 +22,7 @@ from tlsync_pipeline.sync.params import SyncParams
 from tlsync_pipeline.sync.plausibility import LogUnitError
 from tlsync_pipeline.sync.status import WEAK, Reason
 from tlsync_pipeline.sync.synchronize import CameraResult, synchronize
-from tlsync_pipeline.sync.timeline import CameraLine, IdentificationSummary, StageWarning, Timeline, write_timeline
+from tlsync_pipeline.sync.timeline import CameraLine, IdentificationSummary, ScanSummary, StageWarning, Timeline, write_timeline
 from tlsync_pipeline.sync.votes import Votes, load_votes
 from tlsync_pipeline.trajectory import Trajectory, read_trajectory
 from trackers.track import read_track
@@ -104,7 +104,7 @@ def run_sync(files: StageFiles, params: SyncStageParams) -> StageResult:
         key, source = params.source or ("trajectory", files.path("trajectory"))
         raise InputError(f"{source} ([target] {key}): {exc}") from None
     failed = {name: str(votes[name]) if name not in usable else timeline.failed[name] for name in paths if name not in usable or name in timeline.failed}
-    lines = {name: _flag_truncated(line, paths[name]) for name, line in timeline.cameras.items()}
+    lines = {name: _with_scan(_flag_truncated(line, paths[name]), paths[name]) for name, line in timeline.cameras.items()}
     lines = {name: _with_container_fps(line, params.fps.get(name), params.container_fps.get(name)) for name, line in lines.items()}
     timeline = replace(timeline, cameras=lines, failed={**failed, **params.left_out})
     timeline = with_identifications(timeline, {n: read_identification(c.identification) for n, c in paths.items() if c.identification is not None})
@@ -146,6 +146,14 @@ def _with_container_fps(line: CameraLine, fps: float | None, container: float | 
         "set fps to the rate the camera recorded at (the container's, unless it is wrong)",
     )
     return replace(line, checks=(*(line.checks or ()), reason))
+
+
+def _with_scan(line: CameraLine, camera: CameraFiles) -> CameraLine:
+    """The camera's line with how its video was read (video.json), when the track stage read it."""
+    info = read_video_info(camera.video_info) if camera.video_info is not None else {}
+    if "scan" not in info:
+        return line
+    return replace(line, scan=ScanSummary(info["scan"], info["scan_reason"], int(info["frames"]), int(info["keyframes_decoded"]), int(info["frames_decoded"])))
 
 
 def _flag_truncated(line: CameraLine, camera: CameraFiles) -> CameraLine:

@@ -17,22 +17,27 @@ from typing import TYPE_CHECKING
 
 from tlsync_pipeline.atomic import atomic_path
 from tlsync_pipeline.pipeline.spec import Options, Sources, StageResult, StageSpec
-from tlsync_pipeline.pipeline.stages.cameras import VIDEO_INFO_FORMAT
+from tlsync_pipeline.pipeline.stages.cameras import VIDEO_INFO_FORMAT, scans
 from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
 from trackers.detections import Detections, write_detections
 from trackers.track import Track, write_track
 from trackers.tracking import detect_movers, track_video
-from trackers.video import TruncatedVideoWarning, probe_video
+from trackers.video import DecodeCount, TruncatedVideoWarning, probe_video
 
 if TYPE_CHECKING:
     from tlsync_pipeline.pipeline.project import Project, TrackerConfig
 
 
-def track_camera(name: str, video: Path, tracker: TrackerConfig, progress: bool = True) -> Track | Detections:
-    """Every mover (``tracker.every_mover``) or the target (CSRT from its init box) in one camera's video."""
+def track_camera(name: str, video: Path, tracker: TrackerConfig, progress: bool = True, plan: dict | None = None, count: DecodeCount | None = None) -> Track | Detections:
+    """Every mover (``tracker.every_mover``) or the target (CSRT from its init box) in one camera's video.
+
+    plan: the scan stage's scan.json for every mover (None, or mode
+    "full": every frame); count: filled with the frames decoded.
+    """
     label = f"{name} ({video.name})"
     if tracker.every_mover:
-        return detect_movers(video, params=dict(tracker.parameters), progress=progress, label=label)
+        windows = None if plan is None or plan["mode"] == "full" else [(int(a), int(b)) for a, b in plan["windows"]]
+        return detect_movers(video, params=dict(tracker.parameters), progress=progress, label=label, windows=windows, count=count)
     return track_video(video, kind=tracker.kind, init=tracker.init, init_frame=tracker.init_frame, params=dict(tracker.parameters), progress=progress, label=label)
 
 
@@ -55,21 +60,42 @@ def run_track(files: StageFiles, tracker: TrackerConfig) -> StageResult:
     warning is the stage's, and video.json says how many frames exist.
     """
     video = files.path("video")
+    plan = json.loads(files.path("scan").read_text(encoding="utf-8")) if files.has("scan") else None  # plain JSON: this stage's code does not import sync
+    count = DecodeCount()
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", TruncatedVideoWarning)
-        result = track_camera(files.camera_name, video, tracker, progress=files.progress)
+        result = track_camera(files.camera_name, video, tracker, progress=files.progress, plan=plan, count=count)
     truncation = next((w.message for w in caught if isinstance(w.message, TruncatedVideoWarning)), None)
     for item in caught:
         warnings.warn_explicit(item.message, item.category, item.filename, item.lineno)
     recorded = tuple(sorted({str(w.message) for w in caught if issubclass(w.category, TruncatedVideoWarning)}))
+    info = video_info(video, truncation)
+    read = reading(plan, count, info["frames"], isinstance(result, Detections))
     with files.write("video_info") as tmp:
-        tmp.write_text(json.dumps(video_info(video, truncation), indent=1) + "\n", encoding="utf-8")
+        tmp.write_text(json.dumps({**info, **read}, indent=1) + "\n", encoding="utf-8")
     if isinstance(result, Detections):
         write_detections_atomic(result, files.output("detections"))
-        facts = {"detections": len(result), "tracklets": int(len(result.tracklet_ids()))}
-        return StageResult(f"wrote {files.output('detections')} ({len(result)} detections)", recorded, facts=facts)
+        facts = {"detections": len(result), "tracklets": int(len(result.tracklet_ids())), **read}
+        return StageResult(f"wrote {files.output('detections')} ({len(result)} detections; {read_summary(read, info['frames'])})", recorded, facts=facts)
     write_track_atomic(result, files.output("track"))
     return StageResult(f"wrote {files.output('track')} ({len(result)} tracked frames)", recorded, facts={"tracked_frames": len(result)})
+
+
+def reading(plan: dict | None, count: DecodeCount, frames: int, every_mover: bool) -> dict:
+    """How the video was read, for video.json: "scan" ("windows" or "full"), why every frame ("scan_reason"), frames
+    decoded by the coarse pass ("keyframes_decoded") and by this stage ("frames_decoded")."""
+    if plan is None:
+        why = '[track] scan = "full"' if every_mover else "one target followed from frame to frame"
+        return {"scan": "full", "scan_reason": why, "keyframes_decoded": 0, "frames_decoded": count.decoded or frames}
+    return {"scan": plan["mode"], "scan_reason": plan["reason"], "keyframes_decoded": plan["keyframes_read"], "frames_decoded": count.decoded}
+
+
+def read_summary(read: dict, frames: int) -> str:
+    """Frames decoded against frames skipped, and why every frame when so."""
+    if read["scan"] == "full":
+        return f"every frame decoded: {read['scan_reason']}"
+    skipped = max(0, frames - read["frames_decoded"])
+    return f"{read['frames_decoded']} of {frames} frames decoded, {skipped} skipped, after {read['keyframes_decoded']} keyframes"
 
 
 def video_info(video: Path, truncation: TruncatedVideoWarning | None) -> dict:
@@ -86,9 +112,13 @@ def tracking_params(project: Project, cam: str, options: Options) -> TrackerConf
 
 
 def track_inputs(src: Sources, cam: str) -> dict[str, Path | Artefact]:
+    """The camera's video, and the scan stage's windows when it has them."""
     video = src.project.camera(cam).video
     assert video is not None, "the stage applies to a camera with a video"
-    return {"video": video}
+    inputs: dict[str, Path | Artefact] = {"video": video}
+    if scans(src.project, cam):
+        inputs["scan"] = src.artefact("scan", cam)
+    return inputs
 
 
 SPEC = StageSpec(

@@ -15,7 +15,7 @@ import numpy as np
 from calibration.camera import read_camera
 from tlsync_pipeline.errors import SyncError
 from tlsync_pipeline.pipeline.spec import Options, Sources, StageResult, StageSpec
-from tlsync_pipeline.pipeline.stages.cameras import has_no_rows, read_identification
+from tlsync_pipeline.pipeline.stages.cameras import has_no_rows, pose_problem, read_identification
 from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
 from tlsync_pipeline.sync.params import Preparation
 from tlsync_pipeline.sync.registry import preparation_of
@@ -52,6 +52,8 @@ def run_vote(files: StageFiles, params: VoteParams) -> StageResult:
     try:
         if files.has("identification") and isinstance(found := read_identification(files.path("identification")), SyncError):
             raise found
+        if (problem := pose_problem(camera)) is not None:
+            raise problem
         if params.source is not None and has_no_rows(files.path("track")):
             raise SyncError(f"{params.source}: the target was never found (the track stage found it in no frame)")
         prepared = prepare_trajectory(read_trajectory(files.path("trajectory")), params.preparation)

@@ -35,12 +35,13 @@ def calibrate_camera(proj, name):
     """A camera's pose from its known intrinsics and GCPs, as the calibrate stage computes it (no files written)."""
     cal = proj.camera(name).calibration
     known = read_camera(cal.intrinsics)
-    return calibrate_pose(name, calibrate_params(proj, name, Options()), known, known_intrinsics(cal.intrinsics), project_origin(proj), cal.gcp, None)
+    camera, report, _ = calibrate_pose(name, calibrate_params(proj, name, Options()), known, known_intrinsics(cal.intrinsics), project_origin(proj), cal.gcp, None)
+    return camera, report
 
 
 @pytest.fixture
 def project(tmp_path, boards, board_dir):
-    """Two cameras: cam0 calibrated from board photos + local GCPs, cam1 from a known camera.json + geodetic GCPs."""
+    """Two cameras: cam0 calibrated from board photos + local GCPs, cam1 from a known camera.json + geodetic GCPs; the GCPs exact (their pose alone)."""
     shutil.copytree(board_dir, tmp_path / "boards")
     truth = {}
     for name, center, seed in (("cam0", (3.0, -15.0, 6.0), 1), ("cam1", (-8.0, 20.0, 9.0), 2)):
@@ -58,6 +59,9 @@ def project(tmp_path, boards, board_dir):
 [target]
 trajectory = "trajectory.csv"
 origin = [{ORIGIN.lat}, {ORIGIN.lon}, {ORIGIN.alt}]
+
+[calibration]
+gcp_sigma_m = 0
 
 [[cameras]]
 name = "cam0"
@@ -213,3 +217,64 @@ def test_the_executor_decides_how_many_processes_detect_the_boards(project, monk
     assert sorted(summary.ran) == [*calibrations, "intrinsics/cam0"] and not summary.failed
     # The intrinsics task starts the workers and detects with one process there; the calibrations follow it onto them.
     assert pool.cores_given == {"intrinsics/cam0": 1, "calibrate/cam0": 1, "calibrate/cam1": 1}
+
+
+@pytest.fixture(scope="module")
+def unposed_project(tmp_path_factory):
+    """A pass scene written as a project whose camera.json files have no pose: cam0's walker turns, cam1's walks straight."""
+    from data_fixtures.passes import make_pass_scene
+    from data_fixtures.scene import write_scene
+
+    scene = make_pass_scene(3, paths=("turn", "straight", "turn")).scene
+    root = tmp_path_factory.mktemp("unposed")
+    write_scene(scene, root, poses=False)
+    return root, scene
+
+
+def test_a_camera_without_a_pose_gets_it_from_the_target_and_a_straight_walk_fails_with_its_cause(unposed_project):
+    root, scene = unposed_project
+    result = _cli("run", root / "project.toml", "--quiet")
+    assert result.exit_code == 1, result.output  # cam1 is not synchronized: never exit 0 with a wrong pose
+    assert "straight_path" in result.output and "walk a curved path" in result.output
+    work = root / "work"
+    failed = read_camera(work / "cameras" / "cam1" / "camera.json")
+    assert not failed.posed and "straight_path" in failed.extra["pose_error"]  # no pose, and why
+    report = json.loads((work / "cameras" / "cam1" / "calibration_report.json").read_text())
+    assert report["target_pose"]["cause"] == "straight_path" and "curved path" in report["target_pose"]["remedy"]
+    timeline = json.loads((work / "timeline.json").read_text())
+    assert set(timeline["cameras"]) == {"cam0", "cam2"} and "straight_path" in timeline["failed"]["cam1"]
+    for name in ("cam0", "cam2"):
+        camera = read_camera(work / "cameras" / name / "camera.json")
+        truth = scene.true_cameras[name]
+        assert camera.pose_info.source == "target" and not camera.pose_info.for_3d  # the CSV log states no accuracy
+        assert np.linalg.norm(camera.center - truth.center) < 0.3 and angle_deg(camera.R, truth.R) < 1.0
+        report = json.loads((work / "cameras" / name / "calibration_report.json").read_text())
+        assert report["target_pose"]["source"] == "target" and report["target_pose"]["frames"] > 100
+    html = (work / "report.html").read_text()
+    assert "from the target" in html
+
+
+def test_gcps_of_a_rough_survey_are_refined_by_the_target(unposed_project, tmp_path):
+    from data_fixtures.passes import make_pass_scene
+
+    root, scene = unposed_project
+    gcps = make_pass_scene(3, paths=("turn", "straight", "turn"), gcp_noise_m=0.5).gcps["cam0"]
+    shutil.copytree(root, tmp_path / "p", ignore=shutil.ignore_patterns("work"))
+    folder = tmp_path / "p"
+    write_gcp_csv(folder / "gcp_cam0.csv", gcps.uv, gcps.xyz)
+    text = (folder / "project.toml").read_text()
+    text = text.replace('camera = "cam0/camera.json"', '[cameras.calibration]\nintrinsics = "cam0/camera.json"\ngcp = "gcp_cam0.csv"\ngcp_sigma_m = 0.5', 1)
+    # the camera table's keys after [cameras.calibration] would land in it: move them above
+    text = text.replace('[cameras.calibration]\nintrinsics = "cam0/camera.json"\ngcp = "gcp_cam0.csv"\ngcp_sigma_m = 0.5\ntrack = "cam0/track.csv"\nfps = 30.0\n', 'track = "cam0/track.csv"\nfps = 30.0\n[cameras.calibration]\nintrinsics = "cam0/camera.json"\ngcp = "gcp_cam0.csv"\ngcp_sigma_m = 0.5\n')
+    (folder / "project.toml").write_text(text)
+    result = _cli("calibrate", folder / "project.toml", "--camera", "cam0", "--quiet")
+    assert result.exit_code == 0, result.output
+    report = json.loads((folder / "work" / "cameras" / "cam0" / "calibration_report.json").read_text())
+    target = report["target_pose"]
+    assert target["source"] == "gcp+target" and target["gcp_sigma_m"] == 0.5
+    assert len(target["gcps"]) == len(gcps.uv) and all(g["before_px"] is not None and g["after_px"] is not None for g in target["gcps"])
+    truth = scene.true_cameras["cam0"]
+    camera = read_camera(folder / "work" / "cameras" / "cam0" / "camera.json")
+    gcp_only = np.array(report["pose"]["camera_center_m"])
+    assert np.linalg.norm(camera.center - truth.center) < 0.5 * np.linalg.norm(gcp_only - truth.center)
+    assert target["moved_m"] == pytest.approx(np.linalg.norm(camera.center - gcp_only), abs=1e-6)

@@ -74,7 +74,8 @@ def test_render_decodes_only_the_frames_it_draws(rendered_project, monkeypatch):
         assert len(decoded[f"{name}.mp4"]) <= 2 * render.FRAMES_PER_PAIR
     truth = scene.truth_pairs()["cam1->cam0"]
     matched = {int(round(float(truth(f)))) for f in decoded["cam1.mp4"] if 0 <= truth(f) < scene.n_frames["cam0"]}
-    assert matched and all(min(abs(m - d) for d in decoded["cam0.mp4"]) <= 2 for m in matched)
+    # the strip's three frames of cam1 have their matches decoded (its band swap's may have moved to keyframes)
+    assert sum(min(abs(m - d) for d in decoded["cam0.mp4"]) <= 2 for m in matched) >= render.FRAMES_PER_PAIR
     strip = cv2.imread(str(folder / "work" / "render" / "strip_cam0_cam1.png"))
     assert strip.shape[0] >= render.FRAMES_PER_PAIR * render.PANEL_HEIGHT
 
@@ -183,3 +184,21 @@ def test_render_never_decodes_the_videos_through(rendered_project, monkeypatch):
     assert decoded["cam1.mp4"] > 0 and decoded["cam0.mp4"] > 0
     for name in ("cam0", "cam1"):
         assert decoded[f"{name}.mp4"] < scene.n_frames[name] / 3, decoded
+
+
+def test_pictures_prefer_tracked_keyframes_nearby():
+    """A keyframe decodes alone: a band swap's or the movers picture's frame moves to a tracked keyframe close by, if any."""
+    from tlsync_pipeline.outputs.camera_pictures import band_swap_frames
+    from trackers.detections import make_detections
+    from trackers.track import Track
+
+    frames = np.arange(100, 1100)
+    track = Track(frames, np.zeros(len(frames)), np.zeros(len(frames)))
+    keyframes = np.arange(0, 2000, 60)
+    assert band_swap_frames(track) == [300, 600, 899]
+    assert band_swap_frames(track, keyframes) == [300, 600, 900]  # 300, 600 and 900 are keyframes
+    assert band_swap_frames(track, keyframes + 20) == [320, 620, 920]
+    assert render.toward_keyframes([300], frames, np.array([400]), reach=50) == [300]  # too far: kept
+    movers = make_detections([(f, f / 30, 0, 1.0, 1.0, 5, 5, 1.0) for f in (150, 150, 150, 180)] + [(180, 6.0, 1, 2.0, 2.0, 5, 5, 1.0)])
+    assert render.choose_movers_frame(movers, track) == 150
+    assert render.choose_movers_frame(movers, track, keyframes) == 180  # the keyframe with most movers

@@ -1,0 +1,257 @@
+"""Poses from the target: eps_t and pose error against GCP noise and without GCPs, the real flight without poses, a crowd, speed.
+
+    nice python bench/pose.py [--scenes 20] [--jobs 2] [--crowd 5] [--data /work/shared/real/drone2] [--no-write]
+
+1. Pass scenes (data_fixtures/passes.py: a walker crossing three 30 fps
+   views and turning inside each, RTK log 10 Hz with 2 cm noise, 2 px
+   tracks, 8 GCPs per camera), ``--scenes`` seeds. Per scene, the worst
+   pair's eps_t (frames) and each camera's pose error (centre, metres;
+   rotation, degrees) for: the true poses ("exact"); the GCPs' own pose
+   taken as exact, as tlsync did before (SQPnP + RANSAC at 8 px: "GCPs
+   alone"); the pose from the target with the GCPs as a prior at the
+   default gcp_sigma_m ("GCPs + target"); and from the target alone. GCP
+   error: 0, 0.1, 0.5 and 2 m per horizontal axis.
+2. The real flight (../shared/real/drone2), every camera's R and t removed
+   (only K and the distortion given): eps_t per pair against the truth
+   file, with and without the poses; skipped when the folder is absent.
+3. Crowds (data_fixtures/crowd.py, 6 walkers, ``--crowd`` seeds): every
+   mover detected in the rendered videos, no pose and no track given: the
+   pose from the movers' tracklets, then the sync; eps_t of the worst pair
+   and which cameras got a pose (the others' cause).
+4. Speed: CPU seconds of the pose search and fit of one camera for 10
+   minutes of 30 fps track (a walker turning in one view for 600 s).
+
+Writes the tables into docs/accuracy.md (block ``pose``) and the summary
+into docs/calibration.md (block ``pose``) unless --no-write.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import tempfile
+import time
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from calibration.camera import Camera  # noqa: E402
+from calibration.errors import CalibrationInputError  # noqa: E402
+from calibration.extrinsics import pose_from_points  # noqa: E402
+from data_fixtures.passes import make_pass_scene  # noqa: E402
+from tlsync_pipeline.sync.params import SyncParams  # noqa: E402
+from tlsync_pipeline.sync.pose import GCP_SIGMA_M, estimate_pose, rotation_between  # noqa: E402
+from tlsync_pipeline.sync.pose_fit import GcpPrior  # noqa: E402
+from tlsync_pipeline.sync.registry import preparation_of  # noqa: E402
+from tlsync_pipeline.sync.synchronize import CameraInput, identify_params, prepare_trajectory, synchronize  # noqa: E402
+from tlsync_pipeline.sync.timeline import eps_t  # noqa: E402
+
+NOISE_M = (0.0, 0.1, 0.5, 2.0)
+DEFAULT_DATA = Path("/work/shared/real/drone2")
+CALIBRATION_DOC = Path(__file__).resolve().parent.parent / "docs" / "calibration.md"
+
+
+def unposed(camera: Camera) -> Camera:
+    return replace(camera, R=np.eye(3), t=np.zeros(3), to_estimate=("pose",), pose_info=None)
+
+
+def _worst(timeline, scene) -> float:
+    """The worst pair's eps_t; inf when a camera was not synchronized."""
+    if timeline.failed:
+        return float("inf")
+    return max(eps_t(timeline.relation(*k.split("->")), true, scene.n_frames[k.split("->")[0]]) for k, true in scene.truth_pairs().items())
+
+
+def _pose_errors(results, scene) -> list[tuple[float, float]]:
+    out = []
+    for name, result in results.items():
+        camera = result.pose.camera if result.pose is not None else None
+        if camera is not None:
+            truth = scene.true_cameras[name]
+            out.append((float(np.linalg.norm(camera.center - truth.center)), rotation_between(camera.R, truth.R)))
+    return out
+
+
+def pass_scene(seed: int) -> dict:
+    """Every setting on one seeded scene: worst eps_t, pose errors, cameras without a pose, CPU seconds of the poses."""
+    rows: dict = {}
+    params = SyncParams()
+    base = make_pass_scene(seed)
+    scene = base.scene
+    exact = {n: CameraInput(c, scene.tracks[n], c.fps) for n, c in scene.true_cameras.items()}
+    timeline, _ = synchronize(exact, scene.trajectory, params)
+    rows["exact"] = {"worst": _worst(timeline, scene), "errors": [], "missing": 0}
+    start = time.process_time()
+    timeline, results = synchronize({n: CameraInput(unposed(c), scene.tracks[n], c.fps) for n, c in scene.true_cameras.items()}, scene.trajectory, params)
+    rows["target"] = {"worst": _worst(timeline, scene), "errors": _pose_errors(results, scene), "missing": len(timeline.failed), "cpu_s": time.process_time() - start}
+    for noise in NOISE_M:
+        gcps = make_pass_scene(seed, gcp_noise_m=noise).gcps
+        alone, missing = {}, 0
+        for n, c in scene.true_cameras.items():
+            g = gcps[n]
+            try:
+                pose = pose_from_points(g.uv, g.xyz, c.K, c.dist, c.dist_model, 8.0)
+            except CalibrationInputError:
+                missing += 1
+                continue
+            alone[n] = CameraInput(replace(c, R=pose.R, t=pose.t), scene.tracks[n], c.fps)
+        errors = [(float(np.linalg.norm(i.camera.center - scene.true_cameras[n].center)), rotation_between(i.camera.R, scene.true_cameras[n].R)) for n, i in alone.items()]
+        timeline, _ = synchronize(alone, scene.trajectory, params) if alone else (None, {})
+        rows[("alone", noise)] = {"worst": _worst(timeline, scene) if timeline is not None and not missing else float("inf"), "errors": errors, "missing": missing}
+        inputs = {n: CameraInput(unposed(c), scene.tracks[n], c.fps, gcps=GcpPrior(gcps[n].uv, gcps[n].xyz, GCP_SIGMA_M)) for n, c in scene.true_cameras.items()}
+        timeline, results = synchronize(inputs, scene.trajectory, params)
+        rows[("joint", noise)] = {"worst": _worst(timeline, scene), "errors": _pose_errors(results, scene), "missing": len(timeline.failed)}
+    return rows
+
+
+def pass_table(all_rows: list[dict]) -> str:
+    def line(label, key):
+        worst = np.array([r[key]["worst"] for r in all_rows])
+        errors = np.array([e for r in all_rows for e in r[key]["errors"]]) if any(r[key]["errors"] for r in all_rows) else np.zeros((0, 2))
+        missing = sum(r[key]["missing"] for r in all_rows)
+        pose = f"{np.median(errors[:, 0]):.3f} / {np.quantile(errors[:, 0], 0.9):.3f} | {np.median(errors[:, 1]):.3f}" if len(errors) else "- | -"
+        return f"| {label} | {np.median(worst):.3f} | {np.quantile(worst, 0.9, method='higher'):.3f} | {pose} | {missing} / {3 * len(all_rows)} |"
+
+    lines = [
+        "| poses | median eps_t | p90 eps_t | pose centre error, median / p90 (m) | rotation error, median (deg) | cameras without a pose |",
+        "|---|---|---|---|---|---|",
+        line("exact (the true poses)", "exact"),
+        line("from the target, no GCPs", "target"),
+    ]
+    for noise in NOISE_M:
+        lines.append(line(f"GCPs {noise:g} m off, alone (as before)", ("alone", noise)))
+        lines.append(line(f"GCPs {noise:g} m off + target (gcp_sigma_m {GCP_SIGMA_M:g})", ("joint", noise)))
+    return "\n".join(lines)
+
+
+def real_flight(data: Path) -> str | None:
+    """eps_t per pair on the real flight with and without the poses; None when the data is absent."""
+    if not (data / "project.toml").exists():
+        return None
+    from tlsync_pipeline.pipeline.project import load_project
+    from tlsync_pipeline.pipeline.stages.sync import load_inputs
+    from tlsync_pipeline.sync.timeline import read_truth
+
+    project = load_project(data / "project.toml")
+    cameras, trajectory = load_inputs(project)
+    truth, n_frames = read_truth(data / "truth.json")
+    out = {}
+    seconds = {}
+    for label, inputs in (("given poses", cameras), ("poses removed", {n: replace(c, camera=unposed(c.camera)) for n, c in cameras.items()})):
+        start = time.process_time()
+        timeline, results = synchronize(inputs, trajectory, project.sync)
+        seconds[label] = time.process_time() - start
+        out[label] = {k: eps_t(timeline.relation(*k.split("->")), r, n_frames.get(k.split("->")[0]) or 1) for k, r in truth.items()}
+        if label == "poses removed":
+            moved = {n: (float(np.linalg.norm(r.pose.camera.center - cameras[n].camera.center)), rotation_between(r.pose.camera.R, cameras[n].camera.R)) for n, r in results.items() if r.pose}
+    rows = [f"| {k} | {out['given poses'][k]:.3f} | {out['poses removed'][k]:.3f} |" for k in truth]
+    a, b = np.array(list(out["given poses"].values())), np.array(list(out["poses removed"].values()))
+    poses = ", ".join(f"{n} {d:.3f} m / {r:.3f} deg" for n, (d, r) in moved.items())
+    return "\n".join(
+        [
+            f"Real flight {data.name}: {len(cameras)} cameras, sync CPU {seconds['given poses']:.1f} s with the poses, {seconds['poses removed']:.1f} s without (the poses from the target included).",
+            "",
+            "| pair | eps_t, given poses | eps_t, poses removed |",
+            "|---|---|---|",
+            *rows,
+            f"| **median** | **{np.median(a):.3f}** | **{np.median(b):.3f}** |",
+            f"| max | {a.max():.3f} | {b.max():.3f} |",
+            "",
+            f"Poses from the target against the given ones: {poses}.",
+        ]
+    )
+
+
+def crowd_scene(seed: int) -> dict:
+    """One 6-walker crowd scene: every mover detected, no pose, no track: worst eps_t and each camera's outcome."""
+    from data_fixtures.crowd import CrowdSpec, make_crowd_scene
+    from trackers.tracking import detect_movers
+
+    with tempfile.TemporaryDirectory() as tmp:
+        crowd = make_crowd_scene(CrowdSpec(seed=seed, distractors=6), tmp)
+        scene = crowd.scene
+        detections = {n: detect_movers(crowd.truth[n].video, progress=False) for n in scene.cameras}
+    start = time.process_time()
+    timeline, results = synchronize({n: CameraInput(unposed(c), None, c.fps, detections[n]) for n, c in scene.cameras.items()}, scene.trajectory, SyncParams())
+    seconds = time.process_time() - start
+    errors = _pose_errors(results, scene)
+    outcome = {n: ("posed" if n in results else timeline.failed[n].split("(", 2)[1].split(")")[0] if "(" in timeline.failed[n] else "failed") for n in scene.cameras}
+    return {"worst": _worst(timeline, scene), "errors": errors, "outcome": outcome, "cpu_s": seconds}
+
+
+def crowd_table(rows: list[dict]) -> str:
+    lines = ["| seed | worst eps_t | cameras (10 fps, 5 fps) | pose centre error (m) | rotation error (deg) | CPU s |", "|---|---|---|---|---|---|"]
+    for seed, r in enumerate(rows):
+        errors = ", ".join(f"{d:.2f}" for d, _ in r["errors"]) or "-"
+        angles = ", ".join(f"{a:.2f}" for _, a in r["errors"]) or "-"
+        worst = "not synchronized" if not np.isfinite(r["worst"]) else f"{r['worst']:.3f}"
+        lines.append(f"| {seed} | {worst} | {', '.join(r['outcome'].values())} | {errors} | {angles} | {r['cpu_s']:.0f} |")
+    return "\n".join(lines)
+
+
+def speed(rounds: int = 2) -> tuple[float, int]:
+    """CPU seconds (the faster of ``rounds``) of one camera's pose search and fit on 10 minutes of 30 fps track, and its frames."""
+    scene = make_pass_scene(0, paths=("turn",), view_walk_s=600.0).scene
+    camera, track = scene.true_cameras["cam0"], scene.tracks["cam0"]
+    params = SyncParams()
+    prepared = prepare_trajectory(scene.trajectory, preparation_of(params))
+    times = []
+    for _ in range(rounds):
+        start = time.process_time()
+        estimate_pose(unposed(camera), track, None, prepared, camera.fps, identify_params(params))
+        times.append(time.process_time() - start)
+    return min(times), len(track)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--scenes", type=int, default=20)
+    parser.add_argument("--crowd", type=int, default=5, metavar="N", help="crowd scenes (0: none)")
+    parser.add_argument("--jobs", type=int, default=2)
+    parser.add_argument("--data", type=Path, default=DEFAULT_DATA)
+    parser.add_argument("--no-write", action="store_true", help="print only; leave docs/ alone")
+    args = parser.parse_args()
+    started = time.time()
+    with ProcessPoolExecutor(args.jobs) as pool:
+        rows = list(pool.map(pass_scene, range(args.scenes)))
+        crowd = list(pool.map(crowd_scene, range(args.crowd))) if args.crowd else []
+    passes = pass_table(rows)
+    pose_cpu = np.array([r["target"]["cpu_s"] / 3 for r in rows])
+    print(passes)
+    flight = real_flight(args.data)
+    print(flight or f"real flight: skipped ({args.data} not found)")
+    crowds = crowd_table(crowd) if crowd else ""
+    print(crowds)
+    seconds, frames = speed()
+    pace = f"Speed: the pose search and fit of one camera on {frames} frames (10 minutes at 30 fps; a walker turning in its view): {seconds:.1f} s CPU (the faster of 2 runs). On the pass scenes (500-900 frames a camera): {np.median(pose_cpu):.1f} s a camera (median, with its sync)."
+    print(pace)
+    text = "\n".join(
+        [
+            f"`python bench/pose.py --scenes {args.scenes} --crowd {args.crowd}` ({time.strftime('%Y-%m-%d')}, {(time.time() - started) / 60:.0f} min on this machine).",
+            "",
+            f"Pass scenes, {args.scenes} seeds (3 cameras each; worst pair per scene, frames):",
+            "",
+            passes,
+            "",
+            flight or f"Real flight: skipped ({args.data} not found).",
+            "",
+            f"Crowds, 6 walkers per view, no pose and no track given (the pose from every mover's tracklets), {args.crowd} seeds:" if crowd else "",
+            "",
+            crowds,
+            "",
+            pace,
+        ]
+    )
+    if not args.no_write:
+        from _report import write_block
+
+        write_block("pose", text)
+        write_block("pose", text, CALIBRATION_DOC)
+
+
+if __name__ == "__main__":
+    main()

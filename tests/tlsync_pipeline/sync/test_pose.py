@@ -1,0 +1,224 @@
+"""A camera's pose from the target (sync/pose.py, sync/pose_fit.py): pass scenes with known truth, and the pieces."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from calibration.camera import Camera
+from calibration.lens import project_points
+from data_fixtures.passes import make_pass_scene
+from tlsync_pipeline.sync import pose as P
+from tlsync_pipeline.sync.params import SyncParams
+from tlsync_pipeline.sync.pose_fit import (
+    GcpPrior,
+    Layout,
+    _prior_rows,
+    _residuals,
+    _vector,
+    fit_pose_and_line,
+    reprojection_errors,
+)
+from tlsync_pipeline.sync.refine import smooth_trajectory
+from tlsync_pipeline.sync.slope import slope_prior
+from tlsync_pipeline.sync.synchronize import CameraInput, identify_params, synchronize
+from tlsync_pipeline.sync.timeline import Relation, eps_t
+from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
+from trackers.detections import make_detections
+
+
+@pytest.fixture(scope="module")
+def scene():
+    """A walker turning in cam0's view and walking straight through cam1's, RTK log, 2 px tracks, GCPs surveyed 0.5 m off."""
+    return make_pass_scene(0, paths=("turn", "straight"), gcp_noise_m=0.5)
+
+
+def unposed(camera: Camera) -> Camera:
+    return replace(camera, R=np.eye(3), t=np.zeros(3), to_estimate=("pose",))
+
+
+def from_track(scene, name, **kwargs):
+    s = scene.scene
+    camera, track = s.true_cameras[name], s.tracks[name]
+    path = PiecewiseTrajectory(smooth_trajectory(s.trajectory))
+    prior = slope_prior(camera.fps, s.trajectory.rate, 1e-3)
+    return P.pose_from_track(unposed(camera), track.frame.astype(float), track.xy, path, prior, camera.fps, **kwargs)
+
+
+def test_a_turning_walk_gives_the_pose_and_the_offset(scene):
+    truth = scene.scene.true_cameras["cam0"]
+    found = from_track(scene, "cam0")
+    assert found.source == "target" and found.camera.posed
+    assert np.linalg.norm(found.camera.center - truth.center) < 0.15
+    assert P.rotation_between(found.camera.R, truth.R) < 0.3
+    assert abs(found.fit.beta - scene.scene.lines["cam0"].beta) < 1.5  # frames, from the pose search alone
+    assert found.fit.center_std_m > np.linalg.norm(found.camera.center - truth.center) / 3  # an honest uncertainty
+    assert found.support > 0.95 * len(scene.scene.tracks["cam0"]) and found.runner_up_ratio < P.AMBIGUOUS
+
+
+def test_a_straight_walk_is_flagged_with_its_cause_and_remedy(scene):
+    with pytest.raises(P.PoseError) as caught:
+        from_track(scene, "cam1")
+    assert caught.value.cause == "straight_path"
+    assert "walk a curved path" in str(caught.value) and "add 4 GCPs" in str(caught.value)
+
+
+def test_gcps_of_a_rough_survey_are_a_prior_the_target_refines(scene):
+    truth = scene.scene.true_cameras["cam0"]
+    gcps = scene.gcps["cam0"]
+    prior = GcpPrior(gcps.uv, gcps.xyz, 0.5)
+    start = P.gcp_camera(truth, prior)
+    found = from_track(scene, "cam0", gcps=prior, gcp_camera=start)
+    assert found.source == "gcp+target"
+    gcp_error = np.linalg.norm(start.center - truth.center)
+    assert gcp_error > 0.3  # the survey alone is off
+    assert np.linalg.norm(found.camera.center - truth.center) < 0.3 * gcp_error
+    assert found.moved_m == pytest.approx(np.linalg.norm(found.camera.center - start.center))
+    assert len(found.fit.gcp_errors_px) == len(gcps.uv)
+
+
+def test_gcps_hold_the_pose_a_straight_walk_leaves_free(scene):
+    truth = scene.scene.true_cameras["cam1"]
+    gcps = scene.gcps["cam1"]
+    prior = GcpPrior(gcps.uv, gcps.true_xyz, 0.05)  # a good survey
+    found = from_track(scene, "cam1", gcps=prior, gcp_camera=P.gcp_camera(truth, prior))
+    assert np.linalg.norm(found.camera.center - truth.center) < 0.3
+    assert abs(found.fit.beta - scene.scene.lines["cam1"].beta) < 3.0
+
+
+def test_too_few_frames_and_an_unknown_clock_are_causes(scene):
+    track = scene.scene.tracks["cam0"]
+    camera = scene.scene.true_cameras["cam0"]
+    path = PiecewiseTrajectory(scene.scene.trajectory)
+    prior = slope_prior(camera.fps, 10.0, 1e-3)
+    with pytest.raises(P.PoseError) as caught:
+        P.pose_from_track(unposed(camera), track.frame[:10].astype(float), track.xy[:10], path, prior, camera.fps)
+    assert caught.value.cause == "too_few_frames"
+    with pytest.raises(P.PoseError) as caught:
+        P.pose_from_track(unposed(camera), track.frame.astype(float), track.xy, path, None, None)
+    assert caught.value.cause == "no_clock"
+
+
+def test_a_track_that_fits_two_laps_of_a_repeated_loop_is_ambiguous():
+    """The log goes round the same loop twice; the camera saw one lap: either lap explains it."""
+    rate, fps = 10.0, 30.0
+    t = np.arange(0, 60, 1 / rate)
+    angle = 2 * np.pi * t / 20.0  # a lap every 20 s, three laps
+    xyz = np.column_stack([6 * np.cos(angle) + 2 * np.cos(3 * angle), 6 * np.sin(angle), 1.0 + 0.5 * np.sin(2 * angle)])
+    trajectory = Trajectory(np.arange(len(t), dtype=float), xyz, rate, 0.0)
+    R = np.array([[1.0, 0, 0], [0, 0, -1.0], [0, 1.0, 0]])
+    camera = Camera("c", np.array([[500.0, 0, 320], [0, 500, 240], [0, 0, 1]]), np.zeros(5), R, -R @ np.array([0.0, -25.0, 1.5]), (640, 480), fps)
+    frames = np.arange(int(22 * fps))  # the video covers the second lap only
+    samples = (frames + 20 * fps) / (fps / rate)
+    uv, _ = camera.project(PiecewiseTrajectory(trajectory).positions(samples))
+    with pytest.raises(P.PoseError) as caught:
+        P.pose_from_track(unposed(camera), frames.astype(float), uv, PiecewiseTrajectory(trajectory), slope_prior(fps, rate, 1e-3), fps)
+    assert caught.value.cause == "ambiguous_offset"
+
+
+def test_a_walker_on_flat_ground_does_not_determine_the_focal_length(scene):
+    camera = scene.scene.true_cameras["cam0"]
+    w, h = camera.image_size
+    no_k = Camera.from_dict({"name": "cam0", "image_size": [w, h], "fps": camera.fps})
+    s = scene.scene
+    track = s.tracks["cam0"]
+    with pytest.raises(P.PoseError) as caught:
+        P.pose_from_track(no_k, track.frame.astype(float), track.xy, PiecewiseTrajectory(s.trajectory), slope_prior(camera.fps, 10.0, 1e-3), camera.fps)
+    assert caught.value.cause in ("planar_path", "pose_undetermined")
+    assert "checkerboard" in str(caught.value) or "focal" in str(caught.value)
+
+
+def test_the_pose_comes_from_every_mover_without_a_track():
+    """The target's track cut into tracklets among straight walkers: a tracklet's pose finds the target, the refit takes all of it."""
+    ps = make_pass_scene(1, paths=("turn",))
+    s = ps.scene
+    camera, track = s.true_cameras["cam0"], s.tracks["cam0"]
+    rng = np.random.default_rng(0)
+    rows = [(int(track.frame[i]), float("nan"), k, float(track.x[i]), float(track.y[i]), 20.0, 40.0, 1.0) for k, idx in enumerate(np.array_split(np.arange(len(track)), 3)) for i in idx]
+    for j in range(4):  # passers-by walking straight across the view
+        start, p0 = int(rng.integers(0, track.frame.max() - 150)), rng.uniform([0, 100], [100, 380])
+        v = rng.uniform(2.0, 4.0) * np.array([1.0, rng.uniform(-0.2, 0.2)])
+        rows += [(start + f, float("nan"), 100 + j, *(p0 + v * f), 20.0, 40.0, 1.0) for f in range(150)]
+    rows.sort(key=lambda r: (r[0], r[2]))
+    prepared = smooth_trajectory(s.trajectory)
+    found = P.pose_from_movers(unposed(camera), make_detections(rows), prepared, camera.fps, identify_params(SyncParams()))
+    assert np.linalg.norm(found.pose.camera.center - camera.center) < 0.3
+    assert found.tracklet in (0, 1, 2) and len(found.identification.track) > 0.9 * len(track)
+    assert all(tid >= 100 for tid, why in found.tried.items() if why == "straight_path")
+
+
+def test_synchronize_poses_cameras_without_one_and_fails_the_degenerate_one(scene):
+    s = scene.scene
+    inputs = {n: CameraInput(unposed(c), s.tracks[n], c.fps) for n, c in s.true_cameras.items()}
+    inputs["cam2"] = CameraInput(s.true_cameras["cam0"], s.tracks["cam0"], 30.0)  # cam0 again, with its true pose, as the reference
+    timeline, results = synchronize(inputs, s.trajectory, SyncParams())
+    assert "cam1" in timeline.failed and "straight_path" in timeline.failed["cam1"]
+    assert results["cam0"].pose is not None and results["cam0"].line.refined
+    # cam0 from its pose from the target against cam0 with its true pose: the same clock
+    assert eps_t(timeline.relation("cam0", "cam2"), Relation(1.0, 0.0), s.n_frames["cam0"]) < 0.5
+
+
+def test_the_joint_fit_jacobian_is_the_residuals_derivative(scene):
+    s = scene.scene
+    camera, track, line = s.true_cameras["cam0"], s.tracks["cam0"], s.lines["cam0"]
+    path = PiecewiseTrajectory(s.trajectory)
+    layout = Layout(("f", "cx", "cy", "k1"))
+    clock = track.frame.astype(float)
+    c_mid = float(np.median(clock))
+    x = _vector(camera, line.alpha, line.beta, c_mid, layout)
+    run = path.run_of(x[7] + x[6] * (clock - c_mid))
+    keep = run >= 0
+    gcps = GcpPrior(scene.gcps["cam0"].uv, scene.gcps["cam0"].xyz, 0.5)
+    priors = _prior_rows(layout, 3.0, slope_prior(30.0, 10.0, 1e-3), None)
+
+    def residuals(v):
+        return _residuals(camera, v, layout, path, clock[keep], clock[keep] - c_mid, run[keep], track.xy[keep], gcps, 3.0 / gcps.sigma_px(camera), priors, 3.0)
+
+    r, jac = residuals(x)
+    for k in range(len(x)):
+        step = 1e-6 * max(1.0, abs(x[k]))
+        moved = x.copy()
+        moved[k] += step
+        numeric = (residuals(moved)[0] - r) / step
+        assert np.abs(numeric - jac[:, k]).max() < 1e-3 * max(1.0, np.abs(jac[:, k]).max()), layout.names[k]
+
+
+def test_the_joint_fit_converges_to_the_truth_from_a_rough_start():
+    ps = make_pass_scene(2, paths=("turn",), tracking_noise_px=0.0, log_noise_m=0.0)
+    s = ps.scene
+    camera, track, line = s.true_cameras["cam0"], s.tracks["cam0"], s.lines["cam0"]
+    path = PiecewiseTrajectory(s.trajectory)
+    rough = replace(camera, R=camera.R @ np.array([[1, 0, 0], [0, np.cos(0.02), -np.sin(0.02)], [0, np.sin(0.02), np.cos(0.02)]]), t=camera.t + [0.3, -0.2, 0.4])
+    clock = track.frame.astype(float)
+    start = reprojection_errors(rough, clock, track.xy, path, line.alpha, line.beta + 3.0) < 60
+    fit = fit_pose_and_line(rough, clock, track.xy, path, line.alpha, line.beta + 3.0, start, 10.0)
+    assert np.linalg.norm(fit.camera.center - camera.center) < 0.01
+    assert abs(fit.beta - line.beta) < 0.02 and fit.support == len(track)
+
+
+def test_pieces():
+    assert P.msac(np.array([0.0, 1.0, 2.0, np.inf]), 2.0) == pytest.approx(1.0 + 0.75)
+    assert P.straightness(np.column_stack([np.arange(10.0), 2 * np.arange(10.0)])) < 1e-12
+    assert P.straightness(np.array([[0, 0], [10, 0], [10, 10], [0, 10.0]])) == pytest.approx(1.0)
+    R = np.array([[0.0, -1, 0], [1, 0, 0], [0, 0, 1]])
+    assert P.rotation_between(R, np.eye(3)) == pytest.approx(90.0)
+    assert P.image_speed(np.arange(5.0), np.column_stack([3 * np.arange(5.0), np.zeros(5)])) == pytest.approx(3.0)
+    # the normalised DLT gives back a camera's projection from exact pairs in 3D
+    rng = np.random.default_rng(0)
+    xyz = rng.uniform([-5, -5, 10], [5, 5, 20], (30, 3))
+    K = np.array([[700.0, 0, 310], [0, 700, 250], [0, 0, 1]])
+    rvec, tvec = np.array([0.1, -0.05, 0.02]), np.array([0.2, 0.1, 0.5])
+    uv = project_points(xyz, rvec, tvec, K, np.zeros(5), "opencv")
+    K_found, R_found, t_found = P._decompose(P._dlt(xyz, uv), (640, 480))
+    np.testing.assert_allclose(K_found, K, atol=1e-3)
+    assert P._dlt(np.column_stack([xyz[:, :2], np.full(30, 12.0)]), uv) is None  # coplanar points: no projection matrix
+
+
+def test_the_pose_info_says_what_the_pose_serves(scene):
+    found = from_track(scene, "cam0")
+    assert P.pose_info(found, 0.02).for_3d
+    assert not P.pose_info(found, 2.0).for_3d and "not for 3D" in P.pose_info(found, 2.0).note
+    assert not P.pose_info(found, None).for_3d and P.pose_info(found, None).source == "target"
+    assert P.pose_info(found, 0.02).center_std_m == pytest.approx(found.fit.center_std_m, abs=1e-4)
