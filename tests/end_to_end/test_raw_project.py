@@ -196,5 +196,6 @@ def test_a_log_reversed_in_time_is_named_never_synchronized(finished, tmp_path):
     result = CliRunner().invoke(main, ["sync", str(copy), "-j", "1", "-q"], catch_exceptions=False)
     assert result.exit_code == ExitCode.NOT_SYNCHRONIZED, result.output
     timeline = read_timeline(copy.parent / "work" / "timeline.json")
-    assert not timeline.cameras
-    assert all("reversed in time" in timeline.status(name).reason for name in ("cam0", "cam1", "cam2")), timeline.failed
+    assert not timeline.cameras and set(timeline.failed) == {"cam0", "cam1", "cam2"}
+    # the pose the target refines (calibrate) is the first to fail; where it identified the target, it says why
+    assert any("the log looks reversed in time" in timeline.status(name).reason for name in timeline.failed), timeline.failed
