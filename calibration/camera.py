@@ -32,6 +32,8 @@ _OPENCV_DIST_LENGTHS = (4, 5, 8, 12, 14)
 # fraction of the image size outside the image are dropped: the distortion
 # polynomial is only valid near the calibrated area and folds back beyond it.
 OUTSIDE_MARGIN = 0.5
+MAX_IMAGE_SIDE = 100_000  # pixels: no camera's image is wider or higher
+CENTRE_SLACK = 0.45  # the principal point lies within this fraction of the image's size from its centre
 
 POSE_SOURCES = ("gcp", "board", "target", "gcp+target")
 GUESSED_FOCAL = 1.0  # focal length of a camera without K, in image widths (about 53 degrees across): the search's start
@@ -210,6 +212,7 @@ class Camera:
                 K = _matrix(data, "K", (3, 3), source)
         _check_intrinsics(K, source)
         dist = _distortion(data.get("dist", [0.0] * 5), dist_model, source)
+        _check_principal_point(K, image_size, source)
         fps = data.get("fps")
         if fps is not None:
             fps = _positive_number(fps, "fps", source)
@@ -289,6 +292,16 @@ def _check_intrinsics(K: np.ndarray, source: str) -> None:
         raise CalibrationInputError(f"{source}: field 'K': expected upper-triangular with last row [0, 0, 1]")
 
 
+def _check_principal_point(K: np.ndarray, image_size: tuple[int, int], source: str) -> None:
+    """The principal point (cx, cy) near the image's centre: an image_size of another image (or another K) puts it far off."""
+    for axis, (centre, side) in enumerate(zip(K[:2, 2], image_size)):
+        if abs(centre - side / 2) > CENTRE_SLACK * side:
+            raise CalibrationInputError(
+                f"{source}: field 'K': principal point c{'xy'[axis]} = {centre:g} px is far from the centre of the {image_size[0]} x {image_size[1]} "
+                "image (field 'image_size'): K and image_size are of different images"
+            )
+
+
 def _distortion(value, dist_model: str, source: str) -> np.ndarray:
     try:
         dist = np.asarray(value, dtype=np.float64).ravel()
@@ -314,6 +327,8 @@ def _image_size(data: dict, source: str) -> tuple[int, int]:
         or not all(isinstance(v, (int, float)) and not isinstance(v, bool) and v == int(v) and v > 0 for v in size)
     ):
         raise CalibrationInputError(f"{source}: field 'image_size': expected [width, height] as positive integers, got {size!r}")
+    if max(size) > MAX_IMAGE_SIDE:
+        raise CalibrationInputError(f"{source}: field 'image_size': {list(size)} pixels; no camera's image is wider or higher than {MAX_IMAGE_SIDE}")
     return int(size[0]), int(size[1])
 
 

@@ -63,7 +63,7 @@ def read_gcps(path: str | Path) -> GcpTable:
         raise CalibrationInputError(f"{path}:{header_line}: missing column(s) {', '.join(missing)}; expected a header u,v,x,y,z (local metres) or u,v,lat,lon,alt (WGS84)")
     unknown = [h for h in header if h not in columns and h not in ("name", "id")]
     if unknown:
-        raise CalibrationInputError(f"{path}:{header_line}: unknown column(s) {', '.join(unknown)}; expected {','.join(columns)} and optionally name")
+        raise CalibrationInputError(f"{path}:{header_line}: unknown column(s) {', '.join(unknown)[:60]}; expected {','.join(columns)} and optionally name")
     index = {h: i for i, h in enumerate(header)}
     name_col = index.get("name", index.get("id"))
     values, names, lines = [], [], []
@@ -76,9 +76,9 @@ def read_gcps(path: str | Path) -> GcpTable:
             try:
                 number = float(cell)
             except ValueError:
-                raise CalibrationInputError(f"{path}:{line}: column '{col}': not a number: {cell!r}") from None
+                raise CalibrationInputError(f"{path}:{line}: column '{col}': not a number: {cell[:60]!r}") from None
             if not np.isfinite(number):
-                raise CalibrationInputError(f"{path}:{line}: column '{col}': not a finite number: {cell!r}")
+                raise CalibrationInputError(f"{path}:{line}: column '{col}': not a finite number: {cell[:60]!r}")
             numbers.append(number)
         if geo and not (-90 <= numbers[2] <= 90 and -180 <= numbers[3] <= 180):
             raise CalibrationInputError(f"{path}:{line}: lat/lon out of range ({numbers[2]}, {numbers[3]}); expected degrees")

@@ -269,3 +269,18 @@ def _times(rng: np.random.Generator, n_frames: int, fps: float, jitter: float) -
         times = times + rng.uniform(-jitter / 2, jitter / 2, n_frames) / fps
         times[0] = 0.0
     return times
+
+
+def blank_video(path: str | Path, n_frames: int, image_size: tuple[int, int], fps: float = 30.0) -> Path:
+    """A grey H.264 video of ``n_frames`` frames at ``fps`` (a container for projects that bring their tracks: fast to write)."""
+    path = Path(path)
+    with av.open(str(path), "w") as container:
+        stream = container.add_stream("libx264", rate=Fraction(fps).limit_denominator(1001))
+        stream.width, stream.height = image_size
+        stream.pix_fmt = "yuv420p"
+        stream.options = {"preset": "ultrafast"}
+        frame = av.VideoFrame.from_ndarray(np.full((image_size[1], image_size[0], 3), 128, np.uint8), format="rgb24")
+        for _ in range(n_frames):
+            container.mux(stream.encode(frame))
+        container.mux(stream.encode())
+    return path

@@ -20,6 +20,7 @@ import numpy as np
 from scipy.interpolate import make_interp_spline
 
 from tlsync_pipeline.errors import InputError
+from tlsync_pipeline.inputs import quote, read_text_file
 
 UP = np.array([0.0, 0.0, 1.0])  # the world's up axis: trajectories are local ENU metres
 GAP_SAMPLES = 1.5  # consecutive samples further apart than this (grid units) are a gap, never bridged
@@ -141,12 +142,10 @@ def lowered(trajectory: Trajectory, metres: float) -> Trajectory:
 def read_trajectory(path: str | Path) -> Trajectory:
     """Read a trajectory CSV with columns ``x,y,z``, optional ``t`` (seconds) and ``sigma`` (metres, > 0)."""
     path = Path(path)
+    text = read_text_file(path, what="trajectory CSV")
     try:
-        with path.open(newline="", encoding="utf-8") as handle:
-            rows = list(csv.reader(handle))
-    except FileNotFoundError:
-        raise InputError(f"{path}: file not found") from None
-    except (OSError, UnicodeDecodeError, csv.Error) as exc:
+        rows = list(csv.reader(text.splitlines()))
+    except csv.Error as exc:
         raise InputError(f"{path}: cannot read as CSV: {exc}") from None
     if not rows or not any(c.strip() for c in rows[0]):
         raise InputError(f"{path}: empty file; expected a header 'x,y,z' or 't,x,y,z'")
@@ -155,7 +154,7 @@ def read_trajectory(path: str | Path) -> Trajectory:
         raise InputError(f"{path}:1: this is a geodetic log (lat/lon): convert it to local metres with `tlsync ingest-log`")
     missing = [c for c in ("x", "y", "z") if c not in header]
     if missing:
-        raise InputError(f"{path}:1: header {','.join(header)!r} lacks column(s) {', '.join(missing)}; expected x,y,z with optional t")
+        raise InputError(f"{path}:1: header {quote(','.join(header))} lacks column(s) {', '.join(missing)}; expected x,y,z with optional t")
     wanted = (["t"] if "t" in header else []) + ["x", "y", "z"] + (["sigma"] if "sigma" in header else [])
     index = [header.index(c) for c in wanted]
     values, lines = [], []
@@ -169,7 +168,7 @@ def read_trajectory(path: str | Path) -> Trajectory:
             try:
                 v = float(row[i])
             except ValueError:
-                raise InputError(f"{path}:{line_no}: column '{col}': not a number: {row[i]!r}") from None
+                raise InputError(f"{path}:{line_no}: column '{col}': not a number: {quote(row[i])}") from None
             if not math.isfinite(v):
                 raise InputError(f"{path}:{line_no}: column '{col}': {row[i]} is not a finite number")
             if col == "sigma" and v <= 0:

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import csv
 import math
+import stat
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -18,6 +19,8 @@ import numpy as np
 
 from trackers.errors import TrackInputError
 
+MAX_TABLE_BYTES = 4 << 30  # a track or detections file larger than this is not one
+MAX_FRAME = 100_000_000  # a frame index beyond this (about 38 days at 30 fps) is not a video's
 REQUIRED_COLUMNS = ("frame", "x", "y")
 OPTIONAL_COLUMNS = ("time_s", "w", "h", "score")
 
@@ -60,17 +63,7 @@ def read_table(path: str | Path, required: tuple[str, ...], optional: tuple[str,
     should hold, for the empty-file message. Raises TrackInputError.
     """
     path = Path(path)
-    try:
-        handle = path.open(newline="", encoding="utf-8")
-    except FileNotFoundError:
-        raise TrackInputError(f"{path}: file not found") from None
-    except OSError as exc:
-        raise TrackInputError(f"{path}: cannot read: {exc}") from None
-    with handle:
-        try:
-            text = handle.read()
-        except UnicodeDecodeError as exc:
-            raise TrackInputError(f"{path}: not a readable CSV file: {exc}") from None
+    text = read_text(path)
     lines_text = text.splitlines()
     try:
         header = [cell.strip() for cell in next(csv.reader(lines_text[:1]), [])]
@@ -80,9 +73,9 @@ def read_table(path: str | Path, required: tuple[str, ...], optional: tuple[str,
         raise TrackInputError(f"{path}: empty file; expected {expected}")
     missing = [c for c in required if c not in header]
     if missing:
-        raise TrackInputError(f"{path}:1: header {','.join(header)!r} lacks column(s) {', '.join(missing)}; expected at least {','.join(required)}")
+        raise TrackInputError(f"{path}:1: header {quote(','.join(header))} lacks column(s) {', '.join(missing)}; expected at least {','.join(required)}")
     if len(set(header)) != len(header):
-        raise TrackInputError(f"{path}:1: duplicate column names in header {','.join(header)!r}")
+        raise TrackInputError(f"{path}:1: duplicate column names in header {quote(','.join(header))}")
     wanted = [c for c in required + optional if c in header]
     index = [header.index(c) for c in wanted]
     table = _plain_numbers(lines_text[1:], len(header))
@@ -104,13 +97,40 @@ def read_table(path: str | Path, required: tuple[str, ...], optional: tuple[str,
             try:
                 v = float(row[i])
             except ValueError:
-                raise TrackInputError(f"{path}:{line_no}: column '{col}': not a number: {row[i]!r}") from None
+                raise TrackInputError(f"{path}:{line_no}: column '{col}': not a number: {quote(row[i])}") from None
             if not math.isfinite(v):
                 raise TrackInputError(f"{path}:{line_no}: column '{col}': {row[i]} is not a finite number")
             values[n, k] = v
         lines[n] = line_no
         n += 1
     return {c: values[:n, k] for k, c in enumerate(wanted)}, lines[:n]
+
+
+def read_text(path: Path) -> str:
+    """The UTF-8 text of a regular file of at most MAX_TABLE_BYTES; TrackInputError naming the file when it is missing,
+    unreadable, not a regular file (a device, a pipe, a file of the system) or not text."""
+    try:
+        info = path.stat()
+        if not stat.S_ISREG(info.st_mode) or path.resolve().parts[1:2] in (("proc",), ("sys",), ("dev",)):
+            raise TrackInputError(f"{path}: not a regular file (a folder, a device, a pipe or a file of the system)")
+        if info.st_size > MAX_TABLE_BYTES:
+            raise TrackInputError(f"{path}: {info.st_size >> 20} MiB, too large for a track or detections file")
+        data = path.read_bytes()
+    except FileNotFoundError:
+        raise TrackInputError(f"{path}: file not found") from None
+    except OSError as exc:
+        raise TrackInputError(f"{path}: cannot read: {exc.strerror or exc}") from None
+    if b"\x00" in data:
+        raise TrackInputError(f"{path}: not a text file (it holds NUL bytes)")
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise TrackInputError(f"{path}: not a UTF-8 text file (byte {exc.start})") from None
+
+
+def quote(text: str, limit: int = 60) -> str:
+    """``text`` as a short quote for a message: repr, cut to about ``limit`` characters."""
+    return repr(text) if len(text) <= limit else repr(text[:limit]) + "..."
 
 
 def _plain_numbers(rows: list[str], n_columns: int) -> np.ndarray | None:
@@ -130,12 +150,13 @@ def _plain_numbers(rows: list[str], n_columns: int) -> np.ndarray | None:
     return table
 
 
-def check_indices(path: str | Path, name: str, values: np.ndarray, lines: np.ndarray, what: str) -> None:
-    """Raise TrackInputError naming the line of the first value that is not a non-negative integer (``what`` says what it should be)."""
-    bad = np.flatnonzero((values < 0) | (values != np.floor(values)))
+def check_indices(path: str | Path, name: str, values: np.ndarray, lines: np.ndarray, what: str, limit: int = MAX_FRAME) -> None:
+    """Raise TrackInputError naming the line of the first value that is not an integer in [0, limit] (``what`` says what it should be)."""
+    bad = np.flatnonzero((values < 0) | (values != np.floor(values)) | (values > limit))
     if len(bad):
         k = bad[0]
-        raise TrackInputError(f"{path}:{lines[k]}: column '{name}': expected {what}, got {_number(values[k])!r}")
+        beyond = f" (at most {limit})" if values[k] > limit else ""
+        raise TrackInputError(f"{path}:{lines[k]}: column '{name}': expected {what}{beyond}, got {_number(values[k])!r}")
 
 
 def _number(v: float) -> str:

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 import queue
+import stat
 import struct
 import threading
 import warnings
@@ -443,6 +444,8 @@ def _open(path: Path):
         raise TrackInputError(f"{path}: file not found")
     if path.is_dir():
         raise TrackInputError(f"{path}: is a folder, expected a video file")
+    if not stat.S_ISREG(path.stat().st_mode) or path.resolve().parts[1:2] in (("proc",), ("sys",), ("dev",)):
+        raise TrackInputError(f"{path}: not a regular file (a device, a pipe or a file of the system), expected a video file")
     try:
         container = av.open(str(path), mode="r")
     except av.error.EOFError:

@@ -10,6 +10,7 @@ count: docs/accuracy.md). An init box seeds the identity without detecting
 the movers again.
 """
 
+import dataclasses
 import json
 import shutil
 
@@ -103,7 +104,9 @@ def test_detections_brought_by_the_user_and_a_camera_without_the_path(two_walker
     camera = json.loads((directory / "cam0.json").read_text())
     camera["t"] = [v - 1e4 if k == 2 else v for k, v in enumerate(camera["t"])]  # the whole path 10 km behind this camera
     (tmp_path / "away.json").write_text(json.dumps(camera))
-    parts.append('[[cameras]]\nname = "away"\ncamera = "away.json"\ndetections = "cam1_movers.csv"\nfps = 5.0\n')
+    away = read_detections(directory / "work" / "cameras" / "cam1" / "detections.csv")
+    write_detections(dataclasses.replace(away, x=away.x + 0.5), tmp_path / "away_movers.csv")  # its own file (one file for two cameras is bad input)
+    parts.append('[[cameras]]\nname = "away"\ncamera = "away.json"\ndetections = "away_movers.csv"\nfps = 5.0\n')
     (tmp_path / "project.toml").write_text("\n".join(parts))
     result = _run("run", tmp_path / "project.toml", "--quiet")
     assert result.exit_code == 1, result.output

@@ -9,7 +9,8 @@ only, as a user or a scheduler would. After every stop:
 
 - no process of that run (found by an environment variable every child
   inherits) is left 5 s later;
-- SIGTERM and SIGINT exit with 130 and one line, no traceback, no "Aborted!";
+- SIGTERM and SIGINT exit with 130 and one line, no traceback, no "Aborted!",
+  no warning of leaked semaphores, and no temporary (.part) file left;
 - every artefact that status calls fresh equals the reference's.
 
 Finally an uninterrupted run writes a timeline.json identical to the reference's.
@@ -132,6 +133,8 @@ def test_runs_stopped_at_random_moments_leave_no_process_and_no_false_fresh_arte
                 assert code == ExitCode.INTERRUPTED, output
                 assert any(line.startswith("interrupted: ") for line in output.splitlines()), output
                 assert "Aborted!" not in output and "Traceback" not in output, output
+                assert "leaked semaphore" not in output, output  # the stopped pool's semaphores released
+                assert not list((project_file.parent / "work").rglob("*.part")), f"{how.name} left temporary files"
         time.sleep(max(0.0, 5.0 - (time.monotonic() - signalled)))
         assert _processes_with(marker) == [], f"processes of the run left 5 s after {how.name}:\n{output}"
 

@@ -11,15 +11,20 @@ a module's code makes exactly the stages that run it stale.
 """
 
 import os
+import re
 import shutil
 import signal
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import pytest
+from click.testing import CliRunner
 
 from data_fixtures.raw_project import SMALL, make_raw_project
+from tlsync_pipeline.cli.exit_codes import ExitCode
+from tlsync_pipeline.cli.main import main
 from tlsync_pipeline.pipeline import codehash
 from tlsync_pipeline.pipeline.engine import run_graph, status
 from tlsync_pipeline.pipeline.executors import ProcessExecutor
@@ -122,14 +127,13 @@ def test_the_cameras_own_clocks_check_the_result_and_a_wrong_one_is_flagged_not_
     import datetime as dt
 
     from data_fixtures.raw_project import START_UTC
-    from tlsync_pipeline.outputs.diagnostics import camera_status
     from tlsync_pipeline.sync.clock_prior import CLOCK_FLAG
 
     right = read_timeline(finished.parent / "work" / "timeline.json")
     for name, line in right.cameras.items():
         check = line.clock_check
         assert check.source.startswith("QuickTime") and check.agrees and abs(check.offset_s) < 1.0, (name, check)
-        assert CLOCK_FLAG not in (line.flags or ()) and camera_status(right, name).status == "ok"
+        assert CLOCK_FLAG not in (line.flags or ()) and right.status(name).status == "ok"
     project_file = _copy(finished, tmp_path)
     alpha, beta = SMALL.lines[1]
     late = dt.datetime.fromtimestamp(START_UTC - beta / alpha / SMALL.target_rate + 60.0, dt.timezone.utc).isoformat()
@@ -139,7 +143,7 @@ def test_the_cameras_own_clocks_check_the_result_and_a_wrong_one_is_flagged_not_
     wrong = read_timeline(project_file.parent / "work" / "timeline.json")
     check = wrong.cameras["cam1"].clock_check
     assert CLOCK_FLAG in wrong.cameras["cam1"].flags and check.source.startswith("the project") and abs(check.offset_s + 60.0) < 1.0
-    assert camera_status(wrong, "cam1").status == "weak" and camera_status(wrong, "cam0").status == "ok"
+    assert wrong.status("cam1").status == "weak" and wrong.status("cam0").status == "ok"
     for name in right.names:
         assert (wrong.cameras[name].alpha, wrong.cameras[name].beta) == (right.cameras[name].alpha, right.cameras[name].beta)
 
@@ -175,3 +179,23 @@ def test_changing_a_sync_module_makes_sync_and_what_follows_stale(finished, monk
     assert rows["calibrate/cam0"].reasons == ["code of tlsync_pipeline.sync.refine changed", "waits for track/cam0 (stale)"]
     assert rows["identify/cam0"].reasons == ["code of tlsync_pipeline.sync.refine changed", "waits for calibrate/cam0 (stale), track/cam0 (stale)"]
     assert rows["vote/cam0"].reasons == ["code of tlsync_pipeline.sync.refine changed", "waits for calibrate/cam0 (stale), identify/cam0 (stale)"]
+
+
+def _reverse_gpx(path: Path) -> None:
+    """The GPX's track points in reverse order, each keeping the time of the point it replaces (a log reversed in time)."""
+    text = path.read_text(encoding="utf-8")
+    point = re.compile(r'<trkpt lat="([^"]+)" lon="([^"]+)"><ele>([^<]+)</ele>(<time>[^<]+</time>)</trkpt>')
+    found = point.findall(text)
+    swapped = iter([(*where[:3], when[3]) for where, when in zip(found[::-1], found)])
+    path.write_text(point.sub(lambda m: '<trkpt lat="{}" lon="{}"><ele>{}</ele>{}</trkpt>'.format(*next(swapped)), text), encoding="utf-8")
+
+
+def test_a_log_reversed_in_time_is_named_never_synchronized(finished, tmp_path):
+    copy = _copy(finished, tmp_path)
+    _reverse_gpx(copy.parent / "target.gpx")
+    result = CliRunner().invoke(main, ["sync", str(copy), "-j", "1", "-q"], catch_exceptions=False)
+    assert result.exit_code == ExitCode.NOT_SYNCHRONIZED, result.output
+    timeline = read_timeline(copy.parent / "work" / "timeline.json")
+    assert not timeline.cameras and set(timeline.failed) == {"cam0", "cam1", "cam2"}
+    # the pose the target refines (calibrate) is the first to fail; where it identified the target, it says why
+    assert any("the log looks reversed in time" in timeline.status(name).reason for name in timeline.failed), timeline.failed

@@ -5,6 +5,7 @@ the command line's modules are still being imported; tlsync_pipeline.cli.main
 keeps to the same contract once a command runs.
 """
 
+import multiprocessing.util
 import os
 import signal
 import sys
@@ -29,7 +30,12 @@ def main() -> None:
 
 def _exit_interrupted() -> None:
     """Exit with 130 now: after a KeyboardInterrupt raised inside some C-level code (an import), Python would
-    end a normal exit by killing itself with SIGINT instead. The run has already stopped its workers."""
+    end a normal exit by killing itself with SIGINT instead. The run has already stopped its workers.
+
+    The multiprocessing finalizers run first: they unlink the semaphores of the stopped worker pool's queues,
+    which the resource tracker would otherwise find at its own exit and warn about ("leaked semaphore objects").
+    """
+    multiprocessing.util._run_finalizers(0)  # type: ignore[attr-defined]  # noqa: SLF001 - the one way to release them without a normal exit
     sys.stdout.flush()
     sys.stderr.flush()
     os._exit(INTERRUPTED)

@@ -2,8 +2,9 @@
 
 Both documents list every task (a stage for a camera, or for the project)
 with its state, the reasons and the artefacts its manifest records (paths
-relative to the work folder), and every camera with whether it is
-synchronized and, if not, why.
+relative to the work folder), and every camera with its status as
+timeline.json gives it (sync/status.py: ok, weak, ambiguous, failed, with
+reasons and a remedy), or ``unknown`` while there is no current timeline.
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ from tlsync_pipeline.errors import describe_error, one_line
 from tlsync_pipeline.pipeline.cache import read_manifest
 from tlsync_pipeline.pipeline.engine import RunSummary, TaskState, manifest_path
 from tlsync_pipeline.pipeline.graph import Graph
+from tlsync_pipeline.sync.timeline import read_timeline
 
 STATUS_FORMAT = "tlsync-status"
 RUN_FORMAT = "tlsync-run"
@@ -23,14 +25,8 @@ VERSION = 1
 
 def status_document(graph: Graph, rows: list[TaskState], running: dict | None, exit_code: int) -> dict:
     """The ``tlsync status --json`` document."""
-    cameras = {name: {"state": "unknown", "reason": None} for name in _camera_names(graph)}
     sync = next((r for r in rows if r.id == "sync"), None)
-    if sync is not None and sync.state == "fresh":
-        for name in cameras:
-            cameras[name] = {"state": "synchronized", "reason": None}
-    for row in rows:
-        if row.stage == "sync" and row.camera is not None:
-            cameras[row.camera] = {"state": "failed", "reason": row.reasons[0] if row.reasons else None}
+    cameras = camera_statuses(graph, sync is not None and sync.state == "fresh")
     tasks = [
         {"id": r.id, "stage": r.stage, "camera": r.camera, "state": r.state, "reasons": [] if r.state == "given" else r.reasons, "artefacts": r.reasons if r.state == "given" else r.artefacts}
         for r in rows
@@ -66,21 +62,22 @@ def run_document(graph: Graph, summary: RunSummary, exit_code: int) -> dict:
                 "artefacts": sorted(manifest.outputs) if manifest else [],
             }
         )
-    cameras = {name: {"state": "unknown", "reason": None} for name in _camera_names(graph)}
-    if "sync" in summary.ran + summary.fresh:
-        data = json.loads(graph.workspace.path("timeline").read_text(encoding="utf-8"))
-        for name in cameras:
-            failed = data.get("failed", {}).get(name)
-            cameras[name] = {"state": "failed", "reason": one_line(failed)} if failed else {"state": "synchronized", "reason": None}
-    return _document(RUN_FORMAT, graph, exit_code, tasks, cameras)
+    return _document(RUN_FORMAT, graph, exit_code, tasks, camera_statuses(graph, "sync" in summary.ran + summary.fresh))
 
 
 def dumps(document: dict) -> str:
     return json.dumps(document, indent=1)
 
 
-def _camera_names(graph: Graph) -> list[str]:
-    return graph.project.names
+UNKNOWN = {"status": "unknown", "synchronized": False, "reason": "no current timeline (run the sync stage)", "remedy": "tlsync run", "reasons": []}
+
+
+def camera_statuses(graph: Graph, current: bool) -> dict[str, dict]:
+    """Every camera's status from timeline.json when it is current, else ``unknown``."""
+    if not current:
+        return {name: dict(UNKNOWN) for name in graph.project.names}
+    found = read_timeline(graph.workspace.path("timeline")).statuses()
+    return {name: found[name].to_dict() if name in found else dict(UNKNOWN) for name in graph.project.names}
 
 
 def _document(fmt: str, graph: Graph, exit_code: int, tasks: list[dict], cameras: dict, **extra) -> dict:

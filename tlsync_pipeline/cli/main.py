@@ -21,9 +21,8 @@ from tlsync_pipeline.cli.demo import demo as demo_command
 from tlsync_pipeline.cli.exit_codes import ExitCode, exit_code_for
 from tlsync_pipeline.cli.json_output import dumps, run_document
 from tlsync_pipeline.cli.options import in_order, project_argument, quiet_option, verbose_option
-from tlsync_pipeline.cli.pipeline import execute, print_timeline, report_outcome, run_options
+from tlsync_pipeline.cli.pipeline import execute, print_timeline, report_outcome, run_options, synchronized_code
 from tlsync_pipeline.errors import INPUT_ERRORS, EnvironmentProblem, SyncError, describe_error
-from tlsync_pipeline.sync.timeline import read_timeline
 
 
 class TlsyncGroup(click.Group):
@@ -88,18 +87,13 @@ def run(project: Path, work_dir: Path | None, truth: Path | None, as_json: bool,
     PROJECT is the project file, or the folder that holds it (project.toml).
     """
     graph, summary = execute(project, work_dir, force_stages=force_stages, cameras=camera, jobs=jobs, executor_kind=executor_kind, scheduler=scheduler, quiet=quiet, summary_text=not as_json)
-    code = report_outcome(graph, summary, quiet)
+    code = max(report_outcome(graph, summary, quiet), synchronized_code(graph, summary))
     if as_json:
-        synchronized = "sync" in summary.ran + summary.fresh
-        if synchronized and read_timeline(graph.workspace.path("timeline")).failed:
-            code = max(code, ExitCode.NOT_SYNCHRONIZED)
         click.echo(dumps(run_document(graph, summary, code)))
     else:
         timeline = print_timeline(graph, summary, truth)
         if timeline is not None:
             click.echo(shown(f"\nwrote {graph.workspace.path('timeline')}" + (f", {graph.workspace.path('report_html')}" if "render" in summary.ran + summary.fresh else "")))
-            if timeline.failed:
-                code = max(code, ExitCode.NOT_SYNCHRONIZED)
         elif camera and not quiet:
             click.echo("sync, export and render use every camera: run without --camera to bring them up to date")
     if code:

@@ -14,7 +14,7 @@ import click
 
 from tlsync_pipeline.cli.console import ConsoleProgress, print_error, shown
 from tlsync_pipeline.cli.exit_codes import ExitCode, exit_code_for
-from tlsync_pipeline.cli.json_output import dumps, status_document
+from tlsync_pipeline.cli.json_output import camera_statuses, dumps, status_document
 from tlsync_pipeline.cli.options import camera_option, executor_options, in_order, project_argument, quiet_option, refused_camera, verbose_option, work_option
 from tlsync_pipeline.errors import EnvironmentProblem, InputError, describe_error, one_line
 from tlsync_pipeline.outputs.summary import format_table, format_truth_comparison
@@ -156,6 +156,13 @@ def print_warnings(graph: Graph, summary: RunSummary) -> None:
     click.echo(line, err=True)
 
 
+def synchronized_code(graph, summary: RunSummary) -> ExitCode:
+    """NOT_SYNCHRONIZED when this run's sync stage completed and some camera is not synchronized (ambiguous or failed), else OK."""
+    if "sync" in summary.ran + summary.fresh and read_timeline(graph.workspace.path("timeline")).failed:
+        return ExitCode.NOT_SYNCHRONIZED
+    return ExitCode.OK
+
+
 def print_timeline(graph, summary: RunSummary, truth: Path | None = None):
     """Print the timeline table (and the comparison with ``truth``) when this run's sync stage completed; returns the Timeline or None."""
     if "sync" not in summary.ran + summary.fresh:
@@ -204,6 +211,9 @@ def status_command(project: Path, work_dir: Path | None, as_json: bool, quiet: b
         if running is not None:
             click.echo(f"run in progress: pid {running['pid']} on {running['host']}, started {running['started']}: {running['command']}")
         click.echo(format_status(rows))
+        sync = next((r for r in rows if r.id == "sync"), None)
+        for name, camera in camera_statuses(graph, sync is not None and sync.state == "fresh").items():
+            click.echo(f"camera {name}: {camera['status']}" + (f": {camera['reason']}" if camera["reason"] else ""))
     if problem is not None:
         print_error(str(problem), problem)
     if code:
@@ -220,7 +230,7 @@ def stage_command(stage: str, help_text: str, render: bool = False) -> click.Com
             for name in {n for p in request.pairs for n in p}:
                 loaded.camera(name)
         graph, summary = execute(project, work_dir, cameras=camera, targets_stage=stage, force_target=request is None, jobs=jobs, executor_kind=executor_kind, scheduler=scheduler, quiet=quiet)
-        code = report_outcome(graph, summary, quiet)
+        code = max(report_outcome(graph, summary, quiet), synchronized_code(graph, summary))
         if request is not None and stage in summary.ran + summary.fresh:
             task = graph.tasks[stage]
             with WorkLock(graph.work):

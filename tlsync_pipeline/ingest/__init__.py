@@ -12,6 +12,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from tlsync_pipeline.errors import InputError
+from tlsync_pipeline.inputs import regular_file
 from tlsync_pipeline.ingest.detect import detect_format
 from tlsync_pipeline.ingest.process import (
     IngestParams,
@@ -33,6 +34,8 @@ def read_log(path: str | Path, fmt: str = "auto", topic: str | None = None, utc_
     path = Path(path)
     if not path.exists():
         raise InputError(f"{path}: file not found")
+    if not path.is_dir():
+        regular_file(path, what="log")
     if fmt == "auto":
         fmt = detect_format(path)
     reader = BY_NAME.get(fmt)

@@ -17,6 +17,7 @@ import math
 from pathlib import Path
 
 from tlsync_pipeline.errors import InputError
+from tlsync_pipeline.inputs import quote
 from tlsync_pipeline.ingest.reader import Reader, text_of
 from tlsync_pipeline.ingest.records import (
     GEODETIC,
@@ -87,7 +88,7 @@ def read_csv_log(path: str | Path, fmt: str = "csv") -> LogRecords:
     missing = [c for c in wanted if c not in columns and not (c == "alt" and geodetic)]
     if missing:
         raise InputError(
-            f"{path}:{header_no + 1}: header {lines[header_no].strip()!r} lacks column(s) {', '.join(missing)}; "
+            f"{path}:{header_no + 1}: header {quote(lines[header_no].strip())} lacks column(s) {', '.join(missing)}; "
             "expected time,lat,lon,alt (geodetic) or t,x,y,z (local metres)"
         )
     width = len(lines[header_no].split(delimiter))

@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from tlsync_pipeline.errors import InputError
+from tlsync_pipeline.inputs import quote
 from tlsync_pipeline.ingest.reader import HEAD_BYTES, text_of
 from tlsync_pipeline.ingest.registry import FORMATS, READERS
 
@@ -39,6 +40,6 @@ def detect_format(path: str | Path) -> str:
         seen = f"a binary file starting with bytes {head[:8].hex(' ')}"
     else:
         first = next((line for line in text.split("\n") if line.strip()), "")
-        seen = f"first line {first.strip()[:60]!r}"
+        seen = f"first line {quote(first.strip())}"
     expected = "; ".join(r.describe for r in READERS if r.sniff is not None)
     raise InputError(f"{path}: cannot detect the log format ({seen}); expected one of: {expected}; or give --format (or [target] format), one of {', '.join(FORMATS)}")

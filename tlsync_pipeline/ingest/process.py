@@ -75,7 +75,9 @@ class IngestParams:
     max_gap_s None = 3x the median interval; max_speed_mps None = no spike rejection;
     smoothing_s 0 = none, else the Savitzky-Golay window (s); transform for local logs;
     altitude_reference: what the log's heights are above (one of ALTITUDE_REFERENCES), None =
-    as the reader says; altitude_offset_m: added to every height (m) to make it ellipsoidal."""
+    as the reader says; altitude_offset_m: added to every height (m) to make it ellipsoidal;
+    time_unit, length_unit: seconds per unit of the log's times and metres per unit of its
+    local positions or heights (ingest/units.py), applied before anything else."""
 
     origin: Origin | str = "first"
     rate: float | None = None
@@ -85,6 +87,8 @@ class IngestParams:
     transform: RigidTransform | None = None
     altitude_reference: str | None = None
     altitude_offset_m: float = 0.0
+    time_unit: float = 1.0
+    length_unit: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -182,6 +186,18 @@ class IngestReport:
         return "\n".join(lines)
 
 
+def in_seconds_and_metres(records: LogRecords, time_unit: float, length_unit: float) -> LogRecords:
+    """The records with times in seconds and local positions (or a geodetic log's heights) in metres."""
+    if time_unit == 1.0 and length_unit == 1.0:
+        return records
+    values = records.values.copy()
+    if records.frame == GEODETIC:
+        values[:, 2] *= length_unit
+    else:
+        values *= length_unit
+    return dataclasses.replace(records, t=records.t * time_unit, values=values)
+
+
 @dataclass(frozen=True)
 class _Fixes:
     """The fixes kept, in time order: times (s), values (the log's coordinates), positions (local metres, once
@@ -201,7 +217,7 @@ class _Fixes:
 
 def ingest(records: LogRecords, params: IngestParams = IngestParams()) -> tuple[Trajectory, IngestReport]:
     """The constant-rate local trajectory of a log and the report; InputError when unusable."""
-    fixes, dropped = _ordered_fixes(records)
+    fixes, dropped = _ordered_fixes(in_seconds_and_metres(records, params.time_unit, params.length_unit))
     warnings = list(records.warnings)
     altitude = _altitude(records, params, warnings)
     values = fixes.values + np.array([0.0, 0.0, altitude["offset_m"]]) if altitude["offset_m"] else fixes.values
@@ -317,6 +333,8 @@ def _params_record(params: IngestParams) -> dict:
         "transform": None if params.transform is None else {"R": params.transform.R.tolist(), "t": params.transform.t.tolist()},
         "altitude_reference": params.altitude_reference,
         "altitude_offset_m": params.altitude_offset_m,
+        "time_unit": params.time_unit,
+        "length_unit": params.length_unit,
     }
 
 

@@ -11,12 +11,12 @@ from pathlib import Path
 
 import numpy as np
 
-from tlsync_pipeline.outputs.diagnostics import HALF_95, CameraStatus
+from tlsync_pipeline.sync.status import HALF_95, CameraStatus
 from tlsync_pipeline.sync.clock import FrameTimes
 from tlsync_pipeline.sync.timeline import CameraLine, Timeline
 from tlsync_pipeline.trajectory import PiecewiseTrajectory
 
-STATUS_COLOURS = {"ok": "tab:green", "weak": "tab:orange", "failed": "tab:red"}
+STATUS_COLOURS = {"ok": "tab:green", "weak": "tab:orange", "ambiguous": "tab:purple", "failed": "tab:red"}
 
 
 @dataclass(frozen=True)

@@ -8,7 +8,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from tlsync_pipeline.outputs.diagnostics import HALF_95, CameraStatus, StageRun
+from tlsync_pipeline.outputs.diagnostics import StageRun
+from tlsync_pipeline.sync.status import HALF_95, CameraStatus
 from tlsync_pipeline.sync.timeline import StageWarning, Timeline
 
 
@@ -50,6 +51,7 @@ class CameraRow:
     camera: str
     status: str
     reason: str
+    remedy: str  # what to do about the worst reason ("" when ok)
     start: str  # when its frame 0 was taken, after the reference's, with the 95 % interval
     relation: str  # frame = a x reference frame + b, with 95 % intervals
     clock: str  # CFR / VFR and the rate
@@ -63,7 +65,7 @@ def camera_rows(timeline: Timeline, statuses: list[CameraStatus]) -> list[Camera
     for status in statuses:
         name = status.camera
         if name not in timeline.cameras:
-            rows.append(CameraRow(name, status.status, status.reason, "-", "-", "-", "-"))
+            rows.append(CameraRow(name, status.status, status.reason, status.remedy, "-", "-", "-", "-"))
             continue
         line = timeline.cameras[name]
         frames, seconds = timeline.start_offset(reference, name)
@@ -85,5 +87,5 @@ def camera_rows(timeline: Timeline, statuses: list[CameraStatus]) -> list[Camera
         if vfr and name != reference:
             relation += " (linear approximation; exact matches in frame_map.csv)"
         clock = ("VFR (presentation times)" if vfr else "CFR (frame indices)") + (f", {fps:.3f} fps" if fps else "")
-        rows.append(CameraRow(name, status.status, status.reason, start, relation, clock, f"{line.inliers} / {line.votes}"))
+        rows.append(CameraRow(name, status.status, status.reason, status.remedy, start, relation, clock, f"{line.inliers} / {line.votes}"))
     return rows

@@ -18,6 +18,7 @@ import json
 from importlib import resources
 
 from tlsync_pipeline.outputs.report_content import Picture, ReportContent, camera_rows
+from tlsync_pipeline.sync.status import SEVERITY as STATUSES
 
 
 def _asset(name: str) -> str:
@@ -49,17 +50,18 @@ def _table(header: list[str], rows: list[list[str]], numeric: frozenset[int] = f
 
 def _cameras_section(content: ReportContent) -> str:
     rows = camera_rows(content.timeline, content.statuses)
-    counts = {s: sum(r.status == s for r in rows) for s in ("ok", "weak", "failed")}
+    counts = {s: sum(r.status == s for r in rows) for s in STATUSES}
     lead = f"{len(rows)} camera(s): " + ", ".join(f"{n} {s}" for s, n in counts.items() if n)
     reference = content.timeline.names[0] if content.timeline.cameras else None
     table = _table(
-        ["camera", "status", "why", f"start after {reference}'s frame 0 (95 %)", f"relation to {reference} (95 %)", "clock", "inliers / votes"],
-        [[_e(r.camera), f'<span class="badge {r.status}">{r.status}</span>', _e(r.reason), _e(r.start), _e(r.relation), _e(r.clock), _e(r.support)] for r in rows],
-        numeric=frozenset({3, 6}),
+        ["camera", "status", "why", "what to do", f"start after {reference}'s frame 0 (95 %)", f"relation to {reference} (95 %)", "clock", "inliers / votes"],
+        [[_e(r.camera), f'<span class="badge {r.status}">{r.status}</span>', _e(r.reason), _e(r.remedy), _e(r.start), _e(r.relation), _e(r.clock), _e(r.support)] for r in rows],
+        numeric=frozenset({4, 7}),
     )
     note = (
         '<p class="hint">start: when the camera\'s frame 0 was taken, in seconds after the reference camera\'s frame 0 '
-        "(positive: later). ±: half-width of the 95 % interval. weak: usable but check the pictures; failed: not synchronized.</p>"
+        "(positive: later). ±: half-width of the 95 % interval. ok and weak: synchronized (weak: usable, for the reason given; "
+        "check the pictures); ambiguous (two lines far apart with comparable support) and failed: not synchronized.</p>"
     )
     return f'<h2 id="cameras">Cameras</h2><p class="lead">{_e(lead)}</p>{table}{note}'
 

@@ -5,14 +5,16 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
+from tlsync_pipeline.sync.status import OK
 from tlsync_pipeline.sync.timeline import Relation, Timeline, eps_t
 
 
 def format_table(timeline: Timeline) -> str:
-    """The per-camera summary a user reads after a run."""
-    rows = [("camera", "alpha", "beta", "votes", "inliers", "start (frames)", "start (s)", "flags")]
+    """The per-camera summary a user reads after a run: each camera's status (sync/status.py), its line, its start."""
+    rows = [("camera", "status", "alpha", "beta", "votes", "inliers", "start (frames)", "start (s)")]
     first = timeline.names[0] if timeline.cameras else ""
     with_se = False
+    status = timeline.statuses()
     for name, line in timeline.cameras.items():
         frames, seconds = timeline.start_offset(first, name)
         alpha, beta = f"{line.alpha:.5f}", f"{line.beta:.2f}"
@@ -25,18 +27,21 @@ def format_table(timeline: Timeline) -> str:
             if name != first and se is not None:
                 start_frames += f" ±{_HALF_95 * se[0]:.2g}"
                 start_s += "" if se[1] is None else f" ±{_HALF_95 * se[1]:.2g}"
-        flags = list(line.flags or ()) + (["fallback"] if line.warnings else [])
-        rows.append((name, alpha, beta, str(line.votes), str(line.inliers), start_frames, start_s, ",".join(flags) or "-"))
+        rows.append((name, status[name].status, alpha, beta, str(line.votes), str(line.inliers), start_frames, start_s))
+    for name in timeline.failed:
+        rows.append((name, status[name].status, "-", "-", "-", "-", "-", "-"))
     text = _columns(rows)
     if first:
         text += f"\nstart: when the camera's frame 0 was taken, in frames and seconds of {first} (positive: later than {first}'s frame 0)"
     if with_se:
-        text += "\n±: 95 % intervals (1.96 standard errors); flags: few_inliers, ambiguous (a second line with comparable support), along_ray (motion mostly along the viewing ray), fallback (see the sync stage's warnings), truncated (the video ends before its announced end; only the frames it holds are mapped), clock_disagrees (the offset disagrees with the camera's own clock by more than its tolerance: see clock_prior in timeline.json)"
+        text += "\n±: 95 % intervals (1.96 standard errors)"
+    text += "\nstatus: ok, weak (synchronized, for the reason given), ambiguous or failed (not synchronized)"
     vfr = [name for name, line in timeline.cameras.items() if line.clock.vfr]
     if vfr:
         text += f"\nvariable frame rate: {', '.join(vfr)}: starts in frames are approximate; exports/frame_map.csv maps frames exactly"
-    for name, why in timeline.failed.items():
-        text += f"\nnot synchronized: {name}: {why}"
+    for camera in status.values():
+        if camera.status != OK:
+            text += f"\n{camera.camera}: {camera.status}: {camera.reason}" + (f" (what to do: {camera.remedy})" if camera.remedy else "")
     return text
 
 

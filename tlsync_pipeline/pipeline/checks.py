@@ -14,19 +14,20 @@ from pathlib import Path
 
 from tlsync_pipeline.errors import InputError
 from trackers.track import read_track
-from trackers.video import probe_video
+from trackers.video import VideoInfo, probe_video
 
 ESTIMATE_SLACK = 0.02  # a frame count estimated from the duration may be off by this fraction
 
 
-def check_track_fits_video(track_path: Path, video_path: Path) -> None:
+def check_track_fits_video(track_path: Path, video: Path | VideoInfo) -> None:
     """InputError naming the track's file, line and frame, and the video's frame count, when a tracked frame is past the video's end.
 
     Frames are 0-based. A count the container only estimates (from its
     duration) is given ESTIMATE_SLACK; an unknown count is not checked.
     """
     track = read_track(track_path)
-    info = probe_video(video_path)
+    info = video if isinstance(video, VideoInfo) else probe_video(video)
+    video_path = info.path
     if info.n_frames <= 0:
         return
     limit = info.n_frames if info.counted else math.ceil(info.n_frames * (1 + ESTIMATE_SLACK)) + 1

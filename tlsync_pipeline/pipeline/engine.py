@@ -39,9 +39,10 @@ from tlsync_pipeline.pipeline.cache import (
 )
 from tlsync_pipeline.pipeline.codehash import code_digests
 from tlsync_pipeline.pipeline.executors import Called, SerialExecutor, one_blas_thread
-from tlsync_pipeline.pipeline.graph import STAGES, Graph, Task, check_given, task_id
+from tlsync_pipeline.pipeline.graph import STAGES, Graph, Task, task_id
 from tlsync_pipeline.pipeline.lock import WorkLock
 from tlsync_pipeline.pipeline.spec import StageResult, params_json
+from tlsync_pipeline.pipeline.validate import validate_project
 from tlsync_pipeline.pipeline.workspace import FOLDERS, StageFiles
 
 
@@ -204,10 +205,10 @@ def run_graph(
     force = set(force or ())
     wanted = _closure(graph, targets) if targets is not None else list(graph.tasks)
     summary = RunSummary()
+    validate_project(graph.project, {source for tid in wanted for source in graph.tasks[tid].inputs.values() if isinstance(source, Path)})
     for tid in wanted:
         if graph.tasks[tid].problem:
             raise InputError(graph.tasks[tid].problem)
-    check_given(graph, wanted)
     with WorkLock(graph.work):
         _remove_leftovers(graph.work)
         memo = HashMemo(graph.workspace.hash_memo)
@@ -216,11 +217,23 @@ def run_graph(
                 _schedule(graph, executor, wanted, force, memo, summary, progress or Progress())
         except BaseException:
             executor.close(cancel=True)
+            _remove_leftovers(graph.work)  # the stopped workers' temporary files (this run still holds the lock)
+            _save_memo(memo, summary)
             raise
-        finally:
-            memo.save()
+        _save_memo(memo, summary)
         executor.close()
     return summary
+
+
+CACHE_TASK = "cache"  # the id under which a run reports that it could not remember its file hashes
+
+
+def _save_memo(memo: HashMemo, summary: RunSummary) -> None:
+    """Remember the file hashes; a failure (a full disk) is the run's to report beside its tasks', never in their place."""
+    try:
+        memo.save()
+    except OSError as exc:
+        summary.failed[CACHE_TASK] = exc
 
 
 def _remove_leftovers(work: Path) -> None:
@@ -347,8 +360,13 @@ class _Scheduler:
             self.progress.failed(task.id, exc, parallel)
             return
         result = dataclasses.replace(called.value, warnings=tuple(dict.fromkeys(called.value.warnings + called.warnings)))
-        failure_path(manifest_path(self.graph, task)).unlink(missing_ok=True)
-        _write_manifest(self.graph, task, now, result, called.seconds, called.cpu_s + result.worker_cpu_s, self.memo)
+        try:
+            failure_path(manifest_path(self.graph, task)).unlink(missing_ok=True)
+            _write_manifest(self.graph, task, now, result, called.seconds, called.cpu_s + result.worker_cpu_s, self.memo)
+        except OSError as exc:  # a full disk: the artefacts are written but not recorded, so the task stays stale
+            self.summary.failed[task.id] = exc
+            self.progress.failed(task.id, exc, parallel)
+            return
         self.summary.ran.append(task.id)
         self.summary.seconds[task.id] = called.seconds
         self.summary.results[task.id] = result

@@ -41,7 +41,7 @@ _PR_SET_PDEATHSIG = 1
 
 
 def die_with_parent(parent_pid: int) -> None:
-    """Initializer of a worker process: ignore Ctrl-C and exit when ``parent_pid`` ends."""
+    """Initializer of a worker process: ignore Ctrl-C, exit when ``parent_pid`` ends, hold no semaphore of its own."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     if sys.platform.startswith("linux"):
         try:
@@ -51,6 +51,11 @@ def die_with_parent(parent_pid: int) -> None:
     if os.getppid() != parent_pid:  # the parent died before the request above took effect
         os._exit(1)
     threading.Thread(target=_watch_parent, args=(parent_pid,), name="tlsync-parent-watchdog", daemon=True).start()
+    from tqdm import tqdm
+
+    # tqdm's default lock holds a multiprocessing semaphore; a worker stopped mid-task would leave it to the
+    # resource tracker, which warns about it when the run exits. A worker draws no bar other processes share.
+    tqdm.set_lock(threading.RLock())
 
 
 def _watch_parent(parent_pid: int) -> None:

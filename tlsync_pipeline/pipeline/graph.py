@@ -23,9 +23,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from calibration.camera import read_camera
 from tlsync_pipeline.errors import InputError
-from tlsync_pipeline.pipeline.checks import check_track_fits_video
 from tlsync_pipeline.pipeline.project import Project
 from tlsync_pipeline.pipeline.spec import Options, StageSpec
 from tlsync_pipeline.pipeline.stages import (
@@ -42,9 +40,6 @@ from tlsync_pipeline.pipeline.stages import (
     vote,
 )
 from tlsync_pipeline.pipeline.workspace import Artefact, Workspace
-from tlsync_pipeline.trajectory import read_trajectory
-from trackers.detections import read_detections
-from trackers.track import read_track
 
 STAGE_SPECS: dict[str, StageSpec] = {
     s.name: s for s in (intrinsics.SPEC, clock.SPEC, ingest.SPEC, scan.SPEC, track.SPEC, calibrate.SPEC, identify.SPEC, vote.SPEC, sync.SPEC, export.SPEC, render.SPEC)
@@ -60,18 +55,17 @@ for _spec in STAGE_SPECS.values():
 @dataclass(frozen=True)
 class _Givable:
     """An artefact a project may bring instead of a stage making it: the file the project names (camera None:
-    [target]), the reader that checks it, and what to say when neither is there."""
+    [target]), and what to say when neither is there (pipeline/validate.py checks the file before any stage runs)."""
 
     given: Callable[[Project, Any], Path | None]
-    reader: Callable[[Path], object]
     missing: str
 
 
 _GIVEN = {
-    "camera": _Givable(lambda p, cam: p.camera(cam).camera, read_camera, "give 'camera' (a camera.json) or a [cameras.calibration] table to calibrate it from"),
-    "track": _Givable(lambda p, cam: p.camera(cam).track, read_track, "give 'track' (a track.csv) or 'video' (to track the target in)"),
-    "detections": _Givable(lambda p, cam: p.camera(cam).detections, read_detections, "give 'detections' (a detections.csv) or 'video' (to detect every mover in)"),
-    "trajectory": _Givable(lambda p, cam: p.target.trajectory, read_trajectory, "give 'log' (a GPS or odometry log to ingest) or 'trajectory' (a metric trajectory CSV)"),
+    "camera": _Givable(lambda p, cam: p.camera(cam).camera, "give 'camera' (a camera.json) or a [cameras.calibration] table to calibrate it from"),
+    "track": _Givable(lambda p, cam: p.camera(cam).track, "give 'track' (a track.csv) or 'video' (to track the target in)"),
+    "detections": _Givable(lambda p, cam: p.camera(cam).detections, "give 'detections' (a detections.csv) or 'video' (to detect every mover in)"),
+    "trajectory": _Givable(lambda p, cam: p.target.trajectory, "give 'log' (a GPS or odometry log to ingest) or 'trajectory' (a metric trajectory CSV)"),
 }
 
 
@@ -198,20 +192,3 @@ def build_graph(project: Project, work: Path, options: Options = Options()) -> G
             if path is not None and Artefact(kind, cam) not in producers:
                 given[task_id(MAKER[kind], cam)] = Given(MAKER[kind], cam, path)
     return Graph(project, workspace, tasks, given, options)
-
-
-def check_given(graph: Graph, wanted: list[str]) -> None:
-    """Read the artefacts the user brings that ``wanted`` tasks use, so bad input stops the run before any stage runs."""
-    readers = {}  # each brought file's reader, by its path
-    for kind, givable in _GIVEN.items():
-        for cam in graph.project.names if kind != "trajectory" else [None]:
-            path = givable.given(graph.project, cam)
-            if path is not None:
-                readers[path] = givable.reader
-    used = {path for tid in wanted for path in graph.tasks[tid].inputs.values()}
-    for item in graph.given.values():
-        if item.path in used:
-            readers[item.path](item.path)
-            camera = graph.project.camera(item.camera) if item.camera else None
-            if camera is not None and item.path == camera.track and camera.video is not None:
-                check_track_fits_video(item.path, camera.video)

@@ -37,6 +37,7 @@ from tlsync_pipeline.geodesy import Origin
 from tlsync_pipeline.ingest import ALTITUDE_REFERENCES, FORMATS
 from tlsync_pipeline.ingest.process import IngestParams, RigidTransform
 from tlsync_pipeline.ingest.recording_time import parse_utc, parse_utc_offset
+from tlsync_pipeline.ingest.units import LENGTH_UNITS, TIME_UNITS, unit_scale
 from tlsync_pipeline.outputs.proxy import POLICIES as PROXY_POLICIES
 from tlsync_pipeline.sync.log_model import AUTO, LogModelChoice
 from tlsync_pipeline.sync.log_model import PRESETS as LOG_MODELS
@@ -207,6 +208,14 @@ def _box(value: Any, root: Path) -> tuple[float, float, float, float]:
     return x, y, w, h
 
 
+def _time_unit(value: Any, root: Path) -> float:
+    return unit_scale(value, TIME_UNITS, "seconds")
+
+
+def _length_unit(value: Any, root: Path) -> float:
+    return unit_scale(value, LENGTH_UNITS, "metres")
+
+
 def _parameters(value: Any, root: Path) -> dict[str, float]:
     if not isinstance(value, dict):
         raise ValueError(f"expected a table of tracker parameters, got {value!r}")
@@ -284,7 +293,9 @@ class TargetConfig:
     """[target]: the target's trajectory CSV, or its raw log and how the ingest stage reads it (docs/ingest.md).
 
     origin: the ENU origin shared by the log and geodetic GCPs (an Origin, "first",
-    "gcps", or None: see pipeline/origin.py). The other keys are IngestParams'.
+    "gcps", or None: see pipeline/origin.py); time_unit, length_unit: seconds and
+    metres per unit of the log's (or the trajectory's) times and positions
+    (ingest/units.py). The other keys are IngestParams'.
     """
 
     trajectory: Path | None = key(_path)
@@ -305,10 +316,18 @@ class TargetConfig:
     bias_sigma_m: float | None = key(_non_negative)
     bias_tau_s: float | None = key(_positive)
 
+    time_unit: float = key(_time_unit, IngestParams.time_unit)
+    length_unit: float = key(_length_unit, IngestParams.length_unit)
+
     @property
     def log_error(self) -> LogModelChoice:
         """The log's error model as [target] chooses it: a preset or "auto", and overrides."""
         return LogModelChoice(self.log_model, self.white_sigma_m, self.bias_sigma_m, self.bias_tau_s)
+
+    @property
+    def converts_trajectory(self) -> bool:
+        """Whether the trajectory the project brings is not in seconds and metres: the ingest stage converts it."""
+        return self.trajectory is not None and (self.time_unit != 1.0 or self.length_unit != 1.0)
 
     def ingest_params(self, origin: Origin | str) -> IngestParams:
         """The ingest's parameters, with the ENU origin resolved (pipeline/origin.py)."""
@@ -321,6 +340,8 @@ class TargetConfig:
             transform=self.odometry_transform,
             altitude_reference=self.altitude_reference,
             altitude_offset_m=self.altitude_offset_m,
+            time_unit=self.time_unit,
+            length_unit=self.length_unit,
         )
 
 

@@ -61,6 +61,7 @@ from calibration.camera import Camera
 from tlsync_pipeline.errors import SyncError
 from tlsync_pipeline.sync.clock import CameraClock, FrameTimes, camera_clock
 from tlsync_pipeline.sync.line_search import LineSearch, find_line, thin_votes
+from tlsync_pipeline.sync.plausibility import BACKWARD_BELOW, backwards_better
 from tlsync_pipeline.sync.refine import MIN_FRAMES, refine_line
 from tlsync_pipeline.sync.slope import SlopePrior, slope_prior
 from tlsync_pipeline.sync.target_size import beyond_slack, depth_on_line, sizes_in_metres, slack_on_line, target_within
@@ -361,6 +362,13 @@ def identify_target(camera: Camera, detections: Detections, trajectory: Trajecto
         search = find_line(votes.sample, row_clock[vote_rows], votes.dist, params.delta, params.p, params.r_min, params.seed, group=detections.id[vote_rows], prior=prior)
     except ValueError as exc:
         raise SyncError(f"camera {camera.name}: {exc} ({len(votes)} votes from {np.unique(vote_rows).size} candidates)") from None
+    if search.support < BACKWARD_BELOW:
+        backward = find_line(-votes.sample, row_clock[vote_rows], votes.dist, params.delta, params.p, params.r_min, params.seed, group=detections.id[vote_rows], prior=prior)
+        if backwards_better(search.support, backward.support):
+            raise SyncError(
+                f"camera {camera.name}: the log looks reversed in time: the movers' votes back a line running backwards in time "
+                f"({backward.support} frames) better than any running forwards ({search.support}); check the order of the log's times"
+            )
     candidates = _Candidates(camera, detections, row_clock, params.eps_px, prefer, FOLLOW_WINDOW_S * fps if fps else FOLLOW_WINDOW_FRAMES)
     found = _assignment_rounds(candidates, trajectory, search.alpha, search.beta, params.f_scale_px, prior)
     _check_following(candidates, found)

@@ -58,7 +58,8 @@ class LineSearch:
     alpha, beta: the polished line; inliers: mask over all the votes given
     (orthogonal distance <= delta); support: distinct frames among the thinned
     inliers; runner_up: the same for the best line not using those inliers;
-    thinned: number of votes kept by thinning; hypotheses: lines scored.
+    thinned: number of votes kept by thinning; hypotheses: lines scored;
+    rival: that best line not using the inliers, (alpha, beta), or None.
     """
 
     alpha: float
@@ -69,6 +70,7 @@ class LineSearch:
     thinned: int
     hypotheses: int
     residual_rms: float
+    rival: tuple[float, float] | None = None
 
     @property
     def n_inliers(self) -> int:
@@ -309,13 +311,13 @@ def find_line(
         raise ValueError("no increasing line through any two votes: the votes do not move forward in time")
     alpha, beta, support, drawn = found
     on_line = distance_to_line(ts, tf, alpha, beta) <= delta
-    runner_up = 0
+    runner_up, rival = 0, None
     rest = distance_to_line(ts, tf, alpha, beta) > max(delta, apart / np.hypot(1.0, alpha))
     if rest.sum() >= 2 and len(np.unique(ts[rest])) >= 2:
         second = _search(rng, ts[rest], tf[rest], delta, p, r_min, prior)
         if second is not None:
-            runner_up = second[2]
+            runner_up, rival = second[2], (float(second[0]), float(second[1]))
     inliers = distance_to_line(sample, frame, alpha, beta) <= delta
     residual = tf[on_line] - alpha * ts[on_line] - beta
     rms = float(np.sqrt(np.mean(residual**2))) if on_line.any() else float("nan")
-    return LineSearch(alpha, beta, inliers, support, runner_up, len(kept), drawn, rms)
+    return LineSearch(alpha, beta, inliers, support, runner_up, len(kept), drawn, rms, rival)

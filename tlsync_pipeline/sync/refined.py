@@ -27,7 +27,6 @@ from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
 
 # Weak-case thresholds (flags in timeline.json).
 FEW_INLIER_FRAMES = 30
-AMBIGUOUS_RATIO = 0.5
 ALONG_RAY = 0.15
 # The refinement regrows its frame set to tracked frames within GATE_EPS x eps_px
 # of the fitted projection: a tight gate keeps only frames whose calibration
@@ -105,11 +104,10 @@ class RefinedMethod:
             budget = error_budget(refinement, data.track_clock, np.zeros((2, 2)))
         if search.support < FEW_INLIER_FRAMES:
             flags.append("few_inliers")
-        if search.runner_up >= AMBIGUOUS_RATIO * search.support:
-            flags.append("ambiguous")
         if refinement is not None and refinement.perpendicular < ALONG_RAY:
             flags.append("along_ray")
-        summary = LineSearchSummary(search.alpha, search.beta, search.support, search.runner_up, search.thinned, search.hypotheses)
+        rival = search.rival or (None, None)
+        summary = LineSearchSummary(search.alpha, search.beta, search.support, search.runner_up, search.thinned, search.hypotheses, *rival)
         refinement_summary = None
         if refinement is not None:
             refinement_summary = RefinementSummary(refinement.frames_used, refinement.scale_px, refinement.perpendicular, refinement.converged)

@@ -17,10 +17,9 @@ Pure functions from typed values to typed values; no file I/O here.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import asdict, dataclass, replace
-
-import numpy as np
 
 import numpy as np
 
@@ -31,12 +30,15 @@ from tlsync_pipeline.sync.identify import Identification, IdentifyParams, identi
 from tlsync_pipeline.sync.log_model import PRESETS, LogModel, vote_radius
 from tlsync_pipeline.sync.methods import CameraData, CameraInput, JointMethod
 from tlsync_pipeline.sync.params import Preparation, SyncParams
+from tlsync_pipeline.sync.plausibility import BACKWARD_BELOW, Judged, backward_support, diagnose, judge_line, line_support, motion_slope
 from tlsync_pipeline.sync.pose import TargetPose, estimate_pose, pose_info
 from tlsync_pipeline.sync.refined import RefinedParams
 from tlsync_pipeline.sync.registry import get_method, method_options, params_table, preparation_of
+from tlsync_pipeline.sync.slope import slope_prior
+from tlsync_pipeline.sync.status import AMBIGUOUS, FAILED
 from tlsync_pipeline.sync.timeline import CameraLine, Timeline
 from tlsync_pipeline.sync.votes import Votes, compute_votes
-from tlsync_pipeline.trajectory import Trajectory, lowered
+from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory, lowered
 from trackers.track import Track
 
 __all__ = ["CameraInput", "CameraResult", "cast_votes", "identify_and_synchronize", "identify_params", "prepare_trajectory", "synchronize", "synchronize_camera"]
@@ -148,15 +150,23 @@ def synchronize(
     error (sync/log_model.py): it widens each camera's vote radius and, with
     a bias and a method that can (the refined one), the lines are fitted
     together with the bias, their intervals including what it leaves
-    uncertain. Cameras that cannot be synchronized are listed in
-    ``Timeline.failed`` with the reason.
+    uncertain. Every line is first checked against its camera's evidence
+    (sync/plausibility.py): a line the checks contradict, or with a rival as
+    strong, is not synchronized (``Timeline.rejected``) and takes no part in
+    the joint fit. Cameras that cannot be synchronized are listed in
+    ``Timeline.failed`` with the reason; a camera whose fit raises anything
+    else fails alone. Raises LogUnitError (an InputError) when every
+    camera's evidence says the log is not in seconds or metres.
     """
     prepared = with_log_noise(prepare_trajectory(trajectory, preparation_of(params)), log_model)
+    path = PiecewiseTrajectory(prepared)
     results: dict[str, CameraResult] = {}
     failed: dict[str, str] = {}
+    judged: dict[str, Judged] = {}
     radius: dict[str, float] = {}
     used: dict[str, CameraInput] = {}
     for name, inputs in cameras.items():
+        prior = slope_prior(inputs.fps, trajectory.rate, params.rate_sigma)
         try:
             cast = votes[name] if votes is not None else None
             if isinstance(cast, SyncError):
@@ -167,18 +177,32 @@ def synchronize(
             used[name] = inputs
             radius[name] = vote_radius(inputs.camera, prepared, params.eps_px, log_model)
             if inputs.track is None:
-                results[name] = replace(identify_and_synchronize(name, inputs, prepared, params, radius[name]), pose=pose)
-                continue
-            if cast is None:
-                cast = cast_votes(inputs.camera, inputs.track, prepared, radius[name])
-            results[name] = replace(synchronize_camera(name, inputs, cast, prepared, params, radius[name]), pose=pose)
+                result = identify_and_synchronize(name, inputs, prepared, params, radius[name])
+            else:
+                result = synchronize_camera(name, inputs, cast if cast is not None else cast_votes(inputs.camera, inputs.track, prepared, radius[name]), prepared, params, radius[name])
+            results[name], judged[name] = _judge(name, inputs, replace(result, pose=pose), path, params, prior, radius[name])
         except SyncError as exc:
             failed[name] = str(exc)
-    lines = {name: r.line for name, r in results.items()}
+            judged[name] = _unjudged(inputs, prior)
+        except (ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
+            failed[name] = f"camera {name}: the fit failed ({type(exc).__name__}: {exc})"
+            judged[name] = _unjudged(inputs, prior)
+    found = diagnose(judged, prepared, params.eps_px)
+    lines, rejected = {}, {}
+    for name, result in results.items():
+        line = result.line
+        if name in found:
+            line = replace(line, checks=(*(line.checks or ()), found[name]))
+        stopping = [r.text for r in line.checks or () if r.severity in (AMBIGUOUS, FAILED)]
+        if stopping:
+            rejected[name] = line
+            failed[name] = f"camera {name}: " + "; ".join(stopping)
+        else:
+            lines[name] = line
     shared: dict[str, np.ndarray] = {}
     method = get_method(params.method)
     # A camera whose pose comes from the target absorbed the log's bias during its visit in that pose: it stays out.
-    surveyed = {name: r for name, r in results.items() if not _pose_from_target(used[name].camera)}
+    surveyed = {name: results[name] for name in lines if not _pose_from_target(used[name].camera)}
     if params.log_bias and log_model.has_bias and isinstance(method, JointMethod) and surveyed:
         data = {name: camera_data(name, replace(used[name], track=r.track(used[name])), r.votes, radius[name]) for name, r in surveyed.items()}
         fitted, bias = method.refine_with_log_bias(data, {n: lines[n] for n in surveyed}, prepared, params, method_options(params), log_model)
@@ -192,8 +216,45 @@ def synchronize(
         trajectory.t0,
         method=params.method,
         params=params_table(params),
-        failed=failed,
+        failed={name: failed[name] for name in cameras if name in failed},
+        rejected=rejected,
         shared_cov=shared,
         log_model=asdict(log_model) if log_model.name != "none" else None,
     )
     return timeline, results
+
+
+def _unjudged(inputs: CameraInput, prior) -> Judged:
+    """What ``diagnose`` knows of a camera without a line: its track, when its camera has a pose to project with."""
+    return Judged(inputs.camera, inputs.track if inputs.camera.posed else None, None, None if prior is None else prior.alpha, True)
+
+
+def _judge(name: str, inputs: CameraInput, result: CameraResult, path: PiecewiseTrajectory, params: SyncParams, prior, radius_px: float) -> tuple[CameraResult, Judged]:
+    """The camera's result with its line checked (CameraLine.checks) at its vote radius (pixels), and what ``diagnose`` needs of it.
+
+    A line with a non-finite slope or intercept is a SyncError; a covariance
+    that is not finite or has a negative variance is dropped (no interval
+    rather than a meaningless one).
+    """
+    line = result.line
+    if not (math.isfinite(line.alpha) and math.isfinite(line.beta)) or line.alpha <= 0:
+        raise SyncError(f"camera {name}: no usable line (alpha {line.alpha:g}, beta {line.beta:g})")
+    if line.cov is not None and not (np.isfinite(line.cov).all() and (np.diag(line.cov) >= 0).all()):
+        line = replace(line, cov=None)
+    track = inputs.track if inputs.track is not None else result.identification.track  # type: ignore[union-attr]
+    clock = camera_clock(track, inputs.fps)
+    times = FrameTimes.of_track(track)
+    track_clock = clock.clock_at(track.frame, times)
+    fps = clock.fps if clock.fps is not None else inputs.fps
+    votes = result.votes
+    vote_clock = clock.clock_at(votes.frame, times)
+    slope = motion_slope(inputs.camera, track, track_clock, path, vote_clock, votes.sample, fps)
+    alpha_prior = None if prior is None else prior.alpha
+    thin = line.line_search.support_frames if line.line_search is not None else line_support(votes.sample, vote_clock, line.alpha, line.beta, params.delta)
+    support: tuple[int, int | None] = (thin, None)
+    if thin < BACKWARD_BELOW:  # a thin line: would the log read backwards explain the votes better?
+        support = (line_support(votes.sample, vote_clock, line.alpha, line.beta, params.delta), backward_support(votes.sample, vote_clock, votes.dist, params.delta, prior, params.seed))
+    checks = judge_line(inputs.camera, track, track_clock, path, line, radius_px, fps, alpha_prior, slope, support)
+    line = replace(line, checks=checks)
+    contradicted = any(r.severity == FAILED for r in checks)
+    return replace(result, line=line), Judged(inputs.camera, track, slope, alpha_prior, contradicted)

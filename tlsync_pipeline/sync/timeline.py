@@ -22,6 +22,7 @@ import numpy as np
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.sync.clock import FRAME, CameraClock, FrameTimes
 from tlsync_pipeline.sync.clock_prior import ClockCheck
+from tlsync_pipeline.sync.status import AMBIGUOUS, FAILED, HALF_95, WEAK, WIDE_FRAMES, WIDE_REMEDIES, WIDE_REMEDY, CameraStatus, Reason, failure, line_reasons, status_of
 
 FORMAT_VERSION = 1
 
@@ -42,7 +43,8 @@ class Relation:
 
 @dataclass(frozen=True)
 class LineSearchSummary:
-    """The refined method's line search: its line, the distinct frames backing it and its best rival, votes kept, lines tried."""
+    """The refined method's line search: its line, the distinct frames backing it and its best rival (and that
+    rival's line, None when there is none), votes kept, lines tried."""
 
     alpha: float
     beta: float
@@ -50,6 +52,8 @@ class LineSearchSummary:
     runner_up_frames: int
     thinned_votes: int
     hypotheses: int
+    rival_alpha: float | None = None
+    rival_beta: float | None = None
 
 
 @dataclass(frozen=True)
@@ -182,6 +186,7 @@ class CameraLine:
     identification: IdentificationSummary | None = None
     budget: ErrorBudget | None = None
     log_bias: LogBiasSummary | None = None
+    checks: tuple[Reason, ...] | None = None
     scan: ScanSummary | None = None
     clock_check: ClockCheck | None = None
 
@@ -214,6 +219,8 @@ class CameraLine:
         for key in ("line_search", "refinement", "identification", "scan", "budget", "log_bias"):
             if getattr(self, key) is not None:
                 entry[key] = asdict(getattr(self, key))
+        if self.checks is not None:
+            entry["checks"] = [r.to_dict() for r in self.checks]
         if self.clock_check is not None:
             entry["clock_prior"] = self.clock_check.to_dict()
         if self.clock.vfr:
@@ -239,12 +246,14 @@ class CameraLine:
             "line_search": None if entry.get("line_search") is None else LineSearchSummary(**entry["line_search"]),
             "refinement": None if entry.get("refinement") is None else RefinementSummary(**entry["refinement"]),
             "identification": None if entry.get("identification") is None else IdentificationSummary.from_dict(entry["identification"]),
+            "checks": None if entry.get("checks") is None else tuple(Reason.from_dict(r) for r in entry["checks"]),
             "scan": None if entry.get("scan") is None else ScanSummary(**entry["scan"]),
             "budget": None if entry.get("budget") is None else ErrorBudget(**entry["budget"]),
             "log_bias": None if entry.get("log_bias") is None else LogBiasSummary.from_dict(entry["log_bias"]),
             "clock_check": None if entry.get("clock_prior") is None else ClockCheck.from_dict(entry["clock_prior"]),
         }
-        base = {k: entry[k] for k in ("alpha", "beta", "votes", "inliers", "residual_rms")}
+        base = {k: entry[k] for k in ("alpha", "beta", "votes", "inliers")}
+        base["residual_rms"] = float("nan") if entry["residual_rms"] is None else entry["residual_rms"]
         return cls(name, fps=entry.get("fps"), clock=clock, **base, **optional)
 
 
@@ -264,8 +273,13 @@ class StageWarning:
 class Timeline:
     """All cameras' lines on one target grid (rate in samples/s, t0 in s).
 
+    cameras: the synchronized cameras' lines (status ok or weak, sync/status.py);
+    failed: every camera that is not synchronized, with why in one line;
     warnings: those of the run's stages that made its inputs, then the sync
-    stage's own, in pipeline order (the same list report.html shows).
+    stage's own, in pipeline order (the same list report.html shows);
+    rejected: the lines of the cameras not synchronized that have one
+    (ambiguous, or contradicted by the plausibility checks): for diagnosis,
+    never for exports.
     """
 
     cameras: dict[str, CameraLine]
@@ -278,6 +292,7 @@ class Timeline:
     # Covariance between two cameras' (alpha, beta) through an error they share (the log's bias), "A|B" -> 2x2 (rows: A's).
     shared_cov: dict[str, np.ndarray] = field(default_factory=dict)
     log_model: dict | None = None  # the log's error model the fit assumed (sync/log_model.py), or None
+    rejected: dict[str, CameraLine] = field(default_factory=dict)
 
     def cross_cov(self, a: str, b: str) -> np.ndarray:
         """2x2 covariance between camera a's and camera b's (alpha, beta) (zeros when independent)."""
@@ -290,6 +305,39 @@ class Timeline:
     @property
     def names(self) -> list[str]:
         return list(self.cameras)
+
+    def status(self, name: str) -> CameraStatus:
+        """The camera's status (sync/status.py): its line's checks, flags, warnings and interval, or why it failed."""
+        line = self.cameras.get(name) or self.rejected.get(name)
+        if line is None:
+            return status_of(name, [failure(self.failed.get(name, "not synchronized"))])
+        reasons = line_reasons(line.flags, line.warnings, line.checks)
+        if name in self.cameras:
+            wide = self._wide_interval(name)
+            if wide is not None:
+                reasons.append(wide)
+        elif not any(r.severity in (AMBIGUOUS, FAILED) for r in reasons):
+            reasons.append(failure(self.failed.get(name, "not synchronized")))
+        return status_of(name, reasons)
+
+    def _wide_interval(self, name: str) -> Reason | None:
+        """WEAK when the camera's start, against the reference's, is known to more than WIDE_FRAMES of its own frames (95 %)."""
+        reference = self.names[0]
+        se = self.start_offset_se(reference, name) if name != reference else None
+        if se is None:
+            return None
+        line = self.cameras[name]
+        own_frames = HALF_95 * (se[1] * line.fps if se[1] is not None and line.fps else se[0])
+        if not own_frames > WIDE_FRAMES:
+            return None
+        seconds = "" if se[1] is None else f"±{HALF_95 * se[1]:.2g} s, "
+        remedy = WIDE_REMEDIES[line.budget.dominant] if line.budget is not None and line.budget.total_frames > 0 else WIDE_REMEDY
+        return Reason("wide_interval", WEAK, f"start known to {seconds}±{own_frames:.1f} of its frames only", remedy)
+
+    def statuses(self, names: list[str] | None = None) -> dict[str, CameraStatus]:
+        """Every camera's status by name: ``names`` in that order (default: the synchronized, then the rejected, then the failed)."""
+        names = names or list(dict.fromkeys([*self.cameras, *self.rejected, *self.failed]))
+        return {name: self.status(name) for name in names}
 
     def clock_relation(self, a: str, b: str) -> Relation:
         """clock_B = alpha * clock_A + beta, through the target's grid (exact; clocks as in CameraLine)."""
@@ -384,7 +432,10 @@ class Timeline:
         }
 
     def to_dict(self) -> dict:
-        """The ``timeline.json`` content (contract in docs/formats.md)."""
+        """The ``timeline.json`` content (contract in docs/formats.md); a number that is not finite is written as null."""
+        return _finite(self._document())
+
+    def _document(self) -> dict:
         first = self.names[0] if self.cameras else None
         cameras = {}
         for name, c in self.cameras.items():
@@ -417,11 +468,24 @@ class Timeline:
             "reference": first,
             "cameras": cameras,
             "failed": self.failed,
+            "status": {name: status.to_dict() for name, status in self.statuses().items()},
+            "rejected": {name: line.to_dict() for name, line in self.rejected.items()},
             "warnings": [w.to_dict() for w in self.warnings],
             "line": self.line(),
             "pairs": pairs,
             **({"log_error": {"model": self.log_model, "shared_cov": {k: np.asarray(v).tolist() for k, v in self.shared_cov.items()}}} if self.log_model else {}),
         }
+
+
+def _finite(value):
+    """``value`` (JSON-like) with every float that is not finite replaced by None: no NaN or infinity reaches a file."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {k: _finite(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_finite(v) for v in value]
+    return value
 
 
 def eps_t(estimated: Relation, truth: Relation, n_frames_a: int) -> float:
@@ -441,12 +505,22 @@ def read_timeline(path: str | Path) -> Timeline:
     try:
         data = json.loads(path.read_text(encoding="utf-8"))
         cameras = {name: CameraLine.from_dict(name, c) for name, c in data["cameras"].items()}
+        rejected = {name: CameraLine.from_dict(name, c) for name, c in data.get("rejected", {}).items()}
         target = data.get("target", {})
         warnings = tuple(StageWarning(w["stage"], w.get("camera"), w["text"]) for w in data.get("warnings", []))
         log_error = data.get("log_error") or {}
         shared = {k: np.asarray(v, dtype=np.float64).reshape(2, 2) for k, v in (log_error.get("shared_cov") or {}).items()}
         return Timeline(
-            cameras, target.get("rate"), target.get("t0"), data.get("method", "paper"), data.get("params", {}), data.get("failed", {}), warnings, shared, log_error.get("model")
+            cameras,
+            target.get("rate"),
+            target.get("t0"),
+            data.get("method", "paper"),
+            data.get("params", {}),
+            data.get("failed", {}),
+            warnings,
+            shared_cov=shared,
+            log_model=log_error.get("model"),
+            rejected=rejected,
         )
     except FileNotFoundError:
         raise InputError(f"{path}: file not found") from None

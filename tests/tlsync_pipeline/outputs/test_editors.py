@@ -4,12 +4,11 @@ import csv
 import json
 from pathlib import Path
 
-import cv2
-import numpy as np
 import opentimelineio as otio
 import pytest
 
 from data_fixtures import make_scene, write_scene
+from data_fixtures.video import blank_video
 from tlsync_pipeline.outputs.editors import Placement, fcpxml_text, otio_timeline
 from tlsync_pipeline.pipeline.engine import run_graph
 from tlsync_pipeline.pipeline.graph import build_graph
@@ -24,7 +23,7 @@ def exported(tmp_path_factory):
     project = write_scene(scene, folder)
     text = project.read_text()
     for name, camera in scene.cameras.items():
-        _tiny_video(folder / f"{name}.mp4", scene.n_frames[name], camera.fps)
+        blank_video(folder / f"{name}.mp4", scene.n_frames[name], camera.image_size, camera.fps)
         text = text.replace(f'track = "{name}/track.csv"\n', f'track = "{name}/track.csv"\nvideo = "{name}.mp4"\n')
     project.write_text(text)
     graph = build_graph(load_project(project), folder / "work")
@@ -32,13 +31,6 @@ def exported(tmp_path_factory):
     with (graph.work / "exports" / "offsets.csv").open() as handle:
         offsets = {row["camera"]: row for row in csv.DictReader(handle)}
     return graph.work, offsets, scene
-
-
-def _tiny_video(path: Path, n_frames: int, fps: float) -> None:
-    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"), fps, (32, 24))
-    for k in range(n_frames):
-        writer.write(np.full((24, 32, 3), k % 256, np.uint8))
-    writer.release()
 
 
 def _clip_starts(timeline) -> dict[str, tuple[float, float, object]]:

@@ -10,6 +10,7 @@ from click.testing import CliRunner
 
 from tlsync_pipeline.cli.exit_codes import ExitCode
 from tlsync_pipeline.cli.main import main
+from tlsync_pipeline.pipeline import engine
 from tlsync_pipeline.pipeline.cache import read_manifest
 from tlsync_pipeline.pipeline.engine import run_graph, status
 from tlsync_pipeline.pipeline.graph import build_graph
@@ -138,12 +139,12 @@ def test_a_second_run_on_a_locked_work_folder_is_refused(project_dir):
     assert _cli("run", project_dir / "project.toml", "-j", "1").exit_code == 0
 
 
-def test_failed_stage_keeps_last_good_artefacts_and_runs_the_rest(project_dir):
+def test_failed_stage_keeps_last_good_artefacts_and_runs_the_rest(project_dir, monkeypatch):
     run_graph(_graph(project_dir))
     good = (project_dir / "work" / "cameras" / "cam1" / "votes.npz").read_bytes()
     # A broken track that passes no check until its stage reads it: make it the stage's problem.
+    monkeypatch.setattr(engine, "validate_project", lambda *args: None)
     graph = _graph(project_dir)
-    graph.given.clear()
     (project_dir / "cam1" / "track.csv").write_text("frame,x,y\n0,1\n")
     summary = run_graph(graph)
     assert "vote/cam1" in summary.failed and "track.csv:2" in str(summary.failed["vote/cam1"])

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import pytest
 
-from tlsync_pipeline.outputs.diagnostics import camera_status
 from tlsync_pipeline.sync.clock_prior import CLOCK_FLAG, ClockPrior, check_clock, with_clock_checks
 from tlsync_pipeline.sync.timeline import CameraLine, Timeline, read_timeline, write_timeline
 
@@ -21,12 +20,12 @@ def test_a_right_prior_agrees_and_a_wrong_one_is_a_named_reason_not_obeyed(tmp_p
     right = with_clock_checks(_timeline(), {"cam": ClockPrior(T0 + 12.4, 1.0, "QuickTime creationdate")}, log_utc=True)
     line = right.cameras["cam"]
     assert line.clock_check.agrees and line.clock_check.offset_s == pytest.approx(-0.4) and CLOCK_FLAG not in line.flags
-    assert camera_status(right, "cam").status == "ok"
+    assert right.status("cam").status == "ok"
     wrong = with_clock_checks(_timeline(), {"cam": ClockPrior(T0 + 72.0, 1.0, "QuickTime creationdate")}, log_utc=True)
     line = wrong.cameras["cam"]
     assert (line.alpha, line.beta) == (2.5, -300.0)  # flagged, not moved
     assert CLOCK_FLAG in line.flags and line.clock_check.offset_s == pytest.approx(-60.0)
-    status = camera_status(wrong, "cam")
+    status = wrong.status("cam")
     assert status.status == "weak" and "camera's own clock" in status.reason
     write_timeline(wrong, tmp_path / "timeline.json")
     back = read_timeline(tmp_path / "timeline.json").cameras["cam"]

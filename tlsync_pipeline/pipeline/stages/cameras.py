@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -10,11 +11,12 @@ from typing import TYPE_CHECKING
 
 from calibration.camera import Camera, read_camera
 from calibration.errors import CalibrationInputError
-from tlsync_pipeline.errors import SyncError
+from tlsync_pipeline.errors import INPUT_ERRORS, SyncError
 from tlsync_pipeline.pipeline.spec import ProjectWide, Sources
 from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
 from tlsync_pipeline.sync.log_model import LogModel, LogModelChoice
 from tlsync_pipeline.sync.timeline import IdentificationSummary
+from trackers.video import probe_video
 
 if TYPE_CHECKING:
     from tlsync_pipeline.pipeline.project import Project
@@ -123,6 +125,22 @@ def has_no_rows(csv_path: Path) -> bool:
 def read_video_info(path: Path) -> dict:
     """video.json as the track stage wrote it: frames (that exist), announced, truncated (docs/formats.md)."""
     return json.loads(Path(path).read_text(encoding="utf-8"))
+
+
+def container_fps(project: Project) -> dict[str, float]:
+    """Each camera with a video and an fps key: the frame rate its video's container states (a video that cannot be
+    probed is left out: the run's validation names it)."""
+    out = {}
+    for camera in project.cameras:
+        if camera.video is None or camera.fps is None:
+            continue
+        try:
+            fps = probe_video(camera.video).fps
+        except INPUT_ERRORS:
+            continue
+        if fps and math.isfinite(fps):
+            out[camera.name] = float(fps)
+    return out
 
 
 POSE_ERROR = "pose_error"  # camera.json field: why the calibrate stage found no pose (the camera is then not synchronized)

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from tlsync_pipeline.outputs.diagnostics import HALF_95
+from tlsync_pipeline.sync.status import HALF_95
 from tlsync_pipeline.outputs.editors import Placement, fcpxml_text, otio_text, sync_document
 from tlsync_pipeline.outputs.exports import ffmpeg_commands, frame_map_rows, offsets
 from tlsync_pipeline.pipeline.spec import ProjectWide, Sources, StageResult, StageSpec

@@ -25,10 +25,11 @@ from tlsync_pipeline.ingest.process import (
     RigidTransform,
     ingest,
 )
+from tlsync_pipeline.ingest.units import implausible_motion
 from tlsync_pipeline.pipeline.origin import check_log_near_gcps, origin_inputs, resolve_origin
 from tlsync_pipeline.pipeline.spec import Sources, StageResult, StageSpec
 from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
-from tlsync_pipeline.trajectory import Trajectory, write_trajectory
+from tlsync_pipeline.trajectory import Trajectory, read_trajectory, trajectory_from_times, write_trajectory
 
 if TYPE_CHECKING:
     from tlsync_pipeline.pipeline.project import TargetConfig
@@ -80,24 +81,71 @@ __all__ = ["RigidTransform", "ingest_log", "parse_origin", "parse_utc_offset_opt
 
 
 def run_ingest(files: StageFiles, target: TargetConfig) -> StageResult:
-    """The ingest stage: the target's log into ``target/trajectory.csv`` and its report.
+    """The ingest stage: the target's log (or a trajectory the project brings in other units than seconds and
+    metres) into ``target/trajectory.csv`` and its report.
 
     ``target``: the project's [target] without its files (log, trajectory: inputs).
     """
-    gcp_files = [files.path(label) for label in files.inputs if label.startswith("origin-gcp:")]
-    origin = resolve_origin(target.origin, gcp_files, "[target]")
-    trajectory, report = ingest_log(files.path("log"), target.format, target.ingest_params(origin), target.topic, target.utc_offset)
-    if isinstance(origin, Origin) and not isinstance(target.origin, Origin) and len(trajectory):
-        lat, lon, alt = enu_to_geodetic(np.median(trajectory.xyz, axis=0), origin)[0]
-        check_log_near_gcps(Origin(lat, lon, alt), files.path("log"), gcp_files, origin)
+    if files.has("given"):
+        trajectory, report = convert_trajectory(files.path("given"), target.time_unit, target.length_unit)
+    else:
+        gcp_files = [files.path(label) for label in files.inputs if label.startswith("origin-gcp:")]
+        origin = resolve_origin(target.origin, gcp_files, "[target]")
+        trajectory, report = ingest_log(files.path("log"), target.format, target.ingest_params(origin), target.topic, target.utc_offset)
+        problem = implausible_motion(np.asarray(trajectory.seconds(trajectory.sample)), trajectory.xyz)
+        if problem:
+            raise InputError(f"{files.path('log')} ([target] log): {problem}")
+        if isinstance(origin, Origin) and not isinstance(target.origin, Origin) and len(trajectory):
+            lat, lon, alt = enu_to_geodetic(np.median(trajectory.xyz, axis=0), origin)[0]
+            check_log_near_gcps(Origin(lat, lon, alt), files.path("log"), gcp_files, origin)
     write_ingest(trajectory, report, files.output("trajectory"), files.output("ingest_report"))
     return StageResult(report.summary(with_warnings=False), tuple(report.warnings))
 
 
+def convert_trajectory(path: Path, time_unit: float, length_unit: float) -> tuple[Trajectory, IngestReport]:
+    """A trajectory CSV whose times are in units of ``time_unit`` seconds and positions of ``length_unit`` metres, in seconds and metres, and its report."""
+    given = read_trajectory(path)
+    t = given.seconds(given.sample)
+    xyz = given.xyz * length_unit
+    if t is None:
+        trajectory = Trajectory(given.sample, xyz, sigma=given.sigma)
+    else:
+        trajectory = trajectory_from_times(np.asarray(t) * time_unit, xyz, sigma=given.sigma)
+    extent = (xyz.max(axis=0) - xyz.min(axis=0)).round(3).tolist()
+    rate = trajectory.rate or 1.0
+    report = IngestReport(
+        source=str(path),
+        format="trajectory",
+        frame="local",
+        fixes_read=len(given),
+        fixes_used=len(given),
+        samples=len(trajectory),
+        rate=float(rate),
+        t0=float(trajectory.t0 or 0.0),
+        t0_utc=None,
+        duration_s=float((trajectory.sample[-1] - trajectory.sample[0]) / rate),
+        extent_m=extent,
+        max_gap_s=0.0,
+        gaps=[],
+        grid_left_out=0,
+        dropped={},
+        unit="line",
+        ignored=0,
+        origin=None,
+        params={"time_unit": time_unit, "length_unit": length_unit},
+        clock="the trajectory's own clock",
+    )
+    return trajectory, report
+
+
 def ingest_inputs(src: Sources, camera: None) -> dict[str, Path | Artefact]:
-    """The log, and the GCP files when the ENU origin is their centroid."""
-    assert src.project.target.log is not None, "the stage applies to a project with a log"
-    return {"log": src.project.target.log, **origin_inputs(src.project)}
+    """The log and the origin's GCP files; or the trajectory to convert to seconds and metres."""
+    target = src.project.target
+    if target.trajectory is not None:
+        assert target.converts_trajectory, "the stage applies"
+        return {"given": target.trajectory}
+    assert target.log is not None, "the stage applies to a project with a log"
+    return {"log": target.log, **origin_inputs(src.project)}
 
 
 SPEC = StageSpec(
@@ -106,5 +154,5 @@ SPEC = StageSpec(
     params=lambda project, cam, options: dataclasses.replace(project.target, log=None, trajectory=None),
     outputs=("trajectory", "ingest_report"),
     run=run_ingest,
-    applies=lambda project, cam: project.target.trajectory is None and project.target.log is not None,
+    applies=lambda project, cam: project.target.converts_trajectory or (project.target.trajectory is None and project.target.log is not None),
 )

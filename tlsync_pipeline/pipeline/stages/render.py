@@ -23,7 +23,7 @@ from tlsync_pipeline.atomic import atomic_path
 from tlsync_pipeline.ingest.process import IngestReport
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.outputs.camera_pictures import CameraJob, DrawnCamera, draw_camera, draw_panels, photo, picture
-from tlsync_pipeline.outputs.diagnostics import StageRun, all_statuses, run_warnings
+from tlsync_pipeline.outputs.diagnostics import StageRun, run_warnings
 from tlsync_pipeline.outputs.pictures import PairPlan, PanelRequest, assemble_pair, choose_frames, pair_frames, plan_pair, write_png
 from tlsync_pipeline.outputs.player import player_data
 from tlsync_pipeline.outputs.plots import offsets_plot, residuals_plot, track_residuals
@@ -304,7 +304,7 @@ def _charts(scene: _Scene, out_dir: Path, work: Path) -> list[Picture]:
         return []
     residuals = {n: track_residuals(scene.inputs[n].camera, scene.inputs[n].track, scene.path_model, tl.cameras[n], scene.times[n]) for n in tl.cameras}
     return [
-        _write_chart(out_dir / "offsets.png", offsets_plot(tl, all_statuses(tl)), work, "offsets: every camera's start with its 95 % interval"),
+        _write_chart(out_dir / "offsets.png", offsets_plot(tl, list(tl.statuses().values())), work, "offsets: every camera's start with its 95 % interval"),
         _write_chart(
             out_dir / "residuals.png",
             residuals_plot(residuals, float(tl.params.get("eps_px", 10.0)), 1.0 / tl.target_rate if tl.target_rate else None),
@@ -325,7 +325,7 @@ def _report_content(files: StageFiles, scene: _Scene, params: RenderParams, came
     return ReportContent(
         title="tlsync run report",
         timeline=tl,
-        statuses=all_statuses(tl),
+        statuses=list(tl.statuses([n for n in params.cameras if n in tl.cameras or n in tl.failed]).values()),
         warnings=run_warnings(runs),
         notes={"pictures": notes, "exports": [run.message for run in runs if run.stage == "export" and run.message]},
         stages=runs + [StageRun("render", None, "this run", None)],

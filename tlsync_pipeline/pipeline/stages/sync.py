@@ -3,22 +3,25 @@
 from __future__ import annotations
 
 import json
+from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from calibration.camera import read_camera
 from tlsync_pipeline.atomic import atomic_path
-from tlsync_pipeline.errors import InputError, SyncError
+from tlsync_pipeline.errors import INPUT_ERRORS, InputError, SyncError
 from tlsync_pipeline.outputs.diagnostics import run_warnings
 from tlsync_pipeline.pipeline.spec import Options, Sources, StageResult, StageSpec
+from tlsync_pipeline.pipeline.stages.cameras import CameraFiles, CamerasParams, camera_files, cameras_params, container_fps, log_model_of, read_identification, read_video_info
 from tlsync_pipeline.pipeline.stages.clock import read_clock
-from tlsync_pipeline.pipeline.stages.cameras import CameraFiles, CamerasParams, camera_files, cameras_params, log_model_of, read_identification, read_video_info
 from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
 from tlsync_pipeline.sync.methods import CameraInput
 from tlsync_pipeline.sync.clock_prior import with_clock_checks
 from tlsync_pipeline.sync.log_model import LogModelChoice
 from tlsync_pipeline.sync.params import SyncParams
+from tlsync_pipeline.sync.plausibility import LogUnitError
+from tlsync_pipeline.sync.status import WEAK, Reason
 from tlsync_pipeline.sync.synchronize import CameraResult, synchronize
 from tlsync_pipeline.sync.timeline import CameraLine, IdentificationSummary, ScanSummary, StageWarning, Timeline, write_timeline
 from tlsync_pipeline.sync.votes import Votes, load_votes
@@ -34,10 +37,13 @@ if TYPE_CHECKING:
 
 @dataclass(frozen=True)
 class SyncStageParams(CamerasParams):
-    """The cameras, their fps (CamerasParams), every [sync] key (the lines' fit reads them all) and the log's error model."""
+    """The cameras, their fps (CamerasParams), every [sync] key (the lines' fit reads them all), the log's error model,
+    and the file the target's trajectory comes from with its [target] key (named when every camera says its units are wrong)."""
 
     sync: SyncParams = field(default_factory=SyncParams)
     log_model: LogModelChoice = field(default_factory=LogModelChoice)
+    source: tuple[str, Path] | None = None
+    container_fps: Mapping[str, float] = field(default_factory=dict)
 
 
 def read_camera_inputs(cameras: dict[str, CameraFiles]) -> dict[str, CameraInput]:
@@ -52,6 +58,19 @@ def read_camera_inputs(cameras: dict[str, CameraFiles]) -> dict[str, CameraInput
         cam = read_camera(c.camera, name=name)
         track = None if c.identification is not None and not c.track.exists() else read_track(c.track)
         out[name] = CameraInput(cam, track, c.fps if c.fps is not None else cam.fps)
+    return out
+
+
+def _readable(paths: dict[str, CameraFiles], usable: dict[str, CameraFiles]) -> dict[str, CameraInput]:
+    """Every usable camera's inputs, and those of the cameras without votes whose files can be read (what they
+    track helps tell a log in another unit, sync/plausibility.py)."""
+    out = {}
+    for name, c in paths.items():
+        try:
+            out.update(read_camera_inputs({name: c}))
+        except INPUT_ERRORS:
+            if name in usable:
+                raise
     return out
 
 
@@ -81,9 +100,14 @@ def run_sync(files: StageFiles, params: SyncStageParams) -> StageResult:
     paths = camera_files(files, params)
     votes = read_votes(paths)
     usable = {name: c for name, c in paths.items() if not isinstance(votes[name], SyncError)}
-    timeline, _ = synchronize(read_camera_inputs(usable), read_trajectory(files.path("trajectory")), params.sync, votes, log_model_of(files, params.log_model))
+    try:
+        timeline, _ = synchronize(_readable(paths, usable), read_trajectory(files.path("trajectory")), params.sync, votes, log_model_of(files, params.log_model))
+    except LogUnitError as exc:
+        key, source = params.source or ("trajectory", files.path("trajectory"))
+        raise InputError(f"{source} ([target] {key}): {exc}") from None
     failed = {name: str(votes[name]) if name not in usable else timeline.failed[name] for name in paths if name not in usable or name in timeline.failed}
     lines = {name: _with_scan(_flag_truncated(line, paths[name]), paths[name]) for name, line in timeline.cameras.items()}
+    lines = {name: _with_container_fps(line, params.fps.get(name), params.container_fps.get(name)) for name, line in lines.items()}
     timeline = replace(timeline, cameras=lines, failed={**failed, **params.left_out})
     timeline = with_identifications(timeline, {n: read_identification(c.identification) for n, c in paths.items() if c.identification is not None})
     priors = {n: prior for n, c in paths.items() if c.clock is not None and (prior := read_clock(c.clock)) is not None}
@@ -108,6 +132,22 @@ def with_identifications(timeline: Timeline, found: dict[str, IdentificationSumm
     """The timeline with each identified camera's line carrying its identification summary."""
     lines = {n: replace(line, identification=summary) if isinstance(summary := found.get(n), IdentificationSummary) else line for n, line in timeline.cameras.items()}
     return replace(timeline, cameras=lines)
+
+
+FPS_TOLERANCE = 5e-4  # the fps key and the video's container may differ by this fraction (rounding of 30000/1001 and the like)
+
+
+def _with_container_fps(line: CameraLine, fps: float | None, container: float | None) -> CameraLine:
+    """The camera's line with a weak reason when its fps key differs from its video's container rate."""
+    if fps is None or container is None or abs(fps / container - 1.0) <= FPS_TOLERANCE:
+        return line
+    reason = Reason(
+        "fps_container",
+        WEAK,
+        f"fps = {fps:g} but the video's container says {container:.6g} fps ({100 * abs(fps / container - 1):.2g} % apart): the line's slope prior and the offsets in seconds use {fps:g}",
+        "set fps to the rate the camera recorded at (the container's, unless it is wrong)",
+    )
+    return replace(line, checks=(*(line.checks or ()), reason))
 
 
 def _with_scan(line: CameraLine, camera: CameraFiles) -> CameraLine:
@@ -162,7 +202,9 @@ def sync_inputs(src: Sources, camera: None) -> dict[str, Path | Artefact]:
 
 def sync_params(project: Project, camera: None, options: Options) -> SyncStageParams:
     cameras = cameras_params(project)
-    return SyncStageParams(cameras.cameras, fps=cameras.fps, sync=project.sync, log_model=project.target.log_error)
+    target = project.target
+    source = ("trajectory", target.trajectory) if target.trajectory is not None else ("log", target.log) if target.log is not None else None
+    return SyncStageParams(cameras.cameras, fps=cameras.fps, sync=project.sync, log_model=target.log_error, source=source, container_fps=container_fps(project))
 
 
 SPEC = StageSpec(

@@ -1,0 +1,120 @@
+"""The plausibility checks on scenes with known truth: a right line stands, each kind of wrong one is named."""
+
+from __future__ import annotations
+
+import dataclasses
+import re
+
+import numpy as np
+import pytest
+
+from data_fixtures import make_scene
+from tlsync_pipeline.sync.params import SyncParams
+from tlsync_pipeline.sync.plausibility import (
+    Judged,
+    LogUnitError,
+    backward_support,
+    diagnose,
+    line_evidence,
+    line_support,
+    motion_slope,
+    path_share,
+)
+from tlsync_pipeline.sync.registry import preparation_of
+from tlsync_pipeline.sync.slope import slope_prior
+from tlsync_pipeline.sync.synchronize import CameraInput, cast_votes, prepare_trajectory, synchronize
+from tlsync_pipeline.trajectory import PiecewiseTrajectory
+
+LINES = ((2.0, 4.0), (2.0, 45.0), (1.0, -30.5))
+
+
+@pytest.fixture(scope="module")
+def scene():
+    return make_scene(0, lines=LINES, n_frames=(512, 512, 300), tracking_noise_px=1.0)
+
+
+@pytest.fixture(scope="module")
+def prepared(scene):
+    return prepare_trajectory(scene.trajectory, preparation_of(SyncParams()))
+
+
+def _inputs(scene):
+    return {n: CameraInput(c, scene.tracks[n], c.fps) for n, c in scene.cameras.items()}
+
+
+def test_the_true_line_agrees_with_the_track_and_a_shifted_one_does_not(scene, prepared):
+    path = PiecewiseTrajectory(prepared)
+    camera, track, true = scene.cameras["cam1"], scene.tracks["cam1"], scene.lines["cam1"]
+    clock = track.frame.astype(float)
+    right = line_evidence(camera, track, clock, path, true.alpha, true.beta, 20.0, camera.fps)
+    assert right.covered == 1.0 and right.on_path > 0.95 and right.agree > 0.95 and right.against == 0.0
+    shifted = line_evidence(camera, track, clock, path, true.alpha, true.beta + 60.0, 20.0, camera.fps)
+    assert shifted.on_path + shifted.agree < 0.95
+
+
+def test_the_votes_speeds_give_the_slope_without_a_line(scene, prepared):
+    path = PiecewiseTrajectory(prepared)
+    for name, camera in scene.cameras.items():
+        track = scene.tracks[name]
+        votes = cast_votes(camera, track, prepared, 10.0)
+        slope = motion_slope(camera, track, track.frame.astype(float), path, votes.frame, votes.sample, camera.fps)
+        assert slope.along.reliable and slope.along.alpha == pytest.approx(scene.lines[name].alpha, rel=0.05)
+        assert not slope.against.reliable  # nothing runs backwards
+
+
+def test_a_log_read_backwards_backs_a_backward_line(scene, prepared):
+    camera, track = scene.cameras["cam0"], scene.tracks["cam0"]
+    votes = cast_votes(camera, track, prepared, 10.0)
+    prior = slope_prior(camera.fps, prepared.rate, 1e-3)
+    forward = line_support(votes.sample, votes.frame, *LINES[0], 0.5)
+    assert backward_support(votes.sample, votes.frame, votes.dist, 0.5, prior, 0) < forward / 4
+    flipped = prepared.sample.max() - votes.sample  # the same votes against the log reversed in time
+    assert backward_support(flipped, votes.frame, votes.dist, 0.5, prior, 0) >= 0.9 * forward
+
+
+def test_a_right_scene_passes_every_check(scene):
+    timeline, _ = synchronize(_inputs(scene), scene.trajectory, SyncParams())
+    assert set(timeline.cameras) == set(scene.cameras) and not timeline.failed
+    assert all(not line.checks for line in timeline.cameras.values())
+
+
+def test_a_camera_whose_fps_is_doubled_is_failed_with_its_true_rate(scene):
+    inputs = _inputs(scene)
+    inputs["cam1"] = dataclasses.replace(inputs["cam1"], fps=60.0)
+    timeline, _ = synchronize(inputs, scene.trajectory, SyncParams())
+    status = timeline.status("cam1")
+    assert "cam1" in timeline.rejected and status.status == "failed"
+    clock = next(r for r in status.reasons if r.code == "clock")
+    assert re.search(r"runs at about (29|30)(\.\d+)? fps, not 60", clock.text), clock.text
+    assert {"cam0", "cam2"} <= set(timeline.cameras)
+
+
+@pytest.mark.parametrize(("factor", "fix"), [(5.0, "(sample numbers at 5 Hz?); set [target] time_unit = 0.2"), (1000.0, '(milliseconds?); set [target] time_unit = "ms"')])
+def test_every_camera_seeing_another_time_unit_is_an_input_error(scene, factor, fix):
+    slow = dataclasses.replace(scene.trajectory, rate=scene.trajectory.rate / factor)
+    with pytest.raises(LogUnitError, match="column t: not seconds: ") as error:
+        synchronize(_inputs(scene), slow, SyncParams())
+    assert str(error.value).endswith(fix)
+
+
+def test_positions_in_feet_are_named_by_what_fits_the_tracks(scene, prepared):
+    feet = dataclasses.replace(prepared, xyz=prepared.xyz / 0.3048)
+    judged = {n: Judged(c, scene.tracks[n], None, None, True) for n, c in scene.cameras.items()}
+    with pytest.raises(LogUnitError, match='length_unit = "ft"'):
+        diagnose(judged, feet, 10.0)
+    assert diagnose(judged, prepared, 10.0) == {}  # contradicted, but not by the units
+
+
+def test_a_track_at_half_resolution_is_named(scene, prepared):
+    track = scene.tracks["cam1"]
+    half = dataclasses.replace(track, x=track.x / 2, y=track.y / 2)
+    judged = {"cam1": Judged(scene.cameras["cam1"], half, None, None, True), "cam0": Judged(scene.cameras["cam0"], scene.tracks["cam0"], None, None, False)}
+    assert diagnose(judged, prepared, 10.0)["cam1"].code == "track_scale"
+
+
+def test_the_path_share_is_of_the_path_not_the_timing(scene, prepared):
+    path = PiecewiseTrajectory(prepared)
+    camera, track = scene.cameras["cam2"], scene.tracks["cam2"]
+    assert path_share(camera, track.xy, path, 20.0) > 0.95
+    assert path_share(camera, track.xy + 200.0, path, 20.0) < 0.2
+    assert np.isfinite(path_share(camera, track.xy[:0], path, 20.0))
