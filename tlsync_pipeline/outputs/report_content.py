@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 
 from tlsync_pipeline.outputs.diagnostics import StageRun
 from tlsync_pipeline.sync.status import HALF_95, CameraStatus
-from tlsync_pipeline.sync.timeline import StageWarning, Timeline
+from tlsync_pipeline.sync.timeline import ErrorBudget, StageWarning, Timeline
 
 
 @dataclass(frozen=True)
@@ -56,6 +56,7 @@ class CameraRow:
     relation: str  # frame = a x reference frame + b, with 95 % intervals
     clock: str  # CFR / VFR and the rate
     support: str  # inliers / votes
+    budget: str = "-"  # where its timing uncertainty comes from: shares of the variance (tracking, calibration, log)
 
 
 def camera_rows(timeline: Timeline, statuses: list[CameraStatus]) -> list[CameraRow]:
@@ -87,5 +88,14 @@ def camera_rows(timeline: Timeline, statuses: list[CameraStatus]) -> list[Camera
         if vfr and name != reference:
             relation += " (linear approximation; exact matches in frame_map.csv)"
         clock = ("VFR (presentation times)" if vfr else "CFR (frame indices)") + (f", {fps:.3f} fps" if fps else "")
-        rows.append(CameraRow(name, status.status, status.reason, status.remedy, start, relation, clock, f"{line.inliers} / {line.votes}"))
+        rows.append(CameraRow(name, status.status, status.reason, status.remedy, start, relation, clock, f"{line.inliers} / {line.votes}", budget_text(line.budget)))
     return rows
+
+
+def budget_text(budget: ErrorBudget | None) -> str:
+    """"± 1.2 frames: tracking 10 %, calibration 30 %, log 60 %" (the camera's own 1-sigma, and shares of its variance), or "-"."""
+    if budget is None or not budget.total_frames > 0:
+        return "-"
+    parts = {"tracking": budget.tracking_frames, "calibration": budget.calibration_frames, "log": budget.log_frames}
+    shares = ", ".join(f"{k} {100 * v**2 / budget.total_frames**2:.0f} %" for k, v in parts.items())
+    return f"± {budget.total_frames:.2g} frames: {shares}"

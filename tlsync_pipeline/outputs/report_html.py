@@ -54,8 +54,8 @@ def _cameras_section(content: ReportContent) -> str:
     lead = f"{len(rows)} camera(s): " + ", ".join(f"{n} {s}" for s, n in counts.items() if n)
     reference = content.timeline.names[0] if content.timeline.cameras else None
     table = _table(
-        ["camera", "status", "why", "what to do", f"start after {reference}'s frame 0 (95 %)", f"relation to {reference} (95 %)", "clock", "inliers / votes"],
-        [[_e(r.camera), f'<span class="badge {r.status}">{r.status}</span>', _e(r.reason), _e(r.remedy), _e(r.start), _e(r.relation), _e(r.clock), _e(r.support)] for r in rows],
+        ["camera", "status", "why", "what to do", f"start after {reference}'s frame 0 (95 %)", f"relation to {reference} (95 %)", "clock", "inliers / votes", "uncertainty (1 σ, at the visit)"],
+        [[_e(r.camera), f'<span class="badge {r.status}">{r.status}</span>', _e(r.reason), _e(r.remedy), _e(r.start), _e(r.relation), _e(r.clock), _e(r.support), _e(r.budget)] for r in rows],
         numeric=frozenset({4, 7}),
     )
     note = (

@@ -22,8 +22,8 @@ def report_markdown(content: ReportContent) -> str:
     lines = [f"# {content.title}", "", "## Cameras", ""]
     rows = camera_rows(timeline, content.statuses)
     lines += _table(
-        ["camera", "status", "why", "what to do", f"start after {reference}'s frame 0 (95 %)", f"relation to {reference} (95 %)", "clock", "inliers / votes"],
-        [[r.camera, r.status, r.reason, r.remedy, r.start, r.relation, r.clock, r.support] for r in rows],
+        ["camera", "status", "why", "what to do", f"start after {reference}'s frame 0 (95 %)", f"relation to {reference} (95 %)", "clock", "inliers / votes", "uncertainty (1 σ, at the visit)"],
+        [[r.camera, r.status, r.reason, r.remedy, r.start, r.relation, r.clock, r.support, r.budget] for r in rows],
         "llllrllr",
     )
     lines += ["start: when the camera's frame 0 was taken, after the reference camera's frame 0 (positive: later); ±: 95 % interval.", ""]

@@ -54,7 +54,7 @@ class SyncParams:
     delta: float = param(0.5, "positive")
     p: float = param(0.99, "probability")
     seed: int = param(0, "integer")
-    rate_sigma: float = param(0.0001, "non_negative")
+    rate_sigma: float = param(0.0003, "non_negative")
     logged_point_above_m: float = param(0.0, "finite")
     log_bias: bool = param(True, "boolean")
     method: str = "refined"

@@ -45,3 +45,12 @@ def test_html_is_self_contained_and_links_exist(pages):
     assert page.count('class="badge ok"') + page.count('class="badge weak"') == 3
     assert "CFR (frame indices), 15.000 fps" in page
     assert 'id="tlsync-player-data"' in page and "window.tlsyncPlayer" in page
+
+
+def test_the_uncertainty_column_gives_the_budget_shares():
+    from tlsync_pipeline.outputs.report_content import budget_text
+    from tlsync_pipeline.sync.timeline import ErrorBudget
+
+    assert budget_text(None) == "-"
+    text = budget_text(ErrorBudget(tracking_frames=0.3, calibration_frames=0.4, log_frames=1.2))
+    assert text.startswith("± 1.3 frames") and "tracking 5 %" in text and "calibration 9 %" in text and "log 85 %" in text
