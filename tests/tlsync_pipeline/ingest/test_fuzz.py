@@ -27,7 +27,7 @@ FUZZ = settings(max_examples=40, deadline=None, suppress_health_check=[HealthChe
 FORMATS = ["auto", "gpx", "nmea", "csv", "odometry"]
 
 
-WHOLE_FILE = ("empty log", "no valid fix", "no position fix", "only one valid fix", "cannot detect", "fewer than 2 fixes", "a time is wrong", "samples: check", "cannot read as a ROS bag", "needs the optional extra")
+WHOLE_FILE = ("empty log", "no valid fix", "no position fix", "only one valid fix", "cannot detect", "fewer than 2 fixes", "a time is wrong", "samples: check", "cannot read as a ROS bag", "needs the optional extra", "not a readable")
 
 
 def _run(path, fmt):
