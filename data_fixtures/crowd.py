@@ -34,6 +34,7 @@ import numpy as np
 
 from calibration.camera import Camera, write_camera
 from data_fixtures.scene import Scene, check_views_disjoint, write_truth
+from data_fixtures.log_error import LogErrorModel, log_errors
 from data_fixtures.video import _background, h264_writer
 from tlsync_pipeline.sync.timeline import Relation
 from tlsync_pipeline.trajectory import Trajectory, write_trajectory
@@ -55,8 +56,11 @@ class CrowdSpec:
 
     fps / n_frames: per camera; distractors: walkers in view at a time, per
     camera; speed_mps: walking speed of everyone (+-15 %); gps_noise_m: std
-    of the log's position noise per axis; noise: sensor noise std (grey
-    levels); crf: H.264 quality (higher: more compression).
+    of the log's position noise per axis; log_error: a receiver's error
+    model instead (data_fixtures/log_error.py: a Gauss-Markov bias plus
+    white noise, at log_rate; the scene is otherwise the same); noise:
+    sensor noise std (grey levels); crf: H.264 quality (higher: more
+    compression).
     """
 
     fps: tuple[float, ...] = (10.0, 5.0)
@@ -66,6 +70,7 @@ class CrowdSpec:
     log_rate: float = 10.0
     speed_mps: float = 1.4
     gps_noise_m: float = 0.02
+    log_error: LogErrorModel | None = None
     noise: float = 3.0
     crf: int = 28
     seed: int = 0
@@ -148,6 +153,8 @@ def make_crowd_scene(spec: CrowdSpec = SMALL, directory: str | Path | None = Non
     true_xyz = route.at(samples / spec.log_rate)
     check_views_disjoint(cameras, route.at(np.linspace(0, end_s, int(end_s * 50))), "crowd scene: a point of the target's route")
     xyz = true_xyz + rng.normal(0.0, spec.gps_noise_m, true_xyz.shape) if spec.gps_noise_m > 0 else true_xyz
+    if spec.log_error is not None:  # its own stream: the people and the videos stay those of the same seed
+        xyz = true_xyz + log_errors(np.random.default_rng([spec.seed, 1]), samples / spec.log_rate, spec.log_error)[0]
     lines, tracks, truth = {}, {}, {}
     walkers = []
     for k, name in enumerate(names):
@@ -175,7 +182,7 @@ def make_crowd_scene(spec: CrowdSpec = SMALL, directory: str | Path | None = Non
         tracks=tracks,
         lines=lines,
         n_frames=dict(zip(names, spec.n_frames)),
-        noise={"distractors": spec.distractors, "gps_noise_m": spec.gps_noise_m, "sensor_noise": spec.noise, "crf": spec.crf},
+        noise={"distractors": spec.distractors, "gps_noise_m": spec.gps_noise_m, "log_error": spec.log_error, "sensor_noise": spec.noise, "crf": spec.crf},
     )
     return CrowdScene(scene, truth)
 

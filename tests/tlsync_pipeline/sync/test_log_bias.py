@@ -1,5 +1,7 @@
 """The log's bias fitted with the lines (sync/log_bias.py), on walk scenes with known truth, and its pieces."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -99,3 +101,18 @@ def test_straight_walks_in_opposite_directions_do_not_diverge_and_say_the_log_do
         assert line.log_bias is not None and line.log_bias.observability < 0.9
     truth = scene.truth_pairs()["cam0->cam1"]
     assert eps_t(timeline.relation("cam0", "cam1"), truth, scene.n_frames["cam0"]) < 200
+
+
+def test_a_crowd_scene_with_a_biased_log_keeps_its_people_and_moves_only_the_log(tmp_path):
+    from data_fixtures.crowd import CrowdSpec, make_crowd_scene
+
+    spec = CrowdSpec(n_frames=(60, 30), distractors=1, log_rate=1.0, seed=3)
+    bias_only = LogErrorModel("bias", 1.0, 0.0, 0.0, 1.0, 2.0, 60.0)
+    plain = make_crowd_scene(spec, tmp_path / "plain").scene
+    biased = make_crowd_scene(dataclasses.replace(spec, log_error=bias_only), tmp_path / "biased").scene
+    np.testing.assert_array_equal(plain.true_trajectory.xyz, biased.true_trajectory.xyz)
+    for name in plain.tracks:
+        np.testing.assert_array_equal(plain.tracks[name].xy, biased.tracks[name].xy)
+    error = biased.trajectory.xyz - biased.true_trajectory.xyz
+    assert float(np.sqrt(np.mean(error**2))) > 0.05  # metres: the log is off ...
+    assert float(np.abs(np.diff(error[:, :2], axis=0)).max()) < 0.8  # ... by a bias that wanders slowly (0.18 m std per second)
