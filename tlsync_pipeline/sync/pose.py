@@ -224,6 +224,7 @@ def pose_from_track(
     f_scale: float = 3.0,
     seed: int = 0,
     delta: float = 0.5,
+    offsets: tuple[float, float] | None = None,
 ) -> TargetPose:
     """The camera's pose (and line) from its track of the target; PoseError with the cause when it is not determined.
 
@@ -235,14 +236,15 @@ def pose_from_track(
     supports a fit when its reprojection is within it; gcps / gcp_camera:
     GCPs as a prior and the camera they give alone (a starting candidate);
     free: intrinsics the fit may move (``f``, ``cx``, ``k1``); delta: the
-    line search's band for the GCP candidate's line.
+    line search's band for the GCP candidate's line; offsets: the range of
+    beta (clock units) the search covers (None: all the log allows).
     """
     clock = np.asarray(clock, dtype=np.float64)
     xy = np.asarray(xy, dtype=np.float64)
     unknown_k = "intrinsics" in camera.to_estimate
     if unknown_k:
         free = tuple(sorted(set(free) | {"f", "cx", "k1"}, key=INTRINSICS.index))
-    search, fits = candidate_fits(camera, clock, xy, path, prior, fps, gate_px, gcps, gcp_camera, free, f_scale, seed, delta)
+    search, fits = candidate_fits(camera, clock, xy, path, prior, fps, gate_px, gcps, gcp_camera, free, f_scale, seed, delta, offsets=offsets)
     result = ranked_pose(fits, search, xy, fps or 0.0, gcps is not None, gcp_camera)
     if free:
         result = _settle_intrinsics(result, clock, xy, path, prior, gate_px, f_scale, gcps, free, unknown_k)
@@ -265,8 +267,10 @@ def candidate_fits(
     seed: int,
     delta: float,
     min_frames: int = MIN_FRAMES,
+    offsets: tuple[float, float] | None = None,
 ) -> tuple[OffsetSearch, list[JointFit]]:
-    """The offset search and the joint fits of its candidates (and the GCP candidate), best first (most frames within the gate).
+    """The offset search (within ``offsets``, clock units, when given) and the joint fits of its candidates (and the
+    GCP candidate), best first (most frames within the gate).
 
     With GCPs only the fits that keep them within GCP_AGREE sigmas. Raises
     PoseError when there is none (no_clock, too_few_frames, planar_path,
@@ -278,7 +282,7 @@ def candidate_fits(
     if len(clock) < min_frames:
         raise PoseError(name, "too_few_frames", f"{len(clock)} tracked frames, at least {min_frames} are needed")
     dlt = "intrinsics" in camera.to_estimate
-    search, candidates = search_offsets(camera, clock, xy, path, prior.alpha, seed, dlt=dlt)
+    search, candidates = search_offsets(camera, clock, xy, path, prior.alpha, seed, dlt=dlt, offsets=offsets)
     if gcp_camera is not None:
         found = _gcp_candidate(gcp_camera, clock, xy, path, prior, gate_px, delta, seed)
         if found is not None:
@@ -394,10 +398,13 @@ def rotation_between(Ra: np.ndarray, Rb: np.ndarray) -> float:
     return float(np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))))
 
 
-def search_offsets(camera: Camera, clock: np.ndarray, xy: np.ndarray, path: PiecewiseTrajectory, alpha: float, seed: int = 0, dlt: bool = False) -> tuple[OffsetSearch, list[Candidate]]:
+def search_offsets(
+    camera: Camera, clock: np.ndarray, xy: np.ndarray, path: PiecewiseTrajectory, alpha: float, seed: int = 0, dlt: bool = False, offsets: tuple[float, float] | None = None
+) -> tuple[OffsetSearch, list[Candidate]]:
     """The search over beta with alpha held (module docstring, step 1): the fine pass and the CANDIDATES best peaks as cameras.
 
-    dlt: fit a projection matrix (unknown intrinsics) instead of a pose.
+    dlt: fit a projection matrix (unknown intrinsics) instead of a pose; offsets: the range of beta searched (clock
+    units), within what the log allows (None: all of it).
     """
     w, h = camera.image_size
     threshold = max(8.0, 0.01 * float(np.hypot(w, h)))
@@ -410,6 +417,8 @@ def search_offsets(camera: Camera, clock: np.ndarray, xy: np.ndarray, path: Piec
     ideal = xy[rows] if dlt else undistort_pixels(xy[rows], camera.K, camera.dist, camera.dist_model, P=camera.K)
     lo = float(c.min() - alpha * path.ends.max())
     hi = float(c.max() - alpha * path.starts.min())
+    if offsets is not None:
+        lo, hi = max(lo, offsets[0]), min(hi, offsets[1])
     score = _Scorer(camera.K, c, ideal, path, alpha, dlt)
     betas = np.arange(lo, hi + coarse, coarse)
     support = score.many(betas, COARSE * threshold)
@@ -663,6 +672,7 @@ def pose_from_movers(
     gcps: GcpPrior | None = None,
     gcp_camera: Camera | None = None,
     free: tuple[str, ...] = (),
+    offsets: tuple[float, float] | None = None,
 ) -> MoverPose:
     """The camera's pose from every mover of its video (detections), without a track of the target.
 
@@ -680,8 +690,9 @@ def pose_from_movers(
     with the best one at a distinct offset as its runner-up, and is checked
     as ``pose_from_track``'s. trajectory: the prepared trajectory; params:
     identification's (its eps_px is the pose's gate, its f_scale_px the
-    fit's loss scale). Raises PoseError when no tracklet leads to a
-    determined pose.
+    fit's loss scale); offsets: the range of beta (clock units) each
+    tracklet's search covers (None: all the log allows). Raises PoseError
+    when no tracklet leads to a determined pose.
     """
     prior = slope_prior(fps, trajectory.rate, params.rate_sigma)
     eps_px, delta, seed, f_scale = params.eps_px, params.delta, params.seed, params.f_scale_px
@@ -706,7 +717,7 @@ def pose_from_movers(
     finals: list[tuple[JointFit, Identification, int, OffsetSearch]] = []
     for _, tid, rows in ranked[:MAX_TRACKLETS]:
         try:
-            search, fits = candidate_fits(camera, row_clock[rows], detections.xy[rows], path, prior, fps, eps_px, gcps, gcp_camera, free, f_scale, seed, delta, MIN_TRACKLET_FRAMES)
+            search, fits = candidate_fits(camera, row_clock[rows], detections.xy[rows], path, prior, fps, eps_px, gcps, gcp_camera, free, f_scale, seed, delta, MIN_TRACKLET_FRAMES, offsets)
         except PoseError as exc:
             tried[tid] = exc.cause
             continue
@@ -750,6 +761,7 @@ def estimate_pose(
     gcps: GcpPrior | None = None,
     ransac_px: float = 8.0,
     start: Camera | None = None,
+    offsets: tuple[float, float] | None = None,
 ) -> tuple[TargetPose, Identification | None]:
     """A camera's pose from the target: from its track when it has one (``pose_from_track``), else from every mover (``pose_from_movers``).
 
@@ -758,7 +770,8 @@ def estimate_pose(
     scale, rate_sigma the clock prior's width); gcps: GCPs as a prior (with
     4 or more, their own pose is a starting candidate; ransac_px: its
     outlier threshold before widening; start: that pose when already
-    known). A camera without K gets its intrinsics fitted too. Returns the
+    known); offsets: the range of beta (clock units) searched, e.g. around
+    the scan stage's coarse line (None: all the log allows). A camera without K gets its intrinsics fitted too. Returns the
     pose and, from movers, the identification under it. Raises PoseError.
     """
     if start is None and gcps is not None and len(gcps.xyz) >= 4:
@@ -769,12 +782,12 @@ def estimate_pose(
     if track is None:
         if detections is None:
             raise PoseError(camera.name, "too_few_frames", "neither a track nor any mover's detections")
-        found = pose_from_movers(camera, detections, trajectory, fps, params, gcps, start)
+        found = pose_from_movers(camera, detections, trajectory, fps, params, gcps, start, offsets=offsets)
         return found.pose, found.identification
     clock = camera_clock(track, fps)
     values = clock.clock_at(track.frame, FrameTimes.of_track(track))
     prior = slope_prior(fps, trajectory.rate, params.rate_sigma)
-    pose = pose_from_track(camera, values, track.xy, PiecewiseTrajectory(trajectory), prior, fps, params.eps_px, gcps, start, (), params.f_scale_px, params.seed, params.delta)
+    pose = pose_from_track(camera, values, track.xy, PiecewiseTrajectory(trajectory), prior, fps, params.eps_px, gcps, start, (), params.f_scale_px, params.seed, params.delta, offsets)
     return pose, None
 
 

@@ -47,7 +47,7 @@ from tlsync_pipeline.outputs.plots import calibration_plot
 from tlsync_pipeline.outputs.summary import calibration_summary
 from tlsync_pipeline.pipeline.origin import check_gcp_places, origin_inputs, resolve_origin
 from tlsync_pipeline.pipeline.spec import Options, Sources, StageResult, StageSpec
-from tlsync_pipeline.pipeline.stages.cameras import POSE_ERROR, gcp_sigma, has_no_rows, target_pose_wanted
+from tlsync_pipeline.pipeline.stages.cameras import POSE_ERROR, gcp_sigma, has_no_rows, scans, target_pose_wanted
 from tlsync_pipeline.pipeline.stages.intrinsics import check_calibration
 from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
 from tlsync_pipeline.sync.identify import IdentifyParams
@@ -177,15 +177,25 @@ def calibrate_pose(
     return camera, report, prior
 
 
-def pose_from_target(camera: Camera, params: TargetPoseParams, prior: GcpPrior | None, track: Track | None, detections: Detections | None, trajectory: Trajectory, ransac_px: float) -> tuple[Camera, dict]:
-    """The camera posed by the target (its GCPs, if any, a prior; its GCP pose, if any, the start), and the report's ``target_pose``.
+def pose_from_target(
+    camera: Camera,
+    params: TargetPoseParams,
+    prior: GcpPrior | None,
+    track: Track | None,
+    detections: Detections | None,
+    trajectory: Trajectory,
+    ransac_px: float,
+    offsets: tuple[float, float] | None = None,
+) -> tuple[Camera, dict]:
+    """The camera posed by the target (its GCPs, if any, a prior; its GCP pose, if any, the start), and the report's
+    ``target_pose``; offsets: the range of the line's beta searched (frames; None: all the log allows).
 
     Raises PoseError (sync/pose.py) when the target does not determine the pose.
     """
     prepared = prepare_trajectory(trajectory, params.preparation)
     start = camera if camera.posed else None
     unposed = camera if not camera.posed else replace(camera, R=np.eye(3), t=np.zeros(3), to_estimate=("pose",), pose_info=None)
-    found, _ = estimate_pose(unposed, track, detections, prepared, camera.fps, params.identify, prior, ransac_px, start)
+    found, _ = estimate_pose(unposed, track, detections, prepared, camera.fps, params.identify, prior, ransac_px, start, offsets)
     sigma = None if prepared.sigma is None else float(np.median(prepared.sigma))
     info = pose_info(found, sigma)
     posed = replace(found.camera, name=camera.name, fps=camera.fps, extra=dict(camera.extra), pose_info=info)
@@ -265,7 +275,20 @@ def _pose_from_target_files(files: StageFiles, camera: Camera, params: Calibrate
         raise SyncError(f"{params.target.source}: the target was never found (no moving object in any frame)")
     track = read_track(files.path("track")) if label == "track" else None
     detections = read_detections(files.path("detections")) if label == "detections" else None
-    return pose_from_target(camera, params.target, prior, track, detections, read_trajectory(files.path("trajectory")), params.ransac_px or 8.0)
+    offsets = coarse_offsets(json.loads(files.path("scan").read_text(encoding="utf-8")), camera.fps) if files.has("scan") else None
+    return pose_from_target(camera, params.target, prior, track, detections, read_trajectory(files.path("trajectory")), params.ransac_px or 8.0, offsets)
+
+
+COARSE_MARGIN_S = 10.0  # seconds either side of the scan's coarse offset (good to a second or two) the pose's search covers
+
+
+def coarse_offsets(scan: dict, fps: float | None) -> tuple[float, float] | None:
+    """The range of beta (frames) around the scan stage's coarse line when the video was read in its windows (the
+    detections exist only there), else None: the search covers every offset the log allows."""
+    coarse = scan.get("coarse")
+    if scan.get("mode") != "windows" or not coarse or not fps:
+        return None
+    return float(coarse["beta"]) - COARSE_MARGIN_S * fps, float(coarse["beta"]) + COARSE_MARGIN_S * fps
 
 
 def survey_inputs(src: Sources, name: str) -> dict[str, Path | Artefact]:
@@ -302,6 +325,8 @@ def calibrate_inputs(src: Sources, name: str) -> dict[str, Path | Artefact]:
                 inputs["detections"] = src.artefact("detections", name)
             else:
                 inputs["track"] = src.artefact("track", name)
+            if scans(src.project, name):  # read in windows around a coarse line: the pose's offset search stays near it
+                inputs["scan"] = src.artefact("scan", name)
         except InputError as exc:
             alone = "; or set gcp_sigma_m = 0 for the GCPs' pose alone" if cal.gcp is not None else ""
             raise InputError(f"{exc} (its pose comes from the target{alone})") from None
