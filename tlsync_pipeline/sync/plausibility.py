@@ -288,7 +288,7 @@ def judge_line(
     forward, backward = support
     if backward is not None and backwards_better(forward, backward) and not any(r.code == "reversed" for r in reasons):
         reasons.append(Reason("reversed", FAILED, f"the votes back a line running backwards in time better ({backward} frames, against {forward} forwards): the log looks reversed in time", "check the log's time order"))
-    rival = _rival(line, track, clock, fps)
+    rival = _rival(line, track, clock, fps, eps_px)
     if rival is not None:
         reasons.append(rival)
     return tuple(reasons)
@@ -329,14 +329,18 @@ def _off_path(evidence: LineEvidence, eps_px: float, why: str = "") -> Reason:
     )
 
 
-def _rival(line, track: Track, clock: np.ndarray, fps: float | None) -> Reason | None:
-    """AMBIGUOUS when the line search's best line without this line's votes has comparable support and lies apart."""
+def _rival(line, track: Track, clock: np.ndarray, fps: float | None, eps_px: float) -> Reason | None:
+    """AMBIGUOUS when the line search's best line without this line's votes has comparable support and lies apart:
+    further than RIVAL_SECONDS, and further than the target takes to cross the band of one pass's votes (+-eps_px, the
+    vote radius) in the image: within it, the log's error moves the line as far (the same pass, not a second one)."""
     search = line.line_search
     if search is None or search.rival_alpha is None or search.runner_up_frames < RIVAL_RATIO * search.support_frames:
         return None
     clock = np.asarray(clock, dtype=np.float64)
     sample = (clock - search.beta) / search.alpha
     apart = float(np.median(np.abs(search.rival_alpha * sample + search.rival_beta - clock)))
+    if apart <= 2.0 * eps_px / _image_speed(clock, track.xy):  # within the band one pass's votes span (+-eps_px)
+        return None
     if fps:
         if apart / fps <= RIVAL_SECONDS:
             return None
@@ -351,6 +355,16 @@ def _rival(line, track: Track, clock: np.ndarray, fps: float | None) -> Reason |
         f"a second line {distance} away has comparable support ({search.runner_up_frames} against {search.support_frames} frames)",
         "the target passes through this view alike more than once: give the tracker an init box on the right pass, or a log of that pass only",
     )
+
+
+def _image_speed(clock: np.ndarray, xy: np.ndarray) -> float:
+    """The target's median image speed, pixels per clock unit over consecutive tracked frames (at least 0.05)."""
+    dc = np.diff(clock)
+    near = (dc > 0) & (dc <= 2.0)
+    if not near.any():
+        return np.inf
+    step = np.linalg.norm(np.diff(np.asarray(xy, dtype=np.float64), axis=0), axis=1)
+    return max(float(np.median(step[near] / dc[near])), 0.05)
 
 
 PATH_POINTS = 400_000  # most points of the path model projected to measure a path share

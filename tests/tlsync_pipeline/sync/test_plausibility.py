@@ -118,3 +118,23 @@ def test_the_path_share_is_of_the_path_not_the_timing(scene, prepared):
     assert path_share(camera, track.xy, path, 20.0) > 0.95
     assert path_share(camera, track.xy + 200.0, path, 20.0) < 0.2
     assert np.isfinite(path_share(camera, track.xy[:0], path, 20.0))
+
+
+def test_a_rival_within_the_band_of_one_pass_is_that_pass_and_one_beyond_it_a_second_pass():
+    """With a vote radius of 240 px and the target crossing at 4 px/frame, one pass's votes span +-60 frames: a rival
+    90 frames away is the same pass seen through a metre-level log; one 600 frames away is another pass."""
+    from tlsync_pipeline.sync.plausibility import _rival
+    from tlsync_pipeline.sync.timeline import CameraLine, LineSearchSummary
+    from trackers.track import Track
+
+    frames = np.arange(300, 600)
+    track = Track(frames, 100.0 + 4.0 * (frames - 300), np.full(len(frames), 360.0))
+    clock = frames.astype(np.float64)
+
+    def line(rival_beta: float) -> CameraLine:
+        search = LineSearchSummary(30.0, 0.0, 200, 150, 400, 1000, rival_alpha=30.0, rival_beta=rival_beta)
+        return CameraLine("cam0", 30.0, 0.0, 400, 200, 1.0, fps=30.0, line_search=search)
+
+    assert _rival(line(90.0), track, clock, 30.0, eps_px=240.0) is None
+    assert _rival(line(90.0), track, clock, 30.0, eps_px=8.0).code == "ambiguous"  # an RTK log: 3 s apart is a second pass
+    assert _rival(line(600.0), track, clock, 30.0, eps_px=240.0).code == "ambiguous"
