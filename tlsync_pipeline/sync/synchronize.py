@@ -35,7 +35,7 @@ from tlsync_pipeline.sync.pose import TargetPose, estimate_pose, pose_info
 from tlsync_pipeline.sync.refined import RefinedParams
 from tlsync_pipeline.sync.registry import get_method, method_options, params_table, preparation_of
 from tlsync_pipeline.sync.slope import slope_prior
-from tlsync_pipeline.sync.status import AMBIGUOUS, FAILED
+from tlsync_pipeline.sync.status import AMBIGUOUS, FAILED, Reason
 from tlsync_pipeline.sync.timeline import CameraLine, Timeline
 from tlsync_pipeline.sync.votes import Votes, compute_votes
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory, lowered
@@ -224,6 +224,20 @@ def synchronize(
     return timeline, results
 
 
+CROWDED = 1.5  # voting detections per identified frame above which other movers are within the vote radius
+
+
+def _loose_identity(radius_px: float) -> Reason:
+    """AMBIGUOUS: the target was picked among movers on few frames through a log whose error covers other movers too
+    (on crowd scenes with a phone's log such picks were walkers 6-45 s off, with intervals of a second)."""
+    return Reason(
+        "ambiguous_identity",
+        AMBIGUOUS,
+        f"the target was picked among the movers on few frames, through a log whose error spans {radius_px:.0f} px: another mover may fit as well",
+        "give the tracker an init box on the target, a longer pass through the view, or a more accurate log",
+    )
+
+
 def _unjudged(inputs: CameraInput, prior) -> Judged:
     """What ``diagnose`` knows of a camera without a line: its track, when its camera has a pose to project with."""
     return Judged(inputs.camera, inputs.track if inputs.camera.posed else None, None, None if prior is None else prior.alpha, True)
@@ -255,6 +269,9 @@ def _judge(name: str, inputs: CameraInput, result: CameraResult, path: Piecewise
     if thin < BACKWARD_BELOW:  # a thin line: would the log read backwards explain the votes better?
         support = (line_support(votes.sample, vote_clock, line.alpha, line.beta, params.delta), backward_support(votes.sample, vote_clock, votes.dist, params.delta, prior, params.seed))
     checks = judge_line(inputs.camera, track, track_clock, path, line, radius_px, fps, alpha_prior, slope, support)
+    others = line.identification is not None and line.identification.candidates_voting > CROWDED * line.identification.identified_frames
+    if inputs.track is None and radius_px > params.eps_px and "few_inliers" in (line.flags or ()) and others:
+        checks = (*checks, _loose_identity(radius_px))
     line = replace(line, checks=checks)
     contradicted = any(r.severity == FAILED for r in checks)
     return replace(result, line=line), Judged(inputs.camera, track, slope, alpha_prior, contradicted)

@@ -116,3 +116,23 @@ def test_a_crowd_scene_with_a_biased_log_keeps_its_people_and_moves_only_the_log
     error = biased.trajectory.xyz - biased.true_trajectory.xyz
     assert float(np.sqrt(np.mean(error**2))) > 0.05  # metres: the log is off ...
     assert float(np.abs(np.diff(error[:, :2], axis=0)).max()) < 0.8  # ... by a bias that wanders slowly (0.18 m std per second)
+
+
+def test_a_target_picked_among_walkers_through_a_phones_log_on_few_frames_is_not_synchronized(tmp_path):
+    """Crowd seed 1 with a phone's log: the 5 fps camera's pick is a walker 45 s off the target; it must be refused
+    (ambiguous), not reported as synchronized with an interval of a second."""
+    from data_fixtures.crowd import CrowdSpec, make_crowd_scene
+    from data_fixtures.log_error import PRESETS as RECEIVERS
+    from trackers.tracking import detect_movers
+
+    crowd = make_crowd_scene(CrowdSpec(seed=1, distractors=6, log_rate=1.0, log_error=RECEIVERS["phone"]), tmp_path)
+    scene = crowd.scene
+    inputs = {n: CameraInput(c, None, c.fps, detect_movers(crowd.truth[n].video, progress=False)) for n, c in scene.cameras.items()}
+    timeline, _ = synchronize(inputs, scene.trajectory, SyncParams(), log_model=PRESETS["phone"])
+    status = timeline.status("cam1")
+    assert status.status == "ambiguous" and any(r.code == "ambiguous_identity" for r in status.reasons)
+    for key, truth in scene.truth_pairs().items():  # whatever stays synchronized is within its interval
+        a, b = key.split("->")
+        if a in timeline.cameras and b in timeline.cameras:
+            cov = timeline.relation_cov(a, b)
+            assert abs(timeline.relation(a, b).beta - truth.beta) <= 3.0 * np.sqrt(cov[1, 1]), key
