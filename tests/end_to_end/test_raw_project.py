@@ -159,10 +159,11 @@ def test_changing_the_trackers_code_makes_only_track_and_what_follows_stale(fini
     rows = _states(finished)
     stale = {tid for tid, row in rows.items() if row.state != "fresh"}
     cameras = ("cam0", "cam1", "cam2")
-    # scan (keyframe movers) and track run the tracker's code; calibrate fits each camera's pose to its target, so it waits for the track
+    # scan (keyframe movers) and track run the tracker's code; calibrate fits each camera's pose to its target near the scan's
+    # coarse offset, so it waits for both
     assert stale == {f"{stage}/{cam}" for stage in ("scan", "track", "calibrate", "identify", "vote") for cam in cameras} | {"sync", "export", "render"}
     assert rows["track/cam0"].reasons == ["code of trackers.blob changed", "waits for scan/cam0 (stale)"]
-    assert rows["calibrate/cam0"].reasons[-1] == "waits for track/cam0 (stale)"
+    assert rows["calibrate/cam0"].reasons[-1] == "waits for scan/cam0 (stale), track/cam0 (stale)"
     assert rows["identify/cam0"].reasons == ["waits for calibrate/cam0 (stale), track/cam0 (stale)"]
     assert rows["vote/cam0"].reasons == ["waits for calibrate/cam0 (stale), identify/cam0 (stale)"]
 
@@ -176,7 +177,7 @@ def test_changing_a_sync_module_makes_sync_and_what_follows_stale(finished, monk
     assert stale == {f"{stage}/{cam}" for stage in ("scan", "track", "calibrate", "identify", "vote") for cam in ("cam0", "cam1", "cam2")} | {"sync", "export", "render"}
     assert rows["track/cam0"].reasons == ["waits for scan/cam0 (stale)"]
     assert rows["sync"].reasons[0] == "code of tlsync_pipeline.sync.refine changed"
-    assert rows["calibrate/cam0"].reasons == ["code of tlsync_pipeline.sync.refine changed", "waits for track/cam0 (stale)"]
+    assert rows["calibrate/cam0"].reasons == ["code of tlsync_pipeline.sync.refine changed", "waits for scan/cam0 (stale), track/cam0 (stale)"]
     assert rows["identify/cam0"].reasons == ["code of tlsync_pipeline.sync.refine changed", "waits for calibrate/cam0 (stale), track/cam0 (stale)"]
     assert rows["vote/cam0"].reasons == ["code of tlsync_pipeline.sync.refine changed", "waits for calibrate/cam0 (stale), identify/cam0 (stale)"]
 
