@@ -132,3 +132,14 @@ def camera_clock(track: Track, fps: float | None) -> CameraClock:
     rate = fps if fps else 1.0 / slope
     origin = float(np.mean(track.time_s - frames / rate))
     return CameraClock(TIME_S, rate, origin, jitter)
+
+
+def image_speed(clock: np.ndarray, xy: np.ndarray, quantile: float = 0.75) -> float | None:
+    """A track's image speed, pixels per clock unit: the quantile of its steps over consecutive tracked frames (clock
+    gaps of at most 2), at least 0.05; None without consecutive frames."""
+    dc = np.diff(np.asarray(clock, dtype=np.float64))
+    near = (dc > 0) & (dc <= 2.0)
+    if not near.any():
+        return None
+    step = np.linalg.norm(np.diff(np.asarray(xy, dtype=np.float64), axis=0), axis=1)
+    return max(float(np.quantile(step[near] / dc[near], quantile)), 0.05)

@@ -45,6 +45,7 @@ from scipy.spatial import cKDTree
 
 from calibration.camera import Camera
 from tlsync_pipeline.errors import InputError
+from tlsync_pipeline.sync.clock import image_speed
 from tlsync_pipeline.sync.line_search import find_line
 from tlsync_pipeline.sync.ransac import distance_to_line
 from tlsync_pipeline.sync.slope import SlopePrior
@@ -339,7 +340,8 @@ def _rival(line, track: Track, clock: np.ndarray, fps: float | None, eps_px: flo
     clock = np.asarray(clock, dtype=np.float64)
     sample = (clock - search.beta) / search.alpha
     apart = float(np.median(np.abs(search.rival_alpha * sample + search.rival_beta - clock)))
-    if apart <= 2.0 * eps_px / _image_speed(clock, track.xy):  # within the band one pass's votes span (+-eps_px)
+    speed = image_speed(clock, track.xy, quantile=0.5)
+    if speed is not None and apart <= 2.0 * eps_px / speed:  # within the band one pass's votes span (+-eps_px)
         return None
     if fps:
         if apart / fps <= RIVAL_SECONDS:
@@ -355,16 +357,6 @@ def _rival(line, track: Track, clock: np.ndarray, fps: float | None, eps_px: flo
         f"a second line {distance} away has comparable support ({search.runner_up_frames} against {search.support_frames} frames)",
         "the target passes through this view alike more than once: give the tracker an init box on the right pass, or a log of that pass only",
     )
-
-
-def _image_speed(clock: np.ndarray, xy: np.ndarray) -> float:
-    """The target's median image speed, pixels per clock unit over consecutive tracked frames (at least 0.05)."""
-    dc = np.diff(clock)
-    near = (dc > 0) & (dc <= 2.0)
-    if not near.any():
-        return np.inf
-    step = np.linalg.norm(np.diff(np.asarray(xy, dtype=np.float64), axis=0), axis=1)
-    return max(float(np.median(step[near] / dc[near])), 0.05)
 
 
 PATH_POINTS = 400_000  # most points of the path model projected to measure a path share

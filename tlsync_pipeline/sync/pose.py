@@ -55,7 +55,7 @@ from calibration.errors import CalibrationInputError
 from calibration.extrinsics import Pose, pose_from_points
 from calibration.lens import undistort_pixels
 from tlsync_pipeline.errors import SyncError
-from tlsync_pipeline.sync.clock import FrameTimes, camera_clock
+from tlsync_pipeline.sync.clock import FrameTimes, camera_clock, image_speed
 from tlsync_pipeline.sync.identify import (
     Identification,
     IdentifyParams,
@@ -408,7 +408,7 @@ def search_offsets(
     """
     w, h = camera.image_size
     threshold = max(8.0, 0.01 * float(np.hypot(w, h)))
-    speed = image_speed(clock, xy)
+    speed = image_speed(clock, xy) or 1.0  # pixels per clock unit (1 without consecutive frames)
     fine = float(np.clip(0.5 * threshold / speed, 0.5, 2.0 * alpha))
     coarse = COARSE * fine
     rows = np.linspace(0, len(clock) - 1, min(SEARCH_POINTS, len(clock))).round().astype(np.int64)
@@ -434,16 +434,6 @@ def search_offsets(
         if found is not None:
             candidates.append(Candidate(found, alpha, float(fine_betas[k]), "search"))
     return search, candidates
-
-
-def image_speed(clock: np.ndarray, xy: np.ndarray) -> float:
-    """The track's image speed, pixels per clock unit: the 75th percentile over consecutive tracked frames (at least 0.05)."""
-    dc = np.diff(clock)
-    step = np.linalg.norm(np.diff(xy, axis=0), axis=1)
-    near = (dc > 0) & (dc <= 2.0)
-    if not near.any():
-        return 1.0
-    return max(float(np.quantile(step[near] / dc[near], 0.75)), 0.05)
 
 
 def _peaks(support: np.ndarray, count: int, separation: float = 2.0) -> list[int]:
