@@ -132,9 +132,11 @@ class RefinedMethod:
         """Every camera's line refined together with the log's bias (sync/log_bias.py), their intervals including it.
 
         Cameras whose own refinement was not kept (a fallback) keep their line.
-        When the joint fit fails, or a camera's refinement on the corrected
-        log loses its frames (the fit slid), the lines stay as they were and
-        only their intervals grow by what the bias leaves uncertain.
+        A camera whose refinement on the corrected log loses its frames or
+        does not converge (the estimate made its line slide) leaves the joint
+        fit, which is redone with the others; it keeps its own line, its
+        interval grown by the bias at its prior. When no camera's line
+        survives, the lines stay as they were and the bias is at its prior.
         """
         path = PiecewiseTrajectory(trajectory)
         own: dict[str, Refinement] = {}
@@ -148,35 +150,50 @@ class RefinedMethod:
                     continue
         if not own or trajectory.rate is None:
             return lines, None
-        joint = [_bias_camera(cameras[n], path, r, options.f_scale_px, slope_prior(cameras[n].fps, trajectory.rate, params.rate_sigma)) for n, r in own.items()]
-        bias = fit_log_bias(joint, path, trajectory.rate, model, options.f_scale_px)
-        corrected = PiecewiseTrajectory(replace(trajectory, xyz=trajectory.xyz + bias.at(trajectory.sample)))
-        again: dict[str, Refinement] = {}
-        for name, r in own.items():
-            data = cameras[name]
-            try:
-                refit = _refine(data, corrected, *bias.lines[name], r.used, options, slope_prior(data.fps, trajectory.rate, params.rate_sigma))
-            except ValueError:
+        rate = trajectory.rate
+        joint = {n: _bias_camera(cameras[n], path, r, options.f_scale_px, slope_prior(cameras[n].fps, rate, params.rate_sigma)) for n, r in own.items()}
+        at_prior = fit_log_bias(list(joint.values()), path, rate, model, options.f_scale_px, estimate=False)
+        kept = list(own)
+        while kept:
+            bias = fit_log_bias([joint[n] for n in kept], path, rate, model, options.f_scale_px)
+            again = _refit_on_corrected(cameras, {n: own[n] for n in kept}, bias, trajectory, params, options) if bias.converged else {}
+            if len(again) == len(kept):
                 break
-            if not refit.converged or refit.frames_used < SUPPORT_KEPT * r.frames_used:
-                break
-            again[name] = refit
-        if len(again) < len(own):  # the estimate is not trusted: the lines as they were, the bias's uncertainty at the prior
-            bias = fit_log_bias(joint, path, trajectory.rate, model, options.f_scale_px, estimate=False)
-            again = own
+            kept = list(again) if again else []
+        if not kept:
+            bias, again = at_prior, {}
         out = dict(lines)
-        for name, r in again.items():
-            middle = _visit_middle(cameras[name].track_clock[r.used], r.alpha, r.beta)
-            estimate, se = bias.at(np.array([middle]))[0], bias.std_at(middle)
+        for name, r in own.items():
+            fit, source = (again[name], bias) if name in again else (r, at_prior)
+            middle = _visit_middle(cameras[name].track_clock[fit.used], fit.alpha, fit.beta)
+            estimate, se = source.at(np.array([middle]))[0], source.std_at(middle)
             out[name] = replace(
                 lines[name],
-                alpha=r.alpha,
-                beta=r.beta,
-                cov=r.cov + bias.line_cov(name, name),
-                budget=error_budget(r, cameras[name].track_clock, bias.line_cov(name, name)),
-                log_bias=LogBiasSummary(tuple(map(float, estimate)), tuple(map(float, se)), bias.observability(middle)),  # type: ignore[arg-type]
+                alpha=fit.alpha,
+                beta=fit.beta,
+                cov=fit.cov + source.line_cov(name, name),
+                budget=error_budget(fit, cameras[name].track_clock, source.line_cov(name, name)),
+                log_bias=LogBiasSummary(tuple(map(float, estimate)), tuple(map(float, se)), source.observability(middle)),  # type: ignore[arg-type]
             )
         return out, bias
+
+
+def _refit_on_corrected(
+    cameras: dict[str, CameraData], own: dict[str, Refinement], bias: LogBias, trajectory: Trajectory, params: SyncParams, options: RefinedParams
+) -> dict[str, Refinement]:
+    """Each camera's refinement on the log corrected by the bias, from its joint line: the cameras whose refit converged
+    and kept at least SUPPORT_KEPT of its frames."""
+    corrected = PiecewiseTrajectory(replace(trajectory, xyz=trajectory.xyz + bias.at(trajectory.sample)))
+    out = {}
+    for name, r in own.items():
+        data = cameras[name]
+        try:
+            refit = _refine(data, corrected, *bias.lines[name], r.used, options, slope_prior(data.fps, trajectory.rate, params.rate_sigma))
+        except ValueError:
+            continue
+        if refit.converged and refit.frames_used >= SUPPORT_KEPT * r.frames_used:
+            out[name] = refit
+    return out
 
 
 def _refine(data: CameraData, path: PiecewiseTrajectory, alpha: float, beta: float, start: np.ndarray, options: RefinedParams, prior: SlopePrior | None) -> Refinement:
