@@ -10,9 +10,11 @@ synchronized pairs whose 95 % interval of the start offset contains the
 truth, and the scenes where a camera was refused (not synchronized: its
 status ambiguous or failed, sync/status.py), which make no claim. The
 log's error model is declared to the sync as a user would ([target]
-log_model).
+log_model). With --bound, the first-order bound of each model
+(bench/gps_bound.py): the median worst-pair eps_t an efficient estimator
+that knows the log's error model exactly reaches on the same scenes.
 
-    nice python bench/gps_error.py --scenes 30 [--models rtk phone] [--route straight] [--no-bias-model]
+    nice python bench/gps_error.py --scenes 30 [--models rtk phone] [--route straight] [--no-bias-model] [--bound]
 """
 
 from __future__ import annotations
@@ -26,6 +28,7 @@ import numpy as np
 
 from data_fixtures.log_error import PRESETS
 from data_fixtures.walk import WalkSpec, make_walk_scene
+from gps_bound import worst_pair_draws
 from tlsync_pipeline.sync.log_model import PRESETS as LOG_MODELS
 from tlsync_pipeline.sync.log_model import LogModel
 from tlsync_pipeline.sync.params import SyncParams
@@ -33,12 +36,13 @@ from tlsync_pipeline.sync.synchronize import CameraInput, synchronize
 from tlsync_pipeline.sync.timeline import eps_t
 
 Z95 = 1.959964
+BOUND_DRAWS = 200  # line errors drawn per scene from the first-order bound's covariance
 SPEED_MPS = {"drone": 5.0}  # a drone flies through the views; the others walk at 1.4 m/s
 
 
 def run_scene(args: tuple) -> dict:
     """One scene: the worst synchronized pair's eps_t (nan when none), each synchronized pair's |z| of its start offset, and whether a camera was refused."""
-    seed, model, route, cameras, params = args
+    seed, model, route, cameras, params, bound = args
     scene = make_walk_scene(seed, WalkSpec(cameras=cameras, route=route, log=PRESETS[model], speed_mps=SPEED_MPS.get(model, 1.4)))
     inputs = {n: CameraInput(c, scene.tracks[n], c.fps) for n, c in scene.cameras.items()}
     start = time.process_time()
@@ -51,7 +55,8 @@ def run_scene(args: tuple) -> dict:
             errors.append(eps_t(timeline.relation(a, b), truth, scene.n_frames[a]))
             cov = timeline.relation_cov(a, b)
             z.append(abs(timeline.relation(a, b).beta - truth.beta) / np.sqrt(cov[1, 1]) if cov is not None else np.inf)
-    return {"worst": max(errors, default=np.nan), "z": z, "seconds": seconds, "refused": len(timeline.cameras) < len(scene.cameras)}
+    draws = worst_pair_draws(scene, params.rate_sigma, BOUND_DRAWS, np.random.default_rng(seed)) if bound else np.array([])
+    return {"worst": max(errors, default=np.nan), "z": z, "seconds": seconds, "refused": len(timeline.cameras) < len(scene.cameras), "bound": draws}
 
 
 def _declared(model: str) -> LogModel:
@@ -70,6 +75,7 @@ def summary(results: list[dict]) -> dict:
         "pairs": len(z),
         "refused": int(sum(r["refused"] for r in results)),
         "seconds": float(np.median([r["seconds"] for r in results])),
+        "bound": float(np.median(np.concatenate([r["bound"] for r in results]))) if any(len(r["bound"]) for r in results) else np.nan,
     }
 
 
@@ -82,19 +88,20 @@ def main() -> None:
     parser.add_argument("--cameras", type=int, default=3)
     parser.add_argument("--rate-sigma", type=float, default=None, help="[sync] rate_sigma (default: the project default)")
     parser.add_argument("--no-bias-model", action="store_true", help="sync without estimating the log's bias")
+    parser.add_argument("--bound", action="store_true", help="also the first-order bound's median (bench/gps_bound.py)")
     parser.add_argument("--processes", type=int, default=2)
     args = parser.parse_args()
     params = SyncParams() if args.rate_sigma is None else SyncParams(rate_sigma=args.rate_sigma)
     if args.no_bias_model:
         params = dataclasses.replace(params, log_bias=False)
     print(f"{args.scenes} walk scenes per model, route {args.route!r}, {args.cameras} cameras, rate_sigma {params.rate_sigma:g}, bias model {'off' if args.no_bias_model else 'on'}")
-    print("| log | median eps_t | p90 | 95 % intervals that contain the truth | synchronized pairs | scenes with a camera refused | CPU s / scene |")
-    print("|---|---|---|---|---|---|---|")
+    print("| log | median eps_t | p90 | 95 % intervals that contain the truth | synchronized pairs | scenes with a camera refused | CPU s / scene | first-order bound (median) |")
+    print("|---|---|---|---|---|---|---|---|")
     with multiprocessing.Pool(args.processes) as pool:
         for model in args.models:
-            jobs = [(args.first_seed + k, model, args.route, args.cameras, params) for k in range(args.scenes)]
+            jobs = [(args.first_seed + k, model, args.route, args.cameras, params, args.bound) for k in range(args.scenes)]
             s = summary(pool.map(run_scene, jobs, chunksize=1))
-            print(f"| {model} | {s['median']:.2f} | {s['p90']:.2f} | {100 * s['coverage']:.0f} % | {s['pairs']} | {s['refused']} | {s['seconds']:.1f} |", flush=True)
+            print(f"| {model} | {s['median']:.2f} | {s['p90']:.2f} | {100 * s['coverage']:.0f} % | {s['pairs']} | {s['refused']} | {s['seconds']:.1f} | {s['bound']:.2f} |", flush=True)
 
 
 if __name__ == "__main__":
