@@ -42,11 +42,6 @@ class LogModel:
         """Total horizontal std of a fix's error (white and bias), metres."""
         return math.hypot(self.white_m, self.bias_m)
 
-    @property
-    def vertical_m(self) -> float:
-        """Total vertical std of a fix's error (white and bias), metres."""
-        return math.hypot(self.white_m, self.bias_vertical_m)
-
 
 PRESETS: dict[str, LogModel] = {
     "none": LogModel("none"),
@@ -87,19 +82,14 @@ class LogModelChoice:
 
 
 def vote_radius(camera: Camera, trajectory: Trajectory, eps_px: float, model: LogModel) -> float:
-    """The vote radius for one camera (pixels): eps_px, or VOTE_SIGMAS times the log's error as this camera sees it
-    at the median point of the path in its view (the image's larger standard deviation of a 3D error with the model's
-    horizontal and vertical std), whichever is larger."""
+    """The vote radius for one camera (pixels): eps_px, or VOTE_SIGMAS times the log's horizontal error as this camera
+    sees it at the median depth of the path in its view, whichever is larger."""
     if model.horizontal_m <= 0:
         return eps_px
     uv, valid = camera.project(trajectory.xyz)
     seen = valid & camera.in_image(np.nan_to_num(uv, nan=-1e9))
     if not seen.any():
         return eps_px
-    point = np.median(trajectory.xyz[seen], axis=0)
-    step = 0.01  # metres
-    moved, _ = camera.project(point + step * np.vstack([np.zeros(3), np.eye(3)]))
-    jacobian = (moved[1:] - moved[0]).T / step  # (2, 3) pixels per metre
-    variance = np.array([model.horizontal_m, model.horizontal_m, model.vertical_m]) ** 2
-    image = jacobian @ np.diag(variance) @ jacobian.T
-    return max(eps_px, VOTE_SIGMAS * float(np.sqrt(np.linalg.eigvalsh(image)[-1])))
+    depth = float(np.median((trajectory.xyz[seen] @ camera.R.T + camera.t)[:, 2]))
+    focal = 0.5 * (camera.K[0, 0] + camera.K[1, 1])
+    return max(eps_px, VOTE_SIGMAS * focal * model.horizontal_m / depth)
