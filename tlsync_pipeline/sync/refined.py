@@ -152,16 +152,16 @@ class RefinedMethod:
             return lines, None
         rate = trajectory.rate
         joint = {n: _bias_camera(cameras[n], path, r, options.f_scale_px, slope_prior(cameras[n].fps, rate, params.rate_sigma)) for n, r in own.items()}
-        at_prior = fit_log_bias(list(joint.values()), path, rate, model, options.f_scale_px, estimate=False)
-        kept = list(own)
+        kept, again = list(own), {}
         while kept:
             bias = fit_log_bias([joint[n] for n in kept], path, rate, model, options.f_scale_px)
             again = _refit_on_corrected(cameras, {n: own[n] for n in kept}, bias, trajectory, params, options) if bias.converged else {}
             if len(again) == len(kept):
                 break
-            kept = list(again) if again else []
-        if not kept:
-            bias, again = at_prior, {}
+            kept = list(again)
+        at_prior = bias if len(again) == len(own) else fit_log_bias(list(joint.values()), path, rate, model, options.f_scale_px, estimate=False)
+        if not again:
+            bias = at_prior
         out = dict(lines)
         for name, r in own.items():
             fit, source = (again[name], bias) if name in again else (r, at_prior)
