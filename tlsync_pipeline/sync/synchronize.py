@@ -25,6 +25,7 @@ import numpy as np
 
 from calibration.camera import Camera
 from tlsync_pipeline.errors import SyncError
+from tlsync_pipeline.sync.breaks import break_reasons, with_vote_break
 from tlsync_pipeline.sync.clock import FrameTimes, camera_clock
 from tlsync_pipeline.sync.identify import Identification, IdentifyParams, identify_target
 from tlsync_pipeline.sync.log_model import PRESETS, LogModel, vote_radius
@@ -269,6 +270,7 @@ def _judge(name: str, inputs: CameraInput, result: CameraResult, path: Piecewise
     if thin < BACKWARD_BELOW:  # a thin line: would the log read backwards explain the votes better?
         support = (line_support(votes.sample, vote_clock, line.alpha, line.beta, params.delta), backward_support(votes.sample, vote_clock, votes.dist, params.delta, prior, params.seed))
     checks = judge_line(inputs.camera, track, track_clock, path, line, radius_px, fps, alpha_prior, slope, support)
+    checks = (*checks, *break_reasons(with_vote_break(inputs.breaks, votes.frame, vote_clock, votes.sample, line, params.delta), track.frame, votes.frame, vote_clock, votes.sample, line.alpha, line.beta, params.delta))
     others = line.identification is not None and line.identification.candidates_voting > CROWDED * line.identification.identified_frames
     if inputs.track is None and radius_px > params.eps_px and "few_inliers" in (line.flags or ()) and others:
         checks = (*checks, _loose_identity(radius_px))

@@ -22,7 +22,8 @@ from tlsync_pipeline.errors import SyncError
 from tlsync_pipeline.pipeline.spec import Options, Sources, StageResult, StageSpec
 from tlsync_pipeline.pipeline.stages.cameras import has_no_rows, ingest_report_input, log_model_of, pose_problem
 from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
-from tlsync_pipeline.sync.identify import IdentifyParams, identify_target
+from tlsync_pipeline.sync.breaks import vote_break
+from tlsync_pipeline.sync.identify import IdentifyParams, detections_clock, identify_target
 from tlsync_pipeline.sync.log_model import LogModelChoice, vote_radius
 from tlsync_pipeline.sync.params import Preparation
 from tlsync_pipeline.sync.registry import preparation_of
@@ -90,8 +91,11 @@ def run_identify(files: StageFiles, params: IdentifyStageParams) -> StageResult:
         return StageResult(warnings=tuple(warnings), failed={files.camera_name: str(exc)})
     with files.write("track") as tmp:
         write_track(found.track, tmp)
+    _, row_clock = detections_clock(detections, params.fps or camera.fps)
+    drop = vote_break(found.votes.frame, row_clock[found.vote_rows], found.votes.sample, found.alpha, found.beta, params.identify.delta)
     with files.write("identification") as tmp:
-        tmp.write_text(json.dumps(asdict(found.summary()), indent=1) + "\n", encoding="utf-8")
+        breaks = {"breaks": [drop.to_dict()]} if drop is not None else {}
+        tmp.write_text(json.dumps({**asdict(found.summary()), **breaks}, indent=1) + "\n", encoding="utf-8")
     seeded = f", seeded by the init box (tracklet {min(prefer)})" if prefer else ""
     lift = f"; the log's point is {abs(found.lift_m):.2f} m {'above' if found.lift_m > 0 else 'below'} the movers' centres, the track moved to it" if found.lift_m else ""
     message = f"wrote {files.output('track')} ({len(found.track)} identified frames{seeded}{lift})"
