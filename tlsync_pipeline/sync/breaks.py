@@ -23,8 +23,15 @@ from __future__ import annotations
 
 import numpy as np
 
+from calibration.camera import Camera
+from tlsync_pipeline.errors import SyncError
+from tlsync_pipeline.sync.clock import Segment
+from tlsync_pipeline.sync.identify import Identification, IdentifyParams, detections_clock, identify_target
+from tlsync_pipeline.sync.segments import fit_segments, segments_reason
 from tlsync_pipeline.sync.status import AMBIGUOUS, Reason
+from tlsync_pipeline.trajectory import Trajectory
 from trackers.breaks import Break
+from trackers.detections import Detections
 
 MIN_SIDE_FRAMES = 8  # tracked frames a side of a break needs for its agreement with the line to be judged
 ON_LINE_SHARE = 0.5  # share of a side's tracked frames with a vote on the line for it to follow the line
@@ -132,3 +139,57 @@ def break_reasons(
 def _spacing(breaks: list[Break]) -> str:
     """The median spacing of breaks (frames), in words."""
     return f"{np.median(np.diff([b.frame for b in breaks])):.0f}"
+
+
+def segment_reasons(
+    breaks: tuple[Break, ...],
+    segments: tuple[Segment, ...],
+    tracked: np.ndarray,
+    vote_frame: np.ndarray,
+    vote_clock: np.ndarray,
+    vote_sample: np.ndarray,
+    alpha: float,
+    beta: float,
+    delta: float,
+) -> tuple[Reason, ...]:
+    """The reasons of a camera's breaks: without segments (no segment's shift known) those of ``break_reasons``; with
+    them, the segments (WEAK, sync/segments.py) and AMBIGUOUS when a segment the target visits (MIN_SIDE_FRAMES
+    tracked frames) has no shift its votes agree on."""
+    if not segments:
+        return break_reasons(breaks, tracked, vote_frame, vote_clock, vote_sample, alpha, beta, delta)
+    reasons = [r for r in (segments_reason(segments, breaks),) if r is not None]
+    lost = [s for s in segments if s.shift is None and s.source != "frozen" and s.frames >= MIN_SIDE_FRAMES]
+    if lost:
+        where = ", ".join(f"frames {s.start}-{s.stop - 1} ({s.frames} tracked)" for s in lost)
+        reasons.append(Reason("clock_break", AMBIGUOUS, f"the recording breaks and the target's frames on {where} agree on no offset", REMEDY))
+    return tuple(reasons)
+
+
+def identify_in_segments(
+    camera: Camera, detections: Detections, trajectory: Trajectory, fps: float | None, params: IdentifyParams, prefer: frozenset[int] = frozenset(), breaks: tuple[Break, ...] = ()
+) -> tuple[Identification, tuple[Break, ...]]:
+    """The target identified among every mover across the recording's breaks, and the breaks.
+
+    Identification follows one line (sync/identify.py), so it keeps the
+    target only on the part of a broken recording that line holds. With the
+    breaks known (``breaks``, and a drop the movers' votes show), each
+    segment's shift is measured on the movers' votes (sync/segments.py);
+    when another segment's is, the target is identified again on the clock
+    that carries them, over the segments of known shift.
+    """
+    found = identify_target(camera, detections, trajectory, fps, params, prefer)
+    clock, row_clock = detections_clock(detections, fps)
+    vote_clock = row_clock[found.vote_rows]
+    drop = vote_break(found.votes.frame, vote_clock, found.votes.sample, found.alpha, found.beta, params.delta)
+    breaks = merged((*breaks, drop) if drop is not None else breaks)
+    segments = fit_segments(
+        breaks, found.track.frame, found.votes.frame, vote_clock, found.votes.sample, found.votes.dist, found.alpha, found.beta, params.delta, clock.vfr
+    )
+    if not any(seg.source == "votes" for seg in segments):
+        return found, breaks
+    _, shifted = detections_clock(detections, fps, segments)
+    known = detections.subset(np.flatnonzero(np.isfinite(shifted)))
+    try:
+        return identify_target(camera, known, trajectory, fps, params, prefer, segments), breaks
+    except SyncError:
+        return found, breaks

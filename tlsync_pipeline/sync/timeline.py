@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
 from typing import Any
@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from tlsync_pipeline.errors import InputError
-from tlsync_pipeline.sync.clock import FRAME, CameraClock, FrameTimes
+from tlsync_pipeline.sync.clock import FRAME, CameraClock, FrameTimes, Segment
 from tlsync_pipeline.sync.clock_prior import ClockCheck
 from tlsync_pipeline.sync.status import AMBIGUOUS, FAILED, HALF_95, WEAK, WIDE_FRAMES, WIDE_REMEDIES, WIDE_REMEDY, CameraStatus, Reason, failure, line_reasons, status_of
 
@@ -192,7 +192,7 @@ class CameraLine:
 
     def __post_init__(self):
         if not self.clock.vfr and self.clock.fps is None and self.fps is not None:
-            object.__setattr__(self, "clock", CameraClock(FRAME, self.fps))  # a frame clock runs at the camera's fps
+            object.__setattr__(self, "clock", replace(self.clock, fps=self.fps))  # a frame clock runs at the camera's fps
 
     @property
     def se_alpha(self) -> float | None:
@@ -230,6 +230,8 @@ class CameraLine:
                 time_jitter_frames=self.clock.jitter_frames,
                 clock_origin_s=self.clock.origin_s,
             )
+        if self.clock.segments:
+            entry["segments"] = [seg.to_dict() for seg in self.clock.segments]
         return entry
 
     @classmethod
@@ -238,6 +240,8 @@ class CameraLine:
         clock = CameraClock(FRAME, entry.get("fps"))
         if entry.get("clock", FRAME) != FRAME:
             clock = CameraClock(entry["clock"], float(entry["clock_fps"]), float(entry.get("clock_origin_s", 0.0)), float(entry["time_jitter_frames"]))
+        if entry.get("segments"):
+            clock = replace(clock, segments=tuple(Segment.from_dict(seg) for seg in entry["segments"]))
         optional: dict[str, Any] = {
             "cov": None if entry.get("cov") is None else np.asarray(entry["cov"], dtype=np.float64),
             "flags": None if entry.get("flags") is None else tuple(entry["flags"]),
