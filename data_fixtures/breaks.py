@@ -110,11 +110,35 @@ def edit_camera(directory: str | Path, camera: str, edit: BreakEdit, fps: float)
         tmp.unlink()
 
 
-def pair_errors(frames_b: np.ndarray, source_a: np.ndarray, source_b_of, truth_a: tuple[float, float], truth_b: tuple[float, float]) -> np.ndarray:
-    """|estimated - true| (frames of B) for A's frames whose instants B recorded: ``frames_b`` the estimated frames of
-    B at A's frames, ``source_a`` the instant (original frame) each of A's frames shows, ``source_b_of`` a function
-    from B's estimated frames to the original frames whose instants they show, truth_a/b each camera's true line
-    (alpha, beta) on its original frames."""
-    (aa, ba), (ab, bb) = truth_a, truth_b
-    true_original_b = ab * (source_a - ba) / aa + bb
-    return np.abs(source_b_of(frames_b) - true_original_b)
+def frames_showing(source: np.ndarray, original: np.ndarray) -> np.ndarray:
+    """The edited (fractional) frames showing the instants of ``original`` (fractional original frames); NaN where
+    no frame does (dropped, before or after the recording). source: ``edited_source``'s."""
+    source = np.asarray(source, dtype=np.float64)
+    index = np.flatnonzero(np.isfinite(source))
+    shown = source[index]
+    original = np.asarray(original, dtype=np.float64)
+    j = np.clip(np.searchsorted(shown, original, side="right") - 1, 0, len(shown) - 1)
+    frac = original - shown[j]
+    nxt = np.minimum(j + 1, len(shown) - 1)
+    steady = (nxt > j) & (shown[nxt] - shown[j] == 1) & (index[nxt] - index[j] == 1)
+    valid = (frac >= -0.5) & ((frac <= 0.5) | ((frac < 1) & steady))
+    valid &= ~((j == 0) & (frac < 0) & (index[0] > 0))
+    return np.where(valid, index[j] + frac, np.nan)
+
+
+def pair_errors(timeline, lines: dict[str, tuple[float, float]], sources: dict[str, np.ndarray], a: str, b: str) -> tuple[np.ndarray, int, int]:
+    """How the timeline maps A's frames to B's against the truth (frame clocks): |mapped - true| (frames of B) over
+    A's frames it maps whose instant B recorded; how many of those it leaves unmapped; how many it maps into B's
+    video though B did not record their instant (a dropped stretch, an unknown segment mapped anyway).
+
+    lines: each camera's true line (alpha, beta) on its original frames; sources: each camera's ``edited_source``
+    (``np.arange(n)`` for an unedited camera).
+    """
+    (aa, ba), (ab, bb) = lines[a], lines[b]
+    frames = np.arange(len(sources[a]), dtype=np.float64)
+    estimated = timeline.match(a, b, frames)
+    inside = np.isfinite(estimated) & (estimated > -0.5) & (estimated < len(sources[b]) - 0.5)
+    truth = frames_showing(sources[b], ab * (sources[a] - ba) / aa + bb)
+    recorded = np.isfinite(truth)
+    mapped = recorded & np.isfinite(estimated)
+    return np.abs(estimated[mapped] - truth[mapped]), int(np.count_nonzero(recorded & ~np.isfinite(estimated))), int(np.count_nonzero(inside & ~recorded))
