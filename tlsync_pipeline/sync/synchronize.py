@@ -243,7 +243,7 @@ def _segmented(name: str, inputs: CameraInput, result: CameraResult, prepared: T
     segments = fit_segments(breaks, track.frame, votes.frame, vote_clock, votes.sample, votes.dist, line.alpha, line.beta, params.delta, clock.vfr)
     inputs = replace(inputs, track=track, breaks=breaks)
     if not any(seg.source == "line" for seg in segments):
-        return inputs, result
+        return inputs, replace(result, line=replace(line, breaks=breaks or None))
     segmented = replace(clock, segments=segments)
     keep_track = np.isfinite(segmented.clock_at(track.frame, times))
     keep_votes = np.isfinite(segmented.clock_at(votes.frame, times))
@@ -252,7 +252,7 @@ def _segmented(name: str, inputs: CameraInput, result: CameraResult, prepared: T
     inputs = replace(inputs, track=kept)
     data = camera_data(name, inputs, kept_votes, radius_px, segments)
     fitted = get_method(params.method).fit(data, prepared, params, method_options(params))
-    return inputs, replace(result, votes=kept_votes, line=replace(fitted, identification=line.identification))
+    return inputs, replace(result, votes=kept_votes, line=replace(fitted, identification=line.identification, breaks=breaks))
 
 
 CROWDED = 1.5  # voting detections per identified frame above which other movers are within the vote radius
