@@ -13,9 +13,12 @@ frames' clock values move by to fall on that line (sync/clock.py,
   within WHOLE_FRAME of an integer (and under MAX_WHOLE frames) is that
   integer;
 - a segment it never visits: across a gap of the container's times from a
-  known neighbour (frame clocks: by the gap's size; presentation-time
-  clocks carry the gap already), else unknown;
+  known neighbour (by the gap's size), else unknown;
 - frozen pictures (and repeated times): no instant of their own, unknown.
+
+A presentation-time clock (variable frame rate) carries the container's
+gaps already: they cut it into no segment (a phone that halves its rate in
+the dark is not broken); a drop the votes show still does.
 
 The camera's line is then fitted again on every segment of known shift
 (sync/synchronize.py). Frames are 0-based; clock values and shifts are in
@@ -78,6 +81,8 @@ def fit_segments(
     delta: inlier distance (clock units); vfr: the clock is presentation
     time (a container's gap is in it already).
     """
+    if vfr:
+        breaks = tuple(b for b in breaks if b.kind != "gap")
     if not breaks:
         return ()
     frame, clock, sample, dist = (np.asarray(a, dtype=np.float64) for a in (frame, clock, sample, dist))
@@ -106,7 +111,7 @@ def fit_segments(
     if not vfr:
         shifts = [_whole(s) if s is not None and k != main else s for k, s in enumerate(shifts)]
     shifts[main] = 0.0
-    _across_gaps(shifts, sources, pieces, breaks, vfr)
+    _across_gaps(shifts, sources, pieces, breaks)
     return tuple(Segment(a, b, None if s is None else round(float(s), 4), src, _count(tracked, a, b)) for (a, b, _), s, src in zip(pieces, shifts, sources))
 
 
@@ -145,7 +150,7 @@ def _whole(shift: float) -> float:
     return float(nearest) if abs(shift - nearest) <= WHOLE_FRAME and abs(nearest) <= MAX_WHOLE else shift
 
 
-def _across_gaps(shifts: list[float | None], sources: list[str], pieces: list[tuple[int, int, bool]], breaks: tuple[Break, ...], vfr: bool) -> None:
+def _across_gaps(shifts: list[float | None], sources: list[str], pieces: list[tuple[int, int, bool]], breaks: tuple[Break, ...]) -> None:
     """Unknown shifts of segments next to a known one across a container gap, in place (forward, then backward)."""
     gaps = {b.frame: b.size for b in breaks if b.kind == "gap"}
     n = len(pieces)
@@ -155,8 +160,7 @@ def _across_gaps(shifts: list[float | None], sources: list[str], pieces: list[tu
             known = shifts[j]
             boundary = pieces[max(j, k)][0]
             if shifts[k] is None and known is not None and not pieces[k][2] and boundary in gaps:
-                step = 0.0 if vfr else gaps[boundary]
-                shifts[k] = known + step if forward else known - step
+                shifts[k] = known + gaps[boundary] if forward else known - gaps[boundary]
                 sources[k] = "container"
 
 
