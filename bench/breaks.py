@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from data_fixtures.breaks import BreakEdit, edit_camera, pair_errors
+from data_fixtures.breaks import BreakEdit, edit_camera, pair_errors, video_times
 from data_fixtures.raw_project import SMALL, make_raw_project
 from tlsync_pipeline.pipeline.engine import run_graph
 from tlsync_pipeline.pipeline.graph import build_graph
@@ -66,11 +66,12 @@ def run_case(base: Path, folder: Path, edit: BreakEdit | None) -> dict:
     lines = {f"cam{k}": line for k, line in enumerate(SMALL.lines)}
     status = timeline.status(CAMERA)
     worst, unmapped, false = 0.0, 0, 0
+    times = video_times(folder, n)
     for other in timeline.names:
         if other == CAMERA or CAMERA not in timeline.cameras:
             continue
         for a, b in ((CAMERA, other), (other, CAMERA)):
-            errors, left, wrong = pair_errors(timeline, lines, sources, a, b)
+            errors, left, wrong = pair_errors(timeline, lines, sources, a, b, times)
             worst = max(worst, float(errors.max()) if len(errors) else 0.0)
             unmapped += left
             false += wrong

@@ -126,19 +126,33 @@ def frames_showing(source: np.ndarray, original: np.ndarray) -> np.ndarray:
     return np.where(valid, index[j] + frac, np.nan)
 
 
-def pair_errors(timeline, lines: dict[str, tuple[float, float]], sources: dict[str, np.ndarray], a: str, b: str) -> tuple[np.ndarray, int, int]:
-    """How the timeline maps A's frames to B's against the truth (frame clocks): |mapped - true| (frames of B) over
+def pair_errors(timeline, lines: dict[str, tuple[float, float]], sources: dict[str, np.ndarray], a: str, b: str, times: dict | None = None) -> tuple[np.ndarray, int, int]:
+    """How the timeline maps A's frames to B's against the truth: |mapped - true| (frames of B) over
     A's frames it maps whose instant B recorded; how many of those it leaves unmapped; how many it maps into B's
     video though B did not record their instant (a dropped stretch, an unknown segment mapped anyway).
 
     lines: each camera's true line (alpha, beta) on its original frames; sources: each camera's ``edited_source``
-    (``np.arange(n)`` for an unedited camera).
+    (``np.arange(n)`` for an unedited camera); times: the cameras' presentation times (``FrameTimes`` by name, as
+    the export stage reads them: exact maps for presentation-time clocks).
     """
     (aa, ba), (ab, bb) = lines[a], lines[b]
     frames = np.arange(len(sources[a]), dtype=np.float64)
-    estimated = timeline.match(a, b, frames)
+    estimated = timeline.match(a, b, frames, times)
     inside = np.isfinite(estimated) & (estimated > -0.5) & (estimated < len(sources[b]) - 0.5)
     truth = frames_showing(sources[b], ab * (sources[a] - ba) / aa + bb)
     recorded = np.isfinite(truth)
     mapped = recorded & np.isfinite(estimated)
     return np.abs(estimated[mapped] - truth[mapped]), int(np.count_nonzero(recorded & ~np.isfinite(estimated))), int(np.count_nonzero(inside & ~recorded))
+
+
+def video_times(folder: str | Path, cameras) -> dict:
+    """Each camera's presentation times of every frame (``FrameTimes``) from its video in a raw project's folder."""
+    from tlsync_pipeline.sync.clock import FrameTimes
+    from trackers.video import presentation_times
+
+    out = {}
+    for name in cameras:
+        times = presentation_times(Path(folder) / name / "video.mp4")
+        if times is not None:
+            out[name] = FrameTimes(np.arange(len(times), dtype=np.float64), times)
+    return out

@@ -16,7 +16,7 @@ import shutil
 import numpy as np
 import pytest
 
-from data_fixtures.breaks import BreakEdit, edit_camera, pair_errors
+from data_fixtures.breaks import BreakEdit, edit_camera, pair_errors, video_times
 from data_fixtures.raw_project import SMALL, make_raw_project
 from tlsync_pipeline.pipeline.engine import run_graph
 from tlsync_pipeline.pipeline.graph import build_graph
@@ -68,7 +68,7 @@ def test_a_break_in_view_is_fitted_as_segments(raw, tmp_path, edit, kind, shift)
     for name in ("cam0", "cam2"):
         assert timeline.status(name).status == "ok"
         for a, b in (("cam1", name), (name, "cam1")):
-            errors, unmapped, false = pair_errors(timeline, LINES, sources, a, b)
+            errors, unmapped, false = pair_errors(timeline, LINES, sources, a, b, video_times(work.parent, COUNTS))
             assert unmapped == 0 and false == 0, (a, b)
             assert len(errors) == 0 or errors.max() < 0.15, (a, b, errors.max())
     with open(work / "exports" / "frame_map.csv", newline="") as handle:

@@ -51,8 +51,9 @@ def vote_break(frame: np.ndarray, clock: np.ndarray, sample: np.ndarray, alpha: 
     fitted line; it names a break when it holds at least MIN_RIVAL_FRAMES
     distinct frames and RIVAL_SHARE of the line's, its frames lie before
     (or after) the line's (10 % and 90 % quantiles) and its samples too. The
-    break is at the first frame of the later group; its size is the frames
-    missing there (negative: frames inserted).
+    break is at the later group's first frame after the earlier group's (95 %
+    quantile); its size is the frames missing there (negative: frames
+    inserted).
     """
     frame, clock, sample = (np.asarray(a, dtype=np.float64) for a in (frame, clock, sample))
     r = clock - (alpha * sample + beta)
@@ -75,10 +76,17 @@ def vote_break(frame: np.ndarray, clock: np.ndarray, sample: np.ndarray, alpha: 
     offset = float(np.median(r[member]))
     main_samples, rival_samples = sample[on], sample[member]
     if np.quantile(rival, 0.9) < np.quantile(main, 0.1) and np.quantile(rival_samples, 0.9) < np.quantile(main_samples, 0.1):
-        return Break("drop", int(main.min()), round(offset, 2))
+        return Break("drop", _first_after(main, rival), round(offset, 2))
     if np.quantile(rival, 0.1) > np.quantile(main, 0.9) and np.quantile(rival_samples, 0.1) > np.quantile(main_samples, 0.9):
-        return Break("drop", int(rival.min()), round(-offset, 2))
+        return Break("drop", _first_after(rival, main), round(-offset, 2))
     return None
+
+
+def _first_after(later: np.ndarray, earlier: np.ndarray) -> int:
+    """The later group's first frame after most of the earlier group's (its 95 % quantile: a few of a frame's votes
+    may fall on the other line by chance)."""
+    end = np.quantile(earlier, 0.95)
+    return int(later[later > end].min())
 
 
 def with_vote_break(breaks: tuple[Break, ...], frame: np.ndarray, clock: np.ndarray, sample: np.ndarray, line, delta: float) -> tuple[Break, ...]:
