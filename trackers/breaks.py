@@ -10,10 +10,14 @@ video is read anyway:
   (times standing still or stepping back);
 - the pictures (``FreezeMeter``, fed the luma frames the tracker reads): a
   frame where no pixel differs from the previous frame's by more than
-  ``STILL_LEVELS`` grey levels (coding noise of the same picture encoded
-  twice) is ``frozen``: the same picture again, while the clock went on. A
-  video whose median frame changes no more than that (a still, noise-free
-  picture) tells nothing and gives none.
+  ``STILL_LEVELS`` grey levels (the coding noise of the same picture encoded
+  twice) between frames where some pixel changes by ``MOVING_LEVELS`` or
+  more (something moved, or the sensor's noise), while the picture holds a
+  mover (a blob off the background: the stalled picture still shows it), is
+  ``frozen``: the same picture again, while the clock went on
+  (``frozen_runs``). A still scene without a mover, coded at a low rate,
+  repeats its pictures too: the target leaving the view and coming back is
+  not a freeze.
 
 A drop that leaves neither trace (frames missing, times re-stamped) shows
 only against the target's path: tlsync_pipeline/sync/breaks.py finds it in
@@ -29,8 +33,8 @@ import numpy as np
 
 GAP = 1.5  # an interval between presentation times longer than this many nominal intervals is a gap
 REPEAT = 0.5  # one shorter than this share of the nominal interval is a repeat
-STILL_LEVELS = 3  # grey levels: a frame no pixel of which differs from the previous frame's by more is the same picture
-MOVING_SHARE = 0.25  # a frame changing at least this share of the median frame's pixels count is moving
+STILL_LEVELS = 20  # grey levels: a frame no pixel of which differs from the previous frame's by more may repeat it
+MOVING_LEVELS = 40  # ... when the frames before and after it change some pixel by this much or more
 
 KINDS = ("gap", "repeat", "frozen", "drop")
 
@@ -96,48 +100,53 @@ def container_breaks(times: np.ndarray, fps: float | None = None) -> list[Break]
 class FreezeMeter:
     """Frozen frames of a video, measured on the luma frames as they are read.
 
-    ``feed(index, gray)`` each frame in order (a frame not consecutive to
-    the previous one starts afresh); ``breaks()`` the frozen runs.
+    ``feed(index, gray, movers)`` each frame in order (a frame not
+    consecutive to the previous one starts afresh); ``breaks()`` the frozen
+    runs.
     """
 
     def __init__(self) -> None:
         self._last: tuple[int, np.ndarray] | None = None
         self._frames: list[int] = []
-        self._changed: list[int] = []
+        self._change: list[int] = []
+        self._movers: list[bool] = []
 
-    def feed(self, index: int, gray: np.ndarray) -> None:
-        """One luma frame (H, W, uint8) with its 0-based index."""
+    def feed(self, index: int, gray: np.ndarray, movers: bool) -> None:
+        """One luma frame (H, W, uint8) with its 0-based index, and whether the detector found a mover in it."""
         if self._last is not None and self._last[0] == index - 1 and self._last[1].shape == gray.shape:
             self._frames.append(index)
-            self._changed.append(int(np.count_nonzero(cv2.absdiff(gray, self._last[1]) > STILL_LEVELS)))
+            self._change.append(int(cv2.absdiff(gray, self._last[1]).max()))
+            self._movers.append(movers)
         self._last = (index, gray)
 
     def breaks(self) -> list[Break]:
         """The frozen runs: ``frozen`` breaks at their first repeated frame, of their length in frames."""
-        return frozen_runs(np.array(self._frames, dtype=np.int64), np.array(self._changed, dtype=np.int64))
+        return frozen_runs(np.array(self._frames, dtype=np.int64), np.array(self._change, dtype=np.int64), np.array(self._movers, dtype=bool))
 
 
-def frozen_runs(frames: np.ndarray, changed: np.ndarray) -> list[Break]:
-    """Frozen runs from each frame's count of pixels changed by more than STILL_LEVELS since the previous frame.
+def frozen_runs(frames: np.ndarray, change: np.ndarray, movers: np.ndarray) -> list[Break]:
+    """Frozen runs from each frame's largest change of a pixel since the previous frame (grey levels; frames
+    consecutive to the previous one only) and whether it holds a mover.
 
-    A run of unchanged frames is a freeze when the picture moved just before
-    and just after it (a change of at least MOVING_SHARE of the median
-    frame's): a still scene encoded at a low rate repeats its pictures too,
-    and a freeze where nothing moves cannot be told from it. Runs one frame
-    apart (a keyframe coded afresh inside a freeze) are one.
+    A run of frames changing no pixel by more than STILL_LEVELS, most of
+    them holding a mover, is a freeze when the frames just before and just
+    after it change some pixel by MOVING_LEVELS or more: a still scene coded
+    at a low rate repeats its pictures too, and a freeze where nothing moves
+    cannot be told from it.
     """
-    if len(changed) < 10 or np.median(changed) == 0:
-        return []
-    moving = changed >= MOVING_SHARE * np.median(changed)
-    still = np.flatnonzero(changed == 0)
-    runs: list[list[int]] = []
-    for k in still:
-        if runs and k - runs[-1][1] <= 2 and frames[k] - frames[runs[-1][1]] == k - runs[-1][1]:
-            runs[-1][1] = k
-        else:
-            runs.append([k, k])
+    still = change <= STILL_LEVELS
+    moving = change >= MOVING_LEVELS
     out = []
-    for first, last in runs:
-        if first >= 1 and last + 1 < len(frames) and moving[first - 1] and moving[last + 1]:
-            out.append(Break("frozen", int(frames[first]), float(frames[last] - frames[first] + 1)))
+    k = 0
+    while k < len(frames):
+        if not still[k]:
+            k += 1
+            continue
+        run = k
+        while run + 1 < len(frames) and still[run + 1] and frames[run + 1] == frames[run] + 1:
+            run += 1
+        framed = k >= 1 and run + 1 < len(frames) and moving[k - 1] and moving[run + 1]
+        if framed and frames[k - 1] == frames[k] - 1 and frames[run + 1] == frames[run] + 1 and movers[k : run + 1].mean() >= 0.5:
+            out.append(Break("frozen", int(frames[k]), float(run - k + 1)))
+        k = run + 1
     return out

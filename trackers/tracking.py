@@ -106,9 +106,10 @@ def detect_movers(
         if detector is None or index != last + 1:
             detector = BlobDetector(*background)
         last = index
+        blobs = detector.detect(gray)
         if freeze is not None:
-            freeze.feed(index, gray)
-        for tracklet, blob, score in linker.step(index, detector.detect(gray)):
+            freeze.feed(index, gray, bool(blobs))
+        for tracklet, blob, score in linker.step(index, blobs):
             rows.append((index, time_s, tracklet, blob.x, blob.y, blob.w, blob.h, score))
         if windows is None and count is not None:
             count.decoded += 1
@@ -174,9 +175,9 @@ def _blob_steps(path, info: VideoInfo, params: BlobParams, box, init_frame: int,
     index = -1
     for index, time_s, gray in iter_frames(path, gray=True, progress=progress, desc=label):
         times[index] = time_s
-        if freeze is not None:
-            freeze.feed(index, gray)
         blobs = detector.detect(gray)
+        if freeze is not None:
+            freeze.feed(index, gray, bool(blobs))
         if index < init_frame:
             continue
         if index == init_frame:
