@@ -20,8 +20,9 @@ A presentation-time clock (variable frame rate) carries the container's
 gaps already: they cut it into no segment (a phone that halves its rate in
 the dark is not broken); a drop the votes show still does.
 
-The camera's line is then fitted again on every segment of known shift
-(sync/synchronize.py). Frames are 0-based; clock values and shifts are in
+The sync stage then measures each visited segment's shift again from its
+own line (sync/synchronize.py) and fits the camera's line on every segment
+of known shift. Frames are 0-based; clock values and shifts are in
 the camera clock's frame units.
 """
 
@@ -109,7 +110,7 @@ def fit_segments(
     shifts: list[float | None] = [None if o is None else ref - o for o in offsets]
     sources = ["line" if k == main else ("votes" if s is not None else ("frozen" if pieces[k][2] else "unknown")) for k, s in enumerate(shifts)]
     if not vfr:
-        shifts = [_whole(s) if s is not None and k != main else s for k, s in enumerate(shifts)]
+        shifts = [whole_frames(s) if s is not None and k != main else s for k, s in enumerate(shifts)]
     shifts[main] = 0.0
     _across_gaps(shifts, sources, pieces, breaks)
     return tuple(Segment(a, b, None if s is None else round(float(s), 4), src, _count(tracked, a, b)) for (a, b, _), s, src in zip(pieces, shifts, sources))
@@ -144,7 +145,7 @@ def _densest_offset(frame: np.ndarray, r: np.ndarray, dist: np.ndarray, alpha: f
     return float(np.median(r[order[first]])), backing
 
 
-def _whole(shift: float) -> float:
+def whole_frames(shift: float) -> float:
     """A frame clock's shift rounded to whole frames when it is that close to them (module docstring)."""
     nearest = round(shift)
     return float(nearest) if abs(shift - nearest) <= WHOLE_FRAME and abs(nearest) <= MAX_WHOLE else shift

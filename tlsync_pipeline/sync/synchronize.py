@@ -34,7 +34,7 @@ from tlsync_pipeline.sync.params import Preparation, SyncParams
 from tlsync_pipeline.sync.plausibility import BACKWARD_BELOW, Judged, backward_support, diagnose, judge_line, line_support, motion_slope
 from tlsync_pipeline.sync.pose import TargetPose, estimate_pose, pose_info
 from tlsync_pipeline.sync.refined import RefinedParams
-from tlsync_pipeline.sync.segments import fit_segments
+from tlsync_pipeline.sync.segments import MIN_SEGMENT_FRAMES, fit_segments, whole_frames
 from tlsync_pipeline.sync.registry import get_method, method_options, params_table, preparation_of
 from tlsync_pipeline.sync.slope import slope_prior
 from tlsync_pipeline.sync.status import AMBIGUOUS, FAILED, Reason
@@ -229,10 +229,19 @@ def synchronize(
 
 
 def _segmented(name: str, inputs: CameraInput, result: CameraResult, prepared: Trajectory, params: SyncParams, radius_px: float) -> tuple[CameraInput, CameraResult]:
-    """A camera whose recording breaks (its own breaks, or a drop its votes show) fitted as segments (sync/segments.py):
-    the line fitted again on every segment of known shift, its clock carrying them; the inputs then hold the track
-    of those segments (the one the line was fitted to). Unchanged without a break, or when no segment's shift is
-    known (the break's reason then refuses it, sync/breaks.py)."""
+    """A camera whose recording breaks (its own breaks, or a drop its votes show) fitted as segments (sync/segments.py).
+
+    The votes say which segments the target visits and their shifts to
+    within a frame or so; each such segment's line is then fitted on its own
+    frames (the method's fit, its slope held by the prior) and its shift is
+    where that line meets the best-supported segment's, at the middle of its
+    frames (a line fitted across segments of different offsets tilts, and
+    shifts measured against it miss their whole frames). The camera's line
+    is fitted again on every segment of known shift, its clock carrying
+    them; the inputs then hold the track of those segments. Unchanged
+    without a break, or when no segment's shift is known (the break's reason
+    then refuses it, sync/breaks.py).
+    """
     track = result.track(inputs)
     assert track is not None, "a fitted camera has a track"
     clock = camera_clock(track, inputs.fps)
@@ -240,19 +249,53 @@ def _segmented(name: str, inputs: CameraInput, result: CameraResult, prepared: T
     votes, line = result.votes, result.line
     vote_clock = clock.clock_at(votes.frame, times)
     breaks = with_vote_break(inputs.breaks, votes.frame, vote_clock, votes.sample, line, params.delta)
-    segments = fit_segments(breaks, track.frame, votes.frame, vote_clock, votes.sample, votes.dist, line.alpha, line.beta, params.delta, clock.vfr)
     inputs = replace(inputs, track=track, breaks=breaks)
-    if not any(seg.source == "line" for seg in segments):
+    coarse = fit_segments(breaks, track.frame, votes.frame, vote_clock, votes.sample, votes.dist, line.alpha, line.beta, params.delta, clock.vfr)
+    main = next((seg for seg in coarse if seg.source == "line"), None)
+    if main is None:
         return inputs, replace(result, line=replace(line, breaks=breaks or None))
+    reference = _segment_line(name, inputs, votes, main, prepared, params, radius_px) or line
+    segments = tuple(_refined(seg, _segment_line(name, inputs, votes, seg, prepared, params, radius_px), reference, clock, times, track) for seg in coarse)
     segmented = replace(clock, segments=segments)
     keep_track = np.isfinite(segmented.clock_at(track.frame, times))
     keep_votes = np.isfinite(segmented.clock_at(votes.frame, times))
-    kept = Track(*(None if c is None else np.asarray(c)[keep_track] for c in (track.frame, track.x, track.y, track.time_s, track.w, track.h, track.score)))
+    kept = _track_rows(track, keep_track)
     kept_votes = Votes(votes.frame[keep_votes], votes.sample[keep_votes], votes.dist[keep_votes])
-    inputs = replace(inputs, track=kept)
-    data = camera_data(name, inputs, kept_votes, radius_px, segments)
+    data = camera_data(name, replace(inputs, track=kept), kept_votes, radius_px, segments)
     fitted = get_method(params.method).fit(data, prepared, params, method_options(params))
-    return inputs, replace(result, votes=kept_votes, line=replace(fitted, identification=line.identification, breaks=breaks))
+    return replace(inputs, track=kept), replace(result, votes=kept_votes, line=replace(fitted, identification=line.identification, breaks=breaks))
+
+
+def _track_rows(track: Track, rows: np.ndarray) -> Track:
+    """The track's rows ``rows`` (a boolean mask)."""
+    return Track(*(None if c is None else np.asarray(c)[rows] for c in (track.frame, track.x, track.y, track.time_s, track.w, track.h, track.score)))
+
+
+def _segment_line(name: str, inputs: CameraInput, votes: Votes, seg: Segment, prepared: Trajectory, params: SyncParams, radius_px: float) -> CameraLine | None:
+    """The method's line through one segment's tracked frames and votes alone (steady clock); None when the segment
+    has no measured shift, too few frames, or the fit fails."""
+    track = inputs.track
+    assert track is not None, "a fitted camera has a track"
+    rows = (track.frame >= seg.start) & (track.frame < seg.stop)
+    if seg.shift is None or rows.sum() < MIN_SEGMENT_FRAMES:
+        return None
+    in_votes = (votes.frame >= seg.start) & (votes.frame < seg.stop)
+    own = Votes(votes.frame[in_votes], votes.sample[in_votes], votes.dist[in_votes])
+    try:
+        return get_method(params.method).fit(camera_data(name, replace(inputs, track=_track_rows(track, rows)), own, radius_px), prepared, params, method_options(params))
+    except (SyncError, ValueError, ArithmeticError, np.linalg.LinAlgError):
+        return None
+
+
+def _refined(seg: Segment, own: CameraLine | None, reference: CameraLine, clock, times: FrameTimes | None, track: Track) -> Segment:
+    """The segment with its shift where its own line meets the reference line at the middle of its tracked frames
+    (whole frames on a frame clock, sync/segments.whole_frames); as it was without its own line."""
+    if own is None or seg.source == "line":
+        return seg
+    middle = float(np.median(clock.clock_at(track.frame[(track.frame >= seg.start) & (track.frame < seg.stop)], times)))
+    sample = (middle - own.beta) / own.alpha
+    shift = reference.alpha * sample + reference.beta - middle
+    return replace(seg, shift=round(shift if clock.vfr else whole_frames(shift), 4))
 
 
 CROWDED = 1.5  # voting detections per identified frame above which other movers are within the vote radius
