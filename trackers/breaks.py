@@ -58,7 +58,7 @@ class Break:
     def describe(self) -> str:
         """The break in words: "frozen 25 frames at frame 412"."""
         what = {"gap": "gap of", "repeat": "repeated times over", "frozen": "frozen", "drop": "jump of"}[self.kind]
-        return f"{what} {self.size:.3g} frames at frame {self.frame}"
+        return f"{what} {self.size:.3g} frame{'' if abs(self.size) == 1 else 's'} at frame {self.frame}"
 
     def to_dict(self) -> dict:
         return {"kind": self.kind, "frame": self.frame, "size": round(float(self.size), 3)}

@@ -169,7 +169,8 @@ def segment_reasons(
     lost = [s for s in segments if s.shift is None and s.source != "frozen" and s.frames >= MIN_SIDE_FRAMES]
     if lost:
         where = ", ".join(f"frames {s.start}-{s.stop - 1} ({s.frames} tracked)" for s in lost)
-        reasons.append(Reason("clock_break", AMBIGUOUS, f"the recording breaks and the target's frames on {where} agree on no offset", REMEDY))
+        named = "; ".join(b.describe() for b in breaks)
+        reasons.append(Reason("clock_break", AMBIGUOUS, f"the recording breaks ({named}) and the target's frames on {where} agree on no offset", REMEDY))
     return tuple(reasons)
 
 

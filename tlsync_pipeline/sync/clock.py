@@ -63,9 +63,10 @@ class Segment:
     line, None when unknown (its frames then map to nothing); source: how
     the shift is known: "line" (the segment the line was fitted on),
     "votes" (the target's votes on it), "container" (the container's
-    presentation times across the break), "unknown" or "frozen" (repeated
-    pictures: no instant of their own); frames: the target's tracked frames
-    on it.
+    presentation times across the break), "unknown", "unresolved" (seen by
+    the target, its shift not close to whole frames on a frame clock) or
+    "frozen" (repeated pictures: no instant of their own); frames: the
+    target's tracked frames on it.
     """
 
     start: int

@@ -177,7 +177,7 @@ def segments_reason(segments: tuple[Segment, ...], breaks: tuple[Break, ...]) ->
         elif seg.shift is not None:
             words.append(f"{span}: {seg.shift:+.3g} frames ({seg.source})")
         else:
-            why = "frozen pictures" if seg.source == "frozen" else "not seen by the target"
+            why = {"frozen": "frozen pictures", "unresolved": "its offset is not resolved to whole frames"}.get(seg.source, "not seen by the target")
             words.append(f"{span}: unknown ({why})")
     text = f"{len(segments)} segments ({'; '.join(b.describe() for b in breaks)}): " + ", ".join(words)
     return Reason("segments", WEAK, text, "the frame map and the editors' timelines map each segment of known offset; `pairs` hold on the line's segment")

@@ -34,7 +34,7 @@ from tlsync_pipeline.sync.params import Preparation, SyncParams
 from tlsync_pipeline.sync.plausibility import BACKWARD_BELOW, Judged, backward_support, diagnose, judge_line, line_support, motion_slope
 from tlsync_pipeline.sync.pose import TargetPose, estimate_pose, pose_info
 from tlsync_pipeline.sync.refined import RefinedParams
-from tlsync_pipeline.sync.segments import MIN_SEGMENT_FRAMES, fit_segments, whole_frames
+from tlsync_pipeline.sync.segments import MAX_WHOLE, MIN_SEGMENT_FRAMES, fit_segments, whole_frames
 from tlsync_pipeline.sync.registry import get_method, method_options, params_table, preparation_of
 from tlsync_pipeline.sync.slope import slope_prior
 from tlsync_pipeline.sync.status import AMBIGUOUS, FAILED, Reason
@@ -288,14 +288,19 @@ def _segment_line(name: str, inputs: CameraInput, votes: Votes, seg: Segment, pr
 
 
 def _refined(seg: Segment, own: CameraLine | None, reference: CameraLine, clock, times: FrameTimes | None, track: Track) -> Segment:
-    """The segment with its shift where its own line meets the reference line at the middle of its tracked frames
-    (whole frames on a frame clock, sync/segments.whole_frames); as it was without its own line."""
+    """The segment with its shift where its own line meets the reference line at the middle of its tracked frames;
+    as it was without its own line. On a frame clock a shift of up to MAX_WHOLE frames is whole frames
+    (sync/segments.whole_frames), and one that is not close to them is unresolved (unknown): a pose error biases
+    segments seen in different parts of the image differently."""
     if own is None or seg.source == "line":
         return seg
     middle = float(np.median(clock.clock_at(track.frame[(track.frame >= seg.start) & (track.frame < seg.stop)], times)))
     sample = (middle - own.beta) / own.alpha
     shift = reference.alpha * sample + reference.beta - middle
-    return replace(seg, shift=round(shift if clock.vfr else whole_frames(shift), 4))
+    if clock.vfr or abs(shift) > MAX_WHOLE:
+        return replace(seg, shift=round(shift, 4))
+    whole = whole_frames(shift)
+    return replace(seg, shift=whole) if whole == round(whole) else replace(seg, shift=None, source="unresolved")
 
 
 CROWDED = 1.5  # voting detections per identified frame above which other movers are within the vote radius
