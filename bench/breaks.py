@@ -107,7 +107,11 @@ def main() -> None:
         shutil.rmtree(folder, ignore_errors=True)
         row = run_case(base, folder, CASES[name])
         worst = "-" if row["worst"] is None else f"{row['worst']:.3f}"
-        print(f"| {name} | {row['status']} | {row['codes']} | {row['segments'] or 1} | {row['exit']} | {worst} | {row['unmapped']} | {row['false']} | {row['seconds']:.0f} |", flush=True)
+        print(
+            f"| {name} | {row['status']} | {row['codes']} | {row['segments'] or 1} | {row['exit']} | {worst} "
+            f"| {row['unmapped']} | {row['false']} | {row['seconds']:.0f} |",
+            flush=True,
+        )
     if args.keep is None:
         shutil.rmtree(root, ignore_errors=True)
 

@@ -126,7 +126,14 @@ def frames_showing(source: np.ndarray, original: np.ndarray) -> np.ndarray:
     return np.where(valid, index[j] + frac, np.nan)
 
 
-def pair_errors(timeline, lines: dict[str, tuple[float, float]], sources: dict[str, np.ndarray], a: str, b: str, times: dict | None = None) -> tuple[np.ndarray, int, int]:
+def pair_errors(
+    timeline,
+    lines: dict[str, tuple[float, float]],
+    sources: dict[str, np.ndarray],
+    a: str,
+    b: str,
+    times: dict | None = None,
+) -> tuple[np.ndarray, int, int]:
     """How the timeline maps A's frames to B's against the truth: |mapped - true| (frames of B) over
     A's frames it maps whose instant B recorded; how many of those it leaves unmapped; how many it maps into B's
     video though B did not record their instant (a dropped stretch, an unknown segment mapped anyway).
@@ -142,7 +149,11 @@ def pair_errors(timeline, lines: dict[str, tuple[float, float]], sources: dict[s
     truth = frames_showing(sources[b], ab * (sources[a] - ba) / aa + bb)
     recorded = np.isfinite(truth)
     mapped = recorded & np.isfinite(estimated)
-    return np.abs(estimated[mapped] - truth[mapped]), int(np.count_nonzero(recorded & ~np.isfinite(estimated))), int(np.count_nonzero(inside & ~recorded))
+    return (
+        np.abs(estimated[mapped] - truth[mapped]),
+        int(np.count_nonzero(recorded & ~np.isfinite(estimated))),
+        int(np.count_nonzero(inside & ~recorded)),
+    )
 
 
 def video_times(folder: str | Path, cameras) -> dict:

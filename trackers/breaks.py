@@ -121,7 +121,11 @@ class FreezeMeter:
 
     def breaks(self) -> list[Break]:
         """The frozen runs: ``frozen`` breaks at their first repeated frame, of their length in frames."""
-        return frozen_runs(np.array(self._frames, dtype=np.int64), np.array(self._change, dtype=np.int64), np.array(self._movers, dtype=bool))
+        return frozen_runs(
+            np.array(self._frames, dtype=np.int64),
+            np.array(self._change, dtype=np.int64),
+            np.array(self._movers, dtype=bool),
+        )
 
 
 def frozen_runs(frames: np.ndarray, change: np.ndarray, movers: np.ndarray) -> list[Break]:
@@ -146,7 +150,12 @@ def frozen_runs(frames: np.ndarray, change: np.ndarray, movers: np.ndarray) -> l
         while run + 1 < len(frames) and still[run + 1] and frames[run + 1] == frames[run] + 1:
             run += 1
         framed = k >= 1 and run + 1 < len(frames) and moving[k - 1] and moving[run + 1]
-        if framed and frames[k - 1] == frames[k] - 1 and frames[run + 1] == frames[run] + 1 and movers[k : run + 1].mean() >= 0.5:
+        if (
+            framed
+            and frames[k - 1] == frames[k] - 1
+            and frames[run + 1] == frames[run] + 1
+            and movers[k : run + 1].mean() >= 0.5
+        ):
             out.append(Break("frozen", int(frames[k]), float(run - k + 1)))
         k = run + 1
     return out

@@ -86,5 +86,9 @@ def test_an_unedited_demo_has_no_break(raw, tmp_path):
     run_graph(build_graph(load_project(folder / "project.toml"), folder / "work", Options(progress=False)))
     timeline = read_timeline(folder / "work" / "timeline.json")
     for name in COUNTS:
-        assert timeline.status(name).status == "ok" and not timeline.cameras[name].breaks and not timeline.cameras[name].clock.segments
+        assert (
+            timeline.status(name).status == "ok"
+            and not timeline.cameras[name].breaks
+            and not timeline.cameras[name].clock.segments
+        )
         assert json.loads((folder / "work" / "cameras" / name / "video.json").read_text())["breaks"] == []

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import Any
 
 FCPXML_RATES = (23.98, 24.0, 25.0, 29.97, 30.0, 50.0, 59.94, 60.0)  # what the OTIO FCPXML adapter writes
 SYNC_FORMAT = "tlsync-sync"
@@ -159,7 +160,8 @@ def fcpxml_text(placements: list[Placement]) -> tuple[str | None, str]:
 def sync_document(placements: list[Placement], reference: str, target_t0_utc: str | None = None) -> dict:
     """The ``sync.json`` sidecar: per camera its start, interval, rate and position, with the convention in words."""
     positions = timeline_position(placements)
-    cameras = {}
+    earliest = earliest_start(placements)
+    cameras: dict[str, dict[str, Any]] = {}
     for p in placements:
         interval = None if p.start_s_half95 is None else [p.start_s - p.start_s_half95, p.start_s + p.start_s_half95]
         cameras[p.camera] = {
@@ -174,7 +176,6 @@ def sync_document(placements: list[Placement], reference: str, target_t0_utc: st
             "clock_rate": p.clock_rate,
         }
         if p.pieces:
-            earliest = earliest_start(placements)
             cameras[p.camera]["segments"] = [
                 {"first_frame": c.first, "frames": c.frames, "start_s": c.start_s, "timeline_position_s": c.start_s - earliest} for c in p.pieces
             ]

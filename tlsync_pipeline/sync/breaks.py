@@ -37,11 +37,15 @@ MIN_SIDE_FRAMES = 8  # tracked frames a side of a break needs for its agreement 
 ON_LINE_SHARE = 0.5  # share of a side's tracked frames with a vote on the line for it to follow the line
 MIN_RIVAL_FRAMES = 8  # distinct frames a parallel line needs to name a drop
 RIVAL_SHARE = 0.15  # ... and this share of the main line's frames
-LONE_FROZEN = 3  # single frozen frames away from the target's frames are judged only when at least this many (a rate off)
+LONE_FROZEN = (
+    3  # single frozen frames away from the target's frames are judged only when at least this many (a rate off)
+)
 REMEDY = "cut the video at the break into one camera per piece (each then gets its own line), or record without drops"
 
 
-def vote_break(frame: np.ndarray, clock: np.ndarray, sample: np.ndarray, alpha: float, beta: float, delta: float) -> Break | None:
+def vote_break(
+    frame: np.ndarray, clock: np.ndarray, sample: np.ndarray, alpha: float, beta: float, delta: float
+) -> Break | None:
     """A drop the votes show: a line parallel to the fitted one whose frames all lie on one side of the line's.
 
     frame, clock, sample: each vote's 0-based frame, its camera clock value
@@ -67,7 +71,9 @@ def vote_break(frame: np.ndarray, clock: np.ndarray, sample: np.ndarray, alpha: 
     bins = np.floor(r[off] / delta).astype(np.int64)
     pairs = np.unique(np.column_stack([bins, frame[off].astype(np.int64)]), axis=0)
     keys, counts = np.unique(pairs[:, 0], return_counts=True)
-    near = counts + np.append(counts[1:] * (np.diff(keys) == 1), 0) + np.insert(counts[:-1] * (np.diff(keys) == 1), 0, 0)
+    near = (
+        counts + np.append(counts[1:] * (np.diff(keys) == 1), 0) + np.insert(counts[:-1] * (np.diff(keys) == 1), 0, 0)
+    )
     centre = (keys[int(np.argmax(near))] + 0.5) * delta
     member = off[np.abs(r[off] - centre) <= 1.5 * delta]
     rival = np.unique(frame[member])
@@ -75,9 +81,13 @@ def vote_break(frame: np.ndarray, clock: np.ndarray, sample: np.ndarray, alpha: 
         return None
     offset = float(np.median(r[member]))
     main_samples, rival_samples = sample[on], sample[member]
-    if np.quantile(rival, 0.9) < np.quantile(main, 0.1) and np.quantile(rival_samples, 0.9) < np.quantile(main_samples, 0.1):
+    if np.quantile(rival, 0.9) < np.quantile(main, 0.1) and np.quantile(rival_samples, 0.9) < np.quantile(
+        main_samples, 0.1
+    ):
         return Break("drop", _first_after(main, rival), round(offset, 2))
-    if np.quantile(rival, 0.1) > np.quantile(main, 0.9) and np.quantile(rival_samples, 0.1) > np.quantile(main_samples, 0.9):
+    if np.quantile(rival, 0.1) > np.quantile(main, 0.9) and np.quantile(rival_samples, 0.1) > np.quantile(
+        main_samples, 0.9
+    ):
         return Break("drop", _first_after(rival, main), round(-offset, 2))
     return None
 
@@ -89,8 +99,10 @@ def _first_after(later: np.ndarray, earlier: np.ndarray) -> int:
     return int(later[later > end].min())
 
 
-def with_vote_break(breaks: tuple[Break, ...], frame: np.ndarray, clock: np.ndarray, sample: np.ndarray, line, delta: float) -> tuple[Break, ...]:
-    """``breaks`` and the drop the votes show (``vote_break``, ``merged``). line: the fitted CameraLine (alpha, beta)."""
+def with_vote_break(
+    breaks: tuple[Break, ...], frame: np.ndarray, clock: np.ndarray, sample: np.ndarray, line, delta: float
+) -> tuple[Break, ...]:
+    """``breaks`` and the drop the votes show (``vote_break``, ``merged``); line: the fitted CameraLine."""
     found = vote_break(frame, clock, sample, line.alpha, line.beta, delta)
     return breaks if found is None else merged((*breaks, found))
 
@@ -99,12 +111,21 @@ def merged(breaks: tuple[Break, ...]) -> tuple[Break, ...]:
     """The breaks in frame order, without a drop the votes show where the container or the pictures name a break
     already (within the drop's size and 10 frames: the votes place a break only between the target's frames)."""
     named = [b for b in breaks if b.kind != "drop"]
-    drops = [d for d in breaks if d.kind == "drop" and not any(abs(b.frame - d.frame) <= abs(d.size) + 10 for b in named)]
+    drops = [
+        d for d in breaks if d.kind == "drop" and not any(abs(b.frame - d.frame) <= abs(d.size) + 10 for b in named)
+    ]
     return tuple(sorted({*named, *drops}, key=lambda b: (b.frame, b.kind)))
 
 
 def break_reasons(
-    breaks: tuple[Break, ...], tracked: np.ndarray, vote_frame: np.ndarray, vote_clock: np.ndarray, vote_sample: np.ndarray, alpha: float, beta: float, delta: float
+    breaks: tuple[Break, ...],
+    tracked: np.ndarray,
+    vote_frame: np.ndarray,
+    vote_clock: np.ndarray,
+    vote_sample: np.ndarray,
+    alpha: float,
+    beta: float,
+    delta: float,
 ) -> tuple[Reason, ...]:
     """The reasons the breaks give a camera's line (see the module docstring): at most one, naming every break that
     leaves a side of the recording off the line.
@@ -124,7 +145,10 @@ def break_reasons(
     for b in breaks:
         end = b.frame + (int(b.size) if b.kind in ("frozen", "repeat") else 0)
         before, after = tracked < b.frame, tracked >= end
-        sides = [(before.sum(), supported[before].mean() if before.any() else 0.0), (after.sum(), supported[after].mean() if after.any() else 0.0)]
+        sides = [
+            (before.sum(), supported[before].mean() if before.any() else 0.0),
+            (after.sum(), supported[after].mean() if after.any() else 0.0),
+        ]
         if all(n >= MIN_SIDE_FRAMES and share >= ON_LINE_SHARE for n, share in sides):
             continue
         if b.kind == "frozen" and b.size < 2 and min(n for n, _ in sides) == 0:
@@ -133,11 +157,16 @@ def break_reasons(
         if b.kind == "drop":
             named.append(f"{b.describe()} (the target's votes before and after it lie on parallel lines)")
         elif min(n for n, _ in sides) == 0:
-            named.append(f"{b.describe()} (the target is seen on one side of it only: the other side's offset is unknown)")
+            named.append(
+                f"{b.describe()} (the target is seen on one side of it only: the other side's offset is unknown)"
+            )
         else:
             named.append(f"{b.describe()} (the target's frames on one side of it are off the line)")
     if len(lone) >= LONE_FROZEN:
-        named.append(f"{len(lone)} single frozen frames, the first at frame {lone[0].frame} (a repeated frame every {_spacing(lone)} frames: the clock slips a frame each time)")
+        named.append(
+            f"{len(lone)} single frozen frames, the first at frame {lone[0].frame} (a repeated frame every "
+            f"{_spacing(lone)} frames: the clock slips a frame each time)"
+        )
     if not named:
         return ()
     text = "the recording breaks, one offset cannot map all of it: " + "; ".join(named)
@@ -170,12 +199,25 @@ def segment_reasons(
     if lost:
         where = ", ".join(f"frames {s.start}-{s.stop - 1} ({s.frames} tracked)" for s in lost)
         named = "; ".join(b.describe() for b in breaks)
-        reasons.append(Reason("clock_break", AMBIGUOUS, f"the recording breaks ({named}) and the target's frames on {where} agree on no offset", REMEDY))
+        reasons.append(
+            Reason(
+                "clock_break",
+                AMBIGUOUS,
+                f"the recording breaks ({named}) and the target's frames on {where} agree on no offset",
+                REMEDY,
+            )
+        )
     return tuple(reasons)
 
 
 def identify_in_segments(
-    camera: Camera, detections: Detections, trajectory: Trajectory, fps: float | None, params: IdentifyParams, prefer: frozenset[int] = frozenset(), breaks: tuple[Break, ...] = ()
+    camera: Camera,
+    detections: Detections,
+    trajectory: Trajectory,
+    fps: float | None,
+    params: IdentifyParams,
+    prefer: frozenset[int] = frozenset(),
+    breaks: tuple[Break, ...] = (),
 ) -> tuple[Identification, tuple[Break, ...]]:
     """The target identified among every mover across the recording's breaks, and the breaks.
 
@@ -192,7 +234,16 @@ def identify_in_segments(
     drop = vote_break(found.votes.frame, vote_clock, found.votes.sample, found.alpha, found.beta, params.delta)
     breaks = merged((*breaks, drop) if drop is not None else breaks)
     segments = fit_segments(
-        breaks, found.track.frame, found.votes.frame, vote_clock, found.votes.sample, found.votes.dist, found.alpha, found.beta, params.delta, clock.vfr
+        breaks,
+        found.track.frame,
+        found.votes.frame,
+        vote_clock,
+        found.votes.sample,
+        found.votes.dist,
+        found.alpha,
+        found.beta,
+        params.delta,
+        clock.vfr,
     )
     if not any(seg.source == "votes" for seg in segments):
         return found, breaks

@@ -52,7 +52,7 @@ def cut(breaks: tuple[Break, ...]) -> list[tuple[int, int, bool]]:
         if b.frame > cursor:
             out.append((cursor, b.frame, False))
         if b.kind in ("frozen", "repeat"):
-            end = b.frame + max(int(round(b.size)), 1)
+            end = b.frame + max(round(b.size), 1)
             out.append((b.frame, end, True))
             cursor = end
         else:
@@ -108,19 +108,27 @@ def fit_segments(
     ref = offsets[main]
     assert ref is not None, "the best-supported segment has an offset"
     shifts: list[float | None] = [None if o is None else ref - o for o in offsets]
-    sources = ["line" if k == main else ("votes" if s is not None else ("frozen" if pieces[k][2] else "unknown")) for k, s in enumerate(shifts)]
+    sources = [
+        "line" if k == main else ("votes" if s is not None else ("frozen" if pieces[k][2] else "unknown"))
+        for k, s in enumerate(shifts)
+    ]
     if not vfr:
         shifts = [whole_frames(s) if s is not None and k != main else s for k, s in enumerate(shifts)]
     shifts[main] = 0.0
     _across_gaps(shifts, sources, pieces, breaks)
-    return tuple(Segment(a, b, None if s is None else round(float(s), 4), src, _count(tracked, a, b)) for (a, b, _), s, src in zip(pieces, shifts, sources))
+    return tuple(
+        Segment(a, b, None if s is None else round(float(s), 4), src, _count(tracked, a, b))
+        for (a, b, _), s, src in zip(pieces, shifts, sources)
+    )
 
 
 def _count(tracked: np.ndarray, start: int, stop: int) -> int:
     return int(np.count_nonzero((tracked >= start) & (tracked < stop)))
 
 
-def _densest_offset(frame: np.ndarray, r: np.ndarray, dist: np.ndarray, alpha: float, delta: float) -> tuple[float, int] | None:
+def _densest_offset(
+    frame: np.ndarray, r: np.ndarray, dist: np.ndarray, alpha: float, delta: float
+) -> tuple[float, int] | None:
     """The offset (clock units) of a segment's votes, and the distinct frames backing it.
 
     The densest window of 3 delta (distinct frames) finds it; its value is
@@ -151,7 +159,9 @@ def whole_frames(shift: float) -> float:
     return float(nearest) if abs(shift - nearest) <= WHOLE_FRAME and abs(nearest) <= MAX_WHOLE else shift
 
 
-def _across_gaps(shifts: list[float | None], sources: list[str], pieces: list[tuple[int, int, bool]], breaks: tuple[Break, ...]) -> None:
+def _across_gaps(
+    shifts: list[float | None], sources: list[str], pieces: list[tuple[int, int, bool]], breaks: tuple[Break, ...]
+) -> None:
     """Unknown shifts of segments next to a known one across a container gap, in place (forward, then backward)."""
     gaps = {b.frame: b.size for b in breaks if b.kind == "gap"}
     n = len(pieces)
@@ -177,7 +187,14 @@ def segments_reason(segments: tuple[Segment, ...], breaks: tuple[Break, ...]) ->
         elif seg.shift is not None:
             words.append(f"{span}: {seg.shift:+.3g} frames ({seg.source})")
         else:
-            why = {"frozen": "frozen pictures", "unresolved": "its offset is not resolved to whole frames"}.get(seg.source, "not seen by the target")
+            why = {"frozen": "frozen pictures", "unresolved": "its offset is not resolved to whole frames"}.get(
+                seg.source, "not seen by the target"
+            )
             words.append(f"{span}: unknown ({why})")
     text = f"{len(segments)} segments ({'; '.join(b.describe() for b in breaks)}): " + ", ".join(words)
-    return Reason("segments", WEAK, text, "the frame map and the editors' timelines map each segment of known offset; `pairs` hold on the line's segment")
+    return Reason(
+        "segments",
+        WEAK,
+        text,
+        "the frame map and the editors' timelines map each segment of known offset; `pairs` hold on the line's segment",
+    )

@@ -268,7 +268,10 @@ def _segmented(name: str, inputs: CameraInput, result: CameraResult, prepared: T
 
 def _track_rows(track: Track, rows: np.ndarray) -> Track:
     """The track's rows ``rows`` (a boolean mask)."""
-    return Track(*(None if c is None else np.asarray(c)[rows] for c in (track.frame, track.x, track.y, track.time_s, track.w, track.h, track.score)))
+    def kept(column: np.ndarray | None) -> np.ndarray | None:
+        return None if column is None else np.asarray(column)[rows]
+
+    return Track(track.frame[rows], track.x[rows], track.y[rows], kept(track.time_s), kept(track.w), kept(track.h), kept(track.score))
 
 
 def _segment_line(name: str, inputs: CameraInput, votes: Votes, seg: Segment, prepared: Trajectory, params: SyncParams, radius_px: float) -> CameraLine | None:

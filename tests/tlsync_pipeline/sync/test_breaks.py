@@ -2,7 +2,12 @@
 
 import numpy as np
 
-from tlsync_pipeline.sync.breaks import break_reasons, merged, segment_reasons, vote_break
+from tlsync_pipeline.sync.breaks import (
+    break_reasons,
+    merged,
+    segment_reasons,
+    vote_break,
+)
 from tlsync_pipeline.sync.clock import FRAME, CameraClock, Segment
 from tlsync_pipeline.sync.segments import END, fit_segments
 from tlsync_pipeline.sync.status import AMBIGUOUS
@@ -41,7 +46,17 @@ def test_steady_votes_and_a_second_pass_are_not_a_drop():
     assert vote_break(frame, clock, sample, ALPHA, BETA, DELTA) is None
     # the path passed twice: the same frames vote for a sample 80 later too (a periodic path), not a break
     again = sample + 80 / ALPHA
-    assert vote_break(np.concatenate([frame, frame]), np.concatenate([clock, clock]), np.concatenate([sample, again]), ALPHA, BETA, DELTA) is None
+    assert (
+        vote_break(
+            np.concatenate([frame, frame]),
+            np.concatenate([clock, clock]),
+            np.concatenate([sample, again]),
+            ALPHA,
+            BETA,
+            DELTA,
+        )
+        is None
+    )
 
 
 def _reasons(breaks, tracked, shift=None, at=None):
@@ -85,7 +100,9 @@ def _dists(frame):
 def test_segments_measure_a_drop_in_whole_frames():
     frame, clock, sample = _votes(np.arange(100, 300), shift=25, at=220)
     tracked = np.arange(100, 300)
-    segments = fit_segments((Break("drop", 220, 25.0),), tracked, frame, clock, sample, _dists(frame), ALPHA, BETA, DELTA, vfr=False)
+    segments = fit_segments(
+        (Break("drop", 220, 25.0),), tracked, frame, clock, sample, _dists(frame), ALPHA, BETA, DELTA, vfr=False
+    )
     assert [(s.start, s.source, s.shift) for s in segments] == [(0, "line", 0.0), (220, "votes", 25.0)]
     assert segments[1].stop == END and segments[0].frames == 120
 
@@ -106,11 +123,17 @@ def test_segments_the_target_never_visits_follow_the_container_or_stay_unknown()
 
 
 def test_a_segmented_clock_maps_known_segments_and_nothing_else():
-    clock = CameraClock(FRAME, 25.0, segments=(Segment(0, 100, 25.0, "votes"), Segment(100, 125, None, "frozen"), Segment(125, END, 0.0, "line")))
+    clock = CameraClock(
+        FRAME,
+        25.0,
+        segments=(Segment(0, 100, 25.0, "votes"), Segment(100, 125, None, "frozen"), Segment(125, END, 0.0, "line")),
+    )
     assert np.allclose(clock.clock_at([0, 99, 125, 200]), [25, 124, 125, 200])
     assert np.isnan(clock.clock_at([110])).all()
     assert np.allclose(clock.frames_at([25, 124, 125, 200]), [0, 99, 125, 200])
-    assert np.allclose(clock.frames_at([10.0]), [-15.0])  # the first segment reaches back (the frame map drops frames < 0)
+    assert np.allclose(
+        clock.frames_at([10.0]), [-15.0]
+    )  # the first segment reaches back (the frame map drops frames < 0)
     dropped = CameraClock(FRAME, 25.0, segments=(Segment(0, 100, 0.0, "line"), Segment(100, END, 25.0, "votes")))
     assert np.allclose(dropped.frames_at([99.0, 125.0]), [99.0, 100.0])
     assert np.isnan(dropped.frames_at([110.0])).all()  # an instant of the dropped frames: no frame shows it
@@ -119,8 +142,17 @@ def test_a_segmented_clock_maps_known_segments_and_nothing_else():
 def test_one_segment_visited_and_the_rest_unknown_is_weak_with_segments_named():
     segments = (Segment(0, 50, None, "unknown", 0), Segment(50, END, 0.0, "line", 200))
     frame, clock, sample = _votes(np.arange(100, 300))
-    reasons = segment_reasons((Break("drop", 50, 3.0),), segments, np.arange(100, 300), frame, clock, sample, ALPHA, BETA, DELTA)
-    assert [r.code for r in reasons] == ["segments"] and "frames 0-49: unknown (not seen by the target)" in reasons[0].text
+    reasons = segment_reasons(
+        (Break("drop", 50, 3.0),), segments, np.arange(100, 300), frame, clock, sample, ALPHA, BETA, DELTA
+    )
+    assert [r.code for r in reasons] == ["segments"] and "frames 0-49: unknown (not seen by the target)" in reasons[
+        0
+    ].text
     lost = (Segment(0, 50, None, "unknown", 30), Segment(50, END, 0.0, "line", 200))
-    codes = [r.code for r in segment_reasons((Break("drop", 50, 3.0),), lost, np.arange(100, 300), frame, clock, sample, ALPHA, BETA, DELTA)]
+    codes = [
+        r.code
+        for r in segment_reasons(
+            (Break("drop", 50, 3.0),), lost, np.arange(100, 300), frame, clock, sample, ALPHA, BETA, DELTA
+        )
+    ]
     assert codes == ["segments", "clock_break"]
