@@ -18,6 +18,7 @@ import pytest
 
 from data_fixtures.breaks import BreakEdit, edit_camera, pair_errors, video_times
 from data_fixtures.raw_project import SMALL, make_raw_project
+from tlsync_pipeline.cli.json_output import camera_statuses
 from tlsync_pipeline.pipeline.engine import run_graph
 from tlsync_pipeline.pipeline.graph import build_graph
 from tlsync_pipeline.pipeline.project import load_project
@@ -42,8 +43,10 @@ def _run(raw, tmp_path, edit):
     shutil.copytree(raw, folder)
     sources = {name: np.arange(n, dtype=np.float64) for name, n in COUNTS.items()}
     sources["cam1"] = edit_camera(folder, "cam1", edit, 25.0)
-    summary = run_graph(build_graph(load_project(folder / "project.toml"), folder / "work", Options(progress=False)))
+    graph = build_graph(load_project(folder / "project.toml"), folder / "work", Options(progress=False))
+    summary = run_graph(graph)
     assert not summary.failed
+    assert camera_statuses(graph, True)["cam1"]["segments"], "tlsync status --json carries the segments"
     return folder / "work", read_timeline(folder / "work" / "timeline.json"), sources
 
 
