@@ -1,19 +1,22 @@
-"""Breaks in a camera's recording against its fitted line: harmless, or a reason the camera is not synchronized.
+"""Breaks in a camera's recording: found in the votes, identified across, and judged against the camera's line.
 
 A camera's line holds from its first frame to its last only if its frames
 follow one steady clock. The track stage lists where they may not
 (trackers/breaks.py: the container's gaps and repeats, frozen pictures);
 ``vote_break`` finds a drop that leaves no trace there: the target's votes
 fall on two parallel lines, one before a frame and one after it, the path
-picking up in the log where it left off. ``break_reasons`` judges each
-break against the line:
+picking up in the log where it left off. ``identify_in_segments``
+identifies the target across the breaks; the camera is then fitted as
+segments (sync/segments.py, sync/synchronize.py). ``segment_reasons`` says
+what that gives the camera:
 
-- the target's frames on both sides of it follow the line: the break did
-  not move the clock (a freeze that replaced frames), nothing to say;
-- otherwise the frames on one side are on another line, or on none the
-  target shows (it never visits that side): one offset cannot map the
-  camera, and the camera is refused (``clock_break``, AMBIGUOUS) with the
-  break named: kind, frame, size.
+- segments: weak (``segments``), each named with its offset or as unknown;
+  refused (``clock_break``, AMBIGUOUS) when a segment the target visits
+  agrees on no offset;
+- no segment's offset measured (``break_reasons``): nothing to say when the
+  target's frames on both sides of every break follow the line (a freeze
+  that replaced frames); otherwise refused with the break named: kind,
+  frame, size.
 
 Frames are 0-based frame indices; clock values are the camera clock's
 (sync/clock.py), in frames.
