@@ -150,8 +150,10 @@ FPS_TOLERANCE = 5e-4  # the fps key and the video's container may differ by this
 
 
 def _with_container_fps(line: CameraLine, fps: float | None, container: float | None) -> CameraLine:
-    """The camera's line with a weak reason when its fps key differs from its video's container rate."""
-    if fps is None or container is None or abs(fps / container - 1.0) <= FPS_TOLERANCE:
+    """The camera's line with a weak reason when its fps key differs from its video's container rate (not when the
+    container's times jump: its average rate then counts the gap, and the breaks say so)."""
+    jumps = any(b.kind in ("gap", "repeat") for b in line.breaks or ())
+    if fps is None or container is None or jumps or abs(fps / container - 1.0) <= FPS_TOLERANCE:
         return line
     reason = Reason(
         "fps_container",
