@@ -19,8 +19,9 @@ from pathlib import Path
 import numpy as np
 from scipy.interpolate import make_interp_spline
 
+from tlsync_pipeline.csvtable import Table, cell_number, concatenate, describe_cell
 from tlsync_pipeline.errors import InputError
-from tlsync_pipeline.inputs import quote, read_text_file
+from tlsync_pipeline.inputs import quote
 
 UP = np.array([0.0, 0.0, 1.0])  # the world's up axis: trajectories are local ENU metres
 GAP_SAMPLES = 1.5  # consecutive samples further apart than this (grid units) are a gap, never bridged
@@ -140,25 +141,54 @@ def lowered(trajectory: Trajectory, metres: float) -> Trajectory:
 
 
 def read_trajectory(path: str | Path) -> Trajectory:
-    """Read a trajectory CSV with columns ``x,y,z``, optional ``t`` (seconds) and ``sigma`` (metres, > 0)."""
-    path = Path(path)
-    text = read_text_file(path, what="trajectory CSV")
+    """Read a trajectory CSV with columns ``x,y,z``, optional ``t`` (seconds) and ``sigma`` (metres, > 0).
+
+    Read in chunks into arrays (tlsync_pipeline.csvtable): a UTF-8 byte-order
+    mark is skipped, ``;`` tables may write decimal commas (Excel).
+    """
+    with Table(path, "trajectory CSV") as table:
+        path, header = table.path, table.names
+        if not table.header.strip():
+            raise InputError(f"{path}: empty file; expected a header 'x,y,z' or 't,x,y,z'")
+        if {"lat", "lon"} <= set(header):
+            raise InputError(f"{path}:{table.header_no}: this is a geodetic log (lat/lon): convert it to local metres with `tlsync ingest-log`")
+        missing = [c for c in ("x", "y", "z") if c not in header]
+        if missing:
+            raise InputError(f"{path}:{table.header_no}: header {quote(table.delimiter.join(header))} lacks column(s) {', '.join(missing)}; expected x,y,z with optional t")
+        wanted = (["t"] if "t" in header else []) + ["x", "y", "z"] + (["sigma"] if "sigma" in header else [])
+        index = [header.index(c) for c in wanted]
+        parts = []
+        for values, lines in table.chunks(index, lambda rows, first: _parse_rows(path, rows, first, table.delimiter, header, wanted, index)):
+            if "sigma" in wanted and (values[:, -1] <= 0).any():
+                k = int(np.argmax(values[:, -1] <= 0))
+                raise InputError(f"{path}:{lines[k]}: column 'sigma': {values[k, -1]:g} m; a sigma must be positive")
+            parts.append((values, lines))
+    data, lines = concatenate(parts, len(wanted))
+    del parts
+    if len(data) < 2:
+        raise InputError(f"{path}: the trajectory has {len(data)} sample(s); at least 2 are needed")
+    sigma = data[:, -1].copy() if "sigma" in header else None
+    if "t" not in header:
+        return Trajectory(np.arange(len(data), dtype=np.float64), data[:, :3].copy(), sigma=sigma)
+    t = data[:, 0].copy()
+    step = np.diff(t)
+    bad = np.flatnonzero(step <= 0)
+    if len(bad):
+        k = bad[0]
+        what = "repeats" if step[k] == 0 else "goes backwards"
+        raise InputError(f"{path}:{lines[k + 1]}: time {t[k + 1]:g} s {what} (previous line {lines[k]}: {t[k]:g} s); times must increase")
+    return trajectory_from_times(t, data[:, 1:4].copy(), sigma=sigma)
+
+
+def _parse_rows(path: Path, rows: list[str], first: int, delimiter: str, header: list[str], wanted: list[str],
+                index: list[int]) -> tuple[np.ndarray, np.ndarray]:
+    """The trajectory rows a chunk's lines hold, line by line (blank lines skipped), and their line numbers; the first bad one an InputError."""
+    values, lines = [], []
     try:
-        rows = list(csv.reader(text.splitlines()))
+        cells_of = list(csv.reader(rows, delimiter=delimiter))
     except csv.Error as exc:
         raise InputError(f"{path}: cannot read as CSV: {exc}") from None
-    if not rows or not any(c.strip() for c in rows[0]):
-        raise InputError(f"{path}: empty file; expected a header 'x,y,z' or 't,x,y,z'")
-    header = [c.strip() for c in rows[0]]
-    if {"lat", "lon"} <= set(header):
-        raise InputError(f"{path}:1: this is a geodetic log (lat/lon): convert it to local metres with `tlsync ingest-log`")
-    missing = [c for c in ("x", "y", "z") if c not in header]
-    if missing:
-        raise InputError(f"{path}:1: header {quote(','.join(header))} lacks column(s) {', '.join(missing)}; expected x,y,z with optional t")
-    wanted = (["t"] if "t" in header else []) + ["x", "y", "z"] + (["sigma"] if "sigma" in header else [])
-    index = [header.index(c) for c in wanted]
-    values, lines = [], []
-    for line_no, row in enumerate(rows[1:], start=2):
+    for line_no, row in enumerate(cells_of, start=first):
         if not row or all(not c.strip() for c in row):
             continue
         if len(row) != len(header):
@@ -166,30 +196,17 @@ def read_trajectory(path: str | Path) -> Trajectory:
         record = []
         for col, i in zip(wanted, index):
             try:
-                v = float(row[i])
+                v = cell_number(row[i], delimiter)
             except ValueError:
-                raise InputError(f"{path}:{line_no}: column '{col}': not a number: {quote(row[i])}") from None
+                raise InputError(f"{path}:{line_no}: column '{col}': not a number ({describe_cell(row[i])})") from None
             if not math.isfinite(v):
-                raise InputError(f"{path}:{line_no}: column '{col}': {row[i]} is not a finite number")
+                raise InputError(f"{path}:{line_no}: column '{col}': not a finite number ({describe_cell(row[i])})")
             if col == "sigma" and v <= 0:
-                raise InputError(f"{path}:{line_no}: column 'sigma': {row[i]} m; a sigma must be positive")
+                raise InputError(f"{path}:{line_no}: column 'sigma': {v:g} m; a sigma must be positive")
             record.append(v)
         values.append(record)
         lines.append(line_no)
-    if len(values) < 2:
-        raise InputError(f"{path}: the trajectory has {len(values)} sample(s); at least 2 are needed")
-    data = np.asarray(values)
-    sigma = data[:, -1].copy() if "sigma" in header else None
-    if "t" not in header:
-        return Trajectory(np.arange(len(data), dtype=np.float64), data[:, :3], sigma=sigma)
-    t = data[:, 0]
-    step = np.diff(t)
-    bad = np.flatnonzero(step <= 0)
-    if len(bad):
-        k = bad[0]
-        what = "repeats" if step[k] == 0 else "goes backwards"
-        raise InputError(f"{path}:{lines[k + 1]}: time {t[k + 1]:g} s {what} (previous line {lines[k]}: {t[k]:g} s); times must increase")
-    return trajectory_from_times(t, data[:, 1:4], sigma=sigma)
+    return np.asarray(values, dtype=np.float64).reshape(-1, len(wanted)), np.asarray(lines, dtype=np.int64)
 
 
 def write_trajectory(trajectory: Trajectory, path: str | Path) -> None:
