@@ -19,6 +19,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from calibration.choices import RANSAC_PX
 from calibration.errors import CalibrationInputError, read_text
 from calibration.intrinsics import Pattern
 from calibration.lens import project_points, undistort_pixels
@@ -132,7 +133,7 @@ def pose_from_points(
     K: np.ndarray,
     dist: np.ndarray,
     dist_model: str = "opencv",
-    ransac_px: float = 8.0,
+    ransac_px: float = RANSAC_PX,
     source: str = "ground control points",
 ) -> Pose:
     """World -> camera pose from pixel (N, 2) <-> world (N, 3, metres) pairs.

@@ -33,12 +33,11 @@ import numpy as np
 from tqdm import tqdm
 
 from calibration.camera import Camera
+from calibration.choices import MAX_FRAMES, MAX_VIEW_ERROR, MODEL_LENS, MODELS, parse_corners
 from calibration.errors import CalibrationInputError, PatternMismatch
 from calibration.lens import project_points
 
 # Calibration model -> the lens model (calibration.lens) of the cameras it makes.
-MODEL_LENS = {"standard": "opencv", "rational": "opencv", "fisheye": "fisheye"}
-MODELS = tuple(MODEL_LENS)
 DETECT_SIZE = 720  # about the long side (px) of the copy the board is first looked for in
 CLASSIC_SIZE = 1280  # about the long side (px) of the copy for the classic detector
 EXHAUSTIVE_SIZE = 2000  # at most the long side (px) of the copy for the last, exhaustive try
@@ -73,18 +72,6 @@ class Pattern:
         """(cols * rows, 3) inner-corner coordinates on the board (metres), row by row: corner (i, j) at (i, j, 0) * square."""
         grid = np.mgrid[0 : self.cols, 0 : self.rows].T.reshape(-1, 2) * self.square
         return np.column_stack([grid, np.zeros(len(grid))])
-
-
-def parse_corners(text: str) -> tuple[int, int]:
-    """``"7x6"`` -> (7, 6): inner corners, columns x rows; CalibrationInputError when not a board."""
-    parts = str(text).lower().replace(" ", "").split("x")
-    try:
-        cols, rows = (int(p) for p in parts)
-    except ValueError:
-        raise CalibrationInputError(f"expected inner corners as COLSxROWS (e.g. 7x6 for a board of 8x7 squares), got {text!r}") from None
-    if cols < 2 or rows < 2 or cols * rows < 6:
-        raise CalibrationInputError(f"a checkerboard needs at least 2x3 inner corners, got {text!r}")
-    return cols, rows
 
 
 def parse_pattern(text: str, square: float, source: str = "pattern") -> Pattern:
@@ -331,7 +318,7 @@ def calibrate_images(
     model: str = "standard",
     workers: int | None = None,
     progress: bool = False,
-    max_view_error: float = 1.0,
+    max_view_error: float = MAX_VIEW_ERROR,
     detect_size: int = DETECT_SIZE,
     label: str | None = None,
 ) -> Intrinsics:
@@ -356,10 +343,10 @@ def calibrate_video(
     path: str | Path,
     pattern: Pattern,
     model: str = "standard",
-    max_frames: int = 60,
+    max_frames: int = MAX_FRAMES,
     workers: int | None = None,
     progress: bool = False,
-    max_view_error: float = 1.0,
+    max_view_error: float = MAX_VIEW_ERROR,
     detect_size: int = DETECT_SIZE,
 ) -> Intrinsics:
     """Calibrate from a video of a moving board: ``max_frames`` frames sampled evenly, blurred and duplicate ones skipped."""
@@ -368,7 +355,7 @@ def calibrate_video(
     return calibrate_detections(detections, pattern, model, str(path), skipped, max_view_error, detect_size)
 
 
-def sample_video_frames(path: str | Path, max_frames: int = 60, progress: bool = False, blur_ratio: float = 0.4) -> tuple[list[tuple[str, np.ndarray]], dict[str, str]]:
+def sample_video_frames(path: str | Path, max_frames: int = MAX_FRAMES, progress: bool = False, blur_ratio: float = 0.4) -> tuple[list[tuple[str, np.ndarray]], dict[str, str]]:
     """Evenly sampled grey frames of a video as ("<file>@<frame>", image), and the skipped ones with the reason.
 
     A frame is "blurred" when its variance of the Laplacian is below ``blur_ratio``
@@ -425,7 +412,7 @@ def calibrate_detections(
     model: str = "standard",
     label: str = "images",
     rejected: dict[str, str] | None = None,
-    max_view_error: float = 1.0,
+    max_view_error: float = MAX_VIEW_ERROR,
     detect_size: int = DETECT_SIZE,
 ) -> Intrinsics:
     """Calibrate from detections: checks sizes, drops duplicates and outlier views, reports why each image was rejected."""

@@ -17,7 +17,6 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
-from scipy.interpolate import make_interp_spline
 
 from tlsync_pipeline.csvtable import Table, cell_number, concatenate, describe_cell
 from tlsync_pipeline.errors import InputError
@@ -96,6 +95,8 @@ class PiecewiseTrajectory:
     """
 
     def __init__(self, trajectory: Trajectory):
+        from scipy.interpolate import make_interp_spline  # loaded by the stages that interpolate, not for every command
+
         sample, xyz = trajectory.sample, trajectory.xyz
         cuts = np.flatnonzero(np.diff(sample) > GAP_SAMPLES) + 1
         self.sample, self.sigmas = sample, trajectory.sigma

@@ -26,12 +26,12 @@ import av
 import cv2
 import numpy as np
 
+from tlsync_pipeline.outputs.choices import PROXY_POLICIES
 from trackers.video import iter_frames, iter_windows, merge_windows, presentation_times, probe_video
 
 PROXY_HEIGHT = 360
 BROWSER_CODECS = frozenset({"h264", "vp8", "vp9", "av1"})
 BROWSER_CONTAINERS = frozenset({".mp4", ".m4v", ".mov", ".webm"})
-POLICIES = ("auto", "always", "never")
 _TIME_BASE = Fraction(1, 90000)
 
 
@@ -42,8 +42,8 @@ def browser_plays(codec: str, suffix: str) -> bool:
 
 def needs_proxy(codec: str, suffix: str, policy: str = "auto") -> bool:
     """Whether to make a proxy under ``policy`` (auto: only when the browser cannot play the file)."""
-    if policy not in POLICIES:
-        raise ValueError(f"proxy policy {policy!r}: expected one of {', '.join(POLICIES)}")
+    if policy not in PROXY_POLICIES:
+        raise ValueError(f"proxy policy {policy!r}: expected one of {', '.join(PROXY_POLICIES)}")
     return policy == "always" or (policy == "auto" and not browser_plays(codec, suffix))
 
 

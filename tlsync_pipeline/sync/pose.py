@@ -87,7 +87,6 @@ AMBIGUOUS = 0.85  # a distinct offset scoring this share of the best's score (ms
 TIGHT = 3.0  # median residuals of the best fit within which frames count for the ambiguity test
 DISTINCT_S = 1.0  # offsets further apart than this (seconds) are distinct
 GCP_AGREE = 3.0  # a pose agrees with the GCPs when their median error is within this many of their sigmas
-GCP_SIGMA_M = 1.0  # default survey quality of GCPs (metres per coordinate): read off a web map or walked with a phone
 MAX_ROTATION_STD_DEG = 3.0
 MAX_CENTER_STD = 0.15  # of the median distance to the target
 # An intrinsic the target determines: its posterior std below these (f: share of f; cx, cy: share of the image width; k1: absolute).
