@@ -66,6 +66,7 @@ class Table:
         self.handle = self.path.open("rb")
         self.offset = 0  # bytes of the file consumed, for messages
         self.rest = b""
+        self.size = self.path.stat().st_size
         self.line_no = 0  # 1-based number of the last line consumed
         self.cut_line: int | None = None  # the last line's number once read, when the file ends without a newline
         self.header, self.header_no = self._header()
@@ -116,8 +117,12 @@ class Table:
                 self.rest = b""
                 return "", self.line_no
 
-    def chunks(self, columns: list[int], slow: SlowParser) -> Iterator[tuple[np.ndarray, np.ndarray]]:
-        """(values float64 (n, len(columns)), 1-based line numbers int64 (n,)) of the rows after the header, chunk by chunk."""
+    def expected_rows(self) -> int:
+        """About how many lines the file holds, from the bytes a line has taken so far."""
+        return int(self.size / max(self.offset / max(self.line_no, 1), 1.0) * 1.02) + 16
+
+    def chunks(self, columns: list[int], slow: SlowParser) -> Iterator[tuple[np.ndarray, np.ndarray | range]]:
+        """(values float64 (n, len(columns)), 1-based line numbers (n,): int64 or a range) of the rows after the header, chunk by chunk."""
         width = len(self.names)
         data = self.rest
         while True:
@@ -137,7 +142,7 @@ class Table:
                 self.cut_line = self.line_no
             fast = self._fast(block, n_lines, width, columns)
             if fast is not None:
-                yield fast, np.arange(start_no, start_no + n_lines, dtype=np.int64)
+                yield fast, range(start_no, start_no + n_lines)
             else:
                 text = self._decode(block, start_offset)
                 lines = text.split("\n")
@@ -171,8 +176,36 @@ class Table:
         return selected if np.isfinite(selected).all() else None
 
 
-def concatenate(parts: list[tuple[np.ndarray, np.ndarray]], k: int) -> tuple[np.ndarray, np.ndarray]:
+class Columns:
+    """Groups of a table's columns gathered chunk by chunk into arrays sized from the file (grown when short).
+
+    groups: name -> (first, last + 1) column of the chunks' values. The
+    whole table is never held twice: each chunk is copied once into place.
+    """
+
+    def __init__(self, groups: dict[str, tuple[int, int]], rows: int):
+        self.groups = groups
+        self.arrays = {name: np.empty((rows, hi - lo)) for name, (lo, hi) in groups.items()}
+        self.n = 0
+
+    def add(self, values: np.ndarray) -> None:
+        """Append a chunk's rows (n, columns)."""
+        end = self.n + len(values)
+        for name, (lo, hi) in self.groups.items():
+            array = self.arrays[name]
+            if end > len(array):
+                array = self.arrays[name] = np.resize(array, (max(end, len(array) + len(array) // 4), hi - lo))
+            array[self.n:end] = values[:, lo:hi]
+        self.n = end
+
+    def get(self, name: str) -> np.ndarray:
+        """The group's (N, width) array, trimmed to the rows added."""
+        array = self.arrays[name]
+        return array[: self.n] if self.n > 0.9 * len(array) else array[: self.n].copy()
+
+
+def concatenate(parts: list[tuple[np.ndarray, np.ndarray | range]], k: int) -> tuple[np.ndarray, np.ndarray]:
     """The chunks' (values (N, k), line numbers (N,)) as two arrays."""
     if not parts:
         return np.empty((0, k)), np.empty(0, np.int64)
-    return np.concatenate([v.reshape(-1, k) for v, _ in parts]), np.concatenate([n for _, n in parts])
+    return np.concatenate([v.reshape(-1, k) for v, _ in parts]), np.concatenate([np.asarray(n, dtype=np.int64) for _, n in parts])

@@ -18,11 +18,12 @@ from pathlib import Path
 
 import numpy as np
 
-from tlsync_pipeline.csvtable import Table, cell_number, concatenate, describe_cell
+from tlsync_pipeline.csvtable import Columns, Table, cell_number, describe_cell
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.inputs import quote
 
 UP = np.array([0.0, 0.0, 1.0])  # the world's up axis: trajectories are local ENU metres
+GRID_BLOCK = 1 << 20  # times handled at once by grid_rate
 GAP_SAMPLES = 1.5  # consecutive samples further apart than this (grid units) are a gap, never bridged
 
 
@@ -69,11 +70,13 @@ def grid_rate(t: np.ndarray) -> float:
     short = (whole >= 1) & (whole <= 10) & (np.abs(step * rate - whole) < 0.25)
     if short.any():
         rate = float(whole[short].sum() / step[short].sum())
-    elapsed = t - t[0]
-    index = np.round(elapsed * rate)
-    if np.abs(elapsed * rate - index).max() < 0.1:
-        rate = float(index @ elapsed / (elapsed @ elapsed))
-    return rate
+    on_grid, ie, ee = True, 0.0, 0.0
+    for lo in range(0, len(t), GRID_BLOCK):  # in blocks: a day at 100 Hz needs no temporaries of its size
+        elapsed = t[lo:lo + GRID_BLOCK] - t[0]
+        index = np.round(elapsed * rate)
+        on_grid = on_grid and bool(np.abs(elapsed * rate - index).max() < 0.1)
+        ie, ee = ie + float(index @ elapsed), ee + float(elapsed @ elapsed)
+    return ie / ee if on_grid else rate
 
 
 def trajectory_from_times(t: np.ndarray, xyz: np.ndarray, rate: float | None = None, sigma: np.ndarray | None = None) -> Trajectory:
@@ -158,27 +161,33 @@ def read_trajectory(path: str | Path) -> Trajectory:
             raise InputError(f"{path}:{table.header_no}: header {quote(table.delimiter.join(header))} lacks column(s) {', '.join(missing)}; expected x,y,z with optional t")
         wanted = (["t"] if "t" in header else []) + ["x", "y", "z"] + (["sigma"] if "sigma" in header else [])
         index = [header.index(c) for c in wanted]
-        parts = []
+        groups = {"xyz": (wanted.index("x"), wanted.index("x") + 3), **({"t": (0, 1)} if "t" in wanted else {}),
+                  **({"sigma": (len(wanted) - 1, len(wanted))} if "sigma" in wanted else {})}
+        rows: Columns | None = None
+        numbers: list[np.ndarray | range] = []
         for values, lines in table.chunks(index, lambda rows, first: _parse_rows(path, rows, first, table.delimiter, header, wanted, index)):
             if "sigma" in wanted and (values[:, -1] <= 0).any():
                 k = int(np.argmax(values[:, -1] <= 0))
                 raise InputError(f"{path}:{lines[k]}: column 'sigma': {values[k, -1]:g} m; a sigma must be positive")
-            parts.append((values, lines))
-    data, lines = concatenate(parts, len(wanted))
-    del parts
-    if len(data) < 2:
-        raise InputError(f"{path}: the trajectory has {len(data)} sample(s); at least 2 are needed")
-    sigma = data[:, -1].copy() if "sigma" in header else None
-    if "t" not in header:
-        return Trajectory(np.arange(len(data), dtype=np.float64), data[:, :3].copy(), sigma=sigma)
-    t = data[:, 0].copy()
+            rows = rows or Columns(groups, table.expected_rows())
+            rows.add(values)
+            numbers.append(lines)
+    if rows is None or rows.n < 2:
+        raise InputError(f"{path}: the trajectory has {0 if rows is None else rows.n} sample(s); at least 2 are needed")
+    xyz = rows.get("xyz")
+    sigma = rows.get("sigma")[:, 0] if "sigma" in groups else None
+    if "t" not in groups:
+        return Trajectory(np.arange(len(xyz), dtype=np.float64), xyz, sigma=sigma)
+    t = rows.get("t")[:, 0]
     step = np.diff(t)
     bad = np.flatnonzero(step <= 0)
     if len(bad):
         k = bad[0]
+        line = np.concatenate([np.asarray(n, dtype=np.int64) for n in numbers])
         what = "repeats" if step[k] == 0 else "goes backwards"
-        raise InputError(f"{path}:{lines[k + 1]}: time {t[k + 1]:g} s {what} (previous line {lines[k]}: {t[k]:g} s); times must increase")
-    return trajectory_from_times(t, data[:, 1:4].copy(), sigma=sigma)
+        raise InputError(f"{path}:{line[k + 1]}: time {t[k + 1]:g} s {what} (previous line {line[k]}: {t[k]:g} s); times must increase")
+    del rows, step
+    return trajectory_from_times(t, xyz, sigma=sigma)
 
 
 def _parse_rows(path: Path, rows: list[str], first: int, delimiter: str, header: list[str], wanted: list[str],

@@ -110,7 +110,7 @@ def read_csv_log(path: str | Path, fmt: str = "csv") -> LogRecords:
                         ignored=state.comments, warnings=warnings)
 
 
-def _check_geodetic_rows(path: Path, values: np.ndarray, numbers: np.ndarray) -> None:
+def _check_geodetic_rows(path: Path, values: np.ndarray, numbers: np.ndarray | range) -> None:
     """check_geodetic on the first impossible fix of (time, lat, lon, alt) rows, if any."""
     lat, lon, alt = values[:, 1], values[:, 2], values[:, 3]
     bad = (np.abs(lat) > 90.0) | (np.abs(lon) > 180.0) | (alt < -12_000.0) | (alt > 100_000.0)
