@@ -167,7 +167,7 @@ class Table:
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("error")
-                values = np.fromstring(block.rstrip(b"\r\n").replace(b"\n", b","), sep=",")  # type: ignore[call-overload]
+                values = np.fromstring(block.rstrip(b"\r\n").replace(b"\n", b","), sep=",")
         except (ValueError, DeprecationWarning):
             return None
         if len(values) != n_lines * width:

@@ -24,6 +24,7 @@ from tlsync_pipeline.inputs import quote
 
 UP = np.array([0.0, 0.0, 1.0])  # the world's up axis: trajectories are local ENU metres
 GRID_BLOCK = 1 << 20  # times handled at once by grid_rate
+MIN_RUN = 4  # samples a run needs to be interpolated (a cubic spline)
 GAP_SAMPLES = 1.5  # consecutive samples further apart than this (grid units) are a gap, never bridged
 
 
@@ -94,7 +95,7 @@ class PiecewiseTrajectory:
     """The trajectory model: C2 interpolation (cubic spline) over each contiguous run of grid samples.
 
     Runs are separated by gaps of more than GAP_SAMPLES; runs of fewer than
-    4 samples are left out. Used by the fit (sync/refine.py) and the pictures.
+    MIN_RUN samples are left out. Used by the fit (sync/refine.py) and the pictures.
     """
 
     def __init__(self, trajectory: Trajectory):
@@ -105,7 +106,7 @@ class PiecewiseTrajectory:
         self.sample, self.sigmas = sample, trajectory.sigma
         self.runs = []
         for idx in np.split(np.arange(len(sample)), cuts):
-            if len(idx) >= 4:
+            if len(idx) >= MIN_RUN:
                 self.runs.append((sample[idx[0]], sample[idx[-1]], make_interp_spline(sample[idx], xyz[idx], k=3, axis=0)))
         self.starts = np.array([r[0] for r in self.runs])
         self.ends = np.array([r[1] for r in self.runs])
@@ -137,6 +138,15 @@ class PiecewiseTrajectory:
         inside = run >= 0
         out[inside] = self(s[inside], run[inside])
         return out
+
+
+def stranded(trajectory: Trajectory) -> int:
+    """The most samples in one stretch of consecutive runs shorter than MIN_RUN (the interpolation leaves them out):
+    a part of the log sampled at another rate than its grid's, or broken by dropouts."""
+    lengths = np.diff(np.r_[0, np.flatnonzero(np.diff(trajectory.sample) > GAP_SAMPLES) + 1, len(trajectory)])
+    short = np.where(lengths < MIN_RUN, lengths, 0)
+    streak = np.cumsum(short) - np.maximum.accumulate(np.where(short == 0, np.cumsum(short), 0))
+    return int(streak.max(initial=0))
 
 
 def lowered(trajectory: Trajectory, metres: float) -> Trajectory:

@@ -46,7 +46,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
-import cv2
 import numpy as np
 from scipy.spatial import cKDTree
 
@@ -500,6 +499,8 @@ class _Scorer:
 
     def camera_at(self, camera: Camera, beta: float, threshold: float) -> Camera | None:
         """The camera of the pose fitted at ``beta`` (with K and R, t from the projection matrix under DLT), or None."""
+        import cv2
+
         xyz, uv = self.pairs(beta)
         if len(xyz) < MIN_PAIRS:
             return None
@@ -517,6 +518,8 @@ class _Scorer:
 
 def _pnp(xyz: np.ndarray, uv: np.ndarray, K: np.ndarray):
     """SQPnP's pose (rvec, tvec) of pairs, or None (no solution, or points too close together: OpenCV asserts)."""
+    import cv2
+
     try:
         ok, rvec, tvec = cv2.solvePnP(xyz, uv, K, None, flags=cv2.SOLVEPNP_SQPNP)
     except cv2.error:
@@ -526,6 +529,8 @@ def _pnp(xyz: np.ndarray, uv: np.ndarray, K: np.ndarray):
 
 def _errors(model, xyz: np.ndarray, uv: np.ndarray, K: np.ndarray, dlt: bool) -> np.ndarray:
     """Pixel error of each pair under a pose (rvec, tvec) or a projection matrix; inf behind the camera."""
+    import cv2
+
     if dlt:
         h = xyz @ model[:, :3].T + model[:, 3]
     else:
@@ -565,6 +570,8 @@ def _dlt(xyz: np.ndarray, uv: np.ndarray) -> np.ndarray | None:
 
 def _decompose(P: np.ndarray, image_size: tuple[int, int]) -> tuple[np.ndarray | None, np.ndarray, np.ndarray]:
     """K (square pixels, no skew), R, t of a projection matrix; K None when it is not a camera's (negative focal, centre far outside)."""
+    import cv2
+
     K, R, centre = cv2.decomposeProjectionMatrix(P)[:3]
     signs = np.diag(np.sign(np.diag(K)))
     K, R = K @ signs, signs @ R
