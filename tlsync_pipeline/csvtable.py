@@ -4,15 +4,17 @@ A table is a header line naming its columns, then rows of numbers. The
 delimiter is the first of ``,``, ``;`` or tab found in the header; with ``;``
 a decimal comma is read as a point (a CSV saved by Excel in a European
 locale). A UTF-8 byte-order mark is skipped. Rows are read CHUNK_BYTES at a
-time: a chunk whose every line has the header's field count and only
-finite numbers is parsed by NumPy at once (``np.fromstring``, about 0.7 s of
-CPU a million rows of four numbers); any other chunk (blank or comment
-lines, quotes, text, a wrong field count, NaN or infinity) goes line by line
+time: a chunk whose every line has the header's field count and finite
+numbers in the columns read is parsed by NumPy at once (``np.loadtxt``'s C
+parser, about 0.2 s of CPU a million rows of four numbers); any other chunk
+(blank or comment lines, quotes, text, a wrong field count, NaN or
+infinity) goes line by line
 through the caller's own parser, so messages and leniency are the caller's.
 """
 
 from __future__ import annotations
 
+import io
 import warnings
 from collections.abc import Callable, Iterator
 from pathlib import Path
@@ -153,26 +155,20 @@ class Table:
                 return
 
     def _fast(self, block: bytes, n_lines: int, width: int, columns: list[int]) -> np.ndarray | None:
-        """The chunk's values when every line is ``width`` finite numbers, else None."""
+        """The chunk's values in ``columns`` when every line has ``width`` fields and those are finite numbers, else None."""
         if self.delimiter == ";":
             block = block.replace(b",", b".").replace(b";", b",")
         elif self.delimiter == "\t":
             block = block.replace(b"\t", b",")
-        if b'"' in block or block.count(b",") != n_lines * (width - 1):
-            return None
-        raw = np.frombuffer(block, np.uint8)
-        ends = np.flatnonzero(raw == 10)
-        if len(ends) and np.any(np.diff(np.searchsorted(np.flatnonzero(raw == 44), ends), prepend=0) != width - 1):
-            return None  # the commas add up but some line holds more, another fewer
-        try:
+        try:  # every row must have ``width`` numbers (loadtxt refuses a changing count; blank lines make the count short)
             with warnings.catch_warnings():
                 warnings.simplefilter("error")
-                values = np.fromstring(block.rstrip(b"\r\n").replace(b"\n", b","), sep=",")
-        except (ValueError, DeprecationWarning):
+                values = np.loadtxt(io.BytesIO(block), delimiter=",", comments=None, ndmin=2, dtype=np.float64)
+        except (ValueError, UserWarning):
             return None
-        if len(values) != n_lines * width:
+        if values.shape != (n_lines, width):
             return None
-        selected = values.reshape(n_lines, width)[:, columns]
+        selected = values[:, columns]
         return selected if np.isfinite(selected).all() else None
 
 
