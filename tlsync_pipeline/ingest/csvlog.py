@@ -27,6 +27,7 @@ from tlsync_pipeline.ingest.records import (
     LOCAL,
     LogRecords,
     check_geodetic,
+    check_geodetic_rows,
     make_records,
 )
 
@@ -99,7 +100,7 @@ def read_csv_log(path: str | Path, fmt: str = "csv") -> LogRecords:
             if len(present) < 4:
                 values = np.column_stack([values, np.zeros(len(values))])
             if geodetic and len(values):
-                _check_geodetic_rows(path, values, numbers)
+                check_geodetic_rows(path, values[:, 1], values[:, 2], values[:, 3], numbers)
             parts.append((values, numbers))
     data, numbers = concatenate(parts, 4)
     warnings = []
@@ -108,15 +109,6 @@ def read_csv_log(path: str | Path, fmt: str = "csv") -> LogRecords:
     frame = GEODETIC if geodetic else LOCAL
     return make_records(path, "odometry" if fmt == "odometry" else "csv", frame, data, numbers, utc=geodetic or state.iso, dropped=state.dropped,
                         ignored=state.comments, warnings=warnings)
-
-
-def _check_geodetic_rows(path: Path, values: np.ndarray, numbers: np.ndarray | range) -> None:
-    """check_geodetic on the first impossible fix of (time, lat, lon, alt) rows, if any."""
-    lat, lon, alt = values[:, 1], values[:, 2], values[:, 3]
-    bad = (np.abs(lat) > 90.0) | (np.abs(lon) > 180.0) | (alt < -12_000.0) | (alt > 100_000.0)
-    if bad.any():
-        k = int(np.argmax(bad))
-        check_geodetic(path, float(lat[k]), float(lon[k]), float(alt[k]), int(numbers[k]))
 
 
 class _Lines:
