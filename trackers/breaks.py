@@ -28,7 +28,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import cv2
 import numpy as np
 
 GAP = 1.5  # an interval between presentation times longer than this many nominal intervals is a gap
@@ -106,6 +105,9 @@ class FreezeMeter:
     """
 
     def __init__(self) -> None:
+        import cv2  # here, not at the module's top: timeline.json's reader imports Break, and start-up loads no OpenCV
+
+        self._absdiff = cv2.absdiff
         self._last: tuple[int, np.ndarray] | None = None
         self._frames: list[int] = []
         self._change: list[int] = []
@@ -115,7 +117,7 @@ class FreezeMeter:
         """One luma frame (H, W, uint8) with its 0-based index, and whether the detector found a mover in it."""
         if self._last is not None and self._last[0] == index - 1 and self._last[1].shape == gray.shape:
             self._frames.append(index)
-            self._change.append(int(cv2.absdiff(gray, self._last[1]).max()))
+            self._change.append(int(self._absdiff(gray, self._last[1]).max()))
             self._movers.append(movers)
         self._last = (index, gray)
 
