@@ -41,7 +41,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from bench._report import write_block  # noqa: E402
 from tlsync_pipeline.geodesy import Origin, geodetic_to_enu  # noqa: E402
-from tlsync_pipeline.ingest import read_log  # noqa: E402
+from tlsync_pipeline.ingest import ingest, read_log  # noqa: E402
 
 REAL = Path(os.environ.get("TLSYNC_REAL_LOGS", "/tmp/tlsync_real_logs"))
 DOC = Path(__file__).resolve().parent.parent / "docs" / "ingest.md"
@@ -294,7 +294,9 @@ def srt(path):
         if np.isfinite(ref_wall).all() and "wall clock" in ours.notes[1]:
             what += f" anchored on the whole-second dates, which are within {np.abs(matched.t - ref_wall).max():.2f} s of them (UTC{zone / 3600:+g} h removed)"
     precision = next(n for n in ours.notes if n.startswith("precision"))
-    note = f"{what}; {len(k)} matched; {precision.split(',')[0].removeprefix('precision: ')}"
+    kept = ingest(ours)[1].fixes_used
+    kept_note = "all kept by the ingest" if kept == len(ours) else f"{len(ours) - kept} dropped by the ingest"
+    note = f"{what}; {len(k)} matched, {kept_note}; {precision.split(',')[0].removeprefix('precision: ')}"
     return _compare(path.name, "srt", matched, ref_t, geo, time_note=note, counts=f"{len(ours)} / {len(ref)}")
 
 

@@ -37,6 +37,7 @@ from tlsync_pipeline.trajectory import Trajectory, grid_rate
 GAP_FACTOR = 3.0  # an interval over GAP_FACTOR x the median interval is a gap
 DEFAULT_MAX_SPEED_MPS = 60.0
 HELD_MAX_S = 1.0  # a position repeated longer than this is a target standing still, not a receiver's fix held over frames
+SPIKE_WINDOW_S = 0.1  # speeds are judged over at least this long (a receiver's update interval at 10 Hz)
 DUPLICATE = "exact duplicate"
 REPEATED_TIME = "repeated time, different position (first kept)"
 FIRST_LINES = 5  # provenance numbers kept per drop reason in the report
@@ -442,11 +443,12 @@ def order_and_dedupe(records: LogRecords) -> tuple[np.ndarray, np.ndarray, np.nd
 def reject_spikes(t: np.ndarray, xyz: np.ndarray, max_speed: float, rounding: np.ndarray | None = None) -> np.ndarray:
     """Mask of fixes kept: each fix must be reachable from the last kept one at <= max_speed (m/s).
 
-    Reachable: within max_speed x (the time between them + how long the last kept position had been held,
-    up to HELD_MAX_S) + the rounding of both (rounding: per-fix m, from the printed precision). A log written
+    Reachable: within max_speed x (the time between them + how long the earlier one's position had been held,
+    up to HELD_MAX_S; at least SPIKE_WINDOW_S) + the rounding of both (rounding: per-fix m, from the printed
+    precision). A log written
     per video frame repeats each receiver fix over several frames, then moves by a whole update in one frame
     interval; its coordinates' rounding (1.1 m steps at 5 decimals) over 20 ms would read as 100 m/s. The time
-    held is the earlier fix's, whichever way the walk goes.
+    held is the earlier fix's, whichever way the walk goes. Heights held over frames move by a whole update too.
     The walk starts at the first fix whose next two steps are both plausible
     (so a bad first fix does not condemn the rest) and runs forwards and
     backwards from there. Since the allowed distance grows with the time since
@@ -461,7 +463,7 @@ def reject_spikes(t: np.ndarray, xyz: np.ndarray, max_speed: float, rounding: np
     starts, ends = t[moved], t[np.r_[np.flatnonzero(moved)[1:] - 1, n - 1]]
     held = np.minimum(ends - starts, HELD_MAX_S)[run]  # how long each fix's position was repeated (s)
     step = np.linalg.norm(np.diff(xyz, axis=0), axis=1)
-    ok = step <= max_speed * (np.diff(t) + held[:-1]) + slack[:-1] + slack[1:]
+    ok = step <= max_speed * np.maximum(np.diff(t) + held[:-1], SPIKE_WINDOW_S) + slack[:-1] + slack[1:]
     if ok.all():
         return np.ones(n, dtype=bool)
     both = np.flatnonzero(ok[:-1] & ok[1:])
@@ -472,7 +474,7 @@ def reject_spikes(t: np.ndarray, xyz: np.ndarray, max_speed: float, rounding: np
     for order in (range(start + 1, n), range(start - 1, -1, -1)):
         last = start
         for i in order:
-            if math.dist(pts[i], pts[last]) <= max_speed * (abs(tl[i] - tl[last]) + hl[min(i, last)]) + sl[i] + sl[last]:
+            if math.dist(pts[i], pts[last]) <= max_speed * max(abs(tl[i] - tl[last]) + hl[min(i, last)], SPIKE_WINDOW_S) + sl[i] + sl[last]:
                 keep[i] = True
                 last = i
     return keep
