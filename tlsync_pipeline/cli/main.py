@@ -33,6 +33,9 @@ class TlsyncGroup(click.Group):
             return super().main(args, prog_name, complete_var, standalone_mode, **extra)
         try:
             code = super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
+        except click.exceptions.NoArgsIsHelpError as exc:  # ``tlsync`` alone: the help, as ``tlsync --help`` prints it
+            click.echo(exc.ctx.get_help() if exc.ctx is not None else exc.format_message())
+            sys.exit(0)
         except click.ClickException as exc:
             print_error(usage_error_text(exc))
             sys.exit(exc.exit_code)

@@ -167,7 +167,7 @@ class IngestReport:
             lines.append(f"heights: above {ALTITUDE_NAMES[a['reference']]} (as the {a['source']} says{offset})")
         lines += [f"read: {note}" for note in self.notes]
         if self.log_model:
-            lines.append(f"error model: {self.log_model['name']} ({self.log_model['why']}; [target] log_model overrides it)")
+            lines.append(f"log model: {self.log_model['name']} ({self.log_model['why']}; [target] log_model overrides it)")
         if self.sigma_m:
             lines.append(f"sigma: median {self.sigma_m['median']:.3f} m, 95% {self.sigma_m['p95']:.3f} m (weights for the refinement)")
         if self.gaps:
