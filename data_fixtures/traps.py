@@ -213,6 +213,18 @@ def _gap_over(root: Path, index: int) -> None:
     _write_table(_trajectory(root), header, data[keep])
 
 
+def _excel_track(root: Path, index: int) -> None:
+    """Camera ``index``'s track as a spreadsheet in a European locale saves it: a byte-order mark, ';' and decimal commas."""
+    path = _camera_file(root, index, "track")
+    text = path.read_text(encoding="utf-8").replace(",", ";").replace(".", ",")
+    path.write_text("\ufeff" + text.replace("\n", "\r\n"), encoding="utf-8")
+
+
+def _passwd_track(root: Path, index: int) -> None:
+    """A file of the system given as camera ``index``'s track (a copy of a passwd file, not the real one)."""
+    _camera_file(root, index, "track").write_text("root:x:0:0:root:/root:/bin/bash\ndaemon:x:1:1:daemon:/usr/sbin:/usr/sbin/nologin\n")
+
+
 def _ned(t, xyz):
     return t, np.column_stack([xyz[:, 1], xyz[:, 0], -xyz[:, 2]])
 
@@ -250,6 +262,8 @@ TRAPS: dict[str, Callable[[Path], None]] = {
     "track_is_dev_zero": lambda root: edit_key(root, 1, "track", "/dev/zero"),
     "track_is_proc_environ": lambda root: edit_key(root, 1, "track", "/proc/self/environ"),
     "track_frame_1e12": lambda root: edit_track(root, 1, _far_frame),
+    "track_saved_by_excel": lambda root: _excel_track(root, 1),
+    "track_is_passwd": lambda root: _passwd_track(root, 1),
     "video_is_dev_urandom": lambda root: edit_key(root, 1, "video", "/dev/urandom"),
     "video_missing": lambda root: edit_key(root, 1, "video", "missing/video.mp4"),
 }

@@ -104,6 +104,8 @@ EXPECTED = {
     "image_size_huge": ({2}, r"'cam1' camera: .*image_size"),
     "track_is_dev_zero": ({2}, r"'cam1' track: /dev/zero: not a regular file"),
     "track_is_proc_environ": ({2}, r"'cam1' track: /proc/\S+/environ: not a regular file"),
+    "track_saved_by_excel": ({0}, r""),
+    "track_is_passwd": ({2}, r"'cam1' track: .*track.csv:1: not a CSV header: one field of 31 characters, no ',' or ';' between column names; expected a header with at least frame,x,y$"),
     "track_frame_1e12": ({2}, r"'cam1' track: .*track.csv:\d+: column 'frame': expected a 0-based integer frame index \(at most"),
     "video_is_dev_urandom": ({2}, r"'cam1' video: /dev/urandom: not a regular file"),
     "video_missing": ({2}, r"'cam1' video: .*missing/video.mp4: file not found"),
@@ -142,6 +144,11 @@ def test_an_error_never_quotes_a_file_of_the_system(project):
     result, _ = _outcome(project)
     assert result.exit_code == ExitCode.BAD_INPUT
     assert not [value for value in os.environ.values() if len(value) > 8 and value in result.output]
+    edit_key(project, 1, "track", "cam1/track.csv")
+    TRAPS["track_is_passwd"](project)
+    result, _ = _outcome(project)
+    assert result.exit_code == ExitCode.BAD_INPUT and "not a CSV header" in result.output
+    assert not [word for word in ("root", "bash", "daemon", "nologin") if word in result.output], result.output
 
 
 def test_a_missing_file_is_named_before_any_stage_runs(project):

@@ -226,6 +226,8 @@ BAD_LOGS = {
     "latitude": ("lat.csv", "time,lat,lon,alt\n0,47,8,400\n1,95.5,8,400\n", "lat.csv:3: latitude 95.5 out of range"),
     "gpx cut": ("cut.gpx", '<?xml version="1.0"?>\n<gpx version="1.1">\n<trk><trkseg>\n<trkpt lat="47" lon="8"><ele>1</ele><time>2026-01-01T00:00:00Z</time></trkpt>\n<trkpt la', "cut short"),
     "undetectable": ("what.log", "hello world\n1 2 3\n", "cannot detect the log format"),
+    # a file of the system given as the log: described (length, separators), never quoted
+    "passwd": ("passwd", "root:x:0:0:root:/root:/bin/bash\n", "cannot detect the log format (a text file whose first line is 31 characters, 7 fields separated by ':')"),
 }
 
 
