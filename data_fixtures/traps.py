@@ -225,6 +225,27 @@ def _passwd_track(root: Path, index: int) -> None:
     _camera_file(root, index, "track").write_text("root:x:0:0:root:/root:/bin/bash\ndaemon:x:1:1:daemon:/usr/sbin:/usr/sbin/nologin\n")
 
 
+def _lon_lat(t, xyz):
+    """x, y replaced by the longitude and latitude (degrees) of those metres at 47.38 N, 8.54 E."""
+    lat = 47.3769 + xyz[:, 1] / 111_320.0
+    lon = 8.5417 + xyz[:, 0] / (111_320.0 * np.cos(np.radians(47.3769)))
+    return t, np.column_stack([lon, lat, xyz[:, 2]])
+
+
+def _normalised(root: Path, index: int) -> None:
+    """Camera ``index``'s track in fractions of its image (x / width, y / height)."""
+    w, h = json.loads(_camera_file(root, index, "camera").read_text())["image_size"]
+    edit_track(root, index, lambda header, rows: rows / [1.0 if c not in "xy" else (w if c == "x" else h) for c in header])
+
+
+def _frame_in_seconds(root: Path, index: int) -> None:
+    """Camera ``index``'s frame column holding seconds (frame / 30, with their decimals), as a track exported by time would."""
+    path = _camera_file(root, index, "track")
+    header, rows = _table(path)
+    rows[:, header.index("frame")] /= 30.0
+    np.savetxt(path, rows, delimiter=",", header=",".join(header), comments="", fmt="%.6f")
+
+
 def _ned(t, xyz):
     return t, np.column_stack([xyz[:, 1], xyz[:, 0], -xyz[:, 2]])
 
@@ -242,6 +263,7 @@ TRAPS: dict[str, Callable[[Path], None]] = {
     "z_flipped": lambda root: edit_trajectory(root, lambda t, xyz: (t, xyz * [1.0, 1.0, -1.0])),
     "ned_not_enu": lambda root: edit_trajectory(root, _ned),
     "random_walk": lambda root: edit_trajectory(root, _random_walk),
+    "lon_lat_in_x_y": lambda root: edit_trajectory(root, _lon_lat),
     "another_flight": _other_flight,
     "log_ends_early": lambda root: edit_trajectory(root, _log_ends_early),
     "log_misses_a_camera": lambda root: _gap_over(root, 1),
@@ -262,6 +284,8 @@ TRAPS: dict[str, Callable[[Path], None]] = {
     "track_is_dev_zero": lambda root: edit_key(root, 1, "track", "/dev/zero"),
     "track_is_proc_environ": lambda root: edit_key(root, 1, "track", "/proc/self/environ"),
     "track_frame_1e12": lambda root: edit_track(root, 1, _far_frame),
+    "track_normalised": lambda root: _normalised(root, 1),
+    "track_frame_in_seconds": lambda root: _frame_in_seconds(root, 1),
     "track_saved_by_excel": lambda root: _excel_track(root, 1),
     "track_is_passwd": lambda root: _passwd_track(root, 1),
     "video_is_dev_urandom": lambda root: edit_key(root, 1, "video", "/dev/urandom"),

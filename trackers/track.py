@@ -192,10 +192,23 @@ def _number(v: float) -> str:
     return str(int(v)) if v == int(v) else repr(float(v))
 
 
+def _frames_not_seconds(path: Path, frames: np.ndarray, lines: np.ndarray) -> None:
+    """TrackInputError when the frame column holds times: most values with decimals, increasing by under 1 a row."""
+    fractional = frames != np.floor(frames)
+    if len(frames) < 3 or fractional.mean() < 0.5 or not (np.diff(frames) > 0).all() or np.median(np.diff(frames)) >= 1:
+        return
+    k = int(np.argmax(fractional))
+    raise TrackInputError(
+        f"{path}:{lines[k]}: column 'frame' holds times, not frame indices ({fractional.mean():.0%} of its values have decimals, "
+        f"{np.median(np.diff(frames)):.3g} apart): give the 0-based frame index in 'frame' (round(seconds x fps)) and the seconds in 'time_s'"
+    )
+
+
 def read_track(path: str | Path) -> Track:
     """Read and validate ``track.csv``; errors name the file and line."""
     path = Path(path)
     cols, lines = read_table(path, REQUIRED_COLUMNS, OPTIONAL_COLUMNS, "a header 'frame,x,y' and one row per tracked frame")
+    _frames_not_seconds(path, cols["frame"], lines)
     check_indices(path, "frame", cols["frame"], lines, "a 0-based integer frame index")
     if len(lines) == 0:
         raise TrackInputError(f"{path}: the track is empty (a header but no tracked frame)")

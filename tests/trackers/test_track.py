@@ -34,6 +34,7 @@ def test_round_trip_keeps_optional_columns_and_sorts(tmp_path):
         ("frame,x,y\n-1,1,2\n", "0-based integer frame"),
         ("frame,x,y\n1.5,1,2\n", "0-based integer frame"),
         ("frame,x,y\n2,1,2\n2,1,2\n", "frame 2 appears more than once"),
+        ("frame,x,y\n0,1,2\n0.04,1,2\n0.08,1,2\n0.12,1,2\n", r":3: column 'frame' holds times, not frame indices \(75% of its values"),
     ],
 )
 def test_bad_tracks_name_file_and_line(tmp_path, text, message):
