@@ -246,6 +246,22 @@ def _frame_in_seconds(root: Path, index: int) -> None:
     np.savetxt(path, rows, delimiter=",", header=",".join(header), comments="", fmt="%.6f")
 
 
+def _shadow(header: list[str], rows: np.ndarray) -> np.ndarray:
+    """The track of the target's shadow: 60 px below it in every frame."""
+    rows = rows.copy()
+    rows[:, header.index("y")] += 60.0
+    return rows
+
+
+def _another_object(header: list[str], rows: np.ndarray) -> np.ndarray:
+    """The tracker locked on another object in the same frames: one crossing the image right to left, swaying."""
+    rows = rows.copy()
+    n = len(rows)
+    rows[:, header.index("x")] = np.linspace(600.0, 40.0, n)
+    rows[:, header.index("y")] = 300.0 + 20.0 * np.sin(np.arange(n) / 30.0)
+    return rows
+
+
 def _ned(t, xyz):
     return t, np.column_stack([xyz[:, 1], xyz[:, 0], -xyz[:, 2]])
 
@@ -263,6 +279,9 @@ TRAPS: dict[str, Callable[[Path], None]] = {
     "z_flipped": lambda root: edit_trajectory(root, lambda t, xyz: (t, xyz * [1.0, 1.0, -1.0])),
     "ned_not_enu": lambda root: edit_trajectory(root, _ned),
     "random_walk": lambda root: edit_trajectory(root, _random_walk),
+    "heights_47m_high": lambda root: edit_trajectory(root, lambda t, xyz: (t, xyz + [0.0, 0.0, 47.0])),
+    "antenna_1_5m_above": lambda root: edit_trajectory(root, lambda t, xyz: (t, xyz + [0.0, 0.0, 1.5])),
+    "z_zero": lambda root: edit_trajectory(root, lambda t, xyz: (t, xyz * [1.0, 1.0, 0.0])),
     "lon_lat_in_x_y": lambda root: edit_trajectory(root, _lon_lat),
     "another_flight": _other_flight,
     "log_ends_early": lambda root: edit_trajectory(root, _log_ends_early),
@@ -273,6 +292,8 @@ TRAPS: dict[str, Callable[[Path], None]] = {
     "camera_json_copied": lambda root: _copy_file(root, "camera", 0, 1),
     "track_copied": lambda root: _copy_file(root, "track", 2, 1),
     "track_of_another_camera": lambda root: _track_of(root, 2, 1),
+    "track_of_the_shadow": lambda root: edit_track(root, 1, _shadow),
+    "track_of_another_object": lambda root: edit_track(root, 1, _another_object),
     "fps_twice": lambda root: _fps(root, 1, 2.0),
     "fps_half": lambda root: _fps(root, 1, 0.5),
     "track_half_resolution": lambda root: edit_track(root, 1, _scaled_track(0.5)),

@@ -71,7 +71,7 @@ def _outcome(root: Path, *command: str):
 
 
 def _reasons(timeline) -> str:
-    return "\n".join(f"{s.camera}: {s.status}: {'; '.join(r.code + ' ' + r.text for r in s.reasons)}" for s in timeline.statuses().values())
+    return "\n".join(f"{s.camera}: {s.status}: {'; '.join(f'{r.code} {r.text} (fix: {r.remedy})' for r in s.reasons)}" for s in timeline.statuses().values())
 
 
 # Per trap: the exit codes it may end with (0 only when every pair is right) and what must be named then.
@@ -86,6 +86,9 @@ EXPECTED = {
     "rotated_90": ({1}, r"failed"),
     "z_flipped": ({0, 1}, r"off_path|not_synchronized"),
     "ned_not_enu": ({1}, r"failed"),
+    "heights_47m_high": ({2}, r"column z: heights 4[67](\.\d)? m too high: .*set \[target\] altitude_reference or altitude_offset_m = -4[67](\.\d)?$"),
+    "antenna_1_5m_above": ({1}, r"failed: log_height heights 1\.5 m too high: .*\(fix: the logged point rides 1\.5 m above the tracked one .*logged_point_above_m = 1\.5\)"),
+    "z_zero": ({1}, r"failed: log_height .*heights [\d.]+ m too low \(0 at every sample: a log without heights\?\).*\(fix: give a log with heights"),
     "random_walk": ({1}, r"failed"),
     "another_flight": ({1}, r"failed"),
     "log_ends_early": ({1}, r"failed"),
@@ -95,6 +98,8 @@ EXPECTED = {
     "camera_json_copied": ({2}, r"'cam1' camera \(cam1/camera.json\) is the same file as the camera of camera 'cam0'"),
     "track_copied": ({2}, r"'cam2' track \(cam2/track.csv\) is the same file as the track of camera 'cam1'"),
     "track_of_another_camera": ({1}, r"cam1: failed"),
+    "track_of_the_shadow": ({1}, r"cam1: failed: track_offset the track lies \d+ px .* off the projected path at every frame.*\(fix: the tracker follows something beside the target \(its shadow\?\)"),
+    "track_of_another_object": ({1}, r"cam1: failed: track_elsewhere .*the tracker follows another object"),
     "fps_twice": ({1}, r"cam1: failed: .*clock .*runs at about (29|30)(\.\d+)? fps, not 60"),
     "fps_half": ({1}, r"cam1: failed: .*clock .*runs at about (29|30)(\.\d+)? fps, not 15"),
     "track_half_resolution": ({1}, r"cam1: failed"),
