@@ -17,9 +17,11 @@ so the timing plays no part), as plausibility's rescaled-unit tests do:
 - neither, and the track lies on the projected path nowhere: the tracker
   follows another object (or the pose is off), not a log that ends early.
 
+Only tracks off the path (on it, at any time, in under ON_PATH_GIVEN of
+their frames) are explained: a track on the path has its timing at fault.
 A height that fits every contradicted camera, when every camera with a
-track is contradicted, is the log's (LogUnitError, bad input); otherwise
-each camera gets its reason.
+track is contradicted and off the path, is the log's (LogUnitError, bad
+input); otherwise each camera gets its reason.
 """
 
 from __future__ import annotations
@@ -35,6 +37,7 @@ from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
 HEIGHT_NEAR_M = 5.0  # a height offset within this is the logged point above the tracked one, beyond it another reference
 HEIGHT_STEPS_M = (0.25, 0.5, 0.75, 1.0, 1.25, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0, 7.0, 10.0, 15.0, 20.0, 25.0, 30.0, 35.0, 40.0, 45.0, 50.0,
                   55.0, 60.0, 70.0, 80.0, 90.0, 100.0)  # |dz| tried (both signs), then refined between neighbours
+ON_PATH_GIVEN = 0.5  # a track on the projected path (any time) in this share of its frames is not off it: its timing is
 OFF_PATH_SHARE = 0.2  # a track on the projected path (any time) in fewer of its frames than this follows something else
 OFFSET_ROUNDS = 6  # rounds of matching each tracked position to the nearest projected one to find a constant offset
 
@@ -46,12 +49,15 @@ def explain(judged: dict[str, Judged], prepared: Trajectory, eps_px: float, abov
     camera with a track is contradicted and one height offset puts all their tracks on the path.
     """
     tracked = {n: j for n, j in judged.items() if j.track is not None and len(j.track) and j.camera.posed}
-    failing = {n: j for n, j in tracked.items() if j.contradicted}
-    if not failing:
+    if not any(j.contradicted for j in tracked.values()):
         return {}
     gate = GATE_EPS * eps_px
     path = PiecewiseTrajectory(prepared)
-    given = {n: path_share(j.camera, j.track.xy, path, gate) for n, j in failing.items()}  # type: ignore[union-attr]
+    given = {n: path_share(j.camera, j.track.xy, path, gate) for n, j in tracked.items() if j.contradicted}  # type: ignore[union-attr]
+    failing = {n: tracked[n] for n, share in given.items() if share < ON_PATH_GIVEN}  # on the path, the timing is at fault
+    given = {n: given[n] for n in failing}
+    if not failing:
+        return {}
     shared = _height_shift(failing, prepared, given, gate)
     if shared is not None and len(failing) == len(tracked):
         dz, share = shared
