@@ -222,7 +222,8 @@ def lift_of(camera: Camera, path: PiecewiseTrajectory, clock: np.ndarray, xy: np
     uv, _ = camera.project(position)
     rate = camera.project(position + UP)[0] - uv  # pixels per metre up
     norm = np.einsum("ij,ij->i", rate, rate)
-    lift = -np.einsum("ij,ij->i", xy[on] - uv, rate) / norm
+    with np.errstate(divide="ignore", invalid="ignore"):  # points behind the camera (NaN) or seen straight down (0): left out
+        lift = -np.einsum("ij,ij->i", xy[on] - uv, rate) / norm
     lift = lift[np.isfinite(lift) & (norm > 1e-9)]
     return float(np.clip(np.median(lift), -MAX_LIFT_M, MAX_LIFT_M)) if len(lift) >= MIN_FRAMES else 0.0
 
