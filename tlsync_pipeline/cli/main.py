@@ -23,6 +23,7 @@ from tlsync_pipeline.cli.json_output import dumps, run_document
 from tlsync_pipeline.cli.options import in_order, project_argument, quiet_option, verbose_option
 from tlsync_pipeline.cli.pipeline import execute, print_timeline, report_outcome, run_options, synchronized_code
 from tlsync_pipeline.errors import INPUT_ERRORS, EnvironmentProblem, SyncError, describe_error
+from tlsync_pipeline.pipeline.stop import clear as clear_stop
 
 
 class TlsyncGroup(click.Group):
@@ -45,6 +46,7 @@ class TlsyncGroup(click.Group):
         sys.exit(code if isinstance(code, int) else 0)
 
     def invoke(self, ctx):
+        clear_stop()  # a stop asked of an earlier command in this process is not this one's
         try:
             with _terminate_as_interrupt():
                 return super().invoke(ctx)
