@@ -124,6 +124,7 @@ def test_every_trap_has_an_expectation():
     assert set(EXPECTED) == set(TRAPS)
 
 
+@pytest.mark.filterwarnings("error::RuntimeWarning")  # numpy's warnings never reach the user's terminal
 @pytest.mark.parametrize("trap", sorted(TRAPS))
 def test_a_trap_is_synchronized_right_or_named(project, trap):
     TRAPS[trap](project)

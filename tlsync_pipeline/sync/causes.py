@@ -34,9 +34,38 @@ from tlsync_pipeline.sync.plausibility import GATE_EPS, Judged, LogUnitError, _f
 from tlsync_pipeline.sync.status import FAILED, Reason
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
 
-HEIGHT_NEAR_M = 5.0  # a height offset within this is the logged point above the tracked one, beyond it another reference
-HEIGHT_STEPS_M = (0.25, 0.5, 0.75, 1.0, 1.25, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0, 7.0, 10.0, 15.0, 20.0, 25.0, 30.0, 35.0, 40.0, 45.0, 50.0,
-                  55.0, 60.0, 70.0, 80.0, 90.0, 100.0)  # |dz| tried (both signs), then refined between neighbours
+HEIGHT_NEAR_M = (
+    5.0  # a height offset within this is the logged point above the tracked one, beyond it another reference
+)
+HEIGHT_STEPS_M = (
+    0.25,
+    0.5,
+    0.75,
+    1.0,
+    1.25,
+    1.5,
+    2.0,
+    2.5,
+    3.0,
+    4.0,
+    5.0,
+    7.0,
+    10.0,
+    15.0,
+    20.0,
+    25.0,
+    30.0,
+    35.0,
+    40.0,
+    45.0,
+    50.0,
+    55.0,
+    60.0,
+    70.0,
+    80.0,
+    90.0,
+    100.0,
+)  # |dz| tried (both signs), then refined between neighbours
 ON_PATH_GIVEN = 0.5  # a track on the projected path (any time) in this share of its frames is not off it: its timing is
 OFF_PATH_SHARE = 0.2  # a track on the projected path (any time) in fewer of its frames than this follows something else
 OFFSET_ROUNDS = 6  # rounds of matching each tracked position to the nearest projected one to find a constant offset
@@ -53,40 +82,49 @@ def explain(judged: dict[str, Judged], prepared: Trajectory, eps_px: float, abov
         return {}
     gate = GATE_EPS * eps_px
     path = PiecewiseTrajectory(prepared)
-    given = {n: path_share(j.camera, j.track.xy, path, gate) for n, j in tracked.items() if j.contradicted}  # type: ignore[union-attr]
-    failing = {n: tracked[n] for n, share in given.items() if share < ON_PATH_GIVEN}  # on the path, the timing is at fault
+    given = {n: path_share(j.camera, _xy(j), path, gate) for n, j in tracked.items() if j.contradicted}
+    failing = {
+        n: tracked[n] for n, share in given.items() if share < ON_PATH_GIVEN
+    }  # on the path, the timing is at fault
     given = {n: given[n] for n in failing}
     if not failing:
         return {}
     shared = _height_shift(failing, prepared, given, gate)
     if shared is not None and len(failing) == len(tracked):
         dz, share = shared
-        raise LogUnitError("z", f"{_height_text(dz, share, _mean(given), prepared)}; {_height_fix(dz, above_m, prepared)}")
+        raise LogUnitError(
+            "z", f"{_height_text(dz, share, _mean(given), prepared)}; {_height_fix(dz, above_m, prepared)}"
+        )
     reasons = {}
     for name, j in failing.items():
         one = {name: j}
         height = _height_shift(one, prepared, {name: given[name]}, gate)
         offset = image_offset(j.camera, j.track.xy, path, gate)  # type: ignore[union-attr]
-        moved = path_share(j.camera, j.track.xy - offset, path, gate) if offset is not None else 0.0  # type: ignore[union-attr]
+        moved = path_share(j.camera, _xy(j) - offset, path, gate) if offset is not None else 0.0
         if height is not None and height[1] >= moved - 0.05:
             dz, share = height
-            reasons[name] = Reason("log_height", FAILED, _height_text(dz, share, given[name], prepared), _height_fix(dz, above_m, prepared))
+            reasons[name] = Reason(
+                "log_height", FAILED, _height_text(dz, share, given[name], prepared), _height_fix(dz, above_m, prepared)
+            )
         elif offset is not None and _fits_better(given[name], moved):
             dx, dy = offset
             reasons[name] = Reason(
                 "track_offset",
                 FAILED,
-                f"the track lies {np.hypot(dx, dy):.0f} px (x {dx:+.0f}, y {dy:+.0f}) off the projected path at every frame: moved back by that "
-                f"it lies on the path in {moved:.0%} of its frames, as given in {given[name]:.0%}",
-                "the tracker follows something beside the target (its shadow?) or a point of its box other than the logged one: "
-                "track the target itself (give the tracker an init box), or set [sync] logged_point_above_m if the log rides above it",
+                f"the track lies {np.hypot(dx, dy):.0f} px (x {dx:+.0f}, y {dy:+.0f}) off the projected path "
+                f"at every frame: moved back by that it lies on the path in {moved:.0%} of its frames, "
+                f"as given in {given[name]:.0%}",
+                "the tracker follows something beside the target (its shadow?) or a point of its box other than "
+                "the logged one: track the target itself (give the tracker an init box), or set [sync] "
+                "logged_point_above_m if the log rides above it",
             )
         elif _flat(prepared):
             reasons[name] = Reason(
                 "log_flat",
                 FAILED,
                 f"the log's z is {prepared.xyz[0, 2]:g} m at every sample (a log without heights?)",
-                "if the target does not move on level ground at that height: give a log with heights (GPX <ele>, a CSV alt column)",
+                "if the target does not move on level ground at that height: "
+                "give a log with heights (GPX <ele>, a CSV alt column)",
             )
         elif given[name] < OFF_PATH_SHARE:
             reasons[name] = Reason(
@@ -118,14 +156,18 @@ def image_offset(camera: Camera, xy: np.ndarray, path: PiecewiseTrajectory, gate
     return offset if np.hypot(*offset) > gate_px else None
 
 
-def _height_shift(cameras: dict[str, Judged], prepared: Trajectory, given: dict[str, float], gate_px: float) -> tuple[float, float] | None:
+def _height_shift(
+    cameras: dict[str, Judged], prepared: Trajectory, given: dict[str, float], gate_px: float
+) -> tuple[float, float] | None:
     """(dz metres, mean path share) of the height offset of the log that puts the cameras' tracks on the path clearly
     better than as given (plausibility._fits_better), the best of HEIGHT_STEPS_M either way refined between its
     neighbours; None when none does."""
 
     def share(dz: float) -> float:
-        path = PiecewiseTrajectory(Trajectory(prepared.sample, prepared.xyz + [0.0, 0.0, dz], prepared.rate, prepared.t0))
-        return _mean({n: path_share(j.camera, j.track.xy, path, gate_px) for n, j in cameras.items()})  # type: ignore[union-attr]
+        path = PiecewiseTrajectory(
+            Trajectory(prepared.sample, prepared.xyz + [0.0, 0.0, dz], prepared.rate, prepared.t0)
+        )
+        return _mean({n: path_share(j.camera, _xy(j), path, gate_px) for n, j in cameras.items()})
 
     steps = np.array(HEIGHT_STEPS_M)
     tried = {dz: share(dz) for dz in np.r_[-steps[::-1], steps]}
@@ -143,7 +185,10 @@ def _height_shift(cameras: dict[str, Judged], prepared: Trajectory, given: dict[
 
 def _height_text(dz: float, share: float, given: float, prepared: Trajectory) -> str:
     flat = " (0 at every sample: a log without heights?)" if _flat(prepared) else ""
-    return f"heights {abs(dz):.3g} m too {'high' if dz < 0 else 'low'}{flat}: moved by that the log lies on the tracks in {share:.0%} of the frames, as given in {given:.0%}"
+    return (
+        f"heights {abs(dz):.3g} m too {'high' if dz < 0 else 'low'}{flat}: moved by that the log lies on the tracks "
+        f"in {share:.0%} of the frames, as given in {given:.0%}"
+    )
 
 
 def _height_fix(dz: float, above_m: float, prepared: Trajectory) -> str:
@@ -152,8 +197,20 @@ def _height_fix(dz: float, above_m: float, prepared: Trajectory) -> str:
         return f"give a log with heights (GPX <ele>, a CSV alt column), or set [target] altitude_offset_m = {dz:.3g}"
     if abs(dz) <= HEIGHT_NEAR_M:
         where = f"{-dz:.3g} m above" if dz < 0 else f"{dz:.3g} m below"
-        return f"the logged point rides {where} the tracked one (a GPS antenna?): set [sync] logged_point_above_m = {above_m - dz:.3g}"
-    return f"another height reference (sea level against the ellipsoid?): set [target] altitude_reference or altitude_offset_m = {dz:.3g}"
+        return (
+            f"the logged point rides {where} the tracked one (a GPS antenna?): "
+            f"set [sync] logged_point_above_m = {above_m - dz:.3g}"
+        )
+    return (
+        "another height reference (sea level against the ellipsoid?): "
+        f"set [target] altitude_reference or altitude_offset_m = {dz:.3g}"
+    )
+
+
+def _xy(judged: Judged) -> np.ndarray:
+    """The tracked positions of a camera with a track (the only ones explained)."""
+    assert judged.track is not None
+    return judged.track.xy
 
 
 def _flat(prepared: Trajectory) -> bool:
