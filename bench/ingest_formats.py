@@ -70,6 +70,7 @@ SOURCES = {
     "dji_srt_air2s.srt": "JuanIrache/DJI_SRT_Parser samples/air2s.srt (MIT; Air 2S: per frame)",
     "dji_srt_MAVIC3.srt": "JuanIrache/DJI_SRT_Parser samples/MAVIC3.srt (MIT; Mavic 3: per frame, date with ms, [rel_alt: .. abs_alt: ..]; coordinates altered by the sample's author)",
     "dji_srt_matrice_300.srt": "JuanIrache/DJI_SRT_Parser samples/matrice_300.srt (MIT; Matrice 300: GPS(lat,lon,altM) BAROMETER, 1 Hz)",
+    "dji_srt_mix_p4rtk_mavic2pro.srt": "JuanIrache/DJI_SRT_Parser samples/mix_p4rtk_mavic2pro.srt (MIT; P4 RTK blocks with H .. m, then Mavic 2 Pro blocks with [altitude: ..], one file)",
 }
 
 
