@@ -224,6 +224,9 @@ def ingest(records: LogRecords, params: IngestParams = IngestParams()) -> tuple[
     fixes, dropped = _ordered_fixes(in_seconds_and_metres(records, params.time_unit, params.length_unit))
     warnings = list(records.warnings)
     altitude = _altitude(records, params, warnings)
+    if records.frame == GEODETIC and len(fixes.values) and not fixes.values[:, 2].any() and not altitude["offset_m"]:
+        warnings.append("every fix's height is 0: a log without heights (a 2D export?) lies on the reference surface, "
+                        "off the cameras' frame by the site's height; give a log with heights, or [target] altitude_offset_m")
     values = fixes.values + np.array([0.0, 0.0, altitude["offset_m"]]) if altitude["offset_m"] else fixes.values
     xyz, origin, rule = _to_local(records, values, params, warnings)
     fixes = dataclasses.replace(fixes, values=values, xyz=xyz)
