@@ -21,6 +21,7 @@ import hashlib
 from collections.abc import Callable
 from pathlib import Path
 
+import cv2
 import numpy as np
 
 from calibration.camera import Camera, read_camera
@@ -97,6 +98,8 @@ def _camera(project: Project, config: CameraConfig, wanted: Callable[[Path], boo
             _checked(project, where, "track", config.track, lambda path: _track_in_image(path, track, camera))  # type: ignore[arg-type]
     if config.detections is not None and wanted(config.detections):
         _checked(project, where, "detections", config.detections, lambda path: _table_head(path, DETECTION_COLUMNS, "detections CSV"))
+    if video is not None and config.camera is None and wanted(config.video):
+        _checked(project, where, "video", config.video, lambda path: _video_of_calibration(path, video, config))  # type: ignore[arg-type]
     table = f"{where} [cameras.calibration]"
     if calibration.images is not None:
         images = [Path(name) for name in sorted(glob.glob(calibration.images))]
@@ -165,6 +168,31 @@ def _image_of_video(path: Path, camera: Camera, video: VideoInfo) -> None:
             f"{path}: image_size {list(camera.image_size)} but the camera's video {video.path.name} is {video.width} x {video.height}; "
             "give the calibration of the video's resolution (or scale K and image_size to it)"
         )
+
+
+def _video_of_calibration(path: Path, video: VideoInfo, config: CameraConfig) -> None:
+    """The camera's video has the size of the images its intrinsics come from ([cameras.calibration] intrinsics,
+    checkerboard video or the first checkerboard photo): a downscaled copy of the video would be calibrated at the
+    wrong scale, every pose fit then failing for no visible reason."""
+    calibration = config.calibration
+    size, source = None, ""
+    if calibration.intrinsics is not None and calibration.intrinsics.is_file():
+        size, source = tuple(read_camera(calibration.intrinsics).image_size), "the intrinsics"
+    elif calibration.video is not None and calibration.video.is_file():
+        info = probe_video(calibration.video)
+        size, source = (info.width, info.height), "the checkerboard video"
+    elif calibration.images is not None:
+        first = next(iter(sorted(glob.glob(calibration.images))), None)
+        image = None if first is None else cv2.imread(first, cv2.IMREAD_UNCHANGED)
+        size, source = (None, "") if image is None else ((image.shape[1], image.shape[0]), "the checkerboard photos")
+    if size is None or (video.width, video.height) == size:
+        return
+    ratio = video.width / size[0]
+    scale = f" ({ratio:.3g} of their size: a downscaled copy?)" if abs(video.height / size[1] - ratio) < 0.01 * ratio else ""
+    raise InputError(
+        f"{path}: {video.width} x {video.height}, but {source} are of {size[0]} x {size[1]} images{scale}; "
+        "give the original video, or calibrate with images of the video's resolution"
+    )
 
 
 def _track_not_normalised(path: Path, track: Track, size: tuple[int, int]) -> None:
