@@ -17,11 +17,12 @@ so the timing plays no part), as plausibility's rescaled-unit tests do:
 - neither, and the track lies on the projected path nowhere: the tracker
   follows another object (or the pose is off), not a log that ends early.
 
-Only tracks off the path (on it, at any time, in under ON_PATH_GIVEN of
-their frames) are explained: a track on the path has its timing at fault.
-A height that fits every contradicted camera, when every camera with a
-track is contradicted and off the path, is the log's (LogUnitError, bad
-input); otherwise each camera gets its reason.
+One height offset (of at least HEIGHT_MIN_M) that fits every contradicted
+camera together is the cause of each (when every camera with a track is
+contradicted: the log's, LogUnitError, bad input). Otherwise only the
+tracks off the path (on it, at any time, in under ON_PATH_GIVEN of their
+frames) are explained camera by camera: a track on the path has its timing
+at fault.
 """
 
 from __future__ import annotations
@@ -38,7 +39,6 @@ HEIGHT_NEAR_M = (
     5.0  # a height offset within this is the logged point above the tracked one, beyond it another reference
 )
 HEIGHT_STEPS_M = (
-    0.25,
     0.5,
     0.75,
     1.0,
@@ -66,6 +66,8 @@ HEIGHT_STEPS_M = (
     90.0,
     100.0,
 )  # |dz| tried (both signs), then refined between neighbours
+HEIGHT_MIN_M = 0.4  # a height offset found under this is no cause
+HEIGHT_FIT = 0.9  # share of the frames a height offset must put on the path (a crossing path fits some by chance)
 ON_PATH_GIVEN = 0.5  # a track on the projected path (any time) in this share of its frames is not off it: its timing is
 OFF_PATH_SHARE = 0.2  # a track on the projected path (any time) in fewer of its frames than this follows something else
 OFFSET_ROUNDS = 6  # rounds of matching each tracked position to the nearest projected one to find a constant offset
@@ -78,28 +80,32 @@ def explain(judged: dict[str, Judged], prepared: Trajectory, eps_px: float, abov
     camera with a track is contradicted and one height offset puts all their tracks on the path.
     """
     tracked = {n: j for n, j in judged.items() if j.track is not None and len(j.track) and j.camera.posed}
-    if not any(j.contradicted for j in tracked.values()):
+    contradicted = {n: j for n, j in tracked.items() if j.contradicted}
+    if not contradicted:
         return {}
     gate = GATE_EPS * eps_px
     path = PiecewiseTrajectory(prepared)
-    given = {n: path_share(j.camera, _xy(j), path, gate) for n, j in tracked.items() if j.contradicted}
-    failing = {
-        n: tracked[n] for n, share in given.items() if share < ON_PATH_GIVEN
-    }  # on the path, the timing is at fault
-    given = {n: given[n] for n in failing}
-    if not failing:
-        return {}
-    shared = _height_shift(failing, prepared, given, gate)
-    if shared is not None and len(failing) == len(tracked):
+    given = {n: path_share(j.camera, _xy(j), path, gate) for n, j in contradicted.items()}
+    shared = _height_shift(contradicted, prepared, given, gate)  # one height for every contradicted camera
+    if shared is not None and len(contradicted) == 1:  # one camera alone: a constant image offset may fit it better
+        ((name, j),) = contradicted.items()
+        offset = image_offset(j.camera, _xy(j), path, gate)
+        if offset is not None and path_share(j.camera, _xy(j) - offset, path, gate) > shared[1] + 0.05:
+            shared = None
+    if shared is not None:
         dz, share = shared
-        raise LogUnitError(
-            "z", f"{_height_text(dz, share, _mean(given), prepared)}; {_height_fix(dz, above_m, prepared)}"
-        )
+        if len(contradicted) == len(tracked):
+            raise LogUnitError(
+                "z", f"{_height_text(dz, share, _mean(given), prepared)}; {_height_fix(dz, above_m, prepared)}"
+            )
+        text, fix = _height_text(dz, share, _mean(given), prepared), _height_fix(dz, above_m, prepared)
+        return {n: Reason("log_height", FAILED, text, fix) for n in contradicted}
+    failing = {n: j for n, j in contradicted.items() if given[n] < ON_PATH_GIVEN}  # on the path, the timing is at fault
     reasons = {}
     for name, j in failing.items():
         one = {name: j}
         height = _height_shift(one, prepared, {name: given[name]}, gate)
-        offset = image_offset(j.camera, j.track.xy, path, gate)  # type: ignore[union-attr]
+        offset = image_offset(j.camera, _xy(j), path, gate)
         moved = path_share(j.camera, _xy(j) - offset, path, gate) if offset is not None else 0.0
         if height is not None and height[1] >= moved - 0.05:
             dz, share = height
@@ -180,7 +186,9 @@ def _height_shift(
             if dz not in tried:
                 tried[float(dz)] = share(float(dz))
         best = max(tried, key=lambda dz: tried[dz])
-    return (float(best), tried[best]) if _fits_better(_mean(given), tried[best]) else None
+    if abs(best) < HEIGHT_MIN_M:  # within a tracker's box of the tracked point: not what contradicts the line
+        return None
+    return (float(best), tried[best]) if tried[best] >= HEIGHT_FIT and _fits_better(_mean(given), tried[best]) else None
 
 
 def _height_text(dz: float, share: float, given: float, prepared: Trajectory) -> str:
@@ -199,7 +207,7 @@ def _height_fix(dz: float, above_m: float, prepared: Trajectory) -> str:
         where = f"{-dz:.3g} m above" if dz < 0 else f"{dz:.3g} m below"
         return (
             f"the logged point rides {where} the tracked one (a GPS antenna?): "
-            f"set [sync] logged_point_above_m = {above_m - dz:.3g}"
+            f"set [sync] logged_point_above_m = {above_m - dz:.3g} (or, for a tracker on the target's shadow, track the target)"
         )
     return (
         "another height reference (sea level against the ellipsoid?): "
