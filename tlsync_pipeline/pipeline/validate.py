@@ -98,8 +98,8 @@ def _camera(project: Project, config: CameraConfig, wanted: Callable[[Path], boo
             _checked(project, where, "track", config.track, lambda path: _track_in_image(path, track, camera))  # type: ignore[arg-type]
     if config.detections is not None and wanted(config.detections):
         _checked(project, where, "detections", config.detections, lambda path: _table_head(path, DETECTION_COLUMNS, "detections CSV"))
-    if video is not None and config.camera is None and wanted(config.video):
-        _checked(project, where, "video", config.video, lambda path: _video_of_calibration(path, video, config))  # type: ignore[arg-type]
+    if video is not None and config.video is not None and config.camera is None and wanted(config.video):
+        _checked(project, where, "video", config.video, lambda path: _video_of_calibration(path, video, config))
     table = f"{where} [cameras.calibration]"
     if calibration.images is not None:
         images = [Path(name) for name in sorted(glob.glob(calibration.images))]
