@@ -134,9 +134,11 @@ class JointFit:
     and rotation (degrees); se_beta: std of beta (frames);
     intrinsics_std: std of each free intrinsic; gcp_errors_px: each GCP's
     reprojection error under the fitted camera (empty without GCPs);
-    track_inflation: the pose's variance as the covariance states it over
-    the variance if every frame were independent (mean over the six pose
-    parameters, at least 1): what one frame's information is overcounted by.
+    track_inflation: the pose's variance as the track's residuals show it
+    (errors shared by neighbouring frames: the larger of the frame-by-frame
+    and the block estimate) over the variance if every frame were
+    independent (mean over the six pose parameters, at least 1): what the
+    fit overcounts one frame's information by.
     """
 
     camera: Camera
@@ -326,7 +328,7 @@ def _solve(camera, clock, xy, path, x0, c_mid, layout, f_scale, prior, gcps, int
     x = solution.x
     r, jac = evaluate(x)
     fitted = camera_at(camera, x, layout)
-    cov, naive = _covariance(r, jac, n, n_robust, f_scale, model_error_px)
+    cov, shared, naive = _covariance(r, jac, n, n_robust, f_scale, model_error_px)
     u, s0 = x[6], x[7]
     alpha, beta = 1.0 / u, c_mid - s0 / u
     d_beta = np.zeros(len(x))
@@ -346,14 +348,14 @@ def _solve(camera, clock, xy, path, x0, c_mid, layout, f_scale, prior, gcps, int
         {k: float(np.sqrt(max(cov[layout.index(k), layout.index(k)], 0.0))) for k in layout.names[8:]},
         converged,
         str(solution.message),
-        _inflation(cov, naive),
+        _inflation(shared, naive),
     )
 
 
-def _inflation(cov: np.ndarray, naive: np.ndarray) -> float:
-    """Mean over the six pose parameters of the stated over the frame-by-frame variance, at least 1."""
+def _inflation(shared: np.ndarray, naive: np.ndarray) -> float:
+    """Mean over the six pose parameters of the track's variance as its residuals show it over the frame-by-frame one, at least 1."""
     with np.errstate(divide="ignore", invalid="ignore"):
-        ratio = np.diag(cov)[:6] / np.diag(naive)[:6]
+        ratio = np.diag(shared)[:6] / np.diag(naive)[:6]
     ratio = ratio[np.isfinite(ratio)]
     return float(max(np.mean(ratio), 1.0)) if len(ratio) else 1.0
 
@@ -421,9 +423,9 @@ def _intrinsic_columns(jac: np.ndarray, blocks: dict, layout: Layout, camera: Ca
         jac[:, :, layout.index("k1")] = blocks["dist"][:, :, 0]
 
 
-def _covariance(r: np.ndarray, jac: np.ndarray, n_frames: int, n_robust: int, f_scale: float, model_error_px: float) -> tuple[np.ndarray, np.ndarray]:
-    """Sandwich covariance of the parameters (see the module docstring), and the one with the track's frames taken as
-    independent and no model error (its naive part)."""
+def _covariance(r: np.ndarray, jac: np.ndarray, n_frames: int, n_robust: int, f_scale: float, model_error_px: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Sandwich covariance of the parameters (see the module docstring); its track part alone, as the residuals show it
+    (frame by frame or in blocks, no model error); and the same with every frame independent."""
     p = jac.shape[1]
     z = (r[:n_robust] / f_scale) ** 2
     psi = np.r_[r[:n_robust] / np.sqrt(1 + z), r[n_robust:]]
@@ -432,7 +434,7 @@ def _covariance(r: np.ndarray, jac: np.ndarray, n_frames: int, n_robust: int, f_
     try:
         inv = np.linalg.inv(bread)
     except np.linalg.LinAlgError:
-        return np.full((p, p), np.inf), np.full((p, p), np.inf)
+        return np.full((p, p), np.inf), np.full((p, p), np.inf), np.full((p, p), np.inf)
     track = 2 * n_frames
     scores = (jac[:track] * psi[:track, None]).reshape(n_frames, 2, p).sum(axis=1)
     independent = scores.T @ scores * n_frames / max(n_frames - p, 1)
@@ -448,8 +450,9 @@ def _covariance(r: np.ndarray, jac: np.ndarray, n_frames: int, n_robust: int, f_
     rest = jac[track:]
     meat = meat + f_scale**2 * rest.T @ (rest * dpsi[track:, None])  # GCPs and priors at their stated sigma (one sigma = f_scale)
     lever = np.array([b.sum(axis=0) for b in np.array_split((jac[:track] * dpsi[:track, None]).reshape(n_frames, 2, p), min(BLOCKS, n_frames))])
+    shared = inv @ (clustered if ratio > 1.0 else independent) @ inv
     meat = meat + model_error_px**2 * np.einsum("bik,bil->kl", lever, lever)
-    return inv @ meat @ inv, c_ind
+    return inv @ meat @ inv, shared, c_ind
 
 
 def _center_std(x: np.ndarray, cov: np.ndarray) -> float:
