@@ -300,7 +300,8 @@ def _survey_and_target(
             check_determined(own, clock, path, False)
         except PoseError as exc:
             own, why = None, exc
-    used, outliers = measured_gcps(gcps, gcp_camera), ()
+    used = measured_gcps(gcps, gcp_camera)
+    outliers: tuple[str, ...] = ()
     if own is not None:
         seen = measured_gcps(gcps, own.camera)
         outliers = disagreeing_gcps(seen, own.camera)

@@ -357,7 +357,7 @@ def _inflation(shared: np.ndarray, naive: np.ndarray) -> float:
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = np.diag(shared)[:6] / np.diag(naive)[:6]
     ratio = ratio[np.isfinite(ratio)]
-    return float(max(np.mean(ratio), 1.0)) if len(ratio) else 1.0
+    return max(float(np.mean(ratio)), 1.0) if len(ratio) else 1.0
 
 
 _INTRINSIC_SCALE = {"f": 10.0, "cx": 5.0, "cy": 5.0, "k1": 0.01}
