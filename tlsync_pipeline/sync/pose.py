@@ -28,7 +28,16 @@ rate), only beta is unknown:
    a straight line in the image (the pose turns freely about it), two
    offsets with comparable support, or a pose whose uncertainty is too
    large. With GCPs the straightness and ambiguity tests are left to the
-   uncertainty: the GCPs hold the pose where the path alone cannot.
+   uncertainty: the GCPs hold the pose where the path alone cannot;
+5. with GCPs and their own pose (``_survey_and_target``) the evidence
+   decides: the survey's error is measured from the GCPs' residuals under
+   their own pose and under the track's (``measured_gcps``), GCPs the
+   track's pose puts far off are named and left out, and the GCPs count as
+   much against the track as the track's shared errors warrant. The joint
+   pose wins when it keeps the GCPs and explains the track nearly as well
+   as the track's own pose; otherwise the track's own pose is used (the
+   GCPs that disagree named), and only when the track alone does not
+   determine it either does the camera fail (gcp_conflict).
 
 Without K (a camera.json with the image size only) the search fits a
 projection matrix (DLT, normalised) instead of a pose, and the joint fit
