@@ -271,7 +271,7 @@ def pose_from_track(
             result = _settle_intrinsics(result, clock, xy, path, prior, gate_px, f_scale, gcps, free, unknown_k)
         check_determined(result, clock, path, gcps is not None)
         return result
-    return _survey_and_target(camera, clock, xy, path, prior, fps, gate_px, measured_gcps(gcps, gcp_camera), gcp_camera, f_scale, seed, delta, offsets)
+    return _survey_and_target(camera, clock, xy, path, prior, fps, gate_px, gcps, gcp_camera, f_scale, seed, delta, offsets)
 
 
 def _survey_and_target(
@@ -312,18 +312,18 @@ def _survey_and_target(
     used = measured_gcps(gcps, gcp_camera)
     outliers: tuple[str, ...] = ()
     if own is not None:
-        seen = measured_gcps(gcps, own.camera)
+        seen = measured_gcps(gcps, own.camera, fitted=False)
         outliers = disagreeing_gcps(seen, own.camera)
         keep = np.array([n not in outliers for n in _names(gcps)])
         if outliers and keep.sum() >= 4:
             kept = _subset(gcps, keep)
             try:
-                gcp_camera = replace(gcp_camera, **_pose_fields(pose_from_points(kept.uv, kept.xyz, camera.K, camera.dist, camera.dist_model, 1e6, source="GCPs")))
+                refit = pose_from_points(kept.uv, kept.xyz, camera.K, camera.dist, camera.dist_model, 1e6, source="GCPs")
+                gcp_camera = replace(gcp_camera, R=refit.R, t=refit.t)
             except CalibrationInputError:
                 pass
-            used = replace(measured_gcps(kept, gcp_camera), sigma_m=min(measured_gcps(kept, gcp_camera).sigma_m, measured_gcps(kept, own.camera).sigma_m))
-        else:
-            used = replace(used, sigma_m=min(used.sigma_m, seen.sigma_m))
+            used, seen = measured_gcps(kept, gcp_camera), measured_gcps(kept, own.camera, fitted=False)
+        used = replace(used, sigma_m=min(used.sigma_m, seen.sigma_m))
     weighted = replace(used, weight=alone[0].track_inflation if alone else 1.0)
     candidates = [Candidate(f.camera, f.alpha, f.beta, "search") for f in alone[:CANDIDATES]]
     found = _gcp_candidate(gcp_camera, clock, xy, path, prior, gate_px, delta, seed)
@@ -346,10 +346,6 @@ def _names(gcps: GcpPrior) -> tuple[str, ...]:
 def _subset(gcps: GcpPrior, keep: np.ndarray) -> GcpPrior:
     names = tuple(n for n, k in zip(_names(gcps), keep) if k)
     return replace(gcps, uv=gcps.uv[keep], xyz=gcps.xyz[keep], names=names)
-
-
-def _pose_fields(pose: Pose) -> dict:
-    return {"R": pose.R, "t": pose.t}
 
 
 def _with_gcps(fits: list[JointFit], search: OffsetSearch, xy, fps, gcp_camera: Camera, gcps: GcpPrior, clock, path) -> TargetPose:
@@ -701,15 +697,16 @@ def _decompose(P: np.ndarray, image_size: tuple[int, int]) -> tuple[np.ndarray |
     return K, R, -R @ centre
 
 
-def measured_gcps(gcps: GcpPrior, camera: Camera) -> GcpPrior:
-    """The GCPs with the survey's error measured from their residuals under ``camera`` (their own pose).
+def measured_gcps(gcps: GcpPrior, camera: Camera, fitted: bool = True) -> GcpPrior:
+    """The GCPs with the survey's error measured from their residuals under ``camera`` (their own pose; ``fitted``
+    False: a pose fitted to something else, the track's).
 
     sigma (metres per coordinate; each point's click_px at its depth on
     top) is first the one that makes the median of the normalised squared
     residuals that of a chi-square of 2 degrees of freedom (robust to a
     minority of wrong points), then the maximum-likelihood one over the
-    points within GCP_AGREE of it; the residuals scaled by 2N / (2N - 6) for
-    the six pose parameters fitted to them. With MEASURE_POINTS such points
+    points within GCP_AGREE of it; under their own pose the residuals are
+    scaled by 2N / (2N - 6) for the six pose parameters fitted to them. With MEASURE_POINTS such points
     or more it replaces the stated sigma; with fewer (a handful of residuals
     say little) the larger of the two is used.
     """
@@ -720,7 +717,7 @@ def measured_gcps(gcps: GcpPrior, camera: Camera) -> GcpPrior:
     if finite.sum() < 4:
         return gcps
     n = int(finite.sum())
-    squared = np.where(finite, errors, 0.0) ** 2 * (2 * n) / (2 * n - 6)
+    squared = np.where(finite, errors, 0.0) ** 2 * ((2 * n) / (2 * n - 6) if fitted else 1.0)
 
     def var(sigma: float) -> np.ndarray:
         return gcps.click_px**2 + (focal * sigma / depth) ** 2
@@ -844,6 +841,7 @@ def pose_from_movers(
     if unknown_k:
         free = tuple(sorted(set(free) | {"f", "cx", "k1"}, key=INTRINSICS.index))
     path = PiecewiseTrajectory(trajectory)
+    stated = gcps
     survey = gcps is not None and gcp_camera is not None and not free
     if survey:
         gcps = measured_gcps(gcps, gcp_camera)  # type: ignore[arg-type]
@@ -886,7 +884,7 @@ def pose_from_movers(
                 finals.append((refit, identified, tid, search))
         tried[tid] = "; ".join(reasons)
     if survey:
-        return _movers_with_survey(camera, detections, trajectory, fps, params, gcps, gcp_camera, finals, tried, path, prior, row_clock, offsets)  # type: ignore[arg-type]
+        return _movers_with_survey(camera, detections, trajectory, fps, params, stated, gcp_camera, finals, tried, path, prior, row_clock, offsets)  # type: ignore[arg-type]
     if not finals:
         causes = ", ".join(sorted({c for c in tried.values() if c})) or "no fit"
         raise PoseError(camera.name, "no_fit", f"none of the {min(len(ranked), MAX_TRACKLETS)} longest curved tracklets leads to a pose under which the target is identified ({causes[:200]})")
