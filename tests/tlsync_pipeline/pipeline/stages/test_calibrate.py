@@ -292,3 +292,16 @@ def test_the_pose_search_stays_near_the_scans_coarse_offset_only_when_the_video_
     assert coarse_offsets({**scan, "mode": "full"}, 30.0) is None  # every frame read: the target may be anywhere
     assert coarse_offsets({"mode": "windows", "coarse": None}, 30.0) is None
     assert coarse_offsets(scan, None) is None
+
+
+def test_gcps_that_disagree_with_the_track_are_a_warning_that_names_them():
+    from tlsync_pipeline.pipeline.stages.calibrate import pose_warnings
+
+    report = {"pose": {"points": []}, "target_pose": {"source": "gcp+target", "gcp_sigma_m": 0.3, "gcps_disagree": ["P2", "P5"]}}
+    (left_out,) = pose_warnings(report)
+    assert "P2, P5" in left_out and "left out of the pose" in left_out
+    report["target_pose"]["source"] = "target"
+    (fallback,) = pose_warnings(report)
+    assert "P2, P5" in fallback and "the pose is the track's alone" in fallback
+    report["target_pose"]["gcps_disagree"] = []
+    assert pose_warnings(report) == ()
