@@ -265,7 +265,14 @@ def pose_from_track(
     if unknown_k:
         free = tuple(sorted(set(free) | {"f", "cx", "k1"}, key=INTRINSICS.index))
     if gcps is None or gcp_camera is None or free:
-        search, fits = candidate_fits(camera, clock, xy, path, prior, fps, gate_px, gcps, gcp_camera, free, f_scale, seed, delta, offsets=offsets)
+        try:
+            search, fits = candidate_fits(camera, clock, xy, path, prior, fps, gate_px, gcps, gcp_camera, free, f_scale, seed, delta, offsets=offsets)
+        except PoseError as exc:
+            if exc.cause != "gcp_conflict" or free:
+                raise
+            # GCPs without a pose of their own (too few, too rough) that no pose of the track keeps: the track alone
+            alone = pose_from_track(camera, clock, xy, path, prior, fps, gate_px, None, None, (), f_scale, seed, delta, offsets)
+            return replace(alone, disagreeing=_names(gcps))  # type: ignore[arg-type]
         result = ranked_pose(fits, search, xy, fps or 0.0, gcps is not None, gcp_camera)
         if free:
             result = _settle_intrinsics(result, clock, xy, path, prior, gate_px, f_scale, gcps, free, unknown_k)

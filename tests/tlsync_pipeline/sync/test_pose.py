@@ -153,6 +153,15 @@ def test_a_log_offset_from_every_gcp_falls_back_to_the_track_alone(scene):
     assert report["gcps_disagree"] == list(gcps.names) and report["source"] == "target"
 
 
+def test_three_gcps_that_no_pose_of_the_track_keeps_leave_the_pose_to_the_track(scene):
+    """Three GCPs (too few for a pose of their own) said to be surveyed to 2 cm, the log 0.6 m off their frame."""
+    good = _good_gcps(scene, "cam0")
+    gcps = GcpPrior(good.uv[:3], good.xyz[:3], 0.02, good.names[:3])
+    found = _posed(scene, "cam0", _logged(scene, offset=(0.6, -0.6, 0.2)), gcps=gcps)
+    assert found.source == "target" and found.disagreeing == ("P0", "P1", "P2")
+    assert abs(found.fit.beta - scene.scene.lines["cam0"].beta) < 0.5
+
+
 def test_too_few_frames_and_an_unknown_clock_are_causes(scene):
     track = scene.scene.tracks["cam0"]
     camera = scene.scene.true_cameras["cam0"]
