@@ -55,7 +55,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
-import cv2
 import numpy as np
 from scipy.optimize import minimize_scalar
 from scipy.spatial import cKDTree
@@ -100,7 +99,6 @@ GCP_AGREE = 3.0  # a pose agrees with the GCPs when their median error is within
 SURVEY_SUPPORT = 0.9  # a pose from GCPs and track together must explain this share of the frames the track's own pose explains
 CHI2_2_MEDIAN = 2.0 * np.log(2.0)  # median of a chi-square of 2 degrees of freedom
 MEASURE_POINTS = 6  # GCPs (inliers of their pose) whose residuals measure the survey's error alone; fewer: not below the stated one
-GCP_SIGMA_M = 1.0  # default survey quality of GCPs (metres per coordinate): read off a web map or walked with a phone
 MAX_ROTATION_STD_DEG = 3.0
 MAX_CENTER_STD = 0.15  # of the median distance to the target
 # An intrinsic the target determines: its posterior std below these (f: share of f; cx, cy: share of the image width; k1: absolute).
@@ -624,6 +622,8 @@ class _Scorer:
 
     def camera_at(self, camera: Camera, beta: float, threshold: float) -> Camera | None:
         """The camera of the pose fitted at ``beta`` (with K and R, t from the projection matrix under DLT), or None."""
+        import cv2
+
         xyz, uv = self.pairs(beta)
         if len(xyz) < MIN_PAIRS:
             return None
@@ -641,6 +641,8 @@ class _Scorer:
 
 def _pnp(xyz: np.ndarray, uv: np.ndarray, K: np.ndarray):
     """SQPnP's pose (rvec, tvec) of pairs, or None (no solution, or points too close together: OpenCV asserts)."""
+    import cv2
+
     try:
         ok, rvec, tvec = cv2.solvePnP(xyz, uv, K, None, flags=cv2.SOLVEPNP_SQPNP)
     except cv2.error:
@@ -650,6 +652,8 @@ def _pnp(xyz: np.ndarray, uv: np.ndarray, K: np.ndarray):
 
 def _errors(model, xyz: np.ndarray, uv: np.ndarray, K: np.ndarray, dlt: bool) -> np.ndarray:
     """Pixel error of each pair under a pose (rvec, tvec) or a projection matrix; inf behind the camera."""
+    import cv2
+
     if dlt:
         h = xyz @ model[:, :3].T + model[:, 3]
     else:
@@ -689,6 +693,8 @@ def _dlt(xyz: np.ndarray, uv: np.ndarray) -> np.ndarray | None:
 
 def _decompose(P: np.ndarray, image_size: tuple[int, int]) -> tuple[np.ndarray | None, np.ndarray, np.ndarray]:
     """K (square pixels, no skew), R, t of a projection matrix; K None when it is not a camera's (negative focal, centre far outside)."""
+    import cv2
+
     K, R, centre = cv2.decomposeProjectionMatrix(P)[:3]
     signs = np.diag(np.sign(np.diag(K)))
     K, R = K @ signs, signs @ R
