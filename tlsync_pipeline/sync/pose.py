@@ -315,6 +315,7 @@ def _survey_and_target(
         except PoseError as exc:
             own, why = None, exc
     used = measured_gcps(gcps, gcp_camera)
+    start = gcp_camera  # the joint fit's start from the GCPs (their own pose refitted without those that disagree)
     outliers: tuple[str, ...] = ()
     if own is not None:
         seen = measured_gcps(gcps, own.camera, fitted=False)
@@ -324,14 +325,14 @@ def _survey_and_target(
             kept = _subset(gcps, keep)
             try:
                 refit = pose_from_points(kept.uv, kept.xyz, camera.K, camera.dist, camera.dist_model, 1e6, source="GCPs")
-                gcp_camera = replace(gcp_camera, R=refit.R, t=refit.t)
+                start = replace(gcp_camera, R=refit.R, t=refit.t)
             except CalibrationInputError:
                 pass
-            used, seen = measured_gcps(kept, gcp_camera), measured_gcps(kept, own.camera, fitted=False)
+            used, seen = measured_gcps(kept, start), measured_gcps(kept, own.camera, fitted=False)
         used = replace(used, sigma_m=min(used.sigma_m, seen.sigma_m))
     weighted = replace(used, weight=alone[0].track_inflation if alone else 1.0)
     candidates = [Candidate(f.camera, f.alpha, f.beta, "search") for f in alone[:CANDIDATES]]
-    found = _gcp_candidate(gcp_camera, clock, xy, path, prior, gate_px, delta, seed)
+    found = _gcp_candidate(start, clock, xy, path, prior, gate_px, delta, seed)
     if found is not None:
         candidates.append(found)
     joint = [f for f in _fit_candidates(candidates, clock, xy, path, prior, gate_px, f_scale, weighted, (), gate_px, MIN_FRAMES) if gcps_agree(weighted, f)]
