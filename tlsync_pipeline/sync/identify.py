@@ -222,7 +222,8 @@ def lift_of(camera: Camera, path: PiecewiseTrajectory, clock: np.ndarray, xy: np
     uv, _ = camera.project(position)
     rate = camera.project(position + UP)[0] - uv  # pixels per metre up
     norm = np.einsum("ij,ij->i", rate, rate)
-    lift = -np.einsum("ij,ij->i", xy[on] - uv, rate) / norm
+    with np.errstate(divide="ignore", invalid="ignore"):  # points behind the camera (NaN) or seen straight down (0): left out
+        lift = -np.einsum("ij,ij->i", xy[on] - uv, rate) / norm
     lift = lift[np.isfinite(lift) & (norm > 1e-9)]
     return float(np.clip(np.median(lift), -MAX_LIFT_M, MAX_LIFT_M)) if len(lift) >= MIN_FRAMES else 0.0
 
@@ -530,6 +531,7 @@ def _target_track(camera: Camera, path: PiecewiseTrajectory, logged: PiecewiseTr
     offset = offsets_to_path(camera, path, clock[rows], detections.xy[rows], alpha, beta)
     box = np.column_stack([detections.w[rows], detections.h[rows]])
     xy, size = target_within(detections.xy[rows], box, offset, _slack(camera, path, clock, detections, rows, alpha, beta))
-    lift = offsets_to_path(camera, logged, clock[rows], detections.xy[rows], alpha, beta) - offset  # the logged point's image less the tracked point's
+    with np.errstate(invalid="ignore"):  # a point projected to infinity on both (inf - inf): no lift, below
+        lift = offsets_to_path(camera, logged, clock[rows], detections.xy[rows], alpha, beta) - offset  # the logged point's image less the tracked point's
     xy = xy + np.where(np.isfinite(lift), lift, 0.0)
     return Track(track.frame, xy[:, 0], xy[:, 1], time_s=track.time_s, w=size[:, 0], h=size[:, 1], score=track.score)

@@ -30,12 +30,13 @@ from tlsync_pipeline.sync.identify import Identification, IdentifyParams, identi
 from tlsync_pipeline.sync.log_model import PRESETS, LogModel, vote_radius
 from tlsync_pipeline.sync.methods import CameraData, CameraInput, JointMethod
 from tlsync_pipeline.sync.params import Preparation, SyncParams
+from tlsync_pipeline.sync.causes import explain
 from tlsync_pipeline.sync.plausibility import BACKWARD_BELOW, Judged, backward_support, diagnose, judge_line, line_support, motion_slope
 from tlsync_pipeline.sync.pose import TargetPose, estimate_pose, pose_info
 from tlsync_pipeline.sync.refined import RefinedParams
 from tlsync_pipeline.sync.registry import get_method, method_options, params_table, preparation_of
 from tlsync_pipeline.sync.slope import slope_prior
-from tlsync_pipeline.sync.status import AMBIGUOUS, FAILED, Reason
+from tlsync_pipeline.sync.status import AMBIGUOUS, FAILED, Reason, diagnosed_failure
 from tlsync_pipeline.sync.timeline import CameraLine, Timeline
 from tlsync_pipeline.sync.votes import Votes, compute_votes
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory, lowered
@@ -187,12 +188,15 @@ def synchronize(
         except (ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
             failed[name] = f"camera {name}: the fit failed ({type(exc).__name__}: {exc})"
             judged[name] = _unjudged(inputs, prior)
-    found = diagnose(judged, prepared, params.eps_px)
+    found = diagnose(judged, prepared, params.eps_px)  # first: the log's units, which explain everything else
+    found = {**explain(judged, prepared, params.eps_px, params.logged_point_above_m), **found}
+    for name in failed.keys() & found.keys():
+        failed[name] = diagnosed_failure(name, found[name], failed[name])
     lines, rejected = {}, {}
     for name, result in results.items():
         line = result.line
-        if name in found:
-            line = replace(line, checks=(*(line.checks or ()), found[name]))
+        if name in found:  # the cause found comes first: its remedy is the camera's
+            line = replace(line, checks=(found[name], *(line.checks or ())))
         stopping = [r.text for r in line.checks or () if r.severity in (AMBIGUOUS, FAILED)]
         if stopping:
             rejected[name] = line

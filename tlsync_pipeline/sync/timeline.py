@@ -21,7 +21,7 @@ import numpy as np
 
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.sync.clock import FRAME, CameraClock, FrameTimes
-from tlsync_pipeline.sync.clock_prior import ClockCheck
+from tlsync_pipeline.sync.clock_prior import CLOCK_FLAG, ClockCheck, clock_reason
 from tlsync_pipeline.sync.status import AMBIGUOUS, FAILED, HALF_95, WEAK, WIDE_FRAMES, WIDE_REMEDIES, WIDE_REMEDY, CameraStatus, Reason, failure, line_reasons, status_of
 
 FORMAT_VERSION = 1
@@ -312,6 +312,8 @@ class Timeline:
         if line is None:
             return status_of(name, [failure(self.failed.get(name, "not synchronized"))])
         reasons = line_reasons(line.flags, line.warnings, line.checks)
+        if line.clock_check is not None and line.clock_check.agrees is False:  # the flag's reason with its numbers
+            reasons = [clock_reason(line.clock_check) if r.code == CLOCK_FLAG else r for r in reasons]
         if name in self.cameras:
             wide = self._wide_interval(name)
             if wide is not None:

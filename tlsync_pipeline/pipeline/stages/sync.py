@@ -108,7 +108,7 @@ def run_sync(files: StageFiles, params: SyncStageParams) -> StageResult:
     except LogUnitError as exc:
         key, source = params.source or ("trajectory", files.path("trajectory"))
         raise InputError(f"{source} ([target] {key}): {exc}") from None
-    failed = {name: str(votes[name]) if name not in usable else timeline.failed[name] for name in paths if name not in usable or name in timeline.failed}
+    failed = {name: timeline.failed.get(name, str(votes[name])) for name in paths if name not in usable or name in timeline.failed}
     lines = {name: _with_scan(_flag_truncated(line, paths[name]), paths[name]) for name, line in timeline.cameras.items()}
     lines = {name: _with_container_fps(line, params.fps.get(name), params.container_fps.get(name)) for name, line in lines.items()}
     timeline = replace(timeline, cameras=lines, failed={**failed, **params.left_out})
