@@ -131,10 +131,13 @@ def with_log_noise(trajectory: Trajectory, model: LogModel) -> Trajectory:
     return replace(trajectory, sigma=np.full(len(trajectory), model.white_m))
 
 
-def posed(inputs: CameraInput, prepared: Trajectory, params: SyncParams) -> tuple[CameraInput, TargetPose]:
-    """The camera's inputs with its pose from the target (its ``gcps`` as a prior), and that pose; PoseError when it is not determined."""
-    pose, _ = estimate_pose(inputs.camera, inputs.track, inputs.detections, prepared, inputs.fps, identify_params(params), inputs.gcps)
+def posed(inputs: CameraInput, prepared: Trajectory, params: SyncParams, log_model: LogModel = PRESETS["none"]) -> tuple[CameraInput, TargetPose]:
+    """The camera's inputs with its pose from the target (its ``gcps`` as a prior; the log's error model in the fit),
+    and that pose; PoseError when it is not determined."""
+    pose, _ = estimate_pose(inputs.camera, inputs.track, inputs.detections, prepared, inputs.fps, identify_params(params), inputs.gcps, log_model=log_model)
     sigma = None if prepared.sigma is None else float(np.median(prepared.sigma))
+    if log_model.has_bias:
+        sigma = max(sigma or 0.0, log_model.horizontal_m)
     camera = replace(pose.camera, name=inputs.camera.name, fps=inputs.camera.fps, pose_info=pose_info(pose, sigma))
     return replace(inputs, camera=camera), pose
 
@@ -177,7 +180,7 @@ def synchronize(
                 raise cast
             pose = None
             if not inputs.camera.posed:
-                inputs, pose = posed(inputs, prepared, params)
+                inputs, pose = posed(inputs, prepared, params, log_model)
             used[name] = inputs
             radius[name] = vote_radius(inputs.camera, prepared, params.eps_px, log_model)
             if inputs.track is None:

@@ -11,8 +11,10 @@ from calibration.camera import Camera
 from calibration.lens import project_points
 from data_fixtures.passes import make_pass_scene
 from tlsync_pipeline.sync import pose as P
+from tlsync_pipeline.sync.log_model import PRESETS as LOG_MODELS
 from tlsync_pipeline.sync.params import SyncParams
 from tlsync_pipeline.sync.pose_fit import (
+    MODEL_ERROR_PX,
     GcpPrior,
     Layout,
     _prior_rows,
@@ -296,3 +298,22 @@ def test_the_pose_info_says_what_the_pose_serves(scene):
     assert not P.pose_info(found, 2.0).for_3d and "not for 3D" in P.pose_info(found, 2.0).note
     assert not P.pose_info(found, None).for_3d and P.pose_info(found, None).source == "target"
     assert P.pose_info(found, 0.02).center_std_m == pytest.approx(found.fit.center_std_m, abs=1e-4)
+
+
+def test_a_metre_level_log_widens_the_fit_to_what_a_pose_cannot_absorb(scene):
+    drone, rtk = LOG_MODELS["drone"], LOG_MODELS["rtk"]
+    assert rtk.unabsorbed_m(600.0) == pytest.approx(rtk.white_m)  # no bias: the white noise alone
+    assert drone.unabsorbed_m(0.0) == pytest.approx(drone.white_m)  # an instant: the bias is a constant offset
+    spans = [drone.unabsorbed_m(s) for s in (1.0, 10.0, 30.0, 120.0, 1e6)]
+    assert all(a < b for a, b in zip(spans, spans[1:]))
+    assert spans[-1] == pytest.approx(np.sqrt(drone.white_m**2 + (drone.bias_m**2 + drone.bias_vertical_m**2) / 2), rel=1e-3)
+    s = scene.scene
+    camera, line = s.true_cameras["cam0"], s.lines["cam0"]
+    path = PiecewiseTrajectory(smooth_trajectory(s.trajectory))
+    clock = s.tracks["cam0"].frame.astype(float)
+    assert P.log_scales(camera, clock, path, line.alpha, line.beta, 10.0, 3.0, 0.0) == (10.0, 3.0, MODEL_ERROR_PX)
+    assert P.log_scales(camera, clock, path, line.alpha, line.beta, 10.0, 3.0, 0.02)[:2] == (10.0, 3.0)  # RTK keeps the gate
+    depth = P.median_depth(camera, clock, path, line.alpha, line.beta)
+    seen = camera.K[0, 0] * 1.0 / depth
+    gate, scale, shared = P.log_scales(camera, clock, path, line.alpha, line.beta, 10.0, 3.0, 1.0)
+    assert gate == pytest.approx(P.LOG_GATE * seen, rel=0.01) and scale == pytest.approx(seen, rel=0.01) and shared == pytest.approx(seen, rel=0.01)
