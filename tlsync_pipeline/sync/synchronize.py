@@ -142,6 +142,16 @@ def posed(inputs: CameraInput, prepared: Trajectory, params: SyncParams, log_mod
     return replace(inputs, camera=camera), pose
 
 
+def with_pose_offset(line: CameraLine, pose: TargetPose) -> CameraLine:
+    """The line with the offset uncertainty of its pose from the target added to beta's variance: under a log with a
+    bias the pose absorbs the bias, and the timing it gives moves with it (the pose fit's beta std, clock units)."""
+    if line.cov is None or not np.isfinite(pose.fit.se_beta):
+        return line
+    cov = np.array(line.cov, dtype=np.float64)
+    cov[1, 1] += pose.fit.se_beta**2
+    return replace(line, cov=cov)
+
+
 def synchronize(
     cameras: dict[str, CameraInput],
     trajectory: Trajectory,
@@ -188,6 +198,8 @@ def synchronize(
             else:
                 result = synchronize_camera(name, inputs, cast if cast is not None else cast_votes(inputs.camera, inputs.track, prepared, radius[name]), prepared, params, radius[name])
             inputs, result = _segmented(name, inputs, result, prepared, params, radius[name])
+            if pose is not None and log_model.has_bias:
+                result = replace(result, line=with_pose_offset(result.line, pose))
             results[name], judged[name] = _judge(name, inputs, replace(result, pose=pose), path, params, prior, radius[name])
         except SyncError as exc:
             failed[name] = str(exc)
