@@ -97,8 +97,8 @@ NEARLY_STRAIGHT = 0.05  # a loose pose on a path below this ratio is put down to
 AMBIGUOUS = 0.85  # a distinct offset scoring this share of the best's score (msac at TIGHT median residuals) makes the pose ambiguous
 TIGHT = 3.0  # median residuals of the best fit within which frames count for the ambiguity test
 DISTINCT_S = 1.0  # offsets further apart than this (seconds) are distinct
-LOG_GATE = 2.5  # a frame supports a fit under a metre-level log within this many of the log's unabsorbed error, in pixels
-LOG_ROTATION = 4.0  # a pose under a metre-level log may be this many times as loose in rotation as the log's error subtends
+LOG_GATE = 2.5  # under a metre-level log, the gate in units of the log's unabsorbed error seen in pixels
+LOG_ROTATION = 4.0  # under a metre-level log, the rotation std allowed in units of the angle its error subtends
 GCP_AGREE = 3.0  # a pose agrees with the GCPs when their median error is within this many of their sigmas
 SURVEY_SUPPORT = 0.9  # a pose from GCPs and track together must explain this share of the frames the track's own pose explains
 CHI2_2_MEDIAN = 2.0 * np.log(2.0)  # median of a chi-square of 2 degrees of freedom
@@ -424,7 +424,8 @@ def candidate_fits(
 
 
 def _fit_candidates(
-    candidates: list[Candidate], clock, xy, path, prior, gate_px: float, f_scale: float, gcps: GcpPrior | None, free, threshold_px: float, min_frames: int, log_m: float = 0.0
+    candidates: list[Candidate], clock, xy, path, prior, gate_px: float, f_scale: float, gcps: GcpPrior | None, free,
+    threshold_px: float, min_frames: int, log_m: float = 0.0,
 ) -> list[JointFit]:
     """The converged joint fits of the candidates (a search candidate starts from the frames within the search's
     threshold, the GCP candidate from those within the gate), best first (most frames within the gate); log_m: as
@@ -432,7 +433,9 @@ def _fit_candidates(
     fits = []
     for candidate in candidates:
         gate, scale, shared = log_scales(candidate.camera, clock, path, candidate.alpha, candidate.beta, gate_px, f_scale, log_m)
-        start = reprojection_errors(candidate.camera, clock, xy, path, candidate.alpha, candidate.beta) <= max(threshold_px if candidate.origin == "search" else gate_px, gate)
+        first = threshold_px if candidate.origin == "search" else gate_px
+        first = max(first, gate) if gate > gate_px else first  # a metre-level log's wider gate
+        start = reprojection_errors(candidate.camera, clock, xy, path, candidate.alpha, candidate.beta) <= first
         if start.sum() < min_frames // 2:
             continue
         try:
@@ -445,7 +448,9 @@ def _fit_candidates(
     return fits
 
 
-def log_scales(camera: Camera, clock, path: PiecewiseTrajectory, alpha: float, beta: float, gate_px: float, f_scale: float, log_m: float) -> tuple[float, float, float]:
+def log_scales(
+    camera: Camera, clock, path: PiecewiseTrajectory, alpha: float, beta: float, gate_px: float, f_scale: float, log_m: float
+) -> tuple[float, float, float]:
     """A fit's gate, loss scale and shared model error (pixels) under a log whose error a fixed pose cannot absorb is
     log_m metres (per axis), seen at the target's median depth under the camera and line: LOG_GATE, 1 and 1 times it,
     never below gate_px, f_scale and MODEL_ERROR_PX (an RTK log keeps those)."""
