@@ -37,7 +37,9 @@ class CameraInput:
     detections: every mover of its video instead of a track (track None):
     ``synchronize`` identifies the target among them first (sync/identify.py).
     A camera without a pose (``Camera.posed`` false) gets it from the target
-    first (sync/pose.py), with ``gcps`` as a prior when given.
+    first (sync/pose.py), with ``gcps`` as a prior when given. pick_start_s:
+    the line the user picked where two remained ([[cameras]] pick_start_s: the
+    log's time, seconds after its first fix, at the video's first frame), or None.
     """
 
     camera: Camera
@@ -45,6 +47,7 @@ class CameraInput:
     fps: float | None
     detections: Detections | None = None
     gcps: GcpPrior | None = None
+    pick_start_s: float | None = None
 
 
 @dataclass(frozen=True)
