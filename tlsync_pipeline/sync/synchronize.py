@@ -30,7 +30,7 @@ from tlsync_pipeline.sync.identify import Identification, IdentifyParams, identi
 from tlsync_pipeline.sync.log_model import PRESETS, LogModel, vote_radius
 from tlsync_pipeline.sync.methods import CameraData, CameraInput, JointMethod
 from tlsync_pipeline.sync.params import Preparation, SyncParams
-from tlsync_pipeline.sync.plausibility import BACKWARD_BELOW, Judged, backward_support, diagnose, judge_line, line_support, motion_slope, rival_odds_of
+from tlsync_pipeline.sync.plausibility import BACKWARD_BELOW, RIVAL_PROBABILITY, Judged, backward_support, diagnose, judge_line, line_support, motion_slope, rival_odds_of
 from tlsync_pipeline.sync.pose import TargetPose, estimate_pose, pose_info
 from tlsync_pipeline.sync.refined import RefinedParams
 from tlsync_pipeline.sync.registry import get_method, method_options, params_table, preparation_of
@@ -186,6 +186,10 @@ def synchronize(
                 if inputs.pick_start_s is not None:
                     result = replace(result, line=replace(result.line, flags=(*(result.line.flags or ()), "picked")))
             results[name], judged[name] = _judge(name, inputs, replace(result, pose=pose), path, params, prior, radius[name], log_model, trajectory.rate)
+            search = results[name].line.line_search
+            if inputs.track is not None and search is not None and search.rival_probability is not None and search.rival_probability > 1.0 - RIVAL_PROBABILITY:
+                result = _the_rival(name, inputs, results[name], prepared, params, radius[name])
+                results[name], judged[name] = _judge(name, inputs, replace(result, pose=pose), path, params, prior, radius[name], log_model, trajectory.rate)
         except SyncError as exc:
             failed[name] = str(exc)
             judged[name] = _unjudged(inputs, prior)
@@ -234,23 +238,44 @@ PICK_BAND_S = 0.5  # a picked line keeps the votes within this many seconds of i
 
 def picked_votes(name: str, inputs: CameraInput, votes: Votes, rate: float | None, radius_px: float) -> Votes:
     """The camera's votes near the line the user picked (``CameraInput.pick_start_s``: the log's time, seconds after its
-    first fix, at the video's first frame; slope fps / rate): within PICK_BAND_S, or the band one pass's votes span (the
-    vote radius over the target's image speed), whichever is wider. SyncError when none is left or the rates are unknown."""
+    first fix, at the video's first frame; slope fps / rate): ``votes_near`` that line. SyncError when none is left or
+    the rates are unknown."""
     track, start = inputs.track, inputs.pick_start_s
     assert track is not None and start is not None
-    clock = camera_clock(track, inputs.fps)
-    fps = clock.fps if clock.fps is not None else inputs.fps
+    fps = camera_clock(track, inputs.fps).fps or inputs.fps
     if not fps or not rate:
         raise SyncError(f"camera {name}: pick_start_s needs the camera's fps and the log's times")
-    times = FrameTimes.of_track(track)
-    track_clock = clock.clock_at(track.frame, times)
-    speed = image_speed(track_clock, track.xy, quantile=0.5)
-    band = max(PICK_BAND_S * fps, radius_px / speed if speed else 0.0)
-    alpha = fps / rate
-    near = np.abs(clock.clock_at(votes.frame, times) - alpha * (votes.sample - start * rate)) <= band
+    near = votes_near(inputs, votes, fps / rate, -fps * start, radius_px)
     if not near.any():
         raise SyncError(f"camera {name}: no vote near the picked start (pick_start_s = {start:g}): give one of the starts its ambiguous status names, or remove the key")
     return Votes(votes.frame[near], votes.sample[near], votes.dist[near])
+
+
+def votes_near(inputs: CameraInput, votes: Votes, alpha: float, beta: float, radius_px: float) -> np.ndarray:
+    """Mask of the votes within PICK_BAND_S of the line clock = alpha x sample + beta, or within the band one pass's
+    votes span (the vote radius over the target's median image speed), whichever is wider."""
+    track = inputs.track
+    assert track is not None
+    clock = camera_clock(track, inputs.fps)
+    fps = clock.fps or inputs.fps or 1.0
+    times = FrameTimes.of_track(track)
+    speed = image_speed(clock.clock_at(track.frame, times), track.xy, quantile=0.5)
+    band = max(PICK_BAND_S * fps, radius_px / speed if speed else 0.0)
+    return np.abs(clock.clock_at(votes.frame, times) - alpha * votes.sample - beta) <= band
+
+
+def _the_rival(name: str, inputs: CameraInput, result: CameraResult, prepared: Trajectory, params: SyncParams, radius_px: float) -> CameraResult:
+    """The camera's line refitted on the votes near the line search's rival, which the whole track prefers beyond
+    1 - RIVAL_PROBABILITY (plausibility.rival_odds_of): the old line becomes its rival (line_search), to be weighed again."""
+    old = result.line.line_search
+    assert old is not None and old.rival_alpha is not None and old.rival_beta is not None
+    near = votes_near(inputs, result.votes, old.rival_alpha, old.rival_beta, radius_px)
+    refit = synchronize_camera(name, inputs, Votes(result.votes.frame[near], result.votes.sample[near], result.votes.dist[near]), prepared, params, radius_px)
+    search = refit.line.line_search
+    if search is None:
+        return refit
+    swapped = replace(search, runner_up_frames=old.support_frames, rival_alpha=old.alpha, rival_beta=old.beta, rival_probability=None)
+    return replace(refit, votes=result.votes, line=replace(refit.line, line_search=swapped))
 
 
 CROWDED = 1.5  # voting detections per identified frame above which other movers are within the vote radius

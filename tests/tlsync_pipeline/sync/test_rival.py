@@ -108,3 +108,23 @@ def test_the_project_picks_either_pass_with_pick_start_s():
         assert abs(-line.beta / line.alpha / RATE - start) < 1.0
     nowhere, _ = synchronize({"cam0": dataclasses.replace(inputs, pick_start_s=true_start + 500.0)}, trajectory, SyncParams(), log_model=PRESETS["phone"])
     assert "no vote near the picked start" in nowhere.failed["cam0"]
+
+
+@pytest.mark.slow
+def test_a_camera_whose_strongest_line_the_track_rules_out_takes_its_rival():
+    """Walk scene 1 with a phone's 2 m bias: cam1's strongest line in the votes is 7 s off, its rival right; the whole
+    track puts the strongest under 1 %: the camera is refitted on the rival's votes, synchronized, the truth in its interval."""
+    from data_fixtures.log_error import PRESETS as RECEIVERS
+    from data_fixtures.walk import WalkSpec, make_walk_scene
+
+    scene = make_walk_scene(1, WalkSpec(log=RECEIVERS["phone2"]))
+    inputs = {n: CameraInput(c, scene.tracks[n], c.fps) for n, c in scene.cameras.items()}
+    timeline, _ = synchronize(inputs, scene.trajectory, SyncParams(), log_model=PRESETS["phone"])
+    assert timeline.status("cam1").synchronized, timeline.status("cam1").reason
+    line, truth = timeline.cameras["cam1"], scene.lines["cam1"]
+    search = line.line_search
+    assert search.rival_probability is not None and search.rival_probability < RIVAL_PROBABILITY  # the old strongest line
+    middle = (float(np.median(scene.tracks["cam1"].frame)) - truth.beta) / truth.alpha
+    error = abs((line.alpha - truth.alpha) * middle + line.beta - truth.beta)
+    se = float(np.sqrt(np.array([middle, 1.0]) @ line.cov @ np.array([middle, 1.0])))
+    assert error <= 1.96 * se
