@@ -67,11 +67,12 @@ from gps_bound import worst_pair_draws  # noqa: E402
 from tlsync_pipeline.sync.log_model import PRESETS as LOG_MODELS  # noqa: E402
 from tlsync_pipeline.sync.log_model import LogModel  # noqa: E402
 from tlsync_pipeline.sync.params import SyncParams  # noqa: E402
-from tlsync_pipeline.sync.pose import GCP_SIGMA_M  # noqa: E402
+from tlsync_pipeline.sync.choices import GCP_SIGMA_M  # noqa: E402
 from tlsync_pipeline.sync.pose_fit import GcpPrior  # noqa: E402
 from tlsync_pipeline.sync.status import AMBIGUOUS, FAILED  # noqa: E402
 from tlsync_pipeline.sync.synchronize import CameraInput, synchronize  # noqa: E402
 from tlsync_pipeline.sync.timeline import Timeline, eps_t, read_timeline, read_truth  # noqa: E402
+from tlsync_pipeline.trajectory import Trajectory  # noqa: E402
 from traps import run as run_tlsync  # noqa: E402
 
 Z95 = 1.959964
@@ -89,7 +90,7 @@ class Case:
     label: str
     scene: Scene
     inputs: dict[str, CameraInput]
-    trajectory: object
+    trajectory: Trajectory
     declared: LogModel
     bound: bool = False
 
@@ -153,7 +154,7 @@ def crowd_case(seed: int) -> Case:
     log_error = None if receiver == "rtk" else RECEIVERS[receiver]
     with tempfile.TemporaryDirectory() as tmp:
         crowd = make_crowd_scene(CrowdSpec(seed=seed, distractors=distractors, log_rate=10.0 if log_error is None else log_error.rate_hz, log_error=log_error), tmp)
-        detections = {n: detect_movers(crowd.truth[n].video, progress=False) for n in crowd.scene.cameras}
+        detections = {n: detect_movers(video, progress=False) for n in crowd.scene.cameras if (video := crowd.truth[n].video) is not None}
     scene = crowd.scene
     inputs = {n: CameraInput(c, None, c.fps, detections[n]) for n, c in scene.cameras.items()}
     return Case(f"{distractors} walkers, {receiver} log", scene, inputs, scene.trajectory, LOG_MODELS["phone" if receiver == "phone" else "none"], bound=log_error is not None)
@@ -166,6 +167,7 @@ def camera_error(timeline: Timeline, name: str, scene: Scene) -> tuple[float, fl
     """(|clock error| in frames at the middle of the camera's visit, its 95 % half-width; inf without an interval) of a
     synchronized or rejected line."""
     line = timeline.cameras.get(name) or timeline.rejected.get(name)
+    assert line is not None, "a camera with a line"
     truth = scene.lines[name]
     frames = scene.tracks[name].frame
     middle = (float(np.median(frames)) - truth.beta) / truth.alpha
