@@ -37,8 +37,10 @@ refusals), and the wrong lines it stopped. With ``--trap-scenes N``, the
 trap suite (data_fixtures/traps.py) on N walk scenes with a phone's log
 declared, each trap run by the ``tlsync`` command as bench/traps.py does:
 per trap, runs caught (a non-zero exit naming a cause, nothing wrong
-synchronized), right (every pair within a frame of the truth) and missed
-(a pair synchronized wrong); per check, the trap runs it named.
+synchronized), right (exit 0, nothing wrong) and missed (a pair
+synchronized wrong: further than a frame and than three times its 95 %
+interval of the start offset from the truth); per check, the trap runs it
+named.
 """
 
 from __future__ import annotations
@@ -280,10 +282,23 @@ def trap_run(job: tuple[int, str]) -> dict:
             return {"trap": trap, "outcome": "caught" if code != 0 else "missed", "codes": ["bad_input" if code == 2 else f"exit {code}"]}
         timeline = read_timeline(timeline_file)
         truth, n_frames = read_truth(root / "truth.json")
-        wrong = any(set(k.split("->")) <= set(timeline.cameras) and not eps_t(timeline.relation(*k.split("->")), rel, n_frames.get(k.split("->")[0]) or 1) <= 1.0 for k, rel in truth.items())
+        wrong = any(_pair_wrong(timeline, key, relation, n_frames) for key, relation in truth.items())
         codes = sorted({r.code for s in timeline.statuses().values() for r in s.reasons if r.severity in STOPPING})
         outcome = "missed" if wrong else "right" if code == 0 else "caught"
         return {"trap": trap, "outcome": outcome, "codes": codes}
+
+
+def _pair_wrong(timeline: Timeline, key: str, truth, n_frames: dict[str, int]) -> bool:
+    """Whether a synchronized pair is wrong: further than RIGHT_FRAMES (eps_t) and than BEYOND times its 95 % interval
+    of the start offset from the truth (a phone's log leaves right answers tens of frames off, within their interval)."""
+    a, b = key.split("->")
+    if not {a, b} <= set(timeline.cameras):
+        return False
+    relation = timeline.relation(a, b)
+    if eps_t(relation, truth, n_frames.get(a) or 1) <= RIGHT_FRAMES:
+        return False
+    cov = timeline.relation_cov(a, b)
+    return cov is None or not abs(relation.beta - truth.beta) <= BEYOND * Z95 * float(np.sqrt(cov[1, 1]))
 
 
 def trap_table(results: list[dict]) -> list[str]:
