@@ -80,19 +80,23 @@ def segment_table(line: CameraLine, frame_times: np.ndarray) -> list[dict]:
     between the known segments around it (None: open), where the camera shows no picture rather than a wrong frame."""
     n = len(frame_times)
     table = FrameTimes(np.arange(n, dtype=np.float64), np.asarray(frame_times, dtype=np.float64))
-    rows = []
+    spans: list[tuple[float, float] | None] = []
     for seg in line.clock.segments:
         first, last = max(seg.start, 0), min(seg.stop, n) - 1
-        span: list[float | None] = [None, None]
-        if seg.shift is not None and last >= first:
-            span = [float(v) for v in line.sample_at(np.array([first, last], dtype=np.float64), table)]
-        rows.append({"start": seg.start, "stop": seg.stop, "shift": seg.shift, "source": seg.source, "lo": span[0], "hi": span[1]})
-    known = [row for row in rows if row["shift"] is not None and row["lo"] is not None]
-    for row in rows:
-        if row["lo"] is None:
-            before = [k["hi"] for k in known if k["stop"] <= row["start"]]
-            after = [k["lo"] for k in known if k["start"] >= row["stop"]]
-            row["lo"], row["hi"] = (before[-1] if before else None), (after[0] if after else None)
+        known = seg.shift is not None and last >= first
+        lo, hi = line.sample_at(np.array([first, last], dtype=np.float64), table) if known else (np.nan, np.nan)
+        spans.append((float(lo), float(hi)) if known else None)
+    rows = []
+    for k, seg in enumerate(line.clock.segments):
+        span = spans[k]
+        if span is None:  # between the known segments around it
+            before = [s[1] for s in spans[:k] if s is not None]
+            after = [s[0] for s in spans[k + 1 :] if s is not None]
+            lo, hi = (before[-1] if before else None), (after[0] if after else None)
+        else:
+            lo, hi = span
+        row = {"start": seg.start, "stop": seg.stop, "shift": seg.shift, "source": seg.source}
+        rows.append(row | {"lo": lo, "hi": hi})
     return rows
 
 

@@ -4,7 +4,14 @@ import numpy as np
 import pytest
 
 from data_fixtures import make_scene
-from tlsync_pipeline.outputs.player import PlayerVideo, decode_times, encode_times, player_data, projected_path, recording_samples
+from tlsync_pipeline.outputs.player import (
+    PlayerVideo,
+    decode_times,
+    encode_times,
+    player_data,
+    projected_path,
+    recording_samples,
+)
 from tlsync_pipeline.sync.clock import TIME_S, CameraClock, FrameTimes, Segment
 from tlsync_pipeline.sync.timeline import CameraLine, Timeline
 from tlsync_pipeline.trajectory import Trajectory
@@ -60,15 +67,21 @@ def player_frame(entry: dict, sample: float) -> int:
         f = int(np.floor(clock - g["shift"] + 0.5))  # Math.round
         if 0 <= f < n and (k == 0 or f >= g["start"]) and (k == len(segments) - 1 or f < g["stop"]):
             return f
-    unknown = [g for g in segments if g["shift"] is None and (g["lo"] is None or sample >= g["lo"]) and (g["hi"] is None or sample <= g["hi"])]
-    return -2 if unknown else -1
+    def spans(g: dict) -> bool:
+        return (g["lo"] is None or sample >= g["lo"]) and (g["hi"] is None or sample <= g["hi"])
+
+    return -2 if any(g["shift"] is None and spans(g) for g in segments) else -1
 
 
 def test_a_recording_that_breaks_is_played_through_its_segments_as_the_frame_map_maps_it():
     scene = make_scene(seed=0)
     names = list(scene.lines)[:2]
     n = 300
-    segments = (Segment(0, 100, 0.0, "line", 40), Segment(100, 180, None, "unknown", 0), Segment(180, 300, 60.0, "votes", 30))
+    segments = (
+        Segment(0, 100, 0.0, "line", 40),
+        Segment(100, 180, None, "unknown", 0),
+        Segment(180, 300, 60.0, "votes", 30),
+    )
     breaks = (Break("gap", 100, 3.0), Break("drop", 180, 57.0))
     broken = CameraLine(names[1], 2.0, 10.0, 0, 0, 0.0, 30.0, clock=CameraClock(segments=segments), breaks=breaks)
     steady = CameraLine(names[0], scene.lines[names[0]].alpha, scene.lines[names[0]].beta, 0, 0, 0.0, 30.0)
@@ -78,10 +91,15 @@ def test_a_recording_that_breaks_is_played_through_its_segments_as_the_frame_map
     plain, entry = data["cameras"]
     assert "segments" not in plain and "breaks" not in plain  # a steady recording's entry is as before
     rows = entry["segments"]
-    assert [(g["start"], g["stop"], g["shift"], g["source"]) for g in rows] == [(0, 100, 0.0, "line"), (100, 180, None, "unknown"), (180, 300, 60.0, "votes")]
+    assert [(g["start"], g["stop"], g["shift"], g["source"]) for g in rows] == [
+        (0, 100, 0.0, "line"),
+        (100, 180, None, "unknown"),
+        (180, 300, 60.0, "votes"),
+    ]
     assert (rows[0]["lo"], rows[0]["hi"]) == pytest.approx(((0 - 10) / 2, (99 - 10) / 2))
     assert (rows[2]["lo"], rows[2]["hi"]) == pytest.approx(((180 + 60 - 10) / 2, (299 + 60 - 10) / 2))
-    assert (rows[1]["lo"], rows[1]["hi"]) == (rows[0]["hi"], rows[2]["lo"])  # the unknown segment lies between its known neighbours
+    # the unknown segment lies between its known neighbours
+    assert (rows[1]["lo"], rows[1]["hi"]) == (rows[0]["hi"], rows[2]["lo"])
     assert entry["breaks"] == [{"sample": pytest.approx(rows[0]["hi"]), "text": "gap of 3 frames at frame 100"},
                                {"sample": pytest.approx(rows[2]["lo"]), "text": "jump of 57 frames at frame 180"}]
     # every sample: the player's frame is the frame map's (CameraClock.frames_at), and none in the unknown segment

@@ -63,7 +63,9 @@
       const f = steadyFrame(c, clock - g.shift);
       if (f >= 0 && (k === 0 || f >= g.start) && (k === last || f < g.stop)) return { frame: f, shift: g.shift };
     }
-    const unknown = c.segments.find(function (g) { return g.shift === null && (g.lo === null || s >= g.lo) && (g.hi === null || s <= g.hi); });
+    const unknown = c.segments.find(function (g) {
+      return g.shift === null && (g.lo === null || s >= g.lo) && (g.hi === null || s <= g.hi);
+    });
     return { frame: unknown ? -2 : -1, shift: 0, segment: unknown };
   }
 
@@ -182,7 +184,9 @@
     }
     grid.appendChild(box);
     box.addEventListener("click", function () { stepSelect.value = c.name; });
-    return { camera: c, box: box, video: video, canvas: canvas, frameLabel: label, cursor: cursor, place: place, frame: -1 };
+    return {
+      camera: c, box: box, video: video, canvas: canvas, frameLabel: label, cursor: cursor, place: place, frame: -1,
+    };
   });
 
   function drawOverlay(view, s) {
@@ -319,5 +323,8 @@
   const middle = first ? sampleOfFrame(first, Math.floor(first.n / 2)) : NaN;
   setPosition(isNaN(middle) ? (data.range[0] + data.range[1]) / 2 : middle, true);
   root.classList.add("ready");
-  window.tlsyncPlayer = { setPosition: setPosition, frameAt: frameAt, locate: locate, seekTime: seekTime, sampleOfFrame: sampleOfFrame, step: step, views: views, get position() { return position; } };
+  window.tlsyncPlayer = {
+    setPosition: setPosition, frameAt: frameAt, locate: locate, seekTime: seekTime, sampleOfFrame: sampleOfFrame,
+    step: step, views: views, get position() { return position; },
+  };
 })();
