@@ -1,6 +1,6 @@
 """Poses from the target: eps_t and pose error against GCP noise and without GCPs, the real flight without poses, a crowd, speed.
 
-    nice python bench/pose.py [--scenes 20] [--jobs 2] [--crowd 5] [--data /work/shared/real/drone2] [--no-write]
+    nice python bench/pose.py [--scenes 20] [--jobs 2] [--crowd 5] [--demo-draws 10] [--gnss-seeds 3] [--data /work/shared/real/drone2] [--no-write]
 
 1. Pass scenes (data_fixtures/passes.py: a walker crossing three 30 fps
    views and turning inside each, RTK log 10 Hz with 2 cm noise, 2 px
@@ -20,6 +20,16 @@
    and which cameras got a pose (the others' cause).
 4. Speed: CPU seconds of the pose search and fit of one camera for 10
    minutes of 30 fps track (a walker turning in one view for 600 s).
+5. The raw demo (what ``tlsync demo`` builds) with its GCPs surveyed 0.5 m
+   off per horizontal axis, ``--demo-draws`` random draws of that error,
+   run through the pipeline with the defaults: per draw, the cameras
+   synchronized, the worst pair's eps_t, and each camera's pose source,
+   measured GCP sigma and disagreeing GCPs.
+6. The real flight without poses with a consumer drone's GNSS error added
+   to its log (data_fixtures/log_error.py's ``drone``: Gauss-Markov 1 m /
+   30 s horizontal, 2 m vertical, 0.1-0.2 m white), declared ``drone``,
+   ``--gnss-seeds`` seeds: cameras synchronized, worst and median eps_t,
+   interval coverage, and each refused camera's cause.
 
 Writes the tables into docs/accuracy.md (block ``pose``) and the summary
 into docs/calibration.md (block ``pose``) unless --no-write.
@@ -141,7 +151,7 @@ def pass_table(all_rows: list[dict]) -> str:
     ]
     for noise in NOISE_M:
         lines.append(line(f"GCPs {noise:g} m off, alone (as before)", ("alone", noise)))
-        lines.append(line(f"GCPs {noise:g} m off + target (gcp_sigma_m {GCP_SIGMA_M:g})", ("joint", noise)))
+        lines.append(line(f"GCPs {noise:g} m off + target (sigma measured; stated {GCP_SIGMA_M:g})", ("joint", noise)))
     return "\n".join(lines)
 
 
@@ -181,6 +191,70 @@ def real_flight(data: Path) -> str | None:
             f"Poses from the target against the given ones: {poses}.",
         ]
     )
+
+
+def demo_draws(draws: int) -> str:
+    """The raw demo with its GCPs 0.5 m off, ``draws`` draws of the survey error, through the pipeline (section 5)."""
+    import json
+    import subprocess
+
+    from data_fixtures.raw_project import RawProjectSpec, make_raw_project, rewrite_gcps
+    from tlsync_pipeline.sync.timeline import read_timeline, read_truth
+
+    rows = ["| draw | cameras synchronized | worst eps_t | per camera: pose source, measured GCP sigma (m), GCPs that disagree |", "|---|---|---|---|"]
+    worst_all = []
+    with tempfile.TemporaryDirectory() as tmp:
+        project_file, scene = make_raw_project(Path(tmp) / "demo", RawProjectSpec(gcp_noise_m=0.5))
+        truth, n_frames = read_truth(project_file.parent / "truth.json")
+        for draw in range(draws):
+            rewrite_gcps(project_file.parent, RawProjectSpec(gcp_noise_m=0.5, gcp_draw=draw))
+            subprocess.run([sys.executable, "-m", "tlsync_pipeline.cli", "run", str(project_file), "-j", "1", "-q"], capture_output=True, check=False)
+            timeline = read_timeline(project_file.parent / "work" / "timeline.json")
+            errors = [eps_t(timeline.relation(*k.split("->")), r, n_frames[k.split("->")[0]]) for k, r in truth.items() if all(c in timeline.cameras for c in k.split("->"))]
+            worst = max(errors) if len(timeline.cameras) == len(scene.true_cameras) else float("inf")
+            worst_all.append(worst)
+            poses = []
+            for name in scene.true_cameras:
+                target = json.loads((project_file.parent / "work" / "cameras" / name / "calibration_report.json").read_text(encoding="utf-8")).get("target_pose") or {}
+                poses.append(f"{name} {target.get('cause') or target.get('source')} {target.get('gcp_sigma_m', float('nan')):.2f} {','.join(target.get('gcps_disagree') or []) or '-'}")
+            rows.append(f"| {draw} | {len(timeline.cameras)} / {len(scene.true_cameras)} | {worst:.3f} | {'; '.join(poses)} |")
+    synced = sum(np.isfinite(w) for w in worst_all)
+    return "\n".join([f"Raw demo with its GCPs 0.5 m off (per horizontal axis), {draws} draws, defaults: every camera synchronized in {synced} of {draws}; worst pair {max(worst_all):.3f} frames.", "", *rows])
+
+
+def gnss_without_poses(data: Path, seeds: int) -> str | None:
+    """The real flight without poses, a drone's GNSS error added to its log, declared ``drone`` (section 6); None without the data."""
+    if not (data / "project.toml").exists():
+        return None
+    import dataclasses
+
+    from data_fixtures.log_error import PRESETS as RECEIVERS
+    from data_fixtures.log_error import log_errors
+    from tlsync_pipeline.pipeline.project import load_project
+    from tlsync_pipeline.pipeline.stages.sync import load_inputs
+    from tlsync_pipeline.sync.log_model import PRESETS as LOG_MODELS
+    from tlsync_pipeline.sync.timeline import read_truth
+
+    project = load_project(data / "project.toml")
+    cameras, trajectory = load_inputs(project)
+    truth, n_frames = read_truth(data / "truth.json")
+    rows = ["| seed | cameras synchronized | worst eps_t | median eps_t | 95 % intervals that contain the truth | refused (cause) |", "|---|---|---|---|---|---|"]
+    for seed in range(seeds):
+        errors, _ = log_errors(np.random.default_rng(seed), trajectory.sample / trajectory.rate, RECEIVERS["drone"])
+        inputs = {n: replace(c, camera=unposed(c.camera)) for n, c in cameras.items()}
+        timeline, _ = synchronize(inputs, dataclasses.replace(trajectory, xyz=trajectory.xyz + errors), project.sync, log_model=LOG_MODELS["drone"])
+        eps, z = [], []
+        for key, relation in truth.items():
+            a, b = key.split("->")
+            if a in timeline.cameras and b in timeline.cameras:
+                eps.append(eps_t(timeline.relation(a, b), relation, n_frames.get(a) or 1))
+                cov = timeline.relation_cov(a, b)
+                z.append(abs(timeline.relation(a, b).beta - relation.beta) / np.sqrt(cov[1, 1]) if cov is not None else np.inf)
+        causes = ", ".join(f"{n} ({why.split('(', 2)[1].split(')')[0] if '(' in why else why[:40]})" for n, why in timeline.failed.items()) or "-"
+        worst = f"{max(eps):.2f} | {np.median(eps):.2f}" if eps else "- | -"
+        cover = f"{100 * np.mean(np.array(z) <= Z95):.0f} % of {len(z)}" if z else "-"
+        rows.append(f"| {seed} | {len(timeline.cameras)} / {len(cameras)} | {worst} | {cover} | {causes} |")
+    return "\n".join([f"Real flight {data.name} without poses, a drone's GNSS error added to its log (declared `drone`), {seeds} seeds:", "", *rows])
 
 
 def crowd_scene(seed: int) -> dict:
@@ -229,6 +303,8 @@ def main() -> None:
     parser.add_argument("--scenes", type=int, default=20)
     parser.add_argument("--crowd", type=int, default=5, metavar="N", help="crowd scenes (0: none)")
     parser.add_argument("--jobs", type=int, default=2)
+    parser.add_argument("--demo-draws", type=int, default=10, metavar="N", help="draws of the raw demo's GCP error (0: none)")
+    parser.add_argument("--gnss-seeds", type=int, default=3, metavar="N", help="seeds of the real flight with a drone's GNSS error, without poses (0: none)")
     parser.add_argument("--data", type=Path, default=DEFAULT_DATA)
     parser.add_argument("--no-write", action="store_true", help="print only; leave docs/ alone")
     args = parser.parse_args()
@@ -243,12 +319,16 @@ def main() -> None:
     print(flight or f"real flight: skipped ({args.data} not found)")
     crowds = crowd_table(crowd) if crowd else ""
     print(crowds)
+    demo = demo_draws(args.demo_draws) if args.demo_draws else ""
+    print(demo)
+    gnss = (gnss_without_poses(args.data, args.gnss_seeds) or f"drone GNSS without poses: skipped ({args.data} not found)") if args.gnss_seeds else ""
+    print(gnss)
     seconds, frames = speed()
     pace = f"Speed: the pose search and fit of one camera on {frames} frames (10 minutes at 30 fps; a walker turning in its view): {seconds:.1f} s CPU (the faster of 2 runs). On the pass scenes (500-900 frames a camera): {np.median(pose_cpu):.1f} s a camera (median, with its sync)."
     print(pace)
     text = "\n".join(
         [
-            f"`python bench/pose.py --scenes {args.scenes} --crowd {args.crowd}` ({time.strftime('%Y-%m-%d')}, {(time.time() - started) / 60:.0f} min on this machine).",
+            f"`python bench/pose.py --scenes {args.scenes} --crowd {args.crowd} --demo-draws {args.demo_draws} --gnss-seeds {args.gnss_seeds}` ({time.strftime('%Y-%m-%d')}, {(time.time() - started) / 60:.0f} min on this machine).",
             "",
             f"Pass scenes, {args.scenes} seeds (3 cameras each; worst pair per scene, frames):",
             "",
@@ -259,6 +339,10 @@ def main() -> None:
             f"Crowds, 6 walkers per view, no pose and no track given (the pose from every mover's tracklets), {args.crowd} seeds:" if crowd else "",
             "",
             crowds,
+            "",
+            demo,
+            "",
+            gnss,
             "",
             pace,
         ]

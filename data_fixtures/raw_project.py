@@ -35,6 +35,7 @@ SQUARE_M = 0.04
 class RawProjectSpec:
     """What to generate: lines (alpha, beta) per camera, frames per camera, image size, target rate (Hz), checkerboard
     photos and GCPs per camera (0: no GCP file), the GCPs' survey error (metres per horizontal axis), seed;
+    gcp_draw: which draw of the survey error (another draw moves the GCPs, nothing else);
     recorded_zone_s: the videos carry the recording time a phone writes (its true start, whole seconds, in
     this time zone: local - UTC, s), None for none; window_samples: longest stay of the target in each
     camera's zone (samples; None: its whole share, see data_fixtures.scene.make_scene)."""
@@ -47,6 +48,7 @@ class RawProjectSpec:
     gcps: int = 8
     seed: int = 0
     gcp_noise_m: float = 0.0
+    gcp_draw: int = 0
     window_samples: float | None = None
     recorded_zone_s: float | None = 7200.0
 
@@ -71,7 +73,7 @@ def make_raw_project(directory: str | Path, spec: RawProjectSpec = RawProjectSpe
     render = render or render_camera_video
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
-    scene = make_scene(spec.seed, spec.lines, spec.n_frames, target_rate=spec.target_rate, image_size=spec.image_size, window_samples=spec.window_samples)
+    scene = _scene(spec)
     rng = np.random.default_rng(spec.seed + 1)
     write_gpx_log(directory / "target.gpx", scene.true_trajectory, ORIGIN, START_UTC)
     parts = [
@@ -98,8 +100,7 @@ def make_raw_project(directory: str | Path, spec: RawProjectSpec = RawProjectSpe
         write_checkerboards(boards, folder / "boards")
         gcp_line = ""
         if spec.gcps:
-            survey = spec.gcp_noise_m * np.random.default_rng([spec.seed, 7, k]).standard_normal((spec.gcps, 2))
-            _write_gcps(folder / "gcp.csv", camera, scene, name, spec.gcps, rng, survey)
+            _write_gcps(folder / "gcp.csv", camera, scene, name, spec.gcps, rng, survey_error(spec, k))
             gcp_line = f'gcp = "{name}/gcp.csv"\n'
         parts.append(
             f'[[cameras]]\nname = "{name}"\nvideo = "{name}/video.mp4"\nfps = {camera.fps!r}\n'
@@ -110,6 +111,25 @@ def make_raw_project(directory: str | Path, spec: RawProjectSpec = RawProjectSpe
     project.write_text("\n".join(parts), encoding="utf-8")
     write_truth(scene, directory)
     return project, scene
+
+
+def _scene(spec: RawProjectSpec) -> Scene:
+    return make_scene(spec.seed, spec.lines, spec.n_frames, target_rate=spec.target_rate, image_size=spec.image_size, window_samples=spec.window_samples)
+
+
+def survey_error(spec: RawProjectSpec, k: int) -> np.ndarray:
+    """(gcps, 2) metres east and north by which camera k's GCPs are surveyed wrong (draw ``spec.gcp_draw``)."""
+    key = [spec.seed, 7, k] if not spec.gcp_draw else [spec.seed, 7, k, spec.gcp_draw]
+    return spec.gcp_noise_m * np.random.default_rng(key).standard_normal((spec.gcps, 2))
+
+
+def rewrite_gcps(directory: str | Path, spec: RawProjectSpec) -> None:
+    """Write every camera's gcp.csv of a project ``make_raw_project`` made with the same scene again, with the survey
+    error of ``spec`` (another ``gcp_draw`` or ``gcp_noise_m``): the same points, the other files untouched."""
+    scene = _scene(spec)
+    rng = np.random.default_rng(spec.seed + 1)
+    for k, (name, camera) in enumerate(scene.true_cameras.items()):
+        _write_gcps(Path(directory) / name / "gcp.csv", camera, scene, name, spec.gcps, rng, survey_error(spec, k))
 
 
 def recording_utc(scene: Scene, name: str) -> float:
@@ -144,7 +164,7 @@ def _write_gcps(path: Path, camera, scene: Scene, name: str, count: int, rng, su
     keep = valid & camera.in_image(uv)
     surveyed = world.copy()
     if survey is not None:
-        surveyed[:, :2] += survey[: len(world)]
+        surveyed[:, : survey.shape[1]] += survey[: len(world)]
     geo = enu_to_geodetic(surveyed[keep], ORIGIN)
     rows = ["name,u,v,lat,lon,alt"]
     rows += [f"P{i + 1},{p[0]:.2f},{p[1]:.2f},{lat:.8f},{lon:.8f},{alt:.3f}" for i, (p, (lat, lon, alt)) in enumerate(zip(uv[keep], geo))]

@@ -21,6 +21,7 @@ from tlsync_pipeline.sync.params import SyncParams
 from tlsync_pipeline.sync.timeline import CameraLine
 from tlsync_pipeline.sync.votes import Votes
 from tlsync_pipeline.trajectory import Trajectory
+from trackers.breaks import Break
 from trackers.detections import Detections
 from trackers.track import Track
 
@@ -37,9 +38,11 @@ class CameraInput:
     detections: every mover of its video instead of a track (track None):
     ``synchronize`` identifies the target among them first (sync/identify.py).
     A camera without a pose (``Camera.posed`` false) gets it from the target
-    first (sync/pose.py), with ``gcps`` as a prior when given. pick_start_s:
-    the line the user picked where two remained ([[cameras]] pick_start_s: the
-    log's time, seconds after its first fix, at the video's first frame), or None.
+    first (sync/pose.py), with ``gcps`` as a prior when given. breaks: where
+    its recording may leave its steady clock (trackers/breaks.py), judged
+    against its line (sync/breaks.py). pick_start_s: the line the user picked
+    where two remained ([[cameras]] pick_start_s: the log's time, seconds after
+    its first fix, at the video's first frame), or None.
     """
 
     camera: Camera
@@ -47,6 +50,7 @@ class CameraInput:
     fps: float | None
     detections: Detections | None = None
     gcps: GcpPrior | None = None
+    breaks: tuple[Break, ...] = ()
     pick_start_s: float | None = None
 
 

@@ -28,7 +28,16 @@ rate), only beta is unknown:
    a straight line in the image (the pose turns freely about it), two
    offsets with comparable support, or a pose whose uncertainty is too
    large. With GCPs the straightness and ambiguity tests are left to the
-   uncertainty: the GCPs hold the pose where the path alone cannot.
+   uncertainty: the GCPs hold the pose where the path alone cannot;
+5. with GCPs and their own pose (``_survey_and_target``) the evidence
+   decides: the survey's error is measured from the GCPs' residuals under
+   their own pose and under the track's (``measured_gcps``), GCPs the
+   track's pose puts far off are named and left out, and the GCPs count as
+   much against the track as the track's shared errors warrant. The joint
+   pose wins when it keeps the GCPs and explains the track nearly as well
+   as the track's own pose; otherwise the track's own pose is used (the
+   GCPs that disagree named), and only when the track alone does not
+   determine it either does the camera fail (gcp_conflict).
 
 Without K (a camera.json with the image size only) the search fits a
 projection matrix (DLT, normalised) instead of a pose, and the joint fit
@@ -47,6 +56,7 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 import numpy as np
+from scipy.optimize import minimize_scalar
 from scipy.spatial import cKDTree
 
 from calibration.camera import Camera, PoseInfo
@@ -86,6 +96,9 @@ AMBIGUOUS = 0.85  # a distinct offset scoring this share of the best's score (ms
 TIGHT = 3.0  # median residuals of the best fit within which frames count for the ambiguity test
 DISTINCT_S = 1.0  # offsets further apart than this (seconds) are distinct
 GCP_AGREE = 3.0  # a pose agrees with the GCPs when their median error is within this many of their sigmas
+SURVEY_SUPPORT = 0.9  # a pose from GCPs and track together must explain this share of the frames the track's own pose explains
+CHI2_2_MEDIAN = 2.0 * np.log(2.0)  # median of a chi-square of 2 degrees of freedom
+MEASURE_POINTS = 6  # GCPs (inliers of their pose) whose residuals measure the survey's error alone; fewer: not below the stated one
 MAX_ROTATION_STD_DEG = 3.0
 MAX_CENTER_STD = 0.15  # of the median distance to the target
 # An intrinsic the target determines: its posterior std below these (f: share of f; cx, cy: share of the image width; k1: absolute).
@@ -155,7 +168,10 @@ class TargetPose:
     straightness: the image path's second to first singular value; gcp_pose:
     the camera from the GCPs alone (None without GCPs); moved_m / moved_deg:
     how far the pose moved from it; intrinsics: each intrinsic the fit was
-    free to move: (value, std, determined).
+    free to move: (value, std, determined); gcps_used: the GCPs as the fit
+    counted them (their measured sigma and weight; None: as given);
+    disagreeing: the GCPs that conflict with the track (the pose is then the
+    track's alone, source ``target``).
     """
 
     camera: Camera
@@ -172,6 +188,8 @@ class TargetPose:
     moved_m: float = float("nan")
     moved_deg: float = float("nan")
     intrinsics: dict[str, tuple[float, float, bool]] | None = None
+    gcps_used: GcpPrior | None = None
+    disagreeing: tuple[str, ...] = ()
 
     @property
     def support(self) -> int:
@@ -197,11 +215,13 @@ class TargetPose:
             out.update(moved_m=self.moved_m, moved_deg=self.moved_deg)
         if gcps is not None:
             before = gcps.errors_px(self.gcp_pose) if self.gcp_pose is not None else np.full(len(gcps.xyz), np.nan)
+            after = gcps.errors_px(self.camera)
             names = gcps.names or tuple(str(k) for k in range(len(gcps.xyz)))
-            out["gcp_sigma_m"] = gcps.sigma_m
+            used = self.gcps_used or gcps
+            out.update(gcp_sigma_m=used.sigma_m, gcp_sigma_stated_m=gcps.sigma_m, gcp_weight=used.weight, gcps_disagree=list(self.disagreeing))
             out["gcps"] = [
-                {"name": n, "before_px": None if not np.isfinite(b) else float(b), "after_px": None if not np.isfinite(a) else float(a)}
-                for n, b, a in zip(names, before, fit.gcp_errors_px)
+                {"name": n, "before_px": None if not np.isfinite(b) else float(b), "after_px": None if not np.isfinite(a) else float(a), "disagrees": n in self.disagreeing}
+                for n, b, a in zip(names, before, after)
             ]
         if self.intrinsics:
             out["intrinsics"] = {k: {"value": v, "std": sd, "determined": kept} for k, (v, sd, kept) in self.intrinsics.items()}
@@ -242,12 +262,109 @@ def pose_from_track(
     unknown_k = "intrinsics" in camera.to_estimate
     if unknown_k:
         free = tuple(sorted(set(free) | {"f", "cx", "k1"}, key=INTRINSICS.index))
-    search, fits = candidate_fits(camera, clock, xy, path, prior, fps, gate_px, gcps, gcp_camera, free, f_scale, seed, delta, offsets=offsets)
-    result = ranked_pose(fits, search, xy, fps or 0.0, gcps is not None, gcp_camera)
-    if free:
-        result = _settle_intrinsics(result, clock, xy, path, prior, gate_px, f_scale, gcps, free, unknown_k)
-    check_determined(result, clock, path, gcps is not None)
-    return result
+    if gcps is None or gcp_camera is None or free:
+        try:
+            search, fits = candidate_fits(camera, clock, xy, path, prior, fps, gate_px, gcps, gcp_camera, free, f_scale, seed, delta, offsets=offsets)
+        except PoseError as exc:
+            if exc.cause != "gcp_conflict" or free:
+                raise
+            # GCPs without a pose of their own (too few, too rough) that no pose of the track keeps: the track alone
+            alone = pose_from_track(camera, clock, xy, path, prior, fps, gate_px, None, None, (), f_scale, seed, delta, offsets)
+            return replace(alone, disagreeing=_names(gcps))  # type: ignore[arg-type]
+        result = ranked_pose(fits, search, xy, fps or 0.0, gcps is not None, gcp_camera)
+        if free:
+            result = _settle_intrinsics(result, clock, xy, path, prior, gate_px, f_scale, gcps, free, unknown_k)
+        check_determined(result, clock, path, gcps is not None)
+        return result
+    return _survey_and_target(camera, clock, xy, path, prior, fps, gate_px, gcps, gcp_camera, f_scale, seed, delta, offsets)
+
+
+def _survey_and_target(
+    camera: Camera, clock, xy, path, prior: SlopePrior | None, fps: float | None, gate_px: float, gcps: GcpPrior, gcp_camera: Camera, f_scale: float, seed: int, delta: float, offsets
+) -> TargetPose:
+    """The pose from GCPs and track together, or from the track alone when they conflict (module docstring, step 5).
+
+    The track alone is fitted first (the offset search's candidates, no
+    GCP). The GCPs' error is measured (``measured_gcps``) from their
+    residuals under their own pose and, when the track alone determines the
+    pose, under the track's: the GCPs that the track's pose puts beyond
+    GCP_AGREE of the latter disagree and are left out (the GCPs' own pose is
+    then fitted to the others), and the smaller of the two sigmas is used.
+    The GCPs count ``track_inflation`` times their information, since the
+    fit counts every frame as independent while the track's errors are
+    shared by neighbouring frames (the log's bias, the tracker's). A joint
+    fit that keeps the GCPs within GCP_AGREE sigmas and explains
+    SURVEY_SUPPORT of the frames the track alone explains wins (source
+    ``gcp+target``); otherwise the track's own pose is used (source
+    ``target``), naming the GCPs it puts beyond GCP_AGREE sigmas, when it is
+    determined; else the camera fails (gcp_conflict, naming them).
+    """
+    name = camera.name
+    if prior is None or not fps:
+        raise PoseError(name, "no_clock", "the camera's fps or the log's rate is unknown, so the offset cannot be searched with the slope held")
+    if len(clock) < MIN_FRAMES:
+        raise PoseError(name, "too_few_frames", f"{len(clock)} tracked frames, at least {MIN_FRAMES} are needed")
+    search, starts = search_offsets(camera, clock, xy, path, prior.alpha, seed, offsets=offsets)
+    alone = _fit_candidates(starts, clock, xy, path, prior, gate_px, f_scale, None, (), search.threshold_px, MIN_FRAMES)
+    own: TargetPose | None = None
+    why = PoseError(name, "no_fit", f"no offset of {search.offsets_tried} tried gives a pose that explains {MIN_FRAMES} tracked frames within {gate_px:g} px")
+    if alone:
+        try:
+            own = ranked_pose(alone, search, xy, fps, False, gcp_camera)
+            check_determined(own, clock, path, False)
+        except PoseError as exc:
+            own, why = None, exc
+    used = measured_gcps(gcps, gcp_camera)
+    start = gcp_camera  # the joint fit's start from the GCPs (their own pose refitted without those that disagree)
+    outliers: tuple[str, ...] = ()
+    if own is not None:
+        seen = measured_gcps(gcps, own.camera, fitted=False)
+        outliers = disagreeing_gcps(seen, own.camera)
+        keep = np.array([n not in outliers for n in _names(gcps)])
+        if outliers and keep.sum() >= 4:
+            kept = _subset(gcps, keep)
+            try:
+                refit = pose_from_points(kept.uv, kept.xyz, camera.K, camera.dist, camera.dist_model, 1e6, source="GCPs")
+                start = replace(gcp_camera, R=refit.R, t=refit.t)
+            except CalibrationInputError:
+                pass
+            used, seen = measured_gcps(kept, start), measured_gcps(kept, own.camera, fitted=False)
+        used = replace(used, sigma_m=min(used.sigma_m, seen.sigma_m))
+    weighted = replace(used, weight=alone[0].track_inflation if alone else 1.0)
+    candidates = [Candidate(f.camera, f.alpha, f.beta, "search") for f in alone[:CANDIDATES]]
+    found = _gcp_candidate(start, clock, xy, path, prior, gate_px, delta, seed)
+    if found is not None:
+        candidates.append(found)
+    joint = [f for f in _fit_candidates(candidates, clock, xy, path, prior, gate_px, f_scale, weighted, (), gate_px, MIN_FRAMES) if gcps_agree(weighted, f)]
+    if joint and (own is None or joint[0].support >= SURVEY_SUPPORT * own.support):
+        result = _with_gcps(joint, search, xy, fps, gcp_camera, weighted, clock, path)
+        return replace(result, disagreeing=tuple(n for n in _names(gcps) if n in outliers or n in result.disagreeing))
+    if own is None:
+        named = ", ".join(outliers) or "none alone"
+        raise PoseError(name, "gcp_conflict", f"no pose keeps the GCPs within {GCP_AGREE:g} sigmas ({weighted.sigma_m:.2g} m; disagreeing: {named}) and explains the track, and the track alone does not determine the pose ({why.cause})")
+    return replace(own, gcps_used=weighted, disagreeing=disagreeing_gcps(weighted, own.camera))
+
+
+def _names(gcps: GcpPrior) -> tuple[str, ...]:
+    return gcps.names or tuple(str(k) for k in range(len(gcps.xyz)))
+
+
+def _subset(gcps: GcpPrior, keep: np.ndarray) -> GcpPrior:
+    names = tuple(n for n, k in zip(_names(gcps), keep) if k)
+    return replace(gcps, uv=gcps.uv[keep], xyz=gcps.xyz[keep], names=names)
+
+
+def _with_gcps(fits: list[JointFit], search: OffsetSearch, xy, fps, gcp_camera: Camera, gcps: GcpPrior, clock, path) -> TargetPose:
+    """The pose from GCPs and track together (checked), naming the GCPs it leaves beyond GCP_AGREE sigmas."""
+    result = ranked_pose(fits, search, xy, fps or 0.0, True, gcp_camera)
+    check_determined(result, clock, path, True)
+    return replace(result, gcps_used=gcps, disagreeing=disagreeing_gcps(gcps, result.camera))
+
+
+def disagreeing_gcps(gcps: GcpPrior, camera: Camera) -> tuple[str, ...]:
+    """Names (or 0-based indices) of the GCPs that the camera puts beyond GCP_AGREE of their sigmas."""
+    far = gcps.errors_px(camera) > GCP_AGREE * gcps.sigma_px(camera)
+    return tuple(n for n, bad in zip(_names(gcps), far) if bad)
 
 
 def candidate_fits(
@@ -285,9 +402,24 @@ def candidate_fits(
         found = _gcp_candidate(gcp_camera, clock, xy, path, prior, gate_px, delta, seed)
         if found is not None:
             candidates.append(found)
+    fits = _fit_candidates(candidates, clock, xy, path, prior, gate_px, f_scale, gcps, free, search.threshold_px, min_frames)
+    if not fits and dlt and planarity(path) < PLANAR:
+        raise PoseError(name, "planar_path", f"the camera has no K and the target moves in a plane (its height spread is {planarity(path):.3f} of its extent)")
+    if not fits:
+        raise PoseError(name, "no_fit", f"no offset of {search.offsets_tried} tried gives a pose that explains {MIN_FRAMES} tracked frames within {gate_px:g} px")
+    if gcps is not None:
+        fits = [f for f in fits if gcps_agree(gcps, f)]
+        if not fits:
+            raise PoseError(name, "gcp_conflict", f"no offset gives a pose that both explains the track and keeps the GCPs within {GCP_AGREE:g} sigmas ({gcps.sigma_m:.2g} m)")
+    return search, fits
+
+
+def _fit_candidates(candidates: list[Candidate], clock, xy, path, prior, gate_px: float, f_scale: float, gcps: GcpPrior | None, free, threshold_px: float, min_frames: int) -> list[JointFit]:
+    """The converged joint fits of the candidates (a search candidate starts from the frames within the search's
+    threshold, the GCP candidate from those within the gate), best first (most frames within the gate)."""
     fits = []
     for candidate in candidates:
-        start = reprojection_errors(candidate.camera, clock, xy, path, candidate.alpha, candidate.beta) <= (search.threshold_px if candidate.origin == "search" else gate_px)
+        start = reprojection_errors(candidate.camera, clock, xy, path, candidate.alpha, candidate.beta) <= (threshold_px if candidate.origin == "search" else gate_px)
         if start.sum() < min_frames // 2:
             continue
         try:
@@ -296,16 +428,8 @@ def candidate_fits(
             continue
         if fit.converged:
             fits.append(fit)
-    if not fits and dlt and planarity(path) < PLANAR:
-        raise PoseError(name, "planar_path", f"the camera has no K and the target moves in a plane (its height spread is {planarity(path):.3f} of its extent)")
-    if not fits:
-        raise PoseError(name, "no_fit", f"no offset of {search.offsets_tried} tried gives a pose that explains {MIN_FRAMES} tracked frames within {gate_px:g} px")
-    if gcps is not None:
-        fits = [f for f in fits if gcps_agree(gcps, f)]
-        if not fits:
-            raise PoseError(name, "gcp_conflict", f"no offset gives a pose that both explains the track and keeps the GCPs within {GCP_AGREE:g} sigmas ({gcps.sigma_m:g} m)")
     fits.sort(key=lambda f: (-f.support, f.scale_px))
-    return search, fits
+    return fits
 
 
 def ranked_pose(fits: list[JointFit], search: OffsetSearch, xy: np.ndarray, fps: float, with_gcps: bool, gcp_camera: Camera | None) -> TargetPose:
@@ -587,6 +711,41 @@ def _decompose(P: np.ndarray, image_size: tuple[int, int]) -> tuple[np.ndarray |
     return K, R, -R @ centre
 
 
+def measured_gcps(gcps: GcpPrior, camera: Camera, fitted: bool = True) -> GcpPrior:
+    """The GCPs with the survey's error measured from their residuals under ``camera`` (their own pose; ``fitted``
+    False: a pose fitted to something else, the track's).
+
+    sigma (metres per coordinate; each point's click_px at its depth on
+    top) is first the one that makes the median of the normalised squared
+    residuals that of a chi-square of 2 degrees of freedom (robust to a
+    minority of wrong points), then the maximum-likelihood one over the
+    points within GCP_AGREE of it; under their own pose the residuals are
+    scaled by 2N / (2N - 6) for the six pose parameters fitted to them. With MEASURE_POINTS such points
+    or more it replaces the stated sigma; with fewer (a handful of residuals
+    say little) the larger of the two is used.
+    """
+    errors = gcps.errors_px(camera)
+    depth = np.maximum((gcps.xyz @ camera.R.T + camera.t)[:, 2], 1e-3)
+    focal = 0.5 * (camera.K[0, 0] + camera.K[1, 1])
+    finite = np.isfinite(errors)
+    if finite.sum() < 4:
+        return gcps
+    n = int(finite.sum())
+    squared = np.where(finite, errors, 0.0) ** 2 * ((2 * n) / (2 * n - 6) if fitted else 1.0)
+
+    def var(sigma: float) -> np.ndarray:
+        return gcps.click_px**2 + (focal * sigma / depth) ** 2
+
+    robust = float(minimize_scalar(lambda sg: (np.median(squared[finite] / var(sg)[finite]) - CHI2_2_MEDIAN) ** 2, bounds=(0.0, 50.0), method="bounded", options={"xatol": 1e-4}).x)
+    inliers = finite & (squared <= GCP_AGREE**2 * var(robust))
+    sigma = robust
+    if inliers.sum() >= 4:
+        sigma = float(minimize_scalar(lambda sg: float(np.sum(2.0 * np.log(var(sg)[inliers]) + squared[inliers] / var(sg)[inliers])), bounds=(0.0, 50.0), method="bounded", options={"xatol": 1e-4}).x)
+    if inliers.sum() < MEASURE_POINTS:
+        sigma = max(sigma, gcps.sigma_m)
+    return replace(gcps, sigma_m=sigma)
+
+
 def gcp_pose(camera: Camera, gcps: GcpPrior, ransac_px: float = 8.0) -> Pose:
     """The pose the GCPs give alone (CalibrationInputError when they cannot: too few, collinear, none within the threshold).
 
@@ -696,6 +855,10 @@ def pose_from_movers(
     if unknown_k:
         free = tuple(sorted(set(free) | {"f", "cx", "k1"}, key=INTRINSICS.index))
     path = PiecewiseTrajectory(trajectory)
+    stated = gcps
+    survey = gcps is not None and gcp_camera is not None and not free
+    if survey:
+        gcps = measured_gcps(gcps, gcp_camera)  # type: ignore[arg-type]
     _, row_clock = detections_clock(detections, fps)
     ids, counts = np.unique(detections.id, return_counts=True)
     tried: dict[int, str] = {}
@@ -734,6 +897,8 @@ def pose_from_movers(
             if gcps is None or gcps_agree(gcps, refit):
                 finals.append((refit, identified, tid, search))
         tried[tid] = "; ".join(reasons)
+    if survey:
+        return _movers_with_survey(camera, detections, trajectory, fps, params, stated, gcp_camera, finals, tried, path, prior, row_clock, offsets)  # type: ignore[arg-type]
     if not finals:
         causes = ", ".join(sorted({c for c in tried.values() if c})) or "no fit"
         raise PoseError(camera.name, "no_fit", f"none of the {min(len(ranked), MAX_TRACKLETS)} longest curved tracklets leads to a pose under which the target is identified ({causes[:200]})")
@@ -744,6 +909,25 @@ def pose_from_movers(
     if free:
         pose = _settle_intrinsics(pose, clock, identified.track.xy, path, prior, eps_px, f_scale, gcps, free, unknown_k)
     check_determined(pose, clock, path, gcps is not None)
+    return MoverPose(pose, identified, tid, tried)
+
+
+def _movers_with_survey(camera: Camera, detections: Detections, trajectory: Trajectory, fps, params: IdentifyParams, gcps: GcpPrior, gcp_camera: Camera, finals, tried, path, prior, row_clock, offsets) -> MoverPose:
+    """With GCPs: the pose from GCPs and the identified track together, or from the track alone when they conflict
+    (``_survey_and_target``), on the target identified under the best refit, or under the GCPs' own pose when no
+    refit kept the GCPs (the target as the GCP pose sees it)."""
+    if finals:
+        best = min(range(len(finals)), key=lambda k: (-finals[k][0].support, finals[k][0].scale_px))
+        _, identified, tid, _ = finals[best]
+    else:
+        try:
+            identified = identify_target(gcp_camera, detections, trajectory, fps, params)
+        except SyncError as exc:
+            causes = ", ".join(sorted({c for c in tried.values() if c})) or "no fit"
+            raise PoseError(camera.name, "gcp_conflict", f"no tracklet gives a pose that keeps the GCPs ({causes[:120]}), and the target is not found under the GCPs' own pose ({exc})") from None
+        tid = -1
+    clock = row_clock[identified.rows]
+    pose = _survey_and_target(camera, clock, identified.track.xy, path, prior, fps, params.eps_px, gcps, gcp_camera, params.f_scale_px, params.seed, params.delta, offsets)
     return MoverPose(pose, identified, tid, tried)
 
 

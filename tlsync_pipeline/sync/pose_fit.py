@@ -60,7 +60,10 @@ class GcpPrior:
 
     uv: (N, 2) pixels as clicked (distorted); xyz: (N, 3) world metres;
     sigma_m: std of each world coordinate (the survey's quality, metres);
-    click_px: std of a click (pixels); names: one per point.
+    click_px: std of a click (pixels); names: one per point; weight: how
+    many times its information the fit gives the survey (the track's
+    inflation, ``JointFit.track_inflation``: the fit counts every frame as
+    independent, and the GCPs keep their due share against that).
     """
 
     uv: np.ndarray
@@ -68,6 +71,7 @@ class GcpPrior:
     sigma_m: float
     names: tuple[str, ...] = ()
     click_px: float = 1.0
+    weight: float = 1.0
 
     def sigma_px(self, camera: Camera) -> np.ndarray:
         """(N,) pixel std of each point seen from the camera: the click and the survey's error at its depth."""
@@ -128,7 +132,12 @@ class JointFit:
     rotation_std_deg: one-sigma camera centre (metres, root of the trace)
     and rotation (degrees); se_beta: std of beta (frames);
     intrinsics_std: std of each free intrinsic; gcp_errors_px: each GCP's
-    reprojection error under the fitted camera (empty without GCPs).
+    reprojection error under the fitted camera (empty without GCPs);
+    track_inflation: the pose's variance as the track's residuals show it
+    (errors shared by neighbouring frames: the larger of the frame-by-frame
+    and the block estimate) over the variance if every frame were
+    independent (mean over the six pose parameters, at least 1): what the
+    fit overcounts one frame's information by.
     """
 
     camera: Camera
@@ -148,6 +157,7 @@ class JointFit:
     message: str
     errors: np.ndarray  # (N,) pixel error of each given frame under the fit (inf off the trajectory)
     gate_px: float = 10.0
+    track_inflation: float = 1.0
 
     @property
     def inliers(self) -> np.ndarray:
@@ -241,6 +251,7 @@ def fit_pose_and_line(
         solved.message,
         error,
         gate_px,
+        solved.inflation,
     )
 
 
@@ -284,6 +295,7 @@ class _Solved:
     intrinsics_std: dict[str, float]
     converged: bool
     message: str
+    inflation: float
 
 
 def _solve(camera, clock, xy, path, x0, c_mid, layout, f_scale, prior, gcps, intrinsics_prior, model_error_px) -> _Solved:
@@ -293,7 +305,7 @@ def _solve(camera, clock, xy, path, x0, c_mid, layout, f_scale, prior, gcps, int
     clock, xy, run = clock[keep], xy[keep], run[keep]
     n = len(clock)
     dc = clock - c_mid
-    gcp_weight = f_scale / gcps.sigma_px(camera) if gcps is not None else None
+    gcp_weight = f_scale * np.sqrt(gcps.weight) / gcps.sigma_px(camera) if gcps is not None else None
     priors = _prior_rows(layout, f_scale, prior, intrinsics_prior)
     last: dict = {}
 
@@ -317,7 +329,7 @@ def _solve(camera, clock, xy, path, x0, c_mid, layout, f_scale, prior, gcps, int
     x = solution.x
     r, jac = evaluate(x)
     fitted = camera_at(camera, x, layout)
-    cov = _covariance(r, jac, n, n_robust, f_scale, model_error_px)
+    cov, shared, naive = _covariance(r, jac, n, n_robust, f_scale, model_error_px)
     u, s0 = x[6], x[7]
     alpha, beta = 1.0 / u, c_mid - s0 / u
     d_beta = np.zeros(len(x))
@@ -337,7 +349,16 @@ def _solve(camera, clock, xy, path, x0, c_mid, layout, f_scale, prior, gcps, int
         {k: float(np.sqrt(max(cov[layout.index(k), layout.index(k)], 0.0))) for k in layout.names[8:]},
         converged,
         str(solution.message),
+        _inflation(shared, naive),
     )
+
+
+def _inflation(shared: np.ndarray, naive: np.ndarray) -> float:
+    """Mean over the six pose parameters of the track's variance as its residuals show it over the frame-by-frame one, at least 1."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.diag(shared)[:6] / np.diag(naive)[:6]
+    ratio = ratio[np.isfinite(ratio)]
+    return max(float(np.mean(ratio)), 1.0) if len(ratio) else 1.0
 
 
 _INTRINSIC_SCALE = {"f": 10.0, "cx": 5.0, "cy": 5.0, "k1": 0.01}
@@ -403,8 +424,9 @@ def _intrinsic_columns(jac: np.ndarray, blocks: dict, layout: Layout, camera: Ca
         jac[:, :, layout.index("k1")] = blocks["dist"][:, :, 0]
 
 
-def _covariance(r: np.ndarray, jac: np.ndarray, n_frames: int, n_robust: int, f_scale: float, model_error_px: float) -> np.ndarray:
-    """Sandwich covariance of the parameters (see the module docstring)."""
+def _covariance(r: np.ndarray, jac: np.ndarray, n_frames: int, n_robust: int, f_scale: float, model_error_px: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Sandwich covariance of the parameters (see the module docstring); its track part alone, as the residuals show it
+    (frame by frame or in blocks, no model error); and the same with every frame independent."""
     p = jac.shape[1]
     z = (r[:n_robust] / f_scale) ** 2
     psi = np.r_[r[:n_robust] / np.sqrt(1 + z), r[n_robust:]]
@@ -413,7 +435,7 @@ def _covariance(r: np.ndarray, jac: np.ndarray, n_frames: int, n_robust: int, f_
     try:
         inv = np.linalg.inv(bread)
     except np.linalg.LinAlgError:
-        return np.full((p, p), np.inf)
+        return np.full((p, p), np.inf), np.full((p, p), np.inf), np.full((p, p), np.inf)
     track = 2 * n_frames
     scores = (jac[:track] * psi[:track, None]).reshape(n_frames, 2, p).sum(axis=1)
     independent = scores.T @ scores * n_frames / max(n_frames - p, 1)
@@ -429,8 +451,9 @@ def _covariance(r: np.ndarray, jac: np.ndarray, n_frames: int, n_robust: int, f_
     rest = jac[track:]
     meat = meat + f_scale**2 * rest.T @ (rest * dpsi[track:, None])  # GCPs and priors at their stated sigma (one sigma = f_scale)
     lever = np.array([b.sum(axis=0) for b in np.array_split((jac[:track] * dpsi[:track, None]).reshape(n_frames, 2, p), min(BLOCKS, n_frames))])
+    shared = inv @ (clustered if ratio > 1.0 else independent) @ inv
     meat = meat + model_error_px**2 * np.einsum("bik,bil->kl", lever, lever)
-    return inv @ meat @ inv
+    return inv @ meat @ inv, shared, c_ind
 
 
 def _center_std(x: np.ndarray, cov: np.ndarray) -> float:

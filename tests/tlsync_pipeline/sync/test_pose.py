@@ -88,6 +88,80 @@ def test_gcps_hold_the_pose_a_straight_walk_leaves_free(scene):
     assert abs(found.fit.beta - scene.scene.lines["cam1"].beta) < 3.0
 
 
+def _good_gcps(scene, name):
+    """The camera's GCPs surveyed exactly, clicked with 1 px of noise, named P0, P1, ..."""
+    gcps = scene.gcps[name]
+    uv = gcps.uv + np.random.default_rng(1).normal(0.0, 1.0, gcps.uv.shape)
+    return GcpPrior(uv, gcps.true_xyz, 1.0, tuple(f"P{k}" for k in range(len(uv))))
+
+
+def _logged(scene, offset=(0.0, 0.0, 0.0), white_m=0.0):
+    """The scene's trajectory as a log offset by ``offset`` (metres) with white noise (std per axis), smoothed, as a path."""
+    s = scene.scene
+    noise = np.random.default_rng(0).normal(0.0, white_m, s.trajectory.xyz.shape)
+    return PiecewiseTrajectory(smooth_trajectory(replace(s.trajectory, xyz=s.trajectory.xyz + np.asarray(offset) + noise)))
+
+
+def _posed(scene, name, path, **kwargs):
+    s = scene.scene
+    camera, track = s.true_cameras[name], s.tracks[name]
+    return P.pose_from_track(unposed(camera), track.frame.astype(float), track.xy, path, slope_prior(camera.fps, s.trajectory.rate, 1e-3), camera.fps, **kwargs)
+
+
+@pytest.mark.slow
+def test_good_gcps_are_not_moved_by_the_target(scene):
+    """A log with 0.3 m of white noise moves the track's own pose half a metre; exact GCPs (1 px clicks) hold it."""
+    truth = scene.scene.true_cameras["cam0"]
+    path = _logged(scene, white_m=0.3)
+    alone = _posed(scene, "cam0", path)
+    assert np.linalg.norm(alone.camera.center - truth.center) > 0.3
+    gcps = _good_gcps(scene, "cam0")
+    found = _posed(scene, "cam0", path, gcps=gcps, gcp_camera=P.gcp_camera(truth, gcps))
+    assert found.source == "gcp+target" and found.disagreeing == ()
+    assert found.gcps_used.sigma_m < 0.05  # measured from the points, not the 1 m stated
+    assert found.moved_m < 0.05 and found.moved_deg < 0.3
+    assert np.linalg.norm(found.camera.center - truth.center) < 0.05
+
+
+def test_gcps_that_disagree_with_the_track_are_named_and_left_out(scene):
+    truth = scene.scene.true_cameras["cam0"]
+    good = _good_gcps(scene, "cam0")
+    xyz = good.xyz.copy()
+    xyz[[2, 5]] += [3.0, 2.0, 0.0]  # two points surveyed wrong
+    gcps = replace(good, xyz=xyz)
+    start = P.gcp_camera(truth, gcps)
+    assert np.linalg.norm(start.center - truth.center) > 0.5  # they drag the GCPs' own pose
+    found = _posed(scene, "cam0", _logged(scene), gcps=gcps, gcp_camera=start)
+    assert found.disagreeing == ("P2", "P5")
+    assert found.source == "gcp+target" and len(found.gcps_used.xyz) == 6
+    assert np.linalg.norm(found.camera.center - truth.center) < 0.05
+
+
+@pytest.mark.slow
+def test_a_log_offset_from_every_gcp_falls_back_to_the_track_alone(scene):
+    """The log 0.6 m off the GCPs' frame: every GCP disagrees with the track; the track's own pose (which absorbs the
+    offset) gives the line, as without GCPs."""
+    truth = scene.scene.true_cameras["cam0"]
+    gcps = _good_gcps(scene, "cam0")
+    path = _logged(scene, offset=(0.6, -0.6, 0.2))
+    found = _posed(scene, "cam0", path, gcps=gcps, gcp_camera=P.gcp_camera(truth, gcps))
+    alone = _posed(scene, "cam0", path)
+    assert found.source == "target" and found.disagreeing == gcps.names
+    assert np.allclose(found.camera.center, alone.camera.center) and found.fit.beta == pytest.approx(alone.fit.beta)
+    assert abs(found.fit.beta - scene.scene.lines["cam0"].beta) < 0.5
+    report = found.to_report(P.pose_info(found, None), gcps)
+    assert report["gcps_disagree"] == list(gcps.names) and report["source"] == "target"
+
+
+def test_three_gcps_that_no_pose_of_the_track_keeps_leave_the_pose_to_the_track(scene):
+    """Three GCPs (too few for a pose of their own) said to be surveyed to 2 cm, the log 0.6 m off their frame."""
+    good = _good_gcps(scene, "cam0")
+    gcps = GcpPrior(good.uv[:3], good.xyz[:3], 0.02, good.names[:3])
+    found = _posed(scene, "cam0", _logged(scene, offset=(0.6, -0.6, 0.2)), gcps=gcps)
+    assert found.source == "target" and found.disagreeing == ("P0", "P1", "P2")
+    assert abs(found.fit.beta - scene.scene.lines["cam0"].beta) < 0.5
+
+
 def test_too_few_frames_and_an_unknown_clock_are_causes(scene):
     track = scene.scene.tracks["cam0"]
     camera = scene.scene.true_cameras["cam0"]

@@ -51,7 +51,7 @@ from tlsync_pipeline.pipeline.stages.intrinsics import check_calibration
 from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
 from tlsync_pipeline.sync.identify import IdentifyParams
 from tlsync_pipeline.sync.params import Preparation
-from tlsync_pipeline.sync.pose import estimate_pose, gcp_pose, pose_info
+from tlsync_pipeline.sync.pose import GCP_AGREE, estimate_pose, gcp_pose, pose_info
 from tlsync_pipeline.sync.pose_fit import GcpPrior
 from tlsync_pipeline.sync.registry import preparation_of
 from tlsync_pipeline.sync.synchronize import identify_params, prepare_trajectory
@@ -257,15 +257,22 @@ def run_calibrate(files: StageFiles, params: CalibrateParams) -> StageResult:
 
 def pose_warnings(report: dict) -> tuple[str, ...]:
     """The calibrate stage's warnings, from its report: ground control points left out as outliers, GCPs that give no
-    pose, a pose from the target that serves timing but not 3D."""
+    pose, GCPs that disagree with the target's track, a pose from the target that serves timing but not 3D."""
     pose = report.get("pose") or {}
     out = [
         f"ground control point {point.get('name', '?')} left out as an outlier ({point.get('error_px', float('nan')):.1f} px)"
         for point in pose.get("points", [])
         if not point.get("inlier", True)
     ]
-    note = (report.get("target_pose") or {}).get("note")
-    return tuple(out + [w for w in (report.get("warning"), note) if w])
+    target = report.get("target_pose") or {}
+    disagree = target.get("gcps_disagree") or []
+    if disagree:
+        sigma = f"{GCP_AGREE:g} sigmas of {target.get('gcp_sigma_m', float('nan')):.2g} m"
+        if target.get("source") == "target":
+            out.append(f"ground control points {', '.join(disagree)} disagree with the target's track (beyond {sigma}): the pose is the track's alone; check those points (pixel against world point) and that the log is in the GCPs' frame")
+        else:
+            out.append(f"ground control points {', '.join(disagree)} disagree with the track and the other points (beyond {sigma}): left out of the pose; check them")
+    return tuple(out + [w for w in (report.get("warning"), target.get("note")) if w])
 
 
 def _pose_from_target_files(files: StageFiles, camera: Camera, params: CalibrateParams, prior: GcpPrior | None) -> tuple[Camera, dict]:

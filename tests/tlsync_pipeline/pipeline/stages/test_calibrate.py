@@ -273,7 +273,8 @@ def test_gcps_of_a_rough_survey_are_refined_by_the_target(unposed_project, tmp_p
     assert result.exit_code == 0, result.output
     report = json.loads((folder / "work" / "cameras" / "cam0" / "calibration_report.json").read_text())
     target = report["target_pose"]
-    assert target["source"] == "gcp+target" and target["gcp_sigma_m"] == 0.5
+    assert target["source"] == "gcp+target" and target["gcp_sigma_stated_m"] == 0.5
+    assert 0.15 < target["gcp_sigma_m"] < 0.8  # measured from the points: 0.5 m per horizontal axis, none vertical
     assert len(target["gcps"]) == len(gcps.uv) and all(g["before_px"] is not None and g["after_px"] is not None for g in target["gcps"])
     truth = scene.true_cameras["cam0"]
     camera = read_camera(folder / "work" / "cameras" / "cam0" / "camera.json")
@@ -291,3 +292,16 @@ def test_the_pose_search_stays_near_the_scans_coarse_offset_only_when_the_video_
     assert coarse_offsets({**scan, "mode": "full"}, 30.0) is None  # every frame read: the target may be anywhere
     assert coarse_offsets({"mode": "windows", "coarse": None}, 30.0) is None
     assert coarse_offsets(scan, None) is None
+
+
+def test_gcps_that_disagree_with_the_track_are_a_warning_that_names_them():
+    from tlsync_pipeline.pipeline.stages.calibrate import pose_warnings
+
+    report = {"pose": {"points": []}, "target_pose": {"source": "gcp+target", "gcp_sigma_m": 0.3, "gcps_disagree": ["P2", "P5"]}}
+    (left_out,) = pose_warnings(report)
+    assert "P2, P5" in left_out and "left out of the pose" in left_out
+    report["target_pose"]["source"] = "target"
+    (fallback,) = pose_warnings(report)
+    assert "P2, P5" in fallback and "the pose is the track's alone" in fallback
+    report["target_pose"]["gcps_disagree"] = []
+    assert pose_warnings(report) == ()
