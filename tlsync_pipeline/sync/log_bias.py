@@ -28,13 +28,14 @@ intervals include. Observability of the bias at a camera's visit is
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy.sparse as sp
+from scipy.optimize import minimize
 
 from calibration.camera import Camera
-from tlsync_pipeline.sync.log_model import LogModel
+from tlsync_pipeline.sync.log_model import PRIOR_LOG_SD, LogModel
 from tlsync_pipeline.sync.slope import SlopePrior
 from tlsync_pipeline.trajectory import PiecewiseTrajectory
 
@@ -70,7 +71,10 @@ class BiasCamera:
 class LogBias:
     """The fitted bias and the lines: knots (sample coordinates), values (K, 3) metres, their posterior covariance
     (3K, 3K, knot-major: x, y, z of knot 0, then of knot 1 ...), prior (3,) per-axis std (m); per camera its line
-    (alpha, beta) and sensitivity (2, 3K): d(alpha, beta) / d(knot values); converged: the solver's verdict."""
+    (alpha, beta) and sensitivity (2, 3K): d(alpha, beta) / d(knot values); converged: the solver's verdict;
+    information (3K, 3K): what the cameras' pixels say of the knots (the lines marginalised; the posterior's
+    inverse less the prior's); model: the error model whose prior it was fitted with; estimate: the bias's
+    (horizontal std m, correlation time s) of the largest marginal likelihood, or None when not measured."""
 
     knots: np.ndarray
     values: np.ndarray
@@ -79,6 +83,9 @@ class LogBias:
     lines: dict[str, tuple[float, float]]
     sensitivity: dict[str, np.ndarray]
     converged: bool
+    information: np.ndarray
+    model: LogModel
+    estimate: tuple[float, float] | None = None
 
     def at(self, samples: np.ndarray) -> np.ndarray:
         """(N, 3) bias at sample coordinates (linear between knots, constant beyond them)."""
@@ -113,11 +120,59 @@ def fit_log_bias(cameras: list[BiasCamera], path: PiecewiseTrajectory, rate: flo
     converged = True
     if estimate:
         z, converged = _levenberg_marquardt(problem, z, f_scale)
-    posterior, sensitivity = problem.uncertainty(z)
+    posterior, sensitivity, information = problem.uncertainty(z)
     if not estimate:
         posterior = np.linalg.pinv((whiten.T @ whiten).toarray())
     lines = {c.name: problem.line(z, k) for k, c in enumerate(cameras)}
-    return LogBias(knots, z[2 * len(cameras) :].reshape(-1, 3), posterior, prior, lines, sensitivity, converged)
+    return LogBias(knots, z[2 * len(cameras) :].reshape(-1, 3), posterior, prior, lines, sensitivity, converged, information, model)
+
+
+def fit_log_bias_measured(cameras: list[BiasCamera], path: PiecewiseTrajectory, rate: float, model: LogModel, f_scale: float) -> LogBias:
+    """fit_log_bias with the bias's std and correlation time measured (bias_marginal_likelihood, the model's as
+    the prior): the fit is redone with them where they widen the prior (a larger std and a faster wander,
+    sigma^2 / tau); otherwise the prior stands, the estimate recorded. On a few cameras' visits the estimate runs
+    low (walk scenes with a phone's 1 m / 60 s: 0.7-1.0 m and a wander 2-4 times too slow), and a prior narrowed
+    by it would narrow the intervals below their coverage."""
+    bias = fit_log_bias(cameras, path, rate, model, f_scale)
+    if not bias.converged or not model.has_bias:
+        return bias
+    found = bias_marginal_likelihood(bias, rate, model)
+    estimate = (found.bias_m, found.tau_s)
+    if found.bias_m < model.bias_m or found.bias_m**2 / found.tau_s < model.bias_m**2 / model.tau_s:
+        return replace(bias, estimate=estimate)
+    again = fit_log_bias(cameras, path, rate, found, f_scale)
+    return replace(again if again.converged else bias, estimate=estimate)
+
+
+def bias_marginal_likelihood(bias: LogBias, rate: float, model: LogModel) -> LogModel:
+    """The model with the bias's horizontal std and correlation time (the vertical std in the model's proportion)
+    of the largest marginal likelihood of the cameras' pixels, the model's values as log-normal priors
+    (PRIOR_LOG_SD): type-II maximum likelihood on the fit's Gaussian approximation. The pixels say of the knots b
+    what a likelihood exp(-b^T H b / 2 + h^T b) says (H: LogBias.information; h = (Q_0 + H) b_0 from the fit's
+    b_0 under its prior precision Q_0); under a prior of precision Q(sigma, tau) the evidence is
+    log |Q| / 2 - log |Q + H| / 2 + h^T (Q + H)^-1 h / 2. Sigma within 0.01-30 m, tau within 1-3600 s."""
+    ratio = model.bias_vertical_m / model.bias_m if model.bias_m > 0 else 2.0
+    start = np.log([model.bias_m, model.tau_s])
+    h = (_prior_whitening(bias.knots, rate, model.tau_s, bias.prior).T @ _prior_whitening(bias.knots, rate, model.tau_s, bias.prior)) @ bias.values.ravel()
+    h = h + bias.information @ bias.values.ravel()
+
+    def negative(theta: np.ndarray) -> float:
+        sigma, tau = np.exp(theta)
+        whiten = _prior_whitening(bias.knots, rate, tau, np.array([sigma, sigma, ratio * sigma]))
+        precision = (whiten.T @ whiten).toarray()
+        try:
+            root = np.linalg.cholesky(precision + bias.information)
+        except np.linalg.LinAlgError:
+            return np.inf
+        solved = np.linalg.solve(root, h)
+        evidence = float(np.sum(np.log(whiten.diagonal())) - np.sum(np.log(np.diag(root))) + 0.5 * solved @ solved)
+        return -evidence + 0.5 * float(np.sum(((theta - start) / PRIOR_LOG_SD) ** 2))
+
+    found = minimize(negative, start, method="L-BFGS-B", bounds=[(np.log(0.01), np.log(30.0)), (np.log(1.0), np.log(3600.0))])
+    if not np.isfinite(found.fun) or found.fun > negative(start):
+        return model
+    sigma, tau = np.exp(found.x)
+    return replace(model, bias_m=float(sigma), bias_vertical_m=float(ratio * sigma), tau_s=float(tau), measured=tuple(sorted({*model.measured, "bias_m", "tau_s"})))
 
 
 def _knots(cameras: list[BiasCamera], path: PiecewiseTrajectory, rate: float, model: LogModel) -> np.ndarray:
@@ -232,8 +287,9 @@ class _Joint:
         rows.append(sp.hstack([sp.csr_matrix((self.whiten.shape[0], lines)), self.f_scale * self.whiten], format="csr"))
         return sp.vstack(rows, format="csr")
 
-    def uncertainty(self, z: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarray]]:
-        """The knots' posterior covariance (m^2) and each camera's sensitivity d(alpha, beta) / d(knots).
+    def uncertainty(self, z: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarray], np.ndarray]:
+        """The knots' posterior covariance (m^2), each camera's sensitivity d(alpha, beta) / d(knots), and the
+        information of the pixels on the knots (the posterior's inverse less the prior's).
 
         Each camera's information is its robust bread J^T psi' J divided by its residuals' variance factor
         (sum psi^2 / sum psi', the M-estimator's), inflated by its own refinement's covariance over that naive
@@ -241,19 +297,22 @@ class _Joint:
         """
         residuals, jacobians = self._pixels(z)
         information = (self.whiten.T @ self.whiten).toarray()
+        data = np.zeros_like(information)
         blocks = []
         for k, (r, jac) in enumerate(zip(residuals, jacobians)):
-            h = _bread(self.cameras[k], r, jac, self.f_scale) / _inflation(self.cameras[k], r, jac, self.f_scale, z[2 * k : 2 * k + 2])
+            inflation = _inflation(self.cameras[k], r, jac, self.f_scale, z[2 * k : 2 * k + 2])
+            h = _bread(self.cameras[k], r, jac, self.f_scale) / inflation
             h_tt, h_tb, h_bb = h[:2, :2], h[:2, 2:], h[2:, 2:]
             gain = np.linalg.pinv(h_tt) @ h_tb  # (2, 3K); a camera whose line the residuals do not determine tells nothing of the bias
             information = information + h_bb - h_tb.T @ gain
+            data = data + h_bb - h_tb.T @ gain
             blocks.append((gain, z[2 * k : 2 * k + 2]))
         posterior = np.linalg.pinv(information)
         sensitivity = {}
         for c, (gain, (u, s0)) in zip(self.cameras, blocks):
             to_line = np.array([[-1.0 / u**2, 0.0], [s0 / u**2, -1.0 / u]])  # d(alpha, beta) / d(u, s0), beta = middle - s0 / u
             sensitivity[c.name] = to_line @ (-gain)
-        return posterior, sensitivity
+        return posterior, sensitivity, data
 
 
 def _camera_rows(c: BiasCamera, path: PiecewiseTrajectory, knots: np.ndarray, bias: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray, sp.csr_matrix]:
@@ -301,10 +360,15 @@ def _bread(c: BiasCamera, r: np.ndarray, jac: sp.csr_matrix, f_scale: float) -> 
 def _inflation(c: BiasCamera, r: np.ndarray, jac: sp.csr_matrix, f_scale: float, x: np.ndarray) -> float:
     """What one camera's residuals' information is divided by: their variance factor (sum psi^2 / sum psi', the
     M-estimator's) times how much more its own refinement's covariance says than that naive one (>= 1)."""
+    variance = _variance_factor(r, f_scale)
+    return variance * _correlation_factor(c, _bread(c, r, jac, f_scale), variance, x)
+
+
+def _variance_factor(r: np.ndarray, f_scale: float) -> float:
+    """The M-estimator's variance factor of residuals r under the soft L1 loss: sum psi^2 / sum psi'."""
     q = (r / f_scale) ** 2
     psi, dpsi = r / np.sqrt(1.0 + q), (1.0 + q) ** -1.5
-    variance = max(float(np.sum(psi**2) / max(np.sum(dpsi), 1e-12)), 1e-6)
-    return variance * _correlation_factor(c, _bread(c, r, jac, f_scale), variance, x)
+    return max(float(np.sum(psi**2) / max(np.sum(dpsi), 1e-12)), 1e-6)
 
 
 def _correlation_factor(c: BiasCamera, bread: np.ndarray, variance: float, x: np.ndarray) -> float:

@@ -27,7 +27,7 @@ from calibration.camera import Camera
 from tlsync_pipeline.errors import SyncError
 from tlsync_pipeline.sync.clock import FrameTimes, camera_clock
 from tlsync_pipeline.sync.identify import Identification, IdentifyParams, identify_target
-from tlsync_pipeline.sync.log_model import PRESETS, LogModel, vote_radius
+from tlsync_pipeline.sync.log_model import PRESETS, LogModel, measured, vote_radius
 from tlsync_pipeline.sync.methods import CameraData, CameraInput, JointMethod
 from tlsync_pipeline.sync.params import Preparation, SyncParams
 from tlsync_pipeline.sync.plausibility import BACKWARD_BELOW, Judged, backward_support, diagnose, judge_line, line_support, motion_slope
@@ -158,6 +158,7 @@ def synchronize(
     else fails alone. Raises LogUnitError (an InputError) when every
     camera's evidence says the log is not in seconds or metres.
     """
+    declared, log_model = log_model, measured(log_model, trajectory)
     prepared = with_log_noise(prepare_trajectory(trajectory, preparation_of(params)), log_model)
     path = PiecewiseTrajectory(prepared)
     results: dict[str, CameraResult] = {}
@@ -200,6 +201,7 @@ def synchronize(
         else:
             lines[name] = line
     shared: dict[str, np.ndarray] = {}
+    fitted_model, estimate = log_model, None
     method = get_method(params.method)
     # A camera whose pose comes from the target absorbed the log's bias during its visit in that pose: it stays out.
     surveyed = {name: results[name] for name in lines if not _pose_from_target(used[name].camera)}
@@ -208,6 +210,7 @@ def synchronize(
         fitted, bias = method.refine_with_log_bias(data, {n: lines[n] for n in surveyed}, prepared, params, method_options(params), log_model)
         lines = {**lines, **fitted}
         if bias is not None:
+            fitted_model, estimate = bias.model, bias.estimate
             names = [n for n in lines if n in bias.sensitivity]
             shared = {f"{a}|{b}": bias.line_cov(a, b) for i, a in enumerate(names) for b in names[i + 1 :]}
     timeline = Timeline(
@@ -219,9 +222,20 @@ def synchronize(
         failed={name: failed[name] for name in cameras if name in failed},
         rejected=rejected,
         shared_cov=shared,
-        log_model=asdict(log_model) if log_model.name != "none" else None,
+        log_model=_log_error(fitted_model, declared, estimate),
     )
     return timeline, results
+
+
+def _log_error(model: LogModel, declared: LogModel, estimate: tuple[float, float] | None) -> dict | None:
+    """timeline.json's log_error model: the model the sync used, which of its values were measured, the declared
+    preset (their prior), and the bias's marginal-likelihood estimate (applied only where it widens the prior)."""
+    if model.white_m <= 0 and not model.has_bias:
+        return None
+    record = {**asdict(model), "measured": list(model.measured), "prior": {k: v for k, v in asdict(declared).items() if k != "measured"}}
+    if estimate is not None:
+        record["estimate"] = {"bias_m": estimate[0], "tau_s": estimate[1]}
+    return record
 
 
 CROWDED = 1.5  # voting detections per identified frame above which other movers are within the vote radius

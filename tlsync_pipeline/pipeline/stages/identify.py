@@ -23,7 +23,7 @@ from tlsync_pipeline.pipeline.spec import Options, Sources, StageResult, StageSp
 from tlsync_pipeline.pipeline.stages.cameras import has_no_rows, ingest_report_input, log_model_of, pose_problem
 from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
 from tlsync_pipeline.sync.identify import IdentifyParams, identify_target
-from tlsync_pipeline.sync.log_model import LogModelChoice, vote_radius
+from tlsync_pipeline.sync.log_model import LogModelChoice, measured, vote_radius
 from tlsync_pipeline.sync.params import Preparation
 from tlsync_pipeline.sync.registry import preparation_of
 from tlsync_pipeline.sync.synchronize import identify_params, prepare_trajectory
@@ -68,7 +68,8 @@ def run_identify(files: StageFiles, params: IdentifyStageParams) -> StageResult:
     """
     warnings: list[str] = []
     camera = read_camera(files.path("camera"), name=files.camera)
-    prepared = prepare_trajectory(read_trajectory(files.path("trajectory")), params.preparation)
+    logged = read_trajectory(files.path("trajectory"))
+    prepared = prepare_trajectory(logged, params.preparation)
     seed = params.seed
     try:
         if (problem := pose_problem(camera)) is not None:
@@ -81,7 +82,7 @@ def run_identify(files: StageFiles, params: IdentifyStageParams) -> StageResult:
         prefer = seed_tracklets(detections, list(seed.box), seed.frame) if seed is not None else frozenset()
         if seed is not None and not prefer:
             warnings.append(f"camera {files.camera}: no mover inside the init box {list(seed.box)} near frame {seed.frame}; the target is identified without it")
-        radius = vote_radius(camera, prepared, params.identify.eps_px, log_model_of(files, params.log_model))
+        radius = vote_radius(camera, prepared, params.identify.eps_px, measured(log_model_of(files, params.log_model), logged))
         found = identify_target(camera, detections, prepared, params.fps or camera.fps, replace(params.identify, eps_px=radius), prefer)
     except SyncError as exc:
         files.output("track").unlink(missing_ok=True)
