@@ -229,7 +229,7 @@ def synchronize(
 
 def _log_error(model: LogModel, declared: LogModel, estimate: tuple[float, float] | None) -> dict | None:
     """timeline.json's log_error model: the model the sync used, which of its values were measured, the declared
-    preset (their prior), and the bias's marginal-likelihood estimate (applied only where it widens the prior)."""
+    preset (their prior), and the bias's marginal-likelihood estimate (recorded, not applied: fit_log_bias_measured)."""
     if model.white_m <= 0 and not model.has_bias:
         return None
     record = {**asdict(model), "measured": list(model.measured), "prior": {k: v for k, v in asdict(declared).items() if k != "measured"}}
