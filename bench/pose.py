@@ -44,7 +44,8 @@ from calibration.errors import CalibrationInputError  # noqa: E402
 from calibration.extrinsics import pose_from_points  # noqa: E402
 from data_fixtures.passes import make_pass_scene  # noqa: E402
 from tlsync_pipeline.sync.params import SyncParams  # noqa: E402
-from tlsync_pipeline.sync.pose import GCP_SIGMA_M, estimate_pose, rotation_between  # noqa: E402
+from tlsync_pipeline.sync.choices import GCP_SIGMA_M  # noqa: E402
+from tlsync_pipeline.sync.pose import estimate_pose, rotation_between  # noqa: E402
 from tlsync_pipeline.sync.pose_fit import GcpPrior  # noqa: E402
 from tlsync_pipeline.sync.registry import preparation_of  # noqa: E402
 from tlsync_pipeline.sync.synchronize import CameraInput, identify_params, prepare_trajectory, synchronize  # noqa: E402

@@ -20,7 +20,6 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import cv2
 import numpy as np
 
 from calibration.errors import CalibrationInputError, read_text
@@ -110,6 +109,8 @@ class Camera:
     @property
     def rvec(self) -> np.ndarray:
         """Rodrigues rotation vector of R (radians)."""
+        import cv2  # OpenCV loads with the first camera that needs it, not with the module
+
         return cv2.Rodrigues(self.R)[0].ravel()
 
     @property
@@ -260,6 +261,8 @@ def _pose(data: dict, source: str) -> tuple[np.ndarray, np.ndarray]:
     if "R" in data and "rvec" in data:
         raise CalibrationInputError(f"{source}: give either 'R' or 'rvec', not both")
     if "rvec" in data:
+        import cv2
+
         R = cv2.Rodrigues(_matrix(data, "rvec", (3,), source))[0]
         t = _matrix(data, "tvec", (3,), source)
         return R, t
@@ -274,6 +277,8 @@ def _pose(data: dict, source: str) -> tuple[np.ndarray, np.ndarray]:
 def _decompose_projection(P: np.ndarray, source: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     if abs(np.linalg.det(P[:, :3])) < 1e-12:
         raise CalibrationInputError(f"{source}: field 'P': its left 3x3 block is singular")
+    import cv2
+
     K, R, center_h = cv2.decomposeProjectionMatrix(P)[:3]
     # Make the focal lengths positive (RQ decomposition leaves signs free).
     signs = np.diag(np.sign(np.diag(K)))

@@ -16,9 +16,9 @@ import csv
 from dataclasses import dataclass
 from pathlib import Path
 
-import cv2
 import numpy as np
 
+from calibration.choices import RANSAC_PX
 from calibration.errors import CalibrationInputError, read_text
 from calibration.intrinsics import Pattern
 from calibration.lens import project_points, undistort_pixels
@@ -132,7 +132,7 @@ def pose_from_points(
     K: np.ndarray,
     dist: np.ndarray,
     dist_model: str = "opencv",
-    ransac_px: float = 8.0,
+    ransac_px: float = RANSAC_PX,
     source: str = "ground control points",
 ) -> Pose:
     """World -> camera pose from pixel (N, 2) <-> world (N, 3, metres) pairs.
@@ -142,6 +142,8 @@ def pose_from_points(
     on the inliers. Raises CalibrationInputError for fewer than 4 points,
     collinear points, or points that end up behind the camera.
     """
+    import cv2
+
     uv = np.asarray(uv, dtype=np.float64).reshape(-1, 2)
     xyz = np.asarray(xyz, dtype=np.float64).reshape(-1, 3)
     if len(uv) != len(xyz):
@@ -212,6 +214,8 @@ def _uncertainty(xyz, uv, rvec, tvec, K, dist, dist_model, errors) -> tuple[floa
         return float("nan"), float("nan")
     # Camera centre C = -R^T t: propagate numerically.
     def centre(p):
+        import cv2
+
         return -cv2.Rodrigues(p[:3])[0].T @ p[3:]
 
     c0 = centre(params)
@@ -240,6 +244,8 @@ def pose_from_board(
     this frame by checking which side the camera is on and which squares are
     dark, so the pattern needs one odd and one even count of inner corners.
     """
+    import cv2
+
     if (pattern.cols + pattern.rows) % 2 == 0:
         raise CalibrationInputError(
             f"{source}: a {pattern} board looks the same turned by 180 degrees, so its pose is ambiguous; use a board with one odd and one even count of inner corners (e.g. 7x6)"

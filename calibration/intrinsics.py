@@ -28,17 +28,15 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterable, Sequence
 
-import cv2
 import numpy as np
 from tqdm import tqdm
 
 from calibration.camera import Camera
+from calibration.choices import MAX_FRAMES, MAX_VIEW_ERROR, MODEL_LENS, MODELS, parse_corners
 from calibration.errors import CalibrationInputError, PatternMismatch
 from calibration.lens import project_points
 
 # Calibration model -> the lens model (calibration.lens) of the cameras it makes.
-MODEL_LENS = {"standard": "opencv", "rational": "opencv", "fisheye": "fisheye"}
-MODELS = tuple(MODEL_LENS)
 DETECT_SIZE = 720  # about the long side (px) of the copy the board is first looked for in
 CLASSIC_SIZE = 1280  # about the long side (px) of the copy for the classic detector
 EXHAUSTIVE_SIZE = 2000  # at most the long side (px) of the copy for the last, exhaustive try
@@ -75,18 +73,6 @@ class Pattern:
         return np.column_stack([grid, np.zeros(len(grid))])
 
 
-def parse_corners(text: str) -> tuple[int, int]:
-    """``"7x6"`` -> (7, 6): inner corners, columns x rows; CalibrationInputError when not a board."""
-    parts = str(text).lower().replace(" ", "").split("x")
-    try:
-        cols, rows = (int(p) for p in parts)
-    except ValueError:
-        raise CalibrationInputError(f"expected inner corners as COLSxROWS (e.g. 7x6 for a board of 8x7 squares), got {text!r}") from None
-    if cols < 2 or rows < 2 or cols * rows < 6:
-        raise CalibrationInputError(f"a checkerboard needs at least 2x3 inner corners, got {text!r}")
-    return cols, rows
-
-
 def parse_pattern(text: str, square: float, source: str = "pattern") -> Pattern:
     """``"7x6"`` (inner corners, columns x rows) and the square side (m) -> Pattern."""
     try:
@@ -121,6 +107,8 @@ def detect_board(gray: np.ndarray, pattern: tuple[int, int], detect_size: int = 
     (corners (N, 2) float64 at full resolution row by row, or None; the
     method that found them; the reason when none did).
     """
+    import cv2
+
     copies: dict[int, np.ndarray] = {}
 
     def reduced(factor: int) -> np.ndarray:
@@ -154,6 +142,8 @@ def detect_board(gray: np.ndarray, pattern: tuple[int, int], detect_size: int = 
 def _reduce(gray: np.ndarray, factor: int) -> np.ndarray:
     """Area-average by an integer factor (the last < factor rows/columns are dropped): OpenCV's fast path, and
     a corner at (u, v) in the copy is at ((u + 0.5) * factor - 0.5, ...) in the image."""
+    import cv2
+
     if factor == 1:
         return gray
     h, w = gray.shape[:2]
@@ -168,6 +158,8 @@ def _refine(gray: np.ndarray, corners: np.ndarray, pattern: tuple[int, int]) -> 
     a Gaussian of sigma = spacing / SMOOTH_DIVISOR: it averages out sensor noise and
     a screen's pixel grid, and does not move a checker corner (point symmetric).
     """
+    import cv2
+
     grid = corners.reshape(pattern[1], pattern[0], 2)
     spacing = min(np.linalg.norm(np.diff(grid, axis=0), axis=2).min(), np.linalg.norm(np.diff(grid, axis=1), axis=2).min())
     half = int(np.clip(0.4 * spacing, 2, 30))
@@ -196,6 +188,8 @@ def _extends_beyond(gray: np.ndarray, corners: np.ndarray, pattern: tuple[int, i
     h, w = gray.shape[:2]
 
     def scores(points, step_a, step_b):
+        import cv2
+
         out = []
         for p, a, b in zip(points, step_a, step_b):
             k = max(3, int(0.2 * min(np.linalg.norm(a), np.linalg.norm(b))))
@@ -229,6 +223,8 @@ def _extends_beyond(gray: np.ndarray, corners: np.ndarray, pattern: tuple[int, i
 
 def _diagnose(small: np.ndarray, pattern: tuple[int, int], larger: bool = False) -> str:
     """Why no full board was found: a smaller or larger grid visible, or nothing."""
+    import cv2
+
     found, corners, meta = cv2.findChessboardCornersSBWithMeta(small, (3, 3), flags=cv2.CALIB_CB_NORMALIZE_IMAGE | cv2.CALIB_CB_LARGER)
     seen = sorted(meta.shape[:2], reverse=True) if found and meta is not None else None
     want = sorted(pattern, reverse=True)
@@ -244,11 +240,15 @@ def _diagnose(small: np.ndarray, pattern: tuple[int, int], larger: bool = False)
 
 
 def _init_worker() -> None:
+    import cv2
+
     cv2.setNumThreads(1)
 
 
 def _detect_item(item) -> Detection:
     """Worker: ``item`` is (source, path or grey array, pattern, detect_size)."""
+    import cv2
+
     source, image, pattern, detect_size = item
     if not isinstance(image, np.ndarray):
         image = cv2.imread(str(image), cv2.IMREAD_GRAYSCALE | cv2.IMREAD_IGNORE_ORIENTATION)
@@ -267,6 +267,8 @@ def detect_all(
     progress: bool = False,
 ) -> list[Detection]:
     """Detect the board in every (source, path or grey image) item, in parallel, in order."""
+    import cv2
+
     jobs = [(source, image, pattern.size, detect_size) for source, image in items]
     workers = workers or os.cpu_count() or 1
     bar = dict(total=len(jobs), desc="detecting corners", unit="img", disable=not progress, leave=False)
@@ -331,7 +333,7 @@ def calibrate_images(
     model: str = "standard",
     workers: int | None = None,
     progress: bool = False,
-    max_view_error: float = 1.0,
+    max_view_error: float = MAX_VIEW_ERROR,
     detect_size: int = DETECT_SIZE,
     label: str | None = None,
 ) -> Intrinsics:
@@ -356,10 +358,10 @@ def calibrate_video(
     path: str | Path,
     pattern: Pattern,
     model: str = "standard",
-    max_frames: int = 60,
+    max_frames: int = MAX_FRAMES,
     workers: int | None = None,
     progress: bool = False,
-    max_view_error: float = 1.0,
+    max_view_error: float = MAX_VIEW_ERROR,
     detect_size: int = DETECT_SIZE,
 ) -> Intrinsics:
     """Calibrate from a video of a moving board: ``max_frames`` frames sampled evenly, blurred and duplicate ones skipped."""
@@ -368,13 +370,15 @@ def calibrate_video(
     return calibrate_detections(detections, pattern, model, str(path), skipped, max_view_error, detect_size)
 
 
-def sample_video_frames(path: str | Path, max_frames: int = 60, progress: bool = False, blur_ratio: float = 0.4) -> tuple[list[tuple[str, np.ndarray]], dict[str, str]]:
+def sample_video_frames(path: str | Path, max_frames: int = MAX_FRAMES, progress: bool = False, blur_ratio: float = 0.4) -> tuple[list[tuple[str, np.ndarray]], dict[str, str]]:
     """Evenly sampled grey frames of a video as ("<file>@<frame>", image), and the skipped ones with the reason.
 
     A frame is "blurred" when its variance of the Laplacian is below ``blur_ratio``
     times the median of the sampled frames, a "duplicate" when it hardly differs
     from the previous kept frame (board and camera still). Frames are 0-based.
     """
+    import cv2
+
     path = Path(path)
     if not path.is_file():
         raise CalibrationInputError(f"{path}: file not found")
@@ -415,6 +419,8 @@ def sample_video_frames(path: str | Path, max_frames: int = 60, progress: bool =
 
 
 def _sharpness(gray: np.ndarray) -> float:
+    import cv2
+
     small = _reduce(gray, max(2, round(max(gray.shape[:2]) / 480)))  # averaging out sensor noise
     return float(cv2.Laplacian(small, cv2.CV_64F).var())
 
@@ -425,7 +431,7 @@ def calibrate_detections(
     model: str = "standard",
     label: str = "images",
     rejected: dict[str, str] | None = None,
-    max_view_error: float = 1.0,
+    max_view_error: float = MAX_VIEW_ERROR,
     detect_size: int = DETECT_SIZE,
 ) -> Intrinsics:
     """Calibrate from detections: checks sizes, drops duplicates and outlier views, reports why each image was rejected."""
@@ -555,6 +561,8 @@ def _too_few(label: str, pattern: Pattern, detections, usable, rejected, detect_
 
 def _calibrate(views: dict[str, Detection], pattern: Pattern, model: str, image_size: tuple[int, int]):
     """One calibration; returns K, dist, per-view RMS errors (px) and the intrinsics' standard deviations."""
+    import cv2
+
     obj = pattern.object_points()
     img_pts = [_found(views[s]) for s in views]
     criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 100, 1e-10)

@@ -7,15 +7,16 @@ origin at the centre of the top-left pixel (OpenCV's convention).
 
 from __future__ import annotations
 
-import cv2
 import numpy as np
 
 DISTORTION_MODELS = ("opencv", "fisheye")
-_UNDISTORT_CRITERIA = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 50, 1e-12)
+_UNDISTORT_ITERATIONS, _UNDISTORT_EPS = 50, 1e-12
 
 
 def project_points(points, rvec, tvec, K: np.ndarray, dist: np.ndarray, dist_model: str) -> np.ndarray:
     """Pixels (N, 2) of 3D points (N, 3) seen from the pose (rvec, tvec: Rodrigues, metres)."""
+    import cv2  # OpenCV loads with the first projection, not with the module
+
     pts = np.asarray(points, dtype=np.float64).reshape(-1, 1, 3)
     rvec = np.asarray(rvec, dtype=np.float64).reshape(3, 1)
     tvec = np.asarray(tvec, dtype=np.float64).reshape(3, 1)
@@ -26,10 +27,13 @@ def project_points(points, rvec, tvec, K: np.ndarray, dist: np.ndarray, dist_mod
 
 def undistort_pixels(uv, K: np.ndarray, dist: np.ndarray, dist_model: str, P: np.ndarray | None = None) -> np.ndarray:
     """Distortion-free positions (N, 2) of distorted pixels: in pixels of P (K when given), else normalized."""
+    import cv2
+
+    criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, _UNDISTORT_ITERATIONS, _UNDISTORT_EPS)
     pts = np.asarray(uv, dtype=np.float64).reshape(-1, 1, 2)
     if dist_model == "fisheye":
-        return cv2.fisheye.undistortPoints(pts, K, dist, None, None, P, _UNDISTORT_CRITERIA).reshape(-1, 2)
-    return cv2.undistortPoints(pts, K, dist, None, None, P, _UNDISTORT_CRITERIA).reshape(-1, 2)
+        return cv2.fisheye.undistortPoints(pts, K, dist, None, None, P, criteria).reshape(-1, 2)
+    return cv2.undistortPoints(pts, K, dist, None, None, P, criteria).reshape(-1, 2)
 
 
 def project_with_jacobian(points, rvec, tvec, K: np.ndarray, dist: np.ndarray, dist_model: str) -> tuple[np.ndarray, dict[str, np.ndarray]]:
@@ -39,6 +43,8 @@ def project_with_jacobian(points, rvec, tvec, K: np.ndarray, dist: np.ndarray, d
     ``f`` (fx, fy), ``c`` (cx, cy), ``dist`` (the model's coefficients).
     OpenCV's projectPoints and fisheye.projectPoints give them analytically.
     """
+    import cv2
+
     pts = np.asarray(points, dtype=np.float64).reshape(-1, 1, 3)
     rvec = np.asarray(rvec, dtype=np.float64).reshape(3, 1)
     tvec = np.asarray(tvec, dtype=np.float64).reshape(3, 1)

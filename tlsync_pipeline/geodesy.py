@@ -9,9 +9,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import lru_cache
+from typing import TYPE_CHECKING
 
 import numpy as np
-from pyproj import Transformer
+
+if TYPE_CHECKING:
+    from pyproj import Transformer
 
 
 @dataclass(frozen=True)
@@ -32,6 +35,8 @@ class Origin:
 
 @lru_cache(maxsize=16)
 def _to_enu(origin: Origin) -> Transformer:
+    from pyproj import Transformer  # loaded when a geodetic file is converted, not for every command
+
     return Transformer.from_pipeline(
         "+proj=pipeline +step +proj=unitconvert +xy_in=deg +xy_out=rad "
         "+step +proj=cart +ellps=WGS84 "

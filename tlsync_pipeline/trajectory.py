@@ -17,12 +17,14 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
-from scipy.interpolate import make_interp_spline
 
+from tlsync_pipeline.csvtable import Columns, Table, cell_number, describe_cell
 from tlsync_pipeline.errors import InputError
-from tlsync_pipeline.inputs import quote, read_text_file
+from tlsync_pipeline.inputs import quote
 
 UP = np.array([0.0, 0.0, 1.0])  # the world's up axis: trajectories are local ENU metres
+GRID_BLOCK = 1 << 20  # times handled at once by grid_rate
+MIN_RUN = 4  # samples a run needs to be interpolated (a cubic spline)
 GAP_SAMPLES = 1.5  # consecutive samples further apart than this (grid units) are a gap, never bridged
 
 
@@ -69,11 +71,13 @@ def grid_rate(t: np.ndarray) -> float:
     short = (whole >= 1) & (whole <= 10) & (np.abs(step * rate - whole) < 0.25)
     if short.any():
         rate = float(whole[short].sum() / step[short].sum())
-    elapsed = t - t[0]
-    index = np.round(elapsed * rate)
-    if np.abs(elapsed * rate - index).max() < 0.1:
-        rate = float(index @ elapsed / (elapsed @ elapsed))
-    return rate
+    on_grid, ie, ee = True, 0.0, 0.0
+    for lo in range(0, len(t), GRID_BLOCK):  # in blocks: a day at 100 Hz needs no temporaries of its size
+        elapsed = t[lo:lo + GRID_BLOCK] - t[0]
+        index = np.round(elapsed * rate)
+        on_grid = on_grid and bool(np.abs(elapsed * rate - index).max() < 0.1)
+        ie, ee = ie + float(index @ elapsed), ee + float(elapsed @ elapsed)
+    return ie / ee if on_grid else rate
 
 
 def trajectory_from_times(t: np.ndarray, xyz: np.ndarray, rate: float | None = None, sigma: np.ndarray | None = None) -> Trajectory:
@@ -91,16 +95,18 @@ class PiecewiseTrajectory:
     """The trajectory model: C2 interpolation (cubic spline) over each contiguous run of grid samples.
 
     Runs are separated by gaps of more than GAP_SAMPLES; runs of fewer than
-    4 samples are left out. Used by the fit (sync/refine.py) and the pictures.
+    MIN_RUN samples are left out. Used by the fit (sync/refine.py) and the pictures.
     """
 
     def __init__(self, trajectory: Trajectory):
+        from scipy.interpolate import make_interp_spline  # loaded by the stages that interpolate, not for every command
+
         sample, xyz = trajectory.sample, trajectory.xyz
         cuts = np.flatnonzero(np.diff(sample) > GAP_SAMPLES) + 1
         self.sample, self.sigmas = sample, trajectory.sigma
         self.runs = []
         for idx in np.split(np.arange(len(sample)), cuts):
-            if len(idx) >= 4:
+            if len(idx) >= MIN_RUN:
                 self.runs.append((sample[idx[0]], sample[idx[-1]], make_interp_spline(sample[idx], xyz[idx], k=3, axis=0)))
         self.starts = np.array([r[0] for r in self.runs])
         self.ends = np.array([r[1] for r in self.runs])
@@ -134,31 +140,75 @@ class PiecewiseTrajectory:
         return out
 
 
+def stranded(trajectory: Trajectory) -> int:
+    """The most samples in one stretch of consecutive runs shorter than MIN_RUN (the interpolation leaves them out):
+    a part of the log sampled at another rate than its grid's, or broken by dropouts."""
+    lengths = np.diff(np.r_[0, np.flatnonzero(np.diff(trajectory.sample) > GAP_SAMPLES) + 1, len(trajectory)])
+    short = np.where(lengths < MIN_RUN, lengths, 0)
+    streak = np.cumsum(short) - np.maximum.accumulate(np.where(short == 0, np.cumsum(short), 0))
+    return int(streak.max(initial=0))
+
+
 def lowered(trajectory: Trajectory, metres: float) -> Trajectory:
     """The trajectory ``metres`` lower along the world's up axis (the logged point brought down to the tracked one)."""
     return replace(trajectory, xyz=trajectory.xyz - metres * UP)
 
 
 def read_trajectory(path: str | Path) -> Trajectory:
-    """Read a trajectory CSV with columns ``x,y,z``, optional ``t`` (seconds) and ``sigma`` (metres, > 0)."""
-    path = Path(path)
-    text = read_text_file(path, what="trajectory CSV")
+    """Read a trajectory CSV with columns ``x,y,z``, optional ``t`` (seconds) and ``sigma`` (metres, > 0).
+
+    Read in chunks into arrays (tlsync_pipeline.csvtable): a UTF-8 byte-order
+    mark is skipped, ``;`` tables may write decimal commas (Excel).
+    """
+    with Table(path, "trajectory CSV") as table:
+        path, header = table.path, table.names
+        if not table.header.strip():
+            raise InputError(f"{path}: empty file; expected a header 'x,y,z' or 't,x,y,z'")
+        if {"lat", "lon"} <= set(header):
+            raise InputError(f"{path}:{table.header_no}: this is a geodetic log (lat/lon): convert it to local metres with `tlsync ingest-log`")
+        missing = [c for c in ("x", "y", "z") if c not in header]
+        if missing:
+            raise InputError(f"{path}:{table.header_no}: header {quote(table.delimiter.join(header))} lacks column(s) {', '.join(missing)}; expected x,y,z with optional t")
+        wanted = (["t"] if "t" in header else []) + ["x", "y", "z"] + (["sigma"] if "sigma" in header else [])
+        index = [header.index(c) for c in wanted]
+        groups = {"xyz": (wanted.index("x"), wanted.index("x") + 3), **({"t": (0, 1)} if "t" in wanted else {}),
+                  **({"sigma": (len(wanted) - 1, len(wanted))} if "sigma" in wanted else {})}
+        rows: Columns | None = None
+        numbers: list[np.ndarray | range] = []
+        for values, lines in table.chunks(index, lambda rows, first: _parse_rows(path, rows, first, table.delimiter, header, wanted, index)):
+            if "sigma" in wanted and (values[:, -1] <= 0).any():
+                k = int(np.argmax(values[:, -1] <= 0))
+                raise InputError(f"{path}:{lines[k]}: column 'sigma': {values[k, -1]:g} m; a sigma must be positive")
+            rows = rows or Columns(groups, table.expected_rows())
+            rows.add(values)
+            numbers.append(lines)
+    if rows is None or rows.n < 2:
+        raise InputError(f"{path}: the trajectory has {0 if rows is None else rows.n} sample(s); at least 2 are needed")
+    xyz = rows.get("xyz")
+    sigma = rows.get("sigma")[:, 0] if "sigma" in groups else None
+    if "t" not in groups:
+        return Trajectory(np.arange(len(xyz), dtype=np.float64), xyz, sigma=sigma)
+    t = rows.get("t")[:, 0]
+    step = np.diff(t)
+    bad = np.flatnonzero(step <= 0)
+    if len(bad):
+        k = bad[0]
+        line = np.concatenate([np.asarray(n, dtype=np.int64) for n in numbers])
+        what = "repeats" if step[k] == 0 else "goes backwards"
+        raise InputError(f"{path}:{line[k + 1]}: time {t[k + 1]:g} s {what} (previous line {line[k]}: {t[k]:g} s); times must increase")
+    del rows, step
+    return trajectory_from_times(t, xyz, sigma=sigma)
+
+
+def _parse_rows(path: Path, rows: list[str], first: int, delimiter: str, header: list[str], wanted: list[str],
+                index: list[int]) -> tuple[np.ndarray, np.ndarray]:
+    """The trajectory rows a chunk's lines hold, line by line (blank lines skipped), and their line numbers; the first bad one an InputError."""
+    values, lines = [], []
     try:
-        rows = list(csv.reader(text.splitlines()))
+        cells_of = list(csv.reader(rows, delimiter=delimiter))
     except csv.Error as exc:
         raise InputError(f"{path}: cannot read as CSV: {exc}") from None
-    if not rows or not any(c.strip() for c in rows[0]):
-        raise InputError(f"{path}: empty file; expected a header 'x,y,z' or 't,x,y,z'")
-    header = [c.strip() for c in rows[0]]
-    if {"lat", "lon"} <= set(header):
-        raise InputError(f"{path}:1: this is a geodetic log (lat/lon): convert it to local metres with `tlsync ingest-log`")
-    missing = [c for c in ("x", "y", "z") if c not in header]
-    if missing:
-        raise InputError(f"{path}:1: header {quote(','.join(header))} lacks column(s) {', '.join(missing)}; expected x,y,z with optional t")
-    wanted = (["t"] if "t" in header else []) + ["x", "y", "z"] + (["sigma"] if "sigma" in header else [])
-    index = [header.index(c) for c in wanted]
-    values, lines = [], []
-    for line_no, row in enumerate(rows[1:], start=2):
+    for line_no, row in enumerate(cells_of, start=first):
         if not row or all(not c.strip() for c in row):
             continue
         if len(row) != len(header):
@@ -166,30 +216,17 @@ def read_trajectory(path: str | Path) -> Trajectory:
         record = []
         for col, i in zip(wanted, index):
             try:
-                v = float(row[i])
+                v = cell_number(row[i], delimiter)
             except ValueError:
-                raise InputError(f"{path}:{line_no}: column '{col}': not a number: {quote(row[i])}") from None
+                raise InputError(f"{path}:{line_no}: column '{col}': not a number ({describe_cell(row[i])})") from None
             if not math.isfinite(v):
-                raise InputError(f"{path}:{line_no}: column '{col}': {row[i]} is not a finite number")
+                raise InputError(f"{path}:{line_no}: column '{col}': not a finite number ({describe_cell(row[i])})")
             if col == "sigma" and v <= 0:
-                raise InputError(f"{path}:{line_no}: column 'sigma': {row[i]} m; a sigma must be positive")
+                raise InputError(f"{path}:{line_no}: column 'sigma': {v:g} m; a sigma must be positive")
             record.append(v)
         values.append(record)
         lines.append(line_no)
-    if len(values) < 2:
-        raise InputError(f"{path}: the trajectory has {len(values)} sample(s); at least 2 are needed")
-    data = np.asarray(values)
-    sigma = data[:, -1].copy() if "sigma" in header else None
-    if "t" not in header:
-        return Trajectory(np.arange(len(data), dtype=np.float64), data[:, :3], sigma=sigma)
-    t = data[:, 0]
-    step = np.diff(t)
-    bad = np.flatnonzero(step <= 0)
-    if len(bad):
-        k = bad[0]
-        what = "repeats" if step[k] == 0 else "goes backwards"
-        raise InputError(f"{path}:{lines[k + 1]}: time {t[k + 1]:g} s {what} (previous line {lines[k]}: {t[k]:g} s); times must increase")
-    return trajectory_from_times(t, data[:, 1:4], sigma=sigma)
+    return np.asarray(values, dtype=np.float64).reshape(-1, len(wanted)), np.asarray(lines, dtype=np.int64)
 
 
 def write_trajectory(trajectory: Trajectory, path: str | Path) -> None:

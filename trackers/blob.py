@@ -43,7 +43,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, fields, replace
 
-import cv2
 import numpy as np
 
 from trackers.errors import TrackInputError
@@ -99,6 +98,8 @@ class BlobDetector:
 
     def __init__(self, background: np.ndarray, params: BlobParams = BlobParams(), deviation: np.ndarray | None = None):
         """background: (H, W) full-resolution grey background (e.g. ``median_background``)."""
+        import cv2
+
         import trackers.blob_passes as blob_passes  # numba takes 0.4 s to import: a detector's process pays it, not every tlsync process
 
         self.passes = blob_passes
@@ -128,6 +129,8 @@ class BlobDetector:
 
     def detect(self, gray: np.ndarray) -> list[Blob]:
         """Update the model with one frame; the candidate blobs, refined at full resolution."""
+        import cv2
+
         if gray.shape[::-1] != self.size:
             raise TrackInputError(f"frame size {gray.shape[1]}x{gray.shape[0]} differs from the video's {self.size[0]}x{self.size[1]}")
         p = self.params
@@ -170,6 +173,8 @@ class BlobDetector:
         OpenCV's INTER_AREA by 2, in about two thirds of its time), the float
         images of the initial model by OpenCV.
         """
+        import cv2
+
         sw, sh = self.small_size
         s = self.scale
         levels = {1: image}
@@ -428,6 +433,8 @@ def median_background(frames: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]
     median comes from a sorting network of per-pixel minima and maxima, about
     seven times faster than numpy's partition across frames at 1080p.
     """
+    import cv2
+
     means = np.array([cv2.mean(f)[0] for f in frames])
     gains = np.median(means) / np.maximum(means, 1e-3)
     scaled = [cv2.convertScaleAbs(f, alpha=float(g)) for f, g in zip(frames, gains)]
@@ -445,6 +452,8 @@ def median_background(frames: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]
 
 def _sorted_planes(planes: list[np.ndarray]) -> list[np.ndarray]:
     """8-bit images sorted pixel by pixel (Batcher's odd-even merge sort network; padded with 255)."""
+    import cv2
+
     size = 1 << max(0, len(planes) - 1).bit_length()
     a = list(planes) + [np.full_like(planes[0], 255)] * (size - len(planes))
     p = 1

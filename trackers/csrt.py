@@ -29,7 +29,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, fields
 
-import cv2
 import numpy as np
 
 from trackers.blob import BlobDetector, BlobParams, BlobTracker, params_from_dict
@@ -69,6 +68,8 @@ class CsrtParams:
 
     def opencv(self):
         """OpenCV's TrackerCSRT.Params with these values."""
+        import cv2
+
         p = cv2.TrackerCSRT.Params()
         p.psr_threshold = float(self.psr_threshold)
         p.number_of_scales = int(self.number_of_scales)
@@ -80,6 +81,8 @@ class CsrtParams:
 
 
 def _create(params: CsrtParams):
+    import cv2
+
     factory = getattr(cv2.TrackerCSRT, "create", None) or getattr(cv2, "TrackerCSRT_create")
     return factory(params.opencv())
 

@@ -8,20 +8,20 @@ from typing import Sequence
 import numpy as np
 
 from trackers.blob import BlobDetector, BlobParams, BlobTracker, median_background
+from trackers.choices import DEFAULT_KIND, KINDS
 from trackers.detections import Detections, make_detections
 from trackers.errors import TrackInputError
 from trackers.movers import MoverLinker
 from trackers.track import Track
 from trackers.video import DecodeCount, VideoInfo, check_init_box, iter_frames, iter_keyframes, iter_windows, probe_video, sample_frames
 
-KINDS = ("blob", "csrt")
 # Every-mover detection expects crowds: a frame is taken as a global change (skipped) only above this many blobs.
 MOVERS_MAX_CANDIDATES = 200
 
 
 def track_video(
     path: str | Path,
-    kind: str = "blob",
+    kind: str = DEFAULT_KIND,
     init: Sequence[float] | None = None,
     init_frame: int = 0,
     params: dict | None = None,

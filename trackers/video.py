@@ -25,7 +25,6 @@ from functools import lru_cache
 from pathlib import Path
 from typing import Any, Iterable, Iterator, NamedTuple
 
-import cv2
 import numpy as np
 
 from trackers.errors import TrackInputError
@@ -641,6 +640,8 @@ _LUMA_FIRST = {"yuv420p", "yuvj420p", "yuv422p", "yuvj422p", "yuv444p", "yuvj444
 
 
 def _to_array(frame, gray: bool, rotation: int) -> np.ndarray:
+    import cv2
+
     if gray and frame.format.name in _LUMA_FIRST:
         plane = frame.planes[0]
         image = np.frombuffer(plane, np.uint8).reshape(-1, plane.line_size)[: frame.height, : frame.width]

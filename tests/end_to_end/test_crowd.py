@@ -24,6 +24,8 @@ from tlsync_pipeline.sync.timeline import Relation, eps_t, read_timeline
 from trackers.detections import read_detections, write_detections
 from trackers.track import read_track
 
+pytestmark = pytest.mark.slow  # minutes of decoding and tracking: CI's slow tier
+
 
 def _run(*args):
     return CliRunner().invoke(main, [str(a) for a in args], catch_exceptions=False)

@@ -103,6 +103,7 @@ def _fresh_artefacts(project_file: Path) -> dict[str, str]:
 
 
 @pytest.mark.skipif(not Path("/proc/self/environ").exists(), reason="finds the run's processes through /proc")
+@pytest.mark.slow
 def test_runs_stopped_at_random_moments_leave_no_process_and_no_false_fresh_artefact(tmp_path):
     source, _ = make_raw_project(tmp_path / "source", SMALL)
 

@@ -21,6 +21,8 @@ from tlsync_pipeline.pipeline.project import load_project
 from tlsync_pipeline.pipeline.spec import Options
 from tlsync_pipeline.sync.timeline import eps_t, read_timeline
 
+pytestmark = pytest.mark.slow  # minutes of decoding and tracking: CI's slow tier
+
 SPEC = RawProjectSpec(lines=((1.5, 75.0), (1.5, -75.0)), n_frames=(1500, 1500), image_size=(320, 240), boards=8, gcps=8, window_samples=300)
 
 

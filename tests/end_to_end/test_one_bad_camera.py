@@ -10,6 +10,8 @@ from data_fixtures.raw_project import SMALL, make_raw_project
 from tlsync_pipeline.cli.main import main
 from tlsync_pipeline.sync.timeline import read_timeline
 
+pytestmark = pytest.mark.slow  # minutes of decoding and tracking: CI's slow tier
+
 
 def _cli(*args):
     return CliRunner().invoke(main, [str(a) for a in args], catch_exceptions=False)

@@ -11,6 +11,8 @@ import pytest
 from data_fixtures.long_video import render_long_video, wandering_paths
 from trackers.video import iter_frames
 
+pytestmark = pytest.mark.slow  # minutes of decoding and tracking: CI's slow tier
+
 BENCH = Path(__file__).resolve().parents[2] / "bench" / "project_throughput.py"
 
 

@@ -33,6 +33,8 @@ from tlsync_pipeline.pipeline.project import load_project
 from tlsync_pipeline.pipeline.spec import Options
 from tlsync_pipeline.sync.timeline import eps_t, read_timeline
 
+pytestmark = pytest.mark.slow  # minutes of decoding and tracking: CI's slow tier
+
 
 def _graph(project_file):
     project = load_project(project_file)

@@ -25,8 +25,10 @@ from tlsync_pipeline.cli.exit_codes import ExitCode
 from tlsync_pipeline.cli.main import main
 from tlsync_pipeline.sync.timeline import eps_t, read_timeline, read_truth
 
+from tests.real_data import REAL_DATA
+
 QUICK_LINES = ((2.0, 4.0), (2.0, 45.0), (1.0, -30.5))  # tlsync demo --quick
-REAL = Path(os.environ.get("TLSYNC_REAL_DATA", "/work/shared/real")) / "drone2"
+REAL = REAL_DATA / "drone2"
 RIGHT_FRAMES = 1.0  # a synchronized pair within this eps_t (frames) of the truth is right
 
 

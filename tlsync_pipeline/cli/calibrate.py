@@ -10,18 +10,16 @@ from pathlib import Path
 
 import click
 
-from calibration.camera import write_camera
+from typing import TYPE_CHECKING
+
+from calibration.choices import MAX_FRAMES, MODELS
 from calibration.errors import PatternMismatch
-from calibration.intrinsics import (
-    MODELS,
-    Intrinsics,
-    calibrate_images,
-    calibrate_video,
-    parse_pattern,
-)
 from tlsync_pipeline.atomic import atomic_path
 from tlsync_pipeline.cli.options import jobs_option, out_option, quiet_option, verbose_option
 from tlsync_pipeline.errors import InputError, error_details, with_details
+
+if TYPE_CHECKING:
+    from calibration.intrinsics import Intrinsics
 
 
 @click.command("calibrate-intrinsics")
@@ -32,12 +30,15 @@ from tlsync_pipeline.errors import InputError, error_details, with_details
 @click.option("--model", type=click.Choice(MODELS), default="standard", show_default=True, help="standard: k1 k2 p1 p2 k3; rational: 8 coefficients; fisheye: k1..k4.")
 @out_option("camera.json to write (K, dist, image_size, rms; no pose: R, t come from GCPs, a board or the target).")
 @click.option("--report", type=click.Path(dir_okay=False, path_type=Path), help="Also write the calibration report (JSON) here.")
-@click.option("--max-frames", default=60, show_default=True, help="Video: frames sampled evenly.")
+@click.option("--max-frames", default=MAX_FRAMES, show_default=True, help="Video: frames sampled evenly.")
 @jobs_option
 @quiet_option("No progress bar.")
 @verbose_option
 def calibrate_intrinsics(images, video, pattern, square, model, out, report, max_frames, jobs, quiet) -> None:
     """Intrinsics from checkerboard photos or a video, written as a camera.json."""
+    from calibration.camera import write_camera
+    from calibration.intrinsics import calibrate_images, calibrate_video, parse_pattern
+
     if (images is None) == (video is None):
         raise InputError("calibrate-intrinsics: give exactly one of --images GLOB or --video FILE")
     board = parse_pattern(pattern, square, source="--pattern")

@@ -21,7 +21,7 @@ import click
 from tlsync_pipeline.cli.options import verbose
 from tlsync_pipeline.errors import INPUT_ERRORS, MAX_LINE, EnvironmentProblem, SyncError, error_details, one_line, shorten
 from tlsync_pipeline.pipeline.cache import NOT_MADE
-from tlsync_pipeline.pipeline.engine import Progress
+from tlsync_pipeline.pipeline.progress import Progress
 
 
 def shown(text: str) -> str:

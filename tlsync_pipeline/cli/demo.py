@@ -22,7 +22,6 @@ from tlsync_pipeline.cli.pipeline import execute, print_timeline, report_outcome
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.outputs.summary import format_truth_comparison
 from tlsync_pipeline.pipeline.cache import file_sha256
-from tlsync_pipeline.pipeline.project import WORK_DIR_NAME
 from tlsync_pipeline.sync.timeline import read_truth
 
 MARKER = ".tlsync-demo.json"  # what the demo wrote: its options and the hash of every file
@@ -115,6 +114,8 @@ def _same_demo(directory: Path, options: dict) -> bool:
 
 def _hashes(directory: Path, hash_files: bool = True) -> dict[str, str]:
     """Relative path -> SHA-256 of every file in ``directory`` outside its work folder and the marker."""
+    from tlsync_pipeline.pipeline.project import WORK_DIR_NAME
+
     if not directory.is_dir():
         return {}
     out = {}

@@ -10,15 +10,9 @@ from pathlib import Path
 import click
 
 from tlsync_pipeline.cli.options import out_option, quiet_option, verbose_option
-from tlsync_pipeline.ingest import ALTITUDE_REFERENCES, FORMATS
+from tlsync_pipeline.ingest.formats import FORMATS
 from tlsync_pipeline.ingest.process import DEFAULT_MAX_SPEED_MPS, IngestParams
-from tlsync_pipeline.pipeline.stages.ingest import (
-    ingest_log,
-    parse_origin,
-    parse_utc_offset_option,
-    report_sidecar,
-    write_ingest,
-)
+from tlsync_pipeline.ingest.records import ALTITUDE_REFERENCES
 
 
 @click.command("ingest-log")
@@ -39,6 +33,8 @@ from tlsync_pipeline.pipeline.stages.ingest import (
 def ingest_log_command(log: Path, fmt: str, origin: str, rate, max_gap_s, max_speed_mps, smoothing_s, topic, altitude_reference, altitude_offset_m,
                        utc_offset, out: Path, quiet: bool) -> None:
     """Convert one GPS/odometry LOG into a constant-rate local trajectory CSV."""
+    from tlsync_pipeline.pipeline.stages.ingest import ingest_log, parse_origin, parse_utc_offset_option, report_sidecar, write_ingest
+
     params = IngestParams(parse_origin(origin), rate, max_gap_s, max_speed_mps, smoothing_s, altitude_reference=altitude_reference, altitude_offset_m=altitude_offset_m)
     trajectory, report = ingest_log(log, fmt, params, topic, None if utc_offset is None else parse_utc_offset_option(utc_offset))
     write_ingest(trajectory, report, out, report_sidecar(out))

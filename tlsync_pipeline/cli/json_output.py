@@ -11,12 +11,15 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from tlsync_pipeline.errors import describe_error, one_line
 from tlsync_pipeline.pipeline.cache import read_manifest
-from tlsync_pipeline.pipeline.engine import RunSummary, TaskState, manifest_path
-from tlsync_pipeline.pipeline.graph import Graph
 from tlsync_pipeline.sync.timeline import read_timeline
+
+if TYPE_CHECKING:
+    from tlsync_pipeline.pipeline.engine import RunSummary, TaskState
+    from tlsync_pipeline.pipeline.graph import Graph
 
 STATUS_FORMAT = "tlsync-status"
 RUN_FORMAT = "tlsync-run"
@@ -36,6 +39,8 @@ def status_document(graph: Graph, rows: list[TaskState], running: dict | None, e
 
 def run_document(graph: Graph, summary: RunSummary, exit_code: int) -> dict:
     """The ``tlsync run --json`` document: what this run did with each task, and each camera's result."""
+    from tlsync_pipeline.pipeline.engine import manifest_path
+
     tasks = []
     for tid, task in graph.tasks.items():
         reasons: list[str]

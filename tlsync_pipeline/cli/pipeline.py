@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 
@@ -18,14 +19,14 @@ from tlsync_pipeline.cli.json_output import camera_statuses, dumps, status_docum
 from tlsync_pipeline.cli.options import camera_option, executor_options, in_order, project_argument, quiet_option, refused_camera, verbose_option, work_option
 from tlsync_pipeline.errors import EnvironmentProblem, InputError, describe_error, one_line
 from tlsync_pipeline.outputs.summary import format_table, format_truth_comparison
-from tlsync_pipeline.pipeline.engine import RunSummary, format_status, run_graph, status, task_files
 from tlsync_pipeline.pipeline.executors import SerialExecutor, make_executor
-from tlsync_pipeline.pipeline.graph import PER_CAMERA, STAGES, Graph, build_graph
 from tlsync_pipeline.pipeline.lock import WorkLock, check_writable, running_run
-from tlsync_pipeline.pipeline.project import load_project
-from tlsync_pipeline.pipeline.spec import Options
-from tlsync_pipeline.pipeline.stages.render import StripRequest, draw_requested
+from tlsync_pipeline.pipeline.stage_names import PER_CAMERA, STAGES
 from tlsync_pipeline.sync.timeline import read_timeline, read_truth
+
+if TYPE_CHECKING:  # the engine, the graph and the project load with the command that runs them (a quick --help)
+    from tlsync_pipeline.pipeline.engine import RunSummary
+    from tlsync_pipeline.pipeline.graph import Graph
 
 
 def resolve_work(project, work_dir: Path | None) -> Path:
@@ -64,6 +65,11 @@ def execute(project_file: Path, work_dir: Path | None, *, force_stages=(), camer
     Stages draw their own progress bars only when they run one at a time in
     this process; tasks in parallel workers get one bar drawn here.
     """
+    from tlsync_pipeline.pipeline.engine import run_graph
+    from tlsync_pipeline.pipeline.graph import build_graph
+    from tlsync_pipeline.pipeline.project import load_project
+    from tlsync_pipeline.pipeline.spec import Options
+
     project = load_project(project_file)
     work = resolve_work(project, work_dir)
     for name in cameras:
@@ -191,6 +197,10 @@ def status_command(project: Path, work_dir: Path | None, as_json: bool, quiet: b
     missing or failed, 3 when the work folder cannot be written into. Reads
     only: it creates no folder and no file.
     """
+    from tlsync_pipeline.pipeline.engine import format_status, status
+    from tlsync_pipeline.pipeline.graph import build_graph
+    from tlsync_pipeline.pipeline.project import load_project
+
     loaded = load_project(project)
     work = resolve_work(loaded, work_dir)
     graph = build_graph(loaded, work)
@@ -224,6 +234,10 @@ def stage_command(stage: str, help_text: str, render: bool = False) -> click.Com
     """``tlsync STAGE PROJECT [--camera NAME]``: re-run one stage (what it needs first, if not fresh)."""
 
     def command(project, work_dir, jobs, executor_kind, scheduler, quiet, camera=(), pair=None, frames=None, truth=None):
+        from tlsync_pipeline.pipeline.engine import task_files
+        from tlsync_pipeline.pipeline.project import load_project
+        from tlsync_pipeline.pipeline.stages.render import StripRequest, draw_requested
+
         request = StripRequest(_parse_pairs(pair), _parse_frames(frames), read_truth(truth)[0] if truth else None) if pair or frames or truth else None
         if request is not None and request.pairs:
             loaded = load_project(project)

@@ -10,9 +10,7 @@ from pathlib import Path
 import click
 
 from tlsync_pipeline.cli.options import out_option, quiet_option, verbose_option
-from tlsync_pipeline.pipeline.stages.track import write_detections_atomic, write_track_atomic
-from trackers.detections import follows_every_mover
-from trackers.tracking import KINDS, detect_movers, track_video
+from trackers.choices import DEFAULT_KIND, KINDS
 
 
 def _box(ctx, param, value):
@@ -29,7 +27,7 @@ def _box(ctx, param, value):
 
 @click.command("track-video")
 @click.argument("video", type=click.Path(path_type=Path))
-@click.option("--tracker", "kind", type=click.Choice(KINDS), default="blob", show_default=True, help="Tracker kind.")
+@click.option("--tracker", "kind", type=click.Choice(KINDS), default=DEFAULT_KIND, show_default=True, help="Tracker kind.")
 @click.option("--init", callback=_box, help="Box X,Y,W,H around the target in the init frame (pixels, top-left corner and size).")
 @click.option("--init-frame", default=0, show_default=True, type=click.IntRange(min=0), help="0-based frame of the init box; tracking starts there.")
 @out_option("detections.csv (blob, no --init) or track.csv to write.")
@@ -38,6 +36,10 @@ def _box(ctx, param, value):
 def track_video_command(video: Path, kind: str, init, init_frame: int, out: Path, quiet: bool) -> None:
     """Detect every mover in VIDEO (detections.csv: frame,time_s,id,x,y,w,h,score), or, with --init or
     --tracker csrt, track one target (track.csv: frame,x,y,time_s,w,h,score)."""
+    from tlsync_pipeline.pipeline.stages.track import write_detections_atomic, write_track_atomic
+    from trackers.detections import follows_every_mover
+    from trackers.tracking import detect_movers, track_video
+
     if follows_every_mover(kind, init, init_frame):
         detections = detect_movers(video, progress=not quiet)
         write_detections_atomic(detections, out)

@@ -16,6 +16,9 @@ import datetime as dt
 import math
 from pathlib import Path
 
+import numpy as np
+
+from tlsync_pipeline.csvtable import Table, cell_number, concatenate, delimiter_of
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.inputs import quote
 from tlsync_pipeline.ingest.reader import Reader, text_of
@@ -24,6 +27,7 @@ from tlsync_pipeline.ingest.records import (
     LOCAL,
     LogRecords,
     check_geodetic,
+    check_geodetic_rows,
     make_records,
 )
 
@@ -41,7 +45,7 @@ CUT = "cut mid-line (the file ends without a newline)"
 
 def header_columns(header: str) -> tuple[str, dict[str, int]]:
     """(delimiter, canonical column name -> index) of a header line."""
-    delimiter = next((d for d in (",", ";", "\t") if d in header), ",")
+    delimiter = delimiter_of(header)
     names = [c.strip().strip('"').lower() for c in header.split(delimiter)]
     columns = {}
     for canonical, aliases in ALIASES.items():
@@ -67,77 +71,99 @@ def parse_time(text: str) -> tuple[float, bool]:
 
 
 def read_csv_log(path: str | Path, fmt: str = "csv") -> LogRecords:
-    """Read a CSV log; ``fmt`` "odometry" insists on a local x,y,z log."""
-    path = Path(path)
-    try:
-        text = path.read_bytes().decode("utf-8-sig", errors="replace")
-    except OSError as exc:
-        raise InputError(f"{path}: cannot read: {exc.strerror or exc}") from None
-    lines = text.split("\n")
-    cut_last = not text.endswith("\n")
-    if not cut_last:
-        lines.pop()
-    header_no = next((i for i, line in enumerate(lines) if line.strip() and not line.lstrip().startswith("#")), None)
-    if header_no is None:
-        raise InputError(f"{path}: empty log")
-    delimiter, columns = header_columns(lines[header_no])
-    geodetic = "lat" in columns and "lon" in columns
-    if fmt == "odometry" and geodetic:
-        raise InputError(f"{path}:{header_no + 1}: an odometry log has columns time,x,y,z, not lat/lon (use --format csv)")
-    wanted = ["time", "lat", "lon", "alt"] if geodetic else ["time", "x", "y", "z"]
-    missing = [c for c in wanted if c not in columns and not (c == "alt" and geodetic)]
-    if missing:
-        raise InputError(
-            f"{path}:{header_no + 1}: header {quote(lines[header_no].strip())} lacks column(s) {', '.join(missing)}; "
-            "expected time,lat,lon,alt (geodetic) or t,x,y,z (local metres)"
-        )
-    width = len(lines[header_no].split(delimiter))
-    index = [columns.get(c) for c in wanted]
-    rows, numbers = [], []
-    dropped: dict[str, list[int]] = {}
-    iso = False
-    comments = 0
-    for number, line in enumerate(lines[header_no + 1 :], start=header_no + 2):
-        if not line.strip():
-            continue
-        if line.lstrip().startswith("#"):
-            comments += 1
-            continue
-        cells = line.rstrip("\r").split(delimiter)
-        reason = None
-        if len(cells) != width:
-            reason = f"expected {width} fields"
-        else:
-            try:
-                t, was_iso = parse_time(cells[columns["time"]].strip().strip('"'))
-                iso |= was_iso
-            except (ValueError, OverflowError, OSError):
-                reason = "unreadable time"
-            else:
-                values = []
-                for name, i in zip(wanted[1:], index[1:]):
-                    try:
-                        v = 0.0 if i is None else float(cells[i])
-                    except ValueError:
-                        v = math.nan
-                    if not math.isfinite(v):
-                        reason = f"column {name!r} not a number"
-                        break
-                    values.append(v)
-        if reason is not None:
-            if cut_last and number == len(lines):
-                reason = CUT
-            dropped.setdefault(reason, []).append(number)
-            continue
-        if geodetic:
-            check_geodetic(path, values[0], values[1], values[2], number)
-        rows.append([t, *values])
-        numbers.append(number)
+    """Read a CSV log; ``fmt`` "odometry" insists on a local x,y,z log.
+
+    Read in chunks into arrays (tlsync_pipeline.csvtable); chunks with
+    comments, ISO times or line noise line by line.
+    """
+    with Table(path, "log", lenient=True) as table:
+        path = table.path
+        if not table.header.strip():
+            raise InputError(f"{path}: empty log")
+        header_no = table.header_no
+        delimiter, columns = header_columns(table.header)
+        geodetic = "lat" in columns and "lon" in columns
+        if fmt == "odometry" and geodetic:
+            raise InputError(f"{path}:{header_no}: an odometry log has columns time,x,y,z, not lat/lon (use --format csv)")
+        wanted = ["time", "lat", "lon", "alt"] if geodetic else ["time", "x", "y", "z"]
+        missing = [c for c in wanted if c not in columns and not (c == "alt" and geodetic)]
+        if missing:
+            raise InputError(
+                f"{path}:{header_no}: header {quote(table.header.strip())} lacks column(s) {', '.join(missing)}; "
+                "expected time,lat,lon,alt (geodetic) or t,x,y,z (local metres)"
+            )
+        index = [columns.get(c) for c in wanted]
+        present = [i for i in index if i is not None]
+        state = _Lines(path, table, delimiter, len(table.names), columns, wanted, index, geodetic)
+        parts = []
+        for values, numbers in table.chunks(present, state.parse):
+            if len(present) < 4:
+                values = np.column_stack([values, np.zeros(len(values))])
+            if geodetic and len(values):
+                check_geodetic_rows(path, values[:, 1], values[:, 2], values[:, 3], numbers)
+            parts.append((values, numbers))
+    data, numbers = concatenate(parts, 4)
     warnings = []
     if geodetic and "alt" not in columns:
         warnings.append("no altitude column: heights set to 0 m (on the ellipsoid); the Up coordinate means nothing")
     frame = GEODETIC if geodetic else LOCAL
-    return make_records(path, "odometry" if fmt == "odometry" else "csv", frame, rows, numbers, utc=geodetic or iso, dropped=dropped, ignored=comments, warnings=warnings)
+    return make_records(path, "odometry" if fmt == "odometry" else "csv", frame, data, numbers, utc=geodetic or state.iso, dropped=state.dropped,
+                        ignored=state.comments, warnings=warnings)
+
+
+class _Lines:
+    """The line-by-line reading of a chunk: rows kept, line noise dropped and counted, comments counted."""
+
+    def __init__(self, path: Path, table: Table, delimiter: str, width: int, columns: dict[str, int], wanted: list[str],
+                 index: list[int | None], geodetic: bool):
+        self.path, self.table, self.delimiter, self.width = path, table, delimiter, width
+        self.columns, self.wanted, self.index, self.geodetic = columns, wanted, index, geodetic
+        self.dropped: dict[str, list[int]] = {}
+        self.iso = False
+        self.comments = 0
+
+    def parse(self, lines: list[str], first: int) -> tuple[np.ndarray, np.ndarray]:
+        """(rows (n, 4): time and three values, present columns only; line numbers) of the readable lines."""
+        rows, numbers = [], []
+        present = [name for name, i in zip(self.wanted[1:], self.index[1:]) if i is not None]
+        for number, line in enumerate(lines, start=first):
+            if not line.strip():
+                continue
+            if line.lstrip().startswith("#"):
+                self.comments += 1
+                continue
+            cells = line.rstrip("\r").split(self.delimiter)
+            reason = None
+            if len(cells) != self.width:
+                reason = f"expected {self.width} fields"
+            else:
+                time_cell = cells[self.columns["time"]].strip().strip('"')
+                try:
+                    t, was_iso = parse_time(time_cell.replace(",", ".") if self.delimiter == ";" else time_cell)
+                    self.iso |= was_iso
+                except (ValueError, OverflowError, OSError):
+                    reason = "unreadable time"
+                else:
+                    values = []
+                    for name in present:
+                        try:
+                            v = cell_number(cells[self.columns[name]], self.delimiter)
+                        except ValueError:
+                            v = math.nan
+                        if not math.isfinite(v):
+                            reason = f"column {name!r} not a number"
+                            break
+                        values.append(v)
+            if reason is not None:
+                if number == self.table.cut_line:
+                    reason = CUT
+                self.dropped.setdefault(reason, []).append(number)
+                continue
+            if self.geodetic:
+                check_geodetic(self.path, values[0], values[1], values[2] if len(values) > 2 else 0.0, number)
+            rows.append([t, *values])
+            numbers.append(number)
+        return np.asarray(rows, dtype=np.float64).reshape(-1, 1 + len(present)), np.asarray(numbers, dtype=np.int64)
 
 
 def _sniff(head: bytes) -> bool:

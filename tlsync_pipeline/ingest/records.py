@@ -100,11 +100,22 @@ def sort_by_time(rows: list, numbers: list, *columns: list) -> tuple[list, ...]:
     return tuple([seq[i] for i in order] for seq in (rows, numbers, *columns))
 
 
+ALTITUDE_RANGE_M = (-12_000.0, 100_000.0)  # plausible heights above the ellipsoid
+
+
 def check_geodetic(path: Path, lat: float, lon: float, alt: float, number: int, unit: str = "line") -> None:
     """InputError naming the line when a parsed fix is impossible (not mere line noise)."""
     if not -90.0 <= lat <= 90.0:
         raise InputError(f"{where(path, number, unit)}: latitude {lat!r} out of range [-90, 90]")
     if not -180.0 <= lon <= 180.0:
         raise InputError(f"{where(path, number, unit)}: longitude {lon!r} out of range [-180, 180]")
-    if not -12_000.0 <= alt <= 100_000.0:
+    if not ALTITUDE_RANGE_M[0] <= alt <= ALTITUDE_RANGE_M[1]:
         raise InputError(f"{where(path, number, unit)}: altitude {alt!r} m is not a plausible height above the ellipsoid")
+
+
+def check_geodetic_rows(path: Path, lat: np.ndarray, lon: np.ndarray, alt: np.ndarray, numbers, unit: str = "line") -> None:
+    """check_geodetic on the first impossible fix of arrays of fixes (numbers: their provenance), if any."""
+    bad = ~((np.abs(lat) <= 90.0) & (np.abs(lon) <= 180.0) & (alt >= ALTITUDE_RANGE_M[0]) & (alt <= ALTITUDE_RANGE_M[1]))
+    if bad.any():
+        k = int(np.argmax(bad))
+        check_geodetic(path, float(lat[k]), float(lon[k]), float(alt[k]), int(numbers[k]), unit)

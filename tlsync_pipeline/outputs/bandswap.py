@@ -20,7 +20,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import cv2
 import numpy as np
 
 DEFAULT_RADIUS_PX = 6.0
@@ -28,7 +27,7 @@ PANEL_HEIGHT = 240  # pixels of each frame in the pictures
 CAPTION_HEIGHT = 22
 LINE_STEP = 16  # pixels between the lines of a two-line caption
 MIN_TEXT_SCALE = 0.3
-_FONT = cv2.FONT_HERSHEY_SIMPLEX
+_FONT = 0  # cv2.FONT_HERSHEY_SIMPLEX (OpenCV loads with the first picture drawn, not with the module)
 
 
 @dataclass(frozen=True)
@@ -49,6 +48,8 @@ def target_radius(track) -> float:
 
 def band_swap_target(frame: np.ndarray, target_uv: tuple[float, float] | None, radius: float) -> np.ndarray:
     """Red: the frame's brightness; green: a disc of ``radius`` px at ``target_uv`` (BGR out, frame's size)."""
+    import cv2
+
     gray = cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY) if frame.ndim == 3 else frame
     render = np.zeros_like(gray)
     if target_uv is not None:
@@ -63,6 +64,8 @@ def caption_layout(text: str, width: int) -> tuple[list[str], float]:
     room = 0.9 * (width - 8)
 
     def widest(lines: list[str], scale: float) -> int:
+        import cv2
+
         return max(cv2.getTextSize(line, _FONT, scale, 1)[0][0] for line in lines)
 
     layouts = [[text]]
@@ -84,6 +87,8 @@ def caption_layout(text: str, width: int) -> tuple[list[str], float]:
 def caption(image: np.ndarray, text: str, lines: int = 1) -> np.ndarray:
     """The image with a white bar above it holding ``text`` in black, whole: shrunk, or on two lines
     (caption_layout); the bar holds at least ``lines`` lines, so that panels side by side stay aligned."""
+    import cv2
+
     width = image.shape[1]
     rows, scale = caption_layout(text, width)
     bar = np.full((CAPTION_HEIGHT + LINE_STEP * (max(lines, len(rows)) - 1), width, 3), 255, np.uint8)
@@ -94,6 +99,8 @@ def caption(image: np.ndarray, text: str, lines: int = 1) -> np.ndarray:
 
 def fit_height(image: np.ndarray, height: int = PANEL_HEIGHT) -> tuple[np.ndarray, float]:
     """The image resized to ``height`` pixels high, and the scale applied."""
+    import cv2
+
     scale = height / image.shape[0]
     size = (max(1, round(image.shape[1] * scale)), height)
     return cv2.resize(image, size, interpolation=cv2.INTER_AREA), scale

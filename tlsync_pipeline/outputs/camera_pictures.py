@@ -16,7 +16,6 @@ from dataclasses import dataclass
 from pathlib import Path
 from urllib.parse import quote
 
-import cv2
 import numpy as np
 
 from tlsync_pipeline.atomic import atomic_path
@@ -240,6 +239,8 @@ def picture(title: str, path: Path, work: Path) -> Picture:
 
 def photo(title: str, path: Path, work: Path) -> Picture:
     """A picture of video frames, embedded as JPEG (a fifth of the PNG beside it)."""
+    import cv2
+
     ok, data = cv2.imencode(".jpg", cv2.imread(str(path)), [cv2.IMWRITE_JPEG_QUALITY, EMBEDDED_JPEG_QUALITY])
     if not ok:
         return picture(title, path, work)

@@ -27,7 +27,6 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Iterator
 
-import cv2
 import numpy as np
 
 from tlsync_pipeline.atomic import atomic_path
@@ -86,6 +85,8 @@ def _blank(width: int, height: int = PANEL_HEIGHT) -> np.ndarray:
 
 
 def write_png(path: Path, image: np.ndarray) -> Path:
+    import cv2
+
     ok, data = cv2.imencode(".png", image)
     if not ok:
         raise RuntimeError(f"{path}: PNG encoding failed")
@@ -181,6 +182,8 @@ def plot_trajectory(name: str, camera, track, path_model: PiecewiseTrajectory, l
 
 
 def _draw_target(image: np.ndarray, camera, point, tracked, scale: float) -> np.ndarray:
+    import cv2
+
     image = image.copy()
     if point is not None:
         uv, valid = camera.project(point[None, :])
@@ -289,6 +292,8 @@ def assemble_pair(plan: PairPlan, panels: dict[str, list[np.ndarray]]) -> np.nda
 
 def tracklet_colour(tracklet: int) -> tuple[int, int, int]:
     """A stable, well spread BGR colour per tracklet id."""
+    import cv2
+
     hue = int((tracklet * 0.618033988749895 % 1.0) * 179)
     blue, green, red = cv2.cvtColor(np.array([[[hue, 200, 255]]], dtype=np.uint8), cv2.COLOR_HSV2BGR)[0, 0]
     return int(blue), int(green), int(red)
@@ -325,6 +330,8 @@ def draw_movers(image: np.ndarray, frame: int, detections, track, camera, path_m
     path_model: the trajectory model the line was fitted to; line: the
     camera's CameraLine; times: the camera's presentation times (VFR).
     """
+    import cv2
+
     out = image.copy()
     samples = np.concatenate([np.linspace(lo, hi, max(2, int(hi - lo) * 4)) for lo, hi, _ in path_model.runs]) if path_model.runs else np.zeros(0)
     uv, valid = camera.project(path_model.positions(samples)) if len(samples) else (np.zeros((0, 2)), np.zeros(0, bool))

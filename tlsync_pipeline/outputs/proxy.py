@@ -22,16 +22,14 @@ from collections.abc import Iterator, Sequence
 from fractions import Fraction
 from pathlib import Path
 
-import av
-import cv2
 import numpy as np
 
+from tlsync_pipeline.outputs.choices import PROXY_POLICIES
 from trackers.video import iter_frames, iter_windows, merge_windows, presentation_times, probe_video
 
 PROXY_HEIGHT = 360
 BROWSER_CODECS = frozenset({"h264", "vp8", "vp9", "av1"})
 BROWSER_CONTAINERS = frozenset({".mp4", ".m4v", ".mov", ".webm"})
-POLICIES = ("auto", "always", "never")
 _TIME_BASE = Fraction(1, 90000)
 
 
@@ -42,8 +40,8 @@ def browser_plays(codec: str, suffix: str) -> bool:
 
 def needs_proxy(codec: str, suffix: str, policy: str = "auto") -> bool:
     """Whether to make a proxy under ``policy`` (auto: only when the browser cannot play the file)."""
-    if policy not in POLICIES:
-        raise ValueError(f"proxy policy {policy!r}: expected one of {', '.join(POLICIES)}")
+    if policy not in PROXY_POLICIES:
+        raise ValueError(f"proxy policy {policy!r}: expected one of {', '.join(PROXY_POLICIES)}")
     return policy == "always" or (policy == "auto" and not browser_plays(codec, suffix))
 
 
@@ -59,6 +57,8 @@ def make_proxy(source: Path, destination: Path, target_height: int = PROXY_HEIGH
     windows: only the frames inside these [start, stop) windows (0-based),
     and a card at the first frame of each gap; None: every frame.
     """
+    import av
+
     info = probe_video(source)
     width, height = proxy_size(info.width, info.height, target_height)
     rate = Fraction(info.fps).limit_denominator(1001) if info.fps else Fraction(30)
@@ -84,6 +84,8 @@ def make_proxy(source: Path, destination: Path, target_height: int = PROXY_HEIGH
 
 def _proxy_frames(source: Path, windows: Sequence[tuple[int, int]] | None, size: tuple[int, int]) -> Iterator[tuple[float, np.ndarray]]:
     """(presentation time s, image at ``size``) of every frame, or of the windows' frames with a card at each gap's first frame."""
+    import cv2
+
     times = None if windows is None else presentation_times(source)
     if windows is None or times is None:  # no timestamps: no windows to read either
         for frame in iter_frames(source):
@@ -105,6 +107,8 @@ def _proxy_frames(source: Path, windows: Sequence[tuple[int, int]] | None, size:
 
 def _card(size: tuple[int, int]) -> np.ndarray:
     """A grey frame saying that the frames up to the next picture were not decoded (the target is not in view there)."""
+    import cv2
+
     width, height = size
     image = np.full((height, width, 3), 96, np.uint8)
     scale = max(0.35, width / 1200)

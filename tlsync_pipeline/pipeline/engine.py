@@ -41,6 +41,7 @@ from tlsync_pipeline.pipeline.codehash import code_digests
 from tlsync_pipeline.pipeline.executors import Called, SerialExecutor, one_blas_thread
 from tlsync_pipeline.pipeline.graph import STAGES, Graph, Task, task_id
 from tlsync_pipeline.pipeline.lock import WorkLock
+from tlsync_pipeline.pipeline.progress import Progress
 from tlsync_pipeline.pipeline.spec import StageResult, params_json
 from tlsync_pipeline.pipeline.validate import validate_project
 from tlsync_pipeline.pipeline.workspace import FOLDERS, StageFiles
@@ -61,23 +62,6 @@ class TaskState:
     state: str
     reasons: list[str] = field(default_factory=list)
     artefacts: list[str] = field(default_factory=list)  # relative to the work folder, as the manifest records them
-
-
-class Progress:
-    """What a run tells its caller as it goes (the default tells nothing).
-
-    ``parallel`` says whether the task went to the executor's workers (True)
-    or runs in this process.
-    """
-
-    def started(self, task_id: str, why: str, parallel: bool) -> None:
-        pass
-
-    def finished(self, task_id: str, seconds: float, parallel: bool) -> None:
-        pass
-
-    def failed(self, task_id: str, error: BaseException, parallel: bool) -> None:
-        pass
 
 
 @dataclass

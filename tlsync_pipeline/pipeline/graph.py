@@ -26,6 +26,7 @@ from typing import Any
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.pipeline.project import Project
 from tlsync_pipeline.pipeline.spec import Options, StageSpec
+from tlsync_pipeline.pipeline.stage_names import PER_CAMERA, STAGES
 from tlsync_pipeline.pipeline.stages import (
     calibrate,
     clock,
@@ -44,8 +45,7 @@ from tlsync_pipeline.pipeline.workspace import Artefact, Workspace
 STAGE_SPECS: dict[str, StageSpec] = {
     s.name: s for s in (intrinsics.SPEC, clock.SPEC, ingest.SPEC, scan.SPEC, track.SPEC, calibrate.SPEC, identify.SPEC, vote.SPEC, sync.SPEC, export.SPEC, render.SPEC)
 }
-STAGES = tuple(STAGE_SPECS)
-PER_CAMERA = tuple(name for name, spec in STAGE_SPECS.items() if spec.per_camera)
+assert STAGES == tuple(STAGE_SPECS) and PER_CAMERA == tuple(n for n, s in STAGE_SPECS.items() if s.per_camera), "stage_names.py lists STAGE_SPECS"
 # Artefact kind -> the stage that first makes it (a camera's track.csv: the track stage, or identify for every mover).
 MAKER: dict[str, str] = {}
 for _spec in STAGE_SPECS.values():

@@ -11,11 +11,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from calibration.extrinsics import GcpTable, read_gcps
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.geodesy import FAR_M, Origin, heights_in_feet, horizontal_distance, likely_slip, median_point
 
 if TYPE_CHECKING:
+    from calibration.extrinsics import GcpTable
     from tlsync_pipeline.pipeline.project import Project
 
 
@@ -36,6 +36,8 @@ def resolve_origin(origin: Origin | str | None, gcp_files: list[Path], where: st
     """
     if isinstance(origin, Origin) or origin == "first":
         return origin
+    from calibration.extrinsics import read_gcps  # OpenCV loads only where GCP files are read
+
     tables = [table for table in map(read_gcps, gcp_files) if table.geodetic is not None]
     if not tables:
         if origin == "gcps":
@@ -105,6 +107,8 @@ def check_log_near_gcps(log_centre: Origin, log: Path, gcp_files: list[Path], or
     far = float(horizontal_distance([log_centre.lat], [log_centre.lon], origin)[0])
     if far <= FAR_M:
         return
+    from calibration.extrinsics import read_gcps
+
     for table in map(read_gcps, gcp_files):
         if table.geodetic is not None and (cause := likely_slip(table.geodetic[:, 0], table.geodetic[:, 1], log_centre)):
             raise InputError(f"{table.source}: the GCPs are {far / 1000:,.0f} km from the target's log ({log.name}); {cause}")

@@ -13,7 +13,6 @@ key.
 from __future__ import annotations
 
 import difflib
-import inspect
 import math
 import sys
 from collections.abc import Callable, Mapping
@@ -27,26 +26,24 @@ else:  # pragma: no cover - Python 3.10
     import tomli as tomllib
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
-from calibration.extrinsics import pose_from_points
-from calibration.intrinsics import MODELS as CALIBRATION_MODELS
-from calibration.intrinsics import calibrate_video, parse_corners
+from calibration.choices import MAX_FRAMES, MAX_VIEW_ERROR, RANSAC_PX, parse_corners
+from calibration.choices import MODELS as CALIBRATION_MODELS
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.geodesy import Origin
-from tlsync_pipeline.ingest import ALTITUDE_REFERENCES, FORMATS
+from tlsync_pipeline.ingest.formats import FORMATS
 from tlsync_pipeline.ingest.process import IngestParams, RigidTransform
+from tlsync_pipeline.ingest.records import ALTITUDE_REFERENCES
 from tlsync_pipeline.ingest.recording_time import parse_utc, parse_utc_offset
 from tlsync_pipeline.ingest.units import LENGTH_UNITS, TIME_UNITS, unit_scale
-from tlsync_pipeline.outputs.proxy import POLICIES as PROXY_POLICIES
+from tlsync_pipeline.outputs.choices import PROXY_POLICIES
 from tlsync_pipeline.sync.log_model import AUTO, LogModelChoice
 from tlsync_pipeline.sync.log_model import PRESETS as LOG_MODELS
 from tlsync_pipeline.sync.params import SyncParams, parameter_fields
-from tlsync_pipeline.sync.pose import GCP_SIGMA_M
 from tlsync_pipeline.sync.registry import METHODS, params_from_table
-from tlsync_pipeline.sync.scan import SCAN_MODES
-from trackers.tracking import KINDS as TRACKER_KINDS
-from trackers.tracking import track_video
+from tlsync_pipeline.sync.choices import GCP_SIGMA_M, SCAN_MODES
+from trackers.choices import DEFAULT_KIND as DEFAULT_TRACKER_KIND
+from trackers.choices import KINDS as TRACKER_KINDS
 
 WORK_DIR_NAME = "work"
 PROJECT_FILE_NAME = "project.toml"  # what a folder given as the project holds
@@ -66,11 +63,6 @@ def key(convert: Converter, default: Any = None, *, required: bool = False, fact
 def table(config: type) -> Any:
     """A sub-table (``[cameras.tracker]``) parsed into ``config``; absent: ``config``'s defaults."""
     return field(default_factory=config, metadata={"table": config})
-
-
-def _component_default(function: Callable, parameter: str) -> Any:
-    """The default of a component's parameter: the component defines it."""
-    return inspect.signature(function).parameters[parameter].default
 
 
 # Converters: (value from TOML, project folder) -> typed value, ValueError when the value is wrong.
@@ -251,6 +243,8 @@ def _board_pose(value: Any, root: Path) -> BoardPose:
     if "rvec" in value:
         if rotation.shape != (3,) or not np.all(np.isfinite(rotation)):
             raise ValueError(f"rvec: expected 3 numbers (Rodrigues vector, radians), got {value['rvec']!r}")
+        from scipy.spatial.transform import Rotation  # only for a transform given as a rotation vector
+
         R = Rotation.from_rotvec(rotation).as_matrix()
     else:
         R = rotation
@@ -354,7 +348,7 @@ class TrackerConfig:
     there, for blob it seeds the identity; parameters: the tracker's by name.
     """
 
-    kind: str = key(_choice(*TRACKER_KINDS, what="tracker kind"), _component_default(track_video, "kind"))
+    kind: str = key(_choice(*TRACKER_KINDS, what="tracker kind"), DEFAULT_TRACKER_KIND)
     init: tuple[float, float, float, float] | None = key(_box)
     init_frame: int = key(_frame_index, 0)
     parameters: Mapping[str, float] = key(_parameters, factory=dict)
@@ -377,9 +371,9 @@ class CalibrationConfig:
     model: str = key(_choice(*CALIBRATION_MODELS, what="model"), CALIBRATION_MODELS[0])
     gcp: Path | None = key(_path)
     board_pose: BoardPose | None = key(_board_pose)
-    max_frames: int = key(_count, _component_default(calibrate_video, "max_frames"))
-    max_view_error: float = key(_positive, _component_default(calibrate_video, "max_view_error"))
-    ransac_px: float = key(_positive, _component_default(pose_from_points, "ransac_px"))
+    max_frames: int = key(_count, MAX_FRAMES)
+    max_view_error: float = key(_positive, MAX_VIEW_ERROR)
+    ransac_px: float = key(_positive, RANSAC_PX)
     gcp_sigma_m: float | None = key(_non_negative)
 
     @property

@@ -26,18 +26,19 @@ import numpy as np
 from calibration.camera import Camera, read_camera
 from calibration.extrinsics import read_gcps
 from tlsync_pipeline.errors import INPUT_ERRORS, InputError
-from tlsync_pipeline.ingest import detect_format
+from tlsync_pipeline.ingest.detect import detect_format
 from tlsync_pipeline.ingest.units import implausible_motion
 from tlsync_pipeline.inputs import MAX_SMALL_BYTES, MAX_TEXT_BYTES, read_text_file, regular_file
 from tlsync_pipeline.pipeline.checks import check_track_fits_video
 from tlsync_pipeline.pipeline.project import CameraConfig, Project
-from tlsync_pipeline.trajectory import read_trajectory
+from tlsync_pipeline.trajectory import read_trajectory, stranded
 from trackers.detections import REQUIRED_COLUMNS as DETECTION_COLUMNS
 from trackers.track import Track, read_track
 from trackers.video import VideoInfo, probe_video
 
 HEAD_BYTES = 64 << 10  # bytes read to sniff a large table
 OUTSIDE_SHARE = 0.05  # a track with more than this share of its positions outside the image is of another image
+STRANDED_SAMPLES = 10  # a trajectory with more samples in a row between gaps (runs too short to interpolate) is refused
 SAME_BYTES = 1 << 20  # bytes hashed at each end of two videos of the same size to call them the same file
 
 
@@ -112,6 +113,12 @@ def _camera(project: Project, config: CameraConfig, wanted: Callable[[Path], boo
 def _trajectory(path: Path, time_unit: float, length_unit: float) -> None:
     """The trajectory CSV, read; InputError when, in seconds and metres, it cannot be a target's."""
     trajectory = read_trajectory(path)
+    lost = stranded(trajectory)
+    if lost > STRANDED_SAMPLES:
+        raise InputError(
+            f"{path}: {lost} samples in a row sit between gaps on the grid of {trajectory.rate or 1:g} Hz (their times are not on "
+            "the log's rate), and the sync would not use them; resample it onto one rate (give it as [target] log, with max_gap_s above its longest interval)"
+        )
     t = trajectory.seconds(trajectory.sample)
     if t is not None:
         problem = implausible_motion(np.asarray(t) * time_unit, trajectory.xyz * length_unit)

@@ -16,11 +16,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from calibration.camera import Camera
 from tlsync_pipeline.trajectory import Trajectory
+
+if TYPE_CHECKING:
+    from calibration.camera import Camera
 
 VOTE_SIGMAS = 3.0  # a vote's radius covers this many standard deviations of the log's error, seen from the camera
 

@@ -18,7 +18,6 @@ import numpy as np
 from calibration.camera import Camera
 from tlsync_pipeline.sync.clock import CameraClock
 from tlsync_pipeline.sync.params import SyncParams
-from tlsync_pipeline.sync.pose_fit import GcpPrior
 from tlsync_pipeline.sync.timeline import CameraLine
 from tlsync_pipeline.sync.votes import Votes
 from tlsync_pipeline.trajectory import Trajectory
@@ -28,6 +27,7 @@ from trackers.track import Track
 if TYPE_CHECKING:
     from tlsync_pipeline.sync.log_bias import LogBias
     from tlsync_pipeline.sync.log_model import LogModel
+    from tlsync_pipeline.sync.pose_fit import GcpPrior
 
 
 @dataclass(frozen=True)

@@ -46,7 +46,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
-import cv2
 import numpy as np
 from scipy.spatial import cKDTree
 
@@ -87,7 +86,6 @@ AMBIGUOUS = 0.85  # a distinct offset scoring this share of the best's score (ms
 TIGHT = 3.0  # median residuals of the best fit within which frames count for the ambiguity test
 DISTINCT_S = 1.0  # offsets further apart than this (seconds) are distinct
 GCP_AGREE = 3.0  # a pose agrees with the GCPs when their median error is within this many of their sigmas
-GCP_SIGMA_M = 1.0  # default survey quality of GCPs (metres per coordinate): read off a web map or walked with a phone
 MAX_ROTATION_STD_DEG = 3.0
 MAX_CENTER_STD = 0.15  # of the median distance to the target
 # An intrinsic the target determines: its posterior std below these (f: share of f; cx, cy: share of the image width; k1: absolute).
@@ -501,6 +499,8 @@ class _Scorer:
 
     def camera_at(self, camera: Camera, beta: float, threshold: float) -> Camera | None:
         """The camera of the pose fitted at ``beta`` (with K and R, t from the projection matrix under DLT), or None."""
+        import cv2
+
         xyz, uv = self.pairs(beta)
         if len(xyz) < MIN_PAIRS:
             return None
@@ -518,6 +518,8 @@ class _Scorer:
 
 def _pnp(xyz: np.ndarray, uv: np.ndarray, K: np.ndarray):
     """SQPnP's pose (rvec, tvec) of pairs, or None (no solution, or points too close together: OpenCV asserts)."""
+    import cv2
+
     try:
         ok, rvec, tvec = cv2.solvePnP(xyz, uv, K, None, flags=cv2.SOLVEPNP_SQPNP)
     except cv2.error:
@@ -527,6 +529,8 @@ def _pnp(xyz: np.ndarray, uv: np.ndarray, K: np.ndarray):
 
 def _errors(model, xyz: np.ndarray, uv: np.ndarray, K: np.ndarray, dlt: bool) -> np.ndarray:
     """Pixel error of each pair under a pose (rvec, tvec) or a projection matrix; inf behind the camera."""
+    import cv2
+
     if dlt:
         h = xyz @ model[:, :3].T + model[:, 3]
     else:
@@ -566,6 +570,8 @@ def _dlt(xyz: np.ndarray, uv: np.ndarray) -> np.ndarray | None:
 
 def _decompose(P: np.ndarray, image_size: tuple[int, int]) -> tuple[np.ndarray | None, np.ndarray, np.ndarray]:
     """K (square pixels, no skew), R, t of a projection matrix; K None when it is not a camera's (negative focal, centre far outside)."""
+    import cv2
+
     K, R, centre = cv2.decomposeProjectionMatrix(P)[:3]
     signs = np.diag(np.sign(np.diag(K)))
     K, R = K @ signs, signs @ R

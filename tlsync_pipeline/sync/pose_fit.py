@@ -38,7 +38,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-import cv2
 import numpy as np
 from scipy.optimize import least_squares
 
@@ -162,6 +161,8 @@ class JointFit:
 
 def camera_at(camera: Camera, x: np.ndarray, layout: Layout) -> Camera:
     """The camera with the pose and free intrinsics of parameter vector x."""
+    import cv2
+
     K = camera.K.copy()
     dist = camera.dist.copy()
     if "f" in layout.free:
@@ -436,6 +437,8 @@ def _center_std(x: np.ndarray, cov: np.ndarray) -> float:
     """One-sigma camera centre (root of the trace of its covariance), metres, by first-order propagation."""
 
     def centre(p):
+        import cv2
+
         return -cv2.Rodrigues(p[:3])[0].T @ p[3:6]
 
     c0 = centre(x)

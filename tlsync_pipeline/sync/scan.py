@@ -44,6 +44,7 @@ import numpy as np
 
 from calibration.camera import Camera
 from tlsync_pipeline.errors import SyncError
+from tlsync_pipeline.sync.choices import SCAN_MODES
 from tlsync_pipeline.sync.clock import CameraClock, FrameTimes, FRAME, camera_clock
 from tlsync_pipeline.sync.identify import IdentifyParams, candidate_votes, detections_clock
 from tlsync_pipeline.sync.line_search import find_line
@@ -53,7 +54,6 @@ from trackers.detections import Detections
 from trackers.track import Track
 from trackers.video import merge_windows
 
-SCAN_MODES = ("auto", "full")
 COARSE_DELTA = 2.0  # inlier band of the coarse line: orthogonal distance in the voting space (frames and samples)
 MIN_KEYFRAMES = 5  # keyframes on the coarse line below which it is not trusted
 AMBIGUOUS = 0.5  # a competing line with this share of the coarse line's keyframes (or more): ambiguous

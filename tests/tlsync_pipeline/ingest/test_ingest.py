@@ -5,7 +5,6 @@ from __future__ import annotations
 import datetime as dt
 import json
 import math
-import os
 from pathlib import Path
 
 import numpy as np
@@ -30,6 +29,8 @@ from tlsync_pipeline.ingest import (
 )
 from tlsync_pipeline.ingest.process import reject_spikes, resample
 from tlsync_pipeline.trajectory import Trajectory, read_trajectory
+
+from tests.real_data import REAL_DATA
 
 ORIGIN = Origin(47.3769, 8.5417, 450.0)
 START = dt.datetime(2026, 3, 1, 23, 59, 0, tzinfo=dt.timezone.utc)  # crosses midnight: an NMEA day rollover
@@ -339,7 +340,7 @@ def test_project_odometry_with_transform_and_default_origin(tmp_path, walk):
     assert report["origin"]["rule"] == "first fix" and report["origin"]["lat"] == pytest.approx(ORIGIN.lat, abs=1e-7)
 
 
-REAL = Path(os.environ.get("TLSYNC_REAL_DATA", "/work/shared/real")) / "drone2" / "target.csv"
+REAL = REAL_DATA / "drone2" / "target.csv"
 
 
 @pytest.mark.skipif(not REAL.exists(), reason="real drone data (../shared/real/drone2) not present")

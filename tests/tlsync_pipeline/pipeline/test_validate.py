@@ -49,3 +49,15 @@ def test_a_trajectory_in_milliseconds_is_named_with_its_fix(project_dir):
         _validate(project_dir)
     edit_key(project_dir, None, "time_unit", "ms")
     _validate(project_dir)
+
+
+def test_a_trajectory_partly_at_another_rate_is_refused_with_its_fix(project_dir):
+    fast = np.arange(0.0, 60.0, 0.01)  # 100 Hz, then 20 s at 15 Hz, then 100 Hz again: the 15 Hz part sits between gaps
+    times = np.r_[fast, 60.0 + np.arange(1, 300) / 15.0, 80.0 + fast]
+    rows = "\n".join(f"{v:.6f},{1.4 * v:.3f},0.0,1.5" for v in times)
+    (project_dir / "trajectory.csv").write_text("t,x,y,z\n" + rows + "\n")
+    with pytest.raises(InputError, match=r"\[target\] trajectory: .*299 samples in a row sit between gaps on the grid of 100 Hz .*resample it onto one rate"):
+        _validate(project_dir)
+    dropouts = np.delete(fast, np.arange(5, len(fast), 7))  # a sample lost every 0.07 s: gaps, no stretch left out
+    (project_dir / "trajectory.csv").write_text("t,x,y,z\n" + "\n".join(f"{v:.6f},{1.4 * v:.3f},0.0,1.5" for v in dropouts) + "\n")
+    _validate(project_dir)

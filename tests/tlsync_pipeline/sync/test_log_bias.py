@@ -69,6 +69,7 @@ def test_the_vote_radius_covers_the_log_error_as_the_camera_sees_it():
     assert 100.0 < phone < 600.0  # 3 x 2.06 m at about 18 m with a 960 px focal length
 
 
+@pytest.mark.slow
 def test_a_bias_shared_by_every_visit_is_fitted_out_and_the_intervals_hold():
     """A near-constant metre of bias: 10-50 frames of error per camera alone; with the bias fitted, about a frame."""
     for seed in (0, 2):
@@ -91,6 +92,7 @@ def test_a_bias_shared_by_every_visit_is_fitted_out_and_the_intervals_hold():
             assert z < 1.96, (key, z)
 
 
+@pytest.mark.slow
 def test_straight_walks_in_opposite_directions_do_not_diverge_and_say_the_log_dominates():
     """Straight crossings: a bias along the walk is a time offset; the fit keeps it at its prior and widens the intervals."""
     scene = make_walk_scene(1, WalkSpec(cameras=2, route="straight", log=LogErrorModel("phone", 1.0, 0.5, 1.0, 1.0, 2.0, 60.0)))
@@ -121,6 +123,7 @@ def test_a_crowd_scene_with_a_biased_log_keeps_its_people_and_moves_only_the_log
     assert float(np.abs(np.diff(error[:, :2], axis=0)).max()) < 0.8  # ... by a bias that wanders slowly (0.18 m std per second)
 
 
+@pytest.mark.slow
 def test_a_target_picked_among_walkers_through_a_phones_log_on_few_frames_is_not_synchronized(tmp_path):
     """Crowd seed 1 with a phone's log: the 5 fps camera's pick is a walker 45 s off the target; it must be refused
     (ambiguous), not reported as synchronized with an interval of a second."""

@@ -28,7 +28,6 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-import cv2
 import numpy as np
 
 from calibration.camera import Camera, PoseInfo, read_camera, write_camera
@@ -124,6 +123,8 @@ def calibrate_pose(
     none (too few, a survey too rough for every point) the report says so
     and the target's pose goes on without it.
     """
+    import cv2
+
     K, dist, dist_model, size = known.K, known.dist, known.dist_model, known.image_size
     report: dict = {"camera": name, "intrinsics": intrinsics_report}
     pose: Pose | None = None

@@ -27,6 +27,7 @@ from tlsync_pipeline.sync.log_model import LogModelChoice, measured, vote_radius
 from tlsync_pipeline.sync.params import Preparation
 from tlsync_pipeline.sync.registry import preparation_of
 from tlsync_pipeline.sync.synchronize import identify_params, prepare_trajectory
+from tlsync_pipeline.sync.visits import near_views
 from tlsync_pipeline.trajectory import read_trajectory
 from trackers.detections import read_detections, seed_tracklets
 from trackers.track import write_track
@@ -68,7 +69,7 @@ def run_identify(files: StageFiles, params: IdentifyStageParams) -> StageResult:
     """
     warnings: list[str] = []
     camera = read_camera(files.path("camera"), name=files.camera)
-    logged = read_trajectory(files.path("trajectory"))
+    logged = near_views(read_trajectory(files.path("trajectory")), [camera])
     prepared = prepare_trajectory(logged, params.preparation)
     seed = params.seed
     try:

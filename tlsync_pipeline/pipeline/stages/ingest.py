@@ -17,7 +17,7 @@ import numpy as np
 from tlsync_pipeline.atomic import atomic_path
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.geodesy import Origin, enu_to_geodetic
-from tlsync_pipeline.ingest import read_log
+from tlsync_pipeline.ingest.read import read_log
 from tlsync_pipeline.ingest.recording_time import parse_utc_offset
 from tlsync_pipeline.ingest.process import (
     IngestParams,

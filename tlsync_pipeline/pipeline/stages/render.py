@@ -42,6 +42,7 @@ from tlsync_pipeline.sync.methods import CameraInput
 from tlsync_pipeline.sync.registry import params_from_table, preparation_of
 from tlsync_pipeline.sync.synchronize import prepare_trajectory
 from tlsync_pipeline.sync.timeline import Relation, Timeline, read_timeline
+from tlsync_pipeline.sync.visits import near_views
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory, read_trajectory
 
 if TYPE_CHECKING:
@@ -167,16 +168,17 @@ def run_render(files: StageFiles, params: RenderParams) -> StageResult:
 
 def _read_scene(files: StageFiles, params: RenderParams) -> _Scene:
     timeline = read_timeline(files.path("timeline"))
-    trajectory = read_trajectory(files.path("trajectory"))
-    prepared = prepare_trajectory(trajectory, preparation_of(params_from_table(timeline.params)))
     cameras = camera_files(files, params)
     synchronized = {n: c for n, c in cameras.items() if n in timeline.cameras}
+    inputs = read_camera_inputs(synchronized)
+    trajectory = near_views(read_trajectory(files.path("trajectory")), [c.camera for c in inputs.values()])
+    prepared = prepare_trajectory(trajectory, preparation_of(params_from_table(timeline.params)))
     return _Scene(
         timeline,
         trajectory,
         prepared,
         cameras,
-        read_camera_inputs(synchronized),
+        inputs,
         {name: frame_times(cameras[name], line) for name, line in timeline.cameras.items()},
         {n: c.video for n, c in synchronized.items() if c.video is not None},
         {n: frame_count(c) for n, c in synchronized.items()},

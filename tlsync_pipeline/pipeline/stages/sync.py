@@ -25,6 +25,7 @@ from tlsync_pipeline.sync.status import WEAK, Reason
 from tlsync_pipeline.sync.synchronize import CameraResult, synchronize
 from tlsync_pipeline.sync.timeline import CameraLine, IdentificationSummary, ScanSummary, StageWarning, Timeline, write_timeline
 from tlsync_pipeline.sync.votes import Votes, load_votes
+from tlsync_pipeline.sync.visits import near_views
 from tlsync_pipeline.trajectory import Trajectory, read_trajectory
 from trackers.track import read_track
 
@@ -101,7 +102,9 @@ def run_sync(files: StageFiles, params: SyncStageParams) -> StageResult:
     votes = read_votes(paths)
     usable = {name: c for name, c in paths.items() if not isinstance(votes[name], SyncError)}
     try:
-        timeline, _ = synchronize(_readable(paths, usable), read_trajectory(files.path("trajectory")), params.sync, votes, log_model_of(files, params.log_model))
+        inputs = _readable(paths, usable)
+        trajectory = near_views(read_trajectory(files.path("trajectory")), [c.camera for c in inputs.values()])
+        timeline, _ = synchronize(inputs, trajectory, params.sync, votes, log_model_of(files, params.log_model))
     except LogUnitError as exc:
         key, source = params.source or ("trajectory", files.path("trajectory"))
         raise InputError(f"{source} ([target] {key}): {exc}") from None

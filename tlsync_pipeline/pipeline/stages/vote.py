@@ -22,6 +22,7 @@ from tlsync_pipeline.sync.params import Preparation
 from tlsync_pipeline.sync.registry import preparation_of
 from tlsync_pipeline.sync.synchronize import cast_votes, prepare_trajectory
 from tlsync_pipeline.sync.votes import Votes, save_votes
+from tlsync_pipeline.sync.visits import near_views
 from tlsync_pipeline.trajectory import read_trajectory
 from trackers.track import read_track
 
@@ -59,7 +60,7 @@ def run_vote(files: StageFiles, params: VoteParams) -> StageResult:
             raise problem
         if params.source is not None and has_no_rows(files.path("track")):
             raise SyncError(f"{params.source}: the target was never found (the track stage found it in no frame)")
-        logged = read_trajectory(files.path("trajectory"))
+        logged = near_views(read_trajectory(files.path("trajectory")), [camera])
         prepared = prepare_trajectory(logged, params.preparation)
         radius = vote_radius(camera, prepared, params.eps_px, measured(log_model_of(files, params.log_model), logged))
         votes = cast_votes(camera, read_track(files.path("track")), prepared, radius)

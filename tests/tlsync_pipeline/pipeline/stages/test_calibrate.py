@@ -181,6 +181,7 @@ def test_a_failed_calibration_keeps_the_previous_artefacts(project):
     assert (root / "work" / "cameras" / "cam1" / "camera.json").read_text() == before
 
 
+@pytest.mark.slow
 def test_the_executor_decides_how_many_processes_detect_the_boards(project, monkeypatch):
     """Alone in this process the intrinsics stage may use the executor's cores; in a pool's worker, one (no nested pool)."""
     from tlsync_pipeline.pipeline.engine import run_graph
@@ -231,6 +232,7 @@ def unposed_project(tmp_path_factory):
     return root, scene
 
 
+@pytest.mark.slow
 def test_a_camera_without_a_pose_gets_it_from_the_target_and_a_straight_walk_fails_with_its_cause(unposed_project):
     root, scene = unposed_project
     result = _cli("run", root / "project.toml", "--quiet")

@@ -124,6 +124,7 @@ def test_choose_frames_stays_where_both_cameras_record():
     assert render.choose_frames(track, Relation(1.0, 10_000.0), n_a=500, n_b=400) == []
 
 
+@pytest.mark.slow
 def test_pictures_asked_for_are_kept_beside_the_defaults_and_never_make_the_project_stale(rendered_project, monkeypatch):
     """README's example: ``tlsync render project.toml --pair cam1,cam0 --frames 150,160``, then status and run."""
     from click.testing import CliRunner

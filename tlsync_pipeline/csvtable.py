@@ -1,0 +1,207 @@
+"""Numeric CSV tables read in chunks straight into arrays: logs of millions of rows in seconds and bounded memory.
+
+A table is a header line naming its columns, then rows of numbers. The
+delimiter is the first of ``,``, ``;`` or tab found in the header; with ``;``
+a decimal comma is read as a point (a CSV saved by Excel in a European
+locale). A UTF-8 byte-order mark is skipped. Rows are read CHUNK_BYTES at a
+time: a chunk whose every line has the header's field count and finite
+numbers in the columns read is parsed by NumPy at once (``np.loadtxt``'s C
+parser, about 0.2 s of CPU a million rows of four numbers); any other chunk
+(blank or comment lines, quotes, text, a wrong field count, NaN or
+infinity) goes line by line
+through the caller's own parser, so messages and leniency are the caller's.
+"""
+
+from __future__ import annotations
+
+import io
+import warnings
+from collections.abc import Callable, Iterator
+from pathlib import Path
+
+import numpy as np
+
+from tlsync_pipeline.errors import InputError
+from tlsync_pipeline.inputs import MAX_TEXT_BYTES, regular_file
+
+CHUNK_BYTES = 4 << 20  # bytes of rows parsed at once (about 100,000 rows of a trajectory)
+BOM = b"\xef\xbb\xbf"
+DELIMITERS = (",", ";", "\t")
+
+# The caller's line-by-line parser of a chunk: (lines, 1-based number of the first) -> (values (n, k), line numbers (n,)).
+SlowParser = Callable[[list[str], int], tuple[np.ndarray, np.ndarray]]
+
+
+def delimiter_of(header: str) -> str:
+    """The first of ``,``, ``;``, tab found in a header line (``,`` when none is)."""
+    return next((d for d in DELIMITERS if d in header), ",")
+
+
+def cell_number(text: str, delimiter: str) -> float:
+    """A cell's number as Python reads it (ValueError otherwise); with ``;`` tables a decimal comma is a point."""
+    return float(text.replace(",", ".") if delimiter == ";" else text)
+
+
+def describe_cell(text: str) -> str:
+    """What a bad cell holds, without quoting it: empty, or its length and the kind of characters."""
+    text = text.strip()
+    if not text:
+        return "an empty field"
+    if text.lower().lstrip("+-") in ("nan", "inf", "infinity"):
+        return "NaN or infinity"
+    kind = "letters" if any(c.isalpha() for c in text) else "symbols"
+    return f"a {len(text)}-character field with {kind}"
+
+
+class Table:
+    """An open numeric CSV table: its header (line number, names, delimiter) and its rows in chunks.
+
+    Use as a context manager; ``chunks`` yields (values, line numbers) for
+    the given column indices. ``lenient``: bytes that are not UTF-8 (or NUL)
+    reach the slow parser as replacement characters instead of an InputError.
+    """
+
+    def __init__(self, path: str | Path, what: str, lenient: bool = False):
+        self.path = regular_file(path, MAX_TEXT_BYTES, what)
+        self.what = what
+        self.lenient = lenient
+        self.handle = self.path.open("rb")
+        self.offset = 0  # bytes of the file consumed, for messages
+        self.rest = b""
+        self.size = self.path.stat().st_size
+        self.line_no = 0  # 1-based number of the last line consumed
+        self.cut_line: int | None = None  # the last line's number once read, when the file ends without a newline
+        self.header, self.header_no = self._header()
+        self.delimiter = delimiter_of(self.header)
+        self.names = [c.strip().strip('"') for c in self.header.split(self.delimiter)]
+
+    def __enter__(self) -> Table:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.handle.close()
+
+    def _read(self) -> bytes:
+        data = self.handle.read(CHUNK_BYTES)
+        if not self.lenient and b"\x00" in data:
+            raise InputError(f"{self.path}: not a text file (it holds NUL bytes), expected a {self.what}")
+        return data
+
+    def _decode(self, data: bytes, start: int) -> str:
+        if self.lenient:
+            return data.decode("utf-8", errors="replace")
+        try:
+            return data.decode("utf-8")
+        except UnicodeDecodeError as exc:
+            raise InputError(f"{self.path}: not a utf-8 text file (byte {start + exc.start}), expected a {self.what}") from None
+
+    def _header(self) -> tuple[str, int]:
+        """The first line that is not blank (and not a ``#`` comment), and its number; '' at the end of the file."""
+        data = self._read()
+        if data.startswith(BOM):
+            data, self.offset = data[len(BOM):], len(BOM)
+        while True:
+            cut = data.find(b"\n")
+            while cut < 0:
+                more = self._read()
+                if not more:
+                    break
+                data += more
+                cut = data.find(b"\n")
+            line_bytes, data = (data, b"") if cut < 0 else (data[:cut], data[cut + 1:])
+            line = self._decode(line_bytes, self.offset)
+            self.offset += len(line_bytes) + 1
+            self.line_no += 1
+            if line.strip() and not line.lstrip().startswith("#"):
+                self.rest = data
+                return line.rstrip("\r"), self.line_no
+            if cut < 0:
+                self.rest = b""
+                return "", self.line_no
+
+    def expected_rows(self) -> int:
+        """About how many lines the file holds, from the bytes a line has taken so far."""
+        return int(self.size / max(self.offset / max(self.line_no, 1), 1.0) * 1.02) + 16
+
+    def chunks(self, columns: list[int], slow: SlowParser) -> Iterator[tuple[np.ndarray, np.ndarray | range]]:
+        """(values float64 (n, len(columns)), 1-based line numbers (n,): int64 or a range) of the rows after the header, chunk by chunk."""
+        width = len(self.names)
+        data = self.rest
+        while True:
+            more = self._read()
+            data += more
+            cut = data.rfind(b"\n") + 1 if more else len(data)
+            if cut == 0 and more:
+                continue  # one line longer than a chunk: read on
+            block, data = data[:cut], data[cut:]
+            if not block:
+                return
+            start_no, start_offset = self.line_no + 1, self.offset
+            n_lines = block.count(b"\n") + (not block.endswith(b"\n"))
+            self.line_no += n_lines
+            self.offset += len(block)
+            if not more and not block.endswith(b"\n"):
+                self.cut_line = self.line_no
+            fast = self._fast(block, n_lines, width, columns)
+            if fast is not None:
+                yield fast, range(start_no, start_no + n_lines)
+            else:
+                text = self._decode(block, start_offset)
+                lines = text.split("\n")
+                if text.endswith("\n"):
+                    lines.pop()
+                yield slow(lines, start_no)
+            if not more:
+                return
+
+    def _fast(self, block: bytes, n_lines: int, width: int, columns: list[int]) -> np.ndarray | None:
+        """The chunk's values in ``columns`` when every line has ``width`` fields and those are finite numbers, else None."""
+        if self.delimiter == ";":
+            block = block.replace(b",", b".").replace(b";", b",")
+        elif self.delimiter == "\t":
+            block = block.replace(b"\t", b",")
+        try:  # every row must have ``width`` numbers (loadtxt refuses a changing count; blank lines make the count short)
+            with warnings.catch_warnings():
+                warnings.simplefilter("error")
+                values = np.loadtxt(io.BytesIO(block), delimiter=",", comments=None, ndmin=2, dtype=np.float64)
+        except (ValueError, UserWarning):
+            return None
+        if values.shape != (n_lines, width):
+            return None
+        selected = values[:, columns]
+        return selected if np.isfinite(selected).all() else None
+
+
+class Columns:
+    """Groups of a table's columns gathered chunk by chunk into arrays sized from the file (grown when short).
+
+    groups: name -> (first, last + 1) column of the chunks' values. The
+    whole table is never held twice: each chunk is copied once into place.
+    """
+
+    def __init__(self, groups: dict[str, tuple[int, int]], rows: int):
+        self.groups = groups
+        self.arrays = {name: np.empty((rows, hi - lo)) for name, (lo, hi) in groups.items()}
+        self.n = 0
+
+    def add(self, values: np.ndarray) -> None:
+        """Append a chunk's rows (n, columns)."""
+        end = self.n + len(values)
+        for name, (lo, hi) in self.groups.items():
+            array = self.arrays[name]
+            if end > len(array):
+                array = self.arrays[name] = np.resize(array, (max(end, len(array) + len(array) // 4), hi - lo))
+            array[self.n:end] = values[:, lo:hi]
+        self.n = end
+
+    def get(self, name: str) -> np.ndarray:
+        """The group's (N, width) array, trimmed to the rows added."""
+        array = self.arrays[name]
+        return array[: self.n] if self.n > 0.9 * len(array) else array[: self.n].copy()
+
+
+def concatenate(parts: list[tuple[np.ndarray, np.ndarray | range]], k: int) -> tuple[np.ndarray, np.ndarray]:
+    """The chunks' (values (N, k), line numbers (N,)) as two arrays."""
+    if not parts:
+        return np.empty((0, k)), np.empty(0, np.int64)
+    return np.concatenate([v.reshape(-1, k) for v, _ in parts]), np.concatenate([np.asarray(n, dtype=np.int64) for _, n in parts])
