@@ -41,13 +41,20 @@ def case(data: Path, count: int, seed: int, queue) -> None:
     own, trajectory = load_inputs(project)
     truth, n_frames = read_truth(data / "truth.json")
     names = list(own)
-    cameras = {(n if k < len(own) else f"{n}_{k // len(own)}"): own[n] for k, n in ((k, names[k % len(names)]) for k in range(count))}
+    cameras = {}
+    for k in range(count):
+        name = names[k % len(names)]
+        cameras[name if k < len(own) else f"{name}_{k // len(own)}"] = own[name]
     errors, _ = log_errors(np.random.default_rng(seed), trajectory.sample / trajectory.rate, RECEIVERS["drone"])
     logged = dataclasses.replace(trajectory, xyz=trajectory.xyz + errors)
     start = time.process_time()
     timeline, _ = synchronize(cameras, logged, project.sync, log_model=LOG_MODELS["drone"])
     seconds = time.process_time() - start
-    worst = [eps_t(timeline.relation(a, b), r, n_frames.get(a) or 1) for a, b, r in ((*k.split("->"), r) for k, r in truth.items()) if a in timeline.cameras and b in timeline.cameras]
+    worst = []
+    for key, relation in truth.items():
+        a, b = key.split("->")
+        if a in timeline.cameras and b in timeline.cameras:
+            worst.append(eps_t(timeline.relation(a, b), relation, n_frames.get(a) or 1))
     queue.put((peak_rss_mb(), seconds, max(worst, default=float("nan")), len(timeline.cameras)))
 
 

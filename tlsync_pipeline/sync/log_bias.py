@@ -150,8 +150,8 @@ def bias_marginal_likelihood(bias: LogBias, rate: float, model: LogModel) -> Log
     log |Q| / 2 - log |Q + H| / 2 + h^T (Q + H)^-1 h / 2. Sigma within 0.01-30 m, tau within 1-3600 s."""
     ratio = model.bias_vertical_m / model.bias_m if model.bias_m > 0 else 2.0
     start = np.log([model.bias_m, model.tau_s])
-    h = (_prior_whitening(bias.knots, rate, model.tau_s, bias.prior).T @ _prior_whitening(bias.knots, rate, model.tau_s, bias.prior)) @ bias.values.ravel()
-    h = h + bias.information @ bias.values.ravel()
+    start_whiten = _prior_whitening(bias.knots, rate, model.tau_s, bias.prior)
+    h = ((start_whiten.T @ start_whiten).toarray() + bias.information) @ bias.values.ravel()
 
     def negative(theta: np.ndarray) -> float:
         sigma, tau = np.exp(theta)
@@ -165,11 +165,13 @@ def bias_marginal_likelihood(bias: LogBias, rate: float, model: LogModel) -> Log
         evidence = float(np.sum(np.log(whiten.diagonal())) - np.sum(np.log(np.diag(root))) + 0.5 * solved @ solved)
         return -evidence + 0.5 * float(np.sum(((theta - start) / PRIOR_LOG_SD) ** 2))
 
-    found = minimize(negative, start, method="L-BFGS-B", bounds=[(np.log(0.01), np.log(30.0)), (np.log(1.0), np.log(3600.0))])
+    bounds = [(np.log(0.01), np.log(30.0)), (np.log(1.0), np.log(3600.0))]
+    found = minimize(negative, start, method="L-BFGS-B", bounds=bounds)
     if not np.isfinite(found.fun) or found.fun > negative(start):
         return model
     sigma, tau = np.exp(found.x)
-    return replace(model, bias_m=float(sigma), bias_vertical_m=float(ratio * sigma), tau_s=float(tau), measured=tuple(sorted({*model.measured, "bias_m", "tau_s"})))
+    measured = tuple(sorted({*model.measured, "bias_m", "tau_s"}))
+    return replace(model, bias_m=float(sigma), bias_vertical_m=float(ratio * sigma), tau_s=float(tau), measured=measured)
 
 
 def _knots(cameras: list[BiasCamera], path: PiecewiseTrajectory, rate: float, model: LogModel) -> np.ndarray:
@@ -277,7 +279,8 @@ class _Joint:
         lines = 2 * self.n
         rows = []
         for k, jac in enumerate(jacobians):
-            rows.append(sp.hstack([sp.csr_matrix((jac.shape[0], 2 * k)), jac[:, :2], sp.csr_matrix((jac.shape[0], lines - 2 * k - 2)), jac[:, 2:]], format="csr"))
+            before, after = sp.csr_matrix((jac.shape[0], 2 * k)), sp.csr_matrix((jac.shape[0], lines - 2 * k - 2))
+            rows.append(sp.hstack([before, jac[:, :2], after, jac[:, 2:]], format="csr"))
         for k, c in enumerate(self.cameras):
             if c.prior is not None:
                 rows.append(sp.csr_matrix(([self.f_scale * c.prior.alpha / c.prior.sigma], ([0], [2 * k])), shape=(1, len(z))))
@@ -333,7 +336,8 @@ def _camera_rows(c: BiasCamera, path: PiecewiseTrajectory, knots: np.ndarray, bi
     r = (uv - c.xy) * c.weight[:, None]
     along = rate * c.weight[:, None]
     gradient = gradient * c.weight[:, None, None]
-    bad = ~(np.isfinite(r).all(axis=1) & np.isfinite(along).all(axis=1) & np.isfinite(gradient.reshape(n, -1)).all(axis=1))
+    finite = np.isfinite(r).all(axis=1) & np.isfinite(along).all(axis=1)
+    bad = ~(finite & np.isfinite(gradient.reshape(n, -1)).all(axis=1))
     r[bad] = 10.0
     along[bad] = 0.0
     gradient[bad] = 0.0
@@ -341,7 +345,9 @@ def _camera_rows(c: BiasCamera, path: PiecewiseTrajectory, knots: np.ndarray, bi
     rows = np.broadcast_to(np.arange(2 * n).reshape(n, 2, 1), (n, 2, 3))
     columns = np.arange(3)[None, None, :]
     values = np.concatenate([(gradient * (1.0 - u)[:, None, None]).ravel(), (gradient * u[:, None, None]).ravel()])
-    indices = (np.r_[rows.ravel(), rows.ravel()], np.r_[(columns + 3 * left[:, None, None] + 0 * rows).ravel(), (columns + 3 * right[:, None, None] + 0 * rows).ravel()])
+    at_left = (columns + 3 * left[:, None, None] + 0 * rows).ravel()
+    at_right = (columns + 3 * right[:, None, None] + 0 * rows).ravel()
+    indices = (np.r_[rows.ravel(), rows.ravel()], np.r_[at_left, at_right])
     return r, along.ravel(), sp.csr_matrix((values, indices), shape=(2 * n, 3 * len(knots)))
 
 
@@ -389,7 +395,9 @@ def _levenberg_marquardt(problem: _Joint, z: np.ndarray, f_scale: float, max_nfe
     stopped changing (relative ``tol``) within ``max_nfev`` evaluations of the residuals."""
 
     def cost(residual: np.ndarray) -> float:
-        return 0.5 * f_scale**2 * float(np.sum(problem.loss((residual / f_scale) ** 2)[0])) if np.isfinite(residual).all() else np.inf
+        if not np.isfinite(residual).all():
+            return np.inf
+        return 0.5 * f_scale**2 * float(np.sum(problem.loss((residual / f_scale) ** 2)[0]))
 
     units = 1.0 / problem.scale**2
     residual = problem.residual(z)
@@ -401,7 +409,8 @@ def _levenberg_marquardt(problem: _Joint, z: np.ndarray, f_scale: float, max_nfe
             gradient = jac.T @ (rho[1] * residual)
             if np.max(np.abs(gradient * problem.scale)) <= tol * max(current, 1e-12):
                 return z, True
-            hessian = (jac.T @ sp.diags(np.maximum(rho[1] + 2.0 * rho[2] * (residual / f_scale) ** 2, 1e-10)) @ jac).toarray()
+            curvature = np.maximum(rho[1] + 2.0 * rho[2] * (residual / f_scale) ** 2, 1e-10)
+            hessian = (jac.T @ sp.diags(curvature) @ jac).toarray()
             damping = 1e-3 * float(np.max(np.diag(hessian) / units)) if damping < 0 else damping
         try:
             step = np.linalg.solve(hessian + damping * np.diag(units), -gradient)
@@ -416,7 +425,8 @@ def _levenberg_marquardt(problem: _Joint, z: np.ndarray, f_scale: float, max_nfe
             continue
         z, residual, drop, current = z + step, trial_residual, current - trial, trial
         damping /= 3.0
-        if drop <= tol * current or np.linalg.norm(step / problem.scale) <= tol * (tol + np.linalg.norm(z / problem.scale)):
+        small_step = np.linalg.norm(step / problem.scale) <= tol * (tol + np.linalg.norm(z / problem.scale))
+        if drop <= tol * current or small_step:
             return z, True
     return z, False
 

@@ -113,7 +113,8 @@ def white_from_log(trajectory: Trajectory) -> tuple[float, int]:
     if trajectory.sigma is not None or len(trajectory) < 3:
         return 0.0, 0
     step = np.diff(trajectory.sample)
-    consecutive = (step[1:] == step[:-1]) & (np.abs(step[1:] - np.median(step)) < 1e-6 * max(float(np.median(step)), 1.0))
+    usual = float(np.median(step))
+    consecutive = (step[1:] == step[:-1]) & (np.abs(step[1:] - usual) < 1e-6 * max(usual, 1.0))
     second = (trajectory.xyz[2:, :2] - 2.0 * trajectory.xyz[1:-1, :2] + trajectory.xyz[:-2, :2])[consecutive]
     if len(second) < 10:
         return 0.0, 0

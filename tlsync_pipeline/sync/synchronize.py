@@ -232,7 +232,8 @@ def _log_error(model: LogModel, declared: LogModel, estimate: tuple[float, float
     preset (their prior), and the bias's marginal-likelihood estimate (recorded, not applied: fit_log_bias_measured)."""
     if model.white_m <= 0 and not model.has_bias:
         return None
-    record = {**asdict(model), "measured": list(model.measured), "prior": {k: v for k, v in asdict(declared).items() if k != "measured"}}
+    prior = {k: v for k, v in asdict(declared).items() if k != "measured"}
+    record = {**asdict(model), "measured": list(model.measured), "prior": prior}
     if estimate is not None:
         record["estimate"] = {"bias_m": estimate[0], "tau_s": estimate[1]}
     return record
