@@ -41,7 +41,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from bench._report import write_block  # noqa: E402
 from tlsync_pipeline.geodesy import Origin, geodetic_to_enu  # noqa: E402
-from tlsync_pipeline.ingest import read_log  # noqa: E402
+from tlsync_pipeline.ingest import ingest, read_log  # noqa: E402
 
 REAL = Path(os.environ.get("TLSYNC_REAL_LOGS", "/tmp/tlsync_real_logs"))
 DOC = Path(__file__).resolve().parent.parent / "docs" / "ingest.md"
@@ -70,6 +70,7 @@ SOURCES = {
     "dji_srt_air2s.srt": "JuanIrache/DJI_SRT_Parser samples/air2s.srt (MIT; Air 2S: per frame)",
     "dji_srt_MAVIC3.srt": "JuanIrache/DJI_SRT_Parser samples/MAVIC3.srt (MIT; Mavic 3: per frame, date with ms, [rel_alt: .. abs_alt: ..]; coordinates altered by the sample's author)",
     "dji_srt_matrice_300.srt": "JuanIrache/DJI_SRT_Parser samples/matrice_300.srt (MIT; Matrice 300: GPS(lat,lon,altM) BAROMETER, 1 Hz)",
+    "dji_srt_mix_p4rtk_mavic2pro.srt": "JuanIrache/DJI_SRT_Parser samples/mix_p4rtk_mavic2pro.srt (MIT; P4 RTK blocks with H .. m, then Mavic 2 Pro blocks with [altitude: ..], one file)",
 }
 
 
@@ -294,7 +295,9 @@ def srt(path):
         if np.isfinite(ref_wall).all() and "wall clock" in ours.notes[1]:
             what += f" anchored on the whole-second dates, which are within {np.abs(matched.t - ref_wall).max():.2f} s of them (UTC{zone / 3600:+g} h removed)"
     precision = next(n for n in ours.notes if n.startswith("precision"))
-    note = f"{what}; {len(k)} matched; {precision.split(',')[0].removeprefix('precision: ')}"
+    kept = ingest(ours)[1].fixes_used
+    kept_note = "all kept by the ingest" if kept == len(ours) else f"{len(ours) - kept} dropped by the ingest"
+    note = f"{what}; {len(k)} matched, {kept_note}; {precision.split(',')[0].removeprefix('precision: ')}"
     return _compare(path.name, "srt", matched, ref_t, geo, time_note=note, counts=f"{len(ours)} / {len(ref)}")
 
 

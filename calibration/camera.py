@@ -32,7 +32,8 @@ _OPENCV_DIST_LENGTHS = (4, 5, 8, 12, 14)
 # polynomial is only valid near the calibrated area and folds back beyond it.
 OUTSIDE_MARGIN = 0.5
 MAX_IMAGE_SIDE = 100_000  # pixels: no camera's image is wider or higher
-CENTRE_SLACK = 0.45  # the principal point lies within this fraction of the image's size from its centre
+CENTRE_SLACK = 0.45  # the principal point lies within this fraction of the image's size from its centre ...
+SAME_FACTOR = 0.1  # ... unless moved off it along one axis, or by factors this far apart (a crop, not a resolution)
 
 POSE_SOURCES = ("gcp", "board", "target", "gcp+target")
 GUESSED_FOCAL = 1.0  # focal length of a camera without K, in image widths (about 53 degrees across): the search's start
@@ -213,7 +214,8 @@ class Camera:
                 K = _matrix(data, "K", (3, 3), source)
         _check_intrinsics(K, source)
         dist = _distortion(data.get("dist", [0.0] * 5), dist_model, source)
-        _check_principal_point(K, image_size, source)
+        if data.get("cropped") is not True:
+            _check_principal_point(K, image_size, source)
         fps = data.get("fps")
         if fps is not None:
             fps = _positive_number(fps, "fps", source)
@@ -298,13 +300,21 @@ def _check_intrinsics(K: np.ndarray, source: str) -> None:
 
 
 def _check_principal_point(K: np.ndarray, image_size: tuple[int, int], source: str) -> None:
-    """The principal point (cx, cy) near the image's centre: an image_size of another image (or another K) puts it far off."""
-    for axis, (centre, side) in enumerate(zip(K[:2, 2], image_size)):
-        if abs(centre - side / 2) > CENTRE_SLACK * side:
-            raise CalibrationInputError(
-                f"{source}: field 'K': principal point c{'xy'[axis]} = {centre:g} px is far from the centre of the {image_size[0]} x {image_size[1]} "
-                "image (field 'image_size'): K and image_size are of different images"
-            )
+    """The principal point (cx, cy) where a K of this image puts it: near the centre, or off it the way a crop moves it.
+
+    The mistake this catches is an image_size of another resolution (or another K): it moves the principal point
+    off the centre along both axes by one factor (cx / (w / 2) = cy / (h / 2) = the resolutions' ratio). A camera
+    cropped from a wider one may have it anywhere, even outside the image, but by one factor on both axes only
+    when cut at a corner: its camera.json says ``"cropped": true``, which skips the check.
+    """
+    factors = [centre / (side / 2) for centre, side in zip(K[:2, 2], image_size)]
+    off = [abs(centre - side / 2) > CENTRE_SLACK * side for centre, side in zip(K[:2, 2], image_size)]
+    if all(off) and abs(factors[0] - factors[1]) <= SAME_FACTOR * max(abs(factors[0]), abs(factors[1])):
+        raise CalibrationInputError(
+            f"{source}: field 'K': principal point ({K[0, 2]:g}, {K[1, 2]:g}) px is off the centre of the {image_size[0]} x {image_size[1]} "
+            f"image (field 'image_size') by a factor {np.mean(factors):.3g} on both axes: K and image_size are of different resolutions "
+            "(for a camera cropped at a corner of a wider one: \"cropped\": true)"
+        )
 
 
 def _distortion(value, dist_model: str, source: str) -> np.ndarray:

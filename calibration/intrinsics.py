@@ -22,6 +22,7 @@ import glob as globlib
 import multiprocessing
 import os
 import re
+import signal
 from collections import Counter
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
@@ -240,6 +241,8 @@ def _diagnose(small: np.ndarray, pattern: tuple[int, int], larger: bool = False)
 
 
 def _init_worker() -> None:
+    """A detection worker: one OpenCV thread; Ctrl-C (sent to the whole process group) is its parent's to act on."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     import cv2
 
     cv2.setNumThreads(1)
@@ -282,8 +285,16 @@ def detect_all(
     # Workers come from a fork server, not a fork of this process: forking a process whose
     # OpenCV thread pool has run can deadlock the child.
     context = multiprocessing.get_context("forkserver" if "forkserver" in multiprocessing.get_all_start_methods() else "spawn")
-    with ProcessPoolExecutor(max_workers=min(workers, len(jobs)), initializer=_init_worker, mp_context=context) as pool:
+    pool = ProcessPoolExecutor(max_workers=min(workers, len(jobs)), initializer=_init_worker, mp_context=context)
+    try:
         return list(tqdm(pool.map(_detect_item, jobs, chunksize=1), **bar))
+    except BaseException:  # Ctrl-C: stop the detections now, not after the running ones (seconds each)
+        for process in list((getattr(pool, "_processes", None) or {}).values()):
+            process.terminate()
+        pool.shutdown(wait=False, cancel_futures=True)
+        raise
+    finally:
+        pool.shutdown(wait=True)
 
 
 @dataclass(frozen=True)

@@ -213,6 +213,55 @@ def _gap_over(root: Path, index: int) -> None:
     _write_table(_trajectory(root), header, data[keep])
 
 
+def _excel_track(root: Path, index: int) -> None:
+    """Camera ``index``'s track as a spreadsheet in a European locale saves it: a byte-order mark, ';' and decimal commas."""
+    path = _camera_file(root, index, "track")
+    text = path.read_text(encoding="utf-8").replace(",", ";").replace(".", ",")
+    path.write_text("\ufeff" + text.replace("\n", "\r\n"), encoding="utf-8")
+
+
+def _passwd_track(root: Path, index: int) -> None:
+    """A file of the system given as camera ``index``'s track (a copy of a passwd file, not the real one)."""
+    _camera_file(root, index, "track").write_text("root:x:0:0:root:/root:/bin/bash\ndaemon:x:1:1:daemon:/usr/sbin:/usr/sbin/nologin\n")
+
+
+def _lon_lat(t, xyz):
+    """x, y replaced by the longitude and latitude (degrees) of those metres at 47.38 N, 8.54 E."""
+    lat = 47.3769 + xyz[:, 1] / 111_320.0
+    lon = 8.5417 + xyz[:, 0] / (111_320.0 * np.cos(np.radians(47.3769)))
+    return t, np.column_stack([lon, lat, xyz[:, 2]])
+
+
+def _normalised(root: Path, index: int) -> None:
+    """Camera ``index``'s track in fractions of its image (x / width, y / height)."""
+    w, h = json.loads(_camera_file(root, index, "camera").read_text())["image_size"]
+    edit_track(root, index, lambda header, rows: rows / [1.0 if c not in "xy" else (w if c == "x" else h) for c in header])
+
+
+def _frame_in_seconds(root: Path, index: int) -> None:
+    """Camera ``index``'s frame column holding seconds (frame / 30, with their decimals), as a track exported by time would."""
+    path = _camera_file(root, index, "track")
+    header, rows = _table(path)
+    rows[:, header.index("frame")] /= 30.0
+    np.savetxt(path, rows, delimiter=",", header=",".join(header), comments="", fmt="%.6f")
+
+
+def _shadow(header: list[str], rows: np.ndarray) -> np.ndarray:
+    """The track of the target's shadow: 60 px below it in every frame."""
+    rows = rows.copy()
+    rows[:, header.index("y")] += 60.0
+    return rows
+
+
+def _another_object(header: list[str], rows: np.ndarray) -> np.ndarray:
+    """The tracker locked on another object in the same frames: one crossing the image right to left, swaying."""
+    rows = rows.copy()
+    n = len(rows)
+    rows[:, header.index("x")] = np.linspace(600.0, 40.0, n)
+    rows[:, header.index("y")] = 300.0 + 20.0 * np.sin(np.arange(n) / 30.0)
+    return rows
+
+
 def _ned(t, xyz):
     return t, np.column_stack([xyz[:, 1], xyz[:, 0], -xyz[:, 2]])
 
@@ -230,6 +279,10 @@ TRAPS: dict[str, Callable[[Path], None]] = {
     "z_flipped": lambda root: edit_trajectory(root, lambda t, xyz: (t, xyz * [1.0, 1.0, -1.0])),
     "ned_not_enu": lambda root: edit_trajectory(root, _ned),
     "random_walk": lambda root: edit_trajectory(root, _random_walk),
+    "heights_47m_high": lambda root: edit_trajectory(root, lambda t, xyz: (t, xyz + [0.0, 0.0, 47.0])),
+    "antenna_1_5m_above": lambda root: edit_trajectory(root, lambda t, xyz: (t, xyz + [0.0, 0.0, 1.5])),
+    "z_zero": lambda root: edit_trajectory(root, lambda t, xyz: (t, xyz * [1.0, 1.0, 0.0])),
+    "lon_lat_in_x_y": lambda root: edit_trajectory(root, _lon_lat),
     "another_flight": _other_flight,
     "log_ends_early": lambda root: edit_trajectory(root, _log_ends_early),
     "log_misses_a_camera": lambda root: _gap_over(root, 1),
@@ -239,6 +292,8 @@ TRAPS: dict[str, Callable[[Path], None]] = {
     "camera_json_copied": lambda root: _copy_file(root, "camera", 0, 1),
     "track_copied": lambda root: _copy_file(root, "track", 2, 1),
     "track_of_another_camera": lambda root: _track_of(root, 2, 1),
+    "track_of_the_shadow": lambda root: edit_track(root, 1, _shadow),
+    "track_of_another_object": lambda root: edit_track(root, 1, _another_object),
     "fps_twice": lambda root: _fps(root, 1, 2.0),
     "fps_half": lambda root: _fps(root, 1, 0.5),
     "track_half_resolution": lambda root: edit_track(root, 1, _scaled_track(0.5)),
@@ -250,6 +305,10 @@ TRAPS: dict[str, Callable[[Path], None]] = {
     "track_is_dev_zero": lambda root: edit_key(root, 1, "track", "/dev/zero"),
     "track_is_proc_environ": lambda root: edit_key(root, 1, "track", "/proc/self/environ"),
     "track_frame_1e12": lambda root: edit_track(root, 1, _far_frame),
+    "track_normalised": lambda root: _normalised(root, 1),
+    "track_frame_in_seconds": lambda root: _frame_in_seconds(root, 1),
+    "track_saved_by_excel": lambda root: _excel_track(root, 1),
+    "track_is_passwd": lambda root: _passwd_track(root, 1),
     "video_is_dev_urandom": lambda root: edit_key(root, 1, "video", "/dev/urandom"),
     "video_missing": lambda root: edit_key(root, 1, "video", "missing/video.mp4"),
 }

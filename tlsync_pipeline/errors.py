@@ -42,13 +42,20 @@ def os_error_reason(exc: OSError) -> str:
 
 
 def os_error_problem(exc: OSError) -> InputError | EnvironmentProblem:
-    """The tlsync error for an OSError: a missing file is bad input, anything else the environment; the path is named."""
-    path = exc.filename if exc.filename is not None else "a file"
+    """The tlsync error for an OSError: a missing file or a name too long is bad input, anything else the environment;
+    the path is named (a path of over MAX_PATH_SHOWN characters by its start and end, so the reason stays on the line)."""
+    path = str(exc.filename) if exc.filename is not None else "a file"
+    shown = path if len(path) <= MAX_PATH_SHOWN else f"{path[: MAX_PATH_SHOWN // 2]}...{path[-MAX_PATH_SHOWN // 2 :]}"
+    if exc.errno == errno.ENAMETOOLONG:
+        longest = max((len(part) for part in path.split("/")), default=0)
+        return InputError(f"{shown}: file name too long ({len(path)} characters, one name of {longest}; "
+                          "systems allow 4096 and 255 per name): give a shorter path")
     if isinstance(exc, (FileNotFoundError, IsADirectoryError, NotADirectoryError)):
-        return InputError(f"{path}: {exc.strerror or exc}")
-    return EnvironmentProblem(f"{path}: {os_error_reason(exc)}")
+        return InputError(f"{shown}: {exc.strerror or exc}")
+    return EnvironmentProblem(f"{shown}: {os_error_reason(exc)}")
 
 
+MAX_PATH_SHOWN = 60  # characters of a path an OSError's message shows (its start and end)
 MAX_REASON = 1000  # characters of a recorded reason (a whole sentence, never kilobytes)
 MAX_LINE = 200  # characters of an error's reason on the terminal (the rest, and its details, with --verbose)
 

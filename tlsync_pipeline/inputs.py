@@ -54,6 +54,20 @@ def read_text_file(path: str | Path, limit: int = MAX_TEXT_BYTES, what: str = "t
         raise InputError(f"{path}: not a {encoding} text file (byte {exc.start}), expected a {what}") from None
 
 
+def describe_line(line: str) -> str:
+    """A line of a file in words, never its text (a file given by mistake may hold secrets): its length and the
+    separators in it, e.g. "31 characters, fields separated by ':'"."""
+    line = line.strip()
+    if not line:
+        return "an empty line"
+    names = {",": "','", ";": "';'", "\t": "tabs", ":": "':'", " ": "spaces"}
+    counts = {sep: line.count(sep) for sep in names if line.count(sep)}
+    if not counts:
+        return f"{len(line)} characters without separators"
+    most = max(counts, key=lambda sep: counts[sep])
+    return f"{len(line)} characters, {counts[most] + 1} fields separated by {names[most]}"
+
+
 def quote(text: str, limit: int = QUOTE) -> str:
     """``text`` as a short quote for a message: repr, cut to about ``limit`` characters."""
     text = str(text)

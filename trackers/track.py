@@ -60,29 +60,41 @@ def read_table(path: str | Path, required: tuple[str, ...], optional: tuple[str,
 
     Returns the present columns of required + optional (float64 (N,)) and
     the (N,) line numbers; blank lines are skipped. expected: what the file
-    should hold, for the empty-file message. Raises TrackInputError.
+    should hold, for the empty-file message. Raises TrackInputError. As
+    spreadsheets save them: a UTF-8 byte-order mark is skipped; a header
+    separated by ``;`` (or tabs) and without commas means that separator,
+    and decimal commas in the values. Messages describe what a line holds,
+    never quote it (a file given by mistake may hold anything).
     """
     path = Path(path)
     text = read_text(path)
     lines_text = text.splitlines()
+    delimiter = _delimiter(lines_text[0] if lines_text else "")
+    if delimiter != ",":  # a spreadsheet's locale: ';' between fields, ',' before the decimals
+        lines_text = [line.replace(",", ".") for line in lines_text]
     try:
-        header = [cell.strip() for cell in next(csv.reader(lines_text[:1]), [])]
+        header = [cell.strip() for cell in next(csv.reader(lines_text[:1], delimiter=delimiter), [])]
     except csv.Error as exc:
         raise TrackInputError(f"{path}: not a readable CSV file: {exc}") from None
     if not any(header):
         raise TrackInputError(f"{path}: empty file; expected {expected}")
     missing = [c for c in required if c not in header]
+    if missing and len(header) == 1:
+        raise TrackInputError(f"{path}:1: not a CSV header: one field of {len(header[0])} characters, no ',' or ';' between "
+                              f"column names; expected a header with at least {','.join(required)}")
     if missing:
-        raise TrackInputError(f"{path}:1: header {quote(','.join(header))} lacks column(s) {', '.join(missing)}; expected at least {','.join(required)}")
+        raise TrackInputError(f"{path}:1: header with columns {column_names(header)} lacks column(s) {', '.join(missing)}; "
+                              f"expected at least {','.join(required)}")
     if len(set(header)) != len(header):
-        raise TrackInputError(f"{path}:1: duplicate column names in header {quote(','.join(header))}")
+        twice = sorted({c for c in header if header.count(c) > 1})
+        raise TrackInputError(f"{path}:1: duplicate column names in the header: {column_names(twice)}")
     wanted = [c for c in required + optional if c in header]
     index = [header.index(c) for c in wanted]
-    table = _plain_numbers(lines_text[1:], len(header))
+    table = _plain_numbers(lines_text[1:], len(header), delimiter)
     if table is not None:
         return {c: table[:, i].copy() for c, i in zip(wanted, index)}, np.arange(2, len(table) + 2, dtype=np.int64)
     try:
-        rows = list(csv.reader(lines_text[1:]))
+        rows = list(csv.reader(lines_text[1:], delimiter=delimiter))
     except csv.Error as exc:
         raise TrackInputError(f"{path}: not a readable CSV file: {exc}") from None
     values = np.empty((len(rows), len(wanted)))
@@ -97,18 +109,40 @@ def read_table(path: str | Path, required: tuple[str, ...], optional: tuple[str,
             try:
                 v = float(row[i])
             except ValueError:
-                raise TrackInputError(f"{path}:{line_no}: column '{col}': not a number: {quote(row[i])}") from None
+                raise TrackInputError(f"{path}:{line_no}: column '{col}': not a number ({describe_value(row[i])})") from None
             if not math.isfinite(v):
-                raise TrackInputError(f"{path}:{line_no}: column '{col}': {row[i]} is not a finite number")
+                raise TrackInputError(f"{path}:{line_no}: column '{col}': {row[i].strip()} is not a finite number")
             values[n, k] = v
         lines[n] = line_no
         n += 1
     return {c: values[:n, k] for k, c in enumerate(wanted)}, lines[:n]
 
 
+def _delimiter(header: str) -> str:
+    """The header's field separator: ',' unless it has none and has ';' (a spreadsheet's locale) or tabs."""
+    if "," in header:
+        return ","
+    return ";" if ";" in header else "\t" if "\t" in header else ","
+
+
+def column_names(header: list[str], limit: int = 12) -> str:
+    """A header's column names for a message: each cut to 20 characters, at most ``limit`` of them."""
+    names = ", ".join(repr(c[:20] + ("..." if len(c) > 20 else "")) for c in header[:limit])
+    return names + (f" and {len(header) - limit} more" if len(header) > limit else "")
+
+
+def describe_value(text: str) -> str:
+    """What a field holds, in words, without quoting it: "an empty field", "12 characters with letters"."""
+    text = text.strip()
+    if not text:
+        return "an empty field"
+    kind = "letters" if any(c.isalpha() for c in text) else "digits and signs"
+    return f"{len(text)} characters with {kind}"
+
+
 def read_text(path: Path) -> str:
-    """The UTF-8 text of a regular file of at most MAX_TABLE_BYTES; TrackInputError naming the file when it is missing,
-    unreadable, not a regular file (a device, a pipe, a file of the system) or not text."""
+    """The UTF-8 text of a regular file of at most MAX_TABLE_BYTES (a byte-order mark skipped); TrackInputError naming
+    the file when it is missing, unreadable, not a regular file (a device, a pipe, a file of the system) or not text."""
     try:
         info = path.stat()
         if not stat.S_ISREG(info.st_mode) or path.resolve().parts[1:2] in (("proc",), ("sys",), ("dev",)):
@@ -123,17 +157,12 @@ def read_text(path: Path) -> str:
     if b"\x00" in data:
         raise TrackInputError(f"{path}: not a text file (it holds NUL bytes)")
     try:
-        return data.decode("utf-8")
+        return data.decode("utf-8-sig")
     except UnicodeDecodeError as exc:
         raise TrackInputError(f"{path}: not a UTF-8 text file (byte {exc.start})") from None
 
 
-def quote(text: str, limit: int = 60) -> str:
-    """``text`` as a short quote for a message: repr, cut to about ``limit`` characters."""
-    return repr(text) if len(text) <= limit else repr(text[:limit]) + "..."
-
-
-def _plain_numbers(rows: list[str], n_columns: int) -> np.ndarray | None:
+def _plain_numbers(rows: list[str], n_columns: int, delimiter: str = ",") -> np.ndarray | None:
     """(N, n_columns) float64 when every row is n_columns finite numbers (NumPy's C parser, ~10x faster); else None.
 
     None sends the table to the line-by-line reader, whose errors name the
@@ -142,7 +171,7 @@ def _plain_numbers(rows: list[str], n_columns: int) -> np.ndarray | None:
     if not rows:
         return np.empty((0, n_columns))
     try:
-        table = np.loadtxt(rows, delimiter=",", comments=None, ndmin=2, dtype=np.float64)
+        table = np.loadtxt(rows, delimiter=delimiter, comments=None, ndmin=2, dtype=np.float64)
     except ValueError:
         return None
     if table.shape != (len(rows), n_columns) or not np.isfinite(table).all():
@@ -163,10 +192,23 @@ def _number(v: float) -> str:
     return str(int(v)) if v == int(v) else repr(float(v))
 
 
+def _frames_not_seconds(path: Path, frames: np.ndarray, lines: np.ndarray) -> None:
+    """TrackInputError when the frame column holds times: most values with decimals, increasing by under 1 a row."""
+    fractional = frames != np.floor(frames)
+    if len(frames) < 3 or fractional.mean() < 0.5 or not (np.diff(frames) > 0).all() or np.median(np.diff(frames)) >= 1:
+        return
+    k = int(np.argmax(fractional))
+    raise TrackInputError(
+        f"{path}:{lines[k]}: column 'frame' holds times, not frame indices ({fractional.mean():.0%} of its values have decimals, "
+        f"{np.median(np.diff(frames)):.3g} apart): give the 0-based frame index in 'frame' (round(seconds x fps)) and the seconds in 'time_s'"
+    )
+
+
 def read_track(path: str | Path) -> Track:
     """Read and validate ``track.csv``; errors name the file and line."""
     path = Path(path)
     cols, lines = read_table(path, REQUIRED_COLUMNS, OPTIONAL_COLUMNS, "a header 'frame,x,y' and one row per tracked frame")
+    _frames_not_seconds(path, cols["frame"], lines)
     check_indices(path, "frame", cols["frame"], lines, "a 0-based integer frame index")
     if len(lines) == 0:
         raise TrackInputError(f"{path}: the track is empty (a header but no tracked frame)")

@@ -8,6 +8,7 @@ from typing import Sequence
 import numpy as np
 
 from trackers.blob import BlobDetector, BlobParams, BlobTracker, median_background
+from trackers.breaks import FreezeMeter
 from trackers.choices import DEFAULT_KIND, KINDS
 from trackers.detections import Detections, make_detections
 from trackers.errors import TrackInputError
@@ -27,6 +28,7 @@ def track_video(
     params: dict | None = None,
     progress: bool = True,
     label: str | None = None,
+    freeze: FreezeMeter | None = None,
 ) -> Track:
     """Track the target through ``path``; frames without a confident position are absent.
 
@@ -35,7 +37,8 @@ def track_video(
     around the target in frame ``init_frame`` (0-based); tracking starts
     there. Without it the first confidently moving blob is the target.
     params: tracker parameters by name (BlobParams, CsrtParams); label:
-    the progress bar's title (default: the file name). Returns a
+    the progress bar's title (default: the file name); freeze: fed every
+    frame read by the blob kind (trackers/breaks.py). Returns a
     Track with time_s (presentation time, s), w, h and score.
     """
     path = Path(path)
@@ -46,7 +49,7 @@ def track_video(
     where = f"{path}: tracker parameters"
     if kind == "blob":
         blob_params = BlobParams.from_dict(params, where)
-        steps = _blob_steps(path, info, blob_params, box, init_frame, progress, label)
+        steps = _blob_steps(path, info, blob_params, box, init_frame, progress, label, freeze)
     else:
         from trackers.csrt import CsrtParams, csrt_steps
 
@@ -74,6 +77,7 @@ def detect_movers(
     label: str | None = None,
     windows: Sequence[tuple[int, int]] | None = None,
     count: DecodeCount | None = None,
+    freeze: FreezeMeter | None = None,
 ) -> Detections:
     """Every moving-object candidate of every frame of ``path``, linked into tracklets.
 
@@ -84,7 +88,8 @@ def detect_movers(
     (0-based, stop excluded; ``iter_windows``), None: every frame. The
     background model starts afresh from the video's median at each window
     (frames 1 apart continue it), so a window's detections do not depend
-    on the frames skipped before it. count: filled with the frames decoded.
+    on the frames skipped before it. count: filled with the frames decoded;
+    freeze: fed every frame read (trackers/breaks.py).
     """
     path = Path(path)
     probe_video(path)
@@ -101,7 +106,10 @@ def detect_movers(
         if detector is None or index != last + 1:
             detector = BlobDetector(*background)
         last = index
-        for tracklet, blob, score in linker.step(index, detector.detect(gray)):
+        blobs = detector.detect(gray)
+        if freeze is not None:
+            freeze.feed(index, gray, bool(blobs))
+        for tracklet, blob, score in linker.step(index, blobs):
             rows.append((index, time_s, tracklet, blob.x, blob.y, blob.w, blob.h, score))
         if windows is None and count is not None:
             count.decoded += 1
@@ -159,7 +167,7 @@ def _detector(path: Path, params: BlobParams) -> BlobDetector:
     return BlobDetector(*_background(path, params))
 
 
-def _blob_steps(path, info: VideoInfo, params: BlobParams, box, init_frame: int, progress: bool, label: str | None):
+def _blob_steps(path, info: VideoInfo, params: BlobParams, box, init_frame: int, progress: bool, label: str | None, freeze: FreezeMeter | None = None):
     """Yields (frame, time_s, x, y, w, h, score) rows; returns the number of frames read."""
     detector = _detector(path, params)
     tracker = BlobTracker(params, box, (info.width, info.height))
@@ -168,6 +176,8 @@ def _blob_steps(path, info: VideoInfo, params: BlobParams, box, init_frame: int,
     for index, time_s, gray in iter_frames(path, gray=True, progress=progress, desc=label):
         times[index] = time_s
         blobs = detector.detect(gray)
+        if freeze is not None:
+            freeze.feed(index, gray, bool(blobs))
         if index < init_frame:
             continue
         if index == init_frame:

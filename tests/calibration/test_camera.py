@@ -121,3 +121,28 @@ def test_the_pose_source_and_uncertainty_round_trip(tmp_path):
     data["pose"] = {"source": "guess"}
     with pytest.raises(CalibrationInputError, match="field 'pose'"):
         Camera.from_dict(data)
+
+
+@pytest.mark.parametrize("image_size, cropped, refused", [
+    ([320, 240], False, True),  # K of a 640 x 480 image, image_size of its half: off by 2 on both axes
+    ([8000, 6000], False, True),  # ... of a much larger one: off by 0.08
+    ([320, 480], False, False),  # the left half of the image, cropped: cx at its right edge, cy at the centre
+    ([640, 240], False, False),  # the top half
+    ([320, 240], True, False),  # the top-left quarter, cropped: the resolution's signature, declared
+])
+def test_a_cropped_camera_is_told_from_an_image_size_of_another_resolution(tmp_path, image_size, cropped, refused):
+    data = _camera().to_dict()  # K of a 640 x 480 image, principal point at its centre
+    data["K"] = [[800.0, 0.0, 320.0], [0.0, 800.0, 240.0], [0.0, 0.0, 1.0]]
+    data["image_size"] = image_size
+    if cropped:
+        data["cropped"] = True
+    path = tmp_path / "cam.json"
+    path.write_text(json.dumps(data))
+    if refused:
+        with pytest.raises(CalibrationInputError, match=r"on both axes: K and image_size are of different resolutions .*\"cropped\": true"):
+            read_camera(path)
+    else:
+        camera = read_camera(path)
+        assert camera.image_size == tuple(image_size)
+        write_camera(camera, tmp_path / "again.json")
+        assert read_camera(tmp_path / "again.json").image_size == tuple(image_size)  # "cropped" kept

@@ -158,3 +158,28 @@ def test_runs_stopped_at_random_moments_leave_no_process_and_no_false_fresh_arte
     final = _tlsync_run(project_file, uuid.uuid4().hex, tmp_path / "final.log")
     assert final.wait(timeout=600) == 0, (tmp_path / "final.log").read_text()
     assert (project_file.parent / "work" / "timeline.json").read_bytes() == (reference_work / "timeline.json").read_bytes()
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not hasattr(os, "killpg"), reason="sends Ctrl-C to the process group, as a terminal does")
+def test_ctrl_c_early_in_calibrate_exits_130_at_once_and_fails_nothing(tmp_path):
+    """Ctrl-C as a terminal sends it (SIGINT to the whole process group: tlsync, its worker pool, the checkerboard
+    detection's workers) at moments from the interpreter's start to the intrinsics stage: exit 130 within a second,
+    the one line, no traceback or "Fatal Python error" from a worker that was starting, nothing marked failed."""
+    source, _ = make_raw_project(tmp_path / "source", SMALL)
+    for delay in (0.3, 0.8, 1.5, 2.5, 4.0):
+        root = tmp_path / f"stop{delay}"
+        shutil.copytree(source.parent, root)
+        command = [sys.executable, "-m", "tlsync_pipeline.cli", "calibrate", str(root / "project.toml"), "-j", "2"]
+        process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+        time.sleep(delay)
+        if process.poll() is not None:
+            break  # calibrated already: later moments meet no run
+        os.killpg(process.pid, signal.SIGINT)
+        sent = time.monotonic()
+        out, err = process.communicate(timeout=60)
+        assert process.returncode == ExitCode.INTERRUPTED and time.monotonic() - sent < 1.0, (delay, err)
+        assert "Traceback" not in err and "Fatal Python error" not in err and "unexpected" not in err, (delay, err)
+        assert err.strip().splitlines()[-1].startswith("interrupted: "), (delay, err)
+        states = status(build_graph(load_project(root / "project.toml"), root / "work"))
+        assert not [row.id for row in states if row.state == "failed"], (delay, err)

@@ -73,7 +73,7 @@ def _outcome(root: Path, *command: str):
 
 
 def _reasons(timeline) -> str:
-    return "\n".join(f"{s.camera}: {s.status}: {'; '.join(r.code + ' ' + r.text for r in s.reasons)}" for s in timeline.statuses().values())
+    return "\n".join(f"{s.camera}: {s.status}: {'; '.join(f'{r.code} {r.text} (fix: {r.remedy})' for r in s.reasons)}" for s in timeline.statuses().values())
 
 
 # Per trap: the exit codes it may end with (0 only when every pair is right) and what must be named then.
@@ -88,6 +88,9 @@ EXPECTED = {
     "rotated_90": ({1}, r"failed"),
     "z_flipped": ({0, 1}, r"off_path|not_synchronized"),
     "ned_not_enu": ({1}, r"failed"),
+    "heights_47m_high": ({2}, r"column z: heights 4[67](\.\d)? m too high: .*set \[target\] altitude_reference or altitude_offset_m = -4[67](\.\d)?$"),
+    "antenna_1_5m_above": ({1}, r"failed: log_height heights 1\.5 m too high: .*\(fix: the logged point rides 1\.5 m above the tracked one .*logged_point_above_m = 1\.5 "),
+    "z_zero": ({1}, r"failed: log_(flat|height) .*0 (m )?at every sample.*a log without heights\?.*\(fix: .*give a log with heights"),
     "random_walk": ({1}, r"failed"),
     "another_flight": ({1}, r"failed"),
     "log_ends_early": ({1}, r"failed"),
@@ -97,6 +100,8 @@ EXPECTED = {
     "camera_json_copied": ({2}, r"'cam1' camera \(cam1/camera.json\) is the same file as the camera of camera 'cam0'"),
     "track_copied": ({2}, r"'cam2' track \(cam2/track.csv\) is the same file as the track of camera 'cam1'"),
     "track_of_another_camera": ({1}, r"cam1: failed"),
+    "track_of_the_shadow": ({1}, r"cam1: failed: track_offset the track lies \d+ px .* off the projected path at every frame.*\(fix: the tracker follows something beside the target \(its shadow\?\)"),
+    "track_of_another_object": ({1}, r"cam1: failed: track_elsewhere .*the tracker follows another object"),
     "fps_twice": ({1}, r"cam1: failed: .*clock .*runs at about (29|30)(\.\d+)? fps, not 60"),
     "fps_half": ({1}, r"cam1: failed: .*clock .*runs at about (29|30)(\.\d+)? fps, not 15"),
     "track_half_resolution": ({1}, r"cam1: failed"),
@@ -106,6 +111,11 @@ EXPECTED = {
     "image_size_huge": ({2}, r"'cam1' camera: .*image_size"),
     "track_is_dev_zero": ({2}, r"'cam1' track: /dev/zero: not a regular file"),
     "track_is_proc_environ": ({2}, r"'cam1' track: /proc/\S+/environ: not a regular file"),
+    "track_saved_by_excel": ({0}, r""),
+    "track_normalised": ({2}, r"'cam1' track: .*track.csv: every x, y lies within 0..1: normalised coordinates\? give pixels of the 640 x 480 image"),
+    "track_frame_in_seconds": ({2}, r"'cam1' track: .*track.csv:\d+: column 'frame' holds times, not frame indices .*'time_s'$"),
+    "lon_lat_in_x_y": ({2}, r"\[target\] trajectory: .*columns x, y look like longitude and latitude in degrees .*\[target\] log"),
+    "track_is_passwd": ({2}, r"'cam1' track: .*track.csv:1: not a CSV header: one field of 31 characters, no ',' or ';' between column names; expected a header with at least frame,x,y$"),
     "track_frame_1e12": ({2}, r"'cam1' track: .*track.csv:\d+: column 'frame': expected a 0-based integer frame index \(at most"),
     "video_is_dev_urandom": ({2}, r"'cam1' video: /dev/urandom: not a regular file"),
     "video_missing": ({2}, r"'cam1' video: .*missing/video.mp4: file not found"),
@@ -116,6 +126,7 @@ def test_every_trap_has_an_expectation():
     assert set(EXPECTED) == set(TRAPS)
 
 
+@pytest.mark.filterwarnings("error::RuntimeWarning")  # numpy's warnings never reach the user's terminal
 @pytest.mark.parametrize("trap", sorted(TRAPS))
 def test_a_trap_is_synchronized_right_or_named(project, trap):
     TRAPS[trap](project)
@@ -144,6 +155,11 @@ def test_an_error_never_quotes_a_file_of_the_system(project):
     result, _ = _outcome(project)
     assert result.exit_code == ExitCode.BAD_INPUT
     assert not [value for value in os.environ.values() if len(value) > 8 and value in result.output]
+    edit_key(project, 1, "track", "cam1/track.csv")
+    TRAPS["track_is_passwd"](project)
+    result, _ = _outcome(project)
+    assert result.exit_code == ExitCode.BAD_INPUT and "not a CSV header" in result.output
+    assert not [word for word in ("root", "bash", "daemon", "nologin") if word in result.output], result.output
 
 
 def test_a_missing_file_is_named_before_any_stage_runs(project):

@@ -5,7 +5,6 @@ the command line's modules are still being imported; tlsync_pipeline.cli.main
 keeps to the same contract once a command runs.
 """
 
-import multiprocessing.util
 import os
 import signal
 import sys
@@ -15,6 +14,8 @@ from tlsync_pipeline.cli.signals import INTERRUPTED, INTERRUPTED_MESSAGE, interr
 
 def main() -> None:
     signal.signal(signal.SIGTERM, interrupt)
+    if signal.getsignal(signal.SIGINT) is signal.default_int_handler:  # Ctrl-C too, remembered (not when ignored)
+        signal.signal(signal.SIGINT, interrupt)
     try:
         from tlsync_pipeline.cli.main import main as command_line  # noqa: PLC0415 - after the handler, so an early signal is handled
 
@@ -35,6 +36,8 @@ def _exit_interrupted() -> None:
     The multiprocessing finalizers run first: they unlink the semaphores of the stopped worker pool's queues,
     which the resource tracker would otherwise find at its own exit and warn about ("leaked semaphore objects").
     """
+    import multiprocessing.util  # noqa: PLC0415 - only on this way out
+
     multiprocessing.util._run_finalizers(0)  # type: ignore[attr-defined]  # noqa: SLF001 - the one way to release them without a normal exit
     sys.stdout.flush()
     sys.stderr.flush()

@@ -78,11 +78,18 @@ UNKNOWN = {"status": "unknown", "synchronized": False, "reason": "no current tim
 
 
 def camera_statuses(graph: Graph, current: bool) -> dict[str, dict]:
-    """Every camera's status from timeline.json when it is current, else ``unknown``."""
+    """Every camera's status from timeline.json when it is current, else ``unknown``; a camera whose recording
+    breaks adds its ``segments`` and ``breaks`` (as timeline.json's camera entry)."""
     if not current:
         return {name: dict(UNKNOWN) for name in graph.project.names}
-    found = read_timeline(graph.workspace.path("timeline")).statuses()
-    return {name: found[name].to_dict() if name in found else dict(UNKNOWN) for name in graph.project.names}
+    timeline = read_timeline(graph.workspace.path("timeline"))
+    found = timeline.statuses()
+    out = {name: found[name].to_dict() if name in found else dict(UNKNOWN) for name in graph.project.names}
+    for name, line in timeline.cameras.items():
+        if name in out and line.clock.segments:
+            out[name]["segments"] = [seg.to_dict() for seg in line.clock.segments]
+            out[name]["breaks"] = [b.to_dict() for b in line.breaks or ()]
+    return out
 
 
 def _document(fmt: str, graph: Graph, exit_code: int, tasks: list[dict], cameras: dict, **extra) -> dict:

@@ -23,6 +23,7 @@ from tlsync_pipeline.cli.json_output import dumps, run_document
 from tlsync_pipeline.cli.options import in_order, project_argument, quiet_option, verbose_option
 from tlsync_pipeline.cli.pipeline import execute, print_timeline, report_outcome, run_options, synchronized_code
 from tlsync_pipeline.errors import INPUT_ERRORS, EnvironmentProblem, SyncError, describe_error
+from tlsync_pipeline.pipeline.stop import clear as clear_stop
 
 
 class TlsyncGroup(click.Group):
@@ -33,6 +34,9 @@ class TlsyncGroup(click.Group):
             return super().main(args, prog_name, complete_var, standalone_mode, **extra)
         try:
             code = super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
+        except click.exceptions.NoArgsIsHelpError as exc:  # ``tlsync`` alone: the help, as ``tlsync --help`` prints it
+            click.echo(exc.ctx.get_help() if exc.ctx is not None else exc.format_message())
+            sys.exit(0)
         except click.ClickException as exc:
             print_error(usage_error_text(exc))
             sys.exit(exc.exit_code)
@@ -42,6 +46,7 @@ class TlsyncGroup(click.Group):
         sys.exit(code if isinstance(code, int) else 0)
 
     def invoke(self, ctx):
+        clear_stop()  # a stop asked of an earlier command in this process is not this one's
         try:
             with _terminate_as_interrupt():
                 return super().invoke(ctx)

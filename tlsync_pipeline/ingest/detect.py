@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from tlsync_pipeline.errors import InputError
-from tlsync_pipeline.inputs import quote
+from tlsync_pipeline.inputs import describe_line
 from tlsync_pipeline.ingest.reader import HEAD_BYTES, text_of
 from tlsync_pipeline.ingest.registry import FORMATS, READERS
 
@@ -16,7 +16,7 @@ def detect_format(path: str | Path) -> str:
     A folder is a ROS 2 bag when it holds metadata.yaml. A file is tested
     against each reader's content test in registry order. The error never
     echoes binary content: it shows the first bytes in hex for a binary file,
-    the first line for a text file.
+    what its first line holds for a text file (never the text).
     """
     path = Path(path)
     if path.is_dir():
@@ -40,6 +40,6 @@ def detect_format(path: str | Path) -> str:
         seen = f"a binary file starting with bytes {head[:8].hex(' ')}"
     else:
         first = next((line for line in text.split("\n") if line.strip()), "")
-        seen = f"first line {quote(first.strip())}"
+        seen = f"a text file whose first line is {describe_line(first)}"
     expected = "; ".join(r.describe for r in READERS if r.sniff is not None)
     raise InputError(f"{path}: cannot detect the log format ({seen}); expected one of: {expected}; or give --format (or [target] format), one of {', '.join(FORMATS)}")

@@ -204,7 +204,7 @@ def _read_osd(path: Path, header: list[str], reader, utc_offset_s: float | None)
         utc = True
     return make_records(
         path, "dji", GEODETIC, rows, numbers, utc=utc, dropped=dropped, altitude=TAKEOFF, quality=quality, warnings=warnings,
-        clock=None if utc else "the DJI app's local clock (time zone not in the file)",
+        clock=None if utc else "the DJI app's local clock (time zone not in the file)", local_time=not utc,
     )
 
 

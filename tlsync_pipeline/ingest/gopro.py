@@ -1,4 +1,4 @@
-"""GoPro MP4 files: the GPS fixes in the GPMF metadata track, demuxed with PyAV.
+"""GoPro MP4 files: the GPS fixes in the GPMF metadata track, demuxed with PyAV; raw GPMF streams (``.raw``).
 
 The metadata track is the data stream whose packets start with a ``DEVC``
 item (handler "GoPro MET"); each packet (a payload of about one second) is
@@ -38,13 +38,13 @@ HERO5-HERO7). Payloads with ``GPSF`` < 2 (no fix) and GPS9 samples with fix
 from __future__ import annotations
 
 import datetime as dt
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
 from tlsync_pipeline.errors import InputError
-from tlsync_pipeline.ingest.gpmf import GPMFError, GPSBlock, gps_blocks, stream_stamp
+from tlsync_pipeline.ingest.gpmf import GPMFError, GPSBlock, gps_blocks, klv_items, stream_stamp
 from tlsync_pipeline.ingest.reader import Reader
 from tlsync_pipeline.ingest.records import ELLIPSOID, GEODETIC, MSL, LogRecords, check_geodetic, make_records
 
@@ -52,6 +52,7 @@ UNIT = "GPS sample"
 NO_FIX = "no fix (GPSF or GPS9 fix < 2)"
 DAYS_2000_POSIX = 946684800.0
 STALE_GPSU_S = 0.5
+RAW_PAYLOAD_S = 1.001  # s: GoPro's metadata payload interval, for raw GPMF streams without their MP4
 GPSU_LAG_NOTE = "GPSU is 1.4 s after the payload's first sample on real HERO11 payloads (GPS9 times): this UTC is good to about 1.5 s"
 
 
@@ -82,12 +83,19 @@ class Payload:
 
 
 def _sniff(head: bytes) -> bool:
-    return len(head) >= 12 and head[4:8] == b"ftyp"
+    return len(head) >= 12 and (head[4:8] == b"ftyp" or head[:4] == b"DEVC")
 
 
 def read_gopro(path: str | Path) -> LogRecords:
-    """Read the GPS samples of a GoPro MP4; see the module notes."""
+    """Read the GPS samples of a GoPro MP4, or of a raw GPMF stream (``.raw``: payloads back to back); see the module notes."""
     path = Path(path)
+    try:
+        with path.open("rb") as handle:
+            raw = handle.read(4) == b"DEVC"
+    except OSError as exc:
+        raise InputError(f"{path}: cannot read: {exc.strerror or exc}") from None
+    if raw:
+        return _raw_records(path)
     import av
 
     packets = []
@@ -111,6 +119,20 @@ def read_gopro(path: str | Path) -> LogRecords:
     if not packets:
         raise InputError(f"{path}: no GoPro GPMF metadata track (a data stream starting with DEVC); is this a GoPro HERO5-or-later video?")
     return gopro_records(path, packets)
+
+
+def _raw_records(path: Path) -> LogRecords:
+    """A raw GPMF stream (as gopro-telemetry or ffmpeg extract it): its DEVC payloads placed every RAW_PAYLOAD_S on a
+    timeline of their own, since the MP4 sample table that timed them is gone (STMP, where present, still does)."""
+    data = path.read_bytes()
+    try:
+        payloads = [data[offset - 8 : offset + ((size * repeat + 3) & ~3)] for key, _, size, repeat, offset in klv_items(data) if key == b"DEVC"]
+    except GPMFError as exc:
+        raise InputError(f"{path}: raw GPMF: {exc}") from None
+    records = gopro_records(path, [(k * RAW_PAYLOAD_S, RAW_PAYLOAD_S, p) for k, p in enumerate(payloads)])
+    note = (f"a raw GPMF stream ({len(payloads)} payloads): no MP4 sample table, so the payloads are placed every {RAW_PAYLOAD_S} s "
+            "(GoPro's payload interval); the video's time 0 is not known from this file")
+    return replace(records, notes=(note, *records.notes), warnings=(*records.warnings, note), video_time_zero=None, video_zero_spread_s=None)
 
 
 def sample_clock(payloads: list[Payload], track_start_s: float) -> SampleClock:
@@ -218,4 +240,4 @@ def gopro_records(path: Path, packets: list[tuple[float, float, bytes]]) -> LogR
     )
 
 
-READER = Reader("gopro", "GoPro MP4 with a GPMF track (bytes 4-7 'ftyp')", read_gopro, _sniff)
+READER = Reader("gopro", "GoPro MP4 with a GPMF track (bytes 4-7 'ftyp') or a raw GPMF stream (starting 'DEVC')", read_gopro, _sniff)

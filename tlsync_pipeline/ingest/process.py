@@ -36,6 +36,8 @@ from tlsync_pipeline.trajectory import Trajectory, grid_rate
 
 GAP_FACTOR = 3.0  # an interval over GAP_FACTOR x the median interval is a gap
 DEFAULT_MAX_SPEED_MPS = 60.0
+HELD_MAX_S = 1.0  # a position repeated longer than this is a target standing still, not a receiver's fix held over frames
+SPIKE_WINDOW_S = 0.1  # speeds are judged over at least this long (a receiver's update interval at 10 Hz)
 DUPLICATE = "exact duplicate"
 REPEATED_TIME = "repeated time, different position (first kept)"
 FIRST_LINES = 5  # provenance numbers kept per drop reason in the report
@@ -133,6 +135,7 @@ class IngestReport:
     log_model: dict = field(default_factory=dict)  # {"name", "why"}: the error model the log's kind suggests (suggested_log_model)
     notes: list[str] = field(default_factory=list)  # how the reader read the file where it chose (time base, sub-seconds, lat/lon order)
     video_time_zero: float | None = None  # logs in or beside a video: the log's time (t0's clock, s) at the video's time 0
+    t0_local: str | None = None  # t0 as an ISO date without zone, for a log on a local wall clock with no zone
 
     def to_dict(self) -> dict:
         out = asdict(self)
@@ -151,7 +154,8 @@ class IngestReport:
             f"log: {self.source} ({self.format})",
             f"fixes: {self.fixes_read} read, {self.fixes_used} used",
             f"trajectory: {self.samples} samples at {self.rate:g} Hz over {self.duration_s:.1f} s"
-            + (f" from {self.t0_utc}" if self.t0_utc else f" from t0 = {self.t0:.3f} s ({self.clock}: offsets work, UTC does not)"),
+            + (f" from {self.t0_utc}" if self.t0_utc else f" from {self.t0_local} local time ({self.clock}: offsets work, UTC does not)"
+               if self.t0_local else f" from t0 = {self.t0:.3f} s ({self.clock}: offsets work, UTC does not)"),
             "extent: " + " x ".join(f"{v:.1f} m" for v in self.extent_m) + (" (E x N x U)" if self.frame == "ENU" else " (x y z)"),
         ]
         if self.origin is not None:
@@ -163,7 +167,7 @@ class IngestReport:
             lines.append(f"heights: above {ALTITUDE_NAMES[a['reference']]} (as the {a['source']} says{offset})")
         lines += [f"read: {note}" for note in self.notes]
         if self.log_model:
-            lines.append(f"error model: {self.log_model['name']} ({self.log_model['why']}; [target] log_model overrides it)")
+            lines.append(f"log model: {self.log_model['name']} ({self.log_model['why']}; [target] log_model overrides it)")
         if self.sigma_m:
             lines.append(f"sigma: median {self.sigma_m['median']:.3f} m, 95% {self.sigma_m['p95']:.3f} m (weights for the refinement)")
         if self.gaps:
@@ -220,10 +224,13 @@ def ingest(records: LogRecords, params: IngestParams = IngestParams()) -> tuple[
     fixes, dropped = _ordered_fixes(in_seconds_and_metres(records, params.time_unit, params.length_unit))
     warnings = list(records.warnings)
     altitude = _altitude(records, params, warnings)
+    if records.frame == GEODETIC and len(fixes.values) and not fixes.values[:, 2].any() and not altitude["offset_m"]:
+        warnings.append("every fix's height is 0: a log without heights (a 2D export?) lies on the reference surface, "
+                        "off the cameras' frame by the site's height; give a log with heights, or [target] altitude_offset_m")
     values = fixes.values + np.array([0.0, 0.0, altitude["offset_m"]]) if altitude["offset_m"] else fixes.values
     xyz, origin, rule = _to_local(records, values, params, warnings)
     fixes = dataclasses.replace(fixes, values=values, xyz=xyz)
-    keep = _without_spikes(records, fixes, params, dropped)
+    keep = _without_spikes(records, fixes, params, dropped, warnings)
     fixes = fixes.kept(keep)
     if origin is not None and rule == "first fix" and not keep[0]:  # the first fix was a spike: the first kept one
         origin = Origin(*map(float, fixes.values[0]))
@@ -269,6 +276,7 @@ def ingest(records: LogRecords, params: IngestParams = IngestParams()) -> tuple[
         sigma_m=None if fixes.sigma is None or trajectory.sigma is None else _sigma_summary(fixes.sigma),
         notes=list(records.notes),
         video_time_zero=records.video_time_zero,
+        t0_local=_local(fixes.t[0]) if records.local_time and not records.utc else None,
         log_model=suggested_log_model(records, fixes.index),
     )
     return trajectory, report
@@ -310,13 +318,16 @@ def _ordered_fixes(records: LogRecords) -> tuple[_Fixes, dict[str, list[int]]]:
     return _Fixes(t, values, values, numbers, index, None if records.sigma is None else records.sigma[index]), dropped
 
 
-def _without_spikes(records: LogRecords, fixes: _Fixes, params: IngestParams, dropped: dict[str, list[int]]) -> np.ndarray:
+def _without_spikes(records: LogRecords, fixes: _Fixes, params: IngestParams, dropped: dict[str, list[int]], warnings: list[str]) -> np.ndarray:
     """Which fixes to keep: those not implying a speed over max_speed_mps from the last kept one (the others recorded in ``dropped``)."""
     if params.max_speed_mps is None:
         return np.ones(len(fixes.t), dtype=bool)
-    keep = reject_spikes(fixes.t, fixes.xyz, params.max_speed_mps)
+    rounding = None if records.rounding_m is None else records.rounding_m[fixes.index]
+    keep = reject_spikes(fixes.t, fixes.xyz, params.max_speed_mps, rounding)
     if not keep.all():
         dropped[f"spike (implied speed over {params.max_speed_mps:g} m/s)"] = fixes.numbers[~keep].tolist()
+        warnings.append(f"{int((~keep).sum())} of {len(keep)} fixes dropped as spikes (implied speed over {params.max_speed_mps:g} m/s): "
+                        "if the target is that fast, raise [target] max_speed_mps (ingest-log --max-speed)")
     if keep.sum() < 2:
         raise InputError(f"{records.path}: fewer than 2 fixes left after rejecting spikes over {params.max_speed_mps:g} m/s")
     return keep
@@ -432,28 +443,41 @@ def order_and_dedupe(records: LogRecords) -> tuple[np.ndarray, np.ndarray, np.nd
     return t, values, numbers, dropped, index
 
 
-def reject_spikes(t: np.ndarray, xyz: np.ndarray, max_speed: float) -> np.ndarray:
+def reject_spikes(t: np.ndarray, xyz: np.ndarray, max_speed: float, rounding: np.ndarray | None = None) -> np.ndarray:
     """Mask of fixes kept: each fix must be reachable from the last kept one at <= max_speed (m/s).
 
+    Reachable: within max_speed x (the time between them + how long the earlier one's position had been held,
+    up to HELD_MAX_S; at least SPIKE_WINDOW_S) + the rounding of both (rounding: per-fix m, from the printed
+    precision). A log written
+    per video frame repeats each receiver fix over several frames, then moves by a whole update in one frame
+    interval; its coordinates' rounding (1.1 m steps at 5 decimals) over 20 ms would read as 100 m/s. The time
+    held is the earlier fix's, whichever way the walk goes. Heights held over frames move by a whole update too.
     The walk starts at the first fix whose next two steps are both plausible
     (so a bad first fix does not condemn the rest) and runs forwards and
     backwards from there. Since the allowed distance grows with the time since
     the last kept fix, the walk recovers after a jump.
     """
     n = len(t)
-    speed = np.linalg.norm(np.diff(xyz, axis=0), axis=1) / np.diff(t)
-    if n < 2 or (speed <= max_speed).all():
+    if n < 2:
         return np.ones(n, dtype=bool)
-    ok = speed <= max_speed
+    slack = np.zeros(n) if rounding is None else np.nan_to_num(np.asarray(rounding, dtype=float))
+    moved = np.r_[True, (np.diff(xyz, axis=0) != 0).any(axis=1)]
+    run = np.cumsum(moved) - 1
+    starts, ends = t[moved], t[np.r_[np.flatnonzero(moved)[1:] - 1, n - 1]]
+    held = np.minimum(ends - starts, HELD_MAX_S)[run]  # how long each fix's position was repeated (s)
+    step = np.linalg.norm(np.diff(xyz, axis=0), axis=1)
+    ok = step <= max_speed * np.maximum(np.diff(t) + held[:-1], SPIKE_WINDOW_S) + slack[:-1] + slack[1:]
+    if ok.all():
+        return np.ones(n, dtype=bool)
     both = np.flatnonzero(ok[:-1] & ok[1:])
     start = int(both[0]) if len(both) else int(np.flatnonzero(ok)[0]) if ok.any() else 0
     keep = np.zeros(n, dtype=bool)
     keep[start] = True
-    tl, pts = t.tolist(), xyz.tolist()
+    tl, pts, sl, hl = t.tolist(), xyz.tolist(), slack.tolist(), held.tolist()
     for order in (range(start + 1, n), range(start - 1, -1, -1)):
         last = start
         for i in order:
-            if math.dist(pts[i], pts[last]) <= max_speed * abs(tl[i] - tl[last]):
+            if math.dist(pts[i], pts[last]) <= max_speed * max(abs(tl[i] - tl[last]) + hl[min(i, last)], SPIKE_WINDOW_S) + sl[i] + sl[last]:
                 keep[i] = True
                 last = i
     return keep
@@ -532,6 +556,12 @@ def _utc(seconds: float) -> str | None:
         return dt.datetime.fromtimestamp(float(seconds), dt.timezone.utc).isoformat().replace("+00:00", "Z")
     except (OverflowError, OSError, ValueError):
         return None
+
+
+def _local(seconds: float) -> str | None:
+    """A local wall clock's seconds (since 1970 of its date and time, no zone) as an ISO date without zone."""
+    utc = _utc(seconds)
+    return None if utc is None else utc[:-1]
 
 
 def _when(seconds: float, utc: bool) -> str:

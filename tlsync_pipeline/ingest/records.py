@@ -42,7 +42,12 @@ class LogRecords:
     report; video_time_zero: for logs written in or beside a video (GoPro
     GPMF, DJI SRT), the log's time (seconds, on ``t``'s clock) at the video's
     time 0, None for other logs; video_zero_spread_s: how far the file's own
-    evidence lets video_time_zero be off (s), None when it says nothing.
+    evidence lets video_time_zero be off (s), None when it says nothing;
+    rounding_m: float64 (N,) the largest horizontal error of each record from
+    the printed precision of its coordinates alone (m; half the diagonal of
+    one step of the last decimal), None when negligible; local_time: ``t``
+    counts a local wall clock with no zone (seconds since 1970 of the local
+    date and time), printed as a local date.
     """
 
     path: Path
@@ -63,6 +68,8 @@ class LogRecords:
     notes: tuple[str, ...] = ()
     video_time_zero: float | None = None
     video_zero_spread_s: float | None = None
+    rounding_m: np.ndarray | None = None
+    local_time: bool = False
 
     def __len__(self) -> int:
         return len(self.t)
@@ -80,8 +87,9 @@ def where(path: Path, number: int, unit: str = "line") -> str:
 def make_records(
     path, fmt, frame, rows, lines, unit="line", utc=True, dropped=None, ignored=0, warnings=(),
     altitude=ELLIPSOID, sigma=None, quality=None, clock=None, notes=(), video_time_zero=None, video_zero_spread_s=None,
+    rounding_m=None, local_time=False,
 ) -> LogRecords:
-    """LogRecords from a list of (t, a, b, c) rows and their provenance numbers (sigma, quality: one value per row)."""
+    """LogRecords from a list of (t, a, b, c) rows and their provenance numbers (sigma, quality, rounding_m: one value per row)."""
     data = np.asarray(rows, dtype=np.float64).reshape(-1, 4)
     n = len(data)
     sigma = None if sigma is None else np.asarray(sigma, dtype=np.float64).reshape(n)
@@ -91,6 +99,7 @@ def make_records(
         unit, utc, dict(dropped or {}), ignored, tuple(warnings), altitude, sigma, quality, "UTC" if utc else clock or "the log's own clock",
         tuple(notes), None if video_time_zero is None else float(video_time_zero),
         None if video_zero_spread_s is None else float(video_zero_spread_s),
+        None if rounding_m is None else np.asarray(rounding_m, dtype=np.float64).reshape(n), bool(local_time),
     )
 
 

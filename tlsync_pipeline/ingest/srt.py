@@ -55,6 +55,7 @@ from tlsync_pipeline.ingest.records import GEODETIC, MSL, TAKEOFF, LogRecords, c
 
 NO_POSITION = "no position (n/a, or latitude and longitude 0)"
 M_PER_DEG = 111_320.0
+LOCAL_CLOCK = "the drone's local wall clock (time zone not in the file)"
 RUN_BREAK_S = 2.5  # wall - media jumping by more than this: another clip
 NUMBER = r"-?\d+(?:\.\d+)?"
 _TIMECODE = re.compile(r"(\d+):(\d\d):(\d\d)[,.](\d{3})\s*-->")
@@ -220,6 +221,7 @@ def read_srt(path: str | Path, utc_offset_s: float | None = None) -> LogRecords:
     step_n = M_PER_DEG * 10.0 ** -decimals[:, 0]
     step_e = M_PER_DEG * 10.0 ** -decimals[:, 1] * np.cos(np.radians(lat))
     sigma = np.sqrt((step_n**2 + step_e**2) / 24)
+    rounding = np.hypot(step_n, step_e) / 2
     fewest, most = int(decimals.min()), int(decimals.max())
     notes.append(f"precision: {fewest if fewest == most else f'{fewest} to {most}'} decimals of a degree ({M_PER_DEG * 10.0 ** -fewest:.2g} m steps north), "
                  f"per-fix sigma {sigma.min():.2g}-{sigma.max():.2g} m from the rounding alone")
@@ -231,7 +233,8 @@ def read_srt(path: str | Path, utc_offset_s: float | None = None) -> LogRecords:
     rows = np.column_stack([t, lat, lon, heights])
     return make_records(
         path, "srt", GEODETIC, rows, lines, utc=utc, dropped=dropped, warnings=warnings, altitude=altitude, sigma=sigma,
-        clock=clock, notes=notes, video_time_zero=zero, video_zero_spread_s=spread,
+        clock=clock, notes=notes, video_time_zero=zero, video_zero_spread_s=spread, rounding_m=rounding,
+        local_time=clock == LOCAL_CLOCK,
     )
 
 
@@ -335,9 +338,9 @@ def _times(path: Path, blocks: list[_Block], utc_offset_s: float | None, warning
             spread = whole_second_uncertainty(media[first])
             note = f"times: the subtitle (video) times, anchored to the wall clock's whole seconds (within {spread:.2f} s), {zone}"
             t, zero = anchored, float(anchored[0] - media[0])
-        return t, note, utc, None if utc else "the drone's local wall clock (time zone not in the file)", zero, spread
+        return t, note, utc, None if utc else LOCAL_CLOCK, zero, spread
     if has_wall:
-        return wall, f"times: the wall clock (no subtitle times), {zone}", utc, None if utc else "the drone's local wall clock (time zone not in the file)", None, None
+        return wall, f"times: the wall clock (no subtitle times), {zone}", utc, None if utc else LOCAL_CLOCK, None, None
     if has_media:
         return media, "times: subtitle times on the video's timeline (the file has no date)", False, "the video's timeline (subtitle times)", 0.0, 0.0
     raise InputError(f"{path}:{blocks[0].line}: a subtitle block with neither a timecode nor a date (and others like it)")
@@ -355,17 +358,48 @@ def _fpv(text: str) -> bool:
 
 
 def _heights(values: np.ndarray, fpv: bool, warnings: list[str]) -> tuple[np.ndarray, str, str]:
-    """(heights, reference, note): the first kind of height every fix has, in the order of _HEIGHTS."""
+    """(heights, reference, note): each fix's first height in the order of _HEIGHTS.
+
+    One kind for the whole file when every fix has it; otherwise each block its own (files joined from two
+    drones write different ones), the reference of the most fixes, a warning when the references differ, and
+    fixes without any height interpolated between their neighbours'.
+    """
     for k, (_, reference) in enumerate(_HEIGHTS):
-        column = values[:, k]
-        if np.isfinite(column).all():
-            if fpv and _HEIGHT_NAMES[k] == "altitude":
-                warnings.append("DJI FPV subtitles: [altitude: ..] read as tenths of a metre (x 10)")
-                column = column * 10.0
-            where = "mean sea level" if reference == MSL else "the take-off point"
-            return column, reference, f"heights: {_HEIGHT_NAMES[k]} (m above {where})"
-    warnings.append("no height in the subtitles: heights set to 0 above the take-off point")
-    return np.zeros(len(values)), TAKEOFF, "heights: none in the file (0)"
+        if np.isfinite(values[:, k]).all():
+            return _scaled(values[:, k], k, fpv, warnings), reference, f"heights: {_HEIGHT_NAMES[k]} (m above {_WHERE[reference]})"
+    found = np.isfinite(values)
+    if not found.any():
+        warnings.append("no height in the subtitles: heights set to 0 above the take-off point")
+        return np.zeros(len(values)), TAKEOFF, "heights: none in the file (0)"
+    kind = np.where(found.any(axis=1), found.argmax(axis=1), -1)
+    column = np.where(kind >= 0, values[np.arange(len(values)), np.maximum(kind, 0)], np.nan)
+    altitude = kind == _HEIGHT_NAMES.index("altitude")
+    column[altitude] = _scaled(column[altitude], _HEIGHT_NAMES.index("altitude"), fpv, warnings)
+    used = sorted(set(kind[kind >= 0].tolist()))
+    counts = {k: int((kind == k).sum()) for k in used}
+    reference = _HEIGHTS[max(used, key=lambda k: counts[k])][1]
+    if len({_HEIGHTS[k][1] for k in used}) > 1:
+        warnings.append("the blocks give heights above different references ("
+                        + ", ".join(f"{counts[k]} {_HEIGHT_NAMES[k]} above {_WHERE[_HEIGHTS[k][1]]}" for k in used)
+                        + f"): all read as above {_WHERE[reference]}; clips of different drones joined into one file?")
+    missing = kind < 0
+    if missing.any():
+        index = np.arange(len(column))
+        column[missing] = np.interp(index[missing], index[~missing], column[~missing])
+        warnings.append(f"{int(missing.sum())} of {len(column)} blocks have no height: interpolated from their neighbours")
+    kinds = " and ".join(f"{_HEIGHT_NAMES[k]} ({counts[k]} fixes)" for k in used)
+    return column, reference, f"heights: {kinds}, each block its own (m above {_WHERE[reference]})"
+
+
+_WHERE = {MSL: "mean sea level", TAKEOFF: "the take-off point"}
+
+
+def _scaled(column: np.ndarray, k: int, fpv: bool, warnings: list[str]) -> np.ndarray:
+    """DJI FPV's [altitude: ..] in metres (x 10, with a warning); other heights as they are."""
+    if fpv and _HEIGHT_NAMES[k] == "altitude" and len(column):
+        warnings.append("DJI FPV subtitles: [altitude: ..] read as tenths of a metre (x 10)")
+        return column * 10.0
+    return column
 
 
 READER = Reader("srt", "DJI SRT subtitles (block number, timecode, GPS(...) or [latitude: ..])", read_srt, _sniff, local_clock=True)

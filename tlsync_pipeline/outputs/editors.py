@@ -6,6 +6,9 @@ camera's nominal rate, media referenced by path) starts at the camera's
 in seconds of the reference camera's clock (the column of offsets.csv). The
 edit therefore opens on the first camera that started recording, and every
 track is placed so that the same instant sits at the same timeline position.
+A recording that breaks (sync/segments.py) is one clip per segment of known
+offset (``Piece``), each at the instant of its first frame; its segments of
+unknown offset are left out.
 
 Pure functions: values in, text out; the export stage writes the files.
 """
@@ -14,6 +17,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import Any
 
 FCPXML_RATES = (23.98, 24.0, 25.0, 29.97, 30.0, 50.0, 59.94, 60.0)  # what the OTIO FCPXML adapter writes
 SYNC_FORMAT = "tlsync-sync"
@@ -31,6 +35,16 @@ SIGN_CONVENTION = (
 
 
 @dataclass(frozen=True)
+class Piece:
+    """A stretch of a camera's frames on one offset: its first frame, its frames, and when its first frame was taken
+    (seconds, as Placement.start_s)."""
+
+    first: int
+    frames: int
+    start_s: float
+
+
+@dataclass(frozen=True)
 class Placement:
     """One camera's video on the common timeline.
 
@@ -38,7 +52,10 @@ class Placement:
     (see SIGN_CONVENTION); start_s_half95: half-width of its 95 % interval (s)
     or None; fps: nominal rate (frames/s); n_frames: frames in the file;
     duration_s: the file's length (s); vfr: whether the camera's line runs on
-    presentation times (variable frame rate).
+    presentation times (variable frame rate); pieces: the segments of known
+    offset of a recording that breaks (empty: the whole file from frame 0 at
+    start_s; start_s is then the line's segment's, as if it reached back to
+    frame 0).
     """
 
     camera: str
@@ -50,11 +67,22 @@ class Placement:
     clock_rate: float | None = None
     start_s_half95: float | None = None
     vfr: bool = False
+    pieces: tuple[Piece, ...] = ()
+
+    @property
+    def clips(self) -> tuple[Piece, ...]:
+        """The stretches placed as clips: the pieces, or the whole file."""
+        return self.pieces or (Piece(0, self.n_frames, self.start_s),)
+
+
+def earliest_start(placements: list[Placement]) -> float:
+    """When the first clip of the edit was taken (seconds, as Placement.start_s)."""
+    return min(piece.start_s for p in placements for piece in p.clips)
 
 
 def timeline_position(placements: list[Placement]) -> dict[str, float]:
-    """Seconds from the edit's start to each camera's frame 0 (the earliest camera at 0)."""
-    earliest = min(p.start_s for p in placements)
+    """Seconds from the edit's start to each camera's frame 0 (the earliest clip at 0)."""
+    earliest = earliest_start(placements)
     return {p.camera: p.start_s - earliest for p in placements}
 
 
@@ -64,26 +92,32 @@ def otio_timeline(placements: list[Placement], name: str = "tlsync"):
 
     RationalTime, TimeRange = otio.opentime.RationalTime, otio.opentime.TimeRange
     timeline = otio.schema.Timeline(name=name)
-    positions = timeline_position(placements)
+    earliest = earliest_start(placements)
     for p in placements:
         track = otio.schema.Track(name=p.camera, kind=otio.schema.TrackKind.Video)
-        if positions[p.camera] > 0:
-            track.append(otio.schema.Gap(source_range=TimeRange(RationalTime(0, p.fps), RationalTime(positions[p.camera] * p.fps, p.fps))))
         available = TimeRange(RationalTime(0, p.fps), RationalTime(p.n_frames, p.fps))
-        reference = (
-            otio.schema.ExternalReference(target_url=Path(p.video).resolve().as_uri(), available_range=available)
-            if p.video
-            else otio.schema.MissingReference(available_range=available)
-        )
-        clip = otio.schema.Clip(name=p.video and Path(p.video).name or p.camera, media_reference=reference, source_range=available)
-        clip.metadata["tlsync"] = {
-            "camera": p.camera,
-            "start_s": p.start_s,
-            "start_s_half95": p.start_s_half95,
-            "clock_rate": p.clock_rate,
-            "vfr": p.vfr,
-        }
-        track.append(clip)
+        cursor = 0.0  # frames of the edit at p.fps so far
+        for piece in p.clips:
+            position = (piece.start_s - earliest) * p.fps
+            if position > cursor:
+                track.append(otio.schema.Gap(source_range=TimeRange(RationalTime(0, p.fps), RationalTime(position - cursor, p.fps))))
+            reference = (
+                otio.schema.ExternalReference(target_url=Path(p.video).resolve().as_uri(), available_range=available)
+                if p.video
+                else otio.schema.MissingReference(available_range=available)
+            )
+            used = TimeRange(RationalTime(piece.first, p.fps), RationalTime(piece.frames, p.fps))
+            clip = otio.schema.Clip(name=p.video and Path(p.video).name or p.camera, media_reference=reference, source_range=used)
+            clip.metadata["tlsync"] = {
+                "camera": p.camera,
+                "start_s": p.start_s,
+                "start_s_half95": p.start_s_half95,
+                "clock_rate": p.clock_rate,
+                "vfr": p.vfr,
+                **({"first_frame": piece.first, "piece_start_s": piece.start_s} if p.pieces else {}),
+            }
+            track.append(clip)
+            cursor = max(cursor, position) + piece.frames
         timeline.tracks.append(track)
     timeline.metadata["tlsync"] = {"sign_convention": SIGN_CONVENTION}
     return timeline
@@ -114,9 +148,9 @@ def fcpxml_text(placements: list[Placement]) -> tuple[str | None, str]:
             return None, f"camera {p.camera} runs at {p.fps:g} fps, a rate FCPXML's OTIO adapter cannot write (it knows {', '.join(f'{r:g}' for r in FCPXML_RATES)})"
         snapped.append(replace(p, fps=rate))
     timeline = otio_timeline(snapped)
-    positions = timeline_position(snapped)
     rate = snapped[0].fps
-    length = max(positions[p.camera] + p.n_frames / p.fps for p in snapped)
+    earliest = earliest_start(snapped)
+    length = max(max(piece.start_s - earliest + piece.frames / p.fps for piece in p.clips) for p in snapped)
     storyline = otio.schema.Track(name="storyline", kind=otio.schema.TrackKind.Video)
     storyline.append(otio.schema.Gap(source_range=otio.opentime.TimeRange(otio.opentime.RationalTime(0, rate), otio.opentime.RationalTime(round(length * rate) + 1, rate))))
     timeline.tracks.insert(0, storyline)
@@ -126,7 +160,8 @@ def fcpxml_text(placements: list[Placement]) -> tuple[str | None, str]:
 def sync_document(placements: list[Placement], reference: str, target_t0_utc: str | None = None) -> dict:
     """The ``sync.json`` sidecar: per camera its start, interval, rate and position, with the convention in words."""
     positions = timeline_position(placements)
-    cameras = {}
+    earliest = earliest_start(placements)
+    cameras: dict[str, dict[str, Any]] = {}
     for p in placements:
         interval = None if p.start_s_half95 is None else [p.start_s - p.start_s_half95, p.start_s + p.start_s_half95]
         cameras[p.camera] = {
@@ -140,6 +175,10 @@ def sync_document(placements: list[Placement], reference: str, target_t0_utc: st
             "clock": "VFR (presentation times)" if p.vfr else "CFR (frame indices)",
             "clock_rate": p.clock_rate,
         }
+        if p.pieces:
+            cameras[p.camera]["segments"] = [
+                {"first_frame": c.first, "frames": c.frames, "start_s": c.start_s, "timeline_position_s": c.start_s - earliest} for c in p.pieces
+            ]
     return {
         "format": SYNC_FORMAT,
         "version": SYNC_VERSION,

@@ -3,7 +3,8 @@
 - frame_map.csv: one row per frame of every camera: the camera, its frame,
   the target sample t_r it shows, that sample's time (s, when the target's
   clock is known) and the matching frame of every other camera (empty when
-  that camera was not recording then). Matching frames are real numbers (the
+  that camera was not recording then, or when the frame lies in a segment of
+  unknown offset of a recording that breaks: sync/segments.py). Matching frames are real numbers (the
   relation is continuous); round them for a frame index. They go through
   each camera's clock (Timeline.match): exact for variable-frame-rate
   cameras too, through their videos' presentation times.
@@ -45,7 +46,8 @@ def frame_map_rows(timeline: Timeline, n_frames: dict[str, int], times: dict[str
                 inside = (matched > -0.5) & (matched < n_frames[other] - 0.5)
                 others[other] = np.where(inside, matched, np.nan)
         for i in range(len(frames)):
-            row = [name, str(i), f"{sample[i]:.3f}", "" if seconds is None else f"{seconds[i]:.6f}"]
+            known = bool(np.isfinite(sample[i]))  # a frame in a segment of unknown offset (sync/segments.py) maps to nothing
+            row = [name, str(i), f"{sample[i]:.3f}" if known else "", "" if seconds is None or not known else f"{seconds[i]:.6f}"]
             for other in names:
                 if other == name:
                     row.append(str(i))
@@ -59,7 +61,7 @@ def offsets(timeline: Timeline, times: dict[str, FrameTimes | None] | None = Non
     """Per camera: start relative to the reference (frames of the reference, seconds), fps, clock rate.
 
     start_frames: the reference's (fractional) frame taken with the camera's
-    frame 0 (Timeline.match, exact with ``times``); start_s: seconds from the
+    frame 0 (Timeline.match, exact with ``times``; ``start_frames``); start_s: seconds from the
     reference's frame 0 to then, on the reference's clock. clock_rate:
     seconds elapsed on this camera's nominal clock per second of the
     reference's (1 when both run at their nominal rates).
@@ -70,15 +72,35 @@ def offsets(timeline: Timeline, times: dict[str, FrameTimes | None] | None = Non
     rows = []
     for name in timeline.names:
         line = timeline.cameras[name]
-        frames = float(timeline.match(name, ref, np.zeros(1), times)[0])
-        seconds = None
-        if ref_line.clock.fps:
-            ref_clock = ref_line.clock.clock_at(frames, times.get(ref))
-            seconds = float(ref_line.clock.seconds_at(ref_clock, times.get(ref)))
+        frames = start_frames(timeline, name, 0.0, times)
+        seconds = None if ref_line.clock.fps is None else reference_seconds(timeline, frames, times)
         rel = timeline.clock_relation(ref, name)
         rate = rel.alpha * ref_line.fps / line.fps if ref_line.fps and line.fps else None
         rows.append({"camera": name, "reference": ref, "start_frames": frames, "start_s": seconds, "fps": line.fps, "clock_rate": rate})
     return rows
+
+
+def start_frames(timeline: Timeline, name: str, frame: float, times: dict[str, FrameTimes | None]) -> float:
+    """The reference camera's (fractional) frame taken with camera ``name``'s ``frame``.
+
+    Frame 0 of a recording that breaks (sync/segments.py) may lie in a
+    segment of unknown offset: its start is then the one of the line's
+    segment, as if it reached back to frame 0 (what `pairs` say).
+    """
+    ref = timeline.names[0]
+    found = float(timeline.match(name, ref, np.array([frame]), times)[0])
+    line_segment = next((seg for seg in timeline.cameras[name].clock.segments if seg.source == "line"), None)
+    if np.isfinite(found) or line_segment is None:
+        return found
+    first = float(max(line_segment.start, 0))
+    return float(timeline.match(name, ref, np.array([first]), times)[0]) - (first - frame) * timeline.clock_relation(name, ref).alpha
+
+
+def reference_seconds(timeline: Timeline, frames: float, times: dict[str, FrameTimes | None]) -> float:
+    """Seconds after the reference camera's frame 0 at its (fractional) frame ``frames`` (its fps known)."""
+    ref = timeline.names[0]
+    clock = timeline.cameras[ref].clock
+    return float(clock.seconds_at(clock.clock_at(frames, times.get(ref)), times.get(ref)))
 
 
 def synced_video(camera: str) -> str:

@@ -57,11 +57,14 @@ def decode_times(encoded: dict) -> np.ndarray:
 
 
 def recording_samples(line: CameraLine, frame_times: np.ndarray) -> tuple[float, float]:
-    """The target samples at which a camera's first and last frames were taken."""
+    """The target samples at which a camera's first and last frames were taken (of a recording that breaks: its
+    first and last frames of known offset)."""
     n = len(frame_times)
     table = FrameTimes(np.arange(n, dtype=np.float64), np.asarray(frame_times, dtype=np.float64))
-    lo, hi = sorted(line.sample_at(np.array([0.0, n - 1.0]), table))
-    return float(lo), float(hi)
+    frames = np.arange(n, dtype=np.float64) if line.clock.segments else np.array([0.0, n - 1.0])
+    samples = line.sample_at(frames, table)
+    samples = samples[np.isfinite(samples)]
+    return (float(samples.min()), float(samples.max())) if len(samples) else (0.0, 0.0)
 
 
 def projected_path(camera, trajectory: Trajectory, lo: float, hi: float) -> dict:

@@ -1,4 +1,5 @@
-"""Charts read at a glance: residuals over time per camera, every camera's offset with its interval, a camera's calibration.
+"""Charts read at a glance: residuals over time per camera, every camera's offset with its interval, recordings that
+break, a camera's calibration.
 
 Pure functions: typed values in, PNG bytes out (matplotlib, Agg backend).
 """
@@ -12,7 +13,8 @@ from pathlib import Path
 import numpy as np
 
 from tlsync_pipeline.sync.status import HALF_95, CameraStatus
-from tlsync_pipeline.sync.clock import FrameTimes
+from tlsync_pipeline.outputs.exports import reference_seconds
+from tlsync_pipeline.sync.clock import FrameTimes, Segment
 from tlsync_pipeline.sync.timeline import CameraLine, Timeline
 from tlsync_pipeline.trajectory import PiecewiseTrajectory
 
@@ -116,6 +118,43 @@ def offsets_plot(timeline: Timeline, statuses: list[CameraStatus]) -> bytes:
     ax.axvline(0, color="0.6", lw=0.8)
     ax.set_xlabel(f"start: when frame 0 was taken, {unit} after {reference}'s frame 0 (bars: 95 % interval)")
     ax.margins(x=0.25)
+    fig.tight_layout()
+    return _png(fig)
+
+
+def recordings_plot(timeline: Timeline, n_frames: dict[str, int], times: dict[str, FrameTimes | None]) -> bytes:
+    """Every synchronized camera's recording on the reference's clock (s, or its frames without fps): a bar per
+    segment of known offset (sync/segments.py), each break of the recording marked where it happened, with its kind
+    and size (trackers/breaks.py)."""
+    plt = _pyplot()
+    reference = timeline.names[0]
+    in_seconds = bool(timeline.cameras[reference].fps)
+    names = timeline.names
+    fig, ax = plt.subplots(figsize=(8, 0.9 + 0.6 * len(names)))
+
+    def at(name: str, frames) -> np.ndarray:
+        matched = timeline.match(name, reference, np.asarray(frames, dtype=np.float64), times)
+        return np.array([reference_seconds(timeline, f, times) for f in matched]) if in_seconds else matched
+
+    for row, name in enumerate(names):
+        line = timeline.cameras[name]
+        count = n_frames[name]
+        for seg in line.clock.segments or (Segment(0, count, 0.0, "line"),):
+            first, last = max(seg.start, 0), min(seg.stop, count) - 1
+            if seg.shift is None or last < first:
+                continue
+            start, end = at(name, [first, last + 0.49])  # the segment holds frames up to stop - 0.5
+            ax.barh(row, end - start, left=start, height=0.35, color="tab:blue" if seg.source == "line" else "tab:cyan")
+        for b in line.breaks or ():
+            where = at(name, [max(b.frame, 0)])[0]
+            if not np.isfinite(where):
+                where = at(name, [max(b.frame - 1, 0)])[0]
+            if np.isfinite(where):
+                ax.plot([where], [row - 0.3], marker="v", color="tab:red", ms=7)
+                ax.annotate(b.describe(), (where, row - 0.3), xytext=(4, 4), textcoords="offset points", fontsize=7, color="tab:red")
+    ax.set_yticks(range(len(names)), names)
+    ax.set_ylim(len(names) - 0.4, -0.9)
+    ax.set_xlabel(f"{'s' if in_seconds else 'frames'} of {reference}'s clock (bars: segments of known offset; red: breaks)")
     fig.tight_layout()
     return _png(fig)
 

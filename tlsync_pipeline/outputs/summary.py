@@ -5,6 +5,8 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
+import numpy as np
+
 from tlsync_pipeline.sync.status import OK
 from tlsync_pipeline.sync.timeline import Relation, Timeline, eps_t
 
@@ -18,7 +20,8 @@ def format_table(timeline: Timeline) -> str:
     for name, line in timeline.cameras.items():
         frames, seconds = timeline.start_offset(first, name)
         alpha, beta = f"{line.alpha:.5f}", f"{line.beta:.2f}"
-        start_frames, start_s = f"{frames:+.2f}", "-" if seconds is None else f"{seconds:+.3f}"
+        start_frames = f"{frames:+.2f}" if np.isfinite(frames) else "-"  # frame 0 in a segment of unknown offset: none
+        start_s = "-" if seconds is None or not np.isfinite(seconds) else f"{seconds:+.3f}"
         if line.se_alpha is not None and line.se_beta is not None:
             with_se = True
             alpha += f" ±{_HALF_95 * line.se_alpha:.2g}"
@@ -27,7 +30,8 @@ def format_table(timeline: Timeline) -> str:
             if name != first and se is not None:
                 start_frames += f" ±{_HALF_95 * se[0]:.2g}"
                 start_s += "" if se[1] is None else f" ±{_HALF_95 * se[1]:.2g}"
-        rows.append((name, status[name].status, alpha, beta, str(line.votes), str(line.inliers), start_frames, start_s))
+        state = status[name].status + (f": {len(line.clock.segments)} segments" if line.clock.segments else "")
+        rows.append((name, state, alpha, beta, str(line.votes), str(line.inliers), start_frames, start_s))
     for name in timeline.failed:
         rows.append((name, status[name].status, "-", "-", "-", "-", "-", "-"))
     text = _columns(rows)

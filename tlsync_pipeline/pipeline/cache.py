@@ -27,6 +27,21 @@ from tlsync_pipeline.atomic import atomic_path
 MANIFEST_FORMAT = "tlsync-manifest"
 _CHUNK = 1 << 20
 _RACY_NS = 2_000_000_000
+SAMPLE_BLOCKS = 16  # blocks of a file read on every freshness check ...
+SAMPLE_BYTES = 64 << 10  # ... of this many bytes (1 MiB in all; a smaller file is read whole)
+
+
+def content_sample(path: Path, size: int) -> str:
+    """SHA-256 (hex) of SAMPLE_BLOCKS blocks of SAMPLE_BYTES evenly spread from the file's start to its end."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as handle:
+        if size <= SAMPLE_BLOCKS * SAMPLE_BYTES:
+            digest.update(handle.read())
+        else:
+            for k in range(SAMPLE_BLOCKS):
+                handle.seek(k * (size - SAMPLE_BYTES) // (SAMPLE_BLOCKS - 1))
+                digest.update(handle.read(SAMPLE_BYTES))
+    return digest.hexdigest()
 
 
 def file_sha256(path: Path) -> str:
@@ -39,10 +54,16 @@ def file_sha256(path: Path) -> str:
 
 
 class HashMemo:
-    """File hashes remembered by (path, size, mtime), so big videos are read once.
+    """File hashes remembered by what can be checked without reading the whole file, so big videos are read once.
 
-    Stored as JSON in the work folder; a changed size or modification time
-    means the file is hashed again.
+    Stored as JSON in the work folder. A file is hashed again when its size,
+    modification time, inode or status-change time (ctime: set by the system
+    on every write or rename, never by ``cp -p`` or ``rsync -t``) differs, or
+    its content sample does: SAMPLE_BLOCKS blocks of SAMPLE_BYTES spread over
+    the file from its first to its last byte (the whole of a file up to
+    SAMPLE_BLOCKS x SAMPLE_BYTES), read on every check. That sample sees an
+    edit that keeps size and times on file systems whose inode and ctime do
+    not move (FAT and exFAT cards), unless it touches none of the blocks.
     """
 
     def __init__(self, path: Path | None = None):
@@ -63,13 +84,14 @@ class HashMemo:
             return None
         key = str(Path(path).resolve())
         known = self.entries.get(key)
-        if known and known[0] == stat.st_size and known[1] == stat.st_mtime_ns:
-            return known[2]
+        seen = [stat.st_size, stat.st_mtime_ns, stat.st_ino, stat.st_ctime_ns]
+        if known and len(known) == 6 and known[:4] == seen and known[4] == content_sample(path, stat.st_size):
+            return known[5]
         digest = file_sha256(path)
         # A file modified within the last seconds could change again without
         # a visible change of mtime (coarse timestamps): do not remember it.
-        if time.time_ns() - stat.st_mtime_ns > _RACY_NS:
-            self.entries[key] = [stat.st_size, stat.st_mtime_ns, digest]
+        if time.time_ns() - max(stat.st_mtime_ns, stat.st_ctime_ns) > _RACY_NS:
+            self.entries[key] = [*seen, content_sample(path, stat.st_size), digest]
             self.dirty = True
         return digest
 

@@ -38,11 +38,12 @@ from tlsync_pipeline.pipeline.cache import (
     write_manifest,
 )
 from tlsync_pipeline.pipeline.codehash import code_digests
-from tlsync_pipeline.pipeline.executors import Called, SerialExecutor, one_blas_thread
+from tlsync_pipeline.pipeline.executors import Called, ProcessExecutor, SerialExecutor, one_blas_thread, quiet_resource_tracker
 from tlsync_pipeline.pipeline.graph import STAGES, Graph, Task, task_id
 from tlsync_pipeline.pipeline.lock import WorkLock
 from tlsync_pipeline.pipeline.progress import Progress
 from tlsync_pipeline.pipeline.spec import StageResult, params_json
+from tlsync_pipeline.pipeline.stop import stop_requested
 from tlsync_pipeline.pipeline.validate import validate_project
 from tlsync_pipeline.pipeline.workspace import FOLDERS, StageFiles
 
@@ -194,6 +195,8 @@ def run_graph(
         if graph.tasks[tid].problem:
             raise InputError(graph.tasks[tid].problem)
     with WorkLock(graph.work):
+        if executor.cores > 1 or isinstance(executor, ProcessExecutor):  # worker pools (the run's, the intrinsics stage's)
+            quiet_resource_tracker()
         _remove_leftovers(graph.work)
         memo = HashMemo(graph.workspace.hash_memo)
         try:
@@ -339,6 +342,8 @@ class _Scheduler:
         try:
             called: Called = future.result()
         except Exception as exc:  # noqa: BLE001 - recorded, reported by the caller
+            if stop_requested():  # a Ctrl-C that surfaced as the task's error (inside an import): the run stops, nothing failed
+                raise KeyboardInterrupt from exc
             self.summary.failed[task.id] = exc
             write_failure(failure_path(manifest_path(self.graph, task)), now.key, describe_error(exc))
             self.progress.failed(task.id, exc, parallel)

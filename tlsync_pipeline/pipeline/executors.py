@@ -21,6 +21,7 @@ without the lock.
 from __future__ import annotations
 
 import concurrent.futures as cf
+import contextlib
 import ctypes
 import dataclasses
 import multiprocessing
@@ -41,8 +42,13 @@ _PR_SET_PDEATHSIG = 1
 
 
 def die_with_parent(parent_pid: int) -> None:
-    """Initializer of a worker process: ignore Ctrl-C, exit when ``parent_pid`` ends, hold no semaphore of its own."""
+    """Initializer of a worker process: ignore Ctrl-C, exit when ``parent_pid`` ends, hold no semaphore of its own.
+
+    The worker was started with Ctrl-C blocked (``ProcessExecutor.submit``): one sent while it started waits,
+    and is dropped here, after it is ignored."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if hasattr(signal, "pthread_sigmask"):
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
     if sys.platform.startswith("linux"):
         try:
             ctypes.CDLL(None, use_errno=True).prctl(_PR_SET_PDEATHSIG, int(signal.SIGKILL))
@@ -62,6 +68,45 @@ def _watch_parent(parent_pid: int) -> None:
     while os.getppid() == parent_pid:
         time.sleep(PARENT_POLL_S)
     os._exit(1)
+
+
+def quiet_resource_tracker() -> None:
+    """Start multiprocessing's resource tracker (if not running) with its stderr discarded.
+
+    It unlinks the semaphores of worker pools whose run was killed (kill -9), and then warns on the terminal
+    about "leaked semaphore objects": its cleanup is its job, the warning only noise for users. Call before
+    the first pool; fd 2 points to /dev/null while the tracker starts (milliseconds).
+    """
+    from multiprocessing import resource_tracker
+
+    if sys.platform == "win32" or getattr(resource_tracker._resource_tracker, "_fd", None) is not None:  # noqa: SLF001 - no public test
+        return
+    saved, devnull = os.dup(2), os.open(os.devnull, os.O_WRONLY)
+    try:
+        sys.stderr.flush()
+        os.dup2(devnull, 2)
+        resource_tracker.ensure_running()
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
+        os.close(devnull)
+
+
+@contextlib.contextmanager
+def _ctrl_c_held():
+    """Ctrl-C blocked in this thread for the block's duration, delivered when it ends (not lost).
+
+    A process started meanwhile inherits the block: a Ctrl-C that reaches it while the interpreter starts
+    (before it can ignore the signal) would end it with a "Fatal Python error" on the terminal.
+    """
+    if not hasattr(signal, "pthread_sigmask") or threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
 
 
 @dataclass(frozen=True)
@@ -155,10 +200,12 @@ class ProcessExecutor:
             for var in THREAD_VARIABLES:
                 self._saved_env[var] = os.environ.get(var)
                 os.environ[var] = "1"
+            quiet_resource_tracker()
             self._pool = cf.ProcessPoolExecutor(
                 self.jobs, mp_context=multiprocessing.get_context("spawn"), initializer=die_with_parent, initargs=(os.getpid(),)
             )
-        return self._pool.submit(call, fn, kwargs)
+        with _ctrl_c_held():  # the workers it may start inherit Ctrl-C blocked (until die_with_parent ignores it)
+            return self._pool.submit(call, fn, kwargs)
 
     @property
     def started(self) -> bool:

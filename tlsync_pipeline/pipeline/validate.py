@@ -91,10 +91,15 @@ def _camera(project: Project, config: CameraConfig, wanted: Callable[[Path], boo
         track = _checked(project, where, "track", config.track, lambda path: read_track(regular_file(path, MAX_TEXT_BYTES, "track CSV")))
         if video is not None:
             _checked(project, where, "track", config.track, lambda path: check_track_fits_video(path, video))
+        size = tuple(camera.image_size) if camera is not None else (video.width, video.height) if video is not None else None
+        if size is not None:
+            _checked(project, where, "track", config.track, lambda path: _track_not_normalised(path, track, size))  # type: ignore[arg-type]
         if camera is not None:
             _checked(project, where, "track", config.track, lambda path: _track_in_image(path, track, camera))  # type: ignore[arg-type]
     if config.detections is not None and wanted(config.detections):
         _checked(project, where, "detections", config.detections, lambda path: _table_head(path, DETECTION_COLUMNS, "detections CSV"))
+    if video is not None and config.video is not None and config.camera is None and wanted(config.video):
+        _checked(project, where, "video", config.video, lambda path: _video_of_calibration(path, video, config))
     table = f"{where} [cameras.calibration]"
     if calibration.images is not None:
         images = [Path(name) for name in sorted(glob.glob(calibration.images))]
@@ -113,6 +118,7 @@ def _camera(project: Project, config: CameraConfig, wanted: Callable[[Path], boo
 def _trajectory(path: Path, time_unit: float, length_unit: float) -> None:
     """The trajectory CSV, read; InputError when, in seconds and metres, it cannot be a target's."""
     trajectory = read_trajectory(path)
+    _not_degrees(trajectory.xyz)
     lost = stranded(trajectory)
     if lost > STRANDED_SAMPLES:
         raise InputError(
@@ -124,6 +130,20 @@ def _trajectory(path: Path, time_unit: float, length_unit: float) -> None:
         problem = implausible_motion(np.asarray(t) * time_unit, trajectory.xyz * length_unit)
         if problem:
             raise InputError(f"{path}: {problem}")
+
+
+def _not_degrees(xyz: np.ndarray) -> None:
+    """InputError when a local trajectory's x, y are longitudes and latitudes: values of degrees away from the origin
+    that span less than a kilometre's worth of a degree (0.01) where metres would move metres."""
+    x, y = xyz[:, 0], xyz[:, 1]
+    span = np.ptp(xyz[:, :2], axis=0) if len(xyz) else np.zeros(2)
+    lon_lat = np.abs(x).max() <= 180 and np.abs(y).max() <= 90
+    lat_lon = np.abs(x).max() <= 90 and np.abs(y).max() <= 180
+    if len(xyz) >= 2 and (lon_lat or lat_lon) and min(np.abs(x).min(), np.abs(y).min()) >= 1.0 and 0 < span.max() < 0.01:
+        raise InputError(
+            f"columns x, y look like {'longitude and latitude' if lon_lat else 'latitude and longitude'} in degrees (x {x[0]:.6g}, y {y[0]:.6g}, "
+            f"spanning {span[0]:.2g} x {span[1]:.2g}), not metres: give the log as time,lat,lon,alt in [target] log (it is then ingested), not as [target] trajectory"
+        )
 
 
 def _log(path: Path, fmt: str) -> None:
@@ -154,6 +174,41 @@ def _image_of_video(path: Path, camera: Camera, video: VideoInfo) -> None:
             f"{path}: image_size {list(camera.image_size)} but the camera's video {video.path.name} is {video.width} x {video.height}; "
             "give the calibration of the video's resolution (or scale K and image_size to it)"
         )
+
+
+def _video_of_calibration(path: Path, video: VideoInfo, config: CameraConfig) -> None:
+    """The camera's video has the size of the images its intrinsics come from ([cameras.calibration] intrinsics,
+    checkerboard video or the first checkerboard photo): a downscaled copy of the video would be calibrated at the
+    wrong scale, every pose fit then failing for no visible reason."""
+    calibration = config.calibration
+    size, source = None, ""
+    if calibration.intrinsics is not None and calibration.intrinsics.is_file():
+        size, source = tuple(read_camera(calibration.intrinsics).image_size), "the intrinsics"
+    elif calibration.video is not None and calibration.video.is_file():
+        info = probe_video(calibration.video)
+        size, source = (info.width, info.height), "the checkerboard video"
+    elif calibration.images is not None:
+        import cv2  # noqa: PLC0415 - OpenCV only for a project that calibrates from photos
+
+        first = next(iter(sorted(glob.glob(calibration.images))), None)
+        image = None if first is None else cv2.imread(first, cv2.IMREAD_UNCHANGED)
+        size, source = (None, "") if image is None else ((image.shape[1], image.shape[0]), "the checkerboard photos")
+    if size is None or (video.width, video.height) == size:
+        return
+    ratio = video.width / size[0]
+    scale = f" ({ratio:.3g} of their size: a downscaled copy?)" if abs(video.height / size[1] - ratio) < 0.01 * ratio else ""
+    raise InputError(
+        f"{path}: {video.width} x {video.height}, but {source} are of {size[0]} x {size[1]} images{scale}; "
+        "give the original video, or calibrate with images of the video's resolution"
+    )
+
+
+def _track_not_normalised(path: Path, track: Track, size: tuple[int, int]) -> None:
+    """The track's positions are pixels, not fractions of the image (every x, y within 0..1 of an image wider than that)."""
+    xy = track.xy
+    if len(xy) >= 2 and min(size) > 4 and xy.min() >= 0.0 and xy.max() <= 1.0 and np.ptp(xy, axis=0).max() > 0:
+        w, h = size
+        raise InputError(f"{path}: every x, y lies within 0..1: normalised coordinates? give pixels of the {w} x {h} image (x * {w}, y * {h})")
 
 
 def _track_in_image(path: Path, track: Track, camera: Camera) -> None:

@@ -54,6 +54,37 @@ class FrameTimes:
 
 
 @dataclass(frozen=True)
+class Segment:
+    """A stretch of a camera's frames on one steady clock, between breaks of its recording (sync/segments.py).
+
+    start, stop: its first frame and one past its last (0-based; the first
+    segment reaches back and the last forward without end); shift: clock
+    units added to its frames' clock values to put them on the camera's
+    line, None when unknown (its frames then map to nothing); source: how
+    the shift is known: "line" (the segment the line was fitted on),
+    "votes" (the target's votes on it), "container" (the container's
+    presentation times across the break), "unknown", "unresolved" (seen by
+    the target, its shift not close to whole frames on a frame clock) or
+    "frozen" (repeated pictures: no instant of their own); frames: the
+    target's tracked frames on it.
+    """
+
+    start: int
+    stop: int
+    shift: float | None
+    source: str
+    frames: int = 0
+
+    def to_dict(self) -> dict:
+        return {"start": self.start, "stop": self.stop, "shift": self.shift, "source": self.source, "frames": self.frames}
+
+    @classmethod
+    def from_dict(cls, entry: dict) -> Segment:
+        shift = entry.get("shift")
+        return cls(int(entry["start"]), int(entry["stop"]), None if shift is None else float(shift), str(entry["source"]), int(entry.get("frames", 0)))
+
+
+@dataclass(frozen=True)
 class CameraClock:
     """The clock a camera's line is on.
 
@@ -63,13 +94,17 @@ class CameraClock:
     for frames at the nominal rate (least squares over the tracked frames),
     used only without a table of presentation times; jitter_frames: largest
     departure of the tracked frames' times from the best constant-rate line
-    (frame intervals).
+    (frame intervals); segments: the recording's stretches between breaks,
+    each with its shift (``Segment``; empty: one steady recording). A frame
+    in a segment of unknown shift has no clock value (NaN), and no clock
+    value maps to it.
     """
 
     kind: str = FRAME
     fps: float | None = None
     origin_s: float = 0.0
     jitter_frames: float = 0.0
+    segments: tuple[Segment, ...] = ()
 
     @property
     def vfr(self) -> bool:
@@ -84,6 +119,38 @@ class CameraClock:
         linear approximation.
         """
         frames = np.asarray(frames, dtype=np.float64)
+        base = self._steady_clock(frames, times)
+        if not self.segments:
+            return base
+        shift = np.full(frames.shape, np.nan)
+        for k, seg in enumerate(self.segments):
+            inside = self._inside(k, frames)
+            shift[inside] = np.nan if seg.shift is None else seg.shift
+        return base + shift
+
+    def frames_at(self, clock, times: FrameTimes | None = None) -> np.ndarray:
+        """0-based fractional frames at clock values; the inverse of ``clock_at`` (NaN: a value no frame holds, in a
+        break of the recording or a segment of unknown shift)."""
+        clock = np.asarray(clock, dtype=np.float64)
+        if not self.segments:
+            return self._steady_frames(clock, times)
+        out = np.full(clock.shape, np.nan)
+        for k, seg in enumerate(self.segments):
+            if seg.shift is not None:
+                frames = self._steady_frames(clock - seg.shift, times)
+                take = np.isnan(out) & self._inside(k, frames)
+                out[take] = frames[take]
+        return out
+
+    def _inside(self, k: int, frames: np.ndarray) -> np.ndarray:
+        """Which (fractional) frames segment k holds: [start - 0.5, stop - 0.5), open at the recording's two ends."""
+        seg = self.segments[k]
+        low = -np.inf if k == 0 else seg.start - 0.5
+        high = np.inf if k == len(self.segments) - 1 else seg.stop - 0.5
+        return (frames >= low) & (frames < high)
+
+    def _steady_clock(self, frames: np.ndarray, times: FrameTimes | None) -> np.ndarray:
+        """clock_at without the segments' shifts."""
         if not self.vfr:
             return frames
         assert self.fps is not None, "a presentation-time clock has its fps"
@@ -91,9 +158,8 @@ class CameraClock:
             return frames + self.origin_s * self.fps
         return _extended_interp(frames, times.frame, times.time_s, 1.0 / self.fps) * self.fps
 
-    def frames_at(self, clock, times: FrameTimes | None = None) -> np.ndarray:
-        """0-based fractional frames at clock values; the inverse of ``clock_at``."""
-        clock = np.asarray(clock, dtype=np.float64)
+    def _steady_frames(self, clock: np.ndarray, times: FrameTimes | None) -> np.ndarray:
+        """frames_at without the segments' shifts."""
         if not self.vfr:
             return clock
         assert self.fps is not None, "a presentation-time clock has its fps"
@@ -102,8 +168,8 @@ class CameraClock:
         return _extended_interp(clock / self.fps, times.time_s, times.frame, self.fps)
 
     def seconds_at(self, clock, times: FrameTimes | None = None) -> np.ndarray:
-        """Seconds since frame 0 on this camera's clock at clock values (needs fps)."""
-        return (np.asarray(clock, dtype=np.float64) - self.clock_at(0.0, times)) / self.fps
+        """Seconds since frame 0 on this camera's steady clock at clock values (needs fps)."""
+        return (np.asarray(clock, dtype=np.float64) - self._steady_clock(np.float64(0.0), times)) / self.fps
 
 
 def _extended_interp(x: np.ndarray, xp: np.ndarray, fp: np.ndarray, slope: float) -> np.ndarray:

@@ -20,9 +20,11 @@ from dataclasses import asdict, dataclass, replace
 import numpy as np
 
 from tlsync_pipeline.sync.clock import FrameTimes
+from tlsync_pipeline.sync.status import WEAK, Reason
 
 CLOCK_FLAG = "clock_disagrees"
 HALF_95 = 1.96
+LEAP_SECONDS = 18.0  # GPS time - UTC since 2017: a log on GPS time is this much ahead
 
 
 @dataclass(frozen=True)
@@ -90,3 +92,22 @@ def with_clock_checks(timeline, priors: dict[str, ClockPrior], log_utc: bool, ti
             flags = (*flags, CLOCK_FLAG)
         lines[name] = replace(line, clock_check=check, flags=flags if flags or line.flags is not None else line.flags)
     return replace(timeline, cameras=lines)
+
+
+def clock_reason(check: ClockCheck) -> Reason:
+    """The CLOCK_FLAG reason with its numbers, and the likely cause when the offset is one: a whole number of half
+    hours (a clock on local time: ``utc_offset``) or the leap seconds (a log on GPS time, not UTC)."""
+    offset = check.offset_s or 0.0
+    slack = check.tolerance_s + check.result_half_width_s
+    text = (f"the result puts the video's time 0 {offset:+.1f} s from the camera's own clock ({check.source}; "
+            f"tolerance {check.tolerance_s:g} s)")
+    half_hours = round(offset / 1800.0)
+    if half_hours and abs(offset - half_hours * 1800.0) <= slack:
+        hours = f"{half_hours / 2:+g}"
+        return Reason(CLOCK_FLAG, WEAK, f"{text}: {hours} h, a clock on local time",
+                      f"a log on local time: set [target] utc_offset = {hours}; a camera's: [cameras.clock] utc_offset = {-half_hours / 2:+g}")
+    for leap in (LEAP_SECONDS, -LEAP_SECONDS):
+        if abs(offset - leap) <= slack:
+            return Reason(CLOCK_FLAG, WEAK, f"{text}: {leap:+g} s, the leap seconds between GPS time and UTC",
+                          f"a log on GPS time, not UTC: take {leap:g} s off its times (or its reader's time base), or check the camera's clock")
+    return Reason(CLOCK_FLAG, WEAK, text, "check the camera's clock and the log's time base")

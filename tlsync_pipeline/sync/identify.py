@@ -52,14 +52,14 @@ Frames are 0-based frame indices; the line lives on the camera clock
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.spatial import cKDTree
 
 from calibration.camera import Camera
 from tlsync_pipeline.errors import SyncError
-from tlsync_pipeline.sync.clock import CameraClock, FrameTimes, camera_clock
+from tlsync_pipeline.sync.clock import CameraClock, FrameTimes, Segment, camera_clock
 from tlsync_pipeline.sync.line_search import LineSearch, find_line, thin_votes
 from tlsync_pipeline.sync.plausibility import BACKWARD_BELOW, backwards_better
 from tlsync_pipeline.sync.refine import MIN_FRAMES, refine_line
@@ -127,12 +127,13 @@ class Identification:
         return IdentificationSummary(int(np.unique(self.vote_rows).size), len(self.track), tracklets, self.search.support, self.search.runner_up, self.rounds, round(self.lift_m, 3))
 
 
-def detections_clock(detections: Detections, fps: float | None) -> tuple[CameraClock, np.ndarray]:
-    """The camera clock of the frames that have detections, and each detection row's clock value."""
+def detections_clock(detections: Detections, fps: float | None, segments: tuple[Segment, ...] = ()) -> tuple[CameraClock, np.ndarray]:
+    """The camera clock of the frames that have detections (with the recording's segments, sync/segments.py), and
+    each detection row's clock value (NaN in a segment of unknown shift)."""
     frames, first = np.unique(detections.frame, return_index=True)
     times = detections.time_s[first]
     per_frame = Track(frames, np.zeros(len(frames)), np.zeros(len(frames)), time_s=times if np.isfinite(times).all() else None)
-    clock = camera_clock(per_frame, fps)
+    clock = replace(camera_clock(per_frame, fps), segments=segments)
     return clock, clock.clock_at(detections.frame, FrameTimes.of_track(per_frame))
 
 
@@ -222,7 +223,8 @@ def lift_of(camera: Camera, path: PiecewiseTrajectory, clock: np.ndarray, xy: np
     uv, _ = camera.project(position)
     rate = camera.project(position + UP)[0] - uv  # pixels per metre up
     norm = np.einsum("ij,ij->i", rate, rate)
-    lift = -np.einsum("ij,ij->i", xy[on] - uv, rate) / norm
+    with np.errstate(divide="ignore", invalid="ignore"):  # points behind the camera (NaN) or seen straight down (0): left out
+        lift = -np.einsum("ij,ij->i", xy[on] - uv, rate) / norm
     lift = lift[np.isfinite(lift) & (norm > 1e-9)]
     return float(np.clip(np.median(lift), -MAX_LIFT_M, MAX_LIFT_M)) if len(lift) >= MIN_FRAMES else 0.0
 
@@ -346,18 +348,22 @@ class IdentifyParams:
     f_scale_px: float
 
 
-def identify_target(camera: Camera, detections: Detections, trajectory: Trajectory, fps: float | None, params: IdentifyParams, prefer: frozenset[int] = frozenset()) -> Identification:
+def identify_target(
+    camera: Camera, detections: Detections, trajectory: Trajectory, fps: float | None, params: IdentifyParams, prefer: frozenset[int] = frozenset(), segments: tuple[Segment, ...] = ()
+) -> Identification:
     """The target's track among every candidate (see the module docstring).
 
     trajectory: the prepared trajectory (synchronize.prepare_trajectory);
     fps: the camera's nominal frame rate, or None; prefer: tracklet ids an
-    init box says are the target. Raises SyncError (naming the camera and
+    init box says are the target; segments: the recording's segments
+    (sync/segments.py; detections in a segment of unknown shift are left
+    out beforehand by the caller). Raises SyncError (naming the camera and
     why) when the projected path never enters the image, no candidate comes
     near it, no line is found, or no tracklet follows the path.
     """
     prior = slope_prior(fps, trajectory.rate, params.rate_sigma)
     votes, vote_rows = candidate_votes(camera, detections, trajectory, params.eps_px)
-    _, row_clock = detections_clock(detections, fps)
+    _, row_clock = detections_clock(detections, fps, segments)
     try:
         search = find_line(votes.sample, row_clock[vote_rows], votes.dist, params.delta, params.p, params.r_min, params.seed, group=detections.id[vote_rows], prior=prior)
     except ValueError as exc:
@@ -530,6 +536,7 @@ def _target_track(camera: Camera, path: PiecewiseTrajectory, logged: PiecewiseTr
     offset = offsets_to_path(camera, path, clock[rows], detections.xy[rows], alpha, beta)
     box = np.column_stack([detections.w[rows], detections.h[rows]])
     xy, size = target_within(detections.xy[rows], box, offset, _slack(camera, path, clock, detections, rows, alpha, beta))
-    lift = offsets_to_path(camera, logged, clock[rows], detections.xy[rows], alpha, beta) - offset  # the logged point's image less the tracked point's
+    with np.errstate(invalid="ignore"):  # a point projected to infinity on both (inf - inf): no lift, below
+        lift = offsets_to_path(camera, logged, clock[rows], detections.xy[rows], alpha, beta) - offset  # the logged point's image less the tracked point's
     xy = xy + np.where(np.isfinite(lift), lift, 0.0)
     return Track(track.frame, xy[:, 0], xy[:, 1], time_s=track.time_s, w=size[:, 0], h=size[:, 1], score=track.score)

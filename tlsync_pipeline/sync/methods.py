@@ -21,6 +21,7 @@ from tlsync_pipeline.sync.params import SyncParams
 from tlsync_pipeline.sync.timeline import CameraLine
 from tlsync_pipeline.sync.votes import Votes
 from tlsync_pipeline.trajectory import Trajectory
+from trackers.breaks import Break
 from trackers.detections import Detections
 from trackers.track import Track
 
@@ -37,7 +38,9 @@ class CameraInput:
     detections: every mover of its video instead of a track (track None):
     ``synchronize`` identifies the target among them first (sync/identify.py).
     A camera without a pose (``Camera.posed`` false) gets it from the target
-    first (sync/pose.py), with ``gcps`` as a prior when given.
+    first (sync/pose.py), with ``gcps`` as a prior when given. breaks: where
+    its recording may leave its steady clock (trackers/breaks.py), judged
+    against its line (sync/breaks.py).
     """
 
     camera: Camera
@@ -45,6 +48,7 @@ class CameraInput:
     fps: float | None
     detections: Detections | None = None
     gcps: GcpPrior | None = None
+    breaks: tuple[Break, ...] = ()
 
 
 @dataclass(frozen=True)

@@ -327,9 +327,10 @@ def _fit(camera: Camera, frame: np.ndarray, xy: np.ndarray, path: PiecewiseTraje
     r, jac = problem.pixels(x)
     cov_x, model_x = _sandwich_covariance(r, jac, f_scale, model_error_px, problem.prior_slope)
     u, s0 = x
-    a = 1.0 / u
-    d = np.array([[-1.0 / u**2, 0.0], [s0 / u**2, -a]])  # d(alpha, beta) / d(x)
-    cov = d @ cov_x @ d.T
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # a fit gone astray (u 0, a singular covariance): not ok below
+        a = 1.0 / u
+        d = np.array([[-1.0 / u**2, 0.0], [s0 / u**2, -a]])  # d(alpha, beta) / d(x)
+        cov = d @ cov_x @ d.T
     residual_px = np.linalg.norm(r, axis=1)
     scale_px = float(1.4826 * np.median(np.abs(residual_px - np.median(residual_px)))) if len(r) else float("nan")
     perpendicular = _perpendicular(camera, path, x[1] + x[0] * (frame - c_mid), run)
@@ -355,18 +356,19 @@ def _sandwich_covariance(r: np.ndarray, jac: np.ndarray, f_scale: float, model_e
     try:
         inv = np.linalg.inv(bread)
     except np.linalg.LinAlgError:
-        inv = np.full((2, 2), np.inf)
+        inv = np.full((2, 2), np.inf)  # a singular fit: an infinite (non-finite) covariance, which the caller refuses
     # Frame by frame (heteroscedasticity) and block by block (errors shared by
     # neighbouring frames: pose, log); the larger.
     independent = g.T @ g * n / max(n - 2, 1)
     blocks = np.array([b.sum(axis=0) for b in np.array_split(g, min(BLOCKS, n))])
     clustered = blocks.T @ blocks * len(blocks) / max(len(blocks) - 1, 1)
-    meat = independent if np.trace(inv @ independent @ inv) >= np.trace(inv @ clustered @ inv) else clustered
     # Model error: an unseen pixel offset of std model_error_px shared by each
     # block of frames (pose and log errors), which the residuals cannot show.
     lever = np.array([b.sum(axis=0) for b in np.array_split(jac * dpsi[:, :, None], min(BLOCKS, n))])
     systematic = model_error_px**2 * np.einsum("bik,bil->kl", lever, lever)
-    return inv @ (meat + systematic + f_scale**2 * prior_info) @ inv, inv @ systematic @ inv
+    with np.errstate(invalid="ignore", over="ignore"):  # inf x 0 of a singular fit: NaN, refused by the caller
+        meat = independent if np.trace(inv @ independent @ inv) >= np.trace(inv @ clustered @ inv) else clustered
+        return inv @ (meat + systematic + f_scale**2 * prior_info) @ inv, inv @ systematic @ inv
 
 
 def _offsets_and_rates(camera: Camera, path: PiecewiseTrajectory, s: np.ndarray, run: np.ndarray, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -401,9 +403,10 @@ def _perpendicular(camera: Camera, path: PiecewiseTrajectory, s: np.ndarray, run
     position = path(s, run)
     velocity = path(s, run, nu=1)
     ray = position - camera.center
-    ray /= np.linalg.norm(ray, axis=1, keepdims=True)
+    length = np.linalg.norm(ray, axis=1, keepdims=True)
+    ray = np.divide(ray, length, out=np.zeros_like(ray), where=length > 0)
     speed = np.linalg.norm(velocity, axis=1)
-    moving = speed > 1e-6 * max(speed.max(), 1e-300)
+    moving = speed > 1e-6 * max(speed.max(initial=0.0), 1e-300)
     if not moving.any():
         return 1.0
     sin = np.linalg.norm(np.cross(velocity[moving], ray[moving]), axis=1) / speed[moving]

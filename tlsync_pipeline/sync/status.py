@@ -118,10 +118,20 @@ def failure(text: str, code: str = "not_synchronized", remedy: str = "") -> Reas
     pose = _POSE_FAILURE.search(text)
     if pose is not None:
         return Reason(pose["cause"], AMBIGUOUS if pose["cause"] == "ambiguous_offset" else FAILED, text, pose["remedy"])
+    diagnosed = _DIAGNOSED.search(text)
+    if diagnosed is not None:
+        return Reason(diagnosed["cause"], FAILED, text, diagnosed["remedy"])
     return Reason(code, FAILED, text, remedy or _failure_remedy(text))
 
 
+def diagnosed_failure(camera: str, cause: Reason, text: str) -> str:
+    """A camera's failure message (``text``, a SyncError's) led by the cause found for it (sync/causes.py), its code and
+    remedy kept in the words so that ``failure`` gives them back."""
+    return f"camera {camera}: {cause.text} (cause {cause.code}): {text.removeprefix(f'camera {camera}: ')}; {cause.remedy}"
+
+
 _POSE_FAILURE = re.compile(r"pose not determined from the target \((?P<cause>[a-z_]+)\): .*; (?P<remedy>[^;]+)$")
+_DIAGNOSED = re.compile(r"^camera .*? \(cause (?P<cause>[a-z_]+)\): .*; (?P<remedy>[^;]+)$")
 
 
 def _failure_remedy(text: str) -> str:

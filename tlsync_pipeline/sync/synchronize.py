@@ -25,17 +25,20 @@ import numpy as np
 
 from calibration.camera import Camera
 from tlsync_pipeline.errors import SyncError
-from tlsync_pipeline.sync.clock import FrameTimes, camera_clock
-from tlsync_pipeline.sync.identify import Identification, IdentifyParams, identify_target
+from tlsync_pipeline.sync.breaks import identify_in_segments, segment_reasons, with_vote_break
+from tlsync_pipeline.sync.clock import FrameTimes, Segment, camera_clock
+from tlsync_pipeline.sync.identify import Identification, IdentifyParams
 from tlsync_pipeline.sync.log_model import PRESETS, LogModel, measured, vote_radius
 from tlsync_pipeline.sync.methods import CameraData, CameraInput, JointMethod
 from tlsync_pipeline.sync.params import Preparation, SyncParams
+from tlsync_pipeline.sync.causes import explain
 from tlsync_pipeline.sync.plausibility import BACKWARD_BELOW, Judged, backward_support, diagnose, judge_line, line_support, motion_slope
 from tlsync_pipeline.sync.pose import TargetPose, estimate_pose, pose_info
 from tlsync_pipeline.sync.refined import RefinedParams
+from tlsync_pipeline.sync.segments import MAX_WHOLE, MIN_SEGMENT_FRAMES, fit_segments, whole_frames
 from tlsync_pipeline.sync.registry import get_method, method_options, params_table, preparation_of
 from tlsync_pipeline.sync.slope import slope_prior
-from tlsync_pipeline.sync.status import AMBIGUOUS, FAILED, Reason
+from tlsync_pipeline.sync.status import AMBIGUOUS, FAILED, Reason, diagnosed_failure
 from tlsync_pipeline.sync.timeline import CameraLine, Timeline
 from tlsync_pipeline.sync.votes import Votes, compute_votes
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory, lowered
@@ -86,11 +89,12 @@ def synchronize_camera(name: str, inputs: CameraInput, votes: Votes, prepared: T
     return CameraResult(votes, get_method(params.method).fit(camera_data(name, inputs, votes, eps_px or params.eps_px), prepared, params, method_options(params)))
 
 
-def camera_data(name: str, inputs: CameraInput, votes: Votes, eps_px: float) -> CameraData:
-    """One camera with a track as a sync method sees it: its track and votes on its clock."""
+def camera_data(name: str, inputs: CameraInput, votes: Votes, eps_px: float, segments: tuple[Segment, ...] = ()) -> CameraData:
+    """One camera with a track as a sync method sees it: its track and votes on its clock (with the segments' shifts:
+    every frame of the track and the votes in a segment of known shift)."""
     track = inputs.track
     assert track is not None, "a camera without a track is identified first (identify_and_synchronize)"
-    clock = camera_clock(track, inputs.fps)
+    clock = replace(camera_clock(track, inputs.fps), segments=segments)
     times = FrameTimes.of_track(track)
     return CameraData(
         name=name,
@@ -109,8 +113,8 @@ def identify_and_synchronize(name: str, inputs: CameraInput, prepared: Trajector
     """A camera that brings every mover: the target identified among them, then its line fitted on the identified track's votes."""
     assert inputs.detections is not None, "a camera without a track brings every mover"
     radius = eps_px or params.eps_px
-    found = identify_target(inputs.camera, inputs.detections, prepared, inputs.fps, replace(identify_params(params), eps_px=radius))
-    identified = CameraInput(inputs.camera, found.track, inputs.fps)
+    found, breaks = identify_in_segments(inputs.camera, inputs.detections, prepared, inputs.fps, replace(identify_params(params), eps_px=radius), breaks=inputs.breaks)
+    identified = CameraInput(inputs.camera, found.track, inputs.fps, breaks=breaks)
     result = synchronize_camera(name, identified, cast_votes(inputs.camera, found.track, prepared, radius), prepared, params, radius)
     return CameraResult(result.votes, replace(result.line, identification=found.summary()), found)
 
@@ -181,6 +185,7 @@ def synchronize(
                 result = identify_and_synchronize(name, inputs, prepared, params, radius[name])
             else:
                 result = synchronize_camera(name, inputs, cast if cast is not None else cast_votes(inputs.camera, inputs.track, prepared, radius[name]), prepared, params, radius[name])
+            inputs, result = _segmented(name, inputs, result, prepared, params, radius[name])
             results[name], judged[name] = _judge(name, inputs, replace(result, pose=pose), path, params, prior, radius[name])
         except SyncError as exc:
             failed[name] = str(exc)
@@ -188,12 +193,15 @@ def synchronize(
         except (ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
             failed[name] = f"camera {name}: the fit failed ({type(exc).__name__}: {exc})"
             judged[name] = _unjudged(inputs, prior)
-    found = diagnose(judged, prepared, params.eps_px)
+    found = diagnose(judged, prepared, params.eps_px)  # first: the log's units, which explain everything else
+    found = {**explain(judged, prepared, params.eps_px, params.logged_point_above_m), **found}
+    for name in failed.keys() & found.keys():
+        failed[name] = diagnosed_failure(name, found[name], failed[name])
     lines, rejected = {}, {}
     for name, result in results.items():
         line = result.line
-        if name in found:
-            line = replace(line, checks=(*(line.checks or ()), found[name]))
+        if name in found:  # the cause found comes first: its remedy is the camera's
+            line = replace(line, checks=(found[name], *(line.checks or ())))
         stopping = [r.text for r in line.checks or () if r.severity in (AMBIGUOUS, FAILED)]
         if stopping:
             rejected[name] = line
@@ -239,6 +247,84 @@ def _log_error(model: LogModel, declared: LogModel, estimate: tuple[float, float
     return record
 
 
+def _segmented(name: str, inputs: CameraInput, result: CameraResult, prepared: Trajectory, params: SyncParams, radius_px: float) -> tuple[CameraInput, CameraResult]:
+    """A camera whose recording breaks (its own breaks, or a drop its votes show) fitted as segments (sync/segments.py).
+
+    The votes say which segments the target visits and their shifts to
+    within a frame or so; each such segment's line is then fitted on its own
+    frames (the method's fit, its slope held by the prior) and its shift is
+    where that line meets the best-supported segment's, at the middle of its
+    frames (a line fitted across segments of different offsets tilts, and
+    shifts measured against it miss their whole frames). The camera's line
+    is fitted again on every segment of known shift, its clock carrying
+    them; the inputs then hold the track of those segments. Unchanged
+    without a break, or when no segment's shift is known (the break's reason
+    then refuses it, sync/breaks.py).
+    """
+    track = result.track(inputs)
+    assert track is not None, "a fitted camera has a track"
+    clock = camera_clock(track, inputs.fps)
+    times = FrameTimes.of_track(track)
+    votes, line = result.votes, result.line
+    vote_clock = clock.clock_at(votes.frame, times)
+    breaks = with_vote_break(inputs.breaks, votes.frame, vote_clock, votes.sample, line, params.delta)
+    inputs = replace(inputs, track=track, breaks=breaks)
+    coarse = fit_segments(breaks, track.frame, votes.frame, vote_clock, votes.sample, votes.dist, line.alpha, line.beta, params.delta, clock.vfr)
+    main = next((seg for seg in coarse if seg.source == "line"), None)
+    if main is None:
+        return inputs, replace(result, line=replace(line, breaks=breaks or None))
+    reference = _segment_line(name, inputs, votes, main, prepared, params, radius_px) or line
+    segments = tuple(_refined(seg, _segment_line(name, inputs, votes, seg, prepared, params, radius_px), reference, clock, times, track) for seg in coarse)
+    segmented = replace(clock, segments=segments)
+    keep_track = np.isfinite(segmented.clock_at(track.frame, times))
+    keep_votes = np.isfinite(segmented.clock_at(votes.frame, times))
+    kept = _track_rows(track, keep_track)
+    kept_votes = Votes(votes.frame[keep_votes], votes.sample[keep_votes], votes.dist[keep_votes])
+    data = camera_data(name, replace(inputs, track=kept), kept_votes, radius_px, segments)
+    fitted = get_method(params.method).fit(data, prepared, params, method_options(params))
+    return replace(inputs, track=kept), replace(result, votes=kept_votes, line=replace(fitted, identification=line.identification, breaks=breaks))
+
+
+def _track_rows(track: Track, rows: np.ndarray) -> Track:
+    """The track's rows ``rows`` (a boolean mask)."""
+    def kept(column: np.ndarray | None) -> np.ndarray | None:
+        return None if column is None else np.asarray(column)[rows]
+
+    return Track(track.frame[rows], track.x[rows], track.y[rows], kept(track.time_s), kept(track.w), kept(track.h), kept(track.score))
+
+
+def _segment_line(name: str, inputs: CameraInput, votes: Votes, seg: Segment, prepared: Trajectory, params: SyncParams, radius_px: float) -> CameraLine | None:
+    """The method's line through one segment's tracked frames and votes alone (steady clock); None when the segment
+    has no measured shift, too few frames, or the fit fails."""
+    track = inputs.track
+    assert track is not None, "a fitted camera has a track"
+    rows = (track.frame >= seg.start) & (track.frame < seg.stop)
+    if seg.shift is None or rows.sum() < MIN_SEGMENT_FRAMES:
+        return None
+    in_votes = (votes.frame >= seg.start) & (votes.frame < seg.stop)
+    own = Votes(votes.frame[in_votes], votes.sample[in_votes], votes.dist[in_votes])
+    try:
+        return get_method(params.method).fit(camera_data(name, replace(inputs, track=_track_rows(track, rows)), own, radius_px), prepared, params, method_options(params))
+    except (SyncError, ValueError, ArithmeticError, np.linalg.LinAlgError):
+        return None
+
+
+def _refined(seg: Segment, own: CameraLine | None, reference: CameraLine, clock, times: FrameTimes | None, track: Track) -> Segment:
+    """The segment with its shift where its own line meets the reference line at the middle of its tracked frames;
+    as it was without its own line. On a frame clock a shift of up to MAX_WHOLE frames is whole frames
+    (sync/segments.whole_frames), and one that is not close to them is unresolved (unknown): a pose error biases
+    segments seen in different parts of the image differently."""
+    if own is None or seg.source == "line":
+        return seg
+    middle = float(np.median(clock.clock_at(track.frame[(track.frame >= seg.start) & (track.frame < seg.stop)], times)))
+    sample = (middle - own.beta) / own.alpha
+    shift = reference.alpha * sample + reference.beta - middle
+    if clock.vfr or abs(shift) > MAX_WHOLE:
+        return replace(seg, shift=round(shift, 4))
+    whole = whole_frames(shift)
+    return replace(seg, shift=whole) if whole == round(whole) else replace(seg, shift=None, source="unresolved")
+
+
 CROWDED = 1.5  # voting detections per identified frame above which other movers are within the vote radius
 
 
@@ -271,7 +357,7 @@ def _judge(name: str, inputs: CameraInput, result: CameraResult, path: Piecewise
     if line.cov is not None and not (np.isfinite(line.cov).all() and (np.diag(line.cov) >= 0).all()):
         line = replace(line, cov=None)
     track = inputs.track if inputs.track is not None else result.identification.track  # type: ignore[union-attr]
-    clock = camera_clock(track, inputs.fps)
+    clock = replace(camera_clock(track, inputs.fps), segments=line.clock.segments)
     times = FrameTimes.of_track(track)
     track_clock = clock.clock_at(track.frame, times)
     fps = clock.fps if clock.fps is not None else inputs.fps
@@ -284,6 +370,7 @@ def _judge(name: str, inputs: CameraInput, result: CameraResult, path: Piecewise
     if thin < BACKWARD_BELOW:  # a thin line: would the log read backwards explain the votes better?
         support = (line_support(votes.sample, vote_clock, line.alpha, line.beta, params.delta), backward_support(votes.sample, vote_clock, votes.dist, params.delta, prior, params.seed))
     checks = judge_line(inputs.camera, track, track_clock, path, line, radius_px, fps, alpha_prior, slope, support)
+    checks = (*checks, *segment_reasons(inputs.breaks, line.clock.segments, track.frame, votes.frame, vote_clock, votes.sample, line.alpha, line.beta, params.delta))
     others = line.identification is not None and line.identification.candidates_voting > CROWDED * line.identification.identified_frames
     if inputs.track is None and radius_px > params.eps_px and "few_inliers" in (line.flags or ()) and others:
         checks = (*checks, _loose_identity(radius_px))

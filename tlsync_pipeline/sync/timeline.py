@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
 from typing import Any
@@ -20,9 +20,10 @@ from typing import Any
 import numpy as np
 
 from tlsync_pipeline.errors import InputError
-from tlsync_pipeline.sync.clock import FRAME, CameraClock, FrameTimes
-from tlsync_pipeline.sync.clock_prior import ClockCheck
+from tlsync_pipeline.sync.clock import FRAME, CameraClock, FrameTimes, Segment
+from tlsync_pipeline.sync.clock_prior import CLOCK_FLAG, ClockCheck, clock_reason
 from tlsync_pipeline.sync.status import AMBIGUOUS, FAILED, HALF_95, WEAK, WIDE_FRAMES, WIDE_REMEDIES, WIDE_REMEDY, CameraStatus, Reason, failure, line_reasons, status_of
+from trackers.breaks import Break
 
 FORMAT_VERSION = 1
 
@@ -166,7 +167,9 @@ class CameraLine:
     refinement's line was kept), line_search and refinement summaries;
     identification: how the target was found, for a camera that brought
     every mover rather than a track; scan: how its video was read (None:
-    the project brought its track or detections).
+    the project brought its track or detections); breaks: where its
+    recording leaves its steady clock (trackers/breaks.py; its segments are
+    the clock's).
     """
 
     name: str
@@ -189,10 +192,11 @@ class CameraLine:
     checks: tuple[Reason, ...] | None = None
     scan: ScanSummary | None = None
     clock_check: ClockCheck | None = None
+    breaks: tuple[Break, ...] | None = None
 
     def __post_init__(self):
         if not self.clock.vfr and self.clock.fps is None and self.fps is not None:
-            object.__setattr__(self, "clock", CameraClock(FRAME, self.fps))  # a frame clock runs at the camera's fps
+            object.__setattr__(self, "clock", replace(self.clock, fps=self.fps))  # a frame clock runs at the camera's fps
 
     @property
     def se_alpha(self) -> float | None:
@@ -230,6 +234,10 @@ class CameraLine:
                 time_jitter_frames=self.clock.jitter_frames,
                 clock_origin_s=self.clock.origin_s,
             )
+        if self.clock.segments:
+            entry["segments"] = [seg.to_dict() for seg in self.clock.segments]
+        if self.breaks:
+            entry["breaks"] = [b.to_dict() for b in self.breaks]
         return entry
 
     @classmethod
@@ -238,6 +246,8 @@ class CameraLine:
         clock = CameraClock(FRAME, entry.get("fps"))
         if entry.get("clock", FRAME) != FRAME:
             clock = CameraClock(entry["clock"], float(entry["clock_fps"]), float(entry.get("clock_origin_s", 0.0)), float(entry["time_jitter_frames"]))
+        if entry.get("segments"):
+            clock = replace(clock, segments=tuple(Segment.from_dict(seg) for seg in entry["segments"]))
         optional: dict[str, Any] = {
             "cov": None if entry.get("cov") is None else np.asarray(entry["cov"], dtype=np.float64),
             "flags": None if entry.get("flags") is None else tuple(entry["flags"]),
@@ -251,6 +261,7 @@ class CameraLine:
             "budget": None if entry.get("budget") is None else ErrorBudget(**entry["budget"]),
             "log_bias": None if entry.get("log_bias") is None else LogBiasSummary.from_dict(entry["log_bias"]),
             "clock_check": None if entry.get("clock_prior") is None else ClockCheck.from_dict(entry["clock_prior"]),
+            "breaks": None if not entry.get("breaks") else tuple(Break.from_dict(b) for b in entry["breaks"]),
         }
         base = {k: entry[k] for k in ("alpha", "beta", "votes", "inliers")}
         base["residual_rms"] = float("nan") if entry["residual_rms"] is None else entry["residual_rms"]
@@ -312,6 +323,8 @@ class Timeline:
         if line is None:
             return status_of(name, [failure(self.failed.get(name, "not synchronized"))])
         reasons = line_reasons(line.flags, line.warnings, line.checks)
+        if line.clock_check is not None and line.clock_check.agrees is False:  # the flag's reason with its numbers
+            reasons = [clock_reason(line.clock_check) if r.code == CLOCK_FLAG else r for r in reasons]
         if name in self.cameras:
             wide = self._wide_interval(name)
             if wide is not None:

@@ -87,3 +87,8 @@ def test_demo_recovers_the_truth(tmp_path):
     assert result.exit_code == 0, result.output
     worst = float(result.output.split("worst eps_t:")[1].split()[0])
     assert np.isfinite(worst) and worst <= 2.0
+
+
+def test_tlsync_alone_prints_the_help():
+    result = _run()
+    assert result.exit_code == 0 and result.output.startswith("Usage:") and "Commands:" in result.output and "run" in result.output

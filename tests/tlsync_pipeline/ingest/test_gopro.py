@@ -11,7 +11,7 @@ import pytest
 from data_fixtures.gps_logs import log_fixes, walk_trajectory
 from data_fixtures.target_logs import gpmf_payload
 from tlsync_pipeline.geodesy import Origin
-from tlsync_pipeline.ingest import ingest
+from tlsync_pipeline.ingest import detect_format, ingest, read_log
 from tlsync_pipeline.ingest.gopro import Payload, gopro_records, sample_clock
 from tlsync_pipeline.ingest.gpmf import gps_blocks
 
@@ -113,3 +113,15 @@ def _payloads(path: Path) -> list[bytes]:
 
     data = path.read_bytes()
     return [data[offset - 8 : offset + ((size * repeat + 3) & ~3)] for key, _, size, repeat, offset in klv_items(data) if key == b"DEVC"]
+
+
+def test_a_raw_gpmf_stream_is_read_on_its_own_timeline(tmp_path):
+    """A ``.raw`` GPMF dump (payloads back to back, starting DEVC) is detected and read: the HERO7's samples, every payload
+    placed 1.001 s apart as the camera's MP4 would, the missing MP4 said in a warning."""
+    path = tmp_path / "hero7.raw"
+    path.write_bytes((DATA / "hero7_gpmf.raw").read_bytes())
+    assert detect_format(path) == "gopro"
+    records = read_log(path)
+    placed = gopro_records(path, [(k * PAYLOAD, PAYLOAD, p) for k, p in enumerate(_payloads(path))])
+    assert len(records) == len(placed) > 200 and np.array_equal(records.t, placed.t) and np.array_equal(records.values, placed.values)
+    assert any("raw GPMF" in w and "MP4" in w for w in records.warnings)

@@ -158,6 +158,15 @@ def test_spikes_rejected_and_origin_is_first_kept_fix(tmp_path):
     assert trajectory.sample.tolist() == list(range(39))  # spikes interpolated over: 1 s intervals, max gap 3 s
 
 
+def test_a_log_without_heights_says_so(tmp_path):
+    rows = ["time,lat,lon,alt"] + [f"{i},{47.49 + i * 1e-5:.7f},8.5,0" for i in range(20)]
+    (tmp_path / "flat.csv").write_text("\n".join(rows) + "\n")
+    _, report = _ingest(tmp_path / "flat.csv")
+    assert any(w.startswith("every fix's height is 0: a log without heights") and "altitude_offset_m" in w for w in report.warnings)
+    (tmp_path / "flat.csv").write_text("\n".join(r.replace(",0", ",0.5") if i else r for i, r in enumerate(rows)) + "\n")
+    assert not any("height is 0" in w for w in _ingest(tmp_path / "flat.csv")[1].warnings)
+
+
 def test_reject_spikes_recovers_after_a_jump():
     t = np.arange(10.0)
     xyz = np.zeros((10, 3))
@@ -227,6 +236,8 @@ BAD_LOGS = {
     "latitude": ("lat.csv", "time,lat,lon,alt\n0,47,8,400\n1,95.5,8,400\n", "lat.csv:3: latitude 95.5 out of range"),
     "gpx cut": ("cut.gpx", '<?xml version="1.0"?>\n<gpx version="1.1">\n<trk><trkseg>\n<trkpt lat="47" lon="8"><ele>1</ele><time>2026-01-01T00:00:00Z</time></trkpt>\n<trkpt la', "cut short"),
     "undetectable": ("what.log", "hello world\n1 2 3\n", "cannot detect the log format"),
+    # a file of the system given as the log: described (length, separators), never quoted
+    "passwd": ("passwd", "root:x:0:0:root:/root:/bin/bash\n", "cannot detect the log format (a text file whose first line is 31 characters, 7 fields separated by ':')"),
 }
 
 

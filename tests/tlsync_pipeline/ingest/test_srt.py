@@ -142,3 +142,41 @@ def test_a_file_mixing_layouts_reads_each_block_by_its_own():
     assert len(records) == 12 and np.abs(records.values[:, 0] + 34.65).max() < 0.01 and np.abs(records.values[:, 1] + 59.41).max() < 0.01
     assert any("labelled" in n for n in records.notes) and any("(longitude, latitude)" in n for n in records.notes)
     assert any("have no date" in w for w in records.warnings) and not records.utc
+    heights = records.values[:, 2]
+    assert np.allclose(heights[:6], [17.39, 17.33, 17.22, 17.16, 17.31, 17.38])  # H .. m of the P4 RTK blocks
+    assert np.allclose(heights[6:], [120.061, 120.099, 120.099, 120.099, 120.141, 120.141])  # [altitude: ..] of the Mavic 2 Pro blocks
+    assert any("different references" in w for w in records.warnings)
+
+
+def _per_frame_srt(path: Path, speed_mps: float, spike_at: int | None = None) -> None:
+    """A Mavic 3-like file: blocks at 50 fps, the receiver's fix updated at 10 Hz (held over 5 frames), 5 decimals."""
+    blocks = []
+    for i in range(1500):
+        t_fix = (i // 5) * 0.1
+        north = speed_mps * t_fix + (1000.0 if i == spike_at else 0.0)
+        lat, lon = 3.41531 + north / 111_320.0, -3.3744
+        wall = dt.datetime(2021, 12, 25, 12, 27, 52) + dt.timedelta(seconds=i * 0.02)
+        ms = i * 20
+        blocks.append(f"{i + 1}\n00:00:{ms // 1000:02d},{ms % 1000:03d} --> 00:00:{(ms + 20) // 1000:02d},{(ms + 20) % 1000:03d}\n"
+                      f"<font size=\"28\">FrameCnt: {i + 1}, DiffTime: 20ms\n{wall:%Y-%m-%d %H:%M:%S}.{wall.microsecond // 1000:03d}\n"
+                      f"[latitude: {lat:.5f}] [longitude: {lon:.5f}] [rel_alt: 1.0 abs_alt: 10.0]</font>\n")
+    path.write_text("\n".join(blocks))
+
+
+def test_per_frame_fixes_held_and_rounded_are_not_spikes(tmp_path):
+    """MAVIC3.srt's case: a 10 Hz fix held over 5 frames at 50 fps, 1.1 m rounding; 35 m/s is under the 60 m/s bound, so
+    nothing is dropped (frame to frame the implied speed reaches 180 m/s); a 1 km jump is still a spike, with the key named."""
+    path = tmp_path / "m3.srt"
+    _per_frame_srt(path, 35.0)
+    _, report = ingest(read_log(path))
+    assert report.fixes_used == report.fixes_read == 1500 and not report.gaps and not report.dropped
+    _per_frame_srt(path, 35.0, spike_at=702)
+    _, report = ingest(read_log(path))
+    assert report.fixes_used == 1499 and list(report.dropped) == ["spike (implied speed over 60 m/s)"]
+    assert any("max_speed_mps" in w and "--max-speed" in w for w in report.warnings)
+
+
+def test_a_local_wall_clock_start_is_printed_as_a_local_date():
+    _, report = ingest(read_log(DATA / "old_format.SRT"))
+    assert report.t0_utc is None and report.t0_local == "2017-08-05T14:11:51.500000"
+    assert "from 2017-08-05T14:11:51.500000 local time" in report.summary()

@@ -100,3 +100,22 @@ def test_otio_clip_without_a_video_is_a_missing_reference():
     assert starts["a"][0] == 0.0 and starts["b"][0] == pytest.approx(0.75)
     assert isinstance(starts["a"][2].media_reference, otio.schema.MissingReference)
     assert starts["b"][2].media_reference.target_url.startswith("file://")
+
+
+def test_a_recording_that_breaks_is_one_clip_per_segment_of_known_offset():
+    """cam1 froze 25 frames at frame 100 (frames 100-124 of unknown offset): two clips, frames 0-99 and 125-214,
+    the second placed 4 s after the first's start (the instant of its first frame), the frozen ones left out."""
+    from tlsync_pipeline.outputs.editors import Piece, sync_document
+
+    whole = Placement("cam0", "cam0.mp4", 0.0, 25.0, 300, 12.0)
+    broken = Placement("cam1", "cam1.mp4", 2.0, 25.0, 215, 8.6, pieces=(Piece(0, 100, 2.0), Piece(125, 90, 6.0)))
+    timeline = otio_timeline([whole, broken])
+    track = next(t for t in timeline.video_tracks() if t.name == "cam1")
+    clips = list(track.find_clips())
+    assert [(c.source_range.start_time.value, c.source_range.duration.value) for c in clips] == [(0, 100), (125, 90)]
+    starts = [track.range_of_child(c).start_time.to_seconds() for c in clips]
+    assert starts == pytest.approx([2.0, 6.0])
+    document = sync_document([whole, broken], "cam0")
+    assert [s["first_frame"] for s in document["cameras"]["cam1"]["segments"]] == [0, 125]
+    assert document["cameras"]["cam1"]["segments"][1]["timeline_position_s"] == pytest.approx(6.0)
+    assert "segments" not in document["cameras"]["cam0"]

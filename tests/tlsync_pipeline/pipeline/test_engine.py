@@ -221,3 +221,43 @@ def test_ready_tasks_go_out_tracks_first_the_largest_video_first(tmp_path):
     assert not {"scan", "track"} & set(stages[6:]) and {"intrinsics", "calibrate", "vote"} <= set(stages)
     per_camera = [stage in PER_CAMERA for stage in stages]
     assert per_camera == sorted(per_camera, reverse=True)  # the project-wide tasks last
+
+
+def _same_size_edit(path):
+    """Change one digit of a file, keeping its size and its modification time (as ``cp -p`` or ``rsync -t`` would)."""
+    before = os.stat(path)
+    text = path.read_text()
+    k = next(i for i, c in enumerate(text) if c.isdigit() and c != "0" and i > 20)
+    path.write_text(text[:k] + ("1" if text[k] != "1" else "2") + text[k + 1 :])
+    os.utime(path, ns=(before.st_atime_ns, before.st_mtime_ns))
+    after = os.stat(path)
+    assert (after.st_size, after.st_mtime_ns) == (before.st_size, before.st_mtime_ns)
+
+
+def test_an_edit_that_keeps_size_and_mtime_is_seen(project_dir, monkeypatch):
+    """The hash memo remembers a file by more than size and mtime: status says stale and run re-runs."""
+    from tlsync_pipeline.pipeline import cache
+
+    monkeypatch.setattr(cache, "_RACY_NS", 0)  # remember every file at once, as for files older than a few seconds
+    run_graph(_graph(project_dir))
+    _same_size_edit(project_dir / "cam1" / "camera.json")
+    assert _states(project_dir)["vote/cam1"].state == "stale"
+    assert "vote/cam1" in run_graph(_graph(project_dir)).ran
+
+
+def test_the_content_sample_sees_an_edit_where_inode_and_ctime_stay(tmp_path, monkeypatch):
+    """On a card (FAT, exFAT) the inode and ctime may not move with an edit: the sample of the content still does."""
+    from tlsync_pipeline.pipeline import cache
+
+    monkeypatch.setattr(cache, "_RACY_NS", 0)
+    for size in (1000, 5 << 20):  # read whole, and sampled
+        path = tmp_path / f"video{size}.bin"
+        path.write_bytes(bytes(size))
+        memo = cache.HashMemo(tmp_path / "memo.json")
+        first = memo.sha256(path)
+        with path.open("r+b") as handle:  # one byte of the first block
+            handle.seek(10)
+            handle.write(b"\x01")
+        stat = os.stat(path)
+        memo.entries[str(path.resolve())][:4] = [stat.st_size, stat.st_mtime_ns, stat.st_ino, stat.st_ctime_ns]
+        assert memo.sha256(path) == cache.file_sha256(path) != first

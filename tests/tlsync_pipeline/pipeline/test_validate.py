@@ -51,6 +51,18 @@ def test_a_trajectory_in_milliseconds_is_named_with_its_fix(project_dir):
     _validate(project_dir)
 
 
+def test_a_video_downscaled_from_its_calibration_is_named(project_dir):
+    """A camera calibrated at 640 x 480 whose video is a half-size copy: named before any stage runs, not a pose that fails."""
+    (project_dir / "cam0" / "camera.json").rename(project_dir / "cam0" / "intrinsics.json")
+    edit_key(project_dir, 0, "camera", None)
+    edit_key(project_dir, 0, "calibration", {"intrinsics": "cam0/intrinsics.json"})
+    blank_video(project_dir / "cam0" / "video.mp4", 600, (320, 240))
+    edit_key(project_dir, 0, "video", "cam0/video.mp4")
+    with pytest.raises(InputError, match=r"'cam0' video: .*video.mp4: 320 x 240, but the intrinsics are of 640 x 480 images "
+                                         r"\(0.5 of their size: a downscaled copy\?\); give the original video"):
+        _validate(project_dir)
+
+
 def test_a_trajectory_partly_at_another_rate_is_refused_with_its_fix(project_dir):
     fast = np.arange(0.0, 60.0, 0.01)  # 100 Hz, then 20 s at 15 Hz, then 100 Hz again: the 15 Hz part sits between gaps
     times = np.r_[fast, 60.0 + np.arange(1, 300) / 15.0, 80.0 + fast]

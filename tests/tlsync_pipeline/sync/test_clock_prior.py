@@ -49,3 +49,16 @@ def test_the_results_own_interval_widens_the_tolerance():
     assert check.result_half_width_s == pytest.approx(1.96 * 2.0) and check.agrees  # 2.5 s off: within 1 s + 3.9 s
     tight = check_clock(_timeline().cameras["cam"], RATE, T0, True, ClockPrior(T0 + 14.5, 1.0, "QuickTime creationdate"))
     assert tight.result_half_width_s == 0.0 and not tight.agrees
+
+
+@pytest.mark.parametrize("offset, text, remedy", [
+    (7200.3, "+7200.3 s from the camera's own clock (the project; tolerance 1 s): +2 h, a clock on local time", "set [target] utc_offset = +2"),
+    (-5400.0, "-1.5 h, a clock on local time", "[cameras.clock] utc_offset = +1.5"),
+    (18.2, "+18.2 s from the camera's own clock (the project; tolerance 1 s): +18 s, the leap seconds between GPS time and UTC", "a log on GPS time"),
+    (60.0, "+60.0 s from the camera's own clock (the project; tolerance 1 s)", "check the camera's clock and the log's time base"),
+])
+def test_a_clock_disagreement_shows_its_offset_and_the_likely_key(offset, text, remedy):
+    from tlsync_pipeline.sync.clock_prior import ClockCheck, clock_reason
+
+    reason = clock_reason(ClockCheck("the project", 1e9, 1.0, 1e9 + offset, offset, False))
+    assert text in reason.text and remedy in reason.remedy and reason.code == CLOCK_FLAG

@@ -64,8 +64,10 @@ def cameras_params(project: Project) -> CamerasParams:
 
 
 def read_identification(path) -> IdentificationSummary | SyncError:
-    """A camera's identification.json (identify stage): the summary, or the SyncError that kept its target from being identified."""
+    """A camera's identification.json (identify stage): the summary, or the SyncError that kept its target from being
+    identified (its ``breaks``, the drop the movers' votes show, are read by the sync stage)."""
     data = json.loads(path.read_text(encoding="utf-8"))
+    data.pop("breaks", None)
     return SyncError(data["error"]) if "error" in data else IdentificationSummary.from_dict(data)
 
 

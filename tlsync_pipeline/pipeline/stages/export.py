@@ -15,8 +15,8 @@ from pathlib import Path
 import numpy as np
 
 from tlsync_pipeline.sync.status import HALF_95
-from tlsync_pipeline.outputs.editors import Placement, fcpxml_text, otio_text, sync_document
-from tlsync_pipeline.outputs.exports import ffmpeg_commands, frame_map_rows, offsets
+from tlsync_pipeline.outputs.editors import Piece, Placement, fcpxml_text, otio_text, sync_document
+from tlsync_pipeline.outputs.exports import ffmpeg_commands, frame_map_rows, offsets, reference_seconds, start_frames
 from tlsync_pipeline.pipeline.spec import ProjectWide, Sources, StageResult, StageSpec
 from tlsync_pipeline.pipeline.stages.cameras import CameraFiles, camera_files, read_video_info
 from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
@@ -88,7 +88,7 @@ def run_export(files: StageFiles, params: ProjectWide) -> StageResult:
     with files.write("ffmpeg") as tmp:
         tmp.write_text(ffmpeg_commands(rows, {name: None if v is None else os.path.relpath(v, base) for name, v in videos.items()}), encoding="utf-8")
     notes = []
-    placements = editor_placements(tl, rows, videos, n_frames)
+    placements = editor_placements(tl, rows, videos, n_frames, times)
     if placements is None:
         notes.append(f"no editor timelines: the reference camera {tl.names[0]} has no frame rate")
     else:
@@ -104,8 +104,11 @@ def run_export(files: StageFiles, params: ProjectWide) -> StageResult:
     return StageResult("; ".join(notes) or None, facts={"exported": tl.names, "n_frames": n_frames})
 
 
-def editor_placements(tl: Timeline, rows: list[dict], videos: dict[str, str | None], n_frames: dict[str, int]) -> list[Placement] | None:
+def editor_placements(
+    tl: Timeline, rows: list[dict], videos: dict[str, str | None], n_frames: dict[str, int], times: dict[str, FrameTimes | None] | None = None
+) -> list[Placement] | None:
     """Each camera's placement on the editors' timeline from its offsets.csv row; None without every camera's fps."""
+    times = times or {}
     if any(r["start_s"] is None or not r["fps"] for r in rows):
         return None
     reference = tl.names[0]
@@ -115,8 +118,19 @@ def editor_placements(tl: Timeline, rows: list[dict], videos: dict[str, str | No
         se = tl.start_offset_se(reference, name) if name != reference else None
         half = None if se is None or se[1] is None else HALF_95 * se[1]
         vfr = tl.cameras[name].clock.vfr
-        placements.append(Placement(name, videos.get(name), r["start_s"], r["fps"], n_frames[name], n_frames[name] / r["fps"], r["clock_rate"], half, vfr))
+        pieces = segment_pieces(tl, name, n_frames[name], times)
+        placements.append(Placement(name, videos.get(name), r["start_s"], r["fps"], n_frames[name], n_frames[name] / r["fps"], r["clock_rate"], half, vfr, pieces))
     return placements
+
+
+def segment_pieces(tl: Timeline, name: str, n_frames: int, times: dict[str, FrameTimes | None]) -> tuple[Piece, ...]:
+    """The segments of known offset of a camera's recording that breaks, as editor clips (none for one segment)."""
+    pieces = []
+    for seg in tl.cameras[name].clock.segments:
+        first, stop = max(seg.start, 0), min(seg.stop, n_frames)
+        if seg.shift is not None and stop > first:
+            pieces.append(Piece(first, stop - first, reference_seconds(tl, start_frames(tl, name, float(first), times), times)))
+    return tuple(pieces)
 
 
 def export_inputs(src: Sources, camera: None) -> dict[str, Path | Artefact]:

@@ -22,13 +22,15 @@ from tlsync_pipeline.errors import SyncError
 from tlsync_pipeline.pipeline.spec import Options, Sources, StageResult, StageSpec
 from tlsync_pipeline.pipeline.stages.cameras import has_no_rows, ingest_report_input, log_model_of, pose_problem
 from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
-from tlsync_pipeline.sync.identify import IdentifyParams, identify_target
+from tlsync_pipeline.sync.breaks import identify_in_segments
+from tlsync_pipeline.sync.identify import IdentifyParams
 from tlsync_pipeline.sync.log_model import LogModelChoice, measured, vote_radius
 from tlsync_pipeline.sync.params import Preparation
 from tlsync_pipeline.sync.registry import preparation_of
 from tlsync_pipeline.sync.synchronize import identify_params, prepare_trajectory
 from tlsync_pipeline.sync.visits import near_views
 from tlsync_pipeline.trajectory import read_trajectory
+from trackers.breaks import Break
 from trackers.detections import read_detections, seed_tracklets
 from trackers.track import write_track
 from trackers.video import check_init_box, probe_video
@@ -84,7 +86,8 @@ def run_identify(files: StageFiles, params: IdentifyStageParams) -> StageResult:
         if seed is not None and not prefer:
             warnings.append(f"camera {files.camera}: no mover inside the init box {list(seed.box)} near frame {seed.frame}; the target is identified without it")
         radius = vote_radius(camera, prepared, params.identify.eps_px, measured(log_model_of(files, params.log_model), logged))
-        found = identify_target(camera, detections, prepared, params.fps or camera.fps, replace(params.identify, eps_px=radius), prefer)
+        breaks = tuple(Break.from_dict(b) for b in json.loads(files.path("video_info").read_text(encoding="utf-8")).get("breaks", ())) if files.has("video_info") else ()
+        found, breaks = identify_in_segments(camera, detections, prepared, params.fps or camera.fps, replace(params.identify, eps_px=radius), prefer, breaks)
     except SyncError as exc:
         files.output("track").unlink(missing_ok=True)
         with files.write("identification") as tmp:
@@ -93,7 +96,7 @@ def run_identify(files: StageFiles, params: IdentifyStageParams) -> StageResult:
     with files.write("track") as tmp:
         write_track(found.track, tmp)
     with files.write("identification") as tmp:
-        tmp.write_text(json.dumps(asdict(found.summary()), indent=1) + "\n", encoding="utf-8")
+        tmp.write_text(json.dumps({**asdict(found.summary()), "breaks": [b.to_dict() for b in breaks]}, indent=1) + "\n", encoding="utf-8")
     seeded = f", seeded by the init box (tracklet {min(prefer)})" if prefer else ""
     lift = f"; the log's point is {abs(found.lift_m):.2f} m {'above' if found.lift_m > 0 else 'below'} the movers' centres, the track moved to it" if found.lift_m else ""
     message = f"wrote {files.output('track')} ({len(found.track)} identified frames{seeded}{lift})"
@@ -114,6 +117,8 @@ def identify_inputs(src: Sources, cam: str) -> dict[str, Path | Artefact]:
     inputs = {"camera": src.artefact("camera", cam), "detections": src.artefact("detections", cam), "trajectory": src.artefact("trajectory")}
     if camera.detections is None and camera.tracker.init is not None and camera.video is not None:
         inputs["video"] = camera.video
+    if src.made("video_info", cam):
+        inputs["video_info"] = src.artefact("video_info", cam)  # the breaks the track stage found
     return {**inputs, **ingest_report_input(src)}
 
 

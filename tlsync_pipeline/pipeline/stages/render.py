@@ -26,7 +26,7 @@ from tlsync_pipeline.outputs.camera_pictures import CameraJob, DrawnCamera, draw
 from tlsync_pipeline.outputs.diagnostics import StageRun, run_warnings
 from tlsync_pipeline.outputs.pictures import PairPlan, PanelRequest, assemble_pair, choose_frames, pair_frames, plan_pair, write_png
 from tlsync_pipeline.outputs.player import player_data
-from tlsync_pipeline.outputs.plots import offsets_plot, residuals_plot, track_residuals
+from tlsync_pipeline.outputs.plots import offsets_plot, recordings_plot, residuals_plot, track_residuals
 from tlsync_pipeline.outputs.report_content import Picture, ReportContent
 from tlsync_pipeline.outputs.report_html import report_html
 from tlsync_pipeline.outputs.report_md import report_markdown
@@ -305,7 +305,7 @@ def _charts(scene: _Scene, out_dir: Path, work: Path) -> list[Picture]:
     if not tl.cameras:
         return []
     residuals = {n: track_residuals(scene.inputs[n].camera, scene.inputs[n].track, scene.path_model, tl.cameras[n], scene.times[n]) for n in tl.cameras}
-    return [
+    charts = [
         _write_chart(out_dir / "offsets.png", offsets_plot(tl, list(tl.statuses().values())), work, "offsets: every camera's start with its 95 % interval"),
         _write_chart(
             out_dir / "residuals.png",
@@ -314,6 +314,10 @@ def _charts(scene: _Scene, out_dir: Path, work: Path) -> list[Picture]:
             "residuals: tracked minus projected position over time, with the vote gate",
         ),
     ]
+    if any(line.breaks for line in tl.cameras.values()):
+        picture = recordings_plot(tl, scene.n_frames, scene.times)
+        charts.append(_write_chart(out_dir / "recordings.png", picture, work, "recordings: each camera's segments on the reference's clock, its breaks where they happened"))
+    return charts
 
 
 def _report_content(files: StageFiles, scene: _Scene, params: RenderParams, cameras: dict[str, DrawnCamera], strips: list[Picture], charts: list[Picture], notes: list[str]) -> ReportContent:

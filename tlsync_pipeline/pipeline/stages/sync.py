@@ -16,6 +16,7 @@ from tlsync_pipeline.pipeline.spec import Options, Sources, StageResult, StageSp
 from tlsync_pipeline.pipeline.stages.cameras import CameraFiles, CamerasParams, camera_files, cameras_params, container_fps, log_model_of, read_identification, read_video_info
 from tlsync_pipeline.pipeline.stages.clock import read_clock
 from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
+from tlsync_pipeline.sync.breaks import merged
 from tlsync_pipeline.sync.methods import CameraInput
 from tlsync_pipeline.sync.clock_prior import with_clock_checks
 from tlsync_pipeline.sync.log_model import LogModelChoice
@@ -27,6 +28,7 @@ from tlsync_pipeline.sync.timeline import CameraLine, IdentificationSummary, Sca
 from tlsync_pipeline.sync.votes import Votes, load_votes
 from tlsync_pipeline.sync.visits import near_views
 from tlsync_pipeline.trajectory import Trajectory, read_trajectory
+from trackers.breaks import Break
 from trackers.track import read_track
 
 TRUNCATED = "truncated"  # flag of a camera whose video ends before its announced end
@@ -58,8 +60,18 @@ def read_camera_inputs(cameras: dict[str, CameraFiles]) -> dict[str, CameraInput
         assert c.camera is not None and c.track is not None, "declared by the stage"
         cam = read_camera(c.camera, name=name)
         track = None if c.identification is not None and not c.track.exists() else read_track(c.track)
-        out[name] = CameraInput(cam, track, c.fps if c.fps is not None else cam.fps)
+        out[name] = CameraInput(cam, track, c.fps if c.fps is not None else cam.fps, breaks=read_breaks(c))
     return out
+
+
+def read_breaks(camera: CameraFiles) -> tuple[Break, ...]:
+    """Where a camera's recording may leave its steady clock: video.json's breaks (track stage) and the drop its
+    movers' votes show (identification.json), in frame order."""
+    found = []
+    for path in (camera.video_info, camera.identification):
+        if path is not None and path.exists():
+            found += [Break.from_dict(b) for b in json.loads(path.read_text(encoding="utf-8")).get("breaks", ())]
+    return merged(tuple(found))
 
 
 def _readable(paths: dict[str, CameraFiles], usable: dict[str, CameraFiles]) -> dict[str, CameraInput]:
@@ -108,7 +120,7 @@ def run_sync(files: StageFiles, params: SyncStageParams) -> StageResult:
     except LogUnitError as exc:
         key, source = params.source or ("trajectory", files.path("trajectory"))
         raise InputError(f"{source} ([target] {key}): {exc}") from None
-    failed = {name: str(votes[name]) if name not in usable else timeline.failed[name] for name in paths if name not in usable or name in timeline.failed}
+    failed = {name: timeline.failed.get(name, str(votes[name])) for name in paths if name not in usable or name in timeline.failed}
     lines = {name: _with_scan(_flag_truncated(line, paths[name]), paths[name]) for name, line in timeline.cameras.items()}
     lines = {name: _with_container_fps(line, params.fps.get(name), params.container_fps.get(name)) for name, line in lines.items()}
     timeline = replace(timeline, cameras=lines, failed={**failed, **params.left_out})
@@ -141,8 +153,10 @@ FPS_TOLERANCE = 5e-4  # the fps key and the video's container may differ by this
 
 
 def _with_container_fps(line: CameraLine, fps: float | None, container: float | None) -> CameraLine:
-    """The camera's line with a weak reason when its fps key differs from its video's container rate."""
-    if fps is None or container is None or abs(fps / container - 1.0) <= FPS_TOLERANCE:
+    """The camera's line with a weak reason when its fps key differs from its video's container rate (not when the
+    container's times jump: its average rate then counts the gap, and the breaks say so)."""
+    jumps = any(b.kind in ("gap", "repeat") for b in line.breaks or ())
+    if fps is None or container is None or jumps or abs(fps / container - 1.0) <= FPS_TOLERANCE:
         return line
     reason = Reason(
         "fps_container",

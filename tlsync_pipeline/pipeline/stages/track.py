@@ -19,26 +19,32 @@ from tlsync_pipeline.atomic import atomic_path
 from tlsync_pipeline.pipeline.spec import Options, Sources, StageResult, StageSpec
 from tlsync_pipeline.pipeline.stages.cameras import VIDEO_INFO_FORMAT, scans
 from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
+from trackers.breaks import Break, FreezeMeter, container_breaks
 from trackers.detections import Detections, write_detections
 from trackers.track import Track, write_track
 from trackers.tracking import detect_movers, track_video
-from trackers.video import DecodeCount, TruncatedVideoWarning, probe_video
+from trackers.video import DecodeCount, TruncatedVideoWarning, presentation_times, probe_video
 
 if TYPE_CHECKING:
     from tlsync_pipeline.pipeline.project import Project, TrackerConfig
 
 
-def track_camera(name: str, video: Path, tracker: TrackerConfig, progress: bool = True, plan: dict | None = None, count: DecodeCount | None = None) -> Track | Detections:
+def track_camera(
+    name: str, video: Path, tracker: TrackerConfig, progress: bool = True, plan: dict | None = None, count: DecodeCount | None = None, freeze: FreezeMeter | None = None
+) -> Track | Detections:
     """Every mover (``tracker.every_mover``) or the target (CSRT from its init box) in one camera's video.
 
     plan: the scan stage's scan.json for every mover (None, or mode
-    "full": every frame); count: filled with the frames decoded.
+    "full": every frame); count: filled with the frames decoded; freeze:
+    fed the frames read (trackers/breaks.py; not by CSRT).
     """
     label = f"{name} ({video.name})"
     if tracker.every_mover:
         windows = None if plan is None or plan["mode"] == "full" else [(int(a), int(b)) for a, b in plan["windows"]]
-        return detect_movers(video, params=dict(tracker.parameters), progress=progress, label=label, windows=windows, count=count)
-    return track_video(video, kind=tracker.kind, init=tracker.init, init_frame=tracker.init_frame, params=dict(tracker.parameters), progress=progress, label=label)
+        return detect_movers(video, params=dict(tracker.parameters), progress=progress, label=label, windows=windows, count=count, freeze=freeze)
+    return track_video(
+        video, kind=tracker.kind, init=tracker.init, init_frame=tracker.init_frame, params=dict(tracker.parameters), progress=progress, label=label, freeze=freeze
+    )
 
 
 def write_track_atomic(track: Track, path: Path) -> None:
@@ -62,23 +68,33 @@ def run_track(files: StageFiles, tracker: TrackerConfig) -> StageResult:
     video = files.path("video")
     plan = json.loads(files.path("scan").read_text(encoding="utf-8")) if files.has("scan") else None  # plain JSON: this stage's code does not import sync
     count = DecodeCount()
+    freeze = FreezeMeter()
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", TruncatedVideoWarning)
-        result = track_camera(files.camera_name, video, tracker, progress=files.progress, plan=plan, count=count)
+        result = track_camera(files.camera_name, video, tracker, progress=files.progress, plan=plan, count=count, freeze=freeze)
     truncation = next((w.message for w in caught if isinstance(w.message, TruncatedVideoWarning)), None)
     for item in caught:
         warnings.warn_explicit(item.message, item.category, item.filename, item.lineno)
     recorded = tuple(sorted({str(w.message) for w in caught if issubclass(w.category, TruncatedVideoWarning)}))
     info = video_info(video, truncation)
     read = reading(plan, count, info["frames"], isinstance(result, Detections))
+    breaks = video_breaks(video, freeze)
     with files.write("video_info") as tmp:
-        tmp.write_text(json.dumps({**info, **read}, indent=1) + "\n", encoding="utf-8")
+        tmp.write_text(json.dumps({**info, **read, "breaks": [b.to_dict() for b in breaks]}, indent=1) + "\n", encoding="utf-8")
     if isinstance(result, Detections):
         write_detections_atomic(result, files.output("detections"))
         facts = {"detections": len(result), "tracklets": int(len(result.tracklet_ids())), **read}
         return StageResult(f"wrote {files.output('detections')} ({len(result)} detections; {read_summary(read, info['frames'])})", recorded, facts=facts)
     write_track_atomic(result, files.output("track"))
     return StageResult(f"wrote {files.output('track')} ({len(result)} tracked frames)", recorded, facts={"tracked_frames": len(result)})
+
+
+def video_breaks(video: Path, freeze: FreezeMeter) -> list[Break]:
+    """Where the video leaves its steady clock: gaps and repeats of the container's presentation times (every frame,
+    demux only) and frozen runs among the frames the tracker read, in frame order (trackers/breaks.py)."""
+    times = presentation_times(video)
+    found = (container_breaks(times) if times is not None else []) + freeze.breaks()
+    return sorted(found, key=lambda b: b.frame)
 
 
 def reading(plan: dict | None, count: DecodeCount, frames: int, every_mover: bool) -> dict:

@@ -1,0 +1,158 @@
+"""Breaks judged against a camera's line: a drop the votes show, harmless breaks, refused cameras (sync/breaks.py)."""
+
+import numpy as np
+
+from tlsync_pipeline.sync.breaks import (
+    break_reasons,
+    merged,
+    segment_reasons,
+    vote_break,
+)
+from tlsync_pipeline.sync.clock import FRAME, CameraClock, Segment
+from tlsync_pipeline.sync.segments import END, fit_segments
+from tlsync_pipeline.sync.status import AMBIGUOUS
+from trackers.breaks import Break
+
+ALPHA, BETA, DELTA = 2.5, -100.0, 0.5
+
+
+def _votes(frames, shift=None, at=None, noise=0.1, seed=0):
+    """Votes of a target seen at ``frames`` on the line frame = ALPHA * sample + BETA; with ``shift`` frames
+    missing from frame ``at`` on (the later frames show instants ``shift`` frames later), plus scattered votes."""
+    rng = np.random.default_rng(seed)
+    frames = np.asarray(frames, dtype=np.float64)
+    instant = frames + (shift if shift else 0) * (frames >= (at if at is not None else np.inf))
+    sample = (instant - BETA) / ALPHA + rng.normal(0, noise, len(frames))
+    clutter = rng.uniform(frames.min(), frames.max(), 40)
+    frame = np.concatenate([frames, np.round(clutter)])
+    return frame, frame.copy(), np.concatenate([sample, rng.uniform(sample.min(), sample.max(), 40)])
+
+
+def test_a_drop_in_view_shows_as_a_parallel_line():
+    frame, clock, sample = _votes(np.arange(100, 300), shift=25, at=220)
+    found = vote_break(frame, clock, sample, ALPHA, BETA, DELTA)  # the line of the frames before the drop
+    assert found is not None and found.kind == "drop"
+    assert abs(found.frame - 220) <= 1 and abs(found.size - 25) < 0.5
+
+
+def test_frames_inserted_give_a_negative_size():
+    frame, clock, sample = _votes(np.arange(100, 300), shift=-10, at=150)
+    found = vote_break(frame, clock, sample, ALPHA, BETA + 10, DELTA)  # the line of the (longer) part after it
+    assert found is not None and abs(found.frame - 150) <= 1 and abs(found.size + 10) < 0.5
+
+
+def test_steady_votes_and_a_second_pass_are_not_a_drop():
+    frame, clock, sample = _votes(np.arange(100, 300))
+    assert vote_break(frame, clock, sample, ALPHA, BETA, DELTA) is None
+    # the path passed twice: the same frames vote for a sample 80 later too (a periodic path), not a break
+    again = sample + 80 / ALPHA
+    assert (
+        vote_break(
+            np.concatenate([frame, frame]),
+            np.concatenate([clock, clock]),
+            np.concatenate([sample, again]),
+            ALPHA,
+            BETA,
+            DELTA,
+        )
+        is None
+    )
+
+
+def _reasons(breaks, tracked, shift=None, at=None):
+    frame, clock, sample = _votes(tracked, shift=shift, at=at)
+    return break_reasons(tuple(breaks), np.asarray(tracked), frame, clock, sample, ALPHA, BETA, DELTA)
+
+
+def test_a_freeze_that_did_not_move_the_clock_is_harmless():
+    assert _reasons([Break("frozen", 200, 5.0)], np.arange(100, 300)) == ()
+
+
+def test_a_freeze_that_moved_the_clock_refuses_the_camera_with_the_break_named():
+    (reason,) = _reasons([Break("frozen", 200, 5.0)], np.arange(100, 300), shift=-5, at=205)
+    assert reason.code == "clock_break" and reason.severity == AMBIGUOUS
+    assert "frozen 5 frames at frame 200" in reason.text and "off the line" in reason.text
+
+
+def test_a_break_the_target_never_crosses_leaves_the_other_side_unknown():
+    (reason,) = _reasons([Break("gap", 500, 3000.0)], np.arange(100, 300))
+    assert "gap of 3e+03 frames at frame 500" in reason.text and "unknown" in reason.text
+
+
+def test_lone_frozen_frames_count_when_they_repeat():
+    tracked = np.arange(100, 300)
+    assert _reasons([Break("frozen", 400, 1.0)], tracked) == ()
+    (reason,) = _reasons([Break("frozen", f, 1.0) for f in (400, 500, 600)], tracked)
+    assert "3 single frozen frames" in reason.text and "every 100 frames" in reason.text
+
+
+def test_a_drop_next_to_a_named_break_is_the_same_break():
+    named = Break("frozen", 100, 25.0)
+    assert merged((Break("drop", 117, -25.0), named)) == (named,)
+    far = Break("drop", 400, 5.0)
+    assert merged((far, named)) == (named, far)
+
+
+def _dists(frame):
+    return np.zeros(len(frame))
+
+
+def test_segments_measure_a_drop_in_whole_frames():
+    frame, clock, sample = _votes(np.arange(100, 300), shift=25, at=220)
+    tracked = np.arange(100, 300)
+    segments = fit_segments(
+        (Break("drop", 220, 25.0),), tracked, frame, clock, sample, _dists(frame), ALPHA, BETA, DELTA, vfr=False
+    )
+    assert [(s.start, s.source, s.shift) for s in segments] == [(0, "line", 0.0), (220, "votes", 25.0)]
+    assert segments[1].stop == END and segments[0].frames == 120
+
+
+def test_segments_the_target_never_visits_follow_the_container_or_stay_unknown():
+    frame, clock, sample = _votes(np.arange(100, 300))
+    tracked = np.arange(100, 300)
+    breaks = (Break("gap", 50, 12.0), Break("frozen", 400, 20.0))
+    segments = fit_segments(breaks, tracked, frame, clock, sample, _dists(frame), ALPHA, BETA, DELTA, vfr=False)
+    assert [(s.start, s.stop, s.source, s.shift) for s in segments] == [
+        (0, 50, "container", -12.0),
+        (50, 400, "line", 0.0),
+        (400, 420, "frozen", None),
+        (420, END, "unknown", None),
+    ]
+    # presentation times carry the container's gap already: no segment
+    assert fit_segments(breaks[:1], tracked, frame, clock, sample, _dists(frame), ALPHA, BETA, DELTA, vfr=True) == ()
+
+
+def test_a_segmented_clock_maps_known_segments_and_nothing_else():
+    clock = CameraClock(
+        FRAME,
+        25.0,
+        segments=(Segment(0, 100, 25.0, "votes"), Segment(100, 125, None, "frozen"), Segment(125, END, 0.0, "line")),
+    )
+    assert np.allclose(clock.clock_at([0, 99, 125, 200]), [25, 124, 125, 200])
+    assert np.isnan(clock.clock_at([110])).all()
+    assert np.allclose(clock.frames_at([25, 124, 125, 200]), [0, 99, 125, 200])
+    assert np.allclose(
+        clock.frames_at([10.0]), [-15.0]
+    )  # the first segment reaches back (the frame map drops frames < 0)
+    dropped = CameraClock(FRAME, 25.0, segments=(Segment(0, 100, 0.0, "line"), Segment(100, END, 25.0, "votes")))
+    assert np.allclose(dropped.frames_at([99.0, 125.0]), [99.0, 100.0])
+    assert np.isnan(dropped.frames_at([110.0])).all()  # an instant of the dropped frames: no frame shows it
+
+
+def test_one_segment_visited_and_the_rest_unknown_is_weak_with_segments_named():
+    segments = (Segment(0, 50, None, "unknown", 0), Segment(50, END, 0.0, "line", 200))
+    frame, clock, sample = _votes(np.arange(100, 300))
+    reasons = segment_reasons(
+        (Break("drop", 50, 3.0),), segments, np.arange(100, 300), frame, clock, sample, ALPHA, BETA, DELTA
+    )
+    assert [r.code for r in reasons] == ["segments"] and "frames 0-49: unknown (not seen by the target)" in reasons[
+        0
+    ].text
+    lost = (Segment(0, 50, None, "unknown", 30), Segment(50, END, 0.0, "line", 200))
+    codes = [
+        r.code
+        for r in segment_reasons(
+            (Break("drop", 50, 3.0),), lost, np.arange(100, 300), frame, clock, sample, ALPHA, BETA, DELTA
+        )
+    ]
+    assert codes == ["segments", "clock_break"]

@@ -1,0 +1,50 @@
+"""The causes a contradicted camera's track is tested for (sync/causes.py), on the quick demo scene's cameras."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import pytest
+
+from data_fixtures import make_scene
+from tlsync_pipeline.sync.causes import explain, image_offset
+from tlsync_pipeline.sync.plausibility import GATE_EPS, Judged, LogUnitError
+from tlsync_pipeline.trajectory import PiecewiseTrajectory
+
+EPS_PX = 10.0
+
+
+@pytest.fixture(scope="module")
+def scene():
+    return make_scene(0, lines=((2.0, 4.0), (2.0, 45.0), (1.0, -30.5)), n_frames=(512, 512, 300), tracking_noise_px=1.0)
+
+
+def _judged(scene, contradicted, shift=(0.0, 0.0)):
+    out = {}
+    for name, camera in scene.cameras.items():
+        track = scene.tracks[name]
+        if name in contradicted:
+            track = replace(track, x=track.x + shift[0], y=track.y + shift[1])
+        out[name] = Judged(camera, track, None, None, name in contradicted)
+    return out
+
+
+def test_a_constant_pixel_offset_is_found_and_named(scene):
+    judged = _judged(scene, {"cam1"}, (0.0, 60.0))
+    offset = image_offset(judged["cam1"].camera, judged["cam1"].track.xy, PiecewiseTrajectory(scene.trajectory), GATE_EPS * EPS_PX)
+    assert offset is not None and abs(offset[0]) < 10 and 40 < offset[1] <= 62
+    reasons = explain(judged, scene.trajectory, EPS_PX)
+    assert list(reasons) == ["cam1"] and reasons["cam1"].code == "track_offset" and "shadow" in reasons["cam1"].remedy
+
+
+def test_a_log_riding_above_is_named_with_the_key_and_its_value(scene):
+    raised = replace(scene.trajectory, xyz=scene.trajectory.xyz + [0.0, 0.0, 1.5])
+    reasons = explain(_judged(scene, {"cam2"}), raised, EPS_PX, above_m=0.2)
+    assert reasons["cam2"].code == "log_height" and "logged_point_above_m = 1.7" in reasons["cam2"].remedy
+    with pytest.raises(LogUnitError, match=r"column z: heights 4\d(\.\d)? m too high: .*altitude_reference"):
+        explain(_judged(scene, set(scene.cameras)), replace(scene.trajectory, xyz=scene.trajectory.xyz + [0.0, 0.0, 47.0]), EPS_PX)
+
+
+def test_right_cameras_and_tracks_on_the_path_get_no_cause(scene):
+    assert explain(_judged(scene, set()), scene.trajectory, EPS_PX) == {}
+    assert explain(_judged(scene, {"cam0"}), scene.trajectory, EPS_PX) == {}  # on the path: its timing is at fault
