@@ -28,7 +28,7 @@ from tlsync_pipeline.errors import SyncError
 from tlsync_pipeline.sync.breaks import identify_in_segments, segment_reasons, with_vote_break
 from tlsync_pipeline.sync.clock import FrameTimes, Segment, camera_clock, image_speed
 from tlsync_pipeline.sync.identify import Identification, IdentifyParams
-from tlsync_pipeline.sync.log_model import PRESETS, LogModel, vote_radius
+from tlsync_pipeline.sync.log_model import PRESETS, LogModel, measured, vote_radius
 from tlsync_pipeline.sync.methods import CameraData, CameraInput, JointMethod
 from tlsync_pipeline.sync.params import Preparation, SyncParams
 from tlsync_pipeline.sync.causes import explain
@@ -162,6 +162,7 @@ def synchronize(
     else fails alone. Raises LogUnitError (an InputError) when every
     camera's evidence says the log is not in seconds or metres.
     """
+    declared, log_model = log_model, measured(log_model, trajectory)
     prepared = with_log_noise(prepare_trajectory(trajectory, preparation_of(params)), log_model)
     path = PiecewiseTrajectory(prepared)
     results: dict[str, CameraResult] = {}
@@ -217,6 +218,7 @@ def synchronize(
         else:
             lines[name] = line
     shared: dict[str, np.ndarray] = {}
+    fitted_model, estimate = log_model, None
     method = get_method(params.method)
     # A camera whose pose comes from the target absorbed the log's bias during its visit in that pose: it stays out.
     surveyed = {name: results[name] for name in lines if not _pose_from_target(used[name].camera)}
@@ -225,6 +227,7 @@ def synchronize(
         fitted, bias = method.refine_with_log_bias(data, {n: lines[n] for n in surveyed}, prepared, params, method_options(params), log_model)
         lines = {**lines, **fitted}
         if bias is not None:
+            fitted_model, estimate = bias.model, bias.estimate
             names = [n for n in lines if n in bias.sensitivity]
             shared = {f"{a}|{b}": bias.line_cov(a, b) for i, a in enumerate(names) for b in names[i + 1 :]}
     timeline = Timeline(
@@ -236,7 +239,7 @@ def synchronize(
         failed={name: failed[name] for name in cameras if name in failed},
         rejected=rejected,
         shared_cov=shared,
-        log_model=asdict(log_model) if log_model.name != "none" else None,
+        log_model=_log_error(fitted_model, declared, estimate),
     )
     return timeline, results
 
@@ -284,6 +287,18 @@ def _the_rival(name: str, inputs: CameraInput, result: CameraResult, prepared: T
         return refit
     swapped = replace(search, runner_up_frames=old.support_frames, rival_alpha=old.alpha, rival_beta=old.beta, rival_probability=None)
     return replace(refit, votes=result.votes, line=replace(refit.line, line_search=swapped))
+
+
+def _log_error(model: LogModel, declared: LogModel, estimate: tuple[float, float] | None) -> dict | None:
+    """timeline.json's log_error model: the model the sync used, which of its values were measured, the declared
+    preset (their prior), and the bias's marginal-likelihood estimate (recorded, not applied: fit_log_bias_measured)."""
+    if model.white_m <= 0 and not model.has_bias:
+        return None
+    prior = {k: v for k, v in asdict(declared).items() if k != "measured"}
+    record = {**asdict(model), "measured": list(model.measured), "prior": prior}
+    if estimate is not None:
+        record["estimate"] = {"bias_m": estimate[0], "tau_s": estimate[1]}
+    return record
 
 
 def _segmented(name: str, inputs: CameraInput, result: CameraResult, prepared: Trajectory, params: SyncParams, radius_px: float) -> tuple[CameraInput, CameraResult]:
