@@ -14,7 +14,7 @@ log_model). With --bound, the first-order bound of each model
 (bench/gps_bound.py): the median worst-pair eps_t an efficient estimator
 that knows the log's error model exactly reaches on the same scenes.
 
-    nice python bench/gps_error.py --scenes 30 [--models rtk phone] [--route straight] [--no-bias-model] [--bound]
+    nice python bench/gps_error.py --scenes 30 [--models rtk phone] [--route straight] [--no-bias-model] [--bound] [--declared none]
 """
 
 from __future__ import annotations
@@ -42,11 +42,11 @@ SPEED_MPS = {"drone": 5.0}  # a drone flies through the views; the others walk a
 
 def run_scene(args: tuple) -> dict:
     """One scene: the worst synchronized pair's eps_t (nan when none), each synchronized pair's |z| of its start offset, and whether a camera was refused."""
-    seed, model, route, cameras, params, bound = args
+    seed, model, route, cameras, params, bound, declared = args
     scene = make_walk_scene(seed, WalkSpec(cameras=cameras, route=route, log=PRESETS[model], speed_mps=SPEED_MPS.get(model, 1.4)))
     inputs = {n: CameraInput(c, scene.tracks[n], c.fps) for n, c in scene.cameras.items()}
     start = time.process_time()
-    timeline, _ = synchronize(inputs, scene.trajectory, params, log_model=_declared(model))
+    timeline, _ = synchronize(inputs, scene.trajectory, params, log_model=_declared(model) if declared is None else LOG_MODELS[declared])
     seconds = time.process_time() - start
     errors, z = [], []
     for key, truth in scene.truth_pairs().items():
@@ -89,17 +89,18 @@ def main() -> None:
     parser.add_argument("--rate-sigma", type=float, default=None, help="[sync] rate_sigma (default: the project default)")
     parser.add_argument("--no-bias-model", action="store_true", help="sync without estimating the log's bias")
     parser.add_argument("--bound", action="store_true", help="also the first-order bound's median (bench/gps_bound.py)")
+    parser.add_argument("--declared", default=None, choices=list(LOG_MODELS), help="the model declared for every receiver (default: its own kind; none: undeclared, a trajectory the project brings)")
     parser.add_argument("--processes", type=int, default=2)
     args = parser.parse_args()
     params = SyncParams() if args.rate_sigma is None else SyncParams(rate_sigma=args.rate_sigma)
     if args.no_bias_model:
         params = dataclasses.replace(params, log_bias=False)
-    print(f"{args.scenes} walk scenes per model, route {args.route!r}, {args.cameras} cameras, rate_sigma {params.rate_sigma:g}, bias model {'off' if args.no_bias_model else 'on'}")
+    print(f"{args.scenes} walk scenes per model, route {args.route!r}, {args.cameras} cameras, rate_sigma {params.rate_sigma:g}, bias model {'off' if args.no_bias_model else 'on'}, declared {args.declared or 'as the receiver'}")
     print("| log | median eps_t | p90 | 95 % intervals that contain the truth | synchronized pairs | scenes with a camera refused | CPU s / scene | first-order bound (median) |")
     print("|---|---|---|---|---|---|---|---|")
     with multiprocessing.Pool(args.processes) as pool:
         for model in args.models:
-            jobs = [(args.first_seed + k, model, args.route, args.cameras, params, args.bound) for k in range(args.scenes)]
+            jobs = [(args.first_seed + k, model, args.route, args.cameras, params, args.bound, args.declared) for k in range(args.scenes)]
             s = summary(pool.map(run_scene, jobs, chunksize=1))
             print(f"| {model} | {s['median']:.2f} | {s['p90']:.2f} | {100 * s['coverage']:.0f} % | {s['pairs']} | {s['refused']} | {s['seconds']:.1f} | {s['bound']:.2f} |", flush=True)
 

@@ -24,9 +24,15 @@ import pytest
 
 from data_fixtures import make_scene, write_scene
 from tests.browser import Browser, find_chromium
+from tlsync_pipeline.outputs.player import PlayerVideo, player_data
+from tlsync_pipeline.outputs.report_content import ReportContent
+from tlsync_pipeline.outputs.report_html import report_html
 from tlsync_pipeline.pipeline.engine import run_graph
 from tlsync_pipeline.pipeline.graph import build_graph
 from tlsync_pipeline.pipeline.project import load_project
+from tlsync_pipeline.sync.clock import CameraClock, Segment
+from tlsync_pipeline.sync.timeline import CameraLine, Timeline
+from trackers.breaks import Break
 from trackers.track import Track
 from trackers.video import presentation_times
 
@@ -204,3 +210,43 @@ def test_report_in_chromium(report, tmp_path):
     image = cv2.imread(str(path))
     assert image is not None and 1240 <= image.shape[1] <= 1280 and image.shape[0] > 1400  # the whole page (less a scrollbar)
     assert image.std() > 20  # a page, not a blank
+
+
+def test_a_recording_that_breaks_plays_each_segment_at_its_own_time(tmp_path):
+    """One H.264 camera whose recording breaks twice: frames 100-179 of unknown offset, then 57 frames dropped (frames
+    180-299 shifted 60 frames on the line). Seeking into the last segment shows the frame its shift names (not the
+    first segment's line's), the unknown segment shows no picture, and the strip marks both breaks."""
+    scene = make_scene(seed=3, n_frames=N_FRAMES, image_size=SIZE)
+    n = 300
+    write_vfr_h264(tmp_path / "broken.mp4", np.arange(n) / 30.0)
+    segments = (
+        Segment(0, 100, 0.0, "line", 40),
+        Segment(100, 180, None, "unknown", 0),
+        Segment(180, 300, 60.0, "votes", 30),
+    )
+    breaks = (Break("gap", 100, 3.0), Break("drop", 180, 57.0))
+    line = CameraLine("cam0", 2.0, 10.0, 0, 0, 0.0, 30.0, clock=CameraClock(segments=segments), breaks=breaks)
+    timeline = Timeline({"cam0": line}, target_rate=10.0, target_t0=0.0)
+    videos = {"cam0": PlayerVideo("broken.mp4", False, "h264", presentation_times(tmp_path / "broken.mp4"))}
+    player = player_data(timeline, scene.cameras, scene.trajectory, videos, utc=False)
+    page = report_html(ReportContent("broken", timeline, [], [], [], player=player))
+    (tmp_path / "report.html").write_text(page, encoding="utf-8")
+    with Browser(CHROMIUM) as browser:
+        browser.navigate((tmp_path / "report.html").as_uri())
+        loaded = (
+            "new Promise(ok => { const v = document.querySelector('#player-views video');"
+            " if (v.readyState >= 2) ok(1); else v.addEventListener('loadeddata', () => ok(1)); })"
+        )
+        assert browser.evaluate(loaded) == 1
+        browser.evaluate(PAGE_HELPERS)
+        for frame in (50, 200, 280):  # the first segment, then the last (its clock = frame + 60)
+            clock = frame + (60 if frame >= 180 else 0)
+            view = move_slider(browser, (clock - 10.0) / 2.0)["cam0"]
+            assert view["frame"] == frame and view["code"] == frame, (frame, view)
+            assert frame / 30.0 <= view["time"] < (frame + 1) / 30.0
+        unknown = move_slider(browser, (140 + 30 - 10.0) / 2.0)["cam0"]  # between the two known segments
+        assert unknown["frame"] == -2
+        caption = browser.evaluate("document.querySelector('#player-views figcaption').textContent")
+        assert "no picture: unknown segment" in caption
+        assert browser.evaluate("document.querySelectorAll('#player-views .strip .break').length") == 2
+        assert browser.errors() == []

@@ -8,6 +8,13 @@ cameras: the same rule as the frame map), and seeks its video to the middle
 of that frame's display interval. The target's projected position is drawn
 over each video from a table sampled on the target grid.
 
+A recording that breaks (sync/segments.py) brings its segment table: each
+segment's frames, its shift (the clock units CameraClock.clock_at adds to its
+frames: the player takes the nearest frame on each segment of known shift to
+clock - shift and keeps the one the segment holds, as CameraClock.frames_at
+does) and the target samples it spans; and its breaks, each at the sample
+where it happened, drawn on the camera's strip.
+
 Pure functions: typed values in, a JSON-ready dict out.
 """
 
@@ -67,6 +74,47 @@ def recording_samples(line: CameraLine, frame_times: np.ndarray) -> tuple[float,
     return (float(samples.min()), float(samples.max())) if len(samples) else (0.0, 0.0)
 
 
+def segment_table(line: CameraLine, frame_times: np.ndarray) -> list[dict]:
+    """A recording's segments for the player: start, stop (frames, stop excluded), shift (clock units, None: unknown),
+    source, and lo, hi: the target samples of its first and last frames; for a segment of unknown shift, the samples
+    between the known segments around it (None: open), where the camera shows no picture rather than a wrong frame."""
+    n = len(frame_times)
+    table = FrameTimes(np.arange(n, dtype=np.float64), np.asarray(frame_times, dtype=np.float64))
+    spans: list[tuple[float, float] | None] = []
+    for seg in line.clock.segments:
+        first, last = max(seg.start, 0), min(seg.stop, n) - 1
+        known = seg.shift is not None and last >= first
+        lo, hi = line.sample_at(np.array([first, last], dtype=np.float64), table) if known else (np.nan, np.nan)
+        spans.append((float(lo), float(hi)) if known else None)
+    rows = []
+    for k, seg in enumerate(line.clock.segments):
+        span = spans[k]
+        if span is None:  # between the known segments around it
+            before = [s[1] for s in spans[:k] if s is not None]
+            after = [s[0] for s in spans[k + 1 :] if s is not None]
+            lo, hi = (before[-1] if before else None), (after[0] if after else None)
+        else:
+            lo, hi = span
+        row = {"start": seg.start, "stop": seg.stop, "shift": seg.shift, "source": seg.source}
+        rows.append(row | {"lo": lo, "hi": hi})
+    return rows
+
+
+def break_marks(line: CameraLine, frame_times: np.ndarray) -> list[dict]:
+    """Each break of a recording at the target sample where it happened (its first frame after, else its last frame
+    before, as the report's recordings chart places it): {sample, text}; breaks next to no frame of known offset are
+    left out."""
+    n = len(frame_times)
+    table = FrameTimes(np.arange(n, dtype=np.float64), np.asarray(frame_times, dtype=np.float64))
+    marks = []
+    for b in line.breaks or ():
+        after, before = line.sample_at(np.array([max(b.frame, 0), max(b.frame - 1, 0)], dtype=np.float64), table)
+        where = after if np.isfinite(after) else before
+        if np.isfinite(where):
+            marks.append({"sample": float(where), "text": b.describe()})
+    return marks
+
+
 def projected_path(camera, trajectory: Trajectory, lo: float, hi: float) -> dict:
     """The target's projected image position on the grid samples in [lo, hi], thinned to MAX_PATH_POINTS.
 
@@ -94,7 +142,8 @@ def projected_path(camera, trajectory: Trajectory, lo: float, hi: float) -> dict
 
 
 def player_data(timeline: Timeline, cameras: dict, trajectory: Trajectory, videos: dict[str, PlayerVideo], utc: bool) -> dict:
-    """The JSON the player reads: the target clock, the shared range and per camera its line, times and path.
+    """The JSON the player reads: the target clock, the shared range and per camera its line, times and path (and, for a
+    recording that breaks, its segments and breaks).
 
     cameras: name -> Camera (calibration); videos: name -> PlayerVideo; utc:
     whether t0 + t_r / rate is POSIX time (GPS logs).
@@ -105,21 +154,23 @@ def player_data(timeline: Timeline, cameras: dict, trajectory: Trajectory, video
         video = videos[name]
         lo, hi = recording_samples(line, video.frame_times)
         ranges.append((lo, hi))
-        entries.append(
-            {
-                "name": name,
-                "src": video.src,
-                "proxy": video.proxy,
-                "codec": video.codec,
-                "alpha": line.alpha,
-                "beta": line.beta,
-                "fps": line.fps or 0.0,
-                "clock_fps": line.clock.fps if line.clock.vfr else None,
-                "times": encode_times(video.frame_times),
-                "size": list(cameras[name].image_size),
-                "path": projected_path(cameras[name], trajectory, lo, hi),
-            }
-        )
+        entry: dict = {
+            "name": name,
+            "src": video.src,
+            "proxy": video.proxy,
+            "codec": video.codec,
+            "alpha": line.alpha,
+            "beta": line.beta,
+            "fps": line.fps or 0.0,
+            "clock_fps": line.clock.fps if line.clock.vfr else None,
+            "times": encode_times(video.frame_times),
+            "size": list(cameras[name].image_size),
+            "path": projected_path(cameras[name], trajectory, lo, hi),
+        }
+        if line.clock.segments:
+            entry["segments"] = segment_table(line, video.frame_times)
+            entry["breaks"] = break_marks(line, video.frame_times)
+        entries.append(entry)
     return {
         "target": {"rate": timeline.target_rate or 1.0, "t0": timeline.target_t0 or 0.0, "utc": bool(utc), "seconds": timeline.target_rate is not None},
         "range": [min(r[0] for r in ranges), max(r[1] for r in ranges)] if ranges else [0.0, 1.0],

@@ -73,7 +73,8 @@ def _player_section(player: dict | None) -> str:
     return (
         '<h2 id="player-title">Synchronized player</h2>'
         '<p class="hint">One position on the target\'s clock drives every video: each seeks to its frame through the camera\'s line '
-        "(presentation times for VFR cameras). Red circle: where the logged trajectory projects at that instant; red line: the projected "
+        "(presentation times for VFR cameras; a shift per segment for a recording that breaks, its breaks marked red "
+        "on the strip under its view). Red circle: where the logged trajectory projects at that instant; red line: the projected "
         "path while the camera records. Keys: ← → one frame of the chosen camera (click a view to choose it), space: play / pause.</p>"
         '<div id="player"><div class="controls">'
         '<button id="player-back" title="previous frame (←)">◀</button><button id="player-play">play</button>'

@@ -425,6 +425,7 @@ class CameraConfig:
     track: Path | None = key(_path)
     detections: Path | None = key(_path)
     fps: float | None = key(_positive)
+    pick_start_s: float | None = key(_finite)  # the line picked where two remain: the log's time (s after its first fix) at the first frame
     video: Path | None = key(_path)
     proxy: str = key(_choice(*PROXY_POLICIES, what="proxy policy"), PROXY_POLICIES[0])
     tracker: TrackerConfig = table(TrackerConfig)

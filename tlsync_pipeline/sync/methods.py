@@ -40,7 +40,9 @@ class CameraInput:
     A camera without a pose (``Camera.posed`` false) gets it from the target
     first (sync/pose.py), with ``gcps`` as a prior when given. breaks: where
     its recording may leave its steady clock (trackers/breaks.py), judged
-    against its line (sync/breaks.py).
+    against its line (sync/breaks.py). pick_start_s: the line the user picked
+    where two remained ([[cameras]] pick_start_s: the log's time, seconds after
+    its first fix, at the video's first frame), or None.
     """
 
     camera: Camera
@@ -49,6 +51,7 @@ class CameraInput:
     detections: Detections | None = None
     gcps: GcpPrior | None = None
     breaks: tuple[Break, ...] = ()
+    pick_start_s: float | None = None
 
 
 @dataclass(frozen=True)

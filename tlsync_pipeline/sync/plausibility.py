@@ -25,7 +25,8 @@ wrong answer cannot fake:
 - backward support: the frames backing the votes' best line running
   backwards in time, against the line's own;
 - a rival: the line search's best line without the line's votes, as strong
-  and far from it.
+  and far from it, that the camera's whole track, the log's bias absorbed,
+  does not rule out (sync/rival.py).
 
 ``judge_line`` turns the measures into reasons of the camera's status
 (sync/status.py); ``diagnose`` looks at every camera together (a time or
@@ -47,7 +48,9 @@ from calibration.camera import Camera
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.sync.clock import image_speed
 from tlsync_pipeline.sync.line_search import find_line
+from tlsync_pipeline.sync.log_model import LogModel
 from tlsync_pipeline.sync.ransac import distance_to_line
+from tlsync_pipeline.sync.rival import RivalOdds, rival_odds
 from tlsync_pipeline.sync.slope import SlopePrior
 from tlsync_pipeline.sync.status import AMBIGUOUS, FAILED, WEAK, Reason
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
@@ -235,6 +238,8 @@ AGAINST_MIN = 0.3  # share of displacements against the projected path that name
 RIVAL_RATIO = 0.5  # a rival line with this share of the line's support ...
 RIVAL_SECONDS = 1.0  # ... further than this from it (median over the tracked frames) makes the camera ambiguous
 RIVAL_SAMPLES = 10.0  # the same, in samples, without frame rates
+RIVAL_PROBABILITY = 0.01  # ... unless the joint evidence (sync/rival.py) leaves the rival less than this
+RIVAL_BAND_FRAMES = 300.0  # a line's intercept is profiled over at most this many frames either side
 SLOPE_OFF = 1.3  # motion slope / clock prior beyond this factor (either way): the clock is wrong
 BACKWARD_BELOW = 60  # a line backed by fewer frames is checked against the best line running backwards in time ...
 MIN_BACKWARD = 20  # ... which, with at least this many frames ...
@@ -252,13 +257,15 @@ def judge_line(
     alpha_prior: float | None,
     slope: MotionSlope | None,
     support: tuple[int, int | None] = (0, None),
+    rate: float | None = None,
 ) -> tuple[Reason, ...]:
     """The plausibility checks of one camera's line (a sync.timeline.CameraLine): the reasons they find, or ().
 
     alpha_prior: the clock prior's slope (fps / log rate), None when unknown
     or the slope is free; slope: what the votes' motion says (``motion_slope``);
     support: the frames whose votes back the line, and those backing the best
-    line running backwards in time (``backward_support``; None: not measured).
+    line running backwards in time (``backward_support``; None: not measured);
+    rate: the log's samples per second (None: starts are given in samples).
     """
     evidence = line_evidence(camera, track, clock, path, line.alpha, line.beta, GATE_EPS * eps_px, fps)
     reasons = []
@@ -289,7 +296,7 @@ def judge_line(
     forward, backward = support
     if backward is not None and backwards_better(forward, backward) and not any(r.code == "reversed" for r in reasons):
         reasons.append(Reason("reversed", FAILED, f"the votes back a line running backwards in time better ({backward} frames, against {forward} forwards): the log looks reversed in time", "check the log's time order"))
-    rival = _rival(line, track, clock, fps, eps_px)
+    rival = _rival(line, track, clock, fps, eps_px, rate)
     if rival is not None:
         reasons.append(rival)
     return tuple(reasons)
@@ -330,10 +337,11 @@ def _off_path(evidence: LineEvidence, eps_px: float, why: str = "") -> Reason:
     )
 
 
-def _rival(line, track: Track, clock: np.ndarray, fps: float | None, eps_px: float) -> Reason | None:
-    """AMBIGUOUS when the line search's best line without this line's votes has comparable support and lies apart:
-    further than RIVAL_SECONDS, and further than the target takes to cross the band of one pass's votes (+-eps_px, the
-    vote radius) in the image: within it, the log's error moves the line as far (the same pass, not a second one)."""
+def _rival_apart(line, track: Track, clock: np.ndarray, fps: float | None, eps_px: float) -> float | None:
+    """How far (clock units, median over the tracked frames) the line search's rival lies from its line, when it has
+    comparable support (RIVAL_RATIO) and lies apart: further than RIVAL_SECONDS, and further than the target takes to
+    cross the band of one pass's votes (+-eps_px, the vote radius) in the image: within it, the log's error moves the
+    line as far (the same pass, not a second one). None otherwise."""
     search = line.line_search
     if search is None or search.rival_alpha is None or search.runner_up_frames < RIVAL_RATIO * search.support_frames:
         return None
@@ -343,20 +351,47 @@ def _rival(line, track: Track, clock: np.ndarray, fps: float | None, eps_px: flo
     speed = image_speed(clock, track.xy, quantile=0.5)
     if speed is not None and apart <= 2.0 * eps_px / speed:  # within the band one pass's votes span (+-eps_px)
         return None
-    if fps:
-        if apart / fps <= RIVAL_SECONDS:
-            return None
-        distance = f"{apart / fps:.3g} s"
+    if (apart / fps <= RIVAL_SECONDS) if fps else (apart / line.alpha <= RIVAL_SAMPLES):
+        return None
+    return apart
+
+
+def rival_odds_of(camera: Camera, track: Track, clock: np.ndarray, path: PiecewiseTrajectory, line, eps_px: float, fps: float | None, model: LogModel, rate: float | None) -> RivalOdds | None:
+    """The rival's posterior against the line search's line on the camera's whole track, the log's bias absorbed
+    (sync/rival.py), when the rival passes the support and distance gates of ``_rival``; None otherwise.
+
+    Each line's intercept is profiled over the band one pass's votes span (eps_px over the image speed, in clock units).
+    """
+    if _rival_apart(line, track, clock, fps, eps_px) is None:
+        return None
+    search = line.line_search
+    speed = image_speed(np.asarray(clock, dtype=np.float64), track.xy, quantile=0.5) or 1.0
+    band = min(eps_px / speed, RIVAL_BAND_FRAMES)
+    return rival_odds(camera, clock, track.xy, path, (search.alpha, search.beta), (search.rival_alpha, search.rival_beta), model, fps, rate, band)
+
+
+def _rival(line, track: Track, clock: np.ndarray, fps: float | None, eps_px: float, rate: float | None = None) -> Reason | None:
+    """AMBIGUOUS when the line search's rival passes the gates of ``_rival_apart`` and, when its joint odds were
+    weighed (LineSearchSummary.rival_probability, ``rival_odds_of``), keeps at least RIVAL_PROBABILITY of the posterior:
+    the reason gives both lines' starts (the log's time at the video's first frame) with their probabilities."""
+    apart = _rival_apart(line, track, clock, fps, eps_px)
+    if apart is None:
+        return None
+    search = line.line_search
+    probability = search.rival_probability
+    if probability is not None and probability < RIVAL_PROBABILITY:
+        return None
+    distance = f"{apart / fps:.3g} s" if fps else f"{apart:.0f} frames"
+    text = f"a second line {distance} away has comparable support ({search.runner_up_frames} against {search.support_frames} frames)"
+    if probability is not None:
+        starts = [(-line.beta / line.alpha, 1.0 - probability), (-search.rival_beta / search.rival_alpha, probability)]
+        unit = (lambda s: f"{s / rate:.2f} s") if rate else (lambda s: f"sample {s:.1f}")
+        text += ", and the track under each, the log's bias absorbed, leaves both possible: the video's first frame at " + " or at ".join(f"{unit(s)} of the log ({p:.0%})" for s, p in starts)
+        key = "pick_start_s" if rate else "pick_start_sample"
+        remedy = f"a longer pass through this view with a turn in it, or a more accurate log (RTK), settles it; or pick one: [[cameras]] {key} = one of these starts (docs/project.md)"
     else:
-        if apart / line.alpha <= RIVAL_SAMPLES:
-            return None
-        distance = f"{apart:.0f} frames"
-    return Reason(
-        "ambiguous",
-        AMBIGUOUS,
-        f"a second line {distance} away has comparable support ({search.runner_up_frames} against {search.support_frames} frames)",
-        "the target passes through this view alike more than once: give the tracker an init box on the right pass, or a log of that pass only",
-    )
+        remedy = "the target passes through this view alike more than once: give the tracker an init box on the right pass, or a log of that pass only"
+    return Reason("ambiguous", AMBIGUOUS, text, remedy)
 
 
 PATH_POINTS = 400_000  # most points of the path model projected to measure a path share

@@ -18,7 +18,7 @@ from tlsync_pipeline.sync.line_search import LineSearch, find_line
 from tlsync_pipeline.sync.methods import CameraData
 from tlsync_pipeline.sync.params import SyncParams, param
 from tlsync_pipeline.sync.ransac import distance_to_line
-from tlsync_pipeline.sync.log_bias import BiasCamera, LogBias, fit_log_bias
+from tlsync_pipeline.sync.log_bias import BiasCamera, LogBias, fit_log_bias, fit_log_bias_measured
 from tlsync_pipeline.sync.log_model import LogModel
 from tlsync_pipeline.sync.refine import Refinement, refine_line, sigma_weights, smooth_trajectory
 from tlsync_pipeline.sync.slope import SlopePrior, slope_prior
@@ -154,12 +154,12 @@ class RefinedMethod:
         joint = {n: _bias_camera(cameras[n], path, r, options.f_scale_px, slope_prior(cameras[n].fps, rate, params.rate_sigma)) for n, r in own.items()}
         kept, again = list(own), {}
         while kept:
-            bias = fit_log_bias([joint[n] for n in kept], path, rate, model, options.f_scale_px)
+            bias = fit_log_bias_measured([joint[n] for n in kept], path, rate, model, options.f_scale_px)
             again = _refit_on_corrected(cameras, {n: own[n] for n in kept}, bias, trajectory, params, options) if bias.converged else {}
             if len(again) == len(kept):
                 break
             kept = list(again)
-        at_prior = bias if len(again) == len(own) else fit_log_bias(list(joint.values()), path, rate, model, options.f_scale_px, estimate=False)
+        at_prior = bias if len(again) == len(own) else fit_log_bias(list(joint.values()), path, rate, bias.model, options.f_scale_px, estimate=False)
         if not again:
             bias = at_prior
         out = dict(lines)

@@ -63,6 +63,7 @@ FLAGS: dict[str, tuple[str, str, str]] = {
     "along_ray": (WEAK, "the target moves mostly along the viewing ray (little timing information)", "a pass of the target across the view"),
     "truncated": (WEAK, "the video ends before its announced end; only the frames it holds are mapped", "check the video file (re-copy or re-encode it)"),
     "clock_disagrees": (WEAK, "the offset disagrees with the camera's own clock by more than its tolerance (see clock_prior)", "check the camera's clock and the log's time base"),
+    "picked": (WEAK, "the line was picked by the project ([[cameras]] pick_start_s) among lines the evidence left possible", "remove pick_start_s to let the evidence decide"),
 }
 
 

@@ -26,13 +26,13 @@ import numpy as np
 from calibration.camera import Camera
 from tlsync_pipeline.errors import SyncError
 from tlsync_pipeline.sync.breaks import identify_in_segments, segment_reasons, with_vote_break
-from tlsync_pipeline.sync.clock import FrameTimes, Segment, camera_clock
+from tlsync_pipeline.sync.clock import FrameTimes, Segment, camera_clock, image_speed
 from tlsync_pipeline.sync.identify import Identification, IdentifyParams
-from tlsync_pipeline.sync.log_model import PRESETS, LogModel, vote_radius
+from tlsync_pipeline.sync.log_model import PRESETS, LogModel, measured, vote_radius
 from tlsync_pipeline.sync.methods import CameraData, CameraInput, JointMethod
 from tlsync_pipeline.sync.params import Preparation, SyncParams
 from tlsync_pipeline.sync.causes import explain
-from tlsync_pipeline.sync.plausibility import BACKWARD_BELOW, Judged, backward_support, diagnose, judge_line, line_support, motion_slope
+from tlsync_pipeline.sync.plausibility import BACKWARD_BELOW, RIVAL_PROBABILITY, Judged, backward_support, diagnose, judge_line, line_support, motion_slope, rival_odds_of
 from tlsync_pipeline.sync.pose import TargetPose, estimate_pose, pose_info
 from tlsync_pipeline.sync.refined import RefinedParams
 from tlsync_pipeline.sync.segments import MAX_WHOLE, MIN_SEGMENT_FRAMES, fit_segments, whole_frames
@@ -175,6 +175,7 @@ def synchronize(
     else fails alone. Raises LogUnitError (an InputError) when every
     camera's evidence says the log is not in seconds or metres.
     """
+    declared, log_model = log_model, measured(log_model, trajectory)
     prepared = with_log_noise(prepare_trajectory(trajectory, preparation_of(params)), log_model)
     path = PiecewiseTrajectory(prepared)
     results: dict[str, CameraResult] = {}
@@ -196,11 +197,22 @@ def synchronize(
             if inputs.track is None:
                 result = identify_and_synchronize(name, inputs, prepared, params, radius[name])
             else:
-                result = synchronize_camera(name, inputs, cast if cast is not None else cast_votes(inputs.camera, inputs.track, prepared, radius[name]), prepared, params, radius[name])
+                cast = cast if cast is not None else cast_votes(inputs.camera, inputs.track, prepared, radius[name])
+                if inputs.pick_start_s is not None:
+                    cast = picked_votes(name, inputs, cast, trajectory.rate, radius[name])
+                result = synchronize_camera(name, inputs, cast, prepared, params, radius[name])
+                if inputs.pick_start_s is not None:
+                    result = replace(result, line=replace(result.line, flags=(*(result.line.flags or ()), "picked")))
             inputs, result = _segmented(name, inputs, result, prepared, params, radius[name])
             if pose is not None and log_model.has_bias:
                 result = replace(result, line=with_pose_offset(result.line, pose))
-            results[name], judged[name] = _judge(name, inputs, replace(result, pose=pose), path, params, prior, radius[name])
+            results[name], judged[name] = _judge(name, inputs, replace(result, pose=pose), path, params, prior, radius[name], log_model, trajectory.rate)
+            search = results[name].line.line_search
+            if cameras[name].track is not None and search is not None and search.rival_probability is not None and search.rival_probability > 1.0 - RIVAL_PROBABILITY:
+                result = _the_rival(name, inputs, results[name], prepared, params, radius[name])
+                if pose is not None and log_model.has_bias:
+                    result = replace(result, line=with_pose_offset(result.line, pose))
+                results[name], judged[name] = _judge(name, inputs, replace(result, pose=pose), path, params, prior, radius[name], log_model, trajectory.rate)
         except SyncError as exc:
             failed[name] = str(exc)
             judged[name] = _unjudged(inputs, prior)
@@ -223,6 +235,7 @@ def synchronize(
         else:
             lines[name] = line
     shared: dict[str, np.ndarray] = {}
+    fitted_model, estimate = log_model, None
     method = get_method(params.method)
     # A camera whose pose comes from the target absorbed the log's bias during its visit in that pose: it stays out.
     surveyed = {name: results[name] for name in lines if not _pose_from_target(used[name].camera)}
@@ -231,6 +244,7 @@ def synchronize(
         fitted, bias = method.refine_with_log_bias(data, {n: lines[n] for n in surveyed}, prepared, params, method_options(params), log_model)
         lines = {**lines, **fitted}
         if bias is not None:
+            fitted_model, estimate = bias.model, bias.estimate
             names = [n for n in lines if n in bias.sensitivity]
             shared = {f"{a}|{b}": bias.line_cov(a, b) for i, a in enumerate(names) for b in names[i + 1 :]}
     timeline = Timeline(
@@ -242,9 +256,66 @@ def synchronize(
         failed={name: failed[name] for name in cameras if name in failed},
         rejected=rejected,
         shared_cov=shared,
-        log_model=asdict(log_model) if log_model.name != "none" else None,
+        log_model=_log_error(fitted_model, declared, estimate),
     )
     return timeline, results
+
+
+PICK_BAND_S = 0.5  # a picked line keeps the votes within this many seconds of it (at least one pass's band)
+
+
+def picked_votes(name: str, inputs: CameraInput, votes: Votes, rate: float | None, radius_px: float) -> Votes:
+    """The camera's votes near the line the user picked (``CameraInput.pick_start_s``: the log's time, seconds after its
+    first fix, at the video's first frame; slope fps / rate): ``votes_near`` that line. SyncError when none is left or
+    the rates are unknown."""
+    track, start = inputs.track, inputs.pick_start_s
+    assert track is not None and start is not None
+    fps = camera_clock(track, inputs.fps).fps or inputs.fps
+    if not fps or not rate:
+        raise SyncError(f"camera {name}: pick_start_s needs the camera's fps and the log's times")
+    near = votes_near(inputs, votes, fps / rate, -fps * start, radius_px)
+    if not near.any():
+        raise SyncError(f"camera {name}: no vote near the picked start (pick_start_s = {start:g}): give one of the starts its ambiguous status names, or remove the key")
+    return Votes(votes.frame[near], votes.sample[near], votes.dist[near])
+
+
+def votes_near(inputs: CameraInput, votes: Votes, alpha: float, beta: float, radius_px: float) -> np.ndarray:
+    """Mask of the votes within PICK_BAND_S of the line clock = alpha x sample + beta, or within the band one pass's
+    votes span (the vote radius over the target's median image speed), whichever is wider."""
+    track = inputs.track
+    assert track is not None
+    clock = camera_clock(track, inputs.fps)
+    fps = clock.fps or inputs.fps or 1.0
+    times = FrameTimes.of_track(track)
+    speed = image_speed(clock.clock_at(track.frame, times), track.xy, quantile=0.5)
+    band = max(PICK_BAND_S * fps, radius_px / speed if speed else 0.0)
+    return np.abs(clock.clock_at(votes.frame, times) - alpha * votes.sample - beta) <= band
+
+
+def _the_rival(name: str, inputs: CameraInput, result: CameraResult, prepared: Trajectory, params: SyncParams, radius_px: float) -> CameraResult:
+    """The camera's line refitted on the votes near the line search's rival, which the whole track prefers beyond
+    1 - RIVAL_PROBABILITY (plausibility.rival_odds_of): the old line becomes its rival (line_search), to be weighed again."""
+    old = result.line.line_search
+    assert old is not None and old.rival_alpha is not None and old.rival_beta is not None
+    near = votes_near(inputs, result.votes, old.rival_alpha, old.rival_beta, radius_px)
+    refit = synchronize_camera(name, inputs, Votes(result.votes.frame[near], result.votes.sample[near], result.votes.dist[near]), prepared, params, radius_px)
+    search = refit.line.line_search
+    if search is None:
+        return refit
+    swapped = replace(search, runner_up_frames=old.support_frames, rival_alpha=old.alpha, rival_beta=old.beta, rival_probability=None)
+    return replace(refit, votes=result.votes, line=replace(refit.line, line_search=swapped))
+
+
+def _log_error(model: LogModel, declared: LogModel, estimate: tuple[float, float] | None) -> dict | None:
+    """timeline.json's log_error model: the model the sync used, which of its values were measured, the declared
+    preset (their prior), and the bias's marginal-likelihood estimate (recorded, not applied: fit_log_bias_measured)."""
+    if model.white_m <= 0 and not model.has_bias:
+        return None
+    prior = {k: v for k, v in asdict(declared).items() if k != "measured"}
+    record = {**asdict(model), "measured": list(model.measured), "prior": prior}
+    if estimate is not None:
+        record["estimate"] = {"bias_m": estimate[0], "tau_s": estimate[1]}
+    return record
 
 
 def _segmented(name: str, inputs: CameraInput, result: CameraResult, prepared: Trajectory, params: SyncParams, radius_px: float) -> tuple[CameraInput, CameraResult]:
@@ -344,8 +415,14 @@ def _unjudged(inputs: CameraInput, prior) -> Judged:
     return Judged(inputs.camera, inputs.track if inputs.camera.posed else None, None, None if prior is None else prior.alpha, True)
 
 
-def _judge(name: str, inputs: CameraInput, result: CameraResult, path: PiecewiseTrajectory, params: SyncParams, prior, radius_px: float) -> tuple[CameraResult, Judged]:
+def _judge(
+    name: str, inputs: CameraInput, result: CameraResult, path: PiecewiseTrajectory, params: SyncParams, prior, radius_px: float, log_model: LogModel, rate: float | None
+) -> tuple[CameraResult, Judged]:
     """The camera's result with its line checked (CameraLine.checks) at its vote radius (pixels), and what ``diagnose`` needs of it.
+
+    A rival line of the line search is weighed on the whole track under the
+    log's error model first (plausibility.rival_odds_of: its probability goes
+    into the line's line_search summary, which the rival check reads).
 
     A line with a non-finite slope or intercept is a SyncError; a covariance
     that is not finite or has a negative variance is dropped (no interval
@@ -369,7 +446,10 @@ def _judge(name: str, inputs: CameraInput, result: CameraResult, path: Piecewise
     support: tuple[int, int | None] = (thin, None)
     if thin < BACKWARD_BELOW:  # a thin line: would the log read backwards explain the votes better?
         support = (line_support(votes.sample, vote_clock, line.alpha, line.beta, params.delta), backward_support(votes.sample, vote_clock, votes.dist, params.delta, prior, params.seed))
-    checks = judge_line(inputs.camera, track, track_clock, path, line, radius_px, fps, alpha_prior, slope, support)
+    odds = rival_odds_of(inputs.camera, track, track_clock, path, line, radius_px, fps, log_model, rate)
+    if odds is not None and line.line_search is not None:
+        line = replace(line, line_search=replace(line.line_search, rival_probability=odds.rival_probability))
+    checks = judge_line(inputs.camera, track, track_clock, path, line, radius_px, fps, alpha_prior, slope, support, rate)
     checks = (*checks, *segment_reasons(inputs.breaks, line.clock.segments, track.frame, votes.frame, vote_clock, votes.sample, line.alpha, line.beta, params.delta))
     others = line.identification is not None and line.identification.candidates_voting > CROWDED * line.identification.identified_frames
     if inputs.track is None and radius_px > params.eps_px and "few_inliers" in (line.flags or ()) and others:

@@ -45,7 +45,8 @@ class Relation:
 @dataclass(frozen=True)
 class LineSearchSummary:
     """The refined method's line search: its line, the distinct frames backing it and its best rival (and that
-    rival's line, None when there is none), votes kept, lines tried."""
+    rival's line, None when there is none), votes kept, lines tried; rival_probability: the rival's posterior
+    probability on the camera's whole track (sync/rival.py), None when it was not weighed."""
 
     alpha: float
     beta: float
@@ -55,6 +56,7 @@ class LineSearchSummary:
     hypotheses: int
     rival_alpha: float | None = None
     rival_beta: float | None = None
+    rival_probability: float | None = None
 
 
 @dataclass(frozen=True)

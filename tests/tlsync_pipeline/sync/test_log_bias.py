@@ -4,6 +4,7 @@ import dataclasses
 
 import numpy as np
 import pytest
+import scipy.sparse as sp
 
 from data_fixtures.log_error import PRESETS as FIXTURE_LOGS
 from data_fixtures.log_error import LogErrorModel, gauss_markov
@@ -42,6 +43,7 @@ def test_the_prior_whitening_makes_the_gauss_markov_covariance_the_identity():
     w = _prior_whitening(knots, 2.0, 30.0, sigma)
     dt = np.abs(knots[:, None] - knots[None, :]) / 2.0
     cov = np.kron(np.exp(-dt / 30.0), np.diag(sigma**2))
+    w = w.toarray()
     assert np.allclose(w @ cov @ w.T, np.eye(15), atol=1e-6)
 
 
@@ -142,14 +144,41 @@ def test_a_target_picked_among_walkers_through_a_phones_log_on_few_frames_is_not
             assert abs(timeline.relation(a, b).beta - truth.beta) <= 3.0 * np.sqrt(cov[1, 1]), key
 
 
-def test_a_camera_whose_line_slides_on_the_corrected_log_leaves_the_joint_fit_alone():
-    """Drone scene 0: one camera's few votes let the joint estimate drag its line away; it keeps its own line with the
-    bias at its prior, and the others keep the estimate (before: the estimate was dropped for all, 19 frames off)."""
+def test_a_drone_scene_where_one_camera_has_few_votes_keeps_every_camera_in_the_joint_fit():
+    """Drone scene 0: one camera's few votes once let the joint estimate drag its line to a 20 m bias (the dense
+    trust-region solver's step); the joint optimum keeps every camera's line, each with the bias observed."""
     scene = make_walk_scene(0, WalkSpec(log=FIXTURE_LOGS["drone"], speed_mps=5.0))
     timeline = _run(scene, log_bias=True, model=PRESETS["drone"])
     observability = {n: line.log_bias.observability for n, line in timeline.cameras.items() if line.log_bias is not None}
     assert len(observability) == 3
-    assert sorted(observability.values())[0] < 0.1 < 0.5 < sorted(observability.values())[1]
+    assert min(observability.values()) > 0.5, observability
     assert all(abs(e) <= half for e, half in _visit_errors(scene, timeline).values())
     worst = max(eps_t(timeline.relation(a, b), truth, scene.n_frames[a]) for key, truth in scene.truth_pairs().items() for a, b in [key.split("->")])
     assert worst < 8.0
+
+
+def test_the_joint_fit_over_many_cameras_builds_no_dense_matrix_over_frames_or_knots():
+    """12 cameras' frames and a drone's bias: the Jacobian and the prior are sparse, a frame's two pixel rows holding
+    its camera's two line parameters and the 6 values of the two knots around it; only the knots' posterior is dense."""
+    from tlsync_pipeline.sync.log_bias import BiasCamera, _Joint, _knots, fit_log_bias
+    from tlsync_pipeline.trajectory import PiecewiseTrajectory
+
+    scene = make_walk_scene(1, WalkSpec(log=FIXTURE_LOGS["drone"], speed_mps=5.0))
+    path = PiecewiseTrajectory(scene.trajectory)
+    own = []
+    for name, track in scene.tracks.items():
+        line = scene.lines[name]
+        own.append(BiasCamera(name, scene.cameras[name], track.frame.astype(float), np.column_stack([track.x, track.y]), np.ones(len(track.frame)), line.alpha, line.beta, 0.01 * np.eye(2), None))
+    cameras = [dataclasses.replace(own[k % len(own)], name=f"c{k}") for k in range(12)]
+    rate, model = float(scene.trajectory.rate), PRESETS["drone"]
+    knots = _knots(cameras, path, rate, model)
+    whiten = _prior_whitening(knots, rate, model.tau_s, np.array([1.0, 1.0, 2.0]))
+    problem = _Joint(cameras, path, knots, whiten, 2.0)
+    jacobian = problem.jacobian(np.concatenate([problem.x0, np.zeros(3 * len(knots))]))
+    rows = sum(2 * len(c.clock) for c in cameras)
+    assert sp.issparse(jacobian) and sp.issparse(whiten)
+    assert jacobian.shape == (rows + 3 * len(knots), 2 * len(cameras) + 3 * len(knots))
+    assert jacobian.nnz <= 8 * rows + whiten.nnz
+    assert whiten.nnz <= 2 * 3 * len(knots)
+    bias = fit_log_bias(cameras[:3], path, rate, model, 2.0)
+    assert np.isfinite(bias.values).all() and bias.cov.shape == (3 * len(bias.knots),) * 2

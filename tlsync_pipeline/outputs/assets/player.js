@@ -2,7 +2,10 @@
 // Data: the JSON in <script id="tlsync-player-data"> (see tlsync_pipeline/outputs/player.py).
 // Position: the target sample s (seconds t0 + s / rate). A camera's clock is alpha * s + beta
 // (frame index, or presentation time x clock_fps for VFR cameras); its frame is the nearest frame
-// to that clock, and its video seeks to the middle of that frame's display interval.
+// to that clock, and its video seeks to the middle of that frame's display interval. A recording that
+// breaks (c.segments) adds a shift per segment: its frame is the one a segment of known shift holds at
+// clock - shift (CameraClock.frames_at); none there, and a segment of unknown shift spans the position:
+// "no picture: unknown segment" rather than a wrong frame.
 (function () {
   "use strict";
   const holder = document.getElementById("tlsync-player-data");
@@ -35,9 +38,8 @@
     return Object.assign({}, c, { times: times, n: n, interval: interval });
   });
 
-  // Nearest frame (0-based) to the camera's clock at target sample s, or -1 when the camera is not recording.
-  function frameAt(c, s) {
-    const clock = c.alpha * s + c.beta;
+  // Nearest frame (0-based) to a steady clock value, or -1 outside the recording.
+  function steadyFrame(c, clock) {
     if (c.clock_fps) {
       const t = clock / c.clock_fps, times = c.times;
       if (t < times[0] - c.interval / 2 || t > times[c.n - 1] + c.interval / 2) return -1;
@@ -49,21 +51,55 @@
     return (f >= 0 && f < c.n) ? f : -1;
   }
 
+  // The camera's frame at target sample s and its segment's shift: frame -1 when the camera is not recording,
+  // -2 in a segment of unknown shift (segment: its row).
+  function locate(c, s) {
+    const clock = c.alpha * s + c.beta;
+    if (!c.segments) return { frame: steadyFrame(c, clock), shift: 0 };
+    const last = c.segments.length - 1;
+    for (let k = 0; k <= last; k++) {
+      const g = c.segments[k];
+      if (g.shift === null) continue;
+      const f = steadyFrame(c, clock - g.shift);
+      if (f >= 0 && (k === 0 || f >= g.start) && (k === last || f < g.stop)) return { frame: f, shift: g.shift };
+    }
+    const unknown = c.segments.find(function (g) {
+      return g.shift === null && (g.lo === null || s >= g.lo) && (g.hi === null || s <= g.hi);
+    });
+    return { frame: unknown ? -2 : -1, shift: 0, segment: unknown };
+  }
+
+  function frameAt(c, s) { return locate(c, s).frame; }
+
+  function frameLabel(f) {
+    return f >= 0 ? "frame " + f : (f === -2 ? "no picture: unknown segment" : "not recording");
+  }
+
   // The video time (s) that shows frame f: the middle of its display interval.
   function seekTime(c, f) {
     const next = f + 1 < c.n ? c.times[f + 1] : c.times[f] + c.interval;
     return c.times[f] + (next - c.times[f]) / 2;
   }
 
-  // The target sample at which frame f of camera c was taken.
+  // The shift of frame f's segment (0 without segments; null: unknown).
+  function shiftOf(c, f) {
+    if (!c.segments) return 0;
+    const last = c.segments.length - 1;
+    const g = c.segments.find(function (g, k) { return (k === 0 || f >= g.start) && (k === last || f < g.stop); });
+    return g ? g.shift : null;
+  }
+
+  // The target sample at which frame f of camera c was taken (NaN: its segment's shift is unknown).
   function sampleOfFrame(c, f) {
-    const clock = c.clock_fps ? c.times[f] * c.clock_fps : f;
+    const shift = shiftOf(c, f);
+    if (shift === null) return NaN;
+    const clock = (c.clock_fps ? c.times[f] * c.clock_fps : f) + shift;
     return (clock - c.beta) / c.alpha;
   }
 
   // Continuous video time at target sample s (for playback drift checks).
   function videoTime(c, s) {
-    const clock = c.alpha * s + c.beta;
+    const clock = c.alpha * s + c.beta - locate(c, s).shift;
     if (c.clock_fps) return clock / c.clock_fps;
     const i = Math.max(0, Math.min(c.n - 2, Math.floor(clock)));
     return c.n > 1 ? c.times[i] + (clock - i) * (c.times[i + 1] - c.times[i]) : c.times[0];
@@ -112,16 +148,45 @@
     const caption = document.createElement("figcaption");
     const title = document.createElement("b");
     title.textContent = c.name;
-    const frameLabel = document.createElement("span");
+    const label = document.createElement("span");
     const note = document.createElement("span");
     note.className = "note";
-    caption.append(title, " ", frameLabel, " ", note);
+    caption.append(title, " ", label, " ", note);
     if (!c.src) note.textContent = "no video: projected path only";
     else if (c.proxy) note.textContent = "proxy clip";
     box.append(stage, caption);
+    let cursor = null, place = null;
+    if (c.segments) {
+      // The recording's strip over the slider's range: segments of known shift, breaks, the current position.
+      const strip = document.createElement("div");
+      strip.className = "strip";
+      const at = function (s) { return (100 * (s - data.range[0]) / (data.range[1] - data.range[0] || 1)) + "%"; };
+      c.segments.forEach(function (g) {
+        if (g.shift === null || g.lo === null) return;
+        const bar = document.createElement("span");
+        bar.className = "segment" + (g.source === "line" ? " line" : "");
+        bar.style.left = at(g.lo);
+        bar.style.width = "calc(" + at(g.hi) + " - " + at(g.lo) + ")";
+        strip.appendChild(bar);
+      });
+      c.breaks.forEach(function (b) {
+        const mark = document.createElement("span");
+        mark.className = "break";
+        mark.style.left = at(b.sample);
+        mark.title = b.text;
+        strip.appendChild(mark);
+      });
+      cursor = document.createElement("span");
+      cursor.className = "cursor";
+      strip.appendChild(cursor);
+      place = at;
+      box.appendChild(strip);
+    }
     grid.appendChild(box);
     box.addEventListener("click", function () { stepSelect.value = c.name; });
-    return { camera: c, box: box, video: video, canvas: canvas, frameLabel: frameLabel, frame: -1 };
+    return {
+      camera: c, box: box, video: video, canvas: canvas, frameLabel: label, cursor: cursor, place: place, frame: -1,
+    };
   });
 
   function drawOverlay(view, s) {
@@ -159,11 +224,16 @@
   let position = data.range[0];
   let playing = false, wall0 = 0, position0 = 0;
 
-  function show(view, s, seek) {
-    const c = view.camera, f = frameAt(c, s);
+  function mark(view, f, s) {
     view.frame = f;
     view.box.classList.toggle("idle", f < 0);
-    view.frameLabel.textContent = f < 0 ? "not recording" : "frame " + f;
+    view.frameLabel.textContent = frameLabel(f);
+    if (view.cursor) view.cursor.style.left = view.place(s);
+  }
+
+  function show(view, s, seek) {
+    const c = view.camera, f = frameAt(c, s);
+    mark(view, f, s);
     if (view.video && f >= 0 && seek) view.video.currentTime = seekTime(c, f);
     if (view.video && f < 0 && !view.video.paused) view.video.pause();
     drawOverlay(view, s);
@@ -185,9 +255,7 @@
     clockLabel.textContent = formatTime(s);
     views.forEach(function (view) {
       const c = view.camera, f = frameAt(c, s);
-      view.frame = f;
-      view.box.classList.toggle("idle", f < 0);
-      view.frameLabel.textContent = f < 0 ? "not recording" : "frame " + f;
+      mark(view, f, s);
       if (view.video) {
         if (f < 0) { if (!view.video.paused) view.video.pause(); }
         else if (view.video.paused) { view.video.currentTime = videoTime(c, s); view.video.play().catch(function () {}); }
@@ -224,8 +292,9 @@
     const view = views.find(function (v) { return v.camera.name === stepSelect.value; }) || views[0];
     const c = view.camera, f = frameAt(c, position);
     if (f < 0) { setPosition(position + direction / c.alpha, true); return; }
-    const next = Math.max(0, Math.min(c.n - 1, f + direction));
-    setPosition(sampleOfFrame(c, next), true);
+    let next = Math.max(0, Math.min(c.n - 1, f + direction));
+    while (isNaN(sampleOfFrame(c, next)) && next + direction >= 0 && next + direction < c.n) next += direction;
+    if (!isNaN(sampleOfFrame(c, next))) setPosition(sampleOfFrame(c, next), true);
   }
 
   cameras.forEach(function (c) {
@@ -251,7 +320,11 @@
 
   // Start in the middle of the reference camera's recording.
   const first = cameras.find(function (c) { return c.name === data.reference; }) || cameras[0];
-  setPosition(first ? sampleOfFrame(first, Math.floor(first.n / 2)) : data.range[0], true);
+  const middle = first ? sampleOfFrame(first, Math.floor(first.n / 2)) : NaN;
+  setPosition(isNaN(middle) ? (data.range[0] + data.range[1]) / 2 : middle, true);
   root.classList.add("ready");
-  window.tlsyncPlayer = { setPosition: setPosition, frameAt: frameAt, seekTime: seekTime, sampleOfFrame: sampleOfFrame, step: step, views: views, get position() { return position; } };
+  window.tlsyncPlayer = {
+    setPosition: setPosition, frameAt: frameAt, locate: locate, seekTime: seekTime, sampleOfFrame: sampleOfFrame,
+    step: step, views: views, get position() { return position; },
+  };
 })();

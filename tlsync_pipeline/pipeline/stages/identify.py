@@ -24,7 +24,7 @@ from tlsync_pipeline.pipeline.stages.cameras import has_no_rows, ingest_report_i
 from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
 from tlsync_pipeline.sync.breaks import identify_in_segments
 from tlsync_pipeline.sync.identify import IdentifyParams
-from tlsync_pipeline.sync.log_model import LogModelChoice, vote_radius
+from tlsync_pipeline.sync.log_model import LogModelChoice, measured, vote_radius
 from tlsync_pipeline.sync.params import Preparation
 from tlsync_pipeline.sync.registry import preparation_of
 from tlsync_pipeline.sync.synchronize import identify_params, prepare_trajectory
@@ -71,7 +71,8 @@ def run_identify(files: StageFiles, params: IdentifyStageParams) -> StageResult:
     """
     warnings: list[str] = []
     camera = read_camera(files.path("camera"), name=files.camera)
-    prepared = prepare_trajectory(near_views(read_trajectory(files.path("trajectory")), [camera]), params.preparation)
+    logged = near_views(read_trajectory(files.path("trajectory")), [camera])
+    prepared = prepare_trajectory(logged, params.preparation)
     seed = params.seed
     try:
         if (problem := pose_problem(camera)) is not None:
@@ -84,7 +85,7 @@ def run_identify(files: StageFiles, params: IdentifyStageParams) -> StageResult:
         prefer = seed_tracklets(detections, list(seed.box), seed.frame) if seed is not None else frozenset()
         if seed is not None and not prefer:
             warnings.append(f"camera {files.camera}: no mover inside the init box {list(seed.box)} near frame {seed.frame}; the target is identified without it")
-        radius = vote_radius(camera, prepared, params.identify.eps_px, log_model_of(files, params.log_model))
+        radius = vote_radius(camera, prepared, params.identify.eps_px, measured(log_model_of(files, params.log_model), logged))
         breaks = tuple(Break.from_dict(b) for b in json.loads(files.path("video_info").read_text(encoding="utf-8")).get("breaks", ())) if files.has("video_info") else ()
         found, breaks = identify_in_segments(camera, detections, prepared, params.fps or camera.fps, replace(params.identify, eps_px=radius), prefer, breaks)
     except SyncError as exc:

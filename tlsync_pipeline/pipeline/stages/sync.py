@@ -47,6 +47,7 @@ class SyncStageParams(CamerasParams):
     log_model: LogModelChoice = field(default_factory=LogModelChoice)
     source: tuple[str, Path] | None = None
     container_fps: Mapping[str, float] = field(default_factory=dict)
+    picks: Mapping[str, float] = field(default_factory=dict)  # [[cameras]] pick_start_s by camera
 
 
 def read_camera_inputs(cameras: dict[str, CameraFiles]) -> dict[str, CameraInput]:
@@ -114,7 +115,7 @@ def run_sync(files: StageFiles, params: SyncStageParams) -> StageResult:
     votes = read_votes(paths)
     usable = {name: c for name, c in paths.items() if not isinstance(votes[name], SyncError)}
     try:
-        inputs = _readable(paths, usable)
+        inputs = {n: replace(i, pick_start_s=params.picks.get(n)) for n, i in _readable(paths, usable).items()}
         trajectory = near_views(read_trajectory(files.path("trajectory")), [c.camera for c in inputs.values()])
         timeline, _ = synchronize(inputs, trajectory, params.sync, votes, log_model_of(files, params.log_model))
     except LogUnitError as exc:
@@ -192,7 +193,7 @@ def load_inputs(project: Project) -> tuple[dict[str, CameraInput], Trajectory]:
             missing, what = ("camera", "calibration (camera.json)") if spec.camera is None else ("track", "track (track.csv)")
             raise InputError(f"{project.path}: camera {spec.name!r}: missing key {missing!r}: the camera's {what}")
         camera = read_camera(spec.camera, name=spec.name)
-        cameras[spec.name] = CameraInput(camera, read_track(spec.track), spec.fps if spec.fps is not None else camera.fps)
+        cameras[spec.name] = CameraInput(camera, read_track(spec.track), spec.fps if spec.fps is not None else camera.fps, pick_start_s=spec.pick_start_s)
     return cameras, read_trajectory(project.target.trajectory)
 
 
@@ -221,7 +222,8 @@ def sync_params(project: Project, camera: None, options: Options) -> SyncStagePa
     cameras = cameras_params(project)
     target = project.target
     source = ("trajectory", target.trajectory) if target.trajectory is not None else ("log", target.log) if target.log is not None else None
-    return SyncStageParams(cameras.cameras, fps=cameras.fps, sync=project.sync, log_model=target.log_error, source=source, container_fps=container_fps(project))
+    picks = {c.name: c.pick_start_s for c in project.cameras if c.pick_start_s is not None}
+    return SyncStageParams(cameras.cameras, fps=cameras.fps, sync=project.sync, log_model=target.log_error, source=source, container_fps=container_fps(project), picks=picks)
 
 
 SPEC = StageSpec(

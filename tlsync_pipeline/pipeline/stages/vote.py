@@ -17,7 +17,7 @@ from tlsync_pipeline.errors import SyncError
 from tlsync_pipeline.pipeline.spec import Options, Sources, StageResult, StageSpec
 from tlsync_pipeline.pipeline.stages.cameras import has_no_rows, ingest_report_input, log_model_of, pose_problem, read_identification
 from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
-from tlsync_pipeline.sync.log_model import LogModelChoice, vote_radius
+from tlsync_pipeline.sync.log_model import LogModelChoice, measured, vote_radius
 from tlsync_pipeline.sync.params import Preparation
 from tlsync_pipeline.sync.registry import preparation_of
 from tlsync_pipeline.sync.synchronize import cast_votes, prepare_trajectory
@@ -60,8 +60,9 @@ def run_vote(files: StageFiles, params: VoteParams) -> StageResult:
             raise problem
         if params.source is not None and has_no_rows(files.path("track")):
             raise SyncError(f"{params.source}: the target was never found (the track stage found it in no frame)")
-        prepared = prepare_trajectory(near_views(read_trajectory(files.path("trajectory")), [camera]), params.preparation)
-        radius = vote_radius(camera, prepared, params.eps_px, log_model_of(files, params.log_model))
+        logged = near_views(read_trajectory(files.path("trajectory")), [camera])
+        prepared = prepare_trajectory(logged, params.preparation)
+        radius = vote_radius(camera, prepared, params.eps_px, measured(log_model_of(files, params.log_model), logged))
         votes = cast_votes(camera, read_track(files.path("track")), prepared, radius)
         error = None
     except SyncError as exc:

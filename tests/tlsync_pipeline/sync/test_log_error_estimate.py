@@ -1,0 +1,74 @@
+"""The log's error measured from the data: white noise from the log's own fixes, the bias's std and correlation
+time by the joint fit's marginal likelihood, the declared preset only a prior."""
+
+import dataclasses
+
+import numpy as np
+
+from data_fixtures.log_error import PRESETS as RECEIVERS
+from data_fixtures.log_error import gauss_markov
+from data_fixtures.walk import WalkSpec, make_walk_scene
+from tlsync_pipeline.sync.log_bias import LogBias, _prior_whitening, bias_marginal_likelihood
+from tlsync_pipeline.sync.log_model import PRESETS, LogModel, measured, vote_radius, white_from_log
+
+
+def _logged(seed: int, receiver: str):
+    return make_walk_scene(seed, WalkSpec(log=RECEIVERS[receiver])).trajectory
+
+
+def test_the_white_noise_of_a_walkers_log_is_measured_within_fifteen_percent():
+    for seed in (0, 1):
+        white, count = white_from_log(_logged(seed, "white"))  # 0.3 m per axis at 1 Hz, turns included
+        assert count > 100
+        assert abs(white - 0.3) < 0.15 * 0.3, white
+        rtk, _ = white_from_log(_logged(seed, "rtk"))  # 2 cm at 10 Hz
+        assert rtk < 0.04, rtk
+
+
+def test_an_undeclared_good_log_is_neither_exact_nor_a_phones():
+    trajectory = _logged(0, "white")
+    undeclared = measured(PRESETS["none"], trajectory)
+    assert abs(undeclared.white_m - 0.3) < 0.05 and not undeclared.has_bias
+    assert undeclared.measured == ("white_m",)
+    camera = next(iter(make_walk_scene(0, WalkSpec()).cameras.values()))
+    assert vote_radius(camera, trajectory, 10.0, undeclared) < vote_radius(camera, trajectory, 10.0, PRESETS["phone"]) / 3
+    as_phone = measured(PRESETS["phone"], trajectory)  # a GPX taken for a phone's: its 0.3 m, not the preset's 0.5
+    assert abs(as_phone.white_m - 0.3) < 0.05
+
+
+def test_a_log_that_states_its_sigmas_keeps_its_model():
+    trajectory = dataclasses.replace(_logged(0, "white"), sigma=np.full(len(_logged(0, "white")), 0.3))
+    assert measured(PRESETS["phone"], trajectory) == PRESETS["phone"]
+
+
+def _observed_bias(sigma: float, tau: float, noise: float, prior: LogModel, seed: int) -> LogBias:
+    """Knots every 5 s over 1500 s each observed with white noise, fitted under ``prior``'s Gauss-Markov prior."""
+    knots = np.arange(0.0, 1500.0, 5.0)
+    rng = np.random.default_rng(seed)
+    truth = gauss_markov(rng, knots, np.array([sigma, sigma, 2.0 * sigma]), tau)
+    observed = truth + rng.normal(0.0, noise, truth.shape)
+    information = np.eye(3 * len(knots)) / noise**2
+    scale = np.array([prior.bias_m, prior.bias_m, prior.bias_vertical_m])
+    whiten = _prior_whitening(knots, 1.0, prior.tau_s, scale)
+    precision = (whiten.T @ whiten).toarray()
+    values = np.linalg.solve(precision + information, information @ observed.ravel()).reshape(-1, 3)
+    return LogBias(knots, values, np.linalg.inv(precision + information), scale, {}, {}, True, information, prior)
+
+
+def test_the_marginal_likelihood_recovers_the_bias_std_and_correlation_time_from_a_wrong_prior():
+    """A drone's bias (1 m / 30 s) seen through a phone's prior (2 m / 60 s), and the reverse: sigma within 25 %,
+    tau within 50 % (1500 s hold 25-50 correlation times)."""
+    cases = [(1.0, 30.0, PRESETS["phone"]), (2.0, 60.0, PRESETS["drone"])]
+    for seed, (sigma, tau, prior) in enumerate(cases):
+        found = bias_marginal_likelihood(_observed_bias(sigma, tau, 0.2, prior, seed), 1.0, prior)
+        assert abs(found.bias_m / sigma - 1.0) < 0.25, (found.bias_m, sigma)
+        assert abs(found.tau_s / tau - 1.0) < 0.5, (found.tau_s, tau)
+        assert abs(found.bias_vertical_m / found.bias_m - 2.0) < 1e-9 and set(found.measured) == {"bias_m", "tau_s"}
+
+
+def test_a_bias_the_pixels_do_not_see_stays_at_its_prior():
+    prior = PRESETS["drone"]
+    bias = _observed_bias(1.0, 30.0, 0.2, prior, 0)
+    blind = dataclasses.replace(bias, values=np.zeros_like(bias.values), information=np.zeros_like(bias.information))
+    found = bias_marginal_likelihood(blind, 1.0, prior)
+    assert abs(found.bias_m - prior.bias_m) < 0.05 * prior.bias_m and abs(found.tau_s - prior.tau_s) < 0.05 * prior.tau_s

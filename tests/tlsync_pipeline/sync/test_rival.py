@@ -1,0 +1,130 @@
+"""The rival line weighed on the camera's whole track with the log's bias absorbed (sync/rival.py, plausibility._rival)."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+
+from calibration.camera import Camera
+from data_fixtures.gcp import looking_at
+from tlsync_pipeline.sync.log_model import PRESETS
+from tlsync_pipeline.sync.methods import CameraInput
+from tlsync_pipeline.sync.params import SyncParams
+from tlsync_pipeline.sync.plausibility import RIVAL_PROBABILITY, _rival, rival_odds_of
+from tlsync_pipeline.sync.synchronize import synchronize
+from tlsync_pipeline.sync.timeline import CameraLine, LineSearchSummary
+from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
+from trackers.track import Track
+
+FPS, RATE = 30.0, 1.0  # a phone's log: one fix a second
+LAP_S = 40.0  # the target walks a circle of 9 m radius in this many seconds (1.4 m/s)
+RADIUS_M = 9.0
+
+
+def _circle(t: np.ndarray) -> np.ndarray:
+    angle = 2 * math.pi * t / LAP_S
+    return np.column_stack([RADIUS_M * np.cos(angle), RADIUS_M * np.sin(angle), np.ones(len(t))])
+
+
+def _scene(laps: int, bias_m: tuple[float, float, float] = (1.5, -1.0, 0.0), seed: int = 0):
+    """A camera 25 m south of a circle the target walks ``laps`` times, the log 1 Hz with a constant bias and 0.3 m of
+    white noise; the track of the first lap (1 px noise): (camera, track, clock, path, true line, trajectory)."""
+    rng = np.random.default_rng(seed)
+    R, t = looking_at([0.0, -25.0, 8.0], [0.0, 0.0, 1.0])
+    K = np.array([[900.0, 0.0, 640.0], [0.0, 900.0, 360.0], [0.0, 0.0, 1.0]])
+    camera = Camera("cam0", K, np.zeros(5), R, t, (1280, 720), FPS)
+    sample = np.arange(int(laps * LAP_S * RATE) + 1, dtype=np.float64)
+    xyz = _circle(sample / RATE) + np.asarray(bias_m) + rng.normal(0.0, 0.3, (len(sample), 3))
+    trajectory = Trajectory(sample, xyz, RATE, 0.0)
+    path = PiecewiseTrajectory(trajectory)
+    start_s = 5.0  # the log starts 5 s after the video
+    frames = np.arange(int(LAP_S * FPS))
+    uv, valid = camera.project(_circle(frames / FPS - start_s))
+    keep = valid & camera.in_image(np.nan_to_num(uv, nan=-1e9)) & (frames / FPS >= start_s)
+    uv = uv[keep] + rng.normal(0.0, 1.0, (int(keep.sum()), 2))
+    track = Track(frames[keep].astype(np.int64), uv[:, 0], uv[:, 1])
+    line = (FPS / RATE, start_s * FPS)  # frame = alpha * sample + beta
+    return camera, track, frames[keep].astype(np.float64), path, line, trajectory
+
+
+def _line(best: tuple[float, float], rival: tuple[float, float], probability: float | None = None) -> CameraLine:
+    search = LineSearchSummary(best[0], best[1], 200, 150, 400, 1000, rival_alpha=rival[0], rival_beta=rival[1], rival_probability=probability)
+    return CameraLine("cam0", best[0], best[1], 400, 200, 1.0, fps=FPS, line_search=search)
+
+
+def test_a_rival_the_whole_track_rules_out_is_not_ambiguity():
+    """A line 4 s off maps the track onto another stretch of the curve: no bias of the phone's size bends it back."""
+    camera, track, clock, path, truth, _ = _scene(laps=1)
+    rival = (truth[0], truth[1] + 4.0 * FPS)
+    line = _line(truth, rival)
+    odds = rival_odds_of(camera, track, clock, path, line, 120.0, FPS, PRESETS["phone"], RATE)
+    assert odds is not None
+    assert odds.rival_probability < RIVAL_PROBABILITY
+    assert np.allclose(odds.best.bias_m[:2], (1.5, -1.0), atol=0.5)  # the log's bias, absorbed
+    assert _rival(_line(truth, rival, odds.rival_probability), track, clock, FPS, 120.0, RATE) is None
+    # the other way round, the right line is the rival: it keeps the posterior
+    swapped = rival_odds_of(camera, track, clock, path, _line(rival, truth), 120.0, FPS, PRESETS["phone"], RATE)
+    assert swapped is not None and swapped.rival_probability > 1 - RIVAL_PROBABILITY
+
+
+def test_two_passes_alike_stay_ambiguous_with_both_starts_and_their_probabilities():
+    """The target walks the same circle twice: the track of one lap fits either lap alike."""
+    camera, track, clock, path, truth, _ = _scene(laps=2)
+    rival = (truth[0], truth[1] - LAP_S * RATE * truth[0])  # the second lap: the video's first frame a lap earlier in the log
+    odds = rival_odds_of(camera, track, clock, path, _line(truth, rival), 120.0, FPS, PRESETS["phone"], RATE)
+    assert odds is not None
+    assert 0.1 < odds.rival_probability < 0.9
+    reason = _rival(_line(truth, rival, odds.rival_probability), track, clock, FPS, 120.0, RATE)
+    assert reason is not None and reason.code == "ambiguous" and reason.severity == "ambiguous"
+    first, second = -truth[1] / truth[0] / RATE, -rival[1] / rival[0] / RATE
+    assert f"{first:.2f} s of the log ({1 - odds.rival_probability:.0%})" in reason.text
+    assert f"{second:.2f} s of the log ({odds.rival_probability:.0%})" in reason.text
+    assert "pick_start_s" in reason.remedy
+
+
+@pytest.mark.parametrize("apart_s", [2.0, 6.0])
+def test_with_the_log_taken_as_exact_a_shifted_rival_is_still_ruled_out_by_the_shape(apart_s):
+    """An undeclared log ("none"): the bias is still allowed at BIAS_FLOOR_M, and the curve's shape decides."""
+    camera, track, clock, path, truth, _ = _scene(laps=1, bias_m=(0.0, 0.0, 0.0))
+    rival = (truth[0], truth[1] + apart_s * FPS)
+    odds = rival_odds_of(camera, track, clock, path, _line(truth, rival), 10.0, FPS, PRESETS["none"], RATE)
+    assert odds is not None and odds.rival_probability < RIVAL_PROBABILITY
+
+
+def test_the_project_picks_either_pass_with_pick_start_s():
+    """Through synchronize: pick_start_s (the log's time at the video's first frame) at either lap's start gives that
+    lap's line, weak with the reason "picked"; a start near no vote is a SyncError, the camera failed."""
+    camera, track, _, _, truth, trajectory = _scene(laps=2)
+    inputs = CameraInput(camera, track, FPS)
+    true_start = -truth[1] / truth[0] / RATE
+    for start in (true_start, true_start + LAP_S):
+        picked, _ = synchronize({"cam0": dataclasses.replace(inputs, pick_start_s=start)}, trajectory, SyncParams(), log_model=PRESETS["phone"])
+        status = picked.status("cam0")
+        assert status.synchronized and "picked" in [r.code for r in status.reasons], status.reason
+        line = picked.cameras["cam0"]
+        assert abs(-line.beta / line.alpha / RATE - start) < 1.0
+    nowhere, _ = synchronize({"cam0": dataclasses.replace(inputs, pick_start_s=true_start + 500.0)}, trajectory, SyncParams(), log_model=PRESETS["phone"])
+    assert "no vote near the picked start" in nowhere.failed["cam0"]
+
+
+@pytest.mark.slow
+def test_a_camera_whose_strongest_line_the_track_rules_out_takes_its_rival():
+    """Walk scene 1 with a phone's 2 m bias: cam1's strongest line in the votes is 7 s off, its rival right; the whole
+    track puts the strongest under 1 %: the camera is refitted on the rival's votes, synchronized, the truth in its interval."""
+    from data_fixtures.log_error import PRESETS as RECEIVERS
+    from data_fixtures.walk import WalkSpec, make_walk_scene
+
+    scene = make_walk_scene(1, WalkSpec(log=RECEIVERS["phone2"]))
+    inputs = {n: CameraInput(c, scene.tracks[n], c.fps) for n, c in scene.cameras.items()}
+    timeline, _ = synchronize(inputs, scene.trajectory, SyncParams(), log_model=PRESETS["phone"])
+    assert timeline.status("cam1").synchronized, timeline.status("cam1").reason
+    line, truth = timeline.cameras["cam1"], scene.lines["cam1"]
+    search = line.line_search
+    assert search.rival_probability is not None and search.rival_probability < RIVAL_PROBABILITY  # the old strongest line
+    middle = (float(np.median(scene.tracks["cam1"].frame)) - truth.beta) / truth.alpha
+    error = abs((line.alpha - truth.alpha) * middle + line.beta - truth.beta)
+    se = float(np.sqrt(np.array([middle, 1.0]) @ line.cov @ np.array([middle, 1.0])))
+    assert error <= 1.96 * se
