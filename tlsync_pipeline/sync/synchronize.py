@@ -452,7 +452,7 @@ def _judge(
     checks = judge_line(inputs.camera, track, track_clock, path, line, radius_px, fps, alpha_prior, slope, support, rate)
     checks = (*checks, *segment_reasons(inputs.breaks, line.clock.segments, track.frame, votes.frame, vote_clock, votes.sample, line.alpha, line.beta, params.delta))
     others = line.identification is not None and line.identification.candidates_voting > CROWDED * line.identification.identified_frames
-    if inputs.track is None and radius_px > params.eps_px and "few_inliers" in (line.flags or ()) and others:
+    if inputs.detections is not None and radius_px > params.eps_px and "few_inliers" in (line.flags or ()) and others:
         checks = (*checks, _loose_identity(radius_px))
     line = replace(line, checks=checks)
     contradicted = any(r.severity == FAILED for r in checks)
