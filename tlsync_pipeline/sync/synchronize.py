@@ -144,11 +144,13 @@ def posed(inputs: CameraInput, prepared: Trajectory, params: SyncParams, log_mod
 
 def with_pose_offset(line: CameraLine, pose: TargetPose) -> CameraLine:
     """The line with the offset uncertainty of its pose from the target added to beta's variance: under a log with a
-    bias the pose absorbs the bias, and the timing it gives moves with it (the pose fit's beta std, clock units)."""
+    bias the pose absorbs the bias, and the timing it gives moves with it (the pose fit's beta std, clock units), and
+    the line fitted under that pose may leave the pose fit's own line (their beta difference, counted as a std too:
+    two fits of one timing on one track that the log's unmodelled wander pulls apart)."""
     if line.cov is None or not np.isfinite(pose.fit.se_beta):
         return line
     cov = np.array(line.cov, dtype=np.float64)
-    cov[1, 1] += pose.fit.se_beta**2
+    cov[1, 1] += pose.fit.se_beta**2 + (line.beta - pose.fit.beta) ** 2
     return replace(line, cov=cov)
 
 

@@ -350,6 +350,8 @@ def test_a_pose_under_a_biased_log_widens_the_line_by_its_offset(scene):
     line = CameraLine("cam0", found.fit.alpha, found.fit.beta, 0, 0, 0.0, cov=np.diag([1e-8, 0.25]))
     widened = with_pose_offset(line, found)
     assert widened.cov[1, 1] == pytest.approx(0.25 + found.fit.se_beta**2) and widened.cov[0, 0] == line.cov[0, 0]
+    moved = with_pose_offset(replace(line, beta=found.fit.beta + 4.0), found)  # the line left its pose fit's: counted
+    assert moved.cov[1, 1] == pytest.approx(0.25 + found.fit.se_beta**2 + 16.0)
     assert with_pose_offset(replace(line, cov=None), found).cov is None
 
 
