@@ -44,6 +44,15 @@ class LogModel:
     def has_bias(self) -> bool:
         return self.bias_m > 0 or self.bias_vertical_m > 0
 
+    def unabsorbed_m(self, duration_s: float) -> float:
+        """Std (metres, per axis, horizontal and vertical pooled) of the error a fixed pose cannot absorb over a visit of
+        ``duration_s``: the white noise and the bias's wander about its mean over the visit (a constant offset of the
+        log is a shift of the camera's centre, which the pose takes; a first-order Gauss-Markov bias keeps
+        1 - 2 (x - 1 + exp(-x)) / x^2 of its variance about a window of x correlation times)."""
+        x = max(duration_s, 0.0) / self.tau_s if self.tau_s > 0 else math.inf
+        kept = 0.0 if x <= 0 else 1.0 if math.isinf(x) else 1.0 - 2.0 * (x - 1.0 + math.exp(-x)) / x**2
+        return math.sqrt(self.white_m**2 + kept * (self.bias_m**2 + self.bias_vertical_m**2) / 2.0)
+
     @property
     def horizontal_m(self) -> float:
         """Total horizontal std of a fix's error (white and bias), metres."""

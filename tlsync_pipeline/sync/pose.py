@@ -72,8 +72,10 @@ from tlsync_pipeline.sync.identify import (
     identify_target,
 )
 from tlsync_pipeline.sync.line_search import find_line
+from tlsync_pipeline.sync.log_model import LogModel
 from tlsync_pipeline.sync.pose_fit import (
     INTRINSICS,
+    MODEL_ERROR_PX,
     GcpPrior,
     JointFit,
     fit_pose_and_line,
@@ -95,6 +97,8 @@ NEARLY_STRAIGHT = 0.05  # a loose pose on a path below this ratio is put down to
 AMBIGUOUS = 0.85  # a distinct offset scoring this share of the best's score (msac at TIGHT median residuals) makes the pose ambiguous
 TIGHT = 3.0  # median residuals of the best fit within which frames count for the ambiguity test
 DISTINCT_S = 1.0  # offsets further apart than this (seconds) are distinct
+LOG_GATE = 2.5  # under a metre-level log, the gate in units of the log's unabsorbed error seen in pixels
+LOG_ROTATION = 4.0  # under a metre-level log, the rotation std allowed in units of the angle its error subtends
 GCP_AGREE = 3.0  # a pose agrees with the GCPs when their median error is within this many of their sigmas
 SURVEY_SUPPORT = 0.9  # a pose from GCPs and track together must explain this share of the frames the track's own pose explains
 CHI2_2_MEDIAN = 2.0 * np.log(2.0)  # median of a chi-square of 2 degrees of freedom
@@ -243,6 +247,7 @@ def pose_from_track(
     seed: int = 0,
     delta: float = 0.5,
     offsets: tuple[float, float] | None = None,
+    log_m: float = 0.0,
 ) -> TargetPose:
     """The camera's pose (and line) from its track of the target; PoseError with the cause when it is not determined.
 
@@ -255,7 +260,10 @@ def pose_from_track(
     GCPs as a prior and the camera they give alone (a starting candidate);
     free: intrinsics the fit may move (``f``, ``cx``, ``k1``); delta: the
     line search's band for the GCP candidate's line; offsets: the range of
-    beta (clock units) the search covers (None: all the log allows).
+    beta (clock units) the search covers (None: all the log allows);
+    log_m: the log's error over the visit that a fixed pose cannot absorb
+    (metres, ``LogModel.unabsorbed_m``): the gate, loss scale and shared
+    model error widen to it as seen at the target's depth (``log_scales``).
     """
     clock = np.asarray(clock, dtype=np.float64)
     xy = np.asarray(xy, dtype=np.float64)
@@ -264,17 +272,17 @@ def pose_from_track(
         free = tuple(sorted(set(free) | {"f", "cx", "k1"}, key=INTRINSICS.index))
     if gcps is None or gcp_camera is None or free:
         try:
-            search, fits = candidate_fits(camera, clock, xy, path, prior, fps, gate_px, gcps, gcp_camera, free, f_scale, seed, delta, offsets=offsets)
+            search, fits = candidate_fits(camera, clock, xy, path, prior, fps, gate_px, gcps, gcp_camera, free, f_scale, seed, delta, offsets=offsets, log_m=log_m)
         except PoseError as exc:
             if exc.cause != "gcp_conflict" or free:
                 raise
             # GCPs without a pose of their own (too few, too rough) that no pose of the track keeps: the track alone
-            alone = pose_from_track(camera, clock, xy, path, prior, fps, gate_px, None, None, (), f_scale, seed, delta, offsets)
+            alone = pose_from_track(camera, clock, xy, path, prior, fps, gate_px, None, None, (), f_scale, seed, delta, offsets, log_m)
             return replace(alone, disagreeing=_names(gcps))  # type: ignore[arg-type]
         result = ranked_pose(fits, search, xy, fps or 0.0, gcps is not None, gcp_camera)
         if free:
             result = _settle_intrinsics(result, clock, xy, path, prior, gate_px, f_scale, gcps, free, unknown_k)
-        check_determined(result, clock, path, gcps is not None)
+        check_determined(result, clock, path, gcps is not None, log_m)
         return result
     return _survey_and_target(camera, clock, xy, path, prior, fps, gate_px, gcps, gcp_camera, f_scale, seed, delta, offsets)
 
@@ -383,6 +391,7 @@ def candidate_fits(
     delta: float,
     min_frames: int = MIN_FRAMES,
     offsets: tuple[float, float] | None = None,
+    log_m: float = 0.0,
 ) -> tuple[OffsetSearch, list[JointFit]]:
     """The offset search (within ``offsets``, clock units, when given) and the joint fits of its candidates (and the
     GCP candidate), best first (most frames within the gate).
@@ -402,7 +411,7 @@ def candidate_fits(
         found = _gcp_candidate(gcp_camera, clock, xy, path, prior, gate_px, delta, seed)
         if found is not None:
             candidates.append(found)
-    fits = _fit_candidates(candidates, clock, xy, path, prior, gate_px, f_scale, gcps, free, search.threshold_px, min_frames)
+    fits = _fit_candidates(candidates, clock, xy, path, prior, gate_px, f_scale, gcps, free, search.threshold_px, min_frames, log_m)
     if not fits and dlt and planarity(path) < PLANAR:
         raise PoseError(name, "planar_path", f"the camera has no K and the target moves in a plane (its height spread is {planarity(path):.3f} of its extent)")
     if not fits:
@@ -414,22 +423,42 @@ def candidate_fits(
     return search, fits
 
 
-def _fit_candidates(candidates: list[Candidate], clock, xy, path, prior, gate_px: float, f_scale: float, gcps: GcpPrior | None, free, threshold_px: float, min_frames: int) -> list[JointFit]:
+def _fit_candidates(
+    candidates: list[Candidate], clock, xy, path, prior, gate_px: float, f_scale: float, gcps: GcpPrior | None, free,
+    threshold_px: float, min_frames: int, log_m: float = 0.0,
+) -> list[JointFit]:
     """The converged joint fits of the candidates (a search candidate starts from the frames within the search's
-    threshold, the GCP candidate from those within the gate), best first (most frames within the gate)."""
+    threshold, the GCP candidate from those within the gate), best first (most frames within the gate); log_m: as
+    ``pose_from_track``'s."""
     fits = []
     for candidate in candidates:
-        start = reprojection_errors(candidate.camera, clock, xy, path, candidate.alpha, candidate.beta) <= (threshold_px if candidate.origin == "search" else gate_px)
+        gate, scale, shared = log_scales(candidate.camera, clock, path, candidate.alpha, candidate.beta, gate_px, f_scale, log_m)
+        first = threshold_px if candidate.origin == "search" else gate_px
+        first = max(first, gate) if gate > gate_px else first  # a metre-level log's wider gate
+        start = reprojection_errors(candidate.camera, clock, xy, path, candidate.alpha, candidate.beta) <= first
         if start.sum() < min_frames // 2:
             continue
         try:
-            fit = fit_pose_and_line(candidate.camera, clock, xy, path, candidate.alpha, candidate.beta, start, gate_px, f_scale, prior, gcps, free)
+            fit = fit_pose_and_line(candidate.camera, clock, xy, path, candidate.alpha, candidate.beta, start, gate, scale, prior, gcps, free, model_error_px=shared)
         except ValueError:
             continue
         if fit.converged:
             fits.append(fit)
     fits.sort(key=lambda f: (-f.support, f.scale_px))
     return fits
+
+
+def log_scales(
+    camera: Camera, clock, path: PiecewiseTrajectory, alpha: float, beta: float, gate_px: float, f_scale: float, log_m: float
+) -> tuple[float, float, float]:
+    """A fit's gate, loss scale and shared model error (pixels) under a log whose error a fixed pose cannot absorb is
+    log_m metres (per axis), seen at the target's median depth under the camera and line: LOG_GATE, 1 and 1 times it,
+    never below gate_px, f_scale and MODEL_ERROR_PX (an RTK log keeps those)."""
+    depth = median_depth(camera, clock, path, alpha, beta) if log_m > 0 else float("nan")
+    if not depth > 0:
+        return gate_px, f_scale, MODEL_ERROR_PX
+    seen = 0.5 * (camera.K[0, 0] + camera.K[1, 1]) * log_m / depth
+    return max(gate_px, LOG_GATE * seen), max(f_scale, seen), max(MODEL_ERROR_PX, seen)
 
 
 def ranked_pose(fits: list[JointFit], search: OffsetSearch, xy: np.ndarray, fps: float, with_gcps: bool, gcp_camera: Camera | None) -> TargetPose:
@@ -458,8 +487,12 @@ def ranked_pose(fits: list[JointFit], search: OffsetSearch, xy: np.ndarray, fps:
     return result
 
 
-def check_determined(result: TargetPose, clock: np.ndarray, path: PiecewiseTrajectory, with_gcps: bool) -> None:
-    """Raise PoseError when the pose is not determined (see the module docstring, step 4)."""
+def check_determined(result: TargetPose, clock: np.ndarray, path: PiecewiseTrajectory, with_gcps: bool, log_m: float = 0.0) -> None:
+    """Raise PoseError when the pose is not determined (see the module docstring, step 4).
+
+    log_m: as ``pose_from_track``'s; the rotation may then be as loose as
+    LOG_ROTATION times the angle that error subtends at the target's depth
+    (the pose carries the log's error; its interval says so)."""
     fit, name = result.fit, result.camera.name
     if fit.support < MIN_FRAMES:
         raise PoseError(name, "too_few_frames", f"{fit.support} frames within the gate, at least {MIN_FRAMES} are needed")
@@ -474,7 +507,7 @@ def check_determined(result: TargetPose, clock: np.ndarray, path: PiecewiseTraje
         )
     depth = median_depth(fit.camera, clock[fit.inliers], path, fit.alpha, fit.beta)
     loose = []
-    if not fit.rotation_std_deg <= MAX_ROTATION_STD_DEG:
+    if not fit.rotation_std_deg <= max(MAX_ROTATION_STD_DEG, LOG_ROTATION * np.degrees(log_m / depth)):
         loose.append(f"rotation +-{fit.rotation_std_deg:.2g} deg")
     if not fit.center_std_m <= MAX_CENTER_STD * depth:
         loose.append(f"centre +-{fit.center_std_m:.2g} m at {depth:.0f} m")
@@ -942,6 +975,7 @@ def estimate_pose(
     ransac_px: float = 8.0,
     start: Camera | None = None,
     offsets: tuple[float, float] | None = None,
+    log_model: LogModel | None = None,
 ) -> tuple[TargetPose, Identification | None]:
     """A camera's pose from the target: from its track when it has one (``pose_from_track``), else from every mover (``pose_from_movers``).
 
@@ -951,7 +985,9 @@ def estimate_pose(
     4 or more, their own pose is a starting candidate; ransac_px: its
     outlier threshold before widening; start: that pose when already
     known); offsets: the range of beta (clock units) searched, e.g. around
-    the scan stage's coarse line (None: all the log allows). A camera without K gets its intrinsics fitted too. Returns the
+    the scan stage's coarse line (None: all the log allows); log_model: the log's error (with a bias, the
+    fit from a track allows the part of it a fixed pose cannot absorb over the track's span, ``pose_from_track``'s
+    log_m). A camera without K gets its intrinsics fitted too. Returns the
     pose and, from movers, the identification under it. Raises PoseError.
     """
     if start is None and gcps is not None and len(gcps.xyz) >= 4:
@@ -967,7 +1003,9 @@ def estimate_pose(
     clock = camera_clock(track, fps)
     values = clock.clock_at(track.frame, FrameTimes.of_track(track))
     prior = slope_prior(fps, trajectory.rate, params.rate_sigma)
-    pose = pose_from_track(camera, values, track.xy, PiecewiseTrajectory(trajectory), prior, fps, params.eps_px, gcps, start, (), params.f_scale_px, params.seed, params.delta, offsets)
+    log_m = log_model.unabsorbed_m(float(np.ptp(values)) / fps) if log_model is not None and log_model.has_bias and fps else 0.0
+    path = PiecewiseTrajectory(trajectory)
+    pose = pose_from_track(camera, values, track.xy, path, prior, fps, params.eps_px, gcps, start, (), params.f_scale_px, params.seed, params.delta, offsets, log_m)
     return pose, None
 
 

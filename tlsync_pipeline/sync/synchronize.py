@@ -131,12 +131,27 @@ def with_log_noise(trajectory: Trajectory, model: LogModel) -> Trajectory:
     return replace(trajectory, sigma=np.full(len(trajectory), model.white_m))
 
 
-def posed(inputs: CameraInput, prepared: Trajectory, params: SyncParams) -> tuple[CameraInput, TargetPose]:
-    """The camera's inputs with its pose from the target (its ``gcps`` as a prior), and that pose; PoseError when it is not determined."""
-    pose, _ = estimate_pose(inputs.camera, inputs.track, inputs.detections, prepared, inputs.fps, identify_params(params), inputs.gcps)
+def posed(inputs: CameraInput, prepared: Trajectory, params: SyncParams, log_model: LogModel = PRESETS["none"]) -> tuple[CameraInput, TargetPose]:
+    """The camera's inputs with its pose from the target (its ``gcps`` as a prior; the log's error model in the fit),
+    and that pose; PoseError when it is not determined."""
+    pose, _ = estimate_pose(inputs.camera, inputs.track, inputs.detections, prepared, inputs.fps, identify_params(params), inputs.gcps, log_model=log_model)
     sigma = None if prepared.sigma is None else float(np.median(prepared.sigma))
+    if log_model.has_bias:
+        sigma = max(sigma or 0.0, log_model.horizontal_m)
     camera = replace(pose.camera, name=inputs.camera.name, fps=inputs.camera.fps, pose_info=pose_info(pose, sigma))
     return replace(inputs, camera=camera), pose
+
+
+def with_pose_offset(line: CameraLine, pose: TargetPose) -> CameraLine:
+    """The line with the offset uncertainty of its pose from the target added to beta's variance: under a log with a
+    bias the pose absorbs the bias, and the timing it gives moves with it (the pose fit's beta std, clock units), and
+    the line fitted under that pose may leave the pose fit's own line (their beta difference, counted as a std too:
+    two fits of one timing on one track that the log's unmodelled wander pulls apart)."""
+    if line.cov is None or not np.isfinite(pose.fit.se_beta):
+        return line
+    cov = np.array(line.cov, dtype=np.float64)
+    cov[1, 1] += pose.fit.se_beta**2 + (line.beta - pose.fit.beta) ** 2
+    return replace(line, cov=cov)
 
 
 def synchronize(
@@ -178,7 +193,7 @@ def synchronize(
                 raise cast
             pose = None
             if not inputs.camera.posed:
-                inputs, pose = posed(inputs, prepared, params)
+                inputs, pose = posed(inputs, prepared, params, log_model)
             used[name] = inputs
             radius[name] = vote_radius(inputs.camera, prepared, params.eps_px, log_model)
             if inputs.track is None:
@@ -191,10 +206,14 @@ def synchronize(
                 if inputs.pick_start_s is not None:
                     result = replace(result, line=replace(result.line, flags=(*(result.line.flags or ()), "picked")))
             inputs, result = _segmented(name, inputs, result, prepared, params, radius[name])
+            if pose is not None and log_model.has_bias:
+                result = replace(result, line=with_pose_offset(result.line, pose))
             results[name], judged[name] = _judge(name, inputs, replace(result, pose=pose), path, params, prior, radius[name], log_model, trajectory.rate)
             search = results[name].line.line_search
             if cameras[name].track is not None and search is not None and search.rival_probability is not None and search.rival_probability > 1.0 - RIVAL_PROBABILITY:
                 result = _the_rival(name, inputs, results[name], prepared, params, radius[name])
+                if pose is not None and log_model.has_bias:
+                    result = replace(result, line=with_pose_offset(result.line, pose))
                 results[name], judged[name] = _judge(name, inputs, replace(result, pose=pose), path, params, prior, radius[name], log_model, trajectory.rate)
         except SyncError as exc:
             failed[name] = str(exc)

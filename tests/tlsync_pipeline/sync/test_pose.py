@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 from dataclasses import replace
 
 import numpy as np
@@ -9,10 +10,15 @@ import pytest
 
 from calibration.camera import Camera
 from calibration.lens import project_points
+from data_fixtures.log_error import PRESETS as FIXTURE_LOGS
+from data_fixtures.log_error import log_errors
 from data_fixtures.passes import make_pass_scene
+from tests.real_data import REAL_DATA
 from tlsync_pipeline.sync import pose as P
+from tlsync_pipeline.sync.log_model import PRESETS as LOG_MODELS
 from tlsync_pipeline.sync.params import SyncParams
 from tlsync_pipeline.sync.pose_fit import (
+    MODEL_ERROR_PX,
     GcpPrior,
     Layout,
     _prior_rows,
@@ -23,8 +29,13 @@ from tlsync_pipeline.sync.pose_fit import (
 )
 from tlsync_pipeline.sync.refine import smooth_trajectory
 from tlsync_pipeline.sync.slope import slope_prior
-from tlsync_pipeline.sync.synchronize import CameraInput, identify_params, synchronize
-from tlsync_pipeline.sync.timeline import Relation, eps_t
+from tlsync_pipeline.sync.synchronize import (
+    CameraInput,
+    identify_params,
+    synchronize,
+    with_pose_offset,
+)
+from tlsync_pipeline.sync.timeline import CameraLine, Relation, eps_t
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
 from trackers.detections import make_detections
 
@@ -296,3 +307,69 @@ def test_the_pose_info_says_what_the_pose_serves(scene):
     assert not P.pose_info(found, 2.0).for_3d and "not for 3D" in P.pose_info(found, 2.0).note
     assert not P.pose_info(found, None).for_3d and P.pose_info(found, None).source == "target"
     assert P.pose_info(found, 0.02).center_std_m == pytest.approx(found.fit.center_std_m, abs=1e-4)
+
+
+def test_a_metre_level_log_widens_the_fit_to_what_a_pose_cannot_absorb(scene):
+    drone, rtk = LOG_MODELS["drone"], LOG_MODELS["rtk"]
+    assert rtk.unabsorbed_m(600.0) == pytest.approx(rtk.white_m)  # no bias: the white noise alone
+    assert drone.unabsorbed_m(0.0) == pytest.approx(drone.white_m)  # an instant: the bias is a constant offset
+    spans = [drone.unabsorbed_m(s) for s in (1.0, 10.0, 30.0, 120.0, 1e6)]
+    assert all(a < b for a, b in zip(spans, spans[1:]))
+    assert spans[-1] == pytest.approx(np.sqrt(drone.white_m**2 + (drone.bias_m**2 + drone.bias_vertical_m**2) / 2), rel=1e-3)
+    s = scene.scene
+    camera, line = s.true_cameras["cam0"], s.lines["cam0"]
+    path = PiecewiseTrajectory(smooth_trajectory(s.trajectory))
+    clock = s.tracks["cam0"].frame.astype(float)
+    assert P.log_scales(camera, clock, path, line.alpha, line.beta, 10.0, 3.0, 0.0) == (10.0, 3.0, MODEL_ERROR_PX)
+    assert P.log_scales(camera, clock, path, line.alpha, line.beta, 10.0, 3.0, 0.02)[:2] == (10.0, 3.0)  # RTK keeps the gate
+    depth = P.median_depth(camera, clock, path, line.alpha, line.beta)
+    seen = camera.K[0, 0] * 1.0 / depth
+    gate, scale, shared = P.log_scales(camera, clock, path, line.alpha, line.beta, 10.0, 3.0, 1.0)
+    assert gate == pytest.approx(P.LOG_GATE * seen, rel=0.01) and scale == pytest.approx(seen, rel=0.01) and shared == pytest.approx(seen, rel=0.01)
+
+
+def test_a_walker_under_a_drifting_log_gets_no_pose_rather_than_a_wrong_timing(scene):
+    """A walker's visit of 20 s at 20 m under a drone's GNSS: the pose is refused (the log's wander leaves it loose or
+    its offset ambiguous), or its timing is within three of its sigmas."""
+    s = scene.scene
+    track, fps = s.tracks["cam0"], s.true_cameras["cam0"].fps
+    log_m = LOG_MODELS["drone"].unabsorbed_m(float(np.ptp(track.frame)) / fps)
+    for seed in range(3):
+        errors, _ = log_errors(np.random.default_rng(seed), s.trajectory.sample / s.trajectory.rate, FIXTURE_LOGS["drone"])
+        path = PiecewiseTrajectory(smooth_trajectory(replace(s.trajectory, xyz=s.trajectory.xyz + errors)))
+        try:
+            found = _posed(scene, "cam0", path, log_m=log_m)
+        except P.PoseError as exc:
+            assert exc.cause in ("ambiguous_offset", "pose_undetermined", "straight_path")
+            continue
+        assert abs(found.fit.beta - s.lines["cam0"].beta) <= 3 * found.fit.se_beta
+
+
+def test_a_pose_under_a_biased_log_widens_the_line_by_its_offset(scene):
+    found = from_track(scene, "cam0")
+    line = CameraLine("cam0", found.fit.alpha, found.fit.beta, 0, 0, 0.0, cov=np.diag([1e-8, 0.25]))
+    widened = with_pose_offset(line, found)
+    assert widened.cov[1, 1] == pytest.approx(0.25 + found.fit.se_beta**2) and widened.cov[0, 0] == line.cov[0, 0]
+    moved = with_pose_offset(replace(line, beta=found.fit.beta + 4.0), found)  # the line left its pose fit's: counted
+    assert moved.cov[1, 1] == pytest.approx(0.25 + found.fit.se_beta**2 + 16.0)
+    assert with_pose_offset(replace(line, cov=None), found).cov is None
+
+
+REAL = REAL_DATA / "drone2"
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not (REAL / "project.toml").exists(), reason="the real flight (TLSYNC_REAL_DATA/drone2) is not here")
+def test_the_real_flight_without_poses_under_a_drone_gnss_is_synchronized_within_its_intervals():
+    from tlsync_pipeline.pipeline.project import load_project
+    from tlsync_pipeline.pipeline.stages.sync import load_inputs
+
+    project = load_project(REAL / "project.toml")
+    cameras, trajectory = load_inputs(project)
+    truth = json.loads((REAL / "truth.json").read_text())["cameras_to_target"]
+    errors, _ = log_errors(np.random.default_rng(3), trajectory.sample / trajectory.rate, FIXTURE_LOGS["drone"])
+    inputs = {n: replace(c, camera=unposed(c.camera)) for n, c in cameras.items()}
+    timeline, _ = synchronize(inputs, replace(trajectory, xyz=trajectory.xyz + errors), project.sync, log_model=LOG_MODELS["drone"])
+    assert len(timeline.cameras) >= 2
+    for name, line in timeline.cameras.items():
+        assert abs(line.beta - truth[name]["beta"]) <= 3 * np.sqrt(line.cov[1, 1]), name
