@@ -46,7 +46,6 @@ named.
 from __future__ import annotations
 
 import argparse
-import shutil
 import sys
 import tempfile
 import time

@@ -44,7 +44,6 @@ import numpy as np
 
 from calibration.camera import Camera
 from tlsync_pipeline.errors import SyncError
-from tlsync_pipeline.sync.choices import SCAN_MODES
 from tlsync_pipeline.sync.clock import CameraClock, FrameTimes, FRAME, camera_clock
 from tlsync_pipeline.sync.identify import IdentifyParams, candidate_votes, detections_clock
 from tlsync_pipeline.sync.line_search import find_line

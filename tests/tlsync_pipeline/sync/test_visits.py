@@ -19,7 +19,7 @@ def test_only_samples_near_a_view_are_kept_on_their_grid(monkeypatch):
     scene = make_scene(0, **DEMO)
     monkeypatch.setattr(visits, "LONG_SAMPLES", 100)
     far = np.array([0.0, 0.0, 500.0])  # behind and above every camera: in no view
-    n, rest = len(scene.trajectory), 2000
+    rest = 2000
     xyz = np.vstack([np.tile(far, (rest, 1)), scene.trajectory.xyz, np.tile(far, (rest, 1))])
     long = Trajectory(np.arange(len(xyz), dtype=np.float64) + 7.0, xyz, 15.0, 100.0)
     cut = visits.near_views(long, scene.cameras.values())
