@@ -64,6 +64,8 @@ from tlsync_pipeline.sync.registry import preparation_of  # noqa: E402
 from tlsync_pipeline.sync.synchronize import CameraInput, identify_params, prepare_trajectory, synchronize  # noqa: E402
 from tlsync_pipeline.sync.timeline import eps_t  # noqa: E402
 
+from _report import pair_errors  # noqa: E402
+
 NOISE_M = (0.0, 0.1, 0.5, 2.0)
 Z95 = 1.959964
 DEFAULT_DATA = Path("/work/shared/real/drone2")
@@ -250,13 +252,8 @@ def gnss_without_poses(data: Path, seeds: int) -> str | None:
         errors, _ = log_errors(np.random.default_rng(seed), trajectory.sample / trajectory.rate, RECEIVERS["drone"])
         inputs = {n: replace(c, camera=unposed(c.camera)) for n, c in cameras.items()}
         timeline, _ = synchronize(inputs, dataclasses.replace(trajectory, xyz=trajectory.xyz + errors), project.sync, log_model=LOG_MODELS["drone"])
-        eps, z = [], []
-        for key, relation in truth.items():
-            a, b = key.split("->")
-            if a in timeline.cameras and b in timeline.cameras:
-                eps.append(eps_t(timeline.relation(a, b), relation, n_frames.get(a) or 1))
-                cov = timeline.relation_cov(a, b)
-                z.append(abs(timeline.relation(a, b).beta - relation.beta) / np.sqrt(cov[1, 1]) if cov is not None else np.inf)
+        pairs = pair_errors(timeline, truth, n_frames)
+        eps, z = [e for e, _ in pairs], [score for _, score in pairs]
         causes = ", ".join(f"{n} ({why.split('(', 2)[1].split(')')[0] if '(' in why else why[:40]})" for n, why in timeline.failed.items()) or "-"
         worst = f"{max(eps):.2f} | {np.median(eps):.2f}" if eps else "- | -"
         cover = f"{100 * np.mean(np.array(z) <= Z95):.0f} % of {len(z)}" if z else "-"

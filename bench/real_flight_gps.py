@@ -27,7 +27,9 @@ from tlsync_pipeline.pipeline.project import load_project
 from tlsync_pipeline.pipeline.stages.sync import load_inputs
 from tlsync_pipeline.sync.log_model import PRESETS as LOG_MODELS
 from tlsync_pipeline.sync.synchronize import synchronize
-from tlsync_pipeline.sync.timeline import eps_t, read_truth
+from tlsync_pipeline.sync.timeline import read_truth
+
+from _report import pair_errors
 
 DEFAULT = Path("/work/shared/real/drone2")
 Z95 = 1.959964
@@ -45,14 +47,9 @@ def run(data: Path, receiver: str, seeds: int, bias_model: bool) -> dict:
         errors, _ = log_errors(np.random.default_rng(seed), trajectory.sample / trajectory.rate, RECEIVERS[receiver])
         timeline, _ = synchronize(cameras, dataclasses.replace(trajectory, xyz=trajectory.xyz + errors), params, log_model=declared)
         refused += len(timeline.cameras) < len(cameras)
-        errors_t = []
-        for key, relation in truth.items():
-            a, b = key.split("->")
-            if a in timeline.cameras and b in timeline.cameras:
-                errors_t.append(eps_t(timeline.relation(a, b), relation, n_frames.get(a) or 1))
-                cov = timeline.relation_cov(a, b)
-                z.append(abs(timeline.relation(a, b).beta - relation.beta) / np.sqrt(cov[1, 1]) if cov is not None else np.inf)
-        worst.append(max(errors_t, default=np.nan))
+        pairs = pair_errors(timeline, truth, n_frames)
+        z += [score for _, score in pairs]
+        worst.append(max((e for e, _ in pairs), default=np.nan))
     return {"median": float(np.nanmedian(worst)), "max": float(np.nanmax(worst)), "coverage": float(np.mean(np.array(z) <= Z95)), "pairs": len(z), "refused": refused}
 
 
