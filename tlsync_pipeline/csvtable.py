@@ -10,6 +10,8 @@ parser, about 0.2 s of CPU a million rows of four numbers); any other chunk
 (blank or comment lines, quotes, text, a wrong field count, NaN or
 infinity) goes line by line
 through the caller's own parser, so messages and leniency are the caller's.
+Tables are written in blocks of WRITE_ROWS rows, each formatted by one
+``%`` of the whole block's format (``write_rows``).
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ import io
 import warnings
 from collections.abc import Callable, Iterator
 from pathlib import Path
+from typing import TextIO
 
 import numpy as np
 
@@ -25,6 +28,7 @@ from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.inputs import MAX_TEXT_BYTES, regular_file
 
 CHUNK_BYTES = 4 << 20  # bytes of rows parsed at once (about 100,000 rows of a trajectory)
+WRITE_ROWS = 50_000  # rows formatted at once by write_rows
 BOM = b"\xef\xbb\xbf"
 DELIMITERS = (",", ";", "\t")
 
@@ -200,8 +204,14 @@ class Columns:
         return array[: self.n] if self.n > 0.9 * len(array) else array[: self.n].copy()
 
 
-def concatenate(parts: list[tuple[np.ndarray, np.ndarray | range]], k: int) -> tuple[np.ndarray, np.ndarray]:
-    """The chunks' (values (N, k), line numbers (N,)) as two arrays."""
-    if not parts:
-        return np.empty((0, k)), np.empty(0, np.int64)
-    return np.concatenate([v.reshape(-1, k) for v, _ in parts]), np.concatenate([np.asarray(n, dtype=np.int64) for _, n in parts])
+def write_rows(handle: TextIO, columns: list[np.ndarray], formats: list[str], delimiter: str = ",") -> None:
+    """Write rows of equal-length 1-D ``columns``, each value with its ``%`` format, ``delimiter`` between them.
+
+    The same text as ``np.savetxt`` (each value formatted as a Python float), in blocks: about 2x faster, and no
+    copy of the whole table.
+    """
+    line = delimiter.join(formats) + "\n"
+    n = len(columns[0]) if columns else 0
+    for lo in range(0, n, WRITE_ROWS):
+        block = np.column_stack([np.asarray(c[lo:lo + WRITE_ROWS], dtype=np.float64) for c in columns])
+        handle.write((line * len(block)) % tuple(block.ravel().tolist()))

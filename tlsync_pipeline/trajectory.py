@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from tlsync_pipeline.csvtable import Columns, Table, cell_number, describe_cell
+from tlsync_pipeline.csvtable import Columns, Table, cell_number, describe_cell, write_rows
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.inputs import quote
 
@@ -232,11 +232,11 @@ def _parse_rows(path: Path, rows: list[str], first: int, delimiter: str, header:
 def write_trajectory(trajectory: Trajectory, path: str | Path) -> None:
     """Write the trajectory CSV: ``t,x,y,z`` when the rate is known, else ``x,y,z``; then ``sigma`` when known."""
     t = trajectory.seconds(trajectory.sample)
-    columns, fmt, data = ["x", "y", "z"], ["%.4f"] * 3, [trajectory.xyz]
+    names, formats, columns = ["x", "y", "z"], ["%.4f"] * 3, list(trajectory.xyz.T)
     if t is not None:
-        columns, fmt, data = ["t", *columns], ["%.6f", *fmt], [np.asarray(t), *data]
+        names, formats, columns = ["t", *names], ["%.6f", *formats], [np.asarray(t), *columns]
     if trajectory.sigma is not None:
-        columns, fmt, data = [*columns, "sigma"], [*fmt, "%.4f"], [*data, trajectory.sigma]
+        names, formats, columns = [*names, "sigma"], [*formats, "%.4f"], [*columns, trajectory.sigma]
     with Path(path).open("w", newline="", encoding="utf-8") as handle:
-        handle.write(",".join(columns) + "\n")
-        np.savetxt(handle, np.column_stack(data), fmt=fmt, delimiter=",")
+        handle.write(",".join(names) + "\n")
+        write_rows(handle, columns, formats)

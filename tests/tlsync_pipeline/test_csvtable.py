@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import io
 import datetime as dt
 from unittest import mock
 
@@ -141,3 +142,16 @@ def test_excel_csv_log_reads_as_the_plain_one(tmp_path):
     assert len(a) > 10 and not b.dropped
     np.testing.assert_array_equal(a.t, b.t)
     np.testing.assert_array_equal(a.values, b.values)
+
+
+def test_rows_written_in_blocks_as_savetxt_writes_them():
+    rng = np.random.default_rng(3)
+    columns = [rng.normal(0, 1e4, 23), rng.normal(0, 1, 23), np.r_[-0.0, 0.0, 1e15, -5e-5, 5e-5, rng.normal(size=18)]]
+    formats = ["%.6f", "%.4f", "%.4f"]
+    expected = io.StringIO()
+    np.savetxt(expected, np.column_stack(columns), fmt=formats, delimiter=",")
+    written = io.StringIO()
+    with mock.patch.object(csvtable, "WRITE_ROWS", 7):
+        csvtable.write_rows(written, columns, formats)
+    assert written.getvalue() == expected.getvalue()
+    assert written.getvalue().count("\n") == 23

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from tlsync_pipeline.csvtable import Table, cell_number, concatenate, delimiter_of
+from tlsync_pipeline.csvtable import Columns, Table, cell_number, delimiter_of
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.inputs import quote
 from tlsync_pipeline.ingest.reader import Reader, text_of
@@ -28,7 +28,7 @@ from tlsync_pipeline.ingest.records import (
     LogRecords,
     check_geodetic,
     check_geodetic_rows,
-    make_records,
+    records_of_columns,
 )
 
 ALIASES = {
@@ -95,20 +95,27 @@ def read_csv_log(path: str | Path, fmt: str = "csv") -> LogRecords:
         index = [columns.get(c) for c in wanted]
         present = [i for i in index if i is not None]
         state = _Lines(path, table, delimiter, len(table.names), columns, wanted, index, geodetic)
-        parts = []
+        rows: Columns | None = None
+        lines: list[np.ndarray | range] = []
         for values, numbers in table.chunks(present, state.parse):
+            values = values.reshape(-1, len(present))
             if len(present) < 4:
                 values = np.column_stack([values, np.zeros(len(values))])
             if geodetic and len(values):
                 check_geodetic_rows(path, values[:, 1], values[:, 2], values[:, 3], numbers)
-            parts.append((values, numbers))
-    data, numbers = concatenate(parts, 4)
+            # sized from the first chunk's lines
+            rows = rows or Columns({"t": (0, 1), "values": (1, 4)}, table.expected_rows())
+            rows.add(values)
+            lines.append(numbers)
     warnings = []
     if geodetic and "alt" not in columns:
         warnings.append("no altitude column: heights set to 0 m (on the ellipsoid); the Up coordinate means nothing")
     frame = GEODETIC if geodetic else LOCAL
-    return make_records(path, "odometry" if fmt == "odometry" else "csv", frame, data, numbers, utc=geodetic or state.iso, dropped=state.dropped,
-                        ignored=state.comments, warnings=warnings)
+    numbers = np.concatenate([np.asarray(n, dtype=np.int64) for n in lines]) if lines else np.empty(0, np.int64)
+    t, values = (rows.get("t")[:, 0], rows.get("values")) if rows else (np.empty(0), np.empty((0, 3)))
+    kind = "odometry" if fmt == "odometry" else "csv"
+    return records_of_columns(path, kind, frame, t, values, numbers, utc=geodetic or state.iso, dropped=state.dropped,
+                              ignored=state.comments, warnings=warnings)
 
 
 class _Lines:

@@ -43,6 +43,7 @@ REPEATED_TIME = "repeated time, different position (first kept)"
 FIRST_LINES = 5  # provenance numbers kept per drop reason in the report
 MAX_SPAN_S = 1e8  # about 3 years: a longer log has a wrong time in it
 MAX_SAMPLES = 50_000_000  # a trajectory longer than this is a wrong time or rate, not a log
+SPIKE_BLOCK = 1 << 20  # fixes handled at once by reject_spikes and resample
 
 
 @dataclass(frozen=True)
@@ -231,7 +232,8 @@ def ingest(records: LogRecords, params: IngestParams = IngestParams()) -> tuple[
     xyz, origin, rule = _to_local(records, values, params, warnings)
     fixes = dataclasses.replace(fixes, values=values, xyz=xyz)
     keep = _without_spikes(records, fixes, params, dropped, warnings)
-    fixes = fixes.kept(keep)
+    if not keep.all():
+        fixes = fixes.kept(keep)
     if origin is not None and rule == "first fix" and not keep[0]:  # the first fix was a spike: the first kept one
         origin = Origin(*map(float, fixes.values[0]))
         fixes = dataclasses.replace(fixes, xyz=geodetic_to_enu(fixes.values[:, 0], fixes.values[:, 1], fixes.values[:, 2], origin))
@@ -461,26 +463,77 @@ def reject_spikes(t: np.ndarray, xyz: np.ndarray, max_speed: float, rounding: np
     if n < 2:
         return np.ones(n, dtype=bool)
     slack = np.zeros(n) if rounding is None else np.nan_to_num(np.asarray(rounding, dtype=float))
-    moved = np.r_[True, (np.diff(xyz, axis=0) != 0).any(axis=1)]
-    run = np.cumsum(moved) - 1
-    starts, ends = t[moved], t[np.r_[np.flatnonzero(moved)[1:] - 1, n - 1]]
-    held = np.minimum(ends - starts, HELD_MAX_S)[run]  # how long each fix's position was repeated (s)
-    step = np.linalg.norm(np.diff(xyz, axis=0), axis=1)
-    ok = step <= max_speed * np.maximum(np.diff(t) + held[:-1], SPIKE_WINDOW_S) + slack[:-1] + slack[1:]
+    starts = _run_starts(xyz)
+    ok = _plausible_steps(t, xyz, max_speed, slack, starts)
     if ok.all():
         return np.ones(n, dtype=bool)
+    bad = np.flatnonzero(~ok)
     both = np.flatnonzero(ok[:-1] & ok[1:])
     start = int(both[0]) if len(both) else int(np.flatnonzero(ok)[0]) if ok.any() else 0
     keep = np.zeros(n, dtype=bool)
     keep[start] = True
-    tl, pts, sl, hl = t.tolist(), xyz.tolist(), slack.tolist(), held.tolist()
-    for order in (range(start + 1, n), range(start - 1, -1, -1)):
-        last = start
-        for i in order:
-            if math.dist(pts[i], pts[last]) <= max_speed * max(abs(tl[i] - tl[last]) + hl[min(i, last)], SPIKE_WINDOW_S) + sl[i] + sl[last]:
-                keep[i] = True
-                last = i
+
+    def reachable(i: int, last: int) -> bool:
+        held = float(_held(t, starts, min(i, last), min(i, last) + 1)[0])
+        span = abs(float(t[i]) - float(t[last])) + held
+        allowed = max_speed * max(span, SPIKE_WINDOW_S) + float(slack[i]) + float(slack[last])
+        return math.dist(xyz[i].tolist(), xyz[last].tolist()) <= allowed
+
+    # The walk from the last kept fix, one fix at a time only after a step that is not plausible: where the last
+    # kept fix is the previous one and the steps are plausible, every fix up to the next implausible step is kept.
+    i, last = start + 1, start
+    while i < n:
+        if last == i - 1 and ok[i - 1]:
+            j = int(bad[np.searchsorted(bad, i - 1)]) if bad[-1] >= i - 1 else n - 1  # steps i-1 .. j-1 plausible
+            keep[i:j + 1] = True
+            i, last = j + 1, j
+        else:
+            if reachable(i, last):
+                keep[i], last = True, i
+            i += 1
+    i, last = start - 1, start
+    while i >= 0:
+        if last == i + 1 and ok[i]:
+            b = int(bad[np.searchsorted(bad, i) - 1]) if bad[0] < i else -1  # steps b+1 .. i plausible
+            keep[b + 1:i + 1] = True
+            i, last = b, b + 1
+        else:
+            if reachable(i, last):
+                keep[i], last = True, i
+            i -= 1
     return keep
+
+
+def _run_starts(xyz: np.ndarray) -> np.ndarray:
+    """The first fix of each run of fixes at one position (indices, increasing)."""
+    n = len(xyz)
+    moved = np.ones(n, dtype=bool)
+    for lo in range(0, n - 1, SPIKE_BLOCK):
+        hi = min(n - 1, lo + SPIKE_BLOCK)
+        moved[lo + 1:hi + 1] = (xyz[lo + 1:hi + 1] != xyz[lo:hi]).any(axis=1)
+    return np.flatnonzero(moved)
+
+
+def _held(t: np.ndarray, starts: np.ndarray, lo: int, hi: int) -> np.ndarray:
+    """How long the positions of fixes lo .. hi - 1 were repeated (s; from the first to the last fix of each one's run,
+    at most HELD_MAX_S); starts: _run_starts."""
+    run = np.searchsorted(starts, np.arange(lo, hi), side="right") - 1
+    end = np.where(run + 1 < len(starts), starts[np.minimum(run + 1, len(starts) - 1)] - 1, len(t) - 1)
+    return np.minimum(t[end] - t[starts[run]], HELD_MAX_S)
+
+
+def _plausible_steps(t: np.ndarray, xyz: np.ndarray, max_speed: float, slack: np.ndarray,
+                     starts: np.ndarray) -> np.ndarray:
+    """Whether each step (fix i to i + 1) is within max_speed x max(its time + how long fix i was held, SPIKE_WINDOW_S)
+    + both fixes' rounding (m); in blocks of SPIKE_BLOCK fixes, so that a day's log needs no temporaries of its size."""
+    n = len(t)
+    ok = np.empty(n - 1, dtype=bool)
+    for lo in range(0, n - 1, SPIKE_BLOCK):
+        hi = min(n - 1, lo + SPIKE_BLOCK)
+        step = np.linalg.norm(np.diff(xyz[lo:hi + 1], axis=0), axis=1)
+        allowed = max_speed * np.maximum(np.diff(t[lo:hi + 1]) + _held(t, starts, lo, hi), SPIKE_WINDOW_S)
+        ok[lo:hi] = step <= allowed + slack[lo:hi] + slack[lo + 1:hi + 1]
+    return ok
 
 
 def median_interval(t: np.ndarray) -> float:
@@ -519,20 +572,43 @@ def resample(t: np.ndarray, xyz: np.ndarray, rate: float, max_gap_s: float) -> t
     if not kf[-1] < MAX_SAMPLES:
         raise ValueError(f"{elapsed[-1]:.6g} s at {rate:g} Hz is over {MAX_SAMPLES:,} samples: check the log's times or give a lower rate")
     tol = 1e-6 * rate
-    lo = np.ceil(kf[:-1] - tol).astype(np.int64)
-    hi = np.floor(kf[1:] + tol).astype(np.int64)
-    counts = np.where(np.diff(elapsed) <= max_gap_s, np.maximum(hi - lo + 1, 0), 0)
-    total = int(counts.sum())
-    if total > MAX_SAMPLES:
-        raise ValueError(f"{elapsed[-1]:.6g} s at {rate:g} Hz is over {MAX_SAMPLES:,} samples: check the log's times or give a lower rate")
-    first = np.repeat(lo - np.cumsum(counts) + counts, counts)
-    inside = first + np.arange(total)
     nearest = np.round(kf).astype(np.int64)
-    on_fix = nearest[np.abs(kf - nearest) <= tol]
-    k = np.sort(np.concatenate([inside, on_fix]))  # sorted, then duplicates out: np.unique's hashing took 4 s a million samples
-    k = k[np.r_[True, k[1:] != k[:-1]]]
-    grid = np.column_stack([np.interp(k / rate, elapsed, xyz[:, j]) for j in range(3)])
-    return k, grid, int(np.floor(kf[-1] + tol)) + 1 - len(k)
+    if _on_own_grid(kf, nearest, elapsed, tol, max_gap_s):
+        k = nearest  # a log on its own grid, no sample missing: its fixes' indices (what the general case makes)
+    else:
+        fixed = np.abs(kf - nearest) <= tol
+        lo = np.ceil(kf[:-1] - tol).astype(np.int64)
+        hi = np.floor(kf[1:] + tol).astype(np.int64)
+        counts = np.where(np.diff(elapsed) <= max_gap_s, np.maximum(hi - lo + 1, 0), 0)
+        total = int(counts.sum())
+        if total > MAX_SAMPLES:
+            raise ValueError(f"{elapsed[-1]:.6g} s at {rate:g} Hz is over {MAX_SAMPLES:,} samples: "
+                             "check the log's times or give a lower rate")
+        inside = np.repeat(lo - np.cumsum(counts) + counts, counts) + np.arange(total)
+        del lo, hi, counts
+        # sorted, then duplicates out: np.unique's hashing took 4 s a million samples
+        k = np.sort(np.concatenate([inside, nearest[fixed]]))
+        k = k[np.r_[True, k[1:] != k[:-1]]]
+        del nearest, fixed
+    last = float(kf[-1])
+    del kf
+    grid = np.empty((len(k), 3))
+    for block in range(0, len(k), SPIKE_BLOCK):
+        at = k[block:block + SPIKE_BLOCK] / rate
+        for j in range(3):
+            grid[block:block + SPIKE_BLOCK, j] = np.interp(at, elapsed, xyz[:, j])
+    return k, grid, int(np.floor(last + tol)) + 1 - len(k)
+
+
+def _on_own_grid(kf: np.ndarray, nearest: np.ndarray, elapsed: np.ndarray, tol: float, max_gap_s: float) -> bool:
+    """Whether every fix sits on the grid (kf within tol of its nearest index), one index after the previous, at most
+    max_gap_s after it; in blocks of SPIKE_BLOCK fixes."""
+    for lo in range(0, len(kf), SPIKE_BLOCK):
+        hi = min(len(kf), lo + SPIKE_BLOCK + 1)
+        if not ((np.abs(kf[lo:hi] - nearest[lo:hi]) <= tol).all() and (np.diff(nearest[lo:hi]) == 1).all()
+                and (np.diff(elapsed[lo:hi]) <= max_gap_s).all()):
+            return False
+    return True
 
 
 def smooth(index: np.ndarray, xyz: np.ndarray, window_samples: float) -> np.ndarray:

@@ -91,11 +91,25 @@ def make_records(
 ) -> LogRecords:
     """LogRecords from a list of (t, a, b, c) rows and their provenance numbers (sigma, quality, rounding_m: one value per row)."""
     data = np.asarray(rows, dtype=np.float64).reshape(-1, 4)
-    n = len(data)
+    return records_of_columns(
+        path, fmt, frame, data[:, 0].copy(), data[:, 1:].copy(), lines, unit, utc, dropped, ignored, warnings, altitude,
+        sigma, quality, clock, notes, video_time_zero, video_zero_spread_s, rounding_m, local_time,
+    )
+
+
+def records_of_columns(
+    path, fmt, frame, t, values, lines, unit="line", utc=True, dropped=None, ignored=0, warnings=(),
+    altitude=ELLIPSOID, sigma=None, quality=None, clock=None, notes=(), video_time_zero=None, video_zero_spread_s=None,
+    rounding_m=None, local_time=False,
+) -> LogRecords:
+    """LogRecords from times (N,) and values (N, 3), kept as they are (no copy when float64), as make_records."""
+    t = np.asarray(t, dtype=np.float64).reshape(-1)
+    values = np.asarray(values, dtype=np.float64).reshape(-1, 3)
+    n = len(t)
     sigma = None if sigma is None else np.asarray(sigma, dtype=np.float64).reshape(n)
     quality = {name: np.asarray(v, dtype=np.float64).reshape(n) for name, v in (quality or {}).items()}
     return LogRecords(
-        Path(path), fmt, frame, data[:, 0].copy(), data[:, 1:].copy(), np.asarray(lines, dtype=np.int64).reshape(-1),
+        Path(path), fmt, frame, t, values, np.asarray(lines, dtype=np.int64).reshape(-1),
         unit, utc, dict(dropped or {}), ignored, tuple(warnings), altitude, sigma, quality, "UTC" if utc else clock or "the log's own clock",
         tuple(notes), None if video_time_zero is None else float(video_time_zero),
         None if video_zero_spread_s is None else float(video_zero_spread_s),

@@ -5,10 +5,13 @@ from __future__ import annotations
 import datetime as dt
 import json
 import math
+from unittest import mock
 
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from data_fixtures.gps_logs import (
     walk_trajectory,
@@ -26,6 +29,7 @@ from tlsync_pipeline.ingest import (
     ingest,
     read_log,
 )
+from tlsync_pipeline.ingest import process
 from tlsync_pipeline.ingest.process import reject_spikes, resample
 from tlsync_pipeline.trajectory import Trajectory, read_trajectory
 
@@ -404,3 +408,66 @@ def test_gpx_segments_out_of_time_order(tmp_path, walk):
     (tmp_path / "inside.gpx").write_text(f"{head}<trkseg>{chr(10).join(lines)}</trkseg></trk></gpx>\n")
     with pytest.raises(InputError, match="inside.gpx: track point 5: time goes backwards"):
         _ingest(tmp_path / "inside.gpx")
+
+
+def _walk_fix_by_fix(t, xyz, max_speed, rounding):
+    """reject_spikes as its docstring defines it, one fix at a time: the reference for the vectorised walk."""
+    n = len(t)
+    slack = [0.0] * n if rounding is None else np.nan_to_num(rounding).tolist()
+    held = []
+    for i in range(n):
+        a = i
+        while a > 0 and (xyz[a - 1] == xyz[i]).all():
+            a -= 1
+        b = i
+        while b < n - 1 and (xyz[b + 1] == xyz[i]).all():
+            b += 1
+        held.append(min(t[b] - t[a], 1.0))
+
+    def reachable(i, last):
+        allowed = max_speed * max(abs(t[i] - t[last]) + held[min(i, last)], 0.1) + slack[i] + slack[last]
+        return math.dist(xyz[i], xyz[last]) <= allowed
+
+    ok = [reachable(i + 1, i) for i in range(n - 1)]
+    start = next((i for i in range(n - 2) if ok[i] and ok[i + 1]), next((i for i in range(n - 1) if ok[i]), 0))
+    keep = np.zeros(n, dtype=bool)
+    keep[start] = True
+    for order in (range(start + 1, n), range(start - 1, -1, -1)):
+        last = start
+        for i in order:
+            if reachable(i, last):
+                keep[i], last = True, i
+    return keep
+
+
+@settings(max_examples=150, deadline=None, derandomize=True)
+@given(seed=st.integers(0, 10_000), n=st.integers(2, 40), block=st.sampled_from([1, 3, 8, 1 << 20]))
+def test_spikes_rejected_in_blocks_as_by_the_walk_fix_by_fix(seed, n, block):
+    rng = np.random.default_rng(seed)
+    t = np.cumsum(rng.uniform(0.01, 0.3, n))
+    xyz = np.cumsum(rng.normal(0, 1, (n, 3)), axis=0)
+    for i in np.flatnonzero(rng.random(n) < rng.uniform(0, 0.7)):
+        xyz[i] = xyz[i - 1]  # positions held over several fixes (a log written per video frame)
+    spikes = rng.random(n) < rng.uniform(0, 0.4)
+    xyz[spikes] += rng.normal(0, 50, (int(spikes.sum()), 3))
+    rounding = np.where(rng.random(n) < 0.3, np.nan, rng.uniform(0, 2, n)) if seed % 3 == 0 else None
+    with mock.patch.object(process, "SPIKE_BLOCK", block):
+        kept = reject_spikes(t, xyz, 10.0, rounding)
+    np.testing.assert_array_equal(kept, _walk_fix_by_fix(t, xyz, 10.0, rounding))
+
+
+@pytest.mark.parametrize("block", [2, 1 << 20])
+def test_a_log_on_its_own_grid_resamples_as_in_the_general_case(block):
+    rng = np.random.default_rng(0)
+    t = 1000.0 + np.arange(50) / 100.0
+    xyz = rng.normal(size=(50, 3))
+    with mock.patch.object(process, "SPIKE_BLOCK", block):
+        fast = resample(t, xyz, 100.0, 0.03)
+        with mock.patch.object(process, "_on_own_grid", lambda *args: False):
+            general = resample(t, xyz, 100.0, 0.03)
+    np.testing.assert_array_equal(fast[0], np.arange(50))
+    np.testing.assert_array_equal(fast[0], general[0])
+    np.testing.assert_array_equal(fast[1], general[1])
+    assert fast[2] == general[2] == 0
+    # a max gap shorter than a step
+    assert not process._on_own_grid(t * 100.0 - 1e5, np.arange(50), t - t[0], 1e-4, 0.005)
