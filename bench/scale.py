@@ -71,13 +71,14 @@ def run_measured(args: list[str], cwd: Path | None = None) -> dict:
     }
 
 
-def worst_eps(directory: Path) -> float:
-    """Worst eps_t (frames) of the project's timeline against its truth.json."""
+def worst_eps(directory: Path, timeline: Path | None = None) -> float:
+    """Worst eps_t (frames) of the project's timeline (default: its work folder's) against its truth.json."""
     from tlsync_pipeline.outputs.summary import format_truth_comparison
     from tlsync_pipeline.sync.timeline import read_timeline, read_truth
 
     pairs, n_frames = read_truth(directory / "truth.json")
-    _, errors = format_truth_comparison(read_timeline(directory / "work" / "timeline.json"), pairs, n_frames)
+    found = read_timeline(timeline or directory / "work" / "timeline.json")
+    _, errors = format_truth_comparison(found, pairs, n_frames)
     return max(errors.values()) if len(errors) == len(pairs) else float("inf")
 
 

@@ -1,8 +1,10 @@
 """Synthetic scenes following the paper's protocol (Brito et al., Section 4.2).
 
 A smooth random 3D target trajectory visits one zone per camera; each camera
-looks outward at its own zone, so no point of the trajectory is seen by two
-cameras. Camera k's frames relate to target samples by
+looks at its own zone, so no point of the trajectory is seen by two cameras:
+zones on a ring, each camera looking outward (``layout="ring"``, a few
+cameras), or along a straight road, each camera beside it looking across
+(``layout="path"``, any number). Camera k's frames relate to target samples by
 frame = alpha_k * sample + beta_k. Noise, as in the paper:
 
 - S_t, tracking noise: Gaussian, std S_t pixels, on each tracked coordinate;
@@ -36,6 +38,9 @@ PAPER_LINES = ((2.0, 4.0), (2.0, 45.0))
 ZONE_RADIUS_M = 60.0
 CAMERA_DISTANCE_M = 25.0
 CAMERA_HEIGHT_M = 6.0
+PATH_SPACING_M = 40.0  # between zones along the road of the "path" layout
+LAYOUTS = ("ring", "path")
+CENTRE = np.array([0.0, 0.0, 2.0])  # where a ring scene's path starts and ends (behind every camera)
 ZONE_HALF_WIDTH_M = 7.0
 WAYPOINT_EVERY = 20  # samples between random waypoints inside a zone
 WAYPOINT_STEP_M = 5.0  # metres between consecutive waypoints
@@ -86,6 +91,7 @@ def make_scene(
     crossings: int = 0,
     frame_time_jitter: float = 0.0,
     window_samples: float | None = None,
+    layout: str = "ring",
 ) -> Scene:
     """Build a deterministic scene: one camera per (alpha, beta) in ``lines``.
 
@@ -101,22 +107,36 @@ def make_scene(
     window_samples: longest stay in each camera's zone (samples), centred in
     the share of the videos it would have had; between stays the target
     walks to the scene's centre, behind every camera, and rests there (a long
-    recording in which it crosses each view once).
+    recording in which it crosses each view once; ring layout only).
+    layout: "ring" (zones on a circle of ZONE_RADIUS_M, views disjoint for up
+    to about 8 cameras) or "path" (zones PATH_SPACING_M apart along a road
+    at y = ZONE_RADIUS_M, in the cameras' order, for many cameras).
     """
+    if layout not in LAYOUTS:
+        raise ValueError(f"layout {layout!r}: expected one of {', '.join(LAYOUTS)}")
+    if layout == "path" and window_samples is not None:
+        raise ValueError("window_samples (rests at the scene's centre between stays) needs the ring layout")
     rng = np.random.default_rng(seed)
     names = [f"cam{k}" for k in range(len(lines))]
     counts = [n_frames] * len(lines) if isinstance(n_frames, int) else list(n_frames)
     relations = {n: Relation(float(a), float(b)) for n, (a, b) in zip(names, lines)}
     windows = _visibility_windows(relations, dict(zip(names, counts)), window_samples)
     n_samples = int(math.ceil(max(w[1] for w in windows.values()))) + 2 * TRANSIT_SAMPLES
-    zones = {n: _zone_centre(k, len(names)) for k, n in enumerate(names)}
-    spline = _trajectory_spline(rng, windows, zones, n_samples, crossings, rest=window_samples is not None)
+    if layout == "path":  # along the road in the order of the visits
+        order = sorted(names, key=lambda n: windows[n][0])
+        zones = {n: _zone_centre(order.index(n), len(names), layout) for n in names}
+        ends = (zones[order[0]] - [PATH_SPACING_M, 0.0, -2.0], zones[order[-1]] + [PATH_SPACING_M, 0.0, 2.0])
+    else:
+        zones = {n: _zone_centre(k, len(names)) for k, n in enumerate(names)}
+        ends = (CENTRE, CENTRE)
+    spline = _trajectory_spline(rng, windows, zones, n_samples, crossings, rest=window_samples is not None, ends=ends)
     if hover_fraction > 0:
         spline = _Hovering(spline, windows, hover_fraction)
     samples = np.arange(n_samples, dtype=np.float64)
     true_xyz = spline(samples)
     true_cameras = {
-        n: _look_at_camera(rng, n, zones[n], spline(np.linspace(*windows[n], 200)), image_size, relations[n].alpha * target_rate)
+        n: _look_at_camera(rng, n, zones[n], spline(np.linspace(*windows[n], 200)), image_size,
+                           relations[n].alpha * target_rate, _outward(zones[n], layout))
         for n in names
     }
     check_views_disjoint(true_cameras, spline(np.linspace(0, n_samples - 1, 20 * n_samples)))
@@ -146,6 +166,19 @@ def make_scene(
             "frame_time_jitter": frame_time_jitter,
         },
     )
+
+
+ROAD_ALPHAS = (2.0, 1.0, 5.0 / 3.0)  # 30, 15 and 25 fps at the default 15 Hz log, in turn
+
+
+def road_scene(seed: int, n_cameras: int, slot_samples: int = 150, video_samples: int = 110, **kwargs) -> Scene:
+    """``n_cameras`` along a road (the "path" layout), the target passing each in turn: camera k records the
+    target samples [k x slot_samples, k x slot_samples + video_samples) at 30, 15 or 25 fps in turn (the gaps let the
+    target walk between the zones at about three times its pace inside them). kwargs: as make_scene."""
+    alphas = [ROAD_ALPHAS[k % len(ROAD_ALPHAS)] for k in range(n_cameras)]
+    lines = tuple((a, -a * k * slot_samples) for k, a in enumerate(alphas))
+    n_frames = tuple(int(round(a * video_samples)) for a in alphas)
+    return make_scene(seed, lines=lines, n_frames=n_frames, layout="path", **kwargs)
 
 
 def write_scene(scene: Scene, directory: str | Path, poses: bool = True) -> Path:
@@ -212,9 +245,16 @@ def _visibility_windows(relations: dict[str, Relation], counts: dict[str, int], 
     return windows
 
 
-def _zone_centre(k: int, n: int) -> np.ndarray:
+def _zone_centre(k: int, n: int, layout: str = "ring") -> np.ndarray:
+    if layout == "path":
+        return np.array([k * PATH_SPACING_M, ZONE_RADIUS_M, 0.0])
     angle = 2 * math.pi * k / n
     return np.array([ZONE_RADIUS_M * math.cos(angle), ZONE_RADIUS_M * math.sin(angle), 0.0])
+
+
+def _outward(zone: np.ndarray, layout: str) -> np.ndarray:
+    """The horizontal direction a camera looks at its zone along: away from the ring's centre, or across the road."""
+    return np.array([0.0, 1.0, 0.0]) if layout == "path" else zone / np.linalg.norm(zone)
 
 
 class _Hovering:
@@ -248,14 +288,16 @@ def _anchor(grid: np.ndarray) -> int:
     return int(np.argmin(np.abs(grid - (grid[0] + (grid[-1] - grid[0]) / 3))))
 
 
-def _trajectory_spline(rng, windows, zones, n_samples, crossings: int = 0, rest: bool = False) -> CubicSpline:
+def _trajectory_spline(rng, windows, zones, n_samples, crossings: int = 0, rest: bool = False,
+                       ends: tuple[np.ndarray, np.ndarray] = (CENTRE, CENTRE)) -> CubicSpline:
     """A C2 path that wanders inside each camera's zone during its window.
 
     Inside a zone, waypoints are a random walk of constant step and bounded
     turn (so the target never stops), kept within the zone; heights vary.
     With crossings > 0, the waypoint a third into the window is revisited
     that many times, evenly spaced over the rest of the window. With rest,
-    the target walks to the scene's centre between stays (``_rest``).
+    the target walks to the scene's centre between stays (``_rest``). ends:
+    where the path starts and ends (out of every view).
     """
     times: list[float] = []
     points: list[list[float]] = []
@@ -285,7 +327,7 @@ def _trajectory_spline(rng, windows, zones, n_samples, crossings: int = 0, rest:
     if rest and stays:
         _rest(rng, times, points, times[-1] + travel, n_samples - REST_EVERY / 2)
     knots = np.array([-1.0] + times + [n_samples])
-    return CubicSpline(knots, np.array([[0.0, 0.0, 2.0]] + points + [[0.0, 0.0, 2.0]]), axis=0, bc_type="natural")
+    return CubicSpline(knots, np.array([list(ends[0])] + points + [list(ends[1])]), axis=0, bc_type="natural")
 
 
 def _rest(rng, times: list, points: list, start: float, stop: float) -> None:
@@ -295,9 +337,8 @@ def _rest(rng, times: list, points: list, start: float, stop: float) -> None:
         points.append([*rng.uniform(-2.0, 2.0, 2), 1.5])
 
 
-def _look_at_camera(rng, name, zone, window_points, image_size, fps) -> Camera:
-    """A camera between the scene centre and its zone, looking outward at the zone."""
-    outward = zone / np.linalg.norm(zone)
+def _look_at_camera(rng, name, zone, window_points, image_size, fps, outward) -> Camera:
+    """A camera CAMERA_DISTANCE_M before its zone along ``outward`` (unit, horizontal), looking at the zone."""
     centre = zone - CAMERA_DISTANCE_M * outward + [0, 0, CAMERA_HEIGHT_M]
     target = zone + [0, 0, 2.0]
     forward = (target - centre) / np.linalg.norm(target - centre)
