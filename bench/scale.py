@@ -9,15 +9,20 @@ peak memory of the largest of them (its VmHWM, the children's ru_maxrss; Linux).
   against the quick demo itself (the ratio of their CPU); worst eps_t of both.
 - ``read_trajectory`` of that log alone, against ``np.loadtxt`` of its first
   million rows scaled to all of them (the ratio).
+- ``tlsync ingest-log`` of that log (``--format odometry``: read, checked,
+  resampled, written), ``--rounds`` times, against the same baseline; with
+  ``--compare DIR`` another source tree's (e.g. ``git archive main``) in the
+  same rounds, alternating, and whether both wrote the same file.
 - ``tlsync --help``, ``tlsync status`` and ``tlsync ingest-log`` of a small
   DJI SRT (17 fixes): CPU seconds, and the heavy libraries they loaded.
 
-    python bench/scale.py --keep /tmp/scale
+    python bench/scale.py --keep /tmp/scale [--rounds 3] [--compare /tmp/main-tree]
 """
 
 from __future__ import annotations
 
 import argparse
+import filecmp
 import json
 import os
 import resource
@@ -54,12 +59,12 @@ def long_log_project(directory: Path, hours: float, rate: float) -> Path:
     return project
 
 
-def run_measured(args: list[str], cwd: Path | None = None) -> dict:
-    """A command in a fresh process: its exit code, wall and CPU seconds (with children), output; peak MB as the
-    command prints it (``PEAK`` MB: the largest of the process and its children)."""
+def run_measured(args: list[str], cwd: Path | None = None, tree: Path = ROOT) -> dict:
+    """A command in a fresh process importing the source ``tree``: its exit code, wall and CPU seconds (with
+    children), output; peak MB as the command prints it (``PEAK`` MB: the largest of the process and its children)."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     start = time.perf_counter()
-    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    env = dict(os.environ, PYTHONPATH=str(tree))
     done = subprocess.run([sys.executable, *args], cwd=cwd, env=env, capture_output=True, text=True)
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     return {
@@ -122,6 +127,28 @@ def read_rows(path: Path) -> list[tuple[str, dict]]:
             ("np.loadtxt, scaled to the same rows (baseline)", {"rows": total, "cpu_s": baseline, "peak_mb": float("nan"), "x_baseline": 1.0})]
 
 
+def ingest_rows(log: Path, folder: Path, baseline_s: float, rounds: int,
+                compare: Path | None) -> list[tuple[str, dict]]:
+    """``tlsync ingest-log`` of the long log, ``rounds`` times per source tree (this one, ``compare``), alternating."""
+    trees = [ROOT, *([compare] if compare else [])]
+    runs: list[list[dict]] = [[] for _ in trees]
+    for _ in range(rounds):
+        for k, tree in enumerate(trees):
+            out = folder / f"ingested-{k}.csv"
+            args = ["-c", CLI, "ingest-log", str(log), "--format", "odometry", "--out", str(out), "--quiet"]
+            runs[k].append(run_measured(args, tree=tree))
+    same = compare is None or filecmp.cmp(folder / "ingested-0.csv", folder / "ingested-1.csv", shallow=False)
+    rows = []
+    for tree, done in zip(trees, runs):
+        cpu = [r["cpu_s"] for r in done]
+        rows.append((f"tlsync ingest-log ({'this tree' if tree == ROOT else tree})", {
+            "code": max(r["code"] for r in done), "cpu_s": float(np.median(cpu)), "cpu_range": (min(cpu), max(cpu)),
+            "peak_mb": max(r["peak_mb"] for r in done), "x_baseline": float(np.median(cpu)) / baseline_s,
+            "same_output": same,
+        }))
+    return rows
+
+
 HEAVY = ("cv2", "av", "scipy", "matplotlib", "numba")
 CLI = """
 import resource, sys
@@ -155,6 +182,8 @@ def main() -> None:
     parser.add_argument("--hours", type=float, default=24.0)
     parser.add_argument("--rate", type=float, default=100.0)
     parser.add_argument("--keep", type=Path, help="Keep the projects in this folder.")
+    parser.add_argument("--rounds", type=int, default=3, help="Rounds of ingest-log.")
+    parser.add_argument("--compare", type=Path, help="Another source tree whose ingest-log runs in the same rounds.")
     args = parser.parse_args()
     folder = args.keep or Path(tempfile.mkdtemp(prefix="tlsync-scale-"))
     folder.mkdir(parents=True, exist_ok=True)
@@ -167,12 +196,24 @@ def main() -> None:
     print(f"\n{'reading the long log':<44} {'CPU s':>8} {'x baseline':>10} {'peak MB':>8}")
     for name, r in reads:
         print(f"{name:<44} {r['cpu_s']:>8.1f} {r['x_baseline']:>10.2f} {r['peak_mb']:>8.0f}")
+    log = folder / rows[1][0].replace(" ", "_") / "trajectory.csv"
+    ingests = ingest_rows(log, folder, reads[1][1]["cpu_s"], args.rounds, args.compare)
+    title = f"ingest-log of the long log (median of {args.rounds})"
+    print(f"\n{title:<44} {'CPU s':>8} {'range':>11} {'x baseline':>10} {'peak MB':>8}  code, same file")
+    for name, r in ingests:
+        low, high = r["cpu_range"]
+        print(f"{name:<44} {r['cpu_s']:>8.1f} {low:>5.1f}-{high:<5.1f} {r['x_baseline']:>10.2f} {r['peak_mb']:>8.0f}  "
+              f"{r['code']}, {r['same_output']}")
+    if len(ingests) == 2:
+        (_, new), (_, old) = ingests
+        print(f"{'this tree / the other':<44} {new['cpu_s'] / old['cpu_s']:>8.2f} {'':>11} {'':>10} "
+              f"{new['peak_mb'] / old['peak_mb']:>8.2f}")
     srt = ROOT / "tests" / "tlsync_pipeline" / "ingest" / "data" / "dji_srt" / "air2s.srt"
     starts = startup_rows(folder / rows[0][0].replace(" ", "_") / "project.toml", srt, folder)
     print(f"\n{'start-up (median of 3)':<44} {'CPU s':>8} {'peak MB':>8}  heavy libraries loaded")
     for name, r in starts:
         print(f"{name:<44} {r['cpu_s']:>8.2f} {r['peak_mb']:>8.0f}  {r['loaded']}")
-    print(json.dumps({name: {k: v for k, v in r.items() if k != "out"} for name, r in rows + reads + starts}))
+    print(json.dumps({name: {k: v for k, v in r.items() if k != "out"} for name, r in rows + reads + ingests + starts}))
 
 
 if __name__ == "__main__":

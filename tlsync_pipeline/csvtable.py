@@ -1,6 +1,8 @@
 """Numeric CSV tables read in chunks straight into arrays: logs of millions of rows in seconds and bounded memory.
 
-A table is a header line naming its columns, then rows of numbers. The
+A table is a header line naming its columns, then rows of numbers (or,
+given its columns' names, rows of numbers separated by blanks without a
+header: TUM trajectories). The
 delimiter is the first of ``,``, ``;`` or tab found in the header; with ``;``
 a decimal comma is read as a point (a CSV saved by Excel in a European
 locale). A UTF-8 byte-order mark is skipped. Rows are read CHUNK_BYTES at a
@@ -63,9 +65,11 @@ class Table:
     Use as a context manager; ``chunks`` yields (values, line numbers) for
     the given column indices. ``lenient``: bytes that are not UTF-8 (or NUL)
     reach the slow parser as replacement characters instead of an InputError.
+    ``names``: the columns of a table without a header, separated by blanks
+    (every line is a row; header is then '' and header_no 0).
     """
 
-    def __init__(self, path: str | Path, what: str, lenient: bool = False):
+    def __init__(self, path: str | Path, what: str, lenient: bool = False, names: list[str] | None = None):
         self.path = regular_file(path, MAX_TEXT_BYTES, what)
         self.what = what
         self.lenient = lenient
@@ -75,6 +79,9 @@ class Table:
         self.size = self.path.stat().st_size
         self.line_no = 0  # 1-based number of the last line consumed
         self.cut_line: int | None = None  # the last line's number once read, when the file ends without a newline
+        if names is not None:
+            self.header, self.header_no, self.delimiter, self.names = "", 0, " ", list(names)
+            return
         self.header, self.header_no = self._header()
         self.delimiter = delimiter_of(self.header)
         self.names = [c.strip().strip('"') for c in self.header.split(self.delimiter)]
@@ -167,7 +174,8 @@ class Table:
         try:  # every row must have ``width`` numbers (loadtxt refuses a changing count; blank lines make the count short)
             with warnings.catch_warnings():
                 warnings.simplefilter("error")
-                values = np.loadtxt(io.BytesIO(block), delimiter=",", comments=None, ndmin=2, dtype=np.float64)
+                delimiter = None if self.delimiter == " " else ","  # None: any run of blanks
+                values = np.loadtxt(io.BytesIO(block), delimiter=delimiter, comments=None, ndmin=2, dtype=np.float64)
         except (ValueError, UserWarning):
             return None
         if values.shape != (n_lines, width):

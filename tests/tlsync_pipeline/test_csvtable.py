@@ -13,10 +13,12 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from data_fixtures.gps_logs import walk_trajectory, write_csv_log
+from data_fixtures.target_logs import write_tum
 from tlsync_pipeline import csvtable
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.geodesy import Origin
 from tlsync_pipeline.ingest import read_log
+from tlsync_pipeline.ingest.tum import read_tum
 from tlsync_pipeline.trajectory import Trajectory, read_trajectory, write_trajectory
 
 ORIGIN = Origin(47.3769, 8.5417, 450.0)
@@ -98,6 +100,15 @@ def test_csv_log_chunks_read_as_line_by_line(tmp_path, edits, chunk):
     path = write_csv_log(tmp_path / "walk.csv", walk, ORIGIN, START)
     path.write_text(_mangle(path.read_text(), edits), encoding="utf-8")
     _same(_outcome(read_log, path, chunk, fast=True), _outcome(read_log, path, 1 << 30, fast=False))
+
+
+@FUZZ
+@given(edits=_EDITS, chunk=st.sampled_from([64, 300, 1 << 20]))
+def test_tum_chunks_read_as_line_by_line(tmp_path, edits, chunk):
+    t = 1000.0 + np.arange(30) / 30.0
+    path = write_tum(tmp_path / "poses.txt", t, np.column_stack([np.sin(t), np.cos(t), 0.01 * t]))
+    path.write_text(_mangle(path.read_text(), edits), encoding="utf-8")
+    _same(_outcome(read_tum, path, chunk, fast=True), _outcome(read_tum, path, 1 << 30, fast=False))
 
 
 @pytest.mark.parametrize(

@@ -13,11 +13,14 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from tlsync_pipeline.errors import InputError
+import numpy as np
+
+from tlsync_pipeline.csvtable import Columns, Table
 from tlsync_pipeline.ingest.reader import Reader, text_of
-from tlsync_pipeline.ingest.records import LOCAL, LogRecords, make_records
+from tlsync_pipeline.ingest.records import LOCAL, LogRecords, records_of_columns
 
 MALFORMED = "malformed line (expected 8 numbers)"
+COLUMNS = ["timestamp", "tx", "ty", "tz", "qx", "qy", "qz", "qw"]
 
 
 def _numbers(line: str) -> list[float] | None:
@@ -42,27 +45,41 @@ def _sniff(head: bytes) -> bool:
 
 
 def read_tum(path: str | Path) -> LogRecords:
-    """Read every pose's position; see the module notes."""
-    path = Path(path)
-    try:
-        text = path.read_bytes().decode("utf-8", errors="replace")
-    except OSError as exc:
-        raise InputError(f"{path}: cannot read: {exc.strerror or exc}") from None
-    rows: list[list[float]] = []
-    numbers: list[int] = []
+    """Read every pose's position; see the module notes.
+
+    Read in chunks into arrays (tlsync_pipeline.csvtable); chunks with
+    comments, blank lines, commas or line noise line by line.
+    """
     dropped: dict[str, list[int]] = {}
     ignored = 0
-    for number, line in enumerate(text.splitlines(), start=1):
-        if not line.strip() or line.lstrip().startswith("#"):
-            ignored += 1
-            continue
-        values = _numbers(line)
-        if values is None:
-            dropped.setdefault(MALFORMED, []).append(number)
-            continue
-        rows.append(values[:4])
-        numbers.append(number)
-    return make_records(path, "tum", LOCAL, rows, numbers, utc=False, dropped=dropped, ignored=ignored, clock="the recorder's clock (s)")
+
+    def by_line(lines: list[str], first: int) -> tuple[np.ndarray, np.ndarray]:
+        nonlocal ignored
+        rows, numbers = [], []
+        for number, line in enumerate(lines, start=first):
+            if not line.strip() or line.lstrip().startswith("#"):
+                ignored += 1
+                continue
+            values = _numbers(line)
+            if values is None:
+                dropped.setdefault(MALFORMED, []).append(number)
+                continue
+            rows.append(values)
+            numbers.append(number)
+        return np.asarray(rows, dtype=np.float64).reshape(-1, 8), np.asarray(numbers, dtype=np.int64)
+
+    rows: Columns | None = None
+    lines: list[np.ndarray | range] = []
+    with Table(path, "TUM trajectory", lenient=True, names=COLUMNS) as table:
+        for values, numbers in table.chunks(list(range(len(COLUMNS))), by_line):
+            rows = rows or Columns({"t": (0, 1), "xyz": (1, 4)}, table.expected_rows())  # sized from the first chunk
+            rows.add(values)
+            lines.append(numbers)
+        path = table.path
+    t, xyz = (rows.get("t")[:, 0], rows.get("xyz")) if rows else (np.empty(0), np.empty((0, 3)))
+    numbers = np.concatenate([np.asarray(n, dtype=np.int64) for n in lines]) if lines else np.empty(0, np.int64)
+    return records_of_columns(path, "tum", LOCAL, t, xyz, numbers, utc=False, dropped=dropped, ignored=ignored,
+                              clock="the recorder's clock (s)")
 
 
 READER = Reader("tum", "TUM trajectory text (timestamp tx ty tz qx qy qz qw)", read_tum, _sniff)
