@@ -65,7 +65,7 @@ def run_measured(args: list[str], cwd: Path | None = None, tree: Path = ROOT) ->
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     start = time.perf_counter()
     env = dict(os.environ, PYTHONPATH=str(tree))
-    done = subprocess.run([sys.executable, *args], cwd=cwd, env=env, capture_output=True, text=True)
+    done = subprocess.run([sys.executable, "-P", *args], cwd=cwd, env=env, capture_output=True, text=True)  # -P: not the cwd's tree
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     return {
         "code": done.returncode,
