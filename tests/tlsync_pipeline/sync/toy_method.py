@@ -12,10 +12,10 @@ import numpy as np
 from scipy.stats import theilslopes
 
 from tlsync_pipeline.errors import SyncError
-from tlsync_pipeline.sync.line_search import thin_votes
-from tlsync_pipeline.sync.methods import CameraData
-from tlsync_pipeline.sync.params import SyncParams, param
-from tlsync_pipeline.sync.ransac import distance_to_line
+from tlsync_pipeline.sync.kernels.line_search import thin_votes
+from tlsync_pipeline.sync.solve.methods import CameraData
+from tlsync_pipeline.sync.model.params import SyncParams, param
+from tlsync_pipeline.sync.kernels.ransac import distance_to_line
 from tlsync_pipeline.sync.timeline import CameraLine
 from tlsync_pipeline.trajectory import Trajectory
 

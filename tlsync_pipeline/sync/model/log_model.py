@@ -9,7 +9,7 @@ bias. Presets are named by the receivers users carry (docs/algorithm.md,
 "The log's error"); ingest suggests one from the log's format and quality.
 A preset is a prior, not a verdict: the white noise is measured on the
 log's own fixes (``measured``), the bias's std and correlation time by the
-joint fit's marginal likelihood (sync/log_bias.py).
+joint fit's marginal likelihood (sync/solve/log_bias.py).
 """
 
 from __future__ import annotations
