@@ -7,7 +7,7 @@ import pytest
 
 from data_fixtures import make_scene
 from tlsync_pipeline.errors import SyncError
-from tlsync_pipeline.sync import identify
+from tlsync_pipeline.sync.identify import identify
 from tlsync_pipeline.sync.identify.identify import along_tracklets, assign_target, candidate_votes, covers, identify_target
 from tlsync_pipeline.sync.kernels.line_search import thin_votes
 from tlsync_pipeline.sync.model.params import SyncParams

@@ -14,7 +14,7 @@ from data_fixtures.log_error import PRESETS as FIXTURE_LOGS
 from data_fixtures.log_error import log_errors
 from data_fixtures.passes import make_pass_scene
 from tests.real_data import REAL_DATA
-from tlsync_pipeline.sync import pose as P
+from tlsync_pipeline.sync.pose import pose as P
 from tlsync_pipeline.sync.model.log_model import PRESETS as LOG_MODELS
 from tlsync_pipeline.sync.model.params import SyncParams
 from tlsync_pipeline.sync.pose.pose_fit import (
