@@ -1,12 +1,13 @@
 """The sync-method interface: what a method is given and what it returns.
 
 A method fits one camera's line clock = alpha * sample + beta from that
-camera's votes. ``synchronize`` (sync/solve/synchronize.py) does the rest the same
-way for every method: it prepares the trajectory with the method, casts the
-votes on it (or takes the vote stage's), puts them on the camera's clock and
-builds the timeline. Methods are declared in sync/model/methods.py and registered by name in
-sync/solve/registry.py;
-docs/architecture.md ("Adding a sync method") has the recipe.
+camera's votes. ``synchronize`` (sync/solve/synchronize.py) does the rest
+the same way for every method: it prepares the trajectory with the method,
+casts the votes on it (or takes the vote stage's), puts them on the camera's
+clock and builds the timeline. Methods are declared in sync/model/methods.py
+(name, parameters, preparation) and their fits registered by name in
+sync/solve/registry.py; docs/architecture.md ("Adding a sync method") has
+the recipe.
 """
 
 from __future__ import annotations
