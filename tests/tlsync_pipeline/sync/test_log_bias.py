@@ -10,7 +10,8 @@ from data_fixtures.log_error import PRESETS as FIXTURE_LOGS
 from data_fixtures.log_error import LogErrorModel, gauss_markov
 from data_fixtures.walk import WalkSpec, make_walk_scene
 from tlsync_pipeline.sync.solve.log_bias import _prior_whitening
-from tlsync_pipeline.sync.model.log_model import PRESETS, LogModel, LogModelChoice, vote_radius
+from tlsync_pipeline.sync.model.log_model import PRESETS, LogModel, LogModelChoice
+from tlsync_pipeline.sync.vote.log_error import vote_radius
 from tlsync_pipeline.sync.model.params import SyncParams
 from tlsync_pipeline.sync.solve.synchronize import CameraInput, synchronize
 from tlsync_pipeline.sync.timeline import eps_t

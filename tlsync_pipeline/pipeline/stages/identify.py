@@ -24,7 +24,8 @@ from tlsync_pipeline.pipeline.stages.cameras import has_no_rows, ingest_report_i
 from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
 from tlsync_pipeline.sync.identify.breaks import identify_in_segments
 from tlsync_pipeline.sync.identify.identify import IdentifyParams, identify_params
-from tlsync_pipeline.sync.model.log_model import LogModelChoice, measured, vote_radius
+from tlsync_pipeline.sync.model.log_model import LogModelChoice
+from tlsync_pipeline.sync.vote.log_error import measured, vote_radius
 from tlsync_pipeline.sync.model.params import Preparation
 from tlsync_pipeline.sync.model.methods import prepare_trajectory, preparation_of
 from tlsync_pipeline.sync.vote.visits import near_views
@@ -51,7 +52,7 @@ class IdentifyStageParams:
     """fps: the camera's nominal frame rate (None: camera.json's); identify: identification's [sync] keys;
     preparation: how the trajectory is prepared; source: the video the movers were detected in (None: the
     project brings its detections); seed: an init box, or None; log_model: the log's error, which widens the
-    camera's vote radius and gate (log_model.vote_radius)."""
+    camera's vote radius and gate (log_error.vote_radius)."""
 
     fps: float | None
     identify: IdentifyParams

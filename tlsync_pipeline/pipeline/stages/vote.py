@@ -17,7 +17,8 @@ from tlsync_pipeline.errors import SyncError
 from tlsync_pipeline.pipeline.spec import Options, Sources, StageResult, StageSpec
 from tlsync_pipeline.pipeline.stages.cameras import has_no_rows, ingest_report_input, log_model_of, pose_problem, read_identification
 from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
-from tlsync_pipeline.sync.model.log_model import LogModelChoice, measured, vote_radius
+from tlsync_pipeline.sync.model.log_model import LogModelChoice
+from tlsync_pipeline.sync.vote.log_error import measured, vote_radius
 from tlsync_pipeline.sync.model.params import Preparation
 from tlsync_pipeline.sync.model.methods import prepare_trajectory, preparation_of
 from tlsync_pipeline.sync.vote.votes import Votes, compute_votes, save_votes
@@ -33,7 +34,7 @@ if TYPE_CHECKING:
 class VoteParams:
     """eps_px: vote radius (pixels, eq. 3); preparation: the trajectory the votes are cast on (the sync method's);
     source: the video the track stage tracked the target in (None when the project brings the track); log_model:
-    the log's error, which widens the camera's vote radius (log_model.vote_radius)."""
+    the log's error, which widens the camera's vote radius (log_error.vote_radius)."""
 
     eps_px: float
     preparation: Preparation

@@ -65,7 +65,7 @@ class CameraData:
     vote_clock: (M,) clock value of each vote's frame; clock: how the clock
     reads (frame indices or presentation time x fps); eps_px: the camera's
     vote radius (pixels: [sync] eps_px, widened for the log's error,
-    log_model.vote_radius).
+    log_error.vote_radius).
     """
 
     name: str

@@ -28,7 +28,8 @@ from tlsync_pipeline.errors import SyncError
 from tlsync_pipeline.sync.identify.breaks import identify_in_segments, segment_reasons, with_vote_break
 from tlsync_pipeline.sync.model.clock import FrameTimes, Segment, camera_clock, image_speed
 from tlsync_pipeline.sync.identify.identify import Identification, identify_params
-from tlsync_pipeline.sync.model.log_model import PRESETS, LogModel, measured, vote_radius
+from tlsync_pipeline.sync.model.log_model import PRESETS, LogModel
+from tlsync_pipeline.sync.vote.log_error import measured, vote_radius
 from tlsync_pipeline.sync.solve.methods import CameraData, CameraInput, JointMethod
 from tlsync_pipeline.sync.model.methods import method_options, params_table, prepare_trajectory, preparation_of
 from tlsync_pipeline.sync.model.params import SyncParams
@@ -71,7 +72,7 @@ def cast_votes(camera: Camera, track: Track, prepared: Trajectory, eps_px: float
 def synchronize_camera(name: str, inputs: CameraInput, votes: Votes, prepared: Trajectory, params: SyncParams, eps_px: float | None = None) -> CameraResult:
     """The fitted line of one camera from its votes; SyncError if it cannot be synchronized.
 
-    eps_px: the camera's vote radius (log_model.vote_radius; None: [sync] eps_px).
+    eps_px: the camera's vote radius (log_error.vote_radius; None: [sync] eps_px).
     """
     track = inputs.track
     assert track is not None, "a camera without a track is identified first (identify_and_synchronize)"
