@@ -1,4 +1,5 @@
-"""A toy sync method, written as docs/architecture.md ("Adding a sync method") says: one module.
+"""A toy sync method in one module: its declaration (name, parameters, preparation) and its fit in one class, which
+``register`` declares too (docs/architecture.md, "Adding a sync method", splits the two for the stages' cache keys).
 
 Theil-Sen line through the closest vote of each frame; its one parameter
 scales the votes' pixel distances it accepts.
