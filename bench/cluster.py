@@ -6,7 +6,8 @@ of 7 s per video at 30, 15 or 25 fps, given calibrations and tracks with 1
 px of noise), run whole twice in fresh work folders:
 
 - locally: ``tlsync run`` with its default executor (a pool of one worker
-  process per core);
+  process per core, started by the first task that is not light: given
+  calibrations and tracks leave none, so every task runs in its process);
 - on a Dask cluster: ``tlsync run --executor dask --scheduler ...`` against
   a ``distributed.LocalCluster`` of ``--workers`` worker processes (one
   thread each) started by this script.
@@ -51,9 +52,9 @@ def cpu_children() -> float:
 
 
 def local_run(project: Path, work: Path) -> dict:
-    """``tlsync run`` with the default executor: wall, CPU (with its pool), peak MB, exit code."""
+    """``tlsync run`` with the default executor: wall, CPU (with its pool, if a task started it), peak MB, exit code."""
     result = run_measured(["-c", CLI, "run", str(project), "--work", str(work), "--quiet"])
-    return {**result, "workers": os.cpu_count() or 1}
+    return {**result, "workers": "-"}
 
 
 def dask_run(project: Path, work: Path, workers: int) -> dict:
