@@ -472,10 +472,12 @@ def reject_spikes(t: np.ndarray, xyz: np.ndarray, max_speed: float, rounding: np
     start = int(both[0]) if len(both) else int(np.flatnonzero(ok)[0]) if ok.any() else 0
     keep = np.zeros(n, dtype=bool)
     keep[start] = True
+    held = np.empty(n)
+    for lo in range(0, n, SPIKE_BLOCK):
+        held[lo:lo + SPIKE_BLOCK] = _held(t, starts, lo, min(n, lo + SPIKE_BLOCK))
 
     def reachable(i: int, last: int) -> bool:
-        held = float(_held(t, starts, min(i, last), min(i, last) + 1)[0])
-        span = abs(float(t[i]) - float(t[last])) + held
+        span = abs(float(t[i]) - float(t[last])) + float(held[min(i, last)])
         allowed = max_speed * max(span, SPIKE_WINDOW_S) + float(slack[i]) + float(slack[last])
         return math.dist(xyz[i].tolist(), xyz[last].tolist()) <= allowed
 
