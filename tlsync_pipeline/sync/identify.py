@@ -65,7 +65,7 @@ from tlsync_pipeline.sync.plausibility import BACKWARD_BELOW, backwards_better
 from tlsync_pipeline.sync.refine import MIN_FRAMES, refine_line
 from tlsync_pipeline.sync.slope import SlopePrior, slope_prior
 from tlsync_pipeline.sync.target_size import beyond_slack, depth_on_line, sizes_in_metres, slack_on_line, target_within
-from tlsync_pipeline.sync.timeline import IdentificationSummary, TrackletShare
+from tlsync_pipeline.artefacts.identification import IdentificationSummary, TrackletShare
 from tlsync_pipeline.sync.votes import Votes
 from tlsync_pipeline.trajectory import UP, PiecewiseTrajectory, Trajectory, lowered
 from trackers.detections import Detections

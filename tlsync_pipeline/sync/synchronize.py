@@ -30,7 +30,7 @@ from tlsync_pipeline.sync.clock import FrameTimes, Segment, camera_clock, image_
 from tlsync_pipeline.sync.identify import Identification, IdentifyParams
 from tlsync_pipeline.sync.log_model import PRESETS, LogModel, measured, vote_radius
 from tlsync_pipeline.sync.methods import CameraData, CameraInput, JointMethod
-from tlsync_pipeline.sync.params import Preparation, SyncParams
+from tlsync_pipeline.sync.params import ParamsTable, Preparation, SyncParams
 from tlsync_pipeline.sync.causes import explain
 from tlsync_pipeline.sync.plausibility import BACKWARD_BELOW, RIVAL_PROBABILITY, Judged, backward_support, diagnose, judge_line, line_support, motion_slope, rival_odds_of
 from tlsync_pipeline.sync.pose import TargetPose, estimate_pose, pose_info
@@ -254,7 +254,7 @@ def synchronize(
         trajectory.rate,
         trajectory.t0,
         method=params.method,
-        params=params_table(params),
+        params=ParamsTable.from_table(params_table(params)),
         failed={name: failed[name] for name in cameras if name in failed},
         rejected=rejected,
         shared_cov=shared,

@@ -19,8 +19,11 @@ from typing import Any
 
 import numpy as np
 
+from tlsync_pipeline.artefacts.identification import IdentificationSummary
+from tlsync_pipeline.artefacts.kinds import artefact_path
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.sync.clock import FRAME, CameraClock, FrameTimes, Segment
+from tlsync_pipeline.sync.params import ParamsTable
 from tlsync_pipeline.sync.clock_prior import CLOCK_FLAG, ClockCheck, clock_reason
 from tlsync_pipeline.sync.status import AMBIGUOUS, FAILED, HALF_95, WEAK, WIDE_FRAMES, WIDE_REMEDIES, WIDE_REMEDY, CameraStatus, Reason, failure, line_reasons, status_of
 from trackers.breaks import Break
@@ -102,41 +105,6 @@ class LogBiasSummary:
     @classmethod
     def from_dict(cls, data: dict) -> LogBiasSummary:
         return cls(tuple(data["estimate_m"]), tuple(data["se_m"]), float(data["observability"]))
-
-
-@dataclass(frozen=True)
-class TrackletShare:
-    """One tracklet of an identified track: its id, frames assigned to the target, their share of the track, and the share of the tracklet's own frames within the gate of the projected path."""
-
-    id: int
-    frames: int
-    share: float
-    follow_share: float
-
-
-@dataclass(frozen=True)
-class IdentificationSummary:
-    """How the target was found among every mover (sync/identify.py).
-
-    candidates_voting: detections with at least one vote; identified_frames:
-    frames of the identified track; tracklets: those it uses, most frames
-    first; support_frames / runner_up_frames: distinct frames on the best
-    line and on the best line without its votes, over every candidate's
-    votes; rounds: assignment rounds run; logged_point_above_m: estimated
-    height of the logged point above the tracked point (metres, world up).
-    """
-
-    candidates_voting: int
-    identified_frames: int
-    tracklets: tuple[TrackletShare, ...]
-    support_frames: int
-    runner_up_frames: int
-    rounds: int
-    logged_point_above_m: float = 0.0
-
-    @classmethod
-    def from_dict(cls, entry: dict) -> "IdentificationSummary":
-        return cls(**{**entry, "tracklets": tuple(TrackletShare(**t) for t in entry["tracklets"])})
 
 
 @dataclass(frozen=True)
@@ -299,7 +267,7 @@ class Timeline:
     target_rate: float | None = None
     target_t0: float | None = None
     method: str = "paper"
-    params: dict = field(default_factory=dict)
+    params: ParamsTable = field(default_factory=ParamsTable)  # the [sync] table of the fit
     failed: dict[str, str] = field(default_factory=dict)
     warnings: tuple[StageWarning, ...] = ()
     # Covariance between two cameras' (alpha, beta) through an error they share (the log's bias), "A|B" -> 2x2 (rows: A's).
@@ -473,12 +441,12 @@ class Timeline:
             if timed is not None:
                 pairs[key]["seconds"] = {"alpha": timed.alpha, "beta": timed.beta}
             if self.approximate(a, b):
-                pairs[key].update(approximate=True, exact="exports/frame_map.csv")
+                pairs[key].update(approximate=True, exact=artefact_path("frame_map"))
         return {
             "format": "tlsync-timeline",
             "version": FORMAT_VERSION,
             "method": self.method,
-            "params": self.params,
+            "params": self.params.table(),
             "target": {"rate": self.target_rate, "t0": self.target_t0},
             "reference": first,
             "cameras": cameras,
@@ -530,7 +498,7 @@ def read_timeline(path: str | Path) -> Timeline:
             target.get("rate"),
             target.get("t0"),
             data.get("method", "paper"),
-            data.get("params", {}),
+            ParamsTable.from_table(data.get("params", {})),
             data.get("failed", {}),
             warnings,
             shared_cov=shared,

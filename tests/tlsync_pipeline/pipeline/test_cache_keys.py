@@ -80,3 +80,38 @@ def test_a_key_only_the_intervals_read_reruns_sync_export_and_render_only(finish
     summary = run_graph(_graph(folder))
     assert sorted(summary.ran) == ["export", "render", "sync"]
     assert {"identify/cam1", "vote/cam0", "vote/cam1"} <= set(summary.fresh)
+
+
+@pytest.fixture(scope="module")
+def finished_with_a_log(tmp_path_factory):
+    """The paper scene with its trajectory given as a GPX log (the ingest stage runs), after a complete run."""
+    from data_fixtures.gps_logs import write_gpx_log
+    from tlsync_pipeline.geodesy import Origin
+
+    scene = make_scene(seed=0)
+    folder = tmp_path_factory.mktemp("log_keys")
+    write_scene(scene, folder)
+    origin = Origin(46.5, 6.6, 380.0)
+    write_gpx_log(folder / "target.gpx", scene.trajectory, origin, 1.7e9)
+    toml = folder / "project.toml"
+    given = 'trajectory = "trajectory.csv"\n'
+    assert given in toml.read_text()
+    toml.write_text(toml.read_text().replace(given, f'log = "target.gpx"\norigin = [{origin.lat}, {origin.lon}, {origin.alt}]\n'))
+    summary = run_graph(_graph(folder))
+    assert {"ingest", "vote/cam0", "sync"} <= set(summary.ran)
+    return folder
+
+
+@pytest.mark.parametrize("new", ["bias_tau_s = 30.0", 'log_model = "drone"', "white_sigma_m = 0.5"])
+def test_a_key_of_the_logs_error_model_leaves_ingest_fresh(finished_with_a_log, tmp_path, new):
+    """[target]'s error-model keys are read by identify, vote and sync, not by ingest: the log is not parsed again."""
+    folder = _edited(finished_with_a_log, tmp_path, 'log = "target.gpx"\n', f'log = "target.gpx"\n{new}\n')
+    found = _stale_by_own_reasons(folder)
+    assert "ingest" not in found and {"vote/cam0", "sync"} <= set(found), found
+    summary = run_graph(_graph(folder))
+    assert "ingest" in summary.fresh and "sync" in summary.ran
+
+
+def test_a_key_ingest_reads_makes_it_stale(finished_with_a_log, tmp_path):
+    folder = _edited(finished_with_a_log, tmp_path, 'log = "target.gpx"\n', 'log = "target.gpx"\nsmoothing_s = 0.5\n')
+    assert "smoothing_s: 0.0 -> 0.5" in " ".join(_stale_by_own_reasons(folder)["ingest"])

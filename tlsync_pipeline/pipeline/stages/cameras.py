@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -12,17 +11,16 @@ from typing import TYPE_CHECKING
 from calibration.camera import Camera, read_camera
 from calibration.errors import CalibrationInputError
 from tlsync_pipeline.errors import INPUT_ERRORS, SyncError
+from tlsync_pipeline.ingest.report import read_ingest_report
 from tlsync_pipeline.pipeline.spec import ProjectWide, Sources
 from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
 from tlsync_pipeline.sync.log_model import LogModel, LogModelChoice
-from tlsync_pipeline.sync.timeline import IdentificationSummary
 from trackers.video import probe_video
 
 if TYPE_CHECKING:
     from tlsync_pipeline.pipeline.project import Project
 
 CAMERA_FILES = ("camera", "track", "votes", "video", "identification", "detections", "video_info", "scan", "clock")
-VIDEO_INFO_FORMAT = "tlsync-video"  # video.json, written by the track stage
 
 
 @dataclass(frozen=True)
@@ -61,14 +59,6 @@ def camera_files(files: StageFiles, params: ProjectWide) -> dict[str, CameraFile
 def cameras_params(project: Project) -> CamerasParams:
     """The cameras in project order and their fps (None: the camera.json's)."""
     return CamerasParams(tuple(project.names), fps={c.name: c.fps for c in project.cameras})
-
-
-def read_identification(path) -> IdentificationSummary | SyncError:
-    """A camera's identification.json (identify stage): the summary, or the SyncError that kept its target from being
-    identified (its ``breaks``, the drop the movers' votes show, are read by the sync stage)."""
-    data = json.loads(path.read_text(encoding="utf-8"))
-    data.pop("breaks", None)
-    return SyncError(data["error"]) if "error" in data else IdentificationSummary.from_dict(data)
 
 
 def target_pose_wanted(project: Project, name: str) -> bool:
@@ -124,11 +114,6 @@ def has_no_rows(csv_path: Path) -> bool:
         return sum(1 for line in handle if line.strip()) <= 1
 
 
-def read_video_info(path: Path) -> dict:
-    """video.json as the track stage wrote it: frames (that exist), announced, truncated (docs/formats.md)."""
-    return json.loads(Path(path).read_text(encoding="utf-8"))
-
-
 def container_fps(project: Project) -> dict[str, float]:
     """Each camera with a video and an fps key: the frame rate its video's container states (a video that cannot be
     probed is left out: the run's validation names it)."""
@@ -160,7 +145,7 @@ def log_model_of(files: StageFiles, choice: LogModelChoice) -> LogModel:
     declares it: the project ingests a log), else "none"."""
     suggested = None
     if files.has("ingest_report"):
-        suggested = (json.loads(files.path("ingest_report").read_text(encoding="utf-8")).get("log_model") or {}).get("name")
+        suggested = (read_ingest_report(files.path("ingest_report")).log_model or {}).get("name")
     return choice.resolve(suggested)
 
 
