@@ -22,7 +22,11 @@ class ClockPrior:
     @property
     def utc(self) -> str:
         """utc_s as ISO 8601 UTC to the millisecond."""
-        return dt.datetime.fromtimestamp(self.utc_s, dt.timezone.utc).isoformat(timespec="milliseconds").replace("+00:00", "Z")
+        return (
+            dt.datetime.fromtimestamp(self.utc_s, dt.timezone.utc)
+            .isoformat(timespec="milliseconds")
+            .replace("+00:00", "Z")
+        )
 
 
 @dataclass(frozen=True)

@@ -21,10 +21,11 @@ def write_offsets(rows: list[dict[str, Any]], path: str | Path) -> None:
     with Path(path).open("w", newline="", encoding="utf-8") as handle:
         writer = csv.DictWriter(handle, fieldnames=list(rows[0]))
         writer.writeheader()
-        writer.writerows({k: ("" if v is None else (f"{v:.6f}" if isinstance(v, float) else v)) for k, v in r.items()} for r in rows)
+        writer.writerows(
+            {k: ("" if v is None else (f"{v:.6f}" if isinstance(v, float) else v)) for k, v in r.items()} for r in rows
+        )
 
 
 def write_text(text: str, path: str | Path) -> None:
     """A text file (ffmpeg.sh, timeline.otio, timeline.fcpxml, report.html, report.md)."""
     Path(path).write_text(text, encoding="utf-8")
-

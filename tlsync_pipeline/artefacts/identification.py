@@ -11,7 +11,8 @@ from trackers.breaks import Break
 
 @dataclass(frozen=True)
 class TrackletShare:
-    """One tracklet of an identified track: its id, frames assigned to the target, their share of the track, and the share of the tracklet's own frames within the gate of the projected path."""
+    """One tracklet of an identified track: its id, frames assigned to the target, their share of the track, and the
+    share of the tracklet's own frames within the gate of the projected path."""
 
     id: int
     frames: int

@@ -1,4 +1,5 @@
-"""JSON documents of the work folder: read one with errors that name the file, write one as every artefact is written."""
+"""JSON documents of the work folder: read one with errors that name the file, write one as every JSON artefact is
+written."""
 
 from __future__ import annotations
 

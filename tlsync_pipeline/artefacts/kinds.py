@@ -31,68 +31,49 @@ class Kind:
     folder: bool = False
 
 
-_CAMERA = "calibration.camera"
+def _typed(path: str, module: str, type_name: str, name: str) -> Kind:
+    """A kind whose type and functions ``read_<name>``, ``write_<name>`` are in ``module``."""
+    return Kind(path, f"{module}:{type_name}", f"{module}:read_{name}", f"{module}:write_{name}")
+
+
+_ARTEFACTS = "tlsync_pipeline.artefacts"
+_EXPORTS = "tlsync_pipeline.artefacts.exports"
 KINDS: dict[str, Kind] = {
-    "intrinsics": Kind("cameras/{camera}/intrinsics.json", f"{_CAMERA}:Camera", f"{_CAMERA}:read_camera", f"{_CAMERA}:write_camera"),
-    "intrinsics_report": Kind(
-        "cameras/{camera}/intrinsics_report.json",
-        "tlsync_pipeline.artefacts.calibration:IntrinsicsReport",
-        "tlsync_pipeline.artefacts.calibration:read_intrinsics_report",
-        "tlsync_pipeline.artefacts.calibration:write_intrinsics_report",
+    "intrinsics": _typed("cameras/{camera}/intrinsics.json", "calibration.camera", "Camera", "camera"),
+    "intrinsics_report": _typed(
+        "cameras/{camera}/intrinsics_report.json", f"{_ARTEFACTS}.calibration", "IntrinsicsReport", "intrinsics_report"
     ),
-    "camera": Kind("cameras/{camera}/camera.json", f"{_CAMERA}:Camera", f"{_CAMERA}:read_camera", f"{_CAMERA}:write_camera"),
-    "calibration_report": Kind(
+    "camera": _typed("cameras/{camera}/camera.json", "calibration.camera", "Camera", "camera"),
+    "calibration_report": _typed(
         "cameras/{camera}/calibration_report.json",
-        "tlsync_pipeline.artefacts.calibration:CalibrationReport",
-        "tlsync_pipeline.artefacts.calibration:read_calibration_report",
-        "tlsync_pipeline.artefacts.calibration:write_calibration_report",
+        f"{_ARTEFACTS}.calibration",
+        "CalibrationReport",
+        "calibration_report",
     ),
     "calibration_picture": Kind("cameras/{camera}/calibration.png", "builtins:bytes"),
-    "track": Kind("cameras/{camera}/track.csv", "trackers.track:Track", "trackers.track:read_track", "trackers.track:write_track"),
-    "detections": Kind(
-        "cameras/{camera}/detections.csv", "trackers.detections:Detections", "trackers.detections:read_detections", "trackers.detections:write_detections"
+    "track": _typed("cameras/{camera}/track.csv", "trackers.track", "Track", "track"),
+    "detections": _typed("cameras/{camera}/detections.csv", "trackers.detections", "Detections", "detections"),
+    "scan": _typed("cameras/{camera}/scan.json", f"{_ARTEFACTS}.scan", "ScanPlan", "scan"),
+    "identification": _typed(
+        "cameras/{camera}/identification.json", f"{_ARTEFACTS}.identification", "IdentificationRecord", "identification"
     ),
-    "scan": Kind(
-        "cameras/{camera}/scan.json", "tlsync_pipeline.artefacts.scan:ScanPlan", "tlsync_pipeline.artefacts.scan:read_scan", "tlsync_pipeline.artefacts.scan:write_scan"
+    "video_info": _typed("cameras/{camera}/video.json", f"{_ARTEFACTS}.video_info", "VideoInfo", "video_info"),
+    "clock": _typed("cameras/{camera}/clock.json", f"{_ARTEFACTS}.clock", "RecordedClock", "clock"),
+    "votes": _typed("cameras/{camera}/votes.npz", "tlsync_pipeline.sync.votes", "CameraVotes", "votes"),
+    "trajectory": _typed("target/trajectory.csv", "tlsync_pipeline.trajectory", "Trajectory", "trajectory"),
+    "ingest_report": _typed(
+        "target/ingest_report.json", "tlsync_pipeline.ingest.report", "IngestReport", "ingest_report"
     ),
-    "identification": Kind(
-        "cameras/{camera}/identification.json",
-        "tlsync_pipeline.artefacts.identification:IdentificationRecord",
-        "tlsync_pipeline.artefacts.identification:read_identification",
-        "tlsync_pipeline.artefacts.identification:write_identification",
-    ),
-    "video_info": Kind(
-        "cameras/{camera}/video.json",
-        "tlsync_pipeline.artefacts.video_info:VideoInfo",
-        "tlsync_pipeline.artefacts.video_info:read_video_info",
-        "tlsync_pipeline.artefacts.video_info:write_video_info",
-    ),
-    "clock": Kind(
-        "cameras/{camera}/clock.json",
-        "tlsync_pipeline.artefacts.clock:RecordedClock",
-        "tlsync_pipeline.artefacts.clock:read_clock",
-        "tlsync_pipeline.artefacts.clock:write_clock",
-    ),
-    "votes": Kind("cameras/{camera}/votes.npz", "tlsync_pipeline.sync.votes:CameraVotes", "tlsync_pipeline.sync.votes:read_votes", "tlsync_pipeline.sync.votes:write_votes"),
-    "trajectory": Kind(
-        "target/trajectory.csv", "tlsync_pipeline.trajectory:Trajectory", "tlsync_pipeline.trajectory:read_trajectory", "tlsync_pipeline.trajectory:write_trajectory"
-    ),
-    "ingest_report": Kind(
-        "target/ingest_report.json",
-        "tlsync_pipeline.ingest.report:IngestReport",
-        "tlsync_pipeline.ingest.report:read_ingest_report",
-        "tlsync_pipeline.ingest.report:write_ingest_report",
-    ),
-    "timeline": Kind("timeline.json", "tlsync_pipeline.sync.timeline:Timeline", "tlsync_pipeline.sync.timeline:read_timeline", "tlsync_pipeline.sync.timeline:write_timeline"),
-    "frame_map": Kind("exports/frame_map.csv", "builtins:list", writer="tlsync_pipeline.artefacts.exports:write_rows"),
-    "offsets": Kind("exports/offsets.csv", "builtins:list", writer="tlsync_pipeline.artefacts.exports:write_offsets"),
-    "ffmpeg": Kind("exports/ffmpeg.sh", "builtins:str", writer="tlsync_pipeline.artefacts.exports:write_text"),
-    "timeline_otio": Kind("exports/timeline.otio", "builtins:str", writer="tlsync_pipeline.artefacts.exports:write_text"),
-    "timeline_fcpxml": Kind("exports/timeline.fcpxml", "builtins:str", writer="tlsync_pipeline.artefacts.exports:write_text"),
-    "sync_json": Kind("exports/sync.json", "builtins:dict", writer="tlsync_pipeline.artefacts.jsonfile:write_document"),
+    "timeline": _typed("timeline.json", "tlsync_pipeline.sync.timeline", "Timeline", "timeline"),
+    "frame_map": Kind("exports/frame_map.csv", "builtins:list", writer=f"{_EXPORTS}:write_rows"),
+    "offsets": Kind("exports/offsets.csv", "builtins:list", writer=f"{_EXPORTS}:write_offsets"),
+    "ffmpeg": Kind("exports/ffmpeg.sh", "builtins:str", writer=f"{_EXPORTS}:write_text"),
+    "timeline_otio": Kind("exports/timeline.otio", "builtins:str", writer=f"{_EXPORTS}:write_text"),
+    "timeline_fcpxml": Kind("exports/timeline.fcpxml", "builtins:str", writer=f"{_EXPORTS}:write_text"),
+    "sync_json": Kind("exports/sync.json", "builtins:dict", writer=f"{_ARTEFACTS}.jsonfile:write_document"),
     "pictures": Kind("render", "builtins:bytes", folder=True),
-    "report_html": Kind("report.html", "builtins:str", writer="tlsync_pipeline.artefacts.exports:write_text"),
-    "report": Kind("report.md", "builtins:str", writer="tlsync_pipeline.artefacts.exports:write_text"),
+    "report_html": Kind("report.html", "builtins:str", writer=f"{_EXPORTS}:write_text"),
+    "report": Kind("report.md", "builtins:str", writer=f"{_EXPORTS}:write_text"),
 }
 FOLDERS = frozenset(name for name, kind in KINDS.items() if kind.folder)
 

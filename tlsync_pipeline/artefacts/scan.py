@@ -54,7 +54,7 @@ class ScanPlan:
 
     @property
     def mode(self) -> str:
-        """"full" (every frame) or "windows"."""
+        """ "full" (every frame) or "windows"."""
         return "full" if self.full else "windows"
 
     @property
@@ -78,14 +78,22 @@ class ScanPlan:
     def from_dict(cls, data: dict) -> ScanPlan:
         coarse = CoarseLine(**data["coarse"]) if data.get("coarse") else None
         windows = tuple((int(a), int(b)) for a, b in data.get("windows", []))
-        return cls(data["mode"] == "full", data.get("reason", ""), windows, int(data["frames"]), coarse, int(data.get("keyframes_read", 0)))
+        return cls(
+            data["mode"] == "full",
+            data.get("reason", ""),
+            windows,
+            int(data["frames"]),
+            coarse,
+            int(data.get("keyframes_read", 0)),
+        )
 
     def summary(self) -> str:
         """One line for the stage's message: frames to read against frames skipped, or why every frame."""
         if self.full:
             return f"every frame read ({self.reason})"
         n, read = self.n_frames, self.frames_in_windows
-        return f"{read} of {n} frames read in {len(self.windows)} window{'s' if len(self.windows) != 1 else ''}, {n - read} skipped, after {self.keyframes_read} keyframes"
+        windows = f"{len(self.windows)} window{'s' if len(self.windows) != 1 else ''}"
+        return f"{read} of {n} frames read in {windows}, {n - read} skipped, after {self.keyframes_read} keyframes"
 
 
 def write_scan(plan: ScanPlan, path: str | Path) -> None:

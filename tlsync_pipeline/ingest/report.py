@@ -51,9 +51,15 @@ class IngestReport:
     altitude: dict = field(default_factory=dict)  # {"reference", "source" (log/declared), "offset_m"}
     quality: dict = field(default_factory=dict)  # column -> {"min", "median", "max"} over the fixes used
     sigma_m: dict | None = None  # {"median", "p95", "max"} of the per-fix sigmas used as weights
-    log_model: dict = field(default_factory=dict)  # {"name", "why"}: the error model the log's kind suggests (suggested_log_model)
-    notes: list[str] = field(default_factory=list)  # how the reader read the file where it chose (time base, sub-seconds, lat/lon order)
-    video_time_zero: float | None = None  # logs in or beside a video: the log's time (t0's clock, s) at the video's time 0
+    log_model: dict = field(
+        default_factory=dict
+    )  # {"name", "why"}: the error model the log's kind suggests (suggested_log_model)
+    notes: list[str] = field(
+        default_factory=list
+    )  # how the reader read the file where it chose (time base, sub-seconds, lat/lon order)
+    video_time_zero: float | None = (
+        None  # logs in or beside a video: the log's time (t0's clock, s) at the video's time 0
+    )
     t0_local: str | None = None  # t0 as an ISO date without zone, for a log on a local wall clock with no zone
 
     def to_dict(self) -> dict:
@@ -73,9 +79,16 @@ class IngestReport:
             f"log: {self.source} ({self.format})",
             f"fixes: {self.fixes_read} read, {self.fixes_used} used",
             f"trajectory: {self.samples} samples at {self.rate:g} Hz over {self.duration_s:.1f} s"
-            + (f" from {self.t0_utc}" if self.t0_utc else f" from {self.t0_local} local time ({self.clock}: offsets work, UTC does not)"
-               if self.t0_local else f" from t0 = {self.t0:.3f} s ({self.clock}: offsets work, UTC does not)"),
-            "extent: " + " x ".join(f"{v:.1f} m" for v in self.extent_m) + (" (E x N x U)" if self.frame == "ENU" else " (x y z)"),
+            + (
+                f" from {self.t0_utc}"
+                if self.t0_utc
+                else f" from {self.t0_local} local time ({self.clock}: offsets work, UTC does not)"
+                if self.t0_local
+                else f" from t0 = {self.t0:.3f} s ({self.clock}: offsets work, UTC does not)"
+            ),
+            "extent: "
+            + " x ".join(f"{v:.1f} m" for v in self.extent_m)
+            + (" (E x N x U)" if self.frame == "ENU" else " (x y z)"),
         ]
         if self.origin is not None:
             o = self.origin
@@ -86,9 +99,12 @@ class IngestReport:
             lines.append(f"heights: above {ALTITUDE_NAMES[a['reference']]} (as the {a['source']} says{offset})")
         lines += [f"read: {note}" for note in self.notes]
         if self.log_model:
-            lines.append(f"log model: {self.log_model['name']} ({self.log_model['why']}; [target] log_model overrides it)")
+            lines.append(
+                f"log model: {self.log_model['name']} ({self.log_model['why']}; [target] log_model overrides it)"
+            )
         if self.sigma_m:
-            lines.append(f"sigma: median {self.sigma_m['median']:.3f} m, 95% {self.sigma_m['p95']:.3f} m (weights for the refinement)")
+            sigma = f"median {self.sigma_m['median']:.3f} m, 95% {self.sigma_m['p95']:.3f} m"
+            lines.append(f"sigma: {sigma} (weights for the refinement)")
         if self.gaps:
             left = f", {self.grid_left_out} grid sample(s) left out" if self.grid_left_out else ""
             lines.append(f"gaps: {len(self.gaps)} over {GAP_FACTOR:g}x the median interval{left}")

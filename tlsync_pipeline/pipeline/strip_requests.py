@@ -33,20 +33,31 @@ class StripRequest:
 
     def file_name(self, a: str, b: str) -> str:
         frames = "".join(f"_{f}" for f in self.frames or ())
-        return f"{REQUESTED_PREFIX}{a}_{b}" + (f"_frames{frames}" if frames else "") + ("_truth" if self.truth else "") + ".png"
+        return (
+            f"{REQUESTED_PREFIX}{a}_{b}"
+            + (f"_frames{frames}" if frames else "")
+            + ("_truth" if self.truth else "")
+            + ".png"
+        )
 
     def to_dict(self) -> dict:
         return {
             "pairs": None if self.pairs is None else [list(p) for p in self.pairs],
             "frames": None if self.frames is None else list(self.frames),
-            "truth": None if self.truth is None else {k: {"alpha": r.alpha, "beta": r.beta} for k, r in self.truth.items()},
+            "truth": None
+            if self.truth is None
+            else {k: {"alpha": r.alpha, "beta": r.beta} for k, r in self.truth.items()},
         }
 
     @classmethod
     def from_dict(cls, data: dict) -> StripRequest:
         pairs = None if data.get("pairs") is None else tuple((str(a), str(b)) for a, b in data["pairs"])
         frames = None if data.get("frames") is None else tuple(int(f) for f in data["frames"])
-        truth = None if data.get("truth") is None else {k: Relation(float(v["alpha"]), float(v["beta"])) for k, v in data["truth"].items()}
+        truth = (
+            None
+            if data.get("truth") is None
+            else {k: Relation(float(v["alpha"]), float(v["beta"])) for k, v in data["truth"].items()}
+        )
         return cls(pairs, frames, truth)
 
 

@@ -35,7 +35,12 @@ def resolve(name: str):
 
 def intrinsics_only(camera: Camera, path: Path) -> Camera:
     """An intrinsics-only camera (no R, t: a pose to estimate), as the intrinsics stage writes one."""
-    path.write_text(json.dumps({"K": camera.K.tolist(), "dist": camera.dist.tolist(), "image_size": list(camera.image_size), "rms": 0.3}), encoding="utf-8")
+    path.write_text(
+        json.dumps(
+            {"K": camera.K.tolist(), "dist": camera.dist.tolist(), "image_size": list(camera.image_size), "rms": 0.3}
+        ),
+        encoding="utf-8",
+    )
     found = read_camera(path)
     assert not found.posed
     return found
@@ -48,20 +53,43 @@ def examples(tmp_path: Path) -> dict:
     inputs = {n: CameraInput(scene.cameras[n], scene.tracks[n], scene.cameras[n].fps) for n in scene.cameras}
     timeline, _ = synchronize(inputs, scene.trajectory, SyncParams())
     breaks = (Break("gap", 120, 3), Break("frozen", 300, 2))
-    summary = IdentificationSummary(40, 35, (TrackletShare(3, 30, 0.86, 0.9), TrackletShare(7, 5, 0.14, 0.5)), 33, 4, 2, 0.4)
+    summary = IdentificationSummary(
+        40, 35, (TrackletShare(3, 30, 0.86, 0.9), TrackletShare(7, 5, 0.14, 0.5)), 33, 4, 2, 0.4
+    )
     report = IngestReport(
-        "log.gpx", "gpx", "ENU", 100, 98, 98, 10.0, 1.7e9, "2023-11-14T22:13:20Z", 9.8, [10.0, 5.0, 1.0], 0.4,
-        [Gap("line 40", 3.9, 4.3, 0.4, True)], 0, {"exact duplicate": {"count": 2, "first": [3, 9]}}, "line", 0,
-        {"lat": 46.5, "lon": 6.6, "alt": 400.0, "rule": "first fix"}, {"max_speed_mps": 60.0},
-        warnings=["a warning"], log_model={"name": "gnss", "why": "a GPX log"},
+        "log.gpx",
+        "gpx",
+        "ENU",
+        100,
+        98,
+        98,
+        10.0,
+        1.7e9,
+        "2023-11-14T22:13:20Z",
+        9.8,
+        [10.0, 5.0, 1.0],
+        0.4,
+        [Gap("line 40", 3.9, 4.3, 0.4, True)],
+        0,
+        {"exact duplicate": {"count": 2, "first": [3, 9]}},
+        "line",
+        0,
+        {"lat": 46.5, "lon": 6.6, "alt": 400.0, "rule": "first fix"},
+        {"max_speed_mps": 60.0},
+        warnings=["a warning"],
+        log_model={"name": "gnss", "why": "a GPX log"},
     )
     return {
         "intrinsics": intrinsics_only(camera, tmp_path / "intrinsics.json"),
-        "intrinsics_report": IntrinsicsReport({"rms": 0.3, "per_view": [{"image": "a.png", "error_px": 0.2}], "rejected": []}),
+        "intrinsics_report": IntrinsicsReport(
+            {"rms": 0.3, "per_view": [{"image": "a.png", "error_px": 0.2}], "rejected": []}
+        ),
         "camera": camera,
         "calibration_report": CalibrationReport({"camera": "cam0", "intrinsics": {"rms": 0.3}, "pose": None}),
         "track": scene.tracks["cam0"],
-        "detections": make_detections([(0, 0.0, 1, 10.5, 20.25, 4, 8, 0.5), (0, 0.0, 2, 30, 40, 4, 8, 0.5), (1, 0.1, 1, 11, 21, 4, 8, 0.9)]),
+        "detections": make_detections(
+            [(0, 0.0, 1, 10.5, 20.25, 4, 8, 0.5), (0, 0.0, 2, 30, 40, 4, 8, 0.5), (1, 0.1, 1, 11, 21, 4, 8, 0.9)]
+        ),
         "scan": ScanPlan(False, "", ((120, 400), (900, 1000)), 3000, CoarseLine(2.0, 130.5, 12, 2, 40, 0.7), 40),
         "identification": IdentificationRecord(summary, breaks=breaks),
         "video_info": VideoInfo("cam0.mp4", 3000, 3002, True, "windows", "", 40, 380, breaks),
@@ -104,11 +132,22 @@ def test_each_reader_reads_back_what_its_writer_wrote(tmp_path):
         resolve(kind.writer)(read, second)
         if isinstance(value, Camera):  # reading makes R orthonormal again: the same camera to the last bits
             again = read_camera(second)
-            assert all(np.allclose(getattr(read, k), getattr(again, k), rtol=0, atol=1e-12) for k in ("K", "dist", "R", "t")), name
-            assert (read.image_size, read.fps, read.to_estimate) == (again.image_size, again.fps, again.to_estimate), name
+            assert all(
+                np.allclose(getattr(read, k), getattr(again, k), rtol=0, atol=1e-12) for k in ("K", "dist", "R", "t")
+            ), name
+            assert (read.image_size, read.fps, read.to_estimate) == (again.image_size, again.fps, again.to_estimate), (
+                name
+            )
         else:
             assert first.read_bytes() == second.read_bytes(), name
-        if not isinstance(value, (CameraVotes,)) and name not in ("camera", "intrinsics", "track", "trajectory", "timeline", "detections"):
+        if not isinstance(value, (CameraVotes,)) and name not in (
+            "camera",
+            "intrinsics",
+            "track",
+            "trajectory",
+            "timeline",
+            "detections",
+        ):
             assert read == value, name  # the frozen dataclasses without arrays compare whole
 
 

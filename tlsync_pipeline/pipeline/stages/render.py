@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING, TypeVar
 import numpy as np
 
 from tlsync_pipeline.artefacts.calibration import read_calibration_report
+from tlsync_pipeline.artefacts.exports import write_text
 from tlsync_pipeline.artefacts.kinds import artefact_path
 from tlsync_pipeline.artefacts.scan import read_scan
 from tlsync_pipeline.atomic import atomic_path
@@ -122,9 +123,9 @@ def run_render(files: StageFiles, params: RenderParams) -> StageResult:
     content = _report_content(files, scene, params, cameras, strips, charts, notes)
     removed = remove_other_pictures(out_dir, written + requested)
     with files.write("report_html") as tmp:
-        tmp.write_text(report_html(content), encoding="utf-8")
+        write_text(report_html(content), tmp)
     with files.write("report") as tmp:
-        tmp.write_text(report_markdown(content), encoding="utf-8")
+        write_text(report_markdown(content), tmp)
     return StageResult(
         "; ".join(notes) or None,
         outputs=tuple(written),
