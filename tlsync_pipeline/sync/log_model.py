@@ -84,6 +84,12 @@ class LogModelChoice:
     bias_m: float | None = None
     tau_s: float | None = None
 
+    @property
+    def for_vote_radius(self) -> LogModelChoice:
+        """The choice without the bias's correlation time, which vote_radius and measured do not read: the vote and
+        identify stages key their caches on this, so that tau_s re-runs the sync stage alone."""
+        return replace(self, tau_s=None)
+
     def resolve(self, suggested: str | None) -> LogModel:
         """The model: the preset chosen (``suggested`` for "auto", "none" without a suggestion) with the overrides."""
         base = PRESETS[(suggested or "none") if self.name == AUTO else self.name]

@@ -108,7 +108,7 @@ def identify_stage_params(project: Project, cam: str, options: Options) -> Ident
     tracker = camera.tracker
     seed = InitSeed(tracker.init, tracker.init_frame) if camera.detections is None and tracker.init is not None else None
     source = camera.video if camera.detections is None else None
-    return IdentifyStageParams(camera.fps, identify_params(project.sync), preparation_of(project.sync), source, seed, project.target.log_error)
+    return IdentifyStageParams(camera.fps, identify_params(project.sync), preparation_of(project.sync), source, seed, project.target.log_error.for_vote_radius)
 
 
 def identify_inputs(src: Sources, cam: str) -> dict[str, Path | Artefact]:

@@ -83,7 +83,7 @@ def vote_inputs(src: Sources, cam: str) -> dict[str, Path | Artefact]:
 
 def vote_params(project: Project, cam: str, options: Options) -> VoteParams:
     camera = project.camera(cam)
-    return VoteParams(project.sync.eps_px, preparation_of(project.sync), camera.video if camera.track is None else None, project.target.log_error)
+    return VoteParams(project.sync.eps_px, preparation_of(project.sync), camera.video if camera.track is None else None, project.target.log_error.for_vote_radius)
 
 
 SPEC = StageSpec(
