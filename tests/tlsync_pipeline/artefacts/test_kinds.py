@@ -175,3 +175,16 @@ def test_the_table_imports_no_implementation():
     source = Path(importlib.import_module("tlsync_pipeline.artefacts.kinds").__file__).read_text(encoding="utf-8")
     imported = [node for node in ast.walk(ast.parse(source)) if isinstance(node, (ast.Import, ast.ImportFrom))]
     assert all(isinstance(n, ast.ImportFrom) and n.module in ("__future__", "dataclasses") for n in imported)
+
+
+def test_stage_modules_read_and_write_no_json_themselves():
+    """Stages read and write their artefacts through the readers and writers the table names, not by hand."""
+    stages = Path(importlib.import_module("tlsync_pipeline.pipeline.stages").__file__).parent
+    by_hand = []
+    for path in sorted(stages.glob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.Import) and any(a.name == "json" for a in node.names):
+                by_hand.append(path.name)
+            elif isinstance(node, ast.ImportFrom) and node.module == "json":
+                by_hand.append(path.name)
+    assert not by_hand, by_hand
