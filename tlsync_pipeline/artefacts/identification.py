@@ -22,7 +22,7 @@ class TrackletShare:
 
 @dataclass(frozen=True)
 class IdentificationSummary:
-    """How the target was found among every mover (sync/identify.py).
+    """How the target was found among every mover (sync/identify/identify.py).
 
     candidates_voting: detections with at least one vote; identified_frames:
     frames of the identified track; tracklets: those it uses, most frames

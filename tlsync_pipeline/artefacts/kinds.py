@@ -59,7 +59,7 @@ KINDS: dict[str, Kind] = {
     ),
     "video_info": _typed("cameras/{camera}/video.json", f"{_ARTEFACTS}.video_info", "VideoInfo", "video_info"),
     "clock": _typed("cameras/{camera}/clock.json", f"{_ARTEFACTS}.clock", "RecordedClock", "clock"),
-    "votes": _typed("cameras/{camera}/votes.npz", "tlsync_pipeline.sync.votes", "CameraVotes", "votes"),
+    "votes": _typed("cameras/{camera}/votes.npz", "tlsync_pipeline.sync.vote.votes", "CameraVotes", "votes"),
     "trajectory": _typed("target/trajectory.csv", "tlsync_pipeline.trajectory", "Trajectory", "trajectory"),
     "ingest_report": _typed(
         "target/ingest_report.json", "tlsync_pipeline.ingest.report", "IngestReport", "ingest_report"

@@ -1,6 +1,6 @@
 """scan.json (scan stage -> track, calibrate, render): which frames of a camera's video the track stage reads.
 
-The types are the coarse pass's (sync/scan.py makes them); they live here so
+The types are the coarse pass's (sync/identify/scan.py makes them); they live here so
 that the track stage reads its windows without importing sync.
 """
 

@@ -3,7 +3,7 @@
 Camera lines map target samples to the camera's clock, clock = alpha *
 sample + beta (samples on the trajectory grid; the clock is the 0-based
 frame index, or presentation time x fps for a variable-frame-rate camera:
-sync/clock.py). A pairwise relation "A->B" maps frames of A to frames of B:
+sync/model/clock.py). A pairwise relation "A->B" maps frames of A to frames of B:
 frame_B = alpha * frame_A + beta, exact between constant-rate cameras and
 approximate otherwise; ``Timeline.match`` is the exact mapping.
 """
@@ -22,10 +22,10 @@ import numpy as np
 from tlsync_pipeline.artefacts.identification import IdentificationSummary
 from tlsync_pipeline.artefacts.kinds import artefact_path
 from tlsync_pipeline.errors import InputError
-from tlsync_pipeline.sync.clock import FRAME, CameraClock, FrameTimes, Segment
-from tlsync_pipeline.sync.params import ParamsTable
+from tlsync_pipeline.sync.model.clock import FRAME, CameraClock, FrameTimes, Segment
+from tlsync_pipeline.sync.model.params import ParamsTable
 from tlsync_pipeline.sync.clock_prior import CLOCK_FLAG, ClockCheck, clock_reason
-from tlsync_pipeline.sync.status import AMBIGUOUS, FAILED, HALF_95, WEAK, WIDE_FRAMES, WIDE_REMEDIES, WIDE_REMEDY, CameraStatus, Reason, failure, line_reasons, status_of
+from tlsync_pipeline.sync.model.status import AMBIGUOUS, FAILED, HALF_95, WEAK, WIDE_FRAMES, WIDE_REMEDIES, WIDE_REMEDY, CameraStatus, Reason, failure, line_reasons, status_of
 from trackers.breaks import Break
 
 FORMAT_VERSION = 1
@@ -49,7 +49,7 @@ class Relation:
 class LineSearchSummary:
     """The refined method's line search: its line, the distinct frames backing it and its best rival (and that
     rival's line, None when there is none), votes kept, lines tried; rival_probability: the rival's posterior
-    probability on the camera's whole track (sync/rival.py), None when it was not weighed."""
+    probability on the camera's whole track (sync/solve/rival.py), None when it was not weighed."""
 
     alpha: float
     beta: float
@@ -95,7 +95,7 @@ class ErrorBudget:
 
 @dataclass(frozen=True)
 class LogBiasSummary:
-    """The log's bias during the camera's visit (sync/log_bias.py): estimate (m, ENU), posterior std (m), and its
+    """The log's bias during the camera's visit (sync/solve/log_bias.py): estimate (m, ENU), posterior std (m), and its
     observability (1 - posterior / prior horizontal variance: 0, only the prior; 1, known)."""
 
     estimate_m: tuple[float, float, float]
@@ -109,7 +109,7 @@ class LogBiasSummary:
 
 @dataclass(frozen=True)
 class ScanSummary:
-    """How the camera's video was read (the scan and track stages, sync/scan.py).
+    """How the camera's video was read (the scan and track stages, sync/identify/scan.py).
 
     mode: "windows" (every frame only where a coarse pass over the keyframes
     put the target in view) or "full" (every frame); reason: why every
@@ -254,7 +254,7 @@ class StageWarning:
 class Timeline:
     """All cameras' lines on one target grid (rate in samples/s, t0 in s).
 
-    cameras: the synchronized cameras' lines (status ok or weak, sync/status.py);
+    cameras: the synchronized cameras' lines (status ok or weak, sync/model/status.py);
     failed: every camera that is not synchronized, with why in one line;
     warnings: those of the run's stages that made its inputs, then the sync
     stage's own, in pipeline order (the same list report.html shows);
@@ -272,7 +272,7 @@ class Timeline:
     warnings: tuple[StageWarning, ...] = ()
     # Covariance between two cameras' (alpha, beta) through an error they share (the log's bias), "A|B" -> 2x2 (rows: A's).
     shared_cov: dict[str, np.ndarray] = field(default_factory=dict)
-    log_model: dict | None = None  # the log's error model the fit assumed (sync/log_model.py), or None
+    log_model: dict | None = None  # the log's error model the fit assumed (sync/model/log_model.py), or None
     rejected: dict[str, CameraLine] = field(default_factory=dict)
 
     def cross_cov(self, a: str, b: str) -> np.ndarray:
@@ -288,7 +288,7 @@ class Timeline:
         return list(self.cameras)
 
     def status(self, name: str) -> CameraStatus:
-        """The camera's status (sync/status.py): its line's checks, flags, warnings and interval, or why it failed."""
+        """The camera's status (sync/model/status.py): its line's checks, flags, warnings and interval, or why it failed."""
         line = self.cameras.get(name) or self.rejected.get(name)
         if line is None:
             return status_of(name, [failure(self.failed.get(name, "not synchronized"))])

@@ -20,10 +20,10 @@ from tlsync_pipeline.artefacts.scan import CoarseLine, ScanPlan
 from tlsync_pipeline.artefacts.video_info import VideoInfo
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.ingest.report import Gap, IngestReport
-from tlsync_pipeline.sync.methods import CameraInput
-from tlsync_pipeline.sync.params import SyncParams
-from tlsync_pipeline.sync.synchronize import synchronize
-from tlsync_pipeline.sync.votes import CameraVotes, Votes
+from tlsync_pipeline.sync.solve.methods import CameraInput
+from tlsync_pipeline.sync.model.params import SyncParams
+from tlsync_pipeline.sync.solve.synchronize import synchronize
+from tlsync_pipeline.sync.vote.votes import CameraVotes, Votes
 from trackers.breaks import Break
 from trackers.detections import make_detections
 

@@ -18,7 +18,7 @@ from tlsync_pipeline.artefacts.scan import ScanPlan, read_scan
 from tlsync_pipeline.artefacts.video_info import VideoInfo, write_video_info
 from tlsync_pipeline.atomic import atomic_path
 from tlsync_pipeline.pipeline.spec import Options, Sources, StageResult, StageSpec
-from tlsync_pipeline.pipeline.stages.cameras import scans
+from tlsync_pipeline.pipeline.stages.camera_plan import scans
 from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
 from trackers.breaks import Break, FreezeMeter, container_breaks
 from trackers.detections import Detections, write_detections
