@@ -31,11 +31,11 @@ import numpy as np
 
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.geodesy import Origin, geodetic_to_enu
+from tlsync_pipeline.ingest.params import IngestParams
 from tlsync_pipeline.ingest.report import GAP_FACTOR, Gap, IngestReport
 from tlsync_pipeline.ingest.records import ALTITUDE_NAMES, ALTITUDE_REFERENCES, ELLIPSOID, GEODETIC, LogRecords
 from tlsync_pipeline.trajectory import Trajectory, grid_rate
 
-DEFAULT_MAX_SPEED_MPS = 60.0
 HELD_MAX_S = 1.0  # a position repeated longer than this is a target standing still, not a receiver's fix held over frames
 SPIKE_WINDOW_S = 0.1  # speeds are judged over at least this long (a receiver's update interval at 10 Hz)
 DUPLICATE = "exact duplicate"
@@ -43,54 +43,6 @@ REPEATED_TIME = "repeated time, different position (first kept)"
 FIRST_LINES = 5  # provenance numbers kept per drop reason in the report
 MAX_SPAN_S = 1e8  # about 3 years: a longer log has a wrong time in it
 MAX_SAMPLES = 50_000_000  # a trajectory longer than this is a wrong time or rate, not a log
-
-
-@dataclass(frozen=True)
-class RigidTransform:
-    """world = R @ local + t (metres): places a local (odometry) frame in the world frame."""
-
-    R: np.ndarray
-    t: np.ndarray
-
-    def __post_init__(self) -> None:
-        R, t = np.asarray(self.R, dtype=float), np.asarray(self.t, dtype=float)
-        if R.shape != (3, 3) or t.shape != (3,) or not (np.isfinite(R).all() and np.isfinite(t).all()):
-            raise ValueError("expected R as 3x3 and t as 3 finite numbers")
-        if not np.allclose(R @ R.T, np.eye(3), atol=1e-6) or np.linalg.det(R) < 0:
-            raise ValueError("R is not a rotation matrix (orthonormal, determinant +1)")
-        object.__setattr__(self, "R", R)
-        object.__setattr__(self, "t", t)
-
-    @classmethod
-    def from_yaw(cls, yaw_deg: float, t=(0.0, 0.0, 0.0)) -> "RigidTransform":
-        """A rotation of yaw_deg about z (counter-clockwise seen from above), then t."""
-        c, s = math.cos(math.radians(yaw_deg)), math.sin(math.radians(yaw_deg))
-        return cls(np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]), np.asarray(t, dtype=float))
-
-    def apply(self, xyz: np.ndarray) -> np.ndarray:
-        return np.asarray(xyz, dtype=float) @ self.R.T + self.t
-
-
-@dataclass(frozen=True)
-class IngestParams:
-    """origin: an Origin or "first" (the first kept fix); rate (Hz) None = the median rate;
-    max_gap_s None = 3x the median interval; max_speed_mps None = no spike rejection;
-    smoothing_s 0 = none, else the Savitzky-Golay window (s); transform for local logs;
-    altitude_reference: what the log's heights are above (one of ALTITUDE_REFERENCES), None =
-    as the reader says; altitude_offset_m: added to every height (m) to make it ellipsoidal;
-    time_unit, length_unit: seconds per unit of the log's times and metres per unit of its
-    local positions or heights (ingest/units.py), applied before anything else."""
-
-    origin: Origin | str = "first"
-    rate: float | None = None
-    max_gap_s: float | None = None
-    max_speed_mps: float | None = DEFAULT_MAX_SPEED_MPS
-    smoothing_s: float = 0.0
-    transform: RigidTransform | None = None
-    altitude_reference: str | None = None
-    altitude_offset_m: float = 0.0
-    time_unit: float = 1.0
-    length_unit: float = 1.0
 
 
 def in_seconds_and_metres(records: LogRecords, time_unit: float, length_unit: float) -> LogRecords:

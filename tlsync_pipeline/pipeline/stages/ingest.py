@@ -18,13 +18,9 @@ from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.geodesy import Origin, enu_to_geodetic
 from tlsync_pipeline.ingest.read import read_log
 from tlsync_pipeline.ingest.recording_time import parse_utc_offset
-from tlsync_pipeline.ingest.process import (
-    IngestParams,
-    IngestReport,
-    RigidTransform,
-    ingest,
-)
-from tlsync_pipeline.ingest.report import write_ingest_report
+from tlsync_pipeline.ingest.params import IngestParams, RigidTransform
+from tlsync_pipeline.ingest.process import ingest
+from tlsync_pipeline.ingest.report import IngestReport, write_ingest_report
 from tlsync_pipeline.ingest.units import implausible_motion
 from tlsync_pipeline.pipeline.origin import check_log_near_gcps, origin_inputs, resolve_origin
 from tlsync_pipeline.pipeline.spec import Options, Sources, StageResult, StageSpec
