@@ -14,6 +14,7 @@ from tlsync_pipeline.sync.log_model import PRESETS
 from tlsync_pipeline.sync.methods import CameraInput
 from tlsync_pipeline.sync.params import SyncParams
 from tlsync_pipeline.sync.plausibility import RIVAL_PROBABILITY, _rival, rival_odds_of
+from tlsync_pipeline.sync.rival import rival_odds
 from tlsync_pipeline.sync.synchronize import synchronize
 from tlsync_pipeline.sync.timeline import CameraLine, LineSearchSummary
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
@@ -128,3 +129,25 @@ def test_a_camera_whose_strongest_line_the_track_rules_out_takes_its_rival():
     error = abs((line.alpha - truth.alpha) * middle + line.beta - truth.beta)
     se = float(np.sqrt(np.array([middle, 1.0]) @ line.cov @ np.array([middle, 1.0])))
     assert error <= 1.96 * se
+
+
+@pytest.mark.parametrize("best_off_s, rival_off_s, rival_wins", [(0.5, -2.0, False), (-2.0, 0.5, True)])
+def test_two_lines_whose_profiles_meet_are_one_line_the_better_profile(best_off_s, rival_off_s, rival_wins):
+    """The line search's two lines straddle one pass (the ends of its blob of votes under a wide radius): profiled on the
+    track, they come within the band of each other. That is one line, not ambiguity: the rival keeps probability 0 when
+    the best line's profile scores better, 1 when its own does (the camera is then refitted on the rival's votes)."""
+    camera, track, clock, path, truth, _ = _scene(laps=1)
+    best, rival = (truth[0], truth[1] + best_off_s * FPS), (truth[0], truth[1] + rival_off_s * FPS)
+    odds = rival_odds(camera, clock, track.xy, path, best, rival, PRESETS["phone"], FPS, RATE, 1.5 * FPS)
+    assert odds.joined
+    assert odds.rival_probability == (1.0 if rival_wins else 0.0)
+    winner = odds.rival if rival_wins else odds.best
+    assert abs(winner.beta - truth[1]) <= 1.0 * FPS  # the better profile is the pass's line
+
+
+def test_two_passes_alike_are_not_joined():
+    """Two laps of the same circle, a lap apart: far beyond the band, each profile stays on its own lap."""
+    camera, track, clock, path, truth, _ = _scene(laps=2)
+    rival = (truth[0], truth[1] - LAP_S * RATE * truth[0])
+    odds = rival_odds(camera, clock, track.xy, path, truth, rival, PRESETS["phone"], FPS, RATE, 2.0 * FPS)
+    assert not odds.joined and 0.1 < odds.rival_probability < 0.9
