@@ -151,3 +151,24 @@ def test_two_passes_alike_are_not_joined():
     rival = (truth[0], truth[1] - LAP_S * RATE * truth[0])
     odds = rival_odds(camera, clock, track.xy, path, truth, rival, PRESETS["phone"], FPS, RATE, 2.0 * FPS)
     assert not odds.joined and 0.1 < odds.rival_probability < 0.9
+
+
+@pytest.mark.slow
+def test_a_camera_whose_two_lines_are_one_pass_is_synchronized_the_truth_in_its_interval():
+    """Walk scene 7 with a phone's 2 m bias: cam1's line search gives two lines 6 s apart, the ends of one pass's
+    votes; profiled on the track they meet within the band: one line, synchronized, the truth within its interval."""
+    from data_fixtures.log_error import PRESETS as RECEIVERS
+    from data_fixtures.walk import WalkSpec, make_walk_scene
+
+    scene = make_walk_scene(7, WalkSpec(log=RECEIVERS["phone2"]))
+    inputs = {n: CameraInput(c, scene.tracks[n], c.fps) for n, c in scene.cameras.items()}
+    timeline, _ = synchronize(inputs, scene.trajectory, SyncParams(), log_model=PRESETS["phone"])
+    assert timeline.status("cam1").synchronized, timeline.status("cam1").reason
+    line, truth = timeline.cameras["cam1"], scene.lines["cam1"]
+    search = line.line_search
+    assert search.rival_beta is not None and abs(search.rival_beta - search.beta) > 4.0 * FPS  # two lines seconds apart
+    assert search.rival_probability == 0.0  # weighed as one line, the best line's profile the better
+    middle = (float(np.median(scene.tracks["cam1"].frame)) - truth.beta) / truth.alpha
+    error = abs((line.alpha - truth.alpha) * middle + line.beta - truth.beta)
+    se = float(np.sqrt(np.array([middle, 1.0]) @ line.cov @ np.array([middle, 1.0])))
+    assert error <= 1.96 * se
