@@ -11,9 +11,13 @@ import pytest
 from calibration.camera import Camera
 from data_fixtures.gcp import looking_at
 from tlsync_pipeline.sync.model.log_model import PRESETS
-from tlsync_pipeline.sync.solve.methods import CameraInput
 from tlsync_pipeline.sync.model.params import SyncParams
-from tlsync_pipeline.sync.solve.plausibility import RIVAL_PROBABILITY, _rival, rival_odds_of
+from tlsync_pipeline.sync.solve.methods import CameraInput
+from tlsync_pipeline.sync.solve.plausibility import (
+    RIVAL_PROBABILITY,
+    _rival,
+    rival_odds_of,
+)
 from tlsync_pipeline.sync.solve.rival import rival_odds
 from tlsync_pipeline.sync.solve.synchronize import synchronize
 from tlsync_pipeline.sync.timeline import CameraLine, LineSearchSummary

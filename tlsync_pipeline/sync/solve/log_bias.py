@@ -36,8 +36,8 @@ from scipy.optimize import minimize
 from scipy.sparse.linalg import splu
 
 from calibration.camera import Camera
-from tlsync_pipeline.sync.model.log_model import PRIOR_LOG_SD, LogModel
 from tlsync_pipeline.sync.kernels.slope import SlopePrior
+from tlsync_pipeline.sync.model.log_model import PRIOR_LOG_SD, LogModel
 from tlsync_pipeline.trajectory import PiecewiseTrajectory
 
 KNOTS_PER_TAU = 4  # knots of the bias per correlation time between the visits
