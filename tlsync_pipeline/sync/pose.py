@@ -73,6 +73,7 @@ from tlsync_pipeline.sync.identify import (
 )
 from tlsync_pipeline.sync.line_search import find_line
 from tlsync_pipeline.sync.log_model import LogModel
+from tlsync_pipeline.sync.pose_bias import CUT, VisitBias, fit_with_bias
 from tlsync_pipeline.sync.pose_fit import (
     INTRINSICS,
     MODEL_ERROR_PX,
@@ -247,7 +248,7 @@ def pose_from_track(
     seed: int = 0,
     delta: float = 0.5,
     offsets: tuple[float, float] | None = None,
-    log_m: float = 0.0,
+    log_model: LogModel | None = None,
 ) -> TargetPose:
     """The camera's pose (and line) from its track of the target; PoseError with the cause when it is not determined.
 
@@ -261,23 +262,27 @@ def pose_from_track(
     free: intrinsics the fit may move (``f``, ``cx``, ``k1``); delta: the
     line search's band for the GCP candidate's line; offsets: the range of
     beta (clock units) the search covers (None: all the log allows);
-    log_m: the log's error over the visit that a fixed pose cannot absorb
-    (metres, ``LogModel.unabsorbed_m``): the gate, loss scale and shared
-    model error widen to it as seen at the target's depth (``log_scales``).
+    log_model: the log's error; with a bias, the search scores each offset
+    with the log's bias over the visit fitted with the pose (sync/pose_bias.py),
+    and the fits' gate, loss scale and shared model error widen to the error
+    a fixed pose cannot absorb over the track's span (``LogModel.unabsorbed_m``)
+    as seen at the target's depth (``log_scales``).
     """
     clock = np.asarray(clock, dtype=np.float64)
     xy = np.asarray(xy, dtype=np.float64)
+    biased = log_model if log_model is not None and log_model.has_bias and fps else None
+    log_m = biased.unabsorbed_m(float(np.ptp(clock)) / fps) if biased is not None and len(clock) and fps else 0.0
     unknown_k = "intrinsics" in camera.to_estimate
     if unknown_k:
         free = tuple(sorted(set(free) | {"f", "cx", "k1"}, key=INTRINSICS.index))
     if gcps is None or gcp_camera is None or free:
         try:
-            search, fits = candidate_fits(camera, clock, xy, path, prior, fps, gate_px, gcps, gcp_camera, free, f_scale, seed, delta, offsets=offsets, log_m=log_m)
+            search, fits = candidate_fits(camera, clock, xy, path, prior, fps, gate_px, gcps, gcp_camera, free, f_scale, seed, delta, offsets=offsets, log_model=biased)
         except PoseError as exc:
             if exc.cause != "gcp_conflict" or free:
                 raise
             # GCPs without a pose of their own (too few, too rough) that no pose of the track keeps: the track alone
-            alone = pose_from_track(camera, clock, xy, path, prior, fps, gate_px, None, None, (), f_scale, seed, delta, offsets, log_m)
+            alone = pose_from_track(camera, clock, xy, path, prior, fps, gate_px, None, None, (), f_scale, seed, delta, offsets, log_model)
             return replace(alone, disagreeing=_names(gcps))  # type: ignore[arg-type]
         result = ranked_pose(fits, search, xy, fps or 0.0, gcps is not None, gcp_camera)
         if free:
@@ -391,14 +396,14 @@ def candidate_fits(
     delta: float,
     min_frames: int = MIN_FRAMES,
     offsets: tuple[float, float] | None = None,
-    log_m: float = 0.0,
+    log_model: LogModel | None = None,
 ) -> tuple[OffsetSearch, list[JointFit]]:
     """The offset search (within ``offsets``, clock units, when given) and the joint fits of its candidates (and the
     GCP candidate), best first (most frames within the gate).
 
-    With GCPs only the fits that keep them within GCP_AGREE sigmas. Raises
-    PoseError when there is none (no_clock, too_few_frames, planar_path,
-    no_fit, gcp_conflict).
+    With GCPs only the fits that keep them within GCP_AGREE sigmas. log_model:
+    a log with a bias (``pose_from_track``'s), or None. Raises PoseError when
+    there is none (no_clock, too_few_frames, planar_path, no_fit, gcp_conflict).
     """
     name = camera.name
     if prior is None or not fps:
@@ -406,7 +411,9 @@ def candidate_fits(
     if len(clock) < min_frames:
         raise PoseError(name, "too_few_frames", f"{len(clock)} tracked frames, at least {min_frames} are needed")
     dlt = "intrinsics" in camera.to_estimate
-    search, candidates = search_offsets(camera, clock, xy, path, prior.alpha, seed, dlt=dlt, offsets=offsets)
+    biased = log_model if log_model is not None and log_model.has_bias else None
+    search, candidates = search_offsets(camera, clock, xy, path, prior.alpha, seed, dlt=dlt, offsets=offsets, log_model=biased, fps=fps)
+    log_m = biased.unabsorbed_m(float(np.ptp(clock)) / fps) if biased is not None else 0.0
     if gcp_camera is not None:
         found = _gcp_candidate(gcp_camera, clock, xy, path, prior, gate_px, delta, seed)
         if found is not None:
@@ -554,12 +561,22 @@ def rotation_between(Ra: np.ndarray, Rb: np.ndarray) -> float:
 
 
 def search_offsets(
-    camera: Camera, clock: np.ndarray, xy: np.ndarray, path: PiecewiseTrajectory, alpha: float, seed: int = 0, dlt: bool = False, offsets: tuple[float, float] | None = None
+    camera: Camera,
+    clock: np.ndarray,
+    xy: np.ndarray,
+    path: PiecewiseTrajectory,
+    alpha: float,
+    seed: int = 0,
+    dlt: bool = False,
+    offsets: tuple[float, float] | None = None,
+    log_model: LogModel | None = None,
+    fps: float | None = None,
 ) -> tuple[OffsetSearch, list[Candidate]]:
     """The search over beta with alpha held (module docstring, step 1): the fine pass and the CANDIDATES best peaks as cameras.
 
     dlt: fit a projection matrix (unknown intrinsics) instead of a pose; offsets: the range of beta searched (clock
-    units), within what the log allows (None: all of it).
+    units), within what the log allows (None: all of it); log_model: a log with a bias, whose bias over the track is
+    fitted with each offset's pose (sync/pose_bias.py; the camera's fps gives the knots' seconds; None: a rigid pose).
     """
     w, h = camera.image_size
     threshold = max(8.0, 0.01 * float(np.hypot(w, h)))
@@ -574,7 +591,8 @@ def search_offsets(
     hi = float(c.max() - alpha * path.starts.min())
     if offsets is not None:
         lo, hi = max(lo, offsets[0]), min(hi, offsets[1])
-    score = _Scorer(camera.K, c, ideal, path, alpha, dlt)
+    visit = VisitBias.over(c, fps, log_model) if log_model is not None and log_model.has_bias and fps and not dlt else None
+    score = _Scorer(camera.K, c, ideal, path, alpha, dlt, visit)
     betas = np.arange(lo, hi + coarse, coarse)
     support = score.many(betas, COARSE * threshold)
     tried = len(betas)
@@ -604,16 +622,19 @@ def _peaks(support: np.ndarray, count: int, separation: float = 2.0) -> list[int
 
 
 class _Scorer:
-    """Support of candidate offsets: pose (or projection matrix) fitted to the pairs, trimmed twice, pairs within a threshold."""
+    """Support of candidate offsets: pose (or projection matrix) fitted to the pairs, trimmed twice, pairs within a
+    threshold; under a log with a bias (``bias``), the pose and the log's bias over the visit fitted together
+    (sync/pose_bias.py, its support in the same units)."""
 
-    def __init__(self, K: np.ndarray, clock: np.ndarray, ideal: np.ndarray, path: PiecewiseTrajectory, alpha: float, dlt: bool):
-        self.K, self.clock, self.ideal, self.path, self.alpha, self.dlt = K, clock, ideal, path, alpha, dlt
+    def __init__(self, K: np.ndarray, clock: np.ndarray, ideal: np.ndarray, path: PiecewiseTrajectory, alpha: float, dlt: bool, bias: VisitBias | None = None):
+        self.K, self.clock, self.ideal, self.path, self.alpha, self.dlt, self.bias = K, clock, ideal, path, alpha, dlt, bias
 
-    def pairs(self, beta: float) -> tuple[np.ndarray, np.ndarray]:
+    def pairs(self, beta: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The trajectory's positions and the pixels of the rows on it at ``beta``, and the mask of those rows."""
         s = (self.clock - beta) / self.alpha
         run = self.path.run_of(s)
         on = run >= 0
-        return self.path(s[on], run[on]), self.ideal[on]
+        return self.path(s[on], run[on]), self.ideal[on], on
 
     def many(self, betas: np.ndarray, threshold: float) -> np.ndarray:
         """(len(betas),) support of each offset."""
@@ -630,18 +651,22 @@ class _Scorer:
             on = on.reshape(len(chunk), -1)
             for k in range(len(chunk)):
                 if on[k].sum() >= MIN_PAIRS:
-                    out[first + k] = self.fit(xyz[k][on[k]], self.ideal[on[k]], threshold)[0]
+                    out[first + k] = self.fit(xyz[k][on[k]], self.ideal[on[k]], threshold, on[k])[0]
         return out
 
-    def fit(self, xyz: np.ndarray, uv: np.ndarray, threshold: float):
-        """(support, pose or projection) of one offset's pairs.
+    def fit(self, xyz: np.ndarray, uv: np.ndarray, threshold: float, on: np.ndarray | None = None):
+        """(support, pose or projection) of one offset's pairs (``on``: the rows they are, for the bias's knots).
 
         The support is the truncated quadratic score of the pairs,
         sum(max(0, 1 - (error / threshold)^2)) (MSAC): pairs within the
         threshold count, the closer the more, so a track that several
         offsets explain within the threshold still ranks the one that
-        explains it best first.
+        explains it best first. Under a log with a bias: pose_bias.fit_with_bias's
+        support at sigma threshold / CUT.
         """
+        if self.bias is not None and on is not None:
+            support, pose, _ = fit_with_bias(xyz, uv, self.K, self.bias, on, threshold / CUT, _pnp)
+            return support, pose
         keep = np.ones(len(xyz), dtype=bool)
         model = None
         for _ in range(3):
@@ -658,10 +683,10 @@ class _Scorer:
         """The camera of the pose fitted at ``beta`` (with K and R, t from the projection matrix under DLT), or None."""
         import cv2
 
-        xyz, uv = self.pairs(beta)
+        xyz, uv, on = self.pairs(beta)
         if len(xyz) < MIN_PAIRS:
             return None
-        _, model = self.fit(xyz, uv, threshold)
+        _, model = self.fit(xyz, uv, threshold, on)
         if model is None:
             return None
         if self.dlt:
@@ -986,8 +1011,8 @@ def estimate_pose(
     outlier threshold before widening; start: that pose when already
     known); offsets: the range of beta (clock units) searched, e.g. around
     the scan stage's coarse line (None: all the log allows); log_model: the log's error (with a bias, the
-    fit from a track allows the part of it a fixed pose cannot absorb over the track's span, ``pose_from_track``'s
-    log_m). A camera without K gets its intrinsics fitted too. Returns the
+    search from a track fits the bias with the pose, and the fits allow the part of it a fixed pose cannot absorb,
+    ``pose_from_track``'s). A camera without K gets its intrinsics fitted too. Returns the
     pose and, from movers, the identification under it. Raises PoseError.
     """
     if start is None and gcps is not None and len(gcps.xyz) >= 4:
@@ -1003,9 +1028,8 @@ def estimate_pose(
     clock = camera_clock(track, fps)
     values = clock.clock_at(track.frame, FrameTimes.of_track(track))
     prior = slope_prior(fps, trajectory.rate, params.rate_sigma)
-    log_m = log_model.unabsorbed_m(float(np.ptp(values)) / fps) if log_model is not None and log_model.has_bias and fps else 0.0
     path = PiecewiseTrajectory(trajectory)
-    pose = pose_from_track(camera, values, track.xy, path, prior, fps, params.eps_px, gcps, start, (), params.f_scale_px, params.seed, params.delta, offsets, log_m)
+    pose = pose_from_track(camera, values, track.xy, path, prior, fps, params.eps_px, gcps, start, (), params.f_scale_px, params.seed, params.delta, offsets, log_model)
     return pose, None
 
 

@@ -332,13 +332,11 @@ def test_a_walker_under_a_drifting_log_gets_no_pose_rather_than_a_wrong_timing(s
     """A walker's visit of 20 s at 20 m under a drone's GNSS: the pose is refused (the log's wander leaves it loose or
     its offset ambiguous), or its timing is within three of its sigmas."""
     s = scene.scene
-    track, fps = s.tracks["cam0"], s.true_cameras["cam0"].fps
-    log_m = LOG_MODELS["drone"].unabsorbed_m(float(np.ptp(track.frame)) / fps)
     for seed in range(3):
         errors, _ = log_errors(np.random.default_rng(seed), s.trajectory.sample / s.trajectory.rate, FIXTURE_LOGS["drone"])
         path = PiecewiseTrajectory(smooth_trajectory(replace(s.trajectory, xyz=s.trajectory.xyz + errors)))
         try:
-            found = _posed(scene, "cam0", path, log_m=log_m)
+            found = _posed(scene, "cam0", path, log_model=LOG_MODELS["drone"])
         except P.PoseError as exc:
             assert exc.cause in ("ambiguous_offset", "pose_undetermined", "straight_path")
             continue
