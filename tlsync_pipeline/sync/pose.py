@@ -99,7 +99,7 @@ AMBIGUOUS = 0.85  # a distinct offset scoring this share of the best's score (ms
 TIGHT = 3.0  # median residuals of the best fit within which frames count for the ambiguity test
 DISTINCT_S = 1.0  # offsets further apart than this (seconds) are distinct
 LOG_GATE = 2.5  # under a metre-level log, the gate in units of the log's unabsorbed error seen in pixels
-LOG_ROTATION = 4.0  # under a metre-level log, the rotation std allowed in units of the angle its error subtends
+TIMING_S = 0.5  # under a log with a bias, the largest std of a pose fit's beta (seconds): half of DISTINCT_S
 GCP_AGREE = 3.0  # a pose agrees with the GCPs when their median error is within this many of their sigmas
 SURVEY_SUPPORT = 0.9  # a pose from GCPs and track together must explain this share of the frames the track's own pose explains
 CHI2_2_MEDIAN = 2.0 * np.log(2.0)  # median of a chi-square of 2 degrees of freedom
@@ -287,7 +287,7 @@ def pose_from_track(
         result = ranked_pose(fits, search, xy, fps or 0.0, gcps is not None, gcp_camera)
         if free:
             result = _settle_intrinsics(result, clock, xy, path, prior, gate_px, f_scale, gcps, free, unknown_k)
-        check_determined(result, clock, path, gcps is not None, log_m)
+        check_determined(result, clock, path, gcps is not None, log_m, fps)
         return result
     return _survey_and_target(camera, clock, xy, path, prior, fps, gate_px, gcps, gcp_camera, f_scale, seed, delta, offsets)
 
@@ -494,12 +494,15 @@ def ranked_pose(fits: list[JointFit], search: OffsetSearch, xy: np.ndarray, fps:
     return result
 
 
-def check_determined(result: TargetPose, clock: np.ndarray, path: PiecewiseTrajectory, with_gcps: bool, log_m: float = 0.0) -> None:
+def check_determined(result: TargetPose, clock: np.ndarray, path: PiecewiseTrajectory, with_gcps: bool, log_m: float = 0.0, fps: float | None = None) -> None:
     """Raise PoseError when the pose is not determined (see the module docstring, step 4).
 
-    log_m: as ``pose_from_track``'s; the rotation may then be as loose as
-    LOG_ROTATION times the angle that error subtends at the target's depth
-    (the pose carries the log's error; its interval says so)."""
+    log_m: as ``pose_from_track``'s. Under a log with a bias (log_m > 0 and
+    the camera's fps) the pose absorbs the log's error and serves the timing
+    only (``pose_info``): what must be determined is the timing, whose std
+    carries the pose's looseness (the fit's model error is the log's), and
+    the camera is refused when beta's std exceeds TIMING_S seconds (the
+    ambiguity test could no longer tell distinct offsets apart)."""
     fit, name = result.fit, result.camera.name
     if fit.support < MIN_FRAMES:
         raise PoseError(name, "too_few_frames", f"{fit.support} frames within the gate, at least {MIN_FRAMES} are needed")
@@ -514,10 +517,14 @@ def check_determined(result: TargetPose, clock: np.ndarray, path: PiecewiseTraje
         )
     depth = median_depth(fit.camera, clock[fit.inliers], path, fit.alpha, fit.beta)
     loose = []
-    if not fit.rotation_std_deg <= max(MAX_ROTATION_STD_DEG, LOG_ROTATION * np.degrees(log_m / depth)):
-        loose.append(f"rotation +-{fit.rotation_std_deg:.2g} deg")
-    if not fit.center_std_m <= MAX_CENTER_STD * depth:
-        loose.append(f"centre +-{fit.center_std_m:.2g} m at {depth:.0f} m")
+    if log_m > 0 and fps:
+        if not fit.se_beta <= TIMING_S * fps:
+            loose.append(f"the offset +-{fit.se_beta / fps:.2g} s under the log's error")
+    else:
+        if not fit.rotation_std_deg <= MAX_ROTATION_STD_DEG:
+            loose.append(f"rotation +-{fit.rotation_std_deg:.2g} deg")
+        if not fit.center_std_m <= MAX_CENTER_STD * depth:
+            loose.append(f"centre +-{fit.center_std_m:.2g} m at {depth:.0f} m")
     if loose:
         cause = "straight_path" if result.straightness < NEARLY_STRAIGHT else "pose_undetermined"
         raise PoseError(name, cause, "the track leaves the pose loose (" + ", ".join(loose) + ")")

@@ -142,16 +142,16 @@ def posed(inputs: CameraInput, prepared: Trajectory, params: SyncParams, log_mod
     return replace(inputs, camera=camera), pose
 
 
-def with_pose_offset(line: CameraLine, pose: TargetPose) -> CameraLine:
-    """The line with the offset uncertainty of its pose from the target added to beta's variance: under a log with a
-    bias the pose absorbs the bias, and the timing it gives moves with it (the pose fit's beta std, clock units), and
-    the line fitted under that pose may leave the pose fit's own line (their beta difference, counted as a std too:
-    two fits of one timing on one track that the log's unmodelled wander pulls apart)."""
-    if line.cov is None or not np.isfinite(pose.fit.se_beta):
+def with_pose_line(line: CameraLine, pose: TargetPose) -> CameraLine:
+    """The line of the pose fit from the target, with its covariance, under a log with a bias: the pose absorbed the
+    bias's mean over the visit, and the pose fit, free to move pose and timing together, counts the log's wander as
+    the error shared by blocks of frames; the line the votes give under that pose held fixed is pulled by the wander
+    alone (on drone2 under a drone's GNSS, 4-28 frames off where the pose fit was within 0.3-9). Unchanged when the
+    pose fit has no finite covariance of its line."""
+    cov = pose.fit.line_cov
+    if cov is None or not np.isfinite(cov).all():
         return line
-    cov = np.array(line.cov, dtype=np.float64)
-    cov[1, 1] += pose.fit.se_beta**2 + (line.beta - pose.fit.beta) ** 2
-    return replace(line, cov=cov)
+    return replace(line, alpha=pose.fit.alpha, beta=pose.fit.beta, cov=np.array(cov, dtype=np.float64))
 
 
 def synchronize(
@@ -207,13 +207,13 @@ def synchronize(
                     result = replace(result, line=replace(result.line, flags=(*(result.line.flags or ()), "picked")))
             inputs, result = _segmented(name, inputs, result, prepared, params, radius[name])
             if pose is not None and log_model.has_bias:
-                result = replace(result, line=with_pose_offset(result.line, pose))
+                result = replace(result, line=with_pose_line(result.line, pose))
             results[name], judged[name] = _judge(name, inputs, replace(result, pose=pose), path, params, prior, radius[name], log_model, trajectory.rate)
             search = results[name].line.line_search
             if cameras[name].track is not None and search is not None and search.rival_probability is not None and search.rival_probability > 1.0 - RIVAL_PROBABILITY:
                 result = _the_rival(name, inputs, results[name], prepared, params, radius[name])
                 if pose is not None and log_model.has_bias:
-                    result = replace(result, line=with_pose_offset(result.line, pose))
+                    result = replace(result, line=with_pose_line(result.line, pose))
                 results[name], judged[name] = _judge(name, inputs, replace(result, pose=pose), path, params, prior, radius[name], log_model, trajectory.rate)
         except SyncError as exc:
             failed[name] = str(exc)

@@ -33,7 +33,7 @@ from tlsync_pipeline.sync.synchronize import (
     CameraInput,
     identify_params,
     synchronize,
-    with_pose_offset,
+    with_pose_line,
 )
 from tlsync_pipeline.sync.timeline import CameraLine, Relation, eps_t
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
@@ -343,14 +343,18 @@ def test_a_walker_under_a_drifting_log_gets_no_pose_rather_than_a_wrong_timing(s
         assert abs(found.fit.beta - s.lines["cam0"].beta) <= 3 * found.fit.se_beta
 
 
-def test_a_pose_under_a_biased_log_widens_the_line_by_its_offset(scene):
+def test_a_pose_under_a_biased_log_gives_the_line_its_fit(scene):
+    """The line under a pose from the target takes the pose fit's line and covariance (the first-order propagation
+    of its (u, s0) covariance to (alpha, beta))."""
     found = from_track(scene, "cam0")
-    line = CameraLine("cam0", found.fit.alpha, found.fit.beta, 0, 0, 0.0, cov=np.diag([1e-8, 0.25]))
-    widened = with_pose_offset(line, found)
-    assert widened.cov[1, 1] == pytest.approx(0.25 + found.fit.se_beta**2) and widened.cov[0, 0] == line.cov[0, 0]
-    moved = with_pose_offset(replace(line, beta=found.fit.beta + 4.0), found)  # the line left its pose fit's: counted
-    assert moved.cov[1, 1] == pytest.approx(0.25 + found.fit.se_beta**2 + 16.0)
-    assert with_pose_offset(replace(line, cov=None), found).cov is None
+    fit = found.fit
+    line = CameraLine("cam0", fit.alpha, fit.beta + 7.0, 0, 0, 0.0, cov=np.diag([1e-8, 0.25]))
+    taken = with_pose_line(line, found)
+    assert (taken.alpha, taken.beta) == (fit.alpha, fit.beta)
+    assert taken.cov[1, 1] == pytest.approx(fit.se_beta**2, rel=1e-9) and taken.cov[0, 0] > 0
+    u, ku = 1.0 / fit.alpha, fit.layout.index("u")
+    assert taken.cov[0, 0] == pytest.approx(fit.cov[ku, ku] / u**4, rel=1e-9)
+    assert with_pose_line(line, replace(found, fit=replace(fit, line_cov=None))) is line
 
 
 REAL = REAL_DATA / "drone2"
