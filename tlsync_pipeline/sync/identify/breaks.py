@@ -1,0 +1,258 @@
+"""Breaks in a camera's recording: found in the votes, identified across, and judged against the camera's line.
+
+A camera's line holds from its first frame to its last only if its frames
+follow one steady clock. The track stage lists where they may not
+(trackers/breaks.py: the container's gaps and repeats, frozen pictures);
+``vote_break`` finds a drop that leaves no trace there: the target's votes
+fall on two parallel lines, one before a frame and one after it, the path
+picking up in the log where it left off. ``identify_in_segments``
+identifies the target across the breaks; the camera is then fitted as
+segments (sync/identify/segments.py, sync/solve/synchronize.py). ``segment_reasons`` says
+what that gives the camera:
+
+- segments: weak (``segments``), each named with its offset or as unknown;
+  refused (``clock_break``, AMBIGUOUS) when a segment the target visits
+  agrees on no offset;
+- no segment's offset measured (``break_reasons``): nothing to say when the
+  target's frames on both sides of every break follow the line (a freeze
+  that replaced frames); otherwise refused with the break named: kind,
+  frame, size.
+
+Frames are 0-based frame indices; clock values are the camera clock's
+(sync/model/clock.py), in frames.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from calibration.camera import Camera
+from tlsync_pipeline.errors import SyncError
+from tlsync_pipeline.sync.model.clock import Segment
+from tlsync_pipeline.sync.identify.identify import Identification, IdentifyParams, detections_clock, identify_target
+from tlsync_pipeline.sync.identify.segments import fit_segments, segments_reason
+from tlsync_pipeline.sync.model.status import AMBIGUOUS, Reason
+from tlsync_pipeline.trajectory import Trajectory
+from trackers.breaks import Break
+from trackers.detections import Detections
+
+MIN_SIDE_FRAMES = 8  # tracked frames a side of a break needs for its agreement with the line to be judged
+ON_LINE_SHARE = 0.5  # share of a side's tracked frames with a vote on the line for it to follow the line
+MIN_RIVAL_FRAMES = 8  # distinct frames a parallel line needs to name a drop
+RIVAL_SHARE = 0.15  # ... and this share of the main line's frames
+LONE_FROZEN = (
+    3  # single frozen frames away from the target's frames are judged only when at least this many (a rate off)
+)
+REMEDY = "cut the video at the break into one camera per piece (each then gets its own line), or record without drops"
+
+
+def vote_break(
+    frame: np.ndarray, clock: np.ndarray, sample: np.ndarray, alpha: float, beta: float, delta: float
+) -> Break | None:
+    """A drop the votes show: a line parallel to the fitted one whose frames all lie on one side of the line's.
+
+    frame, clock, sample: each vote's 0-based frame, its camera clock value
+    and its target sample; alpha, beta: the fitted line (clock = alpha x
+    sample + beta); delta: the inlier distance (clock units). The other line
+    is the densest offset (windows of 3 delta) among the votes off the
+    fitted line; it names a break when it holds at least MIN_RIVAL_FRAMES
+    distinct frames and RIVAL_SHARE of the line's, its frames lie before
+    (or after) the line's (10 % and 90 % quantiles) and its samples too. The
+    break is at the later group's first frame after the earlier group's (95 %
+    quantile); its size is the frames missing there (negative: frames
+    inserted).
+    """
+    frame, clock, sample = (np.asarray(a, dtype=np.float64) for a in (frame, clock, sample))
+    r = clock - (alpha * sample + beta)
+    on = np.abs(r) <= 2 * delta
+    main = np.unique(frame[on])
+    if main.size < MIN_RIVAL_FRAMES:
+        return None
+    off = np.flatnonzero(np.abs(r) > 3 * delta)
+    if off.size < MIN_RIVAL_FRAMES:
+        return None
+    bins = np.floor(r[off] / delta).astype(np.int64)
+    pairs = np.unique(np.column_stack([bins, frame[off].astype(np.int64)]), axis=0)
+    keys, counts = np.unique(pairs[:, 0], return_counts=True)
+    near = (
+        counts + np.append(counts[1:] * (np.diff(keys) == 1), 0) + np.insert(counts[:-1] * (np.diff(keys) == 1), 0, 0)
+    )
+    centre = (keys[int(np.argmax(near))] + 0.5) * delta
+    member = off[np.abs(r[off] - centre) <= 1.5 * delta]
+    rival = np.unique(frame[member])
+    if rival.size < max(MIN_RIVAL_FRAMES, RIVAL_SHARE * main.size):
+        return None
+    offset = float(np.median(r[member]))
+    main_samples, rival_samples = sample[on], sample[member]
+    if np.quantile(rival, 0.9) < np.quantile(main, 0.1) and np.quantile(rival_samples, 0.9) < np.quantile(
+        main_samples, 0.1
+    ):
+        return Break("drop", _first_after(main, rival), round(offset, 2))
+    if np.quantile(rival, 0.1) > np.quantile(main, 0.9) and np.quantile(rival_samples, 0.1) > np.quantile(
+        main_samples, 0.9
+    ):
+        return Break("drop", _first_after(rival, main), round(-offset, 2))
+    return None
+
+
+def _first_after(later: np.ndarray, earlier: np.ndarray) -> int:
+    """The later group's first frame after most of the earlier group's (its 95 % quantile: a few of a frame's votes
+    may fall on the other line by chance)."""
+    end = np.quantile(earlier, 0.95)
+    return int(later[later > end].min())
+
+
+def with_vote_break(
+    breaks: tuple[Break, ...], frame: np.ndarray, clock: np.ndarray, sample: np.ndarray, line, delta: float
+) -> tuple[Break, ...]:
+    """``breaks`` and the drop the votes show (``vote_break``, ``merged``); line: the fitted CameraLine."""
+    found = vote_break(frame, clock, sample, line.alpha, line.beta, delta)
+    return breaks if found is None else merged((*breaks, found))
+
+
+def merged(breaks: tuple[Break, ...]) -> tuple[Break, ...]:
+    """The breaks in frame order, without a drop the votes show where the container or the pictures name a break
+    already (within the drop's size and 10 frames: the votes place a break only between the target's frames)."""
+    named = [b for b in breaks if b.kind != "drop"]
+    drops = [
+        d for d in breaks if d.kind == "drop" and not any(abs(b.frame - d.frame) <= abs(d.size) + 10 for b in named)
+    ]
+    return tuple(sorted({*named, *drops}, key=lambda b: (b.frame, b.kind)))
+
+
+def break_reasons(
+    breaks: tuple[Break, ...],
+    tracked: np.ndarray,
+    vote_frame: np.ndarray,
+    vote_clock: np.ndarray,
+    vote_sample: np.ndarray,
+    alpha: float,
+    beta: float,
+    delta: float,
+) -> tuple[Reason, ...]:
+    """The reasons the breaks give a camera's line (see the module docstring): at most one, naming every break that
+    leaves a side of the recording off the line.
+
+    tracked: the frames of the track the line was fitted to; vote_*: its
+    votes' frames, clock values and samples; alpha, beta: the line (clock
+    units); delta: the inlier distance. Single frozen frames away from the
+    target's frames (unobservable one by one, at most a frame each) count
+    only when there are LONE_FROZEN of them or more.
+    """
+    tracked = np.asarray(tracked)
+    vote_frame = np.asarray(vote_frame)
+    on = np.abs(np.asarray(vote_clock) - (alpha * np.asarray(vote_sample) + beta)) <= 2 * delta
+    supported = np.isin(tracked, vote_frame[on])
+    named: list[str] = []
+    lone: list[Break] = []
+    for b in breaks:
+        end = b.frame + (int(b.size) if b.kind in ("frozen", "repeat") else 0)
+        before, after = tracked < b.frame, tracked >= end
+        sides = [
+            (before.sum(), supported[before].mean() if before.any() else 0.0),
+            (after.sum(), supported[after].mean() if after.any() else 0.0),
+        ]
+        if all(n >= MIN_SIDE_FRAMES and share >= ON_LINE_SHARE for n, share in sides):
+            continue
+        if b.kind == "frozen" and b.size < 2 and min(n for n, _ in sides) == 0:
+            lone.append(b)
+            continue
+        if b.kind == "drop":
+            named.append(f"{b.describe()} (the target's votes before and after it lie on parallel lines)")
+        elif min(n for n, _ in sides) == 0:
+            named.append(
+                f"{b.describe()} (the target is seen on one side of it only: the other side's offset is unknown)"
+            )
+        else:
+            named.append(f"{b.describe()} (the target's frames on one side of it are off the line)")
+    if len(lone) >= LONE_FROZEN:
+        named.append(
+            f"{len(lone)} single frozen frames, the first at frame {lone[0].frame} (a repeated frame every "
+            f"{_spacing(lone)} frames: the clock slips a frame each time)"
+        )
+    if not named:
+        return ()
+    text = "the recording breaks, one offset cannot map all of it: " + "; ".join(named)
+    return (Reason("clock_break", AMBIGUOUS, text, REMEDY),)
+
+
+def _spacing(breaks: list[Break]) -> str:
+    """The median spacing of breaks (frames), in words."""
+    return f"{np.median(np.diff([b.frame for b in breaks])):.0f}"
+
+
+def segment_reasons(
+    breaks: tuple[Break, ...],
+    segments: tuple[Segment, ...],
+    tracked: np.ndarray,
+    vote_frame: np.ndarray,
+    vote_clock: np.ndarray,
+    vote_sample: np.ndarray,
+    alpha: float,
+    beta: float,
+    delta: float,
+) -> tuple[Reason, ...]:
+    """The reasons of a camera's breaks: without segments (no segment's shift known) those of ``break_reasons``; with
+    them, the segments (WEAK, sync/identify/segments.py) and AMBIGUOUS when a segment the target visits (MIN_SIDE_FRAMES
+    tracked frames) has no shift its votes agree on."""
+    if not segments:
+        return break_reasons(breaks, tracked, vote_frame, vote_clock, vote_sample, alpha, beta, delta)
+    reasons = [r for r in (segments_reason(segments, breaks),) if r is not None]
+    lost = [s for s in segments if s.shift is None and s.source != "frozen" and s.frames >= MIN_SIDE_FRAMES]
+    if lost:
+        where = ", ".join(f"frames {s.start}-{s.stop - 1} ({s.frames} tracked)" for s in lost)
+        named = "; ".join(b.describe() for b in breaks)
+        reasons.append(
+            Reason(
+                "clock_break",
+                AMBIGUOUS,
+                f"the recording breaks ({named}) and the target's frames on {where} agree on no offset",
+                REMEDY,
+            )
+        )
+    return tuple(reasons)
+
+
+def identify_in_segments(
+    camera: Camera,
+    detections: Detections,
+    trajectory: Trajectory,
+    fps: float | None,
+    params: IdentifyParams,
+    prefer: frozenset[int] = frozenset(),
+    breaks: tuple[Break, ...] = (),
+) -> tuple[Identification, tuple[Break, ...]]:
+    """The target identified among every mover across the recording's breaks, and the breaks.
+
+    Identification follows one line (sync/identify/identify.py), so it keeps the
+    target only on the part of a broken recording that line holds. With the
+    breaks known (``breaks``, and a drop the movers' votes show), each
+    segment's shift is measured on the movers' votes (sync/identify/segments.py);
+    when another segment's is, the target is identified again on the clock
+    that carries them, over the segments of known shift.
+    """
+    found = identify_target(camera, detections, trajectory, fps, params, prefer)
+    clock, row_clock = detections_clock(detections, fps)
+    vote_clock = row_clock[found.vote_rows]
+    drop = vote_break(found.votes.frame, vote_clock, found.votes.sample, found.alpha, found.beta, params.delta)
+    breaks = merged((*breaks, drop) if drop is not None else breaks)
+    segments = fit_segments(
+        breaks,
+        found.track.frame,
+        found.votes.frame,
+        vote_clock,
+        found.votes.sample,
+        found.votes.dist,
+        found.alpha,
+        found.beta,
+        params.delta,
+        clock.vfr,
+    )
+    if not any(seg.source == "votes" for seg in segments):
+        return found, breaks
+    _, shifted = detections_clock(detections, fps, segments)
+    known = detections.subset(np.flatnonzero(np.isfinite(shifted)))
+    try:
+        return identify_target(camera, known, trajectory, fps, params, prefer, segments), breaks
+    except SyncError:
+        return found, breaks

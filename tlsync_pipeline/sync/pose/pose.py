@@ -1,0 +1,1060 @@
+"""A camera's pose from the target itself: no survey needed, and GCPs that are only roughly right still serve.
+
+The target gives thousands of (pixel, 3D position) pairs, known up to the
+camera's line clock = alpha * sample + beta that is being estimated. With
+alpha held by the clock prior (sync/kernels/slope.py: the camera's fps over the log's
+rate), only beta is unknown:
+
+1. search over beta (``search_offsets``): for each candidate beta, each of
+   SEARCH_POINTS tracked positions (spread over the track) is paired with
+   the trajectory at its sample, and a pose is fitted to the pairs
+   (OpenCV's SQPnP on distortion-free pixels, then twice again on the
+   better half of the pairs, which is robust to a share of wrong
+   positions); the candidate's support is the pairs the pose explains
+   within the threshold. A coarse pass (3 x the threshold, steps of half
+   the threshold over the track's image speed) and a fine pass around its
+   best peaks;
+2. the best CANDIDATES peaks of distinct offsets are fitted: pose, line
+   (and the free intrinsics) jointly on every tracked position, with the
+   GCPs as a prior (sync/pose/pose_fit.py); with GCPs, the pose the GCPs alone
+   give and the line the votes find under it are one more candidate;
+3. the fit with the most frames within the gate wins; the best fit at an
+   offset more than DISTINCT_S away is the runner-up (its support is kept,
+   as the line search keeps its runner-up's); with GCPs, only fits that
+   keep the GCPs within GCP_AGREE of their sigmas count (a straight path
+   explains the track from many poses, the GCPs tell them apart);
+4. degenerate cases fail with a named cause and a remedy (``PoseError``),
+   never with a confident wrong pose: too few frames, a path that is nearly
+   a straight line in the image (the pose turns freely about it), two
+   offsets with comparable support, or a pose whose uncertainty is too
+   large. With GCPs the straightness and ambiguity tests are left to the
+   uncertainty: the GCPs hold the pose where the path alone cannot;
+5. with GCPs and their own pose (``_survey_and_target``) the evidence
+   decides: the survey's error is measured from the GCPs' residuals under
+   their own pose and under the track's (``measured_gcps``), GCPs the
+   track's pose puts far off are named and left out, and the GCPs count as
+   much against the track as the track's shared errors warrant. The joint
+   pose wins when it keeps the GCPs and explains the track nearly as well
+   as the track's own pose; otherwise the track's own pose is used (the
+   GCPs that disagree named), and only when the track alone does not
+   determine it either does the camera fail (gcp_conflict).
+
+Without K (a camera.json with the image size only) the search fits a
+projection matrix (DLT, normalised) instead of a pose, and the joint fit
+frees the focal length, principal point and k1 with weak priors: what the
+target determines (posterior std under half the prior's) is kept, the rest
+is held. A target moving in a plane (a walker on flat ground) does not
+determine the focal length: the search's DLT is degenerate there and the
+camera fails with the cause ``planar_path``.
+
+Clock values are the camera clock in frame units (sync/model/clock.py); pixels
+as tracked (distorted); world metres.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+from scipy.optimize import minimize_scalar
+from scipy.spatial import cKDTree
+
+from calibration.camera import Camera, PoseInfo
+from calibration.errors import CalibrationInputError
+from calibration.extrinsics import Pose, pose_from_points
+from calibration.lens import undistort_pixels
+from tlsync_pipeline.errors import SyncError
+from tlsync_pipeline.sync.model.clock import FrameTimes, camera_clock, image_speed
+from tlsync_pipeline.sync.identify.identify import (
+    Identification,
+    IdentifyParams,
+    detections_clock,
+    identify_target,
+)
+from tlsync_pipeline.sync.kernels.line_search import find_line
+from tlsync_pipeline.sync.model.log_model import LogModel
+from tlsync_pipeline.sync.pose.pose_bias import CUT, VisitBias, fit_with_bias
+from tlsync_pipeline.sync.pose.pose_fit import (
+    INTRINSICS,
+    MODEL_ERROR_PX,
+    GcpPrior,
+    JointFit,
+    fit_pose_and_line,
+    reprojection_errors,
+)
+from tlsync_pipeline.sync.kernels.slope import SlopePrior, slope_prior
+from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
+from trackers.detections import Detections
+from trackers.track import Track
+
+SEARCH_POINTS = 200  # tracked positions paired with the trajectory per candidate offset
+COARSE = 3.0  # the coarse pass's threshold and step, in units of the fine pass's
+FINE_PEAKS = 8  # coarse peaks searched finely
+CANDIDATES = 6  # fine peaks fitted jointly
+MIN_PAIRS = 12  # pairs on the trajectory a candidate offset needs
+MIN_FRAMES = 20  # frames a pose from the target needs within the gate
+STRAIGHT = 0.02  # smallest ratio of the image path's second to first singular value (below: a straight line)
+NEARLY_STRAIGHT = 0.05  # a loose pose on a path below this ratio is put down to its straightness
+AMBIGUOUS = 0.85  # a distinct offset scoring this share of the best's score (msac at TIGHT median residuals) makes the pose ambiguous
+TIGHT = 3.0  # median residuals of the best fit within which frames count for the ambiguity test
+DISTINCT_S = 1.0  # offsets further apart than this (seconds) are distinct
+LOG_GATE = 2.5  # under a metre-level log, the gate in units of the log's unabsorbed error seen in pixels
+TIMING_S = 0.5  # under a log with a bias, the largest std of a pose fit's beta (seconds): half of DISTINCT_S
+GCP_AGREE = 3.0  # a pose agrees with the GCPs when their median error is within this many of their sigmas
+SURVEY_SUPPORT = 0.9  # a pose from GCPs and track together must explain this share of the frames the track's own pose explains
+CHI2_2_MEDIAN = 2.0 * np.log(2.0)  # median of a chi-square of 2 degrees of freedom
+MEASURE_POINTS = 6  # GCPs (inliers of their pose) whose residuals measure the survey's error alone; fewer: not below the stated one
+MAX_ROTATION_STD_DEG = 3.0
+MAX_CENTER_STD = 0.15  # of the median distance to the target
+# An intrinsic the target determines: its posterior std below these (f: share of f; cx, cy: share of the image width; k1: absolute).
+DETERMINED = {"f": 0.05, "cx": 0.02, "cy": 0.02, "k1": 0.05}
+PLANAR = 0.02  # a log whose smallest spread is below this share of its largest moves in a plane
+BATCH = 256  # candidate offsets whose trajectory positions are evaluated at once
+MAX_TRACKLETS = 40  # movers' tracklets tried as the target's track, longest image paths first
+MIN_TRACKLET_FRAMES = 12  # frames a mover's tracklet needs to be tried
+TRACKLET_CANDIDATES = 2  # fits at distinct offsets of each tracklet under which the target is identified
+
+REMEDIES = {
+    "no_clock": "give the camera's fps and a log with times, or 4 GCPs with gcp_sigma_m = 0 (their pose alone)",
+    "too_few_frames": "record the target longer in this view, or add 4 GCPs (gcp = ...)",
+    "straight_path": "walk a curved path through the view (turns, not a straight line), or add 4 GCPs (gcp = ...)",
+    "ambiguous_offset": "walk a path through the view that does not repeat itself (turns of different shapes), or add 4 GCPs (gcp = ...)",
+    "pose_undetermined": "walk a curved path spread over the whole view, near and far, or add 4 GCPs (gcp = ...)",
+    "gcp_conflict": "check the GCP file (each pixel against its world point) and gcp_sigma_m, and that the log is in the GCPs' frame",
+    "no_fit": "check the intrinsics (K, dist) and that the log covers the video, or add 4 GCPs (gcp = ...)",
+    "planar_path": "calibrate the intrinsics with checkerboard photos (a target moving in a plane does not determine the focal length), or fly it at different heights",
+}
+
+
+class PoseError(SyncError):
+    """The pose cannot be estimated from the target: ``cause`` (a key of REMEDIES), what was seen, and the remedy."""
+
+    def __init__(self, camera: str, cause: str, detail: str):
+        self.cause = cause
+        self.remedy = REMEDIES[cause]
+        super().__init__(f"camera {camera}: pose not determined from the target ({cause}): {detail}; {self.remedy}")
+
+
+@dataclass(frozen=True)
+class OffsetSearch:
+    """The search over beta: the fine pass's offsets and supports (MSAC scores of the pairs, ``_Scorer.fit``), pairs per offset, threshold and steps."""
+
+    betas: np.ndarray
+    support: np.ndarray
+    pairs: int
+    threshold_px: float
+    coarse_step: float
+    fine_step: float
+    offsets_tried: int
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """A starting point for the joint fit: camera (pose), line, and where it comes from (``search`` or ``gcp``)."""
+
+    camera: Camera
+    alpha: float
+    beta: float
+    origin: str
+
+
+@dataclass(frozen=True)
+class TargetPose:
+    """A camera's pose from the target.
+
+    camera: the fitted camera (pose; intrinsics where they were free);
+    fit: the winning joint fit; source: ``target`` or ``gcp+target``;
+    runner_up / runner_up_beta: frames within ``tight_px`` (TIGHT median
+    residuals of the winner) and beta of the best fit at a distinct offset (0 /
+    NaN without one); tight_support: the winner's frames within tight_px;
+    runner_up_ratio: the runner-up's MSAC score over the winner's (``msac``
+    at tight_px: near 1 when both explain the track alike);
+    search: the offset search;
+    straightness: the image path's second to first singular value; gcp_pose:
+    the camera from the GCPs alone (None without GCPs); moved_m / moved_deg:
+    how far the pose moved from it; intrinsics: each intrinsic the fit was
+    free to move: (value, std, determined); gcps_used: the GCPs as the fit
+    counted them (their measured sigma and weight; None: as given);
+    disagreeing: the GCPs that conflict with the track (the pose is then the
+    track's alone, source ``target``).
+    """
+
+    camera: Camera
+    fit: JointFit
+    source: str
+    runner_up: int
+    runner_up_beta: float
+    tight_support: int
+    tight_px: float
+    runner_up_ratio: float
+    search: OffsetSearch
+    straightness: float
+    gcp_pose: Camera | None = None
+    moved_m: float = float("nan")
+    moved_deg: float = float("nan")
+    intrinsics: dict[str, tuple[float, float, bool]] | None = None
+    gcps_used: GcpPrior | None = None
+    disagreeing: tuple[str, ...] = ()
+
+    @property
+    def support(self) -> int:
+        return self.fit.support
+
+    def to_report(self, info: PoseInfo, gcps: GcpPrior | None = None) -> dict:
+        """The pose from the target as calibration_report.json's ``target_pose`` (docs/calibration.md)."""
+        fit = self.fit
+        out: dict = {
+            **info.to_dict(),
+            "camera_center_m": fit.camera.center.tolist(),
+            "alpha": fit.alpha,
+            "beta": fit.beta,
+            "se_beta": fit.se_beta,
+            "frames": fit.support,
+            "scale_px": fit.scale_px,
+            "runner_up_ratio": self.runner_up_ratio,
+            "runner_up_beta": None if not np.isfinite(self.runner_up_beta) else self.runner_up_beta,
+            "straightness": self.straightness,
+            "search": {"offsets_tried": self.search.offsets_tried, "threshold_px": self.search.threshold_px, "step_frames": self.search.fine_step},
+        }
+        if self.gcp_pose is not None:
+            out.update(moved_m=self.moved_m, moved_deg=self.moved_deg)
+        if gcps is not None:
+            before = gcps.errors_px(self.gcp_pose) if self.gcp_pose is not None else np.full(len(gcps.xyz), np.nan)
+            after = gcps.errors_px(self.camera)
+            names = gcps.names or tuple(str(k) for k in range(len(gcps.xyz)))
+            used = self.gcps_used or gcps
+            out.update(gcp_sigma_m=used.sigma_m, gcp_sigma_stated_m=gcps.sigma_m, gcp_weight=used.weight, gcps_disagree=list(self.disagreeing))
+            out["gcps"] = [
+                {"name": n, "before_px": None if not np.isfinite(b) else float(b), "after_px": None if not np.isfinite(a) else float(a), "disagrees": n in self.disagreeing}
+                for n, b, a in zip(names, before, after)
+            ]
+        if self.intrinsics:
+            out["intrinsics"] = {k: {"value": v, "std": sd, "determined": kept} for k, (v, sd, kept) in self.intrinsics.items()}
+        return out
+
+
+def pose_from_track(
+    camera: Camera,
+    clock: np.ndarray,
+    xy: np.ndarray,
+    path: PiecewiseTrajectory,
+    prior: SlopePrior | None,
+    fps: float | None,
+    gate_px: float = 10.0,
+    gcps: GcpPrior | None = None,
+    gcp_camera: Camera | None = None,
+    free: tuple[str, ...] = (),
+    f_scale: float = 3.0,
+    seed: int = 0,
+    delta: float = 0.5,
+    offsets: tuple[float, float] | None = None,
+    log_model: LogModel | None = None,
+) -> TargetPose:
+    """The camera's pose (and line) from its track of the target; PoseError with the cause when it is not determined.
+
+    camera: its intrinsics (its pose is ignored; without K, ``to_estimate``
+    holds "intrinsics" and they are fitted too); clock / xy: (N,) camera
+    clock and (N, 2) pixels of the tracked frames; path: the trajectory
+    model (as the sync method prepares it); prior: the clock prior and fps
+    the camera's nominal frame rate (both needed); gate_px: a frame
+    supports a fit when its reprojection is within it; gcps / gcp_camera:
+    GCPs as a prior and the camera they give alone (a starting candidate);
+    free: intrinsics the fit may move (``f``, ``cx``, ``k1``); delta: the
+    line search's band for the GCP candidate's line; offsets: the range of
+    beta (clock units) the search covers (None: all the log allows);
+    log_model: the log's error; with a bias, the search scores each offset
+    with the log's bias over the visit fitted with the pose (sync/pose_bias.py),
+    and the fits' gate, loss scale and shared model error widen to the error
+    a fixed pose cannot absorb over the track's span (``LogModel.unabsorbed_m``)
+    as seen at the target's depth (``log_scales``).
+    """
+    clock = np.asarray(clock, dtype=np.float64)
+    xy = np.asarray(xy, dtype=np.float64)
+    biased = log_model if log_model is not None and log_model.has_bias and fps else None
+    log_m = biased.unabsorbed_m(float(np.ptp(clock)) / fps) if biased is not None and len(clock) and fps else 0.0
+    unknown_k = "intrinsics" in camera.to_estimate
+    if unknown_k:
+        free = tuple(sorted(set(free) | {"f", "cx", "k1"}, key=INTRINSICS.index))
+    if gcps is None or gcp_camera is None or free:
+        try:
+            search, fits = candidate_fits(camera, clock, xy, path, prior, fps, gate_px, gcps, gcp_camera, free, f_scale, seed, delta, offsets=offsets, log_model=biased)
+        except PoseError as exc:
+            if exc.cause != "gcp_conflict" or free:
+                raise
+            # GCPs without a pose of their own (too few, too rough) that no pose of the track keeps: the track alone
+            alone = pose_from_track(camera, clock, xy, path, prior, fps, gate_px, None, None, (), f_scale, seed, delta, offsets, log_model)
+            return replace(alone, disagreeing=_names(gcps))  # type: ignore[arg-type]
+        result = ranked_pose(fits, search, xy, fps or 0.0, gcps is not None, gcp_camera)
+        if free:
+            result = _settle_intrinsics(result, clock, xy, path, prior, gate_px, f_scale, gcps, free, unknown_k)
+        check_determined(result, clock, path, gcps is not None, log_m, fps)
+        return result
+    return _survey_and_target(camera, clock, xy, path, prior, fps, gate_px, gcps, gcp_camera, f_scale, seed, delta, offsets)
+
+
+def _survey_and_target(
+    camera: Camera, clock, xy, path, prior: SlopePrior | None, fps: float | None, gate_px: float, gcps: GcpPrior, gcp_camera: Camera, f_scale: float, seed: int, delta: float, offsets
+) -> TargetPose:
+    """The pose from GCPs and track together, or from the track alone when they conflict (module docstring, step 5).
+
+    The track alone is fitted first (the offset search's candidates, no
+    GCP). The GCPs' error is measured (``measured_gcps``) from their
+    residuals under their own pose and, when the track alone determines the
+    pose, under the track's: the GCPs that the track's pose puts beyond
+    GCP_AGREE of the latter disagree and are left out (the GCPs' own pose is
+    then fitted to the others), and the smaller of the two sigmas is used.
+    The GCPs count ``track_inflation`` times their information, since the
+    fit counts every frame as independent while the track's errors are
+    shared by neighbouring frames (the log's bias, the tracker's). A joint
+    fit that keeps the GCPs within GCP_AGREE sigmas and explains
+    SURVEY_SUPPORT of the frames the track alone explains wins (source
+    ``gcp+target``); otherwise the track's own pose is used (source
+    ``target``), naming the GCPs it puts beyond GCP_AGREE sigmas, when it is
+    determined; else the camera fails (gcp_conflict, naming them).
+    """
+    name = camera.name
+    if prior is None or not fps:
+        raise PoseError(name, "no_clock", "the camera's fps or the log's rate is unknown, so the offset cannot be searched with the slope held")
+    if len(clock) < MIN_FRAMES:
+        raise PoseError(name, "too_few_frames", f"{len(clock)} tracked frames, at least {MIN_FRAMES} are needed")
+    search, starts = search_offsets(camera, clock, xy, path, prior.alpha, seed, offsets=offsets)
+    alone = _fit_candidates(starts, clock, xy, path, prior, gate_px, f_scale, None, (), search.threshold_px, MIN_FRAMES)
+    own: TargetPose | None = None
+    why = PoseError(name, "no_fit", f"no offset of {search.offsets_tried} tried gives a pose that explains {MIN_FRAMES} tracked frames within {gate_px:g} px")
+    if alone:
+        try:
+            own = ranked_pose(alone, search, xy, fps, False, gcp_camera)
+            check_determined(own, clock, path, False)
+        except PoseError as exc:
+            own, why = None, exc
+    used = measured_gcps(gcps, gcp_camera)
+    start = gcp_camera  # the joint fit's start from the GCPs (their own pose refitted without those that disagree)
+    outliers: tuple[str, ...] = ()
+    if own is not None:
+        seen = measured_gcps(gcps, own.camera, fitted=False)
+        outliers = disagreeing_gcps(seen, own.camera)
+        keep = np.array([n not in outliers for n in _names(gcps)])
+        if outliers and keep.sum() >= 4:
+            kept = _subset(gcps, keep)
+            try:
+                refit = pose_from_points(kept.uv, kept.xyz, camera.K, camera.dist, camera.dist_model, 1e6, source="GCPs")
+                start = replace(gcp_camera, R=refit.R, t=refit.t)
+            except CalibrationInputError:
+                pass
+            used, seen = measured_gcps(kept, start), measured_gcps(kept, own.camera, fitted=False)
+        used = replace(used, sigma_m=min(used.sigma_m, seen.sigma_m))
+    weighted = replace(used, weight=alone[0].track_inflation if alone else 1.0)
+    candidates = [Candidate(f.camera, f.alpha, f.beta, "search") for f in alone[:CANDIDATES]]
+    found = _gcp_candidate(start, clock, xy, path, prior, gate_px, delta, seed)
+    if found is not None:
+        candidates.append(found)
+    joint = [f for f in _fit_candidates(candidates, clock, xy, path, prior, gate_px, f_scale, weighted, (), gate_px, MIN_FRAMES) if gcps_agree(weighted, f)]
+    if joint and (own is None or joint[0].support >= SURVEY_SUPPORT * own.support):
+        result = _with_gcps(joint, search, xy, fps, gcp_camera, weighted, clock, path)
+        return replace(result, disagreeing=tuple(n for n in _names(gcps) if n in outliers or n in result.disagreeing))
+    if own is None:
+        named = ", ".join(outliers) or "none alone"
+        raise PoseError(name, "gcp_conflict", f"no pose keeps the GCPs within {GCP_AGREE:g} sigmas ({weighted.sigma_m:.2g} m; disagreeing: {named}) and explains the track, and the track alone does not determine the pose ({why.cause})")
+    return replace(own, gcps_used=weighted, disagreeing=disagreeing_gcps(weighted, own.camera))
+
+
+def _names(gcps: GcpPrior) -> tuple[str, ...]:
+    return gcps.names or tuple(str(k) for k in range(len(gcps.xyz)))
+
+
+def _subset(gcps: GcpPrior, keep: np.ndarray) -> GcpPrior:
+    names = tuple(n for n, k in zip(_names(gcps), keep) if k)
+    return replace(gcps, uv=gcps.uv[keep], xyz=gcps.xyz[keep], names=names)
+
+
+def _with_gcps(fits: list[JointFit], search: OffsetSearch, xy, fps, gcp_camera: Camera, gcps: GcpPrior, clock, path) -> TargetPose:
+    """The pose from GCPs and track together (checked), naming the GCPs it leaves beyond GCP_AGREE sigmas."""
+    result = ranked_pose(fits, search, xy, fps or 0.0, True, gcp_camera)
+    check_determined(result, clock, path, True)
+    return replace(result, gcps_used=gcps, disagreeing=disagreeing_gcps(gcps, result.camera))
+
+
+def disagreeing_gcps(gcps: GcpPrior, camera: Camera) -> tuple[str, ...]:
+    """Names (or 0-based indices) of the GCPs that the camera puts beyond GCP_AGREE of their sigmas."""
+    far = gcps.errors_px(camera) > GCP_AGREE * gcps.sigma_px(camera)
+    return tuple(n for n, bad in zip(_names(gcps), far) if bad)
+
+
+def candidate_fits(
+    camera: Camera,
+    clock: np.ndarray,
+    xy: np.ndarray,
+    path: PiecewiseTrajectory,
+    prior: SlopePrior | None,
+    fps: float | None,
+    gate_px: float,
+    gcps: GcpPrior | None,
+    gcp_camera: Camera | None,
+    free: tuple[str, ...],
+    f_scale: float,
+    seed: int,
+    delta: float,
+    min_frames: int = MIN_FRAMES,
+    offsets: tuple[float, float] | None = None,
+    log_model: LogModel | None = None,
+) -> tuple[OffsetSearch, list[JointFit]]:
+    """The offset search (within ``offsets``, clock units, when given) and the joint fits of its candidates (and the
+    GCP candidate), best first (most frames within the gate).
+
+    With GCPs only the fits that keep them within GCP_AGREE sigmas. log_model:
+    a log with a bias (``pose_from_track``'s), or None. Raises PoseError when
+    there is none (no_clock, too_few_frames, planar_path, no_fit, gcp_conflict).
+    """
+    name = camera.name
+    if prior is None or not fps:
+        raise PoseError(name, "no_clock", "the camera's fps or the log's rate is unknown, so the offset cannot be searched with the slope held")
+    if len(clock) < min_frames:
+        raise PoseError(name, "too_few_frames", f"{len(clock)} tracked frames, at least {min_frames} are needed")
+    dlt = "intrinsics" in camera.to_estimate
+    biased = log_model if log_model is not None and log_model.has_bias else None
+    search, candidates = search_offsets(camera, clock, xy, path, prior.alpha, seed, dlt=dlt, offsets=offsets, log_model=biased, fps=fps)
+    log_m = biased.unabsorbed_m(float(np.ptp(clock)) / fps) if biased is not None else 0.0
+    if gcp_camera is not None:
+        found = _gcp_candidate(gcp_camera, clock, xy, path, prior, gate_px, delta, seed)
+        if found is not None:
+            candidates.append(found)
+    fits = _fit_candidates(candidates, clock, xy, path, prior, gate_px, f_scale, gcps, free, search.threshold_px, min_frames, log_m)
+    if not fits and dlt and planarity(path) < PLANAR:
+        raise PoseError(name, "planar_path", f"the camera has no K and the target moves in a plane (its height spread is {planarity(path):.3f} of its extent)")
+    if not fits:
+        raise PoseError(name, "no_fit", f"no offset of {search.offsets_tried} tried gives a pose that explains {MIN_FRAMES} tracked frames within {gate_px:g} px")
+    if gcps is not None:
+        fits = [f for f in fits if gcps_agree(gcps, f)]
+        if not fits:
+            raise PoseError(name, "gcp_conflict", f"no offset gives a pose that both explains the track and keeps the GCPs within {GCP_AGREE:g} sigmas ({gcps.sigma_m:.2g} m)")
+    return search, fits
+
+
+def _fit_candidates(
+    candidates: list[Candidate], clock, xy, path, prior, gate_px: float, f_scale: float, gcps: GcpPrior | None, free,
+    threshold_px: float, min_frames: int, log_m: float = 0.0,
+) -> list[JointFit]:
+    """The converged joint fits of the candidates (a search candidate starts from the frames within the search's
+    threshold, the GCP candidate from those within the gate), best first (most frames within the gate); log_m: as
+    ``pose_from_track``'s."""
+    fits = []
+    for candidate in candidates:
+        gate, scale, shared = log_scales(candidate.camera, clock, path, candidate.alpha, candidate.beta, gate_px, f_scale, log_m)
+        first = threshold_px if candidate.origin == "search" else gate_px
+        first = max(first, gate) if gate > gate_px else first  # a metre-level log's wider gate
+        start = reprojection_errors(candidate.camera, clock, xy, path, candidate.alpha, candidate.beta) <= first
+        if start.sum() < min_frames // 2:
+            continue
+        try:
+            fit = fit_pose_and_line(candidate.camera, clock, xy, path, candidate.alpha, candidate.beta, start, gate, scale, prior, gcps, free, model_error_px=shared)
+        except ValueError:
+            continue
+        if fit.converged:
+            fits.append(fit)
+    fits.sort(key=lambda f: (-f.support, f.scale_px))
+    return fits
+
+
+def log_scales(
+    camera: Camera, clock, path: PiecewiseTrajectory, alpha: float, beta: float, gate_px: float, f_scale: float, log_m: float
+) -> tuple[float, float, float]:
+    """A fit's gate, loss scale and shared model error (pixels) under a log whose error a fixed pose cannot absorb is
+    log_m metres (per axis), seen at the target's median depth under the camera and line: LOG_GATE, 1 and 1 times it,
+    never below gate_px, f_scale and MODEL_ERROR_PX (an RTK log keeps those)."""
+    depth = median_depth(camera, clock, path, alpha, beta) if log_m > 0 else float("nan")
+    if not depth > 0:
+        return gate_px, f_scale, MODEL_ERROR_PX
+    seen = 0.5 * (camera.K[0, 0] + camera.K[1, 1]) * log_m / depth
+    return max(gate_px, LOG_GATE * seen), max(f_scale, seen), max(MODEL_ERROR_PX, seen)
+
+
+def ranked_pose(fits: list[JointFit], search: OffsetSearch, xy: np.ndarray, fps: float, with_gcps: bool, gcp_camera: Camera | None) -> TargetPose:
+    """The best of the fits (first: most support) with its runner-up at a distinct offset, as a TargetPose (not yet checked).
+
+    xy: the winner's tracked pixels (its straightness is measured on its inliers).
+    """
+    best = fits[0]
+    tight = TIGHT * max(float(np.median(best.errors[best.inliers])), 0.5)
+    distinct = [f for f in fits if abs(f.beta - best.beta) > DISTINCT_S * fps]
+    runner = max(distinct, key=lambda f: msac(f.errors, tight)) if distinct else None
+    result = TargetPose(
+        best.camera,
+        best,
+        "gcp+target" if with_gcps else "target",
+        runner.within(tight) if runner else 0,
+        runner.beta if runner else float("nan"),
+        best.within(tight),
+        tight,
+        msac(runner.errors, tight) / max(msac(best.errors, tight), 1e-9) if runner else 0.0,
+        search,
+        straightness(xy[best.inliers]),
+    )
+    if gcp_camera is not None:
+        result = replace(result, gcp_pose=gcp_camera, moved_m=float(np.linalg.norm(result.camera.center - gcp_camera.center)), moved_deg=rotation_between(result.camera.R, gcp_camera.R))
+    return result
+
+
+def check_determined(result: TargetPose, clock: np.ndarray, path: PiecewiseTrajectory, with_gcps: bool, log_m: float = 0.0, fps: float | None = None) -> None:
+    """Raise PoseError when the pose is not determined (see the module docstring, step 4).
+
+    log_m: as ``pose_from_track``'s. Under a log with a bias (log_m > 0 and
+    the camera's fps) the pose absorbs the log's error and serves the timing
+    only (``pose_info``): what must be determined is the timing, whose std
+    carries the pose's looseness (the fit's model error is the log's), and
+    the camera is refused when beta's std exceeds TIMING_S seconds (the
+    ambiguity test could no longer tell distinct offsets apart)."""
+    fit, name = result.fit, result.camera.name
+    if fit.support < MIN_FRAMES:
+        raise PoseError(name, "too_few_frames", f"{fit.support} frames within the gate, at least {MIN_FRAMES} are needed")
+    if not with_gcps and result.straightness < STRAIGHT:
+        raise PoseError(name, "straight_path", f"the target's path is nearly a straight line in the image (width {result.straightness:.3f} of its length)")
+    if not with_gcps and result.runner_up_ratio >= AMBIGUOUS:
+        raise PoseError(
+            name,
+            "ambiguous_offset",
+            f"two offsets explain the track alike (scores {result.runner_up_ratio:.2f} to 1, {result.runner_up} and {result.tight_support} frames within {result.tight_px:.1f} px, "
+            f"beta {result.runner_up_beta:.1f} and {fit.beta:.1f})",
+        )
+    depth = median_depth(fit.camera, clock[fit.inliers], path, fit.alpha, fit.beta)
+    loose = []
+    if log_m > 0 and fps:
+        if not fit.se_beta <= TIMING_S * fps:
+            loose.append(f"the offset +-{fit.se_beta / fps:.2g} s under the log's error")
+    else:
+        if not fit.rotation_std_deg <= MAX_ROTATION_STD_DEG:
+            loose.append(f"rotation +-{fit.rotation_std_deg:.2g} deg")
+        if not fit.center_std_m <= MAX_CENTER_STD * depth:
+            loose.append(f"centre +-{fit.center_std_m:.2g} m at {depth:.0f} m")
+    if loose:
+        cause = "straight_path" if result.straightness < NEARLY_STRAIGHT else "pose_undetermined"
+        raise PoseError(name, cause, "the track leaves the pose loose (" + ", ".join(loose) + ")")
+
+
+def gcps_agree(gcps: GcpPrior, fit: JointFit) -> bool:
+    """Whether the fitted pose keeps the GCPs within GCP_AGREE of their sigmas (median over the points: one bad point is allowed)."""
+    return bool(np.median(fit.gcp_errors_px / gcps.sigma_px(fit.camera)) <= GCP_AGREE)
+
+
+def median_depth(camera: Camera, clock: np.ndarray, path: PiecewiseTrajectory, alpha: float, beta: float) -> float:
+    """Median distance (metres, along the optical axis) of the target at the given frames under the line."""
+    s = (clock - beta) / alpha
+    run = path.run_of(s)
+    on = run >= 0
+    if not on.any():
+        return float("nan")
+    return float(np.median((path(s[on], run[on]) @ camera.R.T + camera.t)[:, 2]))
+
+
+def planarity(path: PiecewiseTrajectory) -> float:
+    """Smallest over largest singular value of the trajectory's centred sample positions (0: a plane)."""
+    xyz = path.positions(np.arange(path.starts.min(), path.ends.max() + 1))
+    xyz = xyz[np.isfinite(xyz[:, 0])]
+    s = np.linalg.svd(xyz - xyz.mean(axis=0), compute_uv=False)
+    return float(s[2] / s[0]) if s[0] > 0 else 0.0
+
+
+def straightness(xy: np.ndarray) -> float:
+    """Second over first singular value of the centred pixel positions (N, 2): 0 for points on one line."""
+    if len(xy) < 3:
+        return 0.0
+    s = np.linalg.svd(xy - xy.mean(axis=0), compute_uv=False)
+    return float(s[1] / s[0]) if s[0] > 0 else 0.0
+
+
+def rotation_between(Ra: np.ndarray, Rb: np.ndarray) -> float:
+    """Angle (degrees) of the rotation taking Ra to Rb."""
+    cos = (np.trace(Ra @ Rb.T) - 1.0) / 2.0
+    return float(np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))))
+
+
+def search_offsets(
+    camera: Camera,
+    clock: np.ndarray,
+    xy: np.ndarray,
+    path: PiecewiseTrajectory,
+    alpha: float,
+    seed: int = 0,
+    dlt: bool = False,
+    offsets: tuple[float, float] | None = None,
+    log_model: LogModel | None = None,
+    fps: float | None = None,
+) -> tuple[OffsetSearch, list[Candidate]]:
+    """The search over beta with alpha held (module docstring, step 1): the fine pass and the CANDIDATES best peaks as cameras.
+
+    dlt: fit a projection matrix (unknown intrinsics) instead of a pose; offsets: the range of beta searched (clock
+    units), within what the log allows (None: all of it); log_model: a log with a bias, whose bias over the track is
+    fitted with each offset's pose (sync/pose_bias.py; the camera's fps gives the knots' seconds; None: a rigid pose).
+    """
+    w, h = camera.image_size
+    threshold = max(8.0, 0.01 * float(np.hypot(w, h)))
+    speed = image_speed(clock, xy) or 1.0  # pixels per clock unit (1 without consecutive frames)
+    fine = float(np.clip(0.5 * threshold / speed, 0.5, 2.0 * alpha))
+    coarse = COARSE * fine
+    rows = np.linspace(0, len(clock) - 1, min(SEARCH_POINTS, len(clock))).round().astype(np.int64)
+    rows = np.unique(rows)
+    c = clock[rows]
+    ideal = xy[rows] if dlt else undistort_pixels(xy[rows], camera.K, camera.dist, camera.dist_model, P=camera.K)
+    lo = float(c.min() - alpha * path.ends.max())
+    hi = float(c.max() - alpha * path.starts.min())
+    if offsets is not None:
+        lo, hi = max(lo, offsets[0]), min(hi, offsets[1])
+    visit = VisitBias.over(c, fps, log_model) if log_model is not None and log_model.has_bias and fps and not dlt else None
+    score = _Scorer(camera.K, c, ideal, path, alpha, dlt, visit)
+    betas = np.arange(lo, hi + coarse, coarse)
+    support = score.many(betas, COARSE * threshold)
+    tried = len(betas)
+    peaks = _peaks(support, FINE_PEAKS)
+    fine_betas = np.unique(np.concatenate([np.arange(betas[k] - 1.5 * coarse, betas[k] + 1.5 * coarse + fine, fine) for k in peaks])) if peaks else np.zeros(0)
+    fine_support = score.many(fine_betas, threshold)
+    tried += len(fine_betas)
+    search = OffsetSearch(fine_betas, fine_support, len(rows), threshold, coarse, fine, tried)
+    candidates = []
+    for k in _peaks(fine_support, CANDIDATES, separation=3 * coarse / fine):
+        found = score.camera_at(camera, float(fine_betas[k]), threshold)
+        if found is not None:
+            candidates.append(Candidate(found, alpha, float(fine_betas[k]), "search"))
+    return search, candidates
+
+
+def _peaks(support: np.ndarray, count: int, separation: float = 2.0) -> list[int]:
+    """Indices of up to ``count`` local maxima of most support, each more than ``separation`` indices from those kept before."""
+    order = np.argsort(-support, kind="stable")
+    kept: list[int] = []
+    for k in order:
+        if support[k] < MIN_PAIRS or len(kept) == count:
+            break
+        if all(abs(int(k) - j) > separation for j in kept):
+            kept.append(int(k))
+    return kept
+
+
+class _Scorer:
+    """Support of candidate offsets: pose (or projection matrix) fitted to the pairs, trimmed twice, pairs within a
+    threshold; under a log with a bias (``bias``), the pose and the log's bias over the visit fitted together
+    (sync/pose_bias.py, its support in the same units)."""
+
+    def __init__(self, K: np.ndarray, clock: np.ndarray, ideal: np.ndarray, path: PiecewiseTrajectory, alpha: float, dlt: bool, bias: VisitBias | None = None):
+        self.K, self.clock, self.ideal, self.path, self.alpha, self.dlt, self.bias = K, clock, ideal, path, alpha, dlt, bias
+
+    def pairs(self, beta: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The trajectory's positions and the pixels of the rows on it at ``beta``, and the mask of those rows."""
+        s = (self.clock - beta) / self.alpha
+        run = self.path.run_of(s)
+        on = run >= 0
+        return self.path(s[on], run[on]), self.ideal[on], on
+
+    def many(self, betas: np.ndarray, threshold: float) -> np.ndarray:
+        """(len(betas),) support of each offset."""
+        out = np.zeros(len(betas))
+        for first in range(0, len(betas), BATCH):
+            chunk = betas[first : first + BATCH]
+            s = (self.clock[None, :] - chunk[:, None]) / self.alpha
+            run = self.path.run_of(s.ravel())
+            on = run >= 0
+            xyz = np.full((s.size, 3), np.nan)
+            if on.any():
+                xyz[on] = self.path(s.ravel()[on], run[on])
+            xyz = xyz.reshape(len(chunk), len(self.clock), 3)
+            on = on.reshape(len(chunk), -1)
+            for k in range(len(chunk)):
+                if on[k].sum() >= MIN_PAIRS:
+                    out[first + k] = self.fit(xyz[k][on[k]], self.ideal[on[k]], threshold, on[k])[0]
+        return out
+
+    def fit(self, xyz: np.ndarray, uv: np.ndarray, threshold: float, on: np.ndarray | None = None):
+        """(support, pose or projection) of one offset's pairs (``on``: the rows they are, for the bias's knots).
+
+        The support is the truncated quadratic score of the pairs,
+        sum(max(0, 1 - (error / threshold)^2)) (MSAC): pairs within the
+        threshold count, the closer the more, so a track that several
+        offsets explain within the threshold still ranks the one that
+        explains it best first. Under a log with a bias: pose_bias.fit_with_bias's
+        support at sigma threshold / CUT.
+        """
+        if self.bias is not None and on is not None:
+            support, pose, _ = fit_with_bias(xyz, uv, self.K, self.bias, on, threshold / CUT, _pnp)
+            return support, pose
+        keep = np.ones(len(xyz), dtype=bool)
+        model = None
+        for _ in range(3):
+            model = _dlt(xyz[keep], uv[keep]) if self.dlt else _pnp(xyz[keep], uv[keep], self.K)
+            if model is None:
+                return 0, None
+            error = _errors(model, xyz, uv, self.K, self.dlt)
+            keep = error <= np.quantile(error, 0.5)
+            if keep.sum() < 6:
+                return 0, None
+        return msac(error, threshold), model
+
+    def camera_at(self, camera: Camera, beta: float, threshold: float) -> Camera | None:
+        """The camera of the pose fitted at ``beta`` (with K and R, t from the projection matrix under DLT), or None."""
+        import cv2
+
+        xyz, uv, on = self.pairs(beta)
+        if len(xyz) < MIN_PAIRS:
+            return None
+        _, model = self.fit(xyz, uv, threshold, on)
+        if model is None:
+            return None
+        if self.dlt:
+            K, R, t = _decompose(model, camera.image_size)
+            if K is None:
+                return None
+            return Camera(camera.name, K, np.zeros(5), R, t, camera.image_size, camera.fps, camera.dist_model, dict(camera.extra))
+        rvec, tvec = model
+        return Camera(camera.name, camera.K, camera.dist, cv2.Rodrigues(rvec)[0], tvec.ravel(), camera.image_size, camera.fps, camera.dist_model, dict(camera.extra))
+
+
+def _pnp(xyz: np.ndarray, uv: np.ndarray, K: np.ndarray):
+    """SQPnP's pose (rvec, tvec) of pairs, or None (no solution, or points too close together: OpenCV asserts)."""
+    import cv2
+
+    try:
+        ok, rvec, tvec = cv2.solvePnP(xyz, uv, K, None, flags=cv2.SOLVEPNP_SQPNP)
+    except cv2.error:
+        return None
+    return (rvec, tvec) if ok else None
+
+
+def _errors(model, xyz: np.ndarray, uv: np.ndarray, K: np.ndarray, dlt: bool) -> np.ndarray:
+    """Pixel error of each pair under a pose (rvec, tvec) or a projection matrix; inf behind the camera."""
+    import cv2
+
+    if dlt:
+        h = xyz @ model[:, :3].T + model[:, 3]
+    else:
+        rvec, tvec = model
+        h = (xyz @ cv2.Rodrigues(rvec)[0].T + tvec.ravel()) @ K.T
+    with np.errstate(divide="ignore", invalid="ignore"):
+        error = np.linalg.norm(h[:, :2] / h[:, 2:3] - uv, axis=1)
+    return np.where((h[:, 2] > 0) & np.isfinite(error), error, 1e12)
+
+
+def _dlt(xyz: np.ndarray, uv: np.ndarray) -> np.ndarray | None:
+    """3x4 projection matrix from pairs by the normalised DLT (Hartley), its sign making depths positive; None when degenerate."""
+    if len(xyz) < 6:
+        return None
+    mx, my = xyz.mean(axis=0), uv.mean(axis=0)
+    sx = np.sqrt(3) / max(np.sqrt(((xyz - mx) ** 2).sum(axis=1).mean()), 1e-12)
+    sy = np.sqrt(2) / max(np.sqrt(((uv - my) ** 2).sum(axis=1).mean()), 1e-12)
+    X = np.column_stack([(xyz - mx) * sx, np.ones(len(xyz))])
+    x = (uv - my) * sy
+    A = np.zeros((2 * len(X), 12))
+    A[0::2, 0:4] = X
+    A[0::2, 8:12] = -x[:, :1] * X
+    A[1::2, 4:8] = X
+    A[1::2, 8:12] = -x[:, 1:] * X
+    _, sv, vt = np.linalg.svd(A, full_matrices=False)
+    if sv[-2] < 1e-9 * sv[0]:
+        return None
+    P = vt[-1].reshape(3, 4)
+    T = np.diag([sx, sx, sx, 1.0])
+    T[:3, 3] = -sx * mx
+    Ti = np.array([[1 / sy, 0, my[0]], [0, 1 / sy, my[1]], [0, 0, 1.0]])
+    P = Ti @ P @ T
+    if np.median(xyz @ P[2, :3] + P[2, 3]) < 0:
+        P = -P
+    return P
+
+
+def _decompose(P: np.ndarray, image_size: tuple[int, int]) -> tuple[np.ndarray | None, np.ndarray, np.ndarray]:
+    """K (square pixels, no skew), R, t of a projection matrix; K None when it is not a camera's (negative focal, centre far outside)."""
+    import cv2
+
+    K, R, centre = cv2.decomposeProjectionMatrix(P)[:3]
+    signs = np.diag(np.sign(np.diag(K)))
+    K, R = K @ signs, signs @ R
+    if np.linalg.det(R) < 0:
+        R = -R
+    K = K / K[2, 2]
+    centre = centre[:3, 0] / centre[3, 0]
+    w, h = image_size
+    f = 0.5 * (abs(K[0, 0]) + abs(K[1, 1]))
+    if not (f > 0.1 * w and abs(K[0, 2] - w / 2) < w and abs(K[1, 2] - h / 2) < h):
+        return None, R, -R @ centre
+    K = np.array([[f, 0.0, K[0, 2]], [0.0, f, K[1, 2]], [0.0, 0.0, 1.0]])
+    return K, R, -R @ centre
+
+
+def measured_gcps(gcps: GcpPrior, camera: Camera, fitted: bool = True) -> GcpPrior:
+    """The GCPs with the survey's error measured from their residuals under ``camera`` (their own pose; ``fitted``
+    False: a pose fitted to something else, the track's).
+
+    sigma (metres per coordinate; each point's click_px at its depth on
+    top) is first the one that makes the median of the normalised squared
+    residuals that of a chi-square of 2 degrees of freedom (robust to a
+    minority of wrong points), then the maximum-likelihood one over the
+    points within GCP_AGREE of it; under their own pose the residuals are
+    scaled by 2N / (2N - 6) for the six pose parameters fitted to them. With MEASURE_POINTS such points
+    or more it replaces the stated sigma; with fewer (a handful of residuals
+    say little) the larger of the two is used.
+    """
+    errors = gcps.errors_px(camera)
+    depth = np.maximum((gcps.xyz @ camera.R.T + camera.t)[:, 2], 1e-3)
+    focal = 0.5 * (camera.K[0, 0] + camera.K[1, 1])
+    finite = np.isfinite(errors)
+    if finite.sum() < 4:
+        return gcps
+    n = int(finite.sum())
+    squared = np.where(finite, errors, 0.0) ** 2 * ((2 * n) / (2 * n - 6) if fitted else 1.0)
+
+    def var(sigma: float) -> np.ndarray:
+        return gcps.click_px**2 + (focal * sigma / depth) ** 2
+
+    robust = float(minimize_scalar(lambda sg: (np.median(squared[finite] / var(sg)[finite]) - CHI2_2_MEDIAN) ** 2, bounds=(0.0, 50.0), method="bounded", options={"xatol": 1e-4}).x)
+    inliers = finite & (squared <= GCP_AGREE**2 * var(robust))
+    sigma = robust
+    if inliers.sum() >= 4:
+        sigma = float(minimize_scalar(lambda sg: float(np.sum(2.0 * np.log(var(sg)[inliers]) + squared[inliers] / var(sg)[inliers])), bounds=(0.0, 50.0), method="bounded", options={"xatol": 1e-4}).x)
+    if inliers.sum() < MEASURE_POINTS:
+        sigma = max(sigma, gcps.sigma_m)
+    return replace(gcps, sigma_m=sigma)
+
+
+def gcp_pose(camera: Camera, gcps: GcpPrior, ransac_px: float = 8.0) -> Pose:
+    """The pose the GCPs give alone (CalibrationInputError when they cannot: too few, collinear, none within the threshold).
+
+    The RANSAC threshold is widened to GCP_AGREE sigmas of the survey at
+    the points' depths (under a first pose from all the points): with a
+    rough survey every point is off by tens of pixels, none is an outlier.
+    """
+    pose = pose_from_points(gcps.uv, gcps.xyz, camera.K, camera.dist, camera.dist_model, 1e6, source="GCPs")
+    first = replace(camera, R=pose.R, t=pose.t, to_estimate=())
+    threshold = max(ransac_px, GCP_AGREE * float(np.median(gcps.sigma_px(first))))
+    return pose_from_points(gcps.uv, gcps.xyz, camera.K, camera.dist, camera.dist_model, threshold, source="GCPs")
+
+
+def gcp_camera(camera: Camera, gcps: GcpPrior, ransac_px: float = 8.0) -> Camera:
+    """The camera posed by its GCPs alone (``gcp_pose``)."""
+    pose = gcp_pose(camera, gcps, ransac_px)
+    return replace(camera, R=pose.R, t=pose.t, to_estimate=())
+
+
+def _gcp_candidate(gcp_camera: Camera, clock, xy, path, prior: SlopePrior, gate_px: float, delta: float, seed: int) -> Candidate | None:
+    """The GCPs' own pose with the line the votes find under it (the nearest sample within the gate of each tracked frame), or None."""
+    uv, valid = gcp_camera.project(path.positions(np.arange(path.starts.min(), path.ends.max() + 1)) if len(path.starts) else np.zeros((0, 3)))
+    samples = np.arange(path.starts.min(), path.ends.max() + 1)[valid]
+    if len(samples) < 2:
+        return None
+    pairs = cKDTree(xy).sparse_distance_matrix(cKDTree(uv[valid]), gate_px, output_type="ndarray")
+    if len(pairs) < 2:
+        return None
+    try:
+        line = find_line(samples[pairs["j"]], clock[pairs["i"]], pairs["v"], delta, seed=seed, prior=prior)
+    except ValueError:
+        return None
+    return Candidate(gcp_camera, line.alpha, line.beta, "gcp")
+
+
+def _settle_intrinsics(result: TargetPose, clock, xy, path, prior, gate_px, f_scale, gcps, free, unknown_k: bool) -> TargetPose:
+    """Keep free the intrinsics the target determines (posterior std below DETERMINED), refit with the others held.
+
+    A camera without K whose focal length is not determined fails
+    (pose_undetermined): its pose would rest on a guess.
+    """
+    fit = result.fit
+    width = result.camera.image_size[0]
+    limit = {"f": DETERMINED["f"] * fit.camera.K[0, 0], "cx": DETERMINED["cx"] * width, "cy": DETERMINED["cy"] * width, "k1": DETERMINED["k1"]}
+    stds = fit.intrinsics_std
+    kept = tuple(k for k in free if stds.get(k, np.inf) < limit[k] and (k != "cx" or stds.get("cy", np.inf) < limit["cy"]))
+    if unknown_k and "f" not in kept:
+        raise PoseError(result.camera.name, "pose_undetermined", f"the track does not determine the focal length (+-{stds.get('f', np.inf):.0f} px)")
+    if kept != tuple(free):
+        fit = fit_pose_and_line(fit.camera, clock, xy, path, fit.alpha, fit.beta, fit.inliers, gate_px, f_scale, prior, gcps, kept)
+    values = {"f": fit.camera.K[0, 0], "cx": fit.camera.K[0, 2], "cy": fit.camera.K[1, 2], "k1": fit.camera.dist[0]}
+    names = [k for k in INTRINSICS if k in free or (k == "cy" and "cx" in free)]
+    report = {k: (float(values[k]), float(fit.intrinsics_std.get(k, stds.get(k, np.nan))), k in kept or (k == "cy" and "cx" in kept)) for k in names}
+    return replace(result, camera=fit.camera, fit=fit, intrinsics=report)
+
+
+def msac(errors: np.ndarray, threshold: float) -> float:
+    """Truncated quadratic score of pixel errors: sum(max(0, 1 - (error / threshold)^2)); inf errors count 0."""
+    with np.errstate(invalid="ignore"):
+        return float(np.clip(1.0 - (np.asarray(errors) / threshold) ** 2, 0.0, None).sum())
+
+
+@dataclass(frozen=True)
+class MoverPose:
+    """A pose from every mover: the pose (fitted on the identified track), the identification under it, the tracklet it started from, and the tracklets tried (id -> why they gave nothing, or "")."""
+
+    pose: TargetPose
+    identification: Identification
+    tracklet: int
+    tried: dict[int, str]
+
+
+def pose_from_movers(
+    camera: Camera,
+    detections: Detections,
+    trajectory: Trajectory,
+    fps: float | None,
+    params: IdentifyParams,
+    gcps: GcpPrior | None = None,
+    gcp_camera: Camera | None = None,
+    free: tuple[str, ...] = (),
+    offsets: tuple[float, float] | None = None,
+) -> MoverPose:
+    """The camera's pose from every mover of its video (detections), without a track of the target.
+
+    Identification needs a projection to pick the target, so the movers'
+    tracklets are the candidates. Each tracklet of at least MIN_TRACKLET_FRAMES
+    frames whose image path is not a straight line (a straight walk fits a
+    pose from any straight stretch of the log), the longest image paths
+    first, at most MAX_TRACKLETS, gets the offset search and joint fits of
+    ``pose_from_track``; under each of its TRACKLET_CANDIDATES best fits at
+    distinct offsets, the target is identified among every mover
+    (sync/identify/identify.py: its other tracklets, other visits to the view join)
+    and the pose and line are fitted again on the identified track. One
+    tracklet of a few seconds seldom determines a pose; the identified
+    track, with every visit, does. The refitted pose with most frames wins,
+    with the best one at a distinct offset as its runner-up, and is checked
+    as ``pose_from_track``'s. trajectory: the prepared trajectory; params:
+    identification's (its eps_px is the pose's gate, its f_scale_px the
+    fit's loss scale); offsets: the range of beta (clock units) each
+    tracklet's search covers (None: all the log allows). Raises PoseError
+    when no tracklet leads to a determined pose.
+    """
+    prior = slope_prior(fps, trajectory.rate, params.rate_sigma)
+    eps_px, delta, seed, f_scale = params.eps_px, params.delta, params.seed, params.f_scale_px
+    unknown_k = "intrinsics" in camera.to_estimate
+    if unknown_k:
+        free = tuple(sorted(set(free) | {"f", "cx", "k1"}, key=INTRINSICS.index))
+    path = PiecewiseTrajectory(trajectory)
+    stated = gcps
+    survey = gcps is not None and gcp_camera is not None and not free
+    if survey:
+        gcps = measured_gcps(gcps, gcp_camera)  # type: ignore[arg-type]
+    _, row_clock = detections_clock(detections, fps)
+    ids, counts = np.unique(detections.id, return_counts=True)
+    tried: dict[int, str] = {}
+    ranked = []
+    for tid in ids[counts >= MIN_TRACKLET_FRAMES]:
+        rows = np.flatnonzero(detections.id == tid)
+        xy = detections.xy[rows]
+        if straightness(xy) < STRAIGHT:
+            tried[int(tid)] = "straight_path"
+            continue
+        ranked.append((-float(np.linalg.norm(np.diff(xy, axis=0), axis=1).sum()), int(tid), rows))
+    ranked.sort(key=lambda item: item[:2])
+    if not ranked:
+        raise PoseError(camera.name, "too_few_frames", f"no mover's tracklet has {MIN_TRACKLET_FRAMES} frames on a path that is not straight ({len(ids)} tracklets)")
+    finals: list[tuple[JointFit, Identification, int, OffsetSearch]] = []
+    for _, tid, rows in ranked[:MAX_TRACKLETS]:
+        try:
+            search, fits = candidate_fits(camera, row_clock[rows], detections.xy[rows], path, prior, fps, eps_px, gcps, gcp_camera, free, f_scale, seed, delta, MIN_TRACKLET_FRAMES, offsets)
+        except PoseError as exc:
+            tried[tid] = exc.cause
+            continue
+        starts: list[JointFit] = []
+        for fit in fits:
+            if len(starts) < TRACKLET_CANDIDATES and all(abs(fit.beta - other.beta) > DISTINCT_S * (fps or 0.0) for other in starts):
+                starts.append(fit)
+        reasons = []
+        for fit in starts:
+            try:
+                identified = identify_target(fit.camera, detections, trajectory, fps, params)
+                clock = row_clock[identified.rows]
+                start = reprojection_errors(fit.camera, clock, identified.track.xy, path, identified.alpha, identified.beta) <= eps_px
+                refit = fit_pose_and_line(fit.camera, clock, identified.track.xy, path, identified.alpha, identified.beta, start, eps_px, f_scale, prior, gcps, fit.layout.free)
+            except (SyncError, ValueError) as exc:
+                reasons.append(str(exc).split(": ", 1)[-1][:80])
+                continue
+            if gcps is None or gcps_agree(gcps, refit):
+                finals.append((refit, identified, tid, search))
+        tried[tid] = "; ".join(reasons)
+    if survey:
+        return _movers_with_survey(camera, detections, trajectory, fps, params, stated, gcp_camera, finals, tried, path, prior, row_clock, offsets)  # type: ignore[arg-type]
+    if not finals:
+        causes = ", ".join(sorted({c for c in tried.values() if c})) or "no fit"
+        raise PoseError(camera.name, "no_fit", f"none of the {min(len(ranked), MAX_TRACKLETS)} longest curved tracklets leads to a pose under which the target is identified ({causes[:200]})")
+    order = sorted(range(len(finals)), key=lambda k: (-finals[k][0].support, finals[k][0].scale_px))
+    best, identified, tid, search = finals[order[0]]
+    pose = ranked_pose([finals[k][0] for k in order], search, identified.track.xy, fps or 0.0, gcps is not None, gcp_camera)
+    clock = row_clock[identified.rows]
+    if free:
+        pose = _settle_intrinsics(pose, clock, identified.track.xy, path, prior, eps_px, f_scale, gcps, free, unknown_k)
+    check_determined(pose, clock, path, gcps is not None)
+    return MoverPose(pose, identified, tid, tried)
+
+
+def _movers_with_survey(camera: Camera, detections: Detections, trajectory: Trajectory, fps, params: IdentifyParams, gcps: GcpPrior, gcp_camera: Camera, finals, tried, path, prior, row_clock, offsets) -> MoverPose:
+    """With GCPs: the pose from GCPs and the identified track together, or from the track alone when they conflict
+    (``_survey_and_target``), on the target identified under the best refit, or under the GCPs' own pose when no
+    refit kept the GCPs (the target as the GCP pose sees it)."""
+    if finals:
+        best = min(range(len(finals)), key=lambda k: (-finals[k][0].support, finals[k][0].scale_px))
+        _, identified, tid, _ = finals[best]
+    else:
+        try:
+            identified = identify_target(gcp_camera, detections, trajectory, fps, params)
+        except SyncError as exc:
+            causes = ", ".join(sorted({c for c in tried.values() if c})) or "no fit"
+            raise PoseError(camera.name, "gcp_conflict", f"no tracklet gives a pose that keeps the GCPs ({causes[:120]}), and the target is not found under the GCPs' own pose ({exc})") from None
+        tid = -1
+    clock = row_clock[identified.rows]
+    pose = _survey_and_target(camera, clock, identified.track.xy, path, prior, fps, params.eps_px, gcps, gcp_camera, params.f_scale_px, params.seed, params.delta, offsets)
+    return MoverPose(pose, identified, tid, tried)
+
+
+def estimate_pose(
+    camera: Camera,
+    track: Track | None,
+    detections: Detections | None,
+    trajectory: Trajectory,
+    fps: float | None,
+    params: IdentifyParams,
+    gcps: GcpPrior | None = None,
+    ransac_px: float = 8.0,
+    start: Camera | None = None,
+    offsets: tuple[float, float] | None = None,
+    log_model: LogModel | None = None,
+) -> tuple[TargetPose, Identification | None]:
+    """A camera's pose from the target: from its track when it has one (``pose_from_track``), else from every mover (``pose_from_movers``).
+
+    trajectory: the prepared trajectory (the one the sync fits); params:
+    identification's parameters (eps_px is the gate, f_scale_px the loss
+    scale, rate_sigma the clock prior's width); gcps: GCPs as a prior (with
+    4 or more, their own pose is a starting candidate; ransac_px: its
+    outlier threshold before widening; start: that pose when already
+    known); offsets: the range of beta (clock units) searched, e.g. around
+    the scan stage's coarse line (None: all the log allows); log_model: the log's error (with a bias, the
+    search from a track fits the bias with the pose, and the fits allow the part of it a fixed pose cannot absorb,
+    ``pose_from_track``'s). A camera without K gets its intrinsics fitted too. Returns the
+    pose and, from movers, the identification under it. Raises PoseError.
+    """
+    if start is None and gcps is not None and len(gcps.xyz) >= 4:
+        try:
+            start = gcp_camera(camera, gcps, ransac_px)
+        except CalibrationInputError:
+            start = None
+    if track is None:
+        if detections is None:
+            raise PoseError(camera.name, "too_few_frames", "neither a track nor any mover's detections")
+        found = pose_from_movers(camera, detections, trajectory, fps, params, gcps, start, offsets=offsets)
+        return found.pose, found.identification
+    clock = camera_clock(track, fps)
+    values = clock.clock_at(track.frame, FrameTimes.of_track(track))
+    prior = slope_prior(fps, trajectory.rate, params.rate_sigma)
+    path = PiecewiseTrajectory(trajectory)
+    pose = pose_from_track(camera, values, track.xy, path, prior, fps, params.eps_px, gcps, start, (), params.f_scale_px, params.seed, params.delta, offsets, log_model)
+    return pose, None
+
+
+METRE_LEVEL_M = 0.3  # a log whose stated median sigma reaches this gives a pose good for timing, not for 3D
+
+
+def pose_info(pose: TargetPose, log_sigma_m: float | None) -> PoseInfo:
+    """What camera.json says of a pose from the target: its source, uncertainty, and whether it serves 3D.
+
+    The pose absorbs the log's slowly varying error (a consumer GPS's metres
+    of bias), so it is as good in 3D as the log: ``for_3d`` only when the
+    log states its accuracy (per-fix sigmas) and their median is below
+    METRE_LEVEL_M. log_sigma_m: that median, or None when the log states none.
+    """
+    if log_sigma_m is None:
+        for_3d, note = False, "good for timing; in 3D only as good as the log, which states no accuracy"
+    elif log_sigma_m >= METRE_LEVEL_M:
+        for_3d, note = False, f"good for timing, not for 3D: the log's error (median {log_sigma_m:.2g} m) is in the pose"
+    else:
+        for_3d, note = True, ""
+    return PoseInfo(pose.source, round(pose.fit.center_std_m, 4), round(pose.fit.rotation_std_deg, 4), for_3d, note)

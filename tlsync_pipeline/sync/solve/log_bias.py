@@ -1,0 +1,422 @@
+"""The log's slowly varying bias, estimated with every camera's line, and what it leaves uncertain.
+
+A consumer receiver's error is mostly a bias that wanders over a minute
+(sync/model/log_model.py). A bias along the direction of travel is a time error
+(1 m at 1.4 m/s is 21 frames at 30 fps), so each camera's own refinement,
+which takes the log as exact, is off by what the bias was during its visit.
+The bias is the same target's for every camera: it is modelled as one 3D
+function of the log's time, linear between knots every quarter of the
+correlation time, with the Gauss-Markov prior of the log model (zero mean;
+per axis, the covariance sigma^2 exp(-|dt| / tau) between knots). All
+cameras' lines and the knots are fitted together on the frames each
+camera's refinement used, by robust least squares (soft L1 on the pixel
+residuals, the priors quadratic), the lines parametrised as the refinement
+does (1 / alpha, and the sample at the middle clock value).
+
+What a camera cannot tell apart from its time offset (a straight walk
+through its view: a bias along the walk), it leaves at the prior: the
+estimate stays near zero and the uncertainty is the prior's. The
+uncertainty of the lines is the joint posterior's: each camera's own
+(tracking, calibration) plus ``S_c P S_c^T``, where P is the knots'
+posterior covariance and S_c how camera c's line follows the knots (the
+exact marginal of the joint Gaussian, by the block inverse); cameras whose
+visits share the bias are correlated by ``S_a P S_b^T``, which the pairs'
+intervals include. Observability of the bias at a camera's visit is
+1 - posterior variance / prior variance (horizontal), 0 to 1.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.optimize import minimize
+
+from calibration.camera import Camera
+from tlsync_pipeline.sync.kernels.gauss_markov import interpolation_parts as _interpolation_parts
+from tlsync_pipeline.sync.kernels.gauss_markov import prior_whitening as _prior_whitening
+from tlsync_pipeline.sync.model.log_model import PRIOR_LOG_SD, LogModel
+from tlsync_pipeline.sync.kernels.slope import SlopePrior
+from tlsync_pipeline.trajectory import PiecewiseTrajectory
+
+KNOTS_PER_TAU = 4  # knots of the bias per correlation time between the visits
+VISIT_KNOT_S = 2.0  # seconds between knots during a visit: a Gauss-Markov bias moves by sigma x sqrt(2 dt / tau) in dt
+MAX_KNOTS = 400
+SAMPLE_STEP = 1e-3  # samples: finite-difference step of a position along the path
+METRE_STEP = 1e-3  # metres: finite-difference step of a position in space
+
+
+@dataclass(frozen=True)
+class BiasCamera:
+    """One camera as the joint fit sees it: the clock values (frame units) and tracked pixels of the frames its
+    refinement used, their weights (sigma_weights), its line, the (alpha, beta) covariance of its own refinement,
+    and its slope prior (or None)."""
+
+    name: str
+    camera: Camera
+    clock: np.ndarray
+    xy: np.ndarray
+    weight: np.ndarray
+    alpha: float
+    beta: float
+    cov: np.ndarray
+    prior: SlopePrior | None
+
+    @property
+    def middle(self) -> float:
+        return float(np.median(self.clock))
+
+
+@dataclass(frozen=True)
+class LogBias:
+    """The fitted bias and the lines: knots (sample coordinates), values (K, 3) metres, their posterior covariance
+    (3K, 3K, knot-major: x, y, z of knot 0, then of knot 1 ...), prior (3,) per-axis std (m); per camera its line
+    (alpha, beta) and sensitivity (2, 3K): d(alpha, beta) / d(knot values); converged: the solver's verdict;
+    information (3K, 3K): what the cameras' pixels say of the knots (the lines marginalised; the posterior's
+    inverse less the prior's); model: the error model whose prior it was fitted with; estimate: the bias's
+    (horizontal std m, correlation time s) of the largest marginal likelihood, or None when not measured
+    (fit_log_bias_measured)."""
+
+    knots: np.ndarray
+    values: np.ndarray
+    cov: np.ndarray
+    prior: np.ndarray
+    lines: dict[str, tuple[float, float]]
+    sensitivity: dict[str, np.ndarray]
+    converged: bool
+    information: np.ndarray
+    model: LogModel
+    estimate: tuple[float, float] | None = None
+
+    def at(self, samples: np.ndarray) -> np.ndarray:
+        """(N, 3) bias at sample coordinates (linear between knots, constant beyond them)."""
+        return np.column_stack([np.interp(samples, self.knots, self.values[:, k]) for k in range(3)])
+
+    def line_cov(self, a: str, b: str) -> np.ndarray:
+        """2x2 covariance between camera a's and camera b's (alpha, beta) through the bias (a == b: the bias part of a's own)."""
+        return self.sensitivity[a] @ self.cov @ self.sensitivity[b].T
+
+    def std_at(self, sample: float) -> np.ndarray:
+        """(3,) posterior std of the bias at one sample coordinate."""
+        rows = sp.kron(_interpolation(np.array([sample]), self.knots), sp.eye(3)).toarray()  # (3, 3K)
+        return np.sqrt(np.diag(rows @ self.cov @ rows.T))
+
+    def observability(self, sample: float) -> float:
+        """1 - posterior / prior variance of the horizontal bias at one sample coordinate (0: only the prior, 1: known)."""
+        std = self.std_at(sample)
+        return float(np.clip(1.0 - (std[0] ** 2 + std[1] ** 2) / (self.prior[0] ** 2 + self.prior[1] ** 2), 0.0, 1.0))
+
+
+def fit_log_bias(cameras: list[BiasCamera], path: PiecewiseTrajectory, rate: float, model: LogModel, f_scale: float, estimate: bool = True) -> LogBias:
+    """Every camera's line and the log's bias, fitted together (see the module); ``rate``: log samples per second.
+
+    estimate False: no fit; the bias at zero, the cameras' lines as they are, and the bias's uncertainty at its prior
+    (the data told nothing that was used).
+    """
+    knots = _knots(cameras, path, rate, model)
+    prior = np.array([model.bias_m, model.bias_m, model.bias_vertical_m])
+    whiten = _prior_whitening(knots, rate, model.tau_s, prior)
+    problem = _Joint(cameras, path, knots, whiten, f_scale)
+    z = np.concatenate([problem.x0, np.zeros(3 * len(knots))])
+    converged = True
+    if estimate:
+        z, converged = _levenberg_marquardt(problem, z, f_scale)
+    posterior, sensitivity, information = problem.uncertainty(z)
+    if not estimate:
+        posterior = np.linalg.pinv((whiten.T @ whiten).toarray())
+    lines = {c.name: problem.line(z, k) for k, c in enumerate(cameras)}
+    return LogBias(knots, z[2 * len(cameras) :].reshape(-1, 3), posterior, prior, lines, sensitivity, converged, information, model)
+
+
+def fit_log_bias_measured(cameras: list[BiasCamera], path: PiecewiseTrajectory, rate: float, model: LogModel, f_scale: float) -> LogBias:
+    """fit_log_bias, with the bias's std and correlation time of the largest marginal likelihood
+    (bias_marginal_likelihood, the model's as the prior) recorded as its estimate. The fit keeps the model's
+    prior: on a few cameras' visits the estimate is too uncertain to narrow it (walk scenes with a phone's
+    1 m / 60 s: 0.7-1.0 m and a wander 2-4 times too slow; narrowed, 11 % of the intervals missed) and, applied
+    where it widens it, it did not help (drone walk scenes: median eps_t 3.2 -> 3.6 frames, coverage 96 % both)."""
+    bias = fit_log_bias(cameras, path, rate, model, f_scale)
+    if not bias.converged or not model.has_bias:
+        return bias
+    found = bias_marginal_likelihood(bias, rate, model)
+    return replace(bias, estimate=(found.bias_m, found.tau_s))
+
+
+def bias_marginal_likelihood(bias: LogBias, rate: float, model: LogModel) -> LogModel:
+    """The model with the bias's horizontal std and correlation time (the vertical std in the model's proportion)
+    of the largest marginal likelihood of the cameras' pixels, the model's values as log-normal priors
+    (PRIOR_LOG_SD): type-II maximum likelihood on the fit's Gaussian approximation. The pixels say of the knots b
+    what a likelihood exp(-b^T H b / 2 + h^T b) says (H: LogBias.information; h = (Q_0 + H) b_0 from the fit's
+    b_0 under its prior precision Q_0); under a prior of precision Q(sigma, tau) the evidence is
+    log |Q| / 2 - log |Q + H| / 2 + h^T (Q + H)^-1 h / 2. Sigma within 0.01-30 m, tau within 1-3600 s."""
+    ratio = model.bias_vertical_m / model.bias_m if model.bias_m > 0 else 2.0
+    start = np.log([model.bias_m, model.tau_s])
+    start_whiten = _prior_whitening(bias.knots, rate, model.tau_s, bias.prior)
+    h = ((start_whiten.T @ start_whiten).toarray() + bias.information) @ bias.values.ravel()
+
+    def negative(theta: np.ndarray) -> float:
+        sigma, tau = np.exp(theta)
+        whiten = _prior_whitening(bias.knots, rate, tau, np.array([sigma, sigma, ratio * sigma]))
+        precision = (whiten.T @ whiten).toarray()
+        try:
+            root = np.linalg.cholesky(precision + bias.information)
+        except np.linalg.LinAlgError:
+            return np.inf
+        solved = np.linalg.solve(root, h)
+        evidence = float(np.sum(np.log(whiten.diagonal())) - np.sum(np.log(np.diag(root))) + 0.5 * solved @ solved)
+        return -evidence + 0.5 * float(np.sum(((theta - start) / PRIOR_LOG_SD) ** 2))
+
+    bounds = [(np.log(0.01), np.log(30.0)), (np.log(1.0), np.log(3600.0))]
+    found = minimize(negative, start, method="L-BFGS-B", bounds=bounds)
+    if not np.isfinite(found.fun) or found.fun > negative(start):
+        return model
+    sigma, tau = np.exp(found.x)
+    measured = tuple(sorted({*model.measured, "bias_m", "tau_s"}))
+    return replace(model, bias_m=float(sigma), bias_vertical_m=float(ratio * sigma), tau_s=float(tau), measured=measured)
+
+
+def _knots(cameras: list[BiasCamera], path: PiecewiseTrajectory, rate: float, model: LogModel) -> np.ndarray:
+    """Knot sample coordinates: every VISIT_KNOT_S over each camera's visit (the bias wanders within it), every
+    tau / KNOTS_PER_TAU from one correlation time before the first visit to one after the last."""
+    visits = [(c.clock - c.beta) / c.alpha for c in cameras]
+    lo_all = max(float(min(v.min() for v in visits)) - model.tau_s * rate, float(path.sample[0]))
+    hi_all = min(float(max(v.max() for v in visits)) + model.tau_s * rate, float(path.sample[-1]))
+    sparse = max(model.tau_s * rate / KNOTS_PER_TAU, 1.0)
+    knots = [np.linspace(lo_all, hi_all, max(2, int(np.ceil((hi_all - lo_all) / sparse)) + 1))]
+    dense = max(VISIT_KNOT_S * rate, 1.0)
+    for v in visits:
+        lo, hi = float(v.min()) - dense, float(v.max()) + dense
+        knots.append(np.linspace(lo, hi, max(2, int(np.ceil((hi - lo) / dense)) + 1)))
+    merged = np.unique(np.clip(np.concatenate(knots), lo_all, hi_all))
+    keep = np.r_[True, np.diff(merged) > 0.25 * dense]  # no two knots closer than a quarter of the visits' spacing
+    merged = merged[keep]
+    return merged if len(merged) <= MAX_KNOTS else np.linspace(lo_all, hi_all, MAX_KNOTS)
+
+
+def _interpolation(samples: np.ndarray, knots: np.ndarray) -> sp.csr_matrix:
+    """(N, K) sparse weights of the knots at each sample coordinate (two per row)."""
+    left, right, u = _interpolation_parts(samples, knots)
+    rows = np.arange(len(samples))
+    return sp.csr_matrix((np.r_[1.0 - u, u], (np.r_[rows, rows], np.r_[left, right])), shape=(len(samples), len(knots)))
+
+
+class _Joint:
+    """The joint problem in z = (x_c = (1 / alpha_c, sample at camera c's middle clock) for each camera, then the
+    knots' values, knot-major); residuals: each camera's weighted pixel offsets, then each slope prior, then the
+    whitened bias prior (times f_scale: a prior at one sigma weighs as a pixel residual of the loss scale).
+
+    Every matrix over frames is sparse: a frame's pixels depend on its camera's two line parameters and on the
+    two knots around it (6 values), so the Jacobian has 8 entries a row whatever the number of cameras and knots.
+    """
+
+    def __init__(self, cameras: list[BiasCamera], path: PiecewiseTrajectory, knots: np.ndarray, whiten: sp.csr_matrix, f_scale: float):
+        self.cameras, self.path, self.knots, self.whiten, self.f_scale = cameras, path, knots, whiten, f_scale
+        self.n = len(cameras)
+        self.x0 = np.concatenate([[1.0 / c.alpha, (c.middle - c.beta) / c.alpha] for c in cameras])
+        spans = [max(float(np.ptp(c.clock)), 1.0) for c in cameras]
+        self.scale = np.concatenate([np.concatenate([[0.1 / span / c.alpha + 1e-9, 0.1] for c, span in zip(cameras, spans)]), np.full(3 * len(knots), 0.1)])
+        self.priors = [c.prior for c in cameras if c.prior is not None]
+        pixels = sum(2 * len(c.clock) for c in cameras)
+        self.quadratic = np.r_[np.zeros(pixels, bool), np.ones(len(self.priors) + whiten.shape[0], bool)]
+        self.loss: Callable = _soft_l1_except(self.quadratic)
+        self._cache: dict[bytes, tuple[list[np.ndarray], list[sp.csr_matrix]]] = {}
+        self.inflation = np.ones(self.n)
+        start = np.concatenate([self.x0, np.zeros(3 * len(knots))])
+        self.inflation = np.array([_inflation(c, r, j, f_scale, start[2 * k : 2 * k + 2]) for k, (c, r, j) in enumerate(zip(cameras, *self._pixels(start)))])
+        self._cache.clear()
+
+    def line(self, z: np.ndarray, k: int) -> tuple[float, float]:
+        u, s0 = z[2 * k : 2 * k + 2]
+        return 1.0 / u, self.cameras[k].middle - s0 / u
+
+    def _pixels(self, z: np.ndarray) -> tuple[list[np.ndarray], list[sp.csr_matrix]]:
+        """Per camera: (N, 2) weighted residuals and their (2N, 2 + 3K) sparse Jacobian in (its x, the knots)."""
+        key = z.tobytes()
+        if key not in self._cache:
+            self._cache.clear()
+            bias = z[2 * self.n :].reshape(-1, 3)
+            residuals, jacobians = [], []
+            for k, c in enumerate(self.cameras):
+                u, s0 = z[2 * k : 2 * k + 2]
+                s = s0 + u * (c.clock - c.middle)
+                r, along, knots = _camera_rows(c, self.path, self.knots, bias, s)
+                scale = 1.0 / np.sqrt(self.inflation[k])
+                residuals.append(r * scale)
+                line = np.column_stack([along * np.repeat(c.clock - c.middle, 2), along])
+                jacobians.append(scale * sp.hstack([sp.csr_matrix(line), knots], format="csr"))
+            self._cache[key] = (residuals, jacobians)
+        return self._cache[key]
+
+    def residual(self, z: np.ndarray) -> np.ndarray:
+        residuals, _ = self._pixels(z)
+        priors = [self.f_scale * (c.prior.alpha * z[2 * k] - 1.0) / c.prior.sigma for k, c in enumerate(self.cameras) if c.prior is not None]
+        return np.concatenate([*(r.ravel() for r in residuals), priors, self.f_scale * (self.whiten @ z[2 * self.n :])])
+
+    def jacobian(self, z: np.ndarray) -> sp.csr_matrix:
+        _, jacobians = self._pixels(z)
+        lines = 2 * self.n
+        rows = []
+        for k, jac in enumerate(jacobians):
+            before, after = sp.csr_matrix((jac.shape[0], 2 * k)), sp.csr_matrix((jac.shape[0], lines - 2 * k - 2))
+            rows.append(sp.hstack([before, jac[:, :2], after, jac[:, 2:]], format="csr"))
+        for k, c in enumerate(self.cameras):
+            if c.prior is not None:
+                rows.append(sp.csr_matrix(([self.f_scale * c.prior.alpha / c.prior.sigma], ([0], [2 * k])), shape=(1, len(z))))
+        rows.append(sp.hstack([sp.csr_matrix((self.whiten.shape[0], lines)), self.f_scale * self.whiten], format="csr"))
+        return sp.vstack(rows, format="csr")
+
+    def uncertainty(self, z: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarray], np.ndarray]:
+        """The knots' posterior covariance (m^2), each camera's sensitivity d(alpha, beta) / d(knots), and the
+        information of the pixels on the knots (the posterior's inverse less the prior's).
+
+        Each camera's information is its robust bread J^T psi' J divided by its residuals' variance factor
+        (sum psi^2 / sum psi', the M-estimator's), inflated by its own refinement's covariance over that naive
+        one where residuals correlate in time; the prior's is W^T W.
+        """
+        residuals, jacobians = self._pixels(z)
+        information = (self.whiten.T @ self.whiten).toarray()
+        data = np.zeros_like(information)
+        blocks = []
+        for k, (r, jac) in enumerate(zip(residuals, jacobians)):
+            inflation = _inflation(self.cameras[k], r, jac, self.f_scale, z[2 * k : 2 * k + 2])
+            h = _bread(self.cameras[k], r, jac, self.f_scale) / inflation
+            h_tt, h_tb, h_bb = h[:2, :2], h[:2, 2:], h[2:, 2:]
+            gain = np.linalg.pinv(h_tt) @ h_tb  # (2, 3K); a camera whose line the residuals do not determine tells nothing of the bias
+            information = information + h_bb - h_tb.T @ gain
+            data = data + h_bb - h_tb.T @ gain
+            blocks.append((gain, z[2 * k : 2 * k + 2]))
+        posterior = np.linalg.pinv(information)
+        sensitivity = {}
+        for c, (gain, (u, s0)) in zip(self.cameras, blocks):
+            to_line = np.array([[-1.0 / u**2, 0.0], [s0 / u**2, -1.0 / u]])  # d(alpha, beta) / d(u, s0), beta = middle - s0 / u
+            sensitivity[c.name] = to_line @ (-gain)
+        return posterior, sensitivity, data
+
+
+def _camera_rows(c: BiasCamera, path: PiecewiseTrajectory, knots: np.ndarray, bias: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray, sp.csr_matrix]:
+    """One camera's (N, 2) weighted pixel residuals at samples s, their (2N,) derivative in s, and their (2N, 3K)
+    sparse derivative in the knots (rows u0, v0, u1, v1 ...)."""
+    run = path.run_of(s)
+    on = run >= 0
+    weights = _interpolation(s, knots)
+    position = np.full((len(s), 3), np.nan)
+    position[on] = path(s[on], run[on])
+    position += weights @ bias
+    ahead = np.full((len(s), 3), np.nan)
+    ahead[on] = path(s[on] + SAMPLE_STEP, run[on])
+    ahead += _interpolation(s + SAMPLE_STEP, knots) @ bias
+    moved = [position + METRE_STEP * axis for axis in np.eye(3)]
+    uv_all, _ = c.camera.project(np.concatenate([position, ahead, *moved]))
+    n = len(s)
+    uv = uv_all[:n]
+    rate = (uv_all[n : 2 * n] - uv) / SAMPLE_STEP  # pixels per sample
+    gradient = np.stack([(uv_all[(2 + a) * n : (3 + a) * n] - uv) / METRE_STEP for a in range(3)], axis=2)  # (N, 2, 3) pixels per metre
+    r = (uv - c.xy) * c.weight[:, None]
+    along = rate * c.weight[:, None]
+    gradient = gradient * c.weight[:, None, None]
+    finite = np.isfinite(r).all(axis=1) & np.isfinite(along).all(axis=1)
+    bad = ~(finite & np.isfinite(gradient.reshape(n, -1)).all(axis=1))
+    r[bad] = 10.0
+    along[bad] = 0.0
+    gradient[bad] = 0.0
+    left, right, u = _interpolation_parts(s, knots)
+    rows = np.broadcast_to(np.arange(2 * n).reshape(n, 2, 1), (n, 2, 3))
+    columns = np.arange(3)[None, None, :]
+    values = np.concatenate([(gradient * (1.0 - u)[:, None, None]).ravel(), (gradient * u[:, None, None]).ravel()])
+    at_left = (columns + 3 * left[:, None, None] + 0 * rows).ravel()
+    at_right = (columns + 3 * right[:, None, None] + 0 * rows).ravel()
+    indices = (np.r_[rows.ravel(), rows.ravel()], np.r_[at_left, at_right])
+    return r, along.ravel(), sp.csr_matrix((values, indices), shape=(2 * n, 3 * len(knots)))
+
+
+def _bread(c: BiasCamera, r: np.ndarray, jac: sp.csr_matrix, f_scale: float) -> np.ndarray:
+    """One camera's robust Gauss-Newton information J^T psi' J (its slope prior included), in (its x, the knots)."""
+    dpsi = (1.0 + (r / f_scale) ** 2) ** -1.5
+    bread = (jac.T @ sp.diags(dpsi.ravel()) @ jac).toarray()
+    if c.prior is not None:
+        bread[0, 0] += (c.prior.alpha / c.prior.sigma) ** 2
+    return bread
+
+
+def _inflation(c: BiasCamera, r: np.ndarray, jac: sp.csr_matrix, f_scale: float, x: np.ndarray) -> float:
+    """What one camera's residuals' information is divided by: their variance factor (sum psi^2 / sum psi', the
+    M-estimator's) times how much more its own refinement's covariance says than that naive one (>= 1)."""
+    variance = _variance_factor(r, f_scale)
+    return variance * _correlation_factor(c, _bread(c, r, jac, f_scale), variance, x)
+
+
+def _variance_factor(r: np.ndarray, f_scale: float) -> float:
+    """The M-estimator's variance factor of residuals r under the soft L1 loss: sum psi^2 / sum psi'."""
+    q = (r / f_scale) ** 2
+    psi, dpsi = r / np.sqrt(1.0 + q), (1.0 + q) ** -1.5
+    return max(float(np.sum(psi**2) / max(np.sum(dpsi), 1e-12)), 1e-6)
+
+
+def _correlation_factor(c: BiasCamera, bread: np.ndarray, variance: float, x: np.ndarray) -> float:
+    """How much the camera's own refinement's covariance of (alpha, beta) exceeds the naive one from its residuals (>= 1):
+    residuals correlated in time (pose, log) carry less information than their number says."""
+    try:
+        naive_x = variance * np.linalg.inv(bread[:2, :2])
+    except np.linalg.LinAlgError:
+        return 1.0
+    u, s0 = x
+    d = np.array([[-1.0 / u**2, 0.0], [s0 / u**2, -1.0 / u]])
+    naive = d @ naive_x @ d.T
+    ratio = np.trace(c.cov) / max(np.trace(naive), 1e-300)
+    return float(np.clip(ratio, 1.0, 1e6)) if np.isfinite(ratio) else 1.0
+
+
+def _levenberg_marquardt(problem: _Joint, z: np.ndarray, f_scale: float, max_nfev: int = 100, tol: float = 1e-8) -> tuple[np.ndarray, bool]:
+    """The robust least squares of the joint problem from z: Levenberg-Marquardt on the normal equations, which are
+    (2C + 3K) square whatever the number of frames (J sparse), with the loss's curvature as scipy's least_squares
+    scales it and the damping in the units of ``problem.scale``. Converged: the cost, the step or the gradient
+    stopped changing (relative ``tol``) within ``max_nfev`` evaluations of the residuals."""
+
+    def cost(residual: np.ndarray) -> float:
+        if not np.isfinite(residual).all():
+            return np.inf
+        return 0.5 * f_scale**2 * float(np.sum(problem.loss((residual / f_scale) ** 2)[0]))
+
+    units = 1.0 / problem.scale**2
+    residual = problem.residual(z)
+    current, evaluations, damping, moved = cost(residual), 1, -1.0, True
+    while evaluations < max_nfev:
+        if moved:
+            rho = problem.loss((residual / f_scale) ** 2)
+            jac = problem.jacobian(z)
+            gradient = jac.T @ (rho[1] * residual)
+            if np.max(np.abs(gradient * problem.scale)) <= tol * max(current, 1e-12):
+                return z, True
+            curvature = np.maximum(rho[1] + 2.0 * rho[2] * (residual / f_scale) ** 2, 1e-10)
+            hessian = (jac.T @ sp.diags(curvature) @ jac).toarray()
+            damping = 1e-3 * float(np.max(np.diag(hessian) / units)) if damping < 0 else damping
+        try:
+            step = np.linalg.solve(hessian + damping * np.diag(units), -gradient)
+        except np.linalg.LinAlgError:
+            step = np.full_like(z, np.nan)
+        trial_residual = problem.residual(z + step) if np.isfinite(step).all() else np.full_like(residual, np.nan)
+        trial = cost(trial_residual)
+        evaluations += 1
+        moved = trial <= current
+        if not moved:
+            damping *= 4.0
+            continue
+        z, residual, drop, current = z + step, trial_residual, current - trial, trial
+        damping /= 3.0
+        small_step = np.linalg.norm(step / problem.scale) <= tol * (tol + np.linalg.norm(z / problem.scale))
+        if drop <= tol * current or small_step:
+            return z, True
+    return z, False
+
+
+def _soft_l1_except(quadratic: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
+    """scipy least_squares loss (rho, rho', rho''): soft L1, but quadratic where ``quadratic`` is set (the priors)."""
+
+    def loss(z: np.ndarray) -> np.ndarray:
+        t = 1.0 + z
+        out = np.vstack([2.0 * (np.sqrt(t) - 1.0), t**-0.5, -0.5 * t**-1.5])
+        out[0, quadratic], out[1, quadratic], out[2, quadratic] = z[quadratic], 1.0, 0.0
+        return out
+
+    return loss

@@ -1,0 +1,487 @@
+"""Whether a camera's fitted line can be believed: measures of the line against the camera's own evidence.
+
+Pure functions of the camera, its track (positions on the camera's clock),
+the trajectory the line was fitted to and the line. Each measure is what a
+wrong answer cannot fake:
+
+- coverage: the share of tracked frames the line maps inside the log (a log
+  that ends before the video starts cannot explain the track);
+- on path: the share of those frames whose tracked position is within the
+  gate of the projected position at the line's sample (a wrong line matches
+  the path only where the two cross);
+- motion: over pairs of tracked frames about MOTION_WINDOW_S apart, the
+  tracked displacement against the projected one under the line: the share
+  that agree (same direction, comparable length) and the share that point
+  against each other (a log reversed in time, or a line whose slope is off,
+  moves the projection the wrong way or at the wrong speed);
+- motion slope: what the votes say about the slope alone, without a line:
+  at each vote, the projected speed (pixels per sample) over the tracked
+  speed (pixels per frame) is frames per sample; the mode of that ratio over
+  the votes whose directions agree is compared with the clock prior (fps /
+  log rate): their quotient is the log's true seconds per second of ``t``
+  (all cameras alike: the log's time unit) or the camera's true fps over its
+  stated one (one camera alone); over the votes whose directions are
+  opposite, a log reversed in time;
+- backward support: the frames backing the votes' best line running
+  backwards in time, against the line's own;
+- a rival: the line search's best line without the line's votes, as strong
+  and far from it, that the camera's whole track, the log's bias absorbed,
+  does not rule out (sync/solve/rival.py).
+
+``judge_line`` turns the measures into reasons of the camera's status
+(sync/model/status.py); ``diagnose`` looks at every camera together (a time or
+length unit of the log, a track of another resolution).
+
+Thresholds are in pixels, seconds of the camera's clock, or samples of the
+trajectory grid (independent of the unit the log's times were given in).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from calibration.camera import Camera
+from tlsync_pipeline.errors import InputError
+from tlsync_pipeline.sync.model.clock import image_speed
+from tlsync_pipeline.sync.model.log_model import LogModel
+from tlsync_pipeline.sync.solve.rival import RivalOdds, rival_odds
+from tlsync_pipeline.sync.kernels.backward import backwards_better
+from tlsync_pipeline.sync.model.status import AMBIGUOUS, FAILED, WEAK, Reason
+from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
+from trackers.track import Track
+
+MOTION_WINDOW_S = 0.5  # seconds of the camera between the two frames of a displacement
+MOTION_WINDOW_FRAMES = 10  # the same for a camera of unknown fps
+MOVING_PX = 6.0  # a displacement shorter than this (pixels) is tracking noise, not motion
+AGREE_ERROR = 0.5  # displacements agree when |d_img - d_proj| <= AGREE_ERROR x the longer one
+SLOPE_BIN = math.log(1.08)  # width of the bins of log(frames per sample) the motion slope's mode is taken over
+VELOCITY_HALF_S = 0.1  # seconds either side of a frame over which its tracked velocity is fitted
+MIN_MOVING = 8  # displacement pairs (or votes) needed before a motion measure says anything
+MAX_SLOPE_VOTES = 200_000  # votes (evenly picked) the motion slope is taken over
+MIN_SLOPE_SUPPORT = 20  # votes that must back the motion slope ...
+SLOPE_SHARE = 0.15  # ... and this share of the moving votes
+
+
+@dataclass(frozen=True)
+class LineEvidence:
+    """How a camera's line agrees with its track.
+
+    tracked: tracked frames; covered: share of them the line maps inside the
+    log's runs; on_path: share of the covered ones within the gate of the
+    projection; moving: displacement pairs with measurable motion; agree /
+    against: share of those that agree / point against each other.
+    """
+
+    tracked: int
+    covered: float
+    on_path: float
+    moving: int
+    agree: float
+    against: float
+
+
+def motion_window(fps: float | None) -> int:
+    """Frames between the two ends of a displacement: MOTION_WINDOW_S of the camera's clock."""
+    return max(1, round(MOTION_WINDOW_S * fps)) if fps else MOTION_WINDOW_FRAMES
+
+
+def line_evidence(camera: Camera, track: Track, clock: np.ndarray, path: PiecewiseTrajectory, alpha: float, beta: float, gate_px: float, fps: float | None) -> LineEvidence:
+    """The line clock = alpha * sample + beta against the track (``clock``: each tracked frame's clock value)."""
+    n = len(track)
+    s = (np.asarray(clock, dtype=np.float64) - beta) / alpha
+    run = path.run_of(s)
+    inside = run >= 0
+    uv = np.full((n, 2), np.nan)
+    if inside.any():
+        uv[inside], _ = camera.project(path(s[inside], run[inside]))
+    xy = track.xy
+    near = np.linalg.norm(uv - xy, axis=1) <= gate_px  # NaN (outside the log or the image) compares False
+    covered = int(inside.sum())
+    i, j = _pairs(np.asarray(clock, dtype=np.float64), motion_window(fps))
+    both = inside[i] & inside[j] & np.isfinite(uv[i, 0]) & np.isfinite(uv[j, 0])
+    i, j = i[both], j[both]
+    d_img, d_proj = xy[j] - xy[i], uv[j] - uv[i]
+    agree, against, moving = _compare(d_img, d_proj)
+    return LineEvidence(n, covered / n if n else 0.0, float(near.sum()) / covered if covered else 0.0, moving, agree, against)
+
+
+def _pairs(clock: np.ndarray, window: int) -> tuple[np.ndarray, np.ndarray]:
+    """Index pairs (i, j) of tracked frames about ``window`` clock units apart (between window and 1.5 window)."""
+    j = np.searchsorted(clock, clock + window)
+    ok = j < len(clock)
+    i = np.flatnonzero(ok)
+    j = j[ok]
+    keep = clock[j] - clock[i] <= 1.5 * window
+    return i[keep], j[keep]
+
+
+def _compare(d_img: np.ndarray, d_proj: np.ndarray) -> tuple[float, float, int]:
+    """(share of the moving pairs that agree, share pointing against each other, moving pairs)."""
+    l_img, l_proj = np.linalg.norm(d_img, axis=1), np.linalg.norm(d_proj, axis=1)
+    longer = np.maximum(l_img, l_proj)
+    moving = longer >= MOVING_PX
+    m = int(moving.sum())
+    if m == 0:
+        return 0.0, 0.0, 0
+    d_img, d_proj, l_img, l_proj, longer = d_img[moving], d_proj[moving], l_img[moving], l_proj[moving], longer[moving]
+    agree = np.linalg.norm(d_img - d_proj, axis=1) <= AGREE_ERROR * longer
+    with np.errstate(invalid="ignore", divide="ignore"):
+        against = np.einsum("ij,ij->i", d_img, d_proj) / (l_img * l_proj) < -0.5
+    return float(agree.mean()), float(against.mean()), m
+
+
+@dataclass(frozen=True)
+class SlopeMode:
+    """The mode of frames per sample over some votes: its value (NaN when too few votes), the votes near it, the votes it was taken over."""
+
+    alpha: float
+    support: int
+    votes: int
+
+    @property
+    def reliable(self) -> bool:
+        """Whether enough of the moving votes agree on it for it to mean something."""
+        return bool(np.isfinite(self.alpha)) and self.support >= MIN_SLOPE_SUPPORT and self.support >= SLOPE_SHARE * self.votes
+
+
+@dataclass(frozen=True)
+class MotionSlope:
+    """What the moving votes' speeds say about the slope: along, over the votes whose tracked and projected motions
+    point the same way; against, over those pointing opposite ways (a log reversed in time)."""
+
+    along: SlopeMode
+    against: SlopeMode
+
+
+def motion_slope(camera: Camera, track: Track, clock: np.ndarray, path: PiecewiseTrajectory, vote_clock: np.ndarray, vote_sample: np.ndarray, fps: float | None) -> MotionSlope:
+    """Frames per sample from the votes' speeds: tracked pixels per clock unit (a line through VELOCITY_HALF_S
+    either side) against projected pixels per sample (the path model's derivative)."""
+    clock = np.asarray(clock, dtype=np.float64)
+    half = max(1, round(VELOCITY_HALF_S * fps)) if fps else 2
+    velocity = _velocity(clock, track.xy, half)
+    every = max(1, math.ceil(len(vote_clock) / MAX_SLOPE_VOTES))  # a mode needs no more votes: memory and time stay bounded
+    at = np.clip(np.searchsorted(clock, np.asarray(vote_clock[::every], dtype=np.float64)), 0, len(clock) - 1)
+    s = np.asarray(vote_sample[::every], dtype=np.float64)
+    run = path.run_of(s)
+    ok = (run >= 0) & np.isfinite(velocity[at, 0])
+    m = int(ok.sum())
+    if m < MIN_MOVING:
+        none = SlopeMode(float("nan"), 0, m)
+        return MotionSlope(none, none)
+    samples, which = np.unique(s[ok], return_inverse=True)  # votes share their samples: project each once
+    runs = path.run_of(samples)
+    position = path(samples, runs)
+    step = 1e-3
+    uv, _ = camera.project(np.concatenate([position, position + step * path(samples, runs, nu=1)]))
+    v_proj = ((uv[len(samples) :] - uv[: len(samples)]) / step)[which.ravel()]
+    v_img = velocity[at[ok]]
+    l_img, l_proj = np.linalg.norm(v_img, axis=1), np.linalg.norm(v_proj, axis=1)
+    moving = np.isfinite(l_proj) & (l_img * 2 * half >= MOVING_PX) & (l_proj > 0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        cos = np.einsum("ij,ij->i", v_img, v_proj) / (l_img * l_proj)
+        log_ratio = np.log(l_proj / l_img)
+    n = int(moving.sum())
+    return MotionSlope(_mode(log_ratio[moving & (cos > 0.9)], n), _mode(log_ratio[moving & (cos < -0.9)], n))
+
+
+def _mode(log_ratio: np.ndarray, votes: int) -> SlopeMode:
+    """The densest window of three SLOPE_BIN bins of log(frames per sample): the median inside it, and its votes."""
+    if len(log_ratio) < MIN_MOVING:
+        return SlopeMode(float("nan"), len(log_ratio), votes)
+    bins = np.floor(log_ratio / SLOPE_BIN).astype(np.int64)
+    values, counts = np.unique(bins, return_counts=True)
+    padded = np.zeros(values.max() - values.min() + 3, dtype=np.int64)
+    padded[values - values.min() + 1] = counts
+    k = int(np.argmax(padded[:-2] + padded[1:-1] + padded[2:]))
+    centre = (k + values.min() + 0.5) * SLOPE_BIN
+    inside = np.abs(log_ratio - centre) <= 1.5 * SLOPE_BIN
+    return SlopeMode(float(np.exp(np.median(log_ratio[inside]))), int(inside.sum()), votes)
+
+
+def _velocity(clock: np.ndarray, xy: np.ndarray, half: int) -> np.ndarray:
+    """(N, 2) tracked velocity (pixels per clock unit) at each tracked frame: the line through the tracked
+    positions within ``half`` clock units either side (NaN with fewer than 3 of them)."""
+    lo = np.searchsorted(clock, clock - half)
+    hi = np.searchsorted(clock, clock + half, side="right")
+    c0 = np.r_[0.0, np.cumsum(clock - clock.mean())]
+    cc = np.r_[0.0, np.cumsum((clock - clock.mean()) ** 2)]
+    out = np.full((len(clock), 2), np.nan)
+    count = (hi - lo).astype(np.float64)
+    sx = c0[hi] - c0[lo]
+    sxx = cc[hi] - cc[lo]
+    denom = count * sxx - sx * sx
+    ok = (count >= 3) & (denom > 0)
+    for k in range(2):
+        y = xy[:, k]
+        y0 = np.r_[0.0, np.cumsum(y)]
+        xy0 = np.r_[0.0, np.cumsum((clock - clock.mean()) * y)]
+        sy = y0[hi] - y0[lo]
+        sxy = xy0[hi] - xy0[lo]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            out[:, k] = np.where(ok, (count * sxy - sx * sy) / denom, np.nan)
+    return out
+
+
+# What the measures must show for a line to stand (drone2, the demo and the Figure 5 cells against the trap suite:
+# docs/accuracy.md, "Plausibility checks").
+GATE_EPS = 2.0  # on path: within GATE_EPS x eps_px of the projection
+EVIDENCE_MIN = 0.95  # on-path share + agreeing-motion share below this: the line is contradicted
+COVERED_MIN = 0.5  # share of the tracked frames the line must map inside the log ...
+COVERED_WEAK = 0.9  # ... and below this, the camera is weak
+AGAINST_MIN = 0.3  # share of displacements against the projected path that names the direction as a reason
+RIVAL_RATIO = 0.5  # a rival line with this share of the line's support ...
+RIVAL_SECONDS = 1.0  # ... further than this from it (median over the tracked frames) makes the camera ambiguous
+RIVAL_SAMPLES = 10.0  # the same, in samples, without frame rates
+RIVAL_PROBABILITY = 0.01  # ... unless the joint evidence (sync/solve/rival.py) leaves the rival less than this
+RIVAL_BAND_FRAMES = 300.0  # a line's intercept is profiled over at most this many frames either side
+SLOPE_OFF = 1.3  # motion slope / clock prior beyond this factor (either way): the clock is wrong
+
+
+def judge_line(
+    camera: Camera,
+    track: Track,
+    clock: np.ndarray,
+    path: PiecewiseTrajectory,
+    line,
+    eps_px: float,
+    fps: float | None,
+    alpha_prior: float | None,
+    slope: MotionSlope | None,
+    support: tuple[int, int | None] = (0, None),
+    rate: float | None = None,
+) -> tuple[Reason, ...]:
+    """The plausibility checks of one camera's line (a sync.timeline.CameraLine): the reasons they find, or ().
+
+    alpha_prior: the clock prior's slope (fps / log rate), None when unknown
+    or the slope is free; slope: what the votes' motion says (``motion_slope``);
+    support: the frames whose votes back the line, and those backing the best
+    line running backwards in time (kernels/backward.py's ``backward_support``; None: not measured);
+    rate: the log's samples per second (None: starts are given in samples).
+    """
+    evidence = line_evidence(camera, track, clock, path, line.alpha, line.beta, GATE_EPS * eps_px, fps)
+    reasons = []
+    outside = 1.0 - evidence.covered
+    if evidence.covered < COVERED_MIN:
+        reasons.append(Reason("coverage", FAILED, f"the line puts {outside:.0%} of the frames where the target is tracked outside the log", "give the log that covers this video (another flight's log, or a log that ends before the video starts?)"))
+    elif evidence.covered < COVERED_WEAK:
+        reasons.append(Reason("partial_coverage", WEAK, f"the log covers {evidence.covered:.0%} of the frames where the target is tracked", "a log that covers the whole pass"))
+    if evidence.moving < MIN_MOVING:
+        if evidence.on_path < 0.5:
+            reasons.append(_off_path(evidence, eps_px, "the target barely moves in the image"))
+        else:
+            reasons.append(Reason("motion_unchecked", WEAK, f"the target barely moves in the image ({evidence.moving} displacements): its timing rests on its position alone", "a pass of the target across the view"))
+    elif evidence.on_path + evidence.agree < EVIDENCE_MIN:
+        reasons.append(_off_path(evidence, eps_px))
+        if evidence.against >= AGAINST_MIN and evidence.against > evidence.agree:
+            reasons.append(Reason("against_path", FAILED, f"the target moves against the projected path's direction in {evidence.against:.0%} of its displacements", "check the log's time order (reversed?) and the camera's pose (mirrored?)"))
+    if alpha_prior is not None and not _near_one(line.alpha / alpha_prior):
+        reasons.append(Reason("slope", FAILED, f"the line's slope {line.alpha:.4g} frames per sample is {line.alpha / alpha_prior:.3g} times what fps and the log's rate give ({alpha_prior:.4g})", "check the camera's fps and the log's times"))
+    contradicted = any(r.severity == FAILED for r in reasons)
+    if contradicted and slope is not None and alpha_prior is not None:
+        along, against = slope.along.alpha / alpha_prior, slope.against.alpha / alpha_prior
+        if slope.along.reliable and not _near_one(along):
+            fps_text = f"this video runs at about {fps * along:.4g} fps, not {fps:g}, or " if fps else ""
+            reasons.append(Reason("clock", FAILED, f"the target's speed in the image says {fps_text}one unit of the log's t is {along:.3g} s", "set the camera's fps, or [target] time_unit"))
+        if slope.against.reliable and _near_one(against) and not (slope.along.reliable and _near_one(along)):
+            reasons.append(Reason("reversed", FAILED, "the target moves along the logged path backwards, at the logged speed: the log looks reversed in time", "check the log's time order"))
+    forward, backward = support
+    if backward is not None and backwards_better(forward, backward) and not any(r.code == "reversed" for r in reasons):
+        reasons.append(Reason("reversed", FAILED, f"the votes back a line running backwards in time better ({backward} frames, against {forward} forwards): the log looks reversed in time", "check the log's time order"))
+    rival = _rival(line, track, clock, fps, eps_px, rate)
+    if rival is not None:
+        reasons.append(rival)
+    return tuple(reasons)
+
+
+def _near_one(factor: float) -> bool:
+    return 1 / SLOPE_OFF <= factor <= SLOPE_OFF
+
+
+def _off_path(evidence: LineEvidence, eps_px: float, why: str = "") -> Reason:
+    moves = f"moves with it in {evidence.agree:.0%} of its displacements" if evidence.moving >= MIN_MOVING else why
+    return Reason(
+        "off_path",
+        FAILED,
+        f"under this line the target is within {GATE_EPS * eps_px:g} px of its projected position in {evidence.on_path:.0%} of its frames and {moves}",
+        "check the camera's pose (GCPs), its track and fps, and that the log is this flight's, in seconds and metres",
+    )
+
+
+def _rival_apart(line, track: Track, clock: np.ndarray, fps: float | None, eps_px: float) -> float | None:
+    """How far (clock units, median over the tracked frames) the line search's rival lies from its line, when it has
+    comparable support (RIVAL_RATIO) and lies apart: further than RIVAL_SECONDS, and further than the target takes to
+    cross the band of one pass's votes (+-eps_px, the vote radius) in the image: within it, the log's error moves the
+    line as far (the same pass, not a second one). None otherwise."""
+    search = line.line_search
+    if search is None or search.rival_alpha is None or search.runner_up_frames < RIVAL_RATIO * search.support_frames:
+        return None
+    clock = np.asarray(clock, dtype=np.float64)
+    sample = (clock - search.beta) / search.alpha
+    apart = float(np.median(np.abs(search.rival_alpha * sample + search.rival_beta - clock)))
+    speed = image_speed(clock, track.xy, quantile=0.5)
+    if speed is not None and apart <= 2.0 * eps_px / speed:  # within the band one pass's votes span (+-eps_px)
+        return None
+    if (apart / fps <= RIVAL_SECONDS) if fps else (apart / line.alpha <= RIVAL_SAMPLES):
+        return None
+    return apart
+
+
+def rival_odds_of(camera: Camera, track: Track, clock: np.ndarray, path: PiecewiseTrajectory, line, eps_px: float, fps: float | None, model: LogModel, rate: float | None) -> RivalOdds | None:
+    """The rival's posterior against the line search's line on the camera's whole track, the log's bias absorbed
+    (sync/solve/rival.py), when the rival passes the support and distance gates of ``_rival``; None otherwise.
+
+    Each line's intercept is profiled over the band one pass's votes span (eps_px over the image speed, in clock units).
+    """
+    if _rival_apart(line, track, clock, fps, eps_px) is None:
+        return None
+    search = line.line_search
+    speed = image_speed(np.asarray(clock, dtype=np.float64), track.xy, quantile=0.5) or 1.0
+    band = min(eps_px / speed, RIVAL_BAND_FRAMES)
+    return rival_odds(camera, clock, track.xy, path, (search.alpha, search.beta), (search.rival_alpha, search.rival_beta), model, fps, rate, band)
+
+
+def _rival(line, track: Track, clock: np.ndarray, fps: float | None, eps_px: float, rate: float | None = None) -> Reason | None:
+    """AMBIGUOUS when the line search's rival passes the gates of ``_rival_apart`` and, when its joint odds were
+    weighed (LineSearchSummary.rival_probability, ``rival_odds_of``), keeps at least RIVAL_PROBABILITY of the posterior:
+    the reason gives both lines' starts (the log's time at the video's first frame) with their probabilities."""
+    apart = _rival_apart(line, track, clock, fps, eps_px)
+    if apart is None:
+        return None
+    search = line.line_search
+    probability = search.rival_probability
+    if probability is not None and probability < RIVAL_PROBABILITY:
+        return None
+    distance = f"{apart / fps:.3g} s" if fps else f"{apart:.0f} frames"
+    text = f"a second line {distance} away has comparable support ({search.runner_up_frames} against {search.support_frames} frames)"
+    if probability is not None:
+        starts = [(-line.beta / line.alpha, 1.0 - probability), (-search.rival_beta / search.rival_alpha, probability)]
+        unit = (lambda s: f"{s / rate:.2f} s") if rate else (lambda s: f"sample {s:.1f}")
+        text += ", and the track under each, the log's bias absorbed, leaves both possible: the video's first frame at " + " or at ".join(f"{unit(s)} of the log ({p:.0%})" for s, p in starts)
+        key = "pick_start_s" if rate else "pick_start_sample"
+        remedy = f"a longer pass through this view with a turn in it, or a more accurate log (RTK), settles it; or pick one: [[cameras]] {key} = one of these starts (docs/project.md)"
+    else:
+        remedy = "the target passes through this view alike more than once: give the tracker an init box on the right pass, or a log of that pass only"
+    return Reason("ambiguous", AMBIGUOUS, text, remedy)
+
+
+PATH_POINTS = 400_000  # most points of the path model projected to measure a path share
+
+
+def path_share(camera: Camera, xy: np.ndarray, path: PiecewiseTrajectory, gate_px: float) -> float:
+    """Share of tracked positions within gate_px of the trajectory's projection anywhere (any time): the path, not the timing.
+
+    The path model is evaluated every quarter sample (coarser for a log so
+    long that this would exceed PATH_POINTS points).
+    """
+    if len(xy) == 0 or not path.runs:
+        return 0.0
+    span = sum(hi - lo for lo, hi, _ in path.runs)
+    step = max(0.25, span / PATH_POINTS)
+    s = np.concatenate([np.arange(lo, hi + step / 2, step) for lo, hi, _ in path.runs])
+    uv, valid = camera.project(path.positions(s))
+    if not valid.any():
+        return 0.0
+    dist, _ = cKDTree(uv[valid]).query(xy, k=1, distance_upper_bound=gate_px)
+    return float(np.mean(np.isfinite(dist)))
+
+
+class LogUnitError(InputError):
+    """The log's times or positions are not in seconds and metres, as every camera's evidence says; ``column``:
+    the trajectory's column(s) at fault. The message names the column and the fix, not the file (the caller adds it)."""
+
+    def __init__(self, column: str, message: str):
+        super().__init__(f"column {column}: {message}")
+        self.column = column
+
+
+# Length units a log's positions are often written in by mistake: metres per unit, the length_unit value.
+LENGTH_SUSPECTS = ((0.3048, "ft"), (0.01, "cm"), (0.001, "mm"))
+SCALE_FIT = 0.6  # mean path share a rescaled log or track must reach ...
+SCALE_GAIN = 3.0  # ... leaving this many times fewer frames off the path than as given
+UNIT_AGREEMENT = 1.15  # cameras' motion slopes within this factor of each other agree on a time unit
+RATE_ROUNDING = 0.03  # a log rate the motion slope puts within this fraction of a whole number of hertz is that number
+
+
+@dataclass(frozen=True)
+class Judged:
+    """What ``diagnose`` needs of one camera: its calibration, track, motion slope, clock prior's slope, and whether
+    it was contradicted (its line by the checks, or it has none)."""
+
+    camera: Camera
+    track: Track | None
+    slope: MotionSlope | None
+    alpha_prior: float | None
+    contradicted: bool
+
+
+def diagnose(judged: dict[str, Judged], prepared: Trajectory, eps_px: float) -> dict[str, Reason]:
+    """Causes that only the cameras together (or a rescaled input) reveal.
+
+    Raises LogUnitError when every camera with a clock prior and a reliable
+    motion slope (at least two) was contradicted and they agree on one factor
+    away from 1 (the log's time unit), or when every camera was contradicted
+    and the log rescaled to metres from a usual wrong unit fits their tracks.
+    Returns a reason per camera whose track, rescaled by 2 or 1/2, fits the
+    projected path (a track of another resolution).
+    """
+    timed = {n: j for n, j in judged.items() if j.alpha_prior is not None and j.slope is not None and j.slope.along.reliable}
+    factors = np.array([j.slope.along.alpha / j.alpha_prior for j in timed.values()])  # type: ignore[union-attr,operator]
+    if len(timed) >= 2 and all(j.contradicted for j in timed.values()) and factors.max() / factors.min() <= UNIT_AGREEMENT:
+        factor = float(np.exp(np.mean(np.log(factors))))
+        if not _near_one(factor):
+            raise LogUnitError("t", _time_unit_message(factor, len(timed)))
+    tracked = {n: j for n, j in judged.items() if j.track is not None and len(j.track)}
+    gate = GATE_EPS * eps_px
+    path = PiecewiseTrajectory(prepared)
+    if tracked and all(j.contradicted for j in tracked.values()):
+        given = float(np.mean([path_share(j.camera, j.track.xy, path, gate) for j in tracked.values()]))  # type: ignore[union-attr]
+        for scale, unit in LENGTH_SUSPECTS:
+            scaled = PiecewiseTrajectory(replace(prepared, xyz=prepared.xyz * scale))
+            share = float(np.mean([path_share(j.camera, j.track.xy, scaled, gate) for j in tracked.values()]))  # type: ignore[union-attr]
+            if _fits_better(given, share):
+                raise LogUnitError(
+                    "x, y, z",
+                    f"not metres: x {scale:g} they lie on the tracks in {share:.0%} of the frames, as given in {given:.0%} ({unit}?); set [target] length_unit = \"{unit}\"",
+                )
+    reasons = {}
+    for name, j in tracked.items():
+        if not j.contradicted:
+            continue
+        given = path_share(j.camera, j.track.xy, path, gate)  # type: ignore[union-attr]
+        for scale in (2.0, 0.5):
+            share = path_share(j.camera, j.track.xy * scale, path, gate)  # type: ignore[union-attr]
+            if _fits_better(given, share):
+                reasons[name] = Reason(
+                    "track_scale",
+                    FAILED,
+                    f"the track's x, y look like another resolution: x {scale:g} they lie on the projected path in {share:.0%} of the frames, as given in {given:.0%}",
+                    "give the track in the pixels of the camera's image_size (or the camera.json of the video the track was made on)",
+                )
+                break
+    return reasons
+
+
+def _fits_better(given: float, rescaled: float) -> bool:
+    """Whether a rescaled log or track lies on the other's path clearly better than as given (shares of frames on it)."""
+    return rescaled >= SCALE_FIT and SCALE_GAIN * (1.0 - rescaled) <= 1.0 - given
+
+
+def _time_unit_message(factor: float, cameras: int) -> str:
+    """What every camera's motion says about the log's time unit (factor: seconds per unit of t), with the fix."""
+    named = {1e-3: ("ms", "milliseconds"), 1e-6: ("us", "microseconds"), 60.0: ("min", "minutes")}
+    close = next((names for value, names in named.items() if abs(math.log(factor / value)) < math.log(UNIT_AGREEMENT)), None)
+    if close is not None:
+        what, fix = close[1], f'"{close[0]}"'
+    elif factor < 1:
+        rate = 1.0 / factor
+        whole = round(rate)
+        if whole >= 1 and abs(rate / whole - 1.0) < RATE_ROUNDING:
+            rate, factor = float(whole), 1.0 / whole
+        what, fix = f"sample numbers at {rate:.3g} Hz", f"{factor:.6g}"
+    else:
+        what, fix = f"units of {factor:.3g} s", f"{factor:.4g}"
+    return f"not seconds: in every camera ({cameras}) the target moves as if a unit of t were {factor:.3g} s ({what}?); set [target] time_unit = {fix}"

@@ -1,0 +1,264 @@
+"""The "refined" sync method (default): robust line search, then continuous-time refinement.
+
+The trajectory is first smoothed (cross-validated smoothing spline,
+refine.smooth_trajectory); the line search (line_search.py) finds the line
+in the voting space; the refinement (refine.py) re-estimates it from the
+tracked positions with its uncertainty. When the refinement fails or
+disagrees with the votes the line-search line is kept, with a warning.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from tlsync_pipeline.errors import SyncError
+from tlsync_pipeline.sync.kernels.line_search import LineSearch, find_line
+from tlsync_pipeline.sync.solve.methods import CameraData
+from tlsync_pipeline.sync.model.methods import RefinedKind, RefinedParams
+from tlsync_pipeline.sync.model.params import SyncParams
+from tlsync_pipeline.sync.kernels.ransac import distance_to_line
+from tlsync_pipeline.sync.solve.log_bias import BiasCamera, LogBias, fit_log_bias, fit_log_bias_measured
+from tlsync_pipeline.sync.model.log_model import LogModel
+from tlsync_pipeline.sync.identify.refine import Refinement, refine_line, sigma_weights
+from tlsync_pipeline.sync.kernels.slope import SlopePrior, slope_prior
+from tlsync_pipeline.sync.timeline import CameraLine, ErrorBudget, LineSearchSummary, LogBiasSummary, RefinementSummary
+from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
+
+# Weak-case thresholds (flags in timeline.json).
+FEW_INLIER_FRAMES = 30
+ALONG_RAY = 0.15
+# The refinement regrows its frame set to tracked frames within GATE_EPS x eps_px
+# of the fitted projection: a tight gate keeps only frames whose calibration
+# error happens to agree with a biased line (eps_t x3 at S_c = 8 px).
+GATE_EPS = 10.0
+SUPPORT_KEPT = 0.5
+MIN_SPEED_FRAMES = 10  # consecutive tracked frames needed to measure the target's image speed
+MAX_APART_FRAMES = 300.0  # a rival line is never required to be farther than this (frames)
+
+
+class RefinedMethod(RefinedKind):
+    """Line search over the votes, refinement on the tracked positions, fallback with a warning (name, parameters,
+    smoothing: RefinedKind)."""
+
+    def fit(self, data: CameraData, trajectory: Trajectory, params: SyncParams, options: RefinedParams) -> CameraLine:
+        votes, track = data.votes, data.track
+        prior = slope_prior(data.fps, trajectory.rate, params.rate_sigma)
+        try:
+            search = find_line(votes.sample, data.vote_clock, votes.dist, params.delta, params.p, options.r_min, params.seed, prior=prior, apart=_radius_frames(data))
+        except ValueError as exc:
+            raise SyncError(f"camera {data.name}: {exc} ({len(votes)} votes)") from None
+        start = np.zeros(len(track), dtype=bool)
+        start[np.searchsorted(track.frame, votes.frame[search.inliers].astype(np.int64))] = True
+        flags, warnings = [], []
+        refinement = None
+        try:
+            refinement = _refine(data, PiecewiseTrajectory(trajectory), search.alpha, search.beta, start, options, prior)
+        except ValueError as exc:
+            warnings.append(f"refinement not possible ({exc}); using the line-search line")
+        if refinement is not None:
+            reason = _disagreement(refinement, search, data, params.delta)
+            if not refinement.converged:
+                reason = f"refinement did not converge ({refinement.message})"
+            if reason:
+                warnings.append(f"{reason}; using the line-search line")
+        fallback = bool(warnings)
+        budget = None
+        if fallback or refinement is None:
+            alpha, beta = search.alpha, search.beta
+            cov = _line_search_cov(search, votes.sample[search.inliers])
+            if refinement is not None:  # the two fits disagree: either may be right, the interval spans both
+                gap = np.array([refinement.alpha - search.alpha, refinement.beta - search.beta])
+                cov = cov + np.outer(gap, gap)
+        else:
+            alpha, beta, cov = refinement.alpha, refinement.beta, refinement.cov
+            budget = error_budget(refinement, data.track_clock, np.zeros((2, 2)))
+        if search.support < FEW_INLIER_FRAMES:
+            flags.append("few_inliers")
+        if refinement is not None and refinement.perpendicular < ALONG_RAY:
+            flags.append("along_ray")
+        rival = search.rival or (None, None)
+        summary = LineSearchSummary(search.alpha, search.beta, search.support, search.runner_up, search.thinned, search.hypotheses, *rival)
+        refinement_summary = None
+        if refinement is not None:
+            refinement_summary = RefinementSummary(refinement.frames_used, refinement.scale_px, refinement.perpendicular, refinement.converged)
+        on_line = int((distance_to_line(votes.sample, data.vote_clock, alpha, beta) <= params.delta).sum())  # as the voting chart counts them
+        return data.line(
+            alpha,
+            beta,
+            on_line,
+            search.residual_rms,
+            cov=cov,
+            flags=tuple(flags),
+            warnings=tuple(warnings),
+            refined=not fallback,
+            line_search=summary,
+            refinement=refinement_summary,
+            budget=budget,
+        )
+
+    def refine_with_log_bias(
+        self, cameras: dict[str, CameraData], lines: dict[str, CameraLine], trajectory: Trajectory, params: SyncParams, options: RefinedParams, model: LogModel
+    ) -> tuple[dict[str, CameraLine], LogBias | None]:
+        """Every camera's line refined together with the log's bias (sync/solve/log_bias.py), their intervals including it.
+
+        Cameras whose own refinement was not kept (a fallback) keep their line.
+        A camera whose refinement on the corrected log loses its frames or
+        does not converge (the estimate made its line slide) leaves the joint
+        fit, which is redone with the others; it keeps its own line, its
+        interval grown by the bias at its prior. When no camera's line
+        survives, the lines stay as they were and the bias is at its prior.
+        """
+        path = PiecewiseTrajectory(trajectory)
+        own: dict[str, Refinement] = {}
+        for name, line in lines.items():
+            if line.refined:
+                data = cameras[name]
+                try:
+                    start = _near_line(data, path, line.alpha, line.beta, GATE_EPS * data.eps_px)
+                    own[name] = _refine(data, path, line.alpha, line.beta, start, options, slope_prior(data.fps, trajectory.rate, params.rate_sigma))
+                except ValueError:
+                    continue
+        if not own or trajectory.rate is None:
+            return lines, None
+        rate = trajectory.rate
+        joint = {n: _bias_camera(cameras[n], path, r, options.f_scale_px, slope_prior(cameras[n].fps, rate, params.rate_sigma)) for n, r in own.items()}
+        kept, again = list(own), {}
+        while kept:
+            bias = fit_log_bias_measured([joint[n] for n in kept], path, rate, model, options.f_scale_px)
+            again = _refit_on_corrected(cameras, {n: own[n] for n in kept}, bias, trajectory, params, options) if bias.converged else {}
+            if len(again) == len(kept):
+                break
+            kept = list(again)
+        at_prior = bias if len(again) == len(own) else fit_log_bias(list(joint.values()), path, rate, bias.model, options.f_scale_px, estimate=False)
+        if not again:
+            bias = at_prior
+        out = dict(lines)
+        for name, r in own.items():
+            fit, source = (again[name], bias) if name in again else (r, at_prior)
+            middle = _visit_middle(cameras[name].track_clock[fit.used], fit.alpha, fit.beta)
+            estimate, se = source.at(np.array([middle]))[0], source.std_at(middle)
+            out[name] = replace(
+                lines[name],
+                alpha=fit.alpha,
+                beta=fit.beta,
+                cov=fit.cov + source.line_cov(name, name),
+                budget=error_budget(fit, cameras[name].track_clock, source.line_cov(name, name)),
+                log_bias=LogBiasSummary(tuple(map(float, estimate)), tuple(map(float, se)), source.observability(middle)),  # type: ignore[arg-type]
+            )
+        return out, bias
+
+
+def _refit_on_corrected(
+    cameras: dict[str, CameraData], own: dict[str, Refinement], bias: LogBias, trajectory: Trajectory, params: SyncParams, options: RefinedParams
+) -> dict[str, Refinement]:
+    """Each camera's refinement on the log corrected by the bias, from its joint line: the cameras whose refit converged
+    and kept at least SUPPORT_KEPT of its frames."""
+    corrected = PiecewiseTrajectory(replace(trajectory, xyz=trajectory.xyz + bias.at(trajectory.sample)))
+    out = {}
+    for name, r in own.items():
+        data = cameras[name]
+        try:
+            refit = _refine(data, corrected, *bias.lines[name], r.used, options, slope_prior(data.fps, trajectory.rate, params.rate_sigma))
+        except ValueError:
+            continue
+        if refit.converged and refit.frames_used >= SUPPORT_KEPT * r.frames_used:
+            out[name] = refit
+    return out
+
+
+def _refine(data: CameraData, path: PiecewiseTrajectory, alpha: float, beta: float, start: np.ndarray, options: RefinedParams, prior: SlopePrior | None) -> Refinement:
+    """The camera's refinement from a line and the frames it starts from (refine.refine_line with the method's settings)."""
+    track = data.track
+    box = None if track.w is None or track.h is None else np.column_stack([track.w, track.h])
+    return refine_line(data.camera, data.track_clock, track.xy, path, alpha, beta, start, options.f_scale_px, GATE_EPS * data.eps_px, options.model_error_px, prior, box)
+
+
+def _radius_frames(data: CameraData) -> float:
+    """How many frames the vote radius spans along the target's image path (median image speed over consecutive tracked
+    frames): a line within that of the best is the same answer seen through a wide radius, not a rival."""
+    track = data.track
+    step = np.diff(track.frame)
+    moved = np.linalg.norm(np.diff(track.xy, axis=0), axis=1)
+    consecutive = step == 1
+    if consecutive.sum() < MIN_SPEED_FRAMES:
+        return 0.0
+    speed = float(np.median(moved[consecutive]))
+    return float(min(data.eps_px / max(speed, 1e-6), MAX_APART_FRAMES))
+
+
+def _near_line(data: CameraData, path: PiecewiseTrajectory, alpha: float, beta: float, gate_px: float) -> np.ndarray:
+    """Which tracked frames lie within gate_px of the path projected under the line."""
+    s = (data.track_clock - beta) / alpha
+    run = path.run_of(s)
+    on = np.flatnonzero(run >= 0)
+    uv, valid = data.camera.project(path(s[on], run[on]))
+    near = np.zeros(len(s), bool)
+    near[on[valid]] = np.linalg.norm(uv[valid] - data.track.xy[on[valid]], axis=1) <= gate_px
+    return near
+
+
+def _visit_middle(clock: np.ndarray, alpha: float, beta: float) -> float:
+    """The sample at the middle clock value of the frames used."""
+    return (float(np.median(clock)) - beta) / alpha
+
+
+def error_budget(refinement: Refinement, clock: np.ndarray, log_cov: np.ndarray) -> ErrorBudget:
+    """Tracking, calibration and log parts of a camera's clock uncertainty (std, frames) at the middle of the frames the refinement used.
+
+    log_cov: the part of the (alpha, beta) covariance the log's bias adds (zeros without a bias model).
+    """
+    middle = _visit_middle(clock[refinement.used], refinement.alpha, refinement.beta)
+    g = np.array([middle, 1.0])
+
+    def std(cov: np.ndarray) -> float:
+        return float(np.sqrt(max(g @ cov @ g, 0.0)))
+
+    return ErrorBudget(std(refinement.cov - refinement.cov_model), std(refinement.cov_model), std(log_cov))
+
+
+def _bias_camera(data: CameraData, path: PiecewiseTrajectory, refinement: Refinement, f_scale: float, prior: SlopePrior | None) -> BiasCamera:
+    """The frames a camera's refinement used, as the joint fit with the log's bias takes them."""
+    clock, xy = data.track_clock[refinement.used], data.track.xy[refinement.used]
+    s = (clock - refinement.beta) / refinement.alpha
+    run = path.run_of(s)
+    weight = np.ones(len(s))
+    on = run >= 0
+    weight[on] = sigma_weights(data.camera, path, s[on], run[on], f_scale)
+    return BiasCamera(data.name, data.camera, clock, xy, weight, refinement.alpha, refinement.beta, refinement.cov, prior)
+
+
+def _disagreement(refinement: Refinement, search: LineSearch, data: CameraData, delta: float) -> str:
+    """Why the refined line cannot be trusted over the line-search one, or ''.
+
+    The refined line must keep at least SUPPORT_KEPT of the distinct frames
+    whose votes lie within 4 delta of the line-search line: a refinement
+    that slid to another pass of the path loses them. (Comparing the lines'
+    ends against the refinement's standard error rejected good refinements
+    when the line search's few inliers left its slope loose.)
+    """
+    votes = data.votes
+
+    def near(alpha: float, beta: float) -> int:
+        return np.unique(votes.frame[distance_to_line(votes.sample, data.vote_clock, alpha, beta) <= 4 * delta]).size
+
+    before, after = near(search.alpha, search.beta), near(refinement.alpha, refinement.beta)
+    if after < SUPPORT_KEPT * before:
+        return f"refined line keeps {after} of the {before} frames whose votes support the line search"
+    return ""
+
+
+def _line_search_cov(search: LineSearch, inlier_samples: np.ndarray) -> np.ndarray:
+    """Covariance of the line-search line: least squares with the inliers' residual spread.
+
+    Conservative floor: residuals of at least delta / sqrt(3) (uniform within the band).
+    """
+    if len(inlier_samples) < 3:
+        return np.full((2, 2), np.inf)
+    design = np.column_stack([inlier_samples, np.ones(len(inlier_samples))])
+    sigma2 = max(search.residual_rms**2, 0.5**2 / 3)
+    try:
+        return sigma2 * np.linalg.inv(design.T @ design)
+    except np.linalg.LinAlgError:
+        return np.full((2, 2), np.inf)

@@ -1,0 +1,209 @@
+"""How probable a rival line is against the best one, on all of a camera's evidence with the log's bias absorbed.
+
+The line search reports its best line and the best line without its votes
+(a rival). With a wide vote radius (a metre-level log) a single pass leaves
+a blob of votes that holds more than one line, so support alone cannot tell
+a second pass from the first seen through a wide radius. Here each line is
+judged by how well it explains the whole track: under the line
+clock = alpha x sample + beta, each tracked frame's sample is the logged
+path's point; that point, moved by a bias of the log, is projected and
+compared with the tracked position. The bias is what the log's error model
+allows (sync/model/log_model.py): a Gauss-Markov bias, so over the visit a
+constant b0 (std sigma per axis) plus a drift b1 x (t - t_mid) / T (the
+change over the visit's length T: std sigma sqrt(2 (1 - exp(-T / tau)))).
+It is fitted for each line (Gauss-Newton, iteratively reweighted), with its
+prior; so are a few intercepts around each line (the band the vote radius
+spans: the line search's line is only as close as its votes).
+
+The track's frames are grouped in blocks of BLOCK_S seconds (at least one
+interval between two fixes of the log): frames of a block share the log's
+white error and the tracker's, so a block counts once. A block's mean
+residual scores a Student-t loss at the scale the better line's blocks show
+(robust, at least MIN_SCALE_PX): the image positions, the target's image
+speed and direction along the path all enter, since a line that maps the
+track onto the wrong part of the path cannot be bent onto it by a bias that
+moves slowly. A block a line maps outside the log costs the loss at
+OUTSIDE_Z scales. The rival's probability is that of the paired blocks'
+loss differences (rival minus best, plus the two bias priors' difference)
+having a mean below zero: Phi(-sum / (sd x sqrt(blocks))). A sum over
+independent blocks would be the log of the likelihood ratio, but two
+stretches of a log walked alike carry independent white errors, and their
+ratio swings by several units when neither line is better; the paired
+spread measures that swing, so two passes alike stay near 1/2 and a rival
+that misses the track block after block goes to 0.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from calibration.camera import Camera
+from tlsync_pipeline.sync.model.log_model import LogModel
+from tlsync_pipeline.trajectory import PiecewiseTrajectory
+
+BLOCK_S = 1.0  # seconds of the camera's clock a block of frames spans (at least one fix interval of the log)
+BLOCK_FRAMES = 30  # the same for a camera of unknown fps
+STUDENT_DOF = 4.0  # degrees of freedom of the blocks' Student-t loss: a few blocks off (a tracker slip) cost little
+MIN_SCALE_PX = 1.0  # the blocks' scale is never taken below this (pixels)
+OUTSIDE_Z = 6.0  # a block the line maps outside the log costs the loss of a residual this many scales long
+BIAS_FLOOR_M = (1.0, 2.0)  # horizontal and vertical bias std allowed at least, whatever the model (an undeclared log)
+MIN_BLOCKS = 3  # fewer blocks than this tell nothing: the rival keeps half the posterior
+PROFILE_STEPS = 9  # intercepts tried on each side of a line, across the band of its votes
+IRLS_ROUNDS = 4
+JACOBIAN_STEP_M = 0.01
+
+
+@dataclass(frozen=True)
+class LineScore:
+    """A line's fit to the track: its intercept after the profile, its score (the blocks' losses and the bias prior's
+    -log density), the log's bias fitted at the visit's middle (the logged point minus the target's, metres, ENU) and the
+    blocks' median residual (pixels)."""
+
+    beta: float
+    score: float
+    bias_m: tuple[float, float, float]
+    median_px: float
+
+
+@dataclass(frozen=True)
+class RivalOdds:
+    """The best line's and the rival's scores, and the rival's posterior probability (equal prior odds)."""
+
+    best: LineScore
+    rival: LineScore
+    rival_probability: float
+
+
+def bias_sigmas(model: LogModel) -> np.ndarray:
+    """(3,) std of the log's bias per ENU axis (metres): the model's, at least BIAS_FLOOR_M."""
+    return np.array([max(model.bias_m, BIAS_FLOOR_M[0])] * 2 + [max(model.bias_vertical_m, BIAS_FLOOR_M[1])])
+
+
+def rival_odds(
+    camera: Camera,
+    clock: np.ndarray,
+    xy: np.ndarray,
+    path: PiecewiseTrajectory,
+    best: tuple[float, float],
+    rival: tuple[float, float],
+    model: LogModel,
+    fps: float | None,
+    rate: float | None,
+    band_frames: float,
+) -> RivalOdds:
+    """The two lines (alpha, beta) on the camera's track (clock: each tracked frame's clock value; xy: its pixels).
+
+    band_frames: half the width (clock units) of the band of votes one line
+    spans: each line's intercept is profiled over +-band_frames.
+    """
+    clock = np.asarray(clock, dtype=np.float64)
+    xy = np.asarray(xy, dtype=np.float64)
+    per_block = BLOCK_S * fps if fps else BLOCK_FRAMES
+    if fps and rate:
+        per_block = max(per_block, fps / rate)  # at least one interval between fixes
+    block = np.floor((clock - clock.min()) / per_block).astype(np.int64)
+    block = np.unique(block, return_inverse=True)[1].ravel()
+    seconds = (clock - np.median(clock)) / fps if fps else None
+    span = float(np.ptp(seconds)) if seconds is not None else 0.0
+    sigma = bias_sigmas(model)
+    drift = sigma * math.sqrt(2.0 * (1.0 - math.exp(-span / model.tau_s))) if seconds is not None and span > 0 else np.zeros(3)
+    prior = np.r_[sigma, np.maximum(drift, 1e-6)]
+    context = _Context(camera, path, clock, xy, block, None if seconds is None else seconds / max(span, 1e-9), prior)
+    fits = [context.profile(alpha, beta, band_frames) for alpha, beta in (best, rival)]
+    scale = max(MIN_SCALE_PX, min(f.scale for f in fits))
+    (best_score, best_loss), (rival_score, rival_loss) = (context.score(f, scale) for f in fits)
+    difference = rival_loss - best_loss
+    prior = (rival_score.score - float(rival_loss.sum())) - (best_score.score - float(best_loss.sum()))
+    spread = float(np.std(difference, ddof=1)) * math.sqrt(len(difference)) if len(difference) >= MIN_BLOCKS else 0.0
+    if spread <= 0.0:
+        return RivalOdds(best_score, rival_score, 0.5)
+    probability = 0.5 * math.erfc((float(difference.sum()) + prior) / spread / math.sqrt(2.0))
+    return RivalOdds(best_score, rival_score, probability)
+
+
+@dataclass(frozen=True)
+class _Fit:
+    beta: float
+    residual: np.ndarray  # (B, 2) block mean residuals (pixels), NaN for blocks outside the log
+    bias: np.ndarray  # (6,) b0 then b1
+    scale: float  # robust scale of the inside blocks' residuals
+
+
+class _Context:
+    """One camera's track and the log's path, for scoring lines."""
+
+    def __init__(self, camera, path, clock, xy, block, u, prior):
+        self.camera, self.path, self.clock, self.xy, self.block, self.u, self.prior = camera, path, clock, xy, block, u, prior
+        self.blocks = int(block.max()) + 1
+        self.count = np.bincount(block, minlength=self.blocks).astype(np.float64)
+
+    def profile(self, alpha: float, beta: float, band: float) -> _Fit:
+        """The intercept within +-band of beta whose bias-corrected fit has the least loss at its own scale."""
+        fits = [self.fit(alpha, b) for b in beta + np.linspace(-band, band, 2 * PROFILE_STEPS + 1)]
+        return min(fits, key=lambda f: self.score(f, max(MIN_SCALE_PX, f.scale))[0].score if np.isfinite(f.scale) else np.inf)
+
+    def _mean(self, values: np.ndarray) -> np.ndarray:
+        """Per-block mean of per-frame rows."""
+        out = np.zeros((self.blocks, values.shape[1]))
+        for k in range(values.shape[1]):
+            out[:, k] = np.bincount(self.block, values[:, k], minlength=self.blocks)
+        return out / self.count[:, None]
+
+    def fit(self, alpha: float, beta: float) -> _Fit:
+        """The bias (b0, b1) of the line fitted by iteratively reweighted Gauss-Newton with its prior."""
+        s = (self.clock - beta) / alpha
+        run = self.path.run_of(s)
+        inside = run >= 0
+        if inside.sum() < 2:
+            return _Fit(beta, np.full((self.blocks, 2), np.nan), np.zeros(6), np.inf)
+        point = np.full((len(s), 3), np.nan)
+        point[inside] = self.path(s[inside], run[inside])
+        u = np.zeros(len(s)) if self.u is None else self.u
+        bias = np.zeros(6)
+        weight = np.ones(self.blocks)
+        block_inside = np.bincount(self.block[inside], minlength=self.blocks) == self.count
+        residual = np.full((self.blocks, 2), np.nan)
+        scale = np.inf
+        for _ in range(IRLS_ROUNDS):
+            moved = point + bias[:3] + u[:, None] * bias[3:]  # the log corrected: bias is minus the log's error
+            uv, valid = self.camera.project(np.nan_to_num(moved))
+            r = self.xy - uv
+            ok = block_inside & (np.bincount(self.block[valid & inside], minlength=self.blocks) == self.count)
+            jac = np.zeros((len(s), 2, 6))
+            for a in range(3):
+                step = np.zeros(3)
+                step[a] = JACOBIAN_STEP_M
+                plus, _ = self.camera.project(np.nan_to_num(moved) + step)
+                d = (plus - uv) / JACOBIAN_STEP_M
+                jac[:, :, a] = d
+                jac[:, :, 3 + a] = d * u[:, None]
+            residual = np.where(ok[:, None], self._mean(np.nan_to_num(r)), np.nan)
+            if ok.sum() < 2:
+                return _Fit(beta, residual, bias, np.inf)
+            scale = _robust_scale(residual[ok])
+            j_block = self._mean(np.nan_to_num(jac.reshape(len(s), 12))).reshape(self.blocks, 2, 6)[ok]
+            z2 = np.sum(residual[ok] ** 2, axis=1) / max(scale, MIN_SCALE_PX) ** 2
+            weight = (STUDENT_DOF + 2.0) / (STUDENT_DOF + z2) / max(scale, MIN_SCALE_PX) ** 2
+            normal = np.einsum("b,bij,bik->jk", weight, j_block, j_block) + np.diag(1.0 / self.prior**2)
+            rhs = np.einsum("b,bij,bi->j", weight, j_block, residual[ok]) - bias / self.prior**2
+            bias = bias + np.linalg.solve(normal, rhs)
+        return _Fit(beta, residual, bias, scale)
+
+    def score(self, fit: _Fit, scale: float) -> tuple[LineScore, np.ndarray]:
+        """The line's score and each block's loss: the Student-t loss of its residual at ``scale``, OUTSIDE_Z scales for
+        a block outside the log; the score adds the bias prior's -log density."""
+        inside = np.isfinite(fit.residual[:, 0])
+        z2 = np.where(inside, np.sum(np.nan_to_num(fit.residual) ** 2, axis=1) / scale**2, OUTSIDE_Z**2)
+        loss = 0.5 * (STUDENT_DOF + 2.0) * np.log1p(z2 / STUDENT_DOF)
+        prior = 0.5 * float(np.sum((fit.bias / self.prior) ** 2))
+        median = float(np.median(np.linalg.norm(fit.residual[inside], axis=1))) if inside.any() else float("inf")
+        bias = (-float(fit.bias[0]), -float(fit.bias[1]), -float(fit.bias[2]))
+        return LineScore(fit.beta, float(loss.sum()) + prior, bias, median), loss
+
+
+def _robust_scale(residual: np.ndarray) -> float:
+    """Per-axis std of 2-D residuals from their median length (Rayleigh: median = sigma sqrt(2 ln 2))."""
+    return float(np.median(np.linalg.norm(residual, axis=1)) / math.sqrt(2.0 * math.log(2.0)))

@@ -1,0 +1,451 @@
+"""Synchronization of cameras against the target: votes, each camera's line, the timeline.
+
+The same for every sync method (``[sync] method``, sync/solve/registry.py): the
+method prepares the trajectory (sync/model/methods.prepare_trajectory); the votes are cast
+on that trajectory (``cast_votes``: the vote stage writes these to
+votes.npz, the sync stage passes them back in); each camera's votes are put
+on its clock (sync/model/clock.py) and the method fits the line. A camera that
+brings every mover (detections) instead of a track has its target
+identified among them first (sync/identify/identify.py); its line is then fitted on
+the identified track's votes (in the pipeline the identify stage writes that
+track, and votes.npz holds its votes). A camera without a pose gets it from
+the target before anything else (sync/pose/pose.py; in the pipeline, the
+calibrate stage).
+
+Pure functions from typed values to typed values; no file I/O here.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import asdict, dataclass, replace
+
+import numpy as np
+
+from calibration.camera import Camera
+from tlsync_pipeline.errors import SyncError
+from tlsync_pipeline.sync.identify.breaks import identify_in_segments, segment_reasons, with_vote_break
+from tlsync_pipeline.sync.model.clock import FrameTimes, Segment, camera_clock, image_speed
+from tlsync_pipeline.sync.identify.identify import Identification, identify_params
+from tlsync_pipeline.sync.model.log_model import PRESETS, LogModel
+from tlsync_pipeline.sync.vote.log_error import measured, vote_radius
+from tlsync_pipeline.sync.solve.methods import CameraData, CameraInput, JointMethod
+from tlsync_pipeline.sync.model.methods import method_options, params_table, prepare_trajectory, preparation_of
+from tlsync_pipeline.sync.model.params import SyncParams
+from tlsync_pipeline.sync.solve.causes import explain
+from tlsync_pipeline.sync.kernels.backward import BACKWARD_BELOW, backward_support, line_support
+from tlsync_pipeline.sync.solve.plausibility import RIVAL_PROBABILITY, Judged, diagnose, judge_line, motion_slope, rival_odds_of
+from tlsync_pipeline.sync.pose.pose import TargetPose, estimate_pose, pose_info
+from tlsync_pipeline.sync.identify.segments import MAX_WHOLE, MIN_SEGMENT_FRAMES, fit_segments, whole_frames
+from tlsync_pipeline.sync.solve.registry import get_method
+from tlsync_pipeline.sync.kernels.slope import slope_prior
+from tlsync_pipeline.sync.model.status import AMBIGUOUS, FAILED, Reason, diagnosed_failure
+from tlsync_pipeline.sync.timeline import CameraLine, Timeline
+from tlsync_pipeline.sync.vote.votes import Votes, compute_votes
+from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
+from trackers.track import Track
+
+__all__ = ["CameraInput", "CameraResult", "cast_votes", "identify_and_synchronize", "synchronize", "synchronize_camera"]
+
+
+@dataclass(frozen=True)
+class CameraResult:
+    """One camera's votes (frame indices) and fitted line; identification: how its target was found among every mover, or None;
+    pose: the pose from the target of a camera that had none, or None."""
+
+    votes: Votes
+    line: CameraLine
+    identification: Identification | None = None
+    pose: TargetPose | None = None
+
+    def track(self, inputs: CameraInput) -> Track | None:
+        """The track the line was fitted to: the identified one, or the camera's own."""
+        return self.identification.track if self.identification is not None else inputs.track
+
+
+def cast_votes(camera: Camera, track: Track, prepared: Trajectory, eps_px: float) -> Votes:
+    """One camera's votes on the prepared trajectory (eq. 3); SyncError when there is none."""
+    return compute_votes(camera, track, prepared, eps_px)
+
+
+def synchronize_camera(name: str, inputs: CameraInput, votes: Votes, prepared: Trajectory, params: SyncParams, eps_px: float | None = None) -> CameraResult:
+    """The fitted line of one camera from its votes; SyncError if it cannot be synchronized.
+
+    eps_px: the camera's vote radius (log_error.vote_radius; None: [sync] eps_px).
+    """
+    track = inputs.track
+    assert track is not None, "a camera without a track is identified first (identify_and_synchronize)"
+    return CameraResult(votes, get_method(params.method).fit(camera_data(name, inputs, votes, eps_px or params.eps_px), prepared, params, method_options(params)))
+
+
+def camera_data(name: str, inputs: CameraInput, votes: Votes, eps_px: float, segments: tuple[Segment, ...] = ()) -> CameraData:
+    """One camera with a track as a sync method sees it: its track and votes on its clock (with the segments' shifts:
+    every frame of the track and the votes in a segment of known shift)."""
+    track = inputs.track
+    assert track is not None, "a camera without a track is identified first (identify_and_synchronize)"
+    clock = replace(camera_clock(track, inputs.fps), segments=segments)
+    times = FrameTimes.of_track(track)
+    return CameraData(
+        name=name,
+        camera=inputs.camera,
+        track=track,
+        fps=clock.fps if clock.fps is not None else inputs.fps,
+        votes=votes,
+        clock=clock,
+        track_clock=clock.clock_at(track.frame, times),
+        vote_clock=clock.clock_at(votes.frame, times),
+        eps_px=eps_px,
+    )
+
+
+def identify_and_synchronize(name: str, inputs: CameraInput, prepared: Trajectory, params: SyncParams, eps_px: float | None = None) -> CameraResult:
+    """A camera that brings every mover: the target identified among them, then its line fitted on the identified track's votes."""
+    assert inputs.detections is not None, "a camera without a track brings every mover"
+    radius = eps_px or params.eps_px
+    found, breaks = identify_in_segments(inputs.camera, inputs.detections, prepared, inputs.fps, replace(identify_params(params), eps_px=radius), breaks=inputs.breaks)
+    identified = CameraInput(inputs.camera, found.track, inputs.fps, breaks=breaks)
+    result = synchronize_camera(name, identified, cast_votes(inputs.camera, found.track, prepared, radius), prepared, params, radius)
+    return CameraResult(result.votes, replace(result.line, identification=found.summary()), found)
+
+
+def _pose_from_target(camera: Camera) -> bool:
+    """Whether the camera's pose was fitted to the target (camera.json's pose source "target" or "gcp+target")."""
+    return camera.pose_info is not None and "target" in camera.pose_info.source
+
+
+def with_log_noise(trajectory: Trajectory, model: LogModel) -> Trajectory:
+    """The trajectory with the model's white noise as every sample's sigma, when the log states none."""
+    if trajectory.sigma is not None or model.white_m <= 0:
+        return trajectory
+    return replace(trajectory, sigma=np.full(len(trajectory), model.white_m))
+
+
+def posed(inputs: CameraInput, prepared: Trajectory, params: SyncParams, log_model: LogModel = PRESETS["none"]) -> tuple[CameraInput, TargetPose]:
+    """The camera's inputs with its pose from the target (its ``gcps`` as a prior; the log's error model in the fit),
+    and that pose; PoseError when it is not determined."""
+    pose, _ = estimate_pose(inputs.camera, inputs.track, inputs.detections, prepared, inputs.fps, identify_params(params), inputs.gcps, log_model=log_model)
+    sigma = None if prepared.sigma is None else float(np.median(prepared.sigma))
+    if log_model.has_bias:
+        sigma = max(sigma or 0.0, log_model.horizontal_m)
+    camera = replace(pose.camera, name=inputs.camera.name, fps=inputs.camera.fps, pose_info=pose_info(pose, sigma))
+    return replace(inputs, camera=camera), pose
+
+
+def with_pose_line(line: CameraLine, pose: TargetPose) -> CameraLine:
+    """The line of the pose fit from the target, with its covariance, under a log with a bias: the pose absorbed the
+    bias's mean over the visit, and the pose fit, free to move pose and timing together, counts the log's wander as
+    the error shared by blocks of frames; the line the votes give under that pose held fixed is pulled by the wander
+    alone (on drone2 under a drone's GNSS, 4-28 frames off where the pose fit was within 0.3-9). Unchanged when the
+    pose fit has no finite covariance of its line."""
+    cov = pose.fit.line_cov
+    if cov is None or not np.isfinite(cov).all():
+        return line
+    return replace(line, alpha=pose.fit.alpha, beta=pose.fit.beta, cov=np.array(cov, dtype=np.float64))
+
+
+def synchronize(
+    cameras: dict[str, CameraInput],
+    trajectory: Trajectory,
+    params: SyncParams,
+    votes: Mapping[str, Votes | SyncError] | None = None,
+    log_model: LogModel = PRESETS["none"],
+) -> tuple[Timeline, dict[str, CameraResult]]:
+    """The timeline of all cameras that can be synchronized.
+
+    votes: each camera's votes as the vote stage cast them (cast_votes on
+    prepare_trajectory's output with each camera's vote_radius), or the
+    SyncError it met; None: cast here. log_model: what is known of the log's
+    error (sync/model/log_model.py): it widens each camera's vote radius and, with
+    a bias and a method that can (the refined one), the lines are fitted
+    together with the bias, their intervals including what it leaves
+    uncertain. Every line is first checked against its camera's evidence
+    (sync/solve/plausibility.py): a line the checks contradict, or with a rival as
+    strong, is not synchronized (``Timeline.rejected``) and takes no part in
+    the joint fit. Cameras that cannot be synchronized are listed in
+    ``Timeline.failed`` with the reason; a camera whose fit raises anything
+    else fails alone. Raises LogUnitError (an InputError) when every
+    camera's evidence says the log is not in seconds or metres.
+    """
+    declared, log_model = log_model, measured(log_model, trajectory)
+    prepared = with_log_noise(prepare_trajectory(trajectory, preparation_of(params)), log_model)
+    path = PiecewiseTrajectory(prepared)
+    results: dict[str, CameraResult] = {}
+    failed: dict[str, str] = {}
+    judged: dict[str, Judged] = {}
+    radius: dict[str, float] = {}
+    used: dict[str, CameraInput] = {}
+    for name, inputs in cameras.items():
+        prior = slope_prior(inputs.fps, trajectory.rate, params.rate_sigma)
+        try:
+            cast = votes[name] if votes is not None else None
+            if isinstance(cast, SyncError):
+                raise cast
+            pose = None
+            if not inputs.camera.posed:
+                inputs, pose = posed(inputs, prepared, params, log_model)
+            used[name] = inputs
+            radius[name] = vote_radius(inputs.camera, prepared, params.eps_px, log_model)
+            if inputs.track is None:
+                result = identify_and_synchronize(name, inputs, prepared, params, radius[name])
+            else:
+                cast = cast if cast is not None else cast_votes(inputs.camera, inputs.track, prepared, radius[name])
+                if inputs.pick_start_s is not None:
+                    cast = picked_votes(name, inputs, cast, trajectory.rate, radius[name])
+                result = synchronize_camera(name, inputs, cast, prepared, params, radius[name])
+                if inputs.pick_start_s is not None:
+                    result = replace(result, line=replace(result.line, flags=(*(result.line.flags or ()), "picked")))
+            inputs, result = _segmented(name, inputs, result, prepared, params, radius[name])
+            if pose is not None and log_model.has_bias:
+                result = replace(result, line=with_pose_line(result.line, pose))
+            results[name], judged[name] = _judge(name, inputs, replace(result, pose=pose), path, params, prior, radius[name], log_model, trajectory.rate)
+            search = results[name].line.line_search
+            if cameras[name].track is not None and search is not None and search.rival_probability is not None and search.rival_probability > 1.0 - RIVAL_PROBABILITY:
+                result = _the_rival(name, inputs, results[name], prepared, params, radius[name])
+                if pose is not None and log_model.has_bias:
+                    result = replace(result, line=with_pose_line(result.line, pose))
+                results[name], judged[name] = _judge(name, inputs, replace(result, pose=pose), path, params, prior, radius[name], log_model, trajectory.rate)
+        except SyncError as exc:
+            failed[name] = str(exc)
+            judged[name] = _unjudged(inputs, prior)
+        except (ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
+            failed[name] = f"camera {name}: the fit failed ({type(exc).__name__}: {exc})"
+            judged[name] = _unjudged(inputs, prior)
+    found = diagnose(judged, prepared, params.eps_px)  # first: the log's units, which explain everything else
+    found = {**explain(judged, prepared, params.eps_px, params.logged_point_above_m), **found}
+    for name in failed.keys() & found.keys():
+        failed[name] = diagnosed_failure(name, found[name], failed[name])
+    lines, rejected = {}, {}
+    for name, result in results.items():
+        line = result.line
+        if name in found:  # the cause found comes first: its remedy is the camera's
+            line = replace(line, checks=(found[name], *(line.checks or ())))
+        stopping = [r.text for r in line.checks or () if r.severity in (AMBIGUOUS, FAILED)]
+        if stopping:
+            rejected[name] = line
+            failed[name] = f"camera {name}: " + "; ".join(stopping)
+        else:
+            lines[name] = line
+    shared: dict[str, np.ndarray] = {}
+    fitted_model, estimate = log_model, None
+    method = get_method(params.method)
+    # A camera whose pose comes from the target absorbed the log's bias during its visit in that pose: it stays out.
+    surveyed = {name: results[name] for name in lines if not _pose_from_target(used[name].camera)}
+    if params.log_bias and log_model.has_bias and isinstance(method, JointMethod) and surveyed:
+        data = {name: camera_data(name, replace(used[name], track=r.track(used[name])), r.votes, radius[name]) for name, r in surveyed.items()}
+        fitted, bias = method.refine_with_log_bias(data, {n: lines[n] for n in surveyed}, prepared, params, method_options(params), log_model)
+        lines = {**lines, **fitted}
+        if bias is not None:
+            fitted_model, estimate = bias.model, bias.estimate
+            names = [n for n in lines if n in bias.sensitivity]
+            shared = {f"{a}|{b}": bias.line_cov(a, b) for i, a in enumerate(names) for b in names[i + 1 :]}
+    timeline = Timeline(
+        lines,
+        trajectory.rate,
+        trajectory.t0,
+        method=params.method,
+        params=params_table(params),
+        failed={name: failed[name] for name in cameras if name in failed},
+        rejected=rejected,
+        shared_cov=shared,
+        log_model=_log_error(fitted_model, declared, estimate),
+    )
+    return timeline, results
+
+
+PICK_BAND_S = 0.5  # a picked line keeps the votes within this many seconds of it (at least one pass's band)
+
+
+def picked_votes(name: str, inputs: CameraInput, votes: Votes, rate: float | None, radius_px: float) -> Votes:
+    """The camera's votes near the line the user picked (``CameraInput.pick_start_s``: the log's time, seconds after its
+    first fix, at the video's first frame; slope fps / rate): ``votes_near`` that line. SyncError when none is left or
+    the rates are unknown."""
+    track, start = inputs.track, inputs.pick_start_s
+    assert track is not None and start is not None
+    fps = camera_clock(track, inputs.fps).fps or inputs.fps
+    if not fps or not rate:
+        raise SyncError(f"camera {name}: pick_start_s needs the camera's fps and the log's times")
+    near = votes_near(inputs, votes, fps / rate, -fps * start, radius_px)
+    if not near.any():
+        raise SyncError(f"camera {name}: no vote near the picked start (pick_start_s = {start:g}): give one of the starts its ambiguous status names, or remove the key")
+    return Votes(votes.frame[near], votes.sample[near], votes.dist[near])
+
+
+def votes_near(inputs: CameraInput, votes: Votes, alpha: float, beta: float, radius_px: float) -> np.ndarray:
+    """Mask of the votes within PICK_BAND_S of the line clock = alpha x sample + beta, or within the band one pass's
+    votes span (the vote radius over the target's median image speed), whichever is wider."""
+    track = inputs.track
+    assert track is not None
+    clock = camera_clock(track, inputs.fps)
+    fps = clock.fps or inputs.fps or 1.0
+    times = FrameTimes.of_track(track)
+    speed = image_speed(clock.clock_at(track.frame, times), track.xy, quantile=0.5)
+    band = max(PICK_BAND_S * fps, radius_px / speed if speed else 0.0)
+    return np.abs(clock.clock_at(votes.frame, times) - alpha * votes.sample - beta) <= band
+
+
+def _the_rival(name: str, inputs: CameraInput, result: CameraResult, prepared: Trajectory, params: SyncParams, radius_px: float) -> CameraResult:
+    """The camera's line refitted on the votes near the line search's rival, which the whole track prefers beyond
+    1 - RIVAL_PROBABILITY (plausibility.rival_odds_of): the old line becomes its rival (line_search), to be weighed again."""
+    old = result.line.line_search
+    assert old is not None and old.rival_alpha is not None and old.rival_beta is not None
+    near = votes_near(inputs, result.votes, old.rival_alpha, old.rival_beta, radius_px)
+    refit = synchronize_camera(name, inputs, Votes(result.votes.frame[near], result.votes.sample[near], result.votes.dist[near]), prepared, params, radius_px)
+    search = refit.line.line_search
+    if search is None:
+        return refit
+    swapped = replace(search, runner_up_frames=old.support_frames, rival_alpha=old.alpha, rival_beta=old.beta, rival_probability=None)
+    return replace(refit, votes=result.votes, line=replace(refit.line, line_search=swapped))
+
+
+def _log_error(model: LogModel, declared: LogModel, estimate: tuple[float, float] | None) -> dict | None:
+    """timeline.json's log_error model: the model the sync used, which of its values were measured, the declared
+    preset (their prior), and the bias's marginal-likelihood estimate (recorded, not applied: fit_log_bias_measured)."""
+    if model.white_m <= 0 and not model.has_bias:
+        return None
+    prior = {k: v for k, v in asdict(declared).items() if k != "measured"}
+    record = {**asdict(model), "measured": list(model.measured), "prior": prior}
+    if estimate is not None:
+        record["estimate"] = {"bias_m": estimate[0], "tau_s": estimate[1]}
+    return record
+
+
+def _segmented(name: str, inputs: CameraInput, result: CameraResult, prepared: Trajectory, params: SyncParams, radius_px: float) -> tuple[CameraInput, CameraResult]:
+    """A camera whose recording breaks (its own breaks, or a drop its votes show) fitted as segments (sync/identify/segments.py).
+
+    The votes say which segments the target visits and their shifts to
+    within a frame or so; each such segment's line is then fitted on its own
+    frames (the method's fit, its slope held by the prior) and its shift is
+    where that line meets the best-supported segment's, at the middle of its
+    frames (a line fitted across segments of different offsets tilts, and
+    shifts measured against it miss their whole frames). The camera's line
+    is fitted again on every segment of known shift, its clock carrying
+    them; the inputs then hold the track of those segments. Unchanged
+    without a break, or when no segment's shift is known (the break's reason
+    then refuses it, sync/identify/breaks.py).
+    """
+    track = result.track(inputs)
+    assert track is not None, "a fitted camera has a track"
+    clock = camera_clock(track, inputs.fps)
+    times = FrameTimes.of_track(track)
+    votes, line = result.votes, result.line
+    vote_clock = clock.clock_at(votes.frame, times)
+    breaks = with_vote_break(inputs.breaks, votes.frame, vote_clock, votes.sample, line, params.delta)
+    inputs = replace(inputs, track=track, breaks=breaks)
+    coarse = fit_segments(breaks, track.frame, votes.frame, vote_clock, votes.sample, votes.dist, line.alpha, line.beta, params.delta, clock.vfr)
+    main = next((seg for seg in coarse if seg.source == "line"), None)
+    if main is None:
+        return inputs, replace(result, line=replace(line, breaks=breaks or None))
+    reference = _segment_line(name, inputs, votes, main, prepared, params, radius_px) or line
+    segments = tuple(_refined(seg, _segment_line(name, inputs, votes, seg, prepared, params, radius_px), reference, clock, times, track) for seg in coarse)
+    segmented = replace(clock, segments=segments)
+    keep_track = np.isfinite(segmented.clock_at(track.frame, times))
+    keep_votes = np.isfinite(segmented.clock_at(votes.frame, times))
+    kept = _track_rows(track, keep_track)
+    kept_votes = Votes(votes.frame[keep_votes], votes.sample[keep_votes], votes.dist[keep_votes])
+    data = camera_data(name, replace(inputs, track=kept), kept_votes, radius_px, segments)
+    fitted = get_method(params.method).fit(data, prepared, params, method_options(params))
+    return replace(inputs, track=kept), replace(result, votes=kept_votes, line=replace(fitted, identification=line.identification, breaks=breaks))
+
+
+def _track_rows(track: Track, rows: np.ndarray) -> Track:
+    """The track's rows ``rows`` (a boolean mask)."""
+    def kept(column: np.ndarray | None) -> np.ndarray | None:
+        return None if column is None else np.asarray(column)[rows]
+
+    return Track(track.frame[rows], track.x[rows], track.y[rows], kept(track.time_s), kept(track.w), kept(track.h), kept(track.score))
+
+
+def _segment_line(name: str, inputs: CameraInput, votes: Votes, seg: Segment, prepared: Trajectory, params: SyncParams, radius_px: float) -> CameraLine | None:
+    """The method's line through one segment's tracked frames and votes alone (steady clock); None when the segment
+    has no measured shift, too few frames, or the fit fails."""
+    track = inputs.track
+    assert track is not None, "a fitted camera has a track"
+    rows = (track.frame >= seg.start) & (track.frame < seg.stop)
+    if seg.shift is None or rows.sum() < MIN_SEGMENT_FRAMES:
+        return None
+    in_votes = (votes.frame >= seg.start) & (votes.frame < seg.stop)
+    own = Votes(votes.frame[in_votes], votes.sample[in_votes], votes.dist[in_votes])
+    try:
+        return get_method(params.method).fit(camera_data(name, replace(inputs, track=_track_rows(track, rows)), own, radius_px), prepared, params, method_options(params))
+    except (SyncError, ValueError, ArithmeticError, np.linalg.LinAlgError):
+        return None
+
+
+def _refined(seg: Segment, own: CameraLine | None, reference: CameraLine, clock, times: FrameTimes | None, track: Track) -> Segment:
+    """The segment with its shift where its own line meets the reference line at the middle of its tracked frames;
+    as it was without its own line. On a frame clock a shift of up to MAX_WHOLE frames is whole frames
+    (sync/segments.whole_frames), and one that is not close to them is unresolved (unknown): a pose error biases
+    segments seen in different parts of the image differently."""
+    if own is None or seg.source == "line":
+        return seg
+    middle = float(np.median(clock.clock_at(track.frame[(track.frame >= seg.start) & (track.frame < seg.stop)], times)))
+    sample = (middle - own.beta) / own.alpha
+    shift = reference.alpha * sample + reference.beta - middle
+    if clock.vfr or abs(shift) > MAX_WHOLE:
+        return replace(seg, shift=round(shift, 4))
+    whole = whole_frames(shift)
+    return replace(seg, shift=whole) if whole == round(whole) else replace(seg, shift=None, source="unresolved")
+
+
+CROWDED = 1.5  # voting detections per identified frame above which other movers are within the vote radius
+
+
+def _loose_identity(radius_px: float) -> Reason:
+    """AMBIGUOUS: the target was picked among movers on few frames through a log whose error covers other movers too
+    (on crowd scenes with a phone's log such picks were walkers 6-45 s off, with intervals of a second)."""
+    return Reason(
+        "ambiguous_identity",
+        AMBIGUOUS,
+        f"the target was picked among the movers on few frames, through a log whose error spans {radius_px:.0f} px: another mover may fit as well",
+        "give the tracker an init box on the target, a longer pass through the view, or a more accurate log",
+    )
+
+
+def _unjudged(inputs: CameraInput, prior) -> Judged:
+    """What ``diagnose`` knows of a camera without a line: its track, when its camera has a pose to project with."""
+    return Judged(inputs.camera, inputs.track if inputs.camera.posed else None, None, None if prior is None else prior.alpha, True)
+
+
+def _judge(
+    name: str, inputs: CameraInput, result: CameraResult, path: PiecewiseTrajectory, params: SyncParams, prior, radius_px: float, log_model: LogModel, rate: float | None
+) -> tuple[CameraResult, Judged]:
+    """The camera's result with its line checked (CameraLine.checks) at its vote radius (pixels), and what ``diagnose`` needs of it.
+
+    A rival line of the line search is weighed on the whole track under the
+    log's error model first (plausibility.rival_odds_of: its probability goes
+    into the line's line_search summary, which the rival check reads).
+
+    A line with a non-finite slope or intercept is a SyncError; a covariance
+    that is not finite or has a negative variance is dropped (no interval
+    rather than a meaningless one).
+    """
+    line = result.line
+    if not (math.isfinite(line.alpha) and math.isfinite(line.beta)) or line.alpha <= 0:
+        raise SyncError(f"camera {name}: no usable line (alpha {line.alpha:g}, beta {line.beta:g})")
+    if line.cov is not None and not (np.isfinite(line.cov).all() and (np.diag(line.cov) >= 0).all()):
+        line = replace(line, cov=None)
+    track = inputs.track if inputs.track is not None else result.identification.track  # type: ignore[union-attr]
+    clock = replace(camera_clock(track, inputs.fps), segments=line.clock.segments)
+    times = FrameTimes.of_track(track)
+    track_clock = clock.clock_at(track.frame, times)
+    fps = clock.fps if clock.fps is not None else inputs.fps
+    votes = result.votes
+    vote_clock = clock.clock_at(votes.frame, times)
+    slope = motion_slope(inputs.camera, track, track_clock, path, vote_clock, votes.sample, fps)
+    alpha_prior = None if prior is None else prior.alpha
+    thin = line.line_search.support_frames if line.line_search is not None else line_support(votes.sample, vote_clock, line.alpha, line.beta, params.delta)
+    support: tuple[int, int | None] = (thin, None)
+    if thin < BACKWARD_BELOW:  # a thin line: would the log read backwards explain the votes better?
+        support = (line_support(votes.sample, vote_clock, line.alpha, line.beta, params.delta), backward_support(votes.sample, vote_clock, votes.dist, params.delta, prior, params.seed))
+    odds = rival_odds_of(inputs.camera, track, track_clock, path, line, radius_px, fps, log_model, rate)
+    if odds is not None and line.line_search is not None:
+        line = replace(line, line_search=replace(line.line_search, rival_probability=odds.rival_probability))
+    checks = judge_line(inputs.camera, track, track_clock, path, line, radius_px, fps, alpha_prior, slope, support, rate)
+    checks = (*checks, *segment_reasons(inputs.breaks, line.clock.segments, track.frame, votes.frame, vote_clock, votes.sample, line.alpha, line.beta, params.delta))
+    others = line.identification is not None and line.identification.candidates_voting > CROWDED * line.identification.identified_frames
+    if inputs.detections is not None and radius_px > params.eps_px and "few_inliers" in (line.flags or ()) and others:
+        checks = (*checks, _loose_identity(radius_px))
+    line = replace(line, checks=checks)
+    contradicted = any(r.severity == FAILED for r in checks)
+    return replace(result, line=line), Judged(inputs.camera, track, slope, alpha_prior, contradicted)
