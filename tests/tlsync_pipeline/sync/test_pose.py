@@ -345,7 +345,7 @@ def test_a_walker_under_a_drifting_log_gets_no_pose_rather_than_a_wrong_timing(s
 
 def test_a_pose_under_a_biased_log_gives_the_line_its_fit(scene):
     """The line under a pose from the target takes the pose fit's line and covariance (the first-order propagation
-    of its (u, s0) covariance to (alpha, beta))."""
+    of its (u, s0) covariance to (alpha, beta)), its beta moved to the pose-and-bias profile's with the move counted."""
     found = from_track(scene, "cam0")
     fit = found.fit
     line = CameraLine("cam0", fit.alpha, fit.beta + 7.0, 0, 0, 0.0, cov=np.diag([1e-8, 0.25]))
@@ -355,6 +355,8 @@ def test_a_pose_under_a_biased_log_gives_the_line_its_fit(scene):
     u, ku = 1.0 / fit.alpha, fit.layout.index("u")
     assert taken.cov[0, 0] == pytest.approx(fit.cov[ku, ku] / u**4, rel=1e-9)
     assert with_pose_line(line, replace(found, fit=replace(fit, line_cov=None))) is line
+    profiled = with_pose_line(line, replace(found, bias_beta=fit.beta + 2.0))  # the pose and the log's bias fitted together
+    assert profiled.beta == fit.beta + 2.0 and profiled.cov[1, 1] == pytest.approx(fit.se_beta**2 + 4.0, rel=1e-9)
 
 
 REAL = REAL_DATA / "drone2"

@@ -100,6 +100,10 @@ TIGHT = 3.0  # median residuals of the best fit within which frames count for th
 DISTINCT_S = 1.0  # offsets further apart than this (seconds) are distinct
 LOG_GATE = 2.5  # under a metre-level log, the gate in units of the log's unabsorbed error seen in pixels
 TIMING_S = 0.5  # under a log with a bias, the largest std of a pose fit's beta (seconds): half of DISTINCT_S
+LOG_ROTATION = 4.0  # under a metre-level log on a nearly straight path, the rotation std allowed in units of the angle its error subtends
+LOG_ROTATION_CURVED = 8.0  # the same on a curved path, where the timing's std is checked too
+PROFILE_POINTS = 600  # tracked positions whose support with the log's bias fitted gives the timing (profile_beta)
+PROFILE_SIGMAS = 3  # profile_beta looks this many of the fit's beta stds either side of it
 GCP_AGREE = 3.0  # a pose agrees with the GCPs when their median error is within this many of their sigmas
 SURVEY_SUPPORT = 0.9  # a pose from GCPs and track together must explain this share of the frames the track's own pose explains
 CHI2_2_MEDIAN = 2.0 * np.log(2.0)  # median of a chi-square of 2 degrees of freedom
@@ -176,7 +180,9 @@ class TargetPose:
     free to move: (value, std, determined); gcps_used: the GCPs as the fit
     counted them (their measured sigma and weight; None: as given);
     disagreeing: the GCPs that conflict with the track (the pose is then the
-    track's alone, source ``target``).
+    track's alone, source ``target``); bias_beta: under a log with a bias, the
+    beta the pose and the log's bias fitted together explain best
+    (``profile_beta``), NaN otherwise.
     """
 
     camera: Camera
@@ -195,6 +201,7 @@ class TargetPose:
     intrinsics: dict[str, tuple[float, float, bool]] | None = None
     gcps_used: GcpPrior | None = None
     disagreeing: tuple[str, ...] = ()
+    bias_beta: float = float("nan")
 
     @property
     def support(self) -> int:
@@ -288,6 +295,8 @@ def pose_from_track(
         if free:
             result = _settle_intrinsics(result, clock, xy, path, prior, gate_px, f_scale, gcps, free, unknown_k)
         check_determined(result, clock, path, gcps is not None, log_m, fps)
+        if biased is not None and not free:
+            result = replace(result, bias_beta=profile_beta(result.fit, clock, xy, path, biased, fps))  # type: ignore[arg-type]
         return result
     return _survey_and_target(camera, clock, xy, path, prior, fps, gate_px, gcps, gcp_camera, f_scale, seed, delta, offsets)
 
@@ -494,15 +503,49 @@ def ranked_pose(fits: list[JointFit], search: OffsetSearch, xy: np.ndarray, fps:
     return result
 
 
+def profile_beta(fit: JointFit, clock: np.ndarray, xy: np.ndarray, path: PiecewiseTrajectory, log_model: LogModel, fps: float) -> float:
+    """The beta of the largest support of the pose and the log's bias over the track fitted together
+    (sync/pose/pose_bias.py, PROFILE_POINTS tracked positions), within PROFILE_SIGMAS of the fit's beta std, at
+    steps of a tenth of it, the peak interpolated by a parabola; the fit's beta when the profile has no peak inside.
+
+    The rigid fit takes the log's wander over the visit as noise shared by blocks of frames, and its beta moves with
+    it (on drone2 under a drone's GNSS: 0.3-9 frames off); with the wander fitted under its prior the peak was
+    within 0-4.5 frames (seeds 0 and 2, every camera)."""
+    camera = fit.camera
+    rows = np.unique(np.linspace(0, len(clock) - 1, min(PROFILE_POINTS, len(clock))).round().astype(np.int64))
+    c = clock[rows]
+    ideal = undistort_pixels(xy[rows], camera.K, camera.dist, camera.dist_model, P=camera.K)
+    score = _Scorer(camera.K, c, ideal, path, fit.alpha, False, VisitBias.over(c, fps, log_model))
+    step = max(fit.se_beta / 10.0, 0.05)
+    betas = fit.beta + step * np.arange(-10 * PROFILE_SIGMAS, 10 * PROFILE_SIGMAS + 1)
+    support = score.many(betas, max(8.0, 0.01 * float(np.hypot(*camera.image_size))))
+    k = int(np.argmax(support))
+    if k == 0 or k == len(betas) - 1 or not np.isfinite(fit.se_beta):
+        return fit.beta
+    left, mid, right = support[k - 1 : k + 2]
+    curvature = left - 2 * mid + right
+    return float(betas[k] + (0.5 * step * (left - right) / curvature if curvature < 0 else 0.0))
+
+
 def check_determined(result: TargetPose, clock: np.ndarray, path: PiecewiseTrajectory, with_gcps: bool, log_m: float = 0.0, fps: float | None = None) -> None:
     """Raise PoseError when the pose is not determined (see the module docstring, step 4).
 
     log_m: as ``pose_from_track``'s. Under a log with a bias (log_m > 0 and
     the camera's fps) the pose absorbs the log's error and serves the timing
-    only (``pose_info``): what must be determined is the timing, whose std
+    only (``pose_info``): on a path that is not nearly straight in the image
+    (NEARLY_STRAIGHT) what must be determined is the timing, whose std
     carries the pose's looseness (the fit's model error is the log's), and
     the camera is refused when beta's std exceeds TIMING_S seconds (the
-    ambiguity test could no longer tell distinct offsets apart)."""
+    ambiguity test could no longer tell distinct offsets apart) or the
+    rotation's std LOG_ROTATION_CURVED times the angle the log's error
+    subtends at the target's depth (a wrong offset's pose: on drone2 the
+    right poses' were 9-14 degrees, 4-6 such angles, the rigid search's wrong
+    offsets' 19-145 degrees). A nearly
+    straight path is explained as well by poses tens of metres off at wrong
+    offsets with a tight beta (a walker under a drone's GNSS: 50-86 m off,
+    beta's std 5 frames, 31 s off): there the pose itself must be
+    determined, its rotation as loose as LOG_ROTATION times the angle the
+    log's error subtends at the target's depth."""
     fit, name = result.fit, result.camera.name
     if fit.support < MIN_FRAMES:
         raise PoseError(name, "too_few_frames", f"{fit.support} frames within the gate, at least {MIN_FRAMES} are needed")
@@ -517,11 +560,13 @@ def check_determined(result: TargetPose, clock: np.ndarray, path: PiecewiseTraje
         )
     depth = median_depth(fit.camera, clock[fit.inliers], path, fit.alpha, fit.beta)
     loose = []
-    if log_m > 0 and fps:
+    if log_m > 0 and fps and result.straightness >= NEARLY_STRAIGHT:
         if not fit.se_beta <= TIMING_S * fps:
             loose.append(f"the offset +-{fit.se_beta / fps:.2g} s under the log's error")
+        if not fit.rotation_std_deg <= max(MAX_ROTATION_STD_DEG, LOG_ROTATION_CURVED * np.degrees(log_m / depth)):
+            loose.append(f"rotation +-{fit.rotation_std_deg:.2g} deg")
     else:
-        if not fit.rotation_std_deg <= MAX_ROTATION_STD_DEG:
+        if not fit.rotation_std_deg <= max(MAX_ROTATION_STD_DEG, LOG_ROTATION * np.degrees(log_m / depth)):
             loose.append(f"rotation +-{fit.rotation_std_deg:.2g} deg")
         if not fit.center_std_m <= MAX_CENTER_STD * depth:
             loose.append(f"centre +-{fit.center_std_m:.2g} m at {depth:.0f} m")

@@ -133,15 +133,20 @@ def posed(inputs: CameraInput, prepared: Trajectory, params: SyncParams, log_mod
 
 
 def with_pose_line(line: CameraLine, pose: TargetPose) -> CameraLine:
-    """The line of the pose fit from the target, with its covariance, under a log with a bias: the pose absorbed the
-    bias's mean over the visit, and the pose fit, free to move pose and timing together, counts the log's wander as
-    the error shared by blocks of frames; the line the votes give under that pose held fixed is pulled by the wander
-    alone (on drone2 under a drone's GNSS, 4-28 frames off where the pose fit was within 0.3-9). Unchanged when the
-    pose fit has no finite covariance of its line."""
-    cov = pose.fit.line_cov
-    if cov is None or not np.isfinite(cov).all():
+    """The line of the pose from the target under a log with a bias: the pose fit's slope, the beta that the pose and
+    the log's bias fitted together explain best (``TargetPose.bias_beta``; the pose fit's without one), and the pose
+    fit's covariance with the square of the two betas' distance added to beta's variance. The pose absorbed the
+    bias's mean over the visit, and the pose fit counts its wander as error shared by blocks of frames (its beta
+    std carries it); the line the votes give under that pose held fixed is pulled by the wander alone (on drone2
+    under a drone's GNSS, 4-28 frames off where the pose fit was within 0.3-9). Unchanged when the pose fit has no
+    finite covariance of its line."""
+    fit = pose.fit
+    if fit.line_cov is None or not np.isfinite(fit.line_cov).all():
         return line
-    return replace(line, alpha=pose.fit.alpha, beta=pose.fit.beta, cov=np.array(cov, dtype=np.float64))
+    beta = pose.bias_beta if np.isfinite(pose.bias_beta) else fit.beta
+    cov = np.array(fit.line_cov, dtype=np.float64)
+    cov[1, 1] += (beta - fit.beta) ** 2
+    return replace(line, alpha=fit.alpha, beta=beta, cov=cov)
 
 
 def synchronize(
