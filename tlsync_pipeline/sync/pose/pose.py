@@ -100,7 +100,7 @@ TIGHT = 3.0  # median residuals of the best fit within which frames count for th
 DISTINCT_S = 1.0  # offsets further apart than this (seconds) are distinct
 LOG_GATE = 2.5  # under a metre-level log, the gate in units of the log's unabsorbed error seen in pixels
 TIMING_S = 0.5  # under a log with a bias, the largest std of a pose fit's beta (seconds): half of DISTINCT_S
-LOG_ROTATION = 4.0  # under a metre-level log on a nearly straight path, the rotation std allowed in units of the angle its error subtends
+LOG_ROTATION = 4.0  # under a biased log on a nearly straight path: the rotation std allowed, in angles its error subtends
 LOG_ROTATION_CURVED = 8.0  # the same on a curved path, where the timing's std is checked too
 PROFILE_POINTS = 600  # tracked positions whose support with the log's bias fitted gives the timing (profile_beta)
 PROFILE_SIGMAS = 3  # profile_beta looks this many of the fit's beta stds either side of it
@@ -503,7 +503,9 @@ def ranked_pose(fits: list[JointFit], search: OffsetSearch, xy: np.ndarray, fps:
     return result
 
 
-def profile_beta(fit: JointFit, clock: np.ndarray, xy: np.ndarray, path: PiecewiseTrajectory, log_model: LogModel, fps: float) -> float:
+def profile_beta(
+    fit: JointFit, clock: np.ndarray, xy: np.ndarray, path: PiecewiseTrajectory, log_model: LogModel, fps: float
+) -> float:
     """The beta of the largest support of the pose and the log's bias over the track fitted together
     (sync/pose/pose_bias.py, PROFILE_POINTS tracked positions), within PROFILE_SIGMAS of the fit's beta std, at
     steps of a tenth of it, the peak interpolated by a parabola; the fit's beta when the profile has no peak inside.
@@ -527,7 +529,9 @@ def profile_beta(fit: JointFit, clock: np.ndarray, xy: np.ndarray, path: Piecewi
     return float(betas[k] + (0.5 * step * (left - right) / curvature if curvature < 0 else 0.0))
 
 
-def check_determined(result: TargetPose, clock: np.ndarray, path: PiecewiseTrajectory, with_gcps: bool, log_m: float = 0.0, fps: float | None = None) -> None:
+def check_determined(
+    result: TargetPose, clock: np.ndarray, path: PiecewiseTrajectory, with_gcps: bool, log_m: float = 0.0, fps: float | None = None
+) -> None:
     """Raise PoseError when the pose is not determined (see the module docstring, step 4).
 
     log_m: as ``pose_from_track``'s. Under a log with a bias (log_m > 0 and
@@ -643,7 +647,8 @@ def search_offsets(
     hi = float(c.max() - alpha * path.starts.min())
     if offsets is not None:
         lo, hi = max(lo, offsets[0]), min(hi, offsets[1])
-    visit = VisitBias.over(c, fps, log_model) if log_model is not None and log_model.has_bias and fps and not dlt else None
+    biased = log_model is not None and log_model.has_bias and fps and not dlt
+    visit = VisitBias.over(c, fps, log_model) if biased else None  # type: ignore[arg-type]
     score = _Scorer(camera.K, c, ideal, path, alpha, dlt, visit)
     betas = np.arange(lo, hi + coarse, coarse)
     support = score.many(betas, COARSE * threshold)
@@ -678,8 +683,11 @@ class _Scorer:
     threshold; under a log with a bias (``bias``), the pose and the log's bias over the visit fitted together
     (sync/pose_bias.py, its support in the same units)."""
 
-    def __init__(self, K: np.ndarray, clock: np.ndarray, ideal: np.ndarray, path: PiecewiseTrajectory, alpha: float, dlt: bool, bias: VisitBias | None = None):
-        self.K, self.clock, self.ideal, self.path, self.alpha, self.dlt, self.bias = K, clock, ideal, path, alpha, dlt, bias
+    def __init__(
+        self, K: np.ndarray, clock: np.ndarray, ideal: np.ndarray, path: PiecewiseTrajectory, alpha: float, dlt: bool, bias: VisitBias | None = None
+    ):
+        self.K, self.clock, self.ideal, self.path, self.alpha, self.dlt = K, clock, ideal, path, alpha, dlt
+        self.bias = bias
 
     def pairs(self, beta: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The trajectory's positions and the pixels of the rows on it at ``beta``, and the mask of those rows."""

@@ -71,7 +71,9 @@ class VisitBias:
         return self.precision.shape[0] // 3
 
 
-def fit_with_bias(xyz: np.ndarray, uv: np.ndarray, K: np.ndarray, bias: VisitBias, on: np.ndarray, sigma_px: float, pnp):
+def fit_with_bias(
+    xyz: np.ndarray, uv: np.ndarray, K: np.ndarray, bias: VisitBias, on: np.ndarray, sigma_px: float, pnp
+) -> tuple[float, tuple | None, np.ndarray]:
     """(support, pose, bias) of one candidate offset (see the module): xyz (n, 3) the log's positions of the
     searched rows ``on`` (a mask over the rows the VisitBias was made for), uv (n, 2) their distortion-free pixels,
     pnp(xyz, uv, K) -> (rvec, tvec) or None; bias (K, 3) metres at the knots. Support 0 and pose None when the pose
@@ -136,7 +138,8 @@ def _bias_step(cam, residual, keep, K, R, left, right, u, values, precision, sca
     np.add.at(gradient, right, u[:, None] * jtr)
     normal = blocks.transpose(0, 2, 1, 3).reshape(3 * count, 3 * count) + precision
     rhs = gradient.ravel() + precision @ values.ravel()
-    upper = np.zeros((BAND + 1, 3 * count))  # block tridiagonal: LAPACK's banded Cholesky (a dense solve of this size is 100 times slower)
+    # block tridiagonal: LAPACK's banded Cholesky (a dense solve of this size was 100 times slower here)
+    upper = np.zeros((BAND + 1, 3 * count))
     for d in range(BAND + 1):
         upper[BAND - d, d:] = np.diagonal(normal, d)
     try:
