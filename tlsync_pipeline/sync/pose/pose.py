@@ -11,7 +11,10 @@ rate), only beta is unknown:
    (OpenCV's SQPnP on distortion-free pixels, then twice again on the
    better half of the pairs, which is robust to a share of wrong
    positions); the candidate's support is the pairs the pose explains
-   within the threshold. A coarse pass (3 x the threshold, steps of half
+   within the threshold. Under a log with a bias the pose and the log's
+   bias over the visit are fitted together instead (sync/pose/pose_bias.py),
+   and the support is what they explain less what the bias's prior costs.
+   A coarse pass (3 x the threshold, steps of half
    the threshold over the track's image speed) and a fine pass around its
    best peaks;
 2. the best CANDIDATES peaks of distinct offsets are fitted: pose, line
@@ -270,7 +273,7 @@ def pose_from_track(
     line search's band for the GCP candidate's line; offsets: the range of
     beta (clock units) the search covers (None: all the log allows);
     log_model: the log's error; with a bias, the search scores each offset
-    with the log's bias over the visit fitted with the pose (sync/pose_bias.py),
+    with the log's bias over the visit fitted with the pose (sync/pose/pose_bias.py),
     and the fits' gate, loss scale and shared model error widen to the error
     a fixed pose cannot absorb over the track's span (``LogModel.unabsorbed_m``)
     as seen at the target's depth (``log_scales``).
@@ -513,6 +516,8 @@ def profile_beta(
     The rigid fit takes the log's wander over the visit as noise shared by blocks of frames, and its beta moves with
     it (on drone2 under a drone's GNSS: 0.3-9 frames off); with the wander fitted under its prior the peak was
     within 0-4.5 frames (seeds 0 and 2, every camera)."""
+    if not np.isfinite(fit.se_beta) or fit.se_beta <= 0:
+        return fit.beta
     camera = fit.camera
     rows = np.unique(np.linspace(0, len(clock) - 1, min(PROFILE_POINTS, len(clock))).round().astype(np.int64))
     c = clock[rows]
@@ -522,7 +527,7 @@ def profile_beta(
     betas = fit.beta + step * np.arange(-10 * PROFILE_SIGMAS, 10 * PROFILE_SIGMAS + 1)
     support = score.many(betas, max(8.0, 0.01 * float(np.hypot(*camera.image_size))))
     k = int(np.argmax(support))
-    if k == 0 or k == len(betas) - 1 or not np.isfinite(fit.se_beta):
+    if k == 0 or k == len(betas) - 1:
         return fit.beta
     left, mid, right = support[k - 1 : k + 2]
     curvature = left - 2 * mid + right
@@ -632,7 +637,7 @@ def search_offsets(
 
     dlt: fit a projection matrix (unknown intrinsics) instead of a pose; offsets: the range of beta searched (clock
     units), within what the log allows (None: all of it); log_model: a log with a bias, whose bias over the track is
-    fitted with each offset's pose (sync/pose_bias.py; the camera's fps gives the knots' seconds; None: a rigid pose).
+    fitted with each offset's pose (sync/pose/pose_bias.py; the camera's fps gives the knots' seconds; None: a rigid pose).
     """
     w, h = camera.image_size
     threshold = max(8.0, 0.01 * float(np.hypot(w, h)))
@@ -681,7 +686,7 @@ def _peaks(support: np.ndarray, count: int, separation: float = 2.0) -> list[int
 class _Scorer:
     """Support of candidate offsets: pose (or projection matrix) fitted to the pairs, trimmed twice, pairs within a
     threshold; under a log with a bias (``bias``), the pose and the log's bias over the visit fitted together
-    (sync/pose_bias.py, its support in the same units)."""
+    (sync/pose/pose_bias.py, its support in the same units)."""
 
     def __init__(
         self, K: np.ndarray, clock: np.ndarray, ideal: np.ndarray, path: PiecewiseTrajectory, alpha: float, dlt: bool, bias: VisitBias | None = None
