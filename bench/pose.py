@@ -1,6 +1,6 @@
 """Poses from the target: eps_t and pose error against GCP noise and without GCPs, the real flight without poses, a crowd, speed.
 
-    nice python bench/pose.py [--scenes 20] [--jobs 2] [--crowd 5] [--demo-draws 10] [--gnss-seeds 3] [--data /work/shared/real/drone2] [--no-write]
+    nice python bench/pose.py [--scenes 20] [--jobs 2] [--crowd 5] [--demo-draws 10] [--gnss-seeds 3] [--gnss-only] [--data /work/shared/real/drone2] [--no-write]
 
 1. Pass scenes (data_fixtures/passes.py: a walker crossing three 30 fps
    views and turning inside each, RTK log 10 Hz with 2 cm noise, 2 px
@@ -30,8 +30,11 @@
    30 s horizontal, 2 m vertical, 0.1-0.2 m white), declared ``drone``,
    ``--gnss-seeds`` seeds: cameras synchronized, worst and median eps_t,
    interval coverage, the synchronized camera whose beta is furthest from
-   the truth (truth.json's cameras_to_target) in its own sigmas, and each
-   refused camera's cause.
+   the truth (truth.json's cameras_to_target) in its own sigmas, each
+   refused camera's cause and the sync's CPU seconds; then the share of runs
+   with every camera, the median eps_t over the runs, the intervals that hold
+   and the process's peak resident memory (bench/_memory.py). ``--gnss-only``
+   runs this section alone and prints it.
 
 Writes the tables into docs/accuracy.md (block ``pose``) and the summary
 into docs/calibration.md (block ``pose``) unless --no-write.
