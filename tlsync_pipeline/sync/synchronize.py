@@ -222,7 +222,7 @@ def synchronize(
             failed[name] = f"camera {name}: the fit failed ({type(exc).__name__}: {exc})"
             judged[name] = _unjudged(inputs, prior)
     found = diagnose(judged, prepared, params.eps_px)  # first: the log's units, which explain everything else
-    found = {**explain(judged, prepared, params.eps_px, params.logged_point_above_m), **found}
+    found = {**explain(judged, prepared, params.eps_px, params.logged_point_above_m, radius, log_model), **found}
     for name in failed.keys() & found.keys():
         failed[name] = diagnosed_failure(name, found[name], failed[name])
     lines, rejected = {}, {}
