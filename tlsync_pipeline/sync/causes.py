@@ -105,6 +105,14 @@ def explain(
     gates = {n: GATE_EPS * max(eps_px, (radius_px or {}).get(n, eps_px)) for n in contradicted}
     path = PiecewiseTrajectory(prepared)
     given = {n: path_share(j.camera, _xy(j), path, gates[n]) for n, j in contradicted.items()}
+    found: dict[str, Reason] = {}
+    if _scatters_as_consumer(log_model):  # its own fixes say what receiver it is: its error comes first
+        for n, j in contradicted.items():
+            if (wider := _log_wider(j, path, eps_px, gates[n], given[n], prepared, log_model)) is not None:
+                found[n] = wider
+        contradicted = {n: j for n, j in contradicted.items() if n not in found}
+        if not contradicted:
+            return found
     shared = _height_shift(contradicted, prepared, given, gates)  # one height for every contradicted camera
     if shared is not None and len(contradicted) == 1:  # one camera alone: a constant image offset may fit it better
         ((name, j),) = contradicted.items()
@@ -114,14 +122,14 @@ def explain(
             shared = None
     if shared is not None:
         dz, share = shared
-        if len(contradicted) == len(tracked):
+        if len(contradicted) == len(tracked) and not found:
             raise LogUnitError(
                 "z", f"{_height_text(dz, share, _mean(given), prepared)}; {_height_fix(dz, above_m, prepared)}"
             )
         text, fix = _height_text(dz, share, _mean(given), prepared), _height_fix(dz, above_m, prepared)
-        return {n: Reason("log_height", FAILED, text, fix) for n in contradicted}
+        return {**found, **{n: Reason("log_height", FAILED, text, fix) for n in contradicted}}
     failing = {n: j for n, j in contradicted.items() if given[n] < ON_PATH_GIVEN}  # on the path, the timing is at fault
-    reasons = {}
+    reasons = dict(found)
     for name, j in failing.items():
         one, gate = {name: j}, gates[name]
         height = _height_shift(one, prepared, {name: given[name]}, {name: gate})
@@ -152,7 +160,7 @@ def explain(
                 "if the target does not move on level ground at that height: "
                 "give a log with heights (GPX <ele>, a CSV alt column)",
             )
-        elif given[name] < OFF_PATH_SHARE and (wider := _log_wider(j, path, eps_px, gate, prepared, log_model)) is not None:
+        elif given[name] < OFF_PATH_SHARE and (wider := _log_wider(j, path, eps_px, gate, given[name], prepared, log_model)) is not None:
             reasons[name] = wider
         elif given[name] < OFF_PATH_SHARE:
             reasons[name] = Reason(
@@ -165,16 +173,24 @@ def explain(
     return reasons
 
 
-def _log_wider(judged: Judged, path: PiecewiseTrajectory, eps_px: float, gate_px: float, prepared: Trajectory, model: LogModel | None) -> Reason | None:
-    """``log_error`` (FAILED) when the track lies on the projected path (any time) in ON_PATH_GIVEN of its frames within
-    the gate a consumer receiver's error spans from this camera (GATE_EPS x the phone preset's vote radius) and that
-    gate is wider than the one the declared model gave (``gate_px``): the log's error is larger than declared, and a
-    tracker on another object would not follow the logged path's shape there. None otherwise."""
+def _scatters_as_consumer(model: LogModel | None) -> bool:
+    """Whether the log's model has no bias while its fixes scatter as a consumer receiver's: white noise measured on
+    them (log_model.measured) at least the drone preset's. Such a log's metres of error, not a height or the tracker,
+    are the first suspect of a track off its projected path."""
+    return model is not None and not model.has_bias and "white_m" in model.measured and model.white_m >= PRESETS["drone"].white_m
+
+
+def _log_wider(judged: Judged, path: PiecewiseTrajectory, eps_px: float, gate_px: float, given: float, prepared: Trajectory, model: LogModel | None) -> Reason | None:
+    """``log_error`` (FAILED) when the track lies on the projected path (any time) within the gate a consumer receiver's
+    error spans from this camera (GATE_EPS x the phone preset's vote radius) clearly better than within the gate the
+    declared model gave (``gate_px``, where it lies on it in ``given`` of its frames; plausibility._fits_better), that
+    gate being narrower: the log's error is larger than its model says, and a tracker on another object would not follow
+    the logged path's shape. None otherwise."""
     consumer = GATE_EPS * vote_radius(judged.camera, prepared, eps_px, PRESETS["phone"])
     if consumer <= gate_px:
         return None
     share = path_share(judged.camera, _xy(judged), path, consumer)
-    if share < ON_PATH_GIVEN:
+    if not _fits_better(given, share):
         return None
     declared = "none (an exact log)" if model is None or model.horizontal_m <= 0 else f"{model.name}, {model.horizontal_m:.2g} m"
     return Reason(

@@ -138,7 +138,25 @@ def measured(model: LogModel, trajectory: Trajectory) -> LogModel:
     white, count = white_from_log(trajectory)
     if count == 0 or white <= 0:
         return model
+    receiver = _receiver_of(model, white)
     if model.white_m > 0:
         data, prior = 4.0 / count, PRIOR_LOG_SD**2
         white = math.exp((math.log(white) / data + math.log(model.white_m) / prior) / (1.0 / data + 1.0 / prior))
+    if receiver is not None:
+        model = replace(receiver, measured=(*model.measured, "receiver"))
     return replace(model, white_m=white, measured=tuple(sorted({*model.measured, "white_m"})))
+
+
+def _receiver_of(model: LogModel, white: float) -> LogModel | None:
+    """The preset whose white noise is nearest (in log) to the white noise measured on the log's fixes, when the
+    model has no bias and that preset has one (the declared receiver's fixes would not scatter so; an undeclared log
+    whose fixes scatter as a consumer receiver's): its bias then applies, since a receiver that noisy wanders too.
+    None otherwise."""
+    if model.has_bias:
+        return None
+    nearest = min((p for p in PRESETS.values() if p.white_m > 0), key=lambda p: abs(math.log(white / p.white_m)))
+    if not nearest.has_bias:
+        return None
+    if model.white_m > 0 and abs(math.log(white / model.white_m)) <= abs(math.log(white / nearest.white_m)):
+        return None
+    return nearest
