@@ -19,7 +19,7 @@ so the timing plays no part), as plausibility's rescaled-unit tests do:
   unless it lies on it within the radius a consumer receiver's metres of
   error span from this camera (the phone preset's, sync/log_model.py) and
   the declared model's is narrower: then the log's error is larger than
-  declared (an undeclared phone's log), and declaring it is the fix.
+  declared (a smooth log that wanders by metres), and declaring it is the fix.
 
 Each camera's tracks are compared with the path within GATE_EPS times its
 vote radius (the log's error as the camera sees it), as the checks do.
@@ -34,10 +34,10 @@ at fault.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 import numpy as np
 from scipy.spatial import cKDTree
-
-from collections.abc import Mapping
 
 from calibration.camera import Camera
 from tlsync_pipeline.sync.log_model import PRESETS, LogModel, vote_radius
@@ -105,14 +105,6 @@ def explain(
     gates = {n: GATE_EPS * max(eps_px, (radius_px or {}).get(n, eps_px)) for n in contradicted}
     path = PiecewiseTrajectory(prepared)
     given = {n: path_share(j.camera, _xy(j), path, gates[n]) for n, j in contradicted.items()}
-    found: dict[str, Reason] = {}
-    if _scatters_as_consumer(log_model):  # its own fixes say what receiver it is: its error comes first
-        for n, j in contradicted.items():
-            if (wider := _log_wider(j, path, eps_px, gates[n], given[n], prepared, log_model)) is not None:
-                found[n] = wider
-        contradicted = {n: j for n, j in contradicted.items() if n not in found}
-        if not contradicted:
-            return found
     shared = _height_shift(contradicted, prepared, given, gates)  # one height for every contradicted camera
     if shared is not None and len(contradicted) == 1:  # one camera alone: a constant image offset may fit it better
         ((name, j),) = contradicted.items()
@@ -122,14 +114,14 @@ def explain(
             shared = None
     if shared is not None:
         dz, share = shared
-        if len(contradicted) == len(tracked) and not found:
+        if len(contradicted) == len(tracked):
             raise LogUnitError(
                 "z", f"{_height_text(dz, share, _mean(given), prepared)}; {_height_fix(dz, above_m, prepared)}"
             )
         text, fix = _height_text(dz, share, _mean(given), prepared), _height_fix(dz, above_m, prepared)
-        return {**found, **{n: Reason("log_height", FAILED, text, fix) for n in contradicted}}
+        return {n: Reason("log_height", FAILED, text, fix) for n in contradicted}
     failing = {n: j for n, j in contradicted.items() if given[n] < ON_PATH_GIVEN}  # on the path, the timing is at fault
-    reasons = dict(found)
+    reasons = {}
     for name, j in failing.items():
         one, gate = {name: j}, gates[name]
         height = _height_shift(one, prepared, {name: given[name]}, {name: gate})
@@ -171,13 +163,6 @@ def explain(
                 "check the track (give the tracker an init box on the target) and the camera's pose (GCPs)",
             )
     return reasons
-
-
-def _scatters_as_consumer(model: LogModel | None) -> bool:
-    """Whether the log's model has no bias while its fixes scatter as a consumer receiver's: white noise measured on
-    them (log_model.measured) at least the drone preset's. Such a log's metres of error, not a height or the tracker,
-    are the first suspect of a track off its projected path."""
-    return model is not None and not model.has_bias and "white_m" in model.measured and model.white_m >= PRESETS["drone"].white_m
 
 
 def _log_wider(judged: Judged, path: PiecewiseTrajectory, eps_px: float, gate_px: float, given: float, prepared: Trajectory, model: LogModel | None) -> Reason | None:

@@ -148,11 +148,12 @@ def measured(model: LogModel, trajectory: Trajectory) -> LogModel:
 
 
 def _receiver_of(model: LogModel, white: float) -> LogModel | None:
-    """The preset whose white noise is nearest (in log) to the white noise measured on the log's fixes, when the
-    model has no bias and that preset has one (the declared receiver's fixes would not scatter so; an undeclared log
-    whose fixes scatter as a consumer receiver's): its bias then applies, since a receiver that noisy wanders too.
-    None otherwise."""
-    if model.has_bias:
+    """The receiver the log's fixes say it is, when the model has no bias and they scatter as one that wanders: the
+    preset whose white noise is nearest (in log) to the one measured, when it has a bias, the measurement is at least
+    the white noise of the least noisy preset with a bias (a smooth path's turns leave some scatter: the quick demo's
+    exact log measures 0.08 m) and nearer to that preset's than to the model's. Its bias then applies (a receiver that
+    noisy wanders too: a drone's log declared RTK, or undeclared). None otherwise."""
+    if model.has_bias or white < min(p.white_m for p in PRESETS.values() if p.has_bias):
         return None
     nearest = min((p for p in PRESETS.values() if p.white_m > 0), key=lambda p: abs(math.log(white / p.white_m)))
     if not nearest.has_bias:
