@@ -41,7 +41,13 @@ from scipy.spatial import cKDTree
 
 from calibration.camera import Camera
 from tlsync_pipeline.sync.log_model import PRESETS, LogModel, vote_radius
-from tlsync_pipeline.sync.plausibility import GATE_EPS, Judged, LogUnitError, _fits_better, path_share
+from tlsync_pipeline.sync.plausibility import (
+    GATE_EPS,
+    Judged,
+    LogUnitError,
+    _fits_better,
+    path_share,
+)
 from tlsync_pipeline.sync.status import FAILED, Reason
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
 
@@ -152,7 +158,9 @@ def explain(
                 "if the target does not move on level ground at that height: "
                 "give a log with heights (GPX <ele>, a CSV alt column)",
             )
-        elif given[name] < OFF_PATH_SHARE and (wider := _log_wider(j, path, eps_px, gate, given[name], prepared, log_model)) is not None:
+        elif given[name] < OFF_PATH_SHARE and (
+            wider := _log_wider(j, path, eps_px, gate, given[name], prepared, log_model)
+        ):
             reasons[name] = wider
         elif given[name] < OFF_PATH_SHARE:
             reasons[name] = Reason(
@@ -165,7 +173,15 @@ def explain(
     return reasons
 
 
-def _log_wider(judged: Judged, path: PiecewiseTrajectory, eps_px: float, gate_px: float, given: float, prepared: Trajectory, model: LogModel | None) -> Reason | None:
+def _log_wider(
+    judged: Judged,
+    path: PiecewiseTrajectory,
+    eps_px: float,
+    gate_px: float,
+    given: float,
+    prepared: Trajectory,
+    model: LogModel | None,
+) -> Reason | None:
     """``log_error`` (FAILED) when the track lies on the projected path (any time) within the gate a consumer receiver's
     error spans from this camera (GATE_EPS x the phone preset's vote radius) clearly better than within the gate the
     declared model gave (``gate_px``, where it lies on it in ``given`` of its frames; plausibility._fits_better), that
@@ -177,7 +193,9 @@ def _log_wider(judged: Judged, path: PiecewiseTrajectory, eps_px: float, gate_px
     share = path_share(judged.camera, _xy(judged), path, consumer)
     if not _fits_better(given, share):
         return None
-    declared = "none (an exact log)" if model is None or model.horizontal_m <= 0 else f"{model.name}, {model.horizontal_m:.2g} m"
+    declared = "none (an exact log)"
+    if model is not None and model.horizontal_m > 0:
+        declared = f"{model.name}, {model.horizontal_m:.2g} m"
     return Reason(
         "log_error",
         FAILED,

@@ -315,13 +315,15 @@ def times_fps(track: Track) -> float | None:
     return 1.0 / slope if slope > 0 else None
 
 
-def _stated_fps_unbacked(track: Track, fps: float | None, alpha_prior: float | None, slope: MotionSlope | None) -> Reason | None:
+def _stated_fps_unbacked(
+    track: Track, fps: float | None, alpha_prior: float | None, slope: MotionSlope | None
+) -> Reason | None:
     """``clock`` (FAILED) when the camera's stated fps and the rate its track's presentation times run at (the
-    container's) are more than SLOPE_OFF apart on a frame clock, and the target's motion (``motion_slope``, reliable and
-    within SLOPE_OFF of the clock prior) does not back the stated one. A stated fps the motion backs stands (a time-lapse
-    whose container runs faster than it records); otherwise the line rests on a rate two witnesses dispute, and a log
-    whose error widens the vote radius cannot settle it by the line's fit (a phone's metres hide a slope off by 2).
-    On a presentation-time clock the stated fps only names the clock's unit and nothing is checked."""
+    container's) are more than SLOPE_OFF apart on a frame clock, and the target's motion (``motion_slope``, reliable
+    and within SLOPE_OFF of the clock prior) does not back the stated one. A stated fps the motion backs stands (a
+    time-lapse whose container runs faster than it records); otherwise the line rests on a rate two witnesses dispute,
+    and a log whose error widens the vote radius cannot settle it by the line's fit (a phone's metres hide a slope off
+    by 2). On a presentation-time clock the stated fps only names the clock's unit and nothing is checked."""
     rate = times_fps(track)
     if rate is None or not fps or camera_clock(track, fps).vfr or _near_one(fps / rate):
         return None
@@ -330,7 +332,8 @@ def _stated_fps_unbacked(track: Track, fps: float | None, alpha_prior: float | N
     return Reason(
         "clock",
         FAILED,
-        f"the track's presentation times say this video runs at about {rate:.4g} fps, not {fps:g}, and the target's motion does not back {fps:g}",
+        f"the track's presentation times say this video runs at about {rate:.4g} fps, not {fps:g}, "
+        f"and the target's motion does not back {fps:g}",
         f"set the camera's fps to the rate it records at (its frames' times: {rate:.4g})",
     )
 
