@@ -20,7 +20,7 @@ video is read anyway:
   not a freeze.
 
 A drop that leaves neither trace (frames missing, times re-stamped) shows
-only against the target's path: tlsync_pipeline/sync/breaks.py finds it in
+only against the target's path: tlsync_pipeline/sync/identify/breaks.py finds it in
 the votes.
 """
 

@@ -11,31 +11,25 @@ import pytest
 from data_fixtures import make_scene
 from data_fixtures.log_error import PRESETS as RECEIVERS
 from data_fixtures.walk import WalkSpec, make_walk_scene
-from tlsync_pipeline.sync.log_model import PRESETS as LOG_MODELS
-from tlsync_pipeline.sync.params import SyncParams
-from tlsync_pipeline.sync.plausibility import (
+from tlsync_pipeline.sync.model.log_model import PRESETS as LOG_MODELS
+from tlsync_pipeline.sync.model.params import SyncParams
+from tlsync_pipeline.sync.solve.plausibility import (
     Judged,
     LogUnitError,
     MotionSlope,
     SlopeMode,
     _fits_better,
     _stated_fps_unbacked,
-    backward_support,
     diagnose,
     line_evidence,
-    line_support,
     motion_slope,
     path_share,
     times_fps,
 )
-from tlsync_pipeline.sync.registry import preparation_of
-from tlsync_pipeline.sync.slope import slope_prior
-from tlsync_pipeline.sync.synchronize import (
-    CameraInput,
-    cast_votes,
-    prepare_trajectory,
-    synchronize,
-)
+from tlsync_pipeline.sync.kernels.backward import backward_support, line_support
+from tlsync_pipeline.sync.model.methods import prepare_trajectory, preparation_of
+from tlsync_pipeline.sync.kernels.slope import slope_prior
+from tlsync_pipeline.sync.solve.synchronize import CameraInput, cast_votes, synchronize
 from tlsync_pipeline.trajectory import PiecewiseTrajectory
 
 LINES = ((2.0, 4.0), (2.0, 45.0), (1.0, -30.5))
@@ -136,7 +130,7 @@ def test_the_path_share_is_of_the_path_not_the_timing(scene, prepared):
 def test_a_rival_within_the_band_of_one_pass_is_that_pass_and_one_beyond_it_a_second_pass():
     """With a vote radius of 240 px and the target crossing at 4 px/frame, one pass's votes span +-60 frames: a rival
     90 frames away is the same pass seen through a metre-level log; one 600 frames away is another pass."""
-    from tlsync_pipeline.sync.plausibility import _rival
+    from tlsync_pipeline.sync.solve.plausibility import _rival
     from tlsync_pipeline.sync.timeline import CameraLine, LineSearchSummary
     from trackers.track import Track
 
