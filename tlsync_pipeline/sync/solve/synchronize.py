@@ -133,10 +133,12 @@ def posed(inputs: CameraInput, prepared: Trajectory, params: SyncParams, log_mod
 
 
 def with_pose_offset(line: CameraLine, pose: TargetPose) -> CameraLine:
-    """The line with the offset uncertainty of its pose from the target added to beta's variance: under a log with a
-    bias the pose absorbs the bias, and the timing it gives moves with it (the pose fit's beta std, clock units), and
-    the line fitted under that pose may leave the pose fit's own line (their beta difference, counted as a std too:
-    two fits of one timing on one track that the log's unmodelled wander pulls apart)."""
+    """The line with the offset uncertainty of its pose from the target added to beta's variance: the line is fitted
+    under that pose held fixed, while the pose and the timing trade against each other (on a straight crossing a pose
+    moved along the path is a time shift; under a log with a bias the pose absorbs the bias, and the timing moves with
+    it): the pose fit's beta std (clock units). And the line fitted under that pose may leave the pose fit's own line
+    (their beta difference, counted as a std too: two fits of one timing on one track that the log's unmodelled wander
+    pulls apart)."""
     if line.cov is None or not np.isfinite(pose.fit.se_beta):
         return line
     cov = np.array(line.cov, dtype=np.float64)
@@ -196,13 +198,13 @@ def synchronize(
                 if inputs.pick_start_s is not None:
                     result = replace(result, line=replace(result.line, flags=(*(result.line.flags or ()), "picked")))
             inputs, result = _segmented(name, inputs, result, prepared, params, radius[name])
-            if pose is not None and log_model.has_bias:
+            if pose is not None:
                 result = replace(result, line=with_pose_offset(result.line, pose))
             results[name], judged[name] = _judge(name, inputs, replace(result, pose=pose), path, params, prior, radius[name], log_model, trajectory.rate)
             search = results[name].line.line_search
             if cameras[name].track is not None and search is not None and search.rival_probability is not None and search.rival_probability > 1.0 - RIVAL_PROBABILITY:
                 result = _the_rival(name, inputs, results[name], prepared, params, radius[name])
-                if pose is not None and log_model.has_bias:
+                if pose is not None:
                     result = replace(result, line=with_pose_offset(result.line, pose))
                 results[name], judged[name] = _judge(name, inputs, replace(result, pose=pose), path, params, prior, radius[name], log_model, trajectory.rate)
         except SyncError as exc:
