@@ -178,15 +178,15 @@ def _log_wider(
     model: LogModel | None,
 ) -> Reason | None:
     """``log_error`` (FAILED) when the track lies on the projected path (any time) within the gate a consumer receiver's
-    error spans from this camera (GATE_EPS x the phone preset's vote radius) clearly better than within the gate the
-    declared model gave (``gate_px``, where it lies on it in ``given`` of its frames; plausibility._fits_better), that
-    gate being narrower: the log's error is larger than its model says, and a tracker on another object would not follow
-    the logged path's shape. None otherwise."""
+    error spans from this camera (GATE_EPS x the phone preset's vote radius), in HEIGHT_FIT of its frames and clearly
+    better than within the gate the declared model gave (``gate_px``, where it lies on it in ``given`` of its frames;
+    plausibility._fits_better), that gate being narrower: the log's error is larger than its model says, and a tracker
+    on another object would not follow the logged path's shape. None otherwise."""
     consumer = GATE_EPS * vote_radius(judged.camera, prepared, eps_px, PRESETS["phone"])
     if consumer <= gate_px:
         return None
     share = path_share(judged.camera, _xy(judged), path, consumer)
-    if not _fits_better(given, share):
+    if share < HEIGHT_FIT or not _fits_better(given, share):  # a log's error moves the whole path, not part of it
         return None
     declared = "none (an exact log)"
     if model is not None and model.horizontal_m > 0:
