@@ -16,10 +16,11 @@ so the timing plays no part), as plausibility's rescaled-unit tests do:
   one the log describes);
 - neither, and the track lies on the projected path nowhere: the tracker
   follows another object (or the pose is off), not a log that ends early;
-  unless it lies on it within the radius a consumer receiver's metres of
-  error span from this camera (the phone preset's, sync/log_model.py) and
-  the declared model's is narrower: then the log's error is larger than
-  declared (a smooth log that wanders by metres), and declaring it is the fix.
+  unless the log's fixes scatter as a consumer receiver's and the track lies
+  on it within the radius such a receiver's metres of error span from this
+  camera (the phone preset's, sync/model/log_model.py), the declared model's
+  being narrower: then the log's error is larger than declared (a white-only
+  model of a receiver that wanders), and declaring it is the fix.
 
 Each camera's tracks are compared with the path within GATE_EPS times its
 vote radius (the log's error as the camera sees it), as the checks do.
@@ -177,20 +178,22 @@ def _log_wider(
     prepared: Trajectory,
     model: LogModel | None,
 ) -> Reason | None:
-    """``log_error`` (FAILED) when the track lies on the projected path (any time) within the gate a consumer receiver's
+    """``log_error`` (FAILED) when the log's fixes scatter as a consumer receiver's (its model's white noise, measured
+    or stated, at least the drone preset's) and the track lies on the projected path (any time) within the gate such a
+    receiver's
     error spans from this camera (GATE_EPS x the phone preset's vote radius), in HEIGHT_FIT of its frames and clearly
     better than within the gate the declared model gave (``gate_px``, where it lies on it in ``given`` of its frames;
     plausibility._fits_better), that gate being narrower: the log's error is larger than its model says, and a tracker
     on another object would not follow the logged path's shape. None otherwise."""
+    if model is None or model.white_m < PRESETS["drone"].white_m:  # fixes as steady as an exact log's: not a receiver's
+        return None
     consumer = GATE_EPS * vote_radius(judged.camera, prepared, eps_px, PRESETS["phone"])
     if consumer <= gate_px:
         return None
     share = path_share(judged.camera, _xy(judged), path, consumer)
     if share < HEIGHT_FIT or not _fits_better(given, share):  # a log's error moves the whole path, not part of it
         return None
-    declared = "none (an exact log)"
-    if model is not None and model.horizontal_m > 0:
-        declared = f"{model.name}, {model.horizontal_m:.2g} m"
+    declared = f"{model.name}, {model.horizontal_m:.2g} m"
     return Reason(
         "log_error",
         FAILED,
