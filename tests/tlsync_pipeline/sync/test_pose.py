@@ -356,7 +356,6 @@ def test_a_pose_under_a_biased_log_widens_the_line_by_its_offset(scene):
 
 
 
-@pytest.mark.slow
 def test_a_straight_crossing_under_rough_gcps_carries_the_poses_timing_uncertainty():
     """A walker crossing cam2's view straight, an RTK log, GCPs surveyed 2 m off, every pose from the target with the
     GCPs as a prior: the pose moved along the path and the timing trade against each other, which the line fitted
