@@ -149,6 +149,19 @@ def with_pose_line(line: CameraLine, pose: TargetPose) -> CameraLine:
     return replace(line, alpha=fit.alpha, beta=beta, cov=cov)
 
 
+def with_pose_offset(line: CameraLine, pose: TargetPose) -> CameraLine:
+    """The line of a pose from the target under a log without a bias (with one: with_pose_line), with the pose's
+    offset uncertainty added to beta's variance: the line is fitted under that pose held fixed, while the pose and the
+    timing trade against each other (on a straight crossing a pose moved along the path is a time shift): the pose
+    fit's beta std (clock units). And the line fitted under that pose may leave the pose fit's own line (their beta
+    difference, counted as a std too: two fits of one timing on one track)."""
+    if line.cov is None or not np.isfinite(pose.fit.se_beta):
+        return line
+    cov = np.array(line.cov, dtype=np.float64)
+    cov[1, 1] += pose.fit.se_beta**2 + (line.beta - pose.fit.beta) ** 2
+    return replace(line, cov=cov)
+
+
 def synchronize(
     cameras: dict[str, CameraInput],
     trajectory: Trajectory,
@@ -201,14 +214,14 @@ def synchronize(
                 if inputs.pick_start_s is not None:
                     result = replace(result, line=replace(result.line, flags=(*(result.line.flags or ()), "picked")))
             inputs, result = _segmented(name, inputs, result, prepared, params, radius[name])
-            if pose is not None and log_model.has_bias:
-                result = replace(result, line=with_pose_line(result.line, pose))
+            if pose is not None:
+                result = replace(result, line=(with_pose_line if log_model.has_bias else with_pose_offset)(result.line, pose))
             results[name], judged[name] = _judge(name, inputs, replace(result, pose=pose), path, params, prior, radius[name], log_model, trajectory.rate)
             search = results[name].line.line_search
             if cameras[name].track is not None and search is not None and search.rival_probability is not None and search.rival_probability > 1.0 - RIVAL_PROBABILITY:
                 result = _the_rival(name, inputs, results[name], prepared, params, radius[name])
-                if pose is not None and log_model.has_bias:
-                    result = replace(result, line=with_pose_line(result.line, pose))
+                if pose is not None:
+                    result = replace(result, line=(with_pose_line if log_model.has_bias else with_pose_offset)(result.line, pose))
                 results[name], judged[name] = _judge(name, inputs, replace(result, pose=pose), path, params, prior, radius[name], log_model, trajectory.rate)
         except SyncError as exc:
             failed[name] = str(exc)
@@ -217,7 +230,7 @@ def synchronize(
             failed[name] = f"camera {name}: the fit failed ({type(exc).__name__}: {exc})"
             judged[name] = _unjudged(inputs, prior)
     found = diagnose(judged, prepared, params.eps_px)  # first: the log's units, which explain everything else
-    found = {**explain(judged, prepared, params.eps_px, params.logged_point_above_m), **found}
+    found = {**explain(judged, prepared, params.eps_px, params.logged_point_above_m, radius, log_model), **found}
     for name in failed.keys() & found.keys():
         failed[name] = diagnosed_failure(name, found[name], failed[name])
     lines, rejected = {}, {}
