@@ -35,7 +35,7 @@ from tlsync_pipeline.sync.causes import explain
 from tlsync_pipeline.sync.plausibility import BACKWARD_BELOW, RIVAL_PROBABILITY, Judged, backward_support, diagnose, judge_line, line_support, motion_slope, rival_odds_of
 from tlsync_pipeline.sync.pose import TargetPose, estimate_pose, pose_info
 from tlsync_pipeline.sync.refined import RefinedParams
-from tlsync_pipeline.sync.segments import MAX_WHOLE, MIN_SEGMENT_FRAMES, fit_segments, whole_frames
+from tlsync_pipeline.sync.segments import MAX_WHOLE, MIN_SEGMENT_FRAMES, segments_of, whole_frames
 from tlsync_pipeline.sync.registry import get_method, method_options, params_table, preparation_of
 from tlsync_pipeline.sync.slope import slope_prior
 from tlsync_pipeline.sync.status import AMBIGUOUS, FAILED, Reason, diagnosed_failure
@@ -341,8 +341,8 @@ def _segmented(name: str, inputs: CameraInput, result: CameraResult, prepared: T
     votes, line = result.votes, result.line
     vote_clock = clock.clock_at(votes.frame, times)
     breaks = with_vote_break(inputs.breaks, votes.frame, vote_clock, votes.sample, line, params.delta)
+    coarse, breaks = segments_of(breaks, track.frame, votes.frame, vote_clock, votes.sample, votes.dist, line.alpha, line.beta, params.delta, clock.vfr)
     inputs = replace(inputs, track=track, breaks=breaks)
-    coarse = fit_segments(breaks, track.frame, votes.frame, vote_clock, votes.sample, votes.dist, line.alpha, line.beta, params.delta, clock.vfr)
     main = next((seg for seg in coarse if seg.source == "line"), None)
     if main is None:
         return inputs, replace(result, line=replace(line, breaks=breaks or None))
