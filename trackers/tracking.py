@@ -38,7 +38,7 @@ def track_video(
     there. Without it the first confidently moving blob is the target.
     params: tracker parameters by name (BlobParams, CsrtParams); label:
     the progress bar's title (default: the file name); meter: fed every
-    frame read by the blob kind (trackers/breaks.py). Returns a
+    frame read (trackers/breaks.py). Returns a
     Track with time_s (presentation time, s), w, h and score.
     """
     path = Path(path)
@@ -54,7 +54,7 @@ def track_video(
         from trackers.csrt import CsrtParams, csrt_steps
 
         csrt_params, blob_params = CsrtParams.from_dict(params, where)
-        steps = csrt_steps(path, info, csrt_params, blob_params, box, init_frame, progress, _detector(path, blob_params), label)
+        steps = csrt_steps(path, info, csrt_params, blob_params, box, init_frame, progress, _detector(path, blob_params), label, meter)
     rows = {}
     while True:
         try:

@@ -36,7 +36,7 @@ def track_camera(
 
     plan: the scan stage's scan.json for every mover (None, or mode
     "full": every frame); count: filled with the frames decoded; meter:
-    fed the frames read (trackers/breaks.py; not by CSRT).
+    fed the frames read (trackers/breaks.py).
     """
     label = f"{name} ({video.name})"
     if tracker.every_mover:
