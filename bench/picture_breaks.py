@@ -63,17 +63,29 @@ def in_view_frames(in_view: np.ndarray, count: int = 3) -> list[int]:
 
 def clean_videos(folder: Path, seeds: int) -> tuple[dict[str, list[Path]], dict[Path, list[int]]]:
     """The clean families' videos, rendered into ``folder``, and the camera videos' frames to edit."""
-    out: dict[str, list[Path]] = {"camera": [], "phone (10 % jitter)": [], "compressed (crf 35)": [], "long": [], "crowd": []}
+    out: dict[str, list[Path]] = {
+        "camera": [],
+        "phone (10 % jitter)": [],
+        "compressed (crf 35)": [],
+        "long": [],
+        "crowd": [],
+    }
     edit_at = {}
     for seed in range(seeds):
         camera = render_video(folder / f"camera{seed}.mp4", seed=seed, fps=FPS)
         out["camera"].append(camera.path)
         edit_at[camera.path] = in_view_frames(camera.in_view)
-        out["phone (10 % jitter)"].append(render_video(folder / f"phone{seed}.mp4", seed=seed, fps=FPS, jitter=0.1).path)
+        out["phone (10 % jitter)"].append(
+            render_video(folder / f"phone{seed}.mp4", seed=seed, fps=FPS, jitter=0.1).path
+        )
         out["compressed (crf 35)"].append(render_video(folder / f"crf{seed}.mp4", seed=seed, fps=FPS, crf=35).path)
         positions = loop_positions(1500, (320, 240))
         others = wandering_paths(np.random.default_rng(seed), 1500, (320, 240), 2.0, 2)
-        out["long"].append(render_long_video(folder / f"long{seed}.mp4", positions, (320, 240), 15.0, radius=5.0, seed=seed, look_alikes=others))
+        out["long"].append(
+            render_long_video(
+                folder / f"long{seed}.mp4", positions, (320, 240), 15.0, radius=5.0, seed=seed, look_alikes=others
+            )
+        )
         crowd = folder / f"crowd{seed}"
         make_crowd_scene(CrowdSpec(seed=seed), crowd)
         out["crowd"] += sorted(crowd.glob("*.mp4"))
@@ -96,7 +108,10 @@ def main() -> None:
                 found = picture_breaks(path)
                 frozen += [f"{path.stem}:{b.frame}" for b in found if b.kind == "frozen"]
                 cuts += [f"{path.stem}:{b.frame}" for b in found if b.kind == "cut"]
-            print(f"| {family} | {len(paths)} | {frames} | {len(frozen)} {' '.join(frozen)} | {len(cuts)} {' '.join(cuts)} |", flush=True)
+            print(
+                f"| {family} | {len(paths)} | {frames} | {len(frozen)} {' '.join(frozen)} | {len(cuts)} {' '.join(cuts)} |",
+                flush=True,
+            )
         print()
         print("| edit of the camera videos | edits | found at its frame | other breaks found |")
         print("|---|---|---|---|")

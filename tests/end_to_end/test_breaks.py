@@ -122,10 +122,17 @@ def test_a_freeze_inside_a_window_of_a_long_recording_is_found(tmp_path):
     middle of the target's stay. The track stage reads only the windows; the freeze inside one is found and cam1
     fitted as segments as when every frame is read."""
     spec = RawProjectSpec(
-        lines=((1.5, 75.0), (1.5, -75.0)), n_frames=(1500, 1500), image_size=(320, 240), boards=8, gcps=8, window_samples=300
+        lines=((1.5, 75.0), (1.5, -75.0)),
+        n_frames=(1500, 1500),
+        image_size=(320, 240),
+        boards=8,
+        gcps=8,
+        window_samples=300,
     )
     folder = tmp_path / "raw"
-    _, scene = make_raw_project(folder, spec, render=functools.partial(render_long_camera_video, radius=5.0, look_alikes=2))
+    _, scene = make_raw_project(
+        folder, spec, render=functools.partial(render_long_camera_video, radius=5.0, look_alikes=2)
+    )
     stay = scene.tracks["cam1"].frame
     at = int(stay[len(stay) // 2])
     fps = 1.0 / float(np.median(np.diff(presentation_times(folder / "cam1" / "video.mp4"))))
@@ -137,7 +144,9 @@ def test_a_freeze_inside_a_window_of_a_long_recording_is_found(tmp_path):
     line = timeline.cameras["cam1"]
     assert line.scan.mode == "windows" and line.scan.frames_decoded < 0.5 * line.scan.frames
     assert ("frozen", at, 25.0) in [(b.kind, b.frame, b.size) for b in line.breaks]
-    assert timeline.status("cam1").synchronized and [s.shift for s in line.clock.segments if s.source == "votes"] == [25.0]
+    assert timeline.status("cam1").synchronized and [s.shift for s in line.clock.segments if s.source == "votes"] == [
+        25.0
+    ]
     lines = {name: (rel.alpha, rel.beta) for name, rel in scene.lines.items()}
     errors, unmapped, false = pair_errors(timeline, lines, sources, "cam0", "cam1", video_times(folder, scene.n_frames))
     assert false == 0 and unmapped == 0

@@ -167,7 +167,10 @@ def test_beyond_a_cut_the_target_never_crosses_the_offset_is_unknown():
         (Break("cut", 15, 0.0),), tracked, frame, clock, sample, _dists(frame), ALPHA, BETA, DELTA, vfr=False
     )
     assert breaks == (Break("cut", 15, 0.0),)
-    assert [(s.start, s.stop, s.source, s.shift) for s in segments] == [(0, 15, "unknown", None), (15, END, "line", 0.0)]
+    assert [(s.start, s.stop, s.source, s.shift) for s in segments] == [
+        (0, 15, "unknown", None),
+        (15, END, "line", 0.0),
+    ]
     (reason,) = segment_reasons(breaks, segments, tracked, frame, clock, sample, ALPHA, BETA, DELTA)
     assert reason.code == "segments" and "a cut (the picture changes at once) at frame 15" in reason.text
 
@@ -180,9 +183,7 @@ def test_a_cut_the_target_crosses_on_one_clock_is_no_break():
     assert segments_of((cut,), tracked, frame, clock, sample, _dists(frame), ALPHA, BETA, DELTA, vfr=False) == ((), ())
     # a restart inside the visit: the sides disagree, the cut stays and cuts the segments
     frame, clock, sample = _votes(tracked, shift=40, at=200)
-    segments, breaks = segments_of(
-        (cut,), tracked, frame, clock, sample, _dists(frame), ALPHA, BETA, DELTA, vfr=False
-    )
+    segments, breaks = segments_of((cut,), tracked, frame, clock, sample, _dists(frame), ALPHA, BETA, DELTA, vfr=False)
     assert breaks == (cut,) and [s.start for s in segments] == [0, 200]
     assert segments[1].shift - segments[0].shift == 40.0  # type: ignore[operator]
 
