@@ -4,16 +4,17 @@ Clean families, every frame read through every-mover detection (as the
 track stage reads them, the detector telling the meter which frames hold a
 mover): the synthetic camera video (``data_fixtures.video.render_video``:
 textured background, a flicker of 6 % with 1.8 % of it changing from frame
-to frame, an occluder, a distractor), the same as a phone's (10 % interval
-jitter) and heavily compressed (crf 35); the long-recording video
-(``data_fixtures.long_video``: two look-alikes wandering, 1500 frames); the
-crowd cameras (``data_fixtures.crowd``: walkers up to 100 px tall passing
+to frame, an occluder, a distractor), the same under a steady light (0.5 %
+flicker), as a phone's (10 % interval jitter) and heavily compressed (crf
+35); the long-recording video (``data_fixtures.long_video``: two
+look-alikes wandering, 1500 frames); the crowd cameras (``data_fixtures.crowd``: walkers up to 100 px tall passing
 close, a cloud dimming the light by 20 % over 1.5 s). Per family: videos,
 frames, frozen runs and cuts found (every one is false).
 
-Edited: each clean synthetic camera video cut and restarted at three
-frames where the target is in view (``data_fixtures.breaks``, ``restart``:
-the earlier recording's light 0.85 or 0.9 times the later's, or a car
+Edited: each clean synthetic camera video (both lights) cut and restarted
+at three frames where the target is in view (``data_fixtures.breaks``,
+``restart``: the earlier recording's light 0.85, 0.9 or 0.95 times the
+later's, or a car
 parked in it that has left), and frozen 5 or 25 frames at the same frames
 (a freeze while nothing moves cannot be told from a still scene); per
 edit, how many are found at their frame (within a frame), and the other
@@ -25,6 +26,7 @@ breaks found in the edited videos.
 from __future__ import annotations
 
 import argparse
+import itertools
 import tempfile
 from pathlib import Path
 
@@ -42,6 +44,7 @@ FPS = 25.0
 EDITS = {
     "restart, light 0.85": lambda at: BreakEdit("restart", at, 4500, light=0.85),
     "restart, light 0.9": lambda at: BreakEdit("restart", at, 4500, light=0.9),
+    "restart, light 0.95": lambda at: BreakEdit("restart", at, 4500, light=0.95),
     "restart, a car left": lambda at: BreakEdit("restart", at, 4500, parked=True),
     "frozen 5": lambda at: BreakEdit("frozen", at, 5),
     "frozen 25": lambda at: BreakEdit("frozen", at, 25),
@@ -65,6 +68,7 @@ def clean_videos(folder: Path, seeds: int) -> tuple[dict[str, list[Path]], dict[
     """The clean families' videos, rendered into ``folder``, and the camera videos' frames to edit."""
     out: dict[str, list[Path]] = {
         "camera": [],
+        "camera, steady light": [],
         "phone (10 % jitter)": [],
         "compressed (crf 35)": [],
         "long": [],
@@ -75,6 +79,9 @@ def clean_videos(folder: Path, seeds: int) -> tuple[dict[str, list[Path]], dict[
         camera = render_video(folder / f"camera{seed}.mp4", seed=seed, fps=FPS)
         out["camera"].append(camera.path)
         edit_at[camera.path] = in_view_frames(camera.in_view)
+        steady = render_video(folder / f"steady{seed}.mp4", seed=seed, fps=FPS, flicker=0.005)
+        out["camera, steady light"].append(steady.path)
+        edit_at[steady.path] = in_view_frames(steady.in_view)
         out["phone (10 % jitter)"].append(
             render_video(folder / f"phone{seed}.mp4", seed=seed, fps=FPS, jitter=0.1).path
         )
@@ -104,7 +111,8 @@ def main() -> None:
         for family, paths in videos.items():
             frames, frozen, cuts = 0, [], []
             for path in paths:
-                frames += len(presentation_times(path))
+                times = presentation_times(path)
+                frames += 0 if times is None else len(times)
                 found = picture_breaks(path)
                 frozen += [f"{path.stem}:{b.frame}" for b in found if b.kind == "frozen"]
                 cuts += [f"{path.stem}:{b.frame}" for b in found if b.kind == "cut"]
@@ -113,11 +121,11 @@ def main() -> None:
                 flush=True,
             )
         print()
-        print("| edit of the camera videos | edits | found at its frame | other breaks found |")
-        print("|---|---|---|---|")
-        for label, make in EDITS.items():
+        print("| edit | camera videos | edits | found at its frame | other breaks found |")
+        print("|---|---|---|---|---|")
+        for (label, make), family in itertools.product(EDITS.items(), ("camera", "camera, steady light")):
             found_at, other, total = 0, 0, 0
-            for path in videos["camera"]:
+            for path in videos[family]:
                 for at in edit_at[path]:
                     edit = make(at)
                     kind = "cut" if edit.kind == "restart" else "frozen"
@@ -128,7 +136,7 @@ def main() -> None:
                     found_at += bool(hit)
                     other += len(found) - len(hit)
                     total += 1
-            print(f"| {label} | {total} | {found_at} | {other} |", flush=True)
+            print(f"| {label} | {family} | {total} | {found_at} | {other} |", flush=True)
 
 
 if __name__ == "__main__":
