@@ -36,6 +36,7 @@ from data_fixtures.breaks import BreakEdit, edit_video
 from data_fixtures.crowd import CrowdSpec, make_crowd_scene
 from data_fixtures.long_video import render_long_video, wandering_paths
 from data_fixtures.video import loop_positions, render_video
+from tlsync_pipeline.sync.breaks import merged
 from trackers.breaks import Break, PictureMeter
 from trackers.tracking import detect_movers
 from trackers.video import presentation_times
@@ -52,10 +53,11 @@ EDITS = {
 
 
 def picture_breaks(path: Path) -> list[Break]:
-    """The frozen runs and cuts every-mover detection's reading of ``path`` finds."""
+    """The frozen runs and cuts every-mover detection's reading of ``path`` finds (a cut at a freeze's edge is that
+    freeze, as for the sync stage: ``merged``)."""
     meter = PictureMeter()
     detect_movers(path, progress=False, meter=meter)
-    return meter.breaks()
+    return list(merged(tuple(meter.breaks())))
 
 
 def in_view_frames(in_view: np.ndarray, count: int = 3) -> list[int]:

@@ -42,8 +42,8 @@ MOVING_LEVELS = 40  # ... when the frames before and after it change some pixel 
 
 CUT_WIDTH = 64  # px: the luma plane is averaged down to this width for cuts (sensor noise and far movers fade)
 CUT_CONTENT = 3.0  # %: a change of the picture's content (the plane over its mean) of this mean size ...
-CUT_GAIN = 0.04  # ... or of its mean brightness (|log ratio|), and CUT_GAIN_NOISE times its frame-to-frame noise ...
-CUT_GAIN_NOISE = 4.5  # (the video's own flicker: a std from the median change, as of a normal variable's differences)
+CUT_GAIN = 0.04  # ... or of its mean brightness (|log ratio|), and CUT_GAIN_TAIL times the 99th percentile of the
+CUT_GAIN_TAIL = 2.0  # video's own brightness steps (its flicker) ...
 CUT_SPIKE = 3.0  # ... this many times the change of the frame before it and of the frame after it ...
 CUT_HOLDS = 0.6  # ... and holding: the frame after it differs from the frame two before it by this share of it
 
@@ -177,7 +177,7 @@ def scene_cuts(frames: np.ndarray, step: np.ndarray, across: np.ndarray) -> list
     change (content %, brightness |log ratio|; ``PictureMeter``) from frame
     - 1; across (N, 2): from frame - 3 (NaN when not read). Frame f is a cut
     when, in content or in brightness, its step is at least CUT_CONTENT (or
-    CUT_GAIN and CUT_GAIN_NOISE standard deviations of the brightness steps)
+    CUT_GAIN and CUT_GAIN_TAIL times the 99th percentile of the brightness steps)
     and CUT_SPIKE times the steps of frames f - 1 and f + 1 (a moving
     picture, a mover passing close, flicker change every frame), and frame
     f + 1 differs from frame f - 2 by CUT_HOLDS of it (the change holds: not
@@ -187,8 +187,8 @@ def scene_cuts(frames: np.ndarray, step: np.ndarray, across: np.ndarray) -> list
     step = np.asarray(step, dtype=np.float64).reshape(-1, 2)
     across = np.asarray(across, dtype=np.float64).reshape(-1, 2)
     out = []
-    flicker = float(np.median(step[:, 1])) / 0.6745 if len(step) else 0.0  # std of the brightness steps
-    floor = np.array([CUT_CONTENT, max(CUT_GAIN, CUT_GAIN_NOISE * flicker)])
+    flicker = float(np.percentile(step[:, 1], 99)) if len(step) else 0.0
+    floor = np.array([CUT_CONTENT, max(CUT_GAIN, CUT_GAIN_TAIL * flicker)])
     for k in range(1, len(frames) - 1):
         if frames[k - 1] != frames[k] - 1 or frames[k + 1] != frames[k] + 1:
             continue
