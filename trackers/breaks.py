@@ -42,10 +42,10 @@ MOVING_LEVELS = 40  # ... when the frames before and after it change some pixel 
 
 CUT_WIDTH = 64  # px: the luma plane is averaged down to this width for cuts (sensor noise and far movers fade)
 CUT_CONTENT = 3.0  # %: a change of the picture's content (the plane over its mean) of this mean size ...
-CUT_GAIN = 0.04  # ... or of its mean brightness (|log ratio|), and CUT_GAIN_TAIL times the 99th percentile of the
-CUT_GAIN_TAIL = 2.0  # video's own brightness steps (its flicker) ...
-CUT_SPIKE = 3.0  # ... this many times the change of the frame before it and of the frame after it ...
-CUT_HOLDS = 0.6  # ... and holding: the frame after it differs from the frame two before it by this share of it
+CUT_GAIN = 0.04  # ... or of its mean brightness (|log ratio|), and CUT_GAIN_FLICKER times the median of the
+CUT_GAIN_FLICKER = 10.0  # video's own brightness steps (its flicker; a median is not moved by the cuts) ...
+CUT_SPIKE = 3.0  # ... this many times the change of each of the two frames before it and the two after it ...
+CUT_HOLDS = 0.6  # ... and holding: the two frames after it differ from the two before it by this share of it
 
 KINDS = ("gap", "repeat", "frozen", "drop", "cut")
 
@@ -177,26 +177,26 @@ def scene_cuts(frames: np.ndarray, step: np.ndarray, across: np.ndarray) -> list
     change (content %, brightness |log ratio|; ``PictureMeter``) from frame
     - 1; across (N, 2): from frame - 3 (NaN when not read). Frame f is a cut
     when, in content or in brightness, its step is at least CUT_CONTENT (or
-    CUT_GAIN and CUT_GAIN_TAIL times the 99th percentile of the brightness steps)
-    and CUT_SPIKE times the steps of frames f - 1 and f + 1 (a moving
-    picture, a mover passing close, flicker change every frame), and frame
-    f + 1 differs from frame f - 2 by CUT_HOLDS of it (the change holds: not
-    a flash or a dropped-out frame).
+    CUT_GAIN and CUT_GAIN_FLICKER times the median of the brightness steps) and CUT_SPIKE times the steps of frames f - 2, f - 1, f + 1 and
+    f + 2 (a moving picture, a mover passing close, flicker change every
+    frame), and frames f + 1 and f + 2 differ from frames f - 2 and f - 1 by
+    CUT_HOLDS of it (the change holds: not a flash or a dropped-out frame).
     """
     frames = np.asarray(frames, dtype=np.int64)
     step = np.asarray(step, dtype=np.float64).reshape(-1, 2)
     across = np.asarray(across, dtype=np.float64).reshape(-1, 2)
     out = []
-    flicker = float(np.percentile(step[:, 1], 99)) if len(step) else 0.0
-    floor = np.array([CUT_CONTENT, max(CUT_GAIN, CUT_GAIN_TAIL * flicker)])
-    for k in range(1, len(frames) - 1):
-        if frames[k - 1] != frames[k] - 1 or frames[k + 1] != frames[k] + 1:
+    flicker = float(np.median(step[:, 1])) if len(step) else 0.0
+    floor = np.array([CUT_CONTENT, max(CUT_GAIN, CUT_GAIN_FLICKER * flicker)])
+    for k in range(2, len(frames) - 2):
+        if frames[k + 2] - frames[k - 2] != 4:
             continue
         jump = step[k]
+        around = np.max(step[[k - 2, k - 1, k + 1, k + 2]], axis=0)
         cut = (
             (jump >= floor)
-            & (jump >= CUT_SPIKE * np.maximum(step[k - 1], step[k + 1]))
-            & (across[k + 1] >= CUT_HOLDS * jump)
+            & (jump >= CUT_SPIKE * around)
+            & (np.minimum(across[k + 1], across[k + 2]) >= CUT_HOLDS * jump)
         )
         if cut.any():
             out.append(Break("cut", int(frames[k]), 0.0))
