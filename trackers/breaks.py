@@ -45,6 +45,7 @@ CUT_CONTENT = 3.0  # %: a change of the picture's content (the plane over its me
 CUT_GAIN = 0.04  # ... or of its mean brightness (|log ratio|), and CUT_GAIN_FLICKER times the median of the
 CUT_GAIN_FLICKER = 10.0  # video's own brightness steps (its flicker; a median is not moved by the cuts) ...
 CUT_SPIKE = 3.0  # ... this many times the change of each of the two frames before it and the two after it ...
+REPEATED_PICTURE = 0.05  # %: a content step this small is the same picture again (its steps say nothing of flicker)
 CUT_HOLDS = 0.6  # ... and holding: the two frames after it differ from the two before it by this share of it
 
 KINDS = ("gap", "repeat", "frozen", "drop", "cut")
@@ -177,7 +178,8 @@ def scene_cuts(frames: np.ndarray, step: np.ndarray, across: np.ndarray) -> list
     change (content %, brightness |log ratio|; ``PictureMeter``) from frame
     - 1; across (N, 2): from frame - 3 (NaN when not read). Frame f is a cut
     when, in content or in brightness, its step is at least CUT_CONTENT (or
-    CUT_GAIN and CUT_GAIN_FLICKER times the median of the brightness steps) and CUT_SPIKE times the steps of frames f - 2, f - 1, f + 1 and
+    CUT_GAIN and CUT_GAIN_FLICKER times the median of the brightness steps
+    between pictures that are not repeated) and CUT_SPIKE times the steps of frames f - 2, f - 1, f + 1 and
     f + 2 (a moving picture, a mover passing close, flicker change every
     frame), and frames f + 1 and f + 2 differ from frames f - 2 and f - 1 by
     CUT_HOLDS of it (the change holds: not a flash or a dropped-out frame).
@@ -186,7 +188,8 @@ def scene_cuts(frames: np.ndarray, step: np.ndarray, across: np.ndarray) -> list
     step = np.asarray(step, dtype=np.float64).reshape(-1, 2)
     across = np.asarray(across, dtype=np.float64).reshape(-1, 2)
     out = []
-    flicker = float(np.median(step[:, 1])) if len(step) else 0.0
+    shown = step[step[:, 0] > REPEATED_PICTURE, 1]  # the brightness steps of new pictures (a freeze's are 0)
+    flicker = float(np.median(shown)) if len(shown) else 0.0
     floor = np.array([CUT_CONTENT, max(CUT_GAIN, CUT_GAIN_FLICKER * flicker)])
     for k in range(2, len(frames) - 2):
         if frames[k + 2] - frames[k - 2] != 4:

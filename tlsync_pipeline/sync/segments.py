@@ -165,6 +165,32 @@ def void_cuts(breaks: tuple[Break, ...], segments: tuple[Segment, ...]) -> tuple
     )
 
 
+def joined_at_void_cuts(
+    segments: tuple[Segment, ...], breaks: tuple[Break, ...]
+) -> tuple[tuple[Segment, ...], tuple[Break, ...]]:
+    """The segments with those on either side of a cut joined where their shifts are the same (``void_cuts``, after
+    each segment's shift is measured on its own line), and the breaks without those cuts; one segment left: none."""
+    void = void_cuts(breaks, segments)
+    if not void:
+        return segments, breaks
+    at = {b.frame for b in void}
+    out: list[Segment] = []
+    for seg in segments:
+        if out and seg.start in at:
+            last = out.pop()
+            source = "line" if "line" in (last.source, seg.source) else last.source
+            seg = Segment(
+                last.start,
+                seg.stop,
+                last.shift if source == last.source else seg.shift,
+                source,
+                last.frames + seg.frames,
+            )
+        out.append(seg)
+    left = tuple(b for b in breaks if b not in void)
+    return (tuple(out) if len(out) > 1 else ()), left
+
+
 def _count(tracked: np.ndarray, start: int, stop: int) -> int:
     return int(np.count_nonzero((tracked >= start) & (tracked < stop)))
 

@@ -35,7 +35,7 @@ from tlsync_pipeline.sync.causes import explain
 from tlsync_pipeline.sync.plausibility import BACKWARD_BELOW, RIVAL_PROBABILITY, Judged, backward_support, diagnose, judge_line, line_support, motion_slope, rival_odds_of
 from tlsync_pipeline.sync.pose import TargetPose, estimate_pose, pose_info
 from tlsync_pipeline.sync.refined import RefinedParams
-from tlsync_pipeline.sync.segments import MAX_WHOLE, MIN_SEGMENT_FRAMES, segments_of, whole_frames
+from tlsync_pipeline.sync.segments import MAX_WHOLE, MIN_SEGMENT_FRAMES, joined_at_void_cuts, segments_of, whole_frames
 from tlsync_pipeline.sync.registry import get_method, method_options, params_table, preparation_of
 from tlsync_pipeline.sync.slope import slope_prior
 from tlsync_pipeline.sync.status import AMBIGUOUS, FAILED, Reason, diagnosed_failure
@@ -348,6 +348,8 @@ def _segmented(name: str, inputs: CameraInput, result: CameraResult, prepared: T
         return inputs, replace(result, line=replace(line, breaks=breaks or None))
     reference = _segment_line(name, inputs, votes, main, prepared, params, radius_px) or line
     segments = tuple(_refined(seg, _segment_line(name, inputs, votes, seg, prepared, params, radius_px), reference, clock, times, track) for seg in coarse)
+    segments, breaks = joined_at_void_cuts(segments, breaks)
+    inputs = replace(inputs, breaks=breaks)
     segmented = replace(clock, segments=segments)
     keep_track = np.isfinite(segmented.clock_at(track.frame, times))
     keep_votes = np.isfinite(segmented.clock_at(votes.frame, times))

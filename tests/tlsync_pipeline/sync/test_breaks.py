@@ -9,7 +9,7 @@ from tlsync_pipeline.sync.breaks import (
     vote_break,
 )
 from tlsync_pipeline.sync.clock import FRAME, CameraClock, Segment
-from tlsync_pipeline.sync.segments import END, fit_segments, segments_of
+from tlsync_pipeline.sync.segments import END, fit_segments, joined_at_void_cuts, segments_of
 from tlsync_pipeline.sync.status import AMBIGUOUS
 from trackers.breaks import Break
 
@@ -193,3 +193,21 @@ def test_a_cut_at_a_freeze_or_a_gap_is_that_break():
     cuts = (Break("cut", 125, 0.0), Break("cut", 301, 0.0))
     assert merged((frozen, gap, *cuts)) == (frozen, gap)
     assert merged((frozen, Break("cut", 140, 0.0))) == (frozen, Break("cut", 140, 0.0))
+
+
+def test_segments_of_the_same_shift_either_side_of_a_cut_are_joined():
+    """Each segment's own line put both sides of a cut on the same shift: one segment, the cut dropped."""
+    cut, frozen = Break("cut", 77, 0.0), Break("frozen", 100, 50.0)
+    segments = (
+        Segment(0, 77, 50.0, "votes", 14),
+        Segment(77, 100, 50.0, "votes", 23),
+        Segment(100, 150, None, "frozen", 0),
+        Segment(150, END, 0.0, "line", 90),
+    )
+    joined, breaks = joined_at_void_cuts(segments, (cut, frozen))
+    assert breaks == (frozen,)
+    assert joined == (Segment(0, 100, 50.0, "votes", 37), Segment(100, 150, None, "frozen", 0), segments[-1])
+    apart = (Segment(0, 77, 40.0, "votes", 14), *segments[1:])
+    assert joined_at_void_cuts(apart, (cut, frozen)) == (apart, (cut, frozen))
+    two = (Segment(0, 100, 50.0, "votes", 23), Segment(100, END, 50.0, "line", 90))
+    assert joined_at_void_cuts(two, (Break("cut", 100, 0.0),)) == ((), ())  # one segment left: none
