@@ -47,10 +47,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from data_fixtures.crowd import CrowdSpec, make_crowd_scene  # noqa: E402
 from data_fixtures.log_error import PRESETS as RECEIVERS  # noqa: E402
 from tlsync_pipeline.pipeline.stages.scan import scan_video  # noqa: E402
-from tlsync_pipeline.sync.log_model import PRESETS as LOG_MODELS  # noqa: E402
-from tlsync_pipeline.sync.params import SyncParams  # noqa: E402
-from tlsync_pipeline.sync.registry import preparation_of  # noqa: E402
-from tlsync_pipeline.sync.synchronize import CameraInput, identify_params, prepare_trajectory, synchronize  # noqa: E402
+from tlsync_pipeline.sync.model.log_model import PRESETS as LOG_MODELS  # noqa: E402
+from tlsync_pipeline.sync.model.params import SyncParams  # noqa: E402
+from tlsync_pipeline.sync.identify.identify import identify_params  # noqa: E402
+from tlsync_pipeline.sync.model.methods import prepare_trajectory, preparation_of  # noqa: E402
+from tlsync_pipeline.sync.solve.synchronize import CameraInput, synchronize  # noqa: E402
 from tlsync_pipeline.sync.timeline import eps_t  # noqa: E402
 from trackers.tracking import detect_movers  # noqa: E402
 

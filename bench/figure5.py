@@ -30,8 +30,8 @@ from pathlib import Path
 import numpy as np
 
 from data_fixtures import make_scene
-from tlsync_pipeline.sync.params import SyncParams
-from tlsync_pipeline.sync.synchronize import CameraInput, synchronize
+from tlsync_pipeline.sync.model.params import SyncParams
+from tlsync_pipeline.sync.solve.synchronize import CameraInput, synchronize
 from tlsync_pipeline.sync.timeline import eps_t
 
 FIXED = {"S_t": 2.0, "S_c": 2.0, "S_l": 1.0}

@@ -8,7 +8,7 @@ with Gauss-Markov 1 m or 2 m / 60 s). Per model: the median and p90 over
 scenes of the worst synchronized pair's eps_t (frames, eq. 5), the share of
 synchronized pairs whose 95 % interval of the start offset contains the
 truth, and the scenes where a camera was refused (not synchronized: its
-status ambiguous or failed, sync/status.py), which make no claim. The
+status ambiguous or failed, sync/model/status.py), which make no claim. The
 log's error model is declared to the sync as a user would ([target]
 log_model). With --bound, the first-order bound of each model
 (bench/gps_bound.py): the median worst-pair eps_t an efficient estimator
@@ -29,10 +29,10 @@ import numpy as np
 from data_fixtures.log_error import PRESETS
 from data_fixtures.walk import WalkSpec, make_walk_scene
 from gps_bound import worst_pair_draws
-from tlsync_pipeline.sync.log_model import PRESETS as LOG_MODELS
-from tlsync_pipeline.sync.log_model import LogModel
-from tlsync_pipeline.sync.params import SyncParams
-from tlsync_pipeline.sync.synchronize import CameraInput, synchronize
+from tlsync_pipeline.sync.model.log_model import PRESETS as LOG_MODELS
+from tlsync_pipeline.sync.model.log_model import LogModel
+from tlsync_pipeline.sync.model.params import SyncParams
+from tlsync_pipeline.sync.solve.synchronize import CameraInput, synchronize
 from tlsync_pipeline.sync.timeline import eps_t
 
 Z95 = 1.959964

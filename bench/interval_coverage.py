@@ -19,9 +19,9 @@ import multiprocessing
 import numpy as np
 
 from data_fixtures import make_scene
-from tlsync_pipeline.sync.params import SyncParams
-from tlsync_pipeline.sync.refined import RefinedParams
-from tlsync_pipeline.sync.synchronize import CameraInput, synchronize
+from tlsync_pipeline.sync.model.params import SyncParams
+from tlsync_pipeline.sync.model.methods import RefinedParams
+from tlsync_pipeline.sync.solve.synchronize import CameraInput, synchronize
 
 LINES = ((2.0, 4.37), (2.0, 45.61))
 Z95 = 1.959964

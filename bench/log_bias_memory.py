@@ -28,8 +28,8 @@ from data_fixtures.log_error import PRESETS as RECEIVERS
 from data_fixtures.log_error import log_errors
 from tlsync_pipeline.pipeline.project import load_project
 from tlsync_pipeline.pipeline.stages.sync import load_inputs
-from tlsync_pipeline.sync.log_model import PRESETS as LOG_MODELS
-from tlsync_pipeline.sync.synchronize import synchronize
+from tlsync_pipeline.sync.model.log_model import PRESETS as LOG_MODELS
+from tlsync_pipeline.sync.solve.synchronize import synchronize
 from tlsync_pipeline.sync.timeline import eps_t, read_truth
 
 DEFAULT = Path("/work/shared/real/drone2")

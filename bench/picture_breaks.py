@@ -36,7 +36,7 @@ from data_fixtures.breaks import BreakEdit, edit_video
 from data_fixtures.crowd import CrowdSpec, make_crowd_scene
 from data_fixtures.long_video import render_long_video, wandering_paths
 from data_fixtures.video import loop_positions, render_video
-from tlsync_pipeline.sync.breaks import merged
+from tlsync_pipeline.sync.identify.breaks import merged
 from trackers.breaks import Break, PictureMeter
 from trackers.tracking import detect_movers
 from trackers.video import presentation_times

@@ -56,12 +56,13 @@ from calibration.camera import Camera  # noqa: E402
 from calibration.errors import CalibrationInputError  # noqa: E402
 from calibration.extrinsics import pose_from_points  # noqa: E402
 from data_fixtures.passes import make_pass_scene  # noqa: E402
-from tlsync_pipeline.sync.params import SyncParams  # noqa: E402
-from tlsync_pipeline.sync.choices import GCP_SIGMA_M  # noqa: E402
-from tlsync_pipeline.sync.pose import estimate_pose, rotation_between  # noqa: E402
-from tlsync_pipeline.sync.pose_fit import GcpPrior  # noqa: E402
-from tlsync_pipeline.sync.registry import preparation_of  # noqa: E402
-from tlsync_pipeline.sync.synchronize import CameraInput, identify_params, prepare_trajectory, synchronize  # noqa: E402
+from tlsync_pipeline.sync.model.params import SyncParams  # noqa: E402
+from tlsync_pipeline.sync.model.choices import GCP_SIGMA_M  # noqa: E402
+from tlsync_pipeline.sync.pose.pose import estimate_pose, rotation_between  # noqa: E402
+from tlsync_pipeline.sync.pose.pose_fit import GcpPrior  # noqa: E402
+from tlsync_pipeline.sync.identify.identify import identify_params  # noqa: E402
+from tlsync_pipeline.sync.model.methods import prepare_trajectory, preparation_of  # noqa: E402
+from tlsync_pipeline.sync.solve.synchronize import CameraInput, synchronize  # noqa: E402
 from tlsync_pipeline.sync.timeline import eps_t  # noqa: E402
 
 from _report import pair_errors  # noqa: E402
@@ -237,7 +238,7 @@ def gnss_without_poses(data: Path, seeds: int) -> str | None:
     from data_fixtures.log_error import log_errors
     from tlsync_pipeline.pipeline.project import load_project
     from tlsync_pipeline.pipeline.stages.sync import load_inputs
-    from tlsync_pipeline.sync.log_model import PRESETS as LOG_MODELS
+    from tlsync_pipeline.sync.model.log_model import PRESETS as LOG_MODELS
     from tlsync_pipeline.sync.timeline import read_truth
 
     project = load_project(data / "project.toml")

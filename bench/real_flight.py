@@ -26,7 +26,7 @@ import numpy as np
 
 from tlsync_pipeline.pipeline.stages.sync import load_inputs
 from tlsync_pipeline.pipeline.project import load_project
-from tlsync_pipeline.sync.synchronize import synchronize
+from tlsync_pipeline.sync.solve.synchronize import synchronize
 from tlsync_pipeline.sync.timeline import eps_t, read_truth
 
 DEFAULT = Path("/work/shared/real/drone2")
@@ -74,7 +74,7 @@ def evaluate(data: Path) -> tuple[str, dict]:
 
 def among_movers(data: Path, movers: int, seeds: int = 3) -> None:
     """The refined method with each camera's target identified among its track's tracklets and ``movers`` synthetic movers."""
-    from tlsync_pipeline.sync.synchronize import CameraInput
+    from tlsync_pipeline.sync.solve.synchronize import CameraInput
     from trackers.detections import make_detections
 
     project = load_project(data / "project.toml")

@@ -60,8 +60,8 @@ def _scene(n_frames: int, n_samples: int):
 
 
 def _case(n_frames: int, n_samples: int, queue) -> None:
-    from tlsync_pipeline.sync.ransac import fit_line_ransac
-    from tlsync_pipeline.sync.votes import compute_votes
+    from tlsync_pipeline.sync.kernels.ransac import fit_line_ransac
+    from tlsync_pipeline.sync.vote.votes import compute_votes
 
     camera, track, trajectory = _scene(n_frames, n_samples)
     rss_before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
@@ -146,9 +146,9 @@ def _scale_case(kind: str, queue) -> None:
 
 
 def _scale_case_body(kind: str, queue) -> None:
-    from tlsync_pipeline.sync.params import SyncParams
-    from tlsync_pipeline.sync.synchronize import CameraInput, synchronize
-    from tlsync_pipeline.sync.votes import compute_votes
+    from tlsync_pipeline.sync.model.params import SyncParams
+    from tlsync_pipeline.sync.solve.synchronize import CameraInput, synchronize
+    from tlsync_pipeline.sync.vote.votes import compute_votes
     from tlsync_pipeline.trajectory import Trajectory
 
     rng = np.random.default_rng(1)

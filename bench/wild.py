@@ -30,7 +30,7 @@ the scene has a log error model, the median first-order bound
 (bench/gps_bound.py) and their ratio; the share of the synchronized pairs
 whose 95 % interval of the start offset holds the truth, and those outside
 three times it. Per plausibility check (each reason code that can stop a
-camera, sync/plausibility.py, sync/status.py): the cameras whose line was
+camera, sync/solve/plausibility.py, sync/model/status.py): the cameras whose line was
 right (within max(1 frame, 3 x its 95 % interval) of the truth at the
 middle of its visit) that it refused, over every right line (its false
 refusals), and the wrong lines it stopped. With ``--trap-scenes N``, the
@@ -65,13 +65,13 @@ from data_fixtures.scene import Scene, make_scene, write_scene  # noqa: E402
 from data_fixtures.traps import TRAPS, edit_key  # noqa: E402
 from data_fixtures.walk import WalkSpec, make_walk_scene  # noqa: E402
 from gps_bound import worst_pair_draws  # noqa: E402
-from tlsync_pipeline.sync.log_model import PRESETS as LOG_MODELS  # noqa: E402
-from tlsync_pipeline.sync.log_model import LogModel  # noqa: E402
-from tlsync_pipeline.sync.params import SyncParams  # noqa: E402
-from tlsync_pipeline.sync.choices import GCP_SIGMA_M  # noqa: E402
-from tlsync_pipeline.sync.pose_fit import GcpPrior  # noqa: E402
-from tlsync_pipeline.sync.status import AMBIGUOUS, FAILED  # noqa: E402
-from tlsync_pipeline.sync.synchronize import CameraInput, synchronize  # noqa: E402
+from tlsync_pipeline.sync.model.log_model import PRESETS as LOG_MODELS  # noqa: E402
+from tlsync_pipeline.sync.model.log_model import LogModel  # noqa: E402
+from tlsync_pipeline.sync.model.params import SyncParams  # noqa: E402
+from tlsync_pipeline.sync.model.choices import GCP_SIGMA_M  # noqa: E402
+from tlsync_pipeline.sync.pose.pose_fit import GcpPrior  # noqa: E402
+from tlsync_pipeline.sync.model.status import AMBIGUOUS, FAILED  # noqa: E402
+from tlsync_pipeline.sync.solve.synchronize import CameraInput, synchronize  # noqa: E402
 from tlsync_pipeline.sync.timeline import Timeline, eps_t, read_timeline, read_truth  # noqa: E402
 from tlsync_pipeline.trajectory import Trajectory  # noqa: E402
 from traps import run as run_tlsync  # noqa: E402

@@ -174,7 +174,7 @@ def pair_errors(
 
 def video_times(folder: str | Path, cameras) -> dict:
     """Each camera's presentation times of every frame (``FrameTimes``) from its video in a raw project's folder."""
-    from tlsync_pipeline.sync.clock import FrameTimes
+    from tlsync_pipeline.sync.model.clock import FrameTimes
     from trackers.video import presentation_times
 
     out = {}

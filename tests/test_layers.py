@@ -81,6 +81,32 @@ def test_every_import_respects_the_layers():
     assert not wrong, "imports against the layers:\n" + "\n".join(sorted(wrong))
 
 
+# Inside sync, the parts in the order of the data flow (docs/architecture.md, "The sync packages"): each imports
+# only the parts before it.
+SYNC_ORDER = ("kernels", "model", "vote", "identify", "pose", "clock_prior", "timeline", "solve")
+
+
+def sync_part(module: str) -> str | None:
+    """A sync module's part (its package under sync/, or its own name at sync/'s top), or None outside sync."""
+    if not module.startswith("tlsync_pipeline.sync."):
+        return None
+    return module.removeprefix("tlsync_pipeline.sync.").split(".")[0]
+
+
+def test_the_sync_packages_follow_the_data_flow():
+    wrong = []
+    for module, targets in project_modules().items():
+        own = sync_part(module)
+        if own is None:
+            continue
+        assert own in SYNC_ORDER, f"{module}: place its part in SYNC_ORDER"
+        for target in targets:
+            other = sync_part(target)
+            if other is not None and SYNC_ORDER.index(other) > SYNC_ORDER.index(own):
+                wrong.append(f"{module} ({own}) -> {target} ({other})")
+    assert not wrong, "sync imports against the data flow:\n" + "\n".join(sorted(wrong))
+
+
 def test_no_import_cycles():
     graph = project_modules()
     state: dict[str, int] = {}
@@ -110,4 +136,4 @@ def test_the_layer_check_sees_a_violation(tmp_path):
     bad.write_text("def f():\n    from tlsync_pipeline.pipeline.project import load_project\n", encoding="utf-8")
     targets = imports(bad)
     assert "tlsync_pipeline.pipeline.project" in targets
-    assert layer("tlsync_pipeline.pipeline.project") not in ALLOWED[layer("tlsync_pipeline.sync.votes")]
+    assert layer("tlsync_pipeline.pipeline.project") not in ALLOWED[layer("tlsync_pipeline.sync.vote.votes")]

@@ -95,7 +95,7 @@ class PiecewiseTrajectory:
     """The trajectory model: C2 interpolation (cubic spline) over each contiguous run of grid samples.
 
     Runs are separated by gaps of more than GAP_SAMPLES; runs of fewer than
-    MIN_RUN samples are left out. Used by the fit (sync/refine.py) and the pictures.
+    MIN_RUN samples are left out. Used by the fit (sync/identify/refine.py) and the pictures.
     """
 
     def __init__(self, trajectory: Trajectory):

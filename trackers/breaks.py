@@ -25,7 +25,7 @@ video is read anyway:
   the scene (other movers, another light) from one frame to the next.
 
 A drop that leaves neither trace (frames missing, times re-stamped) shows
-only against the target's path: tlsync_pipeline/sync/breaks.py finds it in
+only against the target's path: tlsync_pipeline/sync/identify/breaks.py finds it in
 the votes.
 """
 

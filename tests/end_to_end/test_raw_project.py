@@ -170,18 +170,28 @@ def test_changing_the_trackers_code_makes_only_track_and_what_follows_stale(fini
     assert rows["vote/cam0"].reasons == ["waits for calibrate/cam0 (stale), identify/cam0 (stale)"]
 
 
-def test_changing_a_sync_module_makes_sync_and_what_follows_stale(finished, monkeypatch):
-    _changed(monkeypatch, "tlsync_pipeline.sync.refine")
+def test_changing_identification_makes_the_stages_that_identify_stale(finished, monkeypatch):
+    _changed(monkeypatch, "tlsync_pipeline.sync.identify.refine")
     rows = _states(finished)
     stale = {tid for tid, row in rows.items() if row.state != "fresh"}
-    # scan, calibrate (the pose from the target), identify and vote prepare the trajectory through the sync-method registry,
-    # which imports every method's modules; the track stage's own code does not: it waits for its windows.
+    # scan, calibrate (the pose from the target) and identify run the refinement; vote does not (it waits for identify),
+    # nor does the track stage (it waits for its windows).
     assert stale == {f"{stage}/{cam}" for stage in ("scan", "track", "calibrate", "identify", "vote") for cam in ("cam0", "cam1", "cam2")} | {"sync", "export", "render"}
     assert rows["track/cam0"].reasons == ["waits for scan/cam0 (stale)"]
-    assert rows["sync"].reasons[0] == "code of tlsync_pipeline.sync.refine changed"
-    assert rows["calibrate/cam0"].reasons == ["code of tlsync_pipeline.sync.refine changed", "waits for scan/cam0 (stale), track/cam0 (stale)"]
-    assert rows["identify/cam0"].reasons == ["code of tlsync_pipeline.sync.refine changed", "waits for calibrate/cam0 (stale), track/cam0 (stale)"]
-    assert rows["vote/cam0"].reasons == ["code of tlsync_pipeline.sync.refine changed", "waits for calibrate/cam0 (stale), identify/cam0 (stale)"]
+    assert rows["sync"].reasons[0] == "code of tlsync_pipeline.sync.identify.refine changed"
+    assert rows["calibrate/cam0"].reasons == ["code of tlsync_pipeline.sync.identify.refine changed", "waits for scan/cam0 (stale), track/cam0 (stale)"]
+    assert rows["identify/cam0"].reasons == ["code of tlsync_pipeline.sync.identify.refine changed", "waits for calibrate/cam0 (stale), track/cam0 (stale)"]
+    assert rows["vote/cam0"].reasons == ["waits for calibrate/cam0 (stale), identify/cam0 (stale)"]
+
+
+@pytest.mark.parametrize("module", ["tlsync_pipeline.sync.solve.log_bias", "tlsync_pipeline.sync.timeline"])
+def test_changing_the_sync_fit_or_the_timeline_leaves_every_camera_stage_fresh(finished, monkeypatch, module):
+    """The log's bias fit and the timeline's writer: scan, track, calibrate, identify and vote stay fresh; sync and
+    what follows it are stale."""
+    _changed(monkeypatch, module)
+    rows = _states(finished)
+    assert {tid for tid, row in rows.items() if row.state != "fresh"} == {"sync", "export", "render"}
+    assert rows["sync"].reasons == [f"code of {module} changed"]
 
 
 def _reverse_gpx(path: Path) -> None:

@@ -30,7 +30,7 @@ from tlsync_pipeline.outputs.report_html import report_html
 from tlsync_pipeline.pipeline.engine import run_graph
 from tlsync_pipeline.pipeline.graph import build_graph
 from tlsync_pipeline.pipeline.project import load_project
-from tlsync_pipeline.sync.clock import CameraClock, Segment
+from tlsync_pipeline.sync.model.clock import CameraClock, Segment
 from tlsync_pipeline.sync.timeline import CameraLine, Timeline
 from trackers.breaks import Break
 from trackers.track import Track

@@ -4,8 +4,8 @@ import numpy as np
 
 from data_fixtures import make_scene
 from data_fixtures.video import render_camera_video
-from tlsync_pipeline.sync.params import SyncParams
-from tlsync_pipeline.sync.synchronize import CameraInput, synchronize
+from tlsync_pipeline.sync.model.params import SyncParams
+from tlsync_pipeline.sync.solve.synchronize import CameraInput, synchronize
 from tlsync_pipeline.sync.timeline import eps_t
 from trackers.tracking import track_video
 

@@ -3,7 +3,7 @@
 Both documents list every task (a stage for a camera, or for the project)
 with its state, the reasons and the artefacts its manifest records (paths
 relative to the work folder), and every camera with its status as
-timeline.json gives it (sync/status.py: ok, weak, ambiguous, failed, with
+timeline.json gives it (sync/model/status.py: ok, weak, ambiguous, failed, with
 reasons and a remedy), or ``unknown`` while there is no current timeline.
 """
 

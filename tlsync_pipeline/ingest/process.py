@@ -289,7 +289,7 @@ _LOCAL = ("tum", "odometry", "rosbag")
 
 
 def suggested_log_model(records: LogRecords, used: np.ndarray) -> dict:
-    """The error model (a preset of sync/log_model.py) the log's kind suggests, and why: "rtk" when most fixes used are
+    """The error model (a preset of sync/model/log_model.py) the log's kind suggests, and why: "rtk" when most fixes used are
     RTK-fixed, "none" for local odometry, "drone" for flight controllers' and drones' logs, else "phone" (phones,
     watches, action cameras, handheld receivers)."""
     for column, fixed in _RTK.items():

@@ -35,11 +35,11 @@ from tlsync_pipeline.outputs.pictures import (
 from tlsync_pipeline.outputs.player import PlayerVideo
 from tlsync_pipeline.outputs.proxy import make_proxy, needs_proxy
 from tlsync_pipeline.outputs.report_content import Picture
-from tlsync_pipeline.sync.clock import FrameTimes
-from tlsync_pipeline.sync.identify import candidate_votes
-from tlsync_pipeline.sync.methods import CameraInput
+from tlsync_pipeline.sync.model.clock import FrameTimes
+from tlsync_pipeline.sync.identify.identify import candidate_votes
+from tlsync_pipeline.sync.solve.methods import CameraInput
 from tlsync_pipeline.sync.timeline import CameraLine
-from tlsync_pipeline.sync.votes import load_votes
+from tlsync_pipeline.sync.vote.votes import load_votes
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
 from trackers.detections import read_detections
 from trackers.video import keyframe_indices, presentation_times, probe_video

@@ -1,4 +1,4 @@
-"""What a person checks after a run: the run's warnings (each camera's status is sync/status.py's).
+"""What a person checks after a run: the run's warnings (each camera's status is sync/model/status.py's).
 
 Each stage returns its warnings (StageResult.warnings: rejected checkerboard
 views from intrinsics, GCP outliers and a missing pose from calibrate, a

@@ -6,7 +6,7 @@ camera's nominal rate, media referenced by path) starts at the camera's
 in seconds of the reference camera's clock (the column of offsets.csv). The
 edit therefore opens on the first camera that started recording, and every
 track is placed so that the same instant sits at the same timeline position.
-A recording that breaks (sync/segments.py) is one clip per segment of known
+A recording that breaks (sync/identify/segments.py) is one clip per segment of known
 offset (``Piece``), each at the instant of its first frame; its segments of
 unknown offset are left out.
 

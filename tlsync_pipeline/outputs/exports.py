@@ -4,7 +4,7 @@
   the target sample t_r it shows, that sample's time (s, when the target's
   clock is known) and the matching frame of every other camera (empty when
   that camera was not recording then, or when the frame lies in a segment of
-  unknown offset of a recording that breaks: sync/segments.py). Matching frames are real numbers (the
+  unknown offset of a recording that breaks: sync/identify/segments.py). Matching frames are real numbers (the
   relation is continuous); round them for a frame index. They go through
   each camera's clock (Timeline.match): exact for variable-frame-rate
   cameras too, through their videos' presentation times.
@@ -21,7 +21,7 @@ import shlex
 
 import numpy as np
 
-from tlsync_pipeline.sync.clock import FrameTimes
+from tlsync_pipeline.sync.model.clock import FrameTimes
 from tlsync_pipeline.sync.timeline import Timeline
 
 
@@ -46,7 +46,7 @@ def frame_map_rows(timeline: Timeline, n_frames: dict[str, int], times: dict[str
                 inside = (matched > -0.5) & (matched < n_frames[other] - 0.5)
                 others[other] = np.where(inside, matched, np.nan)
         for i in range(len(frames)):
-            known = bool(np.isfinite(sample[i]))  # a frame in a segment of unknown offset (sync/segments.py) maps to nothing
+            known = bool(np.isfinite(sample[i]))  # a frame in a segment of unknown offset (sync/identify/segments.py) maps to nothing
             row = [name, str(i), f"{sample[i]:.3f}" if known else "", "" if seconds is None or not known else f"{seconds[i]:.6f}"]
             for other in names:
                 if other == name:
@@ -83,7 +83,7 @@ def offsets(timeline: Timeline, times: dict[str, FrameTimes | None] | None = Non
 def start_frames(timeline: Timeline, name: str, frame: float, times: dict[str, FrameTimes | None]) -> float:
     """The reference camera's (fractional) frame taken with camera ``name``'s ``frame``.
 
-    Frame 0 of a recording that breaks (sync/segments.py) may lie in a
+    Frame 0 of a recording that breaks (sync/identify/segments.py) may lie in a
     segment of unknown offset: its start is then the one of the line's
     segment, as if it reached back to frame 0 (what `pairs` say).
     """

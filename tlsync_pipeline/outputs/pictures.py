@@ -31,8 +31,8 @@ import numpy as np
 
 from tlsync_pipeline.atomic import atomic_path
 from tlsync_pipeline.outputs.bandswap import PANEL_HEIGHT, caption, fit_height, mosaic
-from tlsync_pipeline.sync.clock import FrameTimes
-from tlsync_pipeline.sync.ransac import distance_to_line
+from tlsync_pipeline.sync.model.clock import FrameTimes
+from tlsync_pipeline.sync.kernels.ransac import distance_to_line
 from tlsync_pipeline.sync.timeline import Timeline
 from tlsync_pipeline.trajectory import PiecewiseTrajectory
 from trackers import video

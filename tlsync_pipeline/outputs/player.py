@@ -8,7 +8,7 @@ cameras: the same rule as the frame map), and seeks its video to the middle
 of that frame's display interval. The target's projected position is drawn
 over each video from a table sampled on the target grid.
 
-A recording that breaks (sync/segments.py) brings its segment table: each
+A recording that breaks (sync/identify/segments.py) brings its segment table: each
 segment's frames, its shift (the clock units CameraClock.clock_at adds to its
 frames: the player takes the nearest frame on each segment of known shift to
 clock - shift and keeps the one the segment holds, as CameraClock.frames_at
@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tlsync_pipeline.sync.clock import FrameTimes
+from tlsync_pipeline.sync.model.clock import FrameTimes
 from tlsync_pipeline.sync.timeline import CameraLine, Timeline
 from tlsync_pipeline.trajectory import Trajectory
 

@@ -1,20 +1,20 @@
 """Charts read at a glance: residuals over time per camera, every camera's offset with its interval, recordings that
-break, a camera's calibration.
+break (a camera's calibration: outputs/calibration_report.py).
 
 Pure functions: typed values in, PNG bytes out (matplotlib, Agg backend).
 """
 
 from __future__ import annotations
 
-import io
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
-from tlsync_pipeline.sync.status import HALF_95, CameraStatus
+from tlsync_pipeline.sync.model.status import HALF_95, CameraStatus
 from tlsync_pipeline.outputs.exports import reference_seconds
-from tlsync_pipeline.sync.clock import FrameTimes, Segment
+from tlsync_pipeline.outputs.figures import png as _png
+from tlsync_pipeline.outputs.figures import pyplot as _pyplot
+from tlsync_pipeline.sync.model.clock import FrameTimes, Segment
 from tlsync_pipeline.sync.timeline import CameraLine, Timeline
 from tlsync_pipeline.trajectory import PiecewiseTrajectory
 
@@ -50,24 +50,6 @@ def track_residuals(camera, track, path_model: PiecewiseTrajectory, line: Camera
     uv, valid = camera.project(points[keep]) if keep.any() else (np.zeros((0, 2)), np.zeros(0, dtype=bool))
     tracked = track.xy[keep][valid]
     return Residuals(samples[keep][valid], tracked[:, 0] - uv[valid, 0], tracked[:, 1] - uv[valid, 1])
-
-
-def _png(fig) -> bytes:
-    import matplotlib.pyplot as plt
-
-    buffer = io.BytesIO()
-    fig.savefig(buffer, format="png", dpi=90)
-    plt.close(fig)
-    return buffer.getvalue()
-
-
-def _pyplot():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
 
 
 def residuals_plot(residuals: dict[str, Residuals], gate_px: float, seconds_per_sample: float | None) -> bytes:
@@ -124,7 +106,7 @@ def offsets_plot(timeline: Timeline, statuses: list[CameraStatus]) -> bytes:
 
 def recordings_plot(timeline: Timeline, n_frames: dict[str, int], times: dict[str, FrameTimes | None]) -> bytes:
     """Every synchronized camera's recording on the reference's clock (s, or its frames without fps): a bar per
-    segment of known offset (sync/segments.py), each break of the recording marked where it happened, with its kind
+    segment of known offset (sync/identify/segments.py), each break of the recording marked where it happened, with its kind
     and size (trackers/breaks.py)."""
     plt = _pyplot()
     reference = timeline.names[0]
@@ -155,62 +137,5 @@ def recordings_plot(timeline: Timeline, n_frames: dict[str, int], times: dict[st
     ax.set_yticks(range(len(names)), names)
     ax.set_ylim(len(names) - 0.4, -0.9)
     ax.set_xlabel(f"{'s' if in_seconds else 'frames'} of {reference}'s clock (bars: segments of known offset; red: breaks)")
-    fig.tight_layout()
-    return _png(fig)
-
-
-def calibration_plot(report: dict, image_size: tuple[int, int]) -> bytes:
-    """The calibration picture (PNG): detected corners (one colour per view) and GCPs over the image frame; per-view errors.
-
-    report: the calibrate stage's calibration_report.json (GCP errors under the GCPs' pose, and "-> after" under
-    the pose from the target when there is one).
-    """
-    plt = _pyplot()
-
-    intr = report.get("intrinsics") or {}
-    views = intr.get("per_view") or []
-    w, h = image_size
-    fig, axes = plt.subplots(1, 2, figsize=(13, 5), gridspec_kw={"width_ratios": [1.4, 1]})
-    ax = axes[0]
-    cmap = plt.get_cmap("tab20")
-    for i, view in enumerate(views):
-        c = np.asarray(view.get("corners", []))
-        if len(c):
-            ax.plot(c[:, 0], c[:, 1], ".", ms=2.5, color=cmap(i % 20))
-    pose = report.get("pose")
-    if pose and pose.get("kind") != "board":
-        uv = np.array([p["uv"] for p in pose["points"]])
-        inl = np.array([p["inlier"] for p in pose["points"]])
-        ax.plot(uv[inl, 0], uv[inl, 1], "k+", ms=10, label="GCP")
-        if (~inl).any():
-            ax.plot(uv[~inl, 0], uv[~inl, 1], "rx", ms=10, label="GCP outlier")
-        after = {g["name"]: g["after_px"] for g in (report.get("target_pose") or {}).get("gcps", [])}
-        for p in pose["points"]:
-            moved = f" -> {after[p['name']]:.1f}px" if after.get(p["name"]) is not None else ""
-            ax.annotate(f"{p['name']} {p['error_px']:.1f}px{moved}", p["uv"], fontsize=7, xytext=(4, 4), textcoords="offset points")
-        ax.legend(loc="lower right", fontsize=8)
-    ax.set_xlim(-0.5, w - 0.5)
-    ax.set_ylim(h - 0.5, -0.5)
-    ax.set_aspect("equal")
-    target = report.get("target_pose")
-    title = f"{report['camera']}: corner coverage ({len(views)} views), {w}x{h}"
-    if target and "error" in target:
-        title += f"\nno pose from the target ({target.get('cause') or 'see the report'})"
-    elif target:
-        title += f"\npose from the target ({target['source']}): +-{target['center_std_m']:.3f} m, +-{target['rotation_std_deg']:.3f} deg" + ("" if target.get("for_3d", True) else ", timing only")
-    ax.set_title(title, fontsize=9)
-    ax = axes[1]
-    if views:
-        errors = [v["rms_px"] for v in views]
-        ax.bar(range(len(views)), errors, color=[cmap(i % 20) for i in range(len(views))])
-        ax.axhline(intr["rms_px"], color="k", ls="--", lw=1, label=f"RMS {intr['rms_px']:.3f} px")
-        ax.set_xticks(range(len(views)), [Path(v["image"]).name for v in views], rotation=90, fontsize=6)
-        ax.set_ylabel("RMS reprojection error (px)")
-        ax.legend(fontsize=8)
-        rejected = len(intr.get("rejected", []))
-        ax.set_title(f"per-view error; {rejected} image(s) rejected (see report)")
-    else:
-        ax.text(0.5, 0.5, "intrinsics from\n" + str(intr.get("source", "?")), ha="center", va="center", transform=ax.transAxes)
-        ax.set_axis_off()
     fig.tight_layout()
     return _png(fig)

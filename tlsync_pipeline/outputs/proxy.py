@@ -9,7 +9,7 @@ the original and the frame map applies unchanged.
 
 The policy per camera: "auto" (a proxy only when needed), "always", "never".
 
-A video the track stage read in windows (a long recording, sync/scan.py)
+A video the track stage read in windows (a long recording, sync/identify/scan.py)
 gets a proxy of those windows only, each gap marked by one grey card at
 its first frame's time (the player then shows the card there): a proxy of
 every frame would cost about three decodes of the whole recording, where

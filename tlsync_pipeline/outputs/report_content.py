@@ -9,7 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from tlsync_pipeline.outputs.diagnostics import StageRun
-from tlsync_pipeline.sync.status import HALF_95, CameraStatus
+from tlsync_pipeline.sync.model.status import HALF_95, CameraStatus
 from tlsync_pipeline.sync.timeline import ErrorBudget, StageWarning, Timeline
 
 

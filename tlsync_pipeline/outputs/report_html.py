@@ -18,7 +18,7 @@ import json
 from importlib import resources
 
 from tlsync_pipeline.outputs.report_content import Picture, ReportContent, camera_rows
-from tlsync_pipeline.sync.status import SEVERITY as STATUSES
+from tlsync_pipeline.sync.model.status import SEVERITY as STATUSES
 
 
 def _asset(name: str) -> str:

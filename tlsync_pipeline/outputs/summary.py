@@ -7,12 +7,12 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from tlsync_pipeline.sync.status import OK
+from tlsync_pipeline.sync.model.status import OK
 from tlsync_pipeline.sync.timeline import Relation, Timeline, eps_t
 
 
 def format_table(timeline: Timeline) -> str:
-    """The per-camera summary a user reads after a run: each camera's status (sync/status.py), its line, its start."""
+    """The per-camera summary a user reads after a run: each camera's status (sync/model/status.py), its line, its start."""
     rows = [("camera", "status", "alpha", "beta", "votes", "inliers", "start (frames)", "start (s)")]
     first = timeline.names[0] if timeline.cameras else ""
     with_se = False
@@ -73,37 +73,3 @@ _HALF_95 = 1.959964  # normal quantile of a two-sided 95 % interval
 def _columns(rows: Sequence[Sequence[str]]) -> str:
     widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
     return "\n".join("  ".join(cell.rjust(w) if i else cell.ljust(w) for i, (cell, w) in enumerate(zip(r, widths))) for r in rows)
-
-
-def calibration_summary(report: dict) -> str:
-    """One line about a camera's calibration report: views, RMS, intrinsics, pose."""
-    intr = report["intrinsics"]
-    text = f"{report['camera']}: "
-    if "rms_px" in intr:
-        K = intr["K"]
-        text += f"{intr['views_used']}/{intr['views_used'] + intr['views_rejected']} views, RMS {intr['rms_px']:.3f} px, fx {K[0][0]:.2f} fy {K[1][1]:.2f} cx {K[0][2]:.2f} cy {K[1][2]:.2f}"
-    else:
-        text += f"intrinsics from {intr['source']}"
-    pose = report.get("pose")
-    if pose:
-        n_in = sum(p["inlier"] for p in pose["points"])
-        text += f"; pose from {n_in}/{len(pose['points'])} {pose['kind']} points, RMS {pose['rms_px']:.2f} px (+-{pose['rotation_std_deg']:.3f} deg, +-{pose['position_std_m']:.3f} m)"
-    target = report.get("target_pose")
-    if target and "error" in target:
-        text += "; no pose from the target" + (f" ({target['cause']}: the camera is not synchronized)" if target.get("cause") else ": the camera is not synchronized")
-    elif target:
-        text += f"; {target_pose_summary(target)}"
-    elif not pose:
-        text += "; no pose"
-    return text
-
-
-def target_pose_summary(target: dict) -> str:
-    """One clause about a pose from the target (calibration_report.json's ``target_pose``): source, frames, uncertainty, how far it moved, what it serves."""
-    text = f"pose from the target ({target['source']}, {target['frames']} frames, +-{target['center_std_m']:.3f} m, +-{target['rotation_std_deg']:.3f} deg"
-    if target.get("moved_m") is not None:
-        text += f"; {target['moved_m']:.2f} m and {target['moved_deg']:.2f} deg from the GCPs' pose"
-    text += ")"
-    if not target.get("for_3d", True):
-        text += ": good for timing, not for 3D"
-    return text

@@ -3,7 +3,7 @@
 ``load_project`` parses the file once into a ``Project``: its ``[target]``
 (``TargetConfig``), each ``[[cameras]]`` table (``CameraConfig`` with its
 ``[cameras.tracker]`` and ``[cameras.calibration]``) and ``[sync]``
-(``SyncParams``, sync/params.py). Each key is a dataclass field declared with
+(``SyncParams``, sync/model/params.py). Each key is a dataclass field declared with
 ``key``: its converter (which checks the value) and its default, the one place
 defaults live. Paths are absolute (relative to the project file in the file).
 Unknown keys are errors with a "did you mean"; docs/project.md explains each
@@ -37,11 +37,11 @@ from tlsync_pipeline.ingest.records import ALTITUDE_REFERENCES
 from tlsync_pipeline.ingest.recording_time import parse_utc, parse_utc_offset
 from tlsync_pipeline.ingest.units import LENGTH_UNITS, TIME_UNITS, unit_scale
 from tlsync_pipeline.outputs.choices import PROXY_POLICIES
-from tlsync_pipeline.sync.log_model import AUTO, LogModelChoice
-from tlsync_pipeline.sync.log_model import PRESETS as LOG_MODELS
-from tlsync_pipeline.sync.params import SyncParams, parameter_fields
-from tlsync_pipeline.sync.registry import METHODS, params_from_table
-from tlsync_pipeline.sync.choices import GCP_SIGMA_M, SCAN_MODES
+from tlsync_pipeline.sync.model.log_model import AUTO, LogModelChoice
+from tlsync_pipeline.sync.model.log_model import PRESETS as LOG_MODELS
+from tlsync_pipeline.sync.model.params import SyncParams, parameter_fields
+from tlsync_pipeline.sync.model.methods import METHODS, params_from_table
+from tlsync_pipeline.sync.model.choices import GCP_SIGMA_M, SCAN_MODES
 from trackers.choices import DEFAULT_KIND as DEFAULT_TRACKER_KIND
 from trackers.choices import KINDS as TRACKER_KINDS
 
@@ -305,7 +305,7 @@ class TargetConfig:
     altitude_reference: str | None = key(_choice(*ALTITUDE_REFERENCES, what="altitude reference"), IngestParams.altitude_reference)
     altitude_offset_m: float = key(_finite, IngestParams.altitude_offset_m)
     utc_offset: float | None = key(_utc_offset)  # s: local - UTC of a log whose clock is local (DJI SRT, the DJI app's CSV)
-    log_model: str = key(_choice(AUTO, *LOG_MODELS, what="log model"), AUTO)  # the log's error model (sync/log_model.py)
+    log_model: str = key(_choice(AUTO, *LOG_MODELS, what="log model"), AUTO)  # the log's error model (sync/model/log_model.py)
     white_sigma_m: float | None = key(_non_negative)
     bias_sigma_m: float | None = key(_non_negative)
     bias_tau_s: float | None = key(_positive)
@@ -449,7 +449,7 @@ class TrackConfig:
 
     scan: "auto" (a coarse pass over the keyframes of each camera whose every
     mover is detected in its video; every frame is then read only in the
-    windows where it puts the target in view, sync/scan.py) or "full"
+    windows where it puts the target in view, sync/identify/scan.py) or "full"
     (every frame of every video).
     """
 
@@ -487,7 +487,7 @@ class Project:
         raise InputError(f"{self.path}: no camera named {name!r}{suggest(name, self.names)}; cameras: {', '.join(self.names)}")
 
 
-# Converters of the checks that sync parameters declare (sync/params.py).
+# Converters of the checks that sync parameters declare (sync/model/params.py).
 _CHECKS: dict[str, Converter] = {
     "positive": _positive,
     "probability": _probability,

@@ -19,8 +19,8 @@ from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
-from tlsync_pipeline.sync.clock import FrameTimes
-from tlsync_pipeline.sync.status import WEAK, Reason
+from tlsync_pipeline.sync.model.clock import FrameTimes
+from tlsync_pipeline.sync.model.status import WEAK, Reason
 
 CLOCK_FLAG = "clock_disagrees"
 HALF_95 = 1.96

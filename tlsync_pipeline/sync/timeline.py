@@ -3,7 +3,7 @@
 Camera lines map target samples to the camera's clock, clock = alpha *
 sample + beta (samples on the trajectory grid; the clock is the 0-based
 frame index, or presentation time x fps for a variable-frame-rate camera:
-sync/clock.py). A pairwise relation "A->B" maps frames of A to frames of B:
+sync/model/clock.py). A pairwise relation "A->B" maps frames of A to frames of B:
 frame_B = alpha * frame_A + beta, exact between constant-rate cameras and
 approximate otherwise; ``Timeline.match`` is the exact mapping.
 """
@@ -20,9 +20,10 @@ from typing import Any
 import numpy as np
 
 from tlsync_pipeline.errors import InputError
-from tlsync_pipeline.sync.clock import FRAME, CameraClock, FrameTimes, Segment
+from tlsync_pipeline.sync.model.clock import FRAME, CameraClock, FrameTimes, Segment
 from tlsync_pipeline.sync.clock_prior import CLOCK_FLAG, ClockCheck, clock_reason
-from tlsync_pipeline.sync.status import AMBIGUOUS, FAILED, HALF_95, WEAK, WIDE_FRAMES, WIDE_REMEDIES, WIDE_REMEDY, CameraStatus, Reason, failure, line_reasons, status_of
+from tlsync_pipeline.sync.identify.summary import IdentificationSummary
+from tlsync_pipeline.sync.model.status import AMBIGUOUS, FAILED, HALF_95, WEAK, WIDE_FRAMES, WIDE_REMEDIES, WIDE_REMEDY, CameraStatus, Reason, failure, line_reasons, status_of
 from trackers.breaks import Break
 
 FORMAT_VERSION = 1
@@ -46,7 +47,7 @@ class Relation:
 class LineSearchSummary:
     """The refined method's line search: its line, the distinct frames backing it and its best rival (and that
     rival's line, None when there is none), votes kept, lines tried; rival_probability: the rival's posterior
-    probability on the camera's whole track (sync/rival.py), None when it was not weighed."""
+    probability on the camera's whole track (sync/solve/rival.py), None when it was not weighed."""
 
     alpha: float
     beta: float
@@ -92,7 +93,7 @@ class ErrorBudget:
 
 @dataclass(frozen=True)
 class LogBiasSummary:
-    """The log's bias during the camera's visit (sync/log_bias.py): estimate (m, ENU), posterior std (m), and its
+    """The log's bias during the camera's visit (sync/solve/log_bias.py): estimate (m, ENU), posterior std (m), and its
     observability (1 - posterior / prior horizontal variance: 0, only the prior; 1, known)."""
 
     estimate_m: tuple[float, float, float]
@@ -105,43 +106,8 @@ class LogBiasSummary:
 
 
 @dataclass(frozen=True)
-class TrackletShare:
-    """One tracklet of an identified track: its id, frames assigned to the target, their share of the track, and the share of the tracklet's own frames within the gate of the projected path."""
-
-    id: int
-    frames: int
-    share: float
-    follow_share: float
-
-
-@dataclass(frozen=True)
-class IdentificationSummary:
-    """How the target was found among every mover (sync/identify.py).
-
-    candidates_voting: detections with at least one vote; identified_frames:
-    frames of the identified track; tracklets: those it uses, most frames
-    first; support_frames / runner_up_frames: distinct frames on the best
-    line and on the best line without its votes, over every candidate's
-    votes; rounds: assignment rounds run; logged_point_above_m: estimated
-    height of the logged point above the tracked point (metres, world up).
-    """
-
-    candidates_voting: int
-    identified_frames: int
-    tracklets: tuple[TrackletShare, ...]
-    support_frames: int
-    runner_up_frames: int
-    rounds: int
-    logged_point_above_m: float = 0.0
-
-    @classmethod
-    def from_dict(cls, entry: dict) -> "IdentificationSummary":
-        return cls(**{**entry, "tracklets": tuple(TrackletShare(**t) for t in entry["tracklets"])})
-
-
-@dataclass(frozen=True)
 class ScanSummary:
-    """How the camera's video was read (the scan and track stages, sync/scan.py).
+    """How the camera's video was read (the scan and track stages, sync/identify/scan.py).
 
     mode: "windows" (every frame only where a coarse pass over the keyframes
     put the target in view) or "full" (every frame); reason: why every
@@ -286,7 +252,7 @@ class StageWarning:
 class Timeline:
     """All cameras' lines on one target grid (rate in samples/s, t0 in s).
 
-    cameras: the synchronized cameras' lines (status ok or weak, sync/status.py);
+    cameras: the synchronized cameras' lines (status ok or weak, sync/model/status.py);
     failed: every camera that is not synchronized, with why in one line;
     warnings: those of the run's stages that made its inputs, then the sync
     stage's own, in pipeline order (the same list report.html shows);
@@ -304,7 +270,7 @@ class Timeline:
     warnings: tuple[StageWarning, ...] = ()
     # Covariance between two cameras' (alpha, beta) through an error they share (the log's bias), "A|B" -> 2x2 (rows: A's).
     shared_cov: dict[str, np.ndarray] = field(default_factory=dict)
-    log_model: dict | None = None  # the log's error model the fit assumed (sync/log_model.py), or None
+    log_model: dict | None = None  # the log's error model the fit assumed (sync/model/log_model.py), or None
     rejected: dict[str, CameraLine] = field(default_factory=dict)
 
     def cross_cov(self, a: str, b: str) -> np.ndarray:
@@ -320,7 +286,7 @@ class Timeline:
         return list(self.cameras)
 
     def status(self, name: str) -> CameraStatus:
-        """The camera's status (sync/status.py): its line's checks, flags, warnings and interval, or why it failed."""
+        """The camera's status (sync/model/status.py): its line's checks, flags, warnings and interval, or why it failed."""
         line = self.cameras.get(name) or self.rejected.get(name)
         if line is None:
             return status_of(name, [failure(self.failed.get(name, "not synchronized"))])

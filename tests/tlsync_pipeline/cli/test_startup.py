@@ -16,12 +16,18 @@ SRT = ROOT / "tests" / "tlsync_pipeline" / "ingest" / "data" / "dji_srt" / "air2
 HEAVY = ("cv2", "av", "matplotlib", "numba")
 
 
-def _loaded(code: str, cwd: Path) -> list[str]:
-    """The heavy modules loaded after running ``code`` in a fresh interpreter."""
-    probe = code + f"\nimport json, sys\nprint(json.dumps([m for m in {HEAVY!r} if m in sys.modules]))"
+def _modules(code: str, cwd: Path) -> list[str]:
+    """Every module loaded after running ``code`` in a fresh interpreter."""
+    probe = code + "\nimport json, sys\nprint(json.dumps(sorted(sys.modules)))"
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     done = subprocess.run([sys.executable, "-c", probe], cwd=cwd, env=env, capture_output=True, text=True, check=True)
     return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def _loaded(code: str, cwd: Path) -> list[str]:
+    """The heavy modules loaded after running ``code`` in a fresh interpreter."""
+    loaded = set(_modules(code, cwd))
+    return [m for m in HEAVY if m in loaded]
 
 
 def _cli(*args: str) -> str:
@@ -42,6 +48,15 @@ def project(tmp_path):
 def test_parsing_a_project_loads_no_heavy_library(project, tmp_path):
     code = f"from tlsync_pipeline.cli.main import main\nfrom tlsync_pipeline.pipeline.project import load_project\nload_project({str(project)!r})"
     assert _loaded(code, tmp_path) == []
+
+
+def test_the_project_file_is_a_leaf(project, tmp_path):
+    """Parsing a project imports the configuration's constants and parameter types, not the implementations: no SciPy,
+    OpenCV, PyAV, matplotlib, and of sync/ only its model (and the smoothing it names as the refined method's preparation)."""
+    loaded = _modules(f"from tlsync_pipeline.pipeline.project import load_project\nload_project({str(project)!r})", tmp_path)
+    assert not [m for m in loaded if m.split(".")[0] in ("scipy", *HEAVY)], loaded
+    sync = [m for m in loaded if m.startswith("tlsync_pipeline.sync.")]
+    assert sync and all(m.startswith(("tlsync_pipeline.sync.model", "tlsync_pipeline.sync.kernels")) for m in sync), sync
 
 
 def test_help_status_and_ingest_log_load_no_heavy_library(project, tmp_path):

@@ -12,7 +12,7 @@ from tlsync_pipeline.outputs.player import (
     projected_path,
     recording_samples,
 )
-from tlsync_pipeline.sync.clock import TIME_S, CameraClock, FrameTimes, Segment
+from tlsync_pipeline.sync.model.clock import TIME_S, CameraClock, FrameTimes, Segment
 from tlsync_pipeline.sync.timeline import CameraLine, Timeline
 from tlsync_pipeline.trajectory import Trajectory
 from trackers.breaks import Break

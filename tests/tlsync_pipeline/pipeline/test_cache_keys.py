@@ -41,9 +41,14 @@ def finished(tmp_path_factory):
     return folder
 
 
-def _edited(finished, tmp_path, old, new):
+def _copy(finished, tmp_path):
     folder = tmp_path / "copy"
     shutil.copytree(finished, folder)
+    return folder
+
+
+def _edited(finished, tmp_path, old, new):
+    folder = _copy(finished, tmp_path)
     toml = folder / "project.toml"
     assert old in toml.read_text()
     toml.write_text(toml.read_text().replace(old, new, 1))
@@ -80,3 +85,24 @@ def test_a_key_only_the_intervals_read_reruns_sync_export_and_render_only(finish
     summary = run_graph(_graph(folder))
     assert sorted(summary.ran) == ["export", "render", "sync"]
     assert {"identify/cam1", "vote/cam0", "vote/cam1"} <= set(summary.fresh)
+
+
+@pytest.mark.parametrize(
+    "module, stale",
+    [
+        ("tlsync_pipeline.sync.solve.log_bias", {"sync", "render"}),
+        ("tlsync_pipeline.sync.timeline", {"sync", "export", "render"}),
+    ],
+    ids=["log_bias", "timeline"],
+)
+def test_a_code_edit_makes_stale_exactly_the_stages_that_run_it(finished, tmp_path, monkeypatch, module, stale):
+    """A comment appended to the log's bias fit or to the timeline's writer: identify and vote stay fresh
+    (the stages before them, too: tests/tlsync_pipeline/pipeline/test_cache_scope.py)."""
+    from tlsync_pipeline.pipeline import codehash
+
+    folder = _copy(finished, tmp_path)
+    original = codehash.module_source
+    monkeypatch.setattr(codehash, "module_source", lambda name: original(name) + (b"\n# a comment\n" if name == module else b""))
+    found = _stale_by_own_reasons(folder)
+    assert set(found) == stale
+    assert all(any(f"code of {module}" in reason for reason in reasons) for reasons in found.values()), found

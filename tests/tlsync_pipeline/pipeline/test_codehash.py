@@ -6,7 +6,7 @@ from tlsync_pipeline.pipeline.graph import STAGE_SPECS
 
 def test_each_stage_runs_its_own_modules_and_not_the_engine():
     vote = codehash.closure("tlsync_pipeline.pipeline.stages.vote")
-    assert {"tlsync_pipeline.pipeline.stages.vote", "tlsync_pipeline.sync.votes", "trackers.track", "calibration.camera"} <= set(vote)
+    assert {"tlsync_pipeline.pipeline.stages.vote", "tlsync_pipeline.sync.vote.votes", "trackers.track", "calibration.camera"} <= set(vote)
     assert "trackers.blob" not in vote and "tlsync_pipeline.outputs.pictures" not in vote
     track = codehash.closure("tlsync_pipeline.pipeline.stages.track")
     assert {"trackers.blob", "trackers.csrt", "trackers.tracking"} <= set(track)  # csrt: imported inside a function

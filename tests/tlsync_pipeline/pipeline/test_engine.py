@@ -116,7 +116,7 @@ def test_manifest_records_inputs_params_and_outputs(project_dir):
     assert "r" not in manifest.params and "delta" not in manifest.params
     assert manifest.inputs["track"]["path"] == "cam0/track.csv" and len(manifest.inputs["track"]["sha256"]) == 64
     assert list(manifest.outputs) == ["cameras/cam0/votes.npz"]
-    assert "tlsync_pipeline.sync.votes" in manifest.code and "tlsync_pipeline.pipeline.engine" not in manifest.code
+    assert "tlsync_pipeline.sync.vote.votes" in manifest.code and "tlsync_pipeline.pipeline.engine" not in manifest.code
     assert manifest.seconds >= 0 and manifest.cpu_seconds is not None and manifest.cpu_seconds >= 0  # the task's own run, where it ran
     sync = read_manifest(project_dir / "work" / "sync.manifest.json")
     assert sync.inputs["votes:cam1"]["path"] == "<work>/cameras/cam1/votes.npz"

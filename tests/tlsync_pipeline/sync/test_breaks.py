@@ -1,16 +1,16 @@
-"""Breaks judged against a camera's line: a drop the votes show, harmless breaks, refused cameras (sync/breaks.py)."""
+"""Breaks judged against a camera's line: a drop the votes show, harmless breaks, refused cameras (sync/identify/breaks.py)."""
 
 import numpy as np
 
-from tlsync_pipeline.sync.breaks import (
+from tlsync_pipeline.sync.identify.breaks import (
     break_reasons,
     merged,
     segment_reasons,
     vote_break,
 )
-from tlsync_pipeline.sync.clock import FRAME, CameraClock, Segment
-from tlsync_pipeline.sync.segments import END, fit_segments, joined_at_void_cuts, segments_of
-from tlsync_pipeline.sync.status import AMBIGUOUS
+from tlsync_pipeline.sync.model.clock import FRAME, CameraClock, Segment
+from tlsync_pipeline.sync.identify.segments import END, fit_segments, joined_at_void_cuts, segments_of
+from tlsync_pipeline.sync.model.status import AMBIGUOUS
 from trackers.breaks import Break
 
 ALPHA, BETA, DELTA = 2.5, -100.0, 0.5

@@ -1,4 +1,4 @@
-"""The causes a contradicted camera's track is tested for (sync/causes.py), on the quick demo scene's cameras."""
+"""The causes a contradicted camera's track is tested for (sync/solve/causes.py), on the quick demo scene's cameras."""
 
 from __future__ import annotations
 
@@ -7,8 +7,8 @@ from dataclasses import replace
 import pytest
 
 from data_fixtures import make_scene
-from tlsync_pipeline.sync.causes import explain, image_offset
-from tlsync_pipeline.sync.plausibility import GATE_EPS, Judged, LogUnitError
+from tlsync_pipeline.sync.solve.causes import explain, image_offset
+from tlsync_pipeline.sync.solve.plausibility import GATE_EPS, Judged, LogUnitError
 from tlsync_pipeline.trajectory import PiecewiseTrajectory
 
 EPS_PX = 10.0

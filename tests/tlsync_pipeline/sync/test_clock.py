@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from tlsync_pipeline.sync.clock import FrameTimes, camera_clock
+from tlsync_pipeline.sync.model.clock import FrameTimes, camera_clock
 from trackers.track import Track
 
 

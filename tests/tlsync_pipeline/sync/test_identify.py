@@ -7,11 +7,11 @@ import pytest
 
 from data_fixtures import make_scene
 from tlsync_pipeline.errors import SyncError
-from tlsync_pipeline.sync import identify
-from tlsync_pipeline.sync.identify import along_tracklets, assign_target, candidate_votes, covers, identify_target
-from tlsync_pipeline.sync.line_search import thin_votes
-from tlsync_pipeline.sync.params import SyncParams
-from tlsync_pipeline.sync.synchronize import identify_params
+from tlsync_pipeline.sync.identify import identify
+from tlsync_pipeline.sync.identify.identify import along_tracklets, assign_target, candidate_votes, covers, identify_target
+from tlsync_pipeline.sync.kernels.line_search import thin_votes
+from tlsync_pipeline.sync.model.params import SyncParams
+from tlsync_pipeline.sync.identify.identify import identify_params
 from tlsync_pipeline.trajectory import PiecewiseTrajectory
 from trackers.detections import make_detections
 

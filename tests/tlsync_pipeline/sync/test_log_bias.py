@@ -1,4 +1,4 @@
-"""The log's bias fitted with the lines (sync/log_bias.py), on walk scenes with known truth, and its pieces."""
+"""The log's bias fitted with the lines (sync/solve/log_bias.py), on walk scenes with known truth, and its pieces."""
 
 import dataclasses
 
@@ -9,10 +9,11 @@ import scipy.sparse as sp
 from data_fixtures.log_error import PRESETS as FIXTURE_LOGS
 from data_fixtures.log_error import LogErrorModel, gauss_markov
 from data_fixtures.walk import WalkSpec, make_walk_scene
-from tlsync_pipeline.sync.log_bias import _prior_whitening
-from tlsync_pipeline.sync.log_model import PRESETS, LogModel, LogModelChoice, vote_radius
-from tlsync_pipeline.sync.params import SyncParams
-from tlsync_pipeline.sync.synchronize import CameraInput, synchronize
+from tlsync_pipeline.sync.solve.log_bias import _prior_whitening
+from tlsync_pipeline.sync.model.log_model import PRESETS, LogModel, LogModelChoice
+from tlsync_pipeline.sync.vote.log_error import vote_radius
+from tlsync_pipeline.sync.model.params import SyncParams
+from tlsync_pipeline.sync.solve.synchronize import CameraInput, synchronize
 from tlsync_pipeline.sync.timeline import eps_t
 
 # A receiver whose bias is a near-constant metre (tau 10^5 s), with the model that says so.
@@ -160,7 +161,7 @@ def test_a_drone_scene_where_one_camera_has_few_votes_keeps_every_camera_in_the_
 def test_the_joint_fit_over_many_cameras_builds_no_dense_matrix_over_frames_or_knots():
     """12 cameras' frames and a drone's bias: the Jacobian and the prior are sparse, a frame's two pixel rows holding
     its camera's two line parameters and the 6 values of the two knots around it; only the knots' posterior is dense."""
-    from tlsync_pipeline.sync.log_bias import BiasCamera, _Joint, _knots, fit_log_bias
+    from tlsync_pipeline.sync.solve.log_bias import BiasCamera, _Joint, _knots, fit_log_bias
     from tlsync_pipeline.trajectory import PiecewiseTrajectory
 
     scene = make_walk_scene(1, WalkSpec(log=FIXTURE_LOGS["drone"], speed_mps=5.0))

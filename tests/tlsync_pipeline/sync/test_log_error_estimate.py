@@ -8,8 +8,9 @@ import numpy as np
 from data_fixtures.log_error import PRESETS as RECEIVERS
 from data_fixtures.log_error import gauss_markov
 from data_fixtures.walk import WalkSpec, make_walk_scene
-from tlsync_pipeline.sync.log_bias import LogBias, _prior_whitening, bias_marginal_likelihood
-from tlsync_pipeline.sync.log_model import PRESETS, LogModel, measured, vote_radius, white_from_log
+from tlsync_pipeline.sync.solve.log_bias import LogBias, _prior_whitening, bias_marginal_likelihood
+from tlsync_pipeline.sync.model.log_model import PRESETS, LogModel
+from tlsync_pipeline.sync.vote.log_error import measured, vote_radius, white_from_log
 
 
 def _logged(seed: int, receiver: str):

@@ -9,20 +9,19 @@ import numpy as np
 import pytest
 
 from data_fixtures import make_scene
-from tlsync_pipeline.sync.params import SyncParams
-from tlsync_pipeline.sync.plausibility import (
+from tlsync_pipeline.sync.model.params import SyncParams
+from tlsync_pipeline.sync.solve.plausibility import (
     Judged,
     LogUnitError,
-    backward_support,
     diagnose,
     line_evidence,
-    line_support,
     motion_slope,
     path_share,
 )
-from tlsync_pipeline.sync.registry import preparation_of
-from tlsync_pipeline.sync.slope import slope_prior
-from tlsync_pipeline.sync.synchronize import CameraInput, cast_votes, prepare_trajectory, synchronize
+from tlsync_pipeline.sync.kernels.backward import backward_support, line_support
+from tlsync_pipeline.sync.model.methods import prepare_trajectory, preparation_of
+from tlsync_pipeline.sync.kernels.slope import slope_prior
+from tlsync_pipeline.sync.solve.synchronize import CameraInput, cast_votes, synchronize
 from tlsync_pipeline.trajectory import PiecewiseTrajectory
 
 LINES = ((2.0, 4.0), (2.0, 45.0), (1.0, -30.5))
@@ -123,7 +122,7 @@ def test_the_path_share_is_of_the_path_not_the_timing(scene, prepared):
 def test_a_rival_within_the_band_of_one_pass_is_that_pass_and_one_beyond_it_a_second_pass():
     """With a vote radius of 240 px and the target crossing at 4 px/frame, one pass's votes span +-60 frames: a rival
     90 frames away is the same pass seen through a metre-level log; one 600 frames away is another pass."""
-    from tlsync_pipeline.sync.plausibility import _rival
+    from tlsync_pipeline.sync.solve.plausibility import _rival
     from tlsync_pipeline.sync.timeline import CameraLine, LineSearchSummary
     from trackers.track import Track
 

@@ -1,4 +1,4 @@
-"""A camera's pose from the target (sync/pose.py, sync/pose_fit.py): pass scenes with known truth, and the pieces."""
+"""A camera's pose from the target (sync/pose/pose.py, sync/pose/pose_fit.py): pass scenes with known truth, and the pieces."""
 
 from __future__ import annotations
 
@@ -14,10 +14,10 @@ from data_fixtures.log_error import PRESETS as FIXTURE_LOGS
 from data_fixtures.log_error import log_errors
 from data_fixtures.passes import make_pass_scene
 from tests.real_data import REAL_DATA
-from tlsync_pipeline.sync import pose as P
-from tlsync_pipeline.sync.log_model import PRESETS as LOG_MODELS
-from tlsync_pipeline.sync.params import SyncParams
-from tlsync_pipeline.sync.pose_fit import (
+from tlsync_pipeline.sync.pose import pose as P
+from tlsync_pipeline.sync.model.log_model import PRESETS as LOG_MODELS
+from tlsync_pipeline.sync.model.params import SyncParams
+from tlsync_pipeline.sync.pose.pose_fit import (
     MODEL_ERROR_PX,
     GcpPrior,
     Layout,
@@ -27,11 +27,11 @@ from tlsync_pipeline.sync.pose_fit import (
     fit_pose_and_line,
     reprojection_errors,
 )
-from tlsync_pipeline.sync.refine import smooth_trajectory
-from tlsync_pipeline.sync.slope import slope_prior
-from tlsync_pipeline.sync.synchronize import (
+from tlsync_pipeline.sync.identify.identify import identify_params
+from tlsync_pipeline.sync.kernels.smoothing import smooth_trajectory
+from tlsync_pipeline.sync.kernels.slope import slope_prior
+from tlsync_pipeline.sync.solve.synchronize import (
     CameraInput,
-    identify_params,
     synchronize,
     with_pose_offset,
 )

@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from tlsync_pipeline.sync.ransac import SCORE_SUBSET, fit_line_ransac, ransac_iterations
+from tlsync_pipeline.sync.kernels.ransac import SCORE_SUBSET, fit_line_ransac, ransac_iterations
 
 
 def _votes(rng, n_true, n_outliers, alpha=2.5, beta=-40.0):

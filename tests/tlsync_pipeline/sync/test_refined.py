@@ -8,17 +8,17 @@ import re
 import numpy as np
 import pytest
 
-import tlsync_pipeline.sync.refined as refined_module
+import tlsync_pipeline.sync.solve.refined as refined_module
 from data_fixtures import make_scene, write_scene
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.outputs.summary import format_table
 from tlsync_pipeline.pipeline.stages.sync import run_project
 from tlsync_pipeline.pipeline.project import load_project
-from tlsync_pipeline.sync.line_search import find_line, thin_votes
-from tlsync_pipeline.sync.params import SyncParams
-from tlsync_pipeline.sync.ransac import fit_line_ransac
-from tlsync_pipeline.sync.refine import Refinement
-from tlsync_pipeline.sync.synchronize import CameraInput, synchronize
+from tlsync_pipeline.sync.kernels.line_search import find_line, thin_votes
+from tlsync_pipeline.sync.model.params import SyncParams
+from tlsync_pipeline.sync.kernels.ransac import fit_line_ransac
+from tlsync_pipeline.sync.identify.refine import Refinement
+from tlsync_pipeline.sync.solve.synchronize import CameraInput, synchronize
 from tlsync_pipeline.sync.timeline import eps_t
 from trackers.track import Track
 
@@ -172,7 +172,7 @@ def test_project_method_key_and_timeline_json(tmp_path):
 
 
 def test_smoothing_keeps_clean_logs_and_denoises_noisy_ones():
-    from tlsync_pipeline.sync.refine import smooth_trajectory
+    from tlsync_pipeline.sync.kernels.smoothing import smooth_trajectory
 
     clean = make_scene(5)
     assert np.abs(smooth_trajectory(clean.trajectory).xyz - clean.trajectory.xyz).max() < 1e-3
@@ -188,7 +188,7 @@ def test_smoothing_keeps_a_noisy_walkers_turns(seed):
     # differences can be a straight one (the noise), and a lam cross-validated there flattened a turn by 1.2 m
     # (seed 14): 4-7 px off the target in the image, 0.9 frame of sync error with no walker around.
     from data_fixtures.crowd import CrowdSpec, make_crowd_scene
-    from tlsync_pipeline.sync.refine import smooth_trajectory
+    from tlsync_pipeline.sync.kernels.smoothing import smooth_trajectory
 
     scene = make_crowd_scene(CrowdSpec(seed=seed)).scene
     error = np.linalg.norm(smooth_trajectory(scene.trajectory).xyz - scene.true_trajectory.xyz, axis=1)
@@ -202,7 +202,7 @@ def test_smoothed_values_are_scipys_smoothing_spline(n, lam, jitter):
     """The banded (Reinsch) solve gives scipy's make_smoothing_spline at the data points, spacing uneven or not."""
     from scipy.interpolate import make_smoothing_spline
 
-    from tlsync_pipeline.sync.refine import smoothed_values
+    from tlsync_pipeline.sync.kernels.smoothing import smoothed_values
 
     rng = np.random.default_rng(n)
     x = np.arange(n, dtype=float) + rng.uniform(0, jitter, n)
@@ -215,7 +215,7 @@ def test_smoothing_spline_at_other_points_is_scipys(n, lam, jitter):
     """Between the knots, at them and outside them (extrapolated as scipy does), the cross-validation's spline is scipy's make_smoothing_spline."""
     from scipy.interpolate import make_smoothing_spline
 
-    from tlsync_pipeline.sync.refine import smoothing_spline_at
+    from tlsync_pipeline.sync.kernels.smoothing import smoothing_spline_at
 
     rng = np.random.default_rng(n)
     x = 2.0 * np.arange(n) + rng.uniform(0, jitter, n)

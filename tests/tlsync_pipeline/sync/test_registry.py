@@ -12,9 +12,10 @@ from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.pipeline.engine import run_graph
 from tlsync_pipeline.pipeline.graph import build_graph
 from tlsync_pipeline.pipeline.project import load_project
-from tlsync_pipeline.sync.params import SyncParams, param
-from tlsync_pipeline.sync.registry import METHODS, get_method, params_from_table, params_table, register
-from tlsync_pipeline.sync.synchronize import CameraInput, synchronize
+from tlsync_pipeline.sync.model.params import SyncParams, param
+from tlsync_pipeline.sync.model.methods import METHODS, params_from_table, params_table
+from tlsync_pipeline.sync.solve.registry import get_method, register
+from tlsync_pipeline.sync.solve.synchronize import CameraInput, synchronize
 from tlsync_pipeline.sync.timeline import eps_t, read_timeline
 
 from .toy_method import ToyMethod, ToyParams

@@ -1,4 +1,4 @@
-"""The rival line weighed on the camera's whole track with the log's bias absorbed (sync/rival.py, plausibility._rival)."""
+"""The rival line weighed on the camera's whole track with the log's bias absorbed (sync/solve/rival.py, plausibility._rival)."""
 
 from __future__ import annotations
 
@@ -10,11 +10,11 @@ import pytest
 
 from calibration.camera import Camera
 from data_fixtures.gcp import looking_at
-from tlsync_pipeline.sync.log_model import PRESETS
-from tlsync_pipeline.sync.methods import CameraInput
-from tlsync_pipeline.sync.params import SyncParams
-from tlsync_pipeline.sync.plausibility import RIVAL_PROBABILITY, _rival, rival_odds_of
-from tlsync_pipeline.sync.synchronize import synchronize
+from tlsync_pipeline.sync.model.log_model import PRESETS
+from tlsync_pipeline.sync.solve.methods import CameraInput
+from tlsync_pipeline.sync.model.params import SyncParams
+from tlsync_pipeline.sync.solve.plausibility import RIVAL_PROBABILITY, _rival, rival_odds_of
+from tlsync_pipeline.sync.solve.synchronize import synchronize
 from tlsync_pipeline.sync.timeline import CameraLine, LineSearchSummary
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
 from trackers.track import Track

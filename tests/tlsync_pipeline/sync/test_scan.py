@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from data_fixtures import make_scene
-from tlsync_pipeline.sync.params import SyncParams
-from tlsync_pipeline.sync.synchronize import identify_params
-from tlsync_pipeline.sync.scan import MIN_KEYFRAMES, OffsetPrior, ScanPlan, before_coarse, coarse_stride, keyframe_range, plan_scan
+from tlsync_pipeline.sync.model.params import SyncParams
+from tlsync_pipeline.sync.identify.identify import identify_params
+from tlsync_pipeline.sync.identify.scan import MIN_KEYFRAMES, OffsetPrior, ScanPlan, before_coarse, coarse_stride, keyframe_range, plan_scan
 from trackers.detections import make_detections
 
 P = identify_params(SyncParams())

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from data_fixtures import make_scene
-from tlsync_pipeline.sync.refine import refine_line
+from tlsync_pipeline.sync.identify.refine import refine_line
 from tlsync_pipeline.trajectory import Trajectory, read_trajectory, write_trajectory
 
 

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from data_fixtures import make_scene
-from tlsync_pipeline.sync.line_search import SWEEP_SUBSET, find_line
-from tlsync_pipeline.sync.refine import refine_line
-from tlsync_pipeline.sync.slope import BAND_SIGMAS, SlopePrior, slope_prior
+from tlsync_pipeline.sync.kernels.line_search import SWEEP_SUBSET, find_line
+from tlsync_pipeline.sync.identify.refine import refine_line
+from tlsync_pipeline.sync.kernels.slope import BAND_SIGMAS, SlopePrior, slope_prior
 from tlsync_pipeline.trajectory import PiecewiseTrajectory
 
 

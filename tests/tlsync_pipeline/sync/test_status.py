@@ -6,7 +6,7 @@ import json
 
 import numpy as np
 
-from tlsync_pipeline.sync.status import AMBIGUOUS, FAILED, WEAK, Reason, status_of
+from tlsync_pipeline.sync.model.status import AMBIGUOUS, FAILED, WEAK, Reason, status_of
 from tlsync_pipeline.sync.timeline import CameraLine, Timeline, read_timeline, write_timeline
 
 

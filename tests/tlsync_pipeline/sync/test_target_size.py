@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from tlsync_pipeline.sync.target_size import reference_size, target_within
+from tlsync_pipeline.sync.identify.target_size import reference_size, target_within
 
 
 def test_the_reference_size_is_the_target_alone_among_merged_blobs_and_fragments():

@@ -10,8 +10,8 @@ import pytest
 from data_fixtures import make_scene
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.outputs.summary import format_table
-from tlsync_pipeline.sync.params import SyncParams
-from tlsync_pipeline.sync.synchronize import CameraInput, synchronize
+from tlsync_pipeline.sync.model.params import SyncParams
+from tlsync_pipeline.sync.solve.synchronize import CameraInput, synchronize
 from tlsync_pipeline.sync.timeline import read_timeline, write_timeline
 
 

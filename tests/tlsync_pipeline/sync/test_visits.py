@@ -8,7 +8,7 @@ import pytest
 from data_fixtures.long_log import write_long_log
 from data_fixtures.scene import make_scene, write_scene
 from tlsync_pipeline.cli.pipeline import execute
-from tlsync_pipeline.sync import visits
+from tlsync_pipeline.sync.vote import visits
 from tlsync_pipeline.sync.timeline import read_timeline
 from tlsync_pipeline.trajectory import Trajectory, read_trajectory
 

@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 from tlsync_pipeline.errors import SyncError
-from tlsync_pipeline.sync.votes import compute_votes, project_trajectory
+from tlsync_pipeline.sync.vote.votes import compute_votes, project_trajectory
 from trackers.track import Track
 
 

@@ -1,4 +1,5 @@
-"""A toy sync method, written as docs/architecture.md ("Adding a sync method") says: one module.
+"""A toy sync method in one module: its declaration (name, parameters, preparation) and its fit in one class, which
+``register`` declares too (docs/architecture.md, "Adding a sync method", splits the two for the stages' cache keys).
 
 Theil-Sen line through the closest vote of each frame; its one parameter
 scales the votes' pixel distances it accepts.
@@ -12,10 +13,10 @@ import numpy as np
 from scipy.stats import theilslopes
 
 from tlsync_pipeline.errors import SyncError
-from tlsync_pipeline.sync.line_search import thin_votes
-from tlsync_pipeline.sync.methods import CameraData
-from tlsync_pipeline.sync.params import SyncParams, param
-from tlsync_pipeline.sync.ransac import distance_to_line
+from tlsync_pipeline.sync.kernels.line_search import thin_votes
+from tlsync_pipeline.sync.solve.methods import CameraData
+from tlsync_pipeline.sync.model.params import SyncParams, param
+from tlsync_pipeline.sync.kernels.ransac import distance_to_line
 from tlsync_pipeline.sync.timeline import CameraLine
 from tlsync_pipeline.trajectory import Trajectory
 

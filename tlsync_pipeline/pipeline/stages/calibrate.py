@@ -8,7 +8,7 @@ The intrinsics come from the intrinsics stage (checkerboard photos or video,
 - a board at a known world pose (``board_pose``): source ``board``;
 - ground control points (``gcp``) with ``gcp_sigma_m = 0`` (an exact
   survey): source ``gcp``;
-- the target (sync/pose.py), with the GCPs as a prior weighted by
+- the target (sync/pose/pose.py), with the GCPs as a prior weighted by
   ``gcp_sigma_m`` (source ``gcp+target``) or without any (source
   ``target``). The task then also reads the camera's track (or every
   mover's detections) and the trajectory, so it runs after the track and
@@ -42,19 +42,18 @@ from calibration.extrinsics import (
 from calibration.intrinsics import detect_board, parse_pattern
 from tlsync_pipeline.errors import InputError, SyncError
 from tlsync_pipeline.geodesy import Origin, geodetic_to_enu
-from tlsync_pipeline.outputs.plots import calibration_plot
-from tlsync_pipeline.outputs.summary import calibration_summary
+from tlsync_pipeline.outputs.calibration_report import calibration_plot, calibration_summary
 from tlsync_pipeline.pipeline.origin import check_gcp_places, origin_inputs, resolve_origin
 from tlsync_pipeline.pipeline.spec import Options, Sources, StageResult, StageSpec
-from tlsync_pipeline.pipeline.stages.cameras import POSE_ERROR, gcp_sigma, has_no_rows, scans, target_pose_wanted
+from tlsync_pipeline.pipeline.stages.camera_plan import gcp_sigma, scans, target_pose_wanted
+from tlsync_pipeline.pipeline.stages.cameras import POSE_ERROR, has_no_rows
 from tlsync_pipeline.pipeline.stages.intrinsics import check_calibration
 from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
-from tlsync_pipeline.sync.identify import IdentifyParams
-from tlsync_pipeline.sync.params import Preparation
-from tlsync_pipeline.sync.pose import GCP_AGREE, estimate_pose, gcp_pose, pose_info
-from tlsync_pipeline.sync.pose_fit import GcpPrior
-from tlsync_pipeline.sync.registry import preparation_of
-from tlsync_pipeline.sync.synchronize import identify_params, prepare_trajectory
+from tlsync_pipeline.sync.identify.identify import IdentifyParams, identify_params
+from tlsync_pipeline.sync.model.methods import prepare_trajectory, preparation_of
+from tlsync_pipeline.sync.model.params import Preparation
+from tlsync_pipeline.sync.pose.pose import GCP_AGREE, estimate_pose, gcp_pose, pose_info
+from tlsync_pipeline.sync.pose.pose_fit import GcpPrior
 from tlsync_pipeline.trajectory import Trajectory, read_trajectory
 from trackers.detections import Detections, read_detections
 from trackers.track import Track, read_track
@@ -75,7 +74,7 @@ class KnownBoard:
 @dataclass(frozen=True)
 class TargetPoseParams:
     """What a pose from the target reads: the GCPs' survey sigma (metres; None without GCPs), identification's
-    parameters (gate, loss scale, clock prior: sync/identify.py), how the trajectory is prepared, and the video
+    parameters (gate, loss scale, clock prior: sync/identify/identify.py), how the trajectory is prepared, and the video
     the track stage found the target or the movers in (None: the project brings them)."""
 
     gcp_sigma_m: float | None
@@ -191,7 +190,7 @@ def pose_from_target(
     """The camera posed by the target (its GCPs, if any, a prior; its GCP pose, if any, the start), and the report's
     ``target_pose``; offsets: the range of the line's beta searched (frames; None: all the log allows).
 
-    Raises PoseError (sync/pose.py) when the target does not determine the pose.
+    Raises PoseError (sync/pose/pose.py) when the target does not determine the pose.
     """
     prepared = prepare_trajectory(trajectory, params.preparation)
     start = camera if camera.posed else None

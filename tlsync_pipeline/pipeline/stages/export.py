@@ -14,13 +14,13 @@ from pathlib import Path
 
 import numpy as np
 
-from tlsync_pipeline.sync.status import HALF_95
+from tlsync_pipeline.sync.model.status import HALF_95
 from tlsync_pipeline.outputs.editors import Piece, Placement, fcpxml_text, otio_text, sync_document
 from tlsync_pipeline.outputs.exports import ffmpeg_commands, frame_map_rows, offsets, reference_seconds, start_frames
 from tlsync_pipeline.pipeline.spec import ProjectWide, Sources, StageResult, StageSpec
 from tlsync_pipeline.pipeline.stages.cameras import CameraFiles, camera_files, read_video_info
 from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
-from tlsync_pipeline.sync.clock import FrameTimes
+from tlsync_pipeline.sync.model.clock import FrameTimes
 from tlsync_pipeline.sync.timeline import CameraLine, Timeline, read_timeline
 from trackers.track import read_track
 from trackers.video import presentation_times, probe_video

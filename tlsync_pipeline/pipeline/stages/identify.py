@@ -2,7 +2,7 @@
 
 For a camera whose track stage detected every mover (blob kind), or that
 brings its own ``detections = ...``: the trajectory, projected into the
-camera, picks the target among the movers (sync/identify.py). An init box
+camera, picks the target among the movers (sync/identify/identify.py). An init box
 seeds the identity: the tracklet in it at the init frame is preferred. The
 identified target's ``track.csv`` then serves the vote, sync, export and
 render stages as any track does; ``identification.json`` holds the summary
@@ -22,13 +22,13 @@ from tlsync_pipeline.errors import SyncError
 from tlsync_pipeline.pipeline.spec import Options, Sources, StageResult, StageSpec
 from tlsync_pipeline.pipeline.stages.cameras import has_no_rows, ingest_report_input, log_model_of, pose_problem
 from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
-from tlsync_pipeline.sync.breaks import identify_in_segments
-from tlsync_pipeline.sync.identify import IdentifyParams
-from tlsync_pipeline.sync.log_model import LogModelChoice, measured, vote_radius
-from tlsync_pipeline.sync.params import Preparation
-from tlsync_pipeline.sync.registry import preparation_of
-from tlsync_pipeline.sync.synchronize import identify_params, prepare_trajectory
-from tlsync_pipeline.sync.visits import near_views
+from tlsync_pipeline.sync.identify.breaks import identify_in_segments
+from tlsync_pipeline.sync.identify.identify import IdentifyParams, identify_params
+from tlsync_pipeline.sync.model.log_model import LogModelChoice
+from tlsync_pipeline.sync.vote.log_error import measured, vote_radius
+from tlsync_pipeline.sync.model.params import Preparation
+from tlsync_pipeline.sync.model.methods import prepare_trajectory, preparation_of
+from tlsync_pipeline.sync.vote.visits import near_views
 from tlsync_pipeline.trajectory import read_trajectory
 from trackers.breaks import Break
 from trackers.detections import read_detections, seed_tracklets
@@ -52,7 +52,7 @@ class IdentifyStageParams:
     """fps: the camera's nominal frame rate (None: camera.json's); identify: identification's [sync] keys;
     preparation: how the trajectory is prepared; source: the video the movers were detected in (None: the
     project brings its detections); seed: an init box, or None; log_model: the log's error, which widens the
-    camera's vote radius and gate (log_model.vote_radius)."""
+    camera's vote radius and gate (log_error.vote_radius)."""
 
     fps: float | None
     identify: IdentifyParams

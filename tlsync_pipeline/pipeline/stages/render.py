@@ -30,19 +30,18 @@ from tlsync_pipeline.outputs.plots import offsets_plot, recordings_plot, residua
 from tlsync_pipeline.outputs.report_content import Picture, ReportContent
 from tlsync_pipeline.outputs.report_html import report_html
 from tlsync_pipeline.outputs.report_md import report_markdown
-from tlsync_pipeline.outputs.summary import calibration_summary
+from tlsync_pipeline.outputs.calibration_report import calibration_summary
 from tlsync_pipeline.pipeline.executors import SerialExecutor, run_each
 from tlsync_pipeline.pipeline.spec import Options, Sources, StageResult, StageSpec
 from tlsync_pipeline.pipeline.stages.cameras import CameraFiles, CamerasParams, camera_files, cameras_params
 from tlsync_pipeline.pipeline.stages.export import frame_count, frame_times
 from tlsync_pipeline.pipeline.stages.sync import read_camera_inputs
 from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
-from tlsync_pipeline.sync.clock import FrameTimes
-from tlsync_pipeline.sync.methods import CameraInput
-from tlsync_pipeline.sync.registry import params_from_table, preparation_of
-from tlsync_pipeline.sync.synchronize import prepare_trajectory
+from tlsync_pipeline.sync.model.clock import FrameTimes
+from tlsync_pipeline.sync.solve.methods import CameraInput
+from tlsync_pipeline.sync.model.methods import params_from_table, prepare_trajectory, preparation_of
 from tlsync_pipeline.sync.timeline import Relation, Timeline, read_timeline
-from tlsync_pipeline.sync.visits import near_views
+from tlsync_pipeline.sync.vote.visits import near_views
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory, read_trajectory
 
 if TYPE_CHECKING:

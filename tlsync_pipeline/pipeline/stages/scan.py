@@ -2,7 +2,7 @@
 
 For a camera whose movers the track stage detects (blob kind) in its own
 video, with ``[track] scan = "auto"`` (the default): the coarse pass
-(sync/scan.py) reads the keyframes only, finds when the target is in view
+(sync/identify/scan.py) reads the keyframes only, finds when the target is in view
 and writes the windows of frames the track stage then reads in full; or,
 with the reason, that every frame is to be read (``"full"``: a short video,
 no packet index, an ambiguous coarse line, ...). With ``scan = "full"`` the
@@ -28,13 +28,12 @@ from tlsync_pipeline.pipeline.spec import Options, Sources, StageResult, StageSp
 from calibration.errors import CalibrationInputError
 from tlsync_pipeline.errors import InputError, one_line
 from tlsync_pipeline.pipeline.stages.calibrate import CalibrateParams, survey_inputs, survey_params, survey_pose
-from tlsync_pipeline.pipeline.stages.cameras import scan_pose, scans
+from tlsync_pipeline.pipeline.stages.camera_plan import scan_pose, scans
 from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
-from tlsync_pipeline.sync.identify import IdentifyParams
-from tlsync_pipeline.sync.params import Preparation
-from tlsync_pipeline.sync.scan import COARSE_STEPS_S, OffsetPrior, ScanPlan, before_coarse, coarse_stride, full_scan, keyframe_range, margin_frames, plan_scan, prior_slope
-from tlsync_pipeline.sync.registry import preparation_of
-from tlsync_pipeline.sync.synchronize import identify_params, prepare_trajectory
+from tlsync_pipeline.sync.identify.identify import IdentifyParams, identify_params
+from tlsync_pipeline.sync.model.methods import prepare_trajectory, preparation_of
+from tlsync_pipeline.sync.model.params import Preparation
+from tlsync_pipeline.sync.identify.scan import COARSE_STEPS_S, OffsetPrior, ScanPlan, before_coarse, coarse_stride, full_scan, keyframe_range, margin_frames, plan_scan, prior_slope
 from tlsync_pipeline.trajectory import Trajectory, read_trajectory
 from trackers.detections import COLUMNS, Detections, make_detections
 from trackers.tracking import detect_keyframe_movers, movers_detector

@@ -16,17 +16,18 @@ from tlsync_pipeline.pipeline.spec import Options, Sources, StageResult, StageSp
 from tlsync_pipeline.pipeline.stages.cameras import CameraFiles, CamerasParams, camera_files, cameras_params, container_fps, log_model_of, read_identification, read_video_info
 from tlsync_pipeline.pipeline.stages.clock import read_clock
 from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
-from tlsync_pipeline.sync.breaks import merged
-from tlsync_pipeline.sync.methods import CameraInput
+from tlsync_pipeline.sync.identify.breaks import merged
+from tlsync_pipeline.sync.solve.methods import CameraInput
 from tlsync_pipeline.sync.clock_prior import with_clock_checks
-from tlsync_pipeline.sync.log_model import LogModelChoice
-from tlsync_pipeline.sync.params import SyncParams
-from tlsync_pipeline.sync.plausibility import LogUnitError
-from tlsync_pipeline.sync.status import WEAK, Reason
-from tlsync_pipeline.sync.synchronize import CameraResult, synchronize
-from tlsync_pipeline.sync.timeline import CameraLine, IdentificationSummary, ScanSummary, StageWarning, Timeline, write_timeline
-from tlsync_pipeline.sync.votes import Votes, load_votes
-from tlsync_pipeline.sync.visits import near_views
+from tlsync_pipeline.sync.model.log_model import LogModelChoice
+from tlsync_pipeline.sync.model.params import SyncParams
+from tlsync_pipeline.sync.solve.plausibility import LogUnitError
+from tlsync_pipeline.sync.model.status import WEAK, Reason
+from tlsync_pipeline.sync.solve.synchronize import CameraResult, synchronize
+from tlsync_pipeline.sync.identify.summary import IdentificationSummary
+from tlsync_pipeline.sync.timeline import CameraLine, ScanSummary, StageWarning, Timeline, write_timeline
+from tlsync_pipeline.sync.vote.votes import Votes, load_votes
+from tlsync_pipeline.sync.vote.visits import near_views
 from tlsync_pipeline.trajectory import Trajectory, read_trajectory
 from trackers.breaks import Break
 from trackers.track import read_track
@@ -77,7 +78,7 @@ def read_breaks(camera: CameraFiles) -> tuple[Break, ...]:
 
 def _readable(paths: dict[str, CameraFiles], usable: dict[str, CameraFiles]) -> dict[str, CameraInput]:
     """Every usable camera's inputs, and those of the cameras without votes whose files can be read (what they
-    track helps tell a log in another unit, sync/plausibility.py)."""
+    track helps tell a log in another unit, sync/solve/plausibility.py)."""
     out = {}
     for name, c in paths.items():
         try:

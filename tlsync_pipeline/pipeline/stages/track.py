@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING
 
 from tlsync_pipeline.atomic import atomic_path
 from tlsync_pipeline.pipeline.spec import Options, Sources, StageResult, StageSpec
-from tlsync_pipeline.pipeline.stages.cameras import VIDEO_INFO_FORMAT, scans
+from tlsync_pipeline.pipeline.stages.camera_plan import scans
 from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
 from trackers.breaks import Break, PictureMeter, container_breaks
 from trackers.detections import Detections, write_detections
@@ -27,6 +27,8 @@ from trackers.video import DecodeCount, TruncatedVideoWarning, presentation_time
 
 if TYPE_CHECKING:
     from tlsync_pipeline.pipeline.project import Project, TrackerConfig
+
+VIDEO_INFO_FORMAT = "tlsync-video"  # video.json, written here
 
 
 def track_camera(

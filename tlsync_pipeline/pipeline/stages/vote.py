@@ -17,12 +17,12 @@ from tlsync_pipeline.errors import SyncError
 from tlsync_pipeline.pipeline.spec import Options, Sources, StageResult, StageSpec
 from tlsync_pipeline.pipeline.stages.cameras import has_no_rows, ingest_report_input, log_model_of, pose_problem, read_identification
 from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
-from tlsync_pipeline.sync.log_model import LogModelChoice, measured, vote_radius
-from tlsync_pipeline.sync.params import Preparation
-from tlsync_pipeline.sync.registry import preparation_of
-from tlsync_pipeline.sync.synchronize import cast_votes, prepare_trajectory
-from tlsync_pipeline.sync.votes import Votes, save_votes
-from tlsync_pipeline.sync.visits import near_views
+from tlsync_pipeline.sync.model.log_model import LogModelChoice
+from tlsync_pipeline.sync.vote.log_error import measured, vote_radius
+from tlsync_pipeline.sync.model.params import Preparation
+from tlsync_pipeline.sync.model.methods import prepare_trajectory, preparation_of
+from tlsync_pipeline.sync.vote.votes import Votes, compute_votes, save_votes
+from tlsync_pipeline.sync.vote.visits import near_views
 from tlsync_pipeline.trajectory import read_trajectory
 from trackers.track import read_track
 
@@ -34,7 +34,7 @@ if TYPE_CHECKING:
 class VoteParams:
     """eps_px: vote radius (pixels, eq. 3); preparation: the trajectory the votes are cast on (the sync method's);
     source: the video the track stage tracked the target in (None when the project brings the track); log_model:
-    the log's error, which widens the camera's vote radius (log_model.vote_radius)."""
+    the log's error, which widens the camera's vote radius (log_error.vote_radius)."""
 
     eps_px: float
     preparation: Preparation
@@ -63,7 +63,7 @@ def run_vote(files: StageFiles, params: VoteParams) -> StageResult:
         logged = near_views(read_trajectory(files.path("trajectory")), [camera])
         prepared = prepare_trajectory(logged, params.preparation)
         radius = vote_radius(camera, prepared, params.eps_px, measured(log_model_of(files, params.log_model), logged))
-        votes = cast_votes(camera, read_track(files.path("track")), prepared, radius)
+        votes = compute_votes(camera, read_track(files.path("track")), prepared, radius)
         error = None
     except SyncError as exc:
         votes, error = Votes(np.zeros(0), np.zeros(0), np.zeros(0)), str(exc)

@@ -11,8 +11,8 @@ from tlsync_pipeline.pipeline.engine import run_graph
 from tlsync_pipeline.pipeline.graph import build_graph
 from tlsync_pipeline.pipeline.project import load_project
 from tlsync_pipeline.pipeline.stages.sync import load_inputs, run_sync
-from tlsync_pipeline.sync.synchronize import synchronize
-from tlsync_pipeline.sync.votes import Votes, compute_votes, load_votes, save_votes
+from tlsync_pipeline.sync.solve.synchronize import synchronize
+from tlsync_pipeline.sync.vote.votes import Votes, compute_votes, load_votes, save_votes
 
 
 def test_votes_npz_are_the_votes_sync_fits(tmp_path):

@@ -2,7 +2,7 @@
 
 The target gives thousands of (pixel, 3D position) pairs, known up to the
 camera's line clock = alpha * sample + beta that is being estimated. With
-alpha held by the clock prior (sync/slope.py: the camera's fps over the log's
+alpha held by the clock prior (sync/kernels/slope.py: the camera's fps over the log's
 rate), only beta is unknown:
 
 1. search over beta (``search_offsets``): for each candidate beta, each of
@@ -16,7 +16,7 @@ rate), only beta is unknown:
    best peaks;
 2. the best CANDIDATES peaks of distinct offsets are fitted: pose, line
    (and the free intrinsics) jointly on every tracked position, with the
-   GCPs as a prior (sync/pose_fit.py); with GCPs, the pose the GCPs alone
+   GCPs as a prior (sync/pose/pose_fit.py); with GCPs, the pose the GCPs alone
    give and the line the votes find under it are one more candidate;
 3. the fit with the most frames within the gate wins; the best fit at an
    offset more than DISTINCT_S away is the runner-up (its support is kept,
@@ -47,7 +47,7 @@ is held. A target moving in a plane (a walker on flat ground) does not
 determine the focal length: the search's DLT is degenerate there and the
 camera fails with the cause ``planar_path``.
 
-Clock values are the camera clock in frame units (sync/clock.py); pixels
+Clock values are the camera clock in frame units (sync/model/clock.py); pixels
 as tracked (distorted); world metres.
 """
 
@@ -64,16 +64,16 @@ from calibration.errors import CalibrationInputError
 from calibration.extrinsics import Pose, pose_from_points
 from calibration.lens import undistort_pixels
 from tlsync_pipeline.errors import SyncError
-from tlsync_pipeline.sync.clock import FrameTimes, camera_clock, image_speed
-from tlsync_pipeline.sync.identify import (
+from tlsync_pipeline.sync.model.clock import FrameTimes, camera_clock, image_speed
+from tlsync_pipeline.sync.identify.identify import (
     Identification,
     IdentifyParams,
     detections_clock,
     identify_target,
 )
-from tlsync_pipeline.sync.line_search import find_line
-from tlsync_pipeline.sync.log_model import LogModel
-from tlsync_pipeline.sync.pose_fit import (
+from tlsync_pipeline.sync.kernels.line_search import find_line
+from tlsync_pipeline.sync.model.log_model import LogModel
+from tlsync_pipeline.sync.pose.pose_fit import (
     INTRINSICS,
     MODEL_ERROR_PX,
     GcpPrior,
@@ -81,7 +81,7 @@ from tlsync_pipeline.sync.pose_fit import (
     fit_pose_and_line,
     reprojection_errors,
 )
-from tlsync_pipeline.sync.slope import SlopePrior, slope_prior
+from tlsync_pipeline.sync.kernels.slope import SlopePrior, slope_prior
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
 from trackers.detections import Detections
 from trackers.track import Track
@@ -871,7 +871,7 @@ def pose_from_movers(
     first, at most MAX_TRACKLETS, gets the offset search and joint fits of
     ``pose_from_track``; under each of its TRACKLET_CANDIDATES best fits at
     distinct offsets, the target is identified among every mover
-    (sync/identify.py: its other tracklets, other visits to the view join)
+    (sync/identify/identify.py: its other tracklets, other visits to the view join)
     and the pose and line are fitted again on the identified track. One
     tracklet of a few seconds seldom determines a pose; the identified
     track, with every visit, does. The refitted pose with most frames wins,

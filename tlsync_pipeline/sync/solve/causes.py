@@ -31,8 +31,8 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from calibration.camera import Camera
-from tlsync_pipeline.sync.plausibility import GATE_EPS, Judged, LogUnitError, _fits_better, path_share
-from tlsync_pipeline.sync.status import FAILED, Reason
+from tlsync_pipeline.sync.solve.plausibility import GATE_EPS, Judged, LogUnitError, _fits_better, path_share
+from tlsync_pipeline.sync.model.status import FAILED, Reason
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
 
 HEIGHT_NEAR_M = (

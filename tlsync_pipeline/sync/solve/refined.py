@@ -9,19 +9,20 @@ disagrees with the votes the line-search line is kept, with a warning.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 
 from tlsync_pipeline.errors import SyncError
-from tlsync_pipeline.sync.line_search import LineSearch, find_line
-from tlsync_pipeline.sync.methods import CameraData
-from tlsync_pipeline.sync.params import SyncParams, param
-from tlsync_pipeline.sync.ransac import distance_to_line
-from tlsync_pipeline.sync.log_bias import BiasCamera, LogBias, fit_log_bias, fit_log_bias_measured
-from tlsync_pipeline.sync.log_model import LogModel
-from tlsync_pipeline.sync.refine import Refinement, refine_line, sigma_weights, smooth_trajectory
-from tlsync_pipeline.sync.slope import SlopePrior, slope_prior
+from tlsync_pipeline.sync.kernels.line_search import LineSearch, find_line
+from tlsync_pipeline.sync.solve.methods import CameraData
+from tlsync_pipeline.sync.model.methods import RefinedKind, RefinedParams
+from tlsync_pipeline.sync.model.params import SyncParams
+from tlsync_pipeline.sync.kernels.ransac import distance_to_line
+from tlsync_pipeline.sync.solve.log_bias import BiasCamera, LogBias, fit_log_bias, fit_log_bias_measured
+from tlsync_pipeline.sync.model.log_model import LogModel
+from tlsync_pipeline.sync.identify.refine import Refinement, refine_line, sigma_weights
+from tlsync_pipeline.sync.kernels.slope import SlopePrior, slope_prior
 from tlsync_pipeline.sync.timeline import CameraLine, ErrorBudget, LineSearchSummary, LogBiasSummary, RefinementSummary
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
 
@@ -37,38 +38,9 @@ MIN_SPEED_FRAMES = 10  # consecutive tracked frames needed to measure the target
 MAX_APART_FRAMES = 300.0  # a rival line is never required to be farther than this (frames)
 
 
-@dataclass(frozen=True)
-class RefinedParams:
-    """r_min: smallest inlier ratio the line search must find; f_scale_px: robust loss
-    scale of the refinement (pixels); smooth_trajectory: smooth the logged trajectory
-    first; model_error_px: pixel error of the calibration and log that the
-    intervals allow for."""
-
-    r_min: float = param(0.01, "ratio")
-    f_scale_px: float = param(3.0, "positive")
-    smooth_trajectory: bool = param(True, "boolean")
-    model_error_px: float = param(3.0, "non_negative")
-
-
-@dataclass(frozen=True)
-class Smoothing:
-    """The refined method's trajectory preparation: smooth the logged trajectory or not (RefinedParams.smooth_trajectory)."""
-
-    smooth_trajectory: bool
-
-
-class RefinedMethod:
-    """Line search over the votes, refinement on the tracked positions, fallback with a warning."""
-
-    name = "refined"
-    params_type = RefinedParams
-
-    def preparation(self, options: RefinedParams) -> Smoothing:
-        return Smoothing(options.smooth_trajectory)
-
-    def prepare_trajectory(self, trajectory: Trajectory, preparation: Smoothing) -> Trajectory:
-        """The trajectory smoothed run by run (unless smooth_trajectory is off)."""
-        return smooth_trajectory(trajectory) if preparation.smooth_trajectory else trajectory
+class RefinedMethod(RefinedKind):
+    """Line search over the votes, refinement on the tracked positions, fallback with a warning (name, parameters,
+    smoothing: RefinedKind)."""
 
     def fit(self, data: CameraData, trajectory: Trajectory, params: SyncParams, options: RefinedParams) -> CameraLine:
         votes, track = data.votes, data.track
@@ -129,7 +101,7 @@ class RefinedMethod:
     def refine_with_log_bias(
         self, cameras: dict[str, CameraData], lines: dict[str, CameraLine], trajectory: Trajectory, params: SyncParams, options: RefinedParams, model: LogModel
     ) -> tuple[dict[str, CameraLine], LogBias | None]:
-        """Every camera's line refined together with the log's bias (sync/log_bias.py), their intervals including it.
+        """Every camera's line refined together with the log's bias (sync/solve/log_bias.py), their intervals including it.
 
         Cameras whose own refinement was not kept (a fallback) keep their line.
         A camera whose refinement on the corrected log loses its frames or

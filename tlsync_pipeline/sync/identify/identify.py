@@ -15,7 +15,7 @@ stay on the path (cost = distance / gate + FOLLOW_WEIGHT x (1 - the
 tracklet's share of frames within the gate)). A candidate whose box holds
 the projection is near too: a blob merged with passers-by has its centre
 off the target's. Such a box, larger than the target's size in metres at
-its depth (sync/target_size.py), holds the target somewhere in its slack;
+its depth (sync/identify/target_size.py), holds the target somewhere in its slack;
 an assigned candidate is kept when the projection comes within the gate
 of that region (the refinement's residual), so a passer-by's box of the
 target's size that merely reaches over the projection is left out; of
@@ -59,14 +59,16 @@ from scipy.spatial import cKDTree
 
 from calibration.camera import Camera
 from tlsync_pipeline.errors import SyncError
-from tlsync_pipeline.sync.clock import CameraClock, FrameTimes, Segment, camera_clock
-from tlsync_pipeline.sync.line_search import LineSearch, find_line, thin_votes
-from tlsync_pipeline.sync.plausibility import BACKWARD_BELOW, backwards_better
-from tlsync_pipeline.sync.refine import MIN_FRAMES, refine_line
-from tlsync_pipeline.sync.slope import SlopePrior, slope_prior
-from tlsync_pipeline.sync.target_size import beyond_slack, depth_on_line, sizes_in_metres, slack_on_line, target_within
-from tlsync_pipeline.sync.timeline import IdentificationSummary, TrackletShare
-from tlsync_pipeline.sync.votes import Votes
+from tlsync_pipeline.sync.model.clock import CameraClock, FrameTimes, Segment, camera_clock
+from tlsync_pipeline.sync.kernels.line_search import LineSearch, find_line, thin_votes
+from tlsync_pipeline.sync.kernels.backward import BACKWARD_BELOW, backwards_better
+from tlsync_pipeline.sync.identify.refine import MIN_FRAMES, refine_line
+from tlsync_pipeline.sync.kernels.slope import SlopePrior, slope_prior
+from tlsync_pipeline.sync.identify.target_size import beyond_slack, depth_on_line, sizes_in_metres, slack_on_line, target_within
+from tlsync_pipeline.sync.identify.summary import IdentificationSummary, TrackletShare
+from tlsync_pipeline.sync.model.methods import RefinedParams
+from tlsync_pipeline.sync.model.params import SyncParams
+from tlsync_pipeline.sync.vote.votes import Votes
 from tlsync_pipeline.trajectory import UP, PiecewiseTrajectory, Trajectory, lowered
 from trackers.detections import Detections
 from trackers.track import Track
@@ -128,7 +130,7 @@ class Identification:
 
 
 def detections_clock(detections: Detections, fps: float | None, segments: tuple[Segment, ...] = ()) -> tuple[CameraClock, np.ndarray]:
-    """The camera clock of the frames that have detections (with the recording's segments, sync/segments.py), and
+    """The camera clock of the frames that have detections (with the recording's segments, sync/identify/segments.py), and
     each detection row's clock value (NaN in a segment of unknown shift)."""
     frames, first = np.unique(detections.frame, return_index=True)
     times = detections.time_s[first]
@@ -330,12 +332,12 @@ def _windowed_share(frame: np.ndarray, group: np.ndarray, near: np.ndarray, on_p
 
 @dataclass(frozen=True)
 class IdentifyParams:
-    """What identification reads (synchronize.identify_params makes it from [sync]).
+    """What identification reads (``identify_params`` makes it from [sync]).
 
     eps_px: vote radius and assignment gate (pixels); delta, p, seed, r_min:
     the line search's band (frames), success probability, random seed and
-    smallest inlier ratio (sync/line_search.py); rate_sigma: width of the
-    slope prior (sync/slope.py); f_scale_px: robust loss scale of the
+    smallest inlier ratio (sync/kernels/line_search.py); rate_sigma: width of the
+    slope prior (sync/kernels/slope.py); f_scale_px: robust loss scale of the
     refinement on the assigned candidates (pixels).
     """
 
@@ -348,15 +350,21 @@ class IdentifyParams:
     f_scale_px: float
 
 
+def identify_params(params: SyncParams) -> IdentifyParams:
+    """What identification reads of the [sync] keys: the shared ones, and the refined method's r_min and f_scale_px (whatever the method)."""
+    refined = params.options.get("refined") or RefinedParams()
+    return IdentifyParams(params.eps_px, params.delta, params.p, params.seed, params.rate_sigma, refined.r_min, refined.f_scale_px)
+
+
 def identify_target(
     camera: Camera, detections: Detections, trajectory: Trajectory, fps: float | None, params: IdentifyParams, prefer: frozenset[int] = frozenset(), segments: tuple[Segment, ...] = ()
 ) -> Identification:
     """The target's track among every candidate (see the module docstring).
 
-    trajectory: the prepared trajectory (synchronize.prepare_trajectory);
+    trajectory: the prepared trajectory (sync/model/methods.prepare_trajectory);
     fps: the camera's nominal frame rate, or None; prefer: tracklet ids an
     init box says are the target; segments: the recording's segments
-    (sync/segments.py; detections in a segment of unknown shift are left
+    (sync/identify/segments.py; detections in a segment of unknown shift are left
     out beforehand by the caller). Raises SyncError (naming the camera and
     why) when the projected path never enters the image, no candidate comes
     near it, no line is found, or no tracklet follows the path.

@@ -1,7 +1,7 @@
 """The log's slowly varying bias, estimated with every camera's line, and what it leaves uncertain.
 
 A consumer receiver's error is mostly a bias that wanders over a minute
-(sync/log_model.py). A bias along the direction of travel is a time error
+(sync/model/log_model.py). A bias along the direction of travel is a time error
 (1 m at 1.4 m/s is 21 frames at 30 fps), so each camera's own refinement,
 which takes the log as exact, is off by what the bias was during its visit.
 The bias is the same target's for every camera: it is modelled as one 3D
@@ -35,8 +35,8 @@ import scipy.sparse as sp
 from scipy.optimize import minimize
 
 from calibration.camera import Camera
-from tlsync_pipeline.sync.log_model import PRIOR_LOG_SD, LogModel
-from tlsync_pipeline.sync.slope import SlopePrior
+from tlsync_pipeline.sync.model.log_model import PRIOR_LOG_SD, LogModel
+from tlsync_pipeline.sync.kernels.slope import SlopePrior
 from tlsync_pipeline.trajectory import PiecewiseTrajectory
 
 KNOTS_PER_TAU = 4  # knots of the bias per correlation time between the visits

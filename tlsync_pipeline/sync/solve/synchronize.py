@@ -1,15 +1,15 @@
 """Synchronization of cameras against the target: votes, each camera's line, the timeline.
 
-The same for every sync method (``[sync] method``, sync/registry.py): the
-method prepares the trajectory (``prepare_trajectory``); the votes are cast
+The same for every sync method (``[sync] method``, sync/solve/registry.py): the
+method prepares the trajectory (sync/model/methods.prepare_trajectory); the votes are cast
 on that trajectory (``cast_votes``: the vote stage writes these to
 votes.npz, the sync stage passes them back in); each camera's votes are put
-on its clock (sync/clock.py) and the method fits the line. A camera that
+on its clock (sync/model/clock.py) and the method fits the line. A camera that
 brings every mover (detections) instead of a track has its target
-identified among them first (sync/identify.py); its line is then fitted on
+identified among them first (sync/identify/identify.py); its line is then fitted on
 the identified track's votes (in the pipeline the identify stage writes that
 track, and votes.npz holds its votes). A camera without a pose gets it from
-the target before anything else (sync/pose.py; in the pipeline, the
+the target before anything else (sync/pose/pose.py; in the pipeline, the
 calibrate stage).
 
 Pure functions from typed values to typed values; no file I/O here.
@@ -25,26 +25,28 @@ import numpy as np
 
 from calibration.camera import Camera
 from tlsync_pipeline.errors import SyncError
-from tlsync_pipeline.sync.breaks import identify_in_segments, segment_reasons, with_vote_break
-from tlsync_pipeline.sync.clock import FrameTimes, Segment, camera_clock, image_speed
-from tlsync_pipeline.sync.identify import Identification, IdentifyParams
-from tlsync_pipeline.sync.log_model import PRESETS, LogModel, measured, vote_radius
-from tlsync_pipeline.sync.methods import CameraData, CameraInput, JointMethod
-from tlsync_pipeline.sync.params import Preparation, SyncParams
-from tlsync_pipeline.sync.causes import explain
-from tlsync_pipeline.sync.plausibility import BACKWARD_BELOW, RIVAL_PROBABILITY, Judged, backward_support, diagnose, judge_line, line_support, motion_slope, rival_odds_of
-from tlsync_pipeline.sync.pose import TargetPose, estimate_pose, pose_info
-from tlsync_pipeline.sync.refined import RefinedParams
-from tlsync_pipeline.sync.segments import MAX_WHOLE, MIN_SEGMENT_FRAMES, joined_at_void_cuts, segments_of, whole_frames
-from tlsync_pipeline.sync.registry import get_method, method_options, params_table, preparation_of
-from tlsync_pipeline.sync.slope import slope_prior
-from tlsync_pipeline.sync.status import AMBIGUOUS, FAILED, Reason, diagnosed_failure
+from tlsync_pipeline.sync.identify.breaks import identify_in_segments, segment_reasons, with_vote_break
+from tlsync_pipeline.sync.model.clock import FrameTimes, Segment, camera_clock, image_speed
+from tlsync_pipeline.sync.identify.identify import Identification, identify_params
+from tlsync_pipeline.sync.model.log_model import PRESETS, LogModel
+from tlsync_pipeline.sync.vote.log_error import measured, vote_radius
+from tlsync_pipeline.sync.solve.methods import CameraData, CameraInput, JointMethod
+from tlsync_pipeline.sync.model.methods import method_options, params_table, prepare_trajectory, preparation_of
+from tlsync_pipeline.sync.model.params import SyncParams
+from tlsync_pipeline.sync.solve.causes import explain
+from tlsync_pipeline.sync.kernels.backward import BACKWARD_BELOW, backward_support, line_support
+from tlsync_pipeline.sync.solve.plausibility import RIVAL_PROBABILITY, Judged, diagnose, judge_line, motion_slope, rival_odds_of
+from tlsync_pipeline.sync.pose.pose import TargetPose, estimate_pose, pose_info
+from tlsync_pipeline.sync.identify.segments import MAX_WHOLE, MIN_SEGMENT_FRAMES, joined_at_void_cuts, segments_of, whole_frames
+from tlsync_pipeline.sync.solve.registry import get_method
+from tlsync_pipeline.sync.kernels.slope import slope_prior
+from tlsync_pipeline.sync.model.status import AMBIGUOUS, FAILED, Reason, diagnosed_failure
 from tlsync_pipeline.sync.timeline import CameraLine, Timeline
-from tlsync_pipeline.sync.votes import Votes, compute_votes
-from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory, lowered
+from tlsync_pipeline.sync.vote.votes import Votes, compute_votes
+from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
 from trackers.track import Track
 
-__all__ = ["CameraInput", "CameraResult", "cast_votes", "identify_and_synchronize", "identify_params", "prepare_trajectory", "synchronize", "synchronize_camera"]
+__all__ = ["CameraInput", "CameraResult", "cast_votes", "identify_and_synchronize", "synchronize", "synchronize_camera"]
 
 
 @dataclass(frozen=True)
@@ -62,27 +64,15 @@ class CameraResult:
         return self.identification.track if self.identification is not None else inputs.track
 
 
-def prepare_trajectory(trajectory: Trajectory, preparation: Preparation) -> Trajectory:
-    """The trajectory the chosen method votes on and fits to (vote stage, sync and render all use this), lowered to the tracked point by ``logged_point_above_m``."""
-    prepared = get_method(preparation.method).prepare_trajectory(trajectory, preparation.options)
-    return lowered(prepared, preparation.logged_point_above_m) if preparation.logged_point_above_m else prepared
-
-
 def cast_votes(camera: Camera, track: Track, prepared: Trajectory, eps_px: float) -> Votes:
     """One camera's votes on the prepared trajectory (eq. 3); SyncError when there is none."""
     return compute_votes(camera, track, prepared, eps_px)
 
 
-def identify_params(params: SyncParams) -> IdentifyParams:
-    """What identification reads of the [sync] keys: the shared ones, and the refined method's r_min and f_scale_px (whatever the method)."""
-    refined = params.options.get("refined") or RefinedParams()
-    return IdentifyParams(params.eps_px, params.delta, params.p, params.seed, params.rate_sigma, refined.r_min, refined.f_scale_px)
-
-
 def synchronize_camera(name: str, inputs: CameraInput, votes: Votes, prepared: Trajectory, params: SyncParams, eps_px: float | None = None) -> CameraResult:
     """The fitted line of one camera from its votes; SyncError if it cannot be synchronized.
 
-    eps_px: the camera's vote radius (log_model.vote_radius; None: [sync] eps_px).
+    eps_px: the camera's vote radius (log_error.vote_radius; None: [sync] eps_px).
     """
     track = inputs.track
     assert track is not None, "a camera without a track is identified first (identify_and_synchronize)"
@@ -166,11 +156,11 @@ def synchronize(
     votes: each camera's votes as the vote stage cast them (cast_votes on
     prepare_trajectory's output with each camera's vote_radius), or the
     SyncError it met; None: cast here. log_model: what is known of the log's
-    error (sync/log_model.py): it widens each camera's vote radius and, with
+    error (sync/model/log_model.py): it widens each camera's vote radius and, with
     a bias and a method that can (the refined one), the lines are fitted
     together with the bias, their intervals including what it leaves
     uncertain. Every line is first checked against its camera's evidence
-    (sync/plausibility.py): a line the checks contradict, or with a rival as
+    (sync/solve/plausibility.py): a line the checks contradict, or with a rival as
     strong, is not synchronized (``Timeline.rejected``) and takes no part in
     the joint fit. Cameras that cannot be synchronized are listed in
     ``Timeline.failed`` with the reason; a camera whose fit raises anything
@@ -321,7 +311,7 @@ def _log_error(model: LogModel, declared: LogModel, estimate: tuple[float, float
 
 
 def _segmented(name: str, inputs: CameraInput, result: CameraResult, prepared: Trajectory, params: SyncParams, radius_px: float) -> tuple[CameraInput, CameraResult]:
-    """A camera whose recording breaks (its own breaks, or a drop its votes show) fitted as segments (sync/segments.py).
+    """A camera whose recording breaks (its own breaks, or a drop its votes show) fitted as segments (sync/identify/segments.py).
 
     The votes say which segments the target visits and their shifts to
     within a frame or so; each such segment's line is then fitted on its own
@@ -332,7 +322,7 @@ def _segmented(name: str, inputs: CameraInput, result: CameraResult, prepared: T
     is fitted again on every segment of known shift, its clock carrying
     them; the inputs then hold the track of those segments. Unchanged
     without a break, or when no segment's shift is known (the break's reason
-    then refuses it, sync/breaks.py).
+    then refuses it, sync/identify/breaks.py).
     """
     track = result.track(inputs)
     assert track is not None, "a fitted camera has a track"

@@ -1,9 +1,9 @@
 """A camera fitted as segments: one clock rate, one offset per stretch of its recording between breaks.
 
-The breaks (trackers/breaks.py; sync/breaks.py for a drop the votes show)
+The breaks (trackers/breaks.py; sync/identify/breaks.py for a drop the votes show)
 cut the frames into segments. The line is fitted on the segment the target
 supports most; every other segment gets a shift, the clock units its
-frames' clock values move by to fall on that line (sync/clock.py,
+frames' clock values move by to fall on that line (sync/model/clock.py,
 ``Segment``):
 
 - a segment the target visits: the densest offset of its votes against the
@@ -27,7 +27,7 @@ gaps already: they cut it into no segment (a phone that halves its rate in
 the dark is not broken); a drop the votes show still does.
 
 The sync stage then measures each visited segment's shift again from its
-own line (sync/synchronize.py) and fits the camera's line on every segment
+own line (sync/solve/synchronize.py) and fits the camera's line on every segment
 of known shift. Frames are 0-based; clock values and shifts are in
 the camera clock's frame units.
 """
@@ -36,8 +36,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from tlsync_pipeline.sync.clock import Segment
-from tlsync_pipeline.sync.status import WEAK, Reason
+from tlsync_pipeline.sync.model.clock import Segment
+from tlsync_pipeline.sync.model.status import WEAK, Reason
 from trackers.breaks import Break
 
 MIN_SEGMENT_FRAMES = 8  # distinct frames of votes on one offset that measure a segment's shift

@@ -3,7 +3,7 @@
 Each parameter is a dataclass field made with ``param``: its default and the
 check the project file applies to it (one of CHECKS). The ``[sync]`` table of
 the project file holds the shared keys, ``method`` and every registered
-method's own keys (sync/registry.py).
+method's own keys (sync/model/methods.py).
 """
 
 from __future__ import annotations
@@ -37,13 +37,13 @@ class SyncParams:
     line fit draws a good hypothesis (eq. 4); seed: random seed; rate_sigma:
     relative std of a camera's true frame rate against its stated fps (the
     refined method and identification keep each line's slope near fps / log
-    rate, sync/slope.py; 0: free slope, e.g. a time-lapse video whose fps
+    rate, sync/kernels/slope.py; 0: free slope, e.g. a time-lapse video whose fps
     is not its capture rate); logged_point_above_m: height of the logged
     point above the tracked point, metres along the world's up axis (a GPS
     at a walker's chest, the blob's centre tracked: about 0.4; negative
     below it), the trajectory lowered by it before voting; log_bias: fit
     the log's bias with the lines when the log's error model has one
-    (sync/log_bias.py; false: each camera alone, the log taken as exact);
+    (sync/solve/log_bias.py; false: each camera alone, the log taken as exact);
     method: a
     registered method's name; options: method name -> that method's own
     parameters (an instance of its ``params_type``); a method not listed
@@ -63,7 +63,7 @@ class SyncParams:
 
 @dataclass(frozen=True)
 class Preparation:
-    """What preparing the trajectory reads (sync/synchronize.prepare_trajectory), and nothing else.
+    """What preparing the trajectory reads (sync/model/methods.prepare_trajectory), and nothing else.
 
     method: the sync method's name; options: the method's own preparation
     options (its ``preparation(options)``; None when it prepares nothing);

@@ -7,7 +7,7 @@ follow one steady clock. The track stage lists where they may not
 fall on two parallel lines, one before a frame and one after it, the path
 picking up in the log where it left off. ``identify_in_segments``
 identifies the target across the breaks; the camera is then fitted as
-segments (sync/segments.py, sync/synchronize.py). ``segment_reasons`` says
+segments (sync/identify/segments.py, sync/solve/synchronize.py). ``segment_reasons`` says
 what that gives the camera:
 
 - segments: weak (``segments``), each named with its offset or as unknown;
@@ -19,7 +19,7 @@ what that gives the camera:
   frame, size.
 
 Frames are 0-based frame indices; clock values are the camera clock's
-(sync/clock.py), in frames.
+(sync/model/clock.py), in frames.
 """
 
 from __future__ import annotations
@@ -28,10 +28,10 @@ import numpy as np
 
 from calibration.camera import Camera
 from tlsync_pipeline.errors import SyncError
-from tlsync_pipeline.sync.clock import Segment
-from tlsync_pipeline.sync.identify import Identification, IdentifyParams, detections_clock, identify_target
-from tlsync_pipeline.sync.segments import segments_of, segments_reason
-from tlsync_pipeline.sync.status import AMBIGUOUS, Reason
+from tlsync_pipeline.sync.model.clock import Segment
+from tlsync_pipeline.sync.identify.identify import Identification, IdentifyParams, detections_clock, identify_target
+from tlsync_pipeline.sync.identify.segments import segments_of, segments_reason
+from tlsync_pipeline.sync.model.status import AMBIGUOUS, Reason
 from tlsync_pipeline.trajectory import Trajectory
 from trackers.breaks import Break
 from trackers.detections import Detections
@@ -198,7 +198,7 @@ def segment_reasons(
     delta: float,
 ) -> tuple[Reason, ...]:
     """The reasons of a camera's breaks: without segments (no segment's shift known) those of ``break_reasons``; with
-    them, the segments (WEAK, sync/segments.py) and AMBIGUOUS when a segment the target visits (MIN_SIDE_FRAMES
+    them, the segments (WEAK, sync/identify/segments.py) and AMBIGUOUS when a segment the target visits (MIN_SIDE_FRAMES
     tracked frames) has no shift its votes agree on."""
     if not segments:
         return break_reasons(breaks, tracked, vote_frame, vote_clock, vote_sample, alpha, beta, delta)
@@ -229,10 +229,10 @@ def identify_in_segments(
 ) -> tuple[Identification, tuple[Break, ...]]:
     """The target identified among every mover across the recording's breaks, and the breaks.
 
-    Identification follows one line (sync/identify.py), so it keeps the
+    Identification follows one line (sync/identify/identify.py), so it keeps the
     target only on the part of a broken recording that line holds. With the
     breaks known (``breaks``, and a drop the movers' votes show), each
-    segment's shift is measured on the movers' votes (sync/segments.py);
+    segment's shift is measured on the movers' votes (sync/identify/segments.py);
     when another segment's is, the target is identified again on the clock
     that carries them, over the segments of known shift.
     """

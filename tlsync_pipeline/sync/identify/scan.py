@@ -44,10 +44,10 @@ import numpy as np
 
 from calibration.camera import Camera
 from tlsync_pipeline.errors import SyncError
-from tlsync_pipeline.sync.clock import CameraClock, FrameTimes, FRAME, camera_clock
-from tlsync_pipeline.sync.identify import IdentifyParams, candidate_votes, detections_clock
-from tlsync_pipeline.sync.line_search import find_line
-from tlsync_pipeline.sync.slope import slope_prior
+from tlsync_pipeline.sync.model.clock import CameraClock, FrameTimes, FRAME, camera_clock
+from tlsync_pipeline.sync.identify.identify import IdentifyParams, candidate_votes, detections_clock
+from tlsync_pipeline.sync.kernels.line_search import find_line
+from tlsync_pipeline.sync.kernels.slope import slope_prior
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
 from trackers.detections import Detections
 from trackers.track import Track

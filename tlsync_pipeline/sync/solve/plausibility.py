@@ -26,10 +26,10 @@ wrong answer cannot fake:
   backwards in time, against the line's own;
 - a rival: the line search's best line without the line's votes, as strong
   and far from it, that the camera's whole track, the log's bias absorbed,
-  does not rule out (sync/rival.py).
+  does not rule out (sync/solve/rival.py).
 
 ``judge_line`` turns the measures into reasons of the camera's status
-(sync/status.py); ``diagnose`` looks at every camera together (a time or
+(sync/model/status.py); ``diagnose`` looks at every camera together (a time or
 length unit of the log, a track of another resolution).
 
 Thresholds are in pixels, seconds of the camera's clock, or samples of the
@@ -46,13 +46,11 @@ from scipy.spatial import cKDTree
 
 from calibration.camera import Camera
 from tlsync_pipeline.errors import InputError
-from tlsync_pipeline.sync.clock import image_speed
-from tlsync_pipeline.sync.line_search import find_line
-from tlsync_pipeline.sync.log_model import LogModel
-from tlsync_pipeline.sync.ransac import distance_to_line
-from tlsync_pipeline.sync.rival import RivalOdds, rival_odds
-from tlsync_pipeline.sync.slope import SlopePrior
-from tlsync_pipeline.sync.status import AMBIGUOUS, FAILED, WEAK, Reason
+from tlsync_pipeline.sync.model.clock import image_speed
+from tlsync_pipeline.sync.model.log_model import LogModel
+from tlsync_pipeline.sync.solve.rival import RivalOdds, rival_odds
+from tlsync_pipeline.sync.kernels.backward import backwards_better
+from tlsync_pipeline.sync.model.status import AMBIGUOUS, FAILED, WEAK, Reason
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
 from trackers.track import Track
 
@@ -238,12 +236,9 @@ AGAINST_MIN = 0.3  # share of displacements against the projected path that name
 RIVAL_RATIO = 0.5  # a rival line with this share of the line's support ...
 RIVAL_SECONDS = 1.0  # ... further than this from it (median over the tracked frames) makes the camera ambiguous
 RIVAL_SAMPLES = 10.0  # the same, in samples, without frame rates
-RIVAL_PROBABILITY = 0.01  # ... unless the joint evidence (sync/rival.py) leaves the rival less than this
+RIVAL_PROBABILITY = 0.01  # ... unless the joint evidence (sync/solve/rival.py) leaves the rival less than this
 RIVAL_BAND_FRAMES = 300.0  # a line's intercept is profiled over at most this many frames either side
 SLOPE_OFF = 1.3  # motion slope / clock prior beyond this factor (either way): the clock is wrong
-BACKWARD_BELOW = 60  # a line backed by fewer frames is checked against the best line running backwards in time ...
-MIN_BACKWARD = 20  # ... which, with at least this many frames ...
-BACKWARD_RATIO = 1.2  # ... and this many times the line's, says the log is reversed in time
 
 
 def judge_line(
@@ -264,7 +259,7 @@ def judge_line(
     alpha_prior: the clock prior's slope (fps / log rate), None when unknown
     or the slope is free; slope: what the votes' motion says (``motion_slope``);
     support: the frames whose votes back the line, and those backing the best
-    line running backwards in time (``backward_support``; None: not measured);
+    line running backwards in time (kernels/backward.py's ``backward_support``; None: not measured);
     rate: the log's samples per second (None: starts are given in samples).
     """
     evidence = line_evidence(camera, track, clock, path, line.alpha, line.beta, GATE_EPS * eps_px, fps)
@@ -302,27 +297,6 @@ def judge_line(
     return tuple(reasons)
 
 
-def line_support(vote_sample: np.ndarray, vote_clock: np.ndarray, alpha: float, beta: float, delta: float) -> int:
-    """Distinct frames with a vote within delta (orthogonal distance in the voting space) of the line."""
-    near = distance_to_line(vote_sample, vote_clock, alpha, beta) <= delta
-    return int(np.unique(np.asarray(vote_clock)[near]).size)
-
-
-def backward_support(vote_sample: np.ndarray, vote_clock: np.ndarray, vote_dist: np.ndarray, delta: float, prior: SlopePrior | None, seed: int) -> int:
-    """``line_support`` of the best line clock = -alpha x sample + beta (alpha in the prior's band): the log read backwards."""
-    backwards = -np.asarray(vote_sample, dtype=np.float64)
-    try:
-        found = find_line(backwards, vote_clock, vote_dist, delta, seed=seed, prior=prior)
-    except ValueError:
-        return 0
-    return line_support(backwards, vote_clock, found.alpha, found.beta, delta)
-
-
-def backwards_better(forward: int, backward: int) -> bool:
-    """Whether the votes back a line running backwards in time (``backward`` frames) clearly better than the forward one."""
-    return backward >= max(MIN_BACKWARD, BACKWARD_RATIO * forward)
-
-
 def _near_one(factor: float) -> bool:
     return 1 / SLOPE_OFF <= factor <= SLOPE_OFF
 
@@ -358,7 +332,7 @@ def _rival_apart(line, track: Track, clock: np.ndarray, fps: float | None, eps_p
 
 def rival_odds_of(camera: Camera, track: Track, clock: np.ndarray, path: PiecewiseTrajectory, line, eps_px: float, fps: float | None, model: LogModel, rate: float | None) -> RivalOdds | None:
     """The rival's posterior against the line search's line on the camera's whole track, the log's bias absorbed
-    (sync/rival.py), when the rival passes the support and distance gates of ``_rival``; None otherwise.
+    (sync/solve/rival.py), when the rival passes the support and distance gates of ``_rival``; None otherwise.
 
     Each line's intercept is profiled over the band one pass's votes span (eps_px over the image speed, in clock units).
     """

@@ -55,7 +55,7 @@ class FrameTimes:
 
 @dataclass(frozen=True)
 class Segment:
-    """A stretch of a camera's frames on one steady clock, between breaks of its recording (sync/segments.py).
+    """A stretch of a camera's frames on one steady clock, between breaks of its recording (sync/identify/segments.py).
 
     start, stop: its first frame and one past its last (0-based; the first
     segment reaches back and the last forward without end); shift: clock

@@ -8,7 +8,7 @@ judged by how well it explains the whole track: under the line
 clock = alpha x sample + beta, each tracked frame's sample is the logged
 path's point; that point, moved by a bias of the log, is projected and
 compared with the tracked position. The bias is what the log's error model
-allows (sync/log_model.py): a Gauss-Markov bias, so over the visit a
+allows (sync/model/log_model.py): a Gauss-Markov bias, so over the visit a
 constant b0 (std sigma per axis) plus a drift b1 x (t - t_mid) / T (the
 change over the visit's length T: std sigma sqrt(2 (1 - exp(-T / tau)))).
 It is fitted for each line (Gauss-Newton, iteratively reweighted), with its
@@ -41,7 +41,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from calibration.camera import Camera
-from tlsync_pipeline.sync.log_model import LogModel
+from tlsync_pipeline.sync.model.log_model import LogModel
 from tlsync_pipeline.trajectory import PiecewiseTrajectory
 
 BLOCK_S = 1.0  # seconds of the camera's clock a block of frames spans (at least one fix interval of the log)

@@ -1,11 +1,13 @@
 """The sync-method interface: what a method is given and what it returns.
 
 A method fits one camera's line clock = alpha * sample + beta from that
-camera's votes. ``synchronize`` (sync/synchronize.py) does the rest the same
-way for every method: it prepares the trajectory with the method, casts the
-votes on it (or takes the vote stage's), puts them on the camera's clock and
-builds the timeline. Methods are registered by name in sync/registry.py;
-docs/architecture.md ("Adding a sync method") has the recipe.
+camera's votes. ``synchronize`` (sync/solve/synchronize.py) does the rest
+the same way for every method: it prepares the trajectory with the method,
+casts the votes on it (or takes the vote stage's), puts them on the camera's
+clock and builds the timeline. Methods are declared in sync/model/methods.py
+(name, parameters, preparation) and their fits registered by name in
+sync/solve/registry.py; docs/architecture.md ("Adding a sync method") has
+the recipe.
 """
 
 from __future__ import annotations
@@ -16,19 +18,20 @@ from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 import numpy as np
 
 from calibration.camera import Camera
-from tlsync_pipeline.sync.clock import CameraClock
-from tlsync_pipeline.sync.params import SyncParams
+from tlsync_pipeline.sync.model.clock import CameraClock
+from tlsync_pipeline.sync.model.methods import MethodKind
+from tlsync_pipeline.sync.model.params import SyncParams
 from tlsync_pipeline.sync.timeline import CameraLine
-from tlsync_pipeline.sync.votes import Votes
+from tlsync_pipeline.sync.vote.votes import Votes
 from tlsync_pipeline.trajectory import Trajectory
 from trackers.breaks import Break
 from trackers.detections import Detections
 from trackers.track import Track
 
 if TYPE_CHECKING:
-    from tlsync_pipeline.sync.log_bias import LogBias
-    from tlsync_pipeline.sync.log_model import LogModel
-    from tlsync_pipeline.sync.pose_fit import GcpPrior
+    from tlsync_pipeline.sync.solve.log_bias import LogBias
+    from tlsync_pipeline.sync.model.log_model import LogModel
+    from tlsync_pipeline.sync.pose.pose_fit import GcpPrior
 
 
 @dataclass(frozen=True)
@@ -36,11 +39,11 @@ class CameraInput:
     """What one camera brings: its calibration, its track and its frame rate (or None).
 
     detections: every mover of its video instead of a track (track None):
-    ``synchronize`` identifies the target among them first (sync/identify.py).
+    ``synchronize`` identifies the target among them first (sync/identify/identify.py).
     A camera without a pose (``Camera.posed`` false) gets it from the target
-    first (sync/pose.py), with ``gcps`` as a prior when given. breaks: where
+    first (sync/pose/pose.py), with ``gcps`` as a prior when given. breaks: where
     its recording may leave its steady clock (trackers/breaks.py), judged
-    against its line (sync/breaks.py). pick_start_s: the line the user picked
+    against its line (sync/identify/breaks.py). pick_start_s: the line the user picked
     where two remained ([[cameras]] pick_start_s: the log's time, seconds after
     its first fix, at the video's first frame), or None.
     """
@@ -62,7 +65,7 @@ class CameraData:
     vote_clock: (M,) clock value of each vote's frame; clock: how the clock
     reads (frame indices or presentation time x fps); eps_px: the camera's
     vote radius (pixels: [sync] eps_px, widened for the log's error,
-    log_model.vote_radius).
+    log_error.vote_radius).
     """
 
     name: str
@@ -87,31 +90,14 @@ class JointMethod(Protocol):
     def refine_with_log_bias(
         self, cameras: dict[str, CameraData], lines: dict[str, CameraLine], trajectory: Trajectory, params: SyncParams, options: Any, model: LogModel
     ) -> tuple[dict[str, CameraLine], LogBias | None]:
-        """The lines refined with the bias (sync/log_bias.py) and the bias; lines unchanged and None when it cannot."""
+        """The lines refined with the bias (sync/solve/log_bias.py) and the bias; lines unchanged and None when it cannot."""
         ...
 
 
-class SyncMethod(Protocol):
-    """A way to fit a camera's line from its votes.
-
-    name: the ``[sync] method`` value; params_type: a frozen dataclass whose
-    ``param`` fields (sync/params.py) are the method's own ``[sync]`` keys,
-    with their defaults.
-    """
-
-    @property
-    def name(self) -> str: ...
-
-    @property
-    def params_type(self) -> type: ...
-
-    def preparation(self, options: Any) -> Any:
-        """The part of the method's ``options`` that prepare_trajectory reads (a frozen dataclass), or None."""
-        ...
-
-    def prepare_trajectory(self, trajectory: Trajectory, preparation: Any) -> Trajectory:
-        """The trajectory votes are cast on and the line is fitted to (the vote stage and render use it too)."""
-        ...
+@runtime_checkable
+class SyncMethod(MethodKind, Protocol):
+    """A way to fit a camera's line from its votes: a method's declaration (sync/model/methods.py's MethodKind: name,
+    params_type, preparation) and its fit."""
 
     def fit(self, data: CameraData, trajectory: Trajectory, params: SyncParams, options: Any) -> CameraLine:
         """The camera's line (``data.line(...)``); SyncError naming the camera when none can be fitted."""

@@ -3,7 +3,7 @@
 Unknowns: the pose (Rodrigues rotation ``rvec``, translation ``tvec``;
 world -> camera, X_cam = R X + t, metres), the line clock = alpha * sample
 + beta (parametrised as s = s0 + u (clock - clock_mid) around the middle
-frame, as in sync/refine.py) and, when asked, the focal length ``f`` (fy
+frame, as in sync/identify/refine.py) and, when asked, the focal length ``f`` (fy
 keeps the given fx/fy ratio), the principal point ``cx``, ``cy`` and the
 first radial distortion term ``k1``.
 
@@ -15,7 +15,7 @@ Residuals, all in pixels of the loss scale ``f_scale`` at one sigma:
   f_scale / sigma_px, sigma_px = sqrt(click_px^2 + (focal x sigma_m /
   depth)^2): the GCPs are a prior on the pose, as good as the survey
   (soft L1 too: one wrong point cannot drag the pose);
-- the slope prior (sync/slope.py) and the intrinsics' priors (IntrinsicsPrior),
+- the slope prior (sync/kernels/slope.py) and the intrinsics' priors (IntrinsicsPrior),
   quadratic.
 
 The Jacobian is analytic (OpenCV's projection Jacobians, calibration.lens).
@@ -26,7 +26,7 @@ Extra unknowns shared with other cameras (a log bias, issue 24) enter as
 more columns of the same system: ``Layout`` names every slice of the
 parameter vector, and the trajectory is evaluated through ``positions``.
 
-The covariance is the M-estimator sandwich of sync/refine.py: the track's
+The covariance is the M-estimator sandwich of sync/identify/refine.py: the track's
 part of the meat is the larger (in the metric of the frame-by-frame one) of
 the frame-by-frame and the BLOCKS-block sums of scores (errors shared by
 neighbouring frames), plus a model-error term (an unseen pixel offset of
@@ -43,7 +43,7 @@ from scipy.optimize import least_squares
 
 from calibration.camera import Camera
 from calibration.lens import project_with_jacobian
-from tlsync_pipeline.sync.slope import SlopePrior
+from tlsync_pipeline.sync.kernels.slope import SlopePrior
 from tlsync_pipeline.trajectory import PiecewiseTrajectory
 
 BLOCKS = 8
@@ -210,7 +210,7 @@ def fit_pose_and_line(
     frame within gate_px of its projection, at most PASSES fits.
     model_error_px: std of an unseen pixel offset shared by each of BLOCKS
     runs of frames (the log's and the model's errors), added to the
-    covariance as in sync/refine.py. Raises
+    covariance as in sync/identify/refine.py. Raises
     ValueError when fewer than MIN_FRAMES frames fall on the trajectory.
     """
     layout = Layout(tuple(k for k in INTRINSICS if k in free or (k == "cy" and "cx" in free)))

@@ -7,7 +7,7 @@
 - ``ambiguous``: two lines far apart have comparable support: not
   synchronized;
 - ``failed``: not synchronized: no line, or a line the camera's own evidence
-  contradicts (the plausibility checks, sync/plausibility.py), or a task of
+  contradicts (the plausibility checks, sync/solve/plausibility.py), or a task of
   the camera that did not complete.
 
 A status is the worst severity among its reasons; each ``Reason`` has a
@@ -113,7 +113,7 @@ def line_reasons(flags: tuple[str, ...] | None, warnings: tuple[str, ...] | None
 def failure(text: str, code: str = "not_synchronized", remedy: str = "") -> Reason:
     """A reason that leaves a camera not synchronized (a SyncError's message, a task that did not complete).
 
-    A pose the target could not determine (sync/pose.py's message) keeps its
+    A pose the target could not determine (sync/pose/pose.py's message) keeps its
     cause as the code and its remedy; two offsets alike make it ambiguous.
     """
     pose = _POSE_FAILURE.search(text)
@@ -126,7 +126,7 @@ def failure(text: str, code: str = "not_synchronized", remedy: str = "") -> Reas
 
 
 def diagnosed_failure(camera: str, cause: Reason, text: str) -> str:
-    """A camera's failure message (``text``, a SyncError's) led by the cause found for it (sync/causes.py), its code and
+    """A camera's failure message (``text``, a SyncError's) led by the cause found for it (sync/solve/causes.py), its code and
     remedy kept in the words so that ``failure`` gives them back."""
     return f"camera {camera}: {cause.text} (cause {cause.code}): {text.removeprefix(f'camera {camera}: ')}; {cause.remedy}"
 

@@ -20,7 +20,7 @@ adds blobs and false lines):
 5. a second search without the winner's inliers measures the support of the
    best competing line (ambiguity, e.g. a periodic path).
 
-With a slope prior (sync/slope.py: what the frame rates say), steps 2-3 are
+With a slope prior (sync/kernels/slope.py: what the frame rates say), steps 2-3 are
 replaced by an exhaustive sweep: for slopes across the prior's band, spaced
 so that neighbouring slopes part by less than delta over the votes' span,
 each vote's intercept beta = frame - alpha x sample is computed and the
@@ -41,8 +41,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tlsync_pipeline.sync.ransac import distance_to_line, least_squares_line
-from tlsync_pipeline.sync.slope import SlopePrior
+from tlsync_pipeline.sync.kernels.ransac import distance_to_line, least_squares_line
+from tlsync_pipeline.sync.kernels.slope import SlopePrior
 
 BATCH = 1024  # hypotheses scored per batch
 MAX_HYPOTHESES = 60_000
@@ -289,7 +289,7 @@ def find_line(
     r_min: the smallest inlier ratio (of thinned votes) the search must
     find with probability p; group: the object each vote comes from when
     several candidates vote per frame (thinning is per object); prior:
-    what the frame rates say about the slope (sync/slope.py), or None for
+    what the frame rates say about the slope (sync/kernels/slope.py), or None for
     any increasing line; apart: frames (along the frame axis) within which a
     line is the same answer as the best one, not a rival: the runner-up is
     searched among the votes farther than that (and than delta) from the

@@ -19,7 +19,7 @@ more than SLACK_TOLERANCE says the target is somewhere inside it, not at its
 centre, so the residual of that frame is the distance from the projection
 to the region where the target's centre can be, (box - reference) / 2 either
 side of the box centre, and not to the centre itself. Identification
-(sync/identify.py) reports, for such a box, the target's own box: the part
+(sync/identify/identify.py) reports, for such a box, the target's own box: the part
 of the blob nearest the projected path (``target_within``).
 """
 

@@ -1,0 +1,66 @@
+"""The log's error as the votes see it: its white noise measured on its own fixes, and each camera's vote radius.
+
+The error model itself (LogModel, its presets, the project's choice) is sync/model/log_model.py.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from tlsync_pipeline.sync.model.log_model import PRIOR_LOG_SD, LogModel
+from tlsync_pipeline.trajectory import Trajectory
+
+if TYPE_CHECKING:
+    from calibration.camera import Camera
+
+VOTE_SIGMAS = 3.0  # a vote's radius covers this many standard deviations of the log's error, seen from the camera
+MAD_TO_SD = 1.4826  # a normal variable's std over its median absolute deviation
+
+
+def vote_radius(camera: Camera, trajectory: Trajectory, eps_px: float, model: LogModel) -> float:
+    """The vote radius for one camera (pixels): eps_px, or VOTE_SIGMAS times the log's horizontal error as this camera
+    sees it at the median depth of the path in its view, whichever is larger."""
+    if model.horizontal_m <= 0:
+        return eps_px
+    uv, valid = camera.project(trajectory.xyz)
+    seen = valid & camera.in_image(np.nan_to_num(uv, nan=-1e9))
+    if not seen.any():
+        return eps_px
+    depth = float(np.median((trajectory.xyz[seen] @ camera.R.T + camera.t)[:, 2]))
+    focal = 0.5 * (camera.K[0, 0] + camera.K[1, 1])
+    return max(eps_px, VOTE_SIGMAS * focal * model.horizontal_m / depth)
+
+
+def white_from_log(trajectory: Trajectory) -> tuple[float, int]:
+    """The log's white noise (m, std per horizontal axis) from its own fixes, and how many second differences
+    measured it: the robust std (median absolute deviation) of the second differences of consecutive samples over
+    sqrt(6), pooled over east and north. A smooth motion leaves second differences near zero except in turns,
+    which the median ignores; a wandering bias adds 2 sigma^2 dt / tau per sample, small against white noise
+    (0.1 m^2 for a phone's 1 m / 60 s at 1 Hz, 6 times less than its 0.5 m of white noise)."""
+    if trajectory.sigma is not None or len(trajectory) < 3:
+        return 0.0, 0
+    step = np.diff(trajectory.sample)
+    usual = float(np.median(step))
+    consecutive = (step[1:] == step[:-1]) & (np.abs(step[1:] - usual) < 1e-6 * max(usual, 1.0))
+    second = (trajectory.xyz[2:, :2] - 2.0 * trajectory.xyz[1:-1, :2] + trajectory.xyz[:-2, :2])[consecutive]
+    if len(second) < 10:
+        return 0.0, 0
+    return float(MAD_TO_SD * np.median(np.abs(second)) / math.sqrt(6.0)), int(second.size)
+
+
+def measured(model: LogModel, trajectory: Trajectory) -> LogModel:
+    """The model with its white noise measured on the log's own fixes (white_from_log), the preset's value as a
+    log-normal prior (PRIOR_LOG_SD): the posterior mode of log sigma, the measurement's variance about 4 / count
+    (the median absolute deviation's of correlated second differences). An undeclared log (no white noise in its
+    model) takes the measurement as it is. Unchanged when the log states its sigmas or is too short to tell."""
+    white, count = white_from_log(trajectory)
+    if count == 0 or white <= 0:
+        return model
+    if model.white_m > 0:
+        data, prior = 4.0 / count, PRIOR_LOG_SD**2
+        white = math.exp((math.log(white) / data + math.log(model.white_m) / prior) / (1.0 / data + 1.0 / prior))
+    return replace(model, white_m=white, measured=tuple(sorted({*model.measured, "white_m"})))
