@@ -20,6 +20,10 @@ parked in it that has left), and frozen 5 or 25 frames at the same frames
 edit, how many are found at their frame (within a frame), and the other
 breaks found in the edited videos.
 
+Cost: the meter's ``feed`` per 1080p luma frame against the freeze's
+measure alone (the largest pixel change since the previous frame), in the
+same run, three rounds.
+
     python bench/picture_breaks.py [--seeds 3]
 """
 
@@ -28,6 +32,7 @@ from __future__ import annotations
 import argparse
 import itertools
 import tempfile
+import time
 from pathlib import Path
 
 import numpy as np
@@ -101,6 +106,26 @@ def clean_videos(folder: Path, seeds: int) -> tuple[dict[str, list[Path]], dict[
     return out, edit_at
 
 
+def cost_per_frame(rounds: int = 3, frames: int = 200) -> list[tuple[float, float]]:
+    """(meter, freeze's measure alone) ms per 1080p luma frame, per round."""
+    import cv2
+
+    rng = np.random.default_rng(0)
+    planes = [rng.integers(0, 256, (1080, 1920), dtype=np.uint8) for _ in range(10)]
+    out = []
+    for _ in range(rounds):
+        meter = PictureMeter()
+        started = time.perf_counter()
+        for k in range(frames):
+            meter.feed(k, planes[k % 10], True)
+        fed = (time.perf_counter() - started) / frames
+        started = time.perf_counter()
+        for k in range(1, frames + 1):
+            int(cv2.absdiff(planes[k % 10], planes[(k - 1) % 10]).max())
+        out.append((1000 * fed, 1000 * (time.perf_counter() - started) / frames))
+    return out
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=3, help="videos per family (seeds)")
@@ -139,6 +164,11 @@ def main() -> None:
                     other += len(found) - len(hit)
                     total += 1
             print(f"| {label} | {family} | {total} | {found_at} | {other} |", flush=True)
+    print()
+    print("| round | meter (ms per 1080p frame) | the freeze's measure alone | ratio |")
+    print("|---|---|---|---|")
+    for k, (fed, alone) in enumerate(cost_per_frame(), 1):
+        print(f"| {k} | {fed:.2f} | {alone:.2f} | {fed / alone:.1f} |")
 
 
 if __name__ == "__main__":
