@@ -193,6 +193,9 @@ def test_a_cut_at_a_freeze_or_a_gap_is_that_break():
     cuts = (Break("cut", 125, 0.0), Break("cut", 301, 0.0))
     assert merged((frozen, gap, *cuts)) == (frozen, gap)
     assert merged((frozen, Break("cut", 140, 0.0))) == (frozen, Break("cut", 140, 0.0))
+    # frames dropped while something moves: the picture jumps (a cut at the frame) and the votes tell the size
+    assert merged((Break("cut", 300, 0.0), Break("drop", 304, 25.0))) == (Break("drop", 300, 25.0),)
+    assert merged((Break("drop", 300, 25.0), Break("cut", 300, 0.0))) == (Break("drop", 300, 25.0),)
 
 
 def test_segments_of_the_same_shift_either_side_of_a_cut_are_joined():

@@ -113,15 +113,20 @@ def with_vote_break(
 def merged(breaks: tuple[Break, ...]) -> tuple[Break, ...]:
     """The breaks in frame order, without a drop the votes show where the container or the pictures name a break
     already (within the drop's size and 10 frames: the votes place a break only between the target's frames), nor
-    a cut within a frame of another break's start or end (the picture after a freeze or a gap jumps too)."""
+    a cut within a frame of another break's start or end (the picture after a freeze or a gap jumps too). A cut
+    where the votes show a drop is that drop, at the cut's frame (the pictures place it to the frame, the votes
+    tell its size)."""
     named = [b for b in breaks if b.kind not in ("drop", "cut")]
     edges = [e for b in named for e in (b.frame, b.frame + (int(b.size) if b.kind in ("frozen", "repeat") else 0))]
     cuts = [c for c in breaks if c.kind == "cut" and not any(abs(c.frame - e) <= 1 for e in edges)]
     drops = [
-        d
-        for d in breaks
-        if d.kind == "drop" and not any(abs(b.frame - d.frame) <= abs(d.size) + 10 for b in (*named, *cuts))
+        d for d in breaks if d.kind == "drop" and not any(abs(b.frame - d.frame) <= abs(d.size) + 10 for b in named)
     ]
+    for cut in list(cuts):
+        near = [d for d in drops if abs(d.frame - cut.frame) <= abs(d.size) + 10]
+        if near:
+            cuts.remove(cut)
+            drops = [d for d in drops if d not in near] + [Break("drop", cut.frame, near[0].size)]
     return tuple(sorted({*named, *cuts, *drops}, key=lambda b: (b.frame, b.kind)))
 
 
