@@ -213,18 +213,13 @@ def frozen_runs(frames: np.ndarray, change: np.ndarray, movers: np.ndarray) -> l
     """Frozen runs from each frame's largest change of a pixel since the previous frame (grey levels; frames
     consecutive to the previous one only) and whether it holds a mover.
 
-    A run of frames changing no pixel by more than STILL_LEVELS (and single
-    frames between such frames changing less than MOVING_LEVELS: a keyframe
-    inside a stall coded afresh), most of them holding a mover, is a freeze when the frames just before and just
+    A run of frames changing no pixel by more than STILL_LEVELS, most of
+    them holding a mover, is a freeze when the frames just before and just
     after it change some pixel by MOVING_LEVELS or more: a still scene coded
     at a low rate repeats its pictures too, and a freeze where nothing moves
     cannot be told from it.
     """
     still = change <= STILL_LEVELS
-    consecutive = np.diff(frames) == 1
-    between = np.zeros(len(frames), dtype=bool)  # one frame between still ones, short of moving: a keyframe recoded
-    between[1:-1] = still[:-2] & still[2:] & consecutive[:-1] & consecutive[1:]
-    still |= between & (change < MOVING_LEVELS)
     moving = change >= MOVING_LEVELS
     out = []
     k = 0
