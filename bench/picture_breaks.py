@@ -144,7 +144,8 @@ def main() -> None:
                 frozen += [f"{path.stem}:{b.frame}" for b in found if b.kind == "frozen"]
                 cuts += [f"{path.stem}:{b.frame}" for b in found if b.kind == "cut"]
             print(
-                f"| {family} | {len(paths)} | {frames} | {len(frozen)} {' '.join(frozen)} | {len(cuts)} {' '.join(cuts)} |",
+                f"| {family} | {len(paths)} | {frames} | {len(frozen)} {' '.join(frozen)} "
+                f"| {len(cuts)} {' '.join(cuts)} |",
                 flush=True,
             )
         print()

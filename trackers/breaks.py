@@ -118,8 +118,9 @@ class PictureMeter:
     ``feed(index, gray, movers)`` each frame in order (a frame not
     consecutive to the previous one starts afresh); ``breaks()`` the frozen
     runs (``frozen_runs``) and the cuts (``scene_cuts``) in frame order.
-    Per frame it keeps four numbers; the last three small planes are kept
-    for the cuts.
+    Per frame it keeps six numbers (the largest pixel change, whether a
+    mover is in view, two picture changes of two numbers each) and, for
+    the cuts, the last three frames' planes averaged down to CUT_WIDTH.
     """
 
     def __init__(self) -> None:
@@ -182,10 +183,11 @@ def scene_cuts(frames: np.ndarray, step: np.ndarray, across: np.ndarray) -> list
     - 1; across (N, 2): from frame - 3 (NaN when not read). Frame f is a cut
     when, in content or in brightness, its step is at least CUT_CONTENT (or
     CUT_GAIN and CUT_GAIN_FLICKER times the median of the brightness steps
-    between pictures that are not repeated) and CUT_SPIKE times the steps of frames f - 2, f - 1, f + 1 and
-    f + 2 (a moving picture, a mover passing close, flicker change every
-    frame), and frames f + 1 and f + 2 differ from frames f - 2 and f - 1 by
-    CUT_HOLDS of it (the change holds: not a flash or a dropped-out frame).
+    between pictures that are not repeated) and CUT_SPIKE times the steps
+    of frames f - 2, f - 1, f + 1 and f + 2 (a moving picture, a mover
+    passing close, flicker change every frame), and frames f + 1 and f + 2
+    differ from frames f - 2 and f - 1 by CUT_HOLDS of it (the change holds:
+    not a flash or a dropped-out frame).
     """
     frames = np.asarray(frames, dtype=np.int64)
     step = np.asarray(step, dtype=np.float64).reshape(-1, 2)
