@@ -37,7 +37,7 @@ from tlsync_pipeline.sync.solve.causes import explain
 from tlsync_pipeline.sync.kernels.backward import BACKWARD_BELOW, backward_support, line_support
 from tlsync_pipeline.sync.solve.plausibility import RIVAL_PROBABILITY, Judged, diagnose, judge_line, motion_slope, rival_odds_of
 from tlsync_pipeline.sync.pose.pose import TargetPose, estimate_pose, pose_info
-from tlsync_pipeline.sync.identify.segments import MAX_WHOLE, MIN_SEGMENT_FRAMES, fit_segments, whole_frames
+from tlsync_pipeline.sync.identify.segments import MAX_WHOLE, MIN_SEGMENT_FRAMES, joined_at_void_cuts, segments_of, whole_frames
 from tlsync_pipeline.sync.solve.registry import get_method
 from tlsync_pipeline.sync.kernels.slope import slope_prior
 from tlsync_pipeline.sync.model.status import AMBIGUOUS, FAILED, Reason, diagnosed_failure
@@ -349,13 +349,15 @@ def _segmented(name: str, inputs: CameraInput, result: CameraResult, prepared: T
     votes, line = result.votes, result.line
     vote_clock = clock.clock_at(votes.frame, times)
     breaks = with_vote_break(inputs.breaks, votes.frame, vote_clock, votes.sample, line, params.delta)
+    coarse, breaks = segments_of(breaks, track.frame, votes.frame, vote_clock, votes.sample, votes.dist, line.alpha, line.beta, params.delta, clock.vfr)
     inputs = replace(inputs, track=track, breaks=breaks)
-    coarse = fit_segments(breaks, track.frame, votes.frame, vote_clock, votes.sample, votes.dist, line.alpha, line.beta, params.delta, clock.vfr)
     main = next((seg for seg in coarse if seg.source == "line"), None)
     if main is None:
         return inputs, replace(result, line=replace(line, breaks=breaks or None))
     reference = _segment_line(name, inputs, votes, main, prepared, params, radius_px) or line
     segments = tuple(_refined(seg, _segment_line(name, inputs, votes, seg, prepared, params, radius_px), reference, clock, times, track) for seg in coarse)
+    segments, breaks = joined_at_void_cuts(segments, breaks)
+    inputs = replace(inputs, breaks=breaks)
     segmented = replace(clock, segments=segments)
     keep_track = np.isfinite(segmented.clock_at(track.frame, times))
     keep_votes = np.isfinite(segmented.clock_at(votes.frame, times))
