@@ -47,6 +47,7 @@ from tlsync_pipeline.sync.kernels.robust import (
     Draws,
     InlierCount,
     Preemption,
+    Refine,
     Sampler,
     Scores,
     best_finalist,
@@ -133,7 +134,9 @@ def _pairs(m: int, window: int) -> Sampler:
     return draw
 
 
-def _line_model(sample, frame, delta, prior):
+def _line_model(
+    sample: np.ndarray, frame: np.ndarray, delta: float, prior: SlopePrior | None
+) -> tuple[LineModel, InlierCount, Refine]:
     """The votes (sorted by frame) as lines to fit, the score (distinct inlier frames) and the polish of a line."""
     fit = least_squares_line if prior is None else partial(_map_line, prior=prior, delta=delta)
     model = LineModel(sample, frame, fit, increasing=True)
