@@ -12,6 +12,14 @@ inverse of the information is the Cramer-Rao covariance of the lines; the
 bound's eps_t is the worst pair's eps_t (eq. 5) of line errors drawn from
 it. No estimator of these measurements does better on average; the bench
 compares tlsync's eps_t with this (bench/gps_error.py --bound).
+
+The sync is told a preset (a phone's 2 m / 60 s for a receiver whose bias
+is 1 m), not the receiver's exact model: with ``assumed`` (the bias's std
+and correlation time the estimator takes as its prior), the covariance is
+that of the same linear estimator under that prior, its error measured
+under the receiver's true one: M^-1 (P_a^-1 P P_a^-1 + D) M^-1, P_a^-1 P P_a^-1 in the log
+error's block (D the pixels' and the slope prior's information, M = D +
+P_a^-1, P_a the assumed covariance, P the true; P_a = P gives the bound): the bound for the information the sync has.
 """
 
 from __future__ import annotations
@@ -24,8 +32,9 @@ from data_fixtures.scene import Scene
 FIX_MARGIN = 2  # fixes kept beyond each end of a visit
 
 
-def line_covariance(scene: Scene, rate_sigma: float) -> tuple[list[str], np.ndarray]:
-    """The camera names and the (2C, 2C) Cramer-Rao covariance of their lines (alpha_0, beta_0, alpha_1, ...)."""
+def line_covariance(scene: Scene, rate_sigma: float, assumed: LogErrorModel | None = None) -> tuple[list[str], np.ndarray]:
+    """The camera names and the (2C, 2C) Cramer-Rao covariance of their lines (alpha_0, beta_0, alpha_1, ...); with
+    ``assumed``, the error covariance of the estimator whose log-error prior is that model (see the module)."""
     model: LogErrorModel = scene.noise["log"]
     noise_px = float(scene.noise["S_t_px"])
     truth = scene.true_trajectory
@@ -52,14 +61,22 @@ def line_covariance(scene: Scene, rate_sigma: float) -> tuple[list[str], np.ndar
         if rate_sigma > 0:
             nominal = camera.fps / rate
             information[2 * k, 2 * k] += 1.0 / (rate_sigma * nominal) ** 2
-    information[n_lines:, n_lines:] += np.linalg.inv(_error_covariance(fixes / rate, model))
-    covariance = np.linalg.inv(information)
+    if assumed is None:
+        information[n_lines:, n_lines:] += np.linalg.inv(_error_covariance(fixes / rate, model))
+        return names, np.linalg.inv(information)[:n_lines, :n_lines]
+    data = information.copy()  # the pixels' and the slope prior's
+    prior_inverse = np.linalg.inv(_error_covariance(fixes / rate, assumed))
+    information[n_lines:, n_lines:] += prior_inverse
+    inverse = np.linalg.inv(information)
+    pulled = inverse[:, n_lines:] @ prior_inverse  # how the assumed prior pulls the estimate towards zero error
+    covariance = pulled @ _error_covariance(fixes / rate, model) @ pulled.T + inverse @ data @ inverse
     return names, covariance[:n_lines, :n_lines]
 
 
-def worst_pair_draws(scene: Scene, rate_sigma: float, draws: int, rng: np.random.Generator) -> np.ndarray:
-    """(draws,) the worst pair's eps_t (frames) of line errors drawn from the Cramer-Rao covariance."""
-    names, covariance = line_covariance(scene, rate_sigma)
+def worst_pair_draws(scene: Scene, rate_sigma: float, draws: int, rng: np.random.Generator, assumed: LogErrorModel | None = None) -> np.ndarray:
+    """(draws,) the worst pair's eps_t (frames) of line errors drawn from the Cramer-Rao covariance (with ``assumed``:
+    from the covariance of the estimator under that prior, line_covariance)."""
+    names, covariance = line_covariance(scene, rate_sigma, assumed)
     errors = rng.multivariate_normal(np.zeros(len(covariance)), covariance, size=draws)  # (D, 2C)
     worst = np.zeros(draws)
     for i, a in enumerate(names):

@@ -11,7 +11,7 @@ import click
 
 from tlsync_pipeline.cli.options import out_option, quiet_option, verbose_option
 from tlsync_pipeline.ingest.formats import FORMATS
-from tlsync_pipeline.ingest.process import DEFAULT_MAX_SPEED_MPS, IngestParams
+from tlsync_pipeline.ingest.params import DEFAULT_MAX_SPEED_MPS, IngestParams
 from tlsync_pipeline.ingest.records import ALTITUDE_REFERENCES
 
 

@@ -236,7 +236,8 @@ def stage_command(stage: str, help_text: str, render: bool = False) -> click.Com
     def command(project, work_dir, jobs, executor_kind, scheduler, quiet, camera=(), pair=None, frames=None, truth=None):
         from tlsync_pipeline.pipeline.engine import task_files
         from tlsync_pipeline.pipeline.project import load_project
-        from tlsync_pipeline.pipeline.stages.render import StripRequest, draw_requested
+        from tlsync_pipeline.pipeline.stages.render import draw_requested
+        from tlsync_pipeline.pipeline.strip_requests import StripRequest
 
         request = StripRequest(_parse_pairs(pair), _parse_frames(frames), read_truth(truth)[0] if truth else None) if pair or frames or truth else None
         if request is not None and request.pairs:

@@ -17,8 +17,8 @@ from typing import Any
 _WHERE = {
     "ALTITUDE_REFERENCES": "tlsync_pipeline.ingest.records", "LogRecords": "tlsync_pipeline.ingest.records",
     "FORMATS": "tlsync_pipeline.ingest.registry", "detect_format": "tlsync_pipeline.ingest.detect",
-    "IngestParams": "tlsync_pipeline.ingest.process", "IngestReport": "tlsync_pipeline.ingest.process",
-    "RigidTransform": "tlsync_pipeline.ingest.process", "ingest": "tlsync_pipeline.ingest.process",
+    "IngestParams": "tlsync_pipeline.ingest.params", "IngestReport": "tlsync_pipeline.ingest.report",
+    "RigidTransform": "tlsync_pipeline.ingest.params", "ingest": "tlsync_pipeline.ingest.process",
     "read_log": "tlsync_pipeline.ingest.read",
 }
 

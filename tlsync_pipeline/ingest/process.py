@@ -25,17 +25,17 @@ from __future__ import annotations
 import dataclasses
 import datetime as dt
 import math
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.geodesy import Origin, geodetic_to_enu
+from tlsync_pipeline.ingest.params import IngestParams
+from tlsync_pipeline.ingest.report import GAP_FACTOR, Gap, IngestReport
 from tlsync_pipeline.ingest.records import ALTITUDE_NAMES, ALTITUDE_REFERENCES, ELLIPSOID, GEODETIC, LogRecords
 from tlsync_pipeline.trajectory import Trajectory, grid_rate
 
-GAP_FACTOR = 3.0  # an interval over GAP_FACTOR x the median interval is a gap
-DEFAULT_MAX_SPEED_MPS = 60.0
 HELD_MAX_S = 1.0  # a position repeated longer than this is a target standing still, not a receiver's fix held over frames
 SPIKE_WINDOW_S = 0.1  # speeds are judged over at least this long (a receiver's update interval at 10 Hz)
 DUPLICATE = "exact duplicate"
@@ -43,151 +43,6 @@ REPEATED_TIME = "repeated time, different position (first kept)"
 FIRST_LINES = 5  # provenance numbers kept per drop reason in the report
 MAX_SPAN_S = 1e8  # about 3 years: a longer log has a wrong time in it
 MAX_SAMPLES = 50_000_000  # a trajectory longer than this is a wrong time or rate, not a log
-
-
-@dataclass(frozen=True)
-class RigidTransform:
-    """world = R @ local + t (metres): places a local (odometry) frame in the world frame."""
-
-    R: np.ndarray
-    t: np.ndarray
-
-    def __post_init__(self) -> None:
-        R, t = np.asarray(self.R, dtype=float), np.asarray(self.t, dtype=float)
-        if R.shape != (3, 3) or t.shape != (3,) or not (np.isfinite(R).all() and np.isfinite(t).all()):
-            raise ValueError("expected R as 3x3 and t as 3 finite numbers")
-        if not np.allclose(R @ R.T, np.eye(3), atol=1e-6) or np.linalg.det(R) < 0:
-            raise ValueError("R is not a rotation matrix (orthonormal, determinant +1)")
-        object.__setattr__(self, "R", R)
-        object.__setattr__(self, "t", t)
-
-    @classmethod
-    def from_yaw(cls, yaw_deg: float, t=(0.0, 0.0, 0.0)) -> "RigidTransform":
-        """A rotation of yaw_deg about z (counter-clockwise seen from above), then t."""
-        c, s = math.cos(math.radians(yaw_deg)), math.sin(math.radians(yaw_deg))
-        return cls(np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]), np.asarray(t, dtype=float))
-
-    def apply(self, xyz: np.ndarray) -> np.ndarray:
-        return np.asarray(xyz, dtype=float) @ self.R.T + self.t
-
-
-@dataclass(frozen=True)
-class IngestParams:
-    """origin: an Origin or "first" (the first kept fix); rate (Hz) None = the median rate;
-    max_gap_s None = 3x the median interval; max_speed_mps None = no spike rejection;
-    smoothing_s 0 = none, else the Savitzky-Golay window (s); transform for local logs;
-    altitude_reference: what the log's heights are above (one of ALTITUDE_REFERENCES), None =
-    as the reader says; altitude_offset_m: added to every height (m) to make it ellipsoidal;
-    time_unit, length_unit: seconds per unit of the log's times and metres per unit of its
-    local positions or heights (ingest/units.py), applied before anything else."""
-
-    origin: Origin | str = "first"
-    rate: float | None = None
-    max_gap_s: float | None = None
-    max_speed_mps: float | None = DEFAULT_MAX_SPEED_MPS
-    smoothing_s: float = 0.0
-    transform: RigidTransform | None = None
-    altitude_reference: str | None = None
-    altitude_offset_m: float = 0.0
-    time_unit: float = 1.0
-    length_unit: float = 1.0
-
-
-@dataclass(frozen=True)
-class Gap:
-    """An interval between two kept fixes longer than GAP_FACTOR x the median interval."""
-
-    after: str  # where the fix before the gap came from
-    start_s: float
-    end_s: float
-    duration_s: float
-    bridged: bool  # interpolated over (duration <= max_gap_s)
-
-
-@dataclass(frozen=True)
-class IngestReport:
-    """What ingestion did, for the summary and ingest_report.json."""
-
-    source: str
-    format: str
-    frame: str  # "ENU" (from geodetic) or "local"
-    fixes_read: int
-    fixes_used: int
-    samples: int
-    rate: float
-    t0: float
-    t0_utc: str | None
-    duration_s: float
-    extent_m: list[float]  # size along x/E, y/N, z/U
-    max_gap_s: float
-    gaps: list[Gap]
-    grid_left_out: int  # grid positions inside unbridged gaps
-    dropped: dict[str, dict]  # reason -> {"count", "first": [...]}
-    unit: str  # what the provenance numbers count
-    ignored: int
-    origin: dict | None  # {"lat", "lon", "alt", "rule"} for geodetic logs
-    params: dict
-    warnings: list[str] = field(default_factory=list)
-    clock: str = "UTC"  # what t0 counts: UTC, or a relative clock (offsets work, UTC does not)
-    altitude: dict = field(default_factory=dict)  # {"reference", "source" (log/declared), "offset_m"}
-    quality: dict = field(default_factory=dict)  # column -> {"min", "median", "max"} over the fixes used
-    sigma_m: dict | None = None  # {"median", "p95", "max"} of the per-fix sigmas used as weights
-    log_model: dict = field(default_factory=dict)  # {"name", "why"}: the error model the log's kind suggests (suggested_log_model)
-    notes: list[str] = field(default_factory=list)  # how the reader read the file where it chose (time base, sub-seconds, lat/lon order)
-    video_time_zero: float | None = None  # logs in or beside a video: the log's time (t0's clock, s) at the video's time 0
-    t0_local: str | None = None  # t0 as an ISO date without zone, for a log on a local wall clock with no zone
-
-    def to_dict(self) -> dict:
-        out = asdict(self)
-        out["format_version"] = 1
-        return out
-
-    @classmethod
-    def from_dict(cls, data: dict) -> IngestReport:
-        """The report as ``to_dict`` wrote it (ingest_report.json)."""
-        fields = {k: v for k, v in data.items() if k != "format_version"}
-        return cls(**{**fields, "gaps": [Gap(**g) for g in fields.get("gaps", [])]})
-
-    def summary(self, with_warnings: bool = True) -> str:
-        """The lines printed after ingestion (with_warnings: and a ``warning:`` line per warning)."""
-        lines = [
-            f"log: {self.source} ({self.format})",
-            f"fixes: {self.fixes_read} read, {self.fixes_used} used",
-            f"trajectory: {self.samples} samples at {self.rate:g} Hz over {self.duration_s:.1f} s"
-            + (f" from {self.t0_utc}" if self.t0_utc else f" from {self.t0_local} local time ({self.clock}: offsets work, UTC does not)"
-               if self.t0_local else f" from t0 = {self.t0:.3f} s ({self.clock}: offsets work, UTC does not)"),
-            "extent: " + " x ".join(f"{v:.1f} m" for v in self.extent_m) + (" (E x N x U)" if self.frame == "ENU" else " (x y z)"),
-        ]
-        if self.origin is not None:
-            o = self.origin
-            lines.append(f"origin: lat {o['lat']:.8f}, lon {o['lon']:.8f}, alt {o['alt']:.3f} m ({o['rule']})")
-        if self.altitude:
-            a = self.altitude
-            offset = f", offset {a['offset_m']:+.3f} m" if a["offset_m"] else ""
-            lines.append(f"heights: above {ALTITUDE_NAMES[a['reference']]} (as the {a['source']} says{offset})")
-        lines += [f"read: {note}" for note in self.notes]
-        if self.log_model:
-            lines.append(f"log model: {self.log_model['name']} ({self.log_model['why']}; [target] log_model overrides it)")
-        if self.sigma_m:
-            lines.append(f"sigma: median {self.sigma_m['median']:.3f} m, 95% {self.sigma_m['p95']:.3f} m (weights for the refinement)")
-        if self.gaps:
-            left = f", {self.grid_left_out} grid sample(s) left out" if self.grid_left_out else ""
-            lines.append(f"gaps: {len(self.gaps)} over {GAP_FACTOR:g}x the median interval{left}")
-            for gap in self.gaps[:10]:
-                verdict = "bridged" if gap.bridged else "not bridged"
-                lines.append(f"  {gap.duration_s:.2f} s after {gap.after}: {verdict}")
-            if len(self.gaps) > 10:
-                lines.append(f"  ... {len(self.gaps) - 10} more in the report")
-        else:
-            lines.append("gaps: none")
-        total = sum(d["count"] for d in self.dropped.values())
-        lines.append(f"dropped: {total}" + ("" if total else " (none)"))
-        for reason, d in self.dropped.items():
-            more = ", ..." if d["count"] > len(d["first"]) else ""
-            lines.append(f"  {d['count']} {reason} ({self.unit} {', '.join(map(str, d['first']))}{more})")
-        if with_warnings:
-            lines += [f"warning: {w}" for w in self.warnings]
-        return "\n".join(lines)
 
 
 def in_seconds_and_metres(records: LogRecords, time_unit: float, length_unit: float) -> LogRecords:

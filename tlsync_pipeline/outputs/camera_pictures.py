@@ -39,7 +39,7 @@ from tlsync_pipeline.sync.model.clock import FrameTimes
 from tlsync_pipeline.sync.identify.identify import candidate_votes
 from tlsync_pipeline.sync.solve.methods import CameraInput
 from tlsync_pipeline.sync.timeline import CameraLine
-from tlsync_pipeline.sync.vote.votes import load_votes
+from tlsync_pipeline.sync.vote.votes import read_votes
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
 from trackers.detections import read_detections
 from trackers.video import keyframe_indices, presentation_times, probe_video
@@ -99,7 +99,7 @@ def draw_camera(job: CameraJob) -> DrawnCamera:
     """
     name, line, track = job.name, job.line, job.inputs.track
     assert track is not None, "a synchronized camera has a track"
-    votes, _ = load_votes(job.votes)
+    votes = read_votes(job.votes).votes
     made = [
         plot_votes(name, votes, line, job.delta, job.out_dir / f"votes_{name}.png", job.times),
         plot_trajectory(name, job.inputs.camera, track, job.path_model, line, job.out_dir / f"trajectory_{name}.png", job.times),

@@ -45,7 +45,8 @@ from tlsync_pipeline.pipeline.progress import Progress
 from tlsync_pipeline.pipeline.spec import StageResult, params_json
 from tlsync_pipeline.pipeline.stop import stop_requested
 from tlsync_pipeline.pipeline.validate import validate_project
-from tlsync_pipeline.pipeline.workspace import FOLDERS, StageFiles
+from tlsync_pipeline.artefacts.kinds import FOLDERS
+from tlsync_pipeline.pipeline.workspace import StageFiles
 
 
 @dataclass

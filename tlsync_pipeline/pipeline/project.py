@@ -32,7 +32,7 @@ from calibration.choices import MODELS as CALIBRATION_MODELS
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.geodesy import Origin
 from tlsync_pipeline.ingest.formats import FORMATS
-from tlsync_pipeline.ingest.process import IngestParams, RigidTransform
+from tlsync_pipeline.ingest.params import IngestParams, RigidTransform
 from tlsync_pipeline.ingest.records import ALTITUDE_REFERENCES
 from tlsync_pipeline.ingest.recording_time import parse_utc, parse_utc_offset
 from tlsync_pipeline.ingest.units import LENGTH_UNITS, TIME_UNITS, unit_scale

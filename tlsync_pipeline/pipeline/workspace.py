@@ -1,4 +1,4 @@
-"""The work folder: where each artefact lives, atomic writes, and what a running stage may touch.
+"""The work folder: where each artefact lives (artefacts/kinds.py), atomic writes, and what a running stage may touch.
 
 Layout (relative to the work folder; docs/pipeline.md lists it for users):
 
@@ -33,39 +33,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from tlsync_pipeline.artefacts.kinds import FOLDERS, artefact_path
 from tlsync_pipeline.atomic import atomic_path
 
 if TYPE_CHECKING:
     from tlsync_pipeline.outputs.diagnostics import StageRun
 
-# Artefact kind -> path relative to the work folder ({camera}: the camera's name). "pictures" is a folder.
-ARTEFACTS: dict[str, str] = {
-    "intrinsics": "cameras/{camera}/intrinsics.json",
-    "intrinsics_report": "cameras/{camera}/intrinsics_report.json",
-    "camera": "cameras/{camera}/camera.json",
-    "calibration_report": "cameras/{camera}/calibration_report.json",
-    "calibration_picture": "cameras/{camera}/calibration.png",
-    "track": "cameras/{camera}/track.csv",
-    "detections": "cameras/{camera}/detections.csv",
-    "scan": "cameras/{camera}/scan.json",
-    "identification": "cameras/{camera}/identification.json",
-    "video_info": "cameras/{camera}/video.json",
-    "clock": "cameras/{camera}/clock.json",
-    "votes": "cameras/{camera}/votes.npz",
-    "trajectory": "target/trajectory.csv",
-    "ingest_report": "target/ingest_report.json",
-    "timeline": "timeline.json",
-    "frame_map": "exports/frame_map.csv",
-    "offsets": "exports/offsets.csv",
-    "ffmpeg": "exports/ffmpeg.sh",
-    "timeline_otio": "exports/timeline.otio",
-    "timeline_fcpxml": "exports/timeline.fcpxml",
-    "sync_json": "exports/sync.json",
-    "pictures": "render",
-    "report_html": "report.html",
-    "report": "report.md",
-}
-FOLDERS = frozenset({"pictures"})
 # Where a project-wide stage's manifest lives (per-camera stages: the camera's folder; others: the work folder).
 _MANIFEST_FOLDERS = {"ingest": "target", "export": "exports", "render": "render"}
 WORK_PREFIX = "<work>/"
@@ -74,7 +47,7 @@ STRICT_VARIABLE = "TLSYNC_STRICT_IO"
 
 @dataclass(frozen=True)
 class Artefact:
-    """A file a stage makes in the work folder: its kind (a key of ARTEFACTS) and camera (None: project-wide)."""
+    """A file a stage makes in the work folder: its kind (a key of artefacts.kinds.KINDS) and camera (None: project-wide)."""
 
     kind: str
     camera: str | None = None
@@ -82,7 +55,7 @@ class Artefact:
     @property
     def rel(self) -> str:
         """Its path relative to the work folder (POSIX)."""
-        return ARTEFACTS[self.kind].format(camera=self.camera)
+        return artefact_path(self.kind, self.camera)
 
 
 class UndeclaredFileError(RuntimeError):

@@ -19,21 +19,13 @@ from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
+from tlsync_pipeline.artefacts.clock import ClockPrior
 from tlsync_pipeline.sync.model.clock import FrameTimes
 from tlsync_pipeline.sync.model.status import WEAK, Reason
 
 CLOCK_FLAG = "clock_disagrees"
 HALF_95 = 1.96
 LEAP_SECONDS = 18.0  # GPS time - UTC since 2017: a log on GPS time is this much ahead
-
-
-@dataclass(frozen=True)
-class ClockPrior:
-    """When the camera's video time 0 was by its own clock: utc_s (POSIX s), tolerance_s (s), source (text)."""
-
-    utc_s: float
-    tolerance_s: float
-    source: str
 
 
 @dataclass(frozen=True)

@@ -19,10 +19,12 @@ from typing import Any
 
 import numpy as np
 
+from tlsync_pipeline.artefacts.identification import IdentificationSummary
+from tlsync_pipeline.artefacts.kinds import artefact_path
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.sync.model.clock import FRAME, CameraClock, FrameTimes, Segment
+from tlsync_pipeline.sync.model.params import ParamsTable
 from tlsync_pipeline.sync.clock_prior import CLOCK_FLAG, ClockCheck, clock_reason
-from tlsync_pipeline.sync.identify.summary import IdentificationSummary
 from tlsync_pipeline.sync.model.status import AMBIGUOUS, FAILED, HALF_95, WEAK, WIDE_FRAMES, WIDE_REMEDIES, WIDE_REMEDY, CameraStatus, Reason, failure, line_reasons, status_of
 from trackers.breaks import Break
 
@@ -265,7 +267,7 @@ class Timeline:
     target_rate: float | None = None
     target_t0: float | None = None
     method: str = "paper"
-    params: dict = field(default_factory=dict)
+    params: ParamsTable = field(default_factory=ParamsTable)  # the [sync] table of the fit
     failed: dict[str, str] = field(default_factory=dict)
     warnings: tuple[StageWarning, ...] = ()
     # Covariance between two cameras' (alpha, beta) through an error they share (the log's bias), "A|B" -> 2x2 (rows: A's).
@@ -439,12 +441,12 @@ class Timeline:
             if timed is not None:
                 pairs[key]["seconds"] = {"alpha": timed.alpha, "beta": timed.beta}
             if self.approximate(a, b):
-                pairs[key].update(approximate=True, exact="exports/frame_map.csv")
+                pairs[key].update(approximate=True, exact=artefact_path("frame_map"))
         return {
             "format": "tlsync-timeline",
             "version": FORMAT_VERSION,
             "method": self.method,
-            "params": self.params,
+            "params": self.params.table(),
             "target": {"rate": self.target_rate, "t0": self.target_t0},
             "reference": first,
             "cameras": cameras,
@@ -496,7 +498,7 @@ def read_timeline(path: str | Path) -> Timeline:
             target.get("rate"),
             target.get("t0"),
             data.get("method", "paper"),
-            data.get("params", {}),
+            ParamsTable.from_table(data.get("params", {})),
             data.get("failed", {}),
             warnings,
             shared_cov=shared,

@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from tlsync_pipeline.ingest.process import IngestParams, ingest, in_seconds_and_metres
+from tlsync_pipeline.ingest.params import IngestParams
+from tlsync_pipeline.ingest.process import ingest, in_seconds_and_metres
 from tlsync_pipeline.ingest.records import LOCAL, make_records
 from tlsync_pipeline.ingest.units import LENGTH_UNITS, TIME_UNITS, implausible_motion, unit_scale
 

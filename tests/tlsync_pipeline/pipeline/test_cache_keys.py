@@ -70,8 +70,9 @@ def _stale_by_own_reasons(folder) -> dict[str, list[str]]:
         ("seed = 0\n", "seed = 0\nsmooth_trajectory = false\n", {"identify/cam1", "vote/cam0", "vote/cam1", "sync"}, "smooth_trajectory: True -> False"),
         ('name = "cam0"\n', 'name = "cam0"\nproxy = "never"\n', {"render"}, "proxy.cam0: 'auto' -> 'never'"),
         ('trajectory = "trajectory.csv"\n', 'trajectory = "trajectory.csv"\nlog_model = "drone"\n', {"identify/cam1", "vote/cam0", "vote/cam1", "sync"}, "log_model.name: 'auto' -> 'drone'"),
+        ('trajectory = "trajectory.csv"\n', 'trajectory = "trajectory.csv"\nbias_tau_s = 30.0\n', {"sync"}, "log_model.tau_s: None -> 30.0"),
     ],
-    ids=["model_error_px", "eps_px", "r_min", "smooth_trajectory", "proxy", "log_model"],
+    ids=["model_error_px", "eps_px", "r_min", "smooth_trajectory", "proxy", "log_model", "bias_tau_s"],
 )
 def test_a_key_makes_stale_exactly_the_stages_that_read_it(finished, tmp_path, old, new, stale, named):
     folder = _edited(finished, tmp_path, old, new)
@@ -106,3 +107,45 @@ def test_a_code_edit_makes_stale_exactly_the_stages_that_run_it(finished, tmp_pa
     found = _stale_by_own_reasons(folder)
     assert set(found) == stale
     assert all(any(f"code of {module}" in reason for reason in reasons) for reasons in found.values()), found
+
+
+@pytest.fixture(scope="module")
+def finished_with_a_log(tmp_path_factory):
+    """The paper scene with its trajectory given as a GPX log (the ingest stage runs), after a complete run."""
+    from data_fixtures.gps_logs import write_gpx_log
+    from tlsync_pipeline.geodesy import Origin
+
+    scene = make_scene(seed=0)
+    folder = tmp_path_factory.mktemp("log_keys")
+    write_scene(scene, folder)
+    origin = Origin(46.5, 6.6, 380.0)
+    write_gpx_log(folder / "target.gpx", scene.trajectory, origin, 1.7e9)
+    toml = folder / "project.toml"
+    given = 'trajectory = "trajectory.csv"\n'
+    assert given in toml.read_text()
+    toml.write_text(toml.read_text().replace(given, f'log = "target.gpx"\norigin = [{origin.lat}, {origin.lon}, {origin.alt}]\n'))
+    summary = run_graph(_graph(folder))
+    assert {"ingest", "vote/cam0", "sync"} <= set(summary.ran)
+    return folder
+
+
+VOTE_AND_SYNC = {"vote/cam0", "vote/cam1", "sync"}
+
+
+@pytest.mark.parametrize(
+    "new, stale",
+    [("bias_tau_s = 30.0", {"sync"}), ('log_model = "drone"', VOTE_AND_SYNC), ("white_sigma_m = 0.5", VOTE_AND_SYNC)],
+    ids=["bias_tau_s", "log_model", "white_sigma_m"],
+)
+def test_a_key_of_the_logs_error_model_leaves_ingest_fresh(finished_with_a_log, tmp_path, new, stale):
+    """[target]'s error-model keys are read by vote (the sizes of the errors: its radius) and sync, not by ingest: the
+    log is not parsed again; the bias's correlation time only by sync's fit."""
+    folder = _edited(finished_with_a_log, tmp_path, 'log = "target.gpx"\n', f'log = "target.gpx"\n{new}\n')
+    assert set(_stale_by_own_reasons(folder)) == stale
+    summary = run_graph(_graph(folder))
+    assert "ingest" in summary.fresh and "sync" in summary.ran
+
+
+def test_a_key_ingest_reads_makes_it_stale(finished_with_a_log, tmp_path):
+    folder = _edited(finished_with_a_log, tmp_path, 'log = "target.gpx"\n', 'log = "target.gpx"\nsmoothing_s = 0.5\n')
+    assert "smoothing_s: 0.0 -> 0.5" in " ".join(_stale_by_own_reasons(folder)["ingest"])

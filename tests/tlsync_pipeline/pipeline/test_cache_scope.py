@@ -18,18 +18,18 @@ from tlsync_pipeline.pipeline.graph import STAGE_SPECS
 
 SYNC = "tlsync_pipeline.sync."
 EVERY = frozenset({"model", "kernels", "vote", "identify", "pose", "solve", "timeline", "clock_prior"})
-# Stage -> the parts of sync/ (a package, or a module: "identify.summary") its code may import.
+# Stage -> the parts of sync/ (a package, or a module such as "vote.votes") its code may import.
 MAY_IMPORT = {
     "intrinsics": frozenset(),
     "calibrate": frozenset({"model", "kernels", "vote", "identify", "pose"}),
     "track": frozenset(),
     "scan": frozenset({"model", "kernels", "vote", "identify", "pose"}),
     "ingest": frozenset(),
-    "clock": frozenset({"model", "clock_prior"}),
+    "clock": frozenset(),
     "identify": frozenset({"model", "kernels", "vote", "identify"}),
-    "vote": frozenset({"model", "kernels", "vote", "identify.summary"}),
+    "vote": frozenset({"model", "kernels", "vote"}),
     "sync": EVERY,
-    "export": frozenset({"model", "timeline", "clock_prior", "identify.summary"}),
+    "export": frozenset({"model", "timeline", "clock_prior"}),
     "render": EVERY,
 }
 BEFORE_SYNC = ("intrinsics", "calibrate", "track", "scan", "ingest", "clock", "identify", "vote")

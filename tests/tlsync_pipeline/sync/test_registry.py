@@ -41,7 +41,7 @@ def test_a_toy_method_runs_through_synchronize(toy):
     inputs = {n: CameraInput(scene.cameras[n], scene.tracks[n], scene.cameras[n].fps) for n in scene.cameras}
     timeline, results = synchronize(inputs, scene.trajectory, SyncParams(method="toy", options={"toy": ToyParams(8.0)}))
     assert not timeline.failed and timeline.method == "toy"
-    assert timeline.params["toy_max_dist_px"] == 8.0 and timeline.params["r_min"] == 0.01
+    assert timeline.params.own["toy_max_dist_px"] == 8.0 and timeline.params.own["r_min"] == 0.01 and timeline.params.shared.method == "toy"
     for key, true in scene.truth_pairs().items():  # a crude method: whole frames off, not hundreds
         assert eps_t(timeline.relation(*key.split("->")), true, scene.n_frames[key.split("->")[0]]) < 3.0, key
     assert all(line.flags == ("toy",) and line.cov is None for line in timeline.cameras.values())

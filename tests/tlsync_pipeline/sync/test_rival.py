@@ -11,9 +11,14 @@ import pytest
 from calibration.camera import Camera
 from data_fixtures.gcp import looking_at
 from tlsync_pipeline.sync.model.log_model import PRESETS
-from tlsync_pipeline.sync.solve.methods import CameraInput
 from tlsync_pipeline.sync.model.params import SyncParams
-from tlsync_pipeline.sync.solve.plausibility import RIVAL_PROBABILITY, _rival, rival_odds_of
+from tlsync_pipeline.sync.solve.methods import CameraInput
+from tlsync_pipeline.sync.solve.plausibility import (
+    RIVAL_PROBABILITY,
+    _rival,
+    rival_odds_of,
+)
+from tlsync_pipeline.sync.solve.rival import rival_odds
 from tlsync_pipeline.sync.solve.synchronize import synchronize
 from tlsync_pipeline.sync.timeline import CameraLine, LineSearchSummary
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
@@ -124,6 +129,49 @@ def test_a_camera_whose_strongest_line_the_track_rules_out_takes_its_rival():
     line, truth = timeline.cameras["cam1"], scene.lines["cam1"]
     search = line.line_search
     assert search.rival_probability is not None and search.rival_probability < RIVAL_PROBABILITY  # the old strongest line
+    middle = (float(np.median(scene.tracks["cam1"].frame)) - truth.beta) / truth.alpha
+    error = abs((line.alpha - truth.alpha) * middle + line.beta - truth.beta)
+    se = float(np.sqrt(np.array([middle, 1.0]) @ line.cov @ np.array([middle, 1.0])))
+    assert error <= 1.96 * se
+
+
+@pytest.mark.parametrize("best_off_s, rival_off_s, rival_wins", [(0.5, -2.0, False), (-2.0, 0.5, True)])
+def test_two_lines_whose_profiles_meet_are_one_line_the_better_profile(best_off_s, rival_off_s, rival_wins):
+    """The line search's two lines straddle one pass (the ends of its blob of votes under a wide radius): profiled on the
+    track, they come within the band of each other. That is one line, not ambiguity: the rival keeps probability 0 when
+    the best line's profile scores better, 1 when its own does (the camera is then refitted on the rival's votes)."""
+    camera, track, clock, path, truth, _ = _scene(laps=1)
+    best, rival = (truth[0], truth[1] + best_off_s * FPS), (truth[0], truth[1] + rival_off_s * FPS)
+    odds = rival_odds(camera, clock, track.xy, path, best, rival, PRESETS["phone"], FPS, RATE, 1.5 * FPS)
+    assert odds.joined
+    assert odds.rival_probability == (1.0 if rival_wins else 0.0)
+    winner = odds.rival if rival_wins else odds.best
+    assert abs(winner.beta - truth[1]) <= 1.0 * FPS  # the better profile is the pass's line
+
+
+def test_two_passes_alike_are_not_joined():
+    """Two laps of the same circle, a lap apart: far beyond the band, each profile stays on its own lap."""
+    camera, track, clock, path, truth, _ = _scene(laps=2)
+    rival = (truth[0], truth[1] - LAP_S * RATE * truth[0])
+    odds = rival_odds(camera, clock, track.xy, path, truth, rival, PRESETS["phone"], FPS, RATE, 2.0 * FPS)
+    assert not odds.joined and 0.1 < odds.rival_probability < 0.9
+
+
+@pytest.mark.slow
+def test_a_camera_whose_two_lines_are_one_pass_is_synchronized_the_truth_in_its_interval():
+    """Walk scene 7 with a phone's 2 m bias: cam1's line search gives two lines 6 s apart, the ends of one pass's
+    votes; profiled on the track they meet within the band: one line, synchronized, the truth within its interval."""
+    from data_fixtures.log_error import PRESETS as RECEIVERS
+    from data_fixtures.walk import WalkSpec, make_walk_scene
+
+    scene = make_walk_scene(7, WalkSpec(log=RECEIVERS["phone2"]))
+    inputs = {n: CameraInput(c, scene.tracks[n], c.fps) for n, c in scene.cameras.items()}
+    timeline, _ = synchronize(inputs, scene.trajectory, SyncParams(), log_model=PRESETS["phone"])
+    assert timeline.status("cam1").synchronized, timeline.status("cam1").reason
+    line, truth = timeline.cameras["cam1"], scene.lines["cam1"]
+    search = line.line_search
+    assert search.rival_beta is not None and abs(search.rival_beta - search.beta) > 4.0 * FPS  # two lines seconds apart
+    assert search.rival_probability == 0.0  # weighed as one line, the best line's profile the better
     middle = (float(np.median(scene.tracks["cam1"].frame)) - truth.beta) / truth.alpha
     error = abs((line.alpha - truth.alpha) * middle + line.beta - truth.beta)
     se = float(np.sqrt(np.array([middle, 1.0]) @ line.cov @ np.array([middle, 1.0])))

@@ -23,7 +23,6 @@ Editing a GCP file re-runs this stage only, not the checkerboard detection.
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -40,6 +39,8 @@ from calibration.extrinsics import (
     read_gcps,
 )
 from calibration.intrinsics import detect_board, parse_pattern
+from tlsync_pipeline.artefacts.calibration import CalibrationReport, read_intrinsics_report, write_calibration_report
+from tlsync_pipeline.artefacts.scan import ScanPlan, read_scan
 from tlsync_pipeline.errors import InputError, SyncError
 from tlsync_pipeline.geodesy import Origin, geodetic_to_enu
 from tlsync_pipeline.outputs.calibration_report import calibration_plot, calibration_summary
@@ -222,7 +223,7 @@ def survey_pose(files: StageFiles, params: CalibrateParams) -> tuple[Camera, dic
     (survey_inputs)."""
     known = read_camera(files.path("intrinsics"))
     if files.has("intrinsics_report"):  # calibrated by the intrinsics stage: its rms stays in camera.json
-        intrinsics_report = json.loads(files.path("intrinsics_report").read_text(encoding="utf-8"))
+        intrinsics_report = dict(read_intrinsics_report(files.path("intrinsics_report")).content)
     else:  # a given camera.json: only its intrinsics are taken
         known = Camera(known.name, known.K, known.dist, known.R, known.t, known.image_size, known.fps, known.dist_model, to_estimate=known.to_estimate)
         intrinsics_report = known_intrinsics(files.path("intrinsics"))
@@ -248,7 +249,7 @@ def run_calibrate(files: StageFiles, params: CalibrateParams) -> StageResult:
     with files.write("camera") as tmp:
         write_camera(camera, tmp)
     with files.write("calibration_report") as tmp:
-        tmp.write_text(json.dumps(report, indent=1) + "\n", encoding="utf-8")
+        write_calibration_report(CalibrationReport(report), tmp)
     with files.write("calibration_picture") as tmp:
         tmp.write_bytes(calibration_plot(report, camera.image_size))
     return StageResult(message=f"{calibration_summary(report)}; wrote {files.output('camera')}", warnings=pose_warnings(report), failed=failed)
@@ -282,20 +283,20 @@ def _pose_from_target_files(files: StageFiles, camera: Camera, params: Calibrate
         raise SyncError(f"{params.target.source}: the target was never found (no moving object in any frame)")
     track = read_track(files.path("track")) if label == "track" else None
     detections = read_detections(files.path("detections")) if label == "detections" else None
-    offsets = coarse_offsets(json.loads(files.path("scan").read_text(encoding="utf-8")), camera.fps) if files.has("scan") else None
+    offsets = coarse_offsets(read_scan(files.path("scan")), camera.fps) if files.has("scan") else None
     return pose_from_target(camera, params.target, prior, track, detections, read_trajectory(files.path("trajectory")), params.ransac_px or 8.0, offsets)
 
 
 COARSE_MARGIN_S = 10.0  # seconds either side of the scan's coarse offset (good to a second or two) the pose's search covers
 
 
-def coarse_offsets(scan: dict, fps: float | None) -> tuple[float, float] | None:
+def coarse_offsets(scan: ScanPlan, fps: float | None) -> tuple[float, float] | None:
     """The range of beta (frames) around the scan stage's coarse line when the video was read in its windows (the
     detections exist only there), else None: the search covers every offset the log allows."""
-    coarse = scan.get("coarse")
-    if scan.get("mode") != "windows" or not coarse or not fps:
+    coarse = scan.coarse
+    if scan.full or coarse is None or not fps:
         return None
-    return float(coarse["beta"]) - COARSE_MARGIN_S * fps, float(coarse["beta"]) + COARSE_MARGIN_S * fps
+    return float(coarse.beta) - COARSE_MARGIN_S * fps, float(coarse.beta) + COARSE_MARGIN_S * fps
 
 
 def survey_inputs(src: Sources, name: str) -> dict[str, Path | Artefact]:

@@ -1,9 +1,8 @@
-"""Per-camera files and parameters of the project-wide stages (sync, export, render), and the per-camera artefacts
-identify, vote and sync read (identification.json, video.json, the ingest report's log model, a pose's absence); not a stage."""
+"""Per-camera files and parameters of the project-wide stages (sync, export, render), and what identify, vote and
+sync read alike (the log model the ingest report suggests, a pose's absence); not a stage."""
 
 from __future__ import annotations
 
-import json
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -12,10 +11,10 @@ from typing import TYPE_CHECKING
 
 from calibration.camera import Camera
 from tlsync_pipeline.errors import INPUT_ERRORS, SyncError
+from tlsync_pipeline.ingest.report import read_ingest_report
 from tlsync_pipeline.pipeline.spec import ProjectWide, Sources
 from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
 from tlsync_pipeline.sync.model.log_model import LogModel, LogModelChoice
-from tlsync_pipeline.sync.identify.summary import IdentificationSummary
 from trackers.video import probe_video
 
 if TYPE_CHECKING:
@@ -62,23 +61,10 @@ def cameras_params(project: Project) -> CamerasParams:
     return CamerasParams(tuple(project.names), fps={c.name: c.fps for c in project.cameras})
 
 
-def read_identification(path) -> IdentificationSummary | SyncError:
-    """A camera's identification.json (identify stage): the summary, or the SyncError that kept its target from being
-    identified (its ``breaks``, the drop the movers' votes show, are read by the sync stage)."""
-    data = json.loads(path.read_text(encoding="utf-8"))
-    data.pop("breaks", None)
-    return SyncError(data["error"]) if "error" in data else IdentificationSummary.from_dict(data)
-
-
 def has_no_rows(csv_path: Path) -> bool:
     """Whether a CSV artefact a stage wrote (track.csv, detections.csv) holds its header and no row."""
     with open(csv_path, encoding="utf-8") as handle:
         return sum(1 for line in handle if line.strip()) <= 1
-
-
-def read_video_info(path: Path) -> dict:
-    """video.json as the track stage wrote it: frames (that exist), announced, truncated (docs/formats.md)."""
-    return json.loads(Path(path).read_text(encoding="utf-8"))
 
 
 def container_fps(project: Project) -> dict[str, float]:
@@ -112,7 +98,7 @@ def log_model_of(files: StageFiles, choice: LogModelChoice) -> LogModel:
     declares it: the project ingests a log), else "none"."""
     suggested = None
     if files.has("ingest_report"):
-        suggested = (json.loads(files.path("ingest_report").read_text(encoding="utf-8")).get("log_model") or {}).get("name")
+        suggested = (read_ingest_report(files.path("ingest_report")).log_model or {}).get("name")
     return choice.resolve(suggested)
 
 

@@ -11,21 +11,18 @@ line against it (tlsync_pipeline.sync.clock_prior).
 
 from __future__ import annotations
 
-import datetime as dt
-import json
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from tlsync_pipeline.artefacts.clock import ClockPrior, RecordedClock, write_clock
 from tlsync_pipeline.ingest.recording_time import PHONE_TOLERANCE_S, RecordingTime, choose, parse_utc, recording_time
 from tlsync_pipeline.pipeline.spec import Options, Sources, StageResult, StageSpec
 from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
-from tlsync_pipeline.sync.clock_prior import ClockPrior
 
 if TYPE_CHECKING:
     from tlsync_pipeline.pipeline.project import Project
 
-CLOCK_FORMAT = "tlsync-clock"
 GIVEN_TOLERANCE_S = PHONE_TOLERANCE_S  # a time the user gives, without a tolerance
 
 
@@ -47,25 +44,17 @@ def run_clock(files: StageFiles, params: ClockStageParams) -> StageResult:
         utc = parse_utc(params.recorded)
         assert utc is not None, "checked by the project"
         found = RecordingTime(utc, params.tolerance_s or GIVEN_TOLERANCE_S, "the project ([cameras.clock] recorded)", True)
-    record: dict = {"format": CLOCK_FORMAT}
     if isinstance(found, str):
-        record["none"] = found
+        record = RecordedClock(None, found)
         message = f"camera {files.camera}: no clock to check against: {found}"
     else:
-        when = dt.datetime.fromtimestamp(found.utc_s, dt.timezone.utc).isoformat(timespec="milliseconds").replace("+00:00", "Z")
-        record.update(utc_s=found.utc_s, utc=when, tolerance_s=found.tolerance_s, source=found.source)
-        message = f"camera {files.camera}: recorded at {when} +- {found.tolerance_s:g} s by {found.source}"
+        assert found.tolerance_s is not None, "choose and a given time both set the tolerance"
+        prior = ClockPrior(found.utc_s, found.tolerance_s, found.source)
+        record = RecordedClock(prior)
+        message = f"camera {files.camera}: recorded at {prior.utc} +- {found.tolerance_s:g} s by {found.source}"
     with files.write("clock") as tmp:
-        tmp.write_text(json.dumps(record, indent=1) + "\n", encoding="utf-8")
+        write_clock(record, tmp)
     return StageResult(message)
-
-
-def read_clock(path: Path) -> ClockPrior | None:
-    """clock.json as a ClockPrior, None when it holds none."""
-    data = json.loads(Path(path).read_text(encoding="utf-8"))
-    if "utc_s" not in data:
-        return None
-    return ClockPrior(float(data["utc_s"]), float(data["tolerance_s"]), str(data["source"]))
 
 
 def clock_inputs(src: Sources, cam: str) -> dict[str, Path | Artefact]:

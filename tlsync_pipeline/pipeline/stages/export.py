@@ -7,30 +7,33 @@ frame rate.
 
 from __future__ import annotations
 
-import csv
-import json
 import os
 from pathlib import Path
 
 import numpy as np
 
+from tlsync_pipeline.artefacts.exports import write_offsets, write_rows, write_text
+from tlsync_pipeline.artefacts.jsonfile import write_document
+from tlsync_pipeline.artefacts.video_info import read_video_info
 from tlsync_pipeline.sync.model.status import HALF_95
 from tlsync_pipeline.outputs.editors import Piece, Placement, fcpxml_text, otio_text, sync_document
 from tlsync_pipeline.outputs.exports import ffmpeg_commands, frame_map_rows, offsets, reference_seconds, start_frames
 from tlsync_pipeline.pipeline.spec import ProjectWide, Sources, StageResult, StageSpec
-from tlsync_pipeline.pipeline.stages.cameras import CameraFiles, camera_files, read_video_info
+from tlsync_pipeline.pipeline.stages.cameras import CameraFiles, camera_files
 from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
 from tlsync_pipeline.sync.model.clock import FrameTimes
 from tlsync_pipeline.sync.timeline import CameraLine, Timeline, read_timeline
 from trackers.track import read_track
 from trackers.video import presentation_times, probe_video
 
+EXPORTS = ("frame_map", "offsets", "ffmpeg", "timeline_otio", "timeline_fcpxml", "sync_json")  # the stage's artefact kinds
+
 
 def frame_count(camera: CameraFiles) -> int:
     """Frames of a camera's video: as decoded by the track stage (a truncated video holds fewer than announced),
     else from the container; without a video, its last tracked frame + 1."""
     if camera.video_info is not None:
-        return int(read_video_info(camera.video_info)["frames"])
+        return read_video_info(camera.video_info).frames
     if camera.video is not None:
         count = probe_video(camera.video).n_frames
         if count > 0:
@@ -69,38 +72,35 @@ def run_export(files: StageFiles, params: ProjectWide) -> StageResult:
     tl = read_timeline(files.path("timeline"))
     if not tl.cameras:
         # No camera synchronized: exports of an earlier timeline would look current.
-        for kind in ("frame_map", "offsets", "ffmpeg", "timeline_otio", "timeline_fcpxml", "sync_json"):
+        for kind in EXPORTS:
             files.output(kind).unlink(missing_ok=True)
         return StageResult("no camera synchronized: no exports (earlier ones removed)", facts={"exported": []})
     n_frames = {name: frame_count(cameras[name]) for name in tl.names}
     times = {name: frame_times(cameras[name], line) for name, line in tl.cameras.items()}
     with files.write("frame_map") as tmp:
-        with tmp.open("w", newline="", encoding="utf-8") as handle:
-            csv.writer(handle).writerows(frame_map_rows(tl, n_frames, times))
+        write_rows(frame_map_rows(tl, n_frames, times), tmp)
     rows = offsets(tl, times)
     with files.write("offsets") as tmp:
-        with tmp.open("w", newline="", encoding="utf-8") as handle:
-            writer = csv.DictWriter(handle, fieldnames=list(rows[0]))
-            writer.writeheader()
-            writer.writerows({k: ("" if v is None else (f"{v:.6f}" if isinstance(v, float) else v)) for k, v in r.items()} for r in rows)
+        write_offsets(rows, tmp)
     videos = {name: (str(c.video) if c.video is not None else None) for name, c in cameras.items()}
     base = files.output("ffmpeg").parent.parent.parent  # ffmpeg.sh runs in the folder that holds the work folder
     with files.write("ffmpeg") as tmp:
-        tmp.write_text(ffmpeg_commands(rows, {name: None if v is None else os.path.relpath(v, base) for name, v in videos.items()}), encoding="utf-8")
+        write_text(ffmpeg_commands(rows, {name: None if v is None else os.path.relpath(v, base) for name, v in videos.items()}), tmp)
     notes = []
     placements = editor_placements(tl, rows, videos, n_frames, times)
     if placements is None:
         notes.append(f"no editor timelines: the reference camera {tl.names[0]} has no frame rate")
     else:
-        texts = {"timeline_otio": otio_text(placements), "sync_json": json.dumps(sync_document(placements, tl.names[0]), indent=1) + "\n"}
+        with files.write("timeline_otio") as tmp:
+            write_text(otio_text(placements), tmp)
+        with files.write("sync_json") as tmp:
+            write_document(sync_document(placements, tl.names[0]), tmp)
         fcpxml, why_not = fcpxml_text(placements)
         if fcpxml is None:
             notes.append(f"no timeline.fcpxml: {why_not}")
         else:
-            texts["timeline_fcpxml"] = fcpxml
-        for kind, text in texts.items():
-            with files.write(kind) as tmp:
-                tmp.write_text(text, encoding="utf-8")
+            with files.write("timeline_fcpxml") as tmp:
+                write_text(fcpxml, tmp)
     return StageResult("; ".join(notes) or None, facts={"exported": tl.names, "n_frames": n_frames})
 
 
@@ -149,7 +149,7 @@ SPEC = StageSpec(
     "export",
     inputs=export_inputs,
     params=lambda project, camera, options: ProjectWide(tuple(project.names)),
-    outputs=("frame_map", "offsets", "ffmpeg", "timeline_otio", "timeline_fcpxml", "sync_json"),
+    outputs=EXPORTS,
     run=run_export,
     runs_without_failed_cameras=True,
 )

@@ -12,12 +12,13 @@ identified (the camera is then listed as not synchronized, the others are).
 
 from __future__ import annotations
 
-import json
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from calibration.camera import read_camera
+from tlsync_pipeline.artefacts.identification import IdentificationRecord, write_identification
+from tlsync_pipeline.artefacts.video_info import read_video_info
 from tlsync_pipeline.errors import SyncError
 from tlsync_pipeline.pipeline.spec import Options, Sources, StageResult, StageSpec
 from tlsync_pipeline.pipeline.stages.cameras import has_no_rows, ingest_report_input, log_model_of, pose_problem
@@ -30,7 +31,6 @@ from tlsync_pipeline.sync.model.params import Preparation
 from tlsync_pipeline.sync.model.methods import prepare_trajectory, preparation_of
 from tlsync_pipeline.sync.vote.visits import near_views
 from tlsync_pipeline.trajectory import read_trajectory
-from trackers.breaks import Break
 from trackers.detections import read_detections, seed_tracklets
 from trackers.track import write_track
 from trackers.video import check_init_box, probe_video
@@ -86,17 +86,17 @@ def run_identify(files: StageFiles, params: IdentifyStageParams) -> StageResult:
         if seed is not None and not prefer:
             warnings.append(f"camera {files.camera}: no mover inside the init box {list(seed.box)} near frame {seed.frame}; the target is identified without it")
         radius = vote_radius(camera, prepared, params.identify.eps_px, measured(log_model_of(files, params.log_model), logged))
-        breaks = tuple(Break.from_dict(b) for b in json.loads(files.path("video_info").read_text(encoding="utf-8")).get("breaks", ())) if files.has("video_info") else ()
+        breaks = read_video_info(files.path("video_info")).breaks if files.has("video_info") else ()
         found, breaks = identify_in_segments(camera, detections, prepared, params.fps or camera.fps, replace(params.identify, eps_px=radius), prefer, breaks)
     except SyncError as exc:
         files.output("track").unlink(missing_ok=True)
         with files.write("identification") as tmp:
-            tmp.write_text(json.dumps({"error": str(exc)}, indent=1) + "\n", encoding="utf-8")
+            write_identification(IdentificationRecord(None, str(exc)), tmp)
         return StageResult(warnings=tuple(warnings), failed={files.camera_name: str(exc)})
     with files.write("track") as tmp:
         write_track(found.track, tmp)
     with files.write("identification") as tmp:
-        tmp.write_text(json.dumps({**asdict(found.summary()), "breaks": [b.to_dict() for b in breaks]}, indent=1) + "\n", encoding="utf-8")
+        write_identification(IdentificationRecord(found.summary(), breaks=breaks), tmp)
     seeded = f", seeded by the init box (tracklet {min(prefer)})" if prefer else ""
     lift = f"; the log's point is {abs(found.lift_m):.2f} m {'above' if found.lift_m > 0 else 'below'} the movers' centres, the track moved to it" if found.lift_m else ""
     message = f"wrote {files.output('track')} ({len(found.track)} identified frames{seeded}{lift})"
@@ -108,7 +108,7 @@ def identify_stage_params(project: Project, cam: str, options: Options) -> Ident
     tracker = camera.tracker
     seed = InitSeed(tracker.init, tracker.init_frame) if camera.detections is None and tracker.init is not None else None
     source = camera.video if camera.detections is None else None
-    return IdentifyStageParams(camera.fps, identify_params(project.sync), preparation_of(project.sync), source, seed, project.target.log_error)
+    return IdentifyStageParams(camera.fps, identify_params(project.sync), preparation_of(project.sync), source, seed, project.target.log_error.for_vote_radius)
 
 
 def identify_inputs(src: Sources, cam: str) -> dict[str, Path | Artefact]:

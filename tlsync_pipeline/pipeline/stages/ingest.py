@@ -8,7 +8,6 @@ t0, gaps, drops), both written atomically.
 from __future__ import annotations
 
 import dataclasses
-import json
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -19,20 +18,17 @@ from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.geodesy import Origin, enu_to_geodetic
 from tlsync_pipeline.ingest.read import read_log
 from tlsync_pipeline.ingest.recording_time import parse_utc_offset
-from tlsync_pipeline.ingest.process import (
-    IngestParams,
-    IngestReport,
-    RigidTransform,
-    ingest,
-)
+from tlsync_pipeline.ingest.params import IngestParams, RigidTransform
+from tlsync_pipeline.ingest.process import ingest
+from tlsync_pipeline.ingest.report import IngestReport, write_ingest_report
 from tlsync_pipeline.ingest.units import implausible_motion
 from tlsync_pipeline.pipeline.origin import check_log_near_gcps, origin_inputs, resolve_origin
-from tlsync_pipeline.pipeline.spec import Sources, StageResult, StageSpec
+from tlsync_pipeline.pipeline.spec import Options, Sources, StageResult, StageSpec
 from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
 from tlsync_pipeline.trajectory import Trajectory, read_trajectory, trajectory_from_times, write_trajectory
 
 if TYPE_CHECKING:
-    from tlsync_pipeline.pipeline.project import TargetConfig
+    from tlsync_pipeline.pipeline.project import Project, TargetConfig
 
 
 def ingest_log(path: str | Path, fmt: str = "auto", params: IngestParams = IngestParams(), topic: str | None = None,
@@ -46,7 +42,7 @@ def write_ingest(trajectory: Trajectory, report: IngestReport, csv_path: Path, r
     with atomic_path(csv_path) as tmp:
         write_trajectory(trajectory, tmp)
     with atomic_path(report_path) as tmp:
-        tmp.write_text(json.dumps(report.to_dict(), indent=1) + "\n", encoding="utf-8")
+        write_ingest_report(report, tmp)
 
 
 def report_sidecar(csv_path: Path) -> Path:
@@ -148,10 +144,30 @@ def ingest_inputs(src: Sources, camera: None) -> dict[str, Path | Artefact]:
     return {"log": target.log, **origin_inputs(src.project)}
 
 
+# The [target] keys the ingest stage reads: of a log (how it is read, its origin, IngestParams'), of a trajectory it converts.
+LOG_KEYS = (
+    "origin", "format", "topic", "utc_offset", "rate", "max_gap_s", "max_speed_mps", "smoothing_s", "odometry_transform",
+    "altitude_reference", "altitude_offset_m", "time_unit", "length_unit",
+)
+UNIT_KEYS = ("time_unit", "length_unit")
+
+
+def ingest_params(project: Project, cam: None, options: Options) -> TargetConfig:
+    """[target] with the keys the stage reads and every other at its default (its files are inputs; the log's error
+    model is vote's and sync's), so that a key it does not read leaves it fresh."""
+    target = project.target
+    kept = UNIT_KEYS if target.trajectory is not None else LOG_KEYS
+    return dataclasses.replace(target, **{f.name: _default(f) for f in dataclasses.fields(target) if f.name not in kept})
+
+
+def _default(key: dataclasses.Field):
+    return key.default_factory() if key.default_factory is not dataclasses.MISSING else key.default
+
+
 SPEC = StageSpec(
     "ingest",
     inputs=ingest_inputs,
-    params=lambda project, cam, options: dataclasses.replace(project.target, log=None, trajectory=None),
+    params=ingest_params,
     outputs=("trajectory", "ingest_report"),
     run=run_ingest,
     applies=lambda project, cam: project.target.converts_trajectory or (project.target.trajectory is None and project.target.log is not None),

@@ -10,7 +10,6 @@ is cached apart from the pose: editing a GCP file re-runs only calibrate.
 from __future__ import annotations
 
 import glob
-import json
 import os
 from dataclasses import dataclass
 from pathlib import Path
@@ -21,6 +20,7 @@ import numpy as np
 from calibration.camera import write_camera
 from calibration.errors import PatternMismatch
 from calibration.intrinsics import calibrate_images, calibrate_video, parse_pattern
+from tlsync_pipeline.artefacts.calibration import IntrinsicsReport, write_intrinsics_report
 from tlsync_pipeline.errors import InputError, error_details, with_details
 from tlsync_pipeline.pipeline.spec import Options, Sources, StageResult, StageSpec
 from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
@@ -84,7 +84,7 @@ def run_intrinsics(files: StageFiles, params: IntrinsicsParams) -> StageResult:
     with files.write("intrinsics") as tmp:
         write_camera(result.camera(files.camera_name), tmp)
     with files.write("intrinsics_report") as tmp:
-        tmp.write_text(json.dumps(report, indent=1) + "\n", encoding="utf-8")
+        write_intrinsics_report(IntrinsicsReport(report), tmp)
     rejected = tuple(f"checkerboard view {view['image']} rejected: {view['reason']}" for view in report["rejected"])
     return StageResult(warnings=rejected, facts={"rms_px": result.rms, "views_used": len(result.used)})
 

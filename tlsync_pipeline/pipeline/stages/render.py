@@ -11,17 +11,20 @@ is in outputs/.
 
 from __future__ import annotations
 
-import json
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, TypeVar
 
 import numpy as np
 
+from tlsync_pipeline.artefacts.calibration import read_calibration_report
+from tlsync_pipeline.artefacts.exports import write_text
+from tlsync_pipeline.artefacts.kinds import artefact_path
+from tlsync_pipeline.artefacts.scan import read_scan
 from tlsync_pipeline.atomic import atomic_path
-from tlsync_pipeline.ingest.process import IngestReport
 from tlsync_pipeline.errors import InputError
+from tlsync_pipeline.ingest.report import read_ingest_report
 from tlsync_pipeline.outputs.camera_pictures import CameraJob, DrawnCamera, draw_camera, draw_panels, photo, picture
 from tlsync_pipeline.outputs.diagnostics import StageRun, run_warnings
 from tlsync_pipeline.outputs.pictures import PairPlan, PanelRequest, assemble_pair, choose_frames, pair_frames, plan_pair, write_png
@@ -36,27 +39,27 @@ from tlsync_pipeline.pipeline.spec import Options, Sources, StageResult, StageSp
 from tlsync_pipeline.pipeline.stages.cameras import CameraFiles, CamerasParams, camera_files, cameras_params
 from tlsync_pipeline.pipeline.stages.export import frame_count, frame_times
 from tlsync_pipeline.pipeline.stages.sync import read_camera_inputs
+from tlsync_pipeline.pipeline.strip_requests import StripRequest, read_requests, write_requests
 from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
 from tlsync_pipeline.sync.model.clock import FrameTimes
 from tlsync_pipeline.sync.solve.methods import CameraInput
 from tlsync_pipeline.sync.model.methods import params_from_table, prepare_trajectory, preparation_of
-from tlsync_pipeline.sync.timeline import Relation, Timeline, read_timeline
+from tlsync_pipeline.sync.timeline import Timeline, read_timeline
 from tlsync_pipeline.sync.vote.visits import near_views
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory, read_trajectory
 
 if TYPE_CHECKING:
     from tlsync_pipeline.pipeline.project import Project
 
-REQUESTS = "requests.json"  # in render/: the strips asked for (StripRequest), drawn again by every render
-REQUESTED_PREFIX = "pair_"  # the pictures of StripRequests (the render stage's own never start with it)
+T = TypeVar("T")
 
-EXPORT_LABELS = (
-    ("frame map (CSV)", "frame_map.csv"),
-    ("offsets (CSV)", "offsets.csv"),
-    ("ffmpeg commands", "ffmpeg.sh"),
-    ("OpenTimelineIO timeline (DaVinci Resolve, Premiere via plug-in, ...)", "timeline.otio"),
-    ("FCPXML timeline (Final Cut Pro, DaVinci Resolve)", "timeline.fcpxml"),
-    ("sync.json (offsets with their sign convention)", "sync.json"),
+EXPORT_LABELS = (  # the export stage's artefacts the report links to, by kind
+    ("frame map (CSV)", "frame_map"),
+    ("offsets (CSV)", "offsets"),
+    ("ffmpeg commands", "ffmpeg"),
+    ("OpenTimelineIO timeline (DaVinci Resolve, Premiere via plug-in, ...)", "timeline_otio"),
+    ("FCPXML timeline (Final Cut Pro, DaVinci Resolve)", "timeline_fcpxml"),
+    ("sync.json (offsets with their sign convention)", "sync_json"),
 )
 
 
@@ -65,41 +68,6 @@ class RenderParams(CamerasParams):
     """The cameras and their fps (CamerasParams); proxy: camera -> proxy policy ("auto", "always", "never")."""
 
     proxy: Mapping[str, str] = field(default_factory=dict)
-
-
-@dataclass(frozen=True)
-class StripRequest:
-    """Strips asked for with ``tlsync render --pair/--frames/--truth``, drawn beside the default pictures.
-
-    pairs: (A, B) pairs (None: the default pairs); frames: 0-based frames of
-    each pair's second camera (None: chosen); truth: true relations "A->B"
-    (truth.json's pairs) to draw A's true match too (None: none). Each strip
-    is ``render/pair_<A>_<B>[_frames_<f>_<f>...][_truth].png``; requests are
-    kept in ``render/requests.json`` and drawn again whenever the render
-    stage runs, so a picture never shows an earlier timeline.
-    """
-
-    pairs: tuple[tuple[str, str], ...] | None = None
-    frames: tuple[int, ...] | None = None
-    truth: Mapping[str, Relation] | None = None
-
-    def file_name(self, a: str, b: str) -> str:
-        frames = "".join(f"_{f}" for f in self.frames or ())
-        return f"{REQUESTED_PREFIX}{a}_{b}" + (f"_frames{frames}" if frames else "") + ("_truth" if self.truth else "") + ".png"
-
-    def to_dict(self) -> dict:
-        return {
-            "pairs": None if self.pairs is None else [list(p) for p in self.pairs],
-            "frames": None if self.frames is None else list(self.frames),
-            "truth": None if self.truth is None else {k: {"alpha": r.alpha, "beta": r.beta} for k, r in self.truth.items()},
-        }
-
-    @classmethod
-    def from_dict(cls, data: dict) -> StripRequest:
-        pairs = None if data.get("pairs") is None else tuple((str(a), str(b)) for a, b in data["pairs"])
-        frames = None if data.get("frames") is None else tuple(int(f) for f in data["frames"])
-        truth = None if data.get("truth") is None else {k: Relation(float(v["alpha"]), float(v["beta"])) for k, v in data["truth"].items()}
-        return cls(pairs, frames, truth)
 
 
 @dataclass(frozen=True)
@@ -154,9 +122,9 @@ def run_render(files: StageFiles, params: RenderParams) -> StageResult:
     content = _report_content(files, scene, params, cameras, strips, charts, notes)
     removed = remove_other_pictures(out_dir, written + requested)
     with files.write("report_html") as tmp:
-        tmp.write_text(report_html(content), encoding="utf-8")
+        write_text(report_html(content), tmp)
     with files.write("report") as tmp:
-        tmp.write_text(report_markdown(content), encoding="utf-8")
+        write_text(report_markdown(content), tmp)
     return StageResult(
         "; ".join(notes) or None,
         outputs=tuple(written),
@@ -171,7 +139,7 @@ def _read_scene(files: StageFiles, params: RenderParams) -> _Scene:
     synchronized = {n: c for n, c in cameras.items() if n in timeline.cameras}
     inputs = read_camera_inputs(synchronized)
     trajectory = near_views(read_trajectory(files.path("trajectory")), [c.camera for c in inputs.values()])
-    prepared = prepare_trajectory(trajectory, preparation_of(params_from_table(timeline.params)))
+    prepared = prepare_trajectory(trajectory, preparation_of(params_from_table(timeline.params.table())))
     return _Scene(
         timeline,
         trajectory,
@@ -235,14 +203,6 @@ def strip_of(plan: PairPlan, panels: dict[str, list]) -> np.ndarray:
     return strip
 
 
-def read_requests(out_dir: Path) -> list[StripRequest]:
-    """The strips asked for so far (``render/requests.json``), oldest first; none when absent or unreadable."""
-    try:
-        return [StripRequest.from_dict(item) for item in json.loads((out_dir / REQUESTS).read_text(encoding="utf-8"))]
-    except (OSError, ValueError, TypeError, KeyError):
-        return []
-
-
 def draw_requested(files: StageFiles, params: RenderParams, request: StripRequest) -> list[Path]:
     """Draw the strips ``request`` asks for from the render stage's inputs (cached artefacts), beside its pictures,
     and remember the request so that the next render draws it again; returns the pictures written.
@@ -267,9 +227,7 @@ def draw_requested(files: StageFiles, params: RenderParams, request: StripReques
         raise InputError(notes[0])
     panels = {name: draw_panels(scene.videos[name], scene.inputs[name].camera, wanted) for name, wanted in requests.items()}
     written = [write_png(out_dir / request.file_name(plan.a, plan.b), strip_of(plan, panels)) for plan in plans]
-    kept = [r for r in read_requests(out_dir) if r != request] + [request]
-    with atomic_path(out_dir / REQUESTS) as tmp:
-        tmp.write_text(json.dumps([r.to_dict() for r in kept], indent=1) + "\n", encoding="utf-8")
+    write_requests([r for r in read_requests(out_dir) if r != request] + [request], out_dir)
     return written
 
 
@@ -282,9 +240,9 @@ def _camera_job(scene: _Scene, name: str, params: RenderParams, requests: list[P
         line=scene.timeline.cameras[name],
         path_model=scene.path_model,
         prepared=scene.prepared,
-        eps_px=float(scene.timeline.params.get("eps_px", 10.0)),
+        eps_px=scene.timeline.params.shared.eps_px,
         rate=scene.trajectory.rate,
-        delta=float(scene.timeline.params.get("delta", 0.5)),
+        delta=scene.timeline.params.shared.delta,
         votes=files.votes,
         times=scene.times[name],
         video=scene.videos.get(name),
@@ -308,7 +266,7 @@ def _charts(scene: _Scene, out_dir: Path, work: Path) -> list[Picture]:
         _write_chart(out_dir / "offsets.png", offsets_plot(tl, list(tl.statuses().values())), work, "offsets: every camera's start with its 95 % interval"),
         _write_chart(
             out_dir / "residuals.png",
-            residuals_plot(residuals, float(tl.params.get("eps_px", 10.0)), 1.0 / tl.target_rate if tl.target_rate else None),
+            residuals_plot(residuals, tl.params.shared.eps_px, 1.0 / tl.target_rate if tl.target_rate else None),
             work,
             "residuals: tracked minus projected position over time, with the vote gate",
         ),
@@ -321,10 +279,10 @@ def _charts(scene: _Scene, out_dir: Path, work: Path) -> list[Picture]:
 
 def _report_content(files: StageFiles, scene: _Scene, params: RenderParams, cameras: dict[str, DrawnCamera], strips: list[Picture], charts: list[Picture], notes: list[str]) -> ReportContent:
     tl, work = scene.timeline, files.output("report").parent
-    ingest = _read_json(files.path("ingest_report")) if files.has("ingest_report") else None
-    utc = bool(ingest and ingest.get("t0_utc") and ingest.get("clock", "UTC") == "UTC")
+    ingest = _optional(read_ingest_report, files.path("ingest_report")) if files.has("ingest_report") else None
+    utc = bool(ingest and ingest.t0_utc and ingest.clock == "UTC")
     player = player_data(tl, {n: scene.inputs[n].camera for n in tl.cameras}, scene.trajectory, {n: c.player for n, c in cameras.items()}, utc=utc)
-    reports = {n: report for n in params.cameras if files.has(f"calibration_report:{n}") and (report := _read_json(files.path(f"calibration_report:{n}")))}
+    reports = {n: dict(report.content) for n in params.cameras if files.has(f"calibration_report:{n}") and (report := _optional(read_calibration_report, files.path(f"calibration_report:{n}"))) and report.content}
     runs = [run for run in files.history if run.stage != "render"]
     pictures = [files.path(f"calibration_picture:{n}") for n in params.cameras if files.has(f"calibration_picture:{n}")]
     return ReportContent(
@@ -335,12 +293,12 @@ def _report_content(files: StageFiles, scene: _Scene, params: RenderParams, came
         notes={"pictures": notes, "exports": [run.message for run in runs if run.stage == "export" and run.message]},
         stages=runs + [StageRun("render", None, "this run", None)],
         calibration={n: calibration_summary(r) for n, r in reports.items()},
-        ingest=IngestReport.from_dict(ingest).summary(with_warnings=False) if ingest else None,
+        ingest=ingest.summary(with_warnings=False) if ingest else None,
         charts=charts,
         camera_pictures={n: c.pictures for n, c in cameras.items()},
         pair_pictures=strips,
         calibration_pictures=[picture(f"{path.parent.name}: calibration", path, work) for path in pictures if path.exists()],
-        exports=[(label, f"exports/{name}") for label, name in EXPORT_LABELS if (work / "exports" / name).exists()],
+        exports=[(label, artefact_path(kind)) for label, kind in EXPORT_LABELS if (work / artefact_path(kind)).exists()],
         player=player,
     )
 
@@ -359,10 +317,11 @@ def remove_other_pictures(out_dir: Path, written: list[Path]) -> list[Path]:
     return stale
 
 
-def _read_json(path: Path) -> dict | None:
+def _optional(reader: Callable[[Path], T], path: Path) -> T | None:
+    """What ``reader`` reads of a file the report shows if it can (None: unreadable)."""
     try:
-        return json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, ValueError):
+        return reader(path)
+    except (OSError, InputError):
         return None
 
 
@@ -377,8 +336,8 @@ def read_windows(scan: Path | None) -> list[tuple[int, int]] | None:
     """The windows of a scan.json (the scan stage's) when the track stage read windows, else None."""
     if scan is None:
         return None
-    plan = json.loads(Path(scan).read_text(encoding="utf-8"))
-    return [(int(a), int(b)) for a, b in plan["windows"]] if plan["mode"] == "windows" else None
+    plan = read_scan(scan)
+    return None if plan.full else list(plan.windows)
 
 
 def render_inputs(src: Sources, camera: None) -> dict[str, Path | Artefact]:

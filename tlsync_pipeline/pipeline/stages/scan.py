@@ -15,7 +15,6 @@ of decoding the video) and the track stage only when the windows change.
 
 from __future__ import annotations
 
-import json
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -24,6 +23,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from calibration.camera import Camera, read_camera
+from tlsync_pipeline.artefacts.scan import ScanPlan, write_scan
 from tlsync_pipeline.pipeline.spec import Options, Sources, StageResult, StageSpec
 from calibration.errors import CalibrationInputError
 from tlsync_pipeline.errors import InputError, one_line
@@ -33,7 +33,7 @@ from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
 from tlsync_pipeline.sync.identify.identify import IdentifyParams, identify_params
 from tlsync_pipeline.sync.model.methods import prepare_trajectory, preparation_of
 from tlsync_pipeline.sync.model.params import Preparation
-from tlsync_pipeline.sync.identify.scan import COARSE_STEPS_S, OffsetPrior, ScanPlan, before_coarse, coarse_stride, full_scan, keyframe_range, margin_frames, plan_scan, prior_slope
+from tlsync_pipeline.sync.identify.scan import COARSE_STEPS_S, OffsetPrior, before_coarse, coarse_stride, full_scan, keyframe_range, margin_frames, plan_scan, prior_slope
 from tlsync_pipeline.trajectory import Trajectory, read_trajectory
 from trackers.detections import COLUMNS, Detections, make_detections
 from trackers.tracking import detect_keyframe_movers, movers_detector
@@ -41,9 +41,6 @@ from trackers.video import frame_count, keyframe_indices, presentation_times, pr
 
 if TYPE_CHECKING:
     from tlsync_pipeline.pipeline.project import Project
-
-SCAN_FORMAT = "tlsync-scan"
-
 
 def scan_video(
     video: Path, camera: Camera, prepared: Trajectory, fps: float | None, params: IdentifyParams, parameters: dict | None = None, prior: OffsetPrior | None = None
@@ -118,7 +115,7 @@ def run_scan(files: StageFiles, params: ScanStageParams) -> StageResult:
         else:
             plan = scan_video(files.path("video"), camera, prepared, params.fps or camera.fps, params.identify, dict(params.parameters))
     with files.write("scan") as tmp:
-        tmp.write_text(json.dumps({"format": SCAN_FORMAT, **plan.to_dict()}, indent=1) + "\n", encoding="utf-8")
+        write_scan(plan, tmp)
     facts = {k: v for k, v in plan.to_dict().items() if k != "windows"}
     return StageResult(f"{files.output('scan')}: {plan.summary()}", facts={**facts, "windows": len(plan.windows)})
 

@@ -2,19 +2,21 @@
 
 from __future__ import annotations
 
-import json
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from calibration.camera import read_camera
+from tlsync_pipeline.artefacts.clock import read_clock
+from tlsync_pipeline.artefacts.identification import IdentificationSummary, read_identification
+from tlsync_pipeline.artefacts.video_info import read_video_info
 from tlsync_pipeline.atomic import atomic_path
 from tlsync_pipeline.errors import INPUT_ERRORS, InputError, SyncError
 from tlsync_pipeline.outputs.diagnostics import run_warnings
 from tlsync_pipeline.pipeline.spec import Options, Sources, StageResult, StageSpec
-from tlsync_pipeline.pipeline.stages.cameras import CameraFiles, CamerasParams, camera_files, cameras_params, container_fps, log_model_of, read_identification, read_video_info
-from tlsync_pipeline.pipeline.stages.clock import read_clock
+from tlsync_pipeline.ingest.report import read_ingest_report
+from tlsync_pipeline.pipeline.stages.cameras import CameraFiles, CamerasParams, camera_files, cameras_params, container_fps, log_model_of
 from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
 from tlsync_pipeline.sync.identify.breaks import merged
 from tlsync_pipeline.sync.solve.methods import CameraInput
@@ -24,9 +26,8 @@ from tlsync_pipeline.sync.model.params import SyncParams
 from tlsync_pipeline.sync.solve.plausibility import LogUnitError
 from tlsync_pipeline.sync.model.status import WEAK, Reason
 from tlsync_pipeline.sync.solve.synchronize import CameraResult, synchronize
-from tlsync_pipeline.sync.identify.summary import IdentificationSummary
 from tlsync_pipeline.sync.timeline import CameraLine, ScanSummary, StageWarning, Timeline, write_timeline
-from tlsync_pipeline.sync.vote.votes import Votes, load_votes
+from tlsync_pipeline.sync.vote.votes import Votes, read_votes
 from tlsync_pipeline.sync.vote.visits import near_views
 from tlsync_pipeline.trajectory import Trajectory, read_trajectory
 from trackers.breaks import Break
@@ -69,11 +70,12 @@ def read_camera_inputs(cameras: dict[str, CameraFiles]) -> dict[str, CameraInput
 def read_breaks(camera: CameraFiles) -> tuple[Break, ...]:
     """Where a camera's recording may leave its steady clock: video.json's breaks (track stage) and the drop its
     movers' votes show (identification.json), in frame order."""
-    found = []
-    for path in (camera.video_info, camera.identification):
-        if path is not None and path.exists():
-            found += [Break.from_dict(b) for b in json.loads(path.read_text(encoding="utf-8")).get("breaks", ())]
-    return merged(tuple(found))
+    found: tuple[Break, ...] = ()
+    if camera.video_info is not None and camera.video_info.exists():
+        found += read_video_info(camera.video_info).breaks
+    if camera.identification is not None and camera.identification.exists():
+        found += read_identification(camera.identification).breaks
+    return merged(found)
 
 
 def _readable(paths: dict[str, CameraFiles], usable: dict[str, CameraFiles]) -> dict[str, CameraInput]:
@@ -89,13 +91,13 @@ def _readable(paths: dict[str, CameraFiles], usable: dict[str, CameraFiles]) -> 
     return out
 
 
-def read_votes(cameras: dict[str, CameraFiles]) -> dict[str, Votes | SyncError]:
+def camera_votes(cameras: dict[str, CameraFiles]) -> dict[str, Votes | SyncError]:
     """Each camera's votes.npz: its Votes, or the SyncError the vote stage met."""
     out: dict[str, Votes | SyncError] = {}
     for name, c in cameras.items():
         assert c.votes is not None, "declared by the stage"
-        votes, error = load_votes(c.votes)
-        out[name] = SyncError(error) if error else votes
+        found = read_votes(c.votes)
+        out[name] = SyncError(found.error) if found.error else found.votes
     return out
 
 
@@ -113,7 +115,7 @@ def run_sync(files: StageFiles, params: SyncStageParams) -> StageResult:
     did not complete) are listed under ``failed`` too.
     """
     paths = camera_files(files, params)
-    votes = read_votes(paths)
+    votes = camera_votes(paths)
     usable = {name: c for name, c in paths.items() if not isinstance(votes[name], SyncError)}
     try:
         inputs = {n: replace(i, pick_start_s=params.picks.get(n)) for n, i in _readable(paths, usable).items()}
@@ -126,8 +128,8 @@ def run_sync(files: StageFiles, params: SyncStageParams) -> StageResult:
     lines = {name: _with_scan(_flag_truncated(line, paths[name]), paths[name]) for name, line in timeline.cameras.items()}
     lines = {name: _with_container_fps(line, params.fps.get(name), params.container_fps.get(name)) for name, line in lines.items()}
     timeline = replace(timeline, cameras=lines, failed={**failed, **params.left_out})
-    timeline = with_identifications(timeline, {n: read_identification(c.identification) for n, c in paths.items() if c.identification is not None})
-    priors = {n: prior for n, c in paths.items() if c.clock is not None and (prior := read_clock(c.clock)) is not None}
+    timeline = with_identifications(timeline, {n: read_identification(c.identification).summary for n, c in paths.items() if c.identification is not None})
+    priors = {n: prior for n, c in paths.items() if c.clock is not None and (prior := read_clock(c.clock).prior) is not None}
     if priors:
         timeline = with_clock_checks(timeline, priors, log_on_utc(files, timeline))
     own = tuple(f"{name}: {text}" for name, line in timeline.cameras.items() for text in line.warnings or ())
@@ -141,11 +143,11 @@ def log_on_utc(files: StageFiles, timeline: Timeline) -> bool:
     """Whether the target's times are UTC: as the ingest report says; a trajectory the project brings, when its
     times are after 2000 (POSIX seconds, docs/formats.md)."""
     if files.has("ingest_report"):
-        return json.loads(files.path("ingest_report").read_text(encoding="utf-8")).get("clock") == "UTC"
+        return read_ingest_report(files.path("ingest_report")).clock == "UTC"
     return timeline.target_t0 is not None and timeline.target_t0 >= POSIX_2000
 
 
-def with_identifications(timeline: Timeline, found: dict[str, IdentificationSummary | SyncError]) -> Timeline:
+def with_identifications(timeline: Timeline, found: dict[str, IdentificationSummary | None]) -> Timeline:
     """The timeline with each identified camera's line carrying its identification summary."""
     lines = {n: replace(line, identification=summary) if isinstance(summary := found.get(n), IdentificationSummary) else line for n, line in timeline.cameras.items()}
     return replace(timeline, cameras=lines)
@@ -171,15 +173,15 @@ def _with_container_fps(line: CameraLine, fps: float | None, container: float | 
 
 def _with_scan(line: CameraLine, camera: CameraFiles) -> CameraLine:
     """The camera's line with how its video was read (video.json), when the track stage read it."""
-    info = read_video_info(camera.video_info) if camera.video_info is not None else {}
-    if "scan" not in info:
+    info = read_video_info(camera.video_info) if camera.video_info is not None else None
+    if info is None or info.scan is None:
         return line
-    return replace(line, scan=ScanSummary(info["scan"], info["scan_reason"], int(info["frames"]), int(info["keyframes_decoded"]), int(info["frames_decoded"])))
+    return replace(line, scan=ScanSummary(info.scan, info.scan_reason, info.frames, info.keyframes_decoded, info.frames_decoded))
 
 
 def _flag_truncated(line: CameraLine, camera: CameraFiles) -> CameraLine:
     """The camera's line with the flag ``truncated`` when the track stage found its video shorter than announced."""
-    if camera.video_info is None or not read_video_info(camera.video_info)["truncated"]:
+    if camera.video_info is None or not read_video_info(camera.video_info).truncated:
         return line
     return replace(line, flags=(*(line.flags or ()), TRUNCATED))
 

@@ -10,11 +10,12 @@ is tracked from its init box: ``track.csv``. ``track_camera`` is the pure part; 
 from __future__ import annotations
 
 import dataclasses
-import json
 import warnings
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from tlsync_pipeline.artefacts.scan import ScanPlan, read_scan
+from tlsync_pipeline.artefacts.video_info import VideoInfo, write_video_info
 from tlsync_pipeline.atomic import atomic_path
 from tlsync_pipeline.pipeline.spec import Options, Sources, StageResult, StageSpec
 from tlsync_pipeline.pipeline.stages.camera_plan import scans
@@ -28,11 +29,9 @@ from trackers.video import DecodeCount, TruncatedVideoWarning, presentation_time
 if TYPE_CHECKING:
     from tlsync_pipeline.pipeline.project import Project, TrackerConfig
 
-VIDEO_INFO_FORMAT = "tlsync-video"  # video.json, written here
-
 
 def track_camera(
-    name: str, video: Path, tracker: TrackerConfig, progress: bool = True, plan: dict | None = None, count: DecodeCount | None = None, freeze: FreezeMeter | None = None
+    name: str, video: Path, tracker: TrackerConfig, progress: bool = True, plan: ScanPlan | None = None, count: DecodeCount | None = None, freeze: FreezeMeter | None = None
 ) -> Track | Detections:
     """Every mover (``tracker.every_mover``) or the target (CSRT from its init box) in one camera's video.
 
@@ -42,7 +41,7 @@ def track_camera(
     """
     label = f"{name} ({video.name})"
     if tracker.every_mover:
-        windows = None if plan is None or plan["mode"] == "full" else [(int(a), int(b)) for a, b in plan["windows"]]
+        windows = None if plan is None or plan.full else list(plan.windows)
         return detect_movers(video, params=dict(tracker.parameters), progress=progress, label=label, windows=windows, count=count, freeze=freeze)
     return track_video(
         video, kind=tracker.kind, init=tracker.init, init_frame=tracker.init_frame, params=dict(tracker.parameters), progress=progress, label=label, freeze=freeze
@@ -68,7 +67,7 @@ def run_track(files: StageFiles, tracker: TrackerConfig) -> StageResult:
     warning is the stage's, and video.json says how many frames exist.
     """
     video = files.path("video")
-    plan = json.loads(files.path("scan").read_text(encoding="utf-8")) if files.has("scan") else None  # plain JSON: this stage's code does not import sync
+    plan = read_scan(files.path("scan")) if files.has("scan") else None
     count = DecodeCount()
     freeze = FreezeMeter()
     with warnings.catch_warnings(record=True) as caught:
@@ -79,14 +78,13 @@ def run_track(files: StageFiles, tracker: TrackerConfig) -> StageResult:
         warnings.warn_explicit(item.message, item.category, item.filename, item.lineno)
     recorded = tuple(sorted({str(w.message) for w in caught if issubclass(w.category, TruncatedVideoWarning)}))
     info = video_info(video, truncation)
-    read = reading(plan, count, info["frames"], isinstance(result, Detections))
-    breaks = video_breaks(video, freeze)
+    read = reading(plan, count, info.frames, isinstance(result, Detections))
     with files.write("video_info") as tmp:
-        tmp.write_text(json.dumps({**info, **read, "breaks": [b.to_dict() for b in breaks]}, indent=1) + "\n", encoding="utf-8")
+        write_video_info(dataclasses.replace(info, **read, breaks=tuple(video_breaks(video, freeze))), tmp)
     if isinstance(result, Detections):
         write_detections_atomic(result, files.output("detections"))
         facts = {"detections": len(result), "tracklets": int(len(result.tracklet_ids())), **read}
-        return StageResult(f"wrote {files.output('detections')} ({len(result)} detections; {read_summary(read, info['frames'])})", recorded, facts=facts)
+        return StageResult(f"wrote {files.output('detections')} ({len(result)} detections; {read_summary(read, info.frames)})", recorded, facts=facts)
     write_track_atomic(result, files.output("track"))
     return StageResult(f"wrote {files.output('track')} ({len(result)} tracked frames)", recorded, facts={"tracked_frames": len(result)})
 
@@ -99,13 +97,13 @@ def video_breaks(video: Path, freeze: FreezeMeter) -> list[Break]:
     return sorted(found, key=lambda b: b.frame)
 
 
-def reading(plan: dict | None, count: DecodeCount, frames: int, every_mover: bool) -> dict:
+def reading(plan: ScanPlan | None, count: DecodeCount, frames: int, every_mover: bool) -> dict:
     """How the video was read, for video.json: "scan" ("windows" or "full"), why every frame ("scan_reason"), frames
     decoded by the coarse pass ("keyframes_decoded") and by this stage ("frames_decoded")."""
     if plan is None:
         why = '[track] scan = "full"' if every_mover else "one target followed from frame to frame"
         return {"scan": "full", "scan_reason": why, "keyframes_decoded": 0, "frames_decoded": count.decoded or frames}
-    return {"scan": plan["mode"], "scan_reason": plan["reason"], "keyframes_decoded": plan["keyframes_read"], "frames_decoded": count.decoded}
+    return {"scan": plan.mode, "scan_reason": plan.reason, "keyframes_decoded": plan.keyframes_read, "frames_decoded": count.decoded}
 
 
 def read_summary(read: dict, frames: int) -> str:
@@ -116,11 +114,11 @@ def read_summary(read: dict, frames: int) -> str:
     return f"{read['frames_decoded']} of {frames} frames decoded, {skipped} skipped, after {read['keyframes_decoded']} keyframes"
 
 
-def video_info(video: Path, truncation: TruncatedVideoWarning | None) -> dict:
+def video_info(video: Path, truncation: TruncatedVideoWarning | None) -> VideoInfo:
     """What a camera's video holds: its frames (0-based indices 0..frames-1 exist), the container's count, whether it is truncated."""
     announced = probe_video(video).n_frames
     frames = truncation.frames_read if truncation is not None else announced
-    return {"format": VIDEO_INFO_FORMAT, "video": str(video), "frames": frames, "announced": announced, "truncated": truncation is not None}
+    return VideoInfo(str(video), frames, announced, truncation is not None)
 
 
 def tracking_params(project: Project, cam: str, options: Options) -> TrackerConfig:

@@ -13,15 +13,16 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from calibration.camera import read_camera
+from tlsync_pipeline.artefacts.identification import read_identification
 from tlsync_pipeline.errors import SyncError
 from tlsync_pipeline.pipeline.spec import Options, Sources, StageResult, StageSpec
-from tlsync_pipeline.pipeline.stages.cameras import has_no_rows, ingest_report_input, log_model_of, pose_problem, read_identification
+from tlsync_pipeline.pipeline.stages.cameras import has_no_rows, ingest_report_input, log_model_of, pose_problem
 from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
 from tlsync_pipeline.sync.model.log_model import LogModelChoice
 from tlsync_pipeline.sync.vote.log_error import measured, vote_radius
 from tlsync_pipeline.sync.model.params import Preparation
 from tlsync_pipeline.sync.model.methods import prepare_trajectory, preparation_of
-from tlsync_pipeline.sync.vote.votes import Votes, compute_votes, save_votes
+from tlsync_pipeline.sync.vote.votes import CameraVotes, Votes, compute_votes, write_votes
 from tlsync_pipeline.sync.vote.visits import near_views
 from tlsync_pipeline.trajectory import read_trajectory
 from trackers.track import read_track
@@ -54,8 +55,8 @@ def run_vote(files: StageFiles, params: VoteParams) -> StageResult:
     """
     camera = read_camera(files.path("camera"), name=files.camera)
     try:
-        if files.has("identification") and isinstance(found := read_identification(files.path("identification")), SyncError):
-            raise found
+        if files.has("identification") and (failed := read_identification(files.path("identification")).error) is not None:
+            raise SyncError(failed)
         if (problem := pose_problem(camera)) is not None:
             raise problem
         if params.source is not None and has_no_rows(files.path("track")):
@@ -67,7 +68,8 @@ def run_vote(files: StageFiles, params: VoteParams) -> StageResult:
         error = None
     except SyncError as exc:
         votes, error = Votes(np.zeros(0), np.zeros(0), np.zeros(0)), str(exc)
-    save_votes(files.output("votes"), votes, error)
+    with files.write("votes") as tmp:
+        write_votes(CameraVotes(votes, error), tmp)
     return StageResult(failed={files.camera_name: error} if error else {}, facts={"votes": len(votes)})
 
 
@@ -81,7 +83,7 @@ def vote_inputs(src: Sources, cam: str) -> dict[str, Path | Artefact]:
 
 def vote_params(project: Project, cam: str, options: Options) -> VoteParams:
     camera = project.camera(cam)
-    return VoteParams(project.sync.eps_px, preparation_of(project.sync), camera.video if camera.track is None else None, project.target.log_error)
+    return VoteParams(project.sync.eps_px, preparation_of(project.sync), camera.video if camera.track is None else None, project.target.log_error.for_vote_radius)
 
 
 SPEC = StageSpec(

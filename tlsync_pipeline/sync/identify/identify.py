@@ -65,7 +65,7 @@ from tlsync_pipeline.sync.kernels.backward import BACKWARD_BELOW, backwards_bett
 from tlsync_pipeline.sync.identify.refine import MIN_FRAMES, refine_line
 from tlsync_pipeline.sync.kernels.slope import SlopePrior, slope_prior
 from tlsync_pipeline.sync.identify.target_size import beyond_slack, depth_on_line, sizes_in_metres, slack_on_line, target_within
-from tlsync_pipeline.sync.identify.summary import IdentificationSummary, TrackletShare
+from tlsync_pipeline.artefacts.identification import IdentificationSummary, TrackletShare
 from tlsync_pipeline.sync.model.methods import RefinedParams
 from tlsync_pipeline.sync.model.params import SyncParams
 from tlsync_pipeline.sync.vote.votes import Votes

@@ -38,11 +38,12 @@ Frames are 0-based decoded frame indices; lines are on the camera clock
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 
 import numpy as np
 
 from calibration.camera import Camera
+from tlsync_pipeline.artefacts.scan import CoarseLine, ScanPlan
 from tlsync_pipeline.errors import SyncError
 from tlsync_pipeline.sync.model.clock import CameraClock, FrameTimes, FRAME, camera_clock
 from tlsync_pipeline.sync.identify.identify import IdentifyParams, candidate_votes, detections_clock
@@ -69,75 +70,6 @@ class OffsetPrior:
 
     beta: float
     tolerance: float
-
-
-@dataclass(frozen=True)
-class CoarseLine:
-    """The coarse pass's line clock = alpha x sample + beta and its evidence.
-
-    support: keyframes with a vote on it; runner_up: keyframes on the best
-    line away from it (outside its margin); keyframes: keyframes read;
-    scatter: rms of its inlier votes' clock residuals (frames). A competing
-    line is looked for among the votes further than a window's margin and a
-    keyframe interval from it.
-    """
-
-    alpha: float
-    beta: float
-    support: int
-    runner_up: int
-    keyframes: int
-    scatter: float
-
-
-@dataclass(frozen=True)
-class ScanPlan:
-    """Which frames the fine pass reads: ``windows`` ([start, stop), 0-based, stop excluded), or every frame (``full``).
-
-    reason: why every frame is read (empty when windows are); coarse: the
-    coarse line (None when it was not found); keyframes_read: frames the
-    coarse pass decoded; n_frames: frames in the video; undecided: every
-    frame because the keyframes read could not decide (more keyframes
-    might; not written to scan.json).
-    """
-
-    full: bool
-    reason: str
-    windows: tuple[tuple[int, int], ...]
-    n_frames: int
-    coarse: CoarseLine | None = None
-    keyframes_read: int = 0
-    undecided: bool = False
-
-    @property
-    def frames_in_windows(self) -> int:
-        """Frames the fine pass yields: every frame, or those inside the windows."""
-        return self.n_frames if self.full else sum(b - a for a, b in self.windows)
-
-    def to_dict(self) -> dict:
-        """scan.json's content (docs/formats.md)."""
-        return {
-            "mode": "full" if self.full else "windows",
-            "reason": self.reason,
-            "frames": self.n_frames,
-            "keyframes_read": self.keyframes_read,
-            "frames_in_windows": self.frames_in_windows,
-            "windows": [list(w) for w in self.windows],
-            "coarse": asdict(self.coarse) if self.coarse is not None else None,
-        }
-
-    @classmethod
-    def from_dict(cls, data: dict) -> "ScanPlan":
-        coarse = CoarseLine(**data["coarse"]) if data.get("coarse") else None
-        windows = tuple((int(a), int(b)) for a, b in data.get("windows", []))
-        return cls(data["mode"] == "full", data.get("reason", ""), windows, int(data["frames"]), coarse, int(data.get("keyframes_read", 0)))
-
-    def summary(self) -> str:
-        """One line for the stage's message: frames to read against frames skipped, or why every frame."""
-        if self.full:
-            return f"every frame read ({self.reason})"
-        n, read = self.n_frames, self.frames_in_windows
-        return f"{read} of {n} frames read in {len(self.windows)} window{'s' if len(self.windows) != 1 else ''}, {n - read} skipped, after {self.keyframes_read} keyframes"
 
 
 def full_scan(n_frames: int, reason: str, coarse: CoarseLine | None = None, keyframes_read: int = 0, undecided: bool = False) -> ScanPlan:

@@ -15,7 +15,7 @@ joint fit's marginal likelihood (sync/solve/log_bias.py).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 @dataclass(frozen=True)
 class LogModel:
@@ -71,6 +71,12 @@ class LogModelChoice:
     white_m: float | None = None
     bias_m: float | None = None
     tau_s: float | None = None
+
+    @property
+    def for_vote_radius(self) -> LogModelChoice:
+        """The choice without the bias's correlation time, which vote_radius and measured (sync/vote/log_error.py)
+        do not read: the vote and identify stages key their caches on this, so that tau_s re-runs sync alone."""
+        return replace(self, tau_s=None)
 
     def resolve(self, suggested: str | None) -> LogModel:
         """The model: the preset chosen (``suggested`` for "auto", "none" without a suggestion) with the overrides."""

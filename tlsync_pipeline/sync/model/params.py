@@ -74,3 +74,25 @@ class Preparation:
     method: str
     options: Any
     logged_point_above_m: float = 0.0
+
+
+@dataclass(frozen=True)
+class ParamsTable:
+    """The flat ``[sync]`` table a fit used (timeline.json's ``params``), typed: the shared keys and ``method`` as
+    SyncParams (``options`` empty) and every registered method's own keys by name (``own``; sync/model/methods.py's
+    ``params_from_table`` types them)."""
+
+    shared: SyncParams = field(default_factory=SyncParams)
+    own: dict[str, Any] = field(default_factory=dict)
+
+    def table(self) -> dict[str, Any]:
+        """The flat table: the shared keys and method in SyncParams' order, then the methods' own keys."""
+        return {**{name: getattr(self.shared, name) for name in _SHARED}, **self.own}
+
+    @classmethod
+    def from_table(cls, table: dict[str, Any]) -> ParamsTable:
+        """The typed view of a flat table (shared keys left out take their defaults)."""
+        return cls(SyncParams(**{k: table[k] for k in _SHARED if k in table}), {k: v for k, v in table.items() if k not in _SHARED})
+
+
+_SHARED = tuple(f.name for f in fields(SyncParams) if f.name != "options")

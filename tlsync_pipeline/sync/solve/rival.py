@@ -31,6 +31,13 @@ stretches of a log walked alike carry independent white errors, and their
 ratio swings by several units when neither line is better; the paired
 spread measures that swing, so two passes alike stay near 1/2 and a rival
 that misses the track block after block goes to 0.
+
+Two lines whose profiled intercepts come within the band of each other
+are one line seen through a wide vote radius (the line search's two lines
+are the ends of one pass's blob of votes): no second answer. The one line
+is the better scored of the two profiles, so the rival's probability is 0
+when the best line's profile scores better and 1 otherwise (the camera is
+then refitted on the rival's votes).
 """
 
 from __future__ import annotations
@@ -75,6 +82,7 @@ class RivalOdds:
     best: LineScore
     rival: LineScore
     rival_probability: float
+    joined: bool = False  # the profiled lines came within the band of each other: one line, not two
 
 
 def bias_sigmas(model: LogModel) -> np.ndarray:
@@ -115,6 +123,8 @@ def rival_odds(
     fits = [context.profile(alpha, beta, band_frames) for alpha, beta in (best, rival)]
     scale = max(MIN_SCALE_PX, min(f.scale for f in fits))
     (best_score, best_loss), (rival_score, rival_loss) = (context.score(f, scale) for f in fits)
+    if _apart(clock, best[0], fits[0].beta, rival[0], fits[1].beta) <= band_frames:
+        return RivalOdds(best_score, rival_score, 0.0 if best_score.score <= rival_score.score else 1.0, joined=True)
     difference = rival_loss - best_loss
     prior = (rival_score.score - float(rival_loss.sum())) - (best_score.score - float(best_loss.sum()))
     spread = float(np.std(difference, ddof=1)) * math.sqrt(len(difference)) if len(difference) >= MIN_BLOCKS else 0.0
@@ -202,6 +212,12 @@ class _Context:
         median = float(np.median(np.linalg.norm(fit.residual[inside], axis=1))) if inside.any() else float("inf")
         bias = (-float(fit.bias[0]), -float(fit.bias[1]), -float(fit.bias[2]))
         return LineScore(fit.beta, float(loss.sum()) + prior, bias, median), loss
+
+
+def _apart(clock: np.ndarray, alpha: float, beta: float, other_alpha: float, other_beta: float) -> float:
+    """How far (clock units) the other line lies from the line at the middle of the track's clock values."""
+    sample = (float(np.median(clock)) - beta) / alpha
+    return abs(other_alpha * sample + other_beta - float(np.median(clock)))
 
 
 def _robust_scale(residual: np.ndarray) -> float:

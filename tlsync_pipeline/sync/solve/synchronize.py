@@ -32,7 +32,7 @@ from tlsync_pipeline.sync.model.log_model import PRESETS, LogModel
 from tlsync_pipeline.sync.vote.log_error import measured, vote_radius
 from tlsync_pipeline.sync.solve.methods import CameraData, CameraInput, JointMethod
 from tlsync_pipeline.sync.model.methods import method_options, params_table, prepare_trajectory, preparation_of
-from tlsync_pipeline.sync.model.params import SyncParams
+from tlsync_pipeline.sync.model.params import ParamsTable, SyncParams
 from tlsync_pipeline.sync.solve.causes import explain
 from tlsync_pipeline.sync.kernels.backward import BACKWARD_BELOW, backward_support, line_support
 from tlsync_pipeline.sync.solve.plausibility import RIVAL_PROBABILITY, Judged, diagnose, judge_line, motion_slope, rival_odds_of
@@ -244,7 +244,7 @@ def synchronize(
         trajectory.rate,
         trajectory.t0,
         method=params.method,
-        params=params_table(params),
+        params=ParamsTable.from_table(params_table(params)),
         failed={name: failed[name] for name in cameras if name in failed},
         rejected=rejected,
         shared_cov=shared,

@@ -15,7 +15,6 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from calibration.camera import Camera
-from tlsync_pipeline.atomic import atomic_path
 from tlsync_pipeline.errors import InputError, SyncError
 from tlsync_pipeline.trajectory import Trajectory
 from trackers.track import Track
@@ -72,18 +71,24 @@ def compute_votes(camera: Camera, track: Track, trajectory: Trajectory, eps_px: 
     )
 
 
-def save_votes(path: Path, votes, error: str | None = None) -> None:
+@dataclass(frozen=True)
+class CameraVotes:
+    """votes.npz: a camera's votes, or (error set, votes empty) why it has none."""
+
+    votes: Votes
+    error: str | None = None
+
+
+def write_votes(found: CameraVotes, path: Path) -> None:
     """Write ``votes.npz``: frame, sample, dist arrays and, for a camera without votes, the reason."""
-    with atomic_path(path) as tmp:
-        with open(tmp, "wb") as handle:
-            np.savez(handle, frame=votes.frame, sample=votes.sample, dist=votes.dist, error=np.array(error or ""))
+    with open(path, "wb") as handle:
+        np.savez(handle, frame=found.votes.frame, sample=found.votes.sample, dist=found.votes.dist, error=np.array(found.error or ""))
 
 
-def load_votes(path: Path):
-    """Read ``votes.npz``: (Votes, error message or None)."""
+def read_votes(path: Path) -> CameraVotes:
+    """Read ``votes.npz``."""
     try:
         with np.load(path) as data:
-            error = str(data["error"]) or None
-            return Votes(data["frame"], data["sample"], data["dist"]), error
+            return CameraVotes(Votes(data["frame"], data["sample"], data["dist"]), str(data["error"]) or None)
     except (OSError, KeyError, ValueError) as exc:
         raise InputError(f"{path}: not a tlsync votes file ({exc})") from None

@@ -284,13 +284,16 @@ def test_gcps_of_a_rough_survey_are_refined_by_the_target(unposed_project, tmp_p
 
 
 def test_the_pose_search_stays_near_the_scans_coarse_offset_only_when_the_video_was_read_in_windows():
+    from dataclasses import replace
+
+    from tlsync_pipeline.artefacts.scan import CoarseLine, ScanPlan
     from tlsync_pipeline.pipeline.stages.calibrate import COARSE_MARGIN_S, coarse_offsets
 
-    scan = {"mode": "windows", "coarse": {"alpha": 3.0, "beta": 600.0}}
+    scan = ScanPlan(False, "", ((500, 700),), 3000, CoarseLine(3.0, 600.0, 9, 0, 12, 1.0))
     lo, hi = coarse_offsets(scan, 30.0)
     assert lo == 600.0 - 30.0 * COARSE_MARGIN_S and hi == 600.0 + 30.0 * COARSE_MARGIN_S
-    assert coarse_offsets({**scan, "mode": "full"}, 30.0) is None  # every frame read: the target may be anywhere
-    assert coarse_offsets({"mode": "windows", "coarse": None}, 30.0) is None
+    assert coarse_offsets(replace(scan, full=True), 30.0) is None  # every frame read: the target may be anywhere
+    assert coarse_offsets(replace(scan, coarse=None), 30.0) is None
     assert coarse_offsets(scan, None) is None
 
 

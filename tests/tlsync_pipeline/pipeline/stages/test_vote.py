@@ -12,7 +12,7 @@ from tlsync_pipeline.pipeline.graph import build_graph
 from tlsync_pipeline.pipeline.project import load_project
 from tlsync_pipeline.pipeline.stages.sync import load_inputs, run_sync
 from tlsync_pipeline.sync.solve.synchronize import synchronize
-from tlsync_pipeline.sync.vote.votes import Votes, compute_votes, load_votes, save_votes
+from tlsync_pipeline.sync.vote.votes import CameraVotes, Votes, compute_votes, read_votes, write_votes
 
 
 def test_votes_npz_are_the_votes_sync_fits(tmp_path):
@@ -24,7 +24,7 @@ def test_votes_npz_are_the_votes_sync_fits(tmp_path):
     inputs, trajectory = load_inputs(project)  # the files the stages read
     timeline, results = synchronize(inputs, trajectory, project.sync)
     for name, result in results.items():
-        votes, error = load_votes(work / "cameras" / name / "votes.npz")
+        votes, error = (found := read_votes(work / "cameras" / name / "votes.npz")).votes, found.error
         assert error is None
         for field in ("frame", "sample", "dist"):
             np.testing.assert_array_equal(getattr(votes, field), getattr(result.votes, field))
@@ -35,10 +35,10 @@ def test_votes_npz_are_the_votes_sync_fits(tmp_path):
 
     # Sync fits what votes.npz holds (called as the graph calls it: the engine would re-make a modified votes.npz).
     first, second = list(scene.cameras)[:2]
-    votes, _ = load_votes(work / "cameras" / first / "votes.npz")
+    votes = read_votes(work / "cameras" / first / "votes.npz").votes
     half = votes.frame <= np.median(votes.frame)
-    save_votes(work / "cameras" / first / "votes.npz", Votes(votes.frame[half], votes.sample[half], votes.dist[half]))
-    save_votes(work / "cameras" / second / "votes.npz", Votes(np.zeros(0), np.zeros(0), np.zeros(0)), "no vote (test)")
+    write_votes(CameraVotes(Votes(votes.frame[half], votes.sample[half], votes.dist[half])), work / "cameras" / first / "votes.npz")
+    write_votes(CameraVotes(Votes(np.zeros(0), np.zeros(0), np.zeros(0)), "no vote (test)"), work / "cameras" / second / "votes.npz")
     graph = build_graph(project, work)
     sync = graph.tasks["sync"]
     run_sync(graph.workspace.files("sync", None, sync.inputs, sync.outputs), sync.params)
