@@ -9,9 +9,11 @@ from tlsync_pipeline.sync.kernels.robust import (
     InlierCount,
     Preemption,
     Scores,
+    msac,
     polish,
     robust_fit,
     score_many,
+    trimmed,
     uniform_samples,
     within,
 )
@@ -125,3 +127,18 @@ def test_adaptive_draws_stop_when_the_best_line_holds_most_rows():
     assert found is not None and found.drawn == 256  # one batch: eq. 4 at a ratio near 1 asks for a handful
     rare = robust_fit(model, np.random.default_rng(0), uniform_samples(model.rows, 2), InlierCount(1e-9), draws, Preemption(10_000, 8))
     assert rare is not None and rare.drawn > 256  # no line holds more than its two votes: the draws go on
+
+
+def test_msac_scores_rows_within_the_threshold_the_closer_the_more():
+    assert msac(np.array([0.0, 1.0, 2.0, 3.0, np.inf]), 2.0) == pytest.approx(1.0 + 0.75)
+    assert msac(np.zeros(0), 1.0) == 0.0
+
+
+def test_a_trimmed_polish_from_every_row_sheds_the_outliers_or_fails_with_too_few_rows():
+    sample, frame, true = _votes(6, n_true=60, n_outliers=20)
+    model = LineModel(sample, frame)
+    fitted = polish(model, trimmed(0.5), 3, min_inliers=6, strict=True)  # least squares on all, then the closer half
+    assert fitted is not None
+    assert fitted.model[0] == pytest.approx(0.5, abs=1e-3) and fitted.model[1] == pytest.approx(30.0, abs=0.1)
+    assert fitted.inliers.sum() == 40 and fitted.inliers[true].sum() == 40  # the half kept: true votes only
+    assert polish(model, trimmed(0.5), 3, min_inliers=41, strict=True) is None  # half of 80 rows is not 41

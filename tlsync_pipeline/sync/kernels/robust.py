@@ -5,7 +5,7 @@ model is fitted by least squares to a set of rows and how far each row is
 from a model (its residuals); one whose models are rows of a parameter
 array (``SampledModel``) also estimates them from minimal samples, many at
 once, and gives the residuals of many models on some rows. A scoring rule
-(``InlierCount``) turns residuals into scores, higher first.
+(``InlierCount``, ``msac``) turns residuals into scores, higher first.
 
 ``robust_fit`` is the loop: hypotheses from minimal samples drawn at random,
 in batches until enough (eq. 4 for the best inlier ratio found so far:
@@ -134,9 +134,20 @@ def score_many(model: SampledModel, models: np.ndarray, rule: InlierCount, rows:
     return Scores(value, count if starts is None else len(starts), spread)
 
 
+def msac(residuals: np.ndarray, threshold: float) -> float:
+    """Truncated quadratic score (MSAC): sum(max(0, 1 - (residual / threshold)^2)); inf residuals count 0."""
+    with np.errstate(invalid="ignore"):
+        return float(np.clip(1.0 - (np.asarray(residuals) / threshold) ** 2, 0.0, None).sum())
+
+
 def within(*thresholds: float) -> Select:
     """Inliers of pass k: residual <= thresholds[k] (the last threshold for the passes beyond)."""
     return lambda k, residuals: residuals <= thresholds[min(k, len(thresholds) - 1)]
+
+
+def trimmed(quantile: float) -> Select:
+    """Inliers of every pass: the rows whose residual is within the quantile of them all (least trimmed squares)."""
+    return lambda k, residuals: residuals <= np.quantile(residuals, quantile)
 
 
 @dataclass(frozen=True)
