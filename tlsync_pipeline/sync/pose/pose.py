@@ -605,8 +605,7 @@ def _peaks(support: np.ndarray, count: int, separation: float = 2.0) -> list[int
 
 
 class _Scorer:
-    """Support of candidate offsets: pose (or projection matrix) fitted to the pairs, trimmed twice (``_Pairs``),
-    pairs within a threshold."""
+    """Support of candidate offsets: pose (or projection matrix) fitted to the pairs, trimmed twice, pairs within a threshold."""
 
     def __init__(self, K: np.ndarray, clock: np.ndarray, ideal: np.ndarray, path: PiecewiseTrajectory, alpha: float, dlt: bool):
         self.K, self.clock, self.ideal, self.path, self.alpha, self.dlt = K, clock, ideal, path, alpha, dlt
