@@ -75,6 +75,7 @@ from tlsync_pipeline.sync.identify.identify import (
     identify_target,
 )
 from tlsync_pipeline.sync.kernels.line_search import find_line
+from tlsync_pipeline.sync.kernels.robust import msac, polish, trimmed
 from tlsync_pipeline.sync.model.log_model import LogModel
 from tlsync_pipeline.sync.pose.pose_bias import CUT, VisitBias, fit_with_bias
 from tlsync_pipeline.sync.pose.pose_fit import (
@@ -732,17 +733,10 @@ class _Scorer:
         if self.bias is not None and on is not None:
             support, pose, _ = fit_with_bias(xyz, uv, self.K, self.bias, on, threshold / CUT, _pnp)
             return support, pose
-        keep = np.ones(len(xyz), dtype=bool)
-        model = None
-        for _ in range(3):
-            model = _dlt(xyz[keep], uv[keep]) if self.dlt else _pnp(xyz[keep], uv[keep], self.K)
-            if model is None:
-                return 0, None
-            error = _errors(model, xyz, uv, self.K, self.dlt)
-            keep = error <= np.quantile(error, 0.5)
-            if keep.sum() < 6:
-                return 0, None
-        return msac(error, threshold), model
+        fitted = polish(_Pairs(xyz, uv, self.K, self.dlt), trimmed(0.5), 3, min_inliers=6, strict=True)
+        if fitted is None:
+            return 0, None
+        return msac(fitted.residuals, threshold), fitted.model
 
     def camera_at(self, camera: Camera, beta: float, threshold: float) -> Camera | None:
         """The camera of the pose fitted at ``beta`` (with K and R, t from the projection matrix under DLT), or None."""
@@ -761,6 +755,27 @@ class _Scorer:
             return Camera(camera.name, K, np.zeros(5), R, t, camera.image_size, camera.fps, camera.dist_model, dict(camera.extra))
         rvec, tvec = model
         return Camera(camera.name, camera.K, camera.dist, cv2.Rodrigues(rvec)[0], tvec.ravel(), camera.image_size, camera.fps, camera.dist_model, dict(camera.extra))
+
+
+@dataclass(frozen=True)
+class _Pairs:
+    """One offset's pairs (trajectory point, ideal pixel) as the robust fit's model class (sync/kernels/robust.py): a
+    model is a pose (rvec, tvec), or under DLT a projection matrix; a pair's residual is its pixel error."""
+
+    xyz: np.ndarray
+    uv: np.ndarray
+    K: np.ndarray
+    dlt: bool
+
+    @property
+    def rows(self) -> int:
+        return len(self.xyz)
+
+    def refit(self, rows: np.ndarray) -> object | None:
+        return _dlt(self.xyz[rows], self.uv[rows]) if self.dlt else _pnp(self.xyz[rows], self.uv[rows], self.K)
+
+    def residuals(self, model: object) -> np.ndarray:
+        return _errors(model, self.xyz, self.uv, self.K, self.dlt)
 
 
 def _pnp(xyz: np.ndarray, uv: np.ndarray, K: np.ndarray):
@@ -923,12 +938,6 @@ def _settle_intrinsics(result: TargetPose, clock, xy, path, prior, gate_px, f_sc
     names = [k for k in INTRINSICS if k in free or (k == "cy" and "cx" in free)]
     report = {k: (float(values[k]), float(fit.intrinsics_std.get(k, stds.get(k, np.nan))), k in kept or (k == "cy" and "cx" in kept)) for k in names}
     return replace(result, camera=fit.camera, fit=fit, intrinsics=report)
-
-
-def msac(errors: np.ndarray, threshold: float) -> float:
-    """Truncated quadratic score of pixel errors: sum(max(0, 1 - (error / threshold)^2)); inf errors count 0."""
-    with np.errstate(invalid="ignore"):
-        return float(np.clip(1.0 - (np.asarray(errors) / threshold) ** 2, 0.0, None).sum())
 
 
 @dataclass(frozen=True)
