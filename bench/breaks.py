@@ -46,6 +46,8 @@ CASES = {
     "repeat50": BreakEdit("repeat", every=50),
     "restart3min_stamped": BreakEdit("restart", 15, int(180 * FPS), stamped=True),
     "restart3min": BreakEdit("restart", 15, int(180 * FPS)),
+    "restart3min_light": BreakEdit("restart", 15, int(180 * FPS), light=0.85),
+    "restart3min_parked": BreakEdit("restart", 15, int(180 * FPS), parked=True),
     "gap25_unvisited": BreakEdit("gap", 10, 25),
     "frozen25_at_end": BreakEdit("frozen", 180, 25),
 }

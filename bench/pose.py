@@ -1,6 +1,6 @@
 """Poses from the target: eps_t and pose error against GCP noise and without GCPs, the real flight without poses, a crowd, speed.
 
-    nice python bench/pose.py [--scenes 20] [--jobs 2] [--crowd 5] [--demo-draws 10] [--gnss-seeds 3] [--data /work/shared/real/drone2] [--no-write]
+    nice python bench/pose.py [--scenes 20] [--jobs 2] [--crowd 5] [--demo-draws 10] [--gnss-seeds 3] [--gnss-only] [--data /work/shared/real/drone2] [--no-write]
 
 1. Pass scenes (data_fixtures/passes.py: a walker crossing three 30 fps
    views and turning inside each, RTK log 10 Hz with 2 cm noise, 2 px
@@ -30,8 +30,11 @@
    30 s horizontal, 2 m vertical, 0.1-0.2 m white), declared ``drone``,
    ``--gnss-seeds`` seeds: cameras synchronized, worst and median eps_t,
    interval coverage, the synchronized camera whose beta is furthest from
-   the truth (truth.json's cameras_to_target) in its own sigmas, and each
-   refused camera's cause.
+   the truth (truth.json's cameras_to_target) in its own sigmas, each
+   refused camera's cause and the sync's CPU seconds; then the share of runs
+   with every camera, the median eps_t over the runs, the intervals that hold
+   and the process's peak resident memory (bench/_memory.py). ``--gnss-only``
+   runs this section alone and prints it.
 
 Writes the tables into docs/accuracy.md (block ``pose``) and the summary
 into docs/calibration.md (block ``pose``) unless --no-write.
@@ -65,6 +68,7 @@ from tlsync_pipeline.sync.model.methods import prepare_trajectory, preparation_o
 from tlsync_pipeline.sync.solve.synchronize import CameraInput, synchronize  # noqa: E402
 from tlsync_pipeline.sync.timeline import eps_t  # noqa: E402
 
+from _memory import peak_rss_mb  # noqa: E402
 from _report import pair_errors  # noqa: E402
 
 NOISE_M = (0.0, 0.1, 0.5, 2.0)
@@ -246,13 +250,16 @@ def gnss_without_poses(data: Path, seeds: int) -> str | None:
     truth, n_frames = read_truth(data / "truth.json")
     to_target = json.loads((data / "truth.json").read_text())["cameras_to_target"]
     rows = [
-        "| seed | cameras synchronized | worst eps_t | median eps_t | 95 % intervals that contain the truth | a camera's beta off the truth, most (sigmas) | refused (cause) |",
-        "|---|---|---|---|---|---|---|",
+        "| seed | cameras synchronized | worst eps_t | median eps_t | 95 % intervals that contain the truth | a camera's beta off the truth, most (sigmas) | refused (cause) | sync CPU (s) |",
+        "|---|---|---|---|---|---|---|---|",
     ]
+    synced, every, medians, all_z = 0, 0, [], []
     for seed in range(seeds):
         errors, _ = log_errors(np.random.default_rng(seed), trajectory.sample / trajectory.rate, RECEIVERS["drone"])
         inputs = {n: replace(c, camera=unposed(c.camera)) for n, c in cameras.items()}
+        start = time.process_time()
         timeline, _ = synchronize(inputs, dataclasses.replace(trajectory, xyz=trajectory.xyz + errors), project.sync, log_model=LOG_MODELS["drone"])
+        seconds = time.process_time() - start
         pairs = pair_errors(timeline, truth, n_frames)
         eps, z = [e for e, _ in pairs], [score for _, score in pairs]
         causes = ", ".join(f"{n} ({why.split('(', 2)[1].split(')')[0] if '(' in why else why[:40]})" for n, why in timeline.failed.items()) or "-"
@@ -260,8 +267,18 @@ def gnss_without_poses(data: Path, seeds: int) -> str | None:
         cover = f"{100 * np.mean(np.array(z) <= Z95):.0f} % of {len(z)}" if z else "-"
         off = [abs(line.beta - to_target[n]["beta"]) / np.sqrt(line.cov[1, 1]) if line.cov is not None else np.inf for n, line in timeline.cameras.items()]
         most = f"{max(off):.2f}" if off else "-"
-        rows.append(f"| {seed} | {len(timeline.cameras)} / {len(cameras)} | {worst} | {cover} | {most} | {causes} |")
-    return "\n".join([f"Real flight {data.name} without poses, a drone's GNSS error added to its log (declared `drone`), {seeds} seeds:", "", *rows])
+        rows.append(f"| {seed} | {len(timeline.cameras)} / {len(cameras)} | {worst} | {cover} | {most} | {causes} | {seconds:.0f} |")
+        synced += len(timeline.cameras)
+        every += len(timeline.cameras) == len(cameras)
+        medians += [float(np.median(eps))] if eps else []
+        all_z += z
+    held = f"{100 * np.mean(np.array(all_z) <= Z95):.0f} % of {len(all_z)}" if all_z else "none of 0"
+    summary = (
+        f"Every camera synchronized in {every} of {seeds} runs ({synced} of {len(cameras) * seeds} cameras); "
+        f"median eps_t over the runs {np.median(medians) if medians else float('nan'):.2f} frames; {held} intervals hold; "
+        f"peak resident memory of this bench's process {peak_rss_mb():.0f} MB."
+    )
+    return "\n".join([f"Real flight {data.name} without poses, a drone's GNSS error added to its log (declared `drone`), {seeds} seeds:", "", *rows, "", summary])
 
 
 def crowd_scene(seed: int) -> dict:
@@ -314,7 +331,11 @@ def main() -> None:
     parser.add_argument("--gnss-seeds", type=int, default=3, metavar="N", help="seeds of the real flight with a drone's GNSS error, without poses (0: none)")
     parser.add_argument("--data", type=Path, default=DEFAULT_DATA)
     parser.add_argument("--no-write", action="store_true", help="print only; leave docs/ alone")
+    parser.add_argument("--gnss-only", action="store_true", help="only the real flight with a drone's GNSS error, without poses; print it, leave docs/ alone")
     args = parser.parse_args()
+    if args.gnss_only:
+        print(gnss_without_poses(args.data, args.gnss_seeds) or f"drone GNSS without poses: skipped ({args.data} not found)")
+        return
     started = time.time()
     with ProcessPoolExecutor(args.jobs) as pool:
         rows = list(pool.map(pass_scene, range(args.scenes)))

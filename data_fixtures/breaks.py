@@ -18,7 +18,11 @@ Kinds (``BreakEdit``):
   recorded at 30), times re-stamped;
 - ``restart``: the frames before ``frame`` belong to an earlier recording
   ``size`` frames before (cut and restarted into one file), re-stamped
-  steadily (``stamped``: with the container's times showing the cut).
+  steadily (``stamped``: with the container's times showing the cut). The
+  earlier recording shows another moment of the scene: its light
+  ``light`` times the later one's, and ``parked`` a car (a dark box of a
+  twelfth of the picture) that has left by the restart; with neither, the
+  same pictures (a scene where nothing changed in between).
 """
 
 from __future__ import annotations
@@ -37,18 +41,29 @@ EDITS = ("frozen", "dropped", "gap", "repeat", "restart")
 @dataclass(frozen=True)
 class BreakEdit:
     """One edit of a recording: kind (EDITS), 0-based frame where it happens, size in frames, every (``repeat``: a
-    repeated frame after each ``every`` frames), stamped (``restart``: the container's times show the cut)."""
+    repeated frame after each ``every`` frames), stamped (``restart``: the container's times show the cut), light
+    and parked (``restart``: the earlier recording's light, relative, and a car parked in it)."""
 
     kind: str
     frame: int = 0
     size: int = 0
     every: int = 0
     stamped: bool = False
+    light: float = 1.0
+    parked: bool = False
 
     def label(self) -> str:
         if self.kind == "repeat":
             return f"repeat 1/{self.every}"
         return f"{self.kind} {self.size}" + (" stamped" if self.stamped else "")
+
+    def earlier(self, picture: np.ndarray) -> np.ndarray:
+        """A picture (BGR, uint8) of the earlier recording of a ``restart``: its light and its parked car."""
+        out = np.clip(picture.astype(np.float32) * self.light, 0, 255).astype(np.uint8)
+        if self.parked:
+            h, w = out.shape[:2]
+            out[h // 2 : h // 2 + h // 6, w // 8 : w // 8 + w // 2] = (40, 40, 48)
+        return out
 
 
 def edited_source(edit: BreakEdit, n_frames: int) -> tuple[np.ndarray, np.ndarray]:
@@ -95,7 +110,8 @@ def edit_video(src: str | Path, dst: str | Path, edit: BreakEdit, fps: float) ->
     options = {"crf": "20", "preset": "veryfast", "g": "30", "keyint_min": "30"}
     with h264_writer(dst, fps, (w, h), options) as write:
         for k, p in enumerate(picture):
-            write(av.VideoFrame.from_ndarray(frames[p], format="bgr24"), float(times[k]))
+            shown = edit.earlier(frames[p]) if edit.kind == "restart" and k < edit.frame else frames[p]
+            write(av.VideoFrame.from_ndarray(shown, format="bgr24"), float(times[k]))
     return source
 
 

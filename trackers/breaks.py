@@ -8,7 +8,7 @@ video is read anyway:
   more than ``GAP`` nominal intervals long is a ``gap`` (frames missing, or
   a recording cut and restarted), one under ``REPEAT`` of it a ``repeat``
   (times standing still or stepping back);
-- the pictures (``FreezeMeter``, fed the luma frames the tracker reads): a
+- the pictures (``PictureMeter``, fed the luma frames the tracker reads): a
   frame where no pixel differs from the previous frame's by more than
   ``STILL_LEVELS`` grey levels (the coding noise of the same picture encoded
   twice) between frames where some pixel changes by ``MOVING_LEVELS`` or
@@ -17,7 +17,12 @@ video is read anyway:
   ``frozen``: the same picture again, while the clock went on
   (``frozen_runs``). A still scene without a mover, coded at a low rate,
   repeats its pictures too: the target leaving the view and coming back is
-  not a freeze.
+  not a freeze. A frame whose picture changes at once and stays changed
+  (``scene_cuts``: on the plane averaged down to CUT_WIDTH pixels, its
+  content or its mean brightness changes by far more than between the
+  frames either side, and the change holds) is a ``cut``: a recording
+  stopped and restarted later into the same file shows another moment of
+  the scene (other movers, another light) from one frame to the next.
 
 A drop that leaves neither trace (frames missing, times re-stamped) shows
 only against the target's path: tlsync_pipeline/sync/identify/breaks.py finds it in
@@ -35,7 +40,15 @@ REPEAT = 0.5  # one shorter than this share of the nominal interval is a repeat
 STILL_LEVELS = 20  # grey levels: a frame no pixel of which differs from the previous frame's by more may repeat it
 MOVING_LEVELS = 40  # ... when the frames before and after it change some pixel by this much or more
 
-KINDS = ("gap", "repeat", "frozen", "drop")
+CUT_WIDTH = 64  # px: the luma plane is averaged down to this width for cuts (sensor noise and far movers fade)
+CUT_CONTENT = 3.0  # %: a change of the picture's content (the plane over its mean) of this mean size ...
+CUT_GAIN = 0.04  # ... or of its mean brightness (|log ratio|), and CUT_GAIN_FLICKER times the median of the
+CUT_GAIN_FLICKER = 10.0  # video's own brightness steps (its flicker; a median is not moved by the cuts) ...
+CUT_SPIKE = 3.0  # ... this many times the change of each of the two frames before it and the two after it ...
+REPEATED_PICTURE = 0.05  # %: a content step this small is the same picture again (its steps say nothing of flicker)
+CUT_HOLDS = 0.6  # ... and holding: the two frames after it differ from the two before it by this share of it
+
+KINDS = ("gap", "repeat", "frozen", "drop", "cut")
 
 
 @dataclass(frozen=True)
@@ -44,10 +57,11 @@ class Break:
 
     kind: "gap" (presentation times jump forward), "repeat" (times stand
     still or step back), "frozen" (the same picture repeated), "drop" (the
-    target's path jumps: frames missing without a trace in the container);
+    target's path jumps: frames missing without a trace in the container),
+    "cut" (the picture changes at once: a recording stopped and restarted);
     frame: the first 0-based frame after the break (for "frozen": the first
     repeated picture); size: frames, missing (gap, drop; negative: the
-    clock stepped back) or repeated (frozen, repeat).
+    clock stepped back) or repeated (frozen, repeat); 0 for a cut (unknown).
     """
 
     kind: str
@@ -56,6 +70,8 @@ class Break:
 
     def describe(self) -> str:
         """The break in words: "frozen 25 frames at frame 412"."""
+        if self.kind == "cut":
+            return f"a cut (the picture changes at once) at frame {self.frame}"
         what = {"gap": "gap of", "repeat": "repeated times over", "frozen": "frozen", "drop": "jump of"}[self.kind]
         return f"{what} {self.size:.3g} frame{'' if abs(self.size) == 1 else 's'} at frame {self.frame}"
 
@@ -96,38 +112,103 @@ def container_breaks(times: np.ndarray, fps: float | None = None) -> list[Break]
     return out
 
 
-class FreezeMeter:
-    """Frozen frames of a video, measured on the luma frames as they are read.
+class PictureMeter:
+    """Frozen frames and cuts of a video, measured on the luma frames as they are read.
 
     ``feed(index, gray, movers)`` each frame in order (a frame not
     consecutive to the previous one starts afresh); ``breaks()`` the frozen
-    runs.
+    runs (``frozen_runs``) and the cuts (``scene_cuts``) in frame order.
+    Per frame it keeps six numbers (the largest pixel change, whether a
+    mover is in view, two picture changes of two numbers each) and, for
+    the cuts, the last three frames' planes averaged down to CUT_WIDTH.
     """
 
     def __init__(self) -> None:
         import cv2  # here, not at the module's top: timeline.json's reader imports Break, and start-up loads no OpenCV
 
-        self._absdiff = cv2.absdiff
+        self._cv2 = cv2
         self._last: tuple[int, np.ndarray] | None = None
+        self._small: list[tuple[int, np.ndarray, float]] = []
         self._frames: list[int] = []
         self._change: list[int] = []
         self._movers: list[bool] = []
+        self._step: list[tuple[float, float]] = []
+        self._across: list[tuple[float, float]] = []
 
     def feed(self, index: int, gray: np.ndarray, movers: bool) -> None:
         """One luma frame (H, W, uint8) with its 0-based index, and whether the detector found a mover in it."""
+        cv2 = self._cv2
+        h, w = gray.shape[:2]
+        width = min(CUT_WIDTH, w)
+        stride = max(1, w // (4 * CUT_WIDTH))  # every stride-th pixel: still 4 x 4 or more averaged into each one
+        sampled = gray[::stride, ::stride]
+        size = (width, max(1, round(h * width / w)))
+        small = cv2.resize(sampled, size, interpolation=cv2.INTER_AREA).astype(np.float32)
+        mean = max(float(small.mean()), 1.0)
         if self._last is not None and self._last[0] == index - 1 and self._last[1].shape == gray.shape:
             self._frames.append(index)
-            self._change.append(int(self._absdiff(gray, self._last[1]).max()))
+            self._change.append(int(cv2.absdiff(gray, self._last[1]).max()))
             self._movers.append(movers)
+            self._step.append(_picture_change(self._small[-1], (index, small, mean)))
+            back = self._small[-3] if len(self._small) >= 3 and self._small[-3][0] == index - 3 else None
+            self._across.append(_picture_change(back, (index, small, mean)) if back is not None else (np.nan, np.nan))
+        else:
+            self._small = []
+        self._small = [*self._small[-2:], (index, small, mean)]
         self._last = (index, gray)
 
     def breaks(self) -> list[Break]:
-        """The frozen runs: ``frozen`` breaks at their first repeated frame, of their length in frames."""
-        return frozen_runs(
-            np.array(self._frames, dtype=np.int64),
-            np.array(self._change, dtype=np.int64),
-            np.array(self._movers, dtype=bool),
+        """The frozen runs and the cuts, in frame order."""
+        frames = np.array(self._frames, dtype=np.int64)
+        step = np.array(self._step, dtype=np.float64).reshape(-1, 2)
+        across = np.array(self._across, dtype=np.float64).reshape(-1, 2)
+        found = frozen_runs(frames, np.array(self._change, dtype=np.int64), np.array(self._movers, dtype=bool))
+        return sorted(found + scene_cuts(frames, step, across), key=lambda b: b.frame)
+
+
+def _picture_change(a: tuple[int, np.ndarray, float], b: tuple[int, np.ndarray, float]) -> tuple[float, float]:
+    """(content, brightness) change between two small planes with their means: the mean absolute difference of the
+    planes over their means (%), and |log| of the ratio of their means."""
+    _, plane_a, mean_a = a
+    _, plane_b, mean_b = b
+    content = 100.0 * float(np.abs(plane_a / mean_a - plane_b / mean_b).mean())
+    return content, abs(float(np.log(mean_b / mean_a)))
+
+
+def scene_cuts(frames: np.ndarray, step: np.ndarray, across: np.ndarray) -> list[Break]:
+    """Cuts from each frame's change of picture since the previous frame and since the frame three before.
+
+    frames: 0-based frames, each consecutive to frame - 1; step (N, 2): the
+    change (content %, brightness |log ratio|; ``PictureMeter``) from frame
+    - 1; across (N, 2): from frame - 3 (NaN when not read). Frame f is a cut
+    when, in content or in brightness, its step is at least CUT_CONTENT (or
+    CUT_GAIN and CUT_GAIN_FLICKER times the median of the brightness steps
+    between pictures that are not repeated) and CUT_SPIKE times the steps
+    of frames f - 2, f - 1, f + 1 and f + 2 (a moving picture, a mover
+    passing close, flicker change every frame), and frames f + 1 and f + 2
+    differ from frames f - 2 and f - 1 by CUT_HOLDS of it (the change holds:
+    not a flash or a dropped-out frame).
+    """
+    frames = np.asarray(frames, dtype=np.int64)
+    step = np.asarray(step, dtype=np.float64).reshape(-1, 2)
+    across = np.asarray(across, dtype=np.float64).reshape(-1, 2)
+    out = []
+    shown = step[step[:, 0] > REPEATED_PICTURE, 1]  # the brightness steps of new pictures (a freeze's are 0)
+    flicker = float(np.median(shown)) if len(shown) else 0.0
+    floor = np.array([CUT_CONTENT, max(CUT_GAIN, CUT_GAIN_FLICKER * flicker)])
+    for k in range(2, len(frames) - 2):
+        if frames[k + 2] - frames[k - 2] != 4:
+            continue
+        jump = step[k]
+        around = np.max(step[[k - 2, k - 1, k + 1, k + 2]], axis=0)
+        cut = (
+            (jump >= floor)
+            & (jump >= CUT_SPIKE * around)
+            & (np.minimum(across[k + 1], across[k + 2]) >= CUT_HOLDS * jump)
         )
+        if cut.any():
+            out.append(Break("cut", int(frames[k]), 0.0))
+    return out
 
 
 def frozen_runs(frames: np.ndarray, change: np.ndarray, movers: np.ndarray) -> list[Break]:

@@ -32,6 +32,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from trackers.blob import BlobDetector, BlobParams, BlobTracker, params_from_dict
+from trackers.breaks import PictureMeter
 from trackers.errors import TrackInputError
 from trackers.video import iter_frames
 
@@ -135,8 +136,9 @@ def _unambiguous(blobs, prediction: tuple[float, float], gate: float, clearance:
     return fits[0] if len(fits) == 1 and len(near) == 1 else None
 
 
-def csrt_steps(path, info, params: CsrtParams, blob_params: BlobParams, box, init_frame: int, progress: bool, detector: BlobDetector, label: str | None = None):
-    """Yields (frame, time_s, x, y, w, h, score) rows; returns the number of frames read.
+def csrt_steps(path, info, params: CsrtParams, blob_params: BlobParams, box, init_frame: int, progress: bool, detector: BlobDetector, label: str | None = None, meter: PictureMeter | None = None):
+    """Yields (frame, time_s, x, y, w, h, score) rows; returns the number of frames read; meter: fed every frame read
+    (trackers/breaks.py).
 
     While the target is followed, a frame whose blobs leave no doubt (one
     blob fits the target near its predicted position and no other blob is
@@ -157,6 +159,8 @@ def csrt_steps(path, info, params: CsrtParams, blob_params: BlobParams, box, ini
     index = -1
     for index, time_s, gray in iter_frames(path, gray=True, progress=progress, desc=label):
         blobs = detector.detect(gray)
+        if meter is not None:
+            meter.feed(index, gray, bool(blobs))
         if index < init_frame:
             previous = gray
             continue

@@ -8,7 +8,7 @@ from typing import Sequence
 import numpy as np
 
 from trackers.blob import BlobDetector, BlobParams, BlobTracker, median_background
-from trackers.breaks import FreezeMeter
+from trackers.breaks import PictureMeter
 from trackers.choices import DEFAULT_KIND, KINDS
 from trackers.detections import Detections, make_detections
 from trackers.errors import TrackInputError
@@ -28,7 +28,7 @@ def track_video(
     params: dict | None = None,
     progress: bool = True,
     label: str | None = None,
-    freeze: FreezeMeter | None = None,
+    meter: PictureMeter | None = None,
 ) -> Track:
     """Track the target through ``path``; frames without a confident position are absent.
 
@@ -37,8 +37,8 @@ def track_video(
     around the target in frame ``init_frame`` (0-based); tracking starts
     there. Without it the first confidently moving blob is the target.
     params: tracker parameters by name (BlobParams, CsrtParams); label:
-    the progress bar's title (default: the file name); freeze: fed every
-    frame read by the blob kind (trackers/breaks.py). Returns a
+    the progress bar's title (default: the file name); meter: fed every
+    frame read (trackers/breaks.py). Returns a
     Track with time_s (presentation time, s), w, h and score.
     """
     path = Path(path)
@@ -49,12 +49,12 @@ def track_video(
     where = f"{path}: tracker parameters"
     if kind == "blob":
         blob_params = BlobParams.from_dict(params, where)
-        steps = _blob_steps(path, info, blob_params, box, init_frame, progress, label, freeze)
+        steps = _blob_steps(path, info, blob_params, box, init_frame, progress, label, meter)
     else:
         from trackers.csrt import CsrtParams, csrt_steps
 
         csrt_params, blob_params = CsrtParams.from_dict(params, where)
-        steps = csrt_steps(path, info, csrt_params, blob_params, box, init_frame, progress, _detector(path, blob_params), label)
+        steps = csrt_steps(path, info, csrt_params, blob_params, box, init_frame, progress, _detector(path, blob_params), label, meter)
     rows = {}
     while True:
         try:
@@ -77,7 +77,7 @@ def detect_movers(
     label: str | None = None,
     windows: Sequence[tuple[int, int]] | None = None,
     count: DecodeCount | None = None,
-    freeze: FreezeMeter | None = None,
+    meter: PictureMeter | None = None,
 ) -> Detections:
     """Every moving-object candidate of every frame of ``path``, linked into tracklets.
 
@@ -89,7 +89,7 @@ def detect_movers(
     background model starts afresh from the video's median at each window
     (frames 1 apart continue it), so a window's detections do not depend
     on the frames skipped before it. count: filled with the frames decoded;
-    freeze: fed every frame read (trackers/breaks.py).
+    meter: fed every frame read (trackers/breaks.py).
     """
     path = Path(path)
     probe_video(path)
@@ -107,8 +107,8 @@ def detect_movers(
             detector = BlobDetector(*background)
         last = index
         blobs = detector.detect(gray)
-        if freeze is not None:
-            freeze.feed(index, gray, bool(blobs))
+        if meter is not None:
+            meter.feed(index, gray, bool(blobs))
         for tracklet, blob, score in linker.step(index, blobs):
             rows.append((index, time_s, tracklet, blob.x, blob.y, blob.w, blob.h, score))
         if windows is None and count is not None:
@@ -167,7 +167,7 @@ def _detector(path: Path, params: BlobParams) -> BlobDetector:
     return BlobDetector(*_background(path, params))
 
 
-def _blob_steps(path, info: VideoInfo, params: BlobParams, box, init_frame: int, progress: bool, label: str | None, freeze: FreezeMeter | None = None):
+def _blob_steps(path, info: VideoInfo, params: BlobParams, box, init_frame: int, progress: bool, label: str | None, meter: PictureMeter | None = None):
     """Yields (frame, time_s, x, y, w, h, score) rows; returns the number of frames read."""
     detector = _detector(path, params)
     tracker = BlobTracker(params, box, (info.width, info.height))
@@ -176,8 +176,8 @@ def _blob_steps(path, info: VideoInfo, params: BlobParams, box, init_frame: int,
     for index, time_s, gray in iter_frames(path, gray=True, progress=progress, desc=label):
         times[index] = time_s
         blobs = detector.detect(gray)
-        if freeze is not None:
-            freeze.feed(index, gray, bool(blobs))
+        if meter is not None:
+            meter.feed(index, gray, bool(blobs))
         if index < init_frame:
             continue
         if index == init_frame:

@@ -10,6 +10,7 @@ not, and every output carries the segments.
 """
 
 import csv
+import functools
 import json
 import shutil
 
@@ -17,13 +18,15 @@ import numpy as np
 import pytest
 
 from data_fixtures.breaks import BreakEdit, edit_camera, pair_errors, video_times
-from data_fixtures.raw_project import SMALL, make_raw_project
+from data_fixtures.long_video import render_long_camera_video
+from data_fixtures.raw_project import SMALL, RawProjectSpec, make_raw_project
 from tlsync_pipeline.cli.json_output import camera_statuses
 from tlsync_pipeline.pipeline.engine import run_graph
 from tlsync_pipeline.pipeline.graph import build_graph
 from tlsync_pipeline.pipeline.project import load_project
 from tlsync_pipeline.pipeline.spec import Options
 from tlsync_pipeline.sync.timeline import read_timeline
+from trackers.video import presentation_times
 
 pytestmark = pytest.mark.slow
 
@@ -95,3 +98,56 @@ def test_an_unedited_demo_has_no_break(raw, tmp_path):
             and not timeline.cameras[name].clock.segments
         )
         assert json.loads((folder / "work" / "cameras" / name / "video.json").read_text())["breaks"] == []
+
+
+def test_a_restart_before_the_target_arrives_leaves_the_earlier_piece_unknown(raw, tmp_path):
+    """Cut at frame 15 and restarted 3 minutes later, the container's times re-stamped (running on): the earlier
+    recording showed a car parked that has left by the restart; the target arrives at frame 23. The cut is found
+    in the pictures, the piece before it is not guessed."""
+    work, timeline, sources = _run(raw, tmp_path, BreakEdit("restart", 15, 4500, parked=True))
+    status = timeline.status("cam1")
+    assert status.synchronized and "segments" in [r.code for r in status.reasons], status
+    line = timeline.cameras["cam1"]
+    assert [(b.kind, b.frame) for b in line.breaks] == [("cut", 15)]
+    assert [(s.start, s.source, s.shift) for s in line.clock.segments] == [(0, "unknown", None), (15, "line", 0.0)]
+    for name in ("cam0", "cam2"):
+        for a, b in (("cam1", name), (name, "cam1")):
+            errors, unmapped, false = pair_errors(timeline, LINES, sources, a, b, video_times(work.parent, COUNTS))
+            assert false == 0 and unmapped == 0, (a, b)
+            assert len(errors) == 0 or errors.max() < 0.15, (a, b, errors.max())
+
+
+def test_a_freeze_inside_a_window_of_a_long_recording_is_found(tmp_path):
+    """A long recording read in windows (the scan stage's, around the target's stay): cam1 frozen 25 frames in the
+    middle of the target's stay. The track stage reads only the windows; the freeze inside one is found and cam1
+    fitted as segments as when every frame is read."""
+    spec = RawProjectSpec(
+        lines=((1.5, 75.0), (1.5, -75.0)),
+        n_frames=(1500, 1500),
+        image_size=(320, 240),
+        boards=8,
+        gcps=8,
+        window_samples=300,
+    )
+    folder = tmp_path / "raw"
+    _, scene = make_raw_project(
+        folder, spec, render=functools.partial(render_long_camera_video, radius=5.0, look_alikes=2)
+    )
+    stay = scene.tracks["cam1"].frame
+    at = int(stay[len(stay) // 2])
+    fps = 1.0 / float(np.median(np.diff(presentation_times(folder / "cam1" / "video.mp4"))))
+    sources = {name: np.arange(n, dtype=np.float64) for name, n in scene.n_frames.items()}
+    sources["cam1"] = edit_camera(folder, "cam1", BreakEdit("frozen", at, 25), fps)
+    summary = run_graph(build_graph(load_project(folder / "project.toml"), folder / "work", Options(progress=False)))
+    assert not summary.failed
+    timeline = read_timeline(folder / "work" / "timeline.json")
+    line = timeline.cameras["cam1"]
+    assert line.scan.mode == "windows" and line.scan.frames_decoded < 0.5 * line.scan.frames
+    assert ("frozen", at, 25.0) in [(b.kind, b.frame, b.size) for b in line.breaks]
+    assert timeline.status("cam1").synchronized and [s.shift for s in line.clock.segments if s.source == "votes"] == [
+        25.0
+    ]
+    lines = {name: (rel.alpha, rel.beta) for name, rel in scene.lines.items()}
+    errors, unmapped, false = pair_errors(timeline, lines, sources, "cam0", "cam1", video_times(folder, scene.n_frames))
+    assert false == 0 and unmapped == 0
+    assert errors.max() < 0.15, errors.max()

@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from trackers.breaks import Break, FreezeMeter, container_breaks, frozen_runs
+from trackers.breaks import Break, PictureMeter, container_breaks, frozen_runs, scene_cuts
 
 
 def test_container_gap_and_repeat():
@@ -35,14 +35,14 @@ def test_freeze_meter_finds_a_frozen_run_where_the_picture_moved():
     rng = np.random.default_rng(1)
     frames = list(_noisy_frames(80, rng))
     frozen = frames[:30] + [frames[29]] * 12 + frames[30:]  # a stall of 12 frames after frame 29
-    meter = FreezeMeter()
+    meter = PictureMeter()
     for k, gray in enumerate(frozen):
         meter.feed(k, gray, True)
     assert meter.breaks() == [Break("frozen", 30, 12.0)]
 
 
 def test_a_freeze_meter_fed_a_clean_video_finds_none():
-    meter = FreezeMeter()
+    meter = PictureMeter()
     for k, gray in enumerate(_noisy_frames(80, np.random.default_rng(2))):
         meter.feed(k, gray, True)
     assert meter.breaks() == []
@@ -67,3 +67,69 @@ def test_break_round_trip_and_words():
     b = Break("frozen", 412, 25.0)
     assert Break.from_dict(b.to_dict()) == b
     assert b.describe() == "frozen 25 frames at frame 412"
+
+
+def _textured(rng, h=120, w=160):
+    return rng.integers(40, 200, (h, w)).astype(np.float64)
+
+
+def _meter_breaks(frames):
+    meter = PictureMeter()
+    for k, gray in enumerate(frames):
+        meter.feed(k, np.clip(gray, 0, 255).astype(np.uint8), True)
+    return meter.breaks()
+
+
+def _scene(rng, n, gains=None, base=None, square=True):
+    """Frames of a textured scene with sensor noise, a square moving to and fro and a global gain per frame."""
+    base = _textured(rng) if base is None else base
+    gains = np.ones(n) if gains is None else gains
+    for k in range(n):
+        frame = base.copy()
+        x = abs(2 * k % 280 - 140)
+        if square:
+            frame[40:60, x : x + 20] = 250
+        yield frame * gains[k] + rng.normal(0, 2, base.shape)
+
+
+def test_a_restart_in_other_light_is_a_cut():
+    rng = np.random.default_rng(3)
+    base = _textured(rng)
+    earlier = list(_scene(rng, 40, gains=np.full(40, 0.8), base=base))
+    later = list(_scene(rng, 60, base=base))[40:]
+    assert _meter_breaks(earlier + later) == [Break("cut", 40, 0.0)]
+
+
+def test_a_restart_after_a_car_left_is_a_cut():
+    rng = np.random.default_rng(4)
+    base = _textured(rng)
+    parked = base.copy()
+    parked[70:90, 20:100] = 30  # a car parked in the earlier recording
+    frames = list(_scene(rng, 30, base=parked)) + list(_scene(rng, 60, base=base))[30:]
+    assert _meter_breaks(frames) == [Break("cut", 30, 0.0)]
+
+
+def test_flicker_a_flash_and_a_mover_passing_close_are_no_cut():
+    rng = np.random.default_rng(5)
+    n = 400
+    gains = 1.0 + 0.06 * np.sin(2 * np.pi * np.arange(n) / 37.0) + 0.018 * rng.standard_normal(n)
+    gains[200] *= 1.5  # a flash: one frame far brighter, then back
+    frames = list(_scene(rng, n, gains=gains))
+    for k in range(300, 345):  # a walker close to the camera crossing the picture (a third of it wide)
+        frames[k][:, max(0, 5 * (k - 300) - 60) : 5 * (k - 300)] = 20
+    assert [b for b in _meter_breaks(frames) if b.kind == "cut"] == []
+
+
+def test_scene_cuts_needs_the_frames_either_side():
+    frames = np.array([1, 2, 3, 5, 6])
+    step = np.array([[0.1, 0.0], [0.1, 0.0], [9.0, 0.5], [0.1, 0.0], [0.1, 0.0]])
+    across = np.full((5, 2), 9.0)
+    assert scene_cuts(frames, step, across) == []  # frame 3's next frame (4) was not read
+    frames = np.array([1, 2, 3, 4, 5])
+    assert scene_cuts(frames, step, across) == [Break("cut", 3, 0.0)]
+    across[3] = (0.2, 0.0)  # frame 4 is back to what frame 1 showed: a flash, not a cut
+    assert scene_cuts(frames, step, across) == []
+
+
+def test_a_cut_in_words():
+    assert Break("cut", 15, 0.0).describe() == "a cut (the picture changes at once) at frame 15"

@@ -3,8 +3,10 @@
 import numpy as np
 import pytest
 
+from data_fixtures.breaks import BreakEdit, edit_video
 from data_fixtures.video import render_video
 from trackers.blob import BlobParams
+from trackers.breaks import PictureMeter
 from trackers.csrt import CsrtParams
 from trackers.errors import TrackInputError
 from trackers.tracking import track_video
@@ -180,3 +182,12 @@ def test_an_init_box_tracks_the_target_and_nothing_while_it_is_out_of_view(looka
     assert visible.sum() >= 0.95 * video.in_view[first:].sum()  # and it is followed after each return
     reported = set(track.frame.tolist())
     assert all(any(k in reported for k in range(entry, entry + 11)) for entry in video.entries())
+
+
+def test_csrt_reading_finds_a_frozen_run(video, tmp_path):
+    """The CSRT tracker's reading feeds the picture meter too: a stall of 12 frames while the target moves."""
+    at = next(k for k in range(40, 300) if video.in_view[k - 3 : k + 3].all())
+    edit_video(video.path, tmp_path / "frozen.mp4", BreakEdit("frozen", at, 12), video.fps)
+    meter = PictureMeter()
+    track_video(tmp_path / "frozen.mp4", kind="csrt", progress=False, meter=meter)
+    assert ("frozen", at, 12.0) in [(b.kind, b.frame, b.size) for b in meter.breaks()]

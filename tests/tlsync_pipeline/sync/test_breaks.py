@@ -9,7 +9,7 @@ from tlsync_pipeline.sync.identify.breaks import (
     vote_break,
 )
 from tlsync_pipeline.sync.model.clock import FRAME, CameraClock, Segment
-from tlsync_pipeline.sync.identify.segments import END, fit_segments
+from tlsync_pipeline.sync.identify.segments import END, fit_segments, joined_at_void_cuts, segments_of
 from tlsync_pipeline.sync.model.status import AMBIGUOUS
 from trackers.breaks import Break
 
@@ -156,3 +156,61 @@ def test_one_segment_visited_and_the_rest_unknown_is_weak_with_segments_named():
         )
     ]
     assert codes == ["segments", "clock_break"]
+
+
+def test_beyond_a_cut_the_target_never_crosses_the_offset_is_unknown():
+    """A restart before the target arrives, the container's times running on across it (re-stamped): the frames
+    before the cut are not guessed."""
+    tracked = np.arange(100, 300)
+    frame, clock, sample = _votes(tracked)
+    segments, breaks = segments_of(
+        (Break("cut", 15, 0.0),), tracked, frame, clock, sample, _dists(frame), ALPHA, BETA, DELTA, vfr=False
+    )
+    assert breaks == (Break("cut", 15, 0.0),)
+    assert [(s.start, s.stop, s.source, s.shift) for s in segments] == [
+        (0, 15, "unknown", None),
+        (15, END, "line", 0.0),
+    ]
+    (reason,) = segment_reasons(breaks, segments, tracked, frame, clock, sample, ALPHA, BETA, DELTA)
+    assert reason.code == "segments" and "a cut (the picture changes at once) at frame 15" in reason.text
+
+
+def test_a_cut_the_target_crosses_on_one_clock_is_no_break():
+    """A light switched on while the target is in view: both sides' votes on the line, the cut is dropped."""
+    tracked = np.arange(100, 300)
+    frame, clock, sample = _votes(tracked)
+    cut = Break("cut", 200, 0.0)
+    assert segments_of((cut,), tracked, frame, clock, sample, _dists(frame), ALPHA, BETA, DELTA, vfr=False) == ((), ())
+    # a restart inside the visit: the sides disagree, the cut stays and cuts the segments
+    frame, clock, sample = _votes(tracked, shift=40, at=200)
+    segments, breaks = segments_of((cut,), tracked, frame, clock, sample, _dists(frame), ALPHA, BETA, DELTA, vfr=False)
+    assert breaks == (cut,) and [s.start for s in segments] == [0, 200]
+    assert segments[1].shift - segments[0].shift == 40.0  # type: ignore[operator]
+
+
+def test_a_cut_at_a_freeze_or_a_gap_is_that_break():
+    frozen, gap = Break("frozen", 100, 25.0), Break("gap", 300, 12.0)
+    cuts = (Break("cut", 125, 0.0), Break("cut", 301, 0.0))
+    assert merged((frozen, gap, *cuts)) == (frozen, gap)
+    assert merged((frozen, Break("cut", 140, 0.0))) == (frozen, Break("cut", 140, 0.0))
+    # frames dropped while something moves: the picture jumps (a cut at the frame) and the votes tell the size
+    assert merged((Break("cut", 300, 0.0), Break("drop", 304, 25.0))) == (Break("drop", 300, 25.0),)
+    assert merged((Break("drop", 300, 25.0), Break("cut", 300, 0.0))) == (Break("drop", 300, 25.0),)
+
+
+def test_segments_of_the_same_shift_either_side_of_a_cut_are_joined():
+    """Each segment's own line put both sides of a cut on the same shift: one segment, the cut dropped."""
+    cut, frozen = Break("cut", 77, 0.0), Break("frozen", 100, 50.0)
+    segments = (
+        Segment(0, 77, 50.0, "votes", 14),
+        Segment(77, 100, 50.0, "votes", 23),
+        Segment(100, 150, None, "frozen", 0),
+        Segment(150, END, 0.0, "line", 90),
+    )
+    joined, breaks = joined_at_void_cuts(segments, (cut, frozen))
+    assert breaks == (frozen,)
+    assert joined == (Segment(0, 100, 50.0, "votes", 37), Segment(100, 150, None, "frozen", 0), segments[-1])
+    apart = (Segment(0, 77, 40.0, "votes", 14), *segments[1:])
+    assert joined_at_void_cuts(apart, (cut, frozen)) == (apart, (cut, frozen))
+    two = (Segment(0, 100, 50.0, "votes", 23), Segment(100, END, 50.0, "line", 90))
+    assert joined_at_void_cuts(two, (Break("cut", 100, 0.0),)) == ((), ())  # one segment left: none

@@ -7,8 +7,12 @@ from dataclasses import replace
 import pytest
 
 from data_fixtures import make_scene
+from data_fixtures.log_error import PRESETS as RECEIVERS
+from data_fixtures.walk import WalkSpec, make_walk_scene
+from tlsync_pipeline.sync.model.log_model import PRESETS, LogModel
 from tlsync_pipeline.sync.solve.causes import explain, image_offset
 from tlsync_pipeline.sync.solve.plausibility import GATE_EPS, Judged, LogUnitError
+from tlsync_pipeline.sync.vote.log_error import vote_radius
 from tlsync_pipeline.trajectory import PiecewiseTrajectory
 
 EPS_PX = 10.0
@@ -48,3 +52,19 @@ def test_a_log_riding_above_is_named_with_the_key_and_its_value(scene):
 def test_right_cameras_and_tracks_on_the_path_get_no_cause(scene):
     assert explain(_judged(scene, set()), scene.trajectory, EPS_PX) == {}
     assert explain(_judged(scene, {"cam0"}), scene.trajectory, EPS_PX) == {}  # on the path: its timing is at fault
+
+
+def test_a_log_wandering_by_metres_beyond_its_model_is_named_not_the_tracker():
+    """A phone's 2 m / 60 s log whose fixes scatter by 0.5 m, checked at the exact log's gate (2 eps_px): the tracks
+    lie off the projected path there, but on it within a phone's radius. The cause is the log's error (declare it),
+    not a tracker on another object (track_elsewhere); a log whose fixes do not scatter gets no such cause."""
+    walk = make_walk_scene(3, WalkSpec(route="turns", log=RECEIVERS["phone2"], lead_s=30.0))
+    judged = {n: Judged(c, walk.tracks[n], None, None, True) for n, c in walk.cameras.items()}
+    reasons = explain(judged, walk.trajectory, EPS_PX, log_model=LogModel("custom", 0.5))
+    assert set(reasons) == set(walk.cameras) and {r.code for r in reasons.values()} == {"log_error"}, reasons
+    assert all('log_model = "phone"' in r.remedy for r in reasons.values())
+    exact = explain(judged, walk.trajectory, EPS_PX, log_model=PRESETS["none"])
+    assert "log_error" not in {r.code for r in exact.values()}
+    as_phone = {n: vote_radius(c, walk.trajectory, EPS_PX, PRESETS["phone"]) for n, c in walk.cameras.items()}
+    assert explain(judged, walk.trajectory, EPS_PX, radius_px=as_phone, log_model=PRESETS["phone"]) == {}  # on it
+

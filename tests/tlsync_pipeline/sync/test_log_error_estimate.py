@@ -10,6 +10,8 @@ from data_fixtures.log_error import gauss_markov
 from data_fixtures.walk import WalkSpec, make_walk_scene
 from tlsync_pipeline.sync.solve.log_bias import LogBias, _prior_whitening, bias_marginal_likelihood
 from tlsync_pipeline.sync.model.log_model import PRESETS, LogModel
+from tlsync_pipeline.sync.model.params import SyncParams
+from tlsync_pipeline.sync.solve.synchronize import CameraInput, synchronize
 from tlsync_pipeline.sync.vote.log_error import measured, vote_radius, white_from_log
 
 
@@ -73,3 +75,32 @@ def test_a_bias_the_pixels_do_not_see_stays_at_its_prior():
     blind = dataclasses.replace(bias, values=np.zeros_like(bias.values), information=np.zeros_like(bias.information))
     found = bias_marginal_likelihood(blind, 1.0, prior)
     assert abs(found.bias_m - prior.bias_m) < 0.05 * prior.bias_m and abs(found.tau_s - prior.tau_s) < 0.05 * prior.tau_s
+
+
+def test_a_log_whose_fixes_scatter_as_another_receivers_takes_its_bias():
+    drone = _logged(0, "drone")  # 0.1 m white at 10 Hz, a 1 m / 30 s bias
+    as_rtk = measured(PRESETS["rtk"], drone)
+    assert as_rtk.name == "drone" and as_rtk.has_bias and "receiver" in as_rtk.measured
+    assert abs(as_rtk.white_m - 0.11) < 0.02
+    phone = measured(PRESETS["none"], _logged(0, "phone"))  # undeclared: neither exact nor without its wander
+    assert phone.name == "phone" and phone.bias_m == PRESETS["phone"].bias_m
+    white = measured(PRESETS["rtk"], _logged(0, "white"))  # white 0.3 m: the receiver without a bias
+    assert not white.has_bias and "receiver" not in white.measured
+    assert not measured(PRESETS["none"], _logged(0, "rtk")).has_bias  # 2 cm: exact enough, no wander assumed
+    assert measured(PRESETS["drone"], _logged(0, "phone")).name == "drone"  # a declared bias is a prior, kept
+
+
+def test_a_drones_log_declared_rtk_synchronizes_no_camera_wrong():
+    """A drone (5 m/s, straight through 3 views, videos 300 s around) whose 1 m / 30 s GNSS log is declared RTK: the
+    log's fixes say a drone's, its bias is fitted, and no camera is synchronized beyond three times its interval
+    (taken as RTK, one camera was synchronized 38 frames off with an interval of a few)."""
+    scene = make_walk_scene(0, WalkSpec(route="straight", log=RECEIVERS["drone"], speed_mps=5.0, lead_s=300.0))
+    inputs = {n: CameraInput(c, scene.tracks[n], c.fps) for n, c in scene.cameras.items()}
+    timeline, _ = synchronize(inputs, scene.trajectory, SyncParams(), log_model=PRESETS["rtk"])
+    assert timeline.log_model is not None and timeline.log_model["name"] == "drone"
+    assert len(timeline.cameras) >= 2
+    for key, truth in scene.truth_pairs().items():
+        a, b = key.split("->")
+        if {a, b} <= set(timeline.cameras):
+            cov = timeline.relation_cov(a, b)
+            assert abs(timeline.relation(a, b).beta - truth.beta) <= 3 * 1.96 * np.sqrt(cov[1, 1]), key

@@ -9,14 +9,22 @@ import numpy as np
 import pytest
 
 from data_fixtures import make_scene
+from data_fixtures.log_error import PRESETS as RECEIVERS
+from data_fixtures.walk import WalkSpec, make_walk_scene
+from tlsync_pipeline.sync.model.log_model import PRESETS as LOG_MODELS
 from tlsync_pipeline.sync.model.params import SyncParams
 from tlsync_pipeline.sync.solve.plausibility import (
     Judged,
     LogUnitError,
+    MotionSlope,
+    SlopeMode,
+    _fits_better,
+    _stated_fps_unbacked,
     diagnose,
     line_evidence,
     motion_slope,
     path_share,
+    times_fps,
 )
 from tlsync_pipeline.sync.kernels.backward import backward_support, line_support
 from tlsync_pipeline.sync.model.methods import prepare_trajectory, preparation_of
@@ -137,3 +145,52 @@ def test_a_rival_within_the_band_of_one_pass_is_that_pass_and_one_beyond_it_a_se
     assert _rival(line(90.0), track, clock, 30.0, eps_px=240.0) is None
     assert _rival(line(90.0), track, clock, 30.0, eps_px=8.0).code == "ambiguous"  # an RTK log: 3 s apart is a second pass
     assert _rival(line(600.0), track, clock, 30.0, eps_px=240.0).code == "ambiguous"
+
+
+def _timed(track, fps):
+    """The track with presentation times at ``fps``."""
+    return dataclasses.replace(track, time_s=track.frame / fps)
+
+
+def test_the_tracks_times_give_its_frame_rate(scene):
+    track = scene.tracks["cam0"]
+    assert times_fps(_timed(track, 25.0)) == pytest.approx(25.0)
+    assert times_fps(dataclasses.replace(track, time_s=None)) is None
+
+
+def test_a_stated_fps_its_tracks_times_dispute_stands_only_when_the_motion_backs_it(scene):
+    track = _timed(scene.tracks["cam0"], 30.0)
+    backed = MotionSlope(SlopeMode(2.0, 100, 200), SlopeMode(float("nan"), 0, 200))  # the motion says the prior's slope
+    disputed = MotionSlope(SlopeMode(1.0, 100, 200), SlopeMode(float("nan"), 0, 200))  # half of it: 30 fps, not 60
+    unsure = MotionSlope(SlopeMode(2.0, 5, 200), SlopeMode(float("nan"), 0, 200))  # too few votes to say
+    assert _stated_fps_unbacked(track, 30.0, 1.0, None) is None  # they agree
+    assert _stated_fps_unbacked(track, 35.0, 35.0 / 30.0, None) is None  # within SLOPE_OFF: the prior's band decides
+    assert _stated_fps_unbacked(track, 60.0, 2.0, backed) is None  # a time-lapse whose container runs faster
+    for slope in (disputed, unsure, None):
+        reason = _stated_fps_unbacked(track, 60.0, 2.0, slope)
+        assert reason is not None and reason.code == "clock" and "runs at about 30 fps, not 60" in reason.text
+
+
+def test_a_track_already_on_the_path_is_not_fitted_better_by_a_rescaled_input():
+    assert not _fits_better(1.0, 1.0)
+    assert _fits_better(0.5, 0.9) and not _fits_better(0.5, 0.7)
+
+
+def test_a_phones_log_cannot_hide_an_fps_doubled_or_halved():
+    """A walk through 3 views with a phone's 2 m / 60 s log declared: a vote radius of about 300 px, within which the
+    line at the stated fps still finds support. The track's own times say the rate, and the motion does not back the
+    stated one: the camera is refused with its true rate, the others synchronized right."""
+    scene = make_walk_scene(0, WalkSpec(log=RECEIVERS["phone2"]))
+    for factor in (2.0, 0.5):
+        inputs = {n: CameraInput(c, scene.tracks[n], c.fps) for n, c in scene.cameras.items()}
+        inputs["cam1"] = dataclasses.replace(inputs["cam1"], fps=30.0 * factor)
+        timeline, _ = synchronize(inputs, scene.trajectory, SyncParams(), log_model=LOG_MODELS["phone"])
+        status = timeline.status("cam1")
+        assert "cam1" not in timeline.cameras and status.status == "failed", status
+        clock = [r for r in status.reasons if r.code == "clock"]
+        assert clock and re.search(r"runs at about (29|30)(\.\d+)? fps", clock[0].text), status
+        for key, truth in scene.truth_pairs().items():
+            a, b = key.split("->")
+            if {a, b} <= set(timeline.cameras):
+                cov = timeline.relation_cov(a, b)
+                assert abs(timeline.relation(a, b).beta - truth.beta) <= 3 * 1.96 * np.sqrt(cov[1, 1]), key

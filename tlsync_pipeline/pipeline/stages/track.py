@@ -20,7 +20,7 @@ from tlsync_pipeline.atomic import atomic_path
 from tlsync_pipeline.pipeline.spec import Options, Sources, StageResult, StageSpec
 from tlsync_pipeline.pipeline.stages.camera_plan import scans
 from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
-from trackers.breaks import Break, FreezeMeter, container_breaks
+from trackers.breaks import Break, PictureMeter, container_breaks
 from trackers.detections import Detections, write_detections
 from trackers.track import Track, write_track
 from trackers.tracking import detect_movers, track_video
@@ -31,20 +31,20 @@ if TYPE_CHECKING:
 
 
 def track_camera(
-    name: str, video: Path, tracker: TrackerConfig, progress: bool = True, plan: ScanPlan | None = None, count: DecodeCount | None = None, freeze: FreezeMeter | None = None
+    name: str, video: Path, tracker: TrackerConfig, progress: bool = True, plan: ScanPlan | None = None, count: DecodeCount | None = None, meter: PictureMeter | None = None
 ) -> Track | Detections:
     """Every mover (``tracker.every_mover``) or the target (CSRT from its init box) in one camera's video.
 
     plan: the scan stage's scan.json for every mover (None, or mode
-    "full": every frame); count: filled with the frames decoded; freeze:
-    fed the frames read (trackers/breaks.py; not by CSRT).
+    "full": every frame); count: filled with the frames decoded; meter:
+    fed the frames read (trackers/breaks.py).
     """
     label = f"{name} ({video.name})"
     if tracker.every_mover:
         windows = None if plan is None or plan.full else list(plan.windows)
-        return detect_movers(video, params=dict(tracker.parameters), progress=progress, label=label, windows=windows, count=count, freeze=freeze)
+        return detect_movers(video, params=dict(tracker.parameters), progress=progress, label=label, windows=windows, count=count, meter=meter)
     return track_video(
-        video, kind=tracker.kind, init=tracker.init, init_frame=tracker.init_frame, params=dict(tracker.parameters), progress=progress, label=label, freeze=freeze
+        video, kind=tracker.kind, init=tracker.init, init_frame=tracker.init_frame, params=dict(tracker.parameters), progress=progress, label=label, meter=meter
     )
 
 
@@ -69,10 +69,10 @@ def run_track(files: StageFiles, tracker: TrackerConfig) -> StageResult:
     video = files.path("video")
     plan = read_scan(files.path("scan")) if files.has("scan") else None
     count = DecodeCount()
-    freeze = FreezeMeter()
+    meter = PictureMeter()
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", TruncatedVideoWarning)
-        result = track_camera(files.camera_name, video, tracker, progress=files.progress, plan=plan, count=count, freeze=freeze)
+        result = track_camera(files.camera_name, video, tracker, progress=files.progress, plan=plan, count=count, meter=meter)
     truncation = next((w.message for w in caught if isinstance(w.message, TruncatedVideoWarning)), None)
     for item in caught:
         warnings.warn_explicit(item.message, item.category, item.filename, item.lineno)
@@ -80,7 +80,7 @@ def run_track(files: StageFiles, tracker: TrackerConfig) -> StageResult:
     info = video_info(video, truncation)
     read = reading(plan, count, info.frames, isinstance(result, Detections))
     with files.write("video_info") as tmp:
-        write_video_info(dataclasses.replace(info, **read, breaks=tuple(video_breaks(video, freeze))), tmp)
+        write_video_info(dataclasses.replace(info, **read, breaks=tuple(video_breaks(video, meter))), tmp)
     if isinstance(result, Detections):
         write_detections_atomic(result, files.output("detections"))
         facts = {"detections": len(result), "tracklets": int(len(result.tracklet_ids())), **read}
@@ -89,11 +89,11 @@ def run_track(files: StageFiles, tracker: TrackerConfig) -> StageResult:
     return StageResult(f"wrote {files.output('track')} ({len(result)} tracked frames)", recorded, facts={"tracked_frames": len(result)})
 
 
-def video_breaks(video: Path, freeze: FreezeMeter) -> list[Break]:
+def video_breaks(video: Path, meter: PictureMeter) -> list[Break]:
     """Where the video leaves its steady clock: gaps and repeats of the container's presentation times (every frame,
-    demux only) and frozen runs among the frames the tracker read, in frame order (trackers/breaks.py)."""
+    demux only), frozen runs and cuts among the frames the tracker read, in frame order (trackers/breaks.py)."""
     times = presentation_times(video)
-    found = (container_breaks(times) if times is not None else []) + freeze.breaks()
+    found = (container_breaks(times) if times is not None else []) + meter.breaks()
     return sorted(found, key=lambda b: b.frame)
 
 

@@ -30,7 +30,7 @@ from calibration.camera import Camera
 from tlsync_pipeline.errors import SyncError
 from tlsync_pipeline.sync.model.clock import Segment
 from tlsync_pipeline.sync.identify.identify import Identification, IdentifyParams, detections_clock, identify_target
-from tlsync_pipeline.sync.identify.segments import fit_segments, segments_reason
+from tlsync_pipeline.sync.identify.segments import segments_of, segments_reason
 from tlsync_pipeline.sync.model.status import AMBIGUOUS, Reason
 from tlsync_pipeline.trajectory import Trajectory
 from trackers.breaks import Break
@@ -112,12 +112,22 @@ def with_vote_break(
 
 def merged(breaks: tuple[Break, ...]) -> tuple[Break, ...]:
     """The breaks in frame order, without a drop the votes show where the container or the pictures name a break
-    already (within the drop's size and 10 frames: the votes place a break only between the target's frames)."""
-    named = [b for b in breaks if b.kind != "drop"]
+    already (within the drop's size and 10 frames: the votes place a break only between the target's frames), nor
+    a cut within a frame of another break's start or end (the picture after a freeze or a gap jumps too). A cut
+    where the votes show a drop is that drop, at the cut's frame (the pictures place it to the frame, the votes
+    tell its size)."""
+    named = [b for b in breaks if b.kind not in ("drop", "cut")]
+    edges = [e for b in named for e in (b.frame, b.frame + (int(b.size) if b.kind in ("frozen", "repeat") else 0))]
+    cuts = [c for c in breaks if c.kind == "cut" and not any(abs(c.frame - e) <= 1 for e in edges)]
     drops = [
         d for d in breaks if d.kind == "drop" and not any(abs(b.frame - d.frame) <= abs(d.size) + 10 for b in named)
     ]
-    return tuple(sorted({*named, *drops}, key=lambda b: (b.frame, b.kind)))
+    for cut in list(cuts):
+        near = [d for d in drops if abs(d.frame - cut.frame) <= abs(d.size) + 10]
+        if near:
+            cuts.remove(cut)
+            drops = [d for d in drops if d not in near] + [Break("drop", cut.frame, near[0].size)]
+    return tuple(sorted({*named, *cuts, *drops}, key=lambda b: (b.frame, b.kind)))
 
 
 def break_reasons(
@@ -236,7 +246,7 @@ def identify_in_segments(
     vote_clock = row_clock[found.vote_rows]
     drop = vote_break(found.votes.frame, vote_clock, found.votes.sample, found.alpha, found.beta, params.delta)
     breaks = merged((*breaks, drop) if drop is not None else breaks)
-    segments = fit_segments(
+    segments, breaks = segments_of(
         breaks,
         found.track.frame,
         found.votes.frame,

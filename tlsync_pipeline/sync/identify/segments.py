@@ -16,6 +16,12 @@ frames' clock values move by to fall on that line (sync/model/clock.py,
   known neighbour (by the gap's size), else unknown;
 - frozen pictures (and repeated times): no instant of their own, unknown.
 
+A cut (the picture changes at once) whose two sides the votes put on one
+clock is no break (a light switched on, a car leaving at once):
+``segments_of`` drops it and fits again. A segment the target never visits
+beyond a cut is unknown even when the container's times run on across it:
+a recording restarted and re-stamped shows exactly that.
+
 A presentation-time clock (variable frame rate) carries the container's
 gaps already: they cut it into no segment (a phone that halves its rate in
 the dark is not broken); a drop the votes show still does.
@@ -120,6 +126,69 @@ def fit_segments(
         Segment(a, b, None if s is None else round(float(s), 4), src, _count(tracked, a, b))
         for (a, b, _), s, src in zip(pieces, shifts, sources)
     )
+
+
+def segments_of(
+    breaks: tuple[Break, ...],
+    tracked: np.ndarray,
+    frame: np.ndarray,
+    clock: np.ndarray,
+    sample: np.ndarray,
+    dist: np.ndarray,
+    alpha: float,
+    beta: float,
+    delta: float,
+    vfr: bool,
+) -> tuple[tuple[Segment, ...], tuple[Break, ...]]:
+    """``fit_segments`` without the cuts it shows are none (``void_cuts``), and the breaks left (arguments as
+    ``fit_segments``'s)."""
+    segments = fit_segments(breaks, tracked, frame, clock, sample, dist, alpha, beta, delta, vfr)
+    void = void_cuts(breaks, segments)
+    if not void:
+        return segments, breaks
+    breaks = tuple(b for b in breaks if b not in void)
+    return fit_segments(breaks, tracked, frame, clock, sample, dist, alpha, beta, delta, vfr), breaks
+
+
+def void_cuts(breaks: tuple[Break, ...], segments: tuple[Segment, ...]) -> tuple[Break, ...]:
+    """The cuts between two segments whose shifts the target's votes measured alike (within WHOLE_FRAME): the
+    same clock on both sides."""
+    measured = {s.start: s for s in segments if s.shift is not None and s.source in ("line", "votes")}
+    ends = {s.stop: s for s in segments if s.shift is not None and s.source in ("line", "votes")}
+    return tuple(
+        b
+        for b in breaks
+        if b.kind == "cut"
+        and b.frame in measured
+        and b.frame in ends
+        and abs(measured[b.frame].shift - ends[b.frame].shift) <= WHOLE_FRAME  # type: ignore[operator]
+    )
+
+
+def joined_at_void_cuts(
+    segments: tuple[Segment, ...], breaks: tuple[Break, ...]
+) -> tuple[tuple[Segment, ...], tuple[Break, ...]]:
+    """The segments with those on either side of a cut joined where their shifts are the same (``void_cuts``, after
+    each segment's shift is measured on its own line), and the breaks without those cuts; one segment left: none."""
+    void = void_cuts(breaks, segments)
+    if not void:
+        return segments, breaks
+    at = {b.frame for b in void}
+    out: list[Segment] = []
+    for seg in segments:
+        if out and seg.start in at:
+            last = out.pop()
+            source = "line" if "line" in (last.source, seg.source) else last.source
+            seg = Segment(
+                last.start,
+                seg.stop,
+                last.shift if source == last.source else seg.shift,
+                source,
+                last.frames + seg.frames,
+            )
+        out.append(seg)
+    left = tuple(b for b in breaks if b not in void)
+    return (tuple(out) if len(out) > 1 else ()), left
 
 
 def _count(tracked: np.ndarray, start: int, stop: int) -> int:

@@ -12,7 +12,7 @@ adds blobs and false lines):
 2. hypotheses are lines through two thinned votes, half drawn anywhere and
    half from votes close in frame order (inliers are contiguous in time), in
    batches until the count of eq. 4 for the best inlier ratio found so far is
-   reached (adaptive RANSAC, capped);
+   reached (adaptive RANSAC, capped; sync/kernels/robust.py's loop);
 3. a hypothesis scores the number of distinct frames among its inliers
    (orthogonal distance <= delta), not raw votes;
 4. the best hypotheses are polished by least squares on their inliers
@@ -38,17 +38,29 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 
-from tlsync_pipeline.sync.kernels.ransac import distance_to_line, least_squares_line
+from tlsync_pipeline.sync.kernels.ransac import LineModel, distance_to_line, least_squares_line
+from tlsync_pipeline.sync.kernels.robust import (
+    Draws,
+    InlierCount,
+    Preemption,
+    Refine,
+    Sampler,
+    Scores,
+    best_finalist,
+    polish,
+    robust_fit,
+    within,
+)
 from tlsync_pipeline.sync.kernels.slope import SlopePrior
 
 BATCH = 1024  # hypotheses scored per batch
 MAX_HYPOTHESES = 60_000
 SCORE_SUBSET = 12_000  # votes used to rank hypotheses (all votes for the finalists)
 _FINALISTS = 16
-_CHUNK_ELEMENTS = 1 << 22
 
 
 @dataclass(frozen=True)
@@ -109,75 +121,39 @@ def _group_codes(key: np.ndarray) -> tuple[np.ndarray, int]:
     return codes.ravel(), len(values)
 
 
-def _distinct_frames(inlier: np.ndarray, starts: np.ndarray) -> np.ndarray:
-    """Per row of a (hypotheses, votes) mask sorted by frame: frames with an inlier."""
-    return np.maximum.reduceat(inlier, starts, axis=1).sum(axis=1)
+def _pairs(m: int, window: int) -> Sampler:
+    """Pairs of votes (sorted by frame) among m: half anywhere, half within ``window`` votes of each other."""
+
+    def draw(rng: np.random.Generator, n: int) -> np.ndarray:
+        i = rng.integers(m, size=n)
+        j = rng.integers(m, size=n)
+        local = np.arange(n) % 2 == 1
+        offset = rng.integers(1, window + 1, size=n) * rng.choice((-1, 1), size=n)
+        return np.stack([i, np.where(local, np.clip(i + offset, 0, m - 1), j)])
+
+    return draw
 
 
-def _score(sample, frame, starts, alpha, beta, delta) -> np.ndarray:
-    """Distinct inlier frames of each line (votes sorted by frame, group starts given)."""
-    out = np.zeros(len(alpha), dtype=np.int64)
-    step = max(1, _CHUNK_ELEMENTS // max(1, len(sample)))
-    for k in range(0, len(alpha), step):
-        a = alpha[k : k + step, None]
-        b = beta[k : k + step, None]
-        inlier = distance_to_line(sample[None, :], frame[None, :], a, b) <= delta
-        out[k : k + step] = _distinct_frames(inlier, starts)
-    return out
-
-
-def _group_starts(frame_sorted: np.ndarray) -> np.ndarray:
-    return np.flatnonzero(np.r_[True, frame_sorted[1:] != frame_sorted[:-1]])
-
-
-def _hypotheses(rng, sample, frame, n, window):
-    """n lines through pairs of votes (sorted by frame): half global pairs, half local ones."""
-    m = len(sample)
-    i = rng.integers(m, size=n)
-    j = rng.integers(m, size=n)
-    local = np.arange(n) % 2 == 1
-    offset = rng.integers(1, window + 1, size=n) * rng.choice((-1, 1), size=n)
-    j = np.where(local, np.clip(i + offset, 0, m - 1), j)
-    ds = sample[j] - sample[i]
-    usable = ds != 0
-    alpha = np.divide(frame[j] - frame[i], ds, out=np.zeros(n), where=usable)
-    usable &= alpha > 0
-    alpha = alpha[usable]
-    return alpha, frame[i[usable]] - alpha * sample[i[usable]]
+def _line_model(
+    sample: np.ndarray, frame: np.ndarray, delta: float, prior: SlopePrior | None
+) -> tuple[LineModel, InlierCount, Refine]:
+    """The votes (sorted by frame) as lines to fit, the score (distinct inlier frames) and the polish of a line."""
+    fit = least_squares_line if prior is None else partial(_map_line, prior=prior, delta=delta)
+    model = LineModel(sample, frame, fit, increasing=True)
+    return model, InlierCount(delta, groups=frame), partial(_polish, model, delta)
 
 
 def _search(rng, sample, frame, delta, p, r_min, prior):
     """Best line over votes sorted by frame: (alpha, beta, support, lines scored); the sweep with a prior, adaptive RANSAC without."""
     if prior is not None:
         return _sweep(rng, sample, frame, delta, prior)
-    m = len(sample)
-    if m > SCORE_SUBSET:
-        subset = np.sort(rng.choice(m, SCORE_SUBSET, replace=False))
-    else:
-        subset = np.arange(m)
-    s_sub, f_sub = sample[subset], frame[subset]
-    starts_sub = _group_starts(f_sub)
-    window = max(5, m // 50)
-    needed = min(MAX_HYPOTHESES, _iterations(p, r_min))
-    drawn, best_count = 0, 0
-    pool_a, pool_b, pool_s = [], [], []
-    while drawn < max(BATCH, min(needed, MAX_HYPOTHESES)):
-        a, b = _hypotheses(rng, sample, frame, BATCH, window)
-        drawn += BATCH
-        if len(a) == 0:
-            continue
-        counts = _score(s_sub, f_sub, starts_sub, a, b, delta)
-        top = np.argsort(-counts, kind="stable")[:_FINALISTS]
-        pool_a.append(a[top])
-        pool_b.append(b[top])
-        pool_s.append(counts[top])
-        best_count = max(best_count, int(counts[top[0]]))
-        # The inlier ratio of the best line so far sets how many draws are needed (eq. 4).
-        ratio = max(best_count / len(starts_sub), r_min)
-        needed = min(needed, _iterations(p, min(ratio, 0.999)) * 2)
-    if not pool_a:
+    model, rule, polished = _line_model(sample, frame, delta, prior)
+    draws = Draws(MAX_HYPOTHESES, BATCH, confidence=p, ratio=r_min)
+    preemption = Preemption(SCORE_SUBSET, _FINALISTS, ordered=True)
+    found = robust_fit(model, rng, _pairs(len(sample), max(5, len(sample) // 50)), rule, draws, preemption, polished)
+    if found is None:
         return None
-    return (*_best_finalist(sample, frame, np.concatenate(pool_a), np.concatenate(pool_b), np.concatenate(pool_s), delta, None), drawn)
+    return float(found.model[0]), float(found.model[1]), found.score, found.drawn
 
 
 SWEEP_PEAKS = 4  # candidate lines kept per slope of the sweep
@@ -207,7 +183,10 @@ def _sweep(rng, sample, frame, delta, prior: SlopePrior):
             pool_a.append(alpha)
             pool_b.append(intercept[k] + width / 2)
             pool_s.append(counts[k])
-    return (*_best_finalist(sample, frame, np.array(pool_a), np.array(pool_b), np.array(pool_s), delta, prior), len(slopes) * len(s_counted))
+    model, rule, polished = _line_model(sample, frame, delta, prior)
+    found = Scores(np.array(pool_s), len(s_counted))
+    best, support = best_finalist(model, rule, np.column_stack([pool_a, pool_b]), found, _FINALISTS, polished)
+    return float(best[0]), float(best[1]), support, len(slopes) * len(s_counted)
 
 
 def _peaks(intercept: np.ndarray, counts: np.ndarray, width: float) -> list[int]:
@@ -225,37 +204,11 @@ def _peaks(intercept: np.ndarray, counts: np.ndarray, width: float) -> list[int]
     return kept
 
 
-def _best_finalist(sample, frame, alpha, beta, counts, delta, prior):
-    """Of the candidate lines, the _FINALISTS with most votes polished and scored on every vote: (alpha, beta, support)."""
-    top = np.argsort(-counts, kind="stable")[:_FINALISTS]
-    starts = _group_starts(frame)
-    best = None
-    for a, b in zip(alpha[top], beta[top]):
-        a, b = _polish(sample, frame, float(a), float(b), delta, prior)
-        score = int(_score(sample, frame, starts, np.array([a]), np.array([b]), delta)[0])
-        if best is None or score > best[2]:
-            best = (a, b, score)
-    return best
-
-
-def _iterations(p: float, r: float) -> int:
-    return max(1, math.ceil(math.log(1 - p) / math.log(1 - r * r)))
-
-
-def _polish(sample, frame, alpha, beta, delta, prior=None):
+def _polish(model: LineModel, delta: float, line: np.ndarray) -> np.ndarray:
     """Least squares on the inliers, widened then narrowed, until the set settles (LO-RANSAC); with the prior, a MAP fit kept in its band."""
-    for threshold in (2 * delta, delta, delta, delta):
-        inlier = distance_to_line(sample, frame, alpha, beta) <= threshold
-        if not inlier.any() or np.ptp(sample[inlier]) == 0:  # fewer than 2 distinct samples
-            break
-        if prior is None:
-            a, b = least_squares_line(sample[inlier], frame[inlier])
-        else:
-            a, b = _map_line(sample[inlier], frame[inlier], prior, delta)
-        if not a > 0:
-            break
-        alpha, beta = a, b
-    return alpha, beta
+    polished = polish(model, within(2 * delta, delta), 4, start=line)
+    assert polished is not None, "a polish from a line always has one"
+    return polished.model
 
 
 def _map_line(sample, frame, prior: SlopePrior, delta: float) -> tuple[float, float]:

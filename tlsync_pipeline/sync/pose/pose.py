@@ -11,7 +11,10 @@ rate), only beta is unknown:
    (OpenCV's SQPnP on distortion-free pixels, then twice again on the
    better half of the pairs, which is robust to a share of wrong
    positions); the candidate's support is the pairs the pose explains
-   within the threshold. A coarse pass (3 x the threshold, steps of half
+   within the threshold. Under a log with a bias the pose and the log's
+   bias over the visit are fitted together instead (sync/pose/pose_bias.py),
+   and the support is what they explain less what the bias's prior costs.
+   A coarse pass (3 x the threshold, steps of half
    the threshold over the track's image speed) and a fine pass around its
    best peaks;
 2. the best CANDIDATES peaks of distinct offsets are fitted: pose, line
@@ -72,7 +75,9 @@ from tlsync_pipeline.sync.identify.identify import (
     identify_target,
 )
 from tlsync_pipeline.sync.kernels.line_search import find_line
+from tlsync_pipeline.sync.kernels.robust import msac, polish, trimmed
 from tlsync_pipeline.sync.model.log_model import LogModel
+from tlsync_pipeline.sync.pose.pose_bias import CUT, VisitBias, fit_with_bias
 from tlsync_pipeline.sync.pose.pose_fit import (
     INTRINSICS,
     MODEL_ERROR_PX,
@@ -98,7 +103,11 @@ AMBIGUOUS = 0.85  # a distinct offset scoring this share of the best's score (ms
 TIGHT = 3.0  # median residuals of the best fit within which frames count for the ambiguity test
 DISTINCT_S = 1.0  # offsets further apart than this (seconds) are distinct
 LOG_GATE = 2.5  # under a metre-level log, the gate in units of the log's unabsorbed error seen in pixels
-LOG_ROTATION = 4.0  # under a metre-level log, the rotation std allowed in units of the angle its error subtends
+TIMING_S = 0.5  # under a log with a bias, the largest std of a pose fit's beta (seconds): half of DISTINCT_S
+LOG_ROTATION = 4.0  # under a biased log on a nearly straight path: the rotation std allowed, in angles its error subtends
+LOG_ROTATION_CURVED = 8.0  # the same on a curved path, where the timing's std is checked too
+PROFILE_POINTS = 600  # tracked positions whose support with the log's bias fitted gives the timing (profile_beta)
+PROFILE_SIGMAS = 3  # profile_beta looks this many of the fit's beta stds either side of it
 GCP_AGREE = 3.0  # a pose agrees with the GCPs when their median error is within this many of their sigmas
 SURVEY_SUPPORT = 0.9  # a pose from GCPs and track together must explain this share of the frames the track's own pose explains
 CHI2_2_MEDIAN = 2.0 * np.log(2.0)  # median of a chi-square of 2 degrees of freedom
@@ -175,7 +184,9 @@ class TargetPose:
     free to move: (value, std, determined); gcps_used: the GCPs as the fit
     counted them (their measured sigma and weight; None: as given);
     disagreeing: the GCPs that conflict with the track (the pose is then the
-    track's alone, source ``target``).
+    track's alone, source ``target``); bias_beta: under a log with a bias, the
+    beta the pose and the log's bias fitted together explain best
+    (``profile_beta``), NaN otherwise.
     """
 
     camera: Camera
@@ -194,6 +205,7 @@ class TargetPose:
     intrinsics: dict[str, tuple[float, float, bool]] | None = None
     gcps_used: GcpPrior | None = None
     disagreeing: tuple[str, ...] = ()
+    bias_beta: float = float("nan")
 
     @property
     def support(self) -> int:
@@ -247,7 +259,7 @@ def pose_from_track(
     seed: int = 0,
     delta: float = 0.5,
     offsets: tuple[float, float] | None = None,
-    log_m: float = 0.0,
+    log_model: LogModel | None = None,
 ) -> TargetPose:
     """The camera's pose (and line) from its track of the target; PoseError with the cause when it is not determined.
 
@@ -261,28 +273,34 @@ def pose_from_track(
     free: intrinsics the fit may move (``f``, ``cx``, ``k1``); delta: the
     line search's band for the GCP candidate's line; offsets: the range of
     beta (clock units) the search covers (None: all the log allows);
-    log_m: the log's error over the visit that a fixed pose cannot absorb
-    (metres, ``LogModel.unabsorbed_m``): the gate, loss scale and shared
-    model error widen to it as seen at the target's depth (``log_scales``).
+    log_model: the log's error; with a bias, the search scores each offset
+    with the log's bias over the visit fitted with the pose (sync/pose/pose_bias.py),
+    and the fits' gate, loss scale and shared model error widen to the error
+    a fixed pose cannot absorb over the track's span (``LogModel.unabsorbed_m``)
+    as seen at the target's depth (``log_scales``).
     """
     clock = np.asarray(clock, dtype=np.float64)
     xy = np.asarray(xy, dtype=np.float64)
+    biased = log_model if log_model is not None and log_model.has_bias and fps else None
+    log_m = biased.unabsorbed_m(float(np.ptp(clock)) / fps) if biased is not None and len(clock) and fps else 0.0
     unknown_k = "intrinsics" in camera.to_estimate
     if unknown_k:
         free = tuple(sorted(set(free) | {"f", "cx", "k1"}, key=INTRINSICS.index))
     if gcps is None or gcp_camera is None or free:
         try:
-            search, fits = candidate_fits(camera, clock, xy, path, prior, fps, gate_px, gcps, gcp_camera, free, f_scale, seed, delta, offsets=offsets, log_m=log_m)
+            search, fits = candidate_fits(camera, clock, xy, path, prior, fps, gate_px, gcps, gcp_camera, free, f_scale, seed, delta, offsets=offsets, log_model=biased)
         except PoseError as exc:
             if exc.cause != "gcp_conflict" or free:
                 raise
             # GCPs without a pose of their own (too few, too rough) that no pose of the track keeps: the track alone
-            alone = pose_from_track(camera, clock, xy, path, prior, fps, gate_px, None, None, (), f_scale, seed, delta, offsets, log_m)
+            alone = pose_from_track(camera, clock, xy, path, prior, fps, gate_px, None, None, (), f_scale, seed, delta, offsets, log_model)
             return replace(alone, disagreeing=_names(gcps))  # type: ignore[arg-type]
         result = ranked_pose(fits, search, xy, fps or 0.0, gcps is not None, gcp_camera)
         if free:
             result = _settle_intrinsics(result, clock, xy, path, prior, gate_px, f_scale, gcps, free, unknown_k)
-        check_determined(result, clock, path, gcps is not None, log_m)
+        check_determined(result, clock, path, gcps is not None, log_m, fps)
+        if biased is not None and not free:
+            result = replace(result, bias_beta=profile_beta(result.fit, clock, xy, path, biased, fps))  # type: ignore[arg-type]
         return result
     return _survey_and_target(camera, clock, xy, path, prior, fps, gate_px, gcps, gcp_camera, f_scale, seed, delta, offsets)
 
@@ -391,14 +409,14 @@ def candidate_fits(
     delta: float,
     min_frames: int = MIN_FRAMES,
     offsets: tuple[float, float] | None = None,
-    log_m: float = 0.0,
+    log_model: LogModel | None = None,
 ) -> tuple[OffsetSearch, list[JointFit]]:
     """The offset search (within ``offsets``, clock units, when given) and the joint fits of its candidates (and the
     GCP candidate), best first (most frames within the gate).
 
-    With GCPs only the fits that keep them within GCP_AGREE sigmas. Raises
-    PoseError when there is none (no_clock, too_few_frames, planar_path,
-    no_fit, gcp_conflict).
+    With GCPs only the fits that keep them within GCP_AGREE sigmas. log_model:
+    a log with a bias (``pose_from_track``'s), or None. Raises PoseError when
+    there is none (no_clock, too_few_frames, planar_path, no_fit, gcp_conflict).
     """
     name = camera.name
     if prior is None or not fps:
@@ -406,7 +424,9 @@ def candidate_fits(
     if len(clock) < min_frames:
         raise PoseError(name, "too_few_frames", f"{len(clock)} tracked frames, at least {min_frames} are needed")
     dlt = "intrinsics" in camera.to_estimate
-    search, candidates = search_offsets(camera, clock, xy, path, prior.alpha, seed, dlt=dlt, offsets=offsets)
+    biased = log_model if log_model is not None and log_model.has_bias else None
+    search, candidates = search_offsets(camera, clock, xy, path, prior.alpha, seed, dlt=dlt, offsets=offsets, log_model=biased, fps=fps)
+    log_m = biased.unabsorbed_m(float(np.ptp(clock)) / fps) if biased is not None else 0.0
     if gcp_camera is not None:
         found = _gcp_candidate(gcp_camera, clock, xy, path, prior, gate_px, delta, seed)
         if found is not None:
@@ -487,12 +507,55 @@ def ranked_pose(fits: list[JointFit], search: OffsetSearch, xy: np.ndarray, fps:
     return result
 
 
-def check_determined(result: TargetPose, clock: np.ndarray, path: PiecewiseTrajectory, with_gcps: bool, log_m: float = 0.0) -> None:
+def profile_beta(
+    fit: JointFit, clock: np.ndarray, xy: np.ndarray, path: PiecewiseTrajectory, log_model: LogModel, fps: float
+) -> float:
+    """The beta of the largest support of the pose and the log's bias over the track fitted together
+    (sync/pose/pose_bias.py, PROFILE_POINTS tracked positions), within PROFILE_SIGMAS of the fit's beta std, at
+    steps of a tenth of it, the peak interpolated by a parabola; the fit's beta when the profile has no peak inside.
+
+    The rigid fit takes the log's wander over the visit as noise shared by blocks of frames, and its beta moves with
+    it (on drone2 under a drone's GNSS: 0.3-9 frames off); with the wander fitted under its prior the peak was
+    within 0-4.5 frames (seeds 0 and 2, every camera)."""
+    if not np.isfinite(fit.se_beta) or fit.se_beta <= 0:
+        return fit.beta
+    camera = fit.camera
+    rows = np.unique(np.linspace(0, len(clock) - 1, min(PROFILE_POINTS, len(clock))).round().astype(np.int64))
+    c = clock[rows]
+    ideal = undistort_pixels(xy[rows], camera.K, camera.dist, camera.dist_model, P=camera.K)
+    score = _Scorer(camera.K, c, ideal, path, fit.alpha, False, VisitBias.over(c, fps, log_model))
+    step = max(fit.se_beta / 10.0, 0.05)
+    betas = fit.beta + step * np.arange(-10 * PROFILE_SIGMAS, 10 * PROFILE_SIGMAS + 1)
+    support = score.many(betas, max(8.0, 0.01 * float(np.hypot(*camera.image_size))))
+    k = int(np.argmax(support))
+    if k == 0 or k == len(betas) - 1:
+        return fit.beta
+    left, mid, right = support[k - 1 : k + 2]
+    curvature = left - 2 * mid + right
+    return float(betas[k] + (0.5 * step * (left - right) / curvature if curvature < 0 else 0.0))
+
+
+def check_determined(
+    result: TargetPose, clock: np.ndarray, path: PiecewiseTrajectory, with_gcps: bool, log_m: float = 0.0, fps: float | None = None
+) -> None:
     """Raise PoseError when the pose is not determined (see the module docstring, step 4).
 
-    log_m: as ``pose_from_track``'s; the rotation may then be as loose as
-    LOG_ROTATION times the angle that error subtends at the target's depth
-    (the pose carries the log's error; its interval says so)."""
+    log_m: as ``pose_from_track``'s. Under a log with a bias (log_m > 0 and
+    the camera's fps) the pose absorbs the log's error and serves the timing
+    only (``pose_info``): on a path that is not nearly straight in the image
+    (NEARLY_STRAIGHT) what must be determined is the timing, whose std
+    carries the pose's looseness (the fit's model error is the log's), and
+    the camera is refused when beta's std exceeds TIMING_S seconds (the
+    ambiguity test could no longer tell distinct offsets apart) or the
+    rotation's std LOG_ROTATION_CURVED times the angle the log's error
+    subtends at the target's depth (a wrong offset's pose: on drone2 the
+    right poses' were 9-14 degrees, 4-6 such angles, the rigid search's wrong
+    offsets' 19-145 degrees). A nearly
+    straight path is explained as well by poses tens of metres off at wrong
+    offsets with a tight beta (a walker under a drone's GNSS: 50-86 m off,
+    beta's std 5 frames, 31 s off): there the pose itself must be
+    determined, its rotation as loose as LOG_ROTATION times the angle the
+    log's error subtends at the target's depth."""
     fit, name = result.fit, result.camera.name
     if fit.support < MIN_FRAMES:
         raise PoseError(name, "too_few_frames", f"{fit.support} frames within the gate, at least {MIN_FRAMES} are needed")
@@ -507,10 +570,16 @@ def check_determined(result: TargetPose, clock: np.ndarray, path: PiecewiseTraje
         )
     depth = median_depth(fit.camera, clock[fit.inliers], path, fit.alpha, fit.beta)
     loose = []
-    if not fit.rotation_std_deg <= max(MAX_ROTATION_STD_DEG, LOG_ROTATION * np.degrees(log_m / depth)):
-        loose.append(f"rotation +-{fit.rotation_std_deg:.2g} deg")
-    if not fit.center_std_m <= MAX_CENTER_STD * depth:
-        loose.append(f"centre +-{fit.center_std_m:.2g} m at {depth:.0f} m")
+    if log_m > 0 and fps and result.straightness >= NEARLY_STRAIGHT:
+        if not fit.se_beta <= TIMING_S * fps:
+            loose.append(f"the offset +-{fit.se_beta / fps:.2g} s under the log's error")
+        if not fit.rotation_std_deg <= max(MAX_ROTATION_STD_DEG, LOG_ROTATION_CURVED * np.degrees(log_m / depth)):
+            loose.append(f"rotation +-{fit.rotation_std_deg:.2g} deg")
+    else:
+        if not fit.rotation_std_deg <= max(MAX_ROTATION_STD_DEG, LOG_ROTATION * np.degrees(log_m / depth)):
+            loose.append(f"rotation +-{fit.rotation_std_deg:.2g} deg")
+        if not fit.center_std_m <= MAX_CENTER_STD * depth:
+            loose.append(f"centre +-{fit.center_std_m:.2g} m at {depth:.0f} m")
     if loose:
         cause = "straight_path" if result.straightness < NEARLY_STRAIGHT else "pose_undetermined"
         raise PoseError(name, cause, "the track leaves the pose loose (" + ", ".join(loose) + ")")
@@ -554,12 +623,22 @@ def rotation_between(Ra: np.ndarray, Rb: np.ndarray) -> float:
 
 
 def search_offsets(
-    camera: Camera, clock: np.ndarray, xy: np.ndarray, path: PiecewiseTrajectory, alpha: float, seed: int = 0, dlt: bool = False, offsets: tuple[float, float] | None = None
+    camera: Camera,
+    clock: np.ndarray,
+    xy: np.ndarray,
+    path: PiecewiseTrajectory,
+    alpha: float,
+    seed: int = 0,
+    dlt: bool = False,
+    offsets: tuple[float, float] | None = None,
+    log_model: LogModel | None = None,
+    fps: float | None = None,
 ) -> tuple[OffsetSearch, list[Candidate]]:
     """The search over beta with alpha held (module docstring, step 1): the fine pass and the CANDIDATES best peaks as cameras.
 
     dlt: fit a projection matrix (unknown intrinsics) instead of a pose; offsets: the range of beta searched (clock
-    units), within what the log allows (None: all of it).
+    units), within what the log allows (None: all of it); log_model: a log with a bias, whose bias over the track is
+    fitted with each offset's pose (sync/pose/pose_bias.py; the camera's fps gives the knots' seconds; None: a rigid pose).
     """
     w, h = camera.image_size
     threshold = max(8.0, 0.01 * float(np.hypot(w, h)))
@@ -574,7 +653,9 @@ def search_offsets(
     hi = float(c.max() - alpha * path.starts.min())
     if offsets is not None:
         lo, hi = max(lo, offsets[0]), min(hi, offsets[1])
-    score = _Scorer(camera.K, c, ideal, path, alpha, dlt)
+    biased = log_model is not None and log_model.has_bias and fps and not dlt
+    visit = VisitBias.over(c, fps, log_model) if biased else None  # type: ignore[arg-type]
+    score = _Scorer(camera.K, c, ideal, path, alpha, dlt, visit)
     betas = np.arange(lo, hi + coarse, coarse)
     support = score.many(betas, COARSE * threshold)
     tried = len(betas)
@@ -604,16 +685,22 @@ def _peaks(support: np.ndarray, count: int, separation: float = 2.0) -> list[int
 
 
 class _Scorer:
-    """Support of candidate offsets: pose (or projection matrix) fitted to the pairs, trimmed twice, pairs within a threshold."""
+    """Support of candidate offsets: pose (or projection matrix) fitted to the pairs, trimmed twice, pairs within a
+    threshold; under a log with a bias (``bias``), the pose and the log's bias over the visit fitted together
+    (sync/pose/pose_bias.py, its support in the same units)."""
 
-    def __init__(self, K: np.ndarray, clock: np.ndarray, ideal: np.ndarray, path: PiecewiseTrajectory, alpha: float, dlt: bool):
+    def __init__(
+        self, K: np.ndarray, clock: np.ndarray, ideal: np.ndarray, path: PiecewiseTrajectory, alpha: float, dlt: bool, bias: VisitBias | None = None
+    ):
         self.K, self.clock, self.ideal, self.path, self.alpha, self.dlt = K, clock, ideal, path, alpha, dlt
+        self.bias = bias
 
-    def pairs(self, beta: float) -> tuple[np.ndarray, np.ndarray]:
+    def pairs(self, beta: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The trajectory's positions and the pixels of the rows on it at ``beta``, and the mask of those rows."""
         s = (self.clock - beta) / self.alpha
         run = self.path.run_of(s)
         on = run >= 0
-        return self.path(s[on], run[on]), self.ideal[on]
+        return self.path(s[on], run[on]), self.ideal[on], on
 
     def many(self, betas: np.ndarray, threshold: float) -> np.ndarray:
         """(len(betas),) support of each offset."""
@@ -630,38 +717,35 @@ class _Scorer:
             on = on.reshape(len(chunk), -1)
             for k in range(len(chunk)):
                 if on[k].sum() >= MIN_PAIRS:
-                    out[first + k] = self.fit(xyz[k][on[k]], self.ideal[on[k]], threshold)[0]
+                    out[first + k] = self.fit(xyz[k][on[k]], self.ideal[on[k]], threshold, on[k])[0]
         return out
 
-    def fit(self, xyz: np.ndarray, uv: np.ndarray, threshold: float):
-        """(support, pose or projection) of one offset's pairs.
+    def fit(self, xyz: np.ndarray, uv: np.ndarray, threshold: float, on: np.ndarray | None = None):
+        """(support, pose or projection) of one offset's pairs (``on``: the rows they are, for the bias's knots).
 
         The support is the truncated quadratic score of the pairs,
         sum(max(0, 1 - (error / threshold)^2)) (MSAC): pairs within the
         threshold count, the closer the more, so a track that several
         offsets explain within the threshold still ranks the one that
-        explains it best first.
+        explains it best first. Under a log with a bias: pose_bias.fit_with_bias's
+        support at sigma threshold / CUT.
         """
-        keep = np.ones(len(xyz), dtype=bool)
-        model = None
-        for _ in range(3):
-            model = _dlt(xyz[keep], uv[keep]) if self.dlt else _pnp(xyz[keep], uv[keep], self.K)
-            if model is None:
-                return 0, None
-            error = _errors(model, xyz, uv, self.K, self.dlt)
-            keep = error <= np.quantile(error, 0.5)
-            if keep.sum() < 6:
-                return 0, None
-        return msac(error, threshold), model
+        if self.bias is not None and on is not None:
+            support, pose, _ = fit_with_bias(xyz, uv, self.K, self.bias, on, threshold / CUT, _pnp)
+            return support, pose
+        fitted = polish(_Pairs(xyz, uv, self.K, self.dlt), trimmed(0.5), 3, min_inliers=6, strict=True)
+        if fitted is None:
+            return 0, None
+        return msac(fitted.residuals, threshold), fitted.model
 
     def camera_at(self, camera: Camera, beta: float, threshold: float) -> Camera | None:
         """The camera of the pose fitted at ``beta`` (with K and R, t from the projection matrix under DLT), or None."""
         import cv2
 
-        xyz, uv = self.pairs(beta)
+        xyz, uv, on = self.pairs(beta)
         if len(xyz) < MIN_PAIRS:
             return None
-        _, model = self.fit(xyz, uv, threshold)
+        _, model = self.fit(xyz, uv, threshold, on)
         if model is None:
             return None
         if self.dlt:
@@ -671,6 +755,27 @@ class _Scorer:
             return Camera(camera.name, K, np.zeros(5), R, t, camera.image_size, camera.fps, camera.dist_model, dict(camera.extra))
         rvec, tvec = model
         return Camera(camera.name, camera.K, camera.dist, cv2.Rodrigues(rvec)[0], tvec.ravel(), camera.image_size, camera.fps, camera.dist_model, dict(camera.extra))
+
+
+@dataclass(frozen=True)
+class _Pairs:
+    """One offset's pairs (trajectory point, ideal pixel) as the robust fit's model class (sync/kernels/robust.py): a
+    model is a pose (rvec, tvec), or under DLT a projection matrix; a pair's residual is its pixel error."""
+
+    xyz: np.ndarray
+    uv: np.ndarray
+    K: np.ndarray
+    dlt: bool
+
+    @property
+    def rows(self) -> int:
+        return len(self.xyz)
+
+    def refit(self, rows: np.ndarray) -> object | None:
+        return _dlt(self.xyz[rows], self.uv[rows]) if self.dlt else _pnp(self.xyz[rows], self.uv[rows], self.K)
+
+    def residuals(self, model: object) -> np.ndarray:
+        return _errors(model, self.xyz, self.uv, self.K, self.dlt)
 
 
 def _pnp(xyz: np.ndarray, uv: np.ndarray, K: np.ndarray):
@@ -835,12 +940,6 @@ def _settle_intrinsics(result: TargetPose, clock, xy, path, prior, gate_px, f_sc
     return replace(result, camera=fit.camera, fit=fit, intrinsics=report)
 
 
-def msac(errors: np.ndarray, threshold: float) -> float:
-    """Truncated quadratic score of pixel errors: sum(max(0, 1 - (error / threshold)^2)); inf errors count 0."""
-    with np.errstate(invalid="ignore"):
-        return float(np.clip(1.0 - (np.asarray(errors) / threshold) ** 2, 0.0, None).sum())
-
-
 @dataclass(frozen=True)
 class MoverPose:
     """A pose from every mover: the pose (fitted on the identified track), the identification under it, the tracklet it started from, and the tracklets tried (id -> why they gave nothing, or "")."""
@@ -986,8 +1085,8 @@ def estimate_pose(
     outlier threshold before widening; start: that pose when already
     known); offsets: the range of beta (clock units) searched, e.g. around
     the scan stage's coarse line (None: all the log allows); log_model: the log's error (with a bias, the
-    fit from a track allows the part of it a fixed pose cannot absorb over the track's span, ``pose_from_track``'s
-    log_m). A camera without K gets its intrinsics fitted too. Returns the
+    search from a track fits the bias with the pose, and the fits allow the part of it a fixed pose cannot absorb,
+    ``pose_from_track``'s). A camera without K gets its intrinsics fitted too. Returns the
     pose and, from movers, the identification under it. Raises PoseError.
     """
     if start is None and gcps is not None and len(gcps.xyz) >= 4:
@@ -1003,9 +1102,8 @@ def estimate_pose(
     clock = camera_clock(track, fps)
     values = clock.clock_at(track.frame, FrameTimes.of_track(track))
     prior = slope_prior(fps, trajectory.rate, params.rate_sigma)
-    log_m = log_model.unabsorbed_m(float(np.ptp(values)) / fps) if log_model is not None and log_model.has_bias and fps else 0.0
     path = PiecewiseTrajectory(trajectory)
-    pose = pose_from_track(camera, values, track.xy, path, prior, fps, params.eps_px, gcps, start, (), params.f_scale_px, params.seed, params.delta, offsets, log_m)
+    pose = pose_from_track(camera, values, track.xy, path, prior, fps, params.eps_px, gcps, start, (), params.f_scale_px, params.seed, params.delta, offsets, log_model)
     return pose, None
 
 

@@ -158,6 +158,7 @@ class JointFit:
     errors: np.ndarray  # (N,) pixel error of each given frame under the fit (inf off the trajectory)
     gate_px: float = 10.0
     track_inflation: float = 1.0
+    line_cov: np.ndarray | None = None  # (2, 2) covariance of (alpha, beta)
 
     @property
     def inliers(self) -> np.ndarray:
@@ -252,6 +253,7 @@ def fit_pose_and_line(
         error,
         gate_px,
         solved.inflation,
+        solved.line_cov,
     )
 
 
@@ -296,6 +298,7 @@ class _Solved:
     converged: bool
     message: str
     inflation: float
+    line_cov: np.ndarray
 
 
 def _solve(camera, clock, xy, path, x0, c_mid, layout, f_scale, prior, gcps, intrinsics_prior, model_error_px) -> _Solved:
@@ -334,6 +337,8 @@ def _solve(camera, clock, xy, path, x0, c_mid, layout, f_scale, prior, gcps, int
     alpha, beta = 1.0 / u, c_mid - s0 / u
     d_beta = np.zeros(len(x))
     d_beta[6], d_beta[7] = s0 / u**2, -1.0 / u
+    d_line = np.zeros((2, len(x)))
+    d_line[0, 6], d_line[1] = -1.0 / u**2, d_beta
     pixel = np.linalg.norm(r[: 2 * n].reshape(n, 2), axis=1)
     converged = bool(solution.success and np.all(np.isfinite(cov)) and u > 0)
     return _Solved(
@@ -350,6 +355,7 @@ def _solve(camera, clock, xy, path, x0, c_mid, layout, f_scale, prior, gcps, int
         converged,
         str(solution.message),
         _inflation(shared, naive),
+        d_line @ cov @ d_line.T,
     )
 
 

@@ -15,7 +15,15 @@ so the timing plays no part), as plausibility's rescaled-unit tests do:
   tracker on the target's shadow, or on a point of its box other than the
   one the log describes);
 - neither, and the track lies on the projected path nowhere: the tracker
-  follows another object (or the pose is off), not a log that ends early.
+  follows another object (or the pose is off), not a log that ends early;
+  unless the log's fixes scatter as a consumer receiver's and the track lies
+  on it within the radius such a receiver's metres of error span from this
+  camera (the phone preset's, sync/model/log_model.py), the declared model's
+  being narrower: then the log's error is larger than declared (a white-only
+  model of a receiver that wanders), and declaring it is the fix.
+
+Each camera's tracks are compared with the path within GATE_EPS times its
+vote radius (the log's error as the camera sees it), as the checks do.
 
 One height offset (of at least HEIGHT_MIN_M) that fits every contradicted
 camera together is the cause of each (when every camera with a track is
@@ -27,12 +35,16 @@ at fault.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 import numpy as np
 from scipy.spatial import cKDTree
 
 from calibration.camera import Camera
+from tlsync_pipeline.sync.model.log_model import PRESETS, LogModel
 from tlsync_pipeline.sync.solve.plausibility import GATE_EPS, Judged, LogUnitError, _fits_better, path_share
 from tlsync_pipeline.sync.model.status import FAILED, Reason
+from tlsync_pipeline.sync.vote.log_error import vote_radius
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
 
 HEIGHT_NEAR_M = (
@@ -73,22 +85,32 @@ OFF_PATH_SHARE = 0.2  # a track on the projected path (any time) in fewer of its
 OFFSET_ROUNDS = 6  # rounds of matching each tracked position to the nearest projected one to find a constant offset
 
 
-def explain(judged: dict[str, Judged], prepared: Trajectory, eps_px: float, above_m: float = 0.0) -> dict[str, Reason]:
+def explain(
+    judged: dict[str, Judged],
+    prepared: Trajectory,
+    eps_px: float,
+    above_m: float = 0.0,
+    radius_px: Mapping[str, float] | None = None,
+    log_model: LogModel | None = None,
+) -> dict[str, Reason]:
     """A reason per contradicted camera with a track whose cause one of the hypotheses (module notes) finds.
 
-    above_m: the project's [sync] logged_point_above_m already applied to ``prepared``. Raises LogUnitError when every
-    camera with a track is contradicted and one height offset puts all their tracks on the path.
+    above_m: the project's [sync] logged_point_above_m already applied to ``prepared``; radius_px: each camera's vote
+    radius (pixels; eps_px for a camera without one); log_model: the log's error model the radii come from (None: an
+    exact log). Raises LogUnitError when every camera with a track is contradicted and one height offset puts all their
+    tracks on the path.
     """
     tracked = {n: j for n, j in judged.items() if j.track is not None and len(j.track) and j.camera.posed}
     contradicted = {n: j for n, j in tracked.items() if j.contradicted}
     if not contradicted:
         return {}
-    gate = GATE_EPS * eps_px
+    gates = {n: GATE_EPS * max(eps_px, (radius_px or {}).get(n, eps_px)) for n in contradicted}
     path = PiecewiseTrajectory(prepared)
-    given = {n: path_share(j.camera, _xy(j), path, gate) for n, j in contradicted.items()}
-    shared = _height_shift(contradicted, prepared, given, gate)  # one height for every contradicted camera
+    given = {n: path_share(j.camera, _xy(j), path, gates[n]) for n, j in contradicted.items()}
+    shared = _height_shift(contradicted, prepared, given, gates)  # one height for every contradicted camera
     if shared is not None and len(contradicted) == 1:  # one camera alone: a constant image offset may fit it better
         ((name, j),) = contradicted.items()
+        gate = gates[name]
         offset = image_offset(j.camera, _xy(j), path, gate)
         if offset is not None and path_share(j.camera, _xy(j) - offset, path, gate) > shared[1] + 0.05:
             shared = None
@@ -103,8 +125,8 @@ def explain(judged: dict[str, Judged], prepared: Trajectory, eps_px: float, abov
     failing = {n: j for n, j in contradicted.items() if given[n] < ON_PATH_GIVEN}  # on the path, the timing is at fault
     reasons = {}
     for name, j in failing.items():
-        one = {name: j}
-        height = _height_shift(one, prepared, {name: given[name]}, gate)
+        one, gate = {name: j}, gates[name]
+        height = _height_shift(one, prepared, {name: given[name]}, {name: gate})
         offset = image_offset(j.camera, _xy(j), path, gate)
         moved = path_share(j.camera, _xy(j) - offset, path, gate) if offset is not None else 0.0
         if height is not None and height[1] >= moved - 0.05:
@@ -132,6 +154,10 @@ def explain(judged: dict[str, Judged], prepared: Trajectory, eps_px: float, abov
                 "if the target does not move on level ground at that height: "
                 "give a log with heights (GPX <ele>, a CSV alt column)",
             )
+        elif given[name] < OFF_PATH_SHARE and (
+            wider := _log_wider(j, path, eps_px, gate, given[name], prepared, log_model)
+        ):
+            reasons[name] = wider
         elif given[name] < OFF_PATH_SHARE:
             reasons[name] = Reason(
                 "track_elsewhere",
@@ -141,6 +167,41 @@ def explain(judged: dict[str, Judged], prepared: Trajectory, eps_px: float, abov
                 "check the track (give the tracker an init box on the target) and the camera's pose (GCPs)",
             )
     return reasons
+
+
+def _log_wider(
+    judged: Judged,
+    path: PiecewiseTrajectory,
+    eps_px: float,
+    gate_px: float,
+    given: float,
+    prepared: Trajectory,
+    model: LogModel | None,
+) -> Reason | None:
+    """``log_error`` (FAILED) when the log's fixes scatter as a consumer receiver's (its model's white noise, measured
+    or stated, at least the drone preset's) and the track lies on the projected path (any time) within the gate such a
+    receiver's
+    error spans from this camera (GATE_EPS x the phone preset's vote radius), in HEIGHT_FIT of its frames and clearly
+    better than within the gate the declared model gave (``gate_px``, where it lies on it in ``given`` of its frames;
+    plausibility._fits_better), that gate being narrower: the log's error is larger than its model says, and a tracker
+    on another object would not follow the logged path's shape. None otherwise."""
+    if model is None or model.white_m < PRESETS["drone"].white_m:  # fixes as steady as an exact log's: not a receiver's
+        return None
+    consumer = GATE_EPS * vote_radius(judged.camera, prepared, eps_px, PRESETS["phone"])
+    if consumer <= gate_px:
+        return None
+    share = path_share(judged.camera, _xy(judged), path, consumer)
+    if share < HEIGHT_FIT or not _fits_better(given, share):  # a log's error moves the whole path, not part of it
+        return None
+    declared = f"{model.name}, {model.horizontal_m:.2g} m"
+    return Reason(
+        "log_error",
+        FAILED,
+        f"the track lies on the projected path (at any time) in {share:.0%} of its frames within {consumer:.0f} px, "
+        f"the metres of error a phone's or a consumer drone's receiver has, and within {gate_px:.0f} px in under "
+        f"{OFF_PATH_SHARE:.0%}: the log's error is larger than its model says ({declared})",
+        'declare the log\'s receiver: [target] log_model = "phone" or "drone" (or its white_m, bias_m and tau_s)',
+    )
 
 
 def image_offset(camera: Camera, xy: np.ndarray, path: PiecewiseTrajectory, gate_px: float) -> np.ndarray | None:
@@ -163,17 +224,17 @@ def image_offset(camera: Camera, xy: np.ndarray, path: PiecewiseTrajectory, gate
 
 
 def _height_shift(
-    cameras: dict[str, Judged], prepared: Trajectory, given: dict[str, float], gate_px: float
+    cameras: dict[str, Judged], prepared: Trajectory, given: dict[str, float], gates: Mapping[str, float]
 ) -> tuple[float, float] | None:
-    """(dz metres, mean path share) of the height offset of the log that puts the cameras' tracks on the path clearly
-    better than as given (plausibility._fits_better), the best of HEIGHT_STEPS_M either way refined between its
-    neighbours; None when none does."""
+    """(dz metres, mean path share) of the height offset of the log that puts the cameras' tracks on the path (within
+    each camera's gate, pixels) clearly better than as given (plausibility._fits_better), the best of HEIGHT_STEPS_M
+    either way refined between its neighbours; None when none does."""
 
     def share(dz: float) -> float:
         path = PiecewiseTrajectory(
             Trajectory(prepared.sample, prepared.xyz + [0.0, 0.0, dz], prepared.rate, prepared.t0)
         )
-        return _mean({n: path_share(j.camera, _xy(j), path, gate_px) for n, j in cameras.items()})
+        return _mean({n: path_share(j.camera, _xy(j), path, gates[n]) for n, j in cameras.items()})
 
     steps = np.array(HEIGHT_STEPS_M)
     tried = {dz: share(dz) for dz in np.r_[-steps[::-1], steps]}

@@ -36,6 +36,8 @@ from scipy.optimize import minimize
 from scipy.sparse.linalg import splu
 
 from calibration.camera import Camera
+from tlsync_pipeline.sync.kernels.gauss_markov import interpolation_parts as _interpolation_parts
+from tlsync_pipeline.sync.kernels.gauss_markov import prior_whitening as _prior_whitening
 from tlsync_pipeline.sync.kernels.slope import SlopePrior
 from tlsync_pipeline.sync.model.log_model import PRIOR_LOG_SD, LogModel
 from tlsync_pipeline.trajectory import PiecewiseTrajectory
@@ -192,29 +194,6 @@ def _knots(cameras: list[BiasCamera], path: PiecewiseTrajectory, rate: float, mo
     keep = np.r_[True, np.diff(merged) > 0.25 * dense]  # no two knots closer than a quarter of the visits' spacing
     merged = merged[keep]
     return merged if len(merged) <= MAX_KNOTS else np.linspace(lo_all, hi_all, MAX_KNOTS)
-
-
-def _prior_whitening(knots: np.ndarray, rate: float, tau_s: float, sigma: np.ndarray) -> sp.csr_matrix:
-    """(3K, 3K) sparse W such that W b is standard normal under the Gauss-Markov prior (knot-major b).
-
-    A first-order Gauss-Markov process is Markov: W is its innovations, b_0 / sigma and then
-    (b_k - phi_k b_(k-1)) / (sigma sqrt(1 - phi_k^2)) with phi_k = exp(-dt_k / tau), bidiagonal per axis
-    (the inverse Cholesky factor of the exponential covariance).
-    """
-    phi = np.exp(-np.diff(knots) / rate / tau_s)
-    root = np.sqrt(np.maximum(1.0 - phi**2, 1e-12))
-    diagonal = np.r_[1.0, 1.0 / root]
-    inverse_root = sp.diags([diagonal, -phi / root], [0, -1], format="csr")  # (K, K)
-    return sp.kron(inverse_root, sp.diags(1.0 / sigma), format="csr")
-
-
-def _interpolation_parts(samples: np.ndarray, knots: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """For each sample coordinate the knots around it (left, right indices) and the right one's weight u (0 to 1):
-    linear between knots, the end knot beyond them."""
-    s = np.clip(samples, knots[0], knots[-1])
-    right = np.clip(np.searchsorted(knots, s, side="right"), 1, len(knots) - 1)
-    left = right - 1
-    return left, right, (s - knots[left]) / (knots[right] - knots[left])
 
 
 def _interpolation(samples: np.ndarray, knots: np.ndarray) -> sp.csr_matrix:

@@ -46,7 +46,7 @@ from scipy.spatial import cKDTree
 
 from calibration.camera import Camera
 from tlsync_pipeline.errors import InputError
-from tlsync_pipeline.sync.model.clock import image_speed
+from tlsync_pipeline.sync.model.clock import camera_clock, image_speed
 from tlsync_pipeline.sync.model.log_model import LogModel
 from tlsync_pipeline.sync.solve.rival import RivalOdds, rival_odds
 from tlsync_pipeline.sync.kernels.backward import backwards_better
@@ -288,6 +288,10 @@ def judge_line(
             reasons.append(Reason("clock", FAILED, f"the target's speed in the image says {fps_text}one unit of the log's t is {along:.3g} s", "set the camera's fps, or [target] time_unit"))
         if slope.against.reliable and _near_one(against) and not (slope.along.reliable and _near_one(along)):
             reasons.append(Reason("reversed", FAILED, "the target moves along the logged path backwards, at the logged speed: the log looks reversed in time", "check the log's time order"))
+    if not any(r.code == "clock" for r in reasons):
+        stated = _stated_fps_unbacked(track, fps, alpha_prior, slope)
+        if stated is not None:
+            reasons.append(stated)
     forward, backward = support
     if backward is not None and backwards_better(forward, backward) and not any(r.code == "reversed" for r in reasons):
         reasons.append(Reason("reversed", FAILED, f"the votes back a line running backwards in time better ({backward} frames, against {forward} forwards): the log looks reversed in time", "check the log's time order"))
@@ -295,6 +299,38 @@ def judge_line(
     if rival is not None:
         reasons.append(rival)
     return tuple(reasons)
+
+
+def times_fps(track: Track) -> float | None:
+    """The frame rate (frames per second) the track's presentation times run at: the least-squares slope of time_s
+    over the frame index; None without times."""
+    if track.time_s is None or len(track) < 3 or np.ptp(track.frame) <= 0:
+        return None
+    slope = float(np.polyfit(track.frame.astype(np.float64), np.asarray(track.time_s, dtype=np.float64), 1)[0])
+    return 1.0 / slope if slope > 0 else None
+
+
+def _stated_fps_unbacked(
+    track: Track, fps: float | None, alpha_prior: float | None, slope: MotionSlope | None
+) -> Reason | None:
+    """``clock`` (FAILED) when the camera's stated fps and the rate its track's presentation times run at (the
+    container's) are more than SLOPE_OFF apart on a frame clock, and the target's motion (``motion_slope``, reliable
+    and within SLOPE_OFF of the clock prior) does not back the stated one. A stated fps the motion backs stands (a
+    time-lapse whose container runs faster than it records); otherwise the line rests on a rate two witnesses dispute,
+    and a log whose error widens the vote radius cannot settle it by the line's fit (a phone's metres hide a slope off
+    by 2). On a presentation-time clock the stated fps only names the clock's unit and nothing is checked."""
+    rate = times_fps(track)
+    if rate is None or not fps or camera_clock(track, fps).vfr or _near_one(fps / rate):
+        return None
+    if slope is not None and alpha_prior and slope.along.reliable and _near_one(slope.along.alpha / alpha_prior):
+        return None
+    return Reason(
+        "clock",
+        FAILED,
+        f"the track's presentation times say this video runs at about {rate:.4g} fps, not {fps:g}, "
+        f"and the target's motion does not back {fps:g}",
+        f"set the camera's fps to the rate it records at (its frames' times: {rate:.4g})",
+    )
 
 
 def _near_one(factor: float) -> bool:
@@ -466,8 +502,9 @@ def diagnose(judged: dict[str, Judged], prepared: Trajectory, eps_px: float) -> 
 
 
 def _fits_better(given: float, rescaled: float) -> bool:
-    """Whether a rescaled log or track lies on the other's path clearly better than as given (shares of frames on it)."""
-    return rescaled >= SCALE_FIT and SCALE_GAIN * (1.0 - rescaled) <= 1.0 - given
+    """Whether a rescaled log or track lies on the other's path clearly better than as given (shares of frames on it);
+    never when it lies on it as given already (a gate as wide as a metre-level log's puts it there whatever moves)."""
+    return rescaled >= SCALE_FIT and rescaled > given and SCALE_GAIN * (1.0 - rescaled) <= 1.0 - given
 
 
 def _time_unit_message(factor: float, cameras: int) -> str:

@@ -37,7 +37,7 @@ from tlsync_pipeline.sync.solve.causes import explain
 from tlsync_pipeline.sync.kernels.backward import BACKWARD_BELOW, backward_support, line_support
 from tlsync_pipeline.sync.solve.plausibility import RIVAL_PROBABILITY, Judged, diagnose, judge_line, motion_slope, rival_odds_of
 from tlsync_pipeline.sync.pose.pose import TargetPose, estimate_pose, pose_info
-from tlsync_pipeline.sync.identify.segments import MAX_WHOLE, MIN_SEGMENT_FRAMES, fit_segments, whole_frames
+from tlsync_pipeline.sync.identify.segments import MAX_WHOLE, MIN_SEGMENT_FRAMES, joined_at_void_cuts, segments_of, whole_frames
 from tlsync_pipeline.sync.solve.registry import get_method
 from tlsync_pipeline.sync.kernels.slope import slope_prior
 from tlsync_pipeline.sync.model.status import AMBIGUOUS, FAILED, Reason, diagnosed_failure
@@ -132,11 +132,29 @@ def posed(inputs: CameraInput, prepared: Trajectory, params: SyncParams, log_mod
     return replace(inputs, camera=camera), pose
 
 
+def with_pose_line(line: CameraLine, pose: TargetPose) -> CameraLine:
+    """The line of the pose from the target under a log with a bias: the pose fit's slope, the beta that the pose and
+    the log's bias fitted together explain best (``TargetPose.bias_beta``; the pose fit's without one), and the pose
+    fit's covariance with the square of the two betas' distance added to beta's variance. The pose absorbed the
+    bias's mean over the visit, and the pose fit counts its wander as error shared by blocks of frames (its beta
+    std carries it); the line the votes give under that pose held fixed is pulled by the wander alone (on drone2
+    under a drone's GNSS, 4-28 frames off where the pose fit was within 0.3-9). Unchanged when the pose fit has no
+    finite covariance of its line."""
+    fit = pose.fit
+    if fit.line_cov is None or not np.isfinite(fit.line_cov).all():
+        return line
+    beta = pose.bias_beta if np.isfinite(pose.bias_beta) else fit.beta
+    cov = np.array(fit.line_cov, dtype=np.float64)
+    cov[1, 1] += (beta - fit.beta) ** 2
+    return replace(line, alpha=fit.alpha, beta=beta, cov=cov)
+
+
 def with_pose_offset(line: CameraLine, pose: TargetPose) -> CameraLine:
-    """The line with the offset uncertainty of its pose from the target added to beta's variance: under a log with a
-    bias the pose absorbs the bias, and the timing it gives moves with it (the pose fit's beta std, clock units), and
-    the line fitted under that pose may leave the pose fit's own line (their beta difference, counted as a std too:
-    two fits of one timing on one track that the log's unmodelled wander pulls apart)."""
+    """The line of a pose from the target under a log without a bias (with one: with_pose_line), with the pose's
+    offset uncertainty added to beta's variance: the line is fitted under that pose held fixed, while the pose and the
+    timing trade against each other (on a straight crossing a pose moved along the path is a time shift): the pose
+    fit's beta std (clock units). And the line fitted under that pose may leave the pose fit's own line (their beta
+    difference, counted as a std too: two fits of one timing on one track)."""
     if line.cov is None or not np.isfinite(pose.fit.se_beta):
         return line
     cov = np.array(line.cov, dtype=np.float64)
@@ -196,14 +214,14 @@ def synchronize(
                 if inputs.pick_start_s is not None:
                     result = replace(result, line=replace(result.line, flags=(*(result.line.flags or ()), "picked")))
             inputs, result = _segmented(name, inputs, result, prepared, params, radius[name])
-            if pose is not None and log_model.has_bias:
-                result = replace(result, line=with_pose_offset(result.line, pose))
+            if pose is not None:
+                result = replace(result, line=(with_pose_line if log_model.has_bias else with_pose_offset)(result.line, pose))
             results[name], judged[name] = _judge(name, inputs, replace(result, pose=pose), path, params, prior, radius[name], log_model, trajectory.rate)
             search = results[name].line.line_search
             if cameras[name].track is not None and search is not None and search.rival_probability is not None and search.rival_probability > 1.0 - RIVAL_PROBABILITY:
                 result = _the_rival(name, inputs, results[name], prepared, params, radius[name])
-                if pose is not None and log_model.has_bias:
-                    result = replace(result, line=with_pose_offset(result.line, pose))
+                if pose is not None:
+                    result = replace(result, line=(with_pose_line if log_model.has_bias else with_pose_offset)(result.line, pose))
                 results[name], judged[name] = _judge(name, inputs, replace(result, pose=pose), path, params, prior, radius[name], log_model, trajectory.rate)
         except SyncError as exc:
             failed[name] = str(exc)
@@ -212,7 +230,7 @@ def synchronize(
             failed[name] = f"camera {name}: the fit failed ({type(exc).__name__}: {exc})"
             judged[name] = _unjudged(inputs, prior)
     found = diagnose(judged, prepared, params.eps_px)  # first: the log's units, which explain everything else
-    found = {**explain(judged, prepared, params.eps_px, params.logged_point_above_m), **found}
+    found = {**explain(judged, prepared, params.eps_px, params.logged_point_above_m, radius, log_model), **found}
     for name in failed.keys() & found.keys():
         failed[name] = diagnosed_failure(name, found[name], failed[name])
     lines, rejected = {}, {}
@@ -331,13 +349,15 @@ def _segmented(name: str, inputs: CameraInput, result: CameraResult, prepared: T
     votes, line = result.votes, result.line
     vote_clock = clock.clock_at(votes.frame, times)
     breaks = with_vote_break(inputs.breaks, votes.frame, vote_clock, votes.sample, line, params.delta)
+    coarse, breaks = segments_of(breaks, track.frame, votes.frame, vote_clock, votes.sample, votes.dist, line.alpha, line.beta, params.delta, clock.vfr)
     inputs = replace(inputs, track=track, breaks=breaks)
-    coarse = fit_segments(breaks, track.frame, votes.frame, vote_clock, votes.sample, votes.dist, line.alpha, line.beta, params.delta, clock.vfr)
     main = next((seg for seg in coarse if seg.source == "line"), None)
     if main is None:
         return inputs, replace(result, line=replace(line, breaks=breaks or None))
     reference = _segment_line(name, inputs, votes, main, prepared, params, radius_px) or line
     segments = tuple(_refined(seg, _segment_line(name, inputs, votes, seg, prepared, params, radius_px), reference, clock, times, track) for seg in coarse)
+    segments, breaks = joined_at_void_cuts(segments, breaks)
+    inputs = replace(inputs, breaks=breaks)
     segmented = replace(clock, segments=segments)
     keep_track = np.isfinite(segmented.clock_at(track.frame, times))
     keep_votes = np.isfinite(segmented.clock_at(votes.frame, times))

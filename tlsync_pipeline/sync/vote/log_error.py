@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from tlsync_pipeline.sync.model.log_model import PRIOR_LOG_SD, LogModel
+from tlsync_pipeline.sync.model.log_model import PRESETS, PRIOR_LOG_SD, LogModel
 from tlsync_pipeline.trajectory import Trajectory
 
 if TYPE_CHECKING:
@@ -60,7 +60,26 @@ def measured(model: LogModel, trajectory: Trajectory) -> LogModel:
     white, count = white_from_log(trajectory)
     if count == 0 or white <= 0:
         return model
+    receiver = _receiver_of(model, white)
     if model.white_m > 0:
         data, prior = 4.0 / count, PRIOR_LOG_SD**2
         white = math.exp((math.log(white) / data + math.log(model.white_m) / prior) / (1.0 / data + 1.0 / prior))
+    if receiver is not None:
+        model = replace(receiver, measured=(*model.measured, "receiver"))
     return replace(model, white_m=white, measured=tuple(sorted({*model.measured, "white_m"})))
+
+
+def _receiver_of(model: LogModel, white: float) -> LogModel | None:
+    """The receiver the log's fixes say it is, when the model has no bias and they scatter as one that wanders: the
+    preset whose white noise is nearest (in log) to the one measured, when it has a bias, the measurement is at least
+    the white noise of the least noisy preset with a bias (a smooth path's turns leave some scatter: the quick demo's
+    exact log measures 0.08 m) and nearer to that preset's than to the model's. Its bias then applies (a receiver that
+    noisy wanders too: a drone's log declared RTK, or undeclared). None otherwise."""
+    if model.has_bias or white < min(p.white_m for p in PRESETS.values() if p.has_bias):
+        return None
+    nearest = min((p for p in PRESETS.values() if p.white_m > 0), key=lambda p: abs(math.log(white / p.white_m)))
+    if not nearest.has_bias:
+        return None
+    if model.white_m > 0 and abs(math.log(white / model.white_m)) <= abs(math.log(white / nearest.white_m)):
+        return None
+    return nearest
