@@ -18,7 +18,9 @@ def write_block(name: str, text: str, doc: Path = ACCURACY_DOC) -> None:
     content = doc.read_text(encoding="utf-8") if doc.exists() else "# Accuracy\n"
     block = f"{begin}\n{text.rstrip()}\n{end}"
     pattern = re.compile(re.escape(begin) + ".*?" + re.escape(end), re.S)
-    content = pattern.sub(lambda _: block, content) if pattern.search(content) else content.rstrip() + "\n\n" + block + "\n"
+    content = (
+        pattern.sub(lambda _: block, content) if pattern.search(content) else content.rstrip() + "\n\n" + block + "\n"
+    )
     doc.write_text(content, encoding="utf-8")
 
 

@@ -39,7 +39,17 @@ def baseline() -> float:
 
 def render(size, n_full, n_absent, seed):
     K, dist = default_camera(size)
-    return render_checkerboards(seed=seed, n_full=n_full, n_cut=0, n_absent=n_absent, image_size=size, K=K, dist=dist, supersample=1, blur_px=(0.6, 1.2))
+    return render_checkerboards(
+        seed=seed,
+        n_full=n_full,
+        n_cut=0,
+        n_absent=n_absent,
+        image_size=size,
+        K=K,
+        dist=dist,
+        supersample=1,
+        blur_px=(0.6, 1.2),
+    )
 
 
 def upscale(image, size):
@@ -92,7 +102,10 @@ def main() -> None:
     print("\n| image | detect, board (ms) | x baseline | found | detect, no board (ms) | JPEG decode (ms) |")
     print("|---|---:|---:|---:|---:|---:|")
     for label, t_board, found, n, t_none, t_decode in rows:
-        print(f"| {label} | {t_board * 1000:.0f} | {t_board / base:.2f} | {found}/{n} | {t_none * 1000:.0f} | {t_decode * 1000:.0f} |")
+        print(
+            f"| {label} | {t_board * 1000:.0f} | {t_board / base:.2f} | {found}/{n} | {t_none * 1000:.0f} | "
+            f"{t_decode * 1000:.0f} |"
+        )
 
     # A folder of 1080p JPEGs: 20 rendered views, each also shifted by a few pixels (distinct views).
     views = render((1920, 1080), 20, 0, seed=11)
@@ -107,8 +120,12 @@ def main() -> None:
         start = time.perf_counter()
         result = calibrate_images(os.path.join(folder, "*.jpg"), PATTERN)
         total = time.perf_counter() - start
-    print(f"\n{args.images} images at 1080p on {os.cpu_count()} cores, read + detect + calibrate: {total:.1f} s ({total / base:.0f} x baseline); "
-          f"{len(result.used)} used, {len(result.rejected)} rejected ({dict(Counter(r.split(' (')[0].split(':')[0] for r in result.rejected.values()))}), RMS {result.rms:.3f} px")
+    print(
+        f"\n{args.images} images at 1080p on {os.cpu_count()} cores, read + detect + calibrate: {total:.1f} s "
+        f"({total / base:.0f} x baseline); "
+        f"{len(result.used)} used, {len(result.rejected)} rejected "
+        f"({dict(Counter(r.split(' (')[0].split(':')[0] for r in result.rejected.values()))}), RMS {result.rms:.3f} px"
+    )
 
 
 if __name__ == "__main__":

@@ -65,14 +65,34 @@ def dask_run(project: Path, work: Path, workers: int) -> dict:
     os.environ["PYTHONPATH"] = str(ROOT)  # the workers import this tree's tlsync
     cpu_before, own_before, start = cpu_children(), cpu_self(), time.perf_counter()
     with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
-        result = run_measured(["-c", CLI, "run", str(project), "--work", str(work), "--quiet",
-                               "--executor", "dask", "--scheduler", cluster.scheduler_address])
+        result = run_measured(
+            [
+                "-c",
+                CLI,
+                "run",
+                str(project),
+                "--work",
+                str(work),
+                "--quiet",
+                "--executor",
+                "dask",
+                "--scheduler",
+                cluster.scheduler_address,
+            ]
+        )
         with Client(cluster) as client:
             peaks = client.run(peak_rss_mb)
     wall = time.perf_counter() - start
     cpu = (cpu_children() - cpu_before) + (cpu_self() - own_before)
-    return {**result, "wall_s": wall, "run_wall_s": result["wall_s"], "cpu_s": cpu, "workers": len(peaks),
-            "peak_mb": max([result["peak_mb"], *peaks.values()]), "worker_peak_mb": max(peaks.values())}
+    return {
+        **result,
+        "wall_s": wall,
+        "run_wall_s": result["wall_s"],
+        "cpu_s": cpu,
+        "workers": len(peaks),
+        "peak_mb": max([result["peak_mb"], *peaks.values()]),
+        "worker_peak_mb": max(peaks.values()),
+    }
 
 
 def differences(a: object, b: object, where: str = "") -> list[str]:
@@ -93,14 +113,18 @@ def main() -> None:
     args = parser.parse_args()
     folder = args.keep or Path(tempfile.mkdtemp(prefix="tlsync-cluster-"))
     print(f"{os.cpu_count()} cores; road scenes, seed {args.seed}")
-    print(f"{'cameras':>7} {'run':<6} {'workers':>7} {'wall s (with the cluster)':>25} {'CPU s':>7} {'CPU s/cam':>9} "
-          f"{'peak MB':>7} {'worst eps_t':>11}  timeline")
+    print(
+        f"{'cameras':>7} {'run':<6} {'workers':>7} {'wall s (with the cluster)':>25} {'CPU s':>7} {'CPU s/cam':>9} "
+        f"{'peak MB':>7} {'worst eps_t':>11}  timeline"
+    )
     same_everywhere, figures = True, {}
     for count in args.cameras:
         directory = folder / f"road{count}"
         project = write_scene(road_scene(args.seed, count, tracking_noise_px=1.0), directory)
-        runs = {"local": local_run(project, directory / "local"),
-                "dask": dask_run(project, directory / "dask", args.workers)}
+        runs = {
+            "local": local_run(project, directory / "local"),
+            "dask": dask_run(project, directory / "dask", args.workers),
+        }
         timelines = {name: json.loads((directory / name / "timeline.json").read_text()) for name in runs}
         diff = differences(timelines["local"], timelines["dask"])
         same_everywhere &= not diff and all(r["code"] in (0, 1) for r in runs.values())
@@ -108,8 +132,11 @@ def main() -> None:
             eps = worst_eps(directory, directory / name / "timeline.json")
             verdict = "identical" if not diff else f"differs at {', '.join(diff[:3])}"
             wall = f"{r['run_wall_s']:.1f} ({r['wall_s']:.1f})" if "run_wall_s" in r else f"{r['wall_s']:.1f}"
-            print(f"{count:>7} {name:<6} {r['workers']:>7} {wall:>25} {r['cpu_s']:>7.1f} {r['cpu_s'] / count:>9.2f} "
-                  f"{r['peak_mb']:>7.0f} {eps:>11.3f}  {verdict} (exit {r['code']})", flush=True)
+            print(
+                f"{count:>7} {name:<6} {r['workers']:>7} {wall:>25} {r['cpu_s']:>7.1f} {r['cpu_s'] / count:>9.2f} "
+                f"{r['peak_mb']:>7.0f} {eps:>11.3f}  {verdict} (exit {r['code']})",
+                flush=True,
+            )
             kept = {k: v for k, v in r.items() if k != "out"}
             figures[f"{count} {name}"] = {**kept, "worst_eps_t": eps, "identical": not diff}
     print(json.dumps(figures))

@@ -59,7 +59,11 @@ def run_one(job) -> tuple[str, int, int, dict[str, tuple[float, bool, bool]]]:
     for method in METHODS:
         timeline, _ = synchronize(inputs, scene.trajectory, SyncParams(method=method))
         fitted = dataclasses.replace(timeline, cameras={**timeline.cameras, **timeline.rejected})
-        errors = {k: eps_t(fitted.relation(*k.split("->")), true, scene.n_frames[k.split("->")[0]]) for k, true in scene.truth_pairs().items() if set(k.split("->")) <= set(fitted.cameras)}
+        errors = {
+            k: eps_t(fitted.relation(*k.split("->")), true, scene.n_frames[k.split("->")[0]])
+            for k, true in scene.truth_pairs().items()
+            if set(k.split("->")) <= set(fitted.cameras)
+        }
         worst = max(errors.values()) if len(errors) == len(scene.truth_pairs()) else float("inf")
         wrong = any(e > WRONG and set(k.split("->")) <= set(timeline.cameras) for k, e in errors.items())
         out[method] = (worst, bool(timeline.rejected), wrong)
@@ -68,31 +72,44 @@ def run_one(job) -> tuple[str, int, int, dict[str, tuple[float, bool, bool]]]:
 
 def sweep(scenes: int, processes: int) -> dict:
     """results[varied][level][method] = (runs, 3) array: worst eps_t, refused (0/1), wrong and synchronized (0/1)."""
-    jobs = [(varied, level, 10_000 * (i + 1) + 100 * level + k) for i, varied in enumerate(FIXED) for level in LEVELS for k in range(scenes)]
+    jobs = [
+        (varied, level, 10_000 * (i + 1) + 100 * level + k)
+        for i, varied in enumerate(FIXED)
+        for level in LEVELS
+        for k in range(scenes)
+    ]
     results: dict = {v: {lv: {m: [] for m in METHODS} for lv in LEVELS} for v in FIXED}
     with multiprocessing.Pool(processes) as pool:
         for varied, level, _, outcome in pool.imap_unordered(run_one, jobs, chunksize=4):
             for method, value in outcome.items():
                 results[varied][level][method].append(value)
-    return {v: {lv: {m: np.array(x, dtype=float).reshape(-1, 3) for m, x in d.items()} for lv, d in levels.items()} for v, levels in results.items()}
+    return {
+        v: {lv: {m: np.array(x, dtype=float).reshape(-1, 3) for m, x in d.items()} for lv, d in levels.items()}
+        for v, levels in results.items()
+    }
 
 
 def table(results: dict, scenes: int, seconds: float) -> str:
     units = {"S_t": "px", "S_c": "px", "S_l": "%"}
     lines = [
-        f"{scenes} scenes per point, fixed values S_t = {FIXED['S_t']:g} px, S_c = {FIXED['S_c']:g} px, S_l = {FIXED['S_l']:g} %; "
+        f"{scenes} scenes per point, fixed values S_t = {FIXED['S_t']:g} px, S_c = {FIXED['S_c']:g} px, S_l = "
+        f"{FIXED['S_l']:g} %; "
         f"worst eps_t of the two pairs per scene; {seconds / 60:.1f} min on this machine.",
         "",
-        "| varied | level | paper <= 1 | refined <= 1 | paper <= 5 | refined <= 5 | paper median | refined median | refused: paper / refined | wrong, synchronized: paper / refined |",
+        "| varied | level | paper <= 1 | refined <= 1 | paper <= 5 | refined <= 5 | paper median | refined median | "
+        "refused: paper / refined | wrong, synchronized: paper / refined |",
         "|---|---|---|---|---|---|---|---|---|---|",
     ]
     for varied, levels in results.items():
         for level, r in levels.items():
             p, f = r["paper"][:, 0], r["refined"][:, 0]
             lines.append(
-                f"| {varied} | {level} {units[varied]} | {100 * np.mean(p <= 1):.0f} % | {100 * np.mean(f <= 1):.0f} % | "
-                f"{100 * np.mean(p <= 5):.0f} % | {100 * np.mean(f <= 5):.0f} % | {np.median(p):.3f} | {np.median(f):.3f} | "
-                f"{100 * r['paper'][:, 1].mean():.0f} % / {100 * r['refined'][:, 1].mean():.0f} % | {100 * r['paper'][:, 2].mean():.0f} % / {100 * r['refined'][:, 2].mean():.0f} % |"
+                f"| {varied} | {level} {units[varied]} | {100 * np.mean(p <= 1):.0f} % | {100 * np.mean(f <= 1):.0f} "
+                f"% | "
+                f"{100 * np.mean(p <= 5):.0f} % | {100 * np.mean(f <= 5):.0f} % | {np.median(p):.3f} | "
+                f"{np.median(f):.3f} | "
+                f"{100 * r['paper'][:, 1].mean():.0f} % / {100 * r['refined'][:, 1].mean():.0f} % | "
+                f"{100 * r['paper'][:, 2].mean():.0f} % / {100 * r['refined'][:, 2].mean():.0f} % |"
             )
     return "\n".join(lines)
 

@@ -1,4 +1,5 @@
-"""The first-order bound on eps_t for a walk scene: what an efficient estimator that knows the log's error model exactly can reach.
+"""The first-order bound on eps_t for a walk scene: what an efficient estimator that knows the log's error model exactly
+can reach.
 
 The scene's measurements, linearised at the truth: every tracked frame's
 pixels (the scene's tracking noise, white per axis) as a function of each
@@ -32,7 +33,9 @@ from data_fixtures.scene import Scene
 FIX_MARGIN = 2  # fixes kept beyond each end of a visit
 
 
-def line_covariance(scene: Scene, rate_sigma: float, assumed: LogErrorModel | None = None) -> tuple[list[str], np.ndarray]:
+def line_covariance(
+    scene: Scene, rate_sigma: float, assumed: LogErrorModel | None = None
+) -> tuple[list[str], np.ndarray]:
     """The camera names and the (2C, 2C) Cramer-Rao covariance of their lines (alpha_0, beta_0, alpha_1, ...); with
     ``assumed``, the error covariance of the estimator whose log-error prior is that model (see the module)."""
     model: LogErrorModel = scene.noise["log"]
@@ -48,7 +51,9 @@ def line_covariance(scene: Scene, rate_sigma: float, assumed: LogErrorModel | No
         s = samples[name]
         camera, line = scene.cameras[name], scene.lines[name]
         position = np.column_stack([np.interp(s, truth.sample, truth.xyz[:, a]) for a in range(3)])
-        velocity = np.column_stack([np.interp(s, truth.sample, np.gradient(truth.xyz[:, a])) for a in range(3)])  # metres per sample
+        velocity = np.column_stack(
+            [np.interp(s, truth.sample, np.gradient(truth.xyz[:, a])) for a in range(3)]
+        )  # metres per sample
         gradient = _projection_gradient(camera, position)  # (N, 2, 3) pixels per metre
         along = np.einsum("nij,nj->ni", gradient, velocity)  # pixels per sample
         jac = np.zeros((len(s), 2, n_lines + n_err))
@@ -73,7 +78,9 @@ def line_covariance(scene: Scene, rate_sigma: float, assumed: LogErrorModel | No
     return names, covariance[:n_lines, :n_lines]
 
 
-def worst_pair_draws(scene: Scene, rate_sigma: float, draws: int, rng: np.random.Generator, assumed: LogErrorModel | None = None) -> np.ndarray:
+def worst_pair_draws(
+    scene: Scene, rate_sigma: float, draws: int, rng: np.random.Generator, assumed: LogErrorModel | None = None
+) -> np.ndarray:
     """(draws,) the worst pair's eps_t (frames) of line errors drawn from the Cramer-Rao covariance (with ``assumed``:
     from the covariance of the estimator under that prior, line_covariance)."""
     names, covariance = line_covariance(scene, rate_sigma, assumed)
@@ -87,10 +94,16 @@ def worst_pair_draws(scene: Scene, rate_sigma: float, draws: int, rng: np.random
             if a == b:
                 continue
             lb = scene.lines[b]
-            # frame_B(f_A) = alpha_b (f_A - beta_a) / alpha_a + beta_b; its error to first order per unit of each parameter
+            # frame_B(f_A) = alpha_b (f_A - beta_a) / alpha_a + beta_b; its error to first order per unit of each
+            # parameter
             d_alpha_a, d_beta_a = -lb.alpha * s / la.alpha, -lb.alpha / la.alpha
             d_alpha_b, d_beta_b = s, 1.0
-            step = np.outer(errors[:, 2 * i], d_alpha_a) + errors[:, 2 * i + 1, None] * d_beta_a + np.outer(errors[:, 2 * j], d_alpha_b) + errors[:, 2 * j + 1, None] * d_beta_b
+            step = (
+                np.outer(errors[:, 2 * i], d_alpha_a)
+                + errors[:, 2 * i + 1, None] * d_beta_a
+                + np.outer(errors[:, 2 * j], d_alpha_b)
+                + errors[:, 2 * j + 1, None] * d_beta_b
+            )
             worst = np.maximum(worst, np.mean(np.abs(step), axis=1))
     return worst
 

@@ -56,21 +56,35 @@ SOURCES = {
     "georeferenced.tum": "MichaelGrupp/evo test/data/georeferenced.tum (GPL-3.0)",
     "nav2_turtlebot.mcap": "MichaelGrupp/evo test/data/nav2_turtlebot.mcap (GPL-3.0), topic /odom",
     "rover_1Hz_rtk.pos": "taroz/MatRTKLIB examples/data/kinematic/rover_1Hz_rtk.pos (MIT; 142 fix, 389 float)",
-    "dvm_drone_log.csv": "egemose/DroneVideoMeasure tests/test_data/test_drone_log.csv (MIT; a DJI Phantom 4 Pro flight, OSD layout)",
-    "airdata_mini2.csv": "ANG13T/DroneXtract test-data/Airdata-Files/AirdataCSV.csv, with AirdataGPX.gpx beside it as airdata_mini2.gpx (MIT; a 2-cell DJI drone, Mini 2 class, AirData layout)",
-    "dji_srt_old_format.SRT": "JuanIrache/DJI_SRT_Parser samples/old_format.SRT (MIT; Phantom 3/4 layout: HOME(lon,lat) date, GPS(lon,lat,sats) Hb Hs, 1 Hz)",
-    "dji_srt_mavic_pro.SRT": "JuanIrache/DJI_SRT_Parser samples/mavic_pro.SRT (MIT; Mavic Pro: HOME(lon,lat) date, GPS(lon,lat,sats) BAROMETER, 1 Hz)",
-    "dji_srt_p4p_sample.SRT": "JuanIrache/DJI_SRT_Parser samples/p4p_sample.SRT (MIT; Phantom 4 Pro: F/, SS, GPS (lon, lat, sats), D, H, H.S; no date)",
-    "dji_srt_mavic_mini.SRT": "JuanIrache/DJI_SRT_Parser samples/mavic_mini.SRT (MIT; Mavic Mini: GPS (lon, lat, sats), D, H; no date)",
-    "dji_srt_p4_rtk.SRT": "JuanIrache/DJI_SRT_Parser samples/p4_rtk.SRT (MIT; Phantom 4 RTK: GPS (lon, lat, sats), HOME (lon, lat, alt), D, H; 6 decimals)",
-    "dji_srt_mavic_2_style.SRT": "JuanIrache/DJI_SRT_Parser samples/mavic_2_style.SRT (MIT; Mavic 2 early firmware: no subtitle times, [latitude : ..] [longtitude : ..])",
-    "dji_srt_m2zoom.SRT": "JuanIrache/DJI_SRT_Parser samples/m2zoom.SRT (MIT; Mavic 2 Zoom: per frame, date with ms and us, [latitude : ..] [longtitude : ..] [altitude: ..])",
-    "dji_srt_mavic_2pro_new.SRT": "JuanIrache/DJI_SRT_Parser samples/mavic_2pro_new.SRT (MIT; Mavic 2 Pro: per frame, 12 clips joined in one file)",
-    "dji_srt_mavic_air2.srt": "JuanIrache/DJI_SRT_Parser samples/mavic_air2.srt (MIT; Air 2: per frame, [latitude: ..] [longitude: ..] [altitude: ..])",
+    "dvm_drone_log.csv": "egemose/DroneVideoMeasure tests/test_data/test_drone_log.csv (MIT; a DJI Phantom 4 Pro "
+    "flight, OSD layout)",
+    "airdata_mini2.csv": "ANG13T/DroneXtract test-data/Airdata-Files/AirdataCSV.csv, with AirdataGPX.gpx beside it as "
+    "airdata_mini2.gpx (MIT; a 2-cell DJI drone, Mini 2 class, AirData layout)",
+    "dji_srt_old_format.SRT": "JuanIrache/DJI_SRT_Parser samples/old_format.SRT (MIT; Phantom 3/4 layout: "
+    "HOME(lon,lat) date, GPS(lon,lat,sats) Hb Hs, 1 Hz)",
+    "dji_srt_mavic_pro.SRT": "JuanIrache/DJI_SRT_Parser samples/mavic_pro.SRT (MIT; Mavic Pro: HOME(lon,lat) date, "
+    "GPS(lon,lat,sats) BAROMETER, 1 Hz)",
+    "dji_srt_p4p_sample.SRT": "JuanIrache/DJI_SRT_Parser samples/p4p_sample.SRT (MIT; Phantom 4 Pro: F/, SS, GPS "
+    "(lon, lat, sats), D, H, H.S; no date)",
+    "dji_srt_mavic_mini.SRT": "JuanIrache/DJI_SRT_Parser samples/mavic_mini.SRT (MIT; Mavic Mini: GPS (lon, lat, "
+    "sats), D, H; no date)",
+    "dji_srt_p4_rtk.SRT": "JuanIrache/DJI_SRT_Parser samples/p4_rtk.SRT (MIT; Phantom 4 RTK: GPS (lon, lat, sats), "
+    "HOME (lon, lat, alt), D, H; 6 decimals)",
+    "dji_srt_mavic_2_style.SRT": "JuanIrache/DJI_SRT_Parser samples/mavic_2_style.SRT (MIT; Mavic 2 early firmware: "
+    "no subtitle times, [latitude : ..] [longtitude : ..])",
+    "dji_srt_m2zoom.SRT": "JuanIrache/DJI_SRT_Parser samples/m2zoom.SRT (MIT; Mavic 2 Zoom: per frame, date with ms "
+    "and us, [latitude : ..] [longtitude : ..] [altitude: ..])",
+    "dji_srt_mavic_2pro_new.SRT": "JuanIrache/DJI_SRT_Parser samples/mavic_2pro_new.SRT (MIT; Mavic 2 Pro: per frame, "
+    "12 clips joined in one file)",
+    "dji_srt_mavic_air2.srt": "JuanIrache/DJI_SRT_Parser samples/mavic_air2.srt (MIT; Air 2: per frame, [latitude: "
+    "..] [longitude: ..] [altitude: ..])",
     "dji_srt_air2s.srt": "JuanIrache/DJI_SRT_Parser samples/air2s.srt (MIT; Air 2S: per frame)",
-    "dji_srt_MAVIC3.srt": "JuanIrache/DJI_SRT_Parser samples/MAVIC3.srt (MIT; Mavic 3: per frame, date with ms, [rel_alt: .. abs_alt: ..]; coordinates altered by the sample's author)",
-    "dji_srt_matrice_300.srt": "JuanIrache/DJI_SRT_Parser samples/matrice_300.srt (MIT; Matrice 300: GPS(lat,lon,altM) BAROMETER, 1 Hz)",
-    "dji_srt_mix_p4rtk_mavic2pro.srt": "JuanIrache/DJI_SRT_Parser samples/mix_p4rtk_mavic2pro.srt (MIT; P4 RTK blocks with H .. m, then Mavic 2 Pro blocks with [altitude: ..], one file)",
+    "dji_srt_MAVIC3.srt": "JuanIrache/DJI_SRT_Parser samples/MAVIC3.srt (MIT; Mavic 3: per frame, date with ms, "
+    "[rel_alt: .. abs_alt: ..]; coordinates altered by the sample's author)",
+    "dji_srt_matrice_300.srt": "JuanIrache/DJI_SRT_Parser samples/matrice_300.srt (MIT; Matrice 300: "
+    "GPS(lat,lon,altM) BAROMETER, 1 Hz)",
+    "dji_srt_mix_p4rtk_mavic2pro.srt": "JuanIrache/DJI_SRT_Parser samples/mix_p4rtk_mavic2pro.srt (MIT; P4 RTK blocks "
+    "with H .. m, then Mavic 2 Pro blocks with [altitude: ..], one file)",
 }
 
 
@@ -128,7 +142,10 @@ def tlog(path):
     t = f[:, 0] + np.median(offsets)
     order = np.argsort(t, kind="stable")
     lag = np.array(received)[order] - t[order]
-    note = f"fix time from SYSTEM_TIME; receive stamps lag it by {np.median(lag):.3f} s median ({lag.min():.3f} to {lag.max():.3f})"
+    note = (
+        f"fix time from SYSTEM_TIME; receive stamps lag it by {np.median(lag):.3f} s median ({lag.min():.3f} to "
+        f"{lag.max():.3f})"
+    )
     return _compare(path.name, "tlog", read_log(path), t[order], f[order, 1:], time_note=note)
 
 
@@ -138,10 +155,20 @@ def fit(path):
     rows = []
     with fitdecode.FitReader(str(path)) as reader:
         for frame in reader:
-            if isinstance(frame, fitdecode.FitDataMessage) and frame.name == "record" and frame.get_value("position_lat", fallback=None) is not None:
+            if (
+                isinstance(frame, fitdecode.FitDataMessage)
+                and frame.name == "record"
+                and frame.get_value("position_lat", fallback=None) is not None
+            ):
                 alt = frame.get_value("enhanced_altitude", fallback=None)
-                rows.append((frame.get_value("timestamp").timestamp(), frame.get_value("position_lat") * 180 / 2**31,
-                             frame.get_value("position_long") * 180 / 2**31, alt if alt is not None else frame.get_value("altitude")))
+                rows.append(
+                    (
+                        frame.get_value("timestamp").timestamp(),
+                        frame.get_value("position_lat") * 180 / 2**31,
+                        frame.get_value("position_long") * 180 / 2**31,
+                        alt if alt is not None else frame.get_value("altitude"),
+                    )
+                )
     r = np.array(rows)
     order = np.argsort(r[:, 0], kind="stable")
     return _compare(path.name, "fit", read_log(path), r[order, 0], r[order, 1:], time_note="timestamp (whole s)")
@@ -153,23 +180,32 @@ def gopro(path):
         return None
     import calendar
 
-    run = lambda *args: subprocess.run([demo, str(path), *args], capture_output=True, check=True).stdout.decode("latin-1")  # noqa: E731
+    def run(*args: str) -> str:
+        return subprocess.run([demo, str(path), *args], capture_output=True, check=True).stdout.decode("latin-1")
+
     text, rates = run("-a", "-fGPS5"), run("-s")
     clock = re.search(r"GPS5 sampling rate = ([\d.]+)Hz \(time (-?[\d.]+) to", rates)
     rate, first = float(clock.group(1)), float(clock.group(2))
-    samples = [[float(v) for v in re.findall(r"(-?[\d.]+)(?:deg|m)", line)[:3]] for line in re.findall(r"^\s+GPS5 (.*deg.*)$", text, flags=re.M)]
+    samples = [
+        [float(v) for v in re.findall(r"(-?[\d.]+)(?:deg|m)", line)[:3]]
+        for line in re.findall(r"^\s+GPS5 (.*deg.*)$", text, flags=re.M)
+    ]
     ref_t = first + np.arange(len(samples)) / rate  # gpmf-parser's sample clock: first + n / rate
     gpsu = re.findall(r'GPSU type .U. size 16 data: "(\d{12}\.\d{3})"', run("-a", "-g", "-fGPSU"))
     counts = [len(body.strip().splitlines()) for body in re.findall(r"SCALED DATA:\n((?:\s+GPS5 .*\n)*)", text)]
     starts = np.cumsum([0] + counts[:-1])
     anchors = []
     for g, n0 in zip(gpsu, starts):
-        utc = calendar.timegm((2000 + int(g[:2]), int(g[2:4]), int(g[4:6]), int(g[6:8]), int(g[8:10]), 0)) + float(g[10:])
+        utc = calendar.timegm((2000 + int(g[:2]), int(g[2:4]), int(g[4:6]), int(g[6:8]), int(g[8:10]), 0)) + float(
+            g[10:]
+        )
         anchors.append(utc - ref_t[n0])
     ours = read_log(path)
     deviation = np.abs(np.array(anchors) - np.median(anchors))
     stale = deviation > 0.5
-    jitter = f"GPSU within {deviation[~stale].max():.3f} s of one UTC offset" + (f", {stale.sum()} stale by {deviation[stale].max():.2f} s (left out)" if stale.any() else "")
+    jitter = f"GPSU within {deviation[~stale].max():.3f} s of one UTC offset" + (
+        f", {stale.sum()} stale by {deviation[stale].max():.2f} s (left out)" if stale.any() else ""
+    )
     shifted = type(ours)(**{**ours.__dict__, "t": ours.t - ours.video_time_zero})
     note = f"gpmf-parser's sample clock ({rate:.4f} Hz from {first:.4f} s) on the video timeline; {jitter}"
     return _compare(path.name, "gopro", shifted, ref_t, np.array(samples), time_note=note)
@@ -194,9 +230,23 @@ def dji_osd(path):
             if row["OSD.isGPSused"] == "True":
                 stamp = row["CUSTOM.updateTime"]
                 when = dt.datetime.strptime(stamp, "%Y/%m/%d %H:%M:%S.%f" if "." in stamp else "%Y/%m/%d %H:%M:%S")
-                rows.append((when.replace(tzinfo=dt.timezone.utc).timestamp(), float(row["OSD.latitude"]), float(row["OSD.longitude"]), float(row["OSD.height [m]"])))
+                rows.append(
+                    (
+                        when.replace(tzinfo=dt.timezone.utc).timestamp(),
+                        float(row["OSD.latitude"]),
+                        float(row["OSD.longitude"]),
+                        float(row["OSD.height [m]"]),
+                    )
+                )
     r = np.array(rows)
-    return _compare(path.name, "dji", read_log(path), r[:, 0], r[:, 1:], time_note="CUSTOM.updateTime (the app's local clock, ms), by Python's csv")
+    return _compare(
+        path.name,
+        "dji",
+        read_log(path),
+        r[:, 0],
+        r[:, 1:],
+        time_note="CUSTOM.updateTime (the app's local clock, ms), by Python's csv",
+    )
 
 
 def airdata(path):
@@ -222,14 +272,18 @@ def airdata(path):
     index = {}
     for i, (lat, lon) in enumerate(ours.values[:, :2]):
         index.setdefault((round(lat, 9), round(lon, 9)), i)
-    pairs = [(index[key], k) for k, key in enumerate((round(a, 9), round(b, 9)) for a, b in ref[:, 1:3]) if key in index]
+    pairs = [
+        (index[key], k) for k, key in enumerate((round(a, 9), round(b, 9)) for a, b in ref[:, 1:3]) if key in index
+    ]
     i, k = np.array(pairs).T
     shift = float(np.median(ours.t[i] - ref[k, 0]))
     matched = type(ours)(**{**ours.__dict__, "t": ours.t[i], "values": ours.values[i]})
     with path.open(newline="", encoding="utf-8") as handle:
         rows = list(csv.DictReader(handle))
     clock = np.array([float(r["time(millisecond)"]) / 1000 for r in rows])
-    whole = np.array([dt.datetime.fromisoformat(r["datetime(utc)"]).replace(tzinfo=dt.timezone.utc).timestamp() for r in rows])
+    whole = np.array(
+        [dt.datetime.fromisoformat(r["datetime(utc)"]).replace(tzinfo=dt.timezone.utc).timestamp() for r in rows]
+    )
     tlsync_c = float(np.median(ours.t - clock[ours.line - 2]))
     agree = lambda c: np.mean(np.floor(clock + c + 1e-6) == whole)  # noqa: E731
     left_out = np.setdiff1d(np.arange(len(ours)), i)
@@ -239,10 +293,17 @@ def airdata(path):
     b = geodetic_to_enu(ref[:, 1], ref[:, 2], ref[:, 3], origin)
     chord = np.column_stack([np.interp(ours.t[left_out] - shift, ref[:, 0], b[:, j]) for j in range(3)])
     off = np.linalg.norm(a[:, :2] - chord[:, :2], axis=1)
-    note = (f"after removing {shift:.3f} s: the GPX is time(millisecond) + the first row's whole second; datetime(utc) is the floor of "
-            f"tlsync's UTC in {agree(tlsync_c):.1%} of rows, of the GPX's in {agree(tlsync_c - shift):.1%}. The GPX leaves out "
-            f"{len(ours) - len(i)} rows; interpolated there it is {np.median(off):.3f} m (median) to {off.max():.3f} m off them")
-    return _compare(path.name, "dji", matched, ref[k, 0] + shift, ref[k, 1:], time_note=note, counts=f"{len(ours)} / {len(ref)}")
+    note = (
+        f"after removing {shift:.3f} s: the GPX is time(millisecond) + the first row's whole second; datetime(utc) is "
+        f"the floor of "
+        f"tlsync's UTC in {agree(tlsync_c):.1%} of rows, of the GPX's in {agree(tlsync_c - shift):.1%}. The GPX "
+        f"leaves out "
+        f"{len(ours) - len(i)} rows; interpolated there it is {np.median(off):.3f} m (median) to {off.max():.3f} m "
+        f"off them"
+    )
+    return _compare(
+        path.name, "dji", matched, ref[k, 0] + shift, ref[k, 1:], time_note=note, counts=f"{len(ours)} / {len(ref)}"
+    )
 
 
 SRT_REFERENCE_JS = """
@@ -267,12 +328,20 @@ def srt(path):
     parser = os.environ.get("DJI_SRT_PARSER")
     if not parser or not Path(parser).exists():
         return None
-    ref = json.loads(subprocess.run(["node", "-e", SRT_REFERENCE_JS, str(Path(parser).resolve()), str(path)], capture_output=True, check=True).stdout)
+    ref = json.loads(
+        subprocess.run(
+            ["node", "-e", SRT_REFERENCE_JS, str(Path(parser).resolve()), str(path)], capture_output=True, check=True
+        ).stdout
+    )
     ours = read_log(path)
     lines = path.read_text(encoding="utf-8-sig", errors="replace").replace("\r", "").split("\n")
     ours_code = [lines[n].split(" -->")[0].strip() if n < len(lines) and "-->" in lines[n] else None for n in ours.line]
     by_code = {code: i for i, code in enumerate(ours_code) if code}
-    pairs = [(by_code[r[0]], k) for k, r in enumerate(ref) if r[0] in by_code] if by_code else list(zip(range(len(ours)), range(len(ref))))
+    pairs = (
+        [(by_code[r[0]], k) for k, r in enumerate(ref) if r[0] in by_code]
+        if by_code
+        else list(zip(range(len(ours)), range(len(ref))))
+    )
     i, k = np.array(pairs).T
     r = np.array([[np.nan if v is None else float(v) for v in row[1:]] for row in ref])
     geo = r[k, 1:4]
@@ -281,19 +350,29 @@ def srt(path):
         geo[:, 2] = matched.values[:, 2]  # the reference reads no height here: compare positions only
     milliseconds = "subtitle (video) times agree" in ours.notes[1]
     ref_wall = r[k, 0] * 1e-3
-    zone = round(float(np.median(matched.t - ref_wall)) / 900) * 900  # the reference's tz-lookup offset, whole quarter hours
+    zone = (
+        round(float(np.median(matched.t - ref_wall)) / 900) * 900
+    )  # the reference's tz-lookup offset, whole quarter hours
     ref_wall = ref_wall + zone
     if milliseconds or not by_code:
         # the reference moves a date that repeats the next one back by half the step before it: not a reading difference
         repeated = np.r_[matched.t[1:] == matched.t[:-1], False]
         ref_t = np.where(repeated, matched.t, ref_wall)
-        what = f"wall clock; the reference's time zone (UTC{zone / 3600:+g} h) removed" + (f", {repeated.sum()} repeated dates it moves left out" if repeated.any() else "")
+        what = f"wall clock; the reference's time zone (UTC{zone / 3600:+g} h) removed" + (
+            f", {repeated.sum()} repeated dates it moves left out" if repeated.any() else ""
+        )
     else:
         codes = [ref[j][0] for j in k]
-        ref_t = np.array([int(c[:2]) * 3600 + int(c[3:5]) * 60 + int(c[6:8]) + int(c[9:12]) / 1000 for c in codes]) + ours.video_time_zero
+        ref_t = (
+            np.array([int(c[:2]) * 3600 + int(c[3:5]) * 60 + int(c[6:8]) + int(c[9:12]) / 1000 for c in codes])
+            + ours.video_time_zero
+        )
         what = "subtitle times"
         if np.isfinite(ref_wall).all() and "wall clock" in ours.notes[1]:
-            what += f" anchored on the whole-second dates, which are within {np.abs(matched.t - ref_wall).max():.2f} s of them (UTC{zone / 3600:+g} h removed)"
+            what += (
+                f" anchored on the whole-second dates, which are within {np.abs(matched.t - ref_wall).max():.2f} "
+                f"s of them (UTC{zone / 3600:+g} h removed)"
+            )
     precision = next(n for n in ours.notes if n.startswith("precision"))
     kept = ingest(ours)[1].fixes_used
     kept_note = "all kept by the ingest" if kept == len(ours) else f"{len(ours) - kept} dropped by the ingest"
@@ -314,17 +393,33 @@ def mcap(path):
         return None
     rows = []
     with path.open("rb") as handle:
-        for _, _, _, msg in make_reader(handle, decoder_factories=[DecoderFactory()]).iter_decoded_messages(topics=["/odom"]):
+        for _, _, _, msg in make_reader(handle, decoder_factories=[DecoderFactory()]).iter_decoded_messages(
+            topics=["/odom"]
+        ):
             p = msg.pose.pose.position
             rows.append((msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9, p.x, p.y, p.z))
     r = np.array(sorted(rows, key=lambda row: row[0]))
-    return _compare(path.name, "rosbag", read_log(path, topic="/odom"), r[:, 0], ref_xyz=r[:, 1:], time_note="header stamps (sim clock)")
+    return _compare(
+        path.name,
+        "rosbag",
+        read_log(path, topic="/odom"),
+        r[:, 0],
+        ref_xyz=r[:, 1:],
+        time_note="header stamps (sim clock)",
+    )
 
 
 READERS = {
-    "sample_log_small.ulg": ulog, "test.BIN": dataflash, "mav.tlog": tlog, "vtol.tlog": tlog,
-    "activity-small-fenix2-run.fit": fit, "max-heromode.mp4": gopro, "freiburg1_xyz-groundtruth.txt": tum,
-    "georeferenced.tum": tum, "nav2_turtlebot.mcap": mcap, "rover_1Hz_rtk.pos": rtklib,
+    "sample_log_small.ulg": ulog,
+    "test.BIN": dataflash,
+    "mav.tlog": tlog,
+    "vtol.tlog": tlog,
+    "activity-small-fenix2-run.fit": fit,
+    "max-heromode.mp4": gopro,
+    "freiburg1_xyz-groundtruth.txt": tum,
+    "georeferenced.tum": tum,
+    "nav2_turtlebot.mcap": mcap,
+    "rover_1Hz_rtk.pos": rtklib,
     "dvm_drone_log.csv": dji_osd,
     "airdata_mini2.csv": airdata,
     **{name: srt for name in SOURCES if name.startswith("dji_srt_")},
@@ -332,7 +427,11 @@ READERS = {
 
 
 def main() -> None:
-    header = ["| file | format | fixes (tlsync / reference) | max horizontal (m) | max vertical (m) | max time (s) | time compared |", "|---|---|---|---|---|---|---|"]
+    header = [
+        "| file | format | fixes (tlsync / reference) | max horizontal (m) | max vertical (m) | max time (s) | time "
+        "compared |",
+        "|---|---|---|---|---|---|---|",
+    ]
     rows, skipped = [], []
     for name, compare in READERS.items():
         path = REAL / name

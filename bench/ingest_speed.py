@@ -53,10 +53,10 @@ def _pynmea2_only(path: Path) -> int:
         except pynmea2.ParseError:
             continue
         if msg.sentence_type == "GGA":
-            (msg.latitude, msg.longitude, msg.altitude, msg.geo_sep, msg.gps_qual, msg.timestamp)
+            _ = (msg.latitude, msg.longitude, msg.altitude, msg.geo_sep, msg.gps_qual, msg.timestamp)
             fixes += 1
         elif msg.sentence_type == "RMC":
-            msg.datestamp
+            _ = msg.datestamp
     return fixes
 
 
@@ -74,13 +74,20 @@ def main() -> None:
         pynmea2_s, fixes = _best(lambda: _pynmea2_only(path), repeats=1)
         gpx_s, _ = _best(lambda: ingest(read_log(gpx)), repeats=1)
         csv_s, _ = _best(lambda: ingest(read_log(csv)), repeats=1)
-    print(f"log: {lines:,} lines, {len(records):,} fixes read, {report.samples:,} samples, "
-          f"{sum(d['count'] for d in report.dropped.values())} lines dropped, {len(report.gaps)} gap")
+    print(
+        f"log: {lines:,} lines, {len(records):,} fixes read, {report.samples:,} samples, "
+        f"{sum(d['count'] for d in report.dropped.values())} lines dropped, {len(report.gaps)} gap"
+    )
     print(f"baseline (sort 1e7 floats): {baseline * 1000:.0f} ms")
     print("| step | s | x baseline |")
     print("|---|---:|---:|")
-    for name, seconds in (("read_nmea (tlsync)", read_s), ("read + ingest (tlsync)", ingest_s), ("pynmea2.parse every line + fields", pynmea2_s),
-                          ("same hour, GPX: read (gpxpy) + ingest", gpx_s), ("same hour, CSV (ISO times): read + ingest", csv_s)):
+    for name, seconds in (
+        ("read_nmea (tlsync)", read_s),
+        ("read + ingest (tlsync)", ingest_s),
+        ("pynmea2.parse every line + fields", pynmea2_s),
+        ("same hour, GPX: read (gpxpy) + ingest", gpx_s),
+        ("same hour, CSV (ISO times): read + ingest", csv_s),
+    ):
         print(f"| {name} | {seconds:.3f} | {seconds / baseline:.1f} |")
     print(f"goal: read + ingest < 2 s: {'met' if ingest_s < 2 else 'NOT met'} ({ingest_s:.2f} s)")
 

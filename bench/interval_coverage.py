@@ -19,8 +19,8 @@ import multiprocessing
 import numpy as np
 
 from data_fixtures import make_scene
-from tlsync_pipeline.sync.model.params import SyncParams
 from tlsync_pipeline.sync.model.methods import RefinedParams
+from tlsync_pipeline.sync.model.params import SyncParams
 from tlsync_pipeline.sync.solve.synchronize import CameraInput, synchronize
 
 LINES = ((2.0, 4.37), (2.0, 45.61))
@@ -32,7 +32,11 @@ def scene_z(args) -> list[float]:
     seed, st, sc, sl, model_error = args
     scene = make_scene(seed, lines=LINES, tracking_noise_px=st, projection_error_px=sc, localisation_noise_pct=sl)
     inputs = {k: CameraInput(scene.cameras[k], scene.tracks[k], scene.cameras[k].fps) for k in scene.cameras}
-    params = SyncParams() if model_error is None else SyncParams(options={"refined": RefinedParams(model_error_px=model_error)})
+    params = (
+        SyncParams()
+        if model_error is None
+        else SyncParams(options={"refined": RefinedParams(model_error_px=model_error)})
+    )
     timeline, _ = synchronize(inputs, scene.trajectory, params)
     z = []
     for name, true in scene.lines.items():
@@ -50,7 +54,15 @@ def scene_z(args) -> list[float]:
     return z
 
 
-def coverage(scenes: int, st: float, sc: float, sl: float, model_error: float | None = None, first_seed: int = 1000, processes: int = 2) -> dict:
+def coverage(
+    scenes: int,
+    st: float,
+    sc: float,
+    sl: float,
+    model_error: float | None = None,
+    first_seed: int = 1000,
+    processes: int = 2,
+) -> dict:
     """Coverage per quantity and overall, and the variance factor for exactly 95 %.
 
     model_error: [sync] model_error_px (None: the default).
@@ -74,15 +86,23 @@ def main() -> None:
     parser.add_argument("--st", type=float, default=2.0, help="tracking noise S_t (px)")
     parser.add_argument("--sc", type=float, default=2.0, help="projection error S_c (px)")
     parser.add_argument("--sl", type=float, default=1.0, help="localisation noise S_l (%% of the field of view)")
-    parser.add_argument("--model-error", type=float, default=None, help="[sync] model_error_px (default: the project default)")
+    parser.add_argument(
+        "--model-error", type=float, default=None, help="[sync] model_error_px (default: the project default)"
+    )
     parser.add_argument("--processes", type=int, default=2)
     args = parser.parse_args()
     result = coverage(args.scenes, args.st, args.sc, args.sl, args.model_error, processes=args.processes)
     model = RefinedParams().model_error_px if args.model_error is None else args.model_error
-    print(f"S_t={args.st} S_c={args.sc} S_l={args.sl} model_error_px={model:g} scenes={args.scenes} (failed {result['failed']})")
+    print(
+        f"S_t={args.st} S_c={args.sc} S_l={args.sl} model_error_px={model:g} scenes={args.scenes} (failed "
+        f"{result['failed']})"
+    )
     for name, value in result["per_quantity"].items():
         print(f"  {name:16s} {100 * value:5.1f} %")
-    print(f"  overall          {100 * result['overall']:5.1f} %   (variance factor for exactly 95 %: x{result['factor_for_95']:.2f} of the current)")
+    print(
+        f"  overall          {100 * result['overall']:5.1f} %   (variance factor for exactly 95 %: "
+        f"x{result['factor_for_95']:.2f} of the current)"
+    )
 
 
 if __name__ == "__main__":

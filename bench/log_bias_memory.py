@@ -22,8 +22,8 @@ import time
 from pathlib import Path
 
 import numpy as np
-
 from _memory import peak_rss_mb
+
 from data_fixtures.log_error import PRESETS as RECEIVERS
 from data_fixtures.log_error import log_errors
 from tlsync_pipeline.pipeline.project import load_project
@@ -68,7 +68,10 @@ def main() -> None:
         print(f"{args.data}: no project.toml; skipped")
         sys.exit(0)
     print(f"{args.data}, drone receiver (seed {args.seed}), declared drone")
-    print("| cameras | peak memory (MB) | sync CPU (s) | CPU s per camera | worst eps_t, own pairs (frames) | synchronized |")
+    print(
+        "| cameras | peak memory (MB) | sync CPU (s) | CPU s per camera | worst eps_t, own pairs (frames) | "
+        "synchronized |"
+    )
     print("|---|---|---|---|---|---|")
     context = multiprocessing.get_context("spawn")
     for count in args.cameras:
@@ -80,7 +83,10 @@ def main() -> None:
             print(f"| {count} | failed (exit {process.exitcode}) | | | | |", flush=True)
             continue
         peak, seconds, worst, synced = queue.get()
-        print(f"| {count} | {peak:.0f} | {seconds:.1f} | {seconds / count:.1f} | {worst:.2f} | {synced} / {count} |", flush=True)
+        print(
+            f"| {count} | {peak:.0f} | {seconds:.1f} | {seconds / count:.1f} | {worst:.2f} | {synced} / {count} |",
+            flush=True,
+        )
 
 
 if __name__ == "__main__":

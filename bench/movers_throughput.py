@@ -65,11 +65,15 @@ def decode_opencv(path: Path) -> int:
 
 
 def target_accuracy(truth, movers) -> str:
-    """Median and 90th percentile distance (px) from the target's centre to the nearest detection, where it is visible."""
+    """Median and 90th percentile distance (px) from the target's centre to the nearest detection,
+    where it is visible.
+    """
     errors = []
     for f in np.flatnonzero(truth.visible):
         here = movers.frame == f
-        errors.append(np.min(np.hypot(movers.x[here] - truth.xy[f, 0], movers.y[here] - truth.xy[f, 1])) if here.any() else np.inf)
+        errors.append(
+            np.min(np.hypot(movers.x[here] - truth.xy[f, 0], movers.y[here] - truth.xy[f, 1])) if here.any() else np.inf
+        )
     errors = np.array(errors)
     on = truth.on_target(movers.frame, np.c_[movers.x, movers.y]).sum()
     return (
@@ -84,7 +88,9 @@ def main() -> None:
     parser.add_argument("--frames", type=int, default=300)
     parser.add_argument("--distractors", type=int, default=8)
     parser.add_argument("--repeat", type=int, default=3, help="measurements of each row, taken in turn")
-    parser.add_argument("--keep", type=Path, help="render the video into this folder and keep it (reused when it is there)")
+    parser.add_argument(
+        "--keep", type=Path, help="render the video into this folder and keep it (reused when it is there)"
+    )
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         folder = args.keep or Path(tmp)
@@ -94,10 +100,15 @@ def main() -> None:
             print(f"1080p H.264 crowd video: {truth.video}")
         else:
             t = time.perf_counter()
-            spec = CrowdSpec(fps=(25.0,), n_frames=(args.frames,), image_size=(1920, 1080), distractors=args.distractors, crf=23)
+            spec = CrowdSpec(
+                fps=(25.0,), n_frames=(args.frames,), image_size=(1920, 1080), distractors=args.distractors, crf=23
+            )
             truth = make_crowd_scene(spec, folder).truth["cam0"]
             truth_file.write_bytes(pickle.dumps(truth))
-            print(f"1080p H.264 crowd video: {args.frames} frames, {args.distractors} walkers in view, made in {time.perf_counter() - t:.1f} s")
+            print(
+                f"1080p H.264 crowd video: {args.frames} frames, {args.distractors} walkers in view, made in "
+                f"{time.perf_counter() - t:.1f} s"
+            )
         path = truth.video
         n = sum(1 for _ in iter_frames(path, gray=True))
         params = BlobParams(max_candidates=MOVERS_MAX_CANDIDATES)
@@ -120,7 +131,10 @@ def main() -> None:
         floor_runs = rows["decode only, luma plane (floor)"]
         floor = n / statistics.median(w for w, _ in floor_runs)
         floor_cpu = n / statistics.median(c for _, c in floor_runs)
-        print(f"\n{n} frames, {args.repeat} runs of each row in turn; load average (1 min) at the runs: {', '.join(f'{v:.1f}' for v in loads)} on {os.cpu_count()} CPUs")
+        print(
+            f"\n{n} frames, {args.repeat} runs of each row in turn; load average (1 min) at the runs: "
+            f"{', '.join(f'{v:.1f}' for v in loads)} on {os.cpu_count()} CPUs"
+        )
         print(f"\n{'':36} {'frames/s':>9} {'x floor':>8} {'CPU/wall':>9} {'x floor CPU':>12}")
         for name, runs in rows.items():
             wall = statistics.median(w for w, _ in runs)

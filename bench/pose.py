@@ -1,6 +1,8 @@
-"""Poses from the target: eps_t and pose error against GCP noise and without GCPs, the real flight without poses, a crowd, speed.
+"""Poses from the target: eps_t and pose error against GCP noise and without GCPs, the real flight without poses, a
+crowd, speed.
 
-    nice python bench/pose.py [--scenes 20] [--jobs 2] [--crowd 5] [--demo-draws 10] [--gnss-seeds 3] [--gnss-only] [--data /work/shared/real/drone2] [--no-write]
+    nice python bench/pose.py [--scenes 20] [--jobs 2] [--crowd 5] [--demo-draws 10] [--gnss-seeds 3] [--gnss-only]
+    [--data /work/shared/real/drone2] [--no-write]
 
 1. Pass scenes (data_fixtures/passes.py: a walker crossing three 30 fps
    views and turning inside each, RTK log 10 Hz with 2 cm noise, 2 px
@@ -55,21 +57,21 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from _memory import peak_rss_mb  # noqa: E402
+from _report import pair_errors  # noqa: E402
+
 from calibration.camera import Camera  # noqa: E402
 from calibration.errors import CalibrationInputError  # noqa: E402
 from calibration.extrinsics import pose_from_points  # noqa: E402
 from data_fixtures.passes import make_pass_scene  # noqa: E402
-from tlsync_pipeline.sync.model.params import SyncParams  # noqa: E402
+from tlsync_pipeline.sync.identify.identify import identify_params  # noqa: E402
 from tlsync_pipeline.sync.model.choices import GCP_SIGMA_M  # noqa: E402
+from tlsync_pipeline.sync.model.methods import preparation_of, prepare_trajectory  # noqa: E402
+from tlsync_pipeline.sync.model.params import SyncParams  # noqa: E402
 from tlsync_pipeline.sync.pose.pose import estimate_pose, rotation_between  # noqa: E402
 from tlsync_pipeline.sync.pose.pose_fit import GcpPrior  # noqa: E402
-from tlsync_pipeline.sync.identify.identify import identify_params  # noqa: E402
-from tlsync_pipeline.sync.model.methods import prepare_trajectory, preparation_of  # noqa: E402
 from tlsync_pipeline.sync.solve.synchronize import CameraInput, synchronize  # noqa: E402
 from tlsync_pipeline.sync.timeline import eps_t  # noqa: E402
-
-from _memory import peak_rss_mb  # noqa: E402
-from _report import pair_errors  # noqa: E402
 
 NOISE_M = (0.0, 0.1, 0.5, 2.0)
 Z95 = 1.959964
@@ -85,7 +87,10 @@ def _worst(timeline, scene) -> float:
     """The worst pair's eps_t; inf when a camera was not synchronized."""
     if timeline.failed:
         return float("inf")
-    return max(eps_t(timeline.relation(*k.split("->")), true, scene.n_frames[k.split("->")[0]]) for k, true in scene.truth_pairs().items())
+    return max(
+        eps_t(timeline.relation(*k.split("->")), true, scene.n_frames[k.split("->")[0]])
+        for k, true in scene.truth_pairs().items()
+    )
 
 
 def _z(timeline, scene) -> list[float]:
@@ -97,7 +102,9 @@ def _z(timeline, scene) -> list[float]:
         a, b = key.split("->")
         if a in timeline.cameras and b in timeline.cameras:
             cov = timeline.relation_cov(a, b)
-            out.append(abs(timeline.relation(a, b).beta - truth.beta) / np.sqrt(cov[1, 1]) if cov is not None else np.inf)
+            out.append(
+                abs(timeline.relation(a, b).beta - truth.beta) / np.sqrt(cov[1, 1]) if cov is not None else np.inf
+            )
     return out
 
 
@@ -121,8 +128,18 @@ def pass_scene(seed: int) -> dict:
     timeline, _ = synchronize(exact, scene.trajectory, params)
     rows["exact"] = {"worst": _worst(timeline, scene), "errors": [], "missing": 0, "z": _z(timeline, scene)}
     start = time.process_time()
-    timeline, results = synchronize({n: CameraInput(unposed(c), scene.tracks[n], c.fps) for n, c in scene.true_cameras.items()}, scene.trajectory, params)
-    rows["target"] = {"worst": _worst(timeline, scene), "errors": _pose_errors(results, scene), "missing": len(timeline.failed), "cpu_s": time.process_time() - start, "z": _z(timeline, scene)}
+    timeline, results = synchronize(
+        {n: CameraInput(unposed(c), scene.tracks[n], c.fps) for n, c in scene.true_cameras.items()},
+        scene.trajectory,
+        params,
+    )
+    rows["target"] = {
+        "worst": _worst(timeline, scene),
+        "errors": _pose_errors(results, scene),
+        "missing": len(timeline.failed),
+        "cpu_s": time.process_time() - start,
+        "z": _z(timeline, scene),
+    }
     for noise in NOISE_M:
         gcps = make_pass_scene(seed, gcp_noise_m=noise).gcps
         alone, missing = {}, 0
@@ -134,27 +151,58 @@ def pass_scene(seed: int) -> dict:
                 missing += 1
                 continue
             alone[n] = CameraInput(replace(c, R=pose.R, t=pose.t), scene.tracks[n], c.fps)
-        errors = [(float(np.linalg.norm(i.camera.center - scene.true_cameras[n].center)), rotation_between(i.camera.R, scene.true_cameras[n].R)) for n, i in alone.items()]
+        errors = [
+            (
+                float(np.linalg.norm(i.camera.center - scene.true_cameras[n].center)),
+                rotation_between(i.camera.R, scene.true_cameras[n].R),
+            )
+            for n, i in alone.items()
+        ]
         timeline, _ = synchronize(alone, scene.trajectory, params) if alone else (None, {})
-        rows[("alone", noise)] = {"worst": _worst(timeline, scene) if timeline is not None and not missing else float("inf"), "errors": errors, "missing": missing, "z": _z(timeline, scene)}
-        inputs = {n: CameraInput(unposed(c), scene.tracks[n], c.fps, gcps=GcpPrior(gcps[n].uv, gcps[n].xyz, GCP_SIGMA_M)) for n, c in scene.true_cameras.items()}
+        rows[("alone", noise)] = {
+            "worst": _worst(timeline, scene) if timeline is not None and not missing else float("inf"),
+            "errors": errors,
+            "missing": missing,
+            "z": _z(timeline, scene),
+        }
+        inputs = {
+            n: CameraInput(unposed(c), scene.tracks[n], c.fps, gcps=GcpPrior(gcps[n].uv, gcps[n].xyz, GCP_SIGMA_M))
+            for n, c in scene.true_cameras.items()
+        }
         timeline, results = synchronize(inputs, scene.trajectory, params)
-        rows[("joint", noise)] = {"worst": _worst(timeline, scene), "errors": _pose_errors(results, scene), "missing": len(timeline.failed), "z": _z(timeline, scene)}
+        rows[("joint", noise)] = {
+            "worst": _worst(timeline, scene),
+            "errors": _pose_errors(results, scene),
+            "missing": len(timeline.failed),
+            "z": _z(timeline, scene),
+        }
     return rows
 
 
 def pass_table(all_rows: list[dict]) -> str:
     def line(label, key):
         worst = np.array([r[key]["worst"] for r in all_rows])
-        errors = np.array([e for r in all_rows for e in r[key]["errors"]]) if any(r[key]["errors"] for r in all_rows) else np.zeros((0, 2))
+        errors = (
+            np.array([e for r in all_rows for e in r[key]["errors"]])
+            if any(r[key]["errors"] for r in all_rows)
+            else np.zeros((0, 2))
+        )
         missing = sum(r[key]["missing"] for r in all_rows)
-        pose = f"{np.median(errors[:, 0]):.3f} / {np.quantile(errors[:, 0], 0.9):.3f} | {np.median(errors[:, 1]):.3f}" if len(errors) else "- | -"
+        pose = (
+            f"{np.median(errors[:, 0]):.3f} / {np.quantile(errors[:, 0], 0.9):.3f} | {np.median(errors[:, 1]):.3f}"
+            if len(errors)
+            else "- | -"
+        )
         z = np.array([v for r in all_rows for v in r[key]["z"]])
         coverage = f"{100 * np.mean(z <= Z95):.0f} % of {len(z)}" if len(z) else "-"
-        return f"| {label} | {np.median(worst):.3f} | {np.quantile(worst, 0.9, method='higher'):.3f} | {pose} | {missing} / {3 * len(all_rows)} | {coverage} |"
+        return (
+            f"| {label} | {np.median(worst):.3f} | {np.quantile(worst, 0.9, method='higher'):.3f} | {pose} | "
+            f"{missing} / {3 * len(all_rows)} | {coverage} |"
+        )
 
     lines = [
-        "| poses | median eps_t | p90 eps_t | pose centre error, median / p90 (m) | rotation error, median (deg) | cameras without a pose | 95 % intervals that contain the truth (synchronized pairs) |",
+        "| poses | median eps_t | p90 eps_t | pose centre error, median / p90 (m) | rotation error, median (deg) | "
+        "cameras without a pose | 95 % intervals that contain the truth (synchronized pairs) |",
         "|---|---|---|---|---|---|---|",
         line("exact (the true poses)", "exact"),
         line("from the target, no GCPs", "target"),
@@ -178,19 +226,33 @@ def real_flight(data: Path) -> str | None:
     truth, n_frames = read_truth(data / "truth.json")
     out = {}
     seconds = {}
-    for label, inputs in (("given poses", cameras), ("poses removed", {n: replace(c, camera=unposed(c.camera)) for n, c in cameras.items()})):
+    for label, inputs in (
+        ("given poses", cameras),
+        ("poses removed", {n: replace(c, camera=unposed(c.camera)) for n, c in cameras.items()}),
+    ):
         start = time.process_time()
         timeline, results = synchronize(inputs, trajectory, project.sync)
         seconds[label] = time.process_time() - start
-        out[label] = {k: eps_t(timeline.relation(*k.split("->")), r, n_frames.get(k.split("->")[0]) or 1) for k, r in truth.items()}
+        out[label] = {
+            k: eps_t(timeline.relation(*k.split("->")), r, n_frames.get(k.split("->")[0]) or 1)
+            for k, r in truth.items()
+        }
         if label == "poses removed":
-            moved = {n: (float(np.linalg.norm(r.pose.camera.center - cameras[n].camera.center)), rotation_between(r.pose.camera.R, cameras[n].camera.R)) for n, r in results.items() if r.pose}
+            moved = {
+                n: (
+                    float(np.linalg.norm(r.pose.camera.center - cameras[n].camera.center)),
+                    rotation_between(r.pose.camera.R, cameras[n].camera.R),
+                )
+                for n, r in results.items()
+                if r.pose
+            }
     rows = [f"| {k} | {out['given poses'][k]:.3f} | {out['poses removed'][k]:.3f} |" for k in truth]
     a, b = np.array(list(out["given poses"].values())), np.array(list(out["poses removed"].values()))
     poses = ", ".join(f"{n} {d:.3f} m / {r:.3f} deg" for n, (d, r) in moved.items())
     return "\n".join(
         [
-            f"Real flight {data.name}: {len(cameras)} cameras, sync CPU {seconds['given poses']:.1f} s with the poses, {seconds['poses removed']:.1f} s without (the poses from the target included).",
+            f"Real flight {data.name}: {len(cameras)} cameras, sync CPU {seconds['given poses']:.1f} s with the "
+            f"poses, {seconds['poses removed']:.1f} s without (the poses from the target included).",
             "",
             "| pair | eps_t, given poses | eps_t, poses removed |",
             "|---|---|---|",
@@ -211,29 +273,63 @@ def demo_draws(draws: int) -> str:
     from data_fixtures.raw_project import RawProjectSpec, make_raw_project, rewrite_gcps
     from tlsync_pipeline.sync.timeline import read_timeline, read_truth
 
-    rows = ["| draw | cameras synchronized | worst eps_t | per camera: pose source, measured GCP sigma (m), GCPs that disagree |", "|---|---|---|---|"]
+    rows = [
+        "| draw | cameras synchronized | worst eps_t | per camera: pose source, measured GCP sigma (m), GCPs that "
+        "disagree |",
+        "|---|---|---|---|",
+    ]
     worst_all = []
     with tempfile.TemporaryDirectory() as tmp:
         project_file, scene = make_raw_project(Path(tmp) / "demo", RawProjectSpec(gcp_noise_m=0.5))
         truth, n_frames = read_truth(project_file.parent / "truth.json")
         for draw in range(draws):
             rewrite_gcps(project_file.parent, RawProjectSpec(gcp_noise_m=0.5, gcp_draw=draw))
-            subprocess.run([sys.executable, "-m", "tlsync_pipeline.cli", "run", str(project_file), "-j", "1", "-q"], capture_output=True, check=False)
+            subprocess.run(
+                [sys.executable, "-m", "tlsync_pipeline.cli", "run", str(project_file), "-j", "1", "-q"],
+                capture_output=True,
+                check=False,
+            )
             timeline = read_timeline(project_file.parent / "work" / "timeline.json")
-            errors = [eps_t(timeline.relation(*k.split("->")), r, n_frames[k.split("->")[0]]) for k, r in truth.items() if all(c in timeline.cameras for c in k.split("->"))]
+            errors = [
+                eps_t(timeline.relation(*k.split("->")), r, n_frames[k.split("->")[0]])
+                for k, r in truth.items()
+                if all(c in timeline.cameras for c in k.split("->"))
+            ]
             worst = max(errors) if len(timeline.cameras) == len(scene.true_cameras) else float("inf")
             worst_all.append(worst)
             poses = []
             for name in scene.true_cameras:
-                target = json.loads((project_file.parent / "work" / "cameras" / name / "calibration_report.json").read_text(encoding="utf-8")).get("target_pose") or {}
-                poses.append(f"{name} {target.get('cause') or target.get('source')} {target.get('gcp_sigma_m', float('nan')):.2f} {','.join(target.get('gcps_disagree') or []) or '-'}")
-            rows.append(f"| {draw} | {len(timeline.cameras)} / {len(scene.true_cameras)} | {worst:.3f} | {'; '.join(poses)} |")
+                target = (
+                    json.loads(
+                        (project_file.parent / "work" / "cameras" / name / "calibration_report.json").read_text(
+                            encoding="utf-8"
+                        )
+                    ).get("target_pose")
+                    or {}
+                )
+                poses.append(
+                    f"{name} {target.get('cause') or target.get('source')} "
+                    f"{target.get('gcp_sigma_m', float('nan')):.2f} "
+                    f"{','.join(target.get('gcps_disagree') or []) or '-'}"
+                )
+            rows.append(
+                f"| {draw} | {len(timeline.cameras)} / {len(scene.true_cameras)} | {worst:.3f} | {'; '.join(poses)} |"
+            )
     synced = sum(np.isfinite(w) for w in worst_all)
-    return "\n".join([f"Raw demo with its GCPs 0.5 m off (per horizontal axis), {draws} draws, defaults: every camera synchronized in {synced} of {draws}; worst pair {max(worst_all):.3f} frames.", "", *rows])
+    return "\n".join(
+        [
+            f"Raw demo with its GCPs 0.5 m off (per horizontal axis), {draws} draws, defaults: every camera "
+            f"synchronized in {synced} of {draws}; worst pair {max(worst_all):.3f} frames.",
+            "",
+            *rows,
+        ]
+    )
 
 
 def gnss_without_poses(data: Path, seeds: int) -> str | None:
-    """The real flight without poses, a drone's GNSS error added to its log, declared ``drone`` (section 6); None without the data."""
+    """The real flight without poses, a drone's GNSS error added to its log, declared ``drone`` (section 6); None
+    without the data.
+    """
     if not (data / "project.toml").exists():
         return None
     import dataclasses
@@ -250,7 +346,8 @@ def gnss_without_poses(data: Path, seeds: int) -> str | None:
     truth, n_frames = read_truth(data / "truth.json")
     to_target = json.loads((data / "truth.json").read_text())["cameras_to_target"]
     rows = [
-        "| seed | cameras synchronized | worst eps_t | median eps_t | 95 % intervals that contain the truth | a camera's beta off the truth, most (sigmas) | refused (cause) | sync CPU (s) |",
+        "| seed | cameras synchronized | worst eps_t | median eps_t | 95 % intervals that contain the truth | a "
+        "camera's beta off the truth, most (sigmas) | refused (cause) | sync CPU (s) |",
         "|---|---|---|---|---|---|---|---|",
     ]
     synced, every, medians, all_z = 0, 0, [], []
@@ -258,16 +355,33 @@ def gnss_without_poses(data: Path, seeds: int) -> str | None:
         errors, _ = log_errors(np.random.default_rng(seed), trajectory.sample / trajectory.rate, RECEIVERS["drone"])
         inputs = {n: replace(c, camera=unposed(c.camera)) for n, c in cameras.items()}
         start = time.process_time()
-        timeline, _ = synchronize(inputs, dataclasses.replace(trajectory, xyz=trajectory.xyz + errors), project.sync, log_model=LOG_MODELS["drone"])
+        timeline, _ = synchronize(
+            inputs,
+            dataclasses.replace(trajectory, xyz=trajectory.xyz + errors),
+            project.sync,
+            log_model=LOG_MODELS["drone"],
+        )
         seconds = time.process_time() - start
         pairs = pair_errors(timeline, truth, n_frames)
         eps, z = [e for e, _ in pairs], [score for _, score in pairs]
-        causes = ", ".join(f"{n} ({why.split('(', 2)[1].split(')')[0] if '(' in why else why[:40]})" for n, why in timeline.failed.items()) or "-"
+        causes = (
+            ", ".join(
+                f"{n} ({why.split('(', 2)[1].split(')')[0] if '(' in why else why[:40]})"
+                for n, why in timeline.failed.items()
+            )
+            or "-"
+        )
         worst = f"{max(eps):.2f} | {np.median(eps):.2f}" if eps else "- | -"
         cover = f"{100 * np.mean(np.array(z) <= Z95):.0f} % of {len(z)}" if z else "-"
-        off = [abs(line.beta - to_target[n]["beta"]) / np.sqrt(line.cov[1, 1]) if line.cov is not None else np.inf for n, line in timeline.cameras.items()]
+        off = [
+            abs(line.beta - to_target[n]["beta"]) / np.sqrt(line.cov[1, 1]) if line.cov is not None else np.inf
+            for n, line in timeline.cameras.items()
+        ]
         most = f"{max(off):.2f}" if off else "-"
-        rows.append(f"| {seed} | {len(timeline.cameras)} / {len(cameras)} | {worst} | {cover} | {most} | {causes} | {seconds:.0f} |")
+        rows.append(
+            f"| {seed} | {len(timeline.cameras)} / {len(cameras)} | {worst} | {cover} | {most} | {causes} | "
+            f"{seconds:.0f} |"
+        )
         synced += len(timeline.cameras)
         every += len(timeline.cameras) == len(cameras)
         medians += [float(np.median(eps))] if eps else []
@@ -275,10 +389,20 @@ def gnss_without_poses(data: Path, seeds: int) -> str | None:
     held = f"{100 * np.mean(np.array(all_z) <= Z95):.0f} % of {len(all_z)}" if all_z else "none of 0"
     summary = (
         f"Every camera synchronized in {every} of {seeds} runs ({synced} of {len(cameras) * seeds} cameras); "
-        f"median eps_t over the runs {np.median(medians) if medians else float('nan'):.2f} frames; {held} intervals hold; "
+        f"median eps_t over the runs {np.median(medians) if medians else float('nan'):.2f} frames; {held} intervals "
+        f"hold; "
         f"peak resident memory of this bench's process {peak_rss_mb():.0f} MB."
     )
-    return "\n".join([f"Real flight {data.name} without poses, a drone's GNSS error added to its log (declared `drone`), {seeds} seeds:", "", *rows, "", summary])
+    return "\n".join(
+        [
+            f"Real flight {data.name} without poses, a drone's GNSS error added to its log (declared `drone`), "
+            f"{seeds} seeds:",
+            "",
+            *rows,
+            "",
+            summary,
+        ]
+    )
 
 
 def crowd_scene(seed: int) -> dict:
@@ -291,25 +415,45 @@ def crowd_scene(seed: int) -> dict:
         scene = crowd.scene
         detections = {n: detect_movers(crowd.truth[n].video, progress=False) for n in scene.cameras}
     start = time.process_time()
-    timeline, results = synchronize({n: CameraInput(unposed(c), None, c.fps, detections[n]) for n, c in scene.cameras.items()}, scene.trajectory, SyncParams())
+    timeline, results = synchronize(
+        {n: CameraInput(unposed(c), None, c.fps, detections[n]) for n, c in scene.cameras.items()},
+        scene.trajectory,
+        SyncParams(),
+    )
     seconds = time.process_time() - start
     errors = _pose_errors(results, scene)
-    outcome = {n: ("posed" if n in results else timeline.failed[n].split("(", 2)[1].split(")")[0] if "(" in timeline.failed[n] else "failed") for n in scene.cameras}
+    outcome = {
+        n: (
+            "posed"
+            if n in results
+            else timeline.failed[n].split("(", 2)[1].split(")")[0]
+            if "(" in timeline.failed[n]
+            else "failed"
+        )
+        for n in scene.cameras
+    }
     return {"worst": _worst(timeline, scene), "errors": errors, "outcome": outcome, "cpu_s": seconds}
 
 
 def crowd_table(rows: list[dict]) -> str:
-    lines = ["| seed | worst eps_t | cameras (10 fps, 5 fps) | pose centre error (m) | rotation error (deg) | CPU s |", "|---|---|---|---|---|---|"]
+    lines = [
+        "| seed | worst eps_t | cameras (10 fps, 5 fps) | pose centre error (m) | rotation error (deg) | CPU s |",
+        "|---|---|---|---|---|---|",
+    ]
     for seed, r in enumerate(rows):
         errors = ", ".join(f"{d:.2f}" for d, _ in r["errors"]) or "-"
         angles = ", ".join(f"{a:.2f}" for _, a in r["errors"]) or "-"
         worst = "not synchronized" if not np.isfinite(r["worst"]) else f"{r['worst']:.3f}"
-        lines.append(f"| {seed} | {worst} | {', '.join(r['outcome'].values())} | {errors} | {angles} | {r['cpu_s']:.0f} |")
+        lines.append(
+            f"| {seed} | {worst} | {', '.join(r['outcome'].values())} | {errors} | {angles} | {r['cpu_s']:.0f} |"
+        )
     return "\n".join(lines)
 
 
 def speed(rounds: int = 2) -> tuple[float, int]:
-    """CPU seconds (the faster of ``rounds``) of one camera's pose search and fit on 10 minutes of 30 fps track, and its frames."""
+    """CPU seconds (the faster of ``rounds``) of one camera's pose search and fit on 10 minutes of 30 fps track, and its
+    frames.
+    """
     scene = make_pass_scene(0, paths=("turn",), view_walk_s=600.0).scene
     camera, track = scene.true_cameras["cam0"], scene.tracks["cam0"]
     params = SyncParams()
@@ -327,14 +471,29 @@ def main() -> None:
     parser.add_argument("--scenes", type=int, default=20)
     parser.add_argument("--crowd", type=int, default=5, metavar="N", help="crowd scenes (0: none)")
     parser.add_argument("--jobs", type=int, default=2)
-    parser.add_argument("--demo-draws", type=int, default=10, metavar="N", help="draws of the raw demo's GCP error (0: none)")
-    parser.add_argument("--gnss-seeds", type=int, default=3, metavar="N", help="seeds of the real flight with a drone's GNSS error, without poses (0: none)")
+    parser.add_argument(
+        "--demo-draws", type=int, default=10, metavar="N", help="draws of the raw demo's GCP error (0: none)"
+    )
+    parser.add_argument(
+        "--gnss-seeds",
+        type=int,
+        default=3,
+        metavar="N",
+        help="seeds of the real flight with a drone's GNSS error, without poses (0: none)",
+    )
     parser.add_argument("--data", type=Path, default=DEFAULT_DATA)
     parser.add_argument("--no-write", action="store_true", help="print only; leave docs/ alone")
-    parser.add_argument("--gnss-only", action="store_true", help="only the real flight with a drone's GNSS error, without poses; print it, leave docs/ alone")
+    parser.add_argument(
+        "--gnss-only",
+        action="store_true",
+        help="only the real flight with a drone's GNSS error, without poses; print it, leave docs/ alone",
+    )
     args = parser.parse_args()
     if args.gnss_only:
-        print(gnss_without_poses(args.data, args.gnss_seeds) or f"drone GNSS without poses: skipped ({args.data} not found)")
+        print(
+            gnss_without_poses(args.data, args.gnss_seeds)
+            or f"drone GNSS without poses: skipped ({args.data} not found)"
+        )
         return
     started = time.time()
     with ProcessPoolExecutor(args.jobs) as pool:
@@ -349,14 +508,24 @@ def main() -> None:
     print(crowds)
     demo = demo_draws(args.demo_draws) if args.demo_draws else ""
     print(demo)
-    gnss = (gnss_without_poses(args.data, args.gnss_seeds) or f"drone GNSS without poses: skipped ({args.data} not found)") if args.gnss_seeds else ""
+    gnss = (
+        (gnss_without_poses(args.data, args.gnss_seeds) or f"drone GNSS without poses: skipped ({args.data} not found)")
+        if args.gnss_seeds
+        else ""
+    )
     print(gnss)
     seconds, frames = speed()
-    pace = f"Speed: the pose search and fit of one camera on {frames} frames (10 minutes at 30 fps; a walker turning in its view): {seconds:.1f} s CPU (the faster of 2 runs). On the pass scenes (500-900 frames a camera): {np.median(pose_cpu):.1f} s a camera (median, with its sync)."
+    pace = (
+        f"Speed: the pose search and fit of one camera on {frames} frames (10 minutes at 30 fps; a walker turning "
+        f"in its view): {seconds:.1f} s CPU (the faster of 2 runs). On the pass scenes (500-900 frames a camera): "
+        f"{np.median(pose_cpu):.1f} s a camera (median, with its sync)."
+    )
     print(pace)
     text = "\n".join(
         [
-            f"`python bench/pose.py --scenes {args.scenes} --crowd {args.crowd} --demo-draws {args.demo_draws} --gnss-seeds {args.gnss_seeds}` ({time.strftime('%Y-%m-%d')}, {(time.time() - started) / 60:.0f} min on this machine).",
+            f"`python bench/pose.py --scenes {args.scenes} --crowd {args.crowd} --demo-draws {args.demo_draws} "
+            f"--gnss-seeds {args.gnss_seeds}` ({time.strftime('%Y-%m-%d')}, {(time.time() - started) / 60:.0f} min on "
+            f"this machine).",
             "",
             f"Pass scenes, {args.scenes} seeds (3 cameras each; worst pair per scene, frames):",
             "",
@@ -364,7 +533,10 @@ def main() -> None:
             "",
             flight or f"Real flight: skipped ({args.data} not found).",
             "",
-            f"Crowds, 6 walkers per view, no pose and no track given (the pose from every mover's tracklets), {args.crowd} seeds:" if crowd else "",
+            f"Crowds, 6 walkers per view, no pose and no track given (the pose from every mover's tracklets), "
+            f"{args.crowd} seeds:"
+            if crowd
+            else "",
             "",
             crowds,
             "",

@@ -66,6 +66,7 @@ REPOSITORY = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPOSITORY))
 
 from _memory import peak_rss_mb  # noqa: E402
+
 from data_fixtures.raw_project import RawProjectSpec, make_raw_project  # noqa: E402
 from tlsync_pipeline.pipeline.graph import STAGES  # noqa: E402
 from tlsync_pipeline.sync.timeline import eps_t, read_timeline, read_truth  # noqa: E402
@@ -83,7 +84,8 @@ def _scenes():
 
 @dataclass(frozen=True)
 class Workload:
-    """cameras, seconds (each video), size, scene renderer and look-alikes per view; fps: per camera (default FPS_CYCLE).
+    """cameras, seconds (each video), size, scene renderer and look-alikes per view; fps: per camera (default
+    FPS_CYCLE).
 
     starts_s: the cameras record at the same time, each starting at these
     seconds of the log (None: one after the other, each sharing the target
@@ -117,14 +119,38 @@ class Workload:
                 lines.append((alpha, -alpha * (k * self.seconds * TARGET_RATE) + 0.1 * n))
             n_frames.append(n)
         window = self.stay_s * TARGET_RATE if self.stay_s is not None else None
-        return RawProjectSpec(lines=tuple(lines), n_frames=tuple(n_frames), image_size=self.size, target_rate=TARGET_RATE, boards=8, gcps=8, window_samples=window)
+        return RawProjectSpec(
+            lines=tuple(lines),
+            n_frames=tuple(n_frames),
+            image_size=self.size,
+            target_rate=TARGET_RATE,
+            boards=8,
+            gcps=8,
+            window_samples=window,
+        )
 
 
 # Named workloads (--workload): the long recording of issue 26 (the target in view about 12 % of each video, look-alikes
 # all the time) and the short 720p project in which it is in view in a third of the frames.
 WORKLOADS = {
-    "long-recording": Workload(cameras=3, seconds=540.0, size=(1280, 720), scene="long", look_alikes=6, stay_s=65.0, starts_s=(-20.0, 15.0, 40.0)),
-    "short-720p": Workload(cameras=3, seconds=80.0, size=(1280, 720), scene="long", look_alikes=6, starts_s=(0.0, 2.0, 4.0), fps=(30.0, 25.0, 15.0)),
+    "long-recording": Workload(
+        cameras=3,
+        seconds=540.0,
+        size=(1280, 720),
+        scene="long",
+        look_alikes=6,
+        stay_s=65.0,
+        starts_s=(-20.0, 15.0, 40.0),
+    ),
+    "short-720p": Workload(
+        cameras=3,
+        seconds=80.0,
+        size=(1280, 720),
+        scene="long",
+        look_alikes=6,
+        starts_s=(0.0, 2.0, 4.0),
+        fps=(30.0, 25.0, 15.0),
+    ),
 }
 
 
@@ -132,7 +158,9 @@ QUICK = Workload(cameras=2, seconds=10.0, size=(320, 240), scene="textured")
 
 
 def make_project(workload: Workload, folder: Path) -> tuple[Path, float]:
-    """The raw project in ``folder`` (reused when it was made for the same workload); returns (project.toml, seconds spent making it)."""
+    """The raw project in ``folder`` (reused when it was made for the same workload); returns (project.toml, seconds
+    spent making it).
+    """
     marker = folder / "workload.json"
     wanted = json.dumps(asdict(workload), sort_keys=True)
     project = folder / "project.toml"
@@ -151,14 +179,19 @@ INIT_BOXES = "init_boxes.json"  # per camera, CSRT's start among look-alikes: [i
 
 
 def init_boxes(scene, size: tuple[int, int], radius: float) -> dict[str, list]:
-    """Per camera, a box (pixels, top-left corner and size) around the target in the first frame where the whole box is in view, and that 0-based frame."""
+    """Per camera, a box (pixels, top-left corner and size) around the target in the first frame where the whole box is
+    in view, and that 0-based frame.
+    """
     out = {}
     side = 2.5 * radius
     for name, track in scene.tracks.items():
         inside = np.all((track.xy >= side) & (track.xy <= np.array(size) - 1 - side), axis=1)
         k = int(np.argmax(inside))
         x, y = track.xy[k]
-        out[name] = [int(track.frame[k]), [round(x - side / 2, 1), round(y - side / 2, 1), round(side, 1), round(side, 1)]]
+        out[name] = [
+            int(track.frame[k]),
+            [round(x - side / 2, 1), round(y - side / 2, 1), round(side, 1), round(side, 1)],
+        ]
     return out
 
 
@@ -225,22 +258,49 @@ def tlsync_run(project: Path, work: Path, jobs: int, code: Path = REPOSITORY) ->
     # project's renderers and the floor's decoders included), and a child's own ru_maxrss starts at its parent's
     # RSS when it was forked, so the run's process reads its high-water mark from /proc (VmHWM: this program only)
     # (bench/_memory.py) and takes its workers' from RUSAGE_CHILDREN (forked from it, so never above its own peak).
-    report_peak = "import atexit, resource; atexit.register(lambda: print('peak-rss-mb', max(peak_rss_mb(), resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024), file=sys.stderr))"
-    command = [sys.executable, "-c", f"import sys\n{inspect.getsource(peak_rss_mb)}{report_peak}\nfrom tlsync_pipeline.cli.main import main\nsys.exit(main())", "run", str(project), "--work", str(work), "--quiet", "--jobs", str(jobs)]
+    report_peak = (
+        "import atexit, resource; atexit.register(lambda: print('peak-rss-mb', max(peak_rss_mb(), "
+        "resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024), file=sys.stderr))"
+    )
+    command = [
+        sys.executable,
+        "-c",
+        f"import sys\n{inspect.getsource(peak_rss_mb)}{report_peak}\nfrom tlsync_pipeline.cli.main import "
+        f"main\nsys.exit(main())",
+        "run",
+        str(project),
+        "--work",
+        str(work),
+        "--quiet",
+        "--jobs",
+        str(jobs),
+    ]
     env = dict(os.environ, PYTHONPATH=str(code))
     load = os.getloadavg()[0]
     cpu, start = _children_cpu(), time.perf_counter()
-    done = subprocess.run(command, capture_output=True, text=True, env=env, cwd=code)  # "-c" puts the working folder first on sys.path
+    done = subprocess.run(
+        command, capture_output=True, text=True, env=env, cwd=code
+    )  # "-c" puts the working folder first on sys.path
     wall = time.perf_counter() - start
     if done.returncode not in (0, 1):  # 1: ran through, some camera not synchronized
         raise SystemExit(f"tlsync run failed (exit {done.returncode}):\n{done.stdout}\n{done.stderr}")
-    peak = max((float(line.split()[1]) for line in done.stderr.splitlines() if line.startswith("peak-rss-mb ")), default=0.0)
+    peak = max(
+        (float(line.split()[1]) for line in done.stderr.splitlines() if line.startswith("peak-rss-mb ")), default=0.0
+    )
     missed = [line for line in done.stdout.splitlines() if line.startswith("not synchronized")]
-    return Measure(wall, _children_cpu() - cpu, (load, os.getloadavg()[0]), peak, missed + [worst_error(project.parent, work), frames_decoded(work)])
+    return Measure(
+        wall,
+        _children_cpu() - cpu,
+        (load, os.getloadavg()[0]),
+        peak,
+        missed + [worst_error(project.parent, work), frames_decoded(work)],
+    )
 
 
 def frames_decoded(work: Path) -> str:
-    """What the run decoded, from timeline.json's per-camera ``scan``: keyframes and frames against the videos' frames."""
+    """What the run decoded, from timeline.json's per-camera ``scan``: keyframes and frames against
+    the videos' frames.
+    """
     timeline_file = work / "timeline.json"
     if not timeline_file.exists():
         return "frames decoded: no timeline.json"
@@ -250,7 +310,9 @@ def frames_decoded(work: Path) -> str:
     frames = sum(s.frames for s in scans.values())
     keys, decoded = sum(s.keyframes_decoded for s in scans.values()), sum(s.frames_decoded for s in scans.values())
     full = [f"{name} ({s.reason})" for name, s in scans.items() if s.mode == "full"]
-    return f"decoded {keys} keyframes + {decoded} frames = {(keys + decoded) / frames:.1%} of {frames} frames" + (f"; every frame: {', '.join(full)}" if full else "")
+    return f"decoded {keys} keyframes + {decoded} frames = {(keys + decoded) / frames:.1%} of {frames} frames" + (
+        f"; every frame: {', '.join(full)}" if full else ""
+    )
 
 
 def against_full_pass(work: Path, full: Path, n_frames: dict[str, int]) -> str:
@@ -260,7 +322,12 @@ def against_full_pass(work: Path, full: Path, n_frames: dict[str, int]) -> str:
         return "against the full pass: a timeline is missing"
     run, reference = read_timeline(a_file), read_timeline(b_file)
     names = [n for n in reference.names if n in run.names]
-    errors = {f"{a}->{b}": eps_t(run.relation(a, b), reference.relation(a, b), n_frames[a]) for a in names for b in names if a != b}
+    errors = {
+        f"{a}->{b}": eps_t(run.relation(a, b), reference.relation(a, b), n_frames[a])
+        for a in names
+        for b in names
+        if a != b
+    }
     if not errors:
         return "against the full pass: no pair in both"
     key = max(errors, key=errors.get)
@@ -274,7 +341,11 @@ def worst_error(folder: Path, work: Path) -> str:
         return "no timeline.json: nothing synchronized"
     timeline = read_timeline(timeline_file)
     truth, n_frames = read_truth(folder / "truth.json")
-    errors = {key: eps_t(timeline.relation(*key.split("->")), rel, n_frames[key.split("->")[0]]) for key, rel in truth.items() if set(key.split("->")) <= set(timeline.names)}
+    errors = {
+        key: eps_t(timeline.relation(*key.split("->")), rel, n_frames[key.split("->")[0]])
+        for key, rel in truth.items()
+        if set(key.split("->")) <= set(timeline.names)
+    }
     if not errors:
         return "no pair synchronized"
     key = max(errors, key=errors.get)
@@ -282,7 +353,9 @@ def worst_error(folder: Path, work: Path) -> str:
 
 
 def stage_seconds(work: Path) -> dict[str, tuple[float, float, int]]:
-    """Per stage: the sums of its tasks' run seconds and CPU seconds as the manifests record them (CPU NaN when not recorded), and the number of tasks."""
+    """Per stage: the sums of its tasks' run seconds and CPU seconds as the manifests record them (CPU NaN when not
+    recorded), and the number of tasks.
+    """
     out: dict[str, tuple[float, float, int]] = {}
     for path in work.rglob("*.manifest.json"):
         manifest = json.loads(path.read_text())
@@ -306,7 +379,7 @@ def with_tracker(project: Path, variant: str, folder: Path) -> Path:
     for k, block in enumerate(blocks[1:], start=1):
         name = re.search(r'name = "([^"]+)"', block).group(1)
         start = f"\ninit = {boxes[name][1]}\ninit_frame = {boxes[name][0]}" if name in boxes else ""
-        blocks[k] = re.sub(r'kind = "\w+"', lambda _: f'kind = "{kind}"{start}', block)
+        blocks[k] = re.sub(r'kind = "\w+"', lambda _, start=start: f'kind = "{kind}"{start}', block)
     text = "[[cameras]]".join(blocks) + (f'\n[track]\nscan = "{scan}"\n' if scan else "")
     out = folder / f"project_{variant}.toml"
     out.write_text(text)
@@ -316,17 +389,37 @@ def with_tracker(project: Path, variant: str, folder: Path) -> Path:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--quick", action="store_true", help="CI-size inputs (2 cameras, 320x240, 10 s)")
-    parser.add_argument("--workload", choices=sorted(WORKLOADS), help="a named workload (WORKLOADS) instead of --cameras, --seconds, --size, --scene, --look-alikes")
+    parser.add_argument(
+        "--workload",
+        choices=sorted(WORKLOADS),
+        help="a named workload (WORKLOADS) instead of --cameras, --seconds, --size, --scene, --look-alikes",
+    )
     parser.add_argument("--cameras", type=int, default=4)
     parser.add_argument("--seconds", type=float, default=60.0, help="length of each camera's video")
     parser.add_argument("--size", default="1920x1080")
     parser.add_argument("--scene", default="long", choices=sorted(_scenes()))
-    parser.add_argument("--look-alikes", type=int, default=6, help="discs like the target wandering each view (scene 'long')")
-    parser.add_argument("--trackers", default="blob,blob-full,csrt", help='tracker kinds; "<kind>-full": with [track] scan = "full" (every frame read), the reference of the runs of that kind')
+    parser.add_argument(
+        "--look-alikes", type=int, default=6, help="discs like the target wandering each view (scene 'long')"
+    )
+    parser.add_argument(
+        "--trackers",
+        default="blob,blob-full,csrt",
+        help='tracker kinds; "<kind>-full": with [track] scan = "full" (every frame read), the reference of the runs '
+        "of that kind",
+    )
     parser.add_argument("--keep", type=Path, help="make (or reuse) the project in this folder")
     parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1)
-    parser.add_argument("--compare", type=Path, help="also run the tlsync of this source tree (e.g. a `git archive` of main), for before/after in one session")
-    parser.add_argument("--rounds", type=int, default=1, help="rounds of the floor and a fresh run of each tracker, in turn (ratios and their median)")
+    parser.add_argument(
+        "--compare",
+        type=Path,
+        help="also run the tlsync of this source tree (e.g. a `git archive` of main), for before/after in one session",
+    )
+    parser.add_argument(
+        "--rounds",
+        type=int,
+        default=1,
+        help="rounds of the floor and a fresh run of each tracker, in turn (ratios and their median)",
+    )
     args = parser.parse_args()
     width, height = (int(v) for v in args.size.lower().split("x"))
     if args.quick:
@@ -334,7 +427,9 @@ def main() -> None:
     elif args.workload:
         workload = WORKLOADS[args.workload]
     else:
-        workload = Workload(args.cameras, args.seconds, (width, height), args.scene, args.look_alikes if args.scene == "long" else 0)
+        workload = Workload(
+            args.cameras, args.seconds, (width, height), args.scene, args.look_alikes if args.scene == "long" else 0
+        )
     cores = args.jobs
     with tempfile.TemporaryDirectory(prefix="tlsync-throughput-") as tmp:
         folder = args.keep or Path(tmp) / "project"
@@ -342,10 +437,17 @@ def main() -> None:
         project, made = make_project(workload, folder)
         videos = sorted(folder.glob("*/video.mp4"))
         minutes = sum(_duration(v) for v in videos) / 60
-        print(f"project: {workload.cameras} cameras, {workload.size[0]}x{workload.size[1]}, {minutes:.1f} min of video, scene {workload.scene!r}, {workload.look_alikes} look-alikes" + (f", made in {made:.0f} s" if made else ", reused"))
+        print(
+            f"project: {workload.cameras} cameras, {workload.size[0]}x{workload.size[1]}, {minutes:.1f} min of video, "
+            f"scene {workload.scene!r}, {workload.look_alikes} look-alikes"
+            + (f", made in {made:.0f} s" if made else ", reused")
+        )
         floor, frames = decode_floor(videos, cores)
-        print(f"decode floor: {frames} frames in {floor.wall:.1f} s wall, {floor.cpu:.1f} s CPU ({floor.utilisation(cores):.0%} of {cores} cores), load {floor.load[0]:.1f} -> {floor.load[1]:.1f}")
-        rows = [("decode floor (PyAV luma, %d processes)" % cores, floor, None)]
+        print(
+            f"decode floor: {frames} frames in {floor.wall:.1f} s wall, {floor.cpu:.1f} s CPU "
+            f"({floor.utilisation(cores):.0%} of {cores} cores), load {floor.load[0]:.1f} -> {floor.load[1]:.1f}"
+        )
+        rows = [(f"decode floor (PyAV luma, {cores} processes)", floor, None)]
         stages = {}
         trees = [("", REPOSITORY)] + ([(f" ({args.compare.name})", args.compare)] if args.compare else [])
         for kind in args.trackers.split(","):
@@ -357,9 +459,11 @@ def main() -> None:
                 again = tlsync_run(variant, work, cores, code)
                 rows += [(f"tlsync run, {kind}{suffix}", run, kind), (f"cached re-run, {kind}{suffix}", again, None)]
         n_frames = {name: int(v) for name, v in json.loads((folder / "truth.json").read_text())["n_frames"].items()}
-        for name, measure, kind in rows:
+        for _name, measure, kind in rows:
             if kind and not kind.endswith("-full") and (Path(tmp) / f"work_{kind}-full").exists():
-                measure.notes.append(against_full_pass(Path(tmp) / f"work_{kind}", Path(tmp) / f"work_{kind}-full", n_frames))
+                measure.notes.append(
+                    against_full_pass(Path(tmp) / f"work_{kind}", Path(tmp) / f"work_{kind}-full", n_frames)
+                )
         ratios = {name: [(m.wall / floor.wall, m.cpu / floor.cpu)] for name, m, kind in rows if kind}
         for round_ in range(2, args.rounds + 1):
             again_floor, _ = decode_floor(videos, cores)
@@ -368,24 +472,50 @@ def main() -> None:
                     work = Path(tmp) / f"work_{kind}{suffix.strip(' ()')}_{round_}"
                     run = tlsync_run(folder / f"project_{kind}.toml", work, cores, code)
                     shutil.rmtree(work, ignore_errors=True)
-                    ratios[f"tlsync run, {kind}{suffix}"].append((run.wall / again_floor.wall, run.cpu / again_floor.cpu))
-                    print(f"round {round_}: {kind}{suffix} {run.wall / again_floor.wall:.2f}x wall, {run.cpu / again_floor.cpu:.2f}x CPU (floor {again_floor.wall:.1f} s wall, {again_floor.cpu:.1f} s CPU); {'; '.join(run.notes[-2:])}", flush=True)
-        print(f"\n{'':38} {'wall s':>7} {'x floor':>7} {'CPU s':>7} {'x floor':>7} {'CPU use':>7} {'peak MB':>7} {'load':>10}")
+                    ratios[f"tlsync run, {kind}{suffix}"].append(
+                        (run.wall / again_floor.wall, run.cpu / again_floor.cpu)
+                    )
+                    print(
+                        f"round {round_}: {kind}{suffix} {run.wall / again_floor.wall:.2f}x wall, "
+                        f"{run.cpu / again_floor.cpu:.2f}x CPU (floor {again_floor.wall:.1f} s wall, "
+                        f"{again_floor.cpu:.1f} s CPU); {'; '.join(run.notes[-2:])}",
+                        flush=True,
+                    )
+        print(
+            f"\n{'':38} {'wall s':>7} {'x floor':>7} {'CPU s':>7} {'x floor':>7} {'CPU use':>7} {'peak MB':>7} "
+            f"{'load':>10}"
+        )
         for name, m, _ in rows:
             peak = f"{m.peak_mb:7.0f}" if m.peak_mb else " " * 7
-            print(f"{name:38} {m.wall:7.1f} {m.wall / floor.wall:7.2f} {m.cpu:7.1f} {m.cpu / floor.cpu:7.2f} {m.utilisation(cores):7.0%} {peak} {m.load[0]:4.1f}->{m.load[1]:<4.1f}")
+            print(
+                f"{name:38} {m.wall:7.1f} {m.wall / floor.wall:7.2f} {m.cpu:7.1f} {m.cpu / floor.cpu:7.2f} "
+                f"{m.utilisation(cores):7.0%} {peak} {m.load[0]:4.1f}->{m.load[1]:<4.1f}"
+            )
             for note in m.notes:
                 print(f"    {note}")
         for kind, per_stage in stages.items():
-            print(f"\nstages, {kind} (sums over the stage's tasks as the manifests record them; x floor: of the floor's wall and CPU):")
+            print(
+                f"\nstages, {kind} (sums over the stage's tasks as the manifests record them; x floor: of the floor's "
+                f"wall and CPU):"
+            )
             for stage in [s for s in STAGES if s in per_stage]:
-                    seconds, cpu, count = per_stage[stage]
-                    print(f"  {stage:10} {seconds:7.1f} s {seconds / floor.wall:6.2f}x  CPU {cpu:7.1f} s {cpu / floor.cpu:6.2f}x  CPU/run {cpu / seconds if seconds else float('nan'):5.2f}  ({count} task{'s' if count > 1 else ''})")
+                seconds, cpu, count = per_stage[stage]
+                print(
+                    f"  {stage:10} {seconds:7.1f} s {seconds / floor.wall:6.2f}x  CPU {cpu:7.1f} s "
+                    f"{cpu / floor.cpu:6.2f}x  CPU/run {cpu / seconds if seconds else float('nan'):5.2f}  ({count} "
+                    f"task{'s' if count > 1 else ''})"
+                )
         if args.rounds > 1:
-            print(f"\nx floor over {args.rounds} rounds (each run against its round's floor), wall | CPU, and their medians:")
+            print(
+                f"\nx floor over {args.rounds} rounds (each run against its round's floor), wall | CPU, and their "
+                f"medians:"
+            )
             for name, values in ratios.items():
                 walls, cpus = (sorted(v[k] for v in values) for k in (0, 1))
-                print(f"  {name:30} {' '.join(f'{w:.2f}' for w, _ in values)} -> {walls[len(walls) // 2]:.2f}  |  {' '.join(f'{c:.2f}' for _, c in values)} -> {cpus[len(cpus) // 2]:.2f}")
+                print(
+                    f"  {name:30} {' '.join(f'{w:.2f}' for w, _ in values)} -> {walls[len(walls) // 2]:.2f}  |  "
+                    f"{' '.join(f'{c:.2f}' for _, c in values)} -> {cpus[len(cpus) // 2]:.2f}"
+                )
         print(f"\nload average at the end {_load()}")
 
 

@@ -24,8 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
-from tlsync_pipeline.pipeline.stages.sync import load_inputs
 from tlsync_pipeline.pipeline.project import load_project
+from tlsync_pipeline.pipeline.stages.sync import load_inputs
 from tlsync_pipeline.sync.solve.synchronize import synchronize
 from tlsync_pipeline.sync.timeline import eps_t, read_truth
 
@@ -46,7 +46,8 @@ def evaluate(data: Path) -> tuple[str, dict]:
         timelines[method], _ = synchronize(cameras, trajectory, params)
         seconds[method] = time.perf_counter() - start
         errors[method] = {
-            key: eps_t(timelines[method].relation(*key.split("->")), rel, n_frames.get(key.split("->")[0]) or 1) for key, rel in truth.items()
+            key: eps_t(timelines[method].relation(*key.split("->")), rel, n_frames.get(key.split("->")[0]) or 1)
+            for key, rel in truth.items()
         }
     refined = timelines["refined"]
     covered = 0
@@ -55,7 +56,10 @@ def evaluate(data: Path) -> tuple[str, dict]:
         half = Z95 * float(np.sqrt(refined.relation_cov(a, b)[1, 1]))
         inside = abs(refined.relation(a, b).beta - rel.beta) <= half
         covered += inside
-        rows.append(f"| {key} | {errors['paper'][key]:.3f} | {errors['refined'][key]:.3f} | ±{half:.2f} | {'yes' if inside else 'no'} |")
+        rows.append(
+            f"| {key} | {errors['paper'][key]:.3f} | {errors['refined'][key]:.3f} | ±{half:.2f} | "
+            f"{'yes' if inside else 'no'} |"
+        )
     p, r = np.array(list(errors["paper"].values())), np.array(list(errors["refined"].values()))
     text = "\n".join(
         [
@@ -73,7 +77,9 @@ def evaluate(data: Path) -> tuple[str, dict]:
 
 
 def among_movers(data: Path, movers: int, seeds: int = 3) -> None:
-    """The refined method with each camera's target identified among its track's tracklets and ``movers`` synthetic movers."""
+    """The refined method with each camera's target identified among its track's tracklets and ``movers`` synthetic
+    movers.
+    """
     from tlsync_pipeline.sync.solve.synchronize import CameraInput
     from trackers.detections import make_detections
 
@@ -85,7 +91,20 @@ def among_movers(data: Path, movers: int, seeds: int = 3) -> None:
         inputs = {}
         for name, given in cameras.items():
             track = given.track
-            rows = [(int(track.frame[i]), float("nan"), k, float(track.x[i]), float(track.y[i]), float("nan"), float("nan"), 1.0) for k, idx in enumerate(np.array_split(np.arange(len(track)), 5)) for i in idx]
+            rows = [
+                (
+                    int(track.frame[i]),
+                    float("nan"),
+                    k,
+                    float(track.x[i]),
+                    float(track.y[i]),
+                    float("nan"),
+                    float("nan"),
+                    1.0,
+                )
+                for k, idx in enumerate(np.array_split(np.arange(len(track)), 5))
+                for i in idx
+            ]
             width, height = given.camera.image_size
             speed = float(np.median(np.linalg.norm(np.diff(track.xy, axis=0), axis=1)))
             last = int(track.frame.max())
@@ -103,9 +122,17 @@ def among_movers(data: Path, movers: int, seeds: int = 3) -> None:
         if timeline.failed:
             print(f"seed {seed}: not synchronized: {timeline.failed}")
             continue
-        errors = np.array([eps_t(timeline.relation(*key.split("->")), rel, n_frames.get(key.split("->")[0]) or 1) for key, rel in truth.items()])
+        errors = np.array(
+            [
+                eps_t(timeline.relation(*key.split("->")), rel, n_frames.get(key.split("->")[0]) or 1)
+                for key, rel in truth.items()
+            ]
+        )
         kept = ", ".join(f"{n} {len(r.identification.track)}/{len(cameras[n].track)}" for n, r in results.items())
-        print(f"seed {seed}, {movers} movers per camera: median eps_t {np.median(errors):.3f}, max {errors.max():.3f}; identified frames {kept}")
+        print(
+            f"seed {seed}, {movers} movers per camera: median eps_t {np.median(errors):.3f}, max {errors.max():.3f}; "
+            f"identified frames {kept}"
+        )
 
 
 def plot(errors: dict, path: Path) -> None:
@@ -132,7 +159,13 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--data", type=Path, default=DEFAULT)
     parser.add_argument("--no-write", action="store_true", help="print only; leave docs/ alone")
-    parser.add_argument("--movers", type=int, default=None, metavar="N", help="identify each camera's target among its track's tracklets and N synthetic movers")
+    parser.add_argument(
+        "--movers",
+        type=int,
+        default=None,
+        metavar="N",
+        help="identify each camera's target among its track's tracklets and N synthetic movers",
+    )
     args = parser.parse_args()
     if not (args.data / "project.toml").exists():
         print(f"skipped: {args.data} not found")

@@ -20,6 +20,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+from _report import pair_errors
 
 from data_fixtures.log_error import PRESETS as RECEIVERS
 from data_fixtures.log_error import log_errors
@@ -28,8 +29,6 @@ from tlsync_pipeline.pipeline.stages.sync import load_inputs
 from tlsync_pipeline.sync.model.log_model import PRESETS as LOG_MODELS
 from tlsync_pipeline.sync.solve.synchronize import synchronize
 from tlsync_pipeline.sync.timeline import read_truth
-
-from _report import pair_errors
 
 DEFAULT = Path("/work/shared/real/drone2")
 Z95 = 1.959964
@@ -45,12 +44,20 @@ def run(data: Path, receiver: str, seeds: int, bias_model: bool) -> dict:
     worst, z, refused = [], [], 0
     for seed in range(seeds):
         errors, _ = log_errors(np.random.default_rng(seed), trajectory.sample / trajectory.rate, RECEIVERS[receiver])
-        timeline, _ = synchronize(cameras, dataclasses.replace(trajectory, xyz=trajectory.xyz + errors), params, log_model=declared)
+        timeline, _ = synchronize(
+            cameras, dataclasses.replace(trajectory, xyz=trajectory.xyz + errors), params, log_model=declared
+        )
         refused += len(timeline.cameras) < len(cameras)
         pairs = pair_errors(timeline, truth, n_frames)
         z += [score for _, score in pairs]
         worst.append(max((e for e, _ in pairs), default=np.nan))
-    return {"median": float(np.nanmedian(worst)), "max": float(np.nanmax(worst)), "coverage": float(np.mean(np.array(z) <= Z95)), "pairs": len(z), "refused": refused}
+    return {
+        "median": float(np.nanmedian(worst)),
+        "max": float(np.nanmax(worst)),
+        "coverage": float(np.mean(np.array(z) <= Z95)),
+        "pairs": len(z),
+        "refused": refused,
+    }
 
 
 def main() -> None:
@@ -63,12 +70,19 @@ def main() -> None:
         print(f"{args.data}: no project.toml; skipped")
         sys.exit(0)
     print(f"{args.data}, {args.seeds} simulated logs per receiver")
-    print("| receiver | bias model | median worst eps_t | max | 95 % intervals that contain the truth | synchronized pairs | seeds with a camera refused |")
+    print(
+        "| receiver | bias model | median worst eps_t | max | 95 % intervals that contain the truth | synchronized "
+        "pairs | seeds with a camera refused |"
+    )
     print("|---|---|---|---|---|---|---|")
     for receiver in args.models:
         for bias_model in (False, True):
             s = run(args.data, receiver, args.seeds, bias_model)
-            print(f"| {receiver} | {'on' if bias_model else 'off'} | {s['median']:.2f} | {s['max']:.2f} | {100 * s['coverage']:.0f} % | {s['pairs']} | {s['refused']} |", flush=True)
+            print(
+                f"| {receiver} | {'on' if bias_model else 'off'} | {s['median']:.2f} | {s['max']:.2f} | "
+                f"{100 * s['coverage']:.0f} % | {s['pairs']} | {s['refused']} |",
+                flush=True,
+            )
 
 
 if __name__ == "__main__":

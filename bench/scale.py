@@ -50,7 +50,9 @@ def demo_project(directory: Path) -> Path:
 
 
 def long_log_project(directory: Path, hours: float, rate: float) -> Path:
-    """The quick demo with its trajectory inside a log of ``hours`` at ``rate`` Hz (data_fixtures.long_log); returns project.toml."""
+    """The quick demo with its trajectory inside a log of ``hours`` at ``rate`` Hz (data_fixtures.long_log); returns
+    project.toml.
+    """
     from data_fixtures.long_log import write_long_log
     from tlsync_pipeline.trajectory import read_trajectory
 
@@ -65,7 +67,9 @@ def run_measured(args: list[str], cwd: Path | None = None, tree: Path = ROOT) ->
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     start = time.perf_counter()
     env = dict(os.environ, PYTHONPATH=str(tree))
-    done = subprocess.run([sys.executable, "-P", *args], cwd=cwd, env=env, capture_output=True, text=True)  # -P: not the cwd's tree
+    done = subprocess.run(
+        [sys.executable, "-P", *args], cwd=cwd, env=env, capture_output=True, text=True
+    )  # -P: not the cwd's tree
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     return {
         "code": done.returncode,
@@ -90,7 +94,10 @@ def worst_eps(directory: Path, timeline: Path | None = None) -> float:
 def long_log_rows(folder: Path, hours: float, rate: float) -> list[tuple[str, dict]]:
     """The quick demo and the demo inside a long log, each run whole (``tlsync run``)."""
     rows = []
-    for name, make in (("quick demo", lambda d: demo_project(d)), (f"demo in a {hours:g} h log at {rate:g} Hz", lambda d: long_log_project(d, hours, rate))):
+    for name, make in (
+        ("quick demo", lambda d: demo_project(d)),
+        (f"demo in a {hours:g} h log at {rate:g} Hz", lambda d: long_log_project(d, hours, rate)),
+    ):
         directory = folder / name.replace(" ", "_")
         project = make(directory)
         result = run_measured(["-c", CLI, "run", str(project), "--quiet"])
@@ -123,12 +130,18 @@ def read_rows(path: Path) -> list[tuple[str, dict]]:
         out[how] = {"rows": int(rows), "cpu_s": float(cpu), "peak_mb": float(peak)}
     total = out["tlsync"]["rows"]
     baseline = out["1000000"]["cpu_s"] * total / out["1000000"]["rows"]
-    return [(f"read_trajectory, {total:,} rows", {**out["tlsync"], "x_baseline": out["tlsync"]["cpu_s"] / baseline}),
-            ("np.loadtxt, scaled to the same rows (baseline)", {"rows": total, "cpu_s": baseline, "peak_mb": float("nan"), "x_baseline": 1.0})]
+    return [
+        (f"read_trajectory, {total:,} rows", {**out["tlsync"], "x_baseline": out["tlsync"]["cpu_s"] / baseline}),
+        (
+            "np.loadtxt, scaled to the same rows (baseline)",
+            {"rows": total, "cpu_s": baseline, "peak_mb": float("nan"), "x_baseline": 1.0},
+        ),
+    ]
 
 
-def ingest_rows(log: Path, folder: Path, baseline_s: float, rounds: int,
-                compare: Path | None) -> list[tuple[str, dict]]:
+def ingest_rows(
+    log: Path, folder: Path, baseline_s: float, rounds: int, compare: Path | None
+) -> list[tuple[str, dict]]:
     """``tlsync ingest-log`` of the long log, ``rounds`` times per source tree (this one, ``compare``), alternating."""
     trees = [ROOT, *([compare] if compare else [])]
     runs: list[list[dict]] = [[] for _ in trees]
@@ -141,11 +154,19 @@ def ingest_rows(log: Path, folder: Path, baseline_s: float, rounds: int,
     rows = []
     for tree, done in zip(trees, runs):
         cpu = [r["cpu_s"] for r in done]
-        rows.append((f"tlsync ingest-log ({'this tree' if tree == ROOT else tree})", {
-            "code": max(r["code"] for r in done), "cpu_s": float(np.median(cpu)), "cpu_range": (min(cpu), max(cpu)),
-            "peak_mb": max(r["peak_mb"] for r in done), "x_baseline": float(np.median(cpu)) / baseline_s,
-            "same_output": same,
-        }))
+        rows.append(
+            (
+                f"tlsync ingest-log ({'this tree' if tree == ROOT else tree})",
+                {
+                    "code": max(r["code"] for r in done),
+                    "cpu_s": float(np.median(cpu)),
+                    "cpu_range": (min(cpu), max(cpu)),
+                    "peak_mb": max(r["peak_mb"] for r in done),
+                    "x_baseline": float(np.median(cpu)) / baseline_s,
+                    "same_output": same,
+                },
+            )
+        )
     return rows
 
 
@@ -167,13 +188,27 @@ sys.exit(code)
 
 
 def startup_rows(demo: Path, srt: Path, folder: Path, rounds: int = 3) -> list[tuple[str, dict]]:
-    """CPU seconds (median of ``rounds``) of --help, status and ingest-log of a small SRT, and the heavy libraries they load."""
+    """CPU seconds (median of ``rounds``) of --help, status and ingest-log of a small SRT, and the heavy libraries they
+    load.
+    """
     rows = []
-    for name, args in (("tlsync --help", ["--help"]), ("tlsync status (quick demo)", ["status", str(demo)]),
-                       (f"tlsync ingest-log {srt.name}", ["ingest-log", str(srt), "--out", str(folder / "srt.csv"), "--quiet"])):
+    for name, args in (
+        ("tlsync --help", ["--help"]),
+        ("tlsync status (quick demo)", ["status", str(demo)]),
+        (f"tlsync ingest-log {srt.name}", ["ingest-log", str(srt), "--out", str(folder / "srt.csv"), "--quiet"]),
+    ):
         runs = [run_measured(["-c", CLI, *args]) for _ in range(rounds)]
         loaded = runs[0]["out"].rsplit("LOADED ", 1)[-1].split()[0]
-        rows.append((name, {"cpu_s": float(np.median([r["cpu_s"] for r in runs])), "peak_mb": max(r["peak_mb"] for r in runs), "loaded": loaded}))
+        rows.append(
+            (
+                name,
+                {
+                    "cpu_s": float(np.median([r["cpu_s"] for r in runs])),
+                    "peak_mb": max(r["peak_mb"] for r in runs),
+                    "loaded": loaded,
+                },
+            )
+        )
     return rows
 
 
@@ -189,9 +224,15 @@ def main() -> None:
     folder.mkdir(parents=True, exist_ok=True)
     rows = long_log_rows(folder, args.hours, args.rate)
     base = rows[0][1]
-    print(f"{'whole run (tlsync run)':<44} {'code':>4} {'wall s':>8} {'CPU s':>8} {'x demo CPU':>10} {'peak MB':>8} {'worst eps_t':>11}")
+    print(
+        f"{'whole run (tlsync run)':<44} {'code':>4} {'wall s':>8} {'CPU s':>8} {'x demo CPU':>10} {'peak MB':>8} "
+        f"{'worst eps_t':>11}"
+    )
     for name, r in rows:
-        print(f"{name:<44} {r['code']:>4} {r['wall_s']:>8.1f} {r['cpu_s']:>8.1f} {r['cpu_s'] / base['cpu_s']:>10.1f} {r['peak_mb']:>8.0f} {r['eps']:>11.3f}")
+        print(
+            f"{name:<44} {r['code']:>4} {r['wall_s']:>8.1f} {r['cpu_s']:>8.1f} {r['cpu_s'] / base['cpu_s']:>10.1f} "
+            f"{r['peak_mb']:>8.0f} {r['eps']:>11.3f}"
+        )
     reads = read_rows(folder / rows[1][0].replace(" ", "_") / "trajectory.csv")
     print(f"\n{'reading the long log':<44} {'CPU s':>8} {'x baseline':>10} {'peak MB':>8}")
     for name, r in reads:
@@ -202,12 +243,16 @@ def main() -> None:
     print(f"\n{title:<44} {'CPU s':>8} {'range':>11} {'x baseline':>10} {'peak MB':>8}  code, same file")
     for name, r in ingests:
         low, high = r["cpu_range"]
-        print(f"{name:<44} {r['cpu_s']:>8.1f} {low:>5.1f}-{high:<5.1f} {r['x_baseline']:>10.2f} {r['peak_mb']:>8.0f}  "
-              f"{r['code']}, {r['same_output']}")
+        print(
+            f"{name:<44} {r['cpu_s']:>8.1f} {low:>5.1f}-{high:<5.1f} {r['x_baseline']:>10.2f} {r['peak_mb']:>8.0f}  "
+            f"{r['code']}, {r['same_output']}"
+        )
     if len(ingests) == 2:
         (_, new), (_, old) = ingests
-        print(f"{'this tree / the other':<44} {new['cpu_s'] / old['cpu_s']:>8.2f} {'':>11} {'':>10} "
-              f"{new['peak_mb'] / old['peak_mb']:>8.2f}")
+        print(
+            f"{'this tree / the other':<44} {new['cpu_s'] / old['cpu_s']:>8.2f} {'':>11} {'':>10} "
+            f"{new['peak_mb'] / old['peak_mb']:>8.2f}"
+        )
     srt = ROOT / "tests" / "tlsync_pipeline" / "ingest" / "data" / "dji_srt" / "air2s.srt"
     starts = startup_rows(folder / rows[0][0].replace(" ", "_") / "project.toml", srt, folder)
     print(f"\n{'start-up (median of 3)':<44} {'CPU s':>8} {'peak MB':>8}  heavy libraries loaded")

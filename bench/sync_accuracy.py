@@ -23,10 +23,15 @@ def worst_eps_t(seed: int, tracking_noise_px: float) -> float:
     """The largest eps_t over all ordered pairs of one scene (frames of B); inf if a camera failed."""
     scene = make_scene(seed, tracking_noise_px=tracking_noise_px)
     inputs = {n: CameraInput(scene.cameras[n], scene.tracks[n], scene.cameras[n].fps) for n in scene.cameras}
-    timeline, _ = synchronize(inputs, scene.trajectory, SyncParams(method="paper"))  # the paper's method (issue 2); see bench/figure5.py for both
+    timeline, _ = synchronize(
+        inputs, scene.trajectory, SyncParams(method="paper")
+    )  # the paper's method (issue 2); see bench/figure5.py for both
     if timeline.failed:
         return float("inf")
-    return max(eps_t(timeline.relation(*k.split("->")), true, scene.n_frames[k.split("->")[0]]) for k, true in scene.truth_pairs().items())
+    return max(
+        eps_t(timeline.relation(*k.split("->")), true, scene.n_frames[k.split("->")[0]])
+        for k, true in scene.truth_pairs().items()
+    )
 
 
 def main() -> None:
@@ -37,7 +42,10 @@ def main() -> None:
     with ProcessPoolExecutor() as pool:
         for noise in (0.0, 1.0, 2.0, 4.0):
             errors = np.array(list(pool.map(worst_eps_t, range(args.scenes), [noise] * args.scenes)))
-            print(f"{noise:>7.1f} {len(errors):>7} {np.mean(errors <= 0.5):>7.0%} {np.mean(errors <= 1):>7.0%} {np.median(errors):>8.3f} {errors.max():>8.3f}")
+            print(
+                f"{noise:>7.1f} {len(errors):>7} {np.mean(errors <= 0.5):>7.0%} {np.mean(errors <= 1):>7.0%} "
+                f"{np.median(errors):>8.3f} {errors.max():>8.3f}"
+            )
 
 
 if __name__ == "__main__":

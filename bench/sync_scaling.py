@@ -47,9 +47,21 @@ def _scene(n_frames: int, n_samples: int):
     from tlsync_pipeline.trajectory import Trajectory
     from trackers.track import Track
 
-    camera = Camera("c", np.array([[1000.0, 0, 960], [0, 1000.0, 540], [0, 0, 1]]), np.zeros(5), np.eye(3), np.array([0, 0, 20.0]), (1920, 1080))
+    camera = Camera(
+        "c",
+        np.array([[1000.0, 0, 960], [0, 1000.0, 540], [0, 0, 1]]),
+        np.zeros(5),
+        np.eye(3),
+        np.array([0, 0, 20.0]),
+        (1920, 1080),
+    )
+
     # One lap of the path per 300 samples: realistic speeds whatever the length.
-    path = lambda s: np.column_stack([8 * np.sin(2 * np.pi * s / 300), 4 * np.sin(2 * np.pi * s / 170), 3 * np.cos(2 * np.pi * s / 230)])  # noqa: E731
+    def path(s):
+        return np.column_stack(
+            [8 * np.sin(2 * np.pi * s / 300), 4 * np.sin(2 * np.pi * s / 170), 3 * np.cos(2 * np.pi * s / 230)]
+        )
+
     samples = np.arange(n_samples, dtype=float)
     alpha, beta = n_frames / n_samples, 7.0
     frames = np.arange(n_frames)
@@ -71,16 +83,32 @@ def _case(n_frames: int, n_samples: int, queue) -> None:
     fit = fit_line_ransac(votes.sample, votes.frame)
     done = time.perf_counter()
     peak_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-    queue.put((len(votes), voted - start, done - voted, peak_mb, (resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - rss_before) / 1024, fit.alpha))
+    queue.put(
+        (
+            len(votes),
+            voted - start,
+            done - voted,
+            peak_mb,
+            (resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - rss_before) / 1024,
+            fit.alpha,
+        )
+    )
 
 
 def _wandering(samples: np.ndarray, seen: tuple[float, float]) -> np.ndarray:
-    """A target path (metres) that wanders without repeating in front of the cameras for samples in ``seen``, far away before and after.
+    """A target path (metres) that wanders without repeating in front of the cameras for samples in ``seen``, far away
+    before and after.
 
     Three incommensurate periods (no lap is retraced exactly), 8 x 4 x 3 m.
     """
     s = np.asarray(samples, dtype=float)
-    xyz = np.column_stack([8 * np.sin(2 * np.pi * s / 300), 4 * np.sin(2 * np.pi * s / (170 * 2**0.5)), 3 * np.cos(2 * np.pi * s / (230 * 3**0.5))])
+    xyz = np.column_stack(
+        [
+            8 * np.sin(2 * np.pi * s / 300),
+            4 * np.sin(2 * np.pi * s / (170 * 2**0.5)),
+            3 * np.cos(2 * np.pi * s / (230 * 3**0.5)),
+        ]
+    )
     away = (s < seen[0]) | (s > seen[1])
     xyz[away] += [0.0, 0.0, 500.0]  # 500 m above: out of every camera's view
     return xyz
@@ -101,7 +129,9 @@ def _camera(name: str, azimuth: float):
 
 
 def _tracks(camera, alpha: float, beta: float, n_frames: int, path, rng):
-    """The camera's track: the true projection of the path at sample (frame - beta) / alpha, 1 px noise, where in the image."""
+    """The camera's track: the true projection of the path at sample (frame - beta) / alpha, 1 px noise, where in the
+    image.
+    """
     from trackers.track import Track
 
     frames = np.arange(n_frames)
@@ -112,7 +142,9 @@ def _tracks(camera, alpha: float, beta: float, n_frames: int, path, rng):
 
 
 def _movers(camera, alpha: float, beta: float, n_frames: int, path, target, rng, count: int = 10):
-    """Detections (trackers.detections) of the target's track and ``count`` movers with a person's box, a new tracklet id every 10 s."""
+    """Detections (trackers.detections) of the target's track and ``count`` movers with a person's box, a new tracklet
+    id every 10 s.
+    """
     from trackers.detections import Detections
 
     parts = [(target.frame, target.x, target.y, np.zeros(len(target), np.int64))]
@@ -131,11 +163,21 @@ def _movers(camera, alpha: float, beta: float, n_frames: int, path, target, rng,
     tracklet = mover * 1000 + frame // 300
     order = np.lexsort((tracklet, frame))
     n = len(frame)
-    return Detections(frame[order], frame[order] / 30.0, tracklet[order], x[order], y[order], np.full(n, 40.0), np.full(n, 100.0), np.ones(n))
+    return Detections(
+        frame[order],
+        frame[order] / 30.0,
+        tracklet[order],
+        x[order],
+        y[order],
+        np.full(n, 40.0),
+        np.full(n, 100.0),
+        np.ones(n),
+    )
 
 
 def _scale_case(kind: str, queue) -> None:
-    """kind "cameras": 20 cameras x 10-minute tracks; "log": 3-hour log x 1e5 tracked frames; "movers": identification at scale.
+    """kind "cameras": 20 cameras x 10-minute tracks; "log": 3-hour log x 1e5 tracked frames; "movers": identification
+    at scale.
 
     Puts (description, vote s, sync s, vote CPU s, sync CPU s, peak MB, cameras found, worst alpha/beta errors, note).
     """
@@ -174,13 +216,23 @@ def _scale_case_body(kind: str, queue) -> None:
         synchronize(cameras, trajectory, SyncParams())
         alone = time.process_time() - cpu
         target = cameras["cam00"]
-        cameras = {"cam00": CameraInput(target.camera, None, 30.0, _movers(target.camera, *truth["cam00"], n_frames, path, target.track, rng))}
+        cameras = {
+            "cam00": CameraInput(
+                target.camera, None, 30.0, _movers(target.camera, *truth["cam00"], n_frames, path, target.track, rng)
+            )
+        }
         start, cpu = time.perf_counter(), time.process_time()
         timeline, _ = synchronize(cameras, trajectory, SyncParams())
         done, cpu_done = time.perf_counter(), time.process_time()
         peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-        note = f"; identification + sync {cpu_done - cpu:.2f} s CPU, {(cpu_done - cpu) / alone:.1f}x the sync of the true track alone ({alone:.2f} s)"
-        what = f"1 camera, {len(cameras['cam00'].detections):,} detections of 11 movers (person boxes), {n_samples:,} samples"
+        note = (
+            f"; identification + sync {cpu_done - cpu:.2f} s CPU, {(cpu_done - cpu) / alone:.1f}x the sync of the "
+            f"true track alone ({alone:.2f} s)"
+        )
+        what = (
+            f"1 camera, {len(cameras['cam00'].detections):,} detections of 11 movers (person boxes), {n_samples:,} "
+            f"samples"
+        )
         queue.put((what, 0.0, done - start, 0.0, cpu_done - cpu, peak, *_outcome(timeline, truth, names), note))
         return
     tracked = sum(len(c.track) for c in cameras.values())
@@ -191,19 +243,37 @@ def _scale_case_body(kind: str, queue) -> None:
     done, cpu_done = time.perf_counter(), time.process_time()
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     what = f"{len(names)} camera(s), {tracked:,} tracked frames, {n_samples:,} samples, {votes:,} votes"
-    queue.put((what, voted - start, done - voted, cpu_voted - cpu, cpu_done - cpu_voted, peak, *_outcome(timeline, truth, names), ""))
+    queue.put(
+        (
+            what,
+            voted - start,
+            done - voted,
+            cpu_voted - cpu,
+            cpu_done - cpu_voted,
+            peak,
+            *_outcome(timeline, truth, names),
+            "",
+        )
+    )
 
 
 def _outcome(timeline, truth: dict, names: list[str]) -> tuple[str, tuple[float, float]]:
     """How many cameras were synchronized, and the worst |alpha / alpha_true - 1| and |beta - beta_true| (frames)."""
-    errors = [(abs(timeline.cameras[n].alpha / a - 1), abs(timeline.cameras[n].beta - b)) for n, (a, b) in truth.items() if n in timeline.cameras]
+    errors = [
+        (abs(timeline.cameras[n].alpha / a - 1), abs(timeline.cameras[n].beta - b))
+        for n, (a, b) in truth.items()
+        if n in timeline.cameras
+    ]
     worst = (max(e[0] for e in errors), max(e[1] for e in errors)) if errors else (float("nan"), float("nan"))
     return f"{len(timeline.cameras)}/{len(names)} cameras synchronized", worst
 
 
 def scale(base: float) -> None:
     ctx = multiprocessing.get_context("spawn")
-    print(f"\n{'scale case':70} {'vote s':>7} {'sync s':>7} {'total s':>8} {'x base':>7} {'CPU s':>7} {'peak MB':>8} {'load':>5}  result")
+    print(
+        f"\n{'scale case':70} {'vote s':>7} {'sync s':>7} {'total s':>8} {'x base':>7} {'CPU s':>7} {'peak MB':>8} "
+        f"{'load':>5}  result"
+    )
     for kind, goal in (("cameras", "goal < 30 s"), ("log", "goal < 10 s, < 1 GB"), ("movers", "")):
         queue = ctx.Queue()
         proc = ctx.Process(target=_scale_case, args=(kind, queue))
@@ -211,7 +281,11 @@ def scale(base: float) -> None:
         what, t_vote, t_sync, cpu_vote, cpu_sync, peak, found, (d_alpha, d_beta), note = queue.get()
         proc.join()
         total = t_vote + t_sync
-        print(f"{what:70} {t_vote:>7.2f} {t_sync:>7.2f} {total:>8.2f} {total / base:>7.1f} {cpu_vote + cpu_sync:>7.2f} {peak:>8.0f} {os.getloadavg()[0]:>5.1f}  {found}, worst |alpha/alpha_true - 1| {d_alpha:.1e}, |beta - beta_true| {d_beta:.2f} frames{note}{'; ' + goal if goal else ''}")
+        print(
+            f"{what:70} {t_vote:>7.2f} {t_sync:>7.2f} {total:>8.2f} {total / base:>7.1f} {cpu_vote + cpu_sync:>7.2f} "
+            f"{peak:>8.0f} {os.getloadavg()[0]:>5.1f}  {found}, worst |alpha/alpha_true - 1| {d_alpha:.1e}, |beta - "
+            f"beta_true| {d_beta:.2f} frames{note}{'; ' + goal if goal else ''}"
+        )
 
 
 def _baseline() -> float:
@@ -224,11 +298,17 @@ def _baseline() -> float:
 def main() -> None:
     ctx = multiprocessing.get_context("spawn")
     base = min(_baseline() for _ in range(3))
-    print(f"baseline (sort 1e7 floats): {base * 1000:.0f} ms; load average {' '.join(f'{v:.2f}' for v in os.getloadavg())}")
+    print(
+        f"baseline (sort 1e7 floats): {base * 1000:.0f} ms; load average "
+        f"{' '.join(f'{v:.2f}' for v in os.getloadavg())}"
+    )
     if "--scale-only" in sys.argv[1:]:
         scale(base)
         return
-    print(f"{'frames':>8} {'samples':>8} {'votes':>10} {'vote s':>8} {'ransac s':>9} {'total s':>8} {'x base':>7} {'peak MB':>8} {'+MB':>6}")
+    print(
+        f"{'frames':>8} {'samples':>8} {'votes':>10} {'vote s':>8} {'ransac s':>9} {'total s':>8} {'x base':>7} "
+        f"{'peak MB':>8} {'+MB':>6}"
+    )
     for n_frames in FRAMES:
         for n_samples in SAMPLES:
             queue = ctx.Queue()
@@ -237,7 +317,10 @@ def main() -> None:
             n_votes, t_vote, t_ransac, peak, grown, alpha = queue.get()
             proc.join()
             total = t_vote + t_ransac
-            print(f"{n_frames:>8} {n_samples:>8} {n_votes:>10} {t_vote:>8.3f} {t_ransac:>9.3f} {total:>8.3f} {total / base:>7.1f} {peak:>8.0f} {grown:>6.0f}")
+            print(
+                f"{n_frames:>8} {n_samples:>8} {n_votes:>10} {t_vote:>8.3f} {t_ransac:>9.3f} {total:>8.3f} "
+                f"{total / base:>7.1f} {peak:>8.0f} {grown:>6.0f}"
+            )
     scale(base)
 
 

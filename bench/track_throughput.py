@@ -42,6 +42,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from _memory import peak_rss_mb  # noqa: E402
+
 from data_fixtures.video import loop_positions, render_video  # noqa: E402
 from trackers.tracking import track_video  # noqa: E402
 from trackers.video import iter_frames  # noqa: E402
@@ -87,13 +88,18 @@ def naive_csrt_fps(path: Path, box: tuple[int, int, int, int]) -> float:
 
 
 def accuracy(track, video, start: int = 0) -> tuple[float, float, float, int]:
-    """From frame ``start`` on: (median error px over in-view frames, % of in-view frames tracked, % of out-of-view frames reported, worst re-acquisition delay in frames)."""
+    """From frame ``start`` on: (median error px over in-view frames, % of in-view frames tracked, % of out-of-view
+    frames reported, worst re-acquisition delay in frames).
+    """
     f = track.frame
     visible = video.in_view[f]
     errors = np.hypot(track.x - video.truth[f, 0], track.y - video.truth[f, 1])[visible]
     reported = set(f.tolist())
     entries = [e for e in video.entries() if e >= start]
-    delays = [next((k - entry for k in range(entry, len(video.truth)) if k in reported), len(video.truth) - entry) for entry in entries]
+    delays = [
+        next((k - entry for k in range(entry, len(video.truth)) if k in reported), len(video.truth) - entry)
+        for entry in entries
+    ]
     return (
         float(np.median(errors)) if errors.size else float("nan"),
         100.0 * visible.sum() / max(1, video.in_view[start:].sum()),
@@ -108,7 +114,10 @@ def accuracy_table(folder: Path, video720=None) -> None:
     cases = [("tests' scene", scene, {}), ("tests' scene, box at 110", scene, {"init_frame": 110})]
     if video720 is not None:
         cases.append(("720p video", video720, {}))
-    print(f"\n{'accuracy':34} {'tracker':>7} {'median px':>9} {'in view %':>9} {'false %':>8} {'re-acq':>6} {'CPU x decode':>12}")
+    print(
+        f"\n{'accuracy':34} {'tracker':>7} {'median px':>9} {'in view %':>9} {'false %':>8} {'re-acq':>6} "
+        f"{'CPU x decode':>12}"
+    )
     for name, video, extra in cases:
         start = time.process_time()
         sum(1 for _ in iter_frames(video.path, gray=True))
@@ -131,7 +140,10 @@ def write_long_video(path: Path, n_frames: int, size=(1920, 1080), fps=30) -> No
     w, h = size
     base = cv2.GaussianBlur(rng.standard_normal((h, w)).astype(np.float32), (0, 0), 20)
     base = np.clip(115 + 40 * base / base.std(), 40, 190)
-    backs = [cv2.cvtColor(np.clip(base + rng.normal(0, 2, base.shape), 0, 255).astype(np.uint8), cv2.COLOR_GRAY2BGR) for _ in range(4)]
+    backs = [
+        cv2.cvtColor(np.clip(base + rng.normal(0, 2, base.shape), 0, 255).astype(np.uint8), cv2.COLOR_GRAY2BGR)
+        for _ in range(4)
+    ]
     pos = loop_positions(n_frames, size, period=300)
     with av.open(str(path), "w") as container:
         stream = container.add_stream("libx264", rate=Fraction(fps))
@@ -154,8 +166,14 @@ def memory_child(path: str, kind: str) -> None:
 
 
 def memory(long_frames: int, folder: Path) -> None:
-    print(f"\npeak memory, 1080p (each run in a fresh process; Python + numpy + OpenCV + PyAV loaded ~ {_baseline_mb():.0f} MB):")
-    print(f"{'frames':>7} {'minutes@30fps':>14} {'blob MB':>8} {'csrt MB':>8} {'make s':>7} {'blob trk':>8} {'csrt trk':>8}")
+    print(
+        f"\npeak memory, 1080p (each run in a fresh process; Python + numpy + OpenCV + PyAV loaded ~ "
+        f"{_baseline_mb():.0f} MB):"
+    )
+    print(
+        f"{'frames':>7} {'minutes@30fps':>14} {'blob MB':>8} {'csrt MB':>8} {'make s':>7} {'blob trk':>8} "
+        f"{'csrt trk':>8}"
+    )
     results = {}
     for n in (long_frames // 4, long_frames):
         path = folder / f"long_{n}.mp4"
@@ -164,20 +182,37 @@ def memory(long_frames: int, folder: Path) -> None:
         made = time.perf_counter() - t
         row = {}
         for kind in ("blob", "csrt"):
-            out = subprocess.run([sys.executable, __file__, "--memory-child", str(path), kind], capture_output=True, text=True, check=True)
+            out = subprocess.run(
+                [sys.executable, __file__, "--memory-child", str(path), kind],
+                capture_output=True,
+                text=True,
+                check=True,
+            )
             tracked, row[kind] = (float(v) for v in out.stdout.split()[-2:])
             row[f"{kind} tracked"] = int(tracked)
         results[n] = row
-        print(f"{n:>7} {n / 1800:>14.2f} {row['blob']:>8.0f} {row['csrt']:>8.0f} {made:>7.1f} {row['blob tracked']:>8} {row['csrt tracked']:>8}")
+        print(
+            f"{n:>7} {n / 1800:>14.2f} {row['blob']:>8.0f} {row['csrt']:>8.0f} {made:>7.1f} {row['blob tracked']:>8} "
+            f"{row['csrt tracked']:>8}"
+        )
     short, long_ = results[long_frames // 4], results[long_frames]
     for kind in ("blob", "csrt"):
         slope = (long_[kind] - short[kind]) / (long_frames - long_frames // 4)
-        print(f"{kind}: {slope * 1000:+.2f} MB per 1000 frames -> 18,000 frames (10 min): {long_[kind] + slope * (18000 - long_frames):.0f} MB (extrapolated)")
+        print(
+            f"{kind}: {slope * 1000:+.2f} MB per 1000 frames -> 18,000 frames (10 min): "
+            f"{long_[kind] + slope * (18000 - long_frames):.0f} MB (extrapolated)"
+        )
 
 
 def _baseline_mb() -> float:
     code = "import av, cv2, numpy, trackers.tracking\n" + inspect.getsource(peak_rss_mb) + "print(peak_rss_mb())"
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=Path(__file__).resolve().parents[1])
+    out = subprocess.run(
+        [sys.executable, "-c", code],
+        capture_output=True,
+        text=True,
+        check=True,
+        cwd=Path(__file__).resolve().parents[1],
+    )
     return float(out.stdout.strip())
 
 
@@ -203,7 +238,15 @@ def main() -> None:
             return
         t = time.perf_counter()
         size = (1280, 720)
-        video = render_video(folder / "bench720.mp4", n_frames=args.frames, image_size=size, fps=30.0, radius=10.0, positions=loop_positions(args.frames, size, period=400.0), noise=3.0)
+        video = render_video(
+            folder / "bench720.mp4",
+            n_frames=args.frames,
+            image_size=size,
+            fps=30.0,
+            radius=10.0,
+            positions=loop_positions(args.frames, size, period=400.0),
+            noise=3.0,
+        )
         print(f"720p H.264 video: {args.frames} frames, made in {time.perf_counter() - t:.1f} s")
         base = decode_opencv(video.path)
         rows = [("decode only, OpenCV BGR (baseline)", base, None)]
@@ -213,7 +256,13 @@ def main() -> None:
             fps, n = tracker_fps(video.path, kind, args.frames)
             rows.append((f"tlsync {kind} tracker", fps, n))
         x, y = video.truth[0]
-        rows.append(("naive full-frame CSRT (OpenCV defaults)", naive_csrt_fps(video.path, (int(x - 14), int(y - 14), 29, 29)), None))
+        rows.append(
+            (
+                "naive full-frame CSRT (OpenCV defaults)",
+                naive_csrt_fps(video.path, (int(x - 14), int(y - 14), 29, 29)),
+                None,
+            )
+        )
         print(f"\n{'':42} {'frames/s':>9} {'x decode':>9} {'tracked':>8}")
         for name, fps, n in rows:
             print(f"{name:42} {fps:>9.1f} {fps / base:>9.2f} {'' if n is None else n:>8}")

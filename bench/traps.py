@@ -45,8 +45,17 @@ def outcome(root: Path, code: int, output: str) -> tuple[str, str]:
         return next((line for line in output.splitlines() if line.startswith("error:")), output.strip()[-200:]), "-"
     timeline = read_timeline(timeline_file)
     truth, n_frames = read_truth(root / "truth.json")
-    wrong = [key for key, rel in truth.items() if set(key.split("->")) <= set(timeline.cameras) and not eps_t(timeline.relation(*key.split("->")), rel, n_frames.get(key.split("->")[0]) or 1) <= 1.0]
-    named = "; ".join(f"{s.camera} {s.status}" + (f" ({', '.join(dict.fromkeys(r.code for r in s.reasons if r.severity == s.status))})" if s.reasons else "") for s in timeline.statuses().values())
+    wrong = [
+        key
+        for key, rel in truth.items()
+        if set(key.split("->")) <= set(timeline.cameras)
+        and not eps_t(timeline.relation(*key.split("->")), rel, n_frames.get(key.split("->")[0]) or 1) <= 1.0
+    ]
+    named = "; ".join(
+        f"{s.camera} {s.status}"
+        + (f" ({', '.join(dict.fromkeys(r.code for r in s.reasons if r.severity == s.status))})" if s.reasons else "")
+        for s in timeline.statuses().values()
+    )
     return named, "no" if wrong else "yes"
 
 
@@ -77,7 +86,12 @@ def main() -> None:
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         quick = Path(tmp) / "quick"
-        write_scene(make_scene(0, lines=((2.0, 4.0), (2.0, 45.0), (1.0, -30.5)), n_frames=(512, 512, 300), tracking_noise_px=1.0), quick)
+        write_scene(
+            make_scene(
+                0, lines=((2.0, 4.0), (2.0, 45.0), (1.0, -30.5)), n_frames=(512, 512, 300), tracking_noise_px=1.0
+            ),
+            quick,
+        )
         suite(quick, "Quick demo scene (3 cameras, tracks given)", args.only)
         if (args.real / "project.toml").exists():
             suite(args.real, f"Real flight {args.real} (4 cameras)", args.only)
@@ -86,7 +100,10 @@ def main() -> None:
         raw, _ = make_raw_project(Path(tmp) / "raw", SMALL)
         (raw.parent / "cam2" / "video.mp4").unlink()
         code, seconds, output = run(raw.parent, "run")
-        print(f"\nraw project with cam2's video missing: exit {code} in {seconds:.1f} s (command start to exit): {output.strip().splitlines()[-1][:200]}")
+        print(
+            f"\nraw project with cam2's video missing: exit {code} in {seconds:.1f} s (command start to exit): "
+            f"{output.strip().splitlines()[-1][:200]}"
+        )
 
 
 if __name__ == "__main__":

@@ -1,6 +1,7 @@
 """The wild bench: scenes drawn from wide families, every plausibility check's false refusals and misses, accuracy.
 
-    nice python bench/wild.py [--scenes 6] [--families walk phone pass loops crowd] [--trap-scenes 1] [--jobs 1] [--seed 0]
+    nice python bench/wild.py [--scenes 6] [--families walk phone pass loops crowd] [--trap-scenes 1] [--jobs 1] [--seed
+    0]
 
 Each scene is drawn, from its seed, out of one family built by the fixture
 generators of data_fixtures/:
@@ -59,25 +60,28 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
+from gps_bound import worst_pair_draws  # noqa: E402
+from traps import run as run_tlsync  # noqa: E402
+
 from data_fixtures.log_error import PRESETS as RECEIVERS  # noqa: E402
 from data_fixtures.passes import make_pass_scene  # noqa: E402
 from data_fixtures.scene import Scene, make_scene, write_scene  # noqa: E402
 from data_fixtures.traps import TRAPS, edit_key  # noqa: E402
 from data_fixtures.walk import WalkSpec, make_walk_scene  # noqa: E402
-from gps_bound import worst_pair_draws  # noqa: E402
+from tlsync_pipeline.sync.model.choices import GCP_SIGMA_M  # noqa: E402
 from tlsync_pipeline.sync.model.log_model import PRESETS as LOG_MODELS  # noqa: E402
 from tlsync_pipeline.sync.model.log_model import LogModel  # noqa: E402
 from tlsync_pipeline.sync.model.params import SyncParams  # noqa: E402
-from tlsync_pipeline.sync.model.choices import GCP_SIGMA_M  # noqa: E402
-from tlsync_pipeline.sync.pose.pose_fit import GcpPrior  # noqa: E402
 from tlsync_pipeline.sync.model.status import AMBIGUOUS, FAILED  # noqa: E402
+from tlsync_pipeline.sync.pose.pose_fit import GcpPrior  # noqa: E402
 from tlsync_pipeline.sync.solve.synchronize import CameraInput, synchronize  # noqa: E402
 from tlsync_pipeline.sync.timeline import Timeline, eps_t, read_timeline, read_truth  # noqa: E402
 from tlsync_pipeline.trajectory import Trajectory  # noqa: E402
-from traps import run as run_tlsync  # noqa: E402
 
 Z95 = 1.959964
-BEYOND = 3.0  # a synchronized pair further than this many times its 95 % interval from the truth is a confident wrong answer
+BEYOND = (
+    3.0  # a synchronized pair further than this many times its 95 % interval from the truth is a confident wrong answer
+)
 RIGHT_FRAMES = 1.0  # a line within this many frames of the truth is right whatever its interval
 BOUND_DRAWS = 200
 FAMILIES = ("walk", "phone", "pass", "loops", "crowd")
@@ -130,9 +134,14 @@ def pass_case(seed: int) -> Case:
     inputs = {}
     for n, c in scene.true_cameras.items():
         unposed = replace(c, R=np.eye(3), t=np.zeros(3), to_estimate=("pose",), pose_info=None)
-        inputs[n] = CameraInput(unposed, scene.tracks[n], c.fps, gcps=GcpPrior(base.gcps[n].uv, base.gcps[n].xyz, GCP_SIGMA_M))
+        inputs[n] = CameraInput(
+            unposed, scene.tracks[n], c.fps, gcps=GcpPrior(base.gcps[n].uv, base.gcps[n].xyz, GCP_SIGMA_M)
+        )
     declared = "rtk" if log_noise < 0.1 else "white"
-    label = f"{'drone' if drone else 'walker'} {'/'.join(paths)}, log {log_noise:g} m ({declared}), GCPs {gcp_noise:g} m off"
+    label = (
+        f"{'drone' if drone else 'walker'} {'/'.join(paths)}, log {log_noise:g} m ({declared}), GCPs "
+        f"{gcp_noise:g} m off"
+    )
     return Case(label, scene, inputs, scene.trajectory, LOG_MODELS[declared])
 
 
@@ -140,7 +149,14 @@ def loops_case(seed: int) -> Case:
     rng = np.random.default_rng([seed, 3])
     crossings = int(rng.integers(1, 4))
     hover = float(rng.choice([0.2, 0.4]))
-    scene = make_scene(seed, lines=((2.0, 4.0), (2.0, 45.0), (1.0, -30.5)), n_frames=(512, 512, 300), tracking_noise_px=1.0, hover_fraction=hover, crossings=crossings)
+    scene = make_scene(
+        seed,
+        lines=((2.0, 4.0), (2.0, 45.0), (1.0, -30.5)),
+        n_frames=(512, 512, 300),
+        tracking_noise_px=1.0,
+        hover_fraction=hover,
+        crossings=crossings,
+    )
     inputs = {n: CameraInput(c, scene.tracks[n], c.fps) for n, c in scene.cameras.items()}
     return Case(f"hover {hover:g}, {crossings} crossings", scene, inputs, scene.trajectory, LOG_MODELS["none"])
 
@@ -154,14 +170,39 @@ def crowd_case(seed: int) -> Case:
     receiver = str(rng.choice(["rtk", "phone"]))
     log_error = None if receiver == "rtk" else RECEIVERS[receiver]
     with tempfile.TemporaryDirectory() as tmp:
-        crowd = make_crowd_scene(CrowdSpec(seed=seed, distractors=distractors, log_rate=10.0 if log_error is None else log_error.rate_hz, log_error=log_error), tmp)
-        detections = {n: detect_movers(video, progress=False) for n in crowd.scene.cameras if (video := crowd.truth[n].video) is not None}
+        crowd = make_crowd_scene(
+            CrowdSpec(
+                seed=seed,
+                distractors=distractors,
+                log_rate=10.0 if log_error is None else log_error.rate_hz,
+                log_error=log_error,
+            ),
+            tmp,
+        )
+        detections = {
+            n: detect_movers(video, progress=False)
+            for n in crowd.scene.cameras
+            if (video := crowd.truth[n].video) is not None
+        }
     scene = crowd.scene
     inputs = {n: CameraInput(c, None, c.fps, detections[n]) for n, c in scene.cameras.items()}
-    return Case(f"{distractors} walkers, {receiver} log", scene, inputs, scene.trajectory, LOG_MODELS["phone" if receiver == "phone" else "none"], bound=log_error is not None)
+    return Case(
+        f"{distractors} walkers, {receiver} log",
+        scene,
+        inputs,
+        scene.trajectory,
+        LOG_MODELS["phone" if receiver == "phone" else "none"],
+        bound=log_error is not None,
+    )
 
 
-BUILDERS = {"walk": walk_case, "phone": lambda seed: walk_case(seed, phone_only=True), "pass": pass_case, "loops": loops_case, "crowd": crowd_case}
+BUILDERS = {
+    "walk": walk_case,
+    "phone": lambda seed: walk_case(seed, phone_only=True),
+    "pass": pass_case,
+    "loops": loops_case,
+    "crowd": crowd_case,
+}
 
 
 def camera_error(timeline: Timeline, name: str, scene: Scene) -> tuple[float, float]:
@@ -201,16 +242,35 @@ def run_case(job: tuple[str, int]) -> dict:
         a, b = key.split("->")
         if a in timeline.cameras and b in timeline.cameras:
             cov = timeline.relation_cov(a, b)
-            z = abs(timeline.relation(a, b).beta - truth.beta) / np.sqrt(cov[1, 1]) if cov is not None and cov[1, 1] > 0 else np.inf
+            z = (
+                abs(timeline.relation(a, b).beta - truth.beta) / np.sqrt(cov[1, 1])
+                if cov is not None and cov[1, 1] > 0
+                else np.inf
+            )
             pairs.append((eps_t(timeline.relation(a, b), truth, case.scene.n_frames[a]), z))
     worst = max((e for e, _ in pairs), default=np.nan) if len(timeline.cameras) == len(case.scene.cameras) else np.nan
-    bound = worst_pair_draws(case.scene, SyncParams().rate_sigma, BOUND_DRAWS, np.random.default_rng(seed)) if case.bound and "log" in case.scene.noise else np.array([])
-    return {"family": family, "seed": seed, "label": case.label, "cameras": cameras, "pairs": pairs, "worst": worst, "bound": bound, "seconds": seconds}
+    bound = (
+        worst_pair_draws(case.scene, SyncParams().rate_sigma, BOUND_DRAWS, np.random.default_rng(seed))
+        if case.bound and "log" in case.scene.noise
+        else np.array([])
+    )
+    return {
+        "family": family,
+        "seed": seed,
+        "label": case.label,
+        "cameras": cameras,
+        "pairs": pairs,
+        "worst": worst,
+        "bound": bound,
+        "seconds": seconds,
+    }
 
 
 def family_table(rows: list[dict]) -> list[str]:
     out = [
-        "| family | scenes | cameras answered | scenes with a camera refused | median eps_t (all answered) | p90 | first-order bound (median) | eps_t / bound | 95 % intervals holding the truth | pairs beyond 3x | CPU s / scene |",
+        "| family | scenes | cameras answered | scenes with a camera refused | median eps_t (all answered) | p90 | "
+        "first-order bound (median) | eps_t / bound | 95 % intervals holding the truth | pairs beyond 3x | CPU s / "
+        "scene |",
         "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for family in dict.fromkeys(r["family"] for r in rows):
@@ -229,7 +289,10 @@ def family_table(rows: list[dict]) -> list[str]:
         beyond = int(np.sum(z > BEYOND * Z95))
         ratio = f"{median / bound:.2f}" if np.isfinite(bound) and bound > 0 and np.isfinite(median) else "-"
         seconds = np.median([r["seconds"] for r in mine])
-        out.append(f"| {family} | {len(mine)} | {100 * answered:.0f} % | {refused} | {median:.2f} | {p90:.2f} | {bound:.2f} | {ratio} | {coverage} | {beyond} | {seconds:.1f} |")
+        out.append(
+            f"| {family} | {len(mine)} | {100 * answered:.0f} % | {refused} | {median:.2f} | {p90:.2f} | {bound:.2f} "
+            f"| {ratio} | {coverage} | {beyond} | {seconds:.1f} |"
+        )
     return out
 
 
@@ -239,7 +302,8 @@ def check_table(rows: list[dict]) -> list[str]:
     wrong = [c for c in cams if c["right"] is False]
     codes = sorted({code for c in cams for code in c["codes"]})
     out = [
-        f"Right lines: {len(right)}; wrong lines: {len(wrong)} (of which reported synchronized: {sum(c['answered'] for c in wrong)}); cameras without a line: {sum(c['right'] is None for c in cams)}.",
+        f"Right lines: {len(right)}; wrong lines: {len(wrong)} (of which reported synchronized: "
+        f"{sum(c['answered'] for c in wrong)}); cameras without a line: {sum(c['right'] is None for c in cams)}.",
         "",
         "| check (reason code) | false refusals (right lines it stopped) | wrong lines it stopped |",
         "|---|---|---|",
@@ -247,7 +311,9 @@ def check_table(rows: list[dict]) -> list[str]:
     for code in codes:
         false = sum(code in c["codes"] for c in right)
         caught = sum(code in c["codes"] for c in wrong)
-        out.append(f"| {code} | {false} / {len(right)} ({100 * false / max(len(right), 1):.1f} %) | {caught} / {len(wrong)} |")
+        out.append(
+            f"| {code} | {false} / {len(right)} ({100 * false / max(len(right), 1):.1f} %) | {caught} / {len(wrong)} |"
+        )
     return out
 
 
@@ -257,9 +323,14 @@ def odd_cameras(rows: list[dict]) -> list[str]:
     for r in rows:
         for c in r["cameras"]:
             if not c["answered"]:
-                out.append(f"- {r['family']} seed {r['seed']} ({r['label']}): {c['name']} refused: {', '.join(c['codes']) or 'no line'}{' (its line was right)' if c['right'] else ''}")
+                out.append(
+                    f"- {r['family']} seed {r['seed']} ({r['label']}): {c['name']} refused: "
+                    f"{', '.join(c['codes']) or 'no line'}{' (its line was right)' if c['right'] else ''}"
+                )
             elif c["right"] is False:
-                out.append(f"- {r['family']} seed {r['seed']} ({r['label']}): {c['name']} synchronized with a wrong line")
+                out.append(
+                    f"- {r['family']} seed {r['seed']} ({r['label']}): {c['name']} synchronized with a wrong line"
+                )
     return out
 
 
@@ -278,7 +349,11 @@ def trap_run(job: tuple[int, str]) -> dict:
         code, _, output = run_tlsync(root, "sync")
         timeline_file = root / "work" / "timeline.json"
         if code == 2 or not timeline_file.exists():
-            return {"trap": trap, "outcome": "caught" if code != 0 else "missed", "codes": ["bad_input" if code == 2 else f"exit {code}"]}
+            return {
+                "trap": trap,
+                "outcome": "caught" if code != 0 else "missed",
+                "codes": ["bad_input" if code == 2 else f"exit {code}"],
+            }
         timeline = read_timeline(timeline_file)
         truth, n_frames = read_truth(root / "truth.json")
         wrong = any(_pair_wrong(timeline, key, relation, n_frames) for key, relation in truth.items())
@@ -289,7 +364,8 @@ def trap_run(job: tuple[int, str]) -> dict:
 
 def _pair_wrong(timeline: Timeline, key: str, truth, n_frames: dict[str, int]) -> bool:
     """Whether a synchronized pair is wrong: further than RIGHT_FRAMES (eps_t) and than BEYOND times its 95 % interval
-    of the start offset from the truth (a phone's log leaves right answers tens of frames off, within their interval)."""
+    of the start offset from the truth (a phone's log leaves right answers tens of frames off, within their interval).
+    """
     a, b = key.split("->")
     if not {a, b} <= set(timeline.cameras):
         return False
@@ -307,7 +383,10 @@ def trap_table(results: list[dict]) -> list[str]:
         out.append(f"| {trap} | {mine['caught']} | {mine['right']} | {mine['missed']} |")
     total = Counter(r["outcome"] for r in results if r["outcome"] != "n/a")
     runs = sum(total.values())
-    out.append(f"| **all** | {total['caught']} | {total['right']} | **{total['missed']} of {runs} ({100 * total['missed'] / max(runs, 1):.1f} %)** |")
+    out.append(
+        f"| **all** | {total['caught']} | {total['right']} | **{total['missed']} of {runs} "
+        f"({100 * total['missed'] / max(runs, 1):.1f} %)** |"
+    )
     named = Counter(code for r in results for code in r["codes"])
     out += ["", "Checks named on trap runs: " + ", ".join(f"{code} {n}" for code, n in named.most_common())]
     return out
@@ -317,7 +396,9 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--scenes", type=int, default=6, help="scenes per family")
     parser.add_argument("--families", nargs="+", default=[f for f in FAMILIES if f != "crowd"], choices=FAMILIES)
-    parser.add_argument("--trap-scenes", type=int, default=0, help="walk scenes with a phone's log the trap suite runs on")
+    parser.add_argument(
+        "--trap-scenes", type=int, default=0, help="walk scenes with a phone's log the trap suite runs on"
+    )
     parser.add_argument("--jobs", type=int, default=1)
     parser.add_argument("--seed", type=int, default=0, help="first seed")
     args = parser.parse_args()
@@ -325,14 +406,27 @@ def main() -> None:
     start = time.perf_counter()
     with ProcessPoolExecutor(args.jobs) as pool:
         rows = list(pool.map(run_case, jobs))
-        print(f"wild bench: {args.scenes} scenes per family, seeds from {args.seed}, {time.perf_counter() - start:.0f} s wall with {args.jobs} job(s)\n")
+        print(
+            f"wild bench: {args.scenes} scenes per family, seeds from {args.seed}, {time.perf_counter() - start:.0f} "
+            f"s wall with {args.jobs} job(s)\n"
+        )
         print("\n".join(family_table(rows)))
         print()
         print("\n".join(check_table(rows)))
         odd = odd_cameras(rows)
         if odd:
             print("\nCameras refused, or synchronized wrong:\n" + "\n".join(odd), flush=True)
-        traps = list(pool.map(trap_run, [(args.seed + k, t) for k in range(args.trap_scenes) for t in TRAPS if t not in ("video_is_dev_urandom", "video_missing")]))
+        traps = list(
+            pool.map(
+                trap_run,
+                [
+                    (args.seed + k, t)
+                    for k in range(args.trap_scenes)
+                    for t in TRAPS
+                    if t not in ("video_is_dev_urandom", "video_missing")
+                ],
+            )
+        )
     if traps:
         print(f"\nTrap suite on {args.trap_scenes} walk scene(s) with a phone's log declared:\n")
         print("\n".join(trap_table(traps)))

@@ -9,8 +9,12 @@ from __future__ import annotations
 import importlib
 from typing import Any
 
-_WHERE = {"Camera": "calibration.camera", "read_camera": "calibration.camera", "write_camera": "calibration.camera",
-          "CalibrationInputError": "calibration.errors"}
+_WHERE = {
+    "Camera": "calibration.camera",
+    "read_camera": "calibration.camera",
+    "write_camera": "calibration.camera",
+    "CalibrationInputError": "calibration.errors",
+}
 
 __all__ = ["Camera", "CalibrationInputError", "read_camera", "write_camera"]
 

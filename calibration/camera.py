@@ -57,7 +57,12 @@ class PoseInfo:
     note: str = ""
 
     def to_dict(self) -> dict:
-        out: dict = {"source": self.source, "center_std_m": self.center_std_m, "rotation_std_deg": self.rotation_std_deg, "for_3d": self.for_3d}
+        out: dict = {
+            "source": self.source,
+            "center_std_m": self.center_std_m,
+            "rotation_std_deg": self.rotation_std_deg,
+            "for_3d": self.for_3d,
+        }
         if self.note:
             out["note"] = self.note
         return out
@@ -65,17 +70,24 @@ class PoseInfo:
     @classmethod
     def from_dict(cls, data, source: str) -> PoseInfo:
         if not isinstance(data, dict) or data.get("source") not in POSE_SOURCES:
-            raise CalibrationInputError(f"{source}: field 'pose': expected an object with 'source' one of {', '.join(POSE_SOURCES)}, got {data!r}")
+            raise CalibrationInputError(
+                f"{source}: field 'pose': expected an object with 'source' one of {', '.join(POSE_SOURCES)}, got "
+                f"{data!r}"
+            )
         values = {}
         for key in ("center_std_m", "rotation_std_deg"):
             value = data.get(key)
             if value is not None and (isinstance(value, bool) or not isinstance(value, (int, float)) or value < 0):
-                raise CalibrationInputError(f"{source}: field 'pose.{key}': expected a non-negative number or null, got {value!r}")
+                raise CalibrationInputError(
+                    f"{source}: field 'pose.{key}': expected a non-negative number or null, got {value!r}"
+                )
             values[key] = None if value is None else float(value)
         for_3d = data.get("for_3d", True)
         if not isinstance(for_3d, bool):
             raise CalibrationInputError(f"{source}: field 'pose.for_3d': expected true or false, got {for_3d!r}")
-        return cls(data["source"], values["center_std_m"], values["rotation_std_deg"], for_3d, str(data.get("note", "")))
+        return cls(
+            data["source"], values["center_std_m"], values["rotation_std_deg"], for_3d, str(data.get("note", ""))
+        )
 
 
 @dataclass(frozen=True)
@@ -175,7 +187,7 @@ class Camera:
         return out
 
     @classmethod
-    def from_dict(cls, data: dict, source: str = "camera", name: str | None = None) -> "Camera":
+    def from_dict(cls, data: dict, source: str = "camera", name: str | None = None) -> Camera:
         """Build a camera from ``camera.json`` content.
 
         Accepts ``K`` + ``dist`` + (``R`` + ``t`` | ``rvec`` + ``tvec``), or a
@@ -209,7 +221,9 @@ class Camera:
             if "K" not in data and to_estimate:
                 to_estimate = ("pose", "intrinsics")
                 w, h = image_size
-                K = np.array([[GUESSED_FOCAL * w, 0.0, (w - 1) / 2], [0.0, GUESSED_FOCAL * w, (h - 1) / 2], [0.0, 0.0, 1.0]])
+                K = np.array(
+                    [[GUESSED_FOCAL * w, 0.0, (w - 1) / 2], [0.0, GUESSED_FOCAL * w, (h - 1) / 2], [0.0, 0.0, 1.0]]
+                )
             else:
                 K = _matrix(data, "K", (3, 3), source)
         _check_intrinsics(K, source)
@@ -250,7 +264,9 @@ def _matrix(data: dict, key: str, shape: tuple[int, ...], source: str) -> np.nda
     except (TypeError, ValueError):
         raise CalibrationInputError(f"{source}: field '{key}': expected numbers, got {data[key]!r}") from None
     if value.size == math.prod(shape) and value.ndim == 1 and len(shape) == 2:
-        raise CalibrationInputError(f"{source}: field '{key}': expected a {shape[0]}x{shape[1]} matrix (list of rows), got a flat list")
+        raise CalibrationInputError(
+            f"{source}: field '{key}': expected a {shape[0]}x{shape[1]} matrix (list of rows), got a flat list"
+        )
     if value.shape != shape:
         want = "x".join(map(str, shape))
         raise CalibrationInputError(f"{source}: field '{key}': expected shape {want}, got {value.shape}")
@@ -294,7 +310,9 @@ def _decompose_projection(P: np.ndarray, source: str) -> tuple[np.ndarray, np.nd
 
 def _check_intrinsics(K: np.ndarray, source: str) -> None:
     if abs(np.linalg.det(K)) < 1e-9 or K[0, 0] <= 0 or K[1, 1] <= 0:
-        raise CalibrationInputError(f"{source}: field 'K': singular or non-positive focal lengths (fx={K[0, 0]:g}, fy={K[1, 1]:g})")
+        raise CalibrationInputError(
+            f"{source}: field 'K': singular or non-positive focal lengths (fx={K[0, 0]:g}, fy={K[1, 1]:g})"
+        )
     if np.abs(K[2] - [0, 0, 1]).max() > 1e-9 or K[1, 0] != 0:
         raise CalibrationInputError(f"{source}: field 'K': expected upper-triangular with last row [0, 0, 1]")
 
@@ -311,9 +329,11 @@ def _check_principal_point(K: np.ndarray, image_size: tuple[int, int], source: s
     off = [abs(centre - side / 2) > CENTRE_SLACK * side for centre, side in zip(K[:2, 2], image_size)]
     if all(off) and abs(factors[0] - factors[1]) <= SAME_FACTOR * max(abs(factors[0]), abs(factors[1])):
         raise CalibrationInputError(
-            f"{source}: field 'K': principal point ({K[0, 2]:g}, {K[1, 2]:g}) px is off the centre of the {image_size[0]} x {image_size[1]} "
-            f"image (field 'image_size') by a factor {np.mean(factors):.3g} on both axes: K and image_size are of different resolutions "
-            "(for a camera cropped at a corner of a wider one: \"cropped\": true)"
+            f"{source}: field 'K': principal point ({K[0, 2]:g}, {K[1, 2]:g}) px is off the centre of the "
+            f"{image_size[0]} x {image_size[1]} "
+            f"image (field 'image_size') by a factor {np.mean(factors):.3g} on both axes: K and image_size are of "
+            f"different resolutions "
+            '(for a camera cropped at a corner of a wider one: "cropped": true)'
         )
 
 
@@ -325,7 +345,8 @@ def _distortion(value, dist_model: str, source: str) -> np.ndarray:
     lengths = (4,) if dist_model == "fisheye" else _OPENCV_DIST_LENGTHS
     if len(dist) not in lengths:
         raise CalibrationInputError(
-            f"{source}: field 'dist': expected {' or '.join(map(str, lengths))} coefficients for the {dist_model} model, got {len(dist)}"
+            f"{source}: field 'dist': expected {' or '.join(map(str, lengths))} coefficients for the {dist_model} "
+            f"model, got {len(dist)}"
         )
     if not np.all(np.isfinite(dist)):
         raise CalibrationInputError(f"{source}: field 'dist': contains NaN or infinity")
@@ -341,9 +362,14 @@ def _image_size(data: dict, source: str) -> tuple[int, int]:
         or len(size) != 2
         or not all(isinstance(v, (int, float)) and not isinstance(v, bool) and v == int(v) and v > 0 for v in size)
     ):
-        raise CalibrationInputError(f"{source}: field 'image_size': expected [width, height] as positive integers, got {size!r}")
+        raise CalibrationInputError(
+            f"{source}: field 'image_size': expected [width, height] as positive integers, got {size!r}"
+        )
     if max(size) > MAX_IMAGE_SIDE:
-        raise CalibrationInputError(f"{source}: field 'image_size': {list(size)} pixels; no camera's image is wider or higher than {MAX_IMAGE_SIDE}")
+        raise CalibrationInputError(
+            f"{source}: field 'image_size': {list(size)} pixels; no camera's image is wider or higher than "
+            f"{MAX_IMAGE_SIDE}"
+        )
     return int(size[0]), int(size[1])
 
 

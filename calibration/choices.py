@@ -20,7 +20,9 @@ def parse_corners(text: str) -> tuple[int, int]:
     try:
         cols, rows = (int(p) for p in parts)
     except ValueError:
-        raise CalibrationInputError(f"expected inner corners as COLSxROWS (e.g. 7x6 for a board of 8x7 squares), got {text!r}") from None
+        raise CalibrationInputError(
+            f"expected inner corners as COLSxROWS (e.g. 7x6 for a board of 8x7 squares), got {text!r}"
+        ) from None
     if cols < 2 or rows < 2 or cols * rows < 6:
         raise CalibrationInputError(f"a checkerboard needs at least 2x3 inner corners, got {text!r}")
     return cols, rows

@@ -32,7 +32,9 @@ def read_text(path: Path, encoding: str = "utf-8") -> str:
     try:
         info = path.stat()
         if not stat.S_ISREG(info.st_mode) or path.resolve().parts[1:2] in (("proc",), ("sys",), ("dev",)):
-            raise CalibrationInputError(f"{path}: not a regular file (a folder, a device, a pipe or a file of the system)")
+            raise CalibrationInputError(
+                f"{path}: not a regular file (a folder, a device, a pipe or a file of the system)"
+            )
         if info.st_size > MAX_TEXT_BYTES:
             raise CalibrationInputError(f"{path}: {info.st_size >> 20} MiB, too large for a calibration file")
         data = path.read_bytes()

@@ -31,7 +31,9 @@ GEODETIC_COLUMNS = ("u", "v", "lat", "lon", "alt")
 
 @dataclass(frozen=True)
 class GcpTable:
-    """Ground control points of one camera: pixels (N, 2) and either local ``xyz`` (N, 3) or ``geodetic`` lat/lon/alt (N, 3)."""
+    """Ground control points of one camera: pixels (N, 2) and either local ``xyz`` (N, 3) or ``geodetic`` lat/lon/alt
+    (N, 3).
+    """
 
     source: str
     uv: np.ndarray
@@ -45,7 +47,11 @@ def read_gcps(path: str | Path) -> GcpTable:
     """Read a GCP CSV (see the module doc); errors name the file, line and column."""
     path = Path(path)
     text = read_text(path, "utf-8-sig")
-    rows = [(n, row) for n, row in enumerate(csv.reader(text.splitlines()), start=1) if row and not row[0].lstrip().startswith("#") and any(c.strip() for c in row)]
+    rows = [
+        (n, row)
+        for n, row in enumerate(csv.reader(text.splitlines()), start=1)
+        if row and not row[0].lstrip().startswith("#") and any(c.strip() for c in row)
+    ]
     if not rows:
         raise CalibrationInputError(f"{path}: empty file; expected a header u,v,x,y,z or u,v,lat,lon,alt")
     header_line, header = rows[0]
@@ -54,22 +60,31 @@ def read_gcps(path: str | Path) -> GcpTable:
     geo = [c for c in ("lat", "lon", "alt") if c in header]
     if local and geo:
         raise CalibrationInputError(
-            f"{path}:{header_line}: the header mixes local columns ({','.join(local)}) and geodetic columns ({','.join(geo)}); "
+            f"{path}:{header_line}: the header mixes local columns ({','.join(local)}) and geodetic columns "
+            f"({','.join(geo)}); "
             "use either u,v,x,y,z (local metres) or u,v,lat,lon,alt (WGS84), one kind per file"
         )
     columns = GEODETIC_COLUMNS if geo else LOCAL_COLUMNS
     missing = [c for c in columns if c not in header]
     if missing:
-        raise CalibrationInputError(f"{path}:{header_line}: missing column(s) {', '.join(missing)}; expected a header u,v,x,y,z (local metres) or u,v,lat,lon,alt (WGS84)")
+        raise CalibrationInputError(
+            f"{path}:{header_line}: missing column(s) {', '.join(missing)}; expected a header u,v,x,y,z (local "
+            f"metres) or u,v,lat,lon,alt (WGS84)"
+        )
     unknown = [h for h in header if h not in columns and h not in ("name", "id")]
     if unknown:
-        raise CalibrationInputError(f"{path}:{header_line}: unknown column(s) {', '.join(unknown)[:60]}; expected {','.join(columns)} and optionally name")
+        raise CalibrationInputError(
+            f"{path}:{header_line}: unknown column(s) {', '.join(unknown)[:60]}; expected {','.join(columns)} and "
+            f"optionally name"
+        )
     index = {h: i for i, h in enumerate(header)}
     name_col = index.get("name", index.get("id"))
     values, names, lines = [], [], []
     for line, row in rows[1:]:
         if len(row) != len(header):
-            raise CalibrationInputError(f"{path}:{line}: expected {len(header)} values ({','.join(header)}), got {len(row)}")
+            raise CalibrationInputError(
+                f"{path}:{line}: expected {len(header)} values ({','.join(header)}), got {len(row)}"
+            )
         numbers = []
         for col in columns:
             cell = row[index[col]].strip()
@@ -81,14 +96,18 @@ def read_gcps(path: str | Path) -> GcpTable:
                 raise CalibrationInputError(f"{path}:{line}: column '{col}': not a finite number: {cell[:60]!r}")
             numbers.append(number)
         if geo and not (-90 <= numbers[2] <= 90 and -180 <= numbers[3] <= 180):
-            raise CalibrationInputError(f"{path}:{line}: lat/lon out of range ({numbers[2]}, {numbers[3]}); expected degrees")
+            raise CalibrationInputError(
+                f"{path}:{line}: lat/lon out of range ({numbers[2]}, {numbers[3]}); expected degrees"
+            )
         values.append(numbers)
         names.append(row[name_col].strip() if name_col is not None else f"line {line}")
         lines.append(line)
     if not values:
         raise CalibrationInputError(f"{path}: no points after the header")
     data = np.array(values, dtype=np.float64)
-    return GcpTable(str(path), data[:, :2], None if geo else data[:, 2:], data[:, 2:] if geo else None, tuple(names), tuple(lines))
+    return GcpTable(
+        str(path), data[:, :2], None if geo else data[:, 2:], data[:, 2:] if geo else None, tuple(names), tuple(lines)
+    )
 
 
 @dataclass(frozen=True)
@@ -122,7 +141,10 @@ class Pose:
             "rotation_std_deg": self.rotation_std_deg,
             "position_std_m": self.position_std_m,
             "camera_center_m": self.center.tolist(),
-            "points": [{"name": n, "error_px": float(e), "inlier": bool(i)} for n, e, i in zip(names, self.errors, self.inliers)],
+            "points": [
+                {"name": n, "error_px": float(e), "inlier": bool(i)}
+                for n, e, i in zip(names, self.errors, self.inliers)
+            ],
         }
 
 
@@ -156,9 +178,21 @@ def pose_from_points(
     inliers = np.ones(len(uv), dtype=bool)
     method = "SQPnP"
     if len(uv) >= RANSAC_MIN_POINTS:
-        ok, rvec, tvec, idx = cv2.solvePnPRansac(xyz, ideal, K, None, iterationsCount=500, reprojectionError=ransac_px, confidence=0.999, flags=cv2.SOLVEPNP_SQPNP)
+        ok, rvec, tvec, idx = cv2.solvePnPRansac(
+            xyz,
+            ideal,
+            K,
+            None,
+            iterationsCount=500,
+            reprojectionError=ransac_px,
+            confidence=0.999,
+            flags=cv2.SOLVEPNP_SQPNP,
+        )
         if not ok or idx is None or len(idx) < MIN_POINTS:
-            raise CalibrationInputError(f"{source}: no pose explains at least {MIN_POINTS} points within {ransac_px:g} px; check that each pixel matches its world point")
+            raise CalibrationInputError(
+                f"{source}: no pose explains at least {MIN_POINTS} points within {ransac_px:g} px; check that each "
+                f"pixel matches its world point"
+            )
         inliers = np.zeros(len(uv), dtype=bool)
         inliers[idx.ravel()] = True
         method = "SQPnP+RANSAC"
@@ -174,7 +208,10 @@ def pose_from_points(
     t = tvec.ravel()
     depth = xyz @ R.T[:, 2] + t[2]
     if np.any(depth[inliers] <= 0):
-        raise CalibrationInputError(f"{source}: the best pose puts {int(np.sum(depth[inliers] <= 0))} points behind the camera; check the pixel <-> world pairs and the axes")
+        raise CalibrationInputError(
+            f"{source}: the best pose puts {int(np.sum(depth[inliers] <= 0))} points behind the camera; check the "
+            f"pixel <-> world pairs and the axes"
+        )
     projected = project_points(xyz, rvec, tvec, K, dist, dist_model)
     errors = np.linalg.norm(projected - uv, axis=1)
     rms = float(np.sqrt(np.mean(errors[inliers] ** 2)))
@@ -186,9 +223,14 @@ def _check_spread(points: np.ndarray, source: str, what: str, unit: str, toleran
     centred = points - points.mean(axis=0)
     s = np.linalg.svd(centred, compute_uv=False)
     if s[0] < tolerance:
-        raise CalibrationInputError(f"{source}: all {what} are at the same place; a pose needs points spread over the view")
+        raise CalibrationInputError(
+            f"{source}: all {what} are at the same place; a pose needs points spread over the view"
+        )
     if s[1] < max(tolerance, 1e-3 * s[0]):
-        raise CalibrationInputError(f"{source}: the {what} are collinear (on one line, within {s[1] / np.sqrt(len(points)):.3g} {unit}); a pose needs points off that line")
+        raise CalibrationInputError(
+            f"{source}: the {what} are collinear (on one line, within {s[1] / np.sqrt(len(points)):.3g} {unit}); a "
+            f"pose needs points off that line"
+        )
 
 
 def _uncertainty(xyz, uv, rvec, tvec, K, dist, dist_model, errors) -> tuple[float, float]:
@@ -212,6 +254,7 @@ def _uncertainty(xyz, uv, rvec, tvec, K, dist, dist_model, errors) -> tuple[floa
         cov = sigma2 * np.linalg.inv(J.T @ J)
     except np.linalg.LinAlgError:
         return float("nan"), float("nan")
+
     # Camera centre C = -R^T t: propagate numerically.
     def centre(p):
         import cv2
@@ -236,7 +279,8 @@ def pose_from_board(
     dist_model: str = "opencv",
     source: str = "board image",
 ) -> Pose:
-    """World -> camera pose from a board lying at a known world pose (board -> world: X_world = board_R @ X_board + board_t).
+    """World -> camera pose from a board lying at a known world pose (board -> world: X_world = board_R @ X_board +
+    board_t).
 
     Board frame: origin at the inner corner next to a dark outer corner square,
     x along the pattern's columns, y along its rows, z = x cross y pointing into
@@ -248,7 +292,8 @@ def pose_from_board(
 
     if (pattern.cols + pattern.rows) % 2 == 0:
         raise CalibrationInputError(
-            f"{source}: a {pattern} board looks the same turned by 180 degrees, so its pose is ambiguous; use a board with one odd and one even count of inner corners (e.g. 7x6)"
+            f"{source}: a {pattern} board looks the same turned by 180 degrees, so its pose is ambiguous; use a board "
+            f"with one odd and one even count of inner corners (e.g. 7x6)"
         )
     board = pattern.object_points()
     grid = corners.reshape(pattern.rows, pattern.cols, 2)
@@ -274,4 +319,13 @@ def pose_from_board(
     # With the corners in the board frame's order, the board's world corners are ordinary control points.
     world = board @ np.asarray(board_R, dtype=np.float64).T + np.asarray(board_t, dtype=np.float64).ravel()
     pose = pose_from_points(chosen, world, K, dist, dist_model, source=source)
-    return Pose(pose.R, pose.t, pose.errors, pose.inliers, pose.rms, pose.rotation_std_deg, pose.position_std_m, "board+" + pose.method)
+    return Pose(
+        pose.R,
+        pose.t,
+        pose.errors,
+        pose.inliers,
+        pose.rms,
+        pose.rotation_std_deg,
+        pose.position_std_m,
+        "board+" + pose.method,
+    )

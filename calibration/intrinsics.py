@@ -24,10 +24,10 @@ import os
 import re
 import signal
 from collections import Counter
+from collections.abc import Iterable, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Iterable, Sequence
 
 import numpy as np
 from tqdm import tqdm
@@ -47,7 +47,8 @@ OUTLIER_FACTOR = 3.0
 NO_BOARD = "no board found"  # the diagnosis when not even a 3x3 part of a checker grid is seen
 DUPLICATE_FRACTION = 0.004  # views whose corners moved less than this * image diagonal are duplicates
 TRIED = (
-    f"the classic detector (findChessboardCorners, adaptive threshold + normalized image) on a copy downscaled to about {CLASSIC_SIZE} px, "
+    f"the classic detector (findChessboardCorners, adaptive threshold + normalized image) on a copy downscaled to "
+    f"about {CLASSIC_SIZE} px, "
     "the sector-based detector (findChessboardCornersSB, normalized image) at about {small} px "
     f"and, where a part of a board is seen, the sector-based detector in exhaustive mode at up to {EXHAUSTIVE_SIZE} px"
 )
@@ -69,7 +70,9 @@ class Pattern:
         return f"{self.cols}x{self.rows}"
 
     def object_points(self) -> np.ndarray:
-        """(cols * rows, 3) inner-corner coordinates on the board (metres), row by row: corner (i, j) at (i, j, 0) * square."""
+        """(cols * rows, 3) inner-corner coordinates on the board (metres), row by row: corner (i, j) at (i, j, 0) *
+        square.
+        """
         grid = np.mgrid[0 : self.cols, 0 : self.rows].T.reshape(-1, 2) * self.square
         return np.column_stack([grid, np.zeros(len(grid))])
 
@@ -96,7 +99,9 @@ class Detection:
     reason: str | None  # set when corners is None
 
 
-def detect_board(gray: np.ndarray, pattern: tuple[int, int], detect_size: int = DETECT_SIZE) -> tuple[np.ndarray | None, str | None, str | None]:
+def detect_board(
+    gray: np.ndarray, pattern: tuple[int, int], detect_size: int = DETECT_SIZE
+) -> tuple[np.ndarray | None, str | None, str | None]:
     """Find the inner corners of a ``pattern`` (cols, rows) board in a grey image.
 
     Tries, cheapest first: the classic detector on a copy reduced by an
@@ -121,9 +126,21 @@ def detect_board(gray: np.ndarray, pattern: tuple[int, int], detect_size: int = 
     first = max(1, round(long_side / detect_size))
     reason = None
     for method, factor, find in (
-        ("classic", max(1, round(long_side / CLASSIC_SIZE)), lambda img: cv2.findChessboardCorners(img, pattern, flags=cv2.CALIB_CB_ADAPTIVE_THRESH | cv2.CALIB_CB_NORMALIZE_IMAGE)),
+        (
+            "classic",
+            max(1, round(long_side / CLASSIC_SIZE)),
+            lambda img: cv2.findChessboardCorners(
+                img, pattern, flags=cv2.CALIB_CB_ADAPTIVE_THRESH | cv2.CALIB_CB_NORMALIZE_IMAGE
+            ),
+        ),
         ("sb", first, lambda img: cv2.findChessboardCornersSB(img, pattern, flags=cv2.CALIB_CB_NORMALIZE_IMAGE)),
-        ("sb-exhaustive", max(1, -(-long_side // EXHAUSTIVE_SIZE)), lambda img: cv2.findChessboardCornersSB(img, pattern, flags=cv2.CALIB_CB_NORMALIZE_IMAGE | cv2.CALIB_CB_EXHAUSTIVE)),
+        (
+            "sb-exhaustive",
+            max(1, -(-long_side // EXHAUSTIVE_SIZE)),
+            lambda img: cv2.findChessboardCornersSB(
+                img, pattern, flags=cv2.CALIB_CB_NORMALIZE_IMAGE | cv2.CALIB_CB_EXHAUSTIVE
+            ),
+        ),
     ):
         if method == "sb-exhaustive":
             reason = _diagnose(reduced(first), pattern)
@@ -162,7 +179,9 @@ def _refine(gray: np.ndarray, corners: np.ndarray, pattern: tuple[int, int]) -> 
     import cv2
 
     grid = corners.reshape(pattern[1], pattern[0], 2)
-    spacing = min(np.linalg.norm(np.diff(grid, axis=0), axis=2).min(), np.linalg.norm(np.diff(grid, axis=1), axis=2).min())
+    spacing = min(
+        np.linalg.norm(np.diff(grid, axis=0), axis=2).min(), np.linalg.norm(np.diff(grid, axis=1), axis=2).min()
+    )
     half = int(np.clip(0.4 * spacing, 2, 30))
     sigma = min(spacing / SMOOTH_DIVISOR, 4.0)
     h, w = gray.shape[:2]
@@ -226,7 +245,9 @@ def _diagnose(small: np.ndarray, pattern: tuple[int, int], larger: bool = False)
     """Why no full board was found: a smaller or larger grid visible, or nothing."""
     import cv2
 
-    found, corners, meta = cv2.findChessboardCornersSBWithMeta(small, (3, 3), flags=cv2.CALIB_CB_NORMALIZE_IMAGE | cv2.CALIB_CB_LARGER)
+    found, corners, meta = cv2.findChessboardCornersSBWithMeta(
+        small, (3, 3), flags=cv2.CALIB_CB_NORMALIZE_IMAGE | cv2.CALIB_CB_LARGER
+    )
     seen = sorted(meta.shape[:2], reverse=True) if found and meta is not None else None
     want = sorted(pattern, reverse=True)
     bigger = seen is not None and (seen[0] > want[0] or seen[1] > want[1])
@@ -284,7 +305,9 @@ def detect_all(
             cv2.setNumThreads(threads)
     # Workers come from a fork server, not a fork of this process: forking a process whose
     # OpenCV thread pool has run can deadlock the child.
-    context = multiprocessing.get_context("forkserver" if "forkserver" in multiprocessing.get_all_start_methods() else "spawn")
+    context = multiprocessing.get_context(
+        "forkserver" if "forkserver" in multiprocessing.get_all_start_methods() else "spawn"
+    )
     pool = ProcessPoolExecutor(max_workers=min(workers, len(jobs)), initializer=_init_worker, mp_context=context)
     try:
         return list(tqdm(pool.map(_detect_item, jobs, chunksize=1), **bar))
@@ -316,8 +339,21 @@ class Intrinsics:
     methods: dict[str, str]  # used view -> detector that found it
 
     def camera(self, name: str = "camera", fps: float | None = None) -> Camera:
-        """An intrinsics-only Camera: its pose to estimate (from GCPs, a board or the target; camera.json without R, t); ``rms`` kept in extra."""
-        return Camera(name, self.K.copy(), self.dist.copy(), np.eye(3), np.zeros(3), self.image_size, fps, self.dist_model, {"rms": self.rms}, ("pose",))
+        """An intrinsics-only Camera: its pose to estimate (from GCPs, a board or the target; camera.json without R, t);
+        ``rms`` kept in extra.
+        """
+        return Camera(
+            name,
+            self.K.copy(),
+            self.dist.copy(),
+            np.eye(3),
+            np.zeros(3),
+            self.image_size,
+            fps,
+            self.dist_model,
+            {"rms": self.rms},
+            ("pose",),
+        )
 
     def to_report(self) -> dict:
         """JSON-ready summary: camera, RMS, per-view errors, used and rejected images with reasons."""
@@ -348,7 +384,9 @@ def calibrate_images(
     detect_size: int = DETECT_SIZE,
     label: str | None = None,
 ) -> Intrinsics:
-    """Calibrate from image files (a list, or a glob pattern string); ``label`` names them in messages (default: the glob, or "N images")."""
+    """Calibrate from image files (a list, or a glob pattern string); ``label`` names them in messages (default: the
+    glob, or "N images").
+    """
     if isinstance(paths, str):
         label, files = label or paths, sorted(globlib.glob(os.path.expanduser(paths), recursive=True))
         if not files:
@@ -360,7 +398,9 @@ def calibrate_images(
             raise CalibrationInputError("no calibration images given")
     missing = [f for f in files if not Path(f).is_file()]
     if missing:
-        raise CalibrationInputError(f"{missing[0]}: file not found" + (f" (and {len(missing) - 1} more)" if len(missing) > 1 else ""))
+        raise CalibrationInputError(
+            f"{missing[0]}: file not found" + (f" (and {len(missing) - 1} more)" if len(missing) > 1 else "")
+        )
     detections = detect_all([(f, f) for f in files], pattern, workers, detect_size, progress)
     return calibrate_detections(detections, pattern, model, label, {}, max_view_error, detect_size)
 
@@ -375,13 +415,17 @@ def calibrate_video(
     max_view_error: float = MAX_VIEW_ERROR,
     detect_size: int = DETECT_SIZE,
 ) -> Intrinsics:
-    """Calibrate from a video of a moving board: ``max_frames`` frames sampled evenly, blurred and duplicate ones skipped."""
+    """Calibrate from a video of a moving board: ``max_frames`` frames sampled evenly, blurred and duplicate ones
+    skipped.
+    """
     frames, skipped = sample_video_frames(path, max_frames, progress)
     detections = detect_all(frames, pattern, workers, detect_size, progress)
     return calibrate_detections(detections, pattern, model, str(path), skipped, max_view_error, detect_size)
 
 
-def sample_video_frames(path: str | Path, max_frames: int = MAX_FRAMES, progress: bool = False, blur_ratio: float = 0.4) -> tuple[list[tuple[str, np.ndarray]], dict[str, str]]:
+def sample_video_frames(
+    path: str | Path, max_frames: int = MAX_FRAMES, progress: bool = False, blur_ratio: float = 0.4
+) -> tuple[list[tuple[str, np.ndarray]], dict[str, str]]:
     """Evenly sampled grey frames of a video as ("<file>@<frame>", image), and the skipped ones with the reason.
 
     A frame is "blurred" when its variance of the Laplacian is below ``blur_ratio``
@@ -404,10 +448,18 @@ def sample_video_frames(path: str | Path, max_frames: int = MAX_FRAMES, progress
         while wanted is None or index <= max(wanted):
             if not capture.grab():
                 break
-            if wanted is None and index % 15 == 0 and len(frames) < max_frames or wanted is not None and index in wanted:
+            if (
+                wanted is None
+                and index % 15 == 0
+                and len(frames) < max_frames
+                or wanted is not None
+                and index in wanted
+            ):
                 ok, frame = capture.retrieve()
                 if ok:
-                    frames.append((f"{path.name}@{index}", cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY) if frame.ndim == 3 else frame))
+                    frames.append(
+                        (f"{path.name}@{index}", cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY) if frame.ndim == 3 else frame)
+                    )
             index += 1
             bar.update()
     capture.release()
@@ -445,13 +497,18 @@ def calibrate_detections(
     max_view_error: float = MAX_VIEW_ERROR,
     detect_size: int = DETECT_SIZE,
 ) -> Intrinsics:
-    """Calibrate from detections: checks sizes, drops duplicates and outlier views, reports why each image was rejected."""
+    """Calibrate from detections: checks sizes, drops duplicates and outlier views, reports why each
+    image was rejected.
+    """
     if model not in MODELS:
         raise CalibrationInputError(f"model: expected one of {', '.join(MODELS)}, got {model!r}")
     rejected = dict(rejected or {})
     unreadable = [d for d in detections if d.image_size is None]
     if unreadable:
-        raise CalibrationInputError(f"{unreadable[0].source}: cannot read the image ({unreadable[0].reason})" + (f"; {len(unreadable) - 1} more unreadable" if len(unreadable) > 1 else ""))
+        raise CalibrationInputError(
+            f"{unreadable[0].source}: cannot read the image ({unreadable[0].reason})"
+            + (f"; {len(unreadable) - 1} more unreadable" if len(unreadable) > 1 else "")
+        )
     if not detections:
         raise CalibrationInputError(f"{label}: no images to calibrate from" + _summary(rejected))
     image_size = _common_size(detections, label)
@@ -459,7 +516,10 @@ def calibrate_detections(
     for d in detections:
         if d.image_size != image_size:
             assert d.image_size is not None  # unreadable images stopped the calibration above
-            rejected[d.source] = f"different size {d.image_size[0]}x{d.image_size[1]} (the calibration uses {image_size[0]}x{image_size[1]})"
+            rejected[d.source] = (
+                f"different size {d.image_size[0]}x{d.image_size[1]} (the calibration uses "
+                f"{image_size[0]}x{image_size[1]})"
+            )
         elif d.corners is None:
             rejected[d.source] = d.reason or NO_BOARD
         else:
@@ -510,8 +570,13 @@ def _common_size(detections: Sequence[Detection], label: str) -> tuple[int, int]
     counts = Counter(d.image_size for d in detections if d.image_size is not None)
     size, n = counts.most_common(1)[0]
     if len(counts) > 1 and n < 2 * len(detections) / 3:
-        listing = "; ".join(f"{w}x{h}: {c} (e.g. {Path(next(d.source for d in detections if d.image_size == (w, h))).name})" for (w, h), c in counts.most_common())
-        raise CalibrationInputError(f"{label}: the images have different sizes ({listing}); calibrate each camera and resolution separately")
+        listing = "; ".join(
+            f"{w}x{h}: {c} (e.g. {Path(next(d.source for d in detections if d.image_size == (w, h))).name})"
+            for (w, h), c in counts.most_common()
+        )
+        raise CalibrationInputError(
+            f"{label}: the images have different sizes ({listing}); calibrate each camera and resolution separately"
+        )
     return size
 
 
@@ -530,7 +595,9 @@ def _summary(rejected: dict[str, str]) -> str:
     return "; rejected: " + ", ".join(f"{n} {k}" for k, n in kinds.most_common())
 
 
-_SEEN = re.compile(r"(?:only|with) (\d+)x(\d+) (?:of the )?inner corners")  # the grid a rejection reason says it saw (_diagnose)
+_SEEN = re.compile(
+    r"(?:only|with) (\d+)x(\d+) (?:of the )?inner corners"
+)  # the grid a rejection reason says it saw (_diagnose)
 
 
 def board_shown(reasons: Iterable[str], pattern: Pattern) -> tuple[str, int] | None:
@@ -557,16 +624,30 @@ def _too_few(label: str, pattern: Pattern, detections, usable, rejected, detect_
     shown = board_shown(rejected.values(), pattern)
     error: CalibrationInputError
     if shown is not None:
-        mismatch = PatternMismatch(f"{label}: {shown[1]} of {total} images show a {shown[0]} board (inner corners, columns x rows), not {pattern}")
+        mismatch = PatternMismatch(
+            f"{label}: {shown[1]} of {total} images show a {shown[0]} board (inner corners, columns x rows), not "
+            f"{pattern}"
+        )
         mismatch.seen, mismatch.count, mismatch.total, mismatch.pattern = shown[0], shown[1], total, str(pattern)
         error = mismatch
     elif not usable:
-        error = CalibrationInputError(f"{label}: no {pattern} board (inner corners, columns x rows) in any of {total} images" + _summary(rejected))
+        error = CalibrationInputError(
+            f"{label}: no {pattern} board (inner corners, columns x rows) in any of {total} images" + _summary(rejected)
+        )
     elif len(usable) >= MIN_VIEWS:
-        error = CalibrationInputError(f"{label}: the {pattern} board is in {len(usable)} of {total} images, but more show another board; count the inner corners, columns x rows")
+        error = CalibrationInputError(
+            f"{label}: the {pattern} board is in {len(usable)} of {total} images, but more show another board; count "
+            f"the inner corners, columns x rows"
+        )
     else:
-        error = CalibrationInputError(f"{label}: only {len(usable)} usable views of the {pattern} board in {total} images, at least {MIN_VIEWS} are needed" + _summary(rejected))
-    error.details = ("tried: " + TRIED.format(small=detect_size), "\n".join(f"{Path(s).name}: {r}" for s, r in rejected.items()))
+        error = CalibrationInputError(
+            f"{label}: only {len(usable)} usable views of the {pattern} board in {total} images, at least {MIN_VIEWS} "
+            f"are needed" + _summary(rejected)
+        )
+    error.details = (
+        "tried: " + TRIED.format(small=detect_size),
+        "\n".join(f"{Path(s).name}: {r}" for s, r in rejected.items()),
+    )
     return error
 
 
@@ -582,16 +663,22 @@ def _calibrate(views: dict[str, Detection], pattern: Pattern, model: str, image_
         imgs = [p.reshape(1, -1, 2) for p in img_pts]
         flags = cv2.CALIB_RECOMPUTE_EXTRINSIC | cv2.CALIB_FIX_SKEW  # OpenCV 5: shared CALIB_* flags
         try:
-            _, K, dist, rvecs, tvecs = cv2.fisheye.calibrate(objs, imgs, image_size, None, None, flags=flags, criteria=criteria)
+            _, K, dist, rvecs, tvecs = cv2.fisheye.calibrate(
+                objs, imgs, image_size, None, None, flags=flags, criteria=criteria
+            )
         except cv2.error as exc:
-            raise CalibrationInputError(f"fisheye calibration failed ({exc.err}); try more views spread over the image") from None
+            raise CalibrationInputError(
+                f"fisheye calibration failed ({exc.err}); try more views spread over the image"
+            ) from None
         std = {}
         dist = dist.ravel()
     else:
         flags = cv2.CALIB_RATIONAL_MODEL if model == "rational" else 0
         objs = [obj.astype(np.float32) for _ in img_pts]
         imgs = [p.astype(np.float32) for p in img_pts]
-        _, K, dist, rvecs, tvecs, std_in, _, _ = cv2.calibrateCameraExtended(objs, imgs, image_size, None, None, flags=flags, criteria=criteria)
+        _, K, dist, rvecs, tvecs, std_in, _, _ = cv2.calibrateCameraExtended(
+            objs, imgs, image_size, None, None, flags=flags, criteria=criteria
+        )
         std = dict(zip(("fx", "fy", "cx", "cy"), map(float, std_in.ravel()[:4])))
         dist = dist.ravel()[: 8 if model == "rational" else 5]
     projected = [project_points(obj, r, t, K, dist, MODEL_LENS[model]) for r, t in zip(rvecs, tvecs)]

@@ -36,7 +36,9 @@ def undistort_pixels(uv, K: np.ndarray, dist: np.ndarray, dist_model: str, P: np
     return cv2.undistortPoints(pts, K, dist, None, None, P, criteria).reshape(-1, 2)
 
 
-def project_with_jacobian(points, rvec, tvec, K: np.ndarray, dist: np.ndarray, dist_model: str) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+def project_with_jacobian(
+    points, rvec, tvec, K: np.ndarray, dist: np.ndarray, dist_model: str
+) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     """Pixels (N, 2) of 3D points (N, 3) and their Jacobians, (N, 2, k) blocks by parameter.
 
     Blocks: ``rvec`` (3), ``tvec`` (3; also d pixel / d camera-frame point),
@@ -52,9 +54,21 @@ def project_with_jacobian(points, rvec, tvec, K: np.ndarray, dist: np.ndarray, d
     if dist_model == "fisheye":
         uv, jac = cv2.fisheye.projectPoints(pts, rvec, tvec, K, dist)
         jac = jac.reshape(n, 2, -1)
-        blocks = {"f": jac[:, :, 0:2], "c": jac[:, :, 2:4], "dist": jac[:, :, 4:8], "rvec": jac[:, :, 8:11], "tvec": jac[:, :, 11:14]}
+        blocks = {
+            "f": jac[:, :, 0:2],
+            "c": jac[:, :, 2:4],
+            "dist": jac[:, :, 4:8],
+            "rvec": jac[:, :, 8:11],
+            "tvec": jac[:, :, 11:14],
+        }
     else:
         uv, jac = cv2.projectPoints(pts, rvec, tvec, K, dist)
         jac = jac.reshape(n, 2, -1)
-        blocks = {"rvec": jac[:, :, 0:3], "tvec": jac[:, :, 3:6], "f": jac[:, :, 6:8], "c": jac[:, :, 8:10], "dist": jac[:, :, 10:]}
+        blocks = {
+            "rvec": jac[:, :, 0:3],
+            "tvec": jac[:, :, 3:6],
+            "f": jac[:, :, 6:8],
+            "c": jac[:, :, 8:10],
+            "dist": jac[:, :, 10:],
+        }
     return uv.reshape(-1, 2), blocks

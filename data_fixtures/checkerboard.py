@@ -53,7 +53,12 @@ class CheckerboardSet:
             "pattern": list(self.pattern),
             "square": self.square,
             "views": [
-                {"name": v.name, "kind": v.kind, "rvec": None if v.rvec is None else v.rvec.tolist(), "tvec": None if v.tvec is None else v.tvec.tolist()}
+                {
+                    "name": v.name,
+                    "kind": v.kind,
+                    "rvec": None if v.rvec is None else v.rvec.tolist(),
+                    "tvec": None if v.tvec is None else v.tvec.tolist(),
+                }
                 for v in self.views
             ],
         }
@@ -157,7 +162,13 @@ def _shade(rays, rvec, tvec, pattern, square, background, supersample) -> np.nda
     by = R[0, 1] * px + R[1, 1] * py + R[2, 1] * pz
     cols, rows = pattern
     margin = 0.6 * square
-    on_board = (s > 0) & (bx > -square - margin) & (bx < cols * square + margin) & (by > -square - margin) & (by < rows * square + margin)
+    on_board = (
+        (s > 0)
+        & (bx > -square - margin)
+        & (bx < cols * square + margin)
+        & (by > -square - margin)
+        & (by < rows * square + margin)
+    )
     on_squares = (bx >= -square) & (bx < cols * square) & (by >= -square) & (by < rows * square)
     a = np.floor(bx / square).astype(np.int64)
     b = np.floor(by / square).astype(np.int64)
@@ -174,7 +185,13 @@ def _background(rng, image_size) -> np.ndarray:
     img = cv2.resize(low, (w, h), interpolation=cv2.INTER_CUBIC)
     for _ in range(6):
         x0, y0 = rng.integers(0, w), rng.integers(0, h)
-        cv2.rectangle(img, (int(x0), int(y0)), (int(x0 + rng.integers(20, w // 4)), int(y0 + rng.integers(20, h // 4))), float(rng.uniform(40, 210)), -1)
+        cv2.rectangle(
+            img,
+            (int(x0), int(y0)),
+            (int(x0 + rng.integers(20, w // 4)), int(y0 + rng.integers(20, h // 4))),
+            float(rng.uniform(40, 210)),
+            -1,
+        )
     return np.clip(img, 0, 255)
 
 
@@ -231,7 +248,15 @@ def _degrade(rng, grey, blur_px, noise, jpeg_quality) -> np.ndarray:
     return cv2.imdecode(buf, cv2.IMREAD_COLOR)
 
 
-def harsh_photo(image: np.ndarray, seed: int, size: tuple[int, int] | None = None, blur_px: float = 2.5, noise: float = 8.0, light: float = 0.7, screen_period: float | None = None) -> np.ndarray:
+def harsh_photo(
+    image: np.ndarray,
+    seed: int,
+    size: tuple[int, int] | None = None,
+    blur_px: float = 2.5,
+    noise: float = 8.0,
+    light: float = 0.7,
+    screen_period: float | None = None,
+) -> np.ndarray:
     """A rendered photo made hard: upscaled to ``size`` (exact factor: corners map as (u + 0.5) * f - 0.5),
     strong defocus blur, a strong light gradient (``light`` = brightness drop across the image), sensor noise
     and, when ``screen_period`` (px) is given, the board shown on a screen: display gamma and a slightly
@@ -247,7 +272,9 @@ def harsh_photo(image: np.ndarray, seed: int, size: tuple[int, int] | None = Non
         angle = np.radians(rng.uniform(1.0, 4.0))
         u = xs * np.cos(angle) + ys * np.sin(angle)
         v = -xs * np.sin(angle) + ys * np.cos(angle)
-        grid = (0.75 + 0.25 * np.cos(2 * np.pi * u / screen_period)) * (0.8 + 0.2 * np.cos(2 * np.pi * v / screen_period))
+        grid = (0.75 + 0.25 * np.cos(2 * np.pi * u / screen_period)) * (
+            0.8 + 0.2 * np.cos(2 * np.pi * v / screen_period)
+        )
         grey = grey * grid + 12.0  # dark pixels of a screen glow a little
     direction = rng.uniform(0, 2 * np.pi)
     ramp = (np.cos(direction) * (xs / w - 0.5) + np.sin(direction) * (ys / h - 0.5)) + 0.5

@@ -33,15 +33,16 @@ import cv2
 import numpy as np
 
 from calibration.camera import Camera, write_camera
-from data_fixtures.scene import Scene, check_views_disjoint, write_truth
 from data_fixtures.log_error import LogErrorModel, log_errors
+from data_fixtures.scene import Scene, check_views_disjoint, write_truth
 from data_fixtures.video import _background, h264_writer
 from tlsync_pipeline.sync.timeline import Relation
 from tlsync_pipeline.trajectory import Trajectory, write_trajectory
 from trackers.track import Track
 
 CAMERA_HEIGHT_M = 5.0
-YAW_STEP_DEG = 90.0  # between neighbouring cameras' headings: tilted down, each view spans up to ~85 deg of azimuth near its bottom edge
+# between neighbouring cameras' headings: tilted down, each view spans up to ~85 deg of azimuth near its bottom edge
+YAW_STEP_DEG = 90.0
 VISIT_S = 5.0  # seconds the target walks in a camera's patch per visit
 NEAR_M, FAR_M = 5.5, 15.0  # ground patch walked on, distance ahead of the camera
 PATCH_HALF_WIDTH_M = 5.0
@@ -125,7 +126,9 @@ def _to_world(yaw: float, local: np.ndarray) -> np.ndarray:
 
 
 def surveillance_camera(name: str, yaw: float, image_size: tuple[int, int], fps: float, rng) -> Camera:
-    """A camera at (0, 0, CAMERA_HEIGHT_M) turned by ``yaw`` (radians, counter-clockwise from +y), tilted down at the middle of its patch."""
+    """A camera at (0, 0, CAMERA_HEIGHT_M) turned by ``yaw`` (radians, counter-clockwise from +y), tilted down at the
+    middle of its patch.
+    """
     w, h = image_size
     centre = np.array([0.0, 0.0, CAMERA_HEIGHT_M])
     aim = np.r_[_to_world(yaw, np.array([rng.uniform(-0.3, 0.3), (NEAR_M + FAR_M) / 2 + 1.0])), 0.0]
@@ -135,7 +138,9 @@ def surveillance_camera(name: str, yaw: float, image_size: tuple[int, int], fps:
     down = np.cross(forward, right)
     R = np.vstack([right, down, forward])
     focal = 0.84 * w  # 480 px: a 1.75 m person is ~100 px tall at 6 m and ~40 px at 15 m
-    K = np.array([[focal, 0, (w - 1) / 2 + rng.uniform(-4, 4)], [0, focal, (h - 1) / 2 + rng.uniform(-4, 4)], [0, 0, 1.0]])
+    K = np.array(
+        [[focal, 0, (w - 1) / 2 + rng.uniform(-4, 4)], [0, focal, (h - 1) / 2 + rng.uniform(-4, 4)], [0, 0, 1.0]]
+    )
     dist = np.array([rng.uniform(-0.08, -0.02), 0.0, 0.0, 0.0, 0.0])
     return Camera(name, K, dist, R, -R @ centre, (w, h), float(fps))
 
@@ -147,17 +152,21 @@ def make_crowd_scene(spec: CrowdSpec = SMALL, directory: str | Path | None = Non
     yaws = [math.radians(YAW_STEP_DEG * (k - (len(names) - 1) / 2)) for k in range(len(names))]
     cameras = {n: surveillance_camera(n, yaws[k], spec.image_size, spec.fps[k], rng) for k, n in enumerate(names)}
     starts = [rng.uniform(0.5, 3.0) for _ in names]  # each camera starts recording at its own time
-    route, stays = _target_route(rng, cameras, yaws, max(s + n / f for s, n, f in zip(starts, spec.n_frames, spec.fps)), spec.speed_mps)
+    route, stays = _target_route(
+        rng, cameras, yaws, max(s + n / f for s, n, f in zip(starts, spec.n_frames, spec.fps)), spec.speed_mps
+    )
     end_s = route.duration
     samples = np.arange(int(math.floor(end_s * spec.log_rate)) + 1, dtype=np.float64)
     true_xyz = route.at(samples / spec.log_rate)
-    check_views_disjoint(cameras, route.at(np.linspace(0, end_s, int(end_s * 50))), "crowd scene: a point of the target's route")
+    check_views_disjoint(
+        cameras, route.at(np.linspace(0, end_s, int(end_s * 50))), "crowd scene: a point of the target's route"
+    )
     xyz = true_xyz + rng.normal(0.0, spec.gps_noise_m, true_xyz.shape) if spec.gps_noise_m > 0 else true_xyz
     if spec.log_error is not None:  # its own stream: the people and the videos stay those of the same seed
         xyz = true_xyz + log_errors(np.random.default_rng([spec.seed, 1]), samples / spec.log_rate, spec.log_error)[0]
     lines, tracks, truth = {}, {}, {}
     walkers = []
-    for k, name in enumerate(names):
+    for k in range(len(names)):
         recording = (starts[k], starts[k] + (spec.n_frames[k] - 1) / spec.fps[k])
         walkers += _distractors(rng, yaws[k], route, stays[k], recording, spec.distractors, spec.speed_mps)
     for k, name in enumerate(names):
@@ -167,7 +176,9 @@ def make_crowd_scene(spec: CrowdSpec = SMALL, directory: str | Path | None = Non
         times = start_s + np.arange(count) / fps
         frame_truth = _frame_truth(camera, route, walkers, times)
         seen = np.flatnonzero(frame_truth.visible)
-        tracks[name] = Track(seen.astype(np.int64), frame_truth.xy[seen, 0], frame_truth.xy[seen, 1], time_s=times[seen] - start_s)
+        tracks[name] = Track(
+            seen.astype(np.int64), frame_truth.xy[seen, 0], frame_truth.xy[seen, 1], time_s=times[seen] - start_s
+        )
         if directory is not None:
             Path(directory).mkdir(parents=True, exist_ok=True)
             path = Path(directory) / f"{name}.mp4"
@@ -182,7 +193,13 @@ def make_crowd_scene(spec: CrowdSpec = SMALL, directory: str | Path | None = Non
         tracks=tracks,
         lines=lines,
         n_frames=dict(zip(names, spec.n_frames)),
-        noise={"distractors": spec.distractors, "gps_noise_m": spec.gps_noise_m, "log_error": spec.log_error, "sensor_noise": spec.noise, "crf": spec.crf},
+        noise={
+            "distractors": spec.distractors,
+            "gps_noise_m": spec.gps_noise_m,
+            "log_error": spec.log_error,
+            "sensor_noise": spec.noise,
+            "crf": spec.crf,
+        },
     )
     return CrowdScene(scene, truth)
 
@@ -201,7 +218,9 @@ def write_crowd_project(directory: str | Path, spec: CrowdSpec = SMALL) -> tuple
     parts = ['[target]\ntrajectory = "trajectory.csv"\n']
     for name, camera in scene.cameras.items():
         write_camera(camera, directory / f"{name}.json")
-        parts.append(f'[[cameras]]\nname = "{name}"\ncamera = "{name}.json"\nvideo = "{name}.mp4"\nfps = {camera.fps!r}\n')
+        parts.append(
+            f'[[cameras]]\nname = "{name}"\ncamera = "{name}.json"\nvideo = "{name}.mp4"\nfps = {camera.fps!r}\n'
+        )
     project = directory / "project.toml"
     project.write_text("\n".join(parts), encoding="utf-8")
     write_truth(scene, directory)
@@ -220,7 +239,10 @@ class Route:
 
     def __init__(self, waypoints: np.ndarray, speed: float, height: float):
         waypoints = np.asarray(waypoints, dtype=np.float64)
-        pieces = [np.linspace(a, b, max(1, int(np.ceil(np.linalg.norm(b - a)))) + 1)[:-1] for a, b in zip(waypoints[:-1], waypoints[1:])]
+        pieces = [
+            np.linspace(a, b, max(1, int(np.ceil(np.linalg.norm(b - a)))) + 1)[:-1]
+            for a, b in zip(waypoints[:-1], waypoints[1:])
+        ]
         points = np.vstack(pieces + [waypoints[-1:]])
         for _ in range(4):
             a, b = points[:-1], points[1:]
@@ -247,7 +269,9 @@ class Route:
 
 
 def _in_patch(yaw: float, point: np.ndarray) -> bool:
-    """Whether a world ground point is well inside a camera's view (the view is about 0.6 x distance wide on each side)."""
+    """Whether a world ground point is well inside a camera's view (the view is about 0.6 x distance
+    wide on each side).
+    """
     x, y = _to_world(-yaw, point)
     return NEAR_M + 0.5 <= y <= FAR_M - 0.5 and abs(x) <= min(PATCH_HALF_WIDTH_M, 0.45 * y)
 
@@ -265,8 +289,11 @@ def _patch_point(rng, yaw: float, near: np.ndarray | None = None) -> np.ndarray:
             return point
 
 
-def _target_route(rng, cameras: dict[str, Camera], yaws: list[float], duration_s: float, speed: float) -> tuple[Route, list[list[tuple[float, float]]]]:
-    """The target's waypoints: visits of about VISIT_S seconds to each camera's patch in turn, for ``duration_s`` in all.
+def _target_route(
+    rng, cameras: dict[str, Camera], yaws: list[float], duration_s: float, speed: float
+) -> tuple[Route, list[list[tuple[float, float]]]]:
+    """The target's waypoints: visits of about VISIT_S seconds to each camera's patch in turn, for ``duration_s`` in
+    all.
 
     Between visits it leaves the view it is in (crossing the narrow gap
     between the views, or the ground below them) and comes back to it a
@@ -317,7 +344,15 @@ class _Walker:
         return self.start + frac * (self.end - self.start), on
 
 
-def _distractors(rng, yaw: float, route: Route, stays: list[tuple[float, float]], recording: tuple[float, float], count: int, speed: float) -> list[_Walker]:
+def _distractors(
+    rng,
+    yaw: float,
+    route: Route,
+    stays: list[tuple[float, float]],
+    recording: tuple[float, float],
+    count: int,
+    speed: float,
+) -> list[_Walker]:
     """About ``count`` walkers in view at any time, each crossing the target's route in this camera's patch."""
     if count <= 0:
         return []
@@ -334,16 +369,22 @@ def _distractors(rng, yaw: float, route: Route, stays: list[tuple[float, float]]
             t_cross = t_target + rng.uniform(-1.5, 1.5)  # at nearly the same time: occlusion or merged blobs
         else:
             t_cross = rng.uniform(recording[0] - crossing_s / 2, recording[1] + crossing_s / 2)
-        heading = yaw + rng.uniform(-math.pi / 2.5, math.pi / 2.5) + rng.choice((0.0, math.pi))  # mostly across the view
+        heading = (
+            yaw + rng.uniform(-math.pi / 2.5, math.pi / 2.5) + rng.choice((0.0, math.pi))
+        )  # mostly across the view
         direction = np.array([math.cos(heading), math.sin(heading)])
         half = PATCH_HALF_WIDTH_M + 5.0
         start, end = point - half * direction, point + half * direction
         v = speed * rng.uniform(0.85, 1.15)
-        walkers.append(_Walker(start, end, t_cross - half / v, v, rng.uniform(1.6, 1.85), PERSON_GREY + rng.uniform(-8, 8)))
+        walkers.append(
+            _Walker(start, end, t_cross - half / v, v, rng.uniform(1.6, 1.85), PERSON_GREY + rng.uniform(-8, 8))
+        )
     return walkers
 
 
-def _people(camera: Camera, route: Route, walkers: list[_Walker], t: float) -> list[tuple[float, np.ndarray, float, float, bool]]:
+def _people(
+    camera: Camera, route: Route, walkers: list[_Walker], t: float
+) -> list[tuple[float, np.ndarray, float, float, bool]]:
     """People at time t, far to near: (depth, ground xy, height, grey, is_target)."""
     out = [(None, route.ground(np.array([t]))[0], route.height, PERSON_GREY, True)]
     for w in walkers:
@@ -382,7 +423,7 @@ def _frame_truth(camera: Camera, route: Route, walkers: list[_Walker], times: np
     for k, t in enumerate(times):
         rows = _people(camera, route, walkers, t)
         masks: list = []
-        for depth, g, height, _, is_target in rows:
+        for _depth, g, height, _, is_target in rows:
             shape = _silhouette(camera, g, height)
             if shape is None:
                 masks.append(None)
@@ -445,13 +486,24 @@ def _lighting(rng, times: np.ndarray) -> np.ndarray:
     return gain * (1.0 - 0.2 * np.clip((t - at) / 1.5, 0.0, 1.0))
 
 
-def _render(path: Path, camera: Camera, route: Route, walkers: list[_Walker], times: np.ndarray, start_s: float, spec: CrowdSpec, rng) -> None:
+def _render(
+    path: Path,
+    camera: Camera,
+    route: Route,
+    walkers: list[_Walker],
+    times: np.ndarray,
+    start_s: float,
+    spec: CrowdSpec,
+    rng,
+) -> None:
     """Write the camera's H.264 video: background, people far to near, lighting, noise."""
     w, h = camera.image_size
     assert camera.fps is not None, "the crowd's cameras have their frame rates"
     background = _background(rng, w, h)
     gains = _lighting(rng, times)
-    with h264_writer(path, camera.fps, (w, h), {"crf": str(spec.crf), "preset": "veryfast", "g": "30", "threads": "1"}) as write:  # one thread: the same bytes every run
+    with h264_writer(
+        path, camera.fps, (w, h), {"crf": str(spec.crf), "preset": "veryfast", "g": "30", "threads": "1"}
+    ) as write:  # one thread: the same bytes every run
         for k, t in enumerate(times):
             image = background.copy()
             for _, g, height, grey, _ in _people(camera, route, walkers, t):

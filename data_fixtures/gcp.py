@@ -57,6 +57,9 @@ def write_gcp_csv(path: str | Path, uv: np.ndarray, points: np.ndarray, geodetic
     """Write ``u,v,x,y,z`` (or ``u,v,lat,lon,alt`` when ``geodetic``) with a name column."""
     path = Path(path)
     header = "name,u,v,lat,lon,alt" if geodetic else "name,u,v,x,y,z"
-    rows = [f"p{i}," + ",".join(repr(float(x)) for x in (u, v, a, b, c)) for i, ((u, v), (a, b, c)) in enumerate(zip(uv, points))]
+    rows = [
+        f"p{i}," + ",".join(repr(float(x)) for x in (u, v, a, b, c))
+        for i, ((u, v), (a, b, c)) in enumerate(zip(uv, points))
+    ]
     path.write_text(header + "\n" + "\n".join(rows) + "\n", encoding="utf-8")
     return path

@@ -35,7 +35,11 @@ def log_fixes(trajectory: Trajectory, origin: Origin, start_utc: float | dt.date
 
 
 def _iso(t: float) -> str:
-    return dt.datetime.fromtimestamp(round(t, 3), dt.timezone.utc).isoformat(timespec="milliseconds").replace("+00:00", "Z")
+    return (
+        dt.datetime.fromtimestamp(round(t, 3), dt.timezone.utc)
+        .isoformat(timespec="milliseconds")
+        .replace("+00:00", "Z")
+    )
 
 
 def write_gpx_log(path, trajectory: Trajectory, origin: Origin, start_utc, version: str = "1.1") -> Path:
@@ -72,7 +76,16 @@ def _dm(value: float, degree_digits: int, decimals: int, hemispheres: str) -> st
     return f"{int(degrees):0{degree_digits}d}{minutes:0{3 + decimals}.{decimals}f},{hemi}"
 
 
-def nmea_sentences(t: float, lat: float, lon: float, h: float, talker: str = "GP", minute_decimals: int = 5, alt_decimals: int = 2, quality: int = 1) -> tuple[str, str]:
+def nmea_sentences(
+    t: float,
+    lat: float,
+    lon: float,
+    h: float,
+    talker: str = "GP",
+    minute_decimals: int = 5,
+    alt_decimals: int = 2,
+    quality: int = 1,
+) -> tuple[str, str]:
     """(GGA, RMC) lines for one fix at POSIX time t, height h above the ellipsoid."""
     when = dt.datetime.fromtimestamp(round(t, 3), dt.timezone.utc)
     hms = when.strftime("%H%M%S") + f".{when.microsecond // 1000:03d}"
@@ -83,7 +96,16 @@ def nmea_sentences(t: float, lat: float, lon: float, h: float, talker: str = "GP
     return gga, rmc
 
 
-def write_nmea_log(path, trajectory: Trajectory, origin: Origin, start_utc, talker: str = "GP", minute_decimals: int = 5, alt_decimals: int = 2, corrupt=()) -> Path:
+def write_nmea_log(
+    path,
+    trajectory: Trajectory,
+    origin: Origin,
+    start_utc,
+    talker: str = "GP",
+    minute_decimals: int = 5,
+    alt_decimals: int = 2,
+    corrupt=(),
+) -> Path:
     """GGA + RMC per fix (and a GSV now and then, which carries no position); CRLF line ends."""
     t, geo = log_fixes(trajectory, origin, start_utc)
     corrupt = set(corrupt)
@@ -114,7 +136,9 @@ def write_csv_log(path, trajectory: Trajectory, origin: Origin, start_utc, iso_t
     return path
 
 
-def walk_trajectory(seconds: float = 120.0, rate: float = 10.0, gap: tuple[float, float] | None = (50.0, 30.0), radius_m: float = 150.0) -> Trajectory:
+def walk_trajectory(
+    seconds: float = 120.0, rate: float = 10.0, gap: tuple[float, float] | None = (50.0, 30.0), radius_m: float = 150.0
+) -> Trajectory:
     """A smooth known path: a loop of radius_m at walking-to-cycling speed, height +-5 m.
 
     gap (start s, length s) removes the samples in [start, start + length)
@@ -123,6 +147,8 @@ def walk_trajectory(seconds: float = 120.0, rate: float = 10.0, gap: tuple[float
     k = np.arange(int(round(seconds * rate)) + 1, dtype=np.float64)
     s = k / rate
     phase = 2 * np.pi * s / 300.0
-    xyz = np.column_stack([radius_m * np.sin(phase), radius_m * (1 - np.cos(phase)) + 0.5 * s, 5 * np.sin(2 * np.pi * s / 90.0)])
+    xyz = np.column_stack(
+        [radius_m * np.sin(phase), radius_m * (1 - np.cos(phase)) + 0.5 * s, 5 * np.sin(2 * np.pi * s / 90.0)]
+    )
     keep = np.ones(len(k), dtype=bool) if gap is None else ~((s >= gap[0]) & (s < gap[0] + gap[1]))
     return Trajectory(k[keep], xyz[keep], rate, 0.0)

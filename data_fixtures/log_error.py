@@ -38,7 +38,9 @@ PRESETS = {
 
 
 def gauss_markov(rng: np.random.Generator, t: np.ndarray, sigma: np.ndarray, tau_s: float) -> np.ndarray:
-    """(N, len(sigma)) samples of stationary first-order Gauss-Markov processes at increasing times t (s), one per axis."""
+    """(N, len(sigma)) samples of stationary first-order Gauss-Markov processes at increasing times
+    t (s), one per axis.
+    """
     sigma = np.asarray(sigma, dtype=np.float64)
     out = np.empty((len(t), len(sigma)))
     out[0] = rng.normal(0.0, sigma)

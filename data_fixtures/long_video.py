@@ -62,9 +62,13 @@ def render_long_video(
     patch_y, patch_x = np.mgrid[0 : size + 6, 0 : size + 6].astype(np.float32)
     chroma = np.full((h // 2, w), 128, np.uint8)  # U and V planes, stacked as yuv420p expects
     n_frames = len(positions)
-    gains = 1.0 + flicker * np.sin(2 * np.pi * np.arange(n_frames) / 37.0) + flicker * 0.3 * rng.standard_normal(n_frames)
+    gains = (
+        1.0 + flicker * np.sin(2 * np.pi * np.arange(n_frames) / 37.0) + flicker * 0.3 * rng.standard_normal(n_frames)
+    )
     shifts = rng.integers(0, NOISE_MARGIN, size=(n_frames, 2))
-    with h264_writer(path, fps, (w, h), {"crf": str(crf), "preset": "veryfast", "g": str(gop), "keyint_min": str(gop)}) as write:
+    with h264_writer(
+        path, fps, (w, h), {"crf": str(crf), "preset": "veryfast", "g": str(gop), "keyint_min": str(gop)}
+    ) as write:
         for k in range(n_frames):
             luma = cv2.convertScaleAbs(background, alpha=float(gains[k]))
             for cx, cy in (*others[:, k], positions[k]):
@@ -78,7 +82,9 @@ def render_long_video(
 
 
 def _draw_patch(luma, background, gain, cx, cy, radius, texture, patch_x, patch_y) -> None:
-    """Draw the target (``data_fixtures.video``'s disc) into ``luma`` around (cx, cy), in floating point on its patch only."""
+    """Draw the target (``data_fixtures.video``'s disc) into ``luma`` around (cx, cy), in floating point on its patch
+    only.
+    """
     h, w = luma.shape
     x0, y0 = int(np.floor(cx - radius - 2)), int(np.floor(cy - radius - 2))
     x1, y1 = x0 + patch_x.shape[1], y0 + patch_x.shape[0]
@@ -91,7 +97,9 @@ def _draw_patch(luma, background, gain, cx, cy, radius, texture, patch_x, patch_
     luma[cy0:cy1, cx0:cx1] = np.clip(np.rint(patch), 0, 255).astype(np.uint8)
 
 
-def render_long_camera_video(camera, positions, fps: float, path: str | Path, seed: int = 0, radius: float | None = None, look_alikes: int = 0) -> Path:
+def render_long_camera_video(
+    camera, positions, fps: float, path: str | Path, seed: int = 0, radius: float | None = None, look_alikes: int = 0
+) -> Path:
     """``render_long_video`` with a camera's image size and per-frame positions (None: not drawn).
 
     radius: the target's radius in pixels (default: 1/160 of the image width,
@@ -102,11 +110,17 @@ def render_long_camera_video(camera, positions, fps: float, path: str | Path, se
     w, _ = camera.image_size
     steps = np.hypot(*np.diff(rows, axis=0).T)
     speed = float(np.median(steps[np.isfinite(steps)])) if np.isfinite(steps).any() else w / 400
-    others = wandering_paths(np.random.default_rng(seed + 7919), len(rows), tuple(camera.image_size), speed, look_alikes)
-    return render_long_video(path, rows, tuple(camera.image_size), fps, radius=radius or w / 160, seed=seed, look_alikes=others)
+    others = wandering_paths(
+        np.random.default_rng(seed + 7919), len(rows), tuple(camera.image_size), speed, look_alikes
+    )
+    return render_long_video(
+        path, rows, tuple(camera.image_size), fps, radius=radius or w / 160, seed=seed, look_alikes=others
+    )
 
 
-def wandering_paths(rng: np.random.Generator, n_frames: int, image_size: tuple[int, int], speed: float, count: int) -> np.ndarray:
+def wandering_paths(
+    rng: np.random.Generator, n_frames: int, image_size: tuple[int, int], speed: float, count: int
+) -> np.ndarray:
     """(count, n_frames, 2) centres (pixels) of walkers wandering the image at ``speed`` pixels a frame.
 
     Each starts at a random point with a random heading that turns smoothly

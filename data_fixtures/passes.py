@@ -44,7 +44,9 @@ WALKER_CENTRE_M = 0.9
 
 @dataclass(frozen=True)
 class GcpSet:
-    """One camera's ground control points: pixels (N, 2, as clicked), surveyed world points (N, 3, with the survey's error), true world points."""
+    """One camera's ground control points: pixels (N, 2, as clicked), surveyed world points (N, 3, with the survey's
+    error), true world points.
+    """
 
     uv: np.ndarray
     xyz: np.ndarray
@@ -107,10 +109,20 @@ def make_pass_scene(
         x0 = k * SPACING_M
         R, t = looking_at([x0 + rng.uniform(-2, 2), -DISTANCE_M, HEIGHT_M], [x0, 2.0, 0.5 if not drone else 4.0])
         focal = 0.5 * w / math.tan(math.radians(rng.uniform(30.0, 36.0)))
-        K = np.array([[focal, 0.0, (w - 1) / 2 + rng.uniform(-8, 8)], [0.0, focal, (h - 1) / 2 + rng.uniform(-8, 8)], [0.0, 0.0, 1.0]])
+        K = np.array(
+            [
+                [focal, 0.0, (w - 1) / 2 + rng.uniform(-8, 8)],
+                [0.0, focal, (h - 1) / 2 + rng.uniform(-8, 8)],
+                [0.0, 0.0, 1.0],
+            ]
+        )
         dist = np.array([rng.uniform(-0.15, 0.05), rng.uniform(-0.05, 0.05), 0.0, 0.0, 0.0])
         cameras[name] = Camera(name, K, dist, R, t, image_size, fps)
-    check_views_disjoint(cameras, route.at(np.linspace(0.0, route.duration, int(route.duration * 50))), "pass scene: a point of the route")
+    check_views_disjoint(
+        cameras,
+        route.at(np.linspace(0.0, route.duration, int(route.duration * 50))),
+        "pass scene: a point of the route",
+    )
     t_all = np.linspace(0.0, route.duration, int(route.duration * 20))
     for name, camera in cameras.items():
         uv, valid = camera.project(route.at(t_all))
@@ -135,7 +147,13 @@ def make_pass_scene(
         tracks=tracks,
         lines=lines,
         n_frames=counts,
-        noise={"S_t_px": tracking_noise_px, "log_noise_m": log_noise_m, "gcp_noise_m": gcp_noise_m, "paths": list(paths), "drone": drone},
+        noise={
+            "S_t_px": tracking_noise_px,
+            "log_noise_m": log_noise_m,
+            "gcp_noise_m": gcp_noise_m,
+            "paths": list(paths),
+            "drone": drone,
+        },
     )
     return PassScene(scene, gcps)
 
@@ -147,7 +165,9 @@ def _walked(waypoints: list[np.ndarray], x0: float) -> float:
 
 
 def _gcps(rng, camera: Camera, noise_m: float) -> GcpSet:
-    """GCPS_PER_CAMERA points over the camera's view, one per cell of a 4 x 2 grid of the image: on the ground, or atop a 2-4 m pole."""
+    """GCPS_PER_CAMERA points over the camera's view, one per cell of a 4 x 2 grid of the image: on the ground, or atop
+    a 2-4 m pole.
+    """
     w, h = camera.image_size
     world = []
     for i in range(4):

@@ -54,10 +54,14 @@ class RawProjectSpec:
 
 
 # Small and quick, for tests: 30, 25 and 15 fps, shifts of hundreds of frames, 320x240.
-SMALL = RawProjectSpec(lines=((3.0, -210.0), (2.5, -350.0), (1.5, 0.0)), n_frames=(230, 190, 120), image_size=(320, 240), boards=8, gcps=8)
+SMALL = RawProjectSpec(
+    lines=((3.0, -210.0), (2.5, -350.0), (1.5, 0.0)), n_frames=(230, 190, 120), image_size=(320, 240), boards=8, gcps=8
+)
 
 
-def make_raw_project(directory: str | Path, spec: RawProjectSpec = RawProjectSpec(), progress=None, render=None) -> tuple[Path, Scene]:
+def make_raw_project(
+    directory: str | Path, spec: RawProjectSpec = RawProjectSpec(), progress=None, render=None
+) -> tuple[Path, Scene]:
     """Write the raw project into ``directory``; returns (project.toml, the scene with the truth).
 
     render: the scene renderer, called as ``render(camera, positions, fps,
@@ -79,10 +83,13 @@ def make_raw_project(directory: str | Path, spec: RawProjectSpec = RawProjectSpe
     parts = [
         "# Made by `tlsync demo`: raw videos, checkerboard photos, GCPs and a GPX log.\n"
         f'[target]\nlog = "target.gpx"\norigin = [{ORIGIN.lat}, {ORIGIN.lon}, {ORIGIN.alt}]\n'
-        'log_model = "rtk"  # the GPX holds an RTK-grade path; a phone\'s or a watch\'s: leave the default (auto)\n'
+        "log_model = \"rtk\"  # the GPX holds an RTK-grade path; a phone's or a watch's: leave the default (auto)\n"
     ]
     if spec.gcps and not spec.gcp_noise_m:
-        parts.append(f"[calibration]\ngcp_sigma_m = {SURVEYED_M}  # the GCPs are surveyed (RTK); a phone's or a web map's: leave the default\n")
+        parts.append(
+            f"[calibration]\ngcp_sigma_m = {SURVEYED_M}  # the GCPs are surveyed (RTK); a phone's or a web map's: "
+            f"leave the default\n"
+        )
     for k, (name, camera) in enumerate(scene.true_cameras.items()):
         folder = directory / name
         say(f"{name}: video ({scene.n_frames[name]} frames at {camera.fps:g} fps)")
@@ -95,7 +102,15 @@ def make_raw_project(directory: str | Path, spec: RawProjectSpec = RawProjectSpe
             tag_recording_time(folder / "video.mp4", recording_utc(scene, name), spec.recorded_zone_s)
         say(f"{name}: checkerboard photos and GCPs")
         boards = render_checkerboards(
-            seed=spec.seed + 10 + k, n_full=spec.boards, n_cut=1, n_absent=1, image_size=camera.image_size, pattern=PATTERN, square=SQUARE_M, K=camera.K, dist=camera.dist
+            seed=spec.seed + 10 + k,
+            n_full=spec.boards,
+            n_cut=1,
+            n_absent=1,
+            image_size=camera.image_size,
+            pattern=PATTERN,
+            square=SQUARE_M,
+            K=camera.K,
+            dist=camera.dist,
         )
         write_checkerboards(boards, folder / "boards")
         gcp_line = ""
@@ -104,7 +119,8 @@ def make_raw_project(directory: str | Path, spec: RawProjectSpec = RawProjectSpe
             gcp_line = f'gcp = "{name}/gcp.csv"\n'
         parts.append(
             f'[[cameras]]\nname = "{name}"\nvideo = "{name}/video.mp4"\nfps = {camera.fps!r}\n'
-            f'[cameras.calibration]\nimages = "{name}/boards/*.png"\npattern = "{PATTERN[0]}x{PATTERN[1]}"\nsquare = {SQUARE_M}\n{gcp_line}'
+            f'[cameras.calibration]\nimages = "{name}/boards/*.png"\npattern = "{PATTERN[0]}x{PATTERN[1]}"\nsquare = '
+            f"{SQUARE_M}\n{gcp_line}"
             '[cameras.tracker]\nkind = "blob"\n'
         )
     project = directory / "project.toml"
@@ -114,7 +130,14 @@ def make_raw_project(directory: str | Path, spec: RawProjectSpec = RawProjectSpe
 
 
 def _scene(spec: RawProjectSpec) -> Scene:
-    return make_scene(spec.seed, spec.lines, spec.n_frames, target_rate=spec.target_rate, image_size=spec.image_size, window_samples=spec.window_samples)
+    return make_scene(
+        spec.seed,
+        spec.lines,
+        spec.n_frames,
+        target_rate=spec.target_rate,
+        image_size=spec.image_size,
+        window_samples=spec.window_samples,
+    )
 
 
 def survey_error(spec: RawProjectSpec, k: int) -> np.ndarray:
@@ -148,7 +171,9 @@ def _write_gcps(path: Path, camera, scene: Scene, name: str, count: int, rng, su
     same at every noise level).
     """
     line = scene.lines[name]
-    samples = np.clip(np.round((scene.tracks[name].frame - line.beta) / line.alpha).astype(int), 0, len(scene.true_trajectory) - 1)
+    samples = np.clip(
+        np.round((scene.tracks[name].frame - line.beta) / line.alpha).astype(int), 0, len(scene.true_trajectory) - 1
+    )
     depth = (scene.true_trajectory.xyz[samples] @ camera.R.T + camera.t)[:, 2]
     w, h = camera.image_size
     cells = [(i, j) for i in range(4) for j in range(3)]
@@ -167,5 +192,8 @@ def _write_gcps(path: Path, camera, scene: Scene, name: str, count: int, rng, su
         surveyed[:, : survey.shape[1]] += survey[: len(world)]
     geo = enu_to_geodetic(surveyed[keep], ORIGIN)
     rows = ["name,u,v,lat,lon,alt"]
-    rows += [f"P{i + 1},{p[0]:.2f},{p[1]:.2f},{lat:.8f},{lon:.8f},{alt:.3f}" for i, (p, (lat, lon, alt)) in enumerate(zip(uv[keep], geo))]
+    rows += [
+        f"P{i + 1},{p[0]:.2f},{p[1]:.2f},{lat:.8f},{lon:.8f},{alt:.3f}"
+        for i, (p, (lat, lon, alt)) in enumerate(zip(uv[keep], geo))
+    ]
     path.write_text("\n".join(rows) + "\n", encoding="utf-8")

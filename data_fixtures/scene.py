@@ -135,15 +135,24 @@ def make_scene(
     samples = np.arange(n_samples, dtype=np.float64)
     true_xyz = spline(samples)
     true_cameras = {
-        n: _look_at_camera(rng, n, zones[n], spline(np.linspace(*windows[n], 200)), image_size,
-                           relations[n].alpha * target_rate, _outward(zones[n], layout))
+        n: _look_at_camera(
+            rng,
+            n,
+            zones[n],
+            spline(np.linspace(*windows[n], 200)),
+            image_size,
+            relations[n].alpha * target_rate,
+            _outward(zones[n], layout),
+        )
         for n in names
     }
     check_views_disjoint(true_cameras, spline(np.linspace(0, n_samples - 1, 20 * n_samples)))
 
     tracks = {}
     for n, count in zip(names, counts):
-        tracks[n] = _track(rng, true_cameras[n], spline, relations[n], count, n_samples, tracking_noise_px, frame_time_jitter)
+        tracks[n] = _track(
+            rng, true_cameras[n], spline, relations[n], count, n_samples, tracking_noise_px, frame_time_jitter
+        )
     cameras = {n: _perturb_pose(rng, c, true_xyz, projection_error_px) for n, c in true_cameras.items()}
     fov_m = min(c.image_size[0] * np.linalg.norm(c.center - zones[n]) / c.K[0, 0] for n, c in true_cameras.items())
     sigma_m = localisation_noise_pct / 100.0 * fov_m
@@ -197,7 +206,8 @@ def write_scene(scene: Scene, directory: str | Path, poses: bool = True) -> Path
         write_camera(camera if poses else replace(camera, to_estimate=("pose",)), directory / name / "camera.json")
         write_track(scene.tracks[name], directory / name / "track.csv")
         parts.append(
-            f'[[cameras]]\nname = "{name}"\ncamera = "{name}/camera.json"\ntrack = "{name}/track.csv"\nfps = {camera.fps!r}\n'
+            f'[[cameras]]\nname = "{name}"\ncamera = "{name}/camera.json"\ntrack = "{name}/track.csv"\nfps = '
+            f"{camera.fps!r}\n"
         )
     parts.append("[sync]\neps_px = 10.0\ndelta = 0.5\np = 0.99\nr = 0.05\nseed = 0\n")
     project = directory / "project.toml"
@@ -217,7 +227,9 @@ def write_truth(scene: Scene, directory: Path) -> None:
     (directory / "truth.json").write_text(json.dumps(truth, indent=1) + "\n", encoding="utf-8")
 
 
-def _visibility_windows(relations: dict[str, Relation], counts: dict[str, int], longest: float | None = None) -> dict[str, tuple[float, float]]:
+def _visibility_windows(
+    relations: dict[str, Relation], counts: dict[str, int], longest: float | None = None
+) -> dict[str, tuple[float, float]]:
     """Disjoint sample intervals, one per camera, inside the samples its video covers.
 
     Cameras are served earliest coverage end first; each takes an equal share
@@ -236,7 +248,10 @@ def _visibility_windows(relations: dict[str, Relation], counts: dict[str, int], 
         sharing = 1 + sum(coverage[m][0] < coverage[n][1] for m in waiting)
         hi = min(coverage[n][1], lo + max(3 * WAYPOINT_EVERY, (coverage[n][1] - lo) / sharing))
         if hi - lo < 3 * WAYPOINT_EVERY:
-            raise ValueError(f"camera {n}: its video covers too few target samples apart from the other cameras' ({max(hi - lo, 0):.0f})")
+            raise ValueError(
+                f"camera {n}: its video covers too few target samples apart from the other cameras' "
+                f"({max(hi - lo, 0):.0f})"
+            )
         if longest is not None and hi - lo > longest:
             lo = lo + (hi - lo - longest) / 2
             hi = lo + longest
@@ -288,8 +303,15 @@ def _anchor(grid: np.ndarray) -> int:
     return int(np.argmin(np.abs(grid - (grid[0] + (grid[-1] - grid[0]) / 3))))
 
 
-def _trajectory_spline(rng, windows, zones, n_samples, crossings: int = 0, rest: bool = False,
-                       ends: tuple[np.ndarray, np.ndarray] = (CENTRE, CENTRE)) -> CubicSpline:
+def _trajectory_spline(
+    rng,
+    windows,
+    zones,
+    n_samples,
+    crossings: int = 0,
+    rest: bool = False,
+    ends: tuple[np.ndarray, np.ndarray] = (CENTRE, CENTRE),
+) -> CubicSpline:
     """A C2 path that wanders inside each camera's zone during its window.
 
     Inside a zone, waypoints are a random walk of constant step and bounded
@@ -302,7 +324,7 @@ def _trajectory_spline(rng, windows, zones, n_samples, crossings: int = 0, rest:
     times: list[float] = []
     points: list[list[float]] = []
     stays = sorted(windows.items(), key=lambda item: item[1][0])
-    for order, (name, (lo, hi)) in enumerate(stays):
+    for name, (lo, hi) in stays:
         travel = float(np.linalg.norm(zones[name][:2])) / REST_SPEED_M  # samples between the centre and the zone
         if rest:
             _rest(rng, times, points, times[-1] + travel if times else REST_EVERY / 2, lo - travel)
@@ -331,7 +353,9 @@ def _trajectory_spline(rng, windows, zones, n_samples, crossings: int = 0, rest:
 
 
 def _rest(rng, times: list, points: list, start: float, stop: float) -> None:
-    """Waypoints near the scene's centre (behind every camera) every REST_EVERY samples in [start, stop); none when the gap is too short."""
+    """Waypoints near the scene's centre (behind every camera) every REST_EVERY samples in [start, stop); none when the
+    gap is too short.
+    """
     for t in np.arange(start, stop - WAYPOINT_EVERY, REST_EVERY):
         times.append(float(t))
         points.append([*rng.uniform(-2.0, 2.0, 2), 1.5])
@@ -352,12 +376,16 @@ def _look_at_camera(rng, name, zone, window_points, image_size, fps, outward) ->
     w, h = image_size
     focal = 0.9 * min(w / 2 / np.quantile(normalized[:, 0], 0.9), h / 2 / np.quantile(normalized[:, 1], 0.9))
     aspect = rng.uniform(0.98, 1.02)
-    K = np.array([[focal, 0, w / 2 + rng.uniform(-10, 10)], [0, focal * aspect, h / 2 + rng.uniform(-10, 10)], [0, 0, 1.0]])
+    K = np.array(
+        [[focal, 0, w / 2 + rng.uniform(-10, 10)], [0, focal * aspect, h / 2 + rng.uniform(-10, 10)], [0, 0, 1.0]]
+    )
     dist = np.array([rng.uniform(-0.2, 0.05), rng.uniform(-0.05, 0.05), 0.0, 0.0, 0.0])
     return Camera(name, K, dist, R, t, (w, h), float(fps))
 
 
-def check_views_disjoint(cameras: dict[str, Camera], points: np.ndarray, what: str = "scene generator: a trajectory point") -> None:
+def check_views_disjoint(
+    cameras: dict[str, Camera], points: np.ndarray, what: str = "scene generator: a trajectory point"
+) -> None:
     """Raise AssertionError when any world point (N, 3) is seen by two cameras (the views must not overlap)."""
     seen = np.zeros(len(points), dtype=int)
     for camera in cameras.values():
@@ -367,7 +395,9 @@ def check_views_disjoint(cameras: dict[str, Camera], points: np.ndarray, what: s
         raise AssertionError(f"{what} is visible in two cameras")
 
 
-def _track(rng, camera: Camera, spline, line: Relation, n_frames: int, n_samples: int, noise_px: float, jitter: float = 0.0) -> Track:
+def _track(
+    rng, camera: Camera, spline, line: Relation, n_frames: int, n_samples: int, noise_px: float, jitter: float = 0.0
+) -> Track:
     frames = np.arange(n_frames)
     clock = frames.astype(np.float64)  # camera clock in frame units: time_s * fps
     if jitter > 0:
@@ -398,7 +428,15 @@ def _perturb_pose(rng, camera: Camera, points: np.ndarray, mean_error_px: float)
     def moved(scale: float) -> Camera:
         rvec = camera.rvec + 1e-3 * scale * direction[:3]
         R = cv2.Rodrigues(rvec)[0]
-        return Camera(camera.name, camera.K, camera.dist, R, camera.t + 1e-3 * scale * direction[3:], camera.image_size, camera.fps)
+        return Camera(
+            camera.name,
+            camera.K,
+            camera.dist,
+            R,
+            camera.t + 1e-3 * scale * direction[3:],
+            camera.image_size,
+            camera.fps,
+        )
 
     def excess(scale: float) -> float:
         uv, _ = moved(scale).project(points[visible])

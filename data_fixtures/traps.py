@@ -171,7 +171,9 @@ def _copy_file(root: Path, key: str, source: int, target: int) -> None:
 
 
 def _track_of(root: Path, source: int, target: int) -> None:
-    """Camera ``target`` given camera ``source``'s track, its frames 7 later and its positions half a pixel off (not the same file)."""
+    """Camera ``target`` given camera ``source``'s track, its frames 7 later and its positions half a pixel off (not the
+    same file).
+    """
     header, rows = _table(_camera_file(root, source, "track"))
     rows[:, header.index("frame")] += 7
     rows[:, [header.index("x"), header.index("y")]] += 0.5
@@ -201,7 +203,9 @@ def _far_frame(header: list[str], rows: np.ndarray) -> np.ndarray:
 
 
 def _gap_over(root: Path, index: int) -> None:
-    """Cut out the part of the log the camera sees (its line to the target's samples from truth.json, its tracked frames)."""
+    """Cut out the part of the log the camera sees (its line to the target's samples from truth.json, its tracked
+    frames).
+    """
     truth = json.loads((root / "truth.json").read_text())
     name = read_project(root)["cameras"][index]["name"]
     line = truth["cameras_to_target"][name]
@@ -214,7 +218,9 @@ def _gap_over(root: Path, index: int) -> None:
 
 
 def _excel_track(root: Path, index: int) -> None:
-    """Camera ``index``'s track as a spreadsheet in a European locale saves it: a byte-order mark, ';' and decimal commas."""
+    """Camera ``index``'s track as a spreadsheet in a European locale saves it: a byte-order mark, ';' and decimal
+    commas.
+    """
     path = _camera_file(root, index, "track")
     text = path.read_text(encoding="utf-8").replace(",", ";").replace(".", ",")
     path.write_text("\ufeff" + text.replace("\n", "\r\n"), encoding="utf-8")
@@ -222,7 +228,9 @@ def _excel_track(root: Path, index: int) -> None:
 
 def _passwd_track(root: Path, index: int) -> None:
     """A file of the system given as camera ``index``'s track (a copy of a passwd file, not the real one)."""
-    _camera_file(root, index, "track").write_text("root:x:0:0:root:/root:/bin/bash\ndaemon:x:1:1:daemon:/usr/sbin:/usr/sbin/nologin\n")
+    _camera_file(root, index, "track").write_text(
+        "root:x:0:0:root:/root:/bin/bash\ndaemon:x:1:1:daemon:/usr/sbin:/usr/sbin/nologin\n"
+    )
 
 
 def _lon_lat(t, xyz):
@@ -235,11 +243,15 @@ def _lon_lat(t, xyz):
 def _normalised(root: Path, index: int) -> None:
     """Camera ``index``'s track in fractions of its image (x / width, y / height)."""
     w, h = json.loads(_camera_file(root, index, "camera").read_text())["image_size"]
-    edit_track(root, index, lambda header, rows: rows / [1.0 if c not in "xy" else (w if c == "x" else h) for c in header])
+    edit_track(
+        root, index, lambda header, rows: rows / [1.0 if c not in "xy" else (w if c == "x" else h) for c in header]
+    )
 
 
 def _frame_in_seconds(root: Path, index: int) -> None:
-    """Camera ``index``'s frame column holding seconds (frame / 30, with their decimals), as a track exported by time would."""
+    """Camera ``index``'s frame column holding seconds (frame / 30, with their decimals), as a track exported by time
+    would.
+    """
     path = _camera_file(root, index, "track")
     header, rows = _table(path)
     rows[:, header.index("frame")] /= 30.0
@@ -275,7 +287,9 @@ TRAPS: dict[str, Callable[[Path], None]] = {
     "feet": lambda root: edit_trajectory(root, lambda t, xyz: (t, xyz / FOOT)),
     "shifted_5m": lambda root: edit_trajectory(root, lambda t, xyz: (t, xyz + [5.0, 0.0, 0.0])),
     "mirrored_x": lambda root: edit_trajectory(root, lambda t, xyz: (t, xyz * [-1.0, 1.0, 1.0])),
-    "rotated_90": lambda root: edit_trajectory(root, lambda t, xyz: (t, xyz @ Rotation.from_euler("z", 90, degrees=True).as_matrix().T)),
+    "rotated_90": lambda root: edit_trajectory(
+        root, lambda t, xyz: (t, xyz @ Rotation.from_euler("z", 90, degrees=True).as_matrix().T)
+    ),
     "z_flipped": lambda root: edit_trajectory(root, lambda t, xyz: (t, xyz * [1.0, 1.0, -1.0])),
     "ned_not_enu": lambda root: edit_trajectory(root, _ned),
     "random_walk": lambda root: edit_trajectory(root, _random_walk),

@@ -120,19 +120,25 @@ def render_video(
     if pole_x is not None:
         background[:, pole_x - 1 : pole_x + 2] = 45.0
     texture = rng.uniform(-25, 25, size=(int(2 * radius + 8),) * 2)
-    gains = 1.0 + flicker * np.sin(2 * np.pi * np.arange(n_frames) / 37.0) + flicker * 0.3 * rng.standard_normal(n_frames)
+    gains = (
+        1.0 + flicker * np.sin(2 * np.pi * np.arange(n_frames) / 37.0) + flicker * 0.3 * rng.standard_normal(n_frames)
+    )
     times = _times(rng, n_frames, fps, jitter) if times is None else np.asarray(times, dtype=np.float64)
     yy, xx = np.mgrid[0:h, 0:w].astype(np.float32)
     lookalike_at = lookalike_positions(n_frames, image_size)
 
     sw, sh = (h, w) if rotation % 180 else (w, h)
-    with h264_writer(path, fps, (sw, sh), {"crf": str(crf), "preset": "veryfast", "g": str(gop), "keyint_min": str(gop)}, rotation) as write:
+    with h264_writer(
+        path, fps, (sw, sh), {"crf": str(crf), "preset": "veryfast", "g": str(gop), "keyint_min": str(gop)}, rotation
+    ) as write:
         for k in range(n_frames):
             image = background.copy()
             if distractor:
                 _draw_distractor(image, k, n_frames, w, h)
             if lookalike:
-                _draw_target(image, xx, yy, float(lookalike_at[k, 0]), float(lookalike_at[k, 1]), radius, texture, LOOKALIKE_GREY)
+                _draw_target(
+                    image, xx, yy, float(lookalike_at[k, 0]), float(lookalike_at[k, 1]), radius, texture, LOOKALIKE_GREY
+                )
             cx, cy = positions[k]
             if np.isfinite(cx):
                 _draw_target(image, xx, yy, cx, cy, radius, texture)
@@ -144,16 +150,29 @@ def render_video(
             if rotation:
                 bgr = np.ascontiguousarray(np.rot90(bgr, k=-(rotation // 90)))
             write(av.VideoFrame.from_ndarray(bgr, format="bgr24"), times[k])
-    margin_in = (positions[:, 0] >= radius) & (positions[:, 0] <= w - 1 - radius) & (positions[:, 1] >= radius) & (positions[:, 1] <= h - 1 - radius)
-    margin_out = (positions[:, 0] < -radius - 1) | (positions[:, 0] > w + radius) | (positions[:, 1] < -radius - 1) | (positions[:, 1] > h + radius)
+    margin_in = (
+        (positions[:, 0] >= radius)
+        & (positions[:, 0] <= w - 1 - radius)
+        & (positions[:, 1] >= radius)
+        & (positions[:, 1] <= h - 1 - radius)
+    )
+    margin_out = (
+        (positions[:, 0] < -radius - 1)
+        | (positions[:, 0] > w + radius)
+        | (positions[:, 1] < -radius - 1)
+        | (positions[:, 1] > h + radius)
+    )
     absent = ~np.isfinite(positions[:, 0])
     exact_times = np.round(times / float(TIME_BASE)) * float(TIME_BASE)
     return RenderedVideo(path, positions, exact_times, margin_in & ~absent, margin_out | absent, (w, h), radius, fps)
 
 
 @contextmanager
-def h264_writer(path: str | Path, fps: float, size: tuple[int, int], options: dict[str, str], rotation: int = 0) -> Iterator[Callable[[av.VideoFrame, float], None]]:
-    """An H.264 MP4 (yuv420p, TIME_BASE) at ``path``: yields write(frame, time_s) (presentation time, s); flushes and closes on exit.
+def h264_writer(
+    path: str | Path, fps: float, size: tuple[int, int], options: dict[str, str], rotation: int = 0
+) -> Iterator[Callable[[av.VideoFrame, float], None]]:
+    """An H.264 MP4 (yuv420p, TIME_BASE) at ``path``: yields write(frame, time_s) (presentation time, s); flushes and
+    closes on exit.
 
     size: (width, height) of the encoded frames, pixels; options: libx264's
     (crf, preset, g, ...); rotation: display rotation, degrees clockwise.
@@ -190,9 +209,15 @@ def tag_recording_time(path: str | Path, utc_s: float, zone_s: float = 7200.0) -
     path = Path(path)
     utc = dt.datetime.fromtimestamp(int(np.floor(utc_s)), dt.timezone.utc)
     local = utc.astimezone(dt.timezone(dt.timedelta(seconds=zone_s)))
-    tags = {"com.apple.quicktime.creationdate": local.strftime("%Y-%m-%dT%H:%M:%S%z"), "creation_time": utc.strftime("%Y-%m-%dT%H:%M:%S.000000Z")}
+    tags = {
+        "com.apple.quicktime.creationdate": local.strftime("%Y-%m-%dT%H:%M:%S%z"),
+        "creation_time": utc.strftime("%Y-%m-%dT%H:%M:%S.000000Z"),
+    }
     tmp = path.with_name(path.name + ".part")
-    with av.open(str(path)) as source, av.open(str(tmp), "w", format="mp4", options={"movflags": "use_metadata_tags+faststart"}) as out:
+    with (
+        av.open(str(path)) as source,
+        av.open(str(tmp), "w", format="mp4", options={"movflags": "use_metadata_tags+faststart"}) as out,
+    ):
         out.metadata.update(tags)
         streams = {s.index: out.add_stream_from_template(s) for s in source.streams.video}
         for packet in source.demux(*source.streams.video):
@@ -204,7 +229,9 @@ def tag_recording_time(path: str | Path, utc_s: float, zone_s: float = 7200.0) -
     return path
 
 
-def render_camera_video(camera, positions, fps: float, path: str | Path, seed: int = 0, radius: float = 6.0) -> RenderedVideo:
+def render_camera_video(
+    camera, positions, fps: float, path: str | Path, seed: int = 0, radius: float = 6.0
+) -> RenderedVideo:
     """Render the target at given per-frame pixel positions (None/NaN: not drawn) in ``camera``'s image size.
 
     For the pipeline demo: ``positions`` are the projections of a
@@ -212,7 +239,17 @@ def render_camera_video(camera, positions, fps: float, path: str | Path, seed: i
     """
     rows = [(np.nan, np.nan) if p is None else tuple(p) for p in positions]
     xy = np.asarray(rows, dtype=np.float64)
-    return render_video(path, n_frames=len(xy), image_size=tuple(camera.image_size), fps=fps, positions=xy, seed=seed, radius=radius, occluder=False, distractor=False)
+    return render_video(
+        path,
+        n_frames=len(xy),
+        image_size=tuple(camera.image_size),
+        fps=fps,
+        positions=xy,
+        seed=seed,
+        radius=radius,
+        occluder=False,
+        distractor=False,
+    )
 
 
 def _background(rng: np.random.Generator, w: int, h: int) -> np.ndarray:
@@ -224,7 +261,13 @@ def _background(rng: np.random.Generator, w: int, h: int) -> np.ndarray:
     image += 115.0
     for _ in range(6):
         x0, y0 = int(rng.integers(0, w)), int(rng.integers(0, h))
-        cv2.rectangle(image, (x0, y0), (x0 + int(rng.integers(10, 50)), y0 + int(rng.integers(10, 40))), float(rng.uniform(70, 160)), -1)
+        cv2.rectangle(
+            image,
+            (x0, y0),
+            (x0 + int(rng.integers(10, 50)), y0 + int(rng.integers(10, 40))),
+            float(rng.uniform(70, 160)),
+            -1,
+        )
     return np.clip(image, 40, 190)
 
 
@@ -272,7 +315,9 @@ def _times(rng: np.random.Generator, n_frames: int, fps: float, jitter: float) -
 
 
 def blank_video(path: str | Path, n_frames: int, image_size: tuple[int, int], fps: float = 30.0) -> Path:
-    """A grey H.264 video of ``n_frames`` frames at ``fps`` (a container for projects that bring their tracks: fast to write)."""
+    """A grey H.264 video of ``n_frames`` frames at ``fps`` (a container for projects that bring their tracks: fast to
+    write).
+    """
     path = Path(path)
     with av.open(str(path), "w") as container:
         stream = container.add_stream("libx264", rate=Fraction(fps).limit_denominator(1001))

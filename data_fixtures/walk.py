@@ -59,7 +59,10 @@ def make_walk_scene(seed: int, spec: WalkSpec = WalkSpec()) -> Scene:
     waypoints = _route(rng, zones, spec.route)
     path = _Path(waypoints, spec.speed_mps)
     names = [f"cam{k}" for k in range(spec.cameras)]
-    cameras = {n: _camera(rng, n, z, spec, spec.fps[k % len(spec.fps)], spec.route) for k, (n, z) in enumerate(zip(names, zones))}
+    cameras = {
+        n: _camera(rng, n, z, spec, spec.fps[k % len(spec.fps)], spec.route)
+        for k, (n, z) in enumerate(zip(names, zones))
+    }
     check_views_disjoint(cameras, path.at(np.linspace(0.0, path.duration, int(path.duration * 20))))
     rate = spec.log.rate_hz
     t_fix = np.arange(0.0, path.duration, 1.0 / rate)
@@ -88,7 +91,9 @@ def make_walk_scene(seed: int, spec: WalkSpec = WalkSpec()) -> Scene:
 
 
 def _route(rng, zones: list[np.ndarray], kind: str) -> np.ndarray:
-    """(M, 2) waypoints: through each zone (turning, or straight in alternating directions), round behind the cameras between zones."""
+    """(M, 2) waypoints: through each zone (turning, or straight in alternating directions), round behind the cameras
+    between zones.
+    """
     points: list[np.ndarray] = []
     for k, centre in enumerate(zones):
         if kind == "turns":
@@ -96,7 +101,13 @@ def _route(rng, zones: list[np.ndarray], kind: str) -> np.ndarray:
             turn = rng.choice([-1.0, 1.0]) * rng.uniform(math.radians(60), math.radians(110))
             entry = centre - 9.0 * np.array([math.cos(heading), math.sin(heading)])
             exit_ = centre + 9.0 * np.array([math.cos(heading + turn), math.sin(heading + turn)])
-            inside = [entry - 12.0 * np.array([math.cos(heading), math.sin(heading)]), entry, centre, exit_, exit_ + 12.0 * np.array([math.cos(heading + turn), math.sin(heading + turn)])]
+            inside = [
+                entry - 12.0 * np.array([math.cos(heading), math.sin(heading)]),
+                entry,
+                centre,
+                exit_,
+                exit_ + 12.0 * np.array([math.cos(heading + turn), math.sin(heading + turn)]),
+            ]
         elif kind == "straight":
             direction = 1.0 if k % 2 == 0 else -1.0
             inside = [centre + [-22.0 * direction, 0.0], centre + [22.0 * direction, 0.0]]
@@ -128,7 +139,9 @@ class _Path:
 
 
 def _rounded(waypoints: np.ndarray, radius: float, per_metre: int = 10) -> np.ndarray:
-    """The polyline through the waypoints with each corner replaced by a quadratic Bezier arc over ``radius`` metres, densely sampled."""
+    """The polyline through the waypoints with each corner replaced by a quadratic Bezier arc over ``radius`` metres,
+    densely sampled.
+    """
     out = [waypoints[0]]
     for a, b, c in zip(waypoints[:-2], waypoints[1:-1], waypoints[2:]):
         into, outof = b - a, c - b
@@ -138,15 +151,23 @@ def _rounded(waypoints: np.ndarray, radius: float, per_metre: int = 10) -> np.nd
         out += list(np.linspace(out[-1], p0, max(2, int(np.linalg.norm(p0 - out[-1]) * per_metre)))[1:])
         u = np.linspace(0.0, 1.0, max(3, int(2 * r * per_metre)))[:, None]
         out += list(((1 - u) ** 2 * p0 + 2 * u * (1 - u) * b + u**2 * p2)[1:])
-    out += list(np.linspace(out[-1], waypoints[-1], max(2, int(np.linalg.norm(waypoints[-1] - out[-1]) * per_metre)))[1:])
+    out += list(
+        np.linspace(out[-1], waypoints[-1], max(2, int(np.linalg.norm(waypoints[-1] - out[-1]) * per_metre)))[1:]
+    )
     return np.array(out)
 
 
 def _camera(rng, name: str, zone: np.ndarray, spec: WalkSpec, fps: float, route: str) -> Camera:
-    """A camera south of its zone (within +-25 degrees, +-8 for straight routes), looking at the zone's centre, seeing about +-12 m."""
+    """A camera south of its zone (within +-25 degrees, +-8 for straight routes), looking at the zone's centre, seeing
+    about +-12 m.
+    """
     azimuth = rng.uniform(-1.0, 1.0) * math.radians(25.0 if route == "turns" else 8.0)
     ground = np.r_[zone, 0.0]
-    centre = ground + spec.camera_distance_m * np.array([math.sin(azimuth), -math.cos(azimuth), 0.0]) + [0.0, 0.0, spec.camera_height_m]
+    centre = (
+        ground
+        + spec.camera_distance_m * np.array([math.sin(azimuth), -math.cos(azimuth), 0.0])
+        + [0.0, 0.0, spec.camera_height_m]
+    )
     target = ground + [0.0, 0.0, WALKER_HEIGHT_M]
     forward = (target - centre) / np.linalg.norm(target - centre)
     right = np.cross(forward, [0.0, 0.0, 1.0])
@@ -160,7 +181,9 @@ def _camera(rng, name: str, zone: np.ndarray, spec: WalkSpec, fps: float, route:
 
 
 def _track(rng, camera: Camera, path: _Path, start: float, fps_true: float, n_frames: int, noise_px: float) -> Track:
-    """The walker's projection in every frame where it is in view (0-based frames, time_s from the nominal fps), plus noise."""
+    """The walker's projection in every frame where it is in view (0-based frames, time_s from the nominal fps), plus
+    noise.
+    """
     assert camera.fps is not None
     frames = np.arange(n_frames)
     t = start + frames / fps_true

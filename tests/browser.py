@@ -73,7 +73,9 @@ class Browser:
         deadline = time.monotonic() + self.timeout
         while time.monotonic() < deadline:
             if self.process.poll() is not None:
-                raise RuntimeError(f"chromium exited with code {self.process.returncode} before opening its DevTools port")
+                raise RuntimeError(
+                    f"chromium exited with code {self.process.returncode} before opening its DevTools port"
+                )
             text = marker.read_text() if marker.exists() else ""
             if text.strip():
                 return int(text.split()[0])
@@ -141,7 +143,7 @@ class Browser:
                 self.process.wait()
             self.profile.cleanup()
 
-    def __enter__(self) -> "Browser":
+    def __enter__(self) -> Browser:
         return self
 
     def __exit__(self, *exc) -> None:

@@ -13,8 +13,8 @@ from hypothesis import settings
 settings.register_profile("ci", derandomize=True, print_blob=True)
 settings.load_profile("ci" if os.environ.get("CI") else "default")
 
-from data_fixtures import make_scene, write_scene
-from tlsync_pipeline.pipeline.workspace import STRICT_VARIABLE
+from data_fixtures import make_scene, write_scene  # noqa: E402 (after Hypothesis's profile)
+from tlsync_pipeline.pipeline.workspace import STRICT_VARIABLE  # noqa: E402
 
 # A stage that opens a file of the work or project folder it did not declare fails (worker processes inherit this).
 os.environ[STRICT_VARIABLE] = "1"

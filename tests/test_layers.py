@@ -12,7 +12,15 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGES = ("tlsync_pipeline", "trackers", "calibration", "data_fixtures")
-BASE = {"tlsync_pipeline", "tlsync_pipeline.errors", "tlsync_pipeline.atomic", "tlsync_pipeline.csvtable", "tlsync_pipeline.geodesy", "tlsync_pipeline.inputs", "tlsync_pipeline.trajectory"}
+BASE = {
+    "tlsync_pipeline",
+    "tlsync_pipeline.errors",
+    "tlsync_pipeline.atomic",
+    "tlsync_pipeline.csvtable",
+    "tlsync_pipeline.geodesy",
+    "tlsync_pipeline.inputs",
+    "tlsync_pipeline.trajectory",
+}
 
 # Layer of a module -> layers it may import (besides its own).
 ALLOWED = {

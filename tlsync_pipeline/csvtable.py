@@ -34,7 +34,8 @@ WRITE_ROWS = 50_000  # rows formatted at once by write_rows
 BOM = b"\xef\xbb\xbf"
 DELIMITERS = (",", ";", "\t")
 
-# The caller's line-by-line parser of a chunk: (lines, 1-based number of the first) -> (values (n, k), line numbers (n,)).
+# The caller's line-by-line parser of a chunk: (lines, 1-based number of the first) -> (values (n, k), line numbers
+# (n,)).
 SlowParser = Callable[[list[str], int], tuple[np.ndarray, np.ndarray]]
 
 
@@ -104,13 +105,15 @@ class Table:
         try:
             return data.decode("utf-8")
         except UnicodeDecodeError as exc:
-            raise InputError(f"{self.path}: not a utf-8 text file (byte {start + exc.start}), expected a {self.what}") from None
+            raise InputError(
+                f"{self.path}: not a utf-8 text file (byte {start + exc.start}), expected a {self.what}"
+            ) from None
 
     def _header(self) -> tuple[str, int]:
         """The first line that is not blank (and not a ``#`` comment), and its number; '' at the end of the file."""
         data = self._read()
         if data.startswith(BOM):
-            data, self.offset = data[len(BOM):], len(BOM)
+            data, self.offset = data[len(BOM) :], len(BOM)
         while True:
             cut = data.find(b"\n")
             while cut < 0:
@@ -119,7 +122,7 @@ class Table:
                     break
                 data += more
                 cut = data.find(b"\n")
-            line_bytes, data = (data, b"") if cut < 0 else (data[:cut], data[cut + 1:])
+            line_bytes, data = (data, b"") if cut < 0 else (data[:cut], data[cut + 1 :])
             line = self._decode(line_bytes, self.offset)
             self.offset += len(line_bytes) + 1
             self.line_no += 1
@@ -135,7 +138,9 @@ class Table:
         return int(self.size / max(self.offset / max(self.line_no, 1), 1.0) * 1.02) + 16
 
     def chunks(self, columns: list[int], slow: SlowParser) -> Iterator[tuple[np.ndarray, np.ndarray | range]]:
-        """(values float64 (n, len(columns)), 1-based line numbers (n,): int64 or a range) of the rows after the header, chunk by chunk."""
+        """(values float64 (n, len(columns)), 1-based line numbers (n,): int64 or a range) of the rows after the header,
+        chunk by chunk.
+        """
         width = len(self.names)
         data = self.rest
         while True:
@@ -166,12 +171,15 @@ class Table:
                 return
 
     def _fast(self, block: bytes, n_lines: int, width: int, columns: list[int]) -> np.ndarray | None:
-        """The chunk's values in ``columns`` when every line has ``width`` fields and those are finite numbers, else None."""
+        """The chunk's values in ``columns`` when every line has ``width`` fields and those are finite numbers, else
+        None.
+        """
         if self.delimiter == ";":
             block = block.replace(b",", b".").replace(b";", b",")
         elif self.delimiter == "\t":
             block = block.replace(b"\t", b",")
-        try:  # every row must have ``width`` numbers (loadtxt refuses a changing count; blank lines make the count short)
+        # every row must have ``width`` numbers (loadtxt refuses a changing count; blank lines make the count short)
+        try:
             with warnings.catch_warnings():
                 warnings.simplefilter("error")
                 delimiter = None if self.delimiter == " " else ","  # None: any run of blanks
@@ -203,7 +211,7 @@ class Columns:
             array = self.arrays[name]
             if end > len(array):
                 array = self.arrays[name] = np.resize(array, (max(end, len(array) + len(array) // 4), hi - lo))
-            array[self.n:end] = values[:, lo:hi]
+            array[self.n : end] = values[:, lo:hi]
         self.n = end
 
     def get(self, name: str) -> np.ndarray:
@@ -221,5 +229,5 @@ def write_rows(handle: TextIO, columns: list[np.ndarray], formats: list[str], de
     line = delimiter.join(formats) + "\n"
     n = len(columns[0]) if columns else 0
     for lo in range(0, n, WRITE_ROWS):
-        block = np.column_stack([np.asarray(c[lo:lo + WRITE_ROWS], dtype=np.float64) for c in columns])
+        block = np.column_stack([np.asarray(c[lo : lo + WRITE_ROWS], dtype=np.float64) for c in columns])
         handle.write((line * len(block)) % tuple(block.ravel().tolist()))

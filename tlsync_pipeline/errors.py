@@ -43,13 +43,16 @@ def os_error_reason(exc: OSError) -> str:
 
 def os_error_problem(exc: OSError) -> InputError | EnvironmentProblem:
     """The tlsync error for an OSError: a missing file or a name too long is bad input, anything else the environment;
-    the path is named (a path of over MAX_PATH_SHOWN characters by its start and end, so the reason stays on the line)."""
+    the path is named (a path of over MAX_PATH_SHOWN characters by its start and end, so the reason stays on the line).
+    """
     path = str(exc.filename) if exc.filename is not None else "a file"
     shown = path if len(path) <= MAX_PATH_SHOWN else f"{path[: MAX_PATH_SHOWN // 2]}...{path[-MAX_PATH_SHOWN // 2 :]}"
     if exc.errno == errno.ENAMETOOLONG:
         longest = max((len(part) for part in path.split("/")), default=0)
-        return InputError(f"{shown}: file name too long ({len(path)} characters, one name of {longest}; "
-                          "systems allow 4096 and 255 per name): give a shorter path")
+        return InputError(
+            f"{shown}: file name too long ({len(path)} characters, one name of {longest}; "
+            "systems allow 4096 and 255 per name): give a shorter path"
+        )
     if isinstance(exc, (FileNotFoundError, IsADirectoryError, NotADirectoryError)):
         return InputError(f"{shown}: {exc.strerror or exc}")
     return EnvironmentProblem(f"{shown}: {os_error_reason(exc)}")
@@ -67,7 +70,9 @@ def one_line(text: str, limit: int = MAX_REASON) -> str:
 
 
 def shorten(text: str, limit: int = MAX_LINE) -> str:
-    """``text`` on one line and at most about ``limit`` characters: its start (the file) and its end (the fix) kept, the middle elided."""
+    """``text`` on one line and at most about ``limit`` characters: its start (the file) and its end (the fix) kept, the
+    middle elided.
+    """
     text = one_line(text)
     if len(text) <= limit:
         return text
@@ -83,7 +88,7 @@ def with_details(error: BaseException, *details: str) -> BaseException:
     Kept as the error's ``details`` attribute, which survives pickling (a
     worker process's error), as tlsync's and the calibration's errors declare.
     """
-    setattr(error, "details", (*error_details(error), *(text for text in details if text)))
+    setattr(error, "details", (*error_details(error), *(text for text in details if text)))  # noqa: B010 (any exception)
     return error
 
 

@@ -22,7 +22,9 @@ QUOTE = 60  # characters of a file's content a message may quote
 
 
 def regular_file(path: str | Path, limit: int | None = None, what: str = "file") -> Path:
-    """``path`` when it is a regular file outside /proc, /sys and /dev, of at most ``limit`` bytes; InputError otherwise."""
+    """``path`` when it is a regular file outside /proc, /sys and /dev, of at most ``limit`` bytes; InputError
+    otherwise.
+    """
     path = Path(path)
     try:
         info = path.stat()
@@ -36,14 +38,20 @@ def regular_file(path: str | Path, limit: int | None = None, what: str = "file")
     if not stat.S_ISREG(info.st_mode) or any(resolved.is_relative_to(folder) for folder in SPECIAL_FOLDERS):
         raise InputError(f"{path}: not a regular file (a device, a pipe or a file of the system), expected a {what}")
     if limit is not None and info.st_size > limit:
-        raise InputError(f"{path}: {info.st_size / 2**20:.0f} MiB, larger than any {what} tlsync reads ({limit / 2**20:.0f} MiB)")
+        raise InputError(
+            f"{path}: {info.st_size / 2**20:.0f} MiB, larger than any {what} tlsync reads ({limit / 2**20:.0f} MiB)"
+        )
     if not os.access(path, os.R_OK):
         raise InputError(f"{path}: permission denied")
     return path
 
 
-def read_text_file(path: str | Path, limit: int = MAX_TEXT_BYTES, what: str = "text file", encoding: str = "utf-8") -> str:
-    """The text of a regular file of at most ``limit`` bytes; InputError when it is not text (NUL bytes, not ``encoding``)."""
+def read_text_file(
+    path: str | Path, limit: int = MAX_TEXT_BYTES, what: str = "text file", encoding: str = "utf-8"
+) -> str:
+    """The text of a regular file of at most ``limit`` bytes; InputError when it is not text (NUL bytes, not
+    ``encoding``).
+    """
     path = regular_file(path, limit, what)
     data = path.read_bytes()
     if b"\x00" in data:

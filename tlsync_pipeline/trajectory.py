@@ -73,14 +73,16 @@ def grid_rate(t: np.ndarray) -> float:
         rate = float(whole[short].sum() / step[short].sum())
     on_grid, ie, ee = True, 0.0, 0.0
     for lo in range(0, len(t), GRID_BLOCK):  # in blocks: a day at 100 Hz needs no temporaries of its size
-        elapsed = t[lo:lo + GRID_BLOCK] - t[0]
+        elapsed = t[lo : lo + GRID_BLOCK] - t[0]
         index = np.round(elapsed * rate)
         on_grid = on_grid and bool(np.abs(elapsed * rate - index).max() < 0.1)
         ie, ee = ie + float(index @ elapsed), ee + float(elapsed @ elapsed)
     return ie / ee if on_grid else rate
 
 
-def trajectory_from_times(t: np.ndarray, xyz: np.ndarray, rate: float | None = None, sigma: np.ndarray | None = None) -> Trajectory:
+def trajectory_from_times(
+    t: np.ndarray, xyz: np.ndarray, rate: float | None = None, sigma: np.ndarray | None = None
+) -> Trajectory:
     """A trajectory whose grid is set by its times t (seconds, strictly increasing), with optional sigmas (m).
 
     rate defaults to grid_rate(t); t0 = t[0].
@@ -107,7 +109,9 @@ class PiecewiseTrajectory:
         self.runs = []
         for idx in np.split(np.arange(len(sample)), cuts):
             if len(idx) >= MIN_RUN:
-                self.runs.append((sample[idx[0]], sample[idx[-1]], make_interp_spline(sample[idx], xyz[idx], k=3, axis=0)))
+                self.runs.append(
+                    (sample[idx[0]], sample[idx[-1]], make_interp_spline(sample[idx], xyz[idx], k=3, axis=0))
+                )
         self.starts = np.array([r[0] for r in self.runs])
         self.ends = np.array([r[1] for r in self.runs])
 
@@ -165,17 +169,28 @@ def read_trajectory(path: str | Path) -> Trajectory:
         if not table.header.strip():
             raise InputError(f"{path}: empty file; expected a header 'x,y,z' or 't,x,y,z'")
         if {"lat", "lon"} <= set(header):
-            raise InputError(f"{path}:{table.header_no}: this is a geodetic log (lat/lon): convert it to local metres with `tlsync ingest-log`")
+            raise InputError(
+                f"{path}:{table.header_no}: this is a geodetic log (lat/lon): convert it to local metres with `tlsync "
+                f"ingest-log`"
+            )
         missing = [c for c in ("x", "y", "z") if c not in header]
         if missing:
-            raise InputError(f"{path}:{table.header_no}: header {quote(table.delimiter.join(header))} lacks column(s) {', '.join(missing)}; expected x,y,z with optional t")
+            raise InputError(
+                f"{path}:{table.header_no}: header {quote(table.delimiter.join(header))} lacks column(s) "
+                f"{', '.join(missing)}; expected x,y,z with optional t"
+            )
         wanted = (["t"] if "t" in header else []) + ["x", "y", "z"] + (["sigma"] if "sigma" in header else [])
         index = [header.index(c) for c in wanted]
-        groups = {"xyz": (wanted.index("x"), wanted.index("x") + 3), **({"t": (0, 1)} if "t" in wanted else {}),
-                  **({"sigma": (len(wanted) - 1, len(wanted))} if "sigma" in wanted else {})}
+        groups = {
+            "xyz": (wanted.index("x"), wanted.index("x") + 3),
+            **({"t": (0, 1)} if "t" in wanted else {}),
+            **({"sigma": (len(wanted) - 1, len(wanted))} if "sigma" in wanted else {}),
+        }
         rows: Columns | None = None
         numbers: list[np.ndarray | range] = []
-        for values, lines in table.chunks(index, lambda rows, first: _parse_rows(path, rows, first, table.delimiter, header, wanted, index)):
+        for values, lines in table.chunks(
+            index, lambda rows, first: _parse_rows(path, rows, first, table.delimiter, header, wanted, index)
+        ):
             if "sigma" in wanted and (values[:, -1] <= 0).any():
                 k = int(np.argmax(values[:, -1] <= 0))
                 raise InputError(f"{path}:{lines[k]}: column 'sigma': {values[k, -1]:g} m; a sigma must be positive")
@@ -195,14 +210,20 @@ def read_trajectory(path: str | Path) -> Trajectory:
         k = bad[0]
         line = np.concatenate([np.asarray(n, dtype=np.int64) for n in numbers])
         what = "repeats" if step[k] == 0 else "goes backwards"
-        raise InputError(f"{path}:{line[k + 1]}: time {t[k + 1]:g} s {what} (previous line {line[k]}: {t[k]:g} s); times must increase")
+        raise InputError(
+            f"{path}:{line[k + 1]}: time {t[k + 1]:g} s {what} (previous line {line[k]}: {t[k]:g} s); times must "
+            f"increase"
+        )
     del rows, step
     return trajectory_from_times(t, xyz, sigma=sigma)
 
 
-def _parse_rows(path: Path, rows: list[str], first: int, delimiter: str, header: list[str], wanted: list[str],
-                index: list[int]) -> tuple[np.ndarray, np.ndarray]:
-    """The trajectory rows a chunk's lines hold, line by line (blank lines skipped), and their line numbers; the first bad one an InputError."""
+def _parse_rows(
+    path: Path, rows: list[str], first: int, delimiter: str, header: list[str], wanted: list[str], index: list[int]
+) -> tuple[np.ndarray, np.ndarray]:
+    """The trajectory rows a chunk's lines hold, line by line (blank lines skipped), and their line numbers; the first
+    bad one an InputError.
+    """
     values, lines = [], []
     try:
         cells_of = list(csv.reader(rows, delimiter=delimiter))

@@ -11,10 +11,27 @@ from __future__ import annotations
 import importlib
 from typing import Any
 
-_WHERE = {"TrackInputError": "trackers.errors", "Track": "trackers.track", "read_track": "trackers.track", "write_track": "trackers.track",
-          "track_video": "trackers.tracking", "iter_frames": "trackers.video", "probe_video": "trackers.video", "read_frames": "trackers.video"}
+_WHERE = {
+    "TrackInputError": "trackers.errors",
+    "Track": "trackers.track",
+    "read_track": "trackers.track",
+    "write_track": "trackers.track",
+    "track_video": "trackers.tracking",
+    "iter_frames": "trackers.video",
+    "probe_video": "trackers.video",
+    "read_frames": "trackers.video",
+}
 
-__all__ = ["Track", "TrackInputError", "iter_frames", "probe_video", "read_frames", "read_track", "track_video", "write_track"]
+__all__ = [
+    "Track",
+    "TrackInputError",
+    "iter_frames",
+    "probe_video",
+    "read_frames",
+    "read_track",
+    "track_video",
+    "write_track",
+]
 
 
 def __getattr__(name: str) -> Any:

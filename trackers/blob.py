@@ -67,7 +67,7 @@ class BlobParams:
     max_candidates: int = 25  # more blobs than this in a frame: a global change, frame skipped
 
     @classmethod
-    def from_dict(cls, values: dict | None, where: str = "tracker parameters") -> "BlobParams":
+    def from_dict(cls, values: dict | None, where: str = "tracker parameters") -> BlobParams:
         return params_from_dict(cls, values, where)
 
 
@@ -100,7 +100,8 @@ class BlobDetector:
         """background: (H, W) full-resolution grey background (e.g. ``median_background``)."""
         import cv2
 
-        import trackers.blob_passes as blob_passes  # numba takes 0.4 s to import: a detector's process pays it, not every tlsync process
+        # numba takes 0.4 s to import: a detector's process pays it, not every tlsync process
+        import trackers.blob_passes as blob_passes
 
         self.passes = blob_passes
         self.params = params
@@ -132,7 +133,9 @@ class BlobDetector:
         import cv2
 
         if gray.shape[::-1] != self.size:
-            raise TrackInputError(f"frame size {gray.shape[1]}x{gray.shape[0]} differs from the video's {self.size[0]}x{self.size[1]}")
+            raise TrackInputError(
+                f"frame size {gray.shape[1]}x{gray.shape[0]} differs from the video's {self.size[0]}x{self.size[1]}"
+            )
         p = self.params
         s = self.scale
         levels = self._pyramid(gray)
@@ -143,7 +146,9 @@ class BlobDetector:
         blobs = []
         rx, ry, rw, rh = cv2.boundingRect(self.mask)  # components only where there is foreground
         if rw and rh:
-            _, labels, stats, _ = cv2.connectedComponentsWithStats(self.mask[ry : ry + rh, rx : rx + rw], connectivity=8, ltype=self._label_type)
+            _, labels, stats, _ = cv2.connectedComponentsWithStats(
+                self.mask[ry : ry + rh, rx : rx + rw], connectivity=8, ltype=self._label_type
+            )
             areas = stats[:, cv2.CC_STAT_AREA] * (s * s)
             keep = np.flatnonzero((areas >= p.min_area) & (areas <= self.max_area))
             keep = keep[keep > 0]
@@ -159,7 +164,9 @@ class BlobDetector:
         self.frames += 1
         if self.frames % 8 == 0:  # the refinement's backgrounds follow more slowly
             for f, background in self.bg_levels.items():
-                self.passes.learn_level(levels[f], background, self.background_mask, s // f, gain, min(1.0, 8 * p.learning_rate))
+                self.passes.learn_level(
+                    levels[f], background, self.background_mask, s // f, gain, min(1.0, 8 * p.learning_rate)
+                )
         return blobs
 
     def _pyramid(self, image: np.ndarray) -> dict[int, np.ndarray]:
@@ -216,11 +223,25 @@ class BlobDetector:
         x, y, bw, bh, _ = stat.tolist()
         f = max((f for f in levels if min(bw, bh) * s >= REFINE_MIN_SIDE * f), default=1)
         background = self.bg if f == s else self.bg_levels[f]
-        ok, polarity, contrast, area, lx, ly = self.passes.refine(labels, label, (x, y, bw, bh), offset, diff, levels[f], background, s // f, gain, self.noise, self.small_size)
+        ok, polarity, contrast, area, lx, ly = self.passes.refine(
+            labels,
+            label,
+            (x, y, bw, bh),
+            offset,
+            diff,
+            levels[f],
+            background,
+            s // f,
+            gain,
+            self.noise,
+            self.small_size,
+        )
         if not ok:
             return None
         # level pixel i covers full pixels [i*f, i*f+f)
-        return Blob(lx * f + (f - 1) / 2, ly * f + (f - 1) / 2, area * f * f, float(bw * s), float(bh * s), polarity, contrast)
+        return Blob(
+            lx * f + (f - 1) / 2, ly * f + (f - 1) / 2, area * f * f, float(bw * s), float(bh * s), polarity, contrast
+        )
 
 
 _KERNEL3 = np.ones((3, 3), np.uint8)
@@ -267,7 +288,12 @@ class BlobTracker:
     frame than at 240p.
     """
 
-    def __init__(self, params: BlobParams = BlobParams(), init: tuple[float, float, float, float] | None = None, image_size: tuple[int, int] | None = None):
+    def __init__(
+        self,
+        params: BlobParams = BlobParams(),
+        init: tuple[float, float, float, float] | None = None,
+        image_size: tuple[int, int] | None = None,
+    ):
         """image_size: (width, height) of the frames, pixels (None: re-acquisition within reach only)."""
         self.params = params
         self.state: _State | None = None
@@ -341,7 +367,9 @@ class BlobTracker:
         if self.signature is None:
             return True
         area, polarity = self.signature
-        return polarity in (0, b.polarity) and abs(math.log(max(b.area, 1e-6) / area)) <= math.log(self.params.size_ratio)
+        return polarity in (0, b.polarity) and abs(math.log(max(b.area, 1e-6) / area)) <= math.log(
+            self.params.size_ratio
+        )
 
     def _extend_chains(self, frame: int, blobs: list[Blob]) -> list[list[tuple[int, Blob]]]:
         """Continue each chain that reached the previous frame with its nearest consistent blob (constant velocity
@@ -362,7 +390,13 @@ class BlobTracker:
             best, best_d = None, math.inf
             for k, b in enumerate(blobs):
                 d = math.hypot(b.x - px, b.y - py)
-                if k not in used and d <= gate and abs(math.log(b.area / last.area)) <= math.log(p.size_ratio) and b.polarity == last.polarity and d < best_d:
+                if (
+                    k not in used
+                    and d <= gate
+                    and abs(math.log(b.area / last.area)) <= math.log(p.size_ratio)
+                    and b.polarity == last.polarity
+                    and d < best_d
+                ):
                     best, best_d = k, d
             if best is not None:
                 used.add(best)
@@ -484,8 +518,15 @@ def params_from_dict(cls, values: dict | None, where: str):
             hint = f" (did you mean {close[0]!r}?)" if close else f" (expected one of: {', '.join(names)})"
             raise TrackInputError(f"{where}: unknown parameter {key!r}{hint}")
         default = getattr(out, key)
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or (isinstance(default, int) and not isinstance(value, int)):
-            raise TrackInputError(f"{where}: parameter {key!r}: expected {'an integer' if isinstance(default, int) else 'a number'}, got {value!r}")
+        if (
+            isinstance(value, bool)
+            or not isinstance(value, (int, float))
+            or (isinstance(default, int) and not isinstance(value, int))
+        ):
+            raise TrackInputError(
+                f"{where}: parameter {key!r}: expected {'an integer' if isinstance(default, int) else 'a number'}, "
+                f"got {value!r}"
+            )
         if value < 0 or not math.isfinite(value):
             raise TrackInputError(f"{where}: parameter {key!r}: expected a non-negative number, got {value!r}")
         out = replace(out, **{key: type(default)(value)})

@@ -43,13 +43,20 @@ def frame_gain(small: np.ndarray, background: np.ndarray, mask: np.ndarray) -> f
 
 @numba.njit(**_COMPILE)
 def halve(image: np.ndarray, out: np.ndarray) -> None:
-    """out = the 8-bit image area-averaged by 2 (out's shape; each 2 x 2 mean rounded half up, as OpenCV's INTER_AREA by 2)."""
+    """out = the 8-bit image area-averaged by 2 (out's shape; each 2 x 2 mean rounded half up, as OpenCV's INTER_AREA by
+    2).
+    """
     for y in range(out.shape[0]):
         top = image[2 * y]
         bottom = image[2 * y + 1]
         row = out[y]
         for x in range(out.shape[1]):
-            total = np.uint16(top[2 * x]) + np.uint16(top[2 * x + 1]) + np.uint16(bottom[2 * x]) + np.uint16(bottom[2 * x + 1])
+            total = (
+                np.uint16(top[2 * x])
+                + np.uint16(top[2 * x + 1])
+                + np.uint16(bottom[2 * x])
+                + np.uint16(bottom[2 * x + 1])
+            )
             row[x] = np.uint8((total + 2) >> 2)
 
 
@@ -68,7 +75,9 @@ def foreground(small, background, deviation, gain, threshold, min_contrast, diff
 
 @numba.njit(**_COMPILE)
 def learn(small, diff, background, deviation, where, gain, rate) -> None:
-    """Where ``where`` is set: background and mean absolute deviation move by ``rate`` toward the frame / gain and |diff|; deviation >= 1."""
+    """Where ``where`` is set: background and mean absolute deviation move by ``rate`` toward the frame / gain and
+    |diff|; deviation >= 1.
+    """
     r = np.float32(rate)
     keep = np.float32(1.0 - rate)
     inverse_gain = np.float32(1.0 / gain)
@@ -81,7 +90,8 @@ def learn(small, diff, background, deviation, where, gain, rate) -> None:
 
 @numba.njit(**_COMPILE)
 def learn_level(image, background, where, k, gain, rate) -> None:
-    """Where the working frame's mask ``where`` (k times coarser than image) is set: background moves by rate toward image / gain.
+    """Where the working frame's mask ``where`` (k times coarser than image) is set: background moves by rate toward
+    image / gain.
 
     Pixels beyond the working frame's coverage (the frame cropped to a multiple of k) are left alone.
     Each row is updated whole (one branch-free loop, which vectorises), then

@@ -1,4 +1,6 @@
-"""The trackers' kinds, without their libraries: what a project file or ``--tracker`` may name (a leaf: no OpenCV, no PyAV)."""
+"""The trackers' kinds, without their libraries: what a project file or ``--tracker`` may name (a leaf: no OpenCV, no
+PyAV).
+"""
 
 from __future__ import annotations
 

@@ -53,7 +53,7 @@ class CsrtParams:
     box_margin: float = 3.0  # pixels added around a blob's box when CSRT starts from it
 
     @classmethod
-    def from_dict(cls, values: dict | None, where: str = "tracker parameters") -> tuple["CsrtParams", BlobParams]:
+    def from_dict(cls, values: dict | None, where: str = "tracker parameters") -> tuple[CsrtParams, BlobParams]:
         """Split a parameters table into CSRT and blob-detector parameters (keys of either)."""
         values = dict(values or {})
         own = {f.name for f in fields(cls)}
@@ -64,7 +64,9 @@ class CsrtParams:
             return params_from_dict(cls, csrt_part, where), BlobParams.from_dict(blob_part, where)
         except TrackInputError as exc:
             if "unknown parameter" in str(exc):
-                raise TrackInputError(f"{exc}; the blob detector's parameters ({', '.join(sorted(blob_keys))}) are accepted too") from None
+                raise TrackInputError(
+                    f"{exc}; the blob detector's parameters ({', '.join(sorted(blob_keys))}) are accepted too"
+                ) from None
             raise
 
     def opencv(self):
@@ -84,7 +86,7 @@ class CsrtParams:
 def _create(params: CsrtParams):
     import cv2
 
-    factory = getattr(cv2.TrackerCSRT, "create", None) or getattr(cv2, "TrackerCSRT_create")
+    factory = getattr(cv2.TrackerCSRT, "create", None) or cv2.TrackerCSRT_create
     return factory(params.opencv())
 
 
@@ -102,10 +104,14 @@ class _Canvas:
         self.image = np.zeros((height, width, 3), np.uint8)
 
     def fill(self, gray: np.ndarray, centre: tuple[float, float], box_size: tuple[float, float]) -> np.ndarray:
-        """Copy the window of ``gray`` that CSRT may read around ``centre`` (box size w, h, pixels); returns the canvas."""
+        """Copy the window of ``gray`` that CSRT may read around ``centre`` (box size w, h, pixels);
+        returns the canvas.
+        """
         w, h = box_size
         template = max(w, h) + CSRT_PADDING * math.sqrt(w * h)
-        half = int(math.ceil(1.25 * template)) + 8  # the template around the old centre and around a new one up to half a template away
+        half = (
+            int(math.ceil(1.25 * template)) + 8
+        )  # the template around the old centre and around a new one up to half a template away
         height, width = gray.shape
         x0, y0 = max(0, int(centre[0]) - half), max(0, int(centre[1]) - half)
         x1, y1 = min(width, int(centre[0]) + half + 1), min(height, int(centre[1]) + half + 1)
@@ -136,7 +142,18 @@ def _unambiguous(blobs, prediction: tuple[float, float], gate: float, clearance:
     return fits[0] if len(fits) == 1 and len(near) == 1 else None
 
 
-def csrt_steps(path, info, params: CsrtParams, blob_params: BlobParams, box, init_frame: int, progress: bool, detector: BlobDetector, label: str | None = None, meter: PictureMeter | None = None):
+def csrt_steps(
+    path,
+    info,
+    params: CsrtParams,
+    blob_params: BlobParams,
+    box,
+    init_frame: int,
+    progress: bool,
+    detector: BlobDetector,
+    label: str | None = None,
+    meter: PictureMeter | None = None,
+):
     """Yields (frame, time_s, x, y, w, h, score) rows; returns the number of frames read; meter: fed every frame read
     (trackers/breaks.py).
 
@@ -178,7 +195,12 @@ def csrt_steps(path, info, params: CsrtParams, blob_params: BlobParams, box, ini
                 if found:
                     _, b, _ = found[-1]
                     m = params.box_margin
-                    start = (int(round(b.x - b.w / 2 - m)), int(round(b.y - b.h / 2 - m)), int(round(b.w + 2 * m)), int(round(b.h + 2 * m)))
+                    start = (
+                        int(round(b.x - b.w / 2 - m)),
+                        int(round(b.y - b.h / 2 - m)),
+                        int(round(b.w + 2 * m)),
+                        int(round(b.h + 2 * m)),
+                    )
                     acquirer.state = None  # the blob tracker only (re-)acquires
                     acquirer.signature = acquirer.signature or (b.area, b.polarity)
                     centre = (b.x, b.y, float(start[2]), float(start[3]))
@@ -201,7 +223,12 @@ def csrt_steps(path, info, params: CsrtParams, blob_params: BlobParams, box, ini
         else:
             if tracker is None:  # restart CSRT on the last reported box, in the frame it was reported in
                 tracker = _create(params)
-                start = (int(round(last[0] - (last[2] - 1) / 2)), int(round(last[1] - (last[3] - 1) / 2)), int(round(last[2])), int(round(last[3])))
+                start = (
+                    int(round(last[0] - (last[2] - 1) / 2)),
+                    int(round(last[1] - (last[3] - 1) / 2)),
+                    int(round(last[2])),
+                    int(round(last[3])),
+                )
                 assert previous is not None, "a box was reported in an earlier frame"
                 tracker.init(canvas.fill(previous, last[:2], last[2:]), start)
             ok, rect = tracker.update(canvas.fill(gray, last[:2], last[2:]))
@@ -228,7 +255,10 @@ def csrt_steps(path, info, params: CsrtParams, blob_params: BlobParams, box, ini
                 area, polarity = acquirer.signature
                 acquirer.signature = (0.8 * area + 0.2 * blob.area, polarity)
             a = 0.6
-            velocity = (a * (cx - last[0]) / dt + (1 - a) * velocity[0], a * (cy - last[1]) / dt + (1 - a) * velocity[1])
+            velocity = (
+                a * (cx - last[0]) / dt + (1 - a) * velocity[0],
+                a * (cy - last[1]) / dt + (1 - a) * velocity[1],
+            )
             last, last_frame = (cx, cy, float(w), float(h)), index
         if lost:
             tracker, last, held = None, None, []

@@ -52,7 +52,7 @@ class Detections:
         """Distinct tracklet ids, ascending."""
         return np.unique(self.id)
 
-    def subset(self, rows: np.ndarray) -> "Detections":
+    def subset(self, rows: np.ndarray) -> Detections:
         """The given rows (indices or boolean mask), in frame order."""
         rows = np.flatnonzero(rows) if np.asarray(rows).dtype == bool else np.asarray(rows, dtype=np.int64)
         rows = rows[np.lexsort((self.id[rows], self.frame[rows]))]
@@ -91,7 +91,9 @@ class Detections:
 
 
 def follows_every_mover(kind: str, init, init_frame: int = 0) -> bool:
-    """Whether a single-video request (``tlsync track-video``) means every mover (blob kind, no init box, from the first frame) rather than one target."""
+    """Whether a single-video request (``tlsync track-video``) means every mover (blob kind, no init box, from the first
+    frame) rather than one target.
+    """
     return kind == "blob" and init is None and init_frame == 0
 
 
@@ -111,7 +113,12 @@ def seed_tracklets(detections: Detections, box, init_frame: int) -> frozenset[in
     rows = np.flatnonzero(inside)
     if len(rows) == 0:
         return frozenset()
-    order = np.lexsort((np.hypot(detections.x[rows] - (x + w / 2), detections.y[rows] - (y + h / 2)), np.abs(detections.frame[rows] - init_frame)))
+    order = np.lexsort(
+        (
+            np.hypot(detections.x[rows] - (x + w / 2), detections.y[rows] - (y + h / 2)),
+            np.abs(detections.frame[rows] - init_frame),
+        )
+    )
     return frozenset({int(detections.id[rows[order[0]]])})
 
 
@@ -133,13 +140,17 @@ def read_detections(path: str | Path) -> Detections:
     """
     path = Path(path)
     optional = tuple(c for c in COLUMNS if c not in REQUIRED_COLUMNS)
-    cols, lines = read_table(path, REQUIRED_COLUMNS, optional, f"a header '{','.join(COLUMNS)}' and one row per detection")
+    cols, lines = read_table(
+        path, REQUIRED_COLUMNS, optional, f"a header '{','.join(COLUMNS)}' and one row per detection"
+    )
     check_indices(path, "frame", cols["frame"], lines, "a 0-based integer frame index")
     check_indices(path, "id", cols["id"], lines, "a non-negative integer tracklet id")
     if len(lines) == 0:
         raise TrackInputError(f"{path}: no detection (a header but no row)")
     defaults = {"time_s": math.nan, "w": math.nan, "h": math.nan, "score": 1.0}
-    detections = make_detections(np.column_stack([cols[c] if c in cols else np.full(len(lines), defaults[c]) for c in COLUMNS]))
+    detections = make_detections(
+        np.column_stack([cols[c] if c in cols else np.full(len(lines), defaults[c]) for c in COLUMNS])
+    )
     pairs = detections.frame * (int(detections.id.max()) + 1) + detections.id
     dup = np.flatnonzero(np.diff(pairs) == 0)
     if len(dup):

@@ -61,7 +61,9 @@ class MoverLinker:
         out: list[tuple[int, Blob, float]] = []
         linked = set()
         if self.live and blobs:
-            from scipy.optimize import linear_sum_assignment  # 0.4-0.5 s to import: paid by the processes that link, not by every one importing trackers
+            from scipy.optimize import (
+                linear_sum_assignment,
+            )  # 0.4-0.5 s to import: paid by the processes that link, not by every one importing trackers
 
             cost = self._costs(frame, blobs)
             rows, cols = linear_sum_assignment(cost)
@@ -84,7 +86,9 @@ class MoverLinker:
         log_ratio_max = math.log(p.size_ratio)
         blob_cols = np.array([(b.x, b.y, max(b.area, 1e-6), b.polarity, max(b.w, b.h)) for b in blobs]).T
         bx, by, barea, bpol, bsize = (c[None, :] for c in blob_cols)
-        tx, ty, tvx, tvy, tarea, tpol, tframe = (c[:, None] for c in np.array([(t.x, t.y, t.vx, t.vy, t.area, t.polarity, t.frame) for t in self.live]).T)
+        tx, ty, tvx, tvy, tarea, tpol, tframe = (
+            c[:, None] for c in np.array([(t.x, t.y, t.vx, t.vy, t.area, t.polarity, t.frame) for t in self.live]).T
+        )
         dt = frame - tframe
         gate = np.maximum(p.gate_px, 0.5 * bsize) * (1 + 0.5 * (dt - 1))
         dist = np.hypot(bx - (tx + tvx * dt), by - (ty + tvy * dt))

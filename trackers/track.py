@@ -55,7 +55,9 @@ class Track:
         return {n: getattr(self, n) for n in names if getattr(self, n) is not None}
 
 
-def read_table(path: str | Path, required: tuple[str, ...], optional: tuple[str, ...], expected: str) -> tuple[dict[str, np.ndarray], np.ndarray]:
+def read_table(
+    path: str | Path, required: tuple[str, ...], optional: tuple[str, ...], expected: str
+) -> tuple[dict[str, np.ndarray], np.ndarray]:
     """The numeric columns of a CSV file with a header, and the 1-based line of each row; errors name the file and line.
 
     Returns the present columns of required + optional (float64 (N,)) and
@@ -80,11 +82,15 @@ def read_table(path: str | Path, required: tuple[str, ...], optional: tuple[str,
         raise TrackInputError(f"{path}: empty file; expected {expected}")
     missing = [c for c in required if c not in header]
     if missing and len(header) == 1:
-        raise TrackInputError(f"{path}:1: not a CSV header: one field of {len(header[0])} characters, no ',' or ';' between "
-                              f"column names; expected a header with at least {','.join(required)}")
+        raise TrackInputError(
+            f"{path}:1: not a CSV header: one field of {len(header[0])} characters, no ',' or ';' between "
+            f"column names; expected a header with at least {','.join(required)}"
+        )
     if missing:
-        raise TrackInputError(f"{path}:1: header with columns {column_names(header)} lacks column(s) {', '.join(missing)}; "
-                              f"expected at least {','.join(required)}")
+        raise TrackInputError(
+            f"{path}:1: header with columns {column_names(header)} lacks column(s) {', '.join(missing)}; "
+            f"expected at least {','.join(required)}"
+        )
     if len(set(header)) != len(header):
         twice = sorted({c for c in header if header.count(c) > 1})
         raise TrackInputError(f"{path}:1: duplicate column names in the header: {column_names(twice)}")
@@ -109,7 +115,9 @@ def read_table(path: str | Path, required: tuple[str, ...], optional: tuple[str,
             try:
                 v = float(row[i])
             except ValueError:
-                raise TrackInputError(f"{path}:{line_no}: column '{col}': not a number ({describe_value(row[i])})") from None
+                raise TrackInputError(
+                    f"{path}:{line_no}: column '{col}': not a number ({describe_value(row[i])})"
+                ) from None
             if not math.isfinite(v):
                 raise TrackInputError(f"{path}:{line_no}: column '{col}': {row[i].strip()} is not a finite number")
             values[n, k] = v
@@ -179,13 +187,19 @@ def _plain_numbers(rows: list[str], n_columns: int, delimiter: str = ",") -> np.
     return table
 
 
-def check_indices(path: str | Path, name: str, values: np.ndarray, lines: np.ndarray, what: str, limit: int = MAX_FRAME) -> None:
-    """Raise TrackInputError naming the line of the first value that is not an integer in [0, limit] (``what`` says what it should be)."""
+def check_indices(
+    path: str | Path, name: str, values: np.ndarray, lines: np.ndarray, what: str, limit: int = MAX_FRAME
+) -> None:
+    """Raise TrackInputError naming the line of the first value that is not an integer in [0, limit] (``what`` says what
+    it should be).
+    """
     bad = np.flatnonzero((values < 0) | (values != np.floor(values)) | (values > limit))
     if len(bad):
         k = bad[0]
         beyond = f" (at most {limit})" if values[k] > limit else ""
-        raise TrackInputError(f"{path}:{lines[k]}: column '{name}': expected {what}{beyond}, got {_number(values[k])!r}")
+        raise TrackInputError(
+            f"{path}:{lines[k]}: column '{name}': expected {what}{beyond}, got {_number(values[k])!r}"
+        )
 
 
 def _number(v: float) -> str:
@@ -199,15 +213,19 @@ def _frames_not_seconds(path: Path, frames: np.ndarray, lines: np.ndarray) -> No
         return
     k = int(np.argmax(fractional))
     raise TrackInputError(
-        f"{path}:{lines[k]}: column 'frame' holds times, not frame indices ({fractional.mean():.0%} of its values have decimals, "
-        f"{np.median(np.diff(frames)):.3g} apart): give the 0-based frame index in 'frame' (round(seconds x fps)) and the seconds in 'time_s'"
+        f"{path}:{lines[k]}: column 'frame' holds times, not frame indices ({fractional.mean():.0%} of its values "
+        f"have decimals, "
+        f"{np.median(np.diff(frames)):.3g} apart): give the 0-based frame index in 'frame' (round(seconds x fps)) and "
+        f"the seconds in 'time_s'"
     )
 
 
 def read_track(path: str | Path) -> Track:
     """Read and validate ``track.csv``; errors name the file and line."""
     path = Path(path)
-    cols, lines = read_table(path, REQUIRED_COLUMNS, OPTIONAL_COLUMNS, "a header 'frame,x,y' and one row per tracked frame")
+    cols, lines = read_table(
+        path, REQUIRED_COLUMNS, OPTIONAL_COLUMNS, "a header 'frame,x,y' and one row per tracked frame"
+    )
     _frames_not_seconds(path, cols["frame"], lines)
     check_indices(path, "frame", cols["frame"], lines, "a 0-based integer frame index")
     if len(lines) == 0:

@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Sequence
 
 import numpy as np
 
@@ -14,7 +14,16 @@ from trackers.detections import Detections, make_detections
 from trackers.errors import TrackInputError
 from trackers.movers import MoverLinker
 from trackers.track import Track
-from trackers.video import DecodeCount, VideoInfo, check_init_box, iter_frames, iter_keyframes, iter_windows, probe_video, sample_frames
+from trackers.video import (
+    DecodeCount,
+    VideoInfo,
+    check_init_box,
+    iter_frames,
+    iter_keyframes,
+    iter_windows,
+    probe_video,
+    sample_frames,
+)
 
 # Every-mover detection expects crowds: a frame is taken as a global change (skipped) only above this many blobs.
 MOVERS_MAX_CANDIDATES = 200
@@ -54,7 +63,9 @@ def track_video(
         from trackers.csrt import CsrtParams, csrt_steps
 
         csrt_params, blob_params = CsrtParams.from_dict(params, where)
-        steps = csrt_steps(path, info, csrt_params, blob_params, box, init_frame, progress, _detector(path, blob_params), label, meter)
+        steps = csrt_steps(
+            path, info, csrt_params, blob_params, box, init_frame, progress, _detector(path, blob_params), label, meter
+        )
     rows = {}
     while True:
         try:
@@ -125,7 +136,8 @@ def detect_keyframe_movers(
     first_id: int = 0,
     detector: BlobDetector | None = None,
 ) -> Detections:
-    """Every moving-object candidate of every keyframe (or of those at frame ``indices``) of ``path`` (``iter_keyframes``): the coarse pass.
+    """Every moving-object candidate of every keyframe (or of those at frame ``indices``) of ``path``
+    (``iter_keyframes``): the coarse pass.
 
     The same detector and background model as ``detect_movers`` (or
     ``detector``, one ``movers_detector`` made for the video and kept across
@@ -145,7 +157,9 @@ def detect_keyframe_movers(
 
 
 def movers_detector(path: str | Path, params: dict | None = None) -> BlobDetector:
-    """The blob detector of every-mover detection for ``path``: its background the median of frames sampled over the video."""
+    """The blob detector of every-mover detection for ``path``: its background the median of frames sampled over the
+    video.
+    """
     path = Path(path)
     probe_video(path)
     return BlobDetector(*_background(path, movers_params(path, params)))
@@ -153,11 +167,15 @@ def movers_detector(path: str | Path, params: dict | None = None) -> BlobDetecto
 
 def movers_params(path: Path, params: dict | None) -> BlobParams:
     """The blob parameters of every-mover detection: the user's over MOVERS_MAX_CANDIDATES."""
-    return BlobParams.from_dict({"max_candidates": MOVERS_MAX_CANDIDATES, **(params or {})}, f"{path}: tracker parameters")
+    return BlobParams.from_dict(
+        {"max_candidates": MOVERS_MAX_CANDIDATES, **(params or {})}, f"{path}: tracker parameters"
+    )
 
 
 def _background(path: Path, params: BlobParams) -> tuple[np.ndarray, BlobParams, np.ndarray]:
-    """A blob detector's arguments: the median of (luma) frames sampled over the video, the parameters, the deviation."""
+    """A blob detector's arguments: the median of (luma) frames sampled over the video, the
+    parameters, the deviation.
+    """
     background, deviation = median_background(sample_frames(path, params.background_frames, gray=True))
     return background, params, deviation
 
@@ -167,7 +185,16 @@ def _detector(path: Path, params: BlobParams) -> BlobDetector:
     return BlobDetector(*_background(path, params))
 
 
-def _blob_steps(path, info: VideoInfo, params: BlobParams, box, init_frame: int, progress: bool, label: str | None, meter: PictureMeter | None = None):
+def _blob_steps(
+    path,
+    info: VideoInfo,
+    params: BlobParams,
+    box,
+    init_frame: int,
+    progress: bool,
+    label: str | None,
+    meter: PictureMeter | None = None,
+):
     """Yields (frame, time_s, x, y, w, h, score) rows; returns the number of frames read."""
     detector = _detector(path, params)
     tracker = BlobTracker(params, box, (info.width, info.height))

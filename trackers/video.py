@@ -19,11 +19,12 @@ import struct
 import threading
 import warnings
 from bisect import bisect_right
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from fractions import Fraction
 from functools import lru_cache
 from pathlib import Path
-from typing import Any, Iterable, Iterator, NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -31,7 +32,9 @@ from trackers.errors import TrackInputError
 
 
 class TruncatedVideoWarning(UserWarning):
-    """A video stopped decoding before its announced end: ``frames_read`` of ``frames_announced`` (0: unknown) frames."""
+    """A video stopped decoding before its announced end: ``frames_read`` of ``frames_announced``
+    (0: unknown) frames.
+    """
 
     def __init__(self, message: str, frames_read: int = 0, frames_announced: int = 0):
         super().__init__(message)
@@ -82,7 +85,9 @@ def probe_video(path: str | Path) -> VideoInfo:
         return _info(path, stream, _first_rotation(path, container, stream) if rotation is None else rotation)
 
 
-def iter_frames(path: str | Path, gray: bool = False, progress: bool = False, desc: str | None = None) -> Iterator[VideoFrame]:
+def iter_frames(
+    path: str | Path, gray: bool = False, progress: bool = False, desc: str | None = None
+) -> Iterator[VideoFrame]:
     """Yield every decodable frame of ``path`` in order, with its index and presentation time.
 
     gray: yield (H, W) grey frames instead of (H, W, 3) BGR (for YUV video
@@ -144,7 +149,9 @@ def read_frames(path: str | Path, indices: Iterable[int], gray: bool = False) ->
     return _read_indexed(path, wanted, gray, pts_list, keyframes)
 
 
-def _read_indexed(path: Path, wanted: list[int], gray: bool, pts_list: tuple[int, ...], keyframes: tuple[int, ...]) -> dict[int, VideoFrame]:
+def _read_indexed(
+    path: Path, wanted: list[int], gray: bool, pts_list: tuple[int, ...], keyframes: tuple[int, ...]
+) -> dict[int, VideoFrame]:
     """read_frames with the video's packet index (_packet_index) at hand: ``wanted`` sorted, within the video."""
     out: dict[int, VideoFrame] = {}
     with _open(path) as container:
@@ -224,7 +231,9 @@ class DecodeCount:
 
 
 def keyframe_indices(path: str | Path) -> np.ndarray | None:
-    """0-based frame indices (as ``iter_frames`` numbers them) of the video's keyframes, demux only; None without timestamps."""
+    """0-based frame indices (as ``iter_frames`` numbers them) of the video's keyframes, demux only; None without
+    timestamps.
+    """
     pts_list, keyframes = _packet_index(Path(path))
     if not pts_list:
         return None
@@ -238,8 +247,11 @@ def frame_count(path: str | Path) -> int | None:
     return len(pts_list) if pts_list else None
 
 
-def iter_keyframes(path: str | Path, gray: bool = True, count: DecodeCount | None = None, indices: Iterable[int] | None = None) -> Iterator[VideoFrame]:
-    """Every keyframe of ``path`` (or those at the 0-based frame ``indices``) in order, with its index and presentation time, each decoded alone.
+def iter_keyframes(
+    path: str | Path, gray: bool = True, count: DecodeCount | None = None, indices: Iterable[int] | None = None
+) -> Iterator[VideoFrame]:
+    """Every keyframe of ``path`` (or those at the 0-based frame ``indices``) in order, with its index and presentation
+    time, each decoded alone.
 
     The packets are demuxed in order (no seeking) and only keyframes' are
     decoded, each on its own: the decoder is drained after it and reset
@@ -282,7 +294,9 @@ def iter_keyframes(path: str | Path, gray: bool = True, count: DecodeCount | Non
 
 
 def merge_windows(windows: Iterable[tuple[int, int]], gap: int = 0) -> list[tuple[int, int]]:
-    """Frame windows [start, stop) (0-based, stop excluded) sorted and merged where they overlap or lie within ``gap`` frames."""
+    """Frame windows [start, stop) (0-based, stop excluded) sorted and merged where they overlap or lie within ``gap``
+    frames.
+    """
     out: list[list[int]] = []
     for start, stop in sorted((int(a), int(b)) for a, b in windows if int(b) > int(a)):
         if out and start <= out[-1][1] + gap:
@@ -350,8 +364,12 @@ def iter_windows(
                 bar.close()
 
 
-def _decode_windows(container, stream, plan, pts_list, keyframes, where) -> Iterator[tuple[Any, int | None, str | None]]:
-    """(frame, its index when inside the window being read else None, error) for every frame decoded to read ``plan``'s windows."""
+def _decode_windows(
+    container, stream, plan, pts_list, keyframes, where
+) -> Iterator[tuple[Any, int | None, str | None]]:
+    """(frame, its index when inside the window being read else None, error) for every frame decoded to read ``plan``'s
+    windows.
+    """
     for start, stop in plan:
         seek_to = keyframes[max(0, bisect_right(keyframes, pts_list[start]) - 1)] if keyframes else pts_list[0]
         container.seek(seek_to, stream=stream, backward=True, any_frame=False)
@@ -444,7 +462,9 @@ def _open(path: Path):
     if path.is_dir():
         raise TrackInputError(f"{path}: is a folder, expected a video file")
     if not stat.S_ISREG(path.stat().st_mode) or path.resolve().parts[1:2] in (("proc",), ("sys",), ("dev",)):
-        raise TrackInputError(f"{path}: not a regular file (a device, a pipe or a file of the system), expected a video file")
+        raise TrackInputError(
+            f"{path}: not a regular file (a device, a pipe or a file of the system), expected a video file"
+        )
     try:
         container = av.open(str(path), mode="r")
     except av.error.EOFError:
@@ -533,7 +553,10 @@ def _warn_truncated(path: Path, index: int, time_s: float | None, n_frames: int,
     if index < 0:
         raise TrackInputError(f"{path}: the video has no decodable frame ({why})")
     announced = f" of {n_frames} announced" if n_frames else ""
-    message = f"{path}: video truncated or corrupt ({why}); read up to frame {index} (t = {time_s:.3f} s), {index + 1} frames{announced}"
+    message = (
+        f"{path}: video truncated or corrupt ({why}); read up to frame {index} (t = {time_s:.3f} s), "
+        f"{index + 1} frames{announced}"
+    )
     warnings.warn(TruncatedVideoWarning(message, index + 1, n_frames), stacklevel=3)
 
 
@@ -608,7 +631,7 @@ def _track_matrix(handle, track_id: int) -> list[int] | None:
         for trak, trak_start, trak_end in _boxes(handle, start, end):
             if trak != b"trak":
                 continue
-            for tkhd, at, tkhd_end in _boxes(handle, trak_start, trak_end):
+            for tkhd, at, _ in _boxes(handle, trak_start, trak_end):
                 if tkhd != b"tkhd":
                     continue
                 handle.seek(at)
@@ -617,7 +640,9 @@ def _track_matrix(handle, track_id: int) -> list[int] | None:
                 handle.seek(ids_at)
                 if struct.unpack(">I", handle.read(4))[0] != track_id:
                     break
-                handle.seek(ids_at + 4 + 4 + (8 if version == 1 else 4) + 16)  # track id, reserved, duration, reserved, layer...volume
+                handle.seek(
+                    ids_at + 4 + 4 + (8 if version == 1 else 4) + 16
+                )  # track id, reserved, duration, reserved, layer...volume
                 return list(struct.unpack(">9i", handle.read(36)))
         return None
     return None
@@ -646,10 +671,18 @@ def _to_array(frame, gray: bool, rotation: int) -> np.ndarray:
         plane = frame.planes[0]
         image = np.frombuffer(plane, np.uint8).reshape(-1, plane.line_size)[: frame.height, : frame.width]
         if plane.line_size == frame.width and not rotation:
-            image.flags.writeable = False  # the decoder's own buffer (kept alive by the array), which it may still predict from
+            image.flags.writeable = (
+                False  # the decoder's own buffer (kept alive by the array), which it may still predict from
+            )
             return image
         image = image.copy()
-    elif not gray and frame.format.name == "yuv420p" and frame.color_range != 2 and frame.width % 2 == 0 and frame.height % 2 == 0:
+    elif (
+        not gray
+        and frame.format.name == "yuv420p"
+        and frame.color_range != 2
+        and frame.width % 2 == 0
+        and frame.height % 2 == 0
+    ):
         # OpenCV's I420 -> BGR (BT.601, limited range) is about 4x faster than swscale here
         image = cv2.cvtColor(frame.to_ndarray(), cv2.COLOR_YUV2BGR_I420)
     else:
@@ -723,7 +756,9 @@ def sample_frames(path: str | Path, count: int, gray: bool = True) -> list[np.nd
 
 
 def check_init_box(path: Path, info: VideoInfo, init, init_frame) -> tuple[float, float, float, float] | None:
-    """The init box [x, y, w, h] (pixels, top-left corner and size) as floats, or None; TrackInputError naming ``path`` when it or its 0-based frame does not fit the video."""
+    """The init box [x, y, w, h] (pixels, top-left corner and size) as floats, or None; TrackInputError naming ``path``
+    when it or its 0-based frame does not fit the video.
+    """
     if isinstance(init_frame, bool) or not isinstance(init_frame, (int, np.integer)) or init_frame < 0:
         raise TrackInputError(f"{path}: init frame must be a 0-based frame index, got {init_frame!r}")
     if info.counted and init_frame >= info.n_frames:
@@ -738,7 +773,7 @@ def check_init_box(path: Path, info: VideoInfo, init, init_frame) -> tuple[float
         raise TrackInputError(f"{path}: init box [{x:g}, {y:g}, {w:g}, {h:g}]: width and height must be positive")
     if x < 0 or y < 0 or x + w > info.width or y + h > info.height:
         raise TrackInputError(
-            f"{path}: init box [{x:g}, {y:g}, {w:g}, {h:g}] is outside the image ({info.width}x{info.height}); x, y is the top-left corner"
+            f"{path}: init box [{x:g}, {y:g}, {w:g}, {h:g}] is outside the image ({info.width}x{info.height}); x, y "
+            f"is the top-left corner"
         )
     return x, y, w, h
-

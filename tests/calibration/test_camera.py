@@ -42,7 +42,15 @@ def test_json_round_trip_and_alternative_forms(tmp_path):
     np.testing.assert_allclose(back.K, cam.K)
     assert back.fps == 30.0 and back.image_size == (640, 480)
 
-    as_rvec = Camera.from_dict({"K": cam.K.tolist(), "dist": cam.dist.tolist(), "rvec": cam.rvec.tolist(), "tvec": cam.t.tolist(), "image_size": [640, 480]})
+    as_rvec = Camera.from_dict(
+        {
+            "K": cam.K.tolist(),
+            "dist": cam.dist.tolist(),
+            "rvec": cam.rvec.tolist(),
+            "tvec": cam.t.tolist(),
+            "image_size": [640, 480],
+        }
+    )
     np.testing.assert_allclose(as_rvec.R, cam.R, atol=1e-12)
 
     P = cam.K @ np.column_stack([cam.R, cam.t]) * 3.7  # any scale
@@ -112,10 +120,25 @@ def test_a_camera_json_with_the_image_size_only_has_its_intrinsics_to_estimate()
 
 def test_the_pose_source_and_uncertainty_round_trip(tmp_path):
     cam = _camera()
-    posed = Camera(cam.name, cam.K, cam.dist, cam.R, cam.t, cam.image_size, cam.fps, pose_info=PoseInfo("gcp+target", 0.03, 0.05, False, "good for timing, not for 3D"))
+    posed = Camera(
+        cam.name,
+        cam.K,
+        cam.dist,
+        cam.R,
+        cam.t,
+        cam.image_size,
+        cam.fps,
+        pose_info=PoseInfo("gcp+target", 0.03, 0.05, False, "good for timing, not for 3D"),
+    )
     write_camera(posed, tmp_path / "c.json")
     data = json.loads((tmp_path / "c.json").read_text())
-    assert data["pose"] == {"source": "gcp+target", "center_std_m": 0.03, "rotation_std_deg": 0.05, "for_3d": False, "note": "good for timing, not for 3D"}
+    assert data["pose"] == {
+        "source": "gcp+target",
+        "center_std_m": 0.03,
+        "rotation_std_deg": 0.05,
+        "for_3d": False,
+        "note": "good for timing, not for 3D",
+    }
     assert read_camera(tmp_path / "c.json").pose_info == posed.pose_info
     assert read_camera(tmp_path / "c.json").posed
     data["pose"] = {"source": "guess"}
@@ -123,13 +146,16 @@ def test_the_pose_source_and_uncertainty_round_trip(tmp_path):
         Camera.from_dict(data)
 
 
-@pytest.mark.parametrize("image_size, cropped, refused", [
-    ([320, 240], False, True),  # K of a 640 x 480 image, image_size of its half: off by 2 on both axes
-    ([8000, 6000], False, True),  # ... of a much larger one: off by 0.08
-    ([320, 480], False, False),  # the left half of the image, cropped: cx at its right edge, cy at the centre
-    ([640, 240], False, False),  # the top half
-    ([320, 240], True, False),  # the top-left quarter, cropped: the resolution's signature, declared
-])
+@pytest.mark.parametrize(
+    "image_size, cropped, refused",
+    [
+        ([320, 240], False, True),  # K of a 640 x 480 image, image_size of its half: off by 2 on both axes
+        ([8000, 6000], False, True),  # ... of a much larger one: off by 0.08
+        ([320, 480], False, False),  # the left half of the image, cropped: cx at its right edge, cy at the centre
+        ([640, 240], False, False),  # the top half
+        ([320, 240], True, False),  # the top-left quarter, cropped: the resolution's signature, declared
+    ],
+)
 def test_a_cropped_camera_is_told_from_an_image_size_of_another_resolution(tmp_path, image_size, cropped, refused):
     data = _camera().to_dict()  # K of a 640 x 480 image, principal point at its centre
     data["K"] = [[800.0, 0.0, 320.0], [0.0, 800.0, 240.0], [0.0, 0.0, 1.0]]
@@ -139,7 +165,10 @@ def test_a_cropped_camera_is_told_from_an_image_size_of_another_resolution(tmp_p
     path = tmp_path / "cam.json"
     path.write_text(json.dumps(data))
     if refused:
-        with pytest.raises(CalibrationInputError, match=r"on both axes: K and image_size are of different resolutions .*\"cropped\": true"):
+        with pytest.raises(
+            CalibrationInputError,
+            match=r"on both axes: K and image_size are of different resolutions .*\"cropped\": true",
+        ):
             read_camera(path)
     else:
         camera = read_camera(path)

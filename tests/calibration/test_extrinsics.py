@@ -70,8 +70,16 @@ def test_ransac_flags_a_wrong_point():
     "uv, xyz, message",
     [
         (np.zeros((3, 2)), np.zeros((3, 3)), "3 points, at least 4 are needed"),
-        (np.array([[10, 10], [200, 50], [300, 400], [500, 90]], float), np.array([[0, 0, 0], [1, 1, 0], [2, 2, 0], [3, 3, 0]], float), "world points are collinear"),
-        (np.array([[10, 10], [20, 20], [30, 30], [40, 40], [50, 50]], float), np.array([[0, 0, 0], [1, 3, 0], [2, 1, 0], [3, 5, 1], [0, 4, 2]], float), "pixel positions are collinear"),
+        (
+            np.array([[10, 10], [200, 50], [300, 400], [500, 90]], float),
+            np.array([[0, 0, 0], [1, 1, 0], [2, 2, 0], [3, 3, 0]], float),
+            "world points are collinear",
+        ),
+        (
+            np.array([[10, 10], [20, 20], [30, 30], [40, 40], [50, 50]], float),
+            np.array([[0, 0, 0], [1, 3, 0], [2, 1, 0], [3, 5, 1], [0, 4, 2]], float),
+            "pixel positions are collinear",
+        ),
     ],
 )
 def test_degenerate_points_are_refused(uv, xyz, message):
@@ -82,15 +90,22 @@ def test_degenerate_points_are_refused(uv, xyz, message):
 def test_gcp_csv_reader(tmp_path):
     uv, xyz, _ = make_gcps(K, DIST, R_TRUE, T_TRUE, SIZE, n=5, seed=1)
     table = read_gcps(write_gcp_csv(tmp_path / "g.csv", uv, xyz))
-    assert np.allclose(table.uv, uv) and np.allclose(table.xyz, xyz) and table.geodetic is None and table.names[0] == "p0"
-    geo = read_gcps(write_gcp_csv(tmp_path / "h.csv", uv, np.column_stack([xyz[:, :2] * 1e-5 + [47, 8], xyz[:, 2]]), geodetic=True))
+    assert (
+        np.allclose(table.uv, uv) and np.allclose(table.xyz, xyz) and table.geodetic is None and table.names[0] == "p0"
+    )
+    geo = read_gcps(
+        write_gcp_csv(tmp_path / "h.csv", uv, np.column_stack([xyz[:, :2] * 1e-5 + [47, 8], xyz[:, 2]]), geodetic=True)
+    )
     assert geo.xyz is None and geo.geodetic.shape == (5, 3)
 
 
 @pytest.mark.parametrize(
     "text, message",
     [
-        ("u,v,x,y,lat,lon\n1,2,3,4,5,6\n", r"g.csv:1: the header mixes local columns \(x,y\) and geodetic columns \(lat,lon\)"),
+        (
+            "u,v,x,y,lat,lon\n1,2,3,4,5,6\n",
+            r"g.csv:1: the header mixes local columns \(x,y\) and geodetic columns \(lat,lon\)",
+        ),
         ("u,v,x,y\n1,2,3,4\n", r"g.csv:1: missing column\(s\) z"),
         ("# surveyed 2024\nu,v,x,y,z\n1,2,3,4,5\n1,2,three,4,5\n", r"g.csv:4: column 'x': not a number: 'three'"),
         ("u,v,x,y,z\n1,2,3,4\n", r"g.csv:2: expected 5 values"),
@@ -123,4 +138,6 @@ def test_pose_from_a_board_at_a_known_world_pose():
 
 def test_board_pose_needs_an_unambiguous_pattern():
     with pytest.raises(CalibrationInputError, match="180 degrees"):
-        pose_from_board(np.zeros((10, 10), np.uint8), np.zeros((35, 2)), parse_pattern("7x5", 0.03), np.eye(3), np.zeros(3), K, DIST)
+        pose_from_board(
+            np.zeros((10, 10), np.uint8), np.zeros((35, 2)), parse_pattern("7x5", 0.03), np.eye(3), np.zeros(3), K, DIST
+        )

@@ -52,7 +52,7 @@ def undistortion_displacement(K_true, d_true, K_est, d_est, size, model="opencv"
 def test_recovers_the_true_camera(boards, detections, model):
     result = calibrate_detections(detections, PATTERN, model)
     K, T = result.K, boards.K
-    for (i, j) in ((0, 0), (1, 1), (0, 2), (1, 2)):
+    for i, j in ((0, 0), (1, 1), (0, 2), (1, 2)):
         assert abs(K[i, j] - T[i, j]) <= 0.005 * T[i, j], (model, K, T)
     assert abs(K[0, 0] / K[1, 1] - T[0, 0] / T[1, 1]) < 0.002  # non-square pixels are kept
     assert undistortion_displacement(T, boards.dist, K, result.dist, SIZE) < 0.3
@@ -81,7 +81,9 @@ def test_detected_corners_match_the_truth(boards):
     view, image = next((v, img) for v, img in zip(boards.views, boards.images) if v.kind == "full")
     corners, method, _ = detect_board(cv2.cvtColor(image, cv2.COLOR_BGR2GRAY), PATTERN.size)
     truth = view.corners
-    err = min(np.abs(corners - truth).max(), np.abs(corners[::-1] - truth).max())  # the detector may start at either end
+    err = min(
+        np.abs(corners - truth).max(), np.abs(corners[::-1] - truth).max()
+    )  # the detector may start at either end
     assert method == "classic" and err < 0.3  # the cheapest detector, tried first
 
 
@@ -99,21 +101,29 @@ def test_outlier_views_are_dropped(boards, detections):
 def test_fisheye_model_on_a_fisheye_lens():
     K = np.array([[300.0, 0, 322.0], [0, 290.0, 236.0], [0, 0, 1]])
     D = np.array([0.05, -0.02, 0.01, -0.003])
-    boards = render_checkerboards(seed=4, n_full=12, n_cut=0, n_absent=0, image_size=(640, 480), K=K, dist=D, dist_model="fisheye")
+    boards = render_checkerboards(
+        seed=4, n_full=12, n_cut=0, n_absent=0, image_size=(640, 480), K=K, dist=D, dist_model="fisheye"
+    )
     dets = [detect_board(cv2.cvtColor(img, cv2.COLOR_BGR2GRAY), PATTERN.size) for img in boards.images]
     from calibration.intrinsics import Detection
 
     found = [Detection(v.name, (640, 480), c, m, r) for v, (c, m, r) in zip(boards.views, dets)]
     result = calibrate_detections(found, PATTERN, "fisheye")
     assert result.dist_model == "fisheye" and len(result.dist) == 4
-    for (i, j) in ((0, 0), (1, 1), (0, 2), (1, 2)):
+    for i, j in ((0, 0), (1, 1), (0, 2), (1, 2)):
         assert abs(result.K[i, j] - K[i, j]) <= 0.005 * K[i, j], result.K
     # The fisheye lens's undistortion displacement grows to tens of px in the corners, so
     # check the whole lens instead: true rays of a pixel grid reprojected with the estimate.
     xs, ys = np.meshgrid(np.linspace(0, 639, 40), np.linspace(0, 479, 30))
     uv = np.column_stack([xs.ravel(), ys.ravel()]).reshape(-1, 1, 2)
     rays = cv2.fisheye.undistortPoints(uv, K, D).reshape(-1, 2)
-    back = cv2.fisheye.projectPoints(np.column_stack([rays, np.ones(len(rays))]).reshape(-1, 1, 3), np.zeros((3, 1)), np.zeros((3, 1)), result.K, result.dist)[0]
+    back = cv2.fisheye.projectPoints(
+        np.column_stack([rays, np.ones(len(rays))]).reshape(-1, 1, 3),
+        np.zeros((3, 1)),
+        np.zeros((3, 1)),
+        result.K,
+        result.dist,
+    )[0]
     assert np.linalg.norm(back.reshape(-1, 2) - uv.reshape(-1, 2), axis=1).mean() < 0.6
     assert result.camera("c").dist_model == "fisheye"
 
@@ -151,7 +161,20 @@ def _cli(*args):
 
 def test_cli_writes_an_intrinsics_only_camera_json(board_dir, tmp_path, boards):
     out = tmp_path / "cam.json"
-    result = _cli("calibrate-intrinsics", "--images", board_dir / "board_00*.png", "--pattern", "9x6", "--square", 0.03, "--out", out, "--quiet", "--report", tmp_path / "r.json")
+    result = _cli(
+        "calibrate-intrinsics",
+        "--images",
+        board_dir / "board_00*.png",
+        "--pattern",
+        "9x6",
+        "--square",
+        0.03,
+        "--out",
+        out,
+        "--quiet",
+        "--report",
+        tmp_path / "r.json",
+    )
     assert result.exit_code == 0, result.output
     import json
 
@@ -171,16 +194,41 @@ def _images(directory: Path, boards, views) -> Path:
 @pytest.mark.parametrize(
     "make, args, message",
     [
-        (lambda d, b: _images(d, b, [img for v, img in zip(b.views, b.images) if v.kind == "absent"] * 1 + [np.full((600, 800, 3), 128, np.uint8)] * 4),
-         ("--pattern", "9x6"), r"no 9x6 board .* in any of 5 images; rejected: 5 no board found"),
-        (lambda d, b: _images(d, b, [img for v, img in zip(b.views, b.images) if v.kind == "full"][:3] + [np.zeros((480, 640, 3), np.uint8)] * 3),
-         ("--pattern", "9x6"), r"different sizes \(800x600: 3 .*640x480: 3"),
-        (lambda d, b: _images(d, b, [img for v, img in zip(b.views, b.images) if v.kind == "full"][:4]),
-         ("--pattern", "9x6"), r"only 4 usable views of the 9x6 board in 4 images, at least 5 are needed"),
-        (lambda d, b: _images(d, b, [img for v, img in zip(b.views, b.images) if v.kind == "full"][:3]),
-         ("--pattern", "7x6"), r"3 of 3 images show a 9x6 board \(inner corners, columns x rows\), not 7x6: use --pattern 9x6$"),
-        (lambda d, b: (_images(d, b, [b.images[0]]) / "broken.png").write_bytes(b"not a png") and d,
-         ("--pattern", "9x6"), r"broken.png: cannot read the image"),
+        (
+            lambda d, b: _images(
+                d,
+                b,
+                [img for v, img in zip(b.views, b.images) if v.kind == "absent"] * 1
+                + [np.full((600, 800, 3), 128, np.uint8)] * 4,
+            ),
+            ("--pattern", "9x6"),
+            r"no 9x6 board .* in any of 5 images; rejected: 5 no board found",
+        ),
+        (
+            lambda d, b: _images(
+                d,
+                b,
+                [img for v, img in zip(b.views, b.images) if v.kind == "full"][:3]
+                + [np.zeros((480, 640, 3), np.uint8)] * 3,
+            ),
+            ("--pattern", "9x6"),
+            r"different sizes \(800x600: 3 .*640x480: 3",
+        ),
+        (
+            lambda d, b: _images(d, b, [img for v, img in zip(b.views, b.images) if v.kind == "full"][:4]),
+            ("--pattern", "9x6"),
+            r"only 4 usable views of the 9x6 board in 4 images, at least 5 are needed",
+        ),
+        (
+            lambda d, b: _images(d, b, [img for v, img in zip(b.views, b.images) if v.kind == "full"][:3]),
+            ("--pattern", "7x6"),
+            r"3 of 3 images show a 9x6 board \(inner corners, columns x rows\), not 7x6: use --pattern 9x6$",
+        ),
+        (
+            lambda d, b: (_images(d, b, [b.images[0]]) / "broken.png").write_bytes(b"not a png") and d,
+            ("--pattern", "9x6"),
+            r"broken.png: cannot read the image",
+        ),
         (lambda d, b: d, ("--pattern", "9x6"), r"no files match this pattern"),
         (lambda d, b: d, ("--pattern", "9-6"), r"--pattern: expected inner corners as COLSxROWS"),
     ],
@@ -190,7 +238,17 @@ def test_bad_input_exits_2_with_a_clear_message(tmp_path, boards, make, args, me
     folder = tmp_path / "imgs"
     folder.mkdir()
     make(folder, boards)
-    result = _cli("calibrate-intrinsics", "--images", folder / "*.png", *args, "--square", 0.03, "--out", tmp_path / "c.json", "--quiet")
+    result = _cli(
+        "calibrate-intrinsics",
+        "--images",
+        folder / "*.png",
+        *args,
+        "--square",
+        0.03,
+        "--out",
+        tmp_path / "c.json",
+        "--quiet",
+    )
     assert result.exit_code == 2, result.output
     assert re.search(message, result.output, re.M), result.output
     assert "Traceback" not in result.output and not (tmp_path / "c.json").exists()
@@ -203,7 +261,18 @@ def test_harsh_4k_views_are_detected_accurately(screen_period):
     from data_fixtures.checkerboard import default_camera, harsh_photo
 
     K, dist = default_camera((1920, 1080))
-    boards = render_checkerboards(seed=21, n_full=2, n_cut=0, n_absent=0, image_size=(1920, 1080), K=K, dist=dist, supersample=1, blur_px=(0.5, 0.5), noise=(1, 1))
+    boards = render_checkerboards(
+        seed=21,
+        n_full=2,
+        n_cut=0,
+        n_absent=0,
+        image_size=(1920, 1080),
+        K=K,
+        dist=dist,
+        supersample=1,
+        blur_px=(0.5, 0.5),
+        noise=(1, 1),
+    )
     for i, (view, image) in enumerate(zip(boards.views, boards.images)):
         gray = harsh_photo(image, i, (3840, 2160), blur_px=3.0, noise=8.0, light=0.7, screen_period=screen_period)
         corners, _, reason = detect_board(gray, PATTERN.size)
@@ -219,12 +288,27 @@ def test_boards_of_other_sizes_far_away_in_4k(pattern, fill):
     from data_fixtures.checkerboard import default_camera, harsh_photo
 
     K, dist = default_camera((1920, 1080))
-    boards = render_checkerboards(seed=5, n_full=1, n_cut=0, n_absent=0, image_size=(1920, 1080), K=K, dist=dist, supersample=1, pattern=pattern, fill=fill, blur_px=(0.5, 0.5), noise=(1, 1))
+    boards = render_checkerboards(
+        seed=5,
+        n_full=1,
+        n_cut=0,
+        n_absent=0,
+        image_size=(1920, 1080),
+        K=K,
+        dist=dist,
+        supersample=1,
+        pattern=pattern,
+        fill=fill,
+        blur_px=(0.5, 0.5),
+        noise=(1, 1),
+    )
     gray = harsh_photo(boards.images[0], 0, (3840, 2160), blur_px=1.5, noise=5.0, light=0.5)
     corners, _, reason = detect_board(gray, pattern)
     assert corners is not None, reason
     truth = (boards.views[0].corners + 0.5) * 2 - 0.5
-    assert min(np.linalg.norm(corners - truth, axis=1).mean(), np.linalg.norm(corners[::-1] - truth, axis=1).mean()) < 0.5
+    assert (
+        min(np.linalg.norm(corners - truth, axis=1).mean(), np.linalg.norm(corners[::-1] - truth, axis=1).mean()) < 0.5
+    )
 
 
 def test_a_few_images_of_another_size_are_rejected(detections):

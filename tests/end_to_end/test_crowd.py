@@ -90,24 +90,35 @@ def test_identified_tracks_are_on_the_target(crowd_run):
         assert summary.identified_frames == len(track)
         assert summary.support_frames > summary.runner_up_frames
         pictures = directory / "work" / "render"
-        assert (pictures / f"movers_{name}.png").stat().st_size > 0 and (pictures / f"votes_movers_{name}.png").stat().st_size > 0
+        assert (pictures / f"movers_{name}.png").stat().st_size > 0 and (
+            pictures / f"votes_movers_{name}.png"
+        ).stat().st_size > 0
         assert movers.matching(track).sum() == len(track)  # the identified track is made of detected movers
 
 
 def test_detections_brought_by_the_user_and_a_camera_without_the_path(two_walkers, tmp_path):
-    """Cameras may bring their own detections.csv; one whose view the path never enters is named, the others synchronized (exit 1)."""
+    """Cameras may bring their own detections.csv; one whose view the path never enters is named, the others
+    synchronized (exit 1).
+    """
     directory, _, _ = two_walkers
     parts = [f'[target]\ntrajectory = "{directory / "trajectory.csv"}"\n']
     for name in ("cam0", "cam1"):
         movers = read_detections(directory / "work" / "cameras" / name / "detections.csv")
         write_detections(movers, tmp_path / f"{name}_movers.csv")
         fps = json.loads((directory / f"{name}.json").read_text())["fps"]
-        parts.append(f'[[cameras]]\nname = "{name}"\ncamera = "{directory / name}.json"\ndetections = "{name}_movers.csv"\nfps = {fps}\n')
+        parts.append(
+            f'[[cameras]]\nname = "{name}"\ncamera = "{directory / name}.json"\ndetections = "{name}_movers.csv"\nfps '
+            f"= {fps}\n"
+        )
     camera = json.loads((directory / "cam0.json").read_text())
-    camera["t"] = [v - 1e4 if k == 2 else v for k, v in enumerate(camera["t"])]  # the whole path 10 km behind this camera
+    camera["t"] = [
+        v - 1e4 if k == 2 else v for k, v in enumerate(camera["t"])
+    ]  # the whole path 10 km behind this camera
     (tmp_path / "away.json").write_text(json.dumps(camera))
     away = read_detections(directory / "work" / "cameras" / "cam1" / "detections.csv")
-    write_detections(dataclasses.replace(away, x=away.x + 0.5), tmp_path / "away_movers.csv")  # its own file (one file for two cameras is bad input)
+    write_detections(
+        dataclasses.replace(away, x=away.x + 0.5), tmp_path / "away_movers.csv"
+    )  # its own file (one file for two cameras is bad input)
     parts.append('[[cameras]]\nname = "away"\ncamera = "away.json"\ndetections = "away_movers.csv"\nfps = 5.0\n')
     (tmp_path / "project.toml").write_text("\n".join(parts))
     result = _run("run", tmp_path / "project.toml", "--quiet")
@@ -137,14 +148,20 @@ def test_an_init_box_seeds_the_identity_without_detecting_again(six_walkers, tmp
     # The box is drawn, as a user would, in a frame where the target stands clear: one mover on it, of its size.
     movers = read_detections(directory / "work" / "cameras" / "cam1" / "detections.csv")
     on = truth.on_target(movers.frame, movers.xy)
-    clear = on & (np.abs(movers.h / (2 * truth.axes[movers.frame, 1]) - 1) < 0.2) & (np.abs(movers.w / (2 * truth.axes[movers.frame, 0]) - 1) < 0.4)
+    clear = (
+        on
+        & (np.abs(movers.h / (2 * truth.axes[movers.frame, 1]) - 1) < 0.2)
+        & (np.abs(movers.w / (2 * truth.axes[movers.frame, 0]) - 1) < 0.4)
+    )
     frame = int(movers.frame[np.flatnonzero(clear)[len(np.flatnonzero(clear)) // 2]])
     (x, y), (a, b) = truth.xy[frame], truth.axes[frame]
     copy = _seeded_project(directory, tmp_path, (x - a, y - b, 2 * a, 2 * b), frame)
     result = _run("run", copy / "project.toml", "--quiet", "--json")
     assert result.exit_code == 0, result.output
     states = {t["id"]: t["state"] for t in json.loads(result.output)["tasks"]}
-    assert states["track/cam1"] == "fresh" and states["identify/cam1"] == "ran"  # the box seeds identify; detection is kept
+    assert (
+        states["track/cam1"] == "fresh" and states["identify/cam1"] == "ran"
+    )  # the box seeds identify; detection is kept
     movers = read_detections(copy / "work" / "cameras" / "cam1" / "detections.csv")
     at_box = (movers.frame == frame) & truth.on_target(movers.frame, movers.xy)
     seeded_ids = set(movers.id[at_box].tolist())

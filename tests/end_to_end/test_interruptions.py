@@ -35,10 +35,17 @@ from tlsync_pipeline.cli.exit_codes import ExitCode
 from tlsync_pipeline.pipeline.cache import read_manifest
 from tlsync_pipeline.pipeline.engine import manifest_path, status
 from tlsync_pipeline.pipeline.graph import build_graph
-from tlsync_pipeline.pipeline.spec import Options
 from tlsync_pipeline.pipeline.project import load_project
+from tlsync_pipeline.pipeline.spec import Options
 
-STOPS = [(signal.SIGKILL, 1), (signal.SIGTERM, 2), (signal.SIGINT, 3), (signal.SIGKILL, 4), (signal.SIGTERM, 5), (signal.SIGINT, 6)]
+STOPS = [
+    (signal.SIGKILL, 1),
+    (signal.SIGTERM, 2),
+    (signal.SIGINT, 3),
+    (signal.SIGKILL, 4),
+    (signal.SIGTERM, 5),
+    (signal.SIGINT, 6),
+]
 MARKER = "TLSYNC_INTERRUPTION_TEST"
 # report.md and report.html list when and for how long each stage ran (they differ between any two runs);
 # ingest_report.json names the log, and each camera's video.json its video, by absolute path (the reference
@@ -69,7 +76,10 @@ def _processes_with(marker: str) -> list[int]:
         if not entry.name.isdigit():
             continue
         try:
-            if needle in (entry / "environ").read_bytes().split(b"\0") and (entry / "stat").read_text().rsplit(")", 1)[1].split()[0] != "Z":
+            if (
+                needle in (entry / "environ").read_bytes().split(b"\0")
+                and (entry / "stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+            ):
                 found.append(int(entry.name))
         except (OSError, IndexError):
             continue
@@ -146,18 +156,24 @@ def test_runs_stopped_at_random_moments_leave_no_process_and_no_false_fresh_arte
             if path not in RUN_RECORDS
             and not path.endswith("/" + NAMES_ITS_SOURCE)
             and expected.get(path) != digest
-            and not _same_but_project_folder(project_file.parent / "work" / path, project_file.parent, reference_work / path, reference.parent)
+            and not _same_but_project_folder(
+                project_file.parent / "work" / path, project_file.parent, reference_work / path, reference.parent
+            )
         }
         for path in (p for p in fresh if p.endswith("/" + NAMES_ITS_SOURCE)):  # the same content but the video's folder
             ours = json.loads((project_file.parent / "work" / path).read_text())
             theirs = json.loads((reference_work / path).read_text())
             assert {**ours, "video": Path(ours["video"]).name} == {**theirs, "video": Path(theirs["video"]).name}, path
-        assert not wrong, f"after {how.name}, status calls fresh artefacts that differ from an uninterrupted run's: {sorted(wrong)}"
+        assert not wrong, (
+            f"after {how.name}, status calls fresh artefacts that differ from an uninterrupted run's: {sorted(wrong)}"
+        )
     assert stopped_in, "no stop landed inside a run"
 
     final = _tlsync_run(project_file, uuid.uuid4().hex, tmp_path / "final.log")
     assert final.wait(timeout=600) == 0, (tmp_path / "final.log").read_text()
-    assert (project_file.parent / "work" / "timeline.json").read_bytes() == (reference_work / "timeline.json").read_bytes()
+    assert (project_file.parent / "work" / "timeline.json").read_bytes() == (
+        reference_work / "timeline.json"
+    ).read_bytes()
 
 
 @pytest.mark.slow
@@ -171,7 +187,9 @@ def test_ctrl_c_early_in_calibrate_exits_130_at_once_and_fails_nothing(tmp_path)
         root = tmp_path / f"stop{delay}"
         shutil.copytree(source.parent, root)
         command = [sys.executable, "-m", "tlsync_pipeline.cli", "calibrate", str(root / "project.toml"), "-j", "2"]
-        process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+        process = subprocess.Popen(
+            command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True
+        )
         time.sleep(delay)
         if process.poll() is not None:
             break  # calibrated already: later moments meet no run

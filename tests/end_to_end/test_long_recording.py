@@ -23,7 +23,14 @@ from tlsync_pipeline.sync.timeline import eps_t, read_timeline
 
 pytestmark = pytest.mark.slow  # minutes of decoding and tracking: CI's slow tier
 
-SPEC = RawProjectSpec(lines=((1.5, 75.0), (1.5, -75.0)), n_frames=(1500, 1500), image_size=(320, 240), boards=8, gcps=8, window_samples=300)
+SPEC = RawProjectSpec(
+    lines=((1.5, 75.0), (1.5, -75.0)),
+    n_frames=(1500, 1500),
+    image_size=(320, 240),
+    boards=8,
+    gcps=8,
+    window_samples=300,
+)
 
 
 def _run(project_file, work):
@@ -36,7 +43,9 @@ def _run(project_file, work):
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory):
     folder = tmp_path_factory.mktemp("long") / "raw"
-    project_file, scene = make_raw_project(folder, SPEC, render=functools.partial(render_long_camera_video, radius=5.0, look_alikes=2))
+    project_file, scene = make_raw_project(
+        folder, SPEC, render=functools.partial(render_long_camera_video, radius=5.0, look_alikes=2)
+    )
     auto = _run(project_file, folder / "work_auto")
     full_file = folder / "project_full.toml"
     full_file.write_text(project_file.read_text() + '\n[track]\nscan = "full"\n')
@@ -67,7 +76,9 @@ def test_the_same_timeline_as_reading_every_frame(runs):
 
 
 def test_a_changed_gcp_keeps_the_windows(runs, tmp_path):
-    """A calibration change re-runs the coarse pass; the track stage, whose windows did not change, does not run again."""
+    """A calibration change re-runs the coarse pass; the track stage, whose windows did not change,
+    does not run again.
+    """
     scene, _, _, folder = runs
     copy = tmp_path / "raw"
     shutil.copytree(folder, copy, ignore=shutil.ignore_patterns("work_full"))

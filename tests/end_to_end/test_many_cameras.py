@@ -45,8 +45,17 @@ def test_a_dask_cluster_of_worker_processes_gives_the_local_timeline(tmp_path, m
     assert local.exit_code == 0, local.output
     monkeypatch.setenv("PYTHONPATH", os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")])))
     with distributed.LocalCluster(n_workers=3, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
-        args = ["run", str(project), "--work", str(tmp_path / "dask"), "--executor", "dask",
-                "--scheduler", cluster.scheduler_address, "-v"]
+        args = [
+            "run",
+            str(project),
+            "--work",
+            str(tmp_path / "dask"),
+            "--executor",
+            "dask",
+            "--scheduler",
+            cluster.scheduler_address,
+            "-v",
+        ]
         remote = CliRunner().invoke(main, args, catch_exceptions=False)
         with distributed.Client(cluster) as client:
             assert len(client.scheduler_info()["workers"]) == 3

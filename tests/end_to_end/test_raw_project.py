@@ -45,7 +45,15 @@ def _kill_mid_track(project_file, work):
     """Start `tlsync run` in a subprocess and SIGKILL its process group once tracking has started."""
     env = {**os.environ, "PYTHONUNBUFFERED": "1"}
     process = subprocess.Popen(
-        [sys.executable, "-c", "from tlsync_pipeline.cli.main import main; main()", "run", str(project_file), "-j", "2"],
+        [
+            sys.executable,
+            "-c",
+            "from tlsync_pipeline.cli.main import main; main()",
+            "run",
+            str(project_file),
+            "-j",
+            "2",
+        ],
         stdout=subprocess.DEVNULL,
         stderr=subprocess.PIPE,
         text=True,
@@ -85,7 +93,9 @@ def finished(tmp_path_factory):
         assert eps_t(timeline.relation(a, b), truth, scene.n_frames[a]) <= 1.0, key
 
     again = run_graph(_graph(project_file))
-    assert again.ran == [] and len(again.fresh) == 25  # intrinsics, calibrate, clock, scan, track, identify, vote per camera; ingest, sync, export, render
+    assert (
+        again.ran == [] and len(again.fresh) == 25
+    )  # intrinsics, calibrate, clock, scan, track, identify, vote per camera; ingest, sync, export, render
     return project_file
 
 
@@ -102,7 +112,9 @@ def _states(project_file):
 def test_a_copied_project_is_fresh_and_runs_nothing(finished, tmp_path):
     copy = _copy(finished, tmp_path)
     states = _states(copy)
-    assert {row.state for row in states.values()} == {"fresh"}, {t: r.reasons for t, r in states.items() if r.state != "fresh"}
+    assert {row.state for row in states.values()} == {"fresh"}, {
+        t: r.reasons for t, r in states.items() if r.state != "fresh"
+    }
     assert run_graph(_graph(copy)).ran == []
 
 
@@ -119,7 +131,15 @@ def test_editing_a_gcp_reruns_the_pose_not_the_intrinsics(finished, tmp_path):
     assert rows["intrinsics/cam1"].state == "fresh"
     edited = run_graph(_graph(project_file))
     # the coarse pass again (it votes with the camera), not the track stage: its windows did not change
-    assert sorted(edited.ran) == ["calibrate/cam1", "export", "identify/cam1", "render", "scan/cam1", "sync", "vote/cam1"]
+    assert sorted(edited.ran) == [
+        "calibrate/cam1",
+        "export",
+        "identify/cam1",
+        "render",
+        "scan/cam1",
+        "sync",
+        "vote/cam1",
+    ]
 
 
 def test_the_cameras_own_clocks_check_the_result_and_a_wrong_one_is_flagged_not_obeyed(finished, tmp_path):
@@ -140,20 +160,31 @@ def test_the_cameras_own_clocks_check_the_result_and_a_wrong_one_is_flagged_not_
     alpha, beta = SMALL.lines[1]
     late = dt.datetime.fromtimestamp(START_UTC - beta / alpha / SMALL.target_rate + 60.0, dt.timezone.utc).isoformat()
     head, cam0, cam1, cam2 = project_file.read_text().split("[[cameras]]")
-    project_file.write_text("[[cameras]]".join([head, cam0, cam1.rstrip("\n") + f'\n[cameras.clock]\nrecorded = "{late}"\n\n', cam2]))
+    project_file.write_text(
+        "[[cameras]]".join([head, cam0, cam1.rstrip("\n") + f'\n[cameras.clock]\nrecorded = "{late}"\n\n', cam2])
+    )
     assert sorted(run_graph(_graph(project_file)).ran) == ["clock/cam1", "export", "render", "sync"]
     wrong = read_timeline(project_file.parent / "work" / "timeline.json")
     check = wrong.cameras["cam1"].clock_check
-    assert CLOCK_FLAG in wrong.cameras["cam1"].flags and check.source.startswith("the project") and abs(check.offset_s + 60.0) < 1.0
+    assert (
+        CLOCK_FLAG in wrong.cameras["cam1"].flags
+        and check.source.startswith("the project")
+        and abs(check.offset_s + 60.0) < 1.0
+    )
     assert wrong.status("cam1").status == "weak" and wrong.status("cam0").status == "ok"
     for name in right.names:
-        assert (wrong.cameras[name].alpha, wrong.cameras[name].beta) == (right.cameras[name].alpha, right.cameras[name].beta)
+        assert (wrong.cameras[name].alpha, wrong.cameras[name].beta) == (
+            right.cameras[name].alpha,
+            right.cameras[name].beta,
+        )
 
 
 def _changed(monkeypatch, module):
     """Make ``module``'s source (as the cache sees it) differ from the one the manifests recorded."""
     original = codehash.module_source
-    monkeypatch.setattr(codehash, "module_source", lambda name: original(name) + (b"\n# changed\n" if name == module else b""))
+    monkeypatch.setattr(
+        codehash, "module_source", lambda name: original(name) + (b"\n# changed\n" if name == module else b"")
+    )
 
 
 def test_changing_the_trackers_code_makes_only_track_and_what_follows_stale(finished, monkeypatch):
@@ -161,9 +192,12 @@ def test_changing_the_trackers_code_makes_only_track_and_what_follows_stale(fini
     rows = _states(finished)
     stale = {tid for tid, row in rows.items() if row.state != "fresh"}
     cameras = ("cam0", "cam1", "cam2")
-    # scan (keyframe movers) and track run the tracker's code; calibrate fits each camera's pose to its target near the scan's
+    # scan (keyframe movers) and track run the tracker's code; calibrate fits each camera's pose to its target near the
+    # scan's
     # coarse offset, so it waits for both
-    assert stale == {f"{stage}/{cam}" for stage in ("scan", "track", "calibrate", "identify", "vote") for cam in cameras} | {"sync", "export", "render"}
+    assert stale == {
+        f"{stage}/{cam}" for stage in ("scan", "track", "calibrate", "identify", "vote") for cam in cameras
+    } | {"sync", "export", "render"}
     assert rows["track/cam0"].reasons == ["code of trackers.blob changed", "waits for scan/cam0 (stale)"]
     assert rows["calibrate/cam0"].reasons[-1] == "waits for scan/cam0 (stale), track/cam0 (stale)"
     assert rows["identify/cam0"].reasons == ["waits for calibrate/cam0 (stale), track/cam0 (stale)"]
@@ -176,11 +210,21 @@ def test_changing_identification_makes_the_stages_that_identify_stale(finished, 
     stale = {tid for tid, row in rows.items() if row.state != "fresh"}
     # scan, calibrate (the pose from the target) and identify run the refinement; vote does not (it waits for identify),
     # nor does the track stage (it waits for its windows).
-    assert stale == {f"{stage}/{cam}" for stage in ("scan", "track", "calibrate", "identify", "vote") for cam in ("cam0", "cam1", "cam2")} | {"sync", "export", "render"}
+    assert stale == {
+        f"{stage}/{cam}"
+        for stage in ("scan", "track", "calibrate", "identify", "vote")
+        for cam in ("cam0", "cam1", "cam2")
+    } | {"sync", "export", "render"}
     assert rows["track/cam0"].reasons == ["waits for scan/cam0 (stale)"]
     assert rows["sync"].reasons[0] == "code of tlsync_pipeline.sync.identify.refine changed"
-    assert rows["calibrate/cam0"].reasons == ["code of tlsync_pipeline.sync.identify.refine changed", "waits for scan/cam0 (stale), track/cam0 (stale)"]
-    assert rows["identify/cam0"].reasons == ["code of tlsync_pipeline.sync.identify.refine changed", "waits for calibrate/cam0 (stale), track/cam0 (stale)"]
+    assert rows["calibrate/cam0"].reasons == [
+        "code of tlsync_pipeline.sync.identify.refine changed",
+        "waits for scan/cam0 (stale), track/cam0 (stale)",
+    ]
+    assert rows["identify/cam0"].reasons == [
+        "code of tlsync_pipeline.sync.identify.refine changed",
+        "waits for calibrate/cam0 (stale), track/cam0 (stale)",
+    ]
     assert rows["vote/cam0"].reasons == ["waits for calibrate/cam0 (stale), identify/cam0 (stale)"]
 
 
@@ -195,12 +239,17 @@ def test_changing_the_sync_fit_or_the_timeline_leaves_every_camera_stage_fresh(f
 
 
 def _reverse_gpx(path: Path) -> None:
-    """The GPX's track points in reverse order, each keeping the time of the point it replaces (a log reversed in time)."""
+    """The GPX's track points in reverse order, each keeping the time of the point it replaces (a
+    log reversed in time).
+    """
     text = path.read_text(encoding="utf-8")
     point = re.compile(r'<trkpt lat="([^"]+)" lon="([^"]+)"><ele>([^<]+)</ele>(<time>[^<]+</time>)</trkpt>')
     found = point.findall(text)
     swapped = iter([(*where[:3], when[3]) for where, when in zip(found[::-1], found)])
-    path.write_text(point.sub(lambda m: '<trkpt lat="{}" lon="{}"><ele>{}</ele>{}</trkpt>'.format(*next(swapped)), text), encoding="utf-8")
+    path.write_text(
+        point.sub(lambda m: '<trkpt lat="{}" lon="{}"><ele>{}</ele>{}</trkpt>'.format(*next(swapped)), text),
+        encoding="utf-8",
+    )
 
 
 def test_a_log_reversed_in_time_is_named_never_synchronized(finished, tmp_path):
@@ -211,4 +260,6 @@ def test_a_log_reversed_in_time_is_named_never_synchronized(finished, tmp_path):
     timeline = read_timeline(copy.parent / "work" / "timeline.json")
     assert not timeline.cameras and set(timeline.failed) == {"cam0", "cam1", "cam2"}
     # the pose the target refines (calibrate) is the first to fail; where it identified the target, it says why
-    assert any("the log looks reversed in time" in timeline.status(name).reason for name in timeline.failed), timeline.failed
+    assert any("the log looks reversed in time" in timeline.status(name).reason for name in timeline.failed), (
+        timeline.failed
+    )

@@ -42,7 +42,9 @@ VFR_START_S = 0.5
 BITS = 12
 
 CHROMIUM = find_chromium()
-pytestmark = pytest.mark.skipif(CHROMIUM is None, reason="chromium is not installed (.ci/run installs it: apt-get install chromium)")
+pytestmark = pytest.mark.skipif(
+    CHROMIUM is None, reason="chromium is not installed (.ci/run installs it: apt-get install chromium)"
+)
 
 
 def code_image(index: int) -> np.ndarray:
@@ -84,7 +86,9 @@ def vfr_track(scene, name: str, times: np.ndarray) -> Track:
     camera, line = scene.true_cameras[name], scene.lines[name]
     sample = (times * camera.fps - line.beta) / line.alpha
     inside = (sample >= 0) & (sample <= scene.true_trajectory.sample[-1])
-    xyz = np.column_stack([np.interp(sample, scene.true_trajectory.sample, scene.true_trajectory.xyz[:, i]) for i in range(3)])
+    xyz = np.column_stack(
+        [np.interp(sample, scene.true_trajectory.sample, scene.true_trajectory.xyz[:, i]) for i in range(3)]
+    )
     uv, valid = camera.project(xyz)
     keep = inside & valid & camera.in_image(np.nan_to_num(uv, nan=-1e9))
     frames = np.flatnonzero(keep)
@@ -115,7 +119,8 @@ def report(tmp_path_factory):
     return graph.work
 
 
-PAGE_HELPERS = """
+PAGE_HELPERS = (
+    """
 window.__armSeeks = () => {
   // Promises of every video's next 'seeked' (or 5 s), set before the action that seeks.
   window.__seeks = window.tlsyncPlayer.views.map(view => new Promise(done => {
@@ -142,13 +147,20 @@ window.__readViews = async () => {
     return {camera: view.camera.name, frame: view.frame, time: v.currentTime, code: code};
   });
 };
-""" % BITS
+"""
+    % BITS
+)
 
 
 def move_slider(browser: Browser, position: float) -> dict[str, dict]:
-    """Set the shared slider as a user would (an input event) and read every view back (frame, currentTime, code shown)."""
+    """Set the shared slider as a user would (an input event) and read every view back (frame,
+    currentTime, code shown).
+    """
     browser.evaluate("window.__armSeeks()")
-    browser.evaluate(f"(() => {{ const s = document.getElementById('player-slider'); s.value = {float(position)!r}; s.dispatchEvent(new Event('input')); }})()")
+    browser.evaluate(
+        f"(() => {{ const s = document.getElementById('player-slider'); s.value = {float(position)!r}; "
+        f"s.dispatchEvent(new Event('input')); }})()"
+    )
     return {v["camera"]: v for v in browser.evaluate("window.__readViews()")}
 
 
@@ -175,7 +187,8 @@ def test_report_in_chromium(report, tmp_path):
         browser.navigate((work / "report.html").as_uri())
         ready = browser.evaluate(
             "Promise.all([...document.querySelectorAll('#player-views video')].map(v => v.readyState >= 2 ? 1 :"
-            " new Promise((ok, fail) => { v.addEventListener('loadeddata', () => ok(1)); v.addEventListener('error', () => fail(v.src)); })))"
+            " new Promise((ok, fail) => { v.addEventListener('loadeddata', () => ok(1)); v.addEventListener('error', "
+            "() => fail(v.src)); })))"
         )
         assert ready == [1, 1]
         browser.evaluate(PAGE_HELPERS)
@@ -191,24 +204,38 @@ def test_report_in_chromium(report, tmp_path):
                 assert view["frame"] == frame, (name, frame_b, view)
                 start = times[name][frame]
                 end = times[name][frame + 1] if frame + 1 < len(times[name]) else start + 1 / 30
-                assert start <= view["time"] < end, (name, frame, view["time"], start, end)  # within one frame of the frame map
+                assert start <= view["time"] < end, (
+                    name,
+                    frame,
+                    view["time"],
+                    start,
+                    end,
+                )  # within one frame of the frame map
                 assert view["code"] == frame, (name, frame, view)  # and the browser shows that very frame
                 checked += 1
         assert checked >= 6
         # → steps the reference camera (cam0) by one frame; the other view follows through the frame map
-        row = next(r for (name, _), r in frame_map.items() if name == "cam0" and r["frame_cam1"] and 100 < float(r["frame_cam1"]) < 200)
+        row = next(
+            r
+            for (name, _), r in frame_map.items()
+            if name == "cam0" and r["frame_cam1"] and 100 < float(r["frame_cam1"]) < 200
+        )
         before = move_slider(browser, float(row["sample"]))
         after = press(browser, "ArrowRight", 39)
         stepped = before["cam0"]["frame"] + 1
         assert after["cam0"]["frame"] == stepped and after["cam0"]["code"] == stepped
-        expected_b = int(round(float(frame_map[("cam0", stepped)]["frame_cam1"])))  # the other view follows the frame map
+        expected_b = int(
+            round(float(frame_map[("cam0", stepped)]["frame_cam1"]))
+        )  # the other view follows the frame map
         assert after["cam1"]["frame"] == expected_b and after["cam1"]["code"] == expected_b, (before, after)
         assert browser.errors() == []
         screenshot = browser.screenshot()
     path = tmp_path / "report.png"
     path.write_bytes(screenshot)
     image = cv2.imread(str(path))
-    assert image is not None and 1240 <= image.shape[1] <= 1280 and image.shape[0] > 1400  # the whole page (less a scrollbar)
+    assert (
+        image is not None and 1240 <= image.shape[1] <= 1280 and image.shape[0] > 1400
+    )  # the whole page (less a scrollbar)
     assert image.std() > 20  # a page, not a blank
 
 

@@ -20,9 +20,14 @@ def test_the_raw_demo_with_gcps_half_a_metre_off_synchronizes_every_camera(tmp_p
     timeline = read_timeline(work / "timeline.json")
     truth, n_frames = read_truth(project_file.parent / "truth.json")
     assert sorted(timeline.cameras) == sorted(scene.true_cameras) and not timeline.failed
-    worst = max(eps_t(timeline.relation(*key.split("->")), relation, n_frames[key.split("->")[0]]) for key, relation in truth.items())
+    worst = max(
+        eps_t(timeline.relation(*key.split("->")), relation, n_frames[key.split("->")[0]])
+        for key, relation in truth.items()
+    )
     assert worst <= 0.15
     for name in scene.true_cameras:
         target = json.loads((work / "cameras" / name / "calibration_report.json").read_text())["target_pose"]
         assert target["source"] in ("gcp+target", "target")
-        assert target["gcp_sigma_stated_m"] == 1.0 and 0.1 < target["gcp_sigma_m"] < 1.0  # measured: 0.5 m per horizontal axis
+        assert (
+            target["gcp_sigma_stated_m"] == 1.0 and 0.1 < target["gcp_sigma_m"] < 1.0
+        )  # measured: 0.5 m per horizontal axis

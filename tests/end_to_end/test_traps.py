@@ -21,11 +21,10 @@ from click.testing import CliRunner
 from data_fixtures import make_scene, write_scene
 from data_fixtures.traps import TRAPS, edit_camera, edit_key, edit_trajectory, read_project, write_project
 from data_fixtures.video import blank_video
+from tests.real_data import REAL_DATA
 from tlsync_pipeline.cli.exit_codes import ExitCode
 from tlsync_pipeline.cli.main import main
 from tlsync_pipeline.sync.timeline import eps_t, read_timeline, read_truth
-
-from tests.real_data import REAL_DATA
 
 QUICK_LINES = ((2.0, 4.0), (2.0, 45.0), (1.0, -30.5))  # tlsync demo --quick
 REAL = REAL_DATA / "drone2"
@@ -73,12 +72,19 @@ def _outcome(root: Path, *command: str):
 
 
 def _reasons(timeline) -> str:
-    return "\n".join(f"{s.camera}: {s.status}: {'; '.join(f'{r.code} {r.text} (fix: {r.remedy})' for r in s.reasons)}" for s in timeline.statuses().values())
+    return "\n".join(
+        f"{s.camera}: {s.status}: {'; '.join(f'{r.code} {r.text} (fix: {r.remedy})' for r in s.reasons)}"
+        for s in timeline.statuses().values()
+    )
 
 
 # Per trap: the exit codes it may end with (0 only when every pair is right) and what must be named then.
 EXPECTED = {
-    "t_sample_numbers": ({2}, r"trajectory.csv \(\[target\] trajectory\): column t: not seconds: .*sample numbers at 15 Hz\?\); set \[target\] time_unit = 0.0666667$"),
+    "t_sample_numbers": (
+        {2},
+        r"trajectory.csv \(\[target\] trajectory\): column t: not seconds: .*sample numbers at 15 Hz\?\); set "
+        r"\[target\] time_unit = 0.0666667$",
+    ),
     "t_milliseconds": ({2}, r"\[target\] trajectory.*column t: .*milliseconds\?\); set \[target\] time_unit = \"ms\"$"),
     "t_twice": ({2}, r"column t: not seconds: .*time_unit = 0\.5$"),
     "reversed_in_time": ({1}, r"reversed"),
@@ -88,9 +94,21 @@ EXPECTED = {
     "rotated_90": ({1}, r"failed"),
     "z_flipped": ({0, 1}, r"off_path|not_synchronized"),
     "ned_not_enu": ({1}, r"failed"),
-    "heights_47m_high": ({2}, r"column z: heights 4[67](\.\d)? m too high: .*set \[target\] altitude_reference or altitude_offset_m = -4[67](\.\d)?$"),
-    "antenna_1_5m_above": ({1}, r"failed: log_height heights 1\.5 m too high: .*\(fix: the logged point rides 1\.5 m above the tracked one .*logged_point_above_m = 1\.5 "),
-    "z_zero": ({1}, r"failed: log_(flat|height) .*0 (m )?at every sample.*a log without heights\?.*\(fix: .*give a log with heights"),
+    "heights_47m_high": (
+        {2},
+        r"column z: heights 4[67](\.\d)? m too high: .*set \[target\] altitude_reference or altitude_offset_m = "
+        r"-4[67](\.\d)?$",
+    ),
+    "antenna_1_5m_above": (
+        {1},
+        r"failed: log_height heights 1\.5 m too high: .*\(fix: the logged point rides 1\.5 m above the tracked one "
+        r".*logged_point_above_m = 1\.5 ",
+    ),
+    "z_zero": (
+        {1},
+        r"failed: log_(flat|height) .*0 (m )?at every sample.*a log without heights\?.*\(fix: .*give a log with "
+        r"heights",
+    ),
     "random_walk": ({1}, r"failed"),
     "another_flight": ({1}, r"failed"),
     "log_ends_early": ({1}, r"failed"),
@@ -100,7 +118,11 @@ EXPECTED = {
     "camera_json_copied": ({2}, r"'cam1' camera \(cam1/camera.json\) is the same file as the camera of camera 'cam0'"),
     "track_copied": ({2}, r"'cam2' track \(cam2/track.csv\) is the same file as the track of camera 'cam1'"),
     "track_of_another_camera": ({1}, r"cam1: failed"),
-    "track_of_the_shadow": ({1}, r"cam1: failed: track_offset the track lies \d+ px .* off the projected path at every frame.*\(fix: the tracker follows something beside the target \(its shadow\?\)"),
+    "track_of_the_shadow": (
+        {1},
+        r"cam1: failed: track_offset the track lies \d+ px .* off the projected path at every frame.*\(fix: the "
+        r"tracker follows something beside the target \(its shadow\?\)",
+    ),
     "track_of_another_object": ({1}, r"cam1: failed: track_elsewhere .*the tracker follows another object"),
     "fps_twice": ({1}, r"cam1: failed: .*clock .*runs at about (29|30)(\.\d+)? fps, not 60"),
     "fps_half": ({1}, r"cam1: failed: .*clock .*runs at about (29|30)(\.\d+)? fps, not 15"),
@@ -112,11 +134,28 @@ EXPECTED = {
     "track_is_dev_zero": ({2}, r"'cam1' track: /dev/zero: not a regular file"),
     "track_is_proc_environ": ({2}, r"'cam1' track: /proc/\S+/environ: not a regular file"),
     "track_saved_by_excel": ({0}, r""),
-    "track_normalised": ({2}, r"'cam1' track: .*track.csv: every x, y lies within 0..1: normalised coordinates\? give pixels of the 640 x 480 image"),
-    "track_frame_in_seconds": ({2}, r"'cam1' track: .*track.csv:\d+: column 'frame' holds times, not frame indices .*'time_s'$"),
-    "lon_lat_in_x_y": ({2}, r"\[target\] trajectory: .*columns x, y look like longitude and latitude in degrees .*\[target\] log"),
-    "track_is_passwd": ({2}, r"'cam1' track: .*track.csv:1: not a CSV header: one field of 31 characters, no ',' or ';' between column names; expected a header with at least frame,x,y$"),
-    "track_frame_1e12": ({2}, r"'cam1' track: .*track.csv:\d+: column 'frame': expected a 0-based integer frame index \(at most"),
+    "track_normalised": (
+        {2},
+        r"'cam1' track: .*track.csv: every x, y lies within 0..1: normalised coordinates\? give pixels of the 640 x "
+        r"480 image",
+    ),
+    "track_frame_in_seconds": (
+        {2},
+        r"'cam1' track: .*track.csv:\d+: column 'frame' holds times, not frame indices .*'time_s'$",
+    ),
+    "lon_lat_in_x_y": (
+        {2},
+        r"\[target\] trajectory: .*columns x, y look like longitude and latitude in degrees .*\[target\] log",
+    ),
+    "track_is_passwd": (
+        {2},
+        r"'cam1' track: .*track.csv:1: not a CSV header: one field of 31 characters, no ',' or ';' between column "
+        r"names; expected a header with at least frame,x,y$",
+    ),
+    "track_frame_1e12": (
+        {2},
+        r"'cam1' track: .*track.csv:\d+: column 'frame': expected a 0-based integer frame index \(at most",
+    ),
     "video_is_dev_urandom": ({2}, r"'cam1' video: /dev/urandom: not a regular file"),
     "video_missing": ({2}, r"'cam1' video: .*missing/video.mp4: file not found"),
 }
@@ -168,7 +207,9 @@ def test_a_missing_file_is_named_before_any_stage_runs(project):
     edit_key(project, 2, "calibration", {"intrinsics": "cam2/intrinsics.json", "gcp": "cam2/gcp.csv"})
     result = _cli("run", project / "project.toml", "-j", "1")
     assert result.exit_code == ExitCode.BAD_INPUT
-    assert re.search(r"\[\[cameras\]\] 'cam2' \[cameras.calibration\] gcp: .*cam2/gcp.csv: file not found", result.output), result.output
+    assert re.search(
+        r"\[\[cameras\]\] 'cam2' \[cameras.calibration\] gcp: .*cam2/gcp.csv: file not found", result.output
+    ), result.output
     assert not list((project / "work").rglob("*.manifest.json")) and "running" not in result.output
 
 
@@ -207,7 +248,9 @@ def test_the_answer_does_not_depend_on_the_log_time_unit(quick, tmp_path):
         relations[factor] = timeline.pairs()
     for factor in (5.0, 1000.0):
         for key, relation in relations[1.0].items():
-            assert relations[factor][key].alpha == pytest.approx(relation.alpha, abs=1e-6) and relations[factor][key].beta == pytest.approx(relation.beta, abs=1e-3)
+            assert relations[factor][key].alpha == pytest.approx(relation.alpha, abs=1e-6) and relations[factor][
+                key
+            ].beta == pytest.approx(relation.beta, abs=1e-3)
 
 
 def test_terminal_report_status_and_timeline_agree_and_the_exit_code_follows(project):
@@ -225,7 +268,9 @@ def test_terminal_report_status_and_timeline_agree_and_the_exit_code_follows(pro
             assert f"{name}: {status.status}: {status.reason}" in run.output
         assert document["cameras"][name]["status"] == written[name]["status"] == status.status
         assert document["cameras"][name]["reason"] == written[name]["reason"] == status.reason
-        assert re.search(rf"<td>{name}</td><td><span class=\"badge {status.status}\">{status.status}</span></td>", report)
+        assert re.search(
+            rf"<td>{name}</td><td><span class=\"badge {status.status}\">{status.status}</span></td>", report
+        )
     text = _cli("status", project / "project.toml")
     assert text.exit_code == ExitCode.NOT_SYNCHRONIZED
     for name, status in statuses.items():
@@ -248,7 +293,9 @@ def test_the_real_flight_with_t_in_fifths_of_a_second_says_so_and_declared_gives
     assert result.exit_code == ExitCode.OK and not _wrong_pairs(real, reference)
     edit_trajectory(real, lambda t, xyz: (t * 5.0, xyz))
     result, _ = _outcome(real)
-    assert result.exit_code == ExitCode.BAD_INPUT and re.search(r"column t: not seconds: .*sample numbers at 5 Hz\?\); set \[target\] time_unit = 0\.2$", result.output, re.M), result.output
+    assert result.exit_code == ExitCode.BAD_INPUT and re.search(
+        r"column t: not seconds: .*sample numbers at 5 Hz\?\); set \[target\] time_unit = 0\.2$", result.output, re.M
+    ), result.output
     edit_key(real, None, "time_unit", 0.2)
     result, timeline = _outcome(real)
     assert result.exit_code == ExitCode.OK, result.output
@@ -274,4 +321,7 @@ def test_project_files_round_trip(quick, tmp_path):
     write_project(root, before)
     assert read_project(root) == before
     edit_camera(root, 0, lambda data: None)
-    assert np.allclose(json.loads((root / "cam0" / "camera.json").read_text())["K"], json.loads((quick / "cam0" / "camera.json").read_text())["K"])
+    assert np.allclose(
+        json.loads((root / "cam0" / "camera.json").read_text())["K"],
+        json.loads((quick / "cam0" / "camera.json").read_text())["K"],
+    )

@@ -41,7 +41,15 @@ def test_jittered_video_synchronized_in_seconds_within_one_frame(tmp_path):
     for name, camera in scene.true_cameras.items():
         n = scene.n_frames[name]
         line = scene.lines[name]
-        kwargs = dict(n_frames=n, image_size=camera.image_size, fps=camera.fps, seed=1, occluder=False, distractor=False, jitter=JITTER)
+        kwargs = dict(
+            n_frames=n,
+            image_size=camera.image_size,
+            fps=camera.fps,
+            seed=1,
+            occluder=False,
+            distractor=False,
+            jitter=JITTER,
+        )
         # The fixture draws its times before it uses the positions: a first render gives them.
         times[name] = render_video(tmp_path / f"{name}-times.mp4", positions=np.full((n, 2), np.nan), **kwargs).times
         sample = (times[name] * camera.fps - line.beta) / line.alpha
@@ -71,7 +79,9 @@ LATE_START_S = 1.4  # cam1's stream starts at this presentation time
 
 
 def _truth_match(scene, times, start, a, b, frames_a):
-    """True fractional frames of B at the instants of A's frames: camera clocks (time - start) x fps follow the scene's lines."""
+    """True fractional frames of B at the instants of A's frames: camera clocks (time - start) x fps follow the scene's
+    lines.
+    """
     la, lb = scene.lines[a], scene.lines[b]
     fa, fb = scene.cameras[a].fps, scene.cameras[b].fps
     sample = ((times[a][frames_a] - start[a]) * fa - la.beta) / la.alpha
@@ -94,12 +104,21 @@ def test_phone_videos_with_a_late_stream_map_frames_exactly(tmp_path):
         uv, valid = camera.project(path(np.clip(sample, 0, None)))
         shown = inside & valid & camera.in_image(np.nan_to_num(uv, nan=-1e9))
         video = render_video(
-            tmp_path / f"{name}.mp4", n_frames=n, image_size=camera.image_size, fps=camera.fps, positions=np.where(shown[:, None], uv, np.nan),
-            seed=k, occluder=False, distractor=False, times=wanted,
+            tmp_path / f"{name}.mp4",
+            n_frames=n,
+            image_size=camera.image_size,
+            fps=camera.fps,
+            positions=np.where(shown[:, None], uv, np.nan),
+            seed=k,
+            occluder=False,
+            distractor=False,
+            times=wanted,
         )
         times[name] = video.times
         write_camera(scene.cameras[name], tmp_path / f"{name}.json")
-        parts.append(f'[[cameras]]\nname = "{name}"\ncamera = "{name}.json"\nvideo = "{name}.mp4"\nfps = {camera.fps!r}\n')
+        parts.append(
+            f'[[cameras]]\nname = "{name}"\ncamera = "{name}.json"\nvideo = "{name}.mp4"\nfps = {camera.fps!r}\n'
+        )
     (tmp_path / "project.toml").write_text("\n".join(parts), encoding="utf-8")
     summary = run_graph(build_graph(load_project(tmp_path / "project.toml"), tmp_path / "work"))
     assert not summary.failed, summary.failed
@@ -128,7 +147,9 @@ def test_phone_videos_with_a_late_stream_map_frames_exactly(tmp_path):
     assert float(offsets["cam1"]["start_frames"]) == pytest.approx(mapped["cam1"][0], abs=2e-3)
     true_start = _truth_match(scene, times, start, "cam1", "cam0", np.array([0]))[0]
     assert float(offsets["cam1"]["start_frames"]) == pytest.approx(true_start, abs=0.5)
-    assert float(offsets["cam1"]["start_s"]) == pytest.approx(np.interp(true_start, np.arange(300), times["cam0"]) - times["cam0"][0], abs=0.5 / 30)
+    assert float(offsets["cam1"]["start_s"]) == pytest.approx(
+        np.interp(true_start, np.arange(300), times["cam0"]) - times["cam0"][0], abs=0.5 / 30
+    )
 
     # The pictures draw, with each frame of cam1, the frame of cam0 the frame map gives.
     drawn = summary.results["render"].facts["frames"]["cam0,cam1"]

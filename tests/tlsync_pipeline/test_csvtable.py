@@ -3,8 +3,8 @@
 from __future__ import annotations
 
 import contextlib
-import io
 import datetime as dt
+import io
 from unittest import mock
 
 import numpy as np
@@ -23,7 +23,9 @@ from tlsync_pipeline.trajectory import Trajectory, read_trajectory, write_trajec
 
 ORIGIN = Origin(47.3769, 8.5417, 450.0)
 START = dt.datetime(2026, 3, 1, 12, 0, 0, tzinfo=dt.timezone.utc)
-FUZZ = settings(max_examples=60, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.function_scoped_fixture])
+FUZZ = settings(
+    max_examples=60, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
 
 
 def _outcome(read, path, chunk_bytes: int, fast: bool):
@@ -56,13 +58,20 @@ def _same(a, b) -> None:
 def _trajectory_text(n: int = 40, sigma: bool = True) -> str:
     t = 1000.0 + np.arange(n) / 15.0
     xyz = np.column_stack([np.sin(t), np.cos(t), 0.01 * t])
-    rows = [f"{a:.6f},{x:.4f},{y:.4f},{z:.4f}" + (f",{0.1 + 0.001 * i:.4f}" if sigma else "") for i, (a, (x, y, z)) in enumerate(zip(t, xyz))]
+    rows = [
+        f"{a:.6f},{x:.4f},{y:.4f},{z:.4f}" + (f",{0.1 + 0.001 * i:.4f}" if sigma else "")
+        for i, (a, (x, y, z)) in enumerate(zip(t, xyz))
+    ]
     return ("t,x,y,z,sigma\n" if sigma else "t,x,y,z\n") + "\n".join(rows) + "\n"
 
 
 _EDITS = st.lists(
-    st.tuples(st.sampled_from(["replace", "insert", "delete", "duplicate", "cut"]), st.integers(0, 10_000), st.integers(0, 10_000),
-              st.sampled_from(["", ",", "x", "nan", "-1", "1e999", " ", "\r", '"2"', "#c", ";", "0", "1.5.", "é"])),
+    st.tuples(
+        st.sampled_from(["replace", "insert", "delete", "duplicate", "cut"]),
+        st.integers(0, 10_000),
+        st.integers(0, 10_000),
+        st.sampled_from(["", ",", "x", "nan", "-1", "1e999", " ", "\r", '"2"', "#c", ";", "0", "1.5.", "é"]),
+    ),
     max_size=4,
 )
 
@@ -73,7 +82,7 @@ def _mangle(text: str, edits) -> str:
         i = a % len(lines)
         if op == "replace" and lines[i]:
             j = b % len(lines[i])
-            lines[i] = lines[i][:j] + junk + lines[i][j + 1:]
+            lines[i] = lines[i][:j] + junk + lines[i][j + 1 :]
         elif op == "insert":
             lines.insert(i, junk)
         elif op == "delete" and len(lines) > 1:
@@ -132,11 +141,15 @@ def test_errors_name_line_and_column_without_quoting(tmp_path, text, message):
 
 def test_excel_csv_reads_as_the_plain_one(tmp_path):
     sample = np.arange(50.0)
-    trajectory = Trajectory(sample, np.column_stack([sample * 0.5, -sample, np.full(50, 1.25)]), 10.0, 1_700_000_000.0, np.full(50, 0.02))
+    trajectory = Trajectory(
+        sample, np.column_stack([sample * 0.5, -sample, np.full(50, 1.25)]), 10.0, 1_700_000_000.0, np.full(50, 0.02)
+    )
     plain = tmp_path / "plain.csv"
     write_trajectory(trajectory, plain)
     excel = tmp_path / "excel.csv"
-    excel.write_bytes(b"\xef\xbb\xbf" + plain.read_text().replace(",", ";").replace(".", ",").replace("\n", "\r\n").encode())
+    excel.write_bytes(
+        b"\xef\xbb\xbf" + plain.read_text().replace(",", ";").replace(".", ",").replace("\n", "\r\n").encode()
+    )
     a, b = read_trajectory(plain), read_trajectory(excel)
     np.testing.assert_array_equal(a.xyz, b.xyz)
     np.testing.assert_array_equal(a.sample, b.sample)
@@ -148,7 +161,9 @@ def test_excel_csv_log_reads_as_the_plain_one(tmp_path):
     walk = walk_trajectory(seconds=4.0, rate=5.0, gap=None)
     plain = write_csv_log(tmp_path / "plain.csv", walk, ORIGIN, START)
     excel = tmp_path / "excel.csv"
-    excel.write_bytes(b"\xef\xbb\xbf" + plain.read_text().replace(",", ";").replace(".", ",").replace("\n", "\r\n").encode())
+    excel.write_bytes(
+        b"\xef\xbb\xbf" + plain.read_text().replace(",", ";").replace(".", ",").replace("\n", "\r\n").encode()
+    )
     a, b = read_log(plain, "csv"), read_log(excel, "csv")
     assert len(a) > 10 and not b.dropped
     np.testing.assert_array_equal(a.t, b.t)

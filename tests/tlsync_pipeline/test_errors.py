@@ -2,7 +2,14 @@
 
 import errno
 
-from tlsync_pipeline.errors import MAX_REASON, EnvironmentProblem, InputError, describe_error, one_line, os_error_problem
+from tlsync_pipeline.errors import (
+    MAX_REASON,
+    EnvironmentProblem,
+    InputError,
+    describe_error,
+    one_line,
+    os_error_problem,
+)
 
 
 def test_a_reason_is_one_line_of_bounded_length():
@@ -16,7 +23,9 @@ def test_os_errors_name_the_path_and_say_what_went_wrong():
     full = OSError(errno.ENOSPC, "No space left on device", "/data/work/timeline.json")
     assert isinstance(os_error_problem(full), EnvironmentProblem)
     assert describe_error(full) == "/data/work/timeline.json: the disk is full"
-    assert isinstance(os_error_problem(FileNotFoundError(errno.ENOENT, "No such file or directory", "/data/cam0.mp4")), InputError)
+    assert isinstance(
+        os_error_problem(FileNotFoundError(errno.ENOENT, "No such file or directory", "/data/cam0.mp4")), InputError
+    )
     assert describe_error(KeyError("cameras")) == "unexpected KeyError: 'cameras'"
 
 
@@ -26,4 +35,6 @@ def test_a_path_too_long_says_so_on_one_short_line():
     problem = os_error_problem(OSError(errno.ENAMETOOLONG, "File name too long", path))
     assert isinstance(problem, InputError)
     text = str(problem)
-    assert len(text) < 200 and text.startswith("/data/ddd") and "project.toml: file name too long (5043 characters" in text
+    assert (
+        len(text) < 200 and text.startswith("/data/ddd") and "project.toml: file name too long (5043 characters" in text
+    )

@@ -59,4 +59,6 @@ def test_heights_in_feet_are_recognised():
     points = _points()
     assert heights_in_feet(points[:, 2] / 0.3048, SITE)
     assert not heights_in_feet(points[:, 2], SITE)
-    assert not heights_in_feet(points[:, 2] / 0.3048, Origin(0.0, 0.0, 10.0))  # 33 ft or 10 m: cannot tell, and harmless
+    assert not heights_in_feet(
+        points[:, 2] / 0.3048, Origin(0.0, 0.0, 10.0)
+    )  # 33 ft or 10 m: cannot tell, and harmless

@@ -33,7 +33,12 @@ def test_centroids_to_a_fraction_of_the_refinement_pixel_under_a_lighting_drop()
     background = (120 + 8 * background / background.std()).astype(np.float32)
     detector = BlobDetector(background, BlobParams(max_candidates=200))
     assert detector.scale == 4
-    people = [(700.3, 400.6, 30.0, 40.0), (1300.8, 650.2, 18.0, 220.0), (400.2, 800.7, 70.0, 60.0), (1500.6, 300.3, 6.0, 200.0)]  # x, y, radius, grey (the background: 120 +- 8)
+    people = [
+        (700.3, 400.6, 30.0, 40.0),
+        (1300.8, 650.2, 18.0, 220.0),
+        (400.2, 800.7, 70.0, 60.0),
+        (1500.6, 300.3, 6.0, 200.0),
+    ]  # x, y, radius, grey (the background: 120 +- 8)
     blobs = []
     for k in range(3):
         frame = background.copy()

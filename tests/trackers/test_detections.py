@@ -1,4 +1,6 @@
-"""detections.csv: round trip, validation messages naming file and line, single-target tracks from rows, init-box seeds."""
+"""detections.csv: round trip, validation messages naming file and line, single-target tracks from
+rows, init-box seeds.
+"""
 
 import numpy as np
 import pytest

@@ -1,6 +1,5 @@
 """Linking blobs into tracklets: identities kept through near passes and short gaps."""
 
-
 from trackers.blob import Blob, BlobParams
 from trackers.movers import MoverLinker
 
@@ -22,7 +21,7 @@ def test_two_walkers_passing_close_keep_their_ids():
     frames = [[_blob(10 + 5 * k, 100), _blob(210 - 5 * k, 112)] for k in range(41)]
     rows = _run(frames)
     by_id = {}
-    for k, tid, x, y in rows:
+    for k, tid, x, y in rows:  # noqa: B007 (the rows' layout, named)
         by_id.setdefault(tid, []).append(y)
     assert len(by_id) == 2
     assert sorted(set(ys[0] for ys in by_id.values())) == [100, 112]

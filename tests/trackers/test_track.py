@@ -6,7 +6,12 @@ from trackers.track import Track, read_track, write_track
 
 
 def test_round_trip_keeps_optional_columns_and_sorts(tmp_path):
-    track = Track(np.array([0, 3, 7]), np.array([1.5, 2.25, 3.0]), np.array([4.0, 5.0, 6.125]), time_s=np.array([0.0, 0.1, 0.2333]))
+    track = Track(
+        np.array([0, 3, 7]),
+        np.array([1.5, 2.25, 3.0]),
+        np.array([4.0, 5.0, 6.125]),
+        time_s=np.array([0.0, 0.1, 0.2333]),
+    )
     write_track(track, tmp_path / "t.csv")
     back = read_track(tmp_path / "t.csv")
     assert back.frame.tolist() == [0, 3, 7]
@@ -34,7 +39,10 @@ def test_round_trip_keeps_optional_columns_and_sorts(tmp_path):
         ("frame,x,y\n-1,1,2\n", "0-based integer frame"),
         ("frame,x,y\n1.5,1,2\n", "0-based integer frame"),
         ("frame,x,y\n2,1,2\n2,1,2\n", "frame 2 appears more than once"),
-        ("frame,x,y\n0,1,2\n0.04,1,2\n0.08,1,2\n0.12,1,2\n", r":3: column 'frame' holds times, not frame indices \(75% of its values"),
+        (
+            "frame,x,y\n0,1,2\n0.04,1,2\n0.08,1,2\n0.12,1,2\n",
+            r":3: column 'frame' holds times, not frame indices \(75% of its values",
+        ),
     ],
 )
 def test_bad_tracks_name_file_and_line(tmp_path, text, message):
@@ -57,12 +65,15 @@ def test_both_readers_agree(tmp_path):
         assert np.array_equal(getattr(a, column), getattr(b, column))
 
 
-@pytest.mark.parametrize("text", [
-    "\ufeffframe,x,y,score\n0,1.5,2.25,0.9\n3,4,5.5,1\n",  # UTF-8 with a byte-order mark (Excel's "CSV UTF-8")
-    "frame;x;y;score\r\n0;1,5;2,25;0,9\r\n3;4;5,5;1\r\n",  # a European locale: ';' separators, decimal commas
-    "\ufeffframe;x;y;score\n0;1,5;2,25;0,9\n\n3;4;5,5;1\n",  # both, with a blank line (the line-by-line reader)
-    "frame\tx\ty\tscore\n0\t1,5\t2,25\t0,9\n3\t4\t5,5\t1\n",  # tabs
-])
+@pytest.mark.parametrize(
+    "text",
+    [
+        "\ufeffframe,x,y,score\n0,1.5,2.25,0.9\n3,4,5.5,1\n",  # UTF-8 with a byte-order mark (Excel's "CSV UTF-8")
+        "frame;x;y;score\r\n0;1,5;2,25;0,9\r\n3;4;5,5;1\r\n",  # a European locale: ';' separators, decimal commas
+        "\ufeffframe;x;y;score\n0;1,5;2,25;0,9\n\n3;4;5,5;1\n",  # both, with a blank line (the line-by-line reader)
+        "frame\tx\ty\tscore\n0\t1,5\t2,25\t0,9\n3\t4\t5,5\t1\n",  # tabs
+    ],
+)
 def test_csvs_saved_by_a_spreadsheet_are_read(tmp_path, text):
     path = tmp_path / "track.csv"
     path.write_text(text, encoding="utf-8")
@@ -78,7 +89,9 @@ def test_a_file_that_is_not_a_table_is_described_not_quoted(tmp_path):
     with pytest.raises(TrackInputError) as info:
         read_track(path)
     message = str(info.value)
-    assert message.startswith(f"{path}:1: not a CSV header: one field of 31 characters") and "root" not in message.replace(str(path), "")
+    assert message.startswith(
+        f"{path}:1: not a CSV header: one field of 31 characters"
+    ) and "root" not in message.replace(str(path), "")
     path.write_text("frame,x,y\n0,1,2\n1,secret-token,3\n")
     with pytest.raises(TrackInputError, match=r":3: column 'x': not a number \(12 characters with letters\)") as info:
         read_track(path)

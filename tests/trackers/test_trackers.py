@@ -137,7 +137,9 @@ def test_positions_are_in_the_upright_picture_of_a_rotated_video(tmp_path):
 
 
 def test_median_background_is_the_per_pixel_median_after_the_lighting_gain():
-    """Frames of different brightness: the median of the gain-scaled frames (within half a grey level), odd and even counts."""
+    """Frames of different brightness: the median of the gain-scaled frames (within half a grey level), odd and even
+    counts.
+    """
     from trackers.blob import median_background
 
     rng = np.random.default_rng(3)
@@ -156,7 +158,9 @@ def test_median_background_is_the_per_pixel_median_after_the_lighting_gain():
 def lookalike_video(tmp_path_factory):
     """The target leaves and re-enters the view four times; a grey look-alike of its size wanders inside the view
     from the first frame to the last (and crosses its path)."""
-    return render_video(tmp_path_factory.mktemp("lookalike") / "lookalike.mp4", n_frames=400, lookalike=True, distractor=False, seed=3)
+    return render_video(
+        tmp_path_factory.mktemp("lookalike") / "lookalike.mp4", n_frames=400, lookalike=True, distractor=False, seed=3
+    )
 
 
 def test_an_init_box_tracks_the_target_and_nothing_while_it_is_out_of_view(lookalike_video, tmp_path):
@@ -171,7 +175,23 @@ def test_an_init_box_tracks_the_target_and_nothing_while_it_is_out_of_view(looka
     x, y = video.truth[first]
     box = f"{x - 12:.0f},{y - 12:.0f},24,24"
     out = tmp_path / "track.csv"
-    result = CliRunner().invoke(main, ["track-video", str(video.path), "--tracker", "blob", "--init", box, "--init-frame", str(first), "-o", str(out), "-q"], catch_exceptions=False)
+    result = CliRunner().invoke(
+        main,
+        [
+            "track-video",
+            str(video.path),
+            "--tracker",
+            "blob",
+            "--init",
+            box,
+            "--init-frame",
+            str(first),
+            "-o",
+            str(out),
+            "-q",
+        ],
+        catch_exceptions=False,
+    )
     assert result.exit_code == 0, result.output
     track = read_track(out)
     assert video.out_of_view.sum() > 100

@@ -113,7 +113,9 @@ def test_keyframes_alone_each_decoded_once(jittered, monkeypatch):
 
 
 def test_windows_give_the_frames_of_a_whole_pass(jittered):
-    """Frames inside windows: the indices, times and pixels of iter_frames; decoding starts at each window's keyframe."""
+    """Frames inside windows: the indices, times and pixels of iter_frames; decoding starts at
+    each window's keyframe.
+    """
     sequential = {f.index: f for f in iter_frames(jittered.path, gray=True)}
     count = DecodeCount()
     frames = list(iter_windows(jittered.path, [(40, 45), (33, 41), (70, 200), (0, 3)], gray=True, count=count))
@@ -186,7 +188,9 @@ def test_truncated_file_is_read_up_to_its_last_decodable_frame(tmp_path, jittere
     data = jittered.path.read_bytes()
     cut = tmp_path / "cut.mp4"
     cut.write_bytes(data[: int(len(data) * 0.6)])
-    with pytest.warns(TruncatedVideoWarning, match=r"cut.mp4: video truncated or corrupt .*read up to frame (\d+)") as record:
+    with pytest.warns(
+        TruncatedVideoWarning, match=r"cut.mp4: video truncated or corrupt .*read up to frame (\d+)"
+    ) as record:
         frames = list(iter_frames(cut))
     assert 10 < len(frames) < 90
     assert f"read up to frame {frames[-1].index} " in str(record[0].message)

@@ -7,10 +7,9 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
-
-from typing import TYPE_CHECKING
 
 from calibration.choices import MAX_FRAMES, MODELS
 from calibration.errors import PatternMismatch
@@ -27,9 +26,17 @@ if TYPE_CHECKING:
 @click.option("--video", type=click.Path(dir_okay=False, path_type=Path), help="A video of a moving checkerboard.")
 @click.option("--pattern", required=True, help="Inner corners COLSxROWS, e.g. 7x6 for a board of 8x7 squares.")
 @click.option("--square", required=True, type=float, help="Square side in metres.")
-@click.option("--model", type=click.Choice(MODELS), default="standard", show_default=True, help="standard: k1 k2 p1 p2 k3; rational: 8 coefficients; fisheye: k1..k4.")
+@click.option(
+    "--model",
+    type=click.Choice(MODELS),
+    default="standard",
+    show_default=True,
+    help="standard: k1 k2 p1 p2 k3; rational: 8 coefficients; fisheye: k1..k4.",
+)
 @out_option("camera.json to write (K, dist, image_size, rms; no pose: R, t come from GCPs, a board or the target).")
-@click.option("--report", type=click.Path(dir_okay=False, path_type=Path), help="Also write the calibration report (JSON) here.")
+@click.option(
+    "--report", type=click.Path(dir_okay=False, path_type=Path), help="Also write the calibration report (JSON) here."
+)
 @click.option("--max-frames", default=MAX_FRAMES, show_default=True, help="Video: frames sampled evenly.")
 @jobs_option
 @quiet_option("No progress bar.")
@@ -66,5 +73,6 @@ def _intrinsics_summary(result: Intrinsics) -> str:
     total = len(result.used) + len(result.rejected)
     return (
         f"{len(result.used)}/{total} views used, RMS {result.rms:.3f} px; "
-        f"fx {K[0, 0]:.2f} fy {K[1, 1]:.2f} cx {K[0, 2]:.2f} cy {K[1, 2]:.2f} ({result.model}: dist {', '.join(f'{d:.4g}' for d in result.dist)})"
+        f"fx {K[0, 0]:.2f} fy {K[1, 1]:.2f} cx {K[0, 2]:.2f} cy {K[1, 2]:.2f} ({result.model}: dist "
+        f"{', '.join(f'{d:.4g}' for d in result.dist)})"
     )

@@ -13,13 +13,20 @@ import os
 import sys
 import traceback
 from pathlib import Path
-
 from typing import Any
 
 import click
 
 from tlsync_pipeline.cli.options import verbose
-from tlsync_pipeline.errors import INPUT_ERRORS, MAX_LINE, EnvironmentProblem, SyncError, error_details, one_line, shorten
+from tlsync_pipeline.errors import (
+    INPUT_ERRORS,
+    MAX_LINE,
+    EnvironmentProblem,
+    SyncError,
+    error_details,
+    one_line,
+    shorten,
+)
 from tlsync_pipeline.pipeline.cache import NOT_MADE
 from tlsync_pipeline.pipeline.progress import Progress
 
@@ -51,7 +58,9 @@ def print_error(text: str, error: BaseException | None = None, where: str | None
 
 
 def usage_error_text(exc: click.ClickException) -> str:
-    """A click error (unknown option, missing argument, bad value) as tlsync's one line, pointing at the command's help."""
+    """A click error (unknown option, missing argument, bad value) as tlsync's one line, pointing at
+    the command's help.
+    """
     message = exc.format_message().strip().rstrip(".")
     message = message[:1].lower() + message[1:]
     ctx = getattr(exc, "ctx", None)
@@ -92,7 +101,15 @@ class ConsoleProgress(Progress):
             if self._bar is None:
                 from tqdm import tqdm
 
-                self._bar = tqdm(total=self._total, initial=self._done, desc="per-camera tasks", unit="task", file=sys.stderr, dynamic_ncols=True, leave=False)
+                self._bar = tqdm(
+                    total=self._total,
+                    initial=self._done,
+                    desc="per-camera tasks",
+                    unit="task",
+                    file=sys.stderr,
+                    dynamic_ncols=True,
+                    leave=False,
+                )
             self._bar.total = self._total
             self._show_running()
 

@@ -28,15 +28,25 @@ MARKER = ".tlsync-demo.json"  # what the demo wrote: its options and the hash of
 
 
 @click.command("demo")
-@click.argument("directory", required=False, type=click.Path(file_okay=False, path_type=Path), default=Path("tlsync-demo"))
-@click.option("--quick", is_flag=True, help="Synthetic calibrations and tracks instead of raw videos, photos and logs (seconds).")
+@click.argument(
+    "directory", required=False, type=click.Path(file_okay=False, path_type=Path), default=Path("tlsync-demo")
+)
+@click.option(
+    "--quick", is_flag=True, help="Synthetic calibrations and tracks instead of raw videos, photos and logs (seconds)."
+)
 @click.option("--seed", default=0, show_default=True, help="Scene seed.")
 @click.option("--tracking-noise", default=1.0, show_default=True, help="With --quick: tracking noise S_t (pixels).")
 @jobs_option
-@click.option("--overwrite", is_flag=True, help="Write the project even over files in DIRECTORY that the demo did not write or that were edited.")
+@click.option(
+    "--overwrite",
+    is_flag=True,
+    help="Write the project even over files in DIRECTORY that the demo did not write or that were edited.",
+)
 @quiet_option()
 @verbose_option
-def demo(directory: Path, quick: bool, seed: int, tracking_noise: float, jobs: int | None, overwrite: bool, quiet: bool) -> None:
+def demo(
+    directory: Path, quick: bool, seed: int, tracking_noise: float, jobs: int | None, overwrite: bool, quiet: bool
+) -> None:
     """Generate a three-camera project in DIRECTORY, run the pipeline on it, compare with the truth.
 
     An existing DIRECTORY is used again when it holds this very demo,
@@ -61,9 +71,17 @@ def demo(directory: Path, quick: bool, seed: int, tracking_noise: float, jobs: i
         click.echo("\nrecovered against true relations:\n" + table)
         failed = len(pairs) - len(errors)
         if errors:
-            click.echo(f"\nworst eps_t: {max(errors.values()):.3f} frames" + (f" ({failed} pairs failed)" if failed else "") + f", in {time.perf_counter() - start:.0f} s")
+            click.echo(
+                f"\nworst eps_t: {max(errors.values()):.3f} frames"
+                + (f" ({failed} pairs failed)" if failed else "")
+                + f", in {time.perf_counter() - start:.0f} s"
+            )
         ws = graph.workspace
-        click.echo(shown(f"timeline: {ws.path('timeline')}\nreport: {ws.path('report_html')}\npictures: {ws.path('pictures')}/"))
+        click.echo(
+            shown(
+                f"timeline: {ws.path('timeline')}\nreport: {ws.path('report_html')}\npictures: {ws.path('pictures')}/"
+            )
+        )
     if code:
         sys.exit(code)
 
@@ -73,7 +91,12 @@ def _generate(directory: Path, options: dict, quiet: bool) -> Path:
     if options["quick"]:
         from data_fixtures.scene import make_scene, write_scene
 
-        scene = make_scene(options["seed"], lines=((2.0, 4.0), (2.0, 45.0), (1.0, -30.5)), n_frames=(512, 512, 300), tracking_noise_px=options["tracking_noise"])
+        scene = make_scene(
+            options["seed"],
+            lines=((2.0, 4.0), (2.0, 45.0), (1.0, -30.5)),
+            n_frames=(512, 512, 300),
+            tracking_noise_px=options["tracking_noise"],
+        )
         project_file = write_scene(scene, directory)
         click.echo(f"synthetic scene written to {directory}/ (project: {project_file.name}, truth: truth.json)")
     else:
@@ -81,8 +104,13 @@ def _generate(directory: Path, options: dict, quiet: bool) -> Path:
 
         say = None if quiet else (lambda message: click.echo(f"generating {message}", err=True))
         project_file, _ = make_raw_project(directory, RawProjectSpec(seed=options["seed"]), say)
-        click.echo(f"raw project written to {directory}/ (project: {project_file.name}, truth: truth.json): videos, checkerboard photos, GCPs, GPX log")
-    (directory / MARKER).write_text(json.dumps({"options": options, "files": _hashes(directory)}, indent=1) + "\n", encoding="utf-8")
+        click.echo(
+            f"raw project written to {directory}/ (project: {project_file.name}, truth: truth.json): videos, "
+            f"checkerboard photos, GCPs, GPX log"
+        )
+    (directory / MARKER).write_text(
+        json.dumps({"options": options, "files": _hashes(directory)}, indent=1) + "\n", encoding="utf-8"
+    )
     return project_file
 
 

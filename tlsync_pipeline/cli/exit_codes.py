@@ -23,9 +23,11 @@ class ExitCode(IntEnum):
 
 MEANINGS = {
     ExitCode.OK: "every camera synchronized: its status `ok` or `weak` (`status`: every stage fresh or given)",
-    ExitCode.NOT_SYNCHRONIZED: "some camera not synchronized (status `ambiguous` or `failed`), or a stage failed (the others are still written); `status`: something is stale, missing or failed",
+    ExitCode.NOT_SYNCHRONIZED: "some camera not synchronized (status `ambiguous` or `failed`), or a stage failed (the "
+    "others are still written); `status`: something is stale, missing or failed",
     ExitCode.BAD_INPUT: "bad input: the message names the file and the line, frame or field",
-    ExitCode.ENVIRONMENT: "environment: disk full, read-only or unwritable folder, work folder in use by another run (the message names the path)",
+    ExitCode.ENVIRONMENT: "environment: disk full, read-only or unwritable folder, work folder in use by another run "
+    "(the message names the path)",
     ExitCode.INTERRUPTED: "interrupted (Ctrl-C, SIGTERM); the next run resumes where this one stopped",
 }
 

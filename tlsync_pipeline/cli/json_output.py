@@ -31,7 +31,14 @@ def status_document(graph: Graph, rows: list[TaskState], running: dict | None, e
     sync = next((r for r in rows if r.id == "sync"), None)
     cameras = camera_statuses(graph, sync is not None and sync.state == "fresh")
     tasks = [
-        {"id": r.id, "stage": r.stage, "camera": r.camera, "state": r.state, "reasons": [] if r.state == "given" else r.reasons, "artefacts": r.reasons if r.state == "given" else r.artefacts}
+        {
+            "id": r.id,
+            "stage": r.stage,
+            "camera": r.camera,
+            "state": r.state,
+            "reasons": [] if r.state == "given" else r.reasons,
+            "artefacts": r.reasons if r.state == "given" else r.artefacts,
+        }
         for r in rows
     ]
     return _document(STATUS_FORMAT, graph, exit_code, tasks, cameras, running=running)
@@ -74,7 +81,13 @@ def dumps(document: dict) -> str:
     return json.dumps(document, indent=1)
 
 
-UNKNOWN = {"status": "unknown", "synchronized": False, "reason": "no current timeline (run the sync stage)", "remedy": "tlsync run", "reasons": []}
+UNKNOWN = {
+    "status": "unknown",
+    "synchronized": False,
+    "reason": "no current timeline (run the sync stage)",
+    "remedy": "tlsync run",
+    "reasons": [],
+}
 
 
 def camera_statuses(graph: Graph, current: bool) -> dict[str, dict]:
@@ -93,4 +106,13 @@ def camera_statuses(graph: Graph, current: bool) -> dict[str, dict]:
 
 
 def _document(fmt: str, graph: Graph, exit_code: int, tasks: list[dict], cameras: dict, **extra) -> dict:
-    return {"format": fmt, "version": VERSION, "project": str(Path(graph.project.path)), "work": str(graph.work), "exit_code": int(exit_code), **extra, "tasks": tasks, "cameras": cameras}
+    return {
+        "format": fmt,
+        "version": VERSION,
+        "project": str(Path(graph.project.path)),
+        "work": str(graph.work),
+        "exit_code": int(exit_code),
+        **extra,
+        "tasks": tasks,
+        "cameras": cameras,
+    }

@@ -15,19 +15,21 @@ from pathlib import Path
 import click
 
 from tlsync_pipeline.cli import pipeline as pipeline_cli
-from tlsync_pipeline.cli.signals import INTERRUPTED_MESSAGE, interrupt
 from tlsync_pipeline.cli.console import print_error, shown, usage_error_text
 from tlsync_pipeline.cli.demo import demo as demo_command
 from tlsync_pipeline.cli.exit_codes import ExitCode, exit_code_for
 from tlsync_pipeline.cli.json_output import dumps, run_document
 from tlsync_pipeline.cli.options import in_order, project_argument, quiet_option, verbose_option
 from tlsync_pipeline.cli.pipeline import execute, print_timeline, report_outcome, run_options, synchronized_code
+from tlsync_pipeline.cli.signals import INTERRUPTED_MESSAGE, interrupt
 from tlsync_pipeline.errors import INPUT_ERRORS, EnvironmentProblem, SyncError, describe_error
 from tlsync_pipeline.pipeline.stop import clear as clear_stop
 
 
 class TlsyncGroup(click.Group):
-    """Turns every error, tlsync's and click's (a usage error), into one ``error:`` line and an exit code; SIGTERM into Ctrl-C."""
+    """Turns every error, tlsync's and click's (a usage error), into one ``error:`` line and an exit code; SIGTERM into
+    Ctrl-C.
+    """
 
     def main(self, args=None, prog_name=None, complete_var=None, standalone_mode=True, **extra):
         if not standalone_mode:
@@ -81,24 +83,59 @@ def main() -> None:
 @in_order(
     project_argument,
     run_options,
-    click.option("--truth", type=click.Path(dir_okay=False, path_type=Path), help="A truth.json to compare against (prints eps_t per pair)."),
-    click.option("--json", "as_json", is_flag=True, help="Print a JSON summary of the run on stdout instead of the tables (docs/formats.md)."),
+    click.option(
+        "--truth",
+        type=click.Path(dir_okay=False, path_type=Path),
+        help="A truth.json to compare against (prints eps_t per pair).",
+    ),
+    click.option(
+        "--json",
+        "as_json",
+        is_flag=True,
+        help="Print a JSON summary of the run on stdout instead of the tables (docs/formats.md).",
+    ),
     quiet_option(),
     verbose_option,
 )
-def run(project: Path, work_dir: Path | None, truth: Path | None, as_json: bool, force_stages, camera, jobs, executor_kind, scheduler, quiet) -> None:
+def run(
+    project: Path,
+    work_dir: Path | None,
+    truth: Path | None,
+    as_json: bool,
+    force_stages,
+    camera,
+    jobs,
+    executor_kind,
+    scheduler,
+    quiet,
+) -> None:
     """Run every stage of PROJECT that is not fresh; write timeline.json, exports, pictures.
 
     PROJECT is the project file, or the folder that holds it (project.toml).
     """
-    graph, summary = execute(project, work_dir, force_stages=force_stages, cameras=camera, jobs=jobs, executor_kind=executor_kind, scheduler=scheduler, quiet=quiet, summary_text=not as_json)
+    graph, summary = execute(
+        project,
+        work_dir,
+        force_stages=force_stages,
+        cameras=camera,
+        jobs=jobs,
+        executor_kind=executor_kind,
+        scheduler=scheduler,
+        quiet=quiet,
+        summary_text=not as_json,
+    )
     code = max(report_outcome(graph, summary, quiet), synchronized_code(graph, summary))
     if as_json:
         click.echo(dumps(run_document(graph, summary, code)))
     else:
         timeline = print_timeline(graph, summary, truth)
         if timeline is not None:
-            click.echo(shown(f"\nwrote {graph.workspace.path('timeline')}" + (f", {graph.workspace.path('report_html')}" if "render" in summary.ran + summary.fresh else "")))
+            click.echo(
+                shown(
+                    f"\nwrote {graph.workspace.path('timeline')}"
+                    + (f", {graph.workspace.path('report_html')}" if "render" in summary.ran + summary.fresh else "")
+                )
+            )
         elif camera and not quiet:
             click.echo("sync, export and render use every camera: run without --camera to bring them up to date")
     if code:

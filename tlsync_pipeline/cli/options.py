@@ -42,8 +42,18 @@ def project_argument(f: Callable) -> Callable:
 
 def work_option(f: Callable) -> Callable:
     return in_order(
-        click.option("--work", "work_dir", type=click.Path(file_okay=False, path_type=Path), metavar="DIR", help="Work folder (default: work/ beside the project file)."),
-        _refused("--out", "names the file a standalone command writes (ingest-log, track-video, calibrate-intrinsics); the work folder is --work DIR"),
+        click.option(
+            "--work",
+            "work_dir",
+            type=click.Path(file_okay=False, path_type=Path),
+            metavar="DIR",
+            help="Work folder (default: work/ beside the project file).",
+        ),
+        _refused(
+            "--out",
+            "names the file a standalone command writes (ingest-log, track-video, calibrate-intrinsics); the work "
+            "folder is --work DIR",
+        ),
     )(f)
 
 
@@ -57,18 +67,37 @@ def camera_option(help_text: str = "Only this camera's stages (repeatable).") ->
 
 
 def jobs_option(f: Callable) -> Callable:
-    return click.option("--jobs", "-j", type=click.IntRange(min=1), metavar="N", help="Processes (default: one per core; 1 runs everything in this process).")(f)
+    return click.option(
+        "--jobs",
+        "-j",
+        type=click.IntRange(min=1),
+        metavar="N",
+        help="Processes (default: one per core; 1 runs everything in this process).",
+    )(f)
 
 
 def executor_options(f: Callable) -> Callable:
     return in_order(
         jobs_option,
-        click.option("--executor", "executor_kind", type=click.Choice(EXECUTORS), default="process", show_default=True, help="Where per-camera stages run."),
-        click.option("--scheduler", metavar="ADDRESS", help="Dask scheduler address (with --executor dask), e.g. tcp://host:8786."),
+        click.option(
+            "--executor",
+            "executor_kind",
+            type=click.Choice(EXECUTORS),
+            default="process",
+            show_default=True,
+            help="Where per-camera stages run.",
+        ),
+        click.option(
+            "--scheduler",
+            metavar="ADDRESS",
+            help="Dask scheduler address (with --executor dask), e.g. tcp://host:8786.",
+        ),
     )(f)
 
 
-def quiet_option(help_text: str = "No progress, counts nor warnings (results and errors are still printed).") -> Decorator:
+def quiet_option(
+    help_text: str = "No progress, counts nor warnings (results and errors are still printed).",
+) -> Decorator:
     return click.option("--quiet", "-q", is_flag=True, help=help_text)
 
 
@@ -80,7 +109,14 @@ def verbose_option(f: Callable) -> Callable:
             ctx.meta[VERBOSE] = True
         return value
 
-    return click.option("--verbose", "-v", is_flag=True, expose_value=False, callback=remember, help="An error's details under its line.")(f)
+    return click.option(
+        "--verbose",
+        "-v",
+        is_flag=True,
+        expose_value=False,
+        callback=remember,
+        help="An error's details under its line.",
+    )(f)
 
 
 def verbose() -> bool:
@@ -101,4 +137,8 @@ def _refused(name: str, why: str) -> Decorator:
 
 def refused_camera(stage: str, per_camera: tuple[str, ...]) -> Decorator:
     """``--camera`` on a project-wide stage's command: refused, saying why."""
-    return _refused("--camera", f"the {stage} stage uses every camera; --camera goes with run and the per-camera stages ({', '.join(per_camera)})")
+    return _refused(
+        "--camera",
+        f"the {stage} stage uses every camera; --camera goes with run and the per-camera stages "
+        f"({', '.join(per_camera)})",
+    )

@@ -16,7 +16,16 @@ import click
 from tlsync_pipeline.cli.console import ConsoleProgress, print_error, shown
 from tlsync_pipeline.cli.exit_codes import ExitCode, exit_code_for
 from tlsync_pipeline.cli.json_output import camera_statuses, dumps, status_document
-from tlsync_pipeline.cli.options import camera_option, executor_options, in_order, project_argument, quiet_option, refused_camera, verbose_option, work_option
+from tlsync_pipeline.cli.options import (
+    camera_option,
+    executor_options,
+    in_order,
+    project_argument,
+    quiet_option,
+    refused_camera,
+    verbose_option,
+    work_option,
+)
 from tlsync_pipeline.errors import EnvironmentProblem, InputError, describe_error, one_line
 from tlsync_pipeline.outputs.summary import format_table, format_truth_comparison
 from tlsync_pipeline.pipeline.executors import SerialExecutor, make_executor
@@ -55,7 +64,20 @@ def _parse_frames(value: str | None) -> tuple[int, ...] | None:
         raise InputError(f"--frames {value!r}: expected frame numbers of the second camera, e.g. 120,340,560") from None
 
 
-def execute(project_file: Path, work_dir: Path | None, *, force_stages=(), cameras=(), targets_stage=None, force_target=True, jobs=None, executor_kind="process", scheduler=None, quiet=False, summary_text=True):
+def execute(
+    project_file: Path,
+    work_dir: Path | None,
+    *,
+    force_stages=(),
+    cameras=(),
+    targets_stage=None,
+    force_target=True,
+    jobs=None,
+    executor_kind="process",
+    scheduler=None,
+    quiet=False,
+    summary_text=True,
+):
     """Build the graph, run it and print what ran (summary_text: on stdout); returns (graph, summary).
 
     targets_stage: run that stage's tasks and what they need, nothing after
@@ -105,14 +127,20 @@ def _check_force_with_cameras(cameras, force_stages) -> None:
     """--camera restricts --force to per-camera stages: a project-wide one would be left out."""
     project_wide = [s for s in force_stages if s not in PER_CAMERA]
     if cameras and project_wide:
-        raise InputError(f"--force {project_wide[0]} --camera: the {project_wide[0]} stage is not per camera (it uses every camera); per-camera stages: {', '.join(PER_CAMERA)}")
+        raise InputError(
+            f"--force {project_wide[0]} --camera: the {project_wide[0]} stage is not per camera (it uses every "
+            f"camera); per-camera stages: {', '.join(PER_CAMERA)}"
+        )
 
 
 def format_summary(summary: RunSummary, counts: bool = True) -> str:
     """What ran and was skipped (with counts), then the result messages of the stages that have one."""
     lines = []
     if counts:
-        lines.append(f"ran {len(summary.ran)}, fresh {len(summary.fresh)}, failed {len(summary.failed)}, skipped {len(summary.skipped)}")
+        lines.append(
+            f"ran {len(summary.ran)}, fresh {len(summary.fresh)}, failed {len(summary.failed)}, skipped "
+            f"{len(summary.skipped)}"
+        )
         if summary.ran:
             lines.append("ran: " + ", ".join(summary.ran))
         lines += [f"skipped {tid}: {why}" for tid, why in summary.skipped.items()]
@@ -163,14 +191,18 @@ def print_warnings(graph: Graph, summary: RunSummary) -> None:
 
 
 def synchronized_code(graph, summary: RunSummary) -> ExitCode:
-    """NOT_SYNCHRONIZED when this run's sync stage completed and some camera is not synchronized (ambiguous or failed), else OK."""
+    """NOT_SYNCHRONIZED when this run's sync stage completed and some camera is not synchronized (ambiguous or failed),
+    else OK.
+    """
     if "sync" in summary.ran + summary.fresh and read_timeline(graph.workspace.path("timeline")).failed:
         return ExitCode.NOT_SYNCHRONIZED
     return ExitCode.OK
 
 
 def print_timeline(graph, summary: RunSummary, truth: Path | None = None):
-    """Print the timeline table (and the comparison with ``truth``) when this run's sync stage completed; returns the Timeline or None."""
+    """Print the timeline table (and the comparison with ``truth``) when this run's sync stage completed; returns the
+    Timeline or None.
+    """
     if "sync" not in summary.ran + summary.fresh:
         return None
     timeline = read_timeline(graph.workspace.path("timeline"))
@@ -219,7 +251,10 @@ def status_command(project: Path, work_dir: Path | None, as_json: bool, quiet: b
     elif not quiet:
         click.echo(f"work folder: {work}" + ("" if work.is_dir() else " (not made yet)"))
         if running is not None:
-            click.echo(f"run in progress: pid {running['pid']} on {running['host']}, started {running['started']}: {running['command']}")
+            click.echo(
+                f"run in progress: pid {running['pid']} on {running['host']}, started {running['started']}: "
+                f"{running['command']}"
+            )
         click.echo(format_status(rows))
         sync = next((r for r in rows if r.id == "sync"), None)
         for name, camera in camera_statuses(graph, sync is not None and sync.state == "fresh").items():
@@ -233,18 +268,34 @@ def status_command(project: Path, work_dir: Path | None, as_json: bool, quiet: b
 def stage_command(stage: str, help_text: str, render: bool = False) -> click.Command:
     """``tlsync STAGE PROJECT [--camera NAME]``: re-run one stage (what it needs first, if not fresh)."""
 
-    def command(project, work_dir, jobs, executor_kind, scheduler, quiet, camera=(), pair=None, frames=None, truth=None):
+    def command(
+        project, work_dir, jobs, executor_kind, scheduler, quiet, camera=(), pair=None, frames=None, truth=None
+    ):
         from tlsync_pipeline.pipeline.engine import task_files
         from tlsync_pipeline.pipeline.project import load_project
         from tlsync_pipeline.pipeline.stages.render import draw_requested
         from tlsync_pipeline.pipeline.strip_requests import StripRequest
 
-        request = StripRequest(_parse_pairs(pair), _parse_frames(frames), read_truth(truth)[0] if truth else None) if pair or frames or truth else None
+        request = (
+            StripRequest(_parse_pairs(pair), _parse_frames(frames), read_truth(truth)[0] if truth else None)
+            if pair or frames or truth
+            else None
+        )
         if request is not None and request.pairs:
             loaded = load_project(project)
             for name in {n for p in request.pairs for n in p}:
                 loaded.camera(name)
-        graph, summary = execute(project, work_dir, cameras=camera, targets_stage=stage, force_target=request is None, jobs=jobs, executor_kind=executor_kind, scheduler=scheduler, quiet=quiet)
+        graph, summary = execute(
+            project,
+            work_dir,
+            cameras=camera,
+            targets_stage=stage,
+            force_target=request is None,
+            jobs=jobs,
+            executor_kind=executor_kind,
+            scheduler=scheduler,
+            quiet=quiet,
+        )
         code = max(report_outcome(graph, summary, quiet), synchronized_code(graph, summary))
         if request is not None and stage in summary.ran + summary.fresh:
             task = graph.tasks[stage]
@@ -256,33 +307,88 @@ def stage_command(stage: str, help_text: str, render: bool = False) -> click.Com
 
     command.__doc__ = help_text
     render_options = (
-        click.option("--pair", metavar="A,B", help="Draw the strip of matching frames of cameras A and B (several: 'A,B;A,C'), kept beside the other pictures as render/pair_A_B....png."),
-        click.option("--frames", metavar="F,F", help="Frames of the second camera of each pair to draw, e.g. 120,340 (default: chosen; without --pair: the default pairs)."),
-        click.option("--truth", type=click.Path(dir_okay=False, path_type=Path), help="truth.json: the strips show A's true match too."),
+        click.option(
+            "--pair",
+            metavar="A,B",
+            help="Draw the strip of matching frames of cameras A and B (several: 'A,B;A,C'), kept beside the other "
+            "pictures as render/pair_A_B....png.",
+        ),
+        click.option(
+            "--frames",
+            metavar="F,F",
+            help="Frames of the second camera of each pair to draw, e.g. 120,340 (default: chosen; without --pair: "
+            "the default pairs).",
+        ),
+        click.option(
+            "--truth",
+            type=click.Path(dir_okay=False, path_type=Path),
+            help="truth.json: the strips show A's true match too.",
+        ),
     )
-    camera = camera_option("Only this camera (repeatable).") if stage in PER_CAMERA else refused_camera(stage, PER_CAMERA)
-    command = in_order(project_argument, work_option, camera, *(render_options if render else ()), executor_options, quiet_option(), verbose_option)(command)
+    camera = (
+        camera_option("Only this camera (repeatable).") if stage in PER_CAMERA else refused_camera(stage, PER_CAMERA)
+    )
+    command = in_order(
+        project_argument,
+        work_option,
+        camera,
+        *(render_options if render else ()),
+        executor_options,
+        quiet_option(),
+        verbose_option,
+    )(command)
     return click.command(stage)(command)
 
 
-intrinsics_command = stage_command("intrinsics", "Re-run the intrinsics stage: checkerboard detection and intrinsics.json per camera.")
-calibrate_command = stage_command("calibrate", "Re-run the calibrate stage: the pose; camera.json, calibration_report.json, calibration.png per camera.")
-track_command = stage_command("track", "Re-run the track stage: every mover's detections.csv (blob) or the target's track.csv (CSRT) in each camera's video.")
-clock_command = stage_command("clock", "Re-run the clock stage: each camera's recording time (its video's metadata or [cameras.clock] recorded) into clock.json.")
-identify_command = stage_command("identify", "Re-run the identify stage: the target among every mover (the init box, if any, seeding it); track.csv and identification.json per camera.")
-ingest_command = stage_command("ingest", "Re-run the ingest stage: the [target] log into target/trajectory.csv and ingest_report.json.")
+intrinsics_command = stage_command(
+    "intrinsics", "Re-run the intrinsics stage: checkerboard detection and intrinsics.json per camera."
+)
+calibrate_command = stage_command(
+    "calibrate",
+    "Re-run the calibrate stage: the pose; camera.json, calibration_report.json, calibration.png per camera.",
+)
+track_command = stage_command(
+    "track",
+    "Re-run the track stage: every mover's detections.csv (blob) or the target's track.csv (CSRT) in each camera's "
+    "video.",
+)
+clock_command = stage_command(
+    "clock",
+    "Re-run the clock stage: each camera's recording time (its video's metadata or [cameras.clock] recorded) into "
+    "clock.json.",
+)
+identify_command = stage_command(
+    "identify",
+    "Re-run the identify stage: the target among every mover (the init box, if any, seeding it); track.csv and "
+    "identification.json per camera.",
+)
+ingest_command = stage_command(
+    "ingest", "Re-run the ingest stage: the [target] log into target/trajectory.csv and ingest_report.json."
+)
 vote_command = stage_command("vote", "Re-run the vote stage: (frame, sample) pairs within eps_px, per camera.")
 sync_command = stage_command("sync", "Re-run the sync stage: each camera's line and the timeline (timeline.json).")
 export_command = stage_command("export", "Re-run the export stage: frame map, offsets and ffmpeg commands.")
-render_command = stage_command("render", "Draw the pictures and charts from cached artefacts, and write report.html and report.md.", render=True)
+render_command = stage_command(
+    "render", "Draw the pictures and charts from cached artefacts, and write report.html and report.md.", render=True
+)
 
 
 def run_options(f):
     """run's options before --truth and --json: --work, --camera, --force, the executor's."""
     return in_order(
         work_option,
-        camera_option("Only this camera's per-camera stages, with what they need (repeatable); sync, export and render use every camera and wait for a run without --camera."),
-        click.option("--force", "force_stages", multiple=True, type=click.Choice(STAGES), metavar="STAGE", help=f"Re-run this stage even if fresh (repeatable; with --camera, for that camera): {', '.join(STAGES)}."),
+        camera_option(
+            "Only this camera's per-camera stages, with what they need (repeatable); sync, export and render use "
+            "every camera and wait for a run without --camera."
+        ),
+        click.option(
+            "--force",
+            "force_stages",
+            multiple=True,
+            type=click.Choice(STAGES),
+            metavar="STAGE",
+            help=f"Re-run this stage even if fresh (repeatable; with --camera, for that camera): {', '.join(STAGES)}.",
+        ),
         executor_options,
     )(f)
 
@@ -290,5 +396,16 @@ def run_options(f):
 def register(group: click.Group) -> None:
     """Add the pipeline's commands to the ``tlsync`` group."""
     group.add_command(status_command, "status")
-    for cmd in (intrinsics_command, calibrate_command, track_command, clock_command, ingest_command, identify_command, vote_command, sync_command, export_command, render_command):
+    for cmd in (
+        intrinsics_command,
+        calibrate_command,
+        track_command,
+        clock_command,
+        ingest_command,
+        identify_command,
+        vote_command,
+        sync_command,
+        export_command,
+        render_command,
+    ):
         group.add_command(cmd)

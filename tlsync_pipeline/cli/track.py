@@ -27,9 +27,19 @@ def _box(ctx, param, value):
 
 @click.command("track-video")
 @click.argument("video", type=click.Path(path_type=Path))
-@click.option("--tracker", "kind", type=click.Choice(KINDS), default=DEFAULT_KIND, show_default=True, help="Tracker kind.")
-@click.option("--init", callback=_box, help="Box X,Y,W,H around the target in the init frame (pixels, top-left corner and size).")
-@click.option("--init-frame", default=0, show_default=True, type=click.IntRange(min=0), help="0-based frame of the init box; tracking starts there.")
+@click.option(
+    "--tracker", "kind", type=click.Choice(KINDS), default=DEFAULT_KIND, show_default=True, help="Tracker kind."
+)
+@click.option(
+    "--init", callback=_box, help="Box X,Y,W,H around the target in the init frame (pixels, top-left corner and size)."
+)
+@click.option(
+    "--init-frame",
+    default=0,
+    show_default=True,
+    type=click.IntRange(min=0),
+    help="0-based frame of the init box; tracking starts there.",
+)
 @out_option("detections.csv (blob, no --init) or track.csv to write.")
 @quiet_option("No progress bar.")
 @verbose_option

@@ -15,14 +15,28 @@ import importlib
 from typing import Any
 
 _WHERE = {
-    "ALTITUDE_REFERENCES": "tlsync_pipeline.ingest.records", "LogRecords": "tlsync_pipeline.ingest.records",
-    "FORMATS": "tlsync_pipeline.ingest.registry", "detect_format": "tlsync_pipeline.ingest.detect",
-    "IngestParams": "tlsync_pipeline.ingest.params", "IngestReport": "tlsync_pipeline.ingest.report",
-    "RigidTransform": "tlsync_pipeline.ingest.params", "ingest": "tlsync_pipeline.ingest.process",
+    "ALTITUDE_REFERENCES": "tlsync_pipeline.ingest.records",
+    "LogRecords": "tlsync_pipeline.ingest.records",
+    "FORMATS": "tlsync_pipeline.ingest.registry",
+    "detect_format": "tlsync_pipeline.ingest.detect",
+    "IngestParams": "tlsync_pipeline.ingest.params",
+    "IngestReport": "tlsync_pipeline.ingest.report",
+    "RigidTransform": "tlsync_pipeline.ingest.params",
+    "ingest": "tlsync_pipeline.ingest.process",
     "read_log": "tlsync_pipeline.ingest.read",
 }
 
-__all__ = ["ALTITUDE_REFERENCES", "FORMATS", "IngestParams", "IngestReport", "LogRecords", "RigidTransform", "detect_format", "ingest", "read_log"]
+__all__ = [
+    "ALTITUDE_REFERENCES",
+    "FORMATS",
+    "IngestParams",
+    "IngestReport",
+    "LogRecords",
+    "RigidTransform",
+    "detect_format",
+    "ingest",
+    "read_log",
+]
 
 
 def __getattr__(name: str) -> Any:

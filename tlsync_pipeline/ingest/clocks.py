@@ -29,7 +29,9 @@ def whole_second_offset(d: np.ndarray) -> float:
     return float(d[j : j + counts[j]].mean() + 0.5)
 
 
-def onto_coarse_clock(fine_s: np.ndarray, coarse_s: np.ndarray, whole_seconds: bool, break_s: float) -> tuple[np.ndarray, np.ndarray]:
+def onto_coarse_clock(
+    fine_s: np.ndarray, coarse_s: np.ndarray, whole_seconds: bool, break_s: float
+) -> tuple[np.ndarray, np.ndarray]:
     """(fine times put on the coarse clock, the run each row belongs to, 0-based); see the module notes."""
     fine_s, coarse_s = np.asarray(fine_s, dtype=float), np.asarray(coarse_s, dtype=float)
     run = np.zeros(len(fine_s), dtype=int)

@@ -20,7 +20,6 @@ import numpy as np
 
 from tlsync_pipeline.csvtable import Columns, Table, cell_number, delimiter_of
 from tlsync_pipeline.errors import InputError
-from tlsync_pipeline.inputs import quote
 from tlsync_pipeline.ingest.reader import Reader, text_of
 from tlsync_pipeline.ingest.records import (
     GEODETIC,
@@ -30,6 +29,7 @@ from tlsync_pipeline.ingest.records import (
     check_geodetic_rows,
     records_of_columns,
 )
+from tlsync_pipeline.inputs import quote
 
 ALIASES = {
     "time": ("time", "t", "timestamp"),
@@ -61,7 +61,9 @@ def parse_time(text: str) -> tuple[float, bool]:
         value = float(text)
     except ValueError:
         text = text.strip()
-        when = dt.datetime.fromisoformat(text[:-1] + "+00:00" if text[-1:] in "Zz" and text else text)  # 'Z': Python < 3.11
+        when = dt.datetime.fromisoformat(
+            text[:-1] + "+00:00" if text[-1:] in "Zz" and text else text
+        )  # 'Z': Python < 3.11
         if when.tzinfo is None:
             when = when.replace(tzinfo=dt.timezone.utc)
         return when.timestamp(), True
@@ -84,7 +86,9 @@ def read_csv_log(path: str | Path, fmt: str = "csv") -> LogRecords:
         delimiter, columns = header_columns(table.header)
         geodetic = "lat" in columns and "lon" in columns
         if fmt == "odometry" and geodetic:
-            raise InputError(f"{path}:{header_no}: an odometry log has columns time,x,y,z, not lat/lon (use --format csv)")
+            raise InputError(
+                f"{path}:{header_no}: an odometry log has columns time,x,y,z, not lat/lon (use --format csv)"
+            )
         wanted = ["time", "lat", "lon", "alt"] if geodetic else ["time", "x", "y", "z"]
         missing = [c for c in wanted if c not in columns and not (c == "alt" and geodetic)]
         if missing:
@@ -114,15 +118,34 @@ def read_csv_log(path: str | Path, fmt: str = "csv") -> LogRecords:
     numbers = np.concatenate([np.asarray(n, dtype=np.int64) for n in lines]) if lines else np.empty(0, np.int64)
     t, values = (rows.get("t")[:, 0], rows.get("values")) if rows else (np.empty(0), np.empty((0, 3)))
     kind = "odometry" if fmt == "odometry" else "csv"
-    return records_of_columns(path, kind, frame, t, values, numbers, utc=geodetic or state.iso, dropped=state.dropped,
-                              ignored=state.comments, warnings=warnings)
+    return records_of_columns(
+        path,
+        kind,
+        frame,
+        t,
+        values,
+        numbers,
+        utc=geodetic or state.iso,
+        dropped=state.dropped,
+        ignored=state.comments,
+        warnings=warnings,
+    )
 
 
 class _Lines:
     """The line-by-line reading of a chunk: rows kept, line noise dropped and counted, comments counted."""
 
-    def __init__(self, path: Path, table: Table, delimiter: str, width: int, columns: dict[str, int], wanted: list[str],
-                 index: list[int | None], geodetic: bool):
+    def __init__(
+        self,
+        path: Path,
+        table: Table,
+        delimiter: str,
+        width: int,
+        columns: dict[str, int],
+        wanted: list[str],
+        index: list[int | None],
+        geodetic: bool,
+    ):
         self.path, self.table, self.delimiter, self.width = path, table, delimiter, width
         self.columns, self.wanted, self.index, self.geodetic = columns, wanted, index, geodetic
         self.dropped: dict[str, list[int]] = {}
@@ -184,4 +207,9 @@ def _sniff(head: bytes) -> bool:
 
 
 READER = Reader("csv", "CSV with a header time,lat,lon,alt or t,x,y,z", read_csv_log, _sniff)
-ODOMETRY_READER = Reader("odometry", "odometry CSV time,x,y,z (by name only: --format odometry)", lambda path: read_csv_log(path, "odometry"), None)
+ODOMETRY_READER = Reader(
+    "odometry",
+    "odometry CSV time,x,y,z (by name only: --format odometry)",
+    lambda path: read_csv_log(path, "odometry"),
+    None,
+)

@@ -58,12 +58,15 @@ def read_dataflash(path: str | Path) -> LogRecords:
         if log is not None:
             log.close()
     if not gps:
-        raise InputError(f"{path}: no GPS messages in this DataFlash log (was a GPS connected? is LOG_BITMASK logging GPS?)")
+        raise InputError(
+            f"{path}: no GPS messages in this DataFlash log (was a GPS connected? is LOG_BITMASK logging GPS?)"
+        )
     return dataflash_records(path, gps, gpa)
 
 
 def dataflash_records(path: Path, gps: list[dict], gpa: dict[int, dict]) -> LogRecords:
     """LogRecords of GPS message dicts (DFReader's to_dict), with GPA dicts by TimeUS."""
+
     def column(name, *aliases, default=np.nan):
         for key in (name, *aliases):
             if key in gps[0]:
@@ -77,7 +80,10 @@ def dataflash_records(path: Path, gps: list[dict], gpa: dict[int, dict]) -> LogR
     boot = column("TimeUS", default=np.nan) * 1e-6
     if np.isnan(boot).all():
         boot = column("TimeMS", default=np.nan) * 1e-3
-    und, hacc, vacc = (np.array([float(gpa.get(int(d.get("TimeUS", -1)), {}).get(k, np.nan)) for d in gps]) for k in ("Und", "HAcc", "VAcc"))
+    und, hacc, vacc = (
+        np.array([float(gpa.get(int(d.get("TimeUS", -1)), {}).get(k, np.nan)) for d in gps])
+        for k in ("Und", "HAcc", "VAcc")
+    )
     dropped = {}
     fix = status >= 3
     if (~fix).any():
@@ -91,7 +97,9 @@ def dataflash_records(path: Path, gps: list[dict], gpa: dict[int, dict]) -> LogR
         t = week_tow_to_utc(week, ms * 1e-3)
     else:
         t = boot
-        warnings.append("no GPS week in the fixes: times are the autopilot's boot clock (TimeUS); offsets work, UTC does not")
+        warnings.append(
+            "no GPS week in the fixes: times are the autopilot's boot clock (TimeUS); offsets work, UTC does not"
+        )
     keep = fix & np.isfinite(lat) & np.isfinite(lon) & np.isfinite(alt) & np.isfinite(t)
     ellipsoidal = keep & np.isfinite(und) & (und != 0)
     if ellipsoidal[keep].all() and keep.any():
@@ -105,10 +113,25 @@ def dataflash_records(path: Path, gps: list[dict], gpa: dict[int, dict]) -> LogR
     rows = np.column_stack([t, lat, lon, height])[keep]
     quality = {"Status": status, "HDop": column("HDop"), "NSats": column("NSats"), "HAcc": hacc, "VAcc": vacc}
     return make_records(
-        path, "dataflash", GEODETIC, rows, numbers[keep], unit=UNIT, utc=has_utc, dropped=dropped, warnings=warnings,
-        altitude=altitude, sigma=None if np.isnan(hacc).all() else hacc[keep],
-        quality={k: v[keep] for k, v in quality.items() if not np.isnan(v).all()}, clock=None if has_utc else "ArduPilot boot clock (s)",
+        path,
+        "dataflash",
+        GEODETIC,
+        rows,
+        numbers[keep],
+        unit=UNIT,
+        utc=has_utc,
+        dropped=dropped,
+        warnings=warnings,
+        altitude=altitude,
+        sigma=None if np.isnan(hacc).all() else hacc[keep],
+        quality={k: v[keep] for k, v in quality.items() if not np.isnan(v).all()},
+        clock=None if has_utc else "ArduPilot boot clock (s)",
     )
 
 
-READER = Reader("dataflash", "ArduPilot DataFlash .bin (starts with its FMT table, bytes A3 95 80)", read_dataflash, lambda head: head.startswith(MAGIC))
+READER = Reader(
+    "dataflash",
+    "ArduPilot DataFlash .bin (starts with its FMT table, bytes A3 95 80)",
+    read_dataflash,
+    lambda head: head.startswith(MAGIC),
+)

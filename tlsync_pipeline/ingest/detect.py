@@ -5,9 +5,9 @@ from __future__ import annotations
 from pathlib import Path
 
 from tlsync_pipeline.errors import InputError
-from tlsync_pipeline.inputs import describe_line
 from tlsync_pipeline.ingest.reader import HEAD_BYTES, text_of
 from tlsync_pipeline.ingest.registry import FORMATS, READERS
+from tlsync_pipeline.inputs import describe_line
 
 
 def detect_format(path: str | Path) -> str:
@@ -42,4 +42,7 @@ def detect_format(path: str | Path) -> str:
         first = next((line for line in text.split("\n") if line.strip()), "")
         seen = f"a text file whose first line is {describe_line(first)}"
     expected = "; ".join(r.describe for r in READERS if r.sniff is not None)
-    raise InputError(f"{path}: cannot detect the log format ({seen}); expected one of: {expected}; or give --format (or [target] format), one of {', '.join(FORMATS)}")
+    raise InputError(
+        f"{path}: cannot detect the log format ({seen}); expected one of: {expected}; or give --format (or [target] "
+        f"format), one of {', '.join(FORMATS)}"
+    )

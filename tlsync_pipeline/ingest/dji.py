@@ -71,7 +71,9 @@ def _height_column(header: list[str]) -> tuple[int, float, str]:
 
 
 def read_dji(path: str | Path, utc_offset_s: float | None = None) -> LogRecords:
-    """Read a DJI CSV; utc_offset_s: local - UTC (s) of the OSD layout's app clock when it is local. See the module notes."""
+    """Read a DJI CSV; utc_offset_s: local - UTC (s) of the OSD layout's app clock when it is local. See the module
+    notes.
+    """
     path = Path(path)
     try:
         raw = path.read_bytes()
@@ -106,7 +108,11 @@ def read_dji(path: str | Path, utc_offset_s: float | None = None) -> LogRecords:
                 continue
             try:
                 ms = float(row[col["time(millisecond)"]])
-                when = dt.datetime.fromisoformat(row[col["datetime(utc)"]].strip()).replace(tzinfo=dt.timezone.utc).timestamp()
+                when = (
+                    dt.datetime.fromisoformat(row[col["datetime(utc)"]].strip())
+                    .replace(tzinfo=dt.timezone.utc)
+                    .timestamp()
+                )
                 lat, lon = float(row[col["latitude"]]), float(row[col["longitude"]])
                 h = float(row[height]) * scale
                 extra = [float(row[i]) if row[i].strip() else math.nan for i in extras.values()]
@@ -135,13 +141,32 @@ def read_dji(path: str | Path, utc_offset_s: float | None = None) -> LogRecords:
         warnings.append("utc_offset is not used: an AirData CSV's datetime(utc) is UTC")
     rows = np.column_stack([t, data[:, 3:6]])
     quality = {name: data[:, 6 + k] for k, name in enumerate(extras)}
-    note = (f"times: time(millisecond) put on UTC by the whole-second datetime(utc), one offset per run "
-            f"(within {whole_second_uncertainty(data[:, 1]):.2f} s)")
-    return make_records(path, "dji", GEODETIC, rows, data[:, 0].astype(int), dropped=dropped, warnings=warnings, altitude=altitude, quality=quality,
-                        notes=[note])
+    note = (
+        f"times: time(millisecond) put on UTC by the whole-second datetime(utc), one offset per run "
+        f"(within {whole_second_uncertainty(data[:, 1]):.2f} s)"
+    )
+    return make_records(
+        path,
+        "dji",
+        GEODETIC,
+        rows,
+        data[:, 0].astype(int),
+        dropped=dropped,
+        warnings=warnings,
+        altitude=altitude,
+        quality=quality,
+        notes=[note],
+    )
 
 
-_OSD_TIMES = ("%Y/%m/%d %H:%M:%S.%f", "%Y/%m/%d %H:%M:%S", "%m/%d/%Y %I:%M:%S.%f %p", "%m/%d/%Y %I:%M:%S %p", "%Y-%m-%d %H:%M:%S.%f", "%Y-%m-%d %H:%M:%S")
+_OSD_TIMES = (
+    "%Y/%m/%d %H:%M:%S.%f",
+    "%Y/%m/%d %H:%M:%S",
+    "%m/%d/%Y %I:%M:%S.%f %p",
+    "%m/%d/%Y %I:%M:%S %p",
+    "%Y-%m-%d %H:%M:%S.%f",
+    "%Y-%m-%d %H:%M:%S",
+)
 
 
 def _osd_time(text: str) -> float:
@@ -156,6 +181,7 @@ def _osd_time(text: str) -> float:
 
 def _read_osd(path: Path, header: list[str], reader, utc_offset_s: float | None) -> LogRecords:
     """The OSD layout (see the module notes)."""
+
     def find(prefix: str) -> int | None:
         return next((i for i, name in enumerate(header) if name.startswith(prefix)), None)
 
@@ -176,7 +202,11 @@ def _read_osd(path: Path, header: list[str], reader, utc_offset_s: float | None)
             if not row or not any(c.strip() for c in row):
                 continue
             try:
-                stamp = (row[date_col] + " " + row[time_col]) if date_col is not None and date_col != time_col else row[time_col]
+                stamp = (
+                    (row[date_col] + " " + row[time_col])
+                    if date_col is not None and date_col != time_col
+                    else row[time_col]
+                )
                 t = _osd_time(stamp)
                 lat, lon, h = float(row[lat_col]), float(row[lon_col]), float(row[height_col]) * scale
             except (ValueError, IndexError, OverflowError):
@@ -203,10 +233,25 @@ def _read_osd(path: Path, header: list[str], reader, utc_offset_s: float | None)
         rows = [[r[0] - utc_offset_s, *r[1:]] for r in rows]
         utc = True
     return make_records(
-        path, "dji", GEODETIC, rows, numbers, utc=utc, dropped=dropped, altitude=TAKEOFF, quality=quality, warnings=warnings,
-        clock=None if utc else "the DJI app's local clock (time zone not in the file)", local_time=not utc,
+        path,
+        "dji",
+        GEODETIC,
+        rows,
+        numbers,
+        utc=utc,
+        dropped=dropped,
+        altitude=TAKEOFF,
+        quality=quality,
+        warnings=warnings,
+        clock=None if utc else "the DJI app's local clock (time zone not in the file)",
+        local_time=not utc,
     )
 
 
-READER = Reader("dji", "DJI CSV (AirData: time(millisecond), datetime(utc), latitude, longitude; or OSD.latitude, OSD.longitude)", read_dji, _sniff,
-                local_clock=True)
+READER = Reader(
+    "dji",
+    "DJI CSV (AirData: time(millisecond), datetime(utc), latitude, longitude; or OSD.latitude, OSD.longitude)",
+    read_dji,
+    _sniff,
+    local_clock=True,
+)

@@ -68,7 +68,10 @@ def read_fit(path: str | Path) -> LogRecords:
     messages: dict[str, list[dict]] = {name: [] for name in SOURCES}
     correlation = None
     try:
-        with warnings.catch_warnings(record=True) as crc_warnings, fitdecode.FitReader(str(path), check_crc=fitdecode.CrcCheck.WARN) as reader:
+        with (
+            warnings.catch_warnings(record=True) as crc_warnings,
+            fitdecode.FitReader(str(path), check_crc=fitdecode.CrcCheck.WARN) as reader,
+        ):
             warnings.simplefilter("always")
             for frame in reader:
                 if not isinstance(frame, fitdecode.FitDataMessage):
@@ -116,32 +119,59 @@ def read_fit(path: str | Path) -> LogRecords:
         accuracy = m.get("gps_accuracy")
         sigma.append(float(accuracy) if isinstance(accuracy, (int, float)) else math.nan)
     units = sorted(u for u in fractions if u)
-    notes = [f"fix times: {source} timestamp " + (f"+ {' / '.join(units)}" if units else "in whole seconds (the messages have no timestamp_ms or fractional_timestamp)")]
+    notes = [
+        f"fix times: {source} timestamp "
+        + (
+            f"+ {' / '.join(units)}"
+            if units
+            else "in whole seconds (the messages have no timestamp_ms or fractional_timestamp)"
+        )
+    ]
     whole = np.asarray(coarse, dtype=float)
     if device_times and offset is not None:
-        notes.append(f"device clock put on UTC by timestamp_correlation ({anchor}): UTC - device clock = {offset:.3f} s")
+        notes.append(
+            f"device clock put on UTC by timestamp_correlation ({anchor}): UTC - device clock = {offset:.3f} s"
+        )
     elif device_times == len(rows) > 0 and np.isfinite(whole).all():
         data = np.asarray(rows)
         device = data[:, 0].copy()
         data[:, 0], run = onto_coarse_clock(device, whole, whole_seconds=True, break_s=RUN_BREAK_S)
         rows, offset = data.tolist(), float(np.median(data[:, 0] - device))
-        notes.append(f"device clock put on UTC by the whole-second utc_timestamp of each {source} (no timestamp_correlation; "
-                     f"{int(run[-1]) + 1} run(s), within {whole_second_uncertainty(device):.2f} s)")
+        notes.append(
+            f"device clock put on UTC by the whole-second utc_timestamp of each {source} (no timestamp_correlation; "
+            f"{int(run[-1]) + 1} run(s), within {whole_second_uncertainty(device):.2f} s)"
+        )
     utc = device_times == 0 or offset is not None
     if device_times and not utc and device_times < len(rows):
-        raise InputError(f"{path}: {source} messages mix UTC and device-clock times and there is no timestamp_correlation to join them")
+        raise InputError(
+            f"{path}: {source} messages mix UTC and device-clock times and there is no timestamp_correlation to join "
+            f"them"
+        )
     problems = [f"{w.message} (read on; the content may be damaged)" for w in crc_warnings[:1]]
     known = np.isfinite(whole)
     if device_times and utc and known.any():
         lag = float(np.median(whole[known] - np.asarray(rows)[known, 0]))
         if not -1.5 < lag < 0.5:
-            problems.append(f"the fixes' own utc_timestamp is {lag:+.1f} s (median) from their times put on UTC: the timestamp_correlation and the receiver disagree")
+            problems.append(
+                f"the fixes' own utc_timestamp is {lag:+.1f} s (median) from their times put on UTC: the "
+                f"timestamp_correlation and the receiver disagree"
+            )
     rows, numbers, sigma = sort_by_time(rows, numbers, sigma)
     sig = np.asarray(sigma, dtype=float)
     return make_records(
-        path, "fit", GEODETIC, rows, numbers, unit=f"{source} message", utc=utc, dropped=dropped, warnings=problems,
-        altitude=MSL, sigma=None if not len(sig) or np.isnan(sig).all() else sig,
-        clock=None if utc else "device clock since power-on (s)", notes=notes,
+        path,
+        "fit",
+        GEODETIC,
+        rows,
+        numbers,
+        unit=f"{source} message",
+        utc=utc,
+        dropped=dropped,
+        warnings=problems,
+        altitude=MSL,
+        sigma=None if not len(sig) or np.isnan(sig).all() else sig,
+        clock=None if utc else "device clock since power-on (s)",
+        notes=notes,
     )
 
 
@@ -159,12 +189,17 @@ def _correlation_offset(correlation: dict | None) -> tuple[float | None, str | N
     if correlation is None:
         return None, None
     utc_fraction, utc_unit = _fraction(correlation.get("timestamp_ms"), correlation.get("fractional_timestamp"))
-    device_fraction, device_unit = _fraction(correlation.get("system_timestamp_ms"), correlation.get("fractional_system_timestamp"))
+    device_fraction, device_unit = _fraction(
+        correlation.get("system_timestamp_ms"), correlation.get("fractional_system_timestamp")
+    )
     utc = _seconds(correlation.get("timestamp"), utc_fraction)
     device = _seconds(correlation.get("system_timestamp"), device_fraction)
     if utc is None or device is None or not utc[1]:
         return None, None
-    names = {"timestamp_ms": "timestamp_ms and system_timestamp_ms", "fractional_timestamp": "fractional_timestamp and fractional_system_timestamp"}
+    names = {
+        "timestamp_ms": "timestamp_ms and system_timestamp_ms",
+        "fractional_timestamp": "fractional_timestamp and fractional_system_timestamp",
+    }
     return utc[0] - device[0], names.get(utc_unit or device_unit or "", "whole seconds")
 
 

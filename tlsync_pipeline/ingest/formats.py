@@ -3,4 +3,20 @@
 
 from __future__ import annotations
 
-FORMATS = ("ulog", "dataflash", "tlog", "rosbag", "fit", "gopro", "gpx", "kml", "nmea", "rtklib", "srt", "dji", "tum", "csv", "odometry")
+FORMATS = (
+    "ulog",
+    "dataflash",
+    "tlog",
+    "rosbag",
+    "fit",
+    "gopro",
+    "gpx",
+    "kml",
+    "nmea",
+    "rtklib",
+    "srt",
+    "dji",
+    "tum",
+    "csv",
+    "odometry",
+)

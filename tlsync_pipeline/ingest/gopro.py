@@ -53,7 +53,10 @@ NO_FIX = "no fix (GPSF or GPS9 fix < 2)"
 DAYS_2000_POSIX = 946684800.0
 STALE_GPSU_S = 0.5
 RAW_PAYLOAD_S = 1.001  # s: GoPro's metadata payload interval, for raw GPMF streams without their MP4
-GPSU_LAG_NOTE = "GPSU is 1.4 s after the payload's first sample on real HERO11 payloads (GPS9 times): this UTC is good to about 1.5 s"
+GPSU_LAG_NOTE = (
+    "GPSU is 1.4 s after the payload's first sample on real HERO11 payloads (GPS9 times): this UTC is "
+    "good to about 1.5 s"
+)
 
 
 @dataclass(frozen=True)
@@ -87,7 +90,9 @@ def _sniff(head: bytes) -> bool:
 
 
 def read_gopro(path: str | Path) -> LogRecords:
-    """Read the GPS samples of a GoPro MP4, or of a raw GPMF stream (``.raw``: payloads back to back); see the module notes."""
+    """Read the GPS samples of a GoPro MP4, or of a raw GPMF stream (``.raw``: payloads back to back); see the module
+    notes.
+    """
     path = Path(path)
     try:
         with path.open("rb") as handle:
@@ -117,7 +122,10 @@ def read_gopro(path: str | Path) -> LogRecords:
     except av.error.FFmpegError as exc:
         raise InputError(f"{path}: cannot read as MP4: {exc}") from None
     if not packets:
-        raise InputError(f"{path}: no GoPro GPMF metadata track (a data stream starting with DEVC); is this a GoPro HERO5-or-later video?")
+        raise InputError(
+            f"{path}: no GoPro GPMF metadata track (a data stream starting with DEVC); is this a GoPro HERO5-or-later "
+            f"video?"
+        )
     return gopro_records(path, packets)
 
 
@@ -126,13 +134,26 @@ def _raw_records(path: Path) -> LogRecords:
     timeline of their own, since the MP4 sample table that timed them is gone (STMP, where present, still does)."""
     data = path.read_bytes()
     try:
-        payloads = [data[offset - 8 : offset + ((size * repeat + 3) & ~3)] for key, _, size, repeat, offset in klv_items(data) if key == b"DEVC"]
+        payloads = [
+            data[offset - 8 : offset + ((size * repeat + 3) & ~3)]
+            for key, _, size, repeat, offset in klv_items(data)
+            if key == b"DEVC"
+        ]
     except GPMFError as exc:
         raise InputError(f"{path}: raw GPMF: {exc}") from None
     records = gopro_records(path, [(k * RAW_PAYLOAD_S, RAW_PAYLOAD_S, p) for k, p in enumerate(payloads)])
-    note = (f"a raw GPMF stream ({len(payloads)} payloads): no MP4 sample table, so the payloads are placed every {RAW_PAYLOAD_S} s "
-            "(GoPro's payload interval); the video's time 0 is not known from this file")
-    return replace(records, notes=(note, *records.notes), warnings=(*records.warnings, note), video_time_zero=None, video_zero_spread_s=None)
+    note = (
+        f"a raw GPMF stream ({len(payloads)} payloads): no MP4 sample table, so the payloads are placed every "
+        f"{RAW_PAYLOAD_S} s "
+        "(GoPro's payload interval); the video's time 0 is not known from this file"
+    )
+    return replace(
+        records,
+        notes=(note, *records.notes),
+        warnings=(*records.warnings, note),
+        video_time_zero=None,
+        video_zero_spread_s=None,
+    )
 
 
 def sample_clock(payloads: list[Payload], track_start_s: float) -> SampleClock:
@@ -144,11 +165,17 @@ def sample_clock(payloads: list[Payload], track_start_s: float) -> SampleClock:
     first, last = payloads[0], payloads[-1]
     total = sum(p.samples for p in payloads)
     if len(payloads) == 1 or last.end_s <= first.start_s:
-        return SampleClock(first.start_s - first.timo_s, first.samples / max(first.end_s - first.start_s, 1e-9), "MP4 sample table")
+        return SampleClock(
+            first.start_s - first.timo_s, first.samples / max(first.end_s - first.start_s, 1e-9), "MP4 sample table"
+        )
     approx = total / (last.end_s - first.start_s)
     if first.stmp_us is not None and last.stmp_us is not None and last.stmp_us > first.stmp_us:
         # samples delivered between the two STMPs: by TSMP (which also counts samples a payload lost), else counted here
-        between = (last.tsmp - last.samples) - (first.tsmp - first.samples) if first.tsmp is not None and last.tsmp is not None else total - last.samples
+        between = (
+            (last.tsmp - last.samples) - (first.tsmp - first.samples)
+            if first.tsmp is not None and last.tsmp is not None
+            else total - last.samples
+        )
         rate = between / ((last.stmp_us - first.stmp_us) * 1e-6)
         if 0.9 * rate < approx < 1.1 * rate:
             base = first.base_us if first.base_us is not None else first.stmp_us
@@ -177,11 +204,18 @@ def gopro_records(path: Path, packets: list[tuple[float, float, bytes]]) -> LogR
     entries = streams[nine]
     timed = [e for e in entries if len(e[3].samples)]
     if not timed:
-        raise InputError(f"{path}: the GPMF track has no GPS5/GPS9 stream (a camera without GPS, or with GPS switched off)")
+        raise InputError(
+            f"{path}: the GPMF track has no GPS5/GPS9 stream (a camera without GPS, or with GPS switched off)"
+        )
     notes, warnings = [], []
-    clock = sample_clock([Payload(s, e, len(b.samples), b.stmp_us, base, b.timo_s, b.tsmp) for _, s, e, b, base in timed], packets[0][0])
-    notes.append(f"sample times on the video timeline: t = {clock.first_s:.4f} s + n / {clock.rate_hz:.4f} Hz "
-                     f"({'camera STMP timestamps' if clock.method == 'STMP' else 'least squares over the MP4 payload times'}, as gpmf-parser)")
+    clock = sample_clock(
+        [Payload(s, e, len(b.samples), b.stmp_us, base, b.timo_s, b.tsmp) for _, s, e, b, base in timed], packets[0][0]
+    )
+    notes.append(
+        f"sample times on the video timeline: t = {clock.first_s:.4f} s + n / {clock.rate_hz:.4f} Hz "
+        f"({'camera STMP timestamps' if clock.method == 'STMP' else 'least squares over the MP4 payload times'}, as "
+        f"gpmf-parser)"
+    )
     rows: list[list[float]] = []
     numbers: list[int] = []
     dops: list[float] = []
@@ -219,25 +253,54 @@ def gopro_records(path: Path, packets: list[tuple[float, float, bytes]]) -> LogR
         off = np.abs(a - media_to_utc)
         stale = off > STALE_GPSU_S
         spread = float(off[~stale].max())
-        zero = dt.datetime.fromtimestamp(media_to_utc, dt.timezone.utc).isoformat(timespec="milliseconds").replace("+00:00", "Z")
+        zero = (
+            dt.datetime.fromtimestamp(media_to_utc, dt.timezone.utc)
+            .isoformat(timespec="milliseconds")
+            .replace("+00:00", "Z")
+        )
         if nine:
-            notes.append(f"UTC from each GPS9 sample's own time; video time 0 is {zero} (the samples within {spread:.3f} s of one offset)")
+            notes.append(
+                f"UTC from each GPS9 sample's own time; video time 0 is {zero} (the samples within {spread:.3f} s of "
+                f"one offset)"
+            )
         else:
-            notes.append(f"UTC = video time + the median of (GPSU - the payload's first sample time) over {int((~stale).sum())} payloads: "
-                         f"video time 0 is {zero} (the payloads spread by up to {spread:.3f} s; {GPSU_LAG_NOTE})")
+            notes.append(
+                f"UTC = video time + the median of (GPSU - the payload's first sample time) over "
+                f"{int((~stale).sum())} payloads: "
+                f"video time 0 is {zero} (the payloads spread by up to {spread:.3f} s; {GPSU_LAG_NOTE})"
+            )
             if stale.any():
-                warnings.append(f"{int(stale.sum())} payload(s) with a GPSU more than {STALE_GPSU_S:g} s off the others (stale, as GoPros write before the time settles): not used for UTC")
+                warnings.append(
+                    f"{int(stale.sum())} payload(s) with a GPSU more than {STALE_GPSU_S:g} s off the others (stale, "
+                    f"as GoPros write before the time settles): not used for UTC"
+                )
             rows = (np.asarray(rows).reshape(-1, 4) + [media_to_utc, 0.0, 0.0, 0.0]).tolist()
     elif rows:
-        warnings.append("no GPSU in the GPS stream: times are the video's presentation times; offsets work, UTC does not")
+        warnings.append(
+            "no GPSU in the GPS stream: times are the video's presentation times; offsets work, UTC does not"
+        )
     if len(msl_seen) > 1:
         warnings.append("the GPS stream changes its altitude system (GPSA) mid-file: heights mix MSL and ellipsoid")
     altitude = MSL if True in msl_seen and False not in msl_seen else ELLIPSOID
     return make_records(
-        path, "gopro", GEODETIC, rows, numbers, unit=UNIT, utc=utc, dropped=dropped, warnings=warnings, altitude=altitude,
-        quality={"dop": dops}, clock=None if utc else "video presentation time (s)", notes=notes,
-        video_time_zero=media_to_utc if utc else 0.0, video_zero_spread_s=spread,
+        path,
+        "gopro",
+        GEODETIC,
+        rows,
+        numbers,
+        unit=UNIT,
+        utc=utc,
+        dropped=dropped,
+        warnings=warnings,
+        altitude=altitude,
+        quality={"dop": dops},
+        clock=None if utc else "video presentation time (s)",
+        notes=notes,
+        video_time_zero=media_to_utc if utc else 0.0,
+        video_zero_spread_s=spread,
     )
 
 
-READER = Reader("gopro", "GoPro MP4 with a GPMF track (bytes 4-7 'ftyp') or a raw GPMF stream (starting 'DEVC')", read_gopro, _sniff)
+READER = Reader(
+    "gopro", "GoPro MP4 with a GPMF track (bytes 4-7 'ftyp') or a raw GPMF stream (starting 'DEVC')", read_gopro, _sniff
+)

@@ -19,12 +19,24 @@ from __future__ import annotations
 import calendar
 import struct
 from dataclasses import dataclass
-
 from typing import Any
 
 import numpy as np
 
-_TYPES = {"b": "b", "B": "B", "s": "h", "S": "H", "l": "i", "L": "I", "f": "f", "d": "d", "j": "q", "J": "Q", "q": "i", "Q": "q"}
+_TYPES = {
+    "b": "b",
+    "B": "B",
+    "s": "h",
+    "S": "H",
+    "l": "i",
+    "L": "I",
+    "f": "f",
+    "d": "d",
+    "j": "q",
+    "J": "Q",
+    "q": "i",
+    "Q": "q",
+}
 
 
 class GPMFError(ValueError):
@@ -54,7 +66,9 @@ class GPSBlock:
 
 
 def klv_items(data: bytes, start: int = 0, end: int | None = None):
-    """(key, type, size, repeat, payload offset) of each item in data[start:end]; GPMFError when an item runs past the end."""
+    """(key, type, size, repeat, payload offset) of each item in data[start:end]; GPMFError when an item runs past the
+    end.
+    """
     end = len(data) if end is None else end
     offset = start
     while offset + 8 <= end:

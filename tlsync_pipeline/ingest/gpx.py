@@ -53,7 +53,11 @@ def read_gpx(path: str | Path) -> LogRecords:
     except Exception as exc:  # gpxpy raises GPXException but lets some XML/attribute errors through
         error_line = _error_line(str(exc), text)
         at = f"{path}:{error_line}" if error_line else str(path)
-        hint = " (the file may be cut short)" if not text.rstrip().endswith(">") or "unclosed" in str(exc) or "no element found" in str(exc) else ""
+        hint = (
+            " (the file may be cut short)"
+            if not text.rstrip().endswith(">") or "unclosed" in str(exc) or "no element found" in str(exc)
+            else ""
+        )
         raise InputError(f"{at}: not a valid GPX file{hint}: {exc}") from None
     rows: list[list[float]] = []
     numbers: list[int] = []
@@ -83,7 +87,9 @@ def read_gpx(path: str | Path) -> LogRecords:
             segment_of.append(segment_index)
     warnings = []
     if no_ele and len(no_ele) == len(rows):
-        warnings.append("no track point has an elevation: heights set to 0 m (on the ellipsoid); the Up coordinate means nothing")
+        warnings.append(
+            "no track point has an elevation: heights set to 0 m (on the ellipsoid); the Up coordinate means nothing"
+        )
     elif no_ele:
         dropped[NO_ELE] = [numbers[i] for i in no_ele]
         keep = sorted(set(range(len(rows))) - set(no_ele))
@@ -92,7 +98,9 @@ def read_gpx(path: str | Path) -> LogRecords:
     others = len(gpx.waypoints) + sum(len(r.points) for r in gpx.routes)
     if others:
         warnings.append(f"{others} waypoint(s) and route point(s) ignored (only track points are a log)")
-    return make_records(path, "gpx", GEODETIC, rows, numbers, unit=UNIT, dropped=dropped, ignored=others, warnings=warnings)
+    return make_records(
+        path, "gpx", GEODETIC, rows, numbers, unit=UNIT, dropped=dropped, ignored=others, warnings=warnings
+    )
 
 
 def _segments_in_time_order(rows: list, numbers: list, segment_of: list) -> tuple[list, list]:

@@ -80,7 +80,9 @@ def read_kml(path: str | Path) -> LogRecords:
     try:
         root = fromstring(raw)
     except DefusedXmlException as exc:
-        raise InputError(f"{path}: refused: the KML declares entities or a DTD ({type(exc).__name__}); tlsync does not expand them") from None
+        raise InputError(
+            f"{path}: refused: the KML declares entities or a DTD ({type(exc).__name__}); tlsync does not expand them"
+        ) from None
     except ParseError as exc:
         line = getattr(exc, "position", (None,))[0]
         raise InputError(f"{path}{f':{line}' if line else ''}: not well-formed XML: {exc}") from None
@@ -136,16 +138,32 @@ def read_kml(path: str | Path) -> LogRecords:
                     add(t, coord, mode)
                 spread += 1
     if spread:
-        warnings.append(f"{spread} LineString(s) with only a TimeSpan: vertex times spread at constant speed between begin and end")
+        warnings.append(
+            f"{spread} LineString(s) with only a TimeSpan: vertex times spread at constant speed between begin and end"
+        )
     if markers:
-        warnings.append(f"{markers} time-stamped Point placemark(s) ignored: with tracks in the file they are markers (start, end, waypoints)")
+        warnings.append(
+            f"{markers} time-stamped Point placemark(s) ignored: with tracks in the file they are markers (start, "
+            f"end, waypoints)"
+        )
     altitude = MSL
     if modes - {"absolute"}:
-        warnings.append(f"altitudeMode {', '.join(sorted(modes - {'absolute'}))}: heights are not above a datum (read as written)")
+        warnings.append(
+            f"altitudeMode {', '.join(sorted(modes - {'absolute'}))}: heights are not above a datum (read as written)"
+        )
     rows, numbers, sigmas = sort_by_time(rows, numbers, sigmas)
     sigma_m = np.asarray(sigmas, dtype=float)
     return make_records(
-        path, "kml", GEODETIC, rows, numbers, unit=UNIT, dropped=dropped, ignored=markers, warnings=warnings, altitude=altitude,
+        path,
+        "kml",
+        GEODETIC,
+        rows,
+        numbers,
+        unit=UNIT,
+        dropped=dropped,
+        ignored=markers,
+        warnings=warnings,
+        altitude=altitude,
         sigma=sigma_m if np.isfinite(sigma_m).any() else None,
     )
 

@@ -99,7 +99,14 @@ def _tod(texts: list[str]) -> np.ndarray:
     v = _floats(texts)
     h, m = np.floor(v / 10000), np.floor(v / 100) % 100
     sec = v - h * 10000 - m * 100
-    good = np.isfinite(v) & (v >= 0) & (h <= 23) & (m <= 59) & (sec < 61) & np.array([len(t) >= 6 for t in texts], dtype=bool)
+    good = (
+        np.isfinite(v)
+        & (v >= 0)
+        & (h <= 23)
+        & (m <= 59)
+        & (sec < 61)
+        & np.array([len(t) >= 6 for t in texts], dtype=bool)
+    )
     return np.where(good, h * 3600 + m * 60 + sec, np.nan)
 
 
@@ -182,19 +189,39 @@ def read_nmea(path: str | Path) -> LogRecords:
     ignored += unusable  # an RMC without a usable time and date says nothing we need
     rows, numbers, warnings = _place_on_calendar(fixes, rmc_lines, rmc_tod, days, rmc_active)
     if missing_sep:
-        warnings.append(f"{missing_sep} GGA sentence(s) without geoid separation: their heights are above mean sea level, not the WGS84 ellipsoid")
+        warnings.append(
+            f"{missing_sep} GGA sentence(s) without geoid separation: their heights are above mean sea level, not the "
+            f"WGS84 ellipsoid"
+        )
     for lines in dropped.values():
         lines.sort()
     dated = len(rmc_lines) > 0  # without a dated RMC the times are not true UTC
     quality, sigma = _quality(gga, gst, numbers)
-    return make_records(path, "nmea", GEODETIC, rows, numbers, utc=dated, dropped=dropped, ignored=ignored, warnings=warnings, sigma=sigma, quality=quality)
+    return make_records(
+        path,
+        "nmea",
+        GEODETIC,
+        rows,
+        numbers,
+        utc=dated,
+        dropped=dropped,
+        ignored=ignored,
+        warnings=warnings,
+        sigma=sigma,
+        quality=quality,
+    )
 
 
-def _quality(gga: dict[str, list], gst: dict[str, tuple[str, str]], numbers) -> tuple[dict[str, np.ndarray], np.ndarray | None]:
+def _quality(
+    gga: dict[str, list], gst: dict[str, tuple[str, str]], numbers
+) -> tuple[dict[str, np.ndarray], np.ndarray | None]:
     """({"quality", "hdop"} per fix, GST sigma per fix or None) for the fixes at GGA lines ``numbers``."""
     index = {line: i for i, line in enumerate(gga["line"])}
     rows = [index[int(n)] for n in numbers]
-    quality = {"quality": _floats([gga["quality"][i] for i in rows]), "hdop": _floats([gga["hdop"][i] or "nan" for i in rows])}
+    quality = {
+        "quality": _floats([gga["quality"][i] for i in rows]),
+        "hdop": _floats([gga["hdop"][i] or "nan" for i in rows]),
+    }
     if not gst:
         return quality, None
     errors = [gst.get(gga["time"][i], ("", "")) for i in rows]
@@ -229,7 +256,9 @@ def _gga_fixes(path: Path, gga: dict[str, list], dropped: dict[str, list[int]]) 
     if not good.all():
         dropped.setdefault(BAD_FIELDS, []).extend(int(n) for n in fixes[~good, 0])
         fixes = fixes[good]
-    impossible = (np.abs(fixes[:, 2]) > 90) | (np.abs(fixes[:, 3]) > 180) | (fixes[:, 4] < -12_000) | (fixes[:, 4] > 100_000)
+    impossible = (
+        (np.abs(fixes[:, 2]) > 90) | (np.abs(fixes[:, 3]) > 180) | (fixes[:, 4] < -12_000) | (fixes[:, 4] > 100_000)
+    )
     if impossible.any():
         row = fixes[np.flatnonzero(impossible)[0]]
         check_geodetic(path, row[2], row[3], row[4], int(row[0]))
@@ -244,7 +273,13 @@ def _rmc_dates(rmc: dict[str, list]) -> tuple[np.ndarray, np.ndarray, np.ndarray
     good = np.isfinite(tod) & np.isfinite(days)
     lines = np.array(rmc["line"], dtype=np.float64)
     active = np.array(rmc["status"], dtype=object) == "A"
-    return days[good], lines[good], tod[good], np.asarray(active, dtype=bool).reshape(-1)[good], len(good) - int(good.sum())
+    return (
+        days[good],
+        lines[good],
+        tod[good],
+        np.asarray(active, dtype=bool).reshape(-1)[good],
+        len(good) - int(good.sum()),
+    )
 
 
 def _slow_split(line: str) -> tuple[str, list[str]] | str:
@@ -259,7 +294,9 @@ def _slow_split(line: str) -> tuple[str, list[str]] | str:
     return kind, [str(v) for v in getattr(msg, "data", [])]
 
 
-def _place_on_calendar(fixes: np.ndarray, rmc_lines, rmc_tod, rmc_days, rmc_active) -> tuple[np.ndarray, np.ndarray, list[str]]:
+def _place_on_calendar(
+    fixes: np.ndarray, rmc_lines, rmc_tod, rmc_days, rmc_active
+) -> tuple[np.ndarray, np.ndarray, list[str]]:
     """POSIX times of the GGA fixes: RMC dates anchor the days, rollovers advance them.
 
     Events (GGA fixes and dated RMCs) in file order; a time of day falling by

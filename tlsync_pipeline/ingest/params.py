@@ -32,7 +32,7 @@ class RigidTransform:
         object.__setattr__(self, "t", t)
 
     @classmethod
-    def from_yaw(cls, yaw_deg: float, t=(0.0, 0.0, 0.0)) -> "RigidTransform":
+    def from_yaw(cls, yaw_deg: float, t=(0.0, 0.0, 0.0)) -> RigidTransform:
         """A rotation of yaw_deg about z (counter-clockwise seen from above), then t."""
         c, s = math.cos(math.radians(yaw_deg)), math.sin(math.radians(yaw_deg))
         return cls(np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]), np.asarray(t, dtype=float))

@@ -32,11 +32,13 @@ import numpy as np
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.geodesy import Origin, geodetic_to_enu
 from tlsync_pipeline.ingest.params import IngestParams
-from tlsync_pipeline.ingest.report import GAP_FACTOR, Gap, IngestReport
 from tlsync_pipeline.ingest.records import ALTITUDE_NAMES, ALTITUDE_REFERENCES, ELLIPSOID, GEODETIC, LogRecords
+from tlsync_pipeline.ingest.report import GAP_FACTOR, Gap, IngestReport
 from tlsync_pipeline.trajectory import Trajectory, grid_rate
 
-HELD_MAX_S = 1.0  # a position repeated longer than this is a target standing still, not a receiver's fix held over frames
+HELD_MAX_S = (
+    1.0  # a position repeated longer than this is a target standing still, not a receiver's fix held over frames
+)
 SPIKE_WINDOW_S = 0.1  # speeds are judged over at least this long (a receiver's update interval at 10 Hz)
 DUPLICATE = "exact duplicate"
 REPEATED_TIME = "repeated time, different position (first kept)"
@@ -81,8 +83,10 @@ def ingest(records: LogRecords, params: IngestParams = IngestParams()) -> tuple[
     warnings = list(records.warnings)
     altitude = _altitude(records, params, warnings)
     if records.frame == GEODETIC and len(fixes.values) and not fixes.values[:, 2].any() and not altitude["offset_m"]:
-        warnings.append("every fix's height is 0: a log without heights (a 2D export?) lies on the reference surface, "
-                        "off the cameras' frame by the site's height; give a log with heights, or [target] altitude_offset_m")
+        warnings.append(
+            "every fix's height is 0: a log without heights (a 2D export?) lies on the reference surface, "
+            "off the cameras' frame by the site's height; give a log with heights, or [target] altitude_offset_m"
+        )
     values = fixes.values + np.array([0.0, 0.0, altitude["offset_m"]]) if altitude["offset_m"] else fixes.values
     xyz, origin, rule = _to_local(records, values, params, warnings)
     fixes = dataclasses.replace(fixes, values=values, xyz=xyz)
@@ -91,7 +95,9 @@ def ingest(records: LogRecords, params: IngestParams = IngestParams()) -> tuple[
         fixes = fixes.kept(keep)
     if origin is not None and rule == "first fix" and not keep[0]:  # the first fix was a spike: the first kept one
         origin = Origin(*map(float, fixes.values[0]))
-        fixes = dataclasses.replace(fixes, xyz=geodetic_to_enu(fixes.values[:, 0], fixes.values[:, 1], fixes.values[:, 2], origin))
+        fixes = dataclasses.replace(
+            fixes, xyz=geodetic_to_enu(fixes.values[:, 0], fixes.values[:, 1], fixes.values[:, 2], origin)
+        )
     rate = params.rate or log_rate(fixes.t)
     max_gap = params.max_gap_s if params.max_gap_s is not None else GAP_FACTOR * median_interval(fixes.t)
     try:
@@ -100,10 +106,22 @@ def ingest(records: LogRecords, params: IngestParams = IngestParams()) -> tuple[
         raise InputError(f"{records.path}: {exc}") from None
     if params.smoothing_s > 0:
         grid_xyz = smooth(grid_index, grid_xyz, params.smoothing_s * rate)
-    trajectory = Trajectory(grid_index.astype(np.float64), grid_xyz, float(rate), float(fixes.t[0]), grid_sigmas(fixes.t, fixes.sigma, grid_index, rate))
+    trajectory = Trajectory(
+        grid_index.astype(np.float64),
+        grid_xyz,
+        float(rate),
+        float(fixes.t[0]),
+        grid_sigmas(fixes.t, fixes.sigma, grid_index, rate),
+    )
     origin_info = None if origin is None else {"lat": origin.lat, "lon": origin.lon, "alt": origin.alt, "rule": rule}
     gaps = [
-        Gap(_where(records, fixes.numbers[i]), float(fixes.t[i]), float(fixes.t[i + 1]), float(fixes.t[i + 1] - fixes.t[i]), bool(fixes.t[i + 1] - fixes.t[i] <= max_gap))
+        Gap(
+            _where(records, fixes.numbers[i]),
+            float(fixes.t[i]),
+            float(fixes.t[i + 1]),
+            float(fixes.t[i + 1] - fixes.t[i]),
+            bool(fixes.t[i + 1] - fixes.t[i] <= max_gap),
+        )
         for i in find_gaps(fixes.t)
     ]
     report = IngestReport(
@@ -121,7 +139,10 @@ def ingest(records: LogRecords, params: IngestParams = IngestParams()) -> tuple[
         max_gap_s=float(max_gap),
         gaps=gaps,
         grid_left_out=int(left_out),
-        dropped={reason: {"count": len(n), "first": list(n[:FIRST_LINES])} for reason, n in {**records.dropped, **dropped}.items()},
+        dropped={
+            reason: {"count": len(n), "first": list(n[:FIRST_LINES])}
+            for reason, n in {**records.dropped, **dropped}.items()
+        },
         unit=records.unit,
         ignored=records.ignored,
         origin=origin_info,
@@ -129,7 +150,11 @@ def ingest(records: LogRecords, params: IngestParams = IngestParams()) -> tuple[
         warnings=warnings,
         clock=records.clock,
         altitude=altitude if records.frame == GEODETIC else {},
-        quality={name: _stats(column[fixes.index]) for name, column in records.quality.items() if np.isfinite(column[fixes.index]).any()},
+        quality={
+            name: _stats(column[fixes.index])
+            for name, column in records.quality.items()
+            if np.isfinite(column[fixes.index]).any()
+        },
         sigma_m=None if fixes.sigma is None or trajectory.sigma is None else _sigma_summary(fixes.sigma),
         notes=list(records.notes),
         video_time_zero=records.video_time_zero,
@@ -146,7 +171,8 @@ _LOCAL = ("tum", "odometry", "rosbag")
 
 
 def suggested_log_model(records: LogRecords, used: np.ndarray) -> dict:
-    """The error model (a preset of sync/model/log_model.py) the log's kind suggests, and why: "rtk" when most fixes used are
+    """The error model (a preset of sync/model/log_model.py) the log's kind suggests, and why: "rtk" when most fixes
+    used are
     RTK-fixed, "none" for local odometry, "drone" for flight controllers' and drones' logs, else "phone" (phones,
     watches, action cameras, handheld receivers)."""
     for column, fixed in _RTK.items():
@@ -161,7 +187,9 @@ def suggested_log_model(records: LogRecords, used: np.ndarray) -> dict:
 
 
 def _ordered_fixes(records: LogRecords) -> tuple[_Fixes, dict[str, list[int]]]:
-    """The log's fixes in time order without duplicates (not yet placed: xyz holds the values), and the drops by reason."""
+    """The log's fixes in time order without duplicates (not yet placed: xyz holds the values), and
+    the drops by reason.
+    """
     if len(records) == 0:
         raise InputError(_no_fix_message(records))
     t, values, numbers, dropped, index = order_and_dedupe(records)
@@ -175,30 +203,43 @@ def _ordered_fixes(records: LogRecords) -> tuple[_Fixes, dict[str, list[int]]]:
     return _Fixes(t, values, values, numbers, index, None if records.sigma is None else records.sigma[index]), dropped
 
 
-def _without_spikes(records: LogRecords, fixes: _Fixes, params: IngestParams, dropped: dict[str, list[int]], warnings: list[str]) -> np.ndarray:
-    """Which fixes to keep: those not implying a speed over max_speed_mps from the last kept one (the others recorded in ``dropped``)."""
+def _without_spikes(
+    records: LogRecords, fixes: _Fixes, params: IngestParams, dropped: dict[str, list[int]], warnings: list[str]
+) -> np.ndarray:
+    """Which fixes to keep: those not implying a speed over max_speed_mps from the last kept one (the others recorded in
+    ``dropped``).
+    """
     if params.max_speed_mps is None:
         return np.ones(len(fixes.t), dtype=bool)
     rounding = None if records.rounding_m is None else records.rounding_m[fixes.index]
     keep = reject_spikes(fixes.t, fixes.xyz, params.max_speed_mps, rounding)
     if not keep.all():
         dropped[f"spike (implied speed over {params.max_speed_mps:g} m/s)"] = fixes.numbers[~keep].tolist()
-        warnings.append(f"{int((~keep).sum())} of {len(keep)} fixes dropped as spikes (implied speed over {params.max_speed_mps:g} m/s): "
-                        "if the target is that fast, raise [target] max_speed_mps (ingest-log --max-speed)")
+        warnings.append(
+            f"{int((~keep).sum())} of {len(keep)} fixes dropped as spikes (implied speed over "
+            f"{params.max_speed_mps:g} m/s): "
+            "if the target is that fast, raise [target] max_speed_mps (ingest-log --max-speed)"
+        )
     if keep.sum() < 2:
-        raise InputError(f"{records.path}: fewer than 2 fixes left after rejecting spikes over {params.max_speed_mps:g} m/s")
+        raise InputError(
+            f"{records.path}: fewer than 2 fixes left after rejecting spikes over {params.max_speed_mps:g} m/s"
+        )
     return keep
 
 
 def _params_record(params: IngestParams) -> dict:
     """The ingest's parameters as the report records them."""
     return {
-        "origin": params.origin if isinstance(params.origin, str) else [params.origin.lat, params.origin.lon, params.origin.alt],
+        "origin": params.origin
+        if isinstance(params.origin, str)
+        else [params.origin.lat, params.origin.lon, params.origin.alt],
         "rate": params.rate,
         "max_gap_s": params.max_gap_s,
         "max_speed_mps": params.max_speed_mps,
         "smoothing_s": params.smoothing_s,
-        "transform": None if params.transform is None else {"R": params.transform.R.tolist(), "t": params.transform.t.tolist()},
+        "transform": None
+        if params.transform is None
+        else {"R": params.transform.R.tolist(), "t": params.transform.t.tolist()},
         "altitude_reference": params.altitude_reference,
         "altitude_offset_m": params.altitude_offset_m,
         "time_unit": params.time_unit,
@@ -214,9 +255,12 @@ def _altitude(records: LogRecords, params: IngestParams, warnings: list[str]) ->
     reference = declared or records.altitude
     offset = float(params.altitude_offset_m)
     if records.frame == GEODETIC and reference != ELLIPSOID and offset == 0.0:
-        what = "the geoid undulation (tens of metres)" if reference == "msl" else "the take-off point's ellipsoidal height"
+        what = (
+            "the geoid undulation (tens of metres)" if reference == "msl" else "the take-off point's ellipsoidal height"
+        )
         warnings.append(
-            f"heights are above {ALTITUDE_NAMES[reference]}, the GCPs and the origin above the WGS84 ellipsoid: Up is off by {what}; "
+            f"heights are above {ALTITUDE_NAMES[reference]}, the GCPs and the origin above the WGS84 ellipsoid: Up is "
+            f"off by {what}; "
             "give [target] altitude_offset_m (or declare altitude_reference if the log is wrong about it)"
         )
     return {"reference": reference, "source": "project" if declared else "log", "offset_m": offset}
@@ -247,7 +291,9 @@ def grid_sigmas(t: np.ndarray, sigma: np.ndarray | None, grid_index: np.ndarray,
     return np.interp(grid_index / rate, t - t[0], filled)
 
 
-def _to_local(records: LogRecords, values: np.ndarray, params: IngestParams, warnings: list[str]) -> tuple[np.ndarray, Origin | None, str | None]:
+def _to_local(
+    records: LogRecords, values: np.ndarray, params: IngestParams, warnings: list[str]
+) -> tuple[np.ndarray, Origin | None, str | None]:
     """(local metres, origin, origin rule): ENU at the origin for geodetic logs, the rigid
     transform (if any) for local ones (origin None)."""
     if records.frame != GEODETIC:
@@ -265,7 +311,9 @@ def _to_local(records: LogRecords, values: np.ndarray, params: IngestParams, war
     return geodetic_to_enu(values[:, 0], values[:, 1], values[:, 2], origin), origin, rule
 
 
-def order_and_dedupe(records: LogRecords) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, list[int]], np.ndarray]:
+def order_and_dedupe(
+    records: LogRecords,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, list[int]], np.ndarray]:
     """(t, values, provenance, drops, record indices kept): times checked non-decreasing, repeated times dropped.
 
     A time that goes backwards is an InputError naming both lines. Of fixes
@@ -280,7 +328,8 @@ def order_and_dedupe(records: LogRecords) -> tuple[np.ndarray, np.ndarray, np.nd
     if len(back):
         k = int(back[0])
         raise InputError(
-            f"{records.where(k + 1)}: time goes backwards: {_when(t[k + 1], records.utc)} after {_when(t[k], records.utc)} "
+            f"{records.where(k + 1)}: time goes backwards: {_when(t[k + 1], records.utc)} after "
+            f"{_when(t[k], records.utc)} "
             f"({records.where(k)}); a log must be in time order"
         )
     same = np.flatnonzero(step == 0) + 1
@@ -329,7 +378,7 @@ def reject_spikes(t: np.ndarray, xyz: np.ndarray, max_speed: float, rounding: np
     keep[start] = True
     held = np.empty(n)
     for lo in range(0, n, SPIKE_BLOCK):
-        held[lo:lo + SPIKE_BLOCK] = _held(t, starts, lo, min(n, lo + SPIKE_BLOCK))
+        held[lo : lo + SPIKE_BLOCK] = _held(t, starts, lo, min(n, lo + SPIKE_BLOCK))
 
     def reachable(i: int, last: int) -> bool:
         span = abs(float(t[i]) - float(t[last])) + float(held[min(i, last)])
@@ -342,7 +391,7 @@ def reject_spikes(t: np.ndarray, xyz: np.ndarray, max_speed: float, rounding: np
     while i < n:
         if last == i - 1 and ok[i - 1]:
             j = int(bad[np.searchsorted(bad, i - 1)]) if bad[-1] >= i - 1 else n - 1  # steps i-1 .. j-1 plausible
-            keep[i:j + 1] = True
+            keep[i : j + 1] = True
             i, last = j + 1, j
         else:
             if reachable(i, last):
@@ -352,7 +401,7 @@ def reject_spikes(t: np.ndarray, xyz: np.ndarray, max_speed: float, rounding: np
     while i >= 0:
         if last == i + 1 and ok[i]:
             b = int(bad[np.searchsorted(bad, i) - 1]) if bad[0] < i else -1  # steps b+1 .. i plausible
-            keep[b + 1:i + 1] = True
+            keep[b + 1 : i + 1] = True
             i, last = b, b + 1
         else:
             if reachable(i, last):
@@ -367,7 +416,7 @@ def _run_starts(xyz: np.ndarray) -> np.ndarray:
     moved = np.ones(n, dtype=bool)
     for lo in range(0, n - 1, SPIKE_BLOCK):
         hi = min(n - 1, lo + SPIKE_BLOCK)
-        moved[lo + 1:hi + 1] = (xyz[lo + 1:hi + 1] != xyz[lo:hi]).any(axis=1)
+        moved[lo + 1 : hi + 1] = (xyz[lo + 1 : hi + 1] != xyz[lo:hi]).any(axis=1)
     return np.flatnonzero(moved)
 
 
@@ -379,17 +428,18 @@ def _held(t: np.ndarray, starts: np.ndarray, lo: int, hi: int) -> np.ndarray:
     return np.minimum(t[end] - t[starts[run]], HELD_MAX_S)
 
 
-def _plausible_steps(t: np.ndarray, xyz: np.ndarray, max_speed: float, slack: np.ndarray,
-                     starts: np.ndarray) -> np.ndarray:
+def _plausible_steps(
+    t: np.ndarray, xyz: np.ndarray, max_speed: float, slack: np.ndarray, starts: np.ndarray
+) -> np.ndarray:
     """Whether each step (fix i to i + 1) is within max_speed x max(its time + how long fix i was held, SPIKE_WINDOW_S)
     + both fixes' rounding (m); in blocks of SPIKE_BLOCK fixes, so that a day's log needs no temporaries of its size."""
     n = len(t)
     ok = np.empty(n - 1, dtype=bool)
     for lo in range(0, n - 1, SPIKE_BLOCK):
         hi = min(n - 1, lo + SPIKE_BLOCK)
-        step = np.linalg.norm(np.diff(xyz[lo:hi + 1], axis=0), axis=1)
-        allowed = max_speed * np.maximum(np.diff(t[lo:hi + 1]) + _held(t, starts, lo, hi), SPIKE_WINDOW_S)
-        ok[lo:hi] = step <= allowed + slack[lo:hi] + slack[lo + 1:hi + 1]
+        step = np.linalg.norm(np.diff(xyz[lo : hi + 1], axis=0), axis=1)
+        allowed = max_speed * np.maximum(np.diff(t[lo : hi + 1]) + _held(t, starts, lo, hi), SPIKE_WINDOW_S)
+        ok[lo:hi] = step <= allowed + slack[lo:hi] + slack[lo + 1 : hi + 1]
     return ok
 
 
@@ -427,7 +477,10 @@ def resample(t: np.ndarray, xyz: np.ndarray, rate: float, max_gap_s: float) -> t
     elapsed = t - t[0]
     kf = elapsed * rate
     if not kf[-1] < MAX_SAMPLES:
-        raise ValueError(f"{elapsed[-1]:.6g} s at {rate:g} Hz is over {MAX_SAMPLES:,} samples: check the log's times or give a lower rate")
+        raise ValueError(
+            f"{elapsed[-1]:.6g} s at {rate:g} Hz is over {MAX_SAMPLES:,} samples: check the log's times or give a "
+            f"lower rate"
+        )
     tol = 1e-6 * rate
     nearest = np.round(kf).astype(np.int64)
     if _on_own_grid(kf, nearest, elapsed, tol, max_gap_s):
@@ -439,8 +492,10 @@ def resample(t: np.ndarray, xyz: np.ndarray, rate: float, max_gap_s: float) -> t
         counts = np.where(np.diff(elapsed) <= max_gap_s, np.maximum(hi - lo + 1, 0), 0)
         total = int(counts.sum())
         if total > MAX_SAMPLES:
-            raise ValueError(f"{elapsed[-1]:.6g} s at {rate:g} Hz is over {MAX_SAMPLES:,} samples: "
-                             "check the log's times or give a lower rate")
+            raise ValueError(
+                f"{elapsed[-1]:.6g} s at {rate:g} Hz is over {MAX_SAMPLES:,} samples: "
+                "check the log's times or give a lower rate"
+            )
         inside = np.repeat(lo - np.cumsum(counts) + counts, counts) + np.arange(total)
         del lo, hi, counts
         # sorted, then duplicates out: np.unique's hashing took 4 s a million samples
@@ -451,9 +506,9 @@ def resample(t: np.ndarray, xyz: np.ndarray, rate: float, max_gap_s: float) -> t
     del kf
     grid = np.empty((len(k), 3))
     for block in range(0, len(k), SPIKE_BLOCK):
-        at = k[block:block + SPIKE_BLOCK] / rate
+        at = k[block : block + SPIKE_BLOCK] / rate
         for j in range(3):
-            grid[block:block + SPIKE_BLOCK, j] = np.interp(at, elapsed, xyz[:, j])
+            grid[block : block + SPIKE_BLOCK, j] = np.interp(at, elapsed, xyz[:, j])
     return k, grid, int(np.floor(last + tol)) + 1 - len(k)
 
 
@@ -462,15 +517,20 @@ def _on_own_grid(kf: np.ndarray, nearest: np.ndarray, elapsed: np.ndarray, tol: 
     max_gap_s after it; in blocks of SPIKE_BLOCK fixes."""
     for lo in range(0, len(kf), SPIKE_BLOCK):
         hi = min(len(kf), lo + SPIKE_BLOCK + 1)
-        if not ((np.abs(kf[lo:hi] - nearest[lo:hi]) <= tol).all() and (np.diff(nearest[lo:hi]) == 1).all()
-                and (np.diff(elapsed[lo:hi]) <= max_gap_s).all()):
+        if not (
+            (np.abs(kf[lo:hi] - nearest[lo:hi]) <= tol).all()
+            and (np.diff(nearest[lo:hi]) == 1).all()
+            and (np.diff(elapsed[lo:hi]) <= max_gap_s).all()
+        ):
             return False
     return True
 
 
 def smooth(index: np.ndarray, xyz: np.ndarray, window_samples: float) -> np.ndarray:
     """Savitzky-Golay (quadratic) smoothing over each run of consecutive grid indices."""
-    from scipy.signal import savgol_filter  # scipy.signal costs about 1 s of start-up in every process, and smoothing is off by default
+    from scipy.signal import (
+        savgol_filter,
+    )  # scipy.signal costs about 1 s of start-up in every process, and smoothing is off by default
 
     out = xyz.copy()
     window = int(round(window_samples)) | 1
@@ -510,5 +570,8 @@ def _no_fix_message(records: LogRecords) -> str:
     if not total:
         what = f"{records.ignored} line(s) without a position" if records.ignored else "nothing readable"
         return f"{records.path}: no position fix in the log ({what})" + "".join(f"; {w}" for w in records.warnings)
-    reasons = "; ".join(f"{len(n)} {reason} ({_where(records, n[0])}{', ...' if len(n) > 1 else ''})" for reason, n in records.dropped.items())
+    reasons = "; ".join(
+        f"{len(n)} {reason} ({_where(records, n[0])}{', ...' if len(n) > 1 else ''})"
+        for reason, n in records.dropped.items()
+    )
     return f"{records.path}: no valid fix; {total} {records.unit}(s) dropped: {reasons}"

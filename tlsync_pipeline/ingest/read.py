@@ -6,13 +6,15 @@ from dataclasses import replace
 from pathlib import Path
 
 from tlsync_pipeline.errors import InputError
-from tlsync_pipeline.inputs import regular_file
 from tlsync_pipeline.ingest.detect import detect_format
 from tlsync_pipeline.ingest.records import LogRecords
 from tlsync_pipeline.ingest.registry import BY_NAME, FORMATS
+from tlsync_pipeline.inputs import regular_file
 
 
-def read_log(path: str | Path, fmt: str = "auto", topic: str | None = None, utc_offset_s: float | None = None) -> LogRecords:
+def read_log(
+    path: str | Path, fmt: str = "auto", topic: str | None = None, utc_offset_s: float | None = None
+) -> LogRecords:
     """Read a log with the reader for ``fmt`` ("auto": detected from the content).
 
     utc_offset_s: local time - UTC (s) of a log whose clock is local with no
@@ -38,5 +40,11 @@ def read_log(path: str | Path, fmt: str = "auto", topic: str | None = None, utc_
     else:
         records = reader.read(path, utc_offset_s=utc_offset_s) if reader.local_clock else reader.read(path)
     if utc_offset_s is not None and not reader.local_clock:
-        records = replace(records, warnings=(*records.warnings, f"utc_offset is not used: the {fmt} log's times are {records.clock}, not a local wall clock"))
+        records = replace(
+            records,
+            warnings=(
+                *records.warnings,
+                f"utc_offset is not used: the {fmt} log's times are {records.clock}, not a local wall clock",
+            ),
+        )
     return records

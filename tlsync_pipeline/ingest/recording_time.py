@@ -48,7 +48,9 @@ class RecordingTime:
 
 
 def parse_utc(text: str) -> float | None:
-    """POSIX seconds of an ISO 8601 time with a zone (``Z``, ``+02:00``, ``+0200``); None without a zone or unreadable."""
+    """POSIX seconds of an ISO 8601 time with a zone (``Z``, ``+02:00``, ``+0200``); None without a
+    zone or unreadable.
+    """
     text = text.strip().replace("Z", "+00:00")
     if len(text) > 5 and text[-5] in "+-" and text[-3] != ":" and text[-4:].isdigit():
         text = text[:-2] + ":" + text[-2:]
@@ -62,7 +64,7 @@ def parse_utc(text: str) -> float | None:
 def parse_utc_offset(value) -> float:
     """Local time - UTC (s) from hours (a number: 2, -3.5) or text ("+02:00", "-0330", "Z"); ValueError otherwise."""
     if isinstance(value, bool):
-        raise ValueError(f"expected hours (e.g. 2 or -3.5) or \"+HH:MM\", got {value!r}")
+        raise ValueError(f'expected hours (e.g. 2 or -3.5) or "+HH:MM", got {value!r}')
     if isinstance(value, (int, float)) and -14 <= value <= 14:
         return float(value) * 3600.0
     if isinstance(value, str):
@@ -70,10 +72,16 @@ def parse_utc_offset(value) -> float:
         if text == "Z":
             return 0.0
         digits = text[1:].replace(":", "")
-        if text[:1] in "+-" and len(digits) == 4 and digits.isdigit() and int(digits[:2]) <= 14 and int(digits[2:]) < 60:
+        if (
+            text[:1] in "+-"
+            and len(digits) == 4
+            and digits.isdigit()
+            and int(digits[:2]) <= 14
+            and int(digits[2:]) < 60
+        ):
             seconds = int(digits[:2]) * 3600 + int(digits[2:]) * 60
             return float(seconds if text[0] == "+" else -seconds)
-    raise ValueError(f"expected hours between -14 and 14 (e.g. 2 or -3.5) or \"+HH:MM\", got {value!r}")
+    raise ValueError(f'expected hours between -14 and 14 (e.g. 2 or -3.5) or "+HH:MM", got {value!r}')
 
 
 def _gopro(video: Path) -> RecordingTime | None:
@@ -87,7 +95,9 @@ def _gopro(video: Path) -> RecordingTime | None:
         return None
     nine = any(note.startswith("UTC from each GPS9") for note in records.notes)
     if nine:
-        return RecordingTime(records.video_time_zero, GPS9_TOLERANCE_S + (records.video_zero_spread_s or 0.0), "GoPro GPS9", True)
+        return RecordingTime(
+            records.video_time_zero, GPS9_TOLERANCE_S + (records.video_zero_spread_s or 0.0), "GoPro GPS9", True
+        )
     return RecordingTime(records.video_time_zero, GOPRO_GPSU_TOLERANCE_S, "GoPro GPSU", True)
 
 
@@ -103,7 +113,12 @@ def _srt(video: Path, utc_offset_s: float | None) -> RecordingTime | None:
                 return None
             if not records.utc or records.video_time_zero is None:
                 return None
-            return RecordingTime(records.video_time_zero, max(records.video_zero_spread_s or 0.0, SRT_MS_TOLERANCE_S), f"DJI SRT ({beside.name})", True)
+            return RecordingTime(
+                records.video_time_zero,
+                max(records.video_zero_spread_s or 0.0, SRT_MS_TOLERANCE_S),
+                f"DJI SRT ({beside.name})",
+                True,
+            )
     return None
 
 
@@ -142,7 +157,9 @@ def choose(found: list[RecordingTime], tolerance_s: float | None = None) -> Reco
     usable = found if tolerance_s is not None else [r for r in found if r.trusted and r.tolerance_s is not None]
     if usable:
         chosen = usable[0]
-        return RecordingTime(chosen.utc_s, tolerance_s if tolerance_s is not None else chosen.tolerance_s, chosen.source, chosen.trusted)
+        return RecordingTime(
+            chosen.utc_s, tolerance_s if tolerance_s is not None else chosen.tolerance_s, chosen.source, chosen.trusted
+        )
     if found:
         return f"only {', '.join(r.source for r in found)}, not trusted: give [cameras.clock] tolerance_s to use it"
     return "the video's metadata says nothing of when it was recorded"

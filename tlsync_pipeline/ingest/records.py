@@ -85,22 +85,75 @@ def where(path: Path, number: int, unit: str = "line") -> str:
 
 
 def make_records(
-    path, fmt, frame, rows, lines, unit="line", utc=True, dropped=None, ignored=0, warnings=(),
-    altitude=ELLIPSOID, sigma=None, quality=None, clock=None, notes=(), video_time_zero=None, video_zero_spread_s=None,
-    rounding_m=None, local_time=False,
+    path,
+    fmt,
+    frame,
+    rows,
+    lines,
+    unit="line",
+    utc=True,
+    dropped=None,
+    ignored=0,
+    warnings=(),
+    altitude=ELLIPSOID,
+    sigma=None,
+    quality=None,
+    clock=None,
+    notes=(),
+    video_time_zero=None,
+    video_zero_spread_s=None,
+    rounding_m=None,
+    local_time=False,
 ) -> LogRecords:
-    """LogRecords from a list of (t, a, b, c) rows and their provenance numbers (sigma, quality, rounding_m: one value per row)."""
+    """LogRecords from a list of (t, a, b, c) rows and their provenance numbers (sigma, quality, rounding_m: one value
+    per row).
+    """
     data = np.asarray(rows, dtype=np.float64).reshape(-1, 4)
     return records_of_columns(
-        path, fmt, frame, data[:, 0].copy(), data[:, 1:].copy(), lines, unit, utc, dropped, ignored, warnings, altitude,
-        sigma, quality, clock, notes, video_time_zero, video_zero_spread_s, rounding_m, local_time,
+        path,
+        fmt,
+        frame,
+        data[:, 0].copy(),
+        data[:, 1:].copy(),
+        lines,
+        unit,
+        utc,
+        dropped,
+        ignored,
+        warnings,
+        altitude,
+        sigma,
+        quality,
+        clock,
+        notes,
+        video_time_zero,
+        video_zero_spread_s,
+        rounding_m,
+        local_time,
     )
 
 
 def records_of_columns(
-    path, fmt, frame, t, values, lines, unit="line", utc=True, dropped=None, ignored=0, warnings=(),
-    altitude=ELLIPSOID, sigma=None, quality=None, clock=None, notes=(), video_time_zero=None, video_zero_spread_s=None,
-    rounding_m=None, local_time=False,
+    path,
+    fmt,
+    frame,
+    t,
+    values,
+    lines,
+    unit="line",
+    utc=True,
+    dropped=None,
+    ignored=0,
+    warnings=(),
+    altitude=ELLIPSOID,
+    sigma=None,
+    quality=None,
+    clock=None,
+    notes=(),
+    video_time_zero=None,
+    video_zero_spread_s=None,
+    rounding_m=None,
+    local_time=False,
 ) -> LogRecords:
     """LogRecords from times (N,) and values (N, 3), kept as they are (no copy when float64), as make_records."""
     t = np.asarray(t, dtype=np.float64).reshape(-1)
@@ -109,11 +162,26 @@ def records_of_columns(
     sigma = None if sigma is None else np.asarray(sigma, dtype=np.float64).reshape(n)
     quality = {name: np.asarray(v, dtype=np.float64).reshape(n) for name, v in (quality or {}).items()}
     return LogRecords(
-        Path(path), fmt, frame, t, values, np.asarray(lines, dtype=np.int64).reshape(-1),
-        unit, utc, dict(dropped or {}), ignored, tuple(warnings), altitude, sigma, quality, "UTC" if utc else clock or "the log's own clock",
-        tuple(notes), None if video_time_zero is None else float(video_time_zero),
+        Path(path),
+        fmt,
+        frame,
+        t,
+        values,
+        np.asarray(lines, dtype=np.int64).reshape(-1),
+        unit,
+        utc,
+        dict(dropped or {}),
+        ignored,
+        tuple(warnings),
+        altitude,
+        sigma,
+        quality,
+        "UTC" if utc else clock or "the log's own clock",
+        tuple(notes),
+        None if video_time_zero is None else float(video_time_zero),
         None if video_zero_spread_s is None else float(video_zero_spread_s),
-        None if rounding_m is None else np.asarray(rounding_m, dtype=np.float64).reshape(n), bool(local_time),
+        None if rounding_m is None else np.asarray(rounding_m, dtype=np.float64).reshape(n),
+        bool(local_time),
     )
 
 
@@ -133,12 +201,18 @@ def check_geodetic(path: Path, lat: float, lon: float, alt: float, number: int, 
     if not -180.0 <= lon <= 180.0:
         raise InputError(f"{where(path, number, unit)}: longitude {lon!r} out of range [-180, 180]")
     if not ALTITUDE_RANGE_M[0] <= alt <= ALTITUDE_RANGE_M[1]:
-        raise InputError(f"{where(path, number, unit)}: altitude {alt!r} m is not a plausible height above the ellipsoid")
+        raise InputError(
+            f"{where(path, number, unit)}: altitude {alt!r} m is not a plausible height above the ellipsoid"
+        )
 
 
-def check_geodetic_rows(path: Path, lat: np.ndarray, lon: np.ndarray, alt: np.ndarray, numbers, unit: str = "line") -> None:
+def check_geodetic_rows(
+    path: Path, lat: np.ndarray, lon: np.ndarray, alt: np.ndarray, numbers, unit: str = "line"
+) -> None:
     """check_geodetic on the first impossible fix of arrays of fixes (numbers: their provenance), if any."""
-    bad = ~((np.abs(lat) <= 90.0) & (np.abs(lon) <= 180.0) & (alt >= ALTITUDE_RANGE_M[0]) & (alt <= ALTITUDE_RANGE_M[1]))
+    bad = ~(
+        (np.abs(lat) <= 90.0) & (np.abs(lon) <= 180.0) & (alt >= ALTITUDE_RANGE_M[0]) & (alt <= ALTITUDE_RANGE_M[1])
+    )
     if bad.any():
         k = int(np.argmax(bad))
         check_geodetic(path, float(lat[k]), float(lon[k]), float(alt[k]), int(numbers[k]), unit)

@@ -15,8 +15,8 @@ from tlsync_pipeline.ingest.csvlog import READER as CSV
 from tlsync_pipeline.ingest.dataflash import READER as DATAFLASH
 from tlsync_pipeline.ingest.dji import READER as DJI
 from tlsync_pipeline.ingest.fit import READER as FIT
-from tlsync_pipeline.ingest.gopro import READER as GOPRO
 from tlsync_pipeline.ingest.formats import FORMATS
+from tlsync_pipeline.ingest.gopro import READER as GOPRO
 from tlsync_pipeline.ingest.gpx import READER as GPX
 from tlsync_pipeline.ingest.kml import READER as KML
 from tlsync_pipeline.ingest.nmea import READER as NMEA
@@ -28,6 +28,22 @@ from tlsync_pipeline.ingest.tlog import READER as TLOG
 from tlsync_pipeline.ingest.tum import READER as TUM
 from tlsync_pipeline.ingest.ulog import READER as ULOG
 
-READERS: tuple[Reader, ...] = (ULOG, DATAFLASH, TLOG, ROSBAG, FIT, GOPRO, GPX, KML, NMEA, RTKLIB, SRT, DJI, TUM, CSV, ODOMETRY_READER)
+READERS: tuple[Reader, ...] = (
+    ULOG,
+    DATAFLASH,
+    TLOG,
+    ROSBAG,
+    FIT,
+    GOPRO,
+    GPX,
+    KML,
+    NMEA,
+    RTKLIB,
+    SRT,
+    DJI,
+    TUM,
+    CSV,
+    ODOMETRY_READER,
+)
 assert FORMATS == tuple(r.name for r in READERS), "ingest/formats.py lists READERS' names"
 BY_NAME = {r.name: r for r in READERS}

@@ -91,10 +91,16 @@ def read_rosbag(path: str | Path, topic: str | None = None) -> LogRecords:
         with AnyReader([bag], default_typestore=get_typestore(Stores.ROS2_HUMBLE)) as reader:
             usable = {c.topic: c.msgtype for c in reader.connections if c.msgtype in MSGTYPES}
             counts = {t: sum(c.msgcount for c in reader.connections if c.topic == t) for t in usable}
-            found = ", ".join(f"{t} ({m.rsplit('/', 1)[-1]}, {counts[t]} messages)" for t, m in sorted(usable.items())) or "none"
+            found = (
+                ", ".join(f"{t} ({m.rsplit('/', 1)[-1]}, {counts[t]} messages)" for t, m in sorted(usable.items()))
+                or "none"
+            )
             if topic is None:
                 if len(usable) != 1:
-                    raise InputError(f"{path}: {'several' if usable else 'no'} NavSatFix/Odometry/PoseStamped topics: {found}; name one with --topic (or [target] topic)")
+                    raise InputError(
+                        f"{path}: {'several' if usable else 'no'} NavSatFix/Odometry/PoseStamped topics: {found}; "
+                        f"name one with --topic (or [target] topic)"
+                    )
                 topic = next(iter(usable))
             if topic not in usable:
                 raise InputError(f"{path}: no NavSatFix/Odometry/PoseStamped topic {topic!r}; usable topics: {found}")
@@ -125,10 +131,24 @@ def read_rosbag(path: str | Path, topic: str | None = None) -> LogRecords:
     utc = bool(rows) and rows[0][0] >= UTC_FROM_S
     sigma = np.asarray(sigmas, dtype=float)
     return make_records(
-        path, "rosbag", frame, rows, numbers, unit=f"{topic} {UNIT}", utc=utc, dropped=dropped,
-        sigma=sigma if np.isfinite(sigma).any() else None, clock=None if utc else "ROS time before 2000: a simulation or boot clock (s)",
+        path,
+        "rosbag",
+        frame,
+        rows,
+        numbers,
+        unit=f"{topic} {UNIT}",
+        utc=utc,
+        dropped=dropped,
+        sigma=sigma if np.isfinite(sigma).any() else None,
+        clock=None if utc else "ROS time before 2000: a simulation or boot clock (s)",
     )
 
 
 BAG_MAGIC = (b"#ROSBAG V2.0", b"\x89MCAP", b"SQLite format 3\x00")
-READER = Reader("rosbag", "ROS bag (ROS 1 .bag, ROS 2 folder with metadata.yaml, .db3 or .mcap)", read_rosbag, lambda head: head.startswith(BAG_MAGIC), topics=True)
+READER = Reader(
+    "rosbag",
+    "ROS bag (ROS 1 .bag, ROS 2 folder with metadata.yaml, .db3 or .mcap)",
+    read_rosbag,
+    lambda head: head.startswith(BAG_MAGIC),
+    topics=True,
+)

@@ -32,7 +32,9 @@ from tlsync_pipeline.ingest.records import ELLIPSOID, GEODETIC, MSL, LogRecords,
 NO_SOLUTION = "Q 0 (no solution)"
 MALFORMED = "malformed line"
 QUALITY_NAMES = {1: "fix", 2: "float", 3: "SBAS", 4: "DGPS", 5: "single", 6: "PPP"}
-_WEEK_TOW = re.compile(r"^\s*\d{3,4}[\s,]+\d+(\.\d*)?[\s,]+-?\d+\.\d+[\s,]+-?\d+\.\d+[\s,]+-?\d+\.\d+[\s,]+[0-6][\s,]+\d+")
+_WEEK_TOW = re.compile(
+    r"^\s*\d{3,4}[\s,]+\d+(\.\d*)?[\s,]+-?\d+\.\d+[\s,]+-?\d+\.\d+[\s,]+-?\d+\.\d+[\s,]+[0-6][\s,]+\d+"
+)
 _CALENDAR = re.compile(r"^\s*\d{4}/\d{1,2}/\d{1,2}[\s,]+\d{1,2}:\d{1,2}:\d{1,2}(\.\d*)?[\s,]+-?\d+(\.\d+)?[\s,]")
 
 
@@ -41,7 +43,10 @@ def _sniff(head: bytes) -> bool:
     if text is None:
         return False
     lines = [line for line in text.split("\n")[:60] if line.strip()]
-    if any(line.startswith("%") and re.search(r"latitude\(|x-ecef\(|e-baseline\(|\(lat/lon/height=", line) for line in lines):
+    if any(
+        line.startswith("%") and re.search(r"latitude\(|x-ecef\(|e-baseline\(|\(lat/lon/height=", line)
+        for line in lines
+    ):
         return True
     data = [line for line in lines if not line.startswith("%")][:3]
     return bool(data) and all(_WEEK_TOW.match(line) or _CALENDAR.match(line) for line in data)
@@ -56,7 +61,10 @@ def _header(path: Path, lines: list[str]) -> tuple[str, str, bool]:
         if "/geodetic" in line:
             altitude = MSL
         if re.search(r"x-ecef\(|e-baseline\(|n-baseline\(", line):
-            raise InputError(f"{path}:{number}: an RTKLIB ECEF or baseline solution; tlsync reads the lat/lon/height output (out-solformat = llh)")
+            raise InputError(
+                f"{path}:{number}: an RTKLIB ECEF or baseline solution; tlsync reads the lat/lon/height output "
+                f"(out-solformat = llh)"
+            )
         if "latitude(" in line:
             found = re.match(r"%\s*(GPST|UTC|JST)\b", line)
             system = found.group(1) if found else system
@@ -98,15 +106,32 @@ def read_rtklib(path: str | Path) -> LogRecords:
         for name, value in zip(("Q", "ns", "sdn", "sde", "sdu"), (q, rest[0] if rest else math.nan, sdn, sde, sdu)):
             quality[name].append(value)
     warnings = []
-    counts = {QUALITY_NAMES.get(int(q), str(int(q))): n for q, n in zip(*np.unique(quality["Q"], return_counts=True))} if rows else {}
+    counts = (
+        {QUALITY_NAMES.get(int(q), str(int(q))): n for q, n in zip(*np.unique(quality["Q"], return_counts=True))}
+        if rows
+        else {}
+    )
     if counts:
-        warnings.append("solutions: " + ", ".join(f"{n} {name}" for name, n in counts.items()) + " (Q kept in the report; sigmas weight the refinement)")
+        warnings.append(
+            "solutions: "
+            + ", ".join(f"{n} {name}" for name, n in counts.items())
+            + " (Q kept in the report; sigmas weight the refinement)"
+        )
     if system == "GPST":
         warnings.append("times are GPST: converted to UTC with the leap seconds in force")
     sig = np.asarray(sigma, dtype=float)
     return make_records(
-        path, "rtklib", GEODETIC, rows, numbers, dropped=dropped, ignored=ignored, warnings=warnings, altitude=altitude,
-        sigma=None if not len(sig) or np.isnan(sig).all() else sig, quality=quality,
+        path,
+        "rtklib",
+        GEODETIC,
+        rows,
+        numbers,
+        dropped=dropped,
+        ignored=ignored,
+        warnings=warnings,
+        altitude=altitude,
+        sigma=None if not len(sig) or np.isnan(sig).all() else sig,
+        quality=quality,
     )
 
 
@@ -147,4 +172,9 @@ def _dms(fields: list[str]) -> float:
     return sign * (abs(d) + m / 60.0 + s / 3600.0)
 
 
-READER = Reader("rtklib", "RTKLIB .pos solution (% header with latitude(deg), or GPS week + time of week lines)", read_rtklib, _sniff)
+READER = Reader(
+    "rtklib",
+    "RTKLIB .pos solution (% header with latitude(deg), or GPS week + time of week lines)",
+    read_rtklib,
+    _sniff,
+)

@@ -103,7 +103,9 @@ def _sniff(head: bytes) -> bool:
     if not lines or not lines[0].isdigit():
         return False
     body = "\n".join(lines)
-    return bool(_TIMECODE.match(lines[1]) if len(lines) > 1 else False) or (bool(_DATE.search(body)) and bool(re.search(r"GPS\s*\(|\[\s*latitude", body)))
+    return bool(_TIMECODE.match(lines[1]) if len(lines) > 1 else False) or (
+        bool(_DATE.search(body)) and bool(re.search(r"GPS\s*\(|\[\s*latitude", body))
+    )
 
 
 def _number(text: str | None) -> float:
@@ -170,7 +172,9 @@ def _parse_body(block: _Block, body: str) -> None:
 
 
 def read_srt(path: str | Path, utc_offset_s: float | None = None) -> LogRecords:
-    """Read a DJI subtitle file; utc_offset_s: local time - UTC of its wall clock (s), None = unknown. See the module notes."""
+    """Read a DJI subtitle file; utc_offset_s: local time - UTC of its wall clock (s), None = unknown. See the module
+    notes.
+    """
     path = Path(path)
     try:
         raw = path.read_bytes()
@@ -182,7 +186,10 @@ def read_srt(path: str | Path, utc_offset_s: float | None = None) -> LogRecords:
         text = raw.decode("latin-1")
     blocks = _blocks(text.replace("\r\n", "\n").replace("\r", "\n"))
     if not blocks:
-        raise InputError(f"{path}: no position fix: no subtitle blocks (expected DJI SRT: a block number, a timecode line, the telemetry)")
+        raise InputError(
+            f"{path}: no position fix: no subtitle blocks (expected DJI SRT: a block number, a timecode line, the "
+            f"telemetry)"
+        )
     dropped: dict[str, list[int]] = {}
     fixes = []
     for block in blocks:
@@ -193,7 +200,10 @@ def read_srt(path: str | Path, utc_offset_s: float | None = None) -> LogRecords:
         fixes.append((block, a, b))
     if not fixes:
         reasons = f"; {len(dropped[NO_POSITION])} block(s) without a position" if dropped else ""
-        raise InputError(f"{path}: no position fix in the subtitle blocks{reasons} (expected GPS(...) or [latitude: ..] [longitude: ..])")
+        raise InputError(
+            f"{path}: no position fix in the subtitle blocks{reasons} (expected GPS(...) or [latitude: ..] "
+            f"[longitude: ..])"
+        )
     notes, warnings = [], []
     pairs = np.array([(a, b) for _, a, b in fixes])
     labelled = np.array([f[0].labelled for f in fixes])
@@ -223,17 +233,35 @@ def read_srt(path: str | Path, utc_offset_s: float | None = None) -> LogRecords:
     sigma = np.sqrt((step_n**2 + step_e**2) / 24)
     rounding = np.hypot(step_n, step_e) / 2
     fewest, most = int(decimals.min()), int(decimals.max())
-    notes.append(f"precision: {fewest if fewest == most else f'{fewest} to {most}'} decimals of a degree ({M_PER_DEG * 10.0 ** -fewest:.2g} m steps north), "
-                 f"per-fix sigma {sigma.min():.2g}-{sigma.max():.2g} m from the rounding alone")
+    notes.append(
+        f"precision: {fewest if fewest == most else f'{fewest} to {most}'} decimals of a degree "
+        f"({M_PER_DEG * 10.0**-fewest:.2g} m steps north), "
+        f"per-fix sigma {sigma.min():.2g}-{sigma.max():.2g} m from the rounding alone"
+    )
     if fewest <= 4:
-        warnings.append(f"coordinates have {fewest} decimals: {M_PER_DEG * 10.0 ** -fewest:.0f} m steps; expect a staircase track")
+        warnings.append(
+            f"coordinates have {fewest} decimals: {M_PER_DEG * 10.0**-fewest:.0f} m steps; expect a staircase track"
+        )
     lines = [f[0].line for f in fixes]
     for i in range(len(fixes)):
         check_geodetic(path, float(lat[i]), float(lon[i]), float(heights[i]), lines[i])
     rows = np.column_stack([t, lat, lon, heights])
     return make_records(
-        path, "srt", GEODETIC, rows, lines, utc=utc, dropped=dropped, warnings=warnings, altitude=altitude, sigma=sigma,
-        clock=clock, notes=notes, video_time_zero=zero, video_zero_spread_s=spread, rounding_m=rounding,
+        path,
+        "srt",
+        GEODETIC,
+        rows,
+        lines,
+        utc=utc,
+        dropped=dropped,
+        warnings=warnings,
+        altitude=altitude,
+        sigma=sigma,
+        clock=clock,
+        notes=notes,
+        video_time_zero=zero,
+        video_zero_spread_s=spread,
+        rounding_m=rounding,
         local_time=clock == LOCAL_CLOCK,
     )
 
@@ -244,7 +272,10 @@ def gps_order(pairs: np.ndarray, blocks: list[_Block]) -> tuple[bool, str, str |
     evidence: list[tuple[str, bool]] = []  # (what, latitude first), strongest first
     if beyond[:, 0].any() != beyond[:, 1].any():
         evidence.append(("a value beyond +-90 degrees can only be a longitude", bool(beyond[:, 1].any())))
-    for name, test in (("the distance to HOME matches the file's D", _home_evidence), ("the implied speeds match the file's H.S", _speed_evidence)):
+    for name, test in (
+        ("the distance to HOME matches the file's D", _home_evidence),
+        ("the implied speeds match the file's H.S", _speed_evidence),
+    ):
         verdict = test(pairs, blocks)
         if verdict is not None:
             evidence.append((name, verdict))
@@ -252,12 +283,20 @@ def gps_order(pairs: np.ndarray, blocks: list[_Block]) -> tuple[bool, str, str |
     layout = None
     if thirds:
         unit = sum(bool(re.search(r"\d\s*[A-Za-z]+$", s)) for s in thirds) > len(thirds) / 2
-        layout = (f"the firmware's layout GPS(lat, lon, {'altitude' if unit else 'satellites'})" if unit
-                  else "the firmware's layout GPS(lon, lat, satellites)", unit)
+        layout = (
+            f"the firmware's layout GPS(lat, lon, {'altitude' if unit else 'satellites'})"
+            if unit
+            else "the firmware's layout GPS(lon, lat, satellites)",
+            unit,
+        )
     if layout is not None:
         evidence.append(layout)
     if not evidence:
-        return False, "no evidence in the file: taken as (longitude, latitude), the older firmware's layout", "nothing in the file decides it"
+        return (
+            False,
+            "no evidence in the file: taken as (longitude, latitude), the older firmware's layout",
+            "nothing in the file decides it",
+        )
     reason, verdict = evidence[0]
     against = [what for what, v in evidence[1:] if v != verdict]
     return verdict, reason, (f"{reason}, but {' and '.join(against)} says otherwise" if against else None)
@@ -315,20 +354,34 @@ def _times(path: Path, blocks: list[_Block], utc_offset_s: float | None, warning
     wall = np.array([b.wall for b in blocks])
     has_media, has_wall = np.isfinite(media).all(), np.isfinite(wall).all()
     if np.isfinite(wall).any() and not has_wall:
-        warnings.append(f"{int((~np.isfinite(wall)).sum())} of {len(blocks)} blocks have no date: the wall clock is not used")
+        warnings.append(
+            f"{int((~np.isfinite(wall)).sum())} of {len(blocks)} blocks have no date: the wall clock is not used"
+        )
     zulu = has_wall and all(b.zulu for b in blocks)
     subsecond = has_wall and all(b.subsecond for b in blocks)
     if utc_offset_s is not None and (zulu or not has_wall):
-        warnings.append("utc_offset is not used: " + ("the file's dates are UTC (Z)" if zulu else "the file has no wall clock"))
+        warnings.append(
+            "utc_offset is not used: " + ("the file's dates are UTC (Z)" if zulu else "the file has no wall clock")
+        )
     if has_wall and not zulu and utc_offset_s is not None:
         wall = wall - utc_offset_s
     utc = has_wall and (zulu or utc_offset_s is not None)
-    zone = "UTC (the file says Z)" if zulu else (f"local time, UTC{_hours(utc_offset_s)} as given (utc_offset)" if utc_offset_s is not None else
-                                                  "the drone's local time (no zone in the file; give [target] utc_offset for UTC)")
+    zone = (
+        "UTC (the file says Z)"
+        if zulu
+        else (
+            f"local time, UTC{_hours(utc_offset_s)} as given (utc_offset)"
+            if utc_offset_s is not None
+            else "the drone's local time (no zone in the file; give [target] utc_offset for UTC)"
+        )
+    )
     if has_media and has_wall:
         anchored, run = onto_coarse_clock(media, wall, whole_seconds=not subsecond, break_s=RUN_BREAK_S)
         if int(run[-1]) > 0:
-            warnings.append(f"{int(run[-1]) + 1} runs of subtitle times against the wall clock (clips joined into one file): each anchored apart")
+            warnings.append(
+                f"{int(run[-1]) + 1} runs of subtitle times against the wall clock (clips joined into one file): each "
+                f"anchored apart"
+            )
         first = run == 0
         if subsecond:
             spread = float(np.abs(wall - anchored).max())
@@ -336,14 +389,26 @@ def _times(path: Path, blocks: list[_Block], utc_offset_s: float | None, warning
             t, zero = wall, float(np.median(wall[first] - media[first]))
         else:
             spread = whole_second_uncertainty(media[first])
-            note = f"times: the subtitle (video) times, anchored to the wall clock's whole seconds (within {spread:.2f} s), {zone}"
+            note = (
+                f"times: the subtitle (video) times, anchored to the wall clock's whole seconds (within "
+                f"{spread:.2f} s), {zone}"
+            )
             t, zero = anchored, float(anchored[0] - media[0])
         return t, note, utc, None if utc else LOCAL_CLOCK, zero, spread
     if has_wall:
         return wall, f"times: the wall clock (no subtitle times), {zone}", utc, None if utc else LOCAL_CLOCK, None, None
     if has_media:
-        return media, "times: subtitle times on the video's timeline (the file has no date)", False, "the video's timeline (subtitle times)", 0.0, 0.0
-    raise InputError(f"{path}:{blocks[0].line}: a subtitle block with neither a timecode nor a date (and others like it)")
+        return (
+            media,
+            "times: subtitle times on the video's timeline (the file has no date)",
+            False,
+            "the video's timeline (subtitle times)",
+            0.0,
+            0.0,
+        )
+    raise InputError(
+        f"{path}:{blocks[0].line}: a subtitle block with neither a timecode nor a date (and others like it)"
+    )
 
 
 def _hours(offset_s: float) -> str:
@@ -354,7 +419,11 @@ def _hours(offset_s: float) -> str:
 
 def _fpv(text: str) -> bool:
     """DJI FPV firmware writes [altitude: ..] in tenths of a metre (DJI_SRT_Parser's test for that drone)."""
-    return 'font size="28"' in text and bool(re.search(r"\d{4}-\d{1,2}-\d{1,2} \d{1,2}:\d\d:\d\d\.\d{3}", text)) and "[altitude:" in text
+    return (
+        'font size="28"' in text
+        and bool(re.search(r"\d{4}-\d{1,2}-\d{1,2} \d{1,2}:\d\d:\d\d\.\d{3}", text))
+        and "[altitude:" in text
+    )
 
 
 def _heights(values: np.ndarray, fpv: bool, warnings: list[str]) -> tuple[np.ndarray, str, str]:
@@ -366,7 +435,11 @@ def _heights(values: np.ndarray, fpv: bool, warnings: list[str]) -> tuple[np.nda
     """
     for k, (_, reference) in enumerate(_HEIGHTS):
         if np.isfinite(values[:, k]).all():
-            return _scaled(values[:, k], k, fpv, warnings), reference, f"heights: {_HEIGHT_NAMES[k]} (m above {_WHERE[reference]})"
+            return (
+                _scaled(values[:, k], k, fpv, warnings),
+                reference,
+                f"heights: {_HEIGHT_NAMES[k]} (m above {_WHERE[reference]})",
+            )
     found = np.isfinite(values)
     if not found.any():
         warnings.append("no height in the subtitles: heights set to 0 above the take-off point")
@@ -379,14 +452,18 @@ def _heights(values: np.ndarray, fpv: bool, warnings: list[str]) -> tuple[np.nda
     counts = {k: int((kind == k).sum()) for k in used}
     reference = _HEIGHTS[max(used, key=lambda k: counts[k])][1]
     if len({_HEIGHTS[k][1] for k in used}) > 1:
-        warnings.append("the blocks give heights above different references ("
-                        + ", ".join(f"{counts[k]} {_HEIGHT_NAMES[k]} above {_WHERE[_HEIGHTS[k][1]]}" for k in used)
-                        + f"): all read as above {_WHERE[reference]}; clips of different drones joined into one file?")
+        warnings.append(
+            "the blocks give heights above different references ("
+            + ", ".join(f"{counts[k]} {_HEIGHT_NAMES[k]} above {_WHERE[_HEIGHTS[k][1]]}" for k in used)
+            + f"): all read as above {_WHERE[reference]}; clips of different drones joined into one file?"
+        )
     missing = kind < 0
     if missing.any():
         index = np.arange(len(column))
         column[missing] = np.interp(index[missing], index[~missing], column[~missing])
-        warnings.append(f"{int(missing.sum())} of {len(column)} blocks have no height: interpolated from their neighbours")
+        warnings.append(
+            f"{int(missing.sum())} of {len(column)} blocks have no height: interpolated from their neighbours"
+        )
     kinds = " and ".join(f"{_HEIGHT_NAMES[k]} ({counts[k]} fixes)" for k in used)
     return column, reference, f"heights: {kinds}, each block its own (m above {_WHERE[reference]})"
 
@@ -402,4 +479,6 @@ def _scaled(column: np.ndarray, k: int, fpv: bool, warnings: list[str]) -> np.nd
     return column
 
 
-READER = Reader("srt", "DJI SRT subtitles (block number, timecode, GPS(...) or [latitude: ..])", read_srt, _sniff, local_clock=True)
+READER = Reader(
+    "srt", "DJI SRT subtitles (block number, timecode, GPS(...) or [latitude: ..])", read_srt, _sniff, local_clock=True
+)

@@ -46,11 +46,15 @@ def _sniff(head: bytes) -> bool:
     stamp = struct.unpack(">Q", head[:8])[0] * 1e-6
     if not 946684800 <= stamp <= 4102444800:
         return False
-    length = head[9] + (8 if head[8] == 0xFE else 12) + (13 if head[8] == 0xFD and len(head) > 10 and head[10] & 1 else 0)
+    length = (
+        head[9] + (8 if head[8] == 0xFE else 12) + (13 if head[8] == 0xFD and len(head) > 10 and head[10] & 1 else 0)
+    )
     nxt = 8 + length
     if len(head) < nxt + 9:
         return True
-    return head[nxt + 8] in (0xFE, 0xFD) and 946684800 <= struct.unpack(">Q", head[nxt : nxt + 8])[0] * 1e-6 <= 4102444800
+    return (
+        head[nxt + 8] in (0xFE, 0xFD) and 946684800 <= struct.unpack(">Q", head[nxt : nxt + 8])[0] * 1e-6 <= 4102444800
+    )
 
 
 def read_tlog(path: str | Path) -> LogRecords:
@@ -69,7 +73,9 @@ def read_tlog(path: str | Path) -> LogRecords:
                 break
             number += msg.get_type() == "GPS_RAW_INT"
             source = (msg.get_srcSystem(), msg.get_srcComponent())
-            events.setdefault(source, []).append((msg.get_type(), number, msg.to_dict(), float(getattr(msg, "_timestamp", np.nan))))
+            events.setdefault(source, []).append(
+                (msg.get_type(), number, msg.to_dict(), float(getattr(msg, "_timestamp", np.nan)))
+            )
     except Exception as exc:  # pymavlink raises struct/index errors on damaged streams
         raise InputError(f"{path}: not a readable MAVLink telemetry log: {type(exc).__name__}: {exc}") from None
     finally:
@@ -83,7 +89,10 @@ def read_tlog(path: str | Path) -> LogRecords:
     records = tlog_records(path, fixes, offsets)
     others = [s for s, n in gps_count.items() if n and s != source]
     if others:
-        note = f"GPS_RAW_INT from {len(others) + 1} senders; read system {source[0]} component {source[1]} (the most messages)"
+        note = (
+            f"GPS_RAW_INT from {len(others) + 1} senders; read system {source[0]} component {source[1]} (the most "
+            f"messages)"
+        )
         records = replace(records, warnings=(*records.warnings, note))
     return records
 
@@ -138,22 +147,42 @@ def tlog_records(path: Path, fixes: list[tuple[int, int, dict, float]], offsets:
             t[mine] = time_usec[mine] * 1e-6 + float(np.median(by_boot[boot]))
         else:
             t[mine] = time_usec[mine] * 1e-6 + float(np.nanmedian(received[mine] - time_usec[mine] * 1e-6))
-            warnings.append(f"boot {boot + 1}: no SYSTEM_TIME UTC; fix times put on UTC by the ground station's receive stamps (off by the link latency)")
+            warnings.append(
+                f"boot {boot + 1}: no SYSTEM_TIME UTC; fix times put on UTC by the ground station's receive stamps "
+                f"(off by the link latency)"
+            )
     if len(np.unique(boots)) > 1:
-        warnings.append(f"the autopilot rebooted {len(np.unique(boots)) - 1} time(s) during the log; each boot's clock is put on UTC separately")
+        warnings.append(
+            f"the autopilot rebooted {len(np.unique(boots)) - 1} time(s) during the log; each boot's clock is put on "
+            f"UTC separately"
+        )
     keep = fix & np.isfinite(t)
     use_ellipsoid = keep.any() and bool(np.all(ellipsoid[keep] != 0))
     height, altitude = (ellipsoid, ELLIPSOID) if use_ellipsoid else (msl, MSL)
     for i in np.flatnonzero(keep):
         check_geodetic(path, lat[i], lon[i], height[i], int(numbers[i]), UNIT)
     h_acc = field("h_acc") * 1e-3
-    quality = {"fix_type": fix_type, "eph": field("eph"), "satellites_visible": field("satellites_visible"), "h_acc": h_acc}
+    quality = {
+        "fix_type": fix_type,
+        "eph": field("eph"),
+        "satellites_visible": field("satellites_visible"),
+        "h_acc": h_acc,
+    }
     order = np.argsort(t[keep], kind="stable")
     rows = np.column_stack([t, lat, lon, height])[keep][order]
     sigma = np.where(h_acc > 0, h_acc, np.nan)[keep][order]
     return make_records(
-        path, "tlog", GEODETIC, rows, numbers[keep][order], unit=UNIT, dropped=dropped, warnings=warnings, altitude=altitude,
-        sigma=None if np.isnan(sigma).all() else sigma, quality={k: v[keep][order] for k, v in quality.items()},
+        path,
+        "tlog",
+        GEODETIC,
+        rows,
+        numbers[keep][order],
+        unit=UNIT,
+        dropped=dropped,
+        warnings=warnings,
+        altitude=altitude,
+        sigma=None if np.isnan(sigma).all() else sigma,
+        quality={k: v[keep][order] for k, v in quality.items()},
     )
 
 

@@ -78,8 +78,18 @@ def read_tum(path: str | Path) -> LogRecords:
         path = table.path
     t, xyz = (rows.get("t")[:, 0], rows.get("xyz")) if rows else (np.empty(0), np.empty((0, 3)))
     numbers = np.concatenate([np.asarray(n, dtype=np.int64) for n in lines]) if lines else np.empty(0, np.int64)
-    return records_of_columns(path, "tum", LOCAL, t, xyz, numbers, utc=False, dropped=dropped, ignored=ignored,
-                              clock="the recorder's clock (s)")
+    return records_of_columns(
+        path,
+        "tum",
+        LOCAL,
+        t,
+        xyz,
+        numbers,
+        utc=False,
+        dropped=dropped,
+        ignored=ignored,
+        clock="the recorder's clock (s)",
+    )
 
 
 READER = Reader("tum", "TUM trajectory text (timestamp tx ty tz qx qy qz qw)", read_tum, _sniff)

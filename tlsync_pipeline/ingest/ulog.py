@@ -59,18 +59,29 @@ def read_ulog(path: str | Path) -> LogRecords:
         ulog = ULog(str(path), list(TOPICS), disable_str_exceptions=True)
     except Exception as exc:  # pyulog raises bare Exceptions, struct and index errors on damaged files
         raise InputError(f"{path}: not a readable PX4 ULog file: {exc}") from None
-    found = [d for d in ulog.data_list if d.name in TOPICS and len(d.data.get("timestamp", ())) and {"fix_type"} <= set(d.data)]
+    found = [
+        d
+        for d in ulog.data_list
+        if d.name in TOPICS and len(d.data.get("timestamp", ())) and {"fix_type"} <= set(d.data)
+    ]
     if not found:
-        raise InputError(f"{path}: no GNSS fixes in this ULog (no {' or '.join(TOPICS)} topic); was a GPS connected and logged?")
+        raise InputError(
+            f"{path}: no GNSS fixes in this ULog (no {' or '.join(TOPICS)} topic); was a GPS connected and logged?"
+        )
     best = max(found, key=lambda d: int(np.count_nonzero(d.data["fix_type"] >= 3)))
     warnings = []
     if len(found) > 1:
-        warnings.append(f"{len(found)} GNSS instances in the log; read {best.name} instance {best.multi_id} (the most 3D fixes)")
+        warnings.append(
+            f"{len(found)} GNSS instances in the log; read {best.name} instance {best.multi_id} (the most 3D fixes)"
+        )
     data = best.data
     try:
         lat, lon, height, _, altitude = _columns(data)
     except KeyError as exc:
-        raise InputError(f"{path}: {best.name} has no field {exc.args[0]!r}; expected lat/lon/alt or latitude_deg/longitude_deg/altitude_msl_m") from None
+        raise InputError(
+            f"{path}: {best.name} has no field {exc.args[0]!r}; expected lat/lon/alt or "
+            f"latitude_deg/longitude_deg/altitude_msl_m"
+        ) from None
     boot = data["timestamp"].astype(float) * 1e-6
     utc_us = data.get("time_utc_usec", np.zeros(len(boot))).astype(float)
     numbers = np.arange(1, len(boot) + 1)
@@ -85,7 +96,10 @@ def read_ulog(path: str | Path) -> LogRecords:
         t = utc_us * 1e-6
     else:
         t = boot
-        warnings.append("no UTC in the GNSS messages (time_utc_usec 0): times are the autopilot's boot clock; offsets work, UTC does not")
+        warnings.append(
+            "no UTC in the GNSS messages (time_utc_usec 0): times are the autopilot's boot clock; offsets work, UTC "
+            "does not"
+        )
     keep = fix & np.isfinite(lat) & np.isfinite(lon) & np.isfinite(height)
     for i in np.flatnonzero(keep):
         check_geodetic(path, lat[i], lon[i], height[i], int(numbers[i]), f"{best.name} {UNIT}")
@@ -94,9 +108,19 @@ def read_ulog(path: str | Path) -> LogRecords:
     sigma = data["eph"].astype(float)[keep] if "eph" in data else None
     order = np.argsort(rows[:, 0], kind="stable")
     return make_records(
-        path, "ulog", GEODETIC, rows[order], numbers[keep][order], unit=f"{best.name} {UNIT}", utc=has_utc, dropped=dropped,
-        warnings=warnings, altitude=altitude, sigma=None if sigma is None else sigma[order],
-        quality={k: v[order] for k, v in quality.items()}, clock=None if has_utc else "PX4 boot clock (s)",
+        path,
+        "ulog",
+        GEODETIC,
+        rows[order],
+        numbers[keep][order],
+        unit=f"{best.name} {UNIT}",
+        utc=has_utc,
+        dropped=dropped,
+        warnings=warnings,
+        altitude=altitude,
+        sigma=None if sigma is None else sigma[order],
+        quality={k: v[order] for k, v in quality.items()},
+        clock=None if has_utc else "PX4 boot clock (s)",
     )
 
 

@@ -25,7 +25,9 @@ MOVING_MPS = 0.05  # a step slower than this is a pause, left out of the median 
 
 
 def unit_scale(value: object, units: dict[str, float], what: str) -> float:
-    """The factor to SI of a unit given by name (one of ``units``) or as a positive number (SI units per unit); ValueError otherwise."""
+    """The factor to SI of a unit given by name (one of ``units``) or as a positive number (SI units per unit);
+    ValueError otherwise.
+    """
     if isinstance(value, str) and value in units:
         return units[value]
     if isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value) and value > 0:
@@ -52,8 +54,14 @@ def implausible_motion(t: np.ndarray, xyz: np.ndarray) -> str | None:
     if fastest < SLOWEST_MPS and interval >= SPARSEST_S:
         unit = next((name for name in ("ms", "us", "ns") if interval * TIME_UNITS[name] <= 10.0), "ns")
         word = {"ms": "milliseconds", "us": "microseconds", "ns": "nanoseconds"}[unit]
-        return f"column t: in seconds, one sample every {interval:.3g} s and the target at {fastest:.2g} m/s at most ({word}?); set [target] time_unit = \"{unit}\""
+        return (
+            f"column t: in seconds, one sample every {interval:.3g} s and the target at {fastest:.2g} m/s at most "
+            f'({word}?); set [target] time_unit = "{unit}"'
+        )
     moving = speed[speed > MOVING_MPS]
     if len(moving) and float(np.median(moving)) > FASTEST_MPS:
-        return f"columns t, x, y, z: in seconds and metres the target moves at {float(np.median(moving)):.3g} m/s; set [target] time_unit (minutes?) or length_unit (mm, cm?)"
+        return (
+            f"columns t, x, y, z: in seconds and metres the target moves at {float(np.median(moving)):.3g} m/s; "
+            f"set [target] time_unit (minutes?) or length_unit (mm, cm?)"
+        )
     return None

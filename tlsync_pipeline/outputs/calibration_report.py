@@ -14,7 +14,8 @@ from tlsync_pipeline.outputs.figures import pyplot as _pyplot
 
 
 def calibration_plot(report: dict, image_size: tuple[int, int]) -> bytes:
-    """The calibration picture (PNG): detected corners (one colour per view) and GCPs over the image frame; per-view errors.
+    """The calibration picture (PNG): detected corners (one colour per view) and GCPs over the image frame; per-view
+    errors.
 
     report: the calibrate stage's calibration_report.json (GCP errors under the GCPs' pose, and "-> after" under
     the pose from the target when there is one).
@@ -41,7 +42,13 @@ def calibration_plot(report: dict, image_size: tuple[int, int]) -> bytes:
         after = {g["name"]: g["after_px"] for g in (report.get("target_pose") or {}).get("gcps", [])}
         for p in pose["points"]:
             moved = f" -> {after[p['name']]:.1f}px" if after.get(p["name"]) is not None else ""
-            ax.annotate(f"{p['name']} {p['error_px']:.1f}px{moved}", p["uv"], fontsize=7, xytext=(4, 4), textcoords="offset points")
+            ax.annotate(
+                f"{p['name']} {p['error_px']:.1f}px{moved}",
+                p["uv"],
+                fontsize=7,
+                xytext=(4, 4),
+                textcoords="offset points",
+            )
         ax.legend(loc="lower right", fontsize=8)
     ax.set_xlim(-0.5, w - 0.5)
     ax.set_ylim(h - 0.5, -0.5)
@@ -51,7 +58,10 @@ def calibration_plot(report: dict, image_size: tuple[int, int]) -> bytes:
     if target and "error" in target:
         title += f"\nno pose from the target ({target.get('cause') or 'see the report'})"
     elif target:
-        title += f"\npose from the target ({target['source']}): +-{target['center_std_m']:.3f} m, +-{target['rotation_std_deg']:.3f} deg" + ("" if target.get("for_3d", True) else ", timing only")
+        title += (
+            f"\npose from the target ({target['source']}): +-{target['center_std_m']:.3f} m, "
+            f"+-{target['rotation_std_deg']:.3f} deg" + ("" if target.get("for_3d", True) else ", timing only")
+        )
     ax.set_title(title, fontsize=9)
     ax = axes[1]
     if views:
@@ -64,7 +74,14 @@ def calibration_plot(report: dict, image_size: tuple[int, int]) -> bytes:
         rejected = len(intr.get("rejected", []))
         ax.set_title(f"per-view error; {rejected} image(s) rejected (see report)")
     else:
-        ax.text(0.5, 0.5, "intrinsics from\n" + str(intr.get("source", "?")), ha="center", va="center", transform=ax.transAxes)
+        ax.text(
+            0.5,
+            0.5,
+            "intrinsics from\n" + str(intr.get("source", "?")),
+            ha="center",
+            va="center",
+            transform=ax.transAxes,
+        )
         ax.set_axis_off()
     fig.tight_layout()
     return _png(fig)
@@ -76,16 +93,26 @@ def calibration_summary(report: dict) -> str:
     text = f"{report['camera']}: "
     if "rms_px" in intr:
         K = intr["K"]
-        text += f"{intr['views_used']}/{intr['views_used'] + intr['views_rejected']} views, RMS {intr['rms_px']:.3f} px, fx {K[0][0]:.2f} fy {K[1][1]:.2f} cx {K[0][2]:.2f} cy {K[1][2]:.2f}"
+        text += (
+            f"{intr['views_used']}/{intr['views_used'] + intr['views_rejected']} views, RMS {intr['rms_px']:.3f} "
+            f"px, fx {K[0][0]:.2f} fy {K[1][1]:.2f} cx {K[0][2]:.2f} cy {K[1][2]:.2f}"
+        )
     else:
         text += f"intrinsics from {intr['source']}"
     pose = report.get("pose")
     if pose:
         n_in = sum(p["inlier"] for p in pose["points"])
-        text += f"; pose from {n_in}/{len(pose['points'])} {pose['kind']} points, RMS {pose['rms_px']:.2f} px (+-{pose['rotation_std_deg']:.3f} deg, +-{pose['position_std_m']:.3f} m)"
+        text += (
+            f"; pose from {n_in}/{len(pose['points'])} {pose['kind']} points, RMS {pose['rms_px']:.2f} px "
+            f"(+-{pose['rotation_std_deg']:.3f} deg, +-{pose['position_std_m']:.3f} m)"
+        )
     target = report.get("target_pose")
     if target and "error" in target:
-        text += "; no pose from the target" + (f" ({target['cause']}: the camera is not synchronized)" if target.get("cause") else ": the camera is not synchronized")
+        text += "; no pose from the target" + (
+            f" ({target['cause']}: the camera is not synchronized)"
+            if target.get("cause")
+            else ": the camera is not synchronized"
+        )
     elif target:
         text += f"; {target_pose_summary(target)}"
     elif not pose:
@@ -94,8 +121,13 @@ def calibration_summary(report: dict) -> str:
 
 
 def target_pose_summary(target: dict) -> str:
-    """One clause about a pose from the target (calibration_report.json's ``target_pose``): source, frames, uncertainty, how far it moved, what it serves."""
-    text = f"pose from the target ({target['source']}, {target['frames']} frames, +-{target['center_std_m']:.3f} m, +-{target['rotation_std_deg']:.3f} deg"
+    """One clause about a pose from the target (calibration_report.json's ``target_pose``): source, frames, uncertainty,
+    how far it moved, what it serves.
+    """
+    text = (
+        f"pose from the target ({target['source']}, {target['frames']} frames, +-{target['center_std_m']:.3f} m, "
+        f"+-{target['rotation_std_deg']:.3f} deg"
+    )
     if target.get("moved_m") is not None:
         text += f"; {target['moved_m']:.2f} m and {target['moved_deg']:.2f} deg from the GCPs' pose"
     text += ")"

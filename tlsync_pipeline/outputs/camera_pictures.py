@@ -23,20 +23,20 @@ from tlsync_pipeline.outputs import bandswap
 from tlsync_pipeline.outputs.pictures import (
     PanelRequest,
     choose_movers_frame,
-    toward_keyframes,
     draw_panel,
     each_frame_once,
     plot_candidate_votes,
     plot_trajectory,
     plot_votes,
     render_movers,
+    toward_keyframes,
     write_png,
 )
 from tlsync_pipeline.outputs.player import PlayerVideo
 from tlsync_pipeline.outputs.proxy import make_proxy, needs_proxy
 from tlsync_pipeline.outputs.report_content import Picture
-from tlsync_pipeline.sync.model.clock import FrameTimes
 from tlsync_pipeline.sync.identify.identify import candidate_votes
+from tlsync_pipeline.sync.model.clock import FrameTimes
 from tlsync_pipeline.sync.solve.methods import CameraInput
 from tlsync_pipeline.sync.timeline import CameraLine
 from tlsync_pipeline.sync.vote.votes import read_votes
@@ -102,7 +102,9 @@ def draw_camera(job: CameraJob) -> DrawnCamera:
     votes = read_votes(job.votes).votes
     made = [
         plot_votes(name, votes, line, job.delta, job.out_dir / f"votes_{name}.png", job.times),
-        plot_trajectory(name, job.inputs.camera, track, job.path_model, line, job.out_dir / f"trajectory_{name}.png", job.times),
+        plot_trajectory(
+            name, job.inputs.camera, track, job.path_model, line, job.out_dir / f"trajectory_{name}.png", job.times
+        ),
     ]
     titles = ["voting space", "tracked against projected"]
     panels: list[np.ndarray] = []
@@ -124,15 +126,51 @@ def draw_camera(job: CameraJob) -> DrawnCamera:
             if index in kept:
                 images[index] = image
         panels = [drawn[i] for i in range(len(job.requests))]
-        made.append(write_band_swap(name, job.inputs, line, job.path_model, job.rate, job.times, {f: images[f] for f in swap_frames}, job.out_dir / f"swap_{name}.png"))
+        made.append(
+            write_band_swap(
+                name,
+                job.inputs,
+                line,
+                job.path_model,
+                job.rate,
+                job.times,
+                {f: images[f] for f in swap_frames},
+                job.out_dir / f"swap_{name}.png",
+            )
+        )
         titles.append("band swap: before and after")
         if movers is not None and movers_frame is not None:
-            made.append(render_movers(images[movers_frame], movers_frame, movers, track, job.inputs.camera, job.path_model, line, job.times, job.out_dir / f"movers_{name}.png"))
+            made.append(
+                render_movers(
+                    images[movers_frame],
+                    movers_frame,
+                    movers,
+                    track,
+                    job.inputs.camera,
+                    job.path_model,
+                    line,
+                    job.times,
+                    job.out_dir / f"movers_{name}.png",
+                )
+            )
             titles.append("every mover, the identified target and the projected path")
             votes, rows = candidate_votes(job.inputs.camera, movers, job.prepared, job.eps_px)
-            made.append(plot_candidate_votes(name, votes, movers.matching(track)[rows], line, job.delta, job.out_dir / f"votes_movers_{name}.png", job.times))
+            made.append(
+                plot_candidate_votes(
+                    name,
+                    votes,
+                    movers.matching(track)[rows],
+                    line,
+                    job.delta,
+                    job.out_dir / f"votes_movers_{name}.png",
+                    job.times,
+                )
+            )
             titles.append("voting space of every mover")
-    pictures = [(photo if title.startswith("band swap") else picture)(title, path, job.work) for title, path in zip(titles, made)]
+    pictures = [
+        (photo if title.startswith("band swap") else picture)(title, path, job.work)
+        for title, path in zip(titles, made)
+    ]
     player, proxy = player_video(job)
     return DrawnCamera(pictures, made, panels, player, proxy)
 
@@ -157,8 +195,18 @@ def band_swap_frames(track, keyframes: np.ndarray | None = None) -> list[int]:
     return toward_keyframes(picks, track.frame, keyframes, KEYFRAME_REACH * float(np.ptp(track.frame)))
 
 
-def write_band_swap(name: str, inputs, line: CameraLine, path_model: PiecewiseTrajectory, rate: float | None, times: FrameTimes | None, images: dict[int, np.ndarray], path: Path) -> Path:
-    """swap_<camera>.png: band swaps of the tracked frames ``images`` (band_swap_frames), the target rendered before and after synchronization.
+def write_band_swap(
+    name: str,
+    inputs,
+    line: CameraLine,
+    path_model: PiecewiseTrajectory,
+    rate: float | None,
+    times: FrameTimes | None,
+    images: dict[int, np.ndarray],
+    path: Path,
+) -> Path:
+    """swap_<camera>.png: band swaps of the tracked frames ``images`` (band_swap_frames), the target rendered before and
+    after synchronization.
 
     after: at the sample the camera's line gives the frame; before: at the
     frame's own time since the camera's frame 0 (seconds on its clock, frame
@@ -171,8 +219,20 @@ def write_band_swap(name: str, inputs, line: CameraLine, path_model: PiecewiseTr
         after = float(line.sample_at(float(f), times))
         rows.append(
             (
-                _panel(inputs.camera, image, path_model, before, f"before: {name} frame {f}, its time {_seconds(own)} as log time"),
-                _panel(inputs.camera, image, path_model, after, f"after: {name} frame {f} at log time {_seconds(after / rate if rate else None)}"),
+                _panel(
+                    inputs.camera,
+                    image,
+                    path_model,
+                    before,
+                    f"before: {name} frame {f}, its time {_seconds(own)} as log time",
+                ),
+                _panel(
+                    inputs.camera,
+                    image,
+                    path_model,
+                    after,
+                    f"after: {name} frame {f} at log time {_seconds(after / rate if rate else None)}",
+                ),
             )
         )
     picture = bandswap.before_after(rows, bandswap.target_radius(inputs.track))
@@ -214,14 +274,21 @@ def player_video(job: CameraJob) -> tuple[PlayerVideo, Path | None]:
         table = job.times.time_s  # every frame's time, already read (a presentation-time clock): not demuxed again
     else:
         table = presentation_times(job.video)  # a proxy keeps the video's times, and may hold only its windows
-    return PlayerVideo(src, proxy is not None, codec, table if table is not None else np.arange(job.n_frames) / fps), proxy
+    return PlayerVideo(
+        src, proxy is not None, codec, table if table is not None else np.arange(job.n_frames) / fps
+    ), proxy
 
 
 def ensure_proxy(video: Path, path: Path, windows: list[tuple[int, int]] | None = None) -> Path:
     """The proxy of ``video`` (of its ``windows`` only, when given) at ``path``, made again only when the video (size,
     modification time) or the windows changed."""
     stat = video.stat()
-    stamp = {"source": str(video.resolve()), "size": stat.st_size, "mtime_ns": stat.st_mtime_ns, "windows": [list(w) for w in windows] if windows else None}
+    stamp = {
+        "source": str(video.resolve()),
+        "size": stat.st_size,
+        "mtime_ns": stat.st_mtime_ns,
+        "windows": [list(w) for w in windows] if windows else None,
+    }
     marker = path.with_suffix(".json")
     if path.exists() and _stamp(marker) == stamp:
         return path

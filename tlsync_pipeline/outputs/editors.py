@@ -100,14 +100,20 @@ def otio_timeline(placements: list[Placement], name: str = "tlsync"):
         for piece in p.clips:
             position = (piece.start_s - earliest) * p.fps
             if position > cursor:
-                track.append(otio.schema.Gap(source_range=TimeRange(RationalTime(0, p.fps), RationalTime(position - cursor, p.fps))))
+                track.append(
+                    otio.schema.Gap(
+                        source_range=TimeRange(RationalTime(0, p.fps), RationalTime(position - cursor, p.fps))
+                    )
+                )
             reference = (
                 otio.schema.ExternalReference(target_url=Path(p.video).resolve().as_uri(), available_range=available)
                 if p.video
                 else otio.schema.MissingReference(available_range=available)
             )
             used = TimeRange(RationalTime(piece.first, p.fps), RationalTime(piece.frames, p.fps))
-            clip = otio.schema.Clip(name=p.video and Path(p.video).name or p.camera, media_reference=reference, source_range=used)
+            clip = otio.schema.Clip(
+                name=p.video and Path(p.video).name or p.camera, media_reference=reference, source_range=used
+            )
             clip.metadata["tlsync"] = {
                 "camera": p.camera,
                 "start_s": p.start_s,
@@ -145,14 +151,24 @@ def fcpxml_text(placements: list[Placement]) -> tuple[str | None, str]:
     for p in placements:
         rate = next((r for r in FCPXML_RATES if abs(p.fps - r) < 0.01), None)
         if rate is None:
-            return None, f"camera {p.camera} runs at {p.fps:g} fps, a rate FCPXML's OTIO adapter cannot write (it knows {', '.join(f'{r:g}' for r in FCPXML_RATES)})"
+            return (
+                None,
+                f"camera {p.camera} runs at {p.fps:g} fps, a rate FCPXML's OTIO adapter cannot write (it knows "
+                f"{', '.join(f'{r:g}' for r in FCPXML_RATES)})",
+            )
         snapped.append(replace(p, fps=rate))
     timeline = otio_timeline(snapped)
     rate = snapped[0].fps
     earliest = earliest_start(snapped)
     length = max(max(piece.start_s - earliest + piece.frames / p.fps for piece in p.clips) for p in snapped)
     storyline = otio.schema.Track(name="storyline", kind=otio.schema.TrackKind.Video)
-    storyline.append(otio.schema.Gap(source_range=otio.opentime.TimeRange(otio.opentime.RationalTime(0, rate), otio.opentime.RationalTime(round(length * rate) + 1, rate))))
+    storyline.append(
+        otio.schema.Gap(
+            source_range=otio.opentime.TimeRange(
+                otio.opentime.RationalTime(0, rate), otio.opentime.RationalTime(round(length * rate) + 1, rate)
+            )
+        )
+    )
     timeline.tracks.insert(0, storyline)
     return otio.adapters.write_to_string(timeline, "fcpx_xml"), ""
 
@@ -177,7 +193,13 @@ def sync_document(placements: list[Placement], reference: str, target_t0_utc: st
         }
         if p.pieces:
             cameras[p.camera]["segments"] = [
-                {"first_frame": c.first, "frames": c.frames, "start_s": c.start_s, "timeline_position_s": c.start_s - earliest} for c in p.pieces
+                {
+                    "first_frame": c.first,
+                    "frames": c.frames,
+                    "start_s": c.start_s,
+                    "timeline_position_s": c.start_s - earliest,
+                }
+                for c in p.pieces
             ]
     return {
         "format": SYNC_FORMAT,

@@ -46,8 +46,15 @@ def frame_map_rows(timeline: Timeline, n_frames: dict[str, int], times: dict[str
                 inside = (matched > -0.5) & (matched < n_frames[other] - 0.5)
                 others[other] = np.where(inside, matched, np.nan)
         for i in range(len(frames)):
-            known = bool(np.isfinite(sample[i]))  # a frame in a segment of unknown offset (sync/identify/segments.py) maps to nothing
-            row = [name, str(i), f"{sample[i]:.3f}" if known else "", "" if seconds is None or not known else f"{seconds[i]:.6f}"]
+            known = bool(
+                np.isfinite(sample[i])
+            )  # a frame in a segment of unknown offset (sync/identify/segments.py) maps to nothing
+            row = [
+                name,
+                str(i),
+                f"{sample[i]:.3f}" if known else "",
+                "" if seconds is None or not known else f"{seconds[i]:.6f}",
+            ]
             for other in names:
                 if other == name:
                     row.append(str(i))
@@ -76,7 +83,16 @@ def offsets(timeline: Timeline, times: dict[str, FrameTimes | None] | None = Non
         seconds = None if ref_line.clock.fps is None else reference_seconds(timeline, frames, times)
         rel = timeline.clock_relation(ref, name)
         rate = rel.alpha * ref_line.fps / line.fps if ref_line.fps and line.fps else None
-        rows.append({"camera": name, "reference": ref, "start_frames": frames, "start_s": seconds, "fps": line.fps, "clock_rate": rate})
+        rows.append(
+            {
+                "camera": name,
+                "reference": ref,
+                "start_frames": frames,
+                "start_s": seconds,
+                "fps": line.fps,
+                "clock_rate": rate,
+            }
+        )
     return rows
 
 
@@ -93,7 +109,10 @@ def start_frames(timeline: Timeline, name: str, frame: float, times: dict[str, F
     if np.isfinite(found) or line_segment is None:
         return found
     first = float(max(line_segment.start, 0))
-    return float(timeline.match(name, ref, np.array([first]), times)[0]) - (first - frame) * timeline.clock_relation(name, ref).alpha
+    return (
+        float(timeline.match(name, ref, np.array([first]), times)[0])
+        - (first - frame) * timeline.clock_relation(name, ref).alpha
+    )
 
 
 def reference_seconds(timeline: Timeline, frames: float, times: dict[str, FrameTimes | None]) -> float:
@@ -125,16 +144,27 @@ def ffmpeg_commands(rows: list[dict], videos: dict[str, str | None]) -> str:
     ]
     timed = [r for r in rows if r["start_s"] is not None]
     if not timed:
-        lines.append("# The reference camera's frame rate is unknown: offsets in seconds cannot be given (see offsets.csv).")
+        lines.append(
+            "# The reference camera's frame rate is unknown: offsets in seconds cannot be given (see offsets.csv)."
+        )
         return "\n".join(lines) + "\n"
     latest = max(r["start_s"] for r in timed)
     earliest = min(r["start_s"] for r in timed)
-    lines.append(f"# 1) Trim: every output starts at the latest start ({latest:+.3f} s after {rows[0]['reference']}'s frame 0).")
+    lines.append(
+        f"# 1) Trim: every output starts at the latest start ({latest:+.3f} s after {rows[0]['reference']}'s frame 0)."
+    )
     for r in timed:
         video = videos.get(r["camera"]) or f"{r['camera']}.mp4"
         out = synced_video(r["camera"])
-        lines.append(f"ffmpeg -y -ss {latest - r['start_s']:.3f} -i {shlex.quote(str(video))} -c:v libx264 -crf 18 -an {shlex.quote(out)}")
+        lines.append(
+            f"ffmpeg -y -ss {latest - r['start_s']:.3f} -i {shlex.quote(str(video))} -c:v libx264 -crf 18 -an "
+            f"{shlex.quote(out)}"
+        )
     lines.append("# 2) Or keep the files and delay each input when combining them (-itsoffset before its -i):")
-    inputs = " ".join(f"-itsoffset {r['start_s'] - earliest:.3f} -i {shlex.quote(str(videos.get(r['camera']) or r['camera'] + '.mp4'))}" for r in timed)
+    inputs = " ".join(
+        f"-itsoffset {r['start_s'] - earliest:.3f} -i "
+        f"{shlex.quote(str(videos.get(r['camera']) or r['camera'] + '.mp4'))}"
+        for r in timed
+    )
     lines.append(f"# ffmpeg {inputs} -filter_complex hstack=inputs={len(timed)} combined_synced.mp4")
     return "\n".join(lines) + "\n"

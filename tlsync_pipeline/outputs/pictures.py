@@ -23,16 +23,16 @@ video through. Everything else comes from the work folder.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable, Iterator
 
 import numpy as np
 
 from tlsync_pipeline.atomic import atomic_path
 from tlsync_pipeline.outputs.bandswap import PANEL_HEIGHT, caption, fit_height, mosaic
-from tlsync_pipeline.sync.model.clock import FrameTimes
 from tlsync_pipeline.sync.kernels.ransac import distance_to_line
+from tlsync_pipeline.sync.model.clock import FrameTimes
 from tlsync_pipeline.sync.timeline import Timeline
 from tlsync_pipeline.trajectory import PiecewiseTrajectory
 from trackers import video
@@ -62,7 +62,9 @@ def each_frame_once(path: Path, indices, frame_bytes: int) -> Iterator[tuple[int
             yield index, batch.pop(index)
 
 
-def choose_frames(track_frames: np.ndarray, to_a: Callable[[np.ndarray], np.ndarray], n_a: int, n_b: int, count: int = FRAMES_PER_PAIR) -> list[int]:
+def choose_frames(
+    track_frames: np.ndarray, to_a: Callable[[np.ndarray], np.ndarray], n_a: int, n_b: int, count: int = FRAMES_PER_PAIR
+) -> list[int]:
     """Frames of B to draw: tracked frames whose matching frame of A exists, spread over the track.
 
     to_a: B's frames -> the matching (fractional) frames of A (Timeline.match).
@@ -116,7 +118,9 @@ def plot_votes(name: str, votes, line, delta: float, path: Path, times: FrameTim
     return _plot_voting_space(name, votes, clock, groups, line, f"{name}: voting space", path)
 
 
-def plot_candidate_votes(name: str, votes, target: np.ndarray, line, delta: float, path: Path, times: FrameTimes | None = None) -> Path:
+def plot_candidate_votes(
+    name: str, votes, target: np.ndarray, line, delta: float, path: Path, times: FrameTimes | None = None
+) -> Path:
     """The voting space of every mover of one camera: the other movers' votes, the identified target's, and the line.
 
     target: (M,) whether each vote comes from a candidate of the identified
@@ -152,7 +156,9 @@ def _plot_voting_space(name: str, votes, clock: np.ndarray, groups, line, title:
     return _save_figure(fig, path)
 
 
-def plot_trajectory(name: str, camera, track, path_model: PiecewiseTrajectory, line, path: Path, times: FrameTimes | None = None) -> Path:
+def plot_trajectory(
+    name: str, camera, track, path_model: PiecewiseTrajectory, line, path: Path, times: FrameTimes | None = None
+) -> Path:
     """Tracked positions against the trajectory (the fit's model) projected at the aligned samples, in the image."""
     import matplotlib
 
@@ -194,8 +200,12 @@ def _draw_target(image: np.ndarray, camera, point, tracked, scale: float) -> np.
     return image
 
 
-def pair_frames(a: str, b: str, frames_b: list[int], timeline: Timeline, times: dict[str, FrameTimes | None]) -> dict[int, int]:
-    """Frame of A drawn with each frame of B: the nearest to Timeline.match (exact with the cameras' presentation times)."""
+def pair_frames(
+    a: str, b: str, frames_b: list[int], timeline: Timeline, times: dict[str, FrameTimes | None]
+) -> dict[int, int]:
+    """Frame of A drawn with each frame of B: the nearest to Timeline.match (exact with the cameras' presentation
+    times).
+    """
     matched = timeline.match(b, a, np.asarray(frames_b, dtype=np.float64), times)
     return {f: int(round(float(m))) for f, m in zip(frames_b, matched)}
 
@@ -237,7 +247,8 @@ def plan_pair(
     times: dict[str, FrameTimes | None],
     requests: dict[str, list[PanelRequest]],
 ) -> PairPlan:
-    """The strip of the pair A, B at frames ``frames_b`` of B: A's matching frame, B's frame (and A's true match with a truth).
+    """The strip of the pair A, B at frames ``frames_b`` of B: A's matching frame, B's frame (and A's true match with a
+    truth).
 
     Appends the panels to draw to ``requests`` (camera -> its PanelRequests):
     each video's panels are drawn in one pass over it (draw_panels).
@@ -250,7 +261,9 @@ def plan_pair(
 
     def request(camera: str, frame: int, point, text: str) -> int:
         found = tracked[camera].get(frame)
-        requests.setdefault(camera, []).append(PanelRequest(frame, point, None if found is None else tuple(found), text))
+        requests.setdefault(camera, []).append(
+            PanelRequest(frame, point, None if found is None else tuple(found), text)
+        )
         return len(requests[camera]) - 1
 
     rows: list[list[tuple[str, int | None]]] = []
@@ -276,7 +289,9 @@ def plan_pair(
 
 
 def draw_panel(image: np.ndarray, camera, request: PanelRequest) -> np.ndarray:
-    """One strip panel: the frame at PANEL_HEIGHT with the projected target (red circle) and the tracked one (green cross)."""
+    """One strip panel: the frame at PANEL_HEIGHT with the projected target (red circle) and the tracked one (green
+    cross).
+    """
     fitted, scale = fit_height(image)
     return caption(_draw_target(fitted, camera, request.point, request.tracked, scale), request.text)
 
@@ -286,7 +301,12 @@ def assemble_pair(plan: PairPlan, panels: dict[str, list[np.ndarray]]) -> np.nda
     rows = []
     for cells, blanks in zip(plan.rows, plan.blanks):
         width = next(panels[cam][i].shape[1] for cam, i in cells if cam == plan.b and i is not None)
-        rows.append([panels[cam][i] if i is not None else caption(_blank(width), text or "") for (cam, i), text in zip(cells, blanks)])
+        rows.append(
+            [
+                panels[cam][i] if i is not None else caption(_blank(width), text or "")
+                for (cam, i), text in zip(cells, blanks)
+            ]
+        )
     return mosaic(rows) if rows else None
 
 
@@ -311,7 +331,8 @@ def choose_movers_frame(detections, track, keyframes: np.ndarray | None = None) 
 
 
 def toward_keyframes(picks: list[int], candidates: np.ndarray, keyframes: np.ndarray | None, reach: float) -> list[int]:
-    """Each pick moved to the nearest candidate frame that is a keyframe within ``reach`` frames, else kept; sorted, distinct.
+    """Each pick moved to the nearest candidate frame that is a keyframe within ``reach`` frames, else kept; sorted,
+    distinct.
 
     A keyframe decodes alone; any other frame costs the frames from the
     keyframe before it (up to a keyframe interval).
@@ -324,8 +345,19 @@ def toward_keyframes(picks: list[int], candidates: np.ndarray, keyframes: np.nda
     return sorted(out)
 
 
-def draw_movers(image: np.ndarray, frame: int, detections, track, camera, path_model: PiecewiseTrajectory, line, times: FrameTimes | None = None, trail: int = 20) -> np.ndarray:
-    """``image`` (frame ``frame``, BGR) with the projected path, every mover by tracklet, the identified target and its projection.
+def draw_movers(
+    image: np.ndarray,
+    frame: int,
+    detections,
+    track,
+    camera,
+    path_model: PiecewiseTrajectory,
+    line,
+    times: FrameTimes | None = None,
+    trail: int = 20,
+) -> np.ndarray:
+    """``image`` (frame ``frame``, BGR) with the projected path, every mover by tracklet, the identified target and its
+    projection.
 
     path_model: the trajectory model the line was fitted to; line: the
     camera's CameraLine; times: the camera's presentation times (VFR).
@@ -333,12 +365,18 @@ def draw_movers(image: np.ndarray, frame: int, detections, track, camera, path_m
     import cv2
 
     out = image.copy()
-    samples = np.concatenate([np.linspace(lo, hi, max(2, int(hi - lo) * 4)) for lo, hi, _ in path_model.runs]) if path_model.runs else np.zeros(0)
+    samples = (
+        np.concatenate([np.linspace(lo, hi, max(2, int(hi - lo) * 4)) for lo, hi, _ in path_model.runs])
+        if path_model.runs
+        else np.zeros(0)
+    )
     uv, valid = camera.project(path_model.positions(samples)) if len(samples) else (np.zeros((0, 2)), np.zeros(0, bool))
     inside = valid & camera.in_image(np.nan_to_num(uv, nan=-1e9))
     for a, b, ok in zip(uv[:-1], uv[1:], inside[:-1] & inside[1:]):
         if ok:
-            cv2.line(out, tuple(int(round(c)) for c in a), tuple(int(round(c)) for c in b), (0, 220, 255), 1, cv2.LINE_AA)
+            cv2.line(
+                out, tuple(int(round(c)) for c in a), tuple(int(round(c)) for c in b), (0, 220, 255), 1, cv2.LINE_AA
+            )
     recent = (detections.frame <= frame) & (detections.frame > frame - trail)
     for tracklet in np.unique(detections.id[recent]):
         rows = np.flatnonzero(recent & (detections.id == tracklet))
@@ -352,12 +390,31 @@ def draw_movers(image: np.ndarray, frame: int, detections, track, camera, path_m
             h = detections.h[last] if np.isfinite(detections.h[last]) else 12.0
             x, y = detections.x[last], detections.y[last]
             cv2.rectangle(out, (int(x - w / 2), int(y - h / 2)), (int(x + w / 2), int(y + h / 2)), colour, 1)
-            cv2.putText(out, str(int(tracklet)), (int(x + w / 2) + 2, int(y)), cv2.FONT_HERSHEY_SIMPLEX, 0.35, colour, 1, cv2.LINE_AA)
+            cv2.putText(
+                out,
+                str(int(tracklet)),
+                (int(x + w / 2) + 2, int(y)),
+                cv2.FONT_HERSHEY_SIMPLEX,
+                0.35,
+                colour,
+                1,
+                cv2.LINE_AA,
+            )
     point = path_model.positions(line.sample_at(float(frame), times))[0]
     tracked = dict(zip(track.frame.tolist(), track.xy)).get(frame)
     return caption(_draw_target(out, camera, point, tracked, 1.0), f"frame {frame}: movers, target +, projection o")
 
 
-def render_movers(image: np.ndarray, frame: int, detections, track, camera, path_model: PiecewiseTrajectory, line, times: FrameTimes | None, path: Path) -> Path:
+def render_movers(
+    image: np.ndarray,
+    frame: int,
+    detections,
+    track,
+    camera,
+    path_model: PiecewiseTrajectory,
+    line,
+    times: FrameTimes | None,
+    path: Path,
+) -> Path:
     """``movers_<name>.png``: frame ``frame`` (``image``, BGR; choose_movers_frame) drawn by ``draw_movers``."""
     return write_png(path, draw_movers(image, frame, detections, track, camera, path_model, line, times))

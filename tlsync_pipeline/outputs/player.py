@@ -135,13 +135,21 @@ def projected_path(camera, trajectory: Trajectory, lo: float, hi: float) -> dict
     if present.any():
         projected, valid = camera.project(trajectory.xyz[index[present]])
         w, h = camera.image_size
-        near = valid & (projected[:, 0] > -w) & (projected[:, 0] < 2 * w) & (projected[:, 1] > -h) & (projected[:, 1] < 2 * h)
+        near = (
+            valid
+            & (projected[:, 0] > -w)
+            & (projected[:, 0] < 2 * w)
+            & (projected[:, 1] > -h)
+            & (projected[:, 1] < 2 * h)
+        )
         uv[np.flatnonzero(present)[near]] = projected[near]
     flat = [None if np.isnan(value) else int(round(value * 10)) for value in uv.ravel()]
     return {"start": first, "step": step, "uv": flat}
 
 
-def player_data(timeline: Timeline, cameras: dict, trajectory: Trajectory, videos: dict[str, PlayerVideo], utc: bool) -> dict:
+def player_data(
+    timeline: Timeline, cameras: dict, trajectory: Trajectory, videos: dict[str, PlayerVideo], utc: bool
+) -> dict:
     """The JSON the player reads: the target clock, the shared range and per camera its line, times and path (and, for a
     recording that breaks, its segments and breaks).
 
@@ -172,7 +180,12 @@ def player_data(timeline: Timeline, cameras: dict, trajectory: Trajectory, video
             entry["breaks"] = break_marks(line, video.frame_times)
         entries.append(entry)
     return {
-        "target": {"rate": timeline.target_rate or 1.0, "t0": timeline.target_t0 or 0.0, "utc": bool(utc), "seconds": timeline.target_rate is not None},
+        "target": {
+            "rate": timeline.target_rate or 1.0,
+            "t0": timeline.target_t0 or 0.0,
+            "utc": bool(utc),
+            "seconds": timeline.target_rate is not None,
+        },
         "range": [min(r[0] for r in ranges), max(r[1] for r in ranges)] if ranges else [0.0, 1.0],
         "reference": timeline.names[0] if timeline.names else None,
         "cameras": entries,

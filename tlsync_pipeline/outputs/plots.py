@@ -10,11 +10,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tlsync_pipeline.sync.model.status import HALF_95, CameraStatus
 from tlsync_pipeline.outputs.exports import reference_seconds
 from tlsync_pipeline.outputs.figures import png as _png
 from tlsync_pipeline.outputs.figures import pyplot as _pyplot
 from tlsync_pipeline.sync.model.clock import FrameTimes, Segment
+from tlsync_pipeline.sync.model.status import HALF_95, CameraStatus
 from tlsync_pipeline.sync.timeline import CameraLine, Timeline
 from tlsync_pipeline.trajectory import PiecewiseTrajectory
 
@@ -39,7 +39,9 @@ class Residuals:
         return np.hypot(self.dx, self.dy)
 
 
-def track_residuals(camera, track, path_model: PiecewiseTrajectory, line: CameraLine, times: FrameTimes | None = None) -> Residuals:
+def track_residuals(
+    camera, track, path_model: PiecewiseTrajectory, line: CameraLine, times: FrameTimes | None = None
+) -> Residuals:
     """Tracked minus projected (px) at every tracked frame, the trajectory model taken at the line's sample.
 
     times: the camera's presentation times (exact for a presentation-time clock).
@@ -56,17 +58,30 @@ def residuals_plot(residuals: dict[str, Residuals], gate_px: float, seconds_per_
     """One panel per camera: |tracked - projected| (px) over target time, the vote gate dashed."""
     plt = _pyplot()
     names = list(residuals)
-    fig, axes = plt.subplots(max(1, len(names)), 1, figsize=(8, 1.2 + 1.6 * max(1, len(names))), sharex=True, squeeze=False)
+    fig, axes = plt.subplots(
+        max(1, len(names)), 1, figsize=(8, 1.2 + 1.6 * max(1, len(names))), sharex=True, squeeze=False
+    )
     scale = seconds_per_sample or 1.0
     for ax, name in zip(axes[:, 0], names):
         r = residuals[name]
         d = r.distance
         over = d > gate_px
         ax.plot(r.sample[~over] * scale, d[~over], ".", ms=2.5, c="tab:blue", label="within the gate")
-        ax.plot(r.sample[over] * scale, np.minimum(d[over], 3 * gate_px), "^", ms=3, c="tab:red", label="beyond the gate (clipped at 3x)")
+        ax.plot(
+            r.sample[over] * scale,
+            np.minimum(d[over], 3 * gate_px),
+            "^",
+            ms=3,
+            c="tab:red",
+            label="beyond the gate (clipped at 3x)",
+        )
         ax.axhline(gate_px, color="k", ls="--", lw=1, label=f"gate {gate_px:g} px")
         ax.set_ylim(0, 3.1 * gate_px)
-        median = f"median {np.median(d):.1f} px, {100 * over.mean():.0f} % beyond" if len(d) else "no tracked frame inside the log"
+        median = (
+            f"median {np.median(d):.1f} px, {100 * over.mean():.0f} % beyond"
+            if len(d)
+            else "no tracked frame inside the log"
+        )
         ax.set_title(f"{name}: {median}", fontsize=9, loc="left")
         ax.set_ylabel("px")
     axes[0, 0].legend(loc="upper right", fontsize=7, ncol=3)
@@ -92,8 +107,14 @@ def offsets_plot(timeline: Timeline, statuses: list[CameraStatus]) -> bytes:
         spread = None if se is None else se[1] if in_seconds else se[0]
         half = None if spread is None else HALF_95 * spread
         colour = STATUS_COLOURS[status.get(name, "ok")]
-        ax.errorbar([value], [row], xerr=None if half is None else [[half], [half]], fmt="o", color=colour, capsize=5, ms=5)
-        text = f"{value:+.3f} {unit}" + ("" if half is None else f" ± {half:.2g}") + (" (reference)" if name == reference else "")
+        ax.errorbar(
+            [value], [row], xerr=None if half is None else [[half], [half]], fmt="o", color=colour, capsize=5, ms=5
+        )
+        text = (
+            f"{value:+.3f} {unit}"
+            + ("" if half is None else f" ± {half:.2g}")
+            + (" (reference)" if name == reference else "")
+        )
         ax.annotate(text, (value, row), xytext=(8, 6), textcoords="offset points", fontsize=8)
     ax.set_yticks(range(len(names)), names)
     ax.set_ylim(len(names) - 0.4, -0.6)
@@ -106,7 +127,8 @@ def offsets_plot(timeline: Timeline, statuses: list[CameraStatus]) -> bytes:
 
 def recordings_plot(timeline: Timeline, n_frames: dict[str, int], times: dict[str, FrameTimes | None]) -> bytes:
     """Every synchronized camera's recording on the reference's clock (s, or its frames without fps): a bar per
-    segment of known offset (sync/identify/segments.py), each break of the recording marked where it happened, with its kind
+    segment of known offset (sync/identify/segments.py), each break of the recording marked where it happened, with its
+    kind
     and size (trackers/breaks.py)."""
     plt = _pyplot()
     reference = timeline.names[0]
@@ -133,9 +155,18 @@ def recordings_plot(timeline: Timeline, n_frames: dict[str, int], times: dict[st
                 where = at(name, [max(b.frame - 1, 0)])[0]
             if np.isfinite(where):
                 ax.plot([where], [row - 0.3], marker="v", color="tab:red", ms=7)
-                ax.annotate(b.describe(), (where, row - 0.3), xytext=(4, 4), textcoords="offset points", fontsize=7, color="tab:red")
+                ax.annotate(
+                    b.describe(),
+                    (where, row - 0.3),
+                    xytext=(4, 4),
+                    textcoords="offset points",
+                    fontsize=7,
+                    color="tab:red",
+                )
     ax.set_yticks(range(len(names)), names)
     ax.set_ylim(len(names) - 0.4, -0.9)
-    ax.set_xlabel(f"{'s' if in_seconds else 'frames'} of {reference}'s clock (bars: segments of known offset; red: breaks)")
+    ax.set_xlabel(
+        f"{'s' if in_seconds else 'frames'} of {reference}'s clock (bars: segments of known offset; red: breaks)"
+    )
     fig.tight_layout()
     return _png(fig)

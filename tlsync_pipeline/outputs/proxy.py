@@ -51,7 +51,9 @@ def proxy_size(width: int, height: int, target_height: int = PROXY_HEIGHT) -> tu
     return max(2, round(width * scale / 2) * 2), max(2, round(height * scale / 2) * 2)
 
 
-def make_proxy(source: Path, destination: Path, target_height: int = PROXY_HEIGHT, windows: Sequence[tuple[int, int]] | None = None) -> Path:
+def make_proxy(
+    source: Path, destination: Path, target_height: int = PROXY_HEIGHT, windows: Sequence[tuple[int, int]] | None = None
+) -> Path:
     """Transcode ``source`` into an H.264 MP4 at ``destination`` (the caller makes the write atomic).
 
     windows: only the frames inside these [start, stop) windows (0-based),
@@ -82,8 +84,12 @@ def make_proxy(source: Path, destination: Path, target_height: int = PROXY_HEIGH
     return destination
 
 
-def _proxy_frames(source: Path, windows: Sequence[tuple[int, int]] | None, size: tuple[int, int]) -> Iterator[tuple[float, np.ndarray]]:
-    """(presentation time s, image at ``size``) of every frame, or of the windows' frames with a card at each gap's first frame."""
+def _proxy_frames(
+    source: Path, windows: Sequence[tuple[int, int]] | None, size: tuple[int, int]
+) -> Iterator[tuple[float, np.ndarray]]:
+    """(presentation time s, image at ``size``) of every frame, or of the windows' frames with a card at each gap's
+    first frame.
+    """
     import cv2
 
     times = None if windows is None else presentation_times(source)
@@ -113,5 +119,14 @@ def _card(size: tuple[int, int]) -> np.ndarray:
     image = np.full((height, width, 3), 96, np.uint8)
     scale = max(0.35, width / 1200)
     for k, line in enumerate(("not in this proxy:", "the target is not in view here")):
-        cv2.putText(image, line, (max(4, width // 20), height // 2 + int((k - 0.5) * 40 * scale)), cv2.FONT_HERSHEY_SIMPLEX, scale, (230, 230, 230), 1, cv2.LINE_AA)
+        cv2.putText(
+            image,
+            line,
+            (max(4, width // 20), height // 2 + int((k - 0.5) * 40 * scale)),
+            cv2.FONT_HERSHEY_SIMPLEX,
+            scale,
+            (230, 230, 230),
+            1,
+            cv2.LINE_AA,
+        )
     return image

@@ -15,7 +15,9 @@ from tlsync_pipeline.sync.timeline import ErrorBudget, StageWarning, Timeline
 
 @dataclass(frozen=True)
 class Picture:
-    """A picture: its title, its path relative to the work folder, the bytes to embed (None: link only) and their type."""
+    """A picture: its title, its path relative to the work folder, the bytes to embed (None: link
+    only) and their type.
+    """
 
     title: str
     href: str
@@ -40,7 +42,9 @@ class ReportContent:
     pair_pictures: list[Picture] = field(default_factory=list)
     calibration_pictures: list[Picture] = field(default_factory=list)
     exports: list[tuple[str, str]] = field(default_factory=list)  # (label, path relative to the work folder)
-    notes: dict[str, list[str]] = field(default_factory=dict)  # section ("pictures", "exports") -> what was not drawn or written, and why
+    notes: dict[str, list[str]] = field(
+        default_factory=dict
+    )  # section ("pictures", "exports") -> what was not drawn or written, and why
     player: dict | None = None  # player.player_data
 
 
@@ -88,12 +92,26 @@ def camera_rows(timeline: Timeline, statuses: list[CameraStatus]) -> list[Camera
         if vfr and name != reference:
             relation += " (linear approximation; exact matches in frame_map.csv)"
         clock = ("VFR (presentation times)" if vfr else "CFR (frame indices)") + (f", {fps:.3f} fps" if fps else "")
-        rows.append(CameraRow(name, status.status, status.reason, status.remedy, start, relation, clock, f"{line.inliers} / {line.votes}", budget_text(line.budget)))
+        rows.append(
+            CameraRow(
+                name,
+                status.status,
+                status.reason,
+                status.remedy,
+                start,
+                relation,
+                clock,
+                f"{line.inliers} / {line.votes}",
+                budget_text(line.budget),
+            )
+        )
     return rows
 
 
 def budget_text(budget: ErrorBudget | None) -> str:
-    """"± 1.2 frames: tracking 10 %, calibration 30 %, log 60 %" (the camera's own 1-sigma, and shares of its variance), or "-"."""
+    """ "± 1.2 frames: tracking 10 %, calibration 30 %, log 60 %" (the camera's own 1-sigma, and shares of its
+    variance), or "-".
+    """
     if budget is None or not budget.total_frames > 0:
         return "-"
     parts = {"tracking": budget.tracking_frames, "calibration": budget.calibration_frames, "log": budget.log_frames}

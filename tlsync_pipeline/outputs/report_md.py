@@ -22,14 +22,30 @@ def report_markdown(content: ReportContent) -> str:
     lines = [f"# {content.title}", "", "## Cameras", ""]
     rows = camera_rows(timeline, content.statuses)
     lines += _table(
-        ["camera", "status", "why", "what to do", f"start after {reference}'s frame 0 (95 %)", f"relation to {reference} (95 %)", "clock", "inliers / votes", "uncertainty (1 σ, at the visit)"],
+        [
+            "camera",
+            "status",
+            "why",
+            "what to do",
+            f"start after {reference}'s frame 0 (95 %)",
+            f"relation to {reference} (95 %)",
+            "clock",
+            "inliers / votes",
+            "uncertainty (1 σ, at the visit)",
+        ],
         [[r.camera, r.status, r.reason, r.remedy, r.start, r.relation, r.clock, r.support, r.budget] for r in rows],
         "llllrllr",
     )
-    lines += ["start: when the camera's frame 0 was taken, after the reference camera's frame 0 (positive: later); ±: 95 % interval.", ""]
+    lines += [
+        "start: when the camera's frame 0 was taken, after the reference camera's frame 0 (positive: later); ±: 95 % "
+        "interval.",
+        "",
+    ]
     lines += ["## Warnings", ""]
     if content.warnings:
-        lines += [f"- **{w.stage}**" + (f" {w.camera}" if w.camera else "") + f": {w.text}" for w in content.warnings] + [""]
+        lines += [
+            f"- **{w.stage}**" + (f" {w.camera}" if w.camera else "") + f": {w.text}" for w in content.warnings
+        ] + [""]
     else:
         lines += ["No stage recorded a warning.", ""]
     if content.calibration:
@@ -40,7 +56,10 @@ def report_markdown(content: ReportContent) -> str:
         lines += ["## Stages", ""]
         lines += _table(
             ["stage", "camera", "made (UTC)", "seconds"],
-            [[s.stage, s.camera or "-", s.created, "-" if s.seconds is None else f"{s.seconds:.1f}"] for s in content.stages],
+            [
+                [s.stage, s.camera or "-", s.created, "-" if s.seconds is None else f"{s.seconds:.1f}"]
+                for s in content.stages
+            ],
             "lllr",
         )
     if content.exports or content.notes.get("exports"):

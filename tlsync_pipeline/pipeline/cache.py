@@ -104,7 +104,9 @@ class HashMemo:
 
 def cache_key(stage: str, code: dict[str, str], input_hashes: dict[str, str | None], params: dict[str, Any]) -> str:
     """SHA-256 over the stage name, its code (module -> source hash), its inputs' hashes and its parameters."""
-    blob = json.dumps({"stage": stage, "code": code, "inputs": input_hashes, "params": params}, sort_keys=True, default=str)
+    blob = json.dumps(
+        {"stage": stage, "code": code, "inputs": input_hashes, "params": params}, sort_keys=True, default=str
+    )
     return hashlib.sha256(blob.encode("utf-8")).hexdigest()
 
 
@@ -156,7 +158,12 @@ def failure_path(manifest: Path) -> Path:
 
 def write_failure(path: Path, key: str, reason: str) -> None:
     """Record that the task with cache key ``key`` failed, and why (one line); best effort (the disk may be full)."""
-    record = {"format": FAILURE_FORMAT, "key": key, "reason": reason, "created": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())}
+    record = {
+        "format": FAILURE_FORMAT,
+        "key": key,
+        "reason": reason,
+        "created": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+    }
     try:
         with atomic_path(path) as tmp:
             tmp.write_text(json.dumps(record, indent=1) + "\n", encoding="utf-8")
@@ -176,7 +183,15 @@ def read_failure(path: Path) -> dict | None:
 NOT_MADE = "not made yet"  # why a task without a manifest runs
 
 
-def staleness(manifest: Manifest | None, key: str, code: dict[str, str], inputs: dict[str, dict], params: dict, memo: HashMemo, work: Path) -> list[str]:
+def staleness(
+    manifest: Manifest | None,
+    key: str,
+    code: dict[str, str],
+    inputs: dict[str, dict],
+    params: dict,
+    memo: HashMemo,
+    work: Path,
+) -> list[str]:
     """Why an artefact is not fresh (empty list: fresh).
 
     Names the modules whose code changed, the input files and parameters that
@@ -189,7 +204,9 @@ def staleness(manifest: Manifest | None, key: str, code: dict[str, str], inputs:
     for module in sorted(set(code) | set(manifest.code)):
         old, new = manifest.code.get(module), code.get(module)
         if old != new:
-            reasons.append(f"code of {module} " + ("is new" if old is None else "is no longer used" if new is None else "changed"))
+            reasons.append(
+                f"code of {module} " + ("is new" if old is None else "is no longer used" if new is None else "changed")
+            )
     for label in sorted(set(inputs) | set(manifest.inputs)):
         was, now = manifest.inputs.get(label), inputs.get(label)  # {"path", "sha256"} or None
         if was is None:
@@ -199,7 +216,11 @@ def staleness(manifest: Manifest | None, key: str, code: dict[str, str], inputs:
         elif was.get("path") != now["path"]:
             reasons.append(f"input {label} is now {now['path']} (was {was.get('path')})")
         elif was.get("sha256") != now["sha256"]:
-            reasons.append(f"input {label} changed ({now['path']})" if now["sha256"] else f"input {label} is missing ({now['path']})")
+            reasons.append(
+                f"input {label} changed ({now['path']})"
+                if now["sha256"]
+                else f"input {label} is missing ({now['path']})"
+            )
     reasons += [f"parameter {name}: {old!r} -> {new!r}" for name, old, new in _changes(manifest.params, params)]
     if not reasons and manifest.key != key:
         reasons.append("cache key changed")
@@ -215,7 +236,11 @@ def staleness(manifest: Manifest | None, key: str, code: dict[str, str], inputs:
 def _changes(old: Any, new: Any, name: str = "") -> list[tuple[str, Any, Any]]:
     """(dotted name, old, new) of each parameter that differs, tables compared key by key (``sync.eps_px``)."""
     if isinstance(old, dict) and isinstance(new, dict):
-        return [change for key in sorted(set(old) | set(new)) for change in _changes(old.get(key), new.get(key), f"{name}.{key}" if name else key)]
+        return [
+            change
+            for key in sorted(set(old) | set(new))
+            for change in _changes(old.get(key), new.get(key), f"{name}.{key}" if name else key)
+        ]
     return [] if _normal(old) == _normal(new) else [(name, old, new)]
 
 

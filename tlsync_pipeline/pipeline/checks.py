@@ -20,7 +20,8 @@ ESTIMATE_SLACK = 0.02  # a frame count estimated from the duration may be off by
 
 
 def check_track_fits_video(track_path: Path, video: Path | VideoInfo) -> None:
-    """InputError naming the track's file, line and frame, and the video's frame count, when a tracked frame is past the video's end.
+    """InputError naming the track's file, line and frame, and the video's frame count, when a tracked frame is past the
+    video's end.
 
     Frames are 0-based. A count the container only estimates (from its
     duration) is given ESTIMATE_SLACK; an unknown count is not checked.
@@ -36,7 +37,8 @@ def check_track_fits_video(track_path: Path, video: Path | VideoInfo) -> None:
     where, frame = _first_row_at_or_after(track_path, limit)
     counted = "" if info.counted else " (estimated from its duration)"
     raise InputError(
-        f"{where}: frame {frame} is past the end of the camera's video {video_path}, which has {info.n_frames} frames{counted} "
+        f"{where}: frame {frame} is past the end of the camera's video {video_path}, which has {info.n_frames} "
+        f"frames{counted} "
         f"(0-based: the last is {info.n_frames - 1}); is this the track of another video?"
     )
 

@@ -20,7 +20,8 @@ from functools import cache
 
 PACKAGES = ("tlsync_pipeline", "trackers", "calibration")
 ENGINE_MODULES = frozenset(
-    f"tlsync_pipeline.pipeline.{name}" for name in ("graph", "engine", "cache", "codehash", "executors", "lock", "workspace", "spec")
+    f"tlsync_pipeline.pipeline.{name}"
+    for name in ("graph", "engine", "cache", "codehash", "executors", "lock", "workspace", "spec")
 )
 _ENGINE_PACKAGES = ("tlsync_pipeline.cli",)
 
@@ -58,7 +59,9 @@ def _imports(name: str) -> tuple[str, ...]:
         elif isinstance(node, ast.ImportFrom):
             base = node.module or ""
             if node.level:
-                base = ".".join(package.split(".")[: len(package.split(".")) - node.level + 1] + ([base] if base else []))
+                base = ".".join(
+                    package.split(".")[: len(package.split(".")) - node.level + 1] + ([base] if base else [])
+                )
             if not _counted(base):
                 continue  # another package's names: no need to ask the import system about them
             for alias in node.names:
@@ -67,7 +70,8 @@ def _imports(name: str) -> tuple[str, ...]:
 
 
 def _runtime_nodes(tree: ast.Module):
-    """Every statement of the tree, nested ones included, except the bodies of ``if TYPE_CHECKING:`` blocks (imports for annotations only).
+    """Every statement of the tree, nested ones included, except the bodies of ``if TYPE_CHECKING:`` blocks (imports for
+    annotations only).
 
     Only statements are visited: an import is a statement, and statements
     sit only in other statements' bodies (``body``, ``orelse``,

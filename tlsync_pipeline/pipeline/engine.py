@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from tlsync_pipeline.artefacts.kinds import FOLDERS
 from tlsync_pipeline.atomic import PART_SUFFIX
 from tlsync_pipeline.errors import InputError, describe_error
 from tlsync_pipeline.outputs.diagnostics import StageRun
@@ -38,14 +39,19 @@ from tlsync_pipeline.pipeline.cache import (
     write_manifest,
 )
 from tlsync_pipeline.pipeline.codehash import code_digests
-from tlsync_pipeline.pipeline.executors import Called, ProcessExecutor, SerialExecutor, one_blas_thread, quiet_resource_tracker
+from tlsync_pipeline.pipeline.executors import (
+    Called,
+    ProcessExecutor,
+    SerialExecutor,
+    one_blas_thread,
+    quiet_resource_tracker,
+)
 from tlsync_pipeline.pipeline.graph import STAGES, Graph, Task, task_id
 from tlsync_pipeline.pipeline.lock import WorkLock
 from tlsync_pipeline.pipeline.progress import Progress
 from tlsync_pipeline.pipeline.spec import StageResult, params_json
 from tlsync_pipeline.pipeline.stop import stop_requested
 from tlsync_pipeline.pipeline.validate import validate_project
-from tlsync_pipeline.artefacts.kinds import FOLDERS
 from tlsync_pipeline.pipeline.workspace import StageFiles
 
 
@@ -76,7 +82,9 @@ class RunSummary:
     skipped: dict[str, str] = field(default_factory=dict)
     seconds: dict[str, float] = field(default_factory=dict)
     results: dict[str, StageResult] = field(default_factory=dict)
-    warnings: dict[str, tuple[str, ...]] = field(default_factory=dict)  # of every task that ran or was fresh (its manifest's)
+    warnings: dict[str, tuple[str, ...]] = field(
+        default_factory=dict
+    )  # of every task that ran or was fresh (its manifest's)
 
 
 @dataclass
@@ -95,9 +103,15 @@ def _current(graph: Graph, task: Task, memo: HashMemo, code: dict[str, dict]) ->
     module = task.spec.run.__module__
     if module not in code:
         code[module] = code_digests(module)
-    inputs = {label: {"path": ws.portable(source), "sha256": memo.sha256(ws.resolve(source))} for label, source in sorted(task.inputs.items())}
+    inputs = {
+        label: {"path": ws.portable(source), "sha256": memo.sha256(ws.resolve(source))}
+        for label, source in sorted(task.inputs.items())
+    }
     if task.spec.history:  # it shows the earlier stages' warnings: they are part of what it makes
-        inputs[WARNINGS_INPUT] = {"path": "<the earlier stages' warnings>", "sha256": _warnings_digest(_history(graph, task))}
+        inputs[WARNINGS_INPUT] = {
+            "path": "<the earlier stages' warnings>",
+            "sha256": _warnings_digest(_history(graph, task)),
+        }
     params = ws.portable(params_json(task.params))
     key = cache_key(task.stage, code[module], {k: v["sha256"] for k, v in inputs.items()}, params)
     return _Key(code[module], inputs, params, key)
@@ -111,7 +125,9 @@ def manifest_path(graph: Graph, task: Task) -> Path:
 
 
 def _reasons(graph: Graph, task: Task, now: _Key, memo: HashMemo) -> list[str]:
-    return staleness(read_manifest(manifest_path(graph, task)), now.key, now.code, now.inputs, now.params, memo, graph.work)
+    return staleness(
+        read_manifest(manifest_path(graph, task)), now.key, now.code, now.inputs, now.params, memo, graph.work
+    )
 
 
 def status(graph: Graph) -> list[TaskState]:
@@ -143,10 +159,14 @@ def status(graph: Graph) -> list[TaskState]:
             state = "fresh"
         if waiting:
             reasons.append("waits for " + ", ".join(f"{d} ({rows[d].state})" for d in waiting))
-        rows[tid] = TaskState(tid, task.stage, task.camera, state, reasons, sorted(manifest.outputs) if manifest else [])
+        rows[tid] = TaskState(
+            tid, task.stage, task.camera, state, reasons, sorted(manifest.outputs) if manifest else []
+        )
         if state == "fresh" and task.camera is None and manifest is not None:
             for camera, why in (manifest.summary.get("failed") or {}).items():
-                rows[task_id(task.stage, camera)] = TaskState(task_id(task.stage, camera), task.stage, camera, "failed", [why])
+                rows[task_id(task.stage, camera)] = TaskState(
+                    task_id(task.stage, camera), task.stage, camera, "failed", [why]
+                )
     if graph.work.is_dir():  # status reads only: it never makes the work folder
         try:
             memo.save()
@@ -164,7 +184,9 @@ def format_status(rows: list[TaskState]) -> str:
     cam_width = max(len(r.camera or "-") for r in rows)
     for r in rows:
         why = "; ".join(r.reasons) if r.state != "fresh" else ""
-        lines.append(f"{r.stage.ljust(width)}  {(r.camera or '-').ljust(cam_width)}  {r.state.ljust(7)}  {why}".rstrip())
+        lines.append(
+            f"{r.stage.ljust(width)}  {(r.camera or '-').ljust(cam_width)}  {r.state.ljust(7)}  {why}".rstrip()
+        )
     return "\n".join(lines)
 
 
@@ -191,12 +213,17 @@ def run_graph(
     force = set(force or ())
     wanted = _closure(graph, targets) if targets is not None else list(graph.tasks)
     summary = RunSummary()
-    validate_project(graph.project, {source for tid in wanted for source in graph.tasks[tid].inputs.values() if isinstance(source, Path)})
+    validate_project(
+        graph.project,
+        {source for tid in wanted for source in graph.tasks[tid].inputs.values() if isinstance(source, Path)},
+    )
     for tid in wanted:
         if graph.tasks[tid].problem:
             raise InputError(graph.tasks[tid].problem)
     with WorkLock(graph.work):
-        if executor.cores > 1 or isinstance(executor, ProcessExecutor):  # worker pools (the run's, the intrinsics stage's)
+        if executor.cores > 1 or isinstance(
+            executor, ProcessExecutor
+        ):  # worker pools (the run's, the intrinsics stage's)
             quiet_resource_tracker()
         _remove_leftovers(graph.work)
         memo = HashMemo(graph.workspace.hash_memo)
@@ -217,7 +244,9 @@ CACHE_TASK = "cache"  # the id under which a run reports that it could not remem
 
 
 def _save_memo(memo: HashMemo, summary: RunSummary) -> None:
-    """Remember the file hashes; a failure (a full disk) is the run's to report beside its tasks', never in their place."""
+    """Remember the file hashes; a failure (a full disk) is the run's to report beside its tasks',
+    never in their place.
+    """
     try:
         memo.save()
     except OSError as exc:
@@ -242,7 +271,9 @@ def _closure(graph: Graph, targets: list[str]) -> list[str]:
     return [t for t in graph.tasks if t in needed]
 
 
-def _schedule(graph: Graph, executor, wanted: list[str], force: set[str], memo: HashMemo, summary: RunSummary, progress: Progress) -> None:
+def _schedule(
+    graph: Graph, executor, wanted: list[str], force: set[str], memo: HashMemo, summary: RunSummary, progress: Progress
+) -> None:
     _Scheduler(graph, executor, force, memo, summary, progress, list(wanted)).run()
 
 
@@ -272,7 +303,9 @@ class _Scheduler:
                 self._collect(future)
 
     def _hand_out(self) -> None:
-        """Start every task whose inputs are settled, in priority order; after a task run here, look again (its dependents may be ready)."""
+        """Start every task whose inputs are settled, in priority order; after a task run here, look again (its
+        dependents may be ready).
+        """
         progressed = True
         while progressed:
             progressed = False
@@ -314,11 +347,17 @@ class _Scheduler:
         if not reasons and task.id not in self.force:
             self.summary.fresh.append(task.id)
             manifest = read_manifest(manifest_path(self.graph, task))
-            self.summary.warnings[task.id] = tuple(manifest.summary.get("warnings") or ()) if manifest is not None else ()
+            self.summary.warnings[task.id] = (
+                tuple(manifest.summary.get("warnings") or ()) if manifest is not None else ()
+            )
             self.done.add(task.id)
             return False
         executor = self.executor
-        local = task.camera is None or isinstance(executor, SerialExecutor) or (task.spec.light and not getattr(executor, "started", True))
+        local = (
+            task.camera is None
+            or isinstance(executor, SerialExecutor)
+            or (task.spec.light and not getattr(executor, "started", True))
+        )
         self.progress.started(task.id, "forced" if not reasons else reasons[0], not local)
         where = SerialExecutor(executor.cores) if local else executor  # local tasks share the machine with the pool
         files = self.graph.workspace.files(
@@ -338,21 +377,29 @@ class _Scheduler:
         return local
 
     def _collect(self, future) -> None:
-        """Record a finished task: its manifest (its artefacts are good), or its failure (its last good artefacts stay)."""
+        """Record a finished task: its manifest (its artefacts are good), or its failure (its last
+        good artefacts stay).
+        """
         task, now, parallel = self.running.pop(future)
         try:
             called: Called = future.result()
         except Exception as exc:  # noqa: BLE001 - recorded, reported by the caller
-            if stop_requested():  # a Ctrl-C that surfaced as the task's error (inside an import): the run stops, nothing failed
+            if (
+                stop_requested()
+            ):  # a Ctrl-C that surfaced as the task's error (inside an import): the run stops, nothing failed
                 raise KeyboardInterrupt from exc
             self.summary.failed[task.id] = exc
             write_failure(failure_path(manifest_path(self.graph, task)), now.key, describe_error(exc))
             self.progress.failed(task.id, exc, parallel)
             return
-        result = dataclasses.replace(called.value, warnings=tuple(dict.fromkeys(called.value.warnings + called.warnings)))
+        result = dataclasses.replace(
+            called.value, warnings=tuple(dict.fromkeys(called.value.warnings + called.warnings))
+        )
         try:
             failure_path(manifest_path(self.graph, task)).unlink(missing_ok=True)
-            _write_manifest(self.graph, task, now, result, called.seconds, called.cpu_s + result.worker_cpu_s, self.memo)
+            _write_manifest(
+                self.graph, task, now, result, called.seconds, called.cpu_s + result.worker_cpu_s, self.memo
+            )
         except OSError as exc:  # a full disk: the artefacts are written but not recorded, so the task stays stale
             self.summary.failed[task.id] = exc
             self.progress.failed(task.id, exc, parallel)
@@ -405,7 +452,16 @@ def _history(graph: Graph, task: Task) -> list[StageRun]:
         manifest = read_manifest(manifest_path(graph, graph.tasks[tid]))
         if manifest is not None:
             summary = manifest.summary
-            rows.append(StageRun(manifest.stage, manifest.camera, manifest.created, manifest.seconds, tuple(summary.get("warnings") or ()), summary.get("message")))
+            rows.append(
+                StageRun(
+                    manifest.stage,
+                    manifest.camera,
+                    manifest.created,
+                    manifest.seconds,
+                    tuple(summary.get("warnings") or ()),
+                    summary.get("message"),
+                )
+            )
     return rows
 
 
@@ -415,7 +471,9 @@ def _warnings_digest(runs: list[StageRun]) -> str:
     return hashlib.sha256(blob.encode("utf-8")).hexdigest()
 
 
-def _write_manifest(graph: Graph, task: Task, now: _Key, result: StageResult, seconds: float, cpu_seconds: float, memo: HashMemo) -> None:
+def _write_manifest(
+    graph: Graph, task: Task, now: _Key, result: StageResult, seconds: float, cpu_seconds: float, memo: HashMemo
+) -> None:
     ws = graph.workspace
     outputs = [ws.resolve(a) for a in task.outputs if a.kind not in FOLDERS] + [Path(p) for p in result.outputs]
     hashes = {}
@@ -424,6 +482,15 @@ def _write_manifest(graph: Graph, task: Task, now: _Key, result: StageResult, se
         if digest is not None:
             hashes[Path(path).relative_to(graph.work).as_posix()] = digest
     manifest = Manifest(
-        task.stage, task.camera, now.code, now.key, now.inputs, now.params, hashes, round(seconds, 3), cpu_seconds=round(cpu_seconds, 3), summary=result.record()
+        task.stage,
+        task.camera,
+        now.code,
+        now.key,
+        now.inputs,
+        now.params,
+        hashes,
+        round(seconds, 3),
+        cpu_seconds=round(cpu_seconds, 3),
+        summary=result.record(),
     )
     write_manifest(manifest, manifest_path(graph, task))

@@ -31,10 +31,17 @@ import sys
 import threading
 import time
 import warnings
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, Callable
+from typing import Any
 
-THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMEXPR_NUM_THREADS", "VECLIB_MAXIMUM_THREADS")
+THREAD_VARIABLES = (
+    "OMP_NUM_THREADS",
+    "OPENBLAS_NUM_THREADS",
+    "MKL_NUM_THREADS",
+    "NUMEXPR_NUM_THREADS",
+    "VECLIB_MAXIMUM_THREADS",
+)
 EXECUTORS = ("process", "serial", "dask")
 PARENT_POLL_S = 0.2  # how often a worker checks that its parent is alive (seconds)
 STOP_GRACE_S = 3.0  # how long a stopped worker may take to exit before it is killed (seconds)
@@ -202,7 +209,10 @@ class ProcessExecutor:
                 os.environ[var] = "1"
             quiet_resource_tracker()
             self._pool = cf.ProcessPoolExecutor(
-                self.jobs, mp_context=multiprocessing.get_context("spawn"), initializer=die_with_parent, initargs=(os.getpid(),)
+                self.jobs,
+                mp_context=multiprocessing.get_context("spawn"),
+                initializer=die_with_parent,
+                initargs=(os.getpid(),),
             )
         with _ctrl_c_held():  # the workers it may start inherit Ctrl-C blocked (until die_with_parent ignores it)
             return self._pool.submit(call, fn, kwargs)

@@ -43,14 +43,30 @@ from tlsync_pipeline.pipeline.stages import (
 from tlsync_pipeline.pipeline.workspace import Artefact, Workspace
 
 STAGE_SPECS: dict[str, StageSpec] = {
-    s.name: s for s in (intrinsics.SPEC, clock.SPEC, ingest.SPEC, scan.SPEC, track.SPEC, calibrate.SPEC, identify.SPEC, vote.SPEC, sync.SPEC, export.SPEC, render.SPEC)
+    s.name: s
+    for s in (
+        intrinsics.SPEC,
+        clock.SPEC,
+        ingest.SPEC,
+        scan.SPEC,
+        track.SPEC,
+        calibrate.SPEC,
+        identify.SPEC,
+        vote.SPEC,
+        sync.SPEC,
+        export.SPEC,
+        render.SPEC,
+    )
 }
-assert STAGES == tuple(STAGE_SPECS) and PER_CAMERA == tuple(n for n, s in STAGE_SPECS.items() if s.per_camera), "stage_names.py lists STAGE_SPECS"
+assert STAGES == tuple(STAGE_SPECS) and PER_CAMERA == tuple(n for n, s in STAGE_SPECS.items() if s.per_camera), (
+    "stage_names.py lists STAGE_SPECS"
+)
 # Artefact kind -> the stage that first makes it (a camera's track.csv: the track stage, or identify for every mover).
 MAKER: dict[str, str] = {}
 for _spec in STAGE_SPECS.values():
     for _kind in _spec.outputs:
         MAKER.setdefault(_kind, _spec.name)
+
 
 @dataclass(frozen=True)
 class _Givable:
@@ -62,10 +78,21 @@ class _Givable:
 
 
 _GIVEN = {
-    "camera": _Givable(lambda p, cam: p.camera(cam).camera, "give 'camera' (a camera.json) or a [cameras.calibration] table to calibrate it from"),
-    "track": _Givable(lambda p, cam: p.camera(cam).track, "give 'track' (a track.csv) or 'video' (to track the target in)"),
-    "detections": _Givable(lambda p, cam: p.camera(cam).detections, "give 'detections' (a detections.csv) or 'video' (to detect every mover in)"),
-    "trajectory": _Givable(lambda p, cam: p.target.trajectory, "give 'log' (a GPS or odometry log to ingest) or 'trajectory' (a metric trajectory CSV)"),
+    "camera": _Givable(
+        lambda p, cam: p.camera(cam).camera,
+        "give 'camera' (a camera.json) or a [cameras.calibration] table to calibrate it from",
+    ),
+    "track": _Givable(
+        lambda p, cam: p.camera(cam).track, "give 'track' (a track.csv) or 'video' (to track the target in)"
+    ),
+    "detections": _Givable(
+        lambda p, cam: p.camera(cam).detections,
+        "give 'detections' (a detections.csv) or 'video' (to detect every mover in)",
+    ),
+    "trajectory": _Givable(
+        lambda p, cam: p.target.trajectory,
+        "give 'log' (a GPS or odometry log to ingest) or 'trajectory' (a metric trajectory CSV)",
+    ),
 }
 
 
@@ -95,7 +122,11 @@ class Task:
         For a stage that runs without failed cameras (StageSpec.runs_without_failed_cameras): the cameras'
         inputs are dropped, its ProjectWide parameters leave them out and say why.
         """
-        inputs = {label: source for label, source in self.inputs.items() if ":" not in label or label.rpartition(":")[2] not in reasons}
+        inputs = {
+            label: source
+            for label, source in self.inputs.items()
+            if ":" not in label or label.rpartition(":")[2] not in reasons
+        }
         deps = [d for d in self.deps if d not in incomplete]
         return dataclasses.replace(self, inputs=inputs, params=self.params.leaving_out(reasons), deps=deps)
 
@@ -137,12 +168,20 @@ class Graph:
             raise InputError(f"unknown stage {stage!r}; stages: {', '.join(STAGES)}")
         if camera is not None:
             self.project.camera(camera)
-        ids = [t for t, task in self.tasks.items() if task.stage == stage and (camera is None or task.camera in (camera, None))]
+        ids = [
+            t
+            for t, task in self.tasks.items()
+            if task.stage == stage and (camera is None or task.camera in (camera, None))
+        ]
         if not ids:
             given = [g for g in self.given.values() if g.stage == stage and (camera is None or g.camera == camera)]
             if given:
-                raise InputError(f"{given[0].id}: the project brings this artefact ({given[0].path}); there is no stage to run")
-            raise InputError(f"{self.project.path}: nothing to run for stage {stage}" + (f" and camera {camera}" if camera else ""))
+                raise InputError(
+                    f"{given[0].id}: the project brings this artefact ({given[0].path}); there is no stage to run"
+                )
+            raise InputError(
+                f"{self.project.path}: nothing to run for stage {stage}" + (f" and camera {camera}" if camera else "")
+            )
         return ids
 
 
@@ -167,10 +206,17 @@ class _Sources:
 
 
 def build_graph(project: Project, work: Path, options: Options = Options()) -> Graph:
-    """The tasks of ``project`` with artefacts under ``work``; a task whose input cannot be made gets its ``problem``."""
+    """The tasks of ``project`` with artefacts under ``work``; a task whose input cannot be made
+    gets its ``problem``.
+    """
     workspace = Workspace(work, project.root)
     names = project.names
-    wanted = [(spec, cam) for spec in STAGE_SPECS.values() for cam in (names if spec.per_camera else [None]) if spec.applies(project, cam)]
+    wanted = [
+        (spec, cam)
+        for spec in STAGE_SPECS.values()
+        for cam in (names if spec.per_camera else [None])
+        if spec.applies(project, cam)
+    ]
     producers = {Artefact(kind, cam): task_id(spec.name, cam) for spec, cam in wanted for kind in spec.outputs}
     sources = _Sources(project, options, producers)
     tasks: dict[str, Task] = {}

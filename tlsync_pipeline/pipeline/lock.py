@@ -27,7 +27,9 @@ class WorkFolderBusy(EnvironmentProblem):
 
 def unusable_work_folder(work: Path, error: OSError) -> EnvironmentProblem:
     """The one-line problem of a work folder tlsync cannot write into (read-only, no permission, disk full)."""
-    return EnvironmentProblem(f"{work}: cannot write into the work folder ({os_error_reason(error)}); fix it or give another --work folder")
+    return EnvironmentProblem(
+        f"{work}: cannot write into the work folder ({os_error_reason(error)}); fix it or give another --work folder"
+    )
 
 
 def check_writable(work: Path) -> None:
@@ -54,7 +56,7 @@ class WorkLock:
         self._handle: TextIO | None = None
         self._created_work = False
 
-    def __enter__(self) -> "WorkLock":
+    def __enter__(self) -> WorkLock:
         self._created_work = not self.work.exists()
         try:
             self.work.mkdir(parents=True, exist_ok=True)
@@ -73,7 +75,12 @@ class WorkLock:
             ) from None
         handle.seek(0)
         handle.truncate()
-        info = {"pid": os.getpid(), "host": socket.gethostname(), "started": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()), "command": " ".join(sys.argv)}
+        info = {
+            "pid": os.getpid(),
+            "host": socket.gethostname(),
+            "started": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+            "command": " ".join(sys.argv),
+        }
         handle.write(json.dumps(info) + "\n")
         handle.flush()
         self._handle = handle

@@ -20,10 +20,16 @@ if TYPE_CHECKING:
 
 
 def origin_inputs(project: Project) -> dict[str, Path]:
-    """When the ENU origin is the centroid of every camera's GCPs (no ``[target] origin``, or "gcps"), they are all inputs."""
+    """When the ENU origin is the centroid of every camera's GCPs (no ``[target] origin``, or "gcps"), they are all
+    inputs.
+    """
     if project.target.origin not in (None, "gcps"):
         return {}
-    return {f"origin-gcp:{camera.name}": camera.calibration.gcp for camera in project.cameras if camera.calibration.gcp is not None}
+    return {
+        f"origin-gcp:{camera.name}": camera.calibration.gcp
+        for camera in project.cameras
+        if camera.calibration.gcp is not None
+    }
 
 
 def resolve_origin(origin: Origin | str | None, gcp_files: list[Path], where: str) -> Origin | str:
@@ -63,7 +69,10 @@ def check_gcp_places(table: GcpTable, origin: Origin | None = None, origin_label
         i = int(odd[0])
         cause = likely_slip(lat[odd], lon[odd], centre) or "check its lat and lon (WGS84 degrees)"
         point = "the point" if table.names[i] == f"line {table.lines[i]}" else f"point {table.names[i]}"
-        raise InputError(f"{table.source}:{table.lines[i]}: {point} is {apart[i] / 1000:,.0f} km from the file's other points; {cause}")
+        raise InputError(
+            f"{table.source}:{table.lines[i]}: {point} is {apart[i] / 1000:,.0f} km from the file's other points; "
+            f"{cause}"
+        )
     if origin is None:
         return
     far = float(np.median(horizontal_distance(lat, lon, origin)))
@@ -71,11 +80,15 @@ def check_gcp_places(table: GcpTable, origin: Origin | None = None, origin_label
         cause = likely_slip(lat, lon, origin) or f"check the lat and lon columns (WGS84 degrees) and {origin_label}"
         raise InputError(f"{table.source}: the points are {far / 1000:,.0f} km from {origin_label}; {cause}")
     if heights_in_feet(alt, origin):
-        raise InputError(f"{table.source}: the heights are {np.median(alt) - origin.alt:+.0f} m from {origin_label}'s; in feet they would match it: give alt in metres")
+        raise InputError(
+            f"{table.source}: the heights are {np.median(alt) - origin.alt:+.0f} m from {origin_label}'s; in feet "
+            f"they would match it: give alt in metres"
+        )
 
 
 def _check_files_together(tables: list[GcpTable]) -> None:
-    """InputError when one camera's geodetic GCPs lie more than FAR_M from the other cameras': the file and the likely slip.
+    """InputError when one camera's geodetic GCPs lie more than FAR_M from the other cameras': the file and the likely
+    slip.
 
     The reference is the median of every file's median point, which one
     wrong file does not move when there are three or more; of two files
@@ -91,14 +104,21 @@ def _check_files_together(tables: list[GcpTable]) -> None:
             geo = tables[0].geodetic
             assert geo is not None
             cause = likely_slip(geo[:, 0], geo[:, 1], centres[1])
-            raise InputError(f"{tables[0].source}, {tables[1].source}: the two cameras' GCPs are {far / 1000:,.0f} km apart; " + (f"in one of them {cause}" if cause else "check their lat and lon (WGS84 degrees)"))
+            raise InputError(
+                f"{tables[0].source}, {tables[1].source}: the two cameras' GCPs are {far / 1000:,.0f} km apart; "
+                + (f"in one of them {cause}" if cause else "check their lat and lon (WGS84 degrees)")
+            )
         return
     for table, centre in zip(tables, centres):
         far = float(horizontal_distance([centre.lat], [centre.lon], near)[0])
         if far > FAR_M:
             assert table.geodetic is not None
-            cause = likely_slip(table.geodetic[:, 0], table.geodetic[:, 1], near) or "check its lat and lon (WGS84 degrees)"
-            raise InputError(f"{table.source}: its points are {far / 1000:,.0f} km from the other cameras' GCPs; {cause}")
+            cause = (
+                likely_slip(table.geodetic[:, 0], table.geodetic[:, 1], near) or "check its lat and lon (WGS84 degrees)"
+            )
+            raise InputError(
+                f"{table.source}: its points are {far / 1000:,.0f} km from the other cameras' GCPs; {cause}"
+            )
 
 
 def check_log_near_gcps(log_centre: Origin, log: Path, gcp_files: list[Path], origin: Origin) -> None:
@@ -110,9 +130,16 @@ def check_log_near_gcps(log_centre: Origin, log: Path, gcp_files: list[Path], or
     from calibration.extrinsics import read_gcps
 
     for table in map(read_gcps, gcp_files):
-        if table.geodetic is not None and (cause := likely_slip(table.geodetic[:, 0], table.geodetic[:, 1], log_centre)):
-            raise InputError(f"{table.source}: the GCPs are {far / 1000:,.0f} km from the target's log ({log.name}); {cause}")
-    raise InputError(f"{log}: the log is {far / 1000:,.0f} km from the cameras' GCPs (their centroid is the origin); check the log's positions and the GCP files' lat and lon")
+        if table.geodetic is not None and (
+            cause := likely_slip(table.geodetic[:, 0], table.geodetic[:, 1], log_centre)
+        ):
+            raise InputError(
+                f"{table.source}: the GCPs are {far / 1000:,.0f} km from the target's log ({log.name}); {cause}"
+            )
+    raise InputError(
+        f"{log}: the log is {far / 1000:,.0f} km from the cameras' GCPs (their centroid is the origin); check the "
+        f"log's positions and the GCP files' lat and lon"
+    )
 
 
 def project_origin(project: Project) -> Origin | str:

@@ -1,4 +1,6 @@
-"""What a run tells its caller as it goes: a leaf module, so that the command line draws progress without loading the stages."""
+"""What a run tells its caller as it goes: a leaf module, so that the command line draws progress without loading the
+stages.
+"""
 
 from __future__ import annotations
 

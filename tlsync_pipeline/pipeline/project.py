@@ -33,15 +33,15 @@ from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.geodesy import Origin
 from tlsync_pipeline.ingest.formats import FORMATS
 from tlsync_pipeline.ingest.params import IngestParams, RigidTransform
-from tlsync_pipeline.ingest.records import ALTITUDE_REFERENCES
 from tlsync_pipeline.ingest.recording_time import parse_utc, parse_utc_offset
+from tlsync_pipeline.ingest.records import ALTITUDE_REFERENCES
 from tlsync_pipeline.ingest.units import LENGTH_UNITS, TIME_UNITS, unit_scale
 from tlsync_pipeline.outputs.choices import PROXY_POLICIES
+from tlsync_pipeline.sync.model.choices import GCP_SIGMA_M, SCAN_MODES
 from tlsync_pipeline.sync.model.log_model import AUTO, LogModelChoice
 from tlsync_pipeline.sync.model.log_model import PRESETS as LOG_MODELS
-from tlsync_pipeline.sync.model.params import SyncParams, parameter_fields
 from tlsync_pipeline.sync.model.methods import METHODS, params_from_table
-from tlsync_pipeline.sync.model.choices import GCP_SIGMA_M, SCAN_MODES
+from tlsync_pipeline.sync.model.params import SyncParams, parameter_fields
 from trackers.choices import DEFAULT_KIND as DEFAULT_TRACKER_KIND
 from trackers.choices import KINDS as TRACKER_KINDS
 
@@ -52,7 +52,9 @@ Converter = Callable[[Any, Path], Any]
 Config = TypeVar("Config")
 
 
-def key(convert: Converter, default: Any = None, *, required: bool = False, factory: Callable[[], Any] | None = None) -> Any:
+def key(
+    convert: Converter, default: Any = None, *, required: bool = False, factory: Callable[[], Any] | None = None
+) -> Any:
     """A key of a table: its converter (raises ValueError naming what it expected) and default."""
     metadata = {"convert": convert, "required": required}
     if factory is not None:
@@ -87,7 +89,9 @@ def _name(value: Any, root: Path) -> str:
     if not isinstance(value, str) or not value or value != value.strip():
         raise ValueError(f"expected {expected}, got {value!r}")
     if value.startswith(".") or any(c in _NAME_FORBIDDEN or not c.isprintable() for c in value):
-        raise ValueError(f"{value!r} cannot be a camera name: it is used as a folder name in the work folder; expected {expected}")
+        raise ValueError(
+            f"{value!r} cannot be a camera name: it is used as a folder name in the work folder; expected {expected}"
+        )
     return value
 
 
@@ -180,13 +184,15 @@ def _origin(value: Any, root: Path) -> Origin | str:
 
 def _glob(value: Any, root: Path) -> str:
     if not isinstance(value, str) or not value:
-        raise ValueError(f"expected a file pattern (string, e.g. \"boards/*.jpg\"), got {value!r}")
+        raise ValueError(f'expected a file pattern (string, e.g. "boards/*.jpg"), got {value!r}')
     return str(root / value)
 
 
 def _pattern(value: Any, root: Path) -> str:
     if not isinstance(value, str):
-        raise ValueError(f"expected inner corners as \"COLSxROWS\" (e.g. \"7x6\" for a board of 8x7 squares), got {value!r}")
+        raise ValueError(
+            f'expected inner corners as "COLSxROWS" (e.g. "7x6" for a board of 8x7 squares), got {value!r}'
+        )
     cols, rows = parse_corners(value)
     return f"{cols}x{rows}"
 
@@ -218,7 +224,9 @@ def _parameters(value: Any, root: Path) -> dict[str, float]:
 
 @dataclass(frozen=True, eq=False)
 class BoardPose:
-    """A checkerboard at a known world pose: its photo, and board -> world rotation R (3x3) and translation t (metres)."""
+    """A checkerboard at a known world pose: its photo, and board -> world rotation R (3x3) and
+    translation t (metres).
+    """
 
     image: Path
     R: np.ndarray
@@ -227,7 +235,9 @@ class BoardPose:
 
 def _board_pose(value: Any, root: Path) -> BoardPose:
     if not isinstance(value, dict):
-        raise ValueError("expected a table {image = \"board.jpg\", R = [[...], [...], [...]] or rvec = [...], t = [x, y, z]}")
+        raise ValueError(
+            'expected a table {image = "board.jpg", R = [[...], [...], [...]] or rvec = [...], t = [x, y, z]}'
+        )
     unknown = set(value) - {"image", "R", "rvec", "t"}
     if unknown:
         raise ValueError(f"unknown key(s) {', '.join(sorted(unknown))}; expected image, R or rvec, t")
@@ -248,7 +258,12 @@ def _board_pose(value: Any, root: Path) -> BoardPose:
         R = Rotation.from_rotvec(rotation).as_matrix()
     else:
         R = rotation
-        if R.shape != (3, 3) or not np.all(np.isfinite(R)) or np.abs(R.T @ R - np.eye(3)).max() > 1e-3 or np.linalg.det(R) < 0:
+        if (
+            R.shape != (3, 3)
+            or not np.all(np.isfinite(R))
+            or np.abs(R.T @ R - np.eye(3)).max() > 1e-3
+            or np.linalg.det(R) < 0
+        ):
             raise ValueError("R: expected a 3x3 rotation matrix (list of rows)")
     return BoardPose(_path(value["image"], root), R, t)
 
@@ -259,11 +274,14 @@ def _utc_offset(value: Any, root: Path) -> float:
 
 
 def _recorded(value: Any, root: Path) -> str:
-    """"metadata", "off", or an ISO 8601 time with its zone (kept as written)."""
+    """ "metadata", "off", or an ISO 8601 time with its zone (kept as written)."""
     if value in ("metadata", "off"):
         return value
     if not isinstance(value, str) or parse_utc(value) is None:
-        raise ValueError(f'expected "metadata", "off" or an ISO 8601 time with its zone (e.g. "2026-03-01T13:00:05+01:00"), got {value!r}')
+        raise ValueError(
+            f'expected "metadata", "off" or an ISO 8601 time with its zone (e.g. "2026-03-01T13:00:05+01:00"), got '
+            f"{value!r}"
+        )
     return value
 
 
@@ -302,10 +320,16 @@ class TargetConfig:
     max_speed_mps: float | None = key(_positive, IngestParams.max_speed_mps)
     smoothing_s: float = key(_non_negative, IngestParams.smoothing_s)
     odometry_transform: RigidTransform | None = key(_rigid_transform, IngestParams.transform)
-    altitude_reference: str | None = key(_choice(*ALTITUDE_REFERENCES, what="altitude reference"), IngestParams.altitude_reference)
+    altitude_reference: str | None = key(
+        _choice(*ALTITUDE_REFERENCES, what="altitude reference"), IngestParams.altitude_reference
+    )
     altitude_offset_m: float = key(_finite, IngestParams.altitude_offset_m)
-    utc_offset: float | None = key(_utc_offset)  # s: local - UTC of a log whose clock is local (DJI SRT, the DJI app's CSV)
-    log_model: str = key(_choice(AUTO, *LOG_MODELS, what="log model"), AUTO)  # the log's error model (sync/model/log_model.py)
+    utc_offset: float | None = key(
+        _utc_offset
+    )  # s: local - UTC of a log whose clock is local (DJI SRT, the DJI app's CSV)
+    log_model: str = key(
+        _choice(AUTO, *LOG_MODELS, what="log model"), AUTO
+    )  # the log's error model (sync/model/log_model.py)
     white_sigma_m: float | None = key(_non_negative)
     bias_sigma_m: float | None = key(_non_negative)
     bias_tau_s: float | None = key(_positive)
@@ -361,7 +385,9 @@ class TrackerConfig:
 
 @dataclass(frozen=True)
 class CalibrationConfig:
-    """[cameras.calibration]: where the calibrate stages take the camera's intrinsics and pose from (docs/calibration.md)."""
+    """[cameras.calibration]: where the calibrate stages take the camera's intrinsics and pose from
+    (docs/calibration.md).
+    """
 
     images: str | None = key(_glob)
     video: Path | None = key(_path)
@@ -378,7 +404,9 @@ class CalibrationConfig:
 
     @property
     def board_views(self) -> bool:
-        """Whether the intrinsics come from checkerboard views (photos or a video) the intrinsics stage calibrates from."""
+        """Whether the intrinsics come from checkerboard views (photos or a video) the intrinsics
+        stage calibrates from.
+        """
         return self.images is not None or self.video is not None
 
     @property
@@ -425,7 +453,9 @@ class CameraConfig:
     track: Path | None = key(_path)
     detections: Path | None = key(_path)
     fps: float | None = key(_positive)
-    pick_start_s: float | None = key(_finite)  # the line picked where two remain: the log's time (s after its first fix) at the first frame
+    pick_start_s: float | None = key(
+        _finite
+    )  # the line picked where two remain: the log's time (s after its first fix) at the first frame
     video: Path | None = key(_path)
     proxy: str = key(_choice(*PROXY_POLICIES, what="proxy policy"), PROXY_POLICIES[0])
     tracker: TrackerConfig = table(TrackerConfig)
@@ -440,7 +470,9 @@ class CameraConfig:
     @property
     def brings_movers(self) -> bool:
         """Whether the target is identified among every mover: detections brought, or detected in the video (blob)."""
-        return self.track is None and (self.detections is not None or (self.video is not None and self.tracker.every_mover))
+        return self.track is None and (
+            self.detections is not None or (self.video is not None and self.tracker.every_mover)
+        )
 
 
 @dataclass(frozen=True)
@@ -458,7 +490,9 @@ class TrackConfig:
 
 @dataclass(frozen=True)
 class Project:
-    """A validated project: its file, [target], the cameras in file order (the first is the reference), [sync], [calibration], [track]."""
+    """A validated project: its file, [target], the cameras in file order (the first is the reference), [sync],
+    [calibration], [track].
+    """
 
     path: Path
     target: TargetConfig
@@ -484,7 +518,9 @@ class Project:
         for cam in self.cameras:
             if cam.name == name:
                 return cam
-        raise InputError(f"{self.path}: no camera named {name!r}{suggest(name, self.names)}; cameras: {', '.join(self.names)}")
+        raise InputError(
+            f"{self.path}: no camera named {name!r}{suggest(name, self.names)}; cameras: {', '.join(self.names)}"
+        )
 
 
 # Converters of the checks that sync parameters declare (sync/model/params.py).
@@ -500,7 +536,9 @@ _CHECKS: dict[str, Converter] = {
 
 
 def sync_keys() -> dict[str, Converter]:
-    """The [sync] table's keys and their converters: the shared parameters, ``method`` and every registered method's own."""
+    """The [sync] table's keys and their converters: the shared parameters, ``method`` and every registered method's
+    own.
+    """
     keys = {name: _CHECKS[check] for name, (_, check) in parameter_fields(SyncParams).items()}
     keys["method"] = _choice(*METHODS, what="sync method")
     for method in METHODS.values():
@@ -516,12 +554,18 @@ def project_file(path: str | Path) -> Path:
     if (path / PROJECT_FILE_NAME).is_file():
         return path / PROJECT_FILE_NAME
     others = sorted(p.name for p in path.glob("*.toml") if p.is_file())
-    hint = f"give the project file, e.g. {path / others[0]}" if others else "give the project file, or the folder that holds it"
+    hint = (
+        f"give the project file, e.g. {path / others[0]}"
+        if others
+        else "give the project file, or the folder that holds it"
+    )
     raise InputError(f"{path}: no {PROJECT_FILE_NAME} in this folder; {hint}")
 
 
 def load_project(path: str | Path) -> Project:
-    """Read and validate a project file (or the project.toml of a folder); InputError naming the file, the table and the key otherwise."""
+    """Read and validate a project file (or the project.toml of a folder); InputError naming the file, the table and the
+    key otherwise.
+    """
     path = project_file(path).resolve()
     try:
         raw = tomllib.loads(path.read_text(encoding="utf-8"))
@@ -546,7 +590,9 @@ def load_project(path: str | Path) -> Project:
 
 
 def parse_config(config: type[Config], raw: Any, path: Path, where: str) -> Config:
-    """One TOML table parsed into the dataclass ``config`` (fields declared with ``key`` or ``table``); missing keys take their defaults."""
+    """One TOML table parsed into the dataclass ``config`` (fields declared with ``key`` or ``table``); missing keys
+    take their defaults.
+    """
     _check_keys(raw, [f.name for f in fields(config)], path, f"[{where}]")  # type: ignore[arg-type]
     values: dict[str, Any] = {}
     for item in fields(config):  # type: ignore[arg-type]
@@ -597,4 +643,3 @@ def suggest(word: str, choices: list[str]) -> str:
     """' (did you mean X?)' for the closest of ``choices``, else the list of them."""
     close = difflib.get_close_matches(word, choices, n=1)
     return f" (did you mean {close[0]!r}?)" if close else f" (expected one of: {', '.join(choices)})"
-

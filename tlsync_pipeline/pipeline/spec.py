@@ -114,11 +114,15 @@ class ProjectWide:
     left_out: Mapping[str, str] = field(default_factory=dict)
 
     def leaving_out(self, reasons: Mapping[str, str]) -> ProjectWide:
-        return dataclasses.replace(self, cameras=tuple(n for n in self.cameras if n not in reasons), left_out={**self.left_out, **reasons})
+        return dataclasses.replace(
+            self, cameras=tuple(n for n in self.cameras if n not in reasons), left_out={**self.left_out, **reasons}
+        )
 
 
 def params_json(value: Any) -> Any:
-    """A stage's parameters as JSON values (dataclasses as objects, arrays as lists); paths stay paths (Workspace.portable)."""
+    """A stage's parameters as JSON values (dataclasses as objects, arrays as lists); paths stay paths
+    (Workspace.portable).
+    """
     if dataclasses.is_dataclass(value) and not isinstance(value, type):
         return {f.name: params_json(getattr(value, f.name)) for f in dataclasses.fields(value)}
     if isinstance(value, Mapping):

@@ -53,7 +53,13 @@ def validate_project(project: Project, used: set[Path] | None = None) -> None:
     wanted = (lambda path: True) if used is None else (lambda path: path in used)
     target = project.target
     if target.trajectory is not None and wanted(target.trajectory):
-        _checked(project, "[target]", "trajectory", target.trajectory, lambda path: _trajectory(path, target.time_unit, target.length_unit))
+        _checked(
+            project,
+            "[target]",
+            "trajectory",
+            target.trajectory,
+            lambda path: _trajectory(path, target.time_unit, target.length_unit),
+        )
     if target.log is not None and wanted(target.log):
         _checked(project, "[target]", "log", target.log, lambda path: _log(path, target.format))
     for camera in project.cameras:
@@ -75,7 +81,9 @@ def _relative(project: Project, path: Path) -> str:
 
 
 def _camera(project: Project, config: CameraConfig, wanted: Callable[[Path], bool]) -> None:
-    """One camera's files that the run reads, each alone, then against each other (a track against its video and its camera)."""
+    """One camera's files that the run reads, each alone, then against each other (a track against its video and its
+    camera).
+    """
     where = f"[[cameras]] {config.name!r}"
     calibration = config.calibration
     video: VideoInfo | None = None
@@ -84,20 +92,44 @@ def _camera(project: Project, config: CameraConfig, wanted: Callable[[Path], boo
         video = _checked(project, where, "video", config.video, probe_video)  # type: ignore[assignment]
     camera: Camera | None = None
     if config.camera is not None and (wanted(config.camera) or track_used):
-        camera = _checked(project, where, "camera", config.camera, lambda path: read_camera(regular_file(path, MAX_SMALL_BYTES, "camera.json"), name=config.name))  # type: ignore[assignment]
+        camera = _checked(
+            project,
+            where,
+            "camera",
+            config.camera,
+            lambda path: read_camera(regular_file(path, MAX_SMALL_BYTES, "camera.json"), name=config.name),
+        )  # type: ignore[assignment]
         if video is not None:
             _checked(project, where, "camera", config.camera, lambda path: _image_of_video(path, camera, video))  # type: ignore[arg-type]
     if config.track is not None and track_used:
-        track = _checked(project, where, "track", config.track, lambda path: read_track(regular_file(path, MAX_TEXT_BYTES, "track CSV")))
+        track = _checked(
+            project,
+            where,
+            "track",
+            config.track,
+            lambda path: read_track(regular_file(path, MAX_TEXT_BYTES, "track CSV")),
+        )
         if video is not None:
             _checked(project, where, "track", config.track, lambda path: check_track_fits_video(path, video))
-        size = tuple(camera.image_size) if camera is not None else (video.width, video.height) if video is not None else None
+        size = (
+            tuple(camera.image_size)
+            if camera is not None
+            else (video.width, video.height)
+            if video is not None
+            else None
+        )
         if size is not None:
             _checked(project, where, "track", config.track, lambda path: _track_not_normalised(path, track, size))  # type: ignore[arg-type]
         if camera is not None:
             _checked(project, where, "track", config.track, lambda path: _track_in_image(path, track, camera))  # type: ignore[arg-type]
     if config.detections is not None and wanted(config.detections):
-        _checked(project, where, "detections", config.detections, lambda path: _table_head(path, DETECTION_COLUMNS, "detections CSV"))
+        _checked(
+            project,
+            where,
+            "detections",
+            config.detections,
+            lambda path: _table_head(path, DETECTION_COLUMNS, "detections CSV"),
+        )
     if video is not None and config.video is not None and config.camera is None and wanted(config.video):
         _checked(project, where, "video", config.video, lambda path: _video_of_calibration(path, video, config))
     table = f"{where} [cameras.calibration]"
@@ -108,11 +140,29 @@ def _camera(project: Project, config: CameraConfig, wanted: Callable[[Path], boo
     if calibration.video is not None and wanted(calibration.video):
         _checked(project, table, "video", calibration.video, probe_video)
     if calibration.intrinsics is not None and wanted(calibration.intrinsics):
-        _checked(project, table, "intrinsics", calibration.intrinsics, lambda path: read_text_file(path, MAX_SMALL_BYTES, "intrinsics JSON"))
+        _checked(
+            project,
+            table,
+            "intrinsics",
+            calibration.intrinsics,
+            lambda path: read_text_file(path, MAX_SMALL_BYTES, "intrinsics JSON"),
+        )
     if calibration.gcp is not None and wanted(calibration.gcp):
-        _checked(project, table, "gcp", calibration.gcp, lambda path: read_gcps(regular_file(path, MAX_SMALL_BYTES, "GCP CSV")))
+        _checked(
+            project,
+            table,
+            "gcp",
+            calibration.gcp,
+            lambda path: read_gcps(regular_file(path, MAX_SMALL_BYTES, "GCP CSV")),
+        )
     if calibration.board_pose is not None and wanted(calibration.board_pose.image):
-        _checked(project, table, "board_pose.image", calibration.board_pose.image, lambda path: regular_file(path, what="board image"))
+        _checked(
+            project,
+            table,
+            "board_pose.image",
+            calibration.board_pose.image,
+            lambda path: regular_file(path, what="board image"),
+        )
 
 
 def _trajectory(path: Path, time_unit: float, length_unit: float) -> None:
@@ -122,8 +172,10 @@ def _trajectory(path: Path, time_unit: float, length_unit: float) -> None:
     lost = stranded(trajectory)
     if lost > STRANDED_SAMPLES:
         raise InputError(
-            f"{path}: {lost} samples in a row sit between gaps on the grid of {trajectory.rate or 1:g} Hz (their times are not on "
-            "the log's rate), and the sync would not use them; resample it onto one rate (give it as [target] log, with max_gap_s above its longest interval)"
+            f"{path}: {lost} samples in a row sit between gaps on the grid of {trajectory.rate or 1:g} Hz (their "
+            f"times are not on "
+            "the log's rate), and the sync would not use them; resample it onto one rate (give it as [target] log, "
+            "with max_gap_s above its longest interval)"
         )
     t = trajectory.seconds(trajectory.sample)
     if t is not None:
@@ -139,10 +191,17 @@ def _not_degrees(xyz: np.ndarray) -> None:
     span = np.ptp(xyz[:, :2], axis=0) if len(xyz) else np.zeros(2)
     lon_lat = np.abs(x).max() <= 180 and np.abs(y).max() <= 90
     lat_lon = np.abs(x).max() <= 90 and np.abs(y).max() <= 180
-    if len(xyz) >= 2 and (lon_lat or lat_lon) and min(np.abs(x).min(), np.abs(y).min()) >= 1.0 and 0 < span.max() < 0.01:
+    if (
+        len(xyz) >= 2
+        and (lon_lat or lat_lon)
+        and min(np.abs(x).min(), np.abs(y).min()) >= 1.0
+        and 0 < span.max() < 0.01
+    ):
         raise InputError(
-            f"columns x, y look like {'longitude and latitude' if lon_lat else 'latitude and longitude'} in degrees (x {x[0]:.6g}, y {y[0]:.6g}, "
-            f"spanning {span[0]:.2g} x {span[1]:.2g}), not metres: give the log as time,lat,lon,alt in [target] log (it is then ingested), not as [target] trajectory"
+            f"columns x, y look like {'longitude and latitude' if lon_lat else 'latitude and longitude'} in degrees "
+            f"(x {x[0]:.6g}, y {y[0]:.6g}, "
+            f"spanning {span[0]:.2g} x {span[1]:.2g}), not metres: give the log as time,lat,lon,alt in [target] log "
+            f"(it is then ingested), not as [target] trajectory"
         )
 
 
@@ -164,14 +223,17 @@ def _table_head(path: Path, required: tuple[str, ...], what: str) -> None:
     header = [c.strip() for c in head.decode("utf-8", errors="replace").split("\n", 1)[0].split(",")]
     missing = [c for c in required if c not in header]
     if missing:
-        raise InputError(f"{path}:1: the header lacks column(s) {', '.join(missing)}; expected a {what} with {','.join(required)}")
+        raise InputError(
+            f"{path}:1: the header lacks column(s) {', '.join(missing)}; expected a {what} with {','.join(required)}"
+        )
 
 
 def _image_of_video(path: Path, camera: Camera, video: VideoInfo) -> None:
     """The camera's image_size is its video's frame size."""
     if (video.width, video.height) != tuple(camera.image_size):
         raise InputError(
-            f"{path}: image_size {list(camera.image_size)} but the camera's video {video.path.name} is {video.width} x {video.height}; "
+            f"{path}: image_size {list(camera.image_size)} but the camera's video {video.path.name} is {video.width} "
+            f"x {video.height}; "
             "give the calibration of the video's resolution (or scale K and image_size to it)"
         )
 
@@ -196,7 +258,11 @@ def _video_of_calibration(path: Path, video: VideoInfo, config: CameraConfig) ->
     if size is None or (video.width, video.height) == size:
         return
     ratio = video.width / size[0]
-    scale = f" ({ratio:.3g} of their size: a downscaled copy?)" if abs(video.height / size[1] - ratio) < 0.01 * ratio else ""
+    scale = (
+        f" ({ratio:.3g} of their size: a downscaled copy?)"
+        if abs(video.height / size[1] - ratio) < 0.01 * ratio
+        else ""
+    )
     raise InputError(
         f"{path}: {video.width} x {video.height}, but {source} are of {size[0]} x {size[1]} images{scale}; "
         "give the original video, or calibrate with images of the video's resolution"
@@ -204,11 +270,16 @@ def _video_of_calibration(path: Path, video: VideoInfo, config: CameraConfig) ->
 
 
 def _track_not_normalised(path: Path, track: Track, size: tuple[int, int]) -> None:
-    """The track's positions are pixels, not fractions of the image (every x, y within 0..1 of an image wider than that)."""
+    """The track's positions are pixels, not fractions of the image (every x, y within 0..1 of an image wider than
+    that).
+    """
     xy = track.xy
     if len(xy) >= 2 and min(size) > 4 and xy.min() >= 0.0 and xy.max() <= 1.0 and np.ptp(xy, axis=0).max() > 0:
         w, h = size
-        raise InputError(f"{path}: every x, y lies within 0..1: normalised coordinates? give pixels of the {w} x {h} image (x * {w}, y * {h})")
+        raise InputError(
+            f"{path}: every x, y lies within 0..1: normalised coordinates? give pixels of the {w} x {h} image (x * "
+            f"{w}, y * {h})"
+        )
 
 
 def _track_in_image(path: Path, track: Track, camera: Camera) -> None:
@@ -219,7 +290,8 @@ def _track_in_image(path: Path, track: Track, camera: Camera) -> None:
     if outside.mean() > OUTSIDE_SHARE:
         k = int(np.argmax(outside))
         raise InputError(
-            f"{path}: {outside.mean():.0%} of its positions lie outside the camera's {w} x {h} image (frame {track.frame[k]}: {xy[k, 0]:.0f}, {xy[k, 1]:.0f}): "
+            f"{path}: {outside.mean():.0%} of its positions lie outside the camera's {w} x {h} image (frame "
+            f"{track.frame[k]}: {xy[k, 0]:.0f}, {xy[k, 1]:.0f}): "
             "a track of another resolution, or another camera's camera.json?"
         )
 
@@ -234,7 +306,10 @@ def _same_files(project: Project) -> None:
                 continue
             identity = _identity(path)
             if identity in seen:
-                raise InputError(f"[[cameras]] {camera.name!r} {key} ({_relative(project, path)}) is the same file as the {key} of camera {seen[identity]!r}: each camera needs its own")
+                raise InputError(
+                    f"[[cameras]] {camera.name!r} {key} ({_relative(project, path)}) is the same file as the {key} of "
+                    f"camera {seen[identity]!r}: each camera needs its own"
+                )
             seen[identity] = camera.name
 
 

@@ -47,7 +47,9 @@ STRICT_VARIABLE = "TLSYNC_STRICT_IO"
 
 @dataclass(frozen=True)
 class Artefact:
-    """A file a stage makes in the work folder: its kind (a key of artefacts.kinds.KINDS) and camera (None: project-wide)."""
+    """A file a stage makes in the work folder: its kind (a key of artefacts.kinds.KINDS) and camera (None:
+    project-wide).
+    """
 
     kind: str
     camera: str | None = None
@@ -105,7 +107,9 @@ class Workspace:
             return [self.portable(v) for v in value]
         return value
 
-    def files(self, task: str, camera: str | None, inputs: dict[str, Path | Artefact], outputs: list[Artefact], **context) -> StageFiles:
+    def files(
+        self, task: str, camera: str | None, inputs: dict[str, Path | Artefact], outputs: list[Artefact], **context
+    ) -> StageFiles:
         """The view of one task: its inputs (label -> absolute path) and its artefacts (kind -> absolute path)."""
         return StageFiles(
             task,
@@ -151,17 +155,23 @@ class StageFiles:
         try:
             return self.inputs[label]
         except KeyError:
-            raise UndeclaredFileError(f"{self.task}: input {label!r} is not declared (declared: {', '.join(self.inputs) or 'none'})") from None
+            raise UndeclaredFileError(
+                f"{self.task}: input {label!r} is not declared (declared: {', '.join(self.inputs) or 'none'})"
+            ) from None
 
     def has(self, label: str) -> bool:
         return label in self.inputs
 
     def output(self, kind: str, name: str | None = None) -> Path:
-        """A declared artefact's path (``name``: a file in a folder artefact, or None: the folder), for writers that write atomically themselves."""
+        """A declared artefact's path (``name``: a file in a folder artefact, or None: the folder), for writers that
+        write atomically themselves.
+        """
         try:
             path = self.outputs[kind]
         except KeyError:
-            raise UndeclaredFileError(f"{self.task}: artefact {kind!r} is not declared (declared: {', '.join(self.outputs) or 'none'})") from None
+            raise UndeclaredFileError(
+                f"{self.task}: artefact {kind!r} is not declared (declared: {', '.join(self.outputs) or 'none'})"
+            ) from None
         if name is not None and kind not in FOLDERS:
             raise ValueError(f"{self.task}: artefact {kind!r} is a file, not a folder")
         return path / name if name is not None else path
@@ -201,7 +211,9 @@ class StageFiles:
                 return  # the temporary file of an atomic write
         if not writing and path in {str(p) for p in self.inputs.values()}:
             return
-        raise UndeclaredFileError(f"{self.task}: opened {path} for {'writing' if writing else 'reading'} without declaring it")
+        raise UndeclaredFileError(
+            f"{self.task}: opened {path} for {'writing' if writing else 'reading'} without declaring it"
+        )
 
 
 _RUNNING: contextvars.ContextVar[StageFiles | None] = contextvars.ContextVar("tlsync_running_stage", default=None)
@@ -215,7 +227,11 @@ def _audit(event: str, args: tuple) -> None:
     if files is None or not isinstance(args[0], (str, bytes, os.PathLike)):
         return
     path, mode, flags = args
-    writing = any(c in mode for c in "wax+") if isinstance(mode, str) else bool(flags & (os.O_WRONLY | os.O_RDWR | os.O_CREAT))
+    writing = (
+        any(c in mode for c in "wax+")
+        if isinstance(mode, str)
+        else bool(flags & (os.O_WRONLY | os.O_RDWR | os.O_CREAT))
+    )
     files.check_open(os.fsdecode(path), writing)
 
 

@@ -51,8 +51,14 @@ class ClockCheck:
         return cls(**entry)
 
 
-def check_clock(line, target_rate: float | None, target_t0: float | None, log_utc: bool, prior: ClockPrior,
-                times: FrameTimes | None = None) -> ClockCheck:
+def check_clock(
+    line,
+    target_rate: float | None,
+    target_t0: float | None,
+    log_utc: bool,
+    prior: ClockPrior,
+    times: FrameTimes | None = None,
+) -> ClockCheck:
     """The check of one camera line (tlsync_pipeline.sync.timeline.CameraLine) against its prior.
 
     target_rate (samples/s) and target_t0 (s on the log's clock) place the
@@ -67,10 +73,14 @@ def check_clock(line, target_rate: float | None, target_t0: float | None, log_ut
     if line.cov is not None:
         gradient = np.array([-sample0 / line.alpha, -1.0 / line.alpha])  # of (clock(0) - beta) / alpha in (alpha, beta)
         half = HALF_95 * float(np.sqrt(max(gradient @ np.asarray(line.cov) @ gradient, 0.0))) / target_rate
-    return ClockCheck(prior.source, prior.utc_s, prior.tolerance_s, result, offset, abs(offset) <= prior.tolerance_s + half, half)
+    return ClockCheck(
+        prior.source, prior.utc_s, prior.tolerance_s, result, offset, abs(offset) <= prior.tolerance_s + half, half
+    )
 
 
-def with_clock_checks(timeline, priors: dict[str, ClockPrior], log_utc: bool, times: dict[str, FrameTimes | None] | None = None):
+def with_clock_checks(
+    timeline, priors: dict[str, ClockPrior], log_utc: bool, times: dict[str, FrameTimes | None] | None = None
+):
     """The timeline (tlsync_pipeline.sync.timeline.Timeline) with each camera that has a prior checked:
     ``clock_check`` set and, when it disagrees, the flag CLOCK_FLAG added to its line."""
     lines = dict(timeline.cameras)
@@ -91,15 +101,27 @@ def clock_reason(check: ClockCheck) -> Reason:
     hours (a clock on local time: ``utc_offset``) or the leap seconds (a log on GPS time, not UTC)."""
     offset = check.offset_s or 0.0
     slack = check.tolerance_s + check.result_half_width_s
-    text = (f"the result puts the video's time 0 {offset:+.1f} s from the camera's own clock ({check.source}; "
-            f"tolerance {check.tolerance_s:g} s)")
+    text = (
+        f"the result puts the video's time 0 {offset:+.1f} s from the camera's own clock ({check.source}; "
+        f"tolerance {check.tolerance_s:g} s)"
+    )
     half_hours = round(offset / 1800.0)
     if half_hours and abs(offset - half_hours * 1800.0) <= slack:
         hours = f"{half_hours / 2:+g}"
-        return Reason(CLOCK_FLAG, WEAK, f"{text}: {hours} h, a clock on local time",
-                      f"a log on local time: set [target] utc_offset = {hours}; a camera's: [cameras.clock] utc_offset = {-half_hours / 2:+g}")
+        return Reason(
+            CLOCK_FLAG,
+            WEAK,
+            f"{text}: {hours} h, a clock on local time",
+            f"a log on local time: set [target] utc_offset = {hours}; a camera's: [cameras.clock] utc_offset = "
+            f"{-half_hours / 2:+g}",
+        )
     for leap in (LEAP_SECONDS, -LEAP_SECONDS):
         if abs(offset - leap) <= slack:
-            return Reason(CLOCK_FLAG, WEAK, f"{text}: {leap:+g} s, the leap seconds between GPS time and UTC",
-                          f"a log on GPS time, not UTC: take {leap:g} s off its times (or its reader's time base), or check the camera's clock")
+            return Reason(
+                CLOCK_FLAG,
+                WEAK,
+                f"{text}: {leap:+g} s, the leap seconds between GPS time and UTC",
+                f"a log on GPS time, not UTC: take {leap:g} s off its times (or its reader's time base), or check the "
+                f"camera's clock",
+            )
     return Reason(CLOCK_FLAG, WEAK, text, "check the camera's clock and the log's time base")

@@ -14,7 +14,6 @@ import json
 import math
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
-
 from typing import Any
 
 import numpy as np
@@ -22,10 +21,23 @@ import numpy as np
 from tlsync_pipeline.artefacts.identification import IdentificationSummary
 from tlsync_pipeline.artefacts.kinds import artefact_path
 from tlsync_pipeline.errors import InputError
+from tlsync_pipeline.sync.clock_prior import CLOCK_FLAG, ClockCheck, clock_reason
 from tlsync_pipeline.sync.model.clock import FRAME, CameraClock, FrameTimes, Segment
 from tlsync_pipeline.sync.model.params import ParamsTable
-from tlsync_pipeline.sync.clock_prior import CLOCK_FLAG, ClockCheck, clock_reason
-from tlsync_pipeline.sync.model.status import AMBIGUOUS, FAILED, HALF_95, WEAK, WIDE_FRAMES, WIDE_REMEDIES, WIDE_REMEDY, CameraStatus, Reason, failure, line_reasons, status_of
+from tlsync_pipeline.sync.model.status import (
+    AMBIGUOUS,
+    FAILED,
+    HALF_95,
+    WEAK,
+    WIDE_FRAMES,
+    WIDE_REMEDIES,
+    WIDE_REMEDY,
+    CameraStatus,
+    Reason,
+    failure,
+    line_reasons,
+    status_of,
+)
 from trackers.breaks import Break
 
 FORMAT_VERSION = 1
@@ -41,7 +53,7 @@ class Relation:
     def __call__(self, frame_a):
         return self.alpha * np.asarray(frame_a, dtype=np.float64) + self.beta
 
-    def inverse(self) -> "Relation":
+    def inverse(self) -> Relation:
         return Relation(1.0 / self.alpha, -self.beta / self.alpha)
 
 
@@ -88,7 +100,7 @@ class ErrorBudget:
 
     @property
     def dominant(self) -> str:
-        """"tracking", "calibration" or "log"."""
+        """ "tracking", "calibration" or "log"."""
         parts = {"tracking": self.tracking_frames, "calibration": self.calibration_frames, "log": self.log_frames}
         return max(parts, key=lambda k: parts[k])
 
@@ -166,7 +178,9 @@ class CameraLine:
 
     def __post_init__(self):
         if not self.clock.vfr and self.clock.fps is None and self.fps is not None:
-            object.__setattr__(self, "clock", replace(self.clock, fps=self.fps))  # a frame clock runs at the camera's fps
+            object.__setattr__(
+                self, "clock", replace(self.clock, fps=self.fps)
+            )  # a frame clock runs at the camera's fps
 
     @property
     def se_alpha(self) -> float | None:
@@ -182,7 +196,14 @@ class CameraLine:
 
     def to_dict(self) -> dict:
         """The camera's entry in timeline.json, without the offsets to the reference."""
-        entry: dict[str, Any] = {"alpha": self.alpha, "beta": self.beta, "votes": self.votes, "inliers": self.inliers, "residual_rms": self.residual_rms, "fps": self.fps}
+        entry: dict[str, Any] = {
+            "alpha": self.alpha,
+            "beta": self.beta,
+            "votes": self.votes,
+            "inliers": self.inliers,
+            "residual_rms": self.residual_rms,
+            "fps": self.fps,
+        }
         if self.cov is not None:
             entry.update(se_alpha=self.se_alpha, se_beta=self.se_beta, cov=np.asarray(self.cov).tolist())
         for key in ("flags", "warnings"):
@@ -211,11 +232,16 @@ class CameraLine:
         return entry
 
     @classmethod
-    def from_dict(cls, name: str, entry: dict) -> "CameraLine":
+    def from_dict(cls, name: str, entry: dict) -> CameraLine:
         """A camera entry of timeline.json back into a CameraLine (KeyError/TypeError when malformed)."""
         clock = CameraClock(FRAME, entry.get("fps"))
         if entry.get("clock", FRAME) != FRAME:
-            clock = CameraClock(entry["clock"], float(entry["clock_fps"]), float(entry.get("clock_origin_s", 0.0)), float(entry["time_jitter_frames"]))
+            clock = CameraClock(
+                entry["clock"],
+                float(entry["clock_fps"]),
+                float(entry.get("clock_origin_s", 0.0)),
+                float(entry["time_jitter_frames"]),
+            )
         if entry.get("segments"):
             clock = replace(clock, segments=tuple(Segment.from_dict(seg) for seg in entry["segments"]))
         optional: dict[str, Any] = {
@@ -225,7 +251,9 @@ class CameraLine:
             "refined": entry.get("refined"),
             "line_search": None if entry.get("line_search") is None else LineSearchSummary(**entry["line_search"]),
             "refinement": None if entry.get("refinement") is None else RefinementSummary(**entry["refinement"]),
-            "identification": None if entry.get("identification") is None else IdentificationSummary.from_dict(entry["identification"]),
+            "identification": None
+            if entry.get("identification") is None
+            else IdentificationSummary.from_dict(entry["identification"]),
             "checks": None if entry.get("checks") is None else tuple(Reason.from_dict(r) for r in entry["checks"]),
             "scan": None if entry.get("scan") is None else ScanSummary(**entry["scan"]),
             "budget": None if entry.get("budget") is None else ErrorBudget(**entry["budget"]),
@@ -240,7 +268,9 @@ class CameraLine:
 
 @dataclass(frozen=True)
 class StageWarning:
-    """One warning of a run: the stage that raised it, the camera of its task (None: a project-wide stage) and the text."""
+    """One warning of a run: the stage that raised it, the camera of its task (None: a project-wide
+    stage) and the text.
+    """
 
     stage: str
     camera: str | None
@@ -270,7 +300,8 @@ class Timeline:
     params: ParamsTable = field(default_factory=ParamsTable)  # the [sync] table of the fit
     failed: dict[str, str] = field(default_factory=dict)
     warnings: tuple[StageWarning, ...] = ()
-    # Covariance between two cameras' (alpha, beta) through an error they share (the log's bias), "A|B" -> 2x2 (rows: A's).
+    # Covariance between two cameras' (alpha, beta) through an error they share (the log's bias), "A|B" -> 2x2 (rows:
+    # A's).
     shared_cov: dict[str, np.ndarray] = field(default_factory=dict)
     log_model: dict | None = None  # the log's error model the fit assumed (sync/model/log_model.py), or None
     rejected: dict[str, CameraLine] = field(default_factory=dict)
@@ -288,7 +319,9 @@ class Timeline:
         return list(self.cameras)
 
     def status(self, name: str) -> CameraStatus:
-        """The camera's status (sync/model/status.py): its line's checks, flags, warnings and interval, or why it failed."""
+        """The camera's status (sync/model/status.py): its line's checks, flags, warnings and interval, or why it
+        failed.
+        """
         line = self.cameras.get(name) or self.rejected.get(name)
         if line is None:
             return status_of(name, [failure(self.failed.get(name, "not synchronized"))])
@@ -304,7 +337,9 @@ class Timeline:
         return status_of(name, reasons)
 
     def _wide_interval(self, name: str) -> Reason | None:
-        """WEAK when the camera's start, against the reference's, is known to more than WIDE_FRAMES of its own frames (95 %)."""
+        """WEAK when the camera's start, against the reference's, is known to more than WIDE_FRAMES of its own frames
+        (95 %).
+        """
         reference = self.names[0]
         se = self.start_offset_se(reference, name) if name != reference else None
         if se is None:
@@ -314,11 +349,17 @@ class Timeline:
         if not own_frames > WIDE_FRAMES:
             return None
         seconds = "" if se[1] is None else f"±{HALF_95 * se[1]:.2g} s, "
-        remedy = WIDE_REMEDIES[line.budget.dominant] if line.budget is not None and line.budget.total_frames > 0 else WIDE_REMEDY
+        remedy = (
+            WIDE_REMEDIES[line.budget.dominant]
+            if line.budget is not None and line.budget.total_frames > 0
+            else WIDE_REMEDY
+        )
         return Reason("wide_interval", WEAK, f"start known to {seconds}±{own_frames:.1f} of its frames only", remedy)
 
     def statuses(self, names: list[str] | None = None) -> dict[str, CameraStatus]:
-        """Every camera's status by name: ``names`` in that order (default: the synchronized, then the rejected, then the failed)."""
+        """Every camera's status by name: ``names`` in that order (default: the synchronized, then the rejected, then
+        the failed).
+        """
         names = names or list(dict.fromkeys([*self.cameras, *self.rejected, *self.failed]))
         return {name: self.status(name) for name in names}
 
@@ -355,7 +396,9 @@ class Timeline:
         return self.cameras[a].clock.vfr or self.cameras[b].clock.vfr
 
     def relation_cov(self, a: str, b: str) -> np.ndarray | None:
-        """2x2 covariance of relation(a, b)'s (alpha, beta), with what the cameras share (cross_cov); None without covariances."""
+        """2x2 covariance of relation(a, b)'s (alpha, beta), with what the cameras share (cross_cov); None without
+        covariances.
+        """
         la, lb = self.cameras[a], self.cameras[b]
         if la.cov is None or lb.cov is None:
             return None
@@ -373,7 +416,9 @@ class Timeline:
         return grad @ joint @ grad.T
 
     def seconds_relation(self, a: str, b: str) -> Relation | None:
-        """time_B = alpha * time_A + beta in seconds of each camera's clock (frame 0 or time_s = 0 at 0 s); None without both fps."""
+        """time_B = alpha * time_A + beta in seconds of each camera's clock (frame 0 or time_s = 0 at 0 s); None without
+        both fps.
+        """
         fa, fb = self.cameras[a].fps, self.cameras[b].fps
         if not fa or not fb:
             return None
@@ -415,7 +460,9 @@ class Timeline:
         }
 
     def to_dict(self) -> dict:
-        """The ``timeline.json`` content (contract in docs/formats.md); a number that is not finite is written as null."""
+        """The ``timeline.json`` content (contract in docs/formats.md); a number that is not finite
+        is written as null.
+        """
         return _finite(self._document())
 
     def _document(self) -> dict:
@@ -432,7 +479,12 @@ class Timeline:
         for key, rel in self.pairs().items():
             a, b = key.split("->")
             frames, seconds = self.start_offset(a, b)
-            pairs[key] = {"alpha": rel.alpha, "beta": rel.beta, "start_offset_frames": frames, "start_offset_s": seconds}
+            pairs[key] = {
+                "alpha": rel.alpha,
+                "beta": rel.beta,
+                "start_offset_frames": frames,
+                "start_offset_s": seconds,
+            }
             cov = self.relation_cov(a, b)
             if cov is not None:
                 pairs[key]["se_alpha"], pairs[key]["se_beta"] = float(np.sqrt(cov[0, 0])), float(np.sqrt(cov[1, 1]))
@@ -456,7 +508,16 @@ class Timeline:
             "warnings": [w.to_dict() for w in self.warnings],
             "line": self.line(),
             "pairs": pairs,
-            **({"log_error": {"model": self.log_model, "shared_cov": {k: np.asarray(v).tolist() for k, v in self.shared_cov.items()}}} if self.log_model else {}),
+            **(
+                {
+                    "log_error": {
+                        "model": self.log_model,
+                        "shared_cov": {k: np.asarray(v).tolist() for k, v in self.shared_cov.items()},
+                    }
+                }
+                if self.log_model
+                else {}
+            ),
         }
 
 
@@ -492,7 +553,9 @@ def read_timeline(path: str | Path) -> Timeline:
         target = data.get("target", {})
         warnings = tuple(StageWarning(w["stage"], w.get("camera"), w["text"]) for w in data.get("warnings", []))
         log_error = data.get("log_error") or {}
-        shared = {k: np.asarray(v, dtype=np.float64).reshape(2, 2) for k, v in (log_error.get("shared_cov") or {}).items()}
+        shared = {
+            k: np.asarray(v, dtype=np.float64).reshape(2, 2) for k, v in (log_error.get("shared_cov") or {}).items()
+        }
         return Timeline(
             cameras,
             target.get("rate"),

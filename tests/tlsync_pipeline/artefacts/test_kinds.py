@@ -20,8 +20,8 @@ from tlsync_pipeline.artefacts.scan import CoarseLine, ScanPlan
 from tlsync_pipeline.artefacts.video_info import VideoInfo
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.ingest.report import Gap, IngestReport
-from tlsync_pipeline.sync.solve.methods import CameraInput
 from tlsync_pipeline.sync.model.params import SyncParams
+from tlsync_pipeline.sync.solve.methods import CameraInput
 from tlsync_pipeline.sync.solve.synchronize import synchronize
 from tlsync_pipeline.sync.vote.votes import CameraVotes, Votes
 from trackers.breaks import Break

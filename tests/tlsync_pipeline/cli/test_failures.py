@@ -74,10 +74,16 @@ def test_camera_names_differing_only_in_case_are_refused(project_dir):
 
 def test_camera_option_on_a_project_wide_stage_is_refused(project_dir):
     toml = project_dir / "project.toml"
-    for args in (("sync", toml, "--camera", "cam1"), ("export", toml, "--camera", "cam0"), ("run", toml, "--force", "sync", "--camera", "cam1")):
+    for args in (
+        ("sync", toml, "--camera", "cam1"),
+        ("export", toml, "--camera", "cam0"),
+        ("run", toml, "--force", "sync", "--camera", "cam1"),
+    ):
         result = _cli(*args, "-j", "1")
         assert result.exit_code == ExitCode.BAD_INPUT, result.output
-        assert re.search(r"^error: .*the (sync|export) stage (is not per camera|uses every camera)", result.output), result.output
+        assert re.search(r"^error: .*the (sync|export) stage (is not per camera|uses every camera)", result.output), (
+            result.output
+        )
         assert len(result.output.splitlines()) == 1, result.output
 
 
@@ -100,7 +106,10 @@ def test_ffmpeg_script_writes_one_video_per_camera_beside_the_work_folder(projec
     fake = tmp_path / "bin"
     fake.mkdir()
     # records the file it was asked to write, after checking that its input (the argument after -i) exists
-    (fake / "ffmpeg").write_text('#!/bin/sh\nwhile [ "$1" != -i ]; do shift; done\n[ -f "$2" ] || exit 9\nfor last; do :; done\necho "$PWD/$last" >> "$FFMPEG_LOG"\n')
+    (fake / "ffmpeg").write_text(
+        '#!/bin/sh\nwhile [ "$1" != -i ]; do shift; done\n[ -f "$2" ] || exit 9\nfor last; do :; done\necho '
+        '"$PWD/$last" >> "$FFMPEG_LOG"\n'
+    )
     (fake / "ffmpeg").chmod(0o755)
     log = tmp_path / "ffmpeg.log"
     env = {**os.environ, "PATH": f"{fake}:{os.environ['PATH']}", "FFMPEG_LOG": str(log)}
@@ -126,7 +135,10 @@ def _namespace_available() -> bool:
     return subprocess.run(["unshare", "-Urm", "true"], capture_output=True).returncode == 0
 
 
-needs_namespace = pytest.mark.skipif(not _namespace_available(), reason="needs unshare -Urm (user and mount namespaces) to mount a small or read-only file system")
+needs_namespace = pytest.mark.skipif(
+    not _namespace_available(),
+    reason="needs unshare -Urm (user and mount namespaces) to mount a small or read-only file system",
+)
 
 
 def _in_namespace(setup: str, *tlsync_args, cwd: Path) -> subprocess.CompletedProcess:
@@ -153,10 +165,19 @@ def shared_project(paper_scene):
 def test_a_full_disk_exits_3_naming_every_task_that_failed(shared_project, size):
     work = shared_project / "work"
     work.mkdir()
-    result = _in_namespace(f"mount -t tmpfs -o size={size} tmpfs '{work}'", "run", shared_project / "project.toml", "-j", "1", cwd=shared_project)
+    result = _in_namespace(
+        f"mount -t tmpfs -o size={size} tmpfs '{work}'",
+        "run",
+        shared_project / "project.toml",
+        "-j",
+        "1",
+        cwd=shared_project,
+    )
     output = result.stdout + result.stderr
     assert result.returncode == ExitCode.ENVIRONMENT, output
-    assert re.search(r"error: .*\bwork/\S*: the disk is full", output), output  # paths under the current folder are relative
+    assert re.search(r"error: .*\bwork/\S*: the disk is full", output), (
+        output
+    )  # paths under the current folder are relative
     assert "Traceback" not in output
     failed = {line.split(":")[1].strip() for line in output.splitlines() if line.startswith("error: ")}
     ran = {line.split(":")[0] for line in output.splitlines() if re.match(r"\S+: running\b", line)}
@@ -170,10 +191,17 @@ def test_a_read_only_work_folder_exits_3_in_one_line_naming_it(shared_project, c
     work = shared_project / "work"
     assert _cli("run", shared_project / "project.toml", "-j", "1", "-q").exit_code == 0
     setup = f"mount --bind '{work}' '{work}'\nmount -o remount,bind,ro '{work}'"
-    result = _in_namespace(setup, command, shared_project / "project.toml", "-j", "1", cwd=shared_project) if command == "run" else _in_namespace(setup, command, shared_project / "project.toml", cwd=shared_project)
+    result = (
+        _in_namespace(setup, command, shared_project / "project.toml", "-j", "1", cwd=shared_project)
+        if command == "run"
+        else _in_namespace(setup, command, shared_project / "project.toml", cwd=shared_project)
+    )
     assert result.returncode == ExitCode.ENVIRONMENT, result.stdout + result.stderr
     errors = [line for line in result.stderr.splitlines() if line.strip()]
-    assert errors == ["error: work: cannot write into the work folder (the file system is read-only); fix it or give another --work folder"], result.stderr
+    assert errors == [
+        "error: work: cannot write into the work folder (the file system is read-only); fix it or give another --work "
+        "folder"
+    ], result.stderr
     assert "Traceback" not in result.stdout + result.stderr
 
 
@@ -196,10 +224,14 @@ def test_no_result_of_an_earlier_sync_survives_a_sync_where_no_camera_synchroniz
     _shift_trajectory(project_dir, 300.0)
     result = _cli("run", toml, "-j", "1")
     assert result.exit_code == ExitCode.NOT_SYNCHRONIZED, result.output
-    assert re.search(r"^cam0: failed: ", result.output, re.M) and re.search(r"^cam1: failed: ", result.output, re.M), result.output
+    assert re.search(r"^cam0: failed: ", result.output, re.M) and re.search(r"^cam1: failed: ", result.output, re.M), (
+        result.output
+    )
     assert sorted(p.name for p in (work / "exports").iterdir()) == ["export.manifest.json"]
     assert list((work / "render").glob("*.png")) == []
-    assert not [line for line in (work / "report.md").read_text().splitlines() if re.match(r"cam[01] ", line)]  # no timeline row
+    assert not [
+        line for line in (work / "report.md").read_text().splitlines() if re.match(r"cam[01] ", line)
+    ]  # no timeline row
 
 
 def test_a_camera_that_no_longer_synchronizes_loses_its_pictures_and_exports(project_dir):
@@ -228,7 +260,10 @@ def test_a_given_track_past_the_end_of_the_camera_video_is_bad_input(project_dir
     result = _cli("run", toml, "-j", "1")
     assert result.exit_code == ExitCode.BAD_INPUT, result.output
     frame = lines[line - 1].split(",")[0]
-    assert f"cam1/track.csv:{line}: frame {frame} is past the end of the camera's video" in result.output and "which has 40 frames" in result.output, result.output
+    assert (
+        f"cam1/track.csv:{line}: frame {frame} is past the end of the camera's video" in result.output
+        and "which has 40 frames" in result.output
+    ), result.output
     assert not (project_dir / "work" / "timeline.json").exists()
 
 
@@ -249,9 +284,20 @@ def test_status_tells_the_truth_and_its_exit_code_says_whether_everything_is_fre
     assert re.search(r"^sync +cam1 +failed +camera cam1: ", result.output, re.M), result.output
     document = json.loads(_status(project_dir, "--json").output)
     assert document["format"] == "tlsync-status" and document["exit_code"] == 1 and document["running"] is None
-    assert document["cameras"]["cam0"] == {"status": "ok", "synchronized": True, "reason": "", "remedy": "", "reasons": []}
+    assert document["cameras"]["cam0"] == {
+        "status": "ok",
+        "synchronized": True,
+        "reason": "",
+        "remedy": "",
+        "reasons": [],
+    }
     cam1 = document["cameras"]["cam1"]
-    assert cam1["status"] == "failed" and not cam1["synchronized"] and cam1["reason"].startswith("camera cam1: ") and cam1["remedy"]
+    assert (
+        cam1["status"] == "failed"
+        and not cam1["synchronized"]
+        and cam1["reason"].startswith("camera cam1: ")
+        and cam1["remedy"]
+    )
     tasks = {t["id"]: t for t in document["tasks"]}
     assert tasks["sync"]["state"] == "fresh" and tasks["sync"]["artefacts"] == ["timeline.json"]
     assert tasks["sync/cam1"]["state"] == "failed"
@@ -272,12 +318,24 @@ def test_status_shows_a_failed_stage_with_its_reason_and_a_run_in_progress(proje
 
 
 def test_run_json_is_a_machine_readable_summary(project_dir):
-    result = CliRunner(mix_stderr=False).invoke(main, ["run", str(project_dir / "project.toml"), "-j", "1", "--json"], catch_exceptions=False) if "mix_stderr" in CliRunner.__init__.__code__.co_varnames else None
+    result = (
+        CliRunner(mix_stderr=False).invoke(
+            main, ["run", str(project_dir / "project.toml"), "-j", "1", "--json"], catch_exceptions=False
+        )
+        if "mix_stderr" in CliRunner.__init__.__code__.co_varnames
+        else None
+    )
     if result is None:  # click >= 8.2 keeps stdout and stderr apart
-        result = CliRunner().invoke(main, ["run", str(project_dir / "project.toml"), "-j", "1", "--json"], catch_exceptions=False)
+        result = CliRunner().invoke(
+            main, ["run", str(project_dir / "project.toml"), "-j", "1", "--json"], catch_exceptions=False
+        )
     document = json.loads(result.stdout)
     assert result.exit_code == 0 and document["format"] == "tlsync-run" and document["exit_code"] == 0
     tasks = {t["id"]: t for t in document["tasks"]}
-    assert tasks["sync"]["state"] == "ran" and tasks["sync"]["artefacts"] == ["timeline.json"] and tasks["sync"]["seconds"] >= 0
+    assert (
+        tasks["sync"]["state"] == "ran"
+        and tasks["sync"]["artefacts"] == ["timeline.json"]
+        and tasks["sync"]["seconds"] >= 0
+    )
     assert {"exports/ffmpeg.sh", "exports/frame_map.csv", "exports/offsets.csv"} <= set(tasks["export"]["artefacts"])
     assert {name: camera["status"] for name, camera in document["cameras"].items()} == {"cam0": "ok", "cam1": "ok"}

@@ -31,7 +31,9 @@ def test_work_option_and_a_folder_as_the_project(project_dir, tmp_path):
     assert _run("run", project_dir, "--work", out).exit_code == 0
     assert (out / "timeline.json").exists()
     refused = _run("run", project_dir, "--out", out)
-    assert refused.exit_code == 2 and refused.output.startswith("error: --out: names the file a standalone command writes"), refused.output
+    assert refused.exit_code == 2 and refused.output.startswith(
+        "error: --out: names the file a standalone command writes"
+    ), refused.output
 
 
 def _replace(path, old, new):
@@ -44,9 +46,19 @@ def _replace(path, old, new):
         (lambda d: (d / "cam0" / "track.csv").unlink(), "track.csv: file not found"),
         (lambda d: (d / "cam0" / "track.csv").write_text("frame,x,y\n"), "the track is empty"),
         (lambda d: (d / "cam0" / "track.csv").write_text("frame,x,y\n0,nan,2\n"), r"track.csv:2: column 'x'"),
-        (lambda d: (d / "cam0" / "track.csv").write_text("frame,x,y\n0,1,2\n1,one,2\n"), r"track.csv:3: column 'x': not a number"),
+        (
+            lambda d: (d / "cam0" / "track.csv").write_text("frame,x,y\n0,1,2\n1,one,2\n"),
+            r"track.csv:3: column 'x': not a number",
+        ),
         (lambda d: _replace(d / "cam1" / "camera.json", '"t": [', '"t": [[1], '), "field 't'"),
-        (lambda d: (d / "cam1" / "camera.json").write_text(json.dumps({**json.loads((d / "cam1" / "camera.json").read_text()), "K": [[0, 0, 0], [0, 0, 0], [0, 0, 1]]})), "singular"),
+        (
+            lambda d: (d / "cam1" / "camera.json").write_text(
+                json.dumps(
+                    {**json.loads((d / "cam1" / "camera.json").read_text()), "K": [[0, 0, 0], [0, 0, 0], [0, 0, 1]]}
+                )
+            ),
+            "singular",
+        ),
         (lambda d: (d / "trajectory.csv").write_text("t,x,y,z\n0,1,2,3\n"), "at least 2 are needed"),
         (lambda d: _replace(d / "project.toml", 'name = "cam1"', 'name = "cam0"'), "duplicate camera name"),
         (lambda d: _replace(d / "project.toml", "eps_px", "epsilon_px"), "did you mean 'eps_px'"),
@@ -91,4 +103,9 @@ def test_demo_recovers_the_truth(tmp_path):
 
 def test_tlsync_alone_prints_the_help():
     result = _run()
-    assert result.exit_code == 0 and result.output.startswith("Usage:") and "Commands:" in result.output and "run" in result.output
+    assert (
+        result.exit_code == 0
+        and result.output.startswith("Usage:")
+        and "Commands:" in result.output
+        and "run" in result.output
+    )

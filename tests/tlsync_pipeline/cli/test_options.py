@@ -44,7 +44,16 @@ class World:
     bag: Path | None
 
     def fill(self, arg: str) -> str:
-        return arg.format(root=self.root, raw=self.raw, tracks=self.tracks, sched=self.scheduler, boards=self.board_video, init=self.init, frame=self.init_frame, bag=self.bag)
+        return arg.format(
+            root=self.root,
+            raw=self.raw,
+            tracks=self.tracks,
+            sched=self.scheduler,
+            boards=self.board_video,
+            init=self.init,
+            frame=self.init_frame,
+            bag=self.bag,
+        )
 
 
 def _cli(*args) -> Result:
@@ -60,25 +69,41 @@ def world(tmp_path_factory):
     write_scene(make_scene(seed=0), root / "tracks")
     boards = sorted((root / "raw" / "cam0" / "boards").glob("*.png"))
     image = cv2.imread(str(boards[0]))
-    writer = cv2.VideoWriter(str(root / "boards.avi"), cv2.VideoWriter_fourcc(*"MJPG"), 5, (image.shape[1], image.shape[0]))
+    writer = cv2.VideoWriter(
+        str(root / "boards.avi"), cv2.VideoWriter_fourcc(*"MJPG"), 5, (image.shape[1], image.shape[0])
+    )
     for path in boards:
         writer.write(cv2.imread(str(path)))
     writer.release()
-    shutil.copytree(root / "raw", root / "bad", ignore=shutil.ignore_patterns("work"))  # the raw project with a wrong pattern
+    shutil.copytree(
+        root / "raw", root / "bad", ignore=shutil.ignore_patterns("work")
+    )  # the raw project with a wrong pattern
     toml = root / "bad" / "project.toml"
     toml.write_text(toml.read_text().replace('pattern = "7x5"', 'pattern = "8x6"'))
     with (root / "raw" / "work" / "cameras" / "cam0" / "track.csv").open() as handle:
         row = next(csv.DictReader(handle))
     x, y = float(row["x"]), float(row["y"])
-    with distributed.LocalCluster(n_workers=1, processes=False, threads_per_worker=1, dashboard_address=None) as cluster:
-        yield World(root, root / "raw", root / "tracks", cluster.scheduler_address, root / "boards.avi", f"{x - 10:.0f},{y - 10:.0f},20,20", int(row["frame"]), _bag(root / "bag"))
+    with distributed.LocalCluster(
+        n_workers=1, processes=False, threads_per_worker=1, dashboard_address=None
+    ) as cluster:
+        yield World(
+            root,
+            root / "raw",
+            root / "tracks",
+            cluster.scheduler_address,
+            root / "boards.avi",
+            f"{x - 10:.0f},{y - 10:.0f},20,20",
+            int(row["frame"]),
+            _bag(root / "bag"),
+        )
 
 
 def _bag(path: Path) -> Path | None:
     """A tiny ROS 2 bag with poses on /odom (and fixes on /fix), or None without rosbags."""
     try:
-        from tests.tlsync_pipeline.ingest.test_rosbag import STORE, T0, _fix, _odom
         from rosbags.rosbag2 import Writer
+
+        from tests.tlsync_pipeline.ingest.test_rosbag import STORE, T0, _fix, _odom
     except ImportError:
         return None
     with Writer(path, version=9) as writer:
@@ -148,8 +173,12 @@ def _run_verbose(result: Result, world: World) -> None:
     """A wrong pattern: one short line naming the board the images show; --verbose adds what was tried, per image."""
     assert result.exit_code == 2, result.output
     errors = [line for line in result.output.splitlines() if line.startswith("error:")]
-    assert len(errors) == 2 and all('set pattern = "7x5"' in line and len(line) <= MAX_LINE + 40 for line in errors), result.output
-    assert "  tried: the classic detector" in result.output and re.search(r"^  board_00\d\.png: ", result.output, re.M), result.output
+    assert len(errors) == 2 and all('set pattern = "7x5"' in line and len(line) <= MAX_LINE + 40 for line in errors), (
+        result.output
+    )
+    assert "  tried: the classic detector" in result.output and re.search(
+        r"^  board_00\d\.png: ", result.output, re.M
+    ), result.output
 
 
 def _status_typo(result: Result, world: World) -> None:
@@ -182,7 +211,11 @@ def _files(*names: str) -> Callable[[Result, World], None]:
 
 
 def _pattern_named(result: Result, world: World) -> None:
-    assert result.exit_code == 2 and result.output.startswith("error: ") and result.output.rstrip().endswith("use --pattern 7x5"), result.output
+    assert (
+        result.exit_code == 2
+        and result.output.startswith("error: ")
+        and result.output.rstrip().endswith("use --pattern 7x5")
+    ), result.output
 
 
 def _bag_case(result: Result, world: World) -> None:
@@ -192,7 +225,9 @@ def _bag_case(result: Result, world: World) -> None:
     assert (world.root / "odom.csv").exists()
 
 
-SRT = Path(__file__).resolve().parents[1] / "ingest" / "data" / "dji_srt" / "mavic_pro.SRT"  # a DJI drone's local wall clock
+SRT = (
+    Path(__file__).resolve().parents[1] / "ingest" / "data" / "dji_srt" / "mavic_pro.SRT"
+)  # a DJI drone's local wall clock
 
 
 def _utc_offset(result: Result, world: World) -> None:
@@ -207,35 +242,136 @@ PROJECT_WIDE = ("ingest", "sync", "export", "render")
 CASES = [
     Case("run", ("{tracks}/project.toml", "--work", "{root}/run-work", "-j", "1", "-q"), _run_work),
     Case("run", ("{tracks}", "--force", "vote", "--json", "--executor", "serial"), _run_json),
-    Case("run", ("{tracks}", "--truth", "{tracks}/truth.json", "--executor", "process", "--jobs", "2", "--work", "{root}/pool"), _run_truth),
-    Case("run", ("{tracks}", "--executor", "dask", "--scheduler", "{sched}", "--work", "{root}/dask", "--quiet"), _quiet),
+    Case(
+        "run",
+        ("{tracks}", "--truth", "{tracks}/truth.json", "--executor", "process", "--jobs", "2", "--work", "{root}/pool"),
+        _run_truth,
+    ),
+    Case(
+        "run", ("{tracks}", "--executor", "dask", "--scheduler", "{sched}", "--work", "{root}/dask", "--quiet"), _quiet
+    ),
     Case("run", ("{raw}", "--camera", "cam1", "--force", "track", "-j", "1"), _run_camera),
     Case("run", ("{root}/bad", "-j", "1", "--verbose"), _run_verbose),
     Case("status", ("{tracks}", "--work", "{root}/wrok", "--json"), _status_typo),
     Case("status", ("{raw}/project.toml", "-q", "-v"), _silent),
-    *(Case(s, ("{raw}", "--camera", "cam1", "--work", "{raw}/work", "-j", "1", "--executor", "serial", "-v"), _ran(f"{s}/cam1")) for s in PER_CAMERA),
-    *(Case(s, ("{raw}", "--work", "{raw}/work", "-j", "1", "--executor", "serial", "-v"), _ran(s)) for s in PROJECT_WIDE),
-    *(Case(s, ("{raw}", "--executor", "dask", "--scheduler", "{sched}", "-q"), _quiet) for s in PER_CAMERA + PROJECT_WIDE),
-    Case("render", ("{raw}", "--pair", "cam0,cam1", "--frames", "40,60", "--truth", "{raw}/truth.json", "-j", "1"), _render_request),
+    *(
+        Case(
+            s,
+            ("{raw}", "--camera", "cam1", "--work", "{raw}/work", "-j", "1", "--executor", "serial", "-v"),
+            _ran(f"{s}/cam1"),
+        )
+        for s in PER_CAMERA
+    ),
+    *(
+        Case(s, ("{raw}", "--work", "{raw}/work", "-j", "1", "--executor", "serial", "-v"), _ran(s))
+        for s in PROJECT_WIDE
+    ),
+    *(
+        Case(s, ("{raw}", "--executor", "dask", "--scheduler", "{sched}", "-q"), _quiet)
+        for s in PER_CAMERA + PROJECT_WIDE
+    ),
+    Case(
+        "render",
+        ("{raw}", "--pair", "cam0,cam1", "--frames", "40,60", "--truth", "{raw}/truth.json", "-j", "1"),
+        _render_request,
+    ),
     Case("demo", ("{root}/demo", "--quick", "--seed", "1", "--tracking-noise", "0.5", "-j", "1", "-q", "-v"), _demo),
     Case("demo", ("{root}/demo", "--quick", "--seed", "2", "--overwrite", "--jobs", "1"), _demo),
     Case(
         "calibrate-intrinsics",
-        ("--images", "{raw}/cam0/boards/*.png", "--pattern", "7x5", "--square", "0.04", "--model", "rational", "-o", "{root}/c.json", "--report", "{root}/c-report.json", "-j", "1", "-q", "-v"),
+        (
+            "--images",
+            "{raw}/cam0/boards/*.png",
+            "--pattern",
+            "7x5",
+            "--square",
+            "0.04",
+            "--model",
+            "rational",
+            "-o",
+            "{root}/c.json",
+            "--report",
+            "{root}/c-report.json",
+            "-j",
+            "1",
+            "-q",
+            "-v",
+        ),
         _files("c.json", "c-report.json"),
     ),
-    Case("calibrate-intrinsics", ("--video", "{boards}", "--pattern", "7x5", "--square", "0.04", "--max-frames", "20", "--out", "{root}/v.json", "--jobs", "1", "--quiet"), _files("v.json")),
-    Case("calibrate-intrinsics", ("--images", "{raw}/cam0/boards/*.png", "--pattern", "8x6", "--square", "0.04", "-o", "{root}/x.json", "-q"), _pattern_named),
+    Case(
+        "calibrate-intrinsics",
+        (
+            "--video",
+            "{boards}",
+            "--pattern",
+            "7x5",
+            "--square",
+            "0.04",
+            "--max-frames",
+            "20",
+            "--out",
+            "{root}/v.json",
+            "--jobs",
+            "1",
+            "--quiet",
+        ),
+        _files("v.json"),
+    ),
+    Case(
+        "calibrate-intrinsics",
+        ("--images", "{raw}/cam0/boards/*.png", "--pattern", "8x6", "--square", "0.04", "-o", "{root}/x.json", "-q"),
+        _pattern_named,
+    ),
     Case(
         "ingest-log",
-        ("{raw}/target.gpx", "--format", "gpx", "--origin", "46.5197,6.6323,380", "--rate", "5", "--max-gap", "2", "--max-speed", "50", "--smoothing", "0.5",
-         "--altitude-reference", "ellipsoid", "--altitude-offset", "1.5", "-o", "{root}/t.csv", "-v"),
+        (
+            "{raw}/target.gpx",
+            "--format",
+            "gpx",
+            "--origin",
+            "46.5197,6.6323,380",
+            "--rate",
+            "5",
+            "--max-gap",
+            "2",
+            "--max-speed",
+            "50",
+            "--smoothing",
+            "0.5",
+            "--altitude-reference",
+            "ellipsoid",
+            "--altitude-offset",
+            "1.5",
+            "-o",
+            "{root}/t.csv",
+            "-v",
+        ),
         _files("t.csv", "t.ingest.json"),
     ),
-    Case("ingest-log", ("{bag}", "--format", "rosbag", "--topic", "/odom", "--out", "{root}/odom.csv", "--quiet"), _bag_case),
+    Case(
+        "ingest-log",
+        ("{bag}", "--format", "rosbag", "--topic", "/odom", "--out", "{root}/odom.csv", "--quiet"),
+        _bag_case,
+    ),
     Case("ingest-log", (str(SRT), "--utc-offset", "10", "-o", "{root}/srt.csv"), _utc_offset),
     Case("track-video", ("{raw}/cam0/video.mp4", "-o", "{root}/detections.csv", "-q"), _files("detections.csv")),
-    Case("track-video", ("{raw}/cam0/video.mp4", "--tracker", "csrt", "--init", "{init}", "--init-frame", "{frame}", "--out", "{root}/csrt.csv", "--verbose"), _files("csrt.csv")),
+    Case(
+        "track-video",
+        (
+            "{raw}/cam0/video.mp4",
+            "--tracker",
+            "csrt",
+            "--init",
+            "{init}",
+            "--init-frame",
+            "{frame}",
+            "--out",
+            "{root}/csrt.csv",
+            "--verbose",
+        ),
+        _files("csrt.csv"),
+    ),
 ]
 
 
@@ -246,7 +382,11 @@ def test_each_option_does_what_it_says(world, case):
 
 def _listed(command: click.Command) -> dict[str, list[str]]:
     """The options ``--help`` lists (by parameter name: all its spellings), without --help."""
-    return {p.name or "": p.opts + p.secondary_opts for p in command.params if isinstance(p, click.Option) and not p.hidden and p.name != "help"}
+    return {
+        p.name or "": p.opts + p.secondary_opts
+        for p in command.params
+        if isinstance(p, click.Option) and not p.hidden and p.name != "help"
+    }
 
 
 def test_every_listed_option_is_run():
@@ -285,7 +425,9 @@ def test_usage_errors_are_one_tlsync_error_line(args, words):
     """Click's own errors ('Usage: ...' and 'Error: ...') come out as tlsync's single 'error:' line, exit code 2."""
     result = _cli(*args)
     assert result.exit_code == 2
-    assert len(result.output.splitlines()) == 1 and result.output.startswith("error: ") and words in result.output, result.output
+    assert len(result.output.splitlines()) == 1 and result.output.startswith("error: ") and words in result.output, (
+        result.output
+    )
     assert "Usage:" not in result.output and "Error:" not in result.output
 
 
@@ -293,7 +435,9 @@ def test_a_folder_is_the_project_it_holds(world, tmp_path):
     """run|status|render DIR: the folder's project.toml; a folder without one says so in one line."""
     assert _cli("status", world.tracks, "-q").exit_code in (0, 1)
     empty = _cli("run", tmp_path)
-    assert empty.exit_code == 2 and empty.output.startswith("error: ") and "no project.toml in this folder" in empty.output
+    assert (
+        empty.exit_code == 2 and empty.output.startswith("error: ") and "no project.toml in this folder" in empty.output
+    )
     (tmp_path / "other.toml").write_text("")
     hint = _cli("render", tmp_path)
     assert hint.exit_code == 2 and "other.toml" in hint.output

@@ -34,7 +34,8 @@ def _cli(*args: str) -> str:
     """Run the command line in this interpreter (exit codes ignored), as a ``-c`` program."""
     return (
         "import sys\nfrom tlsync_pipeline.cli.main import main\n"
-        f"try:\n    main.main(args={list(args)!r}, prog_name='tlsync', standalone_mode=False)\nexcept SystemExit:\n    pass\n"
+        f"try:\n    main.main(args={list(args)!r}, prog_name='tlsync', standalone_mode=False)\nexcept SystemExit:\n   "
+        f" pass\n"
     )
 
 
@@ -46,7 +47,10 @@ def project(tmp_path):
 
 
 def test_parsing_a_project_loads_no_heavy_library(project, tmp_path):
-    code = f"from tlsync_pipeline.cli.main import main\nfrom tlsync_pipeline.pipeline.project import load_project\nload_project({str(project)!r})"
+    code = (
+        f"from tlsync_pipeline.cli.main import main\nfrom tlsync_pipeline.pipeline.project import "
+        f"load_project\nload_project({str(project)!r})"
+    )
     assert _loaded(code, tmp_path) == []
 
 
@@ -54,10 +58,14 @@ def test_the_project_file_is_a_leaf(project, tmp_path):
     """Parsing a project imports the configuration's constants and parameter types, not the implementations: no SciPy,
     OpenCV, PyAV, matplotlib; of sync/ only its model (and the smoothing it names as the refined method's preparation);
     of ingest/ its parameters and choices, no reader nor the processing."""
-    loaded = _modules(f"from tlsync_pipeline.pipeline.project import load_project\nload_project({str(project)!r})", tmp_path)
+    loaded = _modules(
+        f"from tlsync_pipeline.pipeline.project import load_project\nload_project({str(project)!r})", tmp_path
+    )
     assert not [m for m in loaded if m.split(".")[0] in ("scipy", *HEAVY)], loaded
     sync = [m for m in loaded if m.startswith("tlsync_pipeline.sync.")]
-    assert sync and all(m.startswith(("tlsync_pipeline.sync.model", "tlsync_pipeline.sync.kernels")) for m in sync), sync
+    assert sync and all(m.startswith(("tlsync_pipeline.sync.model", "tlsync_pipeline.sync.kernels")) for m in sync), (
+        sync
+    )
     ingest = [m for m in loaded if m.startswith("tlsync_pipeline.ingest.")]
     assert "tlsync_pipeline.ingest.process" not in ingest and not [m for m in ingest if "read" in m], ingest
 

@@ -93,7 +93,11 @@ def test_unknown_binary_is_named_by_its_bytes_not_echoed(tmp_path):
     with pytest.raises(InputError) as err:
         detect_format(path)
     message = str(err.value)
-    assert "binary file starting with bytes 01 02 47 41" in message and "GARBAGE" not in message and "\ufffd" not in message
+    assert (
+        "binary file starting with bytes 01 02 47 41" in message
+        and "GARBAGE" not in message
+        and "\ufffd" not in message
+    )
 
 
 def test_ulog_utc_boot_clock_and_fix_type(tmp_path, truth):
@@ -194,8 +198,10 @@ def test_kml_linestring_with_timespan_and_points(tmp_path):
 
 def test_kml_entities_are_refused(tmp_path):
     path = tmp_path / "bomb.kml"
-    path.write_text('<?xml version="1.0"?><!DOCTYPE kml [<!ENTITY a "aaaaaaaaaa"><!ENTITY b "&a;&a;&a;&a;&a;&a;&a;&a;">]>'
-                    '<kml xmlns="http://www.opengis.net/kml/2.2"><Document><name>&b;</name></Document></kml>')
+    path.write_text(
+        '<?xml version="1.0"?><!DOCTYPE kml [<!ENTITY a "aaaaaaaaaa"><!ENTITY b "&a;&a;&a;&a;&a;&a;&a;&a;">]>'
+        '<kml xmlns="http://www.opengis.net/kml/2.2"><Document><name>&b;</name></Document></kml>'
+    )
     assert detect_format(path) == "kml"
     with pytest.raises(InputError, match="declares entities"):
         read_log(path)
@@ -260,8 +266,18 @@ def test_fit_real_file_matches_fitdecode():
     expected = []
     with fitdecode.FitReader(str(DATA / "garmin-fenix-5-bike.fit")) as reader:
         for frame in reader:
-            if isinstance(frame, fitdecode.FitDataMessage) and frame.name == "record" and frame.get_value("position_lat", fallback=None) is not None:
-                expected.append((frame.get_value("timestamp").timestamp(), frame.get_value("position_lat") * 180 / 2**31, frame.get_value("position_long") * 180 / 2**31))
+            if (
+                isinstance(frame, fitdecode.FitDataMessage)
+                and frame.name == "record"
+                and frame.get_value("position_lat", fallback=None) is not None
+            ):
+                expected.append(
+                    (
+                        frame.get_value("timestamp").timestamp(),
+                        frame.get_value("position_lat") * 180 / 2**31,
+                        frame.get_value("position_long") * 180 / 2**31,
+                    )
+                )
     records = read_log(DATA / "garmin-fenix-5-bike.fit")
     assert records.format == "fit" and records.utc and records.altitude == "msl" and len(records) == len(expected) > 10
     np.testing.assert_allclose(records.t, [e[0] for e in expected])
@@ -281,7 +297,9 @@ def test_format_choices_come_from_the_registry(tmp_path, truth):
 
 
 def test_rtklib_real_solution_fix_and_float():
-    """A real RTKLIB kinematic solution (MatRTKLIB's example, cut): GPST to UTC, Q and sigmas kept, floats weigh less."""
+    """A real RTKLIB kinematic solution (MatRTKLIB's example, cut): GPST to UTC, Q and sigmas
+    kept, floats weigh less.
+    """
     path = DATA / "rover_1Hz_rtk_head.pos"
     records = read_log(path)
     solutions = [line for line in path.read_text().splitlines() if not line.startswith("%")]
@@ -305,7 +323,9 @@ def test_fit_device_clock_through_timestamp_correlation(tmp_path):
     records = read_log(write_fit_device_clock(tmp_path / "camera.fit", t, geo, power_on))
     assert records.format == "fit" and records.utc and not records.warnings[1:]
     assert any("timestamp_correlation" in n for n in records.notes)
-    np.testing.assert_allclose(records.t, t, atol=1e-3)  # the correlation's fraction reaches the whole-second device times
+    np.testing.assert_allclose(
+        records.t, t, atol=1e-3
+    )  # the correlation's fraction reaches the whole-second device times
     enu = geodetic_to_enu(geo[:, 0], geo[:, 1], geo[:, 2], ORIGIN)
     got = _enu(records, UNDULATION_M)
     assert np.linalg.norm(got[:, :2] - enu[:, :2], axis=1).max() < 0.02 and np.abs(got[:, 2] - enu[:, 2]).max() < 0.2
@@ -320,7 +340,9 @@ def test_gopro_gps9_per_sample_utc(truth):
     t, geo, _ = truth
     fix = np.full(len(t), 3)
     fix[7] = 0
-    packets = [(k / 5.0, 1.0, gpmf_gps9_payload(t[k : k + 5], geo[k : k + 5], fix[k : k + 5])) for k in range(0, 100, 5)]
+    packets = [
+        (k / 5.0, 1.0, gpmf_gps9_payload(t[k : k + 5], geo[k : k + 5], fix[k : k + 5])) for k in range(0, 100, 5)
+    ]
     records = gopro_records(Path("hero12.mp4"), packets)
     keep = np.flatnonzero(fix[:100] >= 2)
     assert records.utc and records.dropped == {"no fix (GPSF or GPS9 fix < 2)": [8]}
@@ -361,14 +383,19 @@ def test_project_altitude_keys_reach_the_ingest(tmp_path, truth):
     t, geo, _ = truth
     write_kml_track(tmp_path / "track.kml", t, geo)
     origin = f"[{ORIGIN.lat}, {ORIGIN.lon}, {ORIGIN.alt}]"
-    (tmp_path / "p.toml").write_text(f'[target]\nlog = "track.kml"\nformat = "kml"\norigin = {origin}\naltitude_offset_m = {UNDULATION_M}\n\n[[cameras]]\nname = "c0"\n')
+    (tmp_path / "p.toml").write_text(
+        f'[target]\nlog = "track.kml"\nformat = "kml"\norigin = {origin}\naltitude_offset_m = '
+        f'{UNDULATION_M}\n\n[[cameras]]\nname = "c0"\n'
+    )
     result = CliRunner().invoke(main, ["ingest", str(tmp_path / "p.toml"), "--work", str(tmp_path / "work")])
     assert result.exit_code == 0, result.output
     assert "heights: above mean sea level (MSL) (as the log says, offset +47.250 m)" in result.output
     report = json.loads(next((tmp_path / "work").rglob("ingest_report.json")).read_text())
     assert report["altitude"] == {"reference": "msl", "source": "log", "offset_m": UNDULATION_M}
     assert not any("altitude_offset_m" in w for w in report["warnings"])
-    (tmp_path / "p.toml").write_text('[target]\nlog = "track.kml"\naltitude_reference = "geoid"\n\n[[cameras]]\nname = "c0"\n')
+    (tmp_path / "p.toml").write_text(
+        '[target]\nlog = "track.kml"\naltitude_reference = "geoid"\n\n[[cameras]]\nname = "c0"\n'
+    )
     bad = CliRunner().invoke(main, ["ingest", str(tmp_path / "p.toml")])
     assert bad.exit_code == 2 and "unknown altitude reference 'geoid'" in bad.output
 

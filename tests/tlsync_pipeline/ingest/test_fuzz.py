@@ -27,7 +27,19 @@ FUZZ = settings(max_examples=40, deadline=None, suppress_health_check=[HealthChe
 FORMATS = ["auto", "gpx", "nmea", "csv", "odometry"]
 
 
-WHOLE_FILE = ("empty log", "no valid fix", "no position fix", "only one valid fix", "cannot detect", "fewer than 2 fixes", "a time is wrong", "samples: check", "cannot read as a ROS bag", "needs the optional extra", "not a readable")
+WHOLE_FILE = (
+    "empty log",
+    "no valid fix",
+    "no position fix",
+    "only one valid fix",
+    "cannot detect",
+    "fewer than 2 fixes",
+    "a time is wrong",
+    "samples: check",
+    "cannot read as a ROS bag",
+    "needs the optional extra",
+    "not a readable",
+)
 
 
 def _run(path, fmt):
@@ -66,7 +78,12 @@ def test_arbitrary_bytes(tmp_path, data, fmt):
 
 
 @FUZZ
-@given(prefix=st.sampled_from([b"$GPGGA,", b"time,lat,lon,alt\n", b"t,x,y,z\n", b"<?xml version='1.0'?><gpx version='1.1'><trk><trkseg>"]), data=st.binary(max_size=300))
+@given(
+    prefix=st.sampled_from(
+        [b"$GPGGA,", b"time,lat,lon,alt\n", b"t,x,y,z\n", b"<?xml version='1.0'?><gpx version='1.1'><trk><trkseg>"]
+    ),
+    data=st.binary(max_size=300),
+)
 def test_plausible_start_then_bytes(tmp_path, prefix, data):
     path = tmp_path / "log.txt"
     path.write_bytes(prefix + data)
@@ -74,7 +91,12 @@ def test_plausible_start_then_bytes(tmp_path, prefix, data):
 
 
 _EDITS = st.lists(
-    st.tuples(st.sampled_from(["cut", "replace", "insert", "delete", "duplicate", "swap"]), st.integers(0, 10_000), st.integers(0, 10_000), st.text(max_size=12)),
+    st.tuples(
+        st.sampled_from(["cut", "replace", "insert", "delete", "duplicate", "swap"]),
+        st.integers(0, 10_000),
+        st.integers(0, 10_000),
+        st.text(max_size=12),
+    ),
     min_size=1,
     max_size=4,
 )
@@ -114,7 +136,9 @@ def test_mangled_lines(tmp_path, logs, fmt, edits, detect):
 @FUZZ
 @given(
     t=st.lists(st.floats(allow_nan=True, allow_infinity=True, width=64), min_size=0, max_size=30),
-    values=st.lists(st.tuples(st.floats(-1e3, 1e3), st.floats(-1e3, 1e3), st.floats(-1e3, 1e3)), min_size=30, max_size=30),
+    values=st.lists(
+        st.tuples(st.floats(-1e3, 1e3), st.floats(-1e3, 1e3), st.floats(-1e3, 1e3)), min_size=30, max_size=30
+    ),
     geodetic=st.booleans(),
     rate=st.none() | st.floats(0.01, 100.0),
     smoothing=st.sampled_from([0.0, 1.0]),

@@ -1,4 +1,6 @@
-"""Property-based tests of the drone/robot/survey readers: damaged files give an InputError naming the file, never a traceback."""
+"""Property-based tests of the drone/robot/survey readers: damaged files give an InputError naming the file, never a
+traceback.
+"""
 
 from __future__ import annotations
 
@@ -58,7 +60,13 @@ def _run(path, fmt):
     report.summary()
 
 
-_BYTE_EDITS = st.lists(st.tuples(st.sampled_from(["flip", "cut", "insert", "delete"]), st.integers(0, 1 << 20), st.binary(min_size=1, max_size=8)), min_size=1, max_size=4)
+_BYTE_EDITS = st.lists(
+    st.tuples(
+        st.sampled_from(["flip", "cut", "insert", "delete"]), st.integers(0, 1 << 20), st.binary(min_size=1, max_size=8)
+    ),
+    min_size=1,
+    max_size=4,
+)
 
 
 def _edit(data: bytes, edits) -> bytes:
@@ -93,7 +101,22 @@ def test_arbitrary_bytes_with_each_reader(tmp_path, data, fmt):
 
 
 @FUZZ
-@given(prefix=st.sampled_from([b"ULog\x01\x12\x35\x01", b"\xa3\x95\x80", b"\x0e\x10\x00\x00\x00\x00\x00\x00.FIT", b"\x00\x00\x00\x18ftypmp42", b"DEVC\x00\x01\x00\x10", b"<kml>", b"% (lat/lon/height=WGS84/ellipsoidal)\n", b"time(millisecond),datetime(utc),latitude,longitude\n", b"1\n00:00:00,000 --> 00:00:01,000\nGPS("]), data=st.binary(max_size=300))
+@given(
+    prefix=st.sampled_from(
+        [
+            b"ULog\x01\x12\x35\x01",
+            b"\xa3\x95\x80",
+            b"\x0e\x10\x00\x00\x00\x00\x00\x00.FIT",
+            b"\x00\x00\x00\x18ftypmp42",
+            b"DEVC\x00\x01\x00\x10",
+            b"<kml>",
+            b"% (lat/lon/height=WGS84/ellipsoidal)\n",
+            b"time(millisecond),datetime(utc),latitude,longitude\n",
+            b"1\n00:00:00,000 --> 00:00:01,000\nGPS(",
+        ]
+    ),
+    data=st.binary(max_size=300),
+)
 def test_magic_then_bytes(tmp_path, prefix, data):
     path = tmp_path / "log.bin"
     path.write_bytes(prefix + data)

@@ -1,4 +1,6 @@
-"""GoPro GPMF sample times: gpmf-parser's sample clock (STMP or MP4 payload times), GPSU and GPS9 UTC; real HERO7 and HERO11 payloads."""
+"""GoPro GPMF sample times: gpmf-parser's sample clock (STMP or MP4 payload times), GPSU and GPS9 UTC; real HERO7 and
+HERO11 payloads.
+"""
 
 from __future__ import annotations
 
@@ -25,7 +27,8 @@ PAYLOAD = 1.001  # s: GoPro's metadata payload interval
 
 def _stream(seconds: float = 12.0, stmp: bool = True, seed: int = 0):
     """(packets, sample times on the video timeline, geodetic samples): a 5 m/s walk sampled at RATE from FIRST,
-    cut into 1.001 s payloads by the time each sample was delivered (the last one ends with the video); GPSU = UTC of each payload's first sample,
+    cut into 1.001 s payloads by the time each sample was delivered (the last one ends with the video); GPSU = UTC of
+    each payload's first sample,
     rounded to 10 ms and now and then one sample late, the first one stale by 1.4 s; STMP jitters by 3 ms."""
     rng = np.random.default_rng(seed)
     n = int((seconds - FIRST) * RATE)
@@ -39,7 +42,12 @@ def _stream(seconds: float = 12.0, stmp: bool = True, seed: int = 0):
         late = int(rng.random() < 0.3)
         gpsu = round(START + media[inside[0]] + late / RATE, 2) + (-1.4 if k == 0 else 0.0)
         stamp = int(round((media[inside[0]] + rng.normal(0, 0.003)) * 1e6)) + 5_000_000 if stmp else None
-        payload = gpmf_payload(geo[inside], gpsu, stmp_us=stamp, shutter_stmp_us=5_000_000 + int(round(k * PAYLOAD * 1e6)) if stmp else None)
+        payload = gpmf_payload(
+            geo[inside],
+            gpsu,
+            stmp_us=stamp,
+            shutter_stmp_us=5_000_000 + int(round(k * PAYLOAD * 1e6)) if stmp else None,
+        )
         packets.append((k * PAYLOAD, min(PAYLOAD, seconds - k * PAYLOAD), payload))
         k += 1
     return packets, media, geo
@@ -63,7 +71,9 @@ def test_sample_clock_without_stmp_is_gpmf_parsers_least_squares_line():
     counts = np.cumsum([len(b.samples) for _, _, p in packets for b in gps_blocks(p)])
     slope, intercept = np.polyfit(ends, counts, 1)
     reference = -intercept / slope + np.arange(len(media)) / slope
-    np.testing.assert_allclose(records.t - records.video_time_zero, reference, atol=1e-6)  # POSIX seconds in float64: 0.2 us
+    np.testing.assert_allclose(
+        records.t - records.video_time_zero, reference, atol=1e-6
+    )  # POSIX seconds in float64: 0.2 us
     # counting delivered samples puts the line about half a sample early (27 ms), spreading over a payload up to 55 ms
     error = reference - media
     assert np.abs(error).max() < 0.04 and -0.04 < np.median(error) < -0.015
@@ -73,10 +83,19 @@ def test_sample_clock_without_stmp_is_gpmf_parsers_least_squares_line():
 def test_sample_clock_single_payload_and_timo():
     clock = sample_clock([Payload(2.0, 3.0, 18, timo_s=0.1)], track_start_s=2.0)
     assert clock.first_s == pytest.approx(1.9) and clock.rate_hz == pytest.approx(18.0)
-    stamped = sample_clock([Payload(0.0, 1.0, 18, 1_100_000, 1_000_000), Payload(1.0, 2.0, 18, 2_090_000, 2_000_000)], track_start_s=0.0)
-    assert stamped.method == "STMP" and stamped.first_s == pytest.approx(0.1) and stamped.rate_hz == pytest.approx(18 / 0.99)
+    stamped = sample_clock(
+        [Payload(0.0, 1.0, 18, 1_100_000, 1_000_000), Payload(1.0, 2.0, 18, 2_090_000, 2_000_000)], track_start_s=0.0
+    )
+    assert (
+        stamped.method == "STMP"
+        and stamped.first_s == pytest.approx(0.1)
+        and stamped.rate_hz == pytest.approx(18 / 0.99)
+    )
     # TSMP counts a sample the first payload's data lost: the rate counts it, as gpmf-parser's does
-    counted = sample_clock([Payload(0.0, 1.0, 18, 1_100_000, 1_000_000, tsmp=18), Payload(1.0, 2.0, 18, 2_090_000, 2_000_000, tsmp=37)], track_start_s=0.0)
+    counted = sample_clock(
+        [Payload(0.0, 1.0, 18, 1_100_000, 1_000_000, tsmp=18), Payload(1.0, 2.0, 18, 2_090_000, 2_000_000, tsmp=37)],
+        track_start_s=0.0,
+    )
     assert counted.rate_hz == pytest.approx(19 / 0.99)
 
 
@@ -84,10 +103,17 @@ def test_real_hero7_payloads_gpsu_against_the_sample_clock():
     """17 real HERO7 Black payloads (GPS5 at 18 Hz, no STMP), placed every 1.001 s as the camera's MP4 does."""
     payloads = _payloads(DATA / "hero7_gpmf.raw")
     records = gopro_records(Path("hero7.mp4"), [(k * PAYLOAD, PAYLOAD, p) for k, p in enumerate(payloads)])
-    assert records.utc and records.altitude == "ellipsoid" and len(records) == sum(len(b.samples) for p in payloads for b in gps_blocks(p))
+    assert (
+        records.utc
+        and records.altitude == "ellipsoid"
+        and len(records) == sum(len(b.samples) for p in payloads for b in gps_blocks(p))
+    )
     video = records.t - records.video_time_zero
     assert 18.0 < 1 / np.median(np.diff(video)) < 18.4
-    assert dt.datetime.fromtimestamp(records.video_time_zero, dt.timezone.utc).strftime("%Y-%m-%d %H:%M") == "2019-01-03 16:33"
+    assert (
+        dt.datetime.fromtimestamp(records.video_time_zero, dt.timezone.utc).strftime("%Y-%m-%d %H:%M")
+        == "2019-01-03 16:33"
+    )
     trajectory, report = ingest(records)
     assert any("GPSU" in note for note in report.notes) and "read: " in report.summary()
 
@@ -112,16 +138,25 @@ def _payloads(path: Path) -> list[bytes]:
     from tlsync_pipeline.ingest.gpmf import klv_items
 
     data = path.read_bytes()
-    return [data[offset - 8 : offset + ((size * repeat + 3) & ~3)] for key, _, size, repeat, offset in klv_items(data) if key == b"DEVC"]
+    return [
+        data[offset - 8 : offset + ((size * repeat + 3) & ~3)]
+        for key, _, size, repeat, offset in klv_items(data)
+        if key == b"DEVC"
+    ]
 
 
 def test_a_raw_gpmf_stream_is_read_on_its_own_timeline(tmp_path):
-    """A ``.raw`` GPMF dump (payloads back to back, starting DEVC) is detected and read: the HERO7's samples, every payload
+    """A ``.raw`` GPMF dump (payloads back to back, starting DEVC) is detected and read: the HERO7's samples, every
+    payload
     placed 1.001 s apart as the camera's MP4 would, the missing MP4 said in a warning."""
     path = tmp_path / "hero7.raw"
     path.write_bytes((DATA / "hero7_gpmf.raw").read_bytes())
     assert detect_format(path) == "gopro"
     records = read_log(path)
     placed = gopro_records(path, [(k * PAYLOAD, PAYLOAD, p) for k, p in enumerate(_payloads(path))])
-    assert len(records) == len(placed) > 200 and np.array_equal(records.t, placed.t) and np.array_equal(records.values, placed.values)
+    assert (
+        len(records) == len(placed) > 200
+        and np.array_equal(records.t, placed.t)
+        and np.array_equal(records.values, placed.values)
+    )
     assert any("raw GPMF" in w and "MP4" in w for w in records.warnings)

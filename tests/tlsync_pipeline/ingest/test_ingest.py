@@ -19,6 +19,7 @@ from data_fixtures.gps_logs import (
     write_gpx_log,
     write_nmea_log,
 )
+from tests.real_data import REAL_DATA
 from tlsync_pipeline.cli.main import main
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.geodesy import Origin, geodetic_to_enu
@@ -27,13 +28,11 @@ from tlsync_pipeline.ingest import (
     RigidTransform,
     detect_format,
     ingest,
+    process,
     read_log,
 )
-from tlsync_pipeline.ingest import process
 from tlsync_pipeline.ingest.process import reject_spikes, resample
 from tlsync_pipeline.trajectory import Trajectory, read_trajectory
-
-from tests.real_data import REAL_DATA
 
 ORIGIN = Origin(47.3769, 8.5417, 450.0)
 START = dt.datetime(2026, 3, 1, 23, 59, 0, tzinfo=dt.timezone.utc)  # crosses midnight: an NMEA day rollover
@@ -81,7 +80,10 @@ def _ecef(lat, lon, h):
     e2 = f * (2 - f)
     phi, lam = np.radians(lat), np.radians(lon)
     n = a / np.sqrt(1 - e2 * np.sin(phi) ** 2)
-    return np.stack([(n + h) * np.cos(phi) * np.cos(lam), (n + h) * np.cos(phi) * np.sin(lam), (n * (1 - e2) + h) * np.sin(phi)], axis=-1)
+    return np.stack(
+        [(n + h) * np.cos(phi) * np.cos(lam), (n + h) * np.cos(phi) * np.sin(lam), (n * (1 - e2) + h) * np.sin(phi)],
+        axis=-1,
+    )
 
 
 def _enu_textbook(lat, lon, h, origin: Origin):
@@ -165,8 +167,13 @@ def test_a_log_without_heights_says_so(tmp_path):
     rows = ["time,lat,lon,alt"] + [f"{i},{47.49 + i * 1e-5:.7f},8.5,0" for i in range(20)]
     (tmp_path / "flat.csv").write_text("\n".join(rows) + "\n")
     _, report = _ingest(tmp_path / "flat.csv")
-    assert any(w.startswith("every fix's height is 0: a log without heights") and "altitude_offset_m" in w for w in report.warnings)
-    (tmp_path / "flat.csv").write_text("\n".join(r.replace(",0", ",0.5") if i else r for i, r in enumerate(rows)) + "\n")
+    assert any(
+        w.startswith("every fix's height is 0: a log without heights") and "altitude_offset_m" in w
+        for w in report.warnings
+    )
+    (tmp_path / "flat.csv").write_text(
+        "\n".join(r.replace(",0", ",0.5") if i else r for i, r in enumerate(rows)) + "\n"
+    )
     assert not any("height is 0" in w for w in _ingest(tmp_path / "flat.csv")[1].warnings)
 
 
@@ -230,17 +237,33 @@ BAD_LOGS = {
         "".join(_nmea_line(f"GPGGA,12000{i}.00,4722.61400,N,00832.50200,E,0,00,,,M,,M,,") + "\n" for i in range(5)),
         "no valid fix; 5 line(s) dropped: 5 GGA fix quality 0 (no fix) (line 1, ...)",
     ),
-    "backwards": ("back.csv", "time,lat,lon,alt\n0,47,8,400\n1,47,8,400\n0.5,47,8,400\n", "back.csv:4: time goes backwards"),
+    "backwards": (
+        "back.csv",
+        "time,lat,lon,alt\n0,47,8,400\n1,47,8,400\n0.5,47,8,400\n",
+        "back.csv:4: time goes backwards",
+    ),
     "nmea backwards": (
         "back.nmea",
-        "".join(_nmea_line(f"GPGGA,1200{s:02d}.00,4722.61400,N,00832.50200,E,1,08,0.9,400.0,M,47.0,M,,") + "\n" for s in (1, 2, 5, 3)),
+        "".join(
+            _nmea_line(f"GPGGA,1200{s:02d}.00,4722.61400,N,00832.50200,E,1,08,0.9,400.0,M,47.0,M,,") + "\n"
+            for s in (1, 2, 5, 3)
+        ),
         "back.nmea:4: time goes backwards",
     ),
     "latitude": ("lat.csv", "time,lat,lon,alt\n0,47,8,400\n1,95.5,8,400\n", "lat.csv:3: latitude 95.5 out of range"),
-    "gpx cut": ("cut.gpx", '<?xml version="1.0"?>\n<gpx version="1.1">\n<trk><trkseg>\n<trkpt lat="47" lon="8"><ele>1</ele><time>2026-01-01T00:00:00Z</time></trkpt>\n<trkpt la', "cut short"),
+    "gpx cut": (
+        "cut.gpx",
+        '<?xml version="1.0"?>\n<gpx version="1.1">\n<trk><trkseg>\n<trkpt lat="47" '
+        'lon="8"><ele>1</ele><time>2026-01-01T00:00:00Z</time></trkpt>\n<trkpt la',
+        "cut short",
+    ),
     "undetectable": ("what.log", "hello world\n1 2 3\n", "cannot detect the log format"),
     # a file of the system given as the log: described (length, separators), never quoted
-    "passwd": ("passwd", "root:x:0:0:root:/root:/bin/bash\n", "cannot detect the log format (a text file whose first line is 31 characters, 7 fields separated by ':')"),
+    "passwd": (
+        "passwd",
+        "root:x:0:0:root:/root:/bin/bash\n",
+        "cannot detect the log format (a text file whose first line is 31 characters, 7 fields separated by ':')",
+    ),
 }
 
 
@@ -272,13 +295,19 @@ def test_nmea_without_rmc_and_without_geoid_separation(tmp_path):
     lines = [_nmea_line(f"GPGGA,0000{i:02d}.00,4722.61400,N,00832.50200,E,1,08,0.9,400.0,M,,M,,") for i in range(10)]
     (tmp_path / "gga.nmea").write_text("\n".join(lines) + "\n")
     records = read_log(tmp_path / "gga.nmea")
-    assert records.t[0] == 0.0 and not records.utc and any("no RMC" in w for w in records.warnings) and any("geoid" in w for w in records.warnings)
+    assert (
+        records.t[0] == 0.0
+        and not records.utc
+        and any("no RMC" in w for w in records.warnings)
+        and any("geoid" in w for w in records.warnings)
+    )
 
 
 def test_project_ingest(tmp_path, walk):
     write_gpx_log(tmp_path / "walk.gpx", walk, ORIGIN, START)
     (tmp_path / "p.toml").write_text(
-        '[target]\nlog = "walk.gpx"\norigin = [47.3769, 8.5417, 450.0]\nmax_speed_mps = 30\n\n[[cameras]]\nname = "c0"\n'
+        '[target]\nlog = "walk.gpx"\norigin = [47.3769, 8.5417, 450.0]\nmax_speed_mps = 30\n\n[[cameras]]\nname = '
+        '"c0"\n'
     )
     result = CliRunner().invoke(main, ["ingest", str(tmp_path / "p.toml")])
     assert result.exit_code == 0, result.output
@@ -289,14 +318,18 @@ def test_project_ingest(tmp_path, walk):
     assert "ran: ingest" in result.output and "samples" in result.output  # the stage's summary
     assert (tmp_path / "work" / "target" / "ingest.manifest.json").exists()  # through the pipeline's cache
     quiet = CliRunner().invoke(main, ["ingest", str(tmp_path / "p.toml"), "--quiet", "--work", str(tmp_path / "w2")])
-    assert quiet.exit_code == 0 and "running" not in quiet.output and (tmp_path / "w2" / "target" / "trajectory.csv").exists()
+    assert (
+        quiet.exit_code == 0
+        and "running" not in quiet.output
+        and (tmp_path / "w2" / "target" / "trajectory.csv").exists()
+    )
 
 
 @pytest.mark.parametrize(
     "extra, expected",
     [
         ('origin = "gcps"', "no camera has geodetic"),
-        ('origin = [95, 8, 0]', "out of range"),
+        ("origin = [95, 8, 0]", "out of range"),
         ('format = "kmz"', "unknown log format"),
         ("odometry_transform = { R = [[1, 0, 0], [0, 2, 0], [0, 0, 1]] }", "not a rotation"),
         ("max_gap = 3", "did you mean 'max_gap_s'"),
@@ -342,7 +375,8 @@ def test_project_odometry_with_transform_and_default_origin(tmp_path, walk):
     rows = ["time,x,y,z"] + [f"{100 + i * 0.5},{i * 0.5},0,0" for i in range(21)]
     (tmp_path / "odom.csv").write_text("\n".join(rows) + "\n")
     (tmp_path / "p.toml").write_text(
-        '[target]\nlog = "odom.csv"\nformat = "odometry"\nodometry_transform = { yaw_deg = 90.0, t = [10, 20, 1] }\n\n[[cameras]]\nname = "c0"\n'
+        '[target]\nlog = "odom.csv"\nformat = "odometry"\nodometry_transform = { yaw_deg = 90.0, t = [10, 20, 1] '
+        '}\n\n[[cameras]]\nname = "c0"\n'
     )
     assert CliRunner().invoke(main, ["ingest", str(tmp_path / "p.toml"), "--quiet"]).exit_code == 0
     back = read_trajectory(tmp_path / "work" / "target" / "trajectory.csv")
@@ -398,7 +432,10 @@ def test_gpx_segments_out_of_time_order(tmp_path, walk):
     """Segments are put in time order; points inside a segment are not reordered."""
     text = write_gpx_log(tmp_path / "w.gpx", walk, ORIGIN, START).read_text()
     head, first, second = text.split("<trkseg>")
-    first, second = first.replace("</trkseg>", ""), second.replace("</trkseg>", "").replace("</trk>", "").replace("</gpx>", "")
+    first, second = (
+        first.replace("</trkseg>", ""),
+        second.replace("</trkseg>", "").replace("</trk>", "").replace("</gpx>", ""),
+    )
     (tmp_path / "swapped.gpx").write_text(f"{head}<trkseg>{second}</trkseg><trkseg>{first}</trkseg></trk></gpx>\n")
     trajectory, report = _ingest(tmp_path / "swapped.gpx", origin=ORIGIN)
     np.testing.assert_array_equal(trajectory.sample, walk.sample)

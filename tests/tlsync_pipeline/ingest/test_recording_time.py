@@ -41,7 +41,13 @@ def test_parse_utc_needs_a_zone():
 
 
 def test_phone_creationdate_is_trusted_mp4_creation_time_is_not(tmp_path):
-    video = _video(tmp_path / "phone.mov", **{"com.apple.quicktime.creationdate": "2026-03-01T13:00:05+0100", "creation_time": "2026-03-01T12:00:07.000000Z"})
+    video = _video(
+        tmp_path / "phone.mov",
+        **{
+            "com.apple.quicktime.creationdate": "2026-03-01T13:00:05+0100",
+            "creation_time": "2026-03-01T12:00:07.000000Z",
+        },
+    )
     phone, container = recording_time(video)
     assert phone.source.startswith("QuickTime") and phone.trusted and phone.tolerance_s == PHONE_TOLERANCE_S
     assert phone.utc_s == calendar.timegm((2026, 3, 1, 12, 0, 5))
@@ -56,7 +62,11 @@ def test_dji_subtitles_beside_the_video_count_only_on_utc(tmp_path):
     write_dji_srt(tmp_path / "DJI_0001.SRT", t, geo, "mavic3", utc_offset_s=3600.0)
     assert all(not r.source.startswith("DJI") for r in recording_time(video))  # a local clock with no zone is no UTC
     dji = recording_time(video, utc_offset_s=3600.0)[0]
-    assert dji.source == "DJI SRT (DJI_0001.SRT)" and dji.trusted and dji.utc_s == pytest.approx(start.timestamp(), abs=0.002)
+    assert (
+        dji.source == "DJI SRT (DJI_0001.SRT)"
+        and dji.trusted
+        and dji.utc_s == pytest.approx(start.timestamp(), abs=0.002)
+    )
     assert dji.tolerance_s == pytest.approx(0.05)
 
 

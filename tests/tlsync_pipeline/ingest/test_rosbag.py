@@ -23,7 +23,9 @@ T0 = 1_772_400_000
 
 def _header(i, rate=5.0):
     ns = int(round(i * 1e9 / rate))
-    return T["std_msgs/msg/Header"](stamp=T["builtin_interfaces/msg/Time"](sec=T0 + ns // 10**9, nanosec=ns % 10**9), frame_id="map")
+    return T["std_msgs/msg/Header"](
+        stamp=T["builtin_interfaces/msg/Time"](sec=T0 + ns // 10**9, nanosec=ns % 10**9), frame_id="map"
+    )
 
 
 def _fix(i, status=0):
@@ -40,8 +42,13 @@ def _fix(i, status=0):
 
 def _odom(i):
     point = T["geometry_msgs/msg/Point"](x=0.5 * i, y=0.0, z=1.0)
-    pose = T["geometry_msgs/msg/Pose"](position=point, orientation=T["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=1.0))
-    twist = T["geometry_msgs/msg/Twist"](linear=T["geometry_msgs/msg/Vector3"](x=0.0, y=0.0, z=0.0), angular=T["geometry_msgs/msg/Vector3"](x=0.0, y=0.0, z=0.0))
+    pose = T["geometry_msgs/msg/Pose"](
+        position=point, orientation=T["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=1.0)
+    )
+    twist = T["geometry_msgs/msg/Twist"](
+        linear=T["geometry_msgs/msg/Vector3"](x=0.0, y=0.0, z=0.0),
+        angular=T["geometry_msgs/msg/Vector3"](x=0.0, y=0.0, z=0.0),
+    )
     return T["nav_msgs/msg/Odometry"](
         header=_header(i),
         child_frame_id="base_link",
@@ -59,14 +66,19 @@ def bag(tmp_path):
         odom = writer.add_connection("/odom", "nav_msgs/msg/Odometry", typestore=STORE)
         for k, i in enumerate([0, 1, 2, 4, 3, *range(5, 20)]):
             receive = T0 * 10**9 + k * 200_000_000 + 5_000_000  # arrival order: stamps 4 then 3
-            writer.write(fix, receive, STORE.serialize_cdr(_fix(i, status=-1 if i == 3 else 0), "sensor_msgs/msg/NavSatFix"))
+            writer.write(
+                fix, receive, STORE.serialize_cdr(_fix(i, status=-1 if i == 3 else 0), "sensor_msgs/msg/NavSatFix")
+            )
             writer.write(odom, receive, STORE.serialize_cdr(_odom(i), "nav_msgs/msg/Odometry"))
     return path
 
 
 def test_navsatfix_topic(bag):
     assert detect_format(bag) == "rosbag"
-    with pytest.raises(InputError, match="several NavSatFix/Odometry/PoseStamped topics: /fix .NavSatFix, 20 messages., /odom .Odometry"):
+    with pytest.raises(
+        InputError,
+        match="several NavSatFix/Odometry/PoseStamped topics: /fix .NavSatFix, 20 messages., /odom .Odometry",
+    ):
         read_log(bag)
     records = read_log(bag, "rosbag", topic="/fix")
     assert records.dropped == {"NavSatFix status -1 (no fix)": [5]} and records.unit == "/fix message"
@@ -80,7 +92,9 @@ def test_navsatfix_topic(bag):
 
 def test_odometry_topic_via_cli(bag, tmp_path):
     out = tmp_path / "odom.csv"
-    result = CliRunner().invoke(main, ["ingest-log", str(bag), "--format", "rosbag", "--topic", "/odom", "--out", str(out)])
+    result = CliRunner().invoke(
+        main, ["ingest-log", str(bag), "--format", "rosbag", "--topic", "/odom", "--out", str(out)]
+    )
     assert result.exit_code == 0, result.output
     assert "20 samples at 5 Hz" in result.output
     missing = CliRunner().invoke(main, ["ingest-log", str(bag), "--topic", "/nope", "--out", str(out)])
@@ -102,7 +116,9 @@ from hypothesis import strategies as st  # noqa: E402
 
 
 @settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
-@given(magic=st.sampled_from([b"#ROSBAG V2.0\n", b"\x89MCAP0\r\n", b"SQLite format 3\x00"]), data=st.binary(max_size=300))
+@given(
+    magic=st.sampled_from([b"#ROSBAG V2.0\n", b"\x89MCAP0\r\n", b"SQLite format 3\x00"]), data=st.binary(max_size=300)
+)
 def test_damaged_bags_give_input_errors(tmp_path, magic, data):
     path = tmp_path / "damaged.bag"
     path.write_bytes(magic + data)
@@ -124,7 +140,12 @@ def test_bare_mcap_with_pose_topic_sim_clock_and_covariance_sigma(tmp_path):
             stamp = T["builtin_interfaces/msg/Time"](sec=100 + i, nanosec=0)
             header = T["std_msgs/msg/Header"](stamp=stamp, frame_id="map")
             point = T["geometry_msgs/msg/Point"](x=float(i), y=2.0, z=0.5)
-            msg = T["geometry_msgs/msg/PoseStamped"](header=header, pose=T["geometry_msgs/msg/Pose"](position=point, orientation=T["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=1.0)))
+            msg = T["geometry_msgs/msg/PoseStamped"](
+                header=header,
+                pose=T["geometry_msgs/msg/Pose"](
+                    position=point, orientation=T["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=1.0)
+                ),
+            )
             writer.write(pose, (100 + i) * 10**9, STORE.serialize_cdr(msg, "geometry_msgs/msg/PoseStamped"))
             gps = _fix(i)
             gps.header.stamp = stamp

@@ -1,4 +1,6 @@
-"""Units of a log: declared ones convert, and a trajectory that cannot move like a target in seconds and metres is named."""
+"""Units of a log: declared ones convert, and a trajectory that cannot move like a target in seconds and metres is
+named.
+"""
 
 from __future__ import annotations
 
@@ -6,7 +8,7 @@ import numpy as np
 import pytest
 
 from tlsync_pipeline.ingest.params import IngestParams
-from tlsync_pipeline.ingest.process import ingest, in_seconds_and_metres
+from tlsync_pipeline.ingest.process import in_seconds_and_metres, ingest
 from tlsync_pipeline.ingest.records import LOCAL, make_records
 from tlsync_pipeline.ingest.units import LENGTH_UNITS, TIME_UNITS, implausible_motion, unit_scale
 

@@ -46,7 +46,7 @@ def _clip_starts(timeline) -> dict[str, tuple[float, float, object]]:
 
 def test_otio_round_trip_places_every_clip_at_its_offset(exported):
     work, offsets, scene = exported
-    timeline = otio.adapters.read_from_file(str((work / "exports" / "timeline.otio")))
+    timeline = otio.adapters.read_from_file(str(work / "exports" / "timeline.otio"))
     starts = _clip_starts(timeline)
     assert set(starts) == set(offsets)
     earliest = min(float(r["start_s"]) for r in offsets.values())
@@ -62,7 +62,7 @@ def test_otio_round_trip_places_every_clip_at_its_offset(exported):
 
 def test_fcpxml_round_trip_places_every_clip_within_a_frame(exported):
     work, offsets, _ = exported
-    timeline = otio.adapters.read_from_file(str((work / "exports" / "timeline.fcpxml")), adapter_name="fcpx_xml")
+    timeline = otio.adapters.read_from_file(str(work / "exports" / "timeline.fcpxml"), adapter_name="fcpx_xml")
     starts = {}
     for track in timeline.video_tracks():
         for clip in track.find_clips():
@@ -95,7 +95,9 @@ def test_fcpxml_names_a_rate_it_cannot_write():
 
 
 def test_otio_clip_without_a_video_is_a_missing_reference():
-    timeline = otio_timeline([Placement("a", None, -0.5, 30.0, 10, 1 / 3), Placement("b", "b.mp4", 0.25, 25.0, 10, 0.4)])
+    timeline = otio_timeline(
+        [Placement("a", None, -0.5, 30.0, 10, 1 / 3), Placement("b", "b.mp4", 0.25, 25.0, 10, 0.4)]
+    )
     starts = _clip_starts(timeline)
     assert starts["a"][0] == 0.0 and starts["b"][0] == pytest.approx(0.75)
     assert isinstance(starts["a"][2].media_reference, otio.schema.MissingReference)

@@ -67,6 +67,7 @@ def player_frame(entry: dict, sample: float) -> int:
         f = int(np.floor(clock - g["shift"] + 0.5))  # Math.round
         if 0 <= f < n and (k == 0 or f >= g["start"]) and (k == len(segments) - 1 or f < g["stop"]):
             return f
+
     def spans(g: dict) -> bool:
         return (g["lo"] is None or sample >= g["lo"]) and (g["hi"] is None or sample <= g["hi"])
 
@@ -100,8 +101,10 @@ def test_a_recording_that_breaks_is_played_through_its_segments_as_the_frame_map
     assert (rows[2]["lo"], rows[2]["hi"]) == pytest.approx(((180 + 60 - 10) / 2, (299 + 60 - 10) / 2))
     # the unknown segment lies between its known neighbours
     assert (rows[1]["lo"], rows[1]["hi"]) == (rows[0]["hi"], rows[2]["lo"])
-    assert entry["breaks"] == [{"sample": pytest.approx(rows[0]["hi"]), "text": "gap of 3 frames at frame 100"},
-                               {"sample": pytest.approx(rows[2]["lo"]), "text": "jump of 57 frames at frame 180"}]
+    assert entry["breaks"] == [
+        {"sample": pytest.approx(rows[0]["hi"]), "text": "gap of 3 frames at frame 100"},
+        {"sample": pytest.approx(rows[2]["lo"]), "text": "jump of 57 frames at frame 180"},
+    ]
     # every sample: the player's frame is the frame map's (CameraClock.frames_at), and none in the unknown segment
     table = FrameTimes(np.arange(n, dtype=np.float64), videos[names[1]].frame_times)
     samples = np.linspace(-20.0, 190.0, 4201)

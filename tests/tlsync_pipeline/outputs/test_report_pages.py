@@ -1,4 +1,6 @@
-"""report.html and report.md of a quick run: the camera table, readable headings, stages with render, local links only."""
+"""report.html and report.md of a quick run: the camera table, readable headings, stages with
+render, local links only.
+"""
 
 import re
 
@@ -53,4 +55,6 @@ def test_the_uncertainty_column_gives_the_budget_shares():
 
     assert budget_text(None) == "-"
     text = budget_text(ErrorBudget(tracking_frames=0.3, calibration_frames=0.4, log_frames=1.2))
-    assert text.startswith("± 1.3 frames") and "tracking 5 %" in text and "calibration 9 %" in text and "log 85 %" in text
+    assert (
+        text.startswith("± 1.3 frames") and "tracking 5 %" in text and "calibration 9 %" in text and "log 85 %" in text
+    )

@@ -40,12 +40,16 @@ def _write_log(path, trajectory, damaged_row: int, hole: tuple[float, float]) ->
 
 @pytest.fixture(scope="module")
 def reported(tmp_path_factory):
-    """The project run by ``tlsync run``: the terminal's output, the report's warnings (HTML items), report.md, timeline.json, the work folder."""
+    """The project run by ``tlsync run``: the terminal's output, the report's warnings (HTML items), report.md,
+    timeline.json, the work folder.
+    """
     folder = tmp_path_factory.mktemp("warnings")
     scene = make_scene(seed=0, lines=((2.0, 4.0), (2.0, 45.0), (1.0, -30.5)), n_frames=(400, 400, 300))
     project = write_scene(scene, folder)
     _write_log(folder / "log.csv", scene.trajectory, damaged_row=20, hole=(25.0, 27.0))
-    boards = render_checkerboards(seed=5, n_full=5, n_cut=0, n_absent=1, image_size=(320, 240), pattern=PATTERN, square=SQUARE_M)
+    boards = render_checkerboards(
+        seed=5, n_full=5, n_cut=0, n_absent=1, image_size=(320, 240), pattern=PATTERN, square=SQUARE_M
+    )
     write_checkerboards(boards, folder / "cam3" / "boards")
     R, t = looking_at((3.0, -15.0, 6.0), (0.0, 5.0, 0.0))
     uv, xyz, _ = make_gcps(boards.K, boards.dist, R, t, boards.image_size, n=8, seed=1)
@@ -57,7 +61,8 @@ def reported(tmp_path_factory):
     text = project.read_text().replace('trajectory = "trajectory.csv"', 'log = "log.csv"')
     text += (
         f'\n[[cameras]]\nname = "cam3"\nvideo = "cam3/video.mp4"\nfps = 25.0\n'
-        f'[cameras.calibration]\nimages = "cam3/boards/*.png"\npattern = "{PATTERN[0]}x{PATTERN[1]}"\nsquare = {SQUARE_M}\ngcp = "cam3/gcp.csv"\ngcp_sigma_m = 0\n'
+        f'[cameras.calibration]\nimages = "cam3/boards/*.png"\npattern = "{PATTERN[0]}x{PATTERN[1]}"\nsquare = '
+        f'{SQUARE_M}\ngcp = "cam3/gcp.csv"\ngcp_sigma_m = 0\n'
         '[cameras.tracker]\nkind = "blob"\n'
     )
     project.write_text(text)
@@ -67,7 +72,13 @@ def reported(tmp_path_factory):
     page = (work / "report.html").read_text()
     section = re.search(r'<ul class="warnings">(.*?)</ul>', page, re.S).group(1)
     items = [html.unescape(re.sub(r"<[^>]+>", "", item)) for item in re.findall(r"<li>(.*?)</li>", section, re.S)]
-    return result.output, items, (work / "report.md").read_text(), json.loads((work / "timeline.json").read_text()), project
+    return (
+        result.output,
+        items,
+        (work / "report.md").read_text(),
+        json.loads((work / "timeline.json").read_text()),
+        project,
+    )
 
 
 def _terminal_warnings(output: str) -> list[tuple[str, str | None, str]]:
@@ -85,8 +96,12 @@ def test_one_list_of_warnings_on_the_terminal_in_the_report_and_in_timeline_json
     listed = [(w["stage"], w["camera"], w["text"]) for w in timeline["warnings"]]
     assert _terminal_warnings(output) == listed
     assert items == [f"{stage} " + (f"{camera}: " if camera else "") + text for stage, camera, text in listed]
-    bullets = [line for line in markdown.split("## Warnings", 1)[1].split("\n## ", 1)[0].splitlines() if line.startswith("- ")]
-    assert bullets == [f"- **{stage}**" + (f" {camera}" if camera else "") + f": {text}" for stage, camera, text in listed]
+    bullets = [
+        line for line in markdown.split("## Warnings", 1)[1].split("\n## ", 1)[0].splitlines() if line.startswith("- ")
+    ]
+    assert bullets == [
+        f"- **{stage}**" + (f" {camera}" if camera else "") + f": {text}" for stage, camera, text in listed
+    ]
     assert len(set(listed)) == len(listed)  # each once
     assert f"{len(listed)} warnings; see " in output
 
@@ -109,7 +124,9 @@ def test_what_is_not_a_warning_has_its_own_place(reported):
     the exports section; cameras without videos (cam0-cam2) have no strip, and nothing says so."""
     output, items, markdown, timeline, _ = reported
     target_log = markdown.split("## Target log", 1)[1].split("\n## ", 1)[0]
-    assert "expected 4 fields (line 22)" in target_log and re.search(r"\n +2\.\d+ s after line \d+: not bridged", target_log), target_log
+    assert "expected 4 fields (line 22)" in target_log and re.search(
+        r"\n +2\.\d+ s after line \d+: not bridged", target_log
+    ), target_log
     exports = markdown.split("## Exports", 1)[1].split("\n## ", 1)[0]
     assert "no timeline.fcpxml: camera cam2 runs at 15 fps" in exports
     assert "no timeline.fcpxml" in output and not any("fcpxml" in w["text"] for w in timeline["warnings"])

@@ -57,7 +57,11 @@ def _edited(finished, tmp_path, old, new):
 
 def _stale_by_own_reasons(folder) -> dict[str, list[str]]:
     """Tasks stale for a reason of their own (not only waiting for another), with those reasons."""
-    own = {row.id: [r for r in row.reasons if not r.startswith("waits for")] for row in status(_graph(folder)) if row.state == "stale"}
+    own = {
+        row.id: [r for r in row.reasons if not r.startswith("waits for")]
+        for row in status(_graph(folder))
+        if row.state == "stale"
+    }
     return {tid: reasons for tid, reasons in own.items() if reasons}
 
 
@@ -67,10 +71,25 @@ def _stale_by_own_reasons(folder) -> dict[str, list[str]]:
         ("seed = 0\n", "seed = 0\nmodel_error_px = 7.0\n", {"sync"}, "model_error_px: 3.0 -> 7.0"),
         ("eps_px = 10.0", "eps_px = 12.0", {"identify/cam1", "vote/cam0", "vote/cam1", "sync"}, "eps_px: 10.0 -> 12.0"),
         ("seed = 0\n", "seed = 0\nr_min = 0.02\n", {"identify/cam1", "sync"}, "r_min: 0.01 -> 0.02"),
-        ("seed = 0\n", "seed = 0\nsmooth_trajectory = false\n", {"identify/cam1", "vote/cam0", "vote/cam1", "sync"}, "smooth_trajectory: True -> False"),
+        (
+            "seed = 0\n",
+            "seed = 0\nsmooth_trajectory = false\n",
+            {"identify/cam1", "vote/cam0", "vote/cam1", "sync"},
+            "smooth_trajectory: True -> False",
+        ),
         ('name = "cam0"\n', 'name = "cam0"\nproxy = "never"\n', {"render"}, "proxy.cam0: 'auto' -> 'never'"),
-        ('trajectory = "trajectory.csv"\n', 'trajectory = "trajectory.csv"\nlog_model = "drone"\n', {"identify/cam1", "vote/cam0", "vote/cam1", "sync"}, "log_model.name: 'auto' -> 'drone'"),
-        ('trajectory = "trajectory.csv"\n', 'trajectory = "trajectory.csv"\nbias_tau_s = 30.0\n', {"sync"}, "log_model.tau_s: None -> 30.0"),
+        (
+            'trajectory = "trajectory.csv"\n',
+            'trajectory = "trajectory.csv"\nlog_model = "drone"\n',
+            {"identify/cam1", "vote/cam0", "vote/cam1", "sync"},
+            "log_model.name: 'auto' -> 'drone'",
+        ),
+        (
+            'trajectory = "trajectory.csv"\n',
+            'trajectory = "trajectory.csv"\nbias_tau_s = 30.0\n',
+            {"sync"},
+            "log_model.tau_s: None -> 30.0",
+        ),
     ],
     ids=["model_error_px", "eps_px", "r_min", "smooth_trajectory", "proxy", "log_model", "bias_tau_s"],
 )
@@ -103,7 +122,9 @@ def test_a_code_edit_makes_stale_exactly_the_stages_that_run_it(finished, tmp_pa
 
     folder = _copy(finished, tmp_path)
     original = codehash.module_source
-    monkeypatch.setattr(codehash, "module_source", lambda name: original(name) + (b"\n# a comment\n" if name == module else b""))
+    monkeypatch.setattr(
+        codehash, "module_source", lambda name: original(name) + (b"\n# a comment\n" if name == module else b"")
+    )
     found = _stale_by_own_reasons(folder)
     assert set(found) == stale
     assert all(any(f"code of {module}" in reason for reason in reasons) for reasons in found.values()), found
@@ -123,7 +144,9 @@ def finished_with_a_log(tmp_path_factory):
     toml = folder / "project.toml"
     given = 'trajectory = "trajectory.csv"\n'
     assert given in toml.read_text()
-    toml.write_text(toml.read_text().replace(given, f'log = "target.gpx"\norigin = [{origin.lat}, {origin.lon}, {origin.alt}]\n'))
+    toml.write_text(
+        toml.read_text().replace(given, f'log = "target.gpx"\norigin = [{origin.lat}, {origin.lon}, {origin.alt}]\n')
+    )
     summary = run_graph(_graph(folder))
     assert {"ingest", "vote/cam0", "sync"} <= set(summary.ran)
     return folder

@@ -78,9 +78,16 @@ def test_the_timeline_writer_is_not_code_of_the_stages_before_sync():
 
 
 def test_preparing_the_trajectory_imports_no_fit():
-    """The vote, identify, scan and calibrate stages prepare the trajectory (sync/model/methods.py) without the methods' fits."""
+    """The vote, identify, scan and calibrate stages prepare the trajectory (sync/model/methods.py) without the methods'
+    fits.
+    """
     for stage in ("vote", "identify", "scan", "calibrate"):
-        assert not _sync_parts(_closure(stage)) & {"solve.registry", "solve.refined", "solve.paper", "solve.synchronize"}, stage
+        assert not _sync_parts(_closure(stage)) & {
+            "solve.registry",
+            "solve.refined",
+            "solve.paper",
+            "solve.synchronize",
+        }, stage
 
 
 def test_the_model_and_the_kernels_import_no_other_part_of_sync():
@@ -88,12 +95,16 @@ def test_the_model_and_the_kernels_import_no_other_part_of_sync():
         path = [p for p in __import__(f"{SYNC}{package}", fromlist=["_"]).__path__]
         for info in pkgutil.iter_modules(path):
             module = f"{SYNC}{package}.{info.name}"
-            wrong = sorted(p for p in _sync_parts(codehash.closure(module)) if not _allowed(p, frozenset({"model", "kernels"})))
+            wrong = sorted(
+                p for p in _sync_parts(codehash.closure(module)) if not _allowed(p, frozenset({"model", "kernels"}))
+            )
             assert not wrong, f"{module} imports {wrong}"
 
 
 def test_the_stage_modules_are_all_known():
-    """Every module of pipeline/stages is a stage's or one the stages share (a new helper module is placed here on purpose)."""
+    """Every module of pipeline/stages is a stage's or one the stages share (a new helper module is placed here on
+    purpose).
+    """
     shared = {"cameras", "camera_plan"}
     found = {info.name for info in pkgutil.iter_modules(stages.__path__)}
     assert found == set(MAY_IMPORT) | shared

@@ -6,7 +6,12 @@ from tlsync_pipeline.pipeline.graph import STAGE_SPECS
 
 def test_each_stage_runs_its_own_modules_and_not_the_engine():
     vote = codehash.closure("tlsync_pipeline.pipeline.stages.vote")
-    assert {"tlsync_pipeline.pipeline.stages.vote", "tlsync_pipeline.sync.vote.votes", "trackers.track", "calibration.camera"} <= set(vote)
+    assert {
+        "tlsync_pipeline.pipeline.stages.vote",
+        "tlsync_pipeline.sync.vote.votes",
+        "trackers.track",
+        "calibration.camera",
+    } <= set(vote)
     assert "trackers.blob" not in vote and "tlsync_pipeline.outputs.pictures" not in vote
     track = codehash.closure("tlsync_pipeline.pipeline.stages.track")
     assert {"trackers.blob", "trackers.csrt", "trackers.tracking"} <= set(track)  # csrt: imported inside a function
@@ -22,6 +27,10 @@ def test_digests_follow_the_sources(monkeypatch):
     before = codehash.code_digests("tlsync_pipeline.pipeline.stages.export")
     assert set(before) == set(codehash.closure("tlsync_pipeline.pipeline.stages.export"))
     original = codehash.module_source
-    monkeypatch.setattr(codehash, "module_source", lambda name: original(name) + (b"#" if name == "tlsync_pipeline.outputs.exports" else b""))
+    monkeypatch.setattr(
+        codehash,
+        "module_source",
+        lambda name: original(name) + (b"#" if name == "tlsync_pipeline.outputs.exports" else b""),
+    )
     after = codehash.code_digests("tlsync_pipeline.pipeline.stages.export")
     assert [m for m in before if before[m] != after[m]] == ["tlsync_pipeline.outputs.exports"]

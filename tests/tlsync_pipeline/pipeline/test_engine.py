@@ -112,12 +112,18 @@ def test_manifest_records_inputs_params_and_outputs(project_dir):
     assert manifest.stage == "vote" and manifest.camera == "cam0"
     # The votes depend on eps_px and on the method's trajectory preparation, not on other methods' keys.
     assert manifest.params["eps_px"] == 10.0
-    assert manifest.params["preparation"] == {"method": "refined", "options": {"smooth_trajectory": True}, "logged_point_above_m": 0.0}
+    assert manifest.params["preparation"] == {
+        "method": "refined",
+        "options": {"smooth_trajectory": True},
+        "logged_point_above_m": 0.0,
+    }
     assert "r" not in manifest.params and "delta" not in manifest.params
     assert manifest.inputs["track"]["path"] == "cam0/track.csv" and len(manifest.inputs["track"]["sha256"]) == 64
     assert list(manifest.outputs) == ["cameras/cam0/votes.npz"]
     assert "tlsync_pipeline.sync.vote.votes" in manifest.code and "tlsync_pipeline.pipeline.engine" not in manifest.code
-    assert manifest.seconds >= 0 and manifest.cpu_seconds is not None and manifest.cpu_seconds >= 0  # the task's own run, where it ran
+    assert (
+        manifest.seconds >= 0 and manifest.cpu_seconds is not None and manifest.cpu_seconds >= 0
+    )  # the task's own run, where it ran
     sync = read_manifest(project_dir / "work" / "sync.manifest.json")
     assert sync.inputs["votes:cam1"]["path"] == "<work>/cameras/cam1/votes.npz"
 
@@ -188,11 +194,30 @@ def test_process_executor_gives_the_same_timeline(project_dir, tmp_path):
 def test_dask_executor_on_a_local_cluster(project_dir, tmp_path):
     distributed = pytest.importorskip("distributed")
 
-    with distributed.LocalCluster(n_workers=2, processes=False, threads_per_worker=1, dashboard_address=None) as cluster:
-        result = _cli("run", project_dir / "project.toml", "--executor", "dask", "--scheduler", cluster.scheduler_address, "--work", tmp_path / "dask")
+    with distributed.LocalCluster(
+        n_workers=2, processes=False, threads_per_worker=1, dashboard_address=None
+    ) as cluster:
+        result = _cli(
+            "run",
+            project_dir / "project.toml",
+            "--executor",
+            "dask",
+            "--scheduler",
+            cluster.scheduler_address,
+            "--work",
+            tmp_path / "dask",
+        )
     assert result.exit_code == 0, result.output
-    assert sorted(result.output.split("ran: ")[1].splitlines()[0].split(", ")) == ["export", "render", "sync", "vote/cam0", "vote/cam1"]
-    assert json.loads((tmp_path / "dask" / "timeline.json").read_text())["cameras"]["cam1"]["alpha"] == pytest.approx(2.0, abs=0.01)
+    assert sorted(result.output.split("ran: ")[1].splitlines()[0].split(", ")) == [
+        "export",
+        "render",
+        "sync",
+        "vote/cam0",
+        "vote/cam1",
+    ]
+    assert json.loads((tmp_path / "dask" / "timeline.json").read_text())["cameras"]["cam1"]["alpha"] == pytest.approx(
+        2.0, abs=0.01
+    )
     assert _cli("run", project_dir / "project.toml", "--executor", "dask").exit_code == 2  # needs --scheduler
 
 
@@ -211,7 +236,9 @@ def test_ready_tasks_go_out_tracks_first_the_largest_video_first(tmp_path):
             f'[[cameras]]\nname = "{name}"\nvideo = "{name}.mp4"\n'
             '[cameras.calibration]\nimages = "boards/*.png"\npattern = "7x5"\nsquare = 0.04\ngcp = "gcp.csv"\n'
         )
-    (tmp_path / "project.toml").write_text('[target]\nlog = "target.gpx"\norigin = [46.5, 6.6, 380.0]\n' + "".join(cameras))
+    (tmp_path / "project.toml").write_text(
+        '[target]\nlog = "target.gpx"\norigin = [46.5, 6.6, 380.0]\n' + "".join(cameras)
+    )
     graph = _graph(tmp_path)
     order = sorted(graph.tasks, key=lambda t: _priority(graph.tasks[t]))
     assert order[:6] == ["scan/cam1", "track/cam1", "scan/cam2", "track/cam2", "scan/cam0", "track/cam0"]

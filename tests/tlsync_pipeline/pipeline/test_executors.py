@@ -91,18 +91,22 @@ def test_workers_end_with_their_parent(tmp_path, how):
 
 def test_users_warnings_come_back_in_the_result_as_one_line():
     def stage():
-        warnings.warn("cam0/video.mp4: video truncated\n  read up to frame 9", UserWarning)
+        warnings.warn("cam0/video.mp4: video truncated\n  read up to frame 9", UserWarning, stacklevel=1)
         return {"message": "done"}
 
     called = call_recording_warnings(stage, {})
-    assert called.value == {"message": "done"} and called.warnings == ("cam0/video.mp4: video truncated read up to frame 9",)
-    assert SerialExecutor().submit(stage, {}).result().warnings == ("cam0/video.mp4: video truncated read up to frame 9",)
+    assert called.value == {"message": "done"} and called.warnings == (
+        "cam0/video.mp4: video truncated read up to frame 9",
+    )
+    assert SerialExecutor().submit(stage, {}).result().warnings == (
+        "cam0/video.mp4: video truncated read up to frame 9",
+    )
 
 
 def where_and_square(value):
     """A part of a task run by run_each: which process ran it, and a result."""
     if value == 2:
-        warnings.warn(f"part {value}: a warning for users", UserWarning)
+        warnings.warn(f"part {value}: a warning for users", UserWarning, stacklevel=1)
     return {"pid": os.getpid(), "square": value * value}
 
 
@@ -120,11 +124,15 @@ def test_run_each_hands_the_parts_to_the_runs_workers_in_order():
     assert all(r.cpu_s >= 0.0 for r in results)  # their CPU, for the task to count as its own
     assert results[2].warnings == ("part 2: a warning for users",) and results[1].warnings == ()
     serial = run_each(SerialExecutor(), where_and_square, [{"value": 3}])
-    assert serial[0].value == {"pid": os.getpid(), "square": 9} and not serial[0].elsewhere  # this process's CPU time counts it already
+    assert (
+        serial[0].value == {"pid": os.getpid(), "square": 9} and not serial[0].elsewhere
+    )  # this process's CPU time counts it already
 
 
 def test_run_each_does_not_start_a_pool_for_its_parts():
-    """A pool no task has started stays unstarted: the parts run in this process (starting workers costs more than they do)."""
+    """A pool no task has started stays unstarted: the parts run in this process (starting workers costs more than they
+    do).
+    """
     from tlsync_pipeline.pipeline.executors import ProcessExecutor, run_each
 
     executor = ProcessExecutor(2)
@@ -133,5 +141,7 @@ def test_run_each_does_not_start_a_pool_for_its_parts():
         assert not executor.started
     finally:
         executor.close()
-    assert [(r.value["pid"], r.value["square"], r.elsewhere) for r in results] == [(os.getpid(), v * v, False) for v in range(3)]
+    assert [(r.value["pid"], r.value["square"], r.elsewhere) for r in results] == [
+        (os.getpid(), v * v, False) for v in range(3)
+    ]
     assert results[2].warnings == ("part 2: a warning for users",)

@@ -22,7 +22,10 @@ def _gcps(path, origin=SITE, shift_m=(0.0, 0.0), edit=None):
 
 def test_swapped_columns_far_from_the_given_origin_are_named(tmp_path):
     table = read_gcps(_gcps(tmp_path / "gcp.csv", edit=lambda g: g[:, [1, 0, 2]]))
-    with pytest.raises(InputError, match=r"gcp.csv: the points are [\d,]+ km from the \[target\] origin; latitude and longitude look swapped") as info:
+    with pytest.raises(
+        InputError,
+        match=r"gcp.csv: the points are [\d,]+ km from the \[target\] origin; latitude and longitude look swapped",
+    ) as info:
         check_gcp_places(table, SITE)
     assert len(str(info.value)) < 200
 
@@ -33,7 +36,10 @@ def test_one_point_with_a_sign_slip_is_named_with_its_line(tmp_path):
         return g
 
     table = read_gcps(_gcps(tmp_path / "gcp.csv", edit=flip_third))
-    with pytest.raises(InputError, match=r"gcp.csv:4: point \S+ is [\d,]+ km from the file's other points; the longitude's sign looks wrong"):
+    with pytest.raises(
+        InputError,
+        match=r"gcp.csv:4: point \S+ is [\d,]+ km from the file's other points; the longitude's sign looks wrong",
+    ):
         check_gcp_places(table, SITE)
 
 
@@ -45,17 +51,29 @@ def test_heights_in_feet_are_named(tmp_path):
 
 
 def test_one_camera_among_three_far_from_the_others_is_named(tmp_path):
-    files = [_gcps(tmp_path / f"cam{i}.csv", shift_m=(300.0 * i, 0.0), edit=(lambda g: g[:, [1, 0, 2]]) if i == 1 else None) for i in range(3)]
-    with pytest.raises(InputError, match=r"cam1.csv: its points are [\d,]+ km from the other cameras' GCPs; latitude and longitude look swapped"):
+    files = [
+        _gcps(tmp_path / f"cam{i}.csv", shift_m=(300.0 * i, 0.0), edit=(lambda g: g[:, [1, 0, 2]]) if i == 1 else None)
+        for i in range(3)
+    ]
+    with pytest.raises(
+        InputError,
+        match=r"cam1.csv: its points are [\d,]+ km from the other cameras' GCPs; latitude and longitude look swapped",
+    ):
         resolve_origin("gcps", files, "[target]")
     two = [files[0], files[1]]
-    with pytest.raises(InputError, match="the two cameras' GCPs are .* km apart; in one of them latitude and longitude look swapped"):
+    with pytest.raises(
+        InputError, match="the two cameras' GCPs are .* km apart; in one of them latitude and longitude look swapped"
+    ):
         resolve_origin(None, two, "[target]")
 
 
 def test_a_log_far_from_the_gcps_names_the_gcp_file(tmp_path):
     swapped = _gcps(tmp_path / "cam0.csv", edit=lambda g: g[:, [1, 0, 2]])
     origin = resolve_origin("gcps", [swapped], "[target]")  # one camera: consistent with itself
-    with pytest.raises(InputError, match=r"cam0.csv: the GCPs are [\d,]+ km from the target's log \(log.gpx\); latitude and longitude look swapped"):
+    with pytest.raises(
+        InputError,
+        match=r"cam0.csv: the GCPs are [\d,]+ km from the target's log \(log.gpx\); latitude and longitude look "
+        r"swapped",
+    ):
         check_log_near_gcps(SITE, tmp_path / "log.gpx", [swapped], origin)
     check_log_near_gcps(SITE, tmp_path / "log.gpx", [_gcps(tmp_path / "good.csv")], SITE)

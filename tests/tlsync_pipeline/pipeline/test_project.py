@@ -13,7 +13,13 @@ def _write(tmp_path, text):
 def test_paths_are_relative_to_the_project_and_defaults_apply(tmp_path):
     sub = tmp_path / "p"
     sub.mkdir()
-    project = load_project(_write(sub, '[target]\ntrajectory = "t.csv"\n[[cameras]]\nname = "a"\ncamera = "a/c.json"\nfps = 25\n[sync]\neps_px = 12\nlogged_point_above_m = -0.2\n'))
+    project = load_project(
+        _write(
+            sub,
+            '[target]\ntrajectory = "t.csv"\n[[cameras]]\nname = "a"\ncamera = "a/c.json"\nfps = 25\n[sync]\neps_px = '
+            "12\nlogged_point_above_m = -0.2\n",
+        )
+    )
     assert project.target.trajectory == sub / "t.csv"
     assert project.cameras[0].camera == sub / "a" / "c.json"
     assert project.cameras[0].track is None
@@ -29,13 +35,19 @@ def test_paths_are_relative_to_the_project_and_defaults_apply(tmp_path):
         ('[sync]\neps = 3\n[[cameras]]\nname = "a"\n', r"did you mean 'eps_px'"),
         ('[targt]\n[[cameras]]\nname = "a"\n', r"did you mean 'target'"),
         ('[[cameras]]\nname = "a"\n[[cameras]]\nname = "a"\n', "duplicate camera name 'a'"),
-        ('[[cameras]]\nfps = 3\n', "missing required key 'name'"),
+        ("[[cameras]]\nfps = 3\n", "missing required key 'name'"),
         ('[[cameras]]\nname = "a"\nfps = -3\n', "'fps': expected a positive number"),
         ('[sync]\np = 1.5\n[[cameras]]\nname = "a"\n', "'p': expected a number strictly between 0 and 1"),
         ('[sync]\nseed = 0.5\n[[cameras]]\nname = "a"\n', "'seed': expected an integer"),
-        ('[sync]\nlogged_point_above_m = "head"\n[[cameras]]\nname = "a"\n', "'logged_point_above_m': expected a number"),
+        (
+            '[sync]\nlogged_point_above_m = "head"\n[[cameras]]\nname = "a"\n',
+            "'logged_point_above_m': expected a number",
+        ),
         ("[target]\ntrajectory = 'x.csv'\n", r"no \[\[cameras\]\]"),
-        ('[calibration]\ngcp_sigma_m = -1\n[[cameras]]\nname = "a"\n', r"\[calibration\]: key 'gcp_sigma_m': expected a number >= 0"),
+        (
+            '[calibration]\ngcp_sigma_m = -1\n[[cameras]]\nname = "a"\n',
+            r"\[calibration\]: key 'gcp_sigma_m': expected a number >= 0",
+        ),
         ('[[cameras]]\nname = "a"\n[cameras.calibration]\ngcp_sigma = 1\n', r"did you mean 'gcp_sigma_m'"),
         ("[target\n", "invalid TOML"),
     ],

@@ -1,4 +1,6 @@
-"""Breaks judged against a camera's line: a drop the votes show, harmless breaks, refused cameras (sync/identify/breaks.py)."""
+"""Breaks judged against a camera's line: a drop the votes show, harmless breaks, refused cameras
+(sync/identify/breaks.py).
+"""
 
 import numpy as np
 
@@ -8,8 +10,8 @@ from tlsync_pipeline.sync.identify.breaks import (
     segment_reasons,
     vote_break,
 )
-from tlsync_pipeline.sync.model.clock import FRAME, CameraClock, Segment
 from tlsync_pipeline.sync.identify.segments import END, fit_segments, joined_at_void_cuts, segments_of
+from tlsync_pipeline.sync.model.clock import FRAME, CameraClock, Segment
 from tlsync_pipeline.sync.model.status import AMBIGUOUS
 from trackers.breaks import Break
 

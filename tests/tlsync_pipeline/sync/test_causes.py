@@ -35,7 +35,9 @@ def _judged(scene, contradicted, shift=(0.0, 0.0)):
 
 def test_a_constant_pixel_offset_is_found_and_named(scene):
     judged = _judged(scene, {"cam1"}, (0.0, 60.0))
-    offset = image_offset(judged["cam1"].camera, judged["cam1"].track.xy, PiecewiseTrajectory(scene.trajectory), GATE_EPS * EPS_PX)
+    offset = image_offset(
+        judged["cam1"].camera, judged["cam1"].track.xy, PiecewiseTrajectory(scene.trajectory), GATE_EPS * EPS_PX
+    )
     assert offset is not None and abs(offset[0]) < 10 and 40 < offset[1] <= 62
     reasons = explain(judged, scene.trajectory, EPS_PX)
     assert list(reasons) == ["cam1"] and reasons["cam1"].code == "track_offset" and "shadow" in reasons["cam1"].remedy
@@ -46,7 +48,11 @@ def test_a_log_riding_above_is_named_with_the_key_and_its_value(scene):
     reasons = explain(_judged(scene, {"cam2"}), raised, EPS_PX, above_m=0.2)
     assert reasons["cam2"].code == "log_height" and "logged_point_above_m = 1.7" in reasons["cam2"].remedy
     with pytest.raises(LogUnitError, match=r"column z: heights 4\d(\.\d)? m too high: .*altitude_reference"):
-        explain(_judged(scene, set(scene.cameras)), replace(scene.trajectory, xyz=scene.trajectory.xyz + [0.0, 0.0, 47.0]), EPS_PX)
+        explain(
+            _judged(scene, set(scene.cameras)),
+            replace(scene.trajectory, xyz=scene.trajectory.xyz + [0.0, 0.0, 47.0]),
+            EPS_PX,
+        )
 
 
 def test_right_cameras_and_tracks_on_the_path_get_no_cause(scene):
@@ -67,4 +73,3 @@ def test_a_log_wandering_by_metres_beyond_its_model_is_named_not_the_tracker():
     assert "log_error" not in {r.code for r in exact.values()}
     as_phone = {n: vote_radius(c, walk.trajectory, EPS_PX, PRESETS["phone"]) for n, c in walk.cameras.items()}
     assert explain(judged, walk.trajectory, EPS_PX, radius_px=as_phone, log_model=PRESETS["phone"]) == {}  # on it
-

@@ -13,7 +13,9 @@ RATE = 10.0  # samples/s
 
 def _timeline() -> Timeline:
     """cam: 25 fps, frame 0 at sample 120 (12 s after T0): clock = 2.5 * sample - 300."""
-    return Timeline({"cam": CameraLine("cam", 2.5, -300.0, 400, 380, 0.4, fps=25.0, flags=())}, target_rate=RATE, target_t0=T0)
+    return Timeline(
+        {"cam": CameraLine("cam", 2.5, -300.0, 400, 380, 0.4, fps=25.0, flags=())}, target_rate=RATE, target_t0=T0
+    )
 
 
 def test_a_right_prior_agrees_and_a_wrong_one_is_a_named_reason_not_obeyed(tmp_path):
@@ -47,16 +49,34 @@ def test_the_results_own_interval_widens_the_tolerance():
     loose = dataclasses.replace(_timeline().cameras["cam"], cov=np.diag([0.0, 50.0**2]))  # beta +-50 frames: +-2 s
     check = check_clock(loose, RATE, T0, True, ClockPrior(T0 + 14.5, 1.0, "QuickTime creationdate"))
     assert check.result_half_width_s == pytest.approx(1.96 * 2.0) and check.agrees  # 2.5 s off: within 1 s + 3.9 s
-    tight = check_clock(_timeline().cameras["cam"], RATE, T0, True, ClockPrior(T0 + 14.5, 1.0, "QuickTime creationdate"))
+    tight = check_clock(
+        _timeline().cameras["cam"], RATE, T0, True, ClockPrior(T0 + 14.5, 1.0, "QuickTime creationdate")
+    )
     assert tight.result_half_width_s == 0.0 and not tight.agrees
 
 
-@pytest.mark.parametrize("offset, text, remedy", [
-    (7200.3, "+7200.3 s from the camera's own clock (the project; tolerance 1 s): +2 h, a clock on local time", "set [target] utc_offset = +2"),
-    (-5400.0, "-1.5 h, a clock on local time", "[cameras.clock] utc_offset = +1.5"),
-    (18.2, "+18.2 s from the camera's own clock (the project; tolerance 1 s): +18 s, the leap seconds between GPS time and UTC", "a log on GPS time"),
-    (60.0, "+60.0 s from the camera's own clock (the project; tolerance 1 s)", "check the camera's clock and the log's time base"),
-])
+@pytest.mark.parametrize(
+    "offset, text, remedy",
+    [
+        (
+            7200.3,
+            "+7200.3 s from the camera's own clock (the project; tolerance 1 s): +2 h, a clock on local time",
+            "set [target] utc_offset = +2",
+        ),
+        (-5400.0, "-1.5 h, a clock on local time", "[cameras.clock] utc_offset = +1.5"),
+        (
+            18.2,
+            "+18.2 s from the camera's own clock (the project; tolerance 1 s): +18 s, the leap seconds between GPS "
+            "time and UTC",
+            "a log on GPS time",
+        ),
+        (
+            60.0,
+            "+60.0 s from the camera's own clock (the project; tolerance 1 s)",
+            "check the camera's clock and the log's time base",
+        ),
+    ],
+)
 def test_a_clock_disagreement_shows_its_offset_and_the_likely_key(offset, text, remedy):
     from tlsync_pipeline.sync.clock_prior import ClockCheck, clock_reason
 

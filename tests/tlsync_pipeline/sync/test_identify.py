@@ -8,10 +8,16 @@ import pytest
 from data_fixtures import make_scene
 from tlsync_pipeline.errors import SyncError
 from tlsync_pipeline.sync.identify import identify
-from tlsync_pipeline.sync.identify.identify import along_tracklets, assign_target, candidate_votes, covers, identify_target
+from tlsync_pipeline.sync.identify.identify import (
+    along_tracklets,
+    assign_target,
+    candidate_votes,
+    covers,
+    identify_params,
+    identify_target,
+)
 from tlsync_pipeline.sync.kernels.line_search import thin_votes
 from tlsync_pipeline.sync.model.params import SyncParams
-from tlsync_pipeline.sync.identify.identify import identify_params
 from tlsync_pipeline.trajectory import PiecewiseTrajectory
 from trackers.detections import make_detections
 
@@ -33,7 +39,11 @@ def _crowd_detections(scene, name, walkers=8, seed=0):
     position = PiecewiseTrajectory(scene.true_trajectory).positions((frames - line.beta) / line.alpha)
     size = 0.5 * camera.K[0, 0] / (position @ camera.R.T + camera.t)[:, 2]  # a 0.5 m target, in pixels at its depth
     pieces = np.array_split(np.arange(len(frames)), 3)
-    rows = [(frames[i], frames[i] / 30.0, k, xy[i, 0], xy[i, 1], size[i], size[i], 0.9) for k, idx in enumerate(pieces) for i in idx]
+    rows = [
+        (frames[i], frames[i] / 30.0, k, xy[i, 0], xy[i, 1], size[i], size[i], 0.9)
+        for k, idx in enumerate(pieces)
+        for i in idx
+    ]
     speed = np.median(np.linalg.norm(np.diff(track.xy, axis=0), axis=1))
     n_frames = scene.n_frames[name]
     for j in range(walkers):
@@ -51,13 +61,17 @@ def _crowd_detections(scene, name, walkers=8, seed=0):
 
 
 def _assert_found(found, detections, target_rows, scene, name, recall):
-    """At least 95 % of the identified rows are the target's, at least ``recall`` of its rows are identified, and the line is within half a frame."""
+    """At least 95 % of the identified rows are the target's, at least ``recall`` of its rows are identified, and the
+    line is within half a frame.
+    """
     picked = {(f, i) for f, i in zip(detections.frame[found.rows], detections.id[found.rows])}
     assert len(picked & target_rows) >= 0.95 * len(picked)
     assert len(picked & target_rows) >= recall * len(target_rows)
     truth = scene.lines[name]
     frames = scene.tracks[name].frame
-    assert np.abs((found.alpha - truth.alpha) * (frames - truth.beta) / truth.alpha + found.beta - truth.beta).max() < 0.5
+    assert (
+        np.abs((found.alpha - truth.alpha) * (frames - truth.beta) / truth.alpha + found.beta - truth.beta).max() < 0.5
+    )
 
 
 @pytest.mark.parametrize("seed", [0, 1])
@@ -76,7 +90,9 @@ def test_identifies_the_target_among_look_alike_walkers(seed):
 
 
 def test_candidate_votes_thinned_by_chunks_are_those_of_thinning_every_vote_at_once(monkeypatch):
-    """Large boxes over a path that passes often give each candidate many votes; chunked thinning keeps exactly the votes thinning them all keeps."""
+    """Large boxes over a path that passes often give each candidate many votes; chunked thinning keeps exactly the
+    votes thinning them all keeps.
+    """
     scene = make_scene(seed=2)
     name = "cam0"
     detections, _ = _crowd_detections(scene, name, walkers=6, seed=2)
@@ -103,13 +119,17 @@ def test_candidate_votes_thinned_by_chunks_are_those_of_thinning_every_vote_at_o
 
 
 def test_a_logged_point_above_the_tracked_centre_is_estimated_and_the_track_moved_to_it():
-    """The log rides 0.6 m above the blob centres (a GPS on a helmet): 40 px off in the image, beyond the gate, inside a person's box."""
+    """The log rides 0.6 m above the blob centres (a GPS on a helmet): 40 px off in the image, beyond the gate, inside a
+    person's box.
+    """
     scene = make_scene(seed=0)
     name = "cam0"
     detections, target_rows = _crowd_detections(scene, name, seed=0)
     camera = scene.cameras[name]
     raised = dataclasses.replace(scene.trajectory, xyz=scene.trajectory.xyz + [0.0, 0.0, 0.6])
-    shift = np.nanmedian(np.linalg.norm(camera.project(raised.xyz)[0] - camera.project(scene.trajectory.xyz)[0], axis=1))
+    shift = np.nanmedian(
+        np.linalg.norm(camera.project(raised.xyz)[0] - camera.project(scene.trajectory.xyz)[0], axis=1)
+    )
     assert shift > 3 * P.eps_px
     detections = detections.subset(np.arange(len(detections)))
     detections.h[:] = 3 * shift
@@ -120,11 +140,15 @@ def test_a_logged_point_above_the_tracked_centre_is_estimated_and_the_track_move
     _assert_found(found, detections, target_rows, scene, name, recall=0.8)
     truth = scene.lines[name]
     seen = camera.project(PiecewiseTrajectory(raised).positions((found.track.frame - truth.beta) / truth.alpha))[0]
-    assert np.nanmedian(np.linalg.norm(found.track.xy - seen, axis=1)) < 0.25 * shift  # the track is where the logged point is seen
+    assert (
+        np.nanmedian(np.linalg.norm(found.track.xy - seen, axis=1)) < 0.25 * shift
+    )  # the track is where the logged point is seen
 
 
 def test_a_stretch_off_the_projection_by_calibration_error_stays_in_the_identified_track():
-    """For 80 frames the target's tracklet is 15 px off the projection (beyond the 10 px gate), as calibration errors put the real flight's."""
+    """For 80 frames the target's tracklet is 15 px off the projection (beyond the 10 px gate), as calibration errors
+    put the real flight's.
+    """
     scene = make_scene(seed=1)
     name = "cam0"
     detections, target_rows = _crowd_detections(scene, name, seed=1)
@@ -144,9 +168,12 @@ def test_along_tracklets_adds_only_identified_tracklets_in_free_frames_within_th
     distance = np.array([1.0] * 10 + [25.0, 5.0, 35.0, 5.0, np.inf, 1.0])
     chosen = np.arange(10)
     rows = along_tracklets(frame, tracklet, distance, chosen, 10.0)
-    # frame 10: tracklet 1 at 25 px joins (tracklet 2 is not identified); frame 11: 35 px is beyond; frame 12: off the path; frame 2 had a row
+    # frame 10: tracklet 1 at 25 px joins (tracklet 2 is not identified); frame 11: 35 px is beyond; frame 12: off the
+    # path; frame 2 had a row
     assert rows.tolist() == list(range(10)) + [10]
-    assert along_tracklets(frame, tracklet, distance, chosen[:7], 10.0).tolist() == list(range(7))  # 7 chosen rows: not an identified tracklet
+    assert along_tracklets(frame, tracklet, distance, chosen[:7], 10.0).tolist() == list(
+        range(7)
+    )  # 7 chosen rows: not an identified tracklet
 
 
 def test_a_camera_the_path_never_enters_is_named():
@@ -192,7 +219,11 @@ def test_a_tracklet_that_swaps_to_a_passer_by_keeps_the_target_stretch():
     assert tracklet[whole.rows[frame[whole.rows] == 10]] == 2  # over their whole lengths, the passer-by follows better
     local = assign_target(frame, tracklet, distance, gate_px=10.0, window=5)
     assert tracklet[local.rows[frame[local.rows] == 10]] == 1
-    assert local.local[10] == pytest.approx(11 / 13) and local.local[60] == 0.0 and local.local[100] == pytest.approx(1 / 3)
+    assert (
+        local.local[10] == pytest.approx(11 / 13)
+        and local.local[60] == 0.0
+        and local.local[100] == pytest.approx(1 / 3)
+    )
 
 
 def test_a_merged_blob_whose_box_holds_the_projection_counts_as_near():
@@ -210,11 +241,14 @@ def test_a_target_merged_with_passers_by_in_most_frames_is_kept_and_reported_on_
     scene = make_scene(seed=0)
     name = "cam0"
     detections, target_rows = _crowd_detections(scene, name, seed=2)
-    # Two in three of the target's blobs merged side by side with a passer-by: three times as wide, centre one target width off.
+    # Two in three of the target's blobs merged side by side with a passer-by: three times as wide, centre one target
+    # width off.
     merged = (detections.id < 100) & (np.arange(len(detections)) % 3 != 0)
     w = np.where(merged, 3 * detections.w, detections.w)
     x = np.where(merged, detections.x + detections.w, detections.x)
-    detections = type(detections)(detections.frame, detections.time_s, detections.id, x, detections.y, w, detections.h, detections.score)
+    detections = type(detections)(
+        detections.frame, detections.time_s, detections.id, x, detections.y, w, detections.h, detections.score
+    )
     camera = scene.cameras[name]
     found = identify_target(camera, detections, scene.trajectory, camera.fps, FREE)
     picked = {(f, i) for f, i in zip(detections.frame[found.rows], detections.id[found.rows])}

@@ -9,12 +9,12 @@ import scipy.sparse as sp
 from data_fixtures.log_error import PRESETS as FIXTURE_LOGS
 from data_fixtures.log_error import LogErrorModel, gauss_markov
 from data_fixtures.walk import WalkSpec, make_walk_scene
-from tlsync_pipeline.sync.solve.log_bias import _prior_whitening
 from tlsync_pipeline.sync.model.log_model import PRESETS, LogModel, LogModelChoice
-from tlsync_pipeline.sync.vote.log_error import vote_radius
 from tlsync_pipeline.sync.model.params import SyncParams
+from tlsync_pipeline.sync.solve.log_bias import _prior_whitening
 from tlsync_pipeline.sync.solve.synchronize import CameraInput, synchronize
 from tlsync_pipeline.sync.timeline import eps_t
+from tlsync_pipeline.sync.vote.log_error import vote_radius
 
 # A receiver whose bias is a near-constant metre (tau 10^5 s), with the model that says so.
 CONSTANT = LogErrorModel("constant", 10.0, 0.01, 0.01, 1.0, 0.0, 1e5)
@@ -34,7 +34,10 @@ def _visit_errors(scene, timeline) -> dict[str, tuple[float, float]]:
         truth = scene.lines[name]
         middle = float(np.median((scene.tracks[name].frame - truth.beta) / truth.alpha))
         g = np.array([middle, 1.0])
-        out[name] = (line.alpha * middle + line.beta - (truth.alpha * middle + truth.beta), 1.96 * float(np.sqrt(g @ line.cov @ g)))
+        out[name] = (
+            line.alpha * middle + line.beta - (truth.alpha * middle + truth.beta),
+            1.96 * float(np.sqrt(g @ line.cov @ g)),
+        )
     return out
 
 
@@ -59,7 +62,12 @@ def test_a_log_model_choice_resolves_auto_and_overrides():
     assert LogModelChoice().resolve(None) == PRESETS["none"]
     assert LogModelChoice().resolve("drone") == PRESETS["drone"]
     custom = LogModelChoice("phone", bias_m=3.0).resolve("rtk")
-    assert (custom.bias_m, custom.bias_vertical_m, custom.white_m, custom.tau_s) == (3.0, 6.0, PRESETS["phone"].white_m, PRESETS["phone"].tau_s)
+    assert (custom.bias_m, custom.bias_vertical_m, custom.white_m, custom.tau_s) == (
+        3.0,
+        6.0,
+        PRESETS["phone"].white_m,
+        PRESETS["phone"].tau_s,
+    )
 
 
 def test_the_vote_radius_covers_the_log_error_as_the_camera_sees_it():
@@ -83,8 +91,16 @@ def test_a_bias_shared_by_every_visit_is_fitted_out_and_the_intervals_hold():
         assert all(abs(e) <= half for e, half in fitted.values()), fitted
         for name, line in together.cameras.items():
             assert line.log_bias is not None and line.log_bias.observability > 0.8
-            true_bias = scene.noise["bias_m"][int(round(float(np.median((scene.tracks[name].frame - scene.lines[name].beta) / scene.lines[name].alpha))))]
-            assert np.allclose(-np.array(line.log_bias.estimate_m)[:2], true_bias[:2], atol=0.2)  # the fit's bias corrects the log: minus the log's error
+            true_bias = scene.noise["bias_m"][
+                int(
+                    round(
+                        float(np.median((scene.tracks[name].frame - scene.lines[name].beta) / scene.lines[name].alpha))
+                    )
+                )
+            ]
+            assert np.allclose(
+                -np.array(line.log_bias.estimate_m)[:2], true_bias[:2], atol=0.2
+            )  # the fit's bias corrects the log: minus the log's error
         pairs = scene.truth_pairs()
         for key, truth in pairs.items():
             a, b = key.split("->")
@@ -95,13 +111,21 @@ def test_a_bias_shared_by_every_visit_is_fitted_out_and_the_intervals_hold():
 
 @pytest.mark.slow
 def test_straight_walks_in_opposite_directions_do_not_diverge_and_say_the_log_dominates():
-    """Straight crossings: a bias along the walk is a time offset; the fit keeps it at its prior and widens the intervals."""
-    scene = make_walk_scene(1, WalkSpec(cameras=2, route="straight", log=LogErrorModel("phone", 1.0, 0.5, 1.0, 1.0, 2.0, 60.0)))
+    """Straight crossings: a bias along the walk is a time offset; the fit keeps it at its prior and widens the
+    intervals.
+    """
+    scene = make_walk_scene(
+        1, WalkSpec(cameras=2, route="straight", log=LogErrorModel("phone", 1.0, 0.5, 1.0, 1.0, 2.0, 60.0))
+    )
     alone = _visit_errors(scene, _run(scene, log_bias=False, model=PRESETS["phone"]))
     timeline = _run(scene, log_bias=True, model=PRESETS["phone"])
     fitted = _visit_errors(scene, timeline)
-    assert max(abs(e) for e, _ in fitted.values()) <= 1.5 * max(abs(e) for e, _ in alone.values()) + 5.0  # no divergence
-    assert all(half > 20.0 and abs(e) <= 1.5 * half for e, half in fitted.values()), fitted  # wide, and honest (coverage: bench/gps_error.py)
+    assert (
+        max(abs(e) for e, _ in fitted.values()) <= 1.5 * max(abs(e) for e, _ in alone.values()) + 5.0
+    )  # no divergence
+    assert all(half > 20.0 and abs(e) <= 1.5 * half for e, half in fitted.values()), (
+        fitted
+    )  # wide, and honest (coverage: bench/gps_error.py)
     for line in timeline.cameras.values():
         assert line.budget is not None and line.budget.dominant == "log"
         assert line.log_bias is not None and line.log_bias.observability < 0.9
@@ -121,7 +145,9 @@ def test_a_crowd_scene_with_a_biased_log_keeps_its_people_and_moves_only_the_log
         np.testing.assert_array_equal(plain.tracks[name].xy, biased.tracks[name].xy)
     error = biased.trajectory.xyz - biased.true_trajectory.xyz
     assert float(np.sqrt(np.mean(error**2))) > 0.05  # metres: the log is off ...
-    assert float(np.abs(np.diff(error[:, :2], axis=0)).max()) < 0.8  # ... by a bias that wanders slowly (0.18 m std per second)
+    assert (
+        float(np.abs(np.diff(error[:, :2], axis=0)).max()) < 0.8
+    )  # ... by a bias that wanders slowly (0.18 m std per second)
 
 
 @pytest.mark.slow
@@ -134,7 +160,10 @@ def test_a_target_picked_among_walkers_through_a_phones_log_on_few_frames_is_not
 
     crowd = make_crowd_scene(CrowdSpec(seed=1, distractors=6, log_rate=1.0, log_error=RECEIVERS["phone"]), tmp_path)
     scene = crowd.scene
-    inputs = {n: CameraInput(c, None, c.fps, detect_movers(crowd.truth[n].video, progress=False)) for n, c in scene.cameras.items()}
+    inputs = {
+        n: CameraInput(c, None, c.fps, detect_movers(crowd.truth[n].video, progress=False))
+        for n, c in scene.cameras.items()
+    }
     timeline, _ = synchronize(inputs, scene.trajectory, SyncParams(), log_model=PRESETS["phone"])
     status = timeline.status("cam1")
     assert status.status == "ambiguous" and any(r.code == "ambiguous_identity" for r in status.reasons)
@@ -150,11 +179,17 @@ def test_a_drone_scene_where_one_camera_has_few_votes_keeps_every_camera_in_the_
     trust-region solver's step); the joint optimum keeps every camera's line, each with the bias observed."""
     scene = make_walk_scene(0, WalkSpec(log=FIXTURE_LOGS["drone"], speed_mps=5.0))
     timeline = _run(scene, log_bias=True, model=PRESETS["drone"])
-    observability = {n: line.log_bias.observability for n, line in timeline.cameras.items() if line.log_bias is not None}
+    observability = {
+        n: line.log_bias.observability for n, line in timeline.cameras.items() if line.log_bias is not None
+    }
     assert len(observability) == 3
     assert min(observability.values()) > 0.5, observability
     assert all(abs(e) <= half for e, half in _visit_errors(scene, timeline).values())
-    worst = max(eps_t(timeline.relation(a, b), truth, scene.n_frames[a]) for key, truth in scene.truth_pairs().items() for a, b in [key.split("->")])
+    worst = max(
+        eps_t(timeline.relation(a, b), truth, scene.n_frames[a])
+        for key, truth in scene.truth_pairs().items()
+        for a, b in [key.split("->")]
+    )
     assert worst < 8.0
 
 
@@ -169,7 +204,19 @@ def test_the_joint_fit_over_many_cameras_builds_no_dense_matrix_over_frames_or_k
     own = []
     for name, track in scene.tracks.items():
         line = scene.lines[name]
-        own.append(BiasCamera(name, scene.cameras[name], track.frame.astype(float), np.column_stack([track.x, track.y]), np.ones(len(track.frame)), line.alpha, line.beta, 0.01 * np.eye(2), None))
+        own.append(
+            BiasCamera(
+                name,
+                scene.cameras[name],
+                track.frame.astype(float),
+                np.column_stack([track.x, track.y]),
+                np.ones(len(track.frame)),
+                line.alpha,
+                line.beta,
+                0.01 * np.eye(2),
+                None,
+            )
+        )
     cameras = [dataclasses.replace(own[k % len(own)], name=f"c{k}") for k in range(12)]
     rate, model = float(scene.trajectory.rate), PRESETS["drone"]
     knots = _knots(cameras, path, rate, model)

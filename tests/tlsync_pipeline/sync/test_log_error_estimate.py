@@ -8,9 +8,9 @@ import numpy as np
 from data_fixtures.log_error import PRESETS as RECEIVERS
 from data_fixtures.log_error import gauss_markov
 from data_fixtures.walk import WalkSpec, make_walk_scene
-from tlsync_pipeline.sync.solve.log_bias import LogBias, _prior_whitening, bias_marginal_likelihood
 from tlsync_pipeline.sync.model.log_model import PRESETS, LogModel
 from tlsync_pipeline.sync.model.params import SyncParams
+from tlsync_pipeline.sync.solve.log_bias import LogBias, _prior_whitening, bias_marginal_likelihood
 from tlsync_pipeline.sync.solve.synchronize import CameraInput, synchronize
 from tlsync_pipeline.sync.vote.log_error import measured, vote_radius, white_from_log
 
@@ -34,7 +34,9 @@ def test_an_undeclared_good_log_is_neither_exact_nor_a_phones():
     assert abs(undeclared.white_m - 0.3) < 0.05 and not undeclared.has_bias
     assert undeclared.measured == ("white_m",)
     camera = next(iter(make_walk_scene(0, WalkSpec()).cameras.values()))
-    assert vote_radius(camera, trajectory, 10.0, undeclared) < vote_radius(camera, trajectory, 10.0, PRESETS["phone"]) / 3
+    assert (
+        vote_radius(camera, trajectory, 10.0, undeclared) < vote_radius(camera, trajectory, 10.0, PRESETS["phone"]) / 3
+    )
     as_phone = measured(PRESETS["phone"], trajectory)  # a GPX taken for a phone's: its 0.3 m, not the preset's 0.5
     assert abs(as_phone.white_m - 0.3) < 0.05
 
@@ -74,7 +76,9 @@ def test_a_bias_the_pixels_do_not_see_stays_at_its_prior():
     bias = _observed_bias(1.0, 30.0, 0.2, prior, 0)
     blind = dataclasses.replace(bias, values=np.zeros_like(bias.values), information=np.zeros_like(bias.information))
     found = bias_marginal_likelihood(blind, 1.0, prior)
-    assert abs(found.bias_m - prior.bias_m) < 0.05 * prior.bias_m and abs(found.tau_s - prior.tau_s) < 0.05 * prior.tau_s
+    assert (
+        abs(found.bias_m - prior.bias_m) < 0.05 * prior.bias_m and abs(found.tau_s - prior.tau_s) < 0.05 * prior.tau_s
+    )
 
 
 def test_a_log_whose_fixes_scatter_as_another_receivers_takes_its_bias():

@@ -11,7 +11,10 @@ import pytest
 from data_fixtures import make_scene
 from data_fixtures.log_error import PRESETS as RECEIVERS
 from data_fixtures.walk import WalkSpec, make_walk_scene
+from tlsync_pipeline.sync.kernels.backward import backward_support, line_support
+from tlsync_pipeline.sync.kernels.slope import slope_prior
 from tlsync_pipeline.sync.model.log_model import PRESETS as LOG_MODELS
+from tlsync_pipeline.sync.model.methods import preparation_of, prepare_trajectory
 from tlsync_pipeline.sync.model.params import SyncParams
 from tlsync_pipeline.sync.solve.plausibility import (
     Judged,
@@ -26,9 +29,6 @@ from tlsync_pipeline.sync.solve.plausibility import (
     path_share,
     times_fps,
 )
-from tlsync_pipeline.sync.kernels.backward import backward_support, line_support
-from tlsync_pipeline.sync.model.methods import prepare_trajectory, preparation_of
-from tlsync_pipeline.sync.kernels.slope import slope_prior
 from tlsync_pipeline.sync.solve.synchronize import CameraInput, cast_votes, synchronize
 from tlsync_pipeline.trajectory import PiecewiseTrajectory
 
@@ -96,7 +96,13 @@ def test_a_camera_whose_fps_is_doubled_is_failed_with_its_true_rate(scene):
     assert {"cam0", "cam2"} <= set(timeline.cameras)
 
 
-@pytest.mark.parametrize(("factor", "fix"), [(5.0, "(sample numbers at 5 Hz?); set [target] time_unit = 0.2"), (1000.0, '(milliseconds?); set [target] time_unit = "ms"')])
+@pytest.mark.parametrize(
+    ("factor", "fix"),
+    [
+        (5.0, "(sample numbers at 5 Hz?); set [target] time_unit = 0.2"),
+        (1000.0, '(milliseconds?); set [target] time_unit = "ms"'),
+    ],
+)
 def test_every_camera_seeing_another_time_unit_is_an_input_error(scene, factor, fix):
     slow = dataclasses.replace(scene.trajectory, rate=scene.trajectory.rate / factor)
     with pytest.raises(LogUnitError, match="column t: not seconds: ") as error:
@@ -115,7 +121,10 @@ def test_positions_in_feet_are_named_by_what_fits_the_tracks(scene, prepared):
 def test_a_track_at_half_resolution_is_named(scene, prepared):
     track = scene.tracks["cam1"]
     half = dataclasses.replace(track, x=track.x / 2, y=track.y / 2)
-    judged = {"cam1": Judged(scene.cameras["cam1"], half, None, None, True), "cam0": Judged(scene.cameras["cam0"], scene.tracks["cam0"], None, None, False)}
+    judged = {
+        "cam1": Judged(scene.cameras["cam1"], half, None, None, True),
+        "cam0": Judged(scene.cameras["cam0"], scene.tracks["cam0"], None, None, False),
+    }
     assert diagnose(judged, prepared, 10.0)["cam1"].code == "track_scale"
 
 
@@ -143,7 +152,9 @@ def test_a_rival_within_the_band_of_one_pass_is_that_pass_and_one_beyond_it_a_se
         return CameraLine("cam0", 30.0, 0.0, 400, 200, 1.0, fps=30.0, line_search=search)
 
     assert _rival(line(90.0), track, clock, 30.0, eps_px=240.0) is None
-    assert _rival(line(90.0), track, clock, 30.0, eps_px=8.0).code == "ambiguous"  # an RTK log: 3 s apart is a second pass
+    assert (
+        _rival(line(90.0), track, clock, 30.0, eps_px=8.0).code == "ambiguous"
+    )  # an RTK log: 3 s apart is a second pass
     assert _rival(line(600.0), track, clock, 30.0, eps_px=240.0).code == "ambiguous"
 
 

@@ -1,4 +1,6 @@
-"""A camera's pose from the target (sync/pose/pose.py, sync/pose/pose_fit.py): pass scenes with known truth, and the pieces."""
+"""A camera's pose from the target (sync/pose/pose.py, sync/pose/pose_fit.py): pass scenes with known truth, and the
+pieces.
+"""
 
 from __future__ import annotations
 
@@ -14,9 +16,12 @@ from data_fixtures.log_error import PRESETS as FIXTURE_LOGS
 from data_fixtures.log_error import log_errors
 from data_fixtures.passes import make_pass_scene
 from tests.real_data import REAL_DATA
-from tlsync_pipeline.sync.pose import pose as P
+from tlsync_pipeline.sync.identify.identify import identify_params
+from tlsync_pipeline.sync.kernels.slope import slope_prior
+from tlsync_pipeline.sync.kernels.smoothing import smooth_trajectory
 from tlsync_pipeline.sync.model.log_model import PRESETS as LOG_MODELS
 from tlsync_pipeline.sync.model.params import SyncParams
+from tlsync_pipeline.sync.pose import pose as P
 from tlsync_pipeline.sync.pose.pose_fit import (
     MODEL_ERROR_PX,
     GcpPrior,
@@ -27,9 +32,6 @@ from tlsync_pipeline.sync.pose.pose_fit import (
     fit_pose_and_line,
     reprojection_errors,
 )
-from tlsync_pipeline.sync.identify.identify import identify_params
-from tlsync_pipeline.sync.kernels.smoothing import smooth_trajectory
-from tlsync_pipeline.sync.kernels.slope import slope_prior
 from tlsync_pipeline.sync.solve.synchronize import (
     CameraInput,
     synchronize,
@@ -42,7 +44,9 @@ from trackers.detections import make_detections
 
 @pytest.fixture(scope="module")
 def scene():
-    """A walker turning in cam0's view and walking straight through cam1's, RTK log, 2 px tracks, GCPs surveyed 0.5 m off."""
+    """A walker turning in cam0's view and walking straight through cam1's, RTK log, 2 px tracks, GCPs surveyed 0.5 m
+    off.
+    """
     return make_pass_scene(0, paths=("turn", "straight"), gcp_noise_m=0.5)
 
 
@@ -107,16 +111,28 @@ def _good_gcps(scene, name):
 
 
 def _logged(scene, offset=(0.0, 0.0, 0.0), white_m=0.0):
-    """The scene's trajectory as a log offset by ``offset`` (metres) with white noise (std per axis), smoothed, as a path."""
+    """The scene's trajectory as a log offset by ``offset`` (metres) with white noise (std per axis), smoothed, as a
+    path.
+    """
     s = scene.scene
     noise = np.random.default_rng(0).normal(0.0, white_m, s.trajectory.xyz.shape)
-    return PiecewiseTrajectory(smooth_trajectory(replace(s.trajectory, xyz=s.trajectory.xyz + np.asarray(offset) + noise)))
+    return PiecewiseTrajectory(
+        smooth_trajectory(replace(s.trajectory, xyz=s.trajectory.xyz + np.asarray(offset) + noise))
+    )
 
 
 def _posed(scene, name, path, **kwargs):
     s = scene.scene
     camera, track = s.true_cameras[name], s.tracks[name]
-    return P.pose_from_track(unposed(camera), track.frame.astype(float), track.xy, path, slope_prior(camera.fps, s.trajectory.rate, 1e-3), camera.fps, **kwargs)
+    return P.pose_from_track(
+        unposed(camera),
+        track.frame.astype(float),
+        track.xy,
+        path,
+        slope_prior(camera.fps, s.trajectory.rate, 1e-3),
+        camera.fps,
+        **kwargs,
+    )
 
 
 @pytest.mark.slow
@@ -194,12 +210,27 @@ def test_a_track_that_fits_two_laps_of_a_repeated_loop_is_ambiguous():
     xyz = np.column_stack([6 * np.cos(angle) + 2 * np.cos(3 * angle), 6 * np.sin(angle), 1.0 + 0.5 * np.sin(2 * angle)])
     trajectory = Trajectory(np.arange(len(t), dtype=float), xyz, rate, 0.0)
     R = np.array([[1.0, 0, 0], [0, 0, -1.0], [0, 1.0, 0]])
-    camera = Camera("c", np.array([[500.0, 0, 320], [0, 500, 240], [0, 0, 1]]), np.zeros(5), R, -R @ np.array([0.0, -25.0, 1.5]), (640, 480), fps)
+    camera = Camera(
+        "c",
+        np.array([[500.0, 0, 320], [0, 500, 240], [0, 0, 1]]),
+        np.zeros(5),
+        R,
+        -R @ np.array([0.0, -25.0, 1.5]),
+        (640, 480),
+        fps,
+    )
     frames = np.arange(int(22 * fps))  # the video covers the second lap only
     samples = (frames + 20 * fps) / (fps / rate)
     uv, _ = camera.project(PiecewiseTrajectory(trajectory).positions(samples))
     with pytest.raises(P.PoseError) as caught:
-        P.pose_from_track(unposed(camera), frames.astype(float), uv, PiecewiseTrajectory(trajectory), slope_prior(fps, rate, 1e-3), fps)
+        P.pose_from_track(
+            unposed(camera),
+            frames.astype(float),
+            uv,
+            PiecewiseTrajectory(trajectory),
+            slope_prior(fps, rate, 1e-3),
+            fps,
+        )
     assert caught.value.cause == "ambiguous_offset"
 
 
@@ -210,25 +241,40 @@ def test_a_walker_on_flat_ground_does_not_determine_the_focal_length(scene):
     s = scene.scene
     track = s.tracks["cam0"]
     with pytest.raises(P.PoseError) as caught:
-        P.pose_from_track(no_k, track.frame.astype(float), track.xy, PiecewiseTrajectory(s.trajectory), slope_prior(camera.fps, 10.0, 1e-3), camera.fps)
+        P.pose_from_track(
+            no_k,
+            track.frame.astype(float),
+            track.xy,
+            PiecewiseTrajectory(s.trajectory),
+            slope_prior(camera.fps, 10.0, 1e-3),
+            camera.fps,
+        )
     assert caught.value.cause in ("planar_path", "pose_undetermined")
     assert "checkerboard" in str(caught.value) or "focal" in str(caught.value)
 
 
 def test_the_pose_comes_from_every_mover_without_a_track():
-    """The target's track cut into tracklets among straight walkers: a tracklet's pose finds the target, the refit takes all of it."""
+    """The target's track cut into tracklets among straight walkers: a tracklet's pose finds the target, the refit takes
+    all of it.
+    """
     ps = make_pass_scene(1, paths=("turn",))
     s = ps.scene
     camera, track = s.true_cameras["cam0"], s.tracks["cam0"]
     rng = np.random.default_rng(0)
-    rows = [(int(track.frame[i]), float("nan"), k, float(track.x[i]), float(track.y[i]), 20.0, 40.0, 1.0) for k, idx in enumerate(np.array_split(np.arange(len(track)), 3)) for i in idx]
+    rows = [
+        (int(track.frame[i]), float("nan"), k, float(track.x[i]), float(track.y[i]), 20.0, 40.0, 1.0)
+        for k, idx in enumerate(np.array_split(np.arange(len(track)), 3))
+        for i in idx
+    ]
     for j in range(4):  # passers-by walking straight across the view
         start, p0 = int(rng.integers(0, track.frame.max() - 150)), rng.uniform([0, 100], [100, 380])
         v = rng.uniform(2.0, 4.0) * np.array([1.0, rng.uniform(-0.2, 0.2)])
         rows += [(start + f, float("nan"), 100 + j, *(p0 + v * f), 20.0, 40.0, 1.0) for f in range(150)]
     rows.sort(key=lambda r: (r[0], r[2]))
     prepared = smooth_trajectory(s.trajectory)
-    found = P.pose_from_movers(unposed(camera), make_detections(rows), prepared, camera.fps, identify_params(SyncParams()))
+    found = P.pose_from_movers(
+        unposed(camera), make_detections(rows), prepared, camera.fps, identify_params(SyncParams())
+    )
     assert np.linalg.norm(found.pose.camera.center - camera.center) < 0.3
     assert found.tracklet in (0, 1, 2) and len(found.identification.track) > 0.9 * len(track)
     assert all(tid >= 100 for tid, why in found.tried.items() if why == "straight_path")
@@ -237,7 +283,9 @@ def test_the_pose_comes_from_every_mover_without_a_track():
 def test_synchronize_poses_cameras_without_one_and_fails_the_degenerate_one(scene):
     s = scene.scene
     inputs = {n: CameraInput(unposed(c), s.tracks[n], c.fps) for n, c in s.true_cameras.items()}
-    inputs["cam2"] = CameraInput(s.true_cameras["cam0"], s.tracks["cam0"], 30.0)  # cam0 again, with its true pose, as the reference
+    inputs["cam2"] = CameraInput(
+        s.true_cameras["cam0"], s.tracks["cam0"], 30.0
+    )  # cam0 again, with its true pose, as the reference
     timeline, results = synchronize(inputs, s.trajectory, SyncParams())
     assert "cam1" in timeline.failed and "straight_path" in timeline.failed["cam1"]
     assert results["cam0"].pose is not None and results["cam0"].line.refined
@@ -259,7 +307,20 @@ def test_the_joint_fit_jacobian_is_the_residuals_derivative(scene):
     priors = _prior_rows(layout, 3.0, slope_prior(30.0, 10.0, 1e-3), None)
 
     def residuals(v):
-        return _residuals(camera, v, layout, path, clock[keep], clock[keep] - c_mid, run[keep], track.xy[keep], gcps, 3.0 / gcps.sigma_px(camera), priors, 3.0)
+        return _residuals(
+            camera,
+            v,
+            layout,
+            path,
+            clock[keep],
+            clock[keep] - c_mid,
+            run[keep],
+            track.xy[keep],
+            gcps,
+            3.0 / gcps.sigma_px(camera),
+            priors,
+            3.0,
+        )
 
     r, jac = residuals(x)
     for k in range(len(x)):
@@ -275,7 +336,11 @@ def test_the_joint_fit_converges_to_the_truth_from_a_rough_start():
     s = ps.scene
     camera, track, line = s.true_cameras["cam0"], s.tracks["cam0"], s.lines["cam0"]
     path = PiecewiseTrajectory(s.trajectory)
-    rough = replace(camera, R=camera.R @ np.array([[1, 0, 0], [0, np.cos(0.02), -np.sin(0.02)], [0, np.sin(0.02), np.cos(0.02)]]), t=camera.t + [0.3, -0.2, 0.4])
+    rough = replace(
+        camera,
+        R=camera.R @ np.array([[1, 0, 0], [0, np.cos(0.02), -np.sin(0.02)], [0, np.sin(0.02), np.cos(0.02)]]),
+        t=camera.t + [0.3, -0.2, 0.4],
+    )
     clock = track.frame.astype(float)
     start = reprojection_errors(rough, clock, track.xy, path, line.alpha, line.beta + 3.0) < 60
     fit = fit_pose_and_line(rough, clock, track.xy, path, line.alpha, line.beta + 3.0, start, 10.0)
@@ -315,17 +380,26 @@ def test_a_metre_level_log_widens_the_fit_to_what_a_pose_cannot_absorb(scene):
     assert drone.unabsorbed_m(0.0) == pytest.approx(drone.white_m)  # an instant: the bias is a constant offset
     spans = [drone.unabsorbed_m(s) for s in (1.0, 10.0, 30.0, 120.0, 1e6)]
     assert all(a < b for a, b in zip(spans, spans[1:]))
-    assert spans[-1] == pytest.approx(np.sqrt(drone.white_m**2 + (drone.bias_m**2 + drone.bias_vertical_m**2) / 2), rel=1e-3)
+    assert spans[-1] == pytest.approx(
+        np.sqrt(drone.white_m**2 + (drone.bias_m**2 + drone.bias_vertical_m**2) / 2), rel=1e-3
+    )
     s = scene.scene
     camera, line = s.true_cameras["cam0"], s.lines["cam0"]
     path = PiecewiseTrajectory(smooth_trajectory(s.trajectory))
     clock = s.tracks["cam0"].frame.astype(float)
     assert P.log_scales(camera, clock, path, line.alpha, line.beta, 10.0, 3.0, 0.0) == (10.0, 3.0, MODEL_ERROR_PX)
-    assert P.log_scales(camera, clock, path, line.alpha, line.beta, 10.0, 3.0, 0.02)[:2] == (10.0, 3.0)  # RTK keeps the gate
+    assert P.log_scales(camera, clock, path, line.alpha, line.beta, 10.0, 3.0, 0.02)[:2] == (
+        10.0,
+        3.0,
+    )  # RTK keeps the gate
     depth = P.median_depth(camera, clock, path, line.alpha, line.beta)
     seen = camera.K[0, 0] * 1.0 / depth
     gate, scale, shared = P.log_scales(camera, clock, path, line.alpha, line.beta, 10.0, 3.0, 1.0)
-    assert gate == pytest.approx(P.LOG_GATE * seen, rel=0.01) and scale == pytest.approx(seen, rel=0.01) and shared == pytest.approx(seen, rel=0.01)
+    assert (
+        gate == pytest.approx(P.LOG_GATE * seen, rel=0.01)
+        and scale == pytest.approx(seen, rel=0.01)
+        and shared == pytest.approx(seen, rel=0.01)
+    )
 
 
 def test_a_walker_under_a_drifting_log_gets_no_pose_rather_than_a_wrong_timing(scene):
@@ -333,7 +407,9 @@ def test_a_walker_under_a_drifting_log_gets_no_pose_rather_than_a_wrong_timing(s
     its offset ambiguous), or its timing is within three of its sigmas."""
     s = scene.scene
     for seed in range(3):
-        errors, _ = log_errors(np.random.default_rng(seed), s.trajectory.sample / s.trajectory.rate, FIXTURE_LOGS["drone"])
+        errors, _ = log_errors(
+            np.random.default_rng(seed), s.trajectory.sample / s.trajectory.rate, FIXTURE_LOGS["drone"]
+        )
         path = PiecewiseTrajectory(smooth_trajectory(replace(s.trajectory, xyz=s.trajectory.xyz + errors)))
         try:
             found = _posed(scene, "cam0", path, log_model=LOG_MODELS["drone"])
@@ -355,9 +431,10 @@ def test_a_pose_under_a_biased_log_gives_the_line_its_fit(scene):
     u, ku = 1.0 / fit.alpha, fit.layout.index("u")
     assert taken.cov[0, 0] == pytest.approx(fit.cov[ku, ku] / u**4, rel=1e-9)
     assert with_pose_line(line, replace(found, fit=replace(fit, line_cov=None))) is line
-    profiled = with_pose_line(line, replace(found, bias_beta=fit.beta + 2.0))  # the pose and the log's bias fitted together
+    profiled = with_pose_line(
+        line, replace(found, bias_beta=fit.beta + 2.0)
+    )  # the pose and the log's bias fitted together
     assert profiled.beta == fit.beta + 2.0 and profiled.cov[1, 1] == pytest.approx(fit.se_beta**2 + 4.0, rel=1e-9)
-
 
 
 def test_a_straight_crossing_under_rough_gcps_carries_the_poses_timing_uncertainty():
@@ -368,7 +445,12 @@ def test_a_straight_crossing_under_rough_gcps_carries_the_poses_timing_uncertain
     base = make_pass_scene(9, paths=("turn", "turn", "straight"), log_noise_m=0.02, gcp_noise_m=2.0)
     s = base.scene
     inputs = {
-        n: CameraInput(replace(unposed(c), pose_info=None), s.tracks[n], c.fps, gcps=GcpPrior(base.gcps[n].uv, base.gcps[n].xyz, 1.0))
+        n: CameraInput(
+            replace(unposed(c), pose_info=None),
+            s.tracks[n],
+            c.fps,
+            gcps=GcpPrior(base.gcps[n].uv, base.gcps[n].xyz, 1.0),
+        )
         for n, c in s.true_cameras.items()
     }
     timeline, _ = synchronize(inputs, s.trajectory, SyncParams(), log_model=LOG_MODELS["rtk"])
@@ -385,7 +467,9 @@ REAL = REAL_DATA / "drone2"
 
 
 @pytest.mark.slow
-@pytest.mark.skipif(not (REAL / "project.toml").exists(), reason="the real flight (TLSYNC_REAL_DATA/drone2) is not here")
+@pytest.mark.skipif(
+    not (REAL / "project.toml").exists(), reason="the real flight (TLSYNC_REAL_DATA/drone2) is not here"
+)
 def test_the_real_flight_without_poses_under_a_drone_gnss_is_synchronized_within_its_intervals():
     from tlsync_pipeline.pipeline.project import load_project
     from tlsync_pipeline.pipeline.stages.sync import load_inputs
@@ -395,7 +479,9 @@ def test_the_real_flight_without_poses_under_a_drone_gnss_is_synchronized_within
     truth = json.loads((REAL / "truth.json").read_text())["cameras_to_target"]
     errors, _ = log_errors(np.random.default_rng(3), trajectory.sample / trajectory.rate, FIXTURE_LOGS["drone"])
     inputs = {n: replace(c, camera=unposed(c.camera)) for n, c in cameras.items()}
-    timeline, _ = synchronize(inputs, replace(trajectory, xyz=trajectory.xyz + errors), project.sync, log_model=LOG_MODELS["drone"])
+    timeline, _ = synchronize(
+        inputs, replace(trajectory, xyz=trajectory.xyz + errors), project.sync, log_model=LOG_MODELS["drone"]
+    )
     assert sorted(timeline.cameras) == sorted(cameras), timeline.failed
     for name, line in timeline.cameras.items():
         assert abs(line.beta - truth[name]["beta"]) <= 3 * np.sqrt(line.cov[1, 1]), name

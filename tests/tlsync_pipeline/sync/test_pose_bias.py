@@ -11,8 +11,8 @@ from calibration.camera import Camera
 from data_fixtures.gcp import looking_at
 from data_fixtures.log_error import PRESETS as FIXTURE_LOGS
 from data_fixtures.log_error import log_errors
-from tlsync_pipeline.sync.pose import pose as P
 from tlsync_pipeline.sync.model.log_model import PRESETS as LOG_MODELS
+from tlsync_pipeline.sync.pose import pose as P
 from tlsync_pipeline.sync.pose.pose_bias import CUT, VisitBias, fit_with_bias
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
 

@@ -12,12 +12,12 @@ import tlsync_pipeline.sync.solve.refined as refined_module
 from data_fixtures import make_scene, write_scene
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.outputs.summary import format_table
-from tlsync_pipeline.pipeline.stages.sync import run_project
 from tlsync_pipeline.pipeline.project import load_project
-from tlsync_pipeline.sync.kernels.line_search import find_line, thin_votes
-from tlsync_pipeline.sync.model.params import SyncParams
-from tlsync_pipeline.sync.kernels.ransac import fit_line_ransac
+from tlsync_pipeline.pipeline.stages.sync import run_project
 from tlsync_pipeline.sync.identify.refine import Refinement
+from tlsync_pipeline.sync.kernels.line_search import find_line, thin_votes
+from tlsync_pipeline.sync.kernels.ransac import fit_line_ransac
+from tlsync_pipeline.sync.model.params import SyncParams
 from tlsync_pipeline.sync.solve.synchronize import CameraInput, synchronize
 from tlsync_pipeline.sync.timeline import eps_t
 from trackers.track import Track
@@ -34,13 +34,18 @@ def _worst(scene, method="refined", **params):
     timeline, results = synchronize(_inputs(scene), scene.trajectory, SyncParams(method=method, **params))
     if timeline.failed:
         return float("inf"), timeline
-    errors = [eps_t(timeline.relation(*k.split("->")), t, scene.n_frames[k.split("->")[0]]) for k, t in scene.truth_pairs().items()]
+    errors = [
+        eps_t(timeline.relation(*k.split("->")), t, scene.n_frames[k.split("->")[0]])
+        for k, t in scene.truth_pairs().items()
+    ]
     return max(errors), timeline
 
 
 def test_refined_at_least_as_good_as_paper_on_noisy_scenes():
     for seed in range(4):
-        scene = make_scene(seed, lines=FRACTIONAL, tracking_noise_px=2.0, projection_error_px=1.0, localisation_noise_pct=0.5)
+        scene = make_scene(
+            seed, lines=FRACTIONAL, tracking_noise_px=2.0, projection_error_px=1.0, localisation_noise_pct=0.5
+        )
         paper, _ = _worst(scene, "paper")
         refined, timeline = _worst(scene)
         assert timeline.method == "refined"
@@ -106,7 +111,9 @@ def test_intervals_cover_the_truth_on_a_small_set():
     # bench/interval_coverage.py runs 200 scenes; loose bounds here.
     z = []
     for seed in range(12):
-        scene = make_scene(1000 + seed, lines=FRACTIONAL, tracking_noise_px=2.0, projection_error_px=2.0, localisation_noise_pct=1.0)
+        scene = make_scene(
+            1000 + seed, lines=FRACTIONAL, tracking_noise_px=2.0, projection_error_px=2.0, localisation_noise_pct=1.0
+        )
         timeline, _ = synchronize(_inputs(scene), scene.trajectory, SyncParams())
         for key, true in scene.truth_pairs().items():
             a, b = key.split("->")
@@ -120,11 +127,22 @@ def test_fallback_when_refinement_disagrees(monkeypatch):
     scene = make_scene(0, lines=FRACTIONAL)
 
     def shifted(camera, frame, xy, path, alpha, beta, *args, **kwargs):
-        return Refinement(alpha, beta + 30.0, np.diag([1e-10, 1e-4]), len(frame), 0.1, 0.8, True, "shifted", np.zeros((2, 2)), np.ones(len(frame), bool))
+        return Refinement(
+            alpha,
+            beta + 30.0,
+            np.diag([1e-10, 1e-4]),
+            len(frame),
+            0.1,
+            0.8,
+            True,
+            "shifted",
+            np.zeros((2, 2)),
+            np.ones(len(frame), bool),
+        )
 
     monkeypatch.setattr(refined_module, "refine_line", shifted)
     timeline, results = synchronize(_inputs(scene), scene.trajectory, SyncParams())
-    for name, line in timeline.cameras.items():
+    for line in timeline.cameras.values():
         assert not line.refined
         assert "frames whose votes support the line search" in line.warnings[0]
         assert line.beta == line.line_search.beta
@@ -212,7 +230,9 @@ def test_smoothed_values_are_scipys_smoothing_spline(n, lam, jitter):
 
 @pytest.mark.parametrize("n, lam, jitter", [(5, 0.5, 0.0), (50, 0.3, 0.3), (101, 1e4, 0.0), (300, 1e-4, 0.4)])
 def test_smoothing_spline_at_other_points_is_scipys(n, lam, jitter):
-    """Between the knots, at them and outside them (extrapolated as scipy does), the cross-validation's spline is scipy's make_smoothing_spline."""
+    """Between the knots, at them and outside them (extrapolated as scipy does), the cross-validation's spline is
+    scipy's make_smoothing_spline.
+    """
     from scipy.interpolate import make_smoothing_spline
 
     from tlsync_pipeline.sync.kernels.smoothing import smoothing_spline_at
@@ -226,7 +246,9 @@ def test_smoothing_spline_at_other_points_is_scipys(n, lam, jitter):
 
 @pytest.mark.parametrize("scale, groups", [(1.0, 1), (1.001, 1), (1.0, 3)])
 def test_thin_votes_keeps_the_closest_vote_of_each_frame_and_of_each_sample(scale, groups):
-    """Whole-number keys (grouped by offset) and fractional ones (by np.unique), with or without objects: the closest vote of every frame and every sample of each object, the first on a tie."""
+    """Whole-number keys (grouped by offset) and fractional ones (by np.unique), with or without objects: the closest
+    vote of every frame and every sample of each object, the first on a tie.
+    """
     rng = np.random.default_rng(2)
     frame = rng.integers(0, 300, 5000) * scale
     sample = rng.integers(0, 200, 5000).astype(float)

@@ -12,8 +12,8 @@ from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.pipeline.engine import run_graph
 from tlsync_pipeline.pipeline.graph import build_graph
 from tlsync_pipeline.pipeline.project import load_project
-from tlsync_pipeline.sync.model.params import SyncParams, param
 from tlsync_pipeline.sync.model.methods import METHODS, params_from_table, params_table
+from tlsync_pipeline.sync.model.params import SyncParams, param
 from tlsync_pipeline.sync.solve.registry import get_method, register
 from tlsync_pipeline.sync.solve.synchronize import CameraInput, synchronize
 from tlsync_pipeline.sync.timeline import eps_t, read_timeline
@@ -41,7 +41,11 @@ def test_a_toy_method_runs_through_synchronize(toy):
     inputs = {n: CameraInput(scene.cameras[n], scene.tracks[n], scene.cameras[n].fps) for n in scene.cameras}
     timeline, results = synchronize(inputs, scene.trajectory, SyncParams(method="toy", options={"toy": ToyParams(8.0)}))
     assert not timeline.failed and timeline.method == "toy"
-    assert timeline.params.own["toy_max_dist_px"] == 8.0 and timeline.params.own["r_min"] == 0.01 and timeline.params.shared.method == "toy"
+    assert (
+        timeline.params.own["toy_max_dist_px"] == 8.0
+        and timeline.params.own["r_min"] == 0.01
+        and timeline.params.shared.method == "toy"
+    )
     for key, true in scene.truth_pairs().items():  # a crude method: whole frames off, not hundreds
         assert eps_t(timeline.relation(*key.split("->")), true, scene.n_frames[key.split("->")[0]]) < 3.0, key
     assert all(line.flags == ("toy",) and line.cov is None for line in timeline.cameras.values())

@@ -1,4 +1,6 @@
-"""The rival line weighed on the camera's whole track with the log's bias absorbed (sync/solve/rival.py, plausibility._rival)."""
+"""The rival line weighed on the camera's whole track with the log's bias absorbed (sync/solve/rival.py,
+plausibility._rival).
+"""
 
 from __future__ import annotations
 
@@ -56,7 +58,9 @@ def _scene(laps: int, bias_m: tuple[float, float, float] = (1.5, -1.0, 0.0), see
 
 
 def _line(best: tuple[float, float], rival: tuple[float, float], probability: float | None = None) -> CameraLine:
-    search = LineSearchSummary(best[0], best[1], 200, 150, 400, 1000, rival_alpha=rival[0], rival_beta=rival[1], rival_probability=probability)
+    search = LineSearchSummary(
+        best[0], best[1], 200, 150, 400, 1000, rival_alpha=rival[0], rival_beta=rival[1], rival_probability=probability
+    )
     return CameraLine("cam0", best[0], best[1], 400, 200, 1.0, fps=FPS, line_search=search)
 
 
@@ -78,7 +82,10 @@ def test_a_rival_the_whole_track_rules_out_is_not_ambiguity():
 def test_two_passes_alike_stay_ambiguous_with_both_starts_and_their_probabilities():
     """The target walks the same circle twice: the track of one lap fits either lap alike."""
     camera, track, clock, path, truth, _ = _scene(laps=2)
-    rival = (truth[0], truth[1] - LAP_S * RATE * truth[0])  # the second lap: the video's first frame a lap earlier in the log
+    rival = (
+        truth[0],
+        truth[1] - LAP_S * RATE * truth[0],
+    )  # the second lap: the video's first frame a lap earlier in the log
     odds = rival_odds_of(camera, track, clock, path, _line(truth, rival), 120.0, FPS, PRESETS["phone"], RATE)
     assert odds is not None
     assert 0.1 < odds.rival_probability < 0.9
@@ -106,19 +113,30 @@ def test_the_project_picks_either_pass_with_pick_start_s():
     inputs = CameraInput(camera, track, FPS)
     true_start = -truth[1] / truth[0] / RATE
     for start in (true_start, true_start + LAP_S):
-        picked, _ = synchronize({"cam0": dataclasses.replace(inputs, pick_start_s=start)}, trajectory, SyncParams(), log_model=PRESETS["phone"])
+        picked, _ = synchronize(
+            {"cam0": dataclasses.replace(inputs, pick_start_s=start)},
+            trajectory,
+            SyncParams(),
+            log_model=PRESETS["phone"],
+        )
         status = picked.status("cam0")
         assert status.synchronized and "picked" in [r.code for r in status.reasons], status.reason
         line = picked.cameras["cam0"]
         assert abs(-line.beta / line.alpha / RATE - start) < 1.0
-    nowhere, _ = synchronize({"cam0": dataclasses.replace(inputs, pick_start_s=true_start + 500.0)}, trajectory, SyncParams(), log_model=PRESETS["phone"])
+    nowhere, _ = synchronize(
+        {"cam0": dataclasses.replace(inputs, pick_start_s=true_start + 500.0)},
+        trajectory,
+        SyncParams(),
+        log_model=PRESETS["phone"],
+    )
     assert "no vote near the picked start" in nowhere.failed["cam0"]
 
 
 @pytest.mark.slow
 def test_a_camera_whose_strongest_line_the_track_rules_out_takes_its_rival():
     """Walk scene 1 with a phone's 2 m bias: cam1's strongest line in the votes is 7 s off, its rival right; the whole
-    track puts the strongest under 1 %: the camera is refitted on the rival's votes, synchronized, the truth in its interval."""
+    track puts the strongest under 1 %: the camera is refitted on the rival's votes, synchronized, the truth in its
+    interval."""
     from data_fixtures.log_error import PRESETS as RECEIVERS
     from data_fixtures.walk import WalkSpec, make_walk_scene
 
@@ -128,7 +146,9 @@ def test_a_camera_whose_strongest_line_the_track_rules_out_takes_its_rival():
     assert timeline.status("cam1").synchronized, timeline.status("cam1").reason
     line, truth = timeline.cameras["cam1"], scene.lines["cam1"]
     search = line.line_search
-    assert search.rival_probability is not None and search.rival_probability < RIVAL_PROBABILITY  # the old strongest line
+    assert (
+        search.rival_probability is not None and search.rival_probability < RIVAL_PROBABILITY
+    )  # the old strongest line
     middle = (float(np.median(scene.tracks["cam1"].frame)) - truth.beta) / truth.alpha
     error = abs((line.alpha - truth.alpha) * middle + line.beta - truth.beta)
     se = float(np.sqrt(np.array([middle, 1.0]) @ line.cov @ np.array([middle, 1.0])))
@@ -137,7 +157,8 @@ def test_a_camera_whose_strongest_line_the_track_rules_out_takes_its_rival():
 
 @pytest.mark.parametrize("best_off_s, rival_off_s, rival_wins", [(0.5, -2.0, False), (-2.0, 0.5, True)])
 def test_two_lines_whose_profiles_meet_are_one_line_the_better_profile(best_off_s, rival_off_s, rival_wins):
-    """The line search's two lines straddle one pass (the ends of its blob of votes under a wide radius): profiled on the
+    """The line search's two lines straddle one pass (the ends of its blob of votes under a wide radius): profiled on
+    the
     track, they come within the band of each other. That is one line, not ambiguity: the rival keeps probability 0 when
     the best line's profile scores better, 1 when its own does (the camera is then refitted on the rival's votes)."""
     camera, track, clock, path, truth, _ = _scene(laps=1)

@@ -31,7 +31,9 @@ def test_a_line_among_outliers_is_found_and_polished():
     sample, frame, true = _votes(1)
     model = LineModel(sample, frame)
     draws, preemption = Draws(400), Preemption(300, 8)  # 1000 votes: hypotheses ranked on 300 first
-    found = robust_fit(model, np.random.default_rng(0), uniform_samples(model.rows, 2), InlierCount(0.5), draws, preemption)
+    found = robust_fit(
+        model, np.random.default_rng(0), uniform_samples(model.rows, 2), InlierCount(0.5), draws, preemption
+    )
     assert found is not None and found.drawn == 400
     polished = polish(model, within(0.5), 5, start=found.model, min_inliers=2)
     assert polished is not None
@@ -41,7 +43,9 @@ def test_a_line_among_outliers_is_found_and_polished():
     assert polished.inliers[~true].sum() < 10  # and few of the 800 outliers are
     assert np.array_equal(polished.residuals, model.residuals(polished.model))
     assert found.score == int((model.residuals(found.model) <= 0.5).sum())  # the score is on every vote
-    again = robust_fit(model, np.random.default_rng(0), uniform_samples(model.rows, 2), InlierCount(0.5), draws, preemption)
+    again = robust_fit(
+        model, np.random.default_rng(0), uniform_samples(model.rows, 2), InlierCount(0.5), draws, preemption
+    )
     assert again is not None and np.array_equal(again.model, found.model)
 
 
@@ -49,7 +53,9 @@ def test_degenerate_samples_give_no_model():
     # Every vote at one sample: no pair gives a line, so there is no hypothesis at all.
     model = LineModel(np.full(50, 7.0), np.arange(50.0))
     assert len(model.estimate(np.array([[0, 1, 2], [3, 4, 5]]))) == 0
-    found = robust_fit(model, np.random.default_rng(0), uniform_samples(50, 2), InlierCount(0.5), Draws(100), Preemption(1000, 8))
+    found = robust_fit(
+        model, np.random.default_rng(0), uniform_samples(50, 2), InlierCount(0.5), Draws(100), Preemption(1000, 8)
+    )
     assert found is None
     # A decreasing pair is no hypothesis either (clocks do not run backwards); an increasing one is.
     two = LineModel(np.array([0.0, 1.0, 2.0]), np.array([5.0, 1.0, 3.0]))
@@ -61,7 +67,9 @@ def test_a_polish_whose_inliers_are_degenerate_keeps_its_start_or_fails_when_str
     model = LineModel(np.array([0.0, 0.0, 5.0, 9.0]), np.array([0.0, 0.2, 40.0, 80.0]))
     start = np.array([1.0, 0.0])  # only the two votes at sample 0 are within 0.5: no line through them
     kept = polish(model, within(0.5), 5, start=start)
-    assert kept is not None and np.array_equal(kept.model, start) and kept.inliers.tolist() == [True, True, False, False]
+    assert (
+        kept is not None and np.array_equal(kept.model, start) and kept.inliers.tolist() == [True, True, False, False]
+    )
     assert polish(model, within(0.5), 5, start=start, strict=True) is None
     # From every row (no start): the least-squares line of all four votes.
     every = polish(model, within(100.0), 1)
@@ -113,7 +121,9 @@ def test_hypotheses_then_subset_or_subset_then_hypotheses():
         return uniform_samples(model.rows, 2)(rng, n)
 
     for first in (True, False):
-        robust_fit(model, np.random.default_rng(5), sampler, InlierCount(0.5), Draws(50), Preemption(100, 4, first=first))
+        robust_fit(
+            model, np.random.default_rng(5), sampler, InlierCount(0.5), Draws(50), Preemption(100, 4, first=first)
+        )
     reference = np.random.default_rng(5)
     assert seen[1] == reference.integers(1 << 30)  # after the hypotheses: the sampler draws first
     assert seen[0] != seen[1]
@@ -123,9 +133,13 @@ def test_adaptive_draws_stop_when_the_best_line_holds_most_rows():
     sample, frame, _ = _votes(4, n_true=500, n_outliers=20)
     model = LineModel(sample, frame)
     draws = Draws(60_000, batch=256, confidence=0.99, ratio=0.01)
-    found = robust_fit(model, np.random.default_rng(0), uniform_samples(model.rows, 2), InlierCount(0.5), draws, Preemption(10_000, 8))
+    found = robust_fit(
+        model, np.random.default_rng(0), uniform_samples(model.rows, 2), InlierCount(0.5), draws, Preemption(10_000, 8)
+    )
     assert found is not None and found.drawn == 256  # one batch: eq. 4 at a ratio near 1 asks for a handful
-    rare = robust_fit(model, np.random.default_rng(0), uniform_samples(model.rows, 2), InlierCount(1e-9), draws, Preemption(10_000, 8))
+    rare = robust_fit(
+        model, np.random.default_rng(0), uniform_samples(model.rows, 2), InlierCount(1e-9), draws, Preemption(10_000, 8)
+    )
     assert rare is not None and rare.drawn > 256  # no line holds more than its two votes: the draws go on
 
 

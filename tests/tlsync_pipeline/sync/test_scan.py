@@ -6,9 +6,17 @@ import numpy as np
 import pytest
 
 from data_fixtures import make_scene
-from tlsync_pipeline.sync.model.params import SyncParams
 from tlsync_pipeline.sync.identify.identify import identify_params
-from tlsync_pipeline.sync.identify.scan import MIN_KEYFRAMES, OffsetPrior, ScanPlan, before_coarse, coarse_stride, keyframe_range, plan_scan
+from tlsync_pipeline.sync.identify.scan import (
+    MIN_KEYFRAMES,
+    OffsetPrior,
+    ScanPlan,
+    before_coarse,
+    coarse_stride,
+    keyframe_range,
+    plan_scan,
+)
+from tlsync_pipeline.sync.model.params import SyncParams
 from trackers.detections import make_detections
 
 P = identify_params(SyncParams())
@@ -18,7 +26,9 @@ GOP = 30
 @pytest.fixture(scope="module")
 def long_scene():
     """Two cameras recording 6 minutes at 30 and 25 fps at the same time; the target stays 40 s in each view."""
-    return make_scene(0, ((3.0, -300.0), (2.5, 500.0)), (10800, 9000), target_rate=10.0, image_size=(640, 360), window_samples=400)
+    return make_scene(
+        0, ((3.0, -300.0), (2.5, 500.0)), (10800, 9000), target_rate=10.0, image_size=(640, 360), window_samples=400
+    )
 
 
 def _keyframe_movers(scene, name, walkers=6, seed=0, extra=(), shown=None):
@@ -46,7 +56,9 @@ def _keyframe_movers(scene, name, walkers=6, seed=0, extra=(), shown=None):
 
 def _plan(scene, name, movers, keys, **kwargs):
     camera = scene.cameras[name]
-    return plan_scan(camera, movers, scene.trajectory, camera.fps, kwargs.pop("params", P), keys, scene.n_frames[name], **kwargs)
+    return plan_scan(
+        camera, movers, scene.trajectory, camera.fps, kwargs.pop("params", P), keys, scene.n_frames[name], **kwargs
+    )
 
 
 @pytest.mark.parametrize("name", ["cam0", "cam1"])
@@ -70,11 +82,17 @@ def test_windows_hold_every_frame_of_the_target_and_little_else(long_scene, name
 
 
 def test_a_look_alike_on_the_path_at_another_time_makes_it_ambiguous(long_scene):
-    """A second mover that follows the target's projected path 90 s later: two lines equally strong, every frame is read."""
+    """A second mover that follows the target's projected path 90 s later: two lines equally strong, every frame is
+    read.
+    """
     name = "cam0"
     track = long_scene.tracks[name]
     shift = 90 * 30
-    echo = [(f + shift, x, y) for f, (x, y) in zip(track.frame, track.xy) if (f + shift) % GOP == 0 and f + shift < long_scene.n_frames[name]]
+    echo = [
+        (f + shift, x, y)
+        for f, (x, y) in zip(track.frame, track.xy)
+        if (f + shift) % GOP == 0 and f + shift < long_scene.n_frames[name]
+    ]
     movers, keys = _keyframe_movers(long_scene, name, extra=echo)
     plan = _plan(long_scene, name, movers, keys)
     assert plan.full and "ambiguous" in plan.reason
@@ -115,7 +133,9 @@ def test_no_slope_prior_reads_every_frame(long_scene):
     movers, keys = _keyframe_movers(long_scene, name)
     camera = long_scene.cameras[name]
     free = dataclasses.replace(P, rate_sigma=0.0)
-    assert "slope prior" in before_coarse(camera, long_scene.trajectory, long_scene.n_frames[name], keys, camera.fps, free)
+    assert "slope prior" in before_coarse(
+        camera, long_scene.trajectory, long_scene.n_frames[name], keys, camera.fps, free
+    )
     assert "slope prior" in _plan(long_scene, name, movers, keys, params=free).reason
 
 
@@ -125,7 +145,9 @@ def test_reasons_before_decoding(long_scene):
     assert before_coarse(camera, long_scene.trajectory, n, np.arange(0, n, GOP), camera.fps, P) is None
     assert "packet index" in before_coarse(camera, long_scene.trajectory, None, None, camera.fps, P)
     assert "cost about as much" in before_coarse(camera, long_scene.trajectory, n, np.arange(0, n, 2), camera.fps, P)
-    alone = make_scene(0, ((3.0, -30.0),), 900, target_rate=10.0, image_size=(640, 360))  # the target in view most of the video
+    alone = make_scene(
+        0, ((3.0, -30.0),), 900, target_rate=10.0, image_size=(640, 360)
+    )  # the target in view most of the video
     assert "in view" in before_coarse(alone.cameras["cam0"], alone.trajectory, 900, np.arange(0, 900, GOP), 30.0, P)
 
 
@@ -171,7 +193,9 @@ def test_the_keyframes_between_are_read_when_the_first_ones_cannot_decide(long_s
 
 
 def test_a_camera_clock_prior_reads_only_the_keyframes_near_the_log(long_scene, monkeypatch):
-    """With an offset prior, the keyframes read are those where the log can be seen (its span, the tolerance, a margin)."""
+    """With an offset prior, the keyframes read are those where the log can be seen (its span, the
+    tolerance, a margin).
+    """
     from tlsync_pipeline.pipeline.stages import scan as stage
 
     name = "cam1"

@@ -35,15 +35,28 @@ def test_weighted_refinement_beats_unweighted_on_a_log_with_a_noisy_stretch():
         start = np.ones(len(track.frame), dtype=bool)
         for key, s in (("weighted", sigma), ("unweighted", None)):
             log = Trajectory(truth.sample, xyz, truth.rate, truth.t0, s)
-            fit = refine_line(camera, track.frame, np.column_stack([track.x, track.y]), log, line.alpha * 1.002, line.beta + 0.5, start)
+            fit = refine_line(
+                camera,
+                track.frame,
+                np.column_stack([track.x, track.y]),
+                log,
+                line.alpha * 1.002,
+                line.beta + 0.5,
+                start,
+            )
             middle = 0.5 * (lo + hi)  # error in frames at the middle of the window plus the slope's over half of it
-            errors[key].append(abs((fit.alpha - line.alpha) * middle + fit.beta - line.beta) + abs(fit.alpha - line.alpha) * (hi - lo) / 2)
+            errors[key].append(
+                abs((fit.alpha - line.alpha) * middle + fit.beta - line.beta)
+                + abs(fit.alpha - line.alpha) * (hi - lo) / 2
+            )
     assert np.median(errors["weighted"]) < 0.3 * np.median(errors["unweighted"]), errors
     assert max(errors["weighted"]) < 0.1, errors
 
 
 def test_trajectory_csv_keeps_sigma(tmp_path):
-    trajectory = Trajectory(np.arange(4.0), np.arange(12.0).reshape(4, 3), 10.0, 100.0, np.array([0.01, 0.02, 1.5, 0.01]))
+    trajectory = Trajectory(
+        np.arange(4.0), np.arange(12.0).reshape(4, 3), 10.0, 100.0, np.array([0.01, 0.02, 1.5, 0.01])
+    )
     write_trajectory(trajectory, tmp_path / "t.csv")
     assert (tmp_path / "t.csv").read_text().splitlines()[0] == "t,x,y,z,sigma"
     back = read_trajectory(tmp_path / "t.csv")

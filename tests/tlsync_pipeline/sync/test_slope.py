@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from data_fixtures import make_scene
-from tlsync_pipeline.sync.kernels.line_search import SWEEP_SUBSET, find_line
 from tlsync_pipeline.sync.identify.refine import refine_line
+from tlsync_pipeline.sync.kernels.line_search import SWEEP_SUBSET, find_line
 from tlsync_pipeline.sync.kernels.slope import BAND_SIGMAS, SlopePrior, slope_prior
 from tlsync_pipeline.trajectory import PiecewiseTrajectory
 
@@ -70,7 +70,16 @@ def test_the_prior_holds_the_slope_of_a_short_track_against_a_biased_stretch():
     path = PiecewiseTrajectory(scene.trajectory)
     start = np.ones(len(frame), bool)
     free = refine_line(camera, frame, biased, path, line.alpha, line.beta, start)
-    held = refine_line(camera, frame, biased, path, line.alpha, line.beta, start, prior=slope_prior(camera.fps, scene.trajectory.rate, 1e-3))
+    held = refine_line(
+        camera,
+        frame,
+        biased,
+        path,
+        line.alpha,
+        line.beta,
+        start,
+        prior=slope_prior(camera.fps, scene.trajectory.rate, 1e-3),
+    )
     assert abs(held.alpha / line.alpha - 1) < abs(free.alpha / line.alpha - 1)
     assert abs(held.alpha / line.alpha - 1) < 2e-3
     assert held.se_alpha < free.se_alpha
@@ -80,7 +89,16 @@ def test_a_long_track_measures_a_clock_that_drifts_from_its_nominal_rate():
     scene = make_scene(0, lines=((2.0, 10.0), (2.0, 40.0)), tracking_noise_px=1.0, n_frames=1500)
     camera, line, track = scene.cameras["cam0"], scene.lines["cam0"], scene.tracks["cam0"]
     nominal = SlopePrior(line.alpha / 1.003, 1e-3)  # the camera runs 0.3 % (3 sigma) faster than it says
-    fit = refine_line(camera, track.frame, track.xy, scene.trajectory, nominal.alpha, line.beta, np.ones(len(track), bool), prior=nominal)
+    fit = refine_line(
+        camera,
+        track.frame,
+        track.xy,
+        scene.trajectory,
+        nominal.alpha,
+        line.beta,
+        np.ones(len(track), bool),
+        prior=nominal,
+    )
     assert fit.alpha / line.alpha - 1 == pytest.approx(0.0, abs=5e-4)
 
 

@@ -1,4 +1,6 @@
-"""One status per camera: from its line's checks, flags, warnings and interval, or why it failed; the same back from timeline.json."""
+"""One status per camera: from its line's checks, flags, warnings and interval, or why it failed; the same back from
+timeline.json.
+"""
 
 from __future__ import annotations
 
@@ -15,7 +17,11 @@ def _line(name: str, **more) -> CameraLine:
 
 
 def test_the_worst_reason_sets_the_status_and_leads():
-    reasons = [Reason("few_inliers", WEAK, "few", "more"), Reason("ambiguous", AMBIGUOUS, "two lines", "init box"), Reason("off_path", FAILED, "off", "pose")]
+    reasons = [
+        Reason("few_inliers", WEAK, "few", "more"),
+        Reason("ambiguous", AMBIGUOUS, "two lines", "init box"),
+        Reason("off_path", FAILED, "off", "pose"),
+    ]
     status = status_of("cam", reasons)
     assert status.status == FAILED and [r.code for r in status.reasons] == ["off_path", "ambiguous", "few_inliers"]
     assert status.reason == "off" and status.remedy == "pose" and not status.synchronized
@@ -29,30 +35,57 @@ def test_flags_warnings_checks_and_failures_become_reasons(tmp_path):
             "cam1": _line("cam1", flags=("few_inliers", "clock_disagrees"), warnings=("refinement did not converge",)),
         },
         target_rate=15.0,
-        failed={"cam2": "camera cam2: the target never comes within eps = 10 px of its projection", "cam3": "camera cam3: under this line ..."},
+        failed={
+            "cam2": "camera cam2: the target never comes within eps = 10 px of its projection",
+            "cam3": "camera cam3: under this line ...",
+        },
         rejected={"cam3": _line("cam3", checks=(Reason("off_path", FAILED, "under this line ...", "check the pose"),))},
     )
     statuses = timeline.statuses()
     assert statuses["cam0"].status == "ok"
-    assert statuses["cam1"].status == "weak" and [r.code for r in statuses["cam1"].reasons] == ["few_inliers", "clock_disagrees", "fallback"]
+    assert statuses["cam1"].status == "weak" and [r.code for r in statuses["cam1"].reasons] == [
+        "few_inliers",
+        "clock_disagrees",
+        "fallback",
+    ]
     assert statuses["cam2"].status == "failed" and "pose" in statuses["cam2"].remedy
     assert statuses["cam3"].status == "failed" and statuses["cam3"].reason == "under this line ..."
     write_timeline(timeline, tmp_path / "timeline.json")
     written = json.loads((tmp_path / "timeline.json").read_text())
-    assert list(written["cameras"]) == ["cam0", "cam1"] and set(written["failed"]) == {"cam2", "cam3"} and list(written["rejected"]) == ["cam3"]
-    assert {name: entry["status"] for name, entry in written["status"].items()} == {"cam0": "ok", "cam1": "weak", "cam2": "failed", "cam3": "failed"}
+    assert (
+        list(written["cameras"]) == ["cam0", "cam1"]
+        and set(written["failed"]) == {"cam2", "cam3"}
+        and list(written["rejected"]) == ["cam3"]
+    )
+    assert {name: entry["status"] for name, entry in written["status"].items()} == {
+        "cam0": "ok",
+        "cam1": "weak",
+        "cam2": "failed",
+        "cam3": "failed",
+    }
     back = read_timeline(tmp_path / "timeline.json")
     assert {n: s.to_dict() for n, s in back.statuses().items()} == {n: s.to_dict() for n, s in statuses.items()}
 
 
 def test_a_wide_interval_is_weak():
-    wide = Timeline({"cam0": _line("cam0"), "cam1": CameraLine("cam1", 2.0, 45.0, 400, 30, 0.5, fps=30.0, cov=np.diag([1e-4, 4.0]))}, target_rate=15.0)
+    wide = Timeline(
+        {
+            "cam0": _line("cam0"),
+            "cam1": CameraLine("cam1", 2.0, 45.0, 400, 30, 0.5, fps=30.0, cov=np.diag([1e-4, 4.0])),
+        },
+        target_rate=15.0,
+    )
     status = wide.status("cam1")
-    assert status.status == "weak" and status.reasons[0].code == "wide_interval" and "of its frames only" in status.reason
+    assert (
+        status.status == "weak" and status.reasons[0].code == "wide_interval" and "of its frames only" in status.reason
+    )
 
 
 def test_no_number_that_is_not_finite_reaches_timeline_json(tmp_path):
-    timeline = Timeline({"cam0": CameraLine("cam0", 2.0, 4.0, 10, 2, float("nan"), fps=30.0, cov=np.full((2, 2), np.inf))}, target_rate=15.0)
+    timeline = Timeline(
+        {"cam0": CameraLine("cam0", 2.0, 4.0, 10, 2, float("nan"), fps=30.0, cov=np.full((2, 2), np.inf))},
+        target_rate=15.0,
+    )
     write_timeline(timeline, tmp_path / "timeline.json")
     text = (tmp_path / "timeline.json").read_text()
     assert "NaN" not in text and "Infinity" not in text

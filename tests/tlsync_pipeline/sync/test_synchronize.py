@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from data_fixtures import make_scene
+from tlsync_pipeline.sync.model.methods import preparation_of, prepare_trajectory
 from tlsync_pipeline.sync.model.params import SyncParams
-from tlsync_pipeline.sync.model.methods import prepare_trajectory, preparation_of
 from tlsync_pipeline.sync.solve.synchronize import CameraInput, synchronize
 from tlsync_pipeline.sync.timeline import eps_t
 
@@ -20,7 +20,10 @@ def _solve(scene):
 
 
 def _errors(scene, timeline):
-    return {k: eps_t(timeline.relation(*k.split("->")), true, scene.n_frames[k.split("->")[0]]) for k, true in scene.truth_pairs().items()}
+    return {
+        k: eps_t(timeline.relation(*k.split("->")), true, scene.n_frames[k.split("->")[0]])
+        for k, true in scene.truth_pairs().items()
+    }
 
 
 @pytest.mark.parametrize("seed", range(8))
@@ -32,7 +35,10 @@ def test_noise_free_scenes_are_within_half_a_frame(seed):
 
 def test_tracking_noise_two_pixels_mostly_within_one_frame():
     # The bench (bench/sync_accuracy.py) runs 100 scenes; the test runs 20.
-    worst = [max(_errors(s, _solve(s)).values()) for s in (make_scene(seed, tracking_noise_px=2.0) for seed in range(100, 120))]
+    worst = [
+        max(_errors(s, _solve(s)).values())
+        for s in (make_scene(seed, tracking_noise_px=2.0) for seed in range(100, 120))
+    ]
     assert np.mean(np.array(worst) <= 1.0) >= 0.95, worst
 
 
@@ -54,7 +60,9 @@ def test_four_cameras_with_rate_ratios_and_large_shifts():
 
 
 def test_a_log_riding_above_the_tracked_point_is_lowered_by_logged_point_above_m():
-    """The log 0.3 m above what the tracker follows (a drone scene's camera a few metres away: tens of pixels): declared, it syncs as if on the point."""
+    """The log 0.3 m above what the tracker follows (a drone scene's camera a few metres away: tens of pixels):
+    declared, it syncs as if on the point.
+    """
     scene = make_scene(3)
     raised = dataclasses.replace(scene.trajectory, xyz=scene.trajectory.xyz + [0.0, 0.0, 0.3])
     inputs = {n: CameraInput(scene.cameras[n], scene.tracks[n], scene.cameras[n].fps) for n in scene.cameras}
@@ -62,7 +70,10 @@ def test_a_log_riding_above_the_tracked_point_is_lowered_by_logged_point_above_m
     assert not declared.failed
     declared_worst = max(_errors(scene, declared).values())
     assert declared_worst < 0.5
-    assert np.allclose(prepare_trajectory(raised, preparation_of(SyncParams(logged_point_above_m=0.3))).xyz, prepare_trajectory(scene.trajectory, preparation_of(SyncParams())).xyz)
+    assert np.allclose(
+        prepare_trajectory(raised, preparation_of(SyncParams(logged_point_above_m=0.3))).xyz,
+        prepare_trajectory(scene.trajectory, preparation_of(SyncParams())).xyz,
+    )
     ignored, _ = synchronize(inputs, raised, SyncParams())
     worst = max(_errors(scene, ignored).values()) if not ignored.failed else np.inf
     assert worst > 2 * declared_worst  # undeclared, the 20 px offset costs timing

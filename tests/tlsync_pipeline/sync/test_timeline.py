@@ -1,4 +1,6 @@
-"""timeline.json: typed camera lines written and read back; pairs of variable-frame-rate cameras are marked approximate."""
+"""timeline.json: typed camera lines written and read back; pairs of variable-frame-rate cameras are
+marked approximate.
+"""
 
 from __future__ import annotations
 
@@ -35,7 +37,9 @@ def test_camera_lines_read_back_typed(tmp_path):
     assert back.relation("cam0", "cam1") == timeline.relation("cam0", "cam1")
     data = json.loads((tmp_path / "timeline.json").read_text())
     camera = data["cameras"]["cam1"]
-    assert {"clock", "clock_fps", "clock_origin_s", "time_jitter_frames", "line_search", "refinement", "cov"} <= set(camera)
+    assert {"clock", "clock_fps", "clock_origin_s", "time_jitter_frames", "line_search", "refinement", "cov"} <= set(
+        camera
+    )
     pair = data["pairs"]["cam0->cam1"]
     assert pair["approximate"] is True and pair["exact"] == "exports/frame_map.csv"
     assert "variable frame rate: cam0, cam1: starts in frames are approximate" in format_table(back)
@@ -49,7 +53,9 @@ def test_constant_rate_cameras_keep_frame_indices_and_exact_pairs(tmp_path):
     assert "approximate" not in data["pairs"]["cam0->cam1"] and "variable frame rate" not in format_table(timeline)
     frames = np.arange(0.0, 500.0, 7.0)
     # Without presentation times, match and relation are the same mapping.
-    np.testing.assert_allclose(timeline.match("cam0", "cam1", frames), timeline.relation("cam0", "cam1")(frames), rtol=0, atol=1e-9)
+    np.testing.assert_allclose(
+        timeline.match("cam0", "cam1", frames), timeline.relation("cam0", "cam1")(frames), rtol=0, atol=1e-9
+    )
 
 
 def test_a_malformed_camera_entry_names_the_file(tmp_path):

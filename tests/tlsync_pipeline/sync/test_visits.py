@@ -8,8 +8,8 @@ import pytest
 from data_fixtures.long_log import write_long_log
 from data_fixtures.scene import make_scene, write_scene
 from tlsync_pipeline.cli.pipeline import execute
-from tlsync_pipeline.sync.vote import visits
 from tlsync_pipeline.sync.timeline import read_timeline
+from tlsync_pipeline.sync.vote import visits
 from tlsync_pipeline.trajectory import Trajectory, read_trajectory
 
 DEMO = {"lines": ((2.0, 4.0), (2.0, 45.0), (1.0, -30.5)), "n_frames": (512, 512, 300), "tracking_noise_px": 1.0}
@@ -45,7 +45,9 @@ def test_a_long_log_gives_the_timeline_of_its_visits(tmp_path, monkeypatch):
         scene = make_scene(0, **DEMO)
         project = write_scene(scene, tmp_path / name)
         if seconds is not None:
-            write_long_log(read_trajectory(tmp_path / name / "trajectory.csv"), tmp_path / name / "trajectory.csv", seconds, 15.0)
+            write_long_log(
+                read_trajectory(tmp_path / name / "trajectory.csv"), tmp_path / name / "trajectory.csv", seconds, 15.0
+            )
             assert len(read_trajectory(tmp_path / name / "trajectory.csv")) == 27_000
         execute(project, None, jobs=1, quiet=True)
         timelines[name] = read_timeline(tmp_path / name / "work" / "timeline.json")
@@ -53,4 +55,6 @@ def test_a_long_log_gives_the_timeline_of_its_visits(tmp_path, monkeypatch):
     assert set(short.cameras) == set(long.cameras) == {"cam0", "cam1", "cam2"} and not long.failed
     for pair, relation in short.pairs().items():
         other = long.pairs()[pair]
-        assert other.alpha == pytest.approx(relation.alpha, abs=1e-4) and other.beta == pytest.approx(relation.beta, abs=0.02), pair
+        assert other.alpha == pytest.approx(relation.alpha, abs=1e-4) and other.beta == pytest.approx(
+            relation.beta, abs=0.02
+        ), pair

@@ -14,9 +14,9 @@ from scipy.stats import theilslopes
 
 from tlsync_pipeline.errors import SyncError
 from tlsync_pipeline.sync.kernels.line_search import thin_votes
-from tlsync_pipeline.sync.solve.methods import CameraData
-from tlsync_pipeline.sync.model.params import SyncParams, param
 from tlsync_pipeline.sync.kernels.ransac import distance_to_line
+from tlsync_pipeline.sync.model.params import SyncParams, param
+from tlsync_pipeline.sync.solve.methods import CameraData
 from tlsync_pipeline.sync.timeline import CameraLine
 from tlsync_pipeline.trajectory import Trajectory
 
@@ -47,4 +47,6 @@ class ToyMethod:
         alpha, beta, _, _ = theilslopes(data.vote_clock[kept], votes.sample[kept])
         inliers = distance_to_line(votes.sample, data.vote_clock, alpha, beta) <= params.delta
         residual = data.vote_clock[inliers] - alpha * votes.sample[inliers] - beta
-        return data.line(float(alpha), float(beta), int(inliers.sum()), float(np.sqrt(np.mean(residual**2))), flags=("toy",))
+        return data.line(
+            float(alpha), float(beta), int(inliers.sum()), float(np.sqrt(np.mean(residual**2))), flags=("toy",)
+        )

@@ -1,4 +1,5 @@
-"""The calibrate stage: a camera's pose (and its intrinsics, from the intrinsics stage or a camera.json) -> Camera and report.
+"""The calibrate stage: a camera's pose (and its intrinsics, from the intrinsics stage or a camera.json) -> Camera and
+report.
 
 The intrinsics come from the intrinsics stage (checkerboard photos or video,
 ``cameras/<cam>/intrinsics.json``), from an existing camera.json
@@ -51,7 +52,7 @@ from tlsync_pipeline.pipeline.stages.cameras import POSE_ERROR, has_no_rows
 from tlsync_pipeline.pipeline.stages.intrinsics import check_calibration
 from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
 from tlsync_pipeline.sync.identify.identify import IdentifyParams, identify_params
-from tlsync_pipeline.sync.model.methods import prepare_trajectory, preparation_of
+from tlsync_pipeline.sync.model.methods import preparation_of, prepare_trajectory
 from tlsync_pipeline.sync.model.params import Preparation
 from tlsync_pipeline.sync.pose.pose import GCP_AGREE, estimate_pose, gcp_pose, pose_info
 from tlsync_pipeline.sync.pose.pose_fit import GcpPrior
@@ -62,9 +63,12 @@ from trackers.track import Track, read_track
 if TYPE_CHECKING:
     from tlsync_pipeline.pipeline.project import Project
 
+
 @dataclass(frozen=True, eq=False)
 class KnownBoard:
-    """A checkerboard at a known world pose: inner corners COLSxROWS, square side (metres), board -> world R (3x3) and t (metres)."""
+    """A checkerboard at a known world pose: inner corners COLSxROWS, square side (metres), board -> world R (3x3) and t
+    (metres).
+    """
 
     pattern: str
     square: float
@@ -103,14 +107,21 @@ def gcp_world_points(table: GcpTable, origin: Origin | str | None) -> np.ndarray
         return table.xyz
     if not isinstance(origin, Origin) or table.geodetic is None:
         raise InputError(
-            f'{table.source}: geodetic GCPs cannot use origin = "first" (the log\'s first fix is not known when calibrating); '
+            f'{table.source}: geodetic GCPs cannot use origin = "first" (the log\'s first fix is not known when '
+            f"calibrating); "
             'set [target] origin = [lat, lon, alt] or "gcps"'
         )
     return geodetic_to_enu(table.geodetic[:, 0], table.geodetic[:, 1], table.geodetic[:, 2], origin)
 
 
 def calibrate_pose(
-    name: str, params: CalibrateParams, known: Camera, intrinsics_report: dict, origin: Origin | str | None, gcp: Path | None, board_image: Path | None
+    name: str,
+    params: CalibrateParams,
+    known: Camera,
+    intrinsics_report: dict,
+    origin: Origin | str | None,
+    gcp: Path | None,
+    board_image: Path | None,
 ) -> tuple[Camera, dict, GcpPrior | None]:
     """A camera from known intrinsics and its GCPs or board (``gcp`` or ``board_image``); writes nothing.
 
@@ -135,7 +146,13 @@ def calibrate_pose(
         _check_in_image(table, size)
         origin = origin if table.geodetic is not None else None
         if isinstance(origin, Origin):
-            check_gcp_places(table, origin, "the [target] origin" if isinstance(params.origin, Origin) else "the origin (the centroid of every camera's GCPs)")
+            check_gcp_places(
+                table,
+                origin,
+                "the [target] origin"
+                if isinstance(params.origin, Origin)
+                else "the origin (the centroid of every camera's GCPs)",
+            )
         xyz = gcp_world_points(table, origin)
         assert params.ransac_px is not None, "calibrate_params gives GCPs their threshold"
         target = params.target
@@ -151,7 +168,11 @@ def calibrate_pose(
             pose = pose_from_points(table.uv, xyz, K, dist, dist_model, params.ransac_px, source=table.source)
         if pose is not None:
             source = "gcp"
-            report["pose"] = {"source": table.source, "kind": "geodetic" if table.geodetic is not None else "local", **pose.to_report(table.names)}
+            report["pose"] = {
+                "source": table.source,
+                "kind": "geodetic" if table.geodetic is not None else "local",
+                **pose.to_report(table.names),
+            }
             for point, uv, world in zip(report["pose"]["points"], table.uv, xyz):
                 point.update(uv=uv.tolist(), xyz=world.tolist())
             if isinstance(origin, Origin):
@@ -163,7 +184,10 @@ def calibrate_pose(
         if gray is None:
             raise InputError(f"{board_image}: cannot read the image (board_pose)")
         if (gray.shape[1], gray.shape[0]) != tuple(size):
-            raise InputError(f"{board_image}: image is {gray.shape[1]}x{gray.shape[0]}, the camera's intrinsics are for {size[0]}x{size[1]}")
+            raise InputError(
+                f"{board_image}: image is {gray.shape[1]}x{gray.shape[0]}, the camera's intrinsics are for "
+                f"{size[0]}x{size[1]}"
+            )
         corners, _, reason = detect_board(gray, pattern.size)
         if corners is None:
             raise InputError(f"{board_image}: board_pose: {reason} (pattern {pattern})")
@@ -172,9 +196,32 @@ def calibrate_pose(
         source = "board"
     if pose is None:
         report.setdefault("pose", None)
-        return replace(known, name=name, fps=params.fps, R=np.eye(3), t=np.zeros(3), to_estimate=tuple(sorted(set(known.to_estimate) | {"pose"})), pose_info=None), report, prior
+        return (
+            replace(
+                known,
+                name=name,
+                fps=params.fps,
+                R=np.eye(3),
+                t=np.zeros(3),
+                to_estimate=tuple(sorted(set(known.to_estimate) | {"pose"})),
+                pose_info=None,
+            ),
+            report,
+            prior,
+        )
     info = PoseInfo(source or "gcp", pose.position_std_m, pose.rotation_std_deg)
-    camera = Camera(name, K, dist, pose.R, pose.t, (int(size[0]), int(size[1])), params.fps, dist_model, dict(known.extra), pose_info=info)
+    camera = Camera(
+        name,
+        K,
+        dist,
+        pose.R,
+        pose.t,
+        (int(size[0]), int(size[1])),
+        params.fps,
+        dist_model,
+        dict(known.extra),
+        pose_info=info,
+    )
     return camera, report, prior
 
 
@@ -195,8 +242,14 @@ def pose_from_target(
     """
     prepared = prepare_trajectory(trajectory, params.preparation)
     start = camera if camera.posed else None
-    unposed = camera if not camera.posed else replace(camera, R=np.eye(3), t=np.zeros(3), to_estimate=("pose",), pose_info=None)
-    found, _ = estimate_pose(unposed, track, detections, prepared, camera.fps, params.identify, prior, ransac_px, start, offsets)
+    unposed = (
+        camera
+        if not camera.posed
+        else replace(camera, R=np.eye(3), t=np.zeros(3), to_estimate=("pose",), pose_info=None)
+    )
+    found, _ = estimate_pose(
+        unposed, track, detections, prepared, camera.fps, params.identify, prior, ransac_px, start, offsets
+    )
     sigma = None if prepared.sigma is None else float(np.median(prepared.sigma))
     info = pose_info(found, sigma)
     posed = replace(found.camera, name=camera.name, fps=camera.fps, extra=dict(camera.extra), pose_info=info)
@@ -204,10 +257,18 @@ def pose_from_target(
 
 
 def known_intrinsics(path: Path) -> dict:
-    """The intrinsics part of the report for intrinsics taken from an existing camera.json (K null when it has none: the target's to fit)."""
+    """The intrinsics part of the report for intrinsics taken from an existing camera.json (K null when it has none: the
+    target's to fit).
+    """
     known = read_camera(path)
     K = None if "intrinsics" in known.to_estimate else known.K.tolist()
-    return {"source": str(path), "K": K, "dist": known.dist.tolist(), "dist_model": known.dist_model, "image_size": list(known.image_size)}
+    return {
+        "source": str(path),
+        "K": K,
+        "dist": known.dist.tolist(),
+        "dist_model": known.dist_model,
+        "image_size": list(known.image_size),
+    }
 
 
 def _check_in_image(table: GcpTable, size: tuple[int, int]) -> None:
@@ -225,12 +286,24 @@ def survey_pose(files: StageFiles, params: CalibrateParams) -> tuple[Camera, dic
     if files.has("intrinsics_report"):  # calibrated by the intrinsics stage: its rms stays in camera.json
         intrinsics_report = dict(read_intrinsics_report(files.path("intrinsics_report")).content)
     else:  # a given camera.json: only its intrinsics are taken
-        known = Camera(known.name, known.K, known.dist, known.R, known.t, known.image_size, known.fps, known.dist_model, to_estimate=known.to_estimate)
+        known = Camera(
+            known.name,
+            known.K,
+            known.dist,
+            known.R,
+            known.t,
+            known.image_size,
+            known.fps,
+            known.dist_model,
+            to_estimate=known.to_estimate,
+        )
         intrinsics_report = known_intrinsics(files.path("intrinsics"))
     gcp = files.path("gcp") if files.has("gcp") else None
     origin = params.origin
     if gcp is not None and read_gcps(gcp).geodetic is not None:
-        origin = resolve_origin(origin, [files.path(label) for label in files.inputs if label.startswith("origin-gcp:")], "[target]")
+        origin = resolve_origin(
+            origin, [files.path(label) for label in files.inputs if label.startswith("origin-gcp:")], "[target]"
+        )
     board_image = files.path("board_pose_image") if files.has("board_pose_image") else None
     return calibrate_pose(files.camera_name, params, known, intrinsics_report, origin, gcp, board_image)
 
@@ -242,17 +315,33 @@ def run_calibrate(files: StageFiles, params: CalibrateParams) -> StageResult:
     if params.target is not None:
         try:
             camera, report["target_pose"] = _pose_from_target_files(files, camera, params, prior)
-        except SyncError as exc:  # the camera cannot be synchronized: camera.json without a pose says why, identify and vote pass it on
+        # the camera cannot be synchronized: camera.json without a pose says why, identify and vote pass it on
+        except SyncError as exc:
             failed[files.camera_name] = str(exc)
-            camera = replace(camera, R=np.eye(3), t=np.zeros(3), to_estimate=tuple(sorted(set(camera.to_estimate) | {"pose"})), pose_info=None, extra={**camera.extra, POSE_ERROR: str(exc)})
-            report["target_pose"] = {"error": str(exc), "cause": getattr(exc, "cause", None), "remedy": getattr(exc, "remedy", None)}
+            camera = replace(
+                camera,
+                R=np.eye(3),
+                t=np.zeros(3),
+                to_estimate=tuple(sorted(set(camera.to_estimate) | {"pose"})),
+                pose_info=None,
+                extra={**camera.extra, POSE_ERROR: str(exc)},
+            )
+            report["target_pose"] = {
+                "error": str(exc),
+                "cause": getattr(exc, "cause", None),
+                "remedy": getattr(exc, "remedy", None),
+            }
     with files.write("camera") as tmp:
         write_camera(camera, tmp)
     with files.write("calibration_report") as tmp:
         write_calibration_report(CalibrationReport(report), tmp)
     with files.write("calibration_picture") as tmp:
         tmp.write_bytes(calibration_plot(report, camera.image_size))
-    return StageResult(message=f"{calibration_summary(report)}; wrote {files.output('camera')}", warnings=pose_warnings(report), failed=failed)
+    return StageResult(
+        message=f"{calibration_summary(report)}; wrote {files.output('camera')}",
+        warnings=pose_warnings(report),
+        failed=failed,
+    )
 
 
 def pose_warnings(report: dict) -> tuple[str, ...]:
@@ -260,7 +349,8 @@ def pose_warnings(report: dict) -> tuple[str, ...]:
     pose, GCPs that disagree with the target's track, a pose from the target that serves timing but not 3D."""
     pose = report.get("pose") or {}
     out = [
-        f"ground control point {point.get('name', '?')} left out as an outlier ({point.get('error_px', float('nan')):.1f} px)"
+        f"ground control point {point.get('name', '?')} left out as an outlier "
+        f"({point.get('error_px', float('nan')):.1f} px)"
         for point in pose.get("points", [])
         if not point.get("inlier", True)
     ]
@@ -269,14 +359,25 @@ def pose_warnings(report: dict) -> tuple[str, ...]:
     if disagree:
         sigma = f"{GCP_AGREE:g} sigmas of {target.get('gcp_sigma_m', float('nan')):.2g} m"
         if target.get("source") == "target":
-            out.append(f"ground control points {', '.join(disagree)} disagree with the target's track (beyond {sigma}): the pose is the track's alone; check those points (pixel against world point) and that the log is in the GCPs' frame")
+            out.append(
+                f"ground control points {', '.join(disagree)} disagree with the target's track (beyond {sigma}): the "
+                f"pose is the track's alone; check those points (pixel against world point) and that the log is in "
+                f"the GCPs' frame"
+            )
         else:
-            out.append(f"ground control points {', '.join(disagree)} disagree with the track and the other points (beyond {sigma}): left out of the pose; check them")
+            out.append(
+                f"ground control points {', '.join(disagree)} disagree with the track and the other points (beyond "
+                f"{sigma}): left out of the pose; check them"
+            )
     return tuple(out + [w for w in (report.get("warning"), target.get("note")) if w])
 
 
-def _pose_from_target_files(files: StageFiles, camera: Camera, params: CalibrateParams, prior: GcpPrior | None) -> tuple[Camera, dict]:
-    """``pose_from_target`` on the task's track (or detections) and trajectory; SyncError when the target was never found or gives no pose."""
+def _pose_from_target_files(
+    files: StageFiles, camera: Camera, params: CalibrateParams, prior: GcpPrior | None
+) -> tuple[Camera, dict]:
+    """``pose_from_target`` on the task's track (or detections) and trajectory; SyncError when the target was never
+    found or gives no pose.
+    """
     assert params.target is not None
     label = "track" if files.has("track") else "detections"
     if params.target.source is not None and has_no_rows(files.path(label)):
@@ -284,10 +385,21 @@ def _pose_from_target_files(files: StageFiles, camera: Camera, params: Calibrate
     track = read_track(files.path("track")) if label == "track" else None
     detections = read_detections(files.path("detections")) if label == "detections" else None
     offsets = coarse_offsets(read_scan(files.path("scan")), camera.fps) if files.has("scan") else None
-    return pose_from_target(camera, params.target, prior, track, detections, read_trajectory(files.path("trajectory")), params.ransac_px or 8.0, offsets)
+    return pose_from_target(
+        camera,
+        params.target,
+        prior,
+        track,
+        detections,
+        read_trajectory(files.path("trajectory")),
+        params.ransac_px or 8.0,
+        offsets,
+    )
 
 
-COARSE_MARGIN_S = 10.0  # seconds either side of the scan's coarse offset (good to a second or two) the pose's search covers
+COARSE_MARGIN_S = (
+    10.0  # seconds either side of the scan's coarse offset (good to a second or two) the pose's search covers
+)
 
 
 def coarse_offsets(scan: ScanPlan, fps: float | None) -> tuple[float, float] | None:
@@ -300,18 +412,26 @@ def coarse_offsets(scan: ScanPlan, fps: float | None) -> tuple[float, float] | N
 
 
 def survey_inputs(src: Sources, name: str) -> dict[str, Path | Artefact]:
-    """The intrinsics (the intrinsics stage's, the given camera.json), the surveyed pose's files and the origin's GCPs."""
+    """The intrinsics (the intrinsics stage's, the given camera.json), the surveyed pose's files
+    and the origin's GCPs.
+    """
     camera = src.project.camera(name)
     cal = camera.calibration
     inputs: dict[str, Path | Artefact] = {}
     if camera.camera is not None:
         if cal.board_views or cal.intrinsics is not None:
-            raise InputError(f"{src.project.path}: camera {name!r}: give either 'camera' (a camera.json) or an intrinsics source in [cameras.calibration], not both")
+            raise InputError(
+                f"{src.project.path}: camera {name!r}: give either 'camera' (a camera.json) or an intrinsics source "
+                f"in [cameras.calibration], not both"
+            )
         inputs = {"intrinsics": camera.camera}
     else:
         check_calibration(src.project, name)
         if src.made("intrinsics", name):
-            inputs = {"intrinsics": src.artefact("intrinsics", name), "intrinsics_report": src.artefact("intrinsics_report", name)}
+            inputs = {
+                "intrinsics": src.artefact("intrinsics", name),
+                "intrinsics_report": src.artefact("intrinsics_report", name),
+            }
         elif cal.intrinsics is not None:
             inputs = {"intrinsics": cal.intrinsics}
     if cal.gcp is not None:
@@ -342,7 +462,9 @@ def calibrate_inputs(src: Sources, name: str) -> dict[str, Path | Artefact]:
 
 
 def survey_params(project: Project, name: str) -> CalibrateParams:
-    """The camera's fps; the GCPs' threshold and the origin setting with GCPs; the board (without its photo, an input) with board_pose."""
+    """The camera's fps; the GCPs' threshold and the origin setting with GCPs; the board (without its photo, an input)
+    with board_pose.
+    """
     camera = project.camera(name)
     cal = camera.calibration
     board = None
@@ -360,7 +482,12 @@ def calibrate_params(project: Project, name: str, options: Options) -> Calibrate
     if not target_pose_wanted(project, name):
         return survey_params(project, name)
     source = camera.video if camera.tracked else None
-    target = TargetPoseParams(gcp_sigma(project, name) if camera.calibration.gcp is not None else None, identify_params(project.sync), preparation_of(project.sync), source)
+    target = TargetPoseParams(
+        gcp_sigma(project, name) if camera.calibration.gcp is not None else None,
+        identify_params(project.sync),
+        preparation_of(project.sync),
+        source,
+    )
     return replace(survey_params(project, name), target=target)
 
 
@@ -372,5 +499,8 @@ SPEC = StageSpec(
     run=run_calibrate,
     per_camera=True,
     light=True,
-    applies=lambda project, name: (project.camera(name).camera is None and project.camera(name).calibration.given) or target_pose_wanted(project, name),
+    applies=lambda project, name: (
+        (project.camera(name).camera is None and project.camera(name).calibration.given)
+        or target_pose_wanted(project, name)
+    ),
 )

@@ -35,7 +35,9 @@ def gcp_sigma(project: Project, name: str) -> float:
 
 
 def _posed(path: Path) -> bool:
-    """Whether a camera.json the project brings has a pose (an unreadable one counts as posed: reading it later names the fault)."""
+    """Whether a camera.json the project brings has a pose (an unreadable one counts as posed: reading it later names
+    the fault).
+    """
     try:
         return read_camera(path).posed
     except CalibrationInputError:
@@ -56,8 +58,11 @@ def scan_pose(project: Project, cam: str) -> str | None:
 
 def scans(project: Project, cam: str) -> bool:
     """Whether the camera's video gets a coarse pass (the scan stage): every mover detected in its own video,
-    ``[track] scan = "auto"``, a pose to vote with (scan_pose) and a trajectory (a project of videos alone is tracked whole)."""
+    ``[track] scan = "auto"``, a pose to vote with (scan_pose) and a trajectory (a project of videos alone is tracked
+    whole)."""
     camera = project.camera(cam)
-    every_mover = camera.track is None and camera.detections is None and camera.video is not None and camera.tracker.every_mover
+    every_mover = (
+        camera.track is None and camera.detections is None and camera.video is not None and camera.tracker.every_mover
+    )
     logged = project.target.trajectory is not None or project.target.log is not None
     return project.track.scan == "auto" and every_mover and scan_pose(project, cam) is not None and logged

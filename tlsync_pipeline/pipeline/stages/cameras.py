@@ -25,7 +25,9 @@ CAMERA_FILES = ("camera", "track", "votes", "video", "identification", "detectio
 
 @dataclass(frozen=True)
 class CameraFiles:
-    """One camera's files a project-wide stage declared as ``<kind>:<camera>`` (None: not declared) and its nominal fps."""
+    """One camera's files a project-wide stage declared as ``<kind>:<camera>`` (None: not declared)
+    and its nominal fps.
+    """
 
     name: str
     camera: Path | None = None
@@ -83,11 +85,15 @@ def container_fps(project: Project) -> dict[str, float]:
     return out
 
 
-POSE_ERROR = "pose_error"  # camera.json field: why the calibrate stage found no pose (the camera is then not synchronized)
+POSE_ERROR = (
+    "pose_error"  # camera.json field: why the calibrate stage found no pose (the camera is then not synchronized)
+)
 
 
 def pose_problem(camera: Camera) -> SyncError | None:
-    """Why a camera cannot be synchronized for want of a pose (the calibrate stage's reason, in its camera.json), or None when it has one."""
+    """Why a camera cannot be synchronized for want of a pose (the calibrate stage's reason, in its camera.json), or
+    None when it has one.
+    """
     if camera.posed:
         return None
     return SyncError(str(camera.extra.get(POSE_ERROR) or f"camera {camera.name}: it has no pose (R, t)"))

@@ -43,7 +43,9 @@ def run_clock(files: StageFiles, params: ClockStageParams) -> StageResult:
     else:
         utc = parse_utc(params.recorded)
         assert utc is not None, "checked by the project"
-        found = RecordingTime(utc, params.tolerance_s or GIVEN_TOLERANCE_S, "the project ([cameras.clock] recorded)", True)
+        found = RecordingTime(
+            utc, params.tolerance_s or GIVEN_TOLERANCE_S, "the project ([cameras.clock] recorded)", True
+        )
     if isinstance(found, str):
         record = RecordedClock(None, found)
         message = f"camera {files.camera}: no clock to check against: {found}"

@@ -15,18 +15,25 @@ import numpy as np
 from tlsync_pipeline.artefacts.exports import write_offsets, write_rows, write_text
 from tlsync_pipeline.artefacts.jsonfile import write_document
 from tlsync_pipeline.artefacts.video_info import read_video_info
-from tlsync_pipeline.sync.model.status import HALF_95
 from tlsync_pipeline.outputs.editors import Piece, Placement, fcpxml_text, otio_text, sync_document
 from tlsync_pipeline.outputs.exports import ffmpeg_commands, frame_map_rows, offsets, reference_seconds, start_frames
 from tlsync_pipeline.pipeline.spec import ProjectWide, Sources, StageResult, StageSpec
 from tlsync_pipeline.pipeline.stages.cameras import CameraFiles, camera_files
 from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
 from tlsync_pipeline.sync.model.clock import FrameTimes
+from tlsync_pipeline.sync.model.status import HALF_95
 from tlsync_pipeline.sync.timeline import CameraLine, Timeline, read_timeline
 from trackers.track import read_track
 from trackers.video import presentation_times, probe_video
 
-EXPORTS = ("frame_map", "offsets", "ffmpeg", "timeline_otio", "timeline_fcpxml", "sync_json")  # the stage's artefact kinds
+EXPORTS = (
+    "frame_map",
+    "offsets",
+    "ffmpeg",
+    "timeline_otio",
+    "timeline_fcpxml",
+    "sync_json",
+)  # the stage's artefact kinds
 
 
 def frame_count(camera: CameraFiles) -> int:
@@ -61,7 +68,8 @@ def frame_times(camera: CameraFiles, line: CameraLine) -> FrameTimes | None:
 
 
 def run_export(files: StageFiles, params: ProjectWide) -> StageResult:
-    """The export stage: frame_map.csv, offsets.csv, ffmpeg.sh, timeline.otio, timeline.fcpxml and sync.json (synchronized cameras only).
+    """The export stage: frame_map.csv, offsets.csv, ffmpeg.sh, timeline.otio, timeline.fcpxml and sync.json
+    (synchronized cameras only).
 
     Cameras left out (their own tasks did not complete) are not in the timeline either.
     An editor timeline it cannot write is said in its message (the report's
@@ -85,7 +93,12 @@ def run_export(files: StageFiles, params: ProjectWide) -> StageResult:
     videos = {name: (str(c.video) if c.video is not None else None) for name, c in cameras.items()}
     base = files.output("ffmpeg").parent.parent.parent  # ffmpeg.sh runs in the folder that holds the work folder
     with files.write("ffmpeg") as tmp:
-        write_text(ffmpeg_commands(rows, {name: None if v is None else os.path.relpath(v, base) for name, v in videos.items()}), tmp)
+        write_text(
+            ffmpeg_commands(
+                rows, {name: None if v is None else os.path.relpath(v, base) for name, v in videos.items()}
+            ),
+            tmp,
+        )
     notes = []
     placements = editor_placements(tl, rows, videos, n_frames, times)
     if placements is None:
@@ -105,7 +118,11 @@ def run_export(files: StageFiles, params: ProjectWide) -> StageResult:
 
 
 def editor_placements(
-    tl: Timeline, rows: list[dict], videos: dict[str, str | None], n_frames: dict[str, int], times: dict[str, FrameTimes | None] | None = None
+    tl: Timeline,
+    rows: list[dict],
+    videos: dict[str, str | None],
+    n_frames: dict[str, int],
+    times: dict[str, FrameTimes | None] | None = None,
 ) -> list[Placement] | None:
     """Each camera's placement on the editors' timeline from its offsets.csv row; None without every camera's fps."""
     times = times or {}
@@ -119,7 +136,20 @@ def editor_placements(
         half = None if se is None or se[1] is None else HALF_95 * se[1]
         vfr = tl.cameras[name].clock.vfr
         pieces = segment_pieces(tl, name, n_frames[name], times)
-        placements.append(Placement(name, videos.get(name), r["start_s"], r["fps"], n_frames[name], n_frames[name] / r["fps"], r["clock_rate"], half, vfr, pieces))
+        placements.append(
+            Placement(
+                name,
+                videos.get(name),
+                r["start_s"],
+                r["fps"],
+                n_frames[name],
+                n_frames[name] / r["fps"],
+                r["clock_rate"],
+                half,
+                vfr,
+                pieces,
+            )
+        )
     return placements
 
 
@@ -129,7 +159,9 @@ def segment_pieces(tl: Timeline, name: str, n_frames: int, times: dict[str, Fram
     for seg in tl.cameras[name].clock.segments:
         first, stop = max(seg.start, 0), min(seg.stop, n_frames)
         if seg.shift is not None and stop > first:
-            pieces.append(Piece(first, stop - first, reference_seconds(tl, start_frames(tl, name, float(first), times), times)))
+            pieces.append(
+                Piece(first, stop - first, reference_seconds(tl, start_frames(tl, name, float(first), times), times))
+            )
     return tuple(pieces)
 
 

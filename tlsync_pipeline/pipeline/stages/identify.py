@@ -26,9 +26,9 @@ from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
 from tlsync_pipeline.sync.identify.breaks import identify_in_segments
 from tlsync_pipeline.sync.identify.identify import IdentifyParams, identify_params
 from tlsync_pipeline.sync.model.log_model import LogModelChoice
-from tlsync_pipeline.sync.vote.log_error import measured, vote_radius
+from tlsync_pipeline.sync.model.methods import preparation_of, prepare_trajectory
 from tlsync_pipeline.sync.model.params import Preparation
-from tlsync_pipeline.sync.model.methods import prepare_trajectory, preparation_of
+from tlsync_pipeline.sync.vote.log_error import measured, vote_radius
 from tlsync_pipeline.sync.vote.visits import near_views
 from tlsync_pipeline.trajectory import read_trajectory
 from trackers.detections import read_detections, seed_tracklets
@@ -41,7 +41,9 @@ if TYPE_CHECKING:
 
 @dataclass(frozen=True)
 class InitSeed:
-    """The blob tracker's init box [x, y, w, h] (pixels) and its 0-based frame: the mover in it is preferred as the target."""
+    """The blob tracker's init box [x, y, w, h] (pixels) and its 0-based frame: the mover in it is preferred as the
+    target.
+    """
 
     box: tuple[float, float, float, float]
     frame: int
@@ -84,10 +86,23 @@ def run_identify(files: StageFiles, params: IdentifyStageParams) -> StageResult:
             check_init_box(files.path("video"), probe_video(files.path("video")), list(seed.box), seed.frame)
         prefer = seed_tracklets(detections, list(seed.box), seed.frame) if seed is not None else frozenset()
         if seed is not None and not prefer:
-            warnings.append(f"camera {files.camera}: no mover inside the init box {list(seed.box)} near frame {seed.frame}; the target is identified without it")
-        radius = vote_radius(camera, prepared, params.identify.eps_px, measured(log_model_of(files, params.log_model), logged))
+            warnings.append(
+                f"camera {files.camera}: no mover inside the init box {list(seed.box)} near frame {seed.frame}; the "
+                f"target is identified without it"
+            )
+        radius = vote_radius(
+            camera, prepared, params.identify.eps_px, measured(log_model_of(files, params.log_model), logged)
+        )
         breaks = read_video_info(files.path("video_info")).breaks if files.has("video_info") else ()
-        found, breaks = identify_in_segments(camera, detections, prepared, params.fps or camera.fps, replace(params.identify, eps_px=radius), prefer, breaks)
+        found, breaks = identify_in_segments(
+            camera,
+            detections,
+            prepared,
+            params.fps or camera.fps,
+            replace(params.identify, eps_px=radius),
+            prefer,
+            breaks,
+        )
     except SyncError as exc:
         files.output("track").unlink(missing_ok=True)
         with files.write("identification") as tmp:
@@ -98,7 +113,12 @@ def run_identify(files: StageFiles, params: IdentifyStageParams) -> StageResult:
     with files.write("identification") as tmp:
         write_identification(IdentificationRecord(found.summary(), breaks=breaks), tmp)
     seeded = f", seeded by the init box (tracklet {min(prefer)})" if prefer else ""
-    lift = f"; the log's point is {abs(found.lift_m):.2f} m {'above' if found.lift_m > 0 else 'below'} the movers' centres, the track moved to it" if found.lift_m else ""
+    lift = (
+        f"; the log's point is {abs(found.lift_m):.2f} m {'above' if found.lift_m > 0 else 'below'} the movers' "
+        f"centres, the track moved to it"
+        if found.lift_m
+        else ""
+    )
     message = f"wrote {files.output('track')} ({len(found.track)} identified frames{seeded}{lift})"
     return StageResult(message, tuple(warnings), facts={"identified_frames": len(found.track)})
 
@@ -106,15 +126,28 @@ def run_identify(files: StageFiles, params: IdentifyStageParams) -> StageResult:
 def identify_stage_params(project: Project, cam: str, options: Options) -> IdentifyStageParams:
     camera = project.camera(cam)
     tracker = camera.tracker
-    seed = InitSeed(tracker.init, tracker.init_frame) if camera.detections is None and tracker.init is not None else None
+    seed = (
+        InitSeed(tracker.init, tracker.init_frame) if camera.detections is None and tracker.init is not None else None
+    )
     source = camera.video if camera.detections is None else None
-    return IdentifyStageParams(camera.fps, identify_params(project.sync), preparation_of(project.sync), source, seed, project.target.log_error.for_vote_radius)
+    return IdentifyStageParams(
+        camera.fps,
+        identify_params(project.sync),
+        preparation_of(project.sync),
+        source,
+        seed,
+        project.target.log_error.for_vote_radius,
+    )
 
 
 def identify_inputs(src: Sources, cam: str) -> dict[str, Path | Artefact]:
     """The camera, its movers and the trajectory; with an init box, the video it is checked against."""
     camera = src.project.camera(cam)
-    inputs = {"camera": src.artefact("camera", cam), "detections": src.artefact("detections", cam), "trajectory": src.artefact("trajectory")}
+    inputs = {
+        "camera": src.artefact("camera", cam),
+        "detections": src.artefact("detections", cam),
+        "trajectory": src.artefact("trajectory"),
+    }
     if camera.detections is None and camera.tracker.init is not None and camera.video is not None:
         inputs["video"] = camera.video
     if src.made("video_info", cam):

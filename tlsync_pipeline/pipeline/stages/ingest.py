@@ -16,10 +16,10 @@ import numpy as np
 from tlsync_pipeline.atomic import atomic_path
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.geodesy import Origin, enu_to_geodetic
-from tlsync_pipeline.ingest.read import read_log
-from tlsync_pipeline.ingest.recording_time import parse_utc_offset
 from tlsync_pipeline.ingest.params import IngestParams, RigidTransform
 from tlsync_pipeline.ingest.process import ingest
+from tlsync_pipeline.ingest.read import read_log
+from tlsync_pipeline.ingest.recording_time import parse_utc_offset
 from tlsync_pipeline.ingest.report import IngestReport, write_ingest_report
 from tlsync_pipeline.ingest.units import implausible_motion
 from tlsync_pipeline.pipeline.origin import check_log_near_gcps, origin_inputs, resolve_origin
@@ -31,8 +31,13 @@ if TYPE_CHECKING:
     from tlsync_pipeline.pipeline.project import Project, TargetConfig
 
 
-def ingest_log(path: str | Path, fmt: str = "auto", params: IngestParams = IngestParams(), topic: str | None = None,
-               utc_offset_s: float | None = None) -> tuple[Trajectory, IngestReport]:
+def ingest_log(
+    path: str | Path,
+    fmt: str = "auto",
+    params: IngestParams = IngestParams(),
+    topic: str | None = None,
+    utc_offset_s: float | None = None,
+) -> tuple[Trajectory, IngestReport]:
     """Read and ingest one log (utc_offset_s: local - UTC of a log whose clock is local)."""
     return ingest(read_log(path, fmt, topic, utc_offset_s), params)
 
@@ -58,7 +63,9 @@ def parse_origin(text: str) -> Origin | str:
         lat, lon, alt = (float(v) for v in text.split(","))
         return Origin(lat, lon, alt)
     except ValueError as exc:
-        raise InputError(f"--origin {text!r}: expected LAT,LON,ALT (degrees, degrees, metres) or 'first' ({exc})") from None
+        raise InputError(
+            f"--origin {text!r}: expected LAT,LON,ALT (degrees, degrees, metres) or 'first' ({exc})"
+        ) from None
 
 
 def parse_utc_offset_option(text: str) -> float:
@@ -87,7 +94,9 @@ def run_ingest(files: StageFiles, target: TargetConfig) -> StageResult:
     else:
         gcp_files = [files.path(label) for label in files.inputs if label.startswith("origin-gcp:")]
         origin = resolve_origin(target.origin, gcp_files, "[target]")
-        trajectory, report = ingest_log(files.path("log"), target.format, target.ingest_params(origin), target.topic, target.utc_offset)
+        trajectory, report = ingest_log(
+            files.path("log"), target.format, target.ingest_params(origin), target.topic, target.utc_offset
+        )
         problem = implausible_motion(np.asarray(trajectory.seconds(trajectory.sample)), trajectory.xyz)
         if problem:
             raise InputError(f"{files.path('log')} ([target] log): {problem}")
@@ -99,7 +108,9 @@ def run_ingest(files: StageFiles, target: TargetConfig) -> StageResult:
 
 
 def convert_trajectory(path: Path, time_unit: float, length_unit: float) -> tuple[Trajectory, IngestReport]:
-    """A trajectory CSV whose times are in units of ``time_unit`` seconds and positions of ``length_unit`` metres, in seconds and metres, and its report."""
+    """A trajectory CSV whose times are in units of ``time_unit`` seconds and positions of ``length_unit`` metres, in
+    seconds and metres, and its report.
+    """
     given = read_trajectory(path)
     t = given.seconds(given.sample)
     xyz = given.xyz * length_unit
@@ -144,10 +155,22 @@ def ingest_inputs(src: Sources, camera: None) -> dict[str, Path | Artefact]:
     return {"log": target.log, **origin_inputs(src.project)}
 
 
-# The [target] keys the ingest stage reads: of a log (how it is read, its origin, IngestParams'), of a trajectory it converts.
+# The [target] keys the ingest stage reads: of a log (how it is read, its origin, IngestParams'), of a trajectory it
+# converts.
 LOG_KEYS = (
-    "origin", "format", "topic", "utc_offset", "rate", "max_gap_s", "max_speed_mps", "smoothing_s", "odometry_transform",
-    "altitude_reference", "altitude_offset_m", "time_unit", "length_unit",
+    "origin",
+    "format",
+    "topic",
+    "utc_offset",
+    "rate",
+    "max_gap_s",
+    "max_speed_mps",
+    "smoothing_s",
+    "odometry_transform",
+    "altitude_reference",
+    "altitude_offset_m",
+    "time_unit",
+    "length_unit",
 )
 UNIT_KEYS = ("time_unit", "length_unit")
 
@@ -157,7 +180,9 @@ def ingest_params(project: Project, cam: None, options: Options) -> TargetConfig
     model is vote's and sync's), so that a key it does not read leaves it fresh."""
     target = project.target
     kept = UNIT_KEYS if target.trajectory is not None else LOG_KEYS
-    return dataclasses.replace(target, **{f.name: _default(f) for f in dataclasses.fields(target) if f.name not in kept})
+    return dataclasses.replace(
+        target, **{f.name: _default(f) for f in dataclasses.fields(target) if f.name not in kept}
+    )
 
 
 def _default(key: dataclasses.Field):
@@ -170,5 +195,7 @@ SPEC = StageSpec(
     params=ingest_params,
     outputs=("trajectory", "ingest_report"),
     run=run_ingest,
-    applies=lambda project, cam: project.target.converts_trajectory or (project.target.trajectory is None and project.target.log is not None),
+    applies=lambda project, cam: (
+        project.target.converts_trajectory or (project.target.trajectory is None and project.target.log is not None)
+    ),
 )

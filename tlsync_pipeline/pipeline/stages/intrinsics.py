@@ -51,7 +51,10 @@ def check_calibration(project: Project, name: str) -> None:
     cal = project.camera(name).calibration
     sources = [k for k in INTRINSICS_SOURCES if getattr(cal, k) is not None]
     if not sources:
-        raise InputError(f"{where}: give the intrinsics' source: images (a glob of checkerboard photos), video, or intrinsics (a camera.json)")
+        raise InputError(
+            f"{where}: give the intrinsics' source: images (a glob of checkerboard photos), video, or intrinsics (a "
+            f"camera.json)"
+        )
     if len(sources) > 1:
         raise InputError(f"{where}: give only one of images, video, intrinsics (got {', '.join(sources)})")
     if cal.gcp is not None and cal.board_pose is not None:
@@ -59,24 +62,51 @@ def check_calibration(project: Project, name: str) -> None:
     if cal.board_views or cal.board_pose is not None:
         missing = [k for k in ("pattern", "square") if getattr(cal, k) is None]
         if missing:
-            raise InputError(f"{where}: missing key(s) {', '.join(missing)} (the checkerboard's inner corners COLSxROWS and square side in metres)")
+            raise InputError(
+                f"{where}: missing key(s) {', '.join(missing)} (the checkerboard's inner corners COLSxROWS and square "
+                f"side in metres)"
+            )
 
 
 def run_intrinsics(files: StageFiles, params: IntrinsicsParams) -> StageResult:
-    """Calibrate the camera's intrinsics from its board views (``image:*`` inputs or ``video``), with ``files.cores`` processes."""
-    board = parse_pattern(params.pattern, params.square, source=f"camera {files.camera!r}: [cameras.calibration] pattern")
+    """Calibrate the camera's intrinsics from its board views (``image:*`` inputs or ``video``), with ``files.cores``
+    processes.
+    """
+    board = parse_pattern(
+        params.pattern, params.square, source=f"camera {files.camera!r}: [cameras.calibration] pattern"
+    )
     try:
         if files.has("video"):
             assert params.max_frames is not None, "intrinsics_params gives a video its frame count"
-            result = calibrate_video(files.path("video"), board, params.model, params.max_frames, workers=files.cores, progress=files.progress, max_view_error=params.max_view_error)
+            result = calibrate_video(
+                files.path("video"),
+                board,
+                params.model,
+                params.max_frames,
+                workers=files.cores,
+                progress=files.progress,
+                max_view_error=params.max_view_error,
+            )
         else:
             images = [str(files.path(label)) for label in files.inputs if label.startswith(IMAGE_PREFIX)]
-            result = calibrate_images(images, board, params.model, workers=files.cores, progress=files.progress, max_view_error=params.max_view_error, label=params.source)
+            result = calibrate_images(
+                images,
+                board,
+                params.model,
+                workers=files.cores,
+                progress=files.progress,
+                max_view_error=params.max_view_error,
+                label=params.source,
+            )
     except PatternMismatch as exc:
-        raise with_details(InputError(f'{exc}: set pattern = "{exc.seen}" in [cameras.calibration]'), *error_details(exc)) from None
+        raise with_details(
+            InputError(f'{exc}: set pattern = "{exc.seen}" in [cameras.calibration]'), *error_details(exc)
+        ) from None
     report = result.to_report()
     report["source"] = params.source
-    relative = {str(files.path(label)): label[len(IMAGE_PREFIX) :] for label in files.inputs if label.startswith(IMAGE_PREFIX)}
+    relative = {
+        str(files.path(label)): label[len(IMAGE_PREFIX) :] for label in files.inputs if label.startswith(IMAGE_PREFIX)
+    }
     for view in report["per_view"]:
         view["corners"] = np.round(result.corners[view["image"]], 3).tolist()
     for view in report["per_view"] + report["rejected"]:  # photos named like source: relative to the project folder
@@ -98,7 +128,9 @@ def intrinsics_inputs(src: Sources, name: str) -> dict[str, Path | Artefact]:
     assert cal.images is not None  # check_calibration: one source
     matches = [Path(m) for m in sorted(glob.glob(os.path.expanduser(cal.images), recursive=True))]
     if not matches:
-        raise InputError(f"{src.project.path}: camera {name!r}: [cameras.calibration] images: no file matches {cal.images}")
+        raise InputError(
+            f"{src.project.path}: camera {name!r}: [cameras.calibration] images: no file matches {cal.images}"
+        )
     return {IMAGE_PREFIX + os.path.relpath(m, src.project.root): m for m in matches}
 
 
@@ -106,7 +138,14 @@ def intrinsics_params(project: Project, name: str, options: Options) -> Intrinsi
     cal = project.camera(name).calibration
     assert cal.pattern is not None and cal.square is not None  # check_calibration
     source = cal.video or cal.images
-    return IntrinsicsParams(cal.pattern, cal.square, cal.model, cal.max_view_error, os.path.relpath(str(source), project.root), cal.max_frames if cal.video is not None else None)
+    return IntrinsicsParams(
+        cal.pattern,
+        cal.square,
+        cal.model,
+        cal.max_view_error,
+        os.path.relpath(str(source), project.root),
+        cal.max_frames if cal.video is not None else None,
+    )
 
 
 SPEC = StageSpec(

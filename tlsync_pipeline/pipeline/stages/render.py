@@ -25,15 +25,23 @@ from tlsync_pipeline.artefacts.scan import read_scan
 from tlsync_pipeline.atomic import atomic_path
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.ingest.report import read_ingest_report
+from tlsync_pipeline.outputs.calibration_report import calibration_summary
 from tlsync_pipeline.outputs.camera_pictures import CameraJob, DrawnCamera, draw_camera, draw_panels, photo, picture
 from tlsync_pipeline.outputs.diagnostics import StageRun, run_warnings
-from tlsync_pipeline.outputs.pictures import PairPlan, PanelRequest, assemble_pair, choose_frames, pair_frames, plan_pair, write_png
+from tlsync_pipeline.outputs.pictures import (
+    PairPlan,
+    PanelRequest,
+    assemble_pair,
+    choose_frames,
+    pair_frames,
+    plan_pair,
+    write_png,
+)
 from tlsync_pipeline.outputs.player import player_data
 from tlsync_pipeline.outputs.plots import offsets_plot, recordings_plot, residuals_plot, track_residuals
 from tlsync_pipeline.outputs.report_content import Picture, ReportContent
 from tlsync_pipeline.outputs.report_html import report_html
 from tlsync_pipeline.outputs.report_md import report_markdown
-from tlsync_pipeline.outputs.calibration_report import calibration_summary
 from tlsync_pipeline.pipeline.executors import SerialExecutor, run_each
 from tlsync_pipeline.pipeline.spec import Options, Sources, StageResult, StageSpec
 from tlsync_pipeline.pipeline.stages.cameras import CameraFiles, CamerasParams, camera_files, cameras_params
@@ -42,8 +50,8 @@ from tlsync_pipeline.pipeline.stages.sync import read_camera_inputs
 from tlsync_pipeline.pipeline.strip_requests import StripRequest, read_requests, write_requests
 from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
 from tlsync_pipeline.sync.model.clock import FrameTimes
+from tlsync_pipeline.sync.model.methods import params_from_table, preparation_of, prepare_trajectory
 from tlsync_pipeline.sync.solve.methods import CameraInput
-from tlsync_pipeline.sync.model.methods import params_from_table, prepare_trajectory, preparation_of
 from tlsync_pipeline.sync.timeline import Timeline, read_timeline
 from tlsync_pipeline.sync.vote.visits import near_views
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory, read_trajectory
@@ -103,13 +111,19 @@ def run_render(files: StageFiles, params: RenderParams) -> StageResult:
     plans, drawn = _plan_strips(scene, default_pairs(scene), StripRequest(), requests, notes)
     asked = []
     for request in read_requests(out_dir):
-        pairs = [pair for pair in request.pairs or default_pairs(scene) if not _strip_problem(scene, *pair, request.frames)]
-        asked += [(plan, request.file_name(plan.a, plan.b)) for plan in _plan_strips(scene, pairs, request, requests, [])[0]]
+        pairs = [
+            pair for pair in request.pairs or default_pairs(scene) if not _strip_problem(scene, *pair, request.frames)
+        ]
+        asked += [
+            (plan, request.file_name(plan.a, plan.b)) for plan in _plan_strips(scene, pairs, request, requests, [])[0]
+        ]
     jobs = [_camera_job(scene, name, params, requests.get(name, []), out_dir, work) for name in scene.timeline.cameras]
     called = run_each(files.workers or SerialExecutor(), draw_camera, [{"job": job} for job in jobs])
     cameras: dict[str, DrawnCamera] = {job.name: call.value for job, call in zip(jobs, called)}
     panels = {n: c.panels for n, c in cameras.items()}
-    written = [path for camera in cameras.values() for path in camera.written] + [camera.proxy for camera in cameras.values() if camera.proxy is not None]
+    written = [path for camera in cameras.values() for path in camera.written] + [
+        camera.proxy for camera in cameras.values() if camera.proxy is not None
+    ]
     strips = []
     for plan in plans:
         path = write_png(out_dir / f"strip_{plan.a}_{plan.b}.png", strip_of(plan, panels))
@@ -177,7 +191,13 @@ def _strip_problem(scene: _Scene, a: str, b: str, frames: tuple[int, ...] | None
     return None
 
 
-def _plan_strips(scene: _Scene, pairs: list[tuple[str, str]], request: StripRequest, requests: dict[str, list[PanelRequest]], notes: list[str]) -> tuple[list[PairPlan], dict[str, list[list[int]]]]:
+def _plan_strips(
+    scene: _Scene,
+    pairs: list[tuple[str, str]],
+    request: StripRequest,
+    requests: dict[str, list[PanelRequest]],
+    notes: list[str],
+) -> tuple[list[PairPlan], dict[str, list[list[int]]]]:
     """The strips of ``pairs`` to draw (their panels appended to ``requests``) and, per pair "A,B", the frames drawn.
 
     request: the frames of B asked for (None: chosen) and the true relations (A's true match drawn too), or none.
@@ -186,8 +206,28 @@ def _plan_strips(scene: _Scene, pairs: list[tuple[str, str]], request: StripRequ
     for a, b in pairs:
         track_b = scene.inputs[b].track
         assert track_b is not None, "a synchronized camera has a track"
-        chosen = list(request.frames) if request.frames else choose_frames(track_b.frame, lambda f: tl.match(b, a, f, scene.times), scene.n_frames[a], scene.n_frames[b])
-        plan = plan_pair(a, b, chosen, tl, scene.inputs, scene.path_model, scene.n_frames, dict(request.truth) if request.truth else None, scene.times, requests)
+        chosen = (
+            list(request.frames)
+            if request.frames
+            else choose_frames(
+                track_b.frame,
+                lambda f: tl.match(b, a, f, scene.times),  # noqa: B023 (called here)
+                scene.n_frames[a],
+                scene.n_frames[b],
+            )
+        )
+        plan = plan_pair(
+            a,
+            b,
+            chosen,
+            tl,
+            scene.inputs,
+            scene.path_model,
+            scene.n_frames,
+            dict(request.truth) if request.truth else None,
+            scene.times,
+            requests,
+        )
         if not plan.rows:
             notes.append(f"{a}, {b}: no strip of matching frames: the two videos never record at the same time")
             continue
@@ -225,13 +265,17 @@ def draw_requested(files: StageFiles, params: RenderParams, request: StripReques
     plans, _ = _plan_strips(scene, pairs, request, requests, notes)
     if notes:
         raise InputError(notes[0])
-    panels = {name: draw_panels(scene.videos[name], scene.inputs[name].camera, wanted) for name, wanted in requests.items()}
+    panels = {
+        name: draw_panels(scene.videos[name], scene.inputs[name].camera, wanted) for name, wanted in requests.items()
+    }
     written = [write_png(out_dir / request.file_name(plan.a, plan.b), strip_of(plan, panels)) for plan in plans]
     write_requests([r for r in read_requests(out_dir) if r != request] + [request], out_dir)
     return written
 
 
-def _camera_job(scene: _Scene, name: str, params: RenderParams, requests: list[PanelRequest], out_dir: Path, work: Path) -> CameraJob:
+def _camera_job(
+    scene: _Scene, name: str, params: RenderParams, requests: list[PanelRequest], out_dir: Path, work: Path
+) -> CameraJob:
     files = scene.cameras[name]
     assert files.votes is not None, "declared by the stage"
     return CameraJob(
@@ -257,13 +301,25 @@ def _camera_job(scene: _Scene, name: str, params: RenderParams, requests: list[P
 
 
 def _charts(scene: _Scene, out_dir: Path, work: Path) -> list[Picture]:
-    """The offsets and residuals charts, written; none when no camera is synchronized (nor any of an earlier timeline)."""
+    """The offsets and residuals charts, written; none when no camera is synchronized (nor any of
+    an earlier timeline).
+    """
     tl = scene.timeline
     if not tl.cameras:
         return []
-    residuals = {n: track_residuals(scene.inputs[n].camera, scene.inputs[n].track, scene.path_model, tl.cameras[n], scene.times[n]) for n in tl.cameras}
+    residuals = {
+        n: track_residuals(
+            scene.inputs[n].camera, scene.inputs[n].track, scene.path_model, tl.cameras[n], scene.times[n]
+        )
+        for n in tl.cameras
+    }
     charts = [
-        _write_chart(out_dir / "offsets.png", offsets_plot(tl, list(tl.statuses().values())), work, "offsets: every camera's start with its 95 % interval"),
+        _write_chart(
+            out_dir / "offsets.png",
+            offsets_plot(tl, list(tl.statuses().values())),
+            work,
+            "offsets: every camera's start with its 95 % interval",
+        ),
         _write_chart(
             out_dir / "residuals.png",
             residuals_plot(residuals, tl.params.shared.eps_px, 1.0 / tl.target_rate if tl.target_rate else None),
@@ -273,16 +329,43 @@ def _charts(scene: _Scene, out_dir: Path, work: Path) -> list[Picture]:
     ]
     if any(line.breaks for line in tl.cameras.values()):
         picture = recordings_plot(tl, scene.n_frames, scene.times)
-        charts.append(_write_chart(out_dir / "recordings.png", picture, work, "recordings: each camera's segments on the reference's clock, its breaks where they happened"))
+        charts.append(
+            _write_chart(
+                out_dir / "recordings.png",
+                picture,
+                work,
+                "recordings: each camera's segments on the reference's clock, its breaks where they happened",
+            )
+        )
     return charts
 
 
-def _report_content(files: StageFiles, scene: _Scene, params: RenderParams, cameras: dict[str, DrawnCamera], strips: list[Picture], charts: list[Picture], notes: list[str]) -> ReportContent:
+def _report_content(
+    files: StageFiles,
+    scene: _Scene,
+    params: RenderParams,
+    cameras: dict[str, DrawnCamera],
+    strips: list[Picture],
+    charts: list[Picture],
+    notes: list[str],
+) -> ReportContent:
     tl, work = scene.timeline, files.output("report").parent
     ingest = _optional(read_ingest_report, files.path("ingest_report")) if files.has("ingest_report") else None
     utc = bool(ingest and ingest.t0_utc and ingest.clock == "UTC")
-    player = player_data(tl, {n: scene.inputs[n].camera for n in tl.cameras}, scene.trajectory, {n: c.player for n, c in cameras.items()}, utc=utc)
-    reports = {n: dict(report.content) for n in params.cameras if files.has(f"calibration_report:{n}") and (report := _optional(read_calibration_report, files.path(f"calibration_report:{n}"))) and report.content}
+    player = player_data(
+        tl,
+        {n: scene.inputs[n].camera for n in tl.cameras},
+        scene.trajectory,
+        {n: c.player for n, c in cameras.items()},
+        utc=utc,
+    )
+    reports = {
+        n: dict(report.content)
+        for n in params.cameras
+        if files.has(f"calibration_report:{n}")
+        and (report := _optional(read_calibration_report, files.path(f"calibration_report:{n}")))
+        and report.content
+    }
     runs = [run for run in files.history if run.stage != "render"]
     pictures = [files.path(f"calibration_picture:{n}") for n in params.cameras if files.has(f"calibration_picture:{n}")]
     return ReportContent(
@@ -297,8 +380,12 @@ def _report_content(files: StageFiles, scene: _Scene, params: RenderParams, came
         charts=charts,
         camera_pictures={n: c.pictures for n, c in cameras.items()},
         pair_pictures=strips,
-        calibration_pictures=[picture(f"{path.parent.name}: calibration", path, work) for path in pictures if path.exists()],
-        exports=[(label, artefact_path(kind)) for label, kind in EXPORT_LABELS if (work / artefact_path(kind)).exists()],
+        calibration_pictures=[
+            picture(f"{path.parent.name}: calibration", path, work) for path in pictures if path.exists()
+        ],
+        exports=[
+            (label, artefact_path(kind)) for label, kind in EXPORT_LABELS if (work / artefact_path(kind)).exists()
+        ],
         player=player,
     )
 
@@ -343,7 +430,11 @@ def read_windows(scan: Path | None) -> list[tuple[int, int]] | None:
 def render_inputs(src: Sources, camera: None) -> dict[str, Path | Artefact]:
     """What the pictures and the report show: every camera's files, votes and calibration report, the trajectory and
     its ingest report, the timeline, the exports."""
-    inputs = {"timeline": src.artefact("timeline"), "trajectory": src.artefact("trajectory"), "offsets": src.artefact("offsets")}
+    inputs = {
+        "timeline": src.artefact("timeline"),
+        "trajectory": src.artefact("trajectory"),
+        "offsets": src.artefact("offsets"),
+    }
     if src.made("ingest_report"):
         inputs["ingest_report"] = src.artefact("ingest_report")
     for spec in src.project.cameras:

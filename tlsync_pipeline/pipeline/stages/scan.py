@@ -23,17 +23,27 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from calibration.camera import Camera, read_camera
-from tlsync_pipeline.artefacts.scan import ScanPlan, write_scan
-from tlsync_pipeline.pipeline.spec import Options, Sources, StageResult, StageSpec
 from calibration.errors import CalibrationInputError
+from tlsync_pipeline.artefacts.scan import ScanPlan, write_scan
 from tlsync_pipeline.errors import InputError, one_line
+from tlsync_pipeline.pipeline.spec import Options, Sources, StageResult, StageSpec
 from tlsync_pipeline.pipeline.stages.calibrate import CalibrateParams, survey_inputs, survey_params, survey_pose
 from tlsync_pipeline.pipeline.stages.camera_plan import scan_pose, scans
 from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
 from tlsync_pipeline.sync.identify.identify import IdentifyParams, identify_params
-from tlsync_pipeline.sync.model.methods import prepare_trajectory, preparation_of
+from tlsync_pipeline.sync.identify.scan import (
+    COARSE_STEPS_S,
+    OffsetPrior,
+    before_coarse,
+    coarse_stride,
+    full_scan,
+    keyframe_range,
+    margin_frames,
+    plan_scan,
+    prior_slope,
+)
+from tlsync_pipeline.sync.model.methods import preparation_of, prepare_trajectory
 from tlsync_pipeline.sync.model.params import Preparation
-from tlsync_pipeline.sync.identify.scan import COARSE_STEPS_S, OffsetPrior, before_coarse, coarse_stride, full_scan, keyframe_range, margin_frames, plan_scan, prior_slope
 from tlsync_pipeline.trajectory import Trajectory, read_trajectory
 from trackers.detections import COLUMNS, Detections, make_detections
 from trackers.tracking import detect_keyframe_movers, movers_detector
@@ -42,8 +52,15 @@ from trackers.video import frame_count, keyframe_indices, presentation_times, pr
 if TYPE_CHECKING:
     from tlsync_pipeline.pipeline.project import Project
 
+
 def scan_video(
-    video: Path, camera: Camera, prepared: Trajectory, fps: float | None, params: IdentifyParams, parameters: dict | None = None, prior: OffsetPrior | None = None
+    video: Path,
+    camera: Camera,
+    prepared: Trajectory,
+    fps: float | None,
+    params: IdentifyParams,
+    parameters: dict | None = None,
+    prior: OffsetPrior | None = None,
 ) -> ScanPlan:
     """The scan of one video: every frame (with the reason) when the coarse pass would not pay, else its plan.
 
@@ -74,7 +91,9 @@ def scan_video(
         more = np.setdiff1d(candidates[:: coarse_stride(keys, n_frames, fps, step)], read)
         if len(more) == 0:
             continue
-        found.append(detect_keyframe_movers(video, indices=more.tolist(), first_id=sum(len(f) for f in found), detector=detector))
+        found.append(
+            detect_keyframe_movers(video, indices=more.tolist(), first_id=sum(len(f) for f in found), detector=detector)
+        )
         read = np.union1d(read, more)
         movers = make_detections(np.concatenate([np.column_stack([getattr(f, c) for c in COLUMNS]) for f in found]))
         plan = plan_scan(camera, movers, prepared, fps, params, keys, n_frames, times, prior, read=read)
@@ -93,7 +112,9 @@ class ScanStageParams:
     identify: IdentifyParams
     preparation: Preparation
     parameters: Mapping[str, float]
-    survey: CalibrateParams | None = None  # the surveyed pose's (GCPs, board) when the project brings no posed camera.json
+    survey: CalibrateParams | None = (
+        None  # the surveyed pose's (GCPs, board) when the project brings no posed camera.json
+    )
 
 
 def run_scan(files: StageFiles, params: ScanStageParams) -> StageResult:
@@ -106,14 +127,26 @@ def run_scan(files: StageFiles, params: ScanStageParams) -> StageResult:
     prepared = prepare_trajectory(read_trajectory(files.path("trajectory")), params.preparation)
     if params.survey is None:
         camera = read_camera(files.path("camera"), name=files.camera)
-        plan = scan_video(files.path("video"), camera, prepared, params.fps or camera.fps, params.identify, dict(params.parameters))
+        plan = scan_video(
+            files.path("video"), camera, prepared, params.fps or camera.fps, params.identify, dict(params.parameters)
+        )
     else:
         try:
             camera = survey_pose(files, params.survey)[0]
         except (InputError, CalibrationInputError) as exc:
-            plan = full_scan(frame_count(files.path("video")) or probe_video(files.path("video")).n_frames, f"no pose to scan with ({one_line(str(exc))})")
+            plan = full_scan(
+                frame_count(files.path("video")) or probe_video(files.path("video")).n_frames,
+                f"no pose to scan with ({one_line(str(exc))})",
+            )
         else:
-            plan = scan_video(files.path("video"), camera, prepared, params.fps or camera.fps, params.identify, dict(params.parameters))
+            plan = scan_video(
+                files.path("video"),
+                camera,
+                prepared,
+                params.fps or camera.fps,
+                params.identify,
+                dict(params.parameters),
+            )
     with files.write("scan") as tmp:
         write_scan(plan, tmp)
     facts = {k: v for k, v in plan.to_dict().items() if k != "windows"}
@@ -123,14 +156,22 @@ def run_scan(files: StageFiles, params: ScanStageParams) -> StageResult:
 def scan_stage_params(project: Project, cam: str, options: Options) -> ScanStageParams:
     camera = project.camera(cam)
     survey = survey_params(project, cam) if scan_pose(project, cam) == "survey" else None
-    return ScanStageParams(camera.fps, identify_params(project.sync), preparation_of(project.sync), camera.tracker.parameters, survey)
+    return ScanStageParams(
+        camera.fps, identify_params(project.sync), preparation_of(project.sync), camera.tracker.parameters, survey
+    )
 
 
 def scan_inputs(src: Sources, cam: str) -> dict[str, Path | Artefact]:
-    """The camera's video, the trajectory, and its posed camera.json or the files of its surveyed pose (survey_inputs)."""
+    """The camera's video, the trajectory, and its posed camera.json or the files of its surveyed
+    pose (survey_inputs).
+    """
     camera = src.project.camera(cam)
     assert camera.video is not None, "the stage applies to a camera with a video"
-    pose = {"camera": camera.camera} if scan_pose(src.project, cam) == "camera" and camera.camera is not None else survey_inputs(src, cam)
+    pose = (
+        {"camera": camera.camera}
+        if scan_pose(src.project, cam) == "camera" and camera.camera is not None
+        else survey_inputs(src, cam)
+    )
     return {"video": camera.video, **pose, "trajectory": src.artefact("trajectory")}
 
 

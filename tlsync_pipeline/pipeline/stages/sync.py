@@ -13,22 +13,29 @@ from tlsync_pipeline.artefacts.identification import IdentificationSummary, read
 from tlsync_pipeline.artefacts.video_info import read_video_info
 from tlsync_pipeline.atomic import atomic_path
 from tlsync_pipeline.errors import INPUT_ERRORS, InputError, SyncError
+from tlsync_pipeline.ingest.report import read_ingest_report
 from tlsync_pipeline.outputs.diagnostics import run_warnings
 from tlsync_pipeline.pipeline.spec import Options, Sources, StageResult, StageSpec
-from tlsync_pipeline.ingest.report import read_ingest_report
-from tlsync_pipeline.pipeline.stages.cameras import CameraFiles, CamerasParams, camera_files, cameras_params, container_fps, log_model_of
+from tlsync_pipeline.pipeline.stages.cameras import (
+    CameraFiles,
+    CamerasParams,
+    camera_files,
+    cameras_params,
+    container_fps,
+    log_model_of,
+)
 from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
-from tlsync_pipeline.sync.identify.breaks import merged
-from tlsync_pipeline.sync.solve.methods import CameraInput
 from tlsync_pipeline.sync.clock_prior import with_clock_checks
+from tlsync_pipeline.sync.identify.breaks import merged
 from tlsync_pipeline.sync.model.log_model import LogModelChoice
 from tlsync_pipeline.sync.model.params import SyncParams
-from tlsync_pipeline.sync.solve.plausibility import LogUnitError
 from tlsync_pipeline.sync.model.status import WEAK, Reason
+from tlsync_pipeline.sync.solve.methods import CameraInput
+from tlsync_pipeline.sync.solve.plausibility import LogUnitError
 from tlsync_pipeline.sync.solve.synchronize import CameraResult, synchronize
 from tlsync_pipeline.sync.timeline import CameraLine, ScanSummary, StageWarning, Timeline, write_timeline
-from tlsync_pipeline.sync.vote.votes import Votes, read_votes
 from tlsync_pipeline.sync.vote.visits import near_views
+from tlsync_pipeline.sync.vote.votes import Votes, read_votes
 from tlsync_pipeline.trajectory import Trajectory, read_trajectory
 from trackers.breaks import Break
 from trackers.track import read_track
@@ -43,7 +50,8 @@ if TYPE_CHECKING:
 @dataclass(frozen=True)
 class SyncStageParams(CamerasParams):
     """The cameras, their fps (CamerasParams), every [sync] key (the lines' fit reads them all), the log's error model,
-    and the file the target's trajectory comes from with its [target] key (named when every camera says its units are wrong)."""
+    and the file the target's trajectory comes from with its [target] key (named when every camera says its units are
+    wrong)."""
 
     sync: SyncParams = field(default_factory=SyncParams)
     log_model: LogModelChoice = field(default_factory=LogModelChoice)
@@ -124,16 +132,32 @@ def run_sync(files: StageFiles, params: SyncStageParams) -> StageResult:
     except LogUnitError as exc:
         key, source = params.source or ("trajectory", files.path("trajectory"))
         raise InputError(f"{source} ([target] {key}): {exc}") from None
-    failed = {name: timeline.failed.get(name, str(votes[name])) for name in paths if name not in usable or name in timeline.failed}
-    lines = {name: _with_scan(_flag_truncated(line, paths[name]), paths[name]) for name, line in timeline.cameras.items()}
-    lines = {name: _with_container_fps(line, params.fps.get(name), params.container_fps.get(name)) for name, line in lines.items()}
+    failed = {
+        name: timeline.failed.get(name, str(votes[name]))
+        for name in paths
+        if name not in usable or name in timeline.failed
+    }
+    lines = {
+        name: _with_scan(_flag_truncated(line, paths[name]), paths[name]) for name, line in timeline.cameras.items()
+    }
+    lines = {
+        name: _with_container_fps(line, params.fps.get(name), params.container_fps.get(name))
+        for name, line in lines.items()
+    }
     timeline = replace(timeline, cameras=lines, failed={**failed, **params.left_out})
-    timeline = with_identifications(timeline, {n: read_identification(c.identification).summary for n, c in paths.items() if c.identification is not None})
-    priors = {n: prior for n, c in paths.items() if c.clock is not None and (prior := read_clock(c.clock).prior) is not None}
+    timeline = with_identifications(
+        timeline,
+        {n: read_identification(c.identification).summary for n, c in paths.items() if c.identification is not None},
+    )
+    priors = {
+        n: prior for n, c in paths.items() if c.clock is not None and (prior := read_clock(c.clock).prior) is not None
+    }
     if priors:
         timeline = with_clock_checks(timeline, priors, log_on_utc(files, timeline))
     own = tuple(f"{name}: {text}" for name, line in timeline.cameras.items() for text in line.warnings or ())
-    timeline = replace(timeline, warnings=(*run_warnings(files.history), *(StageWarning("sync", None, text) for text in own)))
+    timeline = replace(
+        timeline, warnings=(*run_warnings(files.history), *(StageWarning("sync", None, text) for text in own))
+    )
     with files.write("timeline") as tmp:
         write_timeline(timeline, tmp)
     return StageResult(warnings=own, failed=timeline.failed, facts={"synchronized": timeline.names})
@@ -149,11 +173,16 @@ def log_on_utc(files: StageFiles, timeline: Timeline) -> bool:
 
 def with_identifications(timeline: Timeline, found: dict[str, IdentificationSummary | None]) -> Timeline:
     """The timeline with each identified camera's line carrying its identification summary."""
-    lines = {n: replace(line, identification=summary) if isinstance(summary := found.get(n), IdentificationSummary) else line for n, line in timeline.cameras.items()}
+    lines = {
+        n: replace(line, identification=summary) if isinstance(summary := found.get(n), IdentificationSummary) else line
+        for n, line in timeline.cameras.items()
+    }
     return replace(timeline, cameras=lines)
 
 
-FPS_TOLERANCE = 5e-4  # the fps key and the video's container may differ by this fraction (rounding of 30000/1001 and the like)
+FPS_TOLERANCE = (
+    5e-4  # the fps key and the video's container may differ by this fraction (rounding of 30000/1001 and the like)
+)
 
 
 def _with_container_fps(line: CameraLine, fps: float | None, container: float | None) -> CameraLine:
@@ -165,7 +194,8 @@ def _with_container_fps(line: CameraLine, fps: float | None, container: float | 
     reason = Reason(
         "fps_container",
         WEAK,
-        f"fps = {fps:g} but the video's container says {container:.6g} fps ({100 * abs(fps / container - 1):.2g} % apart): the line's slope prior and the offsets in seconds use {fps:g}",
+        f"fps = {fps:g} but the video's container says {container:.6g} fps ({100 * abs(fps / container - 1):.2g} % "
+        f"apart): the line's slope prior and the offsets in seconds use {fps:g}",
         "set fps to the rate the camera recorded at (the container's, unless it is wrong)",
     )
     return replace(line, checks=(*(line.checks or ()), reason))
@@ -176,7 +206,9 @@ def _with_scan(line: CameraLine, camera: CameraFiles) -> CameraLine:
     info = read_video_info(camera.video_info) if camera.video_info is not None else None
     if info is None or info.scan is None:
         return line
-    return replace(line, scan=ScanSummary(info.scan, info.scan_reason, info.frames, info.keyframes_decoded, info.frames_decoded))
+    return replace(
+        line, scan=ScanSummary(info.scan, info.scan_reason, info.frames, info.keyframes_decoded, info.frames_decoded)
+    )
 
 
 def _flag_truncated(line: CameraLine, camera: CameraFiles) -> CameraLine:
@@ -193,15 +225,24 @@ def load_inputs(project: Project) -> tuple[dict[str, CameraInput], Trajectory]:
     cameras = {}
     for spec in project.cameras:
         if spec.camera is None or spec.track is None:
-            missing, what = ("camera", "calibration (camera.json)") if spec.camera is None else ("track", "track (track.csv)")
+            missing, what = (
+                ("camera", "calibration (camera.json)") if spec.camera is None else ("track", "track (track.csv)")
+            )
             raise InputError(f"{project.path}: camera {spec.name!r}: missing key {missing!r}: the camera's {what}")
         camera = read_camera(spec.camera, name=spec.name)
-        cameras[spec.name] = CameraInput(camera, read_track(spec.track), spec.fps if spec.fps is not None else camera.fps, pick_start_s=spec.pick_start_s)
+        cameras[spec.name] = CameraInput(
+            camera,
+            read_track(spec.track),
+            spec.fps if spec.fps is not None else camera.fps,
+            pick_start_s=spec.pick_start_s,
+        )
     return cameras, read_trajectory(project.target.trajectory)
 
 
 def run_project(project: Project, out_dir: Path) -> tuple[Timeline, dict[str, CameraResult]]:
-    """Synchronize a project that brings every camera's calibration and track; write ``out_dir/timeline.json`` atomically."""
+    """Synchronize a project that brings every camera's calibration and track; write ``out_dir/timeline.json``
+    atomically.
+    """
     cameras, trajectory = load_inputs(project)
     timeline, results = synchronize(cameras, trajectory, project.sync)
     with atomic_path(out_dir / "timeline.json") as tmp:
@@ -210,11 +251,21 @@ def run_project(project: Project, out_dir: Path) -> tuple[Timeline, dict[str, Ca
 
 
 def sync_inputs(src: Sources, camera: None) -> dict[str, Path | Artefact]:
-    """Every camera's calibration, track and votes (and video.json when the track stage makes it), and the trajectory."""
+    """Every camera's calibration, track and votes (and video.json when the track stage makes it),
+    and the trajectory.
+    """
     names = src.project.names
     inputs = {f"{kind}:{name}": src.artefact(kind, name) for name in names for kind in ("camera", "track", "votes")}
-    inputs.update({f"identification:{name}": src.artefact("identification", name) for name in names if src.made("identification", name)})
-    inputs.update({f"video_info:{name}": src.artefact("video_info", name) for name in names if src.made("video_info", name)})
+    inputs.update(
+        {
+            f"identification:{name}": src.artefact("identification", name)
+            for name in names
+            if src.made("identification", name)
+        }
+    )
+    inputs.update(
+        {f"video_info:{name}": src.artefact("video_info", name) for name in names if src.made("video_info", name)}
+    )
     inputs.update({f"clock:{name}": src.artefact("clock", name) for name in names if src.made("clock", name)})
     if src.made("ingest_report"):
         inputs["ingest_report"] = src.artefact("ingest_report")
@@ -224,9 +275,23 @@ def sync_inputs(src: Sources, camera: None) -> dict[str, Path | Artefact]:
 def sync_params(project: Project, camera: None, options: Options) -> SyncStageParams:
     cameras = cameras_params(project)
     target = project.target
-    source = ("trajectory", target.trajectory) if target.trajectory is not None else ("log", target.log) if target.log is not None else None
+    source = (
+        ("trajectory", target.trajectory)
+        if target.trajectory is not None
+        else ("log", target.log)
+        if target.log is not None
+        else None
+    )
     picks = {c.name: c.pick_start_s for c in project.cameras if c.pick_start_s is not None}
-    return SyncStageParams(cameras.cameras, fps=cameras.fps, sync=project.sync, log_model=target.log_error, source=source, container_fps=container_fps(project), picks=picks)
+    return SyncStageParams(
+        cameras.cameras,
+        fps=cameras.fps,
+        sync=project.sync,
+        log_model=target.log_error,
+        source=source,
+        container_fps=container_fps(project),
+        picks=picks,
+    )
 
 
 SPEC = StageSpec(

@@ -31,7 +31,13 @@ if TYPE_CHECKING:
 
 
 def track_camera(
-    name: str, video: Path, tracker: TrackerConfig, progress: bool = True, plan: ScanPlan | None = None, count: DecodeCount | None = None, meter: PictureMeter | None = None
+    name: str,
+    video: Path,
+    tracker: TrackerConfig,
+    progress: bool = True,
+    plan: ScanPlan | None = None,
+    count: DecodeCount | None = None,
+    meter: PictureMeter | None = None,
 ) -> Track | Detections:
     """Every mover (``tracker.every_mover``) or the target (CSRT from its init box) in one camera's video.
 
@@ -42,9 +48,24 @@ def track_camera(
     label = f"{name} ({video.name})"
     if tracker.every_mover:
         windows = None if plan is None or plan.full else list(plan.windows)
-        return detect_movers(video, params=dict(tracker.parameters), progress=progress, label=label, windows=windows, count=count, meter=meter)
+        return detect_movers(
+            video,
+            params=dict(tracker.parameters),
+            progress=progress,
+            label=label,
+            windows=windows,
+            count=count,
+            meter=meter,
+        )
     return track_video(
-        video, kind=tracker.kind, init=tracker.init, init_frame=tracker.init_frame, params=dict(tracker.parameters), progress=progress, label=label, meter=meter
+        video,
+        kind=tracker.kind,
+        init=tracker.init,
+        init_frame=tracker.init_frame,
+        params=dict(tracker.parameters),
+        progress=progress,
+        label=label,
+        meter=meter,
     )
 
 
@@ -61,7 +82,8 @@ def write_detections_atomic(detections: Detections, path: Path) -> None:
 
 
 def run_track(files: StageFiles, tracker: TrackerConfig) -> StageResult:
-    """The track stage: ``detections.csv`` (every mover) or ``track.csv`` (one target) of one camera's video, and what the video holds, ``video.json``.
+    """The track stage: ``detections.csv`` (every mover) or ``track.csv`` (one target) of one camera's video, and what
+    the video holds, ``video.json``.
 
     A truncated video still gives a track (of the frames it holds); its
     warning is the stage's, and video.json says how many frames exist.
@@ -72,7 +94,9 @@ def run_track(files: StageFiles, tracker: TrackerConfig) -> StageResult:
     meter = PictureMeter()
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", TruncatedVideoWarning)
-        result = track_camera(files.camera_name, video, tracker, progress=files.progress, plan=plan, count=count, meter=meter)
+        result = track_camera(
+            files.camera_name, video, tracker, progress=files.progress, plan=plan, count=count, meter=meter
+        )
     truncation = next((w.message for w in caught if isinstance(w.message, TruncatedVideoWarning)), None)
     for item in caught:
         warnings.warn_explicit(item.message, item.category, item.filename, item.lineno)
@@ -84,9 +108,15 @@ def run_track(files: StageFiles, tracker: TrackerConfig) -> StageResult:
     if isinstance(result, Detections):
         write_detections_atomic(result, files.output("detections"))
         facts = {"detections": len(result), "tracklets": int(len(result.tracklet_ids())), **read}
-        return StageResult(f"wrote {files.output('detections')} ({len(result)} detections; {read_summary(read, info.frames)})", recorded, facts=facts)
+        return StageResult(
+            f"wrote {files.output('detections')} ({len(result)} detections; {read_summary(read, info.frames)})",
+            recorded,
+            facts=facts,
+        )
     write_track_atomic(result, files.output("track"))
-    return StageResult(f"wrote {files.output('track')} ({len(result)} tracked frames)", recorded, facts={"tracked_frames": len(result)})
+    return StageResult(
+        f"wrote {files.output('track')} ({len(result)} tracked frames)", recorded, facts={"tracked_frames": len(result)}
+    )
 
 
 def video_breaks(video: Path, meter: PictureMeter) -> list[Break]:
@@ -103,7 +133,12 @@ def reading(plan: ScanPlan | None, count: DecodeCount, frames: int, every_mover:
     if plan is None:
         why = '[track] scan = "full"' if every_mover else "one target followed from frame to frame"
         return {"scan": "full", "scan_reason": why, "keyframes_decoded": 0, "frames_decoded": count.decoded or frames}
-    return {"scan": plan.mode, "scan_reason": plan.reason, "keyframes_decoded": plan.keyframes_read, "frames_decoded": count.decoded}
+    return {
+        "scan": plan.mode,
+        "scan_reason": plan.reason,
+        "keyframes_decoded": plan.keyframes_read,
+        "frames_decoded": count.decoded,
+    }
 
 
 def read_summary(read: dict, frames: int) -> str:
@@ -111,18 +146,25 @@ def read_summary(read: dict, frames: int) -> str:
     if read["scan"] == "full":
         return f"every frame decoded: {read['scan_reason']}"
     skipped = max(0, frames - read["frames_decoded"])
-    return f"{read['frames_decoded']} of {frames} frames decoded, {skipped} skipped, after {read['keyframes_decoded']} keyframes"
+    return (
+        f"{read['frames_decoded']} of {frames} frames decoded, {skipped} skipped, after "
+        f"{read['keyframes_decoded']} keyframes"
+    )
 
 
 def video_info(video: Path, truncation: TruncatedVideoWarning | None) -> VideoInfo:
-    """What a camera's video holds: its frames (0-based indices 0..frames-1 exist), the container's count, whether it is truncated."""
+    """What a camera's video holds: its frames (0-based indices 0..frames-1 exist), the container's count, whether it is
+    truncated.
+    """
     announced = probe_video(video).n_frames
     frames = truncation.frames_read if truncation is not None else announced
     return VideoInfo(str(video), frames, announced, truncation is not None)
 
 
 def tracking_params(project: Project, cam: str, options: Options) -> TrackerConfig:
-    """What the track stage's work depends on: the tracker table, without the init box for every mover (it seeds identify, not detection)."""
+    """What the track stage's work depends on: the tracker table, without the init box for every mover (it seeds
+    identify, not detection).
+    """
     tracker = project.camera(cam).tracker
     return dataclasses.replace(tracker, init=None, init_frame=0) if tracker.every_mover else tracker
 
@@ -141,7 +183,11 @@ SPEC = StageSpec(
     "track",
     inputs=track_inputs,
     params=tracking_params,
-    outputs=("track", "detections", "video_info"),  # track.csv or detections.csv (every mover: track.csv then comes from identify), and video.json
+    outputs=(
+        "track",
+        "detections",
+        "video_info",
+    ),  # track.csv or detections.csv (every mover: track.csv then comes from identify), and video.json
     run=run_track,
     per_camera=True,
     heavy=True,

@@ -19,11 +19,11 @@ from tlsync_pipeline.pipeline.spec import Options, Sources, StageResult, StageSp
 from tlsync_pipeline.pipeline.stages.cameras import has_no_rows, ingest_report_input, log_model_of, pose_problem
 from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
 from tlsync_pipeline.sync.model.log_model import LogModelChoice
-from tlsync_pipeline.sync.vote.log_error import measured, vote_radius
+from tlsync_pipeline.sync.model.methods import preparation_of, prepare_trajectory
 from tlsync_pipeline.sync.model.params import Preparation
-from tlsync_pipeline.sync.model.methods import prepare_trajectory, preparation_of
-from tlsync_pipeline.sync.vote.votes import CameraVotes, Votes, compute_votes, write_votes
+from tlsync_pipeline.sync.vote.log_error import measured, vote_radius
 from tlsync_pipeline.sync.vote.visits import near_views
+from tlsync_pipeline.sync.vote.votes import CameraVotes, Votes, compute_votes, write_votes
 from tlsync_pipeline.trajectory import read_trajectory
 from trackers.track import read_track
 
@@ -55,7 +55,10 @@ def run_vote(files: StageFiles, params: VoteParams) -> StageResult:
     """
     camera = read_camera(files.path("camera"), name=files.camera)
     try:
-        if files.has("identification") and (failed := read_identification(files.path("identification")).error) is not None:
+        if (
+            files.has("identification")
+            and (failed := read_identification(files.path("identification")).error) is not None
+        ):
             raise SyncError(failed)
         if (problem := pose_problem(camera)) is not None:
             raise problem
@@ -75,7 +78,11 @@ def run_vote(files: StageFiles, params: VoteParams) -> StageResult:
 
 def vote_inputs(src: Sources, cam: str) -> dict[str, Path | Artefact]:
     """The camera, its track and the trajectory; for a camera identified among its movers, the identification too."""
-    inputs = {"camera": src.artefact("camera", cam), "track": src.artefact("track", cam), "trajectory": src.artefact("trajectory")}
+    inputs = {
+        "camera": src.artefact("camera", cam),
+        "track": src.artefact("track", cam),
+        "trajectory": src.artefact("trajectory"),
+    }
     if src.made("identification", cam):
         inputs["identification"] = src.artefact("identification", cam)
     return {**inputs, **ingest_report_input(src)}
@@ -83,7 +90,12 @@ def vote_inputs(src: Sources, cam: str) -> dict[str, Path | Artefact]:
 
 def vote_params(project: Project, cam: str, options: Options) -> VoteParams:
     camera = project.camera(cam)
-    return VoteParams(project.sync.eps_px, preparation_of(project.sync), camera.video if camera.track is None else None, project.target.log_error.for_vote_radius)
+    return VoteParams(
+        project.sync.eps_px,
+        preparation_of(project.sync),
+        camera.video if camera.track is None else None,
+        project.target.log_error.for_vote_radius,
+    )
 
 
 SPEC = StageSpec(

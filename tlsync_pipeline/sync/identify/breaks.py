@@ -28,9 +28,9 @@ import numpy as np
 
 from calibration.camera import Camera
 from tlsync_pipeline.errors import SyncError
-from tlsync_pipeline.sync.model.clock import Segment
 from tlsync_pipeline.sync.identify.identify import Identification, IdentifyParams, detections_clock, identify_target
 from tlsync_pipeline.sync.identify.segments import segments_of, segments_reason
+from tlsync_pipeline.sync.model.clock import Segment
 from tlsync_pipeline.sync.model.status import AMBIGUOUS, Reason
 from tlsync_pipeline.trajectory import Trajectory
 from trackers.breaks import Break

@@ -58,14 +58,20 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from calibration.camera import Camera
-from tlsync_pipeline.errors import SyncError
-from tlsync_pipeline.sync.model.clock import CameraClock, FrameTimes, Segment, camera_clock
-from tlsync_pipeline.sync.kernels.line_search import LineSearch, find_line, thin_votes
-from tlsync_pipeline.sync.kernels.backward import BACKWARD_BELOW, backwards_better
-from tlsync_pipeline.sync.identify.refine import MIN_FRAMES, refine_line
-from tlsync_pipeline.sync.kernels.slope import SlopePrior, slope_prior
-from tlsync_pipeline.sync.identify.target_size import beyond_slack, depth_on_line, sizes_in_metres, slack_on_line, target_within
 from tlsync_pipeline.artefacts.identification import IdentificationSummary, TrackletShare
+from tlsync_pipeline.errors import SyncError
+from tlsync_pipeline.sync.identify.refine import MIN_FRAMES, refine_line
+from tlsync_pipeline.sync.identify.target_size import (
+    beyond_slack,
+    depth_on_line,
+    sizes_in_metres,
+    slack_on_line,
+    target_within,
+)
+from tlsync_pipeline.sync.kernels.backward import BACKWARD_BELOW, backwards_better
+from tlsync_pipeline.sync.kernels.line_search import LineSearch, find_line, thin_votes
+from tlsync_pipeline.sync.kernels.slope import SlopePrior, slope_prior
+from tlsync_pipeline.sync.model.clock import CameraClock, FrameTimes, Segment, camera_clock
 from tlsync_pipeline.sync.model.methods import RefinedParams
 from tlsync_pipeline.sync.model.params import SyncParams
 from tlsync_pipeline.sync.vote.votes import Votes
@@ -75,7 +81,9 @@ from trackers.track import Track
 
 FOLLOW_WEIGHT = 2.0
 MAX_ROUNDS = 5
-MIN_FOLLOW_SHARE = 0.3  # a tracklet "follows" the path around a frame when this share of its frames there is near the path
+MIN_FOLLOW_SHARE = (
+    0.3  # a tracklet "follows" the path around a frame when this share of its frames there is near the path
+)
 FOLLOW_WINDOW_S = 2.0  # seconds either side of a frame over which a tracklet's following is judged
 FOLLOW_WINDOW_FRAMES = 20  # the same, in frames, for a camera of unknown fps
 UNSEEN_ROWS = 2  # rows off the path every tracklet's following share starts with
@@ -83,8 +91,11 @@ REACH_BAND_PX = 8.0  # candidates are paired with the projected path in bands of
 CHUNK_ROWS = 5_000  # detections voted on at a time
 MAX_LIFT_M = 2.0  # largest height (metres) of the logged point above or below the tracked point that is estimated
 LIFT_STEP_M = 0.05  # a change of the estimated height smaller than this keeps the round's assignment
-EXTEND_GATES = 3.0  # the identified tracklets' candidates within this many gates of the path join the track (calibration and log errors)
-SIZE_TOLERANCE = 1.35  # a kept candidate without box slack whose size in metres departs from the others' median by more than this factor is left out
+# the identified tracklets' candidates within this many gates of the path join the track (calibration and log errors)
+EXTEND_GATES = 3.0
+# a kept candidate without box slack whose size in metres departs from the others' median by more than this factor is
+# left out
+SIZE_TOLERANCE = 1.35
 
 
 @dataclass(frozen=True)
@@ -126,21 +137,37 @@ class Identification:
         """What timeline.json reports: tracklets used, share of the track's frames on each, line supports."""
         n = max(len(self.track), 1)
         tracklets = tuple(TrackletShare(t.id, t.assigned, t.assigned / n, t.follow_share) for t in self.tracklets)
-        return IdentificationSummary(int(np.unique(self.vote_rows).size), len(self.track), tracklets, self.search.support, self.search.runner_up, self.rounds, round(self.lift_m, 3))
+        return IdentificationSummary(
+            int(np.unique(self.vote_rows).size),
+            len(self.track),
+            tracklets,
+            self.search.support,
+            self.search.runner_up,
+            self.rounds,
+            round(self.lift_m, 3),
+        )
 
 
-def detections_clock(detections: Detections, fps: float | None, segments: tuple[Segment, ...] = ()) -> tuple[CameraClock, np.ndarray]:
-    """The camera clock of the frames that have detections (with the recording's segments, sync/identify/segments.py), and
+def detections_clock(
+    detections: Detections, fps: float | None, segments: tuple[Segment, ...] = ()
+) -> tuple[CameraClock, np.ndarray]:
+    """The camera clock of the frames that have detections (with the recording's segments, sync/identify/segments.py),
+    and
     each detection row's clock value (NaN in a segment of unknown shift)."""
     frames, first = np.unique(detections.frame, return_index=True)
     times = detections.time_s[first]
-    per_frame = Track(frames, np.zeros(len(frames)), np.zeros(len(frames)), time_s=times if np.isfinite(times).all() else None)
+    per_frame = Track(
+        frames, np.zeros(len(frames)), np.zeros(len(frames)), time_s=times if np.isfinite(times).all() else None
+    )
     clock = replace(camera_clock(per_frame, fps), segments=segments)
     return clock, clock.clock_at(detections.frame, FrameTimes.of_track(per_frame))
 
 
-def candidate_votes(camera: Camera, detections: Detections, trajectory: Trajectory, eps_px: float) -> tuple[Votes, np.ndarray]:
-    """Votes of every candidate (frame, sample, pixel distance), thinned as the line search thins them, and the detection row of each.
+def candidate_votes(
+    camera: Camera, detections: Detections, trajectory: Trajectory, eps_px: float
+) -> tuple[Votes, np.ndarray]:
+    """Votes of every candidate (frame, sample, pixel distance), thinned as the line search thins them, and the
+    detection row of each.
 
     A candidate votes for each sample projecting within eps_px of it or
     inside its box; of those, per tracklet, only the closest vote of each
@@ -164,24 +191,31 @@ def candidate_votes(camera: Camera, detections: Detections, trajectory: Trajecto
     if len(detections) == 0:
         raise SyncError(f"camera {camera.name}: no moving object was detected in its video")
     projected = cKDTree(uv)
-    parts = [_chunk_votes(detections, rows, projected, uv, sample, eps_px) for rows in np.array_split(np.arange(len(detections)), -(-len(detections) // CHUNK_ROWS))]
+    parts = [
+        _chunk_votes(detections, rows, projected, uv, sample, eps_px)
+        for rows in np.array_split(np.arange(len(detections)), -(-len(detections) // CHUNK_ROWS))
+    ]
     rows, j, dist = (np.concatenate(part) for part in zip(*parts))
     if len(rows) == 0:
         nearest, _ = projected.query(detections.xy, k=1)
         k = int(np.argmin(nearest))
         raise SyncError(
             f"camera {camera.name}: no moving object comes within eps = {eps_px:g} px of the target's projected path; "
-            f"the closest is {nearest[k]:.1f} px (frame {detections.frame[k]}). Check the camera pose, or raise [sync] eps_px"
+            f"the closest is {nearest[k]:.1f} px (frame {detections.frame[k]}). Check the camera pose, or raise "
+            f"[sync] eps_px"
         )
     kept = thin_votes(sample[j], detections.frame[rows].astype(np.float64), dist, detections.id[rows])
     rows = rows[kept]
     return Votes(detections.frame[rows].astype(np.float64), sample[j[kept]], dist[kept]), rows
 
 
-def _chunk_votes(detections: Detections, rows: np.ndarray, projected: cKDTree, uv: np.ndarray, sample: np.ndarray, eps_px: float):
+def _chunk_votes(
+    detections: Detections, rows: np.ndarray, projected: cKDTree, uv: np.ndarray, sample: np.ndarray, eps_px: float
+):
     """Thinned votes of the given detection rows: (detection rows, indices into the projected path, pixel distances)."""
     xy, w, h = detections.xy[rows], detections.w[rows], detections.h[rows]
-    # Each candidate reaches eps_px, or its box's half diagonal: pairs are found per band of reach (C loops, not Python).
+    # Each candidate reaches eps_px, or its box's half diagonal: pairs are found per band of reach (C loops, not
+    # Python).
     reach = np.fmax(eps_px, 0.5 * np.hypot(w, h))
     band = np.ceil(reach / REACH_BAND_PX).astype(np.int64)
     found = []
@@ -196,8 +230,12 @@ def _chunk_votes(detections: Detections, rows: np.ndarray, projected: cKDTree, u
     return rows[i[kept]], j[kept], dist[kept]
 
 
-def offsets_to_path(camera: Camera, path: PiecewiseTrajectory, clock: np.ndarray, xy: np.ndarray, alpha: float, beta: float) -> np.ndarray:
-    """(N, 2) pixel offset from each candidate to the trajectory's projection at its frame's time on the line (inf off the path)."""
+def offsets_to_path(
+    camera: Camera, path: PiecewiseTrajectory, clock: np.ndarray, xy: np.ndarray, alpha: float, beta: float
+) -> np.ndarray:
+    """(N, 2) pixel offset from each candidate to the trajectory's projection at its frame's time on the line (inf off
+    the path).
+    """
     s = (clock - beta) / alpha
     run = path.run_of(s)
     on = run >= 0
@@ -209,8 +247,11 @@ def offsets_to_path(camera: Camera, path: PiecewiseTrajectory, clock: np.ndarray
     return out
 
 
-def lift_of(camera: Camera, path: PiecewiseTrajectory, clock: np.ndarray, xy: np.ndarray, alpha: float, beta: float) -> float:
-    """Height (metres, world up) of the logged point above the given candidates' centres under the line: the median of each one's.
+def lift_of(
+    camera: Camera, path: PiecewiseTrajectory, clock: np.ndarray, xy: np.ndarray, alpha: float, beta: float
+) -> float:
+    """Height (metres, world up) of the logged point above the given candidates' centres under the line: the median of
+    each one's.
 
     A candidate's offset from the projection, along the image of one metre
     up at its sample, in metres; clipped to +-MAX_LIFT_M; 0 with fewer than
@@ -225,7 +266,9 @@ def lift_of(camera: Camera, path: PiecewiseTrajectory, clock: np.ndarray, xy: np
     uv, _ = camera.project(position)
     rate = camera.project(position + UP)[0] - uv  # pixels per metre up
     norm = np.einsum("ij,ij->i", rate, rate)
-    with np.errstate(divide="ignore", invalid="ignore"):  # points behind the camera (NaN) or seen straight down (0): left out
+    with np.errstate(
+        divide="ignore", invalid="ignore"
+    ):  # points behind the camera (NaN) or seen straight down (0): left out
         lift = -np.einsum("ij,ij->i", xy[on] - uv, rate) / norm
     lift = lift[np.isfinite(lift) & (norm > 1e-9)]
     return float(np.clip(np.median(lift), -MAX_LIFT_M, MAX_LIFT_M)) if len(lift) >= MIN_FRAMES else 0.0
@@ -241,8 +284,17 @@ def covers(offset: np.ndarray, w: np.ndarray, h: np.ndarray) -> np.ndarray:
         return (np.abs(offset[:, 0]) <= w / 2) & (np.abs(offset[:, 1]) <= h / 2)
 
 
-def consistent_size(camera: Camera, path: PiecewiseTrajectory, clock: np.ndarray, w: np.ndarray, h: np.ndarray, alpha: float, beta: float) -> np.ndarray:
-    """Whether each candidate's box, scaled to metres at the target's depth on the line, is within SIZE_TOLERANCE of the median.
+def consistent_size(
+    camera: Camera,
+    path: PiecewiseTrajectory,
+    clock: np.ndarray,
+    w: np.ndarray,
+    h: np.ndarray,
+    alpha: float,
+    beta: float,
+) -> np.ndarray:
+    """Whether each candidate's box, scaled to metres at the target's depth on the line, is within SIZE_TOLERANCE of the
+    median.
 
     The target keeps its size in metres while its image grows and shrinks
     with its distance; a blob cut by an occluder or the image's edge does
@@ -261,8 +313,10 @@ def consistent_size(camera: Camera, path: PiecewiseTrajectory, clock: np.ndarray
 
 @dataclass(frozen=True)
 class Assignment:
-    """Rows chosen as the target (at most one per frame, ascending); share: each tracklet's share of its on-path rows near the path;
-    local: per detection row, its tracklet's share within +-window frames of it, counting UNSEEN_ROWS more rows off the path
+    """Rows chosen as the target (at most one per frame, ascending); share: each tracklet's share of its on-path rows
+    near the path;
+    local: per detection row, its tracklet's share within +-window frames of it, counting UNSEEN_ROWS more rows off the
+    path
     (one row near the path is weak evidence of following it; twenty in a row are strong)."""
 
     rows: np.ndarray
@@ -315,7 +369,9 @@ def assign_target(
     return Assignment(np.sort(ranked[first]), shares, local)
 
 
-def _windowed_share(frame: np.ndarray, group: np.ndarray, near: np.ndarray, on_path: np.ndarray, window: float) -> np.ndarray:
+def _windowed_share(
+    frame: np.ndarray, group: np.ndarray, near: np.ndarray, on_path: np.ndarray, window: float
+) -> np.ndarray:
     """Per row: near rows / (on-path rows + UNSEEN_ROWS) of its group within +-window frames of it."""
     order = np.lexsort((frame, group))
     f, g = frame[order].astype(np.float64), group[order].astype(np.float64)
@@ -351,13 +407,23 @@ class IdentifyParams:
 
 
 def identify_params(params: SyncParams) -> IdentifyParams:
-    """What identification reads of the [sync] keys: the shared ones, and the refined method's r_min and f_scale_px (whatever the method)."""
+    """What identification reads of the [sync] keys: the shared ones, and the refined method's r_min and f_scale_px
+    (whatever the method).
+    """
     refined = params.options.get("refined") or RefinedParams()
-    return IdentifyParams(params.eps_px, params.delta, params.p, params.seed, params.rate_sigma, refined.r_min, refined.f_scale_px)
+    return IdentifyParams(
+        params.eps_px, params.delta, params.p, params.seed, params.rate_sigma, refined.r_min, refined.f_scale_px
+    )
 
 
 def identify_target(
-    camera: Camera, detections: Detections, trajectory: Trajectory, fps: float | None, params: IdentifyParams, prefer: frozenset[int] = frozenset(), segments: tuple[Segment, ...] = ()
+    camera: Camera,
+    detections: Detections,
+    trajectory: Trajectory,
+    fps: float | None,
+    params: IdentifyParams,
+    prefer: frozenset[int] = frozenset(),
+    segments: tuple[Segment, ...] = (),
 ) -> Identification:
     """The target's track among every candidate (see the module docstring).
 
@@ -373,27 +439,74 @@ def identify_target(
     votes, vote_rows = candidate_votes(camera, detections, trajectory, params.eps_px)
     _, row_clock = detections_clock(detections, fps, segments)
     try:
-        search = find_line(votes.sample, row_clock[vote_rows], votes.dist, params.delta, params.p, params.r_min, params.seed, group=detections.id[vote_rows], prior=prior)
+        search = find_line(
+            votes.sample,
+            row_clock[vote_rows],
+            votes.dist,
+            params.delta,
+            params.p,
+            params.r_min,
+            params.seed,
+            group=detections.id[vote_rows],
+            prior=prior,
+        )
     except ValueError as exc:
-        raise SyncError(f"camera {camera.name}: {exc} ({len(votes)} votes from {np.unique(vote_rows).size} candidates)") from None
+        raise SyncError(
+            f"camera {camera.name}: {exc} ({len(votes)} votes from {np.unique(vote_rows).size} candidates)"
+        ) from None
     if search.support < BACKWARD_BELOW:
-        backward = find_line(-votes.sample, row_clock[vote_rows], votes.dist, params.delta, params.p, params.r_min, params.seed, group=detections.id[vote_rows], prior=prior)
+        backward = find_line(
+            -votes.sample,
+            row_clock[vote_rows],
+            votes.dist,
+            params.delta,
+            params.p,
+            params.r_min,
+            params.seed,
+            group=detections.id[vote_rows],
+            prior=prior,
+        )
         if backwards_better(search.support, backward.support):
             raise SyncError(
-                f"camera {camera.name}: the log looks reversed in time: the movers' votes back a line running backwards in time "
-                f"({backward.support} frames) better than any running forwards ({search.support}); check the order of the log's times"
+                f"camera {camera.name}: the log looks reversed in time: the movers' votes back a line running "
+                f"backwards in time "
+                f"({backward.support} frames) better than any running forwards ({search.support}); check the order of "
+                f"the log's times"
             )
-    candidates = _Candidates(camera, detections, row_clock, params.eps_px, prefer, FOLLOW_WINDOW_S * fps if fps else FOLLOW_WINDOW_FRAMES)
+    candidates = _Candidates(
+        camera, detections, row_clock, params.eps_px, prefer, FOLLOW_WINDOW_S * fps if fps else FOLLOW_WINDOW_FRAMES
+    )
     found = _assignment_rounds(candidates, trajectory, search.alpha, search.beta, params.f_scale_px, prior)
     _check_following(candidates, found)
-    chosen = along_tracklets(detections.frame, detections.id, np.linalg.norm(candidates.offsets(found.path, found.alpha, found.beta), axis=1), found.rows, candidates.gate)
-    track = _target_track(camera, found.path, PiecewiseTrajectory(trajectory), row_clock, detections, chosen, found.alpha, found.beta)
-    return Identification(track, chosen, votes, vote_rows, search, found.alpha, found.beta, _tracklet_uses(detections, chosen, found.assignment.share), found.rounds, found.lift)
+    chosen = along_tracklets(
+        detections.frame,
+        detections.id,
+        np.linalg.norm(candidates.offsets(found.path, found.alpha, found.beta), axis=1),
+        found.rows,
+        candidates.gate,
+    )
+    track = _target_track(
+        camera, found.path, PiecewiseTrajectory(trajectory), row_clock, detections, chosen, found.alpha, found.beta
+    )
+    return Identification(
+        track,
+        chosen,
+        votes,
+        vote_rows,
+        search,
+        found.alpha,
+        found.beta,
+        _tracklet_uses(detections, chosen, found.assignment.share),
+        found.rounds,
+        found.lift,
+    )
 
 
 @dataclass(frozen=True)
 class _Round:
-    """One assignment under a line: every row's offset to the projected path, the assignment, the assigned rows' box slack (pixels)."""
+    """One assignment under a line: every row's offset to the projected path, the assignment, the assigned rows' box
+    slack (pixels).
+    """
 
     offset: np.ndarray
     assignment: Assignment
@@ -427,22 +540,30 @@ class _Candidates:
     def assign(self, path: PiecewiseTrajectory, alpha: float, beta: float) -> _Round:
         offset = self.offsets(path, alpha, beta)
         d = self.detections
-        assignment = assign_target(d.frame, d.id, np.linalg.norm(offset, axis=1), self.gate, self.prefer, covers(offset, d.w, d.h), self.window)
+        assignment = assign_target(
+            d.frame, d.id, np.linalg.norm(offset, axis=1), self.gate, self.prefer, covers(offset, d.w, d.h), self.window
+        )
         return _Round(offset, assignment, _slack(self.camera, path, self.clock, d, assignment.rows, alpha, beta))
 
     def kept(self, current: _Round, path: PiecewiseTrajectory, alpha: float, beta: float) -> np.ndarray:
-        """The assigned rows near the path beyond their box slack, less blobs without slack whose size in metres departs from the others'."""
+        """The assigned rows near the path beyond their box slack, less blobs without slack whose size in metres departs
+        from the others'.
+        """
         rows, room = current.assignment.rows, current.room
         keep = np.linalg.norm(beyond_slack(current.offset[rows], room), axis=1) <= self.gate
         plain = np.flatnonzero(keep & ~(room > 0).any(axis=1))
         d = self.detections
-        keep[plain] = consistent_size(self.camera, path, self.clock[rows[plain]], d.w[rows[plain]], d.h[rows[plain]], alpha, beta)
+        keep[plain] = consistent_size(
+            self.camera, path, self.clock[rows[plain]], d.w[rows[plain]], d.h[rows[plain]], alpha, beta
+        )
         return rows[keep]
 
 
 @dataclass(frozen=True)
 class _Found:
-    """The outcome of the assignment rounds: the kept rows, the last assignment, the path (lowered by lift metres), the line, rounds run."""
+    """The outcome of the assignment rounds: the kept rows, the last assignment, the path (lowered by lift metres), the
+    line, rounds run.
+    """
 
     rows: np.ndarray
     assignment: Assignment
@@ -453,16 +574,27 @@ class _Found:
     lift: float
 
 
-def _assignment_rounds(candidates: _Candidates, trajectory: Trajectory, alpha: float, beta: float, f_scale_px: float, prior: SlopePrior | None) -> _Found:
-    """Assign, estimate the logged point's height, keep, refine the line on the kept rows; until the kept rows no longer change (MAX_ROUNDS at most)."""
+def _assignment_rounds(
+    candidates: _Candidates,
+    trajectory: Trajectory,
+    alpha: float,
+    beta: float,
+    f_scale_px: float,
+    prior: SlopePrior | None,
+) -> _Found:
+    """Assign, estimate the logged point's height, keep, refine the line on the kept rows; until the kept rows no longer
+    change (MAX_ROUNDS at most).
+    """
     logged = path = PiecewiseTrajectory(trajectory)
     lift = 0.0
     chosen = np.zeros(0, np.int64)
     rounds = 0
-    for rounds in range(1, MAX_ROUNDS + 1):
+    for rounds in range(1, MAX_ROUNDS + 1):  # noqa: B007 (the rounds run are reported after the loop)
         current = candidates.assign(path, alpha, beta)
         whole = current.whole
-        estimate = lift_of(candidates.camera, logged, candidates.clock[whole], candidates.detections.xy[whole], alpha, beta)
+        estimate = lift_of(
+            candidates.camera, logged, candidates.clock[whole], candidates.detections.xy[whole], alpha, beta
+        )
         if abs(estimate - lift) > LIFT_STEP_M:
             lift, path = estimate, PiecewiseTrajectory(lowered(trajectory, estimate))
             current = candidates.assign(path, alpha, beta)
@@ -478,12 +610,34 @@ def _assignment_rounds(candidates: _Candidates, trajectory: Trajectory, alpha: f
     return _Found(chosen, current.assignment, path, alpha, beta, rounds, lift)
 
 
-def _refined_line(candidates: _Candidates, rows: np.ndarray, path: PiecewiseTrajectory, alpha: float, beta: float, f_scale_px: float, prior: SlopePrior | None) -> tuple[float, float] | None:
-    """The line refined on the given rows (with their box slack), or None when the refinement fails or does not converge."""
+def _refined_line(
+    candidates: _Candidates,
+    rows: np.ndarray,
+    path: PiecewiseTrajectory,
+    alpha: float,
+    beta: float,
+    f_scale_px: float,
+    prior: SlopePrior | None,
+) -> tuple[float, float] | None:
+    """The line refined on the given rows (with their box slack), or None when the refinement fails or does not
+    converge.
+    """
     d = candidates.detections
     try:
         box = np.column_stack([d.w[rows], d.h[rows]])
-        refinement = refine_line(candidates.camera, candidates.clock[rows], d.xy[rows], path, alpha, beta, np.ones(len(rows), bool), f_scale_px, candidates.gate, prior=prior, box=box)
+        refinement = refine_line(
+            candidates.camera,
+            candidates.clock[rows],
+            d.xy[rows],
+            path,
+            alpha,
+            beta,
+            np.ones(len(rows), bool),
+            f_scale_px,
+            candidates.gate,
+            prior=prior,
+            box=box,
+        )
     except ValueError:
         return None
     return (refinement.alpha, refinement.beta) if refinement.converged else None
@@ -497,7 +651,8 @@ def _check_following(candidates: _Candidates, found: _Found) -> None:
     best = max(found.assignment.share.values(), default=0.0)
     raise SyncError(
         f"camera {candidates.camera.name}: no tracklet follows the target's projected path "
-        f"({len(found.rows)} frames have a candidate within {candidates.gate:g} px of it or a merged blob holding it, {following} of them on a tracklet that stays near it "
+        f"({len(found.rows)} frames have a candidate within {candidates.gate:g} px of it or a merged blob holding it, "
+        f"{following} of them on a tracklet that stays near it "
         f"over +-{candidates.window:g} frames; the best tracklet stays near it in {100 * best:.0f} % of its frames)"
     )
 
@@ -507,11 +662,16 @@ def _tracklet_uses(detections: Detections, chosen: np.ndarray, share: dict[int, 
     ids, counts = np.unique(detections.id[chosen], return_counts=True)
     lengths = {int(i): int(n) for i, n in zip(*np.unique(detections.id, return_counts=True))}
     order = np.argsort(-counts, kind="stable")
-    return tuple(TrackletUse(int(ids[k]), int(counts[k]), lengths[int(ids[k])], float(share[int(ids[k])])) for k in order)
+    return tuple(
+        TrackletUse(int(ids[k]), int(counts[k]), lengths[int(ids[k])], float(share[int(ids[k])])) for k in order
+    )
 
 
-def along_tracklets(frame: np.ndarray, tracklet: np.ndarray, distance: np.ndarray, chosen: np.ndarray, gate_px: float) -> np.ndarray:
-    """The chosen rows and, in frames without one, the nearest candidate of an identified tracklet within EXTEND_GATES x gate_px of the path.
+def along_tracklets(
+    frame: np.ndarray, tracklet: np.ndarray, distance: np.ndarray, chosen: np.ndarray, gate_px: float
+) -> np.ndarray:
+    """The chosen rows and, in frames without one, the nearest candidate of an identified tracklet within EXTEND_GATES x
+    gate_px of the path.
 
     Identified tracklets: those with at least MIN_FRAMES chosen rows.
     Where calibration and log errors put the projection 10-20 px off the
@@ -521,21 +681,45 @@ def along_tracklets(frame: np.ndarray, tracklet: np.ndarray, distance: np.ndarra
     candidate's centre to the projection (inf off the path).
     """
     ids, counts = np.unique(tracklet[chosen], return_counts=True)
-    extra = np.flatnonzero(np.isin(tracklet, ids[counts >= MIN_FRAMES]) & ~np.isin(frame, frame[chosen]) & (distance <= EXTEND_GATES * gate_px))
+    extra = np.flatnonzero(
+        np.isin(tracklet, ids[counts >= MIN_FRAMES])
+        & ~np.isin(frame, frame[chosen])
+        & (distance <= EXTEND_GATES * gate_px)
+    )
     extra = extra[np.lexsort((distance[extra], frame[extra]))]
     extra = extra[np.r_[True, frame[extra][1:] != frame[extra][:-1]]] if len(extra) else extra
     return np.sort(np.r_[chosen, extra])
 
 
-def _slack(camera: Camera, path: PiecewiseTrajectory, clock: np.ndarray, detections: Detections, rows: np.ndarray, alpha: float, beta: float) -> np.ndarray:
-    """(len(rows), 2) box slack of the given detection rows under the line, pixels (zeros when their boxes give no reference size)."""
+def _slack(
+    camera: Camera,
+    path: PiecewiseTrajectory,
+    clock: np.ndarray,
+    detections: Detections,
+    rows: np.ndarray,
+    alpha: float,
+    beta: float,
+) -> np.ndarray:
+    """(len(rows), 2) box slack of the given detection rows under the line, pixels (zeros when their boxes give no
+    reference size).
+    """
     box = np.column_stack([detections.w[rows], detections.h[rows]])
     slack = slack_on_line(camera, path, clock[rows], box, alpha, beta)
     return np.zeros((len(rows), 2)) if slack is None else slack
 
 
-def _target_track(camera: Camera, path: PiecewiseTrajectory, logged: PiecewiseTrajectory, clock: np.ndarray, detections: Detections, rows: np.ndarray, alpha: float, beta: float) -> Track:
-    """The identified rows as a Track of the target's part of each blob (target_size.target_within) under the line, moved to where the logged point is seen.
+def _target_track(
+    camera: Camera,
+    path: PiecewiseTrajectory,
+    logged: PiecewiseTrajectory,
+    clock: np.ndarray,
+    detections: Detections,
+    rows: np.ndarray,
+    alpha: float,
+    beta: float,
+) -> Track:
+    """The identified rows as a Track of the target's part of each blob (target_size.target_within) under the line,
+    moved to where the logged point is seen.
 
     path: the tracked point's trajectory model (the logged one lowered by
     the estimated height); logged: the log's own.
@@ -543,8 +727,12 @@ def _target_track(camera: Camera, path: PiecewiseTrajectory, logged: PiecewiseTr
     track = detections.to_track(rows)
     offset = offsets_to_path(camera, path, clock[rows], detections.xy[rows], alpha, beta)
     box = np.column_stack([detections.w[rows], detections.h[rows]])
-    xy, size = target_within(detections.xy[rows], box, offset, _slack(camera, path, clock, detections, rows, alpha, beta))
+    xy, size = target_within(
+        detections.xy[rows], box, offset, _slack(camera, path, clock, detections, rows, alpha, beta)
+    )
     with np.errstate(invalid="ignore"):  # a point projected to infinity on both (inf - inf): no lift, below
-        lift = offsets_to_path(camera, logged, clock[rows], detections.xy[rows], alpha, beta) - offset  # the logged point's image less the tracked point's
+        lift = (
+            offsets_to_path(camera, logged, clock[rows], detections.xy[rows], alpha, beta) - offset
+        )  # the logged point's image less the tracked point's
     xy = xy + np.where(np.isfinite(lift), lift, 0.0)
     return Track(track.frame, xy[:, 0], xy[:, 1], time_s=track.time_s, w=size[:, 0], h=size[:, 1], score=track.score)

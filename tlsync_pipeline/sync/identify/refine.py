@@ -42,8 +42,8 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from calibration.camera import Camera
-from tlsync_pipeline.sync.kernels.slope import SlopePrior
 from tlsync_pipeline.sync.identify.target_size import beyond_slack, slack_on_line
+from tlsync_pipeline.sync.kernels.slope import SlopePrior
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
 
 MIN_FRAMES = 8
@@ -136,7 +136,18 @@ def refine_line(
         if grown.sum() < MIN_FRAMES or np.array_equal(grown, use):
             break
         use = grown
-    return Refinement(fit.alpha, fit.beta, fit.cov, int(use.sum()), fit.scale_px, fit.perpendicular, fit.converged, fit.message, fit.cov_model, use)
+    return Refinement(
+        fit.alpha,
+        fit.beta,
+        fit.cov,
+        int(use.sum()),
+        fit.scale_px,
+        fit.perpendicular,
+        fit.converged,
+        fit.message,
+        fit.cov_model,
+        use,
+    )
 
 
 @dataclass(frozen=True)
@@ -155,14 +166,35 @@ class _Fit:
 
 
 class _PixelResiduals:
-    """The fit's residuals and Jacobian in x = (1 / alpha, sample at c_mid): tracked minus projected position beyond the slack,
+    """The fit's residuals and Jacobian in x = (1 / alpha, sample at c_mid): tracked minus projected position beyond the
+    slack,
     weighted per frame (sigma_weights), and the slope prior's residual last (when there is a prior).
 
     least_squares asks for the residuals, then the Jacobian, at the same x: one evaluation serves both.
     """
 
-    def __init__(self, camera: Camera, path: PiecewiseTrajectory, frame: np.ndarray, xy: np.ndarray, run: np.ndarray, slack: np.ndarray, weight: np.ndarray, c_mid: float, f_scale: float, prior: SlopePrior | None):
-        self.camera, self.path, self.frame, self.xy, self.run, self.slack, self.weight = camera, path, frame, xy, run, slack, weight
+    def __init__(
+        self,
+        camera: Camera,
+        path: PiecewiseTrajectory,
+        frame: np.ndarray,
+        xy: np.ndarray,
+        run: np.ndarray,
+        slack: np.ndarray,
+        weight: np.ndarray,
+        c_mid: float,
+        f_scale: float,
+        prior: SlopePrior | None,
+    ):
+        self.camera, self.path, self.frame, self.xy, self.run, self.slack, self.weight = (
+            camera,
+            path,
+            frame,
+            xy,
+            run,
+            slack,
+            weight,
+        )
         self.c_mid, self.f_scale, self.prior = c_mid, f_scale, prior
         self.prior_slope = f_scale * prior.alpha / prior.sigma if prior is not None else 0.0
         self._last: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
@@ -197,7 +229,18 @@ class _PixelResiduals:
         return np.vstack([jac, [self.prior_slope, 0.0]]) if self.prior is not None else jac
 
 
-def _fit(camera: Camera, frame: np.ndarray, xy: np.ndarray, path: PiecewiseTrajectory, alpha: float, beta: float, f_scale: float, model_error_px: float, prior: SlopePrior | None = None, slack: np.ndarray | None = None) -> _Fit:
+def _fit(
+    camera: Camera,
+    frame: np.ndarray,
+    xy: np.ndarray,
+    path: PiecewiseTrajectory,
+    alpha: float,
+    beta: float,
+    f_scale: float,
+    model_error_px: float,
+    prior: SlopePrior | None = None,
+    slack: np.ndarray | None = None,
+) -> _Fit:
     """One robust fit of the line on the frames that fall on the path under the starting line.
 
     slack: (N, 2) pixels either side of each position within which the
@@ -216,12 +259,23 @@ def _fit(camera: Camera, frame: np.ndarray, xy: np.ndarray, path: PiecewiseTraje
     problem = _PixelResiduals(camera, path, frame, xy, run, slack, weight, c_mid, f_scale, prior)
     scale = np.array([0.1 / span * abs(x0[0]) + 1e-9, 0.1])
     loss = "soft_l1" if prior is None else _soft_l1_but_last
-    solution = least_squares(problem.residual, x0, jac=problem.jacobian, loss=loss, f_scale=f_scale, x_scale=scale, method="trf", max_nfev=200)
+    solution = least_squares(
+        problem.residual,
+        x0,
+        jac=problem.jacobian,
+        loss=loss,
+        f_scale=f_scale,
+        x_scale=scale,
+        method="trf",
+        max_nfev=200,
+    )
     x = solution.x
     r, jac = problem.pixels(x)
     cov_x, model_x = _sandwich_covariance(r, jac, f_scale, model_error_px, problem.prior_slope)
     u, s0 = x
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # a fit gone astray (u 0, a singular covariance): not ok below
+    with np.errstate(
+        divide="ignore", invalid="ignore", over="ignore"
+    ):  # a fit gone astray (u 0, a singular covariance): not ok below
         a = 1.0 / u
         d = np.array([[-1.0 / u**2, 0.0], [s0 / u**2, -a]])  # d(alpha, beta) / d(x)
         cov = d @ cov_x @ d.T
@@ -229,10 +283,14 @@ def _fit(camera: Camera, frame: np.ndarray, xy: np.ndarray, path: PiecewiseTraje
     scale_px = float(1.4826 * np.median(np.abs(residual_px - np.median(residual_px)))) if len(r) else float("nan")
     perpendicular = _perpendicular(camera, path, x[1] + x[0] * (frame - c_mid), run)
     ok = bool(solution.success and np.all(np.isfinite(cov)) and u > 0)
-    return _Fit(float(a), float(c_mid - a * s0), cov, scale_px, ok, str(solution.message), perpendicular, d @ model_x @ d.T)
+    return _Fit(
+        float(a), float(c_mid - a * s0), cov, scale_px, ok, str(solution.message), perpendicular, d @ model_x @ d.T
+    )
 
 
-def _sandwich_covariance(r: np.ndarray, jac: np.ndarray, f_scale: float, model_error_px: float, prior_slope: float) -> tuple[np.ndarray, np.ndarray]:
+def _sandwich_covariance(
+    r: np.ndarray, jac: np.ndarray, f_scale: float, model_error_px: float, prior_slope: float
+) -> tuple[np.ndarray, np.ndarray]:
     """Covariance of x: the soft L1 M-estimator's sandwich, frame by frame or block by block (the larger), plus the
     model error; and the model error's part of it.
 
@@ -265,8 +323,12 @@ def _sandwich_covariance(r: np.ndarray, jac: np.ndarray, f_scale: float, model_e
         return inv @ (meat + systematic + f_scale**2 * prior_info) @ inv, inv @ systematic @ inv
 
 
-def _offsets_and_rates(camera: Camera, path: PiecewiseTrajectory, s: np.ndarray, run: np.ndarray, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(N, 2) pixel offset from xy to the projection at samples s (NaN where it does not project) and (N, 2) its rate, pixels per sample."""
+def _offsets_and_rates(
+    camera: Camera, path: PiecewiseTrajectory, s: np.ndarray, run: np.ndarray, xy: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """(N, 2) pixel offset from xy to the projection at samples s (NaN where it does not project) and (N, 2) its rate,
+    pixels per sample.
+    """
     position = path(s, run)
     moved = position + RATE_STEP * path(s, run, nu=1)
     uv, _ = camera.project(np.concatenate([position, moved]))
@@ -275,15 +337,21 @@ def _offsets_and_rates(camera: Camera, path: PiecewiseTrajectory, s: np.ndarray,
 
 
 def _soft_l1_but_last(z: np.ndarray) -> np.ndarray:
-    """scipy least_squares loss (rho, rho', rho''): soft L1 for every residual but the last (the slope prior), which stays quadratic."""
+    """scipy least_squares loss (rho, rho', rho''): soft L1 for every residual but the last (the slope prior), which
+    stays quadratic.
+    """
     t = 1.0 + z
     out = np.vstack([2.0 * (np.sqrt(t) - 1.0), t**-0.5, -0.5 * t**-1.5])
     out[:, -1] = z[-1], 1.0, 0.0
     return out
 
 
-def sigma_weights(camera: Camera, path: PiecewiseTrajectory, s: np.ndarray, run: np.ndarray, f_scale: float) -> np.ndarray:
-    """Residual scale per frame: f_scale / sqrt(f_scale^2 + sigma_px^2), sigma_px = focal x sigma / depth (ones without sigmas)."""
+def sigma_weights(
+    camera: Camera, path: PiecewiseTrajectory, s: np.ndarray, run: np.ndarray, f_scale: float
+) -> np.ndarray:
+    """Residual scale per frame: f_scale / sqrt(f_scale^2 + sigma_px^2), sigma_px = focal x sigma / depth (ones without
+    sigmas).
+    """
     sigma = path.sigma(s)
     if sigma is None:
         return np.ones(len(s))

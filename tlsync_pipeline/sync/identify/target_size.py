@@ -32,7 +32,9 @@ from tlsync_pipeline.trajectory import PiecewiseTrajectory
 
 SIZE_QUANTILE = 0.1
 SLACK_TOLERANCE = 1.15
-FRAGMENT_AREA = 0.2  # a box of less than this share of the median area (in square metres) is a fragment, left out of the reference
+FRAGMENT_AREA = (
+    0.2  # a box of less than this share of the median area (in square metres) is a fragment, left out of the reference
+)
 MIN_SIZES = 8  # known sizes needed for a reference
 
 
@@ -41,8 +43,12 @@ def depth(camera: Camera, xyz: np.ndarray) -> np.ndarray:
     return (np.asarray(xyz, dtype=np.float64) @ camera.R.T + camera.t)[:, 2]
 
 
-def depth_on_line(camera: Camera, path: PiecewiseTrajectory, clock: np.ndarray, alpha: float, beta: float) -> np.ndarray:
-    """(N,) depth (metres) of the target at each clock value's sample under the line clock = alpha * sample + beta; NaN off the path."""
+def depth_on_line(
+    camera: Camera, path: PiecewiseTrajectory, clock: np.ndarray, alpha: float, beta: float
+) -> np.ndarray:
+    """(N,) depth (metres) of the target at each clock value's sample under the line clock = alpha * sample + beta; NaN
+    off the path.
+    """
     s = (np.asarray(clock, dtype=np.float64) - beta) / alpha
     run = path.run_of(s)
     z = np.full(len(s), np.nan)
@@ -58,7 +64,9 @@ def sizes_in_metres(camera: Camera, w: np.ndarray, h: np.ndarray, z: np.ndarray)
 
 
 def reference_size(metres: np.ndarray) -> np.ndarray | None:
-    """(2,) the target's width and height in metres (SIZE_QUANTILE of the known sizes but fragments), or None with fewer than MIN_SIZES."""
+    """(2,) the target's width and height in metres (SIZE_QUANTILE of the known sizes but fragments), or None with fewer
+    than MIN_SIZES.
+    """
     known = np.isfinite(metres).all(axis=1) & (metres > 0).all(axis=1)
     if known.sum() < MIN_SIZES:
         return None
@@ -71,13 +79,17 @@ def reference_size(metres: np.ndarray) -> np.ndarray | None:
 
 
 def box_slack(camera: Camera, box_px: np.ndarray, z: np.ndarray, reference_m: np.ndarray) -> np.ndarray:
-    """(N, 2) pixels either side of each box's centre where the target's centre may be (0 for a box of the target's size or less)."""
+    """(N, 2) pixels either side of each box's centre where the target's centre may be (0 for a box of the target's size
+    or less).
+    """
     expected = reference_m[None, :] * np.array([camera.K[0, 0], camera.K[1, 1]]) / np.maximum(z, 1e-9)[:, None]
     slack = 0.5 * (box_px - SLACK_TOLERANCE * expected)
     return np.where(np.isfinite(slack) & (slack > 0), slack, 0.0)
 
 
-def slack_on_line(camera: Camera, path: PiecewiseTrajectory, clock: np.ndarray, box_px: np.ndarray, alpha: float, beta: float) -> np.ndarray | None:
+def slack_on_line(
+    camera: Camera, path: PiecewiseTrajectory, clock: np.ndarray, box_px: np.ndarray, alpha: float, beta: float
+) -> np.ndarray | None:
     """(N, 2) box slack (pixels) of each box at the target's depth under the line clock = alpha * sample + beta.
 
     The reference size is taken from these boxes; None when they give none
@@ -89,11 +101,15 @@ def slack_on_line(camera: Camera, path: PiecewiseTrajectory, clock: np.ndarray, 
 
 
 def beyond_slack(offset: np.ndarray, slack: np.ndarray) -> np.ndarray:
-    """(N, 2) what is left of each offset (pixels, box centre to projection) outside the box's slack: the refinement's residual."""
+    """(N, 2) what is left of each offset (pixels, box centre to projection) outside the box's slack: the refinement's
+    residual.
+    """
     return np.sign(offset) * np.maximum(np.abs(offset) - slack, 0.0)
 
 
-def target_within(xy: np.ndarray, box_px: np.ndarray, offset: np.ndarray, slack: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def target_within(
+    xy: np.ndarray, box_px: np.ndarray, offset: np.ndarray, slack: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """The target's centre and box (pixels) inside each blob: the part of the blob nearest the projection.
 
     xy: (N, 2) blob centres; box_px: (N, 2) blob sizes; offset: (N, 2) from

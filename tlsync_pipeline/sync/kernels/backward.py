@@ -24,8 +24,17 @@ def line_support(vote_sample: np.ndarray, vote_clock: np.ndarray, alpha: float, 
     return int(np.unique(np.asarray(vote_clock)[near]).size)
 
 
-def backward_support(vote_sample: np.ndarray, vote_clock: np.ndarray, vote_dist: np.ndarray, delta: float, prior: SlopePrior | None, seed: int) -> int:
-    """``line_support`` of the best line clock = -alpha x sample + beta (alpha in the prior's band): the log read backwards."""
+def backward_support(
+    vote_sample: np.ndarray,
+    vote_clock: np.ndarray,
+    vote_dist: np.ndarray,
+    delta: float,
+    prior: SlopePrior | None,
+    seed: int,
+) -> int:
+    """``line_support`` of the best line clock = -alpha x sample + beta (alpha in the prior's band): the log read
+    backwards.
+    """
     backwards = -np.asarray(vote_sample, dtype=np.float64)
     try:
         found = find_line(backwards, vote_clock, vote_dist, delta, seed=seed, prior=prior)
@@ -35,5 +44,7 @@ def backward_support(vote_sample: np.ndarray, vote_clock: np.ndarray, vote_dist:
 
 
 def backwards_better(forward: int, backward: int) -> bool:
-    """Whether the votes back a line running backwards in time (``backward`` frames) clearly better than the forward one."""
+    """Whether the votes back a line running backwards in time (``backward`` frames) clearly better than the forward
+    one.
+    """
     return backward >= max(MIN_BACKWARD, BACKWARD_RATIO * forward)

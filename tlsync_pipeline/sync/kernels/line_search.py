@@ -111,7 +111,9 @@ def thin_votes(sample: np.ndarray, frame: np.ndarray, dist: np.ndarray, group: n
 
 
 def _group_codes(key: np.ndarray) -> tuple[np.ndarray, int]:
-    """A code 0..groups-1 per element, equal for equal values: the offset from the smallest for whole numbers (no sort), else by np.unique."""
+    """A code 0..groups-1 per element, equal for equal values: the offset from the smallest for whole numbers (no sort),
+    else by np.unique.
+    """
     if len(key) == 0:
         return np.zeros(0, np.intp), 0
     low, high = float(key.min()), float(key.max())
@@ -144,7 +146,9 @@ def _line_model(
 
 
 def _search(rng, sample, frame, delta, p, r_min, prior):
-    """Best line over votes sorted by frame: (alpha, beta, support, lines scored); the sweep with a prior, adaptive RANSAC without."""
+    """Best line over votes sorted by frame: (alpha, beta, support, lines scored); the sweep with a prior, adaptive
+    RANSAC without.
+    """
     if prior is not None:
         return _sweep(rng, sample, frame, delta, prior)
     model, rule, polished = _line_model(sample, frame, delta, prior)
@@ -162,7 +166,8 @@ SWEEP_SUBSET = 4 * SCORE_SUBSET  # votes the sweep counts windows on (all votes 
 
 
 def _sweep(rng, sample, frame, delta, prior: SlopePrior):
-    """Best line with its slope in the prior's band, by sweeping slopes and intercepts: (alpha, beta, support, lines scored).
+    """Best line with its slope in the prior's band, by sweeping slopes and intercepts: (alpha, beta, support, lines
+    scored).
 
     The windows are counted on at most SWEEP_SUBSET votes drawn at random
     (a line of 1 % support still has hundreds there); the finalists are
@@ -172,7 +177,9 @@ def _sweep(rng, sample, frame, delta, prior: SlopePrior):
     span = float(np.ptp(sample))
     steps = int(min(MAX_SWEEP_SLOPES, max(1, math.ceil((high - low) * span / delta))))
     slopes = np.unique(np.r_[prior.alpha, np.linspace(low, high, steps + 1)]) if steps > 1 else np.array([prior.alpha])
-    counted = np.sort(rng.choice(len(sample), SWEEP_SUBSET, replace=False)) if len(sample) > SWEEP_SUBSET else slice(None)
+    counted = (
+        np.sort(rng.choice(len(sample), SWEEP_SUBSET, replace=False)) if len(sample) > SWEEP_SUBSET else slice(None)
+    )
     s_counted, f_counted = sample[counted], frame[counted]
     pool_a, pool_b, pool_s = [], [], []
     for alpha in slopes:
@@ -190,7 +197,9 @@ def _sweep(rng, sample, frame, delta, prior: SlopePrior):
 
 
 def _peaks(intercept: np.ndarray, counts: np.ndarray, width: float) -> list[int]:
-    """Up to SWEEP_PEAKS windows of most votes (intercepts sorted), each starting more than one window width from those kept before."""
+    """Up to SWEEP_PEAKS windows of most votes (intercepts sorted), each starting more than one window width from those
+    kept before.
+    """
     kept: list[int] = []
     left = counts.astype(np.float64)
     for _ in range(SWEEP_PEAKS):
@@ -205,7 +214,9 @@ def _peaks(intercept: np.ndarray, counts: np.ndarray, width: float) -> list[int]
 
 
 def _polish(model: LineModel, delta: float, line: np.ndarray) -> np.ndarray:
-    """Least squares on the inliers, widened then narrowed, until the set settles (LO-RANSAC); with the prior, a MAP fit kept in its band."""
+    """Least squares on the inliers, widened then narrowed, until the set settles (LO-RANSAC); with the prior, a MAP fit
+    kept in its band.
+    """
     polished = polish(model, within(2 * delta, delta), 4, start=line)
     assert polished is not None, "a polish from a line always has one"
     return polished.model

@@ -17,7 +17,8 @@ import math
 from dataclasses import dataclass
 
 BAND_SIGMAS = 5.0
-BAND_FLOOR = 1e-3  # the line search's band is at least alpha x (1 +- this): a stated fps a little off (29.84 for 29.87) stays in it
+# the line search's band is at least alpha x (1 +- this): a stated fps a little off (29.84 for 29.87) stays in it
+BAND_FLOOR = 1e-3
 
 
 @dataclass(frozen=True)
@@ -35,7 +36,16 @@ class SlopePrior:
 
 
 def slope_prior(fps: float | None, rate: float | None, sigma: float) -> SlopePrior | None:
-    """The prior of a camera at ``fps`` against a log of ``rate`` samples/s; None when either is unknown or sigma is 0."""
-    if not sigma or fps is None or rate is None or not (math.isfinite(fps) and math.isfinite(rate)) or fps <= 0 or rate <= 0:
+    """The prior of a camera at ``fps`` against a log of ``rate`` samples/s; None when either is
+    unknown or sigma is 0.
+    """
+    if (
+        not sigma
+        or fps is None
+        or rate is None
+        or not (math.isfinite(fps) and math.isfinite(rate))
+        or fps <= 0
+        or rate <= 0
+    ):
         return None
     return SlopePrior(fps / rate, min(float(sigma), 0.9 / BAND_SIGMAS))

@@ -44,9 +44,12 @@ def smooth_trajectory(trajectory: Trajectory) -> Trajectory:
             if len(idx) > CV_SAMPLES:
                 windows = np.lib.stride_tricks.sliding_window_view(values, CV_SAMPLES)[::10]
                 starts = {10 * int(np.argmax(np.ptp(windows, axis=1)))}
-                # bends of the series as it is and averaged over BEND_AVERAGE samples (a noisy log's raw second differences are its noise)
+                # bends of the series as it is and averaged over BEND_AVERAGE samples (a noisy log's raw second
+                # differences are its noise)
                 for series in (values, np.convolve(values, np.ones(BEND_AVERAGE) / BEND_AVERAGE, mode="same")):
-                    bends = np.lib.stride_tricks.sliding_window_view(np.r_[0.0, np.diff(series, 2) ** 2, 0.0], CV_SAMPLES)[::10].sum(axis=1)
+                    bends = np.lib.stride_tricks.sliding_window_view(
+                        np.r_[0.0, np.diff(series, 2) ** 2, 0.0], CV_SAMPLES
+                    )[::10].sum(axis=1)
                     starts.add(10 * int(np.argmax(bends)))
                 chunks = [np.arange(first, first + CV_SAMPLES) for first in sorted(starts)]
             lam = min(_cv_lambda(sample[idx][chunk], values[chunk]) for chunk in chunks)
@@ -63,7 +66,8 @@ def smoothed_values(x: np.ndarray, y: np.ndarray, lam: float) -> np.ndarray:
 
 
 def smoothing_spline_at(x: np.ndarray, y: np.ndarray, lam: float, at: np.ndarray) -> np.ndarray:
-    """The cubic smoothing spline of (x, y) at the points ``at``: scipy's ``make_smoothing_spline(x, y, lam=lam)(at)``, in O(n).
+    """The cubic smoothing spline of (x, y) at the points ``at``: scipy's ``make_smoothing_spline(x, y, lam=lam)(at)``,
+    in O(n).
 
     Each point takes the cubic of the interval it falls in (of the first or
     last interval outside [x[0], x[-1]], as scipy extrapolates) from the
@@ -79,7 +83,8 @@ def smoothing_spline_at(x: np.ndarray, y: np.ndarray, lam: float, at: np.ndarray
 
 
 def _reinsch(x: np.ndarray, y: np.ndarray, lam: float) -> tuple[np.ndarray, np.ndarray]:
-    """The cubic smoothing spline of (x, y) with scipy's ``lam``: its values and second derivatives at x (natural: 0 at the ends).
+    """The cubic smoothing spline of (x, y) with scipy's ``lam``: its values and second derivatives at x (natural: 0 at
+    the ends).
 
     Reinsch's form (Green and Silverman, 1994): with Q the (n, n-2) second
     divided differences and R the (n-2, n-2) tridiagonal spline matrix,

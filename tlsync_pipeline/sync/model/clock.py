@@ -46,7 +46,7 @@ class FrameTimes:
     time_s: np.ndarray
 
     @classmethod
-    def of_track(cls, track: Track) -> "FrameTimes | None":
+    def of_track(cls, track: Track) -> FrameTimes | None:
         """The tracked frames' presentation times, or None when the track has none."""
         if track.time_s is None or len(track) == 0:
             return None
@@ -76,12 +76,24 @@ class Segment:
     frames: int = 0
 
     def to_dict(self) -> dict:
-        return {"start": self.start, "stop": self.stop, "shift": self.shift, "source": self.source, "frames": self.frames}
+        return {
+            "start": self.start,
+            "stop": self.stop,
+            "shift": self.shift,
+            "source": self.source,
+            "frames": self.frames,
+        }
 
     @classmethod
     def from_dict(cls, entry: dict) -> Segment:
         shift = entry.get("shift")
-        return cls(int(entry["start"]), int(entry["stop"]), None if shift is None else float(shift), str(entry["source"]), int(entry.get("frames", 0)))
+        return cls(
+            int(entry["start"]),
+            int(entry["stop"]),
+            None if shift is None else float(shift),
+            str(entry["source"]),
+            int(entry.get("frames", 0)),
+        )
 
 
 @dataclass(frozen=True)

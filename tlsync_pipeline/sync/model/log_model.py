@@ -17,6 +17,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 
+
 @dataclass(frozen=True)
 class LogModel:
     """A log's error model (metres, seconds): white std per fix when the log states none, and the Gauss-Markov
@@ -34,7 +35,8 @@ class LogModel:
         return self.bias_m > 0 or self.bias_vertical_m > 0
 
     def unabsorbed_m(self, duration_s: float) -> float:
-        """Std (metres, per axis, horizontal and vertical pooled) of the error a fixed pose cannot absorb over a visit of
+        """Std (metres, per axis, horizontal and vertical pooled) of the error a fixed pose cannot absorb over a visit
+        of
         ``duration_s``: the white noise and the bias's wander about its mean over the visit (a constant offset of the
         log is a shift of the camera's centre, which the pose takes; a first-order Gauss-Markov bias keeps
         1 - 2 (x - 1 + exp(-x)) / x^2 of its variance about a window of x correlation times)."""

@@ -76,7 +76,9 @@ class RefinedParams:
 
 @dataclass(frozen=True)
 class Smoothing:
-    """The refined method's trajectory preparation: smooth the logged trajectory or not (RefinedParams.smooth_trajectory)."""
+    """The refined method's trajectory preparation: smooth the logged trajectory or not
+    (RefinedParams.smooth_trajectory).
+    """
 
     smooth_trajectory: bool
 
@@ -107,7 +109,10 @@ def declare(method: MethodKind) -> MethodKind:
         taken |= set(parameter_fields(other.params_type))
     clash = taken & set(parameter_fields(method.params_type))
     if clash:
-        raise ValueError(f"sync method {method.name!r}: parameter(s) {', '.join(sorted(clash))} already used by another method or shared")
+        raise ValueError(
+            f"sync method {method.name!r}: parameter(s) {', '.join(sorted(clash))} already used by another method or "
+            f"shared"
+        )
     METHODS[method.name] = method
     return method
 
@@ -126,7 +131,9 @@ def method_options(params: SyncParams) -> Any:
 
 
 def params_table(params: SyncParams) -> dict[str, Any]:
-    """The flat ``[sync]`` table of ``params``: shared keys, method, every registered method's keys (timeline.json, cache keys)."""
+    """The flat ``[sync]`` table of ``params``: shared keys, method, every registered method's keys (timeline.json,
+    cache keys).
+    """
     table = {f.name: getattr(params, f.name) for f in fields(SyncParams) if f.name != "options"}
     for name, method in METHODS.items():
         table.update(asdict(params.options.get(name) or method.params_type()))
@@ -140,7 +147,9 @@ def preparation_of(params: SyncParams) -> Preparation:
 
 
 def prepare_trajectory(trajectory: Trajectory, preparation: Preparation) -> Trajectory:
-    """The trajectory the chosen method votes on and fits to (vote stage, sync and render all use this), lowered to the tracked point by ``logged_point_above_m``."""
+    """The trajectory the chosen method votes on and fits to (vote stage, sync and render all use this), lowered to the
+    tracked point by ``logged_point_above_m``.
+    """
     prepared = declared(preparation.method).prepare_trajectory(trajectory, preparation.options)
     return lowered(prepared, preparation.logged_point_above_m) if preparation.logged_point_above_m else prepared
 

@@ -92,7 +92,10 @@ class ParamsTable:
     @classmethod
     def from_table(cls, table: dict[str, Any]) -> ParamsTable:
         """The typed view of a flat table (shared keys left out take their defaults)."""
-        return cls(SyncParams(**{k: table[k] for k in _SHARED if k in table}), {k: v for k, v in table.items() if k not in _SHARED})
+        return cls(
+            SyncParams(**{k: table[k] for k in _SHARED if k in table}),
+            {k: v for k, v in table.items() if k not in _SHARED},
+        )
 
 
 _SHARED = tuple(f.name for f in fields(SyncParams) if f.name != "options")

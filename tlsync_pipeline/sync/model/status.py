@@ -35,14 +35,17 @@ WIDE_REMEDY = "a longer or better-calibrated pass of the target through the view
 # What to do about a wide interval, by what dominates it (timeline.ErrorBudget.dominant).
 WIDE_REMEDIES = {
     "log": "the log's bias dominates: walk a curved path through this view, or use an RTK log",
-    "calibration": "calibration or pose dominates: add or check ground control points, or check the camera's calibration",
+    "calibration": "calibration or pose dominates: add or check ground control points, or check the camera's "
+    "calibration",
     "tracking": "tracking dominates: a longer or closer pass through the view, or a sharper video",
 }
 
 
 @dataclass(frozen=True)
 class Reason:
-    """Why a camera is not plainly ok: a stable code, how serious (WEAK, AMBIGUOUS or FAILED), a sentence, what to do."""
+    """Why a camera is not plainly ok: a stable code, how serious (WEAK, AMBIGUOUS or FAILED), a
+    sentence, what to do.
+    """
 
     code: str
     severity: str
@@ -59,11 +62,31 @@ class Reason:
 
 # A line's flags (CameraLine.flags) as reasons: severity, sentence, remedy.
 FLAGS: dict[str, tuple[str, str, str]] = {
-    "few_inliers": (WEAK, "few frames support the line", "a longer pass of the target through the view, or check the track"),
-    "along_ray": (WEAK, "the target moves mostly along the viewing ray (little timing information)", "a pass of the target across the view"),
-    "truncated": (WEAK, "the video ends before its announced end; only the frames it holds are mapped", "check the video file (re-copy or re-encode it)"),
-    "clock_disagrees": (WEAK, "the offset disagrees with the camera's own clock by more than its tolerance (see clock_prior)", "check the camera's clock and the log's time base"),
-    "picked": (WEAK, "the line was picked by the project ([[cameras]] pick_start_s) among lines the evidence left possible", "remove pick_start_s to let the evidence decide"),
+    "few_inliers": (
+        WEAK,
+        "few frames support the line",
+        "a longer pass of the target through the view, or check the track",
+    ),
+    "along_ray": (
+        WEAK,
+        "the target moves mostly along the viewing ray (little timing information)",
+        "a pass of the target across the view",
+    ),
+    "truncated": (
+        WEAK,
+        "the video ends before its announced end; only the frames it holds are mapped",
+        "check the video file (re-copy or re-encode it)",
+    ),
+    "clock_disagrees": (
+        WEAK,
+        "the offset disagrees with the camera's own clock by more than its tolerance (see clock_prior)",
+        "check the camera's clock and the log's time base",
+    ),
+    "picked": (
+        WEAK,
+        "the line was picked by the project ([[cameras]] pick_start_s) among lines the evidence left possible",
+        "remove pick_start_s to let the evidence decide",
+    ),
 }
 
 
@@ -90,7 +113,13 @@ class CameraStatus:
         return self.reasons[0].remedy if self.reasons else ""
 
     def to_dict(self) -> dict:
-        return {"status": self.status, "synchronized": self.synchronized, "reason": self.reason, "remedy": self.remedy, "reasons": [r.to_dict() for r in self.reasons]}
+        return {
+            "status": self.status,
+            "synchronized": self.synchronized,
+            "reason": self.reason,
+            "remedy": self.remedy,
+            "reasons": [r.to_dict() for r in self.reasons],
+        }
 
 
 def status_of(camera: str, reasons: list[Reason] | tuple[Reason, ...]) -> CameraStatus:
@@ -99,14 +128,23 @@ def status_of(camera: str, reasons: list[Reason] | tuple[Reason, ...]) -> Camera
     return CameraStatus(camera, ordered[0].severity if ordered else OK, ordered)
 
 
-def line_reasons(flags: tuple[str, ...] | None, warnings: tuple[str, ...] | None, checks: tuple[Reason, ...] | None) -> list[Reason]:
+def line_reasons(
+    flags: tuple[str, ...] | None, warnings: tuple[str, ...] | None, checks: tuple[Reason, ...] | None
+) -> list[Reason]:
     """The reasons a camera line carries: its checks, its flags (FLAGS) and its warnings (a fallback of the method)."""
     reasons = list(checks or ())
     for flag in flags or ():
         severity, text, remedy = FLAGS.get(flag, (WEAK, flag, "see timeline.json"))
         reasons.append(Reason(flag, severity, text, remedy))
     for warning in warnings or ():
-        reasons.append(Reason("fallback", WEAK, f"the refinement was not used: {warning}", "check the track and the calibration near this camera's frames"))
+        reasons.append(
+            Reason(
+                "fallback",
+                WEAK,
+                f"the refinement was not used: {warning}",
+                "check the track and the calibration near this camera's frames",
+            )
+        )
     return reasons
 
 
@@ -126,9 +164,12 @@ def failure(text: str, code: str = "not_synchronized", remedy: str = "") -> Reas
 
 
 def diagnosed_failure(camera: str, cause: Reason, text: str) -> str:
-    """A camera's failure message (``text``, a SyncError's) led by the cause found for it (sync/solve/causes.py), its code and
+    """A camera's failure message (``text``, a SyncError's) led by the cause found for it (sync/solve/causes.py), its
+    code and
     remedy kept in the words so that ``failure`` gives them back."""
-    return f"camera {camera}: {cause.text} (cause {cause.code}): {text.removeprefix(f'camera {camera}: ')}; {cause.remedy}"
+    return (
+        f"camera {camera}: {cause.text} (cause {cause.code}): {text.removeprefix(f'camera {camera}: ')}; {cause.remedy}"
+    )
 
 
 _POSE_FAILURE = re.compile(r"pose not determined from the target \((?P<cause>[a-z_]+)\): .*; (?P<remedy>[^;]+)$")

@@ -67,7 +67,6 @@ from calibration.errors import CalibrationInputError
 from calibration.extrinsics import Pose, pose_from_points
 from calibration.lens import undistort_pixels
 from tlsync_pipeline.errors import SyncError
-from tlsync_pipeline.sync.model.clock import FrameTimes, camera_clock, image_speed
 from tlsync_pipeline.sync.identify.identify import (
     Identification,
     IdentifyParams,
@@ -76,6 +75,8 @@ from tlsync_pipeline.sync.identify.identify import (
 )
 from tlsync_pipeline.sync.kernels.line_search import find_line
 from tlsync_pipeline.sync.kernels.robust import msac, polish, trimmed
+from tlsync_pipeline.sync.kernels.slope import SlopePrior, slope_prior
+from tlsync_pipeline.sync.model.clock import FrameTimes, camera_clock, image_speed
 from tlsync_pipeline.sync.model.log_model import LogModel
 from tlsync_pipeline.sync.pose.pose_bias import CUT, VisitBias, fit_with_bias
 from tlsync_pipeline.sync.pose.pose_fit import (
@@ -86,7 +87,6 @@ from tlsync_pipeline.sync.pose.pose_fit import (
     fit_pose_and_line,
     reprojection_errors,
 )
-from tlsync_pipeline.sync.kernels.slope import SlopePrior, slope_prior
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
 from trackers.detections import Detections
 from trackers.track import Track
@@ -99,22 +99,30 @@ MIN_PAIRS = 12  # pairs on the trajectory a candidate offset needs
 MIN_FRAMES = 20  # frames a pose from the target needs within the gate
 STRAIGHT = 0.02  # smallest ratio of the image path's second to first singular value (below: a straight line)
 NEARLY_STRAIGHT = 0.05  # a loose pose on a path below this ratio is put down to its straightness
-AMBIGUOUS = 0.85  # a distinct offset scoring this share of the best's score (msac at TIGHT median residuals) makes the pose ambiguous
+# a distinct offset scoring this share of the best's score (msac at TIGHT median residuals) makes the pose ambiguous
+AMBIGUOUS = 0.85
 TIGHT = 3.0  # median residuals of the best fit within which frames count for the ambiguity test
 DISTINCT_S = 1.0  # offsets further apart than this (seconds) are distinct
 LOG_GATE = 2.5  # under a metre-level log, the gate in units of the log's unabsorbed error seen in pixels
 TIMING_S = 0.5  # under a log with a bias, the largest std of a pose fit's beta (seconds): half of DISTINCT_S
-LOG_ROTATION = 4.0  # under a biased log on a nearly straight path: the rotation std allowed, in angles its error subtends
+LOG_ROTATION = (
+    4.0  # under a biased log on a nearly straight path: the rotation std allowed, in angles its error subtends
+)
 LOG_ROTATION_CURVED = 8.0  # the same on a curved path, where the timing's std is checked too
 PROFILE_POINTS = 600  # tracked positions whose support with the log's bias fitted gives the timing (profile_beta)
 PROFILE_SIGMAS = 3  # profile_beta looks this many of the fit's beta stds either side of it
 GCP_AGREE = 3.0  # a pose agrees with the GCPs when their median error is within this many of their sigmas
-SURVEY_SUPPORT = 0.9  # a pose from GCPs and track together must explain this share of the frames the track's own pose explains
+SURVEY_SUPPORT = (
+    0.9  # a pose from GCPs and track together must explain this share of the frames the track's own pose explains
+)
 CHI2_2_MEDIAN = 2.0 * np.log(2.0)  # median of a chi-square of 2 degrees of freedom
-MEASURE_POINTS = 6  # GCPs (inliers of their pose) whose residuals measure the survey's error alone; fewer: not below the stated one
+MEASURE_POINTS = (
+    6  # GCPs (inliers of their pose) whose residuals measure the survey's error alone; fewer: not below the stated one
+)
 MAX_ROTATION_STD_DEG = 3.0
 MAX_CENTER_STD = 0.15  # of the median distance to the target
-# An intrinsic the target determines: its posterior std below these (f: share of f; cx, cy: share of the image width; k1: absolute).
+# An intrinsic the target determines: its posterior std below these (f: share of f; cx, cy: share of the image width;
+# k1: absolute).
 DETERMINED = {"f": 0.05, "cx": 0.02, "cy": 0.02, "k1": 0.05}
 PLANAR = 0.02  # a log whose smallest spread is below this share of its largest moves in a plane
 BATCH = 256  # candidate offsets whose trajectory positions are evaluated at once
@@ -126,11 +134,14 @@ REMEDIES = {
     "no_clock": "give the camera's fps and a log with times, or 4 GCPs with gcp_sigma_m = 0 (their pose alone)",
     "too_few_frames": "record the target longer in this view, or add 4 GCPs (gcp = ...)",
     "straight_path": "walk a curved path through the view (turns, not a straight line), or add 4 GCPs (gcp = ...)",
-    "ambiguous_offset": "walk a path through the view that does not repeat itself (turns of different shapes), or add 4 GCPs (gcp = ...)",
+    "ambiguous_offset": "walk a path through the view that does not repeat itself (turns of different shapes), or add "
+    "4 GCPs (gcp = ...)",
     "pose_undetermined": "walk a curved path spread over the whole view, near and far, or add 4 GCPs (gcp = ...)",
-    "gcp_conflict": "check the GCP file (each pixel against its world point) and gcp_sigma_m, and that the log is in the GCPs' frame",
+    "gcp_conflict": "check the GCP file (each pixel against its world point) and gcp_sigma_m, and that the log is in "
+    "the GCPs' frame",
     "no_fit": "check the intrinsics (K, dist) and that the log covers the video, or add 4 GCPs (gcp = ...)",
-    "planar_path": "calibrate the intrinsics with checkerboard photos (a target moving in a plane does not determine the focal length), or fly it at different heights",
+    "planar_path": "calibrate the intrinsics with checkerboard photos (a target moving in a plane does not determine "
+    "the focal length), or fly it at different heights",
 }
 
 
@@ -145,7 +156,9 @@ class PoseError(SyncError):
 
 @dataclass(frozen=True)
 class OffsetSearch:
-    """The search over beta: the fine pass's offsets and supports (MSAC scores of the pairs, ``_Scorer.fit``), pairs per offset, threshold and steps."""
+    """The search over beta: the fine pass's offsets and supports (MSAC scores of the pairs, ``_Scorer.fit``), pairs per
+    offset, threshold and steps.
+    """
 
     betas: np.ndarray
     support: np.ndarray
@@ -225,7 +238,11 @@ class TargetPose:
             "runner_up_ratio": self.runner_up_ratio,
             "runner_up_beta": None if not np.isfinite(self.runner_up_beta) else self.runner_up_beta,
             "straightness": self.straightness,
-            "search": {"offsets_tried": self.search.offsets_tried, "threshold_px": self.search.threshold_px, "step_frames": self.search.fine_step},
+            "search": {
+                "offsets_tried": self.search.offsets_tried,
+                "threshold_px": self.search.threshold_px,
+                "step_frames": self.search.fine_step,
+            },
         }
         if self.gcp_pose is not None:
             out.update(moved_m=self.moved_m, moved_deg=self.moved_deg)
@@ -234,13 +251,25 @@ class TargetPose:
             after = gcps.errors_px(self.camera)
             names = gcps.names or tuple(str(k) for k in range(len(gcps.xyz)))
             used = self.gcps_used or gcps
-            out.update(gcp_sigma_m=used.sigma_m, gcp_sigma_stated_m=gcps.sigma_m, gcp_weight=used.weight, gcps_disagree=list(self.disagreeing))
+            out.update(
+                gcp_sigma_m=used.sigma_m,
+                gcp_sigma_stated_m=gcps.sigma_m,
+                gcp_weight=used.weight,
+                gcps_disagree=list(self.disagreeing),
+            )
             out["gcps"] = [
-                {"name": n, "before_px": None if not np.isfinite(b) else float(b), "after_px": None if not np.isfinite(a) else float(a), "disagrees": n in self.disagreeing}
+                {
+                    "name": n,
+                    "before_px": None if not np.isfinite(b) else float(b),
+                    "after_px": None if not np.isfinite(a) else float(a),
+                    "disagrees": n in self.disagreeing,
+                }
                 for n, b, a in zip(names, before, after)
             ]
         if self.intrinsics:
-            out["intrinsics"] = {k: {"value": v, "std": sd, "determined": kept} for k, (v, sd, kept) in self.intrinsics.items()}
+            out["intrinsics"] = {
+                k: {"value": v, "std": sd, "determined": kept} for k, (v, sd, kept) in self.intrinsics.items()
+            }
         return out
 
 
@@ -288,12 +317,30 @@ def pose_from_track(
         free = tuple(sorted(set(free) | {"f", "cx", "k1"}, key=INTRINSICS.index))
     if gcps is None or gcp_camera is None or free:
         try:
-            search, fits = candidate_fits(camera, clock, xy, path, prior, fps, gate_px, gcps, gcp_camera, free, f_scale, seed, delta, offsets=offsets, log_model=biased)
+            search, fits = candidate_fits(
+                camera,
+                clock,
+                xy,
+                path,
+                prior,
+                fps,
+                gate_px,
+                gcps,
+                gcp_camera,
+                free,
+                f_scale,
+                seed,
+                delta,
+                offsets=offsets,
+                log_model=biased,
+            )
         except PoseError as exc:
             if exc.cause != "gcp_conflict" or free:
                 raise
             # GCPs without a pose of their own (too few, too rough) that no pose of the track keeps: the track alone
-            alone = pose_from_track(camera, clock, xy, path, prior, fps, gate_px, None, None, (), f_scale, seed, delta, offsets, log_model)
+            alone = pose_from_track(
+                camera, clock, xy, path, prior, fps, gate_px, None, None, (), f_scale, seed, delta, offsets, log_model
+            )
             return replace(alone, disagreeing=_names(gcps))  # type: ignore[arg-type]
         result = ranked_pose(fits, search, xy, fps or 0.0, gcps is not None, gcp_camera)
         if free:
@@ -302,11 +349,25 @@ def pose_from_track(
         if biased is not None and not free:
             result = replace(result, bias_beta=profile_beta(result.fit, clock, xy, path, biased, fps))  # type: ignore[arg-type]
         return result
-    return _survey_and_target(camera, clock, xy, path, prior, fps, gate_px, gcps, gcp_camera, f_scale, seed, delta, offsets)
+    return _survey_and_target(
+        camera, clock, xy, path, prior, fps, gate_px, gcps, gcp_camera, f_scale, seed, delta, offsets
+    )
 
 
 def _survey_and_target(
-    camera: Camera, clock, xy, path, prior: SlopePrior | None, fps: float | None, gate_px: float, gcps: GcpPrior, gcp_camera: Camera, f_scale: float, seed: int, delta: float, offsets
+    camera: Camera,
+    clock,
+    xy,
+    path,
+    prior: SlopePrior | None,
+    fps: float | None,
+    gate_px: float,
+    gcps: GcpPrior,
+    gcp_camera: Camera,
+    f_scale: float,
+    seed: int,
+    delta: float,
+    offsets,
 ) -> TargetPose:
     """The pose from GCPs and track together, or from the track alone when they conflict (module docstring, step 5).
 
@@ -327,13 +388,22 @@ def _survey_and_target(
     """
     name = camera.name
     if prior is None or not fps:
-        raise PoseError(name, "no_clock", "the camera's fps or the log's rate is unknown, so the offset cannot be searched with the slope held")
+        raise PoseError(
+            name,
+            "no_clock",
+            "the camera's fps or the log's rate is unknown, so the offset cannot be searched with the slope held",
+        )
     if len(clock) < MIN_FRAMES:
         raise PoseError(name, "too_few_frames", f"{len(clock)} tracked frames, at least {MIN_FRAMES} are needed")
     search, starts = search_offsets(camera, clock, xy, path, prior.alpha, seed, offsets=offsets)
     alone = _fit_candidates(starts, clock, xy, path, prior, gate_px, f_scale, None, (), search.threshold_px, MIN_FRAMES)
     own: TargetPose | None = None
-    why = PoseError(name, "no_fit", f"no offset of {search.offsets_tried} tried gives a pose that explains {MIN_FRAMES} tracked frames within {gate_px:g} px")
+    why = PoseError(
+        name,
+        "no_fit",
+        f"no offset of {search.offsets_tried} tried gives a pose that explains {MIN_FRAMES} tracked frames within "
+        f"{gate_px:g} px",
+    )
     if alone:
         try:
             own = ranked_pose(alone, search, xy, fps, False, gcp_camera)
@@ -350,7 +420,9 @@ def _survey_and_target(
         if outliers and keep.sum() >= 4:
             kept = _subset(gcps, keep)
             try:
-                refit = pose_from_points(kept.uv, kept.xyz, camera.K, camera.dist, camera.dist_model, 1e6, source="GCPs")
+                refit = pose_from_points(
+                    kept.uv, kept.xyz, camera.K, camera.dist, camera.dist_model, 1e6, source="GCPs"
+                )
                 start = replace(gcp_camera, R=refit.R, t=refit.t)
             except CalibrationInputError:
                 pass
@@ -361,13 +433,24 @@ def _survey_and_target(
     found = _gcp_candidate(start, clock, xy, path, prior, gate_px, delta, seed)
     if found is not None:
         candidates.append(found)
-    joint = [f for f in _fit_candidates(candidates, clock, xy, path, prior, gate_px, f_scale, weighted, (), gate_px, MIN_FRAMES) if gcps_agree(weighted, f)]
+    joint = [
+        f
+        for f in _fit_candidates(
+            candidates, clock, xy, path, prior, gate_px, f_scale, weighted, (), gate_px, MIN_FRAMES
+        )
+        if gcps_agree(weighted, f)
+    ]
     if joint and (own is None or joint[0].support >= SURVEY_SUPPORT * own.support):
         result = _with_gcps(joint, search, xy, fps, gcp_camera, weighted, clock, path)
         return replace(result, disagreeing=tuple(n for n in _names(gcps) if n in outliers or n in result.disagreeing))
     if own is None:
         named = ", ".join(outliers) or "none alone"
-        raise PoseError(name, "gcp_conflict", f"no pose keeps the GCPs within {GCP_AGREE:g} sigmas ({weighted.sigma_m:.2g} m; disagreeing: {named}) and explains the track, and the track alone does not determine the pose ({why.cause})")
+        raise PoseError(
+            name,
+            "gcp_conflict",
+            f"no pose keeps the GCPs within {GCP_AGREE:g} sigmas ({weighted.sigma_m:.2g} m; disagreeing: {named}) and "
+            f"explains the track, and the track alone does not determine the pose ({why.cause})",
+        )
     return replace(own, gcps_used=weighted, disagreeing=disagreeing_gcps(weighted, own.camera))
 
 
@@ -380,7 +463,9 @@ def _subset(gcps: GcpPrior, keep: np.ndarray) -> GcpPrior:
     return replace(gcps, uv=gcps.uv[keep], xyz=gcps.xyz[keep], names=names)
 
 
-def _with_gcps(fits: list[JointFit], search: OffsetSearch, xy, fps, gcp_camera: Camera, gcps: GcpPrior, clock, path) -> TargetPose:
+def _with_gcps(
+    fits: list[JointFit], search: OffsetSearch, xy, fps, gcp_camera: Camera, gcps: GcpPrior, clock, path
+) -> TargetPose:
     """The pose from GCPs and track together (checked), naming the GCPs it leaves beyond GCP_AGREE sigmas."""
     result = ranked_pose(fits, search, xy, fps or 0.0, True, gcp_camera)
     check_determined(result, clock, path, True)
@@ -420,46 +505,95 @@ def candidate_fits(
     """
     name = camera.name
     if prior is None or not fps:
-        raise PoseError(name, "no_clock", "the camera's fps or the log's rate is unknown, so the offset cannot be searched with the slope held")
+        raise PoseError(
+            name,
+            "no_clock",
+            "the camera's fps or the log's rate is unknown, so the offset cannot be searched with the slope held",
+        )
     if len(clock) < min_frames:
         raise PoseError(name, "too_few_frames", f"{len(clock)} tracked frames, at least {min_frames} are needed")
     dlt = "intrinsics" in camera.to_estimate
     biased = log_model if log_model is not None and log_model.has_bias else None
-    search, candidates = search_offsets(camera, clock, xy, path, prior.alpha, seed, dlt=dlt, offsets=offsets, log_model=biased, fps=fps)
+    search, candidates = search_offsets(
+        camera, clock, xy, path, prior.alpha, seed, dlt=dlt, offsets=offsets, log_model=biased, fps=fps
+    )
     log_m = biased.unabsorbed_m(float(np.ptp(clock)) / fps) if biased is not None else 0.0
     if gcp_camera is not None:
         found = _gcp_candidate(gcp_camera, clock, xy, path, prior, gate_px, delta, seed)
         if found is not None:
             candidates.append(found)
-    fits = _fit_candidates(candidates, clock, xy, path, prior, gate_px, f_scale, gcps, free, search.threshold_px, min_frames, log_m)
+    fits = _fit_candidates(
+        candidates, clock, xy, path, prior, gate_px, f_scale, gcps, free, search.threshold_px, min_frames, log_m
+    )
     if not fits and dlt and planarity(path) < PLANAR:
-        raise PoseError(name, "planar_path", f"the camera has no K and the target moves in a plane (its height spread is {planarity(path):.3f} of its extent)")
+        raise PoseError(
+            name,
+            "planar_path",
+            f"the camera has no K and the target moves in a plane (its height spread is {planarity(path):.3f} of its "
+            f"extent)",
+        )
     if not fits:
-        raise PoseError(name, "no_fit", f"no offset of {search.offsets_tried} tried gives a pose that explains {MIN_FRAMES} tracked frames within {gate_px:g} px")
+        raise PoseError(
+            name,
+            "no_fit",
+            f"no offset of {search.offsets_tried} tried gives a pose that explains {MIN_FRAMES} tracked frames within "
+            f"{gate_px:g} px",
+        )
     if gcps is not None:
         fits = [f for f in fits if gcps_agree(gcps, f)]
         if not fits:
-            raise PoseError(name, "gcp_conflict", f"no offset gives a pose that both explains the track and keeps the GCPs within {GCP_AGREE:g} sigmas ({gcps.sigma_m:.2g} m)")
+            raise PoseError(
+                name,
+                "gcp_conflict",
+                f"no offset gives a pose that both explains the track and keeps the GCPs within {GCP_AGREE:g} sigmas "
+                f"({gcps.sigma_m:.2g} m)",
+            )
     return search, fits
 
 
 def _fit_candidates(
-    candidates: list[Candidate], clock, xy, path, prior, gate_px: float, f_scale: float, gcps: GcpPrior | None, free,
-    threshold_px: float, min_frames: int, log_m: float = 0.0,
+    candidates: list[Candidate],
+    clock,
+    xy,
+    path,
+    prior,
+    gate_px: float,
+    f_scale: float,
+    gcps: GcpPrior | None,
+    free,
+    threshold_px: float,
+    min_frames: int,
+    log_m: float = 0.0,
 ) -> list[JointFit]:
     """The converged joint fits of the candidates (a search candidate starts from the frames within the search's
     threshold, the GCP candidate from those within the gate), best first (most frames within the gate); log_m: as
     ``pose_from_track``'s."""
     fits = []
     for candidate in candidates:
-        gate, scale, shared = log_scales(candidate.camera, clock, path, candidate.alpha, candidate.beta, gate_px, f_scale, log_m)
+        gate, scale, shared = log_scales(
+            candidate.camera, clock, path, candidate.alpha, candidate.beta, gate_px, f_scale, log_m
+        )
         first = threshold_px if candidate.origin == "search" else gate_px
         first = max(first, gate) if gate > gate_px else first  # a metre-level log's wider gate
         start = reprojection_errors(candidate.camera, clock, xy, path, candidate.alpha, candidate.beta) <= first
         if start.sum() < min_frames // 2:
             continue
         try:
-            fit = fit_pose_and_line(candidate.camera, clock, xy, path, candidate.alpha, candidate.beta, start, gate, scale, prior, gcps, free, model_error_px=shared)
+            fit = fit_pose_and_line(
+                candidate.camera,
+                clock,
+                xy,
+                path,
+                candidate.alpha,
+                candidate.beta,
+                start,
+                gate,
+                scale,
+                prior,
+                gcps,
+                free,
+                model_error_px=shared,
+            )
         except ValueError:
             continue
         if fit.converged:
@@ -469,7 +603,14 @@ def _fit_candidates(
 
 
 def log_scales(
-    camera: Camera, clock, path: PiecewiseTrajectory, alpha: float, beta: float, gate_px: float, f_scale: float, log_m: float
+    camera: Camera,
+    clock,
+    path: PiecewiseTrajectory,
+    alpha: float,
+    beta: float,
+    gate_px: float,
+    f_scale: float,
+    log_m: float,
 ) -> tuple[float, float, float]:
     """A fit's gate, loss scale and shared model error (pixels) under a log whose error a fixed pose cannot absorb is
     log_m metres (per axis), seen at the target's median depth under the camera and line: LOG_GATE, 1 and 1 times it,
@@ -481,8 +622,11 @@ def log_scales(
     return max(gate_px, LOG_GATE * seen), max(f_scale, seen), max(MODEL_ERROR_PX, seen)
 
 
-def ranked_pose(fits: list[JointFit], search: OffsetSearch, xy: np.ndarray, fps: float, with_gcps: bool, gcp_camera: Camera | None) -> TargetPose:
-    """The best of the fits (first: most support) with its runner-up at a distinct offset, as a TargetPose (not yet checked).
+def ranked_pose(
+    fits: list[JointFit], search: OffsetSearch, xy: np.ndarray, fps: float, with_gcps: bool, gcp_camera: Camera | None
+) -> TargetPose:
+    """The best of the fits (first: most support) with its runner-up at a distinct offset, as a TargetPose (not yet
+    checked).
 
     xy: the winner's tracked pixels (its straightness is measured on its inliers).
     """
@@ -503,7 +647,12 @@ def ranked_pose(fits: list[JointFit], search: OffsetSearch, xy: np.ndarray, fps:
         straightness(xy[best.inliers]),
     )
     if gcp_camera is not None:
-        result = replace(result, gcp_pose=gcp_camera, moved_m=float(np.linalg.norm(result.camera.center - gcp_camera.center)), moved_deg=rotation_between(result.camera.R, gcp_camera.R))
+        result = replace(
+            result,
+            gcp_pose=gcp_camera,
+            moved_m=float(np.linalg.norm(result.camera.center - gcp_camera.center)),
+            moved_deg=rotation_between(result.camera.R, gcp_camera.R),
+        )
     return result
 
 
@@ -536,7 +685,12 @@ def profile_beta(
 
 
 def check_determined(
-    result: TargetPose, clock: np.ndarray, path: PiecewiseTrajectory, with_gcps: bool, log_m: float = 0.0, fps: float | None = None
+    result: TargetPose,
+    clock: np.ndarray,
+    path: PiecewiseTrajectory,
+    with_gcps: bool,
+    log_m: float = 0.0,
+    fps: float | None = None,
 ) -> None:
     """Raise PoseError when the pose is not determined (see the module docstring, step 4).
 
@@ -558,14 +712,21 @@ def check_determined(
     log's error subtends at the target's depth."""
     fit, name = result.fit, result.camera.name
     if fit.support < MIN_FRAMES:
-        raise PoseError(name, "too_few_frames", f"{fit.support} frames within the gate, at least {MIN_FRAMES} are needed")
+        raise PoseError(
+            name, "too_few_frames", f"{fit.support} frames within the gate, at least {MIN_FRAMES} are needed"
+        )
     if not with_gcps and result.straightness < STRAIGHT:
-        raise PoseError(name, "straight_path", f"the target's path is nearly a straight line in the image (width {result.straightness:.3f} of its length)")
+        raise PoseError(
+            name,
+            "straight_path",
+            f"the target's path is nearly a straight line in the image (width {result.straightness:.3f} of its length)",
+        )
     if not with_gcps and result.runner_up_ratio >= AMBIGUOUS:
         raise PoseError(
             name,
             "ambiguous_offset",
-            f"two offsets explain the track alike (scores {result.runner_up_ratio:.2f} to 1, {result.runner_up} and {result.tight_support} frames within {result.tight_px:.1f} px, "
+            f"two offsets explain the track alike (scores {result.runner_up_ratio:.2f} to 1, {result.runner_up} and "
+            f"{result.tight_support} frames within {result.tight_px:.1f} px, "
             f"beta {result.runner_up_beta:.1f} and {fit.beta:.1f})",
         )
     depth = median_depth(fit.camera, clock[fit.inliers], path, fit.alpha, fit.beta)
@@ -586,7 +747,9 @@ def check_determined(
 
 
 def gcps_agree(gcps: GcpPrior, fit: JointFit) -> bool:
-    """Whether the fitted pose keeps the GCPs within GCP_AGREE of their sigmas (median over the points: one bad point is allowed)."""
+    """Whether the fitted pose keeps the GCPs within GCP_AGREE of their sigmas (median over the points: one bad point is
+    allowed).
+    """
     return bool(np.median(fit.gcp_errors_px / gcps.sigma_px(fit.camera)) <= GCP_AGREE)
 
 
@@ -634,11 +797,13 @@ def search_offsets(
     log_model: LogModel | None = None,
     fps: float | None = None,
 ) -> tuple[OffsetSearch, list[Candidate]]:
-    """The search over beta with alpha held (module docstring, step 1): the fine pass and the CANDIDATES best peaks as cameras.
+    """The search over beta with alpha held (module docstring, step 1): the fine pass and the CANDIDATES best peaks as
+    cameras.
 
     dlt: fit a projection matrix (unknown intrinsics) instead of a pose; offsets: the range of beta searched (clock
     units), within what the log allows (None: all of it); log_model: a log with a bias, whose bias over the track is
-    fitted with each offset's pose (sync/pose/pose_bias.py; the camera's fps gives the knots' seconds; None: a rigid pose).
+    fitted with each offset's pose (sync/pose/pose_bias.py; the camera's fps gives the knots' seconds; None: a rigid
+    pose).
     """
     w, h = camera.image_size
     threshold = max(8.0, 0.01 * float(np.hypot(w, h)))
@@ -660,7 +825,13 @@ def search_offsets(
     support = score.many(betas, COARSE * threshold)
     tried = len(betas)
     peaks = _peaks(support, FINE_PEAKS)
-    fine_betas = np.unique(np.concatenate([np.arange(betas[k] - 1.5 * coarse, betas[k] + 1.5 * coarse + fine, fine) for k in peaks])) if peaks else np.zeros(0)
+    fine_betas = (
+        np.unique(
+            np.concatenate([np.arange(betas[k] - 1.5 * coarse, betas[k] + 1.5 * coarse + fine, fine) for k in peaks])
+        )
+        if peaks
+        else np.zeros(0)
+    )
     fine_support = score.many(fine_betas, threshold)
     tried += len(fine_betas)
     search = OffsetSearch(fine_betas, fine_support, len(rows), threshold, coarse, fine, tried)
@@ -673,7 +844,9 @@ def search_offsets(
 
 
 def _peaks(support: np.ndarray, count: int, separation: float = 2.0) -> list[int]:
-    """Indices of up to ``count`` local maxima of most support, each more than ``separation`` indices from those kept before."""
+    """Indices of up to ``count`` local maxima of most support, each more than ``separation`` indices from those kept
+    before.
+    """
     order = np.argsort(-support, kind="stable")
     kept: list[int] = []
     for k in order:
@@ -690,7 +863,14 @@ class _Scorer:
     (sync/pose/pose_bias.py, its support in the same units)."""
 
     def __init__(
-        self, K: np.ndarray, clock: np.ndarray, ideal: np.ndarray, path: PiecewiseTrajectory, alpha: float, dlt: bool, bias: VisitBias | None = None
+        self,
+        K: np.ndarray,
+        clock: np.ndarray,
+        ideal: np.ndarray,
+        path: PiecewiseTrajectory,
+        alpha: float,
+        dlt: bool,
+        bias: VisitBias | None = None,
     ):
         self.K, self.clock, self.ideal, self.path, self.alpha, self.dlt = K, clock, ideal, path, alpha, dlt
         self.bias = bias
@@ -752,9 +932,21 @@ class _Scorer:
             K, R, t = _decompose(model, camera.image_size)
             if K is None:
                 return None
-            return Camera(camera.name, K, np.zeros(5), R, t, camera.image_size, camera.fps, camera.dist_model, dict(camera.extra))
+            return Camera(
+                camera.name, K, np.zeros(5), R, t, camera.image_size, camera.fps, camera.dist_model, dict(camera.extra)
+            )
         rvec, tvec = model
-        return Camera(camera.name, camera.K, camera.dist, cv2.Rodrigues(rvec)[0], tvec.ravel(), camera.image_size, camera.fps, camera.dist_model, dict(camera.extra))
+        return Camera(
+            camera.name,
+            camera.K,
+            camera.dist,
+            cv2.Rodrigues(rvec)[0],
+            tvec.ravel(),
+            camera.image_size,
+            camera.fps,
+            camera.dist_model,
+            dict(camera.extra),
+        )
 
 
 @dataclass(frozen=True)
@@ -804,7 +996,9 @@ def _errors(model, xyz: np.ndarray, uv: np.ndarray, K: np.ndarray, dlt: bool) ->
 
 
 def _dlt(xyz: np.ndarray, uv: np.ndarray) -> np.ndarray | None:
-    """3x4 projection matrix from pairs by the normalised DLT (Hartley), its sign making depths positive; None when degenerate."""
+    """3x4 projection matrix from pairs by the normalised DLT (Hartley), its sign making depths positive; None when
+    degenerate.
+    """
     if len(xyz) < 6:
         return None
     mx, my = xyz.mean(axis=0), uv.mean(axis=0)
@@ -831,7 +1025,9 @@ def _dlt(xyz: np.ndarray, uv: np.ndarray) -> np.ndarray | None:
 
 
 def _decompose(P: np.ndarray, image_size: tuple[int, int]) -> tuple[np.ndarray | None, np.ndarray, np.ndarray]:
-    """K (square pixels, no skew), R, t of a projection matrix; K None when it is not a camera's (negative focal, centre far outside)."""
+    """K (square pixels, no skew), R, t of a projection matrix; K None when it is not a camera's (negative focal, centre
+    far outside).
+    """
     import cv2
 
     K, R, centre = cv2.decomposeProjectionMatrix(P)[:3]
@@ -874,18 +1070,33 @@ def measured_gcps(gcps: GcpPrior, camera: Camera, fitted: bool = True) -> GcpPri
     def var(sigma: float) -> np.ndarray:
         return gcps.click_px**2 + (focal * sigma / depth) ** 2
 
-    robust = float(minimize_scalar(lambda sg: (np.median(squared[finite] / var(sg)[finite]) - CHI2_2_MEDIAN) ** 2, bounds=(0.0, 50.0), method="bounded", options={"xatol": 1e-4}).x)
+    robust = float(
+        minimize_scalar(
+            lambda sg: (np.median(squared[finite] / var(sg)[finite]) - CHI2_2_MEDIAN) ** 2,
+            bounds=(0.0, 50.0),
+            method="bounded",
+            options={"xatol": 1e-4},
+        ).x
+    )
     inliers = finite & (squared <= GCP_AGREE**2 * var(robust))
     sigma = robust
     if inliers.sum() >= 4:
-        sigma = float(minimize_scalar(lambda sg: float(np.sum(2.0 * np.log(var(sg)[inliers]) + squared[inliers] / var(sg)[inliers])), bounds=(0.0, 50.0), method="bounded", options={"xatol": 1e-4}).x)
+        sigma = float(
+            minimize_scalar(
+                lambda sg: float(np.sum(2.0 * np.log(var(sg)[inliers]) + squared[inliers] / var(sg)[inliers])),
+                bounds=(0.0, 50.0),
+                method="bounded",
+                options={"xatol": 1e-4},
+            ).x
+        )
     if inliers.sum() < MEASURE_POINTS:
         sigma = max(sigma, gcps.sigma_m)
     return replace(gcps, sigma_m=sigma)
 
 
 def gcp_pose(camera: Camera, gcps: GcpPrior, ransac_px: float = 8.0) -> Pose:
-    """The pose the GCPs give alone (CalibrationInputError when they cannot: too few, collinear, none within the threshold).
+    """The pose the GCPs give alone (CalibrationInputError when they cannot: too few, collinear, none within the
+    threshold).
 
     The RANSAC threshold is widened to GCP_AGREE sigmas of the survey at
     the points' depths (under a first pose from all the points): with a
@@ -903,9 +1114,15 @@ def gcp_camera(camera: Camera, gcps: GcpPrior, ransac_px: float = 8.0) -> Camera
     return replace(camera, R=pose.R, t=pose.t, to_estimate=())
 
 
-def _gcp_candidate(gcp_camera: Camera, clock, xy, path, prior: SlopePrior, gate_px: float, delta: float, seed: int) -> Candidate | None:
-    """The GCPs' own pose with the line the votes find under it (the nearest sample within the gate of each tracked frame), or None."""
-    uv, valid = gcp_camera.project(path.positions(np.arange(path.starts.min(), path.ends.max() + 1)) if len(path.starts) else np.zeros((0, 3)))
+def _gcp_candidate(
+    gcp_camera: Camera, clock, xy, path, prior: SlopePrior, gate_px: float, delta: float, seed: int
+) -> Candidate | None:
+    """The GCPs' own pose with the line the votes find under it (the nearest sample within the gate of each tracked
+    frame), or None.
+    """
+    uv, valid = gcp_camera.project(
+        path.positions(np.arange(path.starts.min(), path.ends.max() + 1)) if len(path.starts) else np.zeros((0, 3))
+    )
     samples = np.arange(path.starts.min(), path.ends.max() + 1)[valid]
     if len(samples) < 2:
         return None
@@ -919,7 +1136,9 @@ def _gcp_candidate(gcp_camera: Camera, clock, xy, path, prior: SlopePrior, gate_
     return Candidate(gcp_camera, line.alpha, line.beta, "gcp")
 
 
-def _settle_intrinsics(result: TargetPose, clock, xy, path, prior, gate_px, f_scale, gcps, free, unknown_k: bool) -> TargetPose:
+def _settle_intrinsics(
+    result: TargetPose, clock, xy, path, prior, gate_px, f_scale, gcps, free, unknown_k: bool
+) -> TargetPose:
     """Keep free the intrinsics the target determines (posterior std below DETERMINED), refit with the others held.
 
     A camera without K whose focal length is not determined fails
@@ -927,22 +1146,44 @@ def _settle_intrinsics(result: TargetPose, clock, xy, path, prior, gate_px, f_sc
     """
     fit = result.fit
     width = result.camera.image_size[0]
-    limit = {"f": DETERMINED["f"] * fit.camera.K[0, 0], "cx": DETERMINED["cx"] * width, "cy": DETERMINED["cy"] * width, "k1": DETERMINED["k1"]}
+    limit = {
+        "f": DETERMINED["f"] * fit.camera.K[0, 0],
+        "cx": DETERMINED["cx"] * width,
+        "cy": DETERMINED["cy"] * width,
+        "k1": DETERMINED["k1"],
+    }
     stds = fit.intrinsics_std
-    kept = tuple(k for k in free if stds.get(k, np.inf) < limit[k] and (k != "cx" or stds.get("cy", np.inf) < limit["cy"]))
+    kept = tuple(
+        k for k in free if stds.get(k, np.inf) < limit[k] and (k != "cx" or stds.get("cy", np.inf) < limit["cy"])
+    )
     if unknown_k and "f" not in kept:
-        raise PoseError(result.camera.name, "pose_undetermined", f"the track does not determine the focal length (+-{stds.get('f', np.inf):.0f} px)")
+        raise PoseError(
+            result.camera.name,
+            "pose_undetermined",
+            f"the track does not determine the focal length (+-{stds.get('f', np.inf):.0f} px)",
+        )
     if kept != tuple(free):
-        fit = fit_pose_and_line(fit.camera, clock, xy, path, fit.alpha, fit.beta, fit.inliers, gate_px, f_scale, prior, gcps, kept)
+        fit = fit_pose_and_line(
+            fit.camera, clock, xy, path, fit.alpha, fit.beta, fit.inliers, gate_px, f_scale, prior, gcps, kept
+        )
     values = {"f": fit.camera.K[0, 0], "cx": fit.camera.K[0, 2], "cy": fit.camera.K[1, 2], "k1": fit.camera.dist[0]}
     names = [k for k in INTRINSICS if k in free or (k == "cy" and "cx" in free)]
-    report = {k: (float(values[k]), float(fit.intrinsics_std.get(k, stds.get(k, np.nan))), k in kept or (k == "cy" and "cx" in kept)) for k in names}
+    report = {
+        k: (
+            float(values[k]),
+            float(fit.intrinsics_std.get(k, stds.get(k, np.nan))),
+            k in kept or (k == "cy" and "cx" in kept),
+        )
+        for k in names
+    }
     return replace(result, camera=fit.camera, fit=fit, intrinsics=report)
 
 
 @dataclass(frozen=True)
 class MoverPose:
-    """A pose from every mover: the pose (fitted on the identified track), the identification under it, the tracklet it started from, and the tracklets tried (id -> why they gave nothing, or "")."""
+    """A pose from every mover: the pose (fitted on the identified track), the identification under it, the tracklet it
+    started from, and the tracklets tried (id -> why they gave nothing, or "").
+    """
 
     pose: TargetPose
     identification: Identification
@@ -1004,25 +1245,64 @@ def pose_from_movers(
         ranked.append((-float(np.linalg.norm(np.diff(xy, axis=0), axis=1).sum()), int(tid), rows))
     ranked.sort(key=lambda item: item[:2])
     if not ranked:
-        raise PoseError(camera.name, "too_few_frames", f"no mover's tracklet has {MIN_TRACKLET_FRAMES} frames on a path that is not straight ({len(ids)} tracklets)")
+        raise PoseError(
+            camera.name,
+            "too_few_frames",
+            f"no mover's tracklet has {MIN_TRACKLET_FRAMES} frames on a path that is not straight ({len(ids)} "
+            f"tracklets)",
+        )
     finals: list[tuple[JointFit, Identification, int, OffsetSearch]] = []
     for _, tid, rows in ranked[:MAX_TRACKLETS]:
         try:
-            search, fits = candidate_fits(camera, row_clock[rows], detections.xy[rows], path, prior, fps, eps_px, gcps, gcp_camera, free, f_scale, seed, delta, MIN_TRACKLET_FRAMES, offsets)
+            search, fits = candidate_fits(
+                camera,
+                row_clock[rows],
+                detections.xy[rows],
+                path,
+                prior,
+                fps,
+                eps_px,
+                gcps,
+                gcp_camera,
+                free,
+                f_scale,
+                seed,
+                delta,
+                MIN_TRACKLET_FRAMES,
+                offsets,
+            )
         except PoseError as exc:
             tried[tid] = exc.cause
             continue
         starts: list[JointFit] = []
         for fit in fits:
-            if len(starts) < TRACKLET_CANDIDATES and all(abs(fit.beta - other.beta) > DISTINCT_S * (fps or 0.0) for other in starts):
+            if len(starts) < TRACKLET_CANDIDATES and all(
+                abs(fit.beta - other.beta) > DISTINCT_S * (fps or 0.0) for other in starts
+            ):
                 starts.append(fit)
         reasons = []
         for fit in starts:
             try:
                 identified = identify_target(fit.camera, detections, trajectory, fps, params)
                 clock = row_clock[identified.rows]
-                start = reprojection_errors(fit.camera, clock, identified.track.xy, path, identified.alpha, identified.beta) <= eps_px
-                refit = fit_pose_and_line(fit.camera, clock, identified.track.xy, path, identified.alpha, identified.beta, start, eps_px, f_scale, prior, gcps, fit.layout.free)
+                start = (
+                    reprojection_errors(fit.camera, clock, identified.track.xy, path, identified.alpha, identified.beta)
+                    <= eps_px
+                )
+                refit = fit_pose_and_line(
+                    fit.camera,
+                    clock,
+                    identified.track.xy,
+                    path,
+                    identified.alpha,
+                    identified.beta,
+                    start,
+                    eps_px,
+                    f_scale,
+                    prior,
+                    gcps,
+                    fit.layout.free,
+                )
             except (SyncError, ValueError) as exc:
                 reasons.append(str(exc).split(": ", 1)[-1][:80])
                 continue
@@ -1030,13 +1310,34 @@ def pose_from_movers(
                 finals.append((refit, identified, tid, search))
         tried[tid] = "; ".join(reasons)
     if survey:
-        return _movers_with_survey(camera, detections, trajectory, fps, params, stated, gcp_camera, finals, tried, path, prior, row_clock, offsets)  # type: ignore[arg-type]
+        return _movers_with_survey(
+            camera,
+            detections,
+            trajectory,
+            fps,
+            params,
+            stated,  # type: ignore[arg-type]
+            gcp_camera,  # type: ignore[arg-type]
+            finals,
+            tried,
+            path,
+            prior,
+            row_clock,
+            offsets,
+        )
     if not finals:
         causes = ", ".join(sorted({c for c in tried.values() if c})) or "no fit"
-        raise PoseError(camera.name, "no_fit", f"none of the {min(len(ranked), MAX_TRACKLETS)} longest curved tracklets leads to a pose under which the target is identified ({causes[:200]})")
+        raise PoseError(
+            camera.name,
+            "no_fit",
+            f"none of the {min(len(ranked), MAX_TRACKLETS)} longest curved tracklets leads to a pose under which the "
+            f"target is identified ({causes[:200]})",
+        )
     order = sorted(range(len(finals)), key=lambda k: (-finals[k][0].support, finals[k][0].scale_px))
     best, identified, tid, search = finals[order[0]]
-    pose = ranked_pose([finals[k][0] for k in order], search, identified.track.xy, fps or 0.0, gcps is not None, gcp_camera)
+    pose = ranked_pose(
+        [finals[k][0] for k in order], search, identified.track.xy, fps or 0.0, gcps is not None, gcp_camera
+    )
     clock = row_clock[identified.rows]
     if free:
         pose = _settle_intrinsics(pose, clock, identified.track.xy, path, prior, eps_px, f_scale, gcps, free, unknown_k)
@@ -1044,7 +1345,21 @@ def pose_from_movers(
     return MoverPose(pose, identified, tid, tried)
 
 
-def _movers_with_survey(camera: Camera, detections: Detections, trajectory: Trajectory, fps, params: IdentifyParams, gcps: GcpPrior, gcp_camera: Camera, finals, tried, path, prior, row_clock, offsets) -> MoverPose:
+def _movers_with_survey(
+    camera: Camera,
+    detections: Detections,
+    trajectory: Trajectory,
+    fps,
+    params: IdentifyParams,
+    gcps: GcpPrior,
+    gcp_camera: Camera,
+    finals,
+    tried,
+    path,
+    prior,
+    row_clock,
+    offsets,
+) -> MoverPose:
     """With GCPs: the pose from GCPs and the identified track together, or from the track alone when they conflict
     (``_survey_and_target``), on the target identified under the best refit, or under the GCPs' own pose when no
     refit kept the GCPs (the target as the GCP pose sees it)."""
@@ -1056,10 +1371,29 @@ def _movers_with_survey(camera: Camera, detections: Detections, trajectory: Traj
             identified = identify_target(gcp_camera, detections, trajectory, fps, params)
         except SyncError as exc:
             causes = ", ".join(sorted({c for c in tried.values() if c})) or "no fit"
-            raise PoseError(camera.name, "gcp_conflict", f"no tracklet gives a pose that keeps the GCPs ({causes[:120]}), and the target is not found under the GCPs' own pose ({exc})") from None
+            raise PoseError(
+                camera.name,
+                "gcp_conflict",
+                f"no tracklet gives a pose that keeps the GCPs ({causes[:120]}), and the target is not found under "
+                f"the GCPs' own pose ({exc})",
+            ) from None
         tid = -1
     clock = row_clock[identified.rows]
-    pose = _survey_and_target(camera, clock, identified.track.xy, path, prior, fps, params.eps_px, gcps, gcp_camera, params.f_scale_px, params.seed, params.delta, offsets)
+    pose = _survey_and_target(
+        camera,
+        clock,
+        identified.track.xy,
+        path,
+        prior,
+        fps,
+        params.eps_px,
+        gcps,
+        gcp_camera,
+        params.f_scale_px,
+        params.seed,
+        params.delta,
+        offsets,
+    )
     return MoverPose(pose, identified, tid, tried)
 
 
@@ -1076,7 +1410,8 @@ def estimate_pose(
     offsets: tuple[float, float] | None = None,
     log_model: LogModel | None = None,
 ) -> tuple[TargetPose, Identification | None]:
-    """A camera's pose from the target: from its track when it has one (``pose_from_track``), else from every mover (``pose_from_movers``).
+    """A camera's pose from the target: from its track when it has one (``pose_from_track``), else from every mover
+    (``pose_from_movers``).
 
     trajectory: the prepared trajectory (the one the sync fits); params:
     identification's parameters (eps_px is the gate, f_scale_px the loss
@@ -1103,7 +1438,23 @@ def estimate_pose(
     values = clock.clock_at(track.frame, FrameTimes.of_track(track))
     prior = slope_prior(fps, trajectory.rate, params.rate_sigma)
     path = PiecewiseTrajectory(trajectory)
-    pose = pose_from_track(camera, values, track.xy, path, prior, fps, params.eps_px, gcps, start, (), params.f_scale_px, params.seed, params.delta, offsets, log_model)
+    pose = pose_from_track(
+        camera,
+        values,
+        track.xy,
+        path,
+        prior,
+        fps,
+        params.eps_px,
+        gcps,
+        start,
+        (),
+        params.f_scale_px,
+        params.seed,
+        params.delta,
+        offsets,
+        log_model,
+    )
     return pose, None
 
 
@@ -1121,7 +1472,10 @@ def pose_info(pose: TargetPose, log_sigma_m: float | None) -> PoseInfo:
     if log_sigma_m is None:
         for_3d, note = False, "good for timing; in 3D only as good as the log, which states no accuracy"
     elif log_sigma_m >= METRE_LEVEL_M:
-        for_3d, note = False, f"good for timing, not for 3D: the log's error (median {log_sigma_m:.2g} m) is in the pose"
+        for_3d, note = (
+            False,
+            f"good for timing, not for 3D: the log's error (median {log_sigma_m:.2g} m) is in the pose",
+        )
     else:
         for_3d, note = True, ""
     return PoseInfo(pose.source, round(pose.fit.center_std_m, 4), round(pose.fit.rotation_std_deg, 4), for_3d, note)

@@ -50,7 +50,9 @@ BLOCKS = 8
 PASSES = 4
 MIN_FRAMES = 8
 MAX_FIT_FRAMES = 2000  # frames of a long track used per fit (evenly spread); all are scored
-MODEL_ERROR_PX = 1.0  # pixel offset shared by each block of frames that the residuals cannot show (log, model), in the covariance
+MODEL_ERROR_PX = (
+    1.0  # pixel offset shared by each block of frames that the residuals cannot show (log, model), in the covariance
+)
 INTRINSICS = ("f", "cx", "cy", "k1")
 
 
@@ -98,10 +100,17 @@ class IntrinsicsPrior:
 
     @classmethod
     def around(cls, camera: Camera) -> IntrinsicsPrior:
-        """Weak priors around the camera's values: f within 50 %, the principal point within 5 % of the image, k1 within 0.2."""
+        """Weak priors around the camera's values: f within 50 %, the principal point within 5 % of the image, k1 within
+        0.2.
+        """
         w, h = camera.image_size
         K = camera.K
-        return cls((float(K[0, 0]), 0.5 * float(K[0, 0])), (float(K[0, 2]), 0.05 * w), (float(K[1, 2]), 0.05 * h), (float(camera.dist[0]) if len(camera.dist) else 0.0, 0.2))
+        return cls(
+            (float(K[0, 0]), 0.5 * float(K[0, 0])),
+            (float(K[0, 2]), 0.05 * w),
+            (float(K[1, 2]), 0.05 * h),
+            (float(camera.dist[0]) if len(camera.dist) else 0.0, 0.2),
+        )
 
 
 @dataclass(frozen=True)
@@ -112,7 +121,9 @@ class Layout:
     names: tuple[str, ...] = field(init=False)
 
     def __post_init__(self):
-        object.__setattr__(self, "names", ("rx", "ry", "rz", "tx", "ty", "tz", "u", "s0", *[k for k in INTRINSICS if k in self.free]))
+        object.__setattr__(
+            self, "names", ("rx", "ry", "rz", "tx", "ty", "tz", "u", "s0", *[k for k in INTRINSICS if k in self.free])
+        )
 
     def index(self, name: str) -> int:
         return self.names.index(name)
@@ -184,7 +195,17 @@ def camera_at(camera: Camera, x: np.ndarray, layout: Layout) -> Camera:
     if "k1" in layout.free:
         dist[0] = x[layout.index("k1")]
     R = cv2.Rodrigues(np.asarray(x[0:3], dtype=np.float64))[0]
-    return Camera(camera.name, K, dist, R, np.asarray(x[3:6], dtype=np.float64), camera.image_size, camera.fps, camera.dist_model, dict(camera.extra))
+    return Camera(
+        camera.name,
+        K,
+        dist,
+        R,
+        np.asarray(x[3:6], dtype=np.float64),
+        camera.image_size,
+        camera.fps,
+        camera.dist_model,
+        dict(camera.extra),
+    )
 
 
 def fit_pose_and_line(
@@ -226,7 +247,20 @@ def fit_pose_and_line(
         c_mid = float(np.median(clock[use]))
         x = _vector(camera, alpha, beta, c_mid, layout)
         fit_rows = _spread(np.flatnonzero(use), MAX_FIT_FRAMES)
-        solved = _solve(camera, clock[fit_rows], xy[fit_rows], path, x, c_mid, layout, f_scale, prior, gcps, intrinsics_prior, model_error_px)
+        solved = _solve(
+            camera,
+            clock[fit_rows],
+            xy[fit_rows],
+            path,
+            x,
+            c_mid,
+            layout,
+            f_scale,
+            prior,
+            gcps,
+            intrinsics_prior,
+            model_error_px,
+        )
         camera, alpha, beta = solved.camera, solved.alpha, solved.beta
         error = reprojection_errors(camera, clock, xy, path, alpha, beta)
         grown = error <= gate_px
@@ -257,8 +291,12 @@ def fit_pose_and_line(
     )
 
 
-def reprojection_errors(camera: Camera, clock: np.ndarray, xy: np.ndarray, path: PiecewiseTrajectory, alpha: float, beta: float) -> np.ndarray:
-    """(N,) pixel distance from each tracked position to the trajectory's projection at its sample on the line (inf off the trajectory)."""
+def reprojection_errors(
+    camera: Camera, clock: np.ndarray, xy: np.ndarray, path: PiecewiseTrajectory, alpha: float, beta: float
+) -> np.ndarray:
+    """(N,) pixel distance from each tracked position to the trajectory's projection at its sample on the line (inf off
+    the trajectory).
+    """
     s = (clock - beta) / alpha
     run = path.run_of(s)
     on = np.flatnonzero(run >= 0)
@@ -277,8 +315,16 @@ def _spread(rows: np.ndarray, at_most: int) -> np.ndarray:
 
 
 def _vector(camera: Camera, alpha: float, beta: float, c_mid: float, layout: Layout) -> np.ndarray:
-    values = {"f": camera.K[0, 0], "cx": camera.K[0, 2], "cy": camera.K[1, 2], "k1": camera.dist[0] if len(camera.dist) else 0.0}
-    return np.array([*camera.rvec, *camera.t, 1.0 / alpha, (c_mid - beta) / alpha, *[values[k] for k in layout.names[8:]]], dtype=np.float64)
+    values = {
+        "f": camera.K[0, 0],
+        "cx": camera.K[0, 2],
+        "cy": camera.K[1, 2],
+        "k1": camera.dist[0] if len(camera.dist) else 0.0,
+    }
+    return np.array(
+        [*camera.rvec, *camera.t, 1.0 / alpha, (c_mid - beta) / alpha, *[values[k] for k in layout.names[8:]]],
+        dtype=np.float64,
+    )
 
 
 @dataclass(frozen=True)
@@ -301,7 +347,9 @@ class _Solved:
     line_cov: np.ndarray
 
 
-def _solve(camera, clock, xy, path, x0, c_mid, layout, f_scale, prior, gcps, intrinsics_prior, model_error_px) -> _Solved:
+def _solve(
+    camera, clock, xy, path, x0, c_mid, layout, f_scale, prior, gcps, intrinsics_prior, model_error_px
+) -> _Solved:
     """One robust fit from x0: the fitted camera, line, covariance and uncertainty summaries."""
     run = path.run_of(x0[7] + x0[6] * (clock - c_mid))
     keep = run >= 0
@@ -327,8 +375,22 @@ def _solve(camera, clock, xy, path, x0, c_mid, layout, f_scale, prior, gcps, int
         out[0, n_robust:], out[1, n_robust:], out[2, n_robust:] = z[n_robust:], 1.0, 0.0
         return out
 
-    scale = np.array([1e-3] * 3 + [1e-2] * 3 + [0.1 / max(float(np.ptp(clock)), 1.0) * abs(x0[6]) + 1e-9, 0.1] + [_INTRINSIC_SCALE[k] for k in layout.names[8:]])
-    solution = least_squares(lambda x: evaluate(x)[0], x0, jac=lambda x: evaluate(x)[1], loss=loss, f_scale=f_scale, x_scale=scale, method="trf", max_nfev=100)
+    scale = np.array(
+        [1e-3] * 3
+        + [1e-2] * 3
+        + [0.1 / max(float(np.ptp(clock)), 1.0) * abs(x0[6]) + 1e-9, 0.1]
+        + [_INTRINSIC_SCALE[k] for k in layout.names[8:]]
+    )
+    solution = least_squares(
+        lambda x: evaluate(x)[0],
+        x0,
+        jac=lambda x: evaluate(x)[1],
+        loss=loss,
+        f_scale=f_scale,
+        x_scale=scale,
+        method="trf",
+        max_nfev=100,
+    )
     x = solution.x
     r, jac = evaluate(x)
     fitted = camera_at(camera, x, layout)
@@ -360,7 +422,9 @@ def _solve(camera, clock, xy, path, x0, c_mid, layout, f_scale, prior, gcps, int
 
 
 def _inflation(shared: np.ndarray, naive: np.ndarray) -> float:
-    """Mean over the six pose parameters of the track's variance as its residuals show it over the frame-by-frame one, at least 1."""
+    """Mean over the six pose parameters of the track's variance as its residuals show it over the frame-by-frame one,
+    at least 1.
+    """
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = np.diag(shared)[:6] / np.diag(naive)[:6]
     ratio = ratio[np.isfinite(ratio)]
@@ -370,7 +434,9 @@ def _inflation(shared: np.ndarray, naive: np.ndarray) -> float:
 _INTRINSIC_SCALE = {"f": 10.0, "cx": 5.0, "cy": 5.0, "k1": 0.01}
 
 
-def _prior_rows(layout: Layout, f_scale: float, prior: SlopePrior | None, intrinsics: IntrinsicsPrior | None) -> list[tuple[int, float, float]]:
+def _prior_rows(
+    layout: Layout, f_scale: float, prior: SlopePrior | None, intrinsics: IntrinsicsPrior | None
+) -> list[tuple[int, float, float]]:
     """(parameter index, value, std) of every quadratic prior: the slope (on u = 1/alpha) and the free intrinsics."""
     rows = []
     if prior is not None:
@@ -430,7 +496,9 @@ def _intrinsic_columns(jac: np.ndarray, blocks: dict, layout: Layout, camera: Ca
         jac[:, :, layout.index("k1")] = blocks["dist"][:, :, 0]
 
 
-def _covariance(r: np.ndarray, jac: np.ndarray, n_frames: int, n_robust: int, f_scale: float, model_error_px: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _covariance(
+    r: np.ndarray, jac: np.ndarray, n_frames: int, n_robust: int, f_scale: float, model_error_px: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Sandwich covariance of the parameters (see the module docstring); its track part alone, as the residuals show it
     (frame by frame or in blocks, no model error); and the same with every frame independent."""
     p = jac.shape[1]
@@ -455,8 +523,15 @@ def _covariance(r: np.ndarray, jac: np.ndarray, n_frames: int, n_robust: int, f_
         ratio = 1.0
     meat = clustered if ratio > 1.0 else independent
     rest = jac[track:]
-    meat = meat + f_scale**2 * rest.T @ (rest * dpsi[track:, None])  # GCPs and priors at their stated sigma (one sigma = f_scale)
-    lever = np.array([b.sum(axis=0) for b in np.array_split((jac[:track] * dpsi[:track, None]).reshape(n_frames, 2, p), min(BLOCKS, n_frames))])
+    meat = meat + f_scale**2 * rest.T @ (
+        rest * dpsi[track:, None]
+    )  # GCPs and priors at their stated sigma (one sigma = f_scale)
+    lever = np.array(
+        [
+            b.sum(axis=0)
+            for b in np.array_split((jac[:track] * dpsi[:track, None]).reshape(n_frames, 2, p), min(BLOCKS, n_frames))
+        ]
+    )
     shared = inv @ (clustered if ratio > 1.0 else independent) @ inv
     meat = meat + model_error_px**2 * np.einsum("bik,bil->kl", lever, lever)
     return inv @ meat @ inv, shared, c_ind

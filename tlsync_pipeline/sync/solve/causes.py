@@ -42,8 +42,8 @@ from scipy.spatial import cKDTree
 
 from calibration.camera import Camera
 from tlsync_pipeline.sync.model.log_model import PRESETS, LogModel
-from tlsync_pipeline.sync.solve.plausibility import GATE_EPS, Judged, LogUnitError, _fits_better, path_share
 from tlsync_pipeline.sync.model.status import FAILED, Reason
+from tlsync_pipeline.sync.solve.plausibility import GATE_EPS, Judged, LogUnitError, _fits_better, path_share
 from tlsync_pipeline.sync.vote.log_error import vote_radius
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
 
@@ -268,7 +268,8 @@ def _height_fix(dz: float, above_m: float, prepared: Trajectory) -> str:
         where = f"{-dz:.3g} m above" if dz < 0 else f"{dz:.3g} m below"
         return (
             f"the logged point rides {where} the tracked one (a GPS antenna?): "
-            f"set [sync] logged_point_above_m = {above_m - dz:.3g} (or, for a tracker on the target's shadow, track the target)"
+            f"set [sync] logged_point_above_m = {above_m - dz:.3g} (or, for a tracker on the target's shadow, track "
+            f"the target)"
         )
     return (
         "another height reference (sea level against the ellipsoid?): "

@@ -96,7 +96,9 @@ class LogBias:
         return np.column_stack([np.interp(samples, self.knots, self.values[:, k]) for k in range(3)])
 
     def line_cov(self, a: str, b: str) -> np.ndarray:
-        """2x2 covariance between camera a's and camera b's (alpha, beta) through the bias (a == b: the bias part of a's own)."""
+        """2x2 covariance between camera a's and camera b's (alpha, beta) through the bias (a == b: the bias part of a's
+        own).
+        """
         return self.sensitivity[a] @ self.cov @ self.sensitivity[b].T
 
     def std_at(self, sample: float) -> np.ndarray:
@@ -105,12 +107,21 @@ class LogBias:
         return np.sqrt(np.diag(rows @ self.cov @ rows.T))
 
     def observability(self, sample: float) -> float:
-        """1 - posterior / prior variance of the horizontal bias at one sample coordinate (0: only the prior, 1: known)."""
+        """1 - posterior / prior variance of the horizontal bias at one sample coordinate (0: only
+        the prior, 1: known).
+        """
         std = self.std_at(sample)
         return float(np.clip(1.0 - (std[0] ** 2 + std[1] ** 2) / (self.prior[0] ** 2 + self.prior[1] ** 2), 0.0, 1.0))
 
 
-def fit_log_bias(cameras: list[BiasCamera], path: PiecewiseTrajectory, rate: float, model: LogModel, f_scale: float, estimate: bool = True) -> LogBias:
+def fit_log_bias(
+    cameras: list[BiasCamera],
+    path: PiecewiseTrajectory,
+    rate: float,
+    model: LogModel,
+    f_scale: float,
+    estimate: bool = True,
+) -> LogBias:
     """Every camera's line and the log's bias, fitted together (see the module); ``rate``: log samples per second.
 
     estimate False: no fit; the bias at zero, the cameras' lines as they are, and the bias's uncertainty at its prior
@@ -128,10 +139,14 @@ def fit_log_bias(cameras: list[BiasCamera], path: PiecewiseTrajectory, rate: flo
     if not estimate:
         posterior = np.linalg.pinv((whiten.T @ whiten).toarray())
     lines = {c.name: problem.line(z, k) for k, c in enumerate(cameras)}
-    return LogBias(knots, z[2 * len(cameras) :].reshape(-1, 3), posterior, prior, lines, sensitivity, converged, information, model)
+    return LogBias(
+        knots, z[2 * len(cameras) :].reshape(-1, 3), posterior, prior, lines, sensitivity, converged, information, model
+    )
 
 
-def fit_log_bias_measured(cameras: list[BiasCamera], path: PiecewiseTrajectory, rate: float, model: LogModel, f_scale: float) -> LogBias:
+def fit_log_bias_measured(
+    cameras: list[BiasCamera], path: PiecewiseTrajectory, rate: float, model: LogModel, f_scale: float
+) -> LogBias:
     """fit_log_bias, with the bias's std and correlation time of the largest marginal likelihood
     (bias_marginal_likelihood, the model's as the prior) recorded as its estimate. The fit keeps the model's
     prior: applied, on phone walk scenes (seeds 0-9, declared ``phone``) it gave 87 % coverage with a phone's
@@ -175,7 +190,9 @@ def bias_marginal_likelihood(bias: LogBias, rate: float, model: LogModel) -> Log
         return model
     sigma, tau = np.exp(found.x)
     measured = tuple(sorted({*model.measured, "bias_m", "tau_s"}))
-    return replace(model, bias_m=float(sigma), bias_vertical_m=float(ratio * sigma), tau_s=float(tau), measured=measured)
+    return replace(
+        model, bias_m=float(sigma), bias_vertical_m=float(ratio * sigma), tau_s=float(tau), measured=measured
+    )
 
 
 def _knots(cameras: list[BiasCamera], path: PiecewiseTrajectory, rate: float, model: LogModel) -> np.ndarray:
@@ -212,12 +229,24 @@ class _Joint:
     two knots around it (6 values), so the Jacobian has 8 entries a row whatever the number of cameras and knots.
     """
 
-    def __init__(self, cameras: list[BiasCamera], path: PiecewiseTrajectory, knots: np.ndarray, whiten: sp.csr_matrix, f_scale: float):
+    def __init__(
+        self,
+        cameras: list[BiasCamera],
+        path: PiecewiseTrajectory,
+        knots: np.ndarray,
+        whiten: sp.csr_matrix,
+        f_scale: float,
+    ):
         self.cameras, self.path, self.knots, self.whiten, self.f_scale = cameras, path, knots, whiten, f_scale
         self.n = len(cameras)
         self.x0 = np.concatenate([[1.0 / c.alpha, (c.middle - c.beta) / c.alpha] for c in cameras])
         spans = [max(float(np.ptp(c.clock)), 1.0) for c in cameras]
-        self.scale = np.concatenate([np.concatenate([[0.1 / span / c.alpha + 1e-9, 0.1] for c, span in zip(cameras, spans)]), np.full(3 * len(knots), 0.1)])
+        self.scale = np.concatenate(
+            [
+                np.concatenate([[0.1 / span / c.alpha + 1e-9, 0.1] for c, span in zip(cameras, spans)]),
+                np.full(3 * len(knots), 0.1),
+            ]
+        )
         self.priors = [c.prior for c in cameras if c.prior is not None]
         pixels = sum(2 * len(c.clock) for c in cameras)
         self.quadratic = np.r_[np.zeros(pixels, bool), np.ones(len(self.priors) + whiten.shape[0], bool)]
@@ -225,7 +254,12 @@ class _Joint:
         self._cache: dict[bytes, tuple[list[np.ndarray], list[sp.csr_matrix]]] = {}
         self.inflation = np.ones(self.n)
         start = np.concatenate([self.x0, np.zeros(3 * len(knots))])
-        self.inflation = np.array([_inflation(c, r, j, f_scale, start[2 * k : 2 * k + 2]) for k, (c, r, j) in enumerate(zip(cameras, *self._pixels(start)))])
+        self.inflation = np.array(
+            [
+                _inflation(c, r, j, f_scale, start[2 * k : 2 * k + 2])
+                for k, (c, r, j) in enumerate(zip(cameras, *self._pixels(start)))
+            ]
+        )
         self._cache.clear()
 
     def line(self, z: np.ndarray, k: int) -> tuple[float, float]:
@@ -252,7 +286,11 @@ class _Joint:
 
     def residual(self, z: np.ndarray) -> np.ndarray:
         residuals, _ = self._pixels(z)
-        priors = [self.f_scale * (c.prior.alpha * z[2 * k] - 1.0) / c.prior.sigma for k, c in enumerate(self.cameras) if c.prior is not None]
+        priors = [
+            self.f_scale * (c.prior.alpha * z[2 * k] - 1.0) / c.prior.sigma
+            for k, c in enumerate(self.cameras)
+            if c.prior is not None
+        ]
         return np.concatenate([*(r.ravel() for r in residuals), priors, self.f_scale * (self.whiten @ z[2 * self.n :])])
 
     def jacobian(self, z: np.ndarray) -> sp.csr_matrix:
@@ -264,7 +302,9 @@ class _Joint:
             rows.append(sp.hstack([before, jac[:, :2], after, jac[:, 2:]], format="csr"))
         for k, c in enumerate(self.cameras):
             if c.prior is not None:
-                rows.append(sp.csr_matrix(([self.f_scale * c.prior.alpha / c.prior.sigma], ([0], [2 * k])), shape=(1, len(z))))
+                rows.append(
+                    sp.csr_matrix(([self.f_scale * c.prior.alpha / c.prior.sigma], ([0], [2 * k])), shape=(1, len(z)))
+                )
         rows.append(sp.hstack([sp.csr_matrix((self.whiten.shape[0], lines)), self.f_scale * self.whiten], format="csr"))
         return sp.vstack(rows, format="csr")
 
@@ -284,19 +324,25 @@ class _Joint:
             inflation = _inflation(self.cameras[k], r, jac, self.f_scale, z[2 * k : 2 * k + 2])
             h = _bread(self.cameras[k], r, jac, self.f_scale) / inflation
             h_tt, h_tb, h_bb = h[:2, :2], h[:2, 2:], h[2:, 2:]
-            gain = np.linalg.pinv(h_tt) @ h_tb  # (2, 3K); a camera whose line the residuals do not determine tells nothing of the bias
+            gain = (
+                np.linalg.pinv(h_tt) @ h_tb
+            )  # (2, 3K); a camera whose line the residuals do not determine tells nothing of the bias
             information = information + h_bb - h_tb.T @ gain
             data = data + h_bb - h_tb.T @ gain
             blocks.append((gain, z[2 * k : 2 * k + 2]))
         posterior = np.linalg.pinv(information)
         sensitivity = {}
         for c, (gain, (u, s0)) in zip(self.cameras, blocks):
-            to_line = np.array([[-1.0 / u**2, 0.0], [s0 / u**2, -1.0 / u]])  # d(alpha, beta) / d(u, s0), beta = middle - s0 / u
+            to_line = np.array(
+                [[-1.0 / u**2, 0.0], [s0 / u**2, -1.0 / u]]
+            )  # d(alpha, beta) / d(u, s0), beta = middle - s0 / u
             sensitivity[c.name] = to_line @ (-gain)
         return posterior, sensitivity, data
 
 
-def _camera_rows(c: BiasCamera, path: PiecewiseTrajectory, knots: np.ndarray, bias: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray, sp.csr_matrix]:
+def _camera_rows(
+    c: BiasCamera, path: PiecewiseTrajectory, knots: np.ndarray, bias: np.ndarray, s: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, sp.csr_matrix]:
     """One camera's (N, 2) weighted pixel residuals at samples s, their (2N,) derivative in s, and their (2N, 3K)
     sparse derivative in the knots (rows u0, v0, u1, v1 ...)."""
     run = path.run_of(s)
@@ -313,7 +359,9 @@ def _camera_rows(c: BiasCamera, path: PiecewiseTrajectory, knots: np.ndarray, bi
     n = len(s)
     uv = uv_all[:n]
     rate = (uv_all[n : 2 * n] - uv) / SAMPLE_STEP  # pixels per sample
-    gradient = np.stack([(uv_all[(2 + a) * n : (3 + a) * n] - uv) / METRE_STEP for a in range(3)], axis=2)  # (N, 2, 3) pixels per metre
+    gradient = np.stack(
+        [(uv_all[(2 + a) * n : (3 + a) * n] - uv) / METRE_STEP for a in range(3)], axis=2
+    )  # (N, 2, 3) pixels per metre
     r = (uv - c.xy) * c.weight[:, None]
     along = rate * c.weight[:, None]
     gradient = gradient * c.weight[:, None, None]
@@ -356,7 +404,8 @@ def _variance_factor(r: np.ndarray, f_scale: float) -> float:
 
 
 def _correlation_factor(c: BiasCamera, bread: np.ndarray, variance: float, x: np.ndarray) -> float:
-    """How much the camera's own refinement's covariance of (alpha, beta) exceeds the naive one from its residuals (>= 1):
+    """How much the camera's own refinement's covariance of (alpha, beta) exceeds the naive one from its residuals (>=
+    1):
     residuals correlated in time (pose, log) carry less information than their number says."""
     try:
         naive_x = variance * np.linalg.inv(bread[:2, :2])
@@ -369,7 +418,9 @@ def _correlation_factor(c: BiasCamera, bread: np.ndarray, variance: float, x: np
     return float(np.clip(ratio, 1.0, 1e6)) if np.isfinite(ratio) else 1.0
 
 
-def _levenberg_marquardt(problem: _Joint, z: np.ndarray, f_scale: float, max_nfev: int = 100, tol: float = 1e-8) -> tuple[np.ndarray, bool]:
+def _levenberg_marquardt(
+    problem: _Joint, z: np.ndarray, f_scale: float, max_nfev: int = 100, tol: float = 1e-8
+) -> tuple[np.ndarray, bool]:
     """The robust least squares of the joint problem from z: Levenberg-Marquardt on the normal equations, which are
     (2C + 3K) square whatever the number of frames (J sparse), with the loss's curvature as scipy's least_squares
     scales it and the damping in the units of ``problem.scale``. Converged: the cost, the step or the gradient

@@ -29,9 +29,9 @@ from trackers.detections import Detections
 from trackers.track import Track
 
 if TYPE_CHECKING:
-    from tlsync_pipeline.sync.solve.log_bias import LogBias
     from tlsync_pipeline.sync.model.log_model import LogModel
     from tlsync_pipeline.sync.pose.pose_fit import GcpPrior
+    from tlsync_pipeline.sync.solve.log_bias import LogBias
 
 
 @dataclass(frozen=True)
@@ -79,8 +79,12 @@ class CameraData:
     eps_px: float = 10.0
 
     def line(self, alpha: float, beta: float, inliers: int, residual_rms: float, **reported: Any) -> CameraLine:
-        """The camera's line with its name, vote count, fps and clock filled in; ``reported``: CameraLine's optional fields."""
-        return CameraLine(self.name, alpha, beta, len(self.votes), inliers, residual_rms, self.fps, clock=self.clock, **reported)
+        """The camera's line with its name, vote count, fps and clock filled in; ``reported``: CameraLine's optional
+        fields.
+        """
+        return CameraLine(
+            self.name, alpha, beta, len(self.votes), inliers, residual_rms, self.fps, clock=self.clock, **reported
+        )
 
 
 @runtime_checkable
@@ -88,9 +92,17 @@ class JointMethod(Protocol):
     """A method that can also fit every camera's line together with the log's bias (the refined one)."""
 
     def refine_with_log_bias(
-        self, cameras: dict[str, CameraData], lines: dict[str, CameraLine], trajectory: Trajectory, params: SyncParams, options: Any, model: LogModel
+        self,
+        cameras: dict[str, CameraData],
+        lines: dict[str, CameraLine],
+        trajectory: Trajectory,
+        params: SyncParams,
+        options: Any,
+        model: LogModel,
     ) -> tuple[dict[str, CameraLine], LogBias | None]:
-        """The lines refined with the bias (sync/solve/log_bias.py) and the bias; lines unchanged and None when it cannot."""
+        """The lines refined with the bias (sync/solve/log_bias.py) and the bias; lines unchanged and None when it
+        cannot.
+        """
         ...
 
 

@@ -3,10 +3,10 @@
 from __future__ import annotations
 
 from tlsync_pipeline.errors import SyncError
-from tlsync_pipeline.sync.solve.methods import CameraData
+from tlsync_pipeline.sync.kernels.ransac import fit_line_ransac
 from tlsync_pipeline.sync.model.methods import PaperKind, PaperParams
 from tlsync_pipeline.sync.model.params import SyncParams
-from tlsync_pipeline.sync.kernels.ransac import fit_line_ransac
+from tlsync_pipeline.sync.solve.methods import CameraData
 from tlsync_pipeline.sync.timeline import CameraLine
 from tlsync_pipeline.trajectory import Trajectory
 

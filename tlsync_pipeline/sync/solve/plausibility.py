@@ -46,11 +46,11 @@ from scipy.spatial import cKDTree
 
 from calibration.camera import Camera
 from tlsync_pipeline.errors import InputError
+from tlsync_pipeline.sync.kernels.backward import backwards_better
 from tlsync_pipeline.sync.model.clock import camera_clock, image_speed
 from tlsync_pipeline.sync.model.log_model import LogModel
-from tlsync_pipeline.sync.solve.rival import RivalOdds, rival_odds
-from tlsync_pipeline.sync.kernels.backward import backwards_better
 from tlsync_pipeline.sync.model.status import AMBIGUOUS, FAILED, WEAK, Reason
+from tlsync_pipeline.sync.solve.rival import RivalOdds, rival_odds
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
 from trackers.track import Track
 
@@ -89,7 +89,16 @@ def motion_window(fps: float | None) -> int:
     return max(1, round(MOTION_WINDOW_S * fps)) if fps else MOTION_WINDOW_FRAMES
 
 
-def line_evidence(camera: Camera, track: Track, clock: np.ndarray, path: PiecewiseTrajectory, alpha: float, beta: float, gate_px: float, fps: float | None) -> LineEvidence:
+def line_evidence(
+    camera: Camera,
+    track: Track,
+    clock: np.ndarray,
+    path: PiecewiseTrajectory,
+    alpha: float,
+    beta: float,
+    gate_px: float,
+    fps: float | None,
+) -> LineEvidence:
     """The line clock = alpha * sample + beta against the track (``clock``: each tracked frame's clock value)."""
     n = len(track)
     s = (np.asarray(clock, dtype=np.float64) - beta) / alpha
@@ -106,7 +115,9 @@ def line_evidence(camera: Camera, track: Track, clock: np.ndarray, path: Piecewi
     i, j = i[both], j[both]
     d_img, d_proj = xy[j] - xy[i], uv[j] - uv[i]
     agree, against, moving = _compare(d_img, d_proj)
-    return LineEvidence(n, covered / n if n else 0.0, float(near.sum()) / covered if covered else 0.0, moving, agree, against)
+    return LineEvidence(
+        n, covered / n if n else 0.0, float(near.sum()) / covered if covered else 0.0, moving, agree, against
+    )
 
 
 def _pairs(clock: np.ndarray, window: int) -> tuple[np.ndarray, np.ndarray]:
@@ -136,7 +147,9 @@ def _compare(d_img: np.ndarray, d_proj: np.ndarray) -> tuple[float, float, int]:
 
 @dataclass(frozen=True)
 class SlopeMode:
-    """The mode of frames per sample over some votes: its value (NaN when too few votes), the votes near it, the votes it was taken over."""
+    """The mode of frames per sample over some votes: its value (NaN when too few votes), the votes near it, the votes
+    it was taken over.
+    """
 
     alpha: float
     support: int
@@ -145,7 +158,11 @@ class SlopeMode:
     @property
     def reliable(self) -> bool:
         """Whether enough of the moving votes agree on it for it to mean something."""
-        return bool(np.isfinite(self.alpha)) and self.support >= MIN_SLOPE_SUPPORT and self.support >= SLOPE_SHARE * self.votes
+        return (
+            bool(np.isfinite(self.alpha))
+            and self.support >= MIN_SLOPE_SUPPORT
+            and self.support >= SLOPE_SHARE * self.votes
+        )
 
 
 @dataclass(frozen=True)
@@ -157,13 +174,23 @@ class MotionSlope:
     against: SlopeMode
 
 
-def motion_slope(camera: Camera, track: Track, clock: np.ndarray, path: PiecewiseTrajectory, vote_clock: np.ndarray, vote_sample: np.ndarray, fps: float | None) -> MotionSlope:
+def motion_slope(
+    camera: Camera,
+    track: Track,
+    clock: np.ndarray,
+    path: PiecewiseTrajectory,
+    vote_clock: np.ndarray,
+    vote_sample: np.ndarray,
+    fps: float | None,
+) -> MotionSlope:
     """Frames per sample from the votes' speeds: tracked pixels per clock unit (a line through VELOCITY_HALF_S
     either side) against projected pixels per sample (the path model's derivative)."""
     clock = np.asarray(clock, dtype=np.float64)
     half = max(1, round(VELOCITY_HALF_S * fps)) if fps else 2
     velocity = _velocity(clock, track.xy, half)
-    every = max(1, math.ceil(len(vote_clock) / MAX_SLOPE_VOTES))  # a mode needs no more votes: memory and time stay bounded
+    every = max(
+        1, math.ceil(len(vote_clock) / MAX_SLOPE_VOTES)
+    )  # a mode needs no more votes: memory and time stay bounded
     at = np.clip(np.searchsorted(clock, np.asarray(vote_clock[::every], dtype=np.float64)), 0, len(clock) - 1)
     s = np.asarray(vote_sample[::every], dtype=np.float64)
     run = path.run_of(s)
@@ -266,35 +293,97 @@ def judge_line(
     reasons = []
     outside = 1.0 - evidence.covered
     if evidence.covered < COVERED_MIN:
-        reasons.append(Reason("coverage", FAILED, f"the line puts {outside:.0%} of the frames where the target is tracked outside the log", "give the log that covers this video (another flight's log, or a log that ends before the video starts?)"))
+        reasons.append(
+            Reason(
+                "coverage",
+                FAILED,
+                f"the line puts {outside:.0%} of the frames where the target is tracked outside the log",
+                "give the log that covers this video (another flight's log, or a log that ends before the video "
+                "starts?)",
+            )
+        )
     elif evidence.covered < COVERED_WEAK:
-        reasons.append(Reason("partial_coverage", WEAK, f"the log covers {evidence.covered:.0%} of the frames where the target is tracked", "a log that covers the whole pass"))
+        reasons.append(
+            Reason(
+                "partial_coverage",
+                WEAK,
+                f"the log covers {evidence.covered:.0%} of the frames where the target is tracked",
+                "a log that covers the whole pass",
+            )
+        )
     if evidence.moving < MIN_MOVING:
         if evidence.on_path < 0.5:
             reasons.append(_off_path(evidence, eps_px, "the target barely moves in the image"))
         else:
-            reasons.append(Reason("motion_unchecked", WEAK, f"the target barely moves in the image ({evidence.moving} displacements): its timing rests on its position alone", "a pass of the target across the view"))
+            reasons.append(
+                Reason(
+                    "motion_unchecked",
+                    WEAK,
+                    f"the target barely moves in the image ({evidence.moving} displacements): its timing rests on its "
+                    f"position alone",
+                    "a pass of the target across the view",
+                )
+            )
     elif evidence.on_path + evidence.agree < EVIDENCE_MIN:
         reasons.append(_off_path(evidence, eps_px))
         if evidence.against >= AGAINST_MIN and evidence.against > evidence.agree:
-            reasons.append(Reason("against_path", FAILED, f"the target moves against the projected path's direction in {evidence.against:.0%} of its displacements", "check the log's time order (reversed?) and the camera's pose (mirrored?)"))
+            reasons.append(
+                Reason(
+                    "against_path",
+                    FAILED,
+                    f"the target moves against the projected path's direction in {evidence.against:.0%} of its "
+                    f"displacements",
+                    "check the log's time order (reversed?) and the camera's pose (mirrored?)",
+                )
+            )
     if alpha_prior is not None and not _near_one(line.alpha / alpha_prior):
-        reasons.append(Reason("slope", FAILED, f"the line's slope {line.alpha:.4g} frames per sample is {line.alpha / alpha_prior:.3g} times what fps and the log's rate give ({alpha_prior:.4g})", "check the camera's fps and the log's times"))
+        reasons.append(
+            Reason(
+                "slope",
+                FAILED,
+                f"the line's slope {line.alpha:.4g} frames per sample is {line.alpha / alpha_prior:.3g} times what "
+                f"fps and the log's rate give ({alpha_prior:.4g})",
+                "check the camera's fps and the log's times",
+            )
+        )
     contradicted = any(r.severity == FAILED for r in reasons)
     if contradicted and slope is not None and alpha_prior is not None:
         along, against = slope.along.alpha / alpha_prior, slope.against.alpha / alpha_prior
         if slope.along.reliable and not _near_one(along):
             fps_text = f"this video runs at about {fps * along:.4g} fps, not {fps:g}, or " if fps else ""
-            reasons.append(Reason("clock", FAILED, f"the target's speed in the image says {fps_text}one unit of the log's t is {along:.3g} s", "set the camera's fps, or [target] time_unit"))
+            reasons.append(
+                Reason(
+                    "clock",
+                    FAILED,
+                    f"the target's speed in the image says {fps_text}one unit of the log's t is {along:.3g} s",
+                    "set the camera's fps, or [target] time_unit",
+                )
+            )
         if slope.against.reliable and _near_one(against) and not (slope.along.reliable and _near_one(along)):
-            reasons.append(Reason("reversed", FAILED, "the target moves along the logged path backwards, at the logged speed: the log looks reversed in time", "check the log's time order"))
+            reasons.append(
+                Reason(
+                    "reversed",
+                    FAILED,
+                    "the target moves along the logged path backwards, at the logged speed: the log looks reversed in "
+                    "time",
+                    "check the log's time order",
+                )
+            )
     if not any(r.code == "clock" for r in reasons):
         stated = _stated_fps_unbacked(track, fps, alpha_prior, slope)
         if stated is not None:
             reasons.append(stated)
     forward, backward = support
     if backward is not None and backwards_better(forward, backward) and not any(r.code == "reversed" for r in reasons):
-        reasons.append(Reason("reversed", FAILED, f"the votes back a line running backwards in time better ({backward} frames, against {forward} forwards): the log looks reversed in time", "check the log's time order"))
+        reasons.append(
+            Reason(
+                "reversed",
+                FAILED,
+                f"the votes back a line running backwards in time better ({backward} frames, against {forward} "
+                f"forwards): the log looks reversed in time",
+                "check the log's time order",
+            )
+        )
     rival = _rival(line, track, clock, fps, eps_px, rate)
     if rival is not None:
         reasons.append(rival)
@@ -342,7 +431,8 @@ def _off_path(evidence: LineEvidence, eps_px: float, why: str = "") -> Reason:
     return Reason(
         "off_path",
         FAILED,
-        f"under this line the target is within {GATE_EPS * eps_px:g} px of its projected position in {evidence.on_path:.0%} of its frames and {moves}",
+        f"under this line the target is within {GATE_EPS * eps_px:g} px of its projected position in "
+        f"{evidence.on_path:.0%} of its frames and {moves}",
         "check the camera's pose (GCPs), its track and fps, and that the log is this flight's, in seconds and metres",
     )
 
@@ -366,7 +456,17 @@ def _rival_apart(line, track: Track, clock: np.ndarray, fps: float | None, eps_p
     return apart
 
 
-def rival_odds_of(camera: Camera, track: Track, clock: np.ndarray, path: PiecewiseTrajectory, line, eps_px: float, fps: float | None, model: LogModel, rate: float | None) -> RivalOdds | None:
+def rival_odds_of(
+    camera: Camera,
+    track: Track,
+    clock: np.ndarray,
+    path: PiecewiseTrajectory,
+    line,
+    eps_px: float,
+    fps: float | None,
+    model: LogModel,
+    rate: float | None,
+) -> RivalOdds | None:
     """The rival's posterior against the line search's line on the camera's whole track, the log's bias absorbed
     (sync/solve/rival.py), when the rival passes the support and distance gates of ``_rival``; None otherwise.
 
@@ -377,10 +477,23 @@ def rival_odds_of(camera: Camera, track: Track, clock: np.ndarray, path: Piecewi
     search = line.line_search
     speed = image_speed(np.asarray(clock, dtype=np.float64), track.xy, quantile=0.5) or 1.0
     band = min(eps_px / speed, RIVAL_BAND_FRAMES)
-    return rival_odds(camera, clock, track.xy, path, (search.alpha, search.beta), (search.rival_alpha, search.rival_beta), model, fps, rate, band)
+    return rival_odds(
+        camera,
+        clock,
+        track.xy,
+        path,
+        (search.alpha, search.beta),
+        (search.rival_alpha, search.rival_beta),
+        model,
+        fps,
+        rate,
+        band,
+    )
 
 
-def _rival(line, track: Track, clock: np.ndarray, fps: float | None, eps_px: float, rate: float | None = None) -> Reason | None:
+def _rival(
+    line, track: Track, clock: np.ndarray, fps: float | None, eps_px: float, rate: float | None = None
+) -> Reason | None:
     """AMBIGUOUS when the line search's rival passes the gates of ``_rival_apart`` and, when its joint odds were
     weighed (LineSearchSummary.rival_probability, ``rival_odds_of``), keeps at least RIVAL_PROBABILITY of the posterior:
     the reason gives both lines' starts (the log's time at the video's first frame) with their probabilities."""
@@ -392,15 +505,27 @@ def _rival(line, track: Track, clock: np.ndarray, fps: float | None, eps_px: flo
     if probability is not None and probability < RIVAL_PROBABILITY:
         return None
     distance = f"{apart / fps:.3g} s" if fps else f"{apart:.0f} frames"
-    text = f"a second line {distance} away has comparable support ({search.runner_up_frames} against {search.support_frames} frames)"
+    text = (
+        f"a second line {distance} away has comparable support ({search.runner_up_frames} against "
+        f"{search.support_frames} frames)"
+    )
     if probability is not None:
         starts = [(-line.beta / line.alpha, 1.0 - probability), (-search.rival_beta / search.rival_alpha, probability)]
         unit = (lambda s: f"{s / rate:.2f} s") if rate else (lambda s: f"sample {s:.1f}")
-        text += ", and the track under each, the log's bias absorbed, leaves both possible: the video's first frame at " + " or at ".join(f"{unit(s)} of the log ({p:.0%})" for s, p in starts)
+        text += (
+            ", and the track under each, the log's bias absorbed, leaves both possible: the video's first frame at "
+            + " or at ".join(f"{unit(s)} of the log ({p:.0%})" for s, p in starts)
+        )
         key = "pick_start_s" if rate else "pick_start_sample"
-        remedy = f"a longer pass through this view with a turn in it, or a more accurate log (RTK), settles it; or pick one: [[cameras]] {key} = one of these starts (docs/project.md)"
+        remedy = (
+            f"a longer pass through this view with a turn in it, or a more accurate log (RTK), settles it; or "
+            f"pick one: [[cameras]] {key} = one of these starts (docs/project.md)"
+        )
     else:
-        remedy = "the target passes through this view alike more than once: give the tracker an init box on the right pass, or a log of that pass only"
+        remedy = (
+            "the target passes through this view alike more than once: give the tracker an init box on the right "
+            "pass, or a log of that pass only"
+        )
     return Reason("ambiguous", AMBIGUOUS, text, remedy)
 
 
@@ -408,7 +533,8 @@ PATH_POINTS = 400_000  # most points of the path model projected to measure a pa
 
 
 def path_share(camera: Camera, xy: np.ndarray, path: PiecewiseTrajectory, gate_px: float) -> float:
-    """Share of tracked positions within gate_px of the trajectory's projection anywhere (any time): the path, not the timing.
+    """Share of tracked positions within gate_px of the trajectory's projection anywhere (any time): the path, not the
+    timing.
 
     The path model is evaluated every quarter sample (coarser for a log so
     long that this would exceed PATH_POINTS points).
@@ -464,9 +590,15 @@ def diagnose(judged: dict[str, Judged], prepared: Trajectory, eps_px: float) -> 
     Returns a reason per camera whose track, rescaled by 2 or 1/2, fits the
     projected path (a track of another resolution).
     """
-    timed = {n: j for n, j in judged.items() if j.alpha_prior is not None and j.slope is not None and j.slope.along.reliable}
+    timed = {
+        n: j for n, j in judged.items() if j.alpha_prior is not None and j.slope is not None and j.slope.along.reliable
+    }
     factors = np.array([j.slope.along.alpha / j.alpha_prior for j in timed.values()])  # type: ignore[union-attr,operator]
-    if len(timed) >= 2 and all(j.contradicted for j in timed.values()) and factors.max() / factors.min() <= UNIT_AGREEMENT:
+    if (
+        len(timed) >= 2
+        and all(j.contradicted for j in timed.values())
+        and factors.max() / factors.min() <= UNIT_AGREEMENT
+    ):
         factor = float(np.exp(np.mean(np.log(factors))))
         if not _near_one(factor):
             raise LogUnitError("t", _time_unit_message(factor, len(timed)))
@@ -481,7 +613,8 @@ def diagnose(judged: dict[str, Judged], prepared: Trajectory, eps_px: float) -> 
             if _fits_better(given, share):
                 raise LogUnitError(
                     "x, y, z",
-                    f"not metres: x {scale:g} they lie on the tracks in {share:.0%} of the frames, as given in {given:.0%} ({unit}?); set [target] length_unit = \"{unit}\"",
+                    f"not metres: x {scale:g} they lie on the tracks in {share:.0%} of the frames, as given in "
+                    f'{given:.0%} ({unit}?); set [target] length_unit = "{unit}"',
                 )
     reasons = {}
     for name, j in tracked.items():
@@ -494,8 +627,10 @@ def diagnose(judged: dict[str, Judged], prepared: Trajectory, eps_px: float) -> 
                 reasons[name] = Reason(
                     "track_scale",
                     FAILED,
-                    f"the track's x, y look like another resolution: x {scale:g} they lie on the projected path in {share:.0%} of the frames, as given in {given:.0%}",
-                    "give the track in the pixels of the camera's image_size (or the camera.json of the video the track was made on)",
+                    f"the track's x, y look like another resolution: x {scale:g} they lie on the projected path in "
+                    f"{share:.0%} of the frames, as given in {given:.0%}",
+                    "give the track in the pixels of the camera's image_size (or the camera.json of the video the "
+                    "track was made on)",
                 )
                 break
     return reasons
@@ -510,7 +645,9 @@ def _fits_better(given: float, rescaled: float) -> bool:
 def _time_unit_message(factor: float, cameras: int) -> str:
     """What every camera's motion says about the log's time unit (factor: seconds per unit of t), with the fix."""
     named = {1e-3: ("ms", "milliseconds"), 1e-6: ("us", "microseconds"), 60.0: ("min", "minutes")}
-    close = next((names for value, names in named.items() if abs(math.log(factor / value)) < math.log(UNIT_AGREEMENT)), None)
+    close = next(
+        (names for value, names in named.items() if abs(math.log(factor / value)) < math.log(UNIT_AGREEMENT)), None
+    )
     if close is not None:
         what, fix = close[1], f'"{close[0]}"'
     elif factor < 1:
@@ -521,4 +658,7 @@ def _time_unit_message(factor: float, cameras: int) -> str:
         what, fix = f"sample numbers at {rate:.3g} Hz", f"{factor:.6g}"
     else:
         what, fix = f"units of {factor:.3g} s", f"{factor:.4g}"
-    return f"not seconds: in every camera ({cameras}) the target moves as if a unit of t were {factor:.3g} s ({what}?); set [target] time_unit = {fix}"
+    return (
+        f"not seconds: in every camera ({cameras}) the target moves as if a unit of t were {factor:.3g} s "
+        f"({what}?); set [target] time_unit = {fix}"
+    )

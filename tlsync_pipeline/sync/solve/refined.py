@@ -14,15 +14,15 @@ from dataclasses import replace
 import numpy as np
 
 from tlsync_pipeline.errors import SyncError
+from tlsync_pipeline.sync.identify.refine import Refinement, refine_line, sigma_weights
 from tlsync_pipeline.sync.kernels.line_search import LineSearch, find_line
-from tlsync_pipeline.sync.solve.methods import CameraData
+from tlsync_pipeline.sync.kernels.ransac import distance_to_line
+from tlsync_pipeline.sync.kernels.slope import SlopePrior, slope_prior
+from tlsync_pipeline.sync.model.log_model import LogModel
 from tlsync_pipeline.sync.model.methods import RefinedKind, RefinedParams
 from tlsync_pipeline.sync.model.params import SyncParams
-from tlsync_pipeline.sync.kernels.ransac import distance_to_line
 from tlsync_pipeline.sync.solve.log_bias import BiasCamera, LogBias, fit_log_bias, fit_log_bias_measured
-from tlsync_pipeline.sync.model.log_model import LogModel
-from tlsync_pipeline.sync.identify.refine import Refinement, refine_line, sigma_weights
-from tlsync_pipeline.sync.kernels.slope import SlopePrior, slope_prior
+from tlsync_pipeline.sync.solve.methods import CameraData
 from tlsync_pipeline.sync.timeline import CameraLine, ErrorBudget, LineSearchSummary, LogBiasSummary, RefinementSummary
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
 
@@ -46,7 +46,17 @@ class RefinedMethod(RefinedKind):
         votes, track = data.votes, data.track
         prior = slope_prior(data.fps, trajectory.rate, params.rate_sigma)
         try:
-            search = find_line(votes.sample, data.vote_clock, votes.dist, params.delta, params.p, options.r_min, params.seed, prior=prior, apart=_radius_frames(data))
+            search = find_line(
+                votes.sample,
+                data.vote_clock,
+                votes.dist,
+                params.delta,
+                params.p,
+                options.r_min,
+                params.seed,
+                prior=prior,
+                apart=_radius_frames(data),
+            )
         except ValueError as exc:
             raise SyncError(f"camera {data.name}: {exc} ({len(votes)} votes)") from None
         start = np.zeros(len(track), dtype=bool)
@@ -54,7 +64,9 @@ class RefinedMethod(RefinedKind):
         flags, warnings = [], []
         refinement = None
         try:
-            refinement = _refine(data, PiecewiseTrajectory(trajectory), search.alpha, search.beta, start, options, prior)
+            refinement = _refine(
+                data, PiecewiseTrajectory(trajectory), search.alpha, search.beta, start, options, prior
+            )
         except ValueError as exc:
             warnings.append(f"refinement not possible ({exc}); using the line-search line")
         if refinement is not None:
@@ -79,11 +91,17 @@ class RefinedMethod(RefinedKind):
         if refinement is not None and refinement.perpendicular < ALONG_RAY:
             flags.append("along_ray")
         rival = search.rival or (None, None)
-        summary = LineSearchSummary(search.alpha, search.beta, search.support, search.runner_up, search.thinned, search.hypotheses, *rival)
+        summary = LineSearchSummary(
+            search.alpha, search.beta, search.support, search.runner_up, search.thinned, search.hypotheses, *rival
+        )
         refinement_summary = None
         if refinement is not None:
-            refinement_summary = RefinementSummary(refinement.frames_used, refinement.scale_px, refinement.perpendicular, refinement.converged)
-        on_line = int((distance_to_line(votes.sample, data.vote_clock, alpha, beta) <= params.delta).sum())  # as the voting chart counts them
+            refinement_summary = RefinementSummary(
+                refinement.frames_used, refinement.scale_px, refinement.perpendicular, refinement.converged
+            )
+        on_line = int(
+            (distance_to_line(votes.sample, data.vote_clock, alpha, beta) <= params.delta).sum()
+        )  # as the voting chart counts them
         return data.line(
             alpha,
             beta,
@@ -99,9 +117,16 @@ class RefinedMethod(RefinedKind):
         )
 
     def refine_with_log_bias(
-        self, cameras: dict[str, CameraData], lines: dict[str, CameraLine], trajectory: Trajectory, params: SyncParams, options: RefinedParams, model: LogModel
+        self,
+        cameras: dict[str, CameraData],
+        lines: dict[str, CameraLine],
+        trajectory: Trajectory,
+        params: SyncParams,
+        options: RefinedParams,
+        model: LogModel,
     ) -> tuple[dict[str, CameraLine], LogBias | None]:
-        """Every camera's line refined together with the log's bias (sync/solve/log_bias.py), their intervals including it.
+        """Every camera's line refined together with the log's bias (sync/solve/log_bias.py), their intervals including
+        it.
 
         Cameras whose own refinement was not kept (a fallback) keep their line.
         A camera whose refinement on the corrected log loses its frames or
@@ -117,21 +142,42 @@ class RefinedMethod(RefinedKind):
                 data = cameras[name]
                 try:
                     start = _near_line(data, path, line.alpha, line.beta, GATE_EPS * data.eps_px)
-                    own[name] = _refine(data, path, line.alpha, line.beta, start, options, slope_prior(data.fps, trajectory.rate, params.rate_sigma))
+                    own[name] = _refine(
+                        data,
+                        path,
+                        line.alpha,
+                        line.beta,
+                        start,
+                        options,
+                        slope_prior(data.fps, trajectory.rate, params.rate_sigma),
+                    )
                 except ValueError:
                     continue
         if not own or trajectory.rate is None:
             return lines, None
         rate = trajectory.rate
-        joint = {n: _bias_camera(cameras[n], path, r, options.f_scale_px, slope_prior(cameras[n].fps, rate, params.rate_sigma)) for n, r in own.items()}
+        joint = {
+            n: _bias_camera(
+                cameras[n], path, r, options.f_scale_px, slope_prior(cameras[n].fps, rate, params.rate_sigma)
+            )
+            for n, r in own.items()
+        }
         kept, again = list(own), {}
         while kept:
             bias = fit_log_bias_measured([joint[n] for n in kept], path, rate, model, options.f_scale_px)
-            again = _refit_on_corrected(cameras, {n: own[n] for n in kept}, bias, trajectory, params, options) if bias.converged else {}
+            again = (
+                _refit_on_corrected(cameras, {n: own[n] for n in kept}, bias, trajectory, params, options)
+                if bias.converged
+                else {}
+            )
             if len(again) == len(kept):
                 break
             kept = list(again)
-        at_prior = bias if len(again) == len(own) else fit_log_bias(list(joint.values()), path, rate, bias.model, options.f_scale_px, estimate=False)
+        at_prior = (
+            bias
+            if len(again) == len(own)
+            else fit_log_bias(list(joint.values()), path, rate, bias.model, options.f_scale_px, estimate=False)
+        )
         if not again:
             bias = at_prior
         out = dict(lines)
@@ -145,13 +191,22 @@ class RefinedMethod(RefinedKind):
                 beta=fit.beta,
                 cov=fit.cov + source.line_cov(name, name),
                 budget=error_budget(fit, cameras[name].track_clock, source.line_cov(name, name)),
-                log_bias=LogBiasSummary(tuple(map(float, estimate)), tuple(map(float, se)), source.observability(middle)),  # type: ignore[arg-type]
+                log_bias=LogBiasSummary(
+                    tuple(map(float, estimate)),  # type: ignore[arg-type]
+                    tuple(map(float, se)),  # type: ignore[arg-type]
+                    source.observability(middle),
+                ),
             )
         return out, bias
 
 
 def _refit_on_corrected(
-    cameras: dict[str, CameraData], own: dict[str, Refinement], bias: LogBias, trajectory: Trajectory, params: SyncParams, options: RefinedParams
+    cameras: dict[str, CameraData],
+    own: dict[str, Refinement],
+    bias: LogBias,
+    trajectory: Trajectory,
+    params: SyncParams,
+    options: RefinedParams,
 ) -> dict[str, Refinement]:
     """Each camera's refinement on the log corrected by the bias, from its joint line: the cameras whose refit converged
     and kept at least SUPPORT_KEPT of its frames."""
@@ -160,7 +215,14 @@ def _refit_on_corrected(
     for name, r in own.items():
         data = cameras[name]
         try:
-            refit = _refine(data, corrected, *bias.lines[name], r.used, options, slope_prior(data.fps, trajectory.rate, params.rate_sigma))
+            refit = _refine(
+                data,
+                corrected,
+                *bias.lines[name],
+                r.used,
+                options,
+                slope_prior(data.fps, trajectory.rate, params.rate_sigma),
+            )
         except ValueError:
             continue
         if refit.converged and refit.frames_used >= SUPPORT_KEPT * r.frames_used:
@@ -168,11 +230,34 @@ def _refit_on_corrected(
     return out
 
 
-def _refine(data: CameraData, path: PiecewiseTrajectory, alpha: float, beta: float, start: np.ndarray, options: RefinedParams, prior: SlopePrior | None) -> Refinement:
-    """The camera's refinement from a line and the frames it starts from (refine.refine_line with the method's settings)."""
+def _refine(
+    data: CameraData,
+    path: PiecewiseTrajectory,
+    alpha: float,
+    beta: float,
+    start: np.ndarray,
+    options: RefinedParams,
+    prior: SlopePrior | None,
+) -> Refinement:
+    """The camera's refinement from a line and the frames it starts from (refine.refine_line with the method's
+    settings).
+    """
     track = data.track
     box = None if track.w is None or track.h is None else np.column_stack([track.w, track.h])
-    return refine_line(data.camera, data.track_clock, track.xy, path, alpha, beta, start, options.f_scale_px, GATE_EPS * data.eps_px, options.model_error_px, prior, box)
+    return refine_line(
+        data.camera,
+        data.track_clock,
+        track.xy,
+        path,
+        alpha,
+        beta,
+        start,
+        options.f_scale_px,
+        GATE_EPS * data.eps_px,
+        options.model_error_px,
+        prior,
+        box,
+    )
 
 
 def _radius_frames(data: CameraData) -> float:
@@ -205,7 +290,8 @@ def _visit_middle(clock: np.ndarray, alpha: float, beta: float) -> float:
 
 
 def error_budget(refinement: Refinement, clock: np.ndarray, log_cov: np.ndarray) -> ErrorBudget:
-    """Tracking, calibration and log parts of a camera's clock uncertainty (std, frames) at the middle of the frames the refinement used.
+    """Tracking, calibration and log parts of a camera's clock uncertainty (std, frames) at the middle of the frames the
+    refinement used.
 
     log_cov: the part of the (alpha, beta) covariance the log's bias adds (zeros without a bias model).
     """
@@ -218,7 +304,9 @@ def error_budget(refinement: Refinement, clock: np.ndarray, log_cov: np.ndarray)
     return ErrorBudget(std(refinement.cov - refinement.cov_model), std(refinement.cov_model), std(log_cov))
 
 
-def _bias_camera(data: CameraData, path: PiecewiseTrajectory, refinement: Refinement, f_scale: float, prior: SlopePrior | None) -> BiasCamera:
+def _bias_camera(
+    data: CameraData, path: PiecewiseTrajectory, refinement: Refinement, f_scale: float, prior: SlopePrior | None
+) -> BiasCamera:
     """The frames a camera's refinement used, as the joint fit with the log's bias takes them."""
     clock, xy = data.track_clock[refinement.used], data.track.xy[refinement.used]
     s = (clock - refinement.beta) / refinement.alpha
@@ -226,7 +314,9 @@ def _bias_camera(data: CameraData, path: PiecewiseTrajectory, refinement: Refine
     weight = np.ones(len(s))
     on = run >= 0
     weight[on] = sigma_weights(data.camera, path, s[on], run[on], f_scale)
-    return BiasCamera(data.name, data.camera, clock, xy, weight, refinement.alpha, refinement.beta, refinement.cov, prior)
+    return BiasCamera(
+        data.name, data.camera, clock, xy, weight, refinement.alpha, refinement.beta, refinement.cov, prior
+    )
 
 
 def _disagreement(refinement: Refinement, search: LineSearch, data: CameraData, delta: float) -> str:

@@ -66,7 +66,8 @@ JACOBIAN_STEP_M = 0.01
 @dataclass(frozen=True)
 class LineScore:
     """A line's fit to the track: its intercept after the profile, its score (the blocks' losses and the bias prior's
-    -log density), the log's bias fitted at the visit's middle (the logged point minus the target's, metres, ENU) and the
+    -log density), the log's bias fitted at the visit's middle (the logged point minus the target's, metres, ENU) and
+    the
     blocks' median residual (pixels)."""
 
     beta: float
@@ -117,7 +118,11 @@ def rival_odds(
     seconds = (clock - np.median(clock)) / fps if fps else None
     span = float(np.ptp(seconds)) if seconds is not None else 0.0
     sigma = bias_sigmas(model)
-    drift = sigma * math.sqrt(2.0 * (1.0 - math.exp(-span / model.tau_s))) if seconds is not None and span > 0 else np.zeros(3)
+    drift = (
+        sigma * math.sqrt(2.0 * (1.0 - math.exp(-span / model.tau_s)))
+        if seconds is not None and span > 0
+        else np.zeros(3)
+    )
     prior = np.r_[sigma, np.maximum(drift, 1e-6)]
     context = _Context(camera, path, clock, xy, block, None if seconds is None else seconds / max(span, 1e-9), prior)
     fits = [context.profile(alpha, beta, band_frames) for alpha, beta in (best, rival)]
@@ -146,14 +151,24 @@ class _Context:
     """One camera's track and the log's path, for scoring lines."""
 
     def __init__(self, camera, path, clock, xy, block, u, prior):
-        self.camera, self.path, self.clock, self.xy, self.block, self.u, self.prior = camera, path, clock, xy, block, u, prior
+        self.camera, self.path, self.clock, self.xy, self.block, self.u, self.prior = (
+            camera,
+            path,
+            clock,
+            xy,
+            block,
+            u,
+            prior,
+        )
         self.blocks = int(block.max()) + 1
         self.count = np.bincount(block, minlength=self.blocks).astype(np.float64)
 
     def profile(self, alpha: float, beta: float, band: float) -> _Fit:
         """The intercept within +-band of beta whose bias-corrected fit has the least loss at its own scale."""
         fits = [self.fit(alpha, b) for b in beta + np.linspace(-band, band, 2 * PROFILE_STEPS + 1)]
-        return min(fits, key=lambda f: self.score(f, max(MIN_SCALE_PX, f.scale))[0].score if np.isfinite(f.scale) else np.inf)
+        return min(
+            fits, key=lambda f: self.score(f, max(MIN_SCALE_PX, f.scale))[0].score if np.isfinite(f.scale) else np.inf
+        )
 
     def _mean(self, values: np.ndarray) -> np.ndarray:
         """Per-block mean of per-frame rows."""

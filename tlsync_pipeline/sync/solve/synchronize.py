@@ -26,22 +26,35 @@ import numpy as np
 from calibration.camera import Camera
 from tlsync_pipeline.errors import SyncError
 from tlsync_pipeline.sync.identify.breaks import identify_in_segments, segment_reasons, with_vote_break
-from tlsync_pipeline.sync.model.clock import FrameTimes, Segment, camera_clock, image_speed
 from tlsync_pipeline.sync.identify.identify import Identification, identify_params
-from tlsync_pipeline.sync.model.log_model import PRESETS, LogModel
-from tlsync_pipeline.sync.vote.log_error import measured, vote_radius
-from tlsync_pipeline.sync.solve.methods import CameraData, CameraInput, JointMethod
-from tlsync_pipeline.sync.model.methods import method_options, params_table, prepare_trajectory, preparation_of
-from tlsync_pipeline.sync.model.params import ParamsTable, SyncParams
-from tlsync_pipeline.sync.solve.causes import explain
+from tlsync_pipeline.sync.identify.segments import (
+    MAX_WHOLE,
+    MIN_SEGMENT_FRAMES,
+    joined_at_void_cuts,
+    segments_of,
+    whole_frames,
+)
 from tlsync_pipeline.sync.kernels.backward import BACKWARD_BELOW, backward_support, line_support
-from tlsync_pipeline.sync.solve.plausibility import RIVAL_PROBABILITY, Judged, diagnose, judge_line, motion_slope, rival_odds_of
-from tlsync_pipeline.sync.pose.pose import TargetPose, estimate_pose, pose_info
-from tlsync_pipeline.sync.identify.segments import MAX_WHOLE, MIN_SEGMENT_FRAMES, joined_at_void_cuts, segments_of, whole_frames
-from tlsync_pipeline.sync.solve.registry import get_method
 from tlsync_pipeline.sync.kernels.slope import slope_prior
+from tlsync_pipeline.sync.model.clock import FrameTimes, Segment, camera_clock, image_speed
+from tlsync_pipeline.sync.model.log_model import PRESETS, LogModel
+from tlsync_pipeline.sync.model.methods import method_options, params_table, preparation_of, prepare_trajectory
+from tlsync_pipeline.sync.model.params import ParamsTable, SyncParams
 from tlsync_pipeline.sync.model.status import AMBIGUOUS, FAILED, Reason, diagnosed_failure
+from tlsync_pipeline.sync.pose.pose import TargetPose, estimate_pose, pose_info
+from tlsync_pipeline.sync.solve.causes import explain
+from tlsync_pipeline.sync.solve.methods import CameraData, CameraInput, JointMethod
+from tlsync_pipeline.sync.solve.plausibility import (
+    RIVAL_PROBABILITY,
+    Judged,
+    diagnose,
+    judge_line,
+    motion_slope,
+    rival_odds_of,
+)
+from tlsync_pipeline.sync.solve.registry import get_method
 from tlsync_pipeline.sync.timeline import CameraLine, Timeline
+from tlsync_pipeline.sync.vote.log_error import measured, vote_radius
 from tlsync_pipeline.sync.vote.votes import Votes, compute_votes
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
 from trackers.track import Track
@@ -51,7 +64,8 @@ __all__ = ["CameraInput", "CameraResult", "cast_votes", "identify_and_synchroniz
 
 @dataclass(frozen=True)
 class CameraResult:
-    """One camera's votes (frame indices) and fitted line; identification: how its target was found among every mover, or None;
+    """One camera's votes (frame indices) and fitted line; identification: how its target was found among every mover,
+    or None;
     pose: the pose from the target of a camera that had none, or None."""
 
     votes: Votes
@@ -69,17 +83,26 @@ def cast_votes(camera: Camera, track: Track, prepared: Trajectory, eps_px: float
     return compute_votes(camera, track, prepared, eps_px)
 
 
-def synchronize_camera(name: str, inputs: CameraInput, votes: Votes, prepared: Trajectory, params: SyncParams, eps_px: float | None = None) -> CameraResult:
+def synchronize_camera(
+    name: str, inputs: CameraInput, votes: Votes, prepared: Trajectory, params: SyncParams, eps_px: float | None = None
+) -> CameraResult:
     """The fitted line of one camera from its votes; SyncError if it cannot be synchronized.
 
     eps_px: the camera's vote radius (log_error.vote_radius; None: [sync] eps_px).
     """
     track = inputs.track
     assert track is not None, "a camera without a track is identified first (identify_and_synchronize)"
-    return CameraResult(votes, get_method(params.method).fit(camera_data(name, inputs, votes, eps_px or params.eps_px), prepared, params, method_options(params)))
+    return CameraResult(
+        votes,
+        get_method(params.method).fit(
+            camera_data(name, inputs, votes, eps_px or params.eps_px), prepared, params, method_options(params)
+        ),
+    )
 
 
-def camera_data(name: str, inputs: CameraInput, votes: Votes, eps_px: float, segments: tuple[Segment, ...] = ()) -> CameraData:
+def camera_data(
+    name: str, inputs: CameraInput, votes: Votes, eps_px: float, segments: tuple[Segment, ...] = ()
+) -> CameraData:
     """One camera with a track as a sync method sees it: its track and votes on its clock (with the segments' shifts:
     every frame of the track and the votes in a segment of known shift)."""
     track = inputs.track
@@ -99,13 +122,26 @@ def camera_data(name: str, inputs: CameraInput, votes: Votes, eps_px: float, seg
     )
 
 
-def identify_and_synchronize(name: str, inputs: CameraInput, prepared: Trajectory, params: SyncParams, eps_px: float | None = None) -> CameraResult:
-    """A camera that brings every mover: the target identified among them, then its line fitted on the identified track's votes."""
+def identify_and_synchronize(
+    name: str, inputs: CameraInput, prepared: Trajectory, params: SyncParams, eps_px: float | None = None
+) -> CameraResult:
+    """A camera that brings every mover: the target identified among them, then its line fitted on the identified
+    track's votes.
+    """
     assert inputs.detections is not None, "a camera without a track brings every mover"
     radius = eps_px or params.eps_px
-    found, breaks = identify_in_segments(inputs.camera, inputs.detections, prepared, inputs.fps, replace(identify_params(params), eps_px=radius), breaks=inputs.breaks)
+    found, breaks = identify_in_segments(
+        inputs.camera,
+        inputs.detections,
+        prepared,
+        inputs.fps,
+        replace(identify_params(params), eps_px=radius),
+        breaks=inputs.breaks,
+    )
     identified = CameraInput(inputs.camera, found.track, inputs.fps, breaks=breaks)
-    result = synchronize_camera(name, identified, cast_votes(inputs.camera, found.track, prepared, radius), prepared, params, radius)
+    result = synchronize_camera(
+        name, identified, cast_votes(inputs.camera, found.track, prepared, radius), prepared, params, radius
+    )
     return CameraResult(result.votes, replace(result.line, identification=found.summary()), found)
 
 
@@ -121,10 +157,21 @@ def with_log_noise(trajectory: Trajectory, model: LogModel) -> Trajectory:
     return replace(trajectory, sigma=np.full(len(trajectory), model.white_m))
 
 
-def posed(inputs: CameraInput, prepared: Trajectory, params: SyncParams, log_model: LogModel = PRESETS["none"]) -> tuple[CameraInput, TargetPose]:
+def posed(
+    inputs: CameraInput, prepared: Trajectory, params: SyncParams, log_model: LogModel = PRESETS["none"]
+) -> tuple[CameraInput, TargetPose]:
     """The camera's inputs with its pose from the target (its ``gcps`` as a prior; the log's error model in the fit),
     and that pose; PoseError when it is not determined."""
-    pose, _ = estimate_pose(inputs.camera, inputs.track, inputs.detections, prepared, inputs.fps, identify_params(params), inputs.gcps, log_model=log_model)
+    pose, _ = estimate_pose(
+        inputs.camera,
+        inputs.track,
+        inputs.detections,
+        prepared,
+        inputs.fps,
+        identify_params(params),
+        inputs.gcps,
+        log_model=log_model,
+    )
     sigma = None if prepared.sigma is None else float(np.median(prepared.sigma))
     if log_model.has_bias:
         sigma = max(sigma or 0.0, log_model.horizontal_m)
@@ -215,14 +262,35 @@ def synchronize(
                     result = replace(result, line=replace(result.line, flags=(*(result.line.flags or ()), "picked")))
             inputs, result = _segmented(name, inputs, result, prepared, params, radius[name])
             if pose is not None:
-                result = replace(result, line=(with_pose_line if log_model.has_bias else with_pose_offset)(result.line, pose))
-            results[name], judged[name] = _judge(name, inputs, replace(result, pose=pose), path, params, prior, radius[name], log_model, trajectory.rate)
+                result = replace(
+                    result, line=(with_pose_line if log_model.has_bias else with_pose_offset)(result.line, pose)
+                )
+            results[name], judged[name] = _judge(
+                name, inputs, replace(result, pose=pose), path, params, prior, radius[name], log_model, trajectory.rate
+            )
             search = results[name].line.line_search
-            if cameras[name].track is not None and search is not None and search.rival_probability is not None and search.rival_probability > 1.0 - RIVAL_PROBABILITY:
+            if (
+                cameras[name].track is not None
+                and search is not None
+                and search.rival_probability is not None
+                and search.rival_probability > 1.0 - RIVAL_PROBABILITY
+            ):
                 result = _the_rival(name, inputs, results[name], prepared, params, radius[name])
                 if pose is not None:
-                    result = replace(result, line=(with_pose_line if log_model.has_bias else with_pose_offset)(result.line, pose))
-                results[name], judged[name] = _judge(name, inputs, replace(result, pose=pose), path, params, prior, radius[name], log_model, trajectory.rate)
+                    result = replace(
+                        result, line=(with_pose_line if log_model.has_bias else with_pose_offset)(result.line, pose)
+                    )
+                results[name], judged[name] = _judge(
+                    name,
+                    inputs,
+                    replace(result, pose=pose),
+                    path,
+                    params,
+                    prior,
+                    radius[name],
+                    log_model,
+                    trajectory.rate,
+                )
         except SyncError as exc:
             failed[name] = str(exc)
             judged[name] = _unjudged(inputs, prior)
@@ -250,8 +318,13 @@ def synchronize(
     # A camera whose pose comes from the target absorbed the log's bias during its visit in that pose: it stays out.
     surveyed = {name: results[name] for name in lines if not _pose_from_target(used[name].camera)}
     if params.log_bias and log_model.has_bias and isinstance(method, JointMethod) and surveyed:
-        data = {name: camera_data(name, replace(used[name], track=r.track(used[name])), r.votes, radius[name]) for name, r in surveyed.items()}
-        fitted, bias = method.refine_with_log_bias(data, {n: lines[n] for n in surveyed}, prepared, params, method_options(params), log_model)
+        data = {
+            name: camera_data(name, replace(used[name], track=r.track(used[name])), r.votes, radius[name])
+            for name, r in surveyed.items()
+        }
+        fitted, bias = method.refine_with_log_bias(
+            data, {n: lines[n] for n in surveyed}, prepared, params, method_options(params), log_model
+        )
         lines = {**lines, **fitted}
         if bias is not None:
             fitted_model, estimate = bias.model, bias.estimate
@@ -285,7 +358,10 @@ def picked_votes(name: str, inputs: CameraInput, votes: Votes, rate: float | Non
         raise SyncError(f"camera {name}: pick_start_s needs the camera's fps and the log's times")
     near = votes_near(inputs, votes, fps / rate, -fps * start, radius_px)
     if not near.any():
-        raise SyncError(f"camera {name}: no vote near the picked start (pick_start_s = {start:g}): give one of the starts its ambiguous status names, or remove the key")
+        raise SyncError(
+            f"camera {name}: no vote near the picked start (pick_start_s = {start:g}): give one of the starts its "
+            f"ambiguous status names, or remove the key"
+        )
     return Votes(votes.frame[near], votes.sample[near], votes.dist[near])
 
 
@@ -302,17 +378,29 @@ def votes_near(inputs: CameraInput, votes: Votes, alpha: float, beta: float, rad
     return np.abs(clock.clock_at(votes.frame, times) - alpha * votes.sample - beta) <= band
 
 
-def _the_rival(name: str, inputs: CameraInput, result: CameraResult, prepared: Trajectory, params: SyncParams, radius_px: float) -> CameraResult:
+def _the_rival(
+    name: str, inputs: CameraInput, result: CameraResult, prepared: Trajectory, params: SyncParams, radius_px: float
+) -> CameraResult:
     """The camera's line refitted on the votes near the line search's rival, which the whole track prefers beyond
-    1 - RIVAL_PROBABILITY (plausibility.rival_odds_of): the old line becomes its rival (line_search), to be weighed again."""
+    1 - RIVAL_PROBABILITY (plausibility.rival_odds_of): the old line becomes its rival (line_search), to be weighed
+    again."""
     old = result.line.line_search
     assert old is not None and old.rival_alpha is not None and old.rival_beta is not None
     near = votes_near(inputs, result.votes, old.rival_alpha, old.rival_beta, radius_px)
-    refit = synchronize_camera(name, inputs, Votes(result.votes.frame[near], result.votes.sample[near], result.votes.dist[near]), prepared, params, radius_px)
+    refit = synchronize_camera(
+        name,
+        inputs,
+        Votes(result.votes.frame[near], result.votes.sample[near], result.votes.dist[near]),
+        prepared,
+        params,
+        radius_px,
+    )
     search = refit.line.line_search
     if search is None:
         return refit
-    swapped = replace(search, runner_up_frames=old.support_frames, rival_alpha=old.alpha, rival_beta=old.beta, rival_probability=None)
+    swapped = replace(
+        search, runner_up_frames=old.support_frames, rival_alpha=old.alpha, rival_beta=old.beta, rival_probability=None
+    )
     return replace(refit, votes=result.votes, line=replace(refit.line, line_search=swapped))
 
 
@@ -328,8 +416,11 @@ def _log_error(model: LogModel, declared: LogModel, estimate: tuple[float, float
     return record
 
 
-def _segmented(name: str, inputs: CameraInput, result: CameraResult, prepared: Trajectory, params: SyncParams, radius_px: float) -> tuple[CameraInput, CameraResult]:
-    """A camera whose recording breaks (its own breaks, or a drop its votes show) fitted as segments (sync/identify/segments.py).
+def _segmented(
+    name: str, inputs: CameraInput, result: CameraResult, prepared: Trajectory, params: SyncParams, radius_px: float
+) -> tuple[CameraInput, CameraResult]:
+    """A camera whose recording breaks (its own breaks, or a drop its votes show) fitted as segments
+    (sync/identify/segments.py).
 
     The votes say which segments the target visits and their shifts to
     within a frame or so; each such segment's line is then fitted on its own
@@ -349,13 +440,29 @@ def _segmented(name: str, inputs: CameraInput, result: CameraResult, prepared: T
     votes, line = result.votes, result.line
     vote_clock = clock.clock_at(votes.frame, times)
     breaks = with_vote_break(inputs.breaks, votes.frame, vote_clock, votes.sample, line, params.delta)
-    coarse, breaks = segments_of(breaks, track.frame, votes.frame, vote_clock, votes.sample, votes.dist, line.alpha, line.beta, params.delta, clock.vfr)
+    coarse, breaks = segments_of(
+        breaks,
+        track.frame,
+        votes.frame,
+        vote_clock,
+        votes.sample,
+        votes.dist,
+        line.alpha,
+        line.beta,
+        params.delta,
+        clock.vfr,
+    )
     inputs = replace(inputs, track=track, breaks=breaks)
     main = next((seg for seg in coarse if seg.source == "line"), None)
     if main is None:
         return inputs, replace(result, line=replace(line, breaks=breaks or None))
     reference = _segment_line(name, inputs, votes, main, prepared, params, radius_px) or line
-    segments = tuple(_refined(seg, _segment_line(name, inputs, votes, seg, prepared, params, radius_px), reference, clock, times, track) for seg in coarse)
+    segments = tuple(
+        _refined(
+            seg, _segment_line(name, inputs, votes, seg, prepared, params, radius_px), reference, clock, times, track
+        )
+        for seg in coarse
+    )
     segments, breaks = joined_at_void_cuts(segments, breaks)
     inputs = replace(inputs, breaks=breaks)
     segmented = replace(clock, segments=segments)
@@ -365,18 +472,37 @@ def _segmented(name: str, inputs: CameraInput, result: CameraResult, prepared: T
     kept_votes = Votes(votes.frame[keep_votes], votes.sample[keep_votes], votes.dist[keep_votes])
     data = camera_data(name, replace(inputs, track=kept), kept_votes, radius_px, segments)
     fitted = get_method(params.method).fit(data, prepared, params, method_options(params))
-    return replace(inputs, track=kept), replace(result, votes=kept_votes, line=replace(fitted, identification=line.identification, breaks=breaks))
+    return replace(inputs, track=kept), replace(
+        result, votes=kept_votes, line=replace(fitted, identification=line.identification, breaks=breaks)
+    )
 
 
 def _track_rows(track: Track, rows: np.ndarray) -> Track:
     """The track's rows ``rows`` (a boolean mask)."""
+
     def kept(column: np.ndarray | None) -> np.ndarray | None:
         return None if column is None else np.asarray(column)[rows]
 
-    return Track(track.frame[rows], track.x[rows], track.y[rows], kept(track.time_s), kept(track.w), kept(track.h), kept(track.score))
+    return Track(
+        track.frame[rows],
+        track.x[rows],
+        track.y[rows],
+        kept(track.time_s),
+        kept(track.w),
+        kept(track.h),
+        kept(track.score),
+    )
 
 
-def _segment_line(name: str, inputs: CameraInput, votes: Votes, seg: Segment, prepared: Trajectory, params: SyncParams, radius_px: float) -> CameraLine | None:
+def _segment_line(
+    name: str,
+    inputs: CameraInput,
+    votes: Votes,
+    seg: Segment,
+    prepared: Trajectory,
+    params: SyncParams,
+    radius_px: float,
+) -> CameraLine | None:
     """The method's line through one segment's tracked frames and votes alone (steady clock); None when the segment
     has no measured shift, too few frames, or the fit fails."""
     track = inputs.track
@@ -387,12 +513,19 @@ def _segment_line(name: str, inputs: CameraInput, votes: Votes, seg: Segment, pr
     in_votes = (votes.frame >= seg.start) & (votes.frame < seg.stop)
     own = Votes(votes.frame[in_votes], votes.sample[in_votes], votes.dist[in_votes])
     try:
-        return get_method(params.method).fit(camera_data(name, replace(inputs, track=_track_rows(track, rows)), own, radius_px), prepared, params, method_options(params))
+        return get_method(params.method).fit(
+            camera_data(name, replace(inputs, track=_track_rows(track, rows)), own, radius_px),
+            prepared,
+            params,
+            method_options(params),
+        )
     except (SyncError, ValueError, ArithmeticError, np.linalg.LinAlgError):
         return None
 
 
-def _refined(seg: Segment, own: CameraLine | None, reference: CameraLine, clock, times: FrameTimes | None, track: Track) -> Segment:
+def _refined(
+    seg: Segment, own: CameraLine | None, reference: CameraLine, clock, times: FrameTimes | None, track: Track
+) -> Segment:
     """The segment with its shift where its own line meets the reference line at the middle of its tracked frames;
     as it was without its own line. On a frame clock a shift of up to MAX_WHOLE frames is whole frames
     (sync/segments.whole_frames), and one that is not close to them is unresolved (unknown): a pose error biases
@@ -417,20 +550,32 @@ def _loose_identity(radius_px: float) -> Reason:
     return Reason(
         "ambiguous_identity",
         AMBIGUOUS,
-        f"the target was picked among the movers on few frames, through a log whose error spans {radius_px:.0f} px: another mover may fit as well",
+        f"the target was picked among the movers on few frames, through a log whose error spans {radius_px:.0f} px: "
+        f"another mover may fit as well",
         "give the tracker an init box on the target, a longer pass through the view, or a more accurate log",
     )
 
 
 def _unjudged(inputs: CameraInput, prior) -> Judged:
     """What ``diagnose`` knows of a camera without a line: its track, when its camera has a pose to project with."""
-    return Judged(inputs.camera, inputs.track if inputs.camera.posed else None, None, None if prior is None else prior.alpha, True)
+    return Judged(
+        inputs.camera, inputs.track if inputs.camera.posed else None, None, None if prior is None else prior.alpha, True
+    )
 
 
 def _judge(
-    name: str, inputs: CameraInput, result: CameraResult, path: PiecewiseTrajectory, params: SyncParams, prior, radius_px: float, log_model: LogModel, rate: float | None
+    name: str,
+    inputs: CameraInput,
+    result: CameraResult,
+    path: PiecewiseTrajectory,
+    params: SyncParams,
+    prior,
+    radius_px: float,
+    log_model: LogModel,
+    rate: float | None,
 ) -> tuple[CameraResult, Judged]:
-    """The camera's result with its line checked (CameraLine.checks) at its vote radius (pixels), and what ``diagnose`` needs of it.
+    """The camera's result with its line checked (CameraLine.checks) at its vote radius (pixels), and what ``diagnose``
+    needs of it.
 
     A rival line of the line search is weighed on the whole track under the
     log's error model first (plausibility.rival_odds_of: its probability goes
@@ -454,16 +599,41 @@ def _judge(
     vote_clock = clock.clock_at(votes.frame, times)
     slope = motion_slope(inputs.camera, track, track_clock, path, vote_clock, votes.sample, fps)
     alpha_prior = None if prior is None else prior.alpha
-    thin = line.line_search.support_frames if line.line_search is not None else line_support(votes.sample, vote_clock, line.alpha, line.beta, params.delta)
+    thin = (
+        line.line_search.support_frames
+        if line.line_search is not None
+        else line_support(votes.sample, vote_clock, line.alpha, line.beta, params.delta)
+    )
     support: tuple[int, int | None] = (thin, None)
     if thin < BACKWARD_BELOW:  # a thin line: would the log read backwards explain the votes better?
-        support = (line_support(votes.sample, vote_clock, line.alpha, line.beta, params.delta), backward_support(votes.sample, vote_clock, votes.dist, params.delta, prior, params.seed))
+        support = (
+            line_support(votes.sample, vote_clock, line.alpha, line.beta, params.delta),
+            backward_support(votes.sample, vote_clock, votes.dist, params.delta, prior, params.seed),
+        )
     odds = rival_odds_of(inputs.camera, track, track_clock, path, line, radius_px, fps, log_model, rate)
     if odds is not None and line.line_search is not None:
         line = replace(line, line_search=replace(line.line_search, rival_probability=odds.rival_probability))
-    checks = judge_line(inputs.camera, track, track_clock, path, line, radius_px, fps, alpha_prior, slope, support, rate)
-    checks = (*checks, *segment_reasons(inputs.breaks, line.clock.segments, track.frame, votes.frame, vote_clock, votes.sample, line.alpha, line.beta, params.delta))
-    others = line.identification is not None and line.identification.candidates_voting > CROWDED * line.identification.identified_frames
+    checks = judge_line(
+        inputs.camera, track, track_clock, path, line, radius_px, fps, alpha_prior, slope, support, rate
+    )
+    checks = (
+        *checks,
+        *segment_reasons(
+            inputs.breaks,
+            line.clock.segments,
+            track.frame,
+            votes.frame,
+            vote_clock,
+            votes.sample,
+            line.alpha,
+            line.beta,
+            params.delta,
+        ),
+    )
+    others = (
+        line.identification is not None
+        and line.identification.candidates_voting > CROWDED * line.identification.identified_frames
+    )
     if inputs.detections is not None and radius_px > params.eps_px and "few_inliers" in (line.flags or ()) and others:
         checks = (*checks, _loose_identity(radius_px))
     line = replace(line, checks=checks)

@@ -17,8 +17,12 @@ import numpy as np
 from calibration.camera import Camera
 from tlsync_pipeline.trajectory import Trajectory
 
-LONG_SAMPLES = 200_000  # a log of more samples than this is cut to the cameras' views (33 min at 100 Hz, 5.5 h at 10 Hz)
-WIDEN = 0.5  # the image widened by this share of its size on each side (distortion, the vote radius, a target half in view)
+LONG_SAMPLES = (
+    200_000  # a log of more samples than this is cut to the cameras' views (33 min at 100 Hz, 5.5 h at 10 Hz)
+)
+WIDEN = (
+    0.5  # the image widened by this share of its size on each side (distortion, the vote radius, a target half in view)
+)
 MARGIN_S = 5.0  # seconds kept on each side of the samples in view (the smoothing's context); 50 samples without times
 CHUNK = 1 << 20  # samples projected at once
 
@@ -28,18 +32,22 @@ def in_view(camera: Camera, xyz: np.ndarray) -> np.ndarray:
     w, h = camera.image_size
     seen = np.zeros(len(xyz), dtype=bool)
     for lo in range(0, len(xyz), CHUNK):
-        local = xyz[lo:lo + CHUNK] @ camera.R.T + camera.t
+        local = xyz[lo : lo + CHUNK] @ camera.R.T + camera.t
         z = local[:, 2]
         front = z > 1e-6
         with np.errstate(divide="ignore", invalid="ignore"):
             u = camera.K[0, 0] * local[:, 0] / z + camera.K[0, 2]
             v = camera.K[1, 1] * local[:, 1] / z + camera.K[1, 2]
-        seen[lo:lo + CHUNK] = front & (u > -WIDEN * w) & (u < (1 + WIDEN) * w) & (v > -WIDEN * h) & (v < (1 + WIDEN) * h)
+        seen[lo : lo + CHUNK] = (
+            front & (u > -WIDEN * w) & (u < (1 + WIDEN) * w) & (v > -WIDEN * h) & (v < (1 + WIDEN) * h)
+        )
     return seen
 
 
 def near_views(trajectory: Trajectory, cameras: Iterable[Camera]) -> Trajectory:
-    """The trajectory's samples within MARGIN_S of one any camera sees; the whole trajectory when it is short or a camera has no pose."""
+    """The trajectory's samples within MARGIN_S of one any camera sees; the whole trajectory when it is short or a
+    camera has no pose.
+    """
     cameras = list(cameras)
     if len(trajectory) <= LONG_SAMPLES or not cameras or not all(c.posed for c in cameras):
         return trajectory

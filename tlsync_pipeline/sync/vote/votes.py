@@ -82,7 +82,13 @@ class CameraVotes:
 def write_votes(found: CameraVotes, path: Path) -> None:
     """Write ``votes.npz``: frame, sample, dist arrays and, for a camera without votes, the reason."""
     with open(path, "wb") as handle:
-        np.savez(handle, frame=found.votes.frame, sample=found.votes.sample, dist=found.votes.dist, error=np.array(found.error or ""))
+        np.savez(
+            handle,
+            frame=found.votes.frame,
+            sample=found.votes.sample,
+            dist=found.votes.dist,
+            error=np.array(found.error or ""),
+        )
 
 
 def read_votes(path: Path) -> CameraVotes:

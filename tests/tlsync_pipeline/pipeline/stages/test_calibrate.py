@@ -35,13 +35,23 @@ def calibrate_camera(proj, name):
     """A camera's pose from its known intrinsics and GCPs, as the calibrate stage computes it (no files written)."""
     cal = proj.camera(name).calibration
     known = read_camera(cal.intrinsics)
-    camera, report, _ = calibrate_pose(name, calibrate_params(proj, name, Options()), known, known_intrinsics(cal.intrinsics), project_origin(proj), cal.gcp, None)
+    camera, report, _ = calibrate_pose(
+        name,
+        calibrate_params(proj, name, Options()),
+        known,
+        known_intrinsics(cal.intrinsics),
+        project_origin(proj),
+        cal.gcp,
+        None,
+    )
     return camera, report
 
 
 @pytest.fixture
 def project(tmp_path, boards, board_dir):
-    """Two cameras: cam0 calibrated from board photos + local GCPs, cam1 from a known camera.json + geodetic GCPs; the GCPs exact (their pose alone)."""
+    """Two cameras: cam0 calibrated from board photos + local GCPs, cam1 from a known camera.json + geodetic GCPs; the
+    GCPs exact (their pose alone).
+    """
     shutil.copytree(board_dir, tmp_path / "boards")
     truth = {}
     for name, center, seed in (("cam0", (3.0, -15.0, 6.0), 1), ("cam1", (-8.0, 20.0, 9.0), 2)):
@@ -53,7 +63,9 @@ def project(tmp_path, boards, board_dir):
             write_gcp_csv(tmp_path / "gcp_cam1.csv", uv, enu_to_geodetic(xyz, ORIGIN), geodetic=True)
             write_gcp_csv(tmp_path / "gcp_cam1_local.csv", uv, xyz)
         truth[name] = (R, t)
-    write_camera(Camera("known", boards.K, boards.dist, np.eye(3), np.zeros(3), boards.image_size), tmp_path / "known.json")
+    write_camera(
+        Camera("known", boards.K, boards.dist, np.eye(3), np.zeros(3), boards.image_size), tmp_path / "known.json"
+    )
     (tmp_path / "project.toml").write_text(
         f"""
 [target]
@@ -100,7 +112,11 @@ def test_calibrate_writes_every_artefact(project, boards):
     assert cam0["rms"] < 0.5 and abs(cam0["K"][0][0] - boards.K[0, 0]) < 0.005 * boards.K[0, 0]
     report = json.loads((root / "work" / "cameras" / "cam0" / "calibration_report.json").read_text())
     assert report["intrinsics"]["views_used"] >= 7
-    assert {v["image"] for v in report["intrinsics"]["per_view"]} | {r["image"] for r in report["intrinsics"]["rejected"]} == {p.relative_to(root).as_posix() for p in (root / "boards").glob("board_00*.png")}  # relative to the project folder
+    assert {v["image"] for v in report["intrinsics"]["per_view"]} | {
+        r["image"] for r in report["intrinsics"]["rejected"]
+    } == {
+        p.relative_to(root).as_posix() for p in (root / "boards").glob("board_00*.png")
+    }  # relative to the project folder
     assert read_camera(root / "work" / "cameras" / "cam1" / "camera.json").fps == 25
 
 
@@ -122,7 +138,9 @@ def test_without_an_origin_the_geodetic_gcps_centroid_is_used(project):
     text = re.sub(r"origin = .*\n", "", (root / "project.toml").read_text())
     (root / "project.toml").write_text(text)
     proj = load_project(root / "project.toml")
-    lat, lon, alt = np.genfromtxt(root / "gcp_cam1.csv", delimiter=",", names=True, usecols=(3, 4, 5)).view((float, 3)).mean(axis=0)
+    lat, lon, alt = (
+        np.genfromtxt(root / "gcp_cam1.csv", delimiter=",", names=True, usecols=(3, 4, 5)).view((float, 3)).mean(axis=0)
+    )
     origin = project_origin(proj)
     assert origin == pytest.approx(Origin(lat, lon, alt))
     cam, report = calibrate_camera(proj, "cam1")
@@ -144,15 +162,37 @@ def _edit(root, old, new):
 @pytest.mark.parametrize(
     "damage, message",
     [
-        (lambda r: (r / "gcp_cam1.csv").write_text("u,v,lat,lon,alt\n1,2,46.5,6.5,400\n2,3,46.5001,6.5,400\n4,4,46.5,6.5001,401\n"), r"gcp_cam1.csv: 3 points, at least 4 are needed"),
-        (lambda r: (r / "gcp_cam1.csv").write_text("u,v,x,y,z\n10,20,0,0,0\n200,40,1,1,0\n300,300,2,2,0\n400,100,3,3,0\n"), r"gcp_cam1.csv: the world points are collinear"),
-        (lambda r: (r / "gcp_cam1.csv").write_text("name,u,v,x,y,z,lat\np,1,2,3,4,5,6\n"), r"gcp_cam1.csv:1: the header mixes local columns"),
-        (lambda r: (r / "gcp_cam1.csv").write_text("u,v,x,y,z\n1,2,3,4,5\n1,2,3,4,5\n1,2,3,4,5\n5000,2,3,4,5\n"), r"gcp_cam1.csv:5: pixel \(5000, 2\) is outside the 800x600 image"),
-        (lambda r: _edit(r, 'intrinsics = "known.json"', 'intrinsics = "known.json"\nimages = "boards/*.png"'), r"give only one of images, video, intrinsics"),
+        (
+            lambda r: (r / "gcp_cam1.csv").write_text(
+                "u,v,lat,lon,alt\n1,2,46.5,6.5,400\n2,3,46.5001,6.5,400\n4,4,46.5,6.5001,401\n"
+            ),
+            r"gcp_cam1.csv: 3 points, at least 4 are needed",
+        ),
+        (
+            lambda r: (r / "gcp_cam1.csv").write_text(
+                "u,v,x,y,z\n10,20,0,0,0\n200,40,1,1,0\n300,300,2,2,0\n400,100,3,3,0\n"
+            ),
+            r"gcp_cam1.csv: the world points are collinear",
+        ),
+        (
+            lambda r: (r / "gcp_cam1.csv").write_text("name,u,v,x,y,z,lat\np,1,2,3,4,5,6\n"),
+            r"gcp_cam1.csv:1: the header mixes local columns",
+        ),
+        (
+            lambda r: (r / "gcp_cam1.csv").write_text("u,v,x,y,z\n1,2,3,4,5\n1,2,3,4,5\n1,2,3,4,5\n5000,2,3,4,5\n"),
+            r"gcp_cam1.csv:5: pixel \(5000, 2\) is outside the 800x600 image",
+        ),
+        (
+            lambda r: _edit(r, 'intrinsics = "known.json"', 'intrinsics = "known.json"\nimages = "boards/*.png"'),
+            r"give only one of images, video, intrinsics",
+        ),
         (lambda r: _edit(r, 'pattern = "9x6"', 'pattern = "nine by six"'), r"key 'pattern': expected inner corners"),
-        (lambda r: _edit(r, 'square = 0.03', 'sqare = 0.03'), r"unknown key 'sqare' \(did you mean 'square'\?\)"),
-        (lambda r: _edit(r, 'square = 0.03', 'square = 0.03\nmodel = "pinhole"'), r"key 'model': unknown model 'pinhole'"),
-        (lambda r: _edit(r, 'origin = [', 'origin = [91, '), r"key 'origin'"),
+        (lambda r: _edit(r, "square = 0.03", "sqare = 0.03"), r"unknown key 'sqare' \(did you mean 'square'\?\)"),
+        (
+            lambda r: _edit(r, "square = 0.03", 'square = 0.03\nmodel = "pinhole"'),
+            r"key 'model': unknown model 'pinhole'",
+        ),
+        (lambda r: _edit(r, "origin = [", "origin = [91, "), r"key 'origin'"),
     ],
     ids=["few-gcps", "collinear", "mixed-columns", "outside", "two-sources", "pattern", "typo", "model", "origin"],
 )
@@ -183,7 +223,9 @@ def test_a_failed_calibration_keeps_the_previous_artefacts(project):
 
 @pytest.mark.slow
 def test_the_executor_decides_how_many_processes_detect_the_boards(project, monkeypatch):
-    """Alone in this process the intrinsics stage may use the executor's cores; in a pool's worker, one (no nested pool)."""
+    """Alone in this process the intrinsics stage may use the executor's cores; in a pool's worker, one (no nested
+    pool).
+    """
     from tlsync_pipeline.pipeline.engine import run_graph
     from tlsync_pipeline.pipeline.executors import ProcessExecutor, SerialExecutor
     from tlsync_pipeline.pipeline.graph import build_graph
@@ -194,7 +236,11 @@ def test_the_executor_decides_how_many_processes_detect_the_boards(project, monk
     workers = []
     original = intrinsics.calibrate_images
     # Record the processes the stage asks for (and detect with one here, to keep the test short).
-    monkeypatch.setattr(intrinsics, "calibrate_images", lambda *a, **k: workers.append(k["workers"]) or original(*a, **{**k, "workers": 1}))
+    monkeypatch.setattr(
+        intrinsics,
+        "calibrate_images",
+        lambda *a, **k: workers.append(k["workers"]) or original(*a, **{**k, "workers": 1}),
+    )
     assert "intrinsics/cam0" in run_graph(graph, SerialExecutor(cores=3), targets=["intrinsics/cam0"]).ran
     assert workers == [3]
 
@@ -222,7 +268,9 @@ def test_the_executor_decides_how_many_processes_detect_the_boards(project, monk
 
 @pytest.fixture(scope="module")
 def unposed_project(tmp_path_factory):
-    """A pass scene written as a project whose camera.json files have no pose: cam0's walker turns, cam1's walks straight."""
+    """A pass scene written as a project whose camera.json files have no pose: cam0's walker turns, cam1's walks
+    straight.
+    """
     from data_fixtures.passes import make_pass_scene
     from data_fixtures.scene import write_scene
 
@@ -265,9 +313,18 @@ def test_gcps_of_a_rough_survey_are_refined_by_the_target(unposed_project, tmp_p
     folder = tmp_path / "p"
     write_gcp_csv(folder / "gcp_cam0.csv", gcps.uv, gcps.xyz)
     text = (folder / "project.toml").read_text()
-    text = text.replace('camera = "cam0/camera.json"', '[cameras.calibration]\nintrinsics = "cam0/camera.json"\ngcp = "gcp_cam0.csv"\ngcp_sigma_m = 0.5', 1)
+    text = text.replace(
+        'camera = "cam0/camera.json"',
+        '[cameras.calibration]\nintrinsics = "cam0/camera.json"\ngcp = "gcp_cam0.csv"\ngcp_sigma_m = 0.5',
+        1,
+    )
     # the camera table's keys after [cameras.calibration] would land in it: move them above
-    text = text.replace('[cameras.calibration]\nintrinsics = "cam0/camera.json"\ngcp = "gcp_cam0.csv"\ngcp_sigma_m = 0.5\ntrack = "cam0/track.csv"\nfps = 30.0\n', 'track = "cam0/track.csv"\nfps = 30.0\n[cameras.calibration]\nintrinsics = "cam0/camera.json"\ngcp = "gcp_cam0.csv"\ngcp_sigma_m = 0.5\n')
+    text = text.replace(
+        '[cameras.calibration]\nintrinsics = "cam0/camera.json"\ngcp = "gcp_cam0.csv"\ngcp_sigma_m = 0.5\ntrack = '
+        '"cam0/track.csv"\nfps = 30.0\n',
+        'track = "cam0/track.csv"\nfps = 30.0\n[cameras.calibration]\nintrinsics = "cam0/camera.json"\ngcp = '
+        '"gcp_cam0.csv"\ngcp_sigma_m = 0.5\n',
+    )
     (folder / "project.toml").write_text(text)
     result = _cli("calibrate", folder / "project.toml", "--camera", "cam0", "--quiet")
     assert result.exit_code == 0, result.output
@@ -275,7 +332,9 @@ def test_gcps_of_a_rough_survey_are_refined_by_the_target(unposed_project, tmp_p
     target = report["target_pose"]
     assert target["source"] == "gcp+target" and target["gcp_sigma_stated_m"] == 0.5
     assert 0.15 < target["gcp_sigma_m"] < 0.8  # measured from the points: 0.5 m per horizontal axis, none vertical
-    assert len(target["gcps"]) == len(gcps.uv) and all(g["before_px"] is not None and g["after_px"] is not None for g in target["gcps"])
+    assert len(target["gcps"]) == len(gcps.uv) and all(
+        g["before_px"] is not None and g["after_px"] is not None for g in target["gcps"]
+    )
     truth = scene.true_cameras["cam0"]
     camera = read_camera(folder / "work" / "cameras" / "cam0" / "camera.json")
     gcp_only = np.array(report["pose"]["camera_center_m"])
@@ -300,7 +359,10 @@ def test_the_pose_search_stays_near_the_scans_coarse_offset_only_when_the_video_
 def test_gcps_that_disagree_with_the_track_are_a_warning_that_names_them():
     from tlsync_pipeline.pipeline.stages.calibrate import pose_warnings
 
-    report = {"pose": {"points": []}, "target_pose": {"source": "gcp+target", "gcp_sigma_m": 0.3, "gcps_disagree": ["P2", "P5"]}}
+    report = {
+        "pose": {"points": []},
+        "target_pose": {"source": "gcp+target", "gcp_sigma_m": 0.3, "gcps_disagree": ["P2", "P5"]},
+    }
     (left_out,) = pose_warnings(report)
     assert "P2, P5" in left_out and "left out of the pose" in left_out
     report["target_pose"]["source"] = "target"

@@ -37,7 +37,11 @@ def rendered_project(tmp_path_factory):
     toml = folder / "project.toml"
     for name, camera in scene.cameras.items():
         _write_video(folder / f"{name}.mp4", camera, scene.tracks[name], scene.n_frames[name])
-        toml.write_text(toml.read_text().replace(f'track = "{name}/track.csv"', f'track = "{name}/track.csv"\nvideo = "{name}.mp4"\nproxy = "never"'))
+        toml.write_text(
+            toml.read_text().replace(
+                f'track = "{name}/track.csv"', f'track = "{name}/track.csv"\nvideo = "{name}.mp4"\nproxy = "never"'
+            )
+        )
     return scene, folder
 
 
@@ -64,7 +68,15 @@ def test_render_decodes_only_the_frames_it_draws(rendered_project, monkeypatch):
 
     monkeypatch.setattr(render, "read_frames", counting)
     names = set(_render(graph))
-    assert {"swap_cam0.png", "swap_cam1.png", "strip_cam0_cam1.png", "votes_cam0.png", "trajectory_cam1.png", "offsets.png", "residuals.png"} <= names
+    assert {
+        "swap_cam0.png",
+        "swap_cam1.png",
+        "strip_cam0_cam1.png",
+        "votes_cam0.png",
+        "trajectory_cam1.png",
+        "offsets.png",
+        "residuals.png",
+    } <= names
     assert (folder / "work" / "report.html").exists()
     decoded = {name: set() for name in ("cam0.mp4", "cam1.mp4")}
     for name, frames in requested:
@@ -125,7 +137,9 @@ def test_choose_frames_stays_where_both_cameras_record():
 
 
 @pytest.mark.slow
-def test_pictures_asked_for_are_kept_beside_the_defaults_and_never_make_the_project_stale(rendered_project, monkeypatch):
+def test_pictures_asked_for_are_kept_beside_the_defaults_and_never_make_the_project_stale(
+    rendered_project, monkeypatch
+):
     """README's example: ``tlsync render project.toml --pair cam1,cam0 --frames 150,160``, then status and run."""
     from click.testing import CliRunner
 
@@ -142,14 +156,20 @@ def test_pictures_asked_for_are_kept_beside_the_defaults_and_never_make_the_proj
     manifest = (render_dir / "render.manifest.json").read_text()
     requested = []
     original = render.read_frames
-    monkeypatch.setattr(render, "read_frames", lambda path, indices: requested.append((path.name, sorted(indices))) or original(path, indices))
+    monkeypatch.setattr(
+        render,
+        "read_frames",
+        lambda path, indices: requested.append((path.name, sorted(indices))) or original(path, indices),
+    )
     result = cli("render", toml, "--pair", "cam1,cam0", "--frames", "150,160", "-j", "1")
     assert result.exit_code == 0, result.output
     asked = render_dir / "pair_cam1_cam0_frames_150_160.png"
     assert asked.stat().st_size > 1000 and "wrote " in result.output
     assert sorted(name for name, _ in requested) == ["cam0.mp4", "cam1.mp4"]  # only the strip's frames, each video once
     assert {150, 160} == set(dict(requested)["cam0.mp4"])
-    assert {p.name: p.read_bytes() for p in render_dir.glob("*.png") if p != asked} == defaults  # the defaults untouched
+    assert {
+        p.name: p.read_bytes() for p in render_dir.glob("*.png") if p != asked
+    } == defaults  # the defaults untouched
     assert (render_dir / "render.manifest.json").read_text() == manifest
     assert cli("status", toml, "-q").exit_code == 0  # still fresh
     assert "ran 0," in cli("run", toml, "-j", "1").output and asked.exists()
@@ -158,7 +178,12 @@ def test_pictures_asked_for_are_kept_beside_the_defaults_and_never_make_the_proj
     assert asked.exists() and asked.stat().st_mtime_ns > before  # drawn again with the other pictures
     assert cli("status", toml, "-q").exit_code == 0
     bad = cli("render", toml, "--pair", "cam1,cam7")
-    assert bad.exit_code == 2 and bad.output.startswith("error: ") and "no camera named 'cam7'" in bad.output and len(bad.output.splitlines()) == 1, bad.output
+    assert (
+        bad.exit_code == 2
+        and bad.output.startswith("error: ")
+        and "no camera named 'cam7'" in bad.output
+        and len(bad.output.splitlines()) == 1
+    ), bad.output
     late = cli("render", toml, "--pair", "cam1,cam0", "--frames", "99999")
     assert late.exit_code == 2 and "frame 99999 is not a frame of cam0" in late.output, late.output
 
@@ -188,7 +213,9 @@ def test_render_never_decodes_the_videos_through(rendered_project, monkeypatch):
 
 
 def test_pictures_prefer_tracked_keyframes_nearby():
-    """A keyframe decodes alone: a band swap's or the movers picture's frame moves to a tracked keyframe close by, if any."""
+    """A keyframe decodes alone: a band swap's or the movers picture's frame moves to a tracked keyframe close by, if
+    any.
+    """
     from tlsync_pipeline.outputs.camera_pictures import band_swap_frames
     from trackers.detections import make_detections
     from trackers.track import Track
@@ -200,6 +227,8 @@ def test_pictures_prefer_tracked_keyframes_nearby():
     assert band_swap_frames(track, keyframes) == [300, 600, 900]  # 300, 600 and 900 are keyframes
     assert band_swap_frames(track, keyframes + 20) == [320, 620, 920]
     assert render.toward_keyframes([300], frames, np.array([400]), reach=50) == [300]  # too far: kept
-    movers = make_detections([(f, f / 30, 0, 1.0, 1.0, 5, 5, 1.0) for f in (150, 150, 150, 180)] + [(180, 6.0, 1, 2.0, 2.0, 5, 5, 1.0)])
+    movers = make_detections(
+        [(f, f / 30, 0, 1.0, 1.0, 5, 5, 1.0) for f in (150, 150, 150, 180)] + [(180, 6.0, 1, 2.0, 2.0, 5, 5, 1.0)]
+    )
     assert render.choose_movers_frame(movers, track) == 150
     assert render.choose_movers_frame(movers, track, keyframes) == 180  # the keyframe with most movers

@@ -56,14 +56,22 @@ def test_a_blob_init_box_still_detects_every_mover(tmp_path, video):
     assert _run("track-video", video.path, "--out", out, "--quiet").exit_code == 0
     assert staged.read_bytes() == out.read_bytes()
     single = tmp_path / "single.csv"
-    assert _run("track-video", video.path, "--out", single, "--quiet", "--init", f"{x0},{y0},17,17", "--init-frame", "70").exit_code == 0
+    assert (
+        _run(
+            "track-video", video.path, "--out", single, "--quiet", "--init", f"{x0},{y0},17,17", "--init-frame", "70"
+        ).exit_code
+        == 0
+    )
     assert len(read_track(single)) > 40
 
 
 @pytest.mark.parametrize(
     "tracker_table, options",
     [
-        ('[cameras.tracker]\nkind = "csrt"\ninit = [{x0}, {y0}, 17, 17]\ninit_frame = 70\n', ["--tracker", "csrt", "--init", "{x0},{y0},17,17", "--init-frame", "70"]),
+        (
+            '[cameras.tracker]\nkind = "csrt"\ninit = [{x0}, {y0}, 17, 17]\ninit_frame = 70\n',
+            ["--tracker", "csrt", "--init", "{x0},{y0},17,17", "--init-frame", "70"],
+        ),
     ],
 )
 def test_same_track_from_project_stage_and_standalone_command(tmp_path, video, tracker_table, options):
@@ -80,7 +88,9 @@ def test_same_track_from_project_stage_and_standalone_command(tmp_path, video, t
     assert staged.read_bytes() == out.read_bytes()
     spec = load_project(project).camera("cam0")
     track = track_camera(spec.name, spec.video, spec.tracker, progress=False)
-    direct = track_video(video.path, kind=spec.tracker.kind, init=spec.tracker.init, init_frame=spec.tracker.init_frame, progress=False)
+    direct = track_video(
+        video.path, kind=spec.tracker.kind, init=spec.tracker.init, init_frame=spec.tracker.init_frame, progress=False
+    )
     assert (track.frame == direct.frame).all() and (track.x == direct.x).all()
     assert len(read_track(staged)) > 40
 
@@ -104,7 +114,10 @@ def test_failed_run_keeps_the_cached_track(tmp_path, video):
     result = _run("track", project, "--quiet")
     assert result.exit_code == 2 and "init frame 500 is past the end of the video (120 frames)" in result.output
     assert cached.read_text() == "frame,x,y\n0,1,2\n"
-    assert sorted(p.name for p in cached.parent.iterdir()) == ["track.csv", "track.failure.json"]  # no half file; why it failed
+    assert sorted(p.name for p in cached.parent.iterdir()) == [
+        "track.csv",
+        "track.failure.json",
+    ]  # no half file; why it failed
 
 
 @pytest.mark.parametrize(
@@ -114,7 +127,10 @@ def test_failed_run_keeps_the_cached_track(tmp_path, video):
         ("[cameras.tracker]\ninit = [1, 2, 3]\n", r"expected a box \[x, y, w, h\]"),
         ("[cameras.tracker]\ninit_frame = -2\n", "expected a 0-based frame index"),
         ("[cameras.tracker]\nkindd = 3\n", r"unknown key 'kindd' \(did you mean 'kind'\?\)"),
-        ('[cameras.tracker]\nkind = "csrt"\ninit = [400, 10, 20, 20]\n', r"init box \[400, 10, 20, 20\] is outside the image \(320x240\)"),
+        (
+            '[cameras.tracker]\nkind = "csrt"\ninit = [400, 10, 20, 20]\n',
+            r"init box \[400, 10, 20, 20\] is outside the image \(320x240\)",
+        ),
         ("[cameras.tracker.parameters]\ngate = 3\n", r"unknown parameter 'gate' \(did you mean 'gate_px'\?\)"),
     ],
 )

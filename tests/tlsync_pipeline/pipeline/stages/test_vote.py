@@ -31,14 +31,22 @@ def test_votes_npz_are_the_votes_sync_fits(tmp_path):
         raw = compute_votes(inputs[name].camera, inputs[name].track, trajectory, project.sync.eps_px)
         assert len(raw) != len(votes) or not np.array_equal(raw.dist, votes.dist)
     written = json.loads((work / "timeline.json").read_text())
-    assert {n: c["alpha"] for n, c in written["cameras"].items()} == {n: line.alpha for n, line in timeline.cameras.items()}
+    assert {n: c["alpha"] for n, c in written["cameras"].items()} == {
+        n: line.alpha for n, line in timeline.cameras.items()
+    }
 
     # Sync fits what votes.npz holds (called as the graph calls it: the engine would re-make a modified votes.npz).
     first, second = list(scene.cameras)[:2]
     votes = read_votes(work / "cameras" / first / "votes.npz").votes
     half = votes.frame <= np.median(votes.frame)
-    write_votes(CameraVotes(Votes(votes.frame[half], votes.sample[half], votes.dist[half])), work / "cameras" / first / "votes.npz")
-    write_votes(CameraVotes(Votes(np.zeros(0), np.zeros(0), np.zeros(0)), "no vote (test)"), work / "cameras" / second / "votes.npz")
+    write_votes(
+        CameraVotes(Votes(votes.frame[half], votes.sample[half], votes.dist[half])),
+        work / "cameras" / first / "votes.npz",
+    )
+    write_votes(
+        CameraVotes(Votes(np.zeros(0), np.zeros(0), np.zeros(0)), "no vote (test)"),
+        work / "cameras" / second / "votes.npz",
+    )
     graph = build_graph(project, work)
     sync = graph.tasks["sync"]
     run_sync(graph.workspace.files("sync", None, sync.inputs, sync.outputs), sync.params)
