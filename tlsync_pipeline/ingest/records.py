@@ -84,53 +84,12 @@ def where(path: Path, number: int, unit: str = "line") -> str:
     return f"{path}:{number}" if unit == "line" else f"{path}: {unit} {number}"
 
 
-def make_records(
-    path,
-    fmt,
-    frame,
-    rows,
-    lines,
-    unit="line",
-    utc=True,
-    dropped=None,
-    ignored=0,
-    warnings=(),
-    altitude=ELLIPSOID,
-    sigma=None,
-    quality=None,
-    clock=None,
-    notes=(),
-    video_time_zero=None,
-    video_zero_spread_s=None,
-    rounding_m=None,
-    local_time=False,
-) -> LogRecords:
-    """LogRecords from a list of (t, a, b, c) rows and their provenance numbers (sigma, quality, rounding_m: one value
-    per row).
+def make_records(path, fmt, frame, rows, lines, **options) -> LogRecords:
+    """LogRecords from a list of (t, a, b, c) rows and their provenance numbers; ``options``: records_of_columns's
+    keywords (sigma, quality, rounding_m: one value per row).
     """
     data = np.asarray(rows, dtype=np.float64).reshape(-1, 4)
-    return records_of_columns(
-        path,
-        fmt,
-        frame,
-        data[:, 0].copy(),
-        data[:, 1:].copy(),
-        lines,
-        unit,
-        utc,
-        dropped,
-        ignored,
-        warnings,
-        altitude,
-        sigma,
-        quality,
-        clock,
-        notes,
-        video_time_zero,
-        video_zero_spread_s,
-        rounding_m,
-        local_time,
-    )
+    return records_of_columns(path, fmt, frame, data[:, 0].copy(), data[:, 1:].copy(), lines, **options)
 
 
 def records_of_columns(

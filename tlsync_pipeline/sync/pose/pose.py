@@ -387,14 +387,7 @@ def _survey_and_target(
     determined; else the camera fails (gcp_conflict, naming them).
     """
     name = camera.name
-    if prior is None or not fps:
-        raise PoseError(
-            name,
-            "no_clock",
-            "the camera's fps or the log's rate is unknown, so the offset cannot be searched with the slope held",
-        )
-    if len(clock) < MIN_FRAMES:
-        raise PoseError(name, "too_few_frames", f"{len(clock)} tracked frames, at least {MIN_FRAMES} are needed")
+    prior, fps = _searchable(name, prior, fps, clock, MIN_FRAMES)
     search, starts = search_offsets(camera, clock, xy, path, prior.alpha, seed, offsets=offsets)
     alone = _fit_candidates(starts, clock, xy, path, prior, gate_px, f_scale, None, (), search.threshold_px, MIN_FRAMES)
     own: TargetPose | None = None
@@ -454,6 +447,22 @@ def _survey_and_target(
     return replace(own, gcps_used=weighted, disagreeing=disagreeing_gcps(weighted, own.camera))
 
 
+def _searchable(
+    name: str, prior: SlopePrior | None, fps: float | None, clock: np.ndarray, min_frames: int
+) -> tuple[SlopePrior, float]:
+    """The slope prior and fps the offset search needs; PoseError without them or under ``min_frames`` tracked
+    frames."""
+    if prior is None or not fps:
+        raise PoseError(
+            name,
+            "no_clock",
+            "the camera's fps or the log's rate is unknown, so the offset cannot be searched with the slope held",
+        )
+    if len(clock) < min_frames:
+        raise PoseError(name, "too_few_frames", f"{len(clock)} tracked frames, at least {min_frames} are needed")
+    return prior, fps
+
+
 def _names(gcps: GcpPrior) -> tuple[str, ...]:
     return gcps.names or tuple(str(k) for k in range(len(gcps.xyz)))
 
@@ -504,14 +513,7 @@ def candidate_fits(
     there is none (no_clock, too_few_frames, planar_path, no_fit, gcp_conflict).
     """
     name = camera.name
-    if prior is None or not fps:
-        raise PoseError(
-            name,
-            "no_clock",
-            "the camera's fps or the log's rate is unknown, so the offset cannot be searched with the slope held",
-        )
-    if len(clock) < min_frames:
-        raise PoseError(name, "too_few_frames", f"{len(clock)} tracked frames, at least {min_frames} are needed")
+    prior, fps = _searchable(name, prior, fps, clock, min_frames)
     dlt = "intrinsics" in camera.to_estimate
     biased = log_model if log_model is not None and log_model.has_bias else None
     search, candidates = search_offsets(
