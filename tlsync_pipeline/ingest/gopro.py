@@ -19,6 +19,11 @@ stream (0-based, counted over the file), as GoPro's gpmf-parser computes it
 
 Spreading each payload's samples evenly over its presentation interval is
 50-60 ms off at the first sample (the GPS data of a payload trail its start).
+The payload times are the metadata track's sample table as written, without
+the track's edit list (FFmpeg's default would shift a track whose edit
+starts inside its first sample by a whole payload, and delay one with an
+empty edit): gpmf-parser, which reads the ``edts`` before the track's
+``hdlr``, leaves a metadata track's edit list out too.
 
 UTC: GPS9 samples carry their own (days since 2000 + seconds since midnight,
 ms). For GPS5, ``GPSU`` is taken as the UTC of the payload's first GPS
@@ -101,11 +106,17 @@ def read_gopro(path: str | Path) -> LogRecords:
         raise InputError(f"{path}: cannot read: {exc.strerror or exc}") from None
     if raw:
         return _raw_records(path)
+    return gopro_records(path, metadata_packets(path))
+
+
+def metadata_packets(path: Path) -> list[tuple[float, float, bytes]]:
+    """(start s, duration s, GPMF payload) of each packet of an MP4's GPMF track, timed by the track's sample table
+    (see the module notes); InputError when the file has no such track."""
     import av
 
     packets = []
     try:
-        with av.open(str(path)) as container:
+        with av.open(str(path), options={"ignore_editlist": "1"}) as container:
             for stream in container.streams:
                 if stream.type != "data":
                     continue
@@ -126,7 +137,7 @@ def read_gopro(path: str | Path) -> LogRecords:
             f"{path}: no GoPro GPMF metadata track (a data stream starting with DEVC); is this a GoPro HERO5-or-later "
             f"video?"
         )
-    return gopro_records(path, packets)
+    return packets
 
 
 def _raw_records(path: Path) -> LogRecords:
