@@ -229,6 +229,24 @@ def test_dji_feet_whole_second_utc_no_fix_rows_and_a_pause(tmp_path, truth):
     _close(paused, truth, seconds=0.15, offset_m=UNDULATION_M)
 
 
+def test_dji_airdata_datetime_with_milliseconds_is_each_rows_utc(tmp_path, truth):
+    """An export whose datetime(utc) has milliseconds: UTC from them (the median offset per run), not from the
+    whole-second anchoring, which would put every fix about half a second late."""
+    t, geo, _ = truth
+    whole = write_airdata_csv(tmp_path / "whole.csv", t, geo, no_fix_rows=0)
+    lines = whole.read_text().splitlines()
+    precise = [lines[0]]
+    for line, ti in zip(lines[1:], t):
+        fields = line.split(",")
+        fields[1] = dt.datetime.fromtimestamp(round(ti, 3), dt.timezone.utc).strftime("%Y-%m-%d %H:%M:%S.%f")[:-3]
+        precise.append(",".join(fields))
+    path = tmp_path / "ms.csv"
+    path.write_text("\n".join(precise) + "\n")
+    records = read_log(path)
+    assert np.abs(records.t - t).max() < 0.002
+    assert any("milliseconds" in note for note in records.notes)
+
+
 def test_gopro_gpmf_payloads(truth):
     t, geo, _ = truth
     packets = []
