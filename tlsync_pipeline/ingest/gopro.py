@@ -12,10 +12,12 @@ stream (0-based, counted over the file), as GoPro's gpmf-parser computes it
 - with ``STMP`` (HERO8 onwards, MAX; camera microseconds): rate = samples
   between the first and the last GPS payload / their STMP difference;
   first = (the first GPS STMP - the SHUT STMP of that payload) - TIMO + the
-  first payload's presentation time (the track's edit-list start);
+  first payload's time on the track's sample table (0 in GoPro files);
 - without (HERO5-HERO7): a least-squares line through (end time of each GPS
   payload on the MP4 sample table, samples delivered up to its end); first
   = the line's zero crossing - TIMO.
+
+TIMO is the last GPS payload's, as gpmf-parser reads it.
 
 Spreading each payload's samples evenly over its presentation interval is
 50-60 ms off at the first sample (the GPS data of a payload trail its start).
@@ -170,8 +172,8 @@ def _raw_records(path: Path) -> LogRecords:
 def sample_clock(payloads: list[Payload], track_start_s: float) -> SampleClock:
     """The stream's linear sample clock (see the module notes); payloads in order, each with samples > 0.
 
-    track_start_s: the presentation time of the metadata track's first payload
-    (its edit-list start), added to STMP-based times as gpmf-parser does.
+    track_start_s: the time of the metadata track's first payload on its sample
+    table, added to STMP-based times as gpmf-parser adds the track's start.
     """
     first, last = payloads[0], payloads[-1]
     total = sum(p.samples for p in payloads)
@@ -190,14 +192,14 @@ def sample_clock(payloads: list[Payload], track_start_s: float) -> SampleClock:
         rate = between / ((last.stmp_us - first.stmp_us) * 1e-6)
         if 0.9 * rate < approx < 1.1 * rate:
             base = first.base_us if first.base_us is not None else first.stmp_us
-            return SampleClock((first.stmp_us - base) * 1e-6 - first.timo_s + track_start_s, rate, "STMP")
+            return SampleClock((first.stmp_us - base) * 1e-6 - last.timo_s + track_start_s, rate, "STMP")
     x = np.array([p.end_s for p in payloads])
     y = np.cumsum([p.samples for p in payloads]).astype(float)
     slope = float(np.sum((x - x.mean()) * (y - y.mean())) / np.sum((x - x.mean()) ** 2))
     if not slope > 0:
-        return SampleClock(first.start_s - first.timo_s, approx, "MP4 sample table")
+        return SampleClock(first.start_s - last.timo_s, approx, "MP4 sample table")
     intercept = float(y.mean() - slope * x.mean())
-    return SampleClock(-intercept / slope - first.timo_s, slope, "MP4 sample table")
+    return SampleClock(-intercept / slope - last.timo_s, slope, "MP4 sample table")
 
 
 def gopro_records(path: Path, packets: list[tuple[float, float, bytes]]) -> LogRecords:

@@ -83,6 +83,9 @@ def test_sample_clock_without_stmp_is_gpmf_parsers_least_squares_line():
 def test_sample_clock_single_payload_and_timo():
     clock = sample_clock([Payload(2.0, 3.0, 18, timo_s=0.1)], track_start_s=2.0)
     assert clock.first_s == pytest.approx(1.9) and clock.rate_hz == pytest.approx(18.0)
+    # TIMO is the last payload's, as gpmf-parser reads it
+    line = sample_clock([Payload(0.0, 1.0, 18, timo_s=0.0), Payload(1.0, 2.0, 18, timo_s=0.1)], track_start_s=0.0)
+    assert line.first_s == pytest.approx(-0.1) and line.rate_hz == pytest.approx(18.0)
     stamped = sample_clock(
         [Payload(0.0, 1.0, 18, 1_100_000, 1_000_000), Payload(1.0, 2.0, 18, 2_090_000, 2_000_000)], track_start_s=0.0
     )
