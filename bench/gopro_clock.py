@@ -1,12 +1,12 @@
-"""GoPro's sample clock without STMP (HERO5-HERO7) on a real MP4, against gpmf-parser, also with an edit list.
+"""GoPro's sample clock without STMP (HERO5-HERO7) on a real MP4 against gpmf-parser, also with an edited MP4 box.
 
 gpmf-parser's ``karma.mp4`` (a GoPro Karma drone's HERO5-era recording: no STMP, no GPS, but accelerometer, gyro
-and shutter streams timed the way a HERO7's GPS5 is) is read three ways: as it is, with an empty edit of one
-frame (33.4 ms) put into its metadata track's ``edts``, and with an edit that starts 33 ms into the track's
-media. For each, and each stream with one sample array per payload, the sample clock tlsync computes
-(tlsync_pipeline.ingest.gopro.sample_clock over the payloads metadata_packets times) is compared with
-gpmf-parser's demo (``-s``: GetGPMFSampleRate, precise): rate and first sample time. The edited copies are
-written to a temporary folder; nothing is committed.
+and shutter streams timed the way a HERO7's GPS5 is) is read four ways: as it is, with an empty edit of one
+frame (33.4 ms) put into its metadata track's ``edts``, with an edit that starts 33 ms into the track's media,
+and with a sample table whose first payload lasts 1.034 s instead of 1.001 s. For each, and each stream with
+one sample array per payload, the sample clock tlsync computes (tlsync_pipeline.ingest.gopro.sample_clock over
+the payloads metadata_packets times) is compared with gpmf-parser's demo (``-s``: GetGPMFSampleRate, precise):
+rate and first sample time. The edited copies are written to a temporary folder; nothing is committed.
 
     GPMF_DEMO=.../gpmfdemo python bench/gopro_clock.py   (karma.mp4 under $TLSYNC_REAL_LOGS, default
                                                          /tmp/tlsync_real_logs; the demo built as
@@ -30,10 +30,12 @@ from tlsync_pipeline.ingest.gpmf import klv_items  # noqa: E402
 
 REAL = Path(os.environ.get("TLSYNC_REAL_LOGS", "/tmp/tlsync_real_logs"))
 STREAMS = ("ACCL", "GYRO", "SHUT", "ISOG")
-EDITS = {  # name -> elst entries (segment duration in the movie's 90 kHz, media time in the track's 1 kHz, rate)
+EDITS = {  # name -> the change: elst entries (segment duration in the movie's 90 kHz, media time in the track's
+    # 1 kHz, rate) or stts entries (payloads, duration in the track's 1 kHz)
     "as recorded": None,
-    "an empty edit of 33.4 ms": [(3003, -1, 65536), (1171170, 0, 65536)],
-    "an edit from 33 ms into the media": [(1171170, 33, 65536)],
+    "an empty edit of 33.4 ms": ("elst", [(3003, -1, 65536), (1171170, 0, 65536)]),
+    "an edit from 33 ms into the media": ("elst", [(1171170, 33, 65536)]),
+    "a first payload of 1.034 s (stts)": ("stts", [(1, 1034), (12, 1001)]),
 }
 
 
@@ -45,24 +47,47 @@ def _boxes(data: bytes, start: int, end: int):
         offset += size
 
 
-def with_edit_list(data: bytes, entries: list[tuple[int, int, int]]) -> bytes:
-    """The MP4 with an ``edts`` put into its GoPro MET track after the ``tkhd`` (the moov must follow the mdat, so no
-    chunk offset moves)."""
+def _met_track(data: bytes) -> tuple[int, int, int]:
+    """(moov offset, GoPro MET trak offset, trak size)."""
     moov = next(offset for kind, offset, _ in _boxes(data, 0, len(data)) if kind == b"moov")
     moov_size = struct.unpack(">I", data[moov : moov + 4])[0]
     for kind, trak, size in _boxes(data, moov + 8, moov + moov_size):
         if kind == b"trak" and b"GoPro MET" in data[trak : trak + size]:
-            break
-    else:
-        raise ValueError("no GoPro MET track")
+            return moov, trak, size
+    raise ValueError("no GoPro MET track")
+
+
+def _insert(data: bytes, at: int, remove: int, insert: bytes, parents: list[int]) -> bytes:
+    """data with ``remove`` bytes at ``at`` replaced by ``insert``, the sizes of the boxes at ``parents`` adjusted
+    (the moov must follow the mdat, so no chunk offset moves)."""
+    out = bytearray(data[:at] + insert + data[at + remove :])
+    for box in parents:
+        out[box : box + 4] = struct.pack(">I", struct.unpack(">I", out[box : box + 4])[0] + len(insert) - remove)
+    return bytes(out)
+
+
+def with_edit_list(data: bytes, entries: list[tuple[int, int, int]]) -> bytes:
+    """The MP4 with an ``edts`` put into its GoPro MET track after the ``tkhd``."""
+    moov, trak, _ = _met_track(data)
     tkhd_end = trak + 8 + struct.unpack(">I", data[trak + 8 : trak + 12])[0]
     elst = struct.pack(">I4sII", 16 + 12 * len(entries), b"elst", 0, len(entries))
     elst += b"".join(struct.pack(">IiI", *entry) for entry in entries)
-    edts = struct.pack(">I4s", 8 + len(elst), b"edts") + elst
-    out = bytearray(data[:tkhd_end] + edts + data[tkhd_end:])
-    for at in (moov, trak):
-        out[at : at + 4] = struct.pack(">I", struct.unpack(">I", out[at : at + 4])[0] + len(edts))
-    return bytes(out)
+    return _insert(data, tkhd_end, 0, struct.pack(">I4s", 8 + len(elst), b"edts") + elst, [moov, trak])
+
+
+def with_sample_table(data: bytes, entries: list[tuple[int, int]]) -> bytes:
+    """The MP4 with its GoPro MET track's ``stts`` (count, duration) entries replaced."""
+    moov, trak, size = _met_track(data)
+    parents = [moov, trak]
+    start, end = trak + 8, trak + size
+    for name in (b"mdia", b"minf", b"stbl"):
+        box, box_size = next((offset, s) for kind, offset, s in _boxes(data, start, end) if kind == name)
+        parents.append(box)
+        start, end = box + 8, box + box_size
+    stts, stts_size = next((offset, s) for kind, offset, s in _boxes(data, start, end) if kind == b"stts")
+    table = struct.pack(">I4sII", 16 + 8 * len(entries), b"stts", 0, len(entries))
+    table += b"".join(struct.pack(">II", *entry) for entry in entries)
+    return _insert(data, stts, stts_size, table, parents)
 
 
 def _samples(payload: bytes, fourcc: bytes) -> int:
@@ -101,10 +126,12 @@ def main() -> None:
     print("| metadata track | stream | gpmf-parser rate (Hz), first (s) | tlsync - gpmf-parser: rate, first |")
     print("|---|---|---|---|")
     with tempfile.TemporaryDirectory() as folder:
-        for name, entries in EDITS.items():
-            path = karma if entries is None else Path(folder) / "edited.mp4"
-            if entries is not None:
-                path.write_bytes(with_edit_list(karma.read_bytes(), entries))
+        for name, change in EDITS.items():
+            path = karma if change is None else Path(folder) / "edited.mp4"
+            if change is not None:
+                box, entries = change
+                edit = with_edit_list if box == "elst" else with_sample_table
+                path.write_bytes(edit(karma.read_bytes(), entries))
             ours, reference = tlsync_clocks(path), reference_clocks(demo, path)
             for stream, (rate, first) in reference.items():
                 d_rate, d_first = ours[stream][0] - rate, ours[stream][1] - first

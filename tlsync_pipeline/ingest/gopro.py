@@ -21,11 +21,14 @@ TIMO is the last GPS payload's, as gpmf-parser reads it.
 
 Spreading each payload's samples evenly over its presentation interval is
 50-60 ms off at the first sample (the GPS data of a payload trail its start).
-The payload times are the metadata track's sample table as written, without
+The payload times are gpmf-parser's (``payload_times``): payload k spans
+[k, k + 1) x the mean payload duration of the track's sample table, without
 the track's edit list (FFmpeg's default would shift a track whose edit
 starts inside its first sample by a whole payload, and delay one with an
 empty edit): gpmf-parser, which reads the ``edts`` before the track's
-``hdlr``, leaves a metadata track's edit list out too.
+``hdlr``, leaves a metadata track's edit list out. Where every payload but
+a shorter last one lasts the same (GoPro's sample tables), these are the
+sample table's own times.
 
 UTC: GPS9 samples carry their own (days since 2000 + seconds since midnight,
 ms). For GPS5, ``GPSU`` is taken as the UTC of the payload's first GPS
@@ -112,11 +115,13 @@ def read_gopro(path: str | Path) -> LogRecords:
 
 
 def metadata_packets(path: Path) -> list[tuple[float, float, bytes]]:
-    """(start s, duration s, GPMF payload) of each packet of an MP4's GPMF track, timed by the track's sample table
-    (see the module notes); InputError when the file has no such track."""
+    """(start s, duration s, GPMF payload) of each packet of an MP4's GPMF track, timed as gpmf-parser times them
+    (``payload_times``; see the module notes); InputError when the file has no such track."""
     import av
 
-    packets = []
+    ticks: list[int] = []
+    payloads: list[bytes] = []
+    timescale = 1.0
     try:
         with av.open(str(path), options={"ignore_editlist": "1"}) as container:
             for stream in container.streams:
@@ -127,19 +132,48 @@ def metadata_packets(path: Path) -> list[tuple[float, float, bytes]]:
                 if first is None or not bytes(first).startswith(b"DEVC"):
                     continue
                 for packet in container.demux(stream):
-                    if packet.pts is None or packet.size == 0:
+                    if packet.pts is None:
                         continue
-                    tb = float(packet.time_base)
-                    packets.append((packet.pts * tb, (packet.duration or 0) * tb, bytes(packet)))
+                    timescale = 1.0 / float(packet.time_base)
+                    ticks.append(packet.duration or 0)
+                    payloads.append(bytes(packet))
                 break
     except av.error.FFmpegError as exc:
         raise InputError(f"{path}: cannot read as MP4: {exc}") from None
+    packets = [
+        (start, end - start, payload)
+        for (start, end), payload in zip(payload_times(ticks, timescale), payloads)
+        if payload
+    ]
     if not packets:
         raise InputError(
             f"{path}: no GoPro GPMF metadata track (a data stream starting with DEVC); is this a GoPro HERO5-or-later "
             f"video?"
         )
     return packets
+
+
+def payload_times(durations: list[int], timescale: float) -> list[tuple[float, float]]:
+    """(start s, end s) of each payload of a metadata track as gpmf-parser's GetPayloadTime gives them: payload k spans
+    [k, k + 1) x the track's base duration, the last one ending at the track's length.
+
+    durations: each payload's duration on the sample table (ticks of 1 / timescale s). The base duration is the
+    mean duration of the payloads up to the table's last entry of more than one payload (a last, shorter payload
+    does not change it; a first payload of another length does, by its share).
+    """
+    entries: list[list[int]] = []  # the sample table's (count, duration) entries
+    for ticks in durations:
+        if entries and entries[-1][1] == ticks:
+            entries[-1][0] += 1
+        else:
+            entries.append([1, ticks])
+    length, samples, base = 0.0, 0, 0.0
+    for count, ticks in entries:
+        samples += count
+        length += count * ticks / timescale
+        if count > 1 or len(entries) == 1 or base == 0.0:
+            base = length * timescale / samples
+    return [(k * base / timescale, min((k + 1) * base / timescale, length)) for k in range(len(durations))]
 
 
 def _raw_records(path: Path) -> LogRecords:
