@@ -251,7 +251,7 @@ def _put_digits(chars: np.ndarray, lo: int, hi: int, numbers: np.ndarray) -> Non
 def fixed_point_rows(columns: list[np.ndarray], decimals: list[int], delimiter: str = ",") -> bytes:
     """The text of rows of ``columns`` as Python's ``'%.{d}f' % value`` writes each value (correctly rounded, half to
     even, ``-0.0000`` for a negative value that rounds to zero), ``delimiter`` between values, a newline after each
-    row; decimals 1 to 9 (the scaled fraction then errs by under 1e-7).
+    row; decimals 1 to 9 (the scaled fraction then errs by about 1e-7 at most).
 
     Built as a character matrix without a Python call per value: the whole part and the fraction of each absolute
     value are exact in float64 (value - floor(value)), the fraction is scaled and rounded, and digits come from a
