@@ -144,15 +144,7 @@ def fit_log_bias(
         posterior = np.linalg.pinv((whiten.T @ whiten).toarray())
     lines = {c.name: problem.line(z, k) for k, c in enumerate(cameras)}
     return LogBias(
-        knots,
-        z[2 * len(cameras) :].reshape(-1, 3),
-        posterior,
-        prior,
-        lines,
-        sensitivity,
-        converged,
-        information,
-        model,
+        knots, z[2 * len(cameras) :].reshape(-1, 3), posterior, prior, lines, sensitivity, converged, information, model
     )
 
 
