@@ -406,7 +406,8 @@ def _the_rival(
 
 def _log_error(model: LogModel, declared: LogModel, estimate: tuple[float, float] | None) -> dict | None:
     """timeline.json's log_error model: the model the sync used, which of its values were measured, the declared
-    preset (their prior), and the bias's marginal-likelihood estimate (recorded, not applied: fit_log_bias_measured)."""
+    preset (their prior), and the bias's marginal-likelihood estimate (applied only when it rejects the preset's bias:
+    fit_log_bias_measured)."""
     if model.white_m <= 0 and not model.has_bias:
         return None
     prior = {k: v for k, v in asdict(declared).items() if k != "measured"}
