@@ -330,7 +330,7 @@ RIVAL_PROBABILITY = 0.01  # ... unless the joint evidence (sync/solve/rival.py) 
 RIVAL_BAND_FRAMES = 300.0  # a line's intercept is profiled over at most this many frames either side
 SLOPE_OFF = 1.3  # motion slope / clock prior beyond this factor (either way): the clock is wrong
 DIRECTION_MIN = 0.5  # median cosine of tracked and projected velocities under a line below this: it moves another way
-PACE_OFF = 1.5  # the cameras' line speeds over their clock priors (geometric mean) beyond this: the log's time unit
+PACE_OFF = 1.6  # the cameras' line speeds over their clock priors (geometric mean) beyond this: the log's time unit
 
 
 def judge_line(
