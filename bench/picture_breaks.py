@@ -44,9 +44,10 @@ from data_fixtures.video import loop_positions, render_video
 from tlsync_pipeline.sync.identify.breaks import merged
 from trackers.breaks import Break, PictureMeter
 from trackers.tracking import detect_movers
-from trackers.video import presentation_times
+from trackers.video import keyframe_indices, presentation_times
 
 FPS = 25.0
+CRFS = (23, 28, 35)  # the compressed families' H.264 crf
 EDITS = {
     "restart, light 0.85": lambda at: BreakEdit("restart", at, 4500, light=0.85),
     "restart, light 0.9": lambda at: BreakEdit("restart", at, 4500, light=0.9),
@@ -62,7 +63,8 @@ def picture_breaks(path: Path) -> list[Break]:
     freeze, as for the sync stage: ``merged``)."""
     meter = PictureMeter()
     detect_movers(path, progress=False, meter=meter)
-    return list(merged(tuple(meter.breaks())))
+    keys = keyframe_indices(path)
+    return list(merged(tuple(meter.breaks(() if keys is None else keys))))
 
 
 def in_view_frames(in_view: np.ndarray, count: int = 3) -> list[int]:
@@ -77,7 +79,7 @@ def clean_videos(folder: Path, seeds: int) -> tuple[dict[str, list[Path]], dict[
         "camera": [],
         "camera, steady light": [],
         "phone (10 % jitter)": [],
-        "compressed (crf 35)": [],
+        **{f"compressed (crf {crf})": [] for crf in CRFS},
         "long": [],
         "crowd": [],
     }
@@ -92,7 +94,10 @@ def clean_videos(folder: Path, seeds: int) -> tuple[dict[str, list[Path]], dict[
         out["phone (10 % jitter)"].append(
             render_video(folder / f"phone{seed}.mp4", seed=seed, fps=FPS, jitter=0.1).path
         )
-        out["compressed (crf 35)"].append(render_video(folder / f"crf{seed}.mp4", seed=seed, fps=FPS, crf=35).path)
+        for crf in CRFS:
+            out[f"compressed (crf {crf})"].append(
+                render_video(folder / f"crf{crf}_{seed}.mp4", seed=seed, fps=FPS, crf=crf).path
+            )
         positions = loop_positions(1500, (320, 240))
         others = wandering_paths(np.random.default_rng(seed), 1500, (320, 240), 2.0, 2)
         out["long"].append(

@@ -31,9 +31,12 @@ the votes.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+
+from trackers.video import merge_windows
 
 GAP = 1.5  # an interval between presentation times longer than this many nominal intervals is a gap
 REPEAT = 0.5  # one shorter than this share of the nominal interval is a repeat
@@ -47,6 +50,13 @@ CUT_GAIN_FLICKER = 10.0  # video's own brightness steps (its flicker; a median i
 CUT_SPIKE = 3.0  # ... this many times the change of each of the two frames before it and the two after it ...
 REPEATED_PICTURE = 0.05  # %: a content step this small is the same picture again (its steps say nothing of flicker)
 CUT_HOLDS = 0.6  # ... and holding: the two frames after it differ from the two before it by this share of it
+
+SUSPECT_CONTENT = 1.5  # %: a change of content between keyframes read of this mean size ...
+SUSPECT_GAIN = 0.03  # ... or of brightness (|log ratio|), and KEYFRAME_SPIKE times the changes either side of it ...
+KEYFRAME_SPIKE = 2.0  # ... is read frame by frame: a cut may lie between the two keyframes
+STILL_PACKET = 0.1  # share of the median inter-coded packet (bytes): a packet this small may repeat a picture ...
+STILL_RUN = 2  # ... in a run of this many frames or more, read frame by frame
+CHECK_MARGIN = 3  # frames read either side of a suspect: the meter judges a break by the frames around it
 
 KINDS = ("gap", "repeat", "frozen", "drop", "cut")
 
@@ -138,13 +148,7 @@ class PictureMeter:
     def feed(self, index: int, gray: np.ndarray, movers: bool) -> None:
         """One luma frame (H, W, uint8) with its 0-based index, and whether the detector found a mover in it."""
         cv2 = self._cv2
-        h, w = gray.shape[:2]
-        width = min(CUT_WIDTH, w)
-        stride = max(1, w // (4 * CUT_WIDTH))  # every stride-th pixel: still 4 x 4 or more averaged into each one
-        sampled = gray[::stride, ::stride]
-        size = (width, max(1, round(h * width / w)))
-        small = cv2.resize(sampled, size, interpolation=cv2.INTER_AREA).astype(np.float32)
-        mean = max(float(small.mean()), 1.0)
+        small, mean = _small_plane(cv2, gray)
         if self._last is not None and self._last[0] == index - 1 and self._last[1].shape == gray.shape:
             self._frames.append(index)
             self._change.append(int(cv2.absdiff(gray, self._last[1]).max()))
@@ -157,13 +161,26 @@ class PictureMeter:
         self._small = [*self._small[-2:], (index, small, mean)]
         self._last = (index, gray)
 
-    def breaks(self) -> list[Break]:
-        """The frozen runs and the cuts, in frame order."""
+    def breaks(self, keyframes: Sequence[int] = ()) -> list[Break]:
+        """The frozen runs and the cuts, in frame order; keyframes: the video's keyframes (0-based frames), whose
+        pictures are coded afresh (``frozen_runs``)."""
         frames = np.array(self._frames, dtype=np.int64)
         step = np.array(self._step, dtype=np.float64).reshape(-1, 2)
         across = np.array(self._across, dtype=np.float64).reshape(-1, 2)
-        found = frozen_runs(frames, np.array(self._change, dtype=np.int64), np.array(self._movers, dtype=bool))
+        change = np.array(self._change, dtype=np.int64)
+        keyframe = np.isin(frames, np.asarray(keyframes, dtype=np.int64))
+        found = frozen_runs(frames, change, np.array(self._movers, dtype=bool), keyframe)
         return sorted(found + scene_cuts(frames, step, across), key=lambda b: b.frame)
+
+
+def _small_plane(cv2, gray: np.ndarray) -> tuple[np.ndarray, float]:
+    """The luma plane averaged down to CUT_WIDTH pixels wide (float32), and its mean (grey levels, at least 1)."""
+    h, w = gray.shape[:2]
+    width = min(CUT_WIDTH, w)
+    stride = max(1, w // (4 * CUT_WIDTH))  # every stride-th pixel: still 4 x 4 or more averaged into each one
+    size = (width, max(1, round(h * width / w)))
+    small = cv2.resize(gray[::stride, ::stride], size, interpolation=cv2.INTER_AREA).astype(np.float32)
+    return small, max(float(small.mean()), 1.0)
 
 
 def _picture_change(a: tuple[int, np.ndarray, float], b: tuple[int, np.ndarray, float]) -> tuple[float, float]:
@@ -211,17 +228,24 @@ def scene_cuts(frames: np.ndarray, step: np.ndarray, across: np.ndarray) -> list
     return out
 
 
-def frozen_runs(frames: np.ndarray, change: np.ndarray, movers: np.ndarray) -> list[Break]:
+def frozen_runs(
+    frames: np.ndarray, change: np.ndarray, movers: np.ndarray, keyframe: np.ndarray | None = None
+) -> list[Break]:
     """Frozen runs from each frame's largest change of a pixel since the previous frame (grey levels; frames
-    consecutive to the previous one only) and whether it holds a mover.
+    consecutive to the previous one only), whether it holds a mover and whether it is a keyframe.
 
     A run of frames changing no pixel by more than STILL_LEVELS, most of
     them holding a mover, is a freeze when the frames just before and just
     after it change some pixel by MOVING_LEVELS or more: a still scene coded
     at a low rate repeats its pictures too, and a freeze where nothing moves
-    cannot be told from it.
+    cannot be told from it. A keyframe changing no pixel by MOVING_LEVELS
+    may repeat the picture too: a repeated picture coded afresh differs
+    from the one before by the coding's noise (up to about 30 grey levels
+    at crf 20), not by the STILL_LEVELS of a picture predicted from it.
     """
     still = change <= STILL_LEVELS
+    if keyframe is not None:
+        still |= np.asarray(keyframe, dtype=bool) & (change < MOVING_LEVELS)
     moving = change >= MOVING_LEVELS
     out = []
     k = 0
@@ -242,3 +266,80 @@ def frozen_runs(frames: np.ndarray, change: np.ndarray, movers: np.ndarray) -> l
             out.append(Break("frozen", int(frames[k]), float(run - k + 1)))
         k = run + 1
     return out
+
+
+class KeyframeMeter:
+    """Where between the keyframes the scan stage reads a cut may lie, from the keyframes' small planes.
+
+    ``feed(index, gray)`` each keyframe read, in order; ``suspects()`` the
+    (previous keyframe, keyframe) pairs to read between (``keyframe_suspects``).
+    """
+
+    def __init__(self) -> None:
+        import cv2
+
+        self._cv2 = cv2
+        self._frames: list[int] = []
+        self._step: list[tuple[float, float]] = []
+        self._last: tuple[int, np.ndarray, float] | None = None
+
+    def feed(self, index: int, gray: np.ndarray) -> None:
+        """One keyframe's luma plane (H, W, uint8) and its 0-based frame."""
+        small, mean = _small_plane(self._cv2, gray)
+        if self._last is not None and self._last[1].shape == small.shape and self._last[0] < index:
+            self._frames.append(index)
+            self._step.append(_picture_change(self._last, (index, small, mean)))
+        self._last = (index, small, mean)
+
+    def suspects(self) -> list[tuple[int, int]]:
+        """(previous keyframe, keyframe) pairs, 0-based frames, between which a cut may lie."""
+        return keyframe_suspects(self._frames, np.array(self._step, dtype=np.float64).reshape(-1, 2))
+
+
+def keyframe_suspects(frames: list[int], step: np.ndarray) -> list[tuple[int, int]]:
+    """Pairs of consecutive keyframes read (the second's 0-based frame in ``frames``, the first's the entry before,
+    or the keyframe read before it for the first) whose change of picture (``step`` (N, 2): content %, brightness
+    |log ratio| from the keyframe read before) may hide a cut: at least SUSPECT_CONTENT or SUSPECT_GAIN and
+    KEYFRAME_SPIKE times the change into the keyframe before and out of the keyframe after (those that exist).
+
+    A suspect is only a place to read every frame: the PictureMeter judges it (``scene_cuts``).
+    """
+    step = np.asarray(step, dtype=np.float64).reshape(-1, 2)
+    floor = np.array([SUSPECT_CONTENT, SUSPECT_GAIN])
+    out = []
+    for k in range(1, len(frames)):
+        around = [step[j] for j in (k - 1, k + 1) if 0 < j < len(frames)]
+        spike = np.all([step[k] >= KEYFRAME_SPIKE * a for a in around], axis=0) if around else np.ones(2, bool)
+        if ((step[k] >= floor) & spike).any():
+            out.append((int(frames[k - 1]), int(frames[k])))
+    return out
+
+
+def still_packet_runs(sizes: np.ndarray, keyframe: np.ndarray) -> list[tuple[int, int]]:
+    """[start, stop) runs (0-based frames) of at least STILL_RUN frames whose packets are inter-coded and at most
+    STILL_PACKET of the median inter-coded packet (bytes): a picture repeated codes to almost nothing.
+
+    A run is only a place to read every frame: the PictureMeter judges it (``frozen_runs``).
+    """
+    sizes = np.asarray(sizes, dtype=np.float64)
+    keyframe = np.asarray(keyframe, dtype=bool)
+    inter = sizes[~keyframe]
+    if len(inter) == 0:
+        return []
+    tiny = np.concatenate([[False], (sizes <= STILL_PACKET * float(np.median(inter))) & ~keyframe, [False]])
+    edges = np.flatnonzero(np.diff(tiny.astype(np.int8)))
+    return [(int(a), int(b)) for a, b in zip(edges[::2], edges[1::2], strict=True) if b - a >= STILL_RUN]
+
+
+def check_spans(
+    suspects: list[tuple[int, int]], windows: tuple[tuple[int, int], ...], n_frames: int
+) -> tuple[tuple[int, int], ...]:
+    """[start, stop) spans of 0-based frames to read so that the PictureMeter judges each suspect (a [start, stop)
+    span, keyframe pair or still run): each widened by CHECK_MARGIN frames, clipped to the video, those inside a
+    window left out (read anyway), merged."""
+    spans = []
+    for start, stop in suspects:
+        a, b = max(0, start - CHECK_MARGIN), min(n_frames, stop + CHECK_MARGIN)
+        if b > a and not any(w0 <= a and b <= w1 for w0, w1 in windows):
+            spans.append((a, b))
+    return tuple(merge_windows(spans))

@@ -407,6 +407,30 @@ def presentation_times(path: str | Path) -> np.ndarray | None:
     return np.array([float(pts * base) for pts in pts_list])
 
 
+def packet_sizes(path: str | Path) -> tuple[np.ndarray, np.ndarray] | None:
+    """Bytes of every frame's packet and whether it is a keyframe, indexed as ``iter_frames`` numbers the frames
+    (demux only, no decoding).
+
+    None when the container has no timestamps.
+    """
+    import av
+
+    rows = []
+    with _open(Path(path)) as container:
+        stream = container.streams.video[0]
+        try:
+            for packet in container.demux(stream):
+                if packet.size == 0:
+                    continue
+                if packet.pts is None:
+                    return None
+                rows.append((packet.pts, packet.size, packet.is_keyframe))
+        except av.FFmpegError:
+            pass  # truncated: the packets that could be read
+    rows.sort()
+    return np.array([r[1] for r in rows], dtype=np.int64), np.array([r[2] for r in rows], dtype=bool)
+
+
 def _read_sequential(path: Path, wanted: list[int], gray: bool) -> dict[int, VideoFrame]:
     out = {}
     remaining = set(wanted)
