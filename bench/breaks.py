@@ -50,6 +50,7 @@ CASES = {
     "restart3min_parked": BreakEdit("restart", 15, int(180 * FPS), parked=True),
     "gap25_unvisited": BreakEdit("gap", 10, 25),
     "frozen25_at_end": BreakEdit("frozen", 180, 25),
+    "ends_at_180": BreakEdit("dropped", 180, 10),  # no break: the recording stops where frozen25_at_end's freezes
 }
 
 
