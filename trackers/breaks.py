@@ -94,6 +94,12 @@ class Break:
         return cls(str(entry["kind"]), int(entry["frame"]), float(entry["size"]))
 
 
+def repeated_frames(breaks: Sequence[Break]) -> np.ndarray:
+    """The 0-based frames of the frozen runs and repeated times among ``breaks``: they show no instant of their own."""
+    runs = [np.arange(b.frame, b.frame + max(round(b.size), 1)) for b in breaks if b.kind in ("frozen", "repeat")]
+    return np.concatenate(runs).astype(np.int64) if runs else np.zeros(0, np.int64)
+
+
 def container_breaks(times: np.ndarray, fps: float | None = None) -> list[Break]:
     """Gaps and repeats in a video's presentation times (s, one per frame in order).
 
