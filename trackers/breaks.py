@@ -284,47 +284,58 @@ def frozen_runs(
 class KeyframeMeter:
     """Where between the keyframes the scan stage reads a cut may lie, from the keyframes' small planes.
 
-    ``feed(index, gray)`` each keyframe read, in order; ``suspects()`` the
-    (previous keyframe, keyframe) pairs to read between (``keyframe_suspects``).
+    ``feed(index, gray)`` each keyframe read, in order within a pass (a
+    keyframe before the last one fed starts another pass: the coarse pass
+    reads the keyframes between in a second one); ``suspects()`` the
+    (previous keyframe, keyframe) pairs to read between
+    (``keyframe_suspects``), of every pass. Per keyframe it keeps three
+    numbers, and the last keyframe's small plane.
     """
 
     def __init__(self) -> None:
         import cv2
 
         self._cv2 = cv2
-        self._frames: list[int] = []
-        self._step: list[tuple[float, float]] = []
+        self._passes: list[tuple[list[int], list[tuple[float, float]]]] = []
         self._last: tuple[int, np.ndarray, float] | None = None
 
     def feed(self, index: int, gray: np.ndarray) -> None:
         """One keyframe's luma plane (H, W, uint8) and its 0-based frame."""
         small, mean = _small_plane(self._cv2, gray)
-        if self._last is not None and self._last[1].shape == small.shape and self._last[0] < index:
-            self._frames.append(index)
-            self._step.append(_picture_change(self._last, (index, small, mean)))
+        if self._last is None or self._last[0] >= index or self._last[1].shape != small.shape:
+            self._passes.append(([index], []))
+        else:
+            frames, steps = self._passes[-1]
+            frames.append(index)
+            steps.append(_picture_change(self._last, (index, small, mean)))
         self._last = (index, small, mean)
 
     def suspects(self) -> list[tuple[int, int]]:
-        """(previous keyframe, keyframe) pairs, 0-based frames, between which a cut may lie."""
-        return keyframe_suspects(self._frames, np.array(self._step, dtype=np.float64).reshape(-1, 2))
+        """(previous keyframe, keyframe) pairs, 0-based frames, between which a cut may lie, in frame order."""
+        found = {
+            pair
+            for frames, steps in self._passes
+            for pair in keyframe_suspects(frames, np.array(steps, dtype=np.float64).reshape(-1, 2))
+        }
+        return sorted(found)
 
 
 def keyframe_suspects(frames: list[int], step: np.ndarray) -> list[tuple[int, int]]:
-    """Pairs of consecutive keyframes read (the second's 0-based frame in ``frames``, the first's the entry before,
-    or the keyframe read before it for the first) whose change of picture (``step`` (N, 2): content %, brightness
-    |log ratio| from the keyframe read before) may hide a cut: at least SUSPECT_CONTENT or SUSPECT_GAIN and
-    KEYFRAME_SPIKE times the change into the keyframe before and out of the keyframe after (those that exist).
+    """Pairs of consecutive keyframes read (0-based ``frames``, in order) whose change of picture (``step``
+    (len(frames) - 1, 2): content %, brightness |log ratio| from each keyframe to the next) may hide a cut: at least
+    SUSPECT_CONTENT or SUSPECT_GAIN and KEYFRAME_SPIKE times the change into the pair's first keyframe and out of
+    its second (those that exist).
 
     A suspect is only a place to read every frame: the PictureMeter judges it (``scene_cuts``).
     """
     step = np.asarray(step, dtype=np.float64).reshape(-1, 2)
     floor = np.array([SUSPECT_CONTENT, SUSPECT_GAIN])
     out = []
-    for k in range(1, len(frames)):
-        around = [step[j] for j in (k - 1, k + 1) if 0 < j < len(frames)]
+    for k in range(len(step)):
+        around = [step[j] for j in (k - 1, k + 1) if 0 <= j < len(step)]
         spike = np.all([step[k] >= KEYFRAME_SPIKE * a for a in around], axis=0) if around else np.ones(2, bool)
         if ((step[k] >= floor) & spike).any():
-            out.append((int(frames[k - 1]), int(frames[k])))
+            out.append((int(frames[k]), int(frames[k + 1])))
     return out
 
 

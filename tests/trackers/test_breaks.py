@@ -4,6 +4,7 @@ import numpy as np
 
 from trackers.breaks import (
     Break,
+    KeyframeMeter,
     PictureMeter,
     check_spans,
     container_breaks,
@@ -170,8 +171,9 @@ def test_packets_coded_to_nothing_and_keyframe_jumps_are_spans_to_check():
     keyframe[0] = True
     assert still_packet_runs(sizes, keyframe) == [(21, 33)]  # the lone small packet is no run
     frames = [0, 60, 120, 180, 240, 300]
-    step = np.array([[1.0, 0.01], [1.1, 0.01], [6.0, 0.01], [1.0, 0.01], [1.2, 0.2], [1.0, 0.01]])
+    step = np.array([[1.0, 0.01], [6.0, 0.01], [1.0, 0.01], [1.2, 0.2], [1.0, 0.01]])
     assert keyframe_suspects(frames, step) == [(60, 120), (180, 240)]
+    assert keyframe_suspects(frames[:2], step[1:2]) == [(0, 60)]  # a lone step is judged by its floor alone
     windows = ((700, 900),)
     assert check_spans([(60, 120), (100, 130), (750, 760), (995, 1000)], windows, 998) == ((57, 133), (992, 998))
 
@@ -180,3 +182,21 @@ def test_the_frames_of_frozen_runs_and_repeated_times():
     breaks = [Break("frozen", 10, 3.0), Break("gap", 40, 5.0), Break("repeat", 50, 1.0), Break("cut", 60, 0.0)]
     assert repeated_frames(breaks).tolist() == [10, 11, 12, 50]
     assert repeated_frames([]).size == 0
+
+
+def test_the_keyframe_meter_judges_each_pass_of_the_coarse_pass_on_its_own():
+    """Keyframes 4 s apart, then those between in a second pass: a car leaving between frames 120 and 150 is a
+    suspect between the keyframes read either side of it, in each pass."""
+    rng = np.random.default_rng(0)
+    base = rng.integers(60, 200, (240, 320)).astype(np.uint8)
+    meter = KeyframeMeter()
+
+    def picture(index):
+        out = base.copy()
+        if index < 130:
+            out[100:140, 40:200] = 40  # a parked car, gone at frame 130
+        return out
+
+    for index in (*range(0, 301, 60), *range(30, 301, 60)):
+        meter.feed(index, picture(index))
+    assert meter.suspects() == [(90, 150), (120, 180)]
