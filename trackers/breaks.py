@@ -42,7 +42,7 @@ GAP = 1.5  # an interval between presentation times longer than this many nomina
 REPEAT = 0.5  # one shorter than this share of the nominal interval is a repeat
 STILL_LEVELS = 20  # grey levels: a frame no pixel of which differs from the previous frame's by more may repeat it
 MOVING_LEVELS = 40  # ... when the frames before and after it change some pixel by this much or more
-REPEATED_LEVELS = 2  # grey levels: a run holding a keyframe coded afresh repeats its picture within this elsewhere
+REPEATED_SHARE = 1 / 3  # a run holding a keyframe coded afresh repeats its picture exactly in this share of the rest
 
 CUT_WIDTH = 64  # px: the luma plane is averaged down to this width for cuts (sensor noise and far movers fade)
 CUT_CONTENT = 3.0  # %: a change of the picture's content (the plane over its mean) of this mean size ...
@@ -246,12 +246,12 @@ def frozen_runs(
     after it change some pixel by MOVING_LEVELS or more: a still scene coded
     at a low rate repeats its pictures too, and a freeze where nothing moves
     cannot be told from it. A keyframe changing no pixel by MOVING_LEVELS
-    may repeat the picture too, in a run whose other frames change no pixel
-    by more than REPEATED_LEVELS: a repeated picture coded afresh differs
+    may repeat the picture too, in a run REPEATED_SHARE of whose other
+    frames change no pixel at all: a repeated picture coded afresh differs
     from the one before by the coding's noise (up to about 30 grey levels
-    at crf 20), and the predicted frames around it repeat it exactly; a
-    still scene's re-coded noise moves some pixel further (3-10 levels at
-    crf 35).
+    at crf 20), and the frames predicted from it converge on it, repeating
+    it exactly; a still scene's noise, coded again each frame, changes
+    some pixel by 1-10 levels in most frames (crf 35).
     """
     still = change <= STILL_LEVELS
     recoded = np.zeros(len(change), dtype=bool)
@@ -274,7 +274,7 @@ def frozen_runs(
             and frames[k - 1] == frames[k] - 1
             and frames[run + 1] == frames[run] + 1
             and movers[k : run + 1].mean() >= 0.5
-            and (not recoded[k : run + 1].any() or change[k : run + 1][~recoded[k : run + 1]].max() <= REPEATED_LEVELS)
+            and (not recoded[k : run + 1].any() or _repeats_exactly(change[k : run + 1][~recoded[k : run + 1]]))
         ):
             out.append(Break("frozen", int(frames[k]), float(run - k + 1)))
         k = run + 1
@@ -367,3 +367,8 @@ def check_spans(
         if b > a and not any(w0 <= a and b <= w1 for w0, w1 in windows):
             spans.append((a, b))
     return tuple(merge_windows(spans))
+
+
+def _repeats_exactly(change: np.ndarray) -> bool:
+    """Whether REPEATED_SHARE or more of these frames change no pixel (grey levels since the previous frame)."""
+    return len(change) > 0 and np.count_nonzero(change == 0) >= REPEATED_SHARE * len(change)

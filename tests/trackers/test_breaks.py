@@ -147,10 +147,11 @@ def test_a_cut_in_words():
 
 
 def test_a_keyframe_coded_afresh_inside_a_freeze_does_not_split_it():
-    """A keyframe changes pixels by up to 30 levels when it codes a repeated picture afresh: inside a run that
-    repeats its picture exactly elsewhere it is part of the freeze; in a still scene whose noise moves a pixel by 3
-    to 10 levels (crf 35) it is not; a keyframe that moves by 40 levels is a moving frame."""
-    change = np.array([90] * 5 + [30] + [0] * 10 + [90] * 5)
+    """A keyframe changes pixels by up to 30 levels when it codes a repeated picture afresh: inside a run whose
+    frames converge on it (a third or more repeating it exactly) it is part of the freeze; in a still scene whose
+    noise moves a pixel by 1-10 levels in most frames (crf 35) it is not; a keyframe that moves by 40 levels is a
+    moving frame."""
+    change = np.array([90] * 5 + [30] + [4, 3, 4, 5] + [0] * 6 + [90] * 5)
     keyframe = np.zeros(len(change), bool)
     keyframe[5] = True
     movers = np.ones(len(change), bool)
@@ -158,7 +159,7 @@ def test_a_keyframe_coded_afresh_inside_a_freeze_does_not_split_it():
     assert frozen_runs(frames, change, movers) == []  # 30 levels: neither still nor moving, the run is not framed
     assert frozen_runs(frames, change, movers, keyframe) == [Break("frozen", 5, 11.0)]
     noisy = change.copy()
-    noisy[8:12] = [3, 9, 5, 2]
+    noisy[10:14] = [3, 9, 5, 2]
     assert frozen_runs(frames, noisy, movers, keyframe) == []
     moving = change.copy()
     moving[5] = 45
