@@ -168,7 +168,7 @@ class PictureMeter:
         self._small = [*self._small[-2:], (index, small, mean)]
         self._last = (index, gray)
 
-    def breaks(self, keyframes: Sequence[int] = ()) -> list[Break]:
+    def breaks(self, keyframes: Sequence[int] | np.ndarray = ()) -> list[Break]:
         """The frozen runs and the cuts, in frame order; keyframes: the video's keyframes (0-based frames), whose
         pictures are coded afresh (``frozen_runs``)."""
         frames = np.array(self._frames, dtype=np.int64)
@@ -371,4 +371,4 @@ def check_spans(
 
 def _repeats_exactly(change: np.ndarray) -> bool:
     """Whether REPEATED_SHARE or more of these frames change no pixel (grey levels since the previous frame)."""
-    return len(change) > 0 and np.count_nonzero(change == 0) >= REPEATED_SHARE * len(change)
+    return len(change) > 0 and bool(np.count_nonzero(change == 0) >= REPEATED_SHARE * len(change))
