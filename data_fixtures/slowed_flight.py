@@ -28,18 +28,26 @@ from trackers.track import Track
 @dataclass(frozen=True)
 class TimeWarp:
     """A piecewise-linear map from the original flight's time t to the slowed one's T (seconds from the log's first
-    fix): knots (t_k, T_k) with T increasing and t non-decreasing (t constant over a hover)."""
+    fix): knots (t_k, T_k) with T increasing and t non-decreasing (t constant over a hover), and ``slow`` times the
+    time beyond the knots."""
 
     t: np.ndarray
     warped: np.ndarray
+    slow: float
 
     def forward(self, t: np.ndarray | float) -> np.ndarray:
         """T of original times t (the start of a hover where one begins)."""
-        return np.interp(t, self.t, self.warped)
+        t = np.asarray(t, dtype=np.float64)
+        before, after = self.warped[0] + self.slow * (t - self.t[0]), self.warped[-1] + self.slow * (t - self.t[-1])
+        return np.where(t < self.t[0], before, np.where(t > self.t[-1], after, np.interp(t, self.t, self.warped)))
 
     def inverse(self, warped: np.ndarray | float) -> np.ndarray:
         """The original time t at slowed times T."""
-        return np.interp(warped, self.warped, self.t)
+        w = np.asarray(warped, dtype=np.float64)
+        before, after = self.t[0] + (w - self.warped[0]) / self.slow, self.t[-1] + (w - self.warped[-1]) / self.slow
+        return np.where(
+            w < self.warped[0], before, np.where(w > self.warped[-1], after, np.interp(w, self.warped, self.t))
+        )
 
 
 def time_warp(duration_s: float, slow: float, hover_s: float = 0.0, hover_every_s: float = 0.0) -> TimeWarp:
@@ -49,7 +57,7 @@ def time_warp(duration_s: float, slow: float, hover_s: float = 0.0, hover_every_
     t = np.concatenate([[0.0], np.repeat(hovers, 2), [duration_s]])
     held = np.concatenate([[0.0], np.tile([0.0, hover_s], len(hovers)), [0.0]])
     warped = slow * t + np.cumsum(held)
-    return TimeWarp(t, warped)
+    return TimeWarp(t, warped, slow)
 
 
 @dataclass(frozen=True)
