@@ -7,8 +7,9 @@ receiver's kind as a user would ([target] log_model; both phones `phone`).
 With ``--poses removed`` every camera's pose comes from the target.
 ``--slow K`` flies the same path K times slower and ``--hover S`` holds the
 drone still S seconds every HOVER_EVERY_S seconds of the flight
-(data_fixtures/slowed_flight.py): the slow flights a metre of bias turns into
-seconds. Per receiver and bias model (``--bias-model``): the runs where every
+(data_fixtures/slowed_flight.py), and ``--only-slower V`` cuts each track to
+where the drone flies slower than V m/s: the slow flights a metre of bias
+turns into seconds. Per receiver and bias model (``--bias-model``): the runs where every
 camera was synchronized, the median and max over runs of the worst and of the
 median synchronized pair's eps_t (frames, eq. 5), the share of synchronized
 pairs whose 95 % interval of beta contains the truth, the refused cameras
@@ -16,7 +17,7 @@ with their cause, the sync's CPU a run, and the process's peak resident
 memory. ``--runs`` prints every run. Skips cleanly when the folder is absent.
 
     nice python bench/real_flight_gps.py [--data /work/shared/real/drone2] [--seeds 8] [--models drone phone2]
-        [--bias-model on off] [--poses given|removed] [--slow 1] [--hover 0] [--runs]
+        [--bias-model on off] [--poses given|removed] [--slow 1] [--hover 0] [--only-slower V] [--runs]
 """
 
 from __future__ import annotations
@@ -34,7 +35,7 @@ from _report import pair_errors
 
 from data_fixtures.log_error import PRESETS as RECEIVERS
 from data_fixtures.log_error import log_errors
-from data_fixtures.slowed_flight import SlowedFlight, slowed_flight, time_warp
+from data_fixtures.slowed_flight import SlowedFlight, slow_part, slowed_flight, time_warp
 from tlsync_pipeline.pipeline.project import load_project
 from tlsync_pipeline.pipeline.stages.sync import load_inputs
 from tlsync_pipeline.sync.model.log_model import PRESETS as LOG_MODELS
@@ -46,9 +47,11 @@ Z95 = 1.959964
 HOVER_EVERY_S = 40.0  # seconds of the original flight between two hovers (--hover)
 
 
-def flight(data: Path, slow: float, hover_s: float, poses: str) -> tuple[SlowedFlight, object]:
-    """The flight (slowed and hovering as asked; the poses removed when ``poses`` is "removed") and its sync
-    parameters."""
+def flight(
+    data: Path, slow: float, hover_s: float, poses: str, only_slower: float | None = None
+) -> tuple[SlowedFlight, object]:
+    """The flight (slowed and hovering as asked, each track cut to where the target is slower than ``only_slower``
+    m/s when given; the poses removed when ``poses`` is "removed") and its sync parameters."""
     project = load_project(data / "project.toml")
     cameras, trajectory = load_inputs(project)
     _, n_frames = read_truth(data / "truth.json")
@@ -59,6 +62,8 @@ def flight(data: Path, slow: float, hover_s: float, poses: str) -> tuple[SlowedF
     assert trajectory.rate is not None
     warp = time_warp(float(trajectory.sample[-1]) / trajectory.rate, slow, hover_s, HOVER_EVERY_S)
     slowed = slowed_flight(cameras, trajectory, lines, n_frames, warp)
+    if only_slower is not None:
+        slowed = slow_part(slowed, only_slower)
     if poses == "removed":
         cams = {
             n: dataclasses.replace(
@@ -129,15 +134,20 @@ def main() -> None:
     parser.add_argument(
         "--hover", type=float, default=0.0, metavar="S", help=f"hold still S seconds every {HOVER_EVERY_S:g} s"
     )
+    parser.add_argument(
+        "--only-slower", type=float, default=None, metavar="V", help="cut each track to where the drone is slower (m/s)"
+    )
     parser.add_argument("--runs", action="store_true", help="print every run")
     args = parser.parse_args()
     if not (args.data / "project.toml").exists():
         print(f"{args.data}: no project.toml; skipped")
         sys.exit(0)
-    slowed, params = flight(args.data, args.slow, args.hover, args.poses)
+    slowed, params = flight(args.data, args.slow, args.hover, args.poses, args.only_slower)
+    tracks = f"cut to the drone slower than {args.only_slower:g} m/s" if args.only_slower else "whole"
     print(
         f"{args.data}, poses {args.poses}, {args.slow:g} times slower, hovers of {args.hover:g} s every "
-        f"{HOVER_EVERY_S:g} s; {args.seeds} simulated logs per receiver"
+        f"{HOVER_EVERY_S:g} s, tracks {tracks}; "
+        f"{args.seeds} simulated logs per receiver"
     )
     print(
         "| receiver | bias model | runs with every camera | cameras synchronized | median pair's eps_t, median "

@@ -123,3 +123,18 @@ def _resampled(track: Track, frames: np.ndarray, source: np.ndarray) -> Track:
     x = np.interp(source[keep], track.frame, track.x)
     y = np.interp(source[keep], track.frame, track.y)
     return Track(frames[keep].astype(np.int64), x, y)
+
+
+def slow_part(flight: SlowedFlight, max_speed: float) -> SlowedFlight:
+    """The flight with each camera's track cut to the frames where the target (by its true line, on the log) moves
+    slower than ``max_speed`` (metres per second): cameras that see only its hovers and slow stretches."""
+    log = flight.trajectory
+    assert log.rate is not None, "the log needs times"
+    speed = np.linalg.norm(np.gradient(log.xyz, axis=0), axis=1) * log.rate / np.gradient(log.sample)
+    cameras = {}
+    for name, inputs in flight.cameras.items():
+        track, line = inputs.track, flight.lines[name]
+        assert track is not None
+        keep = np.interp((track.frame - line.beta) / line.alpha, log.sample, speed) < max_speed
+        cameras[name] = replace(inputs, track=Track(track.frame[keep], track.x[keep], track.y[keep]))
+    return replace(flight, cameras=cameras)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from calibration.camera import Camera
-from data_fixtures.slowed_flight import slowed_flight, time_warp
+from data_fixtures.slowed_flight import slow_part, slowed_flight, time_warp
 from tlsync_pipeline.sync.solve.methods import CameraInput
 from tlsync_pipeline.sync.timeline import Relation
 from tlsync_pipeline.trajectory import Trajectory
@@ -67,3 +67,15 @@ def test_pairs_follow_the_lines():
     frame = np.array([0.0, 777.0])
     sample = (frame - out.lines["cam"].beta) / out.lines["cam"].alpha
     assert np.allclose(pair.alpha * frame + pair.beta, out.lines["b"].alpha * sample + out.lines["b"].beta)
+
+
+def test_slow_part_keeps_the_hovers_only():
+    cameras, log, lines, n_frames = flight()
+    hovering = slowed_flight(cameras, log, lines, n_frames, time_warp(79.8, 1.0, 10.0, 20.0))
+    out = slow_part(hovering, 0.5)
+    track, line = out.cameras["cam"].track, out.lines["cam"]
+    seconds = (track.frame - line.beta) / line.alpha / RATE
+    starts = (20.0, 50.0, 80.0)  # the hovers at 20, 40 and 60 s of the flight, each after the ones before
+    assert all(any(lo <= s <= lo + 10.0 for lo in starts) for s in seconds)
+    assert len(track) > 0.9 * 2 * 10.0 * 30.0  # nearly every frame of the two hovers the video spans (30 fps)
+    assert len(track) < 0.5 * len(hovering.cameras["cam"].track)
