@@ -3,86 +3,174 @@
 The flight's cameras, tracks and truth are real; its RTK trajectory gets, per
 seed, the errors of a receiver of data_fixtures/log_error.py (a Gauss-Markov
 bias plus white noise, at the log's own samples), and the sync is told the
-receiver's kind as a user would ([target] log_model). Per receiver, with and
-without the bias model: the median and max over seeds of the worst
-synchronized pair's eps_t (frames, eq. 5), the share of synchronized pairs
-whose 95 % interval of beta contains the truth, and the seeds where a camera
-was refused. Skips cleanly when the folder is absent.
+receiver's kind as a user would ([target] log_model; both phones `phone`).
+With ``--poses removed`` every camera's pose comes from the target.
+``--slow K`` flies the same path K times slower and ``--hover S`` holds the
+drone still S seconds every HOVER_EVERY_S seconds of the flight
+(data_fixtures/slowed_flight.py), and ``--only-slower V`` cuts each track to
+where the drone flies slower than V m/s: the slow flights a metre of bias
+turns into seconds. Per receiver and bias model (``--bias-model``): the runs where every
+camera was synchronized, the median and max over runs of the worst and of the
+median synchronized pair's eps_t (frames, eq. 5), the share of synchronized
+pairs whose 95 % interval of beta contains the truth, the refused cameras
+with their cause, the sync's CPU a run, and the process's peak resident
+memory. ``--runs`` prints every run. Skips cleanly when the folder is absent.
 
-    nice python bench/real_flight_gps.py [--data /work/shared/real/drone2] [--seeds 8] [--models drone phone]
+    nice python bench/real_flight_gps.py [--data /work/shared/real/drone2] [--seeds 8] [--models drone phone2]
+        [--bias-model on off] [--poses given|removed] [--slow 1] [--hover 0] [--only-slower V] [--runs]
 """
 
 from __future__ import annotations
 
 import argparse
 import dataclasses
+import json
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
+from _memory import peak_rss_mb
 from _report import pair_errors
 
 from data_fixtures.log_error import PRESETS as RECEIVERS
 from data_fixtures.log_error import log_errors
+from data_fixtures.slowed_flight import SlowedFlight, slow_part, slowed_flight, time_warp
 from tlsync_pipeline.pipeline.project import load_project
 from tlsync_pipeline.pipeline.stages.sync import load_inputs
 from tlsync_pipeline.sync.model.log_model import PRESETS as LOG_MODELS
 from tlsync_pipeline.sync.solve.synchronize import synchronize
-from tlsync_pipeline.sync.timeline import read_truth
+from tlsync_pipeline.sync.timeline import Relation, read_truth
 
 DEFAULT = Path("/work/shared/real/drone2")
 Z95 = 1.959964
+HOVER_EVERY_S = 40.0  # seconds of the original flight between two hovers (--hover)
 
 
-def run(data: Path, receiver: str, seeds: int, bias_model: bool) -> dict:
-    """The figures of one receiver over ``seeds`` simulated logs."""
+def flight(
+    data: Path, slow: float, hover_s: float, poses: str, only_slower: float | None = None
+) -> tuple[SlowedFlight, object]:
+    """The flight (slowed and hovering as asked, each track cut to where the target is slower than ``only_slower``
+    m/s when given; the poses removed when ``poses`` is "removed") and its sync parameters."""
     project = load_project(data / "project.toml")
     cameras, trajectory = load_inputs(project)
-    truth, n_frames = read_truth(data / "truth.json")
-    params = dataclasses.replace(project.sync, log_bias=bias_model)
-    declared = LOG_MODELS["phone" if receiver.startswith("phone") else receiver]
-    worst, z, refused = [], [], 0
-    for seed in range(seeds):
-        errors, _ = log_errors(np.random.default_rng(seed), trajectory.sample / trajectory.rate, RECEIVERS[receiver])
-        timeline, _ = synchronize(
-            cameras, dataclasses.replace(trajectory, xyz=trajectory.xyz + errors), params, log_model=declared
-        )
-        refused += len(timeline.cameras) < len(cameras)
-        pairs = pair_errors(timeline, truth, n_frames)
-        z += [score for _, score in pairs]
-        worst.append(max((e for e, _ in pairs), default=np.nan))
-    return {
-        "median": float(np.nanmedian(worst)),
-        "max": float(np.nanmax(worst)),
-        "coverage": float(np.mean(np.array(z) <= Z95)),
-        "pairs": len(z),
-        "refused": refused,
+    _, n_frames = read_truth(data / "truth.json")
+    lines = {
+        name: Relation(float(line["alpha"]), float(line["beta"]))
+        for name, line in json.loads((data / "truth.json").read_text())["cameras_to_target"].items()
     }
+    assert trajectory.rate is not None
+    warp = time_warp(float(trajectory.sample[-1]) / trajectory.rate, slow, hover_s, HOVER_EVERY_S)
+    slowed = slowed_flight(cameras, trajectory, lines, n_frames, warp)
+    if only_slower is not None:
+        slowed = slow_part(slowed, only_slower)
+    if poses == "removed":
+        cams = {
+            n: dataclasses.replace(
+                c,
+                camera=dataclasses.replace(c.camera, R=np.eye(3), t=np.zeros(3), to_estimate=("pose",), pose_info=None),
+            )
+            for n, c in slowed.cameras.items()
+        }
+        slowed = dataclasses.replace(slowed, cameras=cams)
+    return slowed, project.sync
+
+
+def run_one(slowed: SlowedFlight, sync_params, receiver: str, seed: int, bias_model: bool) -> dict:
+    """One simulated log of ``receiver``: the sync's figures against the truth."""
+    trajectory = slowed.trajectory
+    errors, _ = log_errors(np.random.default_rng(seed), trajectory.sample / trajectory.rate, RECEIVERS[receiver])
+    declared = LOG_MODELS["phone" if receiver.startswith("phone") else receiver]
+    params = dataclasses.replace(sync_params, log_bias=bias_model)
+    started = time.process_time()
+    timeline, _ = synchronize(
+        slowed.cameras, dataclasses.replace(trajectory, xyz=trajectory.xyz + errors), params, log_model=declared
+    )
+    seconds = time.process_time() - started
+    pairs = pair_errors(timeline, slowed.pairs(), slowed.n_frames)
+    eps = [e for e, _ in pairs]
+    return {
+        "seed": seed,
+        "synchronized": len(timeline.cameras),
+        "cameras": len(slowed.cameras),
+        "worst": max(eps, default=np.nan),
+        "median": float(np.median(eps)) if eps else np.nan,
+        "z": [score for _, score in pairs],
+        "refused": {name: _cause(why) for name, why in timeline.failed.items()},
+        "cpu_s": seconds,
+    }
+
+
+def _cause(why: str) -> str:
+    """The first reason of a refusal, short."""
+    text = why.split(": ", 1)[-1]
+    return text if len(text) <= 110 else text[:107] + "..."
+
+
+def summary(receiver: str, bias_model: bool, runs: list[dict]) -> str:
+    """One table row over the runs."""
+    z = np.array([s for r in runs for s in r["z"]])
+    every = sum(r["synchronized"] == r["cameras"] for r in runs)
+    worst, median = np.array([r["worst"] for r in runs]), np.array([r["median"] for r in runs])
+    refused = "; ".join(f"seed {r['seed']} {n}: {why}" for r in runs for n, why in r["refused"].items()) or "-"
+    return (
+        f"| {receiver} | {'on' if bias_model else 'off'} | {every} / {len(runs)} | "
+        f"{sum(r['synchronized'] for r in runs)} / {sum(r['cameras'] for r in runs)} | "
+        f"{np.nanmedian(median):.2f} ({np.nanmax(median):.2f}) | {np.nanmedian(worst):.2f} ({np.nanmax(worst):.2f}) | "
+        f"{100 * np.mean(z <= Z95):.0f} % of {len(z)} | {np.median([r['cpu_s'] for r in runs]):.1f} | {refused} |"
+    )
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--data", type=Path, default=DEFAULT)
     parser.add_argument("--seeds", type=int, default=8)
-    parser.add_argument("--models", nargs="+", default=["drone", "phone"], choices=[m for m in RECEIVERS if m != "rtk"])
+    parser.add_argument(
+        "--models", nargs="+", default=["drone", "phone2"], choices=[m for m in RECEIVERS if m != "rtk"]
+    )
+    parser.add_argument("--bias-model", nargs="+", default=["off", "on"], choices=["off", "on"])
+    parser.add_argument("--poses", default="given", choices=["given", "removed"])
+    parser.add_argument("--slow", type=float, default=1.0, help="fly the path this many times slower")
+    parser.add_argument(
+        "--hover", type=float, default=0.0, metavar="S", help=f"hold still S seconds every {HOVER_EVERY_S:g} s"
+    )
+    parser.add_argument(
+        "--only-slower", type=float, default=None, metavar="V", help="cut each track to where the drone is slower (m/s)"
+    )
+    parser.add_argument("--runs", action="store_true", help="print every run")
     args = parser.parse_args()
     if not (args.data / "project.toml").exists():
         print(f"{args.data}: no project.toml; skipped")
         sys.exit(0)
-    print(f"{args.data}, {args.seeds} simulated logs per receiver")
+    slowed, params = flight(args.data, args.slow, args.hover, args.poses, args.only_slower)
+    tracks = f"cut to the drone slower than {args.only_slower:g} m/s" if args.only_slower else "whole"
     print(
-        "| receiver | bias model | median worst eps_t | max | 95 % intervals that contain the truth | synchronized "
-        "pairs | seeds with a camera refused |"
+        f"{args.data}, poses {args.poses}, {args.slow:g} times slower, hovers of {args.hover:g} s every "
+        f"{HOVER_EVERY_S:g} s, tracks {tracks}; "
+        f"{args.seeds} simulated logs per receiver"
     )
-    print("|---|---|---|---|---|---|---|")
+    print(
+        "| receiver | bias model | runs with every camera | cameras synchronized | median pair's eps_t, median "
+        "(max) | worst pair's eps_t, median (max) | 95 % intervals that contain the truth | sync CPU a run (s) | "
+        "refused (cause) |"
+    )
+    print("|---|---|---|---|---|---|---|---|---|")
     for receiver in args.models:
-        for bias_model in (False, True):
-            s = run(args.data, receiver, args.seeds, bias_model)
-            print(
-                f"| {receiver} | {'on' if bias_model else 'off'} | {s['median']:.2f} | {s['max']:.2f} | "
-                f"{100 * s['coverage']:.0f} % | {s['pairs']} | {s['refused']} |",
-                flush=True,
-            )
+        for bias in args.bias_model:
+            runs = []
+            for seed in range(args.seeds):
+                runs.append(run_one(slowed, params, receiver, seed, bias == "on"))
+                if args.runs:
+                    r = runs[-1]
+                    print(
+                        f"  {receiver} bias {bias} seed {seed}: {r['synchronized']}/{r['cameras']}, median "
+                        f"{r['median']:.2f}, worst {r['worst']:.2f}, covered {sum(s <= Z95 for s in r['z'])}/"
+                        f"{len(r['z'])}, {r['cpu_s']:.0f} s, {r['refused'] or ''}",
+                        file=sys.stderr,
+                        flush=True,
+                    )
+            print(summary(receiver, bias == "on", runs), flush=True)
+    print(f"Peak resident memory of this bench's process: {peak_rss_mb():.0f} MB.")
 
 
 if __name__ == "__main__":

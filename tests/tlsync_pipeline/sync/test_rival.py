@@ -197,3 +197,28 @@ def test_a_camera_whose_two_lines_are_one_pass_is_synchronized_the_truth_in_its_
     error = abs((line.alpha - truth.alpha) * middle + line.beta - truth.beta)
     se = float(np.sqrt(np.array([middle, 1.0]) @ line.cov @ np.array([middle, 1.0])))
     assert error <= 1.96 * se
+
+
+def test_a_rival_within_one_pass_band_is_weighed_and_taken_when_the_track_prefers_it():
+    """The line search's best line is the wrong end of one pass's band of votes (1.5 profile bands off the truth),
+    its rival on the truth: weighed, the rival wins (the camera is refitted on it), and nothing is refused."""
+    from tlsync_pipeline.sync.model.clock import image_speed
+
+    camera, track, clock, path, truth, _ = _scene(laps=1)
+    eps_px = 120.0
+    band = eps_px / image_speed(clock, track.xy, quantile=0.5)
+    best = (truth[0], truth[1] + 1.5 * band)
+    assert 1.0 * FPS < 1.5 * band < 2.0 * band  # apart more than a second, within the refusal's band
+    odds = rival_odds_of(camera, track, clock, path, _line(best, truth), eps_px, FPS, PRESETS["phone"], RATE)
+    assert odds is not None and odds.rival_probability > 1 - RIVAL_PROBABILITY
+    assert _rival(_line(best, truth, odds.rival_probability), track, clock, FPS, eps_px, RATE) is None
+
+
+def test_a_wide_profile_stays_on_the_line_the_track_fits():
+    """Profiled over +-10 s, each intercept's fit is compared at one scale: the best line's profile stays within a
+    second of the truth instead of drifting to an intercept whose every block is far off (as good at its own scale)."""
+    camera, track, clock, path, truth, _ = _scene(laps=2)
+    rival = (truth[0], truth[1] - LAP_S * RATE * truth[0])
+    odds = rival_odds(camera, clock, track.xy, path, truth, rival, PRESETS["phone"], FPS, RATE, 10.0 * FPS)
+    assert abs(odds.best.beta - truth[1]) <= 1.0 * FPS
+    assert abs(odds.rival.beta - rival[1]) <= 1.0 * FPS

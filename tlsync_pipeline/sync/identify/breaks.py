@@ -72,8 +72,9 @@ def vote_break(
     if off.size < MIN_RIVAL_FRAMES:
         return None
     bins = np.floor(r[off] / delta).astype(np.int64)
-    pairs = np.unique(np.column_stack([bins, frame[off].astype(np.int64)]), axis=0)
-    keys, counts = np.unique(pairs[:, 0], return_counts=True)
+    lowest, frames = int(bins.min()), int(frame[off].max()) + 1
+    pairs = np.unique((bins - lowest) * frames + frame[off].astype(np.int64))  # (window, frame) as one int64 key
+    keys, counts = np.unique(pairs // frames + lowest, return_counts=True)
     near = (
         counts + np.append(counts[1:] * (np.diff(keys) == 1), 0) + np.insert(counts[:-1] * (np.diff(keys) == 1), 0, 0)
     )

@@ -524,11 +524,13 @@ def _off_path(evidence: LineEvidence, eps_px: float, why: str = "") -> Reason:
     )
 
 
-def _rival_apart(line, track: Track, clock: np.ndarray, fps: float | None, eps_px: float) -> float | None:
+def _rival_apart(
+    line, track: Track, clock: np.ndarray, fps: float | None, eps_px: float, beyond_band: bool = True
+) -> float | None:
     """How far (clock units, median over the tracked frames) the line search's rival lies from its line, when it has
-    comparable support (RIVAL_RATIO) and lies apart: further than RIVAL_SECONDS, and further than the target takes to
-    cross the band of one pass's votes (+-eps_px, the vote radius) in the image: within it, the log's error moves the
-    line as far (the same pass, not a second one). None otherwise."""
+    comparable support (RIVAL_RATIO) and lies apart: further than RIVAL_SECONDS, and (``beyond_band``) further than
+    the target takes to cross the band of one pass's votes (+-eps_px, the vote radius) in the image: within it, the
+    log's error moves the line as far (the same pass, not a second one). None otherwise."""
     search = line.line_search
     if search is None or search.rival_alpha is None or search.runner_up_frames < RIVAL_RATIO * search.support_frames:
         return None
@@ -536,7 +538,7 @@ def _rival_apart(line, track: Track, clock: np.ndarray, fps: float | None, eps_p
     sample = (clock - search.beta) / search.alpha
     apart = float(np.median(np.abs(search.rival_alpha * sample + search.rival_beta - clock)))
     speed = image_speed(clock, track.xy, quantile=0.5)
-    if speed is not None and apart <= 2.0 * eps_px / speed:  # within the band one pass's votes span (+-eps_px)
+    if beyond_band and speed is not None and apart <= 2.0 * eps_px / speed:  # within one pass's band (+-eps_px)
         return None
     if (apart / fps <= RIVAL_SECONDS) if fps else (apart / line.alpha <= RIVAL_SAMPLES):
         return None
@@ -555,11 +557,14 @@ def rival_odds_of(
     rate: float | None,
 ) -> RivalOdds | None:
     """The rival's posterior against the line search's line on the camera's whole track, the log's bias absorbed
-    (sync/solve/rival.py), when the rival passes the support and distance gates of ``_rival``; None otherwise.
+    (sync/solve/rival.py), when the rival has comparable support and lies further than RIVAL_SECONDS
+    (``_rival_apart``); None otherwise. A rival within the band of one pass's votes is weighed too: it makes no
+    refusal (``_rival``), but where the whole track prefers it the camera is refitted on it (a hovering target's
+    band spans tens of seconds, and the line search's best line there may be the wrong end of it).
 
     Each line's intercept is profiled over the band one pass's votes span (eps_px over the image speed, in clock units).
     """
-    if _rival_apart(line, track, clock, fps, eps_px) is None:
+    if _rival_apart(line, track, clock, fps, eps_px, beyond_band=False) is None:
         return None
     search = line.line_search
     speed = image_speed(np.asarray(clock, dtype=np.float64), track.xy, quantile=0.5) or 1.0

@@ -164,11 +164,14 @@ class _Context:
         self.count = np.bincount(block, minlength=self.blocks).astype(np.float64)
 
     def profile(self, alpha: float, beta: float, band: float) -> _Fit:
-        """The intercept within +-band of beta whose bias-corrected fit has the least loss at its own scale."""
+        """The intercept within +-band of beta whose bias-corrected fit has the least loss at the scale of the
+        intercepts' best fit (each at its own scale, a fit whose every block is far off would look as good)."""
         fits = [self.fit(alpha, b) for b in beta + np.linspace(-band, band, 2 * PROFILE_STEPS + 1)]
-        return min(
-            fits, key=lambda f: self.score(f, max(MIN_SCALE_PX, f.scale))[0].score if np.isfinite(f.scale) else np.inf
-        )
+        scales = [f.scale for f in fits if np.isfinite(f.scale)]
+        if not scales:
+            return fits[PROFILE_STEPS]
+        scale = max(MIN_SCALE_PX, min(scales))
+        return min(fits, key=lambda f: self.score(f, scale)[0].score if np.isfinite(f.scale) else np.inf)
 
     def _mean(self, values: np.ndarray) -> np.ndarray:
         """Per-block mean of per-frame rows."""
