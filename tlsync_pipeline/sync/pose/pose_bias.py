@@ -56,10 +56,11 @@ class VisitBias:
     unabsorbed_m: float
 
     @classmethod
-    def over(cls, clock: np.ndarray, fps: float, model: LogModel) -> VisitBias:
-        """The bias over positions at clock values ``clock`` (frame units) of a camera at ``fps`` under ``model``."""
+    def over(cls, clock: np.ndarray, fps: float, model: LogModel, knot_s: float = KNOT_S) -> VisitBias:
+        """The bias over positions at clock values ``clock`` (frame units) of a camera at ``fps`` under ``model``, its
+        knots at most ``knot_s`` seconds apart."""
         span_s = float(np.ptp(clock)) / fps
-        count = max(2, int(np.ceil(span_s / KNOT_S)) + 1)
+        count = max(2, int(np.ceil(span_s / knot_s)) + 1)
         knots = np.linspace(float(clock.min()), float(clock.max()) + 1e-9, count)
         left, right, weight = interpolation_parts(clock, knots)
         sigma = np.array([model.bias_m, model.bias_m, model.bias_vertical_m])

@@ -8,12 +8,15 @@ judged by how well it explains the whole track: under the line
 clock = alpha x sample + beta, each tracked frame's sample is the logged
 path's point; that point, moved by a bias of the log, is projected and
 compared with the tracked position. The bias is what the log's error model
-allows (sync/model/log_model.py): a Gauss-Markov bias, so over the visit a
-constant b0 (std sigma per axis) plus a drift b1 x (t - t_mid) / T (the
-change over the visit's length T: std sigma sqrt(2 (1 - exp(-T / tau)))).
-It is fitted for each line (Gauss-Newton, iteratively reweighted), with its
-prior; so are a few intercepts around each line (the band the vote radius
-spans: the line search's line is only as close as its votes).
+allows (sync/model/log_model.py): a Gauss-Markov bias, linear between knots
+a correlation time apart over the visit under the process's prior, the knots
+correlated as it has them (sync/pose/pose_bias.py's VisitBias; a constant
+for a camera of unknown fps). Finer knots bend a wrong line onto the track
+as well as the right one (on phone walk scenes, a quarter of a correlation
+time left rivals of two cameras above 1 %). It is fitted for
+each line (Gauss-Newton, iteratively reweighted), with its prior; so are a
+few intercepts around each line (the band the vote radius spans: the line
+search's line is only as close as its votes).
 
 The track's frames are grouped in blocks of BLOCK_S seconds (at least one
 interval between two fixes of the log): frames of a block share the log's
@@ -43,12 +46,13 @@ then refitted on the rival's votes).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from calibration.camera import Camera
 from tlsync_pipeline.sync.model.log_model import LogModel
+from tlsync_pipeline.sync.pose.pose_bias import VisitBias
 from tlsync_pipeline.trajectory import PiecewiseTrajectory
 
 BLOCK_S = 1.0  # seconds of the camera's clock a block of frames spans (at least one fix interval of the log)
@@ -115,16 +119,7 @@ def rival_odds(
         per_block = max(per_block, fps / rate)  # at least one interval between fixes
     block = np.floor((clock - clock.min()) / per_block).astype(np.int64)
     block = np.unique(block, return_inverse=True)[1].ravel()
-    seconds = (clock - np.median(clock)) / fps if fps else None
-    span = float(np.ptp(seconds)) if seconds is not None else 0.0
-    sigma = bias_sigmas(model)
-    drift = (
-        sigma * math.sqrt(2.0 * (1.0 - math.exp(-span / model.tau_s)))
-        if seconds is not None and span > 0
-        else np.zeros(3)
-    )
-    prior = np.r_[sigma, np.maximum(drift, 1e-6)]
-    context = _Context(camera, path, clock, xy, block, None if seconds is None else seconds / max(span, 1e-9), prior)
+    context = _Context(camera, path, clock, xy, block, _visit_bias(clock, fps, model))
     fits = [context.profile(alpha, beta, band_frames) for alpha, beta in (best, rival)]
     scale = max(MIN_SCALE_PX, min(f.scale for f in fits))
     (best_score, best_loss), (rival_score, rival_loss) = (context.score(f, scale) for f in fits)
@@ -139,29 +134,34 @@ def rival_odds(
     return RivalOdds(best_score, rival_score, probability)
 
 
+def _visit_bias(clock: np.ndarray, fps: float | None, model: LogModel) -> VisitBias:
+    """The log's bias over the track's frames at clock values ``clock``: knots a correlation time apart under the
+    model's Gauss-Markov prior, its std at least BIAS_FLOOR_M; one constant knot when the fps, hence the visit's
+    seconds, is unknown."""
+    sigma = bias_sigmas(model)
+    if not fps:
+        none = np.zeros(len(clock), dtype=np.int64)
+        return VisitBias(none, none, np.zeros(len(clock)), np.diag(1.0 / sigma**2), 0.0)
+    floored = replace(model, bias_m=float(sigma[0]), bias_vertical_m=float(sigma[2]))
+    return VisitBias.over(clock, fps, floored, max(model.tau_s, BLOCK_S))
+
+
 @dataclass(frozen=True)
 class _Fit:
     beta: float
     residual: np.ndarray  # (B, 2) block mean residuals (pixels), NaN for blocks outside the log
-    bias: np.ndarray  # (6,) b0 then b1
+    bias: np.ndarray  # (K, 3) the bias at the knots (metres; minus the log's error)
     scale: float  # robust scale of the inside blocks' residuals
 
 
 class _Context:
     """One camera's track and the log's path, for scoring lines."""
 
-    def __init__(self, camera, path, clock, xy, block, u, prior):
-        self.camera, self.path, self.clock, self.xy, self.block, self.u, self.prior = (
-            camera,
-            path,
-            clock,
-            xy,
-            block,
-            u,
-            prior,
-        )
+    def __init__(self, camera, path, clock, xy, block, bias: VisitBias):
+        self.camera, self.path, self.clock, self.xy, self.block, self.bias = camera, path, clock, xy, block, bias
         self.blocks = int(block.max()) + 1
         self.count = np.bincount(block, minlength=self.blocks).astype(np.float64)
+        self.middle = int(np.argmin(np.abs(clock - np.median(clock))))  # the frame at the visit's middle
 
     def profile(self, alpha: float, beta: float, band: float) -> _Fit:
         """The intercept within +-band of beta whose bias-corrected fit has the least loss at the scale of the
@@ -180,44 +180,56 @@ class _Context:
             out[:, k] = np.bincount(self.block, values[:, k], minlength=self.blocks)
         return out / self.count[:, None]
 
+    def _at_frames(self, values: np.ndarray) -> np.ndarray:
+        """(N, 3) the bias at each frame from its (K, 3) knot values."""
+        u = self.bias.weight[:, None]
+        return (1.0 - u) * values[self.bias.left] + u * values[self.bias.right]
+
+    def _block_jacobian(self, d: np.ndarray) -> np.ndarray:
+        """(B, 2, 3K) per-block mean of the pixels' derivative in the knots' values, from (N, 2, 3) pixels per metre."""
+        knots = self.bias.knots
+        out = np.zeros(self.blocks * knots * 6)
+        for index, share in ((self.bias.left, 1.0 - self.bias.weight), (self.bias.right, self.bias.weight)):
+            flat = ((self.block * knots + index)[:, None] * 6 + np.arange(6)).ravel()
+            out += np.bincount(flat, (d.reshape(-1, 6) * share[:, None]).ravel(), minlength=len(out))
+        jac = out.reshape(self.blocks, knots, 2, 3).transpose(0, 2, 1, 3).reshape(self.blocks, 2, 3 * knots)
+        return jac / self.count[:, None, None]
+
     def fit(self, alpha: float, beta: float) -> _Fit:
-        """The bias (b0, b1) of the line fitted by iteratively reweighted Gauss-Newton with its prior."""
+        """The bias at the knots of the line, fitted by iteratively reweighted Gauss-Newton with its prior."""
         s = (self.clock - beta) / alpha
         run = self.path.run_of(s)
         inside = run >= 0
+        bias = np.zeros((self.bias.knots, 3))
         if inside.sum() < 2:
-            return _Fit(beta, np.full((self.blocks, 2), np.nan), np.zeros(6), np.inf)
+            return _Fit(beta, np.full((self.blocks, 2), np.nan), bias, np.inf)
         point = np.full((len(s), 3), np.nan)
         point[inside] = self.path(s[inside], run[inside])
-        u = np.zeros(len(s)) if self.u is None else self.u
-        bias = np.zeros(6)
-        weight = np.ones(self.blocks)
         block_inside = np.bincount(self.block[inside], minlength=self.blocks) == self.count
+        precision = self.bias.precision
         residual = np.full((self.blocks, 2), np.nan)
         scale = np.inf
         for _ in range(IRLS_ROUNDS):
-            moved = point + bias[:3] + u[:, None] * bias[3:]  # the log corrected: bias is minus the log's error
-            uv, valid = self.camera.project(np.nan_to_num(moved))
+            moved = np.nan_to_num(point + self._at_frames(bias))  # the log corrected: bias is minus the log's error
+            uv, valid = self.camera.project(moved)
             r = self.xy - uv
             ok = block_inside & (np.bincount(self.block[valid & inside], minlength=self.blocks) == self.count)
-            jac = np.zeros((len(s), 2, 6))
+            d = np.zeros((len(s), 2, 3))
             for a in range(3):
                 step = np.zeros(3)
                 step[a] = JACOBIAN_STEP_M
-                plus, _ = self.camera.project(np.nan_to_num(moved) + step)
-                d = (plus - uv) / JACOBIAN_STEP_M
-                jac[:, :, a] = d
-                jac[:, :, 3 + a] = d * u[:, None]
+                plus, _ = self.camera.project(moved + step)
+                d[:, :, a] = (plus - uv) / JACOBIAN_STEP_M
             residual = np.where(ok[:, None], self._mean(np.nan_to_num(r)), np.nan)
             if ok.sum() < 2:
                 return _Fit(beta, residual, bias, np.inf)
             scale = _robust_scale(residual[ok])
-            j_block = self._mean(np.nan_to_num(jac.reshape(len(s), 12))).reshape(self.blocks, 2, 6)[ok]
+            j_block = self._block_jacobian(np.nan_to_num(d))[ok]
             z2 = np.sum(residual[ok] ** 2, axis=1) / max(scale, MIN_SCALE_PX) ** 2
             weight = (STUDENT_DOF + 2.0) / (STUDENT_DOF + z2) / max(scale, MIN_SCALE_PX) ** 2
-            normal = np.einsum("b,bij,bik->jk", weight, j_block, j_block) + np.diag(1.0 / self.prior**2)
-            rhs = np.einsum("b,bij,bi->j", weight, j_block, residual[ok]) - bias / self.prior**2
-            bias = bias + np.linalg.solve(normal, rhs)
+            normal = np.einsum("b,bij,bik->jk", weight, j_block, j_block) + precision
+            rhs = np.einsum("b,bij,bi->j", weight, j_block, residual[ok]) - precision @ bias.ravel()
+            bias = bias + np.linalg.solve(normal, rhs).reshape(-1, 3)
         return _Fit(beta, residual, bias, scale)
 
     def score(self, fit: _Fit, scale: float) -> tuple[LineScore, np.ndarray]:
@@ -226,9 +238,11 @@ class _Context:
         inside = np.isfinite(fit.residual[:, 0])
         z2 = np.where(inside, np.sum(np.nan_to_num(fit.residual) ** 2, axis=1) / scale**2, OUTSIDE_Z**2)
         loss = 0.5 * (STUDENT_DOF + 2.0) * np.log1p(z2 / STUDENT_DOF)
-        prior = 0.5 * float(np.sum((fit.bias / self.prior) ** 2))
+        values = fit.bias.ravel()
+        prior = 0.5 * float(values @ self.bias.precision @ values)
         median = float(np.median(np.linalg.norm(fit.residual[inside], axis=1))) if inside.any() else float("inf")
-        bias = (-float(fit.bias[0]), -float(fit.bias[1]), -float(fit.bias[2]))
+        at_middle = self._at_frames(fit.bias)[self.middle]
+        bias = (-float(at_middle[0]), -float(at_middle[1]), -float(at_middle[2]))
         return LineScore(fit.beta, float(loss.sum()) + prior, bias, median), loss
 
 
