@@ -1218,11 +1218,7 @@ def pose_from_movers(
     tracklet of a few seconds seldom determines a pose; the identified
     track, with every visit, does. The refitted pose with most frames wins,
     with the best one at a distinct offset as its runner-up, and is checked
-    as ``pose_from_track``'s. With surveyed GCPs (their own pose, no free
-    intrinsics) the tracklets only find the target for
-    ``_survey_and_target``: the search stops at the first tracklet whose
-    refit keeps the GCPs and under which other tracklets join the target
-    (``confirmed``); the look-alikes' tracklets after it are not searched. trajectory: the prepared trajectory; params:
+    as ``pose_from_track``'s. trajectory: the prepared trajectory; params:
     identification's (its eps_px is the pose's gate, its f_scale_px the
     fit's loss scale); offsets: the range of beta (clock units) each
     tracklet's search covers (None: all the log allows). Raises PoseError
@@ -1315,8 +1311,6 @@ def pose_from_movers(
             if gcps is None or gcps_agree(gcps, refit):
                 finals.append((refit, identified, tid, search))
         tried[tid] = "; ".join(reasons)
-        if survey and any(confirmed(identified, start) for _, identified, start, _ in finals):
-            break
     if survey:
         return _movers_with_survey(
             camera,
@@ -1351,12 +1345,6 @@ def pose_from_movers(
         pose = _settle_intrinsics(pose, clock, identified.track.xy, path, prior, eps_px, f_scale, gcps, free, unknown_k)
     check_determined(pose, clock, path, gcps is not None)
     return MoverPose(pose, identified, tid, tried)
-
-
-def confirmed(identified: Identification, tracklet: int) -> bool:
-    """Whether other tracklets confirm the target identified under a pose from ``tracklet``: at least
-    MIN_TRACKLET_FRAMES of the identified track's frames come from tracklets other than it."""
-    return sum(use.assigned for use in identified.tracklets if use.id != tracklet) >= MIN_TRACKLET_FRAMES
 
 
 def _movers_with_survey(
