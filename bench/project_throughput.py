@@ -30,7 +30,12 @@
    timeline.json; the cameras read whole and why), and a cached re-run
    (nothing to do). A kind "<kind>-full" runs with ``[track] scan =
    "full"`` (every frame read): the runs of that kind also give their
-   worst pair against it.
+   worst pair against it; with ``--compare``, the other tree's runs give
+   their worst pair against this tree's. The trees' bytecode is compiled
+   once into the run's temporary folder first (PYTHONPYCACHEPREFIX), as
+   pip compiles an installed package's; ``--no-bytecode-cache``: every
+   process compiles what it imports (under PYTHONDONTWRITEBYTECODE: about
+   0.3 s of CPU a process).
 4. ``--rounds N``: N - 1 more rounds of the floor and a fresh run of each
    tracker, in turn, and each run's ratios to its round's floor with their
    median: on a shared machine one round's ratios move by 0.1-0.3.
@@ -252,8 +257,29 @@ def decode_floor(videos: list[Path], jobs: int) -> tuple[Measure, int]:
     return Measure(wall, sum(cpu for _, cpu in done), (load, os.getloadavg()[0])), sum(n for n, _ in done)
 
 
-def tlsync_run(project: Path, work: Path, jobs: int, code: Path = REPOSITORY) -> Measure:
-    """`tlsync run` of the source tree ``code`` in a child process; CPU time and peak RSS of it and its workers."""
+def child_env(code: Path, pycache: Path | None) -> dict[str, str]:
+    """The environment of a run of the source tree ``code``: with ``pycache``, its bytecode cached there (as an
+    installed package has it compiled: PYTHONDONTWRITEBYTECODE dropped) instead of compiled in every process."""
+    env = dict(os.environ, PYTHONPATH=str(code))
+    if pycache is not None:
+        env.pop("PYTHONDONTWRITEBYTECODE", None)
+        env["PYTHONPYCACHEPREFIX"] = str(pycache)
+    return env
+
+
+def compile_trees(trees: list[Path], pycache: Path) -> None:
+    """Compile every source tree's modules into ``pycache`` before the timed runs."""
+    for code in trees:
+        subprocess.run(
+            [sys.executable, "-m", "compileall", "-q", str(code)], env=child_env(code, pycache), check=True, cwd=code
+        )
+
+
+def tlsync_run(project: Path, work: Path, jobs: int, code: Path = REPOSITORY, pycache: Path | None = None) -> Measure:
+    """`tlsync run` of the source tree ``code`` in a child process; CPU time and peak RSS of it and its workers.
+
+    pycache: where the tree's bytecode is cached (None: every process compiles what it imports, as under
+    PYTHONDONTWRITEBYTECODE)."""
     # The run reports its own peak: this process's RUSAGE_CHILDREN keeps the largest child it ever had (the
     # project's renderers and the floor's decoders included), and a child's own ru_maxrss starts at its parent's
     # RSS when it was forked, so the run's process reads its high-water mark from /proc (VmHWM: this program only)
@@ -275,7 +301,7 @@ def tlsync_run(project: Path, work: Path, jobs: int, code: Path = REPOSITORY) ->
         "--jobs",
         str(jobs),
     ]
-    env = dict(os.environ, PYTHONPATH=str(code))
+    env = child_env(code, pycache)
     load = os.getloadavg()[0]
     cpu, start = _children_cpu(), time.perf_counter()
     done = subprocess.run(
@@ -315,23 +341,23 @@ def frames_decoded(work: Path) -> str:
     )
 
 
-def against_full_pass(work: Path, full: Path, n_frames: dict[str, int]) -> str:
-    """The worst pair of the run against the same project's full pass (every frame read): eps_t, frames."""
-    a_file, b_file = work / "timeline.json", full / "timeline.json"
+def against_run(work: Path, reference: Path, n_frames: dict[str, int], what: str) -> str:
+    """The worst pair of the run against another run of the same project (``what`` names it): eps_t, frames."""
+    a_file, b_file = work / "timeline.json", reference / "timeline.json"
     if not (a_file.exists() and b_file.exists()):
-        return "against the full pass: a timeline is missing"
-    run, reference = read_timeline(a_file), read_timeline(b_file)
-    names = [n for n in reference.names if n in run.names]
+        return f"against {what}: a timeline is missing"
+    run, other = read_timeline(a_file), read_timeline(b_file)
+    names = [n for n in other.names if n in run.names]
     errors = {
-        f"{a}->{b}": eps_t(run.relation(a, b), reference.relation(a, b), n_frames[a])
+        f"{a}->{b}": eps_t(run.relation(a, b), other.relation(a, b), n_frames[a])
         for a in names
         for b in names
         if a != b
     }
     if not errors:
-        return "against the full pass: no pair in both"
+        return f"against {what}: no pair in both"
     key = max(errors, key=errors.get)
-    return f"against the full pass (every frame read): worst eps_t {errors[key]:.4f} frame ({key}; {len(errors)} pairs)"
+    return f"against {what}: worst eps_t {errors[key]:.4f} frame ({key}; {len(errors)} pairs)"
 
 
 def worst_error(folder: Path, work: Path) -> str:
@@ -420,6 +446,12 @@ def main() -> None:
         default=1,
         help="rounds of the floor and a fresh run of each tracker, in turn (ratios and their median)",
     )
+    parser.add_argument(
+        "--no-bytecode-cache",
+        action="store_true",
+        help="let every process of a run compile the tree's modules (the environment's PYTHONDONTWRITEBYTECODE) "
+        "instead of caching their bytecode as an installed package has it",
+    )
     args = parser.parse_args()
     width, height = (int(v) for v in args.size.lower().split("x"))
     if args.quick:
@@ -450,19 +482,40 @@ def main() -> None:
         rows = [(f"decode floor (PyAV luma, {cores} processes)", floor, None)]
         stages = {}
         trees = [("", REPOSITORY)] + ([(f" ({args.compare.name})", args.compare)] if args.compare else [])
+        pycache = None if args.no_bytecode_cache else Path(tmp) / "pycache"
+        if pycache is not None:
+            compile_trees([code for _, code in trees], pycache)
+        print(
+            "bytecode: "
+            + ("compiled in every process (--no-bytecode-cache)" if pycache is None else f"cached in {pycache}")
+        )
         for kind in args.trackers.split(","):
             variant = with_tracker(project, kind, folder)
             for suffix, code in trees:
                 work = Path(tmp) / f"work_{kind}{suffix.strip(' ()')}"
-                run = tlsync_run(variant, work, cores, code)
+                run = tlsync_run(variant, work, cores, code, pycache)
                 stages[kind + suffix] = stage_seconds(work)
-                again = tlsync_run(variant, work, cores, code)
+                again = tlsync_run(variant, work, cores, code, pycache)
                 rows += [(f"tlsync run, {kind}{suffix}", run, kind), (f"cached re-run, {kind}{suffix}", again, None)]
         n_frames = {name: int(v) for name, v in json.loads((folder / "truth.json").read_text())["n_frames"].items()}
-        for _name, measure, kind in rows:
+        for name, measure, kind in rows:
             if kind and not kind.endswith("-full") and (Path(tmp) / f"work_{kind}-full").exists():
                 measure.notes.append(
-                    against_full_pass(Path(tmp) / f"work_{kind}", Path(tmp) / f"work_{kind}-full", n_frames)
+                    against_run(
+                        Path(tmp) / f"work_{kind}",
+                        Path(tmp) / f"work_{kind}-full",
+                        n_frames,
+                        "the full pass (every frame read)",
+                    )
+                )
+            if kind and args.compare and name.endswith(f"{kind}{trees[-1][0]}"):
+                measure.notes.append(
+                    against_run(
+                        Path(tmp) / f"work_{kind}",
+                        Path(tmp) / f"work_{kind}{trees[-1][0].strip(' ()')}",
+                        n_frames,
+                        f"this tree's run (--compare {args.compare.name})",
+                    )
                 )
         ratios = {name: [(m.wall / floor.wall, m.cpu / floor.cpu)] for name, m, kind in rows if kind}
         for round_ in range(2, args.rounds + 1):
@@ -470,7 +523,7 @@ def main() -> None:
             for kind in args.trackers.split(","):
                 for suffix, code in trees:
                     work = Path(tmp) / f"work_{kind}{suffix.strip(' ()')}_{round_}"
-                    run = tlsync_run(folder / f"project_{kind}.toml", work, cores, code)
+                    run = tlsync_run(folder / f"project_{kind}.toml", work, cores, code, pycache)
                     shutil.rmtree(work, ignore_errors=True)
                     ratios[f"tlsync run, {kind}{suffix}"].append(
                         (run.wall / again_floor.wall, run.cpu / again_floor.cpu)

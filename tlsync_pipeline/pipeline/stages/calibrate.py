@@ -407,7 +407,7 @@ def _pose_from_target_files(
 
 
 COARSE_MARGIN_S = (
-    10.0  # seconds either side of the scan's coarse offset (good to a second or two) the pose's search covers
+    3.0  # seconds either side of the scan's coarse offset (good to a second or two) the pose's search covers
 )
 
 
