@@ -221,7 +221,7 @@ def test_the_joint_fit_over_many_cameras_builds_no_dense_matrix_over_frames_or_k
     rate, model = float(scene.trajectory.rate), PRESETS["drone"]
     knots = _knots(cameras, path, rate, model)
     whiten = _prior_whitening(knots, rate, model.tau_s, np.array([1.0, 1.0, 2.0]))
-    problem = _Joint(cameras, path, knots, whiten, 2.0)
+    problem = _Joint(cameras, path, knots, whiten, 2.0, rate)
     jacobian = problem.jacobian(np.concatenate([problem.x0, np.zeros(3 * len(knots))]))
     rows = sum(2 * len(c.clock) for c in cameras)
     assert sp.issparse(jacobian) and sp.issparse(whiten)
