@@ -9,7 +9,9 @@ frames the timeline maps (``Timeline.match``; frames of B), the frames
 whose instant the other camera recorded but that are left unmapped
 ("unmapped"), and the frames mapped to an instant the other camera did not
 record ("false"). The first row, "clean", is the unedited demo in the same
-run.
+run. The ``long_`` cases (``--cases long_clean,long_frozen25_unread,...``)
+edit cam1 of a long recording (``LONG``) that the scan stage reads in
+windows around the target's stay, with the break outside them.
 
     python bench/breaks.py [--cases frozen25,dropped25] [--keep DIR]
 """
@@ -17,6 +19,7 @@ run.
 from __future__ import annotations
 
 import argparse
+import functools
 import shutil
 import tempfile
 import time
@@ -25,7 +28,8 @@ from pathlib import Path
 import numpy as np
 
 from data_fixtures.breaks import BreakEdit, edit_camera, pair_errors, video_times
-from data_fixtures.raw_project import SMALL, make_raw_project
+from data_fixtures.long_video import render_long_camera_video
+from data_fixtures.raw_project import SMALL, RawProjectSpec, make_raw_project
 from tlsync_pipeline.pipeline.engine import run_graph
 from tlsync_pipeline.pipeline.graph import build_graph
 from tlsync_pipeline.pipeline.project import load_project
@@ -34,6 +38,24 @@ from tlsync_pipeline.sync.timeline import read_timeline
 
 CAMERA = "cam1"
 FPS = 25.0
+# A long recording (1500 frames at 15 fps, the target in cam1's frames 764-1225, two look-alikes wandering) read in
+# the scan stage's windows around the target's stay, as tests/end_to_end/test_breaks.py makes it.
+LONG = RawProjectSpec(
+    lines=((1.5, 75.0), (1.5, -75.0)),
+    n_frames=(1500, 1500),
+    image_size=(320, 240),
+    boards=8,
+    gcps=8,
+    window_samples=300,
+)
+LONG_FPS = 15.0
+LONG_CASES = {
+    "long_clean": None,
+    "long_frozen25_unread": BreakEdit("frozen", 400, 25),
+    "long_restart_parked_unread": BreakEdit("restart", 400, int(300 * LONG_FPS), parked=True),
+    "long_restart_light_unread": BreakEdit("restart", 400, int(300 * LONG_FPS), light=0.85),
+    "long_frozen25_after": BreakEdit("frozen", 1300, 25),
+}
 CASES = {
     "clean": None,
     "frozen5": BreakEdit("frozen", 100, 5),
@@ -50,22 +72,24 @@ CASES = {
     "restart3min_parked": BreakEdit("restart", 15, int(180 * FPS), parked=True),
     "gap25_unvisited": BreakEdit("gap", 10, 25),
     "frozen25_at_end": BreakEdit("frozen", 180, 25),
+    "ends_at_180": BreakEdit("dropped", 180, 10),  # no break: the recording stops where frozen25_at_end's freezes
 }
 
 
-def run_case(base: Path, folder: Path, edit: BreakEdit | None) -> dict:
-    """One case: the project copied, cam1 edited, the pipeline run; the figures of its row."""
+def run_case(base: Path, folder: Path, edit: BreakEdit | None, spec: RawProjectSpec, fps: float) -> dict:
+    """One case: the project (made from ``spec``, cam1 at ``fps``) copied, cam1 edited, the pipeline run; the figures
+    of its row."""
     shutil.copytree(base, folder)
-    n = {f"cam{k}": count for k, count in enumerate(SMALL.n_frames)}
+    n = {f"cam{k}": count for k, count in enumerate(spec.n_frames)}
     sources = {name: np.arange(count, dtype=np.float64) for name, count in n.items()}
     if edit is not None:
-        sources[CAMERA] = edit_camera(folder, CAMERA, edit, FPS)
+        sources[CAMERA] = edit_camera(folder, CAMERA, edit, fps)
     project = load_project(folder / "project.toml")
     started = time.perf_counter()
     summary = run_graph(build_graph(project, folder / "work", Options(progress=False)))
     seconds = time.perf_counter() - started
     timeline = read_timeline(folder / "work" / "timeline.json")
-    lines = {f"cam{k}": line for k, line in enumerate(SMALL.lines)}
+    lines = {f"cam{k}": line for k, line in enumerate(spec.lines)}
     status = timeline.status(CAMERA)
     worst, unmapped, false = 0.0, 0, 0
     times = video_times(folder, n)
@@ -93,21 +117,31 @@ def run_case(base: Path, folder: Path, edit: BreakEdit | None) -> dict:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--cases", default=",".join(CASES), help="comma-separated case names (default: all)")
+    parser.add_argument(
+        "--cases",
+        default=",".join(CASES),
+        help=f"comma-separated case names (default: all but {', '.join(LONG_CASES)})",
+    )
     parser.add_argument("--keep", type=Path, default=None, help="keep the projects in this folder")
     args = parser.parse_args()
     root = args.keep or Path(tempfile.mkdtemp(prefix="tlsync-breaks-"))
     root.mkdir(parents=True, exist_ok=True)
-    base = root / "base"
-    if not base.exists():
-        make_raw_project(base, SMALL)
-        shutil.rmtree(base / "work", ignore_errors=True)
+    projects = {
+        "base": (SMALL, None, FPS),
+        "long": (LONG, functools.partial(render_long_camera_video, radius=5.0, look_alikes=2), LONG_FPS),
+    }
     print("| case | cam1 | reasons | segments | exit | worst pair error (frames) | unmapped | false | run (s) |")
     print("|---|---|---|---|---|---|---|---|---|")
     for name in args.cases.split(","):
         folder = root / name
         shutil.rmtree(folder, ignore_errors=True)
-        row = run_case(base, folder, CASES[name])
+        project = "long" if name in LONG_CASES else "base"
+        spec, render, fps = projects[project]
+        base = root / project
+        if not base.exists():
+            make_raw_project(base, spec, render=render)
+            shutil.rmtree(base / "work", ignore_errors=True)
+        row = run_case(base, folder, {**CASES, **LONG_CASES}[name], spec, fps)
         worst = "-" if row["worst"] is None else f"{row['worst']:.3f}"
         print(
             f"| {name} | {row['status']} | {row['codes']} | {row['segments'] or 1} | {row['exit']} | {worst} "

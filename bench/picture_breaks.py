@@ -5,7 +5,7 @@ track stage reads them, the detector telling the meter which frames hold a
 mover): the synthetic camera video (``data_fixtures.video.render_video``:
 textured background, a flicker of 6 % with 1.8 % of it changing from frame
 to frame, an occluder, a distractor), the same under a steady light (0.5 %
-flicker), as a phone's (10 % interval jitter) and heavily compressed (crf
+flicker), as a phone's (10 % interval jitter) and compressed (crf 23, 28 and
 35); the long-recording video (``data_fixtures.long_video``: two
 look-alikes wandering, 1500 frames); the crowd cameras (``data_fixtures.crowd``: walkers up to 100 px tall passing
 close, a cloud dimming the light by 20 % over 1.5 s). Per family: videos,
@@ -44,9 +44,10 @@ from data_fixtures.video import loop_positions, render_video
 from tlsync_pipeline.sync.identify.breaks import merged
 from trackers.breaks import Break, PictureMeter
 from trackers.tracking import detect_movers
-from trackers.video import presentation_times
+from trackers.video import keyframe_indices, presentation_times
 
 FPS = 25.0
+CRFS = (23, 28, 35)  # the compressed families' H.264 crf
 EDITS = {
     "restart, light 0.85": lambda at: BreakEdit("restart", at, 4500, light=0.85),
     "restart, light 0.9": lambda at: BreakEdit("restart", at, 4500, light=0.9),
@@ -57,12 +58,14 @@ EDITS = {
 }
 
 
-def picture_breaks(path: Path) -> list[Break]:
+def picture_breaks(path: Path) -> tuple[list[Break], list[Break]]:
     """The frozen runs and cuts every-mover detection's reading of ``path`` finds (a cut at a freeze's edge is that
-    freeze, as for the sync stage: ``merged``)."""
+    freeze, as for the sync stage: ``merged``), and those found without the keyframes' rule (``frozen_runs``: every
+    frame held to STILL_LEVELS), the baseline."""
     meter = PictureMeter()
     detect_movers(path, progress=False, meter=meter)
-    return list(merged(tuple(meter.breaks())))
+    keys = keyframe_indices(path)
+    return list(merged(tuple(meter.breaks(() if keys is None else keys)))), list(merged(tuple(meter.breaks())))
 
 
 def in_view_frames(in_view: np.ndarray, count: int = 3) -> list[int]:
@@ -77,7 +80,7 @@ def clean_videos(folder: Path, seeds: int) -> tuple[dict[str, list[Path]], dict[
         "camera": [],
         "camera, steady light": [],
         "phone (10 % jitter)": [],
-        "compressed (crf 35)": [],
+        **{f"compressed (crf {crf})": [] for crf in CRFS},
         "long": [],
         "crowd": [],
     }
@@ -92,7 +95,10 @@ def clean_videos(folder: Path, seeds: int) -> tuple[dict[str, list[Path]], dict[
         out["phone (10 % jitter)"].append(
             render_video(folder / f"phone{seed}.mp4", seed=seed, fps=FPS, jitter=0.1).path
         )
-        out["compressed (crf 35)"].append(render_video(folder / f"crf{seed}.mp4", seed=seed, fps=FPS, crf=35).path)
+        for crf in CRFS:
+            out[f"compressed (crf {crf})"].append(
+                render_video(folder / f"crf{crf}_{seed}.mp4", seed=seed, fps=FPS, crf=crf).path
+            )
         positions = loop_positions(1500, (320, 240))
         others = wandering_paths(np.random.default_rng(seed), 1500, (320, 240), 2.0, 2)
         out["long"].append(
@@ -133,38 +139,42 @@ def main() -> None:
     with tempfile.TemporaryDirectory(prefix="tlsync-picture-breaks-") as tmp:
         folder = Path(tmp)
         videos, edit_at = clean_videos(folder, args.seeds)
-        print("| clean family | videos | frames | frozen found | cuts found |")
-        print("|---|---|---|---|---|")
+        print("| clean family | videos | frames | frozen found | baseline: without the keyframes' rule | cuts found |")
+        print("|---|---|---|---|---|---|")
         for family, paths in videos.items():
-            frames, frozen, cuts = 0, [], []
+            frames, frozen, baseline, cuts = 0, [], [], []
             for path in paths:
                 times = presentation_times(path)
                 frames += 0 if times is None else len(times)
-                found = picture_breaks(path)
+                found, without = picture_breaks(path)
                 frozen += [f"{path.stem}:{b.frame}" for b in found if b.kind == "frozen"]
+                baseline += [f"{path.stem}:{b.frame}" for b in without if b.kind == "frozen"]
                 cuts += [f"{path.stem}:{b.frame}" for b in found if b.kind == "cut"]
             print(
                 f"| {family} | {len(paths)} | {frames} | {len(frozen)} {' '.join(frozen)} "
-                f"| {len(cuts)} {' '.join(cuts)} |",
+                f"| {len(baseline)} {' '.join(baseline)} | {len(cuts)} {' '.join(cuts)} |",
                 flush=True,
             )
         print()
-        print("| edit | camera videos | edits | found at its frame | other breaks found |")
-        print("|---|---|---|---|---|")
+        print("| edit | camera videos | edits | found at its frame | baseline | other breaks found | baseline |")
+        print("|---|---|---|---|---|---|---|")
         for (label, make), family in itertools.product(EDITS.items(), ("camera", "camera, steady light")):
-            found_at, other, total = 0, 0, 0
+            found_at, other, total = [0, 0], [0, 0], 0
             for path in videos[family]:
                 for at in edit_at[path]:
                     edit = make(at)
                     kind = "cut" if edit.kind == "restart" else "frozen"
                     edited = folder / "edited.mp4"
                     edit_video(path, edited, edit, FPS)
-                    found = picture_breaks(edited)
-                    hit = [b for b in found if b.kind == kind and abs(b.frame - at) <= 1]
-                    found_at += bool(hit)
-                    other += len(found) - len(hit)
+                    for k, found in enumerate(picture_breaks(edited)):
+                        hit = [b for b in found if b.kind == kind and abs(b.frame - at) <= 1]
+                        found_at[k] += bool(hit)
+                        other[k] += len(found) - len(hit)
                     total += 1
-            print(f"| {label} | {family} | {total} | {found_at} | {other} |", flush=True)
+            print(
+                f"| {label} | {family} | {total} | {found_at[0]} | {found_at[1]} | {other[0]} | {other[1]} |",
+                flush=True,
+            )
     print()
     print("| round | meter (ms per 1080p frame) | the freeze's measure alone | ratio |")
     print("|---|---|---|---|")

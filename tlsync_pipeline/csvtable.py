@@ -12,17 +12,18 @@ parser, about 0.2 s of CPU a million rows of four numbers); any other chunk
 (blank or comment lines, quotes, text, a wrong field count, NaN or
 infinity) goes line by line
 through the caller's own parser, so messages and leniency are the caller's.
-Tables are written in blocks of WRITE_ROWS rows, each formatted by one
-``%`` of the whole block's format (``write_rows``).
+Tables are written in blocks of WRITE_ROWS rows, each block's text built as
+a character matrix by NumPy, the bytes ``np.savetxt`` writes (``write_rows``).
 """
 
 from __future__ import annotations
 
+import functools
 import io
 import warnings
 from collections.abc import Callable, Iterator
 from pathlib import Path
-from typing import TextIO
+from typing import BinaryIO
 
 import numpy as np
 
@@ -220,14 +221,87 @@ class Columns:
         return array[: self.n] if self.n > 0.9 * len(array) else array[: self.n].copy()
 
 
-def write_rows(handle: TextIO, columns: list[np.ndarray], formats: list[str], delimiter: str = ",") -> None:
-    """Write rows of equal-length 1-D ``columns``, each value with its ``%`` format, ``delimiter`` between them.
+def write_rows(handle: BinaryIO, columns: list[np.ndarray], decimals: list[int], delimiter: str = ",") -> None:
+    """Write rows of equal-length 1-D ``columns``, each value with ``decimals[j]`` decimals, ``delimiter`` between them.
 
-    The same text as ``np.savetxt`` (each value formatted as a Python float), in blocks: about 2x faster, and no
-    copy of the whole table.
+    The bytes ``np.savetxt`` writes with ``%.{decimals}f`` formats, WRITE_ROWS rows at a time (``fixed_point_rows``).
     """
-    line = delimiter.join(formats) + "\n"
     n = len(columns[0]) if columns else 0
     for lo in range(0, n, WRITE_ROWS):
-        block = np.column_stack([np.asarray(c[lo : lo + WRITE_ROWS], dtype=np.float64) for c in columns])
-        handle.write((line * len(block)) % tuple(block.ravel().tolist()))
+        handle.write(fixed_point_rows([c[lo : lo + WRITE_ROWS] for c in columns], decimals, delimiter))
+
+
+@functools.cache
+def _four_digits() -> np.ndarray:
+    """(4, 10_000) uint8: the ASCII digits of every number below 10,000, zero-padded, one column each."""
+    numbers = np.arange(10_000)
+    return np.stack([(numbers // 10 ** (3 - j)) % 10 + ord("0") for j in range(4)]).astype(np.uint8)
+
+
+def _put_digits(chars: np.ndarray, lo: int, hi: int, numbers: np.ndarray) -> None:
+    """Write the hi - lo last digits of numbers (zero-padded) into rows lo .. hi - 1 of chars, four at a time."""
+    rest, end = numbers, hi
+    while end > lo:
+        rest, four = np.divmod(rest, 10_000)
+        start = max(lo, end - 4)
+        chars[start:end] = _four_digits()[4 - (end - start) :, four]
+        end = start
+
+
+def fixed_point_rows(columns: list[np.ndarray], decimals: list[int], delimiter: str = ",") -> bytes:
+    """The text of rows of ``columns`` as Python's ``'%.{d}f' % value`` writes each value (correctly rounded, half to
+    even, ``-0.0000`` for a negative value that rounds to zero), ``delimiter`` between values, a newline after each
+    row; decimals 1 to 9 (the scaled fraction then errs by about 1e-7 at most).
+
+    Built as a character matrix without a Python call per value: the whole part and the fraction of each absolute
+    value are exact in float64 (value - floor(value)), the fraction is scaled and rounded, and digits come from a
+    table. A value whose scaled fraction lies within 1e-6 of a half (where the scaling's rounding could decide), or
+    that is not finite or not below 2**52, is formatted by Python instead.
+    """
+    values = [np.asarray(c, dtype=np.float64) for c in columns]
+    n = len(values[0]) if values else 0
+    if n == 0:
+        return b""
+    parts = [_fixed_point_digits(v, d) for v, d in zip(values, decimals)]
+    width = sum(len(chars) for chars, _ in parts) + len(parts)
+    matrix = np.empty((width, n), dtype=np.uint8)
+    row = 0
+    for k, (chars, _) in enumerate(parts):
+        matrix[row : row + len(chars)] = chars
+        matrix[row + len(chars)] = ord(delimiter) if k < len(parts) - 1 else ord("\n")
+        row += len(chars) + 1
+    rows = np.ascontiguousarray(matrix.T)
+    text = rows[rows != 0].tobytes()
+    doubtful = np.flatnonzero(np.logical_or.reduce([doubt for _, doubt in parts]))
+    if not len(doubtful):
+        return text
+    ends = np.cumsum(np.count_nonzero(rows, axis=1))
+    line = delimiter.join(f"%.{d}f" for d in decimals) + "\n"
+    pieces, start = [], 0
+    for i in doubtful:
+        pieces += [text[start : ends[i - 1] if i else 0], (line % tuple(float(v[i]) for v in values)).encode()]
+        start = ends[i]
+    return b"".join([*pieces, text[start:]])
+
+
+def _fixed_point_digits(values: np.ndarray, decimals: int) -> tuple[np.ndarray, np.ndarray]:
+    """``%.{decimals}f`` of values: (characters (k, n) uint8, NUL where a shorter number leaves room; doubtful (n,))."""
+    magnitude = np.abs(values)
+    doubtful = ~(magnitude < 2.0**52)  # also NaN and infinity
+    magnitude[doubtful] = 0.0
+    whole = np.floor(magnitude)
+    scaled = (magnitude - whole) * 10**decimals
+    fraction = np.rint(scaled)
+    doubtful |= np.abs(scaled - np.floor(scaled) - 0.5) < 1e-6
+    carry = fraction >= 10**decimals
+    whole_digits = (whole + carry).astype(np.int64)
+    fraction_digits = np.where(carry, 0, fraction).astype(np.int64)
+    width = len(str(int(whole_digits.max())))
+    chars = np.empty((1 + width + 1 + decimals, len(values)), dtype=np.uint8)
+    chars[0] = np.where(np.signbit(values), ord("-"), 0)
+    _put_digits(chars, 1, width + 1, whole_digits)
+    for k in range(1, width):  # the digit k places left of the units is blank where the number is shorter
+        chars[width - k][whole_digits < 10**k] = 0
+    chars[width + 1] = ord(".")
+    _put_digits(chars, width + 2, width + 2 + decimals, fraction_digits)
+    return chars, doubtful

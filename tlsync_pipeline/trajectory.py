@@ -251,13 +251,16 @@ def _parse_rows(
 
 
 def write_trajectory(trajectory: Trajectory, path: str | Path) -> None:
-    """Write the trajectory CSV: ``t,x,y,z`` when the rate is known, else ``x,y,z``; then ``sigma`` when known."""
+    """Write the trajectory CSV: ``t,x,y,z`` when the rate is known, else ``x,y,z``; then ``sigma`` when known.
+
+    t with 6 decimals (us), metres with 4 (0.1 mm).
+    """
     t = trajectory.seconds(trajectory.sample)
-    names, formats, columns = ["x", "y", "z"], ["%.4f"] * 3, list(trajectory.xyz.T)
+    names, decimals, columns = ["x", "y", "z"], [4] * 3, list(trajectory.xyz.T)
     if t is not None:
-        names, formats, columns = ["t", *names], ["%.6f", *formats], [np.asarray(t), *columns]
+        names, decimals, columns = ["t", *names], [6, *decimals], [np.asarray(t), *columns]
     if trajectory.sigma is not None:
-        names, formats, columns = [*names, "sigma"], [*formats, "%.4f"], [*columns, trajectory.sigma]
-    with Path(path).open("w", newline="", encoding="utf-8") as handle:
-        handle.write(",".join(names) + "\n")
-        write_rows(handle, columns, formats)
+        names, decimals, columns = [*names, "sigma"], [*decimals, 4], [*columns, trajectory.sigma]
+    with Path(path).open("wb") as handle:
+        handle.write((",".join(names) + "\n").encode())
+        write_rows(handle, columns, decimals)

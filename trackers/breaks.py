@@ -31,14 +31,18 @@ the votes.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+
+from trackers.video import merge_windows
 
 GAP = 1.5  # an interval between presentation times longer than this many nominal intervals is a gap
 REPEAT = 0.5  # one shorter than this share of the nominal interval is a repeat
 STILL_LEVELS = 20  # grey levels: a frame no pixel of which differs from the previous frame's by more may repeat it
 MOVING_LEVELS = 40  # ... when the frames before and after it change some pixel by this much or more
+REPEATED_SHARE = 1 / 3  # a run holding a keyframe coded afresh repeats its picture exactly in this share of the rest
 
 CUT_WIDTH = 64  # px: the luma plane is averaged down to this width for cuts (sensor noise and far movers fade)
 CUT_CONTENT = 3.0  # %: a change of the picture's content (the plane over its mean) of this mean size ...
@@ -47,6 +51,13 @@ CUT_GAIN_FLICKER = 10.0  # video's own brightness steps (its flicker; a median i
 CUT_SPIKE = 3.0  # ... this many times the change of each of the two frames before it and the two after it ...
 REPEATED_PICTURE = 0.05  # %: a content step this small is the same picture again (its steps say nothing of flicker)
 CUT_HOLDS = 0.6  # ... and holding: the two frames after it differ from the two before it by this share of it
+
+SUSPECT_CONTENT = 1.5  # %: a change of content between keyframes read of this mean size ...
+SUSPECT_GAIN = 0.03  # ... or of brightness (|log ratio|), and KEYFRAME_SPIKE times the changes either side of it ...
+KEYFRAME_SPIKE = 2.0  # ... is read frame by frame: a cut may lie between the two keyframes
+STILL_PACKET = 0.1  # share of the median inter-coded packet (bytes): a packet this small may repeat a picture ...
+STILL_RUN = 2  # ... in a run of this many frames or more, read frame by frame
+CHECK_MARGIN = 3  # frames read either side of a suspect: the meter judges a break by the frames around it
 
 KINDS = ("gap", "repeat", "frozen", "drop", "cut")
 
@@ -81,6 +92,12 @@ class Break:
     @classmethod
     def from_dict(cls, entry: dict) -> Break:
         return cls(str(entry["kind"]), int(entry["frame"]), float(entry["size"]))
+
+
+def repeated_frames(breaks: Sequence[Break]) -> np.ndarray:
+    """The 0-based frames of the frozen runs and repeated times among ``breaks``: they show no instant of their own."""
+    runs = [np.arange(b.frame, b.frame + max(round(b.size), 1)) for b in breaks if b.kind in ("frozen", "repeat")]
+    return np.concatenate(runs).astype(np.int64) if runs else np.zeros(0, np.int64)
 
 
 def container_breaks(times: np.ndarray, fps: float | None = None) -> list[Break]:
@@ -138,13 +155,7 @@ class PictureMeter:
     def feed(self, index: int, gray: np.ndarray, movers: bool) -> None:
         """One luma frame (H, W, uint8) with its 0-based index, and whether the detector found a mover in it."""
         cv2 = self._cv2
-        h, w = gray.shape[:2]
-        width = min(CUT_WIDTH, w)
-        stride = max(1, w // (4 * CUT_WIDTH))  # every stride-th pixel: still 4 x 4 or more averaged into each one
-        sampled = gray[::stride, ::stride]
-        size = (width, max(1, round(h * width / w)))
-        small = cv2.resize(sampled, size, interpolation=cv2.INTER_AREA).astype(np.float32)
-        mean = max(float(small.mean()), 1.0)
+        small, mean = _small_plane(cv2, gray)
         if self._last is not None and self._last[0] == index - 1 and self._last[1].shape == gray.shape:
             self._frames.append(index)
             self._change.append(int(cv2.absdiff(gray, self._last[1]).max()))
@@ -157,13 +168,26 @@ class PictureMeter:
         self._small = [*self._small[-2:], (index, small, mean)]
         self._last = (index, gray)
 
-    def breaks(self) -> list[Break]:
-        """The frozen runs and the cuts, in frame order."""
+    def breaks(self, keyframes: Sequence[int] | np.ndarray = ()) -> list[Break]:
+        """The frozen runs and the cuts, in frame order; keyframes: the video's keyframes (0-based frames), whose
+        pictures are coded afresh (``frozen_runs``)."""
         frames = np.array(self._frames, dtype=np.int64)
         step = np.array(self._step, dtype=np.float64).reshape(-1, 2)
         across = np.array(self._across, dtype=np.float64).reshape(-1, 2)
-        found = frozen_runs(frames, np.array(self._change, dtype=np.int64), np.array(self._movers, dtype=bool))
+        change = np.array(self._change, dtype=np.int64)
+        keyframe = np.isin(frames, np.asarray(keyframes, dtype=np.int64))
+        found = frozen_runs(frames, change, np.array(self._movers, dtype=bool), keyframe)
         return sorted(found + scene_cuts(frames, step, across), key=lambda b: b.frame)
+
+
+def _small_plane(cv2, gray: np.ndarray) -> tuple[np.ndarray, float]:
+    """The luma plane averaged down to CUT_WIDTH pixels wide (float32), and its mean (grey levels, at least 1)."""
+    h, w = gray.shape[:2]
+    width = min(CUT_WIDTH, w)
+    stride = max(1, w // (4 * CUT_WIDTH))  # every stride-th pixel: still 4 x 4 or more averaged into each one
+    size = (width, max(1, round(h * width / w)))
+    small = cv2.resize(gray[::stride, ::stride], size, interpolation=cv2.INTER_AREA).astype(np.float32)
+    return small, max(float(small.mean()), 1.0)
 
 
 def _picture_change(a: tuple[int, np.ndarray, float], b: tuple[int, np.ndarray, float]) -> tuple[float, float]:
@@ -211,17 +235,29 @@ def scene_cuts(frames: np.ndarray, step: np.ndarray, across: np.ndarray) -> list
     return out
 
 
-def frozen_runs(frames: np.ndarray, change: np.ndarray, movers: np.ndarray) -> list[Break]:
+def frozen_runs(
+    frames: np.ndarray, change: np.ndarray, movers: np.ndarray, keyframe: np.ndarray | None = None
+) -> list[Break]:
     """Frozen runs from each frame's largest change of a pixel since the previous frame (grey levels; frames
-    consecutive to the previous one only) and whether it holds a mover.
+    consecutive to the previous one only), whether it holds a mover and whether it is a keyframe.
 
     A run of frames changing no pixel by more than STILL_LEVELS, most of
     them holding a mover, is a freeze when the frames just before and just
     after it change some pixel by MOVING_LEVELS or more: a still scene coded
     at a low rate repeats its pictures too, and a freeze where nothing moves
-    cannot be told from it.
+    cannot be told from it. A keyframe changing no pixel by MOVING_LEVELS
+    may repeat the picture too, in a run REPEATED_SHARE of whose other
+    frames change no pixel at all: a repeated picture coded afresh differs
+    from the one before by the coding's noise (up to about 30 grey levels
+    at crf 20), and the frames predicted from it converge on it, repeating
+    it exactly; a still scene's noise, coded again each frame, changes
+    some pixel by 1-10 levels in most frames (crf 35).
     """
     still = change <= STILL_LEVELS
+    recoded = np.zeros(len(change), dtype=bool)
+    if keyframe is not None:
+        recoded = np.asarray(keyframe, dtype=bool) & ~still & (change < MOVING_LEVELS)
+        still = still | recoded
     moving = change >= MOVING_LEVELS
     out = []
     k = 0
@@ -238,7 +274,101 @@ def frozen_runs(frames: np.ndarray, change: np.ndarray, movers: np.ndarray) -> l
             and frames[k - 1] == frames[k] - 1
             and frames[run + 1] == frames[run] + 1
             and movers[k : run + 1].mean() >= 0.5
+            and (not recoded[k : run + 1].any() or _repeats_exactly(change[k : run + 1][~recoded[k : run + 1]]))
         ):
             out.append(Break("frozen", int(frames[k]), float(run - k + 1)))
         k = run + 1
     return out
+
+
+class KeyframeMeter:
+    """Where between the keyframes the scan stage reads a cut may lie, from the keyframes' small planes.
+
+    ``feed(index, gray)`` each keyframe read, in order within a pass (a
+    keyframe before the last one fed starts another pass: the coarse pass
+    reads the keyframes between in a second one); ``suspects()`` the
+    (previous keyframe, keyframe) pairs to read between
+    (``keyframe_suspects``), of every pass. Per keyframe it keeps three
+    numbers, and the last keyframe's small plane.
+    """
+
+    def __init__(self) -> None:
+        import cv2
+
+        self._cv2 = cv2
+        self._passes: list[tuple[list[int], list[tuple[float, float]]]] = []
+        self._last: tuple[int, np.ndarray, float] | None = None
+
+    def feed(self, index: int, gray: np.ndarray) -> None:
+        """One keyframe's luma plane (H, W, uint8) and its 0-based frame."""
+        small, mean = _small_plane(self._cv2, gray)
+        if self._last is None or self._last[0] >= index or self._last[1].shape != small.shape:
+            self._passes.append(([index], []))
+        else:
+            frames, steps = self._passes[-1]
+            frames.append(index)
+            steps.append(_picture_change(self._last, (index, small, mean)))
+        self._last = (index, small, mean)
+
+    def suspects(self) -> list[tuple[int, int]]:
+        """(previous keyframe, keyframe) pairs, 0-based frames, between which a cut may lie, in frame order."""
+        found = {
+            pair
+            for frames, steps in self._passes
+            for pair in keyframe_suspects(frames, np.array(steps, dtype=np.float64).reshape(-1, 2))
+        }
+        return sorted(found)
+
+
+def keyframe_suspects(frames: list[int], step: np.ndarray) -> list[tuple[int, int]]:
+    """Pairs of consecutive keyframes read (0-based ``frames``, in order) whose change of picture (``step``
+    (len(frames) - 1, 2): content %, brightness |log ratio| from each keyframe to the next) may hide a cut: at least
+    SUSPECT_CONTENT or SUSPECT_GAIN and KEYFRAME_SPIKE times the change into the pair's first keyframe and out of
+    its second (those that exist).
+
+    A suspect is only a place to read every frame: the PictureMeter judges it (``scene_cuts``).
+    """
+    step = np.asarray(step, dtype=np.float64).reshape(-1, 2)
+    floor = np.array([SUSPECT_CONTENT, SUSPECT_GAIN])
+    out = []
+    for k in range(len(step)):
+        around = [step[j] for j in (k - 1, k + 1) if 0 <= j < len(step)]
+        spike = np.all([step[k] >= KEYFRAME_SPIKE * a for a in around], axis=0) if around else np.ones(2, bool)
+        if ((step[k] >= floor) & spike).any():
+            out.append((int(frames[k]), int(frames[k + 1])))
+    return out
+
+
+def still_packet_runs(sizes: np.ndarray, keyframe: np.ndarray) -> list[tuple[int, int]]:
+    """[start, stop) runs (0-based frames) of at least STILL_RUN frames whose packets are inter-coded and at most
+    STILL_PACKET of the median inter-coded packet (bytes): a picture repeated codes to almost nothing.
+
+    A run is only a place to read every frame: the PictureMeter judges it (``frozen_runs``).
+    """
+    sizes = np.asarray(sizes, dtype=np.float64)
+    keyframe = np.asarray(keyframe, dtype=bool)
+    inter = sizes[~keyframe]
+    if len(inter) == 0:
+        return []
+    tiny = np.concatenate([[False], (sizes <= STILL_PACKET * float(np.median(inter))) & ~keyframe, [False]])
+    edges = np.flatnonzero(np.diff(tiny.astype(np.int8)))
+    return [(int(a), int(b)) for a, b in zip(edges[::2], edges[1::2], strict=True) if b - a >= STILL_RUN]
+
+
+def check_spans(
+    suspects: list[tuple[int, int]], windows: tuple[tuple[int, int], ...], n_frames: int
+) -> tuple[tuple[int, int], ...]:
+    """[start, stop) spans of 0-based frames to read so that the PictureMeter judges each suspect (a [start, stop)
+    span, keyframe pair or still run): each widened by CHECK_MARGIN frames, clipped to the video, those inside a
+    window left out (read anyway), merged."""
+    spans = []
+    for start, stop in suspects:
+        a, b = max(0, start - CHECK_MARGIN), min(n_frames, stop + CHECK_MARGIN)
+        if b > a and not any(w0 <= a and b <= w1 for w0, w1 in windows):
+            spans.append((a, b))
+    return tuple(merge_windows(spans))
+
+
+def _repeats_exactly(change: np.ndarray) -> bool:
+    """Whether REPEATED_SHARE or more of these frames change no pixel (grey levels since the previous frame)."""
+    return len(change) > 0 and bool(np.count_nonzero(change == 0) >= REPEATED_SHARE * len(change))

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from trackers.blob import BlobDetector, BlobParams, BlobTracker, median_background
-from trackers.breaks import PictureMeter
+from trackers.breaks import KeyframeMeter, PictureMeter
 from trackers.choices import DEFAULT_KIND, KINDS
 from trackers.detections import Detections, make_detections
 from trackers.errors import TrackInputError
@@ -135,6 +135,7 @@ def detect_keyframe_movers(
     indices: Sequence[int] | None = None,
     first_id: int = 0,
     detector: BlobDetector | None = None,
+    meter: KeyframeMeter | None = None,
 ) -> Detections:
     """Every moving-object candidate of every keyframe (or of those at frame ``indices``) of ``path``
     (``iter_keyframes``): the coarse pass.
@@ -143,14 +144,17 @@ def detect_keyframe_movers(
     ``detector``, one ``movers_detector`` made for the video and kept across
     calls), fed the keyframes only (each decoded alone). Keyframes are too
     far apart to link movers over, so each candidate is a tracklet of its
-    own (ids from ``first_id`` on). TrackInputError when the video has no
-    packet index.
+    own (ids from ``first_id`` on). meter: fed each keyframe read
+    (trackers/breaks.py). TrackInputError when the video has no packet
+    index.
     """
     path = Path(path)
     if detector is None:
         detector = movers_detector(path, params)
     rows: list[tuple] = []
     for index, time_s, gray in iter_keyframes(path, gray=True, count=count, indices=indices):
+        if meter is not None:
+            meter.feed(index, gray)
         for blob in detector.detect(gray):
             rows.append((index, time_s, first_id + len(rows), blob.x, blob.y, blob.w, blob.h, 1.0))
     return make_detections(rows)

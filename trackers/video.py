@@ -407,6 +407,21 @@ def presentation_times(path: str | Path) -> np.ndarray | None:
     return np.array([float(pts * base) for pts in pts_list])
 
 
+def packet_sizes(path: str | Path) -> tuple[np.ndarray, np.ndarray] | None:
+    """Bytes of every frame's packet and whether it is a keyframe, indexed as ``iter_frames`` numbers the frames
+    (demux only, no decoding: the same pass as ``presentation_times``).
+
+    None when the container has no timestamps.
+    """
+    path = Path(path)
+    pts_list, keys = _packet_index(path)
+    if not pts_list:
+        return None
+    stat_ = path.stat()
+    sizes = _index_packets(path, (stat_.st_size, stat_.st_mtime_ns))[2]
+    return np.array(sizes, dtype=np.int64), np.isin(np.array(pts_list), np.array(keys))
+
+
 def _read_sequential(path: Path, wanted: list[int], gray: bool) -> dict[int, VideoFrame]:
     out = {}
     remaining = set(wanted)
@@ -426,31 +441,37 @@ def _packet_index(path: Path) -> tuple[tuple[int, ...] | None, tuple[int, ...]]:
     that reads a video's frames and its times demuxes it once.
     """
     if not path.is_file():
-        return _index_packets(path, None)  # _open names what is wrong
+        return _index_packets(path, None)[:2]  # _open names what is wrong
     stat = path.stat()
-    return _index_packets(path, (stat.st_size, stat.st_mtime_ns))
+    return _index_packets(path, (stat.st_size, stat.st_mtime_ns))[:2]
 
 
 @lru_cache(maxsize=16)
-def _index_packets(path: Path, stamp: tuple[int, int] | None) -> tuple[tuple[int, ...] | None, tuple[int, ...]]:
-    """``_packet_index`` of ``path``, whose (size, modification time) is ``stamp``."""
+def _index_packets(
+    path: Path, stamp: tuple[int, int] | None
+) -> tuple[tuple[int, ...] | None, tuple[int, ...], tuple[int, ...]]:
+    """``_packet_index`` of ``path``, whose (size, modification time) is ``stamp``, and the packets' sizes (bytes)
+    in the order of their presentation timestamps."""
     import av
 
-    pts, keys = [], []
+    pts, keys, sizes = [], [], []
     with _open(path) as container:
         stream = container.streams.video[0]
         try:
             for packet in container.demux(stream):
-                if packet.size == 0:
+                size = packet.size
+                if size == 0:
                     continue
                 if packet.pts is None:
-                    return None, ()
+                    return None, (), ()
                 pts.append(packet.pts)
+                sizes.append(size)
                 if packet.is_keyframe:
                     keys.append(packet.pts)
         except av.FFmpegError:
             pass  # truncated: index what could be read
-    return tuple(sorted(pts)), tuple(sorted(keys))
+    order = sorted(range(len(pts)), key=pts.__getitem__)
+    return tuple(pts[k] for k in order), tuple(sorted(keys)), tuple(sizes[k] for k in order)
 
 
 def _open(path: Path):

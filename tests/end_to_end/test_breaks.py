@@ -151,3 +151,61 @@ def test_a_freeze_inside_a_window_of_a_long_recording_is_found(tmp_path):
     errors, unmapped, false = pair_errors(timeline, lines, sources, "cam0", "cam1", video_times(folder, scene.n_frames))
     assert false == 0 and unmapped == 0
     assert errors.max() < 0.15, errors.max()
+
+
+@pytest.fixture(scope="module")
+def long_raw(tmp_path_factory):
+    """A long recording (1500 frames at 15 fps, two look-alikes wandering) whose cameras the scan stage reads in
+    windows around the target's stay; its scene."""
+    spec = RawProjectSpec(
+        lines=((1.5, 75.0), (1.5, -75.0)),
+        n_frames=(1500, 1500),
+        image_size=(320, 240),
+        boards=8,
+        gcps=8,
+        window_samples=300,
+    )
+    folder = tmp_path_factory.mktemp("long") / "raw"
+    _, scene = make_raw_project(
+        folder, spec, render=functools.partial(render_long_camera_video, radius=5.0, look_alikes=2)
+    )
+    return folder, scene
+
+
+@pytest.mark.parametrize(
+    ("edit", "kind", "segments"),
+    [
+        (BreakEdit("frozen", 400, 25), "frozen", [(0, "unknown"), (400, "frozen"), (425, "line")]),
+        (BreakEdit("restart", 400, 4500, parked=True), "cut", [(0, "unknown"), (400, "line")]),
+    ],
+    ids=["frozen25", "restart_parked"],
+)
+def test_a_break_between_the_windows_of_a_long_recording_is_read(long_raw, tmp_path, edit, kind, segments):
+    """cam1 frozen 25 frames, or cut and restarted 5 minutes later (re-stamped, a car parked before), at frame 400:
+    long before the target's stay (frames 760-1230), outside the windows the scan stage reads for it. The scan
+    stage's checks (a run of packets coded to nothing, a cut between two keyframes) have the track stage read
+    around it: the break is found and the frames before it are left unknown, not mapped 25 frames (or 5 minutes)
+    off."""
+    raw, scene = long_raw
+    folder = tmp_path / "raw"
+    shutil.copytree(raw, folder)
+    fps = 1.0 / float(np.median(np.diff(presentation_times(folder / "cam1" / "video.mp4"))))
+    sources = {name: np.arange(n, dtype=np.float64) for name, n in scene.n_frames.items()}
+    sources["cam1"] = edit_camera(folder, "cam1", edit, fps)
+    summary = run_graph(build_graph(load_project(folder / "project.toml"), folder / "work", Options(progress=False)))
+    assert not summary.failed
+    timeline = read_timeline(folder / "work" / "timeline.json")
+    line = timeline.cameras["cam1"]
+    assert line.scan.mode == "windows" and line.scan.frames_decoded < 0.5 * line.scan.frames
+    scan = json.loads((folder / "work" / "cameras" / "cam1" / "scan.json").read_text())
+    assert all(stop <= edit.frame or start > 500 for start, stop in scan["windows"]), scan["windows"]
+    assert any(start <= edit.frame < stop for start, stop in scan["checks"]), scan["checks"]
+    assert [(b.kind, b.frame) for b in line.breaks] == [(kind, 400)]
+    assert [(s.start, s.source) for s in line.clock.segments] == segments
+    assert timeline.status("cam1").synchronized
+    lines = {name: (rel.alpha, rel.beta) for name, rel in scene.lines.items()}
+    times = video_times(folder, {**scene.n_frames, "cam1": len(sources["cam1"])})
+    for a, b in (("cam0", "cam1"), ("cam1", "cam0")):
+        errors, _, false = pair_errors(timeline, lines, sources, a, b, times)
+        assert false == 0, (a, b)
+        assert errors.max() < 0.15, (a, b, errors.max())

@@ -172,12 +172,27 @@ def test_excel_csv_log_reads_as_the_plain_one(tmp_path):
 
 def test_rows_written_in_blocks_as_savetxt_writes_them():
     rng = np.random.default_rng(3)
-    columns = [rng.normal(0, 1e4, 23), rng.normal(0, 1, 23), np.r_[-0.0, 0.0, 1e15, -5e-5, 5e-5, rng.normal(size=18)]]
-    formats = ["%.6f", "%.4f", "%.4f"]
+    halves = [0.03125, -0.5, 2.5, 0.00005, 1e-7 + 0.5e-6]  # exact halves (ties to even) and near ones
+    edges = [-0.0, 0.0, 1e15, 2.0**53, -5e-5, 5e-5, 0.99999995, -0.99999, 9999.99995, np.nan, np.inf, -np.inf]
+    columns = [
+        1.7e9 + np.arange(40) / 30.0,
+        rng.normal(0, 1e4, 40),
+        np.r_[halves, edges, rng.normal(size=23)],
+        rng.normal(0, 1, 40),
+    ]
+    formats = ["%.6f", "%.4f", "%.4f", "%.6f"]
     expected = io.StringIO()
     np.savetxt(expected, np.column_stack(columns), fmt=formats, delimiter=",")
-    written = io.StringIO()
+    written = io.BytesIO()
     with mock.patch.object(csvtable, "WRITE_ROWS", 7):
-        csvtable.write_rows(written, columns, formats)
-    assert written.getvalue() == expected.getvalue()
-    assert written.getvalue().count("\n") == 23
+        csvtable.write_rows(written, columns, [6, 4, 4, 6])
+    assert written.getvalue().decode() == expected.getvalue()
+    assert written.getvalue().count(b"\n") == 40
+
+
+def test_fixed_point_rows_match_python_over_sixteen_magnitudes():
+    rng = np.random.default_rng(4)
+    values = np.concatenate([rng.normal(0, 10.0**k, 20_000) for k in range(-6, 10)])
+    values[::1000] = np.round(values[::1000], 4) + 0.00005  # a tie in decimal, near one in binary
+    text = csvtable.fixed_point_rows([values], [4]).decode()
+    assert text.splitlines() == [f"{v:.4f}" for v in values.tolist()]

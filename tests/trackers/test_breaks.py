@@ -2,7 +2,18 @@
 
 import numpy as np
 
-from trackers.breaks import Break, PictureMeter, container_breaks, frozen_runs, scene_cuts
+from trackers.breaks import (
+    Break,
+    KeyframeMeter,
+    PictureMeter,
+    check_spans,
+    container_breaks,
+    frozen_runs,
+    keyframe_suspects,
+    repeated_frames,
+    scene_cuts,
+    still_packet_runs,
+)
 
 
 def test_container_gap_and_repeat():
@@ -133,3 +144,60 @@ def test_scene_cuts_needs_the_frames_either_side():
 
 def test_a_cut_in_words():
     assert Break("cut", 15, 0.0).describe() == "a cut (the picture changes at once) at frame 15"
+
+
+def test_a_keyframe_coded_afresh_inside_a_freeze_does_not_split_it():
+    """A keyframe changes pixels by up to 30 levels when it codes a repeated picture afresh: inside a run whose
+    frames converge on it (a third or more repeating it exactly) it is part of the freeze; in a still scene whose
+    noise moves a pixel by 1-10 levels in most frames (crf 35) it is not; a keyframe that moves by 40 levels is a
+    moving frame."""
+    change = np.array([90] * 5 + [30] + [4, 3, 4, 5] + [0] * 6 + [90] * 5)
+    keyframe = np.zeros(len(change), bool)
+    keyframe[5] = True
+    movers = np.ones(len(change), bool)
+    frames = np.arange(len(change))
+    assert frozen_runs(frames, change, movers) == []  # 30 levels: neither still nor moving, the run is not framed
+    assert frozen_runs(frames, change, movers, keyframe) == [Break("frozen", 5, 11.0)]
+    noisy = change.copy()
+    noisy[10:14] = [3, 9, 5, 2]
+    assert frozen_runs(frames, noisy, movers, keyframe) == []
+    moving = change.copy()
+    moving[5] = 45
+    assert frozen_runs(frames, moving, movers, keyframe) == [Break("frozen", 6, 10.0)]  # it moved: the run follows
+
+
+def test_packets_coded_to_nothing_and_keyframe_jumps_are_spans_to_check():
+    sizes = np.array([9000] + [600] * 20 + [30] * 12 + [600] * 20 + [30] + [600] * 10)
+    keyframe = np.zeros(len(sizes), bool)
+    keyframe[0] = True
+    assert still_packet_runs(sizes, keyframe) == [(21, 33)]  # the lone small packet is no run
+    frames = [0, 60, 120, 180, 240, 300]
+    step = np.array([[1.0, 0.01], [6.0, 0.01], [1.0, 0.01], [1.2, 0.2], [1.0, 0.01]])
+    assert keyframe_suspects(frames, step) == [(60, 120), (180, 240)]
+    assert keyframe_suspects(frames[:2], step[1:2]) == [(0, 60)]  # a lone step is judged by its floor alone
+    windows = ((700, 900),)
+    assert check_spans([(60, 120), (100, 130), (750, 760), (995, 1000)], windows, 998) == ((57, 133), (992, 998))
+
+
+def test_the_frames_of_frozen_runs_and_repeated_times():
+    breaks = [Break("frozen", 10, 3.0), Break("gap", 40, 5.0), Break("repeat", 50, 1.0), Break("cut", 60, 0.0)]
+    assert repeated_frames(breaks).tolist() == [10, 11, 12, 50]
+    assert repeated_frames([]).size == 0
+
+
+def test_the_keyframe_meter_judges_each_pass_of_the_coarse_pass_on_its_own():
+    """Keyframes 4 s apart, then those between in a second pass: a car leaving between frames 120 and 150 is a
+    suspect between the keyframes read either side of it, in each pass."""
+    rng = np.random.default_rng(0)
+    base = rng.integers(60, 200, (240, 320)).astype(np.uint8)
+    meter = KeyframeMeter()
+
+    def picture(index):
+        out = base.copy()
+        if index < 130:
+            out[100:140, 40:200] = 40  # a parked car, gone at frame 130
+        return out
+
+    for index in (*range(0, 301, 60), *range(30, 301, 60)):
+        meter.feed(index, picture(index))
+    assert meter.suspects() == [(90, 150), (120, 180)]

@@ -10,6 +10,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 from tlsync_pipeline.artefacts.jsonfile import malformed, read_document, write_document
+from trackers.video import merge_windows
 
 SCAN_FORMAT = "tlsync-scan"
 
@@ -41,7 +42,10 @@ class ScanPlan:
     coarse line (None when it was not found); keyframes_read: frames the
     coarse pass decoded; n_frames: frames in the video; undecided: every
     frame because the keyframes read could not decide (more keyframes
-    might; not written to scan.json).
+    might; not written to scan.json); checks: spans outside the windows
+    ([start, stop), 0-based) also read, only for the breaks the frames may
+    show there (a cut between two keyframes read, a run of packets coded
+    to almost nothing: trackers/breaks.py).
     """
 
     full: bool
@@ -51,11 +55,17 @@ class ScanPlan:
     coarse: CoarseLine | None = None
     keyframes_read: int = 0
     undecided: bool = False
+    checks: tuple[tuple[int, int], ...] = ()
 
     @property
     def mode(self) -> str:
         """ "full" (every frame) or "windows"."""
         return "full" if self.full else "windows"
+
+    @property
+    def read_windows(self) -> tuple[tuple[int, int], ...]:
+        """The windows and the checks, sorted and merged: what the fine pass reads when not every frame."""
+        return tuple(merge_windows([*self.windows, *self.checks]))
 
     @property
     def frames_in_windows(self) -> int:
@@ -71,6 +81,7 @@ class ScanPlan:
             "keyframes_read": self.keyframes_read,
             "frames_in_windows": self.frames_in_windows,
             "windows": [list(w) for w in self.windows],
+            "checks": [list(w) for w in self.checks],
             "coarse": asdict(self.coarse) if self.coarse is not None else None,
         }
 
@@ -85,6 +96,7 @@ class ScanPlan:
             int(data["frames"]),
             coarse,
             int(data.get("keyframes_read", 0)),
+            checks=tuple((int(a), int(b)) for a, b in data.get("checks", [])),
         )
 
     def summary(self) -> str:
@@ -93,7 +105,12 @@ class ScanPlan:
             return f"every frame read ({self.reason})"
         n, read = self.n_frames, self.frames_in_windows
         windows = f"{len(self.windows)} window{'s' if len(self.windows) != 1 else ''}"
-        return f"{read} of {n} frames read in {windows}, {n - read} skipped, after {self.keyframes_read} keyframes"
+        checked = sum(b - a for a, b in self.read_windows) - read
+        checks = f" and {checked} checked for breaks" if checked else ""
+        return (
+            f"{read} of {n} frames read in {windows}{checks}, {n - read - checked} skipped, after "
+            f"{self.keyframes_read} keyframes"
+        )
 
 
 def write_scan(plan: ScanPlan, path: str | Path) -> None:

@@ -1,20 +1,36 @@
 """The ``tlsync`` executable (also ``python -m tlsync_pipeline.cli``).
 
-SIGTERM and Ctrl-C stop it with exit code 130 from its first instant, while
-the command line's modules are still being imported; tlsync_pipeline.cli.main
-keeps to the same contract once a command runs.
+SIGTERM and Ctrl-C stop it with exit code 130 from the moment this module
+starts: until ``main`` runs, a handler installed by the module's first lines
+exits at once (nothing has started, nothing to clean up); ``main`` then
+installs the handler that stops a running command, while the command line's
+modules are still being imported, and tlsync_pipeline.cli.main keeps to the
+same contract once a command runs. What this cannot cover is the
+interpreter's own start-up before this module (``site``: about 15 ms, or
+35 ms with an editable install's finder; bench/early_interrupt.py).
 """
 
 import os
 import signal
-import sys
 
-from tlsync_pipeline.cli.signals import INTERRUPTED, INTERRUPTED_MESSAGE, interrupt
+
+def _exit_before_start(signum, frame) -> None:
+    os.write(2, b"interrupted\n")
+    os._exit(130)
+
+
+signal.signal(signal.SIGTERM, _exit_before_start)
+if signal.getsignal(signal.SIGINT) is signal.default_int_handler:  # not when Ctrl-C is ignored (a background job)
+    signal.signal(signal.SIGINT, _exit_before_start)
+
+import sys  # noqa: E402 - after the handlers, so a signal during these imports exits 130
+
+from tlsync_pipeline.cli.signals import INTERRUPTED, INTERRUPTED_MESSAGE, interrupt  # noqa: E402
 
 
 def main() -> None:
     signal.signal(signal.SIGTERM, interrupt)
-    if signal.getsignal(signal.SIGINT) is signal.default_int_handler:  # Ctrl-C too, remembered (not when ignored)
+    if signal.getsignal(signal.SIGINT) is _exit_before_start:  # Ctrl-C too, remembered (not when ignored)
         signal.signal(signal.SIGINT, interrupt)
     try:
         from tlsync_pipeline.cli.main import main as command_line  # noqa: PLC0415 - after the handler, so an early signal is handled

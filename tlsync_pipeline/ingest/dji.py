@@ -13,8 +13,10 @@ against ``time(millisecond)``; UTC = time(millisecond) / 1000 + c per
 recording run, c from the whole seconds (tlsync_pipeline.ingest.clocks). A
 recording pause (both clocks jump) or a restart of time(millisecond) starts
 a new run with its own c; that makes the UTC good to about 0.1 s, time
-differences inside a run exact. Rows with latitude and longitude 0 (before the first fix) are
-dropped.
+differences inside a run exact. Some exports write ``datetime(utc)`` with
+milliseconds (``2024-09-11 05:47:13.200``): then c is the median of
+datetime - time(millisecond) per run, as good as those milliseconds. Rows
+with latitude and longitude 0 (before the first fix) are dropped.
 
 **OSD layout** (``OSD.latitude``, ``OSD.longitude``, ``OSD.height [m]`` or
 ``[ft]``, ``CUSTOM.updateTime``, optionally with ``CUSTOM.date``): times are
@@ -130,7 +132,8 @@ def read_dji(path: str | Path, utc_offset_s: float | None = None) -> LogRecords:
     except csv.Error as exc:
         raise InputError(f"{path}:{reader.line_num}: not CSV: {exc}") from None
     data = np.array(parsed, dtype=float).reshape(-1, 6 + len(extras))
-    t, run = onto_coarse_clock(data[:, 1], data[:, 2], whole_seconds=True, break_s=RUN_BREAK_S)
+    whole_seconds = bool(np.all(data[:, 2] == np.floor(data[:, 2])))
+    t, run = onto_coarse_clock(data[:, 1], data[:, 2], whole_seconds=whole_seconds, break_s=RUN_BREAK_S)
     runs = int(run[-1]) + 1 if len(run) else 0
     warnings = []
     if runs > 1:
@@ -144,6 +147,8 @@ def read_dji(path: str | Path, utc_offset_s: float | None = None) -> LogRecords:
     note = (
         f"times: time(millisecond) put on UTC by the whole-second datetime(utc), one offset per run "
         f"(within {whole_second_uncertainty(data[:, 1]):.2f} s)"
+        if whole_seconds
+        else "times: time(millisecond) put on UTC by datetime(utc)'s milliseconds, one offset per run (the median)"
     )
     return make_records(
         path,

@@ -12,13 +12,23 @@ stream (0-based, counted over the file), as GoPro's gpmf-parser computes it
 - with ``STMP`` (HERO8 onwards, MAX; camera microseconds): rate = samples
   between the first and the last GPS payload / their STMP difference;
   first = (the first GPS STMP - the SHUT STMP of that payload) - TIMO + the
-  first payload's presentation time (the track's edit-list start);
+  first payload's time on the track's sample table (0 in GoPro files);
 - without (HERO5-HERO7): a least-squares line through (end time of each GPS
   payload on the MP4 sample table, samples delivered up to its end); first
   = the line's zero crossing - TIMO.
 
+TIMO is the last GPS payload's, as gpmf-parser reads it.
+
 Spreading each payload's samples evenly over its presentation interval is
 50-60 ms off at the first sample (the GPS data of a payload trail its start).
+The payload times are gpmf-parser's (``payload_times``): payload k spans
+[k, k + 1) x the mean payload duration of the track's sample table, without
+the track's edit list (FFmpeg's default would shift a track whose edit
+starts inside its first sample by a whole payload, and delay one with an
+empty edit): gpmf-parser, which reads the ``edts`` before the track's
+``hdlr``, leaves a metadata track's edit list out. Where every payload but
+a shorter last one lasts the same (GoPro's sample tables), these are the
+sample table's own times.
 
 UTC: GPS9 samples carry their own (days since 2000 + seconds since midnight,
 ms). For GPS5, ``GPSU`` is taken as the UTC of the payload's first GPS
@@ -101,11 +111,19 @@ def read_gopro(path: str | Path) -> LogRecords:
         raise InputError(f"{path}: cannot read: {exc.strerror or exc}") from None
     if raw:
         return _raw_records(path)
+    return gopro_records(path, metadata_packets(path))
+
+
+def metadata_packets(path: Path) -> list[tuple[float, float, bytes]]:
+    """(start s, duration s, GPMF payload) of each packet of an MP4's GPMF track, timed as gpmf-parser times them
+    (``payload_times``; see the module notes); InputError when the file has no such track."""
     import av
 
-    packets = []
+    ticks: list[int] = []
+    payloads: list[bytes] = []
+    timescale = 1.0
     try:
-        with av.open(str(path)) as container:
+        with av.open(str(path), options={"ignore_editlist": "1"}) as container:
             for stream in container.streams:
                 if stream.type != "data":
                     continue
@@ -114,19 +132,48 @@ def read_gopro(path: str | Path) -> LogRecords:
                 if first is None or not bytes(first).startswith(b"DEVC"):
                     continue
                 for packet in container.demux(stream):
-                    if packet.pts is None or packet.size == 0:
+                    if packet.pts is None:
                         continue
-                    tb = float(packet.time_base)
-                    packets.append((packet.pts * tb, (packet.duration or 0) * tb, bytes(packet)))
+                    timescale = 1.0 / float(packet.time_base)
+                    ticks.append(packet.duration or 0)
+                    payloads.append(bytes(packet))
                 break
     except av.error.FFmpegError as exc:
         raise InputError(f"{path}: cannot read as MP4: {exc}") from None
+    packets = [
+        (start, end - start, payload)
+        for (start, end), payload in zip(payload_times(ticks, timescale), payloads)
+        if payload
+    ]
     if not packets:
         raise InputError(
             f"{path}: no GoPro GPMF metadata track (a data stream starting with DEVC); is this a GoPro HERO5-or-later "
             f"video?"
         )
-    return gopro_records(path, packets)
+    return packets
+
+
+def payload_times(durations: list[int], timescale: float) -> list[tuple[float, float]]:
+    """(start s, end s) of each payload of a metadata track as gpmf-parser's GetPayloadTime gives them: payload k spans
+    [k, k + 1) x the track's base duration, the last one ending at the track's length.
+
+    durations: each payload's duration on the sample table (ticks of 1 / timescale s). The base duration is the
+    mean duration of the payloads up to the table's last entry of more than one payload (a last, shorter payload
+    does not change it; a first payload of another length does, by its share).
+    """
+    entries: list[list[int]] = []  # the sample table's (count, duration) entries
+    for ticks in durations:
+        if entries and entries[-1][1] == ticks:
+            entries[-1][0] += 1
+        else:
+            entries.append([1, ticks])
+    length, samples, base = 0.0, 0, 0.0
+    for count, ticks in entries:
+        samples += count
+        length += count * ticks / timescale
+        if count > 1 or len(entries) == 1 or base == 0.0:
+            base = length * timescale / samples
+    return [(k * base / timescale, min((k + 1) * base / timescale, length)) for k in range(len(durations))]
 
 
 def _raw_records(path: Path) -> LogRecords:
@@ -159,8 +206,8 @@ def _raw_records(path: Path) -> LogRecords:
 def sample_clock(payloads: list[Payload], track_start_s: float) -> SampleClock:
     """The stream's linear sample clock (see the module notes); payloads in order, each with samples > 0.
 
-    track_start_s: the presentation time of the metadata track's first payload
-    (its edit-list start), added to STMP-based times as gpmf-parser does.
+    track_start_s: the time of the metadata track's first payload on its sample
+    table, added to STMP-based times as gpmf-parser adds the track's start.
     """
     first, last = payloads[0], payloads[-1]
     total = sum(p.samples for p in payloads)
@@ -179,14 +226,14 @@ def sample_clock(payloads: list[Payload], track_start_s: float) -> SampleClock:
         rate = between / ((last.stmp_us - first.stmp_us) * 1e-6)
         if 0.9 * rate < approx < 1.1 * rate:
             base = first.base_us if first.base_us is not None else first.stmp_us
-            return SampleClock((first.stmp_us - base) * 1e-6 - first.timo_s + track_start_s, rate, "STMP")
+            return SampleClock((first.stmp_us - base) * 1e-6 - last.timo_s + track_start_s, rate, "STMP")
     x = np.array([p.end_s for p in payloads])
     y = np.cumsum([p.samples for p in payloads]).astype(float)
     slope = float(np.sum((x - x.mean()) * (y - y.mean())) / np.sum((x - x.mean()) ** 2))
     if not slope > 0:
-        return SampleClock(first.start_s - first.timo_s, approx, "MP4 sample table")
+        return SampleClock(first.start_s - last.timo_s, approx, "MP4 sample table")
     intercept = float(y.mean() - slope * x.mean())
-    return SampleClock(-intercept / slope - first.timo_s, slope, "MP4 sample table")
+    return SampleClock(-intercept / slope - last.timo_s, slope, "MP4 sample table")
 
 
 def gopro_records(path: Path, packets: list[tuple[float, float, bytes]]) -> LogRecords:

@@ -18,8 +18,10 @@ re-run RTKLIB with ``out-solformat = llh``.
 from __future__ import annotations
 
 import calendar
+import io
 import math
 import re
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -27,7 +29,14 @@ import numpy as np
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.ingest.gps_time import GPS_EPOCH_POSIX, WEEK_S, gpst_to_utc
 from tlsync_pipeline.ingest.reader import Reader, text_of
-from tlsync_pipeline.ingest.records import ELLIPSOID, GEODETIC, MSL, LogRecords, check_geodetic, make_records
+from tlsync_pipeline.ingest.records import (
+    ELLIPSOID,
+    GEODETIC,
+    MSL,
+    LogRecords,
+    check_geodetic_rows,
+    records_of_columns,
+)
 
 NO_SOLUTION = "Q 0 (no solution)"
 MALFORMED = "malformed line"
@@ -35,6 +44,7 @@ QUALITY_NAMES = {1: "fix", 2: "float", 3: "SBAS", 4: "DGPS", 5: "single", 6: "PP
 _WEEK_TOW = re.compile(
     r"^\s*\d{3,4}[\s,]+\d+(\.\d*)?[\s,]+-?\d+\.\d+[\s,]+-?\d+\.\d+[\s,]+-?\d+\.\d+[\s,]+[0-6][\s,]+\d+"
 )
+_SEPARATORS = str.maketrans(",/:", "   ")  # a solution line's fields, split on blanks
 _CALENDAR = re.compile(r"^\s*\d{4}/\d{1,2}/\d{1,2}[\s,]+\d{1,2}:\d{1,2}:\d{1,2}(\.\d*)?[\s,]+-?\d+(\.\d+)?[\s,]")
 
 
@@ -73,7 +83,11 @@ def _header(path: Path, lines: list[str]) -> tuple[str, str, bool]:
 
 
 def read_rtklib(path: str | Path) -> LogRecords:
-    """Read every solution line; see the module notes."""
+    """Read every solution line; see the module notes.
+
+    A file whose solution lines are all alike (one time layout, degrees, the same fields, numbers where numbers
+    belong) is parsed at once by NumPy; any other line by line, with the same result.
+    """
     path = Path(path)
     try:
         text = path.read_bytes().decode("utf-8", errors="replace")
@@ -81,36 +95,25 @@ def read_rtklib(path: str | Path) -> LogRecords:
         raise InputError(f"{path}: cannot read: {exc.strerror or exc}") from None
     lines = text.splitlines()
     system, altitude, dms = _header(path, lines)
-    rows, numbers, sigma = [], [], []
-    quality: dict[str, list[float]] = {"Q": [], "ns": [], "sdn": [], "sde": [], "sdu": []}
-    dropped: dict[str, list[int]] = {}
-    ignored = 0
-    for number, line in enumerate(lines, start=1):
-        if not line.strip() or line.startswith("%"):
-            ignored += 1
-            continue
-        fields = line.replace(",", " ").split()
-        parsed = _solution(fields, system, dms)
-        if parsed is None:
-            dropped.setdefault(MALFORMED, []).append(number)
-            continue
-        t, lat, lon, h, q, rest = parsed
-        if q == 0:
-            dropped.setdefault(NO_SOLUTION, []).append(number)
-            continue
-        check_geodetic(path, lat, lon, h, number)
-        sdn, sde, sdu = (rest[i] if len(rest) > i else math.nan for i in (1, 2, 3))
-        rows.append([t, lat, lon, h])
-        numbers.append(number)
-        sigma.append(math.sqrt((sdn * sdn + sde * sde) / 2))
-        for name, value in zip(("Q", "ns", "sdn", "sde", "sdu"), (q, rest[0] if rest else math.nan, sdn, sde, sdu)):
-            quality[name].append(value)
-    warnings = []
-    counts = (
-        {QUALITY_NAMES.get(int(q), str(int(q))): n for q, n in zip(*np.unique(quality["Q"], return_counts=True))}
-        if rows
-        else {}
+    numbers = np.array(
+        [n for n, line in enumerate(lines, start=1) if line.strip() and not line.startswith("%")], dtype=np.int64
     )
+    ignored = len(lines) - len(numbers)
+    solutions = None if dms else _solutions_at_once([lines[n - 1] for n in numbers], system)
+    malformed: list[int] = []
+    if solutions is None:
+        solutions, numbers, malformed = _solutions_line_by_line(lines, numbers, system, dms)
+    t, lat, lon, h, q, ns, sdn, sde, sdu = solutions.reshape(-1, 9).T
+    dropped = {MALFORMED: malformed} if malformed else {}
+    if (q == 0).any():
+        dropped[NO_SOLUTION] = numbers[q == 0].tolist()
+    dropped = dict(sorted(dropped.items(), key=lambda item: item[1][0]))  # reasons in the order the file shows them
+    kept = q != 0
+    numbers, t, lat, lon, h = numbers[kept], t[kept], lat[kept], lon[kept], h[kept]
+    check_geodetic_rows(path, lat, lon, h, numbers)
+    quality = {"Q": q[kept], "ns": ns[kept], "sdn": sdn[kept], "sde": sde[kept], "sdu": sdu[kept]}
+    warnings = []
+    counts = {QUALITY_NAMES.get(int(v), str(int(v))): n for v, n in zip(*np.unique(quality["Q"], return_counts=True))}
     if counts:
         warnings.append(
             "solutions: "
@@ -119,20 +122,91 @@ def read_rtklib(path: str | Path) -> LogRecords:
         )
     if system == "GPST":
         warnings.append("times are GPST: converted to UTC with the leap seconds in force")
-    sig = np.asarray(sigma, dtype=float)
-    return make_records(
+    sigma = np.sqrt((quality["sdn"] * quality["sdn"] + quality["sde"] * quality["sde"]) / 2)
+    return records_of_columns(
         path,
         "rtklib",
         GEODETIC,
-        rows,
+        t,
+        np.column_stack([lat, lon, h]),
         numbers,
         dropped=dropped,
         ignored=ignored,
         warnings=warnings,
         altitude=altitude,
-        sigma=None if not len(sig) or np.isnan(sig).all() else sig,
+        sigma=None if not len(sigma) or np.isnan(sigma).all() else sigma,
         quality=quality,
     )
+
+
+def _solutions_line_by_line(
+    lines: list[str], numbers: np.ndarray, system: str, dms: bool
+) -> tuple[np.ndarray, np.ndarray, list[int]]:
+    """(solutions (n, 9): UTC s, lat, lon, height, Q, ns, sdn, sde, sdu; their line numbers; malformed lines)."""
+    solutions, read, malformed = [], [], []
+    for number in numbers.tolist():
+        parsed = _solution(lines[number - 1].replace(",", " ").split(), system, dms)
+        if parsed is None:
+            malformed.append(number)
+            continue
+        t, lat, lon, h, q, rest = parsed
+        solutions.append([t, lat, lon, h, q, *(rest[i] if len(rest) > i else math.nan for i in range(4))])
+        read.append(number)
+    return np.array(solutions, dtype=np.float64).reshape(-1, 9), np.array(read, dtype=np.int64), malformed
+
+
+def _solutions_at_once(lines: list[str], system: str) -> np.ndarray | None:
+    """The solutions (n, 9) of solution lines that are all alike, parsed by NumPy; None for any line
+    _solution would not read the same way (then the file goes line by line)."""
+    if not lines:
+        return None
+    calendar_layout = "/" in lines[0].replace(",", " ").split()[0]
+    text = "\n".join(lines)
+    if text.count("/") != 2 * calendar_layout * len(lines) or text.count(":") != 2 * calendar_layout * len(lines):
+        return None
+    time_fields = 6 if calendar_layout else 2
+    integers = [0, 1, 2, 3, 4] if calendar_layout else [0]
+    table = io.StringIO(text.translate(_SEPARATORS))
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # loadtxt's warning on an empty input
+            values = np.loadtxt(table, ndmin=2, comments=None)
+            columns = values.shape[1]
+            if columns > time_fields + 3:
+                integers.append(time_fields + 3)  # Q
+            table.seek(0)
+            np.loadtxt(table, dtype=np.int64, usecols=integers, ndmin=2, comments=None)
+    except ValueError:
+        return None
+    if columns < time_fields + 3 or len(values) != len(lines):
+        return None
+    if calendar_layout:
+        year, month, day, hour, minute, second = values[:, :6].T
+        if not (((year >= 1) & (year <= 9999) & (month >= 1) & (month <= 12)).all()):
+            return None
+        first_of_month = (year - 1970).astype("datetime64[Y]").astype("datetime64[M]") + (month - 1).astype(
+            "timedelta64[M]"
+        )
+        days = first_of_month.astype("datetime64[D]").astype(np.int64) + day.astype(np.int64) - 1
+        seconds = (((days * 24 + hour.astype(np.int64)) * 60 + minute.astype(np.int64)) * 60).astype(np.float64)
+        seconds = seconds + second
+    else:
+        week, tow = values[:, 0], values[:, 1]
+        if not ((tow >= 0) & (tow < WEEK_S)).all():
+            return None
+        seconds = GPS_EPOCH_POSIX + week * WEEK_S + tow
+    position = values[:, time_fields : time_fields + 3]
+    if not (np.isfinite(seconds).all() and np.isfinite(position).all()):
+        return None
+    if system == "GPST":
+        seconds = gpst_to_utc(seconds)
+    elif system == "JST":
+        seconds = seconds - 9 * 3600.0
+    tail = values[:, time_fields + 3 : time_fields + 8]
+    solutions = np.full((len(values), 9), math.nan)
+    solutions[:, 0], solutions[:, 1:4], solutions[:, 4] = seconds, position, 0.0
+    solutions[:, 4 : 4 + tail.shape[1]] = tail
+    return solutions
 
 
 def _solution(fields: list[str], system: str, dms: bool):

@@ -71,7 +71,10 @@ _HEIGHTS = (  # (pattern, reference), in the order of preference
     (re.compile(r"BAROMETER\s*:\s*(" + NUMBER + ")"), TAKEOFF),
     (re.compile(r"\bHb\s*:\s*(" + NUMBER + ")"), TAKEOFF),
 )
-_HEIGHT_NAMES = ("abs_alt", "altitude", "H", "rel_alt", "BAROMETER", "Hb")
+_HEIGHT_NAMES = ("abs_alt", "altitude", "H", "rel_alt", "BAROMETER", "Hb")  # also the text each pattern needs
+_UNIT = re.compile(r"[A-Za-z]+$")  # a unit after a number (0.0M)
+_UNIT_AND_BLANKS = re.compile(r"[A-Za-z\s]+$")
+_TAG = re.compile(r"<[^>]*>")  # HTML tags in the telemetry (font colours), read as blanks
 _DISTANCE = re.compile(r"(?:^|[\s,])D\s+(" + NUMBER + r")\s*m\b")
 _SPEED = re.compile(r"H\.S\s+(" + NUMBER + r")\s*m/s")
 
@@ -110,13 +113,13 @@ def _sniff(head: bytes) -> bool:
 
 def _number(text: str | None) -> float:
     try:
-        return float(re.sub(r"[A-Za-z]+$", "", text.strip())) if text is not None else math.nan
+        return float(_UNIT.sub("", text.strip())) if text is not None else math.nan
     except ValueError:
         return math.nan
 
 
 def _decimals(text: str) -> int:
-    digits = re.sub(r"[A-Za-z\s]+$", "", text.strip())
+    digits = _UNIT_AND_BLANKS.sub("", text.strip())
     return len(digits.split(".", 1)[1]) if "." in digits else 0
 
 
@@ -127,7 +130,8 @@ def _blocks(text: str) -> list[_Block]:
 
     def close() -> None:
         if blocks:
-            _parse_body(blocks[-1], re.sub(r"<[^>]*>", " ", " ".join(body)))
+            text = " ".join(body)
+            _parse_body(blocks[-1], _TAG.sub(" ", text) if "<" in text else text)
         body.clear()
 
     for number, raw in enumerate(text.split("\n"), start=1):
@@ -156,8 +160,10 @@ def _parse_body(block: _Block, body: str) -> None:
         if frac:
             wall += int(frac) / 10 ** len(frac) + (int(micro) / 1e6 if micro else 0.0)
         block.wall, block.subsecond, block.zulu = wall, bool(frac), bool(zulu)
-    lat, lon = _LAT.search(body), _LON.search(body)
-    tuples = {key: value.split(",") for key, value in _TUPLE.findall(body)}
+    # each pattern is searched only where the text it needs is in the body: the same matches, fewer searches
+    lat = _LAT.search(body) if "latitude" in body else None
+    lon = _LON.search(body) if "long" in body else None
+    tuples = {key: value.split(",") for key, value in _TUPLE.findall(body)} if "(" in body else {}
     if lat and lon:
         block.a, block.b, block.labelled = lat.group(1), lon.group(1), True
     elif (gps := tuples.get("GPS", tuples.get("RTK"))) is not None and len(gps) >= 2:
@@ -166,9 +172,12 @@ def _parse_body(block: _Block, body: str) -> None:
     if (home := tuples.get("HOME")) is not None and len(home) >= 2:
         values = (_number(home[0]), _number(home[1]))
         block.home = values if all(math.isfinite(v) for v in values) else None
-    block.heights = tuple(float(m.group(1)) if (m := pattern.search(body)) else math.nan for pattern, _ in _HEIGHTS)
-    block.distance = _number(m.group(1)) if (m := _DISTANCE.search(body)) else math.nan
-    block.speed = _number(m.group(1)) if (m := _SPEED.search(body)) else math.nan
+    block.heights = tuple(
+        float(m.group(1)) if name in body and (m := pattern.search(body)) else math.nan
+        for (pattern, _), name in zip(_HEIGHTS, _HEIGHT_NAMES)
+    )
+    block.distance = _number(m.group(1)) if "D" in body and (m := _DISTANCE.search(body)) else math.nan
+    block.speed = _number(m.group(1)) if "H.S" in body and (m := _SPEED.search(body)) else math.nan
 
 
 def read_srt(path: str | Path, utc_offset_s: float | None = None) -> LogRecords:

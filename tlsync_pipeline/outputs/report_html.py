@@ -108,7 +108,10 @@ def _player_section(player: dict | None) -> str:
         '<p class="hint">One position on the target\'s clock drives every video: each seeks to its frame through the '
         "camera's line "
         "(presentation times for VFR cameras; a shift per segment for a recording that breaks, its breaks marked red "
-        "on the strip under its view). Red circle: where the logged trajectory projects at that instant; red line: "
+        "on the strip under its view). Away from the frames that show the target a camera's mapping holds only if its "
+        "recording runs on unbroken there: a break neither the container's times nor the pictures show (a restart "
+        "between identical pictures, its times re-stamped) is not seen. Red circle: where the logged trajectory "
+        "projects at that instant; red line: "
         "the projected "
         "path while the camera records. Keys: ← → one frame of the chosen camera (click a view to choose it), space: "
         "play / pause.</p>"

@@ -45,6 +45,11 @@ def format_table(timeline: Timeline) -> str:
     if with_se:
         text += "\n±: 95 % intervals (1.96 standard errors)"
     text += "\nstatus: ok, weak (synchronized, for the reason given), ambiguous or failed (not synchronized)"
+    if timeline.cameras:
+        text += (
+            "\nframes away from the target's visits map only if the recording runs on unbroken there: a break that "
+            "neither the container's times nor the pictures show is not seen (docs/accuracy.md)"
+        )
     vfr = [name for name, line in timeline.cameras.items() if line.clock.vfr]
     if vfr:
         text += (

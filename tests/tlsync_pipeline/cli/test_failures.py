@@ -339,3 +339,21 @@ def test_run_json_is_a_machine_readable_summary(project_dir):
     )
     assert {"exports/ffmpeg.sh", "exports/frame_map.csv", "exports/offsets.csv"} <= set(tasks["export"]["artefacts"])
     assert {name: camera["status"] for name, camera in document["cameras"].items()} == {"cam0": "ok", "cam1": "ok"}
+
+
+@pytest.mark.parametrize("signal_name", ["SIGINT", "SIGTERM"])
+def test_a_signal_before_the_command_line_is_imported_exits_130_without_a_traceback(signal_name):
+    """The entry point's first lines install a handler: a signal between its import and main() (where the heavy
+    imports start) exits 130 at once, not 1 with a KeyboardInterrupt traceback."""
+    code = (
+        "import os, signal, time\n"
+        "import tlsync_pipeline.cli.__main__\n"
+        f"os.kill(os.getpid(), signal.{signal_name})\n"
+        "time.sleep(10)\n"
+    )
+    root = Path(__file__).resolve().parents[3]
+    done = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, timeout=60, env={**os.environ, "PYTHONPATH": str(root)}
+    )
+    assert done.returncode == 130
+    assert done.stderr == b"interrupted\n"

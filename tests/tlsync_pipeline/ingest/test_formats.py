@@ -25,7 +25,7 @@ from data_fixtures.target_logs import (
 from tlsync_pipeline.cli.main import main
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.geodesy import Origin, geodetic_to_enu
-from tlsync_pipeline.ingest import FORMATS, IngestParams, detect_format, ingest, read_log
+from tlsync_pipeline.ingest import FORMATS, IngestParams, detect_format, ingest, read_log, rtklib
 from tlsync_pipeline.ingest.gopro import gopro_records
 from tlsync_pipeline.ingest.gps_time import gpst_to_utc, leap_seconds, week_tow_to_utc
 
@@ -227,6 +227,24 @@ def test_dji_feet_whole_second_utc_no_fix_rows_and_a_pause(tmp_path, truth):
     paused = read_log(write_airdata_csv(tmp_path / "paused.csv", t, geo, jitter_seed=4, pause=(50, 7.0)))
     assert any("2 recording runs" in w for w in paused.warnings)
     _close(paused, truth, seconds=0.15, offset_m=UNDULATION_M)
+
+
+def test_dji_airdata_datetime_with_milliseconds_is_each_rows_utc(tmp_path, truth):
+    """An export whose datetime(utc) has milliseconds: UTC from them (the median offset per run), not from the
+    whole-second anchoring, which would put every fix about half a second late."""
+    t, geo, _ = truth
+    whole = write_airdata_csv(tmp_path / "whole.csv", t, geo, no_fix_rows=0)
+    lines = whole.read_text().splitlines()
+    precise = [lines[0]]
+    for line, ti in zip(lines[1:], t):
+        fields = line.split(",")
+        fields[1] = dt.datetime.fromtimestamp(round(ti, 3), dt.timezone.utc).strftime("%Y-%m-%d %H:%M:%S.%f")[:-3]
+        precise.append(",".join(fields))
+    path = tmp_path / "ms.csv"
+    path.write_text("\n".join(precise) + "\n")
+    records = read_log(path)
+    assert np.abs(records.t - t).max() < 0.002
+    assert any("milliseconds" in note for note in records.notes)
 
 
 def test_gopro_gpmf_payloads(truth):
@@ -444,3 +462,35 @@ def test_kml_my_tracks_layout_markers_and_accuracy(tmp_path):
     assert len(records) == 3 and records.ignored == 2 and any("markers" in w for w in records.warnings)
     np.testing.assert_allclose(records.sigma, [26.0, 12.0, 4.0])
     np.testing.assert_allclose(records.t[-1] - records.t[0], 2.03, atol=1e-6)
+
+
+def _same_records(a, b):
+    assert (a.dropped, a.ignored, a.warnings, a.altitude) == (b.dropped, b.ignored, b.warnings, b.altitude)
+    for name in ("t", "values", "line", "sigma"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
+    assert a.quality.keys() == b.quality.keys()
+    for name in a.quality:
+        np.testing.assert_array_equal(a.quality[name], b.quality[name])
+
+
+@pytest.mark.parametrize("layout", ["calendar", "week"])
+@pytest.mark.parametrize("system", ["GPST", "UTC"])
+def test_rtklib_read_at_once_as_line_by_line(tmp_path, truth, layout, system, monkeypatch):
+    """NumPy's parse of alike solution lines gives the line-by-line reading's records, bit for bit; a file with
+    one odd line (a Q written 1.0, a comma, a cut line) goes line by line whole."""
+    t, geo, _ = truth
+    q = np.where(np.arange(len(t)) % 17 == 3, 0, 1 + (np.arange(len(t)) % 5 == 0))
+    path = write_rtklib_pos(tmp_path / "sol.pos", t, geo, layout=layout, system=system, q=q, sdn=0.01 + q * 0.1)
+    real = DATA / "rover_1Hz_rtk_head.pos"
+    lines = path.read_text().splitlines()
+    odd = tmp_path / "odd.pos"
+    odd.write_text("\n".join([*lines[:20], lines[20].replace(" 1 ", " 1.0 ", 1), *lines[21:-1], lines[-1][:30]]))
+    at_once = [read_log(p) for p in (path, real, odd)]
+    calls = []
+    original = rtklib._solutions_at_once
+    monkeypatch.setattr(rtklib, "_solutions_at_once", lambda *a: calls.append(original(*a)) or None)
+    by_line = [read_log(p) for p in (path, real, odd)]
+    assert [c is not None for c in calls] == [True, True, False]
+    for a, b in zip(at_once, by_line):
+        _same_records(a, b)
+    assert len(at_once[2].dropped["malformed line"]) == 2

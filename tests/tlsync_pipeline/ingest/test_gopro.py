@@ -14,7 +14,7 @@ from data_fixtures.gps_logs import log_fixes, walk_trajectory
 from data_fixtures.target_logs import gpmf_payload
 from tlsync_pipeline.geodesy import Origin
 from tlsync_pipeline.ingest import detect_format, ingest, read_log
-from tlsync_pipeline.ingest.gopro import Payload, gopro_records, sample_clock
+from tlsync_pipeline.ingest.gopro import Payload, gopro_records, payload_times, sample_clock
 from tlsync_pipeline.ingest.gpmf import gps_blocks
 
 DATA = Path(__file__).parent / "data"
@@ -83,6 +83,9 @@ def test_sample_clock_without_stmp_is_gpmf_parsers_least_squares_line():
 def test_sample_clock_single_payload_and_timo():
     clock = sample_clock([Payload(2.0, 3.0, 18, timo_s=0.1)], track_start_s=2.0)
     assert clock.first_s == pytest.approx(1.9) and clock.rate_hz == pytest.approx(18.0)
+    # TIMO is the last payload's, as gpmf-parser reads it
+    line = sample_clock([Payload(0.0, 1.0, 18, timo_s=0.0), Payload(1.0, 2.0, 18, timo_s=0.1)], track_start_s=0.0)
+    assert line.first_s == pytest.approx(-0.1) and line.rate_hz == pytest.approx(18.0)
     stamped = sample_clock(
         [Payload(0.0, 1.0, 18, 1_100_000, 1_000_000), Payload(1.0, 2.0, 18, 2_090_000, 2_000_000)], track_start_s=0.0
     )
@@ -97,6 +100,18 @@ def test_sample_clock_single_payload_and_timo():
         track_start_s=0.0,
     )
     assert counted.rate_hz == pytest.approx(19 / 0.99)
+
+
+def test_payload_times_as_gpmf_parser_gives_them():
+    """GetPayloadTime: payload k over [k, k + 1) x the base duration, the last clipped to the track's length."""
+    # GoPro's table, every payload 1.001 s but a shorter last: the sample table's own times
+    times = payload_times([1001] * 10 + [533], 1000.0)
+    assert (
+        times[0] == (0.0, 1.001) and times[9] == pytest.approx((9.009, 10.01)) and times[10][1] == pytest.approx(10.543)
+    )
+    # a first payload of another length moves every later payload by its share of the mean, not by its own length
+    shifted = payload_times([1034, 1001, 1001, 1001], 1000.0)
+    assert [round(end, 6) for _, end in shifted] == [1.00925, 2.0185, 3.02775, 4.037]
 
 
 def test_real_hero7_payloads_gpsu_against_the_sample_clock():

@@ -216,3 +216,19 @@ def test_segments_of_the_same_shift_either_side_of_a_cut_are_joined():
     assert joined_at_void_cuts(apart, (cut, frozen)) == (apart, (cut, frozen))
     two = (Segment(0, 100, 50.0, "votes", 23), Segment(100, END, 50.0, "line", 90))
     assert joined_at_void_cuts(two, (Break("cut", 100, 0.0),)) == ((), ())  # one segment left: none
+
+
+def test_movers_agreeing_on_an_offset_no_stall_can_make_leave_the_segment_unknown():
+    """A segment the target never visits, across a freeze of 20 frames: movers wandering there agree on an offset
+    780 frames away (look-alikes in a span read only to check a break); a stall moves the clock by 0 to 20 frames,
+    so the segment is unknown. Votes 20 frames off are the stall's and give the segment its shift."""
+    frame, clock, sample = _votes(np.arange(500, 700))
+    tracked = np.arange(500, 700)
+    breaks = (Break("frozen", 300, 20.0),)
+    wandering = np.arange(250, 300, dtype=np.float64)
+    for offset, expected in ((780.0, [(0, "unknown", None)]), (20.0, [(0, "votes", 20.0)])):
+        f = np.concatenate([frame, wandering])
+        s = np.concatenate([sample, (wandering + offset - BETA) / ALPHA])
+        segments = fit_segments(breaks, tracked, f, f.copy(), s, _dists(f), ALPHA, BETA, DELTA, vfr=False)
+        assert [(seg.start, seg.source, seg.shift) for seg in segments[:1]] == expected
+        assert [(seg.start, seg.source) for seg in segments[1:]] == [(300, "frozen"), (320, "line")]

@@ -9,6 +9,7 @@ import pytest
 from data_fixtures import make_scene
 from data_fixtures.log_error import PRESETS as RECEIVERS
 from data_fixtures.walk import WalkSpec, make_walk_scene
+from tlsync_pipeline.sync.kernels.smoothing import smooth_trajectory
 from tlsync_pipeline.sync.model.log_model import PRESETS, LogModel
 from tlsync_pipeline.sync.solve.causes import explain, image_offset
 from tlsync_pipeline.sync.solve.plausibility import GATE_EPS, Judged, LogUnitError
@@ -73,3 +74,16 @@ def test_a_log_wandering_by_metres_beyond_its_model_is_named_not_the_tracker():
     assert "log_error" not in {r.code for r in exact.values()}
     as_phone = {n: vote_radius(c, walk.trajectory, EPS_PX, PRESETS["phone"]) for n, c in walk.cameras.items()}
     assert explain(judged, walk.trajectory, EPS_PX, radius_px=as_phone, log_model=PRESETS["phone"]) == {}  # on it
+
+
+def test_a_biased_log_projected_beside_a_view_is_named_the_logs_error_not_the_tracker():
+    """A walk along a view's edge logged by a phone (2 m / 60 s) whose bias puts every fix just outside the image: the
+    vote radius falls back to eps_px there, but the log's error seen at the depth of the fixes beside the image spans
+    the track: the cause is the log's error (log_error, its key), not a tracker on another object."""
+    walk = make_walk_scene(16, WalkSpec(route="turns", log=RECEIVERS["phone2"]))
+    camera, smoothed = walk.cameras["cam1"], smooth_trajectory(walk.trajectory)  # the refined method's log
+    assert vote_radius(camera, smoothed, EPS_PX, PRESETS["phone"]) == EPS_PX
+    assert vote_radius(camera, smoothed, EPS_PX, PRESETS["phone"], beside=True) > 10 * EPS_PX
+    judged = {"cam1": Judged(camera, walk.tracks["cam1"], None, None, True)}
+    reasons = explain(judged, smoothed, EPS_PX, radius_px={"cam1": EPS_PX}, log_model=PRESETS["phone"])
+    assert reasons["cam1"].code == "log_error" and "log_model" in reasons["cam1"].remedy, reasons

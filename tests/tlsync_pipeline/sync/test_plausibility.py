@@ -22,9 +22,11 @@ from tlsync_pipeline.sync.solve.plausibility import (
     MotionSlope,
     SlopeMode,
     _fits_better,
+    _paced_unit,
     _stated_fps_unbacked,
     diagnose,
     line_evidence,
+    line_motion,
     motion_slope,
     path_share,
     times_fps,
@@ -205,3 +207,71 @@ def test_a_phones_log_cannot_hide_an_fps_doubled_or_halved():
             if {a, b} <= set(timeline.cameras):
                 cov = timeline.relation_cov(a, b)
                 assert abs(timeline.relation(a, b).beta - truth.beta) <= 3 * 1.96 * np.sqrt(cov[1, 1]), key
+
+
+def _phone_walk_inputs(scene):
+    return {n: CameraInput(c, scene.tracks[n], c.fps) for n, c in scene.cameras.items()}
+
+
+def test_a_phones_log_cannot_hide_its_times_doubled():
+    """The same walk with the log's times doubled: each line keeps the clock prior's slope (twice the truth) within a
+    phone's vote radius, but the target's image speed under every line reads half the prior: the log's time unit."""
+    scene = make_walk_scene(0, WalkSpec(log=RECEIVERS["phone2"]))
+    doubled = dataclasses.replace(scene.trajectory, rate=scene.trajectory.rate / 2)
+    with pytest.raises(LogUnitError, match=r"column t: not seconds: .*set \[target\] time_unit = 0\.5$"):
+        synchronize(_phone_walk_inputs(scene), doubled, SyncParams(), log_model=LOG_MODELS["phone"])
+
+
+def test_a_phones_log_cannot_hide_two_cameras_poses_swapped():
+    """Two cameras' poses exchanged under a phone's log: neither is synchronized (a line the vote radius still finds is
+    refused because the projection moves another way than the target), the third camera is, right."""
+    scene = make_walk_scene(0, WalkSpec(log=RECEIVERS["phone2"]))
+    inputs = _phone_walk_inputs(scene)
+    pose = ("K", "dist", "R", "t", "image_size")
+    a, b = inputs["cam0"].camera, inputs["cam1"].camera
+    inputs["cam0"] = dataclasses.replace(
+        inputs["cam0"], camera=dataclasses.replace(a, **{k: getattr(b, k) for k in pose})
+    )
+    inputs["cam1"] = dataclasses.replace(
+        inputs["cam1"], camera=dataclasses.replace(b, **{k: getattr(a, k) for k in pose})
+    )
+    timeline, _ = synchronize(inputs, scene.trajectory, SyncParams(), log_model=LOG_MODELS["phone"])
+    assert set(timeline.cameras) == {"cam2"}, {n: timeline.status(n) for n in scene.cameras}
+    for name in ("cam0", "cam1"):
+        assert timeline.status(name).status == "failed"
+
+
+def test_the_line_motion_of_the_true_line_reads_its_slope_and_direction(scene, prepared):
+    """Under the true line the target's image velocity points the projected log's way, and their speeds' ratio is the
+    line's frames per sample; a line at twice the slope reads well under its own."""
+    path = PiecewiseTrajectory(prepared)
+    track, true = scene.tracks["cam1"], scene.lines["cam1"]
+    clock = track.frame.astype(float)
+    right = line_motion(scene.cameras["cam1"], track, clock, path, true.alpha, true.beta, 30.0)
+    assert right.measured and right.direction > 0.95 and right.speed == pytest.approx(true.alpha, rel=0.1)
+    middle = float(np.median(clock))
+    steep = line_motion(
+        scene.cameras["cam1"], track, clock, path, 2 * true.alpha, middle - 2 * (middle - true.beta), 30.0
+    )
+    assert steep.measured and steep.speed < 0.7 * 2 * true.alpha
+
+
+@pytest.mark.parametrize(
+    ("factors", "unit"),
+    [
+        ((0.45, 0.6, 0.5), 0.5),
+        ((2.1, 1.8), 2.0),
+        ((0.5, 1.0), None),
+        ((0.5,), None),
+        ((0.72, 0.7), None),
+        ((0.76, 0.75, 0.72), None),
+    ],
+)
+def test_the_log_time_unit_from_line_speeds_needs_every_camera_alike(scene, factors, unit):
+    """Each camera's line speed over its prior: every camera beyond 1.3 the same way, and their mean beyond 1.6, is a
+    time unit (snapped to a usual one); one camera off (its fps) or a mild disagreement is none."""
+    judged = {
+        f"cam{k}": Judged(scene.cameras["cam0"], None, None, 2.0, False, line_speed=2.0 * f)
+        for k, f in enumerate(factors)
+    }
+    assert _paced_unit(judged) == unit

@@ -176,7 +176,7 @@ def test_the_keyframes_between_are_read_when_the_first_ones_cannot_decide(long_s
     movers = movers.subset(~hidden)
     calls = []
 
-    def detect(video, indices, first_id, detector):
+    def detect(video, indices, first_id, detector, meter=None):
         calls.append(list(indices))
         rows = movers.subset(np.isin(movers.frame, indices))
         return dataclasses.replace(rows, id=np.arange(first_id, first_id + len(rows)))
@@ -186,6 +186,7 @@ def test_the_keyframes_between_are_read_when_the_first_ones_cannot_decide(long_s
     monkeypatch.setattr(stage, "frame_count", lambda video: long_scene.n_frames[name])
     monkeypatch.setattr(stage, "keyframe_indices", lambda video: keys)
     monkeypatch.setattr(stage, "presentation_times", lambda video: None)
+    monkeypatch.setattr(stage, "packet_sizes", lambda video: None)
     camera = long_scene.cameras[name]
     plan = stage.scan_video("v.mp4", camera, long_scene.trajectory, camera.fps, P)
     assert calls[0] == keys[::4].tolist() and calls[1] == np.setdiff1d(keys[::2], keys[::4]).tolist()
@@ -202,7 +203,7 @@ def test_a_camera_clock_prior_reads_only_the_keyframes_near_the_log(long_scene, 
     movers, keys = _keyframe_movers(long_scene, name)
     calls = []
 
-    def detect(video, indices, first_id, detector):
+    def detect(video, indices, first_id, detector, meter=None):
         calls.extend(indices)
         rows = movers.subset(np.isin(movers.frame, indices))
         return dataclasses.replace(rows, id=np.arange(first_id, first_id + len(rows)))
@@ -212,6 +213,7 @@ def test_a_camera_clock_prior_reads_only_the_keyframes_near_the_log(long_scene, 
     monkeypatch.setattr(stage, "frame_count", lambda video: long_scene.n_frames[name])
     monkeypatch.setattr(stage, "keyframe_indices", lambda video: keys)
     monkeypatch.setattr(stage, "presentation_times", lambda video: None)
+    monkeypatch.setattr(stage, "packet_sizes", lambda video: None)
     camera, truth = long_scene.cameras[name], long_scene.lines[name]
     prior = OffsetPrior(truth.beta + 40, 150.0)
     plan = stage.scan_video("v.mp4", camera, long_scene.trajectory, camera.fps, P, prior=prior)

@@ -42,6 +42,7 @@ from calibration.extrinsics import (
 from calibration.intrinsics import detect_board, parse_pattern
 from tlsync_pipeline.artefacts.calibration import CalibrationReport, read_intrinsics_report, write_calibration_report
 from tlsync_pipeline.artefacts.scan import ScanPlan, read_scan
+from tlsync_pipeline.artefacts.video_info import read_video_info
 from tlsync_pipeline.errors import InputError, SyncError
 from tlsync_pipeline.geodesy import Origin, geodetic_to_enu
 from tlsync_pipeline.outputs.calibration_report import calibration_plot, calibration_summary
@@ -57,6 +58,7 @@ from tlsync_pipeline.sync.model.params import Preparation
 from tlsync_pipeline.sync.pose.pose import GCP_AGREE, estimate_pose, gcp_pose, pose_info
 from tlsync_pipeline.sync.pose.pose_fit import GcpPrior
 from tlsync_pipeline.trajectory import Trajectory, read_trajectory
+from trackers.breaks import repeated_frames
 from trackers.detections import Detections, read_detections
 from trackers.track import Track, read_track
 
@@ -384,6 +386,13 @@ def _pose_from_target_files(
         raise SyncError(f"{params.target.source}: the target was never found (no moving object in any frame)")
     track = read_track(files.path("track")) if label == "track" else None
     detections = read_detections(files.path("detections")) if label == "detections" else None
+    if files.has("video_info"):  # frozen pictures show the target where it was, at a later frame: no evidence of pose
+        repeated = repeated_frames(read_video_info(files.path("video_info")).breaks)
+        if track is not None:
+            keep = ~np.isin(track.frame, repeated)
+            track = Track(**{k: v[keep] for k, v in track.columns().items()})
+        if detections is not None:
+            detections = detections.subset(np.flatnonzero(~np.isin(detections.frame, repeated)))
     offsets = coarse_offsets(read_scan(files.path("scan")), camera.fps) if files.has("scan") else None
     return pose_from_target(
         camera,
@@ -453,6 +462,8 @@ def calibrate_inputs(src: Sources, name: str) -> dict[str, Path | Artefact]:
                 inputs["detections"] = src.artefact("detections", name)
             else:
                 inputs["track"] = src.artefact("track", name)
+            if src.made("video_info", name):  # the breaks the track stage found
+                inputs["video_info"] = src.artefact("video_info", name)
             if scans(src.project, name):  # read in windows around a coarse line: the pose's offset search stays near it
                 inputs["scan"] = src.artefact("scan", name)
         except InputError as exc:

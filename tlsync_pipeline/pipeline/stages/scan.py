@@ -15,6 +15,7 @@ of decoding the video) and the track stage only when the windows change.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -45,9 +46,10 @@ from tlsync_pipeline.sync.identify.scan import (
 from tlsync_pipeline.sync.model.methods import preparation_of, prepare_trajectory
 from tlsync_pipeline.sync.model.params import Preparation
 from tlsync_pipeline.trajectory import Trajectory, read_trajectory
+from trackers.breaks import KeyframeMeter, check_spans, still_packet_runs
 from trackers.detections import COLUMNS, Detections, make_detections
 from trackers.tracking import detect_keyframe_movers, movers_detector
-from trackers.video import frame_count, keyframe_indices, presentation_times, probe_video
+from trackers.video import frame_count, keyframe_indices, packet_sizes, presentation_times, probe_video
 
 if TYPE_CHECKING:
     from tlsync_pipeline.pipeline.project import Project
@@ -80,6 +82,7 @@ def scan_video(
         return full_scan(n_frames if n_frames is not None else probe_video(video).n_frames, why or "no packet index")
     times = presentation_times(video)
     detector = movers_detector(video, parameters)
+    keyframes = KeyframeMeter()
     read = np.zeros(0, np.int64)
     found: list[Detections] = []
     plan = full_scan(n_frames, "no keyframe to read")
@@ -92,14 +95,31 @@ def scan_video(
         if len(more) == 0:
             continue
         found.append(
-            detect_keyframe_movers(video, indices=more.tolist(), first_id=sum(len(f) for f in found), detector=detector)
+            detect_keyframe_movers(
+                video,
+                indices=more.tolist(),
+                first_id=sum(len(f) for f in found),
+                detector=detector,
+                meter=keyframes,
+            )
         )
         read = np.union1d(read, more)
         movers = make_detections(np.concatenate([np.column_stack([getattr(f, c) for c in COLUMNS]) for f in found]))
         plan = plan_scan(camera, movers, prepared, fps, params, keys, n_frames, times, prior, read=read)
         if not plan.undecided:
             break
-    return plan
+    return with_break_checks(plan, video, keyframes)
+
+
+def with_break_checks(plan: ScanPlan, video: Path, keyframes: KeyframeMeter) -> ScanPlan:
+    """The plan with the spans outside its windows where a break may lie (``checks``: a cut between two keyframes
+    read, a run of packets coded to almost nothing), so that the track stage's PictureMeter judges them; a plan
+    reading every frame as it is."""
+    if plan.full:
+        return plan
+    packets = packet_sizes(video)
+    suspects = keyframes.suspects() + (still_packet_runs(*packets) if packets is not None else [])
+    return dataclasses.replace(plan, checks=check_spans(suspects, plan.windows, plan.n_frames))
 
 
 @dataclass(frozen=True)

@@ -24,7 +24,7 @@ from trackers.breaks import Break, PictureMeter, container_breaks
 from trackers.detections import Detections, write_detections
 from trackers.track import Track, write_track
 from trackers.tracking import detect_movers, track_video
-from trackers.video import DecodeCount, TruncatedVideoWarning, presentation_times, probe_video
+from trackers.video import DecodeCount, TruncatedVideoWarning, keyframe_indices, presentation_times, probe_video
 
 if TYPE_CHECKING:
     from tlsync_pipeline.pipeline.project import Project, TrackerConfig
@@ -47,7 +47,7 @@ def track_camera(
     """
     label = f"{name} ({video.name})"
     if tracker.every_mover:
-        windows = None if plan is None or plan.full else list(plan.windows)
+        windows = None if plan is None or plan.full else list(plan.read_windows)
         return detect_movers(
             video,
             params=dict(tracker.parameters),
@@ -123,7 +123,8 @@ def video_breaks(video: Path, meter: PictureMeter) -> list[Break]:
     """Where the video leaves its steady clock: gaps and repeats of the container's presentation times (every frame,
     demux only), frozen runs and cuts among the frames the tracker read, in frame order (trackers/breaks.py)."""
     times = presentation_times(video)
-    found = (container_breaks(times) if times is not None else []) + meter.breaks()
+    keys = keyframe_indices(video)
+    found = (container_breaks(times) if times is not None else []) + meter.breaks(() if keys is None else keys)
     return sorted(found, key=lambda b: b.frame)
 
 

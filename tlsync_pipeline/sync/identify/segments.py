@@ -118,6 +118,7 @@ def fit_segments(
         "line" if k == main else ("votes" if s is not None else ("frozen" if pieces[k][2] else "unknown"))
         for k, s in enumerate(shifts)
     ]
+    _within_stalls(shifts, sources, pieces, breaks, main)
     if not vfr:
         shifts = [whole_frames(s) if s is not None and k != main else s for k, s in enumerate(shifts)]
     shifts[main] = 0.0
@@ -226,6 +227,30 @@ def whole_frames(shift: float) -> float:
     """A frame clock's shift rounded to whole frames when it is that close to them (module docstring)."""
     nearest = round(shift)
     return float(nearest) if abs(shift - nearest) <= WHOLE_FRAME and abs(nearest) <= MAX_WHOLE else shift
+
+
+def _within_stalls(
+    shifts: list[float | None],
+    sources: list[str],
+    pieces: list[tuple[int, int, bool]],
+    breaks: tuple[Break, ...],
+    main: int,
+) -> None:
+    """Shifts the votes measured across stalls only (frozen pictures, repeated times) that the stalls cannot make,
+    unknown, in place: frames repeated push the later frames late by at most their count (0 when they replaced
+    frames), so a segment before the line's is shifted by 0 to that count, one after it by minus that; movers
+    wandering a segment the target never visits can agree on any offset."""
+    for k, shift in enumerate(shifts):
+        if shift is None or sources[k] != "votes":
+            continue
+        lo, hi = pieces[min(k, main)][0], pieces[max(k, main)][0]
+        between = [b for b in breaks if lo < b.frame <= hi]
+        if not between or any(b.kind not in ("frozen", "repeat") for b in between):
+            continue
+        repeated = sum(max(b.size, 0.0) for b in between)
+        low, high = (0.0, repeated) if k < main else (-repeated, 0.0)
+        if not low - WHOLE_FRAME <= shift <= high + WHOLE_FRAME:
+            shifts[k], sources[k] = None, "unknown"
 
 
 def _across_gaps(

@@ -48,6 +48,10 @@ MAX_KNOTS = 400
 SAMPLE_STEP = 1e-3  # samples: finite-difference step of a position along the path
 METRE_STEP = 1e-3  # metres: finite-difference step of a position in space
 SEEN_VELOCITY_S = 0.25  # seconds each side of a frame over which the target's image velocity is measured on its track
+SCALE_SPLIT_S = 10.0  # s: the marginal likelihood's short error term is correlated below this, the bias above it
+FAST_TAU_S = 2.0  # s: the short term's prior correlation time (the smoothed log's white noise over a few fixes)
+DECISIVE_NATS = 6.9  # log posterior gain that rejects the model's bias: the likelihood ratio's 99.9 % for 2 values
+FAST_FLOOR_M = 0.05  # m: the short term's prior std when the model has no white noise (the knots' interpolation)
 
 
 @dataclass(frozen=True)
@@ -148,52 +152,75 @@ def fit_log_bias(
 def fit_log_bias_measured(
     cameras: list[BiasCamera], path: PiecewiseTrajectory, rate: float, model: LogModel, f_scale: float
 ) -> LogBias:
-    """fit_log_bias, with the bias's std and correlation time of the largest marginal likelihood
-    (bias_marginal_likelihood, the model's as the prior) recorded as its estimate. The fit keeps the model's
-    prior: applied, on phone walk scenes (seeds 0-9, declared ``phone``) it gave 87 % coverage with a phone's
-    1 m and 54 frames instead of 42 with 2 m; one Gauss-Markov term takes the smoothed log's white noise,
-    correlated over a few fixes, for a fast bias (docs/algorithm.md, "The log's error")."""
+    """fit_log_bias under the model's prior, with the bias's std and correlation time of the largest marginal
+    likelihood (bias_marginal_likelihood) as its estimate. The fit is redone under the estimate, which becomes its
+    model, when the pixels reject the model's bias (the estimate gains DECISIVE_NATS of log posterior over the model's
+    values) for one smaller than the log's own white noise: a good receiver's log declared a phone's. Otherwise the
+    model's prior stands: an estimate within reach of it, applied, moved drone2's worst pair from 1.11 to 1.34
+    frames and cost phone walks accuracy (docs/algorithm.md, "The log's error")."""
     bias = fit_log_bias(cameras, path, rate, model, f_scale)
     if not bias.converged or not model.has_bias:
         return bias
-    found = bias_marginal_likelihood(bias, rate, model)
-    return replace(bias, estimate=(found.bias_m, found.tau_s))
+    found, gain = bias_marginal_likelihood(bias, rate, model)
+    if "bias_m" not in found.measured:
+        return bias
+    estimate = (found.bias_m, found.tau_s)
+    if gain < DECISIVE_NATS or found.bias_m >= model.white_m:
+        return replace(bias, estimate=estimate)
+    again = fit_log_bias(cameras, path, rate, found, f_scale)
+    return replace(again if again.converged else bias, estimate=estimate)
 
 
-def bias_marginal_likelihood(bias: LogBias, rate: float, model: LogModel) -> LogModel:
+def bias_marginal_likelihood(bias: LogBias, rate: float, model: LogModel) -> tuple[LogModel, float]:
     """The model with the bias's horizontal std and correlation time (the vertical std in the model's proportion)
-    of the largest marginal likelihood of the cameras' pixels, the model's values as log-normal priors
-    (PRIOR_LOG_SD): type-II maximum likelihood on the fit's Gaussian approximation. The pixels say of the knots b
-    what a likelihood exp(-b^T H b / 2 + h^T b) says (H: LogBias.information; h = (Q_0 + H) b_0 from the fit's
-    b_0 under its prior precision Q_0); under a prior of precision Q(sigma, tau) the evidence is
-    log |Q| / 2 - log |Q + H| / 2 + h^T (Q + H)^-1 h / 2, by a sparse LU of Q + H (banded in the knots, dense only
-    over each visit's). Sigma within 0.01-30 m, tau within 1-3600 s."""
+    of the largest marginal likelihood of the cameras' pixels: type-II maximum likelihood on the fit's Gaussian
+    approximation. The knots' error is two Gauss-Markov terms: the bias (correlation time above SCALE_SPLIT_S, the
+    model's std and time as log-normal priors, PRIOR_LOG_SD) and a short one (below SCALE_SPLIT_S, prior std the
+    model's white noise, prior time FAST_TAU_S): what the smoothed log's white noise and the knots' interpolation
+    leave, which one term would take for a fast bias. The pixels say of the knots b what a likelihood
+    exp(-b^T H b / 2 + h^T b) says (H: LogBias.information; h = (Q_0 + H) b_0 from the fit's b_0 and the model's
+    prior precision Q_0); with b = s + f, s and f of precisions Q_s and Q_f, the evidence is
+    log |Q_s| / 2 + log |Q_f| / 2 - log |A| / 2 + g^T A^-1 g / 2, A = diag(Q_s, Q_f) + [[H, H], [H, H]],
+    g = (h, h), by a sparse LU of A (banded in the knots, dense only over each visit's). Sigmas within 0.01-30 m.
+    Also the log posterior (nats) the estimate gains over the model's values (0: the model kept)."""
     ratio = model.bias_vertical_m / model.bias_m if model.bias_m > 0 else 2.0
-    start = np.log([model.bias_m, model.tau_s])
+    start = np.log([model.bias_m, max(model.tau_s, SCALE_SPLIT_S), max(model.white_m, FAST_FLOOR_M), FAST_TAU_S])
     start_whiten = _prior_whitening(bias.knots, rate, model.tau_s, bias.prior)
     information = sp.csc_matrix(bias.information)  # nonzero only over each visit's knots
     h = (start_whiten.T @ start_whiten + information) @ bias.values.ravel()
+    both = sp.kron(np.ones((2, 2)), information, format="csc")
+    g = np.r_[h, h]
 
     def negative(theta: np.ndarray) -> float:
-        sigma, tau = np.exp(theta)
-        whiten = _prior_whitening(bias.knots, rate, tau, np.array([sigma, sigma, ratio * sigma]))
+        sigma, tau, fast, fast_tau = np.exp(theta)
+        slow_whiten = _prior_whitening(bias.knots, rate, tau, np.array([sigma, sigma, ratio * sigma]))
+        fast_whiten = _prior_whitening(bias.knots, rate, fast_tau, np.array([fast, fast, ratio * fast]))
+        precision = sp.block_diag([slow_whiten.T @ slow_whiten, fast_whiten.T @ fast_whiten])
         try:
-            factor = splu((whiten.T @ whiten + information).tocsc())
+            factor = splu((precision + both).tocsc())
         except RuntimeError:  # singular
             return np.inf
-        half_log_det = 0.5 * float(np.sum(np.log(np.abs(factor.U.diagonal()))))  # log |Q + H| / 2 (positive definite)
-        evidence = float(np.sum(np.log(whiten.diagonal())) - half_log_det + 0.5 * h @ factor.solve(h))
+        half_log_det = 0.5 * float(np.sum(np.log(np.abs(factor.U.diagonal()))))  # log |A| / 2 (positive definite)
+        log_det_prior = float(np.sum(np.log(slow_whiten.diagonal())) + np.sum(np.log(fast_whiten.diagonal())))
+        evidence = log_det_prior - half_log_det + 0.5 * g @ factor.solve(g)
         return -evidence + 0.5 * float(np.sum(((theta - start) / PRIOR_LOG_SD) ** 2))
 
-    bounds = [(np.log(0.01), np.log(30.0)), (np.log(1.0), np.log(3600.0))]
+    bounds = [
+        (np.log(0.01), np.log(30.0)),
+        (np.log(SCALE_SPLIT_S), np.log(3600.0)),
+        (np.log(0.01), np.log(30.0)),
+        (np.log(0.5), np.log(SCALE_SPLIT_S)),
+    ]
     found = minimize(negative, start, method="L-BFGS-B", bounds=bounds)
-    if not np.isfinite(found.fun) or found.fun > negative(start):
-        return model
-    sigma, tau = np.exp(found.x)
+    at_model = negative(start)
+    if not np.isfinite(found.fun) or found.fun > at_model:
+        return model, 0.0
+    sigma, tau = np.exp(found.x[:2])
     measured = tuple(sorted({*model.measured, "bias_m", "tau_s"}))
-    return replace(
+    estimated = replace(
         model, bias_m=float(sigma), bias_vertical_m=float(ratio * sigma), tau_s=float(tau), measured=measured
     )
+    return estimated, float(at_model - found.fun)
 
 
 def _knots(cameras: list[BiasCamera], path: PiecewiseTrajectory, rate: float, model: LogModel) -> np.ndarray:

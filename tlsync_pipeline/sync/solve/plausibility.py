@@ -22,6 +22,14 @@ wrong answer cannot fake:
   (all cameras alike: the log's time unit) or the camera's true fps over its
   stated one (one camera alone); over the votes whose directions are
   opposite, a log reversed in time;
+- line motion: at each tracked frame, the target's image velocity against
+  the projected log's velocity at the line's sample. Their directions agree
+  under a right line whatever the log's bias (it wanders over tens of
+  seconds, not within the half second a velocity spans): a pose that is not
+  the camera's (another camera's, swapped) moves the projection in other
+  directions. The ratio of their speeds is the frames per sample the line's
+  own pairing reads: against the clock prior, on every camera alike, the
+  log's time unit (a log whose times are doubled);
 - backward support: the frames backing the votes' best line running
   backwards in time, against the line's own;
 - a rival: the line search's best line without the line's votes, as strong
@@ -174,6 +182,65 @@ class MotionSlope:
     against: SlopeMode
 
 
+@dataclass(frozen=True)
+class LineMotion:
+    """The target's image velocity against the projected log's under a line, over the tracked frames where the target
+    moves (at least MOVING_PX over 2 x VELOCITY_HALF_S) and the line maps inside the log: frames, the median cosine
+    between the two velocities, and the median ratio of projected speed (pixels per sample) over tracked speed (pixels
+    per clock unit): clock units per sample. NaN with fewer than MIN_MOVING frames."""
+
+    frames: int
+    direction: float
+    speed: float
+
+    @property
+    def measured(self) -> bool:
+        return self.frames >= MIN_MOVING and bool(np.isfinite(self.direction))
+
+
+def line_motion(
+    camera: Camera,
+    track: Track,
+    clock: np.ndarray,
+    path: PiecewiseTrajectory,
+    alpha: float,
+    beta: float,
+    fps: float | None,
+) -> LineMotion:
+    """Tracked against projected velocity under the line clock = alpha * sample + beta (``LineMotion``)."""
+    clock = np.asarray(clock, dtype=np.float64)
+    half = _velocity_half(fps)
+    velocity = _velocity(clock, track.xy, half)
+    s = (clock - beta) / alpha
+    run = path.run_of(s)
+    ok = (run >= 0) & np.isfinite(velocity[:, 0])
+    if ok.sum() < MIN_MOVING:
+        return LineMotion(int(ok.sum()), float("nan"), float("nan"))
+    v_proj = _projected_velocity(camera, path, s[ok], run[ok])
+    v_img = velocity[ok]
+    l_img, l_proj = np.linalg.norm(v_img, axis=1), np.linalg.norm(v_proj, axis=1)
+    moving = (l_img * 2 * half >= MOVING_PX) & np.isfinite(l_proj) & (l_proj > 0)
+    m = int(moving.sum())
+    if m < MIN_MOVING:
+        return LineMotion(m, float("nan"), float("nan"))
+    v_img, v_proj, l_img, l_proj = v_img[moving], v_proj[moving], l_img[moving], l_proj[moving]
+    cos = np.einsum("ij,ij->i", v_img, v_proj) / (l_img * l_proj)
+    return LineMotion(m, float(np.median(cos)), float(np.exp(np.median(np.log(l_proj / l_img)))))
+
+
+def _velocity_half(fps: float | None) -> int:
+    """Clock units either side of a frame its tracked velocity is fitted over: VELOCITY_HALF_S of the camera."""
+    return max(1, round(VELOCITY_HALF_S * fps)) if fps else 2
+
+
+def _projected_velocity(camera: Camera, path: PiecewiseTrajectory, s: np.ndarray, run: np.ndarray) -> np.ndarray:
+    """(N, 2) image velocity (pixels per sample) of the path model's projection at samples s (in runs ``run``)."""
+    position = path(s, run)
+    step = 1e-3
+    uv, _ = camera.project(np.concatenate([position, position + step * path(s, run, nu=1)]))
+    return (uv[len(s) :] - uv[: len(s)]) / step
+
+
 def motion_slope(
     camera: Camera,
     track: Track,
@@ -186,7 +253,7 @@ def motion_slope(
     """Frames per sample from the votes' speeds: tracked pixels per clock unit (a line through VELOCITY_HALF_S
     either side) against projected pixels per sample (the path model's derivative)."""
     clock = np.asarray(clock, dtype=np.float64)
-    half = max(1, round(VELOCITY_HALF_S * fps)) if fps else 2
+    half = _velocity_half(fps)
     velocity = _velocity(clock, track.xy, half)
     every = max(
         1, math.ceil(len(vote_clock) / MAX_SLOPE_VOTES)
@@ -200,11 +267,7 @@ def motion_slope(
         none = SlopeMode(float("nan"), 0, m)
         return MotionSlope(none, none)
     samples, which = np.unique(s[ok], return_inverse=True)  # votes share their samples: project each once
-    runs = path.run_of(samples)
-    position = path(samples, runs)
-    step = 1e-3
-    uv, _ = camera.project(np.concatenate([position, position + step * path(samples, runs, nu=1)]))
-    v_proj = ((uv[len(samples) :] - uv[: len(samples)]) / step)[which.ravel()]
+    v_proj = _projected_velocity(camera, path, samples, path.run_of(samples))[which.ravel()]
     v_img = velocity[at[ok]]
     l_img, l_proj = np.linalg.norm(v_img, axis=1), np.linalg.norm(v_proj, axis=1)
     moving = np.isfinite(l_proj) & (l_img * 2 * half >= MOVING_PX) & (l_proj > 0)
@@ -266,6 +329,8 @@ RIVAL_SAMPLES = 10.0  # the same, in samples, without frame rates
 RIVAL_PROBABILITY = 0.01  # ... unless the joint evidence (sync/solve/rival.py) leaves the rival less than this
 RIVAL_BAND_FRAMES = 300.0  # a line's intercept is profiled over at most this many frames either side
 SLOPE_OFF = 1.3  # motion slope / clock prior beyond this factor (either way): the clock is wrong
+DIRECTION_MIN = 0.5  # median cosine of tracked and projected velocities under a line below this: it moves another way
+PACE_OFF = 1.6  # the cameras' line speeds over their clock priors (geometric mean) beyond this: the log's time unit
 
 
 def judge_line(
@@ -280,6 +345,7 @@ def judge_line(
     slope: MotionSlope | None,
     support: tuple[int, int | None] = (0, None),
     rate: float | None = None,
+    motion: LineMotion | None = None,
 ) -> tuple[Reason, ...]:
     """The plausibility checks of one camera's line (a sync.timeline.CameraLine): the reasons they find, or ().
 
@@ -287,7 +353,8 @@ def judge_line(
     or the slope is free; slope: what the votes' motion says (``motion_slope``);
     support: the frames whose votes back the line, and those backing the best
     line running backwards in time (kernels/backward.py's ``backward_support``; None: not measured);
-    rate: the log's samples per second (None: starts are given in samples).
+    rate: the log's samples per second (None: starts are given in samples);
+    motion: the tracked against the projected velocities under the line (``line_motion``; None: not checked).
     """
     evidence = line_evidence(camera, track, clock, path, line.alpha, line.beta, GATE_EPS * eps_px, fps)
     reasons = []
@@ -336,6 +403,13 @@ def judge_line(
                     "check the log's time order (reversed?) and the camera's pose (mirrored?)",
                 )
             )
+    if (
+        motion is not None
+        and motion.measured
+        and motion.direction < DIRECTION_MIN
+        and not any(r.code == "off_path" for r in reasons)
+    ):
+        reasons.append(_direction(motion))
     if alpha_prior is not None and not _near_one(line.alpha / alpha_prior):
         reasons.append(
             Reason(
@@ -424,6 +498,19 @@ def _stated_fps_unbacked(
 
 def _near_one(factor: float) -> bool:
     return 1 / SLOPE_OFF <= factor <= SLOPE_OFF
+
+
+def _direction(motion: LineMotion) -> Reason:
+    angle = math.degrees(math.acos(max(-1.0, min(1.0, motion.direction))))
+    return Reason(
+        "direction",
+        FAILED,
+        f"under this line the target moves in the image another way than the projected log: {angle:.0f} degrees "
+        f"apart (median over {motion.frames} frames), which the log's error, wandering over tens of seconds, cannot "
+        f"turn",
+        "check the camera's pose (its camera.json: another camera's pose? K, R, t swapped?) and that the track is "
+        "this camera's",
+    )
 
 
 def _off_path(evidence: LineEvidence, eps_px: float, why: str = "") -> Reason:
@@ -570,14 +657,16 @@ RATE_ROUNDING = 0.03  # a log rate the motion slope puts within this fraction of
 
 @dataclass(frozen=True)
 class Judged:
-    """What ``diagnose`` needs of one camera: its calibration, track, motion slope, clock prior's slope, and whether
-    it was contradicted (its line by the checks, or it has none)."""
+    """What ``diagnose`` needs of one camera: its calibration, track, motion slope, clock prior's slope, whether it was
+    contradicted (its line by the checks, or it has none), and the frames per sample its line's pairing reads from the
+    target's image speed (``LineMotion.speed``) when the line moves the projection the track's way (None otherwise)."""
 
     camera: Camera
     track: Track | None
     slope: MotionSlope | None
     alpha_prior: float | None
     contradicted: bool
+    line_speed: float | None = None
 
 
 def diagnose(judged: dict[str, Judged], prepared: Trajectory, eps_px: float) -> dict[str, Reason]:
@@ -585,7 +674,9 @@ def diagnose(judged: dict[str, Judged], prepared: Trajectory, eps_px: float) -> 
 
     Raises LogUnitError when every camera with a clock prior and a reliable
     motion slope (at least two) was contradicted and they agree on one factor
-    away from 1 (the log's time unit), or when every camera was contradicted
+    away from 1 (the log's time unit), or when the target's image speed under
+    each camera's line says the same, contradicted or not (``_paced_unit``: a
+    metre-level log's vote radius hides a slope off by 2), or when every camera was contradicted
     and the log rescaled to metres from a usual wrong unit fits their tracks.
     Returns a reason per camera whose track, rescaled by 2 or 1/2, fits the
     projected path (a track of another resolution).
@@ -602,6 +693,9 @@ def diagnose(judged: dict[str, Judged], prepared: Trajectory, eps_px: float) -> 
         factor = float(np.exp(np.mean(np.log(factors))))
         if not _near_one(factor):
             raise LogUnitError("t", _time_unit_message(factor, len(timed)))
+    paced = _paced_unit(judged)
+    if paced is not None:
+        raise LogUnitError("t", _time_unit_message(paced, sum(j.line_speed is not None for j in judged.values())))
     tracked = {n: j for n, j in judged.items() if j.track is not None and len(j.track)}
     gate = GATE_EPS * eps_px
     path = PiecewiseTrajectory(prepared)
@@ -634,6 +728,31 @@ def diagnose(judged: dict[str, Judged], prepared: Trajectory, eps_px: float) -> 
                 )
                 break
     return reasons
+
+
+NAMED_UNITS = (0.5, 2.0, 0.25, 4.0, 0.1, 10.0)  # seconds per unit of t a mistaken time column is often scaled by
+
+
+def _paced_unit(judged: dict[str, Judged]) -> float | None:
+    """The log's seconds per unit of t when every camera's line speed says its time axis is scaled
+    (``Judged.line_speed`` over the clock prior): at least two cameras, each beyond SLOPE_OFF on the same side of 1,
+    their geometric mean beyond PACE_OFF (one camera's fps wrong leaves the others at 1). The value is the median over
+    those cameras of their votes' motion slope (``motion_slope``, the mode over every vote: a line paired off the
+    target's pass reads a speed of another part of the path), or of their line speeds without one, snapped to a value
+    of NAMED_UNITS within SLOPE_OFF of it (a metre-level log reads the speeds to 10-30 %). None otherwise."""
+    speeds = {n: (j.line_speed, j.alpha_prior) for n, j in judged.items() if j.line_speed is not None and j.alpha_prior}
+    factors = np.array([speed / prior for speed, prior in speeds.values()])
+    if len(factors) < 2 or not (np.all(factors < 1 / SLOPE_OFF) or np.all(factors > SLOPE_OFF)):
+        return None
+    if 1 / PACE_OFF <= float(np.exp(np.mean(np.log(factors)))) <= PACE_OFF:
+        return None
+    slopes = [judged[n].slope for n in speeds]
+    modes = [
+        s.along.alpha / speeds[n][1] for n, s in zip(speeds, slopes) if s is not None and np.isfinite(s.along.alpha)
+    ]
+    value = float(np.median(modes if modes else factors))
+    named = min(NAMED_UNITS, key=lambda unit: abs(math.log(unit / value)))
+    return named if abs(math.log(named / value)) <= math.log(SLOPE_OFF) else value
 
 
 def _fits_better(given: float, rescaled: float) -> bool:

@@ -45,10 +45,12 @@ from tlsync_pipeline.sync.pose.pose import TargetPose, estimate_pose, pose_info
 from tlsync_pipeline.sync.solve.causes import explain
 from tlsync_pipeline.sync.solve.methods import CameraData, CameraInput, JointMethod
 from tlsync_pipeline.sync.solve.plausibility import (
+    DIRECTION_MIN,
     RIVAL_PROBABILITY,
     Judged,
     diagnose,
     judge_line,
+    line_motion,
     motion_slope,
     rival_odds_of,
 )
@@ -406,7 +408,8 @@ def _the_rival(
 
 def _log_error(model: LogModel, declared: LogModel, estimate: tuple[float, float] | None) -> dict | None:
     """timeline.json's log_error model: the model the sync used, which of its values were measured, the declared
-    preset (their prior), and the bias's marginal-likelihood estimate (recorded, not applied: fit_log_bias_measured)."""
+    preset (their prior), and the bias's marginal-likelihood estimate (applied only when it rejects the preset's bias:
+    fit_log_bias_measured)."""
     if model.white_m <= 0 and not model.has_bias:
         return None
     prior = {k: v for k, v in asdict(declared).items() if k != "measured"}
@@ -613,8 +616,9 @@ def _judge(
     odds = rival_odds_of(inputs.camera, track, track_clock, path, line, radius_px, fps, log_model, rate)
     if odds is not None and line.line_search is not None:
         line = replace(line, line_search=replace(line.line_search, rival_probability=odds.rival_probability))
+    motion = line_motion(inputs.camera, track, track_clock, path, line.alpha, line.beta, fps)
     checks = judge_line(
-        inputs.camera, track, track_clock, path, line, radius_px, fps, alpha_prior, slope, support, rate
+        inputs.camera, track, track_clock, path, line, radius_px, fps, alpha_prior, slope, support, rate, motion
     )
     checks = (
         *checks,
@@ -638,4 +642,5 @@ def _judge(
         checks = (*checks, _loose_identity(radius_px))
     line = replace(line, checks=checks)
     contradicted = any(r.severity == FAILED for r in checks)
-    return replace(result, line=line), Judged(inputs.camera, track, slope, alpha_prior, contradicted)
+    paced = motion.speed if motion.measured and motion.direction >= DIRECTION_MIN else None
+    return replace(result, line=line), Judged(inputs.camera, track, slope, alpha_prior, contradicted, paced)

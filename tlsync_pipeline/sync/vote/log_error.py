@@ -21,13 +21,18 @@ VOTE_SIGMAS = 3.0  # a vote's radius covers this many standard deviations of the
 MAD_TO_SD = 1.4826  # a normal variable's std over its median absolute deviation
 
 
-def vote_radius(camera: Camera, trajectory: Trajectory, eps_px: float, model: LogModel) -> float:
+def vote_radius(camera: Camera, trajectory: Trajectory, eps_px: float, model: LogModel, beside: bool = False) -> float:
     """The vote radius for one camera (pixels): eps_px, or VOTE_SIGMAS times the log's horizontal error as this camera
-    sees it at the median depth of the path in its view, whichever is larger."""
+    sees it at the median depth of the path in its view, whichever is larger. beside: a path that projects only beside
+    the image (a biased log of a walk along its edge) is seen at the depth of its fixes within one image size of it."""
     if model.horizontal_m <= 0:
         return eps_px
     uv, valid = camera.project(trajectory.xyz)
-    seen = valid & camera.in_image(np.nan_to_num(uv, nan=-1e9))
+    uv = np.nan_to_num(uv, nan=-1e9)
+    seen = valid & camera.in_image(uv)
+    if beside and not seen.any():
+        width, height = camera.image_size
+        seen = valid & (np.abs(uv[:, 0] - width / 2) < 1.5 * width) & (np.abs(uv[:, 1] - height / 2) < 1.5 * height)
     if not seen.any():
         return eps_px
     depth = float(np.median((trajectory.xyz[seen] @ camera.R.T + camera.t)[:, 2]))
