@@ -19,6 +19,9 @@ generators of data_fixtures/:
   through 3 views (random polylines) or crossing some straight, RTK or white
   0.3 m log, the poses from the target with GCPs surveyed 0, 0.5 or 2 m off
   as a prior;
+- ``nopose``: walks that turn (data_fixtures/walk.py), a drone's log (1 m /
+  30 s, 5 m/s) or a phone's (1 or 2 m / 60 s), declared, and no camera
+  with a pose or GCPs: every pose from the target under the log's bias;
 - ``loops`` (data_fixtures/scene.py): paths that hover and fly back through
   the hover point 1-3 times (repeated passes, a path crossing itself);
 - ``crowd`` (data_fixtures/crowd.py): two surveillance videos with 2-8
@@ -84,7 +87,7 @@ BEYOND = (
 )
 RIGHT_FRAMES = 1.0  # a line within this many frames of the truth is right whatever its interval
 BOUND_DRAWS = 200
-FAMILIES = ("walk", "phone", "pass", "loops", "crowd")
+FAMILIES = ("walk", "phone", "pass", "nopose", "loops", "crowd")
 STOPPING = (AMBIGUOUS, FAILED)
 
 
@@ -145,6 +148,22 @@ def pass_case(seed: int) -> Case:
     return Case(label, scene, inputs, scene.trajectory, LOG_MODELS[declared])
 
 
+def nopose_case(seed: int) -> Case:
+    """A turning walk under a drone's or a phone's log, declared, with no pose: each camera's pose from the target."""
+    rng = np.random.default_rng([seed, 5])
+    receiver = str(rng.choice(["drone", "phone", "phone2"]))
+    speed = 5.0 if receiver == "drone" else 1.4
+    scene = make_walk_scene(seed, WalkSpec(route="turns", log=RECEIVERS[receiver], speed_mps=speed))
+    inputs = {
+        n: CameraInput(
+            replace(c, R=np.eye(3), t=np.zeros(3), to_estimate=("pose",), pose_info=None), scene.tracks[n], c.fps
+        )
+        for n, c in scene.cameras.items()
+    }
+    declared = "phone" if receiver.startswith("phone") else receiver
+    return Case(f"turns {receiver} declared {declared}, no pose", scene, inputs, scene.trajectory, LOG_MODELS[declared])
+
+
 def loops_case(seed: int) -> Case:
     rng = np.random.default_rng([seed, 3])
     crossings = int(rng.integers(1, 4))
@@ -200,6 +219,7 @@ BUILDERS = {
     "walk": walk_case,
     "phone": lambda seed: walk_case(seed, phone_only=True),
     "pass": pass_case,
+    "nopose": nopose_case,
     "loops": loops_case,
     "crowd": crowd_case,
 }

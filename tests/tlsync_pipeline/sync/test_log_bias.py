@@ -221,7 +221,7 @@ def test_the_joint_fit_over_many_cameras_builds_no_dense_matrix_over_frames_or_k
     rate, model = float(scene.trajectory.rate), PRESETS["drone"]
     knots = _knots(cameras, path, rate, model)
     whiten = _prior_whitening(knots, rate, model.tau_s, np.array([1.0, 1.0, 2.0]))
-    problem = _Joint(cameras, path, knots, whiten, 2.0)
+    problem = _Joint(cameras, path, knots, whiten, 2.0, rate)
     jacobian = problem.jacobian(np.concatenate([problem.x0, np.zeros(3 * len(knots))]))
     rows = sum(2 * len(c.clock) for c in cameras)
     assert sp.issparse(jacobian) and sp.issparse(whiten)
@@ -230,3 +230,18 @@ def test_the_joint_fit_over_many_cameras_builds_no_dense_matrix_over_frames_or_k
     assert whiten.nnz <= 2 * 3 * len(knots)
     bias = fit_log_bias(cameras[:3], path, rate, model, 2.0)
     assert np.isfinite(bias.values).all() and bias.cov.shape == (3 * len(bias.knots),) * 2
+
+
+def test_the_image_velocity_is_the_tracks_local_slope_and_unknown_where_frames_are_too_few():
+    """A target moving at (3, -1) px a frame, then (0, 2), with a lone frame far off and frames given out of order:
+    each frame's velocity is its window's straight-line slope; NaN with fewer than 3 frames in the window."""
+    from tlsync_pipeline.sync.solve.log_bias import image_velocity
+
+    clock = np.r_[np.arange(0.0, 40.0), np.arange(40.0, 80.0), 500.0]
+    xy = np.column_stack([np.r_[3.0 * clock[:40], 120.0 + 0.0 * clock[40:80], 0.0], np.zeros(81)])
+    xy[:40, 1], xy[40:80, 1] = -clock[:40], -40.0 + 2.0 * (clock[40:80] - 40.0)
+    order = np.random.default_rng(0).permutation(81)
+    velocity = image_velocity(clock[order], xy[order], 5.0)[np.argsort(order)]
+    np.testing.assert_allclose(velocity[5:35], np.tile([3.0, -1.0], (30, 1)), atol=1e-9)
+    np.testing.assert_allclose(velocity[46:75], np.tile([0.0, 2.0], (29, 1)), atol=1e-9)
+    assert np.isnan(velocity[80]).all()

@@ -48,6 +48,7 @@ VISIT_KNOT_S = 2.0  # seconds between knots during a visit: a Gauss-Markov bias 
 MAX_KNOTS = 400
 SAMPLE_STEP = 1e-3  # samples: finite-difference step of a position along the path
 METRE_STEP = 1e-3  # metres: finite-difference step of a position in space
+SEEN_VELOCITY_S = 0.25  # seconds each side of a frame over which the target's image velocity is measured on its track
 SCALE_SPLIT_S = 10.0  # s: the marginal likelihood's short error term is correlated below this, the bias above it
 FAST_TAU_S = 2.0  # s: the short term's prior correlation time (the smoothed log's white noise over a few fixes)
 DECISIVE_NATS = 6.9  # log posterior gain that rejects the model's bias: the likelihood ratio's 99.9 % for 2 values
@@ -135,7 +136,7 @@ def fit_log_bias(
     knots = _knots(cameras, path, rate, model)
     prior = np.array([model.bias_m, model.bias_m, model.bias_vertical_m])
     whiten = _prior_whitening(knots, rate, model.tau_s, prior)
-    problem = _Joint(cameras, path, knots, whiten, f_scale)
+    problem = _Joint(cameras, path, knots, whiten, f_scale, rate)
     z = np.concatenate([problem.x0, np.zeros(3 * len(knots))])
     converged = True
     if estimate:
@@ -256,6 +257,7 @@ class _Joint:
 
     Every matrix over frames is sparse: a frame's pixels depend on its camera's two line parameters and on the
     two knots around it (6 values), so the Jacobian has 8 entries a row whatever the number of cameras and knots.
+    ``rate``: the log's samples per second (the window of the image velocity, ``seen_rates``).
     """
 
     def __init__(
@@ -265,9 +267,11 @@ class _Joint:
         knots: np.ndarray,
         whiten: sp.csr_matrix,
         f_scale: float,
+        rate: float,
     ):
         self.cameras, self.path, self.knots, self.whiten, self.f_scale = cameras, path, knots, whiten, f_scale
         self.prior_weight = 1.0
+        self.seen = [image_velocity(c.clock, c.xy, SEEN_VELOCITY_S * c.alpha * rate) for c in cameras]
         self.n = len(cameras)
         self.x0 = np.concatenate([[1.0 / c.alpha, (c.middle - c.beta) / c.alpha] for c in cameras])
         spans = [max(float(np.ptp(c.clock)), 1.0) for c in cameras]
@@ -350,9 +354,25 @@ class _Joint:
         )
         return sp.vstack(rows, format="csr")
 
+    def _seen_line_columns(self, k: int, jac: sp.csr_matrix, z: np.ndarray) -> sp.csr_matrix:
+        """Camera k's Jacobian with its line's columns (pixels per unit of 1 / alpha and of the middle sample) taken
+        from the target's image velocity on its track (``seen``) where it is measured, from the log's elsewhere."""
+        c = self.cameras[k]
+        logged = np.asarray(jac[:, 1].todense()).ravel()
+        seen = (self.seen[k] * c.weight[:, None] / (z[2 * k] * np.sqrt(self.inflation[k]))).ravel()
+        along = np.where(np.isfinite(seen), seen, logged)
+        line = np.column_stack([along * np.repeat(c.clock - c.middle, 2), along])
+        return sp.hstack([sp.csr_matrix(line), jac[:, 2:]], format="csr")
+
     def uncertainty(self, z: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarray], np.ndarray]:
         """The knots' posterior covariance (m^2), each camera's sensitivity d(alpha, beta) / d(knots), and the
         information of the pixels on the knots (the posterior's inverse less the prior's).
+
+        A frame's pixels move with the line (time) as the target moved in the image: its velocity measured on the
+        track (image_velocity), not the log's projected. The log's motion over less than a knot's spacing carries
+        the bias's unresolved wander and the white noise: taken as the target's, it tells the bias along the path
+        from a time shift where the path is straight (on straight walks at 5 m/s under a drone's log, 78 % of the
+        pairs' intervals held the truth; 95 % with the track's velocity).
 
         Each camera's information is its robust bread J^T psi' J divided by its residuals' variance factor
         (sum psi^2 / sum psi', the M-estimator's), inflated by its own refinement's covariance over that naive
@@ -363,6 +383,7 @@ class _Joint:
         data = np.zeros_like(information)
         blocks = []
         for k, (r, jac) in enumerate(zip(residuals, jacobians)):
+            jac = self._seen_line_columns(k, jac, z)
             inflation = _inflation(self.cameras[k], r, jac, self.f_scale, z[2 * k : 2 * k + 2])
             h = _bread(self.cameras[k], r, jac, self.f_scale) / inflation
             h_tt, h_tb, h_bb = h[:2, :2], h[:2, 2:], h[2:, 2:]
@@ -380,6 +401,28 @@ class _Joint:
             )  # d(alpha, beta) / d(u, s0), beta = middle - s0 / u
             sensitivity[c.name] = to_line @ (-gain)
         return posterior, sensitivity, data
+
+
+def image_velocity(clock: np.ndarray, xy: np.ndarray, half_window: float) -> np.ndarray:
+    """(N, 2) image velocity of the tracked target at each frame, pixels per clock unit: the slope of a straight line
+    fitted to its pixels over the frames within ``half_window`` clock units of it; NaN where fewer than 3 frames are."""
+    order = np.argsort(clock, kind="stable")
+    t, xy = clock[order] - np.median(clock), xy[order]
+    lo = np.searchsorted(t, t - half_window, "left")
+    hi = np.searchsorted(t, t + half_window, "right")
+
+    def window_sum(values: np.ndarray) -> np.ndarray:
+        total = np.r_[0.0, np.cumsum(values)]
+        return total[hi] - total[lo]
+
+    n, s1, s2 = window_sum(np.ones(len(t))), window_sum(t), window_sum(t * t)
+    spread = n * s2 - s1 * s1
+    usable = (n >= 3) & (spread > 0)
+    out = np.full((len(t), 2), np.nan)
+    for axis in range(2):
+        slope = n * window_sum(xy[:, axis] * t) - s1 * window_sum(xy[:, axis])
+        out[usable, axis] = slope[usable] / spread[usable]
+    return out[np.argsort(order)]
 
 
 def _camera_rows(
