@@ -69,13 +69,19 @@ class Scene:
 
     def truth_pairs(self) -> dict[str, Relation]:
         """Every ordered pair "A->B": frame_B = alpha * frame_A + beta."""
-        out = {}
-        for a, la in self.lines.items():
-            for b, lb in self.lines.items():
-                if a != b:
-                    alpha = lb.alpha / la.alpha
-                    out[f"{a}->{b}"] = Relation(alpha, lb.beta - alpha * la.beta)
-        return out
+        return pairs_of_lines(self.lines)
+
+
+def pairs_of_lines(lines: dict[str, Relation]) -> dict[str, Relation]:
+    """Every ordered pair "A->B" of cameras whose ``lines`` give frame = alpha * sample + beta: frame_B = alpha *
+    frame_A + beta."""
+    out = {}
+    for a, la in lines.items():
+        for b, lb in lines.items():
+            if a != b:
+                alpha = lb.alpha / la.alpha
+                out[f"{a}->{b}"] = Relation(alpha, lb.beta - alpha * la.beta)
+    return out
 
 
 def make_scene(

@@ -19,6 +19,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from data_fixtures.scene import pairs_of_lines
 from tlsync_pipeline.sync.solve.methods import CameraInput
 from tlsync_pipeline.sync.timeline import Relation
 from tlsync_pipeline.trajectory import Trajectory
@@ -71,13 +72,7 @@ class SlowedFlight:
 
     def pairs(self) -> dict[str, Relation]:
         """Each ordered pair's truth "A->B": B's frame = alpha x A's frame + beta."""
-        out = {}
-        for a, la in self.lines.items():
-            for b, lb in self.lines.items():
-                if a != b:
-                    alpha = lb.alpha / la.alpha
-                    out[f"{a}->{b}"] = Relation(alpha, lb.beta - alpha * la.beta)
-        return out
+        return pairs_of_lines(self.lines)
 
 
 def slowed_flight(
