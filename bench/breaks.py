@@ -10,7 +10,7 @@ whose instant the other camera recorded but that are left unmapped
 ("unmapped"), and the frames mapped to an instant the other camera did not
 record ("false"). The first row, "clean", is the unedited demo in the same
 run. The ``long_`` cases (``--cases long_clean,long_frozen25_unread,...``)
-edit cam1 of a long recording (``LONG``) that the scan stage reads in
+edit cam1 of a long recording (``LONG_RECORDING``) that the scan stage reads in
 windows around the target's stay, with the break outside them.
 
     python bench/breaks.py [--cases frozen25,dropped25] [--keep DIR]
@@ -29,7 +29,7 @@ import numpy as np
 
 from data_fixtures.breaks import BreakEdit, edit_camera, pair_errors, video_times
 from data_fixtures.long_video import render_long_camera_video
-from data_fixtures.raw_project import SMALL, RawProjectSpec, make_raw_project
+from data_fixtures.raw_project import LONG_RECORDING, SMALL, RawProjectSpec, make_raw_project
 from tlsync_pipeline.pipeline.engine import run_graph
 from tlsync_pipeline.pipeline.graph import build_graph
 from tlsync_pipeline.pipeline.project import load_project
@@ -38,16 +38,6 @@ from tlsync_pipeline.sync.timeline import read_timeline
 
 CAMERA = "cam1"
 FPS = 25.0
-# A long recording (1500 frames at 15 fps, the target in cam1's frames 764-1225, two look-alikes wandering) read in
-# the scan stage's windows around the target's stay, as tests/end_to_end/test_breaks.py makes it.
-LONG = RawProjectSpec(
-    lines=((1.5, 75.0), (1.5, -75.0)),
-    n_frames=(1500, 1500),
-    image_size=(320, 240),
-    boards=8,
-    gcps=8,
-    window_samples=300,
-)
 LONG_FPS = 15.0
 LONG_CASES = {
     "long_clean": None,
@@ -128,7 +118,7 @@ def main() -> None:
     root.mkdir(parents=True, exist_ok=True)
     projects = {
         "base": (SMALL, None, FPS),
-        "long": (LONG, functools.partial(render_long_camera_video, radius=5.0, look_alikes=2), LONG_FPS),
+        "long": (LONG_RECORDING, functools.partial(render_long_camera_video, radius=5.0, look_alikes=2), LONG_FPS),
     }
     print("| case | cam1 | reasons | segments | exit | worst pair error (frames) | unmapped | false | run (s) |")
     print("|---|---|---|---|---|---|---|---|---|")

@@ -57,6 +57,16 @@ class RawProjectSpec:
 SMALL = RawProjectSpec(
     lines=((3.0, -210.0), (2.5, -350.0), (1.5, 0.0)), n_frames=(230, 190, 120), image_size=(320, 240), boards=8, gcps=8
 )
+# A long recording: 1500 frames a camera at 15 fps, the target in cam1's frames 764-1225 (render it with
+# data_fixtures.long_video, two look-alikes wandering); the scan stage reads it in windows around the target's stay.
+LONG_RECORDING = RawProjectSpec(
+    lines=((1.5, 75.0), (1.5, -75.0)),
+    n_frames=(1500, 1500),
+    image_size=(320, 240),
+    boards=8,
+    gcps=8,
+    window_samples=300,
+)
 
 
 def make_raw_project(

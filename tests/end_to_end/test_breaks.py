@@ -19,7 +19,7 @@ import pytest
 
 from data_fixtures.breaks import BreakEdit, edit_camera, pair_errors, video_times
 from data_fixtures.long_video import render_long_camera_video
-from data_fixtures.raw_project import SMALL, RawProjectSpec, make_raw_project
+from data_fixtures.raw_project import LONG_RECORDING, SMALL, make_raw_project
 from tlsync_pipeline.cli.json_output import camera_statuses
 from tlsync_pipeline.pipeline.engine import run_graph
 from tlsync_pipeline.pipeline.graph import build_graph
@@ -121,14 +121,7 @@ def test_a_freeze_inside_a_window_of_a_long_recording_is_found(tmp_path):
     """A long recording read in windows (the scan stage's, around the target's stay): cam1 frozen 25 frames in the
     middle of the target's stay. The track stage reads only the windows; the freeze inside one is found and cam1
     fitted as segments as when every frame is read."""
-    spec = RawProjectSpec(
-        lines=((1.5, 75.0), (1.5, -75.0)),
-        n_frames=(1500, 1500),
-        image_size=(320, 240),
-        boards=8,
-        gcps=8,
-        window_samples=300,
-    )
+    spec = LONG_RECORDING
     folder = tmp_path / "raw"
     _, scene = make_raw_project(
         folder, spec, render=functools.partial(render_long_camera_video, radius=5.0, look_alikes=2)
@@ -157,14 +150,7 @@ def test_a_freeze_inside_a_window_of_a_long_recording_is_found(tmp_path):
 def long_raw(tmp_path_factory):
     """A long recording (1500 frames at 15 fps, two look-alikes wandering) whose cameras the scan stage reads in
     windows around the target's stay; its scene."""
-    spec = RawProjectSpec(
-        lines=((1.5, 75.0), (1.5, -75.0)),
-        n_frames=(1500, 1500),
-        image_size=(320, 240),
-        boards=8,
-        gcps=8,
-        window_samples=300,
-    )
+    spec = LONG_RECORDING
     folder = tmp_path_factory.mktemp("long") / "raw"
     _, scene = make_raw_project(
         folder, spec, render=functools.partial(render_long_camera_video, radius=5.0, look_alikes=2)

@@ -14,7 +14,7 @@ import shutil
 import pytest
 
 from data_fixtures.long_video import render_long_camera_video
-from data_fixtures.raw_project import RawProjectSpec, make_raw_project
+from data_fixtures.raw_project import LONG_RECORDING, make_raw_project
 from tlsync_pipeline.pipeline.engine import run_graph
 from tlsync_pipeline.pipeline.graph import build_graph
 from tlsync_pipeline.pipeline.project import load_project
@@ -22,15 +22,6 @@ from tlsync_pipeline.pipeline.spec import Options
 from tlsync_pipeline.sync.timeline import eps_t, read_timeline
 
 pytestmark = pytest.mark.slow  # minutes of decoding and tracking: CI's slow tier
-
-SPEC = RawProjectSpec(
-    lines=((1.5, 75.0), (1.5, -75.0)),
-    n_frames=(1500, 1500),
-    image_size=(320, 240),
-    boards=8,
-    gcps=8,
-    window_samples=300,
-)
 
 
 def _run(project_file, work):
@@ -44,7 +35,7 @@ def _run(project_file, work):
 def runs(tmp_path_factory):
     folder = tmp_path_factory.mktemp("long") / "raw"
     project_file, scene = make_raw_project(
-        folder, SPEC, render=functools.partial(render_long_camera_video, radius=5.0, look_alikes=2)
+        folder, LONG_RECORDING, render=functools.partial(render_long_camera_video, radius=5.0, look_alikes=2)
     )
     auto = _run(project_file, folder / "work_auto")
     full_file = folder / "project_full.toml"
