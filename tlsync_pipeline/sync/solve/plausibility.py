@@ -744,7 +744,8 @@ def _paced_unit(judged: dict[str, Judged]) -> float | None:
     their geometric mean beyond PACE_OFF (one camera's fps wrong leaves the others at 1). The value is the median over
     those cameras of their votes' motion slope (``motion_slope``, the mode over every vote: a line paired off the
     target's pass reads a speed of another part of the path), or of their line speeds without one, snapped to a value
-    of NAMED_UNITS within SLOPE_OFF of it (a metre-level log reads the speeds to 10-30 %). None otherwise."""
+    of NAMED_UNITS within SLOPE_OFF of it (a metre-level log reads the speeds to 10-30 %). None otherwise, and when that
+    value is within SLOPE_OFF of 1 (lines paired off the target, a wrong track, move at other speeds than its own)."""
     speeds = {n: (j.line_speed, j.alpha_prior) for n, j in judged.items() if j.line_speed is not None and j.alpha_prior}
     factors = np.array([speed / prior for speed, prior in speeds.values()])
     if len(factors) < 2 or not (np.all(factors < 1 / SLOPE_OFF) or np.all(factors > SLOPE_OFF)):
@@ -756,6 +757,8 @@ def _paced_unit(judged: dict[str, Judged]) -> float | None:
         s.along.alpha / speeds[n][1] for n, s in zip(speeds, slopes) if s is not None and np.isfinite(s.along.alpha)
     ]
     value = float(np.median(modes if modes else factors))
+    if abs(math.log(value)) <= math.log(SLOPE_OFF):  # the votes' own motion reads seconds: not the log's unit
+        return None
     named = min(NAMED_UNITS, key=lambda unit: abs(math.log(unit / value)))
     return named if abs(math.log(named / value)) <= math.log(SLOPE_OFF) else value
 
