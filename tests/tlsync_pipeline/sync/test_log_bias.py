@@ -235,7 +235,7 @@ def test_the_joint_fit_over_many_cameras_builds_no_dense_matrix_over_frames_or_k
 def test_the_image_velocity_is_the_tracks_local_slope_and_unknown_where_frames_are_too_few():
     """A target moving at (3, -1) px a frame, then (0, 2), with a lone frame far off and frames given out of order:
     each frame's velocity is its window's straight-line slope; NaN with fewer than 3 frames in the window."""
-    from tlsync_pipeline.sync.solve.log_bias import image_velocity
+    from tlsync_pipeline.sync.kernels.velocity import image_velocity
 
     clock = np.r_[np.arange(0.0, 40.0), np.arange(40.0, 80.0), 500.0]
     xy = np.column_stack([np.r_[3.0 * clock[:40], 120.0 + 0.0 * clock[40:80], 0.0], np.zeros(81)])

@@ -40,6 +40,7 @@ from calibration.camera import Camera
 from tlsync_pipeline.sync.kernels.gauss_markov import interpolation_parts as _interpolation_parts
 from tlsync_pipeline.sync.kernels.gauss_markov import prior_whitening as _prior_whitening
 from tlsync_pipeline.sync.kernels.slope import SlopePrior
+from tlsync_pipeline.sync.kernels.velocity import image_velocity
 from tlsync_pipeline.sync.model.log_model import PRIOR_LOG_SD, LogModel
 from tlsync_pipeline.trajectory import PiecewiseTrajectory
 
@@ -401,28 +402,6 @@ class _Joint:
             )  # d(alpha, beta) / d(u, s0), beta = middle - s0 / u
             sensitivity[c.name] = to_line @ (-gain)
         return posterior, sensitivity, data
-
-
-def image_velocity(clock: np.ndarray, xy: np.ndarray, half_window: float) -> np.ndarray:
-    """(N, 2) image velocity of the tracked target at each frame, pixels per clock unit: the slope of a straight line
-    fitted to its pixels over the frames within ``half_window`` clock units of it; NaN where fewer than 3 frames are."""
-    order = np.argsort(clock, kind="stable")
-    t, xy = clock[order] - np.median(clock), xy[order]
-    lo = np.searchsorted(t, t - half_window, "left")
-    hi = np.searchsorted(t, t + half_window, "right")
-
-    def window_sum(values: np.ndarray) -> np.ndarray:
-        total = np.r_[0.0, np.cumsum(values)]
-        return total[hi] - total[lo]
-
-    n, s1, s2 = window_sum(np.ones(len(t))), window_sum(t), window_sum(t * t)
-    spread = n * s2 - s1 * s1
-    usable = (n >= 3) & (spread > 0)
-    out = np.full((len(t), 2), np.nan)
-    for axis in range(2):
-        slope = n * window_sum(xy[:, axis] * t) - s1 * window_sum(xy[:, axis])
-        out[usable, axis] = slope[usable] / spread[usable]
-    return out[np.argsort(order)]
 
 
 def _camera_rows(

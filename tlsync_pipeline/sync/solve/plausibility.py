@@ -55,6 +55,7 @@ from scipy.spatial import cKDTree
 from calibration.camera import Camera
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.sync.kernels.backward import backwards_better
+from tlsync_pipeline.sync.kernels.velocity import image_velocity
 from tlsync_pipeline.sync.model.clock import camera_clock, image_speed
 from tlsync_pipeline.sync.model.log_model import LogModel
 from tlsync_pipeline.sync.model.status import AMBIGUOUS, FAILED, WEAK, Reason
@@ -210,7 +211,7 @@ def line_motion(
     """Tracked against projected velocity under the line clock = alpha * sample + beta (``LineMotion``)."""
     clock = np.asarray(clock, dtype=np.float64)
     half = _velocity_half(fps)
-    velocity = _velocity(clock, track.xy, half)
+    velocity = image_velocity(clock, track.xy, half)
     s = (clock - beta) / alpha
     run = path.run_of(s)
     ok = (run >= 0) & np.isfinite(velocity[:, 0])
@@ -254,7 +255,7 @@ def motion_slope(
     either side) against projected pixels per sample (the path model's derivative)."""
     clock = np.asarray(clock, dtype=np.float64)
     half = _velocity_half(fps)
-    velocity = _velocity(clock, track.xy, half)
+    velocity = image_velocity(clock, track.xy, half)
     every = max(
         1, math.ceil(len(vote_clock) / MAX_SLOPE_VOTES)
     )  # a mode needs no more votes: memory and time stay bounded
@@ -290,30 +291,6 @@ def _mode(log_ratio: np.ndarray, votes: int) -> SlopeMode:
     centre = (k + values.min() + 0.5) * SLOPE_BIN
     inside = np.abs(log_ratio - centre) <= 1.5 * SLOPE_BIN
     return SlopeMode(float(np.exp(np.median(log_ratio[inside]))), int(inside.sum()), votes)
-
-
-def _velocity(clock: np.ndarray, xy: np.ndarray, half: int) -> np.ndarray:
-    """(N, 2) tracked velocity (pixels per clock unit) at each tracked frame: the line through the tracked
-    positions within ``half`` clock units either side (NaN with fewer than 3 of them)."""
-    lo = np.searchsorted(clock, clock - half)
-    hi = np.searchsorted(clock, clock + half, side="right")
-    c0 = np.r_[0.0, np.cumsum(clock - clock.mean())]
-    cc = np.r_[0.0, np.cumsum((clock - clock.mean()) ** 2)]
-    out = np.full((len(clock), 2), np.nan)
-    count = (hi - lo).astype(np.float64)
-    sx = c0[hi] - c0[lo]
-    sxx = cc[hi] - cc[lo]
-    denom = count * sxx - sx * sx
-    ok = (count >= 3) & (denom > 0)
-    for k in range(2):
-        y = xy[:, k]
-        y0 = np.r_[0.0, np.cumsum(y)]
-        xy0 = np.r_[0.0, np.cumsum((clock - clock.mean()) * y)]
-        sy = y0[hi] - y0[lo]
-        sxy = xy0[hi] - xy0[lo]
-        with np.errstate(invalid="ignore", divide="ignore"):
-            out[:, k] = np.where(ok, (count * sxy - sx * sy) / denom, np.nan)
-    return out
 
 
 # What the measures must show for a line to stand (drone2, the demo and the Figure 5 cells against the trap suite:
