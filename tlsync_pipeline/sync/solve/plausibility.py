@@ -217,16 +217,23 @@ def line_motion(
     ok = (run >= 0) & np.isfinite(velocity[:, 0])
     if ok.sum() < MIN_MOVING:
         return LineMotion(int(ok.sum()), float("nan"), float("nan"))
-    v_proj = _projected_velocity(camera, path, s[ok], run[ok])
-    v_img = velocity[ok]
-    l_img, l_proj = np.linalg.norm(v_img, axis=1), np.linalg.norm(v_proj, axis=1)
-    moving = (l_img * 2 * half >= MOVING_PX) & np.isfinite(l_proj) & (l_proj > 0)
+    moving, cos, log_ratio = _velocities_compared(velocity[ok], _projected_velocity(camera, path, s[ok], run[ok]), half)
     m = int(moving.sum())
     if m < MIN_MOVING:
         return LineMotion(m, float("nan"), float("nan"))
-    v_img, v_proj, l_img, l_proj = v_img[moving], v_proj[moving], l_img[moving], l_proj[moving]
-    cos = np.einsum("ij,ij->i", v_img, v_proj) / (l_img * l_proj)
-    return LineMotion(m, float(np.median(cos)), float(np.exp(np.median(np.log(l_proj / l_img)))))
+    return LineMotion(m, float(np.median(cos[moving])), float(np.exp(np.median(log_ratio[moving]))))
+
+
+def _velocities_compared(v_img: np.ndarray, v_proj: np.ndarray, half: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Tracked (pixels per clock unit, fitted over ``half`` either side) against projected (pixels per sample)
+    velocities, (N, 2) each: where the target moves (MOVING_PX over the window, a projected motion), the cosine
+    between them and the log of their speeds' ratio (clock units per sample)."""
+    l_img, l_proj = np.linalg.norm(v_img, axis=1), np.linalg.norm(v_proj, axis=1)
+    moving = np.isfinite(l_proj) & (l_img * 2 * half >= MOVING_PX) & (l_proj > 0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        cos = np.einsum("ij,ij->i", v_img, v_proj) / (l_img * l_proj)
+        log_ratio = np.log(l_proj / l_img)
+    return moving, cos, log_ratio
 
 
 def _velocity_half(fps: float | None) -> int:
@@ -269,12 +276,7 @@ def motion_slope(
         return MotionSlope(none, none)
     samples, which = np.unique(s[ok], return_inverse=True)  # votes share their samples: project each once
     v_proj = _projected_velocity(camera, path, samples, path.run_of(samples))[which.ravel()]
-    v_img = velocity[at[ok]]
-    l_img, l_proj = np.linalg.norm(v_img, axis=1), np.linalg.norm(v_proj, axis=1)
-    moving = np.isfinite(l_proj) & (l_img * 2 * half >= MOVING_PX) & (l_proj > 0)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        cos = np.einsum("ij,ij->i", v_img, v_proj) / (l_img * l_proj)
-        log_ratio = np.log(l_proj / l_img)
+    moving, cos, log_ratio = _velocities_compared(velocity[at[ok]], v_proj, half)
     n = int(moving.sum())
     return MotionSlope(_mode(log_ratio[moving & (cos > 0.9)], n), _mode(log_ratio[moving & (cos < -0.9)], n))
 
