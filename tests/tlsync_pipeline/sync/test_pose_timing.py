@@ -74,3 +74,13 @@ def test_a_rival_that_misses_the_track_block_after_block_is_improbable_and_one_a
     assert rival_probability(worse, best, clock, FPS) > 0.99
     off = replace(alike, errors=np.where(np.arange(600) < 300, np.inf, alike.errors))  # maps half the track off the log
     assert rival_probability(best, off, clock, FPS) < 0.01
+
+
+def test_a_rival_tight_on_a_part_of_the_track_does_not_outweigh_the_whole_track_explained_loosely():
+    """The right pose under a wandering bias scatters by tens of pixels over every frame; a wrong one that explains
+    a third of the track within a few pixels and leaves the rest off the log is no rival."""
+    rng = np.random.default_rng(1)
+    clock = np.arange(900.0)
+    loose = fit(0.0, errors=np.abs(rng.normal(0.0, 60.0, 900)), scale_px=65.0)
+    part = np.where(np.arange(900) < 300, np.abs(rng.normal(0.0, 8.0, 900)), np.inf)
+    assert rival_probability(loose, fit(3000.0, errors=part, scale_px=10.0), clock, FPS) < 0.01

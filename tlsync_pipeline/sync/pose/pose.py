@@ -23,14 +23,21 @@ rate), only beta is unknown:
    give and the line the votes find under it are one more candidate;
 3. the fit with the most frames within the gate wins; the best fit at an
    offset more than DISTINCT_S away is the runner-up (its support is kept,
-   as the line search keeps its runner-up's); with GCPs, only fits that
+   as the line search keeps its runner-up's); under a log with a bias, a
+   fit is distinct when it is not one timing with the winner (beyond the
+   betas' stds and what the log's bias explains along the path), the
+   runner-up is the distinct fit the track's evidence makes most probable,
+   and the fits of one timing widen the line's interval
+   (sync/pose/timing.py); with GCPs, only fits that
    keep the GCPs within GCP_AGREE of their sigmas count (a straight path
    explains the track from many poses, the GCPs tell them apart);
 4. degenerate cases fail with a named cause and a remedy (``PoseError``),
    never with a confident wrong pose: too few frames, a path that is nearly
    a straight line in the image (the pose turns freely about it), two
-   offsets with comparable support, or a pose whose uncertainty is too
-   large. With GCPs the straightness and ambiguity tests are left to the
+   offsets with comparable support (under a log with a bias: a rival
+   keeping RIVAL_PROBABILITY of the evidence), or a pose whose uncertainty
+   is too large (under a log with a bias on a curved path only the
+   timing must be determined). With GCPs the straightness and ambiguity tests are left to the
    uncertainty: the GCPs hold the pose where the path alone cannot;
 5. with GCPs and their own pose (``_survey_and_target``) the evidence
    decides: the survey's error is measured from the GCPs' residuals under

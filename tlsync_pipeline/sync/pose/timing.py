@@ -12,9 +12,13 @@ How probable it is against the best is weighed on the track block by
 block (``rival_probability``), as sync/solve/rival.py weighs two lines:
 frames of a block of BLOCK_S seconds share the log's error and the
 tracker's, so a block counts once; each block's mean Student-t loss of its
-frames' reprojection errors under either fit, at the better fit's scale;
-the rival's probability is that of the paired differences (rival minus
-best) having a mean below zero, Phi(-sum / (sd x sqrt(blocks))).
+frames' reprojection errors under either fit, at the looser fit's scale
+(a fit that explains a part of the track tightly and misses the rest does
+not set the scale the log's wander leaves the right pose at: on drone2
+under a phone's GNSS the right pose's scatter was 65 px, a rival's that
+explained a third of the track 10 px); the rival's probability is that of
+the paired differences (rival minus best) having a mean below zero,
+Phi(-sum / (sd x sqrt(blocks))).
 
 Clock values in frame units (sync/model/clock.py); pixels; metres.
 """
@@ -79,7 +83,7 @@ def rival_probability(best: JointFit, rival: JointFit, clock: np.ndarray, fps: f
     blocks = int(block.max()) + 1 if len(block) else 0
     if blocks < MIN_BLOCKS:
         return 0.5
-    scale = max(MIN_SCALE_PX, min(best.scale_px, rival.scale_px))
+    scale = max(MIN_SCALE_PX, best.scale_px, rival.scale_px)
     count = np.bincount(block, minlength=blocks)
 
     def losses(fit: JointFit) -> np.ndarray:
