@@ -84,3 +84,20 @@ def test_a_rival_tight_on_a_part_of_the_track_does_not_outweigh_the_whole_track_
     loose = fit(0.0, errors=np.abs(rng.normal(0.0, 60.0, 900)), scale_px=65.0)
     part = np.where(np.arange(900) < 300, np.abs(rng.normal(0.0, 8.0, 900)), np.inf)
     assert rival_probability(loose, fit(3000.0, errors=part, scale_px=10.0), clock, FPS) < 0.01
+
+
+def test_a_rival_few_blocks_barely_rule_out_keeps_its_share():
+    """16 blocks whose paired differences lie 2.4 of their standard errors from zero: the normal's tail would leave
+    the rival 0.8 %, the blocks' own spread (Student-t, 15 degrees of freedom) leaves it more than 1 %."""
+    blocks, scale = 16, 2.0
+    pattern = np.tile([1.0, -1.0], blocks // 2)
+    step = 2.4 * np.std(pattern, ddof=1) / np.sqrt(blocks)
+    loss = 5.0 + (step + pattern) * 0.5  # the rival's block losses; the best's are 5.0 in every block
+
+    def errors(values: np.ndarray) -> np.ndarray:  # the error whose Student-t loss (4 dof, ``scale``) is each value
+        return np.repeat(scale * 2.0 * np.sqrt(np.expm1(values / 3.0)), 30)
+
+    best = fit(0.0, errors=errors(np.full(blocks, 5.0)), scale_px=scale)
+    rival = fit(900.0, errors=errors(loss), scale_px=scale)
+    probability = rival_probability(best, rival, np.arange(30.0 * blocks), FPS)
+    assert 0.01 < probability < 0.03
