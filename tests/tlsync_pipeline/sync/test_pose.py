@@ -490,24 +490,25 @@ def test_the_real_flight_without_poses_under_a_drone_gnss_is_synchronized_within
     assert np.median(errors_t) <= 2.0
 
 
-def test_under_a_biased_log_a_curved_path_needs_a_determined_timing_and_a_straight_one_a_determined_pose(scene):
-    """On a curved path the check asks for beta's std within TIMING_S and a rotation within LOG_ROTATION_CURVED angles
-    of the log's error; on a nearly straight one the pose's own limits (LOG_ROTATION angles, the centre) hold."""
+def test_under_a_biased_log_a_curved_path_needs_no_rival_and_a_straight_one_a_determined_pose(scene):
+    """On a curved path a loose pose is kept unless a rival at another timing keeps RIVAL_PROBABILITY of the
+    evidence; on a nearly straight one the pose's own limits (LOG_ROTATION angles, the centre) hold."""
     found = from_track(scene, "cam0")
     s = scene.scene
     clock, path, fps = s.tracks["cam0"].frame.astype(float), PiecewiseTrajectory(smooth_trajectory(s.trajectory)), 30.0
     depth = P.median_depth(found.fit.camera, clock[found.fit.inliers], path, found.fit.alpha, found.fit.beta)
     angle = np.degrees(1.0 / depth)  # a log error of 1 m a fixed pose cannot absorb, seen at the target's depth
 
-    def check(se_beta, rotation, centre=0.0, straightness=0.3):
-        fit = replace(found.fit, se_beta=se_beta, rotation_std_deg=rotation, center_std_m=centre)
-        P.check_determined(replace(found, fit=fit, straightness=straightness), clock, path, False, 1.0, fps)
+    def check(rotation, rival=0.0, straightness=0.3, se_beta=3.0 * fps):
+        fit = replace(found.fit, se_beta=se_beta, rotation_std_deg=rotation, center_std_m=0.5 * depth)
+        pose = replace(found, fit=fit, straightness=straightness, rival_probability=rival, runner_up_beta=0.0)
+        P.check_determined(pose, clock, path, False, 1.0, fps)
 
-    check(0.4 * P.TIMING_S * fps, 6 * angle, centre=0.5 * depth)  # a loose pose, a determined timing: kept
-    with pytest.raises(P.PoseError, match="offset"):
-        check(1.2 * P.TIMING_S * fps, 6 * angle)
-    with pytest.raises(P.PoseError, match="rotation"):
-        check(0.4 * P.TIMING_S * fps, 1.2 * P.LOG_ROTATION_CURVED * angle)
+    check(20 * angle)  # a loose pose and a loose timing with no rival: kept, its interval says how loose
+    check(20 * angle, rival=0.5 * P.RIVAL_PROBABILITY)
+    with pytest.raises(P.PoseError) as rival:
+        check(angle, rival=P.RIVAL_PROBABILITY)
+    assert rival.value.cause == "ambiguous_offset"
     with pytest.raises(P.PoseError) as nearly_straight:
-        check(0.4 * P.TIMING_S * fps, 6 * angle, straightness=0.04)
+        check(6 * angle, straightness=0.04)
     assert nearly_straight.value.cause == "straight_path"

@@ -23,14 +23,21 @@ rate), only beta is unknown:
    give and the line the votes find under it are one more candidate;
 3. the fit with the most frames within the gate wins; the best fit at an
    offset more than DISTINCT_S away is the runner-up (its support is kept,
-   as the line search keeps its runner-up's); with GCPs, only fits that
+   as the line search keeps its runner-up's); under a log with a bias, a
+   fit is distinct when it is not one timing with the winner (beyond the
+   betas' stds and what the log's bias explains along the path), the
+   runner-up is the distinct fit the track's evidence makes most probable,
+   and the fits of one timing widen the line's interval
+   (sync/pose/timing.py); with GCPs, only fits that
    keep the GCPs within GCP_AGREE of their sigmas count (a straight path
    explains the track from many poses, the GCPs tell them apart);
 4. degenerate cases fail with a named cause and a remedy (``PoseError``),
    never with a confident wrong pose: too few frames, a path that is nearly
    a straight line in the image (the pose turns freely about it), two
-   offsets with comparable support, or a pose whose uncertainty is too
-   large. With GCPs the straightness and ambiguity tests are left to the
+   offsets with comparable support (under a log with a bias: a rival
+   keeping RIVAL_PROBABILITY of the evidence), or a pose whose uncertainty
+   is too large (under a log with a bias on a curved path only the
+   timing must be determined). With GCPs the straightness and ambiguity tests are left to the
    uncertainty: the GCPs hold the pose where the path alone cannot;
 5. with GCPs and their own pose (``_survey_and_target``) the evidence
    decides: the survey's error is measured from the GCPs' residuals under
@@ -87,6 +94,7 @@ from tlsync_pipeline.sync.pose.pose_fit import (
     fit_pose_and_line,
     reprojection_errors,
 )
+from tlsync_pipeline.sync.pose.timing import DISTINCT_S, bias_frames, one_timing, rival_probability, timing_spread
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
 from trackers.detections import Detections
 from trackers.track import Track
@@ -102,13 +110,11 @@ NEARLY_STRAIGHT = 0.05  # a loose pose on a path below this ratio is put down to
 # a distinct offset scoring this share of the best's score (msac at TIGHT median residuals) makes the pose ambiguous
 AMBIGUOUS = 0.85
 TIGHT = 3.0  # median residuals of the best fit within which frames count for the ambiguity test
-DISTINCT_S = 1.0  # offsets further apart than this (seconds) are distinct
 LOG_GATE = 2.5  # under a metre-level log, the gate in units of the log's unabsorbed error seen in pixels
-TIMING_S = 0.5  # under a log with a bias, the largest std of a pose fit's beta (seconds): half of DISTINCT_S
 LOG_ROTATION = (
     4.0  # under a biased log on a nearly straight path: the rotation std allowed, in angles its error subtends
 )
-LOG_ROTATION_CURVED = 8.0  # the same on a curved path, where the timing's std is checked too
+RIVAL_PROBABILITY = 0.01  # under a biased log, a rival pose the track's evidence leaves below this is no ambiguity
 PROFILE_POINTS = 600  # tracked positions whose support with the log's bias fitted gives the timing (profile_beta)
 PROFILE_SIGMAS = 3  # profile_beta looks this many of the fit's beta stds either side of it
 GCP_AGREE = 3.0  # a pose agrees with the GCPs when their median error is within this many of their sigmas
@@ -199,7 +205,12 @@ class TargetPose:
     disagreeing: the GCPs that conflict with the track (the pose is then the
     track's alone, source ``target``); bias_beta: under a log with a bias, the
     beta the pose and the log's bias fitted together explain best
-    (``profile_beta``), NaN otherwise.
+    (``profile_beta``), NaN otherwise; under a log with a bias also
+    rival_probability: the runner-up's probability against the winner on
+    the track's evidence (sync/pose/timing.py; NaN otherwise), and
+    timing_spread: how far (clock units) the fits that are one timing with
+    the winner lie from its beta (0 otherwise), which the line's interval
+    carries.
     """
 
     camera: Camera
@@ -219,6 +230,8 @@ class TargetPose:
     gcps_used: GcpPrior | None = None
     disagreeing: tuple[str, ...] = ()
     bias_beta: float = float("nan")
+    rival_probability: float = float("nan")
+    timing_spread: float = 0.0
 
     @property
     def support(self) -> int:
@@ -237,6 +250,8 @@ class TargetPose:
             "scale_px": fit.scale_px,
             "runner_up_ratio": self.runner_up_ratio,
             "runner_up_beta": None if not np.isfinite(self.runner_up_beta) else self.runner_up_beta,
+            "rival_probability": None if not np.isfinite(self.rival_probability) else self.rival_probability,
+            "timing_spread": self.timing_spread,
             "straightness": self.straightness,
             "search": {
                 "offsets_tried": self.search.offsets_tried,
@@ -342,7 +357,7 @@ def pose_from_track(
                 camera, clock, xy, path, prior, fps, gate_px, None, None, (), f_scale, seed, delta, offsets, log_model
             )
             return replace(alone, disagreeing=_names(gcps))  # type: ignore[arg-type]
-        result = ranked_pose(fits, search, xy, fps or 0.0, gcps is not None, gcp_camera)
+        result = ranked_pose(fits, search, xy, fps or 0.0, gcps is not None, gcp_camera, clock, path, biased)
         if free:
             result = _settle_intrinsics(result, clock, xy, path, prior, gate_px, f_scale, gcps, free, unknown_k)
         check_determined(result, clock, path, gcps is not None, log_m, fps)
@@ -625,17 +640,40 @@ def log_scales(
 
 
 def ranked_pose(
-    fits: list[JointFit], search: OffsetSearch, xy: np.ndarray, fps: float, with_gcps: bool, gcp_camera: Camera | None
+    fits: list[JointFit],
+    search: OffsetSearch,
+    xy: np.ndarray,
+    fps: float,
+    with_gcps: bool,
+    gcp_camera: Camera | None,
+    clock: np.ndarray | None = None,
+    path: PiecewiseTrajectory | None = None,
+    log_model: LogModel | None = None,
 ) -> TargetPose:
     """The best of the fits (first: most support) with its runner-up at a distinct offset, as a TargetPose (not yet
     checked).
 
-    xy: the winner's tracked pixels (its straightness is measured on its inliers).
+    xy: the winner's tracked pixels (its straightness is measured on its inliers). Without a log bias (log_model None
+    or without one) an offset more than DISTINCT_S away is distinct and the runner-up is the distinct fit of the best
+    score. Under a log with a bias (clock, path and log_model given, fps known) a fit is distinct when it is not one
+    timing with the winner (sync/pose/timing.py: beyond the betas' stds and what the bias along the path explains);
+    the runner-up is the distinct fit the track's evidence makes most probable (``rival_probability``), and the
+    timing's spread is that of the fits that are one timing.
     """
     best = fits[0]
     tight = TIGHT * max(float(np.median(best.errors[best.inliers])), 0.5)
-    distinct = [f for f in fits if abs(f.beta - best.beta) > DISTINCT_S * fps]
-    runner = max(distinct, key=lambda f: msac(f.errors, tight)) if distinct else None
+    biased = clock is not None and path is not None and log_model is not None and log_model.has_bias and fps > 0
+    probability, spread = float("nan"), 0.0
+    if biased:
+        bias = bias_frames(best, clock, path, log_model)  # type: ignore[arg-type]
+        distinct = [f for f in fits if not one_timing(best, f, bias, fps)]
+        odds = [rival_probability(best, f, clock, fps) for f in distinct]  # type: ignore[arg-type]
+        runner = distinct[int(np.argmax(odds))] if distinct else None
+        probability = max(odds, default=0.0)
+        spread = timing_spread(best, fits, bias, fps)
+    else:
+        distinct = [f for f in fits if abs(f.beta - best.beta) > DISTINCT_S * fps]
+        runner = max(distinct, key=lambda f: msac(f.errors, tight)) if distinct else None
     result = TargetPose(
         best.camera,
         best,
@@ -647,6 +685,8 @@ def ranked_pose(
         msac(runner.errors, tight) / max(msac(best.errors, tight), 1e-9) if runner else 0.0,
         search,
         straightness(xy[best.inliers]),
+        rival_probability=probability,
+        timing_spread=spread,
     )
     if gcp_camera is not None:
         result = replace(
@@ -696,22 +736,23 @@ def check_determined(
 ) -> None:
     """Raise PoseError when the pose is not determined (see the module docstring, step 4).
 
-    log_m: as ``pose_from_track``'s. Under a log with a bias (log_m > 0 and
-    the camera's fps) the pose absorbs the log's error and serves the timing
-    only (``pose_info``): on a path that is not nearly straight in the image
-    (NEARLY_STRAIGHT) what must be determined is the timing, whose std
-    carries the pose's looseness (the fit's model error is the log's), and
-    the camera is refused when beta's std exceeds TIMING_S seconds (the
-    ambiguity test could no longer tell distinct offsets apart) or the
-    rotation's std LOG_ROTATION_CURVED times the angle the log's error
-    subtends at the target's depth (a wrong offset's pose: on drone2 the
-    right poses' were 9-14 degrees, 4-6 such angles, the rigid search's wrong
-    offsets' 19-145 degrees). A nearly
-    straight path is explained as well by poses tens of metres off at wrong
-    offsets with a tight beta (a walker under a drone's GNSS: 50-86 m off,
-    beta's std 5 frames, 31 s off): there the pose itself must be
-    determined, its rotation as loose as LOG_ROTATION times the angle the
-    log's error subtends at the target's depth."""
+    log_m: as ``pose_from_track``'s. Without GCPs, two offsets are
+    ambiguous when, under a log with a bias (the result's
+    ``rival_probability`` measured), the track's evidence leaves the rival
+    at least RIVAL_PROBABILITY (a rival being a fit that is not one timing
+    with the winner, sync/pose/timing.py), otherwise when the runner-up
+    scores AMBIGUOUS of the winner. Under a log with a bias (log_m > 0 and
+    the camera's fps) the pose absorbs the log's error and serves the
+    timing only (``pose_info``): on a path that is not nearly straight in
+    the image (NEARLY_STRAIGHT) what must be determined is the timing, and
+    a loose pose is no refusal: the fits that are one timing are one
+    answer whose interval holds their spread (``timing_spread``) and beta's
+    std, which carries the pose's looseness. A nearly straight path is
+    explained as well by poses tens of metres off at wrong offsets with a
+    tight beta (a walker under a drone's GNSS: 50-86 m off, beta's std 5
+    frames, 31 s off): there the pose itself must be determined, its
+    rotation as loose as LOG_ROTATION times the angle the log's error
+    subtends at the target's depth."""
     fit, name = result.fit, result.camera.name
     if fit.support < MIN_FRAMES:
         raise PoseError(
@@ -723,7 +764,15 @@ def check_determined(
             "straight_path",
             f"the target's path is nearly a straight line in the image (width {result.straightness:.3f} of its length)",
         )
-    if not with_gcps and result.runner_up_ratio >= AMBIGUOUS:
+    weighed = np.isfinite(result.rival_probability)
+    if not with_gcps and weighed and result.rival_probability >= RIVAL_PROBABILITY:
+        raise PoseError(
+            name,
+            "ambiguous_offset",
+            f"a pose at another offset keeps {100 * result.rival_probability:.0f} % of the track's evidence "
+            f"(beta {result.runner_up_beta:.1f} and {fit.beta:.1f}, beyond what the log's bias explains)",
+        )
+    if not with_gcps and not weighed and result.runner_up_ratio >= AMBIGUOUS:
         raise PoseError(
             name,
             "ambiguous_offset",
@@ -731,18 +780,14 @@ def check_determined(
             f"{result.tight_support} frames within {result.tight_px:.1f} px, "
             f"beta {result.runner_up_beta:.1f} and {fit.beta:.1f})",
         )
+    if log_m > 0 and fps and result.straightness >= NEARLY_STRAIGHT:
+        return
     depth = median_depth(fit.camera, clock[fit.inliers], path, fit.alpha, fit.beta)
     loose = []
-    if log_m > 0 and fps and result.straightness >= NEARLY_STRAIGHT:
-        if not fit.se_beta <= TIMING_S * fps:
-            loose.append(f"the offset +-{fit.se_beta / fps:.2g} s under the log's error")
-        if not fit.rotation_std_deg <= max(MAX_ROTATION_STD_DEG, LOG_ROTATION_CURVED * np.degrees(log_m / depth)):
-            loose.append(f"rotation +-{fit.rotation_std_deg:.2g} deg")
-    else:
-        if not fit.rotation_std_deg <= max(MAX_ROTATION_STD_DEG, LOG_ROTATION * np.degrees(log_m / depth)):
-            loose.append(f"rotation +-{fit.rotation_std_deg:.2g} deg")
-        if not fit.center_std_m <= MAX_CENTER_STD * depth:
-            loose.append(f"centre +-{fit.center_std_m:.2g} m at {depth:.0f} m")
+    if not fit.rotation_std_deg <= max(MAX_ROTATION_STD_DEG, LOG_ROTATION * np.degrees(log_m / depth)):
+        loose.append(f"rotation +-{fit.rotation_std_deg:.2g} deg")
+    if not fit.center_std_m <= MAX_CENTER_STD * depth:
+        loose.append(f"centre +-{fit.center_std_m:.2g} m at {depth:.0f} m")
     if loose:
         cause = "straight_path" if result.straightness < NEARLY_STRAIGHT else "pose_undetermined"
         raise PoseError(name, cause, "the track leaves the pose loose (" + ", ".join(loose) + ")")

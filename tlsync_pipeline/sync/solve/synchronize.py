@@ -184,7 +184,9 @@ def posed(
 def with_pose_line(line: CameraLine, pose: TargetPose) -> CameraLine:
     """The line of the pose from the target under a log with a bias: the pose fit's slope, the beta that the pose and
     the log's bias fitted together explain best (``TargetPose.bias_beta``; the pose fit's without one), and the pose
-    fit's covariance with the square of the two betas' distance added to beta's variance. The pose absorbed the
+    fit's covariance with the square of the two betas' distance added to beta's variance, and the square of the
+    spread of the pose fits that are one timing with it (``TargetPose.timing_spread``: poses the track tells apart
+    no better than the log's bias, one answer). The pose absorbed the
     bias's mean over the visit, and the pose fit counts its wander as error shared by blocks of frames (its beta
     std carries it); the line the votes give under that pose held fixed is pulled by the wander alone (on drone2
     under a drone's GNSS, 4-28 frames off where the pose fit was within 0.3-9). Unchanged when the pose fit has no
@@ -194,7 +196,7 @@ def with_pose_line(line: CameraLine, pose: TargetPose) -> CameraLine:
         return line
     beta = pose.bias_beta if np.isfinite(pose.bias_beta) else fit.beta
     cov = np.array(fit.line_cov, dtype=np.float64)
-    cov[1, 1] += (beta - fit.beta) ** 2
+    cov[1, 1] += (beta - fit.beta) ** 2 + pose.timing_spread**2
     return replace(line, alpha=fit.alpha, beta=beta, cov=cov)
 
 

@@ -1,0 +1,102 @@
+"""Under a log with a bias, which pose fits of one camera are one timing and which are rivals.
+
+Two fits of a pose from the target (sync/pose/pose_fit.py's JointFit, each
+with its own pose and line) give one synchronization when their offsets
+differ by less than their betas' stds and the log's bias can explain
+together: a bias of sigma metres along the path moves the track's match
+by sigma / speed of time, and a pose fitted to the track trades its
+rotation against that shift. Such fits are one answer whose interval must
+hold them all (``one_timing``; the spread is added to beta's variance).
+A fit beyond that band is a rival: it would give another synchronization.
+How probable it is against the best is weighed on the track block by
+block (``rival_probability``), as sync/solve/rival.py weighs two lines:
+frames of a block of BLOCK_S seconds share the log's error and the
+tracker's, so a block counts once; each block's mean Student-t loss of its
+frames' reprojection errors under either fit, at the looser fit's scale
+(a fit that explains a part of the track tightly and misses the rest does
+not set the scale the log's wander leaves the right pose at: on drone2
+under a phone's GNSS the right pose's scatter was 65 px, a rival's that
+explained a third of the track 10 px); the rival's probability is that of
+the paired differences (rival minus best) having a mean below zero: their
+mean over its standard error is Student-t with blocks - 1 degrees of
+freedom (the spread is measured on the blocks themselves: a 16 s visit
+has 16, where the normal's tail would put a rival the evidence does not
+rule out, 2.3 standard errors off on a phone walk, under 1 %).
+
+Clock values in frame units (sync/model/clock.py); pixels; metres.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.special import stdtr
+
+from tlsync_pipeline.sync.model.log_model import LogModel
+from tlsync_pipeline.sync.pose.pose_fit import JointFit
+from tlsync_pipeline.trajectory import PiecewiseTrajectory
+
+Z95 = 1.959964
+DISTINCT_S = 1.0  # offsets closer than this (seconds) are one timing whatever the stds
+BLOCK_S = 1.0  # seconds of the camera's clock a block of frames spans
+STUDENT_DOF = 4.0  # degrees of freedom of a frame's Student-t loss
+MIN_SCALE_PX = 1.0  # the loss's scale is never taken below this (pixels)
+MIN_BLOCKS = 3  # fewer blocks than this tell nothing: the rival keeps half the posterior
+OFF_TRACK_Z = 6.0  # a frame a fit maps off the log costs the loss of an error this many scales long
+
+
+def bias_frames(fit: JointFit, clock: np.ndarray, path: PiecewiseTrajectory, model: LogModel) -> float:
+    """How far (clock units) the log's bias can move the track's match along the path under the fit's line: the
+    median over the fit's inliers of alpha x (the bias's std along the target's motion) / (the path's metres per
+    sample); 0 without a bias or where the target does not move."""
+    if not model.has_bias:
+        return 0.0
+    s = (clock[fit.inliers] - fit.beta) / fit.alpha
+    run = path.run_of(s)
+    on = run >= 0
+    if not on.any():
+        return 0.0
+    velocity = path(s[on], run[on], nu=1)  # metres per sample
+    speed = np.linalg.norm(velocity, axis=1)
+    moving = speed > 0
+    if not moving.any():
+        return 0.0
+    sigma = np.array([model.bias_m, model.bias_m, model.bias_vertical_m])
+    along = np.sqrt(((velocity[moving] / speed[moving, None]) ** 2 * sigma**2).sum(axis=1))
+    return float(abs(fit.alpha) * np.median(along / speed[moving]))
+
+
+def one_timing(best: JointFit, other: JointFit, bias: float, fps: float) -> bool:
+    """Whether the other fit's offset is the best's timing: within DISTINCT_S seconds, or within the 95 % spread of
+    the two betas' stds plus ``bias`` (clock units, ``bias_frames``)."""
+    band = max(DISTINCT_S * fps, Z95 * math.hypot(best.se_beta, other.se_beta) + bias)
+    return bool(abs(other.beta - best.beta) <= band)
+
+
+def timing_spread(best: JointFit, fits: list[JointFit], bias: float, fps: float) -> float:
+    """The largest distance (clock units) of a fit that is one timing with the best from the best's beta (0 alone)."""
+    return max((abs(f.beta - best.beta) for f in fits if one_timing(best, f, bias, fps)), default=0.0)
+
+
+def rival_probability(best: JointFit, rival: JointFit, clock: np.ndarray, fps: float) -> float:
+    """The rival fit's posterior probability against the best's (equal prior odds) on the track's blocks (see the
+    module); clock: each tracked frame's clock value, the fits' ``errors`` being per frame."""
+    block = np.floor((clock - clock.min()) / (BLOCK_S * fps)).astype(np.int64)
+    block = np.unique(block, return_inverse=True)[1].ravel()
+    blocks = int(block.max()) + 1 if len(block) else 0
+    if blocks < MIN_BLOCKS:
+        return 0.5
+    scale = max(MIN_SCALE_PX, best.scale_px, rival.scale_px)
+    count = np.bincount(block, minlength=blocks)
+
+    def losses(fit: JointFit) -> np.ndarray:
+        z2 = np.where(np.isfinite(fit.errors), fit.errors / scale, OFF_TRACK_Z) ** 2
+        loss = 0.5 * (STUDENT_DOF + 2.0) * np.log1p(z2 / STUDENT_DOF)
+        return np.bincount(block, loss, minlength=blocks) / count
+
+    difference = losses(rival) - losses(best)
+    spread = float(np.std(difference, ddof=1)) * math.sqrt(blocks)
+    if spread <= 0.0:
+        return 0.5
+    return float(stdtr(blocks - 1, -float(difference.sum()) / spread))
