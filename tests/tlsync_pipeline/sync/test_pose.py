@@ -26,6 +26,7 @@ from tlsync_pipeline.sync.pose.pose_fit import (
     MODEL_ERROR_PX,
     GcpPrior,
     Layout,
+    _covariance,
     _prior_rows,
     _residuals,
     _vector,
@@ -512,3 +513,44 @@ def test_under_a_biased_log_a_curved_path_needs_no_rival_and_a_straight_one_a_de
     with pytest.raises(P.PoseError) as nearly_straight:
         check(6 * angle, straightness=0.04)
     assert nearly_straight.value.cause == "straight_path"
+
+
+def test_the_gcps_weight_does_not_shrink_the_surveys_error_in_the_covariance():
+    """GCP rows fitted at w times their information (GcpPrior.weight) still carry the survey's whole error: the
+    parameter only the GCPs determine has the same variance at any weight."""
+    rng = np.random.default_rng(0)
+    n_frames, f_scale, sigma_px = 20, 3.0, 2.0
+    track = np.zeros((2 * n_frames, 2))
+    track[:, 0] = rng.normal(size=2 * n_frames)  # the track determines parameter 0 only
+    gcp = np.zeros((8, 2))
+    gcp[:, 1] = rng.normal(size=8)  # the GCPs parameter 1 only
+
+    def variance(weight: float) -> float:
+        rows = gcp * f_scale * np.sqrt(weight) / sigma_px
+        jac = np.vstack([track, rows])
+        r = np.r_[rng.normal(size=2 * n_frames), np.zeros(8)]
+        cov, _, _ = _covariance(r, jac, n_frames, len(jac), f_scale, 0.0, weight, 8)
+        return float(cov[1, 1])
+
+    assert variance(9.0) == pytest.approx(variance(1.0), rel=1e-9)
+    assert variance(1.0) == pytest.approx(sigma_px**2 / float(gcp[:, 1] @ gcp[:, 1]), rel=1e-9)
+
+
+def test_a_straight_crossing_takes_its_timing_std_from_the_survey(scene):
+    """Where the image path is a straight line the track cannot tell a pose moved along it from a time shift: the
+    timing's std is at least the survey's alone; a turning crossing keeps the joint fit's."""
+    posed = {}
+    for name in ("cam0", "cam1"):
+        gcps = scene.gcps[name]
+        prior = GcpPrior(gcps.uv, gcps.xyz, 0.5)
+        posed[name] = from_track(
+            scene, name, gcps=prior, gcp_camera=P.gcp_camera(scene.scene.true_cameras[name], prior)
+        )
+    straight, turning = posed["cam1"], posed["cam0"]
+    assert straight.straightness < P.STRAIGHT <= turning.straightness
+    survey = straight.fit.survey_line_cov
+    assert survey is not None and survey[1, 1] > straight.fit.se_beta**2
+    assert straight.se_beta == pytest.approx(np.sqrt(survey[1, 1]))
+    assert turning.se_beta == pytest.approx(turning.fit.se_beta)
+    truth = scene.scene.lines["cam1"].beta
+    assert abs(straight.fit.beta - truth) <= 1.96 * straight.se_beta

@@ -237,6 +237,26 @@ class TargetPose:
     def support(self) -> int:
         return self.fit.support
 
+    @property
+    def line_cov(self) -> np.ndarray | None:
+        """(2, 2) covariance of the fit's (alpha, beta) for the timing: the joint fit's, its beta variance raised to
+        the survey's alone (JointFit.survey_line_cov) where the image path is a straight line (straightness under
+        STRAIGHT): there the track cannot tell a pose moved along the path from a time shift, and the joint fit
+        counts its faint evidence of the difference (the pass bench's straight crossings under GCPs 0.5-2 m off:
+        beta 2-5 of its std off; their turning crossings, which determine the pose, keep the joint fit's)."""
+        cov, survey = self.fit.line_cov, self.fit.survey_line_cov
+        if cov is None or survey is None or not np.isfinite(survey[1, 1]) or self.straightness >= STRAIGHT:
+            return cov
+        out = np.array(cov, dtype=np.float64)
+        out[1, 1] = max(out[1, 1], float(survey[1, 1]))
+        return out
+
+    @property
+    def se_beta(self) -> float:
+        """Std of the fit's beta (frames) for the timing (``line_cov``)."""
+        cov = self.line_cov
+        return float(np.sqrt(max(cov[1, 1], 0.0))) if cov is not None else self.fit.se_beta
+
     def to_report(self, info: PoseInfo, gcps: GcpPrior | None = None) -> dict:
         """The pose from the target as calibration_report.json's ``target_pose`` (docs/calibration.md)."""
         fit = self.fit

@@ -170,6 +170,7 @@ class JointFit:
     gate_px: float = 10.0
     track_inflation: float = 1.0
     line_cov: np.ndarray | None = None  # (2, 2) covariance of (alpha, beta)
+    survey_line_cov: np.ndarray | None = None  # (2, 2) the same from the survey's error alone (_survey_line_cov)
 
     @property
     def inliers(self) -> np.ndarray:
@@ -288,6 +289,7 @@ def fit_pose_and_line(
         gate_px,
         solved.inflation,
         solved.line_cov,
+        solved.survey_line_cov,
     )
 
 
@@ -345,6 +347,7 @@ class _Solved:
     message: str
     inflation: float
     line_cov: np.ndarray
+    survey_line_cov: np.ndarray | None
 
 
 def _solve(
@@ -394,13 +397,20 @@ def _solve(
     x = solution.x
     r, jac = evaluate(x)
     fitted = camera_at(camera, x, layout)
-    cov, shared, naive = _covariance(r, jac, n, n_robust, f_scale, model_error_px)
+    gcp_rows = 2 * len(gcps.xyz) if gcps is not None else 0
+    cov, shared, naive = _covariance(
+        r, jac, n, n_robust, f_scale, model_error_px, gcps.weight if gcps is not None else 1.0, gcp_rows
+    )
     u, s0 = x[6], x[7]
     alpha, beta = 1.0 / u, c_mid - s0 / u
     d_beta = np.zeros(len(x))
     d_beta[6], d_beta[7] = s0 / u**2, -1.0 / u
     d_line = np.zeros((2, len(x)))
     d_line[0, 6], d_line[1] = -1.0 / u**2, d_beta
+    survey = None
+    if gcps is not None:
+        to_line = d_line[:, 6:8]
+        survey = to_line @ _survey_line_cov(jac, n, gcp_rows, f_scale * np.sqrt(gcps.weight)) @ to_line.T
     pixel = np.linalg.norm(r[: 2 * n].reshape(n, 2), axis=1)
     converged = bool(solution.success and np.all(np.isfinite(cov)) and u > 0)
     return _Solved(
@@ -418,7 +428,27 @@ def _solve(
         str(solution.message),
         _inflation(shared, naive),
         d_line @ cov @ d_line.T,
+        survey,
     )
+
+
+def _survey_line_cov(jac: np.ndarray, n_frames: int, gcp_rows: int, gcp_scale: float) -> np.ndarray:
+    """Covariance of the line's parameters (u, s0, as the parameter vector's) from the survey's error alone: the pose
+    as the GCPs alone determine it (their rows of ``jac``, divided by ``gcp_scale`` back to one pixel sigma each), and
+    the line that then best explains the track under each such pose (the track's rows and the priors: its line given
+    the pose). A straight crossing's track hardly tells a pose moved along the path from a time shift, so there the
+    survey's error is the timing's; the joint covariance, which counts the track's weak information on that move,
+    can be several times smaller. NaN where the GCPs alone do not determine the pose."""
+    track = 2 * n_frames
+    gcp = jac[track : track + gcp_rows, :6] / gcp_scale
+    given = np.vstack([jac[:track], jac[track + gcp_rows :]])
+    bread = given.T @ given
+    try:
+        pose_cov = np.linalg.inv(gcp.T @ gcp)
+        follow = -np.linalg.solve(bread[6:8, 6:8], bread[6:8, :6])  # d(u, s0) / d(pose) with the track held
+    except np.linalg.LinAlgError:
+        return np.full((2, 2), np.nan)
+    return follow @ pose_cov @ follow.T
 
 
 def _inflation(shared: np.ndarray, naive: np.ndarray) -> float:
@@ -497,10 +527,20 @@ def _intrinsic_columns(jac: np.ndarray, blocks: dict, layout: Layout, camera: Ca
 
 
 def _covariance(
-    r: np.ndarray, jac: np.ndarray, n_frames: int, n_robust: int, f_scale: float, model_error_px: float
+    r: np.ndarray,
+    jac: np.ndarray,
+    n_frames: int,
+    n_robust: int,
+    f_scale: float,
+    model_error_px: float,
+    gcp_weight: float = 1.0,
+    gcp_rows: int = 0,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Sandwich covariance of the parameters (see the module docstring); its track part alone, as the residuals show it
-    (frame by frame or in blocks, no model error); and the same with every frame independent."""
+    (frame by frame or in blocks, no model error); and the same with every frame independent. The ``gcp_rows`` rows
+    after the track's are the GCPs', fitted at ``gcp_weight`` times their information: at their stated sigma a row's
+    variance is gcp_weight f_scale^2, so the survey's error reaches the covariance in full, not divided by the
+    weight."""
     p = jac.shape[1]
     z = (r[:n_robust] / f_scale) ** 2
     psi = np.r_[r[:n_robust] / np.sqrt(1 + z), r[n_robust:]]
@@ -523,9 +563,11 @@ def _covariance(
         ratio = 1.0
     meat = clustered if ratio > 1.0 else independent
     rest = jac[track:]
+    stated = np.ones(len(rest))
+    stated[:gcp_rows] = gcp_weight
     meat = meat + f_scale**2 * rest.T @ (
-        rest * dpsi[track:, None]
-    )  # GCPs and priors at their stated sigma (one sigma = f_scale)
+        rest * (dpsi[track:] * stated)[:, None]
+    )  # GCPs and priors at their stated sigma (one sigma = f_scale, a GCP row scaled by sqrt(gcp_weight))
     lever = np.array(
         [
             b.sum(axis=0)

@@ -53,6 +53,9 @@ SEEN_VELOCITY_S = 0.25  # seconds each side of a frame over which the target's i
 SCALE_SPLIT_S = 10.0  # s: the marginal likelihood's short error term is correlated below this, the bias above it
 FAST_TAU_S = 2.0  # s: the short term's prior correlation time (the smoothed log's white noise over a few fixes)
 DECISIVE_NATS = 6.9  # log posterior gain that rejects the model's bias: the likelihood ratio's 99.9 % for 2 values
+BELOW_PRIOR = float(
+    np.exp(-2.0 * PRIOR_LOG_SD)
+)  # an estimate under this share of the model's bias is outside its prior
 FAST_FLOOR_M = 0.05  # m: the short term's prior std when the model has no white noise (the knots' interpolation)
 
 
@@ -157,9 +160,10 @@ def fit_log_bias_measured(
     """fit_log_bias under the model's prior, with the bias's std and correlation time of the largest marginal
     likelihood (bias_marginal_likelihood) as its estimate. The fit is redone under the estimate, which becomes its
     model, when the pixels reject the model's bias (the estimate gains DECISIVE_NATS of log posterior over the model's
-    values) for one smaller than the log's own white noise: a good receiver's log declared a phone's. Otherwise the
-    model's prior stands: an estimate within reach of it, applied, moved drone2's worst pair from 1.11 to 1.34
-    frames and cost phone walks accuracy (docs/algorithm.md, "The log's error")."""
+    values) for one smaller than the log's own white noise or than BELOW_PRIOR of the model's bias (two of its prior's
+    log-normal stds below it): a good receiver's log declared a phone's, an RTK log's bias of centimetres among them.
+    Otherwise the model's prior stands: an estimate within reach of it, applied, moved drone2's worst pair from 1.11
+    to 1.34 frames and cost phone walks accuracy (docs/algorithm.md, "The log's error")."""
     bias = fit_log_bias(cameras, path, rate, model, f_scale)
     if not bias.converged or not model.has_bias:
         return bias
@@ -167,7 +171,7 @@ def fit_log_bias_measured(
     if "bias_m" not in found.measured:
         return bias
     estimate = (found.bias_m, found.tau_s)
-    if gain < DECISIVE_NATS or found.bias_m >= model.white_m:
+    if gain < DECISIVE_NATS or found.bias_m >= max(model.white_m, BELOW_PRIOR * model.bias_m):
         return replace(bias, estimate=estimate)
     again = fit_log_bias(cameras, path, rate, found, f_scale)
     return replace(again if again.converged else bias, estimate=estimate)

@@ -191,11 +191,11 @@ def with_pose_line(line: CameraLine, pose: TargetPose) -> CameraLine:
     std carries it); the line the votes give under that pose held fixed is pulled by the wander alone (on drone2
     under a drone's GNSS, 4-28 frames off where the pose fit was within 0.3-9). Unchanged when the pose fit has no
     finite covariance of its line."""
-    fit = pose.fit
-    if fit.line_cov is None or not np.isfinite(fit.line_cov).all():
+    fit, line_cov = pose.fit, pose.line_cov
+    if line_cov is None or not np.isfinite(line_cov).all():
         return line
     beta = pose.bias_beta if np.isfinite(pose.bias_beta) else fit.beta
-    cov = np.array(fit.line_cov, dtype=np.float64)
+    cov = np.array(line_cov, dtype=np.float64)
     cov[1, 1] += (beta - fit.beta) ** 2 + pose.timing_spread**2
     return replace(line, alpha=fit.alpha, beta=beta, cov=cov)
 
@@ -206,10 +206,10 @@ def with_pose_offset(line: CameraLine, pose: TargetPose) -> CameraLine:
     timing trade against each other (on a straight crossing a pose moved along the path is a time shift): the pose
     fit's beta std (clock units). And the line fitted under that pose may leave the pose fit's own line (their beta
     difference, counted as a std too: two fits of one timing on one track)."""
-    if line.cov is None or not np.isfinite(pose.fit.se_beta):
+    if line.cov is None or not np.isfinite(pose.se_beta):
         return line
     cov = np.array(line.cov, dtype=np.float64)
-    cov[1, 1] += pose.fit.se_beta**2 + (line.beta - pose.fit.beta) ** 2
+    cov[1, 1] += pose.se_beta**2 + (line.beta - pose.fit.beta) ** 2
     return replace(line, cov=cov)
 
 
