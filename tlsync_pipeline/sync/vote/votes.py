@@ -99,10 +99,11 @@ def _block_votes(
 def thinned_runs(row: np.ndarray, column: np.ndarray, sample: np.ndarray, dist: np.ndarray) -> np.ndarray:
     """Which votes (frame rows, indices into the increasing grid samples ``sample``, pixel distances) are kept when
     each frame's runs of consecutive samples are thinned to about MAX_RUN_VOTES (see the module): a boolean mask."""
-    keep = np.zeros(len(row), dtype=bool)
-    if len(row) == 0:
+    keep = np.ones(len(row), dtype=bool)
+    many = np.flatnonzero(np.bincount(row)[row] > MAX_RUN_VOTES) if len(row) else np.zeros(0, np.int64)
+    if len(many) == 0:  # no frame has a run that long
         return keep
-    order = np.argsort(row * len(sample) + column, kind="stable")
+    order = many[np.argsort(row[many] * len(sample) + column[many])]
     row_o, sample_o, dist_o = row[order], sample[column[order]], dist[order]
     starts = np.flatnonzero(np.r_[True, (row_o[1:] != row_o[:-1]) | (np.diff(sample_o) > 1.5)])
     length = np.diff(np.r_[starts, len(order)])
