@@ -27,9 +27,9 @@ import numpy as np
 
 from calibration.camera import Camera
 from tlsync_pipeline.sync.kernels.velocity import image_velocity
+from tlsync_pipeline.sync.solve.log_bias import SEEN_VELOCITY_S
 from tlsync_pipeline.trajectory import PiecewiseTrajectory
 
-SEEN_VELOCITY_S = 0.25  # seconds each side of a frame over which the target's image velocity is measured on its track
 METRE_STEP = 1e-3  # metres: finite-difference step of the projection's Jacobian
 MIN_FRAMES = 3  # frames with a measured image velocity needed for a spread
 
@@ -37,11 +37,10 @@ MIN_FRAMES = 3  # frames with a measured image velocity needed for a spread
 @dataclass(frozen=True)
 class BiasSpread:
     """The clock's std (frames) that the log's bias explains at a visit, and the target's effective speed across the
-    view (m/s: the information-weighted mean of its frames' speeds) and the frames it was measured on."""
+    view (m/s: the information-weighted mean of its frames' speeds)."""
 
     frames: float
     speed_m_s: float
-    measured_on: int
 
 
 def bias_time_spread(
@@ -79,11 +78,11 @@ def bias_time_spread(
     speed2 = np.sum(velocity**2, axis=1)
     energy = float(speed2.sum())
     if not energy > 0:
-        return BiasSpread(float("inf"), 0.0, int(valid.sum()))
+        return BiasSpread(float("inf"), 0.0)
     g = -np.einsum("nij,ni->j", jacobian, velocity) / energy
     frames = float(np.sqrt(np.sum((g * bias_sd_m) ** 2)))
     across = np.linalg.norm(
         np.einsum("nij,nj->ni", np.linalg.pinv(jacobian), velocity), axis=1
     )  # metres per clock unit
     speed = float(np.sum(speed2 * across) / energy) * fps
-    return BiasSpread(frames, speed, int(valid.sum()))
+    return BiasSpread(frames, speed)
