@@ -28,6 +28,8 @@ from tlsync_pipeline.sync.model.status import (
     AMBIGUOUS,
     FAILED,
     HALF_95,
+    LOW_SPEED_M_S,
+    LOW_SPEED_REMEDY,
     WEAK,
     WIDE_FRAMES,
     WIDE_REMEDIES,
@@ -108,15 +110,26 @@ class ErrorBudget:
 @dataclass(frozen=True)
 class LogBiasSummary:
     """The log's bias during the camera's visit (sync/solve/log_bias.py): estimate (m, ENU), posterior std (m), and its
-    observability (1 - posterior / prior horizontal variance: 0, only the prior; 1, known)."""
+    observability (1 - posterior / prior horizontal variance: 0, only the prior; 1, known); speed_m_s: the target's
+    speed across the view as its track shows it, weighted by what each frame says of the time, and spread_frames: the
+    clock's std that a bias of se_m explains at that speed (sync/solve/slow_motion.py), None when not measured."""
 
     estimate_m: tuple[float, float, float]
     se_m: tuple[float, float, float]
     observability: float
+    speed_m_s: float | None = None
+    spread_frames: float | None = None
 
     @classmethod
     def from_dict(cls, data: dict) -> LogBiasSummary:
-        return cls(tuple(data["estimate_m"]), tuple(data["se_m"]), float(data["observability"]))
+        speed, spread = data.get("speed_m_s"), data.get("spread_frames")
+        return cls(
+            tuple(data["estimate_m"]),
+            tuple(data["se_m"]),
+            float(data["observability"]),
+            None if speed is None else float(speed),
+            None if spread is None else float(spread),
+        )
 
 
 @dataclass(frozen=True)
@@ -338,13 +351,17 @@ class Timeline:
 
     def _wide_interval(self, name: str) -> Reason | None:
         """WEAK when the camera's start, against the reference's, is known to more than WIDE_FRAMES of its own frames
-        (95 %).
+        (95 %); ``low_speed`` instead (for the reference too) when the log's bias at the target's slow speed in this
+        view alone makes it so.
         """
+        line = self.cameras[name]
+        slow = _slow_motion(line)
+        if slow is not None:
+            return slow
         reference = self.names[0]
         se = self.start_offset_se(reference, name) if name != reference else None
         if se is None:
             return None
-        line = self.cameras[name]
         own_frames = HALF_95 * (se[1] * line.fps if se[1] is not None and line.fps else se[0])
         if not own_frames > WIDE_FRAMES:
             return None
@@ -519,6 +536,26 @@ class Timeline:
                 else {}
             ),
         }
+
+
+def _slow_motion(line: CameraLine) -> Reason | None:
+    """The ``low_speed`` reason of a camera whose target crosses the view slower than LOW_SPEED_M_S, where the log's
+    bias explains more than WIDE_FRAMES of its clock (95 %; LogBiasSummary.spread_frames), or None."""
+    bias = line.log_bias
+    if bias is None or bias.speed_m_s is None or bias.spread_frames is None or not bias.speed_m_s < LOW_SPEED_M_S:
+        return None
+    frames = HALF_95 * bias.spread_frames
+    if not frames > WIDE_FRAMES:
+        return None
+    seconds = f"±{frames / line.fps:.2g} s, " if line.fps else ""
+    horizontal = math.hypot(bias.se_m[0], bias.se_m[1]) / math.sqrt(2.0)
+    return Reason(
+        "low_speed",
+        WEAK,
+        f"the target crosses this view at {bias.speed_m_s:.2g} m/s, where the log's bias (±{horizontal:.2g} m) "
+        f"makes its start known to {seconds}±{frames:.1f} of its frames only",
+        LOW_SPEED_REMEDY,
+    )
 
 
 def _finite(value):

@@ -122,6 +122,8 @@ def test_a_bias_shared_by_every_visit_is_fitted_out_and_the_intervals_hold():
         assert all(abs(e) <= half for e, half in fitted.values()), fitted
         for name, line in together.cameras.items():
             assert line.log_bias is not None and line.log_bias.observability > 0.8
+            assert 0.5 < line.log_bias.speed_m_s < 1.5  # across the view: at most the walker's 1.4 m/s
+            assert line.budget is not None and line.budget.log_frames >= line.log_bias.spread_frames - 1e-9
             true_bias = scene.noise["bias_m"][
                 int(
                     round(

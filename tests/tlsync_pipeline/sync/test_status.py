@@ -9,7 +9,7 @@ import json
 import numpy as np
 
 from tlsync_pipeline.sync.model.status import AMBIGUOUS, FAILED, WEAK, Reason, status_of
-from tlsync_pipeline.sync.timeline import CameraLine, Timeline, read_timeline, write_timeline
+from tlsync_pipeline.sync.timeline import CameraLine, LogBiasSummary, Timeline, read_timeline, write_timeline
 
 
 def _line(name: str, **more) -> CameraLine:
@@ -90,3 +90,16 @@ def test_no_number_that_is_not_finite_reaches_timeline_json(tmp_path):
     text = (tmp_path / "timeline.json").read_text()
     assert "NaN" not in text and "Infinity" not in text
     assert np.isnan(read_timeline(tmp_path / "timeline.json").cameras["cam0"].residual_rms)
+
+
+def test_a_slow_target_whose_log_bias_makes_the_start_wide_is_weak_naming_its_speed_even_as_reference(tmp_path):
+    slow = LogBiasSummary((0.0, 0.0, 0.0), (1.0, 1.0, 1.0), 0.2, speed_m_s=0.4, spread_frames=75.0)
+    fast = LogBiasSummary((0.0, 0.0, 0.0), (1.0, 1.0, 1.0), 0.2, speed_m_s=6.0, spread_frames=5.0)
+    timeline = Timeline({"cam0": _line("cam0", log_bias=slow), "cam1": _line("cam1", log_bias=fast)}, target_rate=15.0)
+    status = timeline.status("cam0")
+    assert status.status == "weak" and status.reasons[0].code == "low_speed"
+    assert "0.4 m/s" in status.reason and "±4.9 s" in status.reason and "at speed" in status.remedy
+    assert all(r.code != "low_speed" for r in timeline.status("cam1").reasons)  # fast: the bias is not seconds
+    write_timeline(timeline, tmp_path / "timeline.json")
+    back = read_timeline(tmp_path / "timeline.json")
+    assert back.cameras["cam0"].log_bias == slow and back.status("cam0").to_dict() == status.to_dict()

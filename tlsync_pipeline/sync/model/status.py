@@ -31,6 +31,10 @@ SEVERITY = {OK: 0, WEAK: 1, AMBIGUOUS: 2, FAILED: 3}
 SYNCHRONIZED = (OK, WEAK)
 HALF_95 = 1.959964  # normal quantile of a two-sided 95 % interval
 WIDE_FRAMES = 1.0  # a start known to more than this many of the camera's frames (95 %) is weak
+LOW_SPEED_M_S = 2.0  # a target slower than this across a view (the hovers of consumer drones, walkers) ...
+LOW_SPEED_REMEDY = (  # ... whose log's bias alone makes the start wide: what would settle it
+    "a pass of the target at speed through this view, or a better log (RTK): a metre of bias is seconds at this speed"
+)
 WIDE_REMEDY = "a longer or better-calibrated pass of the target through the view narrows it"
 # What to do about a wide interval, by what dominates it (timeline.ErrorBudget.dominant).
 WIDE_REMEDIES = {

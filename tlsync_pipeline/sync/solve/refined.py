@@ -23,6 +23,7 @@ from tlsync_pipeline.sync.model.methods import RefinedKind, RefinedParams
 from tlsync_pipeline.sync.model.params import SyncParams
 from tlsync_pipeline.sync.solve.log_bias import BiasCamera, LogBias, fit_log_bias, fit_log_bias_measured
 from tlsync_pipeline.sync.solve.methods import CameraData
+from tlsync_pipeline.sync.solve.slow_motion import BiasSpread, bias_time_spread
 from tlsync_pipeline.sync.timeline import CameraLine, ErrorBudget, LineSearchSummary, LogBiasSummary, RefinementSummary
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
 
@@ -185,19 +186,47 @@ class RefinedMethod(RefinedKind):
             fit, source = (again[name], bias) if name in again else (r, at_prior)
             middle = _visit_middle(cameras[name].track_clock[fit.used], fit.alpha, fit.beta)
             estimate, se = source.at(np.array([middle]))[0], source.std_at(middle)
+            spread = _spread(cameras[name], path, fit, se)
+            log_cov = _with_spread(source.line_cov(name, name), middle, spread)
             out[name] = replace(
                 lines[name],
                 alpha=fit.alpha,
                 beta=fit.beta,
-                cov=fit.cov + source.line_cov(name, name),
-                budget=error_budget(fit, cameras[name].track_clock, source.line_cov(name, name)),
+                cov=fit.cov + log_cov,
+                budget=error_budget(fit, cameras[name].track_clock, log_cov),
                 log_bias=LogBiasSummary(
                     tuple(map(float, estimate)),  # type: ignore[arg-type]
                     tuple(map(float, se)),  # type: ignore[arg-type]
                     source.observability(middle),
+                    None if spread is None else spread.speed_m_s,
+                    None if spread is None else spread.frames,
                 ),
             )
         return out, bias
+
+
+def _spread(data: CameraData, path: PiecewiseTrajectory, fit: Refinement, bias_sd_m: np.ndarray) -> BiasSpread | None:
+    """The clock spread a bias of ``bias_sd_m`` explains at the target's speed on the frames the camera's line used
+    (sync/solve/slow_motion.py); None without a frame rate or enough moving frames."""
+    if data.fps is None:
+        return None
+    used = fit.used
+    return bias_time_spread(
+        data.camera, data.track_clock[used], data.track.xy[used], path, fit.alpha, fit.beta, bias_sd_m, data.fps
+    )
+
+
+def _with_spread(log_cov: np.ndarray, middle: float, spread: BiasSpread | None) -> np.ndarray:
+    """The log's part of a line's (alpha, beta) covariance, its clock std at the visit's middle sample raised to the
+    spread the bias explains at the target's own speed where the joint fit's linearisation (the log's speed under the
+    line) says less: a shift of the whole clock, beta alone."""
+    if spread is None:
+        return log_cov
+    at = np.array([middle, 1.0])
+    missing = spread.frames**2 - float(at @ log_cov @ at)
+    if not missing > 0:
+        return log_cov
+    return log_cov + np.array([[0.0, 0.0], [0.0, missing]])
 
 
 def _refit_on_corrected(
