@@ -45,7 +45,9 @@ STEP_REACH = 12.0  # clock units beyond alpha / 2 + 2 delta of the line in which
 MIN_STEP = 2.0  # clock units: the least step between the two levels (and alpha / 2: a sample's own spread) ...
 STILL_EXTRA = 2  # frames beyond alpha closest to one sample: the target stood still (no instant there), left out
 STEP_CANDIDATES = 100  # change points tried over the frames, then every frame around the best of them
-STEP_EVIDENCE = 30.0  # ... and the least log-likelihood ratio of the two levels over one (Laplace errors)
+STEP_EVIDENCE = 20.0  # ... and the least log-likelihood ratio of the two levels over one (Laplace errors)
+MIN_SIDE_SAMPLES = 8  # ... and the least distinct samples closest to a side's frames (frames sharing one are not
+# independent: a slow target's frames all lie closest to the same few samples)
 LONE_FROZEN = (
     3  # single frozen frames away from the target's frames are judged only when at least this many (a rate off)
 )
@@ -137,9 +139,11 @@ def step_break(
     where the two fit best (sum of absolute deviations, each side at least
     MIN_SIDE_FRAMES frames; STEP_CANDIDATES points tried, then every frame
     around the best). A drop when the two levels' log-likelihood ratio
-    (Laplace errors: n log(cost of one / cost of two)) is STEP_EVIDENCE or
-    more and they lie MIN_STEP apart and alpha / 2 (a frame's closest
-    sample is up to that far from its instant). The break is at the first
+    (Laplace errors: n log(cost of one / cost of two), n the frames over
+    alpha, the frames a sample spans: theirs are not independent) is
+    STEP_EVIDENCE or more, they lie MIN_STEP apart and alpha / 2 (a frame's
+    closest sample is up to that far from its instant) and each side's
+    frames are closest to MIN_SIDE_SAMPLES distinct samples or more. The break is at the first
     frame after the change point; its size the frames missing there, as
     the two medians measure it (the segment fit measures it again, from each
     side's own line).
@@ -151,20 +155,24 @@ def step_break(
     order = order[np.concatenate([[True], np.diff(frame[order]) != 0])]
     _, which, count = np.unique(np.round(sample[order]), return_inverse=True, return_counts=True)
     order = order[count[which] <= np.ceil(alpha) + STILL_EXTRA]
-    frames, level = frame[order], r[order]
+    frames, level, samples = frame[order], r[order], np.round(sample[order])
     n = len(level)
     if n < 2 * MIN_SIDE_FRAMES:
         return None
     one = float(np.abs(level - np.median(level)).sum())
     coarse = np.unique(np.linspace(MIN_SIDE_FRAMES, n - MIN_SIDE_FRAMES, STEP_CANDIDATES).round().astype(int))
-    best = int(coarse[int(np.argmin([_two_levels(level, k) for k in coarse]))])
+    best = int(coarse[int(np.argmin([_two_levels(level, int(k)) for k in coarse]))])
     spacing = int(np.ceil((n - 2 * MIN_SIDE_FRAMES) / STEP_CANDIDATES))
     fine = np.arange(max(MIN_SIDE_FRAMES, best - spacing), min(n - MIN_SIDE_FRAMES, best + spacing) + 1)
-    costs = [_two_levels(level, k) for k in fine]
+    costs = [_two_levels(level, int(k)) for k in fine]
     at = int(fine[int(np.argmin(costs))])
     two = min(costs)
     step = float(np.median(level[:at]) - np.median(level[at:]))
-    if abs(step) < max(MIN_STEP, alpha / 2) or not two > 0 or n * np.log(one / two) < STEP_EVIDENCE:
+    sides = min(np.unique(samples[:at]).size, np.unique(samples[at:]).size)
+    independent = n / max(alpha, 1.0)
+    if abs(step) < max(MIN_STEP, alpha / 2) or sides < MIN_SIDE_SAMPLES or not two > 0:
+        return None
+    if independent * np.log(one / two) < STEP_EVIDENCE:
         return None
     return Break("drop", int(frames[at]), round(step, 2))
 
