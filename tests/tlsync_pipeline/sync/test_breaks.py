@@ -138,8 +138,8 @@ def test_a_drop_next_to_a_named_break_is_the_same_break():
     assert merged((Break("drop", 117, -25.0), named)) == (named,)
     far = Break("drop", 400, 5.0)
     assert merged((far, named)) == (named, far)
-    again = Break("drop", 401, 4.9)  # the same drop, measured again on the track's votes
-    assert merged((far, named, again)) == (named, again)
+    again = Break("drop", 402, 4.9)  # the same drop, measured again on the track's votes
+    assert merged((far, named, again)) == (named, far)
 
 
 def _dists(frame):

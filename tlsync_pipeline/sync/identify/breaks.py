@@ -209,13 +209,13 @@ def merged(breaks: tuple[Break, ...]) -> tuple[Break, ...]:
     already (within the drop's size and 10 frames: the votes place a break only between the target's frames), nor
     a cut within a frame of another break's start or end (the picture after a freeze or a gap jumps too). A cut
     where the votes show a drop is that drop, at the cut's frame (the pictures place it to the frame, the votes
-    tell its size). Of two drops the votes show at one place (the identification's and the sync stage's), the later
-    listed."""
+    tell its size). Of two drops the votes show at one place (the identification's, perhaps placed by a cut, and
+    the sync stage's), the first listed."""
     named = [b for b in breaks if b.kind not in ("drop", "cut")]
     edges = [e for b in named for e in (b.frame, b.frame + (int(b.size) if b.kind in ("frozen", "repeat") else 0))]
     cuts = [c for c in breaks if c.kind == "cut" and not any(abs(c.frame - e) <= 1 for e in edges)]
     drops: list[Break] = []
-    for d in reversed(breaks):
+    for d in breaks:
         if d.kind == "drop" and not any(abs(b.frame - d.frame) <= abs(d.size) + 10 for b in (*named, *drops)):
             drops.append(d)
     for cut in list(cuts):
