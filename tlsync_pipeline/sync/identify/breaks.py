@@ -44,6 +44,10 @@ RIVAL_SHARE = 0.15  # ... and this share of the main line's frames
 STEP_REACH = 12.0  # clock units beyond alpha / 2 + 2 delta of the line in which a step's two levels are looked for
 MIN_STEP = 2.0  # clock units: the least step between the two levels (and alpha / 2: a sample's own spread) ...
 STILL_EXTRA = 2  # frames beyond alpha closest to one sample: the target stood still (no instant there), left out
+STEP_GAP = 3  # frames: a change point only between tracked frames this close (or alpha): between two visits a
+# wandering log bias steps the same way
+LOCAL_SAMPLES = 4  # the step seen within this many samples' frames (and MIN_SIDE_FRAMES) either side of it ...
+LOCAL_SHARE = 0.5  # ... must be this share of the whole step or more: a drift has no step where it is placed
 STEP_CANDIDATES = 100  # change points tried over the frames, then every frame around the best of them
 STEP_EVIDENCE = 20.0  # ... and the least log-likelihood ratio of the two levels over one (Laplace errors)
 MIN_SIDE_SAMPLES = 8  # ... and the least distinct samples closest to a side's frames (frames sharing one are not
@@ -143,7 +147,12 @@ def step_break(
     alpha, the frames a sample spans: theirs are not independent) is
     STEP_EVIDENCE or more, they lie MIN_STEP apart and alpha / 2 (a frame's
     closest sample is up to that far from its instant) and each side's
-    frames are closest to MIN_SIDE_SAMPLES distinct samples or more. The break is at the first
+    frames are closest to MIN_SIDE_SAMPLES distinct samples or more. The
+    change point lies between tracked frames at most max(STEP_GAP, alpha)
+    apart (between two visits a drop and a wandering log bias look alike),
+    and the levels of the frames within max(MIN_SIDE_FRAMES, LOCAL_SAMPLES
+    alpha) of it differ by LOCAL_SHARE of the step or more, the same way (a
+    drift of the log's bias has no step where it is placed). The break is at the first
     frame after the change point; its size the frames missing there, as
     the two medians measure it (the segment fit measures it again, from each
     side's own line).
@@ -160,10 +169,15 @@ def step_break(
     if n < 2 * MIN_SIDE_FRAMES:
         return None
     one = float(np.abs(level - np.median(level)).sum())
-    coarse = np.unique(np.linspace(MIN_SIDE_FRAMES, n - MIN_SIDE_FRAMES, STEP_CANDIDATES).round().astype(int))
+    reach = max(float(MIN_SIDE_FRAMES), LOCAL_SAMPLES * alpha)
+    inside = np.arange(MIN_SIDE_FRAMES, n - MIN_SIDE_FRAMES + 1)
+    inside = inside[frames[inside] - frames[inside - 1] <= max(STEP_GAP, np.ceil(alpha))]
+    if inside.size == 0:
+        return None
+    coarse = inside[np.unique(np.linspace(0, inside.size - 1, STEP_CANDIDATES).round().astype(int))]
     best = int(coarse[int(np.argmin([_two_levels(level, int(k)) for k in coarse]))])
-    spacing = int(np.ceil((n - 2 * MIN_SIDE_FRAMES) / STEP_CANDIDATES))
-    fine = np.arange(max(MIN_SIDE_FRAMES, best - spacing), min(n - MIN_SIDE_FRAMES, best + spacing) + 1)
+    spacing = int(np.ceil(inside.size / STEP_CANDIDATES))
+    fine = inside[np.abs(inside - best) <= spacing]
     costs = [_two_levels(level, int(k)) for k in fine]
     at = int(fine[int(np.argmin(costs))])
     two = min(costs)
@@ -173,6 +187,11 @@ def step_break(
     if abs(step) < max(MIN_STEP, alpha / 2) or sides < MIN_SIDE_SAMPLES or not two > 0:
         return None
     if independent * np.log(one / two) < STEP_EVIDENCE:
+        return None
+    before = level[(frames < frames[at]) & (frames >= frames[at] - reach)]
+    after = level[(frames >= frames[at]) & (frames < frames[at] + reach)]
+    local = float(np.median(before) - np.median(after))
+    if local * step <= 0 or abs(local) < LOCAL_SHARE * abs(step):
         return None
     return Break("drop", int(frames[at]), round(step, 2))
 
