@@ -98,6 +98,18 @@ def test_steady_sampled_votes_and_a_slow_swing_are_no_step():
     assert step_break(frame, clock, sample, dist, ALPHA, BETA + 0.5, DELTA) is None
 
 
+def test_a_step_between_two_visits_is_not_taken_for_a_drop():
+    """Two passes through the view 400 frames apart, the second 6 frames off the first (a log bias that moved
+    between them looks the same as frames dropped while the target was away): not looked for. The same step inside
+    one pass is."""
+    visits = np.concatenate([np.arange(100, 200), np.arange(600, 700)])
+    frame, clock, sample, dist = _sampled_votes(visits, shift=6, at=600)
+    assert step_break(frame, clock, sample, dist, ALPHA, BETA + 3, DELTA) is None
+    frame, clock, sample, dist = _sampled_votes(np.arange(100, 300), shift=6, at=200)
+    found = step_break(frame, clock, sample, dist, ALPHA, BETA + 3, DELTA)
+    assert found is not None and found.frame == 200
+
+
 def test_a_still_stretch_whose_frames_share_one_sample_is_no_step():
     frame, clock, sample, dist = _sampled_votes(np.arange(100, 300))
     still = frame < 120  # the target stood still: its frames are closest to one sample, their residuals a ramp
