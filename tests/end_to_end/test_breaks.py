@@ -86,6 +86,28 @@ def test_a_break_in_view_is_fitted_as_segments(raw, tmp_path, edit, kind, shift)
     assert (work / "render" / "recordings.png").exists()
 
 
+@pytest.mark.parametrize("at", [100, 140])
+def test_a_drop_of_five_frames_is_fitted_or_refused_with_the_drop_named(raw, tmp_path, at):
+    """5 frames dropped without a trace: the line runs between the two sides (the votes' step, not a parallel line).
+    cam1 is either refused with the drop named, or fitted as segments with every pair within a fraction of a frame."""
+    folder = tmp_path / "project"
+    shutil.copytree(raw, folder)
+    sources = {name: np.arange(n, dtype=np.float64) for name, n in COUNTS.items()}
+    sources["cam1"] = edit_camera(folder, "cam1", BreakEdit("dropped", at, 5), 25.0)
+    run_graph(build_graph(load_project(folder / "project.toml"), folder / "work", Options(progress=False)))
+    timeline = read_timeline(folder / "work" / "timeline.json")
+    status = timeline.status("cam1")
+    if not status.synchronized:
+        assert [r.code for r in status.reasons if r.severity == "ambiguous"] == ["clock_break"], status
+        assert f"at frame {at}" in status.reason and "jump of" in status.reason, status.reason
+        return
+    assert [(b.kind, b.frame) for b in timeline.cameras["cam1"].breaks] == [("drop", at)]
+    for name in ("cam0", "cam2"):
+        for a, b in (("cam1", name), (name, "cam1")):
+            errors, unmapped, false = pair_errors(timeline, LINES, sources, a, b, video_times(folder, COUNTS))
+            assert false == 0 and (len(errors) == 0 or errors.max() < 0.15), (a, b)
+
+
 def test_an_unedited_demo_has_no_break(raw, tmp_path):
     folder = tmp_path / "project"
     shutil.copytree(raw, folder)

@@ -8,9 +8,10 @@ from tlsync_pipeline.sync.identify.breaks import (
     break_reasons,
     merged,
     segment_reasons,
+    step_break,
     vote_break,
 )
-from tlsync_pipeline.sync.identify.segments import END, fit_segments, joined_at_void_cuts, segments_of
+from tlsync_pipeline.sync.identify.segments import END, fit_segments, joined_at_void_breaks, segments_of
 from tlsync_pipeline.sync.model.clock import FRAME, CameraClock, Segment
 from tlsync_pipeline.sync.model.status import AMBIGUOUS
 from trackers.breaks import Break
@@ -32,20 +33,24 @@ def _votes(frames, shift=None, at=None, noise=0.1, seed=0):
 
 def test_a_drop_in_view_shows_as_a_parallel_line():
     frame, clock, sample = _votes(np.arange(100, 300), shift=25, at=220)
-    found = vote_break(frame, clock, sample, ALPHA, BETA, DELTA)  # the line of the frames before the drop
+    found = vote_break(
+        frame, clock, sample, _dists(frame), ALPHA, BETA, DELTA
+    )  # the line of the frames before the drop
     assert found is not None and found.kind == "drop"
     assert abs(found.frame - 220) <= 1 and abs(found.size - 25) < 0.5
 
 
 def test_frames_inserted_give_a_negative_size():
     frame, clock, sample = _votes(np.arange(100, 300), shift=-10, at=150)
-    found = vote_break(frame, clock, sample, ALPHA, BETA + 10, DELTA)  # the line of the (longer) part after it
+    found = vote_break(
+        frame, clock, sample, _dists(frame), ALPHA, BETA + 10, DELTA
+    )  # the line of the (longer) part after it
     assert found is not None and abs(found.frame - 150) <= 1 and abs(found.size + 10) < 0.5
 
 
 def test_steady_votes_and_a_second_pass_are_not_a_drop():
     frame, clock, sample = _votes(np.arange(100, 300))
-    assert vote_break(frame, clock, sample, ALPHA, BETA, DELTA) is None
+    assert vote_break(frame, clock, sample, _dists(frame), ALPHA, BETA, DELTA) is None
     # the path passed twice: the same frames vote for a sample 80 later too (a periodic path), not a break
     again = sample + 80 / ALPHA
     assert (
@@ -53,12 +58,64 @@ def test_steady_votes_and_a_second_pass_are_not_a_drop():
             np.concatenate([frame, frame]),
             np.concatenate([clock, clock]),
             np.concatenate([sample, again]),
+            np.zeros(2 * len(frame)),
             ALPHA,
             BETA,
             DELTA,
         )
         is None
     )
+
+
+def _sampled_votes(frames, shift=0.0, at=None, wobble=0.0):
+    """Votes as a 10 Hz log gives them to a 25 fps camera: each frame votes for the two whole samples around its
+    instant (pixel distance growing with the time between), and for a sample anywhere (clutter); ``shift``
+    frames missing from ``at`` on; ``wobble``: a slow swing of the instants (frames), as a pose error makes."""
+    frames = np.asarray(frames, dtype=np.float64)
+    instant = frames + shift * (frames >= (at if at is not None else np.inf)) + wobble * np.sin(frames / 40)
+    exact = (instant - BETA) / ALPHA
+    clutter = np.random.default_rng(1).uniform(exact.min(), exact.max(), len(frames))
+    sample = np.concatenate([np.floor(exact), np.floor(exact) + 1, clutter])
+    frame = np.tile(frames, 3)
+    dist = np.abs(sample - np.tile(exact, 3)) * 4
+    return frame, frame.copy(), sample, dist
+
+
+def test_a_drop_of_a_few_frames_under_the_line_shows_as_a_step():
+    frame, clock, sample, dist = _sampled_votes(np.arange(100, 300), shift=5, at=180)
+    beta = BETA + 2.5  # the line fitted across the drop runs between its two sides
+    found = step_break(frame, clock, sample, dist, ALPHA, beta, DELTA)
+    assert found is not None and found.kind == "drop"
+    assert found.frame == 180 and abs(found.size - 5) <= ALPHA / 2
+    assert vote_break(frame, clock, sample, dist, ALPHA, beta, DELTA).frame == 180
+
+
+def test_steady_sampled_votes_and_a_slow_swing_are_no_step():
+    for wobble in (0.0, 1.0):
+        frame, clock, sample, dist = _sampled_votes(np.arange(100, 600), wobble=wobble)
+        assert step_break(frame, clock, sample, dist, ALPHA, BETA, DELTA) is None
+    frame, clock, sample, dist = _sampled_votes(np.arange(100, 600), shift=1, at=300)  # within a sample's spread
+    assert step_break(frame, clock, sample, dist, ALPHA, BETA + 0.5, DELTA) is None
+
+
+def test_a_step_between_two_visits_is_not_taken_for_a_drop():
+    """Two passes through the view 400 frames apart, the second 6 frames off the first (a log bias that moved
+    between them looks the same as frames dropped while the target was away): not looked for. The same step inside
+    one pass is."""
+    visits = np.concatenate([np.arange(100, 200), np.arange(600, 700)])
+    frame, clock, sample, dist = _sampled_votes(visits, shift=6, at=600)
+    assert step_break(frame, clock, sample, dist, ALPHA, BETA + 3, DELTA) is None
+    frame, clock, sample, dist = _sampled_votes(np.arange(100, 300), shift=6, at=200)
+    found = step_break(frame, clock, sample, dist, ALPHA, BETA + 3, DELTA)
+    assert found is not None and found.frame == 200
+
+
+def test_a_still_stretch_whose_frames_share_one_sample_is_no_step():
+    frame, clock, sample, dist = _sampled_votes(np.arange(100, 300))
+    still = frame < 120  # the target stood still: its frames are closest to one sample, their residuals a ramp
+    sample = np.where(still, (120 - BETA) / ALPHA, sample)
+    dist = np.where(still, 0.0, dist)
+    assert step_break(frame, clock, sample, dist, ALPHA, BETA, DELTA) is None
 
 
 def _reasons(breaks, tracked, shift=None, at=None):
@@ -93,6 +150,8 @@ def test_a_drop_next_to_a_named_break_is_the_same_break():
     assert merged((Break("drop", 117, -25.0), named)) == (named,)
     far = Break("drop", 400, 5.0)
     assert merged((far, named)) == (named, far)
+    again = Break("drop", 402, 4.9)  # the same drop, measured again on the track's votes
+    assert merged((far, named, again)) == (named, far)
 
 
 def _dists(frame):
@@ -209,13 +268,13 @@ def test_segments_of_the_same_shift_either_side_of_a_cut_are_joined():
         Segment(100, 150, None, "frozen", 0),
         Segment(150, END, 0.0, "line", 90),
     )
-    joined, breaks = joined_at_void_cuts(segments, (cut, frozen))
+    joined, breaks = joined_at_void_breaks(segments, (cut, frozen))
     assert breaks == (frozen,)
     assert joined == (Segment(0, 100, 50.0, "votes", 37), Segment(100, 150, None, "frozen", 0), segments[-1])
     apart = (Segment(0, 77, 40.0, "votes", 14), *segments[1:])
-    assert joined_at_void_cuts(apart, (cut, frozen)) == (apart, (cut, frozen))
+    assert joined_at_void_breaks(apart, (cut, frozen)) == (apart, (cut, frozen))
     two = (Segment(0, 100, 50.0, "votes", 23), Segment(100, END, 50.0, "line", 90))
-    assert joined_at_void_cuts(two, (Break("cut", 100, 0.0),)) == ((), ())  # one segment left: none
+    assert joined_at_void_breaks(two, (Break("cut", 100, 0.0),)) == ((), ())  # one segment left: none
 
 
 def test_movers_agreeing_on_an_offset_no_stall_can_make_leave_the_segment_unknown():

@@ -5,7 +5,8 @@ follow one steady clock. The track stage lists where they may not
 (trackers/breaks.py: the container's gaps and repeats, frozen pictures);
 ``vote_break`` finds a drop that leaves no trace there: the target's votes
 fall on two parallel lines, one before a frame and one after it, the path
-picking up in the log where it left off. ``identify_in_segments``
+picking up in the log where it left off (``parallel_line`` when the fitted
+line holds one of them, ``step_break`` when it runs between them). ``identify_in_segments``
 identifies the target across the breaks; the camera is then fitted as
 segments (sync/identify/segments.py, sync/solve/synchronize.py). ``segment_reasons`` says
 what that gives the camera:
@@ -40,6 +41,17 @@ MIN_SIDE_FRAMES = 8  # tracked frames a side of a break needs for its agreement 
 ON_LINE_SHARE = 0.5  # share of a side's tracked frames with a vote on the line for it to follow the line
 MIN_RIVAL_FRAMES = 8  # distinct frames a parallel line needs to name a drop
 RIVAL_SHARE = 0.15  # ... and this share of the main line's frames
+STEP_REACH = 12.0  # clock units beyond alpha / 2 + 2 delta of the line in which a step's two levels are looked for
+MIN_STEP = 2.0  # clock units: the least step between the two levels (and alpha / 2: a sample's own spread) ...
+STILL_EXTRA = 2  # frames beyond alpha closest to one sample: the target stood still (no instant there), left out
+STEP_GAP = 3  # frames: a change point only between tracked frames this close (or alpha): between two visits a
+# wandering log bias steps the same way
+LOCAL_SAMPLES = 4  # the step seen within this many samples' frames (and MIN_SIDE_FRAMES) either side of it ...
+LOCAL_SHARE = 0.5  # ... must be this share of the whole step or more: a drift has no step where it is placed
+STEP_CANDIDATES = 100  # change points tried over the frames, then every frame around the best of them
+STEP_EVIDENCE = 20.0  # ... and the least log-likelihood ratio of the two levels over one (Laplace errors)
+MIN_SIDE_SAMPLES = 8  # ... and the least distinct samples closest to a side's frames (frames sharing one are not
+# independent: a slow target's frames all lie closest to the same few samples)
 LONE_FROZEN = (
     3  # single frozen frames away from the target's frames are judged only when at least this many (a rate off)
 )
@@ -47,9 +59,23 @@ REMEDY = "cut the video at the break into one camera per piece (each then gets i
 
 
 def vote_break(
+    frame: np.ndarray,
+    clock: np.ndarray,
+    sample: np.ndarray,
+    dist: np.ndarray,
+    alpha: float,
+    beta: float,
+    delta: float,
+) -> Break | None:
+    """A drop the votes show: ``parallel_line``, else ``step_break`` (arguments as ``step_break``'s)."""
+    found = parallel_line(frame, clock, sample, alpha, beta, delta)
+    return found if found is not None else step_break(frame, clock, sample, dist, alpha, beta, delta)
+
+
+def parallel_line(
     frame: np.ndarray, clock: np.ndarray, sample: np.ndarray, alpha: float, beta: float, delta: float
 ) -> Break | None:
-    """A drop the votes show: a line parallel to the fitted one whose frames all lie on one side of the line's.
+    """A drop the votes show as a line parallel to the fitted one whose frames all lie on one side of the line's.
 
     frame, clock, sample: each vote's 0-based frame, its camera clock value
     and its target sample; alpha, beta: the fitted line (clock = alpha x
@@ -96,6 +122,86 @@ def vote_break(
     return None
 
 
+def step_break(
+    frame: np.ndarray,
+    clock: np.ndarray,
+    sample: np.ndarray,
+    dist: np.ndarray,
+    alpha: float,
+    beta: float,
+    delta: float,
+) -> Break | None:
+    """A drop the votes show as a step: the fitted line runs between two levels, one before a frame and one after.
+
+    A drop of a few frames leaves the line between the two parallel lines,
+    their votes too close to it for ``parallel_line``. Each frame's closest
+    vote (least pixel distance ``dist``) within alpha / 2 + 2 delta +
+    STEP_REACH of the line gives its residual (clock units), unless more than
+    alpha + STILL_EXTRA frames have the same closest sample (the target stood
+    still: its residual then grows frame by frame); one level (the
+    median) is compared with two, before and after a change point placed
+    where the two fit best (sum of absolute deviations, each side at least
+    MIN_SIDE_FRAMES frames; STEP_CANDIDATES points tried, then every frame
+    around the best). A drop when the two levels' log-likelihood ratio
+    (Laplace errors: n log(cost of one / cost of two), n the frames over
+    alpha, the frames a sample spans: theirs are not independent) is
+    STEP_EVIDENCE or more, they lie MIN_STEP apart and alpha / 2 (a frame's
+    closest sample is up to that far from its instant) and each side's
+    frames are closest to MIN_SIDE_SAMPLES distinct samples or more. The
+    change point lies between tracked frames at most max(STEP_GAP, alpha)
+    apart (between two visits a drop and a wandering log bias look alike),
+    and the levels of the frames within max(MIN_SIDE_FRAMES, LOCAL_SAMPLES
+    alpha) of it differ by LOCAL_SHARE of the step or more, the same way (a
+    drift of the log's bias has no step where it is placed). The break is at the first
+    frame after the change point; its size the frames missing there, as
+    the two medians measure it (the segment fit measures it again, from each
+    side's own line).
+    """
+    frame, clock, sample, dist = (np.asarray(a, dtype=np.float64) for a in (frame, clock, sample, dist))
+    r = clock - (alpha * sample + beta)
+    near = np.flatnonzero(np.abs(r) <= alpha / 2 + 2 * delta + STEP_REACH)
+    order = near[np.lexsort((dist[near], frame[near]))]
+    order = order[np.concatenate([[True], np.diff(frame[order]) != 0])]
+    _, which, count = np.unique(np.round(sample[order]), return_inverse=True, return_counts=True)
+    order = order[count[which] <= np.ceil(alpha) + STILL_EXTRA]
+    frames, level, samples = frame[order], r[order], np.round(sample[order])
+    n = len(level)
+    if n < 2 * MIN_SIDE_FRAMES:
+        return None
+    one = float(np.abs(level - np.median(level)).sum())
+    reach = max(float(MIN_SIDE_FRAMES), LOCAL_SAMPLES * alpha)
+    inside = np.arange(MIN_SIDE_FRAMES, n - MIN_SIDE_FRAMES + 1)
+    inside = inside[frames[inside] - frames[inside - 1] <= max(STEP_GAP, np.ceil(alpha))]
+    if inside.size == 0:
+        return None
+    coarse = inside[np.unique(np.linspace(0, inside.size - 1, STEP_CANDIDATES).round().astype(int))]
+    best = int(coarse[int(np.argmin([_two_levels(level, int(k)) for k in coarse]))])
+    spacing = int(np.ceil(inside.size / STEP_CANDIDATES))
+    fine = inside[np.abs(inside - best) <= spacing]
+    costs = [_two_levels(level, int(k)) for k in fine]
+    at = int(fine[int(np.argmin(costs))])
+    two = min(costs)
+    step = float(np.median(level[:at]) - np.median(level[at:]))
+    sides = min(np.unique(samples[:at]).size, np.unique(samples[at:]).size)
+    independent = n / max(alpha, 1.0)
+    if abs(step) < max(MIN_STEP, alpha / 2) or sides < MIN_SIDE_SAMPLES or not two > 0:
+        return None
+    if independent * np.log(one / two) < STEP_EVIDENCE:
+        return None
+    before = level[(frames < frames[at]) & (frames >= frames[at] - reach)]
+    after = level[(frames >= frames[at]) & (frames < frames[at] + reach)]
+    local = float(np.median(before) - np.median(after))
+    if local * step <= 0 or abs(local) < LOCAL_SHARE * abs(step):
+        return None
+    return Break("drop", int(frames[at]), round(step, 2))
+
+
+def _two_levels(level: np.ndarray, k: int) -> float:
+    """The sum of absolute deviations of ``level`` from two medians, one before index k and one from it on."""
+    before, after = level[:k], level[k:]
+    return float(np.abs(before - np.median(before)).sum() + np.abs(after - np.median(after)).sum())
+
+
 def _first_after(later: np.ndarray, earlier: np.ndarray) -> int:
     """The later group's first frame after most of the earlier group's (its 95 % quantile: a few of a frame's votes
     may fall on the other line by chance)."""
@@ -104,10 +210,16 @@ def _first_after(later: np.ndarray, earlier: np.ndarray) -> int:
 
 
 def with_vote_break(
-    breaks: tuple[Break, ...], frame: np.ndarray, clock: np.ndarray, sample: np.ndarray, line, delta: float
+    breaks: tuple[Break, ...],
+    frame: np.ndarray,
+    clock: np.ndarray,
+    sample: np.ndarray,
+    dist: np.ndarray,
+    line,
+    delta: float,
 ) -> tuple[Break, ...]:
     """``breaks`` and the drop the votes show (``vote_break``, ``merged``); line: the fitted CameraLine."""
-    found = vote_break(frame, clock, sample, line.alpha, line.beta, delta)
+    found = vote_break(frame, clock, sample, dist, line.alpha, line.beta, delta)
     return breaks if found is None else merged((*breaks, found))
 
 
@@ -116,13 +228,15 @@ def merged(breaks: tuple[Break, ...]) -> tuple[Break, ...]:
     already (within the drop's size and 10 frames: the votes place a break only between the target's frames), nor
     a cut within a frame of another break's start or end (the picture after a freeze or a gap jumps too). A cut
     where the votes show a drop is that drop, at the cut's frame (the pictures place it to the frame, the votes
-    tell its size)."""
+    tell its size). Of two drops the votes show at one place (the identification's, perhaps placed by a cut, and
+    the sync stage's), the first listed."""
     named = [b for b in breaks if b.kind not in ("drop", "cut")]
     edges = [e for b in named for e in (b.frame, b.frame + (int(b.size) if b.kind in ("frozen", "repeat") else 0))]
     cuts = [c for c in breaks if c.kind == "cut" and not any(abs(c.frame - e) <= 1 for e in edges)]
-    drops = [
-        d for d in breaks if d.kind == "drop" and not any(abs(b.frame - d.frame) <= abs(d.size) + 10 for b in named)
-    ]
+    drops: list[Break] = []
+    for d in breaks:
+        if d.kind == "drop" and not any(abs(b.frame - d.frame) <= abs(d.size) + 10 for b in (*named, *drops)):
+            drops.append(d)
     for cut in list(cuts):
         near = [d for d in drops if abs(d.frame - cut.frame) <= abs(d.size) + 10]
         if near:
@@ -245,7 +359,7 @@ def identify_in_segments(
     found = identify_target(camera, detections, trajectory, fps, params, prefer)
     clock, row_clock = detections_clock(detections, fps)
     vote_clock = row_clock[found.vote_rows]
-    drop = vote_break(found.votes.frame, vote_clock, found.votes.sample, found.alpha, found.beta, params.delta)
+    drop = parallel_line(found.votes.frame, vote_clock, found.votes.sample, found.alpha, found.beta, params.delta)
     breaks = merged((*breaks, drop) if drop is not None else breaks)
     segments, breaks = segments_of(
         breaks,

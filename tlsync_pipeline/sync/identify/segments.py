@@ -16,8 +16,8 @@ frames' clock values move by to fall on that line (sync/model/clock.py,
   known neighbour (by the gap's size), else unknown;
 - frozen pictures (and repeated times): no instant of their own, unknown.
 
-A cut (the picture changes at once) whose two sides the votes put on one
-clock is no break (a light switched on, a car leaving at once):
+A cut (the picture changes at once) or a drop whose two sides the votes
+put on one clock is no break (a light switched on, a car leaving at once):
 ``segments_of`` drops it and fits again. A segment the target never visits
 beyond a cut is unknown even when the container's times run on across it:
 a recording restarted and re-stamped shows exactly that.
@@ -141,37 +141,38 @@ def segments_of(
     delta: float,
     vfr: bool,
 ) -> tuple[tuple[Segment, ...], tuple[Break, ...]]:
-    """``fit_segments`` without the cuts it shows are none (``void_cuts``), and the breaks left (arguments as
-    ``fit_segments``'s)."""
+    """``fit_segments`` without the cuts and drops it shows are none (``void_breaks``), and the breaks left (arguments
+    as ``fit_segments``'s)."""
     segments = fit_segments(breaks, tracked, frame, clock, sample, dist, alpha, beta, delta, vfr)
-    void = void_cuts(breaks, segments)
+    void = void_breaks(breaks, segments)
     if not void:
         return segments, breaks
     breaks = tuple(b for b in breaks if b not in void)
     return fit_segments(breaks, tracked, frame, clock, sample, dist, alpha, beta, delta, vfr), breaks
 
 
-def void_cuts(breaks: tuple[Break, ...], segments: tuple[Segment, ...]) -> tuple[Break, ...]:
-    """The cuts between two segments whose shifts the target's votes measured alike (within WHOLE_FRAME): the
-    same clock on both sides."""
+def void_breaks(breaks: tuple[Break, ...], segments: tuple[Segment, ...]) -> tuple[Break, ...]:
+    """The cuts and drops between two segments whose shifts the target's votes measured alike (within WHOLE_FRAME):
+    the same clock on both sides (a light switched on; a step the votes showed that each side's own line does not)."""
     measured = {s.start: s for s in segments if s.shift is not None and s.source in ("line", "votes")}
     ends = {s.stop: s for s in segments if s.shift is not None and s.source in ("line", "votes")}
     return tuple(
         b
         for b in breaks
-        if b.kind == "cut"
+        if b.kind in ("cut", "drop")
         and b.frame in measured
         and b.frame in ends
         and abs(measured[b.frame].shift - ends[b.frame].shift) <= WHOLE_FRAME  # type: ignore[operator]
     )
 
 
-def joined_at_void_cuts(
+def joined_at_void_breaks(
     segments: tuple[Segment, ...], breaks: tuple[Break, ...]
 ) -> tuple[tuple[Segment, ...], tuple[Break, ...]]:
-    """The segments with those on either side of a cut joined where their shifts are the same (``void_cuts``, after
-    each segment's shift is measured on its own line), and the breaks without those cuts; one segment left: none."""
-    void = void_cuts(breaks, segments)
+    """The segments with those on either side of a cut or a drop joined where their shifts are the same
+    (``void_breaks``, after each segment's shift is measured on its own line), and the breaks without those; one
+    segment left: none."""
+    void = void_breaks(breaks, segments)
     if not void:
         return segments, breaks
     at = {b.frame for b in void}

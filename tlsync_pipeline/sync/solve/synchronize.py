@@ -30,7 +30,7 @@ from tlsync_pipeline.sync.identify.identify import Identification, identify_para
 from tlsync_pipeline.sync.identify.segments import (
     MAX_WHOLE,
     MIN_SEGMENT_FRAMES,
-    joined_at_void_cuts,
+    joined_at_void_breaks,
     segments_of,
     whole_frames,
 )
@@ -444,7 +444,7 @@ def _segmented(
     times = FrameTimes.of_track(track)
     votes, line = result.votes, result.line
     vote_clock = clock.clock_at(votes.frame, times)
-    breaks = with_vote_break(inputs.breaks, votes.frame, vote_clock, votes.sample, line, params.delta)
+    breaks = with_vote_break(inputs.breaks, votes.frame, vote_clock, votes.sample, votes.dist, line, params.delta)
     coarse, breaks = segments_of(
         breaks,
         track.frame,
@@ -468,7 +468,7 @@ def _segmented(
         )
         for seg in coarse
     )
-    segments, breaks = joined_at_void_cuts(segments, breaks)
+    segments, breaks = joined_at_void_breaks(segments, breaks)
     inputs = replace(inputs, breaks=breaks)
     segmented = replace(clock, segments=segments)
     keep_track = np.isfinite(segmented.clock_at(track.frame, times))
