@@ -7,7 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
-from trackers.blob import BlobDetector, BlobParams, BlobTracker, median_background
+from trackers.background import Background, sample_background
+from trackers.blob import BlobDetector, BlobParams, BlobTracker
 from trackers.breaks import KeyframeMeter, PictureMeter
 from trackers.choices import DEFAULT_KIND, KINDS
 from trackers.detections import Detections, make_detections
@@ -22,7 +23,6 @@ from trackers.video import (
     iter_keyframes,
     iter_windows,
     probe_video,
-    sample_frames,
 )
 
 # Every-mover detection expects crowds: a frame is taken as a global change (skipped) only above this many blobs.
@@ -89,6 +89,7 @@ def detect_movers(
     windows: Sequence[tuple[int, int]] | None = None,
     count: DecodeCount | None = None,
     meter: PictureMeter | None = None,
+    background: Background | None = None,
 ) -> Detections:
     """Every moving-object candidate of every frame of ``path``, linked into tracklets.
 
@@ -100,12 +101,14 @@ def detect_movers(
     background model starts afresh from the video's median at each window
     (frames 1 apart continue it), so a window's detections do not depend
     on the frames skipped before it. count: filled with the frames decoded;
-    meter: fed every frame read (trackers/breaks.py).
+    meter: fed every frame read (trackers/breaks.py); background: the
+    video's model as ``sample_background`` gives it (None: sampled here).
     """
     path = Path(path)
     probe_video(path)
     blob_params = movers_params(path, params)
-    background = _background(path, blob_params)
+    if background is None:
+        background = sample_background(path, blob_params)
     linker = MoverLinker(blob_params)
     if windows is None:
         frames = iter_frames(path, gray=True, progress=progress, desc=label)
@@ -115,7 +118,7 @@ def detect_movers(
     detector, last = None, -2
     for index, time_s, gray in frames:
         if detector is None or index != last + 1:
-            detector = BlobDetector(*background)
+            detector = BlobDetector(background.median, blob_params, background.deviation)
         last = index
         blobs = detector.detect(gray)
         if meter is not None:
@@ -160,13 +163,16 @@ def detect_keyframe_movers(
     return make_detections(rows)
 
 
-def movers_detector(path: str | Path, params: dict | None = None) -> BlobDetector:
+def movers_detector(path: str | Path, params: dict | None = None, background: Background | None = None) -> BlobDetector:
     """The blob detector of every-mover detection for ``path``: its background the median of frames sampled over the
-    video.
+    video (``background``, or sampled here when None).
     """
     path = Path(path)
     probe_video(path)
-    return BlobDetector(*_background(path, movers_params(path, params)))
+    blob_params = movers_params(path, params)
+    if background is None:
+        background = sample_background(path, blob_params)
+    return BlobDetector(background.median, blob_params, background.deviation)
 
 
 def movers_params(path: Path, params: dict | None) -> BlobParams:
@@ -176,17 +182,10 @@ def movers_params(path: Path, params: dict | None) -> BlobParams:
     )
 
 
-def _background(path: Path, params: BlobParams) -> tuple[np.ndarray, BlobParams, np.ndarray]:
-    """A blob detector's arguments: the median of (luma) frames sampled over the video, the
-    parameters, the deviation.
-    """
-    background, deviation = median_background(sample_frames(path, params.background_frames, gray=True))
-    return background, params, deviation
-
-
 def _detector(path: Path, params: BlobParams) -> BlobDetector:
     """A blob detector whose background is the median of (luma) frames sampled over the video."""
-    return BlobDetector(*_background(path, params))
+    background = sample_background(path, params)
+    return BlobDetector(background.median, params, background.deviation)
 
 
 def _blob_steps(

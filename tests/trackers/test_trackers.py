@@ -211,3 +211,26 @@ def test_csrt_reading_finds_a_frozen_run(video, tmp_path):
     meter = PictureMeter()
     track_video(tmp_path / "frozen.mp4", kind="csrt", progress=False, meter=meter)
     assert ("frozen", at, 12.0) in [(b.kind, b.frame, b.size) for b in meter.breaks()]
+
+
+def test_every_mover_from_a_background_read_back_is_as_from_the_frames(lookalike_video, tmp_path):
+    """background.npy holds the model exactly: the detections from it are those of a background sampled afresh, and a
+    file that is no model is refused by name."""
+    from trackers.background import read_background, sample_background, write_background
+    from trackers.errors import TrackInputError
+    from trackers.tracking import detect_movers, movers_params
+
+    path = lookalike_video.path
+    sampled = sample_background(path, movers_params(path, None))
+    write_background(sampled, tmp_path / "background.npy")
+    read = read_background(tmp_path / "background.npy")
+    assert np.array_equal(read.median, sampled.median) and np.array_equal(read.deviation, sampled.deviation)
+    windows = [(40, 120), (300, 380)]
+    afresh = detect_movers(path, progress=False, windows=windows)
+    shared = detect_movers(path, progress=False, windows=windows, background=read)
+    assert len(afresh) > 0
+    for column in ("frame", "id", "x", "y", "w", "h"):
+        assert np.array_equal(getattr(afresh, column), getattr(shared, column)), column
+    np.save(tmp_path / "flat.npy", np.zeros((4, 5), np.float32))
+    with pytest.raises(TrackInputError, match="flat.npy: not a background model"):
+        read_background(tmp_path / "flat.npy")

@@ -54,6 +54,7 @@ KINDS: dict[str, Kind] = {
     "track": _typed("cameras/{camera}/track.csv", "trackers.track", "Track", "track"),
     "detections": _typed("cameras/{camera}/detections.csv", "trackers.detections", "Detections", "detections"),
     "scan": _typed("cameras/{camera}/scan.json", f"{_ARTEFACTS}.scan", "ScanPlan", "scan"),
+    "background": _typed("cameras/{camera}/background.npy", "trackers.background", "Background", "background"),
     "identification": _typed(
         "cameras/{camera}/identification.json", f"{_ARTEFACTS}.identification", "IdentificationRecord", "identification"
     ),

@@ -24,6 +24,7 @@ from tlsync_pipeline.sync.model.params import SyncParams
 from tlsync_pipeline.sync.solve.methods import CameraInput
 from tlsync_pipeline.sync.solve.synchronize import synchronize
 from tlsync_pipeline.sync.vote.votes import CameraVotes, Votes
+from trackers.background import Background
 from trackers.breaks import Break
 from trackers.detections import make_detections
 
@@ -91,6 +92,9 @@ def examples(tmp_path: Path) -> dict:
             [(0, 0.0, 1, 10.5, 20.25, 4, 8, 0.5), (0, 0.0, 2, 30, 40, 4, 8, 0.5), (1, 0.1, 1, 11, 21, 4, 8, 0.9)]
         ),
         "scan": ScanPlan(False, "", ((120, 400), (900, 1000)), 3000, CoarseLine(2.0, 130.5, 12, 2, 40, 0.7), 40),
+        "background": Background(
+            np.arange(12, dtype=np.float32).reshape(3, 4) + 0.5, np.full((3, 4), 1.25, np.float32)
+        ),
         "identification": IdentificationRecord(summary, breaks=breaks),
         "video_info": VideoInfo("cam0.mp4", 3000, 3002, True, "windows", "", 40, 380, breaks),
         "clock": RecordedClock(ClockPrior(1.7e9 + 0.25, 1.0, "the video's creation time")),
@@ -140,7 +144,9 @@ def test_each_reader_reads_back_what_its_writer_wrote(tmp_path):
             )
         else:
             assert first.read_bytes() == second.read_bytes(), name
-        if not isinstance(value, (CameraVotes,)) and name not in (
+        if isinstance(value, Background):
+            assert np.array_equal(read.median, value.median) and np.array_equal(read.deviation, value.deviation)
+        elif not isinstance(value, (CameraVotes,)) and name not in (
             "camera",
             "intrinsics",
             "track",

@@ -280,6 +280,30 @@ def test_the_pose_comes_from_every_mover_without_a_track():
     assert found.tracklet in (0, 1, 2) and len(found.identification.track) > 0.9 * len(track)
     assert all(tid >= 100 for tid, why in found.tried.items() if why == "straight_path")
 
+    # The scan's windows around the first two thirds of the target: only tracklets with 12 frames in them are tried,
+    # and the identification under the pose still takes every visit.
+    thirds = np.array_split(np.arange(len(track)), 3)
+    windows = ((int(track.frame[thirds[0][0]]), int(track.frame[thirds[1][-1]]) + 1),)
+    inside = P.in_windows(make_detections(rows).frame, windows)
+    within = P.pose_from_movers(
+        unposed(camera), make_detections(rows), prepared, camera.fps, identify_params(SyncParams()), windows=windows
+    )
+    assert within.tracklet in (0, 1) and len(within.identification.track) > 0.9 * len(track)
+    assert within.tried[2] == "outside_windows" and within.tried[0] != "outside_windows"
+    detections = make_detections(rows)
+    for tid, why in within.tried.items():
+        assert (why == "outside_windows") == (inside[detections.id == tid].sum() < P.MIN_TRACKLET_FRAMES), tid
+    with pytest.raises(P.PoseError, match="scan's windows"):
+        P.pose_from_movers(
+            unposed(camera), detections, prepared, camera.fps, identify_params(SyncParams()), windows=((0, 5),)
+        )
+
+
+def test_in_windows_is_start_inclusive_stop_exclusive():
+    frames = np.array([0, 4, 5, 9, 10, 19, 20, 25])
+    assert P.in_windows(frames, ((5, 10), (19, 21))).tolist() == [False, False, True, True, False, True, True, False]
+    assert not P.in_windows(frames, ()).any()
+
 
 def test_synchronize_poses_cameras_without_one_and_fails_the_degenerate_one(scene):
     s = scene.scene

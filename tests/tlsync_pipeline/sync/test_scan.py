@@ -182,7 +182,7 @@ def test_the_keyframes_between_are_read_when_the_first_ones_cannot_decide(long_s
         return dataclasses.replace(rows, id=np.arange(first_id, first_id + len(rows)))
 
     monkeypatch.setattr(stage, "detect_keyframe_movers", detect)
-    monkeypatch.setattr(stage, "movers_detector", lambda video, parameters: None)
+    monkeypatch.setattr(stage, "movers_detector", lambda video, parameters, background=None: None)
     monkeypatch.setattr(stage, "frame_count", lambda video: long_scene.n_frames[name])
     monkeypatch.setattr(stage, "keyframe_indices", lambda video: keys)
     monkeypatch.setattr(stage, "presentation_times", lambda video: None)
@@ -209,7 +209,7 @@ def test_a_camera_clock_prior_reads_only_the_keyframes_near_the_log(long_scene, 
         return dataclasses.replace(rows, id=np.arange(first_id, first_id + len(rows)))
 
     monkeypatch.setattr(stage, "detect_keyframe_movers", detect)
-    monkeypatch.setattr(stage, "movers_detector", lambda video, parameters: None)
+    monkeypatch.setattr(stage, "movers_detector", lambda video, parameters, background=None: None)
     monkeypatch.setattr(stage, "frame_count", lambda video: long_scene.n_frames[name])
     monkeypatch.setattr(stage, "keyframe_indices", lambda video: keys)
     monkeypatch.setattr(stage, "presentation_times", lambda video: None)

@@ -236,9 +236,11 @@ def pose_from_target(
     trajectory: Trajectory,
     ransac_px: float,
     offsets: tuple[float, float] | None = None,
+    windows: tuple[tuple[int, int], ...] | None = None,
 ) -> tuple[Camera, dict]:
     """The camera posed by the target (its GCPs, if any, a prior; its GCP pose, if any, the start), and the report's
-    ``target_pose``; offsets: the range of the line's beta searched (frames; None: all the log allows).
+    ``target_pose``; offsets: the range of the line's beta searched (frames; None: all the log allows); windows: the
+    frames where a pose from movers looks for the target's tracklets (the scan's windows; None: every frame).
 
     Raises PoseError (sync/pose/pose.py) when the target does not determine the pose.
     """
@@ -250,7 +252,17 @@ def pose_from_target(
         else replace(camera, R=np.eye(3), t=np.zeros(3), to_estimate=("pose",), pose_info=None)
     )
     found, _ = estimate_pose(
-        unposed, track, detections, prepared, camera.fps, params.identify, prior, ransac_px, start, offsets
+        unposed,
+        track,
+        detections,
+        prepared,
+        camera.fps,
+        params.identify,
+        prior,
+        ransac_px,
+        start,
+        offsets,
+        windows=windows,
     )
     sigma = None if prepared.sigma is None else float(np.median(prepared.sigma))
     info = pose_info(found, sigma)
@@ -393,7 +405,9 @@ def _pose_from_target_files(
             track = Track(**{k: v[keep] for k, v in track.columns().items()})
         if detections is not None:
             detections = detections.subset(np.flatnonzero(~np.isin(detections.frame, repeated)))
-    offsets = coarse_offsets(read_scan(files.path("scan")), camera.fps) if files.has("scan") else None
+    scan = read_scan(files.path("scan")) if files.has("scan") else None
+    offsets = coarse_offsets(scan, camera.fps) if scan is not None else None
+    windows = scan.windows if scan is not None and not scan.full else None
     return pose_from_target(
         camera,
         params.target,
@@ -403,6 +417,7 @@ def _pose_from_target_files(
         read_trajectory(files.path("trajectory")),
         params.ransac_px or 8.0,
         offsets,
+        windows,
     )
 
 

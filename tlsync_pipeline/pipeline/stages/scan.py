@@ -46,9 +46,10 @@ from tlsync_pipeline.sync.identify.scan import (
 from tlsync_pipeline.sync.model.methods import preparation_of, prepare_trajectory
 from tlsync_pipeline.sync.model.params import Preparation
 from tlsync_pipeline.trajectory import Trajectory, read_trajectory
+from trackers.background import Background, sample_background, write_background
 from trackers.breaks import KeyframeMeter, check_spans, still_packet_runs
 from trackers.detections import COLUMNS, Detections, make_detections
-from trackers.tracking import detect_keyframe_movers, movers_detector
+from trackers.tracking import detect_keyframe_movers, movers_detector, movers_params
 from trackers.video import frame_count, keyframe_indices, packet_sizes, presentation_times, probe_video
 
 if TYPE_CHECKING:
@@ -63,6 +64,7 @@ def scan_video(
     params: IdentifyParams,
     parameters: dict | None = None,
     prior: OffsetPrior | None = None,
+    background: Background | None = None,
 ) -> ScanPlan:
     """The scan of one video: every frame (with the reason) when the coarse pass would not pay, else its plan.
 
@@ -74,14 +76,15 @@ def scan_video(
     prepared: the trajectory as the sync method prepares it; parameters:
     the blob detector's by name; prior: what the camera's clock says about
     its offset (the keyframes read are those where the log can be seen,
-    ``keyframe_range``); None: every keyframe may show the target.
+    ``keyframe_range``); None: every keyframe may show the target;
+    background: the video's background model (None: sampled here).
     """
     n_frames, keys = frame_count(video), keyframe_indices(video)
     why = before_coarse(camera, prepared, n_frames, keys, fps, params)
     if why is not None or n_frames is None or keys is None:
         return full_scan(n_frames if n_frames is not None else probe_video(video).n_frames, why or "no packet index")
     times = presentation_times(video)
-    detector = movers_detector(video, parameters)
+    detector = movers_detector(video, parameters, background)
     keyframes = KeyframeMeter()
     read = np.zeros(0, np.int64)
     found: list[Detections] = []
@@ -145,30 +148,41 @@ def run_scan(files: StageFiles, params: ScanStageParams) -> StageResult:
     when they give none, every frame is read, with the reason.
     """
     prepared = prepare_trajectory(read_trajectory(files.path("trajectory")), params.preparation)
+    video = files.path("video")
+    background = sample_background(video, movers_params(video, dict(params.parameters)))
     if params.survey is None:
         camera = read_camera(files.path("camera"), name=files.camera)
         plan = scan_video(
-            files.path("video"), camera, prepared, params.fps or camera.fps, params.identify, dict(params.parameters)
+            video,
+            camera,
+            prepared,
+            params.fps or camera.fps,
+            params.identify,
+            dict(params.parameters),
+            background=background,
         )
     else:
         try:
             camera = survey_pose(files, params.survey)[0]
         except (InputError, CalibrationInputError) as exc:
             plan = full_scan(
-                frame_count(files.path("video")) or probe_video(files.path("video")).n_frames,
+                frame_count(video) or probe_video(video).n_frames,
                 f"no pose to scan with ({one_line(str(exc))})",
             )
         else:
             plan = scan_video(
-                files.path("video"),
+                video,
                 camera,
                 prepared,
                 params.fps or camera.fps,
                 params.identify,
                 dict(params.parameters),
+                background=background,
             )
     with files.write("scan") as tmp:
         write_scan(plan, tmp)
+    with files.write("background") as tmp:
+        write_background(background, tmp)
     facts = {k: v for k, v in plan.to_dict().items() if k != "windows"}
     return StageResult(f"{files.output('scan')}: {plan.summary()}", facts={**facts, "windows": len(plan.windows)})
 
@@ -199,7 +213,7 @@ SPEC = StageSpec(
     "scan",
     inputs=scan_inputs,
     params=scan_stage_params,
-    outputs=("scan",),
+    outputs=("scan", "background"),
     run=run_scan,
     per_camera=True,
     heavy=True,

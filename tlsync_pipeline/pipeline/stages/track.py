@@ -20,6 +20,7 @@ from tlsync_pipeline.atomic import atomic_path
 from tlsync_pipeline.pipeline.spec import Options, Sources, StageResult, StageSpec
 from tlsync_pipeline.pipeline.stages.camera_plan import scans
 from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
+from trackers.background import Background, read_background
 from trackers.breaks import Break, PictureMeter, container_breaks
 from trackers.detections import Detections, write_detections
 from trackers.track import Track, write_track
@@ -38,12 +39,14 @@ def track_camera(
     plan: ScanPlan | None = None,
     count: DecodeCount | None = None,
     meter: PictureMeter | None = None,
+    background: Background | None = None,
 ) -> Track | Detections:
     """Every mover (``tracker.every_mover``) or the target (CSRT from its init box) in one camera's video.
 
     plan: the scan stage's scan.json for every mover (None, or mode
     "full": every frame); count: filled with the frames decoded; meter:
-    fed the frames read (trackers/breaks.py).
+    fed the frames read (trackers/breaks.py); background: the scan stage's
+    model of the video for every mover (None: sampled here).
     """
     label = f"{name} ({video.name})"
     if tracker.every_mover:
@@ -56,6 +59,7 @@ def track_camera(
             windows=windows,
             count=count,
             meter=meter,
+            background=background,
         )
     return track_video(
         video,
@@ -90,12 +94,20 @@ def run_track(files: StageFiles, tracker: TrackerConfig) -> StageResult:
     """
     video = files.path("video")
     plan = read_scan(files.path("scan")) if files.has("scan") else None
+    background = read_background(files.path("background")) if files.has("background") else None
     count = DecodeCount()
     meter = PictureMeter()
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", TruncatedVideoWarning)
         result = track_camera(
-            files.camera_name, video, tracker, progress=files.progress, plan=plan, count=count, meter=meter
+            files.camera_name,
+            video,
+            tracker,
+            progress=files.progress,
+            plan=plan,
+            count=count,
+            meter=meter,
+            background=background,
         )
     truncation = next((w.message for w in caught if isinstance(w.message, TruncatedVideoWarning)), None)
     for item in caught:
@@ -171,12 +183,13 @@ def tracking_params(project: Project, cam: str, options: Options) -> TrackerConf
 
 
 def track_inputs(src: Sources, cam: str) -> dict[str, Path | Artefact]:
-    """The camera's video, and the scan stage's windows when it has them."""
+    """The camera's video, and the scan stage's windows and background model when it has them."""
     video = src.project.camera(cam).video
     assert video is not None, "the stage applies to a camera with a video"
     inputs: dict[str, Path | Artefact] = {"video": video}
     if scans(src.project, cam):
         inputs["scan"] = src.artefact("scan", cam)
+        inputs["background"] = src.artefact("background", cam)
     return inputs
 
 

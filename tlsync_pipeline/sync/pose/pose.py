@@ -1268,6 +1268,7 @@ def pose_from_movers(
     gcp_camera: Camera | None = None,
     free: tuple[str, ...] = (),
     offsets: tuple[float, float] | None = None,
+    windows: tuple[tuple[int, int], ...] | None = None,
 ) -> MoverPose:
     """The camera's pose from every mover of its video (detections), without a track of the target.
 
@@ -1286,8 +1287,13 @@ def pose_from_movers(
     as ``pose_from_track``'s. trajectory: the prepared trajectory; params:
     identification's (its eps_px is the pose's gate, its f_scale_px the
     fit's loss scale); offsets: the range of beta (clock units) each
-    tracklet's search covers (None: all the log allows). Raises PoseError
-    when no tracklet leads to a determined pose.
+    tracklet's search covers (None: all the log allows); windows: the
+    frames ([start, stop), 0-based) where the scan stage's coarse line puts
+    the target in view: only a tracklet with MIN_TRACKLET_FRAMES frames in
+    them is tried (the frames read outside them, for the breaks only, show
+    movers at times the target is out of view; None: every tracklet).
+    Identification still sees every mover. Raises PoseError when no
+    tracklet leads to a determined pose.
     """
     prior = slope_prior(fps, trajectory.rate, params.rate_sigma)
     eps_px, delta, seed, f_scale = params.eps_px, params.delta, params.seed, params.f_scale_px
@@ -1301,10 +1307,14 @@ def pose_from_movers(
         gcps = measured_gcps(gcps, gcp_camera)  # type: ignore[arg-type]
     _, row_clock = detections_clock(detections, fps)
     ids, counts = np.unique(detections.id, return_counts=True)
+    inside = in_windows(detections.frame, windows) if windows is not None else np.ones(len(detections), bool)
     tried: dict[int, str] = {}
     ranked = []
     for tid in ids[counts >= MIN_TRACKLET_FRAMES]:
         rows = np.flatnonzero(detections.id == tid)
+        if inside[rows].sum() < MIN_TRACKLET_FRAMES:
+            tried[int(tid)] = "outside_windows"
+            continue
         xy = detections.xy[rows]
         if straightness(xy) < STRAIGHT:
             tried[int(tid)] = "straight_path"
@@ -1315,8 +1325,9 @@ def pose_from_movers(
         raise PoseError(
             camera.name,
             "too_few_frames",
-            f"no mover's tracklet has {MIN_TRACKLET_FRAMES} frames on a path that is not straight ({len(ids)} "
-            f"tracklets)",
+            f"no mover's tracklet has {MIN_TRACKLET_FRAMES} frames on a path that is not straight"
+            + (" in the scan's windows" if windows is not None else "")
+            + f" ({len(ids)} tracklets)",
         )
     finals: list[tuple[JointFit, Identification, int, OffsetSearch]] = []
     for _, tid, rows in ranked[:MAX_TRACKLETS]:
@@ -1412,6 +1423,15 @@ def pose_from_movers(
     return MoverPose(pose, identified, tid, tried)
 
 
+def in_windows(frames: np.ndarray, windows: tuple[tuple[int, int], ...]) -> np.ndarray:
+    """(N,) whether each 0-based frame lies in one of the windows ([start, stop), stop excluded)."""
+    if not windows:
+        return np.zeros(len(frames), bool)
+    starts, stops = np.array(sorted(windows), dtype=np.int64).T
+    k = np.searchsorted(starts, frames, side="right") - 1
+    return (k >= 0) & (frames < np.maximum.accumulate(stops)[np.maximum(k, 0)])
+
+
 def _movers_with_survey(
     camera: Camera,
     detections: Detections,
@@ -1476,6 +1496,7 @@ def estimate_pose(
     start: Camera | None = None,
     offsets: tuple[float, float] | None = None,
     log_model: LogModel | None = None,
+    windows: tuple[tuple[int, int], ...] | None = None,
 ) -> tuple[TargetPose, Identification | None]:
     """A camera's pose from the target: from its track when it has one (``pose_from_track``), else from every mover
     (``pose_from_movers``).
@@ -1486,10 +1507,14 @@ def estimate_pose(
     4 or more, their own pose is a starting candidate; ransac_px: its
     outlier threshold before widening; start: that pose when already
     known); offsets: the range of beta (clock units) searched, e.g. around
-    the scan stage's coarse line (None: all the log allows); log_model: the log's error (with a bias, the
-    search from a track fits the bias with the pose, and the fits allow the part of it a fixed pose cannot absorb,
-    ``pose_from_track``'s). A camera without K gets its intrinsics fitted too. Returns the
-    pose and, from movers, the identification under it. Raises PoseError.
+    the scan stage's coarse line (None: all the log allows); windows: the
+    scan stage's windows, where a pose from movers looks for the target's
+    tracklets (``pose_from_movers``; None: everywhere); log_model: the log's
+    error (with a bias, the search from a track fits the bias with the pose,
+    and the fits allow the part of it a fixed pose cannot absorb,
+    ``pose_from_track``'s). A camera without K gets its intrinsics fitted
+    too. Returns the pose and, from movers, the identification under it.
+    Raises PoseError.
     """
     if start is None and gcps is not None and len(gcps.xyz) >= 4:
         try:
@@ -1499,7 +1524,9 @@ def estimate_pose(
     if track is None:
         if detections is None:
             raise PoseError(camera.name, "too_few_frames", "neither a track nor any mover's detections")
-        found = pose_from_movers(camera, detections, trajectory, fps, params, gcps, start, offsets=offsets)
+        found = pose_from_movers(
+            camera, detections, trajectory, fps, params, gcps, start, offsets=offsets, windows=windows
+        )
         return found.pose, found.identification
     clock = camera_clock(track, fps)
     values = clock.clock_at(track.frame, FrameTimes.of_track(track))
