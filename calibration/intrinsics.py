@@ -106,7 +106,9 @@ def detect_board(
 
     Tries, cheapest first: the classic detector on a copy reduced by an
     integer factor to about CLASSIC_SIZE px (a few ms where the board is
-    clear), the sector-based detector at about ``detect_size`` px, and, when
+    clear; its quick check for checker corners first, so a photo without
+    any gives up in about 15 ms at 720p instead of 0.2-0.5 s), the
+    sector-based detector at about ``detect_size`` px, and, when
     a part of a checker grid is seen in that copy (the diagnosis), the
     sector-based detector in exhaustive mode at up to EXHAUSTIVE_SIZE px
     (hundreds of ms, not spent on a photo without any board). Returns
@@ -130,7 +132,9 @@ def detect_board(
             "classic",
             max(1, round(long_side / CLASSIC_SIZE)),
             lambda img: cv2.findChessboardCorners(
-                img, pattern, flags=cv2.CALIB_CB_ADAPTIVE_THRESH | cv2.CALIB_CB_NORMALIZE_IMAGE
+                img,
+                pattern,
+                flags=cv2.CALIB_CB_ADAPTIVE_THRESH | cv2.CALIB_CB_NORMALIZE_IMAGE | cv2.CALIB_CB_FAST_CHECK,
             ),
         ),
         ("sb", first, lambda img: cv2.findChessboardCornersSB(img, pattern, flags=cv2.CALIB_CB_NORMALIZE_IMAGE)),

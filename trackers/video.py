@@ -152,8 +152,13 @@ def read_frames(path: str | Path, indices: Iterable[int], gray: bool = False) ->
 def _read_indexed(
     path: Path, wanted: list[int], gray: bool, pts_list: tuple[int, ...], keyframes: tuple[int, ...]
 ) -> dict[int, VideoFrame]:
-    """read_frames with the video's packet index (_packet_index) at hand: ``wanted`` sorted, within the video."""
+    """read_frames with the video's packet index (_packet_index) at hand: ``wanted`` sorted, within the video.
+
+    Between the wanted frames the decoder skips the frames no other frame is predicted from (FFmpeg's
+    ``skip_frame = NONREF``: a quarter of the CPU of an H.264 run-up with B-frames); the wanted frames are decoded
+    as always, so they come out identical."""
     out: dict[int, VideoFrame] = {}
+    needed = {pts_list[i] for i in wanted}
     with _open(path) as container:
         stream = container.streams.video[0]
         stream.thread_type = "AUTO"
@@ -166,7 +171,7 @@ def _read_indexed(
             start = keyframes[max(0, bisect_right(keyframes, target) - 1)] if keyframes else pts_list[0]
             if position is None or not (start <= position < target):
                 container.seek(start, stream=stream, backward=True, any_frame=False)
-                frames = _decode(container, stream)
+                frames = _decode(container, stream, needed)
             for frame, error in frames:
                 if error is not None:
                     raise TrackInputError(f"{path}: frame {i} cannot be decoded: {error}")
@@ -498,8 +503,12 @@ def _open(path: Path):
     return container
 
 
-def _decode(container, stream) -> Iterator[tuple[Any, str | None]]:
-    """Decoded frames; stops with (None, reason) at the first demux or decode error."""
+def _decode(container, stream, needed: set[int] | None = None) -> Iterator[tuple[Any, str | None]]:
+    """Decoded frames; stops with (None, reason) at the first demux or decode error.
+
+    needed: the presentation timestamps of the frames wanted; the frames of other packets are decoded only where
+    a later frame is predicted from them (non-reference frames are skipped). None: every frame.
+    """
     import av
 
     packets = container.demux(stream)
@@ -511,6 +520,8 @@ def _decode(container, stream) -> Iterator[tuple[Any, str | None]]:
         except av.FFmpegError as exc:
             yield None, str(exc)
             return
+        if needed is not None:
+            stream.codec_context.skip_frame = "DEFAULT" if packet.pts in needed else "NONREF"
         try:
             frames = packet.decode()
         except av.FFmpegError as exc:

@@ -55,6 +55,19 @@ def test_read_frames_seeks_and_matches_sequential_decoding(jittered):
         np.testing.assert_array_equal(sought[i].image, sequential[i].image)
 
 
+def test_read_frames_skips_the_unreferenced_frames_before_each_wanted_one(jittered, monkeypatch):
+    """The video's B-frames that nothing is predicted from are not decoded on the way to a wanted frame (keyframes
+    every 30 frames), and the wanted frames come out as sequential decoding gives them."""
+    wanted = [28, 58, 59]
+    sequential = {f.index: f.image for f in iter_frames(jittered.path) if f.index in wanted}
+    decoded = _counting_decodes(monkeypatch)
+    sought = read_frames(jittered.path, wanted)
+    for i in wanted:
+        np.testing.assert_array_equal(sought[i].image, sequential[i])
+    run_up = (28 - 0 + 1) + (59 - 30 + 1)  # frames from the keyframe before each wanted frame
+    assert 0 < len(decoded) < 0.8 * run_up
+
+
 def test_read_frames_past_the_end(jittered):
     with pytest.raises(TrackInputError, match=r"frame 90 is past the end of the video \(90 frames\)"):
         read_frames(jittered.path, [3, 90])
@@ -78,8 +91,8 @@ def _counting_decodes(monkeypatch, alone: list | None = None):
     original = video._decode
     original_alone = video._decode_alone
 
-    def counting(container, stream):
-        for frame, error in original(container, stream):
+    def counting(container, stream, needed=None):
+        for frame, error in original(container, stream, needed):
             decoded.append(frame)
             yield frame, error
 

@@ -200,8 +200,8 @@ def test_render_never_decodes_the_videos_through(rendered_project, monkeypatch):
     decoded = Counter()
     original = video._decode
 
-    def counting(container, stream):
-        for frame, error in original(container, stream):
+    def counting(container, stream, needed=None):
+        for frame, error in original(container, stream, needed):
             decoded[container.name.rsplit("/", 1)[-1]] += 1
             yield frame, error
 
