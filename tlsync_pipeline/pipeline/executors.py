@@ -50,18 +50,9 @@ THREAD_VARIABLES = (
 EXECUTORS = ("process", "serial", "dask")
 STOP_GRACE_S = 3.0  # how long a stopped worker may take to exit before it is killed (seconds)
 _PR_SET_PDEATHSIG = 1
-# What the workers import (the stage modules, and the libraries their functions load: render's parts draw with
-# matplotlib, on the Agg backend its functions select): imported once by the fork server the workers are forked from.
-WORKER_PRELOAD = (
-    "tlsync_pipeline.pipeline.engine",
-    "cv2",
-    "av",
-    "scipy.optimize",
-    "numba",
-    "matplotlib.pyplot",
-    "threadpoolctl",
-    "tqdm",
-)
+# What the per-camera stages' workers import (the stage modules, and the libraries their functions load): imported
+# once by the fork server the workers are forked from.
+WORKER_PRELOAD = ("tlsync_pipeline.pipeline.engine", "cv2", "av", "scipy.optimize", "numba", "threadpoolctl", "tqdm")
 
 
 def die_with_parent() -> None:
