@@ -9,18 +9,13 @@ detection of the intrinsics stage): 1 in a pool's or a cluster's worker, so
 pools are never nested; the executor's share of the machine when it runs
 tasks one at a time in this process.
 
-Local workers are forked from a fork server that has imported what they
-run (WORKER_PRELOAD) once, where the platform has one (``spawn`` elsewhere):
-each spawned worker would import it again (about 0.8 s of CPU). The fork
-server is started with the pool and stopped with it.
-
 Local workers never outlive the run that started them: they ignore Ctrl-C
 (the terminal sends it to the whole process group; the run stops them
-itself), and a watchdog thread in each worker exits as soon as the run's
-process ends (its pipe to the worker closes; a spawned worker is also killed
-by the kernel with its parent, Linux ``PR_SET_PDEATHSIG``), so a ``kill -9``
-of ``tlsync run`` leaves no worker writing into the work folder without the
-lock.
+itself), the kernel kills them when their parent dies (Linux
+``PR_SET_PDEATHSIG``), and a watchdog thread in each worker exits as soon as
+the parent pid changes (every platform, within ``PARENT_POLL_S``), so a
+``kill -9`` of ``tlsync run`` leaves no worker writing into the work folder
+without the lock.
 """
 
 from __future__ import annotations
@@ -48,38 +43,27 @@ THREAD_VARIABLES = (
     "VECLIB_MAXIMUM_THREADS",
 )
 EXECUTORS = ("process", "serial", "dask")
+PARENT_POLL_S = 0.2  # how often a worker checks that its parent is alive (seconds)
 STOP_GRACE_S = 3.0  # how long a stopped worker may take to exit before it is killed (seconds)
 _PR_SET_PDEATHSIG = 1
-# What the per-camera stages' workers import (the stage modules, and the libraries their functions load): imported
-# once by the fork server the workers are forked from.
-WORKER_PRELOAD = ("tlsync_pipeline.pipeline.engine", "cv2", "av", "scipy.optimize", "numba", "threadpoolctl", "tqdm")
 
 
-def die_with_parent() -> None:
-    """Initializer of a worker process: ignore Ctrl-C, exit when the run's process ends, one BLAS thread, hold no
-    semaphore of its own.
+def die_with_parent(parent_pid: int) -> None:
+    """Initializer of a worker process: ignore Ctrl-C, exit when ``parent_pid`` ends, hold no semaphore of its own.
 
-    The run's process is the worker's parent (spawned) or started the fork server the worker was forked from;
-    either way multiprocessing keeps a pipe from it open in the worker (``parent_process().sentinel``), which
-    closes when it ends, however it ends: a watchdog thread waits on it. A spawned worker also asks the kernel to
-    kill it with its parent (Linux ``PR_SET_PDEATHSIG``). The worker was started with Ctrl-C blocked
-    (``ProcessExecutor.submit``): one sent while it started waits, and is dropped here, after it is ignored."""
+    The worker was started with Ctrl-C blocked (``ProcessExecutor.submit``): one sent while it started waits,
+    and is dropped here, after it is ignored."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     if hasattr(signal, "pthread_sigmask"):
         signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
-    run = multiprocessing.parent_process()
-    assert run is not None, "an initializer of processes multiprocessing starts"
-    if sys.platform.startswith("linux") and run.pid == os.getppid():
+    if sys.platform.startswith("linux"):
         try:
             ctypes.CDLL(None, use_errno=True).prctl(_PR_SET_PDEATHSIG, int(signal.SIGKILL))
         except (OSError, AttributeError):
             pass  # the watchdog below still applies
-    if not run.is_alive():  # the run ended before the request above took effect
+    if os.getppid() != parent_pid:  # the parent died before the request above took effect
         os._exit(1)
-    threading.Thread(target=_exit_with, args=(run.sentinel,), name="tlsync-parent-watchdog", daemon=True).start()
-    from threadpoolctl import threadpool_limits
-
-    threadpool_limits(limits=1)  # a fork server started before the run set THREAD_VARIABLES loaded them unlimited
+    threading.Thread(target=_watch_parent, args=(parent_pid,), name="tlsync-parent-watchdog", daemon=True).start()
     from tqdm import tqdm
 
     # tqdm's default lock holds a multiprocessing semaphore; a worker stopped mid-task would leave it to the
@@ -87,11 +71,9 @@ def die_with_parent() -> None:
     tqdm.set_lock(threading.RLock())
 
 
-def _exit_with(sentinel: int) -> None:
-    """Exit this process as soon as ``sentinel`` (the run's process's) is ready: that process ended."""
-    from multiprocessing.connection import wait
-
-    wait([sentinel])
+def _watch_parent(parent_pid: int) -> None:
+    while os.getppid() == parent_pid:
+        time.sleep(PARENT_POLL_S)
     os._exit(1)
 
 
@@ -209,8 +191,7 @@ class SerialExecutor:
 
 
 class ProcessExecutor:
-    """A pool of ``jobs`` worker processes (forked from a fork server that imported WORKER_PRELOAD, or spawned; each
-    starts with one thread per library)."""
+    """A pool of ``jobs`` worker processes (spawned, so they start with one thread per library)."""
 
     name = "process"
     cores = 1
@@ -227,7 +208,12 @@ class ProcessExecutor:
                 self._saved_env[var] = os.environ.get(var)
                 os.environ[var] = "1"
             quiet_resource_tracker()
-            self._pool = cf.ProcessPoolExecutor(self.jobs, mp_context=_worker_context(), initializer=die_with_parent)
+            self._pool = cf.ProcessPoolExecutor(
+                self.jobs,
+                mp_context=multiprocessing.get_context("spawn"),
+                initializer=die_with_parent,
+                initargs=(os.getpid(),),
+            )
         with _ctrl_c_held():  # the workers it may start inherit Ctrl-C blocked (until die_with_parent ignores it)
             return self._pool.submit(call, fn, kwargs)
 
@@ -257,33 +243,12 @@ class ProcessExecutor:
                         process.join()
             self._pool.shutdown(wait=not cancel, cancel_futures=cancel)
             self._pool = None
-            _stop_fork_server()
         for var, value in self._saved_env.items():
             if value is None:
                 os.environ.pop(var, None)
             else:
                 os.environ[var] = value
         self._saved_env = {}
-
-
-def _worker_context() -> multiprocessing.context.BaseContext:
-    """The start method of local workers: a fork server importing WORKER_PRELOAD (started with the first worker,
-    inheriting THREAD_VARIABLES), or spawn where there is none."""
-    if "forkserver" not in multiprocessing.get_all_start_methods():
-        return multiprocessing.get_context("spawn")
-    context = multiprocessing.get_context("forkserver")
-    context.set_forkserver_preload(list(WORKER_PRELOAD))
-    return context
-
-
-def _stop_fork_server() -> None:
-    """Stop the fork server (if one runs) and wait for it, so that it and the workers it forked are this process's
-    children that ended (their CPU counted in its RUSAGE_CHILDREN), not orphans; the next pool starts another."""
-    if "forkserver" in multiprocessing.get_all_start_methods():
-        from multiprocessing import forkserver
-
-        server: Any = forkserver._forkserver  # noqa: SLF001 - no public stop before Python 3.14
-        server._stop()  # (multiprocessing's own tests use it)
 
 
 class DaskExecutor:
