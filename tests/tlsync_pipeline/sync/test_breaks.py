@@ -2,6 +2,8 @@
 (sync/identify/breaks.py).
 """
 
+from types import SimpleNamespace
+
 import numpy as np
 
 from tlsync_pipeline.sync.identify.breaks import (
@@ -10,6 +12,7 @@ from tlsync_pipeline.sync.identify.breaks import (
     segment_reasons,
     step_break,
     vote_break,
+    with_vote_break,
 )
 from tlsync_pipeline.sync.identify.segments import END, fit_segments, joined_at_void_breaks, segments_of
 from tlsync_pipeline.sync.model.clock import FRAME, CameraClock, Segment
@@ -88,6 +91,15 @@ def test_a_drop_of_a_few_frames_under_the_line_shows_as_a_step():
     assert found is not None and found.kind == "drop"
     assert found.frame == 180 and abs(found.size - 5) <= ALPHA / 2
     assert vote_break(frame, clock, sample, dist, ALPHA, beta, DELTA).frame == 180
+
+
+def test_under_a_wandering_log_bias_a_step_is_not_taken_for_a_drop():
+    """Such a bias moves the votes within a visit as a small drop does: with_vote_break(steps=False) looks only for a
+    parallel line."""
+    frame, clock, sample, dist = _sampled_votes(np.arange(100, 300), shift=4, at=180)
+    line = SimpleNamespace(alpha=ALPHA, beta=BETA + 2.0)
+    assert [b.frame for b in with_vote_break((), frame, clock, sample, dist, line, DELTA)] == [180]
+    assert with_vote_break((), frame, clock, sample, dist, line, DELTA, steps=False) == ()
 
 
 def test_steady_sampled_votes_and_a_slow_swing_are_no_step():

@@ -217,9 +217,15 @@ def with_vote_break(
     dist: np.ndarray,
     line,
     delta: float,
+    steps: bool = True,
 ) -> tuple[Break, ...]:
-    """``breaks`` and the drop the votes show (``vote_break``, ``merged``); line: the fitted CameraLine."""
-    found = vote_break(frame, clock, sample, dist, line.alpha, line.beta, delta)
+    """``breaks`` and the drop the votes show (``vote_break``, ``merged``); line: the fitted CameraLine. steps: False
+    under a log whose bias wanders, where only ``parallel_line`` is looked for: such a bias moves the votes within a
+    visit the way a small drop does (drone2 under a drone's GNSS: a 12-frame "step" in one camera's visit)."""
+    if steps:
+        found = vote_break(frame, clock, sample, dist, line.alpha, line.beta, delta)
+    else:
+        found = parallel_line(frame, clock, sample, line.alpha, line.beta, delta)
     return breaks if found is None else merged((*breaks, found))
 
 

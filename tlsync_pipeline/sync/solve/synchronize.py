@@ -264,7 +264,9 @@ def synchronize(
                 result = synchronize_camera(name, inputs, cast, prepared, params, radius[name])
                 if inputs.pick_start_s is not None:
                     result = replace(result, line=replace(result.line, flags=(*(result.line.flags or ()), "picked")))
-            inputs, result = _segmented(name, inputs, result, prepared, params, radius[name])
+            inputs, result = _segmented(
+                name, inputs, result, prepared, params, radius[name], steps=not log_model.has_bias
+            )
             if pose is not None:
                 result = replace(
                     result, line=(with_pose_line if log_model.has_bias else with_pose_offset)(result.line, pose)
@@ -422,7 +424,13 @@ def _log_error(model: LogModel, declared: LogModel, estimate: tuple[float, float
 
 
 def _segmented(
-    name: str, inputs: CameraInput, result: CameraResult, prepared: Trajectory, params: SyncParams, radius_px: float
+    name: str,
+    inputs: CameraInput,
+    result: CameraResult,
+    prepared: Trajectory,
+    params: SyncParams,
+    radius_px: float,
+    steps: bool = True,
 ) -> tuple[CameraInput, CameraResult]:
     """A camera whose recording breaks (its own breaks, or a drop its votes show) fitted as segments
     (sync/identify/segments.py).
@@ -436,7 +444,8 @@ def _segmented(
     is fitted again on every segment of known shift, its clock carrying
     them; the inputs then hold the track of those segments. Unchanged
     without a break, or when no segment's shift is known (the break's reason
-    then refuses it, sync/identify/breaks.py).
+    then refuses it, sync/identify/breaks.py). steps: look for a drop as a step of the votes (not under a log whose
+    bias wanders: ``with_vote_break``).
     """
     track = result.track(inputs)
     assert track is not None, "a fitted camera has a track"
@@ -444,7 +453,9 @@ def _segmented(
     times = FrameTimes.of_track(track)
     votes, line = result.votes, result.line
     vote_clock = clock.clock_at(votes.frame, times)
-    breaks = with_vote_break(inputs.breaks, votes.frame, vote_clock, votes.sample, votes.dist, line, params.delta)
+    breaks = with_vote_break(
+        inputs.breaks, votes.frame, vote_clock, votes.sample, votes.dist, line, params.delta, steps
+    )
     coarse, breaks = segments_of(
         breaks,
         track.frame,
