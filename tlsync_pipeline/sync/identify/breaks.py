@@ -220,8 +220,8 @@ def with_vote_break(
     steps: bool = True,
 ) -> tuple[Break, ...]:
     """``breaks`` and the drop the votes show (``vote_break``, ``merged``); line: the fitted CameraLine. steps: False
-    under a log whose bias wanders, where only ``parallel_line`` is looked for: such a bias moves the votes within a
-    visit the way a small drop does (drone2 under a drone's GNSS: a 12-frame "step" in one camera's visit)."""
+    where the log's error seen from the camera is wider than eps_px (only ``parallel_line`` then): such a bias moves
+    the votes within a visit the way a small drop does (drone2 under a drone's GNSS: a 12-frame "step" in a visit)."""
     if steps:
         found = vote_break(frame, clock, sample, dist, line.alpha, line.beta, delta)
     else:

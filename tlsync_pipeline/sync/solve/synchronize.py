@@ -264,9 +264,7 @@ def synchronize(
                 result = synchronize_camera(name, inputs, cast, prepared, params, radius[name])
                 if inputs.pick_start_s is not None:
                     result = replace(result, line=replace(result.line, flags=(*(result.line.flags or ()), "picked")))
-            inputs, result = _segmented(
-                name, inputs, result, prepared, params, radius[name], steps=not log_model.has_bias
-            )
+            inputs, result = _segmented(name, inputs, result, prepared, params, radius[name])
             if pose is not None:
                 result = replace(
                     result, line=(with_pose_line if log_model.has_bias else with_pose_offset)(result.line, pose)
@@ -430,7 +428,6 @@ def _segmented(
     prepared: Trajectory,
     params: SyncParams,
     radius_px: float,
-    steps: bool = True,
 ) -> tuple[CameraInput, CameraResult]:
     """A camera whose recording breaks (its own breaks, or a drop its votes show) fitted as segments
     (sync/identify/segments.py).
@@ -444,8 +441,9 @@ def _segmented(
     is fitted again on every segment of known shift, its clock carrying
     them; the inputs then hold the track of those segments. Unchanged
     without a break, or when no segment's shift is known (the break's reason
-    then refuses it, sync/identify/breaks.py). steps: look for a drop as a step of the votes (not under a log whose
-    bias wanders: ``with_vote_break``).
+    then refuses it, sync/identify/breaks.py). A drop is looked for as a step of the votes only where the log's error
+    seen from the camera is within eps_px (radius_px no wider): a larger bias moves the votes within a visit as a
+    small drop does (``with_vote_break``).
     """
     track = result.track(inputs)
     assert track is not None, "a fitted camera has a track"
@@ -454,7 +452,7 @@ def _segmented(
     votes, line = result.votes, result.line
     vote_clock = clock.clock_at(votes.frame, times)
     breaks = with_vote_break(
-        inputs.breaks, votes.frame, vote_clock, votes.sample, votes.dist, line, params.delta, steps
+        inputs.breaks, votes.frame, vote_clock, votes.sample, votes.dist, line, params.delta, radius_px <= params.eps_px
     )
     coarse, breaks = segments_of(
         breaks,
