@@ -93,13 +93,13 @@ def test_a_drop_of_a_few_frames_under_the_line_shows_as_a_step():
     assert vote_break(frame, clock, sample, dist, ALPHA, beta, DELTA).frame == 180
 
 
-def test_under_a_wandering_log_bias_a_step_is_not_taken_for_a_drop():
-    """Such a bias moves the votes within a visit as a small drop does: with_vote_break(steps=False) looks only for a
-    parallel line."""
+def test_a_step_is_judged_only_on_votes_that_agree_with_the_track():
+    """Where the log's error seen from the camera is wider than agree_px, which sample is closest to a frame follows
+    the log's bias, which moves a visit's votes as a small drop does: no step is judged from such votes."""
     frame, clock, sample, dist = _sampled_votes(np.arange(100, 300), shift=4, at=180)
     line = SimpleNamespace(alpha=ALPHA, beta=BETA + 2.0)
-    assert [b.frame for b in with_vote_break((), frame, clock, sample, dist, line, DELTA)] == [180]
-    assert with_vote_break((), frame, clock, sample, dist, line, DELTA, steps=False) == ()
+    assert [b.frame for b in with_vote_break((), frame, clock, sample, dist, line, DELTA, 10.0)] == [180]
+    assert with_vote_break((), frame, clock, sample, dist + 40.0, line, DELTA, 10.0) == ()
 
 
 def test_steady_sampled_votes_and_a_slow_swing_are_no_step():

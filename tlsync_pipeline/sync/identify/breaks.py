@@ -66,10 +66,11 @@ def vote_break(
     alpha: float,
     beta: float,
     delta: float,
+    agree_px: float = np.inf,
 ) -> Break | None:
     """A drop the votes show: ``parallel_line``, else ``step_break`` (arguments as ``step_break``'s)."""
     found = parallel_line(frame, clock, sample, alpha, beta, delta)
-    return found if found is not None else step_break(frame, clock, sample, dist, alpha, beta, delta)
+    return found if found is not None else step_break(frame, clock, sample, dist, alpha, beta, delta, agree_px)
 
 
 def parallel_line(
@@ -130,6 +131,7 @@ def step_break(
     alpha: float,
     beta: float,
     delta: float,
+    agree_px: float = np.inf,
 ) -> Break | None:
     """A drop the votes show as a step: the fitted line runs between two levels, one before a frame and one after.
 
@@ -155,11 +157,16 @@ def step_break(
     drift of the log's bias has no step where it is placed). The break is at the first
     frame after the change point; its size the frames missing there, as
     the two medians measure it (the segment fit measures it again, from each
-    side's own line).
+    side's own line). Only votes within agree_px pixels of the track are
+    judged: where the log's error seen from the camera is wider, which sample
+    is closest to a frame follows the log's bias, which moves a visit's votes
+    as a small drop does (drone2 under a drone's GNSS: a 12-frame "step").
     """
     frame, clock, sample, dist = (np.asarray(a, dtype=np.float64) for a in (frame, clock, sample, dist))
     r = clock - (alpha * sample + beta)
-    near = np.flatnonzero(np.abs(r) <= alpha / 2 + 2 * delta + STEP_REACH)
+    near = np.flatnonzero((np.abs(r) <= alpha / 2 + 2 * delta + STEP_REACH) & (dist <= agree_px))
+    if near.size < 2 * MIN_SIDE_FRAMES:
+        return None
     order = near[np.lexsort((dist[near], frame[near]))]
     order = order[np.concatenate([[True], np.diff(frame[order]) != 0])]
     _, which, count = np.unique(np.round(sample[order]), return_inverse=True, return_counts=True)
@@ -217,15 +224,11 @@ def with_vote_break(
     dist: np.ndarray,
     line,
     delta: float,
-    steps: bool = True,
+    agree_px: float,
 ) -> tuple[Break, ...]:
-    """``breaks`` and the drop the votes show (``vote_break``, ``merged``); line: the fitted CameraLine. steps: False
-    where the log's error seen from the camera is wider than eps_px (only ``parallel_line`` then): such a bias moves
-    the votes within a visit the way a small drop does (drone2 under a drone's GNSS: a 12-frame "step" in a visit)."""
-    if steps:
-        found = vote_break(frame, clock, sample, dist, line.alpha, line.beta, delta)
-    else:
-        found = parallel_line(frame, clock, sample, line.alpha, line.beta, delta)
+    """``breaks`` and the drop the votes show (``vote_break``, ``merged``); line: the fitted CameraLine; agree_px: the
+    step is judged on the votes within this many pixels of the track only (``step_break``)."""
+    found = vote_break(frame, clock, sample, dist, line.alpha, line.beta, delta, agree_px)
     return breaks if found is None else merged((*breaks, found))
 
 
