@@ -24,6 +24,7 @@ from tlsync_pipeline.cli.pipeline import execute, print_timeline, report_outcome
 from tlsync_pipeline.cli.signals import INTERRUPTED_MESSAGE, interrupt
 from tlsync_pipeline.errors import INPUT_ERRORS, EnvironmentProblem, SyncError, describe_error
 from tlsync_pipeline.pipeline.stop import clear as clear_stop
+from tlsync_pipeline.pipeline.stop import stop_requested
 
 
 class TlsyncGroup(click.Group):
@@ -48,8 +49,9 @@ class TlsyncGroup(click.Group):
         sys.exit(code if isinstance(code, int) else 0)
 
     def invoke(self, ctx):
-        clear_stop()  # a stop asked of an earlier command in this process is not this one's
         try:
+            if stop_requested():  # asked while the command line loaded: an import may have swallowed the interrupt
+                raise KeyboardInterrupt
             with _terminate_as_interrupt():
                 return super().invoke(ctx)
         except KeyboardInterrupt:
@@ -58,6 +60,8 @@ class TlsyncGroup(click.Group):
         except (*INPUT_ERRORS, EnvironmentProblem, SyncError, OSError) as exc:
             print_error(describe_error(exc), exc)
             sys.exit(exit_code_for(exc))
+        finally:
+            clear_stop()  # a stop asked of this command is not the next one's in this process (as tests run them)
 
 
 @contextmanager

@@ -342,6 +342,8 @@ class _Scheduler:
 
     def _start(self, task: Task) -> bool:
         """Run the task unless it is fresh; whether it ran in this process (and is done)."""
+        if stop_requested():  # a Ctrl-C an import swallowed (an ImportError caught by an optional import)
+            raise KeyboardInterrupt
         now = _current(self.graph, task, self.memo, self.code)
         reasons = _reasons(self.graph, task, now, self.memo)
         if not reasons and task.id not in self.force:

@@ -19,6 +19,7 @@ from click.testing import CliRunner
 from tlsync_pipeline.cli.exit_codes import MEANINGS, ExitCode, markdown_table
 from tlsync_pipeline.cli.main import main
 from tlsync_pipeline.pipeline.lock import WorkLock
+from tlsync_pipeline.pipeline.stop import request_stop
 
 README = Path(__file__).resolve().parents[3] / "README.md"
 
@@ -357,3 +358,17 @@ def test_a_signal_before_the_command_line_is_imported_exits_130_without_a_traceb
     )
     assert done.returncode == 130
     assert done.stderr == b"interrupted\n"
+
+
+def test_a_stop_asked_while_the_command_line_loads_stops_the_command_even_if_an_import_swallowed_it(project_dir):
+    """A signal during the command line's imports sets the stop; a KeyboardInterrupt raised inside an extension's
+    import can come out as an ImportError that an optional import catches. The command must still stop (130), and
+    the next command in the same process must not inherit the stop."""
+    runner = CliRunner()
+    try:
+        request_stop()
+    except KeyboardInterrupt:
+        pass  # swallowed, as an import may
+    stopped = runner.invoke(main, ["status", str(project_dir / "project.toml")])
+    assert stopped.exit_code == ExitCode.INTERRUPTED, stopped.output
+    assert runner.invoke(main, ["status", str(project_dir / "project.toml")]).exit_code != ExitCode.INTERRUPTED
