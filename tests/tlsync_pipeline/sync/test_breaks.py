@@ -98,8 +98,17 @@ def test_a_step_is_judged_only_on_votes_that_agree_with_the_track():
     the log's bias, which moves a visit's votes as a small drop does: no step is judged from such votes."""
     frame, clock, sample, dist = _sampled_votes(np.arange(100, 300), shift=4, at=180)
     line = SimpleNamespace(alpha=ALPHA, beta=BETA + 2.0)
-    assert [b.frame for b in with_vote_break((), frame, clock, sample, dist, line, DELTA, 10.0)] == [180]
-    assert with_vote_break((), frame, clock, sample, dist + 40.0, line, DELTA, 10.0) == ()
+    assert [b.frame for b in with_vote_break((), frame, clock, sample, dist, line, DELTA, 10.0, 0.0)] == [180]
+    assert with_vote_break((), frame, clock, sample, dist + 40.0, line, DELTA, 10.0, 0.0) == ()
+
+
+def test_a_step_the_logs_bias_explains_is_no_drop():
+    """A bias along the target's motion is a time shift that changes where the target turns: a step within what it
+    explains (least_step, clock units) is no drop; the same step under a log without a bias is."""
+    frame, clock, sample, dist = _sampled_votes(np.arange(100, 300), shift=4, at=180)
+    line = SimpleNamespace(alpha=ALPHA, beta=BETA + 2.0)
+    assert [b.frame for b in with_vote_break((), frame, clock, sample, dist, line, DELTA, np.inf, 3.0)] == [180]
+    assert with_vote_break((), frame, clock, sample, dist, line, DELTA, np.inf, 4.5) == ()
 
 
 def test_steady_sampled_votes_and_a_slow_swing_are_no_step():

@@ -67,10 +67,13 @@ def vote_break(
     beta: float,
     delta: float,
     agree_px: float = np.inf,
+    least_step: float = 0.0,
 ) -> Break | None:
     """A drop the votes show: ``parallel_line``, else ``step_break`` (arguments as ``step_break``'s)."""
     found = parallel_line(frame, clock, sample, alpha, beta, delta)
-    return found if found is not None else step_break(frame, clock, sample, dist, alpha, beta, delta, agree_px)
+    if found is not None:
+        return found
+    return step_break(frame, clock, sample, dist, alpha, beta, delta, agree_px, least_step)
 
 
 def parallel_line(
@@ -132,6 +135,7 @@ def step_break(
     beta: float,
     delta: float,
     agree_px: float = np.inf,
+    least_step: float = 0.0,
 ) -> Break | None:
     """A drop the votes show as a step: the fitted line runs between two levels, one before a frame and one after.
 
@@ -160,7 +164,10 @@ def step_break(
     side's own line). Only votes within agree_px pixels of the track are
     judged: where the log's error seen from the camera is wider, which sample
     is closest to a frame follows the log's bias, which moves a visit's votes
-    as a small drop does (drone2 under a drone's GNSS: a 12-frame "step").
+    as a small drop does (drone2 under a drone's GNSS: a 12-frame "step"),
+    and a step of least_step clock units or less is one the log's bias
+    explains (a bias along the target's motion is a time shift, and it
+    changes where the target turns or changes speed).
     """
     frame, clock, sample, dist = (np.asarray(a, dtype=np.float64) for a in (frame, clock, sample, dist))
     r = clock - (alpha * sample + beta)
@@ -191,7 +198,7 @@ def step_break(
     step = float(np.median(level[:at]) - np.median(level[at:]))
     sides = min(np.unique(samples[:at]).size, np.unique(samples[at:]).size)
     independent = n / max(alpha, 1.0)
-    if abs(step) < max(MIN_STEP, alpha / 2) or sides < MIN_SIDE_SAMPLES or not two > 0:
+    if abs(step) < max(MIN_STEP, alpha / 2, least_step) or sides < MIN_SIDE_SAMPLES or not two > 0:
         return None
     if independent * np.log(one / two) < STEP_EVIDENCE:
         return None
@@ -225,10 +232,11 @@ def with_vote_break(
     line,
     delta: float,
     agree_px: float,
+    least_step: float,
 ) -> tuple[Break, ...]:
-    """``breaks`` and the drop the votes show (``vote_break``, ``merged``); line: the fitted CameraLine; agree_px: the
-    step is judged on the votes within this many pixels of the track only (``step_break``)."""
-    found = vote_break(frame, clock, sample, dist, line.alpha, line.beta, delta, agree_px)
+    """``breaks`` and the drop the votes show (``vote_break``, ``merged``); line: the fitted CameraLine; agree_px,
+    least_step: as ``step_break``'s."""
+    found = vote_break(frame, clock, sample, dist, line.alpha, line.beta, delta, agree_px, least_step)
     return breaks if found is None else merged((*breaks, found))
 
 

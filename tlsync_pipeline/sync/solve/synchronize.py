@@ -55,6 +55,7 @@ from tlsync_pipeline.sync.solve.plausibility import (
     rival_odds_of,
 )
 from tlsync_pipeline.sync.solve.registry import get_method
+from tlsync_pipeline.sync.solve.slow_motion import bias_time_spread
 from tlsync_pipeline.sync.timeline import CameraLine, Timeline
 from tlsync_pipeline.sync.vote.log_error import measured, vote_radius
 from tlsync_pipeline.sync.vote.votes import Votes, compute_votes
@@ -264,7 +265,7 @@ def synchronize(
                 result = synchronize_camera(name, inputs, cast, prepared, params, radius[name])
                 if inputs.pick_start_s is not None:
                     result = replace(result, line=replace(result.line, flags=(*(result.line.flags or ()), "picked")))
-            inputs, result = _segmented(name, inputs, result, prepared, params, radius[name])
+            inputs, result = _segmented(name, inputs, result, prepared, params, radius[name], log_model)
             if pose is not None:
                 result = replace(
                     result, line=(with_pose_line if log_model.has_bias else with_pose_offset)(result.line, pose)
@@ -428,6 +429,7 @@ def _segmented(
     prepared: Trajectory,
     params: SyncParams,
     radius_px: float,
+    log_model: LogModel,
 ) -> tuple[CameraInput, CameraResult]:
     """A camera whose recording breaks (its own breaks, or a drop its votes show) fitted as segments
     (sync/identify/segments.py).
@@ -442,7 +444,7 @@ def _segmented(
     them; the inputs then hold the track of those segments. Unchanged
     without a break, or when no segment's shift is known (the break's reason
     then refuses it, sync/identify/breaks.py). A drop's step is judged on the votes within eps_px of the track
-    (``step_break``).
+    and must exceed what the log's bias explains (``_bias_step``).
     """
     track = result.track(inputs)
     assert track is not None, "a fitted camera has a track"
@@ -450,8 +452,9 @@ def _segmented(
     times = FrameTimes.of_track(track)
     votes, line = result.votes, result.line
     vote_clock = clock.clock_at(votes.frame, times)
+    least = _bias_step(inputs, track, clock.clock_at(track.frame, times), line, prepared, log_model)
     breaks = with_vote_break(
-        inputs.breaks, votes.frame, vote_clock, votes.sample, votes.dist, line, params.delta, params.eps_px
+        inputs.breaks, votes.frame, vote_clock, votes.sample, votes.dist, line, params.delta, params.eps_px, least
     )
     coarse, breaks = segments_of(
         breaks,
@@ -488,6 +491,24 @@ def _segmented(
     return replace(inputs, track=kept), replace(
         result, votes=kept_votes, line=replace(fitted, identification=line.identification, breaks=breaks)
     )
+
+
+def _bias_step(
+    inputs: CameraInput, track: Track, track_clock: np.ndarray, line: CameraLine, prepared: Trajectory, log: LogModel
+) -> float:
+    """The least step of a camera's votes (clock units) its log's bias cannot explain: STEP_BIAS_SIGMAS stds of the
+    difference between two parts of the visit, each shifted by the bias along the target's motion there (the spread
+    a constant bias explains at the target's image speed, sync/solve/slow_motion.py). A turn, or a change of speed,
+    turns a bias into such a step. 0 without a bias; inf without a frame rate or a spread to measure."""
+    if not log.has_bias:
+        return 0.0
+    if inputs.fps is None:
+        return math.inf
+    bias_sd = np.array([log.bias_m, log.bias_m, log.bias_vertical_m])
+    spread = bias_time_spread(
+        inputs.camera, track_clock, track.xy, PiecewiseTrajectory(prepared), line.alpha, line.beta, bias_sd, inputs.fps
+    )
+    return math.inf if spread is None else STEP_BIAS_SIGMAS * math.sqrt(2.0) * spread.frames
 
 
 def _track_rows(track: Track, rows: np.ndarray) -> Track:
@@ -554,6 +575,7 @@ def _refined(
     return replace(seg, shift=whole) if whole == round(whole) else replace(seg, shift=None, source="unresolved")
 
 
+STEP_BIAS_SIGMAS = 3.0  # a step of the votes within this many stds of what the log's bias explains is no drop
 CROWDED = 1.5  # voting detections per identified frame above which other movers are within the vote radius
 
 
