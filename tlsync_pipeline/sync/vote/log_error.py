@@ -19,25 +19,46 @@ if TYPE_CHECKING:
 
 VOTE_SIGMAS = 3.0  # a vote's radius covers this many standard deviations of the log's error, seen from the camera
 MAD_TO_SD = 1.4826  # a normal variable's std over its median absolute deviation
+RADIUS_POINTS = 500  # most fixes the vote radius is measured at
 
 
-def vote_radius(camera: Camera, trajectory: Trajectory, eps_px: float, model: LogModel, beside: bool = False) -> float:
-    """The vote radius for one camera (pixels): eps_px, or VOTE_SIGMAS times the log's horizontal error as this camera
-    sees it at the median depth of the path in its view, whichever is larger. beside: a path that projects only beside
-    the image (a biased log of a walk along its edge) is seen at the depth of its fixes within one image size of it."""
-    if model.horizontal_m <= 0:
+def vote_radius(camera: Camera, trajectory: Trajectory, eps_px: float, model: LogModel) -> float:
+    """The vote radius for one camera (pixels): eps_px, or VOTE_SIGMAS times the log's error as this camera sees it,
+    whichever is larger. The error is the model's horizontal and vertical std (a receiver's heights wander twice as
+    far: seen across from a few metres up, a vertical error moves the projection by its whole length) projected at
+    the fixes in view: the image std along its widest axis, the median over those fixes (RADIUS_POINTS of them at
+    most). A log whose error puts every fix beside the image (a walk along its edge, a bias of metres) is seen at the
+    fixes within one image size of it."""
+    if model.horizontal_m <= 0 and model.vertical_m <= 0:
         return eps_px
     uv, valid = camera.project(trajectory.xyz)
     uv = np.nan_to_num(uv, nan=-1e9)
     seen = valid & camera.in_image(uv)
-    if beside and not seen.any():
+    if not seen.any():
         width, height = camera.image_size
         seen = valid & (np.abs(uv[:, 0] - width / 2) < 1.5 * width) & (np.abs(uv[:, 1] - height / 2) < 1.5 * height)
     if not seen.any():
         return eps_px
-    depth = float(np.median((trajectory.xyz[seen] @ camera.R.T + camera.t)[:, 2]))
-    focal = 0.5 * (camera.K[0, 0] + camera.K[1, 1])
-    return max(eps_px, VOTE_SIGMAS * focal * model.horizontal_m / depth)
+    points = trajectory.xyz[seen][:: max(1, int(seen.sum()) // RADIUS_POINTS)]
+    return max(eps_px, VOTE_SIGMAS * float(np.median(_image_std(camera, points, model))))
+
+
+def _image_std(camera: Camera, points: np.ndarray, model: LogModel) -> np.ndarray:
+    """(N,) std (pixels) along the widest axis of the image error at each point that the log's error (horizontal and
+    vertical std, independent axes) moves its projection by: the projection's Jacobian by central differences."""
+    step = 0.05  # metres
+    sigma = np.array([model.horizontal_m, model.horizontal_m, model.vertical_m])
+    columns = []
+    for axis in range(3):
+        move = np.zeros(3)
+        move[axis] = step
+        ahead, _ = camera.project(points + move)
+        behind, _ = camera.project(points - move)
+        columns.append((ahead - behind) / (2 * step) * sigma[axis])
+    jacobian = np.stack(columns, axis=2)  # (N, 2, 3): pixels per std of each axis
+    cov = jacobian @ np.swapaxes(jacobian, 1, 2)
+    widest = np.linalg.eigvalsh(np.nan_to_num(cov, nan=0.0))[:, -1]
+    return np.sqrt(np.maximum(widest, 0.0))
 
 
 def white_from_log(trajectory: Trajectory) -> tuple[float, int]:
