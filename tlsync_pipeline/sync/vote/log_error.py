@@ -78,6 +78,23 @@ def white_from_log(trajectory: Trajectory) -> tuple[float, int]:
     return float(MAD_TO_SD * np.median(np.abs(second)) / math.sqrt(6.0)), int(second.size)
 
 
+def noise_beyond_turns(trajectory: Trajectory) -> float:
+    """The scatter of the log's fixes (m, std per horizontal axis) that a path's steady turns do not make: the robust
+    std of the third differences of consecutive samples over sqrt(20), pooled over east and north. A path turning all
+    along (a constant acceleration) reads as noise in second differences (white_from_log: the raw demo's exact log
+    0.13 m) and leaves none in third differences (0.013 m); a receiver's white noise reads the same in both (a
+    drone's 0.11 m, a phone's 0.52-0.62 m). 0 when the log states its sigmas or is too short to tell."""
+    if trajectory.sigma is not None or len(trajectory) < 4:
+        return 0.0
+    step = np.diff(trajectory.sample)
+    usual = float(np.median(step))
+    regular = np.abs(step - usual) < 1e-6 * max(usual, 1.0)
+    third = np.diff(trajectory.xyz[:, :2], n=3, axis=0)[regular[2:] & regular[1:-1] & regular[:-2]]
+    if len(third) < 10:
+        return 0.0
+    return float(MAD_TO_SD * np.median(np.abs(third)) / math.sqrt(20.0))
+
+
 def measured(model: LogModel, trajectory: Trajectory) -> LogModel:
     """The model with its white noise measured on the log's own fixes (white_from_log), the preset's value as a
     log-normal prior (PRIOR_LOG_SD): the posterior mode of log sigma, the measurement's variance about 4 / count
@@ -86,7 +103,7 @@ def measured(model: LogModel, trajectory: Trajectory) -> LogModel:
     white, count = white_from_log(trajectory)
     if count == 0 or white <= 0:
         return model
-    receiver = _receiver_of(model, white)
+    receiver = _receiver_of(model, noise_beyond_turns(trajectory))
     if model.white_m > 0:
         data, prior = 4.0 / count, PRIOR_LOG_SD**2
         white = math.exp((math.log(white) / data + math.log(model.white_m) / prior) / (1.0 / data + 1.0 / prior))
@@ -96,11 +113,11 @@ def measured(model: LogModel, trajectory: Trajectory) -> LogModel:
 
 
 def _receiver_of(model: LogModel, white: float) -> LogModel | None:
-    """The receiver the log's fixes say it is, when the model has no bias and they scatter as one that wanders: the
-    preset whose white noise is nearest (in log) to the one measured, when it has a bias, the measurement is at least
-    the white noise of the least noisy preset with a bias (a smooth path's turns leave some scatter: the quick demo's
-    exact log measures 0.08 m) and nearer to that preset's than to the model's. Its bias then applies (a receiver that
-    noisy wanders too: a drone's log declared RTK, or undeclared). None otherwise."""
+    """The receiver the log's fixes say it is, when the model has no bias and they scatter as one that wanders
+    (``white``: noise_beyond_turns, so that an exact path turning all along is no receiver's): the preset whose white
+    noise is nearest (in log) to the one measured, when it has a bias, the measurement is at least the white noise
+    of the least noisy preset with a bias and nearer to that preset's than to the model's. Its bias then applies (a
+    receiver that noisy wanders too: a drone's log declared RTK, or undeclared). None otherwise."""
     if model.has_bias or white < min(p.white_m for p in PRESETS.values() if p.has_bias):
         return None
     nearest = min((p for p in PRESETS.values() if p.white_m > 0), key=lambda p: abs(math.log(white / p.white_m)))
