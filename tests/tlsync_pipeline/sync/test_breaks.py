@@ -102,6 +102,15 @@ def test_a_step_is_judged_only_on_votes_that_agree_with_the_track():
     assert with_vote_break((), frame, clock, sample, dist + 40.0, line, DELTA, 10.0) == ()
 
 
+def test_under_a_log_error_wider_than_the_agreement_a_step_is_not_taken_for_a_drop():
+    """A bias seen along a turn moves the level of a visit's closest votes as a small drop does, even a constant one:
+    with_vote_break(steps=False), where the camera's vote radius is wider than eps_px, looks only for a parallel
+    line."""
+    frame, clock, sample, dist = _sampled_votes(np.arange(100, 300), shift=4, at=180)
+    line = SimpleNamespace(alpha=ALPHA, beta=BETA + 2.0)
+    assert with_vote_break((), frame, clock, sample, dist, line, DELTA, 10.0, steps=False) == ()
+
+
 def test_steady_sampled_votes_and_a_slow_swing_are_no_step():
     for wobble in (0.0, 1.0):
         frame, clock, sample, dist = _sampled_votes(np.arange(100, 600), wobble=wobble)

@@ -225,10 +225,17 @@ def with_vote_break(
     line,
     delta: float,
     agree_px: float,
+    steps: bool = True,
 ) -> tuple[Break, ...]:
     """``breaks`` and the drop the votes show (``vote_break``, ``merged``); line: the fitted CameraLine; agree_px: the
-    step is judged on the votes within this many pixels of the track only (``step_break``)."""
-    found = vote_break(frame, clock, sample, dist, line.alpha, line.beta, delta, agree_px)
+    step is judged on the votes within this many pixels of the track only (``step_break``). steps: False where the
+    log's error seen from the camera is wider than agree_px (only ``parallel_line`` then): a bias seen along a turn
+    moves the level of a visit's closest votes as a small drop does, even a constant one (walk seed 2 cam2 under a
+    constant 1 m bias: a 3.3-frame "step" among its votes within 10 px of the track)."""
+    if steps:
+        found = vote_break(frame, clock, sample, dist, line.alpha, line.beta, delta, agree_px)
+    else:
+        found = parallel_line(frame, clock, sample, line.alpha, line.beta, delta)
     return breaks if found is None else merged((*breaks, found))
 
 

@@ -441,8 +441,9 @@ def _segmented(
     is fitted again on every segment of known shift, its clock carrying
     them; the inputs then hold the track of those segments. Unchanged
     without a break, or when no segment's shift is known (the break's reason
-    then refuses it, sync/identify/breaks.py). A drop's step is judged on the votes within eps_px of the track
-    (``step_break``).
+    then refuses it, sync/identify/breaks.py). A drop's step is looked for only where the log's error seen from the
+    camera is within eps_px (radius_px no wider), and judged on the votes within eps_px of the track
+    (``with_vote_break``).
     """
     track = result.track(inputs)
     assert track is not None, "a fitted camera has a track"
@@ -451,7 +452,15 @@ def _segmented(
     votes, line = result.votes, result.line
     vote_clock = clock.clock_at(votes.frame, times)
     breaks = with_vote_break(
-        inputs.breaks, votes.frame, vote_clock, votes.sample, votes.dist, line, params.delta, params.eps_px
+        inputs.breaks,
+        votes.frame,
+        vote_clock,
+        votes.sample,
+        votes.dist,
+        line,
+        params.delta,
+        params.eps_px,
+        steps=radius_px <= params.eps_px,
     )
     coarse, breaks = segments_of(
         breaks,
