@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from dataclasses import replace
 
+import numpy as np
 import pytest
 
 from data_fixtures import make_scene
@@ -78,12 +79,14 @@ def test_a_log_wandering_by_metres_beyond_its_model_is_named_not_the_tracker():
 
 def test_a_biased_log_projected_beside_a_view_is_named_the_logs_error_not_the_tracker():
     """A walk along a view's edge logged by a phone (2 m / 60 s) whose bias puts every fix just outside the image: the
-    vote radius falls back to eps_px there, but the log's error seen at the depth of the fixes beside the image spans
-    the track: the cause is the log's error (log_error, its key), not a tracker on another object."""
+    log's error seen at the depth of the fixes beside the image spans the track (the vote radius is a phone's, not
+    eps_px); under a model that gives it eps_px the cause is the log's error (log_error, its key), not a tracker on
+    another object."""
     walk = make_walk_scene(16, WalkSpec(route="turns", log=RECEIVERS["phone2"]))
     camera, smoothed = walk.cameras["cam1"], smooth_trajectory(walk.trajectory)  # the refined method's log
-    assert vote_radius(camera, smoothed, EPS_PX, PRESETS["phone"]) == EPS_PX
-    assert vote_radius(camera, smoothed, EPS_PX, PRESETS["phone"], beside=True) > 10 * EPS_PX
+    uv, valid = camera.project(smoothed.xyz)
+    assert not (valid & camera.in_image(np.nan_to_num(uv, nan=-1e9))).any()  # every fix beside the image
+    assert vote_radius(camera, smoothed, EPS_PX, PRESETS["phone"]) > 30 * EPS_PX
     judged = {"cam1": Judged(camera, walk.tracks["cam1"], None, None, True)}
     reasons = explain(judged, smoothed, EPS_PX, radius_px={"cam1": EPS_PX}, log_model=PRESETS["phone"])
     assert reasons["cam1"].code == "log_error" and "log_model" in reasons["cam1"].remedy, reasons

@@ -13,7 +13,8 @@ from tlsync_pipeline.sync.model.params import SyncParams
 from tlsync_pipeline.sync.solve.log_bias import LogBias, _prior_whitening, bias_marginal_likelihood
 from tlsync_pipeline.sync.solve.synchronize import CameraInput, synchronize
 from tlsync_pipeline.sync.timeline import eps_t
-from tlsync_pipeline.sync.vote.log_error import measured, vote_radius, white_from_log
+from tlsync_pipeline.sync.vote.log_error import measured, noise_beyond_turns, vote_radius, white_from_log
+from tlsync_pipeline.trajectory import Trajectory
 
 
 def _logged(seed: int, receiver: str):
@@ -93,6 +94,19 @@ def test_a_log_whose_fixes_scatter_as_another_receivers_takes_its_bias():
     assert not white.has_bias and "receiver" not in white.measured
     assert not measured(PRESETS["none"], _logged(0, "rtk")).has_bias  # 2 cm: exact enough, no wander assumed
     assert measured(PRESETS["drone"], _logged(0, "phone")).name == "drone"  # a declared bias is a prior, kept
+
+
+def test_an_exact_path_turning_all_along_is_no_receivers():
+    """An RTK walker's 1 Hz log circling a 5 m roundabout at 1.4 m/s: its second differences read the turn as 0.17 m
+    of noise (more than a drone's 0.1 m), its third differences as 0.025 m. Declared RTK it stays RTK (no bias, so no
+    vote radius of metres); a drone's error on the same circle still makes it a drone's."""
+    t = np.arange(600.0)
+    angle = 1.4 * t / 5.0
+    circle = Trajectory(t, np.column_stack([5.0 * np.cos(angle), 5.0 * np.sin(angle), np.full(len(t), 1.5)]), 1.0, 0.0)
+    assert white_from_log(circle)[0] > PRESETS["drone"].white_m > 3 * noise_beyond_turns(circle)
+    assert measured(PRESETS["rtk"], circle).name == "rtk" and not measured(PRESETS["rtk"], circle).has_bias
+    noisy = dataclasses.replace(circle, xyz=circle.xyz + np.random.default_rng(0).normal(0.0, 0.12, circle.xyz.shape))
+    assert measured(PRESETS["rtk"], noisy).name == "drone"
 
 
 def test_a_drones_log_declared_rtk_synchronizes_no_camera_wrong():

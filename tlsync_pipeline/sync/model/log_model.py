@@ -49,6 +49,11 @@ class LogModel:
         """Total horizontal std of a fix's error (white and bias), metres."""
         return math.hypot(self.white_m, self.bias_m)
 
+    @property
+    def vertical_m(self) -> float:
+        """Total vertical std of a fix's error (white and bias), metres."""
+        return math.hypot(self.white_m, self.bias_vertical_m)
+
 
 PRESETS: dict[str, LogModel] = {
     "none": LogModel("none"),

@@ -187,7 +187,7 @@ def _log_wider(
     on another object would not follow the logged path's shape. None otherwise."""
     if model is None or model.white_m < PRESETS["drone"].white_m:  # fixes as steady as an exact log's: not a receiver's
         return None
-    consumer = GATE_EPS * vote_radius(judged.camera, prepared, eps_px, PRESETS["phone"], beside=True)
+    consumer = GATE_EPS * vote_radius(judged.camera, prepared, eps_px, PRESETS["phone"])
     if consumer <= gate_px:
         return None
     share = path_share(judged.camera, _xy(judged), path, consumer)

@@ -19,25 +19,46 @@ if TYPE_CHECKING:
 
 VOTE_SIGMAS = 3.0  # a vote's radius covers this many standard deviations of the log's error, seen from the camera
 MAD_TO_SD = 1.4826  # a normal variable's std over its median absolute deviation
+RADIUS_POINTS = 500  # most fixes the vote radius is measured at
 
 
-def vote_radius(camera: Camera, trajectory: Trajectory, eps_px: float, model: LogModel, beside: bool = False) -> float:
-    """The vote radius for one camera (pixels): eps_px, or VOTE_SIGMAS times the log's horizontal error as this camera
-    sees it at the median depth of the path in its view, whichever is larger. beside: a path that projects only beside
-    the image (a biased log of a walk along its edge) is seen at the depth of its fixes within one image size of it."""
-    if model.horizontal_m <= 0:
+def vote_radius(camera: Camera, trajectory: Trajectory, eps_px: float, model: LogModel) -> float:
+    """The vote radius for one camera (pixels): eps_px, or VOTE_SIGMAS times the log's error as this camera sees it,
+    whichever is larger. The error is the model's horizontal and vertical std (a receiver's heights wander twice as
+    far: seen across from a few metres up, a vertical error moves the projection by its whole length) projected at
+    the fixes in view: the image std along its widest axis, the median over those fixes (RADIUS_POINTS of them at
+    most). A log whose error puts every fix beside the image (a walk along its edge, a bias of metres) is seen at the
+    fixes within one image size of it."""
+    if model.horizontal_m <= 0 and model.vertical_m <= 0:
         return eps_px
     uv, valid = camera.project(trajectory.xyz)
     uv = np.nan_to_num(uv, nan=-1e9)
     seen = valid & camera.in_image(uv)
-    if beside and not seen.any():
+    if not seen.any():
         width, height = camera.image_size
         seen = valid & (np.abs(uv[:, 0] - width / 2) < 1.5 * width) & (np.abs(uv[:, 1] - height / 2) < 1.5 * height)
     if not seen.any():
         return eps_px
-    depth = float(np.median((trajectory.xyz[seen] @ camera.R.T + camera.t)[:, 2]))
-    focal = 0.5 * (camera.K[0, 0] + camera.K[1, 1])
-    return max(eps_px, VOTE_SIGMAS * focal * model.horizontal_m / depth)
+    points = trajectory.xyz[seen][:: max(1, int(seen.sum()) // RADIUS_POINTS)]
+    return max(eps_px, VOTE_SIGMAS * float(np.median(_image_std(camera, points, model))))
+
+
+def _image_std(camera: Camera, points: np.ndarray, model: LogModel) -> np.ndarray:
+    """(N,) std (pixels) along the widest axis of the image error at each point that the log's error (horizontal and
+    vertical std, independent axes) moves its projection by: the projection's Jacobian by central differences."""
+    step = 0.05  # metres
+    sigma = np.array([model.horizontal_m, model.horizontal_m, model.vertical_m])
+    columns = []
+    for axis in range(3):
+        move = np.zeros(3)
+        move[axis] = step
+        ahead, _ = camera.project(points + move)
+        behind, _ = camera.project(points - move)
+        columns.append((ahead - behind) / (2 * step) * sigma[axis])
+    jacobian = np.stack(columns, axis=2)  # (N, 2, 3): pixels per std of each axis
+    cov = jacobian @ np.swapaxes(jacobian, 1, 2)
+    widest = np.linalg.eigvalsh(np.nan_to_num(cov, nan=0.0))[:, -1]
+    return np.sqrt(np.maximum(widest, 0.0))
 
 
 def white_from_log(trajectory: Trajectory) -> tuple[float, int]:
@@ -57,6 +78,23 @@ def white_from_log(trajectory: Trajectory) -> tuple[float, int]:
     return float(MAD_TO_SD * np.median(np.abs(second)) / math.sqrt(6.0)), int(second.size)
 
 
+def noise_beyond_turns(trajectory: Trajectory) -> float:
+    """The scatter of the log's fixes (m, std per horizontal axis) that a path's steady turns do not make: the robust
+    std of the third differences of consecutive samples over sqrt(20), pooled over east and north. A path turning all
+    along (a constant acceleration) reads as noise in second differences (white_from_log: the raw demo's exact log
+    0.13 m) and leaves none in third differences (0.013 m); a receiver's white noise reads the same in both (a
+    drone's 0.11 m, a phone's 0.52-0.62 m). 0 when the log states its sigmas or is too short to tell."""
+    if trajectory.sigma is not None or len(trajectory) < 4:
+        return 0.0
+    step = np.diff(trajectory.sample)
+    usual = float(np.median(step))
+    regular = np.abs(step - usual) < 1e-6 * max(usual, 1.0)
+    third = np.diff(trajectory.xyz[:, :2], n=3, axis=0)[regular[2:] & regular[1:-1] & regular[:-2]]
+    if len(third) < 10:
+        return 0.0
+    return float(MAD_TO_SD * np.median(np.abs(third)) / math.sqrt(20.0))
+
+
 def measured(model: LogModel, trajectory: Trajectory) -> LogModel:
     """The model with its white noise measured on the log's own fixes (white_from_log), the preset's value as a
     log-normal prior (PRIOR_LOG_SD): the posterior mode of log sigma, the measurement's variance about 4 / count
@@ -65,7 +103,7 @@ def measured(model: LogModel, trajectory: Trajectory) -> LogModel:
     white, count = white_from_log(trajectory)
     if count == 0 or white <= 0:
         return model
-    receiver = _receiver_of(model, white)
+    receiver = _receiver_of(model, noise_beyond_turns(trajectory))
     if model.white_m > 0:
         data, prior = 4.0 / count, PRIOR_LOG_SD**2
         white = math.exp((math.log(white) / data + math.log(model.white_m) / prior) / (1.0 / data + 1.0 / prior))
@@ -75,11 +113,11 @@ def measured(model: LogModel, trajectory: Trajectory) -> LogModel:
 
 
 def _receiver_of(model: LogModel, white: float) -> LogModel | None:
-    """The receiver the log's fixes say it is, when the model has no bias and they scatter as one that wanders: the
-    preset whose white noise is nearest (in log) to the one measured, when it has a bias, the measurement is at least
-    the white noise of the least noisy preset with a bias (a smooth path's turns leave some scatter: the quick demo's
-    exact log measures 0.08 m) and nearer to that preset's than to the model's. Its bias then applies (a receiver that
-    noisy wanders too: a drone's log declared RTK, or undeclared). None otherwise."""
+    """The receiver the log's fixes say it is, when the model has no bias and they scatter as one that wanders
+    (``white``: noise_beyond_turns, so that an exact path turning all along is no receiver's): the preset whose white
+    noise is nearest (in log) to the one measured, when it has a bias, the measurement is at least the white noise
+    of the least noisy preset with a bias and nearer to that preset's than to the model's. Its bias then applies (a
+    receiver that noisy wanders too: a drone's log declared RTK, or undeclared). None otherwise."""
     if model.has_bias or white < min(p.white_m for p in PRESETS.values() if p.has_bias):
         return None
     nearest = min((p for p in PRESETS.values() if p.white_m > 0), key=lambda p: abs(math.log(white / p.white_m)))
