@@ -30,14 +30,15 @@
    timeline.json; the cameras read whole and why), and a cached re-run
    (nothing to do). A kind "<kind>-full" runs with ``[track] scan =
    "full"`` (every frame read): the runs of that kind also give their
-   worst pair against it; with ``--compare``, the other tree's runs give
-   their worst pair against this tree's. The trees' bytecode is compiled
+   worst pair against it; it runs once, in the first round and with this
+   tree only (the reference). With ``--compare``, the other tree's runs
+   give their worst pair against this tree's. The trees' bytecode is compiled
    once into the run's temporary folder first (PYTHONPYCACHEPREFIX), as
    pip compiles an installed package's; ``--no-bytecode-cache``: every
    process compiles what it imports (under PYTHONDONTWRITEBYTECODE: about
    0.3 s of CPU a process).
 4. ``--rounds N``: N - 1 more rounds of the floor and a fresh run of each
-   tracker, in turn, and each run's ratios to its round's floor with their
+   tracker but the full passes, in turn, and each run's ratios to its round's floor with their
    median: on a shared machine one round's ratios move by 0.1-0.3.
 
 Prints wall times, CPU times, CPU utilisation (CPU s / (wall s x cores)),
@@ -491,7 +492,7 @@ def main() -> None:
         )
         for kind in args.trackers.split(","):
             variant = with_tracker(project, kind, folder)
-            for suffix, code in trees:
+            for suffix, code in trees if not kind.endswith("-full") else trees[:1]:
                 work = Path(tmp) / f"work_{kind}{suffix.strip(' ()')}"
                 run = tlsync_run(variant, work, cores, code, pycache)
                 stages[kind + suffix] = stage_seconds(work)
@@ -520,7 +521,7 @@ def main() -> None:
         ratios = {name: [(m.wall / floor.wall, m.cpu / floor.cpu)] for name, m, kind in rows if kind}
         for round_ in range(2, args.rounds + 1):
             again_floor, _ = decode_floor(videos, cores)
-            for kind in args.trackers.split(","):
+            for kind in [k for k in args.trackers.split(",") if not k.endswith("-full")]:
                 for suffix, code in trees:
                     work = Path(tmp) / f"work_{kind}{suffix.strip(' ()')}_{round_}"
                     run = tlsync_run(folder / f"project_{kind}.toml", work, cores, code, pycache)

@@ -9,6 +9,7 @@ from trackers.breaks import (
     check_spans,
     container_breaks,
     frozen_runs,
+    keyframe_flicker,
     keyframe_suspects,
     repeated_frames,
     scene_cuts,
@@ -177,6 +178,29 @@ def test_packets_coded_to_nothing_and_keyframe_jumps_are_spans_to_check():
     assert keyframe_suspects(frames[:2], step[1:2]) == [(0, 60)]  # a lone step is judged by its floor alone
     windows = ((700, 900),)
     assert check_spans([(60, 120), (100, 130), (750, 760), (995, 1000)], windows, 998) == ((57, 133), (992, 998))
+
+
+def test_a_flickering_light_between_keyframes_is_no_suspect_a_restart_in_other_light_is():
+    """Keyframes 120 frames apart under the long fixtures' light (6 % flicker over 37 frames, 1.8 % noise): their
+    brightness steps stand out of their neighbours' by chance, never beyond the flicker; a restart whose earlier
+    light was 0.65 of the later does. Under a steady light a 4 % step is a suspect."""
+    rng = np.random.default_rng(0)
+    n = 7200
+    gains = 1.0 + 0.06 * np.sin(2 * np.pi * np.arange(n) / 37.0) + 0.018 * rng.standard_normal(n)
+    frames = list(range(0, n, 120))
+
+    def steps(light):
+        brightness = np.log(light[frames])
+        return np.column_stack([np.full(len(frames) - 1, 0.8), np.abs(np.diff(brightness))])
+
+    flickering = steps(gains)
+    assert len(keyframe_suspects(frames, flickering)) > 5  # judged by the floor alone, flicker spikes are read
+    assert keyframe_suspects(frames, flickering, keyframe_flicker(flickering)) == []
+    restarted = steps(np.where(np.arange(n) < 3630, 0.65, 1.0) * gains)
+    assert keyframe_suspects(frames, restarted, keyframe_flicker(restarted)) == [(3600, 3720)]
+    steady = steps(np.where(np.arange(n) < 3630, 0.96, 1.0) * (1.0 + 0.002 * rng.standard_normal(n)))
+    assert keyframe_suspects(frames, steady, keyframe_flicker(steady)) == [(3600, 3720)]
+    assert keyframe_flicker(np.zeros((0, 2))) == 0.0
 
 
 def test_the_frames_of_frozen_runs_and_repeated_times():
