@@ -450,14 +450,14 @@ def test_a_pose_under_a_biased_log_gives_the_line_its_fit(scene):
     found = from_track(scene, "cam0")
     fit = found.fit
     line = CameraLine("cam0", fit.alpha, fit.beta + 7.0, 0, 0, 0.0, cov=np.diag([1e-8, 0.25]))
-    taken = with_pose_line(line, found)
+    taken = with_pose_line(line, found.timing)
     assert (taken.alpha, taken.beta) == (fit.alpha, fit.beta)
     assert taken.cov[1, 1] == pytest.approx(fit.se_beta**2, rel=1e-9) and taken.cov[0, 0] > 0
     u, ku = 1.0 / fit.alpha, fit.layout.index("u")
     assert taken.cov[0, 0] == pytest.approx(fit.cov[ku, ku] / u**4, rel=1e-9)
-    assert with_pose_line(line, replace(found, fit=replace(fit, line_cov=None))) is line
+    assert with_pose_line(line, replace(found, fit=replace(fit, line_cov=None)).timing) is line
     profiled = with_pose_line(
-        line, replace(found, bias_beta=fit.beta + 2.0)
+        line, replace(found, bias_beta=fit.beta + 2.0).timing
     )  # the pose and the log's bias fitted together
     assert profiled.beta == fit.beta + 2.0 and profiled.cov[1, 1] == pytest.approx(fit.se_beta**2 + 4.0, rel=1e-9)
 
