@@ -60,10 +60,9 @@ from tlsync_pipeline.sync.identify.identify import IdentifyParams, identify_para
 from tlsync_pipeline.sync.model.log_model import PRESETS, LogModel, LogModelChoice
 from tlsync_pipeline.sync.model.methods import preparation_of, prepare_trajectory
 from tlsync_pipeline.sync.model.params import Preparation
-from tlsync_pipeline.sync.pose.pose import GCP_AGREE, estimate_pose, gcp_pose, pose_info
+from tlsync_pipeline.sync.pose.pose import GCP_AGREE, estimate_pose, gcp_pose, pose_info, pose_log_sigma
 from tlsync_pipeline.sync.pose.pose_fit import GcpPrior
-from tlsync_pipeline.sync.solve.synchronize import pose_log_sigma, with_log_noise
-from tlsync_pipeline.sync.vote.log_error import measured
+from tlsync_pipeline.sync.vote.log_error import measured, with_log_noise
 from tlsync_pipeline.trajectory import Trajectory, read_trajectory
 from trackers.breaks import repeated_frames
 from trackers.detections import Detections, read_detections

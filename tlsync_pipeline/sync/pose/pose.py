@@ -1570,6 +1570,15 @@ def estimate_pose(
 METRE_LEVEL_M = 0.3  # a log whose stated median sigma reaches this gives a pose good for timing, not for 3D
 
 
+def pose_log_sigma(prepared: Trajectory, log_model: LogModel) -> float | None:
+    """The log's error a pose from the target absorbs (metres, pose_info's): the median of the prepared log's sigmas,
+    at least the model's horizontal bias when it has one; None when neither is known."""
+    sigma = None if prepared.sigma is None else float(np.median(prepared.sigma))
+    if log_model.has_bias:
+        sigma = max(sigma or 0.0, log_model.horizontal_m)
+    return sigma
+
+
 def pose_info(pose: TargetPose, log_sigma_m: float | None) -> PoseInfo:
     """What camera.json says of a pose from the target: its source, uncertainty, and whether it serves 3D.
 

@@ -43,7 +43,7 @@ from tlsync_pipeline.sync.model.log_model import PRESETS, LogModel
 from tlsync_pipeline.sync.model.methods import method_options, params_table, preparation_of, prepare_trajectory
 from tlsync_pipeline.sync.model.params import ParamsTable, SyncParams
 from tlsync_pipeline.sync.model.status import AMBIGUOUS, FAILED, Reason, diagnosed_failure
-from tlsync_pipeline.sync.pose.pose import TargetPose, estimate_pose, pose_info
+from tlsync_pipeline.sync.pose.pose import TargetPose, estimate_pose, pose_info, pose_log_sigma
 from tlsync_pipeline.sync.pose.pose_timing import PoseTiming
 from tlsync_pipeline.sync.solve.causes import explain
 from tlsync_pipeline.sync.solve.methods import CameraData, CameraInput, JointMethod
@@ -59,7 +59,7 @@ from tlsync_pipeline.sync.solve.plausibility import (
 )
 from tlsync_pipeline.sync.solve.registry import get_method
 from tlsync_pipeline.sync.timeline import CameraLine, Timeline
-from tlsync_pipeline.sync.vote.log_error import measured, vote_radius
+from tlsync_pipeline.sync.vote.log_error import measured, vote_radius, with_log_noise
 from tlsync_pipeline.sync.vote.votes import Votes, compute_votes
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
 from trackers.track import Track
@@ -155,13 +155,6 @@ def _pose_from_target(camera: Camera) -> bool:
     return camera.pose_info is not None and "target" in camera.pose_info.source
 
 
-def with_log_noise(trajectory: Trajectory, model: LogModel) -> Trajectory:
-    """The trajectory with the model's white noise as every sample's sigma, when the log states none."""
-    if trajectory.sigma is not None or model.white_m <= 0:
-        return trajectory
-    return replace(trajectory, sigma=np.full(len(trajectory), model.white_m))
-
-
 def posed(
     inputs: CameraInput, prepared: Trajectory, params: SyncParams, log_model: LogModel = PRESETS["none"]
 ) -> tuple[CameraInput, TargetPose]:
@@ -184,15 +177,6 @@ def posed(
         pose_info=pose_info(pose, pose_log_sigma(prepared, log_model)),
     )
     return replace(inputs, camera=camera), pose
-
-
-def pose_log_sigma(prepared: Trajectory, log_model: LogModel) -> float | None:
-    """The log's error a pose from the target absorbs (metres, pose_info's): the median of the prepared log's sigmas,
-    at least the model's horizontal bias when it has one; None when neither is known."""
-    sigma = None if prepared.sigma is None else float(np.median(prepared.sigma))
-    if log_model.has_bias:
-        sigma = max(sigma or 0.0, log_model.horizontal_m)
-    return sigma
 
 
 def with_pose_line(line: CameraLine, timing: PoseTiming) -> CameraLine:
