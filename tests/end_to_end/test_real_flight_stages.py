@@ -55,7 +55,8 @@ def test_the_real_flight_without_poses_under_a_drone_gnss_runs_through_the_stage
         report = json.loads((work / "cameras" / name / "calibration_report.json").read_text())["target_pose"]
         assert report["source"] == "target" and report["timing"]["bias_beta"] is not None  # the log's bias fitted
         sigma = np.sqrt(line.cov[1, 1])
-        assert abs(line.beta - direct.cameras[name].beta) <= 0.5 * sigma, name
+        assert abs(line.beta - direct.cameras[name].beta) <= 0.05 * sigma, name  # seeds 0-3: to the digit
+        assert np.sqrt(direct.cameras[name].cov[1, 1]) == pytest.approx(sigma, rel=0.05), name
         assert abs(line.beta - truth[name]["beta"]) <= 3 * sigma, name
     pairs, n_frames = read_truth(REAL / "truth.json")
     errors_t = [eps_t(staged.relation(*k.split("->")), r, n_frames[k.split("->")[0]]) for k, r in pairs.items()]

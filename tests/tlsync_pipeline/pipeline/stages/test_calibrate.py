@@ -296,7 +296,8 @@ def test_a_camera_without_a_pose_gets_it_from_the_target_and_a_straight_walk_fai
     for name in ("cam0", "cam2"):
         camera = read_camera(work / "cameras" / name / "camera.json")
         truth = scene.true_cameras[name]
-        assert camera.pose_info.source == "target" and not camera.pose_info.for_3d  # the CSV log states no accuracy
+        # the CSV states no accuracy: the scatter of its fixes measures it (2 cm, RTK-grade), as the sync stage does
+        assert camera.pose_info.source == "target" and camera.pose_info.for_3d
         assert np.linalg.norm(camera.center - truth.center) < 0.3 and angle_deg(camera.R, truth.R) < 1.0
         report = json.loads((work / "cameras" / name / "calibration_report.json").read_text())
         assert report["target_pose"]["source"] == "target" and report["target_pose"]["frames"] > 100
