@@ -5,6 +5,12 @@ seed, the errors of a receiver of data_fixtures/log_error.py (a Gauss-Markov
 bias plus white noise, at the log's own samples), and the sync is told the
 receiver's kind as a user would ([target] log_model; both phones `phone`).
 With ``--poses removed`` every camera's pose comes from the target.
+``--through stages`` runs each simulated log as a user would: a project folder
+of the cameras (without their poses when removed), tracks and the erroneous
+log with its model declared (data_fixtures/logged_project.py), through
+``tlsync run`` in a child process (calibrate poses the cameras, then vote and
+sync); its CPU and peak memory are the child's. ``--through synchronize``
+(default) calls synchronize() on the same inputs in this process.
 ``--slow K`` flies the same path K times slower and ``--hover S`` holds the
 drone still S seconds every HOVER_EVERY_S seconds of the flight
 (data_fixtures/slowed_flight.py), and ``--only-slower V`` cuts each track to
@@ -13,11 +19,13 @@ turns into seconds. Per receiver and bias model (``--bias-model``): the runs whe
 camera was synchronized, the median and max over runs of the worst and of the
 median synchronized pair's eps_t (frames, eq. 5), the share of synchronized
 pairs whose 95 % interval of beta contains the truth, the refused cameras
-with their cause, the sync's CPU a run, and the process's peak resident
-memory. ``--runs`` prints every run. Skips cleanly when the folder is absent.
+with their cause, the sync's CPU a run, the peak resident memory of the
+runs through the stages, and the process's peak resident memory. ``--runs``
+prints every run. Skips cleanly when the folder is absent.
 
     nice python bench/real_flight_gps.py [--data /work/shared/real/drone2] [--seeds 8] [--models drone phone2]
-        [--bias-model on off] [--poses given|removed] [--slow 1] [--hover 0] [--only-slower V] [--runs]
+        [--bias-model on off] [--poses given|removed] [--through synchronize|stages] [--slow 1] [--hover 0]
+        [--only-slower V] [--runs]
 """
 
 from __future__ import annotations
@@ -25,7 +33,11 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import os
+import resource
+import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -35,12 +47,13 @@ from _report import pair_errors
 
 from data_fixtures.log_error import PRESETS as RECEIVERS
 from data_fixtures.log_error import log_errors
+from data_fixtures.logged_project import write_logged_project
 from data_fixtures.slowed_flight import SlowedFlight, slow_part, slowed_flight, time_warp
 from tlsync_pipeline.pipeline.project import load_project
 from tlsync_pipeline.pipeline.stages.sync import load_inputs
 from tlsync_pipeline.sync.model.log_model import PRESETS as LOG_MODELS
 from tlsync_pipeline.sync.solve.synchronize import synchronize
-from tlsync_pipeline.sync.timeline import Relation, read_truth
+from tlsync_pipeline.sync.timeline import Relation, Timeline, read_timeline, read_truth
 
 DEFAULT = Path("/work/shared/real/drone2")
 Z95 = 1.959964
@@ -76,17 +89,22 @@ def flight(
     return slowed, project.sync
 
 
-def run_one(slowed: SlowedFlight, sync_params, receiver: str, seed: int, bias_model: bool) -> dict:
-    """One simulated log of ``receiver``: the sync's figures against the truth."""
+def run_one(slowed: SlowedFlight, sync_params, receiver: str, seed: int, bias_model: bool, through: str) -> dict:
+    """One simulated log of ``receiver``: the sync's figures against the truth (``through``: "synchronize" in this
+    process, "stages" through ``tlsync run``)."""
     trajectory = slowed.trajectory
     errors, _ = log_errors(np.random.default_rng(seed), trajectory.sample / trajectory.rate, RECEIVERS[receiver])
-    declared = LOG_MODELS["phone" if receiver.startswith("phone") else receiver]
+    logged = dataclasses.replace(trajectory, xyz=trajectory.xyz + errors)
+    declared = "phone" if receiver.startswith("phone") else receiver
     params = dataclasses.replace(sync_params, log_bias=bias_model)
-    started = time.process_time()
-    timeline, _ = synchronize(
-        slowed.cameras, dataclasses.replace(trajectory, xyz=trajectory.xyz + errors), params, log_model=declared
-    )
-    seconds = time.process_time() - started
+    if through == "stages":
+        if not bias_model:
+            raise SystemExit("--through stages runs the project's [sync] as it is: --bias-model on only")
+        timeline, seconds, peak_mb = through_stages(slowed, logged, declared)
+    else:
+        started = time.process_time()
+        timeline, _ = synchronize(slowed.cameras, logged, params, log_model=LOG_MODELS[declared])
+        seconds, peak_mb = time.process_time() - started, np.nan
     pairs = pair_errors(timeline, slowed.pairs(), slowed.n_frames)
     eps = [e for e, _ in pairs]
     return {
@@ -98,7 +116,28 @@ def run_one(slowed: SlowedFlight, sync_params, receiver: str, seed: int, bias_mo
         "z": [score for _, score in pairs],
         "refused": {name: _cause(why) for name, why in timeline.failed.items()},
         "cpu_s": seconds,
+        "peak_mb": peak_mb,
     }
+
+
+def through_stages(slowed: SlowedFlight, logged, declared: str) -> tuple[Timeline, float, float]:
+    """The timeline ``tlsync run`` makes of the flight's project (written to a temporary folder), the child's CPU
+    (s) and its peak resident memory (MB)."""
+    with tempfile.TemporaryDirectory() as folder:
+        project = write_logged_project(Path(folder), slowed.cameras, logged, declared)
+        before = resource.getrusage(resource.RUSAGE_CHILDREN)
+        done = subprocess.run(
+            [sys.executable, "-m", "tlsync_pipeline.cli", "run", str(project), "-j", "1", "-q"],
+            env={**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parent.parent)},
+            capture_output=True,
+            text=True,
+        )
+        after = resource.getrusage(resource.RUSAGE_CHILDREN)
+        if done.returncode not in (0, 1):
+            raise RuntimeError(f"tlsync run exited {done.returncode}: {done.stderr[-2000:]}")
+        timeline = read_timeline(Path(folder) / "work" / "timeline.json")
+    seconds = (after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime)
+    return timeline, seconds, after.ru_maxrss / 1024.0
 
 
 def _cause(why: str) -> str:
@@ -117,8 +156,15 @@ def summary(receiver: str, bias_model: bool, runs: list[dict]) -> str:
         f"| {receiver} | {'on' if bias_model else 'off'} | {every} / {len(runs)} | "
         f"{sum(r['synchronized'] for r in runs)} / {sum(r['cameras'] for r in runs)} | "
         f"{np.nanmedian(median):.2f} ({np.nanmax(median):.2f}) | {np.nanmedian(worst):.2f} ({np.nanmax(worst):.2f}) | "
-        f"{100 * np.mean(z <= Z95):.0f} % of {len(z)} | {np.median([r['cpu_s'] for r in runs]):.1f} | {refused} |"
+        f"{100 * np.mean(z <= Z95):.0f} % of {len(z)} | {np.median([r['cpu_s'] for r in runs]):.1f} | "
+        f"{_peak(runs)} | {refused} |"
     )
+
+
+def _peak(runs: list[dict]) -> str:
+    """The largest peak memory of the runs (MB), "-" when none was measured (runs in this process)."""
+    peaks = [r["peak_mb"] for r in runs if np.isfinite(r["peak_mb"])]
+    return f"{max(peaks):.0f}" if peaks else "-"
 
 
 def main() -> None:
@@ -130,6 +176,7 @@ def main() -> None:
     )
     parser.add_argument("--bias-model", nargs="+", default=["off", "on"], choices=["off", "on"])
     parser.add_argument("--poses", default="given", choices=["given", "removed"])
+    parser.add_argument("--through", default="synchronize", choices=["synchronize", "stages"])
     parser.add_argument("--slow", type=float, default=1.0, help="fly the path this many times slower")
     parser.add_argument(
         "--hover", type=float, default=0.0, metavar="S", help=f"hold still S seconds every {HOVER_EVERY_S:g} s"
@@ -145,27 +192,29 @@ def main() -> None:
     slowed, params = flight(args.data, args.slow, args.hover, args.poses, args.only_slower)
     tracks = f"cut to the drone slower than {args.only_slower:g} m/s" if args.only_slower else "whole"
     print(
-        f"{args.data}, poses {args.poses}, {args.slow:g} times slower, hovers of {args.hover:g} s every "
+        f"{args.data}, poses {args.poses}, through {args.through}, {args.slow:g} times slower, hovers of "
+        f"{args.hover:g} s every "
         f"{HOVER_EVERY_S:g} s, tracks {tracks}; "
         f"{args.seeds} simulated logs per receiver"
     )
     print(
         "| receiver | bias model | runs with every camera | cameras synchronized | median pair's eps_t, median "
         "(max) | worst pair's eps_t, median (max) | 95 % intervals that contain the truth | sync CPU a run (s) | "
-        "refused (cause) |"
+        "peak memory of a run (MB) | refused (cause) |"
     )
-    print("|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     for receiver in args.models:
         for bias in args.bias_model:
             runs = []
             for seed in range(args.seeds):
-                runs.append(run_one(slowed, params, receiver, seed, bias == "on"))
+                runs.append(run_one(slowed, params, receiver, seed, bias == "on", args.through))
                 if args.runs:
                     r = runs[-1]
                     print(
                         f"  {receiver} bias {bias} seed {seed}: {r['synchronized']}/{r['cameras']}, median "
                         f"{r['median']:.2f}, worst {r['worst']:.2f}, covered {sum(s <= Z95 for s in r['z'])}/"
-                        f"{len(r['z'])}, {r['cpu_s']:.0f} s, {r['refused'] or ''}",
+                        f"{len(r['z'])}, {r['cpu_s']:.0f} s, {r['peak_mb']:.0f} MB, "
+                        f"{r['refused'] or ''}",
                         file=sys.stderr,
                         flush=True,
                     )

@@ -16,6 +16,7 @@ from data_fixtures.log_error import PRESETS as FIXTURE_LOGS
 from data_fixtures.log_error import log_errors
 from data_fixtures.passes import make_pass_scene
 from tests.real_data import REAL_DATA
+from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.sync.identify.identify import identify_params
 from tlsync_pipeline.sync.kernels.slope import slope_prior
 from tlsync_pipeline.sync.kernels.smoothing import smooth_trajectory
@@ -33,10 +34,12 @@ from tlsync_pipeline.sync.pose.pose_fit import (
     fit_pose_and_line,
     reprojection_errors,
 )
+from tlsync_pipeline.sync.pose.pose_timing import PoseTiming
 from tlsync_pipeline.sync.solve.synchronize import (
     CameraInput,
     synchronize,
     with_pose_line,
+    with_pose_offset,
 )
 from tlsync_pipeline.sync.timeline import CameraLine, Relation, eps_t, read_truth
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
@@ -450,16 +453,32 @@ def test_a_pose_under_a_biased_log_gives_the_line_its_fit(scene):
     found = from_track(scene, "cam0")
     fit = found.fit
     line = CameraLine("cam0", fit.alpha, fit.beta + 7.0, 0, 0, 0.0, cov=np.diag([1e-8, 0.25]))
-    taken = with_pose_line(line, found)
+    taken = with_pose_line(line, found.timing)
     assert (taken.alpha, taken.beta) == (fit.alpha, fit.beta)
     assert taken.cov[1, 1] == pytest.approx(fit.se_beta**2, rel=1e-9) and taken.cov[0, 0] > 0
     u, ku = 1.0 / fit.alpha, fit.layout.index("u")
     assert taken.cov[0, 0] == pytest.approx(fit.cov[ku, ku] / u**4, rel=1e-9)
-    assert with_pose_line(line, replace(found, fit=replace(fit, line_cov=None))) is line
+    assert with_pose_line(line, replace(found, fit=replace(fit, line_cov=None)).timing) is line
     profiled = with_pose_line(
-        line, replace(found, bias_beta=fit.beta + 2.0)
+        line, replace(found, bias_beta=fit.beta + 2.0).timing
     )  # the pose and the log's bias fitted together
     assert profiled.beta == fit.beta + 2.0 and profiled.cov[1, 1] == pytest.approx(fit.se_beta**2 + 4.0, rel=1e-9)
+
+
+def test_a_poses_timing_read_back_from_its_report_gives_the_same_line(scene):
+    """The calibrate stage writes the pose fit's timing into calibration_report.json and the sync stage reads it
+    back: the line it gives is the one the pose itself gives, under a log with a bias and without."""
+    found = replace(from_track(scene, "cam0"), bias_beta=float("nan"), timing_spread=1.5)
+    document = json.loads(json.dumps(found.to_report(P.pose_info(found, None))))
+    read = PoseTiming.from_dict(document["timing"], "calibration_report.json")
+    line = CameraLine("cam0", found.fit.alpha, found.fit.beta + 7.0, 0, 0, 0.0, cov=np.diag([1e-8, 0.25]))
+    for given in (with_pose_line, with_pose_offset):
+        expected, got = given(line, found.timing), given(line, read)
+        assert (got.alpha, got.beta) == (expected.alpha, expected.beta)
+        np.testing.assert_allclose(got.cov, expected.cov, rtol=1e-12)
+    assert with_pose_line(line, read).cov[1, 1] > found.se_beta**2  # the spread is counted
+    with pytest.raises(InputError, match="calibration_report.json"):
+        PoseTiming.from_dict({"beta": 1.0}, "calibration_report.json")
 
 
 def test_a_straight_crossing_under_rough_gcps_carries_the_poses_timing_uncertainty():

@@ -13,8 +13,12 @@ The intrinsics come from the intrinsics stage (checkerboard photos or video,
   ``gcp_sigma_m`` (source ``gcp+target``) or without any (source
   ``target``). The task then also reads the camera's track (or every
   mover's detections) and the trajectory, so it runs after the track and
-  ingest stages; a pose the target does not determine fails the camera
-  with the cause and its remedy.
+  ingest stages; the log's error model is the sync stage's (``[target]
+  log_model``, or what the ingest report suggests), so that under a
+  metre-level log the pose and the log's bias are fitted together, and
+  the pose fit's line goes to the sync stage in the report's
+  ``target_pose.timing``. A pose the target does not determine fails the
+  camera with the cause and its remedy.
 
 Geodetic GCPs (u,v,lat,lon,alt) are converted to the project's local ENU
 frame with tlsync_pipeline.geodesy, around the project's origin (see
@@ -24,7 +28,7 @@ Editing a GCP file re-runs this stage only, not the checkerboard detection.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -49,14 +53,16 @@ from tlsync_pipeline.outputs.calibration_report import calibration_plot, calibra
 from tlsync_pipeline.pipeline.origin import check_gcp_places, origin_inputs, resolve_origin
 from tlsync_pipeline.pipeline.spec import Options, Sources, StageResult, StageSpec
 from tlsync_pipeline.pipeline.stages.camera_plan import gcp_sigma, scans, target_pose_wanted
-from tlsync_pipeline.pipeline.stages.cameras import POSE_ERROR, has_no_rows
+from tlsync_pipeline.pipeline.stages.cameras import POSE_ERROR, has_no_rows, ingest_report_input, log_model_of
 from tlsync_pipeline.pipeline.stages.intrinsics import check_calibration
 from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
 from tlsync_pipeline.sync.identify.identify import IdentifyParams, identify_params
+from tlsync_pipeline.sync.model.log_model import PRESETS, LogModel, LogModelChoice
 from tlsync_pipeline.sync.model.methods import preparation_of, prepare_trajectory
 from tlsync_pipeline.sync.model.params import Preparation
-from tlsync_pipeline.sync.pose.pose import GCP_AGREE, estimate_pose, gcp_pose, pose_info
+from tlsync_pipeline.sync.pose.pose import GCP_AGREE, estimate_pose, gcp_pose, pose_info, pose_log_sigma
 from tlsync_pipeline.sync.pose.pose_fit import GcpPrior
+from tlsync_pipeline.sync.vote.log_error import measured, with_log_noise
 from tlsync_pipeline.trajectory import Trajectory, read_trajectory
 from trackers.breaks import repeated_frames
 from trackers.detections import Detections, read_detections
@@ -81,13 +87,15 @@ class KnownBoard:
 @dataclass(frozen=True)
 class TargetPoseParams:
     """What a pose from the target reads: the GCPs' survey sigma (metres; None without GCPs), identification's
-    parameters (gate, loss scale, clock prior: sync/identify/identify.py), how the trajectory is prepared, and the video
-    the track stage found the target or the movers in (None: the project brings them)."""
+    parameters (gate, loss scale, clock prior: sync/identify/identify.py), how the trajectory is prepared, the video
+    the track stage found the target or the movers in (None: the project brings them), and the log's error model
+    ([target] log_model and its overrides, as the sync stage reads them: "auto" is what the ingest report suggests)."""
 
     gcp_sigma_m: float | None
     identify: IdentifyParams
     preparation: Preparation
     source: Path | None = None
+    log_model: LogModelChoice = field(default_factory=LogModelChoice)
 
 
 @dataclass(frozen=True)
@@ -237,14 +245,19 @@ def pose_from_target(
     ransac_px: float,
     offsets: tuple[float, float] | None = None,
     windows: tuple[tuple[int, int], ...] | None = None,
+    log_model: LogModel = PRESETS["none"],
 ) -> tuple[Camera, dict]:
     """The camera posed by the target (its GCPs, if any, a prior; its GCP pose, if any, the start), and the report's
-    ``target_pose``; offsets: the range of the line's beta searched (frames; None: all the log allows); windows: the
-    frames where a pose from movers looks for the target's tracklets (the scan's windows; None: every frame).
+    ``target_pose`` (with the pose fit's ``timing``, which the sync stage gives the camera's line); offsets: the range
+    of the line's beta searched (frames; None: all the log allows); windows: the frames where a pose from movers looks
+    for the target's tracklets (the scan's windows; None: every frame); log_model: the log's error as declared or
+    suggested, its white noise measured on the log (sync/vote/log_error.py's ``measured``) as synchronize() does:
+    with a bias, the pose and the bias are fitted together.
 
     Raises PoseError (sync/pose/pose.py) when the target does not determine the pose.
     """
-    prepared = prepare_trajectory(trajectory, params.preparation)
+    log_model = measured(log_model, trajectory)
+    prepared = with_log_noise(prepare_trajectory(trajectory, params.preparation), log_model)
     start = camera if camera.posed else None
     unposed = (
         camera
@@ -262,10 +275,10 @@ def pose_from_target(
         ransac_px,
         start,
         offsets,
+        log_model=log_model,
         windows=windows,
     )
-    sigma = None if prepared.sigma is None else float(np.median(prepared.sigma))
-    info = pose_info(found, sigma)
+    info = pose_info(found, pose_log_sigma(prepared, log_model))
     posed = replace(found.camera, name=camera.name, fps=camera.fps, extra=dict(camera.extra), pose_info=info)
     return posed, found.to_report(info, prior)
 
@@ -418,6 +431,7 @@ def _pose_from_target_files(
         params.ransac_px or 8.0,
         offsets,
         windows,
+        log_model_of(files, params.target.log_model),
     )
 
 
@@ -467,7 +481,8 @@ def survey_inputs(src: Sources, name: str) -> dict[str, Path | Artefact]:
 
 
 def calibrate_inputs(src: Sources, name: str) -> dict[str, Path | Artefact]:
-    """survey_inputs; for a pose from the target also the track (or every mover's detections) and the trajectory."""
+    """survey_inputs; for a pose from the target also the track (or every mover's detections), the trajectory and
+    the ingest report (the log model it suggests) when the project ingests a log."""
     camera, cal = src.project.camera(name), src.project.camera(name).calibration
     inputs = survey_inputs(src, name)
     if target_pose_wanted(src.project, name):
@@ -481,6 +496,7 @@ def calibrate_inputs(src: Sources, name: str) -> dict[str, Path | Artefact]:
                 inputs["video_info"] = src.artefact("video_info", name)
             if scans(src.project, name):  # read in windows around a coarse line: the pose's offset search stays near it
                 inputs["scan"] = src.artefact("scan", name)
+            inputs.update(ingest_report_input(src))
         except InputError as exc:
             alone = "; or set gcp_sigma_m = 0 for the GCPs' pose alone" if cal.gcp is not None else ""
             raise InputError(f"{exc} (its pose comes from the target{alone})") from None
@@ -513,6 +529,7 @@ def calibrate_params(project: Project, name: str, options: Options) -> Calibrate
         identify_params(project.sync),
         preparation_of(project.sync),
         source,
+        project.target.log_error,
     )
     return replace(survey_params(project, name), target=target)
 

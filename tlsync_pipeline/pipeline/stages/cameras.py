@@ -20,7 +20,18 @@ from trackers.video import probe_video
 if TYPE_CHECKING:
     from tlsync_pipeline.pipeline.project import Project
 
-CAMERA_FILES = ("camera", "track", "votes", "video", "identification", "detections", "video_info", "scan", "clock")
+CAMERA_FILES = (
+    "camera",
+    "calibration_report",
+    "track",
+    "votes",
+    "video",
+    "identification",
+    "detections",
+    "video_info",
+    "scan",
+    "clock",
+)
 
 
 @dataclass(frozen=True)
@@ -31,6 +42,7 @@ class CameraFiles:
 
     name: str
     camera: Path | None = None
+    calibration_report: Path | None = None
     track: Path | None = None
     votes: Path | None = None
     video: Path | None = None

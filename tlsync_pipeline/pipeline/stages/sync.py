@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from calibration.camera import read_camera
+from tlsync_pipeline.artefacts.calibration import read_calibration_report
 from tlsync_pipeline.artefacts.clock import read_clock
 from tlsync_pipeline.artefacts.identification import IdentificationSummary, read_identification
 from tlsync_pipeline.artefacts.video_info import read_video_info
@@ -30,6 +31,7 @@ from tlsync_pipeline.sync.identify.breaks import merged
 from tlsync_pipeline.sync.model.log_model import LogModelChoice
 from tlsync_pipeline.sync.model.params import SyncParams
 from tlsync_pipeline.sync.model.status import WEAK, Reason
+from tlsync_pipeline.sync.pose.pose_timing import PoseTiming
 from tlsync_pipeline.sync.solve.methods import CameraInput
 from tlsync_pipeline.sync.solve.plausibility import LogUnitError
 from tlsync_pipeline.sync.solve.synchronize import CameraResult, synchronize
@@ -64,15 +66,30 @@ def read_camera_inputs(cameras: dict[str, CameraFiles]) -> dict[str, CameraInput
     """CameraInput per camera from its files.
 
     A camera whose target could not be identified among its movers has no
-    track.csv (its votes carry the reason): its track is None.
+    track.csv (its votes carry the reason): its track is None. A camera the
+    calibrate stage posed from the target brings that pose fit's timing
+    (read_pose_timing).
     """
     out = {}
     for name, c in cameras.items():
         assert c.camera is not None and c.track is not None, "declared by the stage"
         cam = read_camera(c.camera, name=name)
         track = None if c.identification is not None and not c.track.exists() else read_track(c.track)
-        out[name] = CameraInput(cam, track, c.fps if c.fps is not None else cam.fps, breaks=read_breaks(c))
+        out[name] = CameraInput(
+            cam,
+            track,
+            c.fps if c.fps is not None else cam.fps,
+            breaks=read_breaks(c),
+            pose_timing=read_pose_timing(c.calibration_report) if c.calibration_report is not None else None,
+        )
     return out
+
+
+def read_pose_timing(path: Path) -> PoseTiming | None:
+    """The timing of the calibrate stage's pose from the target (calibration_report.json's ``target_pose.timing``),
+    or None when the camera's pose is not the target's."""
+    timing = (read_calibration_report(path).content.get("target_pose") or {}).get("timing")
+    return None if timing is None else PoseTiming.from_dict(timing, str(path))
 
 
 def read_breaks(camera: CameraFiles) -> tuple[Break, ...]:
@@ -251,11 +268,18 @@ def run_project(project: Project, out_dir: Path) -> tuple[Timeline, dict[str, Ca
 
 
 def sync_inputs(src: Sources, camera: None) -> dict[str, Path | Artefact]:
-    """Every camera's calibration, track and votes (and video.json when the track stage makes it),
-    and the trajectory.
+    """Every camera's calibration, track and votes (and video.json when the track stage makes it, the calibration
+    report when the calibrate stage does: a pose from the target's timing), and the trajectory.
     """
     names = src.project.names
     inputs = {f"{kind}:{name}": src.artefact(kind, name) for name in names for kind in ("camera", "track", "votes")}
+    inputs.update(
+        {
+            f"calibration_report:{name}": src.artefact("calibration_report", name)
+            for name in names
+            if src.made("calibration_report", name)
+        }
+    )
     inputs.update(
         {
             f"identification:{name}": src.artefact("identification", name)

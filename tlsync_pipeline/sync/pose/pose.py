@@ -94,6 +94,7 @@ from tlsync_pipeline.sync.pose.pose_fit import (
     fit_pose_and_line,
     reprojection_errors,
 )
+from tlsync_pipeline.sync.pose.pose_timing import PoseTiming
 from tlsync_pipeline.sync.pose.timing import DISTINCT_S, bias_frames, one_timing, rival_probability, timing_spread
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
 from trackers.detections import Detections
@@ -257,6 +258,19 @@ class TargetPose:
         cov = self.line_cov
         return float(np.sqrt(max(cov[1, 1], 0.0))) if cov is not None else self.fit.se_beta
 
+    @property
+    def timing(self) -> PoseTiming:
+        """The line this pose gives its camera's timing (sync/pose/pose_timing.py)."""
+        cov = self.line_cov
+        return PoseTiming(
+            self.fit.alpha,
+            self.fit.beta,
+            None if cov is None or not np.isfinite(cov).all() else np.array(cov, dtype=np.float64),
+            self.se_beta,
+            self.bias_beta,
+            self.timing_spread,
+        )
+
     def to_report(self, info: PoseInfo, gcps: GcpPrior | None = None) -> dict:
         """The pose from the target as calibration_report.json's ``target_pose`` (docs/calibration.md)."""
         fit = self.fit
@@ -273,6 +287,7 @@ class TargetPose:
             "rival_probability": None if not np.isfinite(self.rival_probability) else self.rival_probability,
             "timing_spread": self.timing_spread,
             "straightness": self.straightness,
+            "timing": self.timing.to_dict(),
             "search": {
                 "offsets_tried": self.search.offsets_tried,
                 "threshold_px": self.search.threshold_px,
@@ -1553,6 +1568,15 @@ def estimate_pose(
 
 
 METRE_LEVEL_M = 0.3  # a log whose stated median sigma reaches this gives a pose good for timing, not for 3D
+
+
+def pose_log_sigma(prepared: Trajectory, log_model: LogModel) -> float | None:
+    """The log's error a pose from the target absorbs (metres, pose_info's): the median of the prepared log's sigmas,
+    at least the model's horizontal bias when it has one; None when neither is known."""
+    sigma = None if prepared.sigma is None else float(np.median(prepared.sigma))
+    if log_model.has_bias:
+        sigma = max(sigma or 0.0, log_model.horizontal_m)
+    return sigma
 
 
 def pose_info(pose: TargetPose, log_sigma_m: float | None) -> PoseInfo:

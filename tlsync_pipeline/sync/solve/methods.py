@@ -31,6 +31,7 @@ from trackers.track import Track
 if TYPE_CHECKING:
     from tlsync_pipeline.sync.model.log_model import LogModel
     from tlsync_pipeline.sync.pose.pose_fit import GcpPrior
+    from tlsync_pipeline.sync.pose.pose_timing import PoseTiming
     from tlsync_pipeline.sync.solve.log_bias import LogBias
 
 
@@ -45,7 +46,10 @@ class CameraInput:
     its recording may leave its steady clock (trackers/breaks.py), judged
     against its line (sync/identify/breaks.py). pick_start_s: the line the user picked
     where two remained ([[cameras]] pick_start_s: the log's time, seconds after
-    its first fix, at the video's first frame), or None.
+    its first fix, at the video's first frame), or None. pose_timing: for a
+    camera posed from the target before (the calibrate stage), the line that
+    pose fit gives its timing (sync/pose/pose_timing.py), as synchronize's own
+    pose from the target gives it; None otherwise.
     """
 
     camera: Camera
@@ -55,6 +59,7 @@ class CameraInput:
     gcps: GcpPrior | None = None
     breaks: tuple[Break, ...] = ()
     pick_start_s: float | None = None
+    pose_timing: PoseTiming | None = None
 
 
 @dataclass(frozen=True)

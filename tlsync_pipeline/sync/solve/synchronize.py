@@ -10,7 +10,9 @@ identified among them first (sync/identify/identify.py); its line is then fitted
 the identified track's votes (in the pipeline the identify stage writes that
 track, and votes.npz holds its votes). A camera without a pose gets it from
 the target before anything else (sync/pose/pose.py; in the pipeline, the
-calibrate stage).
+calibrate stage, whose pose's timing comes with the camera's inputs,
+``CameraInput.pose_timing``): its line is then the pose fit's
+(``with_pose_timing``).
 
 Pure functions from typed values to typed values; no file I/O here.
 """
@@ -41,7 +43,8 @@ from tlsync_pipeline.sync.model.log_model import PRESETS, LogModel
 from tlsync_pipeline.sync.model.methods import method_options, params_table, preparation_of, prepare_trajectory
 from tlsync_pipeline.sync.model.params import ParamsTable, SyncParams
 from tlsync_pipeline.sync.model.status import AMBIGUOUS, FAILED, Reason, diagnosed_failure
-from tlsync_pipeline.sync.pose.pose import TargetPose, estimate_pose, pose_info
+from tlsync_pipeline.sync.pose.pose import TargetPose, estimate_pose, pose_info, pose_log_sigma
+from tlsync_pipeline.sync.pose.pose_timing import PoseTiming
 from tlsync_pipeline.sync.solve.causes import explain
 from tlsync_pipeline.sync.solve.methods import CameraData, CameraInput, JointMethod
 from tlsync_pipeline.sync.solve.plausibility import (
@@ -57,7 +60,7 @@ from tlsync_pipeline.sync.solve.plausibility import (
 from tlsync_pipeline.sync.solve.registry import get_method
 from tlsync_pipeline.sync.solve.slow_motion import bias_time_spread
 from tlsync_pipeline.sync.timeline import CameraLine, Timeline
-from tlsync_pipeline.sync.vote.log_error import measured, vote_radius
+from tlsync_pipeline.sync.vote.log_error import measured, vote_radius, with_log_noise
 from tlsync_pipeline.sync.vote.votes import Votes, compute_votes
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
 from trackers.track import Track
@@ -153,13 +156,6 @@ def _pose_from_target(camera: Camera) -> bool:
     return camera.pose_info is not None and "target" in camera.pose_info.source
 
 
-def with_log_noise(trajectory: Trajectory, model: LogModel) -> Trajectory:
-    """The trajectory with the model's white noise as every sample's sigma, when the log states none."""
-    if trajectory.sigma is not None or model.white_m <= 0:
-        return trajectory
-    return replace(trajectory, sigma=np.full(len(trajectory), model.white_m))
-
-
 def posed(
     inputs: CameraInput, prepared: Trajectory, params: SyncParams, log_model: LogModel = PRESETS["none"]
 ) -> tuple[CameraInput, TargetPose]:
@@ -175,43 +171,52 @@ def posed(
         inputs.gcps,
         log_model=log_model,
     )
-    sigma = None if prepared.sigma is None else float(np.median(prepared.sigma))
-    if log_model.has_bias:
-        sigma = max(sigma or 0.0, log_model.horizontal_m)
-    camera = replace(pose.camera, name=inputs.camera.name, fps=inputs.camera.fps, pose_info=pose_info(pose, sigma))
+    camera = replace(
+        pose.camera,
+        name=inputs.camera.name,
+        fps=inputs.camera.fps,
+        pose_info=pose_info(pose, pose_log_sigma(prepared, log_model)),
+    )
     return replace(inputs, camera=camera), pose
 
 
-def with_pose_line(line: CameraLine, pose: TargetPose) -> CameraLine:
+def with_pose_line(line: CameraLine, timing: PoseTiming) -> CameraLine:
     """The line of the pose from the target under a log with a bias: the pose fit's slope, the beta that the pose and
-    the log's bias fitted together explain best (``TargetPose.bias_beta``; the pose fit's without one), and the pose
+    the log's bias fitted together explain best (``PoseTiming.bias_beta``; the pose fit's without one), and the pose
     fit's covariance with the square of the two betas' distance added to beta's variance, and the square of the
-    spread of the pose fits that are one timing with it (``TargetPose.timing_spread``: poses the track tells apart
+    spread of the pose fits that are one timing with it (``PoseTiming.spread``: poses the track tells apart
     no better than the log's bias, one answer). The pose absorbed the
     bias's mean over the visit, and the pose fit counts its wander as error shared by blocks of frames (its beta
     std carries it); the line the votes give under that pose held fixed is pulled by the wander alone (on drone2
     under a drone's GNSS, 4-28 frames off where the pose fit was within 0.3-9). Unchanged when the pose fit has no
     finite covariance of its line."""
-    fit, line_cov = pose.fit, pose.line_cov
-    if line_cov is None or not np.isfinite(line_cov).all():
+    if timing.cov is None or not np.isfinite(timing.cov).all():
         return line
-    beta = pose.bias_beta if np.isfinite(pose.bias_beta) else fit.beta
-    cov = np.array(line_cov, dtype=np.float64)
-    cov[1, 1] += (beta - fit.beta) ** 2 + pose.timing_spread**2
-    return replace(line, alpha=fit.alpha, beta=beta, cov=cov)
+    beta = timing.bias_beta if np.isfinite(timing.bias_beta) else timing.beta
+    cov = np.array(timing.cov, dtype=np.float64)
+    cov[1, 1] += (beta - timing.beta) ** 2 + timing.spread**2
+    return replace(line, alpha=timing.alpha, beta=beta, cov=cov)
 
 
-def with_pose_offset(line: CameraLine, pose: TargetPose) -> CameraLine:
+def with_pose_offset(line: CameraLine, timing: PoseTiming) -> CameraLine:
     """The line of a pose from the target under a log without a bias (with one: with_pose_line), with the pose's
     offset uncertainty added to beta's variance: the line is fitted under that pose held fixed, while the pose and the
     timing trade against each other (on a straight crossing a pose moved along the path is a time shift): the pose
     fit's beta std (clock units). And the line fitted under that pose may leave the pose fit's own line (their beta
     difference, counted as a std too: two fits of one timing on one track)."""
-    if line.cov is None or not np.isfinite(pose.se_beta):
+    if line.cov is None or not np.isfinite(timing.se_beta):
         return line
     cov = np.array(line.cov, dtype=np.float64)
-    cov[1, 1] += pose.se_beta**2 + (line.beta - pose.fit.beta) ** 2
+    cov[1, 1] += timing.se_beta**2 + (line.beta - timing.beta) ** 2
     return replace(line, cov=cov)
+
+
+def with_pose_timing(line: CameraLine, timing: PoseTiming | None, log_model: LogModel) -> CameraLine:
+    """The line with the timing of its camera's pose from the target (with_pose_line under a log with a bias, else
+    with_pose_offset); unchanged for a camera posed otherwise (``timing`` None)."""
+    if timing is None:
+        return line
+    return (with_pose_line if log_model.has_bias else with_pose_offset)(line, timing)
 
 
 def synchronize(
@@ -254,6 +259,7 @@ def synchronize(
             pose = None
             if not inputs.camera.posed:
                 inputs, pose = posed(inputs, prepared, params, log_model)
+            timing = pose.timing if pose is not None else inputs.pose_timing
             used[name] = inputs
             radius[name] = vote_radius(inputs.camera, prepared, params.eps_px, log_model)
             if inputs.track is None:
@@ -266,10 +272,7 @@ def synchronize(
                 if inputs.pick_start_s is not None:
                     result = replace(result, line=replace(result.line, flags=(*(result.line.flags or ()), "picked")))
             inputs, result = _segmented(name, inputs, result, prepared, params, radius[name], log_model)
-            if pose is not None:
-                result = replace(
-                    result, line=(with_pose_line if log_model.has_bias else with_pose_offset)(result.line, pose)
-                )
+            result = replace(result, line=with_pose_timing(result.line, timing, log_model))
             results[name], judged[name] = _judge(
                 name, inputs, replace(result, pose=pose), path, params, prior, radius[name], log_model, trajectory.rate
             )
@@ -281,10 +284,7 @@ def synchronize(
                 and search.rival_probability > 1.0 - RIVAL_PROBABILITY
             ):
                 result = _the_rival(name, inputs, results[name], prepared, params, radius[name])
-                if pose is not None:
-                    result = replace(
-                        result, line=(with_pose_line if log_model.has_bias else with_pose_offset)(result.line, pose)
-                    )
+                result = replace(result, line=with_pose_timing(result.line, timing, log_model))
                 results[name], judged[name] = _judge(
                     name,
                     inputs,

@@ -126,3 +126,10 @@ def _receiver_of(model: LogModel, white: float) -> LogModel | None:
     if model.white_m > 0 and abs(math.log(white / model.white_m)) <= abs(math.log(white / nearest.white_m)):
         return None
     return nearest
+
+
+def with_log_noise(trajectory: Trajectory, model: LogModel) -> Trajectory:
+    """The trajectory with the model's white noise as every sample's sigma, when the log states none."""
+    if trajectory.sigma is not None or model.white_m <= 0:
+        return trajectory
+    return replace(trajectory, sigma=np.full(len(trajectory), model.white_m))

@@ -296,7 +296,8 @@ def test_a_camera_without_a_pose_gets_it_from_the_target_and_a_straight_walk_fai
     for name in ("cam0", "cam2"):
         camera = read_camera(work / "cameras" / name / "camera.json")
         truth = scene.true_cameras[name]
-        assert camera.pose_info.source == "target" and not camera.pose_info.for_3d  # the CSV log states no accuracy
+        # the CSV states no accuracy: the scatter of its fixes measures it (2 cm, RTK-grade), as the sync stage does
+        assert camera.pose_info.source == "target" and camera.pose_info.for_3d
         assert np.linalg.norm(camera.center - truth.center) < 0.3 and angle_deg(camera.R, truth.R) < 1.0
         report = json.loads((work / "cameras" / name / "calibration_report.json").read_text())
         assert report["target_pose"]["source"] == "target" and report["target_pose"]["frames"] > 100
@@ -370,3 +371,31 @@ def test_gcps_that_disagree_with_the_track_are_a_warning_that_names_them():
     assert "P2, P5" in fallback and "the pose is the track's alone" in fallback
     report["target_pose"]["gcps_disagree"] = []
     assert pose_warnings(report) == ()
+
+
+def test_a_pose_from_the_target_reads_the_log_model_the_sync_stage_reads(unposed_project, tmp_path):
+    """Under a metre-level log the pose is fitted with the log's bias: [target] log_model and its overrides (the
+    bias's correlation time too, which the vote stage does not read) are in the calibrate task's parameters, as the
+    sync stage has them, so that changing them poses the camera again."""
+    from tlsync_pipeline.pipeline.graph import build_graph
+
+    root, _ = unposed_project
+    shutil.copytree(root, tmp_path / "p", ignore=shutil.ignore_patterns("work"))
+    toml = tmp_path / "p" / "project.toml"
+    given = toml.read_text()
+    assert 'trajectory = "trajectory.csv"\n' in given
+
+    def params(keys: str):
+        toml.write_text(given.replace('trajectory = "trajectory.csv"\n', f'trajectory = "trajectory.csv"\n{keys}', 1))
+        project = load_project(toml)
+        tasks = build_graph(project, project.default_work_dir, Options(progress=False)).tasks
+        return tasks["calibrate/cam0"].params, tasks["sync"].params
+
+    (undeclared, _), (drone, sync), (slower, _) = (
+        params(""),
+        params('log_model = "drone"\n'),
+        params('log_model = "drone"\nbias_tau_s = 90.0\n'),
+    )
+    assert undeclared.target.log_model.name == "auto" and drone.target.log_model.name == "drone"
+    assert drone.target.log_model == sync.log_model
+    assert slower.target.log_model.tau_s == 90.0 and slower != drone != undeclared
