@@ -59,7 +59,10 @@ def _observed_bias(sigma: float, tau: float, noise: float, prior: LogModel, seed
     whiten = _prior_whitening(knots, 1.0, prior.tau_s, scale)
     precision = (whiten.T @ whiten).toarray()
     values = np.linalg.solve(precision + information, information @ observed.ravel()).reshape(-1, 3)
-    return LogBias(knots, values, np.linalg.inv(precision + information), scale, {}, {}, True, information, prior)
+    evidence = information @ observed.ravel()
+    return LogBias(
+        knots, values, np.linalg.inv(precision + information), scale, {}, {}, True, information, evidence, prior
+    )
 
 
 def test_the_marginal_likelihood_recovers_the_bias_std_and_correlation_time_from_a_wrong_prior():
@@ -76,7 +79,12 @@ def test_the_marginal_likelihood_recovers_the_bias_std_and_correlation_time_from
 def test_a_bias_the_pixels_do_not_see_stays_at_its_prior():
     prior = PRESETS["drone"]
     bias = _observed_bias(1.0, 30.0, 0.2, prior, 0)
-    blind = dataclasses.replace(bias, values=np.zeros_like(bias.values), information=np.zeros_like(bias.information))
+    blind = dataclasses.replace(
+        bias,
+        values=np.zeros_like(bias.values),
+        information=np.zeros_like(bias.information),
+        evidence=np.zeros(bias.evidence.shape),
+    )
     found, _ = bias_marginal_likelihood(blind, 1.0, prior)
     assert (
         abs(found.bias_m - prior.bias_m) < 0.05 * prior.bias_m and abs(found.tau_s - prior.tau_s) < 0.05 * prior.tau_s
@@ -141,7 +149,9 @@ def test_a_short_correlated_error_beside_the_bias_does_not_pass_for_a_fast_bias(
         whiten = _prior_whitening(knots, 1.0, prior.tau_s, scale)
         precision = (whiten.T @ whiten).toarray()
         values = np.linalg.solve(precision + information, information @ observed.ravel()).reshape(-1, 3)
-        bias = LogBias(knots, values, np.linalg.inv(precision + information), scale, {}, {}, True, information, prior)
+        evidence = information @ observed.ravel()
+        cov = np.linalg.inv(precision + information)
+        bias = LogBias(knots, values, cov, scale, {}, {}, True, information, evidence, prior)
         found, _ = bias_marginal_likelihood(bias, 1.0, prior)
         assert abs(found.bias_m - 1.0) < 0.3, found.bias_m
         assert 30.0 < found.tau_s < 120.0, found.tau_s
