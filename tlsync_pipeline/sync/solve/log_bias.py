@@ -160,22 +160,23 @@ def fit_log_bias_measured(
     cameras: list[BiasCamera], path: PiecewiseTrajectory, rate: float, model: LogModel, f_scale: float
 ) -> LogBias:
     """fit_log_bias under the model's prior, with the bias's std and correlation time of the largest marginal
-    likelihood (bias_marginal_likelihood) as its estimate. The fit is redone under the estimate, which becomes its
-    model, when the pixels reject the model's bias (the estimate gains DECISIVE_NATS of log posterior over the model's
-    values) for one smaller than the log's own white noise or than BELOW_PRIOR of the model's bias (two of its prior's
-    log-normal stds below it): a good receiver's log declared a phone's, an RTK log's bias of centimetres among them;
-    and when the estimate is larger than the model's bias, up to the model's over BELOW_PRIOR: a log that wanders more
-    than declared (the estimate's log-normal prior already pulls it towards the model's). Otherwise the model's prior
+    likelihood (bias_marginal_likelihood) as its estimate (where the fit stopped when it did not converge, recorded
+    only: the expansion holds at any point). The fit is redone under the estimate, which becomes its model, when the
+    pixels reject the model's bias (the estimate gains DECISIVE_NATS of log posterior over the model's values) for one
+    smaller than the log's own white noise or than BELOW_PRIOR of the model's bias (two of its prior's log-normal stds
+    below it): a good receiver's log declared a phone's, an RTK log's bias of centimetres among them; and when the
+    estimate is larger than the model's bias, up to the model's over BELOW_PRIOR: a log that wanders more than
+    declared (the estimate's log-normal prior already pulls it towards the model's). Otherwise the model's prior
     stands: a smaller estimate within reach of it, applied, moved drone2's worst pair from 1.11 to 1.34 frames and cost
     phone walks accuracy (docs/algorithm.md, "The log's error")."""
     bias = fit_log_bias(cameras, path, rate, model, f_scale)
-    if not bias.converged or not model.has_bias:
+    if not model.has_bias:
         return bias
     found, gain = bias_marginal_likelihood(bias, rate, model)
     if "bias_m" not in found.measured:
         return bias
     estimate = (found.bias_m, found.tau_s)
-    if not _applies(found, gain, model):
+    if not bias.converged or not _applies(found, gain, model):
         return replace(bias, estimate=estimate)
     again = fit_log_bias(cameras, path, rate, found, f_scale)
     return replace(again if again.converged else bias, estimate=estimate)
