@@ -87,10 +87,9 @@ class LogBias:
     (alpha, beta) and sensitivity (2, 3K): d(alpha, beta) / d(knot values); converged: the solver's verdict;
     information (3K, 3K) and evidence (3K,): what the cameras' pixels say of the knots b, the likelihood
     exp(-b^T information b / 2 + evidence^T b) (the lines marginalised; information is the posterior's inverse less
-    the prior's, both from the same linearisation); model: the error model whose prior it was fitted with; estimate: the
-    bias's
-    (horizontal std m, correlation time s) of the largest marginal likelihood, or None when not measured
-    (fit_log_bias_measured)."""
+    the prior's, both from one expansion of the fit's cost); model: the error model whose prior it was fitted with;
+    estimate: the bias's (horizontal std m, correlation time s) of the largest marginal likelihood, or None when not
+    measured (fit_log_bias_measured)."""
 
     knots: np.ndarray
     values: np.ndarray
