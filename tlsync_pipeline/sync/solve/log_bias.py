@@ -85,10 +85,11 @@ class LogBias:
     """The fitted bias and the lines: knots (sample coordinates), values (K, 3) metres, their posterior covariance
     (3K, 3K, knot-major: x, y, z of knot 0, then of knot 1 ...), prior (3,) per-axis std (m); per camera its line
     (alpha, beta) and sensitivity (2, 3K): d(alpha, beta) / d(knot values); converged: the solver's verdict;
-    information (3K, 3K): what the cameras' pixels say of the knots (the lines marginalised; the posterior's
-    inverse less the prior's); model: the error model whose prior it was fitted with; estimate: the bias's
-    (horizontal std m, correlation time s) of the largest marginal likelihood, or None when not measured
-    (fit_log_bias_measured)."""
+    information (3K, 3K) and evidence (3K,): what the cameras' pixels say of the knots b, the likelihood
+    exp(-b^T information b / 2 + evidence^T b) (the lines marginalised; information is the posterior's inverse less
+    the prior's, both from one expansion of the fit's cost); model: the error model whose prior it was fitted with;
+    estimate: the bias's (horizontal std m, correlation time s) of the largest marginal likelihood, or None when not
+    measured (fit_log_bias_measured)."""
 
     knots: np.ndarray
     values: np.ndarray
@@ -98,6 +99,7 @@ class LogBias:
     sensitivity: dict[str, np.ndarray]
     converged: bool
     information: np.ndarray
+    evidence: np.ndarray
     model: LogModel
     estimate: tuple[float, float] | None = None
 
@@ -145,36 +147,47 @@ def fit_log_bias(
     converged = True
     if estimate:
         z, converged = _graduated(problem, z, f_scale)
-    posterior, sensitivity, information = problem.uncertainty(z)
+    posterior, sensitivity, information, evidence = problem.uncertainty(z)
     if not estimate:
         posterior = np.linalg.pinv((whiten.T @ whiten).toarray())
     lines = {c.name: problem.line(z, k) for k, c in enumerate(cameras)}
-    return LogBias(
-        knots, z[2 * len(cameras) :].reshape(-1, 3), posterior, prior, lines, sensitivity, converged, information, model
-    )
+    values = z[2 * len(cameras) :].reshape(-1, 3)
+    return LogBias(knots, values, posterior, prior, lines, sensitivity, converged, information, evidence, model)
 
 
 def fit_log_bias_measured(
     cameras: list[BiasCamera], path: PiecewiseTrajectory, rate: float, model: LogModel, f_scale: float
 ) -> LogBias:
     """fit_log_bias under the model's prior, with the bias's std and correlation time of the largest marginal
-    likelihood (bias_marginal_likelihood) as its estimate. The fit is redone under the estimate, which becomes its
-    model, when the pixels reject the model's bias (the estimate gains DECISIVE_NATS of log posterior over the model's
-    values) for one smaller than the log's own white noise or than BELOW_PRIOR of the model's bias (two of its prior's
-    log-normal stds below it): a good receiver's log declared a phone's, an RTK log's bias of centimetres among them.
-    Otherwise the model's prior stands: an estimate within reach of it, applied, moved drone2's worst pair from 1.11
-    to 1.34 frames and cost phone walks accuracy (docs/algorithm.md, "The log's error")."""
+    likelihood (bias_marginal_likelihood) as its estimate (where the fit stopped when it did not converge, recorded
+    only: the expansion holds at any point). The fit is redone under the estimate, which becomes its model, when the
+    pixels reject the model's bias (the estimate gains DECISIVE_NATS of log posterior over the model's values) for one
+    smaller than the log's own white noise or than BELOW_PRIOR of the model's bias (two of its prior's log-normal stds
+    below it): a good receiver's log declared a phone's, an RTK log's bias of centimetres among them; and when the
+    estimate is larger than the model's bias, up to the model's over BELOW_PRIOR: a log that wanders more than
+    declared (the estimate's log-normal prior already pulls it towards the model's). Otherwise the model's prior
+    stands: a smaller estimate within reach of it, applied, moved drone2's worst pair from 1.11 to 1.34 frames and cost
+    phone walks accuracy (docs/algorithm.md, "The log's error")."""
     bias = fit_log_bias(cameras, path, rate, model, f_scale)
-    if not bias.converged or not model.has_bias:
+    if not model.has_bias:
         return bias
     found, gain = bias_marginal_likelihood(bias, rate, model)
     if "bias_m" not in found.measured:
         return bias
     estimate = (found.bias_m, found.tau_s)
-    if gain < DECISIVE_NATS or found.bias_m >= max(model.white_m, BELOW_PRIOR * model.bias_m):
+    if not bias.converged or not _applies(found, gain, model):
         return replace(bias, estimate=estimate)
     again = fit_log_bias(cameras, path, rate, found, f_scale)
     return replace(again if again.converged else bias, estimate=estimate)
+
+
+def _applies(found: LogModel, gain: float, model: LogModel) -> bool:
+    """Whether the bias's estimate replaces the model's: decisively smaller (see fit_log_bias_measured), or larger
+    than the model's and within its prior's reach (under its std over BELOW_PRIOR; beyond it, a fit in a wrong basin
+    rather than a receiver)."""
+    if found.bias_m > model.bias_m:
+        return found.bias_m <= model.bias_m / BELOW_PRIOR
+    return gain >= DECISIVE_NATS and found.bias_m < max(model.white_m, BELOW_PRIOR * model.bias_m)
 
 
 def bias_marginal_likelihood(bias: LogBias, rate: float, model: LogModel) -> tuple[LogModel, float]:
@@ -191,9 +204,8 @@ def bias_marginal_likelihood(bias: LogBias, rate: float, model: LogModel) -> tup
     Also the log posterior (nats) the estimate gains over the model's values (0: the model kept)."""
     ratio = model.bias_vertical_m / model.bias_m if model.bias_m > 0 else 2.0
     start = np.log([model.bias_m, max(model.tau_s, SCALE_SPLIT_S), max(model.white_m, FAST_FLOOR_M), FAST_TAU_S])
-    start_whiten = _prior_whitening(bias.knots, rate, model.tau_s, bias.prior)
     information = sp.csc_matrix(bias.information)  # nonzero only over each visit's knots
-    h = (start_whiten.T @ start_whiten + information) @ bias.values.ravel()
+    h = bias.evidence
     both = sp.kron(np.ones((2, 2)), information, format="csc")
     g = np.r_[h, h]
 
@@ -369,34 +381,40 @@ class _Joint:
         line = np.column_stack([along * np.repeat(c.clock - c.middle, 2), along])
         return sp.hstack([sp.csr_matrix(line), jac[:, 2:]], format="csr")
 
-    def uncertainty(self, z: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarray], np.ndarray]:
-        """The knots' posterior covariance (m^2), each camera's sensitivity d(alpha, beta) / d(knots), and the
-        information of the pixels on the knots (the posterior's inverse less the prior's).
+    def uncertainty(self, z: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarray], np.ndarray, np.ndarray]:
+        """The knots' posterior covariance (m^2), each camera's sensitivity d(alpha, beta) / d(knots), and what the
+        pixels say of the knots b (the lines marginalised): the likelihood exp(-b^T H b / 2 + h^T b), H (3K, 3K) the
+        posterior's inverse less the prior's, h (3K,) = H b_z - the marginalised gradient of the cost at z, both from
+        one quadratic expansion of the cost at z (z need not be its optimum).
 
         A frame's pixels move with the line (time) as the target moved in the image: its velocity measured on the
         track (image_velocity), not the log's projected. The log's motion over less than a knot's spacing carries
         the bias's unresolved wander and the white noise: taken as the target's, it tells the bias along the path
         from a time shift where the path is straight (on straight walks at 5 m/s under a drone's log, 78 % of the
-        pairs' intervals held the truth; 95 % with the track's velocity).
+        pairs' intervals held the truth; 95 % with the track's velocity). The same line columns give h, so a
+        direction along the path H leaves uninformed carries no evidence either.
 
         Each camera's information is its robust bread J^T psi' J divided by its residuals' variance factor
         (sum psi^2 / sum psi', the M-estimator's), inflated by its own refinement's covariance over that naive
-        one where residuals correlate in time; the prior's is W^T W.
+        one where residuals correlate in time; its gradient J^T psi is divided the same; the prior's is W^T W.
         """
         residuals, jacobians = self._pixels(z)
         information = (self.whiten.T @ self.whiten).toarray()
         data = np.zeros_like(information)
+        score = np.zeros(information.shape[0])
         blocks = []
         for k, (r, jac) in enumerate(zip(residuals, jacobians)):
             jac = self._seen_line_columns(k, jac, z)
             inflation = _inflation(self.cameras[k], r, jac, self.f_scale, z[2 * k : 2 * k + 2])
             h = _bread(self.cameras[k], r, jac, self.f_scale) / inflation
+            g = _gradient(self.cameras[k], r, jac, self.f_scale, z[2 * k]) / inflation
             h_tt, h_tb, h_bb = h[:2, :2], h[:2, 2:], h[2:, 2:]
             gain = (
                 np.linalg.pinv(h_tt) @ h_tb
             )  # (2, 3K); a camera whose line the residuals do not determine tells nothing of the bias
             information = information + h_bb - h_tb.T @ gain
             data = data + h_bb - h_tb.T @ gain
+            score = score + g[2:] - gain.T @ g[:2]
             blocks.append((gain, z[2 * k : 2 * k + 2]))
         posterior = np.linalg.pinv(information)
         sensitivity = {}
@@ -405,7 +423,7 @@ class _Joint:
                 [[-1.0 / u**2, 0.0], [s0 / u**2, -1.0 / u]]
             )  # d(alpha, beta) / d(u, s0), beta = middle - s0 / u
             sensitivity[c.name] = to_line @ (-gain)
-        return posterior, sensitivity, data
+        return posterior, sensitivity, data, data @ z[2 * self.n :] - score
 
 
 def _camera_rows(
@@ -455,6 +473,16 @@ def _bread(c: BiasCamera, r: np.ndarray, jac: sp.csr_matrix, f_scale: float) -> 
     if c.prior is not None:
         bread[0, 0] += (c.prior.alpha / c.prior.sigma) ** 2
     return bread
+
+
+def _gradient(c: BiasCamera, r: np.ndarray, jac: sp.csr_matrix, f_scale: float, u: float) -> np.ndarray:
+    """One camera's gradient of its robust cost J^T psi (its slope prior's included; u its 1 / alpha), in (its x, the
+    knots): the bread's companion."""
+    psi = r / np.sqrt(1.0 + (r / f_scale) ** 2)
+    gradient = np.asarray(jac.T @ psi.ravel()).ravel()
+    if c.prior is not None:
+        gradient[0] += (c.prior.alpha * u - 1.0) * c.prior.alpha / c.prior.sigma**2
+    return gradient
 
 
 def _inflation(c: BiasCamera, r: np.ndarray, jac: sp.csr_matrix, f_scale: float, x: np.ndarray) -> float:

@@ -180,7 +180,7 @@ class RefinedMethod(RefinedKind):
             else fit_log_bias(list(joint.values()), path, rate, bias.model, options.f_scale_px, estimate=False)
         )
         if not again:
-            bias = at_prior
+            bias = replace(at_prior, estimate=bias.estimate)
         out = dict(lines)
         for name, r in own.items():
             fit, source = (again[name], bias) if name in again else (r, at_prior)
