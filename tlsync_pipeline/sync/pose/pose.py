@@ -96,6 +96,7 @@ from tlsync_pipeline.sync.pose.pose_fit import (
 )
 from tlsync_pipeline.sync.pose.pose_timing import PoseTiming
 from tlsync_pipeline.sync.pose.timing import DISTINCT_S, bias_frames, one_timing, rival_probability, timing_spread
+from tlsync_pipeline.sync.pose.upright import is_upright
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
 from trackers.detections import Detections
 from trackers.track import Track
@@ -147,6 +148,8 @@ REMEDIES = {
     "gcp_conflict": "check the GCP file (each pixel against its world point) and gcp_sigma_m, and that the log is in "
     "the GCPs' frame",
     "no_fit": "check the intrinsics (K, dist) and that the log covers the video, or add 4 GCPs (gcp = ...)",
+    "not_upright": "if the camera is mounted rolled that far, set [sync] upright_roll_deg = 180 (the upright prior "
+    "off), or survey it (GCPs or a camera.json with its pose)",
     "planar_path": "calibrate the intrinsics with checkerboard photos (a target moving in a plane does not determine "
     "the focal length), or fly it at different heights",
 }
@@ -339,6 +342,7 @@ def pose_from_track(
     delta: float = 0.5,
     offsets: tuple[float, float] | None = None,
     log_model: LogModel | None = None,
+    max_roll_deg: float | None = None,
 ) -> TargetPose:
     """The camera's pose (and line) from its track of the target; PoseError with the cause when it is not determined.
 
@@ -356,7 +360,9 @@ def pose_from_track(
     with the log's bias over the visit fitted with the pose (sync/pose/pose_bias.py),
     and the fits' gate, loss scale and shared model error widen to the error
     a fixed pose cannot absorb over the track's span (``LogModel.unabsorbed_m``)
-    as seen at the target's depth (``log_scales``).
+    as seen at the target's depth (``log_scales``); max_roll_deg: without
+    GCPs, the upright-mount prior's tolerance (sync/pose/upright.py: poses
+    rolled further are left out of the search and the fits; None: off).
     """
     clock = np.asarray(clock, dtype=np.float64)
     xy = np.asarray(xy, dtype=np.float64)
@@ -383,13 +389,29 @@ def pose_from_track(
                 delta,
                 offsets=offsets,
                 log_model=biased,
+                max_roll_deg=max_roll_deg if gcps is None else None,
             )
         except PoseError as exc:
             if exc.cause != "gcp_conflict" or free:
                 raise
             # GCPs without a pose of their own (too few, too rough) that no pose of the track keeps: the track alone
             alone = pose_from_track(
-                camera, clock, xy, path, prior, fps, gate_px, None, None, (), f_scale, seed, delta, offsets, log_model
+                camera,
+                clock,
+                xy,
+                path,
+                prior,
+                fps,
+                gate_px,
+                None,
+                None,
+                (),
+                f_scale,
+                seed,
+                delta,
+                offsets,
+                log_model,
+                max_roll_deg,
             )
             return replace(alone, disagreeing=_names(gcps))  # type: ignore[arg-type]
         result = ranked_pose(fits, search, xy, fps or 0.0, gcps is not None, gcp_camera, clock, path, biased)
@@ -554,20 +576,33 @@ def candidate_fits(
     min_frames: int = MIN_FRAMES,
     offsets: tuple[float, float] | None = None,
     log_model: LogModel | None = None,
+    max_roll_deg: float | None = None,
 ) -> tuple[OffsetSearch, list[JointFit]]:
     """The offset search (within ``offsets``, clock units, when given) and the joint fits of its candidates (and the
     GCP candidate), best first (most frames within the gate).
 
     With GCPs only the fits that keep them within GCP_AGREE sigmas. log_model:
-    a log with a bias (``pose_from_track``'s), or None. Raises PoseError when
-    there is none (no_clock, too_few_frames, planar_path, no_fit, gcp_conflict).
+    a log with a bias (``pose_from_track``'s), or None; max_roll_deg: the
+    upright prior's tolerance (None: off), which the search and the fits keep.
+    Raises PoseError when there is none (no_clock, too_few_frames,
+    planar_path, no_fit, not_upright, gcp_conflict).
     """
     name = camera.name
     prior, fps = _searchable(name, prior, fps, clock, min_frames)
     dlt = "intrinsics" in camera.to_estimate
     biased = log_model if log_model is not None and log_model.has_bias else None
     search, candidates = search_offsets(
-        camera, clock, xy, path, prior.alpha, seed, dlt=dlt, offsets=offsets, log_model=biased, fps=fps
+        camera,
+        clock,
+        xy,
+        path,
+        prior.alpha,
+        seed,
+        dlt=dlt,
+        offsets=offsets,
+        log_model=biased,
+        fps=fps,
+        max_roll_deg=max_roll_deg,
     )
     log_m = biased.unabsorbed_m(float(np.ptp(clock)) / fps) if biased is not None else 0.0
     if gcp_camera is not None:
@@ -577,6 +612,15 @@ def candidate_fits(
     fits = _fit_candidates(
         candidates, clock, xy, path, prior, gate_px, f_scale, gcps, free, search.threshold_px, min_frames, log_m
     )
+    fitted = len(fits)
+    fits = [f for f in fits if is_upright(f.camera.R, max_roll_deg)]
+    if fitted and not fits:
+        raise PoseError(
+            name,
+            "not_upright",
+            f"every pose that explains the track is rolled more than {max_roll_deg:g} degrees (the world's up not "
+            f"up in the image)",
+        )
     if not fits and dlt and planarity(path) < PLANAR:
         raise PoseError(
             name,
@@ -878,6 +922,7 @@ def search_offsets(
     offsets: tuple[float, float] | None = None,
     log_model: LogModel | None = None,
     fps: float | None = None,
+    max_roll_deg: float | None = None,
 ) -> tuple[OffsetSearch, list[Candidate]]:
     """The search over beta with alpha held (module docstring, step 1): the fine pass and the CANDIDATES best peaks as
     cameras.
@@ -885,7 +930,7 @@ def search_offsets(
     dlt: fit a projection matrix (unknown intrinsics) instead of a pose; offsets: the range of beta searched (clock
     units), within what the log allows (None: all of it); log_model: a log with a bias, whose bias over the track is
     fitted with each offset's pose (sync/pose/pose_bias.py; the camera's fps gives the knots' seconds; None: a rigid
-    pose).
+    pose); max_roll_deg: an offset whose pose is rolled further has no support (sync/pose/upright.py; None: off).
     """
     w, h = camera.image_size
     threshold = max(8.0, 0.01 * float(np.hypot(w, h)))
@@ -902,7 +947,7 @@ def search_offsets(
         lo, hi = max(lo, offsets[0]), min(hi, offsets[1])
     biased = log_model is not None and log_model.has_bias and fps and not dlt
     visit = VisitBias.over(c, fps, log_model) if biased else None  # type: ignore[arg-type]
-    score = _Scorer(camera.K, c, ideal, path, alpha, dlt, visit)
+    score = _Scorer(camera.K, c, ideal, path, alpha, dlt, visit, max_roll_deg)
     betas = np.arange(lo, hi + coarse, coarse)
     support = score.many(betas, COARSE * threshold)
     tried = len(betas)
@@ -942,7 +987,8 @@ def _peaks(support: np.ndarray, count: int, separation: float = 2.0) -> list[int
 class _Scorer:
     """Support of candidate offsets: pose (or projection matrix) fitted to the pairs, trimmed twice, pairs within a
     threshold; under a log with a bias (``bias``), the pose and the log's bias over the visit fitted together
-    (sync/pose/pose_bias.py, its support in the same units)."""
+    (sync/pose/pose_bias.py, its support in the same units); an offset whose pose is rolled more than max_roll_deg
+    has none (sync/pose/upright.py; None: any roll)."""
 
     def __init__(
         self,
@@ -953,9 +999,10 @@ class _Scorer:
         alpha: float,
         dlt: bool,
         bias: VisitBias | None = None,
+        max_roll_deg: float | None = None,
     ):
         self.K, self.clock, self.ideal, self.path, self.alpha, self.dlt = K, clock, ideal, path, alpha, dlt
-        self.bias = bias
+        self.bias, self.max_roll_deg = bias, max_roll_deg
 
     def pairs(self, beta: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The trajectory's positions and the pixels of the rows on it at ``beta``, and the mask of those rows."""
@@ -994,11 +1041,20 @@ class _Scorer:
         """
         if self.bias is not None and on is not None:
             support, pose, _ = fit_with_bias(xyz, uv, self.K, self.bias, on, threshold / CUT, _pnp)
-            return support, pose
+            return (support, pose) if self._upright(pose) else (0, None)
         fitted = polish(_Pairs(xyz, uv, self.K, self.dlt), trimmed(0.5), 3, min_inliers=6, strict=True)
-        if fitted is None:
+        if fitted is None or not self._upright(fitted.model):
             return 0, None
         return msac(fitted.residuals, threshold), fitted.model
+
+    def _upright(self, model) -> bool:
+        """Whether a pose (rvec, tvec) or projection matrix keeps the upright prior (any model without it)."""
+        import cv2
+
+        if self.max_roll_deg is None or model is None:
+            return True
+        R = _decompose(model, (1, 1))[1] if self.dlt else cv2.Rodrigues(model[0])[0]
+        return is_upright(R, self.max_roll_deg)
 
     def camera_at(self, camera: Camera, beta: float, threshold: float) -> Camera | None:
         """The camera of the pose fitted at ``beta`` (with K and R, t from the projection matrix under DLT), or None."""
@@ -1284,6 +1340,7 @@ def pose_from_movers(
     free: tuple[str, ...] = (),
     offsets: tuple[float, float] | None = None,
     windows: tuple[tuple[int, int], ...] | None = None,
+    max_roll_deg: float | None = None,
 ) -> MoverPose:
     """The camera's pose from every mover of its video (detections), without a track of the target.
 
@@ -1306,9 +1363,10 @@ def pose_from_movers(
     frames ([start, stop), 0-based) where the scan stage's coarse line puts
     the target in view: only a tracklet with MIN_TRACKLET_FRAMES frames in
     them is tried (the frames read outside them, for the breaks only, show
-    movers at times the target is out of view; None: every tracklet).
-    Identification still sees every mover. Raises PoseError when no
-    tracklet leads to a determined pose.
+    movers at times the target is out of view; None: every tracklet);
+    max_roll_deg: without GCPs, the upright prior's tolerance
+    (``pose_from_track``'s). Identification still sees every mover. Raises
+    PoseError when no tracklet leads to a determined pose.
     """
     prior = slope_prior(fps, trajectory.rate, params.rate_sigma)
     eps_px, delta, seed, f_scale = params.eps_px, params.delta, params.seed, params.f_scale_px
@@ -1363,6 +1421,7 @@ def pose_from_movers(
                 delta,
                 MIN_TRACKLET_FRAMES,
                 offsets,
+                max_roll_deg=max_roll_deg if gcps is None else None,
             )
         except PoseError as exc:
             tried[tid] = exc.cause
@@ -1512,6 +1571,7 @@ def estimate_pose(
     offsets: tuple[float, float] | None = None,
     log_model: LogModel | None = None,
     windows: tuple[tuple[int, int], ...] | None = None,
+    max_roll_deg: float | None = None,
 ) -> tuple[TargetPose, Identification | None]:
     """A camera's pose from the target: from its track when it has one (``pose_from_track``), else from every mover
     (``pose_from_movers``).
@@ -1527,8 +1587,9 @@ def estimate_pose(
     tracklets (``pose_from_movers``; None: everywhere); log_model: the log's
     error (with a bias, the search from a track fits the bias with the pose,
     and the fits allow the part of it a fixed pose cannot absorb,
-    ``pose_from_track``'s). A camera without K gets its intrinsics fitted
-    too. Returns the pose and, from movers, the identification under it.
+    ``pose_from_track``'s); max_roll_deg: without GCPs, the upright-mount
+    prior's tolerance (degrees, sync/pose/upright.py; None: off). A camera
+    without K gets its intrinsics fitted too. Returns the pose and, from movers, the identification under it.
     Raises PoseError.
     """
     if start is None and gcps is not None and len(gcps.xyz) >= 4:
@@ -1540,7 +1601,16 @@ def estimate_pose(
         if detections is None:
             raise PoseError(camera.name, "too_few_frames", "neither a track nor any mover's detections")
         found = pose_from_movers(
-            camera, detections, trajectory, fps, params, gcps, start, offsets=offsets, windows=windows
+            camera,
+            detections,
+            trajectory,
+            fps,
+            params,
+            gcps,
+            start,
+            offsets=offsets,
+            windows=windows,
+            max_roll_deg=max_roll_deg,
         )
         return found.pose, found.identification
     clock = camera_clock(track, fps)
@@ -1563,6 +1633,7 @@ def estimate_pose(
         params.delta,
         offsets,
         log_model,
+        max_roll_deg,
     )
     return pose, None
 
