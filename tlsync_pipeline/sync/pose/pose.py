@@ -96,7 +96,7 @@ from tlsync_pipeline.sync.pose.pose_fit import (
 )
 from tlsync_pipeline.sync.pose.pose_timing import PoseTiming
 from tlsync_pipeline.sync.pose.timing import DISTINCT_S, bias_frames, one_timing, rival_probability, timing_spread
-from tlsync_pipeline.sync.pose.upright import is_upright
+from tlsync_pipeline.sync.pose.upright import is_upright, roll_deg
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
 from trackers.detections import Detections
 from trackers.track import Track
@@ -361,8 +361,7 @@ def pose_from_track(
     and the fits' gate, loss scale and shared model error widen to the error
     a fixed pose cannot absorb over the track's span (``LogModel.unabsorbed_m``)
     as seen at the target's depth (``log_scales``); max_roll_deg: without
-    GCPs, the upright-mount prior's tolerance (sync/pose/upright.py: poses
-    rolled further are left out of the search and the fits; None: off).
+    GCPs, the upright-mount prior's tolerance (``ranked_pose``; None: off).
     """
     clock = np.asarray(clock, dtype=np.float64)
     xy = np.asarray(xy, dtype=np.float64)
@@ -389,7 +388,6 @@ def pose_from_track(
                 delta,
                 offsets=offsets,
                 log_model=biased,
-                max_roll_deg=max_roll_deg if gcps is None else None,
             )
         except PoseError as exc:
             if exc.cause != "gcp_conflict" or free:
@@ -414,7 +412,10 @@ def pose_from_track(
                 max_roll_deg,
             )
             return replace(alone, disagreeing=_names(gcps))  # type: ignore[arg-type]
-        result = ranked_pose(fits, search, xy, fps or 0.0, gcps is not None, gcp_camera, clock, path, biased)
+        upright = max_roll_deg if gcps is None else None
+        result = ranked_pose(
+            fits, search, xy, fps or 0.0, gcps is not None, gcp_camera, clock, path, biased, max_roll_deg=upright
+        )
         if free:
             result = _settle_intrinsics(result, clock, xy, path, prior, gate_px, f_scale, gcps, free, unknown_k)
         check_determined(result, clock, path, gcps is not None, log_m, fps)
@@ -576,33 +577,20 @@ def candidate_fits(
     min_frames: int = MIN_FRAMES,
     offsets: tuple[float, float] | None = None,
     log_model: LogModel | None = None,
-    max_roll_deg: float | None = None,
 ) -> tuple[OffsetSearch, list[JointFit]]:
     """The offset search (within ``offsets``, clock units, when given) and the joint fits of its candidates (and the
     GCP candidate), best first (most frames within the gate).
 
     With GCPs only the fits that keep them within GCP_AGREE sigmas. log_model:
-    a log with a bias (``pose_from_track``'s), or None; max_roll_deg: the
-    upright prior's tolerance (None: off), which the search and the fits keep.
-    Raises PoseError when there is none (no_clock, too_few_frames,
-    planar_path, no_fit, not_upright, gcp_conflict).
+    a log with a bias (``pose_from_track``'s), or None. Raises PoseError when
+    there is none (no_clock, too_few_frames, planar_path, no_fit, gcp_conflict).
     """
     name = camera.name
     prior, fps = _searchable(name, prior, fps, clock, min_frames)
     dlt = "intrinsics" in camera.to_estimate
     biased = log_model if log_model is not None and log_model.has_bias else None
     search, candidates = search_offsets(
-        camera,
-        clock,
-        xy,
-        path,
-        prior.alpha,
-        seed,
-        dlt=dlt,
-        offsets=offsets,
-        log_model=biased,
-        fps=fps,
-        max_roll_deg=max_roll_deg,
+        camera, clock, xy, path, prior.alpha, seed, dlt=dlt, offsets=offsets, log_model=biased, fps=fps
     )
     log_m = biased.unabsorbed_m(float(np.ptp(clock)) / fps) if biased is not None else 0.0
     if gcp_camera is not None:
@@ -612,15 +600,6 @@ def candidate_fits(
     fits = _fit_candidates(
         candidates, clock, xy, path, prior, gate_px, f_scale, gcps, free, search.threshold_px, min_frames, log_m
     )
-    fitted = len(fits)
-    fits = [f for f in fits if is_upright(f.camera.R, max_roll_deg)]
-    if fitted and not fits:
-        raise PoseError(
-            name,
-            "not_upright",
-            f"every pose that explains the track is rolled more than {max_roll_deg:g} degrees (the world's up not "
-            f"up in the image)",
-        )
     if not fits and dlt and planarity(path) < PLANAR:
         raise PoseError(
             name,
@@ -728,6 +707,7 @@ def ranked_pose(
     clock: np.ndarray | None = None,
     path: PiecewiseTrajectory | None = None,
     log_model: LogModel | None = None,
+    max_roll_deg: float | None = None,
 ) -> TargetPose:
     """The best of the fits (first: most support) with its runner-up at a distinct offset, as a TargetPose (not yet
     checked).
@@ -738,8 +718,22 @@ def ranked_pose(
     timing with the winner (sync/pose/timing.py: beyond the betas' stds and what the bias along the path explains);
     the runner-up is the distinct fit the track's evidence makes most probable (``rival_probability``), and the
     timing's spread is that of the fits that are one timing.
+
+    max_roll_deg: the upright-mount prior (sync/pose/upright.py; None: off): the best is the first fit whose roll is
+    within it, and every other fit, rolled or not, stays a possible runner-up with all its evidence (a rolled pose that
+    explains the track at another offset still says the track is ambiguous). PoseError ``not_upright`` when no fit is
+    within it.
     """
-    best = fits[0]
+    upright = [k for k, f in enumerate(fits) if is_upright(f.camera.R, max_roll_deg)]
+    if not upright:
+        raise PoseError(
+            fits[0].camera.name,
+            "not_upright",
+            f"every pose that explains the track is rolled more than {max_roll_deg:g} degrees (the best "
+            f"{roll_deg(fits[0].camera.R):.0f}: the world's up not up in the image)",
+        )
+    best = fits[upright[0]]
+    fits = [best] + [f for k, f in enumerate(fits) if k != upright[0]]
     tight = TIGHT * max(float(np.median(best.errors[best.inliers])), 0.5)
     biased = clock is not None and path is not None and log_model is not None and log_model.has_bias and fps > 0
     probability, spread = float("nan"), 0.0
@@ -922,7 +916,6 @@ def search_offsets(
     offsets: tuple[float, float] | None = None,
     log_model: LogModel | None = None,
     fps: float | None = None,
-    max_roll_deg: float | None = None,
 ) -> tuple[OffsetSearch, list[Candidate]]:
     """The search over beta with alpha held (module docstring, step 1): the fine pass and the CANDIDATES best peaks as
     cameras.
@@ -930,7 +923,7 @@ def search_offsets(
     dlt: fit a projection matrix (unknown intrinsics) instead of a pose; offsets: the range of beta searched (clock
     units), within what the log allows (None: all of it); log_model: a log with a bias, whose bias over the track is
     fitted with each offset's pose (sync/pose/pose_bias.py; the camera's fps gives the knots' seconds; None: a rigid
-    pose); max_roll_deg: an offset whose pose is rolled further has no support (sync/pose/upright.py; None: off).
+    pose).
     """
     w, h = camera.image_size
     threshold = max(8.0, 0.01 * float(np.hypot(w, h)))
@@ -947,7 +940,7 @@ def search_offsets(
         lo, hi = max(lo, offsets[0]), min(hi, offsets[1])
     biased = log_model is not None and log_model.has_bias and fps and not dlt
     visit = VisitBias.over(c, fps, log_model) if biased else None  # type: ignore[arg-type]
-    score = _Scorer(camera.K, c, ideal, path, alpha, dlt, visit, max_roll_deg)
+    score = _Scorer(camera.K, c, ideal, path, alpha, dlt, visit)
     betas = np.arange(lo, hi + coarse, coarse)
     support = score.many(betas, COARSE * threshold)
     tried = len(betas)
@@ -987,8 +980,7 @@ def _peaks(support: np.ndarray, count: int, separation: float = 2.0) -> list[int
 class _Scorer:
     """Support of candidate offsets: pose (or projection matrix) fitted to the pairs, trimmed twice, pairs within a
     threshold; under a log with a bias (``bias``), the pose and the log's bias over the visit fitted together
-    (sync/pose/pose_bias.py, its support in the same units); an offset whose pose is rolled more than max_roll_deg
-    has none (sync/pose/upright.py; None: any roll)."""
+    (sync/pose/pose_bias.py, its support in the same units)."""
 
     def __init__(
         self,
@@ -999,10 +991,9 @@ class _Scorer:
         alpha: float,
         dlt: bool,
         bias: VisitBias | None = None,
-        max_roll_deg: float | None = None,
     ):
         self.K, self.clock, self.ideal, self.path, self.alpha, self.dlt = K, clock, ideal, path, alpha, dlt
-        self.bias, self.max_roll_deg = bias, max_roll_deg
+        self.bias = bias
 
     def pairs(self, beta: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The trajectory's positions and the pixels of the rows on it at ``beta``, and the mask of those rows."""
@@ -1041,20 +1032,11 @@ class _Scorer:
         """
         if self.bias is not None and on is not None:
             support, pose, _ = fit_with_bias(xyz, uv, self.K, self.bias, on, threshold / CUT, _pnp)
-            return (support, pose) if self._upright(pose) else (0, None)
+            return support, pose
         fitted = polish(_Pairs(xyz, uv, self.K, self.dlt), trimmed(0.5), 3, min_inliers=6, strict=True)
-        if fitted is None or not self._upright(fitted.model):
+        if fitted is None:
             return 0, None
         return msac(fitted.residuals, threshold), fitted.model
-
-    def _upright(self, model) -> bool:
-        """Whether a pose (rvec, tvec) or projection matrix keeps the upright prior (any model without it)."""
-        import cv2
-
-        if self.max_roll_deg is None or model is None:
-            return True
-        R = _decompose(model, (1, 1))[1] if self.dlt else cv2.Rodrigues(model[0])[0]
-        return is_upright(R, self.max_roll_deg)
 
     def camera_at(self, camera: Camera, beta: float, threshold: float) -> Camera | None:
         """The camera of the pose fitted at ``beta`` (with K and R, t from the projection matrix under DLT), or None."""
@@ -1365,7 +1347,7 @@ def pose_from_movers(
     them is tried (the frames read outside them, for the breaks only, show
     movers at times the target is out of view; None: every tracklet);
     max_roll_deg: without GCPs, the upright prior's tolerance
-    (``pose_from_track``'s). Identification still sees every mover. Raises
+    (``ranked_pose``). Identification still sees every mover. Raises
     PoseError when no tracklet leads to a determined pose.
     """
     prior = slope_prior(fps, trajectory.rate, params.rate_sigma)
@@ -1421,7 +1403,6 @@ def pose_from_movers(
                 delta,
                 MIN_TRACKLET_FRAMES,
                 offsets,
-                max_roll_deg=max_roll_deg if gcps is None else None,
             )
         except PoseError as exc:
             tried[tid] = exc.cause
@@ -1488,7 +1469,13 @@ def pose_from_movers(
     order = sorted(range(len(finals)), key=lambda k: (-finals[k][0].support, finals[k][0].scale_px))
     best, identified, tid, search = finals[order[0]]
     pose = ranked_pose(
-        [finals[k][0] for k in order], search, identified.track.xy, fps or 0.0, gcps is not None, gcp_camera
+        [finals[k][0] for k in order],
+        search,
+        identified.track.xy,
+        fps or 0.0,
+        gcps is not None,
+        gcp_camera,
+        max_roll_deg=max_roll_deg if gcps is None else None,
     )
     clock = row_clock[identified.rows]
     if free:
