@@ -70,3 +70,38 @@ def test_a_camera_mounted_upside_down_is_refused_under_the_prior_and_posed_with_
     assert abs(found.fit.beta - scene.lines["cam0"].beta) < 1.5
     level = _pose(scene, camera, track, 45.0)  # the level mount keeps its pose under the prior
     assert P.rotation_between(level.camera.R, camera.R) < 1.0
+
+
+@pytest.mark.slow
+def test_a_rolled_pose_at_a_wrong_offset_is_no_answer_for_a_level_camera():
+    """The wild bench's nopose seed 5 (a turning walk under a phone's 1 m / 60 s log, declared, no pose): cam0's best
+    fit is a pose rolled 179 degrees 81 m away at an offset 5049 frames off, the right pose a runner-up the track's
+    evidence left under 1 %, and cam0 was synchronized wrong. Under the prior the rolled pose cannot win and, as a
+    rival, keeps the camera refused; with the prior off it wins again."""
+    from data_fixtures.log_error import PRESETS as RECEIVERS
+    from data_fixtures.walk import WalkSpec, make_walk_scene
+    from tlsync_pipeline.sync.model.log_model import PRESETS as LOG_MODELS
+    from tlsync_pipeline.sync.model.params import SyncParams
+    from tlsync_pipeline.sync.solve.synchronize import CameraInput, synchronize
+
+    scene = make_walk_scene(5, WalkSpec(route="turns", log=RECEIVERS["phone"]))
+    camera = scene.cameras["cam0"]
+    inputs = {
+        "cam0": CameraInput(
+            replace(camera, R=np.eye(3), t=np.zeros(3), to_estimate=("pose",), pose_info=None),
+            scene.tracks["cam0"],
+            camera.fps,
+        )
+    }
+    truth = scene.lines["cam0"]
+
+    def error_frames(params: SyncParams) -> float:
+        timeline, _ = synchronize(inputs, scene.trajectory, params, log_model=LOG_MODELS["phone"])
+        if "cam0" in timeline.failed:
+            return float("nan")
+        line = timeline.cameras["cam0"]
+        middle = float(np.median(scene.tracks["cam0"].frame))
+        return abs(middle - (truth.alpha * (middle - line.beta) / line.alpha + truth.beta))
+
+    assert error_frames(SyncParams(upright_roll_deg=OFF_DEG)) > 1000  # the rolled pose, synchronized wrong
+    assert not error_frames(SyncParams()) > 3.0  # refused, or right

@@ -6,9 +6,12 @@ well by poses turned 135-180 degrees about the optical axis (the image's
 up pointing down or sideways) at offsets hundreds to thousands of frames
 off: another stretch of the log, mirrored by the turned pose, matches the
 track (docs/calibration.md, "Under a log with a bias"). No fixed mount
-looks like that; the pose search leaves such poses out when the prior is on
-(``[sync] upright_roll_deg``, docs/project.md). World frame: ENU metres
-(z up); camera frame: x right, y down, z forward.
+looks like that: with the prior on (``[sync] upright_roll_deg``,
+docs/project.md) such a pose cannot be the answer, but it stays a rival
+with all its evidence (sync/pose/pose.py, ``ranked_pose``): a rolled pose
+that explains the track at another offset still says the track leaves the
+offset open. World frame: ENU metres (z up); camera frame: x right, y
+down, z forward.
 """
 
 from __future__ import annotations
