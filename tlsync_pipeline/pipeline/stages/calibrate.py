@@ -59,7 +59,7 @@ from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
 from tlsync_pipeline.sync.identify.identify import IdentifyParams, identify_params
 from tlsync_pipeline.sync.model.log_model import PRESETS, LogModel, LogModelChoice
 from tlsync_pipeline.sync.model.methods import preparation_of, prepare_trajectory
-from tlsync_pipeline.sync.model.params import Preparation
+from tlsync_pipeline.sync.model.params import Preparation, SyncParams
 from tlsync_pipeline.sync.pose.pose import GCP_AGREE, estimate_pose, gcp_pose, pose_info, pose_log_sigma
 from tlsync_pipeline.sync.pose.pose_fit import GcpPrior
 from tlsync_pipeline.sync.vote.log_error import measured, with_log_noise
@@ -88,14 +88,16 @@ class KnownBoard:
 class TargetPoseParams:
     """What a pose from the target reads: the GCPs' survey sigma (metres; None without GCPs), identification's
     parameters (gate, loss scale, clock prior: sync/identify/identify.py), how the trajectory is prepared, the video
-    the track stage found the target or the movers in (None: the project brings them), and the log's error model
-    ([target] log_model and its overrides, as the sync stage reads them: "auto" is what the ingest report suggests)."""
+    the track stage found the target or the movers in (None: the project brings them), the log's error model
+    ([target] log_model and its overrides, as the sync stage reads them: "auto" is what the ingest report suggests),
+    and the upright-mount prior's tolerance in degrees ([sync] upright_roll_deg: sync/pose/upright.py)."""
 
     gcp_sigma_m: float | None
     identify: IdentifyParams
     preparation: Preparation
     source: Path | None = None
     log_model: LogModelChoice = field(default_factory=LogModelChoice)
+    upright_roll_deg: float = SyncParams.upright_roll_deg
 
 
 @dataclass(frozen=True)
@@ -277,6 +279,7 @@ def pose_from_target(
         offsets,
         log_model=log_model,
         windows=windows,
+        max_roll_deg=params.upright_roll_deg,
     )
     info = pose_info(found, pose_log_sigma(prepared, log_model))
     posed = replace(found.camera, name=camera.name, fps=camera.fps, extra=dict(camera.extra), pose_info=info)
@@ -530,6 +533,7 @@ def calibrate_params(project: Project, name: str, options: Options) -> Calibrate
         preparation_of(project.sync),
         source,
         project.target.log_error,
+        project.sync.upright_roll_deg,
     )
     return replace(survey_params(project, name), target=target)
 

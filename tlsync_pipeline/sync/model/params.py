@@ -44,7 +44,9 @@ class SyncParams:
     below it), the trajectory lowered by it before voting; log_bias: fit
     the log's bias with the lines when the log's error model has one
     (sync/solve/log_bias.py; false: each camera alone, the log taken as exact);
-    method: a
+    upright_roll_deg: a pose from the target without GCPs keeps the
+    world's up within this many degrees of the image's up
+    (sync/pose/upright.py; 180: any roll, the prior off); method: a
     registered method's name; options: method name -> that method's own
     parameters (an instance of its ``params_type``); a method not listed
     runs with its defaults.
@@ -57,6 +59,9 @@ class SyncParams:
     rate_sigma: float = param(0.0003, "non_negative")
     logged_point_above_m: float = param(0.0, "finite")
     log_bias: bool = param(True, "boolean")
+    upright_roll_deg: float = param(
+        45.0, "non_negative"
+    )  # poses fitted right under a phone's 2 m log: rolled <= 23 deg
     method: str = "refined"
     options: dict[str, Any] = field(default_factory=dict)
 

@@ -96,6 +96,7 @@ from tlsync_pipeline.sync.pose.pose_fit import (
 )
 from tlsync_pipeline.sync.pose.pose_timing import PoseTiming
 from tlsync_pipeline.sync.pose.timing import DISTINCT_S, bias_frames, one_timing, rival_probability, timing_spread
+from tlsync_pipeline.sync.pose.upright import is_upright, roll_deg
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
 from trackers.detections import Detections
 from trackers.track import Track
@@ -147,6 +148,8 @@ REMEDIES = {
     "gcp_conflict": "check the GCP file (each pixel against its world point) and gcp_sigma_m, and that the log is in "
     "the GCPs' frame",
     "no_fit": "check the intrinsics (K, dist) and that the log covers the video, or add 4 GCPs (gcp = ...)",
+    "not_upright": "if the camera is mounted rolled that far, set [sync] upright_roll_deg = 180 (the upright prior "
+    "off), or survey it (GCPs or a camera.json with its pose)",
     "planar_path": "calibrate the intrinsics with checkerboard photos (a target moving in a plane does not determine "
     "the focal length), or fly it at different heights",
 }
@@ -339,6 +342,7 @@ def pose_from_track(
     delta: float = 0.5,
     offsets: tuple[float, float] | None = None,
     log_model: LogModel | None = None,
+    max_roll_deg: float | None = None,
 ) -> TargetPose:
     """The camera's pose (and line) from its track of the target; PoseError with the cause when it is not determined.
 
@@ -356,7 +360,8 @@ def pose_from_track(
     with the log's bias over the visit fitted with the pose (sync/pose/pose_bias.py),
     and the fits' gate, loss scale and shared model error widen to the error
     a fixed pose cannot absorb over the track's span (``LogModel.unabsorbed_m``)
-    as seen at the target's depth (``log_scales``).
+    as seen at the target's depth (``log_scales``); max_roll_deg: without
+    GCPs, the upright-mount prior's tolerance (``ranked_pose``; None: off).
     """
     clock = np.asarray(clock, dtype=np.float64)
     xy = np.asarray(xy, dtype=np.float64)
@@ -389,10 +394,28 @@ def pose_from_track(
                 raise
             # GCPs without a pose of their own (too few, too rough) that no pose of the track keeps: the track alone
             alone = pose_from_track(
-                camera, clock, xy, path, prior, fps, gate_px, None, None, (), f_scale, seed, delta, offsets, log_model
+                camera,
+                clock,
+                xy,
+                path,
+                prior,
+                fps,
+                gate_px,
+                None,
+                None,
+                (),
+                f_scale,
+                seed,
+                delta,
+                offsets,
+                log_model,
+                max_roll_deg,
             )
             return replace(alone, disagreeing=_names(gcps))  # type: ignore[arg-type]
-        result = ranked_pose(fits, search, xy, fps or 0.0, gcps is not None, gcp_camera, clock, path, biased)
+        upright = max_roll_deg if gcps is None else None
+        result = ranked_pose(
+            fits, search, xy, fps or 0.0, gcps is not None, gcp_camera, clock, path, biased, max_roll_deg=upright
+        )
         if free:
             result = _settle_intrinsics(result, clock, xy, path, prior, gate_px, f_scale, gcps, free, unknown_k)
         check_determined(result, clock, path, gcps is not None, log_m, fps)
@@ -684,6 +707,7 @@ def ranked_pose(
     clock: np.ndarray | None = None,
     path: PiecewiseTrajectory | None = None,
     log_model: LogModel | None = None,
+    max_roll_deg: float | None = None,
 ) -> TargetPose:
     """The best of the fits (first: most support) with its runner-up at a distinct offset, as a TargetPose (not yet
     checked).
@@ -694,8 +718,22 @@ def ranked_pose(
     timing with the winner (sync/pose/timing.py: beyond the betas' stds and what the bias along the path explains);
     the runner-up is the distinct fit the track's evidence makes most probable (``rival_probability``), and the
     timing's spread is that of the fits that are one timing.
+
+    max_roll_deg: the upright-mount prior (sync/pose/upright.py; None: off): the best is the first fit whose roll is
+    within it, and every other fit, rolled or not, stays a possible runner-up with all its evidence (a rolled pose that
+    explains the track at another offset still says the track is ambiguous). PoseError ``not_upright`` when no fit is
+    within it.
     """
-    best = fits[0]
+    upright = [k for k, f in enumerate(fits) if is_upright(f.camera.R, max_roll_deg)]
+    if not upright:
+        raise PoseError(
+            fits[0].camera.name,
+            "not_upright",
+            f"every pose that explains the track is rolled more than {max_roll_deg:g} degrees (the best "
+            f"{roll_deg(fits[0].camera.R):.0f}: the world's up not up in the image)",
+        )
+    best = fits[upright[0]]
+    fits = [best] + [f for k, f in enumerate(fits) if k != upright[0]]
     tight = TIGHT * max(float(np.median(best.errors[best.inliers])), 0.5)
     biased = clock is not None and path is not None and log_model is not None and log_model.has_bias and fps > 0
     probability, spread = float("nan"), 0.0
@@ -1284,6 +1322,7 @@ def pose_from_movers(
     free: tuple[str, ...] = (),
     offsets: tuple[float, float] | None = None,
     windows: tuple[tuple[int, int], ...] | None = None,
+    max_roll_deg: float | None = None,
 ) -> MoverPose:
     """The camera's pose from every mover of its video (detections), without a track of the target.
 
@@ -1306,9 +1345,10 @@ def pose_from_movers(
     frames ([start, stop), 0-based) where the scan stage's coarse line puts
     the target in view: only a tracklet with MIN_TRACKLET_FRAMES frames in
     them is tried (the frames read outside them, for the breaks only, show
-    movers at times the target is out of view; None: every tracklet).
-    Identification still sees every mover. Raises PoseError when no
-    tracklet leads to a determined pose.
+    movers at times the target is out of view; None: every tracklet);
+    max_roll_deg: without GCPs, the upright prior's tolerance
+    (``ranked_pose``). Identification still sees every mover. Raises
+    PoseError when no tracklet leads to a determined pose.
     """
     prior = slope_prior(fps, trajectory.rate, params.rate_sigma)
     eps_px, delta, seed, f_scale = params.eps_px, params.delta, params.seed, params.f_scale_px
@@ -1429,7 +1469,13 @@ def pose_from_movers(
     order = sorted(range(len(finals)), key=lambda k: (-finals[k][0].support, finals[k][0].scale_px))
     best, identified, tid, search = finals[order[0]]
     pose = ranked_pose(
-        [finals[k][0] for k in order], search, identified.track.xy, fps or 0.0, gcps is not None, gcp_camera
+        [finals[k][0] for k in order],
+        search,
+        identified.track.xy,
+        fps or 0.0,
+        gcps is not None,
+        gcp_camera,
+        max_roll_deg=max_roll_deg if gcps is None else None,
     )
     clock = row_clock[identified.rows]
     if free:
@@ -1512,6 +1558,7 @@ def estimate_pose(
     offsets: tuple[float, float] | None = None,
     log_model: LogModel | None = None,
     windows: tuple[tuple[int, int], ...] | None = None,
+    max_roll_deg: float | None = None,
 ) -> tuple[TargetPose, Identification | None]:
     """A camera's pose from the target: from its track when it has one (``pose_from_track``), else from every mover
     (``pose_from_movers``).
@@ -1527,8 +1574,9 @@ def estimate_pose(
     tracklets (``pose_from_movers``; None: everywhere); log_model: the log's
     error (with a bias, the search from a track fits the bias with the pose,
     and the fits allow the part of it a fixed pose cannot absorb,
-    ``pose_from_track``'s). A camera without K gets its intrinsics fitted
-    too. Returns the pose and, from movers, the identification under it.
+    ``pose_from_track``'s); max_roll_deg: without GCPs, the upright-mount
+    prior's tolerance (degrees, sync/pose/upright.py; None: off). A camera
+    without K gets its intrinsics fitted too. Returns the pose and, from movers, the identification under it.
     Raises PoseError.
     """
     if start is None and gcps is not None and len(gcps.xyz) >= 4:
@@ -1540,7 +1588,16 @@ def estimate_pose(
         if detections is None:
             raise PoseError(camera.name, "too_few_frames", "neither a track nor any mover's detections")
         found = pose_from_movers(
-            camera, detections, trajectory, fps, params, gcps, start, offsets=offsets, windows=windows
+            camera,
+            detections,
+            trajectory,
+            fps,
+            params,
+            gcps,
+            start,
+            offsets=offsets,
+            windows=windows,
+            max_roll_deg=max_roll_deg,
         )
         return found.pose, found.identification
     clock = camera_clock(track, fps)
@@ -1563,6 +1620,7 @@ def estimate_pose(
         params.delta,
         offsets,
         log_model,
+        max_roll_deg,
     )
     return pose, None
 

@@ -170,6 +170,7 @@ def posed(
         identify_params(params),
         inputs.gcps,
         log_model=log_model,
+        max_roll_deg=params.upright_roll_deg,
     )
     camera = replace(
         pose.camera,
