@@ -257,9 +257,10 @@ def test_a_walker_on_flat_ground_does_not_determine_the_focal_length(scene):
     assert "checkerboard" in str(caught.value) or "focal" in str(caught.value)
 
 
-def target_among_walkers():
-    """A pass scene's cam0 (true camera, track) and its movers' rows: the target's track cut into tracklets 0-2 among
-    four straight walkers (100-103)."""
+def test_the_pose_comes_from_every_mover_without_a_track():
+    """The target's track cut into tracklets among straight walkers: a tracklet's pose finds the target, the refit takes
+    all of it.
+    """
     ps = make_pass_scene(1, paths=("turn",))
     s = ps.scene
     camera, track = s.true_cameras["cam0"], s.tracks["cam0"]
@@ -274,14 +275,6 @@ def target_among_walkers():
         v = rng.uniform(2.0, 4.0) * np.array([1.0, rng.uniform(-0.2, 0.2)])
         rows += [(start + f, float("nan"), 100 + j, *(p0 + v * f), 20.0, 40.0, 1.0) for f in range(150)]
     rows.sort(key=lambda r: (r[0], r[2]))
-    return s, camera, track, rows
-
-
-def test_the_pose_comes_from_every_mover_without_a_track():
-    """The target's track cut into tracklets among straight walkers: a tracklet's pose finds the target, the refit takes
-    all of it.
-    """
-    s, camera, track, rows = target_among_walkers()
     prepared = smooth_trajectory(s.trajectory)
     found = P.pose_from_movers(
         unposed(camera), make_detections(rows), prepared, camera.fps, identify_params(SyncParams())
@@ -289,7 +282,6 @@ def test_the_pose_comes_from_every_mover_without_a_track():
     assert np.linalg.norm(found.pose.camera.center - camera.center) < 0.3
     assert found.tracklet in (0, 1, 2) and len(found.identification.track) > 0.9 * len(track)
     assert all(tid >= 100 for tid, why in found.tried.items() if why == "straight_path")
-    assert {0, 1, 2} <= set(found.tried)  # without GCPs every tracklet is tried: the runner-up tells offsets apart
 
     # The scan's windows around the first two thirds of the target: only tracklets with 12 frames in them are tried,
     # and the identification under the pose still takes every visit.
@@ -308,24 +300,6 @@ def test_the_pose_comes_from_every_mover_without_a_track():
         P.pose_from_movers(
             unposed(camera), detections, prepared, camera.fps, identify_params(SyncParams()), windows=((0, 5),)
         )
-
-
-def test_with_surveyed_gcps_the_movers_search_stops_at_the_first_tracklet_the_others_confirm():
-    s, camera, track, rows = target_among_walkers()
-    ground = s.trajectory.xyz + np.array([0.0, 0.0, -1.0])  # points under the target's path, surveyed
-    uv, valid = camera.project(ground)
-    (w, h), inside = camera.image_size, np.flatnonzero(valid)
-    inside = inside[(uv[inside] > 20).all(axis=1) & (uv[inside] < np.array([w - 20, h - 20])).all(axis=1)]
-    picked = inside[np.linspace(0, len(inside) - 1, 8).round().astype(int)]
-    gcps = GcpPrior(uv[picked], ground[picked], 0.02)
-    prepared = smooth_trajectory(s.trajectory)
-    found = P.pose_from_movers(
-        unposed(camera), make_detections(rows), prepared, camera.fps, identify_params(SyncParams()), gcps, camera
-    )
-    assert np.linalg.norm(found.pose.camera.center - camera.center) < 0.3
-    assert len(found.identification.track) > 0.9 * len(track)
-    assert P.confirmed(found.identification, found.tracklet)
-    assert len({0, 1, 2} & set(found.tried)) == 1  # the other two tracklets confirmed the first: not searched
 
 
 def test_in_windows_is_start_inclusive_stop_exclusive():

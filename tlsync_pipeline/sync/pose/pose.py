@@ -136,7 +136,6 @@ BATCH = 256  # candidate offsets whose trajectory positions are evaluated at onc
 MAX_TRACKLETS = 40  # movers' tracklets tried as the target's track, longest image paths first
 MIN_TRACKLET_FRAMES = 12  # frames a mover's tracklet needs to be tried
 TRACKLET_CANDIDATES = 2  # fits at distinct offsets of each tracklet under which the target is identified
-SETTLE_ROUNDS = 3  # identifications under the refitted pose after the first tracklet the others confirm
 
 REMEDIES = {
     "no_clock": "give the camera's fps and a log with times, or 4 GCPs with gcp_sigma_m = 0 (their pose alone)",
@@ -1322,7 +1321,6 @@ def pose_from_movers(
     if survey:
         gcps = measured_gcps(gcps, gcp_camera)  # type: ignore[arg-type]
     _, row_clock = detections_clock(detections, fps)
-    refit_at = TargetRefit(detections, trajectory, fps, params, row_clock, path, prior, gcps)
     ids, counts = np.unique(detections.id, return_counts=True)
     inside = in_windows(detections.frame, windows) if windows is not None else np.ones(len(detections), bool)
     tried: dict[int, str] = {}
@@ -1376,22 +1374,34 @@ def pose_from_movers(
             ):
                 starts.append(fit)
         reasons = []
-        mine: list[tuple[JointFit, Identification]] = []
         for fit in starts:
             try:
-                refit, identified = refit_at(fit.camera, fit.layout.free)
+                identified = identify_target(fit.camera, detections, trajectory, fps, params)
+                clock = row_clock[identified.rows]
+                start = (
+                    reprojection_errors(fit.camera, clock, identified.track.xy, path, identified.alpha, identified.beta)
+                    <= eps_px
+                )
+                refit = fit_pose_and_line(
+                    fit.camera,
+                    clock,
+                    identified.track.xy,
+                    path,
+                    identified.alpha,
+                    identified.beta,
+                    start,
+                    eps_px,
+                    f_scale,
+                    prior,
+                    gcps,
+                    fit.layout.free,
+                )
             except (SyncError, ValueError) as exc:
                 reasons.append(str(exc).split(": ", 1)[-1][:80])
                 continue
             if gcps is None or gcps_agree(gcps, refit):
-                mine.append((refit, identified))
-        finals += [(refit, identified, tid, search) for refit, identified in mine]
+                finals.append((refit, identified, tid, search))
         tried[tid] = "; ".join(reasons)
-        if survey and any(confirmed(identified, tid) for _, identified in mine):
-            refit, identified = max(mine, key=lambda item: (item[0].support, -item[0].scale_px))
-            settled = settle(refit, identified, refit_at)
-            finals.append((*settled, tid, search))
-            break
     if survey:
         return _movers_with_survey(
             camera,
@@ -1426,69 +1436,6 @@ def pose_from_movers(
         pose = _settle_intrinsics(pose, clock, identified.track.xy, path, prior, eps_px, f_scale, gcps, free, unknown_k)
     check_determined(pose, clock, path, gcps is not None)
     return MoverPose(pose, identified, tid, tried)
-
-
-@dataclass(frozen=True)
-class TargetRefit:
-    """The target identified among every mover under a pose, and the pose and line refitted on its track.
-
-    row_clock: each detection row's camera clock value; path: the prepared
-    trajectory's model; prior: the clock prior; gcps: the GCPs as the
-    refit's prior (None without).
-    """
-
-    detections: Detections
-    trajectory: Trajectory
-    fps: float | None
-    params: IdentifyParams
-    row_clock: np.ndarray
-    path: PiecewiseTrajectory
-    prior: SlopePrior | None
-    gcps: GcpPrior | None
-
-    def __call__(self, camera: Camera, free: tuple[str, ...]) -> tuple[JointFit, Identification]:
-        """The refit (the frames within eps_px of the identification's line start it) and the identification under
-        ``camera``; SyncError when the target is not identified, ValueError when the refit has too few frames."""
-        identified = identify_target(camera, self.detections, self.trajectory, self.fps, self.params)
-        clock = self.row_clock[identified.rows]
-        xy, gate = identified.track.xy, self.params.eps_px
-        start = reprojection_errors(camera, clock, xy, self.path, identified.alpha, identified.beta) <= gate
-        refit = fit_pose_and_line(
-            camera,
-            clock,
-            xy,
-            self.path,
-            identified.alpha,
-            identified.beta,
-            start,
-            gate,
-            self.params.f_scale_px,
-            self.prior,
-            self.gcps,
-            free,
-        )
-        return refit, identified
-
-
-def confirmed(identified: Identification, tracklet: int) -> bool:
-    """Whether other tracklets confirm the target identified under a pose from ``tracklet``: at least
-    MIN_TRACKLET_FRAMES of the identified track's frames come from tracklets other than it."""
-    return sum(use.assigned for use in identified.tracklets if use.id != tracklet) >= MIN_TRACKLET_FRAMES
-
-
-def settle(refit: JointFit, identified: Identification, refit_at: TargetRefit) -> tuple[JointFit, Identification]:
-    """The target identified again under the refitted pose, and refitted, while that explains more frames (at most
-    SETTLE_ROUNDS times) and keeps the GCPs: the pose from one tracklet misses frames a pose from the whole track
-    finds."""
-    for _ in range(SETTLE_ROUNDS):
-        try:
-            again, found = refit_at(refit.camera, refit.layout.free)
-        except (SyncError, ValueError):
-            break
-        if again.support <= refit.support or (refit_at.gcps is not None and not gcps_agree(refit_at.gcps, again)):
-            break
-        refit, identified = again, found
-    return refit, identified
 
 
 def in_windows(frames: np.ndarray, windows: tuple[tuple[int, int], ...]) -> np.ndarray:
