@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from calibration.errors import CalibrationInputError, read_text
-from calibration.lens import DISTORTION_MODELS, project_points
+from calibration.lens import DISTORTION_MODELS, distort_normalized
 
 _OPENCV_DIST_LENGTHS = (4, 5, 8, 12, 14)
 
@@ -159,8 +159,7 @@ class Camera:
 
     def _distort(self, normalized: np.ndarray) -> np.ndarray:
         """Pixels of normalized image points (N, 2) through the lens model."""
-        rays = np.column_stack([normalized, np.ones(len(normalized))])
-        return project_points(rays, np.zeros(3), np.zeros(3), self.K, self.dist, self.dist_model)
+        return distort_normalized(normalized, self.K, self.dist, self.dist_model)
 
     def in_image(self, uv: np.ndarray) -> np.ndarray:
         """Boolean mask of pixel positions (N, 2) inside the image."""

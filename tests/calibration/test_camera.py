@@ -6,6 +6,7 @@ import pytest
 
 from calibration.camera import Camera, PoseInfo, read_camera, write_camera
 from calibration.errors import CalibrationInputError
+from calibration.lens import distort_normalized
 
 
 def _camera(dist=(0.1, -0.05, 0.001, -0.002, 0.01)):
@@ -175,3 +176,16 @@ def test_a_cropped_camera_is_told_from_an_image_size_of_another_resolution(tmp_p
         assert camera.image_size == tuple(image_size)
         write_camera(camera, tmp_path / "again.json")
         assert read_camera(tmp_path / "again.json").image_size == tuple(image_size)  # "cropped" kept
+
+
+@pytest.mark.parametrize("count", [0, 4, 5, 8, 12, 14])
+def test_distortion_gives_opencvs_very_pixels(count):
+    """The polynomial lens model evaluated in NumPy gives projectPoints' numbers bit for bit (any coefficient count;
+    a tilted sensor goes through OpenCV)."""
+    rng = np.random.default_rng(count)
+    normalized = rng.uniform(-0.8, 0.8, (5000, 2))
+    K = np.array([[1000.3, 0.0, 640.2], [0.0, 1001.1, 360.7], [0.0, 0.0, 1.0]])
+    dist = rng.normal(0.0, 0.02, count)
+    rays = np.column_stack([normalized, np.ones(len(normalized))]).reshape(-1, 1, 3)
+    expected = cv2.projectPoints(rays, np.zeros((3, 1)), np.zeros((3, 1)), K, dist if count else None)[0]
+    assert np.array_equal(distort_normalized(normalized, K, dist, "opencv"), expected.reshape(-1, 2))

@@ -9,6 +9,7 @@ from tlsync_pipeline.sync.kernels.robust import (
     InlierCount,
     Preemption,
     Scores,
+    linear_quantile,
     msac,
     polish,
     robust_fit,
@@ -156,3 +157,13 @@ def test_a_trimmed_polish_from_every_row_sheds_the_outliers_or_fails_with_too_fe
     assert fitted.model[0] == pytest.approx(0.5, abs=1e-3) and fitted.model[1] == pytest.approx(30.0, abs=0.1)
     assert fitted.inliers.sum() == 40 and fitted.inliers[true].sum() == 40  # the half kept: true votes only
     assert polish(model, trimmed(0.5), 3, min_inliers=41, strict=True) is None  # half of 80 rows is not 41
+
+
+def test_linear_quantile_is_numpys_to_the_bit():
+    rng = np.random.default_rng(0)
+    for n in [1, 2, 3, 7, 8, 199, 200]:
+        for quantile in (0.0, 0.25, 0.5, 0.9, 1.0):
+            values = rng.exponential(3.0, n)
+            values[rng.integers(0, n, max(1, n // 5))] = 1e12  # a pair behind the camera
+            assert linear_quantile(values, quantile) == float(np.quantile(values, quantile))
+    assert np.isnan(linear_quantile(np.array([1.0, np.nan, 2.0]), 0.5))
