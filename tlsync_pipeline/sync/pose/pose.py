@@ -1177,12 +1177,13 @@ def measured_gcps(gcps: GcpPrior, camera: Camera, fitted: bool = True) -> GcpPri
             ).x
         )
     if inliers.sum() < MEASURE_POINTS and gcps.sigma_m > 0:
-        dof = 2 * int(inliers.sum()) - (6 if fitted else 0)
-        weight = max(dof, 1) / (2 * int(inliers.sum()))  # the pose's six parameters took their share of the residuals
+        used = inliers if inliers.sum() >= 4 else finite  # four points fitted by a pose have no outlier to tell
+        dof = 2 * int(used.sum()) - (6 if fitted else 0)
+        weight = max(dof, 1) / (2 * int(used.sum()))  # the pose's six parameters took their share of the residuals
 
         def posterior(log_sigma: float) -> float:
-            v = var(math.exp(log_sigma))[inliers]
-            data = weight * float(np.sum(2.0 * np.log(v) + squared[inliers] / v))
+            v = var(math.exp(log_sigma))[used]
+            data = weight * float(np.sum(2.0 * np.log(v) + squared[used] / v))
             return data + (log_sigma - math.log(gcps.sigma_m)) ** 2 / PRIOR_LOG_SD**2
 
         sigma = math.exp(
