@@ -265,7 +265,7 @@ def _write_ground_gcps(path: Path, camera: Camera, inputs: UserInputs, rng) -> N
     """``inputs.gcps`` points on the ground of the camera's patch, spread over it, as u,v,lat,lon,alt: their true
     projections plus ``inputs.gcp_noise_px`` of noise; the world points exact (surveyed)."""
     w, h = camera.image_size
-    points = []
+    points: list[np.ndarray] = []
     while len(points) < inputs.gcps:
         k = len(points)
         u = (k % 3 + rng.uniform(0.15, 0.85)) * w / 3
