@@ -108,6 +108,8 @@ def test_a_gpx_whose_fixes_scatter_as_a_white_receivers_is_no_phones():
         assert measured(suggested, _logged(seed, "phone")).has_bias
     declared = measured(LogModelChoice("phone").resolve("phone"), _logged(0, "white"))
     assert declared.name == "phone" and declared.has_bias
+    smoothed = measured(suggested, _logged(0, "rtk"))  # fixes of centimetres: a receiver's smoothing, bias unseen
+    assert smoothed.has_bias
 
 
 def test_an_exact_path_turning_all_along_is_no_receivers():

@@ -123,17 +123,20 @@ def _receiver_of(model: LogModel, white: float) -> LogModel | None:
     - a receiver with a bias that ingest only suggested from the log's kind (a GPX: a phone's) whose fixes scatter as
       a receiver without one: the preset without a bias whose white noise is nearest to the one measured, when it is
       nearer than the suggestion's and than every preset's with a bias (a GPX whose fixes show 0.3 m of white noise
-      is a 0.3 m white log, not a phone's; one that shows 0.5 m stays a phone's)."""
+      is a 0.3 m white log, not a phone's; one that shows 0.5 m stays a phone's). Fixes that scatter less than a
+      wandering receiver's least (an RTK-like scatter) say nothing of a bias: consumer receivers smooth their fixes
+      and wander all the same, so the suggestion stands."""
     if white <= 0:
         return None
     nearest = min((p for p in PRESETS.values() if p.white_m > 0), key=lambda p: abs(math.log(white / p.white_m)))
+    least_wandering = min(p.white_m for p in PRESETS.values() if p.has_bias)
     if model.has_bias:
-        if not model.suggested or nearest.has_bias:
+        if not model.suggested or nearest.has_bias or nearest.white_m < least_wandering:
             return None
         if abs(math.log(white / model.white_m)) <= abs(math.log(white / nearest.white_m)):
             return None
         return replace(nearest, suggested=True)
-    if white < min(p.white_m for p in PRESETS.values() if p.has_bias):
+    if white < least_wandering:
         return None
     if not nearest.has_bias:
         return None
