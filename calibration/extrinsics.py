@@ -160,7 +160,9 @@ def pose_from_points(
     """World -> camera pose from pixel (N, 2) <-> world (N, 3, metres) pairs.
 
     SQPnP on all points (fewer than 6) or inside RANSAC (6 or more; points off by
-    more than ``ransac_px`` are outliers), then Levenberg-Marquardt refinement
+    more than ``ransac_px`` are outliers; RANSAC's samples solved by SQPnP, or
+    by AP3P where those find no pose: six exact points on the ground can leave
+    SQPnP's samples without one), then Levenberg-Marquardt refinement
     on the inliers. Raises CalibrationInputError for fewer than 4 points,
     collinear points, or points that end up behind the camera.
     """
@@ -178,16 +180,19 @@ def pose_from_points(
     inliers = np.ones(len(uv), dtype=bool)
     method = "SQPnP"
     if len(uv) >= RANSAC_MIN_POINTS:
-        ok, rvec, tvec, idx = cv2.solvePnPRansac(
-            xyz,
-            ideal,
-            K,
-            None,
-            iterationsCount=500,
-            reprojectionError=ransac_px,
-            confidence=0.999,
-            flags=cv2.SOLVEPNP_SQPNP,
-        )
+        for flags in (cv2.SOLVEPNP_SQPNP, cv2.SOLVEPNP_AP3P):  # AP3P's minimal samples: where SQPnP's find no pose
+            ok, rvec, tvec, idx = cv2.solvePnPRansac(
+                xyz,
+                ideal,
+                K,
+                None,
+                iterationsCount=500,
+                reprojectionError=ransac_px,
+                confidence=0.999,
+                flags=flags,
+            )
+            if ok and idx is not None and len(idx) >= MIN_POINTS:
+                break
         if not ok or idx is None or len(idx) < MIN_POINTS:
             raise CalibrationInputError(
                 f"{source}: no pose explains at least {MIN_POINTS} points within {ransac_px:g} px; check that each "

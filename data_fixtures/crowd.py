@@ -24,6 +24,7 @@ rates, shifted starts), as a ``data_fixtures.scene.Scene``.
 
 from __future__ import annotations
 
+import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -33,9 +34,11 @@ import cv2
 import numpy as np
 
 from calibration.camera import Camera, write_camera
+from data_fixtures.gps_logs import write_gpx_log
 from data_fixtures.log_error import LogErrorModel, log_errors
 from data_fixtures.scene import Scene, check_views_disjoint, write_truth
 from data_fixtures.video import _background, h264_writer
+from tlsync_pipeline.geodesy import Origin, enu_to_geodetic
 from tlsync_pipeline.sync.timeline import Relation
 from tlsync_pipeline.trajectory import Trajectory, write_trajectory
 from trackers.track import Track
@@ -204,27 +207,87 @@ def make_crowd_scene(spec: CrowdSpec = SMALL, directory: str | Path | None = Non
     return CrowdScene(scene, truth)
 
 
-def write_crowd_project(directory: str | Path, spec: CrowdSpec = SMALL) -> tuple[Path, CrowdScene]:
+@dataclass(frozen=True)
+class UserInputs:
+    """A crowd project's inputs as a user brings them, instead of the fixtures' exact poses and CSV log.
+
+    gpx: the log as a GPX file (geodetic, at ORIGIN), its error model left undeclared (ingest suggests one);
+    gcps: ground points per camera on its patch (0: camera.json with the true pose), their pixels clicked with
+    ``gcp_noise_px`` of noise (std per axis), the camera's intrinsics given and ``gcp_sigma_m`` left at its default.
+    """
+
+    gpx: bool = True
+    gcps: int = 6
+    gcp_noise_px: float = 1.0
+
+
+ORIGIN = Origin(46.5197, 6.6323, 380.0)
+START_UTC = 1_750_000_000.0  # POSIX seconds of log sample 0
+
+
+def write_crowd_project(
+    directory: str | Path, spec: CrowdSpec = SMALL, inputs: UserInputs | None = None
+) -> tuple[Path, CrowdScene]:
     """A raw project: per camera its video and camera.json, the target's trajectory CSV, truth.json.
 
     The cameras have no tracker table: the track stage's default (every
-    mover, no init box) is what is exercised.
+    mover, no init box) is what is exercised. ``inputs``: a GPX log and GCPs instead (UserInputs).
     """
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
     crowd = make_crowd_scene(spec, directory)
     scene = crowd.scene
-    write_trajectory(scene.trajectory, directory / "trajectory.csv")
-    parts = ['[target]\ntrajectory = "trajectory.csv"\n']
+    if inputs is not None and inputs.gpx:
+        write_gpx_log(directory / "target.gpx", scene.trajectory, ORIGIN, START_UTC)
+        parts = [f'[target]\nlog = "target.gpx"\norigin = [{ORIGIN.lat}, {ORIGIN.lon}, {ORIGIN.alt}]\n']
+    else:
+        write_trajectory(scene.trajectory, directory / "trajectory.csv")
+        parts = ['[target]\ntrajectory = "trajectory.csv"\n']
+    rng = np.random.default_rng([spec.seed, 2])  # its own stream: the scene stays that of the seed
     for name, camera in scene.cameras.items():
-        write_camera(camera, directory / f"{name}.json")
-        parts.append(
-            f'[[cameras]]\nname = "{name}"\ncamera = "{name}.json"\nvideo = "{name}.mp4"\nfps = {camera.fps!r}\n'
-        )
+        entry = f'[[cameras]]\nname = "{name}"\nvideo = "{name}.mp4"\nfps = {camera.fps!r}\n'
+        if inputs is not None and inputs.gcps:
+            intrinsics = {k: v for k, v in camera.to_dict().items() if k not in ("R", "t")}
+            (directory / f"{name}_intrinsics.json").write_text(json.dumps(intrinsics, indent=1) + "\n", "utf-8")
+            _write_ground_gcps(directory / f"{name}_gcp.csv", camera, inputs, rng)
+            entry += f'[cameras.calibration]\nintrinsics = "{name}_intrinsics.json"\ngcp = "{name}_gcp.csv"\n'
+        else:
+            write_camera(camera, directory / f"{name}.json")
+            entry += f'camera = "{name}.json"\n'
+        parts.append(entry)
     project = directory / "project.toml"
     project.write_text("\n".join(parts), encoding="utf-8")
     write_truth(scene, directory)
     return project, crowd
+
+
+def _write_ground_gcps(path: Path, camera: Camera, inputs: UserInputs, rng) -> None:
+    """``inputs.gcps`` points on the ground of the camera's patch, spread over it, as u,v,lat,lon,alt: their true
+    projections plus ``inputs.gcp_noise_px`` of noise; the world points exact (surveyed)."""
+    w, h = camera.image_size
+    points: list[np.ndarray] = []
+    while len(points) < inputs.gcps:
+        k = len(points)
+        u = (k % 3 + rng.uniform(0.15, 0.85)) * w / 3
+        v = h * (0.45 + 0.5 * (k // 3 % 2 + rng.uniform(0.1, 0.9)) / 2)  # the lower part: the ground
+        ray = camera.R.T @ np.linalg.solve(camera.K, [u, v, 1.0])
+        centre = -camera.R.T @ camera.t
+        if ray[2] >= -1e-3:
+            continue
+        ground = centre - centre[2] / ray[2] * ray
+        uv, valid = camera.project(ground[None])
+        if valid[0] and camera.in_image(uv)[0]:
+            points.append(ground)
+    world = np.array(points)
+    uv, _ = camera.project(world)
+    uv = uv + rng.normal(0.0, inputs.gcp_noise_px, uv.shape)
+    geo = enu_to_geodetic(world, ORIGIN)
+    rows = ["name,u,v,lat,lon,alt"]
+    rows += [
+        f"P{i + 1},{p[0]:.2f},{p[1]:.2f},{lat:.8f},{lon:.8f},{alt:.3f}"
+        for i, (p, (lat, lon, alt)) in enumerate(zip(uv, geo))
+    ]
+    path.write_text("\n".join(rows) + "\n", encoding="utf-8")
 
 
 class Route:

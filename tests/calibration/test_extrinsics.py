@@ -66,6 +66,30 @@ def test_ransac_flags_a_wrong_point():
     assert pose.errors[2] > 30 and angle_deg(pose.R, R_TRUE) < 0.05
 
 
+def test_six_points_on_the_ground_clicked_to_a_pixel_give_the_pose():
+    """A surveillance camera 5 m up, its six GCPs on the ground clicked to about a pixel, their heights the micrometres
+    a geodetic conversion leaves: RANSAC's SQPnP samples find no pose within 8 px on these; the pose is still found,
+    every point an inlier."""
+    K_low = np.array([[403.2, 0.0, 239.5906204225149], [0.0, 403.2, 183.30994964566165], [0.0, 0.0, 1.0]])
+    dist = np.array([-0.07514983856626387, 0.0, 0.0, 0.0, 0.0])
+    xyz = np.array(
+        [
+            [3.8377332628541883, 8.7433723889358603, -7.15e-06],
+            [5.7447071339310671, 6.8090489226526030, -6.22e-06],
+            [10.327588109947607, 2.4212500366031819, -8.80e-06],
+            [1.7719114422305962, 6.6789797782131499, -3.75e-06],
+            [5.5705113704273508, 4.0431863918449507, -3.71e-06],
+            [5.8981899436512881, 2.5702093619437294, -3.24e-06],
+        ]
+    )
+    uv = np.array(
+        [[96.78, 223.11], [201.53, 223.94], [442.28, 215.06], [48.22, 298.55], [283.53, 271.74], [355.85, 294.52]]
+    )
+    pose = pose_from_points(uv, xyz, K_low, dist, ransac_px=8.0)
+    assert pose.inliers.all() and pose.rms < 2.0
+    assert np.linalg.norm(pose.center - [0.0, 0.0, 5.0]) < 0.2
+
+
 @pytest.mark.parametrize(
     "uv, xyz, message",
     [

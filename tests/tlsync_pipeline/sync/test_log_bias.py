@@ -60,7 +60,10 @@ def test_gauss_markov_samples_have_the_stated_spread_and_memory():
 
 def test_a_log_model_choice_resolves_auto_and_overrides():
     assert LogModelChoice().resolve(None) == PRESETS["none"]
-    assert LogModelChoice().resolve("drone") == PRESETS["drone"]
+    assert LogModelChoice().resolve("drone") == dataclasses.replace(
+        PRESETS["drone"], suggested=True
+    )  # ingest's, a prior
+    assert not LogModelChoice("drone").resolve("rtk").suggested  # declared
     custom = LogModelChoice("phone", bias_m=3.0).resolve("rtk")
     assert (custom.bias_m, custom.bias_vertical_m, custom.white_m, custom.tau_s) == (
         3.0,

@@ -8,7 +8,7 @@ import numpy as np
 from data_fixtures.log_error import PRESETS as RECEIVERS
 from data_fixtures.log_error import LogErrorModel, gauss_markov
 from data_fixtures.walk import WalkSpec, make_walk_scene
-from tlsync_pipeline.sync.model.log_model import PRESETS, LogModel
+from tlsync_pipeline.sync.model.log_model import PRESETS, LogModel, LogModelChoice
 from tlsync_pipeline.sync.model.params import SyncParams
 from tlsync_pipeline.sync.solve.log_bias import LogBias, _prior_whitening, bias_marginal_likelihood
 from tlsync_pipeline.sync.solve.synchronize import CameraInput, synchronize
@@ -102,6 +102,22 @@ def test_a_log_whose_fixes_scatter_as_another_receivers_takes_its_bias():
     assert not white.has_bias and "receiver" not in white.measured
     assert not measured(PRESETS["none"], _logged(0, "rtk")).has_bias  # 2 cm: exact enough, no wander assumed
     assert measured(PRESETS["drone"], _logged(0, "phone")).name == "drone"  # a declared bias is a prior, kept
+
+
+def test_a_gpx_whose_fixes_scatter_as_a_white_receivers_is_no_phones():
+    """Ingest suggests a phone for a GPX: a suggestion is a prior. A log whose fixes show 0.3 m of white noise is a
+    0.3 m white log, without the phone's metres of bias (which widen the vote radius to hundreds of pixels at
+    surveillance distances); one that shows a phone's scatter stays a phone's; a phone the project declares stays
+    one."""
+    suggested = LogModelChoice().resolve("phone")
+    for seed in (0, 1):
+        white = measured(suggested, _logged(seed, "white"))
+        assert not white.has_bias and abs(white.white_m - 0.3) < 0.05 and "receiver" in white.measured
+        assert measured(suggested, _logged(seed, "phone")).has_bias
+    declared = measured(LogModelChoice("phone").resolve("phone"), _logged(0, "white"))
+    assert declared.name == "phone" and declared.has_bias
+    smoothed = measured(suggested, _logged(0, "rtk"))  # fixes of centimetres: a receiver's smoothing, bias unseen
+    assert smoothed.has_bias
 
 
 def test_an_exact_path_turning_all_along_is_no_receivers():

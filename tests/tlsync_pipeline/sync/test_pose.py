@@ -139,6 +139,23 @@ def _posed(scene, name, path, **kwargs):
     )
 
 
+def test_four_gcps_measure_their_survey_with_the_stated_sigma_as_a_prior(scene):
+    """Four GCPs say little of their survey under their own pose (two degrees of freedom): the stated 1 m is the
+    prior of their measure, not its floor. Exact points clicked to a pixel measure a decimetre or less (a 1 m survey
+    let the target move a good survey's pose by metres); points 0.5 m off measure a survey that is not a good one."""
+    truth = scene.scene.true_cameras["cam0"]
+    good = _good_gcps(scene, "cam0")
+    four = replace(good, uv=good.uv[:4], xyz=good.xyz[:4], names=good.names[:4])
+    exact = P.measured_gcps(four, P.gcp_camera(truth, four))
+    assert exact.sigma_m < 0.15
+    rough_sigmas = []
+    for draw in range(5):
+        off = np.random.default_rng(draw).normal(0.0, 0.5, (4, 2))
+        rough = replace(four, xyz=four.xyz + np.column_stack([off, np.zeros(4)]))
+        rough_sigmas.append(P.measured_gcps(rough, P.gcp_camera(truth, rough)).sigma_m)
+    assert np.median(rough_sigmas) > 2 * exact.sigma_m, rough_sigmas
+
+
 @pytest.mark.slow
 def test_good_gcps_are_not_moved_by_the_target(scene):
     """A log with 0.3 m of white noise moves the track's own pose half a metre; exact GCPs (1 px clicks) hold it."""

@@ -29,6 +29,7 @@ class LogModel:
     bias_vertical_m: float = 0.0
     tau_s: float = 60.0
     measured: tuple[str, ...] = ()  # the fields measured from the data (the preset's values their prior)
+    suggested: bool = False  # the preset is what ingest suggests from the log's kind, not the project's declaration
 
     @property
     def has_bias(self) -> bool:
@@ -86,10 +87,11 @@ class LogModelChoice:
         return replace(self, tau_s=None)
 
     def resolve(self, suggested: str | None) -> LogModel:
-        """The model: the preset chosen (``suggested`` for "auto", "none" without a suggestion) with the overrides."""
+        """The model: the preset chosen (``suggested`` for "auto", marked as a suggestion; "none" without one) with the
+        overrides (a declaration)."""
         base = PRESETS[(suggested or "none") if self.name == AUTO else self.name]
         if self.white_m is None and self.bias_m is None and self.tau_s is None:
-            return base
+            return replace(base, suggested=True) if self.name == AUTO and suggested is not None else base
         bias = base.bias_m if self.bias_m is None else self.bias_m
         return LogModel(
             "custom",

@@ -63,6 +63,7 @@ as tracked (distorted); world metres.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -84,7 +85,7 @@ from tlsync_pipeline.sync.kernels.line_search import find_line
 from tlsync_pipeline.sync.kernels.robust import msac, polish, trimmed
 from tlsync_pipeline.sync.kernels.slope import SlopePrior, slope_prior
 from tlsync_pipeline.sync.model.clock import FrameTimes, camera_clock, image_speed
-from tlsync_pipeline.sync.model.log_model import LogModel
+from tlsync_pipeline.sync.model.log_model import PRIOR_LOG_SD, LogModel
 from tlsync_pipeline.sync.pose.pose_bias import CUT, VisitBias, fit_with_bias
 from tlsync_pipeline.sync.pose.pose_fit import (
     INTRINSICS,
@@ -127,6 +128,7 @@ CHI2_2_MEDIAN = 2.0 * np.log(2.0)  # median of a chi-square of 2 degrees of free
 MEASURE_POINTS = (
     6  # GCPs (inliers of their pose) whose residuals measure the survey's error alone; fewer: not below the stated one
 )
+MIN_GCP_SIGMA_M = 0.005  # smallest survey error measured from a handful of GCPs (metres per coordinate)
 MAX_ROTATION_STD_DEG = 3.0
 MAX_CENTER_STD = 0.15  # of the median distance to the target
 # An intrinsic the target determines: its posterior std below these (f: share of f; cx, cy: share of the image width;
@@ -1176,7 +1178,10 @@ def measured_gcps(gcps: GcpPrior, camera: Camera, fitted: bool = True) -> GcpPri
     points within GCP_AGREE of it; under their own pose the residuals are
     scaled by 2N / (2N - 6) for the six pose parameters fitted to them. With MEASURE_POINTS such points
     or more it replaces the stated sigma; with fewer (a handful of residuals
-    say little) the larger of the two is used.
+    say little) the stated sigma is the log-normal prior (PRIOR_LOG_SD) of
+    the measurement, whose 2N - 6 degrees of freedom (2N under another pose)
+    weigh it: the posterior mode (MIN_GCP_SIGMA_M at least), so that four
+    points clicked to a pixel hold a good survey and four rough ones do not.
     """
     errors = gcps.errors_px(camera)
     depth = np.maximum((gcps.xyz @ camera.R.T + camera.t)[:, 2], 1e-3)
@@ -1209,8 +1214,21 @@ def measured_gcps(gcps: GcpPrior, camera: Camera, fitted: bool = True) -> GcpPri
                 options={"xatol": 1e-4},
             ).x
         )
-    if inliers.sum() < MEASURE_POINTS:
-        sigma = max(sigma, gcps.sigma_m)
+    if inliers.sum() < MEASURE_POINTS and gcps.sigma_m > 0:
+        used = inliers if inliers.sum() >= 4 else finite  # four points fitted by a pose have no outlier to tell
+        dof = 2 * int(used.sum()) - (6 if fitted else 0)
+        weight = max(dof, 1) / (2 * int(used.sum()))  # the pose's six parameters took their share of the residuals
+
+        def posterior(log_sigma: float) -> float:
+            v = var(math.exp(log_sigma))[used]
+            data = weight * float(np.sum(2.0 * np.log(v) + squared[used] / v))
+            return data + (log_sigma - math.log(gcps.sigma_m)) ** 2 / PRIOR_LOG_SD**2
+
+        sigma = math.exp(
+            minimize_scalar(
+                posterior, bounds=(math.log(MIN_GCP_SIGMA_M), math.log(50.0)), method="bounded", options={"xatol": 1e-4}
+            ).x
+        )
     return replace(gcps, sigma_m=sigma)
 
 

@@ -113,14 +113,31 @@ def measured(model: LogModel, trajectory: Trajectory) -> LogModel:
 
 
 def _receiver_of(model: LogModel, white: float) -> LogModel | None:
-    """The receiver the log's fixes say it is, when the model has no bias and they scatter as one that wanders
-    (``white``: noise_beyond_turns, so that an exact path turning all along is no receiver's): the preset whose white
-    noise is nearest (in log) to the one measured, when it has a bias, the measurement is at least the white noise
-    of the least noisy preset with a bias and nearer to that preset's than to the model's. Its bias then applies (a
-    receiver that noisy wanders too: a drone's log declared RTK, or undeclared). None otherwise."""
-    if model.has_bias or white < min(p.white_m for p in PRESETS.values() if p.has_bias):
+    """The receiver the log's fixes say it is (``white``: noise_beyond_turns, so that an exact path turning all along is
+    no receiver's), or None to keep the model's:
+
+    - a model without a bias whose fixes scatter as a receiver that wanders: the preset whose white noise is nearest
+      (in log) to the one measured, when it has a bias, the measurement is at least the white noise of the least noisy
+      preset with a bias and nearer to that preset's than to the model's. Its bias then applies (a receiver that noisy
+      wanders too: a drone's log declared RTK, or undeclared);
+    - a receiver with a bias that ingest only suggested from the log's kind (a GPX: a phone's) whose fixes scatter as
+      a receiver without one: the preset without a bias whose white noise is nearest to the one measured, when it is
+      nearer than the suggestion's and than every preset's with a bias (a GPX whose fixes show 0.3 m of white noise
+      is a 0.3 m white log, not a phone's; one that shows 0.5 m stays a phone's). Fixes that scatter less than a
+      wandering receiver's least (an RTK-like scatter) say nothing of a bias: consumer receivers smooth their fixes
+      and wander all the same, so the suggestion stands."""
+    if white <= 0:
         return None
     nearest = min((p for p in PRESETS.values() if p.white_m > 0), key=lambda p: abs(math.log(white / p.white_m)))
+    least_wandering = min(p.white_m for p in PRESETS.values() if p.has_bias)
+    if model.has_bias:
+        if not model.suggested or nearest.has_bias or nearest.white_m < least_wandering:
+            return None
+        if abs(math.log(white / model.white_m)) <= abs(math.log(white / nearest.white_m)):
+            return None
+        return replace(nearest, suggested=True)
+    if white < least_wandering:
+        return None
     if not nearest.has_bias:
         return None
     if model.white_m > 0 and abs(math.log(white / model.white_m)) <= abs(math.log(white / nearest.white_m)):

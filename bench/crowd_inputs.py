@@ -1,0 +1,173 @@
+"""Crowds with a user's inputs through `tlsync run`: a GPX log and GCPs, the defaults against the inputs declared.
+
+    python bench/crowd_inputs.py [--seeds 0 1 2] [--distractors 8] [--fps 10 5] [--seconds 45]
+                                 [--log-rate 1] [--gps-noise 0.3] [--gcps 6] [--gcp-noise-px 1] [--jobs 1]
+
+Each seed's crowd scene (data_fixtures/crowd.py: two surveillance cameras,
+look-alike walkers, every mover detected) is written as a user brings it
+(data_fixtures.crowd.UserInputs): the log a GPX file (``--log-rate`` Hz, white
+noise of ``--gps-noise`` metres per axis) whose error model is not declared,
+each camera's intrinsics and ``--gcps`` ground points whose pixels are
+clicked with ``--gcp-noise-px`` of noise, ``gcp_sigma_m`` left at its
+default. It runs `tlsync run` with these defaults, then again (the work
+folder kept: only what the declaration changes re-runs) with the inputs
+declared as they are: ``log_model = "white"``, ``white_sigma_m`` the noise,
+``gcp_sigma_m = 0``. Prints per run: the worst pair's eps_t (frames of the
+pair's first camera; inf when a camera is not synchronized), per camera the
+share of its identified frames on the target's silhouette, its status, its
+clock error over the 95 % interval's half-width at the middle of its visit
+(a camera ``ok`` or ``weak`` beyond 3 is a confident wrong answer), and the
+distance (m) and angle (degrees) between its pose and the true one.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from calibration.camera import read_camera  # noqa: E402
+from data_fixtures.crowd import CrowdSpec, UserInputs, write_crowd_project  # noqa: E402
+from tlsync_pipeline.sync.timeline import eps_t, read_timeline  # noqa: E402
+from trackers.track import read_track  # noqa: E402
+
+Z95 = 1.959964
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def tlsync_run(project: Path) -> int:
+    """`tlsync run project --quiet` in a process of its own (this worktree's code); its exit code."""
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    command = [sys.executable, "-m", "tlsync_pipeline.cli", "run", str(project), "--quiet"]
+    return subprocess.run(command, env=env, capture_output=True, text=True).returncode
+
+
+def declare(project: Path, white_m: float) -> None:
+    """Declare the inputs as they are in the project file: a white log of ``white_m`` and exact GCPs."""
+    text = project.read_text()
+    head, rest = text.split("\n", 1)
+    assert head == "[target]", "the project starts with its target table"
+    project.write_text(
+        f'[target]\nlog_model = "white"\nwhite_sigma_m = {white_m}\n{rest}\n[calibration]\ngcp_sigma_m = 0\n'
+    )
+
+
+def measure(directory: Path, crowd, code: int) -> dict:
+    """The run's worst pair, and per camera: on-target share, status, clock error / interval, pose error."""
+    scene = crowd.scene
+    work = directory / "work"
+    timeline = read_timeline(work / "timeline.json")
+    statuses = json.loads((work / "timeline.json").read_text()).get("status", {})
+    pairs = [
+        eps_t(timeline.relation(*key.split("->")), truth, scene.n_frames[key.split("->")[0]])
+        if set(key.split("->")) <= set(timeline.cameras)
+        else math.inf
+        for key, truth in scene.truth_pairs().items()
+    ]
+    cameras = {}
+    for name, truth in crowd.truth.items():
+        row: dict = {"status": statuses.get(name, {}).get("status", "?")}
+        track_path = work / "cameras" / name / "track.csv"
+        if track_path.exists():
+            track = read_track(track_path)
+            row["on_target"] = float(truth.on_target(track.frame, track.xy).mean()) if len(track) else 0.0
+            row["frames"] = len(track)
+        line = timeline.cameras.get(name) or timeline.rejected.get(name)
+        if line is not None:
+            true_line = scene.lines[name]
+            middle = (float(np.median(scene.tracks[name].frame)) - true_line.beta) / true_line.alpha
+            error = abs((line.alpha - true_line.alpha) * middle + line.beta - true_line.beta)
+            g = np.array([middle, 1.0])
+            half = Z95 * math.sqrt(max(g @ line.cov @ g, 0.0)) if line.cov is not None else math.inf
+            row["error_frames"], row["z"] = error, error / half if half > 0 else math.inf
+        camera_path = work / "cameras" / name / "camera.json"
+        if camera_path.exists():
+            posed, true_camera = read_camera(camera_path), scene.cameras[name]
+            if posed.R is not None:
+                centre = -posed.R.T @ posed.t
+                true_centre = -true_camera.R.T @ true_camera.t
+                turn = posed.R @ true_camera.R.T
+                row["pose_m"] = float(np.linalg.norm(centre - true_centre))
+                row["pose_deg"] = math.degrees(math.acos(np.clip((np.trace(turn) - 1) / 2, -1.0, 1.0)))
+        cameras[name] = row
+    return {"code": code, "worst": max(pairs), "cameras": cameras}
+
+
+def one_seed(seed: int, args: argparse.Namespace) -> dict:
+    """Both runs of one seed's scene: {"defaults": measure(...), "declared": measure(...)}."""
+    spec = CrowdSpec(
+        seed=seed,
+        distractors=args.distractors,
+        fps=tuple(args.fps),
+        n_frames=tuple(int(round(args.seconds * f)) for f in args.fps),
+        log_rate=args.log_rate,
+        gps_noise_m=args.gps_noise,
+    )
+    inputs = UserInputs(gpx=True, gcps=args.gcps, gcp_noise_px=args.gcp_noise_px)
+    with tempfile.TemporaryDirectory() as tmp:
+        first = Path(tmp) / "defaults"
+        project, crowd = write_crowd_project(first, spec, inputs)
+        out = {"defaults": measure(first, crowd, tlsync_run(project))}
+        second = Path(tmp) / "declared"
+        shutil.copytree(first, second)
+        declare(second / "project.toml", args.gps_noise)
+        out["declared"] = measure(second, crowd, tlsync_run(second / "project.toml"))
+    return out
+
+
+def describe(run: dict) -> str:
+    parts = [f"worst {run['worst']:.3f} (exit {run['code']})"]
+    for name, c in run["cameras"].items():
+        pose = f" pose {c['pose_m']:.2f} m {c['pose_deg']:.1f} deg" if "pose_m" in c else ""
+        z = f" |err| {c['error_frames']:.2f} fr = {c['z']:.1f}x" if "z" in c else ""
+        on = f" on {c['on_target']:.0%} of {c['frames']}" if "on_target" in c else ""
+        parts.append(f"{name}: {c['status']}{on}{z}{pose}")
+    return "; ".join(parts)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
+    parser.add_argument("--distractors", type=int, default=8)
+    parser.add_argument("--fps", type=float, nargs="+", default=[10.0, 5.0])
+    parser.add_argument("--seconds", type=float, default=45.0, help="each video's length")
+    parser.add_argument("--log-rate", type=float, default=1.0, metavar="HZ")
+    parser.add_argument("--gps-noise", type=float, default=0.3, metavar="M", help="white noise per axis, metres")
+    parser.add_argument("--gcps", type=int, default=6, help="ground points per camera")
+    parser.add_argument("--gcp-noise-px", type=float, default=1.0)
+    parser.add_argument("--jobs", type=int, default=1)
+    args = parser.parse_args()
+    with ProcessPoolExecutor(args.jobs) as pool:
+        results = list(pool.map(one_seed, args.seeds, [args] * len(args.seeds)))
+    worst = {k: np.array([r[k]["worst"] for r in results]) for k in ("defaults", "declared")}
+    on = {k: [min(c.get("on_target", 0.0) for c in r[k]["cameras"].values()) for r in results] for k in worst}
+    wrong = {
+        k: sum(
+            c["status"] in ("ok", "weak") and c.get("z", 0.0) > 3.0 for r in results for c in r[k]["cameras"].values()
+        )
+        for k in worst
+    }
+    for seed, r in zip(args.seeds, results):
+        for k in ("defaults", "declared"):
+            print(f"seed {seed} {k:>8}: {describe(r[k])}")
+    print(f"{'inputs':>8} {'<=0.2':>6} {'median':>7} {'max':>7} {'on target (worse camera, median)':>33} {'wrong':>5}")
+    for k in ("defaults", "declared"):
+        print(
+            f"{k:>8} {np.mean(worst[k] <= 0.2):>6.0%} {np.median(worst[k]):>7.3f} {np.max(worst[k]):>7.3f} "
+            f"{np.median(on[k]):>33.1%} {wrong[k]:>5}"
+        )
+
+
+if __name__ == "__main__":
+    main()
