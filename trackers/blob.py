@@ -197,7 +197,10 @@ class BlobDetector:
                 half = cv2.resize(image, size, interpolation=cv2.INTER_AREA)
             image = half
             levels[f] = image
-        if f < s:
+        if f < s and image.dtype == np.uint8 and s // f == 3:
+            levels[s] = np.empty((sh, sw), np.uint8)
+            self.passes.third(image, levels[s])
+        elif f < s:
             levels[s] = cv2.resize(image, (sw, sh), interpolation=cv2.INTER_AREA)
         return levels
 

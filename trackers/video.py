@@ -408,8 +408,17 @@ def presentation_times(path: str | Path) -> np.ndarray | None:
     if not pts_list:
         return None
     with _open(path) as container:
-        base = container.streams.video[0].time_base or Fraction(1, 1)
-    return np.array([float(pts * base) for pts in pts_list])
+        base = Fraction(container.streams.video[0].time_base or Fraction(1, 1))
+    return seconds_of(np.array(pts_list, dtype=np.int64), base)
+
+
+def seconds_of(pts: np.ndarray, base: Fraction) -> np.ndarray:
+    """Timestamps (int64) times ``base`` in seconds, each the float nearest the exact product (``float(pts * base)``):
+    with every product and the denominator below 2**53 one division of exact floats, correctly rounded."""
+    exact = 2**53
+    if len(pts) == 0 or (int(np.abs(pts).max()) < exact // max(abs(base.numerator), 1) and base.denominator < exact):
+        return (pts * base.numerator) / base.denominator
+    return np.array([float(int(p) * base) for p in pts])
 
 
 def packet_sizes(path: str | Path) -> tuple[np.ndarray, np.ndarray] | None:

@@ -4,7 +4,7 @@ import cv2
 import numpy as np
 
 from trackers.blob import REFINE_MIN_SIDE, BlobDetector, BlobParams
-from trackers.blob_passes import DECILE_BINS, DECILE_RANGE, upper_decile
+from trackers.blob_passes import DECILE_BINS, DECILE_RANGE, halve, third, upper_decile
 
 SIZE = (1920, 1080)
 
@@ -74,3 +74,23 @@ def test_upper_decile_matches_numpy_percentile_to_a_grey_level():
     hist = np.histogram(positive, bins=DECILE_BINS, range=DECILE_RANGE)[0].astype(np.float64)
     assert abs(upper_decile(hist) - np.percentile(positive, 90)) <= 1.0
     assert upper_decile(np.zeros(DECILE_BINS)) < 0
+
+
+def test_compiled_area_averages_are_opencvs():
+    """halve and third give OpenCV's INTER_AREA by 2 and by 3 level for level, on noise and on every sum of nine
+    levels (each rounding is exercised)."""
+    rng = np.random.default_rng(4)
+    image = rng.integers(0, 256, (723, 1283), dtype=np.uint8)
+    for factor, compiled in ((2, halve), (3, third)):
+        h, w = image.shape[0] // factor, image.shape[1] // factor
+        out = np.empty((h, w), np.uint8)
+        compiled(image[: h * factor, : w * factor], out)
+        expected = cv2.resize(image[: h * factor, : w * factor], (w, h), interpolation=cv2.INTER_AREA)
+        assert np.array_equal(out, expected)
+    sums = np.arange(9 * 255 + 1)
+    blocks = np.clip(sums[:, None] - 255 * np.arange(9)[None, :], 0, 255).astype(np.uint8)  # nine levels per sum
+    image = blocks.reshape(-1, 3, 3).transpose(1, 0, 2).reshape(3, -1)
+    out = np.empty((1, len(sums)), np.uint8)
+    third(image, out)
+    assert np.array_equal(out, cv2.resize(image, (len(sums), 1), interpolation=cv2.INTER_AREA))
+    assert out[0, 4] == 0 and out[0, 5] == 1  # 4 / 9 rounds down, 5 / 9 up

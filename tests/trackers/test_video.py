@@ -1,6 +1,7 @@
 """Video reading: indices, presentation times, rotation, seeking, damaged and bad files."""
 
 import warnings
+from fractions import Fraction
 
 import av
 import numpy as np
@@ -19,6 +20,7 @@ from trackers.video import (
     probe_video,
     read_frames,
     sample_frames,
+    seconds_of,
 )
 
 
@@ -303,3 +305,14 @@ def test_grey_frames_are_read_only_views_that_stay_intact(tmp_path):
     again = read_frames(clip.path, range(0, 60, 10), gray=True)
     for image, index in zip(kept, range(0, 60, 10)):
         np.testing.assert_array_equal(image, again[index].image)
+
+
+def test_seconds_of_timestamps_are_the_exact_products_rounded():
+    """Each timestamp times the time base as float(pts * base) gives it, whether one division of exact floats does it
+    or the products reach 2**53."""
+    rng = np.random.default_rng(6)
+    pts = np.concatenate([np.arange(-3, 5000), rng.integers(0, 10**12, 5000)]).astype(np.int64)
+    for base in (Fraction(1, 15360), Fraction(1001, 30000), Fraction(1, 90000), Fraction(3, 7), Fraction(10**6, 3)):
+        expected = np.array([float(int(p) * base) for p in pts])
+        assert np.array_equal(seconds_of(pts, base), expected)
+    assert seconds_of(np.zeros(0, np.int64), Fraction(1, 25)).shape == (0,)
