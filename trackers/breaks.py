@@ -46,8 +46,8 @@ REPEATED_SHARE = 1 / 3  # a run holding a keyframe coded afresh repeats its pict
 
 CUT_WIDTH = 64  # px: the luma plane is averaged down to this width for cuts (sensor noise and far movers fade)
 CUT_CONTENT = 3.0  # %: a change of the picture's content (the plane over its mean) of this mean size ...
-CUT_GAIN = 0.04  # ... or of its mean brightness (|log ratio|), and CUT_GAIN_FLICKER times the video's flicker
-CUT_GAIN_FLICKER = 5.0  # (frame_flicker: its brightness steps' 90th percentile, which its cuts do not move) ...
+CUT_GAIN = 0.04  # ... or of its mean brightness (|log ratio|), and CUT_GAIN_FLICKER times the median of the
+CUT_GAIN_FLICKER = 10.0  # video's own brightness steps (its flicker; a median is not moved by the cuts) ...
 CUT_SPIKE = 3.0  # ... this many times the change of each of the two frames before it and the two after it ...
 REPEATED_PICTURE = 0.05  # %: a content step this small is the same picture again (its steps say nothing of flicker)
 CUT_HOLDS = 0.6  # ... and holding: the two frames after it differ from the two before it by this share of it
@@ -161,7 +161,7 @@ class PictureMeter:
         small, mean = _small_plane(cv2, gray)
         if self._last is not None and self._last[0] == index - 1 and self._last[1].shape == gray.shape:
             self._frames.append(index)
-            self._change.append(int(cv2.norm(gray, self._last[1], cv2.NORM_INF)))
+            self._change.append(int(cv2.absdiff(gray, self._last[1]).max()))
             self._movers.append(movers)
             self._step.append(_picture_change(self._small[-1], (index, small, mean)))
             back = self._small[-3] if len(self._small) >= 3 and self._small[-3][0] == index - 3 else None
@@ -209,8 +209,9 @@ def scene_cuts(frames: np.ndarray, step: np.ndarray, across: np.ndarray) -> list
     change (content %, brightness |log ratio|; ``PictureMeter``) from frame
     - 1; across (N, 2): from frame - 3 (NaN when not read). Frame f is a cut
     when, in content or in brightness, its step is at least CUT_CONTENT (or
-    CUT_GAIN and CUT_GAIN_FLICKER times the video's flicker, ``frame_flicker``)
-    and CUT_SPIKE times the steps of frames f - 2, f - 1, f + 1 and f + 2 (a moving picture, a mover
+    CUT_GAIN and CUT_GAIN_FLICKER times the median of the brightness steps
+    between pictures that are not repeated) and CUT_SPIKE times the steps
+    of frames f - 2, f - 1, f + 1 and f + 2 (a moving picture, a mover
     passing close, flicker change every frame), and frames f + 1 and f + 2
     differ from frames f - 2 and f - 1 by CUT_HOLDS of it (the change holds:
     not a flash or a dropped-out frame).
@@ -219,7 +220,9 @@ def scene_cuts(frames: np.ndarray, step: np.ndarray, across: np.ndarray) -> list
     step = np.asarray(step, dtype=np.float64).reshape(-1, 2)
     across = np.asarray(across, dtype=np.float64).reshape(-1, 2)
     out = []
-    floor = np.array([CUT_CONTENT, max(CUT_GAIN, CUT_GAIN_FLICKER * frame_flicker(step))])
+    shown = step[step[:, 0] > REPEATED_PICTURE, 1]  # the brightness steps of new pictures (a freeze's are 0)
+    flicker = float(np.median(shown)) if len(shown) else 0.0
+    floor = np.array([CUT_CONTENT, max(CUT_GAIN, CUT_GAIN_FLICKER * flicker)])
     for k in range(2, len(frames) - 2):
         if frames[k + 2] - frames[k - 2] != 4:
             continue
@@ -233,20 +236,6 @@ def scene_cuts(frames: np.ndarray, step: np.ndarray, across: np.ndarray) -> list
         if cut.any():
             out.append(Break("cut", int(frames[k]), 0.0))
     return out
-
-
-def frame_flicker(step: np.ndarray) -> float:
-    """The video's flicker from frame to frame: the 90th percentile of the brightness steps (|log ratio|; ``step``
-    (N, 2) as ``scene_cuts`` takes it) between pictures that are not repeated (a freeze's are 0), 0 without any.
-
-    A percentile of the spread, not its median: the long fixtures' light (6 % flicker, coded at crf 20) steps
-    by a median of 0.009-0.011 and a 90th percentile of 0.032-0.036 over 13,500-27,000 frames, and by chance
-    once up to 3.7 times that percentile (2.9 times where the step also stands out of its neighbours' and
-    holds, as a cut's does), which is 10 times the median.
-    """
-    step = np.asarray(step, dtype=np.float64).reshape(-1, 2)
-    shown = step[step[:, 0] > REPEATED_PICTURE, 1]
-    return float(np.percentile(shown, 90)) if len(shown) else 0.0
 
 
 def frozen_runs(

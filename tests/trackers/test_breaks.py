@@ -3,13 +3,11 @@
 import numpy as np
 
 from trackers.breaks import (
-    CUT_GAIN_FLICKER,
     Break,
     KeyframeMeter,
     PictureMeter,
     check_spans,
     container_breaks,
-    frame_flicker,
     frozen_runs,
     keyframe_flicker,
     keyframe_suspects,
@@ -227,31 +225,3 @@ def test_the_keyframe_meter_judges_each_pass_of_the_coarse_pass_on_its_own():
     for index in (*range(0, 301, 60), *range(30, 301, 60)):
         meter.feed(index, picture(index))
     assert meter.suspects() == [(90, 150), (120, 180)]
-
-
-def _light_steps(brightness: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """scene_cuts' frames, steps (from the frame before) and changes across (from three frames before) of a picture
-    whose content stays (0.5 %) and whose log brightness is ``brightness``, one value per frame."""
-    n = len(brightness)
-    step = np.column_stack([np.full(n, 0.5), np.abs(np.diff(brightness, prepend=brightness[0]))])
-    across = np.column_stack([np.full(n, 0.5), np.abs(brightness - np.roll(brightness, 3))])
-    across[:3] = np.nan
-    return np.arange(1, n), step[1:], across[1:]
-
-
-def test_a_flickering_light_stepping_by_chance_is_no_cut_a_restart_in_other_light_is():
-    """The long fixtures' light (6 % flicker over 37 frames, 1.8 % noise) over 10 minutes at 30 fps, once stepping
-    and staying 0.19 brighter by chance: ten times the median step, within five times their 90th percentile, so
-    no cut (the full pass's cam0 of the long recording had one such); a restart 0.35 brighter is one."""
-    rng = np.random.default_rng(1)
-    n = 18000
-    light = np.log(1.0 + 0.06 * np.sin(2 * np.pi * np.arange(n) / 37.0) + 0.018 * rng.standard_normal(n))
-    stepped = light + np.where(np.arange(n) >= 9000, 0.19, 0.0)
-    frames, step, across = _light_steps(stepped)
-    jump = step[frames == 9000, 1][0]
-    assert jump >= 10 * np.median(step[:, 1]) and jump < CUT_GAIN_FLICKER * frame_flicker(step)
-    assert scene_cuts(frames, step, across) == []
-    frames, step, across = _light_steps(light + np.where(np.arange(n) >= 9000, 0.35, 0.0))
-    assert scene_cuts(frames, step, across) == [Break("cut", 9000, 0.0)]
-    assert frame_flicker(np.zeros((0, 2))) == 0.0
-    assert frame_flicker(np.array([[0.0, 0.3], [0.01, 0.2]])) == 0.0  # repeated pictures say nothing of the light
