@@ -120,6 +120,22 @@ def test_a_gpx_whose_fixes_scatter_as_a_white_receivers_is_no_phones():
     assert smoothed.has_bias
 
 
+def test_a_declared_white_log_read_noisier_by_chance_is_no_phones():
+    """A good receiver's log declared white 0.3 m, in stretches of 30 fixes at 1 Hz (a visit's worth): a few read
+    nearer a phone's 0.5 m than 0.3 m by chance; within three of the measurement's stds of the declaration they do not
+    overrule it (a phone's metres of bias widen the vote radius and identification's gate to passers-by)."""
+    declared = LogModelChoice("white", white_m=0.3).resolve(None)
+    readings, biased = [], 0
+    for seed in range(6):
+        log = _logged(seed, "white")
+        for start in range(0, len(log) - 30, 30):
+            part = dataclasses.replace(log, sample=log.sample[start : start + 30], xyz=log.xyz[start : start + 30])
+            readings.append(noise_beyond_turns(part))
+            biased += measured(declared, part).has_bias
+    assert max(readings) > np.sqrt(0.3 * 0.5)  # some stretches read nearer a phone's white noise
+    assert biased == 0
+
+
 def test_an_exact_path_turning_all_along_is_no_receivers():
     """An RTK walker's 1 Hz log circling a 5 m roundabout at 1.4 m/s: its second differences read the turn as 0.17 m
     of noise (more than a drone's 0.1 m), its third differences as 0.025 m. Declared RTK it stays RTK (no bias, so no

@@ -20,6 +20,7 @@ if TYPE_CHECKING:
 VOTE_SIGMAS = 3.0  # a vote's radius covers this many standard deviations of the log's error, seen from the camera
 MAD_TO_SD = 1.4826  # a normal variable's std over its median absolute deviation
 RADIUS_POINTS = 500  # most fixes the vote radius is measured at
+OVERRULE_SPREADS = 3.0  # a declared white noise is overruled by a measurement further than this many of its stds (log)
 
 
 def vote_radius(camera: Camera, trajectory: Trajectory, eps_px: float, model: LogModel) -> float:
@@ -103,23 +104,24 @@ def measured(model: LogModel, trajectory: Trajectory) -> LogModel:
     white, count = white_from_log(trajectory)
     if count == 0 or white <= 0:
         return model
-    receiver = _receiver_of(model, noise_beyond_turns(trajectory))
+    data, prior = 4.0 / count, PRIOR_LOG_SD**2
+    receiver = _receiver_of(model, noise_beyond_turns(trajectory), math.sqrt(data))
     if model.white_m > 0:
-        data, prior = 4.0 / count, PRIOR_LOG_SD**2
         white = math.exp((math.log(white) / data + math.log(model.white_m) / prior) / (1.0 / data + 1.0 / prior))
     if receiver is not None:
         model = replace(receiver, measured=(*model.measured, "receiver"))
     return replace(model, white_m=white, measured=tuple(sorted({*model.measured, "white_m"})))
 
 
-def _receiver_of(model: LogModel, white: float) -> LogModel | None:
+def _receiver_of(model: LogModel, white: float, spread: float) -> LogModel | None:
     """The receiver the log's fixes say it is (``white``: noise_beyond_turns, so that an exact path turning all along is
-    no receiver's), or None to keep the model's:
+    no receiver's; ``spread``: the std of its logarithm), or None to keep the model's:
 
     - a model without a bias whose fixes scatter as a receiver that wanders: the preset whose white noise is nearest
       (in log) to the one measured, when it has a bias, the measurement is at least the white noise of the least noisy
-      preset with a bias and nearer to that preset's than to the model's. Its bias then applies (a receiver that noisy
-      wanders too: a drone's log declared RTK, or undeclared);
+      preset with a bias, nearer to that preset's than to the model's and, where the model states a white noise, more
+      than OVERRULE_SPREADS spreads from it. Its bias then applies (a receiver that noisy wanders too: a drone's log
+      declared RTK, or undeclared); a good GPX declared white 0.3 m whose 66 fixes read 0.39 m by chance is no phone's;
     - a receiver with a bias that ingest only suggested from the log's kind (a GPX: a phone's) whose fixes scatter as
       a receiver without one: the preset without a bias whose white noise is nearest to the one measured, when it is
       nearer than the suggestion's and than every preset's with a bias (a GPX whose fixes show 0.3 m of white noise
@@ -140,8 +142,10 @@ def _receiver_of(model: LogModel, white: float) -> LogModel | None:
         return None
     if not nearest.has_bias:
         return None
-    if model.white_m > 0 and abs(math.log(white / model.white_m)) <= abs(math.log(white / nearest.white_m)):
-        return None
+    if model.white_m > 0:
+        off = abs(math.log(white / model.white_m))
+        if off <= abs(math.log(white / nearest.white_m)) or off <= OVERRULE_SPREADS * spread:
+            return None
     return nearest
 
 
