@@ -724,9 +724,12 @@ def ranked_pose(
     max_roll_deg: the upright-mount prior (sync/pose/upright.py; None: off): the best is the first fit whose roll is
     within it, and every other fit, rolled or not, stays a possible runner-up with all its evidence (a rolled pose that
     explains the track at another offset still says the track is ambiguous). PoseError ``not_upright`` when no fit is
-    within it.
+    within it, unless the track cannot pose the camera at all (a straight path without GCPs: ``straight_path``, the
+    rolls of its fits mean nothing).
     """
     upright = [k for k, f in enumerate(fits) if is_upright(f.camera.R, max_roll_deg)]
+    if not upright and not with_gcps and straightness(xy[fits[0].inliers]) < STRAIGHT:
+        raise PoseError(fits[0].camera.name, "straight_path", _straight_text(straightness(xy[fits[0].inliers])))
     if not upright:
         raise PoseError(
             fits[0].camera.name,
@@ -771,6 +774,10 @@ def ranked_pose(
             moved_deg=rotation_between(result.camera.R, gcp_camera.R),
         )
     return result
+
+
+def _straight_text(ratio: float) -> str:
+    return f"the target's path is nearly a straight line in the image (width {ratio:.3f} of its length)"
 
 
 def profile_beta(
@@ -834,11 +841,7 @@ def check_determined(
             name, "too_few_frames", f"{fit.support} frames within the gate, at least {MIN_FRAMES} are needed"
         )
     if not with_gcps and result.straightness < STRAIGHT:
-        raise PoseError(
-            name,
-            "straight_path",
-            f"the target's path is nearly a straight line in the image (width {result.straightness:.3f} of its length)",
-        )
+        raise PoseError(name, "straight_path", _straight_text(result.straightness))
     weighed = np.isfinite(result.rival_probability)
     if not with_gcps and weighed and result.rival_probability >= RIVAL_PROBABILITY:
         raise PoseError(
