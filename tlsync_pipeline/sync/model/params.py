@@ -59,9 +59,8 @@ class SyncParams:
     rate_sigma: float = param(0.0003, "non_negative")
     logged_point_above_m: float = param(0.0, "finite")
     log_bias: bool = param(True, "boolean")
-    upright_roll_deg: float = param(
-        45.0, "non_negative"
-    )  # poses fitted right under a phone's 2 m log: rolled <= 23 deg
+    # poses fitted right under a phone's 2 m log are rolled up to 23 degrees
+    upright_roll_deg: float = param(45.0, "non_negative")
     method: str = "refined"
     options: dict[str, Any] = field(default_factory=dict)
 

@@ -414,9 +414,8 @@ def pose_from_track(
                 max_roll_deg,
             )
             return replace(alone, disagreeing=_names(gcps))  # type: ignore[arg-type]
-        upright = max_roll_deg if gcps is None else None
         result = ranked_pose(
-            fits, search, xy, fps or 0.0, gcps is not None, gcp_camera, clock, path, biased, max_roll_deg=upright
+            fits, search, xy, fps or 0.0, gcps is not None, gcp_camera, clock, path, biased, max_roll_deg=max_roll_deg
         )
         if free:
             result = _settle_intrinsics(result, clock, xy, path, prior, gate_px, f_scale, gcps, free, unknown_k)
@@ -721,16 +720,17 @@ def ranked_pose(
     the runner-up is the distinct fit the track's evidence makes most probable (``rival_probability``), and the
     timing's spread is that of the fits that are one timing.
 
-    max_roll_deg: the upright-mount prior (sync/pose/upright.py; None: off): the best is the first fit whose roll is
-    within it, and every other fit, rolled or not, stays a possible runner-up with all its evidence (a rolled pose that
-    explains the track at another offset still says the track is ambiguous). PoseError ``not_upright`` when no fit is
-    within it, unless the track cannot pose the camera at all (a straight path without GCPs: ``straight_path``, the
-    rolls of its fits mean nothing).
+    max_roll_deg: the upright-mount prior (sync/pose/upright.py; None or with GCPs: off): the best is the first fit
+    whose roll is within it, and every other fit, rolled or not, stays a possible runner-up with all its evidence (a
+    rolled pose that explains the track at another offset still says the track is ambiguous). PoseError
+    ``not_upright`` when no fit is within it, unless the track cannot pose the camera at all (a straight path:
+    ``straight_path``, the rolls of its fits mean nothing).
     """
-    upright = [k for k, f in enumerate(fits) if is_upright(f.camera.R, max_roll_deg)]
-    if not upright and not with_gcps and straightness(xy[fits[0].inliers]) < STRAIGHT:
-        raise PoseError(fits[0].camera.name, "straight_path", _straight_text(straightness(xy[fits[0].inliers])))
+    upright = [k for k, f in enumerate(fits) if is_upright(f.camera.R, None if with_gcps else max_roll_deg)]
     if not upright:
+        width = straightness(xy[fits[0].inliers])
+        if width < STRAIGHT:
+            raise PoseError(fits[0].camera.name, "straight_path", _straight_text(width))
         raise PoseError(
             fits[0].camera.name,
             "not_upright",
@@ -1496,7 +1496,7 @@ def pose_from_movers(
         fps or 0.0,
         gcps is not None,
         gcp_camera,
-        max_roll_deg=max_roll_deg if gcps is None else None,
+        max_roll_deg=max_roll_deg,
     )
     clock = row_clock[identified.rows]
     if free:
