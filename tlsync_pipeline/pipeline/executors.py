@@ -9,13 +9,18 @@ detection of the intrinsics stage): 1 in a pool's or a cluster's worker, so
 pools are never nested; the executor's share of the machine when it runs
 tasks one at a time in this process.
 
+Local workers fork from a server process that imported the modules the
+caller names once (``forkserver`` with a preload, where the platform has it;
+else each is spawned and imports them itself), so a run pays for its
+imports once rather than once per worker.
+
 Local workers never outlive the run that started them: they ignore Ctrl-C
 (the terminal sends it to the whole process group; the run stops them
-itself), the kernel kills them when their parent dies (Linux
-``PR_SET_PDEATHSIG``), and a watchdog thread in each worker exits as soon as
-the parent pid changes (every platform, within ``PARENT_POLL_S``), so a
-``kill -9`` of ``tlsync run`` leaves no worker writing into the work folder
-without the lock.
+itself), the kernel kills them when their parent (the fork server, or the
+run's process where they are spawned) dies (Linux ``PR_SET_PDEATHSIG``), and
+a watchdog thread in each worker exits as soon as the run's process ends (its
+multiprocessing sentinel, every platform), so a ``kill -9`` of ``tlsync run``
+leaves no worker writing into the work folder without the lock.
 """
 
 from __future__ import annotations
@@ -25,6 +30,8 @@ import contextlib
 import ctypes
 import dataclasses
 import multiprocessing
+import multiprocessing.connection
+import multiprocessing.forkserver
 import os
 import signal
 import sys
@@ -43,13 +50,12 @@ THREAD_VARIABLES = (
     "VECLIB_MAXIMUM_THREADS",
 )
 EXECUTORS = ("process", "serial", "dask")
-PARENT_POLL_S = 0.2  # how often a worker checks that its parent is alive (seconds)
 STOP_GRACE_S = 3.0  # how long a stopped worker may take to exit before it is killed (seconds)
 _PR_SET_PDEATHSIG = 1
 
 
-def die_with_parent(parent_pid: int) -> None:
-    """Initializer of a worker process: ignore Ctrl-C, exit when ``parent_pid`` ends, hold no semaphore of its own.
+def die_with_parent() -> None:
+    """Initializer of a worker process: ignore Ctrl-C, exit when the run's process ends, hold no semaphore of its own.
 
     The worker was started with Ctrl-C blocked (``ProcessExecutor.submit``): one sent while it started waits,
     and is dropped here, after it is ignored."""
@@ -61,9 +67,10 @@ def die_with_parent(parent_pid: int) -> None:
             ctypes.CDLL(None, use_errno=True).prctl(_PR_SET_PDEATHSIG, int(signal.SIGKILL))
         except (OSError, AttributeError):
             pass  # the watchdog below still applies
-    if os.getppid() != parent_pid:  # the parent died before the request above took effect
+    run = multiprocessing.parent_process()
+    if run is None or not run.is_alive():  # the run ended before the request above took effect
         os._exit(1)
-    threading.Thread(target=_watch_parent, args=(parent_pid,), name="tlsync-parent-watchdog", daemon=True).start()
+    threading.Thread(target=_watch_run, args=(run.sentinel,), name="tlsync-parent-watchdog", daemon=True).start()
     from tqdm import tqdm
 
     # tqdm's default lock holds a multiprocessing semaphore; a worker stopped mid-task would leave it to the
@@ -71,9 +78,9 @@ def die_with_parent(parent_pid: int) -> None:
     tqdm.set_lock(threading.RLock())
 
 
-def _watch_parent(parent_pid: int) -> None:
-    while os.getppid() == parent_pid:
-        time.sleep(PARENT_POLL_S)
+def _watch_run(sentinel: int) -> None:
+    """Exit once the run's process has ended: its end of the sentinel pipe closes with it (also after ``kill -9``)."""
+    multiprocessing.connection.wait([sentinel])
     os._exit(1)
 
 
@@ -191,28 +198,33 @@ class SerialExecutor:
 
 
 class ProcessExecutor:
-    """A pool of ``jobs`` worker processes (spawned, so they start with one thread per library)."""
+    """A pool of ``jobs`` worker processes, each with one thread per library.
+
+    preload: modules the workers import before their first task. Where the
+    platform has ``forkserver``, a server process imports them once and the
+    workers fork from it (each would take 0.5-1 s of CPU to import them
+    itself); else the workers are spawned. Either way they start from a
+    process with no thread of the run's.
+    """
 
     name = "process"
     cores = 1
 
-    def __init__(self, jobs: int | None = None):
+    def __init__(self, jobs: int | None = None, preload: tuple[str, ...] = ()):
         self.jobs = jobs or os.cpu_count() or 1
+        self.preload = preload
         self._pool: cf.ProcessPoolExecutor | None = None
         self._saved_env: dict[str, str | None] = {}
 
     def submit(self, fn: Callable, kwargs: dict) -> cf.Future:
         if self._pool is None:
-            # Spawned children inherit the environment: set the thread counts before they start.
+            # The workers (and the fork server) inherit the environment: set the thread counts before they start.
             for var in THREAD_VARIABLES:
                 self._saved_env[var] = os.environ.get(var)
                 os.environ[var] = "1"
             quiet_resource_tracker()
             self._pool = cf.ProcessPoolExecutor(
-                self.jobs,
-                mp_context=multiprocessing.get_context("spawn"),
-                initializer=die_with_parent,
-                initargs=(os.getpid(),),
+                self.jobs, mp_context=worker_context(self.preload), initializer=die_with_parent
             )
         with _ctrl_c_held():  # the workers it may start inherit Ctrl-C blocked (until die_with_parent ignores it)
             return self._pool.submit(call, fn, kwargs)
@@ -243,12 +255,32 @@ class ProcessExecutor:
                         process.join()
             self._pool.shutdown(wait=not cancel, cancel_futures=cancel)
             self._pool = None
+            stop_fork_server()
         for var, value in self._saved_env.items():
             if value is None:
                 os.environ.pop(var, None)
             else:
                 os.environ[var] = value
         self._saved_env = {}
+
+
+def worker_context(preload: tuple[str, ...]) -> multiprocessing.context.BaseContext:
+    """How local workers start: forked from a server that imported ``preload`` once (``forkserver``), else spawned.
+
+    The fork server is started by the pool's first worker, with the environment of that moment."""
+    if "forkserver" not in multiprocessing.get_all_start_methods():
+        return multiprocessing.get_context("spawn")
+    context = multiprocessing.get_context("forkserver")
+    context.set_forkserver_preload(list(preload))
+    return context
+
+
+def stop_fork_server() -> None:
+    """Stop the fork server (if one runs) and wait for it: its CPU time, and its workers', then counts as this
+    process's children's (``RUSAGE_CHILDREN``), as spawned workers' does; a later pool starts a new one."""
+    server = multiprocessing.forkserver._forkserver  # noqa: SLF001 - no public API to stop it (Python <= 3.13)
+    if getattr(server, "_forkserver_pid", None) is not None:
+        server._stop()  # noqa: SLF001
 
 
 class DaskExecutor:
@@ -316,14 +348,15 @@ def _part(fn: Callable[..., Any], kwargs: dict, caller: int) -> Called:
     return dataclasses.replace(called, elsewhere=os.getpid() != caller)
 
 
-def make_executor(kind: str = "process", jobs: int | None = None, scheduler: Any = None):
-    """An executor by name: process (default), serial, or dask (needs ``scheduler``)."""
+def make_executor(kind: str = "process", jobs: int | None = None, scheduler: Any = None, preload: tuple[str, ...] = ()):
+    """An executor by name: process (default; its workers import ``preload`` first), serial, or dask (needs
+    ``scheduler``)."""
     from tlsync_pipeline.errors import InputError
 
     if kind == "serial" or (kind == "process" and jobs == 1):
         return SerialExecutor(jobs)
     if kind == "process":
-        return ProcessExecutor(jobs)
+        return ProcessExecutor(jobs, preload)
     if kind == "dask":
         if scheduler is None:
             raise InputError("--executor dask needs --scheduler ADDRESS (for example tcp://host:8786)")

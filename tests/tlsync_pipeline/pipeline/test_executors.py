@@ -145,3 +145,52 @@ def test_run_each_does_not_start_a_pool_for_its_parts():
         (os.getpid(), v * v, False) for v in range(3)
     ]
     assert results[2].warnings == ("part 2: a warning for users",)
+
+
+PRELOADED = """
+import os, time
+
+with open({record!r}, "a") as handle:
+    handle.write(f"{{os.getpid()}}\\n")
+end = time.process_time() + {busy_s}
+while time.process_time() < end:  # CPU the importing process spends, to be found in this test's children's
+    pass
+"""
+
+
+def pid_and_modules(name):
+    """A task: which process ran it and whether module ``name`` was already imported there."""
+    import sys
+
+    return {"pid": os.getpid(), "preloaded": name in sys.modules}
+
+
+@pytest.mark.skipif(
+    "forkserver" not in __import__("multiprocessing").get_all_start_methods(), reason="spawned workers import alone"
+)
+def test_workers_fork_from_one_process_that_imported_the_preload(tmp_path, monkeypatch):
+    """The preload is imported once, by neither this process nor a worker, and every worker starts with it; once the
+    pool is closed that process's CPU (and its workers') is this one's children's, as spawned workers' is."""
+    import resource
+
+    from tlsync_pipeline.pipeline.executors import ProcessExecutor
+
+    record, busy_s = tmp_path / "imported_by", 0.3
+    (tmp_path / "preloaded_marker.py").write_text(PRELOADED.format(record=str(record), busy_s=busy_s))
+    monkeypatch.syspath_prepend(str(tmp_path))
+
+    def children_cpu() -> float:
+        usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+        return usage.ru_utime + usage.ru_stime
+
+    before = children_cpu()
+    executor = ProcessExecutor(2, preload=("preloaded_marker",))
+    try:
+        results = [executor.submit(pid_and_modules, {"name": "preloaded_marker"}).result().value for _ in range(4)]
+    finally:
+        executor.close()
+    importers = [int(line) for line in record.read_text().split()]
+    assert len(importers) == 1 and importers[0] != os.getpid()
+    assert all(r["preloaded"] for r in results) and importers[0] not in {r["pid"] for r in results}
+    assert "preloaded_marker" not in __import__("sys").modules  # this process never imported it
+    assert children_cpu() - before >= busy_s
