@@ -57,8 +57,8 @@ _PR_SET_PDEATHSIG = 1
 def die_with_parent() -> None:
     """Initializer of a worker process: ignore Ctrl-C, exit when the run's process ends, hold no semaphore of its own.
 
-    The worker was started with Ctrl-C blocked (``ProcessExecutor.submit``): one sent while it started waits,
-    and is dropped here, after it is ignored."""
+    A spawned worker was started with Ctrl-C blocked (``ProcessExecutor.submit``): one sent while it started
+    waits, and is dropped here, after it is ignored; a forked one ignores it from its start (worker_context)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     if hasattr(signal, "pthread_sigmask"):
         signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
@@ -121,6 +121,19 @@ def _ctrl_c_held():
         yield
     finally:
         signal.pthread_sigmask(signal.SIG_SETMASK, previous)
+
+
+@contextlib.contextmanager
+def _ctrl_c_ignored():
+    """Ctrl-C ignored for the block's duration (in the main thread), as a process started meanwhile inherits it."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 @dataclass(frozen=True)
@@ -214,6 +227,7 @@ class ProcessExecutor:
         self.jobs = jobs or os.cpu_count() or 1
         self.preload = preload
         self._pool: cf.ProcessPoolExecutor | None = None
+        self._forked = False
         self._saved_env: dict[str, str | None] = {}
 
     def submit(self, fn: Callable, kwargs: dict) -> cf.Future:
@@ -223,9 +237,11 @@ class ProcessExecutor:
                 self._saved_env[var] = os.environ.get(var)
                 os.environ[var] = "1"
             quiet_resource_tracker()
-            self._pool = cf.ProcessPoolExecutor(
-                self.jobs, mp_context=worker_context(self.preload), initializer=die_with_parent
-            )
+            context = worker_context(self.preload)
+            self._forked = context.get_start_method() == "forkserver"
+            self._pool = cf.ProcessPoolExecutor(self.jobs, mp_context=context, initializer=die_with_parent)
+        if self._forked:  # the workers ignore Ctrl-C from their start (worker_context)
+            return self._pool.submit(call, fn, kwargs)
         with _ctrl_c_held():  # the workers it may start inherit Ctrl-C blocked (until die_with_parent ignores it)
             return self._pool.submit(call, fn, kwargs)
 
@@ -255,7 +271,7 @@ class ProcessExecutor:
                         process.join()
             self._pool.shutdown(wait=not cancel, cancel_futures=cancel)
             self._pool = None
-            stop_fork_server()
+            stop_fork_server(kill=cancel)
         for var, value in self._saved_env.items():
             if value is None:
                 os.environ.pop(var, None)
@@ -267,20 +283,40 @@ class ProcessExecutor:
 def worker_context(preload: tuple[str, ...]) -> multiprocessing.context.BaseContext:
     """How local workers start: forked from a server that imported ``preload`` once (``forkserver``), else spawned.
 
-    The fork server is started by the pool's first worker, with the environment of that moment."""
+    The fork server is started here (unless one runs), with the environment of this moment and Ctrl-C ignored:
+    the workers it forks inherit that from their first instruction. Then this process waits until the server has
+    imported ``preload`` (it forks one process that does nothing), with Ctrl-C working: one that stops the run
+    meanwhile leaves no worker asked for, to start once the run is gone."""
     if "forkserver" not in multiprocessing.get_all_start_methods():
         return multiprocessing.get_context("spawn")
     context = multiprocessing.get_context("forkserver")
     context.set_forkserver_preload(list(preload))
+    with _ctrl_c_held(), _ctrl_c_ignored():  # a Ctrl-C meanwhile waits: Linux keeps a blocked signal pending
+        multiprocessing.forkserver.ensure_running()
+    ready = context.Process(target=os.getpid, name="tlsync-fork-server-ready", daemon=True)
+    try:
+        ready.start()
+        ready.join()
+    except BaseException:
+        stop_fork_server(kill=True)
+        raise
     return context
 
 
-def stop_fork_server() -> None:
+def stop_fork_server(kill: bool = False) -> None:
     """Stop the fork server (if one runs) and wait for it: its CPU time, and its workers', then counts as this
-    process's children's (``RUSAGE_CHILDREN``), as spawned workers' does; a later pool starts a new one."""
+    process's children's (``RUSAGE_CHILDREN``), as spawned workers' does; a later pool starts a new one.
+
+    kill: at once, for a stopped run (the server may still be importing, with the terminal's output open; the
+    workers it forked die with it, ``PR_SET_PDEATHSIG``)."""
     server = multiprocessing.forkserver._forkserver  # noqa: SLF001 - no public API to stop it (Python <= 3.13)
-    if getattr(server, "_forkserver_pid", None) is not None:
-        server._stop()  # noqa: SLF001
+    pid = getattr(server, "_forkserver_pid", None)
+    if pid is None:
+        return
+    if kill:
+        with contextlib.suppress(ProcessLookupError):
+            os.kill(pid, signal.SIGKILL)
+    server._stop()  # noqa: SLF001
 
 
 class DaskExecutor:
