@@ -360,22 +360,22 @@ class DaskExecutor:
             self.client.close()
 
 
-def run_each(executor, fn: Callable[..., Any], calls: list[dict]) -> list[Called]:
-    """``fn(**kwargs)`` for each of ``calls`` on ``executor`` (in parallel on its workers), in the calls' order.
+def run_each(executor, parts: list[tuple[Callable[..., Any], dict]]) -> list[Called]:
+    """``fn(**kwargs)`` for each ``(fn, kwargs)`` of ``parts`` on ``executor`` (in parallel on its workers), in order.
 
     For a task of the engine's own process with independent parts (render's
-    cameras): it hands them to the run's executor, so no pool is started
-    inside another. A local pool that no task has started yet is not started
-    for them: each worker would first import the pipeline and matplotlib
-    (1.5-2 s CPU), more than a camera's pictures cost, so the parts run in
-    this process (``tlsync render`` alone, a run where only render is stale).
-    Each Called says whether it ran in another process (its CPU is then not
-    in this one's, for the task to add to its own); the first failed call's
-    error is raised.
+    cameras and charts): it hands them to the run's executor, so no pool is
+    started inside another. A local pool that no task has started yet is not
+    started for them: its fork server would first import the pipeline and
+    matplotlib (about 1 s of CPU), more than a camera's pictures cost, so the
+    parts run in this process (``tlsync render`` alone, a run where only
+    render is stale). Each Called says whether it ran in another process (its
+    CPU is then not in this one's, for the task to add to its own); the first
+    failed call's error is raised.
     """
     if isinstance(executor, ProcessExecutor) and not executor.started:
         executor = SerialExecutor()
-    futures = [executor.submit(_part, {"fn": fn, "kwargs": kwargs, "caller": os.getpid()}) for kwargs in calls]
+    futures = [executor.submit(_part, {"fn": fn, "kwargs": kwargs, "caller": os.getpid()}) for fn, kwargs in parts]
     return [future.result().value for future in futures]
 
 

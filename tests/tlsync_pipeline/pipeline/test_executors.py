@@ -116,14 +116,14 @@ def test_run_each_hands_the_parts_to_the_runs_workers_in_order():
     executor = ProcessExecutor(2)
     try:
         executor.submit(where_and_square, {"value": 0}).result()  # a task started the pool
-        results = run_each(executor, where_and_square, [{"value": v} for v in range(4)])
+        results = run_each(executor, [(where_and_square, {"value": v}) for v in range(4)])
     finally:
         executor.close()
     assert [r.value["square"] for r in results] == [0, 1, 4, 9]
     assert all(r.value["pid"] != os.getpid() and r.elsewhere for r in results)  # in the pool's workers, not here
     assert all(r.cpu_s >= 0.0 for r in results)  # their CPU, for the task to count as its own
     assert results[2].warnings == ("part 2: a warning for users",) and results[1].warnings == ()
-    serial = run_each(SerialExecutor(), where_and_square, [{"value": 3}])
+    serial = run_each(SerialExecutor(), [(where_and_square, {"value": 3})])
     assert (
         serial[0].value == {"pid": os.getpid(), "square": 9} and not serial[0].elsewhere
     )  # this process's CPU time counts it already
@@ -137,7 +137,7 @@ def test_run_each_does_not_start_a_pool_for_its_parts():
 
     executor = ProcessExecutor(2)
     try:
-        results = run_each(executor, where_and_square, [{"value": v} for v in range(3)])
+        results = run_each(executor, [(where_and_square, {"value": v}) for v in range(3)])
         assert not executor.started
     finally:
         executor.close()
