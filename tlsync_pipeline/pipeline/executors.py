@@ -309,14 +309,14 @@ def stop_fork_server(kill: bool = False) -> None:
 
     kill: at once, for a stopped run (the server may still be importing, with the terminal's output open; the
     workers it forked die with it, ``PR_SET_PDEATHSIG``)."""
-    server = multiprocessing.forkserver._forkserver  # noqa: SLF001 - no public API to stop it (Python <= 3.13)
+    server = multiprocessing.forkserver._forkserver  # noqa: SLF001 - multiprocessing has no public API to stop it
     pid = getattr(server, "_forkserver_pid", None)
     if pid is None:
         return
     if kill:
         with contextlib.suppress(ProcessLookupError):
             os.kill(pid, signal.SIGKILL)
-    server._stop()  # noqa: SLF001
+    server._stop()  # type: ignore[attr-defined]  # noqa: SLF001
 
 
 class DaskExecutor:
