@@ -88,7 +88,7 @@ def execute(
     this process; tasks in parallel workers get one bar drawn here.
     """
     from tlsync_pipeline.pipeline.engine import run_graph
-    from tlsync_pipeline.pipeline.graph import build_graph
+    from tlsync_pipeline.pipeline.graph import build_graph, worker_modules
     from tlsync_pipeline.pipeline.project import load_project
     from tlsync_pipeline.pipeline.spec import Options
 
@@ -97,7 +97,7 @@ def execute(
     for name in cameras:
         project.camera(name)
     _check_force_with_cameras(cameras, force_stages)
-    executor = make_executor(executor_kind, jobs, scheduler)
+    executor = make_executor(executor_kind, jobs, scheduler, worker_modules())
     stage_bars = not quiet and isinstance(executor, SerialExecutor)
     graph = build_graph(project, work, Options(progress=stage_bars))
     force: set[str] = set()

@@ -61,15 +61,19 @@ class HashMemo:
     on every write or rename, never by ``cp -p`` or ``rsync -t``) differs, or
     its content sample does: SAMPLE_BLOCKS blocks of SAMPLE_BYTES spread over
     the file from its first to its last byte (the whole of a file up to
-    SAMPLE_BLOCKS x SAMPLE_BYTES), read on every check. That sample sees an
+    SAMPLE_BLOCKS x SAMPLE_BYTES), read on the first check of each memo (one run, one
+    ``status``) and again whenever the status changed. That sample sees an
     edit that keeps size and times on file systems whose inode and ctime do
     not move (FAT and exFAT cards), unless it touches none of the blocks.
+    A run checks a video for every task that reads it: the sample is read
+    once.
     """
 
     def __init__(self, path: Path | None = None):
         self.path = path
         self.entries: dict[str, list] = {}
         self.dirty = False
+        self._sampled: set[tuple] = set()  # (path, size, mtime, inode, ctime) whose content this memo has read
         if path is not None and path.exists():
             try:
                 self.entries = json.loads(path.read_text(encoding="utf-8"))
@@ -85,7 +89,14 @@ class HashMemo:
         key = str(Path(path).resolve())
         known = self.entries.get(key)
         seen = [stat.st_size, stat.st_mtime_ns, stat.st_ino, stat.st_ctime_ns]
-        if known and len(known) == 6 and known[:4] == seen and known[4] == content_sample(path, stat.st_size):
+        status = (key, *seen)
+        if (
+            known
+            and len(known) == 6
+            and known[:4] == seen
+            and (status in self._sampled or known[4] == content_sample(path, stat.st_size))
+        ):
+            self._sampled.add(status)
             return known[5]
         digest = file_sha256(path)
         # A file modified within the last seconds could change again without
@@ -93,6 +104,7 @@ class HashMemo:
         if time.time_ns() - max(stat.st_mtime_ns, stat.st_ctime_ns) > _RACY_NS:
             self.entries[key] = [*seen, content_sample(path, stat.st_size), digest]
             self.dirty = True
+            self._sampled.add(status)
         return digest
 
     def save(self) -> None:

@@ -35,6 +35,7 @@ def module_source(name: str) -> bytes:
         return handle.read()
 
 
+@cache
 def _is_module(name: str) -> bool:
     try:
         return importlib.util.find_spec(name) is not None
@@ -80,12 +81,21 @@ def _runtime_nodes(tree: ast.Module):
     stack = list(tree.body)
     while stack:
         node = stack.pop()
-        if isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test):
+        if isinstance(node, ast.If) and _names_type_checking(node.test):
             stack.extend(node.orelse)
             continue
         yield node
         for field in ("body", "orelse", "finalbody", "handlers", "cases"):
             stack.extend(getattr(node, field, ()))
+
+
+def _names_type_checking(test: ast.expr) -> bool:
+    """Whether a condition reads ``TYPE_CHECKING`` (the name, or an attribute such as ``typing.TYPE_CHECKING``)."""
+    return any(
+        (isinstance(node, ast.Name) and node.id == "TYPE_CHECKING")
+        or (isinstance(node, ast.Attribute) and node.attr == "TYPE_CHECKING")
+        for node in ast.walk(test)
+    )
 
 
 @cache

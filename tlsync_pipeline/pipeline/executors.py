@@ -9,13 +9,18 @@ detection of the intrinsics stage): 1 in a pool's or a cluster's worker, so
 pools are never nested; the executor's share of the machine when it runs
 tasks one at a time in this process.
 
+Local workers fork from a server process that imported the modules the
+caller names once (``forkserver`` with a preload, where the platform has it;
+else each is spawned and imports them itself), so a run pays for its
+imports once rather than once per worker.
+
 Local workers never outlive the run that started them: they ignore Ctrl-C
 (the terminal sends it to the whole process group; the run stops them
-itself), the kernel kills them when their parent dies (Linux
-``PR_SET_PDEATHSIG``), and a watchdog thread in each worker exits as soon as
-the parent pid changes (every platform, within ``PARENT_POLL_S``), so a
-``kill -9`` of ``tlsync run`` leaves no worker writing into the work folder
-without the lock.
+itself), the kernel kills them when their parent (the fork server, or the
+run's process where they are spawned) dies (Linux ``PR_SET_PDEATHSIG``), and
+a watchdog thread in each worker exits as soon as the run's process ends (its
+multiprocessing sentinel, every platform), so a ``kill -9`` of ``tlsync run``
+leaves no worker writing into the work folder without the lock.
 """
 
 from __future__ import annotations
@@ -25,6 +30,8 @@ import contextlib
 import ctypes
 import dataclasses
 import multiprocessing
+import multiprocessing.connection
+import multiprocessing.forkserver
 import os
 import signal
 import sys
@@ -43,16 +50,15 @@ THREAD_VARIABLES = (
     "VECLIB_MAXIMUM_THREADS",
 )
 EXECUTORS = ("process", "serial", "dask")
-PARENT_POLL_S = 0.2  # how often a worker checks that its parent is alive (seconds)
 STOP_GRACE_S = 3.0  # how long a stopped worker may take to exit before it is killed (seconds)
 _PR_SET_PDEATHSIG = 1
 
 
-def die_with_parent(parent_pid: int) -> None:
-    """Initializer of a worker process: ignore Ctrl-C, exit when ``parent_pid`` ends, hold no semaphore of its own.
+def die_with_parent() -> None:
+    """Initializer of a worker process: ignore Ctrl-C, exit when the run's process ends, hold no semaphore of its own.
 
-    The worker was started with Ctrl-C blocked (``ProcessExecutor.submit``): one sent while it started waits,
-    and is dropped here, after it is ignored."""
+    A spawned worker was started with Ctrl-C blocked (``ProcessExecutor.submit``): one sent while it started
+    waits, and is dropped here, after it is ignored; a forked one ignores it from its start (worker_context)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     if hasattr(signal, "pthread_sigmask"):
         signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
@@ -61,9 +67,10 @@ def die_with_parent(parent_pid: int) -> None:
             ctypes.CDLL(None, use_errno=True).prctl(_PR_SET_PDEATHSIG, int(signal.SIGKILL))
         except (OSError, AttributeError):
             pass  # the watchdog below still applies
-    if os.getppid() != parent_pid:  # the parent died before the request above took effect
+    run = multiprocessing.parent_process()
+    if run is None or not run.is_alive():  # the run ended before the request above took effect
         os._exit(1)
-    threading.Thread(target=_watch_parent, args=(parent_pid,), name="tlsync-parent-watchdog", daemon=True).start()
+    threading.Thread(target=_watch_run, args=(run.sentinel,), name="tlsync-parent-watchdog", daemon=True).start()
     from tqdm import tqdm
 
     # tqdm's default lock holds a multiprocessing semaphore; a worker stopped mid-task would leave it to the
@@ -71,9 +78,9 @@ def die_with_parent(parent_pid: int) -> None:
     tqdm.set_lock(threading.RLock())
 
 
-def _watch_parent(parent_pid: int) -> None:
-    while os.getppid() == parent_pid:
-        time.sleep(PARENT_POLL_S)
+def _watch_run(sentinel: int) -> None:
+    """Exit once the run's process has ended: its end of the sentinel pipe closes with it (also after ``kill -9``)."""
+    multiprocessing.connection.wait([sentinel])
     os._exit(1)
 
 
@@ -114,6 +121,19 @@ def _ctrl_c_held():
         yield
     finally:
         signal.pthread_sigmask(signal.SIG_SETMASK, previous)
+
+
+@contextlib.contextmanager
+def _ctrl_c_ignored():
+    """Ctrl-C ignored for the block's duration (in the main thread), as a process started meanwhile inherits it."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 @dataclass(frozen=True)
@@ -191,29 +211,37 @@ class SerialExecutor:
 
 
 class ProcessExecutor:
-    """A pool of ``jobs`` worker processes (spawned, so they start with one thread per library)."""
+    """A pool of ``jobs`` worker processes, each with one thread per library.
+
+    preload: modules the workers import before their first task. Where the
+    platform has ``forkserver``, a server process imports them once and the
+    workers fork from it (each would take 0.5-1 s of CPU to import them
+    itself); else the workers are spawned. Either way they start from a
+    process with no thread of the run's.
+    """
 
     name = "process"
     cores = 1
 
-    def __init__(self, jobs: int | None = None):
+    def __init__(self, jobs: int | None = None, preload: tuple[str, ...] = ()):
         self.jobs = jobs or os.cpu_count() or 1
+        self.preload = preload
         self._pool: cf.ProcessPoolExecutor | None = None
+        self._forked = False
         self._saved_env: dict[str, str | None] = {}
 
     def submit(self, fn: Callable, kwargs: dict) -> cf.Future:
         if self._pool is None:
-            # Spawned children inherit the environment: set the thread counts before they start.
+            # The workers (and the fork server) inherit the environment: set the thread counts before they start.
             for var in THREAD_VARIABLES:
                 self._saved_env[var] = os.environ.get(var)
                 os.environ[var] = "1"
             quiet_resource_tracker()
-            self._pool = cf.ProcessPoolExecutor(
-                self.jobs,
-                mp_context=multiprocessing.get_context("spawn"),
-                initializer=die_with_parent,
-                initargs=(os.getpid(),),
-            )
+            context = worker_context(self.preload)
+            self._forked = context.get_start_method() == "forkserver"
+            self._pool = cf.ProcessPoolExecutor(self.jobs, mp_context=context, initializer=die_with_parent)
+        if self._forked:  # the workers ignore Ctrl-C from their start (worker_context)
+            return self._pool.submit(call, fn, kwargs)
         with _ctrl_c_held():  # the workers it may start inherit Ctrl-C blocked (until die_with_parent ignores it)
             return self._pool.submit(call, fn, kwargs)
 
@@ -243,12 +271,52 @@ class ProcessExecutor:
                         process.join()
             self._pool.shutdown(wait=not cancel, cancel_futures=cancel)
             self._pool = None
+            stop_fork_server(kill=cancel)
         for var, value in self._saved_env.items():
             if value is None:
                 os.environ.pop(var, None)
             else:
                 os.environ[var] = value
         self._saved_env = {}
+
+
+def worker_context(preload: tuple[str, ...]) -> multiprocessing.context.BaseContext:
+    """How local workers start: forked from a server that imported ``preload`` once (``forkserver``), else spawned.
+
+    The fork server is started here (unless one runs), with the environment of this moment and Ctrl-C ignored:
+    the workers it forks inherit that from their first instruction. Then this process waits until the server has
+    imported ``preload`` (it forks one process that does nothing), with Ctrl-C working: one that stops the run
+    meanwhile leaves no worker asked for, to start once the run is gone."""
+    if "forkserver" not in multiprocessing.get_all_start_methods():
+        return multiprocessing.get_context("spawn")
+    context = multiprocessing.get_context("forkserver")
+    context.set_forkserver_preload(list(preload))
+    with _ctrl_c_held(), _ctrl_c_ignored():  # a Ctrl-C meanwhile waits: Linux keeps a blocked signal pending
+        multiprocessing.forkserver.ensure_running()
+    ready = context.Process(target=os.getpid, name="tlsync-fork-server-ready", daemon=True)
+    try:
+        ready.start()
+        ready.join()
+    except BaseException:
+        stop_fork_server(kill=True)
+        raise
+    return context
+
+
+def stop_fork_server(kill: bool = False) -> None:
+    """Stop the fork server (if one runs) and wait for it: its CPU time, and its workers', then counts as this
+    process's children's (``RUSAGE_CHILDREN``), as spawned workers' does; a later pool starts a new one.
+
+    kill: at once, for a stopped run (the server may still be importing, with the terminal's output open; the
+    workers it forked die with it, ``PR_SET_PDEATHSIG``)."""
+    server = multiprocessing.forkserver._forkserver  # noqa: SLF001 - multiprocessing has no public API to stop it
+    pid = getattr(server, "_forkserver_pid", None)
+    if pid is None:
+        return
+    if kill:
+        with contextlib.suppress(ProcessLookupError):
+            os.kill(pid, signal.SIGKILL)
+    server._stop()  # type: ignore[attr-defined]  # noqa: SLF001
 
 
 class DaskExecutor:
@@ -292,22 +360,22 @@ class DaskExecutor:
             self.client.close()
 
 
-def run_each(executor, fn: Callable[..., Any], calls: list[dict]) -> list[Called]:
-    """``fn(**kwargs)`` for each of ``calls`` on ``executor`` (in parallel on its workers), in the calls' order.
+def run_each(executor, parts: list[tuple[Callable[..., Any], dict]]) -> list[Called]:
+    """``fn(**kwargs)`` for each ``(fn, kwargs)`` of ``parts`` on ``executor`` (in parallel on its workers), in order.
 
     For a task of the engine's own process with independent parts (render's
-    cameras): it hands them to the run's executor, so no pool is started
-    inside another. A local pool that no task has started yet is not started
-    for them: each worker would first import the pipeline and matplotlib
-    (1.5-2 s CPU), more than a camera's pictures cost, so the parts run in
-    this process (``tlsync render`` alone, a run where only render is stale).
-    Each Called says whether it ran in another process (its CPU is then not
-    in this one's, for the task to add to its own); the first failed call's
-    error is raised.
+    cameras and charts): it hands them to the run's executor, so no pool is
+    started inside another. A local pool that no task has started yet is not
+    started for them: its fork server would first import the pipeline and
+    matplotlib (about 1 s of CPU), more than a camera's pictures cost, so the
+    parts run in this process (``tlsync render`` alone, a run where only
+    render is stale). Each Called says whether it ran in another process (its
+    CPU is then not in this one's, for the task to add to its own); the first
+    failed call's error is raised.
     """
     if isinstance(executor, ProcessExecutor) and not executor.started:
         executor = SerialExecutor()
-    futures = [executor.submit(_part, {"fn": fn, "kwargs": kwargs, "caller": os.getpid()}) for kwargs in calls]
+    futures = [executor.submit(_part, {"fn": fn, "kwargs": kwargs, "caller": os.getpid()}) for fn, kwargs in parts]
     return [future.result().value for future in futures]
 
 
@@ -316,14 +384,15 @@ def _part(fn: Callable[..., Any], kwargs: dict, caller: int) -> Called:
     return dataclasses.replace(called, elsewhere=os.getpid() != caller)
 
 
-def make_executor(kind: str = "process", jobs: int | None = None, scheduler: Any = None):
-    """An executor by name: process (default), serial, or dask (needs ``scheduler``)."""
+def make_executor(kind: str = "process", jobs: int | None = None, scheduler: Any = None, preload: tuple[str, ...] = ()):
+    """An executor by name: process (default; its workers import ``preload`` first), serial, or dask (needs
+    ``scheduler``)."""
     from tlsync_pipeline.errors import InputError
 
     if kind == "serial" or (kind == "process" and jobs == 1):
         return SerialExecutor(jobs)
     if kind == "process":
-        return ProcessExecutor(jobs)
+        return ProcessExecutor(jobs, preload)
     if kind == "dask":
         if scheduler is None:
             raise InputError("--executor dask needs --scheduler ADDRESS (for example tcp://host:8786)")

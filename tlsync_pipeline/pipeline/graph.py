@@ -61,6 +61,15 @@ STAGE_SPECS: dict[str, StageSpec] = {
 assert STAGES == tuple(STAGE_SPECS) and PER_CAMERA == tuple(n for n, s in STAGE_SPECS.items() if s.per_camera), (
     "stage_names.py lists STAGE_SPECS"
 )
+LAZY_LIBRARIES = ("cv2", "matplotlib.pyplot")  # imported by the stages only where they draw or read pictures
+
+
+def worker_modules() -> tuple[str, ...]:
+    """What a run's local workers import before their first task (ProcessExecutor's preload): every stage's module
+    (render's draws each camera on them) and the libraries the stages import lazily."""
+    return (*sorted({spec.run.__module__ for spec in STAGE_SPECS.values()}), *LAZY_LIBRARIES)
+
+
 # Artefact kind -> the stage that first makes it (a camera's track.csv: the track stage, or identify for every mover).
 MAKER: dict[str, str] = {}
 for _spec in STAGE_SPECS.values():

@@ -288,3 +288,29 @@ def test_the_content_sample_sees_an_edit_where_inode_and_ctime_stay(tmp_path, mo
         stat = os.stat(path)
         memo.entries[str(path.resolve())][:4] = [stat.st_size, stat.st_mtime_ns, stat.st_ino, stat.st_ctime_ns]
         assert memo.sha256(path) == cache.file_sha256(path) != first
+
+
+def test_a_run_reads_a_files_content_sample_once_and_again_when_its_status_changes(tmp_path, monkeypatch):
+    """One memo (one run) checks a big video for each task that reads it: its sample is read on the first check only,
+    a new memo (the next run) reads it again, and so does a check after the file's status changed."""
+    from tlsync_pipeline.pipeline import cache
+
+    monkeypatch.setattr(cache, "_RACY_NS", 0)
+    path = tmp_path / "video.bin"
+    path.write_bytes(bytes(5 << 20))
+    memo_file = tmp_path / "memo.json"
+    earlier = cache.HashMemo(memo_file)  # an earlier run remembered it
+    earlier.sha256(path)
+    earlier.save()
+    reads = []
+    sample = cache.content_sample
+    monkeypatch.setattr(cache, "content_sample", lambda p, size: reads.append(p) or sample(p, size))
+    run = cache.HashMemo(memo_file)
+    digests = [run.sha256(path) for _ in range(5)]
+    assert len(reads) == 1 and len(set(digests)) == 1
+    cache.HashMemo(memo_file).sha256(path)
+    assert len(reads) == 2
+    with path.open("r+b") as handle:
+        handle.seek(10)
+        handle.write(b"\x01")
+    assert run.sha256(path) == cache.file_sha256(path) != digests[0]

@@ -116,14 +116,14 @@ def test_run_each_hands_the_parts_to_the_runs_workers_in_order():
     executor = ProcessExecutor(2)
     try:
         executor.submit(where_and_square, {"value": 0}).result()  # a task started the pool
-        results = run_each(executor, where_and_square, [{"value": v} for v in range(4)])
+        results = run_each(executor, [(where_and_square, {"value": v}) for v in range(4)])
     finally:
         executor.close()
     assert [r.value["square"] for r in results] == [0, 1, 4, 9]
     assert all(r.value["pid"] != os.getpid() and r.elsewhere for r in results)  # in the pool's workers, not here
     assert all(r.cpu_s >= 0.0 for r in results)  # their CPU, for the task to count as its own
     assert results[2].warnings == ("part 2: a warning for users",) and results[1].warnings == ()
-    serial = run_each(SerialExecutor(), where_and_square, [{"value": 3}])
+    serial = run_each(SerialExecutor(), [(where_and_square, {"value": 3})])
     assert (
         serial[0].value == {"pid": os.getpid(), "square": 9} and not serial[0].elsewhere
     )  # this process's CPU time counts it already
@@ -137,7 +137,7 @@ def test_run_each_does_not_start_a_pool_for_its_parts():
 
     executor = ProcessExecutor(2)
     try:
-        results = run_each(executor, where_and_square, [{"value": v} for v in range(3)])
+        results = run_each(executor, [(where_and_square, {"value": v}) for v in range(3)])
         assert not executor.started
     finally:
         executor.close()
@@ -145,3 +145,52 @@ def test_run_each_does_not_start_a_pool_for_its_parts():
         (os.getpid(), v * v, False) for v in range(3)
     ]
     assert results[2].warnings == ("part 2: a warning for users",)
+
+
+PRELOADED = """
+import os, time
+
+with open({record!r}, "a") as handle:
+    handle.write(f"{{os.getpid()}}\\n")
+end = time.process_time() + {busy_s}
+while time.process_time() < end:  # CPU the importing process spends, to be found in this test's children's
+    pass
+"""
+
+
+def pid_and_modules(name):
+    """A task: which process ran it and whether module ``name`` was already imported there."""
+    import sys
+
+    return {"pid": os.getpid(), "preloaded": name in sys.modules}
+
+
+@pytest.mark.skipif(
+    "forkserver" not in __import__("multiprocessing").get_all_start_methods(), reason="spawned workers import alone"
+)
+def test_workers_fork_from_one_process_that_imported_the_preload(tmp_path, monkeypatch):
+    """The preload is imported once, by neither this process nor a worker, and every worker starts with it; once the
+    pool is closed that process's CPU (and its workers') is this one's children's, as spawned workers' is."""
+    import resource
+
+    from tlsync_pipeline.pipeline.executors import ProcessExecutor
+
+    record, busy_s = tmp_path / "imported_by", 0.3
+    (tmp_path / "preloaded_marker.py").write_text(PRELOADED.format(record=str(record), busy_s=busy_s))
+    monkeypatch.syspath_prepend(str(tmp_path))
+
+    def children_cpu() -> float:
+        usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+        return usage.ru_utime + usage.ru_stime
+
+    before = children_cpu()
+    executor = ProcessExecutor(2, preload=("preloaded_marker",))
+    try:
+        results = [executor.submit(pid_and_modules, {"name": "preloaded_marker"}).result().value for _ in range(4)]
+    finally:
+        executor.close()
+    importers = [int(line) for line in record.read_text().split()]
+    assert len(importers) == 1 and importers[0] != os.getpid()
+    assert all(r["preloaded"] for r in results) and importers[0] not in {r["pid"] for r in results}
+    assert "preloaded_marker" not in __import__("sys").modules  # this process never imported it
+    assert children_cpu() - before >= busy_s

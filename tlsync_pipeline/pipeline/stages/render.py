@@ -118,8 +118,10 @@ def run_render(files: StageFiles, params: RenderParams) -> StageResult:
             (plan, request.file_name(plan.a, plan.b)) for plan in _plan_strips(scene, pairs, request, requests, [])[0]
         ]
     jobs = [_camera_job(scene, name, params, requests.get(name, []), out_dir, work) for name in scene.timeline.cameras]
-    called = run_each(files.workers or SerialExecutor(), draw_camera, [{"job": job} for job in jobs])
+    charts_part = (draw_charts, {"scene": scene, "out_dir": out_dir, "work": work})
+    called = run_each(files.workers or SerialExecutor(), [*((draw_camera, {"job": job}) for job in jobs), charts_part])
     cameras: dict[str, DrawnCamera] = {job.name: call.value for job, call in zip(jobs, called)}
+    charts: list[Picture] = called[-1].value
     panels = {n: c.panels for n, c in cameras.items()}
     written = [path for camera in cameras.values() for path in camera.written] + [
         camera.proxy for camera in cameras.values() if camera.proxy is not None
@@ -130,7 +132,6 @@ def run_render(files: StageFiles, params: RenderParams) -> StageResult:
         written.append(path)
         strips.append(photo(f"{plan.a} and {plan.b}: matching frames", path, work))
     requested = [write_png(out_dir / name, strip_of(plan, panels)) for plan, name in asked]
-    charts = _charts(scene, out_dir, work)
     written += [work / c.href for c in charts]
     notes = list(dict.fromkeys([*notes, *(w for call in called for w in call.warnings)]))
     content = _report_content(files, scene, params, cameras, strips, charts, notes)
@@ -300,9 +301,10 @@ def _camera_job(
     )
 
 
-def _charts(scene: _Scene, out_dir: Path, work: Path) -> list[Picture]:
+def draw_charts(scene: _Scene, out_dir: Path, work: Path) -> list[Picture]:
     """The offsets and residuals charts, written; none when no camera is synchronized (nor any of
-    an earlier timeline).
+    an earlier timeline). A part of the stage beside the cameras' (run_each): on a worker, this process loads no
+    matplotlib.
     """
     tl = scene.timeline
     if not tl.cameras:

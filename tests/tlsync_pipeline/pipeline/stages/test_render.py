@@ -232,3 +232,29 @@ def test_pictures_prefer_tracked_keyframes_nearby():
     )
     assert render.choose_movers_frame(movers, track) == 150
     assert render.choose_movers_frame(movers, track, keyframes) == 180  # the keyframe with most movers
+
+
+def test_with_the_runs_workers_started_the_charts_are_drawn_there_and_come_out_the_same(rendered_project, monkeypatch):
+    """Render hands the charts to the run's workers beside the cameras' pictures (this process loads no matplotlib
+    for them): the same PNG bytes as drawn here."""
+    import os
+
+    from tlsync_pipeline.pipeline.executors import ProcessExecutor
+    from tlsync_pipeline.pipeline.stages import render as render_stage
+
+    _, folder = rendered_project
+    graph = build_graph(load_project(folder / "project.toml"), folder / "work")
+    run_graph(graph, targets=["sync", "export"])
+    _render(graph)  # no worker started: every part drawn here
+    charts = {name: (folder / "work" / "render" / name).read_bytes() for name in ("offsets.png", "residuals.png")}
+
+    def not_here(*args, **kwargs):
+        raise AssertionError("a chart drawn in the run's own process")
+
+    monkeypatch.setattr(render_stage, "offsets_plot", not_here)
+    monkeypatch.setattr(render_stage, "residuals_plot", not_here)
+    executor = ProcessExecutor(2)
+    executor.submit(os.getpid, {}).result()  # a task started the workers
+    summary = run_graph(graph, executor, force={"render"}, targets=["render"])
+    assert summary.ran == ["render"] and not summary.failed, summary
+    assert {name: (folder / "work" / "render" / name).read_bytes() for name in charts} == charts
