@@ -4,13 +4,20 @@ time by the joint fit's marginal likelihood, the declared preset only a prior.""
 import dataclasses
 
 import numpy as np
+import scipy.sparse as sp
 
 from data_fixtures.log_error import PRESETS as RECEIVERS
 from data_fixtures.log_error import LogErrorModel, gauss_markov
 from data_fixtures.walk import WalkSpec, make_walk_scene
 from tlsync_pipeline.sync.model.log_model import PRESETS, LogModel, LogModelChoice
 from tlsync_pipeline.sync.model.params import SyncParams
-from tlsync_pipeline.sync.solve.log_bias import LogBias, _prior_whitening, bias_marginal_likelihood
+from tlsync_pipeline.sync.solve.log_bias import (
+    KnotInformation,
+    LogBias,
+    _log_det_and_quadratic,
+    _prior_whitening,
+    bias_marginal_likelihood,
+)
 from tlsync_pipeline.sync.solve.synchronize import CameraInput, synchronize
 from tlsync_pipeline.sync.timeline import eps_t
 from tlsync_pipeline.sync.vote.log_error import measured, noise_beyond_turns, vote_radius, white_from_log
@@ -48,6 +55,28 @@ def test_a_log_that_states_its_sigmas_keeps_its_model():
     assert measured(PRESETS["phone"], trajectory) == PRESETS["phone"]
 
 
+def _diagonal(information: np.ndarray) -> KnotInformation:
+    """Knots observed each on its own: no line marginalised, no low rank."""
+    return KnotInformation(sp.csc_matrix(information), np.zeros((len(information), 0)))
+
+
+def test_the_evidence_of_a_banded_precision_less_a_low_rank_is_the_dense_matrixs():
+    """log |A| / 2 and g^T A^-1 g of A = banded - low_rank low_rank^T as numpy's dense linear algebra gives them."""
+    rng = np.random.default_rng(0)
+    n, r = 60, 4
+    off = rng.normal(0.0, 0.3, n - 1)
+    banded = sp.diags([off, np.full(n, 4.0), off], [-1, 0, 1], format="csc")
+    low_rank = rng.normal(0.0, 0.15, (n, r))
+    g = rng.normal(size=n)
+    dense = banded.toarray() - low_rank @ low_rank.T
+    half_log_det, quadratic = _log_det_and_quadratic(banded, low_rank, g)
+    sign, log_det = np.linalg.slogdet(dense)
+    assert sign > 0 and np.isclose(half_log_det, 0.5 * log_det, rtol=1e-10)
+    assert np.isclose(quadratic, g @ np.linalg.solve(dense, g), rtol=1e-10)
+    not_definite = _log_det_and_quadratic(banded, 3.0 * np.eye(n)[:, :1], g)
+    assert not_definite == (np.inf, 0.0)
+
+
 def _observed_bias(sigma: float, tau: float, noise: float, prior: LogModel, seed: int) -> LogBias:
     """Knots every 5 s over 1500 s each observed with white noise, fitted under ``prior``'s Gauss-Markov prior."""
     knots = np.arange(0.0, 1500.0, 5.0)
@@ -60,9 +89,8 @@ def _observed_bias(sigma: float, tau: float, noise: float, prior: LogModel, seed
     precision = (whiten.T @ whiten).toarray()
     values = np.linalg.solve(precision + information, information @ observed.ravel()).reshape(-1, 3)
     evidence = information @ observed.ravel()
-    return LogBias(
-        knots, values, np.linalg.inv(precision + information), scale, {}, {}, True, information, evidence, prior
-    )
+    cov = np.linalg.inv(precision + information)
+    return LogBias(knots, values, cov, scale, {}, {}, True, _diagonal(information), evidence, prior)
 
 
 def test_the_marginal_likelihood_recovers_the_bias_std_and_correlation_time_from_a_wrong_prior():
@@ -82,7 +110,7 @@ def test_a_bias_the_pixels_do_not_see_stays_at_its_prior():
     blind = dataclasses.replace(
         bias,
         values=np.zeros_like(bias.values),
-        information=np.zeros_like(bias.information),
+        information=_diagonal(np.zeros((len(bias.evidence), len(bias.evidence)))),
         evidence=np.zeros(bias.evidence.shape),
     )
     found, _ = bias_marginal_likelihood(blind, 1.0, prior)
@@ -183,7 +211,7 @@ def test_a_short_correlated_error_beside_the_bias_does_not_pass_for_a_fast_bias(
         values = np.linalg.solve(precision + information, information @ observed.ravel()).reshape(-1, 3)
         evidence = information @ observed.ravel()
         cov = np.linalg.inv(precision + information)
-        bias = LogBias(knots, values, cov, scale, {}, {}, True, information, evidence, prior)
+        bias = LogBias(knots, values, cov, scale, {}, {}, True, _diagonal(information), evidence, prior)
         found, _ = bias_marginal_likelihood(bias, 1.0, prior)
         assert abs(found.bias_m - 1.0) < 0.3, found.bias_m
         assert 30.0 < found.tau_s < 120.0, found.tau_s

@@ -81,6 +81,21 @@ class BiasCamera:
 
 
 @dataclass(frozen=True)
+class KnotInformation:
+    """What the cameras' pixels say of the knots' precision (3K, 3K, knot-major), kept in its structure: ``banded -
+    low_rank @ low_rank.T``. ``banded`` (sparse) sums the cameras' frames, each of which touches the two knots around
+    it; ``low_rank`` (3K, r) is what marginalising the lines takes away, two columns a camera, nonzero over its
+    visit's knots. Dense, the difference fills every visit's block."""
+
+    banded: sp.csc_matrix
+    low_rank: np.ndarray
+
+    def dense(self) -> np.ndarray:
+        """The (3K, 3K) precision as one array."""
+        return self.banded.toarray() - self.low_rank @ self.low_rank.T
+
+
+@dataclass(frozen=True)
 class LogBias:
     """The fitted bias and the lines: knots (sample coordinates), values (K, 3) metres, their posterior covariance
     (3K, 3K, knot-major: x, y, z of knot 0, then of knot 1 ...), prior (3,) per-axis std (m); per camera its line
@@ -98,7 +113,7 @@ class LogBias:
     lines: dict[str, tuple[float, float]]
     sensitivity: dict[str, np.ndarray]
     converged: bool
-    information: np.ndarray
+    information: KnotInformation
     evidence: np.ndarray
     model: LogModel
     estimate: tuple[float, float] | None = None
@@ -200,27 +215,24 @@ def bias_marginal_likelihood(bias: LogBias, rate: float, model: LogModel) -> tup
     exp(-b^T H b / 2 + h^T b) says (H: LogBias.information; h = (Q_0 + H) b_0 from the fit's b_0 and the model's
     prior precision Q_0); with b = s + f, s and f of precisions Q_s and Q_f, the evidence is
     log |Q_s| / 2 + log |Q_f| / 2 - log |A| / 2 + g^T A^-1 g / 2, A = diag(Q_s, Q_f) + [[H, H], [H, H]],
-    g = (h, h), by a sparse LU of A (banded in the knots, dense only over each visit's). Sigmas within 0.01-30 m.
+    g = (h, h): H is banded less a low rank (KnotInformation), so A is too (_log_det_and_quadratic: a sparse LU of
+    the banded part, a solve per column of the low rank; marginalising the lines had filled each visit's block, whose
+    LU cost 0.5 s an evaluation on drone2 flown twice slower). Sigmas within 0.01-30 m.
     Also the log posterior (nats) the estimate gains over the model's values (0: the model kept)."""
     ratio = model.bias_vertical_m / model.bias_m if model.bias_m > 0 else 2.0
     start = np.log([model.bias_m, max(model.tau_s, SCALE_SPLIT_S), max(model.white_m, FAST_FLOOR_M), FAST_TAU_S])
-    information = sp.csc_matrix(bias.information)  # nonzero only over each visit's knots
-    h = bias.evidence
-    both = sp.kron(np.ones((2, 2)), information, format="csc")
-    g = np.r_[h, h]
+    both = sp.kron(np.ones((2, 2)), bias.information.banded, format="csc")
+    lines = np.vstack([bias.information.low_rank, bias.information.low_rank])
+    g = np.r_[bias.evidence, bias.evidence]
 
     def negative(theta: np.ndarray) -> float:
         sigma, tau, fast, fast_tau = np.exp(theta)
         slow_whiten = _prior_whitening(bias.knots, rate, tau, np.array([sigma, sigma, ratio * sigma]))
         fast_whiten = _prior_whitening(bias.knots, rate, fast_tau, np.array([fast, fast, ratio * fast]))
-        precision = sp.block_diag([slow_whiten.T @ slow_whiten, fast_whiten.T @ fast_whiten])
-        try:
-            factor = splu((precision + both).tocsc())
-        except RuntimeError:  # singular
-            return np.inf
-        half_log_det = 0.5 * float(np.sum(np.log(np.abs(factor.U.diagonal()))))  # log |A| / 2 (positive definite)
+        precision = sp.block_diag([slow_whiten.T @ slow_whiten, fast_whiten.T @ fast_whiten], format="csc")
         log_det_prior = float(np.sum(np.log(slow_whiten.diagonal())) + np.sum(np.log(fast_whiten.diagonal())))
-        evidence = log_det_prior - half_log_det + 0.5 * g @ factor.solve(g)
+        half_log_det, quadratic = _log_det_and_quadratic(precision + both, lines, g)
+        evidence = log_det_prior - half_log_det + 0.5 * quadratic
         return -evidence + 0.5 * float(np.sum(((theta - start) / PRIOR_LOG_SD) ** 2))
 
     bounds = [
@@ -239,6 +251,25 @@ def bias_marginal_likelihood(bias: LogBias, rate: float, model: LogModel) -> tup
         model, bias_m=float(sigma), bias_vertical_m=float(ratio * sigma), tau_s=float(tau), measured=measured
     )
     return estimated, float(at_model - found.fun)
+
+
+def _log_det_and_quadratic(banded: sp.csc_matrix, low_rank: np.ndarray, g: np.ndarray) -> tuple[float, float]:
+    """log |A| / 2 and g^T A^-1 g of the positive definite A = banded - low_rank @ low_rank.T, by a sparse LU of the
+    banded part and the low rank's r columns (the determinant lemma and Woodbury's identity): no dense matrix over
+    the knots. (inf, 0) where A is not positive definite."""
+    try:
+        factor = splu(banded)
+    except RuntimeError:  # singular
+        return np.inf, 0.0
+    solved = factor.solve(np.column_stack([g, low_rank]))
+    y, across = solved[:, 0], low_rank.T @ solved[:, 1:]
+    capacitance = np.eye(low_rank.shape[1]) - across
+    sign, log_det_capacitance = np.linalg.slogdet(capacitance)
+    if sign <= 0:
+        return np.inf, 0.0
+    half_log_det = 0.5 * (float(np.sum(np.log(np.abs(factor.U.diagonal())))) + log_det_capacitance)
+    projected = low_rank.T @ y
+    return half_log_det, float(g @ y + projected @ np.linalg.solve(capacitance, projected))
 
 
 def _knots(cameras: list[BiasCamera], path: PiecewiseTrajectory, rate: float, model: LogModel) -> np.ndarray:
@@ -381,7 +412,7 @@ class _Joint:
         line = np.column_stack([along * np.repeat(c.clock - c.middle, 2), along])
         return sp.hstack([sp.csr_matrix(line), jac[:, 2:]], format="csr")
 
-    def uncertainty(self, z: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarray], np.ndarray, np.ndarray]:
+    def uncertainty(self, z: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarray], KnotInformation, np.ndarray]:
         """The knots' posterior covariance (m^2), each camera's sensitivity d(alpha, beta) / d(knots), and what the
         pixels say of the knots b (the lines marginalised): the likelihood exp(-b^T H b / 2 + h^T b), H (3K, 3K) the
         posterior's inverse less the prior's, h (3K,) = H b_z - the marginalised gradient of the cost at z, both from
@@ -399,9 +430,9 @@ class _Joint:
         one where residuals correlate in time; its gradient J^T psi is divided the same; the prior's is W^T W.
         """
         residuals, jacobians = self._pixels(z)
-        information = (self.whiten.T @ self.whiten).toarray()
-        data = np.zeros_like(information)
-        score = np.zeros(information.shape[0])
+        banded = sp.csc_matrix((3 * len(self.knots), 3 * len(self.knots)))
+        low_rank = []
+        score = np.zeros(3 * len(self.knots))
         blocks = []
         for k, (r, jac) in enumerate(zip(residuals, jacobians)):
             jac = self._seen_line_columns(k, jac, z)
@@ -409,21 +440,36 @@ class _Joint:
             h = _bread(self.cameras[k], r, jac, self.f_scale) / inflation
             g = _gradient(self.cameras[k], r, jac, self.f_scale, z[2 * k]) / inflation
             h_tt, h_tb, h_bb = h[:2, :2], h[:2, 2:], h[2:, 2:]
-            gain = (
-                np.linalg.pinv(h_tt) @ h_tb
-            )  # (2, 3K); a camera whose line the residuals do not determine tells nothing of the bias
-            information = information + h_bb - h_tb.T @ gain
-            data = data + h_bb - h_tb.T @ gain
+            root = _pinv_sqrt(h_tt)  # a camera whose line the residuals do not determine tells nothing of the bias
+            gain = root @ root @ h_tb  # (2, 3K)
+            banded = banded + sp.csc_matrix(h_bb)
+            low_rank.append(h_tb.T @ root)
             score = score + g[2:] - gain.T @ g[:2]
             blocks.append((gain, z[2 * k : 2 * k + 2]))
-        posterior = np.linalg.pinv(information)
+        data = KnotInformation(banded, np.hstack(low_rank))
+        posterior = np.linalg.pinv((self.whiten.T @ self.whiten).toarray() + data.dense())
         sensitivity = {}
         for c, (gain, (u, s0)) in zip(self.cameras, blocks):
             to_line = np.array(
                 [[-1.0 / u**2, 0.0], [s0 / u**2, -1.0 / u]]
             )  # d(alpha, beta) / d(u, s0), beta = middle - s0 / u
             sensitivity[c.name] = to_line @ (-gain)
-        return posterior, sensitivity, data, data @ z[2 * self.n :] - score
+        return (
+            posterior,
+            sensitivity,
+            data,
+            data.banded @ z[2 * self.n :] - data.low_rank @ (data.low_rank.T @ z[2 * self.n :]) - score,
+        )
+
+
+def _pinv_sqrt(matrix: np.ndarray) -> np.ndarray:
+    """The symmetric square root of a symmetric positive semi-definite matrix's pseudo-inverse (np.linalg.pinv's
+    cut-off: eigenvalues below 1e-15 of the largest count as zero)."""
+    values, vectors = np.linalg.eigh(matrix)
+    kept = values > 1e-15 * max(float(values.max(initial=0.0)), 0.0)
+    inverse_root = np.zeros_like(values)
+    inverse_root[kept] = 1.0 / np.sqrt(values[kept])
+    return (vectors * inverse_root) @ vectors.T
 
 
 def _camera_rows(
