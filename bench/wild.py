@@ -22,6 +22,11 @@ generators of data_fixtures/:
 - ``nopose``: walks that turn (data_fixtures/walk.py), a drone's log (1 m /
   30 s, 5 m/s) or a phone's (1 or 2 m / 60 s), declared, and no camera
   with a pose or GCPs: every pose from the target under the log's bias;
+- ``nopose-exact``: the same walks (route, speed, cameras) under an RTK
+  log, declared: what the walks' geometry leaves open whatever the log's
+  error (each camera sees one corner rounded over 2 m between straight legs,
+  and the route has 8-11 corners of 60-110 degrees): a bound for
+  ``nopose``; not in the default run;
 - ``loops`` (data_fixtures/scene.py): paths that hover and fly back through
   the hover point 1-3 times (repeated passes, a path crossing itself);
 - ``crowd`` (data_fixtures/crowd.py): two surveillance videos with 2-8
@@ -87,7 +92,8 @@ BEYOND = (
 )
 RIGHT_FRAMES = 1.0  # a line within this many frames of the truth is right whatever its interval
 BOUND_DRAWS = 200
-FAMILIES = ("walk", "phone", "pass", "nopose", "loops", "crowd")
+FAMILIES = ("walk", "phone", "pass", "nopose", "nopose-exact", "loops", "crowd")
+NOT_BY_DEFAULT = ("nopose-exact", "crowd")
 STOPPING = (AMBIGUOUS, FAILED)
 
 
@@ -148,11 +154,13 @@ def pass_case(seed: int) -> Case:
     return Case(label, scene, inputs, scene.trajectory, LOG_MODELS[declared])
 
 
-def nopose_case(seed: int) -> Case:
-    """A turning walk under a drone's or a phone's log, declared, with no pose: each camera's pose from the target."""
+def nopose_case(seed: int, exact: bool = False) -> Case:
+    """A turning walk under a drone's or a phone's log, declared, with no pose: each camera's pose from the target;
+    exact: the same walk (route, speed, cameras) under an RTK log, declared ``rtk``."""
     rng = np.random.default_rng([seed, 5])
-    receiver = str(rng.choice(["drone", "phone", "phone2"]))
-    speed = 5.0 if receiver == "drone" else 1.4
+    drawn = str(rng.choice(["drone", "phone", "phone2"]))
+    speed = 5.0 if drawn == "drone" else 1.4
+    receiver = "rtk" if exact else drawn
     scene = make_walk_scene(seed, WalkSpec(route="turns", log=RECEIVERS[receiver], speed_mps=speed))
     inputs = {
         n: CameraInput(
@@ -161,7 +169,8 @@ def nopose_case(seed: int) -> Case:
         for n, c in scene.cameras.items()
     }
     declared = "phone" if receiver.startswith("phone") else receiver
-    return Case(f"turns {receiver} declared {declared}, no pose", scene, inputs, scene.trajectory, LOG_MODELS[declared])
+    label = f"turns {receiver} declared {declared}, no pose" + (f" (drawn {drawn}, {speed:g} m/s)" if exact else "")
+    return Case(label, scene, inputs, scene.trajectory, LOG_MODELS[declared])
 
 
 def loops_case(seed: int) -> Case:
@@ -220,6 +229,7 @@ BUILDERS = {
     "phone": lambda seed: walk_case(seed, phone_only=True),
     "pass": pass_case,
     "nopose": nopose_case,
+    "nopose-exact": lambda seed: nopose_case(seed, exact=True),
     "loops": loops_case,
     "crowd": crowd_case,
 }
@@ -415,7 +425,9 @@ def trap_table(results: list[dict]) -> list[str]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--scenes", type=int, default=6, help="scenes per family")
-    parser.add_argument("--families", nargs="+", default=[f for f in FAMILIES if f != "crowd"], choices=FAMILIES)
+    parser.add_argument(
+        "--families", nargs="+", default=[f for f in FAMILIES if f not in NOT_BY_DEFAULT], choices=FAMILIES
+    )
     parser.add_argument(
         "--trap-scenes", type=int, default=0, help="walk scenes with a phone's log the trap suite runs on"
     )
