@@ -140,6 +140,8 @@ MAX_TRACKLETS = 40  # movers' tracklets tried as the target's track, longest ima
 MIN_TRACKLET_FRAMES = 12  # frames a mover's tracklet needs to be tried
 TRACKLET_CANDIDATES = 2  # fits at distinct offsets of each tracklet under which the target is identified
 CONFIRM_SHARE = 0.9  # two identifications are the same track when they share this share of the larger's detections
+SETTLE_ROUNDS = 4  # rounds of settling the chosen track at most (``_settled``)
+SETTLED_PX = 0.01  # the target's own points moving less than this (pixels) between rounds are settled
 
 REMEDIES = {
     "no_clock": "give the camera's fps and a log with times, or 4 GCPs with gcp_sigma_m = 0 (their pose alone)",
@@ -1556,17 +1558,51 @@ def _settled(
     A merged blob's point is placed within it by the projection under the
     pose the target was identified with (``Identification.merged``), so a
     refit on it keeps part of that pose: tracklets that lead to the same
-    frames give refits a few tenths of a frame apart. The pose and line are
-    fitted first on the frames whose blob is the target's own (their points
-    are the blobs' centres), the target is identified again under that pose,
-    and the pose and line are refitted on its track. The final as it was
-    when fewer than MIN_FRAMES blobs are the target's own, when a step
-    fails, or when the refit leaves the GCPs.
+    frames give refits a few tenths of a frame apart. Each round fits the
+    pose and line on the frames whose blob is the target's own (their
+    points are the blobs' centres), identifies the target again under that
+    pose and refits pose and line on its track; the rounds stop when the
+    target's own blobs and their points (within SETTLED_PX) are those the
+    round started from, at most SETTLE_ROUNDS. A round is not taken when
+    fewer than MIN_FRAMES blobs are the target's own, when a step fails, or
+    when its refit leaves the GCPs.
     """
+    for _ in range(SETTLE_ROUNDS):
+        settled = _settle_round(final, detections, trajectory, fps, params, path, prior, gcps, row_clock)
+        if settled is None:
+            break
+        before, after = final[1], settled[1]
+        final = settled
+        if _own_points_alike(before, after):
+            break
+    return final
+
+
+def _own_points_alike(a: Identification, b: Identification) -> bool:
+    """Whether two identifications have the same blobs as the target's own, their points within SETTLED_PX."""
+    own_a, own_b = ~a.merged, ~b.merged
+    return np.array_equal(a.rows[own_a], b.rows[own_b]) and bool(
+        np.all(np.abs(a.track.xy[own_a] - b.track.xy[own_b]) <= SETTLED_PX)
+    )
+
+
+def _settle_round(
+    final: Final,
+    detections: Detections,
+    trajectory: Trajectory,
+    fps: float | None,
+    params: IdentifyParams,
+    path: PiecewiseTrajectory,
+    prior: SlopePrior | None,
+    gcps: GcpPrior | None,
+    row_clock: np.ndarray,
+) -> Final | None:
+    """One round of ``_settled``: the pose on the target's own blobs, the target identified under it, the refit; None
+    when it is not taken."""
     refit, identified, tid, search = final
     own = ~identified.merged
     if own.sum() < MIN_FRAMES:
-        return final
+        return None
     eps_px, f_scale, free = params.eps_px, params.f_scale_px, refit.layout.free
     try:
         clock = row_clock[identified.rows][own]
@@ -1602,9 +1638,9 @@ def _settled(
             free,
         )
     except (SyncError, ValueError):
-        return final
+        return None
     if gcps is not None and not gcps_agree(gcps, settled):
-        return final
+        return None
     return settled, again, tid, search
 
 
