@@ -740,4 +740,4 @@ def _target_track(
         )  # the logged point's image less the tracked point's
     xy = xy + np.where(np.isfinite(lift), lift, 0.0)
     target = Track(track.frame, xy[:, 0], xy[:, 1], time_s=track.time_s, w=size[:, 0], h=size[:, 1], score=track.score)
-    return target, (slack > 0).any(axis=1)
+    return target, np.asarray((slack > 0).any(axis=1), dtype=bool)
