@@ -258,6 +258,9 @@ def test_a_target_merged_with_passers_by_in_most_frames_is_kept_and_reported_on_
     assert np.median(np.abs(found.track.x - true_xy[:, 0])) < 2.0  # the target's part of a merged blob, not its centre
     was_merged = merged[found.rows]
     assert np.median(found.track.w[was_merged] / w[found.rows][was_merged]) < 0.5  # and its own box
+    # the merged blobs are named as such; the others' points are the blobs' own centres (no lift here)
+    assert found.merged.tolist() == was_merged.tolist()
+    assert np.array_equal(found.track.xy[~was_merged], detections.xy[found.rows][~was_merged])
     frames = scene.tracks[name].frame
     line = scene.lines[name]
     assert np.abs((found.alpha - line.alpha) * (frames - line.beta) / line.alpha + found.beta - line.beta).max() < 0.5

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 from dataclasses import replace
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -274,25 +275,33 @@ def test_a_walker_on_flat_ground_does_not_determine_the_focal_length(scene):
     assert "checkerboard" in str(caught.value) or "focal" in str(caught.value)
 
 
-def test_the_pose_comes_from_every_mover_without_a_track():
-    """The target's track cut into tracklets among straight walkers: a tracklet's pose finds the target, the refit takes
-    all of it.
-    """
-    ps = make_pass_scene(1, paths=("turn",))
-    s = ps.scene
+def _target_among_walkers(extra_rows: tuple = ()):
+    """A walker's turn in cam0's view (seed 1), its track cut into tracklets 0, 1, 2 among 4 passers-by walking straight
+    across the view (ids 100-103) and the given extra detection rows: the true camera, the track's thirds (indices),
+    every row (frame, time, id, x, y, w, h, score), the prepared trajectory and the true line."""
+    s = make_pass_scene(1, paths=("turn",)).scene
     camera, track = s.true_cameras["cam0"], s.tracks["cam0"]
     rng = np.random.default_rng(0)
+    thirds = np.array_split(np.arange(len(track)), 3)
     rows = [
         (int(track.frame[i]), float("nan"), k, float(track.x[i]), float(track.y[i]), 20.0, 40.0, 1.0)
-        for k, idx in enumerate(np.array_split(np.arange(len(track)), 3))
+        for k, idx in enumerate(thirds)
         for i in idx
     ]
     for j in range(4):  # passers-by walking straight across the view
         start, p0 = int(rng.integers(0, track.frame.max() - 150)), rng.uniform([0, 100], [100, 380])
         v = rng.uniform(2.0, 4.0) * np.array([1.0, rng.uniform(-0.2, 0.2)])
         rows += [(start + f, float("nan"), 100 + j, *(p0 + v * f), 20.0, 40.0, 1.0) for f in range(150)]
-    rows.sort(key=lambda r: (r[0], r[2]))
-    prepared = smooth_trajectory(s.trajectory)
+    rows = sorted(rows + list(extra_rows), key=lambda r: (r[0], r[2]))
+    frames = [(int(track.frame[t[0]]), int(track.frame[t[-1]]) + 1) for t in thirds]
+    return camera, track, frames, rows, smooth_trajectory(s.trajectory), s.lines["cam0"]
+
+
+def test_the_pose_comes_from_every_mover_without_a_track():
+    """The target's track cut into tracklets among straight walkers: a tracklet's pose finds the target, the refit takes
+    all of it.
+    """
+    camera, track, thirds, rows, prepared, _ = _target_among_walkers()
     found = P.pose_from_movers(
         unposed(camera), make_detections(rows), prepared, camera.fps, identify_params(SyncParams())
     )
@@ -302,8 +311,7 @@ def test_the_pose_comes_from_every_mover_without_a_track():
 
     # The scan's windows around the first two thirds of the target: only tracklets with 12 frames in them are tried,
     # and the identification under the pose still takes every visit.
-    thirds = np.array_split(np.arange(len(track)), 3)
-    windows = ((int(track.frame[thirds[0][0]]), int(track.frame[thirds[1][-1]]) + 1),)
+    windows = ((thirds[0][0], thirds[1][1]),)
     inside = P.in_windows(make_detections(rows).frame, windows)
     within = P.pose_from_movers(
         unposed(camera), make_detections(rows), prepared, camera.fps, identify_params(SyncParams()), windows=windows
@@ -317,6 +325,50 @@ def test_the_pose_comes_from_every_mover_without_a_track():
         P.pose_from_movers(
             unposed(camera), detections, prepared, camera.fps, identify_params(SyncParams()), windows=((0, 5),)
         )
+
+
+def test_the_pose_from_movers_does_not_depend_on_the_tracklet_it_starts_from():
+    """Each tracklet's pose places the target's point within a blob larger than the target differently, so refits on
+    the same frames differ by a frame here; the chosen track is settled on the target's own blobs, so which tracklets
+    are tried (the scan's windows: thirds 1-2 start from tracklet 1, thirds 1 and 3 from tracklet 2) moves the line
+    by hundredths of a frame.
+    """
+    camera, _, thirds, rows, prepared, truth = _target_among_walkers()
+    detections, params = make_detections(rows), identify_params(SyncParams())
+    found = {
+        tried: P.pose_from_movers(unposed(camera), detections, prepared, camera.fps, params, windows=windows)
+        for tried, windows in {"0-1": ((thirds[0][0], thirds[1][1]),), "0,2": (thirds[0], thirds[2])}.items()
+    }
+    assert found["0-1"].tracklet == 1 and found["0,2"].tracklet == 2
+    betas = np.array([f.pose.fit.beta for f in found.values()])
+    assert np.ptp(betas) < 0.02
+    assert np.abs(betas - truth.beta).max() < 0.3
+
+
+def test_the_search_from_movers_stops_at_the_first_track_another_tracklet_confirms(monkeypatch):
+    """A look-alike circling for 2 s, the shortest curved image path, is tried last: the target's tracklets 1 and 2
+    confirm each other before it, and searching on gives the same line."""
+    circling = tuple(
+        (300 + f, float("nan"), 200, 320 + 15 * np.cos(f / 10), 240 + 15 * np.sin(f / 10), 20.0, 40.0, 1.0)
+        for f in range(60)
+    )
+    camera, _, _, rows, prepared, _ = _target_among_walkers(circling)
+    detections, params = make_detections(rows), identify_params(SyncParams())
+    stopped = P.pose_from_movers(unposed(camera), detections, prepared, camera.fps, params)
+    assert 200 not in stopped.tried and {0, 1, 2} <= set(stopped.tried)
+    monkeypatch.setattr(P, "CONFIRM_SHARE", 1.01)  # no two tracks ever the same: every tracklet is tried
+    every = P.pose_from_movers(unposed(camera), detections, prepared, camera.fps, params)
+    assert 200 in every.tried
+    assert abs(every.pose.fit.beta - stopped.pose.fit.beta) < 0.02
+
+
+def test_same_track_needs_most_of_the_larger_identification():
+    def identification(rows):
+        return SimpleNamespace(rows=np.asarray(rows))
+
+    assert P.same_track(identification(range(100)), identification(range(5, 100)))
+    assert not P.same_track(identification(range(100)), identification(range(50)))
+    assert not P.same_track(identification(range(100)), identification(range(100, 200)))
 
 
 def test_in_windows_is_start_inclusive_stop_exclusive():

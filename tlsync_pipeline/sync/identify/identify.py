@@ -119,7 +119,10 @@ class Identification:
     alpha, beta: the last line (camera clock); tracklets: the tracklets the
     track uses, most frames first; rounds: assignment rounds run; lift_m:
     estimated height of the logged point above the tracked point (metres,
-    world up).
+    world up); merged: (len(track),) whether each frame's blob is larger
+    than the target, its point then placed within it by the projection
+    under the pose identification ran with (the other frames' points are
+    the blobs' own centres, moved by the lift's image).
     """
 
     track: Track
@@ -131,7 +134,8 @@ class Identification:
     beta: float
     tracklets: tuple[TrackletUse, ...]
     rounds: int
-    lift_m: float = 0.0
+    lift_m: float
+    merged: np.ndarray
 
     def summary(self) -> IdentificationSummary:
         """What timeline.json reports: tracklets used, share of the track's frames on each, line supports."""
@@ -485,7 +489,7 @@ def identify_target(
         found.rows,
         candidates.gate,
     )
-    track = _target_track(
+    track, merged = _target_track(
         camera, found.path, PiecewiseTrajectory(trajectory), row_clock, detections, chosen, found.alpha, found.beta
     )
     return Identification(
@@ -499,6 +503,7 @@ def identify_target(
         _tracklet_uses(detections, chosen, found.assignment.share),
         found.rounds,
         found.lift,
+        merged,
     )
 
 
@@ -717,9 +722,9 @@ def _target_track(
     rows: np.ndarray,
     alpha: float,
     beta: float,
-) -> Track:
+) -> tuple[Track, np.ndarray]:
     """The identified rows as a Track of the target's part of each blob (target_size.target_within) under the line,
-    moved to where the logged point is seen.
+    moved to where the logged point is seen, and whether each blob is larger than the target (merged).
 
     path: the tracked point's trajectory model (the logged one lowered by
     the estimated height); logged: the log's own.
@@ -727,12 +732,12 @@ def _target_track(
     track = detections.to_track(rows)
     offset = offsets_to_path(camera, path, clock[rows], detections.xy[rows], alpha, beta)
     box = np.column_stack([detections.w[rows], detections.h[rows]])
-    xy, size = target_within(
-        detections.xy[rows], box, offset, _slack(camera, path, clock, detections, rows, alpha, beta)
-    )
+    slack = _slack(camera, path, clock, detections, rows, alpha, beta)
+    xy, size = target_within(detections.xy[rows], box, offset, slack)
     with np.errstate(invalid="ignore"):  # a point projected to infinity on both (inf - inf): no lift, below
         lift = (
             offsets_to_path(camera, logged, clock[rows], detections.xy[rows], alpha, beta) - offset
         )  # the logged point's image less the tracked point's
     xy = xy + np.where(np.isfinite(lift), lift, 0.0)
-    return Track(track.frame, xy[:, 0], xy[:, 1], time_s=track.time_s, w=size[:, 0], h=size[:, 1], score=track.score)
+    target = Track(track.frame, xy[:, 0], xy[:, 1], time_s=track.time_s, w=size[:, 0], h=size[:, 1], score=track.score)
+    return target, np.asarray((slack > 0).any(axis=1), dtype=bool)

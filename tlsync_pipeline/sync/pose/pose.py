@@ -139,6 +139,9 @@ BATCH = 256  # candidate offsets whose trajectory positions are evaluated at onc
 MAX_TRACKLETS = 40  # movers' tracklets tried as the target's track, longest image paths first
 MIN_TRACKLET_FRAMES = 12  # frames a mover's tracklet needs to be tried
 TRACKLET_CANDIDATES = 2  # fits at distinct offsets of each tracklet under which the target is identified
+CONFIRM_SHARE = 0.9  # two identifications are the same track when they share this share of the larger's detections
+SETTLE_ROUNDS = 4  # rounds of settling the chosen track at most (``_settled``)
+SETTLED_PX = 0.01  # the target's own points moving less than this (pixels) between rounds are settled
 
 REMEDIES = {
     "no_clock": "give the camera's fps and a log with times, or 4 GCPs with gcp_sigma_m = 0 (their pose alone)",
@@ -1332,6 +1335,9 @@ class MoverPose:
     tried: dict[int, str]
 
 
+Final = tuple[JointFit, Identification, int, OffsetSearch]  # a refit, the identification it is fitted on, its tracklet
+
+
 def pose_from_movers(
     camera: Camera,
     detections: Detections,
@@ -1357,9 +1363,15 @@ def pose_from_movers(
     (sync/identify/identify.py: its other tracklets, other visits to the view join)
     and the pose and line are fitted again on the identified track. One
     tracklet of a few seconds seldom determines a pose; the identified
-    track, with every visit, does. The refitted pose with most frames wins,
-    with the best one at a distinct offset as its runner-up, and is checked
-    as ``pose_from_track``'s. trajectory: the prepared trajectory; params:
+    track, with every visit, does. The search stops once the best refit so
+    far (most frames, then the smallest residual scale) is fitted on a
+    track that another tracklet's pose identifies too (``same_track``).
+    That refit's track is settled (``_settled``: the pose fitted on the
+    blobs that are the target's own, the target identified again under it,
+    pose and line refitted), so that whichever of the confirming tracklets
+    came first, the result is the same; it wins, with the best refit at a
+    distinct offset as its runner-up, and is checked as
+    ``pose_from_track``'s. trajectory: the prepared trajectory; params:
     identification's (its eps_px is the pose's gate, its f_scale_px the
     fit's loss scale); offsets: the range of beta (clock units) each
     tracklet's search covers (None: all the log allows); windows: the
@@ -1368,7 +1380,8 @@ def pose_from_movers(
     them is tried (the frames read outside them, for the breaks only, show
     movers at times the target is out of view; None: every tracklet);
     max_roll_deg: without GCPs, the upright prior's tolerance
-    (``ranked_pose``). Identification still sees every mover. Raises
+    (``ranked_pose``). Identification still sees every mover. The result's
+    ``tried`` names the tracklets tried before the search stopped. Raises
     PoseError when no tracklet leads to a determined pose.
     """
     prior = slope_prior(fps, trajectory.rate, params.rate_sigma)
@@ -1405,7 +1418,7 @@ def pose_from_movers(
             + (" in the scan's windows" if windows is not None else "")
             + f" ({len(ids)} tracklets)",
         )
-    finals: list[tuple[JointFit, Identification, int, OffsetSearch]] = []
+    finals: list[Final] = []
     for _, tid, rows in ranked[:MAX_TRACKLETS]:
         try:
             search, fits = candidate_fits(
@@ -1463,6 +1476,11 @@ def pose_from_movers(
             if gcps is None or gcps_agree(gcps, refit):
                 finals.append((refit, identified, tid, search))
         tried[tid] = "; ".join(reasons)
+        if _confirmed(finals):
+            break
+    finals.sort(key=lambda final: _rank(final[0]))
+    if finals:
+        finals[0] = _settled(finals[0], detections, trajectory, fps, params, path, prior, gcps, row_clock)
     if survey:
         return _movers_with_survey(
             camera,
@@ -1487,10 +1505,9 @@ def pose_from_movers(
             f"none of the {min(len(ranked), MAX_TRACKLETS)} longest curved tracklets leads to a pose under which the "
             f"target is identified ({causes[:200]})",
         )
-    order = sorted(range(len(finals)), key=lambda k: (-finals[k][0].support, finals[k][0].scale_px))
-    best, identified, tid, search = finals[order[0]]
+    _, identified, tid, search = finals[0]
     pose = ranked_pose(
-        [finals[k][0] for k in order],
+        [final[0] for final in finals],
         search,
         identified.track.xy,
         fps or 0.0,
@@ -1503,6 +1520,128 @@ def pose_from_movers(
         pose = _settle_intrinsics(pose, clock, identified.track.xy, path, prior, eps_px, f_scale, gcps, free, unknown_k)
     check_determined(pose, clock, path, gcps is not None)
     return MoverPose(pose, identified, tid, tried)
+
+
+def _rank(fit: JointFit) -> tuple[int, float]:
+    """The order of the refits: most frames within the gate first, then the smallest residual scale."""
+    return -fit.support, fit.scale_px
+
+
+def same_track(a: Identification, b: Identification) -> bool:
+    """Whether two identifications found the same track: CONFIRM_SHARE of the larger's detection rows in both."""
+    shared = np.intersect1d(a.rows, b.rows, assume_unique=True).size
+    return shared >= CONFIRM_SHARE * max(len(a.rows), len(b.rows))
+
+
+def _confirmed(finals: list[Final]) -> bool:
+    """Whether the best refit so far is fitted on a track that another tracklet's pose identifies too."""
+    if len(finals) < 2:
+        return False
+    _, identified, tid, _ = min(finals, key=lambda final: _rank(final[0]))
+    return any(other != tid and same_track(identified, found) for _, found, other, _ in finals)
+
+
+def _settled(
+    final: Final,
+    detections: Detections,
+    trajectory: Trajectory,
+    fps: float | None,
+    params: IdentifyParams,
+    path: PiecewiseTrajectory,
+    prior: SlopePrior | None,
+    gcps: GcpPrior | None,
+    row_clock: np.ndarray,
+) -> Final:
+    """The final's track identified again under a pose that does not depend on the tracklet it started from, and its
+    refit.
+
+    A merged blob's point is placed within it by the projection under the
+    pose the target was identified with (``Identification.merged``), so a
+    refit on it keeps part of that pose: tracklets that lead to the same
+    frames give refits a few tenths of a frame apart. Each round fits the
+    pose and line on the frames whose blob is the target's own (their
+    points are the blobs' centres), identifies the target again under that
+    pose and refits pose and line on its track; the rounds stop when the
+    target's own blobs and their points (within SETTLED_PX) are those the
+    round started from, at most SETTLE_ROUNDS. A round is not taken when
+    fewer than MIN_FRAMES blobs are the target's own, when a step fails, or
+    when its refit leaves the GCPs.
+    """
+    for _ in range(SETTLE_ROUNDS):
+        settled = _settle_round(final, detections, trajectory, fps, params, path, prior, gcps, row_clock)
+        if settled is None:
+            break
+        before, after = final[1], settled[1]
+        final = settled
+        if _own_points_alike(before, after):
+            break
+    return final
+
+
+def _own_points_alike(a: Identification, b: Identification) -> bool:
+    """Whether two identifications have the same blobs as the target's own, their points within SETTLED_PX."""
+    own_a, own_b = ~a.merged, ~b.merged
+    return np.array_equal(a.rows[own_a], b.rows[own_b]) and bool(
+        np.all(np.abs(a.track.xy[own_a] - b.track.xy[own_b]) <= SETTLED_PX)
+    )
+
+
+def _settle_round(
+    final: Final,
+    detections: Detections,
+    trajectory: Trajectory,
+    fps: float | None,
+    params: IdentifyParams,
+    path: PiecewiseTrajectory,
+    prior: SlopePrior | None,
+    gcps: GcpPrior | None,
+    row_clock: np.ndarray,
+) -> Final | None:
+    """One round of ``_settled``: the pose on the target's own blobs, the target identified under it, the refit; None
+    when it is not taken."""
+    refit, identified, tid, search = final
+    own = ~identified.merged
+    if own.sum() < MIN_FRAMES:
+        return None
+    eps_px, f_scale, free = params.eps_px, params.f_scale_px, refit.layout.free
+    try:
+        clock = row_clock[identified.rows][own]
+        anchor = fit_pose_and_line(
+            refit.camera,
+            clock,
+            identified.track.xy[own],
+            path,
+            refit.alpha,
+            refit.beta,
+            refit.errors[own] <= eps_px,
+            eps_px,
+            f_scale,
+            prior,
+            gcps,
+            free,
+        )
+        again = identify_target(anchor.camera, detections, trajectory, fps, params)
+        clock = row_clock[again.rows]
+        start = reprojection_errors(anchor.camera, clock, again.track.xy, path, anchor.alpha, anchor.beta) <= eps_px
+        settled = fit_pose_and_line(
+            anchor.camera,
+            clock,
+            again.track.xy,
+            path,
+            anchor.alpha,
+            anchor.beta,
+            start,
+            eps_px,
+            f_scale,
+            prior,
+            gcps,
+            free,
+        )
+    except (SyncError, ValueError):
+        return None
+    if gcps is not None and not gcps_agree(gcps, settled):
+        return None
+    return settled, again, tid, search
 
 
 def in_windows(frames: np.ndarray, windows: tuple[tuple[int, int], ...]) -> np.ndarray:
@@ -1530,11 +1669,10 @@ def _movers_with_survey(
     offsets,
 ) -> MoverPose:
     """With GCPs: the pose from GCPs and the identified track together, or from the track alone when they conflict
-    (``_survey_and_target``), on the target identified under the best refit, or under the GCPs' own pose when no
-    refit kept the GCPs (the target as the GCP pose sees it)."""
+    (``_survey_and_target``), on the first final's track (the best refit's, settled), or on the target identified
+    under the GCPs' own pose when no refit kept the GCPs (the target as the GCP pose sees it)."""
     if finals:
-        best = min(range(len(finals)), key=lambda k: (-finals[k][0].support, finals[k][0].scale_px))
-        _, identified, tid, _ = finals[best]
+        _, identified, tid, _ = finals[0]
     else:
         try:
             identified = identify_target(gcp_camera, detections, trajectory, fps, params)
