@@ -15,6 +15,7 @@ from tlsync_pipeline.sync.identify.identify import (
     covers,
     identify_params,
     identify_target,
+    without_rivals,
 )
 from tlsync_pipeline.sync.kernels.line_search import thin_votes
 from tlsync_pipeline.sync.model.params import SyncParams
@@ -174,6 +175,24 @@ def test_along_tracklets_adds_only_identified_tracklets_in_free_frames_within_th
     assert along_tracklets(frame, tracklet, distance, chosen[:7], 10.0).tolist() == list(
         range(7)
     )  # 7 chosen rows: not an identified tracklet
+
+
+def test_a_frame_where_another_walker_is_as_near_the_projection_is_left_out():
+    """Twelve frames, one chosen candidate each (rows 0-11, 1.7 m tall); frame 3: a walker nearer the projection
+    (row 12), frame 5: one further off (row 13), frame 7: a small blob nearer (row 14, 0.3 m: not a person), frame 9:
+    a merged blob holding the projection, its centre further off (row 15), frame 10: the chosen row beyond the gate (an
+    identified tracklet's, along_tracklets) and a walker nearer within it (row 16). The path cannot tell the chosen
+    candidate from the walker in frames 3 and 10 only."""
+    frame = np.r_[np.arange(12), 3, 5, 7, 9, 10]
+    distance = np.r_[np.full(12, 10.0), 6.0, 14.0, 2.0, 40.0, 8.0]
+    distance[10] = 50.0  # an identified tracklet's row beyond the gate (along_tracklets)
+    inside = np.zeros(len(frame), bool)
+    inside[15] = True
+    height = np.r_[np.full(12, 1.7), 1.6, 1.8, 0.3, 1.7, 1.7]
+    kept = without_rivals(frame, np.arange(12), distance, inside, 20.0, height)
+    assert kept.tolist() == [0, 1, 2, 4, 5, 6, 7, 8, 9, 11]
+    few = without_rivals(frame, np.arange(12), distance, inside, 20.0, np.full(len(frame), np.nan))
+    assert few.tolist() == list(range(12))  # no size known: nothing to tell a walker from a blob, all kept
 
 
 def test_a_camera_the_path_never_enters_is_named():
