@@ -178,21 +178,18 @@ def test_along_tracklets_adds_only_identified_tracklets_in_free_frames_within_th
 
 
 def test_a_frame_where_another_walker_is_as_near_the_projection_is_left_out():
-    """Twelve frames, one chosen candidate each (rows 0-11, 1.7 m tall); frame 3: a walker nearer the projection
-    (row 12), frame 5: one further off (row 13), frame 7: a small blob nearer (row 14, 0.3 m: not a person), frame 9:
-    a merged blob holding the projection, its centre further off (row 15), frame 10: the chosen row beyond the gate (an
-    identified tracklet's, along_tracklets) and a walker nearer within it (row 16). The path cannot tell the chosen
-    candidate from the walker in frames 3 and 10 only."""
-    frame = np.r_[np.arange(12), 3, 5, 7, 9, 10]
-    distance = np.r_[np.full(12, 10.0), 6.0, 14.0, 2.0, 40.0, 8.0]
-    distance[10] = 50.0  # an identified tracklet's row beyond the gate (along_tracklets)
-    inside = np.zeros(len(frame), bool)
-    inside[15] = True
-    height = np.r_[np.full(12, 1.7), 1.6, 1.8, 0.3, 1.7, 1.7]
-    kept = without_rivals(frame, np.arange(12), distance, inside, 20.0, height)
-    assert kept.tolist() == [0, 1, 2, 4, 5, 6, 7, 8, 9, 11]
-    few = without_rivals(frame, np.arange(12), distance, inside, 20.0, np.full(len(frame), np.nan))
-    assert few.tolist() == list(range(12))  # no size known: nothing to tell a walker from a blob, all kept
+    """Twelve frames, one chosen candidate each (rows 0-11, 1.7 m tall, 10 px from the projection); frame 3: a walker
+    nearer (row 12), frame 5: one further off (row 13), frame 7: a small blob nearer (row 14, 0.3 m: no person),
+    frame 10: the chosen row 50 px off (an identified tracklet's beyond the gate, along_tracklets) and a walker at
+    30 px (row 15). The path cannot tell the chosen candidate from the walker in frames 3 and 10 only."""
+    frame = np.r_[np.arange(12), 3, 5, 7, 10]
+    distance = np.r_[np.full(12, 10.0), 6.0, 14.0, 2.0, 30.0]
+    distance[10] = 50.0
+    height = np.r_[np.full(12, 1.7), 1.6, 1.8, 0.3, 1.7]
+    assert without_rivals(frame, np.arange(12), distance, height).tolist() == [0, 1, 2, 4, 5, 6, 7, 8, 9, 11]
+    unknown = np.full(len(frame), np.nan)
+    assert without_rivals(frame, np.arange(12), distance, unknown).tolist() == list(range(12))  # no size: all kept
+    assert without_rivals(frame, np.arange(8), distance, height).tolist() == list(range(8))  # 7 would stay: too few
 
 
 def test_a_camera_the_path_never_enters_is_named():

@@ -39,8 +39,8 @@ off the target for a stretch, the identified tracklets' candidates within
 EXTEND_GATES gates join the track (``along_tracklets``): the sync method
 weighs them, as it weighs any track's frames.
 
-A frame where another mover of the target's size is near the path and at
-least as near the projection as the chosen candidate is left out
+A frame where another mover of the target's size is at least as near the
+projection as the chosen candidate is left out
 (``without_rivals``): the path cannot tell them apart there, and a noisy
 log's projection wanders onto passers-by beside the target.
 
@@ -485,17 +485,10 @@ def identify_target(
     )
     found = _assignment_rounds(candidates, trajectory, search.alpha, search.beta, params.f_scale_px, prior)
     _check_following(candidates, found)
-    offset = candidates.offsets(found.path, found.alpha, found.beta)
-    distance = np.linalg.norm(offset, axis=1)
+    distance = np.linalg.norm(candidates.offsets(found.path, found.alpha, found.beta), axis=1)
     chosen = along_tracklets(detections.frame, detections.id, distance, found.rows, candidates.gate)
-    chosen = without_rivals(
-        detections.frame,
-        chosen,
-        distance,
-        covers(offset, detections.w, detections.h),
-        candidates.gate,
-        _heights_in_metres(camera, found.path, row_clock, detections, found.alpha, found.beta),
-    )
+    heights = _heights_in_metres(camera, found.path, row_clock, detections, found.alpha, found.beta)
+    chosen = without_rivals(detections.frame, chosen, distance, heights)
     track = _target_track(
         camera, found.path, PiecewiseTrajectory(trajectory), row_clock, detections, chosen, found.alpha, found.beta
     )
@@ -702,31 +695,22 @@ def along_tracklets(
     return np.sort(np.r_[chosen, extra])
 
 
-def without_rivals(
-    frame: np.ndarray,
-    chosen: np.ndarray,
-    distance: np.ndarray,
-    inside: np.ndarray,
-    gate_px: float,
-    height_m: np.ndarray,
-) -> np.ndarray:
-    """The chosen rows (at most one per frame) less those whose frame holds a rival: another mover of the target's
-    size (its box's height in metres at the target's depth at least RIVAL_HEIGHT of the chosen boxes' SIZE_QUANTILE)
-    near the path (within ``gate_px`` of the projection, or its box holding it) and at least as near it as the chosen
-    candidate. There the path cannot tell which is the target, and the choice rests on tracklets, which swap people
-    where blobs merge: a passer-by beside a noisy log's projection. Per detection row: frame (0-based), distance
-    (pixels from its centre to the projection, inf off the path), inside (its box holds the projection), height_m (its
-    box's height in metres at the target's depth, NaN unknown). Unchanged when the chosen boxes give no size or fewer
-    than MIN_FRAMES rows would remain."""
+def without_rivals(frame: np.ndarray, chosen: np.ndarray, distance: np.ndarray, height_m: np.ndarray) -> np.ndarray:
+    """The chosen rows (at most one per frame) less those whose frame holds a rival: another mover of the target's size
+    (its box's height in metres at the target's depth at least RIVAL_HEIGHT of the chosen boxes' SIZE_QUANTILE) at
+    least as near the projection as the chosen candidate. There the path cannot tell which is the target, and the
+    choice rests on tracklets, which swap people where blobs merge: a passer-by beside a noisy log's projection. Per
+    detection row: frame (0-based), distance (pixels from its centre to the projection, inf off the path), height_m
+    (its box's height in metres at the target's depth, NaN unknown). Unchanged when the chosen boxes give no size or
+    fewer than MIN_FRAMES rows would remain."""
     known = height_m[chosen][np.isfinite(height_m[chosen])]
     if len(known) < MIN_FRAMES:
         return chosen
-    tall = np.nan_to_num(height_m, nan=0.0) >= RIVAL_HEIGHT * float(np.quantile(known, SIZE_QUANTILE))
-    near = np.flatnonzero(tall & ((distance <= gate_px) | inside))
+    tall = np.flatnonzero(np.nan_to_num(height_m, nan=0.0) >= RIVAL_HEIGHT * float(np.quantile(known, SIZE_QUANTILE)))
     by_frame = chosen[np.argsort(frame[chosen], kind="stable")]
-    mine = by_frame[np.searchsorted(frame[by_frame], frame[near]).clip(0, len(by_frame) - 1)]
-    rival = (frame[mine] == frame[near]) & (mine != near) & (distance[near] <= distance[mine])
-    kept = chosen[~np.isin(frame[chosen], frame[near[rival]])]
+    mine = by_frame[np.searchsorted(frame[by_frame], frame[tall]).clip(0, len(by_frame) - 1)]
+    rival = (frame[mine] == frame[tall]) & (mine != tall) & (distance[tall] <= distance[mine])
+    kept = chosen[~np.isin(frame[chosen], frame[tall[rival]])]
     return kept if len(kept) >= MIN_FRAMES else chosen
 
 
