@@ -21,9 +21,7 @@ VOTE_SIGMAS = 3.0  # a vote's radius covers this many standard deviations of the
 MAD_TO_SD = 1.4826  # a normal variable's std over its median absolute deviation
 RADIUS_POINTS = 500  # most fixes the vote radius is measured at
 OVERRULE_SPREADS = 3.0  # a declared white noise is overruled by a measurement further than this many of its stds (log)
-UNDECIDED_SPREADS = (
-    2.0  # fixes reading within this many of their stds (log) of a receiver without a bias cannot rule it out
-)
+UNDECIDED_SPREADS = 2.0  # fixes within this many of their stds (log) of a receiver without a bias cannot rule it out
 
 
 def vote_radius(camera: Camera, trajectory: Trajectory, eps_px: float, model: LogModel) -> float:
