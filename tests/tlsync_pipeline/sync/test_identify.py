@@ -15,6 +15,7 @@ from tlsync_pipeline.sync.identify.identify import (
     covers,
     identify_params,
     identify_target,
+    without_rivals,
 )
 from tlsync_pipeline.sync.kernels.line_search import thin_votes
 from tlsync_pipeline.sync.model.params import SyncParams
@@ -174,6 +175,21 @@ def test_along_tracklets_adds_only_identified_tracklets_in_free_frames_within_th
     assert along_tracklets(frame, tracklet, distance, chosen[:7], 10.0).tolist() == list(
         range(7)
     )  # 7 chosen rows: not an identified tracklet
+
+
+def test_a_frame_where_another_walker_is_as_near_the_projection_is_left_out():
+    """Twelve frames, one chosen candidate each (rows 0-11, 1.7 m tall, 10 px from the projection); frame 3: a walker
+    nearer (row 12), frame 5: one further off (row 13), frame 7: a small blob nearer (row 14, 0.3 m: no person),
+    frame 10: the chosen row 50 px off (an identified tracklet's beyond the gate, along_tracklets) and a walker at
+    30 px (row 15). The path cannot tell the chosen candidate from the walker in frames 3 and 10 only."""
+    frame = np.r_[np.arange(12), 3, 5, 7, 10]
+    distance = np.r_[np.full(12, 10.0), 6.0, 14.0, 2.0, 30.0]
+    distance[10] = 50.0
+    height = np.r_[np.full(12, 1.7), 1.6, 1.8, 0.3, 1.7]
+    assert without_rivals(frame, np.arange(12), distance, height).tolist() == [0, 1, 2, 4, 5, 6, 7, 8, 9, 11]
+    unknown = np.full(len(frame), np.nan)
+    assert without_rivals(frame, np.arange(12), distance, unknown).tolist() == list(range(12))  # no size: all kept
+    assert without_rivals(frame, np.arange(8), distance, height).tolist() == list(range(8))  # 7 would stay: too few
 
 
 def test_a_camera_the_path_never_enters_is_named():

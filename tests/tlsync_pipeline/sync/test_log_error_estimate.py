@@ -20,7 +20,7 @@ from tlsync_pipeline.sync.solve.log_bias import (
 )
 from tlsync_pipeline.sync.solve.synchronize import CameraInput, synchronize
 from tlsync_pipeline.sync.timeline import eps_t
-from tlsync_pipeline.sync.vote.log_error import measured, noise_beyond_turns, vote_radius, white_from_log
+from tlsync_pipeline.sync.vote.log_error import gate_model, measured, noise_beyond_turns, vote_radius, white_from_log
 from tlsync_pipeline.trajectory import Trajectory
 
 
@@ -162,6 +162,26 @@ def test_a_declared_white_log_read_noisier_by_chance_is_no_phones():
             biased += measured(declared, part).has_bias
     assert max(readings) > np.sqrt(0.3 * 0.5)  # some stretches read nearer a phone's white noise
     assert biased == 0
+
+
+def test_a_short_gpx_whose_fixes_cannot_tell_a_white_receiver_from_a_phone_is_gated_as_white():
+    """Ingest suggests a phone for a GPX; a good receiver's 0.3 m log in stretches of 30 fixes at 1 Hz (a visit's
+    worth) reads nearer a phone's 0.5 m by chance in some: the measured model keeps the suggested phone's bias, but
+    the fixes cannot rule out the white receiver, whose gate identification uses (a phone's hundreds of pixels let it
+    follow passers-by). A phone's long log, and a phone the project declares, keep the phone's gate."""
+    suggested = LogModelChoice().resolve("phone")
+    undecided = 0
+    for seed in range(6):
+        log = _logged(seed, "white")
+        for start in range(0, len(log) - 30, 30):
+            part = dataclasses.replace(log, sample=log.sample[start : start + 30], xyz=log.xyz[start : start + 30])
+            gated = gate_model(suggested, part)
+            assert not gated.has_bias and gated.white_m == measured(suggested, part).white_m
+            undecided += measured(suggested, part).has_bias
+    assert undecided > 0  # stretches whose fixes alone read as a phone's
+    phone = _logged(0, "phone")
+    assert gate_model(suggested, phone).has_bias
+    assert gate_model(LogModelChoice("phone").resolve("phone"), _logged(0, "white")).has_bias
 
 
 def test_an_exact_path_turning_all_along_is_no_receivers():

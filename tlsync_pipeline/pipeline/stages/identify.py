@@ -28,7 +28,7 @@ from tlsync_pipeline.sync.identify.identify import IdentifyParams, identify_para
 from tlsync_pipeline.sync.model.log_model import LogModelChoice
 from tlsync_pipeline.sync.model.methods import preparation_of, prepare_trajectory
 from tlsync_pipeline.sync.model.params import Preparation
-from tlsync_pipeline.sync.vote.log_error import measured, vote_radius
+from tlsync_pipeline.sync.vote.log_error import gate_model, vote_radius
 from tlsync_pipeline.sync.vote.visits import near_views
 from tlsync_pipeline.trajectory import read_trajectory
 from trackers.detections import read_detections, seed_tracklets
@@ -91,7 +91,7 @@ def run_identify(files: StageFiles, params: IdentifyStageParams) -> StageResult:
                 f"target is identified without it"
             )
         radius = vote_radius(
-            camera, prepared, params.identify.eps_px, measured(log_model_of(files, params.log_model), logged)
+            camera, prepared, params.identify.eps_px, gate_model(log_model_of(files, params.log_model), logged)
         )
         breaks = read_video_info(files.path("video_info")).breaks if files.has("video_info") else ()
         found, breaks = identify_in_segments(

@@ -21,7 +21,7 @@ from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
 from tlsync_pipeline.sync.model.log_model import LogModelChoice
 from tlsync_pipeline.sync.model.methods import preparation_of, prepare_trajectory
 from tlsync_pipeline.sync.model.params import Preparation
-from tlsync_pipeline.sync.vote.log_error import measured, vote_radius
+from tlsync_pipeline.sync.vote.log_error import gate_model, vote_radius
 from tlsync_pipeline.sync.vote.visits import near_views
 from tlsync_pipeline.sync.vote.votes import CameraVotes, Votes, compute_votes, write_votes
 from tlsync_pipeline.trajectory import read_trajectory
@@ -66,7 +66,7 @@ def run_vote(files: StageFiles, params: VoteParams) -> StageResult:
             raise SyncError(f"{params.source}: the target was never found (the track stage found it in no frame)")
         logged = near_views(read_trajectory(files.path("trajectory")), [camera])
         prepared = prepare_trajectory(logged, params.preparation)
-        radius = vote_radius(camera, prepared, params.eps_px, measured(log_model_of(files, params.log_model), logged))
+        radius = vote_radius(camera, prepared, params.eps_px, gate_model(log_model_of(files, params.log_model), logged))
         votes = compute_votes(camera, read_track(files.path("track")), prepared, radius)
         error = None
     except SyncError as exc:

@@ -39,6 +39,11 @@ off the target for a stretch, the identified tracklets' candidates within
 EXTEND_GATES gates join the track (``along_tracklets``): the sync method
 weighs them, as it weighs any track's frames.
 
+A frame where another mover of the target's size is at least as near the
+projection as the chosen candidate is left out
+(``without_rivals``): the path cannot tell them apart there, and a noisy
+log's projection wanders onto passers-by beside the target.
+
 The identified track holds, per frame, the target's part of its blob: for
 a box larger than the target, the target's box inside it nearest the
 projection on the final line (target_size.target_within); for a box of
@@ -62,6 +67,7 @@ from tlsync_pipeline.artefacts.identification import IdentificationSummary, Trac
 from tlsync_pipeline.errors import SyncError
 from tlsync_pipeline.sync.identify.refine import MIN_FRAMES, refine_line
 from tlsync_pipeline.sync.identify.target_size import (
+    SIZE_QUANTILE,
     beyond_slack,
     depth_on_line,
     sizes_in_metres,
@@ -96,6 +102,7 @@ EXTEND_GATES = 3.0
 # a kept candidate without box slack whose size in metres departs from the others' median by more than this factor is
 # left out
 SIZE_TOLERANCE = 1.35
+RIVAL_HEIGHT = 0.5  # a mover whose box is at least this share of the target's height (metres) may be taken for it
 
 
 @dataclass(frozen=True)
@@ -482,13 +489,10 @@ def identify_target(
     )
     found = _assignment_rounds(candidates, trajectory, search.alpha, search.beta, params.f_scale_px, prior)
     _check_following(candidates, found)
-    chosen = along_tracklets(
-        detections.frame,
-        detections.id,
-        np.linalg.norm(candidates.offsets(found.path, found.alpha, found.beta), axis=1),
-        found.rows,
-        candidates.gate,
-    )
+    distance = np.linalg.norm(candidates.offsets(found.path, found.alpha, found.beta), axis=1)
+    chosen = along_tracklets(detections.frame, detections.id, distance, found.rows, candidates.gate)
+    heights = _heights_in_metres(camera, found.path, row_clock, detections, found.alpha, found.beta)
+    chosen = without_rivals(detections.frame, chosen, distance, heights)
     track, merged = _target_track(
         camera, found.path, PiecewiseTrajectory(trajectory), row_clock, detections, chosen, found.alpha, found.beta
     )
@@ -694,6 +698,38 @@ def along_tracklets(
     extra = extra[np.lexsort((distance[extra], frame[extra]))]
     extra = extra[np.r_[True, frame[extra][1:] != frame[extra][:-1]]] if len(extra) else extra
     return np.sort(np.r_[chosen, extra])
+
+
+def without_rivals(frame: np.ndarray, chosen: np.ndarray, distance: np.ndarray, height_m: np.ndarray) -> np.ndarray:
+    """The chosen rows (at most one per frame) less those whose frame holds a rival: another mover of the target's size
+    (its box's height in metres at the target's depth at least RIVAL_HEIGHT of the chosen boxes' SIZE_QUANTILE) at
+    least as near the projection as the chosen candidate. There the path cannot tell which is the target, and the
+    choice rests on tracklets, which swap people where blobs merge: a passer-by beside a noisy log's projection. Per
+    detection row: frame (0-based), distance (pixels from its centre to the projection, inf off the path), height_m
+    (its box's height in metres at the target's depth, NaN unknown). Unchanged when the chosen boxes give no size or
+    fewer than MIN_FRAMES rows would remain."""
+    known = height_m[chosen][np.isfinite(height_m[chosen])]
+    if len(known) < MIN_FRAMES:
+        return chosen
+    tall = np.flatnonzero(np.nan_to_num(height_m, nan=0.0) >= RIVAL_HEIGHT * float(np.quantile(known, SIZE_QUANTILE)))
+    by_frame = chosen[np.argsort(frame[chosen], kind="stable")]
+    mine = by_frame[np.searchsorted(frame[by_frame], frame[tall]).clip(0, len(by_frame) - 1)]
+    rival = (frame[mine] == frame[tall]) & (mine != tall) & (distance[tall] <= distance[mine])
+    kept = chosen[~np.isin(frame[chosen], frame[tall[rival]])]
+    return kept if len(kept) >= MIN_FRAMES else chosen
+
+
+def _heights_in_metres(
+    camera: Camera,
+    path: PiecewiseTrajectory,
+    clock: np.ndarray,
+    detections: Detections,
+    alpha: float,
+    beta: float,
+) -> np.ndarray:
+    """(N,) each detection's box height in metres at the target's depth under the line (NaN unknown)."""
+    z = depth_on_line(camera, path, clock, alpha, beta)
+    return sizes_in_metres(camera, detections.w, detections.h, z)[:, 1]
 
 
 def _slack(

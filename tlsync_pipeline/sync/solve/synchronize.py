@@ -60,7 +60,7 @@ from tlsync_pipeline.sync.solve.plausibility import (
 from tlsync_pipeline.sync.solve.registry import get_method
 from tlsync_pipeline.sync.solve.slow_motion import bias_time_spread
 from tlsync_pipeline.sync.timeline import CameraLine, Timeline
-from tlsync_pipeline.sync.vote.log_error import measured, vote_radius, with_log_noise
+from tlsync_pipeline.sync.vote.log_error import gate_model, measured, vote_radius, with_log_noise
 from tlsync_pipeline.sync.vote.votes import Votes, compute_votes
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
 from trackers.track import Track
@@ -243,7 +243,7 @@ def synchronize(
     else fails alone. Raises LogUnitError (an InputError) when every
     camera's evidence says the log is not in seconds or metres.
     """
-    declared, log_model = log_model, measured(log_model, trajectory)
+    declared, log_model, gated = log_model, measured(log_model, trajectory), gate_model(log_model, trajectory)
     prepared = with_log_noise(prepare_trajectory(trajectory, preparation_of(params)), log_model)
     path = PiecewiseTrajectory(prepared)
     results: dict[str, CameraResult] = {}
@@ -262,7 +262,7 @@ def synchronize(
                 inputs, pose = posed(inputs, prepared, params, log_model)
             timing = pose.timing if pose is not None else inputs.pose_timing
             used[name] = inputs
-            radius[name] = vote_radius(inputs.camera, prepared, params.eps_px, log_model)
+            radius[name] = vote_radius(inputs.camera, prepared, params.eps_px, gated)
             if inputs.track is None:
                 result = identify_and_synchronize(name, inputs, prepared, params, radius[name])
             else:
