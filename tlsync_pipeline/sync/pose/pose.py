@@ -64,7 +64,9 @@ as tracked (distorted); world metres.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, replace
+from functools import partial
 
 import numpy as np
 from scipy.optimize import minimize_scalar
@@ -1480,7 +1482,18 @@ def pose_from_movers(
             break
     finals.sort(key=lambda final: _rank(final[0]))
     if finals:
-        finals[0] = _settled(finals[0], detections, trajectory, fps, params, path, prior, gcps, row_clock)
+        rounds = partial(
+            _settle_round,
+            detections=detections,
+            trajectory=trajectory,
+            fps=fps,
+            params=params,
+            path=path,
+            prior=prior,
+            gcps=gcps,
+            row_clock=row_clock,
+        )
+        finals[0] = _settled(finals[0], rounds)
     if survey:
         return _movers_with_survey(
             camera,
@@ -1541,19 +1554,9 @@ def _confirmed(finals: list[Final]) -> bool:
     return any(other != tid and same_track(identified, found) for _, found, other, _ in finals)
 
 
-def _settled(
-    final: Final,
-    detections: Detections,
-    trajectory: Trajectory,
-    fps: float | None,
-    params: IdentifyParams,
-    path: PiecewiseTrajectory,
-    prior: SlopePrior | None,
-    gcps: GcpPrior | None,
-    row_clock: np.ndarray,
-) -> Final:
+def _settled(final: Final, settle_round: Callable[[Final], Final | None]) -> Final:
     """The final's track identified again under a pose that does not depend on the tracklet it started from, and its
-    refit.
+    refit (``settle_round``: ``_settle_round`` with the camera's evidence).
 
     A merged blob's point is placed within it by the projection under the
     pose the target was identified with (``Identification.merged``), so a
@@ -1568,7 +1571,7 @@ def _settled(
     when its refit leaves the GCPs.
     """
     for _ in range(SETTLE_ROUNDS):
-        settled = _settle_round(final, detections, trajectory, fps, params, path, prior, gcps, row_clock)
+        settled = settle_round(final)
         if settled is None:
             break
         before, after = final[1], settled[1]
