@@ -94,6 +94,10 @@ class KnotInformation:
         """The (3K, 3K) precision as one array."""
         return self.banded.toarray() - self.low_rank @ self.low_rank.T
 
+    def __matmul__(self, values: np.ndarray) -> np.ndarray:
+        """The precision times a (3K,) vector of knot values, without forming it."""
+        return self.banded @ values - self.low_rank @ (self.low_rank.T @ values)
+
 
 @dataclass(frozen=True)
 class LogBias:
@@ -454,12 +458,7 @@ class _Joint:
                 [[-1.0 / u**2, 0.0], [s0 / u**2, -1.0 / u]]
             )  # d(alpha, beta) / d(u, s0), beta = middle - s0 / u
             sensitivity[c.name] = to_line @ (-gain)
-        return (
-            posterior,
-            sensitivity,
-            data,
-            data.banded @ z[2 * self.n :] - data.low_rank @ (data.low_rank.T @ z[2 * self.n :]) - score,
-        )
+        return posterior, sensitivity, data, data @ z[2 * self.n :] - score
 
 
 def _pinv_sqrt(matrix: np.ndarray) -> np.ndarray:
