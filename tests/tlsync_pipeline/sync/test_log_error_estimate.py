@@ -184,6 +184,20 @@ def test_a_short_gpx_whose_fixes_cannot_tell_a_white_receiver_from_a_phone_is_ga
     assert gate_model(LogModelChoice("phone").resolve("phone"), _logged(0, "white")).has_bias
 
 
+def test_timeline_records_the_gate_a_suggested_receiver_was_given():
+    """A good receiver's GPX (0.3 m white) that ingest suggested as a phone's: timeline.json's log_error names the gate
+    the vote radius and identification used (the white receiver's, no bias) beside the model the sync fitted (the
+    suggested phone's bias as its prior); a declared phone's gate is the phone's."""
+    scene = make_walk_scene(0, WalkSpec(log=RECEIVERS["white"]))
+    inputs = {n: CameraInput(c, scene.tracks[n], c.fps) for n, c in scene.cameras.items()}
+    timeline, _ = synchronize(inputs, scene.trajectory, SyncParams(), log_model=LogModelChoice().resolve("phone"))
+    model = timeline.log_model
+    assert model is not None and model["gate"]["name"] == "white" and model["gate"]["bias_m"] == 0.0
+    assert model["prior"]["name"] == "phone" and model["gate"]["white_m"] == model["white_m"]
+    declared = synchronize(inputs, scene.trajectory, SyncParams(), log_model=PRESETS["phone"])[0].log_model
+    assert declared is not None and declared["gate"]["name"] == "phone" and declared["gate"]["bias_m"] > 0
+
+
 def test_an_exact_path_turning_all_along_is_no_receivers():
     """An RTK walker's 1 Hz log circling a 5 m roundabout at 1.4 m/s: its second differences read the turn as 0.17 m
     of noise (more than a drone's 0.1 m), its third differences as 0.025 m. Declared RTK it stays RTK (no bias, so no

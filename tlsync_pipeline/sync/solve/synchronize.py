@@ -345,7 +345,7 @@ def synchronize(
         failed={name: failed[name] for name in cameras if name in failed},
         rejected=rejected,
         shared_cov=shared,
-        log_model=_log_error(fitted_model, declared, estimate),
+        log_model=_log_error(fitted_model, declared, estimate, gated),
     )
     return timeline, results
 
@@ -410,14 +410,18 @@ def _the_rival(
     return replace(refit, votes=result.votes, line=replace(refit.line, line_search=swapped))
 
 
-def _log_error(model: LogModel, declared: LogModel, estimate: tuple[float, float] | None) -> dict | None:
+def _log_error(
+    model: LogModel, declared: LogModel, estimate: tuple[float, float] | None, gate: LogModel
+) -> dict | None:
     """timeline.json's log_error model: the model the sync used, which of its values were measured, the declared
-    preset (their prior), and the bias's marginal-likelihood estimate (applied only when it rejects the preset's bias:
-    fit_log_bias_measured)."""
+    preset (their prior), the model whose error set the vote radius and gates (gate_model: a suggested receiver's
+    fixes that read as an unbiased one's gate as that), and the bias's marginal-likelihood estimate (applied only when
+    it rejects the preset's bias: fit_log_bias_measured)."""
     if model.white_m <= 0 and not model.has_bias:
         return None
     prior = {k: v for k, v in asdict(declared).items() if k != "measured"}
-    record = {**asdict(model), "measured": list(model.measured), "prior": prior}
+    gated = {k: getattr(gate, k) for k in ("name", "white_m", "bias_m", "bias_vertical_m")}
+    record = {**asdict(model), "measured": list(model.measured), "prior": prior, "gate": gated}
     if estimate is not None:
         record["estimate"] = {"bias_m": estimate[0], "tau_s": estimate[1]}
     return record
