@@ -19,7 +19,8 @@ turns into seconds. Per receiver and bias model (``--bias-model``): the runs whe
 camera was synchronized, the median and max over runs of the worst and of the
 median synchronized pair's eps_t (frames, eq. 5), the share of synchronized
 pairs whose 95 % interval of beta contains the truth, the refused cameras
-with their cause, the sync's CPU a run, the peak resident memory of the
+with their cause, the sync's CPU a run (through the stages: the whole
+``tlsync run``'s, calibrate's pose search included), the peak resident memory of the
 runs through the stages, and the process's peak resident memory. ``--runs``
 prints every run. Skips cleanly when the folder is absent.
 
@@ -197,9 +198,10 @@ def main() -> None:
         f"{HOVER_EVERY_S:g} s, tracks {tracks}; "
         f"{args.seeds} simulated logs per receiver"
     )
+    cpu = "CPU of `tlsync run` a run (s)" if args.through == "stages" else "sync CPU a run (s)"
     print(
         "| receiver | bias model | runs with every camera | cameras synchronized | median pair's eps_t, median "
-        "(max) | worst pair's eps_t, median (max) | 95 % intervals that contain the truth | sync CPU a run (s) | "
+        f"(max) | worst pair's eps_t, median (max) | 95 % intervals that contain the truth | {cpu} | "
         "peak memory of a run (MB) | refused (cause) |"
     )
     print("|---|---|---|---|---|---|---|---|---|---|")
