@@ -207,7 +207,7 @@ def make_crowd_scene(spec: CrowdSpec = SMALL, directory: str | Path | None = Non
     views = _views(len(names), spec.views, rng)
     cameras = {n: surveillance_camera(n, views[k], spec.image_size, spec.fps[k], rng) for k, n in enumerate(names)}
     starts = [rng.uniform(0.5, 3.0) for _ in names]  # each camera starts recording at its own time
-    patches = [(v,) for v in views] if spec.views == "apart" else [tuple(views)]
+    patches: list[tuple[_View, ...]] = [(v,) for v in views] if spec.views == "apart" else [tuple(views)]
     route, stays = _target_route(
         rng, cameras, patches, max(s + n / f for s, n, f in zip(starts, spec.n_frames, spec.fps)), spec.speed_mps
     )
