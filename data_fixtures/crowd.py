@@ -58,8 +58,9 @@ PATCH_HALF_WIDTH_M = 5.0
 PERSON_WIDTH_M = 0.45
 TARGET_HEIGHT_M = 1.75
 PERSON_GREY = 55.0  # every walker's grey level (target included), +- a little
-# a detected blob's centroid about the silhouette's centre on frames where the target is alone (std per axis, pixels)
-CENTROID_NOISE_PX = 1.0
+# the white part of a detected blob's centroid about the silhouette's centre, where the target walks alone (std per
+# axis, pixels; the bound's tracking noise): frame to frame, 0.7-1.1 px across the body and 2.1-2.4 px along it
+CENTROID_NOISE_PX = 1.7
 
 
 @dataclass(frozen=True)
