@@ -1,5 +1,11 @@
-"""The first-order bound on eps_t for a walk scene: what an efficient estimator that knows the log's error model exactly
-can reach.
+"""The first-order bound on eps_t for a walk or crowd scene: what an efficient estimator that knows the log's error
+model exactly can reach.
+
+Any data_fixtures.scene.Scene whose ``noise`` holds the log's error model
+(``"log"``, a LogErrorModel) and the tracking noise (``"S_t_px"``, pixels):
+data_fixtures/walk.py's and data_fixtures/crowd.py's (a crowd scene's
+tracks are the frames where the target is visible, its tracking noise the
+blob centroid's, CENTROID_NOISE_PX).
 
 The scene's measurements, linearised at the truth: every tracked frame's
 pixels (the scene's tracking noise, white per axis) as a function of each

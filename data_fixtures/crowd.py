@@ -46,12 +46,21 @@ from trackers.track import Track
 CAMERA_HEIGHT_M = 5.0
 # between neighbouring cameras' headings: tilted down, each view spans up to ~85 deg of azimuth near its bottom edge
 YAW_STEP_DEG = 90.0
+# views "shared": between neighbouring cameras' headings round the one patch they all watch
+SHARED_YAW_STEP_DEG = 75.0
+SHARED_VISIT_S = 5.0  # seconds the target walks in the shared patch per visit
+SHARED_AWAY_M = (
+    14.0  # the least distance from the shared patch's middle of the points where the target leaves the views
+)
 VISIT_S = 5.0  # seconds the target walks in a camera's patch per visit
 NEAR_M, FAR_M = 5.5, 15.0  # ground patch walked on, distance ahead of the camera
 PATCH_HALF_WIDTH_M = 5.0
 PERSON_WIDTH_M = 0.45
 TARGET_HEIGHT_M = 1.75
 PERSON_GREY = 55.0  # every walker's grey level (target included), +- a little
+# the white part of a detected blob's centroid about the silhouette's centre, where the target walks alone (std per
+# axis, pixels; the bound's tracking noise): frame to frame, 0.7-1.1 px across the body and 2.1-2.4 px along it
+CENTROID_NOISE_PX = 1.7
 
 
 @dataclass(frozen=True)
@@ -64,7 +73,10 @@ class CrowdSpec:
     model instead (data_fixtures/log_error.py: a Gauss-Markov bias plus
     white noise, at log_rate; the scene is otherwise the same); noise:
     sensor noise std (grey levels); crf: H.264 quality (higher: more
-    compression).
+    compression); views: "apart" (each camera its own patch of ground, the
+    target visiting them in turn) or "shared" (every camera, from its own
+    place and heading, watches one patch at the same time, the target
+    leaving every view between visits: a multi-view surveillance set).
     """
 
     fps: tuple[float, ...] = (10.0, 5.0)
@@ -78,6 +90,13 @@ class CrowdSpec:
     noise: float = 3.0
     crf: int = 28
     seed: int = 0
+    views: str = "apart"
+
+    def log_model(self) -> LogErrorModel:
+        """The log's error model: ``log_error``, or white ``gps_noise_m`` on every axis at ``log_rate``."""
+        if self.log_error is not None:
+            return self.log_error
+        return LogErrorModel("white", self.log_rate, self.gps_noise_m, self.gps_noise_m)
 
 
 # Test size: two cameras at 10 and 5 fps, 45 s each, 480x360.
@@ -121,6 +140,42 @@ class CrowdScene:
     truth: dict[str, CameraTruth] = field(default_factory=dict)
 
 
+@dataclass(frozen=True)
+class _View:
+    """A camera's ground frame (x right, y ahead, metres): its heading ``yaw`` (radians, counter-clockwise from +y)
+    and the ground point ``foot`` below it (world x, y, metres)."""
+
+    yaw: float
+    foot: tuple[float, float] = (0.0, 0.0)
+
+    def to_world(self, local: np.ndarray) -> np.ndarray:
+        return _to_world(self.yaw, local) + np.asarray(self.foot)
+
+    def to_local(self, point: np.ndarray) -> np.ndarray:
+        return _to_world(-self.yaw, np.asarray(point) - np.asarray(self.foot))
+
+    def sees(self, point: np.ndarray) -> bool:
+        """Whether a world ground point is well inside the view (about 0.6 x distance wide on each side)."""
+        x, y = self.to_local(point)
+        return NEAR_M + 0.5 <= y <= FAR_M - 0.5 and abs(x) <= min(PATCH_HALF_WIDTH_M, 0.45 * y)
+
+
+def _views(count: int, kind: str, rng) -> list[_View]:
+    """``count`` cameras' views: "apart", all at the origin YAW_STEP_DEG apart (disjoint patches); "shared", round one
+    patch SHARED_YAW_STEP_DEG apart, each 9.5-11.5 m from its middle (the origin's 10.25 m ahead)."""
+    offsets = [k - (count - 1) / 2 for k in range(count)]
+    if kind == "apart":
+        return [_View(math.radians(YAW_STEP_DEG * o)) for o in offsets]
+    assert kind == "shared", f"views are apart or shared, not {kind!r}"
+    middle = np.array([0.0, (NEAR_M + FAR_M) / 2])
+    views = []
+    for o in offsets:
+        yaw = math.radians(SHARED_YAW_STEP_DEG * o)
+        foot = middle - _to_world(yaw, np.array([0.0, rng.uniform(9.5, 11.5)]))
+        views.append(_View(yaw, (float(foot[0]), float(foot[1]))))
+    return views
+
+
 def _to_world(yaw: float, local: np.ndarray) -> np.ndarray:
     """Ground point(s) from a camera's local ground frame (x right, y ahead, metres) to the world's."""
     c, s_ = math.cos(yaw), math.sin(yaw)
@@ -128,13 +183,11 @@ def _to_world(yaw: float, local: np.ndarray) -> np.ndarray:
     return np.stack([c * local[..., 0] - s_ * local[..., 1], s_ * local[..., 0] + c * local[..., 1]], axis=-1)
 
 
-def surveillance_camera(name: str, yaw: float, image_size: tuple[int, int], fps: float, rng) -> Camera:
-    """A camera at (0, 0, CAMERA_HEIGHT_M) turned by ``yaw`` (radians, counter-clockwise from +y), tilted down at the
-    middle of its patch.
-    """
+def surveillance_camera(name: str, view: _View, image_size: tuple[int, int], fps: float, rng) -> Camera:
+    """A camera CAMERA_HEIGHT_M above its view's foot, turned to its heading, tilted down at the middle of its patch."""
     w, h = image_size
-    centre = np.array([0.0, 0.0, CAMERA_HEIGHT_M])
-    aim = np.r_[_to_world(yaw, np.array([rng.uniform(-0.3, 0.3), (NEAR_M + FAR_M) / 2 + 1.0])), 0.0]
+    centre = np.array([*view.foot, CAMERA_HEIGHT_M])
+    aim = np.r_[view.to_world(np.array([rng.uniform(-0.3, 0.3), (NEAR_M + FAR_M) / 2 + 1.0])), 0.0]
     forward = (aim - centre) / np.linalg.norm(aim - centre)
     right = np.cross(forward, [0, 0, 1.0])
     right /= np.linalg.norm(right)
@@ -152,26 +205,30 @@ def make_crowd_scene(spec: CrowdSpec = SMALL, directory: str | Path | None = Non
     """Build the scene; with ``directory``, also render each camera's video there (``<name>.mp4``)."""
     rng = np.random.default_rng(spec.seed)
     names = [f"cam{k}" for k in range(len(spec.fps))]
-    yaws = [math.radians(YAW_STEP_DEG * (k - (len(names) - 1) / 2)) for k in range(len(names))]
-    cameras = {n: surveillance_camera(n, yaws[k], spec.image_size, spec.fps[k], rng) for k, n in enumerate(names)}
+    views = _views(len(names), spec.views, rng)
+    cameras = {n: surveillance_camera(n, views[k], spec.image_size, spec.fps[k], rng) for k, n in enumerate(names)}
     starts = [rng.uniform(0.5, 3.0) for _ in names]  # each camera starts recording at its own time
+    patches: list[tuple[_View, ...]] = [(v,) for v in views] if spec.views == "apart" else [tuple(views)]
     route, stays = _target_route(
-        rng, cameras, yaws, max(s + n / f for s, n, f in zip(starts, spec.n_frames, spec.fps)), spec.speed_mps
+        rng, cameras, patches, max(s + n / f for s, n, f in zip(starts, spec.n_frames, spec.fps)), spec.speed_mps
     )
     end_s = route.duration
     samples = np.arange(int(math.floor(end_s * spec.log_rate)) + 1, dtype=np.float64)
     true_xyz = route.at(samples / spec.log_rate)
-    check_views_disjoint(
-        cameras, route.at(np.linspace(0, end_s, int(end_s * 50))), "crowd scene: a point of the target's route"
-    )
+    if spec.views == "apart":
+        check_views_disjoint(
+            cameras, route.at(np.linspace(0, end_s, int(end_s * 50))), "crowd scene: a point of the target's route"
+        )
     xyz = true_xyz + rng.normal(0.0, spec.gps_noise_m, true_xyz.shape) if spec.gps_noise_m > 0 else true_xyz
     if spec.log_error is not None:  # its own stream: the people and the videos stay those of the same seed
         xyz = true_xyz + log_errors(np.random.default_rng([spec.seed, 1]), samples / spec.log_rate, spec.log_error)[0]
     lines, tracks, truth = {}, {}, {}
     walkers = []
-    for k in range(len(names)):
+    for k, patch in enumerate(patches):  # shared: one crowd, seen by every camera
         recording = (starts[k], starts[k] + (spec.n_frames[k] - 1) / spec.fps[k])
-        walkers += _distractors(rng, yaws[k], route, stays[k], recording, spec.distractors, spec.speed_mps)
+        if spec.views == "shared":
+            recording = (min(starts), max(s + (n - 1) / f for s, n, f in zip(starts, spec.n_frames, spec.fps)))
+        walkers += _distractors(rng, patch, route, stays[k], recording, spec.distractors, spec.speed_mps)
     for k, name in enumerate(names):
         camera, fps, count = cameras[name], spec.fps[k], spec.n_frames[k]
         start_s = starts[k]
@@ -198,8 +255,8 @@ def make_crowd_scene(spec: CrowdSpec = SMALL, directory: str | Path | None = Non
         n_frames=dict(zip(names, spec.n_frames)),
         noise={
             "distractors": spec.distractors,
-            "gps_noise_m": spec.gps_noise_m,
-            "log_error": spec.log_error,
+            "log": spec.log_model(),
+            "S_t_px": CENTROID_NOISE_PX,
             "sensor_noise": spec.noise,
             "crf": spec.crf,
         },
@@ -331,56 +388,70 @@ class Route:
         return np.column_stack([g, np.full(len(g), self.height / 2)])
 
 
-def _in_patch(yaw: float, point: np.ndarray) -> bool:
-    """Whether a world ground point is well inside a camera's view (the view is about 0.6 x distance
-    wide on each side).
-    """
-    x, y = _to_world(-yaw, point)
-    return NEAR_M + 0.5 <= y <= FAR_M - 0.5 and abs(x) <= min(PATCH_HALF_WIDTH_M, 0.45 * y)
-
-
-def _patch_point(rng, yaw: float, near: np.ndarray | None = None) -> np.ndarray:
-    """A random ground point (world) well inside a camera's view; with ``near``, 3-6 m from it."""
+def _patch_point(rng, patch: tuple[_View, ...], near: np.ndarray | None = None) -> np.ndarray:
+    """A random ground point (world) well inside every view of ``patch``; with ``near``, 3-6 m from it."""
     while True:
         if near is None:
             y = rng.uniform(NEAR_M + 0.5, FAR_M - 0.5)
-            point = _to_world(yaw, np.array([rng.uniform(-1.0, 1.0) * min(PATCH_HALF_WIDTH_M, 0.45 * y), y]))
+            point = patch[0].to_world(np.array([rng.uniform(-1.0, 1.0) * min(PATCH_HALF_WIDTH_M, 0.45 * y), y]))
         else:
             heading = rng.uniform(0, 2 * math.pi)
             point = near + rng.uniform(3.0, 6.0) * np.array([math.cos(heading), math.sin(heading)])
-        if _in_patch(yaw, point):
+        if all(view.sees(point) for view in patch):
             return point
 
 
-def _target_route(
-    rng, cameras: dict[str, Camera], yaws: list[float], duration_s: float, speed: float
-) -> tuple[Route, list[list[tuple[float, float]]]]:
-    """The target's waypoints: visits of about VISIT_S seconds to each camera's patch in turn, for ``duration_s`` in
-    all.
+def _out_of_view(rng, cameras: dict[str, Camera], middle: np.ndarray) -> np.ndarray:
+    """A random ground point SHARED_AWAY_M or more from ``middle`` (world x, y) where no camera sees any of a standing
+    walker."""
+    for attempt in range(1000):
+        heading = rng.uniform(0, 2 * math.pi)
+        away = rng.uniform(SHARED_AWAY_M, SHARED_AWAY_M + 2.0 + attempt / 50)
+        point = middle + away * np.array([math.cos(heading), math.sin(heading)])
+        body = np.array([[*point, z] for z in (0.0, TARGET_HEIGHT_M / 2, TARGET_HEIGHT_M)])
+        if not any(_in_image(camera, body).any() for camera in cameras.values()):
+            return point
+    raise AssertionError("crowd scene: no ground point near the patch is out of every view")
 
-    Between visits it leaves the view it is in (crossing the narrow gap
-    between the views, or the ground below them) and comes back to it a
-    visit later. Returns the route and, per camera, the (start, end) times
-    of the target's stays in its image.
+
+def _in_image(camera: Camera, points: np.ndarray) -> np.ndarray:
+    """(N,) whether each world point (N, 3) projects inside the camera's image."""
+    uv, valid = camera.project(points)
+    return valid & camera.in_image(np.nan_to_num(uv, nan=-1e9))
+
+
+def _target_route(
+    rng, cameras: dict[str, Camera], patches: list[tuple[_View, ...]], duration_s: float, speed: float
+) -> tuple[Route, list[list[tuple[float, float]]]]:
+    """The target's waypoints: visits to each patch in turn (about VISIT_S seconds each; one patch seen by every
+    camera: SHARED_VISIT_S), for ``duration_s`` in all.
+
+    Between visits it leaves the view it is in (several patches: crossing
+    the narrow gap between the views, or the ground below them; one: out
+    of every view) and comes back to it a visit later. Returns the route
+    and, per camera, the (start, end) times of the target's stays in its
+    image.
     """
-    points: list[np.ndarray] = [_to_world(yaws[0], np.array([0.0, 2.5]))]
+    shared = len(patches) == 1
+    middle = patches[0][0].to_world(np.array([0.0, (NEAR_M + FAR_M) / 2]))
+    start = _out_of_view(rng, cameras, middle) if shared else patches[0][0].to_world(np.array([0.0, 2.5]))
+    points: list[np.ndarray] = [start]
     visit = 0
     while Route(np.array(points), speed, TARGET_HEIGHT_M).duration < duration_s + 2.0:
-        k = visit % len(yaws)
-        stay: list[np.ndarray] = [_patch_point(rng, yaws[k])]
+        patch = patches[visit % len(patches)]
+        stay: list[np.ndarray] = [_patch_point(rng, patch)]
         length = 0.0  # walked inside the patch
-        while length < speed * VISIT_S:
-            nxt = _patch_point(rng, yaws[k], stay[-1])
+        while length < speed * (SHARED_VISIT_S if shared else VISIT_S):
+            nxt = _patch_point(rng, patch, stay[-1])
             length += float(np.linalg.norm(nxt - stay[-1]))
             stay.append(nxt)
-        points += stay
+        points += stay + ([_out_of_view(rng, cameras, middle)] if shared else [])
         visit += 1
     route = Route(np.array(points), speed, TARGET_HEIGHT_M)
     t = np.arange(0.0, route.duration, 0.1)
     stays = []
     for camera in cameras.values():
-        uv, valid = camera.project(route.at(t))
-        seen = np.r_[False, valid & camera.in_image(np.nan_to_num(uv, nan=-1e9)), False].astype(int)
+        seen = np.r_[False, _in_image(camera, route.at(t)), False].astype(int)
         edges = np.flatnonzero(np.diff(seen))
         stays.append([(t[a], t[b - 1]) for a, b in zip(edges[0::2], edges[1::2])])
     return route, stays
@@ -409,14 +480,15 @@ class _Walker:
 
 def _distractors(
     rng,
-    yaw: float,
+    patch: tuple[_View, ...],
     route: Route,
     stays: list[tuple[float, float]],
     recording: tuple[float, float],
     count: int,
     speed: float,
 ) -> list[_Walker]:
-    """About ``count`` walkers in view at any time, each crossing the target's route in this camera's patch."""
+    """About ``count`` walkers in view at any time, each crossing the target's route in the patch (in the frame of its
+    first view)."""
     if count <= 0:
         return []
     span = recording[1] - recording[0]
@@ -425,15 +497,15 @@ def _distractors(
     for _ in range(int(math.ceil(count * (span + crossing_s) / crossing_s))):
         t_target = rng.uniform(*stays[rng.integers(len(stays))]) if stays else rng.uniform(*recording)
         point = route.ground(np.array([t_target]))[0]
-        local = _to_world(-yaw, point)
+        local = patch[0].to_local(point)
         if abs(local[0]) > 0.6 * local[1] or not NEAR_M <= local[1] <= FAR_M:
-            point = _patch_point(rng, yaw)
+            point = _patch_point(rng, patch)
         if rng.random() < 0.5:
             t_cross = t_target + rng.uniform(-1.5, 1.5)  # at nearly the same time: occlusion or merged blobs
         else:
             t_cross = rng.uniform(recording[0] - crossing_s / 2, recording[1] + crossing_s / 2)
         heading = (
-            yaw + rng.uniform(-math.pi / 2.5, math.pi / 2.5) + rng.choice((0.0, math.pi))
+            patch[0].yaw + rng.uniform(-math.pi / 2.5, math.pi / 2.5) + rng.choice((0.0, math.pi))
         )  # mostly across the view
         direction = np.array([math.cos(heading), math.sin(heading)])
         half = PATCH_HALF_WIDTH_M + 5.0

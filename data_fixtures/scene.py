@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import asdict, dataclass, field, is_dataclass, replace
 from pathlib import Path
 
 import cv2
@@ -223,14 +223,22 @@ def write_scene(scene: Scene, directory: str | Path, poses: bool = True) -> Path
 
 
 def write_truth(scene: Scene, directory: Path) -> None:
-    """Write ``directory/truth.json``: frame counts, camera lines, every pair, noise levels."""
+    """Write ``directory/truth.json``: frame counts, camera lines, every pair, noise levels (a noise model as its
+    fields)."""
     truth = {
         "n_frames": scene.n_frames,
         "cameras_to_target": {n: {"alpha": r.alpha, "beta": r.beta} for n, r in scene.lines.items()},
         "pairs": {k: {"alpha": r.alpha, "beta": r.beta} for k, r in scene.truth_pairs().items()},
         "noise": scene.noise,
     }
-    (directory / "truth.json").write_text(json.dumps(truth, indent=1) + "\n", encoding="utf-8")
+    (directory / "truth.json").write_text(json.dumps(truth, indent=1, default=_fields) + "\n", encoding="utf-8")
+
+
+def _fields(value):
+    """A dataclass's fields, for json.dumps."""
+    if is_dataclass(value) and not isinstance(value, type):
+        return asdict(value)
+    raise TypeError(f"{type(value).__name__} is not JSON serializable")
 
 
 def _visibility_windows(

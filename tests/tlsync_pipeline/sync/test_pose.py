@@ -518,10 +518,11 @@ def test_a_walker_under_a_drifting_log_gets_no_pose_rather_than_a_wrong_timing(s
 
 def test_a_pose_under_a_biased_log_gives_the_line_its_fit(scene):
     """The line under a pose from the target takes the pose fit's line and covariance (the first-order propagation
-    of its (u, s0) covariance to (alpha, beta)), its beta moved to the pose-and-bias profile's with the move counted."""
+    of its (u, s0) covariance to (alpha, beta)), its beta moved to the pose-and-bias profile's with the move counted;
+    the covariance of the line under the pose held fixed instead where its beta is the less certain."""
     found = from_track(scene, "cam0")
     fit = found.fit
-    line = CameraLine("cam0", fit.alpha, fit.beta + 7.0, 0, 0, 0.0, cov=np.diag([1e-8, 0.25]))
+    line = CameraLine("cam0", fit.alpha, fit.beta + 7.0, 0, 0, 0.0, cov=np.diag([1e-8, 0.25 * fit.se_beta**2]))
     taken = with_pose_line(line, found.timing)
     assert (taken.alpha, taken.beta) == (fit.alpha, fit.beta)
     assert taken.cov[1, 1] == pytest.approx(fit.se_beta**2, rel=1e-9) and taken.cov[0, 0] > 0
@@ -532,6 +533,9 @@ def test_a_pose_under_a_biased_log_gives_the_line_its_fit(scene):
         line, replace(found, bias_beta=fit.beta + 2.0).timing
     )  # the pose and the log's bias fitted together
     assert profiled.beta == fit.beta + 2.0 and profiled.cov[1, 1] == pytest.approx(fit.se_beta**2 + 4.0, rel=1e-9)
+    looser = replace(line, cov=np.diag([1e-8, 9.0 * fit.se_beta**2]))  # the log's error the pose fit's blocks missed
+    widened = with_pose_line(looser, found.timing)
+    assert widened.beta == fit.beta and widened.cov[1, 1] == pytest.approx(9.0 * fit.se_beta**2, rel=1e-9)
 
 
 def test_a_poses_timing_read_back_from_its_report_gives_the_same_line(scene):
