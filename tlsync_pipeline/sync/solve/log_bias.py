@@ -337,13 +337,13 @@ class _Joint:
         pixels = sum(2 * len(c.clock) for c in cameras)
         self.quadratic = np.r_[np.zeros(pixels, bool), np.ones(len(self.priors) + whiten.shape[0], bool)]
         self.loss: Callable = _soft_l1_except(self.quadratic)
-        self._cache: dict[bytes, tuple[list[np.ndarray], list[sp.csr_matrix]]] = {}
+        self._cache: dict[bytes, list[_CameraRows]] = {}
         self.inflation = np.ones(self.n)
         start = np.concatenate([self.x0, np.zeros(3 * len(knots))])
         self.inflation = np.array(
             [
-                _inflation(c, r, j, f_scale, start[2 * k : 2 * k + 2])
-                for k, (c, r, j) in enumerate(zip(cameras, *self._pixels(start)))
+                _inflation(c, rows.residual, rows.local_jacobian(c, len(knots)), f_scale, start[2 * k : 2 * k + 2])
+                for k, (c, rows) in enumerate(zip(cameras, self._pixels(start)))
             ]
         )
         self._cache.clear()
@@ -358,63 +358,59 @@ class _Joint:
         u, s0 = z[2 * k : 2 * k + 2]
         return 1.0 / u, self.cameras[k].middle - s0 / u
 
-    def _pixels(self, z: np.ndarray) -> tuple[list[np.ndarray], list[sp.csr_matrix]]:
-        """Per camera: (N, 2) weighted residuals and their (2N, 2 + 3K) sparse Jacobian in (its x, the knots)."""
+    def _pixels(self, z: np.ndarray) -> list[_CameraRows]:
+        """Per camera: its pixel rows at z (residuals and derivatives, divided by its inflation's root)."""
         key = z.tobytes()
         if key not in self._cache:
             self._cache.clear()
             bias = z[2 * self.n :].reshape(-1, 3)
-            residuals, jacobians = [], []
+            rows = []
             for k, c in enumerate(self.cameras):
                 u, s0 = z[2 * k : 2 * k + 2]
                 s = s0 + u * (c.clock - c.middle)
-                r, along, knots = _camera_rows(c, self.path, self.knots, bias, s)
-                scale = 1.0 / np.sqrt(self.inflation[k])
-                residuals.append(r * scale)
-                line = np.column_stack([along * np.repeat(c.clock - c.middle, 2), along])
-                jacobians.append(scale * sp.hstack([sp.csr_matrix(line), knots], format="csr"))
-            self._cache[key] = (residuals, jacobians)
+                rows.append(_camera_rows(c, self.path, self.knots, bias, s).scaled(1.0 / np.sqrt(self.inflation[k])))
+            self._cache[key] = rows
         return self._cache[key]
 
     def residual(self, z: np.ndarray) -> np.ndarray:
-        residuals, _ = self._pixels(z)
+        rows = self._pixels(z)
         priors = [
             self.prior_weight * (c.prior.alpha * z[2 * k] - 1.0) / c.prior.sigma
             for k, c in enumerate(self.cameras)
             if c.prior is not None
         ]
         return np.concatenate(
-            [*(r.ravel() for r in residuals), priors, self.prior_weight * (self.whiten @ z[2 * self.n :])]
+            [*(r.residual.ravel() for r in rows), priors, self.prior_weight * (self.whiten @ z[2 * self.n :])]
         )
 
     def jacobian(self, z: np.ndarray) -> sp.csr_matrix:
-        _, jacobians = self._pixels(z)
+        """The residuals' sparse Jacobian in z: 8 entries a pixel row (its camera's line, the two knots around its
+        frame), one a slope prior, the whitened prior's."""
         lines = 2 * self.n
-        rows = []
-        for k, jac in enumerate(jacobians):
-            before, after = sp.csr_matrix((jac.shape[0], 2 * k)), sp.csr_matrix((jac.shape[0], lines - 2 * k - 2))
-            rows.append(sp.hstack([before, jac[:, :2], after, jac[:, 2:]], format="csr"))
-        for k, c in enumerate(self.cameras):
-            if c.prior is not None:
-                rows.append(
-                    sp.csr_matrix(
-                        ([self.prior_weight * c.prior.alpha / c.prior.sigma], ([0], [2 * k])), shape=(1, len(z))
-                    )
-                )
-        rows.append(
-            sp.hstack([sp.csr_matrix((self.whiten.shape[0], lines)), self.prior_weight * self.whiten], format="csr")
+        width = lines + 3 * len(self.knots)
+        parts = [r.entries(self.cameras[k], (2 * k, 2 * k + 1), lines) for k, r in enumerate(self._pixels(z))]
+        slope = [(k, c.prior) for k, c in enumerate(self.cameras) if c.prior is not None]
+        whiten = self.whiten
+        counts = np.r_[[8] * sum(len(v) // 8 for v, _ in parts), np.ones(len(slope), int), np.diff(whiten.indptr)]
+        indptr = np.r_[0, np.cumsum(counts)]
+        indices = np.concatenate(
+            [*(i for _, i in parts), np.array([2 * k for k, _ in slope], int), whiten.indices + lines]
         )
-        return sp.vstack(rows, format="csr")
+        data = np.concatenate(
+            [
+                *(v for v, _ in parts),
+                [self.prior_weight * p.alpha / p.sigma for _, p in slope],
+                self.prior_weight * whiten.data,
+            ]
+        )
+        return sp.csr_matrix((data, indices, indptr), shape=(len(counts), width))
 
-    def _seen_line_columns(self, k: int, jac: sp.csr_matrix, z: np.ndarray) -> sp.csr_matrix:
-        """Camera k's Jacobian with its line's columns (pixels per unit of 1 / alpha and of the middle sample) taken
-        from the target's image velocity on its track (``seen``) where it is measured, from the log's elsewhere."""
+    def _seen_along(self, k: int, rows: _CameraRows, z: np.ndarray) -> np.ndarray:
+        """Camera k's pixels' derivative in the sample (2N,) taken from the target's image velocity on its track
+        (``seen``) where it is measured, from the log's elsewhere."""
         c = self.cameras[k]
-        logged = np.asarray(jac[:, 1].todense()).ravel()
         seen = (self.seen[k] * c.weight[:, None] / (z[2 * k] * np.sqrt(self.inflation[k]))).ravel()
-        along = np.where(np.isfinite(seen), seen, logged)
-        line = np.column_stack([along * np.repeat(c.clock - c.middle, 2), along])
-        return sp.hstack([sp.csr_matrix(line), jac[:, 2:]], format="csr")
+        return np.where(np.isfinite(seen), seen, rows.along * rows.scale)
 
     def uncertainty(self, z: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarray], KnotInformation, np.ndarray]:
         """The knots' posterior covariance (m^2), each camera's sensitivity d(alpha, beta) / d(knots), and what the
@@ -433,13 +429,12 @@ class _Joint:
         (sum psi^2 / sum psi', the M-estimator's), inflated by its own refinement's covariance over that naive
         one where residuals correlate in time; its gradient J^T psi is divided the same; the prior's is W^T W.
         """
-        residuals, jacobians = self._pixels(z)
         banded = sp.csc_matrix((3 * len(self.knots), 3 * len(self.knots)))
         low_rank = []
         score = np.zeros(3 * len(self.knots))
         blocks = []
-        for k, (r, jac) in enumerate(zip(residuals, jacobians)):
-            jac = self._seen_line_columns(k, jac, z)
+        for k, rows in enumerate(self._pixels(z)):
+            r, jac = rows.residual, rows.local_jacobian(self.cameras[k], len(self.knots), self._seen_along(k, rows, z))
             inflation = _inflation(self.cameras[k], r, jac, self.f_scale, z[2 * k : 2 * k + 2])
             h = _bread(self.cameras[k], r, jac, self.f_scale) / inflation
             g = _gradient(self.cameras[k], r, jac, self.f_scale, z[2 * k]) / inflation
@@ -471,23 +466,67 @@ def _pinv_sqrt(matrix: np.ndarray) -> np.ndarray:
     return (vectors * inverse_root) @ vectors.T
 
 
+@dataclass(frozen=True)
+class _CameraRows:
+    """One camera's pixel rows at its samples s: the (N, 2) weighted residuals times ``scale``; before it, their
+    (2N,) derivative in s (rows u0, v0, u1, v1 ...) and their (N, 2, 3) derivative in the bias's position; the knots
+    around each frame (left, its right neighbour's weight u: the bias is linear between them)."""
+
+    residual: np.ndarray
+    along: np.ndarray
+    gradient: np.ndarray
+    left: np.ndarray
+    u: np.ndarray
+    scale: float = 1.0
+
+    def scaled(self, factor: float) -> _CameraRows:
+        return replace(self, residual=self.residual * factor, scale=factor)
+
+    def entries(self, c: BiasCamera, line: tuple[int, int], first_knot: int, along: np.ndarray | None = None):
+        """(values, column indices) of the rows' 8 Jacobian entries each (2N x 8, row-major): the line's two
+        columns ``line`` (1 / alpha, the middle sample), then the left and the right knot's x, y, z from column
+        ``first_knot`` on; all times ``scale``. ``along``: the derivative in s to use, ``scale`` included (None: the
+        log's)."""
+        n = len(self.left)
+        values = np.empty((n, 2, 8))
+        if along is None:
+            values[:, :, 0] = (self.along * np.repeat(c.clock - c.middle, 2)).reshape(n, 2) * self.scale
+            values[:, :, 1] = self.along.reshape(n, 2) * self.scale
+        else:
+            values[:, :, 0] = (along * np.repeat(c.clock - c.middle, 2)).reshape(n, 2)
+            values[:, :, 1] = along.reshape(n, 2)
+        values[:, :, 2:5] = (self.gradient * (1.0 - self.u)[:, None, None]) * self.scale
+        values[:, :, 5:8] = (self.gradient * self.u[:, None, None]) * self.scale
+        columns = np.empty((n, 2, 8), int)
+        columns[:, :, 0], columns[:, :, 1] = line
+        at_left = first_knot + 3 * self.left[:, None] + np.arange(3)
+        columns[:, :, 2:5] = at_left[:, None, :]
+        columns[:, :, 5:8] = (at_left + 3)[:, None, :]
+        return values.ravel(), columns.ravel()
+
+    def local_jacobian(self, c: BiasCamera, knots: int, along: np.ndarray | None = None) -> sp.csr_matrix:
+        """The rows' sparse (2N, 2 + 3K) Jacobian in (the camera's line, the knots); ``along`` as in ``entries``."""
+        values, columns = self.entries(c, (0, 1), 2, along)
+        indptr = np.arange(0, len(values) + 1, 8)
+        return sp.csr_matrix((values, columns, indptr), shape=(len(indptr) - 1, 2 + 3 * knots))
+
+
 def _camera_rows(
     c: BiasCamera, path: PiecewiseTrajectory, knots: np.ndarray, bias: np.ndarray, s: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, sp.csr_matrix]:
-    """One camera's (N, 2) weighted pixel residuals at samples s, their (2N,) derivative in s, and their (2N, 3K)
-    sparse derivative in the knots (rows u0, v0, u1, v1 ...)."""
+) -> _CameraRows:
+    """One camera's pixel rows at samples s (_CameraRows); a frame off the path or off the image has a residual of
+    10 and no derivative."""
+    n = len(s)
     run = path.run_of(s)
-    on = run >= 0
-    weights = _interpolation(s, knots)
-    position = np.full((len(s), 3), np.nan)
-    position[on] = path(s[on], run[on])
-    position += weights @ bias
-    ahead = np.full((len(s), 3), np.nan)
-    ahead[on] = path(s[on] + SAMPLE_STEP, run[on])
-    ahead += _interpolation(s + SAMPLE_STEP, knots) @ bias
+    on = np.r_[run, run] >= 0
+    logged = np.full((2 * n, 3), np.nan)
+    logged[on] = path(np.r_[s, s + SAMPLE_STEP][on], np.r_[run, run][on])  # ahead clamped to the frame's run
+    left, right, u = _interpolation_parts(s, knots)
+    position = logged[:n] + ((1.0 - u)[:, None] * bias[left] + u[:, None] * bias[right])
+    left_ahead, right_ahead, u_ahead = _interpolation_parts(s + SAMPLE_STEP, knots)
+    ahead = logged[n:] + ((1.0 - u_ahead)[:, None] * bias[left_ahead] + u_ahead[:, None] * bias[right_ahead])
     moved = [position + METRE_STEP * axis for axis in np.eye(3)]
     uv_all, _ = c.camera.project(np.concatenate([position, ahead, *moved]))
-    n = len(s)
     uv = uv_all[:n]
     rate = (uv_all[n : 2 * n] - uv) / SAMPLE_STEP  # pixels per sample
     gradient = np.stack(
@@ -501,14 +540,7 @@ def _camera_rows(
     r[bad] = 10.0
     along[bad] = 0.0
     gradient[bad] = 0.0
-    left, right, u = _interpolation_parts(s, knots)
-    rows = np.broadcast_to(np.arange(2 * n).reshape(n, 2, 1), (n, 2, 3))
-    columns = np.arange(3)[None, None, :]
-    values = np.concatenate([(gradient * (1.0 - u)[:, None, None]).ravel(), (gradient * u[:, None, None]).ravel()])
-    at_left = (columns + 3 * left[:, None, None] + 0 * rows).ravel()
-    at_right = (columns + 3 * right[:, None, None] + 0 * rows).ravel()
-    indices = (np.r_[rows.ravel(), rows.ravel()], np.r_[at_left, at_right])
-    return r, along.ravel(), sp.csr_matrix((values, indices), shape=(2 * n, 3 * len(knots)))
+    return _CameraRows(r, along.ravel(), gradient, left, u)
 
 
 def _bread(c: BiasCamera, r: np.ndarray, jac: sp.csr_matrix, f_scale: float) -> np.ndarray:
