@@ -383,27 +383,56 @@ class _Joint:
             [*(r.residual.ravel() for r in rows), priors, self.prior_weight * (self.whiten @ z[2 * self.n :])]
         )
 
-    def jacobian(self, z: np.ndarray) -> sp.csr_matrix:
-        """The residuals' sparse Jacobian in z: 8 entries a pixel row (its camera's line, the two knots around its
-        frame), one a slope prior, the whitened prior's."""
+    def _prior_jacobian(self) -> sp.csr_matrix:
+        """The priors' rows of the Jacobian (each slope prior, then the whitened bias prior), constant."""
+        slope = [(k, c.prior) for k, c in enumerate(self.cameras) if c.prior is not None]
+        lines, whiten = 2 * self.n, self.whiten
+        rows = sp.csr_matrix(
+            ([p.alpha / p.sigma for _, p in slope], ([*range(len(slope))], [2 * k for k, _ in slope])),
+            shape=(len(slope), lines + whiten.shape[1]),
+        )
+        return self.prior_weight * sp.vstack(
+            [rows, sp.hstack([sp.csr_matrix((whiten.shape[0], lines)), whiten])], format="csr"
+        )
+
+    def normal_equations(
+        self, z: np.ndarray, weights: np.ndarray, curvature: np.ndarray
+    ) -> tuple[np.ndarray, sp.csc_matrix]:
+        """J^T weights and J^T diag(curvature) J of the residuals' Jacobian J at z (weights and curvature: one per
+        residual), sparse: each camera's two line columns over its visit's knots, the knots' 3x3 blocks banded."""
         lines = 2 * self.n
         width = lines + 3 * len(self.knots)
-        parts = [r.entries(self.cameras[k], (2 * k, 2 * k + 1), lines) for k, r in enumerate(self._pixels(z))]
-        slope = [(k, c.prior) for k, c in enumerate(self.cameras) if c.prior is not None]
-        whiten = self.whiten
-        counts = np.r_[[8] * sum(len(v) // 8 for v, _ in parts), np.ones(len(slope), int), np.diff(whiten.indptr)]
-        indptr = np.r_[0, np.cumsum(counts)]
-        indices = np.concatenate(
-            [*(i for _, i in parts), np.array([2 * k for k, _ in slope], int), whiten.indices + lines]
-        )
-        data = np.concatenate(
-            [
-                *(v for v, _ in parts),
-                [self.prior_weight * p.alpha / p.sigma for _, p in slope],
-                self.prior_weight * whiten.data,
+        gradient = np.zeros(width)
+        entries: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+        start = 0
+        for k, (c, rows) in enumerate(zip(self.cameras, self._pixels(z))):
+            end = start + rows.residual.size
+            line_gradient, knot_gradient, line_curvature, line_knot, knot_knot, left = rows.normal_terms(
+                c, weights[start:end], curvature[start:end]
+            )
+            start = end
+            knot_columns = lines + 3 * left[:, None] + np.arange(6)  # (G, 6)
+            gradient[2 * k : 2 * k + 2] += line_gradient
+            np.add.at(gradient, knot_columns, knot_gradient)
+            line_columns = np.array([2 * k, 2 * k + 1])
+            groups = len(left)
+            across_rows = np.broadcast_to(line_columns[None, :, None], (groups, 2, 6))
+            across_columns = np.broadcast_to(knot_columns[:, None, :], (groups, 2, 6))
+            entries += [
+                (np.repeat(line_columns, 2), np.tile(line_columns, 2), line_curvature.ravel()),
+                (across_rows.ravel(), across_columns.ravel(), line_knot.ravel()),
+                (across_columns.ravel(), across_rows.ravel(), line_knot.ravel()),
+                (
+                    np.broadcast_to(knot_columns[:, :, None], (groups, 6, 6)).ravel(),
+                    np.broadcast_to(knot_columns[:, None, :], (groups, 6, 6)).ravel(),
+                    knot_knot.ravel(),
+                ),
             ]
-        )
-        return sp.csr_matrix((data, indices, indptr), shape=(len(counts), width))
+        priors = self._prior_jacobian()
+        gradient += priors.T @ weights[start:]
+        row_index, column_index, values = (np.concatenate(part) for part in zip(*entries))
+        pixels = sp.csc_matrix((values, (row_index, column_index)), shape=(width, width))
+        return gradient, (pixels + priors.T @ sp.diags(curvature[start:]) @ priors).tocsc()
 
     def _seen_along(self, k: int, rows: _CameraRows, z: np.ndarray) -> np.ndarray:
         """Camera k's pixels' derivative in the sample (2N,) taken from the target's image velocity on its track
@@ -466,6 +495,15 @@ def _pinv_sqrt(matrix: np.ndarray) -> np.ndarray:
     return (vectors * inverse_root) @ vectors.T
 
 
+_PAIRS = (np.array([0, 0, 0, 1, 1, 2]), np.array([0, 1, 2, 1, 2, 2]))  # a symmetric 3x3's upper triangle
+_SYMMETRIC = np.array([[0, 1, 2], [1, 3, 4], [2, 4, 5]])  # the 3x3 from its upper triangle's six values
+
+
+def _pair_sum(values: np.ndarray) -> np.ndarray:
+    """(..., N) sums of a frame's two pixel rows, (..., N, 2) given."""
+    return values[..., 0] + values[..., 1]
+
+
 @dataclass(frozen=True)
 class _CameraRows:
     """One camera's pixel rows at its samples s: the (N, 2) weighted residuals times ``scale``; before it, their
@@ -482,11 +520,10 @@ class _CameraRows:
     def scaled(self, factor: float) -> _CameraRows:
         return replace(self, residual=self.residual * factor, scale=factor)
 
-    def entries(self, c: BiasCamera, line: tuple[int, int], first_knot: int, along: np.ndarray | None = None):
-        """(values, column indices) of the rows' 8 Jacobian entries each (2N x 8, row-major): the line's two
-        columns ``line`` (1 / alpha, the middle sample), then the left and the right knot's x, y, z from column
-        ``first_knot`` on; all times ``scale``. ``along``: the derivative in s to use, ``scale`` included (None: the
-        log's)."""
+    def local_jacobian(self, c: BiasCamera, knots: int, along: np.ndarray | None = None) -> sp.csr_matrix:
+        """The rows' sparse (2N, 2 + 3K) Jacobian in (the camera's line: 1 / alpha, the middle sample; the knots, 3
+        values each), 8 entries a row (the line's two, the left and the right knot's x, y, z), all times ``scale``.
+        ``along``: the derivative in s to use, ``scale`` included (None: the log's)."""
         n = len(self.left)
         values = np.empty((n, 2, 8))
         if along is None:
@@ -498,17 +535,51 @@ class _CameraRows:
         values[:, :, 2:5] = (self.gradient * (1.0 - self.u)[:, None, None]) * self.scale
         values[:, :, 5:8] = (self.gradient * self.u[:, None, None]) * self.scale
         columns = np.empty((n, 2, 8), int)
-        columns[:, :, 0], columns[:, :, 1] = line
-        at_left = first_knot + 3 * self.left[:, None] + np.arange(3)
+        columns[:, :, 0], columns[:, :, 1] = 0, 1
+        at_left = 2 + 3 * self.left[:, None] + np.arange(3)
         columns[:, :, 2:5] = at_left[:, None, :]
         columns[:, :, 5:8] = (at_left + 3)[:, None, :]
-        return values.ravel(), columns.ravel()
+        indptr = np.arange(0, 16 * n + 1, 8)
+        return sp.csr_matrix((values.ravel(), columns.ravel(), indptr), shape=(2 * n, 2 + 3 * knots))
 
-    def local_jacobian(self, c: BiasCamera, knots: int, along: np.ndarray | None = None) -> sp.csr_matrix:
-        """The rows' sparse (2N, 2 + 3K) Jacobian in (the camera's line, the knots); ``along`` as in ``entries``."""
-        values, columns = self.entries(c, (0, 1), 2, along)
-        indptr = np.arange(0, len(values) + 1, 8)
-        return sp.csr_matrix((values, columns, indptr), shape=(len(indptr) - 1, 2 + 3 * knots))
+    def normal_terms(
+        self, c: BiasCamera, weights: np.ndarray, curvature: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The rows' share of the normal equations, J^T (weights) and J^T diag(curvature) J, summed knot by knot
+        without forming J: a frame's two rows hold the line's two columns and the two knots around it, so its
+        products are the line's derivative b and the bias's g (times dc, the frame's clock from the middle, and the
+        knots' weights 1 - u, u) summed over the frames that share a left knot. Returns (the line's gradient (2,), the
+        knots' gradient by left knot (G, 6: left x y z, right x y z), the line's curvature (2, 2), line by knot
+        (G, 2, 6), knot by knot (G, 6, 6)) and, last, the G left knots."""
+        n = len(self.left)
+        b = self.along.reshape(n, 2) * self.scale
+        g = np.ascontiguousarray(self.gradient.transpose(2, 0, 1)) * self.scale  # (3, N, 2)
+        w, cv = weights.reshape(n, 2), curvature.reshape(n, 2)
+        dc = c.clock - c.middle
+        weighted = cv * g
+        wb, cbb = _pair_sum(w * b), _pair_sum(cv * b * b)
+        wg, cbg, cgg = _pair_sum(w * g), _pair_sum(weighted * b), _pair_sum(weighted[_PAIRS[0]] * g[_PAIRS[1]])
+        near, far = 1.0 - self.u, self.u
+        table = np.empty((36, n))  # by frame: the knots' gradient, line by knot, knot by knot (six a 3x3)
+        blocks = [(near, wg), (far, wg), (dc * near, cbg), (dc * far, cbg), (near, cbg), (far, cbg)]
+        blocks += [(near * near, cgg), (near * far, cgg), (far * far, cgg)]
+        row = 0
+        for factor, values in blocks:
+            np.multiply(values, factor, out=table[row : row + len(values)])
+            row += len(values)
+        left = self.left
+        if np.any(left[1:] < left[:-1]):
+            order = np.argsort(left, kind="stable")
+            left, table = left[order], table[:, order]
+        starts = np.flatnonzero(np.r_[True, left[1:] != left[:-1]])
+        sums = np.add.reduceat(table, starts, axis=1).T  # (G, 36)
+        groups = len(starts)
+        line_gradient = np.array([np.sum(dc * wb), np.sum(wb)])
+        line_curvature = np.array([[np.sum(dc * dc * cbb), np.sum(dc * cbb)], [np.sum(dc * cbb), np.sum(cbb)]])
+        line_knot = sums[:, 6:18].reshape(groups, 2, 6)
+        near_near, near_far, far_far = (sums[:, 18 + 6 * j : 24 + 6 * j][:, _SYMMETRIC] for j in range(3))
+        knot_knot = np.block([[near_near, near_far], [near_far, far_far]])
+        return line_gradient, sums[:, :6], line_curvature, line_knot, knot_knot, left[starts]
 
 
 def _camera_rows(
@@ -631,12 +702,10 @@ def _levenberg_marquardt(
     while evaluations < max_nfev:
         if moved:
             rho = problem.loss((residual / f_scale) ** 2)
-            jac = problem.jacobian(z)
-            gradient = jac.T @ (rho[1] * residual)
+            curvature = np.maximum(rho[1] + 2.0 * rho[2] * (residual / f_scale) ** 2, 1e-10)
+            gradient, hessian = problem.normal_equations(z, rho[1] * residual, curvature)
             if np.max(np.abs(gradient * problem.scale)) <= tol * max(current, 1e-12):
                 return z, True
-            curvature = np.maximum(rho[1] + 2.0 * rho[2] * (residual / f_scale) ** 2, 1e-10)
-            hessian = (jac.T @ sp.diags(curvature) @ jac).tocsc()
             damping = 1e-3 * float(np.max(hessian.diagonal() / units)) if damping < 0 else damping
         step = _solve_sparse((hessian + sp.diags(damping * units)).tocsc(), -gradient)
         trial_residual = problem.residual(z + step) if np.isfinite(step).all() else np.full_like(residual, np.nan)
