@@ -338,6 +338,7 @@ class _Joint:
         self.quadratic = np.r_[np.zeros(pixels, bool), np.ones(len(self.priors) + whiten.shape[0], bool)]
         self.loss: Callable = _soft_l1_except(self.quadratic)
         self._cache: dict[bytes, list[_CameraRows]] = {}
+        self._view_cache: dict[bytes, list[_CameraView]] = {}
         self.inflation = np.ones(self.n)
         start = np.concatenate([self.x0, np.zeros(3 * len(knots))])
         self.inflation = np.array(
@@ -358,29 +359,44 @@ class _Joint:
         u, s0 = z[2 * k : 2 * k + 2]
         return 1.0 / u, self.cameras[k].middle - s0 / u
 
+    def _views(self, z: np.ndarray) -> list[_CameraView]:
+        """Per camera: its frames at z (the line's samples, the bias added)."""
+        key = z.tobytes()
+        if key not in self._view_cache:
+            self._view_cache.clear()
+            bias = z[2 * self.n :].reshape(-1, 3)
+            views = []
+            for k, c in enumerate(self.cameras):
+                u, s0 = z[2 * k : 2 * k + 2]
+                views.append(_camera_view(c, self.path, self.knots, bias, s0 + u * (c.clock - c.middle)))
+            self._view_cache[key] = views
+        return self._view_cache[key]
+
     def _pixels(self, z: np.ndarray) -> list[_CameraRows]:
         """Per camera: its pixel rows at z (residuals and derivatives, divided by its inflation's root)."""
         key = z.tobytes()
         if key not in self._cache:
             self._cache.clear()
             bias = z[2 * self.n :].reshape(-1, 3)
-            rows = []
-            for k, c in enumerate(self.cameras):
-                u, s0 = z[2 * k : 2 * k + 2]
-                s = s0 + u * (c.clock - c.middle)
-                rows.append(_camera_rows(c, self.path, self.knots, bias, s).scaled(1.0 / np.sqrt(self.inflation[k])))
-            self._cache[key] = rows
+            self._cache[key] = [
+                _camera_rows(c, self.path, self.knots, bias, view).scaled(1.0 / np.sqrt(self.inflation[k]))
+                for k, (c, view) in enumerate(zip(self.cameras, self._views(z)))
+            ]
         return self._cache[key]
 
     def residual(self, z: np.ndarray) -> np.ndarray:
-        rows = self._pixels(z)
+        """The residuals at z (pixels, then the priors), without the derivatives (a trial step's)."""
+        pixels = [
+            view.residual(c) * (1.0 / np.sqrt(self.inflation[k]))
+            for k, (c, view) in enumerate(zip(self.cameras, self._views(z)))
+        ]
         priors = [
             self.prior_weight * (c.prior.alpha * z[2 * k] - 1.0) / c.prior.sigma
             for k, c in enumerate(self.cameras)
             if c.prior is not None
         ]
         return np.concatenate(
-            [*(r.residual.ravel() for r in rows), priors, self.prior_weight * (self.whiten @ z[2 * self.n :])]
+            [*(r.ravel() for r in pixels), priors, self.prior_weight * (self.whiten @ z[2 * self.n :])]
         )
 
     def _prior_jacobian(self) -> sp.csr_matrix:
@@ -582,26 +598,58 @@ class _CameraRows:
         return line_gradient, sums[:, :6], line_curvature, line_knot, knot_knot, left[starts]
 
 
-def _camera_rows(
+@dataclass(frozen=True)
+class _CameraView:
+    """One camera's frames where the log, with the bias, puts the target at samples s: the samples' runs of the path
+    (-1: off it), the (N, 3) positions (metres) and their (N, 2) pixels, the knots around each frame (left, its
+    right neighbour's weight u)."""
+
+    s: np.ndarray
+    run: np.ndarray
+    position: np.ndarray
+    uv: np.ndarray
+    left: np.ndarray
+    u: np.ndarray
+
+    def residual(self, c: BiasCamera) -> np.ndarray:
+        """(N, 2) weighted pixel residuals; 10 for a frame off the path or off the image."""
+        r = (self.uv - c.xy) * c.weight[:, None]
+        r[~np.isfinite(r).all(axis=1)] = 10.0
+        return r
+
+
+def _camera_view(
     c: BiasCamera, path: PiecewiseTrajectory, knots: np.ndarray, bias: np.ndarray, s: np.ndarray
-) -> _CameraRows:
-    """One camera's pixel rows at samples s (_CameraRows); a frame off the path or off the image has a residual of
-    10 and no derivative."""
-    n = len(s)
+) -> _CameraView:
+    """The camera's frames at samples s, the bias (K, 3) added to the path (_CameraView)."""
     run = path.run_of(s)
-    on = np.r_[run, run] >= 0
-    logged = np.full((2 * n, 3), np.nan)
-    logged[on] = path(np.r_[s, s + SAMPLE_STEP][on], np.r_[run, run][on])  # ahead clamped to the frame's run
+    on = run >= 0
+    position = np.full((len(s), 3), np.nan)
+    position[on] = path(s[on], run[on])
     left, right, u = _interpolation_parts(s, knots)
-    position = logged[:n] + ((1.0 - u)[:, None] * bias[left] + u[:, None] * bias[right])
-    left_ahead, right_ahead, u_ahead = _interpolation_parts(s + SAMPLE_STEP, knots)
-    ahead = logged[n:] + ((1.0 - u_ahead)[:, None] * bias[left_ahead] + u_ahead[:, None] * bias[right_ahead])
-    moved = [position + METRE_STEP * axis for axis in np.eye(3)]
-    uv_all, _ = c.camera.project(np.concatenate([position, ahead, *moved]))
-    uv = uv_all[:n]
-    rate = (uv_all[n : 2 * n] - uv) / SAMPLE_STEP  # pixels per sample
+    position += (1.0 - u)[:, None] * bias[left] + u[:, None] * bias[right]
+    uv, _ = c.camera.project(position)
+    return _CameraView(s, run, position, uv, left, u)
+
+
+def _camera_rows(
+    c: BiasCamera, path: PiecewiseTrajectory, knots: np.ndarray, bias: np.ndarray, view: _CameraView
+) -> _CameraRows:
+    """One camera's pixel rows at its view's samples (_CameraRows): the derivatives by finite differences, along the
+    path (the frame's run) and in space; a frame off the path or off the image, or whose differences are, has a
+    residual of 10 and no derivative."""
+    n = len(view.s)
+    on = view.run >= 0
+    ahead = np.full((n, 3), np.nan)
+    ahead[on] = path(view.s[on] + SAMPLE_STEP, view.run[on])
+    left_ahead, right_ahead, u_ahead = _interpolation_parts(view.s + SAMPLE_STEP, knots)
+    ahead += (1.0 - u_ahead)[:, None] * bias[left_ahead] + u_ahead[:, None] * bias[right_ahead]
+    moved = [view.position + METRE_STEP * axis for axis in np.eye(3)]
+    projected, _ = c.camera.project(np.concatenate([ahead, *moved]))
+    uv = view.uv
+    rate = (projected[:n] - uv) / SAMPLE_STEP  # pixels per sample
     gradient = np.stack(
-        [(uv_all[(2 + a) * n : (3 + a) * n] - uv) / METRE_STEP for a in range(3)], axis=2
+        [(projected[(1 + a) * n : (2 + a) * n] - uv) / METRE_STEP for a in range(3)], axis=2
     )  # (N, 2, 3) pixels per metre
     r = (uv - c.xy) * c.weight[:, None]
     along = rate * c.weight[:, None]
@@ -611,7 +659,7 @@ def _camera_rows(
     r[bad] = 10.0
     along[bad] = 0.0
     gradient[bad] = 0.0
-    return _CameraRows(r, along.ravel(), gradient, left, u)
+    return _CameraRows(r, along.ravel(), gradient, view.left, view.u)
 
 
 def _bread(c: BiasCamera, r: np.ndarray, jac: sp.csr_matrix, f_scale: float) -> np.ndarray:
