@@ -307,8 +307,10 @@ class _Joint:
     variance: _inflation), then each slope prior, then the whitened bias prior, the priors times ``prior_weight``
     (1: as stated, the weight the posterior's covariance gives them).
 
-    Every matrix over frames is sparse: a frame's pixels depend on its camera's two line parameters and on the
-    two knots around it (6 values), so the Jacobian has 8 entries a row whatever the number of cameras and knots.
+    No matrix runs over frames: a frame's pixels depend on its camera's two line parameters and on the two knots
+    around it (6 values), so its Jacobian rows have 8 entries, and the normal equations are summed frame by frame
+    into each knot interval (normal_equations). A trial step's residuals project only the frames' positions
+    (_views); the finite differences are projected once the step is taken (_pixels).
     ``rate``: the log's samples per second (the window of the image velocity, ``seen_rates``).
     """
 
@@ -385,7 +387,8 @@ class _Joint:
         return self._cache[key]
 
     def residual(self, z: np.ndarray) -> np.ndarray:
-        """The residuals at z (pixels, then the priors), without the derivatives (a trial step's)."""
+        """The residuals at z (pixels, then the priors), without the derivatives (a trial step's): 10 for a frame off
+        the path or the image (the rows, _pixels, also where a finite difference leaves the image)."""
         pixels = [
             view.residual(c) * (1.0 / np.sqrt(self.inflation[k]))
             for k, (c, view) in enumerate(zip(self.cameras, self._views(z)))
@@ -534,6 +537,7 @@ class _CameraRows:
     scale: float = 1.0
 
     def scaled(self, factor: float) -> _CameraRows:
+        """The rows with their residuals times ``factor``, which the derivatives' uses apply."""
         return replace(self, residual=self.residual * factor, scale=factor)
 
     def local_jacobian(self, c: BiasCamera, knots: int, along: np.ndarray | None = None) -> sp.csr_matrix:
@@ -737,9 +741,9 @@ def _levenberg_marquardt(
     problem: _Joint, z: np.ndarray, f_scale: float, max_nfev: int = 100, tol: float = 1e-8
 ) -> tuple[np.ndarray, bool]:
     """The robust least squares of the joint problem from z: Levenberg-Marquardt on the normal equations, which are
-    (2C + 3K) square whatever the number of frames (J sparse), with the loss's curvature as scipy's least_squares
-    scales it and the damping in the units of ``problem.scale``. Converged: the cost, the step or the gradient
-    stopped changing (relative ``tol``) within ``max_nfev`` evaluations of the residuals."""
+    (2C + 3K) square and sparse whatever the number of frames (_Joint.normal_equations), with the loss's curvature
+    as scipy's least_squares scales it and the damping in the units of ``problem.scale``. Converged: the cost, the
+    step or the gradient stopped changing (relative ``tol``) within ``max_nfev`` evaluations of the residuals."""
 
     def cost(residual: np.ndarray) -> float:
         return _robust_cost(problem, residual, f_scale)
