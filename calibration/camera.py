@@ -152,6 +152,8 @@ class Camera:
         mx, my = OUTSIDE_MARGIN * w, OUTSIDE_MARGIN * h
         valid &= (pinhole[:, 0] > -mx) & (pinhole[:, 0] < w + mx)
         valid &= (pinhole[:, 1] > -my) & (pinhole[:, 1] < h + my)
+        if len(points) and valid.all():  # every point in view: no copy in and out of a mask
+            return self._distort(normalized), valid
         uv = np.full((len(points), 2), np.nan)
         if valid.any():
             uv[valid] = self._distort(normalized[valid])

@@ -230,8 +230,10 @@ def test_a_drone_scene_where_one_camera_has_few_votes_keeps_every_camera_in_the_
 
 
 def test_the_joint_fit_over_many_cameras_builds_no_dense_matrix_over_frames_or_knots():
-    """12 cameras' frames and a drone's bias: the Jacobian and the prior are sparse, a frame's two pixel rows holding
-    its camera's two line parameters and the 6 values of the two knots around it; only the knots' posterior is dense."""
+    """12 cameras' frames and a drone's bias: the normal equations, summed knot by knot, are sparse (a camera's line
+    against its visit's knots, the knots' 3x3 blocks banded) and equal J^T diag(c) J and J^T w of the Jacobian's rows
+    (a frame's two pixel rows holding its camera's two line parameters and the 6 values of the two knots around it);
+    only the knots' posterior is dense."""
     from tlsync_pipeline.sync.solve.log_bias import BiasCamera, _Joint, _knots, fit_log_bias
     from tlsync_pipeline.trajectory import PiecewiseTrajectory
 
@@ -258,12 +260,27 @@ def test_the_joint_fit_over_many_cameras_builds_no_dense_matrix_over_frames_or_k
     knots = _knots(cameras, path, rate, model)
     whiten = _prior_whitening(knots, rate, model.tau_s, np.array([1.0, 1.0, 2.0]))
     problem = _Joint(cameras, path, knots, whiten, 2.0, rate)
-    jacobian = problem.jacobian(np.concatenate([problem.x0, np.zeros(3 * len(knots))]))
-    rows = sum(2 * len(c.clock) for c in cameras)
-    assert sp.issparse(jacobian) and sp.issparse(whiten)
-    assert jacobian.shape == (rows + 3 * len(knots), 2 * len(cameras) + 3 * len(knots))
-    assert jacobian.nnz <= 8 * rows + whiten.nnz
-    assert whiten.nnz <= 2 * 3 * len(knots)
+    z = np.concatenate([problem.x0, np.full(3 * len(knots), 0.3)])
+    residual = problem.residual(z)
+    rng = np.random.default_rng(0)
+    weights, curvature = rng.normal(size=residual.size), rng.uniform(0.1, 1.0, residual.size)
+    gradient, hessian = problem.normal_equations(z, weights, curvature)
+    width = 2 * len(cameras) + 3 * len(knots)
+    assert sp.issparse(hessian) and sp.issparse(whiten) and hessian.shape == (width, width)
+    visit_knots = [np.ptp(np.searchsorted(knots, (c.clock - c.beta) / c.alpha)) + 3 for c in cameras]
+    assert hessian.nnz <= sum(4 + 4 * 3 * k for k in visit_knots) + 9 * (3 * len(knots) - 2)
+    rows = []
+    for k, (c, pixels) in enumerate(zip(cameras, problem._pixels(z))):
+        local = pixels.local_jacobian(c, len(knots))
+        assert local.nnz <= 8 * local.shape[0]
+        before, after = (
+            sp.csr_matrix((local.shape[0], 2 * k)),
+            sp.csr_matrix((local.shape[0], 2 * (len(cameras) - k - 1))),
+        )
+        rows.append(sp.hstack([before, local[:, :2], after, local[:, 2:]]))
+    jacobian = sp.vstack([*rows, problem._prior_jacobian()]).tocsr()
+    np.testing.assert_allclose(hessian.toarray(), (jacobian.T @ sp.diags(curvature) @ jacobian).toarray(), atol=1e-9)
+    np.testing.assert_allclose(gradient, jacobian.T @ weights, rtol=1e-10, atol=1e-9)
     bias = fit_log_bias(cameras[:3], path, rate, model, 2.0)
     assert np.isfinite(bias.values).all() and bias.cov.shape == (3 * len(bias.knots),) * 2
 

@@ -307,8 +307,10 @@ class _Joint:
     variance: _inflation), then each slope prior, then the whitened bias prior, the priors times ``prior_weight``
     (1: as stated, the weight the posterior's covariance gives them).
 
-    Every matrix over frames is sparse: a frame's pixels depend on its camera's two line parameters and on the
-    two knots around it (6 values), so the Jacobian has 8 entries a row whatever the number of cameras and knots.
+    No matrix runs over frames: a frame's pixels depend on its camera's two line parameters and on the two knots
+    around it (6 values), so its Jacobian rows have 8 entries, and the normal equations are summed frame by frame
+    into each knot interval (normal_equations). A trial step's residuals project only the frames' positions
+    (_views); the finite differences are projected once the step is taken (_pixels).
     ``rate``: the log's samples per second (the window of the image velocity, ``seen_rates``).
     """
 
@@ -337,13 +339,14 @@ class _Joint:
         pixels = sum(2 * len(c.clock) for c in cameras)
         self.quadratic = np.r_[np.zeros(pixels, bool), np.ones(len(self.priors) + whiten.shape[0], bool)]
         self.loss: Callable = _soft_l1_except(self.quadratic)
-        self._cache: dict[bytes, tuple[list[np.ndarray], list[sp.csr_matrix]]] = {}
+        self._cache: dict[bytes, list[_CameraRows]] = {}
+        self._view_cache: dict[bytes, list[_CameraView]] = {}
         self.inflation = np.ones(self.n)
         start = np.concatenate([self.x0, np.zeros(3 * len(knots))])
         self.inflation = np.array(
             [
-                _inflation(c, r, j, f_scale, start[2 * k : 2 * k + 2])
-                for k, (c, r, j) in enumerate(zip(cameras, *self._pixels(start)))
+                _inflation(c, rows.residual, rows.local_jacobian(c, len(knots)), f_scale, start[2 * k : 2 * k + 2])
+                for k, (c, rows) in enumerate(zip(cameras, self._pixels(start)))
             ]
         )
         self._cache.clear()
@@ -358,63 +361,104 @@ class _Joint:
         u, s0 = z[2 * k : 2 * k + 2]
         return 1.0 / u, self.cameras[k].middle - s0 / u
 
-    def _pixels(self, z: np.ndarray) -> tuple[list[np.ndarray], list[sp.csr_matrix]]:
-        """Per camera: (N, 2) weighted residuals and their (2N, 2 + 3K) sparse Jacobian in (its x, the knots)."""
+    def _views(self, z: np.ndarray) -> list[_CameraView]:
+        """Per camera: its frames at z (the line's samples, the bias added)."""
+        key = z.tobytes()
+        if key not in self._view_cache:
+            self._view_cache.clear()
+            bias = z[2 * self.n :].reshape(-1, 3)
+            views = []
+            for k, c in enumerate(self.cameras):
+                u, s0 = z[2 * k : 2 * k + 2]
+                views.append(_camera_view(c, self.path, self.knots, bias, s0 + u * (c.clock - c.middle)))
+            self._view_cache[key] = views
+        return self._view_cache[key]
+
+    def _pixels(self, z: np.ndarray) -> list[_CameraRows]:
+        """Per camera: its pixel rows at z (residuals and derivatives, divided by its inflation's root)."""
         key = z.tobytes()
         if key not in self._cache:
             self._cache.clear()
             bias = z[2 * self.n :].reshape(-1, 3)
-            residuals, jacobians = [], []
-            for k, c in enumerate(self.cameras):
-                u, s0 = z[2 * k : 2 * k + 2]
-                s = s0 + u * (c.clock - c.middle)
-                r, along, knots = _camera_rows(c, self.path, self.knots, bias, s)
-                scale = 1.0 / np.sqrt(self.inflation[k])
-                residuals.append(r * scale)
-                line = np.column_stack([along * np.repeat(c.clock - c.middle, 2), along])
-                jacobians.append(scale * sp.hstack([sp.csr_matrix(line), knots], format="csr"))
-            self._cache[key] = (residuals, jacobians)
+            self._cache[key] = [
+                _camera_rows(c, self.path, self.knots, bias, view).scaled(1.0 / np.sqrt(self.inflation[k]))
+                for k, (c, view) in enumerate(zip(self.cameras, self._views(z)))
+            ]
         return self._cache[key]
 
     def residual(self, z: np.ndarray) -> np.ndarray:
-        residuals, _ = self._pixels(z)
+        """The residuals at z (pixels, then the priors), without the derivatives (a trial step's): 10 for a frame off
+        the path or the image (the rows, _pixels, also where a finite difference leaves the image)."""
+        pixels = [
+            view.residual(c) * (1.0 / np.sqrt(self.inflation[k]))
+            for k, (c, view) in enumerate(zip(self.cameras, self._views(z)))
+        ]
         priors = [
             self.prior_weight * (c.prior.alpha * z[2 * k] - 1.0) / c.prior.sigma
             for k, c in enumerate(self.cameras)
             if c.prior is not None
         ]
         return np.concatenate(
-            [*(r.ravel() for r in residuals), priors, self.prior_weight * (self.whiten @ z[2 * self.n :])]
+            [*(r.ravel() for r in pixels), priors, self.prior_weight * (self.whiten @ z[2 * self.n :])]
         )
 
-    def jacobian(self, z: np.ndarray) -> sp.csr_matrix:
-        _, jacobians = self._pixels(z)
+    def _prior_jacobian(self) -> sp.csr_matrix:
+        """The priors' rows of the Jacobian (each slope prior, then the whitened bias prior), constant."""
+        slope = [(k, c.prior) for k, c in enumerate(self.cameras) if c.prior is not None]
+        lines, whiten = 2 * self.n, self.whiten
+        rows = sp.csr_matrix(
+            ([p.alpha / p.sigma for _, p in slope], ([*range(len(slope))], [2 * k for k, _ in slope])),
+            shape=(len(slope), lines + whiten.shape[1]),
+        )
+        return self.prior_weight * sp.vstack(
+            [rows, sp.hstack([sp.csr_matrix((whiten.shape[0], lines)), whiten])], format="csr"
+        )
+
+    def normal_equations(
+        self, z: np.ndarray, weights: np.ndarray, curvature: np.ndarray
+    ) -> tuple[np.ndarray, sp.csc_matrix]:
+        """J^T weights and J^T diag(curvature) J of the residuals' Jacobian J at z (weights and curvature: one per
+        residual), sparse: each camera's two line columns over its visit's knots, the knots' 3x3 blocks banded."""
         lines = 2 * self.n
-        rows = []
-        for k, jac in enumerate(jacobians):
-            before, after = sp.csr_matrix((jac.shape[0], 2 * k)), sp.csr_matrix((jac.shape[0], lines - 2 * k - 2))
-            rows.append(sp.hstack([before, jac[:, :2], after, jac[:, 2:]], format="csr"))
-        for k, c in enumerate(self.cameras):
-            if c.prior is not None:
-                rows.append(
-                    sp.csr_matrix(
-                        ([self.prior_weight * c.prior.alpha / c.prior.sigma], ([0], [2 * k])), shape=(1, len(z))
-                    )
-                )
-        rows.append(
-            sp.hstack([sp.csr_matrix((self.whiten.shape[0], lines)), self.prior_weight * self.whiten], format="csr")
-        )
-        return sp.vstack(rows, format="csr")
+        width = lines + 3 * len(self.knots)
+        gradient = np.zeros(width)
+        entries: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+        start = 0
+        for k, (c, rows) in enumerate(zip(self.cameras, self._pixels(z))):
+            end = start + rows.residual.size
+            line_gradient, knot_gradient, line_curvature, line_knot, knot_knot, left = rows.normal_terms(
+                c, weights[start:end], curvature[start:end]
+            )
+            start = end
+            knot_columns = lines + 3 * left[:, None] + np.arange(6)  # (G, 6)
+            gradient[2 * k : 2 * k + 2] += line_gradient
+            np.add.at(gradient, knot_columns, knot_gradient)
+            line_columns = np.array([2 * k, 2 * k + 1])
+            groups = len(left)
+            across_rows = np.broadcast_to(line_columns[None, :, None], (groups, 2, 6))
+            across_columns = np.broadcast_to(knot_columns[:, None, :], (groups, 2, 6))
+            entries += [
+                (np.repeat(line_columns, 2), np.tile(line_columns, 2), line_curvature.ravel()),
+                (across_rows.ravel(), across_columns.ravel(), line_knot.ravel()),
+                (across_columns.ravel(), across_rows.ravel(), line_knot.ravel()),
+                (
+                    np.broadcast_to(knot_columns[:, :, None], (groups, 6, 6)).ravel(),
+                    np.broadcast_to(knot_columns[:, None, :], (groups, 6, 6)).ravel(),
+                    knot_knot.ravel(),
+                ),
+            ]
+        priors = self._prior_jacobian()
+        gradient += priors.T @ weights[start:]
+        row_index, column_index, values = (np.concatenate(part) for part in zip(*entries))
+        pixels = sp.csc_matrix((values, (row_index, column_index)), shape=(width, width))
+        return gradient, (pixels + priors.T @ sp.diags(curvature[start:]) @ priors).tocsc()
 
-    def _seen_line_columns(self, k: int, jac: sp.csr_matrix, z: np.ndarray) -> sp.csr_matrix:
-        """Camera k's Jacobian with its line's columns (pixels per unit of 1 / alpha and of the middle sample) taken
-        from the target's image velocity on its track (``seen``) where it is measured, from the log's elsewhere."""
+    def _seen_along(self, k: int, rows: _CameraRows, z: np.ndarray) -> np.ndarray:
+        """Camera k's pixels' derivative in the sample (2N,) taken from the target's image velocity on its track
+        (``seen``) where it is measured, from the log's elsewhere."""
         c = self.cameras[k]
-        logged = np.asarray(jac[:, 1].todense()).ravel()
         seen = (self.seen[k] * c.weight[:, None] / (z[2 * k] * np.sqrt(self.inflation[k]))).ravel()
-        along = np.where(np.isfinite(seen), seen, logged)
-        line = np.column_stack([along * np.repeat(c.clock - c.middle, 2), along])
-        return sp.hstack([sp.csr_matrix(line), jac[:, 2:]], format="csr")
+        return np.where(np.isfinite(seen), seen, rows.along * rows.scale)
 
     def uncertainty(self, z: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarray], KnotInformation, np.ndarray]:
         """The knots' posterior covariance (m^2), each camera's sensitivity d(alpha, beta) / d(knots), and what the
@@ -433,13 +477,12 @@ class _Joint:
         (sum psi^2 / sum psi', the M-estimator's), inflated by its own refinement's covariance over that naive
         one where residuals correlate in time; its gradient J^T psi is divided the same; the prior's is W^T W.
         """
-        residuals, jacobians = self._pixels(z)
         banded = sp.csc_matrix((3 * len(self.knots), 3 * len(self.knots)))
         low_rank = []
         score = np.zeros(3 * len(self.knots))
         blocks = []
-        for k, (r, jac) in enumerate(zip(residuals, jacobians)):
-            jac = self._seen_line_columns(k, jac, z)
+        for k, rows in enumerate(self._pixels(z)):
+            r, jac = rows.residual, rows.local_jacobian(self.cameras[k], len(self.knots), self._seen_along(k, rows, z))
             inflation = _inflation(self.cameras[k], r, jac, self.f_scale, z[2 * k : 2 * k + 2])
             h = _bread(self.cameras[k], r, jac, self.f_scale) / inflation
             g = _gradient(self.cameras[k], r, jac, self.f_scale, z[2 * k]) / inflation
@@ -471,27 +514,146 @@ def _pinv_sqrt(matrix: np.ndarray) -> np.ndarray:
     return (vectors * inverse_root) @ vectors.T
 
 
-def _camera_rows(
+_PAIRS = (np.array([0, 0, 0, 1, 1, 2]), np.array([0, 1, 2, 1, 2, 2]))  # a symmetric 3x3's upper triangle
+_SYMMETRIC = np.array([[0, 1, 2], [1, 3, 4], [2, 4, 5]])  # the 3x3 from its upper triangle's six values
+
+
+def _pair_sum(values: np.ndarray) -> np.ndarray:
+    """(..., N) sums of a frame's two pixel rows, (..., N, 2) given."""
+    return values[..., 0] + values[..., 1]
+
+
+@dataclass(frozen=True)
+class _CameraRows:
+    """One camera's pixel rows at its samples s: the (N, 2) weighted residuals times ``scale``; before it, their
+    (2N,) derivative in s (rows u0, v0, u1, v1 ...) and their (N, 2, 3) derivative in the bias's position; the knots
+    around each frame (left, its right neighbour's weight u: the bias is linear between them)."""
+
+    residual: np.ndarray
+    along: np.ndarray
+    gradient: np.ndarray
+    left: np.ndarray
+    u: np.ndarray
+    scale: float = 1.0
+
+    def scaled(self, factor: float) -> _CameraRows:
+        """The rows with their residuals times ``factor``, which the derivatives' uses apply."""
+        return replace(self, residual=self.residual * factor, scale=factor)
+
+    def local_jacobian(self, c: BiasCamera, knots: int, along: np.ndarray | None = None) -> sp.csr_matrix:
+        """The rows' sparse (2N, 2 + 3K) Jacobian in (the camera's line: 1 / alpha, the middle sample; the knots, 3
+        values each), 8 entries a row (the line's two, the left and the right knot's x, y, z), all times ``scale``.
+        ``along``: the derivative in s to use, ``scale`` included (None: the log's)."""
+        n = len(self.left)
+        values = np.empty((n, 2, 8))
+        if along is None:
+            values[:, :, 0] = (self.along * np.repeat(c.clock - c.middle, 2)).reshape(n, 2) * self.scale
+            values[:, :, 1] = self.along.reshape(n, 2) * self.scale
+        else:
+            values[:, :, 0] = (along * np.repeat(c.clock - c.middle, 2)).reshape(n, 2)
+            values[:, :, 1] = along.reshape(n, 2)
+        values[:, :, 2:5] = (self.gradient * (1.0 - self.u)[:, None, None]) * self.scale
+        values[:, :, 5:8] = (self.gradient * self.u[:, None, None]) * self.scale
+        columns = np.empty((n, 2, 8), int)
+        columns[:, :, 0], columns[:, :, 1] = 0, 1
+        at_left = 2 + 3 * self.left[:, None] + np.arange(3)
+        columns[:, :, 2:5] = at_left[:, None, :]
+        columns[:, :, 5:8] = (at_left + 3)[:, None, :]
+        indptr = np.arange(0, 16 * n + 1, 8)
+        return sp.csr_matrix((values.ravel(), columns.ravel(), indptr), shape=(2 * n, 2 + 3 * knots))
+
+    def normal_terms(
+        self, c: BiasCamera, weights: np.ndarray, curvature: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The rows' share of the normal equations, J^T (weights) and J^T diag(curvature) J, summed knot by knot
+        without forming J: a frame's two rows hold the line's two columns and the two knots around it, so its
+        products are the line's derivative b and the bias's g (times dc, the frame's clock from the middle, and the
+        knots' weights 1 - u, u) summed over the frames that share a left knot. Returns (the line's gradient (2,), the
+        knots' gradient by left knot (G, 6: left x y z, right x y z), the line's curvature (2, 2), line by knot
+        (G, 2, 6), knot by knot (G, 6, 6)) and, last, the G left knots."""
+        n = len(self.left)
+        b = self.along.reshape(n, 2) * self.scale
+        g = np.ascontiguousarray(self.gradient.transpose(2, 0, 1)) * self.scale  # (3, N, 2)
+        w, cv = weights.reshape(n, 2), curvature.reshape(n, 2)
+        dc = c.clock - c.middle
+        weighted = cv * g
+        wb, cbb = _pair_sum(w * b), _pair_sum(cv * b * b)
+        wg, cbg, cgg = _pair_sum(w * g), _pair_sum(weighted * b), _pair_sum(weighted[_PAIRS[0]] * g[_PAIRS[1]])
+        near, far = 1.0 - self.u, self.u
+        table = np.empty((36, n))  # by frame: the knots' gradient, line by knot, knot by knot (six a 3x3)
+        blocks = [(near, wg), (far, wg), (dc * near, cbg), (dc * far, cbg), (near, cbg), (far, cbg)]
+        blocks += [(near * near, cgg), (near * far, cgg), (far * far, cgg)]
+        row = 0
+        for factor, values in blocks:
+            np.multiply(values, factor, out=table[row : row + len(values)])
+            row += len(values)
+        left = self.left
+        if np.any(left[1:] < left[:-1]):
+            order = np.argsort(left, kind="stable")
+            left, table = left[order], table[:, order]
+        starts = np.flatnonzero(np.r_[True, left[1:] != left[:-1]])
+        sums = np.add.reduceat(table, starts, axis=1).T  # (G, 36)
+        groups = len(starts)
+        line_gradient = np.array([np.sum(dc * wb), np.sum(wb)])
+        line_curvature = np.array([[np.sum(dc * dc * cbb), np.sum(dc * cbb)], [np.sum(dc * cbb), np.sum(cbb)]])
+        line_knot = sums[:, 6:18].reshape(groups, 2, 6)
+        near_near, near_far, far_far = (sums[:, 18 + 6 * j : 24 + 6 * j][:, _SYMMETRIC] for j in range(3))
+        knot_knot = np.block([[near_near, near_far], [near_far, far_far]])
+        return line_gradient, sums[:, :6], line_curvature, line_knot, knot_knot, left[starts]
+
+
+@dataclass(frozen=True)
+class _CameraView:
+    """One camera's frames where the log, with the bias, puts the target at samples s: the samples' runs of the path
+    (-1: off it), the (N, 3) positions (metres) and their (N, 2) pixels, the knots around each frame (left, its
+    right neighbour's weight u)."""
+
+    s: np.ndarray
+    run: np.ndarray
+    position: np.ndarray
+    uv: np.ndarray
+    left: np.ndarray
+    u: np.ndarray
+
+    def residual(self, c: BiasCamera) -> np.ndarray:
+        """(N, 2) weighted pixel residuals; 10 for a frame off the path or off the image."""
+        r = (self.uv - c.xy) * c.weight[:, None]
+        r[~np.isfinite(r).all(axis=1)] = 10.0
+        return r
+
+
+def _camera_view(
     c: BiasCamera, path: PiecewiseTrajectory, knots: np.ndarray, bias: np.ndarray, s: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, sp.csr_matrix]:
-    """One camera's (N, 2) weighted pixel residuals at samples s, their (2N,) derivative in s, and their (2N, 3K)
-    sparse derivative in the knots (rows u0, v0, u1, v1 ...)."""
+) -> _CameraView:
+    """The camera's frames at samples s, the bias (K, 3) added to the path (_CameraView)."""
     run = path.run_of(s)
     on = run >= 0
-    weights = _interpolation(s, knots)
     position = np.full((len(s), 3), np.nan)
     position[on] = path(s[on], run[on])
-    position += weights @ bias
-    ahead = np.full((len(s), 3), np.nan)
-    ahead[on] = path(s[on] + SAMPLE_STEP, run[on])
-    ahead += _interpolation(s + SAMPLE_STEP, knots) @ bias
-    moved = [position + METRE_STEP * axis for axis in np.eye(3)]
-    uv_all, _ = c.camera.project(np.concatenate([position, ahead, *moved]))
-    n = len(s)
-    uv = uv_all[:n]
-    rate = (uv_all[n : 2 * n] - uv) / SAMPLE_STEP  # pixels per sample
+    left, right, u = _interpolation_parts(s, knots)
+    position += (1.0 - u)[:, None] * bias[left] + u[:, None] * bias[right]
+    uv, _ = c.camera.project(position)
+    return _CameraView(s, run, position, uv, left, u)
+
+
+def _camera_rows(
+    c: BiasCamera, path: PiecewiseTrajectory, knots: np.ndarray, bias: np.ndarray, view: _CameraView
+) -> _CameraRows:
+    """One camera's pixel rows at its view's samples (_CameraRows): the derivatives by finite differences, along the
+    path (the frame's run) and in space; a frame off the path or off the image, or whose differences are, has a
+    residual of 10 and no derivative."""
+    n = len(view.s)
+    on = view.run >= 0
+    ahead = np.full((n, 3), np.nan)
+    ahead[on] = path(view.s[on] + SAMPLE_STEP, view.run[on])
+    left_ahead, right_ahead, u_ahead = _interpolation_parts(view.s + SAMPLE_STEP, knots)
+    ahead += (1.0 - u_ahead)[:, None] * bias[left_ahead] + u_ahead[:, None] * bias[right_ahead]
+    moved = [view.position + METRE_STEP * axis for axis in np.eye(3)]
+    projected, _ = c.camera.project(np.concatenate([ahead, *moved]))
+    uv = view.uv
+    rate = (projected[:n] - uv) / SAMPLE_STEP  # pixels per sample
     gradient = np.stack(
-        [(uv_all[(2 + a) * n : (3 + a) * n] - uv) / METRE_STEP for a in range(3)], axis=2
+        [(projected[(1 + a) * n : (2 + a) * n] - uv) / METRE_STEP for a in range(3)], axis=2
     )  # (N, 2, 3) pixels per metre
     r = (uv - c.xy) * c.weight[:, None]
     along = rate * c.weight[:, None]
@@ -501,14 +663,7 @@ def _camera_rows(
     r[bad] = 10.0
     along[bad] = 0.0
     gradient[bad] = 0.0
-    left, right, u = _interpolation_parts(s, knots)
-    rows = np.broadcast_to(np.arange(2 * n).reshape(n, 2, 1), (n, 2, 3))
-    columns = np.arange(3)[None, None, :]
-    values = np.concatenate([(gradient * (1.0 - u)[:, None, None]).ravel(), (gradient * u[:, None, None]).ravel()])
-    at_left = (columns + 3 * left[:, None, None] + 0 * rows).ravel()
-    at_right = (columns + 3 * right[:, None, None] + 0 * rows).ravel()
-    indices = (np.r_[rows.ravel(), rows.ravel()], np.r_[at_left, at_right])
-    return r, along.ravel(), sp.csr_matrix((values, indices), shape=(2 * n, 3 * len(knots)))
+    return _CameraRows(r, along.ravel(), gradient, view.left, view.u)
 
 
 def _bread(c: BiasCamera, r: np.ndarray, jac: sp.csr_matrix, f_scale: float) -> np.ndarray:
@@ -586,9 +741,9 @@ def _levenberg_marquardt(
     problem: _Joint, z: np.ndarray, f_scale: float, max_nfev: int = 100, tol: float = 1e-8
 ) -> tuple[np.ndarray, bool]:
     """The robust least squares of the joint problem from z: Levenberg-Marquardt on the normal equations, which are
-    (2C + 3K) square whatever the number of frames (J sparse), with the loss's curvature as scipy's least_squares
-    scales it and the damping in the units of ``problem.scale``. Converged: the cost, the step or the gradient
-    stopped changing (relative ``tol``) within ``max_nfev`` evaluations of the residuals."""
+    (2C + 3K) square and sparse whatever the number of frames (_Joint.normal_equations), with the loss's curvature
+    as scipy's least_squares scales it and the damping in the units of ``problem.scale``. Converged: the cost, the
+    step or the gradient stopped changing (relative ``tol``) within ``max_nfev`` evaluations of the residuals."""
 
     def cost(residual: np.ndarray) -> float:
         return _robust_cost(problem, residual, f_scale)
@@ -599,12 +754,10 @@ def _levenberg_marquardt(
     while evaluations < max_nfev:
         if moved:
             rho = problem.loss((residual / f_scale) ** 2)
-            jac = problem.jacobian(z)
-            gradient = jac.T @ (rho[1] * residual)
+            curvature = np.maximum(rho[1] + 2.0 * rho[2] * (residual / f_scale) ** 2, 1e-10)
+            gradient, hessian = problem.normal_equations(z, rho[1] * residual, curvature)
             if np.max(np.abs(gradient * problem.scale)) <= tol * max(current, 1e-12):
                 return z, True
-            curvature = np.maximum(rho[1] + 2.0 * rho[2] * (residual / f_scale) ** 2, 1e-10)
-            hessian = (jac.T @ sp.diags(curvature) @ jac).tocsc()
             damping = 1e-3 * float(np.max(hessian.diagonal() / units)) if damping < 0 else damping
         step = _solve_sparse((hessian + sp.diags(damping * units)).tocsc(), -gradient)
         trial_residual = problem.residual(z + step) if np.isfinite(step).all() else np.full_like(residual, np.nan)

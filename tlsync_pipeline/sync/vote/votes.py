@@ -103,7 +103,8 @@ def thinned_runs(row: np.ndarray, column: np.ndarray, sample: np.ndarray, dist: 
     many = np.flatnonzero(np.bincount(row)[row] > MAX_RUN_VOTES) if len(row) else np.zeros(0, np.int64)
     if len(many) == 0:  # no frame has a run that long
         return keep
-    order = many[np.argsort(row[many] * len(sample) + column[many])]
+    key = row[many] * len(sample) + column[many]  # unique: a pair is found once
+    order = many[np.argsort(key.astype(np.int32) if len(key) and key.max() < 2**31 else key)]
     row_o, sample_o, dist_o = row[order], sample[column[order]], dist[order]
     starts = np.flatnonzero(np.r_[True, (row_o[1:] != row_o[:-1]) | (np.diff(sample_o) > 1.5)])
     length = np.diff(np.r_[starts, len(order)])
@@ -112,8 +113,11 @@ def thinned_runs(row: np.ndarray, column: np.ndarray, sample: np.ndarray, dist: 
     position = np.arange(len(order)) - starts[run]
     closest_of_run = dist_o == np.minimum.reduceat(dist_o, starts)[run]
     keep[order] = (position % step == row_o % step) | closest_of_run
+    by_sample = np.argsort(column)
+    column_s = column[by_sample]
+    first = np.flatnonzero(np.r_[True, column_s[1:] != column_s[:-1]])
     closest_of_sample = np.full(len(sample), np.inf)
-    np.minimum.at(closest_of_sample, column, dist)
+    closest_of_sample[column_s[first]] = np.minimum.reduceat(dist[by_sample], first)
     return keep | (dist == closest_of_sample[column])
 
 
