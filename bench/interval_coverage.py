@@ -1,12 +1,12 @@
 """Coverage of the refined method's 95 % intervals on seeded synthetic scenes.
 
 For each scene (two cameras, fractional betas) and each estimated quantity
-(every camera's alpha and beta, every pair's beta = start offset), z =
-(estimate - truth) / standard error; a nominal 95 % interval covers the truth
-when |z| <= 1.96. Prints the coverage per quantity and overall, and the
-variance factor that would give exactly 95 % (to re-calibrate
-tlsync_pipeline.refine.COVARIANCE_FACTOR, which the standard errors already
-include).
+(every camera's alpha and beta, every pair's beta = start offset, and every
+camera's clock at the middle of the target's visit, where its evidence is),
+z = (estimate - truth) / standard error; a nominal 95 % interval covers the
+truth when |z| <= 1.96. Prints the coverage per quantity and overall (over
+alpha, beta and the pairs' betas), the middle's apart, and the variance factor
+that would give exactly 95 % (to re-calibrate [sync] model_error_px).
 
     nice -n 10 python bench/interval_coverage.py --scenes 200 --st 2 --sc 2 --sl 1
 """
@@ -39,19 +39,24 @@ def scene_z(args) -> list[float]:
     )
     timeline, _ = synchronize(inputs, scene.trajectory, params)
     z = []
+    middles = []
     for name, true in scene.lines.items():
         line = timeline.cameras.get(name)
         if line is None:
             z += [np.nan, np.nan]
+            middles.append(np.nan)
             continue
         z += [(line.alpha - true.alpha) / line.se_alpha, (line.beta - true.beta) / line.se_beta]
+        middle = (float(np.median(scene.tracks[name].frame)) - true.beta) / true.alpha  # sample
+        at = np.array([middle, 1.0])
+        middles.append(((line.alpha - true.alpha) * middle + line.beta - true.beta) / np.sqrt(at @ line.cov @ at))
     for key, true in scene.truth_pairs().items():
         a, b = key.split("->")
         if a in timeline.cameras and b in timeline.cameras:
             z.append((timeline.relation(a, b).beta - true.beta) / np.sqrt(timeline.relation_cov(a, b)[1, 1]))
         else:
             z.append(np.nan)
-    return z
+    return z + middles
 
 
 def coverage(
@@ -71,11 +76,15 @@ def coverage(
     with multiprocessing.Pool(processes) as pool:
         z = np.abs(np.array(pool.map(scene_z, jobs, chunksize=4)))
     names = [f"{n} {q}" for n in ("cam0", "cam1") for q in ("alpha", "beta")] + ["cam0->cam1 beta", "cam1->cam0 beta"]
+    names += ["cam0 middle", "cam1 middle"]
     finite = np.isfinite(z)
+    lines, middles = z[:, :6], z[:, 6:]
     return {
         "per_quantity": {n: float(np.mean(z[finite[:, k], k] <= Z95)) for k, n in enumerate(names)},
-        "overall": float(np.mean(z[finite] <= Z95)),
-        "factor_for_95": float((np.quantile(z[finite], 0.95) / Z95) ** 2),
+        "overall": float(np.mean(lines[finite[:, :6]] <= Z95)),
+        "factor_for_95": float((np.quantile(lines[finite[:, :6]], 0.95) / Z95) ** 2),
+        "middle": float(np.mean(middles[finite[:, 6:]] <= Z95)),
+        "middle_factor_for_95": float((np.quantile(middles[finite[:, 6:]], 0.95) / Z95) ** 2),
         "failed": int((~finite).any(axis=1).sum()),
     }
 
@@ -103,6 +112,7 @@ def main() -> None:
         f"  overall          {100 * result['overall']:5.1f} %   (variance factor for exactly 95 %: "
         f"x{result['factor_for_95']:.2f} of the current)"
     )
+    print(f"  middles          {100 * result['middle']:5.1f} %   (x{result['middle_factor_for_95']:.2f})")
 
 
 if __name__ == "__main__":

@@ -62,8 +62,8 @@ FAST_FLOOR_M = 0.05  # m: the short term's prior std when the model has no white
 @dataclass(frozen=True)
 class BiasCamera:
     """One camera as the joint fit sees it: the clock values (frame units) and tracked pixels of the frames its
-    refinement used, their weights (sigma_weights), its line, the (alpha, beta) covariance of its own refinement,
-    and its slope prior (or None)."""
+    refinement used, their weights (sigma_weights), its line, the (alpha, beta) covariance its own refinement's
+    pixels are weighed by (Refinement.cov_joint), and its slope prior (or None)."""
 
     name: str
     camera: Camera
