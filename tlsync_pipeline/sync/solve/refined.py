@@ -346,7 +346,16 @@ def _bias_camera(
     on = run >= 0
     weight[on] = sigma_weights(data.camera, path, s[on], run[on], f_scale)
     return BiasCamera(
-        data.name, data.camera, clock, xy, weight, refinement.alpha, refinement.beta, refinement.cov_joint, prior
+        data.name,
+        data.camera,
+        clock,
+        xy,
+        weight,
+        refinement.alpha,
+        refinement.beta,
+        refinement.cov_joint,
+        prior,
+        refinement.cov,
     )
 
 
