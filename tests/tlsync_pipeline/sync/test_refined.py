@@ -133,6 +133,29 @@ def test_intervals_cover_the_truth_as_often_as_they_claim():
     assert 0.45 <= np.median(middle_z) / 0.6745 <= 1.6, middle_z
 
 
+def test_a_white_logs_noise_between_fixes_widens_the_interval():
+    # A 0.3 m log at 1 Hz seen by 30 fps cameras: every frame between two fixes shares their error, which the
+    # residuals take for independent; averaged over the fixes each block of frames spans it joins the interval.
+    from data_fixtures.log_error import PRESETS as FIXTURE_LOGS
+    from data_fixtures.walk import WalkSpec, make_walk_scene
+    from tlsync_pipeline.sync.model.log_model import PRESETS
+    from tlsync_pipeline.sync.model.methods import RefinedParams
+
+    z, budgets = [], []
+    for seed in (2, 9):
+        scene = make_walk_scene(seed, WalkSpec(route="straight", log=FIXTURE_LOGS["white"]))
+        params = SyncParams(options={"refined": RefinedParams(model_error_px=0.0)})
+        timeline, _ = synchronize(_inputs(scene), scene.trajectory, params, log_model=PRESETS["white"])
+        for name, true in scene.lines.items():
+            line = timeline.cameras[name]
+            middle = (float(np.median(scene.tracks[name].frame)) - true.beta) / true.alpha
+            at = np.array([middle, 1.0])
+            z.append(((line.alpha - true.alpha) * middle + line.beta - true.beta) / np.sqrt(at @ line.cov @ at))
+            budgets.append(line.budget)
+    assert np.all(np.abs(z) <= 1.96), z
+    assert all(b is not None and b.log_frames > b.calibration_frames == 0.0 for b in budgets), budgets
+
+
 def test_fallback_when_refinement_disagrees(monkeypatch):
     scene = make_scene(0, lines=FRACTIONAL)
 

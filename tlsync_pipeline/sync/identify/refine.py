@@ -270,7 +270,7 @@ def _fit(
     frame, xy, run, slack = frame[keep], xy[keep], run[keep], slack[keep]
     span = max(float(frame[-1] - frame[0]), 1.0)
     x0 = np.array([1.0 / alpha, (c_mid - beta) / alpha])
-    noise_px = log_noise_px(camera, path, x0[1] + x0[0] * (frame - c_mid), run)
+    noise_px = _log_noise_px(camera, path, x0[1] + x0[0] * (frame - c_mid), run)
     weight = _noise_weights(noise_px, len(frame), f_scale)
     problem = _PixelResiduals(camera, path, frame, xy, run, slack, weight, c_mid, f_scale, prior)
     scale = np.array([0.1 / span * abs(x0[0]) + 1e-9, 0.1])
@@ -412,7 +412,7 @@ def _soft_l1_but_last(z: np.ndarray) -> np.ndarray:
     return out
 
 
-def log_noise_px(camera: Camera, path: PiecewiseTrajectory, s: np.ndarray, run: np.ndarray) -> np.ndarray | None:
+def _log_noise_px(camera: Camera, path: PiecewiseTrajectory, s: np.ndarray, run: np.ndarray) -> np.ndarray | None:
     """The log's white noise (each sample's sigma) seen in the image at samples s: focal x sigma / depth (pixels per
     frame); None when the trajectory has no sigmas."""
     sigma = path.sigma(s)
@@ -426,9 +426,9 @@ def sigma_weights(
     camera: Camera, path: PiecewiseTrajectory, s: np.ndarray, run: np.ndarray, f_scale: float
 ) -> np.ndarray:
     """Residual scale per frame: f_scale / sqrt(f_scale^2 + sigma_px^2), sigma_px the log's noise in the image
-    (log_noise_px; ones without sigmas).
+    (_log_noise_px; ones without sigmas).
     """
-    return _noise_weights(log_noise_px(camera, path, s, run), len(s), f_scale)
+    return _noise_weights(_log_noise_px(camera, path, s, run), len(s), f_scale)
 
 
 def _noise_weights(noise_px: np.ndarray | None, n: int, f_scale: float) -> np.ndarray:
