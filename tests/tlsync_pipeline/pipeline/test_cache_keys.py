@@ -68,7 +68,7 @@ def _stale_by_own_reasons(folder) -> dict[str, list[str]]:
 @pytest.mark.parametrize(
     "old, new, stale, named",
     [
-        ("seed = 0\n", "seed = 0\nmodel_error_px = 7.0\n", {"sync"}, "model_error_px: 3.0 -> 7.0"),
+        ("seed = 0\n", "seed = 0\nmodel_error_px = 7.0\n", {"sync"}, "model_error_px: 1.0 -> 7.0"),
         ("eps_px = 10.0", "eps_px = 12.0", {"identify/cam1", "vote/cam0", "vote/cam1", "sync"}, "eps_px: 10.0 -> 12.0"),
         ("seed = 0\n", "seed = 0\nr_min = 0.02\n", {"identify/cam1", "sync"}, "r_min: 0.01 -> 0.02"),
         (

@@ -52,6 +52,10 @@ PASSES = 4  # fits, each on the frames within gate_px of the previous one
 
 # Contiguous blocks of frames for the clustered covariance and the model error.
 BLOCKS = 8
+# The joint fit with the log's bias (sync/solve/log_bias.py) weighs a camera's pixels against the priors by how much
+# its covariance exceeds the naive one: with an unseen offset of this many weighted pixels per block (so the log's
+# noise seen in the image, which lowers the weights, counts in full), as tuned on the wild bench's walks.
+JOINT_OFFSET = 3.0
 # Step along the trajectory (samples) of the projection's rate, the refinement's Jacobian.
 RATE_STEP = 1e-4
 
@@ -61,7 +65,10 @@ class Refinement:
     """The refined line and its uncertainty.
 
     cov: 2x2 covariance of (alpha, beta), of which cov_model is the part the
-    model error (calibration, log) adds; frames_used: tracked frames in the
+    model error (calibration, pose) adds and cov_log_white the part the log's
+    white noise, averaged over the fixes each block of frames spans, adds;
+    cov_joint: the covariance the joint fit with the log's bias weighs the
+    camera's pixels by (JOINT_OFFSET); frames_used: tracked frames in the
     final fit (used: which of the given frames); scale_px: robust residual scale (1.4826 MAD of pixel
     residuals); perpendicular: median |sin| of the angle between the target's
     velocity and the viewing ray over those frames (near 0: motion along the
@@ -77,6 +84,8 @@ class Refinement:
     converged: bool
     message: str
     cov_model: np.ndarray
+    cov_log_white: np.ndarray
+    cov_joint: np.ndarray
     used: np.ndarray
 
     @property
@@ -108,8 +117,9 @@ def refine_line(
     boolean mask of the frames the line search explained (the starting set).
     After a first fit on them, every tracked frame whose reprojection is
     within gate_px joins and the fit is repeated. model_error_px: std of a
-    pixel offset shared by each of BLOCKS runs of frames (calibration and log
-    errors), added to the covariance; prior: what the frame rates say about
+    pixel offset shared by each of BLOCKS runs of frames (calibration and pose
+    errors), added to the covariance with the log's white noise averaged over
+    the fixes each run spans; prior: what the frame rates say about
     alpha (sync/kernels/slope.py), or None; box: (N, 2) tracked box sizes, pixels
     (NaN unknown), whose excess over the target's size (sync/identify/target_size.py)
     becomes slack around the tracked position. Raises ValueError when fewer than
@@ -146,14 +156,17 @@ def refine_line(
         fit.converged,
         fit.message,
         fit.cov_model,
+        fit.cov_log_white,
+        fit.cov_joint,
         use,
     )
 
 
 @dataclass(frozen=True)
 class _Fit:
-    """One robust fit: the line, its covariance (and the model error's part of it), the robust residual scale (px),
-    the solver's verdict, and perpendicular (Refinement)."""
+    """One robust fit: the line, its covariance (and the model error's and the log's white noise's parts of it, and
+    the joint fit's weighting covariance), the robust residual scale (px), the solver's verdict, and perpendicular
+    (Refinement)."""
 
     alpha: float
     beta: float
@@ -163,6 +176,8 @@ class _Fit:
     message: str
     perpendicular: float
     cov_model: np.ndarray
+    cov_log_white: np.ndarray
+    cov_joint: np.ndarray
 
 
 class _PixelResiduals:
@@ -255,7 +270,8 @@ def _fit(
     frame, xy, run, slack = frame[keep], xy[keep], run[keep], slack[keep]
     span = max(float(frame[-1] - frame[0]), 1.0)
     x0 = np.array([1.0 / alpha, (c_mid - beta) / alpha])
-    weight = sigma_weights(camera, path, x0[1] + x0[0] * (frame - c_mid), run, f_scale)
+    noise_px = _log_noise_px(camera, path, x0[1] + x0[0] * (frame - c_mid), run)
+    weight = _noise_weights(noise_px, len(frame), f_scale)
     problem = _PixelResiduals(camera, path, frame, xy, run, slack, weight, c_mid, f_scale, prior)
     scale = np.array([0.1 / span * abs(x0[0]) + 1e-9, 0.1])
     loss = "soft_l1" if prior is None else _soft_l1_but_last
@@ -271,8 +287,9 @@ def _fit(
     )
     x = solution.x
     r, jac = problem.pixels(x)
-    cov_x, model_x = _sandwich_covariance(r, jac, f_scale, model_error_px, problem.prior_slope)
     u, s0 = x
+    shared = _shared_offsets(s0 + u * (frame - c_mid), noise_px, model_error_px)
+    cov_x, model_x, white_x, joint_x = _sandwich_covariance(r, jac, f_scale, weight, shared, problem.prior_slope)
     with np.errstate(
         divide="ignore", invalid="ignore", over="ignore"
     ):  # a fit gone astray (u 0, a singular covariance): not ok below
@@ -284,19 +301,58 @@ def _fit(
     perpendicular = _perpendicular(camera, path, x[1] + x[0] * (frame - c_mid), run)
     ok = bool(solution.success and np.all(np.isfinite(cov)) and u > 0)
     return _Fit(
-        float(a), float(c_mid - a * s0), cov, scale_px, ok, str(solution.message), perpendicular, d @ model_x @ d.T
+        float(a),
+        float(c_mid - a * s0),
+        cov,
+        scale_px,
+        ok,
+        str(solution.message),
+        perpendicular,
+        d @ model_x @ d.T,
+        d @ white_x @ d.T,
+        d @ joint_x @ d.T,
     )
 
 
-def _sandwich_covariance(
-    r: np.ndarray, jac: np.ndarray, f_scale: float, model_error_px: float, prior_slope: float
-) -> tuple[np.ndarray, np.ndarray]:
-    """Covariance of x: the soft L1 M-estimator's sandwich, frame by frame or block by block (the larger), plus the
-    model error; and the model error's part of it.
+@dataclass(frozen=True)
+class _SharedOffsets:
+    """Per block of frames (BLOCKS contiguous runs), the std (pixels) of an image offset its frames share that the
+    residuals cannot show: model: the calibration's and the pose's (model_error_px); log_white: the log's white noise
+    averaged over the fixes the block spans (a fix's error is every frame's between it and the next)."""
 
-    r: (N, 2) residuals (px); jac: (N, 2, 2) their Jacobian; prior_slope: the
-    slope prior's Jacobian (0 without a prior), whose information counts as
-    bread and, at one sigma = f_scale, as noise (meat).
+    model: np.ndarray
+    log_white: np.ndarray
+
+
+def _shared_offsets(sample: np.ndarray, noise_px: np.ndarray | None, model_error_px: float) -> _SharedOffsets:
+    """The shared offsets of the frames at log samples ``sample`` (sorted), whose log noise seen in the image is
+    noise_px (pixels per frame, None without sigmas)."""
+    blocks = min(BLOCKS, len(sample))
+    model = np.full(blocks, model_error_px)
+    if noise_px is None:
+        return _SharedOffsets(model, np.zeros(blocks))
+    white = [
+        float(np.median(px)) / np.sqrt(max(float(s[-1] - s[0]), 1.0))
+        for s, px in zip(np.array_split(sample, blocks), np.array_split(noise_px, blocks))
+    ]
+    return _SharedOffsets(model, np.array(white))
+
+
+def _sandwich_covariance(
+    r: np.ndarray,
+    jac: np.ndarray,
+    f_scale: float,
+    weight: np.ndarray,
+    shared: _SharedOffsets,
+    prior_slope: float,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Covariance of x: the soft L1 M-estimator's sandwich, frame by frame or block by block (the larger), plus the
+    offsets each block's frames share; those offsets' parts of it (the model error's, the log's white noise's); and
+    the sandwich with JOINT_OFFSET weighted pixels shared by each block instead (the joint fit's weighting).
+
+    r: (N, 2) weighted residuals; jac: (N, 2, 2) their Jacobian; weight: (N,) each frame's weight (a pixel offset
+    moves its weighted residual by weight times it); prior_slope: the slope prior's Jacobian (0 without a prior),
+    whose information counts as bread and, at one sigma = f_scale, as noise (meat).
     """
     z = (r / f_scale) ** 2
     psi = r / np.sqrt(1 + z)  # soft L1 influence
@@ -314,13 +370,23 @@ def _sandwich_covariance(
     independent = g.T @ g * n / max(n - 2, 1)
     blocks = np.array([b.sum(axis=0) for b in np.array_split(g, min(BLOCKS, n))])
     clustered = blocks.T @ blocks * len(blocks) / max(len(blocks) - 1, 1)
-    # Model error: an unseen pixel offset of std model_error_px shared by each
-    # block of frames (pose and log errors), which the residuals cannot show.
-    lever = np.array([b.sum(axis=0) for b in np.array_split(jac * dpsi[:, :, None], min(BLOCKS, n))])
-    systematic = model_error_px**2 * np.einsum("bik,bil->kl", lever, lever)
+    # An unseen pixel offset shared by each block of frames, propagated through
+    # the fit: how the block's scores move per pixel of it.
+    weighted = np.array([b.sum(axis=0) for b in np.array_split(jac * dpsi[:, :, None], min(BLOCKS, n))])
+    lever = np.array(
+        [b.sum(axis=0) for b in np.array_split(jac * (dpsi * weight[:, None])[:, :, None], min(BLOCKS, n))]
+    )
+    model = np.einsum("b,bik,bil->kl", shared.model**2, lever, lever)
+    white = np.einsum("b,bik,bil->kl", shared.log_white**2, lever, lever)
+    joint = JOINT_OFFSET**2 * np.einsum("bik,bil->kl", weighted, weighted)
     with np.errstate(invalid="ignore", over="ignore"):  # inf x 0 of a singular fit: NaN, refused by the caller
         meat = independent if np.trace(inv @ independent @ inv) >= np.trace(inv @ clustered @ inv) else clustered
-        return inv @ (meat + systematic + f_scale**2 * prior_info) @ inv, inv @ systematic @ inv
+        return (
+            inv @ (meat + model + white + f_scale**2 * prior_info) @ inv,
+            inv @ model @ inv,
+            inv @ white @ inv,
+            inv @ (meat + joint + f_scale**2 * prior_info) @ inv,
+        )
 
 
 def _offsets_and_rates(
@@ -346,18 +412,28 @@ def _soft_l1_but_last(z: np.ndarray) -> np.ndarray:
     return out
 
 
+def _log_noise_px(camera: Camera, path: PiecewiseTrajectory, s: np.ndarray, run: np.ndarray) -> np.ndarray | None:
+    """The log's white noise (each sample's sigma) seen in the image at samples s: focal x sigma / depth (pixels per
+    frame); None when the trajectory has no sigmas."""
+    sigma = path.sigma(s)
+    if sigma is None:
+        return None
+    depth = np.maximum((path(s, run) @ camera.R.T + camera.t)[:, 2], 1e-6)
+    return 0.5 * (camera.K[0, 0] + camera.K[1, 1]) * sigma / depth
+
+
 def sigma_weights(
     camera: Camera, path: PiecewiseTrajectory, s: np.ndarray, run: np.ndarray, f_scale: float
 ) -> np.ndarray:
-    """Residual scale per frame: f_scale / sqrt(f_scale^2 + sigma_px^2), sigma_px = focal x sigma / depth (ones without
-    sigmas).
+    """Residual scale per frame: f_scale / sqrt(f_scale^2 + sigma_px^2), sigma_px the log's noise in the image
+    (_log_noise_px; ones without sigmas).
     """
-    sigma = path.sigma(s)
-    if sigma is None:
-        return np.ones(len(s))
-    depth = np.maximum((path(s, run) @ camera.R.T + camera.t)[:, 2], 1e-6)
-    sigma_px = 0.5 * (camera.K[0, 0] + camera.K[1, 1]) * sigma / depth
-    return f_scale / np.sqrt(f_scale**2 + sigma_px**2)
+    return _noise_weights(_log_noise_px(camera, path, s, run), len(s), f_scale)
+
+
+def _noise_weights(noise_px: np.ndarray | None, n: int, f_scale: float) -> np.ndarray:
+    """f_scale / sqrt(f_scale^2 + noise_px^2) per frame; n ones without noise."""
+    return np.ones(n) if noise_px is None else f_scale / np.sqrt(f_scale**2 + noise_px**2)
 
 
 def _perpendicular(camera: Camera, path: PiecewiseTrajectory, s: np.ndarray, run: np.ndarray) -> float:

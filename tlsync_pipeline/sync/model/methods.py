@@ -65,13 +65,13 @@ class PaperKind:
 class RefinedParams:
     """r_min: smallest inlier ratio the line search must find; f_scale_px: robust loss
     scale of the refinement (pixels); smooth_trajectory: smooth the logged trajectory
-    first; model_error_px: pixel error of the calibration and log that the
-    intervals allow for."""
+    first; model_error_px: pixel error of the calibration and pose that the
+    intervals allow for (the log's white noise is counted from its own sigma)."""
 
     r_min: float = param(0.01, "ratio")
     f_scale_px: float = param(3.0, "positive")
     smooth_trajectory: bool = param(True, "boolean")
-    model_error_px: float = param(3.0, "non_negative")
+    model_error_px: float = param(1.0, "non_negative")
 
 
 @dataclass(frozen=True)

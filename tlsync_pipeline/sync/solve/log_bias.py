@@ -62,8 +62,10 @@ FAST_FLOOR_M = 0.05  # m: the short term's prior std when the model has no white
 @dataclass(frozen=True)
 class BiasCamera:
     """One camera as the joint fit sees it: the clock values (frame units) and tracked pixels of the frames its
-    refinement used, their weights (sigma_weights), its line, the (alpha, beta) covariance of its own refinement,
-    and its slope prior (or None)."""
+    refinement used, their weights (sigma_weights), its line, the (alpha, beta) covariance its pixels are weighed by
+    in the fit and the marginal likelihood (Refinement.cov_joint), its slope prior (or None), and cov_interval: its
+    refinement's own covariance, by which its pixels count in the bias's posterior, the lines' intervals (None: cov).
+    """
 
     name: str
     camera: Camera
@@ -74,6 +76,7 @@ class BiasCamera:
     beta: float
     cov: np.ndarray
     prior: SlopePrior | None
+    cov_interval: np.ndarray | None = None
 
     @property
     def middle(self) -> float:
@@ -345,7 +348,9 @@ class _Joint:
         start = np.concatenate([self.x0, np.zeros(3 * len(knots))])
         self.inflation = np.array(
             [
-                _inflation(c, rows.residual, rows.local_jacobian(c, len(knots)), f_scale, start[2 * k : 2 * k + 2])
+                _inflation(
+                    c, rows.residual, rows.local_jacobian(c, len(knots)), f_scale, start[2 * k : 2 * k + 2], c.cov
+                )
                 for k, (c, rows) in enumerate(zip(cameras, self._pixels(start)))
             ]
         )
@@ -474,27 +479,36 @@ class _Joint:
         direction along the path H leaves uninformed carries no evidence either.
 
         Each camera's information is its robust bread J^T psi' J divided by its residuals' variance factor
-        (sum psi^2 / sum psi', the M-estimator's), inflated by its own refinement's covariance over that naive
-        one where residuals correlate in time; its gradient J^T psi is divided the same; the prior's is W^T W.
+        (sum psi^2 / sum psi', the M-estimator's), inflated by its covariance (BiasCamera.cov) over that naive
+        one where residuals correlate in time; its gradient J^T psi is divided the same; the prior's is W^T W. The
+        posterior inflates each camera's by its own refinement's covariance (BiasCamera.cov_interval) instead.
         """
         banded = sp.csc_matrix((3 * len(self.knots), 3 * len(self.knots)))
-        low_rank = []
+        banded_interval = banded
+        low_rank, low_rank_interval = [], []
         score = np.zeros(3 * len(self.knots))
         blocks = []
         for k, rows in enumerate(self._pixels(z)):
-            r, jac = rows.residual, rows.local_jacobian(self.cameras[k], len(self.knots), self._seen_along(k, rows, z))
-            inflation = _inflation(self.cameras[k], r, jac, self.f_scale, z[2 * k : 2 * k + 2])
-            h = _bread(self.cameras[k], r, jac, self.f_scale) / inflation
-            g = _gradient(self.cameras[k], r, jac, self.f_scale, z[2 * k]) / inflation
+            c, x = self.cameras[k], z[2 * k : 2 * k + 2]
+            r, jac = rows.residual, rows.local_jacobian(c, len(self.knots), self._seen_along(k, rows, z))
+            inflation = _inflation(c, r, jac, self.f_scale, x, c.cov)
+            h = _bread(c, r, jac, self.f_scale) / inflation
+            g = _gradient(c, r, jac, self.f_scale, z[2 * k]) / inflation
             h_tt, h_tb, h_bb = h[:2, :2], h[:2, 2:], h[2:, 2:]
             root = _pinv_sqrt(h_tt)  # a camera whose line the residuals do not determine tells nothing of the bias
             gain = root @ root @ h_tb  # (2, 3K)
             banded = banded + sp.csc_matrix(h_bb)
             low_rank.append(h_tb.T @ root)
+            own = inflation / _inflation(
+                c, r, jac, self.f_scale, x, c.cov if c.cov_interval is None else c.cov_interval
+            )
+            banded_interval = banded_interval + sp.csc_matrix(own * h_bb)
+            low_rank_interval.append(np.sqrt(own) * h_tb.T @ root)
             score = score + g[2:] - gain.T @ g[:2]
             blocks.append((gain, z[2 * k : 2 * k + 2]))
         data = KnotInformation(banded, np.hstack(low_rank))
-        posterior = np.linalg.pinv((self.whiten.T @ self.whiten).toarray() + data.dense())
+        seen = KnotInformation(banded_interval, np.hstack(low_rank_interval))
+        posterior = np.linalg.pinv((self.whiten.T @ self.whiten).toarray() + seen.dense())
         sensitivity = {}
         for c, (gain, (u, s0)) in zip(self.cameras, blocks):
             to_line = np.array(
@@ -685,11 +699,13 @@ def _gradient(c: BiasCamera, r: np.ndarray, jac: sp.csr_matrix, f_scale: float, 
     return gradient
 
 
-def _inflation(c: BiasCamera, r: np.ndarray, jac: sp.csr_matrix, f_scale: float, x: np.ndarray) -> float:
+def _inflation(
+    c: BiasCamera, r: np.ndarray, jac: sp.csr_matrix, f_scale: float, x: np.ndarray, cov: np.ndarray
+) -> float:
     """What one camera's residuals' information is divided by: their variance factor (sum psi^2 / sum psi', the
-    M-estimator's) times how much more its own refinement's covariance says than that naive one (>= 1)."""
+    M-estimator's) times how much more the covariance ``cov`` of its line says than that naive one (>= 1)."""
     variance = _variance_factor(r, f_scale)
-    return variance * _correlation_factor(c, _bread(c, r, jac, f_scale), variance, x)
+    return variance * _correlation_factor(_bread(c, r, jac, f_scale), variance, x, cov)
 
 
 def _variance_factor(r: np.ndarray, f_scale: float) -> float:
@@ -699,9 +715,8 @@ def _variance_factor(r: np.ndarray, f_scale: float) -> float:
     return max(float(np.sum(psi**2) / max(np.sum(dpsi), 1e-12)), 1e-6)
 
 
-def _correlation_factor(c: BiasCamera, bread: np.ndarray, variance: float, x: np.ndarray) -> float:
-    """How much the camera's own refinement's covariance of (alpha, beta) exceeds the naive one from its residuals (>=
-    1):
+def _correlation_factor(bread: np.ndarray, variance: float, x: np.ndarray, cov: np.ndarray) -> float:
+    """How much a covariance ``cov`` of the camera's (alpha, beta) exceeds the naive one from its residuals (>= 1):
     residuals correlated in time (pose, log) carry less information than their number says."""
     try:
         naive_x = variance * np.linalg.inv(bread[:2, :2])
@@ -710,7 +725,7 @@ def _correlation_factor(c: BiasCamera, bread: np.ndarray, variance: float, x: np
     u, s0 = x
     d = np.array([[-1.0 / u**2, 0.0], [s0 / u**2, -1.0 / u]])
     naive = d @ naive_x @ d.T
-    ratio = np.trace(c.cov) / max(np.trace(naive), 1e-300)
+    ratio = np.trace(cov) / max(np.trace(naive), 1e-300)
     return float(np.clip(ratio, 1.0, 1e6)) if np.isfinite(ratio) else 1.0
 
 

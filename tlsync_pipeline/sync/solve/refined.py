@@ -322,7 +322,8 @@ def error_budget(refinement: Refinement, clock: np.ndarray, log_cov: np.ndarray)
     """Tracking, calibration and log parts of a camera's clock uncertainty (std, frames) at the middle of the frames the
     refinement used.
 
-    log_cov: the part of the (alpha, beta) covariance the log's bias adds (zeros without a bias model).
+    log_cov: the part of the (alpha, beta) covariance the log's bias adds (zeros without a bias model); the log's
+    part also holds its white noise averaged over the fixes (Refinement.cov_log_white).
     """
     middle = _visit_middle(clock[refinement.used], refinement.alpha, refinement.beta)
     g = np.array([middle, 1.0])
@@ -330,7 +331,8 @@ def error_budget(refinement: Refinement, clock: np.ndarray, log_cov: np.ndarray)
     def std(cov: np.ndarray) -> float:
         return float(np.sqrt(max(g @ cov @ g, 0.0)))
 
-    return ErrorBudget(std(refinement.cov - refinement.cov_model), std(refinement.cov_model), std(log_cov))
+    statistical = refinement.cov - refinement.cov_model - refinement.cov_log_white
+    return ErrorBudget(std(statistical), std(refinement.cov_model), std(log_cov + refinement.cov_log_white))
 
 
 def _bias_camera(
@@ -344,7 +346,16 @@ def _bias_camera(
     on = run >= 0
     weight[on] = sigma_weights(data.camera, path, s[on], run[on], f_scale)
     return BiasCamera(
-        data.name, data.camera, clock, xy, weight, refinement.alpha, refinement.beta, refinement.cov, prior
+        data.name,
+        data.camera,
+        clock,
+        xy,
+        weight,
+        refinement.alpha,
+        refinement.beta,
+        refinement.cov_joint,
+        prior,
+        refinement.cov,
     )
 
 
