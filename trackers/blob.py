@@ -250,6 +250,24 @@ class BlobDetector:
 _KERNEL3 = np.ones((3, 3), np.uint8)
 
 
+WARM_SIZES = ((1280, 720), (1920, 1080))  # (width, height) of the frames load_compiled_passes detects in
+
+
+def load_compiled_passes() -> None:
+    """Load (from numba's cache, else compile) the detector's compiled passes for the types they take on frames of
+    WARM_SIZES: nine frames of a bright disc drifting over a grey background, detected at each size (the refinement
+    and, at the eighth frame, the finer levels' learning included). A process whose workers fork from it (a run's
+    fork server) pays this once instead of every worker (about 0.5 s of CPU; compiling them, about 3 s); frames of
+    another size may add a type a worker compiles itself."""
+    import cv2
+
+    for width, height in WARM_SIZES:
+        detector = BlobDetector(np.full((height, width), 100.0, np.float32))
+        for step in range(9):
+            frame = np.full((height, width), 100, np.uint8)
+            detector.detect(cv2.circle(frame, (width // 3 + 4 * step, height // 2), height // 20, 200, -1))
+
+
 @dataclass
 class _State:
     x: float

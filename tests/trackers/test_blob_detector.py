@@ -94,3 +94,40 @@ def test_compiled_area_averages_are_opencvs():
     third(image, out)
     assert np.array_equal(out, cv2.resize(image, (len(sums), 1), interpolation=cv2.INTER_AREA))
     assert out[0, 4] == 0 and out[0, 5] == 1  # 4 / 9 rounds down, 5 / 9 up
+
+
+PRELOADED_THEN_DETECT = """
+import numpy as np, trackers.fork_preload
+import trackers.blob_passes as passes
+from trackers.blob import BlobDetector, WARM_SIZES
+def loaded():
+    compiled = {name: getattr(passes, name) for name in dir(passes)}
+    return {name: len(f.signatures) for name, f in compiled.items() if hasattr(f, "signatures")}
+before = loaded()
+rng = np.random.default_rng(3)
+for width, height in WARM_SIZES:
+    detector = BlobDetector(rng.uniform(60, 160, (height, width)).astype(np.float32))
+    for _ in range(16):
+        frame = rng.integers(0, 256, (height, width), dtype=np.uint8)
+        frame[height // 3 : height // 3 + 40, width // 2 : width // 2 + 60] = 255
+        detector.detect(frame)
+print(before == loaded(), sum(before.values()))
+"""
+
+
+def test_the_fork_servers_preload_loads_every_pass_a_detection_at_the_warm_sizes_takes():
+    """A fresh process that imported trackers.fork_preload (as a run's fork server does) detects in noisy 720p and
+    1080p frames with blobs without adding a compiled type to any pass: its workers inherit them all."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    done = subprocess.run(
+        [sys.executable, "-c", PRELOADED_THEN_DETECT],
+        capture_output=True,
+        text=True,
+        check=True,
+        cwd=Path(__file__).resolve().parents[2],
+    )
+    unchanged, count = done.stdout.split()
+    assert unchanged == "True" and int(count) >= 7  # every pass but upper_decile (compiled into refine)
