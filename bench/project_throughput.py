@@ -268,12 +268,28 @@ def child_env(code: Path, pycache: Path | None) -> dict[str, str]:
     return env
 
 
-def compile_trees(trees: list[Path], pycache: Path) -> None:
-    """Compile every source tree's modules into ``pycache`` before the timed runs."""
+# What a run's processes import, and the blob detector's compiled passes on a keyframe of the video in argv[1].
+_FIRST_RUN = """
+import importlib, sys
+import tlsync_pipeline.cli.main
+from tlsync_pipeline.pipeline.graph import worker_modules
+for module in worker_modules():
+    importlib.import_module(module)
+from trackers.tracking import detect_keyframe_movers
+detect_keyframe_movers(sys.argv[1], indices=[0])
+"""
+
+
+def prepare_trees(trees: list[Path], pycache: Path | None, video: Path) -> None:
+    """Before the timed runs, leave each source tree as an installed package is after its first run: its modules and
+    the libraries a run imports compiled into ``pycache`` (None: left to every process), the blob detector's passes
+    in numba's cache (beside the tree's sources) for ``video``'s frames. Else the first run of a session pays for
+    them (a few seconds of CPU), whichever tree runs first."""
     for code in trees:
-        subprocess.run(
-            [sys.executable, "-m", "compileall", "-q", str(code)], env=child_env(code, pycache), check=True, cwd=code
-        )
+        env = child_env(code, pycache)
+        if pycache is not None:
+            subprocess.run([sys.executable, "-m", "compileall", "-q", str(code)], env=env, check=True, cwd=code)
+        subprocess.run([sys.executable, "-c", _FIRST_RUN, str(video)], env=env, check=True, cwd=code)
 
 
 def tlsync_run(project: Path, work: Path, jobs: int, code: Path = REPOSITORY, pycache: Path | None = None) -> Measure:
@@ -484,8 +500,7 @@ def main() -> None:
         stages = {}
         trees = [("", REPOSITORY)] + ([(f" ({args.compare.name})", args.compare)] if args.compare else [])
         pycache = None if args.no_bytecode_cache else Path(tmp) / "pycache"
-        if pycache is not None:
-            compile_trees([code for _, code in trees], pycache)
+        prepare_trees([code for _, code in trees], pycache, videos[0])
         print(
             "bytecode: "
             + ("compiled in every process (--no-bytecode-cache)" if pycache is None else f"cached in {pycache}")

@@ -111,9 +111,15 @@ def detect_board(
     sector-based detector at about ``detect_size`` px, and, when
     a part of a checker grid is seen in that copy (the diagnosis), the
     sector-based detector in exhaustive mode at up to EXHAUSTIVE_SIZE px
-    (hundreds of ms, not spent on a photo without any board). Returns
-    (corners (N, 2) float64 at full resolution row by row, or None; the
-    method that found them; the reason when none did).
+    (hundreds of ms, not spent on a photo without any board). The classic
+    detector takes 0.1-0.7 s at 720p to give up on a photo with part of a
+    board: when it fails on a copy of half its size first (a quarter of
+    its time; a few ms where the board is clear), the sector-based
+    detector goes first, and the classic one runs after it only where that
+    found the board (its corners preferred, as in the order above) or the
+    diagnosis sees more than a smaller part of a grid (not a cut-off
+    board). Returns (corners (N, 2) float64 at full resolution row by row, or None;
+    the method that found them; the reason when none did).
     """
     import cv2
 
@@ -124,41 +130,54 @@ def detect_board(
             copies[factor] = _reduce(gray, factor)
         return copies[factor]
 
+    def classic(img: np.ndarray):
+        flags = cv2.CALIB_CB_ADAPTIVE_THRESH | cv2.CALIB_CB_NORMALIZE_IMAGE | cv2.CALIB_CB_FAST_CHECK
+        return cv2.findChessboardCorners(img, pattern, flags=flags)
+
+    def sector_based(img: np.ndarray):
+        return cv2.findChessboardCornersSB(img, pattern, flags=cv2.CALIB_CB_NORMALIZE_IMAGE)
+
+    def exhaustive(img: np.ndarray):
+        return cv2.findChessboardCornersSB(img, pattern, flags=cv2.CALIB_CB_NORMALIZE_IMAGE | cv2.CALIB_CB_EXHAUSTIVE)
+
+    grids: list[tuple[int, int] | None] = []  # the grid _seen_grid sees in the detect-size copy, once looked for
+
+    def seen() -> tuple[int, int] | None:
+        if not grids:
+            grids.append(_seen_grid(reduced(first)))
+        return grids[0]
+
+    def attempt(method: str, factor: int, find) -> tuple[np.ndarray | None, str | None, str | None] | None:
+        """The detection's answer when ``find`` finds the board in the copy reduced by ``factor``, else None."""
+        found, corners = find(reduced(factor))
+        if not found or corners is None or len(corners) != pattern[0] * pattern[1]:
+            return None
+        corners = _refine(gray, (corners.reshape(-1, 2).astype(np.float64) + 0.5) * factor - 0.5, pattern)
+        if _extends_beyond(gray, corners, pattern):
+            # A part of a larger board: the pattern is wrong, or the views would be inconsistent.
+            return None, None, _diagnose(seen(), pattern, larger=True)
+        return corners, method, None
+
     long_side = max(gray.shape[:2])
     first = max(1, round(long_side / detect_size))
-    reason = None
-    for method, factor, find in (
-        (
-            "classic",
-            max(1, round(long_side / CLASSIC_SIZE)),
-            lambda img: cv2.findChessboardCorners(
-                img,
-                pattern,
-                flags=cv2.CALIB_CB_ADAPTIVE_THRESH | cv2.CALIB_CB_NORMALIZE_IMAGE | cv2.CALIB_CB_FAST_CHECK,
-            ),
-        ),
-        ("sb", first, lambda img: cv2.findChessboardCornersSB(img, pattern, flags=cv2.CALIB_CB_NORMALIZE_IMAGE)),
-        (
-            "sb-exhaustive",
-            max(1, -(-long_side // EXHAUSTIVE_SIZE)),
-            lambda img: cv2.findChessboardCornersSB(
-                img, pattern, flags=cv2.CALIB_CB_NORMALIZE_IMAGE | cv2.CALIB_CB_EXHAUSTIVE
-            ),
-        ),
-    ):
-        if method == "sb-exhaustive":
-            reason = _diagnose(reduced(first), pattern)
-            if reason == NO_BOARD:
-                return None, None, reason
-        found, corners = find(reduced(factor))
-        if found and corners is not None and len(corners) == pattern[0] * pattern[1]:
-            corners = (corners.reshape(-1, 2).astype(np.float64) + 0.5) * factor - 0.5
-            corners = _refine(gray, corners, pattern)
-            if _extends_beyond(gray, corners, pattern):
-                # A part of a larger board: the pattern is wrong, or the views would be inconsistent.
-                return None, None, _diagnose(reduced(first), pattern, larger=True)
-            return corners, method, None
-    return None, None, reason
+    classic_factor = max(1, round(long_side / CLASSIC_SIZE))
+    gate_factor = max(1, round(long_side / (CLASSIC_SIZE / 2)))
+    if gate_factor == classic_factor or classic(reduced(gate_factor))[0]:
+        answer = attempt("classic", classic_factor, classic) or attempt("sb", first, sector_based)
+    else:  # the same answers in another order, the classic detector last and not on a cut-off board
+        by_sector = attempt("sb", first, sector_based)
+        if by_sector is not None:
+            answer = attempt("classic", classic_factor, classic) or by_sector
+        elif not _within(seen(), _sorted(pattern)):
+            answer = attempt("classic", classic_factor, classic)
+        else:
+            answer = None
+    if answer is not None:
+        return answer
+    reason = _diagnose(seen(), pattern)
+    if reason == NO_BOARD:
+        return None, None, reason
+    return attempt("sb-exhaustive", max(1, -(-long_side // EXHAUSTIVE_SIZE)), exhaustive) or (None, None, reason)
 
 
 def _reduce(gray: np.ndarray, factor: int) -> np.ndarray:
@@ -245,15 +264,31 @@ def _extends_beyond(gray: np.ndarray, corners: np.ndarray, pattern: tuple[int, i
     return False
 
 
-def _diagnose(small: np.ndarray, pattern: tuple[int, int], larger: bool = False) -> str:
-    """Why no full board was found: a smaller or larger grid visible, or nothing."""
+def _seen_grid(small: np.ndarray) -> tuple[int, int] | None:
+    """The inner corners (larger, smaller) of the largest checker grid the sector-based detector grows from a 3 x 3
+    part of one in ``small``; None when it sees none."""
     import cv2
 
     found, corners, meta = cv2.findChessboardCornersSBWithMeta(
         small, (3, 3), flags=cv2.CALIB_CB_NORMALIZE_IMAGE | cv2.CALIB_CB_LARGER
     )
-    seen = sorted(meta.shape[:2], reverse=True) if found and meta is not None else None
-    want = sorted(pattern, reverse=True)
+    return _sorted(meta.shape[:2]) if found and meta is not None else None
+
+
+def _sorted(size) -> tuple[int, int]:
+    """A grid's two sizes, the larger first."""
+    return max(size), min(size)
+
+
+def _within(seen: tuple[int, int] | None, want: tuple[int, int]) -> bool:
+    """Whether a grid seen (sizes sorted) is a smaller part of one of ``want``'s: no larger either way, not equal."""
+    return seen is not None and seen[0] <= want[0] and seen[1] <= want[1] and seen != want
+
+
+def _diagnose(seen: tuple[int, int] | None, pattern: tuple[int, int], larger: bool = False) -> str:
+    """Why no full board was found, from the grid seen (``_seen_grid``): a smaller or larger grid visible, or
+    nothing."""
+    want = _sorted(pattern)
     bigger = seen is not None and (seen[0] > want[0] or seen[1] > want[1])
     if larger and not bigger:
         return f"pattern mismatch: a board with more inner corners than {pattern[0]}x{pattern[1]} found"

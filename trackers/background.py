@@ -28,8 +28,15 @@ class Background:
 
 def sample_background(path: str | Path, params: BlobParams) -> Background:
     """The background of ``path``: the median of params.background_frames luma frames spread over the video."""
-    median, deviation = median_background(sample_frames(Path(path), params.background_frames, gray=True))
-    return Background(median.astype(np.float32), deviation.astype(np.float32))
+    return sample_background_frames(path, params)[0]
+
+
+def sample_background_frames(path: str | Path, params: BlobParams) -> tuple[Background, dict[int, np.ndarray]]:
+    """The background of ``path`` (``sample_background``) and the luma frames it is the median of, by 0-based index:
+    keyframes as a rule, which the scan's coarse pass then need not decode again."""
+    frames = sample_frames(Path(path), params.background_frames, gray=True)
+    median, deviation = median_background(list(frames.values()))
+    return Background(median.astype(np.float32), deviation.astype(np.float32)), frames
 
 
 def write_background(background: Background, path: str | Path) -> None:

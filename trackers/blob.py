@@ -250,6 +250,28 @@ class BlobDetector:
 _KERNEL3 = np.ones((3, 3), np.uint8)
 
 
+def load_compiled_passes() -> None:
+    """Load (from numba's cache, else compile) every compiled pass for the types the detector hands it: 8-bit frames
+    and masks, float32 backgrounds, 16- or 32-bit labels, frames halved or cut to a third whether contiguous or
+    cropped. A process whose workers fork from it (a run's fork server) pays this once instead of every worker
+    (about 0.5 s of CPU; compiling them, about 2 s). Small arrays and no OpenCV call: OpenCV's thread pool, once
+    started, would be inherited broken by every fork."""
+    import trackers.blob_passes as passes
+
+    frame = np.zeros((12, 12), np.uint8)
+    for image in (frame, frame[:, :11]):  # contiguous, and cropped to a multiple of the scale
+        passes.halve(image, np.zeros((6, 5), np.uint8))
+        passes.third(image, np.zeros((4, 3), np.uint8))
+    small, mask = np.zeros((6, 6), np.uint8), np.zeros((6, 6), np.uint8)
+    background, deviation, diff = (np.ones((6, 6), np.float32) for _ in range(3))
+    passes.frame_gain(small, background, mask)
+    passes.foreground(small, background, deviation, 1.0, 4.0, 12.0, diff, mask)
+    passes.learn(small, diff, background, deviation, mask, 1.0, 0.02)
+    passes.learn_level(frame, np.ones((12, 12), np.float32), mask, 2, 1.0, 0.02)
+    for labels in (np.ones((2, 2), np.uint16), np.ones((2, 2), np.int32)):
+        passes.refine(labels, 1, (0, 0, 2, 2), (1, 1), diff, frame, np.ones((12, 12), np.float32), 2, 1.0, 2.0, (6, 6))
+
+
 @dataclass
 class _State:
     x: float

@@ -139,6 +139,7 @@ def detect_keyframe_movers(
     first_id: int = 0,
     detector: BlobDetector | None = None,
     meter: KeyframeMeter | None = None,
+    decoded: dict[int, np.ndarray] | None = None,
 ) -> Detections:
     """Every moving-object candidate of every keyframe (or of those at frame ``indices``) of ``path``
     (``iter_keyframes``): the coarse pass.
@@ -148,14 +149,15 @@ def detect_keyframe_movers(
     calls), fed the keyframes only (each decoded alone). Keyframes are too
     far apart to link movers over, so each candidate is a tracklet of its
     own (ids from ``first_id`` on). meter: fed each keyframe read
-    (trackers/breaks.py). TrackInputError when the video has no packet
-    index.
+    (trackers/breaks.py); decoded: luma images already decoded by frame
+    index (the background's samples), not decoded again. TrackInputError
+    when the video has no packet index.
     """
     path = Path(path)
     if detector is None:
         detector = movers_detector(path, params)
     rows: list[tuple] = []
-    for index, time_s, gray in iter_keyframes(path, gray=True, count=count, indices=indices):
+    for index, time_s, gray in iter_keyframes(path, gray=True, count=count, indices=indices, decoded=decoded):
         if meter is not None:
             meter.feed(index, gray)
         for blob in detector.detect(gray):

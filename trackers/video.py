@@ -253,7 +253,11 @@ def frame_count(path: str | Path) -> int | None:
 
 
 def iter_keyframes(
-    path: str | Path, gray: bool = True, count: DecodeCount | None = None, indices: Iterable[int] | None = None
+    path: str | Path,
+    gray: bool = True,
+    count: DecodeCount | None = None,
+    indices: Iterable[int] | None = None,
+    decoded: dict[int, np.ndarray] | None = None,
 ) -> Iterator[VideoFrame]:
     """Every keyframe of ``path`` (or those at the 0-based frame ``indices``) in order, with its index and presentation
     time, each decoded alone.
@@ -262,8 +266,12 @@ def iter_keyframes(
     decoded, each on its own: the decoder is drained after it and reset
     (``flush_buffers``), so no other frame is ever decoded. A keyframe costs
     about five average frames of H.264: at one every 60 frames this reads
-    the video for about a tenth of decoding it all. TrackInputError when the
-    video has no packet index (no timestamps) or a keyframe cannot be decoded.
+    the video for about a tenth of decoding it all. decoded: images already
+    decoded (as ``gray`` asks) by frame index, yielded instead of decoding
+    their packets again (a keyframe decodes to the same image alone or after
+    a seek); count.decoded counts only what is decoded here. TrackInputError
+    when the video has no packet index (no timestamps) or a keyframe cannot
+    be decoded.
     """
     import av
 
@@ -281,6 +289,12 @@ def iter_keyframes(
         try:
             for packet in container.demux(stream):
                 if packet.pts is None or packet.size == 0 or packet.pts not in wanted:
+                    continue
+                index = where[packet.pts]
+                if decoded is not None and index in decoded:
+                    if count is not None:
+                        count.yielded += 1
+                    yield VideoFrame(index, _packet_time(packet, stream), decoded[index])
                     continue
                 frames = _decode_alone(stream, packet)
                 stream.codec_context.flush_buffers()
@@ -738,6 +752,11 @@ def _fps(stream) -> float:
     return float(rate) if rate else 0.0
 
 
+def _packet_time(packet, stream) -> float:
+    """The presentation time (s) ``_time`` gives the frame a packet with a pts decodes to: that pts in its time base."""
+    return float(packet.pts * (packet.time_base or stream.time_base or Fraction(1, 1)))
+
+
 def _time(frame, stream, index: int, fps: float) -> float:
     """Presentation time in seconds: pts * time_base, or index / fps when the frame has no pts."""
     if frame.pts is not None:
@@ -755,8 +774,9 @@ def _progress_bar(total: int, desc: str):
 MIN_KEYFRAME_SAMPLES = 8  # sample_frames takes only keyframes when the video has at least this many (or ``count``)
 
 
-def sample_frames(path: str | Path, count: int, gray: bool = True) -> list[np.ndarray]:
-    """Up to ``count`` frames spread evenly over the whole video, each decoded once by seeking.
+def sample_frames(path: str | Path, count: int, gray: bool = True) -> dict[int, np.ndarray]:
+    """Up to ``count`` frames spread evenly over the whole video, each decoded once by seeking, by 0-based index (as
+    ``iter_frames`` numbers them) in order.
 
     Keyframes when the video has at least ``count`` of them, or at least
     MIN_KEYFRAME_SAMPLES (then every keyframe: a keyframe decodes on its own,
@@ -778,19 +798,19 @@ def sample_frames(path: str | Path, count: int, gray: bool = True) -> list[np.nd
             indices = sorted(set(np.linspace(0, n - 1, min(count, n)).round().astype(int).tolist()))
         if set(pts_list[i] for i in indices) <= set(keyframes):
             try:
-                return _read_keyframes(path, [pts_list[i] for i in indices], gray)
+                return dict(zip(indices, _read_keyframes(path, [pts_list[i] for i in indices], gray)))
             except TrackInputError:
                 pass  # decoded from their keyframes below, as any other frame
         try:
             frames = _read_indexed(path, indices, gray, pts_list, keyframes)
-            return [frames[i].image for i in indices]
+            return {i: frames[i].image for i in indices}
         except TrackInputError:
             pass
-    out = []
+    out = {}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", TruncatedVideoWarning)
         for frame in iter_frames(path, gray=gray):
-            out.append(frame.image)
+            out[frame.index] = frame.image
             if len(out) >= count:
                 break
     return out

@@ -317,3 +317,26 @@ def test_a_few_images_of_another_size_are_rejected(detections):
     odd = [Detection(f"phone_{i}.jpg", (600, 800), None, None, "no board found") for i in range(2)]
     result = calibrate_detections(list(detections) + odd, PATTERN)
     assert result.rejected["phone_0.jpg"] == "different size 600x800 (the calibration uses 800x600)"
+
+
+def test_a_cut_off_board_is_not_handed_to_the_full_size_classic_detector(monkeypatch):
+    """720p photos: every complete board is found by the classic detector as before, and a cut-off one (where it
+    takes 0.1-0.7 s to give up) only reaches it on the half-size copy, which fails fast."""
+    boards = render_checkerboards(
+        seed=12, n_full=2, n_cut=2, n_absent=0, image_size=(1280, 720), pattern=(7, 5), supersample=1
+    )
+    widths: list[int] = []
+    classic = cv2.findChessboardCorners
+
+    def counted(image, *args, **kwargs):
+        widths.append(image.shape[1])
+        return classic(image, *args, **kwargs)
+
+    monkeypatch.setattr(cv2, "findChessboardCorners", counted)
+    for view, image in zip(boards.views, boards.images):
+        widths.clear()
+        corners, method, reason = detect_board(cv2.cvtColor(image, cv2.COLOR_BGR2GRAY), (7, 5))
+        if view.kind == "full":
+            assert method == "classic" and widths == [640, 1280]
+        else:
+            assert corners is None and reason.startswith("incomplete board") and widths == [640]

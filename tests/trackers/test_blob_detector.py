@@ -94,3 +94,52 @@ def test_compiled_area_averages_are_opencvs():
     third(image, out)
     assert np.array_equal(out, cv2.resize(image, (len(sums), 1), interpolation=cv2.INTER_AREA))
     assert out[0, 4] == 0 and out[0, 5] == 1  # 4 / 9 rounds down, 5 / 9 up
+
+
+PRELOADED_THEN_DETECT = """
+import os, signal
+import cv2, numpy as np, trackers.fork_preload
+import trackers.blob_passes as passes
+from trackers.blob import BlobDetector
+def loaded():
+    compiled = {name: getattr(passes, name) for name in dir(passes)}
+    return {name: len(f.signatures) for name, f in compiled.items() if hasattr(f, "signatures")}
+before = loaded()
+forks_ran = True
+for _ in range(3):  # as a worker does: one OpenCV thread, then OpenCV's parallel code
+    pid = os.fork()
+    if pid == 0:
+        signal.alarm(10)
+        cv2.setNumThreads(1)
+        cv2.resize(np.zeros((1080, 1920), np.float32), (480, 270), interpolation=cv2.INTER_AREA)
+        os._exit(0)
+    forks_ran &= os.waitpid(pid, 0)[1] == 0
+rng = np.random.default_rng(3)
+for width, height in ((1280, 720), (1920, 1080), (1000, 562)):
+    detector = BlobDetector(rng.uniform(60, 160, (height, width)).astype(np.float32))
+    for _ in range(16):
+        frame = rng.integers(0, 256, (height, width), dtype=np.uint8)
+        frame[height // 3 : height // 3 + 40, width // 2 : width // 2 + 60] = 255
+        detector.detect(frame)
+print(forks_ran, before == loaded(), sum(before.values()))
+"""
+
+
+def test_the_fork_servers_preload_loads_every_pass_a_detection_takes_and_starts_no_opencv_pool():
+    """A fresh process that imported trackers.fork_preload (as a run's fork server does): its forks run OpenCV with
+    one thread (an OpenCV thread pool started before the fork would hang them), and detections in noisy frames of
+    three sizes (halved, cut to a third, cropped or not) add no compiled type to any pass: workers inherit them all."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    done = subprocess.run(
+        [sys.executable, "-c", PRELOADED_THEN_DETECT],
+        capture_output=True,
+        text=True,
+        check=True,
+        cwd=Path(__file__).resolve().parents[2],
+        timeout=120,
+    )
+    forks_ran, unchanged, count = done.stdout.split()
+    assert forks_ran == "True" and unchanged == "True" and int(count) >= 10

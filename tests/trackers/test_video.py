@@ -79,7 +79,10 @@ def test_read_frames_past_the_end(jittered):
 
 def test_sample_frames_spread_over_the_video(jittered):
     frames = sample_frames(jittered.path, 5)
-    assert len(frames) == 5 and frames[0].shape == (240, 320)
+    assert len(frames) == 5 and all(f.shape == (240, 320) for f in frames.values())
+    sequential = {f.index: f.image for f in iter_frames(jittered.path, gray=True)}
+    for index, image in frames.items():  # each at its index as iter_frames numbers them
+        np.testing.assert_array_equal(image, sequential[index])
 
 
 def _counting_decodes(monkeypatch, alone: list | None = None):
@@ -125,6 +128,20 @@ def test_keyframes_alone_each_decoded_once(jittered, monkeypatch):
         assert frame.time_s == pytest.approx(sequential[frame.index].time_s, abs=1e-9)
         np.testing.assert_array_equal(frame.image, sequential[frame.index].image)
     assert [f.index for f in iter_keyframes(jittered.path, indices=[60, 0])] == [0, 60]
+
+
+def test_keyframes_already_decoded_are_not_decoded_again(jittered, monkeypatch):
+    """A keyframe handed in (``decoded``) is yielded as given, at the time its decoding gives, without a decode."""
+    alone = {f.index: f for f in iter_keyframes(jittered.path)}
+    given = {30: sample_frames(jittered.path, 3)[30]}
+    decoded = _counting_decodes(monkeypatch)
+    count = DecodeCount()
+    frames = list(iter_keyframes(jittered.path, count=count, decoded=given))
+    assert [f.index for f in frames] == [0, 30, 60] and count.decoded == 2 == len(decoded) and count.yielded == 3
+    assert frames[1].image is given[30]
+    for frame in frames:
+        assert frame.time_s == alone[frame.index].time_s
+        np.testing.assert_array_equal(frame.image, alone[frame.index].image)
 
 
 def test_windows_give_the_frames_of_a_whole_pass(jittered):
@@ -182,7 +199,8 @@ def test_background_samples_are_keyframes_each_decoded_once(tmp_path, monkeypatc
     assert all(f.key_frame for f in decoded)
     assert len(packets) == 10 and all(p.is_keyframe for p in packets)  # the decoder got the keyframes' packets only
     keyframes = read_frames(clip.path, range(0, 100, 10), gray=True)
-    for frame, index in zip(frames, range(0, 100, 10)):
+    assert list(frames) == list(range(0, 100, 10))
+    for index, frame in frames.items():
         np.testing.assert_array_equal(frame, keyframes[index].image)
 
 

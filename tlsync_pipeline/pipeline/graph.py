@@ -62,12 +62,14 @@ assert STAGES == tuple(STAGE_SPECS) and PER_CAMERA == tuple(n for n, s in STAGE_
     "stage_names.py lists STAGE_SPECS"
 )
 LAZY_LIBRARIES = ("cv2", "matplotlib.pyplot")  # imported by the stages only where they draw or read pictures
+COMPILED = ("trackers.fork_preload",)  # the blob detector's compiled passes (numba), loaded at their import
 
 
 def worker_modules() -> tuple[str, ...]:
     """What a run's local workers import before their first task (ProcessExecutor's preload): every stage's module
-    (render's draws each camera on them) and the libraries the stages import lazily."""
-    return (*sorted({spec.run.__module__ for spec in STAGE_SPECS.values()}), *LAZY_LIBRARIES)
+    (render's draws each camera on them), the libraries the stages import lazily and the detector's compiled
+    passes."""
+    return (*sorted({spec.run.__module__ for spec in STAGE_SPECS.values()}), *LAZY_LIBRARIES, *COMPILED)
 
 
 # Artefact kind -> the stage that first makes it (a camera's track.csv: the track stage, or identify for every mover).

@@ -176,7 +176,7 @@ def test_the_keyframes_between_are_read_when_the_first_ones_cannot_decide(long_s
     movers = movers.subset(~hidden)
     calls = []
 
-    def detect(video, indices, first_id, detector, meter=None):
+    def detect(video, indices, first_id, detector, meter=None, decoded=None):
         calls.append(list(indices))
         rows = movers.subset(np.isin(movers.frame, indices))
         return dataclasses.replace(rows, id=np.arange(first_id, first_id + len(rows)))
@@ -203,7 +203,7 @@ def test_a_camera_clock_prior_reads_only_the_keyframes_near_the_log(long_scene, 
     movers, keys = _keyframe_movers(long_scene, name)
     calls = []
 
-    def detect(video, indices, first_id, detector, meter=None):
+    def detect(video, indices, first_id, detector, meter=None, decoded=None):
         calls.extend(indices)
         rows = movers.subset(np.isin(movers.frame, indices))
         return dataclasses.replace(rows, id=np.arange(first_id, first_id + len(rows)))

@@ -46,7 +46,7 @@ from tlsync_pipeline.sync.identify.scan import (
 from tlsync_pipeline.sync.model.methods import preparation_of, prepare_trajectory
 from tlsync_pipeline.sync.model.params import Preparation
 from tlsync_pipeline.trajectory import Trajectory, read_trajectory
-from trackers.background import Background, sample_background, write_background
+from trackers.background import Background, sample_background_frames, write_background
 from trackers.breaks import KeyframeMeter, check_spans, still_packet_runs
 from trackers.detections import COLUMNS, Detections, make_detections
 from trackers.tracking import detect_keyframe_movers, movers_detector, movers_params
@@ -65,6 +65,7 @@ def scan_video(
     parameters: dict | None = None,
     prior: OffsetPrior | None = None,
     background: Background | None = None,
+    decoded: dict[int, np.ndarray] | None = None,
 ) -> ScanPlan:
     """The scan of one video: every frame (with the reason) when the coarse pass would not pay, else its plan.
 
@@ -77,7 +78,9 @@ def scan_video(
     the blob detector's by name; prior: what the camera's clock says about
     its offset (the keyframes read are those where the log can be seen,
     ``keyframe_range``); None: every keyframe may show the target;
-    background: the video's background model (None: sampled here).
+    background: the video's background model (None: sampled here);
+    decoded: luma frames already decoded by index (the background's
+    samples), not decoded again.
     """
     n_frames, keys = frame_count(video), keyframe_indices(video)
     why = before_coarse(camera, prepared, n_frames, keys, fps, params)
@@ -104,6 +107,7 @@ def scan_video(
                 first_id=sum(len(f) for f in found),
                 detector=detector,
                 meter=keyframes,
+                decoded=decoded,
             )
         )
         read = np.union1d(read, more)
@@ -149,7 +153,7 @@ def run_scan(files: StageFiles, params: ScanStageParams) -> StageResult:
     """
     prepared = prepare_trajectory(read_trajectory(files.path("trajectory")), params.preparation)
     video = files.path("video")
-    background = sample_background(video, movers_params(video, dict(params.parameters)))
+    background, samples = sample_background_frames(video, movers_params(video, dict(params.parameters)))
     if params.survey is None:
         camera = read_camera(files.path("camera"), name=files.camera)
         plan = scan_video(
@@ -160,6 +164,7 @@ def run_scan(files: StageFiles, params: ScanStageParams) -> StageResult:
             params.identify,
             dict(params.parameters),
             background=background,
+            decoded=samples,
         )
     else:
         try:
@@ -178,6 +183,7 @@ def run_scan(files: StageFiles, params: ScanStageParams) -> StageResult:
                 params.identify,
                 dict(params.parameters),
                 background=background,
+                decoded=samples,
             )
     with files.write("scan") as tmp:
         write_scan(plan, tmp)
