@@ -133,3 +133,24 @@ def test_how_far_below_the_top_an_offset_is_alike_grows_with_the_positions_both_
     loose = coarse_profile({1000.0: 180.0, 3000.0: 174.0})
     assert len(untested_offsets(*saturated, 200, [best], best, 0.0, FPS)) == 0
     assert untested_offsets(*loose, 200, [best], best, 0.0, FPS).tolist() == [3000.0]
+
+
+@pytest.mark.slow
+def test_a_winner_whose_look_alike_corners_were_never_fitted_is_refused():
+    """The wild bench's nopose seed 10 (a turning walk under a phone's 2 m / 60 s log, declared, no pose): cam2's
+    winner is an upright pose at a corner 4583 frames off whose fitted rivals explain the track far worse, the right
+    offset and the corners the exact log finds alike never fitted; the search scores such offsets alike, and the
+    camera is refused for them instead of synchronized wrong."""
+    from data_fixtures.log_error import PRESETS as RECEIVERS
+    from data_fixtures.walk import WalkSpec, make_walk_scene
+    from tlsync_pipeline.sync.model.params import SyncParams
+    from tlsync_pipeline.sync.solve.synchronize import CameraInput, synchronize
+
+    scene = make_walk_scene(10, WalkSpec(route="turns", log=RECEIVERS["phone2"], speed_mps=1.4))
+    camera = scene.cameras["cam2"]
+    unposed = replace(camera, R=np.eye(3), t=np.zeros(3), to_estimate=("pose",), pose_info=None)
+    inputs = {"cam2": CameraInput(unposed, scene.tracks["cam2"], camera.fps)}
+    timeline, _ = synchronize(inputs, scene.trajectory, SyncParams(), log_model=LOG_MODELS["phone"])
+    assert "cam2" not in timeline.cameras
+    reasons = timeline.statuses(["cam2"])["cam2"].reasons
+    assert any(r.code == "ambiguous_offset" and "no pose was fitted at" in r.text for r in reasons), reasons
