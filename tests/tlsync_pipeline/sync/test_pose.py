@@ -616,9 +616,11 @@ def test_under_a_biased_log_a_curved_path_needs_no_rival_and_a_straight_one_a_de
     depth = P.median_depth(found.fit.camera, clock[found.fit.inliers], path, found.fit.alpha, found.fit.beta)
     angle = np.degrees(1.0 / depth)  # a log error of 1 m a fixed pose cannot absorb, seen at the target's depth
 
-    def check(rotation, rival=0.0, straightness=0.3, se_beta=3.0 * fps):
+    def check(rotation, rival=0.0, straightness=0.3, se_beta=3.0 * fps, untested=()):
         fit = replace(found.fit, se_beta=se_beta, rotation_std_deg=rotation, center_std_m=0.5 * depth)
-        pose = replace(found, fit=fit, straightness=straightness, rival_probability=rival, runner_up_beta=0.0)
+        pose = replace(
+            found, fit=fit, straightness=straightness, rival_probability=rival, runner_up_beta=0.0, untested=untested
+        )
         P.check_determined(pose, clock, path, False, 1.0, fps)
 
     check(20 * angle)  # a loose pose and a loose timing with no rival: kept, its interval says how loose
@@ -626,6 +628,9 @@ def test_under_a_biased_log_a_curved_path_needs_no_rival_and_a_straight_one_a_de
     with pytest.raises(P.PoseError) as rival:
         check(angle, rival=P.RIVAL_PROBABILITY)
     assert rival.value.cause == "ambiguous_offset"
+    with pytest.raises(P.PoseError) as untested:  # an offset the search scored alike and no pose was fitted at
+        check(20 * angle, untested=(found.fit.beta + 3000.0,))
+    assert untested.value.cause == "ambiguous_offset" and f"{found.fit.beta + 3000.0:.0f}" in str(untested.value)
     with pytest.raises(P.PoseError) as nearly_straight:
         check(6 * angle, straightness=0.04)
     assert nearly_straight.value.cause == "straight_path"

@@ -17,6 +17,7 @@ from tlsync_pipeline.sync.pose.timing import (
     one_timing,
     rival_probability,
     timing_spread,
+    untested_offsets,
 )
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
 
@@ -101,3 +102,55 @@ def test_a_rival_few_blocks_barely_rule_out_keeps_its_share():
     rival = fit(900.0, errors=errors(loss), scale_px=scale)
     probability = rival_probability(best, rival, np.arange(30.0 * blocks), FPS)
     assert 0.01 < probability < 0.03
+
+
+def coarse_profile(peaks: dict[float, float], floor: float = 120.0) -> tuple[np.ndarray, np.ndarray]:
+    """A coarse pass over beta 0-6000 (steps of 5 frames): ``floor`` positions explained but at the peaks (beta: the
+    positions of 200 explained there), each peak 40 frames wide."""
+    betas = np.arange(0.0, 6000.0, 5.0)
+    support = np.full(len(betas), floor)
+    for beta, top in peaks.items():
+        support = np.maximum(support, top - 0.05 * np.abs(betas - beta))
+    return betas, support
+
+
+def test_an_offset_the_coarse_pass_scores_alike_is_untested_until_a_pose_is_fitted_there():
+    betas, support = coarse_profile({1000.0: 196.0, 2000.0: 195.0, 4000.0: 170.0})
+    best = fit(1000.0, se_beta=3.0)
+    untested = untested_offsets(betas, support, 200, [best], best, 0.0, FPS)
+    assert untested.tolist() == [2000.0]  # one per timing: the peak's shoulders are its timing; 170 is far below
+    assert len(untested_offsets(betas, support, 200, [best, fit(2010.0)], best, 0.0, FPS)) == 0
+    # the bias along the path widens a timing: a fit 60 frames off covers the peak under a 2 s bias at 30 fps
+    assert len(untested_offsets(betas, support, 200, [best, fit(2060.0)], best, 0.0, FPS)) == 1
+    assert len(untested_offsets(betas, support, 200, [best, fit(2060.0)], best, 60.0, FPS)) == 0
+
+
+def test_how_far_below_the_top_an_offset_is_alike_grows_with_the_positions_both_miss():
+    """6 positions below the top: alike when both miss many (top 180: misses 20 and 26), told apart when the top
+    misses 1 and the other 7 (6 over the root of 8 is above NEAR_TOP_Z)."""
+    best = fit(1000.0)
+    saturated = coarse_profile({1000.0: 199.0, 3000.0: 193.0})
+    loose = coarse_profile({1000.0: 180.0, 3000.0: 174.0})
+    assert len(untested_offsets(*saturated, 200, [best], best, 0.0, FPS)) == 0
+    assert untested_offsets(*loose, 200, [best], best, 0.0, FPS).tolist() == [3000.0]
+
+
+@pytest.mark.slow
+def test_a_winner_whose_look_alike_corners_were_never_fitted_is_refused():
+    """The wild bench's nopose seed 10 (a turning walk under a phone's 2 m / 60 s log, declared, no pose): cam2's
+    winner is an upright pose at a corner 4583 frames off whose fitted rivals explain the track far worse, the right
+    offset and the corners the exact log finds alike never fitted; the search scores such offsets alike, and the
+    camera is refused for them instead of synchronized wrong."""
+    from data_fixtures.log_error import PRESETS as RECEIVERS
+    from data_fixtures.walk import WalkSpec, make_walk_scene
+    from tlsync_pipeline.sync.model.params import SyncParams
+    from tlsync_pipeline.sync.solve.synchronize import CameraInput, synchronize
+
+    scene = make_walk_scene(10, WalkSpec(route="turns", log=RECEIVERS["phone2"], speed_mps=1.4))
+    camera = scene.cameras["cam2"]
+    unposed = replace(camera, R=np.eye(3), t=np.zeros(3), to_estimate=("pose",), pose_info=None)
+    inputs = {"cam2": CameraInput(unposed, scene.tracks["cam2"], camera.fps)}
+    timeline, _ = synchronize(inputs, scene.trajectory, SyncParams(), log_model=LOG_MODELS["phone"])
+    assert "cam2" not in timeline.cameras
+    reasons = timeline.statuses(["cam2"])["cam2"].reasons
+    assert any(r.code == "ambiguous_offset" and "no pose was fitted at" in r.text for r in reasons), reasons

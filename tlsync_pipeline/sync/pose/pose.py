@@ -98,7 +98,14 @@ from tlsync_pipeline.sync.pose.pose_fit import (
     reprojection_errors,
 )
 from tlsync_pipeline.sync.pose.pose_timing import PoseTiming
-from tlsync_pipeline.sync.pose.timing import DISTINCT_S, bias_frames, one_timing, rival_probability, timing_spread
+from tlsync_pipeline.sync.pose.timing import (
+    DISTINCT_S,
+    bias_frames,
+    one_timing,
+    rival_probability,
+    timing_spread,
+    untested_offsets,
+)
 from tlsync_pipeline.sync.pose.upright import is_upright, roll_deg
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
 from trackers.detections import Detections
@@ -174,7 +181,7 @@ class PoseError(SyncError):
 @dataclass(frozen=True)
 class OffsetSearch:
     """The search over beta: the fine pass's offsets and supports (MSAC scores of the pairs, ``_Scorer.fit``), pairs per
-    offset, threshold and steps.
+    offset, threshold and steps; the coarse pass's offsets and supports (at COARSE times the threshold).
     """
 
     betas: np.ndarray
@@ -184,6 +191,8 @@ class OffsetSearch:
     coarse_step: float
     fine_step: float
     offsets_tried: int
+    coarse_betas: np.ndarray
+    coarse_support: np.ndarray
 
 
 @dataclass(frozen=True)
@@ -221,7 +230,9 @@ class TargetPose:
     the track's evidence (sync/pose/timing.py; NaN otherwise), and
     timing_spread: how far (clock units) the fits that are one timing with
     the winner lie from its beta (0 otherwise), which the line's interval
-    carries.
+    carries, and untested: the offsets the search's coarse pass scores alike
+    with its top that no fit is one timing with (sync/pose/timing.py,
+    ``untested_offsets``; empty otherwise).
     """
 
     camera: Camera
@@ -243,6 +254,7 @@ class TargetPose:
     bias_beta: float = float("nan")
     rival_probability: float = float("nan")
     timing_spread: float = 0.0
+    untested: tuple[float, ...] = ()
 
     @property
     def support(self) -> int:
@@ -296,6 +308,7 @@ class TargetPose:
             "runner_up_beta": None if not np.isfinite(self.runner_up_beta) else self.runner_up_beta,
             "rival_probability": None if not np.isfinite(self.rival_probability) else self.rival_probability,
             "timing_spread": self.timing_spread,
+            "untested_betas": list(self.untested),
             "straightness": self.straightness,
             "timing": self.timing.to_dict(),
             "search": {
@@ -722,8 +735,9 @@ def ranked_pose(
     or without one) an offset more than DISTINCT_S away is distinct and the runner-up is the distinct fit of the best
     score. Under a log with a bias (clock, path and log_model given, fps known) a fit is distinct when it is not one
     timing with the winner (sync/pose/timing.py: beyond the betas' stds and what the bias along the path explains);
-    the runner-up is the distinct fit the track's evidence makes most probable (``rival_probability``), and the
-    timing's spread is that of the fits that are one timing.
+    the runner-up is the distinct fit the track's evidence makes most probable (``rival_probability``), the
+    timing's spread is that of the fits that are one timing, and the offsets the search's coarse pass scores alike with
+    its top that no fit is one timing with are kept (``untested_offsets``).
 
     max_roll_deg: the upright-mount prior (sync/pose/upright.py; None or with GCPs: off): the best is the first fit
     whose roll is within it, and every other fit, rolled or not, stays a possible runner-up with all its evidence (a
@@ -747,6 +761,7 @@ def ranked_pose(
     tight = TIGHT * max(float(np.median(best.errors[best.inliers])), 0.5)
     biased = clock is not None and path is not None and log_model is not None and log_model.has_bias and fps > 0
     probability, spread = float("nan"), 0.0
+    untested: tuple[float, ...] = ()
     if biased:
         bias = bias_frames(best, clock, path, log_model)  # type: ignore[arg-type]
         distinct = [f for f in fits if not one_timing(best, f, bias, fps)]
@@ -754,6 +769,8 @@ def ranked_pose(
         runner = distinct[int(np.argmax(odds))] if distinct else None
         probability = max(odds, default=0.0)
         spread = timing_spread(best, fits, bias, fps)
+        alike = untested_offsets(search.coarse_betas, search.coarse_support, search.pairs, fits, best, bias, fps)
+        untested = tuple(float(b) for b in alike)
     else:
         distinct = [f for f in fits if abs(f.beta - best.beta) > DISTINCT_S * fps]
         runner = max(distinct, key=lambda f: msac(f.errors, tight)) if distinct else None
@@ -770,6 +787,7 @@ def ranked_pose(
         straightness(xy[best.inliers]),
         rival_probability=probability,
         timing_spread=spread,
+        untested=untested,
     )
     if gcp_camera is not None:
         result = replace(
@@ -827,7 +845,8 @@ def check_determined(
     ambiguous when, under a log with a bias (the result's
     ``rival_probability`` measured), the track's evidence leaves the rival
     at least RIVAL_PROBABILITY (a rival being a fit that is not one timing
-    with the winner, sync/pose/timing.py), otherwise when the runner-up
+    with the winner, sync/pose/timing.py) or the search scores alike an
+    offset no pose was fitted at (``untested``), otherwise when the runner-up
     scores AMBIGUOUS of the winner. Under a log with a bias (log_m > 0 and
     the camera's fps) the pose absorbs the log's error and serves the
     timing only (``pose_info``): on a path that is not nearly straight in
@@ -854,6 +873,14 @@ def check_determined(
             "ambiguous_offset",
             f"a pose at another offset keeps {100 * result.rival_probability:.0f} % of the track's evidence "
             f"(beta {result.runner_up_beta:.1f} and {fit.beta:.1f}, beyond what the log's bias explains)",
+        )
+    if not with_gcps and result.untested:
+        raise PoseError(
+            name,
+            "ambiguous_offset",
+            f"the search scores {len(result.untested)} other offsets alike that no pose was fitted at (beta "
+            f"{', '.join(f'{b:.0f}' for b in result.untested[:3])}{' ...' if len(result.untested) > 3 else ''}; "
+            f"the best {fit.beta:.1f})",
         )
     if not with_gcps and not weighed and result.runner_up_ratio >= AMBIGUOUS:
         raise PoseError(
@@ -964,7 +991,7 @@ def search_offsets(
     )
     fine_support = score.many(fine_betas, threshold)
     tried += len(fine_betas)
-    search = OffsetSearch(fine_betas, fine_support, len(rows), threshold, coarse, fine, tried)
+    search = OffsetSearch(fine_betas, fine_support, len(rows), threshold, coarse, fine, tried, betas, support)
     candidates = []
     for k in _peaks(fine_support, CANDIDATES, separation=3 * coarse / fine):
         found = score.camera_at(camera, float(fine_betas[k]), threshold)

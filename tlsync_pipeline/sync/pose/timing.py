@@ -23,6 +23,16 @@ freedom (the spread is measured on the blocks themselves: a 16 s visit
 has 16, where the normal's tail would put a rival the evidence does not
 rule out, 2.3 standard errors off on a phone walk, under 1 %).
 
+Only fitted offsets can be weighed so. Under a metre-level log the search's
+coarse pass scores many offsets alike (a pose and the bias's knots absorb
+any corner of a turning walk), and only a few of them are fitted: an
+offset the coarse pass cannot tell from its top that no fit is one timing
+with (``untested_offsets``) is a rival never weighed. Its score is the
+count of the search's positions explained; two offsets' counts differ by
+the noise of their misses (their sum's square root, as two Poisson
+counts), and an offset within NEAR_TOP_Z of that noise below the top is
+alike.
+
 Clock values in frame units (sync/model/clock.py); pixels; metres.
 """
 
@@ -44,6 +54,7 @@ STUDENT_DOF = 4.0  # degrees of freedom of a frame's Student-t loss
 MIN_SCALE_PX = 1.0  # the loss's scale is never taken below this (pixels)
 MIN_BLOCKS = 3  # fewer blocks than this tell nothing: the rival keeps half the posterior
 OFF_TRACK_Z = 6.0  # a frame a fit maps off the log costs the loss of an error this many scales long
+NEAR_TOP_Z = 1.645  # a coarse offset less than this many standard errors below the top is alike (one-sided 95 %)
 
 
 def bias_frames(fit: JointFit, clock: np.ndarray, path: PiecewiseTrajectory, model: LogModel) -> float:
@@ -100,3 +111,29 @@ def rival_probability(best: JointFit, rival: JointFit, clock: np.ndarray, fps: f
     if spread <= 0.0:
         return 0.5
     return float(stdtr(blocks - 1, -float(difference.sum()) / spread))
+
+
+def untested_offsets(
+    betas: np.ndarray, support: np.ndarray, points: int, fits: list[JointFit], best: JointFit, bias: float, fps: float
+) -> np.ndarray:
+    """The offsets (clock units) of the search's coarse pass (``betas`` ascending, ``support``: explained positions of
+    ``points``) alike with its top (see the module), one per timing, that no fit is one timing with; empty when each
+    was fitted. Only the profile's local maxima are offsets of their own (a peak's shoulders are its timing), and a
+    timing spans the band ``one_timing`` gives two fits of the best's beta std."""
+    band = max(DISTINCT_S * fps, Z95 * math.sqrt(2.0) * best.se_beta + bias)
+    support = np.where(np.isfinite(support), np.asarray(support, dtype=np.float64), -np.inf)
+    if not np.isfinite(support).any():
+        return np.zeros(0)
+    padded = np.concatenate([[-np.inf], support, [-np.inf]])
+    peak = np.isfinite(support) & (support >= padded[:-2]) & (support >= padded[2:])
+    top = float(support.max())
+    alike: list[float] = []
+    for k in np.flatnonzero(peak)[np.argsort(-support[peak], kind="stable")]:
+        misses = max(2.0 * points - top - float(support[k]), 1.0)
+        if (top - float(support[k])) / math.sqrt(misses) >= NEAR_TOP_Z:
+            break
+        beta = float(betas[k])
+        if all(abs(beta - b) > band for b in alike):
+            alike.append(beta)
+    fitted = np.array([f.beta for f in fits])
+    return np.array([b for b in alike if not np.any(np.abs(fitted - b) <= band)])
