@@ -316,11 +316,12 @@ def _fit(
 
 @dataclass(frozen=True)
 class _SharedOffsets:
-    """Per block of frames (BLOCKS contiguous runs), the std (pixels) of an image offset its frames share that the
-    residuals cannot show: model: the calibration's and the pose's (model_error_px); log_white: the log's white noise
-    averaged over the fixes the block spans (a fix's error is every frame's between it and the next)."""
+    """The std (pixels) of an image offset each block of frames (BLOCKS contiguous runs) shares that the residuals
+    cannot show: model: the calibration's and the pose's (model_error_px, every block's); log_white: per block, the
+    log's white noise averaged over the fixes the block spans (a fix's error is every frame's between it and the
+    next)."""
 
-    model: np.ndarray
+    model: float
     log_white: np.ndarray
 
 
@@ -328,14 +329,13 @@ def _shared_offsets(sample: np.ndarray, noise_px: np.ndarray | None, model_error
     """The shared offsets of the frames at log samples ``sample`` (sorted), whose log noise seen in the image is
     noise_px (pixels per frame, None without sigmas)."""
     blocks = min(BLOCKS, len(sample))
-    model = np.full(blocks, model_error_px)
     if noise_px is None:
-        return _SharedOffsets(model, np.zeros(blocks))
+        return _SharedOffsets(model_error_px, np.zeros(blocks))
     white = [
         float(np.median(px)) / np.sqrt(max(float(s[-1] - s[0]), 1.0))
         for s, px in zip(np.array_split(sample, blocks), np.array_split(noise_px, blocks))
     ]
-    return _SharedOffsets(model, np.array(white))
+    return _SharedOffsets(model_error_px, np.array(white))
 
 
 def _sandwich_covariance(
@@ -368,15 +368,13 @@ def _sandwich_covariance(
     # Frame by frame (heteroscedasticity) and block by block (errors shared by
     # neighbouring frames: pose, log); the larger.
     independent = g.T @ g * n / max(n - 2, 1)
-    blocks = np.array([b.sum(axis=0) for b in np.array_split(g, min(BLOCKS, n))])
+    blocks = _block_sums(g)
     clustered = blocks.T @ blocks * len(blocks) / max(len(blocks) - 1, 1)
     # An unseen pixel offset shared by each block of frames, propagated through
     # the fit: how the block's scores move per pixel of it.
-    weighted = np.array([b.sum(axis=0) for b in np.array_split(jac * dpsi[:, :, None], min(BLOCKS, n))])
-    lever = np.array(
-        [b.sum(axis=0) for b in np.array_split(jac * (dpsi * weight[:, None])[:, :, None], min(BLOCKS, n))]
-    )
-    model = np.einsum("b,bik,bil->kl", shared.model**2, lever, lever)
+    weighted = _block_sums(jac * dpsi[:, :, None])
+    lever = _block_sums(jac * (dpsi * weight[:, None])[:, :, None])
+    model = shared.model**2 * np.einsum("bik,bil->kl", lever, lever)
     white = np.einsum("b,bik,bil->kl", shared.log_white**2, lever, lever)
     joint = JOINT_OFFSET**2 * np.einsum("bik,bil->kl", weighted, weighted)
     with np.errstate(invalid="ignore", over="ignore"):  # inf x 0 of a singular fit: NaN, refused by the caller
@@ -387,6 +385,11 @@ def _sandwich_covariance(
             inv @ white @ inv,
             inv @ (meat + joint + f_scale**2 * prior_info) @ inv,
         )
+
+
+def _block_sums(values: np.ndarray) -> np.ndarray:
+    """Sums of ``values`` (N, ...) over BLOCKS contiguous runs of frames (fewer when N is smaller)."""
+    return np.array([b.sum(axis=0) for b in np.array_split(values, min(BLOCKS, len(values)))])
 
 
 def _offsets_and_rates(

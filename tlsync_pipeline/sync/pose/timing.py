@@ -81,8 +81,13 @@ def bias_frames(fit: JointFit, clock: np.ndarray, path: PiecewiseTrajectory, mod
 def one_timing(best: JointFit, other: JointFit, bias: float, fps: float) -> bool:
     """Whether the other fit's offset is the best's timing: within DISTINCT_S seconds, or within the 95 % spread of
     the two betas' stds plus ``bias`` (clock units, ``bias_frames``)."""
-    band = max(DISTINCT_S * fps, Z95 * math.hypot(best.se_beta, other.se_beta) + bias)
-    return bool(abs(other.beta - best.beta) <= band)
+    return bool(abs(other.beta - best.beta) <= timing_band(best.se_beta, other.se_beta, bias, fps))
+
+
+def timing_band(se_a: float, se_b: float, bias: float, fps: float) -> float:
+    """How far (clock units) two offsets of beta stds ``se_a`` and ``se_b`` may lie and be one timing: DISTINCT_S
+    seconds, or the 95 % spread of their difference plus ``bias`` (``bias_frames``), the larger."""
+    return max(DISTINCT_S * fps, Z95 * math.hypot(se_a, se_b) + bias)
 
 
 def timing_spread(best: JointFit, fits: list[JointFit], bias: float, fps: float) -> float:
@@ -120,7 +125,7 @@ def untested_offsets(
     ``points``) alike with its top (see the module), one per timing, that no fit is one timing with; empty when each
     was fitted. Only the profile's local maxima are offsets of their own (a peak's shoulders are its timing), and a
     timing spans the band ``one_timing`` gives two fits of the best's beta std."""
-    band = max(DISTINCT_S * fps, Z95 * math.sqrt(2.0) * best.se_beta + bias)
+    band = timing_band(best.se_beta, best.se_beta, bias, fps)
     support = np.where(np.isfinite(support), np.asarray(support, dtype=np.float64), -np.inf)
     if not np.isfinite(support).any():
         return np.zeros(0)

@@ -491,17 +491,18 @@ class _Joint:
         for k, rows in enumerate(self._pixels(z)):
             c, x = self.cameras[k], z[2 * k : 2 * k + 2]
             r, jac = rows.residual, rows.local_jacobian(c, len(self.knots), self._seen_along(k, rows, z))
-            inflation = _inflation(c, r, jac, self.f_scale, x, c.cov)
-            h = _bread(c, r, jac, self.f_scale) / inflation
+            bread, variance = _bread(c, r, jac, self.f_scale), _variance_factor(r, self.f_scale)
+            correlation = _correlation_factor(bread, variance, x, c.cov)
+            inflation = variance * correlation
+            h = bread / inflation
             g = _gradient(c, r, jac, self.f_scale, z[2 * k]) / inflation
             h_tt, h_tb, h_bb = h[:2, :2], h[:2, 2:], h[2:, 2:]
             root = _pinv_sqrt(h_tt)  # a camera whose line the residuals do not determine tells nothing of the bias
             gain = root @ root @ h_tb  # (2, 3K)
             banded = banded + sp.csc_matrix(h_bb)
             low_rank.append(h_tb.T @ root)
-            own = inflation / _inflation(
-                c, r, jac, self.f_scale, x, c.cov if c.cov_interval is None else c.cov_interval
-            )
+            interval = c.cov if c.cov_interval is None else c.cov_interval
+            own = correlation / _correlation_factor(bread, variance, x, interval)
             banded_interval = banded_interval + sp.csc_matrix(own * h_bb)
             low_rank_interval.append(np.sqrt(own) * h_tb.T @ root)
             score = score + g[2:] - gain.T @ g[:2]
