@@ -31,6 +31,7 @@ import numpy as np
 
 from tlsync_pipeline.atomic import atomic_path
 from tlsync_pipeline.outputs.bandswap import PANEL_HEIGHT, caption, fit_height, mosaic
+from tlsync_pipeline.outputs.figures import tight_layout
 from tlsync_pipeline.sync.kernels.ransac import distance_to_line
 from tlsync_pipeline.sync.model.clock import FrameTimes
 from tlsync_pipeline.sync.timeline import Timeline
@@ -183,7 +184,7 @@ def _plot_voting_space(name: str, votes, clock: np.ndarray, groups, line, title:
     ax.set_ylabel(f"{name}: time x fps (frames)" if line.clock.vfr else f"frame of {name} t_c")
     ax.set_title(title)
     ax.legend(loc="best", fontsize=8)
-    fig.tight_layout()
+    tight_layout(fig)
     return _save_figure(fig, path)
 
 
@@ -214,7 +215,7 @@ def plot_trajectory(
     ax.set_xlabel("x (px)")
     ax.set_ylabel("y (px)")
     ax.legend(loc="best", fontsize=8)
-    fig.tight_layout()
+    tight_layout(fig)
     return _save_figure(fig, path)
 
 
