@@ -156,9 +156,13 @@ def _read_indexed(
 
     Between the wanted frames the decoder skips the frames no other frame is predicted from (FFmpeg's
     ``skip_frame = NONREF``: a quarter of the CPU of an H.264 run-up with B-frames); the wanted frames are decoded
-    as always, so they come out identical."""
+    as always, so they come out identical. Before each seek, once the packets of the wanted frames decoded from that
+    keyframe are sent, the decoder is drained (as ``_read_keyframes`` does) instead of fed the next packets for
+    its frame threads' and reordering delay (about five frames decoded for nothing)."""
     out: dict[int, VideoFrame] = {}
     needed = {pts_list[i] for i in wanted}
+    targets = [pts_list[i] for i in wanted]
+    starts = [keyframes[max(0, bisect_right(keyframes, t) - 1)] if keyframes else pts_list[0] for t in targets]
     with _open(path) as container:
         stream = container.streams.video[0]
         stream.thread_type = "AUTO"
@@ -166,12 +170,14 @@ def _read_indexed(
         rotation = None
         position = None  # pts of the last decoded frame, when decoding can continue from it
         frames: Iterator[tuple[Any, str | None]] = iter(())
-        for i in wanted:
-            target = pts_list[i]
-            start = keyframes[max(0, bisect_right(keyframes, target) - 1)] if keyframes else pts_list[0]
+        for k, i in enumerate(wanted):
+            target, start = targets[k], starts[k]
             if position is None or not (start <= position < target):
                 container.seek(start, stream=stream, backward=True, any_frame=False)
-                frames = _decode(container, stream, needed)
+                last = k  # the wanted frames decoded on from this keyframe: the next ones within reach of it
+                while last + 1 < len(wanted) and starts[last + 1] <= targets[last]:
+                    last += 1
+                frames = _decode(container, stream, needed, drain_after=set(targets[k : last + 1]))
             for frame, error in frames:
                 if error is not None:
                     raise TrackInputError(f"{path}: frame {i} cannot be decoded: {error}")
@@ -526,14 +532,20 @@ def _open(path: Path):
     return container
 
 
-def _decode(container, stream, needed: set[int] | None = None) -> Iterator[tuple[Any, str | None]]:
+def _decode(
+    container, stream, needed: set[int] | None = None, drain_after: set[int] | None = None
+) -> Iterator[tuple[Any, str | None]]:
     """Decoded frames; stops with (None, reason) at the first demux or decode error.
 
     needed: the presentation timestamps of the frames wanted; the frames of other packets are decoded only where
-    a later frame is predicted from them (non-reference frames are skipped). None: every frame.
+    a later frame is predicted from them (non-reference frames are skipped). None: every frame. drain_after: once
+    the packets of these presentation timestamps are sent (in decoding order, a frame's packet may come after a later
+    frame's), the decoder is drained and no further packet read: their frames come out without the decoder's delay;
+    decoding on needs a seek first.
     """
     import av
 
+    left = set(drain_after) if drain_after else None
     packets = container.demux(stream)
     while True:
         try:
@@ -545,13 +557,18 @@ def _decode(container, stream, needed: set[int] | None = None) -> Iterator[tuple
             return
         if needed is not None:
             stream.codec_context.skip_frame = "DEFAULT" if packet.pts in needed else "NONREF"
+        if left is not None:
+            left.discard(packet.pts)
+        drain = left is not None and not left
         try:
-            frames = packet.decode()
+            frames = list(packet.decode()) + (list(stream.decode(None)) if drain else [])
         except av.FFmpegError as exc:
             yield None, str(exc)
             return
         for frame in frames:
             yield frame, None
+        if drain:
+            return
 
 
 READ_AHEAD = 4  # frames decoded ahead of the caller by iter_frames

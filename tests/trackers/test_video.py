@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from data_fixtures.video import render_camera_video, render_video
+from trackers import video
 from trackers.errors import TrackInputError
 from trackers.video import (
     DecodeCount,
@@ -70,6 +71,21 @@ def test_read_frames_skips_the_unreferenced_frames_before_each_wanted_one(jitter
     assert 0 < len(decoded) < 0.8 * run_up
 
 
+def test_read_frames_decodes_nothing_past_the_last_wanted_frame_before_a_seek(jittered, monkeypatch):
+    """Before each seek the decoder is drained once the wanted frames' packets are sent: no frame past the last
+    wanted one of a keyframe's run-up comes out (the decoder's delay would feed it several more), and the frames are
+    those of sequential decoding."""
+    wanted = [10, 11, 12, 40, 89]  # 10-12 from keyframe 0, 40 from 30, 89 (the last) from 60
+    sequential = {f.index: f.image for f in iter_frames(jittered.path) if f.index in wanted}
+    decoded = _counting_decodes(monkeypatch)
+    sought = read_frames(jittered.path, wanted)
+    for i in wanted:
+        np.testing.assert_array_equal(sought[i].image, sequential[i])
+    index = {pts: i for i, pts in enumerate(video._packet_index(jittered.path)[0])}
+    out = [index[f.pts] for f in decoded]
+    assert max(i for i in out if i < 30) == 12 and max(i for i in out if 30 <= i < 60) == 40
+
+
 def test_read_frames_past_the_end(jittered):
     with pytest.raises(TrackInputError, match=r"frame 90 is past the end of the video \(90 frames\)"):
         read_frames(jittered.path, [3, 90])
@@ -96,8 +112,8 @@ def _counting_decodes(monkeypatch, alone: list | None = None):
     original = video._decode
     original_alone = video._decode_alone
 
-    def counting(container, stream, needed=None):
-        for frame, error in original(container, stream, needed):
+    def counting(container, stream, needed=None, drain_after=None):
+        for frame, error in original(container, stream, needed, drain_after):
             decoded.append(frame)
             yield frame, error
 

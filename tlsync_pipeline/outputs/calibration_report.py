@@ -11,6 +11,7 @@ import numpy as np
 
 from tlsync_pipeline.outputs.figures import png as _png
 from tlsync_pipeline.outputs.figures import pyplot as _pyplot
+from tlsync_pipeline.outputs.figures import tight_layout
 
 
 def calibration_plot(report: dict, image_size: tuple[int, int]) -> bytes:
@@ -83,7 +84,7 @@ def calibration_plot(report: dict, image_size: tuple[int, int]) -> bytes:
             transform=ax.transAxes,
         )
         ax.set_axis_off()
-    fig.tight_layout()
+    tight_layout(fig)
     return _png(fig)
 
 

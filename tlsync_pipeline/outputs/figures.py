@@ -1,4 +1,4 @@
-"""Matplotlib without a display: the pyplot module (Agg backend) and a figure's PNG bytes."""
+"""Matplotlib without a display: the pyplot module (Agg backend), a figure's tight layout and its PNG bytes."""
 
 from __future__ import annotations
 
@@ -23,3 +23,11 @@ def pyplot():
     import matplotlib.pyplot as plt
 
     return plt
+
+
+def tight_layout(fig) -> None:
+    """``fig.tight_layout()``, the subplot parameters it sets then kept as they are: matplotlib leaves a placeholder
+    layout engine on the figure, for which ``savefig`` first draws the whole figure once more without output (a tenth
+    of a simple chart's CPU); without it the same pixels come out of one draw."""
+    fig.tight_layout()
+    fig.set_layout_engine(None)

@@ -31,6 +31,7 @@ import numpy as np
 
 from tlsync_pipeline.atomic import atomic_path
 from tlsync_pipeline.outputs.bandswap import PANEL_HEIGHT, caption, fit_height, mosaic
+from tlsync_pipeline.outputs.figures import tight_layout
 from tlsync_pipeline.sync.kernels.ransac import distance_to_line
 from tlsync_pipeline.sync.model.clock import FrameTimes
 from tlsync_pipeline.sync.timeline import Timeline
@@ -63,12 +64,24 @@ def each_frame_once(path: Path, indices, frame_bytes: int) -> Iterator[tuple[int
 
 
 def choose_frames(
-    track_frames: np.ndarray, to_a: Callable[[np.ndarray], np.ndarray], n_a: int, n_b: int, count: int = FRAMES_PER_PAIR
+    track_frames: np.ndarray,
+    to_a: Callable[[np.ndarray], np.ndarray],
+    n_a: int,
+    n_b: int,
+    count: int = FRAMES_PER_PAIR,
+    keyframes: tuple[np.ndarray | None, np.ndarray | None] = (None, None),
+    reach: float = 0.0,
 ) -> list[int]:
     """Frames of B to draw: tracked frames whose matching frame of A exists, spread over the track.
 
     to_a: B's frames -> the matching (fractional) frames of A (Timeline.match).
     Without such a tracked frame, any frame of B whose match exists.
+    keyframes: A's and B's keyframe indices (None: unknown); each pick (at
+    20 %, 50 % and 80 % of the candidates) then moves, within ``reach``
+    (a share of the candidates' span), to the candidate whose frame and
+    match decode from the fewest frames (``run_up``: a keyframe decodes
+    alone, any other frame from the keyframe before it), the nearest of
+    those.
     """
     matched = to_a(track_frames)
     candidates = track_frames[(matched >= 0) & (matched <= n_a - 1)]
@@ -79,7 +92,26 @@ def choose_frames(
     if len(candidates) == 0:
         return []
     picks = np.quantile(candidates, np.linspace(0.2, 0.8, count), method="nearest")
+    if reach > 0 and any(k is not None for k in keyframes):
+        candidates = np.asarray(candidates, dtype=np.int64)
+        cost = run_up(np.round(to_a(candidates)).astype(np.int64), keyframes[0]) + run_up(candidates, keyframes[1])
+        window = reach * float(np.ptp(candidates))
+        moved = []
+        for pick in picks:
+            near = np.flatnonzero(np.abs(candidates - pick) <= window)
+            best = near[cost[near] == cost[near].min()]
+            moved.append(candidates[best[np.argmin(np.abs(candidates[best] - pick))]])
+        picks = np.asarray(moved)
     return sorted(set(int(p) for p in picks))
+
+
+def run_up(frames: np.ndarray, keyframes: np.ndarray | None) -> np.ndarray:
+    """Frames decoded to reach each of ``frames`` from the keyframe before it (0 at a keyframe; 0 everywhere when the
+    keyframes are unknown)."""
+    if keyframes is None or len(keyframes) == 0:
+        return np.zeros(len(frames), np.int64)
+    before = np.searchsorted(keyframes, frames, side="right") - 1
+    return np.where(before >= 0, frames - keyframes[np.maximum(before, 0)], frames)
 
 
 def _blank(width: int, height: int = PANEL_HEIGHT) -> np.ndarray:
@@ -152,7 +184,7 @@ def _plot_voting_space(name: str, votes, clock: np.ndarray, groups, line, title:
     ax.set_ylabel(f"{name}: time x fps (frames)" if line.clock.vfr else f"frame of {name} t_c")
     ax.set_title(title)
     ax.legend(loc="best", fontsize=8)
-    fig.tight_layout()
+    tight_layout(fig)
     return _save_figure(fig, path)
 
 
@@ -183,7 +215,7 @@ def plot_trajectory(
     ax.set_xlabel("x (px)")
     ax.set_ylabel("y (px)")
     ax.legend(loc="best", fontsize=8)
-    fig.tight_layout()
+    tight_layout(fig)
     return _save_figure(fig, path)
 
 

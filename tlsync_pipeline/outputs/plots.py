@@ -13,6 +13,7 @@ import numpy as np
 from tlsync_pipeline.outputs.exports import reference_seconds
 from tlsync_pipeline.outputs.figures import png as _png
 from tlsync_pipeline.outputs.figures import pyplot as _pyplot
+from tlsync_pipeline.outputs.figures import tight_layout
 from tlsync_pipeline.sync.model.clock import FrameTimes, Segment
 from tlsync_pipeline.sync.model.status import HALF_95, CameraStatus
 from tlsync_pipeline.sync.timeline import CameraLine, Timeline
@@ -87,7 +88,7 @@ def residuals_plot(residuals: dict[str, Residuals], gate_px: float, seconds_per_
     axes[0, 0].legend(loc="upper right", fontsize=7, ncol=3)
     axes[-1, 0].set_xlabel("target time (s from the log's start)" if seconds_per_sample else "target sample t_r")
     fig.suptitle("tracked minus projected position, per camera", fontsize=10)
-    fig.tight_layout()
+    tight_layout(fig)
     return _png(fig)
 
 
@@ -121,7 +122,7 @@ def offsets_plot(timeline: Timeline, statuses: list[CameraStatus]) -> bytes:
     ax.axvline(0, color="0.6", lw=0.8)
     ax.set_xlabel(f"start: when frame 0 was taken, {unit} after {reference}'s frame 0 (bars: 95 % interval)")
     ax.margins(x=0.25)
-    fig.tight_layout()
+    tight_layout(fig)
     return _png(fig)
 
 
@@ -168,5 +169,5 @@ def recordings_plot(timeline: Timeline, n_frames: dict[str, int], times: dict[st
     ax.set_xlabel(
         f"{'s' if in_seconds else 'frames'} of {reference}'s clock (bars: segments of known offset; red: breaks)"
     )
-    fig.tight_layout()
+    tight_layout(fig)
     return _png(fig)

@@ -26,7 +26,15 @@ from tlsync_pipeline.atomic import atomic_path
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.ingest.report import read_ingest_report
 from tlsync_pipeline.outputs.calibration_report import calibration_summary
-from tlsync_pipeline.outputs.camera_pictures import CameraJob, DrawnCamera, draw_camera, draw_panels, photo, picture
+from tlsync_pipeline.outputs.camera_pictures import (
+    KEYFRAME_REACH,
+    CameraJob,
+    DrawnCamera,
+    draw_camera,
+    draw_panels,
+    photo,
+    picture,
+)
 from tlsync_pipeline.outputs.diagnostics import StageRun, run_warnings
 from tlsync_pipeline.outputs.pictures import (
     PairPlan,
@@ -55,6 +63,7 @@ from tlsync_pipeline.sync.solve.methods import CameraInput
 from tlsync_pipeline.sync.timeline import Timeline, read_timeline
 from tlsync_pipeline.sync.vote.visits import near_views
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory, read_trajectory
+from trackers.video import keyframe_indices
 
 if TYPE_CHECKING:
     from tlsync_pipeline.pipeline.project import Project
@@ -92,6 +101,10 @@ class _Scene:
     videos: dict[str, Path]
     n_frames: dict[str, int]
     path_model: PiecewiseTrajectory
+
+    def keyframes(self, name: str) -> np.ndarray | None:
+        """The keyframe indices of the camera's video (demuxed once per process), None without a packet index."""
+        return keyframe_indices(self.videos[name])
 
 
 def run_render(files: StageFiles, params: RenderParams) -> StageResult:
@@ -215,6 +228,8 @@ def _plan_strips(
                 lambda f: tl.match(b, a, f, scene.times),  # noqa: B023 (called here)
                 scene.n_frames[a],
                 scene.n_frames[b],
+                keyframes=(scene.keyframes(a), scene.keyframes(b)),
+                reach=KEYFRAME_REACH,
             )
         )
         plan = plan_pair(

@@ -136,6 +136,21 @@ def test_choose_frames_stays_where_both_cameras_record():
     assert render.choose_frames(track, Relation(1.0, 10_000.0), n_a=500, n_b=400) == []
 
 
+def test_choose_frames_prefers_frames_that_decode_from_few_frames_on_both_sides():
+    """Each pick moves (within the reach) to where B's frame and A's match are closest after their keyframes."""
+    track = np.arange(100, 1100)
+    to_a = Relation(1.0, 35.0)
+    plain = render.choose_frames(track, to_a, n_a=2000, n_b=2000)
+    keys_a, keys_b = np.arange(0, 2000, 60), np.arange(0, 2000, 60) + 20
+    moved = render.choose_frames(track, to_a, n_a=2000, n_b=2000, keyframes=(keys_a, keys_b), reach=0.05)
+    assert len(moved) == 3 and all(abs(m - p) <= 50 for m, p in zip(moved, plain))
+    cost = render.run_up(np.round(to_a(np.array(moved))).astype(int), keys_a) + render.run_up(np.array(moved), keys_b)
+    spent = render.run_up(np.round(to_a(np.array(plain))).astype(int), keys_a) + render.run_up(np.array(plain), keys_b)
+    assert cost.tolist() == [5, 5, 5] and (cost < spent).all()  # B frame 5 after its keyframe, its match one of A
+    only_b = render.choose_frames(track, to_a, n_a=2000, n_b=2000, keyframes=(None, keys_b), reach=0.05)
+    assert all(f in keys_b for f in only_b)
+
+
 @pytest.mark.slow
 def test_pictures_asked_for_are_kept_beside_the_defaults_and_never_make_the_project_stale(
     rendered_project, monkeypatch
@@ -200,8 +215,8 @@ def test_render_never_decodes_the_videos_through(rendered_project, monkeypatch):
     decoded = Counter()
     original = video._decode
 
-    def counting(container, stream, needed=None):
-        for frame, error in original(container, stream, needed):
+    def counting(container, stream, needed=None, drain_after=None):
+        for frame, error in original(container, stream, needed, drain_after):
             decoded[container.name.rsplit("/", 1)[-1]] += 1
             yield frame, error
 
