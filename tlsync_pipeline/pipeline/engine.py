@@ -38,7 +38,7 @@ from tlsync_pipeline.pipeline.cache import (
     write_failure,
     write_manifest,
 )
-from tlsync_pipeline.pipeline.codehash import ImportMemo, StageCode
+from tlsync_pipeline.pipeline.codehash import code_digests
 from tlsync_pipeline.pipeline.executors import (
     Called,
     ProcessExecutor,
@@ -97,10 +97,12 @@ class _Key:
     key: str
 
 
-def _current(graph: Graph, task: Task, memo: HashMemo, code: StageCode) -> _Key:
-    """The task's key from its declaration; ``code`` gives the module digests of its stage (once per pass)."""
+def _current(graph: Graph, task: Task, memo: HashMemo, code: dict[str, dict]) -> _Key:
+    """The task's key from its declaration; ``code`` caches module digests per stage module for one pass."""
     ws = graph.workspace
-    digests = code.digests(task.spec.run.__module__)
+    module = task.spec.run.__module__
+    if module not in code:
+        code[module] = code_digests(module)
     inputs = {
         label: {"path": ws.portable(source), "sha256": memo.sha256(ws.resolve(source))}
         for label, source in sorted(task.inputs.items())
@@ -111,8 +113,8 @@ def _current(graph: Graph, task: Task, memo: HashMemo, code: StageCode) -> _Key:
             "sha256": _warnings_digest(_history(graph, task)),
         }
     params = ws.portable(params_json(task.params))
-    key = cache_key(task.stage, digests, {k: v["sha256"] for k, v in inputs.items()}, params)
-    return _Key(digests, inputs, params, key)
+    key = cache_key(task.stage, code[module], {k: v["sha256"] for k, v in inputs.items()}, params)
+    return _Key(code[module], inputs, params, key)
 
 
 WARNINGS_INPUT = "warnings"  # the label of a history stage's earlier warnings among its key's inputs
@@ -135,7 +137,7 @@ def status(graph: Graph) -> list[TaskState]:
     even if its own manifest still matches: it will run after that one.
     """
     memo = HashMemo(graph.workspace.hash_memo)
-    code = StageCode(ImportMemo())
+    code: dict[str, dict] = {}
     rows: dict[str, TaskState] = {}
     for item in graph.given.values():
         rows[item.id] = TaskState(item.id, item.stage, item.camera, "given", [str(item.path)])
@@ -165,7 +167,6 @@ def status(graph: Graph) -> list[TaskState]:
                 rows[task_id(task.stage, camera)] = TaskState(
                     task_id(task.stage, camera), task.stage, camera, "failed", [why]
                 )
-    code.memo.save()
     if graph.work.is_dir():  # status reads only: it never makes the work folder
         try:
             memo.save()
@@ -225,16 +226,16 @@ def run_graph(
         ):  # worker pools (the run's, the intrinsics stage's)
             quiet_resource_tracker()
         _remove_leftovers(graph.work)
-        memo, imports = HashMemo(graph.workspace.hash_memo), ImportMemo()
+        memo = HashMemo(graph.workspace.hash_memo)
         try:
             with one_blas_thread():
-                _schedule(graph, executor, wanted, force, memo, StageCode(imports), summary, progress or Progress())
+                _schedule(graph, executor, wanted, force, memo, summary, progress or Progress())
         except BaseException:
             executor.close(cancel=True)
             _remove_leftovers(graph.work)  # the stopped workers' temporary files (this run still holds the lock)
-            _save_memo(memo, imports, summary)
+            _save_memo(memo, summary)
             raise
-        _save_memo(memo, imports, summary)
+        _save_memo(memo, summary)
         executor.close()
     return summary
 
@@ -242,11 +243,10 @@ def run_graph(
 CACHE_TASK = "cache"  # the id under which a run reports that it could not remember its file hashes
 
 
-def _save_memo(memo: HashMemo, imports: ImportMemo, summary: RunSummary) -> None:
-    """Remember the modules' imports (where the user's cache can be written) and the file hashes; a failure to write
-    the hashes (a full disk) is the run's to report beside its tasks', never in their place.
+def _save_memo(memo: HashMemo, summary: RunSummary) -> None:
+    """Remember the file hashes; a failure (a full disk) is the run's to report beside its tasks',
+    never in their place.
     """
-    imports.save()
     try:
         memo.save()
     except OSError as exc:
@@ -272,16 +272,9 @@ def _closure(graph: Graph, targets: list[str]) -> list[str]:
 
 
 def _schedule(
-    graph: Graph,
-    executor,
-    wanted: list[str],
-    force: set[str],
-    memo: HashMemo,
-    code: StageCode,
-    summary: RunSummary,
-    progress: Progress,
+    graph: Graph, executor, wanted: list[str], force: set[str], memo: HashMemo, summary: RunSummary, progress: Progress
 ) -> None:
-    _Scheduler(graph, executor, force, memo, summary, progress, list(wanted), code).run()
+    _Scheduler(graph, executor, force, memo, summary, progress, list(wanted)).run()
 
 
 @dataclass
@@ -295,9 +288,9 @@ class _Scheduler:
     summary: RunSummary
     progress: Progress
     pending: list[str]
-    code: StageCode
     done: set[str] = field(default_factory=set)
     running: dict = field(default_factory=dict)  # future -> (task, its key, ran in a worker)
+    code: dict[str, dict] = field(default_factory=dict)
 
     def run(self) -> None:
         while self.pending or self.running:

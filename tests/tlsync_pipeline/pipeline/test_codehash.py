@@ -1,7 +1,5 @@
 """A stage's code for its cache key: the project modules its module imports, without the engine."""
 
-import pytest
-
 from tlsync_pipeline.pipeline import codehash
 from tlsync_pipeline.pipeline.graph import STAGE_SPECS
 
@@ -36,26 +34,3 @@ def test_digests_follow_the_sources(monkeypatch):
     )
     after = codehash.code_digests("tlsync_pipeline.pipeline.stages.export")
     assert [m for m in before if before[m] != after[m]] == ["tlsync_pipeline.outputs.exports"]
-
-
-def test_remembered_imports_give_the_same_digests_and_follow_the_sources(tmp_path, monkeypatch):
-    """The imports remembered in a cache folder (ImportMemo) give every stage the digests of a fresh parse; a module
-    whose source changed is parsed again (an import it gains joins the closure); another module layout has its own."""
-    modules = sorted({spec.run.__module__ for spec in STAGE_SPECS.values()})
-    first = codehash.ImportMemo(tmp_path)
-    assert {m: codehash.code_digests(m, first) for m in modules} == {m: codehash.code_digests(m) for m in modules}
-    first.save()
-    again = codehash.ImportMemo(tmp_path)
-    assert again.path.parent == tmp_path / "tlsync" and again.modules
-    monkeypatch.setattr(codehash, "_imports_in", lambda name, source: pytest.fail(f"{name} parsed again"))
-    export = codehash.code_digests("tlsync_pipeline.pipeline.stages.export", again)
-    assert export == codehash.code_digests("tlsync_pipeline.pipeline.stages.export")
-    monkeypatch.undo()
-    original, edited = codehash.module_source, "tlsync_pipeline.outputs.exports"
-    monkeypatch.setattr(
-        codehash, "module_source", lambda name: original(name) + (b"import trackers.blob\n" if name == edited else b"")
-    )
-    assert "trackers.blob" in codehash.code_digests("tlsync_pipeline.pipeline.stages.export", again)
-    again.save()
-    monkeypatch.setattr(codehash, "_layout", lambda: "another layout")
-    assert codehash.ImportMemo(tmp_path).modules == {}
