@@ -36,13 +36,15 @@ candidates against the path lowered by it.
 
 Where calibration and log errors put the projection more than the gate
 off the target for a stretch, the identified tracklets' candidates within
-EXTEND_GATES gates join the track (``along_tracklets``): the sync method
-weighs them, as it weighs any track's frames.
+EXTEND_GATES gates join the track where they are the mover nearest the
+projection (``along_tracklets``): the sync method weighs them, as it
+weighs any track's frames.
 
-A frame where another mover of the target's size is at least as near the
-projection as the chosen candidate is left out
-(``without_rivals``): the path cannot tell them apart there, and a noisy
-log's projection wanders onto passers-by beside the target.
+A frame where another mover of the target's size is as likely the target
+as the chosen candidate, under the projection's error measured on the
+kept blobs (``scatter_px``), is left out (``without_rivals``): the path
+cannot tell them apart there, and a noisy log's projection wanders onto
+passers-by beside the target.
 
 The identified track holds, per frame, the target's part of its blob: for
 a box larger than the target, the target's box inside it nearest the
