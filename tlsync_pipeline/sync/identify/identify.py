@@ -696,6 +696,7 @@ def along_tracklets(
     such a frame stays without a row (on the crowd scenes with a 1 Hz GPX,
     whose gate is 30-45 px, the identified tracklets' rows 50-100 px off
     were passers-by).
+
     Where calibration and log errors put the projection 10-20 px off the
     target for a stretch (the real drone flight: 2-3 % of each camera's
     frames), the tracklet still follows the target; the sync method, whose
