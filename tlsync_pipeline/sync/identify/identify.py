@@ -36,13 +36,15 @@ candidates against the path lowered by it.
 
 Where calibration and log errors put the projection more than the gate
 off the target for a stretch, the identified tracklets' candidates within
-EXTEND_GATES gates join the track (``along_tracklets``): the sync method
-weighs them, as it weighs any track's frames.
+EXTEND_GATES gates join the track where they are the mover nearest the
+projection (``along_tracklets``): the sync method weighs them, as it
+weighs any track's frames.
 
-A frame where another mover of the target's size is at least as near the
-projection as the chosen candidate is left out
-(``without_rivals``): the path cannot tell them apart there, and a noisy
-log's projection wanders onto passers-by beside the target.
+A frame where another mover of the target's size is as likely the target
+as the chosen candidate, under the projection's error measured on the
+kept blobs (``scatter_px``), is left out (``without_rivals``): the path
+cannot tell them apart there, and a noisy log's projection wanders onto
+passers-by beside the target.
 
 The identified track holds, per frame, the target's part of its blob: for
 a box larger than the target, the target's box inside it nearest the
@@ -57,6 +59,7 @@ Frames are 0-based frame indices; the line lives on the camera clock
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -80,6 +83,7 @@ from tlsync_pipeline.sync.kernels.slope import SlopePrior, slope_prior
 from tlsync_pipeline.sync.model.clock import CameraClock, FrameTimes, Segment, camera_clock
 from tlsync_pipeline.sync.model.methods import RefinedParams
 from tlsync_pipeline.sync.model.params import SyncParams
+from tlsync_pipeline.sync.vote.log_error import VOTE_SIGMAS
 from tlsync_pipeline.sync.vote.votes import Votes
 from tlsync_pipeline.trajectory import UP, PiecewiseTrajectory, Trajectory, lowered
 from trackers.detections import Detections
@@ -103,6 +107,7 @@ EXTEND_GATES = 3.0
 # left out
 SIZE_TOLERANCE = 1.35
 RIVAL_HEIGHT = 0.5  # a mover whose box is at least this share of the target's height (metres) may be taken for it
+RIVAL_ODDS = 10.0  # a frame is kept only where its candidate is this many times likelier than any rival
 
 
 @dataclass(frozen=True)
@@ -492,7 +497,10 @@ def identify_target(
     distance = np.linalg.norm(candidates.offsets(found.path, found.alpha, found.beta), axis=1)
     chosen = along_tracklets(detections.frame, detections.id, distance, found.rows, candidates.gate)
     heights = _heights_in_metres(camera, found.path, row_clock, detections, found.alpha, found.beta)
-    chosen = without_rivals(detections.frame, chosen, distance, heights)
+    room = _slack(camera, found.path, row_clock, detections, found.rows, found.alpha, found.beta)
+    whole = found.rows[~(room > 0).any(axis=1)]
+    sigma = scatter_px(distance[whole], candidates.gate / VOTE_SIGMAS)
+    chosen = without_rivals(detections.frame, chosen, distance, heights, sigma)
     track, merged = _target_track(
         camera, found.path, PiecewiseTrajectory(trajectory), row_clock, detections, chosen, found.alpha, found.beta
     )
@@ -679,10 +687,16 @@ def _tracklet_uses(detections: Detections, chosen: np.ndarray, share: dict[int, 
 def along_tracklets(
     frame: np.ndarray, tracklet: np.ndarray, distance: np.ndarray, chosen: np.ndarray, gate_px: float
 ) -> np.ndarray:
-    """The chosen rows and, in frames without one, the nearest candidate of an identified tracklet within EXTEND_GATES x
-    gate_px of the path.
+    """The chosen rows and, in frames without one, the candidate nearest the path when it is an identified tracklet's
+    and within EXTEND_GATES x gate_px of the path.
 
-    Identified tracklets: those with at least MIN_FRAMES chosen rows.
+    Identified tracklets: those with at least MIN_FRAMES chosen rows. A
+    tracklet may have swapped to a passer-by (blobs merge) while the target
+    is seen as fragments, nearer the path, that the assignment left out:
+    such a frame stays without a row (on the crowd scenes with a 1 Hz GPX,
+    whose gate is 30-45 px, the identified tracklets' rows 50-100 px off
+    were passers-by).
+
     Where calibration and log errors put the projection 10-20 px off the
     target for a stretch (the real drone flight: 2-3 % of each camera's
     frames), the tracklet still follows the target; the sync method, whose
@@ -690,33 +704,48 @@ def along_tracklets(
     candidate's centre to the projection (inf off the path).
     """
     ids, counts = np.unique(tracklet[chosen], return_counts=True)
-    extra = np.flatnonzero(
-        np.isin(tracklet, ids[counts >= MIN_FRAMES])
-        & ~np.isin(frame, frame[chosen])
-        & (distance <= EXTEND_GATES * gate_px)
-    )
-    extra = extra[np.lexsort((distance[extra], frame[extra]))]
-    extra = extra[np.r_[True, frame[extra][1:] != frame[extra][:-1]]] if len(extra) else extra
+    order = np.lexsort((distance, frame))
+    nearest = order[np.r_[True, frame[order][1:] != frame[order][:-1]]] if len(order) else order
+    extra = nearest[
+        np.isin(tracklet[nearest], ids[counts >= MIN_FRAMES])
+        & ~np.isin(frame[nearest], frame[chosen])
+        & (distance[nearest] <= EXTEND_GATES * gate_px)
+    ]
     return np.sort(np.r_[chosen, extra])
 
 
-def without_rivals(frame: np.ndarray, chosen: np.ndarray, distance: np.ndarray, height_m: np.ndarray) -> np.ndarray:
+def without_rivals(
+    frame: np.ndarray, chosen: np.ndarray, distance: np.ndarray, height_m: np.ndarray, sigma_px: float
+) -> np.ndarray:
     """The chosen rows (at most one per frame) less those whose frame holds a rival: another mover of the target's size
-    (its box's height in metres at the target's depth at least RIVAL_HEIGHT of the chosen boxes' SIZE_QUANTILE) at
-    least as near the projection as the chosen candidate. There the path cannot tell which is the target, and the
-    choice rests on tracklets, which swap people where blobs merge: a passer-by beside a noisy log's projection. Per
-    detection row: frame (0-based), distance (pixels from its centre to the projection, inf off the path), height_m
-    (its box's height in metres at the target's depth, NaN unknown). Unchanged when the chosen boxes give no size or
-    fewer than MIN_FRAMES rows would remain."""
+    (its box's height in metres at the target's depth at least RIVAL_HEIGHT of the chosen boxes' SIZE_QUANTILE) that
+    the projection's error cannot tell from the chosen candidate, its likelihood at least 1 / RIVAL_ODDS of the chosen
+    one's under an isotropic error of sigma_px per axis: d_rival^2 <= d_chosen^2 + 2 ln(RIVAL_ODDS) sigma_px^2.
+    There the choice rests on tracklets, which swap people where blobs merge, and on the following share, which a
+    passer-by walking beside the target's route has too. Per detection row: frame (0-based), distance (pixels from its
+    centre to the projection, inf off the path), height_m (its box's height in metres at the target's depth, NaN
+    unknown). Unchanged when the chosen boxes give no size or fewer than MIN_FRAMES rows would remain."""
     known = height_m[chosen][np.isfinite(height_m[chosen])]
     if len(known) < MIN_FRAMES:
         return chosen
     tall = np.flatnonzero(np.nan_to_num(height_m, nan=0.0) >= RIVAL_HEIGHT * float(np.quantile(known, SIZE_QUANTILE)))
     by_frame = chosen[np.argsort(frame[chosen], kind="stable")]
     mine = by_frame[np.searchsorted(frame[by_frame], frame[tall]).clip(0, len(by_frame) - 1)]
-    rival = (frame[mine] == frame[tall]) & (mine != tall) & (distance[tall] <= distance[mine])
+    margin = 2.0 * math.log(RIVAL_ODDS) * sigma_px**2
+    rival = (frame[mine] == frame[tall]) & (mine != tall) & (distance[tall] ** 2 <= distance[mine] ** 2 + margin)
     kept = chosen[~np.isin(frame[chosen], frame[tall[rival]])]
     return kept if len(kept) >= MIN_FRAMES else chosen
+
+
+def scatter_px(distance: np.ndarray, fallback: float) -> float:
+    """The std per axis (pixels) of isotropic two-dimensional errors of the given norms (pixels):
+    sqrt(median(d^2) / (2 ln 2)), the median of such an error's squared norm being 2 ln 2 sigma^2; ``fallback`` with
+    fewer than MIN_FRAMES finite norms. On the target's blobs of its own size (their centre is the target's), their
+    distances to the projection measure the log's noise, the pose's error and the centroid's together."""
+    finite = distance[np.isfinite(distance)]
+    if len(finite) < MIN_FRAMES:
+        return fallback
+    return math.sqrt(float(np.median(finite**2)) / (2.0 * math.log(2.0)))
 
 
 def _heights_in_metres(
