@@ -21,7 +21,15 @@ from tlsync_pipeline.sync.kernels.slope import SlopePrior, slope_prior
 from tlsync_pipeline.sync.model.log_model import LogModel
 from tlsync_pipeline.sync.model.methods import RefinedKind, RefinedParams
 from tlsync_pipeline.sync.model.params import SyncParams
-from tlsync_pipeline.sync.solve.log_bias import BiasCamera, LogBias, fit_log_bias, fit_log_bias_measured
+from tlsync_pipeline.sync.solve.log_bias import (
+    BiasCamera,
+    LogBias,
+    fit_log_bias,
+    fit_log_bias_measured,
+    fit_white_log,
+    shared_fixes,
+    with_common_shift,
+)
 from tlsync_pipeline.sync.solve.methods import CameraData
 from tlsync_pipeline.sync.solve.slow_motion import BiasSpread, bias_time_spread
 from tlsync_pipeline.sync.timeline import CameraLine, ErrorBudget, LineSearchSummary, LogBiasSummary, RefinementSummary
@@ -137,6 +145,9 @@ class RefinedMethod(RefinedKind):
         survives, the lines stay as they were and the bias is at its prior.
         """
         path = PiecewiseTrajectory(trajectory)
+        white = not model.has_bias
+        if white and not _white_shared(cameras, lines, path, model):
+            return lines, None
         own: dict[str, Refinement] = {}
         for name, line in lines.items():
             if line.refined:
@@ -163,22 +174,35 @@ class RefinedMethod(RefinedKind):
             )
             for n, r in own.items()
         }
+
+        def fitted(names: list[str], estimate: bool = True) -> LogBias | None:
+            chosen = [joint[n] for n in names]
+            if white:
+                return fit_white_log(chosen, path, rate, model, options.f_scale_px, estimate)
+            if estimate:
+                return fit_log_bias_measured(chosen, path, rate, model, options.f_scale_px)
+            return fit_log_bias(chosen, path, rate, bias.model, options.f_scale_px, estimate=False)
+
         kept, again = list(own), {}
         while kept:
-            bias = fit_log_bias_measured([joint[n] for n in kept], path, rate, model, options.f_scale_px)
+            found = fitted(kept)
+            if found is None:
+                return lines, None
+            bias = found
             again = (
-                _refit_on_corrected(cameras, {n: own[n] for n in kept}, bias, trajectory, params, options)
+                _refit_on_corrected(cameras, {n: own[n] for n in kept}, bias, trajectory, params, options, white)
                 if bias.converged
                 else {}
             )
             if len(again) == len(kept):
                 break
             kept = list(again)
-        at_prior = (
-            bias
-            if len(again) == len(own)
-            else fit_log_bias(list(joint.values()), path, rate, bias.model, options.f_scale_px, estimate=False)
-        )
+        at_prior = bias if len(again) == len(own) else fitted(list(joint), estimate=False)
+        if at_prior is None:
+            return lines, None
+        if white:
+            shift = _own_time_sd(cameras, own, rate)
+            bias, at_prior = with_common_shift(bias, rate, shift), with_common_shift(at_prior, rate, shift)
         if not again:
             bias = replace(at_prior, estimate=bias.estimate)
         out = dict(lines)
@@ -203,6 +227,38 @@ class RefinedMethod(RefinedKind):
                 ),
             )
         return out, bias
+
+
+MATERIAL = 0.5  # the log's share of a line's std (over its tracking part's) from which its white noise is fitted
+MIN_SHARED_FIXES = 3  # fixes under two cameras' frames from which their lines and the log's white error are fitted
+
+
+def _white_shared(
+    cameras: dict[str, CameraData], lines: dict[str, CameraLine], path: PiecewiseTrajectory, model: LogModel
+) -> bool:
+    """Whether the log's white noise is fitted with the lines (fit_white_log): the log has white noise, and at least
+    MIN_SHARED_FIXES of its fixes lie under the frames of two or more cameras (at the same time) whose line's
+    uncertainty the log's noise dominates (its error budget's log part at least its tracking part)."""
+    if model.white_m <= 0:
+        return False
+    visits = [
+        (cameras[n].track_clock - line.beta) / line.alpha
+        for n, line in lines.items()
+        if line.refined and line.budget is not None and line.budget.log_frames >= MATERIAL * line.budget.tracking_frames
+    ]
+    return len(visits) >= 2 and shared_fixes(visits, path) >= MIN_SHARED_FIXES
+
+
+def _own_time_sd(cameras: dict[str, CameraData], own: dict[str, Refinement], rate: float) -> float:
+    """The least std (seconds of the log) of a camera's own clock at the middle of its visit, as its refinement on the
+    log as logged gives it: what the cameras together know of the log's own time when the fit of the log's white
+    error tells them apart (a fix's error along the path is a time shift every camera that leans on it shares)."""
+    sds = []
+    for name, r in own.items():
+        middle = _visit_middle(cameras[name].track_clock[r.used], r.alpha, r.beta)
+        g = np.array([middle, 1.0])
+        sds.append(float(np.sqrt(max(g @ r.cov @ g, 0.0))) / (r.alpha * rate))
+    return min(sds)
 
 
 def _spread(data: CameraData, path: PiecewiseTrajectory, fit: Refinement, bias_sd_m: np.ndarray) -> BiasSpread | None:
@@ -236,10 +292,17 @@ def _refit_on_corrected(
     trajectory: Trajectory,
     params: SyncParams,
     options: RefinedParams,
+    white: bool = False,
 ) -> dict[str, Refinement]:
     """Each camera's refinement on the log corrected by the bias, from its joint line: the cameras whose refit converged
-    and kept at least SUPPORT_KEPT of its frames."""
-    corrected = PiecewiseTrajectory(replace(trajectory, xyz=trajectory.xyz + bias.at(trajectory.sample)))
+    and kept at least SUPPORT_KEPT of its frames. ``white``: the bias is the log's white error at each fix
+    (fit_white_log), which the correction removes: the corrected log has no sigmas left to weigh the frames by (what
+    it leaves uncertain is the bias's posterior, LogBias.line_cov)."""
+    corrected = PiecewiseTrajectory(
+        _corrected_at_knots(trajectory, bias)
+        if white
+        else replace(trajectory, xyz=trajectory.xyz + bias.at(trajectory.sample))
+    )
     out = {}
     for name, r in own.items():
         data = cameras[name]
@@ -257,6 +320,18 @@ def _refit_on_corrected(
         if refit.converged and refit.frames_used >= SUPPORT_KEPT * r.frames_used:
             out[name] = refit
     return out
+
+
+def _corrected_at_knots(trajectory: Trajectory, bias: LogBias) -> Trajectory:
+    """The log corrected by the bias at its samples and at the knots between them (the bias is linear between knots:
+    a knot between two fixes bends the path there), without sigmas: the knots took the log's white error."""
+    path = PiecewiseTrajectory(trajectory)
+    run = path.run_of(bias.knots)
+    between = ~np.isin(bias.knots, trajectory.sample) & (run >= 0)
+    sample = np.r_[trajectory.sample, bias.knots[between]]
+    xyz = np.vstack([trajectory.xyz, path(bias.knots[between], run[between])])
+    order = np.argsort(sample)
+    return replace(trajectory, sample=sample[order], xyz=xyz[order] + bias.at(sample[order]), sigma=None)
 
 
 def _refine(
