@@ -85,3 +85,19 @@ def test_cameras_apart_in_time_keep_their_own_fits_under_a_white_log():
     assert set(timeline.cameras) == set(scene.cameras), timeline.failed
     assert all(line.log_bias is None for line in timeline.cameras.values())
     assert not timeline.shared_cov
+
+
+def test_residuals_that_move_together_in_runs_of_frames_count_as_fewer():
+    """The correlation left in a camera's residuals (the joint fit's weighing of its pixels against the corrected log):
+    about 1 for independent residuals, about the run length for offsets shared by runs of frames."""
+    from tlsync_pipeline.sync.solve.log_bias import _residual_correlation
+
+    rng = np.random.default_rng(0)
+    n = 800
+    jac = np.zeros((2 * n, 2))
+    jac[0::2, 0] = np.linspace(-1.0, 1.0, n)  # the u rows move with the slope ...
+    jac[0::2, 1] = 1.0  # ... and the offset
+    independent = rng.normal(0.0, 0.5, (n, 2))
+    assert _residual_correlation(independent, jac, 3.0) < 2.0
+    shared = np.repeat(rng.normal(0.0, 0.5, (n // 100, 2)), 100, axis=0) + rng.normal(0.0, 0.05, (n, 2))
+    assert _residual_correlation(shared, jac, 3.0) > 20.0

@@ -9,6 +9,7 @@ disagrees with the votes the line-search line is kept, with a warning.
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 
 import numpy as np
@@ -229,7 +230,7 @@ class RefinedMethod(RefinedKind):
         return out, bias
 
 
-MATERIAL = 0.5  # the log's share of a line's std (over its tracking part's) from which its white noise is fitted
+MATERIAL = 0.5  # the log's part of a line's std, over the rest's, from which the log's white noise is fitted
 MIN_SHARED_FIXES = 3  # fixes under two cameras' frames from which their lines and the log's white error are fitted
 
 
@@ -237,16 +238,21 @@ def _white_shared(
     cameras: dict[str, CameraData], lines: dict[str, CameraLine], path: PiecewiseTrajectory, model: LogModel
 ) -> bool:
     """Whether the log's white noise is fitted with the lines (fit_white_log): the log has white noise, and at least
-    MIN_SHARED_FIXES of its fixes lie under the frames of two or more cameras (at the same time) whose line's
-    uncertainty the log's noise dominates (its error budget's log part at least its tracking part)."""
+    MIN_SHARED_FIXES of its fixes lie under the frames of two or more cameras (at the same time) on whose line the
+    log's noise weighs (_log_material)."""
     if model.white_m <= 0:
         return False
     visits = [
         (cameras[n].track_clock - line.beta) / line.alpha
         for n, line in lines.items()
-        if line.refined and line.budget is not None and line.budget.log_frames >= MATERIAL * line.budget.tracking_frames
+        if line.refined and line.budget is not None and _log_material(line.budget)
     ]
     return len(visits) >= 2 and shared_fixes(visits, path) >= MIN_SHARED_FIXES
+
+
+def _log_material(budget: ErrorBudget) -> bool:
+    """Whether the log's part of a line's clock std is at least MATERIAL of the rest's (tracking and calibration)."""
+    return budget.log_frames >= MATERIAL * math.hypot(budget.tracking_frames, budget.calibration_frames)
 
 
 def _own_time_sd(cameras: dict[str, CameraData], own: dict[str, Refinement], rate: float) -> float:
