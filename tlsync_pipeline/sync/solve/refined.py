@@ -138,6 +138,12 @@ class RefinedMethod(RefinedKind):
         """Every camera's line refined together with the log's bias (sync/solve/log_bias.py), their intervals including
         it.
 
+        Under a log without a bias, or one whose bias the cameras' pixels
+        measure below its white noise (fit_log_bias_measured), cameras that
+        see the target at the same time are fitted with the log's white error
+        at each fix instead (_white_shared, fit_white_log); without such
+        cameras, under a log without a bias, the lines stay as they are.
+
         Cameras whose own refinement was not kept (a fallback) keep their line.
         A camera whose refinement on the corrected log loses its frames or
         does not converge (the estimate made its line slide) leaves the joint
@@ -146,8 +152,9 @@ class RefinedMethod(RefinedKind):
         survives, the lines stay as they were and the bias is at its prior.
         """
         path = PiecewiseTrajectory(trajectory)
+        shared = _white_shared(cameras, lines, path, model)
         white = not model.has_bias
-        if white and not _white_shared(cameras, lines, path, model):
+        if white and not shared:
             return lines, None
         own: dict[str, Refinement] = {}
         for name, line in lines.items():
@@ -175,6 +182,11 @@ class RefinedMethod(RefinedKind):
             )
             for n, r in own.items()
         }
+        first = None  # the bias's fit on every camera, when it was made to decide
+        if shared and not white:
+            first = fit_log_bias_measured(list(joint.values()), path, rate, model, options.f_scale_px)
+            if first.model.bias_m < first.model.white_m:  # the pixels measured a bias below the white noise
+                white, model, first = True, replace(first.model, bias_m=0.0, bias_vertical_m=0.0), None
 
         def fitted(names: list[str], estimate: bool = True) -> LogBias | None:
             chosen = [joint[n] for n in names]
@@ -186,7 +198,7 @@ class RefinedMethod(RefinedKind):
 
         kept, again = list(own), {}
         while kept:
-            found = fitted(kept)
+            found, first = (fitted(kept) if first is None else first), None
             if found is None:
                 return lines, None
             bias = found
