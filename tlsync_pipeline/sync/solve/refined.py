@@ -29,6 +29,7 @@ from tlsync_pipeline.sync.solve.log_bias import (
     fit_log_bias_measured,
     fit_white_log,
     shared_fixes,
+    white_knots,
     with_common_shift,
 )
 from tlsync_pipeline.sync.solve.methods import CameraData
@@ -185,7 +186,8 @@ class RefinedMethod(RefinedKind):
         first = None  # the bias's fit on every camera, when it was made to decide
         if shared and not white:
             first = fit_log_bias_measured(list(joint.values()), path, rate, model, options.f_scale_px)
-            if first.model.bias_m < first.model.white_m:  # the pixels measured a bias below the white noise
+            below = first.model.bias_m < first.model.white_m  # the pixels measured a bias below the white noise
+            if below and white_knots(list(joint.values()), path) is not None:
                 white, model, first = True, replace(first.model, bias_m=0.0, bias_vertical_m=0.0), None
 
         def fitted(names: list[str], estimate: bool = True) -> LogBias | None:
