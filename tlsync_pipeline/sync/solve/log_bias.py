@@ -23,6 +23,14 @@ exact marginal of the joint Gaussian, by the block inverse); cameras whose
 visits share the bias are correlated by ``S_a P S_b^T``, which the pairs'
 intervals include. Observability of the bias at a camera's visit is
 1 - posterior variance / prior variance (horizontal), 0 to 1.
+
+A white log's error at a fix is seen at once by every camera that sees the
+target then (views of one patch): fit_white_log fits those cameras' lines
+with the error at every fix and half fix under their frames (the measured
+white noise as the knots' prior), each camera's pixels weighed by the
+correlation left in its residuals against the log so corrected, not by
+its own refinement's covariance against the log as logged (which counts
+the very error the knots model as lost information).
 """
 
 from __future__ import annotations
@@ -367,8 +375,9 @@ def shared_fixes(visits: list[np.ndarray], path: PiecewiseTrajectory) -> int:
 
 
 def white_knots(cameras: list[BiasCamera], path: PiecewiseTrajectory) -> np.ndarray | None:
-    """The sample coordinates of the fixes around every camera's frames (and one more each side): the knots of the
-    log's white error; None when they are more than MAX_KNOTS."""
+    """The knots of the log's white error: the sample coordinates of the fixes around every camera's frames (and one
+    more each side) and the half-way points between consecutive ones (the error bends between fixes as the cubic path
+    through them does); None when they are more than MAX_KNOTS."""
     fixes = path.sample
     around = np.concatenate([_fixes_around(_visit_samples(c), fixes) for c in cameras])
     kept = fixes[np.unique(np.clip(np.r_[around - 1, around, around + 1], 0, len(fixes) - 1))]
@@ -394,7 +403,8 @@ class _Joint:
     around it (6 values), so its Jacobian rows have 8 entries, and the normal equations are summed frame by frame
     into each knot interval (normal_equations). A trial step's residuals project only the frames' positions
     (_views); the finite differences are projected once the step is taken (_pixels).
-    ``rate``: the log's samples per second (the window of the image velocity, ``seen_rates``).
+    ``rate``: the log's samples per second (the window of the image velocity, ``seen_rates``). ``measured``: each
+    camera's inflation is its residuals' variance factor alone, until ``remeasured`` at a fit's optimum (fit_white_log).
     """
 
     def __init__(
@@ -590,12 +600,12 @@ class _Joint:
             c, x = self.cameras[k], z[2 * k : 2 * k + 2]
             r, jac = rows.residual, rows.local_jacobian(c, len(self.knots), self._seen_along(k, rows, z))
             bread, variance = _bread(c, r, jac, self.f_scale), _variance_factor(r, self.f_scale)
-            measured = self.correlation is not None
-            correlation = (
-                float(self.correlation[k])
-                if self.correlation is not None
-                else _correlation_factor(bread, variance, x, c.cov)
-            )
+            if self.correlation is not None:  # measured against the corrected log: the posterior's weighing too
+                correlation, own = float(self.correlation[k]), 1.0
+            else:
+                correlation = _correlation_factor(bread, variance, x, c.cov)
+                interval = c.cov if c.cov_interval is None else c.cov_interval
+                own = correlation / _correlation_factor(bread, variance, x, interval)
             inflation = variance * correlation
             h = bread / inflation
             g = _gradient(c, r, jac, self.f_scale, z[2 * k]) / inflation
@@ -604,8 +614,6 @@ class _Joint:
             gain = root @ root @ h_tb  # (2, 3K)
             banded = banded + sp.csc_matrix(h_bb)
             low_rank.append(h_tb.T @ root)
-            interval = c.cov if c.cov_interval is None else c.cov_interval
-            own = 1.0 if measured else correlation / _correlation_factor(bread, variance, x, interval)
             banded_interval = banded_interval + sp.csc_matrix(own * h_bb)
             low_rank_interval.append(np.sqrt(own) * h_tb.T @ root)
             score = score + g[2:] - gain.T @ g[:2]
