@@ -101,3 +101,29 @@ def test_residuals_that_move_together_in_runs_of_frames_count_as_fewer():
     assert _residual_correlation(independent, jac, 3.0) < 2.0
     shared = np.repeat(rng.normal(0.0, 0.5, (n // 100, 2)), 100, axis=0) + rng.normal(0.0, 0.05, (n, 2))
     assert _residual_correlation(shared, jac, 3.0) > 20.0
+
+
+def test_a_surveyed_pose_s_uncertainty_widens_the_clock_by_the_pixels_it_moves_the_target_over_its_speed():
+    """A pose off by 0.5 degrees moves a target 10 m away by focal x 0.0087 px, a time shift the residuals cannot show
+    (the fit of the log's white error keeps it in each camera's interval); a pose without stds adds nothing."""
+    import dataclasses
+
+    from calibration.camera import PoseInfo
+    from tlsync_pipeline.sync.identify.refine import refine_line
+    from tlsync_pipeline.sync.solve.methods import CameraData
+    from tlsync_pipeline.sync.solve.refined import _pose_cov
+
+    scene, inputs = _crowd(0, "shared")
+    camera, track, line = scene.cameras["cam0"], inputs["cam0"].track, scene.lines["cam0"]
+    path = PiecewiseTrajectory(scene.true_trajectory)
+    clock = track.frame.astype(np.float64)
+    fit = refine_line(camera, clock, track.xy, path, line.alpha, line.beta, np.ones(len(clock), bool))
+
+    def data(info):
+        posed = dataclasses.replace(camera, pose_info=info)
+        return CameraData("cam0", posed, track, camera.fps, None, None, clock, clock)  # type: ignore[arg-type]
+
+    assert not _pose_cov(data(None), path, fit).any()
+    half = _pose_cov(data(PoseInfo("gcp", 0.01, 0.5)), path, fit)[1, 1]
+    double = _pose_cov(data(PoseInfo("gcp", 0.01, 1.0)), path, fit)[1, 1]
+    assert half > 0.5 and double == pytest.approx(4.0 * half)  # frames^2: a few pixels at about 2 px a frame

@@ -19,6 +19,7 @@ from tlsync_pipeline.sync.identify.refine import Refinement, refine_line, sigma_
 from tlsync_pipeline.sync.kernels.line_search import LineSearch, find_line
 from tlsync_pipeline.sync.kernels.ransac import distance_to_line
 from tlsync_pipeline.sync.kernels.slope import SlopePrior, slope_prior
+from tlsync_pipeline.sync.model.clock import image_speed
 from tlsync_pipeline.sync.model.log_model import LogModel
 from tlsync_pipeline.sync.model.methods import RefinedKind, RefinedParams
 from tlsync_pipeline.sync.model.params import SyncParams
@@ -231,7 +232,7 @@ class RefinedMethod(RefinedKind):
                 lines[name],
                 alpha=fit.alpha,
                 beta=fit.beta,
-                cov=fit.cov + log_cov,
+                cov=fit.cov + log_cov + (_pose_cov(cameras[name], path, fit) if white else 0.0),
                 budget=error_budget(fit, cameras[name].track_clock, log_cov),
                 log_bias=LogBiasSummary(
                     tuple(map(float, estimate)),  # type: ignore[arg-type]
@@ -262,6 +263,29 @@ def _white_shared(
         if line.refined and line.budget is not None and _log_material(line.budget)
     ]
     return len(visits) >= 2 and shared_fixes(visits, path) >= MIN_SHARED_FIXES
+
+
+def _pose_cov(data: CameraData, path: PiecewiseTrajectory, fit: Refinement) -> np.ndarray:
+    """The uncertainty of a camera's pose (camera.json's stds) as its clock's: the pixels the target's projection moves
+    by (focal length x the larger of the rotation's std and the centre's over the target's median depth: a survey's
+    centre and rotation errors trade against each other on the ground it was surveyed on) over the target's median
+    image speed, as beta's variance; zeros for a pose without stds. A pose error moves a camera's view of the
+    path as a time shift the residuals cannot show; the fit of the log's white error takes out what the cameras share,
+    which leaves each pose's own error in the pair."""
+    info = data.camera.pose_info
+    out = np.zeros((2, 2))
+    if info is None or info.center_std_m is None or info.rotation_std_deg is None:
+        return out
+    clock = data.track_clock[fit.used]
+    s = (clock - fit.beta) / fit.alpha
+    run = path.run_of(s)
+    speed = image_speed(clock, data.track.xy[fit.used], quantile=0.5)
+    if speed is None or not (run >= 0).any():
+        return out
+    depth = float(np.median(np.linalg.norm(path(s[run >= 0], run[run >= 0]) - data.camera.center, axis=1)))
+    pixels = float(data.camera.K[0, 0]) * max(math.radians(info.rotation_std_deg), info.center_std_m / depth)
+    out[1, 1] = (pixels / speed) ** 2
+    return out
 
 
 def _log_material(budget: ErrorBudget) -> bool:
