@@ -127,3 +127,22 @@ def test_a_surveyed_pose_s_uncertainty_widens_the_clock_by_the_pixels_it_moves_t
     half = _pose_cov(data(PoseInfo("gcp", 0.01, 0.5)), path, fit)[1, 1]
     double = _pose_cov(data(PoseInfo("gcp", 0.01, 1.0)), path, fit)[1, 1]
     assert half > 0.5 and double == pytest.approx(4.0 * half)  # frames^2: a few pixels at about 2 px a frame
+
+
+def test_cameras_whose_poses_are_less_certain_than_the_log_keep_their_own_fits():
+    """The shared views with surveyed poses whose stds (0.3 m, 1.5 degrees) move the walker by more than the log's
+    noise: the fit would take their pose errors for the log's, so each camera keeps its own line."""
+    import dataclasses
+
+    from calibration.camera import PoseInfo
+
+    scene, inputs = _crowd(1, "shared")
+    rough = {
+        n: dataclasses.replace(c, camera=dataclasses.replace(c.camera, pose_info=PoseInfo("gcp", 0.3, 1.5)))
+        for n, c in inputs.items()
+    }
+    timeline, _ = synchronize(rough, scene.trajectory, SyncParams(), log_model=PRESETS["white"])
+    assert set(timeline.cameras) == set(scene.cameras), timeline.failed
+    assert all(line.log_bias is None for line in timeline.cameras.values())
+    exact, _ = synchronize(inputs, scene.trajectory, SyncParams(), log_model=PRESETS["white"])
+    assert all(line.log_bias is not None for line in exact.cameras.values())

@@ -254,38 +254,52 @@ def _white_shared(
 ) -> bool:
     """Whether the log's white noise is fitted with the lines (fit_white_log): the log has white noise, and at least
     MIN_SHARED_FIXES of its fixes lie under the frames of two or more cameras (at the same time) on whose line the
-    log's noise weighs (_log_material)."""
+    log's noise weighs (_log_material) at least twice as much as their pose's uncertainty (_pose_frames): the fit
+    takes out the log's error the cameras share, not their poses' (on the shared-view crowd with GCPs declared exact,
+    poses 0.1-0.4 m off, fitted anyway: 4 of 6 seeds worse)."""
     if model.white_m <= 0:
         return False
     visits = [
         (cameras[n].track_clock - line.beta) / line.alpha
         for n, line in lines.items()
-        if line.refined and line.budget is not None and _log_material(line.budget)
+        if line.refined
+        and line.budget is not None
+        and _log_material(line.budget)
+        and _pose_frames(cameras[n], path, line.alpha, line.beta) <= MATERIAL * line.budget.log_frames
     ]
     return len(visits) >= 2 and shared_fixes(visits, path) >= MIN_SHARED_FIXES
 
 
 def _pose_cov(data: CameraData, path: PiecewiseTrajectory, fit: Refinement) -> np.ndarray:
-    """The uncertainty of a camera's pose (camera.json's stds) as its clock's: the pixels the target's projection moves
-    by (focal length x the larger of the rotation's std and the centre's over the target's median depth: a survey's
-    centre and rotation errors trade against each other on the ground it was surveyed on) over the target's median
-    image speed, as beta's variance; zeros for a pose without stds. A pose error moves a camera's view of the
-    path as a time shift the residuals cannot show; the fit of the log's white error takes out what the cameras share,
-    which leaves each pose's own error in the pair."""
-    info = data.camera.pose_info
+    """A surveyed pose's uncertainty as its camera's beta variance (_pose_frames on the frames its refinement used): a
+    pose error moves a camera's view of the path as a time shift the residuals cannot show; the fit of the log's white
+    error takes out what the cameras share, which leaves each pose's own error in the pair."""
     out = np.zeros((2, 2))
+    out[1, 1] = _pose_frames(data, path, fit.alpha, fit.beta, fit.used) ** 2
+    return out
+
+
+def _pose_frames(
+    data: CameraData, path: PiecewiseTrajectory, alpha: float, beta: float, used: np.ndarray | None = None
+) -> float:
+    """The std (frames) of a camera's clock that its pose's stds (camera.json) explain: the pixels the target's
+    projection moves by (focal length x the larger of the rotation's std and the centre's over the target's median
+    depth: a survey's centre and rotation errors trade against each other on the ground it was surveyed on) over the
+    target's median image speed, on its tracked frames (``used``: those, None: all) under the line; 0 for a pose
+    without stds."""
+    info = data.camera.pose_info
     if info is None or info.center_std_m is None or info.rotation_std_deg is None:
-        return out
-    clock = data.track_clock[fit.used]
-    s = (clock - fit.beta) / fit.alpha
+        return 0.0
+    used = np.ones(len(data.track_clock), bool) if used is None else used
+    clock = data.track_clock[used]
+    s = (clock - beta) / alpha
     run = path.run_of(s)
-    speed = image_speed(clock, data.track.xy[fit.used], quantile=0.5)
+    speed = image_speed(clock, data.track.xy[used], quantile=0.5)
     if speed is None or not (run >= 0).any():
-        return out
+        return 0.0
     depth = float(np.median(np.linalg.norm(path(s[run >= 0], run[run >= 0]) - data.camera.center, axis=1)))
     pixels = float(data.camera.K[0, 0]) * max(math.radians(info.rotation_std_deg), info.center_std_m / depth)
-    out[1, 1] = (pixels / speed) ** 2
-    return out
+    return pixels / speed
 
 
 def _log_material(budget: ErrorBudget) -> bool:
