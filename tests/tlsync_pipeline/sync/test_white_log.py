@@ -25,9 +25,11 @@ def _path(fixes: int) -> PiecewiseTrajectory:
 
 def test_fixes_two_cameras_lean_on_are_counted_and_each_fix_and_half_fix_is_a_knot():
     path = _path(30)
-    first, second = np.linspace(2.3, 5.7, 20), np.linspace(5.1, 9.0, 20)  # fixes 2-6 and 5-10
+    first, second = np.linspace(2.3, 5.7, 20), np.linspace(4.1, 9.0, 20)  # intervals 2-5 and 4-9: 4 and 5 both
     assert shared_fixes([first, second], path) == 2
     assert shared_fixes([first, np.linspace(12.2, 15.0, 9)], path) == 0
+    leaving, entering = np.r_[np.linspace(0.5, 3.6, 9), 8.2], np.r_[3.8, np.linspace(9.0, 12.0, 9)]
+    assert shared_fixes([leaving, entering], path) == 1  # from one view into the other, twice: never at once
     knots = white_knots([_Camera(first), _Camera(np.linspace(12.2, 15.0, 9))], path)
     assert knots is not None
     np.testing.assert_allclose(knots[:11], np.arange(1.0, 6.5, 0.5))  # fix 1 to 7, one either side, and halves

@@ -368,10 +368,16 @@ def _fixes_around(samples: np.ndarray, fixes: np.ndarray) -> np.ndarray:
 
 
 def shared_fixes(visits: list[np.ndarray], path: PiecewiseTrajectory) -> int:
-    """How many of the log's fixes the frames of two or more cameras lean on (``visits``: each camera's frames' log
-    samples): cameras that see the target at the same time see those fixes' errors at once."""
-    seen = [np.unique(_fixes_around(v, path.sample)) for v in visits if len(v)]
-    return int(np.sum(np.bincount(np.concatenate(seen)) >= 2)) if seen else 0
+    """The longest run of consecutive intervals between the log's fixes in which two or more cameras have frames
+    (``visits``: each camera's frames' log samples): cameras that see the target at the same time see those fixes'
+    errors at once; a walk from one view into the next within one interval is a run of one."""
+    fixes = path.sample
+    seen = [np.unique(np.clip(np.searchsorted(fixes, v, side="right") - 1, 0, None)) for v in visits if len(v)]
+    if not seen:
+        return 0
+    both = np.bincount(np.concatenate(seen), minlength=len(fixes)) >= 2
+    runs = np.diff(np.flatnonzero(np.diff(np.r_[0, both.astype(int), 0])))[::2]
+    return int(runs.max(initial=0))
 
 
 def white_knots(cameras: list[BiasCamera], path: PiecewiseTrajectory) -> np.ndarray | None:

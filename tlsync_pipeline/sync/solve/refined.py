@@ -246,14 +246,14 @@ class RefinedMethod(RefinedKind):
 
 
 MATERIAL = 0.5  # the log's part of a line's std, over the rest's, from which the log's white noise is fitted
-MIN_SHARED_FIXES = 3  # fixes under two cameras' frames from which their lines and the log's white error are fitted
+MIN_SHARED_FIXES = 3  # fix intervals in a row in which two cameras see the target: their white error fitted
 
 
 def _white_shared(
     cameras: dict[str, CameraData], lines: dict[str, CameraLine], path: PiecewiseTrajectory, model: LogModel
 ) -> bool:
-    """Whether the log's white noise is fitted with the lines (fit_white_log): the log has white noise, and at least
-    MIN_SHARED_FIXES of its fixes lie under the frames of two or more cameras (at the same time) on whose line the
+    """Whether the log's white noise is fitted with the lines (fit_white_log): the log has white noise, and for at
+    least MIN_SHARED_FIXES intervals between its fixes in a row two or more cameras see the target, on whose line the
     log's noise weighs (_log_material) at least twice as much as their pose's uncertainty (_pose_frames): the fit
     takes out the log's error the cameras share, not their poses' (on the shared-view crowd with GCPs declared exact,
     poses 0.1-0.4 m off, fitted anyway: 4 of 6 seeds worse)."""
