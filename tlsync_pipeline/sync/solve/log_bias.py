@@ -23,6 +23,14 @@ exact marginal of the joint Gaussian, by the block inverse); cameras whose
 visits share the bias are correlated by ``S_a P S_b^T``, which the pairs'
 intervals include. Observability of the bias at a camera's visit is
 1 - posterior variance / prior variance (horizontal), 0 to 1.
+
+A white log's error at a fix is seen at once by every camera that sees the
+target then (views of one patch): fit_white_log fits those cameras' lines
+with the error at every fix and half fix under their frames (the measured
+white noise as the knots' prior), each camera's pixels weighed by the
+correlation left in its residuals against the log so corrected, not by
+its own refinement's covariance against the log as logged (which counts
+the very error the knots model as lost information).
 """
 
 from __future__ import annotations
@@ -37,6 +45,7 @@ from scipy.optimize import minimize
 from scipy.sparse.linalg import splu
 
 from calibration.camera import Camera
+from tlsync_pipeline.sync.identify.refine import BLOCKS
 from tlsync_pipeline.sync.kernels.gauss_markov import interpolation_parts as _interpolation_parts
 from tlsync_pipeline.sync.kernels.gauss_markov import prior_whitening as _prior_whitening
 from tlsync_pipeline.sync.kernels.slope import SlopePrior
@@ -111,7 +120,8 @@ class LogBias:
     exp(-b^T information b / 2 + evidence^T b) (the lines marginalised; information is the posterior's inverse less
     the prior's, both from one expansion of the fit's cost); model: the error model whose prior it was fitted with;
     estimate: the bias's (horizontal std m, correlation time s) of the largest marginal likelihood, or None when not
-    measured (fit_log_bias_measured)."""
+    measured (fit_log_bias_measured); common: per camera d(alpha, beta) per std of a shift of the log's time that
+    every camera shares and the fit does not resolve (with_common_shift), or None."""
 
     knots: np.ndarray
     values: np.ndarray
@@ -124,6 +134,7 @@ class LogBias:
     evidence: np.ndarray
     model: LogModel
     estimate: tuple[float, float] | None = None
+    common: dict[str, np.ndarray] | None = None
 
     def at(self, samples: np.ndarray) -> np.ndarray:
         """(N, 3) bias at sample coordinates (linear between knots, constant beyond them)."""
@@ -133,7 +144,10 @@ class LogBias:
         """2x2 covariance between camera a's and camera b's (alpha, beta) through the bias (a == b: the bias part of a's
         own).
         """
-        return self.sensitivity[a] @ self.cov @ self.sensitivity[b].T
+        shared = self.sensitivity[a] @ self.cov @ self.sensitivity[b].T
+        if self.common is None:
+            return shared
+        return shared + np.outer(self.common[a], self.common[b])
 
     def std_at(self, sample: float) -> np.ndarray:
         """(3,) posterior std of the bias at one sample coordinate."""
@@ -169,12 +183,57 @@ def fit_log_bias(
     converged = True
     if estimate:
         z, converged = _graduated(problem, z, f_scale)
+    return _fitted(problem, z, converged, estimate, prior, model)
+
+
+def fit_white_log(
+    cameras: list[BiasCamera],
+    path: PiecewiseTrajectory,
+    rate: float,
+    model: LogModel,
+    f_scale: float,
+    estimate: bool = True,
+) -> LogBias | None:
+    """Every camera's line and the log's white error at each fix, fitted together: for cameras that see the target at
+    the same time (shared_fixes), which see each fix's error at once. The knots are the fixes around the cameras'
+    frames (white_knots), their prior the model's white noise on every axis, correlated over one fix interval (the
+    smoothed log's error at a fix leans on its neighbours'). Each camera's pixels are weighed by their variance factor
+    and the correlation left in its residuals against the log so corrected (_Joint.remeasured): its own refinement's
+    covariance, measured against the log as logged, counts the very error the knots model as lost information.
+    None when the fixes are more than MAX_KNOTS. ``estimate`` as fit_log_bias's."""
+    knots = white_knots(cameras, path)
+    if knots is None:
+        return None
+    prior = np.full(3, model.white_m)
+    whiten = _prior_whitening(knots, rate, 1.0 / rate, prior)
+    problem = _Joint(cameras, path, knots, whiten, f_scale, rate, measured=True)
+    z = np.concatenate([problem.x0, np.zeros(3 * len(knots))])
+    converged = True
+    if estimate:
+        z, converged = _graduated(problem, z, f_scale)
+        problem = problem.remeasured(z)
+        z, converged = _graduated(problem, z, f_scale)
+    return _fitted(problem, z, converged, estimate, prior, model)
+
+
+def _fitted(
+    problem: _Joint, z: np.ndarray, converged: bool, estimate: bool, prior: np.ndarray, model: LogModel
+) -> LogBias:
+    """The LogBias of the joint problem at z (its uncertainty from the expansion there)."""
+    cameras, knots, whiten = problem.cameras, problem.knots, problem.whiten
     posterior, sensitivity, information, evidence = problem.uncertainty(z)
     if not estimate:
         posterior = np.linalg.pinv((whiten.T @ whiten).toarray())
     lines = {c.name: problem.line(z, k) for k, c in enumerate(cameras)}
     values = z[2 * len(cameras) :].reshape(-1, 3)
     return LogBias(knots, values, posterior, prior, lines, sensitivity, converged, information, evidence, model)
+
+
+def with_common_shift(bias: LogBias, rate: float, shift_s: float) -> LogBias:
+    """The bias with a shift of the log's time of std ``shift_s`` (seconds) shared by every camera: camera c's beta
+    moves by alpha_c x rate x the shift, which the pairs' relations do not see."""
+    common = {name: np.array([0.0, line[0] * rate * shift_s]) for name, line in bias.lines.items()}
+    return replace(bias, common=common)
 
 
 def fit_log_bias_measured(
@@ -297,6 +356,42 @@ def _knots(cameras: list[BiasCamera], path: PiecewiseTrajectory, rate: float, mo
     return merged if len(merged) <= MAX_KNOTS else np.linspace(lo_all, hi_all, MAX_KNOTS)
 
 
+def _visit_samples(c: BiasCamera) -> np.ndarray:
+    """The log samples of the camera's frames under its line."""
+    return (c.clock - c.beta) / c.alpha
+
+
+def _fixes_around(samples: np.ndarray, fixes: np.ndarray) -> np.ndarray:
+    """Indices of the fixes either side of each sample coordinate (the log's error there is theirs)."""
+    right = np.clip(np.searchsorted(fixes, samples, side="right"), 1, len(fixes) - 1)
+    return np.unique(np.r_[right - 1, right])
+
+
+def shared_fixes(visits: list[np.ndarray], path: PiecewiseTrajectory) -> int:
+    """The longest run of consecutive intervals between the log's fixes in which two or more cameras have frames
+    (``visits``: each camera's frames' log samples): cameras that see the target at the same time see those fixes'
+    errors at once; a walk from one view into the next within one interval is a run of one."""
+    fixes = path.sample
+    seen = [np.unique(np.clip(np.searchsorted(fixes, v, side="right") - 1, 0, None)) for v in visits if len(v)]
+    if not seen:
+        return 0
+    both = np.bincount(np.concatenate(seen), minlength=len(fixes)) >= 2
+    runs = np.diff(np.flatnonzero(np.diff(np.r_[0, both.astype(int), 0])))[::2]
+    return int(runs.max(initial=0))
+
+
+def white_knots(cameras: list[BiasCamera], path: PiecewiseTrajectory) -> np.ndarray | None:
+    """The knots of the log's white error: the sample coordinates of the fixes around every camera's frames (and one
+    more each side) and the half-way points between consecutive ones (the error bends between fixes as the cubic path
+    through them does); None when they are more than MAX_KNOTS."""
+    fixes = path.sample
+    around = np.concatenate([_fixes_around(_visit_samples(c), fixes) for c in cameras])
+    kept = fixes[np.unique(np.clip(np.r_[around - 1, around, around + 1], 0, len(fixes) - 1))]
+    halves = (kept[1:] + kept[:-1])[np.diff(kept) <= 1.0 + 1e-9] / 2.0
+    knots = np.unique(np.r_[kept, halves])
+    return knots if 2 <= len(knots) <= MAX_KNOTS else None
+
+
 def _interpolation(samples: np.ndarray, knots: np.ndarray) -> sp.csr_matrix:
     """(N, K) sparse weights of the knots at each sample coordinate (two per row)."""
     left, right, u = _interpolation_parts(samples, knots)
@@ -314,7 +409,8 @@ class _Joint:
     around it (6 values), so its Jacobian rows have 8 entries, and the normal equations are summed frame by frame
     into each knot interval (normal_equations). A trial step's residuals project only the frames' positions
     (_views); the finite differences are projected once the step is taken (_pixels).
-    ``rate``: the log's samples per second (the window of the image velocity, ``seen_rates``).
+    ``rate``: the log's samples per second (the window of the image velocity, ``seen_rates``). ``measured``: each
+    camera's inflation is its residuals' variance factor alone, until ``remeasured`` at a fit's optimum (fit_white_log).
     """
 
     def __init__(
@@ -325,6 +421,7 @@ class _Joint:
         whiten: sp.csr_matrix,
         f_scale: float,
         rate: float,
+        measured: bool = False,
     ):
         self.cameras, self.path, self.knots, self.whiten, self.f_scale = cameras, path, knots, whiten, f_scale
         self.prior_weight = 1.0
@@ -345,16 +442,33 @@ class _Joint:
         self._cache: dict[bytes, list[_CameraRows]] = {}
         self._view_cache: dict[bytes, list[_CameraView]] = {}
         self.inflation = np.ones(self.n)
+        self.correlation: np.ndarray | None = np.ones(self.n) if measured else None
         start = np.concatenate([self.x0, np.zeros(3 * len(knots))])
         self.inflation = np.array(
             [
-                _inflation(
+                _variance_factor(rows.residual, f_scale)
+                if measured
+                else _inflation(
                     c, rows.residual, rows.local_jacobian(c, len(knots)), f_scale, start[2 * k : 2 * k + 2], c.cov
                 )
                 for k, (c, rows) in enumerate(zip(cameras, self._pixels(start)))
             ]
         )
         self._cache.clear()
+
+    def remeasured(self, z: np.ndarray) -> _Joint:
+        """The same problem with each camera's inflation measured on its residuals at z, against the log corrected by
+        z's knots: their variance factor times the correlation left in them (_residual_correlation)."""
+        inflation, correlation = np.ones(self.n), np.ones(self.n)
+        for k, (c, rows) in enumerate(zip(self.cameras, self._pixels(z))):
+            r = rows.residual / rows.scale
+            jac = rows.local_jacobian(c, len(self.knots))[:, :2].toarray() / rows.scale
+            correlation[k] = _residual_correlation(r, jac, self.f_scale)
+            inflation[k] = _variance_factor(r, self.f_scale) * correlation[k]
+        again = copy.copy(self)
+        again.inflation, again.correlation = inflation, correlation
+        again._cache, again._view_cache = {}, {}
+        return again
 
     def with_prior_weight(self, weight: float) -> _Joint:
         """The same problem with its priors times ``weight`` (the cameras' pixels and inflation shared)."""
@@ -492,7 +606,12 @@ class _Joint:
             c, x = self.cameras[k], z[2 * k : 2 * k + 2]
             r, jac = rows.residual, rows.local_jacobian(c, len(self.knots), self._seen_along(k, rows, z))
             bread, variance = _bread(c, r, jac, self.f_scale), _variance_factor(r, self.f_scale)
-            correlation = _correlation_factor(bread, variance, x, c.cov)
+            if self.correlation is not None:  # measured against the corrected log: the posterior's weighing too
+                correlation, own = float(self.correlation[k]), 1.0
+            else:
+                correlation = _correlation_factor(bread, variance, x, c.cov)
+                interval = c.cov if c.cov_interval is None else c.cov_interval
+                own = correlation / _correlation_factor(bread, variance, x, interval)
             inflation = variance * correlation
             h = bread / inflation
             g = _gradient(c, r, jac, self.f_scale, z[2 * k]) / inflation
@@ -501,8 +620,6 @@ class _Joint:
             gain = root @ root @ h_tb  # (2, 3K)
             banded = banded + sp.csc_matrix(h_bb)
             low_rank.append(h_tb.T @ root)
-            interval = c.cov if c.cov_interval is None else c.cov_interval
-            own = correlation / _correlation_factor(bread, variance, x, interval)
             banded_interval = banded_interval + sp.csc_matrix(own * h_bb)
             low_rank_interval.append(np.sqrt(own) * h_tb.T @ root)
             score = score + g[2:] - gain.T @ g[:2]
@@ -727,6 +844,28 @@ def _correlation_factor(bread: np.ndarray, variance: float, x: np.ndarray, cov: 
     d = np.array([[-1.0 / u**2, 0.0], [s0 / u**2, -1.0 / u]])
     naive = d @ naive_x @ d.T
     ratio = np.trace(cov) / max(np.trace(naive), 1e-300)
+    return float(np.clip(ratio, 1.0, 1e6)) if np.isfinite(ratio) else 1.0
+
+
+def _residual_correlation(r: np.ndarray, jac: np.ndarray, f_scale: float) -> float:
+    """How much the covariance of a camera's line from its residuals r (N, 2) summed over BLOCKS contiguous runs of
+    frames exceeds the one from its frames taken apart (>= 1; jac (2N, 2): their derivative in the line): residuals
+    correlated in time carry less information than their number says."""
+    q = (r / f_scale) ** 2
+    psi, dpsi = (r / np.sqrt(1.0 + q)).ravel(), ((1.0 + q) ** -1.5).ravel()
+    bread = jac.T @ (dpsi[:, None] * jac)
+    scores = (jac * psi[:, None]).reshape(len(r), 2, 2).sum(axis=1)  # (N, 2): each frame's
+    blocks = np.array([b.sum(axis=0) for b in np.array_split(scores, min(BLOCKS, len(scores)))])
+    count = len(blocks)
+    if count < 2:
+        return 1.0
+    try:
+        inverse = np.linalg.inv(bread)
+    except np.linalg.LinAlgError:
+        return 1.0
+    apart = np.trace(inverse @ (scores.T @ scores) @ inverse)
+    together = np.trace(inverse @ (blocks.T @ blocks) @ inverse) * count / (count - 1)
+    ratio = together / max(apart, 1e-300)
     return float(np.clip(ratio, 1.0, 1e6)) if np.isfinite(ratio) else 1.0
 
 

@@ -9,6 +9,7 @@ disagrees with the votes the line-search line is kept, with a warning.
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 
 import numpy as np
@@ -18,10 +19,20 @@ from tlsync_pipeline.sync.identify.refine import Refinement, refine_line, sigma_
 from tlsync_pipeline.sync.kernels.line_search import LineSearch, find_line
 from tlsync_pipeline.sync.kernels.ransac import distance_to_line
 from tlsync_pipeline.sync.kernels.slope import SlopePrior, slope_prior
+from tlsync_pipeline.sync.model.clock import image_speed
 from tlsync_pipeline.sync.model.log_model import LogModel
 from tlsync_pipeline.sync.model.methods import RefinedKind, RefinedParams
 from tlsync_pipeline.sync.model.params import SyncParams
-from tlsync_pipeline.sync.solve.log_bias import BiasCamera, LogBias, fit_log_bias, fit_log_bias_measured
+from tlsync_pipeline.sync.solve.log_bias import (
+    BiasCamera,
+    LogBias,
+    fit_log_bias,
+    fit_log_bias_measured,
+    fit_white_log,
+    shared_fixes,
+    white_knots,
+    with_common_shift,
+)
 from tlsync_pipeline.sync.solve.methods import CameraData
 from tlsync_pipeline.sync.solve.slow_motion import BiasSpread, bias_time_spread
 from tlsync_pipeline.sync.timeline import CameraLine, ErrorBudget, LineSearchSummary, LogBiasSummary, RefinementSummary
@@ -129,6 +140,12 @@ class RefinedMethod(RefinedKind):
         """Every camera's line refined together with the log's bias (sync/solve/log_bias.py), their intervals including
         it.
 
+        Under a log without a bias, or one whose bias the cameras' pixels
+        measure below its white noise (fit_log_bias_measured), cameras that
+        see the target at the same time are fitted with the log's white error
+        at each fix instead (_white_shared, fit_white_log); without such
+        cameras, under a log without a bias, the lines stay as they are.
+
         Cameras whose own refinement was not kept (a fallback) keep their line.
         A camera whose refinement on the corrected log loses its frames or
         does not converge (the estimate made its line slide) leaves the joint
@@ -137,6 +154,10 @@ class RefinedMethod(RefinedKind):
         survives, the lines stay as they were and the bias is at its prior.
         """
         path = PiecewiseTrajectory(trajectory)
+        shared = _white_shared(cameras, lines, path, model)
+        white = not model.has_bias
+        if white and not shared:
+            return lines, None
         own: dict[str, Refinement] = {}
         for name, line in lines.items():
             if line.refined:
@@ -163,22 +184,41 @@ class RefinedMethod(RefinedKind):
             )
             for n, r in own.items()
         }
+        first = None  # the bias's fit on every camera, when it was made to decide
+        if shared and not white:
+            first = fit_log_bias_measured(list(joint.values()), path, rate, model, options.f_scale_px)
+            below = first.model.bias_m < first.model.white_m  # the pixels measured a bias below the white noise
+            if below and white_knots(list(joint.values()), path) is not None:
+                white, model, first = True, replace(first.model, bias_m=0.0, bias_vertical_m=0.0), None
+
+        def fitted(names: list[str], estimate: bool = True) -> LogBias | None:
+            chosen = [joint[n] for n in names]
+            if white:
+                return fit_white_log(chosen, path, rate, model, options.f_scale_px, estimate)
+            if estimate:
+                return fit_log_bias_measured(chosen, path, rate, model, options.f_scale_px)
+            return fit_log_bias(chosen, path, rate, bias.model, options.f_scale_px, estimate=False)
+
         kept, again = list(own), {}
         while kept:
-            bias = fit_log_bias_measured([joint[n] for n in kept], path, rate, model, options.f_scale_px)
+            found, first = (fitted(kept) if first is None else first), None
+            if found is None:
+                return lines, None
+            bias = found
             again = (
-                _refit_on_corrected(cameras, {n: own[n] for n in kept}, bias, trajectory, params, options)
+                _refit_on_corrected(cameras, {n: own[n] for n in kept}, bias, trajectory, params, options, white)
                 if bias.converged
                 else {}
             )
             if len(again) == len(kept):
                 break
             kept = list(again)
-        at_prior = (
-            bias
-            if len(again) == len(own)
-            else fit_log_bias(list(joint.values()), path, rate, bias.model, options.f_scale_px, estimate=False)
-        )
+        at_prior = bias if len(again) == len(own) else fitted(list(joint), estimate=False)
+        if at_prior is None:
+            return lines, None
+        if white:
+            shift = _own_time_sd(cameras, own, rate)
+            bias, at_prior = with_common_shift(bias, rate, shift), with_common_shift(at_prior, rate, shift)
         if not again:
             bias = replace(at_prior, estimate=bias.estimate)
         out = dict(lines)
@@ -192,7 +232,7 @@ class RefinedMethod(RefinedKind):
                 lines[name],
                 alpha=fit.alpha,
                 beta=fit.beta,
-                cov=fit.cov + log_cov,
+                cov=fit.cov + log_cov + (_pose_cov(cameras[name], path, fit) if white else 0.0),
                 budget=error_budget(fit, cameras[name].track_clock, log_cov),
                 log_bias=LogBiasSummary(
                     tuple(map(float, estimate)),  # type: ignore[arg-type]
@@ -203,6 +243,80 @@ class RefinedMethod(RefinedKind):
                 ),
             )
         return out, bias
+
+
+MATERIAL = 0.5  # the log's part of a line's std, over the rest's, from which the log's white noise is fitted
+MIN_SHARED_FIXES = 3  # fix intervals in a row in which two cameras see the target: their white error fitted
+
+
+def _white_shared(
+    cameras: dict[str, CameraData], lines: dict[str, CameraLine], path: PiecewiseTrajectory, model: LogModel
+) -> bool:
+    """Whether the log's white noise is fitted with the lines (fit_white_log): the log has white noise, and for at
+    least MIN_SHARED_FIXES intervals between its fixes in a row two or more cameras see the target, on whose line the
+    log's noise weighs (_log_material) at least twice as much as their pose's uncertainty (_pose_frames): the fit
+    takes out the log's error the cameras share, not their poses' (on the shared-view crowd with GCPs declared exact,
+    poses 0.1-0.4 m off, fitted anyway: 4 of 6 seeds worse)."""
+    if model.white_m <= 0:
+        return False
+    visits = [
+        (cameras[n].track_clock - line.beta) / line.alpha
+        for n, line in lines.items()
+        if line.refined
+        and line.budget is not None
+        and _log_material(line.budget)
+        and _pose_frames(cameras[n], path, line.alpha, line.beta) <= MATERIAL * line.budget.log_frames
+    ]
+    return len(visits) >= 2 and shared_fixes(visits, path) >= MIN_SHARED_FIXES
+
+
+def _pose_cov(data: CameraData, path: PiecewiseTrajectory, fit: Refinement) -> np.ndarray:
+    """A surveyed pose's uncertainty as its camera's beta variance (_pose_frames on the frames its refinement used): a
+    pose error moves a camera's view of the path as a time shift the residuals cannot show; the fit of the log's white
+    error takes out what the cameras share, which leaves each pose's own error in the pair."""
+    out = np.zeros((2, 2))
+    out[1, 1] = _pose_frames(data, path, fit.alpha, fit.beta, fit.used) ** 2
+    return out
+
+
+def _pose_frames(
+    data: CameraData, path: PiecewiseTrajectory, alpha: float, beta: float, used: np.ndarray | None = None
+) -> float:
+    """The std (frames) of a camera's clock that its pose's stds (camera.json) explain: the pixels the target's
+    projection moves by (focal length x the larger of the rotation's std and the centre's over the target's median
+    depth: a survey's centre and rotation errors trade against each other on the ground it was surveyed on) over the
+    target's median image speed, on its tracked frames (``used``: those, None: all) under the line; 0 for a pose
+    without stds."""
+    info = data.camera.pose_info
+    if info is None or info.center_std_m is None or info.rotation_std_deg is None:
+        return 0.0
+    used = np.ones(len(data.track_clock), bool) if used is None else used
+    clock = data.track_clock[used]
+    s = (clock - beta) / alpha
+    run = path.run_of(s)
+    speed = image_speed(clock, data.track.xy[used], quantile=0.5)
+    if speed is None or not (run >= 0).any():
+        return 0.0
+    depth = float(np.median(np.linalg.norm(path(s[run >= 0], run[run >= 0]) - data.camera.center, axis=1)))
+    pixels = float(data.camera.K[0, 0]) * max(math.radians(info.rotation_std_deg), info.center_std_m / depth)
+    return pixels / speed
+
+
+def _log_material(budget: ErrorBudget) -> bool:
+    """Whether the log's part of a line's clock std is at least MATERIAL of the rest's (tracking and calibration)."""
+    return budget.log_frames >= MATERIAL * math.hypot(budget.tracking_frames, budget.calibration_frames)
+
+
+def _own_time_sd(cameras: dict[str, CameraData], own: dict[str, Refinement], rate: float) -> float:
+    """The least std (seconds of the log) of a camera's own clock at the middle of its visit, as its refinement on the
+    log as logged gives it: what the cameras together know of the log's own time when the fit of the log's white
+    error tells them apart (a fix's error along the path is a time shift every camera that leans on it shares)."""
+    sds = []
+    for name, r in own.items():
+        middle = _visit_middle(cameras[name].track_clock[r.used], r.alpha, r.beta)
+        g = np.array([middle, 1.0])
+        sds.append(float(np.sqrt(max(g @ r.cov @ g, 0.0))) / (r.alpha * rate))
+    return min(sds)
 
 
 def _spread(data: CameraData, path: PiecewiseTrajectory, fit: Refinement, bias_sd_m: np.ndarray) -> BiasSpread | None:
@@ -236,10 +350,17 @@ def _refit_on_corrected(
     trajectory: Trajectory,
     params: SyncParams,
     options: RefinedParams,
+    white: bool = False,
 ) -> dict[str, Refinement]:
     """Each camera's refinement on the log corrected by the bias, from its joint line: the cameras whose refit converged
-    and kept at least SUPPORT_KEPT of its frames."""
-    corrected = PiecewiseTrajectory(replace(trajectory, xyz=trajectory.xyz + bias.at(trajectory.sample)))
+    and kept at least SUPPORT_KEPT of its frames. ``white``: the bias is the log's white error at each fix
+    (fit_white_log), which the correction removes: the corrected log has no sigmas left to weigh the frames by (what
+    it leaves uncertain is the bias's posterior, LogBias.line_cov)."""
+    corrected = PiecewiseTrajectory(
+        _corrected_at_knots(trajectory, bias)
+        if white
+        else replace(trajectory, xyz=trajectory.xyz + bias.at(trajectory.sample))
+    )
     out = {}
     for name, r in own.items():
         data = cameras[name]
@@ -257,6 +378,18 @@ def _refit_on_corrected(
         if refit.converged and refit.frames_used >= SUPPORT_KEPT * r.frames_used:
             out[name] = refit
     return out
+
+
+def _corrected_at_knots(trajectory: Trajectory, bias: LogBias) -> Trajectory:
+    """The log corrected by the bias at its samples and at the knots between them (the bias is linear between knots:
+    a knot between two fixes bends the path there), without sigmas: the knots took the log's white error."""
+    path = PiecewiseTrajectory(trajectory)
+    run = path.run_of(bias.knots)
+    between = ~np.isin(bias.knots, trajectory.sample) & (run >= 0)
+    sample = np.r_[trajectory.sample, bias.knots[between]]
+    xyz = np.vstack([trajectory.xyz, path(bias.knots[between], run[between])])
+    order = np.argsort(sample)
+    return replace(trajectory, sample=sample[order], xyz=xyz[order] + bias.at(sample[order]), sigma=None)
 
 
 def _refine(

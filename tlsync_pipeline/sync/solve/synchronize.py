@@ -329,7 +329,8 @@ def synchronize(
     method = get_method(params.method)
     # A camera whose pose comes from the target absorbed the log's bias during its visit in that pose: it stays out.
     surveyed = {name: results[name] for name in lines if not _pose_from_target(used[name].camera)}
-    if params.log_bias and log_model.has_bias and isinstance(method, JointMethod) and surveyed:
+    joint = log_model.has_bias or log_model.white_m > 0  # a bias, or white noise cameras may see at the same time
+    if params.log_bias and joint and isinstance(method, JointMethod) and surveyed:
         data = {
             name: camera_data(name, replace(used[name], track=r.track(used[name])), r.votes, radius[name])
             for name, r in surveyed.items()
