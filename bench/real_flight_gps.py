@@ -165,7 +165,9 @@ def run_one(slowed: SlowedFlight, sync_params, receiver: str, seed: int, bias_mo
         "worst": max(eps, default=np.nan),
         "median": float(np.median(eps)) if eps else np.nan,
         "z": [score for _, score in pairs],
-        "refused": {name: why.split(": ", 1)[-1] for name, why in timeline.failed.items()},
+        "refused": {
+            name: why.split(": ", 1)[-1] + _line_off(timeline, slowed, name) for name, why in timeline.failed.items()
+        },
         "cpu_s": seconds,
         "peak_mb": peak_mb,
     }
@@ -189,6 +191,17 @@ def through_stages(slowed: SlowedFlight, logged, declared: str) -> tuple[Timelin
         timeline = read_timeline(Path(folder) / "work" / "timeline.json")
     seconds = (after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime)
     return timeline, seconds, after.ru_maxrss / 1024.0
+
+
+def _line_off(timeline: Timeline, slowed: SlowedFlight, name: str) -> str:
+    """How far the refused camera's line lies from the truth (" [line +X s]", the log's seconds at its middle tracked
+    frame), or "" when no line was fitted (a pose refused first)."""
+    line, truth, track = timeline.rejected.get(name), slowed.lines[name], slowed.cameras[name].track
+    if line is None or track is None or not len(track) or slowed.trajectory.rate is None:
+        return ""
+    frame = float(np.median(track.frame))
+    off = (frame - line.beta) / line.alpha - (frame - truth.beta) / truth.alpha
+    return f" [line {off / slowed.trajectory.rate:+.1f} s]"
 
 
 def _cause(why: str) -> str:

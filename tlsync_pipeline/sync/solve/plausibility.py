@@ -59,7 +59,7 @@ from tlsync_pipeline.sync.kernels.velocity import image_velocity
 from tlsync_pipeline.sync.model.clock import camera_clock, image_speed
 from tlsync_pipeline.sync.model.log_model import LogModel
 from tlsync_pipeline.sync.model.status import AMBIGUOUS, FAILED, WEAK, Reason
-from tlsync_pipeline.sync.solve.rival import RivalOdds, rival_odds
+from tlsync_pipeline.sync.solve.rival import RivalOdds, rival_odds, scanned_line
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
 from trackers.track import Track
 
@@ -541,25 +541,34 @@ def rival_odds_of(
     refusal (``_rival``), but where the whole track prefers it the camera is refitted on it (a hovering target's
     band spans tens of seconds, and the line search's best line there may be the wrong end of it).
 
+    Under a log with a bias, on a camera whose pose does not come from the target (that pose was fitted with its
+    timing), the track is scanned too (rival.scanned_line): the scan's best line, beyond the band of the line search's,
+    is weighed the same way, and is the rival (``RivalOdds.scanned``) when the track leaves it more probable than the
+    line search's rival.
+
     Each line's intercept is profiled over the band one pass's votes span (eps_px over the image speed, in clock units).
     """
-    if _rival_apart(line, track, clock, fps, eps_px, beyond_band=False) is None:
-        return None
     search = line.line_search
+    if search is None:
+        return None
     speed = image_speed(np.asarray(clock, dtype=np.float64), track.xy, quantile=0.5) or 1.0
     band = min(eps_px / speed, RIVAL_BAND_FRAMES)
-    return rival_odds(
-        camera,
-        clock,
-        track.xy,
-        path,
-        (search.alpha, search.beta),
-        (search.rival_alpha, search.rival_beta),
-        model,
-        fps,
-        rate,
-        band,
+    odds = None
+    if _rival_apart(line, track, clock, fps, eps_px, beyond_band=False) is not None:
+        best, rival = (search.alpha, search.beta), (search.rival_alpha, search.rival_beta)
+        odds = rival_odds(camera, clock, track.xy, path, best, rival, model, fps, rate, band)
+    from_target = camera.pose_info is not None and "target" in camera.pose_info.source
+    if not (model.has_bias and fps and len(clock)) or from_target:
+        return odds
+    beta = scanned_line(camera, clock, track.xy, path, search.alpha, model, fps, rate)
+    if beta is None or abs(beta - search.beta) <= band:
+        return odds
+    scanned = rival_odds(
+        camera, clock, track.xy, path, (search.alpha, search.beta), (search.alpha, beta), model, fps, rate, band
     )
+    if odds is None or scanned.rival_probability > odds.rival_probability:
+        return replace(scanned, scanned=(search.alpha, scanned.rival.beta))
+    return odds
 
 
 def _rival(
