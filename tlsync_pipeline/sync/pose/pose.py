@@ -672,24 +672,39 @@ def fitted_untested(
     untested: tuple[float, ...],
     log_model: LogModel | None,
 ) -> tuple[OffsetSearch, list[JointFit]]:
-    """The search with the ``untested`` offsets (clock units) marked as fitted at, and the fits with those of a pose
-    started at each of them (the search's pose there and the prior's slope), best first. A fit may converge to another
-    offset (the best's timing, seen through the coarse pass) or not at all: either way the offset was weighed."""
+    """The search with the ``untested`` offsets (clock units) a fit converged from marked as fitted at, and the fits
+    with those fits (each started from the search's pose at its offset and the prior's slope), best first. A fit may
+    converge to another offset (the best's timing, seen through the coarse pass): the offset was weighed all the same.
+    An offset no fit converged from stays untested."""
     name = camera.name
     prior, fps = _searchable(name, prior, fps, clock, MIN_FRAMES)
     dlt = "intrinsics" in camera.to_estimate
     score, threshold = _offset_scorer(camera, clock, xy, path, prior.alpha, dlt, log_model, fps)
-    candidates = []
+    log_m = log_model.unabsorbed_m(float(np.ptp(clock)) / fps) if log_model is not None else 0.0
+    extra, fitted_at = [], list(search.fitted_at)
     for beta in untested:
         found = score.camera_at(camera, beta, threshold)
-        if found is not None:
-            candidates.append(Candidate(found, prior.alpha, beta, "search"))
-    log_m = log_model.unabsorbed_m(float(np.ptp(clock)) / fps) if log_model is not None else 0.0
-    extra = _fit_candidates(
-        candidates, clock, xy, path, prior, gate_px, f_scale, None, free, search.threshold_px, MIN_FRAMES, log_m
-    )
+        if found is None:
+            continue
+        converged = _fit_candidates(
+            [Candidate(found, prior.alpha, beta, "search")],
+            clock,
+            xy,
+            path,
+            prior,
+            gate_px,
+            f_scale,
+            None,
+            free,
+            search.threshold_px,
+            MIN_FRAMES,
+            log_m,
+        )
+        if converged:
+            extra += converged
+            fitted_at.append(beta)
     fitted = sorted(fits + extra, key=lambda f: (-f.support, f.scale_px))
-    return replace(search, fitted_at=search.fitted_at + tuple(untested)), fitted
+    return replace(search, fitted_at=tuple(fitted_at)), fitted
 
 
 def _fit_candidates(

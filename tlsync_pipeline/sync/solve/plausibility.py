@@ -309,6 +309,7 @@ RIVAL_PROBABILITY = 0.01  # ... unless the joint evidence (sync/solve/rival.py) 
 RIVAL_BAND_FRAMES = 300.0  # a line's intercept is profiled over at most this many frames either side
 SLOPE_OFF = 1.3  # motion slope / clock prior beyond this factor (either way): the clock is wrong
 DIRECTION_MIN = 0.5  # median cosine of tracked and projected velocities under a line below this: it moves another way
+MOVES_ALONG = 0.9  # ... at least this: it moves the log's way, which a log reversed in time would move against
 PACE_OFF = 1.6  # the cameras' line speeds over their clock priors (geometric mean) beyond this: the log's time unit
 
 
@@ -427,7 +428,13 @@ def judge_line(
         if stated is not None:
             reasons.append(stated)
     forward, backward = support
-    if backward is not None and backwards_better(forward, backward) and not any(r.code == "reversed" for r in reasons):
+    along = motion is not None and motion.measured and motion.direction >= MOVES_ALONG
+    if (
+        backward is not None
+        and backwards_better(forward, backward)
+        and not along
+        and not any(r.code == "reversed" for r in reasons)
+    ):
         reasons.append(
             Reason(
                 "reversed",
