@@ -12,10 +12,14 @@ log with its model declared (data_fixtures/logged_project.py), through
 sync); its CPU and peak memory are the child's. ``--through synchronize``
 (default) calls synchronize() on the same inputs in this process.
 ``--slow K`` flies the same path K times slower and ``--hover S`` holds the
-drone still S seconds every HOVER_EVERY_S seconds of the flight
-(data_fixtures/slowed_flight.py), and ``--only-slower V`` cuts each track to
-where the drone flies slower than V m/s: the slow flights a metre of bias
-turns into seconds. Per receiver and bias model (``--bias-model``): the runs where every
+drone still S seconds every HOVER_EVERY_S seconds of the flight, ``--max-speed
+V`` stretches only the parts flown faster than V m/s to that speed (a flight
+that hovers and creeps, its hovers as they were; data_fixtures/slowed_flight.py),
+and ``--only-slower V`` cuts each track to where the drone flies slower than V
+m/s: the slow flights a metre of bias turns into seconds. ``--crop SHARE``
+cuts each camera's video to that share of its visit (the first camera keeps
+the visit's start, the last its end, the others between), and ``--cameras``
+keeps a subset. Per receiver and bias model (``--bias-model``): the runs where every
 camera was synchronized, the median and max over runs of the worst and of the
 median synchronized pair's eps_t (frames, eq. 5), the share of synchronized
 pairs whose 95 % interval of beta contains the truth, the refused cameras
@@ -26,7 +30,7 @@ prints every run. Skips cleanly when the folder is absent.
 
     nice python bench/real_flight_gps.py [--data /work/shared/real/drone2] [--seeds 8] [--models drone phone2]
         [--bias-model on off] [--poses given|removed] [--through synchronize|stages] [--slow 1] [--hover 0]
-        [--only-slower V] [--runs]
+        [--max-speed V] [--only-slower V] [--crop SHARE] [--cameras cam0 cam2] [--runs]
 """
 
 from __future__ import annotations
@@ -49,7 +53,14 @@ from _report import pair_errors
 from data_fixtures.log_error import PRESETS as RECEIVERS
 from data_fixtures.log_error import log_errors
 from data_fixtures.logged_project import write_logged_project
-from data_fixtures.slowed_flight import SlowedFlight, slow_part, slowed_flight, time_warp
+from data_fixtures.slowed_flight import (
+    SlowedFlight,
+    cropped,
+    slow_part,
+    slowed_flight,
+    speed_cap_warp,
+    time_warp,
+)
 from tlsync_pipeline.pipeline.project import load_project
 from tlsync_pipeline.pipeline.stages.sync import load_inputs
 from tlsync_pipeline.sync.model.log_model import PRESETS as LOG_MODELS
@@ -61,11 +72,41 @@ Z95 = 1.959964
 HOVER_EVERY_S = 40.0  # seconds of the original flight between two hovers (--hover)
 
 
-def flight(
-    data: Path, slow: float, hover_s: float, poses: str, only_slower: float | None = None
-) -> tuple[SlowedFlight, object]:
-    """The flight (slowed and hovering as asked, each track cut to where the target is slower than ``only_slower``
-    m/s when given; the poses removed when ``poses`` is "removed") and its sync parameters."""
+@dataclasses.dataclass(frozen=True)
+class Variant:
+    """How the flight is changed: slowed ``slow`` times with hovers of ``hover_s`` s every HOVER_EVERY_S s, or its
+    parts faster than ``max_speed`` m/s stretched to it; each track cut to where the target is slower than
+    ``only_slower`` m/s and each video to ``crop`` of its visit; the ``cameras`` kept (None: all); the poses removed
+    when ``poses`` is "removed"."""
+
+    slow: float = 1.0
+    hover_s: float = 0.0
+    max_speed: float | None = None
+    only_slower: float | None = None
+    crop: float | None = None
+    cameras: tuple[str, ...] | None = None
+    poses: str = "given"
+
+    def describe(self) -> str:
+        """One line for the bench's header."""
+        parts = [
+            f"poses {self.poses}",
+            f"{self.slow:g} times slower",
+            f"hovers of {self.hover_s:g} s every {HOVER_EVERY_S:g} s",
+        ]
+        if self.max_speed is not None:
+            parts.append(f"faster than {self.max_speed:g} m/s stretched to it")
+        if self.only_slower is not None:
+            parts.append(f"tracks cut to the drone slower than {self.only_slower:g} m/s")
+        if self.crop is not None:
+            parts.append(f"videos cut to {100 * self.crop:.0f} % of their visit")
+        if self.cameras is not None:
+            parts.append("cameras " + " ".join(self.cameras))
+        return ", ".join(parts)
+
+
+def flight(data: Path, variant: Variant) -> tuple[SlowedFlight, object]:
+    """The flight changed as ``variant`` says, and its sync parameters."""
     project = load_project(data / "project.toml")
     cameras, trajectory = load_inputs(project)
     _, n_frames = read_truth(data / "truth.json")
@@ -73,12 +114,21 @@ def flight(
         name: Relation(float(line["alpha"]), float(line["beta"]))
         for name, line in json.loads((data / "truth.json").read_text())["cameras_to_target"].items()
     }
+    if variant.cameras is not None:
+        cameras = {name: cameras[name] for name in variant.cameras}
+        lines = {name: lines[name] for name in variant.cameras}
     assert trajectory.rate is not None
-    warp = time_warp(float(trajectory.sample[-1]) / trajectory.rate, slow, hover_s, HOVER_EVERY_S)
+    if variant.max_speed is not None:
+        warp = speed_cap_warp(trajectory.sample / trajectory.rate, trajectory.xyz, variant.max_speed)
+    else:
+        duration = float(trajectory.sample[-1]) / trajectory.rate
+        warp = time_warp(duration, variant.slow, variant.hover_s, HOVER_EVERY_S)
     slowed = slowed_flight(cameras, trajectory, lines, n_frames, warp)
-    if only_slower is not None:
-        slowed = slow_part(slowed, only_slower)
-    if poses == "removed":
+    if variant.only_slower is not None:
+        slowed = slow_part(slowed, variant.only_slower)
+    if variant.crop is not None:
+        slowed = cropped(slowed, variant.crop)
+    if variant.poses == "removed":
         cams = {
             n: dataclasses.replace(
                 c,
@@ -115,7 +165,9 @@ def run_one(slowed: SlowedFlight, sync_params, receiver: str, seed: int, bias_mo
         "worst": max(eps, default=np.nan),
         "median": float(np.median(eps)) if eps else np.nan,
         "z": [score for _, score in pairs],
-        "refused": {name: _cause(why) for name, why in timeline.failed.items()},
+        "refused": {
+            name: why.split(": ", 1)[-1] + _line_off(timeline, slowed, name) for name, why in timeline.failed.items()
+        },
         "cpu_s": seconds,
         "peak_mb": peak_mb,
     }
@@ -141,10 +193,20 @@ def through_stages(slowed: SlowedFlight, logged, declared: str) -> tuple[Timelin
     return timeline, seconds, after.ru_maxrss / 1024.0
 
 
+def _line_off(timeline: Timeline, slowed: SlowedFlight, name: str) -> str:
+    """How far the refused camera's line lies from the truth (" [line +X s]", the log's seconds at its middle tracked
+    frame), or "" when no line was fitted (a pose refused first)."""
+    line, truth, track = timeline.rejected.get(name), slowed.lines[name], slowed.cameras[name].track
+    if line is None or track is None or not len(track) or slowed.trajectory.rate is None:
+        return ""
+    frame = float(np.median(track.frame))
+    off = (frame - line.beta) / line.alpha - (frame - truth.beta) / truth.alpha
+    return f" [line {off / slowed.trajectory.rate:+.1f} s]"
+
+
 def _cause(why: str) -> str:
-    """The first reason of a refusal, short."""
-    text = why.split(": ", 1)[-1]
-    return text if len(text) <= 110 else text[:107] + "..."
+    """A refusal's reason, short."""
+    return why if len(why) <= 110 else why[:107] + "..."
 
 
 def summary(receiver: str, bias_model: bool, runs: list[dict]) -> str:
@@ -152,7 +214,7 @@ def summary(receiver: str, bias_model: bool, runs: list[dict]) -> str:
     z = np.array([s for r in runs for s in r["z"]])
     every = sum(r["synchronized"] == r["cameras"] for r in runs)
     worst, median = np.array([r["worst"] for r in runs]), np.array([r["median"] for r in runs])
-    refused = "; ".join(f"seed {r['seed']} {n}: {why}" for r in runs for n, why in r["refused"].items()) or "-"
+    refused = "; ".join(f"seed {r['seed']} {n}: {_cause(why)}" for r in runs for n, why in r["refused"].items()) or "-"
     return (
         f"| {receiver} | {'on' if bias_model else 'off'} | {every} / {len(runs)} | "
         f"{sum(r['synchronized'] for r in runs)} / {sum(r['cameras'] for r in runs)} | "
@@ -183,21 +245,31 @@ def main() -> None:
         "--hover", type=float, default=0.0, metavar="S", help=f"hold still S seconds every {HOVER_EVERY_S:g} s"
     )
     parser.add_argument(
+        "--max-speed", type=float, default=None, metavar="V", help="stretch the parts flown faster than V m/s to V"
+    )
+    parser.add_argument(
         "--only-slower", type=float, default=None, metavar="V", help="cut each track to where the drone is slower (m/s)"
     )
+    parser.add_argument(
+        "--crop", type=float, default=None, metavar="SHARE", help="cut each video to this share of its visit"
+    )
+    parser.add_argument("--cameras", nargs="+", default=None, help="the cameras kept (default: all)")
     parser.add_argument("--runs", action="store_true", help="print every run")
     args = parser.parse_args()
     if not (args.data / "project.toml").exists():
         print(f"{args.data}: no project.toml; skipped")
         sys.exit(0)
-    slowed, params = flight(args.data, args.slow, args.hover, args.poses, args.only_slower)
-    tracks = f"cut to the drone slower than {args.only_slower:g} m/s" if args.only_slower else "whole"
-    print(
-        f"{args.data}, poses {args.poses}, through {args.through}, {args.slow:g} times slower, hovers of "
-        f"{args.hover:g} s every "
-        f"{HOVER_EVERY_S:g} s, tracks {tracks}; "
-        f"{args.seeds} simulated logs per receiver"
+    variant = Variant(
+        args.slow,
+        args.hover,
+        args.max_speed,
+        args.only_slower,
+        args.crop,
+        None if args.cameras is None else tuple(args.cameras),
+        args.poses,
     )
+    slowed, params = flight(args.data, variant)
+    print(f"{args.data}, through {args.through}, {variant.describe()}; {args.seeds} simulated logs per receiver")
     cpu = "CPU of `tlsync run` a run (s)" if args.through == "stages" else "sync CPU a run (s)"
     print(
         "| receiver | bias model | runs with every camera | cameras synchronized | median pair's eps_t, median "

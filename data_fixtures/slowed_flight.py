@@ -3,7 +3,9 @@
 A flight's geometry (the path, the cameras, what each tracked) is kept and
 time is stretched: the drone flies the same path ``slow`` times slower and,
 every ``hover_every_s`` seconds of the original flight, holds still for
-``hover_s`` seconds. The log is resampled at its own rate on the new time
+``hover_s`` seconds (``time_warp``); or only the fast parts are stretched,
+so that the drone never flies faster than a speed (``speed_cap_warp``: a
+flight that hovers and creeps). The log is resampled at its own rate on the new time
 (linear between the original fixes); each camera keeps its clock (its
 frame rate and drift: the true line's slope) and sees at each of its new
 frames what it saw at the original instant (the track interpolated between
@@ -49,6 +51,15 @@ class TimeWarp:
         return np.where(
             w < self.warped[0], before, np.where(w > self.warped[-1], after, np.interp(w, self.warped, self.t))
         )
+
+
+def speed_cap_warp(t: np.ndarray, xyz: np.ndarray, max_speed: float) -> TimeWarp:
+    """The warp that stretches each interval between two fixes (times t, s; positions xyz, metres) where the target
+    flies faster than ``max_speed`` (m/s) to that speed, and keeps the slower ones (and the time outside the log)."""
+    t = np.asarray(t, dtype=np.float64)
+    speed = np.linalg.norm(np.diff(xyz, axis=0), axis=1) / np.diff(t)
+    warped = t[0] + np.concatenate([[0.0], np.cumsum(np.diff(t) * np.maximum(1.0, speed / max_speed))])
+    return TimeWarp(t, warped, 1.0)
 
 
 def time_warp(duration_s: float, slow: float, hover_s: float = 0.0, hover_every_s: float = 0.0) -> TimeWarp:
@@ -118,6 +129,25 @@ def _resampled(track: Track, frames: np.ndarray, source: np.ndarray) -> Track:
     x = np.interp(source[keep], track.frame, track.x)
     y = np.interp(source[keep], track.frame, track.y)
     return Track(frames[keep].astype(np.int64), x, y)
+
+
+def cropped(flight: SlowedFlight, share: float) -> SlowedFlight:
+    """The flight with each camera's video cut to ``share`` (0-1] of its visit (the span of its tracked frames): of n
+    cameras, the k-th's window starts k/(n-1) of the way along what the cut leaves out (the first camera keeps its
+    visit's start, the last its end). Frames are renumbered from the window's first; lines and frame counts follow."""
+    cameras, lines, n_frames = {}, {}, {}
+    last = max(len(flight.cameras) - 1, 1)
+    for k, (name, inputs) in enumerate(flight.cameras.items()):
+        track, line = inputs.track, flight.lines[name]
+        assert track is not None
+        span = float(track.frame[-1] - track.frame[0])
+        first = int(track.frame[0] + round(k / last * (1.0 - share) * span))
+        end = first + int(round(share * span))
+        keep = (track.frame >= first) & (track.frame <= end)
+        cameras[name] = replace(inputs, track=Track(track.frame[keep] - first, track.x[keep], track.y[keep]))
+        lines[name] = Relation(line.alpha, line.beta - first)
+        n_frames[name] = end - first + 1
+    return replace(flight, cameras=cameras, lines=lines, n_frames=n_frames)
 
 
 def slow_part(flight: SlowedFlight, max_speed: float) -> SlowedFlight:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from calibration.camera import Camera
-from data_fixtures.slowed_flight import slow_part, slowed_flight, time_warp
+from data_fixtures.slowed_flight import cropped, slow_part, slowed_flight, speed_cap_warp, time_warp
 from tlsync_pipeline.sync.solve.methods import CameraInput
 from tlsync_pipeline.sync.timeline import Relation
 from tlsync_pipeline.trajectory import Trajectory
@@ -79,3 +79,38 @@ def test_slow_part_keeps_the_hovers_only():
     assert all(any(lo <= s <= lo + 10.0 for lo in starts) for s in seconds)
     assert len(track) > 0.9 * 2 * 10.0 * 30.0  # nearly every frame of the two hovers the video spans (30 fps)
     assert len(track) < 0.5 * len(hovering.cameras["cam"].track)
+
+
+def test_speed_cap_stretches_only_the_fast_parts():
+    cameras, log, lines, n_frames = flight()
+    xyz = log.xyz.copy()
+    xyz[200:, 0] = xyz[200, 0]  # the target hovers from the 40th second
+    hovering = Trajectory(log.sample, xyz, RATE)
+    track, line = cameras["cam"].track, lines["cam"]
+    seen = np.interp((track.frame - line.beta) / line.alpha, log.sample, xyz[:, 0])
+    cameras["cam"] = CameraInput(cameras["cam"].camera, Track(track.frame, seen, track.y), 30.0)
+    out = slowed_flight(cameras, hovering, lines, n_frames, speed_cap_warp(log.sample / RATE, xyz, 1.0))
+    speed = np.linalg.norm(np.diff(out.trajectory.xyz, axis=0), axis=1) * RATE
+    moving = speed > 0
+    assert np.allclose(speed[moving][1:-1], 1.0)  # 3 m/s flown at 1 m/s
+    assert (~moving).sum() >= 200 - 2  # the hover keeps its 40 s
+    track, line = out.cameras["cam"].track, out.lines["cam"]
+    sample = (track.frame - line.beta) / line.alpha
+    seen = np.interp(sample, out.trajectory.sample, out.trajectory.xyz[:, 0])
+    inside = (sample >= 0) & (sample <= out.trajectory.sample[-1])
+    assert np.abs(track.x[inside] - seen[inside]).max() < 1e-6
+
+
+def test_crop_keeps_a_window_of_each_visit_renumbered():
+    cameras, log, lines, n_frames = flight()
+    other = Camera(name="b", K=np.eye(3), dist=np.zeros(5), R=np.eye(3), t=np.zeros(3), image_size=(100, 100))
+    cameras["b"] = CameraInput(other, cameras["cam"].track, 30.0)
+    lines["b"], n_frames["b"] = lines["cam"], n_frames["cam"]
+    whole = slowed_flight(cameras, log, lines, n_frames, time_warp(79.8, 1.0))
+    out = cropped(whole, 0.25)
+    for name, starts_at in (("cam", 0), ("b", 899)):  # the first keeps the visit's start, the last its end
+        track, line = out.cameras[name].track, out.lines[name]
+        assert track.frame[0] == 0 and abs(len(track) - 300) <= 1 and out.n_frames[name] == track.frame[-1] + 1
+        assert np.allclose(track.x, whole.cameras[name].track.x[starts_at : starts_at + len(track)])
+        sample = (track.frame - line.beta) / line.alpha
+        assert np.allclose(track.x, SPEED * sample / RATE)

@@ -25,6 +25,7 @@ from tlsync_pipeline.sync.solve.plausibility import (
     _paced_unit,
     _stated_fps_unbacked,
     diagnose,
+    judge_line,
     line_evidence,
     line_motion,
     motion_slope,
@@ -32,6 +33,7 @@ from tlsync_pipeline.sync.solve.plausibility import (
     times_fps,
 )
 from tlsync_pipeline.sync.solve.synchronize import CameraInput, cast_votes, synchronize
+from tlsync_pipeline.sync.timeline import CameraLine
 from tlsync_pipeline.trajectory import PiecewiseTrajectory
 
 LINES = ((2.0, 4.0), (2.0, 45.0), (1.0, -30.5))
@@ -275,3 +277,22 @@ def test_the_log_time_unit_from_line_speeds_needs_every_camera_alike(scene, fact
         for k, f in enumerate(factors)
     }
     assert _paced_unit(judged) == unit
+
+
+def test_a_thin_line_the_target_moves_along_is_not_taken_for_a_reversed_log(scene, prepared):
+    """The votes back a backwards line better than a thin right line (a wide vote radius holds every line alike): where
+    the target moves the log's way under the line, a log reversed in time cannot be the cause; where it does not, the
+    votes name the log reversed."""
+    path = PiecewiseTrajectory(prepared)
+    camera, track, true = scene.cameras["cam1"], scene.tracks["cam1"], scene.lines["cam1"]
+    clock = track.frame.astype(float)
+    line = CameraLine("cam1", true.alpha, true.beta, 400, 30, 0.5, fps=camera.fps)
+    motion = line_motion(camera, track, clock, path, true.alpha, true.beta, camera.fps)
+    assert motion.measured and motion.direction > 0.9
+
+    def codes(motion):
+        reasons = judge_line(camera, track, clock, path, line, 20.0, camera.fps, None, None, (30, 50), None, motion)
+        return [r.code for r in reasons]
+
+    assert "reversed" not in codes(motion)
+    assert "reversed" in codes(None)

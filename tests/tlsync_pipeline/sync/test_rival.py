@@ -241,3 +241,21 @@ def test_a_wide_profile_stays_on_the_line_the_track_fits():
     odds = rival_odds(camera, clock, track.xy, path, truth, rival, PRESETS["phone"], FPS, RATE, 10.0 * FPS)
     assert abs(odds.best.beta - truth[1]) <= 1.0 * FPS
     assert abs(odds.rival.beta - rival[1]) <= 1.0 * FPS
+
+
+def test_a_line_off_the_track_without_a_rival_meets_the_scans_line():
+    """The votes gave one line, 10 s off the truth, and no rival (a phone's vote radius at depth holds every line
+    alike): the track is scanned, the bias absorbed, and the scan's line on the truth is the rival the whole track
+    prefers (the camera is then refitted on it)."""
+    camera, track, clock, path, truth, _ = _scene(laps=1)
+    off = (truth[0], truth[1] + 10.0 * FPS)
+    search = LineSearchSummary(off[0], off[1], 200, 0, 400, 1000)
+    line = CameraLine("cam0", off[0], off[1], 400, 200, 1.0, fps=FPS, line_search=search)
+    odds = rival_odds_of(camera, track, clock, path, line, 120.0, FPS, PRESETS["phone"], RATE)
+    assert odds is not None and odds.scanned is not None
+    assert abs(odds.scanned[1] - truth[1]) <= 1.0 * FPS
+    assert odds.rival_probability > 1 - RIVAL_PROBABILITY
+    # on the truth, the scan finds nothing better beyond the line's band: no rival
+    right = dataclasses.replace(line, alpha=truth[0], beta=truth[1])
+    right = dataclasses.replace(right, line_search=dataclasses.replace(search, alpha=truth[0], beta=truth[1]))
+    assert rival_odds_of(camera, track, clock, path, right, 120.0, FPS, PRESETS["phone"], RATE) is None

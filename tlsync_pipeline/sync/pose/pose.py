@@ -28,7 +28,11 @@ rate), only beta is unknown:
    betas' stds and what the log's bias explains along the path), the
    runner-up is the distinct fit the track's evidence makes most probable,
    and the fits of one timing widen the line's interval
-   (sync/pose/timing.py); with GCPs, only fits that
+   (sync/pose/timing.py); an offset the search scores alike with its top
+   that no fit is one timing with is then fitted too (``fitted_untested``):
+   an offset no pose was fitted at would be a rival never weighed, and most
+   such offsets are the best's timing seen through the coarse pass (their
+   fit converges there) or poses the track's blocks rule out; with GCPs, only fits that
    keep the GCPs within GCP_AGREE of their sigmas count (a straight path
    explains the track from many poses, the GCPs tell them apart);
 4. degenerate cases fail with a named cause and a remedy (``PoseError``),
@@ -193,6 +197,7 @@ class OffsetSearch:
     offsets_tried: int
     coarse_betas: np.ndarray
     coarse_support: np.ndarray
+    fitted_at: tuple[float, ...] = ()  # offsets alike with the top a pose was then fitted from (``fitted_untested``)
 
 
 @dataclass(frozen=True)
@@ -435,6 +440,13 @@ def pose_from_track(
         result = ranked_pose(
             fits, search, xy, fps or 0.0, gcps is not None, gcp_camera, clock, path, biased, max_roll_deg=max_roll_deg
         )
+        if result.untested and gcps is None:
+            search, fits = fitted_untested(
+                camera, clock, xy, path, prior, fps, gate_px, f_scale, free, search, fits, result.untested, biased
+            )
+            result = ranked_pose(
+                fits, search, xy, fps or 0.0, False, None, clock, path, biased, max_roll_deg=max_roll_deg
+            )
         if free:
             result = _settle_intrinsics(result, clock, xy, path, prior, gate_px, f_scale, gcps, free, unknown_k)
         check_determined(result, clock, path, gcps is not None, log_m, fps)
@@ -645,6 +657,56 @@ def candidate_fits(
     return search, fits
 
 
+def fitted_untested(
+    camera: Camera,
+    clock: np.ndarray,
+    xy: np.ndarray,
+    path: PiecewiseTrajectory,
+    prior: SlopePrior | None,
+    fps: float | None,
+    gate_px: float,
+    f_scale: float,
+    free: tuple[str, ...],
+    search: OffsetSearch,
+    fits: list[JointFit],
+    untested: tuple[float, ...],
+    log_model: LogModel | None,
+) -> tuple[OffsetSearch, list[JointFit]]:
+    """The search with the ``untested`` offsets (clock units) a fit converged from marked as fitted at, and the fits
+    with those fits (each started from the search's pose at its offset and the prior's slope), best first. A fit may
+    converge to another offset (the best's timing, seen through the coarse pass): the offset was weighed all the same.
+    An offset no fit converged from stays untested."""
+    name = camera.name
+    prior, fps = _searchable(name, prior, fps, clock, MIN_FRAMES)
+    dlt = "intrinsics" in camera.to_estimate
+    score, threshold = _offset_scorer(camera, clock, xy, path, prior.alpha, dlt, log_model, fps)
+    log_m = log_model.unabsorbed_m(float(np.ptp(clock)) / fps) if log_model is not None else 0.0
+    extra, fitted_at = [], list(search.fitted_at)
+    for beta in untested:
+        found = score.camera_at(camera, beta, threshold)
+        if found is None:
+            continue
+        converged = _fit_candidates(
+            [Candidate(found, prior.alpha, beta, "search")],
+            clock,
+            xy,
+            path,
+            prior,
+            gate_px,
+            f_scale,
+            None,
+            free,
+            search.threshold_px,
+            MIN_FRAMES,
+            log_m,
+        )
+        if converged:
+            extra += converged
+            fitted_at.append(beta)
+    fitted = sorted(fits + extra, key=lambda f: (-f.support, f.scale_px))
+    return replace(search, fitted_at=tuple(fitted_at)), fitted
+
+
 def _fit_candidates(
     candidates: list[Candidate],
     clock,
@@ -769,7 +831,9 @@ def ranked_pose(
         runner = distinct[int(np.argmax(odds))] if distinct else None
         probability = max(odds, default=0.0)
         spread = timing_spread(best, fits, bias, fps)
-        alike = untested_offsets(search.coarse_betas, search.coarse_support, search.pairs, fits, best, bias, fps)
+        alike = untested_offsets(
+            search.coarse_betas, search.coarse_support, search.pairs, fits, best, bias, fps, search.fitted_at
+        )
         untested = tuple(float(b) for b in alike)
     else:
         distinct = [f for f in fits if abs(f.beta - best.beta) > DISTINCT_S * fps]
@@ -962,22 +1026,15 @@ def search_offsets(
     fitted with each offset's pose (sync/pose/pose_bias.py; the camera's fps gives the knots' seconds; None: a rigid
     pose).
     """
-    w, h = camera.image_size
-    threshold = max(8.0, 0.01 * float(np.hypot(w, h)))
+    score, threshold = _offset_scorer(camera, clock, xy, path, alpha, dlt, log_model, fps)
     speed = image_speed(clock, xy) or 1.0  # pixels per clock unit (1 without consecutive frames)
     fine = float(np.clip(0.5 * threshold / speed, 0.5, 2.0 * alpha))
     coarse = COARSE * fine
-    rows = np.linspace(0, len(clock) - 1, min(SEARCH_POINTS, len(clock))).round().astype(np.int64)
-    rows = np.unique(rows)
-    c = clock[rows]
-    ideal = xy[rows] if dlt else undistort_pixels(xy[rows], camera.K, camera.dist, camera.dist_model, P=camera.K)
+    c = score.clock
     lo = float(c.min() - alpha * path.ends.max())
     hi = float(c.max() - alpha * path.starts.min())
     if offsets is not None:
         lo, hi = max(lo, offsets[0]), min(hi, offsets[1])
-    biased = log_model is not None and log_model.has_bias and fps and not dlt
-    visit = VisitBias.over(c, fps, log_model) if biased else None  # type: ignore[arg-type]
-    score = _Scorer(camera.K, c, ideal, path, alpha, dlt, visit)
     betas = np.arange(lo, hi + coarse, coarse)
     support = score.many(betas, COARSE * threshold)
     tried = len(betas)
@@ -991,13 +1048,35 @@ def search_offsets(
     )
     fine_support = score.many(fine_betas, threshold)
     tried += len(fine_betas)
-    search = OffsetSearch(fine_betas, fine_support, len(rows), threshold, coarse, fine, tried, betas, support)
+    search = OffsetSearch(fine_betas, fine_support, len(c), threshold, coarse, fine, tried, betas, support)
     candidates = []
     for k in _peaks(fine_support, CANDIDATES, separation=3 * coarse / fine):
         found = score.camera_at(camera, float(fine_betas[k]), threshold)
         if found is not None:
             candidates.append(Candidate(found, alpha, float(fine_betas[k]), "search"))
     return search, candidates
+
+
+def _offset_scorer(
+    camera: Camera,
+    clock: np.ndarray,
+    xy: np.ndarray,
+    path: PiecewiseTrajectory,
+    alpha: float,
+    dlt: bool,
+    log_model: LogModel | None,
+    fps: float | None,
+) -> tuple[_Scorer, float]:
+    """The search's scorer of offsets on SEARCH_POINTS tracked positions spread over the track (``search_offsets``'s
+    arguments), and its threshold (pixels: 1 % of the image's diagonal, at least 8)."""
+    w, h = camera.image_size
+    threshold = max(8.0, 0.01 * float(np.hypot(w, h)))
+    rows = np.unique(np.linspace(0, len(clock) - 1, min(SEARCH_POINTS, len(clock))).round().astype(np.int64))
+    c = clock[rows]
+    ideal = xy[rows] if dlt else undistort_pixels(xy[rows], camera.K, camera.dist, camera.dist_model, P=camera.K)
+    biased = log_model is not None and log_model.has_bias and fps and not dlt
+    visit = VisitBias.over(c, fps, log_model) if biased else None  # type: ignore[arg-type]
+    return _Scorer(camera.K, c, ideal, path, alpha, dlt, visit), threshold
 
 
 def _peaks(support: np.ndarray, count: int, separation: float = 2.0) -> list[int]:

@@ -31,7 +31,11 @@ with (``untested_offsets``) is a rival never weighed. Its score is the
 count of the search's positions explained; two offsets' counts differ by
 the noise of their misses (their sum's square root, as two Poisson
 counts), and an offset within NEAR_TOP_Z of that noise below the top is
-alike.
+alike. Such an offset is then fitted (sync/pose/pose.py,
+``fitted_untested``), and weighed as any fit: the fit it starts may
+converge to the best's timing (on drone2's hovers under a drone's GNSS, an
+offset 4 s from the best, beyond the bias's 2 s band, converged to it) or
+to a rival the track's blocks weigh.
 
 Clock values in frame units (sync/model/clock.py); pixels; metres.
 """
@@ -119,12 +123,20 @@ def rival_probability(best: JointFit, rival: JointFit, clock: np.ndarray, fps: f
 
 
 def untested_offsets(
-    betas: np.ndarray, support: np.ndarray, points: int, fits: list[JointFit], best: JointFit, bias: float, fps: float
+    betas: np.ndarray,
+    support: np.ndarray,
+    points: int,
+    fits: list[JointFit],
+    best: JointFit,
+    bias: float,
+    fps: float,
+    fitted_at: tuple[float, ...] = (),
 ) -> np.ndarray:
     """The offsets (clock units) of the search's coarse pass (``betas`` ascending, ``support``: explained positions of
-    ``points``) alike with its top (see the module), one per timing, that no fit is one timing with; empty when each
-    was fitted. Only the profile's local maxima are offsets of their own (a peak's shoulders are its timing), and a
-    timing spans the band ``one_timing`` gives two fits of the best's beta std."""
+    ``points``) alike with its top (see the module), one per timing, that no fit is one timing with and no pose was
+    fitted from (``fitted_at``: offsets a fit started at, wherever it converged); empty when each was fitted. Only the
+    profile's local maxima are offsets of their own (a peak's shoulders are its timing), and a timing spans the band
+    ``one_timing`` gives two fits of the best's beta std."""
     band = timing_band(best.se_beta, best.se_beta, bias, fps)
     support = np.where(np.isfinite(support), np.asarray(support, dtype=np.float64), -np.inf)
     if not np.isfinite(support).any():
@@ -140,5 +152,5 @@ def untested_offsets(
         beta = float(betas[k])
         if all(abs(beta - b) > band for b in alike):
             alike.append(beta)
-    fitted = np.array([f.beta for f in fits])
+    fitted = np.array([f.beta for f in fits] + list(fitted_at))
     return np.array([b for b in alike if not np.any(np.abs(fitted - b) <= band)])

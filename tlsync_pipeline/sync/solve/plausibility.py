@@ -59,7 +59,7 @@ from tlsync_pipeline.sync.kernels.velocity import image_velocity
 from tlsync_pipeline.sync.model.clock import camera_clock, image_speed
 from tlsync_pipeline.sync.model.log_model import LogModel
 from tlsync_pipeline.sync.model.status import AMBIGUOUS, FAILED, WEAK, Reason
-from tlsync_pipeline.sync.solve.rival import RivalOdds, rival_odds
+from tlsync_pipeline.sync.solve.rival import RivalOdds, rival_odds, scanned_line
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
 from trackers.track import Track
 
@@ -309,6 +309,7 @@ RIVAL_PROBABILITY = 0.01  # ... unless the joint evidence (sync/solve/rival.py) 
 RIVAL_BAND_FRAMES = 300.0  # a line's intercept is profiled over at most this many frames either side
 SLOPE_OFF = 1.3  # motion slope / clock prior beyond this factor (either way): the clock is wrong
 DIRECTION_MIN = 0.5  # median cosine of tracked and projected velocities under a line below this: it moves another way
+MOVES_ALONG = 0.9  # ... at least this: it moves the log's way, which a log reversed in time would move against
 PACE_OFF = 1.6  # the cameras' line speeds over their clock priors (geometric mean) beyond this: the log's time unit
 
 
@@ -427,7 +428,13 @@ def judge_line(
         if stated is not None:
             reasons.append(stated)
     forward, backward = support
-    if backward is not None and backwards_better(forward, backward) and not any(r.code == "reversed" for r in reasons):
+    along = motion is not None and motion.measured and motion.direction >= MOVES_ALONG
+    if (
+        backward is not None
+        and backwards_better(forward, backward)
+        and not along
+        and not any(r.code == "reversed" for r in reasons)
+    ):
         reasons.append(
             Reason(
                 "reversed",
@@ -541,25 +548,34 @@ def rival_odds_of(
     refusal (``_rival``), but where the whole track prefers it the camera is refitted on it (a hovering target's
     band spans tens of seconds, and the line search's best line there may be the wrong end of it).
 
+    Under a log with a bias, on a camera whose pose does not come from the target (that pose was fitted with its
+    timing), the track is scanned too (rival.scanned_line): the scan's best line, beyond the band of the line search's,
+    is weighed the same way, and is the rival (``RivalOdds.scanned``) when the track leaves it more probable than the
+    line search's rival.
+
     Each line's intercept is profiled over the band one pass's votes span (eps_px over the image speed, in clock units).
     """
-    if _rival_apart(line, track, clock, fps, eps_px, beyond_band=False) is None:
-        return None
     search = line.line_search
+    if search is None:
+        return None
     speed = image_speed(np.asarray(clock, dtype=np.float64), track.xy, quantile=0.5) or 1.0
     band = min(eps_px / speed, RIVAL_BAND_FRAMES)
-    return rival_odds(
-        camera,
-        clock,
-        track.xy,
-        path,
-        (search.alpha, search.beta),
-        (search.rival_alpha, search.rival_beta),
-        model,
-        fps,
-        rate,
-        band,
+    odds = None
+    if _rival_apart(line, track, clock, fps, eps_px, beyond_band=False) is not None:
+        best, rival = (search.alpha, search.beta), (search.rival_alpha, search.rival_beta)
+        odds = rival_odds(camera, clock, track.xy, path, best, rival, model, fps, rate, band)
+    from_target = camera.pose_info is not None and "target" in camera.pose_info.source
+    if not (model.has_bias and fps and len(clock)) or from_target:
+        return odds
+    beta = scanned_line(camera, clock, track.xy, path, search.alpha, model, fps, rate)
+    if beta is None or abs(beta - search.beta) <= band:
+        return odds
+    scanned = rival_odds(
+        camera, clock, track.xy, path, (search.alpha, search.beta), (search.alpha, beta), model, fps, rate, band
     )
+    if odds is None or scanned.rival_probability > odds.rival_probability:
+        return replace(scanned, scanned=(search.alpha, scanned.rival.beta))
+    return odds
 
 
 def _rival(

@@ -35,6 +35,17 @@ ratio swings by several units when neither line is better; the paired
 spread measures that swing, so two passes alike stay near 1/2 and a rival
 that misses the track block after block goes to 0.
 
+The line search's rival is the best line its votes hold besides the
+winner. Under a metre-level bias at a camera's depth the votes hold little
+(drone2 under a phone's 2 m, a 900 px vote radius: the right line had
+fewer distinct frames with a vote near it than a line 21 s off, and 15
+windows 50-90 s off had more), so the track itself is searched too
+(``scanned_line``): the bias-absorbed score of each intercept at the line's
+slope, SCAN_STEP_S apart over every start that maps at least half the
+track inside the log, on at most SCAN_FRAMES of its frames. Its best,
+when it lies beyond the band of the line, is a rival weighed as the line
+search's is.
+
 Two lines whose profiled intercepts come within the band of each other
 are one line seen through a wide vote radius (the line search's two lines
 are the ends of one pass's blob of votes): no second answer. The one line
@@ -62,6 +73,9 @@ MIN_SCALE_PX = 1.0  # the blocks' scale is never taken below this (pixels)
 OUTSIDE_Z = 6.0  # a block the line maps outside the log costs the loss of a residual this many scales long
 BIAS_FLOOR_M = (1.0, 2.0)  # horizontal and vertical bias std allowed at least, whatever the model (an undeclared log)
 MIN_BLOCKS = 3  # fewer blocks than this tell nothing: the rival keeps half the posterior
+SCAN_STEP_S = 1.0  # seconds of the camera's clock between two intercepts the scan tries
+SCAN_STEPS = 600  # most intercepts the scan tries (wider steps over a longer log)
+SCAN_FRAMES = 120  # most tracked frames the scan scores each intercept on (evenly spread over the track)
 PROFILE_STEPS = 9  # intercepts tried on each side of a line, across the band of its votes
 IRLS_ROUNDS = 4
 JACOBIAN_STEP_M = 0.01
@@ -88,6 +102,7 @@ class RivalOdds:
     rival: LineScore
     rival_probability: float
     joined: bool = False  # the profiled lines came within the band of each other: one line, not two
+    scanned: tuple[float, float] | None = None  # the rival's line (alpha, beta) when the scan found it
 
 
 def bias_sigmas(model: LogModel) -> np.ndarray:
@@ -114,12 +129,7 @@ def rival_odds(
     """
     clock = np.asarray(clock, dtype=np.float64)
     xy = np.asarray(xy, dtype=np.float64)
-    per_block = BLOCK_S * fps if fps else BLOCK_FRAMES
-    if fps and rate:
-        per_block = max(per_block, fps / rate)  # at least one interval between fixes
-    block = np.floor((clock - clock.min()) / per_block).astype(np.int64)
-    block = np.unique(block, return_inverse=True)[1].ravel()
-    context = _Context(camera, path, clock, xy, block, _visit_bias(clock, fps, model))
+    context = _Context(camera, path, clock, xy, _blocks(clock, fps, rate), _visit_bias(clock, fps, model))
     fits = [context.profile(alpha, beta, band_frames) for alpha, beta in (best, rival)]
     scale = max(MIN_SCALE_PX, min(f.scale for f in fits))
     (best_score, best_loss), (rival_score, rival_loss) = (context.score(f, scale) for f in fits)
@@ -132,6 +142,44 @@ def rival_odds(
         return RivalOdds(best_score, rival_score, 0.5)
     probability = 0.5 * math.erfc((float(difference.sum()) + prior) / spread / math.sqrt(2.0))
     return RivalOdds(best_score, rival_score, probability)
+
+
+def scanned_line(
+    camera: Camera,
+    clock: np.ndarray,
+    xy: np.ndarray,
+    path: PiecewiseTrajectory,
+    alpha: float,
+    model: LogModel,
+    fps: float,
+    rate: float | None,
+) -> float | None:
+    """The intercept (clock units) at slope ``alpha`` whose bias-corrected fit scores the track best (see the module),
+    among starts SCAN_STEP_S apart (at most SCAN_STEPS of them) that map at least half the track inside the log,
+    scored on at most SCAN_FRAMES tracked frames; None when no start does."""
+    clock = np.asarray(clock, dtype=np.float64)
+    rows = np.unique(np.linspace(0, len(clock) - 1, min(SCAN_FRAMES, len(clock))).round().astype(np.int64))
+    c, uv = clock[rows], np.asarray(xy, dtype=np.float64)[rows]
+    middle = float(np.median(c))
+    lo = middle - alpha * float(path.ends.max())
+    hi = middle - alpha * float(path.starts.min())
+    step = max(SCAN_STEP_S * fps, (hi - lo) / SCAN_STEPS)
+    context = _Context(camera, path, c, uv, _blocks(c, fps, rate), _visit_bias(c, fps, model))
+    fits = [context.fit(alpha, beta) for beta in np.arange(lo, hi + step, step)]
+    inside = [f for f in fits if np.isfinite(f.scale) and np.isfinite(f.residual[:, 0]).mean() >= 0.5]
+    if not inside:
+        return None
+    scale = max(MIN_SCALE_PX, float(np.median([f.scale for f in inside])))
+    return min(inside, key=lambda f: context.score(f, scale)[0].score).beta
+
+
+def _blocks(clock: np.ndarray, fps: float | None, rate: float | None) -> np.ndarray:
+    """Each frame's block (0, 1, ...: BLOCK_S seconds of the camera's clock, at least one interval between fixes)."""
+    per_block = BLOCK_S * fps if fps else BLOCK_FRAMES
+    if fps and rate:
+        per_block = max(per_block, fps / rate)
+    block = np.floor((clock - clock.min()) / per_block).astype(np.int64)
+    return np.unique(block, return_inverse=True)[1].ravel()
 
 
 def _visit_bias(clock: np.ndarray, fps: float | None, model: LogModel) -> VisitBias:

@@ -659,7 +659,12 @@ def _judge(
         )
     odds = rival_odds_of(inputs.camera, track, track_clock, path, line, radius_px, fps, log_model, rate)
     if odds is not None and line.line_search is not None:
-        line = replace(line, line_search=replace(line.line_search, rival_probability=odds.rival_probability))
+        found = line.line_search
+        if odds.scanned is not None:  # the scan's line is the rival: the frames with a vote near it back it
+            alpha, beta = odds.scanned
+            frames = line_support(votes.sample, vote_clock, alpha, beta, params.delta)
+            found = replace(found, rival_alpha=alpha, rival_beta=beta, runner_up_frames=frames)
+        line = replace(line, line_search=replace(found, rival_probability=odds.rival_probability))
     motion = line_motion(inputs.camera, track, track_clock, path, line.alpha, line.beta, fps)
     checks = judge_line(
         inputs.camera, track, track_clock, path, line, radius_px, fps, alpha_prior, slope, support, rate, motion
