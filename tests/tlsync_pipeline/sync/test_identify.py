@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from data_fixtures import make_scene
+from tlsync_pipeline.artefacts.identification import IdentificationSummary, TrackletShare
 from tlsync_pipeline.errors import SyncError
 from tlsync_pipeline.sync.identify import identify
 from tlsync_pipeline.sync.identify.identify import (
@@ -20,7 +21,8 @@ from tlsync_pipeline.sync.identify.identify import (
 from tlsync_pipeline.sync.kernels.line_search import thin_votes
 from tlsync_pipeline.sync.model.params import SyncParams
 from tlsync_pipeline.sync.solve.methods import CameraInput
-from tlsync_pipeline.sync.solve.synchronize import synchronize
+from tlsync_pipeline.sync.solve.synchronize import synchronize, with_identification_line
+from tlsync_pipeline.sync.timeline import CameraLine
 from tlsync_pipeline.trajectory import PiecewiseTrajectory
 from trackers.detections import make_detections
 
@@ -420,3 +422,18 @@ def test_a_look_alike_following_the_target_is_no_confident_line(seed):
     g = np.array([middle, 1.0])
     assert line.cov is not None
     assert error <= 3 * 1.959964 * np.sqrt(g @ np.asarray(line.cov) @ g)
+
+
+def test_an_identified_line_away_from_the_line_every_movers_votes_back_has_an_interval_reaching_it():
+    """A line refined 4 frames (and a slope of 0.01 frame per sample) away from the identification's search line: its
+    std at every sample is at least their distance there; a camera that brought its track is unchanged."""
+    cov = np.diag([1e-6, 0.2**2])
+    summary = IdentificationSummary(300, 120, (TrackletShare(1, 120, 1.0, 0.9),), 110, 60, 3, 0.0, (10.01, -8.0))
+    line = CameraLine("cam0", 10.0, -12.0, 500, 120, 1.0, 10.0, cov, identification=summary)
+    widened = with_identification_line(line)
+    for sample in (0.0, 20.0, 45.0):
+        g = np.array([sample, 1.0])
+        distance = abs(0.01 * sample + 4.0)
+        assert np.sqrt(g @ widened.cov @ g) >= distance > 5 * np.sqrt(g @ cov @ g)
+    tracked = with_identification_line(dataclasses.replace(line, identification=None))
+    assert np.array_equal(tracked.cov, cov)
