@@ -29,7 +29,10 @@ class IdentificationSummary:
     first; support_frames / runner_up_frames: distinct frames on the best
     line and on the best line without its votes, over every candidate's
     votes; rounds: assignment rounds run; logged_point_above_m: estimated
-    height of the logged point above the tracked point (metres, world up).
+    height of the logged point above the tracked point (metres, world up);
+    search_line: (alpha, beta) of that best line (frame = alpha * sample +
+    beta on the camera's clock), or None (identification.json written before
+    it was kept).
     """
 
     candidates_voting: int
@@ -39,10 +42,18 @@ class IdentificationSummary:
     runner_up_frames: int
     rounds: int
     logged_point_above_m: float = 0.0
+    search_line: tuple[float, float] | None = None
 
     @classmethod
     def from_dict(cls, entry: dict) -> IdentificationSummary:
-        return cls(**{**entry, "tracklets": tuple(TrackletShare(**t) for t in entry["tracklets"])})
+        line = entry.get("search_line")
+        return cls(
+            **{
+                **entry,
+                "tracklets": tuple(TrackletShare(**t) for t in entry["tracklets"]),
+                "search_line": None if line is None else (float(line[0]), float(line[1])),
+            }
+        )
 
 
 @dataclass(frozen=True)

@@ -55,7 +55,7 @@ def examples(tmp_path: Path) -> dict:
     timeline, _ = synchronize(inputs, scene.trajectory, SyncParams())
     breaks = (Break("gap", 120, 3), Break("frozen", 300, 2))
     summary = IdentificationSummary(
-        40, 35, (TrackletShare(3, 30, 0.86, 0.9), TrackletShare(7, 5, 0.14, 0.5)), 33, 4, 2, 0.4
+        40, 35, (TrackletShare(3, 30, 0.86, 0.9), TrackletShare(7, 5, 0.14, 0.5)), 33, 4, 2, 0.4, (10.0, -3.5)
     )
     report = IngestReport(
         "log.gpx",

@@ -34,7 +34,7 @@ from tlsync_pipeline.sync.model.status import WEAK, Reason
 from tlsync_pipeline.sync.pose.pose_timing import PoseTiming
 from tlsync_pipeline.sync.solve.methods import CameraInput
 from tlsync_pipeline.sync.solve.plausibility import LogUnitError
-from tlsync_pipeline.sync.solve.synchronize import CameraResult, synchronize
+from tlsync_pipeline.sync.solve.synchronize import CameraResult, synchronize, with_identification_line
 from tlsync_pipeline.sync.timeline import CameraLine, ScanSummary, StageWarning, Timeline, write_timeline
 from tlsync_pipeline.sync.vote.visits import near_views
 from tlsync_pipeline.sync.vote.votes import Votes, read_votes
@@ -189,9 +189,12 @@ def log_on_utc(files: StageFiles, timeline: Timeline) -> bool:
 
 
 def with_identifications(timeline: Timeline, found: dict[str, IdentificationSummary | None]) -> Timeline:
-    """The timeline with each identified camera's line carrying its identification summary."""
+    """The timeline with each identified camera's line carrying its identification summary, its covariance widened
+    by the identification's line (synchronize.with_identification_line)."""
     lines = {
-        n: replace(line, identification=summary) if isinstance(summary := found.get(n), IdentificationSummary) else line
+        n: with_identification_line(replace(line, identification=summary))
+        if isinstance(summary := found.get(n), IdentificationSummary)
+        else line
         for n, line in timeline.cameras.items()
     }
     return replace(timeline, cameras=lines)

@@ -150,7 +150,8 @@ class Identification:
     merged: np.ndarray
 
     def summary(self) -> IdentificationSummary:
-        """What timeline.json reports: tracklets used, share of the track's frames on each, line supports."""
+        """What timeline.json reports: tracklets used, share of the track's frames on each, line supports, the
+        search's line."""
         n = max(len(self.track), 1)
         tracklets = tuple(TrackletShare(t.id, t.assigned, t.assigned / n, t.follow_share) for t in self.tracklets)
         return IdentificationSummary(
@@ -161,6 +162,7 @@ class Identification:
             self.search.runner_up,
             self.rounds,
             round(self.lift_m, 3),
+            (float(self.search.alpha), float(self.search.beta)),
         )
 
 

@@ -218,6 +218,23 @@ def with_pose_offset(line: CameraLine, timing: PoseTiming) -> CameraLine:
     return replace(line, cov=cov)
 
 
+def with_identification_line(line: CameraLine) -> CameraLine:
+    """The line of a camera whose target was identified among every mover, with its distance from the line the
+    identification's search found over every candidate's votes (IdentificationSummary.search_line) added to its
+    covariance as a std (the outer product of their (alpha, beta) difference). The line is refined on the frames
+    identification assigned, each the candidate nearest the projection under the line so far: frames of passers-by
+    that fit a line a few tenths of a second off are picked as readily as the target's, and a track that mixes them
+    fits its own line well, its sandwich narrow. Where the refined line leaves the line every mover's votes back, it
+    may have followed them (crowd_inputs seed 8, a white log of 0.3 m declared: 4.3 frames off with a std of 0.47
+    frame, the search's line 1.9 frames the other way, 2.4 from the truth). Unchanged without a search line or a
+    covariance."""
+    found = line.identification
+    if found is None or found.search_line is None or line.cov is None:
+        return line
+    gap = np.array([found.search_line[0] - line.alpha, found.search_line[1] - line.beta])
+    return replace(line, cov=np.asarray(line.cov, dtype=np.float64) + np.outer(gap, gap))
+
+
 def with_pose_timing(line: CameraLine, timing: PoseTiming | None, log_model: LogModel) -> CameraLine:
     """The line with the timing of its camera's pose from the target (with_pose_line under a log with a bias, else
     with_pose_offset); unchanged for a camera posed otherwise (``timing`` None)."""
@@ -344,7 +361,7 @@ def synchronize(
             names = [n for n in lines if n in bias.sensitivity]
             shared = {f"{a}|{b}": bias.line_cov(a, b) for i, a in enumerate(names) for b in names[i + 1 :]}
     timeline = Timeline(
-        lines,
+        {name: with_identification_line(line) for name, line in lines.items()},
         trajectory.rate,
         trajectory.t0,
         method=params.method,
