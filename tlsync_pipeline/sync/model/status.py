@@ -38,7 +38,8 @@ LOW_SPEED_REMEDY = (  # ... whose log's bias alone makes the start wide: what wo
 WIDE_REMEDY = "a longer or better-calibrated pass of the target through the view narrows it"
 # What to do about a wide interval, by what dominates it (timeline.ErrorBudget.dominant).
 WIDE_REMEDIES = {
-    "log": "the log's bias dominates: walk a curved path through this view, or use an RTK log",
+    "log": "the log's error dominates: use a better log (RTK, more fixes a second), or walk a curved path through "
+    "this view",
     "calibration": "calibration or pose dominates: add or check ground control points, or check the camera's "
     "calibration",
     "tracking": "tracking dominates: a longer or closer pass through the view, or a sharper video",
