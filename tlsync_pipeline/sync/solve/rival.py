@@ -76,6 +76,8 @@ MIN_BLOCKS = 3  # fewer blocks than this tell nothing: the rival keeps half the 
 SCAN_STEP_S = 1.0  # seconds of the camera's clock between two intercepts the scan tries
 SCAN_STEPS = 600  # most intercepts the scan tries (wider steps over a longer log)
 SCAN_FRAMES = 120  # most tracked frames the scan scores each intercept on (evenly spread over the track)
+SCAN_COARSE_ROUNDS = 2  # IRLS rounds of the scan's first pass over every intercept
+SCAN_FINE = 8  # intercepts of best first-pass score the scan fits in full
 PROFILE_STEPS = 9  # intercepts tried on each side of a line, across the band of its votes
 IRLS_ROUNDS = 4
 JACOBIAN_STEP_M = 0.01
@@ -156,7 +158,8 @@ def scanned_line(
 ) -> float | None:
     """The intercept (clock units) at slope ``alpha`` whose bias-corrected fit scores the track best (see the module),
     among starts SCAN_STEP_S apart (at most SCAN_STEPS of them) that map at least half the track inside the log,
-    scored on at most SCAN_FRAMES tracked frames; None when no start does."""
+    scored on at most SCAN_FRAMES tracked frames: every start after SCAN_COARSE_ROUNDS rounds of its fit, the
+    SCAN_FINE best fitted in full; None when no start does."""
     clock = np.asarray(clock, dtype=np.float64)
     rows = np.unique(np.linspace(0, len(clock) - 1, min(SCAN_FRAMES, len(clock))).round().astype(np.int64))
     c, uv = clock[rows], np.asarray(xy, dtype=np.float64)[rows]
@@ -165,12 +168,18 @@ def scanned_line(
     hi = middle - alpha * float(path.starts.min())
     step = max(SCAN_STEP_S * fps, (hi - lo) / SCAN_STEPS)
     context = _Context(camera, path, c, uv, _blocks(c, fps, rate), _visit_bias(c, fps, model))
-    fits = [context.fit(alpha, beta) for beta in np.arange(lo, hi + step, step)]
-    inside = [f for f in fits if np.isfinite(f.scale) and np.isfinite(f.residual[:, 0]).mean() >= 0.5]
-    if not inside:
+    coarse = _mapped([context.fit(alpha, beta, SCAN_COARSE_ROUNDS) for beta in np.arange(lo, hi + step, step)])
+    if not coarse:
         return None
-    scale = max(MIN_SCALE_PX, float(np.median([f.scale for f in inside])))
-    return min(inside, key=lambda f: context.score(f, scale)[0].score).beta
+    scale = max(MIN_SCALE_PX, float(np.median([f.scale for f in coarse])))
+    coarse.sort(key=lambda f: context.score(f, scale)[0].score)
+    fine = _mapped([context.fit(alpha, f.beta) for f in coarse[:SCAN_FINE]]) or coarse[:1]
+    return min(fine, key=lambda f: context.score(f, scale)[0].score).beta
+
+
+def _mapped(fits: list[_Fit]) -> list[_Fit]:
+    """The fits with a finite scale that map at least half the frames inside the log."""
+    return [f for f in fits if np.isfinite(f.scale) and np.isfinite(f.residual[:, 0]).mean() >= 0.5]
 
 
 def _blocks(clock: np.ndarray, fps: float | None, rate: float | None) -> np.ndarray:
@@ -243,8 +252,9 @@ class _Context:
         jac = out.reshape(self.blocks, knots, 2, 3).transpose(0, 2, 1, 3).reshape(self.blocks, 2, 3 * knots)
         return jac / self.count[:, None, None]
 
-    def fit(self, alpha: float, beta: float) -> _Fit:
-        """The bias at the knots of the line, fitted by iteratively reweighted Gauss-Newton with its prior."""
+    def fit(self, alpha: float, beta: float, rounds: int = IRLS_ROUNDS) -> _Fit:
+        """The bias at the knots of the line, fitted by ``rounds`` of iteratively reweighted Gauss-Newton with its
+        prior (the residuals are those before the last round's step)."""
         s = (self.clock - beta) / alpha
         run = self.path.run_of(s)
         inside = run >= 0
@@ -257,7 +267,7 @@ class _Context:
         precision = self.bias.precision
         residual = np.full((self.blocks, 2), np.nan)
         scale = np.inf
-        for _ in range(IRLS_ROUNDS):
+        for _ in range(rounds):
             moved = np.nan_to_num(point + self._at_frames(bias))  # the log corrected: bias is minus the log's error
             uv, valid = self.camera.project(moved)
             r = self.xy - uv
