@@ -334,22 +334,7 @@ def test_a_look_alike_beside_the_target_within_the_logs_error_is_not_taken_for_i
             beside.frame, beside.time_s, beside.x, beside.y, beside.w, beside.h, beside.score
         )
     ]
-    detections = make_detections(
-        [
-            (f, t, i, x, y, w, h, s)
-            for f, t, i, x, y, w, h, s in zip(
-                detections.frame,
-                detections.time_s,
-                detections.id,
-                detections.x,
-                detections.y,
-                detections.w,
-                detections.h,
-                detections.score,
-            )
-        ]
-        + look_alike
-    )
+    detections = make_detections(_rows(detections) + look_alike)
     camera = scene.cameras[name]
     found = identify_target(camera, detections, _wandering_log(scene, name, 4.0, seed), camera.fps, PRIOR)
     picked = {(f, i) for f, i in zip(detections.frame[found.rows], detections.id[found.rows])}
@@ -357,6 +342,12 @@ def test_a_look_alike_beside_the_target_within_the_logs_error_is_not_taken_for_i
     away = {(f, i) for f, i in target_rows if f not in set(beside.frame.tolist())}
     assert len(picked & away) >= 0.5 * len(away)
     _assert_found(found, detections, target_rows, scene, name, recall=0.0)
+
+
+def _rows(detections):
+    """The detections as make_detections's rows: (frame, time_s, id, x, y, w, h, score)."""
+    columns = (detections.frame, detections.time_s, detections.id, detections.x, detections.y)
+    return list(zip(*columns, detections.w, detections.h, detections.score))
 
 
 def _followed_by_a_look_alike(scene, name, lag, seen, seed):
@@ -369,21 +360,7 @@ def _followed_by_a_look_alike(scene, name, lag, seen, seed):
     target = detections.id < 100
     kept_blocks = rng.random(detections.frame.max() // 20 + 1) < seen
     keep = ~target | kept_blocks[detections.frame // 20]
-    rows = [
-        (f, t, i, x, y, w, h, s)
-        for f, t, i, x, y, w, h, s, k in zip(
-            detections.frame,
-            detections.time_s,
-            detections.id,
-            detections.x,
-            detections.y,
-            detections.w,
-            detections.h,
-            detections.score,
-            keep,
-        )
-        if k
-    ]
+    rows = [row for row, k in zip(_rows(detections), keep) if k]
     for f, x, y, w, h in zip(
         detections.frame[target] + lag,
         detections.x[target],
