@@ -32,14 +32,14 @@ then the bound when the poses are not known but estimated with the lines,
 each held by the scene's GCPs (their clicked pixels' noise) and by the
 target's pixels (gps_bound.Survey): what the GCPs allow.
 
-``--limits``: where the defaults' error comes from. The defaults run's sync
-is redone (sync/solve/synchronize.py, the run's log model) on its own
-poses and identified tracks, and with each replaced by the truth: the true
-poses with the identified tracks; the run's poses (taken as exact) with the
-true target track (its visible frames, with the blob centroid's white
-noise); the true poses with the identified frames but the true target's
-points there (plus that noise); both true. Prints each variant's worst
-pair.
+``--limits``: where each run's error comes from. Its sync is redone
+(sync/solve/synchronize.py, under the run's log model) on its own poses and
+identified tracks, and with each replaced by the truth: the true poses
+with the identified tracks; the true target track (its visible frames,
+with the blob centroid's white noise) with the run's poses as they are
+(their stds and timing) and taken as exact; the true poses with the
+identified frames but the true target's points there (plus that noise);
+both true. Prints each variant's worst pair.
 """
 
 from __future__ import annotations
@@ -153,9 +153,9 @@ def measure(directory: Path, crowd, code: int) -> dict:
     return {"code": code, "worst": worst_pair(timeline, scene), "cameras": cameras}
 
 
-def limits(directory: Path, crowd, seed: int) -> dict[str, float]:
+def limits(directory: Path, crowd, seed: int, choice: LogModelChoice) -> dict[str, float]:
     """The worst pair of the run's sync redone with its poses and identified tracks, and with each replaced by the
-    truth (see the module): {variant: worst pair (frames)}."""
+    truth (see the module), under the run's log model ``choice``: {variant: worst pair (frames)}."""
     scene, work = crowd.scene, directory / "work"
     own = {}
     for name in scene.cameras:
@@ -165,7 +165,7 @@ def limits(directory: Path, crowd, seed: int) -> dict[str, float]:
         own[name] = CameraInput(camera, read_track(files / "track.csv"), camera.fps, pose_timing=timing)
     trajectory = near_views(read_trajectory(work / "target" / "trajectory.csv"), [c.camera for c in own.values()])
     suggested = (read_ingest_report(work / "target" / "ingest_report.json").log_model or {}).get("name")
-    model = LogModelChoice().resolve(suggested)
+    model = choice.resolve(suggested)
     rng = np.random.default_rng([seed, 3])
 
     def true_pose(name: str, inputs: CameraInput) -> CameraInput:
@@ -182,7 +182,8 @@ def limits(directory: Path, crowd, seed: int) -> dict[str, float]:
     variants = {
         "own": own,
         "true poses": {n: true_pose(n, i) for n, i in own.items()},
-        "true track": {
+        "true track": {n: replace(i, track=true_track[n]) for n, i in own.items()},
+        "true track, poses exact": {
             n: replace(i, camera=replace(i.camera, pose_info=EXACT), track=true_track[n], pose_timing=None)
             for n, i in own.items()
         },
@@ -245,12 +246,13 @@ def one_seed(seed: int, args: argparse.Namespace) -> dict:
             posed = worst_pair_draws(crowd.scene, rate_sigma, BOUND_DRAWS, np.random.default_rng(seed), gcps=survey)
             out["bound_gcp"] = float(np.median(posed))
         out["defaults"] = measure(first, crowd, tlsync_run(project))
-        if args.limits:
-            out["limits"] = limits(first, crowd, seed)
         second = Path(tmp) / "declared"
         shutil.copytree(first, second)
         declare(second / "project.toml", args.gps_noise)
         out["declared"] = measure(second, crowd, tlsync_run(second / "project.toml"))
+        if args.limits:
+            out["defaults"]["limits"] = limits(first, crowd, seed, LogModelChoice())
+            out["declared"]["limits"] = limits(second, crowd, seed, LogModelChoice("white", white_m=args.gps_noise))
     return out
 
 
@@ -280,7 +282,7 @@ def main() -> None:
     parser.add_argument("--gcps", type=int, default=6, help="ground points per camera")
     parser.add_argument("--gcp-noise-px", type=float, default=1.0)
     parser.add_argument("--views", choices=("apart", "shared"), default="apart")
-    parser.add_argument("--limits", action="store_true", help="the defaults' sync redone on true poses and tracks")
+    parser.add_argument("--limits", action="store_true", help="each run's sync redone on true poses and tracks")
     parser.add_argument("--jobs", type=int, default=1)
     args = parser.parse_args()
     with ProcessPoolExecutor(args.jobs) as pool:
@@ -301,18 +303,18 @@ def main() -> None:
         print(f"seed {seed}    bound: {r['bound']:.3f}, poses from the GCPs: {r['bound_gcp']:.3f}")
         for k in ("defaults", "declared"):
             print(f"seed {seed} {k:>8}: {describe(r[k], r['bound'])}")
-        if "limits" in r:
-            print(f"seed {seed}   limits: " + "; ".join(f"{k} {v:.3f}" for k, v in r["limits"].items()))
+            if "limits" in r[k]:
+                print(f"seed {seed} {k:>8} limits: " + "; ".join(f"{v} {w:.3f}" for v, w in r[k]["limits"].items()))
     print(f"first-order bound: median {np.median(bound):.3f}, {np.mean(bound <= 0.2):.0%} of the seeds <= 0.2")
     print(
         f"with the poses from the GCPs: median {np.median(bound_gcp):.3f}, {np.mean(bound_gcp <= 0.2):.0%} of the "
         f"seeds <= 0.2"
     )
-    if args.limits:
-        labels = list(results[0]["limits"])
+    for k in ("defaults", "declared") if args.limits else ():
+        labels = list(results[0][k]["limits"])
         print(
-            "limits, median worst pair: "
-            + "; ".join(f"{k} {np.median([r['limits'][k] for r in results]):.3f}" for k in labels)
+            f"limits, {k}, median worst pair: "
+            + "; ".join(f"{v} {np.median([r[k]['limits'][v] for r in results]):.3f}" for v in labels)
         )
     print(
         f"{'inputs':>8} {'<=0.2':>6} {'median':>7} {'max':>7} {'/ bound (median)':>16} "
