@@ -2,7 +2,7 @@
 
     python bench/crowd_inputs.py [--seeds 0 1 2] [--distractors 8] [--fps 10 5] [--seconds 45]
                                  [--log-rate 1] [--gps-noise 0.3] [--gcps 6] [--gcp-noise-px 1] [--jobs 1]
-                                 [--views apart|shared]
+                                 [--views apart|shared] [--limits]
 
 Each seed's crowd scene (data_fixtures/crowd.py: two surveillance cameras,
 look-alike walkers, every mover detected; ``--views shared``: the cameras
@@ -27,7 +27,19 @@ distance (m) and angle (degrees) between its pose and the true one. Beside
 each seed's worst pair: the first-order bound (bench/gps_bound.py: the
 median worst pair an efficient estimator that knows the log's error model
 and the poses reaches on the scene's visible frames, with the blob
-centroid's noise data_fixtures.crowd.CENTROID_NOISE_PX) and the ratio to it.
+centroid's noise data_fixtures.crowd.CENTROID_NOISE_PX) and the ratio to it;
+then the bound when the poses are not known but estimated with the lines,
+each held by the scene's GCPs (their clicked pixels' noise) and by the
+target's pixels (gps_bound.Survey): what the GCPs allow.
+
+``--limits``: where each run's error comes from. Its sync is redone
+(sync/solve/synchronize.py, under the run's log model) on its own poses and
+identified tracks, and with each replaced by the truth: the true poses
+with the identified tracks; the true target track (its visible frames,
+with the blob centroid's white noise) with the run's poses as they are
+(their stds and timing) and taken as exact; the true poses with the
+identified frames but the true target's points there (plus that noise);
+both true. Prints each variant's worst pair.
 """
 
 from __future__ import annotations
@@ -41,6 +53,7 @@ import subprocess
 import sys
 import tempfile
 from concurrent.futures import ProcessPoolExecutor
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -48,17 +61,30 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from gps_bound import worst_pair_draws  # noqa: E402
+from gps_bound import Survey, worst_pair_draws  # noqa: E402
 
-from calibration.camera import read_camera  # noqa: E402
-from data_fixtures.crowd import CrowdSpec, UserInputs, write_crowd_project  # noqa: E402
+from calibration.camera import PoseInfo, read_camera  # noqa: E402
+from data_fixtures.crowd import (  # noqa: E402
+    CENTROID_NOISE_PX,
+    CrowdSpec,
+    UserInputs,
+    ground_gcps,
+    write_crowd_project,
+)
+from tlsync_pipeline.ingest.report import read_ingest_report  # noqa: E402
+from tlsync_pipeline.pipeline.stages.sync import read_pose_timing  # noqa: E402
+from tlsync_pipeline.sync.model.log_model import LogModelChoice  # noqa: E402
 from tlsync_pipeline.sync.model.params import SyncParams  # noqa: E402
-from tlsync_pipeline.sync.timeline import eps_t, read_timeline  # noqa: E402
+from tlsync_pipeline.sync.solve.synchronize import CameraInput, synchronize  # noqa: E402
+from tlsync_pipeline.sync.timeline import Timeline, eps_t, read_timeline  # noqa: E402
+from tlsync_pipeline.sync.vote.visits import near_views  # noqa: E402
+from tlsync_pipeline.trajectory import read_trajectory  # noqa: E402
 from trackers.detections import read_detections  # noqa: E402
-from trackers.track import read_track  # noqa: E402
+from trackers.track import Track, read_track  # noqa: E402
 
 Z95 = 1.959964
 BOUND_DRAWS = 200
+EXACT = PoseInfo("gcp")  # a pose taken as exact (no stds): the fit of the log's white error is not gated by it
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -79,18 +105,22 @@ def declare(project: Path, white_m: float) -> None:
     )
 
 
+def worst_pair(timeline: Timeline, scene) -> float:
+    """The timeline's worst pair's eps_t (frames of the pair's first camera; inf when a camera is missing)."""
+    return max(
+        eps_t(timeline.relation(*key.split("->")), truth, scene.n_frames[key.split("->")[0]])
+        if set(key.split("->")) <= set(timeline.cameras)
+        else math.inf
+        for key, truth in scene.truth_pairs().items()
+    )
+
+
 def measure(directory: Path, crowd, code: int) -> dict:
     """The run's worst pair, and per camera: on-target share, status, clock error / interval, pose error."""
     scene = crowd.scene
     work = directory / "work"
     timeline = read_timeline(work / "timeline.json")
     statuses = json.loads((work / "timeline.json").read_text()).get("status", {})
-    pairs = [
-        eps_t(timeline.relation(*key.split("->")), truth, scene.n_frames[key.split("->")[0]])
-        if set(key.split("->")) <= set(timeline.cameras)
-        else math.inf
-        for key, truth in scene.truth_pairs().items()
-    ]
     cameras = {}
     for name, truth in crowd.truth.items():
         row: dict = {"status": statuses.get(name, {}).get("status", "?")}
@@ -120,7 +150,52 @@ def measure(directory: Path, crowd, code: int) -> dict:
                 row["pose_m"] = float(np.linalg.norm(centre - true_centre))
                 row["pose_deg"] = math.degrees(math.acos(np.clip((np.trace(turn) - 1) / 2, -1.0, 1.0)))
         cameras[name] = row
-    return {"code": code, "worst": max(pairs), "cameras": cameras}
+    return {"code": code, "worst": worst_pair(timeline, scene), "cameras": cameras}
+
+
+def limits(directory: Path, crowd, seed: int, choice: LogModelChoice) -> dict[str, float]:
+    """The worst pair of the run's sync redone with its poses and identified tracks, and with each replaced by the
+    truth (see the module), under the run's log model ``choice``: {variant: worst pair (frames)}."""
+    scene, work = crowd.scene, directory / "work"
+    own = {}
+    for name in scene.cameras:
+        files = work / "cameras" / name
+        camera = read_camera(files / "camera.json", name=name)
+        timing = read_pose_timing(files / "calibration_report.json")
+        own[name] = CameraInput(camera, read_track(files / "track.csv"), camera.fps, pose_timing=timing)
+    trajectory = near_views(read_trajectory(work / "target" / "trajectory.csv"), [c.camera for c in own.values()])
+    suggested = (read_ingest_report(work / "target" / "ingest_report.json").log_model or {}).get("name")
+    model = choice.resolve(suggested)
+    rng = np.random.default_rng([seed, 3])
+
+    def true_pose(name: str, inputs: CameraInput) -> CameraInput:
+        camera = replace(scene.cameras[name], name=name, pose_info=EXACT)
+        return replace(inputs, camera=camera, pose_timing=None)
+
+    def noisy(frame: np.ndarray, xy: np.ndarray) -> Track:
+        seen = np.isfinite(xy).all(axis=1)
+        noise = rng.normal(0.0, CENTROID_NOISE_PX, xy.shape)
+        return Track(frame[seen], *(xy[seen] + noise[seen]).T)
+
+    true_track = {n: noisy(scene.tracks[n].frame, scene.tracks[n].xy) for n in own}
+    at_identified = {n: noisy(i.track.frame, crowd.truth[n].xy[i.track.frame]) for n, i in own.items()}
+    variants = {
+        "own": own,
+        "true poses": {n: true_pose(n, i) for n, i in own.items()},
+        "true track": {n: replace(i, track=true_track[n]) for n, i in own.items()},
+        "true track, poses exact": {
+            n: replace(i, camera=replace(i.camera, pose_info=EXACT), track=true_track[n], pose_timing=None)
+            for n, i in own.items()
+        },
+        "true poses, true points at identified frames": {
+            n: replace(true_pose(n, i), track=at_identified[n]) for n, i in own.items()
+        },
+        "both true": {n: replace(true_pose(n, i), track=true_track[n]) for n, i in own.items()},
+    }
+    return {
+        label: worst_pair(synchronize(inputs, trajectory, SyncParams(), log_model=model)[0], scene)
+        for label, inputs in variants.items()
+    }
 
 
 def walker_blobs(truth, movers, track) -> tuple[float, float]:
@@ -161,12 +236,23 @@ def one_seed(seed: int, args: argparse.Namespace) -> dict:
     with tempfile.TemporaryDirectory() as tmp:
         first = Path(tmp) / "defaults"
         project, crowd = write_crowd_project(first, spec, inputs)
-        draws = worst_pair_draws(crowd.scene, SyncParams().rate_sigma, BOUND_DRAWS, np.random.default_rng(seed))
-        out = {"bound": float(np.median(draws)), "defaults": measure(first, crowd, tlsync_run(project))}
+        rate_sigma = SyncParams().rate_sigma
+        draws = worst_pair_draws(crowd.scene, rate_sigma, BOUND_DRAWS, np.random.default_rng(seed))
+        out = {"bound": float(np.median(draws)), "bound_gcp": float(np.median(draws))}
+        if inputs.gcps and inputs.gcp_noise_px > 0:
+            survey = {
+                n: Survey(xyz, inputs.gcp_noise_px) for n, (xyz, _) in ground_gcps(crowd.scene, seed, inputs).items()
+            }
+            posed = worst_pair_draws(crowd.scene, rate_sigma, BOUND_DRAWS, np.random.default_rng(seed), gcps=survey)
+            out["bound_gcp"] = float(np.median(posed))
+        out["defaults"] = measure(first, crowd, tlsync_run(project))
         second = Path(tmp) / "declared"
         shutil.copytree(first, second)
         declare(second / "project.toml", args.gps_noise)
         out["declared"] = measure(second, crowd, tlsync_run(second / "project.toml"))
+        if args.limits:
+            out["defaults"]["limits"] = limits(first, crowd, seed, LogModelChoice())
+            out["declared"]["limits"] = limits(second, crowd, seed, LogModelChoice("white", white_m=args.gps_noise))
     return out
 
 
@@ -196,6 +282,7 @@ def main() -> None:
     parser.add_argument("--gcps", type=int, default=6, help="ground points per camera")
     parser.add_argument("--gcp-noise-px", type=float, default=1.0)
     parser.add_argument("--views", choices=("apart", "shared"), default="apart")
+    parser.add_argument("--limits", action="store_true", help="each run's sync redone on true poses and tracks")
     parser.add_argument("--jobs", type=int, default=1)
     args = parser.parse_args()
     with ProcessPoolExecutor(args.jobs) as pool:
@@ -211,11 +298,24 @@ def main() -> None:
         for k in worst
     }
     bound = np.array([r["bound"] for r in results])
+    bound_gcp = np.array([r["bound_gcp"] for r in results])
     for seed, r in zip(args.seeds, results):
-        print(f"seed {seed}    bound: {r['bound']:.3f}")
+        print(f"seed {seed}    bound: {r['bound']:.3f}, poses from the GCPs: {r['bound_gcp']:.3f}")
         for k in ("defaults", "declared"):
             print(f"seed {seed} {k:>8}: {describe(r[k], r['bound'])}")
+            if "limits" in r[k]:
+                print(f"seed {seed} {k:>8} limits: " + "; ".join(f"{v} {w:.3f}" for v, w in r[k]["limits"].items()))
     print(f"first-order bound: median {np.median(bound):.3f}, {np.mean(bound <= 0.2):.0%} of the seeds <= 0.2")
+    print(
+        f"with the poses from the GCPs: median {np.median(bound_gcp):.3f}, {np.mean(bound_gcp <= 0.2):.0%} of the "
+        f"seeds <= 0.2"
+    )
+    for k in ("defaults", "declared") if args.limits else ():
+        labels = list(results[0][k]["limits"])
+        print(
+            f"limits, {k}, median worst pair: "
+            + "; ".join(f"{v} {np.median([r[k]['limits'][v] for r in results]):.3f}" for v in labels)
+        )
     print(
         f"{'inputs':>8} {'<=0.2':>6} {'median':>7} {'max':>7} {'/ bound (median)':>16} "
         f"{'on target (worse camera, median)':>33} {'walker blob':>11} {'found':>6} {'wrong':>5}"

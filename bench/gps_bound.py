@@ -27,23 +27,44 @@ that of the same linear estimator under that prior, its error measured
 under the receiver's true one: M^-1 (P_a^-1 P P_a^-1 + D) M^-1, P_a^-1 P P_a^-1 in the log
 error's block (D the pixels' and the slope prior's information, M = D +
 P_a^-1, P_a the assumed covariance, P the true; P_a = P gives the bound): the bound for the information the sync has.
+
+With ``gcps`` (per camera its ground control points' world positions and their pixels' noise), the poses are not
+known but estimated with the lines: each camera's pose (a small rotation and a move of its centre) is six more unknowns,
+held by its GCPs' pixels (their noise, white per axis; the world points exact) and by the target's own pixels, as an
+estimator that fits every pose with the lines and the log's error together would hold it.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass, replace
+
+import cv2
 import numpy as np
 
+from calibration.camera import Camera
 from data_fixtures.log_error import LogErrorModel
 from data_fixtures.scene import Scene
 
 FIX_MARGIN = 2  # fixes kept beyond each end of a visit
+POSE_PARAMETERS = 6  # a pose's unknowns: a small rotation (radians, world axes) and a move of its centre (metres)
+POSE_STEP = 1e-6  # finite-difference step of a pose's unknowns
+
+
+@dataclass(frozen=True)
+class Survey:
+    """A camera's ground control points: world positions (G, 3) metres, exact, and the std of their clicked pixels
+    (per axis, pixels)."""
+
+    xyz: np.ndarray
+    noise_px: float
 
 
 def line_covariance(
-    scene: Scene, rate_sigma: float, assumed: LogErrorModel | None = None
+    scene: Scene, rate_sigma: float, assumed: LogErrorModel | None = None, gcps: dict[str, Survey] | None = None
 ) -> tuple[list[str], np.ndarray]:
     """The camera names and the (2C, 2C) Cramer-Rao covariance of their lines (alpha_0, beta_0, alpha_1, ...); with
-    ``assumed``, the error covariance of the estimator whose log-error prior is that model (see the module)."""
+    ``assumed``, the error covariance of the estimator whose log-error prior is that model; with ``gcps``, of an
+    estimator that fits the poses too, each held by its GCPs (see the module)."""
     model: LogErrorModel = scene.noise["log"]
     noise_px = float(scene.noise["S_t_px"])
     truth = scene.true_trajectory
@@ -52,7 +73,9 @@ def line_covariance(
     samples = {n: (scene.tracks[n].frame - scene.lines[n].beta) / scene.lines[n].alpha for n in names}
     fixes = _fixes_near(samples.values(), len(truth.sample))
     n_lines, n_err = 2 * len(names), 3 * len(fixes)
-    information = np.zeros((n_lines + n_err, n_lines + n_err))
+    n_pose = 0 if gcps is None else POSE_PARAMETERS * len(names)
+    size = n_lines + n_err + n_pose
+    information = np.zeros((size, size))
     for k, name in enumerate(names):
         s = samples[name]
         camera, line = scene.cameras[name], scene.lines[name]
@@ -62,34 +85,48 @@ def line_covariance(
         )  # metres per sample
         gradient = _projection_gradient(camera, position)  # (N, 2, 3) pixels per metre
         along = np.einsum("nij,nj->ni", gradient, velocity)  # pixels per sample
-        jac = np.zeros((len(s), 2, n_lines + n_err))
+        jac = np.zeros((len(s), 2, size))
         jac[:, :, 2 * k] = along * (-s / line.alpha)[:, None]  # ds / dalpha = -s / alpha
         jac[:, :, 2 * k + 1] = along * (-1.0 / line.alpha)  # ds / dbeta
         weights = _interpolation(s, fixes)  # (N, F)
-        jac[:, :, n_lines:] = -(gradient[:, :, None, :] * weights[:, None, :, None]).reshape(len(s), 2, -1)
-        flat = jac.reshape(-1, n_lines + n_err)
+        jac[:, :, n_lines : n_lines + n_err] = -(gradient[:, :, None, :] * weights[:, None, :, None]).reshape(
+            len(s), 2, -1
+        )
+        if gcps is not None:
+            pose = slice(n_lines + n_err + POSE_PARAMETERS * k, n_lines + n_err + POSE_PARAMETERS * (k + 1))
+            jac[:, :, pose] = _pose_gradient(camera, position)
+            survey = _pose_gradient(camera, gcps[name].xyz).reshape(-1, POSE_PARAMETERS)
+            information[pose, pose] += survey.T @ survey / gcps[name].noise_px ** 2
+        flat = jac.reshape(-1, size)
         information += flat.T @ flat / noise_px**2
         if rate_sigma > 0:
             nominal = camera.fps / rate
             information[2 * k, 2 * k] += 1.0 / (rate_sigma * nominal) ** 2
+    log = slice(n_lines, n_lines + n_err)
     if assumed is None:
-        information[n_lines:, n_lines:] += np.linalg.inv(_error_covariance(fixes / rate, model))
+        information[log, log] += np.linalg.inv(_error_covariance(fixes / rate, model))
         return names, np.linalg.inv(information)[:n_lines, :n_lines]
     data = information.copy()  # the pixels' and the slope prior's
     prior_inverse = np.linalg.inv(_error_covariance(fixes / rate, assumed))
-    information[n_lines:, n_lines:] += prior_inverse
+    information[log, log] += prior_inverse
     inverse = np.linalg.inv(information)
-    pulled = inverse[:, n_lines:] @ prior_inverse  # how the assumed prior pulls the estimate towards zero error
+    pulled = inverse[:, log] @ prior_inverse  # how the assumed prior pulls the estimate towards zero error
     covariance = pulled @ _error_covariance(fixes / rate, model) @ pulled.T + inverse @ data @ inverse
     return names, covariance[:n_lines, :n_lines]
 
 
 def worst_pair_draws(
-    scene: Scene, rate_sigma: float, draws: int, rng: np.random.Generator, assumed: LogErrorModel | None = None
+    scene: Scene,
+    rate_sigma: float,
+    draws: int,
+    rng: np.random.Generator,
+    assumed: LogErrorModel | None = None,
+    gcps: dict[str, Survey] | None = None,
 ) -> np.ndarray:
     """(draws,) the worst pair's eps_t (frames) of line errors drawn from the Cramer-Rao covariance (with ``assumed``:
-    from the covariance of the estimator under that prior, line_covariance)."""
-    names, covariance = line_covariance(scene, rate_sigma, assumed)
+    from the covariance of the estimator under that prior; with ``gcps``: of the poses estimated too,
+    line_covariance)."""
+    names, covariance = line_covariance(scene, rate_sigma, assumed, gcps)
     errors = rng.multivariate_normal(np.zeros(len(covariance)), covariance, size=draws)  # (D, 2C)
     worst = np.zeros(draws)
     for i, a in enumerate(names):
@@ -153,3 +190,23 @@ def _projection_gradient(camera, position: np.ndarray, step: float = 1e-3) -> np
         minus, _ = camera.project(position - offset)
         out[:, :, a] = (plus - minus) / (2 * step)
     return out
+
+
+def _pose_gradient(camera: Camera, position: np.ndarray) -> np.ndarray:
+    """(N, 2, 6) pixels per unit of the pose's unknowns at positions (N, 3): a rotation of the camera about the world
+    axes through its centre (radians) and a move of its centre (metres), by central differences."""
+    out = np.zeros((len(position), 2, POSE_PARAMETERS))
+    for k in range(POSE_PARAMETERS):
+        step = np.zeros(POSE_PARAMETERS)
+        step[k] = POSE_STEP
+        plus, _ = _moved(camera, step).project(position)
+        minus, _ = _moved(camera, -step).project(position)
+        out[:, :, k] = (plus - minus) / (2 * POSE_STEP)
+    return out
+
+
+def _moved(camera: Camera, step: np.ndarray) -> Camera:
+    """The camera turned by step[:3] (a rotation vector, world axes) and its centre moved by step[3:] (metres)."""
+    R = camera.R @ cv2.Rodrigues(step[:3])[0].T
+    centre = camera.center + step[3:]
+    return replace(camera, R=R, t=-R @ centre)

@@ -300,13 +300,13 @@ def write_crowd_project(
     else:
         write_trajectory(scene.trajectory, directory / "trajectory.csv")
         parts = ['[target]\ntrajectory = "trajectory.csv"\n']
-    rng = np.random.default_rng([spec.seed, 2])  # its own stream: the scene stays that of the seed
+    surveyed = ground_gcps(scene, spec.seed, inputs) if inputs is not None and inputs.gcps else {}
     for name, camera in scene.cameras.items():
         entry = f'[[cameras]]\nname = "{name}"\nvideo = "{name}.mp4"\nfps = {camera.fps!r}\n'
-        if inputs is not None and inputs.gcps:
+        if name in surveyed:
             intrinsics = {k: v for k, v in camera.to_dict().items() if k not in ("R", "t")}
             (directory / f"{name}_intrinsics.json").write_text(json.dumps(intrinsics, indent=1) + "\n", "utf-8")
-            _write_ground_gcps(directory / f"{name}_gcp.csv", camera, inputs, rng)
+            _write_ground_gcps(directory / f"{name}_gcp.csv", *surveyed[name])
             entry += f'[cameras.calibration]\nintrinsics = "{name}_intrinsics.json"\ngcp = "{name}_gcp.csv"\n'
         else:
             write_camera(camera, directory / f"{name}.json")
@@ -318,26 +318,35 @@ def write_crowd_project(
     return project, crowd
 
 
-def _write_ground_gcps(path: Path, camera: Camera, inputs: UserInputs, rng) -> None:
-    """``inputs.gcps`` points on the ground of the camera's patch, spread over it, as u,v,lat,lon,alt: their true
-    projections plus ``inputs.gcp_noise_px`` of noise; the world points exact (surveyed)."""
-    w, h = camera.image_size
-    points: list[np.ndarray] = []
-    while len(points) < inputs.gcps:
-        k = len(points)
-        u = (k % 3 + rng.uniform(0.15, 0.85)) * w / 3
-        v = h * (0.45 + 0.5 * (k // 3 % 2 + rng.uniform(0.1, 0.9)) / 2)  # the lower part: the ground
-        ray = camera.R.T @ np.linalg.solve(camera.K, [u, v, 1.0])
-        centre = -camera.R.T @ camera.t
-        if ray[2] >= -1e-3:
-            continue
-        ground = centre - centre[2] / ray[2] * ray
-        uv, valid = camera.project(ground[None])
-        if valid[0] and camera.in_image(uv)[0]:
-            points.append(ground)
-    world = np.array(points)
-    uv, _ = camera.project(world)
-    uv = uv + rng.normal(0.0, inputs.gcp_noise_px, uv.shape)
+def ground_gcps(scene: Scene, seed: int, inputs: UserInputs) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Per camera ``inputs.gcps`` points on the ground of its patch, spread over it: their world positions (G, 3)
+    metres, exact (surveyed), and their clicked pixels (G, 2), the true projections plus ``inputs.gcp_noise_px`` of
+    noise; the seed's own stream, so the scene stays that of the seed."""
+    rng = np.random.default_rng([seed, 2])
+    out = {}
+    for name, camera in scene.cameras.items():
+        w, h = camera.image_size
+        points: list[np.ndarray] = []
+        while len(points) < inputs.gcps:
+            k = len(points)
+            u = (k % 3 + rng.uniform(0.15, 0.85)) * w / 3
+            v = h * (0.45 + 0.5 * (k // 3 % 2 + rng.uniform(0.1, 0.9)) / 2)  # the lower part: the ground
+            ray = camera.R.T @ np.linalg.solve(camera.K, [u, v, 1.0])
+            centre = -camera.R.T @ camera.t
+            if ray[2] >= -1e-3:
+                continue
+            ground = centre - centre[2] / ray[2] * ray
+            uv, valid = camera.project(ground[None])
+            if valid[0] and camera.in_image(uv)[0]:
+                points.append(ground)
+        world = np.array(points)
+        uv, _ = camera.project(world)
+        out[name] = (world, uv + rng.normal(0.0, inputs.gcp_noise_px, uv.shape))
+    return out
+
+
+def _write_ground_gcps(path: Path, world: np.ndarray, uv: np.ndarray) -> None:
+    """GCPs (world (G, 3) metres, pixels (G, 2)) as u,v,lat,lon,alt."""
     geo = enu_to_geodetic(world, ORIGIN)
     rows = ["name,u,v,lat,lon,alt"]
     rows += [

@@ -4,12 +4,13 @@ time does not."""
 
 import importlib.util
 import json
+import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from data_fixtures.crowd import CrowdSpec, make_crowd_scene
+from data_fixtures.crowd import CrowdSpec, UserInputs, ground_gcps, make_crowd_scene
 from data_fixtures.scene import check_views_disjoint, write_truth
 from tlsync_pipeline.sync.model.params import SyncParams
 
@@ -17,11 +18,14 @@ BOUND = Path(__file__).resolve().parents[2] / "bench" / "gps_bound.py"
 
 
 def _gps_bound():
-    spec = importlib.util.spec_from_file_location("gps_bound", BOUND)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    """bench/gps_bound.py as a module (registered: its dataclasses look their module up in sys.modules)."""
+    if "gps_bound" not in sys.modules:
+        spec = importlib.util.spec_from_file_location("gps_bound", BOUND)
+        assert spec is not None and spec.loader is not None
+        module = importlib.util.module_from_spec(spec)
+        sys.modules["gps_bound"] = module
+        spec.loader.exec_module(module)
+    return sys.modules["gps_bound"]
 
 
 def _spec(views: str, distractors: int) -> CrowdSpec:
@@ -82,3 +86,19 @@ def test_the_log_error_cancels_in_the_bound_when_the_views_are_shared(shared, ap
     }
     assert bounds["shared"] < 0.2 < bounds["apart"], bounds
     assert bounds["shared"] < 0.25 * bounds["apart"], bounds
+
+
+def test_poses_held_by_their_gcps_widen_the_bound_and_exact_gcps_give_it_back(shared):
+    gps_bound = _gps_bound()
+    gcps = ground_gcps(shared.scene, 1, UserInputs(gcps=6, gcp_noise_px=1.0))
+    rate_sigma = SyncParams().rate_sigma
+
+    def beta_std(noise_px: float | None) -> np.ndarray:
+        survey = None if noise_px is None else {n: gps_bound.Survey(xyz, noise_px) for n, (xyz, _) in gcps.items()}
+        _, covariance = gps_bound.line_covariance(shared.scene, rate_sigma, gcps=survey)
+        relation = np.array([0.0, -1.0, 0.0, 1.0])  # beta_1 - beta_0: the pair's offset (equal slopes and rates)
+        return np.sqrt(relation @ covariance @ relation)
+
+    known, clicked, exact = beta_std(None), beta_std(1.0), beta_std(1e-4)
+    assert clicked > 1.1 * known, (clicked, known)
+    assert abs(exact - known) < 0.01 * known, (exact, known)
