@@ -39,7 +39,11 @@ with the identified tracks; the true target track (its visible frames,
 with the blob centroid's white noise) with the run's poses as they are
 (their stds and timing) and taken as exact; the true poses with the
 identified frames but the true target's points there (plus that noise);
-both true. Prints each variant's worst pair.
+both true; the true poses with the true target's points only at one class
+of identified frames: those whose blob is larger than the target (merged
+with passers-by: identification placed the point within it), those whose
+blob is the target's size, those whose point is off the walker's
+silhouette. Prints each variant's worst pair.
 """
 
 from __future__ import annotations
@@ -179,6 +183,22 @@ def limits(directory: Path, crowd, seed: int, choice: LogModelChoice) -> dict[st
 
     true_track = {n: noisy(scene.tracks[n].frame, scene.tracks[n].xy) for n in own}
     at_identified = {n: noisy(i.track.frame, crowd.truth[n].xy[i.track.frame]) for n, i in own.items()}
+    movers = {n: read_detections(work / "cameras" / n / "detections.csv") for n in own}
+    merged = {n: merged_blobs(movers[n], i.track) for n, i in own.items()}
+    on_walker = {n: crowd.truth[n].on_target(i.track.frame, i.track.xy) for n, i in own.items()}
+
+    def true_points_where(name: str, inputs: CameraInput, where: np.ndarray) -> CameraInput:
+        """True poses; the identified track with the true target's points (at_identified) at the frames ``where``."""
+        track, truth = inputs.track, at_identified[name]
+        assert track is not None
+        seen = np.isin(track.frame, truth.frame)
+        xy = track.xy.copy()
+        swap = where & seen
+        xy[swap] = truth.xy[np.searchsorted(truth.frame, track.frame[swap])]
+        keep = seen | ~where
+        moved = Track(track.frame[keep], *xy[keep].T, w=track.w[keep], h=track.h[keep])
+        return replace(true_pose(name, inputs), track=moved)
+
     variants = {
         "own": own,
         "true poses": {n: true_pose(n, i) for n, i in own.items()},
@@ -191,11 +211,32 @@ def limits(directory: Path, crowd, seed: int, choice: LogModelChoice) -> dict[st
             n: replace(true_pose(n, i), track=at_identified[n]) for n, i in own.items()
         },
         "both true": {n: replace(true_pose(n, i), track=true_track[n]) for n, i in own.items()},
+        "true poses, true points at merged-blob frames": {
+            n: true_points_where(n, i, merged[n]) for n, i in own.items()
+        },
+        "true poses, true points at own-blob frames": {n: true_points_where(n, i, ~merged[n]) for n, i in own.items()},
+        "true poses, true points at frames off the walker": {
+            n: true_points_where(n, i, ~on_walker[n]) for n, i in own.items()
+        },
     }
     return {
         label: worst_pair(synchronize(inputs, trajectory, SyncParams(), log_model=model)[0], scene)
         for label, inputs in variants.items()
     }
+
+
+def merged_blobs(movers, track: Track) -> np.ndarray:
+    """Per identified frame, whether its mover is a blob larger than the target (identification step 6 placed the
+    point within it, its box shrunk to the target's): the mover of that frame with the track's score whose centre is
+    nearest the point has a larger box than the track's."""
+    out = np.zeros(len(track), dtype=bool)
+    assert track.w is not None and track.h is not None and track.score is not None
+    for k, (frame, score) in enumerate(zip(track.frame, track.score)):
+        rows = np.flatnonzero((movers.frame == frame) & (np.abs(movers.score - score) < 1e-3))
+        if len(rows):
+            row = rows[np.argmin(np.hypot(movers.x[rows] - track.x[k], movers.y[rows] - track.y[k]))]
+            out[k] = movers.w[row] > track.w[k] + 0.5 or movers.h[row] > track.h[k] + 0.5
+    return out
 
 
 def walker_blobs(truth, movers, track) -> tuple[float, float]:
