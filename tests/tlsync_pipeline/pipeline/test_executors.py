@@ -34,7 +34,7 @@ import sleeper
 from tlsync_pipeline.pipeline.executors import ProcessExecutor
 
 if __name__ == "__main__":
-    executor = ProcessExecutor(2)
+    executor = ProcessExecutor(2, preload={preload!r})
     futures = [executor.submit(sleeper.sleep_and_record, {{"path": {folder!r} + f"/worker{{i}}", "seconds": 120}}) for i in range(2)]
     try:
         executor.wait_any(futures)
@@ -56,9 +56,9 @@ def alive(pid: int) -> bool:
         return True
 
 
-def _start_parent(tmp_path: Path) -> tuple[subprocess.Popen, list[int]]:
+def _start_parent(tmp_path: Path, preload: tuple[str, ...] = ()) -> tuple[subprocess.Popen, list[int]]:
     (tmp_path / "sleeper.py").write_text(TASK)
-    (tmp_path / "parent.py").write_text(PARENT.format(folder=str(tmp_path)))
+    (tmp_path / "parent.py").write_text(PARENT.format(folder=str(tmp_path), preload=preload))
     parent = subprocess.Popen([sys.executable, str(tmp_path / "parent.py")], start_new_session=True)
     files = [tmp_path / "worker0", tmp_path / "worker1"]
     deadline = time.monotonic() + 120
@@ -75,16 +75,23 @@ def _gone_within(pids: list[int], seconds: float) -> bool:
     return not any(alive(p) for p in pids)
 
 
+def parent_of(pid: int) -> int:
+    return int(Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[1])
+
+
+@pytest.mark.parametrize("preload", [(), ("sleeper",)])  # with a preload (Linux): a fork server forked from the parent
 @pytest.mark.parametrize("how", [signal.SIGKILL, signal.SIGINT])
-def test_workers_end_with_their_parent(tmp_path, how):
-    parent, workers = _start_parent(tmp_path)
+def test_workers_end_with_their_parent(tmp_path, how, preload):
+    parent, workers = _start_parent(tmp_path, preload)
+    servers = {parent_of(p) for p in workers} - {parent.pid}
     try:
         assert all(alive(p) for p in workers)
         os.kill(parent.pid, how)
         assert parent.wait(timeout=30) == (-signal.SIGKILL if how == signal.SIGKILL else 130)
         assert _gone_within(workers, 5.0), f"workers still running 5 s after {how.name} of their parent"
+        assert _gone_within(list(servers), 5.0), f"the fork server still runs 5 s after {how.name} of its parent"
     finally:
-        for pid in [parent.pid, *workers]:
+        for pid in [parent.pid, *workers, *servers]:
             if alive(pid):
                 os.kill(pid, signal.SIGKILL)
 
@@ -194,3 +201,23 @@ def test_workers_fork_from_one_process_that_imported_the_preload(tmp_path, monke
     assert all(r["preloaded"] for r in results) and importers[0] not in {r["pid"] for r in results}
     assert "preloaded_marker" not in __import__("sys").modules  # this process never imported it
     assert children_cpu() - before >= busy_s
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="the fork server is forked from the run on Linux only")
+def test_a_fork_server_no_task_started_ends_without_importing_the_preload(tmp_path, monkeypatch):
+    """The server forked when the executor is made waits for a first task: closed before any, it imports nothing and
+    ends with the close."""
+    import multiprocessing.forkserver
+
+    from tlsync_pipeline.pipeline.executors import ProcessExecutor, can_fork_server
+
+    record = tmp_path / "imported_by"
+    (tmp_path / "unused_marker.py").write_text(PRELOADED.format(record=str(record), busy_s=0.0))
+    monkeypatch.syspath_prepend(str(tmp_path))
+    if not can_fork_server():
+        pytest.skip("this test process runs threads: the executor spawns its server on first use instead")
+    executor = ProcessExecutor(2, preload=("unused_marker",))
+    server = multiprocessing.forkserver._forkserver._forkserver_pid  # noqa: SLF001 - the server's pid, to watch it
+    assert server is not None and alive(server) and parent_of(server) == os.getpid()
+    executor.close()
+    assert not alive(server) and not record.exists()
