@@ -473,8 +473,8 @@ def run_each(executor, parts: list[tuple[Callable[..., Any], dict]]) -> list[Cal
     For a task of the engine's own process with independent parts (render's
     cameras and charts): it hands them to the run's executor, so no pool is
     started inside another. A local pool that no task has started yet is not
-    started for them: its fork server would first import the pipeline and
-    matplotlib (about 1 s of CPU), more than a camera's pictures cost, so the
+    started for them: its fork server would first import OpenCV, numba and
+    matplotlib (about 0.7 s of CPU), more than a camera's pictures cost, so the
     parts run in this process (``tlsync render`` alone, a run where only
     render is stale). Each Called says whether it ran in another process (its
     CPU is then not in this one's, for the task to add to its own); the first
