@@ -367,7 +367,7 @@ def fork_server_here(preload: tuple[str, ...]) -> int | None:
             start_r, start_w = os.pipe()
             sys.stdout.flush()  # not written again by the server's processes
             sys.stderr.flush()
-            with _ctrl_c_held():
+            with _ctrl_c_held(), _opencv_without_threads():
                 pid = os.fork()
                 if pid == 0:
                     os.close(alive_w)
@@ -379,6 +379,23 @@ def fork_server_here(preload: tuple[str, ...]) -> int | None:
         server._forkserver_alive_fd = alive_w  # type: ignore[attr-defined]  # noqa: SLF001
         server._forkserver_pid = pid  # type: ignore[attr-defined]  # noqa: SLF001
     return start_w
+
+
+@contextlib.contextmanager
+def _opencv_without_threads():
+    """OpenCV's thread pool stopped for the block (one thread, its workers joined), then as it was: a process forked
+    meanwhile does not inherit a pool whose threads it lacks (its first ``cv2.setNumThreads`` would wait for them
+    forever). Nothing to do where OpenCV is not loaded."""
+    cv2 = sys.modules.get("cv2")
+    if cv2 is None:
+        yield
+        return
+    threads = cv2.getNumThreads()
+    cv2.setNumThreads(1)
+    try:
+        yield
+    finally:
+        cv2.setNumThreads(threads)
 
 
 def _serve_forks(listener: int, alive_r: int, start_r: int, preload: tuple[str, ...]) -> NoReturn:

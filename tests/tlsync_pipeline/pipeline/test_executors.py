@@ -221,3 +221,33 @@ def test_a_fork_server_no_task_started_ends_without_importing_the_preload(tmp_pa
     assert server is not None and alive(server) and parent_of(server) == os.getpid()
     executor.close()
     assert not alive(server) and not record.exists()
+
+
+OPENCV_PARENT = """
+import sys, time
+sys.path.insert(0, {folder!r})
+import numpy as np, cv2
+from tlsync_pipeline.pipeline.executors import ProcessExecutor
+import sleeper
+
+if __name__ == "__main__":
+    cv2.resize(np.zeros((3000, 3000), np.uint8), (1000, 1000), interpolation=cv2.INTER_AREA)
+    time.sleep(1.0)  # OpenCV's threads started, then waiting for work
+    executor = ProcessExecutor(2, preload=("sleeper",))
+    value = executor.submit(sleeper.blur, {{}}).result().value
+    executor.close()
+    print("blurred", value)
+"""
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="the fork server is forked from the run on Linux only")
+def test_a_fork_server_forked_after_opencv_started_its_threads_runs_opencv(tmp_path):
+    """A run that used OpenCV's threads before its executor was made: the server forked from it, and its workers, still
+    run OpenCV (a pool inherited without its threads would block their first call)."""
+    (tmp_path / "sleeper.py").write_text(
+        TASK + "\n\ndef blur():\n    import cv2, numpy as np\n"
+        "    return int(cv2.GaussianBlur(np.full((2000, 2000), 7, np.uint8), (5, 5), 0).max())\n"
+    )
+    (tmp_path / "parent.py").write_text(OPENCV_PARENT.format(folder=str(tmp_path)))
+    done = subprocess.run([sys.executable, str(tmp_path / "parent.py")], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0 and "blurred 7" in done.stdout, done.stderr
