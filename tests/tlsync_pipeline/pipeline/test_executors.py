@@ -203,24 +203,36 @@ def test_workers_fork_from_one_process_that_imported_the_preload(tmp_path, monke
     assert children_cpu() - before >= busy_s
 
 
+UNUSED_PARENT = """
+import multiprocessing.forkserver, os, sys
+sys.path.insert(0, {folder!r})
+from tlsync_pipeline.pipeline.executors import ProcessExecutor
+
+if __name__ == "__main__":
+    executor = ProcessExecutor(2, preload=("unused_marker",))
+    server = multiprocessing.forkserver._forkserver._forkserver_pid
+    print("server", server, "forked here", open(f"/proc/{{server}}/stat").read().rsplit(")", 1)[1].split()[1] == str(os.getpid()))
+    executor.close()
+    try:
+        os.kill(server, 0)
+        print("ended at close", False)
+    except ProcessLookupError:  # ended and reaped by the close
+        print("ended at close", True)
+"""
+
+
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="the fork server is forked from the run on Linux only")
-def test_a_fork_server_no_task_started_ends_without_importing_the_preload(tmp_path, monkeypatch):
+def test_a_fork_server_no_task_started_ends_without_importing_the_preload(tmp_path):
     """The server forked when the executor is made waits for a first task: closed before any, it imports nothing and
     ends with the close."""
-    import multiprocessing.forkserver
-
-    from tlsync_pipeline.pipeline.executors import ProcessExecutor, can_fork_server
-
     record = tmp_path / "imported_by"
     (tmp_path / "unused_marker.py").write_text(PRELOADED.format(record=str(record), busy_s=0.0))
-    monkeypatch.syspath_prepend(str(tmp_path))
-    if not can_fork_server():
-        pytest.skip("this test process runs threads: the executor spawns its server on first use instead")
-    executor = ProcessExecutor(2, preload=("unused_marker",))
-    server = multiprocessing.forkserver._forkserver._forkserver_pid  # noqa: SLF001 - the server's pid, to watch it
-    assert server is not None and alive(server) and parent_of(server) == os.getpid()
-    executor.close()
-    assert not alive(server) and not record.exists()
+    (tmp_path / "parent.py").write_text(UNUSED_PARENT.format(folder=str(tmp_path)))
+    done = subprocess.run([sys.executable, str(tmp_path / "parent.py")], capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0, done.stderr
+    _, server, *said = done.stdout.split()
+    assert said == ["forked", "here", "True", "ended", "at", "close", "True"], done.stdout
+    assert not alive(int(server)) and not record.exists()
 
 
 OPENCV_PARENT = """
