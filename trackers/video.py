@@ -79,10 +79,14 @@ def probe_video(path: str | Path) -> VideoInfo:
     MP4/MOV track header: _stored_rotation).
     """
     path = Path(path)
-    with _open(path) as container:
+    with _open(path, demux_only=True) as container:
         stream = container.streams.video[0]
         rotation = _stored_rotation(path, container, stream)
-        return _info(path, stream, _first_rotation(path, container, stream) if rotation is None else rotation)
+        if rotation is not None:
+            return _info(path, stream, rotation)
+    with _open(path) as container:
+        stream = container.streams.video[0]
+        return _info(path, stream, _first_rotation(path, container, stream))
 
 
 def iter_frames(
@@ -427,7 +431,7 @@ def presentation_times(path: str | Path) -> np.ndarray | None:
     pts_list, _ = _packet_index(path)
     if not pts_list:
         return None
-    with _open(path) as container:
+    with _open(path, demux_only=True) as container:
         base = Fraction(container.streams.video[0].time_base or Fraction(1, 1))
     return seconds_of(np.array(pts_list, dtype=np.int64), base)
 
@@ -489,7 +493,7 @@ def _index_packets(
     import av
 
     pts, keys, sizes = [], [], []
-    with _open(path) as container:
+    with _open(path, demux_only=True) as container:
         stream = container.streams.video[0]
         try:
             for packet in container.demux(stream):
@@ -508,10 +512,18 @@ def _index_packets(
     return tuple(pts[k] for k in order), tuple(sorted(keys)), tuple(sizes[k] for k in order)
 
 
-def _open(path: Path):
-    """The video opened with PyAV (imported here: 0.1 s that processes which never read a video do not pay)."""
-    import av
+# Codec options of the stream probe (``avformat_find_stream_info``) for a container read without decoding: it decodes
+# no frame (an H.264 probe decodes the first keyframe and more, about 12 ms at 720p an open).
+_PROBE_WITHOUT_DECODING = {"skip_frame": "all"}
 
+
+def _open(path: Path, demux_only: bool = False):
+    """The video opened with PyAV (imported here: 0.1 s that processes which never read a video do not pay).
+
+    demux_only: for reading the container's metadata and packets, no frame: an MP4/MOV file is then opened without
+    the stream probe's decoding (its sizes, frame count, rates and time base are the container's, the same either
+    way); other containers are opened in full (their rates may come from the probe's frames).
+    """
     if not path.exists():
         raise TrackInputError(f"{path}: file not found")
     if path.is_dir():
@@ -520,8 +532,19 @@ def _open(path: Path):
         raise TrackInputError(
             f"{path}: not a regular file (a device, a pipe or a file of the system), expected a video file"
         )
+    if demux_only:
+        container = _open_container(path, _PROBE_WITHOUT_DECODING)
+        if _ISO_MEDIA & set(container.format.name.split(",")):
+            return container
+        container.close()
+    return _open_container(path, None)
+
+
+def _open_container(path: Path, options: dict[str, str] | None):
+    import av
+
     try:
-        container = av.open(str(path), mode="r")
+        container = av.open(str(path), mode="r", options=options)
     except av.error.EOFError:
         raise TrackInputError(f"{path}: the file ends before any video frame (an empty or truncated video)") from None
     except (av.FFmpegError, OSError, UnicodeDecodeError) as exc:

@@ -4,8 +4,12 @@ A stage's code is the import closure of its module within the project's
 packages (``tlsync_pipeline``, ``trackers``, ``calibration``), found by
 reading the ``import`` statements of the source (also those inside
 functions, not those under ``if TYPE_CHECKING:``), without the engine modules (they run every stage but compute no
-artefact) and the command line. ``import a.b.c`` / ``from a.b import c``
-count module ``a.b.c`` (or ``a.b`` when ``c`` is a name in it); a package's
+artefact) and the command line. Only the statements are parsed, not the
+whole source (a run's 130 modules: 0.02 s instead of 0.35): the lines
+that start with ``import`` or ``from`` (with their continuation lines),
+outside the blocks of an ``if`` line that names ``TYPE_CHECKING``; a
+line of prose that starts so is no statement Python parses.
+``import a.b.c`` / ``from a.b import c`` count module ``a.b.c`` (or ``a.b`` when ``c`` is a name in it); a package's
 ``__init__`` counts when it is imported by its own name. Each module is
 hashed by its source, so an upgrade re-runs exactly the stages whose code
 changed.
@@ -14,8 +18,11 @@ changed.
 from __future__ import annotations
 
 import ast
+import bisect
 import hashlib
 import importlib.util
+import itertools
+import re
 from functools import cache
 
 PACKAGES = ("tlsync_pipeline", "trackers", "calibration")
@@ -51,10 +58,9 @@ def _counted(name: str) -> bool:
 def _imports(name: str) -> tuple[str, ...]:
     """The project modules one module's source imports."""
     spec = importlib.util.find_spec(name)
-    tree = ast.parse(module_source(name))
     package = name if spec is not None and spec.submodule_search_locations is not None else name.rpartition(".")[0]
     found = []
-    for node in _runtime_nodes(tree):
+    for node in import_statements(module_source(name).decode("utf-8")):
         if isinstance(node, ast.Import):
             found += [alias.name for alias in node.names]
         elif isinstance(node, ast.ImportFrom):
@@ -70,32 +76,57 @@ def _imports(name: str) -> tuple[str, ...]:
     return tuple(sorted({m for m in found if _counted(m) and _is_module(m)}))
 
 
-def _runtime_nodes(tree: ast.Module):
-    """Every statement of the tree, nested ones included, except the bodies of ``if TYPE_CHECKING:`` blocks (imports for
-    annotations only).
+_STATEMENT = re.compile(r"^[ \t]*(?:import|from)[ \t]", re.MULTILINE)
+_TYPE_CHECKING_BLOCK = re.compile(
+    r"^[ \t]*(?:if|elif)\b[^\n]*\bTYPE_CHECKING\b[^\n]*:[ \t]*(?:#[^\n]*)?$", re.MULTILINE
+)
 
-    Only statements are visited: an import is a statement, and statements
-    sit only in other statements' bodies (``body``, ``orelse``,
-    ``finalbody``, ``handlers``, ``cases``), never inside expressions.
-    """
-    stack = list(tree.body)
-    while stack:
-        node = stack.pop()
-        if isinstance(node, ast.If) and _names_type_checking(node.test):
-            stack.extend(node.orelse)
+
+def import_statements(source: str) -> list[ast.Import | ast.ImportFrom]:
+    """The import statements of a module's source that run (not those in the block of an ``if TYPE_CHECKING:``), in
+    order: each line that starts with ``import`` or ``from`` (after its indentation), with its continuation lines
+    (inside brackets, or after a backslash), parsed alone; a line that does not parse so is prose (a docstring's)."""
+    lines = source.split("\n")
+    starts = list(itertools.accumulate((len(line) + 1 for line in lines), initial=0))
+
+    def line_of(match: re.Match) -> int:
+        return bisect.bisect_right(starts, match.start()) - 1
+
+    hidden = _type_checking_lines(lines, [line_of(m) for m in _TYPE_CHECKING_BLOCK.finditer(source)])
+    found: list[ast.Import | ast.ImportFrom] = []
+    for match in _STATEMENT.finditer(source):
+        last = line_of(match)
+        if last in hidden:
             continue
-        yield node
-        for field in ("body", "orelse", "finalbody", "handlers", "cases"):
-            stack.extend(getattr(node, field, ()))
+        text = _code(lines[last])
+        while (text.endswith("\\") or text.count("(") > text.count(")")) and last + 1 < len(lines):
+            last += 1
+            text = text.removesuffix("\\") + " " + _code(lines[last])
+        try:
+            tree = ast.parse(text)
+        except SyntaxError:
+            continue
+        found += [node for node in tree.body if isinstance(node, (ast.Import, ast.ImportFrom))]
+    return found
 
 
-def _names_type_checking(test: ast.expr) -> bool:
-    """Whether a condition reads ``TYPE_CHECKING`` (the name, or an attribute such as ``typing.TYPE_CHECKING``)."""
-    return any(
-        (isinstance(node, ast.Name) and node.id == "TYPE_CHECKING")
-        or (isinstance(node, ast.Attribute) and node.attr == "TYPE_CHECKING")
-        for node in ast.walk(test)
-    )
+def _code(line: str) -> str:
+    """A line of an import statement without its comment (an import names no string that could hold a ``#``)."""
+    return line.split("#", 1)[0].strip()
+
+
+def _type_checking_lines(lines: list[str], headers: list[int]) -> set[int]:
+    """The 0-based lines inside the blocks of the ``if TYPE_CHECKING:`` lines ``headers``: those after each, up to the
+    next line of code indented no deeper than it (blank and comment lines do not end a block)."""
+    hidden: set[int] = set()
+    for header in headers:
+        depth = len(lines[header]) - len(lines[header].lstrip())
+        for number in range(header + 1, len(lines)):
+            text = lines[number].strip()
+            if text and not text.startswith("#") and len(lines[number]) - len(lines[number].lstrip()) <= depth:
+                break
+            hidden.add(number)
+    return hidden
 
 
 @cache
