@@ -27,9 +27,14 @@ that of the same linear estimator under that prior, its error measured
 under the receiver's true one: M^-1 (P_a^-1 P P_a^-1 + D) M^-1, P_a^-1 P P_a^-1 in the log
 error's block (D the pixels' and the slope prior's information, M = D +
 P_a^-1, P_a the assumed covariance, P the true; P_a = P gives the bound): the bound for the information the sync has.
+
+With ``poses_free`` each camera's pose is estimated too (6 parameters, no prior: a pose from the target), and
+``pair_draws`` gives every pair's eps_t, not only the worst (bench/real_flight_gps.py --bound).
 """
 
 from __future__ import annotations
+
+from dataclasses import replace
 
 import numpy as np
 
@@ -40,10 +45,12 @@ FIX_MARGIN = 2  # fixes kept beyond each end of a visit
 
 
 def line_covariance(
-    scene: Scene, rate_sigma: float, assumed: LogErrorModel | None = None
+    scene: Scene, rate_sigma: float, assumed: LogErrorModel | None = None, poses_free: bool = False
 ) -> tuple[list[str], np.ndarray]:
     """The camera names and the (2C, 2C) Cramer-Rao covariance of their lines (alpha_0, beta_0, alpha_1, ...); with
-    ``assumed``, the error covariance of the estimator whose log-error prior is that model (see the module)."""
+    ``assumed``, the error covariance of the estimator whose log-error prior is that model (see the module); with
+    ``poses_free``, each camera's pose (a small rotation and a shift of its centre, 6 parameters without a prior) is
+    estimated with the lines (a pose from the target)."""
     model: LogErrorModel = scene.noise["log"]
     noise_px = float(scene.noise["S_t_px"])
     truth = scene.true_trajectory
@@ -51,7 +58,7 @@ def line_covariance(
     names = list(scene.cameras)
     samples = {n: (scene.tracks[n].frame - scene.lines[n].beta) / scene.lines[n].alpha for n in names}
     fixes = _fixes_near(samples.values(), len(truth.sample))
-    n_lines, n_err = 2 * len(names), 3 * len(fixes)
+    n_lines, n_err = (8 if poses_free else 2) * len(names), 3 * len(fixes)
     information = np.zeros((n_lines + n_err, n_lines + n_err))
     for k, name in enumerate(names):
         s = samples[name]
@@ -67,21 +74,25 @@ def line_covariance(
         jac[:, :, 2 * k + 1] = along * (-1.0 / line.alpha)  # ds / dbeta
         weights = _interpolation(s, fixes)  # (N, F)
         jac[:, :, n_lines:] = -(gradient[:, :, None, :] * weights[:, None, :, None]).reshape(len(s), 2, -1)
+        if poses_free:
+            first = 2 * len(names) + 6 * k
+            jac[:, :, first : first + 6] = _pose_gradient(camera, position)
         flat = jac.reshape(-1, n_lines + n_err)
         information += flat.T @ flat / noise_px**2
         if rate_sigma > 0:
             nominal = camera.fps / rate
             information[2 * k, 2 * k] += 1.0 / (rate_sigma * nominal) ** 2
+    lines = 2 * len(names)  # the lines come first, the poses after them
     if assumed is None:
         information[n_lines:, n_lines:] += np.linalg.inv(_error_covariance(fixes / rate, model))
-        return names, np.linalg.inv(information)[:n_lines, :n_lines]
+        return names, np.linalg.inv(information)[:lines, :lines]
     data = information.copy()  # the pixels' and the slope prior's
     prior_inverse = np.linalg.inv(_error_covariance(fixes / rate, assumed))
     information[n_lines:, n_lines:] += prior_inverse
     inverse = np.linalg.inv(information)
     pulled = inverse[:, n_lines:] @ prior_inverse  # how the assumed prior pulls the estimate towards zero error
     covariance = pulled @ _error_covariance(fixes / rate, model) @ pulled.T + inverse @ data @ inverse
-    return names, covariance[:n_lines, :n_lines]
+    return names, covariance[:lines, :lines]
 
 
 def worst_pair_draws(
@@ -89,9 +100,22 @@ def worst_pair_draws(
 ) -> np.ndarray:
     """(draws,) the worst pair's eps_t (frames) of line errors drawn from the Cramer-Rao covariance (with ``assumed``:
     from the covariance of the estimator under that prior, line_covariance)."""
-    names, covariance = line_covariance(scene, rate_sigma, assumed)
+    return pair_draws(scene, rate_sigma, draws, rng, assumed).max(axis=0)
+
+
+def pair_draws(
+    scene: Scene,
+    rate_sigma: float,
+    draws: int,
+    rng: np.random.Generator,
+    assumed: LogErrorModel | None = None,
+    poses_free: bool = False,
+) -> np.ndarray:
+    """(ordered pairs, draws) each pair's eps_t (frames) of line errors drawn from the Cramer-Rao covariance (with
+    ``assumed`` and ``poses_free``: as line_covariance)."""
+    names, covariance = line_covariance(scene, rate_sigma, assumed, poses_free)
     errors = rng.multivariate_normal(np.zeros(len(covariance)), covariance, size=draws)  # (D, 2C)
-    worst = np.zeros(draws)
+    pairs = []
     for i, a in enumerate(names):
         frames = np.arange(scene.n_frames[a], dtype=np.float64)
         la = scene.lines[a]
@@ -110,8 +134,8 @@ def worst_pair_draws(
                 + np.outer(errors[:, 2 * j], d_alpha_b)
                 + errors[:, 2 * j + 1, None] * d_beta_b
             )
-            worst = np.maximum(worst, np.mean(np.abs(step), axis=1))
-    return worst
+            pairs.append(np.mean(np.abs(step), axis=1))
+    return np.array(pairs)
 
 
 def _fixes_near(visits, n_fixes: int) -> np.ndarray:
@@ -141,6 +165,22 @@ def _error_covariance(t: np.ndarray, model: LogErrorModel) -> np.ndarray:
     bias = np.array([model.bias_h_m, model.bias_h_m, model.bias_v_m]) ** 2
     white = np.array([model.white_h_m, model.white_h_m, model.white_v_m]) ** 2
     return np.kron(correlation, np.diag(bias)) + np.kron(np.eye(len(t)), np.diag(white)) + 1e-12 * np.eye(3 * len(t))
+
+
+def _pose_gradient(camera, position: np.ndarray, step: float = 1e-5) -> np.ndarray:
+    """(N, 2, 6) pixels per unit of the camera's pose at each position: a rotation (radians, about the world's axes,
+    applied before R) and a shift of t (metres), by forward differences."""
+    from scipy.spatial.transform import Rotation
+
+    base, _ = camera.project(position)
+    out = np.zeros((len(position), 2, 6))
+    for k in range(6):
+        delta = np.zeros(6)
+        delta[k] = step
+        moved = replace(camera, R=Rotation.from_rotvec(delta[:3]).as_matrix() @ camera.R, t=camera.t + delta[3:])
+        uv, _ = moved.project(position)
+        out[:, :, k] = (uv - base) / step
+    return out
 
 
 def _projection_gradient(camera, position: np.ndarray, step: float = 1e-3) -> np.ndarray:
