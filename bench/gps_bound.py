@@ -32,6 +32,8 @@ With ``gcps`` (per camera its ground control points' world positions and their p
 known but estimated with the lines: each camera's pose (a small rotation and a move of its centre) is six more unknowns,
 held by its GCPs' pixels (their noise, white per axis; the world points exact) and by the target's own pixels, as an
 estimator that fits every pose with the lines and the log's error together would hold it.
+With ``poses_free`` and no ``gcps`` each camera's pose is estimated with no prior (a pose from the target), and
+``pair_draws`` gives every pair's eps_t, not only the worst (bench/real_flight_gps.py --bound).
 """
 
 from __future__ import annotations
@@ -60,11 +62,16 @@ class Survey:
 
 
 def line_covariance(
-    scene: Scene, rate_sigma: float, assumed: LogErrorModel | None = None, gcps: dict[str, Survey] | None = None
+    scene: Scene,
+    rate_sigma: float,
+    assumed: LogErrorModel | None = None,
+    gcps: dict[str, Survey] | None = None,
+    poses_free: bool = False,
 ) -> tuple[list[str], np.ndarray]:
     """The camera names and the (2C, 2C) Cramer-Rao covariance of their lines (alpha_0, beta_0, alpha_1, ...); with
     ``assumed``, the error covariance of the estimator whose log-error prior is that model; with ``gcps``, of an
-    estimator that fits the poses too, each held by its GCPs (see the module)."""
+    estimator that fits the poses too, each held by its GCPs (see the module); with ``poses_free``, the poses fitted
+    with no prior (a pose from the target)."""
     model: LogErrorModel = scene.noise["log"]
     noise_px = float(scene.noise["S_t_px"])
     truth = scene.true_trajectory
@@ -73,7 +80,7 @@ def line_covariance(
     samples = {n: (scene.tracks[n].frame - scene.lines[n].beta) / scene.lines[n].alpha for n in names}
     fixes = _fixes_near(samples.values(), len(truth.sample))
     n_lines, n_err = 2 * len(names), 3 * len(fixes)
-    n_pose = 0 if gcps is None else POSE_PARAMETERS * len(names)
+    n_pose = 0 if gcps is None and not poses_free else POSE_PARAMETERS * len(names)
     size = n_lines + n_err + n_pose
     information = np.zeros((size, size))
     for k, name in enumerate(names):
@@ -92,9 +99,10 @@ def line_covariance(
         jac[:, :, n_lines : n_lines + n_err] = -(gradient[:, :, None, :] * weights[:, None, :, None]).reshape(
             len(s), 2, -1
         )
-        if gcps is not None:
+        if n_pose:
             pose = slice(n_lines + n_err + POSE_PARAMETERS * k, n_lines + n_err + POSE_PARAMETERS * (k + 1))
             jac[:, :, pose] = _pose_gradient(camera, position)
+        if gcps is not None:
             survey = _pose_gradient(camera, gcps[name].xyz).reshape(-1, POSE_PARAMETERS)
             information[pose, pose] += survey.T @ survey / gcps[name].noise_px ** 2
         flat = jac.reshape(-1, size)
@@ -126,9 +134,23 @@ def worst_pair_draws(
     """(draws,) the worst pair's eps_t (frames) of line errors drawn from the Cramer-Rao covariance (with ``assumed``:
     from the covariance of the estimator under that prior; with ``gcps``: of the poses estimated too,
     line_covariance)."""
-    names, covariance = line_covariance(scene, rate_sigma, assumed, gcps)
+    return pair_draws(scene, rate_sigma, draws, rng, assumed, gcps).max(axis=0)
+
+
+def pair_draws(
+    scene: Scene,
+    rate_sigma: float,
+    draws: int,
+    rng: np.random.Generator,
+    assumed: LogErrorModel | None = None,
+    gcps: dict[str, Survey] | None = None,
+    poses_free: bool = False,
+) -> np.ndarray:
+    """(ordered pairs, draws) each pair's eps_t (frames) of line errors drawn from the Cramer-Rao covariance (with
+    ``assumed``, ``gcps`` and ``poses_free``: as line_covariance)."""
+    names, covariance = line_covariance(scene, rate_sigma, assumed, gcps, poses_free)
     errors = rng.multivariate_normal(np.zeros(len(covariance)), covariance, size=draws)  # (D, 2C)
-    worst = np.zeros(draws)
+    pairs = []
     for i, a in enumerate(names):
         frames = np.arange(scene.n_frames[a], dtype=np.float64)
         la = scene.lines[a]
@@ -147,8 +169,8 @@ def worst_pair_draws(
                 + np.outer(errors[:, 2 * j], d_alpha_b)
                 + errors[:, 2 * j + 1, None] * d_beta_b
             )
-            worst = np.maximum(worst, np.mean(np.abs(step), axis=1))
-    return worst
+            pairs.append(np.mean(np.abs(step), axis=1))
+    return np.array(pairs)
 
 
 def _fixes_near(visits, n_fixes: int) -> np.ndarray:

@@ -19,7 +19,10 @@ and ``--only-slower V`` cuts each track to where the drone flies slower than V
 m/s: the slow flights a metre of bias turns into seconds. ``--crop SHARE``
 cuts each camera's video to that share of its visit (the first camera keeps
 the visit's start, the last its end, the others between), and ``--cameras``
-keeps a subset. Per receiver and bias model (``--bias-model``): the runs where every
+keeps a subset. ``--bound`` prints instead the first-order bound (bench/gps_bound.py) on the median and the
+worst pair's eps_t for each receiver's exact error model, its poses known or (``--poses removed``) estimated
+with the lines, the tracks' pixels white with BOUND_PX (every BOUND_THIN-th frame kept, its noise scaled to keep
+their information). Per receiver and bias model (``--bias-model``): the runs where every
 camera was synchronized, the median and max over runs of the worst and of the
 median synchronized pair's eps_t (frames, eq. 5), the share of synchronized
 pairs whose 95 % interval of beta contains the truth, the refused cameras
@@ -49,10 +52,12 @@ from pathlib import Path
 import numpy as np
 from _memory import peak_rss_mb
 from _report import pair_errors
+from gps_bound import pair_draws
 
 from data_fixtures.log_error import PRESETS as RECEIVERS
 from data_fixtures.log_error import log_errors
 from data_fixtures.logged_project import write_logged_project
+from data_fixtures.scene import Scene
 from data_fixtures.slowed_flight import (
     SlowedFlight,
     cropped,
@@ -64,12 +69,17 @@ from data_fixtures.slowed_flight import (
 from tlsync_pipeline.pipeline.project import load_project
 from tlsync_pipeline.pipeline.stages.sync import load_inputs
 from tlsync_pipeline.sync.model.log_model import PRESETS as LOG_MODELS
+from tlsync_pipeline.sync.model.params import SyncParams
 from tlsync_pipeline.sync.solve.synchronize import synchronize
 from tlsync_pipeline.sync.timeline import Relation, Timeline, read_timeline, read_truth
+from trackers.track import Track
 
 DEFAULT = Path("/work/shared/real/drone2")
 Z95 = 1.959964
 HOVER_EVERY_S = 40.0  # seconds of the original flight between two hovers (--hover)
+BOUND_PX = 2.0  # the bound's tracking noise (pixels, per axis)
+BOUND_THIN = 6  # the bound keeps every this many tracked frames, their noise over its square root
+BOUND_DRAWS = 400
 
 
 @dataclasses.dataclass(frozen=True)
@@ -224,6 +234,26 @@ def summary(receiver: str, bias_model: bool, runs: list[dict]) -> str:
     )
 
 
+def bound(slowed: SlowedFlight, receiver: str, poses_free: bool) -> str:
+    """The first-order bound's row for ``receiver`` (the flight's cameras with their true poses): the median over
+    draws of the median and of the worst pair's eps_t (frames), and the 90th percentile of the median pair's."""
+    tracks = {}
+    for name, inputs in slowed.cameras.items():
+        track = inputs.track
+        assert track is not None
+        keep = slice(None, None, BOUND_THIN)
+        tracks[name] = Track(track.frame[keep], track.x[keep], track.y[keep])
+    cameras = {name: inputs.camera for name, inputs in slowed.cameras.items()}
+    noise = {"log": RECEIVERS[receiver], "S_t_px": BOUND_PX / np.sqrt(BOUND_THIN)}
+    scene = Scene(slowed.trajectory, slowed.trajectory, cameras, cameras, tracks, slowed.lines, slowed.n_frames, noise)
+    pairs = pair_draws(scene, SyncParams().rate_sigma, BOUND_DRAWS, np.random.default_rng(0), poses_free=poses_free)
+    median, worst = np.median(pairs, axis=0), pairs.max(axis=0)
+    return (
+        f"| {receiver} | {'estimated' if poses_free else 'known'} | {np.median(median):.2f} "
+        f"({np.quantile(median, 0.9):.2f}) | {np.median(worst):.2f} |"
+    )
+
+
 def _peak(runs: list[dict]) -> str:
     """The largest peak memory of the runs (MB), "-" when none was measured (runs in this process)."""
     peaks = [r["peak_mb"] for r in runs if np.isfinite(r["peak_mb"])]
@@ -255,6 +285,7 @@ def main() -> None:
     )
     parser.add_argument("--cameras", nargs="+", default=None, help="the cameras kept (default: all)")
     parser.add_argument("--runs", action="store_true", help="print every run")
+    parser.add_argument("--bound", action="store_true", help="print the first-order bound instead of running")
     args = parser.parse_args()
     if not (args.data / "project.toml").exists():
         print(f"{args.data}: no project.toml; skipped")
@@ -268,6 +299,14 @@ def main() -> None:
         None if args.cameras is None else tuple(args.cameras),
         args.poses,
     )
+    if args.bound:
+        posed, _ = flight(args.data, dataclasses.replace(variant, poses="given"))
+        print(f"{args.data}, {variant.describe()}: first-order bound (bench/gps_bound.py), {BOUND_PX:g} px tracking")
+        print("| receiver | poses | median pair's eps_t, median over draws (90 %) | worst pair's eps_t |")
+        print("|---|---|---|---|")
+        for receiver in args.models:
+            print(bound(posed, receiver, args.poses == "removed"), flush=True)
+        return
     slowed, params = flight(args.data, variant)
     print(f"{args.data}, through {args.through}, {variant.describe()}; {args.seeds} simulated logs per receiver")
     cpu = "CPU of `tlsync run` a run (s)" if args.through == "stages" else "sync CPU a run (s)"

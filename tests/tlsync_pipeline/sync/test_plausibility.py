@@ -10,6 +10,8 @@ import pytest
 
 from data_fixtures import make_scene
 from data_fixtures.log_error import PRESETS as RECEIVERS
+from data_fixtures.log_error import log_errors
+from data_fixtures.slowed_flight import TimeWarp, slowed_flight
 from data_fixtures.walk import WalkSpec, make_walk_scene
 from tlsync_pipeline.sync.kernels.backward import backward_support, line_support
 from tlsync_pipeline.sync.kernels.slope import slope_prior
@@ -17,6 +19,7 @@ from tlsync_pipeline.sync.model.log_model import PRESETS as LOG_MODELS
 from tlsync_pipeline.sync.model.methods import preparation_of, prepare_trajectory
 from tlsync_pipeline.sync.model.params import SyncParams
 from tlsync_pipeline.sync.solve.plausibility import (
+    MOVES_ALONG,
     Judged,
     LogUnitError,
     MotionSlope,
@@ -28,6 +31,7 @@ from tlsync_pipeline.sync.solve.plausibility import (
     judge_line,
     line_evidence,
     line_motion,
+    log_drift,
     motion_slope,
     path_share,
     times_fps,
@@ -35,6 +39,7 @@ from tlsync_pipeline.sync.solve.plausibility import (
 from tlsync_pipeline.sync.solve.synchronize import CameraInput, cast_votes, synchronize
 from tlsync_pipeline.sync.timeline import CameraLine
 from tlsync_pipeline.trajectory import PiecewiseTrajectory
+from trackers.track import Track
 
 LINES = ((2.0, 4.0), (2.0, 45.0), (1.0, -30.5))
 
@@ -296,3 +301,60 @@ def test_a_thin_line_the_target_moves_along_is_not_taken_for_a_reversed_log(scen
 
     assert "reversed" not in codes(motion)
     assert "reversed" in codes(None)
+
+
+def _creeping_walk():
+    """A walker crossing cam0's view 4 m away at 2 m/s who creeps 8 times slower (0.25 m/s) through the first 70 % of
+    the crossing, logged by a consumer drone's receiver (data_fixtures/log_error.py, 1 m / 30 s of bias): where he
+    creeps, the log's velocity is mostly its bias's. (camera, track, true line, the prepared log, its rate)."""
+    scene = make_walk_scene(
+        0, WalkSpec(cameras=2, route="straight", speed_mps=2.0, camera_distance_m=4.0, camera_height_m=3.0)
+    )
+    log, true, track = scene.trajectory, scene.lines["cam0"], scene.tracks["cam0"]
+    seen = (track.frame - true.beta) / true.alpha / log.rate
+    start, creep_end, end = seen.min(), seen.min() + 0.7 * np.ptp(seen), float(log.sample[-1]) / log.rate
+    creeping = start + 8.0 * (creep_end - start)
+    warp = TimeWarp(
+        np.array([0.0, start, creep_end, end]), np.array([0.0, start, creeping, creeping + end - creep_end]), 1.0
+    )
+    camera = scene.cameras["cam0"]
+    frames = {"cam0": int(track.frame.max()) + 1}
+    flight = slowed_flight({"cam0": CameraInput(camera, track, camera.fps)}, log, {"cam0": true}, frames, warp)
+    slow = flight.trajectory
+    errors, _ = log_errors(np.random.default_rng(1), slow.sample / slow.rate, RECEIVERS["drone"])
+    prepared = prepare_trajectory(dataclasses.replace(slow, xyz=slow.xyz + errors), preparation_of(SyncParams()))
+    return camera, flight.cameras["cam0"].track, flight.lines["cam0"], PiecewiseTrajectory(prepared), slow.rate
+
+
+def test_a_creeping_target_under_a_biased_log_is_not_taken_for_a_reversed_log():
+    """The votes back a backwards line better than the true line of a target that creeps slower than a drone log's
+    bias wanders: over every moving frame the log's velocity points the target's way too loosely to show it (median
+    cosine under MOVES_ALONG), over the frames where the log outruns its bias's drift it clearly does: no log reversed.
+    The same track run backwards under the line still names the log reversed."""
+    camera, track, true, path, rate = _creeping_walk()
+    clock = track.frame.astype(float)
+    line = CameraLine("cam0", true.alpha, true.beta, 400, 30, 0.5, fps=camera.fps)
+    drift = log_drift(LOG_MODELS["drone"], rate)
+
+    def codes(track, drift):
+        motion = line_motion(camera, track, clock, path, true.alpha, true.beta, camera.fps, drift)
+        reasons = judge_line(camera, track, clock, path, line, 200.0, camera.fps, None, None, (30, 50), rate, motion)
+        return motion, [r.code for r in reasons]
+
+    motion, found = codes(track, drift)
+    assert motion.measured and motion.direction < MOVES_ALONG <= motion.direction_beyond
+    assert 0 < motion.beyond_drift < motion.frames
+    assert "reversed" not in found
+    assert "reversed" in codes(track, 0.0)[1]  # every moving frame weighed alike: the log's bias turns its direction
+    backwards = Track(track.frame, track.x[::-1].copy(), track.y[::-1].copy())
+    assert "reversed" in codes(backwards, drift)[1]
+
+
+def test_the_drift_of_a_logs_bias_over_the_motion_window():
+    """A Gauss-Markov bias's change over MOTION_WINDOW_S (0.5 s), per sample of the log: sqrt(2 (1 - exp(-w / tau)))
+    of its std on each axis, none without a bias or a rate."""
+    drone = LOG_MODELS["drone"]  # 1 m horizontal, 2 m vertical, 30 s
+    change = np.sqrt(2.0 * (1.0 - np.exp(-0.5 / 30.0)) * (2 * 1.0**2 + 2.0**2))
+    assert log_drift(drone, 10.0) == pytest.approx(change / 0.5 / 10.0)
+    assert log_drift(LOG_MODELS["rtk"], 10.0) == 0.0
+    assert log_drift(drone, None) == 0.0

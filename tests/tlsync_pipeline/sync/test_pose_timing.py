@@ -12,6 +12,7 @@ from tlsync_pipeline.sync.model.log_model import PRESETS as LOG_MODELS
 from tlsync_pipeline.sync.pose.pose_fit import JointFit, Layout
 from tlsync_pipeline.sync.pose.timing import (
     DISTINCT_S,
+    SLOWEST_SHARE,
     Z95,
     bias_frames,
     one_timing,
@@ -48,6 +49,22 @@ def test_the_bias_moves_the_match_by_its_std_over_the_speed():
     assert bias_frames(fit(0.0), clock, walker, phone) == pytest.approx(FPS * phone.bias_m / 1.0, rel=1e-3)
     assert bias_frames(fit(0.0), clock, drone, phone) == pytest.approx(FPS * phone.bias_m / 4.0, rel=1e-3)
     assert bias_frames(fit(0.0), clock, walker, LOG_MODELS["rtk"]) == 0.0
+
+
+def test_a_target_slower_than_the_logs_drift_leaves_seconds_of_bias():
+    """Where the target creeps slower than the log's bias drifts, the log's speed is the drift's, not the target's: the
+    bias moves the match as far as the slowest speed the drift leaves possible (SLOWEST_SHARE of it); a target well
+    above the drift keeps its own speed's."""
+    drone = LOG_MODELS["drone"]  # 1 m horizontal
+    drift = drone.drift_m_s(FPS)  # m/s
+    clock = np.arange(300.0, 600.0)
+    creeping, flying = walk(0.5 * drift), walk(20.0 * drift)
+    assert bias_frames(fit(0.0), clock, creeping, drone) == pytest.approx(FPS * drone.bias_m / (0.5 * drift), rel=1e-3)
+    slowest = FPS * drone.bias_m / (SLOWEST_SHARE * drift)
+    assert bias_frames(fit(0.0), clock, creeping, drone, FPS) == pytest.approx(slowest, rel=1e-3)
+    assert bias_frames(fit(0.0), clock, flying, drone, FPS) == pytest.approx(
+        bias_frames(fit(0.0), clock, flying, drone), rel=0.01
+    )
 
 
 def test_offsets_the_bias_explains_are_one_timing_and_those_beyond_it_rivals():

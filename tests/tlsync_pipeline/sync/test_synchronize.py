@@ -8,8 +8,10 @@ import pytest
 from data_fixtures import make_scene
 from tlsync_pipeline.sync.model.methods import preparation_of, prepare_trajectory
 from tlsync_pipeline.sync.model.params import SyncParams
-from tlsync_pipeline.sync.solve.synchronize import CameraInput, synchronize
+from tlsync_pipeline.sync.solve.synchronize import CameraInput, synchronize, votes_near
 from tlsync_pipeline.sync.timeline import eps_t
+from tlsync_pipeline.sync.vote.votes import Votes
+from trackers.track import Track
 
 
 def _solve(scene):
@@ -77,3 +79,18 @@ def test_a_log_riding_above_the_tracked_point_is_lowered_by_logged_point_above_m
     ignored, _ = synchronize(inputs, raised, SyncParams())
     worst = max(_errors(scene, ignored).values()) if not ignored.failed else np.inf
     assert worst > 2 * declared_worst  # undeclared, the 20 px offset costs timing
+
+
+def test_the_votes_near_a_line_span_one_pass_up_to_a_cap():
+    """A slow target's band of one pass (the vote radius over its image speed) spans hundreds of frames: the votes near
+    a line are those within it, and within ``widest`` frames when a cap is given (a rival's refit keeps to the band its
+    odds were weighed over)."""
+    scene = make_scene(0)
+    camera = next(iter(scene.cameras.values()))
+    frames = np.arange(1000)
+    track = Track(frames, 100.0 + 0.5 * frames, np.full(1000, 200.0))  # 0.5 px a frame
+    inputs = CameraInput(camera, track, 30.0)
+    offsets = np.array([0.0, 200.0, 500.0])  # frames from the line clock = sample
+    votes = Votes(500.0 + offsets, np.full(3, 500.0), np.zeros(3))
+    assert votes_near(inputs, votes, 1.0, 0.0, 300.0).tolist() == [True, True, True]  # band 600 frames
+    assert votes_near(inputs, votes, 1.0, 0.0, 300.0, widest=300.0).tolist() == [True, True, False]

@@ -825,7 +825,7 @@ def ranked_pose(
     probability, spread = float("nan"), 0.0
     untested: tuple[float, ...] = ()
     if biased:
-        bias = bias_frames(best, clock, path, log_model)  # type: ignore[arg-type]
+        bias = bias_frames(best, clock, path, log_model, fps / abs(best.alpha))  # type: ignore[arg-type]
         distinct = [f for f in fits if not one_timing(best, f, bias, fps)]
         odds = [rival_probability(best, f, clock, fps) for f in distinct]  # type: ignore[arg-type]
         runner = distinct[int(np.argmax(odds))] if distinct else None

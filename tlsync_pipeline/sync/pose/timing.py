@@ -58,13 +58,20 @@ STUDENT_DOF = 4.0  # degrees of freedom of a frame's Student-t loss
 MIN_SCALE_PX = 1.0  # the loss's scale is never taken below this (pixels)
 MIN_BLOCKS = 3  # fewer blocks than this tell nothing: the rival keeps half the posterior
 OFF_TRACK_Z = 6.0  # a frame a fit maps off the log costs the loss of an error this many scales long
+SLOWEST_SHARE = 0.1  # a target the log's drift hides is taken as moving at this share of the drift
 NEAR_TOP_Z = 1.645  # a coarse offset less than this many standard errors below the top is alike (one-sided 95 %)
 
 
-def bias_frames(fit: JointFit, clock: np.ndarray, path: PiecewiseTrajectory, model: LogModel) -> float:
+def bias_frames(
+    fit: JointFit, clock: np.ndarray, path: PiecewiseTrajectory, model: LogModel, rate: float | None = None
+) -> float:
     """How far (clock units) the log's bias can move the track's match along the path under the fit's line: the
-    median over the fit's inliers of alpha x (the bias's std along the target's motion) / (the path's metres per
-    sample); 0 without a bias or where the target does not move."""
+    median over the fit's inliers of alpha x (the bias's std along the target's motion) / (the target's metres per
+    sample); 0 without a bias or where the target does not move. The target's speed is the log's with the bias's
+    drift taken out (``LogModel.drift_m_s`` at ``rate`` fixes per second; None: not known, the log's speed as it is):
+    a hovering target's log moves with its bias as fast as the target creeps (drone2 at 0.1 m/s under a drone's
+    error: its log at 0.7 m/s), and the bias is seconds of timing there, not a fraction. Below the drift the speed is
+    not measured: it is taken as SLOWEST_SHARE of the drift."""
     if not model.has_bias:
         return 0.0
     s = (clock[fit.inliers] - fit.beta) / fit.alpha
@@ -77,9 +84,11 @@ def bias_frames(fit: JointFit, clock: np.ndarray, path: PiecewiseTrajectory, mod
     moving = speed > 0
     if not moving.any():
         return 0.0
+    drift = model.drift_m_s(rate) / rate if rate else 0.0  # metres per sample
+    own = np.maximum(np.sqrt(np.maximum(speed[moving] ** 2 - drift**2, 0.0)), SLOWEST_SHARE * drift)
     sigma = np.array([model.bias_m, model.bias_m, model.bias_vertical_m])
     along = np.sqrt(((velocity[moving] / speed[moving, None]) ** 2 * sigma**2).sum(axis=1))
-    return float(abs(fit.alpha) * np.median(along / speed[moving]))
+    return float(abs(fit.alpha) * np.median(along / np.maximum(own, 1e-12)))
 
 
 def one_timing(best: JointFit, other: JointFit, bias: float, fps: float) -> bool:

@@ -70,6 +70,7 @@ AGREE_ERROR = 0.5  # displacements agree when |d_img - d_proj| <= AGREE_ERROR x 
 SLOPE_BIN = math.log(1.08)  # width of the bins of log(frames per sample) the motion slope's mode is taken over
 VELOCITY_HALF_S = 0.1  # seconds either side of a frame over which its tracked velocity is fitted
 MIN_MOVING = 8  # displacement pairs (or votes) needed before a motion measure says anything
+DRIFT_ABOVE = 2.0  # the log's direction counts where it moves at least this many times its bias's drift
 MAX_SLOPE_VOTES = 200_000  # votes (evenly picked) the motion slope is taken over
 MIN_SLOPE_SUPPORT = 20  # votes that must back the motion slope ...
 SLOPE_SHARE = 0.15  # ... and this share of the moving votes
@@ -188,15 +189,36 @@ class LineMotion:
     """The target's image velocity against the projected log's under a line, over the tracked frames where the target
     moves (at least MOVING_PX over 2 x VELOCITY_HALF_S) and the line maps inside the log: frames, the median cosine
     between the two velocities, and the median ratio of projected speed (pixels per sample) over tracked speed (pixels
-    per clock unit): clock units per sample. NaN with fewer than MIN_MOVING frames."""
+    per clock unit): clock units per sample. NaN with fewer than MIN_MOVING frames. beyond_drift, direction_beyond:
+    the same frames where the log itself moves faster than DRIFT_ABOVE times its bias's drift (``log_drift``), and
+    their median cosine (NaN with fewer than MIN_MOVING; every moving frame for a log without a bias)."""
 
     frames: int
     direction: float
     speed: float
+    beyond_drift: int = 0
+    direction_beyond: float = float("nan")
 
     @property
     def measured(self) -> bool:
         return self.frames >= MIN_MOVING and bool(np.isfinite(self.direction))
+
+    @property
+    def moves_along(self) -> bool:
+        """Whether the target moves the log's way under the line (median cosine at least MOVES_ALONG), over every
+        moving frame or over those where the log's own motion stands above its bias's drift: where a hovering target
+        creeps slower than the log's bias wanders, the log's velocity is its bias's, and only the frames where the log
+        outruns it say which way it goes."""
+        if not self.measured:
+            return False
+        beyond = self.beyond_drift >= MIN_MOVING and self.direction_beyond >= MOVES_ALONG
+        return self.direction >= MOVES_ALONG or beyond
+
+
+def log_drift(model: LogModel, rate: float | None) -> float:
+    """How fast the log's bias alone moves its positions (metres per sample, ``LogModel.drift_m_s``); 0 without a
+    bias or a log rate."""
+    return model.drift_m_s(rate) / rate if rate else 0.0
 
 
 def line_motion(
@@ -207,8 +229,10 @@ def line_motion(
     alpha: float,
     beta: float,
     fps: float | None,
+    drift: float = 0.0,
 ) -> LineMotion:
-    """Tracked against projected velocity under the line clock = alpha * sample + beta (``LineMotion``)."""
+    """Tracked against projected velocity under the line clock = alpha * sample + beta (``LineMotion``); drift: the
+    log's bias's drift (metres per sample, ``log_drift``)."""
     clock = np.asarray(clock, dtype=np.float64)
     half = _velocity_half(fps)
     velocity = image_velocity(clock, track.xy, half)
@@ -221,7 +245,15 @@ def line_motion(
     m = int(moving.sum())
     if m < MIN_MOVING:
         return LineMotion(m, float("nan"), float("nan"))
-    return LineMotion(m, float(np.median(cos[moving])), float(np.exp(np.median(log_ratio[moving]))))
+    beyond = moving & (np.linalg.norm(path(s[ok], run[ok], nu=1), axis=1) >= DRIFT_ABOVE * drift)
+    b = int(beyond.sum())
+    return LineMotion(
+        m,
+        float(np.median(cos[moving])),
+        float(np.exp(np.median(log_ratio[moving]))),
+        b,
+        float(np.median(cos[beyond])) if b >= MIN_MOVING else float("nan"),
+    )
 
 
 def _velocities_compared(v_img: np.ndarray, v_proj: np.ndarray, half: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -428,7 +460,7 @@ def judge_line(
         if stated is not None:
             reasons.append(stated)
     forward, backward = support
-    along = motion is not None and motion.measured and motion.direction >= MOVES_ALONG
+    along = motion is not None and motion.moves_along
     if (
         backward is not None
         and backwards_better(forward, backward)

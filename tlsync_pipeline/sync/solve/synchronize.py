@@ -49,11 +49,13 @@ from tlsync_pipeline.sync.solve.causes import explain
 from tlsync_pipeline.sync.solve.methods import CameraData, CameraInput, JointMethod
 from tlsync_pipeline.sync.solve.plausibility import (
     DIRECTION_MIN,
+    RIVAL_BAND_FRAMES,
     RIVAL_PROBABILITY,
     Judged,
     diagnose,
     judge_line,
     line_motion,
+    log_drift,
     motion_slope,
     rival_odds_of,
 )
@@ -395,16 +397,19 @@ def picked_votes(name: str, inputs: CameraInput, votes: Votes, rate: float | Non
     return Votes(votes.frame[near], votes.sample[near], votes.dist[near])
 
 
-def votes_near(inputs: CameraInput, votes: Votes, alpha: float, beta: float, radius_px: float) -> np.ndarray:
+def votes_near(
+    inputs: CameraInput, votes: Votes, alpha: float, beta: float, radius_px: float, widest: float = math.inf
+) -> np.ndarray:
     """Mask of the votes within PICK_BAND_S of the line clock = alpha x sample + beta, or within the band one pass's
-    votes span (the vote radius over the target's median image speed), whichever is wider."""
+    votes span (the vote radius over the target's median image speed), whichever is wider, and at most ``widest``
+    clock units."""
     track = inputs.track
     assert track is not None
     clock = camera_clock(track, inputs.fps)
     fps = clock.fps or inputs.fps or 1.0
     times = FrameTimes.of_track(track)
     speed = image_speed(clock.clock_at(track.frame, times), track.xy, quantile=0.5)
-    band = max(PICK_BAND_S * fps, radius_px / speed if speed else 0.0)
+    band = min(max(PICK_BAND_S * fps, radius_px / speed if speed else 0.0), widest)
     return np.abs(clock.clock_at(votes.frame, times) - alpha * votes.sample - beta) <= band
 
 
@@ -413,10 +418,12 @@ def _the_rival(
 ) -> CameraResult:
     """The camera's line refitted on the votes near the line search's rival, which the whole track prefers beyond
     1 - RIVAL_PROBABILITY (plausibility.rival_odds_of): the old line becomes its rival (line_search), to be weighed
-    again."""
+    again. The votes kept are those of the band the odds profiled the rival's intercept over (at most
+    RIVAL_BAND_FRAMES): a hovering target's band of one pass spans tens of seconds, and a refit over all of it may
+    land as far from the rival as the old line was."""
     old = result.line.line_search
     assert old is not None and old.rival_alpha is not None and old.rival_beta is not None
-    near = votes_near(inputs, result.votes, old.rival_alpha, old.rival_beta, radius_px)
+    near = votes_near(inputs, result.votes, old.rival_alpha, old.rival_beta, radius_px, RIVAL_BAND_FRAMES)
     refit = synchronize_camera(
         name,
         inputs,
@@ -682,7 +689,9 @@ def _judge(
             frames = line_support(votes.sample, vote_clock, alpha, beta, params.delta)
             found = replace(found, rival_alpha=alpha, rival_beta=beta, runner_up_frames=frames)
         line = replace(line, line_search=replace(found, rival_probability=odds.rival_probability))
-    motion = line_motion(inputs.camera, track, track_clock, path, line.alpha, line.beta, fps)
+    motion = line_motion(
+        inputs.camera, track, track_clock, path, line.alpha, line.beta, fps, log_drift(log_model, rate)
+    )
     checks = judge_line(
         inputs.camera, track, track_clock, path, line, radius_px, fps, alpha_prior, slope, support, rate, motion
     )
