@@ -26,8 +26,11 @@ from dataclasses import asdict, dataclass, replace
 import numpy as np
 
 from calibration.camera import Camera
+from tlsync_pipeline.artefacts.identification import IdentificationSummary
 from tlsync_pipeline.errors import SyncError
 from tlsync_pipeline.sync.identify.breaks import identify_in_segments, segment_reasons, with_vote_break
+from tlsync_pipeline.sync.identify.followers import RIVAL_PROBABILITY as FOLLOWER_PROBABILITY
+from tlsync_pipeline.sync.identify.followers import picked_line
 from tlsync_pipeline.sync.identify.identify import Identification, identify_params
 from tlsync_pipeline.sync.identify.segments import (
     MAX_WHOLE,
@@ -143,12 +146,16 @@ def identify_and_synchronize(
         inputs.fps,
         replace(identify_params(params), eps_px=radius),
         breaks=inputs.breaks,
+        pick=picked_line(inputs.pick_start_s, inputs.fps, prepared.rate),
     )
     identified = CameraInput(inputs.camera, found.track, inputs.fps, breaks=breaks)
     result = synchronize_camera(
         name, identified, cast_votes(inputs.camera, found.track, prepared, radius), prepared, params, radius
     )
-    return CameraResult(result.votes, replace(result.line, identification=found.summary()), found)
+    line = replace(result.line, identification=found.summary())
+    if inputs.pick_start_s is not None and found.rival is not None:
+        line = replace(line, flags=(*(line.flags or ()), "picked"))
+    return CameraResult(result.votes, line, found)
 
 
 def _pose_from_target(camera: Camera) -> bool:
@@ -620,6 +627,32 @@ def _loose_identity(radius_px: float) -> Reason:
     )
 
 
+def follower_reason(
+    line: CameraLine, summary: IdentificationSummary, fps: float | None, rate: float | None
+) -> Reason | None:
+    """AMBIGUOUS when identification weighed another mover on the target's path against the identified track
+    (sync/identify/followers.py) and the log left it at least followers.RIVAL_PROBABILITY: the reason gives both
+    lines' starts (the log's time at the video's first frame) with their probabilities, and what settles it."""
+    rival = summary.rival
+    if rival is None or rival.probability < FOLLOWER_PROBABILITY:
+        return None
+    starts = [(-line.beta / line.alpha, 1.0 - rival.probability), (-rival.beta / rival.alpha, rival.probability)]
+    unit = (lambda s: f"{s / rate:.2f} s") if rate else (lambda s: f"sample {s:.1f}")
+    shift = starts[1][0] - starts[0][0]
+    apart = f"{abs(shift) / rate:.2g} s" if rate else f"{abs(shift):.1f} samples"
+    side = "behind" if shift < 0 else "ahead of"
+    key = "pick_start_s" if rate else "pick_start_sample"
+    return Reason(
+        "ambiguous",
+        AMBIGUOUS,
+        f"another mover walks the target's path {apart} {side} the identified one ({rival.frames} against "
+        f"{summary.identified_frames} frames), and the log, paired sample by sample, fits both: the video's first "
+        f"frame at " + " or at ".join(f"{unit(s)} of the log ({p:.0%})" for s, p in starts),
+        f"a tracker init box on the target, or a log more accurate than the two movers' distance apart, settles it; "
+        f"or pick one: [[cameras]] {key} = one of these starts (docs/project.md)",
+    )
+
+
 def _unjudged(inputs: CameraInput, prior) -> Judged:
     """What ``diagnose`` knows of a camera without a line: its track, when its camera has a pose to project with."""
     return Judged(
@@ -706,6 +739,10 @@ def _judge(
     )
     if inputs.detections is not None and radius_px > params.eps_px and "few_inliers" in (line.flags or ()) and others:
         checks = (*checks, _loose_identity(radius_px))
+    summary = line.identification or inputs.identification
+    if summary is not None and inputs.pick_start_s is None:
+        follower = follower_reason(line, summary, fps, rate)
+        checks = (*checks, follower) if follower is not None else checks
     line = replace(line, checks=checks)
     contradicted = any(r.severity == FAILED for r in checks)
     paced = motion.speed if motion.measured and motion.direction >= DIRECTION_MIN else None
