@@ -451,24 +451,24 @@ def _beside_the_route(scene, name, lag, side_m, seed):
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2, 3])
-def test_a_look_alike_walking_the_route_three_seconds_behind_beside_it_leaves_a_right_confident_line(seed):
-    """The target seen on 40 % of its frames (in blocks), a look-alike walking its route 90 frames (3 s) behind it and
-    0.5 m to its side (15-18 px) on all of them, a log with a quarter of the error of the tests above (its projection
-    wanders 1-6 px about the target): the log, paired sample by sample, tells the two apart; the camera is
-    synchronized (ok or weak) on the target's line within a frame, with its interval reaching the truth, and
-    identification reports the look-alike's line as a rival below 1 %."""
+@pytest.mark.parametrize("lag", [90, 45])
+def test_a_look_alike_walking_the_route_behind_beside_it_leaves_a_right_confident_line(seed, lag):
+    """The target seen on 40 % of its frames (in blocks), a look-alike walking its route 90 or 45 frames (3 or 1.5 s)
+    behind it and 0.5 m to its side (15-18 px) on all of them, a log with a quarter of the error of the tests above
+    (its projection wanders 1-6 px about the target): the log, paired sample by sample, tells the two apart; the
+    camera is synchronized (ok or weak) on the target's line within a frame, with its interval reaching the truth,
+    and identification reports no rival above 1 %."""
     scene = make_scene(seed=0)
     name = "cam0"
     truth = scene.lines[name]
-    detections = _beside_the_route(scene, name, lag=90, side_m=0.5, seed=seed)
+    detections = _beside_the_route(scene, name, lag=lag, side_m=0.5, seed=seed)
     timeline, status = _synchronized_near_truth(scene, name, detections, _wandering_log(scene, name, 1.0, seed))
     assert status.status in ("ok", "weak"), status.reason
     line = timeline.cameras[name]
     middle = (float(np.median(scene.tracks[name].frame)) - truth.beta) / truth.alpha
     assert abs((line.alpha - truth.alpha) * middle + line.beta - truth.beta) < 1.0
     rival = line.identification.rival
-    assert rival is not None and rival.probability < 0.01
-    assert abs(rival.alpha * middle + rival.beta - truth.beta - truth.alpha * middle) > 60
+    assert rival is None or rival.probability < 0.01
 
 
 def test_an_identified_line_away_from_the_line_every_movers_votes_back_has_an_interval_reaching_it():

@@ -10,8 +10,10 @@ then off the path. Nothing in the assignment weighs the two lines.
 So after identification, the movers it did not use get their own say: the
 line search runs again on the votes of every tracklet the identified track
 does not use (those within FOLLOW_RANGE_S of its line), and the target is
-identified again from that line (the same assignment rounds). When that
-gives another mover's track on a line apart from the first (further than
+identified again from that line (the same assignment rounds, among every
+mover: tracklets swap people where blobs merge, so the target's frames may
+lie on tracklets the first track used too). When that gives another
+mover's track on a line apart from the first (further than
 the line search's band), with at least FOLLOW_SUPPORT of its frames, the two
 hypotheses are weighed on the log: each track's residuals to the projection
 under its own line, per block of BLOCK_S seconds of the log's time. Under
@@ -56,13 +58,14 @@ from tlsync_pipeline.sync.model.clock import Segment
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
 from trackers.detections import Detections
 
-FOLLOW_RANGE_S = 5.0  # seconds either side of the identified line within which another mover's line is searched
+FOLLOW_RANGE_S = 2.0  # seconds either side of the identified line within which another mover's line is searched
 FOLLOW_SUPPORT = 0.1  # the other mover's track needs at least this share of the identified track's frames
 BLOCK_S = 1.0  # seconds of the log's time a block of paired residuals spans
 MIN_BLOCKS = 3  # fewer paired blocks than this cannot weigh the two movers: no rival
 STUDENT_DOF = 4.0
 MIN_SCALE_PX = 1.0
 RIVAL_PROBABILITY = 0.01  # a hypothesis the log leaves below this is ruled out
+AMBIGUOUS_PROBABILITY = 0.5  # another mover at least this probable leaves the camera ambiguous
 
 
 def weigh_followers(
@@ -140,7 +143,9 @@ def _other_mover(
             group=detections.id[found.vote_rows[keep]],
             prior=prior,
         )
-        other = identify_from_line(camera, detections, trajectory, fps, params, found, search, segments)
+        other = identify_from_line(
+            camera, detections, trajectory, fps, params, found.votes, found.vote_rows, search, segments
+        )
     except (SyncError, ValueError):
         return None
     band = max(2.0 * params.delta, 1.0)

@@ -502,17 +502,19 @@ def identify_from_line(
     trajectory: Trajectory,
     fps: float | None,
     params: IdentifyParams,
-    found: Identification,
+    votes: Votes,
+    vote_rows: np.ndarray,
     search: LineSearch,
     segments: tuple[Segment, ...] = (),
 ) -> Identification:
-    """The target identified again, on ``found``'s votes, from another line search's line (``search``, which the
-    result reports as its search): the assignment rounds run from that line (sync/identify/followers.py). Raises
-    SyncError as identify_target does when no tracklet follows the path under it."""
+    """The target identified among the detections from a line search's line (``search``, which the result reports as
+    its search) run on their votes (``votes``, each from detection row ``vote_rows``): the assignment rounds run from
+    that line (sync/identify/followers.py). Raises SyncError as identify_target does when no tracklet follows the path
+    under it."""
     prior = slope_prior(fps, trajectory.rate, params.rate_sigma)
     _, row_clock = detections_clock(detections, fps, segments)
     return _identified(
-        camera, detections, trajectory, row_clock, fps, params, frozenset(), found.votes, found.vote_rows, search, prior
+        camera, detections, trajectory, row_clock, fps, params, frozenset(), votes, vote_rows, search, prior
     )
 
 

@@ -29,6 +29,7 @@ from calibration.camera import Camera
 from tlsync_pipeline.artefacts.identification import IdentificationSummary
 from tlsync_pipeline.errors import SyncError
 from tlsync_pipeline.sync.identify.breaks import identify_in_segments, segment_reasons, with_vote_break
+from tlsync_pipeline.sync.identify.followers import AMBIGUOUS_PROBABILITY as FOLLOWER_AMBIGUOUS
 from tlsync_pipeline.sync.identify.followers import RIVAL_PROBABILITY as FOLLOWER_PROBABILITY
 from tlsync_pipeline.sync.identify.followers import picked_line
 from tlsync_pipeline.sync.identify.identify import Identification, identify_params
@@ -45,7 +46,7 @@ from tlsync_pipeline.sync.model.clock import FrameTimes, Segment, camera_clock, 
 from tlsync_pipeline.sync.model.log_model import PRESETS, LogModel
 from tlsync_pipeline.sync.model.methods import method_options, params_table, preparation_of, prepare_trajectory
 from tlsync_pipeline.sync.model.params import ParamsTable, SyncParams
-from tlsync_pipeline.sync.model.status import AMBIGUOUS, FAILED, Reason, diagnosed_failure
+from tlsync_pipeline.sync.model.status import AMBIGUOUS, FAILED, WEAK, Reason, diagnosed_failure
 from tlsync_pipeline.sync.pose.pose import TargetPose, estimate_pose, pose_info, pose_log_sigma
 from tlsync_pipeline.sync.pose.pose_timing import PoseTiming
 from tlsync_pipeline.sync.solve.causes import explain
@@ -239,7 +240,12 @@ def with_identification_line(line: CameraLine) -> CameraLine:
     if found is None or found.search_line is None or line.cov is None:
         return line
     gap = np.array([found.search_line[0] - line.alpha, found.search_line[1] - line.beta])
-    return replace(line, cov=np.asarray(line.cov, dtype=np.float64) + np.outer(gap, gap))
+    cov = np.asarray(line.cov, dtype=np.float64) + np.outer(gap, gap)
+    rival = found.rival
+    if rival is not None and rival.probability >= FOLLOWER_PROBABILITY:
+        apart = np.array([rival.alpha - line.alpha, rival.beta - line.beta])
+        cov = cov + rival.probability * np.outer(apart, apart)
+    return replace(line, cov=cov)
 
 
 def with_pose_timing(line: CameraLine, timing: PoseTiming | None, log_model: LogModel) -> CameraLine:
@@ -630,9 +636,11 @@ def _loose_identity(radius_px: float) -> Reason:
 def follower_reason(
     line: CameraLine, summary: IdentificationSummary, fps: float | None, rate: float | None
 ) -> Reason | None:
-    """AMBIGUOUS when identification weighed another mover on the target's path against the identified track
-    (sync/identify/followers.py) and the log left it at least followers.RIVAL_PROBABILITY: the reason gives both
-    lines' starts (the log's time at the video's first frame) with their probabilities, and what settles it."""
+    """When identification weighed another mover on the target's path against the identified track
+    (sync/identify/followers.py) and the log left it at least followers.RIVAL_PROBABILITY: WEAK, its interval
+    reaching the other mover's line (``with_identification_line``), or AMBIGUOUS when the other mover is at least
+    as probable (FOLLOWER_AMBIGUOUS). The reason gives both lines' starts (the log's time at the video's first frame)
+    with their probabilities, and what settles it."""
     rival = summary.rival
     if rival is None or rival.probability < FOLLOWER_PROBABILITY:
         return None
@@ -642,12 +650,13 @@ def follower_reason(
     apart = f"{abs(shift) / rate:.2g} s" if rate else f"{abs(shift):.1f} samples"
     side = "behind" if shift < 0 else "ahead of"
     key = "pick_start_s" if rate else "pick_start_sample"
+    ambiguous = rival.probability >= FOLLOWER_AMBIGUOUS
     return Reason(
-        "ambiguous",
-        AMBIGUOUS,
+        "ambiguous" if ambiguous else "another_mover",
+        AMBIGUOUS if ambiguous else WEAK,
         f"another mover walks the target's path {apart} {side} the identified one ({rival.frames} against "
-        f"{summary.identified_frames} frames), and the log, paired sample by sample, fits both: the video's first "
-        f"frame at " + " or at ".join(f"{unit(s)} of the log ({p:.0%})" for s, p in starts),
+        f"{summary.identified_frames} frames), and the log, paired sample by sample, leaves both possible: the "
+        f"video's first frame at " + " or at ".join(f"{unit(s)} of the log ({p:.0%})" for s, p in starts),
         f"a tracker init box on the target, or a log more accurate than the two movers' distance apart, settles it; "
         f"or pick one: [[cameras]] {key} = one of these starts (docs/project.md)",
     )
