@@ -457,7 +457,7 @@ def test_a_look_alike_walking_the_route_behind_beside_it_leaves_a_right_confiden
     behind it and 0.5 m to its side (15-18 px) on all of them, a log with a quarter of the error of the tests above
     (its projection wanders 1-6 px about the target): the log, paired sample by sample, tells the two apart; the
     camera is synchronized (ok or weak) on the target's line within a frame, with its interval reaching the truth,
-    and identification reports no rival above 1 %."""
+    and identification leaves the look-alike below 5 % (2 s apart at most: beyond, no other mover is searched)."""
     scene = make_scene(seed=0)
     name = "cam0"
     truth = scene.lines[name]
@@ -468,7 +468,7 @@ def test_a_look_alike_walking_the_route_behind_beside_it_leaves_a_right_confiden
     middle = (float(np.median(scene.tracks[name].frame)) - truth.beta) / truth.alpha
     assert abs((line.alpha - truth.alpha) * middle + line.beta - truth.beta) < 1.0
     rival = line.identification.rival
-    assert rival is None or rival.probability < 0.01
+    assert rival is None or rival.probability < 0.05
 
 
 def test_an_identified_line_away_from_the_line_every_movers_votes_back_has_an_interval_reaching_it():

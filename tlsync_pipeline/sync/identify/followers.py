@@ -188,11 +188,13 @@ def _block_residuals(
     camera: Camera, trajectory: Trajectory, row_clock: np.ndarray, found: Identification, per_block: float
 ) -> dict[int, np.ndarray]:
     """The identified track's mean residual (pixels, projection minus track) per block of ``per_block`` samples of the
-    log under its line (the track is where the logged point is seen: its estimated height is in it)."""
+    log under its line (the track is where the logged point is seen: its estimated height is in it), over its blobs
+    of the target's size: a merged blob's point is placed nearest the projection (target_size.target_within), its
+    residual no evidence."""
     clock = row_clock[found.rows]
     xy = found.track.xy
     offset = offsets_to_path(camera, PiecewiseTrajectory(trajectory), clock, xy, found.alpha, found.beta)
-    ok = np.isfinite(offset).all(axis=1)
+    ok = np.isfinite(offset).all(axis=1) & ~found.merged
     block = np.floor((clock[ok] - found.beta) / found.alpha / per_block).astype(np.int64)
     out = {}
     for b in np.unique(block):
