@@ -2,10 +2,10 @@
 
 Identification takes the line every mover's votes back best, and the
 target is the candidate nearest the projection under it. A look-alike that
-walks the target's path a few tenths of a second to a few seconds behind it
-(or ahead), seen on more frames than the target, backs its own line better:
-the projection under that line follows the look-alike, and the target is
-then off the path. Nothing in the assignment weighs the two lines.
+walks the target's path a few tenths of a second behind it (or ahead),
+seen on more frames than the target, backs its own line better: the
+projection under that line follows the look-alike, and the target is then
+off the path. Nothing in the assignment weighs the two lines.
 
 So after identification, the movers it did not use get their own say: the
 line search runs again on the votes of every tracklet the identified track
@@ -13,25 +13,28 @@ does not use (those within FOLLOW_RANGE_S of its line), and the target is
 identified again from that line (the same assignment rounds, among every
 mover: tracklets swap people where blobs merge, so the target's frames may
 lie on tracklets the first track used too). When that gives another
-mover's track on a line apart from the first (further than
-the line search's band), with at least FOLLOW_SUPPORT of its frames, the two
-hypotheses are weighed on the log: each track's residuals to the projection
-under its own line, per block of BLOCK_S seconds of the log's time. Under
-the two lines a block of the log's samples is seen on both tracks, so the
-log's error at those samples (its wander, its white noise) is the same in
-both and cancels in the pair: what remains is each mover's distance from the
-path, which a follower walking beside the target's route, at another height
-or pace, does not share. The rival's probability is that of the paired
-blocks' loss differences (Student-t, as sync/solve/rival.py scores blocks)
-having a mean below zero: Phi(-sum / (sd x sqrt(blocks))). A look-alike on
-the target's very image path leaves it near 1/2 (the log cannot tell them
-apart: the camera is then ``ambiguous``, with both lines), one that misses
+mover's track on a line apart from the first (further than the line
+search's band), with at least FOLLOW_SUPPORT of its frames, the two
+hypotheses are weighed on the log: each track's residuals to the
+projection under its own line (on its blobs of the target's size: a merged
+blob's point is placed nearest the projection), per block of BLOCK_S
+seconds of the log's time. Under the two lines a block of the log's
+samples is seen on both tracks, so the log's error at those samples (its
+wander, its white noise) is the same in both and cancels in the pair:
+what remains is each mover's distance from the path, which a follower
+walking beside the target's route does not share. The other mover's
+probability is that of the paired blocks' loss differences (Student-t, as
+sync/solve/rival.py scores blocks) having a mean below zero:
+Phi(-sum / (sd x sqrt(blocks))). A look-alike on the target's very image
+path leaves it near 1/2 (the log cannot tell them apart), one that misses
 the path block after block goes to 0.
 
 The hypothesis the log prefers beyond 1 - RIVAL_PROBABILITY is the target;
 otherwise the first is kept and the other reported with its probability
-(``MoverRival``). A user's pick (the log's time at the video's first frame)
-takes the hypothesis whose line is nearer it.
+(``MoverRival``: from RIVAL_PROBABILITY the camera is weak, its interval
+reaching the other line; from AMBIGUOUS_PROBABILITY ambiguous;
+sync/solve/synchronize.py). A user's pick (the log's time at the video's
+first frame) takes the hypothesis whose line is nearer it.
 """
 
 from __future__ import annotations
