@@ -21,6 +21,18 @@ class TrackletShare:
 
 
 @dataclass(frozen=True)
+class MoverRival:
+    """Another mover's hypothesis on the target's path (sync/identify/followers.py): its line (frame = alpha x sample
+    + beta on the camera's clock), its identified frames, and the probability that it, not the identified track, is
+    the target (the log's residuals of the two tracks, paired by the log's samples)."""
+
+    alpha: float
+    beta: float
+    frames: int
+    probability: float
+
+
+@dataclass(frozen=True)
 class IdentificationSummary:
     """How the target was found among every mover (sync/identify/identify.py).
 
@@ -32,7 +44,8 @@ class IdentificationSummary:
     height of the logged point above the tracked point (metres, world up);
     search_line: (alpha, beta) of that best line (frame = alpha * sample +
     beta on the camera's clock), or None (identification.json written before
-    it was kept).
+    it was kept); rival: another mover on the target's path, weighed against
+    the identified track (None: none was found).
     """
 
     candidates_voting: int
@@ -43,15 +56,17 @@ class IdentificationSummary:
     rounds: int
     logged_point_above_m: float = 0.0
     search_line: tuple[float, float] | None = None
+    rival: MoverRival | None = None
 
     @classmethod
     def from_dict(cls, entry: dict) -> IdentificationSummary:
-        line = entry.get("search_line")
+        line, rival = entry.get("search_line"), entry.get("rival")
         return cls(
             **{
                 **entry,
                 "tracklets": tuple(TrackletShare(**t) for t in entry["tracklets"]),
                 "search_line": None if line is None else (float(line[0]), float(line[1])),
+                "rival": None if rival is None else MoverRival(**rival),
             }
         )
 

@@ -24,6 +24,7 @@ from tlsync_pipeline.pipeline.spec import Options, Sources, StageResult, StageSp
 from tlsync_pipeline.pipeline.stages.cameras import has_no_rows, ingest_report_input, log_model_of, pose_problem
 from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
 from tlsync_pipeline.sync.identify.breaks import identify_in_segments
+from tlsync_pipeline.sync.identify.followers import picked_line
 from tlsync_pipeline.sync.identify.identify import IdentifyParams, identify_params
 from tlsync_pipeline.sync.model.log_model import LogModelChoice
 from tlsync_pipeline.sync.model.methods import preparation_of, prepare_trajectory
@@ -54,7 +55,8 @@ class IdentifyStageParams:
     """fps: the camera's nominal frame rate (None: camera.json's); identify: identification's [sync] keys;
     preparation: how the trajectory is prepared; source: the video the movers were detected in (None: the
     project brings its detections); seed: an init box, or None; log_model: the log's error, which widens the
-    camera's vote radius and gate (log_error.vote_radius)."""
+    camera's vote radius and gate (log_error.vote_radius); pick_start_s: the start the user picked between the
+    identified mover and another on the target's path ([[cameras]] pick_start_s), or None."""
 
     fps: float | None
     identify: IdentifyParams
@@ -62,6 +64,7 @@ class IdentifyStageParams:
     source: Path | None = None
     seed: InitSeed | None = None
     log_model: LogModelChoice = field(default_factory=LogModelChoice)
+    pick_start_s: float | None = None
 
 
 def run_identify(files: StageFiles, params: IdentifyStageParams) -> StageResult:
@@ -102,6 +105,7 @@ def run_identify(files: StageFiles, params: IdentifyStageParams) -> StageResult:
             replace(params.identify, eps_px=radius),
             prefer,
             breaks,
+            picked_line(params.pick_start_s, params.fps or camera.fps, prepared.rate),
         )
     except SyncError as exc:
         files.output("track").unlink(missing_ok=True)
@@ -137,6 +141,7 @@ def identify_stage_params(project: Project, cam: str, options: Options) -> Ident
         source,
         seed,
         project.target.log_error.for_vote_radius,
+        camera.pick_start_s,
     )
 
 

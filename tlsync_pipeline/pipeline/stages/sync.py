@@ -142,8 +142,12 @@ def run_sync(files: StageFiles, params: SyncStageParams) -> StageResult:
     paths = camera_files(files, params)
     votes = camera_votes(paths)
     usable = {name: c for name, c in paths.items() if not isinstance(votes[name], SyncError)}
+    found = {n: read_identification(c.identification).summary for n, c in paths.items() if c.identification is not None}
     try:
-        inputs = {n: replace(i, pick_start_s=params.picks.get(n)) for n, i in _readable(paths, usable).items()}
+        inputs = {
+            n: replace(i, pick_start_s=params.picks.get(n), identification=found.get(n))
+            for n, i in _readable(paths, usable).items()
+        }
         trajectory = near_views(read_trajectory(files.path("trajectory")), [c.camera for c in inputs.values()])
         timeline, _ = synchronize(inputs, trajectory, params.sync, votes, log_model_of(files, params.log_model))
     except LogUnitError as exc:
@@ -162,10 +166,7 @@ def run_sync(files: StageFiles, params: SyncStageParams) -> StageResult:
         for name, line in lines.items()
     }
     timeline = replace(timeline, cameras=lines, failed={**failed, **params.left_out})
-    timeline = with_identifications(
-        timeline,
-        {n: read_identification(c.identification).summary for n, c in paths.items() if c.identification is not None},
-    )
+    timeline = with_identifications(timeline, found)
     priors = {
         n: prior for n, c in paths.items() if c.clock is not None and (prior := read_clock(c.clock).prior) is not None
     }

@@ -29,6 +29,7 @@ import numpy as np
 
 from calibration.camera import Camera
 from tlsync_pipeline.errors import SyncError
+from tlsync_pipeline.sync.identify.followers import weigh_followers
 from tlsync_pipeline.sync.identify.identify import Identification, IdentifyParams, detections_clock, identify_target
 from tlsync_pipeline.sync.identify.segments import segments_of, segments_reason
 from tlsync_pipeline.sync.model.clock import Segment
@@ -364,6 +365,7 @@ def identify_in_segments(
     params: IdentifyParams,
     prefer: frozenset[int] = frozenset(),
     breaks: tuple[Break, ...] = (),
+    pick: tuple[float, float] | None = None,
 ) -> tuple[Identification, tuple[Break, ...]]:
     """The target identified among every mover across the recording's breaks, and the breaks.
 
@@ -372,7 +374,10 @@ def identify_in_segments(
     breaks known (``breaks``, and a drop the movers' votes show), each
     segment's shift is measured on the movers' votes (sync/identify/segments.py);
     when another segment's is, the target is identified again on the clock
-    that carries them, over the segments of known shift.
+    that carries them, over the segments of known shift. Another mover on the
+    target's path is then weighed against the identified track
+    (sync/identify/followers.py; ``pick``: the line the user picked, alpha and
+    beta on the camera's clock, or None).
     """
     found = identify_target(camera, detections, trajectory, fps, params, prefer)
     clock, row_clock = detections_clock(detections, fps)
@@ -392,10 +397,11 @@ def identify_in_segments(
         clock.vfr,
     )
     if not any(seg.source == "votes" for seg in segments):
-        return found, breaks
+        return weigh_followers(camera, detections, trajectory, fps, params, found, prefer, pick=pick), breaks
     _, shifted = detections_clock(detections, fps, segments)
     known = detections.subset(np.flatnonzero(np.isfinite(shifted)))
     try:
-        return identify_target(camera, known, trajectory, fps, params, prefer, segments), breaks
+        again = identify_target(camera, known, trajectory, fps, params, prefer, segments)
     except SyncError:
-        return found, breaks
+        return weigh_followers(camera, detections, trajectory, fps, params, found, prefer, pick=pick), breaks
+    return weigh_followers(camera, known, trajectory, fps, params, again, prefer, segments, pick), breaks

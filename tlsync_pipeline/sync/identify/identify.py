@@ -66,7 +66,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from calibration.camera import Camera
-from tlsync_pipeline.artefacts.identification import IdentificationSummary, TrackletShare
+from tlsync_pipeline.artefacts.identification import IdentificationSummary, MoverRival, TrackletShare
 from tlsync_pipeline.errors import SyncError
 from tlsync_pipeline.sync.identify.refine import MIN_FRAMES, refine_line
 from tlsync_pipeline.sync.identify.target_size import (
@@ -148,6 +148,7 @@ class Identification:
     rounds: int
     lift_m: float
     merged: np.ndarray
+    rival: MoverRival | None = None
 
     def summary(self) -> IdentificationSummary:
         """What timeline.json reports: tracklets used, share of the track's frames on each, line supports, the
@@ -163,6 +164,7 @@ class Identification:
             self.rounds,
             round(self.lift_m, 3),
             (float(self.search.alpha), float(self.search.beta)),
+            self.rival,
         )
 
 
@@ -491,6 +493,46 @@ def identify_target(
                 f"({backward.support} frames) better than any running forwards ({search.support}); check the order of "
                 f"the log's times"
             )
+    return _identified(camera, detections, trajectory, row_clock, fps, params, prefer, votes, vote_rows, search, prior)
+
+
+def identify_from_line(
+    camera: Camera,
+    detections: Detections,
+    trajectory: Trajectory,
+    fps: float | None,
+    params: IdentifyParams,
+    votes: Votes,
+    vote_rows: np.ndarray,
+    search: LineSearch,
+    segments: tuple[Segment, ...] = (),
+) -> Identification:
+    """The target identified among the detections from a line search's line (``search``, which the result reports as
+    its search) run on their votes (``votes``, each from detection row ``vote_rows``): the assignment rounds run from
+    that line (sync/identify/followers.py). Raises SyncError as identify_target does when no tracklet follows the path
+    under it."""
+    prior = slope_prior(fps, trajectory.rate, params.rate_sigma)
+    _, row_clock = detections_clock(detections, fps, segments)
+    return _identified(
+        camera, detections, trajectory, row_clock, fps, params, frozenset(), votes, vote_rows, search, prior
+    )
+
+
+def _identified(
+    camera: Camera,
+    detections: Detections,
+    trajectory: Trajectory,
+    row_clock: np.ndarray,
+    fps: float | None,
+    params: IdentifyParams,
+    prefer: frozenset[int],
+    votes: Votes,
+    vote_rows: np.ndarray,
+    search: LineSearch,
+    prior: SlopePrior | None,
+) -> Identification:
+    """The target's track from the search's line: assignment rounds, the identified tracklets' frames near the path,
+    frames with a rival left out, the target's part of each blob (steps 3-6 of the module)."""
     candidates = _Candidates(
         camera, detections, row_clock, params.eps_px, prefer, FOLLOW_WINDOW_S * fps if fps else FOLLOW_WINDOW_FRAMES
     )

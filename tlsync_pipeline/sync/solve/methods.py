@@ -29,6 +29,7 @@ from trackers.detections import Detections
 from trackers.track import Track
 
 if TYPE_CHECKING:
+    from tlsync_pipeline.artefacts.identification import IdentificationSummary
     from tlsync_pipeline.sync.model.log_model import LogModel
     from tlsync_pipeline.sync.pose.pose_fit import GcpPrior
     from tlsync_pipeline.sync.pose.pose_timing import PoseTiming
@@ -49,7 +50,9 @@ class CameraInput:
     its first fix, at the video's first frame), or None. pose_timing: for a
     camera posed from the target before (the calibrate stage), the line that
     pose fit gives its timing (sync/pose/pose_timing.py), as synchronize's own
-    pose from the target gives it; None otherwise.
+    pose from the target gives it; None otherwise. identification: for a
+    track the identify stage found among every mover, how it was found
+    (its rival mover is judged with the line); None otherwise.
     """
 
     camera: Camera
@@ -60,6 +63,7 @@ class CameraInput:
     breaks: tuple[Break, ...] = ()
     pick_start_s: float | None = None
     pose_timing: PoseTiming | None = None
+    identification: IdentificationSummary | None = None
 
 
 @dataclass(frozen=True)

@@ -26,8 +26,12 @@ from dataclasses import asdict, dataclass, replace
 import numpy as np
 
 from calibration.camera import Camera
+from tlsync_pipeline.artefacts.identification import IdentificationSummary, MoverRival
 from tlsync_pipeline.errors import SyncError
 from tlsync_pipeline.sync.identify.breaks import identify_in_segments, segment_reasons, with_vote_break
+from tlsync_pipeline.sync.identify.followers import AMBIGUOUS_PROBABILITY as FOLLOWER_AMBIGUOUS
+from tlsync_pipeline.sync.identify.followers import RIVAL_PROBABILITY as FOLLOWER_PROBABILITY
+from tlsync_pipeline.sync.identify.followers import picked_line
 from tlsync_pipeline.sync.identify.identify import Identification, identify_params
 from tlsync_pipeline.sync.identify.segments import (
     MAX_WHOLE,
@@ -42,7 +46,7 @@ from tlsync_pipeline.sync.model.clock import FrameTimes, Segment, camera_clock, 
 from tlsync_pipeline.sync.model.log_model import PRESETS, LogModel
 from tlsync_pipeline.sync.model.methods import method_options, params_table, preparation_of, prepare_trajectory
 from tlsync_pipeline.sync.model.params import ParamsTable, SyncParams
-from tlsync_pipeline.sync.model.status import AMBIGUOUS, FAILED, Reason, diagnosed_failure
+from tlsync_pipeline.sync.model.status import AMBIGUOUS, FAILED, HALF_95, WEAK, Reason, diagnosed_failure
 from tlsync_pipeline.sync.pose.pose import TargetPose, estimate_pose, pose_info, pose_log_sigma
 from tlsync_pipeline.sync.pose.pose_timing import PoseTiming
 from tlsync_pipeline.sync.solve.causes import explain
@@ -145,12 +149,16 @@ def identify_and_synchronize(
         inputs.fps,
         replace(identify_params(params), eps_px=radius),
         breaks=inputs.breaks,
+        pick=picked_line(inputs.pick_start_s, inputs.fps, prepared.rate),
     )
     identified = CameraInput(inputs.camera, found.track, inputs.fps, breaks=breaks)
     result = synchronize_camera(
         name, identified, cast_votes(inputs.camera, found.track, prepared, radius), prepared, params, radius
     )
-    return CameraResult(result.votes, replace(result.line, identification=found.summary()), found)
+    line = replace(result.line, identification=found.summary())
+    if inputs.pick_start_s is not None and found.rival is not None:
+        line = replace(line, flags=(*(line.flags or ()), "picked"))
+    return CameraResult(result.votes, line, found)
 
 
 def _pose_from_target(camera: Camera) -> bool:
@@ -228,13 +236,43 @@ def with_identification_line(line: CameraLine) -> CameraLine:
     that fit a line a few tenths of a second off are picked as readily as the target's, and a track that mixes them
     fits its own line well, its sandwich narrow. Where the refined line leaves the line every mover's votes back, it
     may have followed them (crowd_inputs seed 8, a white log of 0.3 m declared: 4.3 frames off with a std of 0.47
-    frame, the search's line 1.9 frames the other way, 2.4 from the truth). Unchanged without a search line or a
-    covariance."""
+    frame, the search's line 1.9 frames the other way, 2.4 from the truth). Another mover on the target's path that
+    counts (``counted_rival``, sync/identify/followers.py) adds its line's distance, squared, times its probability:
+    the line's mean squared error where the truth is one of the two lines. Unchanged without a covariance."""
     found = line.identification
-    if found is None or found.search_line is None or line.cov is None:
+    if found is None or line.cov is None:
         return line
+    cov = _with_search_line(np.asarray(line.cov, dtype=np.float64), line, found)
+    rival = counted_rival(line, found)
+    if rival is not None:
+        apart = np.array([rival.alpha - line.alpha, rival.beta - line.beta])
+        cov = cov + rival.probability * np.outer(apart, apart)
+    return replace(line, cov=cov)
+
+
+def _with_search_line(cov: np.ndarray, line: CameraLine, found: IdentificationSummary) -> np.ndarray:
+    """The covariance with the outer product of the line's (alpha, beta) distance from the identification's search
+    line added (unchanged without one)."""
+    if found.search_line is None:
+        return cov
     gap = np.array([found.search_line[0] - line.alpha, found.search_line[1] - line.beta])
-    return replace(line, cov=np.asarray(line.cov, dtype=np.float64) + np.outer(gap, gap))
+    return cov + np.outer(gap, gap)
+
+
+def counted_rival(line: CameraLine, found: IdentificationSummary) -> MoverRival | None:
+    """Identification's other mover on the target's path (IdentificationSummary.rival) when the log left it at least
+    followers.RIVAL_PROBABILITY and its line lies outside the line's interval: the Mahalanobis distance of their
+    (alpha, beta) difference, under the line's covariance with the search line's distance added, beyond HALF_95 (a
+    line within it changes nothing: on the crowd scenes, passers-by a frame from the target's line). None otherwise;
+    a line without a covariance counts every such rival."""
+    rival = found.rival
+    if rival is None or rival.probability < FOLLOWER_PROBABILITY:
+        return None
+    if line.cov is None or not np.isfinite(line.cov).all():
+        return rival
+    cov = _with_search_line(np.asarray(line.cov, dtype=np.float64), line, found)
+    gap = np.array([rival.alpha - line.alpha, rival.beta - line.beta])
+    return rival if float(gap @ np.linalg.pinv(cov) @ gap) > HALF_95**2 else None
 
 
 def with_pose_timing(line: CameraLine, timing: PoseTiming | None, log_model: LogModel) -> CameraLine:
@@ -627,6 +665,35 @@ def _loose_identity(radius_px: float) -> Reason:
     )
 
 
+def follower_reason(
+    line: CameraLine, summary: IdentificationSummary, fps: float | None, rate: float | None
+) -> Reason | None:
+    """When identification weighed another mover on the target's path against the identified track
+    (sync/identify/followers.py) and counts (``counted_rival``): WEAK, its interval
+    reaching the other mover's line (``with_identification_line``), or AMBIGUOUS when the other mover is at least
+    as probable (FOLLOWER_AMBIGUOUS). The reason gives both lines' starts (the log's time at the video's first frame)
+    with their probabilities, and what settles it."""
+    rival = counted_rival(line, summary)
+    if rival is None:
+        return None
+    starts = [(-line.beta / line.alpha, 1.0 - rival.probability), (-rival.beta / rival.alpha, rival.probability)]
+    unit = (lambda s: f"{s / rate:.2f} s") if rate else (lambda s: f"sample {s:.1f}")
+    shift = starts[1][0] - starts[0][0]
+    apart = f"{abs(shift) / rate:.2g} s" if rate else f"{abs(shift):.1f} samples"
+    side = "behind" if shift < 0 else "ahead of"
+    key = "pick_start_s" if rate else "pick_start_sample"
+    ambiguous = rival.probability >= FOLLOWER_AMBIGUOUS
+    return Reason(
+        "ambiguous" if ambiguous else "another_mover",
+        AMBIGUOUS if ambiguous else WEAK,
+        f"another mover walks the target's path {apart} {side} the identified one ({rival.frames} against "
+        f"{summary.identified_frames} frames), and the log, paired sample by sample, leaves both possible: the "
+        f"video's first frame at " + " or at ".join(f"{unit(s)} of the log ({p:.0%})" for s, p in starts),
+        f"a tracker init box on the target, or a log more accurate than the two movers' distance apart, settles it; "
+        f"or pick one: [[cameras]] {key} = one of these starts (docs/project.md)",
+    )
+
+
 def _unjudged(inputs: CameraInput, prior) -> Judged:
     """What ``diagnose`` knows of a camera without a line: its track, when its camera has a pose to project with."""
     return Judged(
@@ -715,6 +782,10 @@ def _judge(
     )
     if inputs.detections is not None and radius_px > params.eps_px and "few_inliers" in (line.flags or ()) and others:
         checks = (*checks, _loose_identity(radius_px))
+    summary = line.identification or inputs.identification
+    if summary is not None and inputs.pick_start_s is None:
+        follower = follower_reason(line, summary, fps, rate)
+        checks = (*checks, follower) if follower is not None else checks
     line = replace(line, checks=checks)
     contradicted = any(r.severity == FAILED for r in checks)
     paced = motion.speed if motion.measured and motion.direction >= DIRECTION_MIN else None
