@@ -8,7 +8,7 @@ from click.testing import CliRunner
 
 from calibration.camera import write_camera
 from data_fixtures import make_scene
-from tests.tlsync_pipeline.sync.test_identify import _followed_by_a_look_alike, _wandering_log
+from tests.look_alikes import followed_by_a_look_alike, wandering_log
 from tlsync_pipeline.cli.main import main
 from tlsync_pipeline.sync.timeline import read_timeline
 from tlsync_pipeline.trajectory import write_trajectory
@@ -21,8 +21,8 @@ def _project(folder, pick=None):
     scene = make_scene(seed=0)
     camera = scene.cameras["cam0"]
     write_camera(camera, folder / "cam0.json")
-    write_detections(_followed_by_a_look_alike(scene, "cam0", lag=-12, seen=0.4, seed=0), folder / "movers.csv")
-    write_trajectory(_wandering_log(scene, "cam0", 4.0, 0), folder / "trajectory.csv")
+    write_detections(followed_by_a_look_alike(scene, "cam0", lag=-12, seen=0.4, seed=0), folder / "movers.csv")
+    write_trajectory(wandering_log(scene, "cam0", 4.0, 0), folder / "trajectory.csv")
     lines = ["[target]", 'trajectory = "trajectory.csv"', "", "[[cameras]]", 'name = "cam0"', 'camera = "cam0.json"']
     lines += ['detections = "movers.csv"', f"fps = {camera.fps!r}"]
     lines += [f"pick_start_s = {pick!r}"] if pick is not None else []

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from data_fixtures import make_scene
+from tests.look_alikes import crowd_detections, detection_rows, followed_by_a_look_alike, wandering_log
 from tlsync_pipeline.artefacts.identification import IdentificationSummary, TrackletShare
 from tlsync_pipeline.errors import SyncError
 from tlsync_pipeline.sync.identify import identify
@@ -32,40 +33,6 @@ PRIOR = identify_params(P)  # the slope held near fps / log rate, as the pipelin
 FREE = dataclasses.replace(PRIOR, rate_sigma=0.0)  # a free slope
 
 
-def _crowd_detections(scene, name, walkers=8, seed=0):
-    """The target's true track (0.5 px noise, 10 % of frames missed, split into 3 tracklets, a box of 0.5 m) and
-    ``walkers`` look-alike movers crossing the image at the target's image speed."""
-    rng = np.random.default_rng(seed)
-    track = scene.tracks[name]
-    w, h = scene.cameras[name].image_size
-    keep = rng.random(len(track)) > 0.1
-    frames = track.frame[keep]
-    xy = track.xy[keep] + rng.normal(0, 0.5, (keep.sum(), 2))
-    camera, line = scene.cameras[name], scene.lines[name]
-    position = PiecewiseTrajectory(scene.true_trajectory).positions((frames - line.beta) / line.alpha)
-    size = 0.5 * camera.K[0, 0] / (position @ camera.R.T + camera.t)[:, 2]  # a 0.5 m target, in pixels at its depth
-    pieces = np.array_split(np.arange(len(frames)), 3)
-    rows = [
-        (frames[i], frames[i] / 30.0, k, xy[i, 0], xy[i, 1], size[i], size[i], 0.9)
-        for k, idx in enumerate(pieces)
-        for i in idx
-    ]
-    speed = np.median(np.linalg.norm(np.diff(track.xy, axis=0), axis=1))
-    n_frames = scene.n_frames[name]
-    for j in range(walkers):
-        start = rng.integers(0, n_frames - 100)
-        length = int(rng.integers(80, 200))
-        p0 = rng.uniform([0, 0], [w, h])
-        heading = rng.uniform(0, 2 * np.pi)
-        v = speed * rng.uniform(0.7, 1.3) * np.array([np.cos(heading), np.sin(heading)])
-        for f in range(start, min(n_frames, start + length)):
-            x, y = p0 + v * (f - start)
-            if 0 <= x < w and 0 <= y < h:
-                rows.append((f, f / 30.0, 100 + j, x, y, 12, 12, 0.8))
-    target_rows = {(f, k) for k, idx in enumerate(pieces) for f in frames[idx]}
-    return make_detections(rows), target_rows
-
-
 def _assert_found(found, detections, target_rows, scene, name, recall):
     """At least 95 % of the identified rows are the target's, at least ``recall`` of its rows are identified, and the
     line is within half a frame.
@@ -84,7 +51,7 @@ def _assert_found(found, detections, target_rows, scene, name, recall):
 def test_identifies_the_target_among_look_alike_walkers(seed):
     scene = make_scene(seed=seed)
     name = "cam0"
-    detections, target_rows = _crowd_detections(scene, name, seed=seed)
+    detections, target_rows = crowd_detections(scene, name, seed=seed)
     camera = scene.cameras[name]
     found = identify_target(camera, detections, scene.trajectory, camera.fps, FREE)
     _assert_found(found, detections, target_rows, scene, name, recall=0.9)
@@ -101,7 +68,7 @@ def test_candidate_votes_thinned_by_chunks_are_those_of_thinning_every_vote_at_o
     """
     scene = make_scene(seed=2)
     name = "cam0"
-    detections, _ = _crowd_detections(scene, name, walkers=6, seed=2)
+    detections, _ = crowd_detections(scene, name, walkers=6, seed=2)
     detections = detections.subset(np.arange(len(detections)))
     rng = np.random.default_rng(2)
     detections.w[:] = rng.uniform(5, 60, len(detections))
@@ -130,7 +97,7 @@ def test_a_logged_point_above_the_tracked_centre_is_estimated_and_the_track_move
     """
     scene = make_scene(seed=0)
     name = "cam0"
-    detections, target_rows = _crowd_detections(scene, name, seed=0)
+    detections, target_rows = crowd_detections(scene, name, seed=0)
     camera = scene.cameras[name]
     raised = dataclasses.replace(scene.trajectory, xyz=scene.trajectory.xyz + [0.0, 0.0, 0.6])
     shift = np.nanmedian(
@@ -157,7 +124,7 @@ def test_a_stretch_off_the_projection_by_calibration_error_stays_in_the_identifi
     """
     scene = make_scene(seed=1)
     name = "cam0"
-    detections, target_rows = _crowd_detections(scene, name, seed=1)
+    detections, target_rows = crowd_detections(scene, name, seed=1)
     detections = detections.subset(np.arange(len(detections)))
     stretch = np.flatnonzero(detections.id == 1)[20:100]
     detections.x[stretch] += 15.0
@@ -218,7 +185,7 @@ def test_the_scatter_of_isotropic_errors_is_measured_from_their_norms():
 def test_a_camera_the_path_never_enters_is_named():
     scene = make_scene(seed=0)
     camera = scene.cameras["cam0"]
-    detections, _ = _crowd_detections(scene, "cam0")
+    detections, _ = crowd_detections(scene, "cam0")
     behind = camera.t + [0.0, 0.0, -1e4]  # the whole path 10 km behind the camera
     away = type(camera)(camera.name, camera.K, camera.dist, camera.R, behind, camera.image_size, camera.fps)
     with pytest.raises(SyncError, match="camera cam0: the target's projected path never enters its image"):
@@ -228,7 +195,7 @@ def test_a_camera_the_path_never_enters_is_named():
 def test_no_tracklet_following_the_path_is_reported():
     scene = make_scene(seed=0)
     camera = scene.cameras["cam0"]
-    detections, target_rows = _crowd_detections(scene, "cam0", walkers=10, seed=3)
+    detections, target_rows = crowd_detections(scene, "cam0", walkers=10, seed=3)
     only_walkers = detections.subset(detections.id >= 100)
     with pytest.raises(SyncError, match="camera cam0: no tracklet follows the target's projected path"):
         identify_target(camera, only_walkers, scene.trajectory, camera.fps, FREE)
@@ -279,7 +246,7 @@ def test_a_merged_blob_whose_box_holds_the_projection_counts_as_near():
 def test_a_target_merged_with_passers_by_in_most_frames_is_kept_and_reported_on_itself():
     scene = make_scene(seed=0)
     name = "cam0"
-    detections, target_rows = _crowd_detections(scene, name, seed=2)
+    detections, target_rows = crowd_detections(scene, name, seed=2)
     # Two in three of the target's blobs merged side by side with a passer-by: three times as wide, centre one target
     # width off.
     merged = (detections.id < 100) & (np.arange(len(detections)) % 3 != 0)
@@ -305,20 +272,6 @@ def test_a_target_merged_with_passers_by_in_most_frames_is_kept_and_reported_on_
     assert np.abs((found.alpha - line.alpha) * (frames - line.beta) / line.alpha + found.beta - line.beta).max() < 0.5
 
 
-def _wandering_log(scene, name, pixels, seed):
-    """The scene's trajectory with a log's error that moves its projection into ``name`` by about ``pixels`` (std per
-    axis): white noise at 1 Hz knots, interpolated between them (as a 1 Hz GPX's fixes are), so the projection wanders
-    smoothly about the target."""
-    trajectory, camera = scene.trajectory, scene.cameras[name]
-    uv = camera.project(trajectory.xyz)[0]
-    per_metre = np.nanmedian(np.linalg.norm(camera.project(trajectory.xyz + [1.0, 0.0, 0.0])[0] - uv, axis=1))
-    knots = np.arange(0.0, trajectory.sample[-1] + trajectory.rate, trajectory.rate)
-    noise = np.random.default_rng(seed).normal(0.0, pixels / per_metre, (len(knots), 3))
-    noise[:, 2] = 0.0
-    error = np.column_stack([np.interp(trajectory.sample, knots, noise[:, k]) for k in range(3)])
-    return dataclasses.replace(trajectory, xyz=trajectory.xyz + error)
-
-
 @pytest.mark.parametrize("seed", [0, 1, 2, 3])
 def test_a_look_alike_beside_the_target_within_the_logs_error_is_not_taken_for_it(seed):
     """A log whose projection wanders 4 px (std per axis) about the target, and a look-alike walking 9 px beside the
@@ -327,7 +280,7 @@ def test_a_look_alike_beside_the_target_within_the_logs_error_is_not_taken_for_i
     tell them apart), half of the target's other frames are still identified, and the line is within half a frame."""
     scene = make_scene(seed=0)
     name = "cam0"
-    detections, target_rows = _crowd_detections(scene, name, walkers=4, seed=seed)
+    detections, target_rows = crowd_detections(scene, name, walkers=4, seed=seed)
     beside = detections.subset(np.flatnonzero(detections.id < 100)[60:160])
     look_alike = [
         (f, t, 99, x, y + 9.0, w, h, s)
@@ -335,43 +288,14 @@ def test_a_look_alike_beside_the_target_within_the_logs_error_is_not_taken_for_i
             beside.frame, beside.time_s, beside.x, beside.y, beside.w, beside.h, beside.score
         )
     ]
-    detections = make_detections(_rows(detections) + look_alike)
+    detections = make_detections(detection_rows(detections) + look_alike)
     camera = scene.cameras[name]
-    found = identify_target(camera, detections, _wandering_log(scene, name, 4.0, seed), camera.fps, PRIOR)
+    found = identify_target(camera, detections, wandering_log(scene, name, 4.0, seed), camera.fps, PRIOR)
     picked = {(f, i) for f, i in zip(detections.frame[found.rows], detections.id[found.rows])}
     assert len(picked & target_rows) >= 0.95 * len(picked)
     away = {(f, i) for f, i in target_rows if f not in set(beside.frame.tolist())}
     assert len(picked & away) >= 0.5 * len(away)
     _assert_found(found, detections, target_rows, scene, name, recall=0.0)
-
-
-def _rows(detections):
-    """The detections as make_detections's rows: (frame, time_s, id, x, y, w, h, score)."""
-    columns = (detections.frame, detections.time_s, detections.id, detections.x, detections.y)
-    return list(zip(*columns, detections.w, detections.h, detections.score))
-
-
-def _followed_by_a_look_alike(scene, name, lag, seen, seed):
-    """The target's detections (_crowd_detections with 4 walkers) kept on a share ``seen`` of its 20-frame blocks,
-    and a look-alike (id 99) walking the target's image path ``lag`` frames behind it, seen on every one of the
-    target's frames: a line ``lag`` frames off explains the look-alike as well as the right line explains the
-    target."""
-    rng = np.random.default_rng(seed)
-    detections, _ = _crowd_detections(scene, name, walkers=4, seed=seed)
-    target = detections.id < 100
-    kept_blocks = rng.random(detections.frame.max() // 20 + 1) < seen
-    keep = ~target | kept_blocks[detections.frame // 20]
-    rows = [row for row, k in zip(_rows(detections), keep) if k]
-    for f, x, y, w, h in zip(
-        detections.frame[target] + lag,
-        detections.x[target],
-        detections.y[target],
-        detections.w[target],
-        detections.h[target],
-    ):
-        if f < scene.n_frames[name]:
-            rows.append((f, f / 30.0, 99, x + rng.normal(0, 0.5), y + rng.normal(0, 0.5), w, h, 0.9))
-    return make_detections(rows)
 
 
 def _synchronized_near_truth(scene, name, detections, log):
@@ -399,8 +323,8 @@ def test_a_look_alike_following_or_leading_the_target_is_no_confident_line(seed,
     frame, the true one among them within a frame), or its interval reaches the truth."""
     scene = make_scene(seed=0)
     name = "cam0"
-    detections = _followed_by_a_look_alike(scene, name, lag=lag, seen=0.4, seed=seed)
-    timeline, status = _synchronized_near_truth(scene, name, detections, _wandering_log(scene, name, 4.0, seed))
+    detections = followed_by_a_look_alike(scene, name, lag=lag, seen=0.4, seed=seed)
+    timeline, status = _synchronized_near_truth(scene, name, detections, wandering_log(scene, name, 4.0, seed))
     if status.status == "ambiguous":
         truth, rate = scene.lines[name], scene.trajectory.rate
         starts = [float(s) for s in re.findall(r"at (-?[0-9.]+) s of the log", status.reason)]
@@ -415,10 +339,10 @@ def test_the_start_picked_between_the_target_and_a_look_alike_is_synchronized(se
     scene = make_scene(seed=0)
     name = "cam0"
     camera, truth = scene.cameras[name], scene.lines[name]
-    detections = _followed_by_a_look_alike(scene, name, lag=12, seen=0.4, seed=seed)
+    detections = followed_by_a_look_alike(scene, name, lag=12, seen=0.4, seed=seed)
     start = -truth.beta / truth.alpha / scene.trajectory.rate
     inputs = {name: CameraInput(camera, None, camera.fps, detections=detections, pick_start_s=start)}
-    timeline, _ = synchronize(inputs, _wandering_log(scene, name, 4.0, seed), P)
+    timeline, _ = synchronize(inputs, wandering_log(scene, name, 4.0, seed), P)
     line = timeline.cameras[name]
     middle = (float(np.median(scene.tracks[name].frame)) - truth.beta) / truth.alpha
     assert abs((line.alpha - truth.alpha) * middle + line.beta - truth.beta) < 1.0
@@ -430,11 +354,11 @@ def _beside_the_route(scene, name, lag, side_m, seed):
     walking the target's route ``lag`` frames behind it and ``side_m`` metres to its left (world, horizontal), seen
     on every one of the target's frames."""
     rng = np.random.default_rng(seed)
-    detections, _ = _crowd_detections(scene, name, walkers=4, seed=seed)
+    detections, _ = crowd_detections(scene, name, walkers=4, seed=seed)
     target = detections.id < 100
     kept_blocks = rng.random(detections.frame.max() // 20 + 1) < 0.4
     keep = ~target | kept_blocks[detections.frame // 20]
-    rows = [row for row, k in zip(_rows(detections), keep) if k]
+    rows = [row for row, k in zip(detection_rows(detections), keep) if k]
     camera, line = scene.cameras[name], scene.lines[name]
     frames = detections.frame[target]
     samples = (frames - line.beta) / line.alpha
@@ -462,7 +386,7 @@ def test_a_look_alike_walking_the_route_behind_beside_it_leaves_a_right_confiden
     name = "cam0"
     truth = scene.lines[name]
     detections = _beside_the_route(scene, name, lag=lag, side_m=0.5, seed=seed)
-    timeline, status = _synchronized_near_truth(scene, name, detections, _wandering_log(scene, name, 1.0, seed))
+    timeline, status = _synchronized_near_truth(scene, name, detections, wandering_log(scene, name, 1.0, seed))
     assert status.status in ("ok", "weak"), status.reason
     line = timeline.cameras[name]
     middle = (float(np.median(scene.tracks[name].frame)) - truth.beta) / truth.alpha
