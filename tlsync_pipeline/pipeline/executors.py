@@ -248,8 +248,8 @@ class ProcessExecutor:
                 self._saved_env[var] = os.environ.get(var)
                 os.environ[var] = "1"
             quiet_resource_tracker()
-            context = worker_context(self.preload, self._start_server)
-            self._start_server = None
+            start, self._start_server = self._start_server, None  # worker_context closes it, even when interrupted
+            context = worker_context(self.preload, start)
             self._forked = context.get_start_method() == "forkserver"
             self._pool = cf.ProcessPoolExecutor(self.jobs, mp_context=context, initializer=die_with_parent)
         if self._forked:  # the workers ignore Ctrl-C from their start (worker_context)

@@ -14,6 +14,7 @@ from pathlib import Path
 
 import pytest
 
+from tlsync_pipeline.pipeline import executors
 from tlsync_pipeline.pipeline.executors import SerialExecutor, call_recording_warnings
 
 TASK = """
@@ -263,3 +264,22 @@ def test_a_fork_server_forked_after_opencv_started_its_threads_runs_opencv(tmp_p
     (tmp_path / "parent.py").write_text(OPENCV_PARENT.format(folder=str(tmp_path)))
     done = subprocess.run([sys.executable, str(tmp_path / "parent.py")], capture_output=True, text=True, timeout=120)
     assert done.returncode == 0 and "blurred 7" in done.stdout, done.stderr
+
+
+def test_a_ctrl_c_while_the_pool_starts_leaves_the_close_nothing_to_close_twice(monkeypatch):
+    """Ctrl-C while the first task starts the pool, after the start pipe was handed over and closed: the close that
+    follows (the interrupted run's) raises nothing (it closed the pipe again: "Bad file descriptor", exit 3)."""
+    read_end, write_end = os.pipe()
+    monkeypatch.setattr(executors, "can_fork_server", lambda: True)
+    monkeypatch.setattr(executors, "fork_server_here", lambda preload: write_end)
+
+    def interrupted(preload, start_server):
+        os.close(start_server)
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(executors, "worker_context", interrupted)
+    executor = executors.ProcessExecutor(2, preload=("json",))
+    with pytest.raises(KeyboardInterrupt):
+        executor.submit(len, {"obj": ()})
+    executor.close(cancel=True)
+    os.close(read_end)
