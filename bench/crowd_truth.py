@@ -33,12 +33,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from gps_bound import worst_pair_draws  # noqa: E402
 
-from data_fixtures.crowd import CENTROID_NOISE_PX, CrowdSpec, make_crowd_scene  # noqa: E402
+from data_fixtures.crowd import CrowdSpec, make_crowd_scene, true_track_inputs  # noqa: E402
 from tlsync_pipeline.sync.model.log_model import PRESETS  # noqa: E402
 from tlsync_pipeline.sync.model.params import SyncParams  # noqa: E402
-from tlsync_pipeline.sync.solve.synchronize import CameraInput, synchronize  # noqa: E402
+from tlsync_pipeline.sync.solve.synchronize import synchronize  # noqa: E402
 from tlsync_pipeline.sync.timeline import eps_t  # noqa: E402
-from trackers.track import Track  # noqa: E402
 
 Z95 = 1.959964
 BOUND_DRAWS = 200
@@ -56,12 +55,7 @@ def one_seed(seed: int, args: argparse.Namespace) -> tuple[float, float, float, 
         views=args.views,
     )
     scene = make_crowd_scene(spec).scene
-    rng = np.random.default_rng(100 + seed)
-    inputs = {}
-    for name, camera in scene.cameras.items():
-        t = scene.tracks[name]
-        noise = rng.normal(0.0, CENTROID_NOISE_PX, (2, len(t.frame)))
-        inputs[name] = CameraInput(camera, Track(t.frame, t.x + noise[0], t.y + noise[1], time_s=t.time_s), camera.fps)
+    inputs = true_track_inputs(scene, seed)
     bound = float(np.median(worst_pair_draws(scene, SyncParams().rate_sigma, BOUND_DRAWS, np.random.default_rng(seed))))
     model = (
         replace(PRESETS["phone"], suggested=True) if args.log_model == "phone-suggested" else PRESETS[args.log_model]

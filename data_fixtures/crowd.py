@@ -39,6 +39,7 @@ from data_fixtures.log_error import LogErrorModel, log_errors
 from data_fixtures.scene import Scene, check_views_disjoint, write_truth
 from data_fixtures.video import _background, h264_writer
 from tlsync_pipeline.geodesy import Origin, enu_to_geodetic
+from tlsync_pipeline.sync.solve.methods import CameraInput
 from tlsync_pipeline.sync.timeline import Relation
 from tlsync_pipeline.trajectory import Trajectory, write_trajectory
 from trackers.track import Track
@@ -660,3 +661,16 @@ def _render(
             image = image * gains[k] + rng.normal(0.0, spec.noise, image.shape)
             grey_frame = np.clip(image, 0, 255).astype(np.uint8)
             write(av.VideoFrame.from_ndarray(cv2.cvtColor(grey_frame, cv2.COLOR_GRAY2BGR), format="bgr24"), t - start_s)
+
+
+def true_track_inputs(scene: Scene, seed: int) -> dict[str, CameraInput]:
+    """Each camera's true track of the target with the blob centroid's white noise (CENTROID_NOISE_PX per axis,
+    pixels; the seed's own stream), its true pose and nominal fps: the sync's inputs without detection or
+    calibration error."""
+    rng = np.random.default_rng(100 + seed)
+    inputs = {}
+    for name, camera in scene.cameras.items():
+        t = scene.tracks[name]
+        noise = rng.normal(0.0, CENTROID_NOISE_PX, (2, len(t.frame)))
+        inputs[name] = CameraInput(camera, Track(t.frame, t.x + noise[0], t.y + noise[1], time_s=t.time_s), camera.fps)
+    return inputs

@@ -6,14 +6,13 @@ import math
 import numpy as np
 import pytest
 
-from data_fixtures.crowd import CENTROID_NOISE_PX, CrowdSpec, make_crowd_scene
+from data_fixtures.crowd import CrowdSpec, make_crowd_scene, true_track_inputs
 from tlsync_pipeline.sync.model.log_model import PRESETS, LogModel
 from tlsync_pipeline.sync.model.params import SyncParams
 from tlsync_pipeline.sync.solve.log_bias import shared_fixes, white_knots
-from tlsync_pipeline.sync.solve.synchronize import CameraInput, synchronize
+from tlsync_pipeline.sync.solve.synchronize import synchronize
 from tlsync_pipeline.sync.timeline import eps_t
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
-from trackers.track import Track
 
 Z95 = 1.959964
 
@@ -50,12 +49,7 @@ def _crowd(seed: int, views: str):
         seed=seed, distractors=8, fps=(25.0, 25.0), n_frames=(530, 530), log_rate=1.0, gps_noise_m=0.3, views=views
     )
     scene = make_crowd_scene(spec).scene
-    rng = np.random.default_rng(100 + seed)
-    inputs = {}
-    for name, camera in scene.cameras.items():
-        t = scene.tracks[name]
-        noise = rng.normal(0.0, CENTROID_NOISE_PX, (2, len(t.frame)))
-        inputs[name] = CameraInput(camera, Track(t.frame, t.x + noise[0], t.y + noise[1], time_s=t.time_s), camera.fps)
+    inputs = true_track_inputs(scene, seed)
     return scene, inputs
 
 
