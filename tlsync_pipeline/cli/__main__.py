@@ -26,6 +26,7 @@ if signal.getsignal(signal.SIGINT) is signal.default_int_handler:  # not when Ct
 import sys  # noqa: E402 - after the handlers, so a signal during these imports exits 130
 
 from tlsync_pipeline.cli.signals import INTERRUPTED, INTERRUPTED_MESSAGE, interrupt  # noqa: E402
+from tlsync_pipeline.pipeline.stop import stop_requested  # noqa: E402
 
 
 def main() -> None:
@@ -43,11 +44,19 @@ def main() -> None:
         if exc.code == INTERRUPTED:
             _exit_interrupted()
         raise
+    except Exception:
+        # An interrupted import outside a command (the command line's own) can come out as another error
+        # (pybind11: "ImportError: initialization failed"); with a stop asked, the run stops as interrupted.
+        if not stop_requested():
+            raise
+        print(INTERRUPTED_MESSAGE, file=sys.stderr)
+        _exit_interrupted()
 
 
 def _exit_interrupted() -> None:
     """Exit with 130 now: after a KeyboardInterrupt raised inside some C-level code (an import), Python would
-    end a normal exit by killing itself with SIGINT instead. The run has already stopped its workers.
+    end a normal exit by killing itself with SIGINT instead (exit -2; also after an error that the interrupt
+    caused and ``main`` caught). The run has already stopped its workers.
 
     The multiprocessing finalizers run first: they unlink the semaphores of the stopped worker pool's queues,
     which the resource tracker would otherwise find at its own exit and warn about ("leaked semaphore objects").
