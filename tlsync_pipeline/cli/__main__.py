@@ -30,6 +30,7 @@ from tlsync_pipeline.pipeline.stop import stop_requested  # noqa: E402
 
 
 def main() -> None:
+    sys.unraisablehook = _unraisable
     signal.signal(signal.SIGTERM, interrupt)
     if signal.getsignal(signal.SIGINT) is _exit_before_start:  # Ctrl-C too, remembered (not when ignored)
         signal.signal(signal.SIGINT, interrupt)
@@ -51,6 +52,15 @@ def main() -> None:
             raise
         print(INTERRUPTED_MESSAGE, file=sys.stderr)
         _exit_interrupted()
+
+
+def _unraisable(unraisable) -> None:
+    """``sys.unraisablehook``: silent on the KeyboardInterrupt of a stop asked (remembered, ``stop_requested``) that
+    Python could not raise where the handler ran (inside a weakref callback of the import system's module locks, a
+    finalizer): the command stops at its next check instead of printing "Exception ignored ... Traceback"."""
+    if isinstance(unraisable.exc_value, KeyboardInterrupt) and stop_requested():
+        return
+    sys.__unraisablehook__(unraisable)
 
 
 def _exit_interrupted() -> None:

@@ -54,7 +54,10 @@ class TlsyncGroup(click.Group):
             if stop_requested():  # asked while the command line loaded: an import may have swallowed the interrupt
                 raise KeyboardInterrupt
             with _terminate_as_interrupt():
-                return super().invoke(ctx)
+                done = super().invoke(ctx)
+            if stop_requested():  # asked meanwhile, where Python could not raise it (``__main__._unraisable``)
+                raise KeyboardInterrupt
+            return done
         except KeyboardInterrupt:
             _stopped()
         except (*INPUT_ERRORS, EnvironmentProblem, SyncError, OSError) as exc:

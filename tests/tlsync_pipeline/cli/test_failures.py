@@ -429,3 +429,37 @@ def test_an_interrupted_import_of_the_command_line_exits_130_with_the_one_line()
     assert done.returncode == ExitCode.INTERRUPTED, done.stderr
     assert "Traceback" not in done.stderr, done.stderr
     assert done.stderr.strip().splitlines()[-1].startswith("interrupted: "), done.stderr
+
+
+def test_a_stop_python_could_not_raise_exits_130_without_a_traceback(tmp_path):
+    """Ctrl-C whose handler ran inside a weakref callback (the import system's module locks) cannot raise there:
+    Python prints "Exception ignored ... Traceback" and goes on. The stop is remembered: no traceback, and the
+    command stops with 130 and the one line."""
+    code = (
+        "import sys, weakref\n"
+        "import tlsync_pipeline.cli.__main__ as entry\n"
+        "from tlsync_pipeline.pipeline.stop import request_stop\n"
+        "class Lock:\n"
+        "    pass\n"
+        "held = [Lock()]\n"
+        "watch = weakref.ref(held[0], lambda ref: request_stop())\n"
+        "class Released:\n"
+        "    def find_spec(self, name, path=None, target=None):\n"
+        "        if name == 'tlsync_pipeline.cli.main' and held:\n"
+        "            held.clear()\n"
+        "        return None\n"
+        "sys.meta_path.insert(0, Released())\n"
+        f"sys.argv = ['tlsync', 'status', {str(tmp_path / 'project.toml')!r}]\n"
+        "entry.main()\n"
+    )
+    root = Path(__file__).resolve().parents[3]
+    done = subprocess.run(
+        [sys.executable, "-c", code],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        env={**os.environ, "PYTHONPATH": str(root)},
+    )
+    assert done.returncode == ExitCode.INTERRUPTED, done.stderr
+    assert "Traceback" not in done.stderr and "Exception ignored" not in done.stderr, done.stderr
+    assert done.stderr.strip().splitlines()[-1].startswith("interrupted: "), done.stderr
