@@ -58,6 +58,7 @@ THREAD_VARIABLES = (
     "VECLIB_MAXIMUM_THREADS",
 )
 EXECUTORS = ("process", "serial", "dask")
+STOP_POLL_S = 0.2  # how often a run waiting for its workers looks whether a stop was asked (seconds)
 STOP_GRACE_S = 3.0  # how long a stopped worker may take to exit before it is killed (seconds)
 _PR_SET_PDEATHSIG = 1
 
@@ -263,8 +264,16 @@ class ProcessExecutor:
         return self._pool is not None
 
     def wait_any(self, futures: list) -> list:
-        done, _ = cf.wait(futures, return_when=cf.FIRST_COMPLETED)
-        return list(done)
+        """The futures done, once one is; KeyboardInterrupt within STOP_POLL_S of a stop asked where Python could
+        not raise it (a signal handler run inside a weakref callback or a finalizer: ``stop.stop_requested``)."""
+        from tlsync_pipeline.pipeline.stop import stop_requested
+
+        while True:
+            done, _ = cf.wait(futures, timeout=STOP_POLL_S, return_when=cf.FIRST_COMPLETED)
+            if done:
+                return list(done)
+            if stop_requested():
+                raise KeyboardInterrupt
 
     def close(self, cancel: bool = False) -> None:
         """Wait for the workers to finish; with cancel (an interrupted run), stop them at once."""

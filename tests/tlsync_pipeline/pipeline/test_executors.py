@@ -283,3 +283,25 @@ def test_a_ctrl_c_while_the_pool_starts_leaves_the_close_nothing_to_close_twice(
         executor.submit(len, {"obj": ()})
     executor.close(cancel=True)
     os.close(read_end)
+
+
+def test_waiting_for_the_workers_stops_soon_after_a_stop_python_could_not_raise():
+    """A Ctrl-C whose handler ran where Python cannot raise (a weakref callback, a finalizer) leaves only the stop
+    asked: the run waiting for its workers raises KeyboardInterrupt within a poll, not once a task ends."""
+    from tlsync_pipeline.pipeline import stop
+
+    executor = executors.ProcessExecutor(1)
+    try:
+        future = executor.submit(subprocess.run, {"args": ["sleep", "5"]})
+        try:
+            stop.request_stop()
+        except KeyboardInterrupt:
+            pass  # swallowed where it ran
+        start = time.monotonic()
+        with pytest.raises(KeyboardInterrupt):
+            executor.wait_any([future])
+        assert time.monotonic() - start < 1.0
+        assert not future.done()
+    finally:
+        stop.clear()
+        executor.close(cancel=True)
