@@ -26,9 +26,11 @@ if signal.getsignal(signal.SIGINT) is signal.default_int_handler:  # not when Ct
 import sys  # noqa: E402 - after the handlers, so a signal during these imports exits 130
 
 from tlsync_pipeline.cli.signals import INTERRUPTED, INTERRUPTED_MESSAGE, interrupt  # noqa: E402
+from tlsync_pipeline.pipeline.stop import stop_requested  # noqa: E402
 
 
 def main() -> None:
+    sys.unraisablehook = _unraisable
     signal.signal(signal.SIGTERM, interrupt)
     if signal.getsignal(signal.SIGINT) is _exit_before_start:  # Ctrl-C too, remembered (not when ignored)
         signal.signal(signal.SIGINT, interrupt)
@@ -43,11 +45,28 @@ def main() -> None:
         if exc.code == INTERRUPTED:
             _exit_interrupted()
         raise
+    except Exception:
+        # An interrupted import outside a command (the command line's own) can come out as another error
+        # (pybind11: "ImportError: initialization failed"); with a stop asked, the run stops as interrupted.
+        if not stop_requested():
+            raise
+        print(INTERRUPTED_MESSAGE, file=sys.stderr)
+        _exit_interrupted()
+
+
+def _unraisable(unraisable) -> None:
+    """``sys.unraisablehook``: silent on the KeyboardInterrupt of a stop asked (remembered, ``stop_requested``) that
+    Python could not raise where the handler ran (inside a weakref callback of the import system's module locks, a
+    finalizer): the command stops at its next check instead of printing "Exception ignored ... Traceback"."""
+    if isinstance(unraisable.exc_value, KeyboardInterrupt) and stop_requested():
+        return
+    sys.__unraisablehook__(unraisable)
 
 
 def _exit_interrupted() -> None:
     """Exit with 130 now: after a KeyboardInterrupt raised inside some C-level code (an import), Python would
-    end a normal exit by killing itself with SIGINT instead. The run has already stopped its workers.
+    end a normal exit by killing itself with SIGINT instead (exit -2; also after an error that the interrupt
+    caused and ``main`` caught). The run has already stopped its workers.
 
     The multiprocessing finalizers run first: they unlink the semaphores of the stopped worker pool's queues,
     which the resource tracker would otherwise find at its own exit and warn about ("leaked semaphore objects").

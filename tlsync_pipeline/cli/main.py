@@ -11,6 +11,7 @@ import sys
 import threading
 from contextlib import contextmanager
 from pathlib import Path
+from typing import NoReturn
 
 import click
 
@@ -53,15 +54,31 @@ class TlsyncGroup(click.Group):
             if stop_requested():  # asked while the command line loaded: an import may have swallowed the interrupt
                 raise KeyboardInterrupt
             with _terminate_as_interrupt():
-                return super().invoke(ctx)
+                done = super().invoke(ctx)
+            if stop_requested():  # asked meanwhile, where Python could not raise it (``__main__._unraisable``)
+                raise KeyboardInterrupt
+            return done
         except KeyboardInterrupt:
-            click.echo(INTERRUPTED_MESSAGE, err=True)
-            sys.exit(ExitCode.INTERRUPTED)
+            _stopped()
         except (*INPUT_ERRORS, EnvironmentProblem, SyncError, OSError) as exc:
+            if stop_requested():  # what the interrupt left behind (a file closed under a stopped task)
+                _stopped()
             print_error(describe_error(exc), exc)
             sys.exit(exit_code_for(exc))
+        except Exception:
+            # A KeyboardInterrupt raised inside an extension's import comes out as another error (pybind11:
+            # "ImportError: initialization failed"): with a stop asked, it is the stop, not a failure.
+            if stop_requested():
+                _stopped()
+            raise
         finally:
             clear_stop()  # a stop asked of this command is not the next one's in this process (as tests run them)
+
+
+def _stopped() -> NoReturn:
+    """The one line and exit code 130 of a command stopped by Ctrl-C or SIGTERM."""
+    click.echo(INTERRUPTED_MESSAGE, err=True)
+    sys.exit(ExitCode.INTERRUPTED)
 
 
 @contextmanager

@@ -98,25 +98,28 @@ def execute(
         project.camera(name)
     _check_force_with_cameras(cameras, force_stages)
     executor = make_executor(executor_kind, jobs, scheduler, worker_modules())
-    stage_bars = not quiet and isinstance(executor, SerialExecutor)
-    graph = build_graph(project, work, Options(progress=stage_bars))
-    force: set[str] = set()
-    for stage in force_stages:
-        force.update(graph.select(stage, None))
-    targets = None
-    if targets_stage is not None:
-        targets = [tid for camera in cameras or (None,) for tid in graph.select(targets_stage, camera)]
-        if force_target:
-            force.update(targets)
-    elif cameras:
-        targets = [tid for tid, task in graph.tasks.items() if task.camera in cameras]
-    if cameras:
-        force = {t for t in force if graph.tasks[t].camera in cameras}
-    progress = ConsoleProgress(quiet)
     try:
-        summary = run_graph(graph, executor, force, targets, progress)
+        stage_bars = not quiet and isinstance(executor, SerialExecutor)
+        graph = build_graph(project, work, Options(progress=stage_bars))
+        force: set[str] = set()
+        for stage in force_stages:
+            force.update(graph.select(stage, None))
+        targets = None
+        if targets_stage is not None:
+            targets = [tid for camera in cameras or (None,) for tid in graph.select(targets_stage, camera)]
+            if force_target:
+                force.update(targets)
+        elif cameras:
+            targets = [tid for tid, task in graph.tasks.items() if task.camera in cameras]
+        if cameras:
+            force = {t for t in force if graph.tasks[t].camera in cameras}
+        progress = ConsoleProgress(quiet)
+        try:
+            summary = run_graph(graph, executor, force, targets, progress)
+        finally:
+            progress.close()
     finally:
-        progress.close()
+        executor.close()  # closed by the run already; not when refused first (its idle fork server ends here)
     text = format_summary(summary, counts=not quiet) if summary_text else ""
     if text:
         click.echo(text)

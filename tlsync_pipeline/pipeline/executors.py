@@ -12,7 +12,12 @@ tasks one at a time in this process.
 Local workers fork from a server process that imported the modules the
 caller names once (``forkserver`` with a preload, where the platform has it;
 else each is spawned and imports them itself), so a run pays for its
-imports once rather than once per worker.
+imports once rather than once per worker. On Linux that server is forked
+from the run's own process when the executor is made, before any task or
+thread of the run (``fork_server_here``): it inherits every module the run
+imported (the stage modules, SciPy: about 0.7 s of CPU a new interpreter
+would import again) and imports only the rest of the preload (the libraries
+that only workers use), and only once a first task starts the pool.
 
 Local workers never outlive the run that started them: they ignore Ctrl-C
 (the terminal sends it to the whole process group; the run stops them
@@ -33,14 +38,17 @@ import multiprocessing
 import multiprocessing.connection
 import multiprocessing.forkserver
 import os
+import select
 import signal
+import socket
 import sys
 import threading
 import time
+import traceback
 import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, NoReturn
 
 THREAD_VARIABLES = (
     "OMP_NUM_THREADS",
@@ -50,6 +58,7 @@ THREAD_VARIABLES = (
     "VECLIB_MAXIMUM_THREADS",
 )
 EXECUTORS = ("process", "serial", "dask")
+STOP_POLL_S = 0.2  # how often a run waiting for its workers looks whether a stop was asked (seconds)
 STOP_GRACE_S = 3.0  # how long a stopped worker may take to exit before it is killed (seconds)
 _PR_SET_PDEATHSIG = 1
 
@@ -217,7 +226,9 @@ class ProcessExecutor:
     platform has ``forkserver``, a server process imports them once and the
     workers fork from it (each would take 0.5-1 s of CPU to import them
     itself); else the workers are spawned. Either way they start from a
-    process with no thread of the run's.
+    process with no thread of the run's. With a preload, on Linux, that
+    server is forked from this process now (``fork_server_here``), idle until
+    a first task starts the pool.
     """
 
     name = "process"
@@ -229,6 +240,7 @@ class ProcessExecutor:
         self._pool: cf.ProcessPoolExecutor | None = None
         self._forked = False
         self._saved_env: dict[str, str | None] = {}
+        self._start_server: int | None = fork_server_here(preload) if preload and can_fork_server() else None
 
     def submit(self, fn: Callable, kwargs: dict) -> cf.Future:
         if self._pool is None:
@@ -237,7 +249,8 @@ class ProcessExecutor:
                 self._saved_env[var] = os.environ.get(var)
                 os.environ[var] = "1"
             quiet_resource_tracker()
-            context = worker_context(self.preload)
+            start, self._start_server = self._start_server, None  # worker_context closes it, even when interrupted
+            context = worker_context(self.preload, start)
             self._forked = context.get_start_method() == "forkserver"
             self._pool = cf.ProcessPoolExecutor(self.jobs, mp_context=context, initializer=die_with_parent)
         if self._forked:  # the workers ignore Ctrl-C from their start (worker_context)
@@ -251,11 +264,23 @@ class ProcessExecutor:
         return self._pool is not None
 
     def wait_any(self, futures: list) -> list:
-        done, _ = cf.wait(futures, return_when=cf.FIRST_COMPLETED)
-        return list(done)
+        """The futures done, once one is; KeyboardInterrupt within STOP_POLL_S of a stop asked where Python could
+        not raise it (a signal handler run inside a weakref callback or a finalizer: ``stop.stop_requested``)."""
+        from tlsync_pipeline.pipeline.stop import stop_requested
+
+        while True:
+            done, _ = cf.wait(futures, timeout=STOP_POLL_S, return_when=cf.FIRST_COMPLETED)
+            if done:
+                return list(done)
+            if stop_requested():
+                raise KeyboardInterrupt
 
     def close(self, cancel: bool = False) -> None:
         """Wait for the workers to finish; with cancel (an interrupted run), stop them at once."""
+        if self._start_server is not None:  # the server forked for a pool no task started: it ends unused
+            os.close(self._start_server)
+            self._start_server = None
+            stop_fork_server()
         if self._pool is not None:
             if cancel:
                 # No public API before Python 3.14 (terminate_workers): stop the running tasks too,
@@ -280,10 +305,11 @@ class ProcessExecutor:
         self._saved_env = {}
 
 
-def worker_context(preload: tuple[str, ...]) -> multiprocessing.context.BaseContext:
+def worker_context(preload: tuple[str, ...], start_server: int | None = None) -> multiprocessing.context.BaseContext:
     """How local workers start: forked from a server that imported ``preload`` once (``forkserver``), else spawned.
 
-    The fork server is started here (unless one runs), with the environment of this moment and Ctrl-C ignored:
+    start_server: the pipe that starts the server ``fork_server_here`` forked (it imports the preload now), else
+    the fork server is started here (unless one runs), with the environment of this moment and Ctrl-C ignored:
     the workers it forks inherit that from their first instruction. Then this process waits until the server has
     imported ``preload`` (it forks one process that does nothing), with Ctrl-C working: one that stops the run
     meanwhile leaves no worker asked for, to start once the run is gone."""
@@ -291,6 +317,11 @@ def worker_context(preload: tuple[str, ...]) -> multiprocessing.context.BaseCont
         return multiprocessing.get_context("spawn")
     context = multiprocessing.get_context("forkserver")
     context.set_forkserver_preload(list(preload))
+    if start_server is not None:
+        try:
+            os.write(start_server, b"1")
+        finally:
+            os.close(start_server)
     with _ctrl_c_held(), _ctrl_c_ignored():  # a Ctrl-C meanwhile waits: Linux keeps a blocked signal pending
         multiprocessing.forkserver.ensure_running()
     ready = context.Process(target=os.getpid, name="tlsync-fork-server-ready", daemon=True)
@@ -301,6 +332,108 @@ def worker_context(preload: tuple[str, ...]) -> multiprocessing.context.BaseCont
         stop_fork_server(kill=True)
         raise
     return context
+
+
+def can_fork_server() -> bool:
+    """Whether this process may fork the run's fork server itself (``fork_server_here``): on Linux, with no thread
+    but this one (a lock another thread holds would stay held in the fork), and multiprocessing's fork server
+    protocol as this module speaks it (Python's own up to 3.13: no authentication key)."""
+    import inspect
+
+    return (
+        sys.platform.startswith("linux")
+        and threading.active_count() == 1
+        and "forkserver" in multiprocessing.get_all_start_methods()
+        and "authkey_r" not in inspect.signature(multiprocessing.forkserver.main).parameters
+    )
+
+
+def fork_server_here(preload: tuple[str, ...]) -> int | None:
+    """Fork this process into multiprocessing's fork server, idle until started; the write end of the pipe that starts
+    it (``worker_context``), None when a fork server runs already.
+
+    Once started it limits its BLAS libraries to one thread each (as the workers' environment does for the
+    libraries they load), imports ``preload`` and serves multiprocessing's fork requests as the server Python
+    spawns does (``multiprocessing.forkserver.main``), its modules those of this process at this moment. It exits
+    unused when the pipe closes unwritten (``ProcessExecutor.close``), and like Python's when this process's end
+    of its "alive" pipe closes (``stop_fork_server``, or this process's end). Ctrl-C is ignored there from its
+    first instruction and every other handler of this process is reset, so its workers start as a spawned
+    server's do."""
+    from multiprocessing import connection, util
+
+    server = multiprocessing.forkserver._forkserver  # noqa: SLF001 - no public API to start a server other than a new interpreter
+    with server._lock:  # type: ignore[attr-defined]  # noqa: SLF001
+        if server._forkserver_pid is not None:  # type: ignore[attr-defined]  # noqa: SLF001
+            return None
+        quiet_resource_tracker()  # the workers are handed its pipe: started by this process, as by Python's server
+        address = connection.arbitrary_address("AF_UNIX")  # type: ignore[attr-defined]
+        with socket.socket(socket.AF_UNIX) as listener:
+            listener.bind(address)
+            if not util.is_abstract_socket_namespace(address):
+                os.chmod(address, 0o600)
+            listener.listen()
+            alive_r, alive_w = os.pipe()
+            start_r, start_w = os.pipe()
+            sys.stdout.flush()  # not written again by the server's processes
+            sys.stderr.flush()
+            with _ctrl_c_held(), _opencv_without_threads():
+                pid = os.fork()
+                if pid == 0:
+                    os.close(alive_w)
+                    os.close(start_w)
+                    _serve_forks(listener.fileno(), alive_r, start_r, preload)
+            os.close(alive_r)
+            os.close(start_r)
+        server._forkserver_address = address  # type: ignore[attr-defined]  # noqa: SLF001
+        server._forkserver_alive_fd = alive_w  # type: ignore[attr-defined]  # noqa: SLF001
+        server._forkserver_pid = pid  # type: ignore[attr-defined]  # noqa: SLF001
+    return start_w
+
+
+@contextlib.contextmanager
+def _opencv_without_threads():
+    """OpenCV's thread pool stopped for the block (one thread, its workers joined), then as it was: a process forked
+    meanwhile does not inherit a pool whose threads it lacks (its first ``cv2.setNumThreads`` would wait for them
+    forever). Nothing to do where OpenCV is not loaded."""
+    cv2 = sys.modules.get("cv2")
+    if cv2 is None:
+        yield
+        return
+    threads = cv2.getNumThreads()
+    cv2.setNumThreads(1)
+    try:
+        yield
+    finally:
+        cv2.setNumThreads(threads)
+
+
+def _serve_forks(listener: int, alive_r: int, start_r: int, preload: tuple[str, ...]) -> NoReturn:
+    """The forked server's life (``fork_server_here``); it never returns to the caller's code."""
+    code = 0
+    try:
+        for number in signal.valid_signals():
+            with contextlib.suppress(OSError, ValueError):
+                if callable(signal.getsignal(number)):
+                    signal.signal(number, signal.SIG_DFL)
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+        ready, _, _ = select.select([start_r, alive_r], [], [])
+        if start_r not in ready or os.read(start_r, 1) != b"1":
+            os._exit(0)  # no pool was started
+        os.close(start_r)
+        for var in THREAD_VARIABLES:
+            os.environ[var] = "1"
+        from threadpoolctl import threadpool_limits
+
+        threadpool_limits(limits=1, user_api="blas")  # the BLAS pools this process inherited started with more
+        multiprocessing.forkserver.main(listener, alive_r, list(preload))
+    except SystemExit:
+        pass  # multiprocessing's way out: the run closed its end of the alive pipe
+    except BaseException:  # noqa: BLE001 - shown, then this process ends: the run's next fork request fails
+        traceback.print_exc()
+        code = 1
+    finally:
+        os._exit(code)
 
 
 def stop_fork_server(kill: bool = False) -> None:
@@ -366,8 +499,8 @@ def run_each(executor, parts: list[tuple[Callable[..., Any], dict]]) -> list[Cal
     For a task of the engine's own process with independent parts (render's
     cameras and charts): it hands them to the run's executor, so no pool is
     started inside another. A local pool that no task has started yet is not
-    started for them: its fork server would first import the pipeline and
-    matplotlib (about 1 s of CPU), more than a camera's pictures cost, so the
+    started for them: its fork server would first import OpenCV, numba and
+    matplotlib (about 0.7 s of CPU), more than a camera's pictures cost, so the
     parts run in this process (``tlsync render`` alone, a run where only
     render is stale). Each Called says whether it ran in another process (its
     CPU is then not in this one's, for the task to add to its own); the first

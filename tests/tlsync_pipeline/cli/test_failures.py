@@ -372,3 +372,94 @@ def test_a_stop_asked_while_the_command_line_loads_stops_the_command_even_if_an_
     stopped = runner.invoke(main, ["status", str(project_dir / "project.toml")])
     assert stopped.exit_code == ExitCode.INTERRUPTED, stopped.output
     assert runner.invoke(main, ["status", str(project_dir / "project.toml")]).exit_code != ExitCode.INTERRUPTED
+
+
+def test_an_error_left_by_an_interrupted_import_inside_a_command_is_the_stop(project_dir, monkeypatch):
+    """A Ctrl-C inside an extension's import comes out of the import as another error (pybind11: "ImportError:
+    initialization failed"); the command stops as interrupted (130, the one line), not with a traceback."""
+    import tlsync_pipeline.cli.main as cli_main
+
+    def interrupted_import(*args, **kwargs):
+        try:
+            request_stop()
+        except KeyboardInterrupt:
+            pass  # turned into the error below by the extension
+        raise ImportError("initialization failed")
+
+    monkeypatch.setattr(cli_main, "execute", interrupted_import)
+    stopped = CliRunner().invoke(main, ["run", str(project_dir / "project.toml")])
+    assert stopped.exit_code == ExitCode.INTERRUPTED, stopped.output
+    assert stopped.output.strip().splitlines()[-1].startswith("interrupted: "), stopped.output
+
+    def failed_import(*args, **kwargs):
+        raise ImportError("initialization failed")
+
+    monkeypatch.setattr(cli_main, "execute", failed_import)
+    failed = CliRunner().invoke(main, ["run", str(project_dir / "project.toml")])
+    assert isinstance(failed.exception, ImportError)  # without a stop asked (nor a stop left over), the error itself
+
+
+def test_an_interrupted_import_of_the_command_line_exits_130_with_the_one_line():
+    """The same error out of the command line's own import (before any command): exit 130 and the line, not 1 with
+    a traceback, nor -2 (Python ends a normal exit by SIGINT once a KeyboardInterrupt went through an import)."""
+    code = (
+        "import sys\n"
+        "import tlsync_pipeline.cli.__main__ as entry\n"
+        "from tlsync_pipeline.pipeline.stop import request_stop\n"
+        "class Interrupted:\n"
+        "    def find_spec(self, name, path=None, target=None):\n"
+        "        if name == 'tlsync_pipeline.cli.main':\n"
+        "            try:\n"
+        "                request_stop()\n"
+        "            except KeyboardInterrupt:\n"
+        "                raise ImportError('initialization failed') from None\n"
+        "        return None\n"
+        "sys.meta_path.insert(0, Interrupted())\n"
+        "sys.argv = ['tlsync', '--help']\n"
+        "entry.main()\n"
+    )
+    root = Path(__file__).resolve().parents[3]
+    done = subprocess.run(
+        [sys.executable, "-c", code],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        env={**os.environ, "PYTHONPATH": str(root)},
+    )
+    assert done.returncode == ExitCode.INTERRUPTED, done.stderr
+    assert "Traceback" not in done.stderr, done.stderr
+    assert done.stderr.strip().splitlines()[-1].startswith("interrupted: "), done.stderr
+
+
+def test_a_stop_python_could_not_raise_exits_130_without_a_traceback(tmp_path):
+    """Ctrl-C whose handler ran inside a weakref callback (the import system's module locks) cannot raise there:
+    Python prints "Exception ignored ... Traceback" and goes on. The stop is remembered: no traceback, and the
+    command stops with 130 and the one line."""
+    code = (
+        "import sys, weakref\n"
+        "import tlsync_pipeline.cli.__main__ as entry\n"
+        "from tlsync_pipeline.pipeline.stop import request_stop\n"
+        "class Lock:\n"
+        "    pass\n"
+        "held = [Lock()]\n"
+        "watch = weakref.ref(held[0], lambda ref: request_stop())\n"
+        "class Released:\n"
+        "    def find_spec(self, name, path=None, target=None):\n"
+        "        if name == 'tlsync_pipeline.cli.main' and held:\n"
+        "            held.clear()\n"
+        "        return None\n"
+        "sys.meta_path.insert(0, Released())\n"
+        f"sys.argv = ['tlsync', 'status', {str(tmp_path / 'project.toml')!r}]\n"
+        "entry.main()\n"
+    )
+    root = Path(__file__).resolve().parents[3]
+    done = subprocess.run(
+        [sys.executable, "-c", code],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        env={**os.environ, "PYTHONPATH": str(root)},
+    )
+    assert done.returncode == ExitCode.INTERRUPTED, done.stderr
+    assert "Traceback" not in done.stderr and "Exception ignored" not in done.stderr, done.stderr
+    assert done.stderr.strip().splitlines()[-1].startswith("interrupted: "), done.stderr

@@ -14,6 +14,7 @@ from pathlib import Path
 
 import pytest
 
+from tlsync_pipeline.pipeline import executors
 from tlsync_pipeline.pipeline.executors import SerialExecutor, call_recording_warnings
 
 TASK = """
@@ -34,7 +35,7 @@ import sleeper
 from tlsync_pipeline.pipeline.executors import ProcessExecutor
 
 if __name__ == "__main__":
-    executor = ProcessExecutor(2)
+    executor = ProcessExecutor(2, preload={preload!r})
     futures = [executor.submit(sleeper.sleep_and_record, {{"path": {folder!r} + f"/worker{{i}}", "seconds": 120}}) for i in range(2)]
     try:
         executor.wait_any(futures)
@@ -56,9 +57,9 @@ def alive(pid: int) -> bool:
         return True
 
 
-def _start_parent(tmp_path: Path) -> tuple[subprocess.Popen, list[int]]:
+def _start_parent(tmp_path: Path, preload: tuple[str, ...] = ()) -> tuple[subprocess.Popen, list[int]]:
     (tmp_path / "sleeper.py").write_text(TASK)
-    (tmp_path / "parent.py").write_text(PARENT.format(folder=str(tmp_path)))
+    (tmp_path / "parent.py").write_text(PARENT.format(folder=str(tmp_path), preload=preload))
     parent = subprocess.Popen([sys.executable, str(tmp_path / "parent.py")], start_new_session=True)
     files = [tmp_path / "worker0", tmp_path / "worker1"]
     deadline = time.monotonic() + 120
@@ -75,16 +76,23 @@ def _gone_within(pids: list[int], seconds: float) -> bool:
     return not any(alive(p) for p in pids)
 
 
+def parent_of(pid: int) -> int:
+    return int(Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[1])
+
+
+@pytest.mark.parametrize("preload", [(), ("sleeper",)])  # with a preload (Linux): a fork server forked from the parent
 @pytest.mark.parametrize("how", [signal.SIGKILL, signal.SIGINT])
-def test_workers_end_with_their_parent(tmp_path, how):
-    parent, workers = _start_parent(tmp_path)
+def test_workers_end_with_their_parent(tmp_path, how, preload):
+    parent, workers = _start_parent(tmp_path, preload)
+    servers = {parent_of(p) for p in workers} - {parent.pid}
     try:
         assert all(alive(p) for p in workers)
         os.kill(parent.pid, how)
         assert parent.wait(timeout=30) == (-signal.SIGKILL if how == signal.SIGKILL else 130)
         assert _gone_within(workers, 5.0), f"workers still running 5 s after {how.name} of their parent"
+        assert _gone_within(list(servers), 5.0), f"the fork server still runs 5 s after {how.name} of its parent"
     finally:
-        for pid in [parent.pid, *workers]:
+        for pid in [parent.pid, *workers, *servers]:
             if alive(pid):
                 os.kill(pid, signal.SIGKILL)
 
@@ -194,3 +202,106 @@ def test_workers_fork_from_one_process_that_imported_the_preload(tmp_path, monke
     assert all(r["preloaded"] for r in results) and importers[0] not in {r["pid"] for r in results}
     assert "preloaded_marker" not in __import__("sys").modules  # this process never imported it
     assert children_cpu() - before >= busy_s
+
+
+UNUSED_PARENT = """
+import multiprocessing.forkserver, os, sys
+sys.path.insert(0, {folder!r})
+from tlsync_pipeline.pipeline.executors import ProcessExecutor
+
+if __name__ == "__main__":
+    executor = ProcessExecutor(2, preload=("unused_marker",))
+    server = multiprocessing.forkserver._forkserver._forkserver_pid
+    print("server", server, "forked here", open(f"/proc/{{server}}/stat").read().rsplit(")", 1)[1].split()[1] == str(os.getpid()))
+    executor.close()
+    try:
+        os.kill(server, 0)
+        print("ended at close", False)
+    except ProcessLookupError:  # ended and reaped by the close
+        print("ended at close", True)
+"""
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="the fork server is forked from the run on Linux only")
+def test_a_fork_server_no_task_started_ends_without_importing_the_preload(tmp_path):
+    """The server forked when the executor is made waits for a first task: closed before any, it imports nothing and
+    ends with the close."""
+    record = tmp_path / "imported_by"
+    (tmp_path / "unused_marker.py").write_text(PRELOADED.format(record=str(record), busy_s=0.0))
+    (tmp_path / "parent.py").write_text(UNUSED_PARENT.format(folder=str(tmp_path)))
+    done = subprocess.run([sys.executable, str(tmp_path / "parent.py")], capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0, done.stderr
+    _, server, *said = done.stdout.split()
+    assert said == ["forked", "here", "True", "ended", "at", "close", "True"], done.stdout
+    assert not alive(int(server)) and not record.exists()
+
+
+OPENCV_PARENT = """
+import sys, time
+sys.path.insert(0, {folder!r})
+import numpy as np, cv2
+from tlsync_pipeline.pipeline.executors import ProcessExecutor
+import sleeper
+
+if __name__ == "__main__":
+    cv2.resize(np.zeros((3000, 3000), np.uint8), (1000, 1000), interpolation=cv2.INTER_AREA)
+    time.sleep(1.0)  # OpenCV's threads started, then waiting for work
+    executor = ProcessExecutor(2, preload=("sleeper",))
+    value = executor.submit(sleeper.blur, {{}}).result().value
+    executor.close()
+    print("blurred", value)
+"""
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="the fork server is forked from the run on Linux only")
+def test_a_fork_server_forked_after_opencv_started_its_threads_runs_opencv(tmp_path):
+    """A run that used OpenCV's threads before its executor was made: the server forked from it, and its workers, still
+    run OpenCV (a pool inherited without its threads would block their first call)."""
+    (tmp_path / "sleeper.py").write_text(
+        TASK + "\n\ndef blur():\n    import cv2, numpy as np\n"
+        "    return int(cv2.GaussianBlur(np.full((2000, 2000), 7, np.uint8), (5, 5), 0).max())\n"
+    )
+    (tmp_path / "parent.py").write_text(OPENCV_PARENT.format(folder=str(tmp_path)))
+    done = subprocess.run([sys.executable, str(tmp_path / "parent.py")], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0 and "blurred 7" in done.stdout, done.stderr
+
+
+def test_a_ctrl_c_while_the_pool_starts_leaves_the_close_nothing_to_close_twice(monkeypatch):
+    """Ctrl-C while the first task starts the pool, after the start pipe was handed over and closed: the close that
+    follows (the interrupted run's) raises nothing (it closed the pipe again: "Bad file descriptor", exit 3)."""
+    read_end, write_end = os.pipe()
+    monkeypatch.setattr(executors, "can_fork_server", lambda: True)
+    monkeypatch.setattr(executors, "fork_server_here", lambda preload: write_end)
+
+    def interrupted(preload, start_server):
+        os.close(start_server)
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(executors, "worker_context", interrupted)
+    executor = executors.ProcessExecutor(2, preload=("json",))
+    with pytest.raises(KeyboardInterrupt):
+        executor.submit(len, {"obj": ()})
+    executor.close(cancel=True)
+    os.close(read_end)
+
+
+def test_waiting_for_the_workers_stops_soon_after_a_stop_python_could_not_raise():
+    """A Ctrl-C whose handler ran where Python cannot raise (a weakref callback, a finalizer) leaves only the stop
+    asked: the run waiting for its workers raises KeyboardInterrupt within a poll, not once a task ends."""
+    from tlsync_pipeline.pipeline import stop
+
+    executor = executors.ProcessExecutor(1)
+    try:
+        future = executor.submit(subprocess.run, {"args": ["sleep", "5"]})
+        try:
+            stop.request_stop()
+        except KeyboardInterrupt:
+            pass  # swallowed where it ran
+        start = time.monotonic()
+        with pytest.raises(KeyboardInterrupt):
+            executor.wait_any([future])
+        assert time.monotonic() - start < 1.0
+        assert not future.done()
+    finally:
+        stop.clear()
+        executor.close(cancel=True)
