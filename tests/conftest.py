@@ -14,6 +14,7 @@ settings.register_profile("ci", derandomize=True, print_blob=True)
 settings.load_profile("ci" if os.environ.get("CI") else "default")
 
 from data_fixtures import make_scene, write_scene  # noqa: E402 (after Hypothesis's profile)
+from tlsync_pipeline.pipeline.executors import one_blas_thread  # noqa: E402
 from tlsync_pipeline.pipeline.workspace import STRICT_VARIABLE  # noqa: E402
 
 # A stage that opens a file of the work or project folder it did not declare fails (worker processes inherit this).
@@ -23,6 +24,14 @@ os.environ[STRICT_VARIABLE] = "1"
 # shell (a CI script, nohup ... &) gets SIGINT ignored, and its children would inherit that and never see it.
 if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
     signal.signal(signal.SIGINT, signal.default_int_handler)
+
+
+@pytest.fixture(autouse=True, scope="session")
+def _one_blas_thread():
+    """Tests run numpy and scipy with one BLAS thread, as the engine runs every task: the suite's worker processes
+    (pytest-xdist, one per core) then do not each start a thread per core, which spin against each other."""
+    with one_blas_thread():
+        yield
 
 
 @pytest.fixture(autouse=True)

@@ -119,10 +119,11 @@ def test_ffmpeg_script_writes_one_video_per_camera_beside_the_work_folder(projec
     assert outputs == [str(moved / "cam0_synced.mp4"), str(moved / "cam1_synced.mp4")]
 
 
-def test_demo_does_not_overwrite_a_folder_the_user_edited(project_dir):
+def test_demo_does_not_overwrite_a_folder_the_user_edited(project_dir, monkeypatch):
     """A folder of the user's (the paper scene's project here), and a demo folder edited after it was made."""
     before = (project_dir / "project.toml").read_text()
-    result = _cli("demo", "--quick", project_dir)
+    monkeypatch.chdir(project_dir.parent)  # the folder named as a user names it: its path's length is pytest's
+    result = _cli("demo", "--quick", project_dir.name)
     assert result.exit_code == ExitCode.BAD_INPUT and "did not write" in result.output, result.output
     assert (project_dir / "project.toml").read_text() == before
 

@@ -27,7 +27,7 @@ def test_swapped_columns_far_from_the_given_origin_are_named(tmp_path):
         match=r"gcp.csv: the points are [\d,]+ km from the \[target\] origin; latitude and longitude look swapped",
     ) as info:
         check_gcp_places(table, SITE)
-    assert len(str(info.value)) < 200
+    assert len(str(info.value).replace(str(tmp_path), "")) < 140  # the folder's path aside (pytest's, of any length)
 
 
 def test_one_point_with_a_sign_slip_is_named_with_its_line(tmp_path):
