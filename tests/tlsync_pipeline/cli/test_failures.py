@@ -353,12 +353,9 @@ def test_a_signal_before_the_command_line_is_imported_exits_130_without_a_traceb
         f"os.kill(os.getpid(), signal.{signal_name})\n"
         "time.sleep(10)\n"
     )
-    root = Path(__file__).resolve().parents[3]
-    done = subprocess.run(
-        [sys.executable, "-c", code], capture_output=True, timeout=60, env={**os.environ, "PYTHONPATH": str(root)}
-    )
+    done = _python(code)
     assert done.returncode == 130
-    assert done.stderr == b"interrupted\n"
+    assert done.stderr == "interrupted\n"
 
 
 def test_a_stop_asked_while_the_command_line_loads_stops_the_command_even_if_an_import_swallowed_it(project_dir):
@@ -419,14 +416,7 @@ def test_an_interrupted_import_of_the_command_line_exits_130_with_the_one_line()
         "sys.argv = ['tlsync', '--help']\n"
         "entry.main()\n"
     )
-    root = Path(__file__).resolve().parents[3]
-    done = subprocess.run(
-        [sys.executable, "-c", code],
-        capture_output=True,
-        text=True,
-        timeout=60,
-        env={**os.environ, "PYTHONPATH": str(root)},
-    )
+    done = _python(code)
     assert done.returncode == ExitCode.INTERRUPTED, done.stderr
     assert "Traceback" not in done.stderr, done.stderr
     assert done.stderr.strip().splitlines()[-1].startswith("interrupted: "), done.stderr
@@ -453,14 +443,14 @@ def test_a_stop_python_could_not_raise_exits_130_without_a_traceback(tmp_path):
         f"sys.argv = ['tlsync', 'status', {str(tmp_path / 'project.toml')!r}]\n"
         "entry.main()\n"
     )
-    root = Path(__file__).resolve().parents[3]
-    done = subprocess.run(
-        [sys.executable, "-c", code],
-        capture_output=True,
-        text=True,
-        timeout=60,
-        env={**os.environ, "PYTHONPATH": str(root)},
-    )
+    done = _python(code)
     assert done.returncode == ExitCode.INTERRUPTED, done.stderr
     assert "Traceback" not in done.stderr and "Exception ignored" not in done.stderr, done.stderr
     assert done.stderr.strip().splitlines()[-1].startswith("interrupted: "), done.stderr
+
+
+def _python(code: str) -> subprocess.CompletedProcess:
+    """``code`` run by a Python process of its own, this tree's packages first on its path."""
+    root = Path(__file__).resolve().parents[3]
+    env = {**os.environ, "PYTHONPATH": str(root)}
+    return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60, env=env)
