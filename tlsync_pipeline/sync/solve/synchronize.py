@@ -63,7 +63,6 @@ from tlsync_pipeline.sync.solve.plausibility import (
     motion_slope,
     rival_odds_of,
 )
-from tlsync_pipeline.sync.solve.posed_bias import refit_poses
 from tlsync_pipeline.sync.solve.registry import get_method
 from tlsync_pipeline.sync.solve.slow_motion import bias_time_spread
 from tlsync_pipeline.sync.timeline import CameraLine, Timeline
@@ -214,19 +213,6 @@ def with_pose_line(line: CameraLine, timing: PoseTiming) -> CameraLine:
         cov = np.array(line.cov, dtype=np.float64)
     cov[1, 1] += (beta - timing.beta) ** 2 + timing.spread**2
     return replace(line, alpha=timing.alpha, beta=beta, cov=cov)
-
-
-def _with_pose_cov(line: CameraLine, cov: np.ndarray | None, alone: np.ndarray | None) -> CameraLine:
-    """The line with the covariance of its pose's refit under the log's bias added (sync/solve/posed_bias.py: the
-    joint fit holds the pose fixed), and beta's variance at least ``alone``'s, the line's covariance from its pose
-    alone (with_pose_line): on drone2 flown at 1.9 m/s at most under a drone's GNSS the sum alone held 32 of 36
-    pairs, the pose alone's 36 of 36. Unchanged without a refit's covariance or without one of its own."""
-    if cov is None or line.cov is None:
-        return line
-    out = np.asarray(line.cov, dtype=np.float64) + cov
-    if alone is not None and np.isfinite(alone[1, 1]):
-        out[1, 1] = max(out[1, 1], float(alone[1, 1]))
-    return replace(line, cov=out)
 
 
 def with_pose_offset(line: CameraLine, timing: PoseTiming) -> CameraLine:
@@ -398,31 +384,18 @@ def synchronize(
     shared: dict[str, np.ndarray] = {}
     fitted_model, estimate = log_model, None
     method = get_method(params.method)
-    # A camera whose pose comes from the target absorbed the log's error during its visit in that pose: under a log
-    # with a bias and other cameras to tell it apart its pose is fitted again under the bias's estimate
-    # (sync/solve/posed_bias.py); otherwise it stays out.
-    posed_here = {name for name in lines if _pose_from_target(used[name].camera)}
-    with_posed = log_model.has_bias and len(lines) >= 2
-    surveyed = {name: results[name] for name in lines if with_posed or name not in posed_here}
+    # A camera whose pose comes from the target absorbed the log's bias during its visit in that pose: it stays out.
+    surveyed = {name: results[name] for name in lines if not _pose_from_target(used[name].camera)}
     joint = log_model.has_bias or log_model.white_m > 0  # a bias, or white noise cameras may see at the same time
     if params.log_bias and joint and isinstance(method, JointMethod) and surveyed:
         data = {
             name: camera_data(name, replace(used[name], track=r.track(used[name])), r.votes, radius[name])
             for name, r in surveyed.items()
         }
-        refitted = posed_here & surveyed.keys()
-        pose_covs: dict[str, np.ndarray] = {}
-        before = {n: lines[n].cov for n in refitted}
-        if refitted:
-            data, refit_lines, pose_covs = refit_poses(
-                method, data, {n: lines[n] for n in surveyed}, refitted, prepared, params, log_model
-            )
-            lines = {**lines, **refit_lines}
         fitted, bias = method.refine_with_log_bias(
             data, {n: lines[n] for n in surveyed}, prepared, params, method_options(params), log_model
         )
         lines = {**lines, **fitted}
-        lines = {n: _with_pose_cov(line, pose_covs.get(n), before.get(n)) for n, line in lines.items()}
         if bias is not None:
             fitted_model, estimate = bias.model, bias.estimate
             names = [n for n in lines if n in bias.sensitivity]
