@@ -25,6 +25,8 @@ Frames are 0-based frame indices; clock values are the camera clock's
 
 from __future__ import annotations
 
+import contextlib
+
 import numpy as np
 
 from calibration.camera import Camera
@@ -396,12 +398,11 @@ def identify_in_segments(
         params.delta,
         clock.vfr,
     )
-    if not any(seg.source == "votes" for seg in segments):
-        return weigh_followers(camera, detections, trajectory, fps, params, found, prefer, pick=pick), breaks
-    _, shifted = detections_clock(detections, fps, segments)
-    known = detections.subset(np.flatnonzero(np.isfinite(shifted)))
-    try:
-        again = identify_target(camera, known, trajectory, fps, params, prefer, segments)
-    except SyncError:
-        return weigh_followers(camera, detections, trajectory, fps, params, found, prefer, pick=pick), breaks
-    return weigh_followers(camera, known, trajectory, fps, params, again, prefer, segments, pick), breaks
+    among, on = detections, segments[:0]  # the movers and the segments the identification stands on (none)
+    if any(seg.source == "votes" for seg in segments):
+        _, shifted = detections_clock(detections, fps, segments)
+        known = detections.subset(np.flatnonzero(np.isfinite(shifted)))
+        with contextlib.suppress(SyncError):
+            again = identify_target(camera, known, trajectory, fps, params, prefer, segments)
+            found, among, on = again, known, segments
+    return weigh_followers(camera, among, trajectory, fps, params, found, prefer, on, pick), breaks
