@@ -16,6 +16,7 @@ from data_fixtures.walk import WalkSpec, make_walk_scene
 from tlsync_pipeline.sync.kernels.backward import backward_support, line_support
 from tlsync_pipeline.sync.kernels.slope import slope_prior
 from tlsync_pipeline.sync.model.log_model import PRESETS as LOG_MODELS
+from tlsync_pipeline.sync.model.log_model import log_drift
 from tlsync_pipeline.sync.model.methods import preparation_of, prepare_trajectory
 from tlsync_pipeline.sync.model.params import SyncParams
 from tlsync_pipeline.sync.solve.plausibility import (
@@ -31,7 +32,6 @@ from tlsync_pipeline.sync.solve.plausibility import (
     judge_line,
     line_evidence,
     line_motion,
-    log_drift,
     motion_slope,
     path_share,
     times_fps,

@@ -70,6 +70,12 @@ class LogModel:
         return math.hypot(self.white_m, self.bias_vertical_m)
 
 
+def log_drift(model: LogModel, rate: float | None) -> float:
+    """How fast the log's bias alone moves its positions (metres per sample, ``LogModel.drift_m_s``); 0 without a
+    bias or a log rate."""
+    return model.drift_m_s(rate) / rate if rate else 0.0
+
+
 PRESETS: dict[str, LogModel] = {
     "none": LogModel("none"),
     "rtk": LogModel("rtk", 0.02),

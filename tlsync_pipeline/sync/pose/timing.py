@@ -47,7 +47,7 @@ import math
 import numpy as np
 from scipy.special import stdtr
 
-from tlsync_pipeline.sync.model.log_model import LogModel
+from tlsync_pipeline.sync.model.log_model import LogModel, log_drift
 from tlsync_pipeline.sync.pose.pose_fit import JointFit
 from tlsync_pipeline.trajectory import PiecewiseTrajectory
 
@@ -84,7 +84,7 @@ def bias_frames(
     moving = speed > 0
     if not moving.any():
         return 0.0
-    drift = model.drift_m_s(rate) / rate if rate else 0.0  # metres per sample
+    drift = log_drift(model, rate)  # metres per sample
     own = np.maximum(np.sqrt(np.maximum(speed[moving] ** 2 - drift**2, 0.0)), SLOWEST_SHARE * drift)
     sigma = np.array([model.bias_m, model.bias_m, model.bias_vertical_m])
     along = np.sqrt(((velocity[moving] / speed[moving, None]) ** 2 * sigma**2).sum(axis=1))

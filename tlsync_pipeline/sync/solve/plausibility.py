@@ -215,12 +215,6 @@ class LineMotion:
         return self.direction >= MOVES_ALONG or beyond
 
 
-def log_drift(model: LogModel, rate: float | None) -> float:
-    """How fast the log's bias alone moves its positions (metres per sample, ``LogModel.drift_m_s``); 0 without a
-    bias or a log rate."""
-    return model.drift_m_s(rate) / rate if rate else 0.0
-
-
 def line_motion(
     camera: Camera,
     track: Track,

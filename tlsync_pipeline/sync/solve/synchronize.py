@@ -43,7 +43,7 @@ from tlsync_pipeline.sync.identify.segments import (
 from tlsync_pipeline.sync.kernels.backward import BACKWARD_BELOW, backward_support, line_support
 from tlsync_pipeline.sync.kernels.slope import slope_prior
 from tlsync_pipeline.sync.model.clock import FrameTimes, Segment, camera_clock, image_speed
-from tlsync_pipeline.sync.model.log_model import PRESETS, LogModel
+from tlsync_pipeline.sync.model.log_model import PRESETS, LogModel, log_drift
 from tlsync_pipeline.sync.model.methods import method_options, params_table, preparation_of, prepare_trajectory
 from tlsync_pipeline.sync.model.params import ParamsTable, SyncParams
 from tlsync_pipeline.sync.model.status import AMBIGUOUS, FAILED, HALF_95, WEAK, Reason, diagnosed_failure
@@ -59,7 +59,6 @@ from tlsync_pipeline.sync.solve.plausibility import (
     diagnose,
     judge_line,
     line_motion,
-    log_drift,
     motion_slope,
     rival_odds_of,
 )
