@@ -244,8 +244,8 @@ from tlsync_pipeline.pipeline.executors import ProcessExecutor
 
 
 def task():
-    import os, sys
-    return os.getpid(), "late_marker" in sys.modules
+    import gc, os, sys
+    return os.getpid(), "late_marker" in sys.modules, gc.isenabled(), gc.get_freeze_count() > 1000
 
 
 if __name__ == "__main__":
@@ -262,14 +262,15 @@ if __name__ == "__main__":
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="the fork server is forked from the run on Linux only")
 def test_workers_inherit_what_the_run_imported_before_its_fork_server_was_forked(tmp_path):
     """The server is forked when the run asks (after its input checks): a module the run imported since it made the
-    executor is in every worker without a worker or the server importing it again."""
+    executor is in every worker without a worker or the server importing it again; the objects the worker inherited
+    are frozen out of its garbage collections, which still run on its own."""
     record = tmp_path / "imported_by"
     (tmp_path / "late_marker.py").write_text(PRELOADED.format(record=str(record), busy_s=0.0))
     (tmp_path / "parent.py").write_text(INHERITED_PARENT.format(folder=str(tmp_path)))
     done = subprocess.run([sys.executable, str(tmp_path / "parent.py")], capture_output=True, text=True, timeout=60)
     assert done.returncode == 0, done.stderr
-    parent, worker, inherited = done.stdout.split()
-    assert inherited == "True" and worker != parent
+    parent, worker, inherited, collecting, frozen = done.stdout.split()
+    assert inherited == collecting == frozen == "True" and worker != parent
     assert [int(line) for line in record.read_text().split()] == [int(parent)]
 
 
