@@ -15,11 +15,11 @@ else each is spawned and imports them itself), so a run pays for its
 imports once rather than once per worker. On Linux that server is forked
 from the run's own process once the run's input checks are done, before its
 lock, any task or thread (``ProcessExecutor.fork_server``): it inherits every
-module the run
-imported (the stage modules, SciPy, and PyAV and OpenCV the input checks
-loaded: about 1 s of CPU a new interpreter would import again) and imports
-only the rest of the preload (the libraries that only workers use), and only
-once a first task starts the pool.
+module the run imported (the stage modules, SciPy, and PyAV and OpenCV the
+input checks loaded: about 1 s of CPU a new interpreter would import again)
+and imports only the rest of the preload (the libraries that only workers
+use), and only once a first task starts the pool, with the garbage collector
+off, then frozen out of its workers' collections (``_import_frozen``).
 
 Local workers never outlive the run that started them: they ignore Ctrl-C
 (the terminal sends it to the whole process group; the run stops them
