@@ -161,7 +161,7 @@ class PictureMeter:
         small, mean = _small_plane(cv2, gray)
         if self._last is not None and self._last[0] == index - 1 and self._last[1].shape == gray.shape:
             self._frames.append(index)
-            self._change.append(int(cv2.absdiff(gray, self._last[1]).max()))
+            self._change.append(int(cv2.norm(gray, self._last[1], cv2.NORM_INF)))  # max |difference|, in one pass
             self._movers.append(movers)
             self._step.append(_picture_change(self._small[-1], (index, small, mean)))
             back = self._small[-3] if len(self._small) >= 3 and self._small[-3][0] == index - 3 else None

@@ -220,6 +220,8 @@ def run_graph(
     for tid in wanted:
         if graph.tasks[tid].problem:
             raise InputError(graph.tasks[tid].problem)
+    if isinstance(executor, ProcessExecutor):
+        executor.fork_server()  # here: its workers inherit the libraries the checks loaded (PyAV, OpenCV)
     with WorkLock(graph.work):
         if executor.cores > 1 or isinstance(
             executor, ProcessExecutor

@@ -13,11 +13,13 @@ Local workers fork from a server process that imported the modules the
 caller names once (``forkserver`` with a preload, where the platform has it;
 else each is spawned and imports them itself), so a run pays for its
 imports once rather than once per worker. On Linux that server is forked
-from the run's own process when the executor is made, before any task or
-thread of the run (``fork_server_here``): it inherits every module the run
-imported (the stage modules, SciPy: about 0.7 s of CPU a new interpreter
-would import again) and imports only the rest of the preload (the libraries
-that only workers use), and only once a first task starts the pool.
+from the run's own process once the run's input checks are done, before its
+lock, any task or thread (``ProcessExecutor.fork_server``): it inherits every
+module the run imported (the stage modules, SciPy, and PyAV and OpenCV the
+input checks loaded: about 1 s of CPU a new interpreter would import again)
+and imports only the rest of the preload (the libraries that only workers
+use), and only once a first task starts the pool, with the garbage collector
+off, then frozen out of its workers' collections (``_import_frozen``).
 
 Local workers never outlive the run that started them: they ignore Ctrl-C
 (the terminal sends it to the whole process group; the run stops them
@@ -34,6 +36,7 @@ import concurrent.futures as cf
 import contextlib
 import ctypes
 import dataclasses
+import gc
 import multiprocessing
 import multiprocessing.connection
 import multiprocessing.forkserver
@@ -227,8 +230,8 @@ class ProcessExecutor:
     workers fork from it (each would take 0.5-1 s of CPU to import them
     itself); else the workers are spawned. Either way they start from a
     process with no thread of the run's. With a preload, on Linux, that
-    server is forked from this process now (``fork_server_here``), idle until
-    a first task starts the pool.
+    server is forked from this process by ``fork_server`` (or by the first
+    task), idle until a first task starts the pool.
     """
 
     name = "process"
@@ -240,10 +243,19 @@ class ProcessExecutor:
         self._pool: cf.ProcessPoolExecutor | None = None
         self._forked = False
         self._saved_env: dict[str, str | None] = {}
-        self._start_server: int | None = fork_server_here(preload) if preload and can_fork_server() else None
+        self._start_server: int | None = None
+
+    def fork_server(self) -> None:
+        """Fork the workers' server from this process now (``fork_server_here``), idle until a first task starts the
+        pool; nothing when it is forked already, the pool runs, there is no preload or this process may not fork it
+        (``can_fork_server``). The later it is forked, the more of this process's modules it inherits: the engine
+        calls it once the run's input checks have loaded theirs, before the run takes its lock or starts a thread."""
+        if self._pool is None and self._start_server is None and self.preload and can_fork_server():
+            self._start_server = fork_server_here(self.preload)
 
     def submit(self, fn: Callable, kwargs: dict) -> cf.Future:
         if self._pool is None:
+            self.fork_server()
             # The workers (and the fork server) inherit the environment: set the thread counts before they start.
             for var in THREAD_VARIABLES:
                 self._saved_env[var] = os.environ.get(var)
@@ -426,7 +438,8 @@ def _serve_forks(listener: int, alive_r: int, start_r: int, preload: tuple[str, 
         from threadpoolctl import threadpool_limits
 
         threadpool_limits(limits=1, user_api="blas")  # the BLAS pools this process inherited started with more
-        multiprocessing.forkserver.main(listener, alive_r, list(preload))
+        _import_frozen(preload)
+        multiprocessing.forkserver.main(listener, alive_r, list(preload))  # the preload imported: served at once
     except SystemExit:
         pass  # multiprocessing's way out: the run closed its end of the alive pipe
     except BaseException:  # noqa: BLE001 - shown, then this process ends: the run's next fork request fails
@@ -434,6 +447,23 @@ def _serve_forks(listener: int, alive_r: int, start_r: int, preload: tuple[str, 
         code = 1
     finally:
         os._exit(code)
+
+
+def _import_frozen(preload: tuple[str, ...]) -> None:
+    """Import ``preload`` (an ImportError left for a worker to meet, as multiprocessing's server does) with the garbage
+    collector off, then freeze every object this process holds (``gc.freeze``): they live as long as it does, and
+    the workers forked from it neither scan them at each full collection (about 0.13 s each in a run's worker, with
+    some 200,000 of them) nor copy the memory pages they would touch doing so."""
+    gc.disable()
+    try:
+        for name in preload:
+            try:
+                __import__(name)
+            except ImportError:
+                pass
+    finally:
+        gc.freeze()
+        gc.enable()
 
 
 def stop_fork_server(kill: bool = False) -> None:

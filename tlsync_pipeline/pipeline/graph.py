@@ -61,7 +61,13 @@ STAGE_SPECS: dict[str, StageSpec] = {
 assert STAGES == tuple(STAGE_SPECS) and PER_CAMERA == tuple(n for n, s in STAGE_SPECS.items() if s.per_camera), (
     "stage_names.py lists STAGE_SPECS"
 )
-LAZY_LIBRARIES = ("cv2", "matplotlib.pyplot")  # imported by the stages only where they draw or read pictures
+LAZY_LIBRARIES = (  # imported by the stages only where they need them: pictures, videos, splines, geodetic files
+    "av",
+    "cv2",
+    "matplotlib.pyplot",
+    "pyproj",
+    "scipy.interpolate",
+)
 COMPILED = ("trackers.fork_preload",)  # the blob detector's compiled passes (numba), loaded at their import
 
 

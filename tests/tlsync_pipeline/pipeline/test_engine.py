@@ -191,6 +191,25 @@ def test_process_executor_gives_the_same_timeline(project_dir, tmp_path):
     assert serial["cameras"] == pool["cameras"]
 
 
+def test_a_run_forks_its_workers_server_after_the_input_checks_before_its_lock(project_dir, monkeypatch):
+    """The server the workers fork from is forked once the checks have loaded their libraries (it inherits them), and
+    before the run holds the work folder's lock (the server and its workers never hold it)."""
+    from tlsync_pipeline.pipeline.executors import ProcessExecutor
+
+    events = []
+    checks = engine.validate_project
+    monkeypatch.setattr(engine, "validate_project", lambda *args: (checks(*args), events.append("checked")))
+    lock = project_dir / "work" / ".lock"
+    forked = lambda self: events.append(("forked", lock.exists()))  # noqa: E731
+    monkeypatch.setattr(ProcessExecutor, "fork_server", forked)
+    executor = ProcessExecutor(2, preload=("json",))
+    try:
+        run_graph(_graph(project_dir), executor)
+    finally:
+        executor.close()
+    assert events[:2] == ["checked", ("forked", False)]
+
+
 def test_dask_executor_on_a_local_cluster(project_dir, tmp_path):
     distributed = pytest.importorskip("distributed")
 

@@ -211,6 +211,7 @@ from tlsync_pipeline.pipeline.executors import ProcessExecutor
 
 if __name__ == "__main__":
     executor = ProcessExecutor(2, preload=("unused_marker",))
+    executor.fork_server()
     server = multiprocessing.forkserver._forkserver._forkserver_pid
     print("server", server, "forked here", open(f"/proc/{{server}}/stat").read().rsplit(")", 1)[1].split()[1] == str(os.getpid()))
     executor.close()
@@ -224,8 +225,8 @@ if __name__ == "__main__":
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="the fork server is forked from the run on Linux only")
 def test_a_fork_server_no_task_started_ends_without_importing_the_preload(tmp_path):
-    """The server forked when the executor is made waits for a first task: closed before any, it imports nothing and
-    ends with the close."""
+    """The server forked before any task waits for a first task: closed before any, it imports nothing and ends with
+    the close."""
     record = tmp_path / "imported_by"
     (tmp_path / "unused_marker.py").write_text(PRELOADED.format(record=str(record), busy_s=0.0))
     (tmp_path / "parent.py").write_text(UNUSED_PARENT.format(folder=str(tmp_path)))
@@ -234,6 +235,43 @@ def test_a_fork_server_no_task_started_ends_without_importing_the_preload(tmp_pa
     _, server, *said = done.stdout.split()
     assert said == ["forked", "here", "True", "ended", "at", "close", "True"], done.stdout
     assert not alive(int(server)) and not record.exists()
+
+
+INHERITED_PARENT = """
+import sys
+sys.path.insert(0, {folder!r})
+from tlsync_pipeline.pipeline.executors import ProcessExecutor
+
+
+def task():
+    import gc, os, sys
+    return os.getpid(), "late_marker" in sys.modules, gc.isenabled(), gc.get_freeze_count() > 1000
+
+
+if __name__ == "__main__":
+    import os
+    executor = ProcessExecutor(2, preload=("json",))
+    import late_marker  # imported after the executor was made, before its server is forked
+    executor.fork_server()
+    executor.fork_server()  # forked once
+    print(os.getpid(), *executor.submit(task, {{}}).result().value)
+    executor.close()
+"""
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="the fork server is forked from the run on Linux only")
+def test_workers_inherit_what_the_run_imported_before_its_fork_server_was_forked(tmp_path):
+    """The server is forked when the run asks (after its input checks): a module the run imported since it made the
+    executor is in every worker without a worker or the server importing it again; the objects the worker inherited
+    are frozen out of its garbage collections, which still run on its own."""
+    record = tmp_path / "imported_by"
+    (tmp_path / "late_marker.py").write_text(PRELOADED.format(record=str(record), busy_s=0.0))
+    (tmp_path / "parent.py").write_text(INHERITED_PARENT.format(folder=str(tmp_path)))
+    done = subprocess.run([sys.executable, str(tmp_path / "parent.py")], capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0, done.stderr
+    parent, worker, inherited, collecting, frozen = done.stdout.split()
+    assert inherited == collecting == frozen == "True" and worker != parent
+    assert [int(line) for line in record.read_text().split()] == [int(parent)]
 
 
 OPENCV_PARENT = """

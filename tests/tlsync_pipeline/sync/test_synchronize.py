@@ -94,3 +94,26 @@ def test_the_votes_near_a_line_span_one_pass_up_to_a_cap():
     votes = Votes(500.0 + offsets, np.full(3, 500.0), np.zeros(3))
     assert votes_near(inputs, votes, 1.0, 0.0, 300.0).tolist() == [True, True, True]  # band 600 frames
     assert votes_near(inputs, votes, 1.0, 0.0, 300.0, widest=300.0).tolist() == [True, True, False]
+
+
+def test_the_trajectory_prepared_again_is_the_one_kept_read_only_and_any_change_prepares_anew():
+    """The stages of one worker prepare the same trajectory again and again: the same trajectory (read again, equal
+    arrays) and preparation give the kept result, whose arrays cannot be changed under the next caller; another
+    trajectory or preparation is prepared for itself, with the values a first preparation gives."""
+    from tlsync_pipeline.sync.kernels.smoothing import smooth_trajectory
+    from tlsync_pipeline.sync.model import methods
+
+    trajectory = make_scene(3).trajectory
+    smoothing = preparation_of(SyncParams())
+    first = prepare_trajectory(trajectory, smoothing)
+    again = prepare_trajectory(dataclasses.replace(trajectory, xyz=trajectory.xyz.copy()), smoothing)
+    assert again is first and not first.xyz.flags.writeable and not first.sample.flags.writeable
+    assert np.array_equal(first.xyz, smooth_trajectory(trajectory).xyz)
+    with pytest.raises(ValueError):
+        first.xyz[0, 0] = 0.0
+    moved = dataclasses.replace(trajectory, xyz=trajectory.xyz + [1.0, 0.0, 0.0])
+    assert np.array_equal(prepare_trajectory(moved, smoothing).xyz, smooth_trajectory(moved).xyz)
+    raised = preparation_of(SyncParams(logged_point_above_m=0.3))
+    assert np.allclose(prepare_trajectory(trajectory, raised).xyz, first.xyz - [0.0, 0.0, 0.3])
+    methods._LAST_PREPARED.clear()  # noqa: SLF001 - a fresh process's memo
+    assert np.array_equal(prepare_trajectory(trajectory, smoothing).xyz, first.xyz)
