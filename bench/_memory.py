@@ -1,6 +1,10 @@
-"""Shared by the benches that measure memory: a process's own peak resident memory."""
+"""Shared by the benches that measure memory: a process's own peak resident memory, and a process tree's."""
 
 from __future__ import annotations
+
+import os
+import threading
+from pathlib import Path
 
 
 def peak_rss_mb() -> float:
@@ -17,3 +21,59 @@ def peak_rss_mb() -> float:
             return next(int(line.split()[1]) for line in status if line.startswith("VmHWM:")) / 1024.0
     except (OSError, StopIteration):
         return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+
+
+def tree_rss_mb(root: int) -> float:
+    """The memory (MB) process ``root`` and every process under it hold now, from /proc (Linux; 0 elsewhere or once
+    it ended): the sum of their proportional set sizes (Pss: a page that forked workers still share with their
+    parent counts once over them), their VmRSS where Pss cannot be read."""
+    parent_of: dict[int, int] = {}
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            try:
+                stat = (entry / "stat").read_text()
+            except OSError:
+                continue
+            parent_of[int(entry.name)] = int(stat[stat.rindex(")") + 2 :].split()[1])
+    children: dict[int, list[int]] = {}
+    for pid, parent in parent_of.items():
+        children.setdefault(parent, []).append(pid)
+    total, todo = 0.0, [root]
+    while todo:
+        pid = todo.pop()
+        todo += children.get(pid, [])
+        total += _process_kb(pid, "smaps_rollup", "Pss:") or _process_kb(pid, "status", "VmRSS:")
+    return total / 1024.0
+
+
+def _process_kb(pid: int, file: str, key: str) -> int:
+    """The kB figure of /proc/PID/FILE's line ``key``, 0 when it cannot be read."""
+    try:
+        with open(f"/proc/{pid}/{file}") as lines:
+            return next((int(line.split()[1]) for line in lines if line.startswith(key)), 0)
+    except OSError:
+        return 0
+
+
+class TreePeak:
+    """The largest resident memory of a process tree (tree_rss_mb) sampled every ``every_s`` seconds while it runs:
+    ``with TreePeak(pid) as peak: ...`` then ``peak.mb``. A lower bound of the true peak (between samples it may be
+    higher); the run's largest process's own high-water mark (peak_rss_mb) is another."""
+
+    def __init__(self, root: int, every_s: float = 0.05):
+        self.root, self.every_s, self.mb = root, every_s, 0.0
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._sample, daemon=True)
+
+    def _sample(self) -> None:
+        while not self._stop.is_set() and os.path.exists(f"/proc/{self.root}"):
+            self.mb = max(self.mb, tree_rss_mb(self.root))
+            self._stop.wait(self.every_s)
+
+    def __enter__(self) -> TreePeak:
+        self._thread.start()
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self._stop.set()
+        self._thread.join()
