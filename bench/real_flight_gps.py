@@ -163,15 +163,24 @@ def flight(data: Path, variant: Variant) -> tuple[SlowedFlight, object]:
 
 def repeated(slowed: SlowedFlight, count: int) -> SlowedFlight:
     """The flight's cameras in turn, the first ones again under new names ("cam0_1", ...) until there are ``count``:
-    the same views again, each with its own line to fit, as new cameras make the sync's and the render's work grow."""
+    the same views again, the k-th copy's video starting k frames earlier (its track's frames and its true line's
+    beta k more: a project takes no two identical tracks), as new cameras make the sync's and the render's work
+    grow."""
     names = list(slowed.cameras)
     cameras, lines, n_frames = {}, {}, {}
     for k in range(count):
-        name = names[k % len(names)]
-        new = name if k < len(names) else f"{name}_{k // len(names)}"
-        given = slowed.cameras[name]
-        cameras[new] = dataclasses.replace(given, camera=dataclasses.replace(given.camera, name=new))
-        lines[new], n_frames[new] = slowed.lines[name], slowed.n_frames[name]
+        name, copy = names[k % len(names)], k // len(names)
+        new = f"{name}_{copy}" if copy else name
+        given, line = slowed.cameras[name], slowed.lines[name]
+        track = given.track
+        assert track is not None and track.time_s is None, "a copy shifts the track's frames only"
+        cameras[new] = dataclasses.replace(
+            given,
+            camera=dataclasses.replace(given.camera, name=new),
+            track=dataclasses.replace(track, frame=track.frame + copy),
+        )
+        lines[new] = Relation(line.alpha, line.beta + copy)
+        n_frames[new] = slowed.n_frames[name] + copy
     return dataclasses.replace(slowed, cameras=cameras, lines=lines, n_frames=n_frames)
 
 
