@@ -11,7 +11,8 @@ log with its model declared (data_fixtures/logged_project.py), through
 ``tlsync run -j JOBS`` in a child process (calibrate poses the cameras, then
 vote, sync and render); its CPU is the run's and its workers', its peak memory
 that of its process tree (the run, the fork server and the workers: the sum of
-their proportional set sizes sampled every 50 ms, bench/_memory.py TreePeak).
+their proportional set sizes, and of their RSS in brackets, sampled every 50
+ms, bench/_memory.py TreePeak).
 ``--through synchronize`` (default) calls synchronize() on the same inputs in
 this process. ``--slow K`` flies the same path K times slower and ``--hover
 S`` holds the drone still S seconds every HOVER_EVERY_S seconds of the flight,
@@ -197,11 +198,11 @@ def run_one(
     if through == "stages":
         if not bias_model:
             raise SystemExit("--through stages runs the project's [sync] as it is: --bias-model on only")
-        timeline, seconds, peak_mb = through_stages(slowed, logged, declared, jobs)
+        timeline, seconds, (peak_mb, rss_mb) = through_stages(slowed, logged, declared, jobs)
     else:
         started = time.process_time()
         timeline, _ = synchronize(slowed.cameras, logged, params, log_model=LOG_MODELS[declared])
-        seconds, peak_mb = time.process_time() - started, np.nan
+        seconds, peak_mb, rss_mb = time.process_time() - started, np.nan, np.nan
     pairs = pair_errors(timeline, slowed.pairs(), slowed.n_frames)
     eps = [e for e, _ in pairs]
     return {
@@ -216,12 +217,15 @@ def run_one(
         },
         "cpu_s": seconds,
         "peak_mb": peak_mb,
+        "rss_mb": rss_mb,
     }
 
 
-def through_stages(slowed: SlowedFlight, logged, declared: str, jobs: int) -> tuple[Timeline, float, float]:
+def through_stages(
+    slowed: SlowedFlight, logged, declared: str, jobs: int
+) -> tuple[Timeline, float, tuple[float, float]]:
     """The timeline ``tlsync run -j JOBS`` makes of the flight's project (written to a temporary folder), the CPU of
-    the run and its workers (s) and the peak memory of its process tree (MB, bench/_memory.py TreePeak)."""
+    the run and its workers (s) and the peak memory of its process tree (MB: Pss, RSS; bench/_memory.py TreePeak)."""
     with tempfile.TemporaryDirectory() as folder:
         project = write_logged_project(Path(folder), slowed.cameras, logged, declared)
         before = resource.getrusage(resource.RUSAGE_CHILDREN)
@@ -239,7 +243,7 @@ def through_stages(slowed: SlowedFlight, logged, declared: str, jobs: int) -> tu
             raise RuntimeError(f"tlsync run exited {run.returncode}: {stderr[-2000:]}")
         timeline = read_timeline(Path(folder) / "work" / "timeline.json")
     seconds = (after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime)
-    return timeline, seconds, peak.mb
+    return timeline, seconds, (peak.mb, peak.rss_mb)
 
 
 def _line_off(timeline: Timeline, slowed: SlowedFlight, name: str) -> str:
@@ -295,8 +299,8 @@ def bound(slowed: SlowedFlight, receiver: str, poses_free: bool) -> str:
 
 def _peak(runs: list[dict]) -> str:
     """The largest peak memory of the runs (MB), "-" when none was measured (runs in this process)."""
-    peaks = [r["peak_mb"] for r in runs if np.isfinite(r["peak_mb"])]
-    return f"{max(peaks):.0f}" if peaks else "-"
+    peaks = [(r["peak_mb"], r["rss_mb"]) for r in runs if np.isfinite(r["peak_mb"])]
+    return f"{max(p for p, _ in peaks):.0f} ({max(r for _, r in peaks):.0f})" if peaks else "-"
 
 
 def main() -> None:
@@ -359,7 +363,8 @@ def main() -> None:
     print(
         "| receiver | bias model | runs with every camera | cameras synchronized | median pair's eps_t, median "
         f"(max) | worst pair's eps_t, median (max) | 95 % intervals that contain the truth | {cpu} | "
-        f"peak memory of a run{' (its process tree)' if args.through == 'stages' else ''} (MB) | refused (cause) |"
+        f"peak memory of a run{', its process tree: Pss (RSS)' if args.through == 'stages' else ''} (MB) | "
+        "refused (cause) |"
     )
     print("|---|---|---|---|---|---|---|---|---|---|")
     for receiver in args.models:
@@ -372,7 +377,7 @@ def main() -> None:
                     print(
                         f"  {receiver} bias {bias} seed {seed}: {r['synchronized']}/{r['cameras']}, median "
                         f"{r['median']:.2f}, worst {r['worst']:.2f}, covered {sum(s <= Z95 for s in r['z'])}/"
-                        f"{len(r['z'])}, {r['cpu_s']:.0f} s, {r['peak_mb']:.0f} MB, "
+                        f"{len(r['z'])}, {r['cpu_s']:.0f} s, {r['peak_mb']:.0f} MB ({r['rss_mb']:.0f} RSS), "
                         f"{r['refused'] or ''}",
                         file=sys.stderr,
                         flush=True,
