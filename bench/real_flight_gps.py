@@ -8,32 +8,39 @@ With ``--poses removed`` every camera's pose comes from the target.
 ``--through stages`` runs each simulated log as a user would: a project folder
 of the cameras (without their poses when removed), tracks and the erroneous
 log with its model declared (data_fixtures/logged_project.py), through
-``tlsync run`` in a child process (calibrate poses the cameras, then vote and
-sync); its CPU and peak memory are the child's. ``--through synchronize``
-(default) calls synchronize() on the same inputs in this process.
-``--slow K`` flies the same path K times slower and ``--hover S`` holds the
-drone still S seconds every HOVER_EVERY_S seconds of the flight, ``--max-speed
-V`` stretches only the parts flown faster than V m/s to that speed (a flight
-that hovers and creeps, its hovers as they were; data_fixtures/slowed_flight.py),
-and ``--only-slower V`` cuts each track to where the drone flies slower than V
-m/s: the slow flights a metre of bias turns into seconds. ``--crop SHARE``
-cuts each camera's video to that share of its visit (the first camera keeps
-the visit's start, the last its end, the others between), and ``--cameras``
-keeps a subset. ``--bound`` prints instead the first-order bound (bench/gps_bound.py) on the median and the
-worst pair's eps_t for each receiver's exact error model, its poses known or (``--poses removed``) estimated
-with the lines, the tracks' pixels white with BOUND_PX (every BOUND_THIN-th frame kept, its noise scaled to keep
-their information). Per receiver and bias model (``--bias-model``): the runs where every
-camera was synchronized, the median and max over runs of the worst and of the
-median synchronized pair's eps_t (frames, eq. 5), the share of synchronized
-pairs whose 95 % interval of beta contains the truth, the refused cameras
-with their cause, the sync's CPU a run (through the stages: the whole
-``tlsync run``'s, calibrate's pose search included), the peak resident memory of the
-runs through the stages, and the process's peak resident memory. ``--runs``
-prints every run. Skips cleanly when the folder is absent.
+``tlsync run -j JOBS`` in a child process (calibrate poses the cameras, then
+vote, sync and render); its CPU is the run's and its workers', its peak memory
+that of its process tree (the run, the fork server and the workers: the sum of
+their proportional set sizes, and of their RSS in brackets, sampled every 50
+ms, bench/_memory.py TreePeak).
+``--through synchronize`` (default) calls synchronize() on the same inputs in
+this process. ``--slow K`` flies the same path K times slower and ``--hover
+S`` holds the drone still S seconds every HOVER_EVERY_S seconds of the flight,
+``--max-speed V`` stretches only the parts flown faster than V m/s to that
+speed (a flight that hovers and creeps, its hovers as they were;
+data_fixtures/slowed_flight.py), and ``--only-slower V`` cuts each track to
+where the drone flies slower than V m/s: the slow flights a metre of bias
+turns into seconds. ``--crop SHARE`` cuts each camera's video to that share of
+its visit (the first camera keeps the visit's start, the last its end, the
+others between), ``--cameras`` keeps a subset, and ``--count N`` repeats the
+cameras under new names to make N (the same views again: a flight with more
+cameras, for memory and CPU). ``--bound`` prints instead the first-order bound
+(bench/gps_bound.py) on the median and the worst pair's eps_t for each
+receiver's exact error model, its poses known or (``--poses removed``)
+estimated with the lines, the tracks' pixels white with BOUND_PX (every
+BOUND_THIN-th frame kept, its noise scaled to keep their information). Per
+receiver and bias model (``--bias-model``): the runs where every camera was
+synchronized, the median and max over runs of the worst and of the median
+synchronized pair's eps_t (frames, eq. 5), the share of synchronized pairs
+whose 95 % interval of beta contains the truth, the refused cameras with their
+cause, the sync's CPU a run (through the stages: the whole ``tlsync run``'s,
+calibrate's pose search included), the peak resident memory of the runs
+through the stages (their process trees'), and this process's peak resident
+memory. ``--runs`` prints every run. Skips cleanly when the folder is absent.
 
     nice python bench/real_flight_gps.py [--data /work/shared/real/drone2] [--seeds 8] [--models drone phone2]
         [--bias-model on off] [--poses given|removed] [--through synchronize|stages] [--slow 1] [--hover 0]
-        [--max-speed V] [--only-slower V] [--crop SHARE] [--cameras cam0 cam2] [--runs]
+        [--max-speed V] [--only-slower V] [--crop SHARE] [--cameras cam0 cam2] [--count N] [--jobs N] [--runs]
 """
 
 from __future__ import annotations
@@ -50,7 +57,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from _memory import peak_rss_mb
+from _memory import TreePeak, peak_rss_mb
 from _report import pair_errors
 from gps_bound import pair_draws
 
@@ -87,7 +94,7 @@ class Variant:
     """How the flight is changed: slowed ``slow`` times with hovers of ``hover_s`` s every HOVER_EVERY_S s, or its
     parts faster than ``max_speed`` m/s stretched to it; each track cut to where the target is slower than
     ``only_slower`` m/s and each video to ``crop`` of its visit; the ``cameras`` kept (None: all); the poses removed
-    when ``poses`` is "removed"."""
+    when ``poses`` is "removed"; the cameras repeated under new names to make ``count`` (None: as they are)."""
 
     slow: float = 1.0
     hover_s: float = 0.0
@@ -96,6 +103,7 @@ class Variant:
     crop: float | None = None
     cameras: tuple[str, ...] | None = None
     poses: str = "given"
+    count: int | None = None
 
     def describe(self) -> str:
         """One line for the bench's header."""
@@ -112,6 +120,8 @@ class Variant:
             parts.append(f"videos cut to {100 * self.crop:.0f} % of their visit")
         if self.cameras is not None:
             parts.append("cameras " + " ".join(self.cameras))
+        if self.count is not None:
+            parts.append(f"the cameras repeated to make {self.count}")
         return ", ".join(parts)
 
 
@@ -147,12 +157,39 @@ def flight(data: Path, variant: Variant) -> tuple[SlowedFlight, object]:
             for n, c in slowed.cameras.items()
         }
         slowed = dataclasses.replace(slowed, cameras=cams)
+    if variant.count is not None:
+        slowed = repeated(slowed, variant.count)
     return slowed, project.sync
 
 
-def run_one(slowed: SlowedFlight, sync_params, receiver: str, seed: int, bias_model: bool, through: str) -> dict:
+def repeated(slowed: SlowedFlight, count: int) -> SlowedFlight:
+    """The flight's cameras in turn, the first ones again under new names ("cam0_1", ...) until there are ``count``:
+    the same views again, the k-th copy's video starting k frames earlier (its track's frames and its true line's
+    beta k more: a project takes no two identical tracks), as new cameras make the sync's and the render's work
+    grow."""
+    names = list(slowed.cameras)
+    cameras, lines, n_frames = {}, {}, {}
+    for k in range(count):
+        name, copy = names[k % len(names)], k // len(names)
+        new = f"{name}_{copy}" if copy else name
+        given, line = slowed.cameras[name], slowed.lines[name]
+        track = given.track
+        assert track is not None and track.time_s is None, "a copy shifts the track's frames only"
+        cameras[new] = dataclasses.replace(
+            given,
+            camera=dataclasses.replace(given.camera, name=new),
+            track=dataclasses.replace(track, frame=track.frame + copy),
+        )
+        lines[new] = Relation(line.alpha, line.beta + copy)
+        n_frames[new] = slowed.n_frames[name] + copy
+    return dataclasses.replace(slowed, cameras=cameras, lines=lines, n_frames=n_frames)
+
+
+def run_one(
+    slowed: SlowedFlight, sync_params, receiver: str, seed: int, bias_model: bool, through: str, jobs: int = 1
+) -> dict:
     """One simulated log of ``receiver``: the sync's figures against the truth (``through``: "synchronize" in this
-    process, "stages" through ``tlsync run``)."""
+    process, "stages" through ``tlsync run -j JOBS``)."""
     trajectory = slowed.trajectory
     errors, _ = log_errors(np.random.default_rng(seed), trajectory.sample / trajectory.rate, RECEIVERS[receiver])
     logged = dataclasses.replace(trajectory, xyz=trajectory.xyz + errors)
@@ -161,11 +198,11 @@ def run_one(slowed: SlowedFlight, sync_params, receiver: str, seed: int, bias_mo
     if through == "stages":
         if not bias_model:
             raise SystemExit("--through stages runs the project's [sync] as it is: --bias-model on only")
-        timeline, seconds, peak_mb = through_stages(slowed, logged, declared)
+        timeline, seconds, (peak_mb, rss_mb) = through_stages(slowed, logged, declared, jobs)
     else:
         started = time.process_time()
         timeline, _ = synchronize(slowed.cameras, logged, params, log_model=LOG_MODELS[declared])
-        seconds, peak_mb = time.process_time() - started, np.nan
+        seconds, peak_mb, rss_mb = time.process_time() - started, np.nan, np.nan
     pairs = pair_errors(timeline, slowed.pairs(), slowed.n_frames)
     eps = [e for e, _ in pairs]
     return {
@@ -180,27 +217,33 @@ def run_one(slowed: SlowedFlight, sync_params, receiver: str, seed: int, bias_mo
         },
         "cpu_s": seconds,
         "peak_mb": peak_mb,
+        "rss_mb": rss_mb,
     }
 
 
-def through_stages(slowed: SlowedFlight, logged, declared: str) -> tuple[Timeline, float, float]:
-    """The timeline ``tlsync run`` makes of the flight's project (written to a temporary folder), the child's CPU
-    (s) and its peak resident memory (MB)."""
+def through_stages(
+    slowed: SlowedFlight, logged, declared: str, jobs: int
+) -> tuple[Timeline, float, tuple[float, float]]:
+    """The timeline ``tlsync run -j JOBS`` makes of the flight's project (written to a temporary folder), the CPU of
+    the run and its workers (s) and the peak memory of its process tree (MB: Pss, RSS; bench/_memory.py TreePeak)."""
     with tempfile.TemporaryDirectory() as folder:
         project = write_logged_project(Path(folder), slowed.cameras, logged, declared)
         before = resource.getrusage(resource.RUSAGE_CHILDREN)
-        done = subprocess.run(
-            [sys.executable, "-m", "tlsync_pipeline.cli", "run", str(project), "-j", "1", "-q"],
+        run = subprocess.Popen(
+            [sys.executable, "-m", "tlsync_pipeline.cli", "run", str(project), "-j", str(jobs), "-q"],
             env={**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parent.parent)},
-            capture_output=True,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
             text=True,
         )
+        with TreePeak(run.pid) as peak:
+            _, stderr = run.communicate()
         after = resource.getrusage(resource.RUSAGE_CHILDREN)
-        if done.returncode not in (0, 1):
-            raise RuntimeError(f"tlsync run exited {done.returncode}: {done.stderr[-2000:]}")
+        if run.returncode not in (0, 1):
+            raise RuntimeError(f"tlsync run exited {run.returncode}: {stderr[-2000:]}")
         timeline = read_timeline(Path(folder) / "work" / "timeline.json")
     seconds = (after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime)
-    return timeline, seconds, after.ru_maxrss / 1024.0
+    return timeline, seconds, (peak.mb, peak.rss_mb)
 
 
 def _line_off(timeline: Timeline, slowed: SlowedFlight, name: str) -> str:
@@ -256,8 +299,8 @@ def bound(slowed: SlowedFlight, receiver: str, poses_free: bool) -> str:
 
 def _peak(runs: list[dict]) -> str:
     """The largest peak memory of the runs (MB), "-" when none was measured (runs in this process)."""
-    peaks = [r["peak_mb"] for r in runs if np.isfinite(r["peak_mb"])]
-    return f"{max(peaks):.0f}" if peaks else "-"
+    peaks = [(r["peak_mb"], r["rss_mb"]) for r in runs if np.isfinite(r["peak_mb"])]
+    return f"{max(p for p, _ in peaks):.0f} ({max(r for _, r in peaks):.0f})" if peaks else "-"
 
 
 def main() -> None:
@@ -284,6 +327,12 @@ def main() -> None:
         "--crop", type=float, default=None, metavar="SHARE", help="cut each video to this share of its visit"
     )
     parser.add_argument("--cameras", nargs="+", default=None, help="the cameras kept (default: all)")
+    parser.add_argument(
+        "--count", type=int, default=None, metavar="N", help="repeat the cameras under new names to make N"
+    )
+    parser.add_argument(
+        "--jobs", type=int, default=1, metavar="N", help="with --through stages: `tlsync run -j N` (default 1)"
+    )
     parser.add_argument("--runs", action="store_true", help="print every run")
     parser.add_argument("--bound", action="store_true", help="print the first-order bound instead of running")
     args = parser.parse_args()
@@ -298,6 +347,7 @@ def main() -> None:
         args.crop,
         None if args.cameras is None else tuple(args.cameras),
         args.poses,
+        args.count,
     )
     if args.bound:
         posed, _ = flight(args.data, dataclasses.replace(variant, poses="given"))
@@ -313,20 +363,21 @@ def main() -> None:
     print(
         "| receiver | bias model | runs with every camera | cameras synchronized | median pair's eps_t, median "
         f"(max) | worst pair's eps_t, median (max) | 95 % intervals that contain the truth | {cpu} | "
-        "peak memory of a run (MB) | refused (cause) |"
+        f"peak memory of a run{', its process tree: Pss (RSS)' if args.through == 'stages' else ''} (MB) | "
+        "refused (cause) |"
     )
     print("|---|---|---|---|---|---|---|---|---|---|")
     for receiver in args.models:
         for bias in args.bias_model:
             runs = []
             for seed in range(args.seeds):
-                runs.append(run_one(slowed, params, receiver, seed, bias == "on", args.through))
+                runs.append(run_one(slowed, params, receiver, seed, bias == "on", args.through, args.jobs))
                 if args.runs:
                     r = runs[-1]
                     print(
                         f"  {receiver} bias {bias} seed {seed}: {r['synchronized']}/{r['cameras']}, median "
                         f"{r['median']:.2f}, worst {r['worst']:.2f}, covered {sum(s <= Z95 for s in r['z'])}/"
-                        f"{len(r['z'])}, {r['cpu_s']:.0f} s, {r['peak_mb']:.0f} MB, "
+                        f"{len(r['z'])}, {r['cpu_s']:.0f} s, {r['peak_mb']:.0f} MB ({r['rss_mb']:.0f} RSS), "
                         f"{r['refused'] or ''}",
                         file=sys.stderr,
                         flush=True,

@@ -38,6 +38,9 @@ from tlsync_pipeline.sync.timeline import Timeline
 from tlsync_pipeline.trajectory import PiecewiseTrajectory
 from trackers import video
 
+VOTE_CELLS = (1200, 900)  # the voting space's grid (sample, clock): about 2.5 cells a pixel of its 6 x 4.5 in axes
+CELL_CHUNK = 2**18  # votes placed on that grid at a time
+
 FRAMES_PER_PAIR = 3
 DECODED_BYTES = 256 * 2**20  # most decoded frame bytes held at once while a video's frames are drawn
 
@@ -168,16 +171,62 @@ def plot_candidate_votes(
     return _plot_voting_space(name, votes, clock, groups, line, f"{name}: voting space of every mover", path)
 
 
+def one_per_cell(
+    x: np.ndarray,
+    y: np.ndarray,
+    bounds: tuple[float, float, float, float],
+    cells: tuple[int, int] = VOTE_CELLS,
+    chunk: int = CELL_CHUNK,
+) -> np.ndarray:
+    """Indices of the points a scatter draws at a bounded cost: one finite point of each occupied cell of a ``cells``
+    grid over ``bounds`` (x0, x1, y0, y1), and the points at the finite ones' extremes of x and y (so the axes'
+    limits are those of every point). Sorted; non-finite points are left out (a scatter does not draw them). The
+    points are read ``chunk`` at a time: the memory is the grid's and a chunk's, whatever their number."""
+    x0, x1, y0, y1 = bounds
+    chosen = np.full(cells[0] * cells[1], -1, np.int64)
+    extremes = []
+    for start in range(0, len(x), chunk):
+        fx, fy = x[start : start + chunk], y[start : start + chunk]
+        finite = np.flatnonzero(np.isfinite(fx) & np.isfinite(fy))
+        if len(finite) == 0:
+            continue
+        fx, fy = fx[finite], fy[finite]
+        col = np.clip(((fx - x0) / max(x1 - x0, 1e-300) * cells[0]).astype(np.int64), 0, cells[0] - 1)
+        row = np.clip(((fy - y0) / max(y1 - y0, 1e-300) * cells[1]).astype(np.int64), 0, cells[1] - 1)
+        chosen[row * cells[0] + col] = finite + start  # one point of each cell: the last assigned
+        extremes += [start + finite[i] for i in (np.argmin(fx), np.argmax(fx), np.argmin(fy), np.argmax(fy))]
+    if not extremes:
+        return np.zeros(0, np.int64)
+    ends = np.array(extremes)
+    ends = ends[[np.argmin(x[ends]), np.argmax(x[ends]), np.argmin(y[ends]), np.argmax(y[ends])]]
+    return np.union1d(chosen[chosen >= 0], ends)
+
+
+def _finite_bounds(x: np.ndarray, y: np.ndarray) -> tuple[float, float, float, float]:
+    """The finite points' bounding box (x0, x1, y0, y1); (0, 1, 0, 1) without any."""
+    finite = np.isfinite(x) & np.isfinite(y)
+    if not finite.any():
+        return 0.0, 1.0, 0.0, 1.0
+    return float(x[finite].min()), float(x[finite].max()), float(y[finite].min()), float(y[finite].max())
+
+
 def _plot_voting_space(name: str, votes, clock: np.ndarray, groups, line, title: str, path: Path) -> Path:
-    """Votes (sample, clock) drawn in groups (mask, marker size, colour, label), in order, with the line."""
+    """Votes (sample, clock) drawn in groups (mask, marker size, colour, label), in order, with the line.
+
+    Each group draws one vote per cell of a VOTE_CELLS grid over every vote (one_per_cell): about 2.5 cells per
+    pixel of the axes, so the picture is the one every vote draws, at a cost bounded by the grid rather than by the
+    votes (a camera casts millions); the labels count every vote."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(6, 4.5))
+    bounds = _finite_bounds(votes.sample, clock)
     for mask, size, colour, label in groups:
-        ax.scatter(votes.sample[mask], clock[mask], s=size, c=colour, label=label, rasterized=True)
+        x, y = votes.sample[mask], clock[mask]
+        drawn = one_per_cell(x, y, bounds)
+        ax.scatter(x[drawn], y[drawn], s=size, c=colour, label=label, rasterized=True)
     xs = np.array([votes.sample.min(), votes.sample.max()]) if len(votes) else np.array([0.0, 1.0])
     ax.plot(xs, line.alpha * xs + line.beta, "k-", lw=1, label=f"clock = {line.alpha:.4f} sample {line.beta:+.2f}")
     ax.set_xlabel("target sample t_r")
