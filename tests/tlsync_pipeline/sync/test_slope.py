@@ -126,3 +126,22 @@ def test_a_merged_box_gives_slack_instead_of_a_biased_centre():
 
     assert worst(centre) > 1.0  # the biased stretch tilts the line
     assert worst(slack) < 0.35 * worst(centre)
+
+
+def test_the_line_of_most_distinct_frames_wins_over_one_of_many_votes_per_frame():
+    """The sweep ranks its windows by votes, several a frame where passers-by vote together; the score is distinct
+    frames. The target's 120 frames (one vote each) against 4 passers-by voting on the same 90 frames of another
+    line: the sweep's finalists hold only the passers-by's line, the runner-up search finds the target's, and the
+    line with more frames is the answer, the other its rival (the crowd scene of docs/accuracy.md, shared views seed
+    11)."""
+    rng = np.random.default_rng(0)
+    target_frame = np.sort(rng.choice(np.arange(10, 1200), 120, replace=False)).astype(np.float64)
+    passer_frame = np.sort(rng.choice(np.arange(10, 1200), 90, replace=False)).astype(np.float64)
+    sample = np.r_[(target_frame + 45) / 25, np.tile((passer_frame + 630) / 25, 4)]
+    frame = np.r_[target_frame, np.tile(passer_frame, 4)]
+    group = np.r_[np.zeros(120), np.repeat(np.arange(1, 5), 90)]
+    found = find_line(sample, frame, rng.uniform(0, 5, len(sample)), group=group, prior=SlopePrior(25.0, 1e-2))
+    assert found.alpha == pytest.approx(25.0, rel=1e-6)
+    assert found.beta == pytest.approx(-45.0, abs=0.5)
+    assert (found.support, found.runner_up) == (120, 90)
+    assert found.rival is not None and found.rival[1] == pytest.approx(-630.0, abs=0.5)

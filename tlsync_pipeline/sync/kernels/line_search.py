@@ -196,6 +196,11 @@ def _sweep(rng, sample, frame, delta, prior: SlopePrior):
     return float(best[0]), float(best[1]), support, len(slopes) * len(s_counted)
 
 
+def _distinct_frames(sample: np.ndarray, frame: np.ndarray, alpha: float, beta: float, delta: float) -> int:
+    """Distinct frames among the votes within delta of the line frame = alpha * sample + beta (the search's score)."""
+    return int(np.unique(frame[distance_to_line(sample, frame, alpha, beta) <= delta]).size)
+
+
 def _peaks(intercept: np.ndarray, counts: np.ndarray, width: float) -> list[int]:
     """Up to SWEEP_PEAKS windows of most votes (intercepts sorted), each starting more than one window width from those
     kept before.
@@ -257,7 +262,10 @@ def find_line(
     any increasing line; apart: frames (along the frame axis) within which a
     line is the same answer as the best one, not a rival: the runner-up is
     searched among the votes farther than that (and than delta) from the
-    best line.
+    best line. The sweep ranks its lines by votes (several a frame where
+    movers vote together) and keeps the _FINALISTS best, which may all lie
+    near one line of many votes on few frames: a runner-up with more
+    distinct frames than the best is then the answer, the best its rival.
     Raises ValueError when no increasing line exists (fewer than 2 distinct
     samples, or votes that never move forward).
     """
@@ -274,13 +282,16 @@ def find_line(
     if found is None:
         raise ValueError("no increasing line through any two votes: the votes do not move forward in time")
     alpha, beta, support, drawn = found
-    on_line = distance_to_line(ts, tf, alpha, beta) <= delta
     runner_up, rival = 0, None
     rest = distance_to_line(ts, tf, alpha, beta) > max(delta, apart / np.hypot(1.0, alpha))
     if rest.sum() >= 2 and len(np.unique(ts[rest])) >= 2:
         second = _search(rng, ts[rest], tf[rest], delta, p, r_min, prior)
         if second is not None:
             runner_up, rival = second[2], (float(second[0]), float(second[1]))
+    if rival is not None and runner_up > support:
+        (alpha, beta), rival = rival, (alpha, beta)
+        runner_up, support = support, _distinct_frames(ts, tf, alpha, beta, delta)
+    on_line = distance_to_line(ts, tf, alpha, beta) <= delta
     inliers = distance_to_line(sample, frame, alpha, beta) <= delta
     residual = tf[on_line] - alpha * ts[on_line] - beta
     rms = float(np.sqrt(np.mean(residual**2))) if on_line.any() else float("nan")
