@@ -20,12 +20,8 @@ from tlsync_pipeline.sync.timeline import Relation, read_truth
 REAL = REAL_DATA / "drone2"
 
 
-@pytest.mark.slow
-@pytest.mark.skipif(
-    not (REAL / "project.toml").exists(), reason="the real flight (TLSYNC_REAL_DATA/drone2) is not here"
-)
-@pytest.mark.parametrize("seed", [0, 1])  # a right line taken for a reversed log; a rival's refit on a wrong line
-def test_the_real_flights_hovers_under_a_drone_gnss_are_synchronized_within_their_intervals(seed):
+def _hovers():
+    """drone2's project and its flight cut to the tracked frames where the drone flies slower than 1.9 m/s."""
     from tlsync_pipeline.pipeline.project import load_project
     from tlsync_pipeline.pipeline.stages.sync import load_inputs
 
@@ -35,13 +31,22 @@ def test_the_real_flights_hovers_under_a_drone_gnss_are_synchronized_within_thei
     truth = json.loads((REAL / "truth.json").read_text())["cameras_to_target"]
     lines = {name: Relation(float(line["alpha"]), float(line["beta"])) for name, line in truth.items()}
     duration = float(trajectory.sample[-1]) / trajectory.rate
-    hovers = slow_part(slowed_flight(cameras, trajectory, lines, n_frames, time_warp(duration, 1.0)), 1.9)
+    return project, slow_part(slowed_flight(cameras, trajectory, lines, n_frames, time_warp(duration, 1.0)), 1.9)
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(
+    not (REAL / "project.toml").exists(), reason="the real flight (TLSYNC_REAL_DATA/drone2) is not here"
+)
+@pytest.mark.parametrize("seed", [0, 1])  # a right line taken for a reversed log; a rival's refit on a wrong line
+def test_the_real_flights_hovers_under_a_drone_gnss_are_synchronized_within_their_intervals(seed):
+    project, hovers = _hovers()
     log = hovers.trajectory
     errors, _ = log_errors(np.random.default_rng(seed), log.sample / log.rate, RECEIVERS["drone"])
     timeline, _ = synchronize(
         hovers.cameras, replace(log, xyz=log.xyz + errors), project.sync, log_model=LOG_MODELS["drone"]
     )
-    assert sorted(timeline.cameras) == sorted(cameras), timeline.failed
+    assert sorted(timeline.cameras) == sorted(hovers.cameras), timeline.failed
     for name, line in timeline.cameras.items():
         frame = float(np.median(hovers.cameras[name].track.frame))  # type: ignore[union-attr]
         sample = (frame - line.beta) / line.alpha
@@ -59,16 +64,7 @@ def test_the_hovers_without_poses_keep_the_lines_of_their_poses_alone_under_a_dr
     """Where the drone hovers the shared bias is not told from the timing: the poses' refit under the joint bias
     (sync/solve/posed_bias.py) would drag the lines 30-60 frames off (seed 1); the guard keeps each line its pose
     alone gave, as without the joint fit."""
-    from tlsync_pipeline.pipeline.project import load_project
-    from tlsync_pipeline.pipeline.stages.sync import load_inputs
-
-    project = load_project(REAL / "project.toml")
-    cameras, trajectory = load_inputs(project)
-    _, n_frames = read_truth(REAL / "truth.json")
-    truth = json.loads((REAL / "truth.json").read_text())["cameras_to_target"]
-    lines = {name: Relation(float(line["alpha"]), float(line["beta"])) for name, line in truth.items()}
-    duration = float(trajectory.sample[-1]) / trajectory.rate
-    hovers = slow_part(slowed_flight(cameras, trajectory, lines, n_frames, time_warp(duration, 1.0)), 1.9)
+    project, hovers = _hovers()
     unposed = {
         n: replace(c, camera=replace(c.camera, R=np.eye(3), t=np.zeros(3), to_estimate=("pose",), pose_info=None))
         for n, c in hovers.cameras.items()
