@@ -1,8 +1,37 @@
-"""Where the real flight lies: ``../shared/real`` beside the checkout, or ``$TLSYNC_REAL_DATA``."""
+"""Where the real flight lies: ``../shared/real`` beside the checkout, or ``$TLSYNC_REAL_DATA``; drone2 loaded."""
 
 from __future__ import annotations
 
+import json
 import os
+from dataclasses import replace
 from pathlib import Path
 
+import numpy as np
+
 REAL_DATA = Path(os.environ.get("TLSYNC_REAL_DATA", Path(__file__).resolve().parents[2] / "shared" / "real"))
+DRONE2 = REAL_DATA / "drone2"
+
+
+def drone2_flight():
+    """drone2's project and its flight as logged: a SlowedFlight (data_fixtures/slowed_flight.py) of its cameras,
+    RTK log, true lines (camera clock = alpha x sample + beta) and frame counts, to be warped by a test."""
+    from data_fixtures.slowed_flight import SlowedFlight
+    from tlsync_pipeline.pipeline.project import load_project
+    from tlsync_pipeline.pipeline.stages.sync import load_inputs
+    from tlsync_pipeline.sync.timeline import Relation, read_truth
+
+    project = load_project(DRONE2 / "project.toml")
+    cameras, trajectory = load_inputs(project)
+    _, n_frames = read_truth(DRONE2 / "truth.json")
+    truth = json.loads((DRONE2 / "truth.json").read_text())["cameras_to_target"]
+    lines = {name: Relation(float(line["alpha"]), float(line["beta"])) for name, line in truth.items()}
+    return project, SlowedFlight(cameras, trajectory, lines, n_frames)
+
+
+def without_poses(cameras: dict) -> dict:
+    """The cameras (name -> CameraInput) with their poses taken away: each one's to be estimated from the target."""
+    return {
+        n: replace(c, camera=replace(c.camera, R=np.eye(3), t=np.zeros(3), to_estimate=("pose",), pose_info=None))
+        for n, c in cameras.items()
+    }

@@ -5,7 +5,6 @@ issue's 2 frames at the median and every line inside its interval (slow: the rea
 
 from __future__ import annotations
 
-import json
 from dataclasses import replace
 
 import numpy as np
@@ -14,38 +13,26 @@ import pytest
 from data_fixtures.log_error import PRESETS as RECEIVERS
 from data_fixtures.log_error import log_errors
 from data_fixtures.slowed_flight import slowed_flight, speed_cap_warp
-from tests.real_data import REAL_DATA
+from tests.real_data import DRONE2, drone2_flight, without_poses
 from tlsync_pipeline.sync.model.log_model import PRESETS as LOG_MODELS
 from tlsync_pipeline.sync.solve.synchronize import synchronize
-from tlsync_pipeline.sync.timeline import Relation, eps_t, read_truth
-
-REAL = REAL_DATA / "drone2"
+from tlsync_pipeline.sync.timeline import eps_t
 
 
 @pytest.mark.slow
 @pytest.mark.skipif(
-    not (REAL / "project.toml").exists(), reason="the real flight (TLSYNC_REAL_DATA/drone2) is not here"
+    not (DRONE2 / "project.toml").exists(), reason="the real flight (TLSYNC_REAL_DATA/drone2) is not here"
 )
 def test_the_creeping_flight_without_poses_under_a_drone_gnss_keeps_its_pairs_within_two_frames():
-    from tlsync_pipeline.pipeline.project import load_project
-    from tlsync_pipeline.pipeline.stages.sync import load_inputs
-
-    project = load_project(REAL / "project.toml")
-    cameras, trajectory = load_inputs(project)
-    pairs, n_frames = read_truth(REAL / "truth.json")
-    truth = json.loads((REAL / "truth.json").read_text())["cameras_to_target"]
-    lines = {name: Relation(float(line["alpha"]), float(line["beta"])) for name, line in truth.items()}
-    warp = speed_cap_warp(trajectory.sample / trajectory.rate, trajectory.xyz, 1.9)
-    creeping = slowed_flight(cameras, trajectory, lines, n_frames, warp)
-    unposed = {
-        n: replace(c, camera=replace(c.camera, R=np.eye(3), t=np.zeros(3), to_estimate=("pose",), pose_info=None))
-        for n, c in creeping.cameras.items()
-    }
+    project, flight = drone2_flight()
+    warp = speed_cap_warp(flight.trajectory.sample / flight.trajectory.rate, flight.trajectory.xyz, 1.9)
+    creeping = slowed_flight(flight.cameras, flight.trajectory, flight.lines, flight.n_frames, warp)
+    unposed = without_poses(creeping.cameras)
     log = creeping.trajectory
     errors, _ = log_errors(np.random.default_rng(1), log.sample / log.rate, RECEIVERS["drone"])
     timeline, _ = synchronize(unposed, replace(log, xyz=log.xyz + errors), project.sync, log_model=LOG_MODELS["drone"])
 
-    assert sorted(timeline.cameras) == sorted(cameras), timeline.failed
+    assert sorted(timeline.cameras) == sorted(creeping.cameras), timeline.failed
     for name, line in timeline.cameras.items():
         frame = float(np.median(creeping.cameras[name].track.frame))  # type: ignore[union-attr]
         sample = (frame - line.beta) / line.alpha
