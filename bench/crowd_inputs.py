@@ -2,7 +2,7 @@
 
     python bench/crowd_inputs.py [--seeds 0 1 2] [--distractors 8] [--fps 10 5] [--seconds 45]
                                  [--log-rate 1] [--gps-noise 0.3] [--gcps 6] [--gcp-noise-px 1] [--jobs 1]
-                                 [--views apart|shared] [--limits]
+                                 [--views apart|shared] [--limits] [--against TREE]
 
 Each seed's crowd scene (data_fixtures/crowd.py: two surveillance cameras,
 look-alike walkers, every mover detected; ``--views shared``: the cameras
@@ -31,6 +31,14 @@ centroid's noise data_fixtures.crowd.CENTROID_NOISE_PX) and the ratio to it;
 then the bound when the poses are not known but estimated with the lines,
 each held by the scene's GCPs (their clicked pixels' noise) and by the
 target's pixels (gps_bound.Survey): what the GCPs allow.
+
+``--against TREE``: each seed's runs again with the code of another source
+tree (a folder holding tlsync_pipeline/, e.g. ``git archive`` of a commit),
+on copies of this tree's work folders: the same rendered videos and the
+stages whose code is the same kept (scan and track, when only sync code
+differs), so the two trees are compared on the same inputs (the movers
+rendered differ a little from run to run). Printed as ``defaults
+(against)`` and ``declared (against)``.
 
 ``--limits``: where each run's error comes from. Its sync is redone
 (sync/solve/synchronize.py, under the run's log model) on its own poses and
@@ -92,9 +100,10 @@ EXACT = PoseInfo("gcp")  # a pose taken as exact (no stds): the fit of the log's
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def tlsync_run(project: Path) -> int:
-    """`tlsync run project --quiet` in a process of its own (this worktree's code); its exit code."""
-    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+def tlsync_run(project: Path, root: Path = ROOT) -> int:
+    """`tlsync run project --quiet` in a process of its own (the code of the source tree ``root``: this one by
+    default); its exit code."""
+    env = {**os.environ, "PYTHONPATH": str(root)}
     command = [sys.executable, "-m", "tlsync_pipeline.cli", "run", str(project), "--quiet"]
     return subprocess.run(command, env=env, capture_output=True, text=True).returncode
 
@@ -291,6 +300,11 @@ def one_seed(seed: int, args: argparse.Namespace) -> dict:
         shutil.copytree(first, second)
         declare(second / "project.toml", args.gps_noise)
         out["declared"] = measure(second, crowd, tlsync_run(second / "project.toml"))
+        if args.against is not None:
+            for kind, folder in (("defaults", first), ("declared", second)):
+                other = Path(tmp) / f"{kind} against"
+                shutil.copytree(folder, other)
+                out[f"{kind} (against)"] = measure(other, crowd, tlsync_run(other / "project.toml", args.against))
         if args.limits:
             out["defaults"]["limits"] = limits(first, crowd, seed, LogModelChoice())
             out["declared"]["limits"] = limits(second, crowd, seed, LogModelChoice("white", white_m=args.gps_noise))
@@ -325,10 +339,14 @@ def main() -> None:
     parser.add_argument("--views", choices=("apart", "shared"), default="apart")
     parser.add_argument("--limits", action="store_true", help="each run's sync redone on true poses and tracks")
     parser.add_argument("--jobs", type=int, default=1)
+    parser.add_argument(
+        "--against", type=Path, metavar="TREE", help="also run each seed with this source tree's code (same inputs)"
+    )
     args = parser.parse_args()
+    kinds = ("defaults", "declared") + (() if args.against is None else ("defaults (against)", "declared (against)"))
     with ProcessPoolExecutor(args.jobs) as pool:
         results = list(pool.map(one_seed, args.seeds, [args] * len(args.seeds)))
-    worst = {k: np.array([r[k]["worst"] for r in results]) for k in ("defaults", "declared")}
+    worst = {k: np.array([r[k]["worst"] for r in results]) for k in kinds}
     on = {k: [min(c.get("on_target", 0.0) for c in r[k]["cameras"].values()) for r in results] for k in worst}
     blob = {k: [min(c.get("on_blob", 0.0) for c in r[k]["cameras"].values()) for r in results] for k in worst}
     found = {k: [min(c.get("found", 0.0) for c in r[k]["cameras"].values()) for r in results] for k in worst}
@@ -342,7 +360,7 @@ def main() -> None:
     bound_gcp = np.array([r["bound_gcp"] for r in results])
     for seed, r in zip(args.seeds, results):
         print(f"seed {seed}    bound: {r['bound']:.3f}, poses from the GCPs: {r['bound_gcp']:.3f}")
-        for k in ("defaults", "declared"):
+        for k in kinds:
             print(f"seed {seed} {k:>8}: {describe(r[k], r['bound'])}")
             if "limits" in r[k]:
                 print(f"seed {seed} {k:>8} limits: " + "; ".join(f"{v} {w:.3f}" for v, w in r[k]["limits"].items()))
@@ -361,7 +379,7 @@ def main() -> None:
         f"{'inputs':>8} {'<=0.2':>6} {'median':>7} {'max':>7} {'/ bound (median)':>16} "
         f"{'on target (worse camera, median)':>33} {'walker blob':>11} {'found':>6} {'wrong':>5}"
     )
-    for k in ("defaults", "declared"):
+    for k in kinds:
         print(
             f"{k:>8} {np.mean(worst[k] <= 0.2):>6.0%} {np.median(worst[k]):>7.3f} {np.max(worst[k]):>7.3f} "
             f"{np.median(worst[k] / bound):>16.2f} {np.median(on[k]):>33.1%} {np.median(blob[k]):>11.1%} "
