@@ -53,6 +53,7 @@ from tlsync_pipeline.sync.kernels.robust import (
     best_finalist,
     polish,
     robust_fit,
+    score_many,
     within,
 )
 from tlsync_pipeline.sync.kernels.slope import SlopePrior
@@ -196,11 +197,6 @@ def _sweep(rng, sample, frame, delta, prior: SlopePrior):
     return float(best[0]), float(best[1]), support, len(slopes) * len(s_counted)
 
 
-def _distinct_frames(sample: np.ndarray, frame: np.ndarray, alpha: float, beta: float, delta: float) -> int:
-    """Distinct frames among the votes within delta of the line frame = alpha * sample + beta (the search's score)."""
-    return int(np.unique(frame[distance_to_line(sample, frame, alpha, beta) <= delta]).size)
-
-
 def _peaks(intercept: np.ndarray, counts: np.ndarray, width: float) -> list[int]:
     """Up to SWEEP_PEAKS windows of most votes (intercepts sorted), each starting more than one window width from those
     kept before.
@@ -290,7 +286,8 @@ def find_line(
             runner_up, rival = second[2], (float(second[0]), float(second[1]))
     if rival is not None and runner_up > support:
         (alpha, beta), rival = rival, (alpha, beta)
-        runner_up, support = support, _distinct_frames(ts, tf, alpha, beta, delta)
+        model, rule, _ = _line_model(ts, tf, delta, prior)
+        runner_up, support = support, int(score_many(model, np.array([[alpha, beta]]), rule).value[0])
     on_line = distance_to_line(ts, tf, alpha, beta) <= delta
     inliers = distance_to_line(sample, frame, alpha, beta) <= delta
     residual = tf[on_line] - alpha * ts[on_line] - beta
