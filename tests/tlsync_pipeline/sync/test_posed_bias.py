@@ -45,31 +45,35 @@ def test_the_refit_is_hopeless_when_a_line_already_moved_beyond_the_give_up_move
 
 
 class _ShiftingJointFit:
-    """A joint fit that moves every line's beta by ``shift`` frames and counts its calls."""
+    """A joint fit that moves every line's beta by the next of ``shifts`` (frames), one a call."""
 
-    def __init__(self, shift: float):
-        self.shift, self.calls = shift, 0
+    def __init__(self, shifts: list[float]):
+        self.shifts = list(shifts)
 
     def refine_with_log_bias(self, cameras, lines, trajectory, params, options, model):
-        self.calls += 1
-        moved = {n: CameraLine(n, line.alpha, line.beta + self.shift, 100, 90, 1.0, 30.0) for n, line in lines.items()}
+        shift = self.shifts.pop(0)
+        moved = {n: CameraLine(n, line.alpha, line.beta + shift, 100, 90, 1.0, 30.0) for n, line in lines.items()}
         return moved, object()
 
 
 @pytest.mark.parametrize(
-    ("stds", "calls", "given_up"), [(0.5 * GIVE_UP_MOVE, ROUNDS, False), (2 * GIVE_UP_MOVE, 2, True)]
+    ("stds", "given_up"),
+    [
+        ([2 * GIVE_UP_MOVE] * (ROUNDS - 1) + [0.5 * GIVE_UP_MOVE], False),  # the earlier rounds' fits are no guide
+        ([0.5 * GIVE_UP_MOVE] * (ROUNDS - 1) + [2 * GIVE_UP_MOVE], True),
+    ],
 )
-def test_the_refit_is_given_up_at_the_second_joint_fit_whose_lines_moved_beyond_the_give_up_move(
-    monkeypatch, stds, calls, given_up
+def test_the_refit_is_given_up_when_the_last_rounds_joint_fit_moved_a_line_beyond_the_give_up_move(
+    monkeypatch, stds, given_up
 ):
     monkeypatch.setattr(posed_bias, "corrected_log", lambda trajectory, bias: trajectory)
     monkeypatch.setattr(posed_bias, "PiecewiseTrajectory", lambda trajectory: trajectory)
     monkeypatch.setattr(posed_bias, "refit_pose", lambda *args: None)  # every pose's refit fails: its line stays
     lines = {name: _line(name, -100.0, 2.0) for name in "ab"}
     data = {name: SimpleNamespace(track_clock=np.arange(1000.0)) for name in "ab"}
-    method = _ShiftingJointFit(stds * 2.0)  # the first fit is no guide: the rounds go on past it
-
+    method = _ShiftingJointFit([2.0 * std for std in stds])  # each line's std is 2 frames
     log = SimpleNamespace(rate=10.0)
+
     refit = posed_bias.refit_poses(method, data, lines, {"a", "b"}, log, SyncParams(), None)  # type: ignore[arg-type]
     assert (refit is None) == given_up
-    assert method.calls == calls
+    assert not method.shifts  # every round's joint fit was made
