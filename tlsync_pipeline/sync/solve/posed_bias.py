@@ -29,12 +29,12 @@ alone's, in that line's std, at most MAX_MOVE; on drone2 the largest was
 at 1.9 m/s);
 otherwise synchronize() keeps every pose and line as the target gave them.
 The refit is given up before its last poses' refit and the caller's fit
-where the last round's joint fit already moves a line beyond GIVE_UP_MOVE
-of its std (refit_hopeless): on drone2's 15 variants (4 and 7 cameras, a
+where the last round's joint fit already moves a line beyond GIVE_UP_MOVE of
+its std (refit_hopeless): on drone2's 15 variants (4 and 7 cameras, a
 drone's and a phone's log) the caller's fit moved the largest line 0.66-1.40
 times as far as that one, never the 0.4 a kept refit would need from there;
-the earlier rounds' fits are no guide (down to 0.52 and 0.20 times: the hover-only
-tracks' seed 2 moved 3.2, 1.2, 0.75 stds, and was kept at 0.66).
+the earlier rounds' fits are no guide (down to 0.52 and 0.20 times: the
+hover-only tracks' seed 2 moved 3.2, 1.2, 0.75 stds, and was kept at 0.66).
 
 Clock units: frames (sync/model/clock.py); pixels as tracked; world metres.
 """
