@@ -14,7 +14,10 @@ that of its process tree (the run, the fork server and the workers: the sum of
 their proportional set sizes, and of their RSS in brackets, sampled every 50
 ms, bench/_memory.py TreePeak).
 ``--through synchronize`` (default) calls synchronize() on the same inputs in
-this process. ``--slow K`` flies the same path K times slower and ``--hover
+this process, with one BLAS thread as the pipeline runs the sync stage
+(pipeline/executors.one_blas_thread: OpenBLAS's threads spin on the fits'
+small matrices, a pose's 4000 x 8 Jacobian's SVD 48 ms of CPU on two busy
+cores against 0.3 ms on one thread). ``--slow K`` flies the same path K times slower and ``--hover
 S`` holds the drone still S seconds every HOVER_EVERY_S seconds of the flight,
 ``--max-speed V`` stretches only the parts flown faster than V m/s to that
 speed (a flight that hovers and creeps, its hovers as they were;
@@ -73,6 +76,7 @@ from data_fixtures.slowed_flight import (
     speed_cap_warp,
     time_warp,
 )
+from tlsync_pipeline.pipeline.executors import one_blas_thread
 from tlsync_pipeline.pipeline.project import load_project
 from tlsync_pipeline.pipeline.stages.sync import load_inputs
 from tlsync_pipeline.sync.model.log_model import PRESETS as LOG_MODELS
@@ -200,9 +204,10 @@ def run_one(
             raise SystemExit("--through stages runs the project's [sync] as it is: --bias-model on only")
         timeline, seconds, (peak_mb, rss_mb) = through_stages(slowed, logged, declared, jobs)
     else:
-        started = time.process_time()
-        timeline, _ = synchronize(slowed.cameras, logged, params, log_model=LOG_MODELS[declared])
-        seconds, peak_mb, rss_mb = time.process_time() - started, np.nan, np.nan
+        with one_blas_thread():  # as the pipeline runs the sync stage
+            started = time.process_time()
+            timeline, _ = synchronize(slowed.cameras, logged, params, log_model=LOG_MODELS[declared])
+            seconds, peak_mb, rss_mb = time.process_time() - started, np.nan, np.nan
     pairs = pair_errors(timeline, slowed.pairs(), slowed.n_frames)
     eps = [e for e, _ in pairs]
     return {

@@ -129,14 +129,15 @@ def _bias_step(cam, residual, keep, K, R, left, right, u, values, precision, sca
     jtj = np.einsum("nij,nik->njk", jac, jac) * w[:, None, None]
     jtr = np.einsum("nij,ni->nj", jac, np.where(keep[:, None], residual, 0.0)) * w[:, None]
     count = values.shape[0]
-    blocks = np.zeros((count, count, 3, 3))
-    np.add.at(blocks, (left, left), ((1 - u) ** 2)[:, None, None] * jtj)
-    np.add.at(blocks, (left, right), ((1 - u) * u)[:, None, None] * jtj)
-    np.add.at(blocks, (right, left), ((1 - u) * u)[:, None, None] * jtj)
-    np.add.at(blocks, (right, right), (u**2)[:, None, None] * jtj)
-    gradient = np.zeros((count, 3))
-    np.add.at(gradient, left, (1 - u)[:, None] * jtr)
-    np.add.at(gradient, right, u[:, None] * jtr)
+    near, across, far = ((1 - u) ** 2)[:, None, None], ((1 - u) * u)[:, None, None], (u**2)[:, None, None]
+    blocks = _summed_by(
+        np.concatenate([left * count + left, left * count + right, right * count + left, right * count + right]),
+        np.concatenate([near * jtj, across * jtj, across * jtj, far * jtj]),
+        count * count,
+    ).reshape(count, count, 3, 3)
+    gradient = _summed_by(
+        np.concatenate([left, right]), np.concatenate([(1 - u)[:, None] * jtr, u[:, None] * jtr]), count
+    )
     normal = blocks.transpose(0, 2, 1, 3).reshape(3 * count, 3 * count) + precision
     rhs = gradient.ravel() + precision @ values.ravel()
     # block tridiagonal: LAPACK's banded Cholesky (a dense solve of this size was 100 times slower here)
@@ -147,3 +148,11 @@ def _bias_step(cam, residual, keep, K, R, left, right, u, values, precision, sca
         return -solveh_banded(upper, rhs).reshape(count, 3)
     except np.linalg.LinAlgError:
         return np.zeros_like(values)
+
+
+def _summed_by(index: np.ndarray, values: np.ndarray, cells: int) -> np.ndarray:
+    """(cells, ...) the rows of ``values`` (m, ...) summed by their cell ``index`` (m,), in their order: np.add.at's
+    sums (the same numbers, added in the same order) by one np.bincount, several times faster on a pose's few rows."""
+    width = int(np.prod(values.shape[1:]))
+    flat = (index[:, None] * width + np.arange(width)).ravel()
+    return np.bincount(flat, values.ravel(), minlength=cells * width).reshape(cells, *values.shape[1:])

@@ -28,13 +28,20 @@ alone's, in that line's std, at most MAX_MOVE; on drone2 the largest was
 1.1-4.3 where the hovers' refit went wrong, 0.3-0.8 on the flight creeping
 at 1.9 m/s);
 otherwise synchronize() keeps every pose and line as the target gave them.
+The refit is given up before its last poses' refit and the caller's fit
+where the last round's joint fit already moves a line beyond GIVE_UP_MOVE of
+its std (refit_hopeless): on drone2's 15 variants (4 and 7 cameras, a
+drone's and a phone's log) the caller's fit moved the largest line 0.66-1.40
+times as far as that one, never the 0.4 a kept refit would need from there;
+the earlier rounds' fits are no guide (down to 0.52 and 0.20 times: the
+hover-only tracks' seed 2 moved 3.2, 1.2, 0.75 stds, and was kept at 0.66).
 
 Clock units: frames (sync/model/clock.py); pixels as tracked; world metres.
 """
 
 from __future__ import annotations
 
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -52,6 +59,7 @@ from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
 ROUNDS = 3  # joint fits before the caller's, each followed by the poses' refit (drone2: settled by the third)
 GATE_MEDIANS = 3.0  # a frame enters the pose's refit within this many median reprojection errors (at least eps_px)
 MAX_MOVE = 1.0  # the refit is kept when each line's move from its pose alone's is at most this many of its std
+GIVE_UP_MOVE = 2.5  # the refit is given up when the last round's joint fit moves a line beyond this many stds
 
 
 def corrected_log(trajectory: Trajectory, bias: LogBias) -> Trajectory:
@@ -91,6 +99,16 @@ def refit_pose(
     return replace(data, camera=camera), replace(line, alpha=fit.alpha, beta=fit.beta), fit.line_cov
 
 
+@dataclass(frozen=True)
+class PoseRefit:
+    """The poses' refit (refit_poses): every camera's data and line, those of the cameras posed from the target
+    refitted, and each refitted camera's last refit's (2, 2) covariance of (alpha, beta), for its interval."""
+
+    data: dict[str, CameraData]
+    lines: dict[str, CameraLine]
+    covs: dict[str, np.ndarray]
+
+
 def refit_poses(
     method: JointMethod,
     data: dict[str, CameraData],
@@ -99,25 +117,34 @@ def refit_poses(
     prepared: Trajectory,
     params: SyncParams,
     log_model: LogModel,
-) -> tuple[dict[str, CameraData], dict[str, CameraLine], dict[str, np.ndarray]]:
+) -> PoseRefit | None:
     """The cameras' data and lines with the poses of the cameras ``posed`` from the target refitted under the log's
     bias (the module): ROUNDS joint fits of every camera's line with the bias, each followed by each such pose and its
-    line fitted on the log corrected by the bias's estimate; and each refitted camera's last refit's (2, 2) covariance
-    of (alpha, beta), for its interval. A camera whose refit fails keeps its pose and line (and has no covariance
-    here). Unchanged when the joint fit gives no bias."""
+    line fitted on the log corrected by the bias's estimate. A camera whose refit fails keeps its pose and line (and
+    has no covariance). Unchanged when the joint fit gives no bias; None, given up, when the last round's joint fit
+    has already left the poses alone's lines too far to be kept (refit_hopeless)."""
+    alone, middles = lines, track_middles(data, posed)
     data, lines = dict(data), dict(lines)
     covs: dict[str, np.ndarray] = {}
-    for _ in range(ROUNDS):
+    for round_ in range(ROUNDS):
         fitted, bias = method.refine_with_log_bias(data, lines, prepared, params, method_options(params), log_model)
         if bias is None:
             break
+        last = round_ == ROUNDS - 1
+        if last and refit_hopeless(line_moves(middles, alone, {n: fitted[n] for n in posed if n in fitted})):
+            return None
         path = PiecewiseTrajectory(corrected_log(prepared, bias))
         for name in posed:
             refit = refit_pose(data[name], fitted.get(name, lines[name]), path, params, prepared.rate)
             if refit is not None:
                 data[name], covs[name] = refit[0], refit[2]
                 lines[name] = replace(lines[name], alpha=refit[1].alpha, beta=refit[1].beta)
-    return data, lines, covs
+    return PoseRefit(data, lines, covs)
+
+
+def track_middles(data: dict[str, CameraData], names: set[str]) -> dict[str, float]:
+    """Each named camera's middle tracked clock value (frames), where line_moves measures its line's move."""
+    return {n: float(np.median(data[n].track_clock)) for n in names}
 
 
 def line_moves(
@@ -143,3 +170,9 @@ def refit_kept(moves: dict[str, float]) -> bool:
     """Whether the refit's lines stay where the poses alone allow: each line's move in its std (line_moves) at most
     MAX_MOVE."""
     return bool(moves) and max(moves.values()) <= MAX_MOVE
+
+
+def refit_hopeless(moves: dict[str, float]) -> bool:
+    """Whether the refit is given up at the last round's joint fit (line_moves of its lines): a line moved beyond
+    GIVE_UP_MOVE of its std, or no line's move can be measured (nor will the caller's fit's be, for refit_kept)."""
+    return not moves or max(moves.values()) > GIVE_UP_MOVE

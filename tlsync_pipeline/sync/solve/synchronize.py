@@ -63,7 +63,7 @@ from tlsync_pipeline.sync.solve.plausibility import (
     motion_slope,
     rival_odds_of,
 )
-from tlsync_pipeline.sync.solve.posed_bias import line_moves, refit_kept, refit_poses
+from tlsync_pipeline.sync.solve.posed_bias import line_moves, refit_kept, refit_poses, track_middles
 from tlsync_pipeline.sync.solve.registry import get_method
 from tlsync_pipeline.sync.solve.slow_motion import bias_time_spread
 from tlsync_pipeline.sync.timeline import CameraLine, Timeline
@@ -443,16 +443,19 @@ def _joint_lines(
     fitted). Under a log with a bias and with two cameras or more, the cameras ``posed`` from the target take part,
     their poses fitted again under the bias's estimate (posed_bias.refit_poses), their intervals with the refit's
     covariance (_with_pose_cov); where their lines leave the poses alone's farther than those allow
-    (posed_bias.refit_kept), or otherwise, they stay out and keep their lines."""
+    (posed_bias.refit_kept, or already on the poses alone: refit_hopeless), or otherwise, they stay out and keep their
+    lines."""
+    refit = None
     if log_model.has_bias and len(lines) >= 2 and posed:
-        refit_data, refit_lines, pose_covs = refit_poses(method, data, lines, posed, prepared, params, log_model)
+        refit = refit_poses(method, data, lines, posed, prepared, params, log_model)
+    if refit is not None:
         fitted, bias = method.refine_with_log_bias(
-            refit_data, {**lines, **refit_lines}, prepared, params, method_options(params), log_model
+            refit.data, {**lines, **refit.lines}, prepared, params, method_options(params), log_model
         )
-        middles = {n: float(np.median(data[n].track_clock)) for n in posed}
+        middles = track_middles(data, posed)
         if refit_kept(line_moves(middles, lines, {n: fitted[n] for n in posed if n in fitted})):
-            merged = {**refit_lines, **fitted}
-            return {n: _with_pose_cov(line, pose_covs.get(n), lines[n].cov) for n, line in merged.items()}, bias
+            merged = {**refit.lines, **fitted}
+            return {n: _with_pose_cov(line, refit.covs.get(n), lines[n].cov) for n, line in merged.items()}, bias
     surveyed = {n: data[n] for n in data if n not in posed}
     if not surveyed:
         return {}, None
