@@ -27,7 +27,9 @@ where the poses alone allow (refit_kept: each line's move from its pose
 alone's, in that line's std, at most MAX_MOVE; on drone2 the largest was
 1.1-4.3 where the hovers' refit went wrong, 0.3-0.8 on the flight creeping
 at 1.9 m/s);
-otherwise synchronize() keeps every pose and line as the target gave them.
+otherwise synchronize() keeps every pose and line as the target gave them, and
+synchronizes again on the log corrected by the bias fitted with those poses
+free (sync/solve/pose_joint.py).
 
 Clock units: frames (sync/model/clock.py); pixels as tracked; world metres.
 """
