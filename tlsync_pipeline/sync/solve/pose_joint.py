@@ -23,12 +23,14 @@ The fit: the bias linear between knots (log_bias's spacing), under the log
 model's Gauss-Markov prior; each camera's pixels robust (soft L1 at the loss
 scale) on the frames its pose and line explain (within posed_bias's
 GATE_MEDIANS of their median error, at least eps_px; at most MAX_FRAMES,
-evenly spread), first as they are, then divided by their variance factor
-times the correlation left in them against the log so corrected
-(``residual_correlation``); Levenberg-Marquardt on the normal equations
-(log_bias's). Where the solver stops before it converges, the bias where it
-stopped is kept: it is a correction the second pass tests on every camera's
-evidence again, not a result.
+evenly spread), divided by their variance factor times the correlation
+left in them (``residual_correlation``), both measured at the poses and
+lines the fit starts from; Levenberg-Marquardt on the normal equations
+(log_bias's). (Fitted first with the pixels as they are, then so weighed,
+the fit on drone2's hover-only seed 0 diverged to a bias of 10 m.) Where
+the solver stops before it converges, the bias where it stopped is kept: it
+is a correction the second pass tests on every camera's evidence again, not
+a result.
 
 Clock units: frames (sync/model/clock.py); pixels as tracked; world metres.
 """
@@ -278,9 +280,8 @@ def fit_free_poses(
     knots = bias_knots(visits, path, rate, model)
     prior = np.array([model.bias_m, model.bias_m, model.bias_vertical_m])
     problem = _Problem(cameras, path, knots, prior_whitening(knots, rate, model.tau_s, prior))
-    z, _ = _levenberg_marquardt(problem, problem.z0, f_scale)
-    problem.remeasure(z, f_scale)
-    z, converged = _levenberg_marquardt(problem, z, f_scale)
+    problem.remeasure(problem.z0, f_scale)
+    z, converged = _levenberg_marquardt(problem, problem.z0, f_scale)
     if not np.isfinite(z).all():
         return None
     return FreePoseBias(
