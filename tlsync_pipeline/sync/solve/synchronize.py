@@ -431,7 +431,8 @@ def _synchronize_pass(
     method = get_method(params.method)
     # A camera whose pose comes from the target absorbed the log's error during its visit in that pose: under a log
     # with a bias and other cameras to tell it apart its pose is fitted again under the bias's estimate
-    # (sync/solve/posed_bias.py), kept where the lines stay where the poses alone allow; otherwise it stays out.
+    # (sync/solve/posed_bias.py), kept where the lines stay where the poses alone allow; otherwise it stays out, and
+    # the first pass gives the log corrected by the bias fitted with such poses free for a second (pose_joint.py).
     posed_here = {name for name in lines if _pose_from_target(used[name].camera)}
     joint = log_model.has_bias or log_model.white_m > 0  # a bias, or white noise cameras may see at the same time
     if params.log_bias and joint and isinstance(method, JointMethod):
