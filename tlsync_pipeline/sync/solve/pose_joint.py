@@ -15,7 +15,7 @@ rotation, translation, flat prior) of one fit with every camera's line and
 the bias's knots: the bias is the same target's for every camera, and
 cameras that see it at the same time from different directions tell it from
 their poses. On drone2's hover-only tracks the bias so fitted took the
-log's error at the visits from 0.9-2.7 m (rms per axis) to 0.4-0.8 m, and the
+log's error at the visits from 0.5-2.7 m (rms per axis, seeds 0-2) to 0.5-0.9 m, and the
 pose search on the log corrected by it lands in the true poses' basin
 (synchronize's second pass, ``corrected_by_free_poses``).
 
