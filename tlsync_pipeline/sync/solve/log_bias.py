@@ -38,6 +38,7 @@ from __future__ import annotations
 import copy
 from collections.abc import Callable
 from dataclasses import dataclass, replace
+from typing import Protocol
 
 import numpy as np
 import scipy.sparse as sp
@@ -885,7 +886,21 @@ def _cost(problem: _Joint, z: np.ndarray, f_scale: float) -> float:
     return _robust_cost(problem, problem.residual(z), f_scale)
 
 
-def _robust_cost(problem: _Joint, residual: np.ndarray, f_scale: float) -> float:
+class Solvable(Protocol):
+    """What ``_levenberg_marquardt`` solves: residuals (robust on the pixels, quadratic on the priors: ``loss``), the
+    normal equations at z from the loss's weights and curvature, and each unknown's scale (the damping's units)."""
+
+    scale: np.ndarray
+    loss: Callable
+
+    def residual(self, z: np.ndarray) -> np.ndarray: ...
+
+    def normal_equations(
+        self, z: np.ndarray, weights: np.ndarray, curvature: np.ndarray
+    ) -> tuple[np.ndarray, sp.csc_matrix]: ...
+
+
+def _robust_cost(problem: Solvable, residual: np.ndarray, f_scale: float) -> float:
     """The robust cost of residuals: soft L1 at f_scale on the pixels, quadratic on the priors."""
     if not np.isfinite(residual).all():
         return np.inf
@@ -893,7 +908,7 @@ def _robust_cost(problem: _Joint, residual: np.ndarray, f_scale: float) -> float
 
 
 def _levenberg_marquardt(
-    problem: _Joint, z: np.ndarray, f_scale: float, max_nfev: int = 100, tol: float = 1e-8
+    problem: Solvable, z: np.ndarray, f_scale: float, max_nfev: int = 100, tol: float = 1e-8
 ) -> tuple[np.ndarray, bool]:
     """The robust least squares of the joint problem from z: Levenberg-Marquardt on the normal equations, which are
     (2C + 3K) square and sparse whatever the number of frames (_Joint.normal_equations), with the loss's curvature

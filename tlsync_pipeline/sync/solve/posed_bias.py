@@ -27,7 +27,9 @@ where the poses alone allow (refit_kept: each line's move from its pose
 alone's, in that line's std, at most MAX_MOVE; on drone2 the largest was
 1.1-4.3 where the hovers' refit went wrong, 0.3-0.8 on the flight creeping
 at 1.9 m/s);
-otherwise synchronize() keeps every pose and line as the target gave them.
+otherwise synchronize() keeps every pose and line as the target gave them, and
+synchronizes again on the log corrected by the bias fitted with those poses
+free (sync/solve/pose_joint.py).
 The refit is given up before its last poses' refit and the caller's fit
 where the last round's joint fit already moves a line beyond GIVE_UP_MOVE of
 its std (refit_hopeless): on drone2's 15 variants (4 and 7 cameras, a

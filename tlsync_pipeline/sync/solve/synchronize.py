@@ -63,6 +63,7 @@ from tlsync_pipeline.sync.solve.plausibility import (
     motion_slope,
     rival_odds_of,
 )
+from tlsync_pipeline.sync.solve.pose_joint import corrected_by_free_poses
 from tlsync_pipeline.sync.solve.posed_bias import line_moves, refit_kept, refit_poses, track_middles
 from tlsync_pipeline.sync.solve.registry import get_method
 from tlsync_pipeline.sync.solve.slow_motion import bias_time_spread
@@ -319,7 +320,37 @@ def synchronize(
     ``Timeline.failed`` with the reason; a camera whose fit raises anything
     else fails alone. Raises LogUnitError (an InputError) when every
     camera's evidence says the log is not in seconds or metres.
+
+    Where the poses from the target are refitted under the bias and the refit
+    is not kept (_joint_lines), the log is corrected by the bias fitted with
+    those poses free (sync/solve/pose_joint.py) and every camera is
+    synchronized again on it, the poses from the target searched again (a
+    second pass; its votes cast here): that pass's timeline is the answer.
     """
+    timeline, results, corrected = _synchronize_pass(cameras, trajectory, params, votes, log_model, True)
+    if corrected is None:
+        return timeline, results
+    again = {name: _unposed(inputs) if _pose_from_target(inputs.camera) else inputs for name, inputs in cameras.items()}
+    timeline, results, _ = _synchronize_pass(again, corrected, params, None, log_model, False)
+    return timeline, results
+
+
+def _unposed(inputs: CameraInput) -> CameraInput:
+    """A camera posed from the target (by the calibrate stage) as it came: its pose to be estimated."""
+    camera = replace(inputs.camera, R=np.eye(3), t=np.zeros(3), to_estimate=("pose",), pose_info=None)
+    return replace(inputs, camera=camera, pose_timing=None)
+
+
+def _synchronize_pass(
+    cameras: dict[str, CameraInput],
+    trajectory: Trajectory,
+    params: SyncParams,
+    votes: Mapping[str, Votes | SyncError] | None,
+    log_model: LogModel,
+    first: bool,
+) -> tuple[Timeline, dict[str, CameraResult], Trajectory | None]:
+    """One pass of synchronize(): its timeline and results, and (``first``) the log corrected for a second pass, or
+    None."""
     declared, log_model, gated = log_model, measured(log_model, trajectory), gate_model(log_model, trajectory)
     prepared = with_log_noise(prepare_trajectory(trajectory, preparation_of(params)), log_model)
     path = PiecewiseTrajectory(prepared)
@@ -396,11 +427,12 @@ def synchronize(
         else:
             lines[name] = line
     shared: dict[str, np.ndarray] = {}
-    fitted_model, estimate = log_model, None
+    fitted_model, estimate, corrected = log_model, None, None
     method = get_method(params.method)
     # A camera whose pose comes from the target absorbed the log's error during its visit in that pose: under a log
     # with a bias and other cameras to tell it apart its pose is fitted again under the bias's estimate
-    # (sync/solve/posed_bias.py), kept where the lines stay where the poses alone allow; otherwise it stays out.
+    # (sync/solve/posed_bias.py), kept where the lines stay where the poses alone allow; otherwise it stays out, and
+    # the first pass gives the log corrected by the bias fitted with such poses free for a second (pose_joint.py).
     posed_here = {name for name in lines if _pose_from_target(used[name].camera)}
     joint = log_model.has_bias or log_model.white_m > 0  # a bias, or white noise cameras may see at the same time
     if params.log_bias and joint and isinstance(method, JointMethod):
@@ -410,8 +442,10 @@ def synchronize(
             )
             for name in lines
         }
-        fitted, bias = _joint_lines(method, data, lines, posed_here, prepared, params, log_model)
+        fitted, bias, kept = _joint_lines(method, data, lines, posed_here, prepared, params, log_model)
         lines = {**lines, **fitted}
+        if first and not kept:
+            corrected = corrected_by_free_poses(trajectory, data, lines, posed_here, prepared, params, log_model)
         if bias is not None:
             fitted_model, estimate = bias.model, bias.estimate
             names = [n for n in lines if n in bias.sensitivity]
@@ -427,7 +461,7 @@ def synchronize(
         shared_cov=shared,
         log_model=_log_error(fitted_model, declared, estimate, gated),
     )
-    return timeline, results
+    return timeline, results, corrected
 
 
 def _joint_lines(
@@ -438,16 +472,16 @@ def _joint_lines(
     prepared: Trajectory,
     params: SyncParams,
     log_model: LogModel,
-) -> tuple[dict[str, CameraLine], LogBias | None]:
-    """The lines fitted together with the log's error (``method.refine_with_log_bias``) and its estimate (None: not
-    fitted). Under a log with a bias and with two cameras or more, the cameras ``posed`` from the target take part,
-    their poses fitted again under the bias's estimate (posed_bias.refit_poses), their intervals with the refit's
-    covariance (_with_pose_cov); where their lines leave the poses alone's farther than those allow
-    (posed_bias.refit_kept, or already on the poses alone: refit_hopeless), or otherwise, they stay out and keep their
-    lines."""
-    refit = None
+) -> tuple[dict[str, CameraLine], LogBias | None, bool]:
+    """The lines fitted together with the log's error (``method.refine_with_log_bias``), its estimate (None: not
+    fitted), and whether a refit of the poses from the target was kept (True where none was made). Under a log with a
+    bias and with two cameras or more, the cameras ``posed`` from the target take part, their poses fitted again
+    under the bias's estimate (posed_bias.refit_poses), their intervals with the refit's covariance (_with_pose_cov);
+    where their lines leave the poses alone's farther than those allow (posed_bias.refit_kept, or already on the poses
+    alone: refit_hopeless), or otherwise, they stay out and keep their lines."""
+    kept, refit = True, None
     if log_model.has_bias and len(lines) >= 2 and posed:
-        refit = refit_poses(method, data, lines, posed, prepared, params, log_model)
+        refit, kept = refit_poses(method, data, lines, posed, prepared, params, log_model), False
     if refit is not None:
         fitted, bias = method.refine_with_log_bias(
             refit.data, {**lines, **refit.lines}, prepared, params, method_options(params), log_model
@@ -455,12 +489,15 @@ def _joint_lines(
         middles = track_middles(data, posed)
         if refit_kept(line_moves(middles, lines, {n: fitted[n] for n in posed if n in fitted})):
             merged = {**refit.lines, **fitted}
-            return {n: _with_pose_cov(line, refit.covs.get(n), lines[n].cov) for n, line in merged.items()}, bias
+            return {n: _with_pose_cov(line, refit.covs.get(n), lines[n].cov) for n, line in merged.items()}, bias, True
     surveyed = {n: data[n] for n in data if n not in posed}
     if not surveyed:
-        return {}, None
-    return method.refine_with_log_bias(
-        surveyed, {n: lines[n] for n in surveyed}, prepared, params, method_options(params), log_model
+        return {}, None, kept
+    return (
+        *method.refine_with_log_bias(
+            surveyed, {n: lines[n] for n in surveyed}, prepared, params, method_options(params), log_model
+        ),
+        kept,
     )
 
 
