@@ -35,15 +35,23 @@ BOUND_THIN-th frame kept, its noise scaled to keep their information). Per
 receiver and bias model (``--bias-model``): the runs where every camera was
 synchronized, the median and max over runs of the worst and of the median
 synchronized pair's eps_t (frames, eq. 5), the share of synchronized pairs
-whose 95 % interval of beta contains the truth, the refused cameras with their
+whose 95 % interval of beta contains the truth, the pairs further than a frame
+and than three times that interval from it, the cameras answered (ok or weak)
+whose line is wrong (further than max(1 frame, 3 x its 95 % interval) from the
+truth at the middle of its visit, bench/_report.py), the refused cameras whose
+rejected line was right by the same measure, the refused cameras with their
 cause, the sync's CPU a run (through the stages: the whole ``tlsync run``'s,
 calibrate's pose search included), the peak resident memory of the runs
 through the stages (their process trees'), and this process's peak resident
-memory. ``--runs`` prints every run. Skips cleanly when the folder is absent.
+memory. ``--runs`` prints every run (each camera's status, the refusals' reason codes), ``--json PATH`` appends
+each run to PATH as a JSON line. ``--first-seed N`` runs the seeds N, N+1, ...; ``--white M`` gives the receiver
+M metres of white noise on every axis instead of its preset's (issue 33's drone: 0.3 m). Skips cleanly when the
+folder is absent.
 
-    nice python bench/real_flight_gps.py [--data /work/shared/real/drone2] [--seeds 8] [--models drone phone2]
-        [--bias-model on off] [--poses given|removed] [--through synchronize|stages] [--slow 1] [--hover 0]
-        [--max-speed V] [--only-slower V] [--crop SHARE] [--cameras cam0 cam2] [--count N] [--jobs N] [--runs]
+    nice python bench/real_flight_gps.py [--data /work/shared/real/drone2] [--seeds 8] [--first-seed 0]
+        [--models drone phone2] [--white M] [--bias-model on off] [--poses given|removed]
+        [--through synchronize|stages] [--slow 1] [--hover 0] [--max-speed V] [--only-slower V] [--crop SHARE]
+        [--cameras cam0 cam2] [--count N] [--jobs N] [--runs] [--json PATH]
 """
 
 from __future__ import annotations
@@ -61,7 +69,7 @@ from pathlib import Path
 
 import numpy as np
 from _memory import TreePeak, peak_rss_mb
-from _report import pair_errors
+from _report import BEYOND, Z95, camera_error, is_right, pair_errors
 from gps_bound import pair_draws
 
 from data_fixtures.log_error import PRESETS as RECEIVERS
@@ -81,12 +89,12 @@ from tlsync_pipeline.pipeline.project import load_project
 from tlsync_pipeline.pipeline.stages.sync import load_inputs
 from tlsync_pipeline.sync.model.log_model import PRESETS as LOG_MODELS
 from tlsync_pipeline.sync.model.params import SyncParams
+from tlsync_pipeline.sync.model.status import AMBIGUOUS, FAILED
 from tlsync_pipeline.sync.solve.synchronize import synchronize
 from tlsync_pipeline.sync.timeline import Relation, Timeline, read_timeline, read_truth
 from trackers.track import Track
 
 DEFAULT = Path("/work/shared/real/drone2")
-Z95 = 1.959964
 HOVER_EVERY_S = 40.0  # seconds of the original flight between two hovers (--hover)
 BOUND_PX = 2.0  # the bound's tracking noise (pixels, per axis)
 BOUND_THIN = 6  # the bound keeps every this many tracked frames, their noise over its square root
@@ -190,12 +198,23 @@ def repeated(slowed: SlowedFlight, count: int) -> SlowedFlight:
 
 
 def run_one(
-    slowed: SlowedFlight, sync_params, receiver: str, seed: int, bias_model: bool, through: str, jobs: int = 1
+    slowed: SlowedFlight,
+    sync_params,
+    receiver: str,
+    seed: int,
+    bias_model: bool,
+    through: str,
+    jobs: int = 1,
+    white_m: float | None = None,
 ) -> dict:
-    """One simulated log of ``receiver``: the sync's figures against the truth (``through``: "synchronize" in this
-    process, "stages" through ``tlsync run -j JOBS``)."""
+    """One simulated log of ``receiver`` (its white noise ``white_m`` metres on every axis when given): the sync's
+    figures against the truth (``through``: "synchronize" in this process, "stages" through ``tlsync run -j
+    JOBS``)."""
     trajectory = slowed.trajectory
-    errors, _ = log_errors(np.random.default_rng(seed), trajectory.sample / trajectory.rate, RECEIVERS[receiver])
+    model = RECEIVERS[receiver]
+    if white_m is not None:
+        model = dataclasses.replace(model, white_h_m=white_m, white_v_m=white_m)
+    errors, _ = log_errors(np.random.default_rng(seed), trajectory.sample / trajectory.rate, model)
     logged = dataclasses.replace(trajectory, xyz=trajectory.xyz + errors)
     declared = "phone" if receiver.startswith("phone") else receiver
     params = dataclasses.replace(sync_params, log_bias=bias_model)
@@ -210,6 +229,7 @@ def run_one(
             seconds, peak_mb, rss_mb = time.process_time() - started, np.nan, np.nan
     pairs = pair_errors(timeline, slowed.pairs(), slowed.n_frames)
     eps = [e for e, _ in pairs]
+    statuses = timeline.statuses(list(slowed.cameras))
     return {
         "seed": seed,
         "synchronized": len(timeline.cameras),
@@ -217,6 +237,15 @@ def run_one(
         "worst": max(eps, default=np.nan),
         "median": float(np.median(eps)) if eps else np.nan,
         "z": [score for _, score in pairs],
+        "beyond": sum(e > 1.0 and z > BEYOND * Z95 for e, z in pairs),
+        "wrong": [name for name in timeline.cameras if not _right(timeline, slowed, name)],
+        "statuses": {name: status.status for name, status in statuses.items()},
+        "codes": {
+            name: sorted({r.code for r in status.reasons if r.severity in (AMBIGUOUS, FAILED)})
+            for name, status in statuses.items()
+            if not status.synchronized
+        },
+        "refused_right": [name for name in timeline.rejected if _right(timeline, slowed, name)],
         "refused": {
             name: why.split(": ", 1)[-1] + _line_off(timeline, slowed, name) for name, why in timeline.failed.items()
         },
@@ -251,6 +280,15 @@ def through_stages(
     return timeline, seconds, (peak.mb, peak.rss_mb)
 
 
+def _right(timeline: Timeline, slowed: SlowedFlight, name: str) -> bool:
+    """Whether the camera's synchronized or rejected line is right: within max(1 frame, 3 x its 95 % interval) of the
+    truth at the middle of its visit (bench/_report.py)."""
+    line = timeline.cameras.get(name) or timeline.rejected[name]
+    track = slowed.cameras[name].track
+    assert track is not None
+    return is_right(*camera_error(line, slowed.lines[name], track.frame))
+
+
 def _line_off(timeline: Timeline, slowed: SlowedFlight, name: str) -> str:
     """How far the refused camera's line lies from the truth (" [line +X s]", the log's seconds at its middle tracked
     frame), or "" when no line was fitted (a pose refused first)."""
@@ -273,12 +311,14 @@ def summary(receiver: str, bias_model: bool, runs: list[dict]) -> str:
     every = sum(r["synchronized"] == r["cameras"] for r in runs)
     worst, median = np.array([r["worst"] for r in runs]), np.array([r["median"] for r in runs])
     refused = "; ".join(f"seed {r['seed']} {n}: {_cause(why)}" for r in runs for n, why in r["refused"].items()) or "-"
+    wrong = "; ".join(f"seed {r['seed']} {n} {r['statuses'][n]}" for r in runs for n in r["wrong"]) or "0"
+    right_refused = sum(len(r["refused_right"]) for r in runs)
     return (
         f"| {receiver} | {'on' if bias_model else 'off'} | {every} / {len(runs)} | "
         f"{sum(r['synchronized'] for r in runs)} / {sum(r['cameras'] for r in runs)} | "
         f"{np.nanmedian(median):.2f} ({np.nanmax(median):.2f}) | {np.nanmedian(worst):.2f} ({np.nanmax(worst):.2f}) | "
-        f"{100 * np.mean(z <= Z95):.0f} % of {len(z)} | {np.median([r['cpu_s'] for r in runs]):.1f} | "
-        f"{_peak(runs)} | {refused} |"
+        f"{100 * np.mean(z <= Z95):.0f} % of {len(z)} | {sum(r['beyond'] for r in runs)} | {wrong} | "
+        f"{right_refused} | {np.median([r['cpu_s'] for r in runs]):.1f} | {_peak(runs)} | {refused} |"
     )
 
 
@@ -312,6 +352,11 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--data", type=Path, default=DEFAULT)
     parser.add_argument("--seeds", type=int, default=8)
+    parser.add_argument("--first-seed", type=int, default=0, metavar="N", help="the seeds N, N+1, ... (default 0)")
+    parser.add_argument(
+        "--white", type=float, default=None, metavar="M", help="the receiver's white noise (m, every axis)"
+    )
+    parser.add_argument("--json", type=Path, default=None, metavar="PATH", help="append every run to PATH (JSON lines)")
     parser.add_argument(
         "--models", nargs="+", default=["drone", "phone2"], choices=[m for m in RECEIVERS if m != "rtk"]
     )
@@ -363,30 +408,40 @@ def main() -> None:
             print(bound(posed, receiver, args.poses == "removed"), flush=True)
         return
     slowed, params = flight(args.data, variant)
-    print(f"{args.data}, through {args.through}, {variant.describe()}; {args.seeds} simulated logs per receiver")
+    white = "" if args.white is None else f", the receiver's white noise {args.white:g} m"
+    print(
+        f"{args.data}, through {args.through}, {variant.describe()}; seeds {args.first_seed}-"
+        f"{args.first_seed + args.seeds - 1} per receiver{white}"
+    )
     cpu = "CPU of `tlsync run` a run (s)" if args.through == "stages" else "sync CPU a run (s)"
     print(
         "| receiver | bias model | runs with every camera | cameras synchronized | median pair's eps_t, median "
-        f"(max) | worst pair's eps_t, median (max) | 95 % intervals that contain the truth | {cpu} | "
+        f"(max) | worst pair's eps_t, median (max) | 95 % intervals that contain the truth | pairs beyond 3x theirs | "
+        f"cameras answered beyond 3x theirs | right lines refused | {cpu} | "
         f"peak memory of a run{', its process tree: Pss (RSS)' if args.through == 'stages' else ''} (MB) | "
         "refused (cause) |"
     )
-    print("|---|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for receiver in args.models:
         for bias in args.bias_model:
             runs = []
-            for seed in range(args.seeds):
-                runs.append(run_one(slowed, params, receiver, seed, bias == "on", args.through, args.jobs))
+            for seed in range(args.first_seed, args.first_seed + args.seeds):
+                runs.append(run_one(slowed, params, receiver, seed, bias == "on", args.through, args.jobs, args.white))
                 if args.runs:
                     r = runs[-1]
                     print(
                         f"  {receiver} bias {bias} seed {seed}: {r['synchronized']}/{r['cameras']}, median "
                         f"{r['median']:.2f}, worst {r['worst']:.2f}, covered {sum(s <= Z95 for s in r['z'])}/"
-                        f"{len(r['z'])}, {r['cpu_s']:.0f} s, {r['peak_mb']:.0f} MB ({r['rss_mb']:.0f} RSS), "
-                        f"{r['refused'] or ''}",
+                        f"{len(r['z'])}, beyond 3x {r['beyond']}, {r['cpu_s']:.0f} s, {r['peak_mb']:.0f} MB "
+                        f"({r['rss_mb']:.0f} RSS), {r['statuses']}, wrong {r['wrong'] or '-'}, right lines refused "
+                        f"{r['refused_right'] or '-'}, {r['codes'] or ''} {r['refused'] or ''}",
                         file=sys.stderr,
                         flush=True,
                     )
+                if args.json is not None:
+                    with args.json.open("a", encoding="utf-8") as out:
+                        row = {"receiver": receiver, "bias": bias, "variant": variant.describe(), **runs[-1]}
+                        out.write(json.dumps(row, default=float) + "\n")
             print(summary(receiver, bias == "on", runs), flush=True)
     print(f"Peak resident memory of this bench's process: {peak_rss_mb():.0f} MB.")
 

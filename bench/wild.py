@@ -68,6 +68,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
+from _report import BEYOND, RIGHT_FRAMES, Z95, camera_error, is_right  # noqa: E402
 from gps_bound import worst_pair_draws  # noqa: E402
 from traps import run as run_tlsync  # noqa: E402
 
@@ -86,11 +87,6 @@ from tlsync_pipeline.sync.solve.synchronize import CameraInput, synchronize  # n
 from tlsync_pipeline.sync.timeline import Timeline, eps_t, read_timeline, read_truth  # noqa: E402
 from tlsync_pipeline.trajectory import Trajectory  # noqa: E402
 
-Z95 = 1.959964
-BEYOND = (
-    3.0  # a synchronized pair further than this many times its 95 % interval from the truth is a confident wrong answer
-)
-RIGHT_FRAMES = 1.0  # a line within this many frames of the truth is right whatever its interval
 BOUND_DRAWS = 200
 FAMILIES = ("walk", "phone", "pass", "nopose", "nopose-exact", "loops", "crowd")
 NOT_BY_DEFAULT = ("nopose-exact", "crowd")
@@ -235,25 +231,6 @@ BUILDERS = {
 }
 
 
-def camera_error(timeline: Timeline, name: str, scene: Scene) -> tuple[float, float]:
-    """(|clock error| in frames at the middle of the camera's visit, its 95 % half-width; inf without an interval) of a
-    synchronized or rejected line."""
-    line = timeline.cameras.get(name) or timeline.rejected.get(name)
-    assert line is not None, "a camera with a line"
-    truth = scene.lines[name]
-    frames = scene.tracks[name].frame
-    middle = (float(np.median(frames)) - truth.beta) / truth.alpha
-    error = abs((line.alpha - truth.alpha) * middle + line.beta - truth.beta)
-    if line.cov is None:
-        return error, float("inf")
-    g = np.array([middle, 1.0])
-    return error, Z95 * float(np.sqrt(max(g @ line.cov @ g, 0.0)))
-
-
-def is_right(error: float, half: float) -> bool:
-    return error <= max(RIGHT_FRAMES, BEYOND * half if np.isfinite(half) else RIGHT_FRAMES)
-
-
 def run_case(job: tuple[str, int]) -> dict:
     """One scene: its family, label, per camera (answered, right, stopping codes), pairs (eps_t, |z|), bound draws."""
     family, seed = job
@@ -263,8 +240,12 @@ def run_case(job: tuple[str, int]) -> dict:
     seconds = time.process_time() - start
     cameras = []
     for name, status in timeline.statuses(list(case.scene.cameras)).items():
-        has_line = name in timeline.cameras or name in timeline.rejected
-        right = is_right(*camera_error(timeline, name, case.scene)) if has_line else None
+        line = timeline.cameras.get(name) or timeline.rejected.get(name)
+        right = (
+            is_right(*camera_error(line, case.scene.lines[name], case.scene.tracks[name].frame))
+            if line is not None
+            else None
+        )
         codes = sorted({r.code for r in status.reasons if r.severity in STOPPING})
         cameras.append({"name": name, "answered": status.synchronized, "right": right, "codes": codes})
     pairs = []

@@ -109,6 +109,11 @@ def test_a_step_the_logs_bias_explains_is_no_drop():
     line = SimpleNamespace(alpha=ALPHA, beta=BETA + 2.0)
     assert [b.frame for b in with_vote_break((), frame, clock, sample, dist, line, DELTA, np.inf, 3.0)] == [180]
     assert with_vote_break((), frame, clock, sample, dist, line, DELTA, np.inf, 4.5) == ()
+    # what the bias explains as a function of the frame the step is placed at (the motion on either side)
+    at_180 = lambda frame: 4.5 if frame == 180 else 0.0  # noqa: E731
+    assert with_vote_break((), frame, clock, sample, dist, line, DELTA, np.inf, at_180) == ()
+    elsewhere = lambda frame: 0.0 if frame == 180 else 4.5  # noqa: E731
+    assert [b.frame for b in with_vote_break((), frame, clock, sample, dist, line, DELTA, np.inf, elsewhere)] == [180]
 
 
 def test_steady_sampled_votes_and_a_slow_swing_are_no_step():

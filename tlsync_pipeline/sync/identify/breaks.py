@@ -26,6 +26,7 @@ Frames are 0-based frame indices; clock values are the camera clock's
 from __future__ import annotations
 
 import contextlib
+from collections.abc import Callable
 
 import numpy as np
 
@@ -70,7 +71,7 @@ def vote_break(
     beta: float,
     delta: float,
     agree_px: float = np.inf,
-    least_step: float = 0.0,
+    least_step: float | Callable[[float], float] = 0.0,
 ) -> Break | None:
     """A drop the votes show: ``parallel_line``, else ``step_break`` (arguments as ``step_break``'s)."""
     found = parallel_line(frame, clock, sample, alpha, beta, delta)
@@ -139,7 +140,7 @@ def step_break(
     beta: float,
     delta: float,
     agree_px: float = np.inf,
-    least_step: float = 0.0,
+    least_step: float | Callable[[float], float] = 0.0,
 ) -> Break | None:
     """A drop the votes show as a step: the fitted line runs between two levels, one before a frame and one after.
 
@@ -171,7 +172,9 @@ def step_break(
     as a small drop does (drone2 under a drone's GNSS: a 12-frame "step"),
     and a step of least_step clock units or less is one the log's bias
     explains (a bias along the target's motion is a time shift, and it
-    changes where the target turns or changes speed).
+    changes where the target turns or changes speed): a number, or a
+    function of the frame the step is placed at (what the bias explains
+    depends on the target's motion on either side).
     """
     frame, clock, sample, dist = (np.asarray(a, dtype=np.float64) for a in (frame, clock, sample, dist))
     r = clock - (alpha * sample + beta)
@@ -202,7 +205,7 @@ def step_break(
     step = float(np.median(level[:at]) - np.median(level[at:]))
     sides = min(np.unique(samples[:at]).size, np.unique(samples[at:]).size)
     independent = n / max(alpha, 1.0)
-    if abs(step) < max(MIN_STEP, alpha / 2, least_step) or sides < MIN_SIDE_SAMPLES or not two > 0:
+    if abs(step) < max(MIN_STEP, alpha / 2) or sides < MIN_SIDE_SAMPLES or not two > 0:
         return None
     if independent * np.log(one / two) < STEP_EVIDENCE:
         return None
@@ -210,6 +213,8 @@ def step_break(
     after = level[(frames >= frames[at]) & (frames < frames[at] + reach)]
     local = float(np.median(before) - np.median(after))
     if local * step <= 0 or abs(local) < LOCAL_SHARE * abs(step):
+        return None
+    if abs(step) <= (least_step(float(frames[at])) if callable(least_step) else least_step):
         return None
     return Break("drop", int(frames[at]), round(step, 2))
 
@@ -236,7 +241,7 @@ def with_vote_break(
     line,
     delta: float,
     agree_px: float,
-    least_step: float,
+    least_step: float | Callable[[float], float],
 ) -> tuple[Break, ...]:
     """``breaks`` and the drop the votes show (``vote_break``, ``merged``); line: the fitted CameraLine; agree_px,
     least_step: as ``step_break``'s."""

@@ -17,10 +17,17 @@ whose std under the bias's per-axis std is the spread stated here. The
 target's effective speed across the view is that of the smallest motion
 in space that moves its image as tracked (the Jacobian's pseudo-inverse),
 weighted the same way.
+
+A step of a visit's clock between two parts of it (``step_spread``) is what
+the bias explains on each part: over a visit that turns or slows, each
+part's shift differs from the whole visit's (a pass out and back shifts its
+two halves by opposite amounts that a spread over the whole cancels).
 """
 
 from __future__ import annotations
 
+import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -86,3 +93,30 @@ def bias_time_spread(
     )  # metres per clock unit
     speed = float(np.sum(speed2 * across) / energy) * fps
     return BiasSpread(frames, speed)
+
+
+def step_spread(
+    camera: Camera,
+    frame: np.ndarray,
+    clock: np.ndarray,
+    xy: np.ndarray,
+    path: PiecewiseTrajectory,
+    alpha: float,
+    beta: float,
+    bias_sd_m: np.ndarray,
+    fps: float,
+) -> Callable[[float], float]:
+    """The std (frames) of the step between a visit's clock before a frame and after it that the log's bias explains,
+    as a function of that frame (0-based): each side's ``bias_time_spread`` over the tracked frames ``frame`` (their
+    clock values ``clock``, pixels ``xy``) on that side, the bias independent on the two sides (it wanders):
+    sqrt(before^2 + after^2). inf when a side has no spread to measure."""
+    frame = np.asarray(frame)
+
+    def at(split: float) -> float:
+        sides = [
+            bias_time_spread(camera, clock[side], xy[side], path, alpha, beta, bias_sd_m, fps)
+            for side in (frame < split, frame >= split)
+        ]
+        return math.inf if any(s is None for s in sides) else math.hypot(*(s.frames for s in sides if s is not None))
+
+    return at

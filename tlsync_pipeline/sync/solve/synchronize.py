@@ -20,7 +20,7 @@ Pure functions from typed values to typed values; no file I/O here.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import asdict, dataclass, replace
 
 import numpy as np
@@ -66,7 +66,7 @@ from tlsync_pipeline.sync.solve.plausibility import (
 from tlsync_pipeline.sync.solve.pose_joint import corrected_by_free_poses
 from tlsync_pipeline.sync.solve.posed_bias import line_moves, refit_kept, refit_poses, track_middles
 from tlsync_pipeline.sync.solve.registry import get_method
-from tlsync_pipeline.sync.solve.slow_motion import bias_time_spread
+from tlsync_pipeline.sync.solve.slow_motion import step_spread
 from tlsync_pipeline.sync.timeline import CameraLine, Timeline
 from tlsync_pipeline.sync.vote.log_error import gate_model, measured, vote_radius, with_log_noise
 from tlsync_pipeline.sync.vote.votes import Votes, compute_votes
@@ -656,20 +656,28 @@ def _segmented(
 
 def _bias_step(
     inputs: CameraInput, track: Track, track_clock: np.ndarray, line: CameraLine, prepared: Trajectory, log: LogModel
-) -> float:
-    """The least step of a camera's votes (clock units) its log's bias cannot explain: STEP_BIAS_SIGMAS stds of the
-    difference between two parts of the visit, each shifted by the bias along the target's motion there (the spread
-    a constant bias explains at the target's image speed, sync/solve/slow_motion.py). A turn, or a change of speed,
-    turns a bias into such a step. 0 without a bias; inf without a frame rate or a spread to measure."""
+) -> Callable[[float], float]:
+    """The least step of a camera's votes (clock units) its log's bias cannot explain, as a function of the frame the
+    step is placed at: STEP_BIAS_SIGMAS stds of the difference between the visit's parts before and after it, each
+    shifted by the bias along the target's motion there (sync/solve/slow_motion.py ``step_spread``). A turn, or a
+    change of speed, turns a bias into such a step. 0 without a bias; inf without a frame rate."""
     if not log.has_bias:
-        return 0.0
+        return lambda _: 0.0
     if inputs.fps is None:
-        return math.inf
+        return lambda _: math.inf
     bias_sd = np.array([log.bias_m, log.bias_m, log.bias_vertical_m])
-    spread = bias_time_spread(
-        inputs.camera, track_clock, track.xy, PiecewiseTrajectory(prepared), line.alpha, line.beta, bias_sd, inputs.fps
+    spread = step_spread(
+        inputs.camera,
+        track.frame,
+        track_clock,
+        track.xy,
+        PiecewiseTrajectory(prepared),
+        line.alpha,
+        line.beta,
+        bias_sd,
+        inputs.fps,
     )
-    return math.inf if spread is None else STEP_BIAS_SIGMAS * math.sqrt(2.0) * spread.frames
+    return lambda frame: STEP_BIAS_SIGMAS * spread(frame)
 
 
 def _track_rows(track: Track, rows: np.ndarray) -> Track:
