@@ -340,9 +340,14 @@ def _log_det_and_quadratic(banded: sp.csc_matrix, low_rank: np.ndarray, g: np.nd
 
 
 def _knots(cameras: list[BiasCamera], path: PiecewiseTrajectory, rate: float, model: LogModel) -> np.ndarray:
-    """Knot sample coordinates: every VISIT_KNOT_S over each camera's visit (the bias wanders within it), every
-    tau / KNOTS_PER_TAU from one correlation time before the first visit to one after the last."""
-    visits = [(c.clock - c.beta) / c.alpha for c in cameras]
+    """Knot sample coordinates over the cameras' visits (bias_knots)."""
+    return bias_knots([(c.clock - c.beta) / c.alpha for c in cameras], path, rate, model)
+
+
+def bias_knots(visits: list[np.ndarray], path: PiecewiseTrajectory, rate: float, model: LogModel) -> np.ndarray:
+    """Knot sample coordinates: every VISIT_KNOT_S over each visit (``visits``: each camera's frames' samples; the
+    bias wanders within it), every tau / KNOTS_PER_TAU from one correlation time before the first visit to one after
+    the last; at most MAX_KNOTS."""
     lo_all = max(float(min(v.min() for v in visits)) - model.tau_s * rate, float(path.sample[0]))
     hi_all = min(float(max(v.max() for v in visits)) + model.tau_s * rate, float(path.sample[-1]))
     sparse = max(model.tau_s * rate / KNOTS_PER_TAU, 1.0)

@@ -52,12 +52,10 @@ from tlsync_pipeline.sync.model.log_model import LogModel
 from tlsync_pipeline.sync.model.params import SyncParams
 from tlsync_pipeline.sync.pose.pose_fit import MIN_FRAMES, Layout, camera_at, reprojection_errors
 from tlsync_pipeline.sync.solve.log_bias import (
-    KNOTS_PER_TAU,
-    MAX_KNOTS,
-    VISIT_KNOT_S,
     _levenberg_marquardt,
     _soft_l1_except,
     _variance_factor,
+    bias_knots,
 )
 from tlsync_pipeline.sync.solve.methods import CameraData
 from tlsync_pipeline.sync.solve.posed_bias import GATE_MEDIANS
@@ -252,23 +250,6 @@ def residual_correlation(r: np.ndarray, jac: np.ndarray, f_scale: float) -> floa
     together = np.trace(inverse @ (blocks.T @ blocks) @ inverse) * count / (count - 1)
     ratio = together / max(apart, 1e-300)
     return float(np.clip(ratio, 1.0, 1e6)) if np.isfinite(ratio) else 1.0
-
-
-def bias_knots(visits: list[np.ndarray], path: PiecewiseTrajectory, rate: float, model: LogModel) -> np.ndarray:
-    """Knot sample coordinates as log_bias places them: every VISIT_KNOT_S over each visit (``visits``: each
-    camera's frames' samples), every tau / KNOTS_PER_TAU from one correlation time before the first visit to one
-    after the last; at most MAX_KNOTS."""
-    lo_all = max(float(min(v.min() for v in visits)) - model.tau_s * rate, float(path.sample[0]))
-    hi_all = min(float(max(v.max() for v in visits)) + model.tau_s * rate, float(path.sample[-1]))
-    sparse = max(model.tau_s * rate / KNOTS_PER_TAU, 1.0)
-    knots = [np.linspace(lo_all, hi_all, max(2, int(np.ceil((hi_all - lo_all) / sparse)) + 1))]
-    dense = max(VISIT_KNOT_S * rate, 1.0)
-    for v in visits:
-        lo, hi = float(v.min()) - dense, float(v.max()) + dense
-        knots.append(np.linspace(lo, hi, max(2, int(np.ceil((hi - lo) / dense)) + 1)))
-    merged = np.unique(np.clip(np.concatenate(knots), lo_all, hi_all))
-    merged = merged[np.r_[True, np.diff(merged) > 0.25 * dense]]
-    return merged if len(merged) <= MAX_KNOTS else np.linspace(lo_all, hi_all, MAX_KNOTS)
 
 
 def fit_free_poses(
