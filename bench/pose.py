@@ -60,7 +60,6 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from _memory import peak_rss_mb  # noqa: E402
 from _report import pair_errors  # noqa: E402
 
-from calibration.camera import Camera  # noqa: E402
 from calibration.errors import CalibrationInputError  # noqa: E402
 from calibration.extrinsics import pose_from_points  # noqa: E402
 from data_fixtures.passes import make_pass_scene  # noqa: E402
@@ -77,10 +76,6 @@ NOISE_M = (0.0, 0.1, 0.5, 2.0)
 Z95 = 1.959964
 DEFAULT_DATA = Path("/work/shared/real/drone2")
 CALIBRATION_DOC = Path(__file__).resolve().parent.parent / "docs" / "calibration.md"
-
-
-def unposed(camera: Camera) -> Camera:
-    return replace(camera, R=np.eye(3), t=np.zeros(3), to_estimate=("pose",), pose_info=None)
 
 
 def _worst(timeline, scene) -> float:
@@ -129,7 +124,7 @@ def pass_scene(seed: int) -> dict:
     rows["exact"] = {"worst": _worst(timeline, scene), "errors": [], "missing": 0, "z": _z(timeline, scene)}
     start = time.process_time()
     timeline, results = synchronize(
-        {n: CameraInput(unposed(c), scene.tracks[n], c.fps) for n, c in scene.true_cameras.items()},
+        {n: CameraInput(c.without_pose(), scene.tracks[n], c.fps) for n, c in scene.true_cameras.items()},
         scene.trajectory,
         params,
     )
@@ -166,7 +161,9 @@ def pass_scene(seed: int) -> dict:
             "z": _z(timeline, scene),
         }
         inputs = {
-            n: CameraInput(unposed(c), scene.tracks[n], c.fps, gcps=GcpPrior(gcps[n].uv, gcps[n].xyz, GCP_SIGMA_M))
+            n: CameraInput(
+                c.without_pose(), scene.tracks[n], c.fps, gcps=GcpPrior(gcps[n].uv, gcps[n].xyz, GCP_SIGMA_M)
+            )
             for n, c in scene.true_cameras.items()
         }
         timeline, results = synchronize(inputs, scene.trajectory, params)
@@ -228,7 +225,7 @@ def real_flight(data: Path) -> str | None:
     seconds = {}
     for label, inputs in (
         ("given poses", cameras),
-        ("poses removed", {n: replace(c, camera=unposed(c.camera)) for n, c in cameras.items()}),
+        ("poses removed", {n: replace(c, camera=c.camera.without_pose()) for n, c in cameras.items()}),
     ):
         start = time.process_time()
         timeline, results = synchronize(inputs, trajectory, project.sync)
@@ -353,7 +350,7 @@ def gnss_without_poses(data: Path, seeds: int) -> str | None:
     synced, every, medians, all_z = 0, 0, [], []
     for seed in range(seeds):
         errors, _ = log_errors(np.random.default_rng(seed), trajectory.sample / trajectory.rate, RECEIVERS["drone"])
-        inputs = {n: replace(c, camera=unposed(c.camera)) for n, c in cameras.items()}
+        inputs = {n: replace(c, camera=c.camera.without_pose()) for n, c in cameras.items()}
         start = time.process_time()
         timeline, _ = synchronize(
             inputs,
@@ -416,7 +413,7 @@ def crowd_scene(seed: int) -> dict:
         detections = {n: detect_movers(crowd.truth[n].video, progress=False) for n in scene.cameras}
     start = time.process_time()
     timeline, results = synchronize(
-        {n: CameraInput(unposed(c), None, c.fps, detections[n]) for n, c in scene.cameras.items()},
+        {n: CameraInput(c.without_pose(), None, c.fps, detections[n]) for n, c in scene.cameras.items()},
         scene.trajectory,
         SyncParams(),
     )
@@ -461,7 +458,7 @@ def speed(rounds: int = 2) -> tuple[float, int]:
     times = []
     for _ in range(rounds):
         start = time.process_time()
-        estimate_pose(unposed(camera), track, None, prepared, camera.fps, identify_params(params))
+        estimate_pose(camera.without_pose(), track, None, prepared, camera.fps, identify_params(params))
         times.append(time.process_time() - start)
     return min(times), len(track)
 

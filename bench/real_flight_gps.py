@@ -164,7 +164,7 @@ def flight(data: Path, variant: Variant) -> tuple[SlowedFlight, object]:
         cams = {
             n: dataclasses.replace(
                 c,
-                camera=dataclasses.replace(c.camera, R=np.eye(3), t=np.zeros(3), to_estimate=("pose",), pose_info=None),
+                camera=c.camera.without_pose(),
             )
             for n, c in slowed.cameras.items()
         }

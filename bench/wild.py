@@ -138,7 +138,7 @@ def pass_case(seed: int) -> Case:
     scene = base.scene
     inputs = {}
     for n, c in scene.true_cameras.items():
-        unposed = replace(c, R=np.eye(3), t=np.zeros(3), to_estimate=("pose",), pose_info=None)
+        unposed = c.without_pose()
         inputs[n] = CameraInput(
             unposed, scene.tracks[n], c.fps, gcps=GcpPrior(base.gcps[n].uv, base.gcps[n].xyz, GCP_SIGMA_M)
         )
@@ -158,12 +158,7 @@ def nopose_case(seed: int, exact: bool = False) -> Case:
     speed = 5.0 if drawn == "drone" else 1.4
     receiver = "rtk" if exact else drawn
     scene = make_walk_scene(seed, WalkSpec(route="turns", log=RECEIVERS[receiver], speed_mps=speed))
-    inputs = {
-        n: CameraInput(
-            replace(c, R=np.eye(3), t=np.zeros(3), to_estimate=("pose",), pose_info=None), scene.tracks[n], c.fps
-        )
-        for n, c in scene.cameras.items()
-    }
+    inputs = {n: CameraInput(c.without_pose(), scene.tracks[n], c.fps) for n, c in scene.cameras.items()}
     declared = "phone" if receiver.startswith("phone") else receiver
     label = f"turns {receiver} declared {declared}, no pose" + (f" (drawn {drawn}, {speed:g} m/s)" if exact else "")
     return Case(label, scene, inputs, scene.trajectory, LOG_MODELS[declared])

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -118,6 +118,10 @@ class Camera:
     def posed(self) -> bool:
         """Whether the camera has a pose (it can project)."""
         return "pose" not in self.to_estimate
+
+    def without_pose(self) -> Camera:
+        """This camera with its pose still to be estimated (R the identity, t zero, no pose_info)."""
+        return replace(self, R=np.eye(3), t=np.zeros(3), to_estimate=("pose",), pose_info=None)
 
     @property
     def rvec(self) -> np.ndarray:

@@ -261,11 +261,7 @@ def pose_from_target(
     log_model = measured(log_model, trajectory)
     prepared = with_log_noise(prepare_trajectory(trajectory, params.preparation), log_model)
     start = camera if camera.posed else None
-    unposed = (
-        camera
-        if not camera.posed
-        else replace(camera, R=np.eye(3), t=np.zeros(3), to_estimate=("pose",), pose_info=None)
-    )
+    unposed = camera if not camera.posed else camera.without_pose()
     found, _ = estimate_pose(
         unposed,
         track,

@@ -337,8 +337,7 @@ def synchronize(
 
 def _unposed(inputs: CameraInput) -> CameraInput:
     """A camera posed from the target (by the calibrate stage) as it came: its pose to be estimated."""
-    camera = replace(inputs.camera, R=np.eye(3), t=np.zeros(3), to_estimate=("pose",), pose_info=None)
-    return replace(inputs, camera=camera, pose_timing=None)
+    return replace(inputs, camera=inputs.camera.without_pose(), pose_timing=None)
 
 
 def _synchronize_pass(
