@@ -31,7 +31,14 @@ def drone2_flight():
 
 def without_poses(cameras: dict) -> dict:
     """The cameras (name -> CameraInput) with their poses taken away: each one's to be estimated from the target."""
-    return {
-        n: replace(c, camera=replace(c.camera, R=np.eye(3), t=np.zeros(3), to_estimate=("pose",), pose_info=None))
-        for n, c in cameras.items()
-    }
+    return {n: replace(c, camera=c.camera.without_pose()) for n, c in cameras.items()}
+
+
+def off_and_limit(frame: float, line, true) -> tuple[float, float]:
+    """How far (frames) the fitted ``line`` (a CameraLine) is from the ``true`` one (a Relation) at the camera's frame
+    ``frame``, and three times the line's 95 % half-width there: a camera stands within three times its interval when
+    abs(off) <= limit."""
+    sample = (frame - line.beta) / line.alpha
+    off = line.alpha * (sample - (frame - true.beta) / true.alpha)
+    g = np.array([sample, 1.0])
+    return off, 3 * 1.96 * float(np.sqrt(g @ line.cov @ g))

@@ -12,7 +12,7 @@ import pytest
 from data_fixtures.log_error import PRESETS as RECEIVERS
 from data_fixtures.log_error import log_errors
 from data_fixtures.slowed_flight import slow_part, slowed_flight, time_warp
-from tests.real_data import DRONE2, drone2_flight, without_poses
+from tests.real_data import DRONE2, drone2_flight, off_and_limit, without_poses
 from tlsync_pipeline.sync.model.log_model import PRESETS as LOG_MODELS
 from tlsync_pipeline.sync.solve.synchronize import synchronize
 from tlsync_pipeline.sync.timeline import eps_t
@@ -42,11 +42,8 @@ def test_the_real_flights_hovers_under_a_drone_gnss_are_synchronized_within_thei
     assert sorted(timeline.cameras) == sorted(hovers.cameras), timeline.failed
     for name, line in timeline.cameras.items():
         frame = float(np.median(hovers.cameras[name].track.frame))  # type: ignore[union-attr]
-        sample = (frame - line.beta) / line.alpha
-        true = hovers.lines[name]
-        off = line.alpha * (sample - (frame - true.beta) / true.alpha)  # frames
-        g = np.array([sample, 1.0])
-        assert abs(off) <= 3 * 1.96 * np.sqrt(g @ line.cov @ g), (name, off)
+        off, limit = off_and_limit(frame, line, hovers.lines[name])
+        assert abs(off) <= limit, (name, off)
 
 
 @pytest.mark.slow
@@ -69,11 +66,8 @@ def test_the_hovers_without_poses_are_synchronized_again_on_the_log_corrected_wi
     assert len(joint.cameras) >= max(2, len(alone.cameras)), joint.failed
     for name, line in joint.cameras.items():
         frame = float(np.median(hovers.cameras[name].track.frame))  # type: ignore[union-attr]
-        sample = (frame - line.beta) / line.alpha
-        true = hovers.lines[name]
-        off = line.alpha * (sample - (frame - true.beta) / true.alpha)
-        g = np.array([sample, 1.0])
-        assert abs(off) <= 3 * 1.96 * np.sqrt(g @ line.cov @ g), (name, off)
+        off, limit = off_and_limit(frame, line, hovers.lines[name])
+        assert abs(off) <= limit, (name, off)
 
     def median_pair(timeline) -> float:
         """The median over the timeline's pairs of eps_t (frames, eq. 5)."""
