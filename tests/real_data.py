@@ -29,6 +29,18 @@ def drone2_flight():
     return project, SlowedFlight(cameras, trajectory, lines, n_frames)
 
 
+def drone2_hovers():
+    """drone2's project and its flight cut to the tracked frames where the drone flies slower than 1.9 m/s (the
+    hover-only tracks)."""
+    from data_fixtures.slowed_flight import slow_part, slowed_flight, time_warp
+
+    project, flight = drone2_flight()
+    duration = float(flight.trajectory.sample[-1]) / flight.trajectory.rate
+    return project, slow_part(
+        slowed_flight(flight.cameras, flight.trajectory, flight.lines, flight.n_frames, time_warp(duration, 1.0)), 1.9
+    )
+
+
 def without_poses(cameras: dict) -> dict:
     """The cameras (name -> CameraInput) with their poses taken away: each one's to be estimated from the target."""
     return {n: replace(c, camera=c.camera.without_pose()) for n, c in cameras.items()}

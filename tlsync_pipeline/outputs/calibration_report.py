@@ -135,3 +135,23 @@ def target_pose_summary(target: dict) -> str:
     if not target.get("for_3d", True):
         text += ": good for timing, not for 3D"
     return text
+
+
+POSE_SOURCE_TEXT = {
+    "target": "posed from the target",
+    "second_pass": "searched again on the log corrected for its bias",
+    "bias_refit": "refitted under the log's bias every camera's line estimates",
+}
+
+
+def sync_pose_clause(source: str, center: np.ndarray, report: dict | None) -> str:
+    """One clause saying that a camera's line was fitted with a pose the sync found itself (timeline.json's
+    ``cameras.<name>.pose``: its ``source``, its camera centre in metres), how, how far that centre lies from the
+    calibrate stage's pose from the target (when ``report``, calibration_report.json's content, has one), and that the
+    pictures draw it."""
+    how = ", then ".join(POSE_SOURCE_TEXT[part] for part in source.split("+"))
+    text = f"the sync fitted its line with a pose of its own ({how})"
+    given = ((report or {}).get("target_pose") or {}).get("camera_center_m")
+    if given is not None:
+        text += f", its centre {float(np.linalg.norm(center - np.asarray(given))):.2f} m from this one"
+    return text + ": the pictures and the player draw that pose (timeline.json)"

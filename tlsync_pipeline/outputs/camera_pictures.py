@@ -19,6 +19,7 @@ from urllib.parse import quote
 import numpy as np
 
 from tlsync_pipeline.atomic import atomic_path
+from tlsync_pipeline.errors import SyncError
 from tlsync_pipeline.outputs import bandswap
 from tlsync_pipeline.outputs.pictures import (
     PanelRequest,
@@ -39,9 +40,10 @@ from tlsync_pipeline.sync.identify.identify import candidate_votes
 from tlsync_pipeline.sync.model.clock import FrameTimes
 from tlsync_pipeline.sync.solve.methods import CameraInput
 from tlsync_pipeline.sync.timeline import CameraLine
-from tlsync_pipeline.sync.vote.votes import read_votes
+from tlsync_pipeline.sync.vote.votes import Votes, compute_votes, read_votes
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
 from trackers.detections import read_detections
+from trackers.track import Track
 from trackers.video import keyframe_indices, presentation_times, probe_video
 
 EMBEDDED_JPEG_QUALITY = 85
@@ -67,7 +69,10 @@ class CameraJob:
     requests: the panels of the pairs' strips to draw from its video;
     proxy: the camera's proxy policy; windows: the frames the track stage
     read, when it read windows (a proxy holds those only); n_frames: its
-    video's frames.
+    video's frames; recast: whether the line was fitted on other votes than
+    the vote stage's (``votes``), with a pose or a log the sync found
+    itself: the voting space's votes are then cast again with the camera
+    (its pose the line's) on ``prepared`` at eps_px.
     """
 
     name: str
@@ -79,6 +84,7 @@ class CameraJob:
     rate: float | None
     delta: float
     votes: Path
+    recast: bool
     times: FrameTimes | None
     video: Path | None
     detections: Path | None
@@ -99,14 +105,16 @@ def draw_camera(job: CameraJob) -> DrawnCamera:
     """
     name, line, track = job.name, job.line, job.inputs.track
     assert track is not None, "a synchronized camera has a track"
-    votes = read_votes(job.votes).votes
     made = [
-        plot_votes(name, votes, line, job.delta, job.out_dir / f"votes_{name}.png", job.times),
+        plot_votes(name, shown_votes(job, track), line, job.delta, job.out_dir / f"votes_{name}.png", job.times),
         plot_trajectory(
             name, job.inputs.camera, track, job.path_model, line, job.out_dir / f"trajectory_{name}.png", job.times
         ),
     ]
-    titles = ["voting space", "tracked against projected"]
+    titles = [
+        "voting space" + (" (votes cast again with the pose and log the line was fitted with)" if job.recast else ""),
+        "tracked against projected",
+    ]
     panels: list[np.ndarray] = []
     if job.video is not None:
         keyframes = keyframe_indices(job.video)  # read_frames indexes the video's packets anyway (kept per process)
@@ -173,6 +181,17 @@ def draw_camera(job: CameraJob) -> DrawnCamera:
     ]
     player, proxy = player_video(job)
     return DrawnCamera(pictures, made, panels, player, proxy)
+
+
+def shown_votes(job: CameraJob, track: Track) -> Votes:
+    """The votes the camera's voting space shows: the vote stage's, or (job.recast) those cast again with the line's
+    pose on the log it was fitted to (the vote stage's when that casts none)."""
+    if job.recast:
+        try:
+            return compute_votes(job.inputs.camera, track, job.prepared, job.eps_px)
+        except SyncError:
+            pass
+    return read_votes(job.votes).votes
 
 
 def draw_panels(video: Path, camera, requests: list[PanelRequest]) -> list[np.ndarray]:

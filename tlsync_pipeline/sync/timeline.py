@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from calibration.camera import Camera
 from tlsync_pipeline.artefacts.identification import IdentificationSummary
 from tlsync_pipeline.artefacts.kinds import artefact_path
 from tlsync_pipeline.errors import InputError
@@ -40,6 +41,7 @@ from tlsync_pipeline.sync.model.status import (
     line_reasons,
     status_of,
 )
+from tlsync_pipeline.trajectory import Trajectory
 from trackers.breaks import Break
 
 FORMAT_VERSION = 1
@@ -150,6 +152,90 @@ class ScanSummary:
     frames_decoded: int
 
 
+POSE_SOURCES = ("target", "second_pass", "bias_refit", "target+bias_refit", "second_pass+bias_refit")
+
+
+@dataclass(frozen=True, eq=False)
+class LinePose:
+    """The pose a camera's line was fitted with where the sync found it itself (the camera's camera.json holds
+    another, or none): world -> camera rotation R (3x3) and translation t (metres), X_cam = R X_world + t.
+
+    source: "target" (the camera came without a pose: posed from the target
+    in the pass that gave the line), "second_pass" (searched again on the log
+    corrected for its bias: Timeline.log_correction, sync/solve/pose_joint.py),
+    "bias_refit" (the pose from the target refitted under the log's bias that
+    every camera's line estimates: sync/solve/posed_bias.py), or one of the
+    first two followed by the refit ("target+bias_refit",
+    "second_pass+bias_refit").
+    """
+
+    R: np.ndarray
+    t: np.ndarray
+    source: str
+
+    @classmethod
+    def of(cls, camera: Camera, source: str) -> LinePose:
+        """The pose of ``camera``."""
+        return cls(np.array(camera.R, dtype=np.float64), np.array(camera.t, dtype=np.float64), source)
+
+    def on(self, camera: Camera) -> Camera:
+        """``camera`` (its intrinsics, size, fps) with this pose."""
+        return replace(camera, R=self.R, t=self.t, to_estimate=tuple(k for k in camera.to_estimate if k != "pose"))
+
+    @property
+    def center(self) -> np.ndarray:
+        """The camera centre (metres, world frame): -R^T t."""
+        return -self.R.T @ self.t
+
+    def to_dict(self) -> dict:
+        return {
+            "source": self.source,
+            "R": self.R.tolist(),
+            "t": self.t.tolist(),
+            "camera_center_m": self.center.tolist(),
+        }
+
+    @classmethod
+    def from_dict(cls, entry: dict) -> LinePose:
+        """A camera entry's ``pose`` block back (ValueError when malformed)."""
+        R, t = np.asarray(entry["R"], dtype=np.float64), np.asarray(entry["t"], dtype=np.float64)
+        if R.shape != (3, 3) or t.shape != (3,) or entry["source"] not in POSE_SOURCES:
+            raise ValueError("pose: expected R (3x3), t (3) and a source of " + ", ".join(POSE_SOURCES))
+        return cls(R, t, entry["source"])
+
+
+@dataclass(frozen=True, eq=False)
+class LogCorrection:
+    """What the sync took out of the log before the pass that gave the timeline (the second pass,
+    sync/solve/synchronize.py): the log's bias fitted with the poses from the target free
+    (sync/solve/pose_joint.py), offset_m (K, 3) metres at knots (K,) sample coordinates, linear between them and
+    constant beyond; the true position is the log's plus it. The lines, the poses found in that pass and its votes are
+    on the log so corrected."""
+
+    knots: np.ndarray
+    offset_m: np.ndarray
+
+    def at(self, samples: np.ndarray) -> np.ndarray:
+        """(N, 3) offsets (metres) at sample coordinates."""
+        return np.column_stack([np.interp(samples, self.knots, self.offset_m[:, k]) for k in range(3)])
+
+    def applied(self, trajectory: Trajectory) -> Trajectory:
+        """The log ``trajectory`` corrected (its samples, rate and times unchanged)."""
+        return replace(trajectory, xyz=trajectory.xyz + self.at(trajectory.sample))
+
+    def to_dict(self) -> dict:
+        return {"source": "second_pass", "samples": self.knots.tolist(), "offset_m": self.offset_m.tolist()}
+
+    @classmethod
+    def from_dict(cls, entry: dict) -> LogCorrection:
+        """timeline.json's ``log_correction`` back (ValueError when malformed)."""
+        knots = np.asarray(entry["samples"], dtype=np.float64)
+        offsets = np.asarray(entry["offset_m"], dtype=np.float64).reshape(-1, 3)
+        if knots.ndim != 1 or len(knots) != len(offsets) or not len(knots) or (np.diff(knots) <= 0).any():
+            raise ValueError("log_correction: expected increasing samples and one offset_m [x, y, z] each")
+        return cls(knots, offsets)
+
+
 @dataclass(frozen=True)
 class CameraLine:
     """One camera's fitted line clock = alpha * sample + beta, with its support.
@@ -164,7 +250,8 @@ class CameraLine:
     every mover rather than a track; scan: how its video was read (None:
     the project brought its track or detections); breaks: where its
     recording leaves its steady clock (trackers/breaks.py; its segments are
-    the clock's).
+    the clock's); pose: the pose the line was fitted with when the sync found
+    it itself (None: the camera's camera.json's).
     """
 
     name: str
@@ -188,6 +275,7 @@ class CameraLine:
     scan: ScanSummary | None = None
     clock_check: ClockCheck | None = None
     breaks: tuple[Break, ...] | None = None
+    pose: LinePose | None = None
 
     def __post_init__(self):
         if not self.clock.vfr and self.clock.fps is None and self.fps is not None:
@@ -242,6 +330,8 @@ class CameraLine:
             entry["segments"] = [seg.to_dict() for seg in self.clock.segments]
         if self.breaks:
             entry["breaks"] = [b.to_dict() for b in self.breaks]
+        if self.pose is not None:
+            entry["pose"] = self.pose.to_dict()
         return entry
 
     @classmethod
@@ -273,6 +363,7 @@ class CameraLine:
             "log_bias": None if entry.get("log_bias") is None else LogBiasSummary.from_dict(entry["log_bias"]),
             "clock_check": None if entry.get("clock_prior") is None else ClockCheck.from_dict(entry["clock_prior"]),
             "breaks": None if not entry.get("breaks") else tuple(Break.from_dict(b) for b in entry["breaks"]),
+            "pose": None if entry.get("pose") is None else LinePose.from_dict(entry["pose"]),
         }
         base = {k: entry[k] for k in ("alpha", "beta", "votes", "inliers")}
         base["residual_rms"] = float("nan") if entry["residual_rms"] is None else entry["residual_rms"]
@@ -303,7 +394,8 @@ class Timeline:
     stage's own, in pipeline order (the same list report.html shows);
     rejected: the lines of the cameras not synchronized that have one
     (ambiguous, or contradicted by the plausibility checks): for diagnosis,
-    never for exports.
+    never for exports; log_correction: what the sync took out of the log
+    before the pass whose lines these are (None: the log as given).
     """
 
     cameras: dict[str, CameraLine]
@@ -318,6 +410,7 @@ class Timeline:
     shared_cov: dict[str, np.ndarray] = field(default_factory=dict)
     log_model: dict | None = None  # the log's error model the fit assumed (sync/model/log_model.py), or None
     rejected: dict[str, CameraLine] = field(default_factory=dict)
+    log_correction: LogCorrection | None = None  # what the sync took out of the log before its answer's pass
 
     def cross_cov(self, a: str, b: str) -> np.ndarray:
         """2x2 covariance between camera a's and camera b's (alpha, beta) (zeros when independent)."""
@@ -535,6 +628,7 @@ class Timeline:
                 if self.log_model
                 else {}
             ),
+            **({"log_correction": self.log_correction.to_dict()} if self.log_correction is not None else {}),
         }
 
 
@@ -589,7 +683,7 @@ def read_timeline(path: str | Path) -> Timeline:
         rejected = {name: CameraLine.from_dict(name, c) for name, c in data.get("rejected", {}).items()}
         target = data.get("target", {})
         warnings = tuple(StageWarning(w["stage"], w.get("camera"), w["text"]) for w in data.get("warnings", []))
-        log_error = data.get("log_error") or {}
+        log_error, correction = data.get("log_error") or {}, data.get("log_correction")
         shared = {
             k: np.asarray(v, dtype=np.float64).reshape(2, 2) for k, v in (log_error.get("shared_cov") or {}).items()
         }
@@ -604,6 +698,7 @@ def read_timeline(path: str | Path) -> Timeline:
             shared_cov=shared,
             log_model=log_error.get("model"),
             rejected=rejected,
+            log_correction=None if correction is None else LogCorrection.from_dict(correction),
         )
     except FileNotFoundError:
         raise InputError(f"{path}: file not found") from None

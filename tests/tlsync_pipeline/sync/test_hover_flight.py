@@ -11,20 +11,10 @@ import pytest
 
 from data_fixtures.log_error import PRESETS as RECEIVERS
 from data_fixtures.log_error import log_errors
-from data_fixtures.slowed_flight import slow_part, slowed_flight, time_warp
-from tests.real_data import DRONE2, drone2_flight, off_and_limit, without_poses
+from tests.real_data import DRONE2, drone2_hovers, off_and_limit, without_poses
 from tlsync_pipeline.sync.model.log_model import PRESETS as LOG_MODELS
 from tlsync_pipeline.sync.solve.synchronize import synchronize
 from tlsync_pipeline.sync.timeline import eps_t
-
-
-def _hovers():
-    """drone2's project and its flight cut to the tracked frames where the drone flies slower than 1.9 m/s."""
-    project, flight = drone2_flight()
-    duration = float(flight.trajectory.sample[-1]) / flight.trajectory.rate
-    return project, slow_part(
-        slowed_flight(flight.cameras, flight.trajectory, flight.lines, flight.n_frames, time_warp(duration, 1.0)), 1.9
-    )
 
 
 @pytest.mark.slow
@@ -33,7 +23,7 @@ def _hovers():
 )
 @pytest.mark.parametrize("seed", [0, 1])  # a right line taken for a reversed log; a rival's refit on a wrong line
 def test_the_real_flights_hovers_under_a_drone_gnss_are_synchronized_within_their_intervals(seed):
-    project, hovers = _hovers()
+    project, hovers = drone2_hovers()
     log = hovers.trajectory
     errors, _ = log_errors(np.random.default_rng(seed), log.sample / log.rate, RECEIVERS["drone"])
     timeline, _ = synchronize(
@@ -55,7 +45,7 @@ def test_the_hovers_without_poses_are_synchronized_again_on_the_log_corrected_wi
     the joint bias is not kept (it would drag the lines 30-60 frames off, seed 1); the log corrected by the bias
     fitted with those poses free (sync/solve/pose_joint.py) is synchronized again: as many cameras as the poses
     alone gave or more, each inside 3 times its interval, and the median pair closer to the truth."""
-    project, hovers = _hovers()
+    project, hovers = drone2_hovers()
     unposed = without_poses(hovers.cameras)
     log = hovers.trajectory
     errors, _ = log_errors(np.random.default_rng(1), log.sample / log.rate, RECEIVERS["drone"])

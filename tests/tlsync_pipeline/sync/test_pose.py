@@ -388,6 +388,11 @@ def test_synchronize_poses_cameras_without_one_and_fails_the_degenerate_one(scen
     assert results["cam0"].pose is not None and results["cam0"].line.refined
     # cam0 from its pose from the target against cam0 with its true pose: the same clock
     assert eps_t(timeline.relation("cam0", "cam2"), Relation(1.0, 0.0), s.n_frames["cam0"]) < 0.5
+    # the line carries the pose it was fitted with, which the camera did not bring; cam2 brought its own
+    fitted = timeline.cameras["cam0"].pose
+    assert fitted is not None and fitted.source == "target" and timeline.cameras["cam2"].pose is None
+    np.testing.assert_array_equal(fitted.R, results["cam0"].pose.camera.R)
+    np.testing.assert_array_equal(fitted.t, results["cam0"].pose.camera.t)
 
 
 def test_the_joint_fit_jacobian_is_the_residuals_derivative(scene):

@@ -8,8 +8,8 @@ import pytest
 from data_fixtures import make_scene
 from tlsync_pipeline.sync.model.methods import preparation_of, prepare_trajectory
 from tlsync_pipeline.sync.model.params import SyncParams
-from tlsync_pipeline.sync.solve.synchronize import CameraInput, synchronize, votes_near
-from tlsync_pipeline.sync.timeline import eps_t
+from tlsync_pipeline.sync.solve.synchronize import CameraInput, _with_pose_used, synchronize, votes_near
+from tlsync_pipeline.sync.timeline import CameraLine, LinePose, eps_t
 from tlsync_pipeline.sync.vote.votes import Votes
 from trackers.track import Track
 
@@ -117,3 +117,20 @@ def test_the_trajectory_prepared_again_is_the_one_kept_read_only_and_any_change_
     assert np.allclose(prepare_trajectory(trajectory, raised).xyz, first.xyz - [0.0, 0.0, 0.3])
     methods._LAST_PREPARED.clear()  # noqa: SLF001 - a fresh process's memo
     assert np.array_equal(prepare_trajectory(trajectory, smoothing).xyz, first.xyz)
+
+
+def test_a_line_carries_the_pose_it_was_fitted_with_only_where_its_camera_did_not_bring_it():
+    """synchronize's _with_pose_used: a camera that brought a pose (camera.json, the calibrate stage's) keeps it, or
+    the refit's under the log's bias; one that came without gets the pose searched in the pass, its source composed
+    with a refit's after it."""
+    scene = make_scene(0)
+    given = scene.cameras["cam0"]
+    moved = dataclasses.replace(given, t=given.t + np.array([0.5, 0.0, 0.0]))
+    line = CameraLine("cam0", 2.0, 4.0, 10, 10, 0.1)
+    refit = dataclasses.replace(line, pose=LinePose.of(moved, "bias_refit"))
+    assert _with_pose_used(line, given, given, "second_pass").pose is None
+    assert _with_pose_used(refit, given, given, "second_pass").pose.source == "bias_refit"
+    searched = _with_pose_used(line, given.without_pose(), moved, "second_pass").pose
+    assert searched.source == "second_pass"
+    np.testing.assert_array_equal(searched.t, moved.t)
+    assert _with_pose_used(refit, given.without_pose(), given, "target").pose.source == "target+bias_refit"

@@ -5,6 +5,7 @@ marked approximate.
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -14,7 +15,8 @@ from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.outputs.summary import format_table
 from tlsync_pipeline.sync.model.params import SyncParams
 from tlsync_pipeline.sync.solve.synchronize import CameraInput, synchronize
-from tlsync_pipeline.sync.timeline import read_timeline, write_timeline
+from tlsync_pipeline.sync.timeline import LinePose, LogCorrection, read_timeline, write_timeline
+from tlsync_pipeline.trajectory import Trajectory
 
 
 def _timeline(**scene_args):
@@ -65,3 +67,63 @@ def test_a_malformed_camera_entry_names_the_file(tmp_path):
     (tmp_path / "timeline.json").write_text(json.dumps(data))
     with pytest.raises(InputError, match="timeline.json: not a tlsync timeline"):
         read_timeline(tmp_path / "timeline.json")
+
+
+def _rotation(angle: float) -> np.ndarray:
+    c, s = np.cos(angle), np.sin(angle)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+def test_the_pose_a_line_was_fitted_with_and_the_logs_correction_read_back(tmp_path):
+    timeline = _timeline()
+    pose = LinePose(_rotation(0.3), np.array([1.0, -2.0, 30.0]), "second_pass+bias_refit")
+    correction = LogCorrection(np.array([0.0, 50.0, 400.0]), np.array([[0.5, -0.2, 0.1], [1.0, 0.0, -0.3], [0, 0, 0]]))
+    lines = {**timeline.cameras, "cam1": replace(timeline.cameras["cam1"], pose=pose)}
+    write_timeline(replace(timeline, cameras=lines, log_correction=correction), tmp_path / "timeline.json")
+    data = json.loads((tmp_path / "timeline.json").read_text())
+    assert "pose" not in data["cameras"]["cam0"] and data["cameras"]["cam1"]["pose"]["source"] == pose.source
+    np.testing.assert_allclose(data["cameras"]["cam1"]["pose"]["camera_center_m"], -pose.R.T @ pose.t)
+    back = read_timeline(tmp_path / "timeline.json")
+    assert back.cameras["cam0"].pose is None and back.cameras["cam1"].pose is not None
+    np.testing.assert_array_equal(back.cameras["cam1"].pose.R, pose.R)
+    np.testing.assert_array_equal(back.cameras["cam1"].pose.t, pose.t)
+    assert back.cameras["cam1"].pose.source == pose.source and back.log_correction is not None
+    np.testing.assert_array_equal(back.log_correction.at(np.array([25.0])), [[0.75, -0.1, -0.1]])
+
+
+def test_a_timeline_without_a_pose_or_a_correction_reads_as_before(tmp_path):
+    """A timeline.json written before the pose block and the log's correction existed (or by a run without them)."""
+    write_timeline(_timeline(), tmp_path / "timeline.json")
+    data = json.loads((tmp_path / "timeline.json").read_text())
+    assert "log_correction" not in data and not any("pose" in c for c in data["cameras"].values())
+    back = read_timeline(tmp_path / "timeline.json")
+    assert back.log_correction is None and all(line.pose is None for line in back.cameras.values())
+
+
+def test_a_malformed_pose_block_names_the_file(tmp_path):
+    write_timeline(_timeline(), tmp_path / "timeline.json")
+    data = json.loads((tmp_path / "timeline.json").read_text())
+    data["cameras"]["cam0"]["pose"] = {"R": [[1, 0], [0, 1]], "t": [0, 0, 0], "source": "target"}
+    (tmp_path / "timeline.json").write_text(json.dumps(data))
+    with pytest.raises(InputError, match="timeline.json: not a tlsync timeline"):
+        read_timeline(tmp_path / "timeline.json")
+
+
+def test_the_logs_correction_is_linear_between_its_knots_and_constant_beyond():
+    correction = LogCorrection(np.array([10.0, 20.0]), np.array([[0.0, 1.0, 2.0], [1.0, 3.0, 2.0]]))
+    log = Trajectory(np.array([0.0, 15.0, 30.0]), np.zeros((3, 3)), 10.0, 5.0)
+    corrected = correction.applied(log)
+    np.testing.assert_array_equal(corrected.xyz, [[0.0, 1.0, 2.0], [0.5, 2.0, 2.0], [1.0, 3.0, 2.0]])
+    assert (corrected.rate, corrected.t0) == (10.0, 5.0) and corrected.sample is log.sample
+
+
+def test_a_line_pose_puts_its_pose_on_a_camera_without_one():
+    scene = make_scene(0)
+    camera = scene.cameras["cam0"]
+    pose = LinePose.of(camera, "target")
+    unposed = camera.without_pose()
+    assert not unposed.posed
+    drawn = pose.on(unposed)
+    assert drawn.posed and drawn.image_size == camera.image_size
+    points = scene.trajectory.xyz[:50]
+    np.testing.assert_allclose(drawn.project(points)[0], camera.project(points)[0])

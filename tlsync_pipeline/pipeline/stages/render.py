@@ -12,7 +12,7 @@ is in outputs/.
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, TypeVar
 
@@ -25,7 +25,7 @@ from tlsync_pipeline.artefacts.scan import read_scan
 from tlsync_pipeline.atomic import atomic_path
 from tlsync_pipeline.errors import InputError
 from tlsync_pipeline.ingest.report import read_ingest_report
-from tlsync_pipeline.outputs.calibration_report import calibration_summary
+from tlsync_pipeline.outputs.calibration_report import calibration_summary, sync_pose_clause
 from tlsync_pipeline.outputs.camera_pictures import (
     KEYFRAME_REACH,
     CameraJob,
@@ -162,11 +162,14 @@ def run_render(files: StageFiles, params: RenderParams) -> StageResult:
 
 
 def _read_scene(files: StageFiles, params: RenderParams) -> _Scene:
+    """What the pictures are drawn from: the timeline's, each camera with the pose its line was fitted with, on the
+    log its lines were fitted to (``drawn_as_fitted``)."""
     timeline = read_timeline(files.path("timeline"))
     cameras = camera_files(files, params)
     synchronized = {n: c for n, c in cameras.items() if n in timeline.cameras}
-    inputs = read_camera_inputs(synchronized)
-    trajectory = near_views(read_trajectory(files.path("trajectory")), [c.camera for c in inputs.values()])
+    logged = read_trajectory(files.path("trajectory"))
+    inputs, logged = drawn_as_fitted(timeline, read_camera_inputs(synchronized), logged)
+    trajectory = near_views(logged, [c.camera for c in inputs.values()])
     prepared = prepare_trajectory(trajectory, preparation_of(params_from_table(timeline.params.table())))
     return _Scene(
         timeline,
@@ -179,6 +182,20 @@ def _read_scene(files: StageFiles, params: RenderParams) -> _Scene:
         {n: frame_count(c) for n, c in synchronized.items()},
         PiecewiseTrajectory(prepared),
     )
+
+
+def drawn_as_fitted(
+    timeline: Timeline, inputs: dict[str, CameraInput], trajectory: Trajectory
+) -> tuple[dict[str, CameraInput], Trajectory]:
+    """The synchronized cameras' inputs with the pose each line was fitted with where the sync found it itself
+    (CameraLine.pose: camera.json keeps the calibrate stage's), and the log corrected as the sync corrected it before
+    the pass that gave the lines (Timeline.log_correction; as given without one)."""
+    posed = {
+        n: replace(i, camera=line.pose.on(i.camera)) if (line := timeline.cameras[n]).pose is not None else i
+        for n, i in inputs.items()
+    }
+    correction = timeline.log_correction
+    return posed, trajectory if correction is None else correction.applied(trajectory)
 
 
 def default_pairs(scene: _Scene) -> list[tuple[str, str]]:
@@ -304,6 +321,7 @@ def _camera_job(
         rate=scene.trajectory.rate,
         delta=scene.timeline.params.shared.delta,
         votes=files.votes,
+        recast=scene.timeline.cameras[name].pose is not None or scene.timeline.log_correction is not None,
         times=scene.times[name],
         video=scene.videos.get(name),
         detections=files.detections if name in scene.videos else None,
@@ -392,7 +410,7 @@ def _report_content(
         warnings=run_warnings(runs),
         notes={"pictures": notes, "exports": [run.message for run in runs if run.stage == "export" and run.message]},
         stages=runs + [StageRun("render", None, "this run", None)],
-        calibration={n: calibration_summary(r) for n, r in reports.items()},
+        calibration={n: _calibration_line(n, r, tl) for n, r in reports.items()},
         ingest=ingest.summary(with_warnings=False) if ingest else None,
         charts=charts,
         camera_pictures={n: c.pictures for n, c in cameras.items()},
@@ -405,6 +423,14 @@ def _report_content(
         ],
         player=player,
     )
+
+
+def _calibration_line(name: str, report: dict, timeline: Timeline) -> str:
+    """The camera's calibration in one line, and the pose its line was fitted with when the sync found it itself."""
+    line = timeline.cameras.get(name)
+    if line is None or line.pose is None:
+        return calibration_summary(report)
+    return f"{calibration_summary(report)}; {sync_pose_clause(line.pose.source, line.pose.center, report)}"
 
 
 def remove_other_pictures(out_dir: Path, written: list[Path]) -> list[Path]:

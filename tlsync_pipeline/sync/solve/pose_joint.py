@@ -17,7 +17,7 @@ cameras that see it at the same time from different directions tell it from
 their poses. On drone2's hover-only tracks the bias so fitted took the
 log's error at the visits from 0.5-2.7 m (rms per axis, seeds 0-2) to 0.5-0.9 m, and the
 pose search on the log corrected by it lands in the true poses' basin
-(synchronize's second pass, ``corrected_by_free_poses``).
+(synchronize's second pass, ``free_pose_correction``).
 
 The fit: the bias linear between knots (log_bias's spacing), under the log
 model's Gauss-Markov prior; each camera's pixels robust (soft L1 at the loss
@@ -37,7 +37,7 @@ Clock units: frames (sync/model/clock.py); pixels as tracked; world metres.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
@@ -59,7 +59,7 @@ from tlsync_pipeline.sync.solve.log_bias import (
 )
 from tlsync_pipeline.sync.solve.methods import CameraData
 from tlsync_pipeline.sync.solve.posed_bias import GATE_MEDIANS
-from tlsync_pipeline.sync.timeline import CameraLine
+from tlsync_pipeline.sync.timeline import CameraLine, LogCorrection
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
 
 MAX_FRAMES = 400  # frames of a camera in the fit, evenly spread over those its pose and line explain
@@ -300,18 +300,17 @@ def joint_camera(
     )
 
 
-def corrected_by_free_poses(
-    trajectory: Trajectory,
+def free_pose_correction(
     data: dict[str, CameraData],
     lines: dict[str, CameraLine],
     posed: set[str],
     prepared: Trajectory,
     params: SyncParams,
     log_model: LogModel,
-) -> Trajectory | None:
-    """The log ``trajectory`` corrected by the bias fitted with every camera's line (``lines``, on ``data``) and the
-    poses of the cameras ``posed`` (from the target) free, on the prepared log (fit_free_poses); None without the
-    log's rate, when a camera has too few frames its pose and line explain, or when the fit fails."""
+) -> LogCorrection | None:
+    """The log's correction by the bias fitted with every camera's line (``lines``, on ``data``) and the poses of the
+    cameras ``posed`` (from the target) free, on the prepared log (fit_free_poses); None without the log's rate, when
+    a camera has too few frames its pose and line explain, or when the fit fails."""
     if prepared.rate is None:
         return None
     path = PiecewiseTrajectory(prepared)
@@ -322,4 +321,4 @@ def corrected_by_free_poses(
     found = fit_free_poses(chosen, path, prepared.rate, log_model, identify_params(params).f_scale_px)
     if found is None:
         return None
-    return replace(trajectory, xyz=trajectory.xyz + found.at(trajectory.sample))
+    return LogCorrection(found.knots, found.values)

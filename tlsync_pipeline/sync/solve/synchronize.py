@@ -63,11 +63,11 @@ from tlsync_pipeline.sync.solve.plausibility import (
     motion_slope,
     rival_odds_of,
 )
-from tlsync_pipeline.sync.solve.pose_joint import corrected_by_free_poses
+from tlsync_pipeline.sync.solve.pose_joint import free_pose_correction
 from tlsync_pipeline.sync.solve.posed_bias import line_moves, refit_kept, refit_poses, track_middles
 from tlsync_pipeline.sync.solve.registry import get_method
 from tlsync_pipeline.sync.solve.slow_motion import step_spread
-from tlsync_pipeline.sync.timeline import CameraLine, Timeline
+from tlsync_pipeline.sync.timeline import CameraLine, LinePose, LogCorrection, Timeline
 from tlsync_pipeline.sync.vote.log_error import gate_model, measured, vote_radius, with_log_noise
 from tlsync_pipeline.sync.vote.votes import Votes, compute_votes
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
@@ -325,14 +325,19 @@ def synchronize(
     is not kept (_joint_lines), the log is corrected by the bias fitted with
     those poses free (sync/solve/pose_joint.py) and every camera is
     synchronized again on it, the poses from the target searched again (a
-    second pass; its votes cast here): that pass's timeline is the answer.
+    second pass; its votes cast here): that pass's timeline is the answer,
+    with that correction (``Timeline.log_correction``).
+
+    A line fitted with a pose the sync found itself (posed here, searched
+    again in the second pass, refitted under the log's bias) carries it
+    (``CameraLine.pose``): the pose its pictures are drawn with.
     """
-    timeline, results, corrected = _synchronize_pass(cameras, trajectory, params, votes, log_model, True)
-    if corrected is None:
+    timeline, results, correction = _synchronize_pass(cameras, trajectory, params, votes, log_model, True)
+    if correction is None:
         return timeline, results
     again = {name: _unposed(inputs) if _pose_from_target(inputs.camera) else inputs for name, inputs in cameras.items()}
-    timeline, results, _ = _synchronize_pass(again, corrected, params, None, log_model, False)
-    return timeline, results
+    timeline, results, _ = _synchronize_pass(again, correction.applied(trajectory), params, None, log_model, False)
+    return replace(timeline, log_correction=correction), results
 
 
 def _unposed(inputs: CameraInput) -> CameraInput:
@@ -347,8 +352,8 @@ def _synchronize_pass(
     votes: Mapping[str, Votes | SyncError] | None,
     log_model: LogModel,
     first: bool,
-) -> tuple[Timeline, dict[str, CameraResult], Trajectory | None]:
-    """One pass of synchronize(): its timeline and results, and (``first``) the log corrected for a second pass, or
+) -> tuple[Timeline, dict[str, CameraResult], LogCorrection | None]:
+    """One pass of synchronize(): its timeline and results, and (``first``) the log's correction for a second pass, or
     None."""
     declared, log_model, gated = log_model, measured(log_model, trajectory), gate_model(log_model, trajectory)
     prepared = with_log_noise(prepare_trajectory(trajectory, preparation_of(params)), log_model)
@@ -426,7 +431,7 @@ def _synchronize_pass(
         else:
             lines[name] = line
     shared: dict[str, np.ndarray] = {}
-    fitted_model, estimate, corrected = log_model, None, None
+    fitted_model, estimate, correction = log_model, None, None
     method = get_method(params.method)
     # A camera whose pose comes from the target absorbed the log's error during its visit in that pose: under a log
     # with a bias and other cameras to tell it apart its pose is fitted again under the bias's estimate
@@ -444,11 +449,14 @@ def _synchronize_pass(
         fitted, bias, kept = _joint_lines(method, data, lines, posed_here, prepared, params, log_model)
         lines = {**lines, **fitted}
         if first and not kept:
-            corrected = corrected_by_free_poses(trajectory, data, lines, posed_here, prepared, params, log_model)
+            correction = free_pose_correction(data, lines, posed_here, prepared, params, log_model)
         if bias is not None:
             fitted_model, estimate = bias.model, bias.estimate
             names = [n for n in lines if n in bias.sensitivity]
             shared = {f"{a}|{b}": bias.line_cov(a, b) for i, a in enumerate(names) for b in names[i + 1 :]}
+    searched = "target" if first else "second_pass"
+    lines = {n: _with_pose_used(line, cameras[n].camera, used[n].camera, searched) for n, line in lines.items()}
+    rejected = {n: _with_pose_used(line, cameras[n].camera, used[n].camera, searched) for n, line in rejected.items()}
     timeline = Timeline(
         {name: with_identification_line(line) for name, line in lines.items()},
         trajectory.rate,
@@ -460,7 +468,19 @@ def _synchronize_pass(
         shared_cov=shared,
         log_model=_log_error(fitted_model, declared, estimate, gated),
     )
-    return timeline, results, corrected
+    return timeline, results, correction
+
+
+def _with_pose_used(line: CameraLine, given: Camera, used: Camera, searched: str) -> CameraLine:
+    """The line with the pose it was fitted with (CameraLine.pose) where that is not its camera's as given
+    (``given``): the pose ``used``, searched in this pass (``searched``: "target", "second_pass") for a camera that
+    came without one, then refitted under the log's bias where _joint_lines kept the refit (the line's pose
+    "bias_refit" already). Unchanged otherwise."""
+    if given.posed:
+        return line
+    if line.pose is None:
+        return replace(line, pose=LinePose.of(used, searched))
+    return replace(line, pose=replace(line.pose, source=f"{searched}+{line.pose.source}"))
 
 
 def _joint_lines(
@@ -477,7 +497,8 @@ def _joint_lines(
     bias and with two cameras or more, the cameras ``posed`` from the target take part, their poses fitted again
     under the bias's estimate (posed_bias.refit_poses), their intervals with the refit's covariance (_with_pose_cov);
     where their lines leave the poses alone's farther than those allow (posed_bias.refit_kept, or already on the poses
-    alone: refit_hopeless), or otherwise, they stay out and keep their lines."""
+    alone: refit_hopeless), or otherwise, they stay out and keep their lines. A kept refit's lines carry their refitted
+    poses (CameraLine.pose, source "bias_refit")."""
     kept, refit = True, None
     if log_model.has_bias and len(lines) >= 2 and posed:
         refit, kept = refit_poses(method, data, lines, posed, prepared, params, log_model), False
@@ -488,7 +509,9 @@ def _joint_lines(
         middles = track_middles(data, posed)
         if refit_kept(line_moves(middles, lines, {n: fitted[n] for n in posed if n in fitted})):
             merged = {**refit.lines, **fitted}
-            return {n: _with_pose_cov(line, refit.covs.get(n), lines[n].cov) for n, line in merged.items()}, bias, True
+            widened = {n: _with_pose_cov(line, refit.covs.get(n), lines[n].cov) for n, line in merged.items()}
+            refitted = {n: LinePose.of(refit.data[n].camera, "bias_refit") for n in refit.covs}
+            return {n: replace(line, pose=refitted.get(n)) for n, line in widened.items()}, bias, True
     surveyed = {n: data[n] for n in data if n not in posed}
     if not surveyed:
         return {}, None, kept

@@ -1,6 +1,7 @@
 """Render: band-swap and strip pictures, plots, report, proxies, decoding only the frames drawn."""
 
 import json
+from dataclasses import replace
 
 import cv2
 import numpy as np
@@ -8,10 +9,14 @@ import pytest
 
 from data_fixtures import make_scene, write_scene
 from tlsync_pipeline.outputs import pictures as render
+from tlsync_pipeline.outputs.calibration_report import sync_pose_clause
 from tlsync_pipeline.pipeline.engine import run_graph
 from tlsync_pipeline.pipeline.graph import build_graph
 from tlsync_pipeline.pipeline.project import load_project
-from tlsync_pipeline.sync.timeline import Relation
+from tlsync_pipeline.pipeline.stages.render import drawn_as_fitted
+from tlsync_pipeline.sync.model.params import SyncParams
+from tlsync_pipeline.sync.solve.synchronize import CameraInput, synchronize
+from tlsync_pipeline.sync.timeline import LinePose, LogCorrection, Relation
 
 
 def _write_video(path, camera, track, n_frames):
@@ -273,3 +278,33 @@ def test_with_the_runs_workers_started_the_charts_are_drawn_there_and_come_out_t
     summary = run_graph(graph, executor, force={"render"}, targets=["render"])
     assert summary.ran == ["render"] and not summary.failed, summary
     assert {name: (folder / "work" / "render" / name).read_bytes() for name in charts} == charts
+
+
+def test_the_pictures_are_drawn_with_the_pose_and_log_the_lines_were_fitted_with():
+    """A line that carries a pose (the sync found it: timeline.json's cameras.<name>.pose) is drawn with it, on the log
+    corrected as the sync corrected it; camera.json's pose and the log as given otherwise."""
+    scene = make_scene(seed=1)
+    inputs = {n: CameraInput(c, scene.tracks[n], c.fps) for n, c in scene.cameras.items()}
+    timeline, _ = synchronize(inputs, scene.trajectory, SyncParams())
+    as_given = {**inputs, "cam1": replace(inputs["cam1"], camera=inputs["cam1"].camera.without_pose())}
+    drawn, log = drawn_as_fitted(timeline, as_given, scene.trajectory)
+    assert all(drawn[n] is as_given[n] for n in as_given) and log is scene.trajectory
+
+    found = LinePose.of(scene.cameras["cam1"], "second_pass")
+    correction = LogCorrection(scene.trajectory.sample[[0, -1]], np.array([[1.0, 0.0, 0.0], [1.0, 0.0, 0.0]]))
+    lines = {**timeline.cameras, "cam1": replace(timeline.cameras["cam1"], pose=found)}
+    fitted = replace(timeline, cameras=lines, log_correction=correction)
+    drawn, log = drawn_as_fitted(fitted, as_given, scene.trajectory)
+    assert drawn["cam0"] is as_given["cam0"] and drawn["cam1"].camera.posed
+    points = scene.trajectory.xyz[:20]
+    np.testing.assert_allclose(drawn["cam1"].camera.project(points)[0], scene.cameras["cam1"].project(points)[0])
+    np.testing.assert_allclose(log.xyz - scene.trajectory.xyz, np.tile([1.0, 0.0, 0.0], (len(log), 1)))
+
+
+def test_the_calibration_line_says_when_the_line_was_fitted_with_the_syncs_pose():
+    camera = make_scene(seed=1).cameras["cam0"]
+    report = {"target_pose": {"camera_center_m": (camera.center + np.array([3.0, 4.0, 0.0])).tolist()}}
+    text = sync_pose_clause("second_pass+bias_refit", camera.center, report)
+    assert "searched again on the log corrected for its bias, then refitted under the log's bias" in text
+    assert "its centre 5.00 m from this one" in text and "draw that pose" in text
+    assert "centre" not in sync_pose_clause("target", camera.center, {"target_pose": {"error": "no pose"}})
