@@ -444,27 +444,55 @@ class Timeline:
 
     def _wide_interval(self, name: str) -> Reason | None:
         """WEAK when the camera's start, against the reference's, is known to more than WIDE_FRAMES of its own frames
-        (95 %); ``low_speed`` instead (for the reference too) when the log's bias at the target's slow speed in this
-        view alone makes it so.
+        (95 %); for the reference, when every other camera's start is so known against it (``_wide_reference``);
+        ``low_speed`` instead (for the reference too) when the log's bias at the target's slow speed in this view
+        alone makes it so.
         """
         line = self.cameras[name]
         slow = _slow_motion(line)
         if slow is not None:
             return slow
         reference = self.names[0]
-        se = self.start_offset_se(reference, name) if name != reference else None
+        if name == reference:
+            return self._wide_reference()
+        half = self._start_half_width(reference, name)
+        if half is None or not half[0] > WIDE_FRAMES:
+            return None
+        seconds = "" if half[1] is None else f"±{half[1]:.2g} s, "
+        return Reason(
+            "wide_interval", WEAK, f"start known to {seconds}±{half[0]:.1f} of its frames only", _wide_remedy(line)
+        )
+
+    def _start_half_width(self, reference: str, name: str) -> tuple[float, float | None] | None:
+        """The 95 % half-width of camera ``name``'s start against ``reference``'s: (frames of ``name``, seconds or
+        None); None without covariances."""
+        se = self.start_offset_se(reference, name)
         if se is None:
             return None
-        own_frames = HALF_95 * (se[1] * line.fps if se[1] is not None and line.fps else se[0])
-        if not own_frames > WIDE_FRAMES:
-            return None
-        seconds = "" if se[1] is None else f"±{HALF_95 * se[1]:.2g} s, "
-        remedy = (
-            WIDE_REMEDIES[line.budget.dominant]
-            if line.budget is not None and line.budget.total_frames > 0
-            else WIDE_REMEDY
+        fps = self.cameras[name].fps
+        return HALF_95 * (se[1] * fps if se[1] is not None and fps else se[0]), (
+            None if se[1] is None else HALF_95 * se[1]
         )
-        return Reason("wide_interval", WEAK, f"start known to {seconds}±{own_frames:.1f} of its frames only", remedy)
+
+    def _wide_reference(self) -> Reason | None:
+        """WEAK ``wide_interval`` for the reference when there is another synchronized camera and every other one's
+        start is known against the reference's to more than WIDE_FRAMES of that camera's frames (95 %): every offset
+        the reference gives is wide, whichever camera's line makes it so; the text gives the narrowest of them in the
+        reference's frames. None otherwise."""
+        reference, others = self.names[0], self.names[1:]
+        halves = [self._start_half_width(reference, other) for other in others]
+        if not others or any(h is None or not h[0] > WIDE_FRAMES for h in halves):
+            return None
+        se = min((self.start_offset_se(reference, other) for other in others), key=lambda e: e[0])  # type: ignore[index]
+        assert se is not None, "every pair has covariances"
+        seconds = "" if se[1] is None else f"±{HALF_95 * se[1]:.2g} s, "
+        return Reason(
+            "wide_interval",
+            WEAK,
+            f"reference of the offsets, each of them wide: the other cameras' starts are known against this one's "
+            f"to {seconds}±{HALF_95 * se[0]:.1f} of its frames at best",
+            _wide_remedy(self.cameras[reference]),
+        )
 
     def statuses(self, names: list[str] | None = None) -> dict[str, CameraStatus]:
         """Every camera's status by name: ``names`` in that order (default: the synchronized, then the rejected, then
@@ -630,6 +658,13 @@ class Timeline:
             ),
             **({"log_correction": self.log_correction.to_dict()} if self.log_correction is not None else {}),
         }
+
+
+def _wide_remedy(line: CameraLine) -> str:
+    """What narrows a camera's wide interval: by what dominates its own error budget (WIDE_REMEDIES), or WIDE_REMEDY."""
+    if line.budget is not None and line.budget.total_frames > 0:
+        return WIDE_REMEDIES[line.budget.dominant]
+    return WIDE_REMEDY
 
 
 def _slow_motion(line: CameraLine) -> Reason | None:

@@ -103,3 +103,19 @@ def test_a_slow_target_whose_log_bias_makes_the_start_wide_is_weak_naming_its_sp
     write_timeline(timeline, tmp_path / "timeline.json")
     back = read_timeline(tmp_path / "timeline.json")
     assert back.cameras["cam0"].log_bias == slow and back.status("cam0").to_dict() == status.to_dict()
+
+
+def test_the_reference_is_weak_when_every_other_cameras_start_against_it_is_wide():
+    """The reference's own start is 0 by definition; where every offset it gives is wide (its line alone may make them
+    so), it says so too, the narrowest in its own frames; one narrow pair leaves it ok."""
+    wide = CameraLine("cam0", 2.0, 4.0, 400, 30, 0.5, fps=30.0, cov=np.diag([1e-8, 4.0]))
+    narrow = _line("cam2")
+    alone = Timeline({"cam0": wide, "cam1": _line("cam1")}, target_rate=15.0)
+    status = alone.status("cam0")
+    assert status.status == "weak" and status.reasons[0].code == "wide_interval" and "reference" in status.reason
+    assert alone.status("cam1").reasons[0].code == "wide_interval"
+    # the narrowest pair's half-width in the reference's frames: cam0's and cam1's beta variances (4 + 1e-4 frames²)
+    assert f"±{1.959964 * np.sqrt(4.0 + 1e-4):.1f} of its frames at best" in status.reason
+    with_narrow = Timeline({"cam0": _line("cam0"), "cam1": wide, "cam2": narrow}, target_rate=15.0)
+    assert with_narrow.status("cam0").status == "ok"
+    assert Timeline({"cam0": wide}, target_rate=15.0).status("cam0").status == "ok"  # no offset to give
