@@ -153,11 +153,7 @@ def run_sync(files: StageFiles, params: SyncStageParams) -> StageResult:
     except LogUnitError as exc:
         key, source = params.source or ("trajectory", files.path("trajectory"))
         raise InputError(f"{source} ([target] {key}): {exc}") from None
-    failed = {
-        name: timeline.failed.get(name, str(votes[name]))
-        for name in paths
-        if name not in usable or name in timeline.failed
-    }
+    failed = not_synchronized(list(paths), votes, timeline)
     lines = {
         name: _with_scan(_flag_truncated(line, paths[name]), paths[name]) for name, line in timeline.cameras.items()
     }
@@ -179,6 +175,17 @@ def run_sync(files: StageFiles, params: SyncStageParams) -> StageResult:
     with files.write("timeline") as tmp:
         write_timeline(timeline, tmp)
     return StageResult(warnings=own, failed=timeline.failed, facts={"synchronized": timeline.names})
+
+
+def not_synchronized(names: list[str], votes: dict[str, Votes | SyncError], timeline: Timeline) -> dict[str, str]:
+    """Why each of the cameras ``names`` is not synchronized: the sync's reason, or the vote stage's for a camera
+    without votes (a camera the vote stage failed that the sync's second pass synchronized, on votes of its own, is
+    not: timeline.json lists a camera under ``cameras`` or ``failed``, never both)."""
+    return {
+        name: timeline.failed.get(name, str(votes[name]))
+        for name in names
+        if name in timeline.failed or (isinstance(votes[name], SyncError) and name not in timeline.cameras)
+    }
 
 
 def log_on_utc(files: StageFiles, timeline: Timeline) -> bool:
