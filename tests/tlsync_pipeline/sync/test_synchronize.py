@@ -134,3 +134,32 @@ def test_a_line_carries_the_pose_it_was_fitted_with_only_where_its_camera_did_no
     assert searched.source == "second_pass"
     np.testing.assert_array_equal(searched.t, moved.t)
     assert _with_pose_used(refit, given.without_pose(), given, "target").pose.source == "target+bias_refit"
+
+
+def test_the_second_pass_keeps_the_vote_stages_error_for_a_camera_without_a_track(monkeypatch):
+    """The second pass (forced here: the refit under the log's bias not kept, a zero correction) casts its own votes;
+    a camera whose target was never identified (no track, its votes a SyncError) fails with the vote stage's reason
+    instead of being identified without movers, and the camera posed from the target is posed again, its line
+    carrying that pose and the timeline the correction."""
+    from calibration.camera import PoseInfo
+    from tlsync_pipeline.errors import SyncError
+    from tlsync_pipeline.sync.model.log_model import PRESETS
+    from tlsync_pipeline.sync.solve import synchronize as solve
+    from tlsync_pipeline.sync.timeline import LogCorrection
+
+    scene = make_scene(0)
+    inputs = {n: CameraInput(c, scene.tracks[n], c.fps) for n, c in scene.cameras.items()}
+    given = inputs["cam0"].camera
+    from_target = dataclasses.replace(given, pose_info=PoseInfo("target"))  # as the calibrate stage writes it
+    inputs["cam0"] = dataclasses.replace(inputs["cam0"], camera=from_target)
+    inputs["cam9"] = dataclasses.replace(inputs["cam1"], track=None)
+    prepared = prepare_trajectory(scene.trajectory, preparation_of(SyncParams()))
+    votes: dict = {n: solve.cast_votes(i.camera, i.track, prepared, 10.0) for n, i in inputs.items() if i.track}
+    votes["cam9"] = SyncError("camera cam9: the target was never found")
+    zero = LogCorrection(np.array([0.0, 1.0]), np.zeros((2, 3)))
+    monkeypatch.setattr(solve, "refit_poses", lambda *args: None)
+    monkeypatch.setattr(solve, "free_pose_correction", lambda *args: zero)
+    timeline, _ = synchronize(inputs, scene.trajectory, SyncParams(), votes, PRESETS["drone"])
+    assert timeline.failed == {"cam9": "camera cam9: the target was never found"} and timeline.log_correction is zero
+    assert timeline.cameras["cam0"].pose.source == "second_pass" and timeline.cameras["cam1"].pose is None
+    np.testing.assert_allclose(timeline.cameras["cam0"].pose.center, given.center, atol=0.5)

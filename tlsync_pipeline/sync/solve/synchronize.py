@@ -309,7 +309,7 @@ def synchronize(
 
     votes: each camera's votes as the vote stage cast them (cast_votes on
     prepare_trajectory's output with each camera's vote_radius), or the
-    SyncError it met; None: cast here. log_model: what is known of the log's
+    SyncError it met; None (or a camera missing from it): cast here. log_model: what is known of the log's
     error (sync/model/log_model.py): it widens each camera's vote radius and, with
     a bias and a method that can (the refined one), the lines are fitted
     together with the bias, their intervals including what it leaves
@@ -325,8 +325,10 @@ def synchronize(
     is not kept (_joint_lines), the log is corrected by the bias fitted with
     those poses free (sync/solve/pose_joint.py) and every camera is
     synchronized again on it, the poses from the target searched again (a
-    second pass; its votes cast here): that pass's timeline is the answer,
-    with that correction (``Timeline.log_correction``).
+    second pass; its votes cast here, except that a camera without a track
+    keeps the vote stage's error: its target was never identified): that
+    pass's timeline is the answer, with that correction
+    (``Timeline.log_correction``).
 
     A line fitted with a pose the sync found itself (posed here, searched
     again in the second pass, refitted under the log's bias) carries it
@@ -336,7 +338,8 @@ def synchronize(
     if correction is None:
         return timeline, results
     again = {name: _unposed(inputs) if _pose_from_target(inputs.camera) else inputs for name, inputs in cameras.items()}
-    timeline, results, _ = _synchronize_pass(again, correction.applied(trajectory), params, None, log_model, False)
+    untracked = {n: v for n, v in (votes or {}).items() if isinstance(v, SyncError) and cameras[n].track is None}
+    timeline, results, _ = _synchronize_pass(again, correction.applied(trajectory), params, untracked, log_model, False)
     return replace(timeline, log_correction=correction), results
 
 
@@ -366,7 +369,7 @@ def _synchronize_pass(
     for name, inputs in cameras.items():
         prior = slope_prior(inputs.fps, trajectory.rate, params.rate_sigma)
         try:
-            cast = votes[name] if votes is not None else None
+            cast = votes.get(name) if votes is not None else None
             if isinstance(cast, SyncError):
                 raise cast
             pose = None
