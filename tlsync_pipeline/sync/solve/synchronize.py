@@ -309,8 +309,9 @@ def synchronize(
 
     votes: each camera's votes as the vote stage cast them (cast_votes on
     prepare_trajectory's output with each camera's vote_radius), or the
-    SyncError it met; None (or a camera missing from it): cast here. log_model: what is known of the log's
-    error (sync/model/log_model.py): it widens each camera's vote radius and, with
+    SyncError it met; None (or a camera missing from it): cast here.
+    log_model: what is known of the log's error
+    (sync/model/log_model.py): it widens each camera's vote radius and, with
     a bias and a method that can (the refined one), the lines are fitted
     together with the bias, their intervals including what it leaves
     uncertain. Every line is first checked against its camera's evidence
