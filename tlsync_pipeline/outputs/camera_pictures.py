@@ -69,10 +69,11 @@ class CameraJob:
     requests: the panels of the pairs' strips to draw from its video;
     proxy: the camera's proxy policy; windows: the frames the track stage
     read, when it read windows (a proxy holds those only); n_frames: its
-    video's frames; recast: whether the line was fitted on other votes than
+    video's frames; recast_px: where the line was fitted on other votes than
     the vote stage's (``votes``), with a pose or a log the sync found
-    itself: the voting space's votes are then cast again with the camera
-    (its pose the line's) on ``prepared`` at eps_px.
+    itself, the vote radius (pixels) the voting space's votes are cast again
+    at with the camera (its pose the line's) on ``prepared``; None: the vote
+    stage's votes are the line's.
     """
 
     name: str
@@ -84,7 +85,7 @@ class CameraJob:
     rate: float | None
     delta: float
     votes: Path
-    recast: bool
+    recast_px: float | None
     times: FrameTimes | None
     video: Path | None
     detections: Path | None
@@ -112,7 +113,8 @@ def draw_camera(job: CameraJob) -> DrawnCamera:
         ),
     ]
     titles = [
-        "voting space" + (" (votes cast again with the pose and log the line was fitted with)" if job.recast else ""),
+        "voting space"
+        + (" (votes cast again with the pose and log the line was fitted with)" if job.recast_px is not None else ""),
         "tracked against projected",
     ]
     panels: list[np.ndarray] = []
@@ -184,11 +186,11 @@ def draw_camera(job: CameraJob) -> DrawnCamera:
 
 
 def shown_votes(job: CameraJob, track: Track) -> Votes:
-    """The votes the camera's voting space shows: the vote stage's, or (job.recast) those cast again with the line's
+    """The votes the camera's voting space shows: the vote stage's, or (job.recast_px) those cast again with the line's
     pose on the log it was fitted to (the vote stage's when that casts none)."""
-    if job.recast:
+    if job.recast_px is not None:
         try:
-            return compute_votes(job.inputs.camera, track, job.prepared, job.eps_px)
+            return compute_votes(job.inputs.camera, track, job.prepared, job.recast_px)
         except SyncError:
             pass
     return read_votes(job.votes).votes

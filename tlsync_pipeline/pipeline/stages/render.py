@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING, TypeVar
 
 import numpy as np
 
+from calibration.camera import Camera
 from tlsync_pipeline.artefacts.calibration import read_calibration_report
 from tlsync_pipeline.artefacts.exports import write_text
 from tlsync_pipeline.artefacts.kinds import artefact_path
@@ -58,9 +59,11 @@ from tlsync_pipeline.pipeline.stages.sync import read_camera_inputs
 from tlsync_pipeline.pipeline.strip_requests import StripRequest, read_requests, write_requests
 from tlsync_pipeline.pipeline.workspace import Artefact, StageFiles
 from tlsync_pipeline.sync.model.clock import FrameTimes
+from tlsync_pipeline.sync.model.log_model import LogModel
 from tlsync_pipeline.sync.model.methods import params_from_table, preparation_of, prepare_trajectory
 from tlsync_pipeline.sync.solve.methods import CameraInput
 from tlsync_pipeline.sync.timeline import Timeline, read_timeline
+from tlsync_pipeline.sync.vote.log_error import vote_radius
 from tlsync_pipeline.sync.vote.visits import near_views
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory, read_trajectory
 from trackers.video import keyframe_indices
@@ -198,6 +201,14 @@ def drawn_as_fitted(
     return posed, trajectory if correction is None else correction.applied(trajectory)
 
 
+def fitted_radius(timeline: Timeline, camera: Camera, prepared: Trajectory) -> float:
+    """The vote radius (pixels) the sync gave the camera: log_error.vote_radius under timeline.json's gate model
+    (``log_error.model.gate``), [sync] eps_px without one."""
+    eps_px = timeline.params.shared.eps_px
+    gate = (timeline.log_model or {}).get("gate")
+    return eps_px if not gate else vote_radius(camera, prepared, eps_px, LogModel(**gate))
+
+
 def default_pairs(scene: _Scene) -> list[tuple[str, str]]:
     """The strips drawn by default: the first synchronized camera with a video, with each other one with a video.
 
@@ -321,7 +332,9 @@ def _camera_job(
         rate=scene.trajectory.rate,
         delta=scene.timeline.params.shared.delta,
         votes=files.votes,
-        recast=scene.timeline.cameras[name].pose is not None or scene.timeline.log_correction is not None,
+        recast_px=fitted_radius(scene.timeline, scene.inputs[name].camera, scene.prepared)
+        if scene.timeline.cameras[name].pose is not None or scene.timeline.log_correction is not None
+        else None,
         times=scene.times[name],
         video=scene.videos.get(name),
         detections=files.detections if name in scene.videos else None,

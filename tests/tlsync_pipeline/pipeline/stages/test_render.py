@@ -13,10 +13,13 @@ from tlsync_pipeline.outputs.calibration_report import sync_pose_clause
 from tlsync_pipeline.pipeline.engine import run_graph
 from tlsync_pipeline.pipeline.graph import build_graph
 from tlsync_pipeline.pipeline.project import load_project
-from tlsync_pipeline.pipeline.stages.render import drawn_as_fitted
+from tlsync_pipeline.pipeline.stages.render import drawn_as_fitted, fitted_radius
+from tlsync_pipeline.sync.model.log_model import PRESETS
+from tlsync_pipeline.sync.model.methods import preparation_of, prepare_trajectory
 from tlsync_pipeline.sync.model.params import SyncParams
 from tlsync_pipeline.sync.solve.synchronize import CameraInput, synchronize
 from tlsync_pipeline.sync.timeline import LinePose, LogCorrection, Relation
+from tlsync_pipeline.sync.vote.log_error import gate_model, vote_radius
 
 
 def _write_video(path, camera, track, n_frames):
@@ -308,3 +311,18 @@ def test_the_calibration_line_says_when_the_line_was_fitted_with_the_syncs_pose(
     assert "searched again on the log corrected for its bias, then refitted under the log's bias" in text
     assert "its centre 5.00 m from this one" in text and "draw that pose" in text
     assert "centre" not in sync_pose_clause("target", camera.center, {"target_pose": {"error": "no pose"}})
+
+
+def test_the_voting_space_is_cast_again_at_the_radius_the_sync_gave_the_camera():
+    """Without a log error model the radius is eps_px; with one, the radius its gate model gives the camera (a
+    phone's metres of error: wider than eps_px), as the sync's votes had it."""
+    scene = make_scene(seed=1)
+    inputs = {n: CameraInput(c, scene.tracks[n], c.fps) for n, c in scene.cameras.items()}
+    prepared = prepare_trajectory(scene.trajectory, preparation_of(SyncParams()))
+    camera = scene.cameras["cam0"]
+    plain, _ = synchronize(inputs, scene.trajectory, SyncParams())
+    assert fitted_radius(plain, camera, prepared) == SyncParams().eps_px
+    phone, _ = synchronize(inputs, scene.trajectory, SyncParams(), log_model=PRESETS["phone"])
+    gate = gate_model(PRESETS["phone"], scene.trajectory)
+    radius = fitted_radius(phone, camera, prepared)
+    assert radius == pytest.approx(vote_radius(camera, prepared, SyncParams().eps_px, gate)) and radius > 20.0
