@@ -22,10 +22,12 @@ from scipy.sparse.linalg import splu
 
 class Solvable(Protocol):
     """What ``levenberg_marquardt`` solves: residuals (robust on the pixels, quadratic on the priors: ``loss``), the
-    normal equations at z from the loss's weights and curvature, and each unknown's scale (the damping's units)."""
+    normal equations at z from the loss's weights and curvature, each unknown's scale (the damping's units), and
+    ``leading``: how many of the first unknowns (the cameras') couple to many others, the rest banded (the knots')."""
 
     scale: np.ndarray
     loss: Callable
+    leading: int
 
     def residual(self, z: np.ndarray) -> np.ndarray: ...
 
@@ -64,7 +66,7 @@ def levenberg_marquardt(
             if np.max(np.abs(gradient * problem.scale)) <= tol * max(current, 1e-12):
                 return z, True
             damping = 1e-3 * float(np.max(hessian.diagonal() / units)) if damping < 0 else damping
-        step = solve_sparse((hessian + sp.diags(damping * units)).tocsc(), -gradient)
+        step = solve_sparse((hessian + sp.diags(damping * units)).tocsc(), -gradient, problem.leading)
         trial_residual = problem.residual(z + step) if np.isfinite(step).all() else np.full_like(residual, np.nan)
         trial = cost(trial_residual)
         evaluations += 1
@@ -80,13 +82,21 @@ def levenberg_marquardt(
     return z, False
 
 
-def solve_sparse(matrix: sp.csc_matrix, rhs: np.ndarray) -> np.ndarray:
-    """matrix^-1 rhs by a sparse LU (normal equations banded in the knots, with a few dense rows per camera); NaN
-    when the matrix is singular."""
+def solve_sparse(matrix: sp.csc_matrix, rhs: np.ndarray, leading: int = 0) -> np.ndarray:
+    """matrix^-1 rhs for a symmetric positive definite ``matrix`` banded but in its ``leading`` rows and columns
+    (normal equations: the knots banded, a few dense rows per camera), by a sparse LU that eliminates the banded
+    unknowns in their order and the leading ones last, without pivoting: its factors keep the band and the dense
+    rows (drone2's 1004 unknowns: 36 k entries against COLAMD's 470 k, 1.4 ms against 15). NaN when the matrix is
+    singular."""
+    order = np.r_[np.arange(leading, len(rhs)), np.arange(leading)]
+    permuted = matrix[order][:, order].tocsc()
     try:
-        return splu(matrix).solve(rhs)
+        lu = splu(permuted, permc_spec="NATURAL", diag_pivot_thresh=0.0, options={"SymmetricMode": True})
     except RuntimeError:  # exactly singular
         return np.full_like(rhs, np.nan)
+    out = np.empty_like(rhs)
+    out[order] = lu.solve(rhs[order])
+    return out
 
 
 def soft_l1_except(quadratic: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:

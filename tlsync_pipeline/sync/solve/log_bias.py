@@ -439,6 +439,7 @@ class _Joint:
         self.prior_weight = 1.0
         self.seen = [image_velocity(c.clock, c.xy, SEEN_VELOCITY_S * c.alpha * rate) for c in cameras]
         self.n = len(cameras)
+        self.leading = 2 * self.n
         self.x0 = np.concatenate([[1.0 / c.alpha, (c.middle - c.beta) / c.alpha] for c in cameras])
         spans = [max(float(np.ptp(c.clock)), 1.0) for c in cameras]
         self.scale = np.concatenate(

@@ -122,6 +122,7 @@ class _Problem:
             start.append(np.array([*pose, 1.0 / c.alpha, (c.middle - c.beta) / c.alpha]))
             scale.append(np.array([*([1e-3] * 3 + [1e-2] * 3 if c.free else []), 0.1 / span / c.alpha + 1e-9, 0.1]))
         self.lines = sum(len(s) for s in start)
+        self.leading = self.lines
         self.z0 = np.concatenate([*start, np.zeros(3 * len(knots))])
         self.scale = np.concatenate([*scale, np.full(3 * len(knots), 0.1)])
         self.inflation = np.ones(len(cameras))
