@@ -117,3 +117,22 @@ def test_the_trajectory_prepared_again_is_the_one_kept_read_only_and_any_change_
     assert np.allclose(prepare_trajectory(trajectory, raised).xyz, first.xyz - [0.0, 0.0, 0.3])
     methods._LAST_PREPARED.clear()  # noqa: SLF001 - a fresh process's memo
     assert np.array_equal(prepare_trajectory(trajectory, smoothing).xyz, first.xyz)
+
+
+def test_synchronize_runs_with_one_blas_thread_whoever_calls_it(monkeypatch):
+    """A library call gets the sync stage's limit: OpenBLAS's threads spin on the fits' small matrices."""
+    from threadpoolctl import threadpool_info, threadpool_limits
+
+    import tlsync_pipeline.sync.solve.synchronize as module
+
+    seen = []
+
+    def spy(*args, **kwargs):
+        seen.append(max(i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"))
+        raise RuntimeError("stop")
+
+    monkeypatch.setattr(module, "_synchronize_pass", spy)
+    with threadpool_limits(limits=2, user_api="blas"):
+        with pytest.raises(RuntimeError, match="stop"):
+            synchronize({}, None, SyncParams())  # type: ignore[arg-type]
+    assert seen == [1]

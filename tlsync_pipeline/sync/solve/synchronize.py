@@ -41,6 +41,7 @@ from tlsync_pipeline.sync.identify.segments import (
     whole_frames,
 )
 from tlsync_pipeline.sync.kernels.backward import BACKWARD_BELOW, backward_support, line_support
+from tlsync_pipeline.sync.kernels.blas import one_blas_thread
 from tlsync_pipeline.sync.kernels.slope import slope_prior
 from tlsync_pipeline.sync.model.clock import FrameTimes, Segment, camera_clock, image_speed
 from tlsync_pipeline.sync.model.log_model import PRESETS, LogModel, log_drift
@@ -326,12 +327,15 @@ def synchronize(
     those poses free (sync/solve/pose_joint.py) and every camera is
     synchronized again on it, the poses from the target searched again (a
     second pass; its votes cast here): that pass's timeline is the answer.
+
+    Runs with one BLAS thread (sync/kernels/blas.py), as the sync stage does.
     """
-    timeline, results, corrected = _synchronize_pass(cameras, trajectory, params, votes, log_model, True)
-    if corrected is None:
-        return timeline, results
-    again = {name: _unposed(inputs) if _pose_from_target(inputs.camera) else inputs for name, inputs in cameras.items()}
-    timeline, results, _ = _synchronize_pass(again, corrected, params, None, log_model, False)
+    with one_blas_thread():
+        timeline, results, corrected = _synchronize_pass(cameras, trajectory, params, votes, log_model, True)
+        if corrected is None:
+            return timeline, results
+        again = {n: _unposed(inputs) if _pose_from_target(inputs.camera) else inputs for n, inputs in cameras.items()}
+        timeline, results, _ = _synchronize_pass(again, corrected, params, None, log_model, False)
     return timeline, results
 
 
