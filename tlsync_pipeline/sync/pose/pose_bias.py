@@ -28,7 +28,7 @@ units (sync/clock.py).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import cached_property, lru_cache
 
 import numpy as np
 from scipy.linalg.lapack import dpbsv
@@ -72,6 +72,11 @@ class VisitBias:
     def knots(self) -> int:
         return self.precision.shape[0] // 3
 
+    @cached_property
+    def band(self) -> np.ndarray:
+        """The prior's precision in LAPACK's upper banded storage (BAND + 1, 3K)."""
+        return _banded(self.precision)
+
 
 def fit_with_bias(
     xyz: np.ndarray, uv: np.ndarray, K: np.ndarray, bias: VisitBias, on: np.ndarray, sigma_px: float, pnp
@@ -86,32 +91,32 @@ def fit_with_bias(
     n_rows = len(bias.left)
     values = np.zeros((bias.knots, 3))
     knots = _Knots.of(left, right, u)
-    band = _banded(bias.precision)
     keep = np.ones(len(xyz), dtype=bool)
     focal = 0.5 * (K[0, 0] + K[1, 1])
     scales = None
-    for step in range(STEPS + 1):
-        corrected = xyz + (1.0 - u)[:, None] * values[left] + u[:, None] * values[right]
-        pose = pnp(corrected[keep], uv[keep], K) if keep.sum() >= MIN_POINTS else None
-        if pose is None:
-            return 0.0, None, values
-        R = cv2.Rodrigues(pose[0])[0]
-        cam = corrected @ R.T + pose[1].ravel()
-        depth = cam[:, 2]
-        if not _median_positive(depth):
-            return 0.0, None, values
-        with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore"):
+        for step in range(STEPS + 1):
+            corrected = xyz + (1.0 - u)[:, None] * values[left] + u[:, None] * values[right]
+            pose = pnp(corrected[keep], uv[keep], K) if keep.sum() >= MIN_POINTS else None
+            if pose is None:
+                return 0.0, None, values
+            R = cv2.Rodrigues(pose[0])[0]
+            cam = corrected @ R.T + pose[1].ravel()
+            depth = cam[:, 2]
+            if not _median_positive(depth):
+                return 0.0, None, values
             h = cam @ K.T
             residual = h[:, :2] / h[:, 2:3] - uv
-        error = np.where(depth > 0, np.linalg.norm(residual, axis=1), np.inf)
-        error = np.where(np.isfinite(error), error, np.inf)
-        if scales is None:
-            start = focal * bias.unabsorbed_m / float(np.median(depth[depth > 0]))
-            scales = np.geomspace(max(start, sigma_px), sigma_px, STEPS)
-        if step == STEPS:
-            break
-        keep = (error <= CUT * scales[step]) & (depth > 0)
-        values = values + _bias_step(cam, residual, keep, K, R, knots, values, bias.precision, band, scales[step])
+            error = np.where(depth > 0, np.sqrt(residual[:, 0] ** 2 + residual[:, 1] ** 2), np.inf)
+            error = np.where(np.isfinite(error), error, np.inf)
+            if scales is None:
+                start = focal * bias.unabsorbed_m / float(np.median(depth[depth > 0]))
+                scales = np.geomspace(max(start, sigma_px), sigma_px, STEPS)
+            if step == STEPS:
+                break
+            keep = (error <= CUT * scales[step]) & (depth > 0)
+            step_values = _bias_step(cam, residual, keep, K, R, knots, values, bias.precision, bias.band, scales[step])
+            values = values + step_values
     data = float(np.minimum((error / sigma_px) ** 2, CUT**2).sum()) + CUT**2 * (n_rows - len(xyz))
     prior = float(values.ravel() @ bias.precision @ values.ravel())
     return n_rows - (data + prior) / CUT**2, pose, values
@@ -145,7 +150,8 @@ def _bias_step(cam, residual, keep, K, R, knots: _Knots, values, precision, band
     table[:9] *= knots.near * knots.near
     np.multiply(jtr, knots.near, out=table[27:30])
     np.multiply(jtr, knots.far, out=table[30:33])
-    sums = np.add.reduceat(table[:, knots.order], knots.starts, axis=1).T  # (G, 33) by left knot
+    ordered = table if knots.order is None else table[:, knots.order]
+    sums = np.add.reduceat(ordered, knots.starts, axis=1).T  # (G, 33) by left knot
     count, at = values.shape[0], knots.at
     blocks = np.zeros((2 * count - 1, 9))  # the diagonal blocks, then the upper off-diagonal ones
     blocks[at] += sums[:, :9]
@@ -166,12 +172,12 @@ def _bias_step(cam, residual, keep, K, R, knots: _Knots, values, precision, band
 @dataclass(frozen=True)
 class _Knots:
     """The searched positions' knots as _bias_step sums them: each position's weights on its left and right knots
-    (near 1 - u, far u), the positions' order by left knot, where each left knot's run starts in it, and those
-    knots."""
+    (near 1 - u, far u), the positions' order by left knot (None: in it already), where each left knot's run starts
+    in it, and those knots."""
 
     near: np.ndarray
     far: np.ndarray
-    order: np.ndarray
+    order: np.ndarray | None
     starts: np.ndarray
     at: np.ndarray
 
@@ -179,9 +185,10 @@ class _Knots:
     def of(cls, left: np.ndarray, right: np.ndarray, u: np.ndarray) -> _Knots:
         if np.any(right != left + 1):
             raise ValueError("the bias step needs each position's right knot to follow its left one")
-        order = np.argsort(left, kind="stable")
-        starts = np.flatnonzero(np.r_[True, np.diff(left[order]) != 0])
-        return cls(1.0 - u, u, order, starts, left[order][starts])
+        order = None if np.all(left[1:] >= left[:-1]) else np.argsort(left, kind="stable")
+        ordered = left if order is None else left[order]
+        starts = np.flatnonzero(np.r_[True, ordered[1:] != ordered[:-1]])
+        return cls(1.0 - u, u, order, starts, ordered[starts])
 
 
 @lru_cache(maxsize=64)
