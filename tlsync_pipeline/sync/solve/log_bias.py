@@ -784,22 +784,23 @@ def _camera_view(
 def _camera_rows(
     c: BiasCamera, path: PiecewiseTrajectory, knots: np.ndarray, bias: np.ndarray, view: _CameraView
 ) -> _CameraRows:
-    """One camera's pixel rows at its view's samples (_CameraRows): the derivatives by finite differences, along the
-    path (the frame's run) and in space; a frame off the path or off the image, or whose differences are, has a
-    residual of 10 and no derivative."""
+    """One camera's pixel rows at its view's samples (_CameraRows): the derivative in space analytic where the lens
+    model has one (Camera.point_jacobian), by finite differences otherwise, and along the path (the frame's run) the
+    one in space times the position's finite difference; a frame off the path or off the image, or whose derivatives
+    are not finite, has a residual of 10 and no derivative."""
     n = len(view.s)
     on = view.run >= 0
     ahead = np.full((n, 3), np.nan)
     ahead[on] = path(view.s[on] + SAMPLE_STEP, view.run[on])
     left_ahead, right_ahead, u_ahead = _interpolation_parts(view.s + SAMPLE_STEP, knots)
     ahead += (1.0 - u_ahead)[:, None] * bias[left_ahead] + u_ahead[:, None] * bias[right_ahead]
-    moved = [view.position + METRE_STEP * axis for axis in np.eye(3)]
-    projected, _ = c.camera.project(np.concatenate([ahead, *moved]))
     uv = view.uv
-    rate = (projected[:n] - uv) / SAMPLE_STEP  # pixels per sample
-    gradient = np.stack(
-        [(projected[(1 + a) * n : (2 + a) * n] - uv) / METRE_STEP for a in range(3)], axis=2
-    )  # (N, 2, 3) pixels per metre
+    gradient = c.camera.point_jacobian(view.position)  # (N, 2, 3) pixels per metre
+    if gradient is None:
+        moved = [view.position + METRE_STEP * axis for axis in np.eye(3)]
+        projected, _ = c.camera.project(np.concatenate(moved))
+        gradient = np.stack([(projected[a * n : (a + 1) * n] - uv) / METRE_STEP for a in range(3)], axis=2)
+    rate = np.einsum("nij,nj->ni", gradient, (ahead - view.position) / SAMPLE_STEP)  # pixels per sample
     r = (uv - c.xy) * c.weight[:, None]
     along = rate * c.weight[:, None]
     gradient = gradient * c.weight[:, None, None]
