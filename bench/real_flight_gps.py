@@ -15,7 +15,7 @@ their proportional set sizes, and of their RSS in brackets, sampled every 50
 ms, bench/_memory.py TreePeak).
 ``--through synchronize`` (default) calls synchronize() on the same inputs in
 this process, with one BLAS thread as the pipeline runs the sync stage
-(pipeline/executors.one_blas_thread: OpenBLAS's threads spin on the fits'
+(sync/kernels/blas.py: OpenBLAS's threads spin on the fits'
 small matrices, a pose's 4000 x 8 Jacobian's SVD 48 ms of CPU on two busy
 cores against 0.3 ms on one thread). ``--slow K`` flies the same path K times slower and ``--hover
 S`` holds the drone still S seconds every HOVER_EVERY_S seconds of the flight,
@@ -84,9 +84,9 @@ from data_fixtures.slowed_flight import (
     speed_cap_warp,
     time_warp,
 )
-from tlsync_pipeline.pipeline.executors import one_blas_thread
 from tlsync_pipeline.pipeline.project import load_project
 from tlsync_pipeline.pipeline.stages.sync import load_inputs
+from tlsync_pipeline.sync.kernels.blas import one_blas_thread
 from tlsync_pipeline.sync.model.log_model import PRESETS as LOG_MODELS
 from tlsync_pipeline.sync.model.params import SyncParams
 from tlsync_pipeline.sync.model.status import AMBIGUOUS, FAILED

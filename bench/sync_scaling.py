@@ -18,7 +18,7 @@
      sync against the sync of the true track alone.
    Each checks that every camera's line is found (alpha and beta within
    0.1 % and 1 frame of the truth). The scale cases run with one BLAS thread,
-   as the pipeline runs the sync stage (pipeline/executors.one_blas_thread).
+   as the pipeline runs the sync stage (sync/kernels/blas.py).
 
 Each case runs in a fresh process (peak RSS is per process). Times are also
 printed as a ratio to a fixed numpy workload (sorting 1e7 floats) measured in
@@ -181,7 +181,7 @@ def _scale_case(kind: str, queue) -> None:
 
     Puts (description, vote s, sync s, vote CPU s, sync CPU s, peak MB, cameras found, worst alpha/beta errors, note).
     """
-    from tlsync_pipeline.pipeline.executors import one_blas_thread
+    from tlsync_pipeline.sync.kernels.blas import one_blas_thread
 
     with one_blas_thread():
         _scale_case_body(kind, queue)

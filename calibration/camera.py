@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from calibration.errors import CalibrationInputError, read_text
-from calibration.lens import DISTORTION_MODELS, distort_normalized
+from calibration.lens import DISTORTION_MODELS, distort_normalized, distortion_jacobian
 
 _OPENCV_DIST_LENGTHS = (4, 5, 8, 12, 14)
 
@@ -162,6 +162,23 @@ class Camera:
         if valid.any():
             uv[valid] = self._distort(normalized[valid])
         return uv, valid
+
+    def point_jacobian(self, points: np.ndarray) -> np.ndarray | None:
+        """(N, 2, 3) derivative of the pixels (``project``'s) in the world points (N, 3: pixels per metre), analytic;
+        None for a lens model without an analytic derivative here (lens.distortion_jacobian). Not finite for points
+        behind the camera."""
+        points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        cam = points @ self.R.T + self.t
+        with np.errstate(divide="ignore", invalid="ignore"):
+            inverse = 1.0 / cam[:, 2]
+            normalized = cam[:, :2] * inverse[:, None]
+        lens = distortion_jacobian(normalized, self.K, self.dist, self.dist_model)
+        if lens is None:
+            return None
+        pinhole = np.zeros((len(points), 2, 3))  # d normalized / d camera point
+        pinhole[:, 0, 0] = pinhole[:, 1, 1] = inverse
+        pinhole[:, :, 2] = -normalized * inverse[:, None]
+        return lens @ pinhole @ self.R
 
     def _distort(self, normalized: np.ndarray) -> np.ndarray:
         """Pixels of normalized image points (N, 2) through the lens model."""

@@ -56,6 +56,35 @@ def distort_normalized(normalized: np.ndarray, K: np.ndarray, dist: np.ndarray, 
     return np.column_stack([xd * K[0, 0] + K[0, 2], yd * K[1, 1] + K[1, 2]])
 
 
+def distortion_jacobian(normalized: np.ndarray, K: np.ndarray, dist: np.ndarray, dist_model: str) -> np.ndarray | None:
+    """(N, 2, 2) derivative of the pixels (distort_normalized's) in the normalized image points (N, 2), analytic for
+    the polynomial model; None for the models distort_normalized leaves to OpenCV (a tilted sensor, the fisheye)."""
+    normalized = np.asarray(normalized, dtype=np.float64).reshape(-1, 2)
+    dist = np.asarray(dist, dtype=np.float64).ravel()
+    if dist_model != "opencv" or len(dist) not in _POLYNOMIAL_LENGTHS:
+        return None
+    k = np.zeros(12)
+    k[: len(dist)] = dist
+    x, y = normalized[:, 0], normalized[:, 1]
+    r2 = x * x + y * y
+    r4 = r2 * r2
+    cdist = 1 + k[0] * r2 + k[1] * r4 + k[4] * r4 * r2
+    icdist2 = 1.0 / (1 + k[5] * r2 + k[6] * r4 + k[7] * r4 * r2)
+    radial = cdist * icdist2
+    d_radial = (k[0] + 2 * k[1] * r2 + 3 * k[4] * r4) * icdist2 - radial * icdist2 * (
+        k[5] + 2 * k[6] * r2 + 3 * k[7] * r4
+    )  # d radial / d r2
+    prism_x, prism_y = k[8] + 2 * k[9] * r2, k[10] + 2 * k[11] * r2  # d (thin prism) / d r2
+    out = np.empty((len(x), 2, 2))
+    out[:, 0, 0] = radial + 2 * x * x * d_radial + 2 * k[2] * y + 6 * k[3] * x + 2 * x * prism_x
+    out[:, 0, 1] = 2 * x * y * d_radial + 2 * k[2] * x + 2 * k[3] * y + 2 * y * prism_x
+    out[:, 1, 0] = 2 * x * y * d_radial + 2 * k[2] * x + 2 * k[3] * y + 2 * x * prism_y
+    out[:, 1, 1] = radial + 2 * y * y * d_radial + 6 * k[2] * y + 2 * k[3] * x + 2 * y * prism_y
+    out[:, 0] *= K[0, 0]
+    out[:, 1] *= K[1, 1]
+    return out
+
+
 def undistort_pixels(uv, K: np.ndarray, dist: np.ndarray, dist_model: str, P: np.ndarray | None = None) -> np.ndarray:
     """Distortion-free positions (N, 2) of distorted pixels: in pixels of P (K when given), else normalized."""
     import cv2

@@ -14,8 +14,8 @@ settings.register_profile("ci", derandomize=True, print_blob=True)
 settings.load_profile("ci" if os.environ.get("CI") else "default")
 
 from data_fixtures import make_scene, write_scene  # noqa: E402 (after Hypothesis's profile)
-from tlsync_pipeline.pipeline.executors import one_blas_thread  # noqa: E402
 from tlsync_pipeline.pipeline.workspace import STRICT_VARIABLE  # noqa: E402
+from tlsync_pipeline.sync.kernels.blas import one_blas_thread  # noqa: E402
 
 # A stage that opens a file of the work or project folder it did not declare fails (worker processes inherit this).
 os.environ[STRICT_VARIABLE] = "1"

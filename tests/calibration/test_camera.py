@@ -189,3 +189,29 @@ def test_distortion_gives_opencvs_very_pixels(count):
     rays = np.column_stack([normalized, np.ones(len(normalized))]).reshape(-1, 1, 3)
     expected = cv2.projectPoints(rays, np.zeros((3, 1)), np.zeros((3, 1)), K, dist if count else None)[0]
     assert np.array_equal(distort_normalized(normalized, K, dist, "opencv"), expected.reshape(-1, 2))
+
+
+@pytest.mark.parametrize("count", [0, 4, 5, 8, 12])
+def test_the_pixels_derivative_in_the_world_points_is_the_projections_own(count):
+    """Camera.point_jacobian against central differences of ``project``, for every polynomial lens model."""
+    rng = np.random.default_rng(count)
+    dist = rng.normal(0.0, [0.2, 0.05, 0.002, 0.002, 0.01, 0.1, 0.02, 0.005, 0.002, 0.001, 0.002, 0.001])[:count]
+    K = np.array([[1500.0, 0.0, 960.0], [0.0, 1480.0, 540.0], [0.0, 0.0, 1.0]])
+    R = cv2.Rodrigues(rng.normal(0.0, 1.0, 3))[0]
+    camera = Camera("c", K, dist, R, np.array([1.0, 2.0, 30.0]), (1920, 1080))
+    seen = np.column_stack([rng.uniform(-8, 8, 40), rng.uniform(-5, 5, 40), rng.uniform(20, 40, 40)])
+    points = (seen - camera.t) @ R  # world points at those camera-frame positions
+    step = 1e-6
+    differences = np.stack(
+        [(camera.project(points + step * e)[0] - camera.project(points - step * e)[0]) / (2 * step) for e in np.eye(3)],
+        axis=2,
+    )
+    jacobian = camera.point_jacobian(points)
+    assert jacobian is not None
+    np.testing.assert_allclose(jacobian, differences, rtol=1e-6, atol=1e-6 * np.abs(differences).max())
+
+
+def test_a_lens_without_an_analytic_derivative_has_none():
+    K = np.array([[800.0, 0.0, 640.0], [0.0, 800.0, 360.0], [0.0, 0.0, 1.0]])
+    camera = Camera("c", K, np.zeros(4), np.eye(3), np.zeros(3), (1280, 720), dist_model="fisheye")
+    assert camera.point_jacobian(np.array([[0.0, 0.0, 10.0]])) is None

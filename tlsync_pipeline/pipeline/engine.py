@@ -43,7 +43,6 @@ from tlsync_pipeline.pipeline.executors import (
     Called,
     ProcessExecutor,
     SerialExecutor,
-    one_blas_thread,
     quiet_resource_tracker,
 )
 from tlsync_pipeline.pipeline.graph import STAGES, Graph, Task, task_id
@@ -53,6 +52,7 @@ from tlsync_pipeline.pipeline.spec import StageResult, params_json
 from tlsync_pipeline.pipeline.stop import stop_requested
 from tlsync_pipeline.pipeline.validate import validate_project
 from tlsync_pipeline.pipeline.workspace import StageFiles
+from tlsync_pipeline.sync.kernels.blas import one_blas_thread
 
 
 @dataclass

@@ -3,7 +3,7 @@
 All three offer ``submit(fn, kwargs) -> future`` and ``wait_any(futures)``;
 futures have ``result()``. Worker processes use one thread each for OpenCV
 and the BLAS/OpenMP libraries, so N workers do not oversubscribe N cores; the
-engine's process runs its own tasks with one BLAS thread too (one_blas_thread).
+engine's process runs its own tasks with one BLAS thread too (sync/kernels/blas.py).
 ``cores`` is how many processes a task may start itself (the checkerboard
 detection of the intrinsics stage): 1 in a pool's or a cluster's worker, so
 pools are never nested; the executor's share of the machine when it runs
@@ -179,14 +179,6 @@ def call_recording_warnings(fn: Callable[..., Any], kwargs: dict) -> Called:
         else:
             warnings.showwarning(item.message, item.category, item.filename, item.lineno)
     return Called(value, tuple(dict.fromkeys(messages)), time.perf_counter() - start, time.process_time() - cpu)
-
-
-def one_blas_thread():
-    """A context in which numpy's and scipy's OpenBLAS (two libraries in their wheels) run one thread each."""
-    import scipy.linalg  # noqa: F401 - loads scipy's OpenBLAS, so that the limit covers it too
-    from threadpoolctl import threadpool_limits
-
-    return threadpool_limits(limits=1, user_api="blas")
 
 
 def call(fn: Callable[..., Any], kwargs: dict) -> Called:

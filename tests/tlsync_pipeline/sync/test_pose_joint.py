@@ -10,8 +10,10 @@ import numpy as np
 
 from calibration.camera import Camera
 from data_fixtures.gcp import looking_at
+from tlsync_pipeline.sync.identify.refine import BLOCKS
+from tlsync_pipeline.sync.kernels.sparse_lm import residual_correlation
 from tlsync_pipeline.sync.model.log_model import PRESETS
-from tlsync_pipeline.sync.solve.pose_joint import JointCamera, fit_free_poses, residual_correlation
+from tlsync_pipeline.sync.solve.pose_joint import JointCamera, fit_free_poses
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
 
 RATE = 5.0  # log fixes per second
@@ -80,5 +82,5 @@ def test_residuals_correlated_in_blocks_count_for_less_than_their_number():
     jac = np.column_stack([np.ones(2 * n), np.tile(np.linspace(-1, 1, n), 2)])
     white = rng.normal(0.0, 1.0, (n, 2))
     slow = np.repeat(rng.normal(0.0, 1.0, (8, 2)), n // 8, axis=0)  # one offset shared by each eighth
-    assert residual_correlation(white, jac, 3.0) < 2.0
-    assert residual_correlation(0.2 * white + slow, jac, 3.0) > 5.0
+    assert residual_correlation(white, jac, 3.0, BLOCKS) < 2.0
+    assert residual_correlation(0.2 * white + slow, jac, 3.0, BLOCKS) > 5.0

@@ -163,3 +163,22 @@ def test_the_second_pass_keeps_the_vote_stages_error_for_a_camera_without_a_trac
     assert timeline.failed == {"cam9": "camera cam9: the target was never found"} and timeline.log_correction is zero
     assert timeline.cameras["cam0"].pose.source == "second_pass" and timeline.cameras["cam1"].pose is None
     np.testing.assert_allclose(timeline.cameras["cam0"].pose.center, given.center, atol=0.5)
+
+
+def test_synchronize_runs_with_one_blas_thread_whoever_calls_it(monkeypatch):
+    """A library call gets the sync stage's limit: OpenBLAS's threads spin on the fits' small matrices."""
+    from threadpoolctl import threadpool_info, threadpool_limits
+
+    import tlsync_pipeline.sync.solve.synchronize as module
+
+    seen = []
+
+    def spy(*args, **kwargs):
+        seen.append(max(i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"))
+        raise RuntimeError("stop")
+
+    monkeypatch.setattr(module, "_synchronize_pass", spy)
+    with threadpool_limits(limits=2, user_api="blas"):
+        with pytest.raises(RuntimeError, match="stop"):
+            synchronize({}, None, SyncParams())  # type: ignore[arg-type]
+    assert seen == [1]

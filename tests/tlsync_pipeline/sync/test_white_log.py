@@ -86,7 +86,8 @@ def test_cameras_apart_in_time_keep_their_own_fits_under_a_white_log():
 def test_residuals_that_move_together_in_runs_of_frames_count_as_fewer():
     """The correlation left in a camera's residuals (the joint fit's weighing of its pixels against the corrected log):
     about 1 for independent residuals, about the run length for offsets shared by runs of frames."""
-    from tlsync_pipeline.sync.solve.log_bias import _residual_correlation
+    from tlsync_pipeline.sync.identify.refine import BLOCKS
+    from tlsync_pipeline.sync.kernels.sparse_lm import residual_correlation
 
     rng = np.random.default_rng(0)
     n = 800
@@ -94,9 +95,9 @@ def test_residuals_that_move_together_in_runs_of_frames_count_as_fewer():
     jac[0::2, 0] = np.linspace(-1.0, 1.0, n)  # the u rows move with the slope ...
     jac[0::2, 1] = 1.0  # ... and the offset
     independent = rng.normal(0.0, 0.5, (n, 2))
-    assert _residual_correlation(independent, jac, 3.0) < 2.0
+    assert residual_correlation(independent, jac, 3.0, BLOCKS) < 2.0
     shared = np.repeat(rng.normal(0.0, 0.5, (n // 100, 2)), 100, axis=0) + rng.normal(0.0, 0.05, (n, 2))
-    assert _residual_correlation(shared, jac, 3.0) > 20.0
+    assert residual_correlation(shared, jac, 3.0, BLOCKS) > 20.0
 
 
 def test_a_surveyed_pose_s_uncertainty_widens_the_clock_by_the_pixels_it_moves_the_target_over_its_speed():

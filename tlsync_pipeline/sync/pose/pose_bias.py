@@ -28,9 +28,10 @@ units (sync/clock.py).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property, lru_cache
 
 import numpy as np
-from scipy.linalg import solveh_banded
+from scipy.linalg.lapack import dpbsv
 
 from tlsync_pipeline.sync.kernels.gauss_markov import interpolation_parts, prior_whitening
 from tlsync_pipeline.sync.model.log_model import LogModel
@@ -71,6 +72,11 @@ class VisitBias:
     def knots(self) -> int:
         return self.precision.shape[0] // 3
 
+    @cached_property
+    def band(self) -> np.ndarray:
+        """The prior's precision in LAPACK's upper banded storage (BAND + 1, 3K)."""
+        return _banded(self.precision)
+
 
 def fit_with_bias(
     xyz: np.ndarray, uv: np.ndarray, K: np.ndarray, bias: VisitBias, on: np.ndarray, sigma_px: float, pnp
@@ -84,75 +90,127 @@ def fit_with_bias(
     left, right, u = bias.left[on], bias.right[on], bias.weight[on]
     n_rows = len(bias.left)
     values = np.zeros((bias.knots, 3))
+    knots = _Knots.of(left, right, u)
     keep = np.ones(len(xyz), dtype=bool)
     focal = 0.5 * (K[0, 0] + K[1, 1])
     scales = None
-    for step in range(STEPS + 1):
-        corrected = xyz + (1.0 - u)[:, None] * values[left] + u[:, None] * values[right]
-        pose = pnp(corrected[keep], uv[keep], K) if keep.sum() >= MIN_POINTS else None
-        if pose is None:
-            return 0.0, None, values
-        R = cv2.Rodrigues(pose[0])[0]
-        cam = corrected @ R.T + pose[1].ravel()
-        depth = cam[:, 2]
-        if not np.median(depth) > 0:
-            return 0.0, None, values
-        with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore"):
+        for step in range(STEPS + 1):
+            corrected = xyz + (1.0 - u)[:, None] * values[left] + u[:, None] * values[right]
+            pose = pnp(corrected[keep], uv[keep], K) if keep.sum() >= MIN_POINTS else None
+            if pose is None:
+                return 0.0, None, values
+            R = cv2.Rodrigues(pose[0])[0]
+            cam = corrected @ R.T + pose[1].ravel()
+            depth = cam[:, 2]
+            if not _median_positive(depth):
+                return 0.0, None, values
             h = cam @ K.T
             residual = h[:, :2] / h[:, 2:3] - uv
-        error = np.where(depth > 0, np.linalg.norm(residual, axis=1), np.inf)
-        error = np.where(np.isfinite(error), error, np.inf)
-        if scales is None:
-            start = focal * bias.unabsorbed_m / float(np.median(depth[depth > 0]))
-            scales = np.geomspace(max(start, sigma_px), sigma_px, STEPS)
-        if step == STEPS:
-            break
-        keep = (error <= CUT * scales[step]) & (depth > 0)
-        values = values + _bias_step(cam, residual, keep, K, R, left, right, u, values, bias.precision, scales[step])
+            error = np.where(depth > 0, np.sqrt(residual[:, 0] ** 2 + residual[:, 1] ** 2), np.inf)
+            error = np.where(np.isfinite(error), error, np.inf)
+            if scales is None:
+                start = focal * bias.unabsorbed_m / float(np.median(depth[depth > 0]))
+                scales = np.geomspace(max(start, sigma_px), sigma_px, STEPS)
+            if step == STEPS:
+                break
+            keep = (error <= CUT * scales[step]) & (depth > 0)
+            step_values = _bias_step(cam, residual, keep, K, R, knots, values, bias.precision, bias.band, scales[step])
+            values = values + step_values
     data = float(np.minimum((error / sigma_px) ** 2, CUT**2).sum()) + CUT**2 * (n_rows - len(xyz))
     prior = float(values.ravel() @ bias.precision @ values.ravel())
     return n_rows - (data + prior) / CUT**2, pose, values
 
 
-def _bias_step(cam, residual, keep, K, R, left, right, u, values, precision, scale) -> np.ndarray:
+def _median_positive(values: np.ndarray) -> bool:
+    """Whether the median of ``values`` is positive (np.median's verdict, by counting where it is certain)."""
+    half, positive = len(values) / 2.0, np.count_nonzero(values > 0)
+    if positive == half or not np.isfinite(values).all():
+        return bool(np.median(values) > 0)
+    return bool(positive > half)
+
+
+def _bias_step(cam, residual, keep, K, R, knots: _Knots, values, precision, band, scale) -> np.ndarray:
     """The Gauss-Newton step of the knots' bias (K, 3) with the pose held: pixels linearised in the world point,
-    the kept ones at std ``scale``, the prior's precision."""
-    z = cam[:, 2]
-    jac = np.zeros((len(z), 2, 3))
-    jac[:, 0, 0] = K[0, 0] / z
-    jac[:, 0, 2] = -K[0, 0] * cam[:, 0] / z**2 - K[0, 1] * cam[:, 1] / z**2
-    jac[:, 0, 1] = K[0, 1] / z
-    jac[:, 1, 1] = K[1, 1] / z
-    jac[:, 1, 2] = -K[1, 1] * cam[:, 1] / z**2
-    jac = jac @ R  # d pixel / d world point
+    the kept ones at std ``scale``, the prior's precision (and in LAPACK's banded storage ``band``, _banded)."""
+    x, y, z = cam.T
+    inverse = 1.0 / z
+    du = np.stack([K[0, 0] * inverse, K[0, 1] * inverse, -(K[0, 0] * x + K[0, 1] * y) * inverse**2])
+    dv = np.stack([np.zeros_like(z), K[1, 1] * inverse, -K[1, 1] * y * inverse**2])
+    du, dv = R.T @ du, R.T @ dv  # (3, n) d pixel / d world point
     w = keep / scale**2
-    jtj = np.einsum("nij,nik->njk", jac, jac) * w[:, None, None]
-    jtr = np.einsum("nij,ni->nj", jac, np.where(keep[:, None], residual, 0.0)) * w[:, None]
-    count = values.shape[0]
-    near, across, far = ((1 - u) ** 2)[:, None, None], ((1 - u) * u)[:, None, None], (u**2)[:, None, None]
-    blocks = _summed_by(
-        np.concatenate([left * count + left, left * count + right, right * count + left, right * count + right]),
-        np.concatenate([near * jtj, across * jtj, across * jtj, far * jtj]),
-        count * count,
-    ).reshape(count, count, 3, 3)
-    gradient = _summed_by(
-        np.concatenate([left, right]), np.concatenate([(1 - u)[:, None] * jtr, u[:, None] * jtr]), count
-    )
-    normal = blocks.transpose(0, 2, 1, 3).reshape(3 * count, 3 * count) + precision
-    rhs = gradient.ravel() + precision @ values.ravel()
+    wu, wv = du * w, dv * w
+    kept = np.where(keep[:, None], residual, 0.0)
+    table = np.empty((33, len(z)))  # by position: its J^T J three times weighed (9 each), its J^T r twice (3 each)
+    jtj, jtr = table[:9].reshape(3, 3, -1), wu * kept[:, 0] + wv * kept[:, 1]
+    np.multiply(wu[:, None], du[None], out=jtj)
+    jtj += wv[:, None] * dv[None]
+    np.multiply(table[:9], knots.near * knots.far, out=table[9:18])
+    np.multiply(table[:9], knots.far * knots.far, out=table[18:27])
+    table[:9] *= knots.near * knots.near
+    np.multiply(jtr, knots.near, out=table[27:30])
+    np.multiply(jtr, knots.far, out=table[30:33])
+    ordered = table if knots.order is None else table[:, knots.order]
+    sums = np.add.reduceat(ordered, knots.starts, axis=1).T  # (G, 33) by left knot
+    count, at = values.shape[0], knots.at
+    blocks = np.zeros((2 * count - 1, 9))  # the diagonal blocks, then the upper off-diagonal ones
+    blocks[at] += sums[:, :9]
+    blocks[at + 1] += sums[:, 18:27]
+    blocks[count + at] = sums[:, 9:18]
+    gradient = np.zeros((count, 3))
+    gradient[at] += sums[:, 27:30]
+    gradient[at + 1] += sums[:, 30:33]
     # block tridiagonal: LAPACK's banded Cholesky (a dense solve of this size was 100 times slower here)
-    upper = np.zeros((BAND + 1, 3 * count))
+    upper = band.copy()
+    cells, source = _band_cells(count)
+    upper.ravel()[cells] += blocks.ravel()[source]
+    rhs = gradient.ravel() + precision @ values.ravel()
+    _, step, info = dpbsv(upper, rhs, lower=0)  # scipy's solveh_banded, without its checks' overhead
+    return -step.reshape(count, 3) if info == 0 else np.zeros_like(values)
+
+
+@dataclass(frozen=True)
+class _Knots:
+    """The searched positions' knots as _bias_step sums them: each position's weights on its left and right knots
+    (near 1 - u, far u), the positions' order by left knot (None: in it already), where each left knot's run starts
+    in it, and those knots."""
+
+    near: np.ndarray
+    far: np.ndarray
+    order: np.ndarray | None
+    starts: np.ndarray
+    at: np.ndarray
+
+    @classmethod
+    def of(cls, left: np.ndarray, right: np.ndarray, u: np.ndarray) -> _Knots:
+        if np.any(right != left + 1):
+            raise ValueError("the bias step needs each position's right knot to follow its left one")
+        order = None if np.all(left[1:] >= left[:-1]) else np.argsort(left, kind="stable")
+        ordered = left if order is None else left[order]
+        starts = np.flatnonzero(np.r_[True, ordered[1:] != ordered[:-1]])
+        return cls(1.0 - u, u, order, starts, ordered[starts])
+
+
+@lru_cache(maxsize=64)
+def _band_cells(count: int) -> tuple[np.ndarray, np.ndarray]:
+    """For a block tridiagonal (3 count)-square matrix of 3x3 blocks, its upper band in LAPACK's banded storage
+    (BAND + 1, 3 count): the storage's flat cells that hold a block's entry, and which entry: its index in the
+    diagonal blocks' (count, 3, 3) then the upper off-diagonal blocks' (count - 1, 3, 3) values, raveled."""
+    size = 3 * count
+    cells, source = [], []
     for d in range(BAND + 1):
-        upper[BAND - d, d:] = np.diagonal(normal, d)
-    try:
-        return -solveh_banded(upper, rhs).reshape(count, 3)
-    except np.linalg.LinAlgError:
-        return np.zeros_like(values)
+        column = np.arange(d, size)
+        row = column - d
+        block, a, b = row // 3, row % 3, column % 3
+        same, next_ = column // 3 == block, column // 3 == block + 1
+        cells += [(BAND - d) * size + column[same], (BAND - d) * size + column[next_]]
+        source += [9 * block[same] + 3 * a[same] + b[same], 9 * count + 9 * block[next_] + 3 * a[next_] + b[next_]]
+    return np.concatenate(cells), np.concatenate(source)
 
 
-def _summed_by(index: np.ndarray, values: np.ndarray, cells: int) -> np.ndarray:
-    """(cells, ...) the rows of ``values`` (m, ...) summed by their cell ``index`` (m,), in their order: np.add.at's
-    sums (the same numbers, added in the same order) by one np.bincount, several times faster on a pose's few rows."""
-    width = int(np.prod(values.shape[1:]))
-    flat = (index[:, None] * width + np.arange(width)).ravel()
-    return np.bincount(flat, values.ravel(), minlength=cells * width).reshape(cells, *values.shape[1:])
+def _banded(matrix: np.ndarray) -> np.ndarray:
+    """A symmetric matrix of half-bandwidth at most BAND in LAPACK's upper banded storage (BAND + 1, n)."""
+    upper = np.zeros((BAND + 1, len(matrix)))
+    for d in range(min(BAND, len(matrix) - 1) + 1):
+        upper[BAND - d, d:] = np.diagonal(matrix, d)
+    return upper

@@ -38,7 +38,6 @@ from __future__ import annotations
 import copy
 from collections.abc import Callable
 from dataclasses import dataclass, replace
-from typing import Protocol
 
 import numpy as np
 import scipy.sparse as sp
@@ -50,6 +49,13 @@ from tlsync_pipeline.sync.identify.refine import BLOCKS
 from tlsync_pipeline.sync.kernels.gauss_markov import interpolation_parts as _interpolation_parts
 from tlsync_pipeline.sync.kernels.gauss_markov import prior_whitening as _prior_whitening
 from tlsync_pipeline.sync.kernels.slope import SlopePrior
+from tlsync_pipeline.sync.kernels.sparse_lm import (
+    levenberg_marquardt,
+    residual_correlation,
+    robust_cost,
+    soft_l1_except,
+    variance_factor,
+)
 from tlsync_pipeline.sync.kernels.velocity import image_velocity
 from tlsync_pipeline.sync.model.log_model import PRIOR_LOG_SD, LogModel
 from tlsync_pipeline.trajectory import PiecewiseTrajectory
@@ -433,6 +439,7 @@ class _Joint:
         self.prior_weight = 1.0
         self.seen = [image_velocity(c.clock, c.xy, SEEN_VELOCITY_S * c.alpha * rate) for c in cameras]
         self.n = len(cameras)
+        self.leading = 2 * self.n
         self.x0 = np.concatenate([[1.0 / c.alpha, (c.middle - c.beta) / c.alpha] for c in cameras])
         spans = [max(float(np.ptp(c.clock)), 1.0) for c in cameras]
         self.scale = np.concatenate(
@@ -444,7 +451,7 @@ class _Joint:
         self.priors = [c.prior for c in cameras if c.prior is not None]
         pixels = sum(2 * len(c.clock) for c in cameras)
         self.quadratic = np.r_[np.zeros(pixels, bool), np.ones(len(self.priors) + whiten.shape[0], bool)]
-        self.loss: Callable = _soft_l1_except(self.quadratic)
+        self.loss: Callable = soft_l1_except(self.quadratic)
         self._cache: dict[bytes, list[_CameraRows]] = {}
         self._view_cache: dict[bytes, list[_CameraView]] = {}
         self.inflation = np.ones(self.n)
@@ -452,7 +459,7 @@ class _Joint:
         start = np.concatenate([self.x0, np.zeros(3 * len(knots))])
         self.inflation = np.array(
             [
-                _variance_factor(rows.residual, f_scale)
+                variance_factor(rows.residual, f_scale)
                 if measured
                 else _inflation(
                     c, rows.residual, rows.local_jacobian(c, len(knots)), f_scale, start[2 * k : 2 * k + 2], c.cov
@@ -464,13 +471,13 @@ class _Joint:
 
     def remeasured(self, z: np.ndarray) -> _Joint:
         """The same problem with each camera's inflation measured on its residuals at z, against the log corrected by
-        z's knots: their variance factor times the correlation left in them (_residual_correlation)."""
+        z's knots: their variance factor times the correlation left in them (residual_correlation)."""
         inflation, correlation = np.ones(self.n), np.ones(self.n)
         for k, (c, rows) in enumerate(zip(self.cameras, self._pixels(z))):
             r = rows.residual / rows.scale
             jac = rows.local_jacobian(c, len(self.knots))[:, :2].toarray() / rows.scale
-            correlation[k] = _residual_correlation(r, jac, self.f_scale)
-            inflation[k] = _variance_factor(r, self.f_scale) * correlation[k]
+            correlation[k] = residual_correlation(r, jac, self.f_scale, BLOCKS)
+            inflation[k] = variance_factor(r, self.f_scale) * correlation[k]
         again = copy.copy(self)
         again.inflation, again.correlation = inflation, correlation
         again._cache, again._view_cache = {}, {}
@@ -611,7 +618,7 @@ class _Joint:
         for k, rows in enumerate(self._pixels(z)):
             c, x = self.cameras[k], z[2 * k : 2 * k + 2]
             r, jac = rows.residual, rows.local_jacobian(c, len(self.knots), self._seen_along(k, rows, z))
-            bread, variance = _bread(c, r, jac, self.f_scale), _variance_factor(r, self.f_scale)
+            bread, variance = _bread(c, r, jac, self.f_scale), variance_factor(r, self.f_scale)
             if self.correlation is not None:  # measured against the corrected log: the posterior's weighing too
                 correlation, own = float(self.correlation[k]), 1.0
             else:
@@ -777,22 +784,23 @@ def _camera_view(
 def _camera_rows(
     c: BiasCamera, path: PiecewiseTrajectory, knots: np.ndarray, bias: np.ndarray, view: _CameraView
 ) -> _CameraRows:
-    """One camera's pixel rows at its view's samples (_CameraRows): the derivatives by finite differences, along the
-    path (the frame's run) and in space; a frame off the path or off the image, or whose differences are, has a
-    residual of 10 and no derivative."""
+    """One camera's pixel rows at its view's samples (_CameraRows): the derivative in space analytic where the lens
+    model has one (Camera.point_jacobian), by finite differences otherwise, and along the path (the frame's run) the
+    one in space times the position's finite difference; a frame off the path or off the image, or whose derivatives
+    are not finite, has a residual of 10 and no derivative."""
     n = len(view.s)
     on = view.run >= 0
     ahead = np.full((n, 3), np.nan)
     ahead[on] = path(view.s[on] + SAMPLE_STEP, view.run[on])
     left_ahead, right_ahead, u_ahead = _interpolation_parts(view.s + SAMPLE_STEP, knots)
     ahead += (1.0 - u_ahead)[:, None] * bias[left_ahead] + u_ahead[:, None] * bias[right_ahead]
-    moved = [view.position + METRE_STEP * axis for axis in np.eye(3)]
-    projected, _ = c.camera.project(np.concatenate([ahead, *moved]))
     uv = view.uv
-    rate = (projected[:n] - uv) / SAMPLE_STEP  # pixels per sample
-    gradient = np.stack(
-        [(projected[(1 + a) * n : (2 + a) * n] - uv) / METRE_STEP for a in range(3)], axis=2
-    )  # (N, 2, 3) pixels per metre
+    gradient = c.camera.point_jacobian(view.position)  # (N, 2, 3) pixels per metre
+    if gradient is None:
+        moved = [view.position + METRE_STEP * axis for axis in np.eye(3)]
+        projected, _ = c.camera.project(np.concatenate(moved))
+        gradient = np.stack([(projected[a * n : (a + 1) * n] - uv) / METRE_STEP for a in range(3)], axis=2)
+    rate = np.einsum("nij,nj->ni", gradient, (ahead - view.position) / SAMPLE_STEP)  # pixels per sample
     r = (uv - c.xy) * c.weight[:, None]
     along = rate * c.weight[:, None]
     gradient = gradient * c.weight[:, None, None]
@@ -828,15 +836,8 @@ def _inflation(
 ) -> float:
     """What one camera's residuals' information is divided by: their variance factor (sum psi^2 / sum psi', the
     M-estimator's) times how much more the covariance ``cov`` of its line says than that naive one (>= 1)."""
-    variance = _variance_factor(r, f_scale)
+    variance = variance_factor(r, f_scale)
     return variance * _correlation_factor(_bread(c, r, jac, f_scale), variance, x, cov)
-
-
-def _variance_factor(r: np.ndarray, f_scale: float) -> float:
-    """The M-estimator's variance factor of residuals r under the soft L1 loss: sum psi^2 / sum psi'."""
-    q = (r / f_scale) ** 2
-    psi, dpsi = r / np.sqrt(1.0 + q), (1.0 + q) ** -1.5
-    return max(float(np.sum(psi**2) / max(np.sum(dpsi), 1e-12)), 1e-6)
 
 
 def _correlation_factor(bread: np.ndarray, variance: float, x: np.ndarray, cov: np.ndarray) -> float:
@@ -853,119 +854,17 @@ def _correlation_factor(bread: np.ndarray, variance: float, x: np.ndarray, cov: 
     return float(np.clip(ratio, 1.0, 1e6)) if np.isfinite(ratio) else 1.0
 
 
-def _residual_correlation(r: np.ndarray, jac: np.ndarray, f_scale: float) -> float:
-    """How much the covariance of a camera's line from its residuals r (N, 2) summed over BLOCKS contiguous runs of
-    frames exceeds the one from its frames taken apart (>= 1; jac (2N, 2): their derivative in the line): residuals
-    correlated in time carry less information than their number says."""
-    q = (r / f_scale) ** 2
-    psi, dpsi = (r / np.sqrt(1.0 + q)).ravel(), ((1.0 + q) ** -1.5).ravel()
-    bread = jac.T @ (dpsi[:, None] * jac)
-    scores = (jac * psi[:, None]).reshape(len(r), 2, 2).sum(axis=1)  # (N, 2): each frame's
-    blocks = np.array([b.sum(axis=0) for b in np.array_split(scores, min(BLOCKS, len(scores)))])
-    count = len(blocks)
-    if count < 2:
-        return 1.0
-    try:
-        inverse = np.linalg.inv(bread)
-    except np.linalg.LinAlgError:
-        return 1.0
-    apart = np.trace(inverse @ (scores.T @ scores) @ inverse)
-    together = np.trace(inverse @ (blocks.T @ blocks) @ inverse) * count / (count - 1)
-    ratio = together / max(apart, 1e-300)
-    return float(np.clip(ratio, 1.0, 1e6)) if np.isfinite(ratio) else 1.0
-
-
 def _graduated(problem: _Joint, z: np.ndarray, f_scale: float) -> tuple[np.ndarray, bool]:
     """The joint optimum with the priors as stated: of the optima reached from z (the cameras' own lines) and from
     the optimum with the priors' std f_scale times smaller (a prior's sigma weighing as a pixel residual of the
     loss scale), the one of least cost. The problem is not convex: from the cameras' lines the solver can slide to
     far worse optima (drone walk scene 0: a camera with few votes and a 24 m vertical bias, at 80 times the cost),
     and from the stiffer optimum it can stay in a worse basin (phone walk scenes)."""
-    stiff, _ = _levenberg_marquardt(problem.with_prior_weight(f_scale), z, f_scale)
-    found = [_levenberg_marquardt(problem, start, f_scale) for start in (z, stiff)]
+    stiff, _ = levenberg_marquardt(problem.with_prior_weight(f_scale), z, f_scale)
+    found = [levenberg_marquardt(problem, start, f_scale) for start in (z, stiff)]
     return min(found, key=lambda f: _cost(problem, f[0], f_scale))
 
 
 def _cost(problem: _Joint, z: np.ndarray, f_scale: float) -> float:
     """The joint problem's robust cost at z (infinite where a residual is not finite)."""
-    return _robust_cost(problem, problem.residual(z), f_scale)
-
-
-class Solvable(Protocol):
-    """What ``_levenberg_marquardt`` solves: residuals (robust on the pixels, quadratic on the priors: ``loss``), the
-    normal equations at z from the loss's weights and curvature, and each unknown's scale (the damping's units)."""
-
-    scale: np.ndarray
-    loss: Callable
-
-    def residual(self, z: np.ndarray) -> np.ndarray: ...
-
-    def normal_equations(
-        self, z: np.ndarray, weights: np.ndarray, curvature: np.ndarray
-    ) -> tuple[np.ndarray, sp.csc_matrix]: ...
-
-
-def _robust_cost(problem: Solvable, residual: np.ndarray, f_scale: float) -> float:
-    """The robust cost of residuals: soft L1 at f_scale on the pixels, quadratic on the priors."""
-    if not np.isfinite(residual).all():
-        return np.inf
-    return 0.5 * f_scale**2 * float(np.sum(problem.loss((residual / f_scale) ** 2)[0]))
-
-
-def _levenberg_marquardt(
-    problem: Solvable, z: np.ndarray, f_scale: float, max_nfev: int = 100, tol: float = 1e-8
-) -> tuple[np.ndarray, bool]:
-    """The robust least squares of the joint problem from z: Levenberg-Marquardt on the normal equations, which are
-    (2C + 3K) square and sparse whatever the number of frames (_Joint.normal_equations), with the loss's curvature
-    as scipy's least_squares scales it and the damping in the units of ``problem.scale``. Converged: the cost, the
-    step or the gradient stopped changing (relative ``tol``) within ``max_nfev`` evaluations of the residuals."""
-
-    def cost(residual: np.ndarray) -> float:
-        return _robust_cost(problem, residual, f_scale)
-
-    units = 1.0 / problem.scale**2
-    residual = problem.residual(z)
-    current, evaluations, damping, moved = cost(residual), 1, -1.0, True
-    while evaluations < max_nfev:
-        if moved:
-            rho = problem.loss((residual / f_scale) ** 2)
-            curvature = np.maximum(rho[1] + 2.0 * rho[2] * (residual / f_scale) ** 2, 1e-10)
-            gradient, hessian = problem.normal_equations(z, rho[1] * residual, curvature)
-            if np.max(np.abs(gradient * problem.scale)) <= tol * max(current, 1e-12):
-                return z, True
-            damping = 1e-3 * float(np.max(hessian.diagonal() / units)) if damping < 0 else damping
-        step = _solve_sparse((hessian + sp.diags(damping * units)).tocsc(), -gradient)
-        trial_residual = problem.residual(z + step) if np.isfinite(step).all() else np.full_like(residual, np.nan)
-        trial = cost(trial_residual)
-        evaluations += 1
-        moved = trial <= current
-        if not moved:
-            damping *= 4.0
-            continue
-        z, residual, drop, current = z + step, trial_residual, current - trial, trial
-        damping /= 3.0
-        small_step = np.linalg.norm(step / problem.scale) <= tol * (tol + np.linalg.norm(z / problem.scale))
-        if drop <= tol * current or small_step:
-            return z, True
-    return z, False
-
-
-def _solve_sparse(matrix: sp.csc_matrix, rhs: np.ndarray) -> np.ndarray:
-    """matrix^-1 rhs by a sparse LU (the normal equations are banded in the knots, with a few dense rows per camera);
-    NaN when the matrix is singular."""
-    try:
-        return splu(matrix).solve(rhs)
-    except RuntimeError:  # exactly singular
-        return np.full_like(rhs, np.nan)
-
-
-def _soft_l1_except(quadratic: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
-    """scipy least_squares loss (rho, rho', rho''): soft L1, but quadratic where ``quadratic`` is set (the priors)."""
-
-    def loss(z: np.ndarray) -> np.ndarray:
-        t = 1.0 + z
-        out = np.vstack([2.0 * (np.sqrt(t) - 1.0), t**-0.5, -0.5 * t**-1.5])
-        out[0, quadratic], out[1, quadratic], out[2, quadratic] = z[quadratic], 1.0, 0.0
-        return out
-
-    return loss
+    return robust_cost(problem, problem.residual(z), f_scale)

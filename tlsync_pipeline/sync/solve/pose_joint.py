@@ -24,9 +24,9 @@ model's Gauss-Markov prior; each camera's pixels robust (soft L1 at the loss
 scale) on the frames its pose and line explain (within posed_bias's
 GATE_MEDIANS of their median error, at least eps_px; at most MAX_FRAMES,
 evenly spread), divided by their variance factor times the correlation
-left in them (``residual_correlation``), both measured at the poses and
+left in them (sparse_lm's ``residual_correlation``), both measured at the poses and
 lines the fit starts from; Levenberg-Marquardt on the normal equations
-(log_bias's). (Fitted first with the pixels as they are, then so weighed,
+(sync/kernels/sparse_lm.py). (Fitted first with the pixels as they are, then so weighed,
 the fit on drone2's hover-only seed 0 diverged to a bias of 10 m.) Where
 the solver stops before it converges, the bias where it stopped is kept: it
 is a correction the second pass tests on every camera's evidence again, not
@@ -48,15 +48,16 @@ from tlsync_pipeline.sync.identify.identify import identify_params
 from tlsync_pipeline.sync.identify.refine import BLOCKS
 from tlsync_pipeline.sync.kernels.gauss_markov import interpolation_parts, prior_whitening
 from tlsync_pipeline.sync.kernels.slope import SlopePrior, slope_prior
+from tlsync_pipeline.sync.kernels.sparse_lm import (
+    levenberg_marquardt,
+    residual_correlation,
+    soft_l1_except,
+    variance_factor,
+)
 from tlsync_pipeline.sync.model.log_model import LogModel
 from tlsync_pipeline.sync.model.params import SyncParams
 from tlsync_pipeline.sync.pose.pose_fit import MIN_FRAMES, Layout, camera_at, reprojection_errors
-from tlsync_pipeline.sync.solve.log_bias import (
-    _levenberg_marquardt,
-    _soft_l1_except,
-    _variance_factor,
-    bias_knots,
-)
+from tlsync_pipeline.sync.solve.log_bias import bias_knots
 from tlsync_pipeline.sync.solve.methods import CameraData
 from tlsync_pipeline.sync.solve.posed_bias import GATE_MEDIANS
 from tlsync_pipeline.sync.timeline import CameraLine, LogCorrection
@@ -106,7 +107,8 @@ class _Problem:
     """The joint problem in z = (per camera: its pose's 6 values when free, 1 / alpha, the sample at its middle
     clock value; then the knots' values, knot-major). Residuals: each camera's pixel offsets over the root of its
     inflation (1 until ``remeasure``), then each slope prior and the whitened bias prior (quadratic); a free pose has
-    no prior. The interface log_bias's ``_levenberg_marquardt`` solves: residual, normal_equations, scale, loss."""
+    no prior. The interface sync/kernels/sparse_lm's ``levenberg_marquardt`` solves: residual, normal_equations,
+    scale, loss."""
 
     def __init__(self, cameras: list[JointCamera], path: PiecewiseTrajectory, knots: np.ndarray, whiten: sp.csr_matrix):
         self.cameras, self.path, self.knots, self.whiten = cameras, path, knots, whiten
@@ -120,12 +122,13 @@ class _Problem:
             start.append(np.array([*pose, 1.0 / c.alpha, (c.middle - c.beta) / c.alpha]))
             scale.append(np.array([*([1e-3] * 3 + [1e-2] * 3 if c.free else []), 0.1 / span / c.alpha + 1e-9, 0.1]))
         self.lines = sum(len(s) for s in start)
+        self.leading = self.lines
         self.z0 = np.concatenate([*start, np.zeros(3 * len(knots))])
         self.scale = np.concatenate([*scale, np.full(3 * len(knots), 0.1)])
         self.inflation = np.ones(len(cameras))
         pixels = sum(2 * len(c.clock) for c in cameras)
         priors = sum(1 for c in cameras if c.prior is not None) + whiten.shape[0]
-        self.loss = _soft_l1_except(np.r_[np.zeros(pixels, bool), np.ones(priors, bool)])
+        self.loss = soft_l1_except(np.r_[np.zeros(pixels, bool), np.ones(priors, bool)])
         self._cache: dict[bytes, tuple[np.ndarray, sp.csr_matrix]] = {}
 
     def camera(self, z: np.ndarray, k: int) -> Camera:
@@ -220,7 +223,7 @@ class _Problem:
         return jac.T @ weights, (jac.T @ sp.diags(curvature) @ jac).tocsc()
 
     def remeasure(self, z: np.ndarray, f_scale: float) -> None:
-        """Each camera's inflation measured on its residuals at z: their variance factor (log_bias's) times the
+        """Each camera's inflation measured on its residuals at z: their variance factor (sparse_lm's) times the
         correlation left in them in its pose's and line's columns (residual_correlation)."""
         self._cache.clear()
         for k, c in enumerate(self.cameras):
@@ -228,28 +231,9 @@ class _Problem:
             o = self.offsets[k]
             own = jac.tocsc()[:, o : o + (8 if c.free else 2)].toarray()
             residual = r.reshape(-1, 2)
-            self.inflation[k] = _variance_factor(residual, f_scale) * residual_correlation(residual, own, f_scale)
+            correlation = residual_correlation(residual, own, f_scale, BLOCKS)
+            self.inflation[k] = variance_factor(residual, f_scale) * correlation
         self._cache.clear()
-
-
-def residual_correlation(r: np.ndarray, jac: np.ndarray, f_scale: float) -> float:
-    """How much the covariance of a camera's parameters from its residuals r (N, 2) summed over BLOCKS contiguous runs
-    of frames exceeds the one from its frames taken apart (trace ratio, >= 1; jac (2N, p): their derivative in the
-    parameters): residuals correlated in time carry less information than their number says."""
-    q = (r / f_scale) ** 2
-    psi, dpsi = (r / np.sqrt(1.0 + q)).ravel(), ((1.0 + q) ** -1.5).ravel()
-    p = jac.shape[1]
-    bread = jac.T @ (dpsi[:, None] * jac)
-    scores = (jac * psi[:, None]).reshape(len(r), 2, p).sum(axis=1)
-    blocks = np.array([b.sum(axis=0) for b in np.array_split(scores, min(BLOCKS, len(scores)))])
-    count = len(blocks)
-    if count < 2:
-        return 1.0
-    inverse = np.linalg.pinv(bread)
-    apart = np.trace(inverse @ (scores.T @ scores) @ inverse)
-    together = np.trace(inverse @ (blocks.T @ blocks) @ inverse) * count / (count - 1)
-    ratio = together / max(apart, 1e-300)
-    return float(np.clip(ratio, 1.0, 1e6)) if np.isfinite(ratio) else 1.0
 
 
 def fit_free_poses(
@@ -262,7 +246,7 @@ def fit_free_poses(
     prior = np.array([model.bias_m, model.bias_m, model.bias_vertical_m])
     problem = _Problem(cameras, path, knots, prior_whitening(knots, rate, model.tau_s, prior))
     problem.remeasure(problem.z0, f_scale)
-    z, converged = _levenberg_marquardt(problem, problem.z0, f_scale)
+    z, converged = levenberg_marquardt(problem, problem.z0, f_scale)
     if not np.isfinite(z).all():
         return None
     return FreePoseBias(

@@ -41,6 +41,7 @@ from tlsync_pipeline.sync.identify.segments import (
     whole_frames,
 )
 from tlsync_pipeline.sync.kernels.backward import BACKWARD_BELOW, backward_support, line_support
+from tlsync_pipeline.sync.kernels.blas import one_blas_thread
 from tlsync_pipeline.sync.kernels.slope import slope_prior
 from tlsync_pipeline.sync.model.clock import FrameTimes, Segment, camera_clock, image_speed
 from tlsync_pipeline.sync.model.log_model import PRESETS, LogModel, log_drift
@@ -334,13 +335,17 @@ def synchronize(
     A line fitted with a pose the sync found itself (posed here, searched
     again in the second pass, refitted under the log's bias) carries it
     (``CameraLine.pose``): the pose its pictures are drawn with.
+
+    Runs with one BLAS thread (sync/kernels/blas.py), as the sync stage does.
     """
-    timeline, results, correction = _synchronize_pass(cameras, trajectory, params, votes, log_model, True)
-    if correction is None:
-        return timeline, results
-    again = {name: _unposed(inputs) if _pose_from_target(inputs.camera) else inputs for name, inputs in cameras.items()}
-    untracked = {n: v for n, v in (votes or {}).items() if isinstance(v, SyncError) and cameras[n].track is None}
-    timeline, results, _ = _synchronize_pass(again, correction.applied(trajectory), params, untracked, log_model, False)
+    with one_blas_thread():
+        timeline, results, correction = _synchronize_pass(cameras, trajectory, params, votes, log_model, True)
+        if correction is None:
+            return timeline, results
+        again = {n: _unposed(inputs) if _pose_from_target(inputs.camera) else inputs for n, inputs in cameras.items()}
+        untracked = {n: v for n, v in (votes or {}).items() if isinstance(v, SyncError) and cameras[n].track is None}
+        corrected = correction.applied(trajectory)
+        timeline, results, _ = _synchronize_pass(again, corrected, params, untracked, log_model, False)
     return replace(timeline, log_correction=correction), results
 
 
