@@ -322,17 +322,42 @@ def synchronize(
     camera's evidence says the log is not in seconds or metres.
 
     Where the poses from the target are refitted under the bias and the refit
-    is not kept (_joint_lines), the log is corrected by the bias fitted with
-    those poses free (sync/solve/pose_joint.py) and every camera is
+    is not kept (_joint_lines), or a camera whose pose is to come from the
+    target is refused while others are synchronized, the log is corrected by
+    the bias fitted with the synchronized cameras' lines and their poses from
+    the target free (sync/solve/pose_joint.py) and every camera is
     synchronized again on it, the poses from the target searched again (a
     second pass; its votes cast here): that pass's timeline is the answer.
+    A pass that synchronizes more cameras than the one before and still
+    refuses a camera posed from the target corrects the log again for
+    another, up to MAX_PASSES (``corrects_again``): the cameras a pass adds
+    see the target from other directions, and the bias they fit with the
+    others is the log's where the refused camera's pose search needs it.
     """
-    timeline, results, corrected = _synchronize_pass(cameras, trajectory, params, votes, log_model, True)
-    if corrected is None:
-        return timeline, results
+    timeline, results, corrected = _synchronize_pass(
+        cameras, trajectory, params, votes, log_model, None, MAX_PASSES == 1
+    )
     again = {name: _unposed(inputs) if _pose_from_target(inputs.camera) else inputs for name, inputs in cameras.items()}
-    timeline, results, _ = _synchronize_pass(again, corrected, params, None, log_model, False)
+    for count in range(2, MAX_PASSES + 1):
+        if corrected is None:
+            break
+        timeline, results, corrected = _synchronize_pass(
+            again, corrected, params, None, log_model, len(timeline.cameras), count == MAX_PASSES
+        )
     return timeline, results
+
+
+MAX_PASSES = 3  # synchronize()'s passes at most: the first, then passes on the log corrected by the one before
+
+
+def corrects_again(previous: int | None, kept: bool, pose_refused: bool, synchronized: int) -> bool:
+    """Whether a pass that synchronized ``synchronized`` cameras corrects the log for another pass: the first
+    (``previous`` None) where its refit of the poses from the target is not ``kept`` or where it refused a camera whose
+    pose is to come from the target (``pose_refused``); a later one (``previous``: the cameras the pass before it
+    synchronized) only where it refused such a camera and synchronized more cameras than the pass before."""
+    if previous is None:
+        return not kept or pose_refused
+    return pose_refused and synchronized > previous
 
 
 def _unposed(inputs: CameraInput) -> CameraInput:
@@ -346,10 +371,12 @@ def _synchronize_pass(
     params: SyncParams,
     votes: Mapping[str, Votes | SyncError] | None,
     log_model: LogModel,
-    first: bool,
+    previous: int | None,
+    last: bool,
 ) -> tuple[Timeline, dict[str, CameraResult], Trajectory | None]:
-    """One pass of synchronize(): its timeline and results, and (``first``) the log corrected for a second pass, or
-    None."""
+    """One pass of synchronize(): its timeline and results, and the log corrected for another pass where this one
+    calls for it (``corrects_again``; ``previous``: the cameras the pass before synchronized, None for the first;
+    ``last``: no pass follows), or None."""
     declared, log_model, gated = log_model, measured(log_model, trajectory), gate_model(log_model, trajectory)
     prepared = with_log_noise(prepare_trajectory(trajectory, preparation_of(params)), log_model)
     path = PiecewiseTrajectory(prepared)
@@ -443,7 +470,8 @@ def _synchronize_pass(
         }
         fitted, bias, kept = _joint_lines(method, data, lines, posed_here, prepared, params, log_model)
         lines = {**lines, **fitted}
-        if first and not kept:
+        pose_refused = any(not cameras[n].camera.posed or _pose_from_target(cameras[n].camera) for n in failed)
+        if lines and not last and corrects_again(previous, kept, pose_refused, len(lines)):
             corrected = corrected_by_free_poses(trajectory, data, lines, posed_here, prepared, params, log_model)
         if bias is not None:
             fitted_model, estimate = bias.model, bias.estimate
