@@ -132,12 +132,14 @@ def run_sync(files: StageFiles, params: SyncStageParams) -> StageResult:
     timeline.json's ``warnings``: those the stages that made its inputs
     recorded, then the sync method's per camera (also this stage's warnings).
     A camera whose ``votes.npz`` records why it has no vote (the target never
-    found, never near its projection) is listed under ``failed`` with that
-    reason, without reading its other files. A camera whose video the track
-    stage found truncated gets the flag ``truncated``; one whose clock stage
-    found a recording time is checked against it (the flag ``clock_disagrees``
-    when they disagree: sync/clock_prior.py). Cameras left out (their own tasks
-    did not complete) are listed under ``failed`` too.
+    found, never near its projection, its pose not found by the calibrate
+    stage) is listed under ``failed`` with that reason, unless a later pass of
+    synchronize() on the log the others corrected synchronizes it. A camera
+    whose video the track stage found truncated gets the flag ``truncated``;
+    one whose clock stage found a recording time is checked against it (the
+    flag ``clock_disagrees`` when they disagree: sync/clock_prior.py). Cameras
+    left out (their own tasks did not complete) are listed under ``failed``
+    too.
     """
     paths = camera_files(files, params)
     votes = camera_votes(paths)
@@ -156,7 +158,7 @@ def run_sync(files: StageFiles, params: SyncStageParams) -> StageResult:
     failed = {
         name: timeline.failed.get(name, str(votes[name]))
         for name in paths
-        if name not in usable or name in timeline.failed
+        if name not in timeline.cameras and (name not in usable or name in timeline.failed)
     }
     lines = {
         name: _with_scan(_flag_truncated(line, paths[name]), paths[name]) for name, line in timeline.cameras.items()
