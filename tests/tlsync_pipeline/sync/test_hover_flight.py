@@ -111,11 +111,12 @@ def test_the_hovers_without_poses_under_issue_33s_drone_gnss_are_searched_again_
         (None, False, False, 4, True),  # the first pass, its refit not kept
         (None, True, True, 1, True),  # the first pass with a pose refused, one camera answered
         (1, True, True, 2, True),  # a later pass that answered more and still refuses a pose
+        (2, True, False, 4, True),  # a later pass that answered more: the answer is on the log they all correct
         (2, True, True, 2, False),  # a later pass that answered no more
-        (2, False, False, 4, False),  # a later pass that refuses nothing: its refit not kept is no reason
+        (4, False, False, 4, False),  # a later pass that answered no more: its refit not kept is no reason
     ],
 )
-def test_a_pass_corrects_the_log_again_only_while_it_answers_more_cameras_and_refuses_a_pose(
+def test_a_later_pass_corrects_the_log_again_only_where_it_answers_more_cameras(
     previous, kept, pose_refused, synchronized, again
 ):
     assert corrects_again(previous, kept, pose_refused, synchronized) is again

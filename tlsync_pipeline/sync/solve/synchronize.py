@@ -328,11 +328,11 @@ def synchronize(
     the target free (sync/solve/pose_joint.py) and every camera is
     synchronized again on it, the poses from the target searched again (a
     second pass; its votes cast here): that pass's timeline is the answer.
-    A pass that synchronizes more cameras than the one before and still
-    refuses a camera posed from the target corrects the log again for
-    another, up to MAX_PASSES (``corrects_again``): the cameras a pass adds
-    see the target from other directions, and the bias they fit with the
-    others is the log's where the refused camera's pose search needs it.
+    A pass that synchronizes more cameras than the one before corrects the
+    log again for another, up to MAX_PASSES (``corrects_again``): the
+    cameras it adds see the target from other directions, and the bias they
+    fit with the others is the log's where a camera still refused needs it,
+    and where the poses of every camera are searched again.
     """
     timeline, results, corrected = _synchronize_pass(
         cameras, trajectory, params, votes, log_model, None, MAX_PASSES == 1
@@ -347,17 +347,18 @@ def synchronize(
     return timeline, results
 
 
-MAX_PASSES = 3  # synchronize()'s passes at most: the first, then passes on the log corrected by the one before
+MAX_PASSES = 4  # synchronize()'s passes at most: the first, then passes on the log corrected by the one before
 
 
 def corrects_again(previous: int | None, kept: bool, pose_refused: bool, synchronized: int) -> bool:
     """Whether a pass that synchronized ``synchronized`` cameras corrects the log for another pass: the first
     (``previous`` None) where its refit of the poses from the target is not ``kept`` or where it refused a camera whose
     pose is to come from the target (``pose_refused``); a later one (``previous``: the cameras the pass before it
-    synchronized) only where it refused such a camera and synchronized more cameras than the pass before."""
+    synchronized) where it synchronized more cameras than the pass before: the log it ran on was corrected without
+    them, and the answer is the pass on the log every camera answered corrected."""
     if previous is None:
         return not kept or pose_refused
-    return pose_refused and synchronized > previous
+    return synchronized > previous
 
 
 def _unposed(inputs: CameraInput) -> CameraInput:
