@@ -352,10 +352,10 @@ MAX_PASSES = 4  # synchronize()'s passes at most: the first, then passes on the 
 
 def corrects_again(previous: int | None, kept: bool, pose_refused: bool, synchronized: int) -> bool:
     """Whether a pass that synchronized ``synchronized`` cameras corrects the log for another pass: the first
-    (``previous`` None) where its refit of the poses from the target is not ``kept`` or where it refused a camera whose
-    pose is to come from the target (``pose_refused``); a later one (``previous``: the cameras the pass before it
-    synchronized) where it synchronized more cameras than the pass before: the log it ran on was corrected without
-    them, and the answer is the pass on the log every camera answered corrected."""
+    (``previous`` None) where its refit of the poses from the target is not ``kept`` or where, under a log with a
+    bias, it refused a camera whose pose is to come from the target (``pose_refused``); a later one (``previous``: the
+    cameras the pass before it synchronized) where it synchronized more cameras than the pass before: the log it ran
+    on was corrected without them, and the answer is the pass on the log every answered camera corrected."""
     if previous is None:
         return not kept or pose_refused
     return synchronized > previous
@@ -471,7 +471,9 @@ def _synchronize_pass(
         }
         fitted, bias, kept = _joint_lines(method, data, lines, posed_here, prepared, params, log_model)
         lines = {**lines, **fitted}
-        pose_refused = any(not cameras[n].camera.posed or _pose_from_target(cameras[n].camera) for n in failed)
+        pose_refused = log_model.has_bias and any(
+            not cameras[n].camera.posed or _pose_from_target(cameras[n].camera) for n in failed
+        )
         if lines and not last and corrects_again(previous, kept, pose_refused, len(lines)):
             corrected = corrected_by_free_poses(trajectory, data, lines, posed_here, prepared, params, log_model)
         if bias is not None:
