@@ -323,10 +323,10 @@ def synchronize(
 
     Where the poses from the target are refitted under the bias and the refit
     is not kept (_joint_lines), or a camera whose pose is to come from the
-    target is refused while others are synchronized, the log is corrected by
-    the bias fitted with the synchronized cameras' lines and their poses from
-    the target free (sync/solve/pose_joint.py) and every camera is
-    synchronized again on it, the poses from the target searched again (a
+    target is refused under a log with a bias while others are synchronized,
+    the log is corrected by the bias fitted with the synchronized cameras'
+    lines and their poses from the target free (sync/solve/pose_joint.py)
+    and every camera is synchronized again on it, the poses from the target searched again (a
     second pass; its votes cast here): that pass's timeline is the answer.
     A pass that synchronizes more cameras than the one before corrects the
     log again for another, up to MAX_PASSES (``corrects_again``): the
