@@ -322,9 +322,10 @@ def summary(receiver: str, bias_model: bool, runs: list[dict]) -> str:
     )
 
 
-def bound(slowed: SlowedFlight, receiver: str, poses_free: bool) -> str:
-    """The first-order bound's row for ``receiver`` (the flight's cameras with their true poses): the median over
-    draws of the median and of the worst pair's eps_t (frames), and the 90th percentile of the median pair's."""
+def bound(slowed: SlowedFlight, receiver: str, poses_free: bool, white_m: float | None = None) -> str:
+    """The first-order bound's row for ``receiver`` (its white noise ``white_m`` metres on every axis when given; the
+    flight's cameras with their true poses): the median over draws of the median and of the worst pair's eps_t
+    (frames), and the 90th percentile of the median pair's."""
     tracks = {}
     for name, inputs in slowed.cameras.items():
         track = inputs.track
@@ -332,7 +333,10 @@ def bound(slowed: SlowedFlight, receiver: str, poses_free: bool) -> str:
         keep = slice(None, None, BOUND_THIN)
         tracks[name] = Track(track.frame[keep], track.x[keep], track.y[keep])
     cameras = {name: inputs.camera for name, inputs in slowed.cameras.items()}
-    noise = {"log": RECEIVERS[receiver], "S_t_px": BOUND_PX / np.sqrt(BOUND_THIN)}
+    model = RECEIVERS[receiver]
+    if white_m is not None:
+        model = dataclasses.replace(model, white_h_m=white_m, white_v_m=white_m)
+    noise = {"log": model, "S_t_px": BOUND_PX / np.sqrt(BOUND_THIN)}
     scene = Scene(slowed.trajectory, slowed.trajectory, cameras, cameras, tracks, slowed.lines, slowed.n_frames, noise)
     pairs = pair_draws(scene, SyncParams().rate_sigma, BOUND_DRAWS, np.random.default_rng(0), poses_free=poses_free)
     median, worst = np.median(pairs, axis=0), pairs.max(axis=0)
@@ -405,7 +409,7 @@ def main() -> None:
         print("| receiver | poses | median pair's eps_t, median over draws (90 %) | worst pair's eps_t |")
         print("|---|---|---|---|")
         for receiver in args.models:
-            print(bound(posed, receiver, args.poses == "removed"), flush=True)
+            print(bound(posed, receiver, args.poses == "removed", args.white), flush=True)
         return
     slowed, params = flight(args.data, variant)
     white = "" if args.white is None else f", the receiver's white noise {args.white:g} m"

@@ -206,9 +206,9 @@ class LinePose:
 
 @dataclass(frozen=True, eq=False)
 class LogCorrection:
-    """What the sync took out of the log before the pass that gave the timeline (the second pass,
-    sync/solve/synchronize.py): the log's bias fitted with the poses from the target free
-    (sync/solve/pose_joint.py), offset_m (K, 3) metres at knots (K,) sample coordinates, linear between them and
+    """What the sync took out of the log before the pass that gave the timeline (its later passes,
+    sync/solve/synchronize.py, each adding the log's bias fitted with the poses from the target free:
+    sync/solve/pose_joint.py), offset_m (K, 3) metres at knots (K,) sample coordinates, linear between them and
     constant beyond; the true position is the log's plus it. The lines, the poses found in that pass and its votes are
     on the log so corrected."""
 
@@ -218,6 +218,12 @@ class LogCorrection:
     def at(self, samples: np.ndarray) -> np.ndarray:
         """(N, 3) offsets (metres) at sample coordinates."""
         return np.column_stack([np.interp(samples, self.knots, self.offset_m[:, k]) for k in range(3)])
+
+    def plus(self, other: LogCorrection) -> LogCorrection:
+        """This correction and ``other`` (one fitted on the log this one corrected) together: exact on the union of
+        their knots, both being linear between knots and constant beyond."""
+        knots = np.union1d(self.knots, other.knots)
+        return LogCorrection(knots, self.at(knots) + other.at(knots))
 
     def applied(self, trajectory: Trajectory) -> Trajectory:
         """The log ``trajectory`` corrected (its samples, rate and times unchanged)."""

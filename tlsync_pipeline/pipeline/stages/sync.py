@@ -132,8 +132,9 @@ def run_sync(files: StageFiles, params: SyncStageParams) -> StageResult:
     timeline.json's ``warnings``: those the stages that made its inputs
     recorded, then the sync method's per camera (also this stage's warnings).
     A camera whose ``votes.npz`` records why it has no vote (the target never
-    found, never near its projection) is listed under ``failed`` with that
-    reason, without reading its other files. A camera whose video the track
+    found, never near its projection, its pose not found by the calibrate
+    stage) is listed under ``failed`` with that reason, unless a later pass of
+    synchronize() on the log the others corrected synchronizes it. A camera whose video the track
     stage found truncated gets the flag ``truncated``; one whose clock stage
     found a recording time is checked against it (the flag ``clock_disagrees``
     when they disagree: sync/clock_prior.py). Cameras left out (their own tasks

@@ -324,29 +324,59 @@ def synchronize(
     camera's evidence says the log is not in seconds or metres.
 
     Where the poses from the target are refitted under the bias and the refit
-    is not kept (_joint_lines), the log is corrected by the bias fitted with
-    those poses free (sync/solve/pose_joint.py) and every camera is
-    synchronized again on it, the poses from the target searched again (a
-    second pass; its votes cast here, except that a camera without a track
-    keeps the vote stage's error: its target was never identified): that
-    pass's timeline is the answer, with that correction
-    (``Timeline.log_correction``).
+    is not kept (_joint_lines), or a camera whose pose is to come from the
+    target is refused under a log with a bias while others are synchronized,
+    the log is corrected by the bias fitted with the synchronized cameras'
+    lines and their poses from the target free (sync/solve/pose_joint.py)
+    and every camera is synchronized again on it, the poses from the target
+    searched again (a second pass; its votes cast here, except that a camera
+    without a track keeps the vote stage's error: its target was never
+    identified). A pass that synchronizes more cameras than the one before
+    corrects the log again for another, up to MAX_PASSES (``corrects_again``):
+    the cameras it adds see the target from other directions, and the bias
+    they fit with the others is the log's where a camera still refused needs
+    it. The last pass's timeline is the answer, with the log's correction in
+    all (``Timeline.log_correction``).
 
     A line fitted with a pose the sync found itself (posed here, searched
-    again in the second pass, refitted under the log's bias) carries it
+    again in a later pass, refitted under the log's bias) carries it
     (``CameraLine.pose``): the pose its pictures are drawn with.
 
     Runs with one BLAS thread (sync/kernels/blas.py), as the sync stage does.
     """
     with one_blas_thread():
-        timeline, results, correction = _synchronize_pass(cameras, trajectory, params, votes, log_model, True)
-        if correction is None:
-            return timeline, results
+        timeline, results, step = _synchronize_pass(cameras, trajectory, params, votes, log_model, None, False)
         again = {n: _unposed(inputs) if _pose_from_target(inputs.camera) else inputs for n, inputs in cameras.items()}
         untracked = {n: v for n, v in (votes or {}).items() if isinstance(v, SyncError) and cameras[n].track is None}
-        corrected = correction.applied(trajectory)
-        timeline, results, _ = _synchronize_pass(again, corrected, params, untracked, log_model, False)
-    return replace(timeline, log_correction=correction), results
+        correction = None
+        for count in range(2, MAX_PASSES + 1):
+            if step is None:
+                break
+            correction = step if correction is None else correction.plus(step)
+            timeline, results, step = _synchronize_pass(
+                again,
+                correction.applied(trajectory),
+                params,
+                untracked,
+                log_model,
+                len(timeline.cameras),
+                count == MAX_PASSES,
+            )
+    return (timeline, results) if correction is None else (replace(timeline, log_correction=correction), results)
+
+
+MAX_PASSES = 4  # synchronize()'s passes at most: the first, then passes on the log corrected by the one before
+
+
+def corrects_again(previous: int | None, kept: bool, pose_refused: bool, synchronized: int) -> bool:
+    """Whether a pass that synchronized ``synchronized`` cameras corrects the log for another pass: the first
+    (``previous`` None) where its refit of the poses from the target is not ``kept`` or where, under a log with a
+    bias, it refused a camera whose pose is to come from the target (``pose_refused``); a later one (``previous``: the
+    cameras the pass before it synchronized) where it synchronized more cameras than the pass before: the log it ran
+    on was corrected without them, and the answer is the pass on the log every answered camera corrected."""
+    if previous is None:
+        return not kept or pose_refused
+    return synchronized > previous
 
 
 def _unposed(inputs: CameraInput) -> CameraInput:
@@ -360,10 +390,12 @@ def _synchronize_pass(
     params: SyncParams,
     votes: Mapping[str, Votes | SyncError] | None,
     log_model: LogModel,
-    first: bool,
+    previous: int | None,
+    last: bool,
 ) -> tuple[Timeline, dict[str, CameraResult], LogCorrection | None]:
-    """One pass of synchronize(): its timeline and results, and (``first``) the log's correction for a second pass, or
-    None."""
+    """One pass of synchronize(): its timeline and results, and the log's further correction for another pass where
+    this one calls for it (``corrects_again``; ``previous``: the cameras the pass before synchronized, None for the
+    first; ``last``: no pass follows), or None."""
     declared, log_model, gated = log_model, measured(log_model, trajectory), gate_model(log_model, trajectory)
     prepared = with_log_noise(prepare_trajectory(trajectory, preparation_of(params)), log_model)
     path = PiecewiseTrajectory(prepared)
@@ -457,13 +489,16 @@ def _synchronize_pass(
         }
         fitted, bias, kept = _joint_lines(method, data, lines, posed_here, prepared, params, log_model)
         lines = {**lines, **fitted}
-        if first and not kept:
+        pose_refused = log_model.has_bias and any(
+            not cameras[n].camera.posed or _pose_from_target(cameras[n].camera) for n in failed
+        )
+        if lines and not last and corrects_again(previous, kept, pose_refused, len(lines)):
             correction = free_pose_correction(data, lines, posed_here, prepared, params, log_model)
         if bias is not None:
             fitted_model, estimate = bias.model, bias.estimate
             names = [n for n in lines if n in bias.sensitivity]
             shared = {f"{a}|{b}": bias.line_cov(a, b) for i, a in enumerate(names) for b in names[i + 1 :]}
-    searched = "target" if first else "second_pass"
+    searched = "target" if previous is None else "second_pass"
     lines = {n: _with_pose_used(line, cameras[n].camera, used[n].camera, searched) for n, line in lines.items()}
     rejected = {n: _with_pose_used(line, cameras[n].camera, used[n].camera, searched) for n, line in rejected.items()}
     timeline = Timeline(
