@@ -117,6 +117,17 @@ def test_the_logs_correction_is_linear_between_its_knots_and_constant_beyond():
     assert (corrected.rate, corrected.t0) == (10.0, 5.0) and corrected.sample is log.sample
 
 
+def test_two_corrections_added_are_the_one_then_the_other_on_the_log_it_corrected():
+    """A later pass's correction (fitted on the log the first corrected) added to the first: one correction that
+    corrects the log as both in turn, at any sample (on, between and beyond either's knots)."""
+    first = LogCorrection(np.array([10.0, 20.0]), np.array([[0.0, 1.0, 2.0], [1.0, 3.0, 2.0]]))
+    then = LogCorrection(np.array([5.0, 15.0, 40.0]), np.array([[0.5, 0.0, -1.0], [0.0, 0.0, 0.0], [-2.0, 1.0, 0.0]]))
+    log = Trajectory(np.linspace(0.0, 50.0, 101), np.zeros((101, 3)), 10.0, 5.0)
+    both = first.plus(then)
+    np.testing.assert_allclose(both.applied(log).xyz, then.applied(first.applied(log)).xyz, atol=1e-12)
+    np.testing.assert_array_equal(both.knots, [5.0, 10.0, 15.0, 20.0, 40.0])
+
+
 def test_a_line_pose_puts_its_pose_on_a_camera_without_one():
     scene = make_scene(0)
     camera = scene.cameras["cam0"]
