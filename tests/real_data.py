@@ -54,3 +54,14 @@ def off_and_limit(frame: float, line, true) -> tuple[float, float]:
     off = line.alpha * (sample - (frame - true.beta) / true.alpha)
     g = np.array([sample, 1.0])
     return off, 3 * 1.96 * float(np.sqrt(g @ line.cov @ g))
+
+
+def beyond_three_intervals(timeline, flight) -> dict[str, float]:
+    """The synchronized cameras of ``timeline`` that stand beyond three times their interval from ``flight``'s true
+    lines at their track's median frame (off_and_limit), with how far off they are (frames)."""
+    beyond = {}
+    for name, line in timeline.cameras.items():
+        off, limit = off_and_limit(float(np.median(flight.cameras[name].track.frame)), line, flight.lines[name])
+        if abs(off) > limit:
+            beyond[name] = off
+    return beyond
