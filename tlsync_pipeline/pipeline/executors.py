@@ -51,6 +51,7 @@ import traceback
 import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
+from types import TracebackType
 from typing import Any, NoReturn
 
 THREAD_VARIABLES = (
@@ -431,6 +432,7 @@ def _serve_forks(listener: int, alive_r: int, start_r: int, preload: tuple[str, 
 
         threadpool_limits(limits=1, user_api="blas")  # the BLAS pools this process inherited started with more
         _import_frozen(preload)
+        sys.excepthook = quiet_when_the_run_is_gone  # what a forked child shows of an error before its first task
         multiprocessing.forkserver.main(listener, alive_r, list(preload))  # the preload imported: served at once
     except SystemExit:
         pass  # multiprocessing's way out: the run closed its end of the alive pipe
@@ -439,6 +441,14 @@ def _serve_forks(listener: int, alive_r: int, start_r: int, preload: tuple[str, 
         code = 1
     finally:
         os._exit(code)
+
+
+def quiet_when_the_run_is_gone(kind: type[BaseException], value: BaseException, tb: TracebackType | None) -> None:
+    """The fork server's workers' hook for an error raised before their first task: silent for the EOFError of a
+    run stopped while it handed a starting worker its start data (a Ctrl-C then; the worker just exits), shown as
+    Python shows it otherwise."""
+    if not issubclass(kind, EOFError):
+        sys.__excepthook__(kind, value, tb)
 
 
 def _import_frozen(preload: tuple[str, ...]) -> None:

@@ -343,3 +343,14 @@ def test_waiting_for_the_workers_stops_soon_after_a_stop_python_could_not_raise(
     finally:
         stop.clear()
         executor.close(cancel=True)
+
+
+def test_a_worker_whose_run_stopped_while_it_started_exits_without_a_traceback(capsys):
+    """The fork server's children report an error before their first task through sys.excepthook: the EOFError of
+    a run stopped while it handed a worker its start data is silent, any other error shown."""
+    from tlsync_pipeline.pipeline.executors import quiet_when_the_run_is_gone
+
+    quiet_when_the_run_is_gone(EOFError, EOFError("Ran out of input"), None)
+    assert capsys.readouterr().err == ""
+    quiet_when_the_run_is_gone(ValueError, ValueError("a worker's own error"), None)
+    assert "ValueError: a worker's own error" in capsys.readouterr().err
