@@ -109,11 +109,9 @@ def calibration_summary(report: dict) -> str:
         )
     target = report.get("target_pose")
     if target and "error" in target:
-        text += "; no pose from the target" + (
-            f" ({target['cause']}: the camera is not synchronized)"
-            if target.get("cause")
-            else ": the camera is not synchronized"
-        )
+        cause = f"{target['cause']}; " if target.get("cause") else ""
+        again = "under a log with a bias the sync searches it again on the log the other cameras correct"
+        text += f"; no pose from the target ({cause}{again})"
     elif target:
         text += f"; {target_pose_summary(target)}"
     elif not pose:

@@ -9,7 +9,7 @@ import pytest
 
 from data_fixtures import make_scene, write_scene
 from tlsync_pipeline.outputs import pictures as render
-from tlsync_pipeline.outputs.calibration_report import sync_pose_clause
+from tlsync_pipeline.outputs.calibration_report import calibration_summary, sync_pose_clause
 from tlsync_pipeline.pipeline.engine import run_graph
 from tlsync_pipeline.pipeline.graph import build_graph
 from tlsync_pipeline.pipeline.project import load_project
@@ -311,6 +311,15 @@ def test_the_calibration_line_says_when_the_line_was_fitted_with_the_syncs_pose(
     assert "searched again on the log corrected for its bias, then refitted under the log's bias" in text
     assert "its centre 5.00 m from this one" in text and "draw that pose" in text
     assert "centre" not in sync_pose_clause("target", camera.center, {"target_pose": {"error": "no pose"}})
+
+
+def test_a_camera_the_calibrate_stage_could_not_pose_is_not_said_unsynchronized_before_the_sync():
+    """The sync's later passes may pose and synchronize it: the calibrate stage's line names the cause only."""
+    report = {"camera": "cam1", "intrinsics": {"source": "camera.json"}}
+    report["target_pose"] = {"error": "no pose", "cause": "not_upright"}
+    text = calibration_summary(report)
+    assert "no pose from the target (not_upright; under a log with a bias the sync searches it again" in text
+    assert "not synchronized" not in text
 
 
 def test_the_voting_space_is_cast_again_at_the_radius_the_sync_gave_the_camera():
