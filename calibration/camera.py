@@ -180,6 +180,17 @@ class Camera:
         pinhole[:, :, 2] = -normalized * inverse[:, None]
         return lens @ pinhole @ self.R
 
+    def pixels_per_metre(self, points: np.ndarray, uv: np.ndarray, step_m: float = 1e-3) -> np.ndarray:
+        """(N, 2, 3) derivative of the pixels in the world points (N, 3): ``point_jacobian`` where the lens model has
+        one, else forward differences of ``step_m`` metres from the points' pixels ``uv`` (``project``'s, N x 2)."""
+        analytic = self.point_jacobian(points)
+        if analytic is not None:
+            return analytic
+        points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        moved, _ = self.project(np.concatenate([points + step_m * axis for axis in np.eye(3)]))
+        n = len(points)
+        return np.stack([(moved[a * n : (a + 1) * n] - uv) / step_m for a in range(3)], axis=2)
+
     def _distort(self, normalized: np.ndarray) -> np.ndarray:
         """Pixels of normalized image points (N, 2) through the lens model."""
         return distort_normalized(normalized, self.K, self.dist, self.dist_model)

@@ -64,7 +64,6 @@ KNOTS_PER_TAU = 4  # knots of the bias per correlation time between the visits
 VISIT_KNOT_S = 2.0  # seconds between knots during a visit: a Gauss-Markov bias moves by sigma x sqrt(2 dt / tau) in dt
 MAX_KNOTS = 400
 SAMPLE_STEP = 1e-3  # samples: finite-difference step of a position along the path
-METRE_STEP = 1e-3  # metres: finite-difference step of a position in space
 SEEN_VELOCITY_S = 0.25  # seconds each side of a frame over which the target's image velocity is measured on its track
 SCALE_SPLIT_S = 10.0  # s: the marginal likelihood's short error term is correlated below this, the bias above it
 FAST_TAU_S = 2.0  # s: the short term's prior correlation time (the smoothed log's white noise over a few fixes)
@@ -795,11 +794,7 @@ def _camera_rows(
     left_ahead, right_ahead, u_ahead = _interpolation_parts(view.s + SAMPLE_STEP, knots)
     ahead += (1.0 - u_ahead)[:, None] * bias[left_ahead] + u_ahead[:, None] * bias[right_ahead]
     uv = view.uv
-    gradient = c.camera.point_jacobian(view.position)  # (N, 2, 3) pixels per metre
-    if gradient is None:
-        moved = [view.position + METRE_STEP * axis for axis in np.eye(3)]
-        projected, _ = c.camera.project(np.concatenate(moved))
-        gradient = np.stack([(projected[a * n : (a + 1) * n] - uv) / METRE_STEP for a in range(3)], axis=2)
+    gradient = c.camera.pixels_per_metre(view.position, uv)  # (N, 2, 3)
     rate = np.einsum("nij,nj->ni", gradient, (ahead - view.position) / SAMPLE_STEP)  # pixels per sample
     r = (uv - c.xy) * c.weight[:, None]
     along = rate * c.weight[:, None]

@@ -37,7 +37,6 @@ from tlsync_pipeline.sync.kernels.velocity import image_velocity
 from tlsync_pipeline.sync.solve.log_bias import SEEN_VELOCITY_S
 from tlsync_pipeline.trajectory import PiecewiseTrajectory
 
-METRE_STEP = 1e-3  # metres: finite-difference step of the projection's Jacobian
 MIN_FRAMES = 3  # frames with a measured image velocity needed for a spread
 
 
@@ -71,13 +70,7 @@ def bias_time_spread(
         return None
     points, velocity = path(s[usable], run[usable]), velocity[usable]
     uv, valid = camera.project(points)
-    columns = []
-    for axis in range(3):
-        step = np.zeros(3)
-        step[axis] = METRE_STEP
-        moved, _ = camera.project(points + step)
-        columns.append((moved - uv) / METRE_STEP)
-    jacobian = np.stack(columns, axis=2)  # (N, 2, 3): pixels per metre
+    jacobian = camera.pixels_per_metre(points, uv)  # (N, 2, 3)
     valid &= np.all(np.isfinite(jacobian), axis=(1, 2))
     if valid.sum() < MIN_FRAMES:
         return None
