@@ -215,3 +215,20 @@ def test_a_lens_without_an_analytic_derivative_has_none():
     K = np.array([[800.0, 0.0, 640.0], [0.0, 800.0, 360.0], [0.0, 0.0, 1.0]])
     camera = Camera("c", K, np.zeros(4), np.eye(3), np.zeros(3), (1280, 720), dist_model="fisheye")
     assert camera.point_jacobian(np.array([[0.0, 0.0, 10.0]])) is None
+
+
+def test_a_lens_without_an_analytic_derivative_gets_the_projections_forward_differences():
+    """Camera.pixels_per_metre falls back to finite differences of ``project`` (fisheye): at 1 mm steps, close to
+    its central differences at 1 um."""
+    K = np.array([[800.0, 0.0, 640.0], [0.0, 800.0, 360.0], [0.0, 0.0, 1.0]])
+    camera = Camera(
+        "c", K, np.array([0.05, -0.01, 0.0, 0.0]), np.eye(3), np.zeros(3), (1280, 720), dist_model="fisheye"
+    )
+    points = np.array([[0.0, 0.1, 10.0], [2.0, -1.0, 15.0], [-4.0, 3.0, 12.0]])
+    step = 1e-6
+    differences = np.stack(
+        [(camera.project(points + step * e)[0] - camera.project(points - step * e)[0]) / (2 * step) for e in np.eye(3)],
+        axis=2,
+    )
+    found = camera.pixels_per_metre(points, camera.project(points)[0])
+    np.testing.assert_allclose(found, differences, rtol=1e-3, atol=1e-3 * np.abs(differences).max())
