@@ -22,6 +22,7 @@ from tlsync_pipeline.sync.identify.identify import identify_params
 from tlsync_pipeline.sync.kernels.slope import slope_prior
 from tlsync_pipeline.sync.kernels.smoothing import smooth_trajectory
 from tlsync_pipeline.sync.model.log_model import PRESETS as LOG_MODELS
+from tlsync_pipeline.sync.model.methods import preparation_of, prepare_trajectory
 from tlsync_pipeline.sync.model.params import SyncParams
 from tlsync_pipeline.sync.pose import pose as P
 from tlsync_pipeline.sync.pose.pose_fit import (
@@ -36,7 +37,6 @@ from tlsync_pipeline.sync.pose.pose_fit import (
     reprojection_errors,
 )
 from tlsync_pipeline.sync.pose.pose_timing import PoseTiming
-from tlsync_pipeline.sync.model.methods import preparation_of, prepare_trajectory
 from tlsync_pipeline.sync.solve.synchronize import (
     CameraInput,
     posed,
