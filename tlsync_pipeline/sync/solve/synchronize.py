@@ -65,7 +65,14 @@ from tlsync_pipeline.sync.solve.plausibility import (
     rival_odds_of,
 )
 from tlsync_pipeline.sync.solve.pose_joint import free_pose_correction
-from tlsync_pipeline.sync.solve.posed_bias import line_moves, refit_kept, refit_poses, track_middles
+from tlsync_pipeline.sync.solve.posed_bias import (
+    LATER_ROUNDS,
+    ROUNDS,
+    line_moves,
+    refit_kept,
+    refit_poses,
+    track_middles,
+)
 from tlsync_pipeline.sync.solve.registry import get_method
 from tlsync_pipeline.sync.solve.slow_motion import step_spread
 from tlsync_pipeline.sync.timeline import CameraLine, LinePose, LogCorrection, Timeline
@@ -546,7 +553,8 @@ def _synchronize_pass(
             )
             for name in lines
         }
-        fitted, bias, kept = _joint_lines(method, data, lines, posed_here, prepared, params, log_model)
+        rounds = ROUNDS if previous is None else LATER_ROUNDS
+        fitted, bias, kept = _joint_lines(method, data, lines, posed_here, prepared, params, log_model, rounds)
         lines = {**lines, **fitted}
         pose_refused = log_model.has_bias and any(
             not cameras[n].camera.posed or _pose_from_target(cameras[n].camera) for n in failed
@@ -594,17 +602,19 @@ def _joint_lines(
     prepared: Trajectory,
     params: SyncParams,
     log_model: LogModel,
+    rounds: int,
 ) -> tuple[dict[str, CameraLine], LogBias | None, bool]:
     """The lines fitted together with the log's error (``method.refine_with_log_bias``), its estimate (None: not
     fitted), and whether a refit of the poses from the target was kept (True where none was made). Under a log with a
     bias and with two cameras or more, the cameras ``posed`` from the target take part, their poses fitted again
-    under the bias's estimate (posed_bias.refit_poses), their intervals with the refit's covariance (_with_pose_cov);
+    under the bias's estimate in ``rounds`` rounds (posed_bias.refit_poses: ROUNDS in the first pass, LATER_ROUNDS
+    in a later one), their intervals with the refit's covariance (_with_pose_cov);
     where their lines leave the poses alone's farther than those allow (posed_bias.refit_kept, or already on the poses
     alone: refit_hopeless), or otherwise, they stay out and keep their lines. A kept refit's lines carry their refitted
     poses (CameraLine.pose, source "bias_refit")."""
     kept, refit = True, None
     if log_model.has_bias and len(lines) >= 2 and posed:
-        refit, kept = refit_poses(method, data, lines, posed, prepared, params, log_model), False
+        refit, kept = refit_poses(method, data, lines, posed, prepared, params, log_model, rounds), False
     if refit is not None:
         fitted, bias = method.refine_with_log_bias(
             refit.data, {**lines, **refit.lines}, prepared, params, method_options(params), log_model
