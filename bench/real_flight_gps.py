@@ -43,7 +43,9 @@ rejected line was right by the same measure, the refused cameras with their
 cause, the sync's CPU a run (through the stages: the whole ``tlsync run``'s,
 calibrate's pose search included), the peak resident memory of the runs
 through the stages (their process trees'), and this process's peak resident
-memory. ``--runs`` prints every run (each camera's status, the refusals' reason codes), ``--json PATH`` appends
+memory. ``--runs`` prints every run (each camera's status, the refusals' reason codes, and the median distance of
+each camera's track from the log projected as the render stage draws it at its line: the line's pose on the log
+timeline.json's ``log_correction`` corrects, render's ``drawn_as_fitted``), ``--json PATH`` appends
 each run to PATH as a JSON line. ``--first-seed N`` runs the seeds N, N+1, ...; ``--white M`` gives the receiver
 M metres of white noise on every axis instead of its preset's (issue 33's drone: 0.3 m). Skips cleanly when the
 folder is absent.
@@ -84,14 +86,18 @@ from data_fixtures.slowed_flight import (
     speed_cap_warp,
     time_warp,
 )
+from tlsync_pipeline.outputs.plots import track_residuals
 from tlsync_pipeline.pipeline.project import load_project
+from tlsync_pipeline.pipeline.stages.render import drawn_as_fitted
 from tlsync_pipeline.pipeline.stages.sync import load_inputs
 from tlsync_pipeline.sync.kernels.blas import one_blas_thread
 from tlsync_pipeline.sync.model.log_model import PRESETS as LOG_MODELS
+from tlsync_pipeline.sync.model.methods import preparation_of, prepare_trajectory
 from tlsync_pipeline.sync.model.params import SyncParams
 from tlsync_pipeline.sync.model.status import AMBIGUOUS, FAILED
 from tlsync_pipeline.sync.solve.synchronize import synchronize
 from tlsync_pipeline.sync.timeline import Relation, Timeline, read_timeline, read_truth
+from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
 from trackers.track import Track
 
 DEFAULT = Path("/work/shared/real/drone2")
@@ -252,7 +258,23 @@ def run_one(
         "cpu_s": seconds,
         "peak_mb": peak_mb,
         "rss_mb": rss_mb,
+        "drawn_px": drawn_px(timeline, slowed, logged, params),
     }
+
+
+def drawn_px(timeline: Timeline, slowed: SlowedFlight, logged: Trajectory, params) -> dict[str, float]:
+    """Per synchronized camera, the median distance (pixels) of its track from the log projected as the render stage
+    draws it at its line (``drawn_as_fitted``: the line's pose, on the log timeline.json's log_correction corrects);
+    NaN for a camera drawn with a pose the bench does not hold (through the stages: the calibrate stage's)."""
+    inputs, log = drawn_as_fitted(timeline, {n: slowed.cameras[n] for n in timeline.cameras}, logged)
+    path = PiecewiseTrajectory(prepare_trajectory(log, preparation_of(params)))
+    out = {}
+    for name, given in inputs.items():
+        track = given.track
+        assert track is not None
+        found = track_residuals(given.camera, track, path, timeline.cameras[name]) if given.camera.posed else None
+        out[name] = float(np.median(found.distance)) if found is not None and len(found.sample) else np.nan
+    return out
 
 
 def through_stages(
@@ -344,6 +366,11 @@ def bound(slowed: SlowedFlight, receiver: str, poses_free: bool, white_m: float 
         f"| {receiver} | {'estimated' if poses_free else 'known'} | {np.median(median):.2f} "
         f"({np.quantile(median, 0.9):.2f}) | {np.median(worst):.2f} |"
     )
+
+
+def _pixels(drawn: dict[str, float]) -> str:
+    """Each camera's median distance of its track from the drawn log (pixels), one decimal."""
+    return "{" + ", ".join(f"{name}: {px:.1f}" for name, px in drawn.items()) + "}"
 
 
 def _peak(runs: list[dict]) -> str:
@@ -438,7 +465,8 @@ def main() -> None:
                         f"{r['median']:.2f}, worst {r['worst']:.2f}, covered {sum(s <= Z95 for s in r['z'])}/"
                         f"{len(r['z'])}, beyond 3x {r['beyond']}, {r['cpu_s']:.0f} s, {r['peak_mb']:.0f} MB "
                         f"({r['rss_mb']:.0f} RSS), {r['statuses']}, wrong {r['wrong'] or '-'}, right lines refused "
-                        f"{r['refused_right'] or '-'}, {r['codes'] or ''} {r['refused'] or ''}",
+                        f"{r['refused_right'] or '-'}, {r['codes'] or ''} {r['refused'] or ''}, track from the "
+                        f"drawn log (px) {_pixels(r['drawn_px'])}",
                         file=sys.stderr,
                         flush=True,
                     )
