@@ -4,7 +4,8 @@ The flight's cameras, tracks and truth are real; its RTK trajectory gets, per
 seed, the errors of a receiver of data_fixtures/log_error.py (a Gauss-Markov
 bias plus white noise, at the log's own samples), and the sync is told the
 receiver's kind as a user would ([target] log_model; both phones `phone`).
-With ``--poses removed`` every camera's pose comes from the target.
+With ``--poses removed`` every camera's pose comes from the target, except those of the cameras
+``--surveyed`` names.
 ``--through stages`` runs each simulated log as a user would: a project folder
 of the cameras (without their poses when removed), tracks and the erroneous
 log with its model declared (data_fixtures/logged_project.py), through
@@ -51,7 +52,7 @@ M metres of white noise on every axis instead of its preset's (issue 33's drone:
 folder is absent.
 
     nice python bench/real_flight_gps.py [--data /work/shared/real/drone2] [--seeds 8] [--first-seed 0]
-        [--models drone phone2] [--white M] [--bias-model on off] [--poses given|removed]
+        [--models drone phone2] [--white M] [--bias-model on off] [--poses given|removed] [--surveyed cam0 cam2]
         [--through synchronize|stages] [--slow 1] [--hover 0] [--max-speed V] [--only-slower V] [--crop SHARE]
         [--cameras cam0 cam2] [--count N] [--jobs N] [--runs] [--json PATH]
 """
@@ -112,7 +113,8 @@ class Variant:
     """How the flight is changed: slowed ``slow`` times with hovers of ``hover_s`` s every HOVER_EVERY_S s, or its
     parts faster than ``max_speed`` m/s stretched to it; each track cut to where the target is slower than
     ``only_slower`` m/s and each video to ``crop`` of its visit; the ``cameras`` kept (None: all); the poses removed
-    when ``poses`` is "removed"; the cameras repeated under new names to make ``count`` (None: as they are)."""
+    when ``poses`` is "removed", except those of the cameras ``surveyed``; the cameras repeated under new names to
+    make ``count`` (None: as they are)."""
 
     slow: float = 1.0
     hover_s: float = 0.0
@@ -122,11 +124,12 @@ class Variant:
     cameras: tuple[str, ...] | None = None
     poses: str = "given"
     count: int | None = None
+    surveyed: tuple[str, ...] = ()
 
     def describe(self) -> str:
         """One line for the bench's header."""
         parts = [
-            f"poses {self.poses}",
+            f"poses {self.poses}" + (f" (kept: {' '.join(self.surveyed)})" if self.surveyed else ""),
             f"{self.slow:g} times slower",
             f"hovers of {self.hover_s:g} s every {HOVER_EVERY_S:g} s",
         ]
@@ -168,10 +171,7 @@ def flight(data: Path, variant: Variant) -> tuple[SlowedFlight, object]:
         slowed = cropped(slowed, variant.crop)
     if variant.poses == "removed":
         cams = {
-            n: dataclasses.replace(
-                c,
-                camera=c.camera.without_pose(),
-            )
+            n: c if n in variant.surveyed else dataclasses.replace(c, camera=c.camera.without_pose())
             for n, c in slowed.cameras.items()
         }
         slowed = dataclasses.replace(slowed, cameras=cams)
@@ -393,6 +393,9 @@ def main() -> None:
     )
     parser.add_argument("--bias-model", nargs="+", default=["off", "on"], choices=["off", "on"])
     parser.add_argument("--poses", default="given", choices=["given", "removed"])
+    parser.add_argument(
+        "--surveyed", nargs="+", default=[], metavar="CAMERA", help="with --poses removed, these keep their poses"
+    )
     parser.add_argument("--through", default="synchronize", choices=["synchronize", "stages"])
     parser.add_argument("--slow", type=float, default=1.0, help="fly the path this many times slower")
     parser.add_argument(
@@ -429,6 +432,7 @@ def main() -> None:
         None if args.cameras is None else tuple(args.cameras),
         args.poses,
         args.count,
+        tuple(args.surveyed),
     )
     if args.bound:
         posed, _ = flight(args.data, dataclasses.replace(variant, poses="given"))
