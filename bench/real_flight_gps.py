@@ -4,7 +4,8 @@ The flight's cameras, tracks and truth are real; its RTK trajectory gets, per
 seed, the errors of a receiver of data_fixtures/log_error.py (a Gauss-Markov
 bias plus white noise, at the log's own samples), and the sync is told the
 receiver's kind as a user would ([target] log_model; both phones `phone`).
-With ``--poses removed`` every camera's pose comes from the target.
+With ``--poses removed`` every camera's pose comes from the target, except those of the cameras
+``--surveyed`` names.
 ``--through stages`` runs each simulated log as a user would: a project folder
 of the cameras (without their poses when removed), tracks and the erroneous
 log with its model declared (data_fixtures/logged_project.py), through
@@ -43,13 +44,15 @@ rejected line was right by the same measure, the refused cameras with their
 cause, the sync's CPU a run (through the stages: the whole ``tlsync run``'s,
 calibrate's pose search included), the peak resident memory of the runs
 through the stages (their process trees'), and this process's peak resident
-memory. ``--runs`` prints every run (each camera's status, the refusals' reason codes), ``--json PATH`` appends
+memory. ``--runs`` prints every run (each camera's status, the refusals' reason codes, and the median distance of
+each camera's track from the log projected as the render stage draws it at its line: the line's pose on the log
+timeline.json's ``log_correction`` corrects, render's ``drawn_as_fitted``), ``--json PATH`` appends
 each run to PATH as a JSON line. ``--first-seed N`` runs the seeds N, N+1, ...; ``--white M`` gives the receiver
 M metres of white noise on every axis instead of its preset's (issue 33's drone: 0.3 m). Skips cleanly when the
 folder is absent.
 
     nice python bench/real_flight_gps.py [--data /work/shared/real/drone2] [--seeds 8] [--first-seed 0]
-        [--models drone phone2] [--white M] [--bias-model on off] [--poses given|removed]
+        [--models drone phone2] [--white M] [--bias-model on off] [--poses given|removed] [--surveyed cam0 cam2]
         [--through synchronize|stages] [--slow 1] [--hover 0] [--max-speed V] [--only-slower V] [--crop SHARE]
         [--cameras cam0 cam2] [--count N] [--jobs N] [--runs] [--json PATH]
 """
@@ -84,14 +87,18 @@ from data_fixtures.slowed_flight import (
     speed_cap_warp,
     time_warp,
 )
+from tlsync_pipeline.outputs.plots import track_residuals
 from tlsync_pipeline.pipeline.project import load_project
+from tlsync_pipeline.pipeline.stages.render import drawn_as_fitted
 from tlsync_pipeline.pipeline.stages.sync import load_inputs
 from tlsync_pipeline.sync.kernels.blas import one_blas_thread
 from tlsync_pipeline.sync.model.log_model import PRESETS as LOG_MODELS
+from tlsync_pipeline.sync.model.methods import preparation_of, prepare_trajectory
 from tlsync_pipeline.sync.model.params import SyncParams
 from tlsync_pipeline.sync.model.status import AMBIGUOUS, FAILED
 from tlsync_pipeline.sync.solve.synchronize import synchronize
 from tlsync_pipeline.sync.timeline import Relation, Timeline, read_timeline, read_truth
+from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
 from trackers.track import Track
 
 DEFAULT = Path("/work/shared/real/drone2")
@@ -106,7 +113,8 @@ class Variant:
     """How the flight is changed: slowed ``slow`` times with hovers of ``hover_s`` s every HOVER_EVERY_S s, or its
     parts faster than ``max_speed`` m/s stretched to it; each track cut to where the target is slower than
     ``only_slower`` m/s and each video to ``crop`` of its visit; the ``cameras`` kept (None: all); the poses removed
-    when ``poses`` is "removed"; the cameras repeated under new names to make ``count`` (None: as they are)."""
+    when ``poses`` is "removed", except those of the cameras ``surveyed``; the cameras repeated under new names to
+    make ``count`` (None: as they are)."""
 
     slow: float = 1.0
     hover_s: float = 0.0
@@ -116,11 +124,12 @@ class Variant:
     cameras: tuple[str, ...] | None = None
     poses: str = "given"
     count: int | None = None
+    surveyed: tuple[str, ...] = ()
 
     def describe(self) -> str:
         """One line for the bench's header."""
         parts = [
-            f"poses {self.poses}",
+            f"poses {self.poses}" + (f" (kept: {' '.join(self.surveyed)})" if self.surveyed else ""),
             f"{self.slow:g} times slower",
             f"hovers of {self.hover_s:g} s every {HOVER_EVERY_S:g} s",
         ]
@@ -162,10 +171,7 @@ def flight(data: Path, variant: Variant) -> tuple[SlowedFlight, object]:
         slowed = cropped(slowed, variant.crop)
     if variant.poses == "removed":
         cams = {
-            n: dataclasses.replace(
-                c,
-                camera=c.camera.without_pose(),
-            )
+            n: c if n in variant.surveyed else dataclasses.replace(c, camera=c.camera.without_pose())
             for n, c in slowed.cameras.items()
         }
         slowed = dataclasses.replace(slowed, cameras=cams)
@@ -252,7 +258,23 @@ def run_one(
         "cpu_s": seconds,
         "peak_mb": peak_mb,
         "rss_mb": rss_mb,
+        "drawn_px": drawn_px(timeline, slowed, logged, params),
     }
+
+
+def drawn_px(timeline: Timeline, slowed: SlowedFlight, logged: Trajectory, params) -> dict[str, float]:
+    """Per synchronized camera, the median distance (pixels) of its track from the log projected as the render stage
+    draws it at its line (``drawn_as_fitted``: the line's pose, on the log timeline.json's log_correction corrects);
+    NaN for a camera drawn with a pose the bench does not hold (through the stages: the calibrate stage's)."""
+    inputs, log = drawn_as_fitted(timeline, {n: slowed.cameras[n] for n in timeline.cameras}, logged)
+    path = PiecewiseTrajectory(prepare_trajectory(log, preparation_of(params)))
+    out = {}
+    for name, given in inputs.items():
+        track = given.track
+        assert track is not None
+        found = track_residuals(given.camera, track, path, timeline.cameras[name]) if given.camera.posed else None
+        out[name] = float(np.median(found.distance)) if found is not None and len(found.sample) else np.nan
+    return out
 
 
 def through_stages(
@@ -346,6 +368,11 @@ def bound(slowed: SlowedFlight, receiver: str, poses_free: bool, white_m: float 
     )
 
 
+def _pixels(drawn: dict[str, float]) -> str:
+    """Each camera's median distance of its track from the drawn log (pixels), one decimal."""
+    return "{" + ", ".join(f"{name}: {px:.1f}" for name, px in drawn.items()) + "}"
+
+
 def _peak(runs: list[dict]) -> str:
     """The largest peak memory of the runs (MB), "-" when none was measured (runs in this process)."""
     peaks = [(r["peak_mb"], r["rss_mb"]) for r in runs if np.isfinite(r["peak_mb"])]
@@ -366,6 +393,9 @@ def main() -> None:
     )
     parser.add_argument("--bias-model", nargs="+", default=["off", "on"], choices=["off", "on"])
     parser.add_argument("--poses", default="given", choices=["given", "removed"])
+    parser.add_argument(
+        "--surveyed", nargs="+", default=[], metavar="CAMERA", help="with --poses removed, these keep their poses"
+    )
     parser.add_argument("--through", default="synchronize", choices=["synchronize", "stages"])
     parser.add_argument("--slow", type=float, default=1.0, help="fly the path this many times slower")
     parser.add_argument(
@@ -402,6 +432,7 @@ def main() -> None:
         None if args.cameras is None else tuple(args.cameras),
         args.poses,
         args.count,
+        tuple(args.surveyed),
     )
     if args.bound:
         posed, _ = flight(args.data, dataclasses.replace(variant, poses="given"))
@@ -438,7 +469,8 @@ def main() -> None:
                         f"{r['median']:.2f}, worst {r['worst']:.2f}, covered {sum(s <= Z95 for s in r['z'])}/"
                         f"{len(r['z'])}, beyond 3x {r['beyond']}, {r['cpu_s']:.0f} s, {r['peak_mb']:.0f} MB "
                         f"({r['rss_mb']:.0f} RSS), {r['statuses']}, wrong {r['wrong'] or '-'}, right lines refused "
-                        f"{r['refused_right'] or '-'}, {r['codes'] or ''} {r['refused'] or ''}",
+                        f"{r['refused_right'] or '-'}, {r['codes'] or ''} {r['refused'] or ''}, track from the "
+                        f"drawn log (px) {_pixels(r['drawn_px'])}",
                         file=sys.stderr,
                         flush=True,
                     )

@@ -204,16 +204,26 @@ class LinePose:
         return cls(R, t, entry["source"])
 
 
+LOG_CORRECTION_SOURCES = ("second_pass", "bias_refit", "second_pass+bias_refit")
+
+
 @dataclass(frozen=True, eq=False)
 class LogCorrection:
-    """What the sync took out of the log before the pass that gave the timeline (its later passes,
-    sync/solve/synchronize.py, each adding the log's bias fitted with the poses from the target free:
-    sync/solve/pose_joint.py), offset_m (K, 3) metres at knots (K,) sample coordinates, linear between them and
-    constant beyond; the true position is the log's plus it. The lines, the poses found in that pass and its votes are
-    on the log so corrected."""
+    """The log as the lines' poses were fitted on it: offset_m (K, 3) metres at knots (K,) sample coordinates, linear
+    between them and constant beyond; the true position is the log's plus it.
+
+    source: "second_pass" (what the sync took out of the log before the
+    pass that gave the timeline: its later passes, sync/solve/synchronize.py,
+    each adding the log's bias fitted with the poses from the target free,
+    sync/solve/pose_joint.py; that pass's votes, poses and lines are on the
+    log so corrected), "bias_refit" (the bias the poses from the target were
+    last refitted on where that pass kept their refit under the log's bias,
+    sync/solve/posed_bias.py), or "second_pass+bias_refit" (the two summed).
+    """
 
     knots: np.ndarray
     offset_m: np.ndarray
+    source: str = "second_pass"
 
     def at(self, samples: np.ndarray) -> np.ndarray:
         """(N, 3) offsets (metres) at sample coordinates."""
@@ -221,25 +231,30 @@ class LogCorrection:
 
     def plus(self, other: LogCorrection) -> LogCorrection:
         """This correction and ``other`` (one fitted on the log this one corrected) together: exact on the union of
-        their knots, both being linear between knots and constant beyond."""
+        their knots, both being linear between knots and constant beyond; its source both's, each once, in order."""
         knots = np.union1d(self.knots, other.knots)
-        return LogCorrection(knots, self.at(knots) + other.at(knots))
+        source = "+".join(dict.fromkeys([*self.source.split("+"), *other.source.split("+")]))
+        return LogCorrection(knots, self.at(knots) + other.at(knots), source)
 
     def applied(self, trajectory: Trajectory) -> Trajectory:
         """The log ``trajectory`` corrected (its samples, rate and times unchanged)."""
         return replace(trajectory, xyz=trajectory.xyz + self.at(trajectory.sample))
 
     def to_dict(self) -> dict:
-        return {"source": "second_pass", "samples": self.knots.tolist(), "offset_m": self.offset_m.tolist()}
+        return {"source": self.source, "samples": self.knots.tolist(), "offset_m": self.offset_m.tolist()}
 
     @classmethod
     def from_dict(cls, entry: dict) -> LogCorrection:
-        """timeline.json's ``log_correction`` back (ValueError when malformed)."""
+        """timeline.json's ``log_correction`` back (ValueError when malformed); a missing source reads as
+        "second_pass", the only one older versions wrote."""
         knots = np.asarray(entry["samples"], dtype=np.float64)
         offsets = np.asarray(entry["offset_m"], dtype=np.float64).reshape(-1, 3)
+        source = entry.get("source", "second_pass")
         if knots.ndim != 1 or len(knots) != len(offsets) or not len(knots) or (np.diff(knots) <= 0).any():
             raise ValueError("log_correction: expected increasing samples and one offset_m [x, y, z] each")
-        return cls(knots, offsets)
+        if source not in LOG_CORRECTION_SOURCES:
+            raise ValueError("log_correction: expected a source of " + ", ".join(LOG_CORRECTION_SOURCES))
+        return cls(knots, offsets, source)
 
 
 @dataclass(frozen=True)
@@ -400,8 +415,10 @@ class Timeline:
     stage's own, in pipeline order (the same list report.html shows);
     rejected: the lines of the cameras not synchronized that have one
     (ambiguous, or contradicted by the plausibility checks): for diagnosis,
-    never for exports; log_correction: what the sync took out of the log
-    before the pass whose lines these are (None: the log as given).
+    never for exports; log_correction: the log on which the lines' poses are
+    drawn: what the sync took out of the log before the pass whose lines
+    these are, plus the bias that pass's kept refit of the poses from the
+    target was fitted on (LogCorrection.source; None: the log as given).
     """
 
     cameras: dict[str, CameraLine]
@@ -416,7 +433,7 @@ class Timeline:
     shared_cov: dict[str, np.ndarray] = field(default_factory=dict)
     log_model: dict | None = None  # the log's error model the fit assumed (sync/model/log_model.py), or None
     rejected: dict[str, CameraLine] = field(default_factory=dict)
-    log_correction: LogCorrection | None = None  # what the sync took out of the log before its answer's pass
+    log_correction: LogCorrection | None = None  # the log the lines' poses were fitted on, as corrected
 
     def cross_cov(self, a: str, b: str) -> np.ndarray:
         """2x2 covariance between camera a's and camera b's (alpha, beta) (zeros when independent)."""

@@ -74,7 +74,8 @@ def test_the_hovers_without_poses_under_issue_33s_drone_gnss_are_searched_again_
     """Issue 33's drone (0.3 m of white noise on the bias): on seed 2 the first pass finds one camera's pose of four,
     the others refused ambiguous_offset (poses thousands of frames apart keep the track's evidence); the log corrected
     by the bias fitted with the cameras answered is searched again, pass after pass while each answers more: every
-    camera synchronized, each within 3 times its interval."""
+    camera synchronized, each within 3 times its interval. The last pass keeps its refit of the poses under the
+    log's bias: the log the pictures draw them on is the passes' correction plus the bias they were refitted on."""
     project, hovers = drone2_hovers()
     unposed = without_poses(hovers.cameras)
     log = hovers.trajectory
@@ -83,6 +84,8 @@ def test_the_hovers_without_poses_under_issue_33s_drone_gnss_are_searched_again_
     timeline, _ = synchronize(unposed, replace(log, xyz=log.xyz + errors), project.sync, log_model=LOG_MODELS["drone"])
     assert sorted(timeline.cameras) == sorted(hovers.cameras), timeline.failed
     assert not beyond_three_intervals(timeline, hovers)
+    assert {line.pose.source for line in timeline.cameras.values()} == {"second_pass+bias_refit"}
+    assert timeline.log_correction is not None and timeline.log_correction.source == "second_pass+bias_refit"
 
 
 @pytest.mark.parametrize(

@@ -11,7 +11,8 @@ import pytest
 from tlsync_pipeline.sync.model.params import SyncParams
 from tlsync_pipeline.sync.solve import posed_bias
 from tlsync_pipeline.sync.solve.posed_bias import GIVE_UP_MOVE, MAX_MOVE, ROUNDS, line_moves, refit_hopeless, refit_kept
-from tlsync_pipeline.sync.timeline import CameraLine
+from tlsync_pipeline.sync.timeline import CameraLine, LogCorrection
+from tlsync_pipeline.trajectory import Trajectory
 
 
 def _line(name: str, beta: float, beta_std: float) -> CameraLine:
@@ -66,14 +67,16 @@ class _ShiftingJointFit:
 def test_the_refit_is_given_up_when_the_last_rounds_joint_fit_moved_a_line_beyond_the_give_up_move(
     monkeypatch, stds, given_up
 ):
-    monkeypatch.setattr(posed_bias, "corrected_log", lambda trajectory, bias: trajectory)
+    zero = LogCorrection(np.zeros(1), np.zeros((1, 3)), "bias_refit")
+    monkeypatch.setattr(posed_bias, "bias_correction", lambda bias: zero)
     monkeypatch.setattr(posed_bias, "PiecewiseTrajectory", lambda trajectory: trajectory)
     monkeypatch.setattr(posed_bias, "refit_pose", lambda *args: None)  # every pose's refit fails: its line stays
     lines = {name: _line(name, -100.0, 2.0) for name in "ab"}
     data = {name: SimpleNamespace(track_clock=np.arange(1000.0)) for name in "ab"}
     method = _ShiftingJointFit([2.0 * std for std in stds])  # each line's std is 2 frames
-    log = SimpleNamespace(rate=10.0)
+    log = Trajectory(np.arange(3.0), np.zeros((3, 3)), 10.0, 0.0)
 
     refit = posed_bias.refit_poses(method, data, lines, {"a", "b"}, log, SyncParams(), None)  # type: ignore[arg-type]
     assert (refit is None) == given_up
+    assert given_up or refit.correction is zero  # the last round's bias: the log the poses were refitted on
     assert not method.shifts  # every round's joint fit was made

@@ -165,6 +165,47 @@ def test_the_second_pass_keeps_the_vote_stages_error_for_a_camera_without_a_trac
     np.testing.assert_allclose(timeline.cameras["cam0"].pose.center, given.center, atol=0.5)
 
 
+@pytest.mark.parametrize("passes", [1, 2])
+def test_the_log_a_kept_refit_fitted_its_poses_on_is_the_one_the_timeline_draws_them_on(monkeypatch, passes):
+    """The bias the kept refit of the poses from the target was last fitted on (posed_bias.PoseRefit.correction:
+    forced here, with every refit kept) is the timeline's log_correction, alone in a single pass, after the passes'
+    correction where the first pass's refit was not kept (a later pass then keeps its own); its source says which."""
+    from calibration.camera import PoseInfo
+    from tlsync_pipeline.sync.model.log_model import PRESETS
+    from tlsync_pipeline.sync.solve import synchronize as solve
+    from tlsync_pipeline.sync.solve.posed_bias import PoseRefit
+    from tlsync_pipeline.sync.timeline import LogCorrection
+
+    scene = make_scene(0)
+    inputs = {n: CameraInput(c, scene.tracks[n], c.fps) for n, c in scene.cameras.items()}
+    given = inputs["cam0"].camera
+    inputs["cam0"] = dataclasses.replace(
+        inputs["cam0"], camera=dataclasses.replace(given, pose_info=PoseInfo("target"))
+    )
+    samples = scene.trajectory.sample[[0, -1]]
+    refitted_on = LogCorrection(samples, np.array([[0.3, -0.2, 0.1], [0.5, 0.0, 0.0]]), "bias_refit")
+    first = LogCorrection(samples, np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]))
+    kept = [False] * (passes - 1)
+    refits = []
+
+    def refit(method, data, lines, posed, prepared, params, log_model):
+        refits.append(sorted(posed))
+        return PoseRefit(data, lines, {n: np.zeros((2, 2)) for n in posed}, refitted_on)
+
+    monkeypatch.setattr(solve, "refit_poses", refit)
+    monkeypatch.setattr(solve, "refit_kept", lambda moves: kept.pop(0) if kept else True)
+    monkeypatch.setattr(solve, "free_pose_correction", lambda *args: first)
+    timeline, _ = synchronize(inputs, scene.trajectory, SyncParams(), log_model=PRESETS["drone"])
+    assert refits == [["cam0"]] * passes and not timeline.failed
+    drawn = timeline.log_correction
+    if passes == 1:
+        assert drawn is refitted_on and timeline.cameras["cam0"].pose.source == "bias_refit"
+    else:
+        assert drawn.source == "second_pass+bias_refit" == timeline.cameras["cam0"].pose.source
+        np.testing.assert_allclose(drawn.at(samples), first.at(samples) + refitted_on.at(samples))
+    assert timeline.cameras["cam1"].pose is None  # its camera.json's pose, on the same corrected log
+
+
 def test_synchronize_runs_with_one_blas_thread_whoever_calls_it(monkeypatch):
     """A library call gets the sync stage's limit: OpenBLAS's threads spin on the fits' small matrices."""
     from threadpoolctl import threadpool_info, threadpool_limits

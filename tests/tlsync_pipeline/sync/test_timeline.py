@@ -77,18 +77,39 @@ def _rotation(angle: float) -> np.ndarray:
 def test_the_pose_a_line_was_fitted_with_and_the_logs_correction_read_back(tmp_path):
     timeline = _timeline()
     pose = LinePose(_rotation(0.3), np.array([1.0, -2.0, 30.0]), "second_pass+bias_refit")
-    correction = LogCorrection(np.array([0.0, 50.0, 400.0]), np.array([[0.5, -0.2, 0.1], [1.0, 0.0, -0.3], [0, 0, 0]]))
+    offsets = np.array([[0.5, -0.2, 0.1], [1.0, 0.0, -0.3], [0, 0, 0]])
+    correction = LogCorrection(np.array([0.0, 50.0, 400.0]), offsets, "second_pass+bias_refit")
     lines = {**timeline.cameras, "cam1": replace(timeline.cameras["cam1"], pose=pose)}
     write_timeline(replace(timeline, cameras=lines, log_correction=correction), tmp_path / "timeline.json")
     data = json.loads((tmp_path / "timeline.json").read_text())
     assert "pose" not in data["cameras"]["cam0"] and data["cameras"]["cam1"]["pose"]["source"] == pose.source
+    assert data["log_correction"]["source"] == "second_pass+bias_refit"
     np.testing.assert_allclose(data["cameras"]["cam1"]["pose"]["camera_center_m"], -pose.R.T @ pose.t)
     back = read_timeline(tmp_path / "timeline.json")
     assert back.cameras["cam0"].pose is None and back.cameras["cam1"].pose is not None
     np.testing.assert_array_equal(back.cameras["cam1"].pose.R, pose.R)
     np.testing.assert_array_equal(back.cameras["cam1"].pose.t, pose.t)
     assert back.cameras["cam1"].pose.source == pose.source and back.log_correction is not None
+    assert back.log_correction.source == "second_pass+bias_refit"
     np.testing.assert_array_equal(back.log_correction.at(np.array([25.0])), [[0.75, -0.1, -0.1]])
+
+
+def test_a_logs_correction_older_versions_wrote_reads_as_the_second_passes(tmp_path):
+    """Before the kept refit's bias was recorded, log_correction was the later passes' alone: source "second_pass"
+    (read the same without one); a source no version writes is malformed."""
+    correction = LogCorrection(np.array([0.0, 50.0]), np.array([[0.5, -0.2, 0.1], [1.0, 0.0, -0.3]]))
+    write_timeline(replace(_timeline(), log_correction=correction), tmp_path / "timeline.json")
+    data = json.loads((tmp_path / "timeline.json").read_text())
+    assert data["log_correction"]["source"] == "second_pass"
+    del data["log_correction"]["source"]
+    (tmp_path / "timeline.json").write_text(json.dumps(data))
+    back = read_timeline(tmp_path / "timeline.json").log_correction
+    assert back is not None and back.source == "second_pass"
+    np.testing.assert_array_equal(back.offset_m, correction.offset_m)
+    data["log_correction"]["source"] = "survey"
+    (tmp_path / "timeline.json").write_text(json.dumps(data))
+    with pytest.raises(InputError, match="timeline.json: not a tlsync timeline"):
+        read_timeline(tmp_path / "timeline.json")
 
 
 def test_a_timeline_without_a_pose_or_a_correction_reads_as_before(tmp_path):
@@ -126,6 +147,9 @@ def test_two_corrections_added_are_the_one_then_the_other_on_the_log_it_correcte
     both = first.plus(then)
     np.testing.assert_allclose(both.applied(log).xyz, then.applied(first.applied(log)).xyz, atol=1e-12)
     np.testing.assert_array_equal(both.knots, [5.0, 10.0, 15.0, 20.0, 40.0])
+    assert both.source == "second_pass"  # two passes' corrections: still the passes'
+    refit = LogCorrection(then.knots, then.offset_m, "bias_refit")
+    assert first.plus(refit).source == both.plus(refit).source == "second_pass+bias_refit"
 
 
 def test_a_line_pose_puts_its_pose_on_a_camera_without_one():

@@ -13,9 +13,11 @@ the bias (sync/solve/log_bias.py) estimates it. Each pose from the target is
 then fitted again with its line (sync/pose/pose_fit.py) on the log
 corrected by that estimate, and the joint fit is made again on the poses so
 refitted, ROUNDS times; the caller's joint fit on the last poses gives the
-lines. Their intervals add the last refit's covariance of its line (the
-joint fit holds the poses fixed) and keep beta's variance at least the
-pose alone's (synchronize's ``_with_pose_cov``). A camera synchronized
+lines, and their pictures are drawn on the log corrected by the bias the
+poses were last refitted on (PoseRefit.correction, Timeline.log_correction).
+Their intervals add the last refit's covariance of its line (the joint fit
+holds the poses fixed) and keep beta's variance at least the pose alone's
+(synchronize's ``_with_pose_cov``). A camera synchronized
 alone has no other camera to tell the bias apart with: synchronize() leaves
 its pose and line as the target gave them.
 
@@ -55,7 +57,7 @@ from tlsync_pipeline.sync.model.params import SyncParams
 from tlsync_pipeline.sync.pose.pose_fit import fit_pose_and_line, reprojection_errors
 from tlsync_pipeline.sync.solve.log_bias import LogBias
 from tlsync_pipeline.sync.solve.methods import CameraData, JointMethod
-from tlsync_pipeline.sync.timeline import CameraLine
+from tlsync_pipeline.sync.timeline import CameraLine, LogCorrection
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
 
 ROUNDS = 3  # joint fits before the caller's, each followed by the poses' refit (drone2: settled by the third)
@@ -65,9 +67,9 @@ MAX_MOVE = 1.0  # the refit is kept when each line's move from its pose alone's 
 GIVE_UP_MOVE = 2.5  # the refit is given up when the last round's joint fit moves a line beyond this many stds
 
 
-def corrected_log(trajectory: Trajectory, bias: LogBias) -> Trajectory:
-    """The log with the bias's estimate taken out (the joint fit models the true position as the log's plus it)."""
-    return replace(trajectory, xyz=trajectory.xyz + bias.at(trajectory.sample))
+def bias_correction(bias: LogBias) -> LogCorrection:
+    """The log's correction by the bias's estimate (the joint fit models the true position as the log's plus it)."""
+    return LogCorrection(bias.knots, bias.values, "bias_refit")
 
 
 def refit_pose(
@@ -105,11 +107,14 @@ def refit_pose(
 @dataclass(frozen=True)
 class PoseRefit:
     """The poses' refit (refit_poses): every camera's data and line, those of the cameras posed from the target
-    refitted, and each refitted camera's last refit's (2, 2) covariance of (alpha, beta), for its interval."""
+    refitted, each refitted camera's last refit's (2, 2) covariance of (alpha, beta), for its interval, and the
+    correction of the log the poses were last refitted on (the last round's bias estimate; None when no round fitted a
+    bias): the log their pictures are drawn on."""
 
     data: dict[str, CameraData]
     lines: dict[str, CameraLine]
     covs: dict[str, np.ndarray]
+    correction: LogCorrection | None = None
 
 
 def refit_poses(
@@ -130,6 +135,7 @@ def refit_poses(
     alone, middles = lines, track_middles(data, posed)
     data, lines = dict(data), dict(lines)
     covs: dict[str, np.ndarray] = {}
+    correction = None
     for round_ in range(rounds):
         fitted, bias = method.refine_with_log_bias(data, lines, prepared, params, method_options(params), log_model)
         if bias is None:
@@ -137,13 +143,14 @@ def refit_poses(
         last = round_ == rounds - 1
         if last and refit_hopeless(line_moves(middles, alone, {n: fitted[n] for n in posed if n in fitted})):
             return None
-        path = PiecewiseTrajectory(corrected_log(prepared, bias))
+        correction = bias_correction(bias)
+        path = PiecewiseTrajectory(correction.applied(prepared))
         for name in posed:
             refit = refit_pose(data[name], fitted.get(name, lines[name]), path, params, prepared.rate)
             if refit is not None:
                 data[name], covs[name] = refit[0], refit[2]
                 lines[name] = replace(lines[name], alpha=refit[1].alpha, beta=refit[1].beta)
-    return PoseRefit(data, lines, covs)
+    return PoseRefit(data, lines, covs, correction)
 
 
 def track_middles(data: dict[str, CameraData], names: set[str]) -> dict[str, float]:

@@ -397,12 +397,14 @@ def synchronize(
     corrects the log again for another, up to MAX_PASSES (``corrects_again``):
     the cameras it adds see the target from other directions, and the bias
     they fit with the others is the log's where a camera still refused needs
-    it. The last pass's timeline is the answer, with the log's correction in
-    all (``Timeline.log_correction``).
+    it. The last pass's timeline is the answer.
 
     A line fitted with a pose the sync found itself (posed here, searched
     again in a later pass, refitted under the log's bias) carries it
-    (``CameraLine.pose``): the pose its pictures are drawn with.
+    (``CameraLine.pose``): the pose its pictures are drawn with, on the log
+    corrected as the poses were fitted on it (``Timeline.log_correction``:
+    the passes' corrections in all, plus the bias the last pass's kept
+    refit was fitted on, ``drawn_on``).
 
     Runs with one BLAS thread (sync/kernels/blas.py), as the sync stage does.
     """
@@ -426,7 +428,16 @@ def synchronize(
                 count == MAX_PASSES,
                 {n: w for n, w in windows.items() if w is not None},
             )
-    return (timeline, results) if correction is None else (replace(timeline, log_correction=correction), results)
+    return replace(timeline, log_correction=drawn_on(correction, timeline.log_correction)), results
+
+
+def drawn_on(passes: LogCorrection | None, refit: LogCorrection | None) -> LogCorrection | None:
+    """The log's correction on which the answer's poses were fitted: the passes' (``passes``: what the sync took out
+    of the log before the last pass), then the bias the last pass's kept refit was fitted on (``refit``: on the log
+    the passes corrected); None when neither."""
+    if passes is None or refit is None:
+        return passes if refit is None else refit
+    return passes.plus(refit)
 
 
 MAX_PASSES = 4  # synchronize()'s passes at most: the first, then passes on the log corrected by the one before
@@ -461,7 +472,8 @@ def _synchronize_pass(
     """One pass of synchronize(): its timeline and results, and the log's further correction for another pass where
     this one calls for it (``corrects_again``; ``previous``: the cameras the pass before synchronized, None for the
     first; ``last``: no pass follows), or None; ``windows``: where a camera's pose from the target is searched first
-    (``posed``'s ``near``), for the cameras the pass before answered."""
+    (``posed``'s ``near``), for the cameras the pass before answered. The timeline's log_correction is the bias this
+    pass's kept refit of the poses from the target was fitted on, on the log the pass was given (None without one)."""
     declared, log_model, gated = log_model, measured(log_model, trajectory), gate_model(log_model, trajectory)
     prepared = with_log_noise(prepare_trajectory(trajectory, preparation_of(params)), log_model)
     path = PiecewiseTrajectory(prepared)
@@ -538,7 +550,7 @@ def _synchronize_pass(
         else:
             lines[name] = line
     shared: dict[str, np.ndarray] = {}
-    fitted_model, estimate, correction = log_model, None, None
+    fitted_model, estimate, correction, refitted_on = log_model, None, None, None
     method = get_method(params.method)
     # A camera whose pose comes from the target absorbed the log's error during its visit in that pose: under a log
     # with a bias and other cameras to tell it apart its pose is fitted again under the bias's estimate
@@ -554,7 +566,9 @@ def _synchronize_pass(
             for name in lines
         }
         rounds = ROUNDS if previous is None else LATER_ROUNDS
-        fitted, bias, kept = _joint_lines(method, data, lines, posed_here, prepared, params, log_model, rounds)
+        fitted, bias, kept, refitted_on = _joint_lines(
+            method, data, lines, posed_here, prepared, params, log_model, rounds
+        )
         lines = {**lines, **fitted}
         pose_refused = log_model.has_bias and any(
             not cameras[n].camera.posed or _pose_from_target(cameras[n].camera) for n in failed
@@ -578,6 +592,7 @@ def _synchronize_pass(
         rejected=rejected,
         shared_cov=shared,
         log_model=_log_error(fitted_model, declared, estimate, gated),
+        log_correction=refitted_on,
     )
     return timeline, results, correction
 
@@ -603,15 +618,16 @@ def _joint_lines(
     params: SyncParams,
     log_model: LogModel,
     rounds: int,
-) -> tuple[dict[str, CameraLine], LogBias | None, bool]:
+) -> tuple[dict[str, CameraLine], LogBias | None, bool, LogCorrection | None]:
     """The lines fitted together with the log's error (``method.refine_with_log_bias``), its estimate (None: not
-    fitted), and whether a refit of the poses from the target was kept (True where none was made). Under a log with a
-    bias and with two cameras or more, the cameras ``posed`` from the target take part, their poses fitted again
-    under the bias's estimate in ``rounds`` rounds (posed_bias.refit_poses: ROUNDS in the first pass, LATER_ROUNDS
-    in a later one), their intervals with the refit's covariance (_with_pose_cov);
-    where their lines leave the poses alone's farther than those allow (posed_bias.refit_kept, or already on the poses
-    alone: refit_hopeless), or otherwise, they stay out and keep their lines. A kept refit's lines carry their refitted
-    poses (CameraLine.pose, source "bias_refit")."""
+    fitted), whether a refit of the poses from the target was kept (True where none was made), and the correction of
+    ``prepared`` the kept refit's poses were fitted on (PoseRefit.correction; None without a refitted pose). Under a
+    log with a bias and with two cameras or more, the cameras ``posed`` from the target take part, their poses fitted
+    again under the bias's estimate in ``rounds`` rounds (posed_bias.refit_poses: ROUNDS in the first pass,
+    LATER_ROUNDS in a later one), their intervals with the refit's covariance (_with_pose_cov); where their lines
+    leave the poses alone's farther than those allow (posed_bias.refit_kept, or already on the poses alone:
+    refit_hopeless), or otherwise, they stay out and keep their lines. A kept refit's lines carry their refitted poses
+    (CameraLine.pose, source "bias_refit")."""
     kept, refit = True, None
     if log_model.has_bias and len(lines) >= 2 and posed:
         refit, kept = refit_poses(method, data, lines, posed, prepared, params, log_model, rounds), False
@@ -624,15 +640,17 @@ def _joint_lines(
             merged = {**refit.lines, **fitted}
             widened = {n: _with_pose_cov(line, refit.covs.get(n), lines[n].cov) for n, line in merged.items()}
             refitted = {n: LinePose.of(refit.data[n].camera, "bias_refit") for n in refit.covs}
-            return {n: replace(line, pose=refitted.get(n)) for n, line in widened.items()}, bias, True
+            on = refit.correction if refitted else None
+            return {n: replace(line, pose=refitted.get(n)) for n, line in widened.items()}, bias, True, on
     surveyed = {n: data[n] for n in data if n not in posed}
     if not surveyed:
-        return {}, None, kept
+        return {}, None, kept, None
     return (
         *method.refine_with_log_bias(
             surveyed, {n: lines[n] for n in surveyed}, prepared, params, method_options(params), log_model
         ),
         kept,
+        None,
     )
 
 
