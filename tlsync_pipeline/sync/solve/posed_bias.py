@@ -12,7 +12,9 @@ from different directions tell it apart: the joint fit of every line with
 the bias (sync/solve/log_bias.py) estimates it. Each pose from the target is
 then fitted again with its line (sync/pose/pose_fit.py) on the log
 corrected by that estimate, and the joint fit is made again on the poses so
-refitted, ROUNDS times; the caller's joint fit on the last poses gives the
+refitted, ROUNDS times (LATER_ROUNDS in synchronize()'s later passes, whose
+log the pass before corrected with these poses free); the caller's joint
+fit on the last poses gives the
 lines, and their pictures are drawn on the log corrected by the bias the
 poses were last refitted on (PoseRefit.correction, Timeline.log_correction).
 Their intervals add the last refit's covariance of its line (the joint fit

@@ -393,8 +393,10 @@ def synchronize(
     and every camera is synchronized again on it, the poses from the target
     searched again (a second pass; its votes cast here, except that a camera
     without a track keeps the vote stage's error: its target was never
-    identified). A pass that synchronizes more cameras than the one before
-    corrects the log again for another, up to MAX_PASSES (``corrects_again``):
+    identified), first near the line the pass before answered (``posed``'s
+    ``near``, ``search_window``), and refitted in LATER_ROUNDS. A pass that
+    synchronizes more cameras than the one before corrects the log again for
+    another, up to MAX_PASSES (``corrects_again``):
     the cameras it adds see the target from other directions, and the bias
     they fit with the others is the log's where a camera still refused needs
     it. The last pass's timeline is the answer.
