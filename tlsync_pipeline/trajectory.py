@@ -127,6 +127,9 @@ class PiecewiseTrajectory:
 
     def __call__(self, s: np.ndarray, run: np.ndarray, nu: int = 0) -> np.ndarray:
         """Positions (or derivatives) at s, evaluated on the given runs, clamped to them."""
+        if len(self.runs) == 1:  # most logs: no run to pick
+            lo, hi, spline = self.runs[0]
+            return spline(np.clip(s, lo, hi), nu=nu)
         out = np.empty((len(s), 3))
         for k in np.unique(run):
             sel = run == k

@@ -22,6 +22,7 @@ from tlsync_pipeline.sync.identify.identify import identify_params
 from tlsync_pipeline.sync.kernels.slope import slope_prior
 from tlsync_pipeline.sync.kernels.smoothing import smooth_trajectory
 from tlsync_pipeline.sync.model.log_model import PRESETS as LOG_MODELS
+from tlsync_pipeline.sync.model.methods import preparation_of, prepare_trajectory
 from tlsync_pipeline.sync.model.params import SyncParams
 from tlsync_pipeline.sync.pose import pose as P
 from tlsync_pipeline.sync.pose.pose_fit import (
@@ -38,7 +39,10 @@ from tlsync_pipeline.sync.pose.pose_fit import (
 from tlsync_pipeline.sync.pose.pose_timing import PoseTiming
 from tlsync_pipeline.sync.solve.synchronize import (
     CameraInput,
+    posed,
+    search_window,
     synchronize,
+    well_inside,
     with_pose_line,
     with_pose_offset,
 )
@@ -393,6 +397,36 @@ def test_synchronize_poses_cameras_without_one_and_fails_the_degenerate_one(scen
     assert fitted is not None and fitted.source == "target" and timeline.cameras["cam2"].pose is None
     np.testing.assert_array_equal(fitted.R, results["cam0"].pose.camera.R)
     np.testing.assert_array_equal(fitted.t, results["cam0"].pose.camera.t)
+
+
+def test_a_later_pass_searches_the_pose_near_the_line_before_and_everywhere_when_it_lands_near_the_edge(scene):
+    """A later pass searches a pose the pass before answered within a range of beta around that line (fewer offsets,
+    the same pose); where the pose found there lies near the range's edge, it searches every offset again."""
+    s = scene.scene
+    camera, track = s.true_cameras["cam0"], s.tracks["cam0"]
+    inputs, params = CameraInput(unposed(camera), track, camera.fps), SyncParams()
+    prepared = prepare_trajectory(s.trajectory, preparation_of(params))
+    _, everywhere = posed(inputs, prepared, params)
+    beta, half = everywhere.fit.beta, 300.0
+
+    _, near = posed(inputs, prepared, params, near=(beta - half, beta + half))
+    assert near.search.offsets_tried < everywhere.search.offsets_tried / 2
+    assert abs(near.fit.beta - beta) < 0.05
+
+    _, edge = posed(inputs, prepared, params, near=(beta - 0.2 * half, beta + 1.8 * half))
+    assert edge.search.offsets_tried == everywhere.search.offsets_tried
+    assert edge.fit.beta == beta
+
+
+def test_a_later_pass_searches_its_sigmas_of_the_line_before_or_its_seconds_whichever_is_wider():
+    narrow = CameraLine("c", 1.0, 100.0, 50, 50, 0.0, cov=np.diag([1e-8, 4.0]))
+    assert search_window(narrow, 30.0) == (100.0 - 30 * 30.0, 100.0 + 30 * 30.0)
+    wide = replace(narrow, cov=np.diag([1e-8, 400.0**2]))
+    assert search_window(wide, 30.0) == (100.0 - 6 * 400.0, 100.0 + 6 * 400.0)
+    assert search_window(replace(narrow, cov=None), 30.0) is None
+    assert search_window(narrow, None) is None
+    assert well_inside(100.0, (0.0, 200.0)) and well_inside(25.0, (0.0, 200.0))
+    assert not well_inside(24.0, (0.0, 200.0)) and not well_inside(176.0, (0.0, 200.0))
 
 
 def test_the_joint_fit_jacobian_is_the_residuals_derivative(scene):

@@ -169,11 +169,12 @@ def test_the_second_pass_keeps_the_vote_stages_error_for_a_camera_without_a_trac
 def test_the_log_a_kept_refit_fitted_its_poses_on_is_the_one_the_timeline_draws_them_on(monkeypatch, passes):
     """The bias the kept refit of the poses from the target was last fitted on (posed_bias.PoseRefit.correction:
     forced here, with every refit kept) is the timeline's log_correction, alone in a single pass, after the passes'
-    correction where the first pass's refit was not kept (a later pass then keeps its own); its source says which."""
+    correction where the first pass's refit was not kept (a later pass then keeps its own, refitted in LATER_ROUNDS
+    rounds of the joint fit); its source says which."""
     from calibration.camera import PoseInfo
     from tlsync_pipeline.sync.model.log_model import PRESETS
     from tlsync_pipeline.sync.solve import synchronize as solve
-    from tlsync_pipeline.sync.solve.posed_bias import PoseRefit
+    from tlsync_pipeline.sync.solve.posed_bias import LATER_ROUNDS, ROUNDS, PoseRefit
     from tlsync_pipeline.sync.timeline import LogCorrection
 
     scene = make_scene(0)
@@ -188,15 +189,15 @@ def test_the_log_a_kept_refit_fitted_its_poses_on_is_the_one_the_timeline_draws_
     kept = [False] * (passes - 1)
     refits = []
 
-    def refit(method, data, lines, posed, prepared, params, log_model):
-        refits.append(sorted(posed))
+    def refit(method, data, lines, posed, prepared, params, log_model, rounds):
+        refits.append((sorted(posed), rounds))
         return PoseRefit(data, lines, {n: np.zeros((2, 2)) for n in posed}, refitted_on)
 
     monkeypatch.setattr(solve, "refit_poses", refit)
     monkeypatch.setattr(solve, "refit_kept", lambda moves: kept.pop(0) if kept else True)
     monkeypatch.setattr(solve, "free_pose_correction", lambda *args: first)
     timeline, _ = synchronize(inputs, scene.trajectory, SyncParams(), log_model=PRESETS["drone"])
-    assert refits == [["cam0"]] * passes and not timeline.failed
+    assert refits == [(["cam0"], ROUNDS)] + [(["cam0"], LATER_ROUNDS)] * (passes - 1) and not timeline.failed
     drawn = timeline.log_correction
     if passes == 1:
         assert drawn is refitted_on and timeline.cameras["cam0"].pose.source == "bias_refit"

@@ -12,7 +12,9 @@ from different directions tell it apart: the joint fit of every line with
 the bias (sync/solve/log_bias.py) estimates it. Each pose from the target is
 then fitted again with its line (sync/pose/pose_fit.py) on the log
 corrected by that estimate, and the joint fit is made again on the poses so
-refitted, ROUNDS times; the caller's joint fit on the last poses gives the
+refitted, ROUNDS times (LATER_ROUNDS in synchronize()'s later passes, whose
+log the pass before corrected with these poses free); the caller's joint
+fit on the last poses gives the
 lines, and their pictures are drawn on the log corrected by the bias the
 poses were last refitted on (PoseRefit.correction, Timeline.log_correction).
 Their intervals add the last refit's covariance of its line (the joint fit
@@ -61,6 +63,7 @@ from tlsync_pipeline.sync.timeline import CameraLine, LogCorrection
 from tlsync_pipeline.trajectory import PiecewiseTrajectory, Trajectory
 
 ROUNDS = 3  # joint fits before the caller's, each followed by the poses' refit (drone2: settled by the third)
+LATER_ROUNDS = 2  # the same in synchronize()'s later passes, on a log the pass before corrected with these poses free
 GATE_MEDIANS = 3.0  # a frame enters the pose's refit within this many median reprojection errors (at least eps_px)
 MAX_MOVE = 1.0  # the refit is kept when each line's move from its pose alone's is at most this many of its std
 GIVE_UP_MOVE = 2.5  # the refit is given up when the last round's joint fit moves a line beyond this many stds
@@ -124,21 +127,22 @@ def refit_poses(
     prepared: Trajectory,
     params: SyncParams,
     log_model: LogModel,
+    rounds: int = ROUNDS,
 ) -> PoseRefit | None:
     """The cameras' data and lines with the poses of the cameras ``posed`` from the target refitted under the log's
-    bias (the module): ROUNDS joint fits of every camera's line with the bias, each followed by each such pose and its
-    line fitted on the log corrected by the bias's estimate. A camera whose refit fails keeps its pose and line (and
-    has no covariance). Unchanged when the joint fit gives no bias; None, given up, when the last round's joint fit
-    has already left the poses alone's lines too far to be kept (refit_hopeless)."""
+    bias (the module): ``rounds`` joint fits of every camera's line with the bias, each followed by each such pose and
+    its line fitted on the log corrected by the bias's estimate. A camera whose refit fails keeps its pose and line
+    (and has no covariance). Unchanged when the joint fit gives no bias; None, given up, when the last round's joint
+    fit has already left the poses alone's lines too far to be kept (refit_hopeless)."""
     alone, middles = lines, track_middles(data, posed)
     data, lines = dict(data), dict(lines)
     covs: dict[str, np.ndarray] = {}
     correction = None
-    for round_ in range(ROUNDS):
+    for round_ in range(rounds):
         fitted, bias = method.refine_with_log_bias(data, lines, prepared, params, method_options(params), log_model)
         if bias is None:
             break
-        last = round_ == ROUNDS - 1
+        last = round_ == rounds - 1
         if last and refit_hopeless(line_moves(middles, alone, {n: fitted[n] for n in posed if n in fitted})):
             return None
         correction = bias_correction(bias)

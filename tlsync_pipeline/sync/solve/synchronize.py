@@ -48,7 +48,7 @@ from tlsync_pipeline.sync.model.log_model import PRESETS, LogModel, log_drift
 from tlsync_pipeline.sync.model.methods import method_options, params_table, preparation_of, prepare_trajectory
 from tlsync_pipeline.sync.model.params import ParamsTable, SyncParams
 from tlsync_pipeline.sync.model.status import AMBIGUOUS, FAILED, HALF_95, WEAK, Reason, diagnosed_failure
-from tlsync_pipeline.sync.pose.pose import TargetPose, estimate_pose, pose_info, pose_log_sigma
+from tlsync_pipeline.sync.pose.pose import PoseError, TargetPose, estimate_pose, pose_info, pose_log_sigma
 from tlsync_pipeline.sync.pose.pose_timing import PoseTiming
 from tlsync_pipeline.sync.solve.causes import explain
 from tlsync_pipeline.sync.solve.log_bias import LogBias
@@ -65,7 +65,14 @@ from tlsync_pipeline.sync.solve.plausibility import (
     rival_odds_of,
 )
 from tlsync_pipeline.sync.solve.pose_joint import free_pose_correction
-from tlsync_pipeline.sync.solve.posed_bias import line_moves, refit_kept, refit_poses, track_middles
+from tlsync_pipeline.sync.solve.posed_bias import (
+    LATER_ROUNDS,
+    ROUNDS,
+    line_moves,
+    refit_kept,
+    refit_poses,
+    track_middles,
+)
 from tlsync_pipeline.sync.solve.registry import get_method
 from tlsync_pipeline.sync.solve.slow_motion import step_spread
 from tlsync_pipeline.sync.timeline import CameraLine, LinePose, LogCorrection, Timeline
@@ -170,10 +177,59 @@ def _pose_from_target(camera: Camera) -> bool:
 
 
 def posed(
-    inputs: CameraInput, prepared: Trajectory, params: SyncParams, log_model: LogModel = PRESETS["none"]
+    inputs: CameraInput,
+    prepared: Trajectory,
+    params: SyncParams,
+    log_model: LogModel = PRESETS["none"],
+    near: tuple[float, float] | None = None,
 ) -> tuple[CameraInput, TargetPose]:
     """The camera's inputs with its pose from the target (its ``gcps`` as a prior; the log's error model in the fit),
-    and that pose; PoseError when it is not determined."""
+    and that pose; PoseError when it is not determined.
+
+    near: a later pass's range of beta (clock units) around the line the pass before answered (``search_window``):
+    the pose is searched there first, and over every offset the log allows where the pose found there is refused
+    or lies near the range's edge (``well_inside``): the pass before searched every offset on a log a few metres
+    from this one and found no rival."""
+    if near is not None:
+        try:
+            pose = _pose(inputs, prepared, params, log_model, near)
+        except PoseError:
+            pose = None
+        if pose is not None and well_inside(pose.fit.beta, near):
+            return _with_pose(inputs, pose, prepared, log_model), pose
+    pose = _pose(inputs, prepared, params, log_model, None)
+    return _with_pose(inputs, pose, prepared, log_model), pose
+
+
+SEARCH_SIGMAS = 6.0  # a later pass's pose search: this many of the line's beta stds either side of the pass before's
+SEARCH_S = 30.0  # ... and at least this many seconds either side
+EDGE_SHARE = 0.25  # a pose found within this share of the range's half-width from its edge is searched everywhere
+
+
+def search_window(line: CameraLine, fps: float | None) -> tuple[float, float] | None:
+    """The range of beta (clock units) a later pass searches the camera's pose in first: the line the pass before
+    answered, SEARCH_SIGMAS of its beta std and at least SEARCH_S seconds (at ``fps``) either side; None without a
+    finite covariance or a frame rate."""
+    if line.cov is None or not np.isfinite(line.cov).all() or not fps:
+        return None
+    half = max(SEARCH_SIGMAS * math.sqrt(max(float(line.cov[1][1]), 0.0)), SEARCH_S * fps)
+    return line.beta - half, line.beta + half
+
+
+def well_inside(beta: float, window: tuple[float, float]) -> bool:
+    """Whether ``beta`` lies farther than EDGE_SHARE of the window's half-width from both its ends."""
+    margin = EDGE_SHARE * 0.5 * (window[1] - window[0])
+    return window[0] + margin <= beta <= window[1] - margin
+
+
+def _pose(
+    inputs: CameraInput,
+    prepared: Trajectory,
+    params: SyncParams,
+    log_model: LogModel,
+    offsets: tuple[float, float] | None,
+) -> TargetPose:
+    """The camera's pose from the target, its offset searched within ``offsets`` (None: every one)."""
     pose, _ = estimate_pose(
         inputs.camera,
         inputs.track,
@@ -182,16 +238,22 @@ def posed(
         inputs.fps,
         identify_params(params),
         inputs.gcps,
+        offsets=offsets,
         log_model=log_model,
         max_roll_deg=params.upright_roll_deg,
     )
+    return pose
+
+
+def _with_pose(inputs: CameraInput, pose: TargetPose, prepared: Trajectory, log_model: LogModel) -> CameraInput:
+    """The camera's inputs with ``pose``."""
     camera = replace(
         pose.camera,
         name=inputs.camera.name,
         fps=inputs.camera.fps,
         pose_info=pose_info(pose, pose_log_sigma(prepared, log_model)),
     )
-    return replace(inputs, camera=camera), pose
+    return replace(inputs, camera=camera)
 
 
 def with_pose_line(line: CameraLine, timing: PoseTiming) -> CameraLine:
@@ -331,8 +393,10 @@ def synchronize(
     and every camera is synchronized again on it, the poses from the target
     searched again (a second pass; its votes cast here, except that a camera
     without a track keeps the vote stage's error: its target was never
-    identified). A pass that synchronizes more cameras than the one before
-    corrects the log again for another, up to MAX_PASSES (``corrects_again``):
+    identified), first near the line the pass before answered (``posed``'s
+    ``near``, ``search_window``), and refitted in LATER_ROUNDS. A pass that
+    synchronizes more cameras than the one before corrects the log again for
+    another, up to MAX_PASSES (``corrects_again``):
     the cameras it adds see the target from other directions, and the bias
     they fit with the others is the log's where a camera still refused needs
     it. The last pass's timeline is the answer.
@@ -347,7 +411,7 @@ def synchronize(
     Runs with one BLAS thread (sync/kernels/blas.py), as the sync stage does.
     """
     with one_blas_thread():
-        timeline, results, step = _synchronize_pass(cameras, trajectory, params, votes, log_model, None, False)
+        timeline, results, step = _synchronize_pass(cameras, trajectory, params, votes, log_model, None, False, {})
         again = {n: _unposed(inputs) if _pose_from_target(inputs.camera) else inputs for n, inputs in cameras.items()}
         untracked = {n: v for n, v in (votes or {}).items() if isinstance(v, SyncError) and cameras[n].track is None}
         correction = None
@@ -355,6 +419,7 @@ def synchronize(
             if step is None:
                 break
             correction = step if correction is None else correction.plus(step)
+            windows = {n: search_window(line, cameras[n].fps) for n, line in timeline.cameras.items()}
             timeline, results, step = _synchronize_pass(
                 again,
                 correction.applied(trajectory),
@@ -363,6 +428,7 @@ def synchronize(
                 log_model,
                 len(timeline.cameras),
                 count == MAX_PASSES,
+                {n: w for n, w in windows.items() if w is not None},
             )
     return replace(timeline, log_correction=drawn_on(correction, timeline.log_correction)), results
 
@@ -403,11 +469,13 @@ def _synchronize_pass(
     log_model: LogModel,
     previous: int | None,
     last: bool,
+    windows: Mapping[str, tuple[float, float]],
 ) -> tuple[Timeline, dict[str, CameraResult], LogCorrection | None]:
     """One pass of synchronize(): its timeline and results, and the log's further correction for another pass where
     this one calls for it (``corrects_again``; ``previous``: the cameras the pass before synchronized, None for the
-    first; ``last``: no pass follows), or None. The timeline's log_correction is the bias this pass's kept refit of
-    the poses from the target was fitted on, on the log the pass was given (None without one)."""
+    first; ``last``: no pass follows), or None; ``windows``: where a camera's pose from the target is searched first
+    (``posed``'s ``near``), for the cameras the pass before answered. The timeline's log_correction is the bias this
+    pass's kept refit of the poses from the target was fitted on, on the log the pass was given (None without one)."""
     declared, log_model, gated = log_model, measured(log_model, trajectory), gate_model(log_model, trajectory)
     prepared = with_log_noise(prepare_trajectory(trajectory, preparation_of(params)), log_model)
     path = PiecewiseTrajectory(prepared)
@@ -424,7 +492,7 @@ def _synchronize_pass(
                 raise cast
             pose = None
             if not inputs.camera.posed:
-                inputs, pose = posed(inputs, prepared, params, log_model)
+                inputs, pose = posed(inputs, prepared, params, log_model, windows.get(name))
             timing = pose.timing if pose is not None else inputs.pose_timing
             used[name] = inputs
             radius[name] = vote_radius(inputs.camera, prepared, params.eps_px, gated)
@@ -499,7 +567,10 @@ def _synchronize_pass(
             )
             for name in lines
         }
-        fitted, bias, kept, refitted_on = _joint_lines(method, data, lines, posed_here, prepared, params, log_model)
+        rounds = ROUNDS if previous is None else LATER_ROUNDS
+        fitted, bias, kept, refitted_on = _joint_lines(
+            method, data, lines, posed_here, prepared, params, log_model, rounds
+        )
         lines = {**lines, **fitted}
         pose_refused = log_model.has_bias and any(
             not cameras[n].camera.posed or _pose_from_target(cameras[n].camera) for n in failed
@@ -548,18 +619,20 @@ def _joint_lines(
     prepared: Trajectory,
     params: SyncParams,
     log_model: LogModel,
+    rounds: int,
 ) -> tuple[dict[str, CameraLine], LogBias | None, bool, LogCorrection | None]:
     """The lines fitted together with the log's error (``method.refine_with_log_bias``), its estimate (None: not
     fitted), whether a refit of the poses from the target was kept (True where none was made), and the correction of
     ``prepared`` the kept refit's poses were fitted on (PoseRefit.correction; None without a refitted pose). Under a
     log with a bias and with two cameras or more, the cameras ``posed`` from the target take part, their poses fitted
-    again under the bias's estimate (posed_bias.refit_poses), their intervals with the refit's covariance
-    (_with_pose_cov); where their lines leave the poses alone's farther than those allow (posed_bias.refit_kept, or
-    already on the poses alone: refit_hopeless), or otherwise, they stay out and keep their lines. A kept refit's
-    lines carry their refitted poses (CameraLine.pose, source "bias_refit")."""
+    again under the bias's estimate in ``rounds`` rounds (posed_bias.refit_poses: ROUNDS in the first pass,
+    LATER_ROUNDS in a later one), their intervals with the refit's covariance (_with_pose_cov); where their lines
+    leave the poses alone's farther than those allow (posed_bias.refit_kept, or already on the poses alone:
+    refit_hopeless), or otherwise, they stay out and keep their lines. A kept refit's lines carry their refitted poses
+    (CameraLine.pose, source "bias_refit")."""
     kept, refit = True, None
     if log_model.has_bias and len(lines) >= 2 and posed:
-        refit, kept = refit_poses(method, data, lines, posed, prepared, params, log_model), False
+        refit, kept = refit_poses(method, data, lines, posed, prepared, params, log_model, rounds), False
     if refit is not None:
         fitted, bias = method.refine_with_log_bias(
             refit.data, {**lines, **refit.lines}, prepared, params, method_options(params), log_model
