@@ -53,7 +53,9 @@ def alive(pid: int) -> bool:
         return False
     try:
         return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
-    except (FileNotFoundError, IndexError):
+    except (FileNotFoundError, ProcessLookupError):  # reaped since the signal's check, or a system without /proc
+        return not Path("/proc/self").exists()
+    except IndexError:
         return True
 
 
