@@ -298,3 +298,75 @@ def test_the_image_velocity_is_the_tracks_local_slope_and_unknown_where_frames_a
     np.testing.assert_allclose(velocity[5:35], np.tile([3.0, -1.0], (30, 1)), atol=1e-9)
     np.testing.assert_allclose(velocity[46:75], np.tile([0.0, 2.0], (29, 1)), atol=1e-9)
     assert np.isnan(velocity[80]).all()
+
+
+def _walk_cameras(seed: int, redundancy: float):
+    """Drone-log walk scene ``seed``'s cameras as the joint fit takes them, each weighed by a covariance
+    ``redundancy`` times its naive one (residuals correlated in time, as a real flight's are), and the path."""
+    from tlsync_pipeline.sync.kernels.slope import slope_prior
+    from tlsync_pipeline.sync.solve.log_bias import BiasCamera, _knots, _redundancy
+    from tlsync_pipeline.trajectory import PiecewiseTrajectory
+
+    scene = make_walk_scene(seed, WalkSpec(log=FIXTURE_LOGS["drone"]))
+    path, rate = PiecewiseTrajectory(scene.trajectory), float(scene.trajectory.rate)
+    cameras = []
+    for name, track in scene.tracks.items():
+        line, fps = scene.lines[name], scene.cameras[name].fps
+        c = BiasCamera(
+            name,
+            scene.cameras[name],
+            track.frame.astype(float),
+            np.column_stack([track.x, track.y]),
+            np.ones(len(track.frame)),
+            line.alpha,
+            line.beta,
+            np.diag([1e6, 1.0]),
+            slope_prior(fps, rate, SyncParams().rate_sigma),
+        )
+        naive = _redundancy(c, path, _knots([c], path, rate, PRESETS["drone"]), 2.0)  # trace(cov) / trace(naive)
+        cameras.append(dataclasses.replace(c, cov=c.cov * redundancy / naive))
+    return cameras, path, rate
+
+
+def test_the_joint_fit_thins_a_cameras_frames_in_order_down_to_what_its_correlated_errors_leave():
+    """Every k-th frame in order, the image velocity measured on all of them; where a camera's covariance is 50 times
+    the naive one, 1 frame in 4 (FRAMES_PER_KNOT of the 2 s knot interval's 60); where it is the naive one (white
+    residuals: every frame counts), all."""
+    from tlsync_pipeline.sync.kernels.velocity import image_velocity
+    from tlsync_pipeline.sync.solve.log_bias import FRAMES_PER_KNOT, MIN_JOINT_FRAMES, SEEN_VELOCITY_S, _knots, thinned
+
+    cameras, path, rate = _walk_cameras(0, 50.0)
+    knots = _knots(cameras, path, rate, PRESETS["drone"])
+    for c in cameras:
+        kept = thinned(c, path, knots, rate, 2.0)
+        step = int(round(len(c.clock) / len(kept.clock)))
+        assert 2 <= step <= 60 // FRAMES_PER_KNOT and len(kept.clock) >= MIN_JOINT_FRAMES, (c.name, len(kept.clock))
+        np.testing.assert_array_equal(kept.clock, c.clock[::step])
+        np.testing.assert_array_equal(kept.xy, c.xy[::step])
+        seen = image_velocity(c.clock, c.xy, SEEN_VELOCITY_S * c.alpha * rate)[::step]
+        np.testing.assert_array_equal(kept.seen, seen)
+        white = dataclasses.replace(c, cov=c.cov / 50.0)
+        assert len(thinned(white, path, knots, rate, 2.0).clock) == len(c.clock)
+
+
+def test_a_thinned_camera_weighs_in_the_joint_fit_as_with_all_its_frames(monkeypatch):
+    """Drone-log walks, each camera's covariance 50 times its naive one: with 1 frame in 4 the bias's posterior std at
+    every knot and each line's clock std at its visit's middle from the bias are within 10 % of the fit on every
+    frame, and the lines within that std of each other (the solver stops in a flat valley, 100 steps in)."""
+    import tlsync_pipeline.sync.solve.log_bias as log_bias
+
+    for seed in (0, 2):
+        cameras, path, rate = _walk_cameras(seed, 50.0)
+        thin = log_bias.fit_log_bias(cameras, path, rate, PRESETS["drone"], 2.0)
+        with monkeypatch.context() as patch:
+            patch.setattr(log_bias, "FRAMES_PER_KNOT", 10**9)
+            full = log_bias.fit_log_bias(cameras, path, rate, PRESETS["drone"], 2.0)
+        ratio = np.sqrt(np.diag(thin.cov) / np.diag(full.cov))
+        assert 0.9 < ratio.min() and ratio.max() < 1.1, (seed, ratio.min(), ratio.max())
+        for c in cameras:
+            middle = float(np.median((c.clock - c.beta) / c.alpha))
+            g = np.array([middle, 1.0])
+            sd_thin, sd_full = (float(np.sqrt(g @ b.line_cov(c.name, c.name) @ g)) for b in (thin, full))
+            assert 0.9 < sd_thin / sd_full < 1.1, (seed, c.name, sd_thin, sd_full)
+            moved = np.polyval(thin.lines[c.name], middle) - np.polyval(full.lines[c.name], middle)
+            assert abs(moved) < sd_full, (seed, c.name, moved, sd_full)
