@@ -443,7 +443,8 @@ def _redundancy(c: BiasCamera, path: PiecewiseTrajectory, knots: np.ndarray, f_s
     view = _camera_view(c, path, knots, bias, _visit_samples(c))
     rows = _camera_rows(c, path, knots, bias, view)
     r = rows.residual
-    bread, variance = _bread(c, r, rows.local_jacobian(c, len(knots)), f_scale), variance_factor(r, f_scale)
+    line = rows.local_jacobian(c, len(knots))[:, :2]  # the naive covariance's: the line's columns alone
+    bread, variance = _bread(c, r, line, f_scale), variance_factor(r, f_scale)
     interval = c.cov if c.cov_interval is None else c.cov_interval
     return min(_correlation_factor(bread, variance, x, cov) for cov in (c.cov, interval))
 
