@@ -72,9 +72,6 @@ BELOW_PRIOR = float(
     np.exp(-2.0 * PRIOR_LOG_SD)
 )  # an estimate under this share of the model's bias is outside its prior
 FAST_FLOOR_M = 0.05  # m: the short term's prior std when the model has no white noise (the knots' interpolation)
-FRAMES_PER_KNOT = 10  # frames a camera keeps in the joint fit per interval between the knots of its visit (at least)
-MIN_JOINT_FRAMES = 100  # frames a camera keeps in the joint fit (at least; all when it has fewer)
-REDUNDANT_SHARE = 0.1  # the most the frames a camera leaves out of the joint fit may add to its line's variance
 
 
 @dataclass(frozen=True)
@@ -82,9 +79,7 @@ class BiasCamera:
     """One camera as the joint fit sees it: the clock values (frame units) and tracked pixels of the frames its
     refinement used, their weights (sigma_weights), its line, the (alpha, beta) covariance its pixels are weighed by
     in the fit and the marginal likelihood (Refinement.cov_joint), its slope prior (or None), and cov_interval: its
-    refinement's own covariance, by which its pixels count in the bias's posterior, the lines' intervals (None: cov);
-    seen: (N, 2) the target's image velocity at each frame (pixels per clock unit) measured on the track before it was
-    thinned (None: measured on these frames).
+    refinement's own covariance, by which its pixels count in the bias's posterior, the lines' intervals (None: cov).
     """
 
     name: str
@@ -97,7 +92,6 @@ class BiasCamera:
     cov: np.ndarray
     prior: SlopePrior | None
     cov_interval: np.ndarray | None = None
-    seen: np.ndarray | None = None
 
     @property
     def middle(self) -> float:
@@ -190,7 +184,7 @@ def fit_log_bias(
     knots = _knots(cameras, path, rate, model)
     prior = np.array([model.bias_m, model.bias_m, model.bias_vertical_m])
     whiten = _prior_whitening(knots, rate, model.tau_s, prior)
-    problem = _Joint([thinned(c, path, knots, rate, f_scale) for c in cameras], path, knots, whiten, f_scale, rate)
+    problem = _Joint(cameras, path, knots, whiten, f_scale, rate)
     z = np.concatenate([problem.x0, np.zeros(3 * len(knots))])
     converged = True
     if estimate:
@@ -218,9 +212,7 @@ def fit_white_log(
         return None
     prior = np.full(3, model.white_m)
     whiten = _prior_whitening(knots, rate, 1.0 / rate, prior)
-    problem = _Joint(
-        [thinned(c, path, knots, rate, f_scale) for c in cameras], path, knots, whiten, f_scale, rate, measured=True
-    )
+    problem = _Joint(cameras, path, knots, whiten, f_scale, rate, measured=True)
     z = np.concatenate([problem.x0, np.zeros(3 * len(knots))])
     converged = True
     if estimate:
@@ -411,44 +403,6 @@ def white_knots(cameras: list[BiasCamera], path: PiecewiseTrajectory) -> np.ndar
     return knots if 2 <= len(knots) <= MAX_KNOTS else None
 
 
-def thinned(c: BiasCamera, path: PiecewiseTrajectory, knots: np.ndarray, rate: float, f_scale: float) -> BiasCamera:
-    """The camera with every k-th of its frames, in their order, its image velocity (``seen``) measured on all of them
-    first; ``rate``: the log's samples per second. k (1 or more) is the most that leaves FRAMES_PER_KNOT frames in the
-    median interval between the knots its frames fall in and at least MIN_JOINT_FRAMES frames, and adds at most
-    REDUNDANT_SHARE to its line's variance (_redundancy): 25 frames a second are far more than the knots, seconds
-    apart, and its line's two values need where its errors are correlated in time.
-
-    Its weight in the joint fit stays: its pixels count by its covariance over the naive one from its residuals
-    (_inflation), and the naive one grows k-fold with 1 frame in k, so its information (bread over inflation) is the
-    same while that ratio stays above 1, which the bound on k keeps."""
-    n = len(c.clock)
-    seen = image_velocity(c.clock, c.xy, SEEN_VELOCITY_S * c.alpha * rate) if c.seen is None else c.seen
-    left, _, _ = _interpolation_parts(_visit_samples(c), knots)
-    per_knot = float(np.median(np.bincount(left)[np.unique(left)])) if n else 0.0
-    step = min(int(per_knot // FRAMES_PER_KNOT), n // MIN_JOINT_FRAMES)
-    if step > 1:
-        step = min(step, int(1.0 + REDUNDANT_SHARE * (_redundancy(c, path, knots, f_scale) - 1.0)))
-    if step <= 1:
-        return replace(c, seen=seen)
-    keep = np.arange(0, n, step)
-    return replace(c, clock=c.clock[keep], xy=c.xy[keep], weight=c.weight[keep], seen=seen[keep])
-
-
-def _redundancy(c: BiasCamera, path: PiecewiseTrajectory, knots: np.ndarray, f_scale: float) -> float:
-    """How much the camera's covariances (cov, cov_interval: the lesser) exceed the naive one from its residuals under
-    its line and the log as logged (_correlation_factor, >= 1): 1 frame in k kept makes its line vary by (k - 1) / it
-    more than its covariance says."""
-    x = np.array([1.0 / c.alpha, (c.middle - c.beta) / c.alpha])
-    bias = np.zeros((len(knots), 3))
-    view = _camera_view(c, path, knots, bias, _visit_samples(c))
-    rows = _camera_rows(c, path, knots, bias, view)
-    r = rows.residual
-    line = rows.local_jacobian(c, len(knots))[:, :2]  # the naive covariance's: the line's columns alone
-    bread, variance = _bread(c, r, line, f_scale), variance_factor(r, f_scale)
-    interval = c.cov if c.cov_interval is None else c.cov_interval
-    return min(_correlation_factor(bread, variance, x, cov) for cov in (c.cov, interval))
-
-
 def _interpolation(samples: np.ndarray, knots: np.ndarray) -> sp.csr_matrix:
     """(N, K) sparse weights of the knots at each sample coordinate (two per row)."""
     left, right, u = _interpolation_parts(samples, knots)
@@ -482,10 +436,7 @@ class _Joint:
     ):
         self.cameras, self.path, self.knots, self.whiten, self.f_scale = cameras, path, knots, whiten, f_scale
         self.prior_weight = 1.0
-        self.seen = [
-            image_velocity(c.clock, c.xy, SEEN_VELOCITY_S * c.alpha * rate) if c.seen is None else c.seen
-            for c in cameras
-        ]
+        self.seen = [image_velocity(c.clock, c.xy, SEEN_VELOCITY_S * c.alpha * rate) for c in cameras]
         self.n = len(cameras)
         self.leading = 2 * self.n
         self.x0 = np.concatenate([[1.0 / c.alpha, (c.middle - c.beta) / c.alpha] for c in cameras])
