@@ -204,7 +204,7 @@ class LinePose:
         return cls(R, t, entry["source"])
 
 
-LOG_CORRECTION_SOURCES = ("second_pass", "bias_refit", "second_pass+bias_refit")
+LOG_CORRECTION_SOURCES = ("second_pass", "bias_refit", "second_pass+bias_refit", "log_bias", "second_pass+log_bias")
 
 
 @dataclass(frozen=True, eq=False)
@@ -218,7 +218,9 @@ class LogCorrection:
     sync/solve/pose_joint.py; that pass's votes, poses and lines are on the
     log so corrected), "bias_refit" (the bias the poses from the target were
     last refitted on where that pass kept their refit under the log's bias,
-    sync/solve/posed_bias.py), or "second_pass+bias_refit" (the two summed).
+    sync/solve/posed_bias.py), "log_bias" (the bias every line of that pass
+    was fitted together with, none of its poses from the target), or either
+    after "second_pass+" (the two summed).
     """
 
     knots: np.ndarray

@@ -224,3 +224,27 @@ def test_synchronize_runs_with_one_blas_thread_whoever_calls_it(monkeypatch):
         with pytest.raises(RuntimeError, match="stop"):
             synchronize({}, None, SyncParams())  # type: ignore[arg-type]
     assert seen == [1]
+
+
+def test_surveyed_cameras_fitted_with_the_logs_bias_are_drawn_on_the_log_it_corrects():
+    """No pose from the target: every line is fitted together with the log's bias, and the timeline's log_correction
+    (source "log_bias") is that bias: the log so corrected lies nearer the true path where the cameras see it."""
+    from data_fixtures.log_error import PRESETS as RECEIVERS
+    from data_fixtures.log_error import log_errors
+    from tlsync_pipeline.sync.model.log_model import PRESETS
+
+    scene = make_scene(0)
+    truth = scene.trajectory
+    errors, _ = log_errors(np.random.default_rng(0), truth.sample / truth.rate, RECEIVERS["drone"])
+    logged = dataclasses.replace(truth, xyz=truth.xyz + errors)
+    inputs = {n: CameraInput(c, scene.tracks[n], c.fps) for n, c in scene.cameras.items()}
+    timeline, _ = synchronize(inputs, logged, SyncParams(), log_model=PRESETS["drone"])
+    drawn = timeline.log_correction
+    assert drawn is not None and drawn.source == "log_bias", timeline.failed
+    seen = np.zeros(len(truth.sample), bool)
+    for name, line in timeline.cameras.items():
+        samples = (np.asarray(scene.tracks[name].frame, dtype=float) - line.beta) / line.alpha
+        seen |= (truth.sample >= samples.min()) & (truth.sample <= samples.max())
+    before = np.linalg.norm(errors[seen], axis=1).mean()
+    after = np.linalg.norm((errors + drawn.at(truth.sample))[seen], axis=1).mean()
+    assert after < 0.7 * before, (before, after)

@@ -150,6 +150,9 @@ def test_two_corrections_added_are_the_one_then_the_other_on_the_log_it_correcte
     assert both.source == "second_pass"  # two passes' corrections: still the passes'
     refit = LogCorrection(then.knots, then.offset_m, "bias_refit")
     assert first.plus(refit).source == both.plus(refit).source == "second_pass+bias_refit"
+    joint = LogCorrection(then.knots, then.offset_m, "log_bias")
+    assert first.plus(joint).source == "second_pass+log_bias"
+    assert LogCorrection.from_dict(first.plus(joint).to_dict()).source == "second_pass+log_bias"
 
 
 def test_a_line_pose_puts_its_pose_on_a_camera_without_one():

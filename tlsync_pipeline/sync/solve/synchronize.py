@@ -433,13 +433,14 @@ def synchronize(
     return replace(timeline, log_correction=drawn_on(correction, timeline.log_correction)), results
 
 
-def drawn_on(passes: LogCorrection | None, refit: LogCorrection | None) -> LogCorrection | None:
+def drawn_on(passes: LogCorrection | None, last: LogCorrection | None) -> LogCorrection | None:
     """The log's correction on which the answer's poses were fitted: the passes' (``passes``: what the sync took out
-    of the log before the last pass), then the bias the last pass's kept refit was fitted on (``refit``: on the log
-    the passes corrected); None when neither."""
-    if passes is None or refit is None:
-        return passes if refit is None else refit
-    return passes.plus(refit)
+    of the log before the last pass), then the bias the last pass's lines' poses were fitted on (``last``, on the log
+    the passes corrected: its kept refit's, or the joint fit's where no pose came from the target); None when
+    neither."""
+    if passes is None or last is None:
+        return passes if last is None else last
+    return passes.plus(last)
 
 
 MAX_PASSES = 4  # synchronize()'s passes at most: the first, then passes on the log corrected by the one before
@@ -474,8 +475,8 @@ def _synchronize_pass(
     """One pass of synchronize(): its timeline and results, and the log's further correction for another pass where
     this one calls for it (``corrects_again``; ``previous``: the cameras the pass before synchronized, None for the
     first; ``last``: no pass follows), or None; ``windows``: where a camera's pose from the target is searched first
-    (``posed``'s ``near``), for the cameras the pass before answered. The timeline's log_correction is the bias this
-    pass's kept refit of the poses from the target was fitted on, on the log the pass was given (None without one)."""
+    (``posed``'s ``near``), for the cameras the pass before answered. The timeline's log_correction is the bias its
+    lines' poses were fitted on (_joint_lines), on the log the pass was given (None without one)."""
     declared, log_model, gated = log_model, measured(log_model, trajectory), gate_model(log_model, trajectory)
     prepared = with_log_noise(prepare_trajectory(trajectory, preparation_of(params)), log_model)
     path = PiecewiseTrajectory(prepared)
@@ -623,7 +624,8 @@ def _joint_lines(
 ) -> tuple[dict[str, CameraLine], LogBias | None, bool, LogCorrection | None]:
     """The lines fitted together with the log's error (``method.refine_with_log_bias``), its estimate (None: not
     fitted), whether a refit of the poses from the target was kept (True where none was made), and the correction of
-    ``prepared`` the kept refit's poses were fitted on (PoseRefit.correction; None without a refitted pose). Under a
+    ``prepared`` the lines' poses were fitted on: the kept refit's (PoseRefit.correction), or where no pose came from
+    the target the bias every line was fitted with (joint_correction); None otherwise. Under a
     log with a bias and with two cameras or more, the cameras ``posed`` from the target take part, their poses fitted
     again under the bias's estimate in ``rounds`` rounds (posed_bias.refit_poses: ROUNDS in the first pass,
     LATER_ROUNDS in a later one), their intervals with the refit's covariance (_with_pose_cov); where their lines
@@ -647,13 +649,20 @@ def _joint_lines(
     surveyed = {n: data[n] for n in data if n not in posed}
     if not surveyed:
         return {}, None, kept, None
-    return (
-        *method.refine_with_log_bias(
-            surveyed, {n: lines[n] for n in surveyed}, prepared, params, method_options(params), log_model
-        ),
-        kept,
-        None,
+    fitted, bias = method.refine_with_log_bias(
+        surveyed, {n: lines[n] for n in surveyed}, prepared, params, method_options(params), log_model
     )
+    return fitted, bias, kept, (None if posed else joint_correction(bias, set(lines)))
+
+
+def joint_correction(bias: LogBias | None, names: set[str]) -> LogCorrection | None:
+    """The log's correction by the bias the lines of the cameras ``names`` were all fitted together with (source
+    "log_bias"): where no pose came from the target, each of those lines is on the log so corrected. None where a
+    camera left that fit, or without a bias (none fitted, at its prior, or the white error at each fix:
+    fit_white_log)."""
+    if bias is None or not bias.model.has_bias or not names <= set(bias.lines) or not np.any(bias.values):
+        return None
+    return LogCorrection(bias.knots, bias.values, "log_bias")
 
 
 PICK_BAND_S = 0.5  # a picked line keeps the votes within this many seconds of it (at least one pass's band)
