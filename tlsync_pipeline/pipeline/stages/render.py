@@ -192,8 +192,8 @@ def drawn_as_fitted(
 ) -> tuple[dict[str, CameraInput], Trajectory]:
     """The synchronized cameras' inputs with the pose each line was fitted with where the sync found it itself
     (CameraLine.pose: camera.json keeps the calibrate stage's), and the log corrected as those poses were fitted on it
-    (Timeline.log_correction: the sync's later passes' correction, the bias its kept refit was fitted on, or both; as
-    given without one)."""
+    (Timeline.log_correction: the sync's later passes' correction, then the bias its last pass's lines' poses were
+    fitted on; as given without one)."""
     posed = {
         n: replace(i, camera=line.pose.on(i.camera)) if (line := timeline.cameras[n]).pose is not None else i
         for n, i in inputs.items()

@@ -69,9 +69,10 @@ MAX_MOVE = 1.0  # the refit is kept when each line's move from its pose alone's 
 GIVE_UP_MOVE = 2.5  # the refit is given up when the last round's joint fit moves a line beyond this many stds
 
 
-def bias_correction(bias: LogBias) -> LogCorrection:
-    """The log's correction by the bias's estimate (the joint fit models the true position as the log's plus it)."""
-    return LogCorrection(bias.knots, bias.values, "bias_refit")
+def bias_correction(bias: LogBias, source: str = "bias_refit") -> LogCorrection:
+    """The log's correction by the bias's estimate (the joint fit models the true position as the log's plus it),
+    ``source`` as LogCorrection's."""
+    return LogCorrection(bias.knots, bias.values, source)
 
 
 def refit_pose(

@@ -68,6 +68,7 @@ from tlsync_pipeline.sync.solve.pose_joint import free_pose_correction
 from tlsync_pipeline.sync.solve.posed_bias import (
     LATER_ROUNDS,
     ROUNDS,
+    bias_correction,
     line_moves,
     refit_kept,
     refit_poses,
@@ -405,8 +406,8 @@ def synchronize(
     again in a later pass, refitted under the log's bias) carries it
     (``CameraLine.pose``): the pose its pictures are drawn with, on the log
     corrected as the poses were fitted on it (``Timeline.log_correction``:
-    the passes' corrections in all, plus the bias the last pass's kept
-    refit was fitted on, ``drawn_on``).
+    the passes' corrections in all, plus the bias the last pass's lines'
+    poses were fitted on, ``drawn_on``).
 
     Runs with one BLAS thread (sync/kernels/blas.py), as the sync stage does.
     """
@@ -553,7 +554,7 @@ def _synchronize_pass(
         else:
             lines[name] = line
     shared: dict[str, np.ndarray] = {}
-    fitted_model, estimate, correction, refitted_on = log_model, None, None, None
+    fitted_model, estimate, correction, drawn = log_model, None, None, None
     method = get_method(params.method)
     # A camera whose pose comes from the target absorbed the log's error during its visit in that pose: under a log
     # with a bias and other cameras to tell it apart its pose is fitted again under the bias's estimate
@@ -569,9 +570,7 @@ def _synchronize_pass(
             for name in lines
         }
         rounds = ROUNDS if previous is None else LATER_ROUNDS
-        fitted, bias, kept, refitted_on = _joint_lines(
-            method, data, lines, posed_here, prepared, params, log_model, rounds
-        )
+        fitted, bias, kept, drawn = _joint_lines(method, data, lines, posed_here, prepared, params, log_model, rounds)
         lines = {**lines, **fitted}
         pose_refused = log_model.has_bias and any(
             not cameras[n].camera.posed or _pose_from_target(cameras[n].camera) for n in failed
@@ -595,7 +594,7 @@ def _synchronize_pass(
         rejected=rejected,
         shared_cov=shared,
         log_model=_log_error(fitted_model, declared, estimate, gated),
-        log_correction=refitted_on,
+        log_correction=drawn,
     )
     return timeline, results, correction
 
@@ -662,7 +661,7 @@ def joint_correction(bias: LogBias | None, names: set[str]) -> LogCorrection | N
     fit_white_log)."""
     if bias is None or not bias.model.has_bias or not names <= set(bias.lines) or not np.any(bias.values):
         return None
-    return LogCorrection(bias.knots, bias.values, "log_bias")
+    return bias_correction(bias, "log_bias")
 
 
 PICK_BAND_S = 0.5  # a picked line keeps the votes within this many seconds of it (at least one pass's band)
